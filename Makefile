@@ -1,0 +1,43 @@
+# One-command set-up: every target installs what it needs on a fresh machine.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+# Debian libraries that VTK (pyvista) needs to render offscreen.
+DEBS   := libgl1 libegl1 libxrender1 libxext6
+
+.PHONY: demo test bench lint format clean system-deps
+
+$(STAMP): pyproject.toml Makefile
+	@$(MAKE) --no-print-directory system-deps
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[all,dev]"
+	@touch $(STAMP)
+
+system-deps:
+	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	  else echo "missing Debian packages:$$missing (run as root or install them)"; fi; \
+	fi
+
+demo: $(STAMP)  ## simulate the default scenario and write its images to out/
+	$(BIN)/acousim demo --out out
+
+test: $(STAMP)  ## run the test suite
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 tests
+
+bench: $(STAMP)  ## run every benchmark and rewrite BENCHMARKS.md
+	$(BIN)/python -m benchmarks
+
+lint: $(STAMP)
+	$(BIN)/ruff check processing acousim hardware tests benchmarks
+	$(BIN)/ruff format --check processing acousim hardware tests benchmarks
+
+format: $(STAMP)
+	$(BIN)/ruff format processing acousim hardware tests benchmarks
+	$(BIN)/ruff check --fix processing acousim hardware tests benchmarks
+
+clean:
+	rm -rf $(VENV) out .pytest_cache

@@ -1,0 +1,53 @@
+"""processing: one pipeline for simulated and real sonar recordings.
+
+recording -> :func:`matched_filter` -> :func:`stft_snapshot` -> :func:`doa_spectrum`
+-> :class:`Image` -> peaks and metrics.  Units are SI throughout (m, s, Hz, rad).
+This package imports neither :mod:`acousim` nor :mod:`hardware`.
+"""
+
+from .arrays import (
+    PRESETS,
+    Array,
+    ertis_v3d1,
+    from_coordinates,
+    from_coordinates_file,
+    paper_8x8,
+    preset,
+    ura,
+    urtis_v1,
+)
+from .doa import METHODS, doa_spectrum
+from .image import Image, Peaks, find_peaks, to_db
+from .matched_filter import matched_filter
+from .metrics import (
+    angular_resolution,
+    dynamic_range_db,
+    max_attenuation,
+    range_profile,
+    range_resolution,
+    solid_angle_3db,
+)
+from .pipeline import ProcessingSettings, acoustic_image, acoustic_images, recording_snapshot
+from .recording import (
+    Recording,
+    RecordingFileError,
+    load_recording,
+    load_recordings,
+    save_recording,
+    save_recordings,
+)
+from .smoothing import covariance, smoothed_covariance
+from .snapshot import Snapshot, stft_snapshot
+from .steering import Grid, steering_matrix
+from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
+
+__all__ = [
+    "PRESETS", "Array", "ertis_v3d1", "from_coordinates", "from_coordinates_file", "paper_8x8",
+    "preset", "ura", "urtis_v1", "METHODS", "doa_spectrum", "Image", "Peaks", "find_peaks",
+    "to_db", "matched_filter", "angular_resolution", "dynamic_range_db", "max_attenuation",
+    "range_profile", "range_resolution", "solid_angle_3db", "ProcessingSettings",
+    "acoustic_image", "acoustic_images", "recording_snapshot", "Recording",
+    "RecordingFileError", "load_recording", "load_recordings", "save_recording",
+    "save_recordings", "covariance", "smoothed_covariance", "Snapshot", "stft_snapshot", "Grid",
+    "steering_matrix", "Waveform", "hyperbolic_sweep", "linear_chirp", "paper_chirp", "rtis_call",
+]

@@ -1,0 +1,123 @@
+"""Emitted calls: the paper's linear chirp and the RTIS hyperbolic sweep.
+
+A :class:`Waveform` is defined analytically, so it can be evaluated at any time
+(:meth:`Waveform.at`, used by the simulator for exact fractional delays) and sampled
+at any rate (:meth:`Waveform.sampled`).  Time 0 is the first sample of the emission.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import chirp
+
+__all__ = ["Waveform", "linear_chirp", "hyperbolic_sweep", "paper_chirp", "rtis_call"]
+
+
+@dataclass(frozen=True)
+class Waveform:
+    """An analytic frequency sweep.
+
+    Attributes
+    ----------
+    kind : {'linear', 'hyperbolic'}
+        Linear: frequency linear in time.  Hyperbolic: period linear in time (the
+        RTIS calls).
+    f_start_hz, f_end_hz : float
+        Instantaneous frequency at t = 0 and t = duration.
+    duration_s : float
+        Length of the call.
+    taper : float
+        Fraction of the duration shaped by a half-Hann ramp at each end (0: none).
+    amplitude : float
+        Peak amplitude.
+    """
+
+    kind: str
+    f_start_hz: float
+    f_end_hz: float
+    duration_s: float
+    taper: float = 0.0
+    amplitude: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("linear", "hyperbolic"):
+            raise ValueError(f"waveform kind must be 'linear' or 'hyperbolic', got {self.kind!r}")
+        if not (self.f_start_hz > 0 and self.f_end_hz > 0):
+            raise ValueError(
+                f"waveform frequencies must be positive, got {self.f_start_hz}, {self.f_end_hz}"
+            )
+        if not self.duration_s > 0:
+            raise ValueError(f"waveform duration_s must be positive, got {self.duration_s}")
+        if not 0 <= self.taper <= 0.5:
+            raise ValueError(f"waveform taper must be in [0, 0.5], got {self.taper}")
+
+    @property
+    def band_hz(self) -> tuple[float, float]:
+        """(lowest, highest) instantaneous frequency."""
+        return min(self.f_start_hz, self.f_end_hz), max(self.f_start_hz, self.f_end_hz)
+
+    def at(self, t_s: np.ndarray) -> np.ndarray:
+        """Evaluate the call at times `t_s` (seconds, any shape); zero outside [0, T)."""
+        t = np.asarray(t_s, dtype=float)
+        T = self.duration_s
+        inside = (t >= 0) & (t < T)
+        tc = np.where(inside, t, 0.0)
+        method = "linear" if self.kind == "linear" else "hyperbolic"
+        y = chirp(tc, self.f_start_hz, T, self.f_end_hz, method=method, phi=-90)
+        if self.taper > 0:
+            ramp = self.taper * T
+            edge = np.minimum(tc, T - tc) / ramp
+            y = y * np.where(edge < 1, 0.5 * (1 - np.cos(np.pi * np.clip(edge, 0, 1))), 1.0)
+        return np.where(inside, self.amplitude * y, 0.0)
+
+    def sampled(self, sample_rate_hz: float) -> np.ndarray:
+        """The call sampled at `sample_rate_hz`: shape (ceil(T * fs),)."""
+        if not sample_rate_hz > 0:
+            raise ValueError(f"sample_rate_hz must be positive, got {sample_rate_hz}")
+        n = int(np.ceil(self.duration_s * sample_rate_hz - 1e-9))
+        return self.at(np.arange(n) / sample_rate_hz)
+
+    def to_dict(self) -> dict:
+        """Plain-data form (for files)."""
+        return {
+            "kind": self.kind,
+            "f_start_hz": self.f_start_hz,
+            "f_end_hz": self.f_end_hz,
+            "duration_s": self.duration_s,
+            "taper": self.taper,
+            "amplitude": self.amplitude,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Waveform:
+        return cls(**{k: (str(v) if k == "kind" else float(v)) for k, v in d.items()})
+
+
+def linear_chirp(
+    f_start_hz: float = 20e3, f_end_hz: float = 85e3, duration_s: float = 1e-3, taper: float = 0.0
+) -> Waveform:
+    """A linear frequency sweep (sine phase: it starts at zero)."""
+    return Waveform("linear", f_start_hz, f_end_hz, duration_s, taper)
+
+
+def hyperbolic_sweep(
+    f_max_hz: float = 50e3, f_min_hz: float = 25e3, duration_s: float = 2.5e-3, taper: float = 0.1
+) -> Waveform:
+    """The RTIS call: period grows linearly from 1/f_max to 1/f_min; Hann ramps."""
+    return Waveform("hyperbolic", f_max_hz, f_min_hz, duration_s, taper)
+
+
+def paper_chirp() -> Waveform:
+    """The paper's simulated call: linear 20 -> 85 kHz, 1 ms, no taper."""
+    return linear_chirp(20e3, 85e3, 1e-3)
+
+
+def rtis_call(preset: str = "default_25_50") -> Waveform:
+    """An RTIS call preset: ``default_25_50`` or ``default_20_80`` (2.5 ms)."""
+    presets = {"default_25_50": (50e3, 25e3), "default_20_80": (80e3, 20e3)}
+    if preset not in presets:
+        raise ValueError(f"unknown RTIS call {preset!r}; choose one of {sorted(presets)}")
+    f_max, f_min = presets[preset]
+    return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)

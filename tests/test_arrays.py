@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+
+import processing as P
+
+
+def test_ura_geometry_is_centred_with_pitch():
+    a = P.ura(4, 3, (2e-3, 3e-3))
+    assert a.n_mics == 12 and a.is_ura and a.grid_shape == (4, 3)
+    np.testing.assert_allclose(a.positions_m.mean(axis=0), 0, atol=1e-15)
+    np.testing.assert_allclose(np.unique(a.positions_m[:, 1]), [-3e-3, 0, 3e-3])
+    np.testing.assert_allclose(np.unique(a.positions_m[:, 2]), [-3e-3, -1e-3, 1e-3, 3e-3])
+
+
+def test_paper_array():
+    a = P.paper_8x8()
+    assert a.n_mics == 64 and a.pitch_m == (5e-3, 5e-3)
+    assert a.aperture_m() == pytest.approx((35e-3, 35e-3))
+    # 31.25 kHz is below the half-wavelength limit of a 5 mm pitch (34.3 kHz)
+    assert a.alias_free_hz(343.0) == pytest.approx(34300.0)
+
+
+def test_urtis_layout_matches_published_facts():
+    a = P.urtis_v1()
+    assert a.n_mics == 30 and a.grid_shape == (5, 6) and a.is_ura
+    assert 15 not in a.channels and 31 not in a.channels
+    # column-major channels: channel 0..4 are column 0, rows bottom to top
+    assert a.positions_m[0, 1] == a.positions_m[4, 1] < a.positions_m[5, 1]
+    assert a.positions_m[0, 2] < a.positions_m[4, 2]
+    assert a.aperture_m() == pytest.approx((4 * 3.85e-3, 5 * 3.85e-3))
+    order = a.grid_order()
+    grid_y = a.positions_m[order, 1].reshape(5, 6)
+    assert np.all(np.diff(grid_y, axis=1) > 0)
+
+
+def test_coordinates_file_text_with_unused_channel(tmp_path):
+    f = tmp_path / "layout.csv"
+    f.write_text("# y, z in mm\n0,0\n10,0\nnan,nan\n0,10\n")
+    a = P.from_coordinates_file(f, units="mm")
+    assert a.n_mics == 3
+    np.testing.assert_array_equal(a.channels, [0, 1, 3])
+    np.testing.assert_allclose(a.positions_m.mean(axis=0), 0, atol=1e-15)
+    assert not a.is_ura
+
+
+def test_coordinates_file_errors_name_the_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.csv"):
+        P.from_coordinates_file(tmp_path / "nope.csv")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("1,2,3\n4,5,6\n")
+    with pytest.raises(ValueError, match="bad.csv.*shape"):
+        P.from_coordinates_file(bad)
+    with pytest.raises(ValueError, match="units"):
+        P.from_coordinates_file(bad, units="inch")
+
+
+def test_unknown_preset_lists_choices():
+    with pytest.raises(ValueError, match="paper_8x8"):
+        P.preset("nope")
+
+
+def test_ertis_layout_from_rtisdev_wheel():
+    a = P.ertis_v3d1()
+    assert a.n_mics == 32 and not a.is_ura
+    # about 66 x 38 mm, centred
+    assert a.aperture_m()[1] == pytest.approx(0.0665, abs=2e-3)
+    assert a.aperture_m()[0] == pytest.approx(0.0376, abs=2e-3)
+    np.testing.assert_allclose(a.positions_m.mean(axis=0), 0, atol=1e-12)
