@@ -1,0 +1,102 @@
+"""The signal model of eq. 1: echoes -> per-microphone signals -> a Recording.
+
+A scene pays only for what it uses: echoes that start after the recording window
+are skipped (and logged at debug level), only the samples that echoes reach are
+computed, and no noise is generated at infinite SNR.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from processing import Array, Recording, Waveform
+
+from .echoes import Echoes, PointReflectors, point_echoes
+from .noise import add_noise, noise_sigma
+from .render import DEFAULT_METHOD, DEFAULT_TAPS, render
+
+__all__ = ["simulate", "simulate_points"]
+
+log = logging.getLogger(__name__)
+
+
+def simulate(
+    echoes: Echoes,
+    array: Array,
+    waveform: Waveform,
+    sample_rate_hz: float,
+    n_samples: int,
+    *,
+    speed_of_sound_m_s: float = 343.0,
+    snr_db: float = np.inf,
+    n_measurements: int | None = None,
+    seed: int | None = 0,
+    emission_index: int = 0,
+    method: str = DEFAULT_METHOD,
+    taps: int = DEFAULT_TAPS,
+    metadata: dict | None = None,
+) -> Recording:
+    """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
+    :mod:`acousim.synth.noise`).
+
+    Parameters
+    ----------
+    n_measurements : int, optional
+        K measurements of the static scene with independent noise: samples (K, M, T).
+    seed : int
+        Seed of the noise generator (numpy Generator); the same seed gives the same
+        bytes.
+    """
+    if n_samples < 1:
+        raise ValueError(f"n_samples must be positive, got {n_samples}")
+    if echoes.delay_s.shape[0] != array.n_mics:
+        raise ValueError(f"echoes are for {echoes.delay_s.shape[0]} microphones, "
+                         f"array {array.name!r} has {array.n_mics}")
+    window_s = (n_samples - emission_index) / sample_rate_hz
+    inside = echoes.delay_s.min(axis=0) < window_s if echoes.n_paths else np.zeros(0, bool)
+    if echoes.n_paths and not inside.all():
+        log.debug("skipped %d of %d paths that arrive after the %.2f ms window",
+                  int((~inside).sum()), echoes.n_paths, window_s * 1e3)
+        echoes = echoes.select(inside)
+    clean = render(echoes, waveform, sample_rate_hz, n_samples, emission_index=emission_index,
+                   method=method, taps=taps)
+    rng = np.random.default_rng(seed)
+    if np.isfinite(snr_db):
+        if not np.any(clean):
+            raise ValueError(
+                f"snr_db={snr_db} is relative to the echoes, but no echo reaches the "
+                f"{window_s * 1e3:.2f} ms window"
+            )
+        call_samples = int(np.ceil(waveform.duration_s * sample_rate_hz))
+        sigma = noise_sigma(clean, snr_db, call_samples)
+        samples = add_noise(clean, sigma, rng, n_measurements)
+    else:
+        log.debug("infinite SNR: no noise generated")
+        samples = clean if n_measurements is None else np.broadcast_to(
+            clean, (n_measurements, *clean.shape)).copy()
+    meta = {"simulated": True, "seed": seed, "snr_db": float(snr_db), "n_paths": echoes.n_paths}
+    meta.update(metadata or {})
+    return Recording(samples, sample_rate_hz, array, waveform, speed_of_sound_m_s,
+                     emission_index, meta)
+
+
+def simulate_points(
+    reflectors: PointReflectors,
+    array: Array,
+    waveform: Waveform,
+    sample_rate_hz: float,
+    n_samples: int,
+    *,
+    speed_of_sound_m_s: float = 343.0,
+    spreading: str = "spherical",
+    **kw,
+) -> Recording:
+    """Eq. 1 for point reflectors (see :func:`simulate` for the other parameters)."""
+    echoes = point_echoes(reflectors, array, speed_of_sound_m_s, spreading)
+    meta = {"reflectors": {"positions_m": reflectors.positions_m.tolist(),
+                           "strength": reflectors.strength.tolist()}, "spreading": spreading}
+    meta.update(kw.pop("metadata", None) or {})
+    return simulate(echoes, array, waveform, sample_rate_hz, n_samples,
+                    speed_of_sound_m_s=speed_of_sound_m_s, metadata=meta, **kw)

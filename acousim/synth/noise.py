@@ -1,0 +1,39 @@
+"""Sensor noise at a stated SNR (eq. 2 of the paper).
+
+Definition used in every experiment: the signal power is the noise-free energy of
+the recording, averaged over microphones, divided by the length of one call in
+samples, i.e. the mean power of the echoes while one call lasts::
+
+    P_s = sum_{m,t} s_m(t)^2 / (M * L)       L = call duration * fs
+    SNR = 10 log10(P_s / sigma^2)
+
+For a single echo this is the echo's own mean power, independent of the length of
+the recording window and of where the echo lies in it.  The noise is white and
+Gaussian with variance sigma^2, independent between microphones and measurements.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["signal_power", "noise_sigma", "add_noise"]
+
+
+def signal_power(clean: np.ndarray, call_samples: int) -> float:
+    """P_s of a noise-free (M, T) recording (see the module docstring)."""
+    if call_samples <= 0:
+        raise ValueError(f"call_samples must be positive, got {call_samples}")
+    return float(np.sum(np.square(clean)) / (clean.shape[-2] * call_samples))
+
+
+def noise_sigma(clean: np.ndarray, snr_db: float, call_samples: int) -> float:
+    """Noise standard deviation that gives `snr_db` for this signal."""
+    return float(np.sqrt(signal_power(clean, call_samples) / 10 ** (snr_db / 10)))
+
+
+def add_noise(
+    clean: np.ndarray, sigma: float, rng: np.random.Generator, n_measurements: int | None = None
+) -> np.ndarray:
+    """`clean` (M, T) plus white Gaussian noise; (K, M, T) when `n_measurements` is given."""
+    shape = clean.shape if n_measurements is None else (n_measurements, *clean.shape)
+    return clean + sigma * rng.standard_normal(shape)

@@ -1,0 +1,106 @@
+import logging
+
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.synth import (
+    PointReflectors,
+    direct_path_echoes,
+    point_echoes,
+    render,
+    signal_power,
+    simulate,
+    simulate_points,
+)
+
+FS, C = 500e3, 343.0
+
+
+def one_mic():
+    return P.ura(1, 1, 1e-3)
+
+
+def test_echo_delay_and_spherical_spreading():
+    refl = PointReflectors.spherical(np.deg2rad(30), np.deg2rad(30), 1.0, strength=2.0)
+    arr = P.paper_8x8()
+    e = point_echoes(refl, arr, C, "spherical")
+    r_m = np.linalg.norm(refl.positions_m - arr.positions_m, axis=1)
+    np.testing.assert_allclose(e.delay_s[:, 0], (1.0 + r_m) / C)
+    np.testing.assert_allclose(e.gain[:, 0], 2.0 / (1.0 * r_m))
+    paper = point_echoes(refl, arr, C, "paper")
+    np.testing.assert_allclose(paper.gain[:, 0], 2.0 / (2 * r_m))
+    with pytest.raises(ValueError, match="spreading"):
+        point_echoes(refl, arr, C, "cylindrical")
+
+
+@pytest.mark.parametrize("method,bound_db", [("sinc", -60), ("lagrange", -55), ("fft", -60)])
+def test_fast_fractional_delays_against_the_band_limited_reference(method, bound_db):
+    rng = np.random.default_rng(0)
+    refl = PointReflectors(rng.uniform([0.3, -0.5, -0.5], [1.5, 0.5, 0.5], (3, 3)), 1.0)
+    arr = P.ura(2, 2, 5e-3)
+    e = point_echoes(refl, arr, C)
+    wf = P.paper_chirp()
+    ref = render(e, wf, FS, 6000, method="reference")
+    y = render(e, wf, FS, 6000, method=method)
+    err = 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2))
+    assert err < bound_db
+
+
+def test_no_global_delay_echo_peaks_at_its_delay():
+    e = point_echoes(PointReflectors([[1.3, 0, 0]], 1.0), one_mic(), C)
+    for method in ["sinc", "lagrange", "exact", "fft"]:
+        y = render(e, P.paper_chirp(), FS, 8000, method=method, emission_index=50)
+        mf = P.matched_filter(y, P.paper_chirp().sampled(FS))
+        assert abs(np.argmax(mf[0]) - (50 + 2.6 / C * FS)) <= 0.5
+
+
+def test_snr_definition_matches_eq2():
+    wf = P.paper_chirp()
+    rec = simulate_points(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), wf, FS, 20000,
+                          snr_db=10.0, seed=1, n_measurements=40)
+    clean = simulate_points(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), wf, FS, 20000)
+    noise = rec.samples - clean.samples[None]
+    p_s = signal_power(clean.samples, int(wf.duration_s * FS))
+    assert 10 * np.log10(p_s / noise.var()) == pytest.approx(10.0, abs=0.05)
+    # for one echo, P_s is the echo's own mean power: amplitude^2 / 2 for a chirp
+    amp = 1 / (1.0 * 1.0)
+    assert p_s == pytest.approx(amp**2 / 2, rel=0.03)
+
+
+def test_seeded_noise_is_reproducible_and_measurements_independent():
+    args = (PointReflectors([[1.0, 0.1, 0]], 1.0), P.paper_8x8(), P.paper_chirp(), FS, 4096)
+    a = simulate_points(*args, snr_db=0, seed=7, n_measurements=3)
+    b = simulate_points(*args, snr_db=0, seed=7, n_measurements=3)
+    c = simulate_points(*args, snr_db=0, seed=8, n_measurements=3)
+    assert a.samples.tobytes() == b.samples.tobytes()
+    assert not np.array_equal(a.samples, c.samples)
+    assert a.samples.shape == (3, 64, 4096)
+    assert not np.allclose(a.samples[0], a.samples[1])
+
+
+def test_infinite_snr_generates_no_noise_and_far_reflectors_are_skipped(caplog):
+    refl = PointReflectors([[1.0, 0, 0], [50.0, 0, 0]], 1.0)
+    with caplog.at_level(logging.DEBUG, logger="acousim.synth.model"):
+        rec = simulate_points(refl, one_mic(), P.paper_chirp(), FS, 4096)
+    assert rec.metadata["n_paths"] == 1
+    assert "skipped 1 of 2 paths" in caplog.text and "no noise" in caplog.text
+    assert np.all(rec.samples[0, :2000] == 0)  # nothing before the echo (after 2.9 ms)
+
+
+def test_direct_path_arrives_first():
+    arr = P.urtis_v1()
+    e = direct_path_echoes(arr, C)
+    r = np.linalg.norm(arr.positions_m, axis=1)
+    np.testing.assert_allclose(e.delay_s[:, 0], r / C)
+    assert e.order.tolist() == [0]
+
+
+def test_empty_echoes_render_silence():
+    from acousim.synth import Echoes
+
+    e = Echoes.concatenate([Echoes.empty(1), Echoes.empty(1)])
+    rec = simulate(e, one_mic(), P.paper_chirp(), FS, 100)
+    assert np.all(rec.samples == 0)
+    with pytest.raises(ValueError, match="no echo reaches"):
+        simulate(e, one_mic(), P.paper_chirp(), FS, 100, snr_db=10)
