@@ -1,0 +1,1 @@
+"""Benchmarks: run time against error.  ``python -m benchmarks`` rewrites BENCHMARKS.md."""
