@@ -25,8 +25,10 @@ def machine() -> str:
     import numpy
     import scipy
 
-    return (f"{cpu}, {os.cpu_count()} cores; Python {platform.python_version()}, "
-            f"numpy {numpy.__version__}, scipy {scipy.__version__}")
+    return (
+        f"{cpu}, {os.cpu_count()} cores; Python {platform.python_version()}, "
+        f"numpy {numpy.__version__}, scipy {scipy.__version__}"
+    )
 
 
 def main(argv: list[str]) -> int:

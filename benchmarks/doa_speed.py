@@ -38,26 +38,31 @@ def run() -> str:
     t_plain = best_time(lambda: _plain(x[:, :1], arr, grid, "das"), repeat=2)
     mf_rec = np.random.default_rng(1).standard_normal((64, 16384))
     t_front = best_time(
-        lambda: P.stft_snapshot(P.matched_filter(mf_rec, P.paper_chirp().sampled(500e3)), 500e3,
-                                frequency_hz=F), repeat=3)
-    return "\n".join([
-        "## Imaging: 8x8 URA, 1 degree grid over [-90, 90] x [-90, 90], 200 range bins",
-        "",
-        "One image = the DOA spectrum of 200 kept range bins on 181 x 181 directions "
-        "(co-array fast path, float64). Error: the largest difference in dB between the "
-        "fast image and the plain formula (explicit steering vectors, `a^H Q a` per "
-        "direction), over every cell of 4 range bins, both normalised to the plain "
-        "image's maximum. Target: at least 10 images/s for das, music-fbss, capon-fbss.",
-        "",
-        "| method | ms per image | images/s | max error (dB) vs plain |",
-        "|---|---|---|---|",
-        *rows,
-        "",
-        f"Plain formula for comparison: {t_plain * 1e3:.0f} ms per range bin for DAS "
-        f"({t_plain * R:.1f} s per 200-bin image). Matched filter + STFT snapshot of a "
-        f"64 x 16384 recording: {t_front * 1e3:.0f} ms.",
-        "",
-    ])
+        lambda: P.stft_snapshot(
+            P.matched_filter(mf_rec, P.paper_chirp().sampled(500e3)), 500e3, frequency_hz=F
+        ),
+        repeat=3,
+    )
+    return "\n".join(
+        [
+            "## Imaging: 8x8 URA, 1 degree grid over [-90, 90] x [-90, 90], 200 range bins",
+            "",
+            "One image = the DOA spectrum of 200 kept range bins on 181 x 181 directions "
+            "(co-array fast path, float64). Error: the largest difference in dB between the "
+            "fast image and the plain formula (explicit steering vectors, `a^H Q a` per "
+            "direction), over every cell of 4 range bins, both normalised to the plain "
+            "image's maximum. Target: at least 10 images/s for das, music-fbss, capon-fbss.",
+            "",
+            "| method | ms per image | images/s | max error (dB) vs plain |",
+            "|---|---|---|---|",
+            *rows,
+            "",
+            f"Plain formula for comparison: {t_plain * 1e3:.0f} ms per range bin for DAS "
+            f"({t_plain * R:.1f} s per 200-bin image). Matched filter + STFT snapshot of a "
+            f"64 x 16384 recording: {t_front * 1e3:.0f} ms.",
+            "",
+        ]
+    )
 
 
 def _plain(x, arr, grid, method):

@@ -11,8 +11,17 @@ from acousim.synth.render import DEFAULT_METHOD, DEFAULT_TAPS
 from .timing import best_time
 
 FS, T, C = 500e3, 4096, 343.0
-CONFIGS = [("nearest", 0), ("lagrange", 2), ("lagrange", 4), ("lagrange", 6), ("sinc", 4),
-           ("sinc", 6), ("sinc", 8), ("exact", 0), ("fft", 0)]
+CONFIGS = [
+    ("nearest", 0),
+    ("lagrange", 2),
+    ("lagrange", 4),
+    ("lagrange", 6),
+    ("sinc", 4),
+    ("sinc", 6),
+    ("sinc", 8),
+    ("exact", 0),
+    ("fft", 0),
+]
 
 
 def run() -> str:
@@ -24,8 +33,9 @@ def run() -> str:
     # (every method is linear in the echoes, so the error per echo is what counts)
     err_refl = _reflectors(rng, 20)
     err_e = point_echoes(err_refl, arr, C)
-    err_e = type(err_e)(*(v[:4] for v in (err_e.delay_s, err_e.gain, err_e.path_length_m)),
-                        err_e.order)
+    err_e = type(err_e)(
+        *(v[:4] for v in (err_e.delay_s, err_e.gain, err_e.path_length_m)), err_e.order
+    )
     ref = render(err_e, wf, FS, T, method="reference")
     errors = {}
     for method, taps in CONFIGS:
@@ -41,31 +51,38 @@ def run() -> str:
                 continue
             refl = _reflectors(rng, n)
             e = point_echoes(refl, arr, C)
-            t = best_time(lambda e=e, m=method, k=taps: render(e, wf, FS, T, method=m,
-                                                               taps=k or DEFAULT_TAPS),
-                          repeat=2 if n >= 1000 else 3)
+            t = best_time(
+                lambda e=e, m=method, k=taps: render(
+                    e, wf, FS, T, method=m, taps=k or DEFAULT_TAPS
+                ),
+                repeat=2 if n >= 1000 else 3,
+            )
             cells.append(f"{t * 1e3:.1f}")
         tap_txt = str(taps) if taps else "—"
-        rows.append(f"| {method} | {tap_txt} | {errors[method, taps]:.1f} | "
-                    + " | ".join(cells) + " |")
-    return "\n".join([
-        "## Fractional delays: rendering eq. 1, 64 microphones, 4096 samples at 500 kHz",
-        "",
-        "Milliseconds to render N reflectors (paper chirp, 1 ms); error: relative RMS "
-        "difference in dB against the exact band-limited reference (the analytic call "
-        "at t - d evaluated at 64 x fs, low-passed at 0.8 x Nyquist, decimated), "
-        "measured on 20 echoes x 4 microphones. `exact` samples the analytic call "
-        "directly: its error is the aliasing of the call's untapered edges. "
-        f"Default: `{DEFAULT_METHOD}` with {DEFAULT_TAPS} taps, the fastest at or below "
-        "-60 dB.",
-        "",
-        *rows,
-        "",
-    ])
+        rows.append(
+            f"| {method} | {tap_txt} | {errors[method, taps]:.1f} | " + " | ".join(cells) + " |"
+        )
+    return "\n".join(
+        [
+            "## Fractional delays: rendering eq. 1, 64 microphones, 4096 samples at 500 kHz",
+            "",
+            "Milliseconds to render N reflectors (paper chirp, 1 ms); error: relative RMS "
+            "difference in dB against the exact band-limited reference (the analytic call "
+            "at t - d evaluated at 64 x fs, low-passed at 0.8 x Nyquist, decimated), "
+            "measured on 20 echoes x 4 microphones. `exact` samples the analytic call "
+            "directly: its error is the aliasing of the call's untapered edges. "
+            f"Default: `{DEFAULT_METHOD}` with {DEFAULT_TAPS} taps, the fastest at or below "
+            "-60 dB.",
+            "",
+            *rows,
+            "",
+        ]
+    )
 
 
 def _reflectors(rng: np.random.Generator, n: int) -> PointReflectors:
     """n reflectors in the frontal hemisphere between 0.3 and 1 m: every echo ends
     inside the 8.2 ms window (a truncated echo is not a fractional-delay error)."""
-    return PointReflectors.spherical(rng.uniform(-1.4, 1.4, n), rng.uniform(-1.4, 1.4, n),
-                                     rng.uniform(0.3, 1.0, n), 1.0)
+    return PointReflectors.spherical(
+        rng.uniform(-1.4, 1.4, n), rng.uniform(-1.4, 1.4, n), rng.uniform(0.3, 1.0, n), 1.0
+    )

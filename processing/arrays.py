@@ -62,7 +62,9 @@ class Array:
     def __post_init__(self) -> None:
         pos = np.asarray(self.positions_m, dtype=float)
         if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
-            raise ValueError(f"array {self.name!r}: positions_m must have shape (M, 3), got {pos.shape}")
+            raise ValueError(
+                f"array {self.name!r}: positions_m must have shape (M, 3), got {pos.shape}"
+            )
         if not np.all(np.isfinite(pos)):
             raise ValueError(f"array {self.name!r}: positions_m contains NaN or inf")
         emitter = np.asarray(self.emitter_m, dtype=float).reshape(3)
@@ -77,7 +79,9 @@ class Array:
         if self.grid_index is not None:
             gi = np.asarray(self.grid_index, dtype=int)
             if gi.shape != (pos.shape[0], 2) or self.pitch_m is None:
-                raise ValueError(f"array {self.name!r}: grid_index needs shape (M, 2) and a pitch_m")
+                raise ValueError(
+                    f"array {self.name!r}: grid_index needs shape (M, 2) and a pitch_m"
+                )
             object.__setattr__(self, "grid_index", gi)
             object.__setattr__(self, "pitch_m", (float(self.pitch_m[0]), float(self.pitch_m[1])))
 
@@ -299,4 +303,6 @@ def preset(name: str) -> Array:
     try:
         return PRESETS[name]()
     except KeyError:
-        raise ValueError(f"unknown array preset {name!r}; choose one of {sorted(PRESETS)}") from None
+        raise ValueError(
+            f"unknown array preset {name!r}; choose one of {sorted(PRESETS)}"
+        ) from None

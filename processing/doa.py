@@ -161,9 +161,7 @@ def doa_spectrum(
             shape = (nz, ny)
         dz, dy = array.pitch_m
         rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-        positions = np.column_stack(
-            [np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz]
-        )
+        positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
     else:
         C = covariance(x)
         shape = None

@@ -10,7 +10,9 @@ from scipy.ndimage import maximum_filter
 __all__ = ["Image", "Peaks", "find_peaks", "to_db"]
 
 
-def to_db(power: np.ndarray, reference: float | None = None, floor_db: float = -120.0) -> np.ndarray:
+def to_db(
+    power: np.ndarray, reference: float | None = None, floor_db: float = -120.0
+) -> np.ndarray:
     """``10 log10(power / reference)`` clipped below at `floor_db`.
 
     `reference` defaults to the maximum of `power`; an all-zero input gives `floor_db`

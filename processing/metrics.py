@@ -50,7 +50,9 @@ def cell_solid_angles(elevation_rad: np.ndarray, azimuth_rad: np.ndarray) -> np.
 
 
 def solid_angle_3db(
-    power: np.ndarray, elevation_rad: np.ndarray, azimuth_rad: np.ndarray,
+    power: np.ndarray,
+    elevation_rad: np.ndarray,
+    azimuth_rad: np.ndarray,
     peak: tuple[int, int] | None = None,
 ) -> float:
     """-3 dB solid angle (sr) of the region connected to `peak` on a slice (E, A)."""

@@ -32,8 +32,16 @@ import numpy as np
 from .arrays import Array
 from .waveforms import Waveform
 
-__all__ = ["Recording", "save_recordings", "load_recordings", "save_recording", "load_recording",
-           "SCHEMA", "SCHEMA_VERSION", "RecordingFileError"]
+__all__ = [
+    "Recording",
+    "save_recordings",
+    "load_recordings",
+    "save_recording",
+    "load_recording",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "RecordingFileError",
+]
 
 SCHEMA = "acousim.recordings"
 SCHEMA_VERSION = 1
@@ -115,8 +123,9 @@ def _atomic_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.part")
 
 
-def save_recordings(path: str | Path, recordings: Sequence[Recording], *, compression: str | None
-                    = "gzip") -> Path:
+def save_recordings(
+    path: str | Path, recordings: Sequence[Recording], *, compression: str | None = "gzip"
+) -> Path:
     """Write recordings to one HDF5 file, atomically (temporary name, then rename)."""
     path = Path(path)
     tmp = _atomic_path(path)
@@ -197,8 +206,9 @@ def load_recording(path: str | Path, index: int = 0) -> Recording:
     return recs[index]
 
 
-def _field(path: Path, g: h5py.Group, name: str, ndim: tuple[int, ...], kind: str,
-           units: str | None = None) -> np.ndarray:
+def _field(
+    path: Path, g: h5py.Group, name: str, ndim: tuple[int, ...], kind: str, units: str | None = None
+) -> np.ndarray:
     where = f"{path}: {g.name}/{name}"
     if name not in g:
         raise RecordingFileError(f"{where}: missing")

@@ -41,8 +41,17 @@ def wheel_path() -> Path:
         return found[0]
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
-        cmd = [sys.executable, "-m", "pip", "download", f"rtisdev=={VERSION}", "--no-deps",
-               "--quiet", "-d", tmp]
+        cmd = [
+            sys.executable,
+            "-m",
+            "pip",
+            "download",
+            f"rtisdev=={VERSION}",
+            "--no-deps",
+            "--quiet",
+            "-d",
+            tmp,
+        ]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         wheels = sorted(Path(tmp).glob("rtisdev-*.whl"))
         if proc.returncode != 0 or not wheels:

@@ -107,7 +107,6 @@ def stft_snapshot(
         raise ValueError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
     hop = window - overlap
     win = get_window(window_type, window)
-    T = x.shape[-1]
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's
     # ShortTimeFFT restricted to whole windows, with bin times at the window centres.
     frames = sliding_window_view(x, window, axis=-1)[..., ::hop, :]
@@ -152,4 +151,3 @@ def stft_snapshot(
         energy=energy[idx],
         bin_range_m=speed_of_sound_m_s * hop / sample_rate_hz / 2,
     )
-

@@ -27,8 +27,6 @@ from functools import cached_property, lru_cache
 import numpy as np
 import scipy.sparse as sp
 
-from .arrays import Array
-
 __all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
 
 
@@ -67,13 +65,12 @@ class Grid:
         s_az, s_el = (step, step) if np.isscalar(step) else step
         if not (s_az > 0 and s_el > 0):
             raise ValueError(f"grid step must be positive, got {step}")
+
         def axis(lo: float, hi: float, step: float) -> np.ndarray:
             n = int(np.floor((hi - lo) / step + 1e-9))
             return lo + step * np.arange(n + 1)
 
-        return cls(
-            np.deg2rad(axis(*azimuth, s_az)), np.deg2rad(axis(*elevation, s_el))
-        )
+        return cls(np.deg2rad(axis(*azimuth, s_az)), np.deg2rad(axis(*elevation, s_el)))
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -164,9 +161,7 @@ class CoarrayKernel:
         lags = np.arange(1, ny) * self.pitch_m[1]
         phase = self.k * lags[None, :, None] * v[:, None, :]  # (E, Ny-1, A)
         E, A = v.shape
-        return np.concatenate(
-            [np.ones((E, 1, A)), 2 * np.cos(phase), -2 * np.sin(phase)], axis=1
-        )
+        return np.concatenate([np.ones((E, 1, A)), 2 * np.cos(phase), -2 * np.sin(phase)], axis=1)
 
     def coefficients(self, Q: np.ndarray) -> np.ndarray:
         """Co-array coefficients of Hermitian Q (R, L, L): shape (R, 2Nz-1, 2Ny-1)."""

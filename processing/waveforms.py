@@ -83,8 +83,13 @@ class Waveform:
         n = int(np.ceil(self.duration_s * sample_rate_hz - 1e-9))
         return self.at(np.arange(n) / sample_rate_hz)
 
-    def band_limited(self, sample_rate_hz: float, oversample: int = 64, pad: int = 256,
-                     cutoff: float = ANTI_ALIAS_CUTOFF) -> tuple[np.ndarray, int]:
+    def band_limited(
+        self,
+        sample_rate_hz: float,
+        oversample: int = 64,
+        pad: int = 256,
+        cutoff: float = ANTI_ALIAS_CUTOFF,
+    ) -> tuple[np.ndarray, int]:
         """The call as an anti-aliased sampling system records it.
 
         Evaluated at ``oversample`` times the rate, low-passed by an ideal filter at
@@ -94,8 +99,7 @@ class Waveform:
         An untapered call's edges alias otherwise: sampled directly it differs from
         this by about -42 dB (the paper's chirp at 500 kHz).
         """
-        return _band_limited(self, float(sample_rate_hz), int(oversample), int(pad),
-                             float(cutoff))
+        return _band_limited(self, float(sample_rate_hz), int(oversample), int(pad), float(cutoff))
 
     def to_dict(self) -> dict:
         """Plain-data form (for files)."""
@@ -142,8 +146,9 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
 
 
 @lru_cache(maxsize=16)
-def _band_limited(wf: Waveform, fs: float, oversample: int, pad: int, cutoff: float
-                  ) -> tuple[np.ndarray, int]:
+def _band_limited(
+    wf: Waveform, fs: float, oversample: int, pad: int, cutoff: float
+) -> tuple[np.ndarray, int]:
     n = int(np.ceil(wf.duration_s * fs)) + 2 * pad
     t = (np.arange(n * oversample) - pad * oversample) / (oversample * fs)
     spec = np.fft.rfft(wf.at(t))

@@ -61,9 +61,11 @@ def test_coarray_fast_path_equals_plain_formula(method):
     arr = P.paper_8x8()
     grid = P.Grid.degrees(step=7.0)
     rng = np.random.default_rng(5)
-    x = (plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal((1, 3, 2))
-         + plane_wave_snapshot(arr, -40, 0, F)[:, None, None]
-         + 0.1 * (rng.standard_normal((64, 3, 2)) + 1j * rng.standard_normal((64, 3, 2))))
+    x = (
+        plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal((1, 3, 2))
+        + plane_wave_snapshot(arr, -40, 0, F)[:, None, None]
+        + 0.1 * (rng.standard_normal((64, 3, 2)) + 1j * rng.standard_normal((64, 3, 2)))
+    )
     fast = doa_spectrum(x, arr, F, grid, method, backend="coarray")
     plain = doa_spectrum(x, arr, F, grid, method, backend="direct") if "-" not in method else None
     if plain is None:  # smoothed: compare with explicit steering of the subarray
@@ -101,8 +103,10 @@ def test_urtis_smoothing_and_irregular_array_refusal():
     with pytest.raises(ValueError, match="uniform rectangular array.*irregular"):
         doa_spectrum(xi, irregular, 27000.0, grid, "music-fbss")
     for method in ["das", "music", "capon"]:
-        got = peak_deg(doa_spectrum(xi, irregular, 27000.0, P.Grid.degrees(step=2.0), method),
-                       P.Grid.degrees(step=2.0))
+        got = peak_deg(
+            doa_spectrum(xi, irregular, 27000.0, P.Grid.degrees(step=2.0), method),
+            P.Grid.degrees(step=2.0),
+        )
         assert got == pytest.approx((10, 5), abs=2.0)
 
 

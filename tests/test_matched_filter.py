@@ -10,8 +10,9 @@ import processing as P
 def test_reflector_peaks_at_two_r_over_c_within_one_sample(r, emission_index):
     arr = P.ura(1, 1, 1e-3)  # one microphone at the emitter
     fs, c = 500e3, 343.0
-    rec = echo_recording(arr, [(0, 0, r, 1.0)], fs=fs, c=c, n_samples=8192,
-                         emission_index=emission_index)
+    rec = echo_recording(
+        arr, [(0, 0, r, 1.0)], fs=fs, c=c, n_samples=8192, emission_index=emission_index
+    )
     mf = P.matched_filter(rec.samples, rec.waveform.sampled(fs))
     expected = emission_index + 2 * r / c * fs
     assert abs(np.argmax(mf[0]) - expected) <= 1.0
@@ -23,8 +24,9 @@ def test_matched_filter_is_correlation_and_keeps_shape():
     h = rng.standard_normal(17)
     y = P.matched_filter(x, h)
     assert y.shape == x.shape
-    ref = np.array([[np.correlate(ch, h, "full")[h.size - 1 : h.size - 1 + 300] for ch in k]
-                    for k in x])
+    ref = np.array(
+        [[np.correlate(ch, h, "full")[h.size - 1 : h.size - 1 + 300] for ch in k] for k in x]
+    )
     np.testing.assert_allclose(y, ref, atol=1e-10)
 
 

@@ -8,8 +8,15 @@ import processing as P
 def make(shape=(64, 100), k=None):
     rng = np.random.default_rng(3)
     s = rng.standard_normal(shape if k is None else (k, *shape))
-    return P.Recording(s, 500e3, P.paper_8x8(), P.paper_chirp(), 343.2, 7,
-                       {"seed": 3, "simulated": True, "pose": [1.0, 2.0, 0.0]})
+    return P.Recording(
+        s,
+        500e3,
+        P.paper_8x8(),
+        P.paper_chirp(),
+        343.2,
+        7,
+        {"seed": 3, "simulated": True, "pose": [1.0, 2.0, 0.0]},
+    )
 
 
 def test_hdf5_round_trip_is_exact(tmp_path):
@@ -25,7 +32,10 @@ def test_hdf5_round_trip_is_exact(tmp_path):
         assert a.array.pitch_m == b.array.pitch_m and a.array.name == b.array.name
         assert a.waveform == b.waveform
         assert (a.sample_rate_hz, a.speed_of_sound_m_s, a.emission_index) == (
-            b.sample_rate_hz, b.speed_of_sound_m_s, b.emission_index)
+            b.sample_rate_hz,
+            b.speed_of_sound_m_s,
+            b.emission_index,
+        )
         assert a.metadata == b.metadata
     assert back[1].n_measurements == 3
 

@@ -30,8 +30,9 @@ def test_same_transform_as_scipy_shorttimefft():
     np.testing.assert_allclose(t_ref[j], snap.time_s)
     np.testing.assert_allclose(np.abs(snap.data), np.abs(col[:, j]), rtol=1e-10)
     # relative phase between channels is what DOA uses
-    np.testing.assert_allclose(snap.data[1] * snap.data[0].conj(),
-                               col[1, j] * col[0, j].conj(), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        snap.data[1] * snap.data[0].conj(), col[1, j] * col[0, j].conj(), rtol=1e-9, atol=1e-9
+    )
 
 
 def test_multi_measurement_snapshots_and_band():

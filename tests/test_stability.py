@@ -23,8 +23,9 @@ def noisy_recording():
 def test_scale_invariance_of_normalised_images(noisy_recording, scale):
     settings_ = P.ProcessingSettings(grid=GRID)
     ref = P.acoustic_images(noisy_recording, ALL, settings_)
-    scaled = P.acoustic_images(noisy_recording.with_samples(noisy_recording.samples * scale),
-                               ALL, settings_)
+    scaled = P.acoustic_images(
+        noisy_recording.with_samples(noisy_recording.samples * scale), ALL, settings_
+    )
     for m in ALL:
         np.testing.assert_array_equal(ref[m].range_m, scaled[m].range_m)
         diff = np.abs(ref[m].db(floor_db=-200) - scaled[m].db(floor_db=-200)).max()
@@ -42,7 +43,8 @@ def test_degenerate_snapshots_give_finite_spectra(method):
     cases = {
         "zero": np.zeros((64, 2), complex),
         "noise": rng.standard_normal((64, 2)) + 1j * rng.standard_normal((64, 2)),
-        "dead_channel": plane_wave_snapshot(arr, 10, 10, F)[:, None] * np.r_[0, np.ones(63)][:, None],
+        "dead_channel": plane_wave_snapshot(arr, 10, 10, F)[:, None]
+        * np.r_[0, np.ones(63)][:, None],
         "constant": np.ones((64, 1), complex),
         "single_snapshot": plane_wave_snapshot(arr, 0, 0, F)[:, None],
         "float32": plane_wave_snapshot(arr, 5, 5, F)[:, None].astype(np.complex64),
@@ -57,8 +59,9 @@ def test_degenerate_snapshots_give_finite_spectra(method):
         assert _finite_nonneg(p), (method, name)
         if name == "zero":
             assert np.all(p == 0)  # documented fallback: no energy, zero spectrum
-        img = P.Image(p, np.arange(p.shape[0], dtype=float), grid.elevation_rad,
-                      grid.azimuth_rad, method, F)
+        img = P.Image(
+            p, np.arange(p.shape[0], dtype=float), grid.elevation_rad, grid.azimuth_rad, method, F
+        )
         assert np.all(np.isfinite(img.db()))
 
 

@@ -57,8 +57,16 @@ def test_no_global_delay_echo_peaks_at_its_delay():
 
 def test_snr_definition_matches_eq2():
     wf = P.paper_chirp()
-    rec = simulate_points(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), wf, FS, 20000,
-                          snr_db=10.0, seed=1, n_measurements=40)
+    rec = simulate_points(
+        PointReflectors([[1.0, 0, 0]], 1.0),
+        one_mic(),
+        wf,
+        FS,
+        20000,
+        snr_db=10.0,
+        seed=1,
+        n_measurements=40,
+    )
     clean = simulate_points(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), wf, FS, 20000)
     noise = rec.samples - clean.samples[None]
     p_s = signal_power(clean.samples, int(wf.duration_s * FS))

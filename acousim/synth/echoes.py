@@ -50,8 +50,9 @@ class Echoes:
 
     def select(self, keep: np.ndarray) -> Echoes:
         """The echoes of the paths where `keep` (N,) is true."""
-        return Echoes(self.delay_s[:, keep], self.gain[:, keep], self.path_length_m[:, keep],
-                      self.order[keep])
+        return Echoes(
+            self.delay_s[:, keep], self.gain[:, keep], self.path_length_m[:, keep], self.order[keep]
+        )
 
     @staticmethod
     def empty(n_mics: int) -> Echoes:
@@ -65,9 +66,13 @@ class Echoes:
         if not nonempty:
             return parts[0]
         parts = nonempty
-        return Echoes(*(np.concatenate([getattr(p, f) for p in parts], axis=1)
-                        for f in ("delay_s", "gain", "path_length_m")),
-                      np.concatenate([p.order for p in parts]))
+        return Echoes(
+            *(
+                np.concatenate([getattr(p, f) for p in parts], axis=1)
+                for f in ("delay_s", "gain", "path_length_m")
+            ),
+            np.concatenate([p.order for p in parts]),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,10 +93,12 @@ class PointReflectors:
     @classmethod
     def spherical(cls, azimuth_rad, elevation_rad, range_m, strength=1.0) -> PointReflectors:
         """Reflectors at (azimuth, elevation, range) from the origin."""
-        az, el, r = (np.atleast_1d(np.asarray(v, float)) for v in (azimuth_rad, elevation_rad,
-                                                                   range_m))
+        az, el, r = (
+            np.atleast_1d(np.asarray(v, float)) for v in (azimuth_rad, elevation_rad, range_m)
+        )
         pos = r[:, None] * np.stack(
-            [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1)
+            [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1
+        )
         return cls(pos, strength)
 
     def __len__(self) -> int:

@@ -52,16 +52,29 @@ def simulate(
     if n_samples < 1:
         raise ValueError(f"n_samples must be positive, got {n_samples}")
     if echoes.delay_s.shape[0] != array.n_mics:
-        raise ValueError(f"echoes are for {echoes.delay_s.shape[0]} microphones, "
-                         f"array {array.name!r} has {array.n_mics}")
+        raise ValueError(
+            f"echoes are for {echoes.delay_s.shape[0]} microphones, "
+            f"array {array.name!r} has {array.n_mics}"
+        )
     window_s = (n_samples - emission_index) / sample_rate_hz
     inside = echoes.delay_s.min(axis=0) < window_s if echoes.n_paths else np.zeros(0, bool)
     if echoes.n_paths and not inside.all():
-        log.debug("skipped %d of %d paths that arrive after the %.2f ms window",
-                  int((~inside).sum()), echoes.n_paths, window_s * 1e3)
+        log.debug(
+            "skipped %d of %d paths that arrive after the %.2f ms window",
+            int((~inside).sum()),
+            echoes.n_paths,
+            window_s * 1e3,
+        )
         echoes = echoes.select(inside)
-    clean = render(echoes, waveform, sample_rate_hz, n_samples, emission_index=emission_index,
-                   method=method, taps=taps)
+    clean = render(
+        echoes,
+        waveform,
+        sample_rate_hz,
+        n_samples,
+        emission_index=emission_index,
+        method=method,
+        taps=taps,
+    )
     rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):
         if not np.any(clean):
@@ -74,12 +87,16 @@ def simulate(
         samples = add_noise(clean, sigma, rng, n_measurements)
     else:
         log.debug("infinite SNR: no noise generated")
-        samples = clean if n_measurements is None else np.broadcast_to(
-            clean, (n_measurements, *clean.shape)).copy()
+        samples = (
+            clean
+            if n_measurements is None
+            else np.broadcast_to(clean, (n_measurements, *clean.shape)).copy()
+        )
     meta = {"simulated": True, "seed": seed, "snr_db": float(snr_db), "n_paths": echoes.n_paths}
     meta.update(metadata or {})
-    return Recording(samples, sample_rate_hz, array, waveform, speed_of_sound_m_s,
-                     emission_index, meta)
+    return Recording(
+        samples, sample_rate_hz, array, waveform, speed_of_sound_m_s, emission_index, meta
+    )
 
 
 def simulate_points(
@@ -95,8 +112,21 @@ def simulate_points(
 ) -> Recording:
     """Eq. 1 for point reflectors (see :func:`simulate` for the other parameters)."""
     echoes = point_echoes(reflectors, array, speed_of_sound_m_s, spreading)
-    meta = {"reflectors": {"positions_m": reflectors.positions_m.tolist(),
-                           "strength": reflectors.strength.tolist()}, "spreading": spreading}
+    meta = {
+        "reflectors": {
+            "positions_m": reflectors.positions_m.tolist(),
+            "strength": reflectors.strength.tolist(),
+        },
+        "spreading": spreading,
+    }
     meta.update(kw.pop("metadata", None) or {})
-    return simulate(echoes, array, waveform, sample_rate_hz, n_samples,
-                    speed_of_sound_m_s=speed_of_sound_m_s, metadata=meta, **kw)
+    return simulate(
+        echoes,
+        array,
+        waveform,
+        sample_rate_hz,
+        n_samples,
+        speed_of_sound_m_s=speed_of_sound_m_s,
+        metadata=meta,
+        **kw,
+    )

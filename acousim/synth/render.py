@@ -83,7 +83,9 @@ def render(
         return _render_exact(d, g, waveform, fs, n_samples, out)
     if method == "reference":
         U = 64
-        fine = _render_exact(d * U, g, waveform, fs * U, n_samples * U, np.zeros((M, n_samples * U)))
+        fine = _render_exact(
+            d * U, g, waveform, fs * U, n_samples * U, np.zeros((M, n_samples * U))
+        )
         spec = sfft.rfft(fine, axis=-1)
         spec[:, int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
         return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]

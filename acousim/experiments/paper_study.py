@@ -1,0 +1,427 @@
+"""Section IV of the paper: every experiment, its CSV and its figure.
+
+``run_study(StudyConfig(...), out_dir)`` runs Figs. 3-4, 6-7, 9-10, 11 and 12 and
+returns their headline numbers; :mod:`acousim.experiments.report` turns them into
+``docs/REPRODUCTION.md``.  Readings of the paper fixed here (and stated in the
+report): SNR as in :mod:`acousim.synth.noise`; spreading 1/(2 r) as in eq. 1; the
+steering frequency 31.25 kHz the paper states; 5x5 subarrays; Capon loading -0.5
+times the noise floor; resolution metrics as in :mod:`processing.metrics`.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import processing as P
+
+from .trials import (
+    FREQUENCY_HZ,
+    FS,
+    PAPER_METHODS,
+    C,
+    Trial,
+    azimuth_cut_trial,
+    resolution_trial,
+    simulate_trial,
+)
+
+POSITIONS = ((0.0, 0.0, 1.0), (30.0, 30.0, 1.0), (60.0, 60.0, 1.0))
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """Parameters of the study; the defaults are the paper's."""
+
+    repetitions: int = 20
+    snrs_db: tuple[float, ...] = tuple(range(-16, 21, 2))
+    snapshots: tuple[int, ...] = tuple(range(1, 16))
+    spacings_deg: tuple[float, ...] = tuple(range(40, 9, -2))
+    grid_step_deg: float = 0.25
+    cut_step_deg: float = 0.25
+    seed: int = 2021
+    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
+
+    @classmethod
+    def quick(cls, workers: int = 1) -> StudyConfig:
+        """A few repetitions on a coarser grid: for tests and a first look."""
+        return cls(
+            repetitions=3,
+            snrs_db=(-10.0, 0.0, 10.0, 20.0),
+            snapshots=(1, 5, 15),
+            spacings_deg=(40, 30, 24, 20, 16, 14, 12, 10),
+            grid_step_deg=0.5,
+            cut_step_deg=0.5,
+            workers=workers,
+        )
+
+
+def _seed(config: StudyConfig, *key: int) -> int:
+    return int(np.random.SeedSequence([config.seed, *key]).generate_state(1)[0])
+
+
+def _map(config: StudyConfig, fn: Callable, items: list) -> list:
+    if config.workers > 1 and len(items) > 1:
+        with ProcessPoolExecutor(config.workers) as pool:
+            return list(pool.map(fn, items, chunksize=max(1, len(items) // (4 * config.workers))))
+    return [fn(i) for i in items]
+
+
+def _write_csv(path: Path, header: list[str], rows: Iterable[list]) -> None:
+    tmp = path.with_suffix(".csv.part")
+    with open(tmp, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+    os.replace(tmp, path)
+
+
+def _savefig(fig, path: Path) -> None:
+    tmp = path.with_name(f".{path.stem}.part.png")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    os.replace(tmp, path)
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+# -- Figs. 3 and 4 -----------------------------------------------------------------
+
+
+def fig3_4(config: StudyConfig, out: Path) -> dict:
+    """Spectrogram of the received signal and the matched-filter output, (30, 30, 1 m)."""
+    rec = simulate_trial(Trial(((30.0, 30.0, 1.0),), 20.0, _seed(config, 3)))
+    x = rec.samples[0]
+    mf = P.matched_filter(rec.samples, rec.waveform.sampled(FS))[0]
+    rng_axis = rec.time_s() * C / 2
+    i = int(np.argmax(np.abs(mf)))
+    # widths are properties of the call: measured on the noise-free echo
+    clean = simulate_trial(Trial(((30.0, 30.0, 1.0),), np.inf, 0))
+    widths = _pulse_widths(P.matched_filter(clean.samples, rec.waveform.sampled(FS))[0])
+    raw_extent = rec.waveform.duration_s * C / 2
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.specgram(x, NFFT=256, Fs=FS, noverlap=240, cmap="viridis")
+    ax.set_ylim(0, 100e3)
+    ax.set_xlim(0.9 * 2 / C, 1.25 * 2 / C)
+    ax.set_xlabel("time after emission (s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title("Fig. 3: received signal, SNR 20 dB, (30°, 30°, 1 m)")
+    _savefig(fig, out / "fig03_spectrogram.png")
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    sel = (rng_axis > 0.9) & (rng_axis < 1.15)
+    ax.plot(rng_axis[sel], mf[sel] / np.abs(mf).max())
+    ax.axvline(rng_axis[i], color="r", lw=0.8)
+    ax.set_xlabel("range (m)")
+    ax.set_ylabel("normalised matched-filter output")
+    ax.set_title(f"Fig. 4: maximum at {rng_axis[i]:.4f} m")
+    _savefig(fig, out / "fig04_matched_filter.png")
+    plt.close(fig)
+    _write_csv(
+        out / "fig04_matched_filter.csv",
+        ["range_m", "mf_normalised"],
+        zip(rng_axis[sel], mf[sel] / np.abs(mf).max()),
+    )
+    return {"range_estimate_m": float(rng_axis[i]), "raw_extent_m": float(raw_extent), **widths}
+
+
+def _pulse_widths(mf: np.ndarray) -> dict:
+    """-3 dB width and Rayleigh (first-null to first-null) width of the compressed
+    echo's envelope, in metres of range, from an 8x band-limited interpolation."""
+    from scipy.signal import hilbert, resample
+
+    up = 8
+    i = int(np.argmax(np.abs(mf)))
+    seg = resample(mf[max(i - 200, 0) : i + 200], 400 * up)
+    env = np.abs(hilbert(seg))
+    j = int(np.argmax(env))
+    above = np.flatnonzero(env >= env[j] * 10 ** (-3 / 20))
+    d_env = np.diff(env)
+    right = j + int(np.argmax(d_env[j:] > 0))
+    left = j - int(np.argmax(d_env[:j][::-1] < 0))
+    to_m = C / 2 / (FS * up)
+    return {
+        "width_3db_m": float((above[-1] - above[0]) * to_m),
+        "rayleigh_width_m": float((right - left) * to_m),
+    }
+
+
+# -- Figs. 6/7 and 9/10: resolution against SNR and against snapshots ----------------
+
+
+def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> dict:
+    trials = [
+        make_trial(p, v, rep, _seed(config, key, ip, iv, rep))
+        for ip, p in enumerate(POSITIONS)
+        for iv, v in enumerate(values)
+        for rep in range(config.repetitions)
+    ]
+    results = _map(config, _resolution_job(config.grid_step_deg), trials)
+    stats = {}
+    it = iter(results)
+    for p in POSITIONS:
+        for v in values:
+            reps = [next(it) for _ in range(config.repetitions)]
+            for m in PAPER_METHODS:
+                arr = np.array([r[m] for r in reps])  # (reps, 2)
+                stats[p, v, m] = (np.nanmean(arr, axis=0), np.nanstd(arr, axis=0))
+    return stats
+
+
+class _resolution_job:
+    """Picklable callable: the resolution metrics of one trial."""
+
+    def __init__(self, step: float) -> None:
+        self.step = step
+
+    def __call__(self, trial: Trial) -> dict:
+        return resolution_trial(trial, self.step)
+
+
+def _plot_sweep(stats, values, xlabel, index, ylabel, title, path, log=True):
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
+    for ax, p in zip(axes, POSITIONS):
+        for m in PAPER_METHODS:
+            mean = np.array([stats[p, v, m][0][index] for v in values])
+            std = np.array([stats[p, v, m][1][index] for v in values])
+            ax.errorbar(values, mean, yerr=std, label=m, capsize=2, marker="o", ms=3)
+        ax.set_title(f"({p[0]:.0f}°, {p[1]:.0f}°, {p[2]:.0f} m)")
+        ax.set_xlabel(xlabel)
+        if log:
+            ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel(ylabel)
+    axes[-1].legend(fontsize=7)
+    fig.suptitle(title)
+    _savefig(fig, path)
+    plt.close(fig)
+
+
+def _sweep_csv(stats, values, name, path):
+    rows = [
+        [p[0], p[1], v, m, *stats[p, v, m][0], *stats[p, v, m][1]]
+        for p in POSITIONS
+        for v in values
+        for m in PAPER_METHODS
+    ]
+    _write_csv(
+        path,
+        [
+            "azimuth_deg",
+            "elevation_deg",
+            name,
+            "method",
+            "angular_sr_mean",
+            "range_m_mean",
+            "angular_sr_std",
+            "range_m_std",
+        ],
+        rows,
+    )
+
+
+def fig6_7(config: StudyConfig, out: Path) -> dict:
+    stats = _resolution_sweep(
+        config, config.snrs_db, lambda p, snr, rep, seed: Trial((p,), float(snr), seed), key=6
+    )
+    _sweep_csv(stats, config.snrs_db, "snr_db", out / "fig06_07_resolution_vs_snr.csv")
+    _plot_sweep(
+        stats,
+        config.snrs_db,
+        "SNR (dB)",
+        0,
+        "angular resolution (sr)",
+        "Fig. 6: angular resolution against SNR, one snapshot",
+        out / "fig06_angular_vs_snr.png",
+    )
+    _plot_sweep(
+        stats,
+        config.snrs_db,
+        "SNR (dB)",
+        1,
+        "range resolution (m)",
+        "Fig. 7: range resolution against SNR",
+        out / "fig07_range_vs_snr.png",
+        False,
+    )
+    return stats
+
+
+def fig9_10(config: StudyConfig, out: Path) -> dict:
+    stats = _resolution_sweep(
+        config, config.snapshots, lambda p, k, rep, seed: Trial((p,), 3.0, seed, int(k)), key=9
+    )
+    _sweep_csv(stats, config.snapshots, "snapshots", out / "fig09_10_resolution_vs_snapshots.csv")
+    _plot_sweep(
+        stats,
+        config.snapshots,
+        "snapshots",
+        0,
+        "angular resolution (sr)",
+        "Fig. 9: angular resolution against snapshots, 3 dB SNR",
+        out / "fig09_angular_vs_snapshots.png",
+    )
+    _plot_sweep(
+        stats,
+        config.snapshots,
+        "snapshots",
+        1,
+        "range resolution (m)",
+        "Fig. 10: range resolution against snapshots",
+        out / "fig10_range_vs_snapshots.png",
+        False,
+    )
+    return stats
+
+
+# -- Figs. 11 and 12: two sources, and up to five ------------------------------------
+
+
+class _cut_job:
+    def __init__(self, step: float) -> None:
+        self.step = step
+
+    def __call__(self, trial: Trial) -> dict:
+        return azimuth_cut_trial(trial, self.step)
+
+
+def fig11(config: StudyConfig, out: Path) -> dict:
+    """Maximum attenuation between two sources against their spacing, 10 dB SNR."""
+    trials = [
+        Trial(((-s / 2, 0.0, 1.0), (s / 2, 0.0, 1.0)), 10.0, _seed(config, 11, i, rep))
+        for i, s in enumerate(config.spacings_deg)
+        for rep in range(config.repetitions)
+    ]
+    cuts = _map(config, _cut_job(config.cut_step_deg), trials)
+    az = np.deg2rad(np.arange(-90, 90 + config.cut_step_deg / 2, config.cut_step_deg))
+    stats = {}
+    it = iter(cuts)
+    for s in config.spacings_deg:
+        reps = [next(it) for _ in range(config.repetitions)]
+        for m in PAPER_METHODS:
+            att = [P.max_attenuation(r[m], az, np.deg2rad(-s / 2), np.deg2rad(s / 2)) for r in reps]
+            stats[s, m] = (float(np.mean(att)), float(np.std(att)))
+    _write_csv(
+        out / "fig11_attenuation_vs_spacing.csv",
+        ["spacing_deg", "method", "attenuation_db_mean", "attenuation_db_std"],
+        [[s, m, *stats[s, m]] for s in config.spacings_deg for m in PAPER_METHODS],
+    )
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    for m in PAPER_METHODS:
+        ax.errorbar(
+            config.spacings_deg,
+            [stats[s, m][0] for s in config.spacings_deg],
+            yerr=[stats[s, m][1] for s in config.spacings_deg],
+            label=m,
+            marker="o",
+            ms=3,
+            capsize=2,
+        )
+    ax.axhline(3, color="k", ls="--", lw=0.8)
+    ax.set_xlabel("spacing (°)")
+    ax.set_ylabel("maximum attenuation (dB)")
+    ax.invert_xaxis()
+    ax.legend(fontsize=7)
+    ax.set_title("Fig. 11: two sources at 1 m, 10 dB SNR")
+    _savefig(fig, out / "fig11_attenuation_vs_spacing.png")
+    plt.close(fig)
+    return stats
+
+
+def resolved_count(cut: np.ndarray, az_rad: np.ndarray, sources_deg: list[float]) -> int:
+    """Sources with their own peak: a local maximum within 5° of the true azimuth, at
+    most 20 dB under the strongest, separated from each neighbour by a 3 dB dip."""
+    p = cut / cut.max()
+    src = np.deg2rad(np.asarray(sources_deg))
+    found = []
+    for a in src:
+        near = np.flatnonzero(np.abs(az_rad - a) <= np.deg2rad(5))
+        j = near[np.argmax(p[near])]
+        is_max = (j == 0 or p[j] >= p[j - 1]) and (j == p.size - 1 or p[j] >= p[j + 1])
+        found.append(is_max and p[j] >= 1e-2)
+    ok = list(found)
+    for i in range(len(src) - 1):
+        if P.max_attenuation(cut, az_rad, src[i], src[i + 1]) < 3:
+            ok[i] = ok[i + 1] = False
+    return int(sum(ok))
+
+
+def fig12(config: StudyConfig, out: Path) -> dict:
+    """Spectra for 1 to 5 sources 40° apart at 1 m, 10 dB SNR, summed over range."""
+    az = np.deg2rad(np.arange(-90, 90 + config.cut_step_deg / 2, config.cut_step_deg))
+    layouts = {n: [40.0 * (i - (n - 1) / 2) for i in range(n)] for n in range(1, 6)}
+    trials = [
+        Trial(tuple((a, 0.0, 1.0) for a in layouts[n]), 10.0, _seed(config, 12, n, rep))
+        for n in layouts
+        for rep in range(config.repetitions)
+    ]
+    cuts = _map(config, _cut_job(config.cut_step_deg), trials)
+    result = {}
+    it = iter(cuts)
+    for n in layouts:
+        reps = [next(it) for _ in range(config.repetitions)]
+        for m in PAPER_METHODS:
+            mean = np.mean([r[m] / r[m].max() for r in reps], axis=0)
+            counts = [resolved_count(r[m], az, layouts[n]) for r in reps]
+            result[n, m] = (mean, float(np.mean(counts)), P.dynamic_range_db(mean))
+    _write_csv(
+        out / "fig12_resolved_sources.csv",
+        ["n_sources", "method", "resolved_mean", "dynamic_range_db"],
+        [[n, m, result[n, m][1], result[n, m][2]] for n in layouts for m in PAPER_METHODS],
+    )
+    plt = _plt()
+    fig, axes = plt.subplots(5, 5, figsize=(15, 11), sharex=True, sharey=True)
+    for i, n in enumerate(layouts):
+        for j, m in enumerate(PAPER_METHODS):
+            ax = axes[i, j]
+            ax.plot(np.rad2deg(az), P.to_db(result[n, m][0], floor_db=-80), lw=0.9)
+            for a in layouts[n]:
+                ax.axvline(a, color="r", lw=0.6)
+            if i == 0:
+                ax.set_title(m)
+            if j == 0:
+                ax.set_ylabel(f"{n} source(s)\ndB")
+            ax.set_ylim(-80, 3)
+    for ax in axes[-1]:
+        ax.set_xlabel("azimuth (°)")
+    fig.suptitle("Fig. 12: spectra summed over range, averaged over repetitions")
+    _savefig(fig, out / "fig12_multiple_sources.png")
+    plt.close(fig)
+    return result
+
+
+def run_study(
+    config: StudyConfig, out_dir: str | Path, progress: Callable[[str], None] | None = None
+) -> dict:
+    """Run every experiment, writing CSVs and PNGs into `out_dir`; return the results."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    say = progress or (lambda s: None)
+    results = {}
+    for name, fn in [
+        ("fig3_4", fig3_4),
+        ("fig6_7", fig6_7),
+        ("fig9_10", fig9_10),
+        ("fig11", fig11),
+        ("fig12", fig12),
+    ]:
+        say(name)
+        results[name] = fn(config, out)
+    results["config"] = config
+    results["frequency_hz"] = FREQUENCY_HZ
+    return results
