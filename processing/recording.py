@@ -14,8 +14,9 @@ File layout (schema version 1)::
         array/emitter      (3,)   float, attrs units="m"
         array/channels     (M,)   int
         array/grid_index   (M, 2) int   (URA only; attrs pitch_m=(dz, dy))
+        metadata           scalar string: JSON object (pose, scene, seed, truth, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
-               waveform (JSON), metadata (JSON)
+               waveform (JSON)
 """
 
 from __future__ import annotations
@@ -158,7 +159,8 @@ def _write_one(g: h5py.Group, rec: Recording, compression: str | None) -> None:
     g.attrs["speed_of_sound_m_s"] = rec.speed_of_sound_m_s
     g.attrs["emission_index"] = rec.emission_index
     g.attrs["waveform"] = json.dumps(rec.waveform.to_dict())
-    g.attrs["metadata"] = json.dumps(rec.metadata, default=_json_default)
+    # a dataset, not an attribute: ground truth can exceed HDF5's 64 kB attribute limit
+    g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
 
 
 def _json_default(obj):
@@ -228,6 +230,19 @@ def _attr(path: Path, g: h5py.Group, name: str):
     return g.attrs[name]
 
 
+def _metadata(path: Path, g: h5py.Group) -> dict:
+    if "metadata" not in g:
+        raise RecordingFileError(f"{path}: {g.name}/metadata: missing")
+    raw = g["metadata"][()]
+    try:
+        meta = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
+    except (ValueError, AttributeError) as exc:
+        raise RecordingFileError(f"{path}: {g.name}/metadata: not JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise RecordingFileError(f"{path}: {g.name}/metadata: must be a JSON object")
+    return meta
+
+
 def _read_one(path: Path, g: h5py.Group) -> Recording:
     samples = _field(path, g, "samples", (2, 3), "f", "1")
     pos = _field(path, g, "array/positions", (2,), "f", "m")
@@ -247,7 +262,7 @@ def _read_one(path: Path, g: h5py.Group) -> Recording:
             waveform=waveform,
             speed_of_sound_m_s=float(_attr(path, g, "speed_of_sound_m_s")),
             emission_index=int(_attr(path, g, "emission_index")),
-            metadata=json.loads(_attr(path, g, "metadata")),
+            metadata=_metadata(path, g),
         )
     except (ValueError, TypeError, KeyError) as exc:
         if isinstance(exc, RecordingFileError):

@@ -1,9 +1,11 @@
 """The signal model: echoes of point reflectors and paths -> microphone signals."""
 
+from .air import absorption_db_per_m, speed_of_sound
 from .echoes import SPREADING, Echoes, PointReflectors, direct_path_echoes, point_echoes
 from .model import simulate, simulate_points
 from .noise import add_noise, noise_sigma, signal_power
 from .render import DEFAULT_METHOD, METHODS, render
+from .response import PathResponse, piston_directivity
 
 __all__ = [
     "SPREADING",
@@ -16,6 +18,10 @@ __all__ = [
     "add_noise",
     "noise_sigma",
     "signal_power",
+    "absorption_db_per_m",
+    "speed_of_sound",
+    "PathResponse",
+    "piston_directivity",
     "DEFAULT_METHOD",
     "METHODS",
     "render",

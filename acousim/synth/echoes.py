@@ -37,21 +37,35 @@ class Echoes:
         Total length travelled, for frequency-dependent air absorption.
     order : ndarray of int, shape (N,)
         Number of reflections of each path (0 for the direct path).
+    emitter_angle_rad : ndarray, shape (N,), optional
+        Angle between the emitter's axis and the direction the path leaves in (for
+        emitter directivity); None when unknown (treated as on axis).
     """
 
     delay_s: np.ndarray
     gain: np.ndarray
     path_length_m: np.ndarray
     order: np.ndarray
+    emitter_angle_rad: np.ndarray | None = None
 
     @property
     def n_paths(self) -> int:
         return self.delay_s.shape[1]
 
+    def angles(self) -> np.ndarray:
+        """Emitter angles (N,), zeros where unknown."""
+        if self.emitter_angle_rad is None:
+            return np.zeros(self.n_paths)
+        return self.emitter_angle_rad
+
     def select(self, keep: np.ndarray) -> Echoes:
         """The echoes of the paths where `keep` (N,) is true."""
         return Echoes(
-            self.delay_s[:, keep], self.gain[:, keep], self.path_length_m[:, keep], self.order[keep]
+            self.delay_s[:, keep],
+            self.gain[:, keep],
+            self.path_length_m[:, keep],
+            self.order[keep],
+            self.angles()[keep],
         )
 
     @staticmethod
@@ -72,6 +86,7 @@ class Echoes:
                 for f in ("delay_s", "gain", "path_length_m")
             ),
             np.concatenate([p.order for p in parts]),
+            np.concatenate([p.angles() for p in parts]),
         )
 
 

@@ -16,6 +16,7 @@ from processing import Array, Recording, Waveform
 from .echoes import Echoes, PointReflectors, point_echoes
 from .noise import add_noise, noise_sigma
 from .render import DEFAULT_METHOD, DEFAULT_TAPS, render
+from .response import PathResponse
 
 __all__ = ["simulate", "simulate_points"]
 
@@ -36,6 +37,7 @@ def simulate(
     emission_index: int = 0,
     method: str = DEFAULT_METHOD,
     taps: int = DEFAULT_TAPS,
+    response: PathResponse | None = None,
     metadata: dict | None = None,
 ) -> Recording:
     """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
@@ -45,6 +47,8 @@ def simulate(
     ----------
     n_measurements : int, optional
         K measurements of the static scene with independent noise: samples (K, M, T).
+    response : PathResponse, optional
+        Air absorption and emitter directivity per path.
     seed : int
         Seed of the noise generator (numpy Generator); the same seed gives the same
         bytes.
@@ -74,6 +78,7 @@ def simulate(
         emission_index=emission_index,
         method=method,
         taps=taps,
+        response=response,
     )
     rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):

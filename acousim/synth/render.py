@@ -35,6 +35,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+import scipy.sparse as sp
 from scipy import fft as sfft
 from scipy.signal import fftconvolve
 from scipy.special import i0
@@ -43,6 +44,7 @@ from processing import Waveform
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .echoes import Echoes
+from .response import PathResponse, factorise
 
 __all__ = ["render", "METHODS", "DEFAULT_METHOD", "DEFAULT_TAPS"]
 
@@ -50,8 +52,8 @@ METHODS = ("reference", "exact", "sinc", "lagrange", "fft", "nearest")
 DEFAULT_METHOD = "sinc"
 DEFAULT_TAPS = 6
 KAISER_BETA = 8.0
-_CHUNK = 2_000_000  # kernel entries per accumulation chunk (memory bound)
-TABLE_PHASES = 1024
+TABLE_PHASES = 4096
+RESPONSE_POINTS = 256  # frequencies at which path responses are factorised
 
 
 def render(
@@ -63,8 +65,12 @@ def render(
     emission_index: int = 0,
     method: str = DEFAULT_METHOD,
     taps: int = DEFAULT_TAPS,
+    response: PathResponse | None = None,
 ) -> np.ndarray:
     """Microphone signals of `echoes`, shape (M, T), float64.
+
+    `response` adds air absorption and emitter directivity per path (see
+    :mod:`acousim.synth.response`); it needs the sinc, lagrange or nearest method.
 
     Echoes that start after the end of the window are expected to have been
     dropped by the caller (:func:`acousim.synth.model.simulate`); those that start
@@ -79,6 +85,12 @@ def render(
     fs = sample_rate_hz
     d = echoes.delay_s * fs + emission_index  # (M, N) in samples
     g = echoes.gain
+    shaped = response is not None and response.active
+    if shaped and method not in ("sinc", "lagrange", "nearest"):
+        raise ValueError(
+            f"a path response (absorption, directivity) needs method 'sinc', "
+            f"'lagrange' or 'nearest', not {method!r}"
+        )
     if method == "exact":
         return _render_exact(d, g, waveform, fs, n_samples, out)
     if method == "reference":
@@ -100,9 +112,35 @@ def render(
     if hi <= lo:
         return out
     n_span = hi - lo
+    if shaped:
+        out[:, lo:hi] = _render_shaped(echoes, d - lo, g, call, fs, n_span, method, taps, response)
+        return out
     h = _impulses(d - lo, g, n_span, method, taps)  # (M, n_span)
     out[:, lo:hi] = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
     return out
+
+
+def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np.ndarray:
+    """Impulses times separable path responses, summed in the frequency domain."""
+    n = sfft.next_fast_len(n_span + call.size + 256, real=True)
+    W = sfft.rfft(call, n)
+    freqs = np.arange(W.size) * fs / n
+    band = np.abs(W) > 1e-6 * np.abs(W).max()
+    length = echoes.path_length_m.mean(axis=0)
+    # factor H on a coarse grid over the band (H is smooth in f), interpolate U
+    fb = freqs[band]
+    coarse = np.linspace(fb[0], fb[-1], min(RESPONSE_POINTS, fb.size))
+    Uc, V = factorise(response.matrix(coarse, length, echoes.angles()))
+    U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
+    # the per-microphone part of the path length: a gain at the band's centre
+    f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
+    alpha = response.alpha_db_per_m(f_c)
+    g = g * 10 ** (-alpha * (echoes.path_length_m - length[None, :]) / 20)
+    h = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps)  # (Q, M, n_span)
+    filt = np.zeros((V.shape[1], W.size), complex)
+    filt[:, band] = (W[band, None] * U).T
+    spec = np.einsum("qmf,qf->mf", sfft.rfft(h, n, axis=-1), filt)
+    return sfft.irfft(spec, n, axis=-1)[:, :n_span]
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):
@@ -151,35 +189,40 @@ def _kernel(frac: np.ndarray, method: str, taps: int) -> tuple[np.ndarray, np.nd
 def _kernel_table(method: str, taps: int) -> np.ndarray:
     """Kernel weights at TABLE_PHASES + 1 fractions in [0, 1]: (TABLE_PHASES + 1, 2*taps).
 
-    Interpolating it linearly costs less than evaluating sinc and Bessel functions
-    per echo; the interpolation error is below -100 dB (second order in 1/phases).
+    Looking up the nearest fraction costs less than evaluating sinc and Bessel
+    functions per echo; it moves an echo by at most 1/8192 sample (a phase error of
+    1.5e-4 rad at 0.19 fs, -76 dB).
     """
     return _kernel(np.linspace(0.0, 1.0, TABLE_PHASES + 1), method, taps)[1]
 
 
 def _impulses(d: np.ndarray, g: np.ndarray, n_span: int, method: str, taps: int) -> np.ndarray:
-    """Sum of interpolated impulses, shape (M, n_span); d in samples from the span start."""
+    """Sum of interpolated impulses, shape (M, n_span); d in samples from the span start.
+
+    `g` is (M, N) or (M, N, Q) for Q sets of gains sharing the same delays: the
+    kernel weights are looked up once and applied to every set as one sparse
+    product; the result is then (Q, M, n_span).  Taps that fall outside the span
+    are dropped (the buffer carries a margin of `taps` samples on each side).
+    """
     M, N = d.shape
-    h = np.zeros(M * n_span)
-    base = (np.arange(M) * n_span)[:, None]
+    many = g.ndim == 3
+    G = (g if many else g[..., None]).reshape(M * N, -1)
+    pad = taps + 1
+    width = n_span + 2 * pad
+    base = (np.arange(M) * width + pad)[:, None]
     if method == "nearest":
-        idx = np.rint(d).astype(int)
-        ok = (idx >= 0) & (idx < n_span)
-        h += np.bincount((base + idx)[ok], g[ok], minlength=M * n_span)
-        return h.reshape(M, n_span)
-    step = max(1, _CHUNK // (M * 2 * taps))
-    offsets = np.arange(-taps + 1, taps + 1)
-    table = _kernel_table(method, taps)
-    for s in range(0, N, step):
-        dd, gg = d[:, s : s + step], g[:, s : s + step]
-        n0 = np.floor(dd)
-        # kernel weights: linear interpolation in a table of TABLE_PHASES fractions
-        pos = (dd - n0) * TABLE_PHASES
-        i = np.minimum(pos.astype(int), TABLE_PHASES - 1)
-        t = (pos - i)[..., None]
-        w = (1 - t) * table[i] + t * table[i + 1]
-        idx = n0.astype(int)[..., None] + offsets  # (M, n, K)
-        ok = (idx >= 0) & (idx < n_span)
-        flat = (base[..., None] + idx)[ok]
-        h += np.bincount(flat, (gg[..., None] * w)[ok], minlength=M * n_span)
-    return h.reshape(M, n_span)
+        rows = (base + np.clip(np.rint(d).astype(np.int64), -pad, n_span + pad - 1)).ravel()
+        weights = np.ones(M * N)
+        k = 1
+    else:
+        offsets = np.arange(-taps + 1, taps + 1)
+        k = offsets.size
+        n0 = np.floor(d)
+        # kernel weights: the nearest of TABLE_PHASES tabulated fractions
+        phase = np.rint((d - n0) * TABLE_PHASES).astype(np.intp)
+        start = np.clip(n0.astype(np.int64), -1, n_span) + base  # (M, N)
+        rows = (start[..., None] + offsets).ravel()
+        weights = _kernel_table(method, taps)[phase].ravel()
+    S = sp.csc_matrix((weights, rows, np.arange(0, M * N * k + 1, k)), shape=(M * width, M * N))
+    h = np.asarray(S @ G).T.reshape(-1, M, width)[:, :, pad : pad + n_span]
+    return h if many else h[0]

@@ -1,0 +1,20 @@
+"""Scene files: format, validation, materials and poses."""
+
+from .load import SceneError, load_scene, parse_scene
+from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
+from .pose import Pose, rotation
+
+__all__ = [
+    "SceneError",
+    "load_scene",
+    "parse_scene",
+    "Environment",
+    "Material",
+    "MeshItem",
+    "PointItem",
+    "Scene",
+    "Sensor",
+    "Simulation",
+    "Pose",
+    "rotation",
+]

@@ -1,0 +1,78 @@
+"""Sensor poses: position and orientation of the sensor frame in the world.
+
+Both frames use x forward, y left, z up.  Orientation is yaw (about z, positive
+turns left), pitch (about y, positive points the sensor down) and roll (about x):
+``R = Rz(yaw) Ry(pitch) Rx(roll)`` maps sensor coordinates to world.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Pose", "rotation"]
+
+
+def rotation(yaw_rad: float, pitch_rad: float = 0.0, roll_rad: float = 0.0) -> np.ndarray:
+    """Rotation matrix sensor -> world, ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    With y to the left, a positive rotation about y turns +x towards -z: a positive
+    pitch points the sensor down.
+    """
+    cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
+    cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
+    cr, sr = np.cos(roll_rad), np.sin(roll_rad)
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    return rz @ ry @ rx
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """Where the sensor is: position (3,) in metres, yaw/pitch/roll in radians,
+    and its time in a trajectory (seconds)."""
+
+    position_m: np.ndarray
+    yaw_rad: float = 0.0
+    pitch_rad: float = 0.0
+    roll_rad: float = 0.0
+    time_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.position_m, float).reshape(3)
+        if not np.all(np.isfinite(p)):
+            raise ValueError(f"pose position must be finite, got {p}")
+        object.__setattr__(self, "position_m", p)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Sensor -> world rotation (3, 3)."""
+        return rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
+
+    def to_world(self, points_sensor: np.ndarray) -> np.ndarray:
+        """Sensor-frame points (..., 3) to world coordinates."""
+        return np.asarray(points_sensor) @ self.rotation.T + self.position_m
+
+    def to_sensor(self, points_world: np.ndarray) -> np.ndarray:
+        """World points (..., 3) to sensor coordinates."""
+        return (np.asarray(points_world) - self.position_m) @ self.rotation
+
+    def key(self) -> tuple:
+        """A hashable identity (for not tracing the same pose twice)."""
+        return (
+            *np.round(self.position_m, 9),
+            round(self.yaw_rad, 12),
+            round(self.pitch_rad, 12),
+            round(self.roll_rad, 12),
+        )
+
+    def to_dict(self) -> dict:
+        return {
+            "position_m": self.position_m.tolist(),
+            "yaw_deg": float(np.rad2deg(self.yaw_rad)),
+            "pitch_deg": float(np.rad2deg(self.pitch_rad)),
+            "roll_deg": float(np.rad2deg(self.roll_rad)),
+            "time_s": self.time_s,
+        }

@@ -1,0 +1,98 @@
+"""Frequency-dependent factors of each path: air absorption and emitter directivity.
+
+A path n has the response ``H(f, n) = 10^(-alpha(f) L_n / 20) * D(f, theta_n)``
+(alpha from ISO 9613-1, L_n its length, D the far-field directivity of a baffled
+circular piston of radius a at the departure angle theta_n).  Filtering every path
+separately would cost one FFT per path; instead H, sampled over the band where the
+call has energy, is factored by an SVD into a few separable terms
+``H(f, n) ~ sum_q u_q(f) v_q(n)`` (rank: singular values down to 1e-4 of the largest;
+-77 dB against exact per-path filtering in the tests), so rendering costs Q impulse
+accumulations and Q x M FFTs.  Path lengths
+differ between microphones by millimetres: the per-microphone part is applied as a
+gain at the centre of the band.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import j1
+
+from .air import absorption_db_per_m
+
+__all__ = ["PathResponse", "piston_directivity", "factorise"]
+
+RANK_TOLERANCE = 1e-4
+
+
+def piston_directivity(frequency_hz, theta_rad, radius_m: float, speed_of_sound_m_s: float):
+    """Pressure directivity of a baffled circular piston, 1 on axis, 0 behind the baffle.
+
+    ``D = 2 J1(k a sin(theta)) / (k a sin(theta))``; broadcasts f against theta.
+    """
+    f = np.asarray(frequency_hz, float)
+    th = np.asarray(theta_rad, float)
+    x = 2 * np.pi * f / speed_of_sound_m_s * radius_m * np.sin(np.minimum(th, np.pi / 2))
+    safe = np.where(np.abs(x) < 1e-8, 1.0, x)
+    d = np.where(np.abs(x) < 1e-8, 1.0, 2 * j1(safe) / safe)
+    return np.where(th <= np.pi / 2, d, 0.0)
+
+
+@dataclass(frozen=True)
+class PathResponse:
+    """What shapes each path's spectrum.
+
+    absorption : bool
+        ISO 9613-1 air absorption at the given atmosphere.
+    emitter_radius_m : float
+        Baffled-piston radius of the emitter; 0 is omnidirectional.
+    """
+
+    speed_of_sound_m_s: float = 343.0
+    absorption: bool = True
+    temperature_c: float = 20.0
+    humidity_percent: float = 50.0
+    pressure_kpa: float = 101.325
+    emitter_radius_m: float = 0.0
+
+    @property
+    def active(self) -> bool:
+        return self.absorption or self.emitter_radius_m > 0
+
+    def matrix(
+        self, freqs: np.ndarray, length_m: np.ndarray, theta_rad: np.ndarray | None
+    ) -> np.ndarray:
+        """H(f, n): shape (F, N)."""
+        H = np.ones((freqs.size, length_m.size))
+        if self.absorption:
+            alpha = absorption_db_per_m(
+                freqs, self.temperature_c, self.humidity_percent, self.pressure_kpa
+            )
+            H *= 10 ** (-alpha[:, None] * length_m[None, :] / 20)
+        if self.emitter_radius_m > 0 and theta_rad is not None:
+            H *= piston_directivity(
+                freqs[:, None], theta_rad[None, :], self.emitter_radius_m, self.speed_of_sound_m_s
+            )
+        return H
+
+    def alpha_db_per_m(self, f: float) -> float:
+        if not self.absorption:
+            return 0.0
+        return float(
+            absorption_db_per_m(f, self.temperature_c, self.humidity_percent, self.pressure_kpa)
+        )
+
+
+def factorise(H: np.ndarray, tolerance: float = RANK_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+    """Separable terms of H (F, N): (U (F, Q) with singular values folded in, V (N, Q)).
+
+    Q is the smallest rank whose spectral-norm residual is below `tolerance` times
+    the largest singular value.
+    """
+    U, s, Vt = np.linalg.svd(H, full_matrices=False)
+    if s.size == 0 or s[0] == 0:
+        return np.zeros((H.shape[0], 0)), np.zeros((H.shape[1], 0))
+    q = int(np.searchsorted(-s, -tolerance * s[0]))  # singular values above tolerance
+    q = max(1, q)
+    return U[:, :q] * s[:q], Vt[:q].T

@@ -1,0 +1,141 @@
+"""Exact specular paths: image sources over a sequence of planes, checked both ways.
+
+Rays find which sequences of planes can form a specular path; for each sequence the
+emitter is mirrored plane by plane into its image, and the reflection points are
+found backwards from the receiver (the array centre) by intersecting the line to
+each image with its plane.  A path is kept only if a ray cast from each point
+towards the next meets exactly that plane first at exactly that distance
+(visibility, and the point lies on a face of the plane), and the last leg reaches
+the emitter unobstructed.  The delay at each microphone is then the exact distance
+from the image source, independent of the ray budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .embree import RayCaster
+from .geometry import World
+
+__all__ = ["SpecularPath", "refine_sequences", "mirror"]
+
+
+@dataclass(frozen=True)
+class SpecularPath:
+    planes: tuple[int, ...]  # plane ids, emitter side first
+    image_m: np.ndarray  # (3,) image of the emitter
+    points_m: np.ndarray  # (k, 3) reflection points, emitter side first
+    amplitude: float  # product of the pressure reflection factors
+    departure: np.ndarray  # (3,) unit direction leaving the emitter
+
+
+def mirror(point: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """Mirror image of a point across the plane n . x = offset."""
+    return point - 2 * (point @ normal - offset) * normal
+
+
+def refine_sequences(
+    world: World,
+    caster: RayCaster,
+    sequences: list[tuple[int, ...]],
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+) -> list[SpecularPath]:
+    """Valid specular paths among candidate plane sequences (batched by length)."""
+    normal, offset, refl = _plane_table(world)
+    eps = 1e-6 * caster.scale + 1e-7  # offsets and tolerances scaled to the scene
+    tol = 1e-4 * caster.scale + 1e-6
+    paths = []
+    by_len: dict[int, list[tuple[int, ...]]] = {}
+    for seq in sequences:
+        by_len.setdefault(len(seq), []).append(seq)
+    for k, seqs in sorted(by_len.items()):
+        ids = np.array(seqs, int)  # (S, k)
+        S = ids.shape[0]
+        images = np.empty((S, k + 1, 3))
+        images[:, 0] = emitter
+        for j in range(k):
+            n, off = normal[ids[:, j]], offset[ids[:, j]]
+            prev = images[:, j]
+            images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
+        ok = np.ones(S, bool)
+        cur = np.broadcast_to(receiver, (S, 3)).copy()
+        points = np.empty((S, k, 3))
+        for j in range(k - 1, -1, -1):
+            n, off = normal[ids[:, j]], offset[ids[:, j]]
+            direction = images[:, j + 1] - cur
+            denom = np.einsum("si,si->s", direction, n)
+            safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
+            s_ = (off - np.einsum("si,si->s", cur, n)) / safe
+            length = np.linalg.norm(direction, axis=1)
+            ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
+            x = cur + np.maximum(s_, 0)[:, None] * direction
+            # a reflection point on the previous one: the path meets an edge between
+            # two planes (both reflections happen there); no leg to check for it
+            at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
+            unit = direction / length[:, None]
+            start = cur + (eps if j < k - 1 else 0.0) * unit
+            for i in np.flatnonzero(ok & at_edge):
+                ok[i] = _on_plane(world, ids[i, j], x[i], tol)
+            live = np.flatnonzero(ok & ~at_edge)
+            t, f = caster.first_hit(start[live], (x - start)[live])
+            dist = np.linalg.norm(x[live] - start[live], axis=1)
+            good = (f >= 0) & (np.abs(t - dist) <= tol)
+            other = good.copy()
+            other[good] = world.plane[f[good]] != ids[live[good], j]
+            # a hit at the right distance on another plane: the point is on an edge
+            # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
+            # lies on a face of the expected plane, within the tolerance
+            for i in np.flatnonzero(other):
+                good[i] = _on_plane(world, ids[live[i], j], x[live[i]], tol)
+            ok[live[~good]] = False
+            points[:, j] = x
+            cur = x
+        # last leg: from the first reflection point to the emitter, unobstructed
+        live = np.flatnonzero(ok)
+        d = emitter - cur[live]
+        L = np.linalg.norm(d, axis=1)
+        t, f = caster.first_hit(cur[live] + eps * d / L[:, None], d)
+        ok[live[(f >= 0) & (t < L - tol)]] = False
+        amp = np.prod(refl[ids], axis=1)
+        for i in np.flatnonzero(ok):
+            dep = points[i, 0] - emitter
+            paths.append(
+                SpecularPath(
+                    tuple(int(v) for v in ids[i]),
+                    images[i, -1],
+                    points[i].copy(),
+                    float(amp[i]),
+                    dep / np.linalg.norm(dep),
+                )
+            )
+    # two orders of the same reflections that meet at an edge are one path (same image)
+    unique: dict[tuple, SpecularPath] = {}
+    for p in paths:
+        unique.setdefault(tuple(np.round(p.image_m / tol).astype(np.int64)), p)
+    return list(unique.values())
+
+
+def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:
+    """Whether x lies on (or within `tol` of) one of the faces of plane `pid`."""
+    tri = world.triangles[world.plane == pid]
+    v0, v1 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    w = x - tri[:, 0]
+    d00, d01, d11 = (np.einsum("ij,ij->i", a, b) for a, b in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("ij,ij->i", w, v0), np.einsum("ij,ij->i", w, v1)
+    den = d00 * d11 - d01**2
+    b1 = (d11 * d20 - d01 * d21) / den
+    b2 = (d00 * d21 - d01 * d20) / den
+    bary = np.stack([1 - b1 - b2, b1, b2], axis=1)
+    edge = np.sqrt(np.maximum(d00, d11))
+    return bool(np.any(-np.min(bary, axis=1) * edge <= tol))
+
+
+def _plane_table(world: World):
+    n_planes = int(world.plane.max()) + 1
+    first = np.full(n_planes, -1)
+    first[world.plane[::-1]] = np.arange(world.n_faces)[::-1]
+    refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
+    return world.normals[first], world.offsets[first], refl[first]
