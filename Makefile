@@ -3,8 +3,8 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-# Debian libraries that VTK (pyvista) needs to render offscreen.
-DEBS   := libgl1 libegl1 libxrender1 libxext6
+# Debian libraries: VTK (pyvista) offscreen rendering, libusb for pyusb.
+DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0
 
 .PHONY: demo test bench lint format clean system-deps
 
@@ -22,7 +22,7 @@ system-deps:
 	  else echo "missing Debian packages:$$missing (run as root or install them)"; fi; \
 	fi
 
-demo: $(STAMP)  ## simulate the default scenario and write its images to out/
+demo: $(STAMP)  ## simulate the corridor drive and write its pictures to out/
 	$(BIN)/acousim demo --out out
 
 test: $(STAMP)  ## run the test suite

@@ -1,39 +1,296 @@
 """The ``acousim`` command line: a thin layer that parses, calls the library, reports.
 
 Errors in what the user gave (a file, a key, a value) are reported on one line with
-exit code 2.
+exit code 2; files are written under a temporary name and renamed when complete, so
+an error or Ctrl-C leaves no partial output.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
 import sys
 import time
+from pathlib import Path
 
 
 class UsageError(Exception):
     """Bad input from the user: printed on one line, exit code 2."""
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from acousim.demo import run_demo
+def bundled_scenes() -> Path:
+    """The scenes/ folder of the source tree."""
+    return Path(__file__).resolve().parent.parent / "scenes"
 
+
+def _progress(desc: str):
+    """A tqdm progress callback: shown after a second, and only on a terminal."""
+    from tqdm import tqdm
+
+    bar = None
+
+    def update(done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(
+                total=total, desc=desc, delay=1.0, disable=not sys.stderr.isatty(), leave=False
+            )
+        bar.update(done - bar.n)
+        if done == total:
+            bar.close()
+
+    return update
+
+
+def _writable_dir(path: str | Path) -> Path:
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".acousim-write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(
+            f"output directory {str(out)!r} cannot be written ({exc.strerror})"
+        ) from None
+    return out
+
+
+def _load_scene(path: str | Path):
+    from acousim.scene import SceneError, load_scene
+
+    try:
+        return load_scene(path)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _parse_indices(option: str, text: str | None) -> list[int] | None:
+    if not text:
+        return None
+    out: list[int] = []
+    try:
+        for part in text.split(","):
+            a, _, b = part.partition(":")
+            out.extend(range(int(a), int(b)) if b else [int(a)])
+    except ValueError:
+        raise UsageError(
+            f"{option} {text!r}: expected indices like '0,3,5' or a range '0:10'"
+        ) from None
+    return out
+
+
+def _simulate(scene, poses, seed):
+    from acousim.simulator import Simulator
+
+    if seed is not None:
+        scene = dataclasses.replace(
+            scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
+        )
+    try:
+        recs = Simulator(scene).run(poses, progress=_progress("simulate"))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    for r in recs:
+        if r.metadata.get("n_paths", 0) == 0:
+            raise UsageError(
+                f"scene {scene.name!r}: no echo reaches the sensor at pose "
+                f"{r.metadata.get('pose_index')} (nothing within "
+                f"{scene.simulation.max_range_m} m)"
+            )
+    return recs
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    import processing as P
+
+    scene = _load_scene(args.scene)
+    out = Path(args.out or f"{scene.name}.h5")
+    _writable_dir(out.parent)
     t0 = time.perf_counter()
-    files = run_demo(args.out, seed=args.seed)
-    print(f"demo written in {time.perf_counter() - t0:.1f} s:")
+    recs = _simulate(scene, _parse_indices("--poses", args.poses), args.seed)
+    P.save_recordings(out, recs)
+    print(
+        f"{len(recs)} recording(s) of {scene.name!r} written to {out} "
+        f"({time.perf_counter() - t0:.1f} s)"
+    )
+    return 0
+
+
+def _cmd_image(args: argparse.Namespace) -> int:
+    import processing as P
+    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+
+    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
+    try:
+        options = ImagingOptions(
+            methods=methods,
+            step_deg=args.step,
+            energy_fraction=args.energy_fraction,
+            min_range_m=args.min_range,
+            max_range_m=args.max_range,
+        )
+    except ValueError as exc:
+        raise UsageError(f"--method {args.method!r}: {exc}") from None
+    out = _writable_dir(args.out)
+    try:
+        recs = P.load_recordings(args.file)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    index = _parse_indices("--index", args.index)
+    if index is not None:
+        bad = [i for i in index if not 0 <= i < len(recs)]
+        if bad:
+            raise UsageError(f"--index {bad}: the file holds {len(recs)} recording(s)")
+        recs = [recs[i] for i in index]
+    try:
+        images = image_recordings(recs, options, _progress("image"))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    files = write_pictures(
+        recs,
+        images,
+        out,
+        options,
+        render_3d=not args.no_3d,
+        animation=not args.no_animation,
+        progress=_progress("animate"),
+    )
     for f in files:
         print(f"  {f}")
     return 0
+
+
+def _cmd_scenes(args: argparse.Namespace) -> int:
+    from acousim.scene import SceneError, load_scene
+
+    for f in sorted(bundled_scenes().glob("*.toml")):
+        try:
+            sc = load_scene(f)
+        except SceneError as exc:
+            print(f"{f.name}: invalid ({exc})")
+            continue
+        print(
+            f"{f.name:16s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
+        )
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    import processing as P
+    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+
+    t0 = time.perf_counter()
+    out = _writable_dir(args.out)
+    scene = _load_scene(bundled_scenes() / "corridor.toml")
+    recs = _simulate(scene, None, args.seed)
+    P.save_recordings(out / "corridor.h5", recs)
+    t1 = time.perf_counter()
+    options = ImagingOptions()
+    images = image_recordings(recs, options, _progress("image"))
+    t2 = time.perf_counter()
+    files = [out / "corridor.h5"] + write_pictures(
+        recs, images, out, options, progress=_progress("animate")
+    )
+    print(
+        f"corridor drive: {len(recs)} poses simulated in {t1 - t0:.1f} s, imaged in "
+        f"{t2 - t1:.1f} s, pictures in {time.perf_counter() - t2:.1f} s:"
+    )
+    for f in files:
+        print(f"  {f}")
+    return 0
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    import processing as P
+    from hardware import DeviceNotFound, DeviceSettings, Recorder, RecordingInterrupted
+    from hardware.device import RtisDevice
+
+    if (args.count is None) == (args.duration is None):
+        raise UsageError("give exactly one of --count N or --duration S")
+    out = Path(args.out)
+    _writable_dir(out.parent)
+    try:
+        array, call = P.preset(args.array), P.rtis_call(args.call)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    backend = None
+    vid = pid = None
+    if args.device:
+        try:
+            vid, pid = (int(v, 16) for v in args.device.split(":"))
+        except ValueError:
+            raise UsageError(f"--device {args.device!r}: expected VID:PID in hex") from None
+    if args.emulate:
+        from acousim.simulator import Simulator
+        from hardware.emulator import EmulatedSensor, EmulatorBackend, recording_source
+
+        scene = _load_scene(args.emulate)
+        if scene.sensor.sample_rate_hz != 450e3:
+            raise UsageError(
+                f"--emulate {args.emulate}: the scene samples at "
+                f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+            )
+        sim = Simulator(scene)
+        n = min(len(scene.sensor.poses), args.count or 10)
+        recs = [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
+        array, call = scene.sensor.array, scene.sensor.call
+        backend = EmulatorBackend(EmulatedSensor(recording_source(recs, array.channels)))
+        vid, pid = backend.vid, backend.pid
+    settings = DeviceSettings(call=call.sampled(450e3))
+    try:
+        recorder = Recorder(
+            lambda: RtisDevice(vid, pid, serial=args.serial, backend=backend), settings, array, call
+        )
+    except DeviceNotFound as exc:
+        raise UsageError(str(exc)) from None
+    bar = _progress("record")
+    kept: list = []
+
+    def keep(rec) -> None:
+        kept.append(rec)
+        if args.count:
+            bar(len(kept), args.count)
+
+    interrupted = False
+    try:
+        recorder.acquire(args.count, args.duration, args.rate, on_record=keep)
+    except RecordingInterrupted:
+        interrupted = True
+    if kept:
+        P.save_recordings(out, kept)
+    st = recorder.stats
+    print(
+        f"{len(kept)} measurement(s) written to {out}"
+        + (" (interrupted)" if interrupted else "")
+        + f"; lost {len(st.lost_indices)}, corrupt {st.corrupt}, time-outs {st.timeouts}, "
+        f"reconnects {st.reconnects}"
+    )
+    return 130 if interrupted else 0
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from acousim.experiments import StudyConfig, run_study
     from acousim.experiments.report import write_report
 
-    config = StudyConfig.quick(args.workers) if args.quick else StudyConfig(workers=args.workers)
+    _writable_dir(args.out)
     t0 = time.perf_counter()
-    results = run_study(config, args.out, progress=lambda s: print(f"running {s} ...", flush=True))
-    command = "acousim reproduce" + (" --quick" if args.quick else "")
+    if args.report_only:
+        from acousim.experiments.paper_study import load_results
+
+        try:
+            results = load_results(args.out)
+        except (OSError, KeyError, ValueError) as exc:
+            raise UsageError(f"--report-only: no finished study in {args.out!r} ({exc})") from None
+        quick = results["config"].repetitions < 20
+    else:
+        quick = args.quick
+        config = StudyConfig.quick(args.workers) if quick else StudyConfig(workers=args.workers)
+        results = run_study(
+            config, args.out, progress=lambda s: print(f"running {s} ...", flush=True)
+        )
+    command = "acousim reproduce" + (" --quick" if quick else "")
     report = write_report(results, args.report, args.out, command)
     print(f"figures and CSVs in {args.out}, report {report} ({time.perf_counter() - t0:.0f} s)")
     return 0
@@ -49,12 +306,16 @@ def _cmd_info(args: argparse.Namespace) -> int:
     print(f"{args.file}: {len(recs)} recording(s)")
     for i, r in enumerate(recs):
         kind = "simulated" if r.metadata.get("simulated") else "real"
+        where = ""
+        if "pose" in r.metadata:
+            p = r.metadata["pose"]
+            where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {p['yaw_deg']:.1f}°"
         print(
             f"  [{i}] {kind}, array {r.array.name} ({r.array.n_mics} mics), "
             f"{r.n_measurements} measurement(s) x {r.n_samples} samples at "
             f"{r.sample_rate_hz / 1e3:g} kHz, call {r.waveform.kind} "
             f"{r.waveform.f_start_hz / 1e3:g}->{r.waveform.f_end_hz / 1e3:g} kHz, "
-            f"c = {r.speed_of_sound_m_s:g} m/s"
+            f"c = {r.speed_of_sound_m_s:.1f} m/s{where}"
         )
     return 0
 
@@ -65,15 +326,105 @@ def build_parser() -> argparse.ArgumentParser:
         description="Simulate active in-air ultrasonic 3D sonars and image their recordings.",
     )
     sub = parser.add_subparsers(dest="command", required=True)
+
     p = sub.add_parser(
         "demo",
-        help="simulate the default scenario and write its images",
-        description="Simulate the paper's point-reflector scenario, image it "
-        "with every DOA method and write the pictures.",
+        help="simulate the corridor drive and write its pictures",
+        description="Simulate the bundled corridor drive (uRTIS at 10 Hz), "
+        "image it with DAS, Capon-FBSS and MUSIC-FBSS, and write "
+        "fan images, a 3D render and an animation.",
     )
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a scene file into an HDF5 recording file",
+        description="Run a scene file for its pose or its whole trajectory "
+        "and write every recording, with its ground truth, to one "
+        "HDF5 file.",
+    )
+    p.add_argument("scene", help="scene file (.toml), see docs/scene-format.md")
+    p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
+    p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
+    p.add_argument("--seed", type=int, help="noise seed (default: the scene's)")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser(
+        "image",
+        help="image recordings and write pictures",
+        description="Run the processing pipeline on simulated or real "
+        "recordings and write fan images (azimuth x range), "
+        "elevation-azimuth maps, a 3D render and, for a "
+        "trajectory, an animated GIF.",
+    )
+    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument(
+        "--method",
+        default="das,capon-fbss,music-fbss",
+        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
+    )
+    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
+    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
+    p.add_argument(
+        "--energy-fraction",
+        type=float,
+        default=1e-3,
+        help="keep range bins with at least this fraction of the strongest "
+        "bin's energy (default: 1e-3; the paper uses 0.5)",
+    )
+    p.add_argument(
+        "--min-range",
+        type=float,
+        default=0.25,
+        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
+    )
+    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
+    p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
+    p.add_argument("--no-animation", action="store_true", help="skip the animation")
+    p.set_defaults(func=_cmd_image)
+
+    p = sub.add_parser(
+        "scenes",
+        help="list the bundled scenes",
+        description="List the bundled scene files and what each shows.",
+    )
+    p.set_defaults(func=_cmd_scenes)
+
+    p = sub.add_parser(
+        "info",
+        help="describe what a recording file holds",
+        description="Print what a recording file (HDF5) holds.",
+    )
+    p.add_argument("file", help="recording file (.h5)")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser(
+        "record",
+        help="record measurements from an RTIS sensor over USB",
+        description="Record measurements from a real RTIS sensor (pyusb) or "
+        "an emulated one, decode their PDM frames and write "
+        "them to an HDF5 file. Ctrl-C keeps every complete "
+        "measurement.",
+    )
+    p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
+    p.add_argument("--serial", help="serial number of the sensor to use")
+    p.add_argument("--count", type=int, help="number of measurements")
+    p.add_argument("--duration", type=float, help="seconds of recording")
+    p.add_argument(
+        "--rate", type=float, default=10.0, help="measurements per second at most (default: 10)"
+    )
+    p.add_argument("--array", default="ertis_v3d1", help="array preset (default: ertis_v3d1)")
+    p.add_argument("--call", default="default_25_50", help="RTIS call preset")
+    p.add_argument(
+        "--emulate",
+        metavar="SCENE",
+        help="record from an emulated sensor streaming this scene's simulation",
+    )
+    p.add_argument("--out", required=True, help="output file (.h5)")
+    p.set_defaults(func=_cmd_record)
 
     p = sub.add_parser(
         "reproduce",
@@ -90,15 +441,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="docs/reproduction", help="folder for figures and CSVs")
     p.add_argument("--report", default="docs/REPRODUCTION.md", help="report to (re)write")
     p.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
-    p.set_defaults(func=_cmd_reproduce)
-
-    p = sub.add_parser(
-        "info",
-        help="describe what a recording file holds",
-        description="Print what a recording file (HDF5) holds.",
+    p.add_argument(
+        "--report-only",
+        action="store_true",
+        help="rewrite the report from the CSVs of a finished run in --out",
     )
-    p.add_argument("file", help="recording file (.h5)")
-    p.set_defaults(func=_cmd_info)
+    p.set_defaults(func=_cmd_reproduce)
     return parser
 
 
@@ -111,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"acousim {args.command}: interrupted", file=sys.stderr)
+        print(f"acousim {args.command}: interrupted; no partial file was kept", file=sys.stderr)
         return 130
 
 

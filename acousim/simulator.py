@@ -92,6 +92,7 @@ class Simulator:
             seed=noise_seed,
             method=scene.simulation.fractional_delay,
             response=self.response,
+            snr_reference="echoes",
             metadata=meta,
         )
 
@@ -106,9 +107,18 @@ class Simulator:
                 raise ValueError(
                     f"pose index {i} out of range: the scene has {len(all_poses)} pose(s)"
                 )
+        # trace the next pose while the current one is rendered (Embree, the FFTs and
+        # the sparse products release the GIL)
+        from concurrent.futures import ThreadPoolExecutor
+
         out = []
-        for k, i in enumerate(idx):
-            out.append(self.simulate_pose(all_poses[i], i))
-            if progress:
-                progress(k + 1, len(idx))
+        with ThreadPoolExecutor(1) as pool:
+            ahead = pool.submit(self.tracer.trace, all_poses[idx[0]]) if idx else None
+            for k, i in enumerate(idx):
+                ahead.result()
+                if k + 1 < len(idx):
+                    ahead = pool.submit(self.tracer.trace, all_poses[idx[k + 1]])
+                out.append(self.simulate_pose(all_poses[i], i))
+                if progress:
+                    progress(k + 1, len(idx))
         return out

@@ -8,9 +8,14 @@ import platform
 import sys
 from pathlib import Path
 
-from . import doa_speed, fractional_delay
+from . import corridor, doa_speed, fractional_delay, pdm_decode
 
-SECTIONS = {"doa": doa_speed, "fractional_delay": fractional_delay}
+SECTIONS = {
+    "doa": doa_speed,
+    "fractional_delay": fractional_delay,
+    "corridor": corridor,
+    "pdm_decode": pdm_decode,
+}
 
 
 def machine() -> str:

@@ -1,0 +1,23 @@
+"""hardware: the real RTIS sensors over USB (pyusb), their 1-bit PDM frames, and an
+emulated sensor that runs the same driver without hardware.  Depends on processing."""
+
+from .device import DeviceNotFound, DeviceSettings, RtisDevice
+from .pdm import decode, encode
+from .protocol import Frame, FrameError, build_frame, parse_frame
+from .recorder import Recorder, RecordingInterrupted, RecordStats, decode_frame
+
+__all__ = [
+    "DeviceNotFound",
+    "DeviceSettings",
+    "RtisDevice",
+    "decode",
+    "encode",
+    "Frame",
+    "FrameError",
+    "build_frame",
+    "parse_frame",
+    "Recorder",
+    "RecordingInterrupted",
+    "RecordStats",
+    "decode_frame",
+]

@@ -126,19 +126,12 @@ class Array:
             )
 
     def alias_free_hz(self, speed_of_sound_m_s: float) -> float:
-        """Highest frequency without grating lobes over the hemisphere: c / (2 pitch).
-
-        For a URA the larger pitch counts; for an irregular array the smallest
-        distance between two microphones (a necessary, not sufficient, condition).
-        """
+        """Highest frequency without grating lobes over the hemisphere: c / (2 pitch)
+        for a URA (the larger pitch).  An irregular (pseudo-random) layout has no
+        periodic grating lobes: infinity."""
         if self.is_ura:
-            spacing = max(self.pitch_m)
-        else:
-            p = self.positions_m
-            d = np.linalg.norm(p[:, None] - p[None], axis=-1)
-            d[np.diag_indices_from(d)] = np.inf
-            spacing = float(d.min()) if self.n_mics > 1 else np.inf
-        return speed_of_sound_m_s / (2 * spacing)
+            return speed_of_sound_m_s / (2 * max(self.pitch_m))
+        return float("inf")
 
     def aperture_m(self) -> tuple[float, float]:
         """Extent (z, y) of the array in metres."""

@@ -72,7 +72,7 @@ def drive(rate_hz: float = 10.0, duration_s: float = 6.0) -> np.ndarray:
     x = 0.5 + 0.5 * t
     y = 0.08 * np.sin(2 * np.pi * t / 6.0)
     yaw = np.rad2deg(np.arctan2(np.gradient(y, x), 1.0))
-    return np.column_stack([x, y, np.full_like(x, 0.3), yaw])
+    return np.column_stack([x, y, np.full_like(x, 0.45), yaw])
 
 
 def main() -> None:

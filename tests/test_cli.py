@@ -1,53 +1,171 @@
+"""The command line end to end: simulate -> image -> pictures, and its error paths."""
+
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pytest
+from matplotlib.image import imread
 
 import processing as P
 from acousim.cli import main
 
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
-def test_demo_writes_images_whose_peaks_are_the_reflectors(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path)]) == 0
-    printed = capsys.readouterr().out
-    assert "fan.png" in printed
-    rec = P.load_recording(tmp_path / "demo_recording.h5")
+
+def copy_scene(tmp_path, name):
+    shutil.copy(SCENES / f"{name}.toml", tmp_path / f"{name}.toml")
+    if (SCENES / "meshes").exists():
+        shutil.copytree(SCENES / "meshes", tmp_path / "meshes", dirs_exist_ok=True)
+    for extra in SCENES.glob("*.csv"):
+        shutil.copy(extra, tmp_path / extra.name)
+    return tmp_path / f"{name}.toml"
+
+
+def test_simulate_then_image_finds_the_point_reflectors(tmp_path, capsys):
+    scene = copy_scene(tmp_path, "points")
+    out = tmp_path / "pts.h5"
+    assert main(["simulate", str(scene), "--out", str(out), "--seed", "3"]) == 0
+    rec = P.load_recording(out)
+    assert rec.metadata["scene_sha256"] and rec.metadata["seed"] is not None
+    assert len(rec.metadata["truth"]["position_sensor_m"]) == 3
+    assert (
+        main(
+            [
+                "image",
+                str(out),
+                "--method",
+                "das,music-fbss",
+                "--out",
+                str(tmp_path / "img"),
+                "--step",
+                "1",
+                "--energy-fraction",
+                "0.3",
+            ]
+        )
+        == 0
+    )
     img = P.acoustic_image(
         rec,
         "music-fbss",
         P.ProcessingSettings(
-            frequency_hz=31250.0, energy_fraction=0.02, grid=P.Grid.degrees(step=1.0)
+            energy_fraction=0.3, grid=P.Grid.degrees(step=1.0), range_limits_m=(0.25, 2.0)
         ),
     )
-    truth = np.asarray(rec.metadata["reflectors"]["positions_m"])
-    pk = img.peaks(-25)
-    found = np.stack(
+    pk = img.peaks(-20)
+    found = pk.range_m[:, None] * np.stack(
         [
-            pk.range_m * np.cos(pk.elevation_rad) * np.cos(pk.azimuth_rad),
-            pk.range_m * np.cos(pk.elevation_rad) * np.sin(pk.azimuth_rad),
-            pk.range_m * np.sin(pk.elevation_rad),
+            np.cos(pk.elevation_rad) * np.cos(pk.azimuth_rad),
+            np.cos(pk.elevation_rad) * np.sin(pk.azimuth_rad),
+            np.sin(pk.elevation_rad),
         ],
         axis=1,
     )
-    # the four near reflectors each have an image peak within 5 cm
-    for t in truth[np.linalg.norm(truth, axis=1) < 2.0]:
-        assert np.min(np.linalg.norm(found - t, axis=1)) < 0.05
-    from matplotlib.image import imread
-
-    fan = imread(tmp_path / "fan.png")
-    assert fan.shape[0] > 200 and fan[..., :3].std() > 0.05  # not blank
+    centre = rec.array.positions_m.mean(axis=0)
+    for t in np.asarray(rec.metadata["truth"]["position_sensor_m"]):
+        assert np.min(np.linalg.norm(found + centre - t, axis=1)) < 0.05
+    fan = imread(tmp_path / "img" / "fan.png")
+    assert fan[..., :3].std() > 0.05  # not blank
 
 
-def test_info_describes_a_file_and_refuses_garbage(tmp_path, capsys):
+def test_wall_pictures_show_the_mesh_and_the_peak_where_the_wall_is(tmp_path):
+    from acousim.viz.render3d import PEAK_COLOR, TRUTH_COLOR
+
+    scene = copy_scene(tmp_path, "wall")
+    out = tmp_path / "wall.h5"
+    assert main(["simulate", str(scene), "--out", str(out)]) == 0
+    assert main(["image", str(out), "--out", str(tmp_path / "img"), "--method", "das"]) == 0
+    pic = imread(tmp_path / "img" / "scene3d.png")[..., :3]
+    background = np.all(pic > 0.97, axis=2)
+    assert pic.shape[0] > 300 and background.mean() < 0.95, "blank picture"
+    grey = (
+        (np.abs(pic - pic.mean(axis=2, keepdims=True)).max(axis=2) < 0.03)
+        & (pic.mean(axis=2) < 0.95)
+        & (pic.mean(axis=2) > 0.3)
+    )
+    assert grey.mean() > 0.05, "the wall mesh is not visible"
+    red = np.all(np.abs(pic - np.array(PEAK_COLOR)) < 0.25, axis=2)
+    cyan = np.all(np.abs(pic - np.array(TRUTH_COLOR)) < 0.25, axis=2)
+    assert red.sum() > 20, "no image peak drawn"
+    # the image peak is drawn on the ray-traced reflection point (cyan, partly hidden)
+    ry, rx = np.nonzero(red)
+    cy, cx = np.nonzero(cyan)
+    assert cy.size, "ray-traced reflector not drawn"
+    assert np.hypot(ry.mean() - cy.mean(), rx.mean() - cx.mean()) < 25
+
+
+def test_trajectory_gives_an_animation(tmp_path):
+    import imageio.v2 as imageio
+
+    scene = copy_scene(tmp_path, "corridor")
+    out = tmp_path / "c.h5"
+    assert main(["simulate", str(scene), "--out", str(out), "--poses", "0:3"]) == 0
+    assert len(P.load_recordings(out)) == 3
+    assert (
+        main(["image", str(out), "--out", str(tmp_path / "img"), "--method", "das", "--no-3d"]) == 0
+    )
+    frames = imageio.mimread(tmp_path / "img" / "drive.gif")
+    assert len(frames) == 3 and np.asarray(frames[0]).std() > 10
+
+
+@pytest.mark.parametrize(
+    "args,pattern",
+    [
+        (["simulate", "{tmp}/nope.toml"], "no such scene file"),
+        (["simulate", "{tmp}/bad.toml"], r"\[simulaton\] unknown key.*did you mean 'simulation'"),
+        (["image", "{tmp}/r.h5", "--method", "das,bogus"], "unknown method 'bogus'"),
+        (["image", "{tmp}/r.h5", "--out", "{tmp}/afile/sub"], "cannot be written"),
+        (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
+        (["image", "{tmp}/r.h5", "--index", "7"], r"--index \[7\]: the file holds 1"),
+        (["simulate", "{tmp}/empty.toml"], "no echo reaches the sensor"),
+        (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses 'x'"),
+    ],
+)
+def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
+    import re
+
+    (tmp_path / "bad.toml").write_text(
+        '[simulaton]\nrays = 5\n[sensor]\narray = "urtis_v1"\n'
+        "[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
+    )
+    (tmp_path / "empty.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\ndirect_path = false\n'
+        "[simulation]\nmax_range_m = 1.0\n"
+        "[[points]]\nposition_m = [5.0, 0.0, 0.0]\n"
+    )
+    copy_scene(tmp_path, "points")
+    (tmp_path / "garbage.h5").write_text("nope")
+    (tmp_path / "afile").write_text("a file, not a folder")
+    P.save_recording(
+        tmp_path / "r.h5", P.Recording(np.zeros((64, 3000)), 500e3, P.paper_8x8(), P.paper_chirp())
+    )
+    before = set(tmp_path.rglob("*"))
+    code = main([a.format(tmp=tmp_path) for a in args])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and re.search(pattern, err), err
+    assert set(tmp_path.rglob("*")) - before <= {tmp_path / "out"}  # no partial files
+
+
+def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch, capsys):
+    import processing.recording as rec_mod
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rec_mod, "_write_one", boom)
+    scene = copy_scene(tmp_path, "points")
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 130
+    assert not any(p.name.startswith(("x.h5", ".x.h5")) for p in tmp_path.iterdir())
+
+
+def test_info_and_scenes(tmp_path, capsys):
     rec = P.Recording(np.zeros((64, 300)), 500e3, P.paper_8x8(), P.paper_chirp())
     P.save_recording(tmp_path / "r.h5", rec)
     assert main(["info", str(tmp_path / "r.h5")]) == 0
     assert "paper_8x8 (64 mics)" in capsys.readouterr().out
-    (tmp_path / "bad.h5").write_text("nope")
-    assert main(["info", str(tmp_path / "bad.h5")]) == 2
-    err = capsys.readouterr().err
-    assert "bad.h5" in err and "not an HDF5" in err and len(err.strip().splitlines()) == 1
-
-
-def test_unknown_command_exits_2():
-    with pytest.raises(SystemExit) as exc:
-        main(["frobnicate"])
-    assert exc.value.code == 2
+    assert main(["scenes"]) == 0
+    listing = capsys.readouterr().out
+    for name in ("corridor", "shoebox", "wall", "sphere", "points"):
+        assert f"{name}.toml" in listing

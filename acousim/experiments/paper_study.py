@@ -11,6 +11,8 @@ times the noise floor; resolution metrics as in :mod:`processing.metrics`.
 from __future__ import annotations
 
 import csv
+import dataclasses
+import json
 import os
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
@@ -424,4 +426,60 @@ def run_study(
         results[name] = fn(config, out)
     results["config"] = config
     results["frequency_hz"] = FREQUENCY_HZ
+    _write_json(
+        out / "study.json", {"config": dataclasses.asdict(config), "fig3_4": results["fig3_4"]}
+    )
     return results
+
+
+def _write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".json.part")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, path)
+
+
+def load_results(out_dir: str | Path) -> dict:
+    """The results of a finished run, read back from its CSV and JSON files (to rewrite
+    the report without running the study again)."""
+    out = Path(out_dir)
+    meta = json.loads((out / "study.json").read_text())
+    config = StudyConfig(
+        **{k: tuple(v) if isinstance(v, list) else v for k, v in meta["config"].items()}
+    )
+
+    def sweep(name, key, cast):
+        stats = {}
+        with open(out / name) as f:
+            for r in csv.DictReader(f):
+                p = (float(r["azimuth_deg"]), float(r["elevation_deg"]), 1.0)
+                mean = np.array([float(r["angular_sr_mean"]), float(r["range_m_mean"])])
+                std = np.array([float(r["angular_sr_std"]), float(r["range_m_std"])])
+                stats[p, cast(r[key]), r["method"]] = (mean, std)
+        return stats
+
+    with open(out / "fig11_attenuation_vs_spacing.csv") as f:
+        f11 = {
+            (float(r["spacing_deg"]), r["method"]): (
+                float(r["attenuation_db_mean"]),
+                float(r["attenuation_db_std"]),
+            )
+            for r in csv.DictReader(f)
+        }
+    with open(out / "fig12_resolved_sources.csv") as f:
+        f12 = {
+            (int(r["n_sources"]), r["method"]): (
+                None,
+                float(r["resolved_mean"]),
+                float(r["dynamic_range_db"]),
+            )
+            for r in csv.DictReader(f)
+        }
+    return {
+        "config": config,
+        "frequency_hz": FREQUENCY_HZ,
+        "fig3_4": meta["fig3_4"],
+        "fig6_7": sweep("fig06_07_resolution_vs_snr.csv", "snr_db", float),
+        "fig9_10": sweep("fig09_10_resolution_vs_snapshots.csv", "snapshots", int),
+        "fig11": f11,
+        "fig12": f12,
+    }

@@ -84,6 +84,8 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
+    snr_db : noise level relative to the echoes (the direct path left out, see
+        ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     """
 
     max_range_m: float = 6.0

@@ -38,6 +38,7 @@ def simulate(
     method: str = DEFAULT_METHOD,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
+    snr_reference: str = "signal",
     metadata: dict | None = None,
 ) -> Recording:
     """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
@@ -49,6 +50,13 @@ def simulate(
         K measurements of the static scene with independent noise: samples (K, M, T).
     response : PathResponse, optional
         Air absorption and emitter directivity per path.
+    snr_reference : {'signal', 'echoes'}
+        'signal': eq. 2 on the rendered signal (the paper's study).  'echoes': the
+        signal power is that of the echoes alone, the direct path (order 0, tens of
+        dB louder in a real sensor) left out, estimated from the path gains as if the
+        echoes did not overlap: ``sum_n mean_m(g_mn^2) |H_n(f_c)|^2 E_call / (M L)``
+        per microphone, with E_call the call's energy and H_n the path response at
+        the band centre.
     seed : int
         Seed of the noise generator (numpy Generator); the same seed gives the same
         bytes.
@@ -88,7 +96,12 @@ def simulate(
                 f"{window_s * 1e3:.2f} ms window"
             )
         call_samples = int(np.ceil(waveform.duration_s * sample_rate_hz))
-        sigma = noise_sigma(clean, snr_db, call_samples)
+        if snr_reference == "echoes":
+            sigma = _echo_noise_sigma(echoes, waveform, sample_rate_hz, snr_db, response)
+        elif snr_reference == "signal":
+            sigma = noise_sigma(clean, snr_db, call_samples)
+        else:
+            raise ValueError(f"snr_reference must be 'signal' or 'echoes', got {snr_reference!r}")
         samples = add_noise(clean, sigma, rng, n_measurements)
     else:
         log.debug("infinite SNR: no noise generated")
@@ -102,6 +115,24 @@ def simulate(
     return Recording(
         samples, sample_rate_hz, array, waveform, speed_of_sound_m_s, emission_index, meta
     )
+
+
+def _echo_noise_sigma(
+    echoes: Echoes, waveform: Waveform, fs: float, snr_db: float, response: PathResponse | None
+) -> float:
+    echo = echoes.order > 0
+    if not echo.any():
+        raise ValueError("snr_reference='echoes' but the scene has no echo besides the direct path")
+    call = waveform.sampled(fs)
+    power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
+    if response is not None and response.active:
+        f_c = float(np.mean(waveform.band_hz))
+        h = response.matrix(
+            np.array([f_c]), echoes.path_length_m.mean(axis=0)[echo], echoes.angles()[echo]
+        )[0]
+        power = power * h**2
+    p_s = float(np.sum(power) * np.sum(call**2) / call.size)
+    return float(np.sqrt(p_s / 10 ** (snr_db / 10)))
 
 
 def simulate_points(

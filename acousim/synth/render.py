@@ -53,7 +53,8 @@ DEFAULT_METHOD = "sinc"
 DEFAULT_TAPS = 6
 KAISER_BETA = 8.0
 TABLE_PHASES = 4096
-RESPONSE_POINTS = 256  # frequencies at which path responses are factorised
+FFT_WORKERS = 2  # scipy.fft threads
+RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 
 
 def render(
@@ -121,26 +122,48 @@ def render(
 
 
 def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np.ndarray:
-    """Impulses times separable path responses, summed in the frequency domain."""
-    n = sfft.next_fast_len(n_span + call.size + 256, real=True)
+    """Impulses times separable path responses, summed in the frequency domain.
+
+    The direct path (order 0, tens of dB above every echo) is factorised apart from
+    the echoes, so that its level does not set the accuracy of theirs.
+    """
+    n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
     freqs = np.arange(W.size) * fs / n
     band = np.abs(W) > 1e-6 * np.abs(W).max()
-    length = echoes.path_length_m.mean(axis=0)
-    # factor H on a coarse grid over the band (H is smooth in f), interpolate U
     fb = freqs[band]
-    coarse = np.linspace(fb[0], fb[-1], min(RESPONSE_POINTS, fb.size))
-    Uc, V = factorise(response.matrix(coarse, length, echoes.angles()))
-    U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
+    # the coarse grid covers where the call has its energy (within 60 dB of its peak);
+    # beyond, the interpolation holds the end values
+    main = freqs[np.abs(W) > 1e-3 * np.abs(W).max()]
+    coarse = np.linspace(main[0], main[-1], min(RESPONSE_POINTS, main.size))
+    length = echoes.path_length_m.mean(axis=0)
     # the per-microphone part of the path length: a gain at the band's centre
     f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
     alpha = response.alpha_db_per_m(f_c)
     g = g * 10 ** (-alpha * (echoes.path_length_m - length[None, :]) / 20)
-    h = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps)  # (Q, M, n_span)
-    filt = np.zeros((V.shape[1], W.size), complex)
-    filt[:, band] = (W[band, None] * U).T
-    spec = np.einsum("qmf,qf->mf", sfft.rfft(h, n, axis=-1), filt)
-    return sfft.irfft(spec, n, axis=-1)[:, :n_span]
+    H = response.matrix(coarse, length, echoes.angles())  # (F', N)
+    # factor H on a coarse grid over the band (H is smooth in f), interpolate U; each
+    # path weighted by its gain, so the rank is set by the error of the rendered
+    # signal and thousands of weak scatterers do not inflate it
+    weight = np.sqrt(np.mean(g**2, axis=0)) + 1e-300
+    Vs, Us = [], []
+    for group in (echoes.order == 0, echoes.order != 0):
+        if not group.any():
+            continue
+        Uc, Vw = factorise(H[:, group] * weight[group])
+        V = np.zeros((echoes.n_paths, Vw.shape[1]))
+        V[group] = Vw / weight[group, None]
+        Vs.append(V)
+        Us.append(Uc)
+    V, Uc = np.concatenate(Vs, axis=1), np.concatenate(Us, axis=1)
+    U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
+    # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
+    h, pad = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps, width=n)
+    filt = np.zeros((W.size, V.shape[1]), complex)
+    filt[band] = W[band, None] * U
+    spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (Q, M, F)
+    spec = np.einsum("qmf,fq->mf", spectra, filt)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):
@@ -196,20 +219,26 @@ def _kernel_table(method: str, taps: int) -> np.ndarray:
     return _kernel(np.linspace(0.0, 1.0, TABLE_PHASES + 1), method, taps)[1]
 
 
-def _impulses(d: np.ndarray, g: np.ndarray, n_span: int, method: str, taps: int) -> np.ndarray:
-    """Sum of interpolated impulses, shape (M, n_span); d in samples from the span start.
+def _impulses(
+    d: np.ndarray, g: np.ndarray, n_span: int, method: str, taps: int, width: int | None = None
+):
+    """Sum of interpolated impulses; d in samples from the span start.
 
-    `g` is (M, N) or (M, N, Q) for Q sets of gains sharing the same delays: the
+    `g` is (M, N), or (M, N, Q) for Q sets of gains sharing the same delays: the
     kernel weights are looked up once and applied to every set as one sparse
-    product; the result is then (Q, M, n_span).  Taps that fall outside the span
-    are dropped (the buffer carries a margin of `taps` samples on each side).
+    product.  Without `width`: returns (M, n_span) or (Q, M, n_span).  With `width`
+    (a buffer length, for an FFT): returns ``(h, pad)`` with h of shape (Q, M, width)
+    and span sample i at buffer index ``pad + i``.  Taps beyond the span's margin of
+    `taps` samples are dropped.
     """
     M, N = d.shape
     many = g.ndim == 3
     G = (g if many else g[..., None]).reshape(M * N, -1)
     pad = taps + 1
-    width = n_span + 2 * pad
-    base = (np.arange(M) * width + pad)[:, None]
+    buf = n_span + 2 * pad if width is None else width
+    if buf < n_span + 2 * pad:
+        raise ValueError(f"buffer width {buf} shorter than the span {n_span} and its margins")
+    base = (np.arange(M) * buf + pad)[:, None]
     if method == "nearest":
         rows = (base + np.clip(np.rint(d).astype(np.int64), -pad, n_span + pad - 1)).ravel()
         weights = np.ones(M * N)
@@ -223,6 +252,10 @@ def _impulses(d: np.ndarray, g: np.ndarray, n_span: int, method: str, taps: int)
         start = np.clip(n0.astype(np.int64), -1, n_span) + base  # (M, N)
         rows = (start[..., None] + offsets).ravel()
         weights = _kernel_table(method, taps)[phase].ravel()
-    S = sp.csc_matrix((weights, rows, np.arange(0, M * N * k + 1, k)), shape=(M * width, M * N))
-    h = np.asarray(S @ G).T.reshape(-1, M, width)[:, :, pad : pad + n_span]
+    S = sp.csc_matrix((weights, rows, np.arange(0, M * N * k + 1, k)), shape=(M * buf, M * N))
+    # one pass over the kernel entries for every set of gains, then sets first
+    h = np.ascontiguousarray(np.asarray(S @ G).T).reshape(-1, M, buf)  # (Q, M, buf)
+    if width is not None:
+        return h, pad
+    h = h[:, :, pad : pad + n_span]
     return h if many else h[0]

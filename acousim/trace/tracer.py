@@ -15,7 +15,8 @@ specularly up to ``bounces`` times.
   (weight ``diffuse R^2``).  Contributions of one surface within one delay bin
   add their intensities into one
   point reflector at their intensity-weighted centroid; a bin is the call's range
-  resolution ``c / bandwidth`` of path length, anchored at the surface's nearest
+  resolution ``c / bandwidth`` of path length (``DIFFUSE_BIN_FACTOR`` times that
+  for the Lambert tail of planar walls), anchored at the surface's nearest
   contribution so that a glint is never split in two.  For a convex surface this
   converges to the geometric-optics echo (a sphere of radius a at range r:
   a / (2 r^2)) whatever the lobe width.
@@ -46,6 +47,9 @@ __all__ = ["TracedPaths", "Tracer", "cone_directions", "KIND"]
 log = logging.getLogger(__name__)
 
 KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3}
+#: diffuse (Lambert) contributions of planar walls are binned this many range
+#: resolutions wide (see BENCHMARKS.md for the time it saves and the error it costs)
+DIFFUSE_BIN_FACTOR = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -382,7 +386,10 @@ class Tracer:
         np.minimum.at(start, group, total)
         # bins anchored at each surface's nearest contribution, so that a compact glint
         # (the specular region of a curved surface) is never split between two bins
-        bins = np.floor((total - start[group]) / bin_len).astype(np.int64)
+        # diffuse scattering from planar walls is a smooth tail: coarser bins there
+        planar = surf <= self.world.plane.max()
+        width = np.where(planar, DIFFUSE_BIN_FACTOR * bin_len, bin_len)
+        bins = np.floor((total - start[group]) / width).astype(np.int64)
         _, inv = np.unique(group.astype(np.int64) * (bins.max() + 1) + bins, return_inverse=True)
         inv = inv.ravel()
         n = inv.max() + 1

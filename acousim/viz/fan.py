@@ -82,32 +82,36 @@ def fan_figure(
             * 1.05
         )
     for ax, (method, img) in zip(axes.ravel(), images.items()):
-        rng, fan = full_range_fan(img, max_range_m)
-        db = to_db(fan, floor_db=-dynamic_range_db)
-        A, Rg = np.meshgrid(_edges(img.azimuth_rad), _edges(rng))
-        # top view: forward up, +y (positive azimuth) to the left
-        ax.pcolormesh(
-            -Rg * np.sin(A),
-            Rg * np.cos(A),
-            db,
-            shading="flat",
-            cmap="inferno",
-            vmin=-dynamic_range_db,
-            vmax=0,
-        )
+        draw_fan(ax, img, max_range_m, dynamic_range_db)
         if truth is not None and len(truth):
             t = np.asarray(truth)
             ax.scatter(-t[:, 1], t[:, 0], s=90, facecolors="none", edgecolors="cyan", lw=0.6)
-        ax.set_aspect("equal")
         ax.set_title(method)
-        ax.set_xlabel("y (m), left ←")
-        ax.set_ylabel("x forward (m)")
-        ax.set_facecolor("black")
     if title:
         fig.suptitle(title)
     out = _save(fig, Path(path))
     plt.close(fig)
     return out
+
+
+def draw_fan(ax, image: Image, max_range_m: float, dynamic_range_db: float = 25.0) -> None:
+    """Draw the top view of an image on a matplotlib axis (x forward up, y left)."""
+    rng, fan = full_range_fan(image, max_range_m)
+    db = to_db(fan, floor_db=-dynamic_range_db)
+    A, Rg = np.meshgrid(_edges(image.azimuth_rad), _edges(rng))
+    ax.pcolormesh(
+        -Rg * np.sin(A),
+        Rg * np.cos(A),
+        db,
+        shading="flat",
+        cmap="inferno",
+        vmin=-dynamic_range_db,
+        vmax=0,
+    )
+    ax.set_aspect("equal")
+    ax.set_xlabel("y (m), left ←")
+    ax.set_ylabel("x forward (m)")
+    ax.set_facecolor("black")
 
 
 def _edges(x: np.ndarray) -> np.ndarray:

@@ -1,0 +1,359 @@
+"""An emulated RTIS sensor behind a pyusb backend, with faults on demand.
+
+``EmulatedSensor`` answers the documented commands and streams measurement frames
+made from recordings (simulated, or any Recording at 450 kHz) by sigma-delta (PDM)
+modulation at 4.5 MHz.  ``EmulatorBackend`` is a pyusb backend (pyusb accepts
+custom backends) under which the sensor enumerates like a CDC-ACM device, so the
+real driver (:mod:`hardware.device`) runs unchanged against it:
+
+    backend = EmulatorBackend(EmulatedSensor(source))
+    dev = RtisDevice(backend=backend)
+
+Faults (``sensor.inject(...)``): ``"drop"`` skips the next frame's index (a lost
+frame), ``"corrupt"`` breaks the next frame's header, ``"stall"`` makes the next
+read time out, ``"short"`` truncates the next frame, ``"disconnect"`` unplugs the
+sensor (reads and writes fail, it does not enumerate) until ``reconnect()``.
+"""
+
+from __future__ import annotations
+
+import array as _array
+import errno
+from collections import deque
+from collections.abc import Callable
+from types import SimpleNamespace
+
+import numpy as np
+import usb.backend
+import usb.core
+
+from .protocol import COMMANDS, build_frame
+
+__all__ = ["EmulatedSensor", "EmulatorBackend", "EMULATOR_VID", "EMULATOR_PID", "recording_source"]
+
+#: pid.codes' test IDs: the real sensor's IDs are not published
+EMULATOR_VID = 0x1209
+EMULATOR_PID = 0x0001
+EP_OUT, EP_IN, EP_NOTIFY = 0x01, 0x82, 0x83
+
+
+def recording_source(
+    recordings, channels: np.ndarray, full_scale: float | None = None
+) -> Callable[[int, int], np.ndarray]:
+    """A frame source cycling through recordings: (index, n_ticks) -> tick words.
+
+    The signals are scaled by one full-scale value for all recordings (default: twice
+    the largest absolute sample, keeping the modulator within +-0.5) and PDM-encoded.
+    """
+    from .pdm import DECIMATION, encode
+
+    recs = list(recordings)
+    scale = full_scale or 2 * max(float(np.abs(r.samples).max()) for r in recs) or 1.0
+    cache: dict[int, np.ndarray] = {}
+
+    def source(index: int, n_ticks: int) -> np.ndarray:
+        k = index % len(recs)
+        if k not in cache:
+            r = recs[k]
+            words = encode(r.samples, channels, r.sample_rate_hz, scale)
+            cache[k] = words
+        w = cache[k]
+        out = np.zeros(n_ticks, np.uint32)
+        out[: min(n_ticks, w.size)] = w[:n_ticks]
+        return out
+
+    source.full_scale = scale  # type: ignore[attr-defined]
+    source.decimation = DECIMATION  # type: ignore[attr-defined]
+    return source
+
+
+class EmulatedSensor:
+    """The device's state machine: commands in, answers and frames out."""
+
+    def __init__(
+        self,
+        source: Callable[[int, int], np.ndarray],
+        *,
+        serial: str = "EMU0001",
+        firmware: int = 0x0002_0F01,
+        n_ticks: int = 163840,
+    ) -> None:
+        self.source = source
+        self.serial = serial
+        self.firmware = firmware
+        self.settings = {
+            "G": n_ticks,
+            "F": 0,
+            "D": 450000,
+            "E": 1125,
+            "I": 1,
+            "H": 0,
+            "J": 0,
+            "K": 1,
+            "B": 0,
+        }
+        self.dac = np.zeros(65536, np.uint16)
+        self.counter = 0
+        self.connected = True
+        self.bus, self.address = 1, 7
+        self._out = bytearray()
+        self._faults: deque[str] = deque()
+        self.log: list[bytes] = []
+
+    # -- faults ------------------------------------------------------------------
+    def inject(self, *faults: str) -> None:
+        for f in faults:
+            if f not in ("drop", "corrupt", "stall", "short", "disconnect"):
+                raise ValueError(f"unknown fault {f!r}")
+            if f == "disconnect":
+                self.connected = False
+                self._out.clear()
+            else:
+                self._faults.append(f)
+
+    def reconnect(self) -> None:
+        self.connected = True
+        self.address += 1  # a replugged device gets a new address
+
+    # -- the wire ----------------------------------------------------------------
+    def write(self, data: bytes) -> int:
+        self._check()
+        self.log.append(bytes(data))
+        for line in bytes(data).split(b"\n"):
+            if line:
+                self._command(line.decode("ascii", "replace"))
+        return len(data)
+
+    def read(self, size: int) -> bytes:
+        self._check()
+        if self._faults and self._faults[0] == "stall":
+            self._faults.popleft()
+            raise usb.core.USBTimeoutError("Operation timed out", -7, errno.ETIMEDOUT)
+        if not self._out:
+            raise usb.core.USBTimeoutError("Operation timed out", -7, errno.ETIMEDOUT)
+        chunk = bytes(self._out[:size])
+        del self._out[:size]
+        return chunk
+
+    def _check(self) -> None:
+        if not self.connected:
+            raise usb.core.USBError(
+                "No such device (it may have been disconnected)", -4, errno.ENODEV
+            )
+
+    def _command(self, line: str) -> None:
+        if not (line.startswith("!") and len(line) >= 2 and line[1] in COMMANDS):
+            self._answer(0xFFFFFFFF)
+            return
+        letter = line[1]
+        try:
+            args = [int(v) for v in line[3:].split(",")] if len(line) > 2 else []
+        except ValueError:
+            self._answer(0xFFFFFFFF)
+            return
+        args += [0] * (3 - len(args))
+        if letter == "Y":
+            self._answer(self.firmware)
+        elif letter == "B":
+            self.counter = args[0]
+            self._answer(self.counter)
+        elif letter == "C":
+            self.dac[args[0] % self.dac.size] = args[1]
+            self._answer(args[1])
+        elif letter == "G":
+            if args[0] <= 0 or args[0] % 32768:
+                self._answer(0xFFFFFFFF)
+                return
+            self.settings["G"] = args[0]
+            self._answer(args[0])
+        elif letter == "A":
+            self._answer(self.counter)
+            self._frame()
+        else:
+            self.settings[letter] = args[0]
+            self._answer(args[0])
+
+    def _answer(self, value: int) -> None:
+        self._out += int(value & 0xFFFFFFFF).to_bytes(4, "little")
+
+    def _frame(self) -> None:
+        n = self.settings["G"]
+        index = self.counter
+        self.counter += 1
+        if self._faults and self._faults[0] == "drop":
+            self._faults.popleft()
+            index = self.counter  # the frame with `index` was lost on the way
+            self.counter += 1
+        data = bytearray(build_frame(index, self.source(index, n)))
+        if self._faults and self._faults[0] == "corrupt":
+            self._faults.popleft()
+            data[0:4] = b"\xde\xad\xbe\xef"
+        if self._faults and self._faults[0] == "short":
+            self._faults.popleft()
+            data = data[: len(data) // 2]
+        self._out += data
+
+
+def _desc(**kw) -> SimpleNamespace:
+    kw.setdefault("extra_descriptors", [])
+    return SimpleNamespace(**kw)
+
+
+class EmulatorBackend(usb.backend.IBackend):
+    """A pyusb backend under which an EmulatedSensor enumerates as a CDC-ACM device."""
+
+    def __init__(
+        self, sensor: EmulatedSensor, vendor_id: int = EMULATOR_VID, product_id: int = EMULATOR_PID
+    ) -> None:
+        self.sensor = sensor
+        self.vid, self.pid = vendor_id, product_id
+        self.kernel_driver = {0: True, 1: True}  # cdc_acm binds to both, as on Linux
+        self.strings = {1: "CoSys-Lab (emulated)", 2: "RTIS emulator", 3: sensor.serial}
+
+    def enumerate_devices(self):
+        if self.sensor.connected:
+            yield self.sensor
+
+    def get_device_descriptor(self, dev):
+        s = self.sensor
+        return _desc(
+            bLength=18,
+            bDescriptorType=1,
+            bcdUSB=0x0200,
+            bDeviceClass=0x02,
+            bDeviceSubClass=0,
+            bDeviceProtocol=0,
+            bMaxPacketSize0=64,
+            idVendor=self.vid,
+            idProduct=self.pid,
+            bcdDevice=0x0100,
+            iManufacturer=1,
+            iProduct=2,
+            iSerialNumber=3,
+            bNumConfigurations=1,
+            address=s.address,
+            bus=s.bus,
+            port_number=1,
+            port_numbers=(1,),
+            speed=3,
+        )
+
+    def get_configuration_descriptor(self, dev, config):
+        return _desc(
+            bLength=9,
+            bDescriptorType=2,
+            wTotalLength=67,
+            bNumInterfaces=2,
+            bConfigurationValue=1,
+            iConfiguration=0,
+            bmAttributes=0x80,
+            bMaxPower=250,
+        )
+
+    def get_interface_descriptor(self, dev, intf, alt, config):
+        if alt != 0 or intf not in (0, 1):
+            raise IndexError("no such interface or alternate setting")
+        if intf == 0:  # CDC communication interface
+            return _desc(
+                bLength=9,
+                bDescriptorType=4,
+                bInterfaceNumber=0,
+                bAlternateSetting=0,
+                bNumEndpoints=1,
+                bInterfaceClass=0x02,
+                bInterfaceSubClass=0x02,
+                bInterfaceProtocol=0x01,
+                iInterface=0,
+            )
+        return _desc(
+            bLength=9,
+            bDescriptorType=4,
+            bInterfaceNumber=1,
+            bAlternateSetting=0,
+            bNumEndpoints=2,
+            bInterfaceClass=0x0A,
+            bInterfaceSubClass=0,
+            bInterfaceProtocol=0,
+            iInterface=0,
+        )
+
+    def get_endpoint_descriptor(self, dev, ep, intf, alt, config):
+        if intf == 0:
+            return _desc(
+                bLength=7,
+                bDescriptorType=5,
+                bEndpointAddress=EP_NOTIFY,
+                bmAttributes=0x03,
+                wMaxPacketSize=16,
+                bInterval=16,
+                bRefresh=0,
+                bSynchAddress=0,
+            )
+        address = (EP_OUT, EP_IN)[ep]
+        return _desc(
+            bLength=7,
+            bDescriptorType=5,
+            bEndpointAddress=address,
+            bmAttributes=0x02,
+            wMaxPacketSize=512,
+            bInterval=0,
+            bRefresh=0,
+            bSynchAddress=0,
+        )
+
+    def open_device(self, dev):
+        self.sensor._check()
+        return dev
+
+    def close_device(self, dev_handle):
+        pass
+
+    def set_configuration(self, dev_handle, config_value):
+        self.sensor._check()
+
+    def get_configuration(self, dev_handle):
+        return 1
+
+    def claim_interface(self, dev_handle, intf):
+        self.sensor._check()
+        if self.kernel_driver.get(intf):
+            raise usb.core.USBError("Resource busy", -6, errno.EBUSY)
+
+    def release_interface(self, dev_handle, intf):
+        pass
+
+    def is_kernel_driver_active(self, dev_handle, intf):
+        return self.kernel_driver.get(intf, False)
+
+    def detach_kernel_driver(self, dev_handle, intf):
+        self.kernel_driver[intf] = False
+
+    def attach_kernel_driver(self, dev_handle, intf):
+        self.kernel_driver[intf] = True
+
+    def bulk_write(self, dev_handle, ep, intf, data, timeout):
+        return self.sensor.write(bytes(data))
+
+    def bulk_read(self, dev_handle, ep, intf, buff, timeout):
+        data = self.sensor.read(len(buff))
+        buff[: len(data)] = _array.array("B", data)
+        return len(data)
+
+    def ctrl_transfer(self, dev_handle, bmRequestType, bRequest, wValue, wIndex, data, timeout):
+        if bRequest == 0x06 and (wValue >> 8) == 3:  # GET_DESCRIPTOR, string
+            index = wValue & 0xFF
+            if index == 0:
+                payload = bytes([4, 3, 0x09, 0x04])
+            else:
+                text = self.strings.get(index, "").encode("utf-16-le")
+                payload = bytes([2 + len(text), 3]) + text
+            n = min(len(data), len(payload))
+            data[:n] = _array.array("B", payload[:n])
+            return n
+        return 0
+
+    def clear_halt(self, dev_handle, ep):
+        pass
+
+    def reset_device(self, dev_handle):
+        pass
