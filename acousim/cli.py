@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 
 class UsageError(Exception):
     """Bad input from the user: printed on one line, exit code 2."""
@@ -270,6 +272,90 @@ def _cmd_record(args: argparse.Namespace) -> int:
     return 130 if interrupted else 0
 
 
+def _load_real(args: argparse.Namespace, c: float):
+    import processing as P
+
+    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
+        from hardware import decode_frame
+        from processing.rtisdev import sample_recording
+
+        path = sample_recording() if args.real == "rtisdev-sample" else Path(args.real)
+        if not Path(path).is_file():
+            raise UsageError(f"{path}: no such file")
+        raw = np.frombuffer(Path(path).read_bytes(), "<u4")
+        if raw.size == 0 or raw.size % 32768:
+            raise UsageError(f"{path}: {raw.size} tick words, not a multiple of 32768")
+        try:
+            array, call = P.preset(args.array), P.rtis_call(args.call)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        return decode_frame(raw, array, call, {"source": str(path)}, speed_of_sound_m_s=c)
+    try:
+        recs = P.load_recordings(args.real)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    if not 0 <= args.index < len(recs):
+        raise UsageError(f"--index {args.index}: {args.real} holds {len(recs)} recording(s)")
+    return recs[args.index]
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    import processing as P
+    from acousim.compare import ComparisonError, compare, write_comparison
+
+    if (args.scene is None) == (args.sim is None):
+        raise UsageError("give exactly one of --scene SCENE or --sim SIM")
+    out = _writable_dir(args.out)
+    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
+    bad = [m for m in methods if m not in P.METHODS]
+    if bad:
+        raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
+    if args.scene:
+        from acousim.simulator import Simulator
+
+        scene = _load_scene(args.scene)
+        real = _load_real(args, scene.environment.speed_of_sound_m_s)
+        if not 0 <= args.pose < len(scene.sensor.poses):
+            raise UsageError(f"--pose {args.pose}: the scene has {len(scene.sensor.poses)}")
+        try:
+            sim = Simulator(scene).simulate_pose(
+                scene.sensor.poses[args.pose], args.pose, n_samples=real.n_samples
+            )
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+    else:
+        try:
+            sim = P.load_recordings(args.sim)[args.sim_index]
+        except (P.RecordingFileError, IndexError) as exc:
+            raise UsageError(f"--sim {args.sim}: {exc}") from None
+        real = _load_real(args, sim.speed_of_sound_m_s)
+    try:
+        report, arrays = compare(real, sim, methods)
+    except ComparisonError as exc:
+        raise UsageError(str(exc)) from None
+    files = write_comparison(report, arrays, out)
+    al = report["alignment"]
+    print(
+        f"aligned by {al['emission_shift_samples']:.2f} samples, gain {al['gain']:.3g}; "
+        f"mean envelope correlation {report['channels']['mean_envelope_correlation']:.2f}"
+    )
+    for m, r in report["images"].items():
+        for k, p in enumerate(r["matched"]):
+            print(
+                f"  {m} echo {k}: real {p['real']['range_m']:.3f} m "
+                f"{p['real']['azimuth_deg']:+.0f}°, sim {p['sim']['range_m']:.3f} m "
+                f"{p['sim']['azimuth_deg']:+.0f}° (d_range {p['d_range_m'] * 100:+.1f} cm, "
+                f"d_level {p['d_level_db']:+.1f} dB)"
+            )
+        print(
+            f"  {m}: {len(r['only_real'])} echo(es) only in the real image, "
+            f"{len(r['only_sim'])} only in the simulation"
+        )
+    for f in files:
+        print(f"  {f}")
+    return 0
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from acousim.experiments import StudyConfig, run_study
     from acousim.experiments.report import write_report
@@ -425,6 +511,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", required=True, help="output file (.h5)")
     p.set_defaults(func=_cmd_record)
+
+    p = sub.add_parser(
+        "compare",
+        help="compare a real recording with its simulation",
+        description="Put a real recording beside its simulation (from a "
+        "scene and pose, or an existing simulated file): align "
+        "the emission and the gain, compare matched-filter "
+        "envelopes, range profiles and images, match their "
+        "peaks, and write a JSON report and a picture.",
+    )
+    p.add_argument(
+        "real",
+        help="real recording: .h5, raw tick words (.bin), or "
+        "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
+    )
+    p.add_argument("--index", type=int, default=0, help="recording in an .h5 file")
+    p.add_argument("--scene", help="scene file to simulate at --pose")
+    p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
+    p.add_argument("--sim", help="an existing simulated recording file (.h5)")
+    p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
+    p.add_argument(
+        "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
+    )
+    p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
+    p.add_argument("--method", default="das", help="comma-separated DOA methods")
+    p.add_argument("--out", default="out/compare", help="output folder")
+    p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser(
         "reproduce",

@@ -55,8 +55,14 @@ class Simulator:
     def paths(self, pose: Pose) -> TracedPaths:
         return self.tracer.trace(pose)
 
-    def simulate_pose(self, pose: Pose, index: int = 0, seed: int | None = None) -> P.Recording:
-        """One recording at `pose`; the noise seed is derived from (scene seed, index)."""
+    def simulate_pose(
+        self, pose: Pose, index: int = 0, seed: int | None = None, n_samples: int | None = None
+    ) -> P.Recording:
+        """One recording at `pose`; the noise seed is derived from (scene seed, index).
+
+        `n_samples` overrides the length the scene's maximum range implies (to match a
+        real recording).
+        """
         scene = self.scene
         sensor = scene.sensor
         paths = self.tracer.trace(pose)
@@ -86,7 +92,7 @@ class Simulator:
             sensor.array,
             sensor.call,
             sensor.sample_rate_hz,
-            scene.n_samples(),
+            n_samples or scene.n_samples(),
             speed_of_sound_m_s=self.c,
             snr_db=scene.simulation.snr_db,
             seed=noise_seed,

@@ -89,6 +89,7 @@ def main() -> None:
     room.invert()  # normals inwards: the sensor is inside the room
     room.export(MESHES / "shoebox.stl")
     box([2.0, -5.0, -5.0], [2.1, 5.0, 5.0]).export(MESHES / "wall.stl")
+    box([-0.01, -0.5, -0.5], [0.01, 0.5, 0.5]).export(MESHES / "plate.stl")  # 1 m x 1 m
     sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.2)
     sphere.apply_translation([1.5, 0.0, 0.0])
     sphere.export(MESHES / "sphere.stl")

@@ -145,3 +145,21 @@ def test_path_responses_match_exact_per_path_filtering():
     # and the response does something: about 5 dB of absorption and directivity here
     y0 = render(e, wf, fs, 16384)
     assert 10 * np.log10(np.sum(y**2) / np.sum(y0**2)) < -2
+
+
+def test_an_echo_within_the_calls_padding_of_sample_zero_keeps_its_delay():
+    """The direct path arrives a few samples after the emission, earlier than the
+    band-limited call's pre-ringing pad: it must not be moved."""
+    from acousim.synth import Echoes
+
+    wf = P.rtis_call()
+    fs = 450e3
+    for delay_samples in (3.0, 40.0, 700.0):
+        e = Echoes(
+            np.array([[delay_samples / fs]]), np.ones((1, 1)), np.ones((1, 1)), np.zeros(1, int)
+        )
+        y = render(e, wf, fs, 8000)
+        ref = render(e, wf, fs, 8000, method="exact")
+        mf = np.abs(P.matched_filter(np.vstack([y, ref]), wf.sampled(fs)))
+        assert abs(np.argmax(mf[0]) - np.argmax(mf[1])) <= 1
+        assert 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)) < -35

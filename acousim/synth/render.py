@@ -108,16 +108,19 @@ def render(
         return _render_fft(d, g, call, n_samples)
     # span of the output that echoes reach: only that part is computed
     half = 0 if method == "nearest" else taps
-    lo = max(int(np.floor(d.min())) - half, 0)
+    # the span may start before sample 0: the band-limited call starts `pad` samples
+    # before its echo's delay, and the direct path arrives within a few samples
+    lo = int(np.floor(d.min())) - half
     hi = min(int(np.ceil(d.max())) + half + call.size + 1, n_samples)
-    if hi <= lo:
+    if hi <= max(lo, 0):
         return out
     n_span = hi - lo
     if shaped:
-        out[:, lo:hi] = _render_shaped(echoes, d - lo, g, call, fs, n_span, method, taps, response)
-        return out
-    h = _impulses(d - lo, g, n_span, method, taps)  # (M, n_span)
-    out[:, lo:hi] = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
+        y = _render_shaped(echoes, d - lo, g, call, fs, n_span, method, taps, response)
+    else:
+        h = _impulses(d - lo, g, n_span, method, taps)  # (M, n_span)
+        y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
 

@@ -1,0 +1,99 @@
+"""Simulated versus real: the real eRTIS sample against its scene, the emulated sensor
+against the direct simulation, and recordings that cannot be compared."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.cli import main
+from acousim.compare import ComparisonError, check_comparable, compare
+from acousim.scene import load_scene
+from acousim.simulator import Simulator
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+
+
+def test_real_sample_matches_its_scene(tmp_path, capsys):
+    import json
+
+    assert (
+        main(
+            [
+                "compare",
+                "rtisdev-sample",
+                "--scene",
+                str(SCENES / "ertis_sample.toml"),
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    report = json.loads((tmp_path / "comparison.json").read_text())
+    das = report["images"]["das"]
+    main_echo = max(das["matched"], key=lambda p: p["real"]["level_db"])
+    assert main_echo["real"]["range_m"] == pytest.approx(3.21, abs=0.05)
+    assert abs(main_echo["d_range_m"]) <= das["range_bin_m"] + 1e-9  # within one range bin
+    assert abs(main_echo["d_azimuth_deg"]) <= 2.0
+    # alignment and gain are reported; what the scene does not model is reported too
+    assert abs(report["alignment"]["emission_shift_samples"]) < 50
+    assert report["alignment"]["gain"] > 0
+    assert len(das["only_real"]) > 0
+    assert (tmp_path / "comparison.png").stat().st_size > 10_000
+    assert "echo(es) only in the real image" in capsys.readouterr().out
+
+
+def test_emulated_sensor_against_the_direct_simulation():
+    from hardware import DeviceSettings, Recorder, RtisDevice
+    from hardware.emulator import EmulatedSensor, EmulatorBackend, recording_source
+
+    scene = load_scene(SCENES / "wall.toml")
+    sim = Simulator(scene).simulate_pose(scene.sensor.poses[0], 0, n_samples=16384)
+    source = recording_source([sim], sim.array.channels)
+    backend = EmulatorBackend(EmulatedSensor(source))
+    recorder = Recorder(
+        lambda: RtisDevice(backend=backend),
+        DeviceSettings(call=sim.waveform.sampled(450e3)),
+        sim.array,
+        sim.waveform,
+        speed_of_sound_m_s=sim.speed_of_sound_m_s,
+    )
+    real = recorder.acquire(count=1)[0]
+    report, _ = compare(real, sim, ("das",))
+    assert abs(report["alignment"]["emission_shift_samples"]) < 0.5
+    assert report["alignment"]["gain"] == pytest.approx(1 / source.full_scale, rel=0.05)
+    assert report["channels"]["mean_envelope_correlation"] > 0.9
+    m = report["images"]["das"]["matched"][0]
+    assert abs(m["d_range_m"]) < 1e-9 and abs(m["d_azimuth_deg"]) < 1e-9
+
+
+def test_recordings_that_cannot_be_compared():
+    a = P.Recording(np.zeros((64, 1000)), 500e3, P.paper_8x8(), P.paper_chirp())
+    b = P.Recording(np.zeros((30, 900)), 450e3, P.urtis_v1(), P.rtis_call())
+    with pytest.raises(ComparisonError, match="arrays .*sample rates .*lengths .*calls"):
+        check_comparable(a, b)
+
+
+def test_compare_errors_exit_2(tmp_path, capsys):
+    a = P.Recording(np.zeros((64, 1000)), 500e3, P.paper_8x8(), P.paper_chirp())
+    b = P.Recording(np.zeros((64, 1200)), 500e3, P.paper_8x8(), P.paper_chirp())
+    P.save_recording(tmp_path / "a.h5", a)
+    P.save_recording(tmp_path / "b.h5", b)
+    assert (
+        main(
+            [
+                "compare",
+                str(tmp_path / "a.h5"),
+                "--sim",
+                str(tmp_path / "b.h5"),
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
+    assert "lengths (1000 vs 1200 samples)" in capsys.readouterr().err
+    assert main(["compare", str(tmp_path / "a.h5"), "--out", str(tmp_path / "o")]) == 2
+    assert "exactly one of --scene" in capsys.readouterr().err
