@@ -8,13 +8,14 @@ import platform
 import sys
 from pathlib import Path
 
-from . import corridor, doa_speed, fractional_delay, pdm_decode
+from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode
 
 SECTIONS = {
     "doa": doa_speed,
     "fractional_delay": fractional_delay,
     "corridor": corridor,
     "pdm_decode": pdm_decode,
+    "dataset": dataset,
 }
 
 
