@@ -300,8 +300,10 @@ def _load_real(args: argparse.Namespace, c: float):
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
+    import json
+
     import processing as P
-    from acousim.compare import ComparisonError, compare, write_comparison
+    from acousim.compare import ComparisonError, compare, summarize, write_comparison
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
@@ -310,30 +312,64 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     bad = [m for m in methods if m not in P.METHODS]
     if bad:
         raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
+    pairs = []
     if args.scene:
         from acousim.simulator import Simulator
 
         scene = _load_scene(args.scene)
-        real = _load_real(args, scene.environment.speed_of_sound_m_s)
-        if not 0 <= args.pose < len(scene.sensor.poses):
-            raise UsageError(f"--pose {args.pose}: the scene has {len(scene.sensor.poses)}")
-        try:
-            sim = Simulator(scene).simulate_pose(
-                scene.sensor.poses[args.pose], args.pose, n_samples=real.n_samples
-            )
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
+        simulator = Simulator(scene)
+        c = scene.environment.speed_of_sound_m_s
+        n_real = _count_real(args)
+        indices = range(n_real) if args.all else [args.index]
+        for i in indices:
+            args.index = i
+            real = _load_real(args, c)
+            pose = i if args.all else args.pose
+            if not 0 <= pose < len(scene.sensor.poses):
+                raise UsageError(f"--pose {pose}: the scene has {len(scene.sensor.poses)}")
+            try:
+                sim = simulator.simulate_pose(
+                    scene.sensor.poses[pose], pose, n_samples=real.n_samples
+                )
+            except ValueError as exc:
+                raise UsageError(str(exc)) from None
+            pairs.append((real, sim))
     else:
         try:
-            sim = P.load_recordings(args.sim)[args.sim_index]
-        except (P.RecordingFileError, IndexError) as exc:
+            sims = P.load_recordings(args.sim)
+        except P.RecordingFileError as exc:
             raise UsageError(f"--sim {args.sim}: {exc}") from None
-        real = _load_real(args, sim.speed_of_sound_m_s)
-    try:
-        report, arrays = compare(real, sim, methods)
-    except ComparisonError as exc:
-        raise UsageError(str(exc)) from None
-    files = write_comparison(report, arrays, out)
+        indices = range(min(len(sims), _count_real(args))) if args.all else [args.index]
+        for i in indices:
+            k = i if args.all else args.sim_index
+            if not 0 <= k < len(sims):
+                raise UsageError(f"--sim-index {k}: {args.sim} holds {len(sims)}")
+            args.index = i
+            pairs.append((_load_real(args, sims[k].speed_of_sound_m_s), sims[k]))
+    reports = []
+    for n, (real, sim) in enumerate(pairs):
+        try:
+            report, arrays = compare(real, sim, methods)
+        except ComparisonError as exc:
+            raise UsageError(f"pair {n}: {exc}") from None
+        reports.append(report)
+        folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
+        files = write_comparison(report, arrays, folder)
+    if len(pairs) > 1:
+        table = summarize(reports)
+        path = out / "summary.json"
+        tmp = path.with_suffix(".json.part")
+        tmp.write_text(json.dumps(table, indent=1))
+        os.replace(tmp, path)
+        s = table["summary"]
+        print(
+            f"{s['poses']} poses: mean envelope correlation "
+            f"{s['mean_envelope_correlation']:.2f}, {s['matched_echoes']} matched echoes "
+            f"(median |d_range| {s['median_abs_d_range_m']}, median |d_azimuth| "
+            f"{s['median_abs_d_azimuth_deg']}); {path}"
+        )
+        return 0
+    report = reports[0]
     al = report["alignment"]
     print(
         f"aligned by {al['emission_shift_samples']:.2f} samples, gain {al['gain']:.3g}; "
@@ -356,6 +392,17 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _count_real(args: argparse.Namespace) -> int:
+    import processing as P
+
+    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
+        return 1
+    try:
+        return len(P.load_recordings(args.real))
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def _cmd_dataset(args: argparse.Namespace) -> int:
     from acousim.dataset import SpecError, generate
 
@@ -369,9 +416,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=_progress("shards"),
         )
-    except SpecError as exc:
-        raise UsageError(str(exc)) from None
-    except ValueError as exc:
+    except (SpecError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     s = manifest["summary"]
     print(
@@ -558,6 +603,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
+    p.add_argument(
+        "--all",
+        action="store_true",
+        help="a trajectory: compare recording i with pose i (or --sim recording i)"
+        " for every i; one row per pose and a summary in summary.json",
+    )
     p.add_argument(
         "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
     )

@@ -29,7 +29,14 @@ from scipy.signal import hilbert
 
 import processing as P
 
-__all__ = ["ComparisonError", "check_comparable", "align", "compare", "write_comparison"]
+__all__ = [
+    "ComparisonError",
+    "check_comparable",
+    "align",
+    "compare",
+    "summarize",
+    "write_comparison",
+]
 
 DIRECT_WINDOW_S = 1.0e-3  # beyond the call: the direct path's part used for alignment
 
@@ -286,3 +293,33 @@ def write_comparison(report: dict, arrays: dict, out_dir: str | Path) -> list[Pa
     plt.close(fig)
     os.replace(tmpp, png)
     return [js, png]
+
+
+def summarize(reports: list[dict]) -> dict:
+    """One line per pose of a trajectory and a summary over all of them."""
+    rows, d_range, d_az, corr = [], [], [], []
+    for i, r in enumerate(reports):
+        row = {
+            "pose": i,
+            "gain": r["alignment"]["gain"],
+            "emission_shift_samples": r["alignment"]["emission_shift_samples"],
+            "mean_envelope_correlation": r["channels"]["mean_envelope_correlation"],
+        }
+        for m, img in r["images"].items():
+            row[f"{m}_matched"] = len(img["matched"])
+            row[f"{m}_only_real"] = len(img["only_real"])
+            row[f"{m}_only_sim"] = len(img["only_sim"])
+            d_range += [abs(p["d_range_m"]) for p in img["matched"]]
+            d_az += [abs(p["d_azimuth_deg"]) for p in img["matched"]]
+        corr.append(row["mean_envelope_correlation"])
+        rows.append(row)
+    return {
+        "rows": rows,
+        "summary": {
+            "poses": len(reports),
+            "mean_envelope_correlation": float(np.mean(corr)) if corr else 0.0,
+            "matched_echoes": len(d_range),
+            "median_abs_d_range_m": float(np.median(d_range)) if d_range else None,
+            "median_abs_d_azimuth_deg": float(np.median(d_az)) if d_az else None,
+        },
+    }

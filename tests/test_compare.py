@@ -97,3 +97,30 @@ def test_compare_errors_exit_2(tmp_path, capsys):
     assert "lengths (1000 vs 1200 samples)" in capsys.readouterr().err
     assert main(["compare", str(tmp_path / "a.h5"), "--out", str(tmp_path / "o")]) == 2
     assert "exactly one of --scene" in capsys.readouterr().err
+
+
+def test_trajectory_comparison_has_a_row_per_pose(tmp_path, capsys):
+    import json
+
+    scene = SCENES / "wall.toml"
+    rec = tmp_path / "rec.h5"
+    assert (
+        main(
+            ["record", "--emulate", str(scene), "--count", "2", "--rate", "100", "--out", str(rec)]
+        )
+        == 0
+    )
+    sim = tmp_path / "sim.h5"
+    recs = P.load_recordings(rec)
+    sc = load_scene(scene)
+    s = Simulator(sc)
+    P.save_recordings(
+        sim, [s.simulate_pose(sc.sensor.poses[0], 0, n_samples=r.n_samples) for r in recs]
+    )
+    assert (
+        main(["compare", str(rec), "--sim", str(sim), "--all", "--out", str(tmp_path / "cmp")]) == 0
+    )
+    table = json.loads((tmp_path / "cmp" / "summary.json").read_text())
+    assert len(table["rows"]) == 2 and table["summary"]["poses"] == 2
+    assert table["summary"]["median_abs_d_range_m"] < 0.01
+    assert (tmp_path / "cmp" / "pose_0001" / "comparison.json").is_file()

@@ -221,8 +221,8 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
     records = []
     t0 = time.perf_counter()
     try:
-        with h5py.File(tmp, "w", track_order=True) as f:
-            f.attrs["spec_sha256"] = spec.sha256
+        with h5py.File(tmp, "w", track_order=True, libver="latest") as f:
+            f.attrs["spec_sha256"] = np.bytes_(spec.sha256)
             for i in range(lo, hi):
                 arrays, params = make_sample(spec, i)
                 g = _group(f, f"{i - lo:05d}")
@@ -237,7 +237,8 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
                         compression=spec.compression if a.size > 64 else None,
                         track_times=False,
                     )
-                g.attrs["params"] = json.dumps(params, sort_keys=True)
+                # fixed-length bytes: no global heap, whose layout varies between processes
+                g.attrs["params"] = np.bytes_(json.dumps(params, sort_keys=True))
                 records.append({**params, "shard": k, "offset": i - lo})
         digest = hashlib.sha256(tmp.read_bytes()).hexdigest()
         os.replace(tmp, final)

@@ -58,7 +58,8 @@ class DatasetReader:
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
         rec = self._table[i]
         g = self._file(f"shard_{rec['shard']:05d}.h5")[f"{rec['offset']:05d}"]
-        out: dict = {"params": json.loads(g.attrs["params"])}
+        raw = g.attrs["params"]
+        out: dict = {"params": json.loads(raw.decode() if isinstance(raw, bytes) else raw)}
 
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):

@@ -120,16 +120,11 @@ def refine_sequences(
 
 def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:
     """Whether x lies on (or within `tol` of) one of the faces of plane `pid`."""
+    from trimesh.triangles import points_to_barycentric
+
     tri = world.triangles[world.plane == pid]
-    v0, v1 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    w = x - tri[:, 0]
-    d00, d01, d11 = (np.einsum("ij,ij->i", a, b) for a, b in ((v0, v0), (v0, v1), (v1, v1)))
-    d20, d21 = np.einsum("ij,ij->i", w, v0), np.einsum("ij,ij->i", w, v1)
-    den = d00 * d11 - d01**2
-    b1 = (d11 * d20 - d01 * d21) / den
-    b2 = (d00 * d21 - d01 * d20) / den
-    bary = np.stack([1 - b1 - b2, b1, b2], axis=1)
-    edge = np.sqrt(np.maximum(d00, d11))
+    bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
+    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
     return bool(np.any(-np.min(bary, axis=1) * edge <= tol))
 
 

@@ -312,18 +312,9 @@ class Tracer:
         n = world.normals[f].copy()
         cv = world.curved[f]
         if cv.any():
-            tri = world.triangles[f[cv]]
-            v0, v1 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-            w = x[cv] - tri[:, 0]
-            d00 = np.einsum("ij,ij->i", v0, v0)
-            d01 = np.einsum("ij,ij->i", v0, v1)
-            d11 = np.einsum("ij,ij->i", v1, v1)
-            d20 = np.einsum("ij,ij->i", w, v0)
-            d21 = np.einsum("ij,ij->i", w, v1)
-            den = d00 * d11 - d01**2
-            b1 = (d11 * d20 - d01 * d21) / den
-            b2 = (d00 * d21 - d01 * d20) / den
-            b0 = 1 - b1 - b2
+            from trimesh.triangles import points_to_barycentric
+
+            b0, b1, b2 = points_to_barycentric(world.triangles[f[cv]], x[cv]).T
             vn = world.vertex_normals[f[cv]]
             sm = b0[:, None] * vn[:, 0] + b1[:, None] * vn[:, 1] + b2[:, None] * vn[:, 2]
             n[cv] = sm / np.linalg.norm(sm, axis=1, keepdims=True)
