@@ -105,7 +105,16 @@ def test_dask_local_cluster(spec, tmp_path):
     ) as cluster:
         generate(spec, tmp_path / "dask", scheduler=cluster.scheduler_address)
     generate(spec, tmp_path / "local", workers=1)
-    assert shard_hashes(tmp_path / "dask") == shard_hashes(tmp_path / "local")
+    # every sample's arrays and parameters are identical; the files' bytes can differ
+    # in libhdf5's metadata padding on Dask workers (see docs/dataset-format.md)
+    a, b = DatasetReader(tmp_path / "dask", verify=True), DatasetReader(tmp_path / "local")
+    assert len(a) == len(b) == 6
+    for i in range(6):
+        sa, sb = a[i], b[i]
+        assert sa["params"] == sb["params"] and sorted(sa) == sorted(sb)
+        for k in sa:
+            if k != "params":
+                np.testing.assert_array_equal(sa[k], sb[k])
 
 
 @pytest.mark.parametrize(

@@ -191,3 +191,26 @@ def test_no_embree_without_meshes(tmp_path):
     assert sim.tracer.caster is None and sim.tracer.world is None
     paths = sim.paths(sim.scene.sensor.poses[0])
     assert len(paths) == 3 and np.all(paths.kind == KIND["point"])
+
+
+def test_grazing_wall_along_the_axis(tmp_path):
+    """A wall parallel to the sensor's axis: every ray that reaches it grazes it, and its
+    one specular path leaves at 90° (the edge of a hemispherical beam)."""
+    wall = trimesh.creation.box(extents=(20.0, 0.1, 4.0))
+    wall.apply_translation([5.0, 1.05, 0.0])  # inner face: the plane y = 1
+    wall.export(tmp_path / "side.obj", digits=12)
+    scene = parse_scene(
+        {
+            "sensor": {"array": "urtis_v1", "direct_path": False},
+            "simulation": {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 90.0},
+            "meshes": [{"file": "side.obj"}],
+        },
+        base_dir=tmp_path,
+    )
+    sim = Simulator(scene)
+    pose = scene.sensor.poses[0]
+    spec, echoes, mics = specular_echoes(sim, pose)
+    assert len(spec) == 1
+    np.testing.assert_allclose(spec.anchor_m[0], [0.0, 2.0, 0.0], atol=1e-9)
+    dist = np.linalg.norm(np.array([0.0, 2.0, 0.0]) - mics, axis=1)
+    assert np.max(np.abs(echoes.delay_s[:, 0] - dist / sim.c)) <= 0.1e-6
