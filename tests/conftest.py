@@ -1,7 +1,6 @@
 """Shared helpers: analytic echoes built independently of the simulator."""
 
 import numpy as np
-import pytest
 
 import processing as P
 
@@ -42,8 +41,3 @@ def plane_wave_snapshot(array, az_deg, el_deg, f, c=343.0):
     """The narrow-band snapshot of a far-field source, sign convention of steering.py."""
     k = 2 * np.pi * f / c
     return np.exp(1j * k * array.positions_m @ direction(az_deg, el_deg))
-
-
-@pytest.fixture
-def paper_array():
-    return P.paper_8x8()
