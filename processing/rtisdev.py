@@ -75,7 +75,7 @@ def _extract(member: str) -> Path:
         except KeyError:
             raise FileNotFoundError(f"{member} is not in the rtisdev {VERSION} wheel") from None
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = target.with_suffix(target.suffix + ".part")
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.part")  # one per process
     tmp.write_bytes(data)
     os.replace(tmp, target)
     return target
