@@ -72,14 +72,13 @@ def decode(
     # D: output n is then block-convolution output n + (delay + P) / D
     P = (-delay) % D
     shift = (delay + P) // D
-    taps_blocks = -(-len(h) // D)
+    taps = -(-len(h) // D)  # filter length in blocks of D
     n_blocks = shift + n_out + 1
     x = np.zeros((n_blocks * D, bits.shape[1]), np.float32)
     n_in = min(bits.shape[0], x.shape[0] - P)
     x[P : P + n_in] = bits[:n_in]
     xb = x.reshape(n_blocks, D, -1)
     # z[m] = sum_k h[k] x[D m - k]: tap k = D j + s reads block m - j - (s > 0), phase (-s) % D
-    taps = taps_blocks
     g = np.zeros(taps * D)
     g[: len(h)] = h
     g = g.reshape(taps, D)
