@@ -74,22 +74,18 @@ def decode(
     shift = (delay + P) // D
     taps = -(-len(h) // D)  # filter length in blocks of D
     n_blocks = shift + n_out + 1
-    x = np.zeros((n_blocks * D, bits.shape[1]), np.float32)
-    n_in = min(bits.shape[0], x.shape[0] - P)
-    x[P : P + n_in] = bits[:n_in]
-    xb = x.reshape(n_blocks, D, -1)
-    # z[m] = sum_k h[k] x[D m - k]: tap k = D j + s reads block m - j - (s > 0), phase (-s) % D
-    g = np.zeros(taps * D)
-    g[: len(h)] = h
-    g = g.reshape(taps, D)
     L = sfft.next_fast_len(n_blocks + taps + 1, real=True)
-    f = np.arange(L // 2 + 1) / L
-    G = np.zeros((D, f.size), complex)
-    for s_ in range(D):
-        Gs = sfft.rfft(g[:, s_], L)
-        G[(-s_) % D] += Gs * (np.exp(-2j * np.pi * f) if s_ else 1.0)
-    X = sfft.rfft(xb, L, axis=0)  # (F, D, C)
-    y01 = sfft.irfft(np.einsum("frc,rf->fc", X, G), L, axis=0)[shift : shift + n_out]
+    # phase-major, FFT along the contiguous last axis: xb[r, c, m] = x[D m + r] of channel c
+    C = bits.shape[1]
+    xb = np.zeros((D, C, L), np.float32)
+    n_in = min(bits.shape[0], n_blocks * D - P)
+    flat = np.zeros((n_blocks * D, C), np.float32)
+    flat[P : P + n_in] = bits[:n_in]
+    xb[:, :, :n_blocks] = flat.reshape(n_blocks, D, C).transpose(1, 2, 0)
+    # z[m] = sum_k h[k] x[D m - k]: tap k = D j + s reads block m - j - (s > 0), phase (-s) % D
+    G = _phase_filters(np.asarray(h, float).tobytes(), D, L)  # (D, F)
+    X = sfft.rfft(xb, axis=-1)  # (D, C, F)
+    y01 = sfft.irfft(np.einsum("rcf,rf->cf", X, G), L, axis=-1)[:, shift : shift + n_out].T
     # the bits were read as 0/1, x = 2 b - 1: y = 2 y01 - (sum of the taps that fall
     # on real ticks; outside the recording x is 0, as in a zero-padded convolution)
     cum = np.concatenate([[0.0], np.cumsum(h)])
@@ -97,6 +93,23 @@ def decode(
     bottom = top - bits.shape[0]  # taps k <= bottom read ticks past the end
     valid = cum[np.clip(top + 1, 0, len(h))] - cum[np.clip(bottom + 1, 0, len(h))]
     return (2 * y01 - valid[:, None]).T.astype(np.float64)
+
+
+@lru_cache(maxsize=8)
+def _phase_filters(h_bytes: bytes, D: int, L: int) -> np.ndarray:
+    """Spectra (D, L // 2 + 1) of the D polyphase components of h, each placed on the
+    input phase it reads, with the one-block delay of phases s > 0 folded in."""
+    h = np.frombuffer(h_bytes, float)
+    taps = -(-len(h) // D)
+    g = np.zeros(taps * D)
+    g[: len(h)] = h
+    g = g.reshape(taps, D)
+    f = np.arange(L // 2 + 1) / L
+    G = np.zeros((D, f.size), np.complex64)  # single precision: the input is bits
+    for s_ in range(D):
+        G[(-s_) % D] += sfft.rfft(g[:, s_], L) * (np.exp(-2j * np.pi * f) if s_ else 1.0)
+    G.flags.writeable = False
+    return G
 
 
 def modulate(x: np.ndarray) -> np.ndarray:
