@@ -68,6 +68,8 @@ class Simulator:
         paths = self.tracer.trace(pose)
         mics = pose.to_world(sensor.array.positions_m)
         echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
+        if sensor.mic_radius_m > 0:
+            echoes = self._mic_directivity(echoes, paths, mics, pose.rotation[:, 0])
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
@@ -100,6 +102,26 @@ class Simulator:
             response=self.response,
             snr_reference="echoes",
             metadata=meta,
+        )
+
+    def _mic_directivity(self, echoes, paths, mics, axis):
+        """Microphone directivity: a baffled piston of radius mic_radius_m facing the
+        sensor's axis, at the centre of the call's band (MEMS ports are small: the
+        pattern barely changes across the band), as a gain per microphone and path."""
+        from acousim.synth.echoes import Echoes
+        from acousim.synth.response import piston_directivity
+
+        arrival = paths.anchor_m[None, :, :] - mics[:, None, :]  # towards the source
+        arrival /= np.maximum(np.linalg.norm(arrival, axis=2, keepdims=True), 1e-12)
+        theta = np.arccos(np.clip(arrival @ axis, -1, 1))  # (M, N)
+        f_c = float(np.mean(self.scene.sensor.call.band_hz))
+        d = piston_directivity(f_c, theta, self.scene.sensor.mic_radius_m, self.c)
+        return Echoes(
+            echoes.delay_s,
+            echoes.gain * d,
+            echoes.path_length_m,
+            echoes.order,
+            echoes.emitter_angle_rad,
         )
 
     def run(

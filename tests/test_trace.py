@@ -214,3 +214,28 @@ def test_grazing_wall_along_the_axis(tmp_path):
     np.testing.assert_allclose(spec.anchor_m[0], [0.0, 2.0, 0.0], atol=1e-9)
     dist = np.linalg.norm(np.array([0.0, 2.0, 0.0]) - mics, axis=1)
     assert np.max(np.abs(echoes.delay_s[:, 0] - dist / sim.c)) <= 0.1e-6
+
+
+def test_microphone_directivity_is_a_piston_at_the_band_centre(tmp_path):
+    from acousim.synth.response import piston_directivity
+
+    base = {
+        "sensor": {"array": "urtis_v1", "direct_path": False},
+        "simulation": {"max_range_m": 3.0, "absorption": False},
+        "points": [{"position_m": [0.5, 0.866, 0.0]}],
+    }  # 60° off the axis, 1 m
+    omni = Simulator(parse_scene(base, base_dir=tmp_path))
+    base["sensor"]["mic_radius_m"] = 0.004
+    directive = Simulator(parse_scene(base, base_dir=tmp_path))
+    pose = omni.scene.sensor.poses[0]
+    mics = pose.to_world(omni.scene.sensor.array.positions_m)
+    g0 = omni.paths(pose).echoes(mics, pose.rotation[:, 0], omni.c).gain
+    g1 = directive._mic_directivity(
+        directive.paths(pose).echoes(mics, pose.rotation[:, 0], directive.c),
+        directive.paths(pose),
+        mics,
+        pose.rotation[:, 0],
+    ).gain
+    expected = piston_directivity(37.5e3, np.deg2rad(60), 0.004, omni.c)
+    np.testing.assert_allclose(g1 / g0, expected, rtol=0.02)
+    assert 0.3 < expected < 0.95

@@ -39,6 +39,7 @@ KEYS: dict[str, set[str]] = {
         "coordinates_units",
         "emitter_m",
         "emitter_radius_m",
+        "mic_radius_m",
         "call",
         "sample_rate_hz",
         "direct_path",
@@ -324,6 +325,7 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         r.boolean(s, "direct_path", "sensor", True),
         poses,
         rate,
+        r.number(s, "mic_radius_m", "sensor", 0.0, 0, 0.05),
     )
 
 

@@ -71,6 +71,7 @@ class Sensor:
     direct_path: bool
     poses: tuple[Pose, ...]
     rate_hz: float | None = None
+    mic_radius_m: float = 0.0  # microphone port as a baffled piston; 0: omnidirectional
 
 
 @dataclass(frozen=True)
