@@ -79,9 +79,14 @@ def _shift(x: np.ndarray, samples: float) -> np.ndarray:
 
 def align(real: P.Recording, sim: P.Recording, max_lag_s: float = 0.5e-3) -> tuple[float, float]:
     """(shift in samples to apply to `sim`, gain real/sim)."""
+    return _align(real, _mf(real), _mf(sim), max_lag_s)[:2]
+
+
+def _align(real: P.Recording, mf_r: np.ndarray, mf_s: np.ndarray, max_lag_s: float = 0.5e-3):
+    """Lag, gain and the two matched-filter envelopes (the simulated one shifted by the
+    lag, before the gain), from matched-filter outputs computed once by the caller."""
     fs = real.sample_rate_hz
     win = int((real.waveform.duration_s + DIRECT_WINDOW_S) * fs)
-    mf_r, mf_s = _mf(real), _mf(sim)
     # the direct path sets the time of emission; a simulation without one (or with
     # almost none) is aligned on the whole recording instead
     early = np.sum(mf_s[:, :win] ** 2) >= 0.01 * np.sum(mf_s**2)
@@ -102,15 +107,13 @@ def align(real: P.Recording, sim: P.Recording, max_lag_s: float = 0.5e-3) -> tup
         lag += 0.5 * (left - right) / den
     # the gain: least squares on the matched-filter envelopes after the direct path
     # (the echoes): envelopes do not depend on the carrier's phase, and the direct
-    # path of a real sensor is often clipped and would set the gain alone
-    shifted = sim.with_samples(
-        _shift(sim.samples if sim.samples.ndim == 2 else sim.samples.mean(0), lag)
-    )
-    es = np.abs(hilbert(_mf(shifted), axis=-1))[:, win:]
-    er = np.abs(hilbert(_mf(real), axis=-1))[:, win:]
-    denom = float(np.sum(es * es))
-    gain = float(np.sum(er * es) / denom) if denom > 0 else 0.0
-    return lag, gain
+    # path of a real sensor is often clipped and would set the gain alone.  The
+    # matched filter commutes with the delay, so its output is shifted, not recomputed.
+    env_s = np.abs(hilbert(_shift(mf_s, lag), axis=-1))
+    env_r = np.abs(hilbert(mf_r, axis=-1))
+    denom = float(np.sum(env_s[:, win:] ** 2))
+    gain = float(np.sum(env_r[:, win:] * env_s[:, win:]) / denom) if denom > 0 else 0.0
+    return lag, gain, env_r, env_s
 
 
 @dataclass(frozen=True)
@@ -157,13 +160,12 @@ def compare(
 ) -> tuple[dict, dict]:
     """Compare two recordings.  Returns (report dict, arrays for the picture)."""
     check_comparable(real, sim)
-    lag, gain = align(real, sim)
+    lag, gain, env_r, env_s = _align(real, _mf(real), _mf(sim))
+    env_s = gain * env_s
     fs, c = real.sample_rate_hz, real.speed_of_sound_m_s
     aligned = sim.with_samples(
         gain * _shift(sim.samples if sim.samples.ndim == 2 else sim.samples.mean(0), lag)
     )
-    env_r = np.abs(hilbert(_mf(real), axis=-1))
-    env_s = np.abs(hilbert(_mf(aligned), axis=-1))
     corr = [
         float(np.corrcoef(er, es)[0, 1]) if er.std() > 0 and es.std() > 0 else 0.0
         for er, es in zip(env_r, env_s)

@@ -45,7 +45,7 @@ def recording_source(
     The signals are scaled by one full-scale value for all recordings (default: twice
     the largest absolute sample, keeping the modulator within +-0.5) and PDM-encoded.
     """
-    from .pdm import DECIMATION, encode
+    from .pdm import encode
 
     recs = list(recordings)
     scale = full_scale or 2 * max(float(np.abs(r.samples).max()) for r in recs) or 1.0
@@ -63,7 +63,6 @@ def recording_source(
         return out
 
     source.full_scale = scale  # type: ignore[attr-defined]
-    source.decimation = DECIMATION  # type: ignore[attr-defined]
     return source
 
 

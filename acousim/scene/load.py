@@ -91,6 +91,18 @@ class _Reader:
             raise self.fail(f"{where}.{key}".strip("."), f"must be a table, got {v!r}")
         return v
 
+    def table_list(self, data: dict, key: str):
+        """(where, table) for each table of an array of tables ``[[key]]``, keys checked."""
+        items = data.get(key, [])
+        if not isinstance(items, list):
+            raise self.fail(key, f"must be an array of tables ([[{key}]])")
+        for i, t in enumerate(items):
+            where = f"{key}[{i}]"
+            if not isinstance(t, dict):
+                raise self.fail(where, "must be a table")
+            self.check_keys(t, key, where)
+            yield where, t
+
     def number(
         self,
         d: dict,
@@ -209,14 +221,7 @@ def parse_scene(
         energy_floor_db=r.number(sim_t, "energy_floor_db", "simulation", -80.0, -300, 0),
     )
     materials = {"default": Material("default")}
-    mats = data.get("materials", [])
-    if not isinstance(mats, list):
-        raise r.fail("materials", "must be an array of tables ([[materials]])")
-    for i, m in enumerate(mats):
-        where = f"materials[{i}]"
-        if not isinstance(m, dict):
-            raise r.fail(where, "must be a table")
-        r.check_keys(m, "materials", where)
+    for where, m in r.table_list(data, "materials"):
         name = r.string(m, "name", where)
         materials[name] = Material(
             name,
@@ -225,14 +230,7 @@ def parse_scene(
             lobe_deg=r.number(m, "lobe_deg", where, 5.0, 0.1, 90),
         )
     meshes = []
-    items = data.get("meshes", [])
-    if not isinstance(items, list):
-        raise r.fail("meshes", "must be an array of tables ([[meshes]])")
-    for i, m in enumerate(items):
-        where = f"meshes[{i}]"
-        if not isinstance(m, dict):
-            raise r.fail(where, "must be a table")
-        r.check_keys(m, "meshes", where)
+    for where, m in r.table_list(data, "meshes"):
         file = base / r.string(m, "file", where)
         if not file.is_file():
             raise r.fail(f"{where}.file", f"mesh file not found: {file}")
@@ -245,14 +243,7 @@ def parse_scene(
         T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
         meshes.append(MeshItem(file, materials[mat], T))
     points = []
-    pts = data.get("points", [])
-    if not isinstance(pts, list):
-        raise r.fail("points", "must be an array of tables ([[points]])")
-    for i, p in enumerate(pts):
-        where = f"points[{i}]"
-        if not isinstance(p, dict):
-            raise r.fail(where, "must be a table")
-        r.check_keys(p, "points", where)
+    for where, p in r.table_list(data, "points"):
         points.append(
             PointItem(
                 tuple(r.vector(p, "position_m", where)), r.number(p, "strength", where, 1.0, 0, 1e6)
