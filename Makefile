@@ -8,7 +8,7 @@ DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0
 
 .PHONY: demo test bench lint format clean system-deps
 
-$(STAMP): pyproject.toml Makefile
+$(STAMP): pyproject.toml setup.py hardware/_pdm_kernel.c Makefile
 	@$(MAKE) --no-print-directory system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
@@ -40,4 +40,4 @@ format: $(STAMP)
 	$(BIN)/ruff check --fix processing acousim hardware tests benchmarks
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out .pytest_cache build hardware/*.so

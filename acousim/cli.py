@@ -16,6 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
+# hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
+PDM_FILTERS = ("equiripple", "rtis")
+
 
 class UsageError(Exception):
     """Bad input from the user: printed on one line, exit code 2."""
@@ -243,7 +246,11 @@ def _cmd_record(args: argparse.Namespace) -> int:
     settings = DeviceSettings(call=call.sampled(450e3))
     try:
         recorder = Recorder(
-            lambda: RtisDevice(vid, pid, serial=args.serial, backend=backend), settings, array, call
+            lambda: RtisDevice(vid, pid, serial=args.serial, backend=backend),
+            settings,
+            array,
+            call,
+            fir=args.filter,
         )
     except DeviceNotFound as exc:
         raise UsageError(str(exc)) from None
@@ -580,6 +587,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--emulate",
         metavar="SCENE",
         help="record from an emulated sensor streaming this scene's simulation",
+    )
+    p.add_argument(
+        "--filter",
+        choices=PDM_FILTERS,
+        default="equiripple",
+        help="PDM decimation filter: equiripple (default, 157 taps, >80 dB alias "
+        "rejection) or rtis (the vendor host's 512-tap FIR, 2-3x slower)",
     )
     p.add_argument("--out", required=True, help="output file (.h5)")
     p.set_defaults(func=_cmd_record)

@@ -47,14 +47,17 @@ def decode_frame(
     array: P.Array,
     call: P.Waveform,
     metadata: dict | None = None,
-    fir: np.ndarray | None = None,
+    fir: np.ndarray | str = "equiripple",
     speed_of_sound_m_s: float = 343.0,
 ) -> P.Recording:
     """Tick words of one measurement -> a Recording at 450 kHz with the array's channel map.
 
-    Sample 0 is the first tick: the emission starts there (emission_index 0).
+    Sample 0 is the first tick: the emission starts there (emission_index 0).  `fir` is a
+    decimation filter name (:data:`hardware.pdm.FILTERS`) or taps; the metadata records it
+    as ``decimation_filter`` (the name, or the number of taps).
     """
     x = decode(ticks, array.channels, fir)
+    name = fir if isinstance(fir, str) else f"{np.size(fir)} taps"
     return P.Recording(
         x,
         PDM_RATE_HZ / DECIMATION,
@@ -62,7 +65,7 @@ def decode_frame(
         call,
         speed_of_sound_m_s,
         0,
-        {"simulated": False, **(metadata or {})},
+        {"simulated": False, "decimation_filter": name, **(metadata or {})},
     )
 
 
@@ -82,6 +85,7 @@ class Recorder:
         retries: int = 3,
         reconnect_timeout_s: float = 10.0,
         speed_of_sound_m_s: float = 343.0,
+        fir: np.ndarray | str = "equiripple",
     ) -> None:
         self.open_device = open_device
         self.settings = settings
@@ -89,6 +93,7 @@ class Recorder:
         self.retries = retries
         self.reconnect_timeout_s = reconnect_timeout_s
         self.c = speed_of_sound_m_s
+        self.fir = fir
         self.stats = RecordStats()
         self.device = self._connect()
         self.firmware = self.device.firmware_version()
@@ -160,7 +165,9 @@ class Recorder:
             "index": frame.index,
             "timestamp": time.time(),
         }
-        return decode_frame(frame.ticks, self.array, self.call, meta, speed_of_sound_m_s=self.c)
+        return decode_frame(
+            frame.ticks, self.array, self.call, meta, self.fir, speed_of_sound_m_s=self.c
+        )
 
     def _drain(self) -> None:
         """Discard what is left of a bad frame on the wire."""
