@@ -12,6 +12,11 @@
  *     (len(rows), n_groups * 8).  The table rows are padded (row_pad > 256) so that the
  *     four positions read together do not map to the same cache sets.
  *
+ * sigma_delta(x, out)
+ *     Second-order sigma-delta modulation of float64 rows x (C, N) into bits out (C, N)
+ *     uint8: y = sign(v2) (+1 at 0); v1 += x - y; v2 += v1 - y; bit = y > 0.  The same
+ *     double-precision operations in the same order as hardware.pdm's numpy loop.
+ *
  * An AVX2 path is chosen at run time where the CPU has it; the portable path (forced by a
  * last argument portable=True, for the tests) gives the same sums in the same order.
  */
@@ -213,6 +218,37 @@ static PyObject *py_lut_fir(PyObject *self, PyObject *args) {
     return result;
 }
 
+static PyObject *py_sigma_delta(PyObject *self, PyObject *args) {
+    Py_buffer x, out;
+    Py_ssize_t n;
+    if (!PyArg_ParseTuple(args, "y*w*n", &x, &out, &n)) return NULL;
+    PyObject *result = NULL;
+    if (n <= 0 || x.len % (n * (Py_ssize_t)sizeof(double)) != 0 ||
+        out.len != x.len / (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "sigma_delta: x must be float64 (C, n), out uint8 (C, n)");
+    } else {
+        const double *xs = (const double *)x.buf;
+        uint8_t *o = (uint8_t *)out.buf;
+        Py_ssize_t rows = x.len / (n * (Py_ssize_t)sizeof(double));
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t c = 0; c < rows; c++) {
+            double v1 = 0.0, v2 = 0.0;
+            for (Py_ssize_t t = 0; t < n; t++) {
+                double y = v2 >= 0.0 ? 1.0 : -1.0;
+                o[c * n + t] = y > 0.0;
+                v1 += xs[c * n + t] - y;
+                v2 += v1 - y;
+            }
+        }
+        Py_END_ALLOW_THREADS
+        result = Py_None;
+        Py_INCREF(result);
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&out);
+    return result;
+}
+
 static PyObject *py_simd(PyObject *self, PyObject *noargs) {
     return PyUnicode_FromString(have_avx2() ? "avx2" : "portable");
 }
@@ -220,6 +256,7 @@ static PyObject *py_simd(PyObject *self, PyObject *noargs) {
 static PyMethodDef methods[] = {
     {"transpose", py_transpose, METH_VARARGS, "Tick words -> one byte stream per channel."},
     {"lut_fir", py_lut_fir, METH_VARARGS, "FIR and decimation by table look-up on byte streams."},
+    {"sigma_delta", py_sigma_delta, METH_VARARGS, "Second-order sigma-delta modulation."},
     {"simd", py_simd, METH_NOARGS, "The instruction set the kernels use on this CPU."},
     {NULL, NULL, 0, NULL},
 };

@@ -234,14 +234,20 @@ def _phase_filters(h_bytes: bytes, D: int, L: int) -> np.ndarray:
     return G
 
 
-def modulate(x: np.ndarray) -> np.ndarray:
+def modulate(x: np.ndarray, engine: str = "auto") -> np.ndarray:
     """Second-order sigma-delta of x (C, N), |x| <= 0.5 recommended -> bits (C, N) in {0, 1}.
 
-    The loop ``y = sign(v2); v1 += x - y; v2 += v1 - y`` runs over time, vectorised
-    over channels (about 3 us per tick: an emulator's speed, not a decoder's).
+    The loop ``y = sign(v2); v1 += x - y; v2 += v1 - y`` runs over time: in the C kernel
+    (engine ``"table"``, the default where it is built; a few ns per tick and channel) or
+    in numpy, vectorised over channels (``"fft"``, about 3 us per tick).  Both give the
+    same bits.
     """
     xs = np.clip(np.asarray(x, float), -1, 1)
     C, N = xs.shape
+    if (ENGINES[0] if engine == "auto" else engine) == "table" and N:
+        out = np.empty((C, N), np.uint8)
+        _pdm_kernel.sigma_delta(np.ascontiguousarray(xs), out, N)
+        return out
     v1 = np.zeros(C)
     v2 = np.zeros(C)
     out = np.empty((C, N), np.uint8)
