@@ -3,8 +3,8 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-# Debian libraries: VTK (pyvista) offscreen rendering, libusb for pyusb.
-DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0
+# Debian packages: VTK (pyvista) offscreen rendering, libusb for pyusb, gcc for the PDM kernel.
+DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0 gcc
 
 .PHONY: demo test bench lint format clean system-deps
 

@@ -37,25 +37,49 @@ def machine() -> str:
     )
 
 
+def _marker(name: str) -> str:
+    return f"<!-- section: {name} -->"
+
+
+def _previous_sections(path: Path) -> dict[str, str]:
+    """Section texts of an existing BENCHMARKS.md, by name (empty when there is none)."""
+    if not path.is_file():
+        return {}
+    text = path.read_text()
+    out = {}
+    for name in SECTIONS:
+        start = text.find(_marker(name))
+        if start < 0:
+            continue
+        end = text.find("<!-- section:", start + 1)
+        out[name] = text[start + len(_marker(name)) : end if end >= 0 else len(text)].strip("\n")
+    return out
+
+
 def main(argv: list[str]) -> int:
     wanted = argv or list(SECTIONS)
     unknown = [w for w in wanted if w not in SECTIONS]
     if unknown:
         print(f"unknown benchmark section(s) {unknown}; choose from {list(SECTIONS)}")
         return 2
+    out = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
+    # a partial run replaces its own sections and keeps the others with their dates
+    sections = _previous_sections(out)
+    now = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
+    for name in wanted:
+        print(f"running {name} ...", flush=True)
+        head, _, rest = SECTIONS[name].run().strip("\n").partition("\n")
+        sections[name] = f"{head}\n\n_Run {now} on {machine()}._\n{rest}"
     parts = [
         "# Benchmarks",
         "",
-        "Written by `make bench` (`python -m benchmarks`); do not edit by hand.",
-        "",
-        f"- date: {datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}",
-        f"- machine: {machine()}",
+        "Written by `make bench` (`python -m benchmarks [section ...]`); do not edit by hand. "
+        "Each section states when and where it ran.",
         "",
     ]
-    for name in wanted:
-        print(f"running {name} ...", flush=True)
-        parts.append(SECTIONS[name].run())
-    out = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
+    for name in SECTIONS:
+        if name in sections:
+            parts += [_marker(name), sections[name], ""]
     tmp = out.with_suffix(".md.part")
     tmp.write_text("\n".join(parts))
     os.replace(tmp, out)
