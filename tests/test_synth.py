@@ -116,7 +116,8 @@ def test_empty_echoes_render_silence():
 
 def test_path_responses_match_exact_per_path_filtering():
     """Absorption and piston directivity through the low-rank factorisation against
-    filtering each path and microphone separately (-60 dB or better)."""
+    filtering each path and microphone separately: -81 dB here, in float32 as in
+    float64 (the factorisation sets it, not the single-precision FFTs)."""
     from scipy import fft as sfft
 
     from acousim.synth import Echoes, PathResponse
@@ -141,7 +142,7 @@ def test_path_responses_match_exact_per_path_filtering():
         delay = e.delay_s[:, k][:, None] + start / fs
         spec += W * H * e.gain[:, k][:, None] * np.exp(-2j * np.pi * f * delay)
     ref = sfft.irfft(spec, n)[:, :16384]
-    assert 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)) < -60
+    assert 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)) < -75
     # and the response does something: about 5 dB of absorption and directivity here
     y0 = render(e, wf, fs, 16384)
     assert 10 * np.log10(np.sum(y**2) / np.sum(y0**2)) < -2
