@@ -231,12 +231,17 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
                     parent = g
                     for p in parents:
                         parent = parent[p] if p in parent else _group(parent, p)
-                    parent.create_dataset(
+                    ds = parent.create_dataset(
                         leaf,
                         data=a,
                         compression=spec.compression if a.size > 64 else None,
                         track_times=False,
                     )
+                    # write its chunks now, so that file space is allocated in creation
+                    # order: left to garbage collection, the chunk cache is flushed when
+                    # the last reference goes, later when something (Dask's profiler
+                    # sampling this frame) holds one, and the bytes differ
+                    ds.flush()
                 # fixed-length bytes: no global heap, whose layout varies between processes
                 g.attrs["params"] = np.bytes_(json.dumps(params, sort_keys=True))
                 records.append({**params, "shard": k, "offset": i - lo})
