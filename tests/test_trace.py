@@ -65,6 +65,41 @@ def test_shoebox_matches_the_image_source_method():
         assert np.max(np.abs(level_db)) <= 0.1
 
 
+def test_shoebox_agrees_with_pyroomacoustics():
+    """The same room through pyroomacoustics' image-source model (an implementation
+    that is not ours): the same 24 first- and second-order paths, all visible from
+    every microphone, the same delays and the same reflection losses."""
+    pra = pytest.importorskip("pyroomacoustics")
+    scene = full_beam(load_scene(SCENES / "shoebox.toml"))
+    sim = Simulator(scene)
+    pose = scene.sensor.poses[0]
+    spec, echoes, mics = specular_echoes(sim, pose)
+    R = scene.materials["wall"].reflection
+    origin = ROOM[:, 0]  # pyroomacoustics' rooms start at the origin
+    room = pra.ShoeBox(
+        ROOM[:, 1] - origin,
+        fs=450000,
+        materials=pra.Material(1 - R**2),  # energy absorption: amplitude R per bounce
+        max_order=2,
+        air_absorption=False,
+        ray_tracing=False,
+    )
+    room.add_source(pose.to_world(scene.sensor.array.emitter_m) - origin)
+    room.add_microphone_array((mics - origin).T)
+    room.image_source_model()
+    src = room.sources[0]
+    keep = src.orders >= 1
+    assert np.all(room.visibility[0][:, keep])
+    images, orders, damping = src.images[:, keep].T + origin, src.orders[keep], src.damping[0, keep]
+    assert len(images) == len(spec) == 24
+    for img, order, damp in zip(images, orders, damping):
+        j = np.flatnonzero(np.linalg.norm(spec.anchor_m - img, axis=1) < 1e-6)
+        assert j.size == 1 and spec.order[j[0]] == order
+        dist = np.linalg.norm(img - mics, axis=1)
+        assert np.max(np.abs(echoes.delay_s[:, j[0]] - dist / sim.c)) <= 0.1e-6
+        assert np.max(np.abs(20 * np.log10(echoes.gain[:, j[0]] * dist / damp))) <= 0.1
+
+
 @pytest.mark.parametrize("yaw_deg,pitch_deg", [(0, 0), (20, 0), (35, 10), (-40, -15)])
 def test_large_wall_gives_one_echo_at_two_d_over_c(yaw_deg, pitch_deg):
     scene = load_scene(SCENES / "wall.toml")
