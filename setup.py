@@ -1,7 +1,7 @@
 """Builds the optional C kernel of the PDM decoder; everything else is in pyproject.toml.
 
 Without a C compiler the build goes on (optional=True) and hardware.pdm falls back to
-its numpy decoder, about 40x slower.
+its numpy decoder, far slower (BENCHMARKS.md).
 """
 
 from setuptools import Extension, setup
