@@ -207,32 +207,35 @@ def _animate(recordings, images, triangles, path, options, progress):
     import matplotlib.pyplot as plt
 
     from acousim.viz.fan import draw_fan
-    from acousim.viz.render3d import render_scene
+    from acousim.viz.render3d import SceneRenderer
 
     method = _sharpest(images[0])
     max_range = max(float(im[method].range_m.max()) for im in images if im[method].range_m.size)
     frames = []
-    for i, (rec, imgs) in enumerate(zip(recordings, images)):
-        pose = _pose(rec)
-        view = render_scene(
-            None,
-            triangles=triangles,
-            sensor_position=pose.position_m,
-            sensor_axis=pose.rotation[:, 0],
-            peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
-            window_size=(560, 420),
-        )
-        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4.2), gridspec_kw={"width_ratios": [1.35, 1]})
-        a.imshow(view)
-        a.axis("off")
-        a.set_title(_title(rec, i), fontsize=9)
-        draw_fan(b, imgs[method], max_range, 30.0)
-        b.set_title(f"{method}, top view (dB)", fontsize=9)
-        fig.canvas.draw()
-        frames.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
-        plt.close(fig)
-        if progress:
-            progress(i + 1, len(recordings))
+    renderer = SceneRenderer(triangles, window_size=(560, 420))
+    try:
+        for i, (rec, imgs) in enumerate(zip(recordings, images)):
+            pose = _pose(rec)
+            view = renderer.frame(
+                pose.position_m,
+                pose.rotation[:, 0],
+                peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
+            )
+            fig, (a, b) = plt.subplots(
+                1, 2, figsize=(10, 4.2), gridspec_kw={"width_ratios": [1.35, 1]}
+            )
+            a.imshow(view)
+            a.axis("off")
+            a.set_title(_title(rec, i), fontsize=9)
+            draw_fan(b, imgs[method], max_range, 30.0, pixels=500)  # ~400 px in the frame
+            b.set_title(f"{method}, top view (dB)", fontsize=9)
+            fig.canvas.draw()
+            frames.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+            plt.close(fig)
+            if progress:
+                progress(i + 1, len(recordings))
+    finally:
+        renderer.close()
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.part.gif")
     imageio.mimsave(tmp, frames, duration=0.1, loop=0)

@@ -107,6 +107,10 @@ def test_trajectory_gives_an_animation(tmp_path):
     )
     frames = imageio.mimread(tmp_path / "img" / "drive.gif")
     assert len(frames) == 3 and np.asarray(frames[0]).std() > 10
+    # the 3D view (left panel, below the title) follows the sensor: frames differ there
+    # by far more than a title's change (a stale render differed by about 0.05)
+    view = [np.asarray(f, float)[40:, 100:500] for f in frames]
+    assert np.abs(view[2] - view[0]).mean() > 0.5
 
 
 @pytest.mark.parametrize(
