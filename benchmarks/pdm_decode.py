@@ -4,8 +4,6 @@ truth through the emulated sensor)."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from scipy.signal import butter, remez, sosfiltfilt, upfirdn
 
@@ -18,9 +16,10 @@ from hardware.pdm import (
     decode,
     encode,
     modulate,
+    unpack_ticks,
 )
 
-from .timing import best_time
+from .timing import best_time, run_times
 
 N_TICKS = 163840
 
@@ -71,22 +70,11 @@ def _real_sample_error() -> dict[str, float] | None:
     }
 
 
-def _times(fn, n: int) -> np.ndarray:
-    """Wall times (s) of n calls after one warm-up call."""
-    fn()
-    out = np.empty(n)
-    for i in range(n):
-        t0 = time.perf_counter()
-        fn()
-        out[i] = time.perf_counter() - t0
-    return out
-
-
 def run() -> str:
     rng = np.random.default_rng(0)
     ticks = rng.integers(0, 2**32, N_TICKS, dtype=np.uint64).astype(np.uint32)
     real_time = N_TICKS / PDM_RATE_HZ
-    bits = 2.0 * np.unpackbits(ticks.view(np.uint8).reshape(-1, 4), axis=1, bitorder="little") - 1
+    bits = 2.0 * unpack_ticks(ticks) - 1
     snr = _round_trip_snr()
     rows = []
     for name in FILTERS:
@@ -94,7 +82,7 @@ def run() -> str:
         d = (len(h) - 1) // 2
         direct = np.array([np.convolve(bits[:, c], h)[d::10][: N_TICKS // 10] for c in range(4)])
         for engine in ENGINES:
-            times = _times(
+            times = run_times(
                 lambda name=name, engine=engine: decode(ticks, fir=name, engine=engine),
                 200 if engine == "table" else 3,
             )

@@ -5,14 +5,21 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+import numpy as np
+
+
+def run_times(fn: Callable[[], object], repeat: int = 5, warmup: int = 1) -> np.ndarray:
+    """Wall times (repeat,) of `repeat` calls, seconds (after `warmup` calls)."""
+    for _ in range(warmup):
+        fn()
+    out = np.empty(repeat)
+    for i in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        out[i] = time.perf_counter() - t0
+    return out
+
 
 def best_time(fn: Callable[[], object], repeat: int = 5, warmup: int = 1) -> float:
     """Best wall time of `repeat` calls, seconds (after `warmup` calls)."""
-    for _ in range(warmup):
-        fn()
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return float(run_times(fn, repeat, warmup).min())

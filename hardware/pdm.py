@@ -158,16 +158,23 @@ def _edge_correction(h_bytes: bytes, N: int, D: int) -> tuple[np.ndarray, np.nda
     L = len(h)
     n_out = N // D
     d = (L - 1) // 2
-    cum = np.concatenate([[0.0], np.cumsum(h)])
+    # only the first and last few outputs have taps outside the ticks
     first = np.arange(min(n_out, -(-(L - d) // D) + 1))
     n = np.unique(np.concatenate([first, np.arange(max(n_out - (d // D + 2), 0), n_out)]))
-    top = n * D + d  # tap k reads tick top - k
+    outside = _taps_outside(h, N, D, n)
+    keep = outside != 0.0
+    return n[keep], outside[keep].astype(np.float32)
+
+
+def _taps_outside(h: np.ndarray, N: int, D: int, n: np.ndarray) -> np.ndarray:
+    """For outputs n, the sum of the taps that read ticks before 0 or from N on (output
+    n's tap k reads tick n D + (L - 1) // 2 - k)."""
+    L = len(h)
+    cum = np.concatenate([[0.0], np.cumsum(h)])
+    top = n * D + (L - 1) // 2
     before = cum[L] - cum[np.clip(top + 1, 0, L)]  # k > top: ticks < 0
     after = cum[np.clip(top - N + 1, 0, L)]  # k <= top - N: ticks >= N
-    # ticks past N up to the stream's end are zero words (read as -1); the padding before
-    # tick 0 is zero bytes (read as -1) too
-    keep = (before + after) != 0.0
-    return n[keep], (before + after)[keep].astype(np.float32)
+    return before + after
 
 
 @lru_cache(maxsize=8)
@@ -223,10 +230,7 @@ def _decode_fft(ticks: np.ndarray, rows: np.ndarray, h: np.ndarray, D: int) -> n
     y01 = sfft.irfft(np.einsum("rcf,rf->cf", X, G), L, axis=-1)[:, shift : shift + n_out].T
     # the bits were read as 0/1, x = 2 b - 1: y = 2 y01 - (sum of the taps that fall
     # on real ticks; outside the recording x is 0, as in a zero-padded convolution)
-    cum = np.concatenate([[0.0], np.cumsum(h)])
-    top = np.arange(n_out) * D + delay  # taps k <= top read ticks >= 0
-    bottom = top - bits.shape[0]  # taps k <= bottom read ticks past the end
-    valid = cum[np.clip(top + 1, 0, len(h))] - cum[np.clip(bottom + 1, 0, len(h))]
+    valid = h.sum() - _taps_outside(h, bits.shape[0], D, np.arange(n_out))
     return (2 * y01 - valid[:, None]).T.astype(np.float32)
 
 

@@ -118,15 +118,8 @@ def draw_fan(
     A, Rg = np.meshgrid(a_edges, r_edges)
     X, Y = -Rg * np.sin(A), Rg * np.cos(A)  # horizontal: y to the left; vertical: x
     extent = (X.min(), X.max(), Y.min(), Y.max())
-    width = pixels
-    height = max(int(round(width * (extent[3] - extent[2]) / (extent[1] - extent[0]))), 1)
-    px = np.linspace(extent[0], extent[1], width, endpoint=False) + (extent[1] - extent[0]) / (
-        2 * width
-    )
-    py = np.linspace(extent[2], extent[3], height, endpoint=False) + (extent[3] - extent[2]) / (
-        2 * height
-    )
-    PX, PY = np.meshgrid(px, py)
+    height = max(int(round(pixels * (extent[3] - extent[2]) / (extent[1] - extent[0]))), 1)
+    PX, PY = np.meshgrid(_centres(extent[0], extent[1], pixels), _centres(*extent[2:], height))
     i = np.searchsorted(r_edges, np.hypot(PX, PY)) - 1
     j = np.searchsorted(a_edges, np.arctan2(-PX, PY)) - 1
     inside = (i >= 0) & (i < db.shape[0]) & (j >= 0) & (j < db.shape[1])
@@ -145,6 +138,11 @@ def draw_fan(
     ax.set_xlabel("y (m), left ←")
     ax.set_ylabel("x forward (m)")
     ax.set_facecolor("black")
+
+
+def _centres(lo: float, hi: float, n: int) -> np.ndarray:
+    """Centres (n,) of n equal cells covering [lo, hi]."""
+    return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
