@@ -165,12 +165,12 @@ def _title(rec: P.Recording, i: int) -> str:
 
 
 def _truth_sensor(rec: P.Recording) -> np.ndarray | None:
-    t = rec.metadata.get("truth")
-    if not t:
+    t = rec.truth
+    if t is None or not len(t):
         return None
-    pts = np.asarray(t["position_sensor_m"], float).reshape(-1, 3)
-    kind = np.asarray(t["kind"])
-    amp = np.asarray(t["amplitude"], float)
+    pts = t.position_sensor_m
+    kind = t.kind
+    amp = t.amplitude
     echo = kind != "direct"
     if not echo.any():
         return None
@@ -183,11 +183,7 @@ def _render(rec, imgs, triangles, path, options):
 
     pose = _pose(rec)
     method = _sharpest(imgs)
-    truth = rec.metadata.get("truth")
-    truth_w = None
-    if truth:
-        pts = np.asarray(truth["position_world_m"], float).reshape(-1, 3)
-        truth_w = pts[np.asarray(truth["kind"]) != "direct"]
+    truth_w = None if rec.truth is None else rec.truth.echoes().position_world_m
     render_scene(
         path,
         triangles=triangles,

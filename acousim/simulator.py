@@ -8,6 +8,7 @@ order and kind).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable, Iterable
 from importlib.metadata import PackageNotFoundError, version
@@ -81,15 +82,15 @@ class Simulator:
             "acousim_version": package_version(),
             "pose": pose.to_dict(),
             "pose_index": index,
-            "truth": {
-                "position_world_m": paths.position_m.tolist(),
-                "position_sensor_m": pose.to_sensor(paths.position_m).tolist(),
-                "amplitude": level.tolist(),
-                "order": paths.order.tolist(),
-                "kind": [KIND_NAMES[c] for c in paths.kind.tolist()],
-            },
         }
-        return simulate(
+        truth = P.GroundTruth(
+            position_world_m=paths.position_m,
+            position_sensor_m=pose.to_sensor(paths.position_m),
+            amplitude=level,
+            order=paths.order,
+            kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
+        )
+        rec = simulate(
             echoes,
             sensor.array,
             sensor.call,
@@ -103,6 +104,7 @@ class Simulator:
             snr_reference="echoes",
             metadata=meta,
         )
+        return dataclasses.replace(rec, truth=truth)
 
     def _mic_directivity(self, echoes, paths, mics, axis):
         """Microphone directivity: a baffled piston of radius mic_radius_m facing the

@@ -29,8 +29,10 @@ from .metrics import (
 )
 from .pipeline import ProcessingSettings, acoustic_image, acoustic_images, recording_snapshot
 from .recording import (
+    GroundTruth,
     Recording,
     RecordingFileError,
+    count_recordings,
     load_recording,
     load_recordings,
     save_recording,
@@ -70,6 +72,8 @@ __all__ = [
     "recording_snapshot",
     "Recording",
     "RecordingFileError",
+    "GroundTruth",
+    "count_recordings",
     "load_recording",
     "load_recordings",
     "save_recording",

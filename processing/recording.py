@@ -5,16 +5,21 @@ is at time ``(n - emission_index) / sample_rate_hz`` after the start of the
 emission.  A reflector at range r therefore peaks at ``emission_index + 2 r / c *
 fs`` after the matched filter.  Nothing in :mod:`processing` adds any other delay.
 
-File layout (schema version 1)::
+The file format (schema version 2; version 1 files still load) is described in
+``docs/recording-format.md``::
 
-    /                      attrs: schema="acousim.recordings", schema_version=1
-    /recordings/0000/      one group per recording, in order
-        samples            (M, T) or (K, M, T) float, attrs units="1"
+    /                      attrs: schema="acousim.recordings", schema_version=2, count
+    /recordings/000000/    one group per recording, names zero-padded to one width
+        samples            (M, T) or (K, M, T) float32, chunked per microphone,
+                           fletcher32 checksum, attrs units="1"
         array/positions    (M, 3) float, attrs units="m"
         array/emitter      (3,)   float, attrs units="m"
         array/channels     (M,)   int
         array/grid_index   (M, 2) int   (URA only; attrs pitch_m=(dz, dy))
-        metadata           scalar string: JSON object (pose, scene, seed, truth, ...)
+        truth/...          ground truth (simulations): position_world_m (N, 3),
+                           position_sensor_m (N, 3), amplitude (N,), order (N,),
+                           kind (N,) ASCII
+        metadata           scalar string: JSON object (pose, scene, seed, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
                waveform (JSON)
 """
@@ -22,15 +27,19 @@ File layout (schema version 1)::
 from __future__ import annotations
 
 import json
-import os
+import math
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import h5py
 import numpy as np
+from numpy.typing import DTypeLike
 
 from .arrays import Array
+from .atomic import atomic_path
+from .errors import InputError
 from .waveforms import Waveform
 
 __all__ = [
@@ -42,13 +51,22 @@ __all__ = [
     "SCHEMA",
     "SCHEMA_VERSION",
     "RecordingFileError",
+    "GroundTruth",
+    "count_recordings",
+    "MAX_SAMPLE_BYTES",
 ]
 
 SCHEMA = "acousim.recordings"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+SUPPORTED_VERSIONS = (1, 2)
+
+MAX_SAMPLE_BYTES = 4 * 2**30
+"""Largest samples dataset (declared shape x item size) the loader reads: 4 GiB
+(an eRTIS recording of 32 mics x 163,840 samples x float32 is 21 MB); pass
+``max_bytes`` to raise it."""
 
 
-class RecordingFileError(ValueError):
+class RecordingFileError(InputError):
     """A recording file that cannot be read; the message names the file and the field."""
 
 
@@ -69,6 +87,8 @@ class Recording:
         Sample index at which the emission starts (see the module docstring).
     metadata : dict
         JSON-serialisable: pose, scene, seed, ``simulated`` (bool), device settings...
+    truth : GroundTruth, optional
+        The simulated paths (None for a real recording).
     """
 
     samples: np.ndarray
@@ -78,6 +98,7 @@ class Recording:
     speed_of_sound_m_s: float = 343.0
     emission_index: int = 0
     metadata: dict = field(default_factory=dict)
+    truth: GroundTruth | None = None
 
     def __post_init__(self) -> None:
         x = np.asarray(self.samples)
@@ -120,37 +141,132 @@ class Recording:
         return replace(self, samples=samples)
 
 
-def _atomic_path(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.part")
+_KINDS = ("direct", "specular", "scatter", "point")
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruth:
+    """The simulated paths of one recording (N paths), in SI units.
+
+    Attributes
+    ----------
+    position_world_m, position_sensor_m : ndarray, shape (N, 3)
+        Where each path's last reflection is, in the world and the sensor frame (m).
+    amplitude : ndarray, shape (N,)
+        Path strength at the array centre (relative pressure, 1 = the emitter at 1 m).
+    order : ndarray, shape (N,), int
+        Number of reflections (0: the direct path from the emitter).
+    kind : ndarray, shape (N,), str
+        ``"direct"``, ``"specular"``, ``"scatter"`` or ``"point"``.
+    """
+
+    position_world_m: np.ndarray
+    position_sensor_m: np.ndarray
+    amplitude: np.ndarray
+    order: np.ndarray
+    kind: np.ndarray
+
+    def __post_init__(self) -> None:
+        pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
+        ps = np.asarray(self.position_sensor_m, float).reshape(-1, 3)
+        amp = np.asarray(self.amplitude, float).reshape(-1)
+        order = np.asarray(self.order).reshape(-1)
+        kind = np.asarray(self.kind).astype(str).reshape(-1)
+        n = len(pw)
+        for name, a in (("position_sensor_m", ps), ("amplitude", amp), ("order", order)):
+            if len(a) != n:
+                raise ValueError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+        if len(kind) != n:
+            raise ValueError(f"truth kind has {len(kind)} entries, position_world_m {n}")
+        if not (np.all(np.isfinite(pw)) and np.all(np.isfinite(ps)) and np.all(np.isfinite(amp))):
+            raise ValueError("truth positions and amplitudes must be finite")
+        if order.size and (order.dtype.kind not in "iu" or order.min() < 0):
+            raise ValueError(f"truth order must be non-negative integers, got {order.dtype}")
+        bad = sorted(set(kind.tolist()) - set(_KINDS))
+        if bad:
+            raise ValueError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
+        object.__setattr__(self, "position_world_m", pw)
+        object.__setattr__(self, "position_sensor_m", ps)
+        object.__setattr__(self, "amplitude", amp)
+        object.__setattr__(self, "order", order.astype(np.int64))
+        object.__setattr__(self, "kind", kind)
+
+    def __len__(self) -> int:
+        return len(self.amplitude)
+
+    def __repr__(self) -> str:
+        return f"GroundTruth({len(self)} paths)"
+
+    def echoes(self) -> GroundTruth:
+        """The paths that are not the direct emitter-to-array path."""
+        keep = self.kind != "direct"
+        return GroundTruth(
+            self.position_world_m[keep],
+            self.position_sensor_m[keep],
+            self.amplitude[keep],
+            self.order[keep],
+            self.kind[keep],
+        )
+
+
+# ---------------------------------------------------------------- writing
 
 
 def save_recordings(
-    path: str | Path, recordings: Sequence[Recording], *, compression: str | None = None
+    path: str | Path,
+    recordings: Sequence[Recording],
+    *,
+    dtype: DTypeLike = np.float32,
+    compression: str | None = None,
+    checksum: bool = True,
 ) -> Path:
-    """Write recordings to one HDF5 file, atomically (temporary name, then rename).
+    """Write recordings to one HDF5 file, atomically (see :mod:`processing.atomic`).
 
-    `compression` is an h5py filter ("gzip", "lzf") for the samples; none by default:
-    recorded noise does not compress (gzip saves 4 % of a noisy recording and costs
-    70 times the write time), a noise-free simulation does.
+    Parameters
+    ----------
+    dtype : float32 (default) or float64
+        Sample type in the file. float32 rounds each sample to 24 significant bits, a
+        relative error of at most 2**-24 (6e-8, -144 dB): far below the noise of any
+        simulation with a finite SNR, and none at all for the real sensor, whose decoded
+        samples are float32 already. float64 keeps simulated samples bit-exact.
+    compression : "gzip", "lzf" or None
+        h5py filter for the samples; none by default: recorded noise does not compress
+        (gzip saves about 4 % of a noisy recording), a noise-free simulation does.
+    checksum : bool
+        HDF5's fletcher32 checksum on the samples and the ground truth (default on): a
+        corrupted chunk then fails to load instead of loading wrong numbers.
     """
     path = Path(path)
-    tmp = _atomic_path(path)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["schema"] = SCHEMA
-            f.attrs["schema_version"] = SCHEMA_VERSION
-            group = f.create_group("recordings")
-            for i, rec in enumerate(recordings):
-                _write_one(group.create_group(f"{i:04d}"), rec, compression)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    dtype = np.dtype(dtype)
+    if dtype not in (np.float32, np.float64):
+        raise ValueError(f"dtype must be float32 or float64, got {dtype}")
+    width = _name_width(len(recordings))
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["schema"] = SCHEMA
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["count"] = len(recordings)
+        group = f.create_group("recordings")
+        for i, rec in enumerate(recordings):
+            opts = {"dtype": dtype, "compression": compression, "checksum": checksum}
+            _write_one(group.create_group(f"{i:0{width}d}"), rec, opts)
     return path
 
 
-def _write_one(g: h5py.Group, rec: Recording, compression: str | None) -> None:
-    d = g.create_dataset("samples", data=rec.samples, compression=compression)
+def _name_width(n: int) -> int:
+    """Digits of the group names: zero-padded to one width, so that names sort in order."""
+    return max(6, len(str(max(n - 1, 0))))
+
+
+def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
+    samples = np.asarray(rec.samples, opts["dtype"])
+    chunks = (1,) * (samples.ndim - 1) + (samples.shape[-1],)  # one microphone's signal
+    d = g.create_dataset(
+        "samples",
+        data=samples,
+        chunks=chunks,
+        compression=opts["compression"],
+        fletcher32=opts["checksum"],
+    )
     d.attrs["units"] = "1"
     a = g.create_group("array")
     a.create_dataset("positions", data=rec.array.positions_m).attrs["units"] = "m"
@@ -164,7 +280,20 @@ def _write_one(g: h5py.Group, rec: Recording, compression: str | None) -> None:
     g.attrs["speed_of_sound_m_s"] = rec.speed_of_sound_m_s
     g.attrs["emission_index"] = rec.emission_index
     g.attrs["waveform"] = json.dumps(rec.waveform.to_dict())
-    # a dataset, not an attribute: ground truth can exceed HDF5's 64 kB attribute limit
+    if rec.truth is not None:
+        t = g.create_group("truth")
+        kw = {"fletcher32": opts["checksum"]} if len(rec.truth) else {}
+        for name, data, units in (
+            ("position_world_m", rec.truth.position_world_m, "m"),
+            ("position_sensor_m", rec.truth.position_sensor_m, "m"),
+            ("amplitude", rec.truth.amplitude, "1"),
+            ("order", rec.truth.order.astype(np.int16), "1"),
+            ("kind", rec.truth.kind.astype("S16"), None),
+        ):
+            ds = t.create_dataset(name, data=data, **kw)
+            if units:
+                ds.attrs["units"] = units
+    # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
 
 
@@ -181,95 +310,322 @@ def save_recording(path: str | Path, recording: Recording, **kw) -> Path:
     return save_recordings(path, [recording], **kw)
 
 
-def load_recordings(path: str | Path) -> list[Recording]:
-    """Read every recording of a file, validating the schema, shapes, dtypes and units."""
+# ---------------------------------------------------------------- reading
+
+
+def load_recordings(path: str | Path, *, max_bytes: int = MAX_SAMPLE_BYTES) -> list[Recording]:
+    """Read every recording of a file, validating every field (see :func:`load_recording`)."""
     path = Path(path)
+    with _open(path) as (f, version, names):
+        return [_read_one(path, f["recordings"][n], version, max_bytes) for n in names]
+
+
+def load_recording(
+    path: str | Path, index: int = 0, *, max_bytes: int = MAX_SAMPLE_BYTES
+) -> Recording:
+    """Read recording `index` of a file (negative: from the end), and only that one.
+
+    Every field is checked: samples finite and at most `max_bytes` bytes (declared
+    shape times item size, checked before reading), compression filters available,
+    checksums, array geometry, waveform below Nyquist, attributes, pose and ground
+    truth. A problem raises :class:`RecordingFileError` naming the file and field.
+    """
+    path = Path(path)
+    with _open(path) as (f, version, names):
+        if not -len(names) <= index < len(names):
+            raise RecordingFileError(
+                f"index out of range ({len(names)} recordings)", file=path, key="index", value=index
+            )
+        return _read_one(path, f["recordings"][names[index]], version, max_bytes)
+
+
+def count_recordings(path: str | Path) -> int:
+    """How many recordings a file holds (without reading them)."""
+    with _open(Path(path)) as (_, _, names):
+        return len(names)
+
+
+@contextmanager
+def _open(path: Path):
     if not path.is_file():
-        raise RecordingFileError(f"{path}: no such file")
+        raise RecordingFileError("no such file", file=path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        raise RecordingFileError(f"{path}: not an HDF5 file ({exc})") from None
+        raise RecordingFileError(f"not an HDF5 file ({exc})", file=path) from None
     with f:
-        if f.attrs.get("schema") != SCHEMA:
+        schema = _text(f.attrs.get("schema"))
+        if schema != SCHEMA:
             raise RecordingFileError(
-                f"{path}: attribute 'schema' is {f.attrs.get('schema')!r}, expected {SCHEMA!r}"
+                f"not a recording file (expected {SCHEMA!r})",
+                file=path,
+                key="schema",
+                value=f.attrs.get("schema"),
             )
-        version = int(f.attrs.get("schema_version", -1))
-        if version != SCHEMA_VERSION:
+        raw = f.attrs.get("schema_version")
+        if not (isinstance(raw, (int, np.integer)) and int(raw) in SUPPORTED_VERSIONS):
             raise RecordingFileError(
-                f"{path}: schema_version {version} is not supported (this is {SCHEMA_VERSION})"
+                f"unsupported; this version reads {SUPPORTED_VERSIONS}",
+                file=path,
+                key="schema_version",
+                value=raw,
             )
-        if "recordings" not in f:
-            raise RecordingFileError(f"{path}: missing group 'recordings'")
-        return [_read_one(path, g) for _, g in sorted(f["recordings"].items())]
+        if "recordings" not in f or not isinstance(f["recordings"], h5py.Group):
+            raise RecordingFileError("missing group", file=path, key="recordings")
+        names = list(f["recordings"].keys())
+        bad = [n for n in names if not n.isdigit()]
+        if bad:
+            raise RecordingFileError(
+                "group names must be numbers", file=path, key="recordings", value=bad[0]
+            )
+        yield f, int(raw), sorted(names, key=int)
 
 
-def load_recording(path: str | Path, index: int = 0) -> Recording:
-    """Read recording `index` of a file."""
-    recs = load_recordings(path)
-    if not -len(recs) <= index < len(recs):
-        raise RecordingFileError(f"{path}: index {index} out of range ({len(recs)} recordings)")
-    return recs[index]
+def _text(value) -> str | None:
+    if isinstance(value, bytes):
+        return value.decode(errors="replace")
+    return value if isinstance(value, str) else None
 
 
-def _field(
+def _dataset(
     path: Path, g: h5py.Group, name: str, ndim: tuple[int, ...], kind: str, units: str | None = None
-) -> np.ndarray:
-    where = f"{path}: {g.name}/{name}"
-    if name not in g:
-        raise RecordingFileError(f"{where}: missing")
+) -> h5py.Dataset:
+    key = f"{g.name}/{name}"
+    if name not in g or not isinstance(g[name], h5py.Dataset):
+        raise RecordingFileError("missing", file=path, key=key)
     d = g[name]
     if d.ndim not in ndim:
-        raise RecordingFileError(f"{where}: expected {ndim} dimensions, got shape {d.shape}")
+        raise RecordingFileError(
+            f"expected {' or '.join(map(str, ndim))} dimensions", file=path, key=key, value=d.shape
+        )
     if d.dtype.kind not in kind:
-        raise RecordingFileError(f"{where}: dtype {d.dtype} not allowed (kinds {kind!r})")
-    if units is not None and d.attrs.get("units") != units:
-        raise RecordingFileError(f"{where}: units {d.attrs.get('units')!r}, expected {units!r}")
-    return d[()]
+        raise RecordingFileError(
+            f"dtype not allowed (kinds {kind!r})", file=path, key=key, value=str(d.dtype)
+        )
+    if units is not None and _text(d.attrs.get("units")) != units:
+        raise RecordingFileError(
+            f"units expected {units!r}", file=path, key=f"{key}.units", value=d.attrs.get("units")
+        )
+    _check_filters(path, d, key)
+    return d
 
 
-def _attr(path: Path, g: h5py.Group, name: str):
+def _check_filters(path: Path, d: h5py.Dataset, key: str) -> None:
+    plist = d.id.get_create_plist()
+    for i in range(plist.get_nfilters()):
+        code, _flags, _values, name = plist.get_filter(i)
+        if not h5py.h5z.filter_avail(code):
+            label = name.decode(errors="replace") if isinstance(name, bytes) else str(name)
+            raise RecordingFileError(
+                "compression filter not available in this HDF5 installation",
+                file=path,
+                key=f"{key} filter",
+                value=f"{code} {label}".strip(),
+            )
+
+
+def _read(path: Path, d: h5py.Dataset, key: str) -> np.ndarray:
+    try:
+        return d[()]
+    except OSError as exc:
+        raise RecordingFileError(
+            f"cannot be read: corrupted or checksum mismatch ({exc})", file=path, key=key
+        ) from None
+
+
+def _attr(path: Path, g: h5py.Group, name: str, kind: type = float):
+    key = f"{g.name}.{name}"
     if name not in g.attrs:
-        raise RecordingFileError(f"{path}: {g.name} attribute {name!r} missing")
-    return g.attrs[name]
+        raise RecordingFileError("missing attribute", file=path, key=key)
+    v = g.attrs[name]
+    if kind is str:
+        text = _text(v)
+        if text is None:
+            raise RecordingFileError("must be a string", file=path, key=key, value=v)
+        return text
+    ok = np.ndim(v) == 0 and isinstance(v, (int, float, np.integer, np.floating))
+    if kind is int:
+        ok = ok and float(v) == int(v)
+    if not ok or not np.isfinite(float(v)):
+        raise RecordingFileError(f"must be a finite {kind.__name__}", file=path, key=key, value=v)
+    return kind(v)
+
+
+def _samples(path: Path, g: h5py.Group, max_bytes: int) -> np.ndarray:
+    key = f"{g.name}/samples"
+    d = _dataset(path, g, "samples", (2, 3), "f", "1")
+    declared = int(np.prod(d.shape, dtype=np.float64)) * d.dtype.itemsize
+    if declared > max_bytes:
+        raise RecordingFileError(
+            f"declares {declared / 2**30:,.0f} GiB of samples, more than the limit "
+            f"max_bytes = {max_bytes / 2**30:.3g} GiB",
+            file=path,
+            key=key,
+            value=d.shape,
+        )
+    if declared and d.id.get_storage_size() == 0:
+        raise RecordingFileError("declares samples but stores none", file=path, key=key)
+    x = _read(path, d, key)
+    if not np.all(np.isfinite(x)):
+        n = int(np.size(x) - np.count_nonzero(np.isfinite(x)))
+        raise RecordingFileError(f"{n} samples are NaN or infinite", file=path, key=key)
+    return x
+
+
+def _array(path: Path, g: h5py.Group) -> Array:
+    pos = _read(path, _dataset(path, g, "array/positions", (2,), "f", "m"), "array/positions")
+    emitter = _read(path, _dataset(path, g, "array/emitter", (1,), "f", "m"), "array/emitter")
+    channels = _read(path, _dataset(path, g, "array/channels", (1,), "iu"), "array/channels")
+    key = f"{g.name}/array/positions"
+    if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
+        raise RecordingFileError(
+            "must be finite (M, 3) metres", file=path, key=key, value=pos.shape
+        )
+    if len(np.unique(pos, axis=0)) < len(pos):
+        raise RecordingFileError("two microphones at the same position", file=path, key=key)
+    if emitter.shape != (3,) or not np.all(np.isfinite(emitter)):
+        raise RecordingFileError(
+            "must be 3 finite metres", file=path, key=f"{g.name}/array/emitter", value=emitter
+        )
+    grid_index = pitch = None
+    if "array/grid_index" in g:
+        d = _dataset(path, g, "array/grid_index", (2,), "iu")
+        grid_index = _read(path, d, "array/grid_index")
+        key = f"{g.name}/array/grid_index.pitch_m"
+        if "pitch_m" not in d.attrs:
+            raise RecordingFileError("missing attribute", file=path, key=key)
+        pitch = np.asarray(d.attrs["pitch_m"])
+        if (
+            pitch.shape != (2,)
+            or pitch.dtype.kind not in "fiu"
+            or not np.all(np.isfinite(pitch))
+            or not np.all(pitch > 0)
+        ):
+            raise RecordingFileError(
+                "must be two positive finite metres (dz, dy)", file=path, key=key, value=pitch
+            )
+        pitch = (float(pitch[0]), float(pitch[1]))
+    name = _attr(path, g, "array_name", str)
+    try:
+        return Array(name, pos, emitter, grid_index, pitch, channels)
+    except ValueError as exc:
+        raise RecordingFileError(str(exc), file=path, key=f"{g.name}/array") from None
+
+
+def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
+    key = f"{g.name}.waveform"
+    text = _attr(path, g, "waveform", str)
+    try:
+        w = Waveform.from_dict(json.loads(text))
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:
+        raise RecordingFileError(f"not a waveform ({exc})", file=path, key=key) from None
+    top = max(w.f_start_hz, w.f_end_hz)
+    if top > sample_rate_hz / 2:
+        raise RecordingFileError(
+            f"reaches {top:g} Hz, above the Nyquist frequency {sample_rate_hz / 2:g} Hz",
+            file=path,
+            key=key,
+        )
+    return w
 
 
 def _metadata(path: Path, g: h5py.Group) -> dict:
-    if "metadata" not in g:
-        raise RecordingFileError(f"{path}: {g.name}/metadata: missing")
-    raw = g["metadata"][()]
+    key = f"{g.name}/metadata"
+    if "metadata" not in g or not isinstance(g["metadata"], h5py.Dataset):
+        raise RecordingFileError("missing", file=path, key=key)
+    raw = _read(path, g["metadata"], key)
     try:
         meta = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
-    except (ValueError, AttributeError) as exc:
-        raise RecordingFileError(f"{path}: {g.name}/metadata: not JSON ({exc})") from None
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise RecordingFileError(f"not JSON ({exc})", file=path, key=key) from None
     if not isinstance(meta, dict):
-        raise RecordingFileError(f"{path}: {g.name}/metadata: must be a JSON object")
+        raise RecordingFileError("must be a JSON object", file=path, key=key)
+    if "pose" in meta:
+        _check_pose(path, f"{key}: pose", meta["pose"])
     return meta
 
 
-def _read_one(path: Path, g: h5py.Group) -> Recording:
-    samples = _field(path, g, "samples", (2, 3), "f", "1")
-    pos = _field(path, g, "array/positions", (2,), "f", "m")
-    emitter = _field(path, g, "array/emitter", (1,), "f", "m")
-    channels = _field(path, g, "array/channels", (1,), "iu")
-    grid_index = pitch = None
-    if "array/grid_index" in g:
-        grid_index = _field(path, g, "array/grid_index", (2,), "iu")
-        pitch = tuple(g["array/grid_index"].attrs["pitch_m"])
+def _check_pose(path: Path, key: str, pose) -> None:
+    """A pose in a file: position_m (3 metres), yaw_deg/pitch_deg/roll_deg, time_s."""
+    ok = isinstance(pose, dict)
+    if ok:
+        p = pose.get("position_m")
+        ok = (
+            isinstance(p, list)
+            and len(p) == 3
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in p)
+        )
+        for name in ("yaw_deg", "pitch_deg", "roll_deg", "time_s"):
+            v = pose.get(name, 0.0)
+            ok = ok and isinstance(v, (int, float)) and math.isfinite(v)
+    if not ok:
+        raise RecordingFileError(
+            "must be {position_m: [x, y, z], yaw_deg, pitch_deg, roll_deg, time_s} with "
+            "finite numbers",
+            file=path,
+            key=key,
+            value=pose,
+        )
+
+
+def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
+    if "truth" not in g:
+        return None
+    key = f"{g.name}/truth"
+    t = g["truth"]
+    if not isinstance(t, h5py.Group):
+        raise RecordingFileError("must be a group", file=path, key=key)
+    fields = {}
+    for name, ndim, kind, units in (
+        ("position_world_m", (2,), "f", "m"),
+        ("position_sensor_m", (2,), "f", "m"),
+        ("amplitude", (1,), "f", "1"),
+        ("order", (1,), "iu", "1"),
+        ("kind", (1,), "S", None),
+    ):
+        fields[name] = _read(path, _dataset(path, t, name, ndim, kind, units), f"{key}/{name}")
+    fields["kind"] = np.char.decode(fields["kind"], "ascii", errors="replace")
     try:
-        array = Array(str(_attr(path, g, "array_name")), pos, emitter, grid_index, pitch, channels)
-        waveform = Waveform.from_dict(json.loads(_attr(path, g, "waveform")))
-        return Recording(
-            samples=samples,
-            sample_rate_hz=float(_attr(path, g, "sample_rate_hz")),
-            array=array,
-            waveform=waveform,
-            speed_of_sound_m_s=float(_attr(path, g, "speed_of_sound_m_s")),
-            emission_index=int(_attr(path, g, "emission_index")),
-            metadata=_metadata(path, g),
+        return GroundTruth(**fields)
+    except ValueError as exc:
+        raise RecordingFileError(str(exc), file=path, key=key) from None
+
+
+def _truth_v1(path: Path, g: h5py.Group, meta: dict) -> GroundTruth | None:
+    """Schema 1 kept the ground truth as a JSON object in the metadata."""
+    t = meta.pop("truth", None)
+    if t is None:
+        return None
+    key = f"{g.name}/metadata: truth"
+    try:
+        return GroundTruth(
+            t["position_world_m"], t["position_sensor_m"], t["amplitude"], t["order"], t["kind"]
         )
     except (ValueError, TypeError, KeyError) as exc:
+        raise RecordingFileError(f"malformed ({exc!r})", file=path, key=key) from None
+
+
+def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Recording:
+    if not isinstance(g, h5py.Group):
+        raise RecordingFileError("must be a group", file=path, key=g.name)
+    samples = _samples(path, g, max_bytes)
+    fs = _attr(path, g, "sample_rate_hz")
+    array = _array(path, g)
+    waveform = _waveform(path, g, fs)
+    meta = _metadata(path, g)
+    truth = _truth(path, g) if version >= 2 else _truth_v1(path, g, meta)
+    try:
+        return Recording(
+            samples=samples,
+            sample_rate_hz=fs,
+            array=array,
+            waveform=waveform,
+            speed_of_sound_m_s=_attr(path, g, "speed_of_sound_m_s"),
+            emission_index=_attr(path, g, "emission_index", int),
+            metadata=meta,
+            truth=truth,
+        )
+    except (ValueError, TypeError) as exc:
         if isinstance(exc, RecordingFileError):
             raise
-        raise RecordingFileError(f"{path}: {g.name}: {exc}") from None
+        raise RecordingFileError(str(exc), file=path, key=g.name) from None

@@ -28,7 +28,7 @@ def test_simulate_then_image_finds_the_point_reflectors(tmp_path, capsys):
     assert main(["simulate", str(scene), "--out", str(out), "--seed", "3"]) == 0
     rec = P.load_recording(out)
     assert rec.metadata["scene_sha256"] and rec.metadata["seed"] is not None
-    assert len(rec.metadata["truth"]["position_sensor_m"]) == 3
+    assert len(rec.truth.position_sensor_m) == 3
     assert (
         main(
             [
@@ -63,7 +63,7 @@ def test_simulate_then_image_finds_the_point_reflectors(tmp_path, capsys):
         axis=1,
     )
     centre = rec.array.positions_m.mean(axis=0)
-    for t in np.asarray(rec.metadata["truth"]["position_sensor_m"]):
+    for t in rec.truth.position_sensor_m:
         assert np.min(np.linalg.norm(found + centre - t, axis=1)) < 0.05
     fan = imread(tmp_path / "img" / "fan.png")
     assert fan[..., :3].std() > 0.05  # not blank
