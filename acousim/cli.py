@@ -462,26 +462,13 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    import processing as P
+    from acousim.dataset.info import describe
 
     try:
-        recs = P.load_recordings(args.file)
-    except P.RecordingFileError as exc:
+        for line in describe(args.file):
+            print(line)
+    except ValueError as exc:  # InputError and the recording loader's errors
         raise UsageError(str(exc)) from None
-    print(f"{args.file}: {len(recs)} recording(s)")
-    for i, r in enumerate(recs):
-        kind = "simulated" if r.metadata.get("simulated") else "real"
-        where = ""
-        if "pose" in r.metadata:
-            p = r.metadata["pose"]
-            where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {p['yaw_deg']:.1f}°"
-        print(
-            f"  [{i}] {kind}, array {r.array.name} ({r.array.n_mics} mics), "
-            f"{r.n_measurements} measurement(s) x {r.n_samples} samples at "
-            f"{r.sample_rate_hz / 1e3:g} kHz, call {r.waveform.kind} "
-            f"{r.waveform.f_start_hz / 1e3:g}->{r.waveform.f_end_hz / 1e3:g} kHz, "
-            f"c = {r.speed_of_sound_m_s:.1f} m/s{where}"
-        )
     return 0
 
 
@@ -560,10 +547,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "info",
-        help="describe what a recording file holds",
-        description="Print what a recording file (HDF5) holds.",
+        help="describe a recording file, a dataset shard or a dataset folder",
+        description="Print what a recording file (HDF5), a dataset shard (.h5) or a "
+        "dataset folder (with its manifest.json) holds.",
     )
-    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument("file", help="recording file, dataset shard or dataset folder")
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser(

@@ -1,7 +1,7 @@
 """Dataset generation: sharded, reproducible, resumable, local or on a Dask cluster."""
 
 from .generation import generate, make_sample, sample_parameters
-from .reader import DatasetReader, TorchAdapter
+from .reader import DatasetError, DatasetReader, TorchAdapter
 from .spec import DatasetSpec, SpecError, load_spec
 
 __all__ = [
@@ -9,6 +9,7 @@ __all__ = [
     "make_sample",
     "sample_parameters",
     "DatasetReader",
+    "DatasetError",
     "TorchAdapter",
     "DatasetSpec",
     "SpecError",

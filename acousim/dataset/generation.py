@@ -2,18 +2,29 @@
 
 Samples are grouped into shards of ``shard_size``; a worker computes a whole shard,
 writes it to a temporary name and renames it when complete, with a sidecar JSON
-(its samples' parameters and the shard's sha256).  Resuming skips every shard that
-exists (a shard exists only once complete) and redoes the rest; the manifest is
-assembled from the sidecars at the end.  HDF5 is written without timestamps, so the
-same spec gives the same bytes on any number of workers.
+(its samples' parameters and the shard's sha256).  Generation steps:
+
+1. lock the output folder (one generator per folder; the lock dies with its process),
+   remove temporary files an interrupted run left, refuse another spec's folder;
+2. keep every finished shard whose bytes match its sidecar's sha256, redo the rest;
+3. compute the missing shards here, in a local pool (workers exit when the main
+   process dies) or on a Dask cluster (an unreachable scheduler fails at once);
+4. assemble the manifest from the sidecars.
+
+HDF5 is written without timestamps, so the same spec gives the same bytes on any
+number of workers.  The file layout is in ``docs/dataset-format.md``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import fcntl
 import hashlib
 import json
 import os
+import socket
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -24,12 +35,45 @@ import h5py
 import numpy as np
 
 import processing as P
+from processing.atomic import TEMP_PREFIX, atomic_path, write_text
+from processing.errors import InputError
 
 from .spec import DatasetSpec, load_spec
 
-__all__ = ["sample_parameters", "make_sample", "write_shard", "generate", "shard_name"]
+__all__ = [
+    "sample_parameters",
+    "make_sample",
+    "write_shard",
+    "generate",
+    "shard_name",
+    "SHARD_SCHEMA",
+]
 
 MANIFEST = "manifest.json"
+LOCK = ".acousim-dataset.lock"
+SHARD_SCHEMA = "acousim.dataset.shard"
+SHARD_SCHEMA_VERSION = 2
+UNITS = {
+    "raw": "1",
+    "snapshot": "1",
+    "range_m": "m",
+    "range_index": "1",
+    "labels/position_sensor_m": "m",
+    "labels/amplitude": "1",
+    "labels/order": "1",
+    "labels/depth_m": "m",
+}
+"""Units of every stored array (``image/<method>``: dB relative to the image's maximum)."""
+DIMS = {
+    "raw": "microphone,time",
+    "snapshot": "microphone,kept_range_bin",
+    "range_m": "range",
+    "range_index": "kept_range_bin",
+    "labels/position_sensor_m": "path,xyz",
+    "labels/amplitude": "path",
+    "labels/order": "path",
+    "labels/depth_m": "elevation,azimuth",
+}
 
 
 def shard_name(k: int) -> str:
@@ -65,7 +109,11 @@ def _clear(path: str, position: np.ndarray, clearance: float) -> bool:
 
 
 def sample_parameters(spec: DatasetSpec, i: int) -> dict:
-    """The random choices of sample i: scene, pose, conditions, noise seed."""
+    """The random choices of sample i: scene (relative to the spec's folder), pose
+    (``Pose.to_dict`` form: position_m, yaw_deg, pitch_deg, roll_deg), conditions,
+    noise seed."""
+    from acousim.scene import Pose
+
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, i]))
     w = np.array([s.weight for s in spec.scenes])
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
@@ -74,13 +122,8 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     if choice.poses == "trajectory":
         j = int(rng.integers(len(scene.sensor.poses)))
         p = scene.sensor.poses[j]
-        pose = {
-            "position_m": p.position_m.tolist(),
-            "yaw_rad": p.yaw_rad,
-            "pitch_rad": p.pitch_rad,
-            "roll_rad": p.roll_rad,
-            "trajectory_index": j,
-        }
+        position, yaw, pitch = p.position_m, p.yaw_rad, p.pitch_rad
+        roll, extra = p.roll_rad, {"trajectory_index": j}
     else:
         reg = choice.region
         for _attempt in range(100):
@@ -92,12 +135,7 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
                 f"sample {i}: no collision-free pose in the region of {choice.file} after 100 draws"
             )
         yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
-        pose = {
-            "position_m": pos.tolist(),
-            "yaw_rad": float(yaw),
-            "pitch_rad": 0.0,
-            "roll_rad": 0.0,
-        }
+        position, pitch, roll, extra = pos, 0.0, 0.0, {}
     cond = {
         name: d.draw(rng)
         for name, d in sorted(spec.randomize.items())
@@ -106,25 +144,45 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     if "mount_jitter_deg" in spec.randomize:  # the sensor's mounting: yaw and pitch
         cond["mount_yaw_deg"] = spec.randomize["mount_jitter_deg"].draw(rng)
         cond["mount_pitch_deg"] = spec.randomize["mount_jitter_deg"].draw(rng)
-        pose["yaw_rad"] += float(np.deg2rad(cond["mount_yaw_deg"]))
-        pose["pitch_rad"] += float(np.deg2rad(cond["mount_pitch_deg"]))
+        yaw = yaw + float(np.deg2rad(cond["mount_yaw_deg"]))
+        pitch = pitch + float(np.deg2rad(cond["mount_pitch_deg"]))
     if "mount_jitter_m" in spec.randomize:
         shift = [spec.randomize["mount_jitter_m"].draw(rng) for _ in range(3)]
         cond["mount_shift_m"] = shift
-        pose["position_m"] = (np.asarray(pose["position_m"]) + shift).tolist()
+        position = np.asarray(position) + shift
+    # one pose representation in every file (recordings too): Pose.to_dict, degrees
+    pose = {**Pose(position, float(yaw), float(pitch), float(roll)).to_dict(), **extra}
+    del pose["time_s"]
     return {
         "index": i,
-        "scene": str(choice.file),
+        "scene": _relative(choice.file, spec),
         "pose": pose,
         "conditions": cond,
         "noise_seed": int(rng.integers(2**62)),
     }
 
 
-def _varied_scene(params: dict):
+def _relative(file: str | Path, spec: DatasetSpec) -> str:
+    """A scene path as stored: relative to the spec's folder, normalised, '/' separated."""
+    folder = Path(spec.source).parent
+    return Path(os.path.relpath(os.path.normpath(Path(file)), os.path.normpath(folder))).as_posix()
+
+
+def _scene_path(params: dict, spec: DatasetSpec) -> str:
+    return os.path.normpath(Path(spec.source).parent / params["scene"])
+
+
+def _pose(p: dict):
+    from acousim.scene import Pose
+
+    yaw, pitch, roll = np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]])
+    return Pose(p["position_m"], float(yaw), float(pitch), float(roll))
+
+
+def _varied_scene(params: dict, spec: DatasetSpec):
     from acousim.scene.model import Environment
 
-    scene = _scene(params["scene"])
+    scene = _scene(_scene_path(params, spec))
     c = params["conditions"]
     env = Environment(
         c.get("temperature_c", scene.environment.temperature_c),
@@ -150,14 +208,16 @@ def _varied_scene(params: dict):
 
 
 def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
-    """(arrays, parameters) of sample i."""
-    from acousim.scene import Pose
+    """(arrays, parameters) of sample i.
+
+    The parameters gain ``frequency_hz`` (the steering frequency of the snapshot and
+    images), ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
+    """
     from acousim.simulator import Simulator
 
     params = sample_parameters(spec, i)
-    scene = _varied_scene(params)
-    p = params["pose"]
-    pose = Pose(p["position_m"], p["yaw_rad"], p["pitch_rad"], p["roll_rad"])
+    scene = _varied_scene(params, spec)
+    pose = _pose(params["pose"])
     sim = Simulator(scene, threads=1)
     rec = sim.simulate_pose(pose, 0)
     st = spec.store
@@ -172,28 +232,56 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         range_limits_m=(st.min_range_m, scene.simulation.max_range_m),
     )
     snap = P.recording_snapshot(rec, settings)
+    axis, index = _range_axis(rec, settings, snap)
+    if st.snapshot or st.images:
+        arrays["range_m"] = axis.astype(np.float32)
     if st.snapshot:
         arrays["snapshot"] = snap.data.astype(np.complex64)
-        arrays["range_m"] = snap.range_m.astype(np.float32)
+        arrays["range_index"] = index.astype(np.int32)
     if st.images:
         images = P.acoustic_images(rec, st.images, settings, snapshot=snap)
         for m, img in images.items():
-            arrays[f"image/{m}"] = img.db(floor_db=-60).astype(np.float16)
-        arrays["range_m"] = snap.range_m.astype(np.float32)
+            # on the regular range axis; bins the energy gate left out: NaN (no data)
+            dense = np.full((axis.size, *grid.shape), np.nan, np.float16)
+            dense[index] = img.db(floor_db=-60).astype(np.float16)
+            arrays[f"image/{m}"] = dense
     if st.labels:
-        truth = rec.metadata["truth"]
-        arrays["labels/position_sensor_m"] = np.asarray(
-            truth["position_sensor_m"], np.float32
-        ).reshape(-1, 3)
-        arrays["labels/amplitude"] = np.asarray(truth["amplitude"], np.float32)
-        arrays["labels/order"] = np.asarray(truth["order"], np.int8)
+        truth = rec.truth
+        arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
+        arrays["labels/amplitude"] = truth.amplitude.astype(np.float32)
+        arrays["labels/order"] = truth.order.astype(np.int8)
     if st.depth_map:
-        arrays["labels/depth_m"] = _depth_map(params["scene"], pose, grid, scene)
+        arrays["labels/depth_m"] = _depth_map(_scene_path(params, spec), pose, grid, scene)
+    params = {
+        **params,
+        "frequency_hz": snap.frequency_hz,
+        "speed_of_sound_m_s": rec.speed_of_sound_m_s,
+        "range_step_m": snap.bin_range_m,
+        "array": rec.array.name,
+    }
     return arrays, params
 
 
+def _range_axis(
+    rec: P.Recording, settings: P.ProcessingSettings, snap
+) -> tuple[np.ndarray, np.ndarray]:
+    """The regular range axis (R,) of every STFT frame within the range limits (m), and
+    the index (R_kept,) of each kept snapshot bin on it."""
+    hop = settings.window - settings.overlap
+    frames = (rec.n_samples - settings.window) // hop + 1
+    t = (np.arange(frames) * hop + settings.window // 2 - rec.emission_index) / rec.sample_rate_hz
+    r = rec.speed_of_sound_m_s * t / 2
+    lo, hi = settings.range_limits_m
+    axis = r[(r >= lo) & (r <= hi)]
+    index = np.searchsorted(axis, snap.range_m - snap.bin_range_m / 4)
+    if index.size and not np.allclose(axis[index], snap.range_m, rtol=0, atol=1e-9):
+        raise AssertionError("snapshot bins off the regular range axis")  # pragma: no cover
+    return axis, index
+
+
 def _depth_map(scene_file: str, pose, grid: P.Grid, scene) -> np.ndarray:
-    """Distance to the nearest surface along each grid direction (E, A), inf: none."""
+    """Distance (m) to the nearest surface along each grid direction (E, A); inf where
+    the ray leaves the scene without meeting a surface."""
     caster = _world_caster(scene_file)
     d = grid.directions().reshape(-1, 3) @ pose.rotation.T
     if caster is None:
@@ -217,12 +305,15 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
     out = Path(out_dir)
     lo, hi = k * spec.shard_size, min((k + 1) * spec.shard_size, spec.samples)
     final = out / shard_name(k)
-    tmp = out / f".{shard_name(k)}.{os.getpid()}.part"
     records = []
     t0 = time.perf_counter()
-    try:
+    with atomic_path(final) as tmp:
+        arrays_seen: dict[str, P.Array] = {}
         with h5py.File(tmp, "w", track_order=True, libver="latest") as f:
+            f.attrs["schema"] = np.bytes_(SHARD_SCHEMA)
+            f.attrs["schema_version"] = SHARD_SCHEMA_VERSION
             f.attrs["spec_sha256"] = np.bytes_(spec.sha256)
+            _write_axes(f, spec, compression=spec.compression)
             for i in range(lo, hi):
                 arrays, params = make_sample(spec, i)
                 g = _group(f, f"{i - lo:05d}")
@@ -231,37 +322,65 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
                     parent = g
                     for p in parents:
                         parent = parent[p] if p in parent else _group(parent, p)
-                    ds = parent.create_dataset(
-                        leaf,
-                        data=a,
-                        compression=spec.compression if a.size > 64 else None,
-                        track_times=False,
-                    )
-                    # write its chunks now, so that file space is allocated in creation
-                    # order: left to garbage collection, the chunk cache is flushed when
-                    # the last reference goes, later when something (Dask's profiler
-                    # sampling this frame) holds one, and the bytes differ
-                    ds.flush()
+                    ds = _dataset(parent, leaf, a, spec.compression)
+                    ds.attrs["units"] = np.bytes_(UNITS.get(name, "dB"))
+                    ds.attrs["dims"] = np.bytes_(DIMS.get(name, "range,elevation,azimuth"))
                 # fixed-length bytes: no global heap, whose layout varies between processes
                 g.attrs["params"] = np.bytes_(json.dumps(params, sort_keys=True))
                 records.append({**params, "shard": k, "offset": i - lo})
+                name = params["array"]
+                if name not in arrays_seen:
+                    arrays_seen[name] = _scene(_scene_path(params, spec)).sensor.array
+            geometry = _group(f, "arrays")
+            for name, array in sorted(arrays_seen.items()):
+                a = _group(geometry, name)
+                _dataset(a, "positions_m", array.positions_m, None).attrs["units"] = b"m"
+                _dataset(a, "emitter_m", array.emitter_m, None).attrs["units"] = b"m"
         digest = hashlib.sha256(tmp.read_bytes()).hexdigest()
-        os.replace(tmp, final)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+        size = tmp.stat().st_size
     side = {
         "shard": k,
         "file": final.name,
         "sha256": digest,
         "samples": records,
         "seconds": time.perf_counter() - t0,
-        "bytes": final.stat().st_size,
+        "bytes": size,
     }
-    side_tmp = out / f".{final.stem}.json.part"
-    side_tmp.write_text(json.dumps(side, sort_keys=True))
-    os.replace(side_tmp, out / f"{final.stem}.json")
+    write_text(out / f"{final.stem}.json", json.dumps(side, sort_keys=True))
     return side
+
+
+def _dataset(parent: h5py.Group, name: str, a: np.ndarray, compression) -> h5py.Dataset:
+    """A dataset with HDF5's fletcher32 checksum (a corrupted chunk fails to read),
+    without timestamps; its chunks written at once, so that file space is allocated in
+    creation order: left to garbage collection, the chunk cache is flushed when the
+    last reference goes, later when something (Dask's profiler sampling this frame)
+    holds one, and the bytes differ."""
+    a = np.asarray(a)
+    ds = parent.create_dataset(
+        name,
+        data=a,
+        compression=compression if a.size > 64 else None,
+        chunks=a.shape if a.size else None,
+        fletcher32=bool(a.size),
+        track_times=False,
+    )
+    ds.flush()
+    return ds
+
+
+def _write_axes(f: h5py.File, spec: DatasetSpec, compression) -> None:
+    """The image grid's axes (degrees, as in the spec) and the range settings."""
+    st = spec.store
+    grid = P.Grid.degrees(st.azimuth_deg, st.elevation_deg, st.step_deg)
+    axes = _group(f, "axes")
+    for name, values in (
+        ("azimuth_deg", np.rad2deg(grid.azimuth_rad)),
+        ("elevation_deg", np.rad2deg(grid.elevation_rad)),
+    ):
+        _dataset(axes, name, values, None).attrs["units"] = b"deg"
+    axes.attrs["min_range_m"] = st.min_range_m
+    axes.attrs["energy_fraction"] = st.energy_fraction
 
 
 def _shard_job(args: tuple[str, int, str]) -> dict:
@@ -275,12 +394,97 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
         return write_shard(load_spec(spec_path), k, out)
 
 
-def _done(spec: DatasetSpec, out: Path) -> set[int]:
-    done = set()
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
+    """Finished shards whose bytes match their sidecar's sha256, and the shards found
+    damaged (removed, to be redone)."""
+    done, damaged = set(), []
     for k in range(spec.n_shards):
-        if (out / shard_name(k)).is_file() and (out / f"shard_{k:05d}.json").is_file():
+        shard, side = out / shard_name(k), out / f"shard_{k:05d}.json"
+        if not (shard.is_file() and side.is_file()):
+            continue
+        try:
+            ok = _sha256(shard) == json.loads(side.read_text())["sha256"]
+        except (ValueError, KeyError, TypeError):
+            ok = False
+        if ok:
             done.add(k)
-    return done
+        else:
+            damaged.append(k)
+            shard.unlink()
+            side.unlink()
+    return done, damaged
+
+
+@contextlib.contextmanager
+def _locked(out: Path):
+    """Hold the folder's lock (``flock``: released when the process ends, however)."""
+    fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(
+                "another acousim dataset generator is writing this folder; wait for it "
+                "or use another --out",
+                file=out,
+            ) from None
+        yield
+    finally:
+        os.close(fd)
+
+
+def _watch_parent(parent_pid: int) -> None:
+    """Pool worker initializer: exit as soon as the main process is gone (a killed
+    main process must not leave workers computing for minutes)."""
+    with contextlib.suppress(Exception):  # Linux: the kernel signals us at once
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    start_ppid = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(0.5)
+            try:
+                os.kill(parent_pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            if os.getppid() != start_ppid:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="watch-parent").start()
+
+
+def _check_scheduler(address: str, timeout_s: float = 5.0) -> None:
+    """Fail at once, with the address, when nothing listens there (Dask's Client would
+    wait 30 s and raise a bare OSError)."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or not port:
+        raise InputError("expected tcp://HOST:PORT", key="--scheduler", value=address)
+    try:
+        socket.create_connection((host, port), timeout=timeout_s).close()
+    except OSError as exc:
+        raise InputError(
+            f"no Dask scheduler reachable there ({exc.strerror or exc})",
+            key="--scheduler",
+            value=address,
+        ) from None
 
 
 def generate(
@@ -291,49 +495,62 @@ def generate(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict:
-    """Generate (or finish) a dataset; returns the manifest."""
+    """Generate (or finish) a dataset; returns the manifest.
+
+    The manifest's ``summary`` adds ``damaged_shards``: finished shards whose bytes no
+    longer matched their recorded sha256 and were redone.
+    """
     spec = load_spec(spec_path)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in out.glob(".shard_*.part"):
-        stale.unlink()  # an interrupted run's incomplete shard: redone
-    existing = out / "spec.sha256"
-    if existing.is_file() and existing.read_text().strip() != spec.sha256:
-        raise ValueError(
-            f"{out} holds a dataset of another spec (sha256 "
-            f"{existing.read_text().strip()[:12]}...); use a new folder"
-        )
-    existing.write_text(spec.sha256 + "\n")
-    todo = [k for k in range(spec.n_shards) if k not in _done(spec, out)]
-    jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
-    done_count = spec.n_shards - len(todo)
-    t0 = time.perf_counter()
-    if progress:
-        progress(done_count, spec.n_shards)
     if scheduler:
-        from dask.distributed import Client, as_completed
+        _check_scheduler(scheduler)
+    out.mkdir(parents=True, exist_ok=True)
+    with _locked(out):
+        for stale in out.glob(f"{TEMP_PREFIX}*"):
+            stale.unlink()  # an interrupted run's incomplete file: redone
+        existing = out / "spec.sha256"
+        if existing.is_file() and existing.read_text().strip() != spec.sha256:
+            raise InputError(
+                f"holds a dataset of another spec (sha256 {existing.read_text().strip()[:12]}"
+                "...); use a new folder",
+                file=out,
+            )
+        write_text(existing, spec.sha256 + "\n")
+        done, damaged = _done(spec, out)
+        todo = [k for k in range(spec.n_shards) if k not in done]
+        jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
+        done_count = spec.n_shards - len(todo)
+        t0 = time.perf_counter()
+        if progress:
+            progress(done_count, spec.n_shards)
+        if scheduler:
+            from dask.distributed import Client, as_completed
 
-        with Client(scheduler) as client:
-            futures = client.map(_shard_job, jobs, pure=False)
-            for _ in as_completed(futures):
+            with Client(scheduler, timeout="10s") as client:
+                futures = client.map(_shard_job, jobs, pure=False)
+                for _ in as_completed(futures):
+                    done_count += 1
+                    if progress:
+                        progress(done_count, spec.n_shards)
+                client.gather(futures)
+        elif workers > 1 and len(jobs) > 1:
+            with ProcessPoolExecutor(
+                workers, initializer=_watch_parent, initargs=(os.getpid(),)
+            ) as pool:
+                for _ in pool.map(_shard_job, jobs):
+                    done_count += 1
+                    if progress:
+                        progress(done_count, spec.n_shards)
+        else:
+            for job in jobs:
+                _shard_job(job)
                 done_count += 1
                 if progress:
                     progress(done_count, spec.n_shards)
-            client.gather(futures)
-    elif workers > 1 and len(jobs) > 1:
-        with ProcessPoolExecutor(workers) as pool:
-            for _ in pool.map(_shard_job, jobs):
-                done_count += 1
-                if progress:
-                    progress(done_count, spec.n_shards)
-    else:
-        for job in jobs:
-            _shard_job(job)
-            done_count += 1
-            if progress:
-                progress(done_count, spec.n_shards)
-    elapsed = time.perf_counter() - t0
-    return _manifest(spec, out, elapsed, todo)
+        elapsed = time.perf_counter() - t0
+        manifest = _manifest(spec, out, elapsed, todo)
+    manifest["summary"]["damaged_shards"] = damaged
+    return manifest
 
 
 def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int]) -> dict:
@@ -341,6 +558,8 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
     samples = [s for side in sides for s in side["samples"]]
     total = sum(s["bytes"] for s in sides)
     manifest = {
+        "schema": "acousim.dataset",
+        "schema_version": SHARD_SCHEMA_VERSION,
         "name": spec.name,
         "spec": Path(spec.source).name,
         "spec_sha256": spec.sha256,
@@ -357,9 +576,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
         ],
         "sample_table": samples,
     }
-    tmp = out / f".{MANIFEST}.part"
-    tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True))
-    os.replace(tmp, out / MANIFEST)
+    write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True))
     made = sum(len(sides[k]["samples"]) for k in computed)
     manifest["summary"] = {
         "bytes_per_sample": total / max(len(samples), 1),

@@ -1,69 +1,133 @@
-"""Reading a generated dataset: samples as numpy arrays with their labels."""
+"""Reading a generated dataset: samples as numpy arrays with their labels.
+
+Integrity: every shard is checked against the manifest's sha256 the first time it is
+opened (``verify=True``, the default), and every array carries HDF5's fletcher32
+checksum, so a corrupted chunk fails to read even with ``verify=False``.
+"""
 
 from __future__ import annotations
 
+import hashlib
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from processing.errors import InputError
+
 from .generation import MANIFEST
 
-__all__ = ["DatasetReader", "TorchAdapter"]
+__all__ = ["DatasetReader", "TorchAdapter", "DatasetError"]
+
+_SHARD = re.compile(r"shard_\d{5}\.h5")
+
+
+class DatasetError(InputError):
+    """A dataset folder or shard that cannot be read: names the file and what is wrong."""
 
 
 class DatasetReader:
     """Random access and iteration over a dataset folder.
 
     ``reader[i]`` is a dict: every stored array (``snapshot``, ``range_m``,
-    ``image/<method>`` in dB, ``labels/...``, ``raw``) plus ``params`` (the sample's
-    scene, pose, conditions and seed).
+    ``range_index``, ``image/<method>`` in dB, ``labels/...``, ``raw``) plus ``params``
+    (the sample's scene, pose, conditions, seed and steering frequency).
+    ``reader.azimuth_deg`` and ``reader.elevation_deg`` are the image axes.
+
+    Parameters
+    ----------
+    verify : bool
+        Check each shard's sha256 against the manifest when it is first opened
+        (reads each shard once more); default True.
     """
 
-    def __init__(self, folder: str | Path, verify: bool = False) -> None:
+    def __init__(self, folder: str | Path, verify: bool = True) -> None:
         self.folder = Path(folder)
         path = self.folder / MANIFEST
         if not path.is_file():
-            raise FileNotFoundError(f"{self.folder}: no {MANIFEST} (generation unfinished?)")
-        self.manifest = json.loads(path.read_text())
-        self._table = sorted(self.manifest["sample_table"], key=lambda s: s["index"])
+            raise DatasetError(f"no {MANIFEST} (generation unfinished?)", file=self.folder)
+        try:
+            self.manifest = json.loads(path.read_text())
+            self._table = sorted(self.manifest["sample_table"], key=lambda s: s["index"])
+            self._hashes = {sh["file"]: sh["sha256"] for sh in self.manifest["shards"]}
+        except (ValueError, KeyError, TypeError) as exc:
+            raise DatasetError(f"malformed manifest ({exc!r})", file=path) from None
+        for name in self._hashes:
+            self._shard_path(name)  # confined to the folder, or an error
+        self.verify_on_open = verify
         self._files: dict[str, h5py.File] = {}
-        if verify:
-            self.verify()
+
+    def _shard_path(self, name) -> Path:
+        """A manifest's file name: only ``shard_NNNNN.h5`` inside the dataset folder."""
+        if not (isinstance(name, str) and _SHARD.fullmatch(name)):
+            raise DatasetError(
+                "manifest names a file that is not a shard of this folder",
+                file=self.folder / MANIFEST,
+                key="shards.file",
+                value=name,
+            )
+        return self.folder / name
 
     def verify(self) -> None:
-        """Check every shard's sha256 against the manifest."""
-        import hashlib
+        """Check every shard's sha256 against the manifest now."""
+        for name in self._hashes:
+            self._check(name)
 
-        for sh in self.manifest["shards"]:
-            digest = hashlib.sha256((self.folder / sh["file"]).read_bytes()).hexdigest()
-            if digest != sh["sha256"]:
-                raise ValueError(
-                    f"{self.folder / sh['file']}: sha256 {digest} does not match "
-                    f"the manifest's {sh['sha256']}"
-                )
+    def _check(self, name: str) -> None:
+        path = self._shard_path(name)
+        if not path.is_file():
+            raise DatasetError("shard missing", file=path)
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        if h.hexdigest() != self._hashes[name]:
+            raise DatasetError(
+                f"sha256 {h.hexdigest()} does not match the manifest's {self._hashes[name]} "
+                "(corrupted: regenerate the dataset, which redoes damaged shards)",
+                file=path,
+            )
 
     def __len__(self) -> int:
         return len(self._table)
 
     def _file(self, name: str) -> h5py.File:
         if name not in self._files:
-            self._files[name] = h5py.File(self.folder / name, "r")
+            if self.verify_on_open:
+                self._check(name)
+            self._files[name] = h5py.File(self._shard_path(name), "r")
         return self._files[name]
+
+    @property
+    def azimuth_deg(self) -> np.ndarray:
+        return self._file(next(iter(self._hashes)))["axes/azimuth_deg"][()]
+
+    @property
+    def elevation_deg(self) -> np.ndarray:
+        return self._file(next(iter(self._hashes)))["axes/elevation_deg"][()]
 
     def __getitem__(self, i: int) -> dict:
         if not -len(self) <= i < len(self):
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
         rec = self._table[i]
-        g = self._file(f"shard_{rec['shard']:05d}.h5")[f"{rec['offset']:05d}"]
+        name = f"shard_{rec['shard']:05d}.h5"
+        g = self._file(name)[f"{rec['offset']:05d}"]
         raw = g.attrs["params"]
         out: dict = {"params": json.loads(raw.decode() if isinstance(raw, bytes) else raw)}
 
-        def visit(name, obj):
+        def visit(key, obj):
             if isinstance(obj, h5py.Dataset):
-                out[name] = obj[()]
+                try:
+                    out[key] = obj[()]
+                except OSError as exc:
+                    raise DatasetError(
+                        f"cannot be read: corrupted (checksum) ({exc})",
+                        file=self.folder / name,
+                        key=obj.name,
+                    ) from None
 
         g.visititems(visit)
         return out
