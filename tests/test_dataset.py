@@ -180,3 +180,202 @@ def test_dataset_command(spec, tmp_path, capsys):
     (tmp_path / "other.toml").write_text(spec.read_text().replace("seed = 3", "seed = 4"))
     assert main(["dataset", str(tmp_path / "other.toml"), "--out", str(tmp_path / "d")]) == 2
     assert "another spec" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------ file contents
+
+
+def test_shard_metadata_axes_units_and_a_regular_range_axis(spec, tmp_path):
+    import h5py
+
+    generate(spec, tmp_path / "d", workers=1)
+    r = DatasetReader(tmp_path / "d")
+    np.testing.assert_allclose(r.azimuth_deg, np.arange(-90, 91, 6.0))
+    np.testing.assert_allclose(r.elevation_deg, np.arange(-30, 31, 6.0))
+    for i in range(len(r)):
+        s = r[i]
+        p = s["params"]
+        # the STFT hop (256 - 240 samples) at 450 kHz, as range: c * hop / fs / 2
+        step = p["speed_of_sound_m_s"] * 16 / 450e3 / 2
+        assert p["range_step_m"] == pytest.approx(step)
+        np.testing.assert_allclose(np.diff(s["range_m"]), step, rtol=1e-5)
+        img, kept = s["image/das"], s["range_index"]
+        assert img.shape == (s["range_m"].size, 11, 31)
+        assert np.isfinite(img[kept]).all()
+        assert np.isnan(np.delete(img, kept, axis=0)).all()
+        assert s["snapshot"].shape[1] == kept.size
+        assert 20e3 <= p["frequency_hz"] <= 80e3  # inside the call's band
+        assert set(p["pose"]) >= {"position_m", "yaw_deg", "pitch_deg", "roll_deg"}
+        scene = (spec.parent / p["scene"]).resolve()
+        assert scene.parent == SCENES and ".." not in Path(p["scene"]).name
+    with h5py.File(tmp_path / "d" / "shard_00000.h5") as f:
+        assert f.attrs["schema"] == b"acousim.dataset.shard"
+        g = f["00000"]
+        assert g["range_m"].attrs["units"] == b"m" and g["image/das"].attrs["units"] == b"dB"
+        assert g["labels/depth_m"].attrs["units"] == b"m"
+        assert all(d.fletcher32 for d in _datasets(f) if d.size)
+        assert f["arrays"][r[0]["params"]["array"]]["positions_m"].shape[1] == 3
+
+
+def _datasets(f):
+    import h5py
+
+    found = []
+    f.visititems(lambda k, o: found.append(o) if isinstance(o, h5py.Dataset) else None)
+    return found
+
+
+# ------------------------------------------------------------ robustness
+
+
+def test_second_generator_on_a_folder_is_refused(spec, tmp_path):
+    import fcntl
+    import os
+
+    from processing.errors import InputError
+
+    out = tmp_path / "d"
+    out.mkdir()
+    fd = os.open(out / ".acousim-dataset.lock", os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # as a running generator holds it
+    try:
+        with pytest.raises(InputError, match="another acousim dataset generator"):
+            generate(spec, out, workers=1)
+    finally:
+        os.close(fd)
+    assert not list(out.glob("shard_*"))
+
+
+def _flip(path, offset):
+    raw = bytearray(path.read_bytes())
+    raw[offset] ^= 0xFF
+    path.write_bytes(bytes(raw))
+
+
+def _chunk_offset(path, dataset):
+    import h5py
+
+    with h5py.File(path) as f:
+        return f[dataset].id.get_chunk_info(0).byte_offset
+
+
+def test_resume_redoes_damaged_shards(spec, tmp_path):
+    clean = tmp_path / "clean"
+    generate(spec, clean, workers=1)
+    d = tmp_path / "d"
+    shutil.copytree(clean, d)
+    _flip(d / "shard_00001.h5", _chunk_offset(d / "shard_00001.h5", "00000/range_m") + 3)
+    (d / "shard_00002.h5").write_bytes(b"")  # truncated to nothing
+    m = generate(spec, d, workers=1)
+    assert m["summary"]["damaged_shards"] == [1, 2]
+    assert m["summary"]["samples_computed"] == 4
+    assert shard_hashes(d) == shard_hashes(clean)
+
+
+def test_reader_refuses_corruption_with_and_without_verify(spec, tmp_path):
+    from acousim.dataset import DatasetError
+
+    d = tmp_path / "d"
+    generate(spec, d, workers=1)
+    shard = d / "shard_00001.h5"
+    _flip(shard, _chunk_offset(shard, "00000/range_m") + 3)
+    r = DatasetReader(d)  # verify=True by default: sha256 on the shard's first opening
+    r[0]
+    with pytest.raises(DatasetError, match="shard_00001.h5: sha256 .* does not match"):
+        r[2]
+    r = DatasetReader(d, verify=False)  # fletcher32 still catches it
+    with pytest.raises(DatasetError, match="shard_00001.h5: /00000/range_m: cannot be read"):
+        r[2]
+
+
+def test_manifest_names_stay_inside_the_folder(spec, tmp_path):
+    import json as js
+
+    from acousim.dataset import DatasetError
+
+    d = tmp_path / "d"
+    generate(spec, d, workers=1)
+    m = js.loads((d / "manifest.json").read_text())
+    m["shards"][0]["file"] = "../../../../etc/hostname"
+    (d / "manifest.json").write_text(js.dumps(m))
+    with pytest.raises(DatasetError, match=r"shards.file = '../../../../etc/hostname'"):
+        DatasetReader(d)
+
+
+def test_unreachable_scheduler_fails_at_once(spec, tmp_path):
+    import socket
+
+    from processing.errors import InputError
+
+    with socket.socket() as s:  # a port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(InputError, match=rf"--scheduler = 'tcp://127.0.0.1:{port}': no Dask"):
+        generate(spec, tmp_path / "d", scheduler=f"tcp://127.0.0.1:{port}")
+    assert not (tmp_path / "d").exists()
+
+
+def _children(pid):
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []
+
+
+def _alive(pid):
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
+def test_killing_the_main_process_ends_its_workers(spec, tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    big = tmp_path / "big.toml"
+    big.write_text(spec.read_text().replace("samples = 6", "samples = 40"))
+    code = (
+        "from acousim.dataset import generate; import sys; "
+        "generate(sys.argv[1], sys.argv[2], workers=2)"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
+    main = subprocess.Popen([sys.executable, "-c", code, str(big), str(tmp_path / "d")], env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while len(_children(main.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        workers = _children(main.pid)
+        assert len(workers) >= 2
+        os.kill(main.pid, signal.SIGKILL)
+        main.wait()
+        deadline = time.monotonic() + 10
+        while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not any(_alive(w) for w in workers)
+    finally:
+        if main.poll() is None:
+            main.kill()
+    # and the interrupted folder resumes to a complete dataset
+    m = generate(big, tmp_path / "d", workers=1)
+    assert m["samples"] == 40
+
+
+def test_info_on_a_shard_and_a_dataset_folder(spec, tmp_path, capsys):
+    from acousim.cli import main
+
+    d = tmp_path / "d"
+    generate(spec, d, workers=1)
+    assert main(["info", str(d / "shard_00000.h5")]) == 0
+    out = capsys.readouterr().out
+    assert "dataset shard, 2 sample(s)" in out and "image/das (" in out
+    assert "azimuth -90..90° (31)" in out
+    assert main(["info", str(d)]) == 0
+    out = capsys.readouterr().out
+    assert "dataset 'tiny', 6 sample(s) in 3 shard(s)" in out
+    assert main(["info", str(tmp_path / "nothing")]) == 2

@@ -234,7 +234,7 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     snap = P.recording_snapshot(rec, settings)
     axis, index = _range_axis(rec, settings, snap)
     if st.snapshot or st.images:
-        arrays["range_m"] = axis.astype(np.float32)
+        arrays["range_m"] = axis  # float64: exactly regular
     if st.snapshot:
         arrays["snapshot"] = snap.data.astype(np.complex64)
         arrays["range_index"] = index.astype(np.int32)
