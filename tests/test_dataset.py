@@ -361,6 +361,9 @@ def test_killing_the_main_process_ends_its_workers(spec, tmp_path):
     finally:
         if main.poll() is None:
             main.kill()
+        for w in _children(main.pid) + locals().get("workers", []):
+            if _alive(w):
+                os.kill(w, signal.SIGKILL)
     # and the interrupted folder resumes to a complete dataset
     m = generate(big, tmp_path / "d", workers=1)
     assert m["samples"] == 40
