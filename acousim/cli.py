@@ -139,16 +139,17 @@ def _cmd_image(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--method {args.method!r}: {exc}") from None
     out = _writable_dir(args.out)
+    index = _parse_indices("--index", args.index)
     try:
-        recs = P.load_recordings(args.file)
+        n = P.count_recordings(args.file)
+        if index is not None:
+            bad = [i for i in index if not 0 <= i < n]
+            if bad:
+                raise UsageError(f"--index {bad}: the file holds {n} recording(s)")
+        # only the recordings asked for are read
+        recs = [P.load_recording(args.file, i) for i in (range(n) if index is None else index)]
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    index = _parse_indices("--index", args.index)
-    if index is not None:
-        bad = [i for i in index if not 0 <= i < len(recs)]
-        if bad:
-            raise UsageError(f"--index {bad}: the file holds {len(recs)} recording(s)")
-        recs = [recs[i] for i in index]
     try:
         images = image_recordings(recs, options, _progress("image"))
     except ValueError as exc:
@@ -405,7 +406,7 @@ def _count_real(args: argparse.Namespace) -> int:
     if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
         return 1
     try:
-        return len(P.load_recordings(args.real))
+        return P.count_recordings(args.real)
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
 
