@@ -2,6 +2,7 @@
 order past 9,999, lazy reading, schema 1 files, and a corrupted-file test per field."""
 
 import json
+import re
 
 import h5py
 import numpy as np
@@ -312,3 +313,18 @@ def test_recording_refuses_inconsistent_input():
         P.Recording(np.zeros((3, 10)), 1e3, P.paper_8x8(), P.paper_chirp())
     with pytest.raises(ValueError, match="speed_of_sound"):
         P.Recording(np.zeros((64, 10)), 1e3, P.paper_8x8(), P.paper_chirp(), 3430.0)
+
+
+@pytest.mark.parametrize("case", ["nan samples", "deleted pitch", "pose", "truth kind"])
+def test_command_line_reports_a_corrupted_file_in_one_line(tmp_path, capsys, case):
+    from acousim.cli import main
+
+    path = P.save_recording(tmp_path / "r.h5", make(truth=truth()))
+    change, pattern = CASES[case]
+    with h5py.File(path, "a") as f:
+        change(f, f["recordings/000000"])
+    for command in (["info", str(path)], ["image", str(path), "--out", str(tmp_path / "o")]):
+        assert main(command) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and str(path) in err
+        assert re.search(pattern, err), err
