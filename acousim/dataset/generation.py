@@ -17,14 +17,10 @@ number of workers.  The file layout is in ``docs/dataset-format.md``.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import fcntl
 import hashlib
 import json
 import os
-import socket
-import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -38,6 +34,7 @@ import processing as P
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
 
+from .safety import check_scheduler, locked, sha256_file, watch_parent
 from .spec import DatasetSpec, load_spec
 
 __all__ = [
@@ -50,7 +47,6 @@ __all__ = [
 ]
 
 MANIFEST = "manifest.json"
-LOCK = ".acousim-dataset.lock"
 SHARD_SCHEMA = "acousim.dataset.shard"
 SHARD_SCHEMA_VERSION = 2
 UNITS = {
@@ -235,9 +231,9 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     axis, index = _range_axis(rec, settings, snap)
     if st.snapshot or st.images:
         arrays["range_m"] = axis  # float64: exactly regular
+        arrays["range_index"] = index.astype(np.int32)
     if st.snapshot:
         arrays["snapshot"] = snap.data.astype(np.complex64)
-        arrays["range_index"] = index.astype(np.int32)
     if st.images:
         images = P.acoustic_images(rec, st.images, settings, snapshot=snap)
         for m, img in images.items():
@@ -313,7 +309,7 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
             f.attrs["schema"] = np.bytes_(SHARD_SCHEMA)
             f.attrs["schema_version"] = SHARD_SCHEMA_VERSION
             f.attrs["spec_sha256"] = np.bytes_(spec.sha256)
-            _write_axes(f, spec, compression=spec.compression)
+            _write_axes(f, spec)
             for i in range(lo, hi):
                 arrays, params = make_sample(spec, i)
                 g = _group(f, f"{i - lo:05d}")
@@ -369,7 +365,7 @@ def _dataset(parent: h5py.Group, name: str, a: np.ndarray, compression) -> h5py.
     return ds
 
 
-def _write_axes(f: h5py.File, spec: DatasetSpec, compression) -> None:
+def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
     """The image grid's axes (degrees, as in the spec) and the range settings."""
     st = spec.store
     grid = P.Grid.degrees(st.azimuth_deg, st.elevation_deg, st.step_deg)
@@ -394,14 +390,6 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
         return write_shard(load_spec(spec_path), k, out)
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     """Finished shards whose bytes match their sidecar's sha256, and the shards found
     damaged (removed, to be redone)."""
@@ -411,7 +399,7 @@ def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
         if not (shard.is_file() and side.is_file()):
             continue
         try:
-            ok = _sha256(shard) == json.loads(side.read_text())["sha256"]
+            ok = sha256_file(shard) == json.loads(side.read_text())["sha256"]
         except (ValueError, KeyError, TypeError):
             ok = False
         if ok:
@@ -421,70 +409,6 @@ def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
             shard.unlink()
             side.unlink()
     return done, damaged
-
-
-@contextlib.contextmanager
-def _locked(out: Path):
-    """Hold the folder's lock (``flock``: released when the process ends, however)."""
-    fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise InputError(
-                "another acousim dataset generator is writing this folder; wait for it "
-                "or use another --out",
-                file=out,
-            ) from None
-        yield
-    finally:
-        os.close(fd)
-
-
-def _watch_parent(parent_pid: int) -> None:
-    """Pool worker initializer: exit as soon as the main process is gone (a killed
-    main process must not leave workers computing for minutes)."""
-    with contextlib.suppress(Exception):  # Linux: the kernel signals us at once
-        import ctypes
-        import signal
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    start_ppid = os.getppid()
-
-    def watch() -> None:
-        while True:
-            time.sleep(0.5)
-            try:
-                os.kill(parent_pid, 0)
-            except ProcessLookupError:
-                os._exit(1)
-            if os.getppid() != start_ppid:
-                os._exit(1)
-
-    threading.Thread(target=watch, daemon=True, name="watch-parent").start()
-
-
-def _check_scheduler(address: str, timeout_s: float = 5.0) -> None:
-    """Fail at once, with the address, when nothing listens there (Dask's Client would
-    wait 30 s and raise a bare OSError)."""
-    from urllib.parse import urlsplit
-
-    parts = urlsplit(address if "://" in address else f"tcp://{address}")
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:
-        host = port = None
-    if not host or not port:
-        raise InputError("expected tcp://HOST:PORT", key="--scheduler", value=address)
-    try:
-        socket.create_connection((host, port), timeout=timeout_s).close()
-    except OSError as exc:
-        raise InputError(
-            f"no Dask scheduler reachable there ({exc.strerror or exc})",
-            key="--scheduler",
-            value=address,
-        ) from None
 
 
 def generate(
@@ -503,9 +427,9 @@ def generate(
     spec = load_spec(spec_path)
     out = Path(out_dir)
     if scheduler:
-        _check_scheduler(scheduler)
+        check_scheduler(scheduler)
     out.mkdir(parents=True, exist_ok=True)
-    with _locked(out):
+    with locked(out):
         for stale in out.glob(f"{TEMP_PREFIX}*"):
             stale.unlink()  # an interrupted run's incomplete file: redone
         existing = out / "spec.sha256"
@@ -535,7 +459,7 @@ def generate(
                 client.gather(futures)
         elif workers > 1 and len(jobs) > 1:
             with ProcessPoolExecutor(
-                workers, initializer=_watch_parent, initargs=(os.getpid(),)
+                workers, initializer=watch_parent, initargs=(os.getpid(),)
             ) as pool:
                 for _ in pool.map(_shard_job, jobs):
                     done_count += 1

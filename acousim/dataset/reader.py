@@ -7,7 +7,6 @@ checksum, so a corrupted chunk fails to read even with ``verify=False``.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 from collections.abc import Iterator
@@ -19,6 +18,7 @@ import numpy as np
 from processing.errors import InputError
 
 from .generation import MANIFEST
+from .safety import sha256_file
 
 __all__ = ["DatasetReader", "TorchAdapter", "DatasetError"]
 
@@ -80,13 +80,10 @@ class DatasetReader:
         path = self._shard_path(name)
         if not path.is_file():
             raise DatasetError("shard missing", file=path)
-        h = hashlib.sha256()
-        with open(path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-        if h.hexdigest() != self._hashes[name]:
+        digest = sha256_file(path)
+        if digest != self._hashes[name]:
             raise DatasetError(
-                f"sha256 {h.hexdigest()} does not match the manifest's {self._hashes[name]} "
+                f"sha256 {digest} does not match the manifest's {self._hashes[name]} "
                 "(corrupted: regenerate the dataset, which redoes damaged shards)",
                 file=path,
             )
