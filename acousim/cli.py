@@ -142,6 +142,8 @@ def _cmd_image(args: argparse.Namespace) -> int:
     index = _parse_indices("--index", args.index)
     try:
         n = P.count_recordings(args.file)
+        if n == 0:
+            raise UsageError(f"{args.file}: the file holds no recordings")
         if index is not None:
             bad = [i for i in index if not 0 <= i < n]
             if bad:

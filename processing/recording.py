@@ -360,7 +360,7 @@ def _open(path: Path):
                 f"not a recording file (expected {SCHEMA!r})",
                 file=path,
                 key="schema",
-                value=f.attrs.get("schema"),
+                value=_plain(f.attrs.get("schema")),
             )
         raw = f.attrs.get("schema_version")
         if not (isinstance(raw, (int, np.integer)) and int(raw) in SUPPORTED_VERSIONS):
@@ -368,7 +368,7 @@ def _open(path: Path):
                 f"unsupported; this version reads {SUPPORTED_VERSIONS}",
                 file=path,
                 key="schema_version",
-                value=raw,
+                value=_plain(raw),
             )
         if "recordings" not in f or not isinstance(f["recordings"], h5py.Group):
             raise RecordingFileError("missing group", file=path, key="recordings")
@@ -378,7 +378,24 @@ def _open(path: Path):
             raise RecordingFileError(
                 "group names must be numbers", file=path, key="recordings", value=bad[0]
             )
+        count = f.attrs.get("count", len(names))  # schema 2 records it
+        if not (isinstance(count, (int, np.integer)) and int(count) == len(names)):
+            raise RecordingFileError(
+                f"the file holds {len(names)} recording group(s) (damaged or edited?)",
+                file=path,
+                key="count",
+                value=_plain(count),
+            )
         yield f, int(raw), sorted(names, key=int)
+
+
+def _plain(value):
+    """A value as shown in an error: numpy scalars and arrays as Python ones."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
 
 
 def _text(value) -> str | None:
@@ -441,13 +458,15 @@ def _attr(path: Path, g: h5py.Group, name: str, kind: type = float):
     if kind is str:
         text = _text(v)
         if text is None:
-            raise RecordingFileError("must be a string", file=path, key=key, value=v)
+            raise RecordingFileError("must be a string", file=path, key=key, value=_plain(v))
         return text
     ok = np.ndim(v) == 0 and isinstance(v, (int, float, np.integer, np.floating))
     if kind is int:
         ok = ok and float(v) == int(v)
     if not ok or not np.isfinite(float(v)):
-        raise RecordingFileError(f"must be a finite {kind.__name__}", file=path, key=key, value=v)
+        raise RecordingFileError(
+            f"must be a finite {kind.__name__}", file=path, key=key, value=_plain(v)
+        )
     return kind(v)
 
 
@@ -485,7 +504,10 @@ def _array(path: Path, g: h5py.Group) -> Array:
         raise RecordingFileError("two microphones at the same position", file=path, key=key)
     if emitter.shape != (3,) or not np.all(np.isfinite(emitter)):
         raise RecordingFileError(
-            "must be 3 finite metres", file=path, key=f"{g.name}/array/emitter", value=emitter
+            "must be 3 finite metres",
+            file=path,
+            key=f"{g.name}/array/emitter",
+            value=_plain(emitter),
         )
     grid_index = pitch = None
     if "array/grid_index" in g:
@@ -502,7 +524,10 @@ def _array(path: Path, g: h5py.Group) -> Array:
             or not np.all(pitch > 0)
         ):
             raise RecordingFileError(
-                "must be two positive finite metres (dz, dy)", file=path, key=key, value=pitch
+                "must be two positive finite metres (dz, dy)",
+                file=path,
+                key=key,
+                value=_plain(pitch),
             )
         pitch = (float(pitch[0]), float(pitch[1]))
     name = _attr(path, g, "array_name", str)

@@ -154,7 +154,7 @@ CASES = {
     ),
     "nan pitch": (
         lambda f, g: g["array/grid_index"].attrs.__setitem__("pitch_m", [np.nan, np.nan]),
-        r"grid_index.pitch_m = .*nan.*positive",
+        r"grid_index.pitch_m = \[nan, nan\]: must be two positive",
     ),
     "zero pitch": (
         lambda f, g: g["array/grid_index"].attrs.__setitem__("pitch_m", [0.0, 0.0]),
@@ -199,6 +199,10 @@ CASES = {
     "sample rate text": (
         lambda f, g: g.attrs.__setitem__("sample_rate_hz", "fast"),
         r"sample_rate_hz = 'fast': must be a finite float",
+    ),
+    "count": (
+        lambda f, g: f.attrs.__setitem__("count", 2),
+        r"count = 2: the file holds 1 recording group",
     ),
     "waveform": (
         lambda f, g: g.attrs.__setitem__("waveform", "[]"),
