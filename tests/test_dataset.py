@@ -382,3 +382,21 @@ def test_info_on_a_shard_and_a_dataset_folder(spec, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "dataset 'tiny', 6 sample(s) in 3 shard(s)" in out
     assert main(["info", str(tmp_path / "nothing")]) == 2
+    capsys.readouterr()
+    (d / "manifest.json").unlink()
+    assert main(["info", str(d)]) == 2
+    assert "no manifest.json (generation unfinished?)" in capsys.readouterr().err
+
+
+def test_dataset_command_with_an_unreachable_scheduler(spec, tmp_path, capsys):
+    import socket
+
+    from acousim.cli import main
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    out = tmp_path / "d"
+    assert main(["dataset", str(spec), "--out", str(out), "--scheduler", f"127.0.0.1:{port}"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"--scheduler = '127.0.0.1:{port}'" in err, err
