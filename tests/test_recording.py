@@ -332,3 +332,10 @@ def test_command_line_reports_a_corrupted_file_in_one_line(tmp_path, capsys, cas
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and str(path) in err
         assert re.search(pattern, err), err
+
+
+def test_a_scene_without_paths_round_trips_an_empty_truth(tmp_path):
+    empty = P.GroundTruth([], [], [], [], [])
+    rec = P.Recording(np.zeros((64, 50)), 500e3, P.paper_8x8(), P.paper_chirp(), truth=empty)
+    back = P.load_recording(P.save_recording(tmp_path / "r.h5", rec))
+    assert len(back.truth) == 0 and back.truth.position_world_m.shape == (0, 3)
