@@ -11,7 +11,7 @@ The file format (schema version 2; version 1 files still load) is described in
     /                      attrs: schema="acousim.recordings", schema_version=2, count
     /recordings/000000/    one group per recording, names zero-padded to one width
         samples            (M, T) or (K, M, T) float32, chunked per microphone,
-                           fletcher32 checksum, attrs units="1"
+                           fletcher32 checksum, attrs units="1", sha256
         array/positions    (M, 3) float, attrs units="m"
         array/emitter      (3,)   float, attrs units="m"
         array/channels     (M,)   int
@@ -26,6 +26,7 @@ The file format (schema version 2; version 1 files still load) is described in
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from collections.abc import Sequence
@@ -233,8 +234,10 @@ def save_recordings(
         h5py filter for the samples; none by default: recorded noise does not compress
         (gzip saves about 4 % of a noisy recording), a noise-free simulation does.
     checksum : bool
-        HDF5's fletcher32 checksum on the samples and the ground truth (default on): a
-        corrupted chunk then fails to load instead of loading wrong numbers.
+        Default on: HDF5's fletcher32 checksum on every chunk of the samples and the
+        ground truth, and the sha256 of the samples as their attribute ``sha256``
+        (which also catches a chunk HDF5 can no longer find and would read as zeros).
+        A corrupted file then fails to load instead of loading wrong numbers.
     """
     path = Path(path)
     dtype = np.dtype(dtype)
@@ -268,6 +271,8 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
         fletcher32=opts["checksum"],
     )
     d.attrs["units"] = "1"
+    if opts["checksum"]:
+        d.attrs["sha256"] = _sha256(samples)
     a = g.create_group("array")
     a.create_dataset("positions", data=rec.array.positions_m).attrs["units"] = "m"
     a.create_dataset("emitter", data=rec.array.emitter_m).attrs["units"] = "m"
@@ -295,6 +300,12 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
                 ds.attrs["units"] = units
     # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
+
+
+def _sha256(samples: np.ndarray) -> str:
+    """sha256 of the samples as little-endian numbers in C order (as stored)."""
+    x = np.ascontiguousarray(samples, samples.dtype.newbyteorder("<"))
+    return hashlib.sha256(x.data).hexdigest()
 
 
 def _json_default(obj):
@@ -353,40 +364,51 @@ def _open(path: Path):
         f = h5py.File(path, "r")
     except OSError as exc:
         raise RecordingFileError(f"not an HDF5 file ({exc})", file=path) from None
-    with f:
-        schema = _text(f.attrs.get("schema"))
-        if schema != SCHEMA:
-            raise RecordingFileError(
-                f"not a recording file (expected {SCHEMA!r})",
-                file=path,
-                key="schema",
-                value=_plain(f.attrs.get("schema")),
-            )
-        raw = f.attrs.get("schema_version")
-        if not (isinstance(raw, (int, np.integer)) and int(raw) in SUPPORTED_VERSIONS):
-            raise RecordingFileError(
-                f"unsupported; this version reads {SUPPORTED_VERSIONS}",
-                file=path,
-                key="schema_version",
-                value=_plain(raw),
-            )
-        if "recordings" not in f or not isinstance(f["recordings"], h5py.Group):
-            raise RecordingFileError("missing group", file=path, key="recordings")
-        names = list(f["recordings"].keys())
-        bad = [n for n in names if not n.isdigit()]
-        if bad:
-            raise RecordingFileError(
-                "group names must be numbers", file=path, key="recordings", value=bad[0]
-            )
-        count = f.attrs.get("count", len(names))  # schema 2 records it
-        if not (isinstance(count, (int, np.integer)) and int(count) == len(names)):
-            raise RecordingFileError(
-                f"the file holds {len(names)} recording group(s) (damaged or edited?)",
-                file=path,
-                key="count",
-                value=_plain(count),
-            )
-        yield f, int(raw), sorted(names, key=int)
+    try:
+        with f:
+            version, names = _checked(path, f)
+            yield f, version, names
+    except (OSError, RuntimeError, KeyError) as exc:
+        # what h5py raises when HDF5 cannot parse a structure (object header, B-tree,
+        # heap) of a damaged file; our own checks raise RecordingFileError
+        raise RecordingFileError(f"damaged HDF5 structure ({exc})", file=path) from None
+
+
+def _checked(path: Path, f: h5py.File) -> tuple[int, list[str]]:
+    """(schema version, group names in order) of a file whose root is valid."""
+    schema = _text(f.attrs.get("schema"))
+    if schema != SCHEMA:
+        raise RecordingFileError(
+            f"not a recording file (expected {SCHEMA!r})",
+            file=path,
+            key="schema",
+            value=_plain(f.attrs.get("schema")),
+        )
+    raw = f.attrs.get("schema_version")
+    if not (isinstance(raw, (int, np.integer)) and int(raw) in SUPPORTED_VERSIONS):
+        raise RecordingFileError(
+            f"unsupported; this version reads {SUPPORTED_VERSIONS}",
+            file=path,
+            key="schema_version",
+            value=_plain(raw),
+        )
+    if "recordings" not in f or not isinstance(f["recordings"], h5py.Group):
+        raise RecordingFileError("missing group", file=path, key="recordings")
+    names = list(f["recordings"].keys())
+    bad = [n for n in names if not n.isdigit()]
+    if bad:
+        raise RecordingFileError(
+            "group names must be numbers", file=path, key="recordings", value=bad[0]
+        )
+    count = f.attrs.get("count", len(names))  # schema 2 records it
+    if not (isinstance(count, (int, np.integer)) and int(count) == len(names)):
+        raise RecordingFileError(
+            f"the file holds {len(names)} recording group(s) (damaged or edited?)",
+            file=path,
+            key="count",
+            value=_plain(count),
+        )
+    return int(raw), sorted(names, key=int)
 
 
 def _plain(value):
@@ -488,6 +510,12 @@ def _samples(path: Path, g: h5py.Group, max_bytes: int) -> np.ndarray:
     if not np.all(np.isfinite(x)):
         n = int(np.size(x) - np.count_nonzero(np.isfinite(x)))
         raise RecordingFileError(f"{n} samples are NaN or infinite", file=path, key=key)
+    if "sha256" in d.attrs and _text(d.attrs["sha256"]) != _sha256(x):
+        raise RecordingFileError(
+            "samples differ from the checksum written with them (corrupted file)",
+            file=path,
+            key=f"{key}.sha256",
+        )
     return x
 
 
