@@ -8,6 +8,8 @@ import platform
 import sys
 from pathlib import Path
 
+from processing.atomic import write_text
+
 from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode
 
 SECTIONS = {
@@ -80,9 +82,7 @@ def main(argv: list[str]) -> int:
     for name in SECTIONS:
         if name in sections:
             parts += [_marker(name), sections[name], ""]
-    tmp = out.with_suffix(".md.part")
-    tmp.write_text("\n".join(parts))
-    os.replace(tmp, out)
+    write_text(out, "\n".join(parts))
     print(f"wrote {out}")
     return 0
 
