@@ -112,6 +112,13 @@ class TracedPaths:
         return TracedPaths(z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), z3)
 
 
+def resolution_length(call, speed_of_sound_m_s: float) -> float:
+    """The call's range resolution as a path length (m): c / bandwidth, with the
+    bandwidth no smaller than 1 / duration (a pure tone resolves c * duration)."""
+    lo, hi = call.band_hz
+    return speed_of_sound_m_s / max(hi - lo, 1.0 / call.duration_s)
+
+
 def cone_directions(n: int, axis: np.ndarray, half_angle_rad: float) -> np.ndarray:
     """n unit vectors on an equal-area (Fibonacci) spiral over a cone around `axis`."""
     i = np.arange(n) + 0.5
@@ -243,8 +250,7 @@ class Tracer:
         n_planes = int(world.plane.max()) + 1
         surface = np.where(world.curved, world.plane.max() + 1 + world.component, world.plane)
         c = self.scene.environment.speed_of_sound_m_s
-        lo, hi = self.scene.sensor.call.band_hz
-        bin_len = c / (hi - lo)  # the call's range resolution, as a path length
+        bin_len = resolution_length(self.scene.sensor.call, c)
         contributions = []
         sequences: set[tuple[int, ...]] = set()
         for b in range(sim.bounces):
