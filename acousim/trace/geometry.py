@@ -45,6 +45,29 @@ class World:
     def face_values(self, attr: str) -> np.ndarray:
         return np.array([getattr(m, attr) for m in self.materials])[self.material]
 
+    @property
+    def n_planes(self) -> int:
+        return int(self.plane.max()) + 1
+
+    @property
+    def surface(self) -> np.ndarray:
+        """(F,) surface id: the plane for planar faces, n_planes + the connected
+        component for curved faces (one id per curved object)."""
+        return np.where(self.curved, self.n_planes + self.component, self.plane)
+
+    def normals_at(self, x: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Unit normals (K, 3) at points x (K, 3) on faces f (K,): the face normal,
+        smooth (barycentric interpolation of the vertex normals) on curved faces."""
+        n = self.normals[f].copy()
+        cv = self.curved[f]
+        if cv.any():
+            from trimesh.triangles import points_to_barycentric
+
+            b = points_to_barycentric(self.triangles[f[cv]], x[cv])
+            sm = np.einsum("ki,kij->kj", b, self.vertex_normals[f[cv]])
+            n[cv] = sm / np.linalg.norm(sm, axis=1, keepdims=True)
+        return n
+
 
 def _load(path, transform) -> object:
     import trimesh
