@@ -1,11 +1,28 @@
 """Stage 5 of the tracer: scattered contributions clustered into point reflectors.
 
-1. Group the contributions by surface and order.
-2. Bin each group by path length, anchored at its nearest contribution so that a
-   compact glint is never split in two: bins one range resolution wide on curved
-   surfaces, ``DIFFUSE_BIN_FACTOR`` times that for the Lambert tail of planar walls.
-3. Each bin becomes one point reflector: intensities add, at the intensity-weighted
-   centroid of its contributions.
+Scattered contributions are many (one per ray and bounce); the renderer wants few
+paths.  A cluster adds the intensities of contributions that the sonar cannot tell
+apart, and keeps their delay and direction:
+
+1. Group the contributions by surface and order.  Glints of curved surfaces
+   (``lambert`` false) form one group per surface and order; the Lambert tail of a
+   planar wall is split further into direction cells (seen from the receiver) of
+   about ``DIFFUSE_CELL_DEG`` times the order: a ring of equal delay is many
+   directions, and it must not collapse onto its axis.
+2. Bin each group by path length, anchored at the group's nearest contribution:
+   glints in bins one range resolution wide (the call's ``c / bandwidth`` of path),
+   so that a compact glint is never split in two (two paths at one delay add
+   coherently in the renderer: a split glint would come out louder); the Lambert
+   tail in bins ``DIFFUSE_BIN_FACTOR`` times the order as wide (a smooth tail: fewer
+   paths, see BENCHMARKS.md for their cost).
+3. Each bin becomes one point reflector: its intensity is the sum of its
+   contributions', its path length and its direction (from the receiver) their
+   intensity-weighted means, at the contributions' mean distance from the receiver.
+   So a contribution's delay is kept within its bin's width (for a first-order
+   Lambert tail at the default 25-50 kHz call: 5.5 cm of path, 2.7 cm of range, well
+   inside an image's range bin) and its direction within its cell.  (Placing a bin
+   at the centroid of its contributions, as before, put the ring of contributions
+   that a wall returns at one delay much nearer than they are, and on its axis.)
 """
 
 from __future__ import annotations
@@ -15,45 +32,64 @@ import numpy as np
 from .paths import KIND, TracedPaths
 from .scatter import Contributions
 
-__all__ = ["cluster", "DIFFUSE_BIN_FACTOR"]
+__all__ = ["cluster", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
 
-#: diffuse (Lambert) contributions of planar walls are binned this many range
-#: resolutions wide (see BENCHMARKS.md for the time it saves and the error it costs)
-DIFFUSE_BIN_FACTOR = 4
+#: direction cells (deg, seen from the receiver, times the order) of the Lambert tail
+DIFFUSE_CELL_DEG = 10.0
+#: ... and its bins are this many range resolutions (times the order) long
+DIFFUSE_BIN_FACTOR = 4.0
 
 
-def cluster(c: Contributions, receiver: np.ndarray, resolution_m: float) -> TracedPaths:
-    """Point reflectors (paths of kind "scatter") for contributions `c`."""
+def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
+    _, inv = np.unique(v, return_inverse=True)
+    inv = inv.ravel()
+    return inv, int(inv.max()) + 1 if inv.size else 0
+
+
+def cluster(
+    c: Contributions,
+    receiver: np.ndarray,
+    resolution_m: float,
+    cell_deg: float = DIFFUSE_CELL_DEG,
+    bin_factor: float = DIFFUSE_BIN_FACTOR,
+) -> TracedPaths:
+    """Point reflectors (paths of kind "scatter") for contributions `c`; the receiver
+    (3,) in metres, the range resolution as a path length (m)."""
     if len(c) == 0:
         return TracedPaths.empty()
     inten = c.intensity
     total = c.first_leg_m + c.last_leg_m
-    # 1. groups
-    _, group = np.unique(c.surface.astype(np.int64) * 16 + c.order, return_inverse=True)
-    group = group.ravel()
-    # 2. bins
-    start = np.full(group.max() + 1, np.inf)
+    u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
+    # 1. groups: surface and order, and a direction cell for the Lambert tail
+    group, n_group = _dense(c.surface.astype(np.int64) * 64 + c.order)
+    if c.lambert.any():
+        q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
+        span = int(np.abs(q).max()) * 2 + 1
+        cell = ((q[:, 0] * span + q[:, 1]) * span + q[:, 2]) + 1
+        cell = np.where(c.lambert, cell, 0)
+        group, n_group = _dense(group.astype(np.int64) * (span**3 + 2) + cell)
+    # 2. bins of one range resolution, anchored at each group's nearest contribution
+    start = np.full(n_group, np.inf)
     np.minimum.at(start, group, total)
-    width = np.where(c.lambert, DIFFUSE_BIN_FACTOR * resolution_m, resolution_m)
+    width = np.where(c.lambert, bin_factor * c.order * resolution_m, resolution_m)
     bins = np.floor((total - start[group]) / width).astype(np.int64)
-    _, inv = np.unique(group.astype(np.int64) * (bins.max() + 1) + bins, return_inverse=True)
-    inv = inv.ravel()
-    n = inv.max() + 1
-    # 3. one reflector per bin
+    inv, n = _dense(group.astype(np.int64) * (int(bins.max()) + 1) + bins)
+    # 3. one reflector per bin: summed intensity at the mean path length and direction
     w = np.bincount(inv, inten, n)
 
-    def mean(v):
-        return (
-            np.stack([np.bincount(inv, inten * v[:, k], n) for k in range(v.shape[1])], axis=1)
-            / w[:, None]
-        )
+    def mean(v: np.ndarray) -> np.ndarray:
+        if v.ndim == 1:
+            return np.bincount(inv, inten * v, n) / w
+        return np.stack([mean(v[:, k]) for k in range(v.shape[1])], axis=1)
 
-    pos = mean(c.point_m)
-    first = np.bincount(inv, inten * c.first_leg_m, n) / w
-    d = mean(c.departure)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    ordr = np.bincount(inv, c.order, n) // np.bincount(inv, None, n)
-    r_c = np.linalg.norm(receiver - pos, axis=1)
+    length = mean(total)
+    last = mean(c.last_leg_m)
+    direction = mean(u)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    anchor = receiver + last[:, None] * direction
+    dep = mean(c.departure)
+    dep /= np.linalg.norm(dep, axis=1, keepdims=True)
+    order = np.rint(mean(c.order.astype(float))).astype(int)
     return TracedPaths(
-        pos, first, np.sqrt(w) * r_c, pos, ordr.astype(int), np.full(n, KIND["scatter"]), d
+        anchor, length - last, np.sqrt(w) * last, anchor, order, np.full(n, KIND["scatter"]), dep
     )

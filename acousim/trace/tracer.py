@@ -28,7 +28,7 @@ import numpy as np
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 
-from .cluster import DIFFUSE_BIN_FACTOR, cluster
+from .cluster import DIFFUSE_CELL_DEG, cluster
 from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
@@ -46,7 +46,7 @@ __all__ = [
     "cone_directions",
     "trace_pose",
     "KIND",
-    "DIFFUSE_BIN_FACTOR",
+    "DIFFUSE_CELL_DEG",
     "resolution_length",
 ]
 
