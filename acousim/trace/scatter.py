@@ -8,9 +8,13 @@ the ray's power towards the receiver (the array centre):
    in ``max_path_m``.
 3. A shadow ray from the hit to the receiver checks the view.
 4. Intensity at the receiver: power x pattern / r^2, with the pattern a Gaussian lobe
-   of width ``lobe_deg`` around the mirror direction (curved faces; weight
+   of width ``lobe_deg`` around the mirror direction (curved faces, from the second
+   reflection on: the first-order glints are exact, :mod:`.glints`; weight
    ``(1 - diffuse) R^2``, normalised over the hemisphere for small lobes) plus a
-   Lambert lobe (weight ``diffuse R^2``).
+   Lambert lobe (weight ``diffuse R^2``).  The Gaussian lobe is a sampling kernel: as
+   rays are added, the energy of a glint converges to geometric optics whatever its
+   width, but the lobe spreads that energy over nearby points, so its delay spread
+   grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
 """
 
 from __future__ import annotations
@@ -75,7 +79,8 @@ def scatter(
     psi = np.arccos(np.clip(np.einsum("ij,ij->i", u, mirror), -1, 1))
     sig = lobe[f]
     R2 = refl[f] ** 2
-    spec = np.where(world.curved[f], (1 - diffuse[f]) * R2, 0.0)
+    order = hits.order[sc]
+    spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
     pattern = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
     pattern += diffuse[f] * R2 * cos_s / np.pi
     intensity = np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
@@ -87,6 +92,6 @@ def scatter(
         r2[keep],
         hits.departure[sc][keep],
         world.surface[f[keep]],
-        hits.order[sc][keep],
+        order[keep],
         ~world.curved[f[keep]],
     )

@@ -6,7 +6,8 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 1. Shoot (:mod:`.shoot`): rays over the beam, followed specularly; their hits and the
    sequences of planes they met.
 2. Specular refinement (:mod:`.specular`): every candidate plane sequence made an
-   exact image-source path, or rejected.
+   exact image-source path, or rejected; and (:mod:`.glints`) the first-order
+   specular points of curved surfaces, found without rays.
 3. Edge diffraction: not a stage yet; it plugs in here, taking the world, the caster,
    the shot and the settings and returning :class:`TracedPaths`.
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
@@ -15,8 +16,10 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 6. Energy floor (:mod:`.floor`): paths far below the strongest echo dropped.
 
 Every stage returns :class:`TracedPaths` (or a typed intermediate); paths are stored in
-one form (see :mod:`.paths`).  For a convex surface the scattered echo converges to the
-geometric-optics echo (a sphere of radius a at range r: a / (2 r^2)) as rays are added.
+one form (see :mod:`.paths`).  First-order echoes of planes (image sources) and of
+curved surfaces (glints: a sphere of radius a at distance r from its surface,
+a / (2 r (r + a))) are exact geometric optics, independent of the ray budget and of
+``lobe_deg``; the rays sample higher orders and the diffuse (Lambert) part.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
 from .geometry import World, build_world
+from .glints import glints
 from .paths import KIND, TracedPaths
 from .scatter import scatter
 from .settings import TraceSettings, resolution_length
@@ -90,6 +94,9 @@ def trace_pose(
         # 2. specular refinement
         specular = refine_sequences(world, caster, shot.sequences, emitter, receiver)
         parts.append(as_paths(specular, emitter, settings.max_path_m))
+        parts.append(
+            glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
+        )
         # 3. edge diffraction plugs in here
         # 4. scattering
         contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
