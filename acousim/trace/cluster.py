@@ -32,7 +32,7 @@ import numpy as np
 from .paths import KIND, TracedPaths
 from .scatter import Contributions
 
-__all__ = ["cluster", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
+__all__ = ["cluster", "members", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
 
 #: direction cells (deg, seen from the receiver, times the order) of the Lambert tail
 DIFFUSE_CELL_DEG = 10.0
@@ -44,6 +44,33 @@ def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
     _, inv = np.unique(v, return_inverse=True)
     inv = inv.ravel()
     return inv, int(inv.max()) + 1 if inv.size else 0
+
+
+def members(
+    c: Contributions,
+    receiver: np.ndarray,
+    resolution_m: float,
+    cell_deg: float = DIFFUSE_CELL_DEG,
+    bin_factor: float = DIFFUSE_BIN_FACTOR,
+) -> tuple[np.ndarray, int]:
+    """Steps 1 and 2: the cluster (K,) of every contribution, and the number of
+    clusters."""
+    total = c.first_leg_m + c.last_leg_m
+    u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
+    # 1. groups: surface and order, and a direction cell for the Lambert tail
+    group, n_group = _dense(c.surface.astype(np.int64) * 64 + c.order)
+    if c.lambert.any():
+        q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
+        span = int(np.abs(q).max()) * 2 + 1
+        cell = ((q[:, 0] * span + q[:, 1]) * span + q[:, 2]) + 1
+        cell = np.where(c.lambert, cell, 0)
+        group, n_group = _dense(group.astype(np.int64) * (span**3 + 2) + cell)
+    # 2. bins anchored at each group's nearest contribution
+    start = np.full(n_group, np.inf)
+    np.minimum.at(start, group, total)
+    width = np.where(c.lambert, bin_factor * c.order * resolution_m, resolution_m)
+    bins = np.floor((total - start[group]) / width).astype(np.int64)
+    return _dense(group.astype(np.int64) * (int(bins.max()) + 1) + bins)
 
 
 def cluster(
@@ -59,21 +86,8 @@ def cluster(
         return TracedPaths.empty()
     inten = c.intensity
     total = c.first_leg_m + c.last_leg_m
-    u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
-    # 1. groups: surface and order, and a direction cell for the Lambert tail
-    group, n_group = _dense(c.surface.astype(np.int64) * 64 + c.order)
-    if c.lambert.any():
-        q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
-        span = int(np.abs(q).max()) * 2 + 1
-        cell = ((q[:, 0] * span + q[:, 1]) * span + q[:, 2]) + 1
-        cell = np.where(c.lambert, cell, 0)
-        group, n_group = _dense(group.astype(np.int64) * (span**3 + 2) + cell)
-    # 2. bins of one range resolution, anchored at each group's nearest contribution
-    start = np.full(n_group, np.inf)
-    np.minimum.at(start, group, total)
-    width = np.where(c.lambert, bin_factor * c.order * resolution_m, resolution_m)
-    bins = np.floor((total - start[group]) / width).astype(np.int64)
-    inv, n = _dense(group.astype(np.int64) * (int(bins.max()) + 1) + bins)
+    u = (c.point_m - receiver) / c.last_leg_m[:, None]
+    inv, n = members(c, receiver, resolution_m, cell_deg, bin_factor)
     # 3. one reflector per bin: summed intensity at the mean path length and direction
     w = np.bincount(inv, inten, n)
 
