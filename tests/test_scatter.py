@@ -177,12 +177,14 @@ def test_small_sphere_at_default_settings(tmp_path, subdivisions):
     assert rng[k] == pytest.approx(centre - a, abs=2e-3)
 
 
-def test_thin_pole_at_default_settings(tmp_path):
-    """A pole 1 cm across (radius 5 mm, 2 m long, upright) at 1.5 m: within 1 dB of
-    geometric optics at the default settings."""
+@pytest.mark.parametrize("height, middle", [(2.0, 0.0), (25.0, 10.0)])
+def test_thin_pole_at_default_settings(tmp_path, height, middle):
+    """A pole 1 cm across (radius 5 mm, upright) at 1.5 m: within 1 dB of geometric
+    optics at the default settings; also a 25 m one whose long faces have their
+    specular point near one end (the corridor's ceiling pipes are such)."""
     a, r = 0.005, 1.5
-    pole = trimesh.creation.cylinder(radius=a, height=2.0, sections=24)
-    pole.apply_translation([r + a, 0.0, 0.0])
+    pole = trimesh.creation.cylinder(radius=a, height=height, sections=24)
+    pole.apply_translation([r + a, 0.0, middle])
     scene = _scene(tmp_path, [(pole, "rigid")], [{"name": "rigid", "reflection": 1.0}])
     paths, level, rng, _ = _levels(Simulator(scene), scene.sensor.poses[0])
     k = np.argmax(level)

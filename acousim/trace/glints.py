@@ -39,7 +39,8 @@ __all__ = ["glints", "CAUSTIC_CAP"]
 
 #: largest gain of one principal direction of a focusing (concave) surface
 CAUSTIC_CAP = 3.0
-_ITERATIONS = 12
+_ITERATIONS = 20
+_HALVINGS = 8
 _INSIDE = 1e-6  # barycentric tolerance for "on the face"
 _CONVERGED = 1e-7  # |n - h| at a specular point
 
@@ -103,11 +104,12 @@ def glints(
     f = f[(towards > 0).any(axis=1)]
     if f.size == 0:
         return TracedPaths.empty()
-    # 2. Gauss-Newton for the specular point on each face
+    # 2. Gauss-Newton for the specular point on each face, steps halved until the
+    #    residual drops (long faces, such as a pipe's, overshoot with full steps)
     b = np.full((f.size, 2), 1 / 3)
     step = 1e-6
+    r0 = _residual(world, f, b, emitter, receiver)
     for _ in range(_ITERATIONS):
-        r0 = _residual(world, f, b, emitter, receiver)
         J = np.stack(
             [
                 (_residual(world, f, b + [step, 0], emitter, receiver) - r0) / step,
@@ -117,7 +119,17 @@ def glints(
         )  # (K, 3, 2)
         JtJ = np.swapaxes(J, 1, 2) @ J + 1e-12 * np.eye(2)
         delta = np.linalg.solve(JtJ, (np.swapaxes(J, 1, 2) @ r0[:, :, None]))[:, :, 0]
-        b = np.clip(b - delta, -0.5, 1.5)
+        size0 = np.linalg.norm(r0, axis=1)
+        scale = np.ones(f.size)
+        for _ in range(_HALVINGS):
+            trial = np.clip(b - scale[:, None] * delta, -0.5, 1.5)
+            r1 = _residual(world, f, trial, emitter, receiver)
+            worse = np.linalg.norm(r1, axis=1) > size0
+            if not worse.any():
+                break
+            scale[worse] /= 2
+        better = ~worse
+        b[better], r0[better] = trial[better], r1[better]
     res = np.linalg.norm(_residual(world, f, b, emitter, receiver), axis=1)
     bary = np.column_stack([1 - b.sum(axis=1), b])
     ok = (res < _CONVERGED) & (bary.min(axis=1) >= -_INSIDE)
