@@ -11,7 +11,9 @@ them, so a 2 cm sphere or a 1 cm pole echoes at the default ray budget, and the
 echo does not depend on ``lobe_deg`` (which now shapes only the multiply reflected
 contributions of curved surfaces, stage 4).
 
-1. Candidates: curved faces with a corner normal towards the sensor.
+1. Candidates: curved faces with a corner normal towards the sensor, whose normals
+   can bisect the directions to the sensor (a cone test: most faces of an object
+   are left out before the search).
 2. On each, Gauss-Newton on (b_1, b_2) for ``n(b) = h(x(b))``, h the unit bisector of
    the directions to emitter and receiver; keep solutions inside the face (within a
    tolerance), one per point (neighbouring faces find the same point on their edge).
@@ -102,6 +104,19 @@ def glints(
         return TracedPaths.empty()
     towards = np.einsum("kij,kij->ki", world.vertex_normals[f], emitter - world.triangles[f])
     f = f[(towards > 0).any(axis=1)]
+    # ... whose normals can bisect: the normal at the specular point lies within the
+    # cone of the corner normals (half-angle `spread` around the face normal), and the
+    # bisector there within the angle the face subtends of the bisector at its centre
+    centre = world.triangles[f].mean(axis=1)
+    h = _bisector(centre, emitter, receiver)
+    nf = world.normals[f]
+    cos_corner = np.einsum("kij,kj->ki", world.vertex_normals[f], nf).min(axis=1)
+    spread = np.arccos(np.clip(cos_corner, -1, 1))
+    extent = np.linalg.norm(world.triangles[f] - centre[:, None], axis=2).max(axis=1)
+    dist = np.linalg.norm(emitter - centre, axis=1)
+    subtended = np.arcsin(np.minimum(1.0, extent / np.maximum(dist, 1e-12)))
+    angle = np.arccos(np.clip(np.einsum("ij,ij->i", h, nf), -1, 1))
+    f = f[angle <= spread + 1.5 * subtended + 1e-3]
     if f.size == 0:
         return TracedPaths.empty()
     # 2. Gauss-Newton for the specular point on each face, steps halved until the
