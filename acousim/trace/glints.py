@@ -43,6 +43,7 @@ __all__ = ["glints", "CAUSTIC_CAP"]
 CAUSTIC_CAP = 3.0
 _ITERATIONS = 20
 _HALVINGS = 8
+_STEP = 1e-6  # finite-difference step in barycentric coordinates
 _INSIDE = 1e-6  # barycentric tolerance for "on the face"
 _CONVERGED = 1e-7  # |n - h| at a specular point
 
@@ -120,31 +121,43 @@ def glints(
     if f.size == 0:
         return TracedPaths.empty()
     # 2. Gauss-Newton for the specular point on each face, steps halved until the
-    #    residual drops (long faces, such as a pipe's, overshoot with full steps)
+    #    residual drops (long faces, such as a pipe's, overshoot with full steps);
+    #    a face leaves the search once converged, stuck, or far outside its edges
     b = np.full((f.size, 2), 1 / 3)
-    step = 1e-6
-    r0 = _residual(world, f, b, emitter, receiver)
-    for _ in range(_ITERATIONS):
+    r = _residual(world, f, b, emitter, receiver)
+    live = np.arange(f.size)
+    for it in range(_ITERATIONS):
+        size = np.linalg.norm(r[live], axis=1)
+        bary = np.column_stack([1 - b[live].sum(axis=1), b[live]])
+        outside = (bary.min(axis=1) < -0.25) & (it >= 3)
+        live = live[(size >= _CONVERGED) & ~outside]
+        if live.size == 0:
+            break
+        fl, bl, rl = f[live], b[live], r[live]
         J = np.stack(
             [
-                (_residual(world, f, b + [step, 0], emitter, receiver) - r0) / step,
-                (_residual(world, f, b + [0, step], emitter, receiver) - r0) / step,
+                (_residual(world, fl, bl + [_STEP, 0], emitter, receiver) - rl) / _STEP,
+                (_residual(world, fl, bl + [0, _STEP], emitter, receiver) - rl) / _STEP,
             ],
             axis=2,
         )  # (K, 3, 2)
         JtJ = np.swapaxes(J, 1, 2) @ J + 1e-12 * np.eye(2)
-        delta = np.linalg.solve(JtJ, (np.swapaxes(J, 1, 2) @ r0[:, :, None]))[:, :, 0]
-        size0 = np.linalg.norm(r0, axis=1)
-        scale = np.ones(f.size)
+        delta = np.linalg.solve(JtJ, (np.swapaxes(J, 1, 2) @ rl[:, :, None]))[:, :, 0]
+        size = np.linalg.norm(rl, axis=1)
+        todo = np.arange(live.size)
+        scale = 1.0
         for _ in range(_HALVINGS):
-            trial = np.clip(b - scale[:, None] * delta, -0.5, 1.5)
-            r1 = _residual(world, f, trial, emitter, receiver)
-            worse = np.linalg.norm(r1, axis=1) > size0
-            if not worse.any():
+            trial = np.clip(bl[todo] - scale * delta[todo], -0.5, 1.5)
+            r1 = _residual(world, fl[todo], trial, emitter, receiver)
+            better = np.linalg.norm(r1, axis=1) <= size[todo]
+            b[live[todo[better]]], r[live[todo[better]]] = trial[better], r1[better]
+            todo = todo[~better]
+            if todo.size == 0:
                 break
-            scale[worse] /= 2
-        better = ~worse
-        b[better], r0[better] = trial[better], r1[better]
+            scale /= 2
+        stuck = np.zeros(f.size, bool)
+        stuck[live[todo]] = True
+        live = live[~stuck[live]]
     res = np.linalg.norm(_residual(world, f, b, emitter, receiver), axis=1)
     bary = np.column_stack([1 - b.sum(axis=1), b])
     ok = (res < _CONVERGED) & (bary.min(axis=1) >= -_INSIDE)
