@@ -4,11 +4,12 @@ Scattered contributions are many (one per ray and bounce); the renderer wants fe
 paths.  A cluster adds the intensities of contributions that the sonar cannot tell
 apart, and keeps their delay and direction:
 
-1. Group the contributions by surface and order.  Glints of curved surfaces
-   (``lambert`` false) form one group per surface and order; the Lambert tail of a
-   planar wall is split further into direction cells (seen from the receiver) of
-   about ``DIFFUSE_CELL_DEG`` times the order: a ring of equal delay is many
-   directions, and it must not collapse onto its axis.
+1. Group the contributions by surface and order.  The lobes of curved surfaces
+   (``lambert`` false: second order and up) form one group per surface and order;
+   the Lambert tail (of planar walls, and of rough curved surfaces) is split further
+   into direction cells (seen from the receiver) of about ``DIFFUSE_CELL_DEG`` times
+   the order: a ring of equal delay is many directions, and it must not collapse
+   onto its axis.
 2. Bin each group by path length, anchored at the group's nearest contribution:
    glints in bins one range resolution wide (the call's ``c / bandwidth`` of path),
    so that a compact glint is never split in two (two paths at one delay add

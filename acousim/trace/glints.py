@@ -44,7 +44,7 @@ CAUSTIC_CAP = 3.0
 _ITERATIONS = 20
 _HALVINGS = 8
 _STEP = 1e-6  # finite-difference step in barycentric coordinates
-_INSIDE = 1e-6  # barycentric tolerance for "on the face"
+_INSIDE = 1e-4  # barycentric tolerance for "on the face" (a point on an edge)
 _CONVERGED = 1e-7  # |n - h| at a specular point
 
 

@@ -37,7 +37,8 @@ class Contributions:
     point_m (K, 3) where they scatter; intensity (K,) at the receiver (1/m^2 for a
     unit-power emitter); first_leg_m (K,) path length emitter -> point; last_leg_m
     (K,) point -> receiver; departure (K, 3); surface (K,) :attr:`World.surface` id;
-    order (K,); lambert (K,) bool, the diffuse (Lambert) part of a planar face.
+    order (K,); lambert (K,) bool, a Lambert part only (a planar face, or a curved
+    face at the first reflection, whose glint is :mod:`.glints`'s).
     """
 
     point_m: np.ndarray
@@ -93,5 +94,5 @@ def scatter(
         hits.departure[sc][keep],
         world.surface[f[keep]],
         order[keep],
-        ~world.curved[f[keep]],
+        (~world.curved[f] | (order == 1))[keep],
     )
