@@ -4,12 +4,13 @@ Scattered contributions are many (one per ray and bounce); the renderer wants fe
 paths.  A cluster adds the intensities of contributions that the sonar cannot tell
 apart, and keeps their delay and direction:
 
-1. Group the contributions by surface and order.  The lobes of curved surfaces
-   (``lambert`` false: second order and up) form one group per surface and order;
-   the Lambert tail (of planar walls, and of rough curved surfaces) is split further
-   into direction cells (seen from the receiver) of about ``DIFFUSE_CELL_DEG`` times
-   the order: a ring of equal delay is many directions, and it must not collapse
-   onto its axis.
+1. Group the contributions.  The lobes of curved surfaces (``lambert`` false:
+   second order and up) form one group per surface and order; the Lambert tail (of
+   planar walls, and of rough curved surfaces) one group per order and direction
+   cell (seen from the receiver) of about ``DIFFUSE_CELL_DEG`` times the order,
+   whatever the surface: a ring of equal delay is many directions, and it must not
+   collapse onto its axis, while two surfaces in one direction at one delay are one
+   echo to the sonar.
 2. Bin each group by path length, anchored at the group's nearest contribution:
    glints in bins one range resolution wide (the call's ``c / bandwidth`` of path),
    so that a compact glint is never split in two (two paths at one delay add
@@ -59,7 +60,8 @@ def members(
     total = c.first_leg_m + c.last_leg_m
     u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
     # 1. groups: surface and order, and a direction cell for the Lambert tail
-    group, n_group = _dense(c.surface.astype(np.int64) * 64 + c.order)
+    surface = np.where(c.lambert, -1, c.surface.astype(np.int64))  # a tail: any surface
+    group, n_group = _dense((surface + 1) * 64 + c.order)
     if c.lambert.any():
         q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
         span = int(np.abs(q).max()) * 2 + 1
