@@ -207,52 +207,66 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _emulation_recordings(scene, count: int | None) -> list:
+    """The recordings an emulated sensor streams: the scene's first poses (at most
+    `count`, else 10), simulated at the sensor's 450 kHz."""
+    from acousim.simulator import Simulator
+
+    if scene.sensor.sample_rate_hz != 450e3:
+        raise UsageError(
+            f"--emulate {scene.source}: the scene samples at "
+            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+        )
+    n = min(len(scene.sensor.poses), count or 10)
+    try:
+        sim = Simulator(scene)
+        return [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
+    except ValueError as exc:  # an unreadable mesh, a scene the simulator refuses
+        raise UsageError(f"--emulate {scene.source}: {exc}") from None
+
+
 def _cmd_record(args: argparse.Namespace) -> int:
     import processing as P
-    from hardware import DeviceNotFound, DeviceSettings, Recorder, RecordingInterrupted
-    from hardware.device import RtisDevice
+    from hardware import (
+        DeviceNotFound,
+        DeviceSettings,
+        Recorder,
+        RecordingFailed,
+        RecordingInterrupted,
+        check_acquisition,
+    )
+    from hardware.device import RtisDevice, find_ids, parse_usb_id
+    from hardware.emulator import emulated_device
+    from processing.errors import InputError
 
-    if (args.count is None) == (args.duration is None):
-        raise UsageError("give exactly one of --count N or --duration S")
-    out = Path(args.out)
-    _writable_dir(out.parent)
     try:
-        array, call = P.preset(args.array), P.rtis_call(args.call)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    backend = None
-    vid = pid = None
-    if args.device:
-        try:
-            vid, pid = (int(v, 16) for v in args.device.split(":"))
-        except ValueError:
-            raise UsageError(f"--device {args.device!r}: expected VID:PID in hex") from None
-    if args.emulate:
-        from acousim.simulator import Simulator
-        from hardware.emulator import EmulatedSensor, EmulatorBackend, recording_source
+        check_acquisition(args.count, args.duration, args.rate)
+        out = Path(args.out)
+        _writable_dir(out.parent)
+        if args.emulate:
+            scene = _load_scene(args.emulate)
+            array, call = scene.sensor.array, scene.sensor.call
+            recs = _emulation_recordings(scene, args.count)
+            try:
+                open_device, _ = emulated_device(recs, array.channels, serial=args.serial)
+            except InputError as exc:
+                raise UsageError(
+                    f"--emulate {args.emulate}: array {array.name!r}: {exc.reason}"
+                ) from None
+        else:
+            vid, pid = parse_usb_id(args.device) if args.device else find_ids()
+            try:
+                array, call = P.preset(args.array), P.rtis_call(args.call)
+            except ValueError as exc:
+                raise UsageError(str(exc)) from None
 
-        scene = _load_scene(args.emulate)
-        if scene.sensor.sample_rate_hz != 450e3:
-            raise UsageError(
-                f"--emulate {args.emulate}: the scene samples at "
-                f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
-            )
-        sim = Simulator(scene)
-        n = min(len(scene.sensor.poses), args.count or 10)
-        recs = [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
-        array, call = scene.sensor.array, scene.sensor.call
-        backend = EmulatorBackend(EmulatedSensor(recording_source(recs, array.channels)))
-        vid, pid = backend.vid, backend.pid
-    settings = DeviceSettings(call=call.sampled(450e3))
-    try:
+            def open_device():
+                return RtisDevice(vid, pid, serial=args.serial)
+
         recorder = Recorder(
-            lambda: RtisDevice(vid, pid, serial=args.serial, backend=backend),
-            settings,
-            array,
-            call,
-            fir=args.filter,
+            open_device, DeviceSettings(call=call.sampled(450e3)), array, call, fir=args.filter
         )
-    except DeviceNotFound as exc:
+    except (InputError, DeviceNotFound) as exc:
         raise UsageError(str(exc)) from None
     bar = _progress("record")
     kept: list = []
@@ -262,20 +276,28 @@ def _cmd_record(args: argparse.Namespace) -> int:
         if args.count:
             bar(len(kept), args.count)
 
-    interrupted = False
+    interrupted, failure = False, None
     try:
         recorder.acquire(args.count, args.duration, args.rate, on_record=keep)
     except RecordingInterrupted:
         interrupted = True
+    except RecordingFailed as exc:
+        failure = exc
     if kept:
         P.save_recordings(out, kept)
     st = recorder.stats
     print(
-        f"{len(kept)} measurement(s) written to {out}"
+        (f"{len(kept)} measurement(s) written to {out}" if kept else "no measurement taken")
         + (" (interrupted)" if interrupted else "")
-        + f"; lost {len(st.lost_indices)}, corrupt {st.corrupt}, time-outs {st.timeouts}, "
-        f"reconnects {st.reconnects}"
+        + (" (the sensor failed)" if failure else "")
+        + f"; lost {len(st.lost_indices)}"
+        + (f" (indices {st.lost_indices[:10]})" if st.lost_indices else "")
+        + f", corrupt {st.corrupt}, time-outs {st.timeouts}, reconnects {st.reconnects}"
+        + (f", counter resets {len(st.counter_resets)}" if st.counter_resets else "")
     )
+    if failure:
+        print(f"acousim record: error: {failure}", file=sys.stderr)
+        return 1
     return 130 if interrupted else 0
 
 

@@ -4,7 +4,14 @@ emulated sensor that runs the same driver without hardware.  Depends on processi
 from .device import DeviceNotFound, DeviceSettings, RtisDevice
 from .pdm import decode, encode
 from .protocol import Frame, FrameError, build_frame, parse_frame
-from .recorder import Recorder, RecordingInterrupted, RecordStats, decode_frame
+from .recorder import (
+    Recorder,
+    RecordingFailed,
+    RecordingInterrupted,
+    RecordStats,
+    check_acquisition,
+    decode_frame,
+)
 
 __all__ = [
     "DeviceNotFound",
@@ -18,6 +25,8 @@ __all__ = [
     "parse_frame",
     "Recorder",
     "RecordingInterrupted",
+    "RecordingFailed",
+    "check_acquisition",
     "RecordStats",
     "decode_frame",
 ]
