@@ -433,3 +433,36 @@ def test_record_command_keeps_the_measurements_when_the_sensor_fails(tmp_path, c
     assert "3 measurement(s) written" in captured.out and "time-outs 4" in captured.out
     assert "the sensor failed after 3 measurement(s)" in captured.err
     assert [r.metadata["index"] for r in P.load_recordings(out)] == [0, 1, 2]
+
+
+def test_files_from_the_rtisdev_wheel_are_checked(tmp_path, monkeypatch):
+    """The pinned wheel and every file taken from it are checked whenever they are used:
+    a tampered cached layout (aperture ten times too large) or wheel is refused."""
+    import shutil
+
+    import scipy.io
+
+    from processing import rtisdev
+
+    wheel = rtisdev.wheel_path()  # the real cache (downloads once if empty)
+    monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path))
+    folder = tmp_path / f"rtisdev-{rtisdev.VERSION}"
+    folder.mkdir()
+    shutil.copy(wheel, folder / wheel.name)
+    layout = rtisdev.layout_file("eRTIS_v3D1")
+    assert layout.is_relative_to(tmp_path)
+    data = scipy.io.loadmat(layout)
+    key = next(k for k in data if not k.startswith("__"))
+    data[key] = data[key] * 10
+    scipy.io.savemat(layout, {key: data[key]})
+    with pytest.raises(rtisdev.IntegrityError, match="mic_coordinates.mat: sha256 .* not the"):
+        rtisdev.layout_file("eRTIS_v3D1")
+    layout.unlink()  # deleting it fetches the right one again from the wheel
+    assert rtisdev.layout_file("eRTIS_v3D1").read_bytes() != b""
+    with open(folder / wheel.name, "r+b") as f:  # one flipped byte in the wheel
+        f.seek(1000)
+        b = f.read(1)
+        f.seek(1000)
+        f.write(bytes([b[0] ^ 1]))
+    with pytest.raises(rtisdev.IntegrityError, match="pinned rtisdev 2.15.1 wheel"):
+        rtisdev.sample_recording()
