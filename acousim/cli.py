@@ -14,8 +14,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
 
@@ -301,38 +299,17 @@ def _cmd_record(args: argparse.Namespace) -> int:
     return 130 if interrupted else 0
 
 
-def _load_real(args: argparse.Namespace, c: float):
-    import processing as P
-
-    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
-        from hardware import decode_frame
-        from processing.rtisdev import sample_recording
-
-        path = sample_recording() if args.real == "rtisdev-sample" else Path(args.real)
-        if not Path(path).is_file():
-            raise UsageError(f"{path}: no such file")
-        raw = np.frombuffer(Path(path).read_bytes(), "<u4")
-        if raw.size == 0 or raw.size % 32768:
-            raise UsageError(f"{path}: {raw.size} tick words, not a multiple of 32768")
-        try:
-            array, call = P.preset(args.array), P.rtis_call(args.call)
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
-        return decode_frame(raw, array, call, {"source": str(path)}, speed_of_sound_m_s=c)
-    try:
-        recs = P.load_recordings(args.real)
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
-    if not 0 <= args.index < len(recs):
-        raise UsageError(f"--index {args.index}: {args.real} holds {len(recs)} recording(s)")
-    return recs[args.index]
-
-
 def _cmd_compare(args: argparse.Namespace) -> int:
-    import json
-
     import processing as P
-    from acousim.compare import ComparisonError, compare, summarize, write_comparison
+    from acousim.compare import (
+        compare,
+        load_real_recordings,
+        simulate_partners,
+        summarize,
+        write_comparison,
+        write_summary,
+    )
+    from processing.errors import InputError
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
@@ -341,95 +318,80 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     bad = [m for m in methods if m not in P.METHODS]
     if bad:
         raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
-    pairs = []
-    if args.scene:
-        from acousim.simulator import Simulator
-
-        scene = _load_scene(args.scene)
-        simulator = Simulator(scene)
-        c = scene.environment.speed_of_sound_m_s
-        n_real = _count_real(args)
-        indices = range(n_real) if args.all else [args.index]
-        for i in indices:
-            args.index = i
-            real = _load_real(args, c)
-            pose = i if args.all else args.pose
-            if not 0 <= pose < len(scene.sensor.poses):
-                raise UsageError(f"--pose {pose}: the scene has {len(scene.sensor.poses)}")
+    try:
+        if args.scene:
+            scene = _load_scene(args.scene)
+            c = scene.environment.speed_of_sound_m_s
+            reals = _real_recordings(args, load_real_recordings, c)
+            chosen = list(range(len(reals))) if args.all else [args.index]
+            reals = [reals[i] for i in chosen]
+            sims = simulate_partners(scene, reals, chosen if args.all else [args.pose])
+        else:
             try:
-                sim = simulator.simulate_pose(
-                    scene.sensor.poses[pose], pose, n_samples=real.n_samples
-                )
-            except ValueError as exc:
-                raise UsageError(str(exc)) from None
-            pairs.append((real, sim))
-    else:
-        try:
-            sims = P.load_recordings(args.sim)
-        except P.RecordingFileError as exc:
-            raise UsageError(f"--sim {args.sim}: {exc}") from None
-        indices = range(min(len(sims), _count_real(args))) if args.all else [args.index]
-        for i in indices:
-            k = i if args.all else args.sim_index
-            if not 0 <= k < len(sims):
-                raise UsageError(f"--sim-index {k}: {args.sim} holds {len(sims)}")
-            args.index = i
-            pairs.append((_load_real(args, sims[k].speed_of_sound_m_s), sims[k]))
-    reports = []
-    for n, (real, sim) in enumerate(pairs):
-        try:
-            report, arrays = compare(real, sim, methods)
-        except ComparisonError as exc:
-            raise UsageError(f"pair {n}: {exc}") from None
-        reports.append(report)
-        folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
-        files = write_comparison(report, arrays, folder)
-    if len(pairs) > 1:
-        table = summarize(reports)
-        path = out / "summary.json"
-        tmp = path.with_suffix(".json.part")
-        tmp.write_text(json.dumps(table, indent=1))
-        os.replace(tmp, path)
-        s = table["summary"]
+                all_sims = P.load_recordings(args.sim)
+            except P.RecordingFileError as exc:
+                raise UsageError(f"--sim {args.sim}: {exc}") from None
+            if not all_sims:
+                raise UsageError(f"--sim {args.sim}: the file holds no recording")
+            reals = _real_recordings(args, load_real_recordings, all_sims[0].speed_of_sound_m_s)
+            if args.all:
+                n = min(len(all_sims), len(reals))
+                reals, sims = reals[:n], all_sims[:n]
+            else:
+                if not 0 <= args.sim_index < len(all_sims):
+                    raise UsageError(
+                        f"--sim-index {args.sim_index}: {args.sim} holds {len(all_sims)}"
+                    )
+                reals, sims = [reals[args.index]], [all_sims[args.sim_index]]
+        reports = []
+        for n, (real, sim) in enumerate(zip(reals, sims)):
+            try:
+                report, arrays = compare(real, sim, methods)
+            except InputError as exc:
+                raise UsageError(f"pair {n}: {exc}") from None
+            reports.append(report)
+            folder = out if len(reals) == 1 else out / f"pose_{n:04d}"
+            files = write_comparison(report, arrays, folder)
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+    if len(reports) > 1:
+        s = summarize(reports)
+        path = write_summary(s, out)
         print(
-            f"{s['poses']} poses: mean envelope correlation "
-            f"{s['mean_envelope_correlation']:.2f}, {s['matched_echoes']} matched echoes "
-            f"(median |d_range| {s['median_abs_d_range_m']}, median |d_azimuth| "
-            f"{s['median_abs_d_azimuth_deg']}); {path}"
+            f"{s.poses} poses: mean envelope correlation {s.mean_envelope_correlation:.2f}, "
+            f"{s.matched_echoes} matched echoes (median |d_range| {s.median_abs_d_range_m}, "
+            f"median |d_azimuth| {s.median_abs_d_azimuth_deg}); {path}"
         )
         return 0
     report = reports[0]
-    al = report["alignment"]
+    al = report.alignment
     print(
-        f"aligned by {al['emission_shift_samples']:.2f} samples, gain {al['gain']:.3g}; "
-        f"mean envelope correlation {report['channels']['mean_envelope_correlation']:.2f}"
+        f"aligned by {al.emission_shift_samples:.2f} samples, gain {al.gain:.3g}; "
+        f"mean envelope correlation {report.mean_envelope_correlation:.2f}"
     )
-    for m, r in report["images"].items():
-        for k, p in enumerate(r["matched"]):
+    for m, r in report.images.items():
+        for k, p in enumerate(r.matched):
             print(
-                f"  {m} echo {k}: real {p['real']['range_m']:.3f} m "
-                f"{p['real']['azimuth_deg']:+.0f}°, sim {p['sim']['range_m']:.3f} m "
-                f"{p['sim']['azimuth_deg']:+.0f}° (d_range {p['d_range_m'] * 100:+.1f} cm, "
-                f"d_level {p['d_level_db']:+.1f} dB)"
+                f"  {m} echo {k}: real {p.real.range_m:.3f} m {p.real.azimuth_deg:+.0f}°, "
+                f"sim {p.sim.range_m:.3f} m {p.sim.azimuth_deg:+.0f}° "
+                f"(d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
             )
         print(
-            f"  {m}: {len(r['only_real'])} echo(es) only in the real image, "
-            f"{len(r['only_sim'])} only in the simulation"
+            f"  {m}: {len(r.side_lobes_real)} side lobe(s) in the real image, "
+            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
+            f"in the real image, {len(r.only_sim)} only in the simulation"
         )
     for f in files:
         print(f"  {f}")
     return 0
 
 
-def _count_real(args: argparse.Namespace) -> int:
-    import processing as P
-
-    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
-        return 1
-    try:
-        return len(P.load_recordings(args.real))
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
+def _real_recordings(args: argparse.Namespace, load, c: float) -> list:
+    """The real recordings of the command (the file read once); --index checked."""
+    reals = load(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
+    if not args.all and not 0 <= args.index < len(reals):
+        raise UsageError(f"--index {args.index}: {args.real} holds {len(reals)} recording(s)")
+    return reals
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
