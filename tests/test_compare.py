@@ -178,3 +178,33 @@ def test_trajectory_comparison_has_a_row_per_pose(tmp_path, capsys):
     assert len(table["rows"]) == 2 and table["summary"]["poses"] == 2
     assert table["summary"]["median_abs_d_range_m"] < 0.01
     assert (tmp_path / "cmp" / "pose_0001" / "comparison.json").is_file()
+
+
+def test_an_unreadable_mesh_is_a_one_line_error(tmp_path, capsys):
+    """`compare --scene` and `record --emulate` report a broken mesh file as `simulate`
+    does: exit 2, the file named, nothing written."""
+    text = (SCENES / "wall.toml").read_text()
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "wall.stl").write_text("not a mesh\n")
+    scene = tmp_path / "wall.toml"
+    scene.write_text(text)
+    rec = P.Recording(np.zeros((30, 2000)), 450e3, P.urtis_v1(), P.rtis_call())
+    P.save_recording(tmp_path / "real.h5", rec)
+    out = tmp_path / "o"
+    assert (
+        main(["compare", str(tmp_path / "real.h5"), "--scene", str(scene), "--out", str(out)]) == 2
+    )
+    assert "meshes/wall.stl" in capsys.readouterr().err
+    assert (
+        main(["record", "--emulate", str(scene), "--count", "1", "--out", str(out / "r.h5")]) == 2
+    )
+    assert "meshes/wall.stl" in capsys.readouterr().err
+    assert not (out / "r.h5").exists() and not (out / "comparison.json").exists()
+    # an array the 32-bit link cannot carry
+    scene.write_text(
+        text.replace('"urtis_v1"', '"paper_8x8"').replace("meshes/", str(SCENES / "meshes") + "/")
+    )
+    assert (
+        main(["record", "--emulate", str(scene), "--count", "1", "--out", str(out / "r.h5")]) == 2
+    )
+    assert "'paper_8x8': the RTIS link carries at most 32 microphones" in capsys.readouterr().err
