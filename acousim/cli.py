@@ -18,6 +18,19 @@ from pathlib import Path
 PDM_FILTERS = ("equiripple", "rtis")
 
 
+def _headless_vtk() -> None:
+    """Pictures are rendered off screen: without a display on Linux, let VTK start with
+    its EGL window instead of trying X first and warning "bad X server connection" on
+    every run (same pixels).  A VTK_DEFAULT_OPENGL_WINDOW the user set is kept."""
+    if sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
+_headless_vtk()  # before any command imports VTK
+
+
 class UsageError(Exception):
     """Bad input from the user: printed on one line, exit code 2."""
 

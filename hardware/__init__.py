@@ -1,7 +1,7 @@
 """hardware: the real RTIS sensors over USB (pyusb), their 1-bit PDM frames, and an
 emulated sensor that runs the same driver without hardware.  Depends on processing."""
 
-from .device import DeviceNotFound, DeviceSettings, RtisDevice
+from .device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevice
 from .pdm import decode, encode
 from .protocol import Frame, FrameError, build_frame, parse_frame
 from .recorder import (
@@ -15,6 +15,7 @@ from .recorder import (
 
 __all__ = [
     "DeviceNotFound",
+    "DeviceAccessDenied",
     "DeviceSettings",
     "RtisDevice",
     "decode",

@@ -8,6 +8,7 @@ bound, claims the data interface (class 0x0A) and uses its two bulk endpoints.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 from dataclasses import dataclass
@@ -18,13 +19,25 @@ from processing.errors import InputError
 
 from .protocol import Frame, decode_answer, encode_command, frame_size, parse_frame
 
-__all__ = ["DeviceSettings", "RtisDevice", "DeviceNotFound", "find_ids", "parse_usb_id"]
+__all__ = [
+    "DeviceSettings",
+    "RtisDevice",
+    "DeviceNotFound",
+    "DeviceAccessDenied",
+    "find_ids",
+    "parse_usb_id",
+]
 
 log = logging.getLogger(__name__)
 
 
 class DeviceNotFound(RuntimeError):
     """No sensor matches the requested IDs, serial number or bus/address."""
+
+
+class DeviceAccessDenied(DeviceNotFound):
+    """The sensor is there but this user may not open it (no udev rule, see
+    docs/setup.md)."""
 
 
 def _hex_id(text: str, key: str) -> int:
@@ -150,16 +163,18 @@ class RtisDevice:
                 + (f", address {self.address}" if self.address is not None else "")
             )
         dev = found[0]
-        dev.set_configuration()
+        try:
+            self._claim(dev)
+        except usb.core.USBError as exc:
+            if exc.errno != errno.EACCES and "Access denied" not in str(exc):
+                raise
+            raise DeviceAccessDenied(
+                f"the RTIS sensor {self.vendor_id:04x}:{self.product_id:04x} on bus "
+                f"{dev.bus} address {dev.address} cannot be opened by this user ({exc}): "
+                "install the udev rule of docs/setup.md, then replug the sensor"
+            ) from None
         cfg = dev.get_active_configuration()
         data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
-        if data is None:
-            raise DeviceNotFound("the device has no CDC data interface")
-        for intf in range(cfg.bNumInterfaces):
-            if dev.is_kernel_driver_active(intf):
-                log.debug("detaching the kernel driver from interface %d", intf)
-                dev.detach_kernel_driver(intf)
-        usb.util.claim_interface(dev, data.bInterfaceNumber)
         self.ep_out = usb.util.find_descriptor(
             data,
             custom_match=lambda e: (
@@ -181,6 +196,22 @@ class RtisDevice:
             dev.bus,
             dev.address,
         )
+
+    @staticmethod
+    def _claim(dev) -> None:
+        """Configure the device, detach kernel drivers, claim the CDC data interface."""
+        import usb.util
+
+        dev.set_configuration()
+        cfg = dev.get_active_configuration()
+        data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
+        if data is None:
+            raise DeviceNotFound("the device has no CDC data interface")
+        for intf in range(cfg.bNumInterfaces):
+            if dev.is_kernel_driver_active(intf):
+                log.debug("detaching the kernel driver from interface %d", intf)
+                dev.detach_kernel_driver(intf)
+        usb.util.claim_interface(dev, data.bInterfaceNumber)
 
     def close(self) -> None:
         if self.dev is not None:

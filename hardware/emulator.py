@@ -251,9 +251,16 @@ class EmulatorBackend(usb.backend.IBackend):
     """A pyusb backend under which an EmulatedSensor enumerates as a CDC-ACM device."""
 
     def __init__(
-        self, sensor: EmulatedSensor, vendor_id: int = EMULATOR_VID, product_id: int = EMULATOR_PID
+        self,
+        sensor: EmulatedSensor,
+        vendor_id: int = EMULATOR_VID,
+        product_id: int = EMULATOR_PID,
+        *,
+        deny_access: bool = False,
     ) -> None:
+        """`deny_access`: opening fails as it does for a user without a udev rule."""
         self.sensor = sensor
+        self.deny_access = deny_access
         self.vid, self.pid = vendor_id, product_id
         self.kernel_driver = {0: True, 1: True}  # cdc_acm binds to both, as on Linux
         self.strings = {1: "CoSys-Lab (emulated)", 2: "RTIS emulator", 3: sensor.serial}
@@ -351,6 +358,8 @@ class EmulatorBackend(usb.backend.IBackend):
 
     def open_device(self, dev):
         self.sensor._check()
+        if self.deny_access:
+            raise usb.core.USBError("Access denied (insufficient permissions)", -3, errno.EACCES)
         return dev
 
     def close_device(self, dev_handle):

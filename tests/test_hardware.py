@@ -10,6 +10,7 @@ from scipy.signal import freqz, upfirdn
 import processing as P
 from acousim.synth import PointReflectors, simulate_points
 from hardware import (
+    DeviceAccessDenied,
     DeviceNotFound,
     DeviceSettings,
     FrameError,
@@ -328,6 +329,10 @@ def test_device_selection_by_serial_and_missing_device(emulated):
         RtisDevice(serial="NOPE", backend=backend)
     with pytest.raises(DeviceNotFound, match="1234:5678"):
         RtisDevice(0x1234, 0x5678, backend=backend)
+    # a user without the udev rule: pointed at docs/setup.md
+    denied = EmulatorBackend(sensor, deny_access=True)
+    with pytest.raises(DeviceAccessDenied, match="cannot be opened by this user.*docs/setup.md"):
+        RtisDevice(backend=denied)
 
 
 def test_real_ertis_sample_has_its_echo_near_3_2_m():
