@@ -190,16 +190,16 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
         try:
             sc = load_scene(f)
         except (SceneError, InputError) as exc:
-            print(f"{f.stem:14s} invalid ({exc})")
+            print(f"{f.name:16s} invalid ({exc})")
             continue
         except (OSError, RuntimeError) as exc:  # e.g. a layout that cannot be fetched
-            print(f"{f.stem:14s} unavailable here ({exc})")
+            print(f"{f.name:16s} unavailable here ({exc})")
             continue
         print(
-            f"{f.stem:14s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
+            f"{f.name:16s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
         )
     if args.verbose:
-        print(f"(in {bundled_scenes()}; `acousim simulate NAME` runs one)")
+        print(f"(in {bundled_scenes()}; `acousim simulate wall` runs wall.toml)")
     return 0
 
 

@@ -68,7 +68,7 @@ def test_the_installed_wheel_carries_its_scenes(installed):
     assert _run([str(acousim), "--version"], cwd).strip() == "acousim 0.1.0"
     listing = _run([str(acousim), "scenes"], cwd)
     names = [line.split()[0] for line in listing.splitlines()]
-    assert {"corridor", "wall", "shoebox", "sphere", "points"} <= set(names)
+    assert {"corridor.toml", "wall.toml", "shoebox.toml", "sphere.toml"} <= set(names)
     # a bundled scene by its name, with its mesh and trajectory found inside the package
     _run([str(acousim), "simulate", "wall", "--out", "wall.h5"], cwd)
     _run([str(acousim), "simulate", "corridor", "--poses", "0", "--out", "c.h5"], cwd)
