@@ -471,3 +471,50 @@ def test_files_from_the_rtisdev_wheel_are_checked(tmp_path, monkeypatch):
         f.write(bytes([b[0] ^ 1]))
     with pytest.raises(rtisdev.IntegrityError, match="pinned rtisdev 2.15.1 wheel"):
         rtisdev.sample_recording()
+
+
+@pytest.mark.parametrize("moment", ["simulating", "measuring", "writing"])
+def test_record_command_interrupted(tmp_path, capsys, monkeypatch, moment):
+    """Ctrl-C while the emulated scene is simulated, while measuring (the third
+    trigger) or while the file is written: exit 130, and either no file at all or a
+    loadable one with every complete measurement."""
+    from pathlib import Path
+
+    import acousim.simulator as sim_mod
+    import hardware.emulator as emu
+    import processing.recording as rec_mod
+    from acousim.cli import main
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    if moment == "simulating":
+        monkeypatch.setattr(sim_mod.Simulator, "simulate_pose", boom)
+    elif moment == "measuring":
+        real = emu.emulated_device
+
+        def interrupting(*a, **kw):
+            open_device, sensor = real(*a, **kw)
+            source = sensor.source
+
+            def source_then_interrupt(index, n):
+                if index == 2:
+                    raise KeyboardInterrupt
+                return source(index, n)
+
+            sensor.source = source_then_interrupt
+            return open_device, sensor
+
+        monkeypatch.setattr(emu, "emulated_device", interrupting)
+    else:
+        monkeypatch.setattr(rec_mod, "_write_one", boom)
+    scene = Path(__file__).resolve().parent.parent / "scenes" / "wall.toml"
+    out = tmp_path / "rec.h5"
+    args = ["record", "--emulate", str(scene), "--count", "4", "--rate", "100", "--out", str(out)]
+    assert main(args) == 130
+    if moment == "measuring":
+        assert "2 measurement(s) written" in capsys.readouterr().out
+        assert [r.metadata["index"] for r in P.load_recordings(out)] == [0, 1]
+        assert [p.name for p in tmp_path.iterdir()] == ["rec.h5"]
+    else:
+        assert list(tmp_path.iterdir()) == []
