@@ -74,6 +74,8 @@ def test_the_installed_wheel_carries_its_scenes(installed):
     _run([str(acousim), "simulate", "corridor", "--poses", "0", "--out", "c.h5"], cwd)
     info = _run([str(acousim), "info", "c.h5"], cwd)
     assert "1 recording(s)" in info and "urtis_v1" in info
+    _run([str(acousim), "image", "c.h5", "--method", "das", "--no-3d", "--out", "pics"], cwd)
+    assert (cwd / "pics" / "fan.png").stat().st_size > 10_000
     spec = _run(
         [
             str(py),
