@@ -327,7 +327,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from acousim.compare import (
         compare,
         load_real_recordings,
-        simulate_partners,
+        pair_with_file,
+        pair_with_scene,
         summarize,
         write_comparison,
         write_summary,
@@ -345,35 +346,31 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         if args.scene:
             scene = _load_scene(args.scene)
             c = scene.environment.speed_of_sound_m_s
-            reals = _real_recordings(args, load_real_recordings, c)
-            chosen = list(range(len(reals))) if args.all else [args.index]
-            reals = [reals[i] for i in chosen]
-            sims = simulate_partners(scene, reals, chosen if args.all else [args.pose])
         else:
             try:
-                all_sims = P.load_recordings(args.sim)
+                sims = P.load_recordings(args.sim)
             except P.RecordingFileError as exc:
                 raise UsageError(f"--sim {args.sim}: {exc}") from None
-            if not all_sims:
+            if not sims:
                 raise UsageError(f"--sim {args.sim}: the file holds no recording")
-            reals = _real_recordings(args, load_real_recordings, all_sims[0].speed_of_sound_m_s)
-            if args.all:
-                n = min(len(all_sims), len(reals))
-                reals, sims = reals[:n], all_sims[:n]
-            else:
-                if not 0 <= args.sim_index < len(all_sims):
-                    raise UsageError(
-                        f"--sim-index {args.sim_index}: {args.sim} holds {len(all_sims)}"
-                    )
-                reals, sims = [reals[args.index]], [all_sims[args.sim_index]]
+            c = sims[0].speed_of_sound_m_s
+        reals = load_real_recordings(
+            args.real, array=args.array, call=args.call, speed_of_sound_m_s=c
+        )
+        if args.scene:
+            pairs = pair_with_scene(reals, scene, every=args.all, index=args.index, pose=args.pose)
+        else:
+            pairs = pair_with_file(
+                reals, sims, every=args.all, index=args.index, sim_index=args.sim_index
+            )
         reports = []
-        for n, (real, sim) in enumerate(zip(reals, sims)):
+        for n, (real, sim) in enumerate(pairs):
             try:
                 report, arrays = compare(real, sim, methods)
             except InputError as exc:
                 raise UsageError(f"pair {n}: {exc}") from None
             reports.append(report)
-            folder = out if len(reals) == 1 else out / f"pose_{n:04d}"
+            folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
             files = write_comparison(report, arrays, folder)
     except InputError as exc:
         raise UsageError(str(exc)) from None
@@ -407,14 +404,6 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     for f in files:
         print(f"  {f}")
     return 0
-
-
-def _real_recordings(args: argparse.Namespace, load, c: float) -> list:
-    """The real recordings of the command (the file read once); --index checked."""
-    reals = load(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
-    if not args.all and not 0 <= args.index < len(reals):
-        raise UsageError(f"--index {args.index}: {args.real} holds {len(reals)} recording(s)")
-    return reals
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:

@@ -22,8 +22,9 @@ apart they are, at every stage of the pipeline.
 
 The results are typed (:class:`Comparison`, :class:`TrajectorySummary`); their
 ``to_dict()`` is what ``comparison.json`` and ``summary.json`` hold.  Loading what
-the command line is given (:func:`load_real_recordings`) and simulating the
-partner of each real recording (:func:`simulate_partners`) live here too.
+the command line is given (:func:`load_real_recordings`) and pairing each real
+recording with its simulation (:func:`pair_with_scene`, :func:`pair_with_file`)
+live here too.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ __all__ = [
     "write_comparison",
     "write_summary",
     "load_real_recordings",
-    "simulate_partners",
+    "pair_with_scene",
+    "pair_with_file",
     "Peak",
     "MatchedEcho",
     "SideLobe",
@@ -582,23 +584,54 @@ def load_real_recordings(
         raise InputError(str(exc)) from None
 
 
-def simulate_partners(
-    scene, reals: Sequence[P.Recording], poses: Sequence[int]
-) -> list[P.Recording]:
-    """The simulation of `scene` at pose `poses[i]` with the length of `reals[i]`, for
-    every i.  Raises InputError for a pose the scene does not have or a scene the
-    simulator refuses (an unreadable mesh)."""
+def _pick(recs: Sequence[P.Recording], i: int, key: str, what: str) -> P.Recording:
+    if not 0 <= i < len(recs):
+        raise InputError(f"{what} holds {len(recs)} recording(s)", key=key, value=i)
+    return recs[i]
+
+
+def pair_with_scene(
+    reals: Sequence[P.Recording], scene, *, every: bool = False, index: int = 0, pose: int = 0
+) -> list[tuple[P.Recording, P.Recording]]:
+    """(real, simulated) pairs: real recording `index` with the scene simulated at
+    `pose`, or with `every`, real recording i with pose i for every i.  Each
+    simulation has its real partner's length.  Raises InputError naming ``--index``,
+    ``--pose`` or the scene file (a scene the simulator refuses: an unreadable mesh)."""
     from acousim.simulator import Simulator
 
+    chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
+    poses = list(range(len(reals))) if every else [pose]
     n = len(scene.sensor.poses)
-    bad = [p for p in poses if not 0 <= p < n]
+    bad = [q for q in poses if not 0 <= q < n]
     if bad:
         raise InputError(f"the scene has {n} pose(s)", key="--pose", value=bad[0])
     try:
         simulator = Simulator(scene)
-        return [
-            simulator.simulate_pose(scene.sensor.poses[p], p, n_samples=r.n_samples)
-            for r, p in zip(reals, poses)
+        sims = [
+            simulator.simulate_pose(scene.sensor.poses[q], q, n_samples=r.n_samples)
+            for r, q in zip(chosen, poses)
         ]
     except ValueError as exc:
         raise InputError(str(exc), file=scene.source) from None
+    return list(zip(chosen, sims))
+
+
+def pair_with_file(
+    reals: Sequence[P.Recording],
+    sims: Sequence[P.Recording],
+    *,
+    every: bool = False,
+    index: int = 0,
+    sim_index: int = 0,
+) -> list[tuple[P.Recording, P.Recording]]:
+    """(real, simulated) pairs from two files: recording `index` with simulated
+    recording `sim_index`, or with `every`, recording i with recording i for every i
+    both files hold.  Raises InputError naming ``--index`` or ``--sim-index``."""
+    if every:
+        return list(zip(reals, sims))
+    return [
+        (
+            _pick(reals, index, "--index", "the real file"),
+            _pick(sims, sim_index, "--sim-index", "the --sim file"),
+        )
+    ]

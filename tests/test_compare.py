@@ -151,6 +151,13 @@ def test_compare_errors_exit_2(tmp_path, capsys):
     assert "lengths (1000 vs 1200 samples)" in capsys.readouterr().err
     assert main(["compare", str(tmp_path / "a.h5"), "--out", str(tmp_path / "o")]) == 2
     assert "exactly one of --scene" in capsys.readouterr().err
+    for extra, message in (
+        (["--sim", str(tmp_path / "b.h5"), "--index", "3"], "--index = 3: the real file holds 1"),
+        (["--sim", str(tmp_path / "b.h5"), "--sim-index", "-1"], "--sim-index = -1: the --sim"),
+        (["--scene", str(SCENES / "points.toml"), "--pose", "4"], "--pose = 4: the scene has 1"),
+    ):
+        assert main(["compare", str(tmp_path / "a.h5"), *extra, "--out", str(tmp_path / "o")]) == 2
+        assert message in capsys.readouterr().err
 
 
 def test_trajectory_comparison_has_a_row_per_pose(tmp_path, capsys):
