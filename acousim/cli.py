@@ -289,6 +289,9 @@ def _cmd_record(args: argparse.Namespace) -> int:
         )
     except (InputError, DeviceNotFound) as exc:
         raise UsageError(str(exc)) from None
+    except RecordingFailed as exc:
+        print(f"acousim record: error: {exc.reason}; nothing recorded", file=sys.stderr)
+        return 1
     bar = _progress("record")
     kept: list = []
 

@@ -111,7 +111,9 @@ def check_acquisition(count: int | None, duration_s: float | None, rate_hz: floa
 class Recorder:
     """Acquires measurements from an RtisDevice.
 
-    `open_device` makes (and remakes, after a disconnect) the device.
+    `open_device` makes (and remakes, after a disconnect) the device.  Raises
+    DeviceNotFound (also DeviceAccessDenied) when it cannot be opened and
+    RecordingFailed when it is found but does not answer while being configured.
     """
 
     def __init__(
@@ -135,8 +137,14 @@ class Recorder:
         self.fir = fir
         self.stats = RecordStats()
         self._expected = 0
-        self.device = self._connect()
-        self.firmware = self.device.firmware_version()
+        import usb.core
+
+        try:
+            self.device = self._connect()
+            self.firmware = self.device.firmware_version()
+        except (usb.core.USBError, FrameError) as exc:  # found, but not answering
+            reason = f"the sensor did not answer while being configured: {exc}"
+            raise RecordingFailed([], reason) from exc
 
     def _connect(self) -> RtisDevice:
         """Open and configure the device; its counter set to the next expected index."""

@@ -270,6 +270,13 @@ def test_a_fatal_failure_keeps_the_measurements_taken(emulated, schedule):
     assert reason in str(info.value)
 
 
+def test_a_sensor_that_does_not_answer_is_a_failure_not_a_traceback(emulated):
+    _, _, sensor, backend, _ = emulated
+    sensor.inject("stall")  # the first command's answer never comes
+    with pytest.raises(RecordingFailed, match="did not answer while being configured"):
+        Recorder(lambda: RtisDevice(backend=backend), DeviceSettings(n_ticks=N_TICKS), None, None)
+
+
 @pytest.mark.parametrize(
     "count, duration, rate, key",
     [
