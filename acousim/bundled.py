@@ -14,7 +14,16 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
-__all__ = ["Kind", "data_dir", "scene_files", "find_scene", "resolve_scene", "version"]
+__all__ = [
+    "Kind",
+    "data_dir",
+    "scene_files",
+    "find_bundled",
+    "find_scene",
+    "resolve",
+    "resolve_scene",
+    "version",
+]
 
 Kind = Literal["scenes", "datasets"]
 KINDS: tuple[Kind, ...] = ("scenes", "datasets")
@@ -42,22 +51,34 @@ def scene_files() -> list[Path]:
     return sorted(data_dir("scenes").glob("*.toml"))
 
 
-def find_scene(name: str) -> Path | None:
-    """The bundled scene called `name` (``"corridor"`` or ``"corridor.toml"``), or None."""
+def find_bundled(kind: Kind, name: str) -> Path | None:
+    """The bundled scene or dataset spec called `name` (``"corridor"`` or
+    ``"corridor.toml"``), or None; a name with a folder in it is never bundled."""
     if not name or "/" in name or "\\" in name:
         return None
     stem = name[:-5] if name.endswith(".toml") else name
-    path = data_dir("scenes") / f"{stem}.toml"
+    path = data_dir(kind) / f"{stem}.toml"
     return path if path.is_file() else None
 
 
-def resolve_scene(text: str | Path) -> Path:
-    """A scene argument -> a path: an existing file as given, else a bundled scene of
-    that name, else the path as given (the loader then says it does not exist)."""
+def find_scene(name: str) -> Path | None:
+    """The bundled scene called `name`, or None."""
+    return find_bundled("scenes", name)
+
+
+def resolve(kind: Kind, text: str | Path) -> Path:
+    """A scene (or dataset spec) argument -> a path: an existing file as given, else a
+    bundled one of that name, else the path as given (the loader then says it does not
+    exist)."""
     path = Path(text)
     if path.is_file():
         return path
-    return find_scene(str(text)) or path
+    return find_bundled(kind, str(text)) or path
+
+
+def resolve_scene(text: str | Path) -> Path:
+    """:func:`resolve` for scenes (``acousim simulate corridor``)."""
+    return resolve("scenes", text)
 
 
 def version() -> str:

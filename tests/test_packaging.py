@@ -110,3 +110,17 @@ def test_reproduce_defaults_stay_out_of_docs(tmp_path, capsys):
     assert main(["reproduce", "--quick", "--out", str(out), "--report", str(report)]) == 2
     assert "--report" in capsys.readouterr().err
     assert report.read_text() == committed and not (out / "study.json").exists()
+
+
+def test_names_of_bundled_files(tmp_path, monkeypatch):
+    """A file the user has wins over a bundled one of the same name; a path with a
+    folder is never looked up among the bundled files."""
+    from acousim.bundled import data_dir, resolve, resolve_scene
+
+    assert resolve_scene("wall") == data_dir("scenes") / "wall.toml"
+    assert resolve_scene("wall.toml") == data_dir("scenes") / "wall.toml"
+    assert resolve("datasets", "corridor_small") == data_dir("datasets") / "corridor_small.toml"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "wall.toml").write_text("# the user's own")
+    assert resolve_scene("wall.toml") == Path("wall.toml")
+    assert resolve_scene("sub/wall") == Path("sub/wall")
