@@ -179,14 +179,20 @@ class Recorder:
         """One measurement, or None when its frame was corrupt (reported)."""
         import usb.core
 
-        for attempt in range(self.retries + 1):
+        timeouts = 0  # in a row; a reconnect does not use up a retry
+        while True:
             try:
                 frame = self.device.measure()
                 break
             except usb.core.USBTimeoutError:
+                timeouts += 1
                 self.stats.timeouts += 1
-                self.stats.note(f"time-out waiting for a frame (attempt {attempt + 1})")
+                self.stats.note(f"time-out waiting for a frame (attempt {timeouts})")
                 self._drain()  # a late answer or frame must not be read as the next one
+                if timeouts > self.retries:
+                    raise TimeoutError(
+                        f"no frame after {timeouts} attempts (all timed out)"
+                    ) from None
             except FrameError as exc:
                 self.stats.corrupt += 1
                 self.stats.note(f"frame dropped: {exc}")
@@ -197,8 +203,6 @@ class Recorder:
                     self._reconnect()
                 else:
                     raise
-        else:
-            raise TimeoutError(f"no frame after {self.retries + 1} attempts (all timed out)")
         if frame.index > self._expected:
             lost = list(range(self._expected, frame.index))
             self.stats.lost_indices += lost
