@@ -124,3 +124,23 @@ def test_names_of_bundled_files(tmp_path, monkeypatch):
     (tmp_path / "wall.toml").write_text("# the user's own")
     assert resolve_scene("wall.toml") == Path("wall.toml")
     assert resolve_scene("sub/wall") == Path("sub/wall")
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+def test_makefile_checks_the_python_version(tmp_path):
+    """`make` refuses a Python older than pyproject.toml's requires-python before it
+    makes a venv with it (an interpreter that reports 3.9 is faked here)."""
+    old = tmp_path / "python3.9"
+    old.write_text(
+        "#!/bin/sh\n"
+        f"exec {sys.executable} -c \"import sys; sys.version_info = (3, 9, 18, 'final', 0); "
+        'exec(sys.argv[1])" "$2"\n'
+    )
+    old.chmod(0o755)
+    make = ["make", "-s", "-C", str(ROOT), "python-check"]
+    proc = subprocess.run([*make, f"PYTHON={old}"], capture_output=True, text=True)
+    assert proc.returncode != 0 and "acousim needs Python >= 3.11" in proc.stderr + proc.stdout
+    assert "is 3.9" in proc.stderr + proc.stdout
+    proc = subprocess.run([*make, f"PYTHON={sys.executable}"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert 'requires-python = ">=3.11"' in (ROOT / "pyproject.toml").read_text()
