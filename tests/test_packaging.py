@@ -144,3 +144,20 @@ def test_makefile_checks_the_python_version(tmp_path):
     proc = subprocess.run([*make, f"PYTHON={sys.executable}"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert 'requires-python = ">=3.11"' in (ROOT / "pyproject.toml").read_text()
+
+
+def test_scenes_lists_the_rest_when_one_cannot_load_here(monkeypatch, capsys, tmp_path):
+    """Without network access (and an empty cache) the eRTIS layout cannot be fetched:
+    `acousim scenes` says so for that scene and lists the others."""
+    from processing import rtisdev
+
+    def offline():
+        raise RuntimeError("could not download rtisdev==2.15.1 with pip (exit 1): offline")
+
+    monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path))
+    monkeypatch.setattr(rtisdev, "wheel_path", offline)
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    sample = next(line for line in lines if line.startswith("ertis_sample.toml"))
+    assert "could not download" in sample
+    assert any(line.startswith("corridor.toml") and "urtis_v1" in line for line in lines)
