@@ -190,13 +190,13 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
         try:
             sc = load_scene(f)
         except (SceneError, InputError) as exc:
-            print(f"{f.name:16s} invalid ({exc})")
+            print(f"{f.name:18s} invalid ({exc})")
             continue
         except (OSError, RuntimeError) as exc:  # e.g. a layout that cannot be fetched
-            print(f"{f.name:16s} unavailable here ({exc})")
+            print(f"{f.name:18s} unavailable here ({exc})")
             continue
         print(
-            f"{f.name:16s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
+            f"{f.name:18s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
         )
     if args.verbose:
         print(f"(in {bundled_scenes()}; `acousim simulate wall` runs wall.toml)")
