@@ -618,7 +618,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--emulate",
         metavar="SCENE",
-        help="record from an emulated sensor streaming this scene's simulation",
+        help="record from an emulated sensor streaming this scene's simulation (a scene "
+        "file or a bundled scene's name)",
     )
     p.add_argument(
         "--filter",
@@ -637,7 +638,9 @@ def build_parser() -> argparse.ArgumentParser:
         "scene and pose, or an existing simulated file): align "
         "the emission and the gain, compare matched-filter "
         "envelopes, range profiles and images, match their "
-        "peaks, and write a JSON report and a picture.",
+        "peaks (a weaker peak within one STFT window of a stronger "
+        "one is reported as its side lobe), and write a JSON report "
+        "and a picture (docs/compare.md).",
     )
     p.add_argument(
         "real",
@@ -645,7 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
         "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
     )
     p.add_argument("--index", type=int, default=0, help="recording in an .h5 file")
-    p.add_argument("--scene", help="scene file to simulate at --pose")
+    p.add_argument("--scene", help="scene file (or a bundled scene's name) to simulate at --pose")
     p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
@@ -659,8 +662,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
     )
     p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
-    p.add_argument("--method", default="das", help="comma-separated DOA methods")
-    p.add_argument("--out", default="out/compare", help="output folder")
+    p.add_argument("--method", default="das", help="comma-separated DOA methods (default: das)")
+    p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser(
