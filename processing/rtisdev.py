@@ -10,7 +10,8 @@ Every file is checked, every time it is used:
 
 1. the wheel is downloaded with ``pip download --require-hashes`` against the pinned
    :data:`WHEEL_SHA256` (PyPI's digest of rtisdev-2.15.1-py3-none-any.whl) and its
-   sha256 is checked again whenever it is opened from the cache;
+   sha256 is checked again when a process first opens it from the cache (and
+   whenever it has changed since);
 2. a file taken from it is checked against the digest the verified wheel's own
    ``RECORD`` lists for it, when it is extracted and whenever it is read from the
    cache; ``simulate.bin`` also against its own pinned :data:`SAMPLE_SHA256`.
@@ -64,13 +65,29 @@ class IntegrityError(RuntimeError):
     """A fetched or cached third-party file is not the one that was pinned."""
 
 
+#: wheels verified in this process: (path, mtime_ns, size, inode) -> sha256.  Hashing
+#: the 4.6 MB wheel on every use cost about 25 ms per layout; it is hashed once per
+#: process and again when it changes.  The small files taken from it are hashed on
+#: every use.
+_verified: dict[tuple[str, int, int, int], str] = {}
+
+
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _check(path: Path, expected: str, what: str) -> Path:
+def _check(path: Path, expected: str, what: str, *, once: bool = False) -> Path:
+    """`path` if its sha256 is `expected`, else IntegrityError; with `once`, a file
+    already verified in this process and unchanged since is not hashed again."""
+    st = path.stat()
+    key = (str(path), st.st_mtime_ns, st.st_size, st.st_ino)
+    if once and _verified.get(key) == expected:
+        return path
     digest = _sha256(path)
-    if digest != expected:
+    if digest == expected:
+        if once:
+            _verified[key] = digest
+    else:
         raise IntegrityError(
             f"{path}: sha256 {digest} is not the expected {expected} ({what}); the file "
             f"is not used: delete {cache_dir()} to fetch it again"
@@ -84,7 +101,7 @@ def wheel_path() -> Path:
     folder = cache_dir() / f"rtisdev-{VERSION}"
     found = sorted(folder.glob("rtisdev-*.whl"))
     if found:
-        return _check(found[0], WHEEL_SHA256, f"the pinned rtisdev {VERSION} wheel")
+        return _check(found[0], WHEEL_SHA256, f"the pinned rtisdev {VERSION} wheel", once=True)
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
         req = Path(tmp) / "requirements.txt"
@@ -119,7 +136,7 @@ def _record_digest(zf: zipfile.ZipFile, member: str) -> str:
     """The sha256 (hex) that the wheel's RECORD lists for `member`."""
     record = next(n for n in zf.namelist() if n.endswith(".dist-info/RECORD"))
     for row in csv.reader(io.TextIOWrapper(zf.open(record), "utf-8")):
-        if row and row[0] == member:
+        if row and row[0] == member and len(row) > 1:
             algo, _, b64 = row[1].partition("=")
             if algo != "sha256":
                 break
