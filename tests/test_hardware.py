@@ -389,10 +389,12 @@ def test_record_command_with_the_emulator(tmp_path, capsys, monkeypatch):
     tail = recs[0].samples[:, 12000:]
     assert np.sqrt(np.mean(tail**2)) < 0.01 * np.abs(recs[0].samples).max()
     # the wall, 2 m ahead and the sensor turned by 15 degrees: the strongest peak of
-    # MUSIC-FBSS (the command line's imaging defaults) at 2 m, azimuth -15 degrees
+    # MUSIC-FBSS (the command line's imaging defaults) at 2 m (within one STFT window,
+    # 9.8 cm; 1.95 m today), azimuth -15 degrees; not the false echo at 5.9 m that zero
+    # tick words made
     img = image_recordings(recs[:1], ImagingOptions(methods=("music-fbss",)))[0]["music-fbss"]
     pk = img.peaks(-10)
-    assert pk.range_m[0] == pytest.approx(2.0, abs=0.05)
+    assert pk.range_m[0] == pytest.approx(2.0, abs=0.1)
     assert np.rad2deg(pk.azimuth_rad[0]) == pytest.approx(-15, abs=4)
     assert (
         main(["record", "--count", "1", "--out", str(tmp_path / "x.h5"), "--device", "dead:beef"])
