@@ -125,7 +125,12 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 def _cmd_image(args: argparse.Namespace) -> int:
     import processing as P
-    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+    from acousim.imaging import (
+        ImagingOptions,
+        image_recordings,
+        prepare_pictures,
+        write_pictures,
+    )
 
     methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
     try:
@@ -149,6 +154,10 @@ def _cmd_image(args: argparse.Namespace) -> int:
         if bad:
             raise UsageError(f"--index {bad}: the file holds {len(recs)} recording(s)")
         recs = [recs[i] for i in index]
+    else:
+        index = list(range(len(recs)))
+    animation = not args.no_animation and len(recs) > 1
+    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
     try:
         images = image_recordings(recs, options, _progress("image"))
     except ValueError as exc:
@@ -159,8 +168,9 @@ def _cmd_image(args: argparse.Namespace) -> int:
         out,
         options,
         render_3d=not args.no_3d,
-        animation=not args.no_animation,
+        animation=animation,
         progress=_progress("animate"),
+        indices=index,
     )
     for f in files:
         print(f"  {f}")

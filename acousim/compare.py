@@ -266,7 +266,7 @@ def write_comparison(report: dict, arrays: dict, out_dir: str | Path) -> list[Pa
                 p = pair[side]
                 a = np.deg2rad(p["azimuth_deg"])
                 ax.plot(
-                    -p["range_m"] * np.sin(a),
+                    p["range_m"] * np.sin(a),
                     p["range_m"] * np.cos(a),
                     "o",
                     mfc="none",
@@ -275,7 +275,7 @@ def write_comparison(report: dict, arrays: dict, out_dir: str | Path) -> list[Pa
                 )
                 ax.annotate(
                     str(k),
-                    (-p["range_m"] * np.sin(a), p["range_m"] * np.cos(a)),
+                    (p["range_m"] * np.sin(a), p["range_m"] * np.cos(a)),
                     color="cyan",
                     fontsize=8,
                 )
