@@ -330,7 +330,9 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
     )
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
-    renderer = SceneRenderer(triangles, window_size=(640, 480))
+    renderer = SceneRenderer(
+        triangles, window_size=(640, 480), with_truth=any(t is not None for t in truths)
+    )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
             pose = _pose(rec)

@@ -51,10 +51,14 @@ class SceneRenderer:
     (a new plotter per frame costs most of an animation's time).
 
     triangles : (F, 3, 3) world-frame scene faces, or None.
+    with_truth : list the ray-traced reflectors in the legend.
     """
 
     def __init__(
-        self, triangles: np.ndarray | None, window_size: tuple[int, int] = (900, 600)
+        self,
+        triangles: np.ndarray | None,
+        window_size: tuple[int, int] = (900, 600),
+        with_truth: bool = True,
     ) -> None:
         self.pv = pv = _pv()
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
@@ -68,16 +72,15 @@ class SceneRenderer:
             self.floor_z = float(tri[..., 2].min())
         else:
             self.floor_z = None
+        entries = [["sensor, arrow: its axis", SENSOR_COLOR], ["image peaks", PEAK_COLOR]]
+        if with_truth:
+            entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
         self.plotter.add_legend(
-            [
-                ["sensor (arrow: its axis)", SENSOR_COLOR],
-                ["image peaks", PEAK_COLOR],
-                ["ray-traced reflectors (size: level)", TRUTH_COLOR],
-            ],
+            entries,
             bcolor="white",
             border=True,
-            size=(0.46, 0.16),
-            loc="upper right",
+            size=(0.36, 0.12),
+            loc="upper left",
             face="circle",
         )
         self._actors: list = []
@@ -164,22 +167,21 @@ class SceneRenderer:
         )
 
     def _fit_camera(self, pos, axis, peaks) -> None:
-        """No mesh: look at the sensor and its peaks from behind and above."""
+        """No mesh: a labelled grid in metres around the sensor and its peaks, seen
+        from behind and above, zoomed to fit."""
+        self.plotter.show_grid(
+            color="grey", xtitle="x (m)", ytitle="y (m)", ztitle="z (m)", render=False
+        )
         pts = [pos[None], (pos + axis)[None]]
         if peaks is not None and len(peaks):
             pts.append(np.asarray(peaks, float).reshape(-1, 3))
         p = np.concatenate(pts)
         centre = (p.min(axis=0) + p.max(axis=0)) / 2
         size = max(float(np.ptp(p, axis=0).max()), 1.0)
-        eye = centre - 1.4 * size * axis + np.array([0, 0, 0.9 * size])
+        eye = centre - 1.6 * size * axis + np.array([0, 0, 1.1 * size])
         self.plotter.camera_position = [tuple(eye), tuple(centre), (0, 0, 1)]
-        self.plotter.show_grid(
-            color="grey",
-            xtitle="x (m)",
-            ytitle="y (m)",
-            ztitle="z (m)",
-            render=False,
-        )
+        self.plotter.reset_camera(render=False)  # fit everything drawn, grid included
+        self.plotter.camera.zoom(0.9)
 
     def close(self) -> None:
         self.plotter.close()
@@ -199,7 +201,7 @@ def render_scene(
 ) -> np.ndarray:
     """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
     (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
-    renderer = SceneRenderer(triangles, window_size)
+    renderer = SceneRenderer(triangles, window_size, with_truth=truth is not None)
     try:
         image = renderer.frame(
             sensor_position, sensor_axis, truth, peaks, camera, truth_level_db=truth_level_db
