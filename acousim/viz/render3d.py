@@ -149,11 +149,13 @@ class SceneRenderer:
         return plotter.screenshot(return_img=True)
 
     def _scale_bar(self, pos: np.ndarray, axis: np.ndarray):
-        """A 1 m ruler on the floor (or at the sensor's height), across the view
-        0.8 m in front of the sensor."""
+        """A 1 m ruler across the view, 0.8 m in front of the sensor and 0.2 m below
+        it (above the floor, if the scene has one)."""
         side = np.cross([0.0, 0.0, 1.0], axis)
         side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([0, 1, 0])
-        z = self.floor_z + 0.01 if self.floor_z is not None else pos[2]
+        z = pos[2] - 0.2
+        if self.floor_z is not None:
+            z = max(z, self.floor_z + 0.01)
         a = np.array([*(pos[:2] + 0.8 * axis[:2]), z]) - 0.5 * side
         return self.plotter.add_ruler(
             a,
