@@ -39,6 +39,12 @@ def import_pyvista():
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise ImportError("3D pictures need pyvista: pip install 'acousim[viz]'") from exc
     pv.OFF_SCREEN = True
+    try:  # offscreen is intended: no "bad X server connection" warning on every run
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    except ImportError:  # pragma: no cover - a VTK without its logger
+        pass
     return pv
 
 
