@@ -216,7 +216,7 @@ def test_image_index_titles_the_picture_with_its_recording(tmp_path, monkeypatch
 
 
 def test_3d_render_of_a_real_recording_is_not_empty(tmp_path):
-    from acousim.viz.render3d import PEAK_COLOR, render_scene
+    from acousim.viz.render3d import PEAK_COLOR, SENSOR_COLOR, render_scene
 
     peaks = np.array([[2.0, 0.5, 0.2], [3.0, -0.8, 0.0]])
     pic = render_scene(
@@ -226,8 +226,39 @@ def test_3d_render_of_a_real_recording_is_not_empty(tmp_path):
         sensor_axis=np.array([1.0, 0.0, 0.0]),
         peaks=peaks,
     )
-    white = np.all(pic > 245, axis=2)
-    assert white.mean() < 0.97
     red = np.all(np.abs(pic / 255 - np.array(PEAK_COLOR)) < 0.25, axis=2)
+    yellow = np.all(np.abs(pic / 255 - np.array(SENSOR_COLOR)) < 0.25, axis=2)
+    grey = (np.ptp(pic, axis=2) < 10) & (pic.mean(axis=2) < 200)  # grid lines, labels
     assert red.sum() > 20  # the peaks are in view
+    assert yellow.sum() > 100  # the sensor too
+    assert grey.sum() > 2000  # and a grid in metres gives the scale
     assert (tmp_path / "r.png").is_file()
+
+
+def test_3d_truth_below_the_threshold_is_not_drawn_and_stronger_is_larger(tmp_path):
+    from scipy import ndimage
+
+    from acousim.viz.render3d import TRUTH_COLOR, render_scene
+
+    # three reflectors 2 m ahead, side by side: 0 dB, -20 dB, -40 dB (under -30 dB)
+    truth = np.array([[2.0, 0.6, 0.0], [2.0, 0.0, 0.0], [2.0, -0.6, 0.0]])
+    pic = render_scene(
+        None,
+        triangles=None,
+        sensor_position=np.zeros(3),
+        sensor_axis=np.array([1.0, 0.0, 0.0]),
+        truth=truth,
+        truth_level_db=np.array([0.0, -20.0, -40.0]),
+        peaks=np.array([[3.0, 0.0, 0.5]]),
+    )
+    cyan = np.all(np.abs(pic / 255 - np.array(TRUTH_COLOR)) < 0.3, axis=2)
+    cyan[: int(0.2 * pic.shape[0]), : int(0.45 * pic.shape[1])] = False  # the legend
+    labels, n = ndimage.label(cyan)
+    sizes = ndimage.sum(cyan, labels, range(1, n + 1))
+    blobs = sorted(
+        zip(ndimage.center_of_mass(cyan, labels, range(1, n + 1)), sizes), key=lambda b: b[0][1]
+    )
+    blobs = [b for b in blobs if b[1] >= 2]
+    assert len(blobs) == 2  # the -40 dB reflector is not drawn
+    (left, s_left), (right, s_right) = blobs
+    assert s_left > 1.5 * s_right  # 0 dB (y = +0.6, on the left) larger than -20 dB

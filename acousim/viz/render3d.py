@@ -144,7 +144,10 @@ class SceneRenderer:
             )
         self._actors.append(self._scale_bar(pos, axis))
         if not self.has_mesh:
-            self._fit_camera(pos, axis, peaks)
+            drawn = [np.asarray(q, float).reshape(-1, 3) for q in (peaks,) if q is not None]
+            if truth is not None and len(truth):
+                drawn.append(t[keep])
+            self._fit_camera(pos, axis, drawn)
         elif camera == "top":
             focus = pos + 2.5 * axis
             plotter.camera_position = [tuple(focus + [0, 0, 9.0]), tuple(focus), (1, 0, 0)]
@@ -174,18 +177,29 @@ class SceneRenderer:
             tick_color="black",
         )
 
-    def _fit_camera(self, pos, axis, peaks) -> None:
-        """No mesh: a labelled grid in metres around the sensor and its peaks, seen
-        from behind and above, zoomed to fit."""
-        self.plotter.show_grid(
-            color="grey", xtitle="x (m)", ytitle="y (m)", ztitle="z (m)", render=False
+    def _fit_camera(self, pos, axis, points) -> None:
+        """No mesh: a labelled grid in metres around the sensor and the drawn points
+        (at least 2 m x 2 m x 1 m), seen from behind and above, zoomed to fit."""
+        p = np.concatenate([pos[None], (pos + axis)[None], *points])
+        lo, hi = p.min(axis=0) - 0.3, p.max(axis=0) + 0.3
+        centre = (lo + hi) / 2
+        half = np.maximum((hi - lo) / 2, [1.0, 1.0, 0.5])
+        lo, hi = centre - half, centre + half
+        self._actors.append(
+            self.plotter.show_grid(
+                bounds=[lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]],
+                color="grey",
+                xtitle="x (m)",
+                ytitle="y (m)",
+                ztitle="z (m)",
+                n_xlabels=4,
+                n_ylabels=4,
+                n_zlabels=3,
+                fmt="%.1f",
+                render=False,
+            )
         )
-        pts = [pos[None], (pos + axis)[None]]
-        if peaks is not None and len(peaks):
-            pts.append(np.asarray(peaks, float).reshape(-1, 3))
-        p = np.concatenate(pts)
-        centre = (p.min(axis=0) + p.max(axis=0)) / 2
-        size = max(float(np.ptp(p, axis=0).max()), 1.0)
+        size = float(np.max(hi - lo))
         eye = centre - 1.6 * size * axis + np.array([0, 0, 1.1 * size])
         self.plotter.camera_position = [tuple(eye), tuple(centre), (0, 0, 1)]
         self.plotter.reset_camera(render=False)  # fit everything drawn, grid included
