@@ -3,8 +3,8 @@
 Why HDF5 with dimension scales (and not NetCDF through xarray/h5netcdf): the
 recordings are already HDF5 and h5py is already a dependency, so nothing new is
 installed; dimension scales attach the axes (with units) to every image, which
-h5py, MATLAB's ``h5read``/``h5info``, HDFView and the netCDF-4 library (and so
-xarray with the h5netcdf or netcdf4 engine) understand.
+h5py, MATLAB's ``h5read``/``h5info`` and HDFView show (the netCDF-4 library reads
+HDF5 dimension scales too; not tested here).
 
 Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
 
