@@ -137,9 +137,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_image(args: argparse.Namespace) -> int:
+def _load_and_image(args: argparse.Namespace):
+    """`image` and `export`: the options, the recordings of --index and their indices
+    in the file, and a function that images them (called once the command is ready)."""
     import processing as P
-    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+    from acousim.imaging import ImagingOptions, image_recordings
 
     methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
     try:
@@ -149,10 +151,10 @@ def _cmd_image(args: argparse.Namespace) -> int:
             energy_fraction=args.energy_fraction,
             min_range_m=args.min_range,
             max_range_m=args.max_range,
+            peak_threshold_db=args.peak_threshold,
         )
     except ValueError as exc:
         raise UsageError(f"--method {args.method!r}: {exc}") from None
-    out = _writable_dir(args.out)
     try:
         recs = P.load_recordings(args.file)
     except P.RecordingFileError as exc:
@@ -163,22 +165,107 @@ def _cmd_image(args: argparse.Namespace) -> int:
         if bad:
             raise UsageError(f"--index {bad}: the file holds {len(recs)} recording(s)")
         recs = [recs[i] for i in index]
+    else:
+        index = list(range(len(recs)))
+    return recs, index, options, lambda: _image_all(recs, options, image_recordings)
+
+
+def _image_all(recs, options, image_recordings):
     try:
-        images = image_recordings(recs, options, _progress("image"))
+        return image_recordings(recs, options, _progress("image"))
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    files = write_pictures(
+
+
+def _cmd_image(args: argparse.Namespace) -> int:
+    from acousim.export import write_image_data, write_peaks_csv
+    from acousim.imaging import prepare_pictures, write_pictures
+
+    out = _writable_dir(args.out)
+    recs, index, options, run = _load_and_image(args)
+    animation = not args.no_animation and len(recs) > 1
+    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
+    images = run()
+    files = []
+    if not args.no_data:
+        files += [
+            write_image_data(out / "images.h5", recs, images, index),
+            write_peaks_csv(
+                out / "peaks.csv", recs, images, index, threshold_db=args.peak_threshold
+            ),
+        ]
+    files += write_pictures(
         recs,
         images,
         out,
         options,
         render_3d=not args.no_3d,
-        animation=not args.no_animation,
+        animation=animation,
         progress=_progress("animate"),
+        indices=index,
     )
     for f in files:
         print(f"  {f}")
     return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists():
+        raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
+    _writable_dir(out.parent)
+    try:
+        from acousim.export.rosbag import write_rosbag
+    except ImportError as exc:
+        raise UsageError(str(exc)) from None
+    recs, index, options, run = _load_and_image(args)
+    if args.image_method and args.image_method not in options.methods:
+        raise UsageError(
+            f"--image-method {args.image_method!r} is not among --method {args.method!r}"
+        )
+    images = run()
+    write_rosbag(
+        out,
+        recs,
+        images,
+        index,
+        method=args.image_method,
+        threshold_db=args.peak_threshold,
+    )
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
+    return 0
+
+
+def _imaging_arguments(p: argparse.ArgumentParser) -> None:
+    """Options shared by `image` and `export`."""
+    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument(
+        "--method",
+        default="das,capon-fbss,music-fbss",
+        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
+    )
+    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
+    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
+    p.add_argument(
+        "--energy-fraction",
+        type=float,
+        default=1e-3,
+        help="keep range bins with at least this fraction of the strongest "
+        "bin's energy (default: 1e-3; the paper uses 0.5)",
+    )
+    p.add_argument(
+        "--min-range",
+        type=float,
+        default=0.25,
+        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
+    )
+    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
+    p.add_argument(
+        "--peak-threshold",
+        type=float,
+        default=-10.0,
+        help="peaks kept within this many dB of each image's strongest cell (default: -10)",
+    )
 
 
 def _cmd_scenes(args: argparse.Namespace) -> int:
@@ -548,38 +635,42 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "image",
-        help="image recordings and write pictures",
+        help="image recordings and write pictures and data files",
         description="Run the processing pipeline on simulated or real "
-        "recordings and write fan images (azimuth x range), "
-        "elevation-azimuth maps, a 3D render and, for a "
-        "trajectory, an animated GIF.",
+        "recordings and write the images as data (images.h5: range x "
+        "elevation x azimuth in dB with its axes; peaks.csv), fan images "
+        "(azimuth x range), elevation-azimuth maps, a 3D render and, for a "
+        "trajectory, an animated GIF. File layouts: docs/export.md.",
     )
-    p.add_argument("file", help="recording file (.h5)")
-    p.add_argument(
-        "--method",
-        default="das,capon-fbss,music-fbss",
-        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
-    )
+    _imaging_arguments(p)
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
-    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
-    p.add_argument(
-        "--energy-fraction",
-        type=float,
-        default=1e-3,
-        help="keep range bins with at least this fraction of the strongest "
-        "bin's energy (default: 1e-3; the paper uses 0.5)",
-    )
-    p.add_argument(
-        "--min-range",
-        type=float,
-        default=0.25,
-        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
-    )
-    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
+    p.add_argument(
+        "--no-data",
+        action="store_true",
+        help="skip images.h5 and peaks.csv (about 2 MB per image of a corridor pose)",
+    )
     p.set_defaults(func=_cmd_image)
+
+    p = sub.add_parser(
+        "export",
+        help="write recordings and their images to a ROS 2 bag (MCAP)",
+        description="Image recordings and write a rosbag2 folder (MCAP storage) "
+        "with the raw samples (std_msgs/Float32MultiArray), the image peaks "
+        "(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor "
+        "pose (/tf) and the sensor's description (std_msgs/String, JSON). Needs "
+        "the rosbags package (pip install 'acousim[ros]'); no ROS installation. "
+        "Layout: docs/export.md.",
+    )
+    _imaging_arguments(p)
+    p.add_argument("--out", required=True, help="bag folder to create (must not exist)")
+    p.add_argument(
+        "--image-method",
+        default=None,
+        help="the method published as peaks and fan (default: the sharpest imaged)",
+    )
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser(
         "scenes",

@@ -463,7 +463,7 @@ def write_comparison(
         for k, pair in enumerate(report.images[m].matched):
             for ax, p in ((row[0], pair.real), (row[1], pair.sim)):
                 a = np.deg2rad(p.azimuth_deg)
-                xy = (-p.range_m * np.sin(a), p.range_m * np.cos(a))
+                xy = (p.range_m * np.sin(a), p.range_m * np.cos(a))
                 ax.plot(*xy, "o", mfc="none", mec="cyan", ms=10)
                 ax.annotate(str(k), xy, color="cyan", fontsize=8)
         ax = row[2]

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from processing.atomic import write_text
 
-from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode
+from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode, pictures
 
 SECTIONS = {
     "doa": doa_speed,
@@ -18,6 +18,7 @@ SECTIONS = {
     "corridor": corridor,
     "pdm_decode": pdm_decode,
     "dataset": dataset,
+    "pictures": pictures,
 }
 
 
