@@ -6,17 +6,26 @@ STAMP  := $(VENV)/.installed
 # Debian packages: VTK (pyvista) offscreen rendering, libusb for pyusb, gcc for the PDM kernel.
 DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0 gcc
 
-.PHONY: demo test bench lint format clean system-deps
+.PHONY: demo test bench lint format clean system-deps python-check
 
 $(STAMP): pyproject.toml setup.py hardware/_pdm_kernel.c Makefile
+	@$(MAKE) --no-print-directory python-check
 	@$(MAKE) --no-print-directory system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[all,dev]"
 	@touch $(STAMP)
 
+# pyproject.toml's requires-python, checked before a venv is made with the wrong one
+python-check:
+	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "no $(PYTHON) on PATH: acousim needs Python >= 3.11 (make PYTHON=/path/to/python3.11)"; exit 1; }
+	@$(PYTHON) -c 'import sys; v = sys.version_info; sys.exit(0 if v >= (3, 11) else "acousim needs Python >= 3.11; $(PYTHON) is %d.%d (make PYTHON=python3.11 ...)" % v[:2])'
+
 system-deps:
-	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	@if ! command -v dpkg >/dev/null 2>&1; then \
+	  echo "not a Debian system: install the equivalents of $(DEBS) yourself (docs/setup.md)"; exit 0; \
+	fi; \
+	missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	  else echo "missing Debian packages:$$missing (run as root or install them)"; fi; \

@@ -14,10 +14,21 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
+
+
+def _headless_vtk() -> None:
+    """Pictures are rendered off screen: without a display on Linux, let VTK start with
+    its EGL window instead of trying X first and warning "bad X server connection" on
+    every run (same pixels).  A VTK_DEFAULT_OPENGL_WINDOW the user set is kept."""
+    if sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
+_headless_vtk()  # before any command imports VTK
 
 
 class UsageError(Exception):
@@ -25,8 +36,10 @@ class UsageError(Exception):
 
 
 def bundled_scenes() -> Path:
-    """The scenes/ folder of the source tree."""
-    return Path(__file__).resolve().parent.parent / "scenes"
+    """The bundled scenes' folder (installed package data, or the source tree's)."""
+    from acousim.bundled import data_dir
+
+    return data_dir("scenes")
 
 
 def _progress(desc: str):
@@ -63,10 +76,11 @@ def _writable_dir(path: str | Path) -> Path:
 
 
 def _load_scene(path: str | Path):
+    from acousim.bundled import resolve_scene
     from acousim.scene import SceneError, load_scene
 
     try:
-        return load_scene(path)
+        return load_scene(resolve_scene(path))  # a file, or a bundled scene's name
     except SceneError as exc:
         raise UsageError(str(exc)) from None
 
@@ -123,9 +137,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_image(args: argparse.Namespace) -> int:
+def _load_and_image(args: argparse.Namespace):
+    """`image` and `export`: the options, the recordings of --index and their indices
+    in the file, and a function that images them (called once the command is ready)."""
     import processing as P
-    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+    from acousim.imaging import ImagingOptions, image_recordings
 
     methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
     try:
@@ -135,10 +151,10 @@ def _cmd_image(args: argparse.Namespace) -> int:
             energy_fraction=args.energy_fraction,
             min_range_m=args.min_range,
             max_range_m=args.max_range,
+            peak_threshold_db=args.peak_threshold,
         )
     except ValueError as exc:
         raise UsageError(f"--method {args.method!r}: {exc}") from None
-    out = _writable_dir(args.out)
     index = _parse_indices("--index", args.index)
     try:
         n = P.count_recordings(args.file)
@@ -148,40 +164,130 @@ def _cmd_image(args: argparse.Namespace) -> int:
             bad = [i for i in index if not 0 <= i < n]
             if bad:
                 raise UsageError(f"--index {bad}: the file holds {n} recording(s)")
-        # only the recordings asked for are read
-        recs = [P.load_recording(args.file, i) for i in (range(n) if index is None else index)]
+        index = list(range(n)) if index is None else index
+        recs = [P.load_recording(args.file, i) for i in index]  # only those asked for
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
+    return recs, index, options, lambda: _image_all(recs, options, image_recordings)
+
+
+def _image_all(recs, options, image_recordings):
     try:
-        images = image_recordings(recs, options, _progress("image"))
+        return image_recordings(recs, options, _progress("image"))
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    files = write_pictures(
+
+
+def _cmd_image(args: argparse.Namespace) -> int:
+    from acousim.export import write_image_data, write_peaks_csv
+    from acousim.imaging import prepare_pictures, write_pictures
+
+    out = _writable_dir(args.out)
+    recs, index, options, run = _load_and_image(args)
+    animation = not args.no_animation and len(recs) > 1
+    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
+    images = run()
+    files = []
+    if not args.no_data:
+        files += [
+            write_image_data(out / "images.h5", recs, images, index),
+            write_peaks_csv(
+                out / "peaks.csv", recs, images, index, threshold_db=args.peak_threshold
+            ),
+        ]
+    files += write_pictures(
         recs,
         images,
         out,
         options,
         render_3d=not args.no_3d,
-        animation=not args.no_animation,
+        animation=animation,
         progress=_progress("animate"),
+        indices=index,
     )
     for f in files:
         print(f"  {f}")
     return 0
 
 
-def _cmd_scenes(args: argparse.Namespace) -> int:
-    from acousim.scene import SceneError, load_scene
+def _cmd_export(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists():
+        raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
+    _writable_dir(out.parent)
+    try:
+        from acousim.export.rosbag import write_rosbag
+    except ImportError as exc:
+        raise UsageError(str(exc)) from None
+    recs, index, options, run = _load_and_image(args)
+    if args.image_method and args.image_method not in options.methods:
+        raise UsageError(
+            f"--image-method {args.image_method!r} is not among --method {args.method!r}"
+        )
+    images = run()
+    write_rosbag(
+        out,
+        recs,
+        images,
+        index,
+        method=args.image_method,
+        threshold_db=args.peak_threshold,
+    )
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
+    return 0
 
-    for f in sorted(bundled_scenes().glob("*.toml")):
+
+def _imaging_arguments(p: argparse.ArgumentParser) -> None:
+    """Options shared by `image` and `export`."""
+    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument(
+        "--method",
+        default="das,capon-fbss,music-fbss",
+        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
+    )
+    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
+    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
+    p.add_argument(
+        "--energy-fraction",
+        type=float,
+        default=1e-3,
+        help="keep range bins with at least this fraction of the strongest "
+        "bin's energy (default: 1e-3; the paper uses 0.5)",
+    )
+    p.add_argument(
+        "--min-range",
+        type=float,
+        default=0.25,
+        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
+    )
+    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
+    p.add_argument(
+        "--peak-threshold",
+        type=float,
+        default=-10.0,
+        help="peaks kept within this many dB of each image's strongest cell (default: -10)",
+    )
+
+
+def _cmd_scenes(args: argparse.Namespace) -> int:
+    from acousim.bundled import scene_files
+    from acousim.scene import SceneError, load_scene
+    from processing.errors import InputError
+
+    for f in scene_files():
         try:
             sc = load_scene(f)
-        except SceneError as exc:
-            print(f"{f.name}: invalid ({exc})")
+        except (SceneError, InputError) as exc:
+            print(f"{f.name:18s} invalid ({exc})")
+            continue
+        except (OSError, RuntimeError) as exc:  # e.g. a layout that cannot be fetched
+            print(f"{f.name:18s} unavailable here ({exc})")
             continue
         print(
-            f"{f.name:16s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
+            f"{f.name:18s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
         )
+    if args.verbose:
+        print(f"(in {bundled_scenes()}; `acousim simulate wall` runs wall.toml)")
     return 0
 
 
@@ -210,53 +316,70 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _emulation_recordings(scene, count: int | None) -> list:
+    """The recordings an emulated sensor streams: the scene's first poses (at most
+    `count`, else 10), simulated at the sensor's 450 kHz."""
+    from acousim.simulator import Simulator
+
+    if scene.sensor.sample_rate_hz != 450e3:
+        raise UsageError(
+            f"--emulate {scene.source}: the scene samples at "
+            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+        )
+    n = min(len(scene.sensor.poses), count or 10)
+    try:
+        sim = Simulator(scene)
+        return [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
+    except ValueError as exc:  # an unreadable mesh, a scene the simulator refuses
+        raise UsageError(f"--emulate {scene.source}: {exc}") from None
+
+
 def _cmd_record(args: argparse.Namespace) -> int:
     import processing as P
-    from hardware import DeviceNotFound, DeviceSettings, Recorder, RecordingInterrupted
-    from hardware.device import RtisDevice
+    from hardware import (
+        DeviceNotFound,
+        DeviceSettings,
+        Recorder,
+        RecordingFailed,
+        RecordingInterrupted,
+        check_acquisition,
+    )
+    from hardware.device import RtisDevice, find_ids, parse_usb_id
+    from hardware.emulator import emulated_device
+    from processing.errors import InputError
 
-    if (args.count is None) == (args.duration is None):
-        raise UsageError("give exactly one of --count N or --duration S")
-    out = Path(args.out)
-    _writable_dir(out.parent)
     try:
-        array, call = P.preset(args.array), P.rtis_call(args.call)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    backend = None
-    vid = pid = None
-    if args.device:
-        try:
-            vid, pid = (int(v, 16) for v in args.device.split(":"))
-        except ValueError:
-            raise UsageError(f"--device {args.device!r}: expected VID:PID in hex") from None
-    if args.emulate:
-        from acousim.simulator import Simulator
-        from hardware.emulator import EmulatedSensor, EmulatorBackend, recording_source
+        check_acquisition(args.count, args.duration, args.rate)
+        out = Path(args.out)
+        _writable_dir(out.parent)
+        if args.emulate:
+            scene = _load_scene(args.emulate)
+            array, call = scene.sensor.array, scene.sensor.call
+            recs = _emulation_recordings(scene, args.count)
+            try:
+                open_device, _ = emulated_device(recs, array.channels, serial=args.serial)
+            except InputError as exc:
+                raise UsageError(
+                    f"--emulate {args.emulate}: array {array.name!r}: {exc.reason}"
+                ) from None
+        else:
+            vid, pid = parse_usb_id(args.device) if args.device else find_ids()
+            try:
+                array, call = P.preset(args.array), P.rtis_call(args.call)
+            except ValueError as exc:
+                raise UsageError(str(exc)) from None
 
-        scene = _load_scene(args.emulate)
-        if scene.sensor.sample_rate_hz != 450e3:
-            raise UsageError(
-                f"--emulate {args.emulate}: the scene samples at "
-                f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
-            )
-        sim = Simulator(scene)
-        n = min(len(scene.sensor.poses), args.count or 10)
-        recs = [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
-        array, call = scene.sensor.array, scene.sensor.call
-        backend = EmulatorBackend(EmulatedSensor(recording_source(recs, array.channels)))
-        vid, pid = backend.vid, backend.pid
-    settings = DeviceSettings(call=call.sampled(450e3))
-    try:
+            def open_device():
+                return RtisDevice(vid, pid, serial=args.serial)
+
         recorder = Recorder(
-            lambda: RtisDevice(vid, pid, serial=args.serial, backend=backend),
-            settings,
-            array,
-            call,
-            fir=args.filter,
+            open_device, DeviceSettings(call=call.sampled(450e3)), array, call, fir=args.filter
         )
-    except DeviceNotFound as exc:
+    except (InputError, DeviceNotFound) as exc:
         raise UsageError(str(exc)) from None
+    except RecordingFailed as exc:
+        print(f"acousim record: error: {exc.reason}; nothing recorded", file=sys.stderr)
+        return 1
     bar = _progress("record")
     kept: list = []
 
@@ -265,55 +388,43 @@ def _cmd_record(args: argparse.Namespace) -> int:
         if args.count:
             bar(len(kept), args.count)
 
-    interrupted = False
+    interrupted, failure = False, None
     try:
         recorder.acquire(args.count, args.duration, args.rate, on_record=keep)
     except RecordingInterrupted:
         interrupted = True
+    except RecordingFailed as exc:
+        failure = exc
     if kept:
         P.save_recordings(out, kept)
     st = recorder.stats
     print(
-        f"{len(kept)} measurement(s) written to {out}"
+        (f"{len(kept)} measurement(s) written to {out}" if kept else "no measurement taken")
         + (" (interrupted)" if interrupted else "")
-        + f"; lost {len(st.lost_indices)}, corrupt {st.corrupt}, time-outs {st.timeouts}, "
-        f"reconnects {st.reconnects}"
+        + (" (the sensor failed)" if failure else "")
+        + f"; lost {len(st.lost_indices)}"
+        + (f" (indices {st.lost_indices[:10]})" if st.lost_indices else "")
+        + f", corrupt {st.corrupt}, time-outs {st.timeouts}, reconnects {st.reconnects}"
+        + (f", counter resets {len(st.counter_resets)}" if st.counter_resets else "")
     )
+    if failure:
+        print(f"acousim record: error: {failure}", file=sys.stderr)
+        return 1
     return 130 if interrupted else 0
 
 
-def _load_real(args: argparse.Namespace, c: float):
-    import processing as P
-
-    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
-        from hardware import decode_frame
-        from processing.rtisdev import sample_recording
-
-        path = sample_recording() if args.real == "rtisdev-sample" else Path(args.real)
-        if not Path(path).is_file():
-            raise UsageError(f"{path}: no such file")
-        raw = np.frombuffer(Path(path).read_bytes(), "<u4")
-        if raw.size == 0 or raw.size % 32768:
-            raise UsageError(f"{path}: {raw.size} tick words, not a multiple of 32768")
-        try:
-            array, call = P.preset(args.array), P.rtis_call(args.call)
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
-        return decode_frame(raw, array, call, {"source": str(path)}, speed_of_sound_m_s=c)
-    try:
-        recs = P.load_recordings(args.real)
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
-    if not 0 <= args.index < len(recs):
-        raise UsageError(f"--index {args.index}: {args.real} holds {len(recs)} recording(s)")
-    return recs[args.index]
-
-
 def _cmd_compare(args: argparse.Namespace) -> int:
-    import json
-
     import processing as P
-    from acousim.compare import ComparisonError, compare, summarize, write_comparison
+    from acousim.compare import (
+        compare,
+        load_real_recordings,
+        pair_with_file,
+        pair_with_scene,
+        summarize,
+        write_comparison,
+        write_summary,
+    )
+    from processing.errors import InputError
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
@@ -322,95 +433,68 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     bad = [m for m in methods if m not in P.METHODS]
     if bad:
         raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
-    pairs = []
-    if args.scene:
-        from acousim.simulator import Simulator
-
-        scene = _load_scene(args.scene)
-        simulator = Simulator(scene)
-        c = scene.environment.speed_of_sound_m_s
-        n_real = _count_real(args)
-        indices = range(n_real) if args.all else [args.index]
-        for i in indices:
-            args.index = i
-            real = _load_real(args, c)
-            pose = i if args.all else args.pose
-            if not 0 <= pose < len(scene.sensor.poses):
-                raise UsageError(f"--pose {pose}: the scene has {len(scene.sensor.poses)}")
+    try:
+        if args.scene:
+            scene = _load_scene(args.scene)
+            c = scene.environment.speed_of_sound_m_s
+        else:
             try:
-                sim = simulator.simulate_pose(
-                    scene.sensor.poses[pose], pose, n_samples=real.n_samples
-                )
-            except ValueError as exc:
-                raise UsageError(str(exc)) from None
-            pairs.append((real, sim))
-    else:
-        try:
-            sims = P.load_recordings(args.sim)
-        except P.RecordingFileError as exc:
-            raise UsageError(f"--sim {args.sim}: {exc}") from None
-        indices = range(min(len(sims), _count_real(args))) if args.all else [args.index]
-        for i in indices:
-            k = i if args.all else args.sim_index
-            if not 0 <= k < len(sims):
-                raise UsageError(f"--sim-index {k}: {args.sim} holds {len(sims)}")
-            args.index = i
-            pairs.append((_load_real(args, sims[k].speed_of_sound_m_s), sims[k]))
-    reports = []
-    for n, (real, sim) in enumerate(pairs):
-        try:
-            report, arrays = compare(real, sim, methods)
-        except ComparisonError as exc:
-            raise UsageError(f"pair {n}: {exc}") from None
-        reports.append(report)
-        folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
-        files = write_comparison(report, arrays, folder)
-    if len(pairs) > 1:
-        table = summarize(reports)
-        path = out / "summary.json"
-        tmp = path.with_suffix(".json.part")
-        tmp.write_text(json.dumps(table, indent=1))
-        os.replace(tmp, path)
-        s = table["summary"]
+                sims = P.load_recordings(args.sim)
+            except P.RecordingFileError as exc:
+                raise UsageError(f"--sim {args.sim}: {exc}") from None
+            if not sims:
+                raise UsageError(f"--sim {args.sim}: the file holds no recording")
+            c = sims[0].speed_of_sound_m_s
+        reals = load_real_recordings(
+            args.real, array=args.array, call=args.call, speed_of_sound_m_s=c
+        )
+        if args.scene:
+            pairs = pair_with_scene(reals, scene, every=args.all, index=args.index, pose=args.pose)
+        else:
+            pairs = pair_with_file(
+                reals, sims, every=args.all, index=args.index, sim_index=args.sim_index
+            )
+        reports = []
+        for n, (real, sim) in enumerate(pairs):
+            try:
+                report, arrays = compare(real, sim, methods)
+            except InputError as exc:
+                raise UsageError(f"pair {n}: {exc}") from None
+            reports.append(report)
+            folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
+            files = write_comparison(report, arrays, folder)
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+    if len(reports) > 1:
+        s = summarize(reports)
+        path = write_summary(s, out)
         print(
-            f"{s['poses']} poses: mean envelope correlation "
-            f"{s['mean_envelope_correlation']:.2f}, {s['matched_echoes']} matched echoes "
-            f"(median |d_range| {s['median_abs_d_range_m']}, median |d_azimuth| "
-            f"{s['median_abs_d_azimuth_deg']}); {path}"
+            f"{s.poses} poses: mean envelope correlation {s.mean_envelope_correlation:.2f}, "
+            f"{s.matched_echoes} matched echoes (median |d_range| {s.median_abs_d_range_m}, "
+            f"median |d_azimuth| {s.median_abs_d_azimuth_deg}); {path}"
         )
         return 0
     report = reports[0]
-    al = report["alignment"]
+    al = report.alignment
     print(
-        f"aligned by {al['emission_shift_samples']:.2f} samples, gain {al['gain']:.3g}; "
-        f"mean envelope correlation {report['channels']['mean_envelope_correlation']:.2f}"
+        f"aligned by {al.emission_shift_samples:.2f} samples, gain {al.gain:.3g}; "
+        f"mean envelope correlation {report.mean_envelope_correlation:.2f}"
     )
-    for m, r in report["images"].items():
-        for k, p in enumerate(r["matched"]):
+    for m, r in report.images.items():
+        for k, p in enumerate(r.matched):
             print(
-                f"  {m} echo {k}: real {p['real']['range_m']:.3f} m "
-                f"{p['real']['azimuth_deg']:+.0f}°, sim {p['sim']['range_m']:.3f} m "
-                f"{p['sim']['azimuth_deg']:+.0f}° (d_range {p['d_range_m'] * 100:+.1f} cm, "
-                f"d_level {p['d_level_db']:+.1f} dB)"
+                f"  {m} echo {k}: real {p.real.range_m:.3f} m {p.real.azimuth_deg:+.0f}°, "
+                f"sim {p.sim.range_m:.3f} m {p.sim.azimuth_deg:+.0f}° "
+                f"(d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
             )
         print(
-            f"  {m}: {len(r['only_real'])} echo(es) only in the real image, "
-            f"{len(r['only_sim'])} only in the simulation"
+            f"  {m}: {len(r.side_lobes_real)} side lobe(s) in the real image, "
+            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
+            f"in the real image, {len(r.only_sim)} only in the simulation"
         )
     for f in files:
         print(f"  {f}")
     return 0
-
-
-def _count_real(args: argparse.Namespace) -> int:
-    import processing as P
-
-    if args.real == "rtisdev-sample" or args.real.endswith(".bin"):
-        return 1
-    try:
-        return P.count_recordings(args.real)
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
@@ -438,11 +522,36 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_to_overwrite_a_full_run(out: Path, report: Path) -> None:
+    """A --quick run does not replace the figures, CSVs or report of a full run."""
+    import json
+
+    try:
+        meta = json.loads((out / "study.json").read_text())
+        full_figures = int(meta["config"]["repetitions"]) >= 20
+    except (OSError, ValueError, KeyError, TypeError):
+        full_figures = False
+    full_report = (
+        report.is_file()
+        and "Generated by `acousim reproduce` on" in (report.read_text(errors="replace")[:400])
+    )
+    if full_figures or full_report:
+        what = f"--out {out}" if full_figures else f"--report {report}"
+        raise UsageError(
+            f"{what}: holds the results of a full run; a --quick run does not overwrite "
+            "them (choose another --out/--report, or give --overwrite)"
+        )
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from acousim.experiments import StudyConfig, run_study
     from acousim.experiments.report import write_report
 
     _writable_dir(args.out)
+    report_path = Path(args.report) if args.report else Path(args.out) / "REPRODUCTION.md"
+    quick = args.quick
+    if not args.report_only and quick and not args.overwrite:
+        _refuse_to_overwrite_a_full_run(Path(args.out), report_path)
     t0 = time.perf_counter()
     if args.report_only:
         from acousim.experiments.paper_study import load_results
@@ -453,13 +562,12 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             raise UsageError(f"--report-only: no finished study in {args.out!r} ({exc})") from None
         quick = results["config"].repetitions < 20
     else:
-        quick = args.quick
         config = StudyConfig.quick(args.workers) if quick else StudyConfig(workers=args.workers)
         results = run_study(
             config, args.out, progress=lambda s: print(f"running {s} ...", flush=True)
         )
     command = "acousim reproduce" + (" --quick" if quick else "")
-    report = write_report(results, args.report, args.out, command)
+    report = write_report(results, report_path, args.out, command)
     print(f"figures and CSVs in {args.out}, report {report} ({time.perf_counter() - t0:.0f} s)")
     return 0
 
@@ -480,6 +588,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="acousim",
         description="Simulate active in-air ultrasonic 3D sonars and image their recordings.",
     )
+    from acousim.bundled import version
+
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser(
@@ -500,7 +611,11 @@ def build_parser() -> argparse.ArgumentParser:
         "and write every recording, with its ground truth, to one "
         "HDF5 file.",
     )
-    p.add_argument("scene", help="scene file (.toml), see docs/scene-format.md")
+    p.add_argument(
+        "scene",
+        help="scene file (.toml, see docs/scene-format.md) or a bundled scene's name "
+        "(acousim scenes)",
+    )
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
     p.add_argument("--seed", type=int, help="noise seed (default: the scene's)")
@@ -508,44 +623,50 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "image",
-        help="image recordings and write pictures",
+        help="image recordings and write pictures and data files",
         description="Run the processing pipeline on simulated or real "
-        "recordings and write fan images (azimuth x range), "
-        "elevation-azimuth maps, a 3D render and, for a "
-        "trajectory, an animated GIF.",
+        "recordings and write the images as data (images.h5: range x "
+        "elevation x azimuth in dB with its axes; peaks.csv), fan images "
+        "(azimuth x range), elevation-azimuth maps, a 3D render and, for a "
+        "trajectory, an animated GIF. File layouts: docs/export.md.",
     )
-    p.add_argument("file", help="recording file (.h5)")
-    p.add_argument(
-        "--method",
-        default="das,capon-fbss,music-fbss",
-        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
-    )
+    _imaging_arguments(p)
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
-    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
-    p.add_argument(
-        "--energy-fraction",
-        type=float,
-        default=1e-3,
-        help="keep range bins with at least this fraction of the strongest "
-        "bin's energy (default: 1e-3; the paper uses 0.5)",
-    )
-    p.add_argument(
-        "--min-range",
-        type=float,
-        default=0.25,
-        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
-    )
-    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
+    p.add_argument(
+        "--no-data",
+        action="store_true",
+        help="skip images.h5 and peaks.csv (about 2 MB per image of a corridor pose)",
+    )
     p.set_defaults(func=_cmd_image)
+
+    p = sub.add_parser(
+        "export",
+        help="write recordings and their images to a ROS 2 bag (MCAP)",
+        description="Image recordings and write a rosbag2 folder (MCAP storage) "
+        "with the raw samples (std_msgs/Float32MultiArray), the image peaks "
+        "(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor "
+        "pose (/tf) and the sensor's description (std_msgs/String, JSON). Needs "
+        "the rosbags package (pip install 'acousim[ros]'); no ROS installation. "
+        "Layout: docs/export.md.",
+    )
+    _imaging_arguments(p)
+    p.add_argument("--out", required=True, help="bag folder to create (must not exist)")
+    p.add_argument(
+        "--image-method",
+        default=None,
+        help="the method published as peaks and fan (default: the sharpest imaged)",
+    )
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser(
         "scenes",
         help="list the bundled scenes",
-        description="List the bundled scene files and what each shows.",
+        description="List the bundled scenes and what each shows; `acousim simulate "
+        "NAME` runs one by its name.",
     )
+    p.add_argument("-v", "--verbose", action="store_true", help="also say where they are")
     p.set_defaults(func=_cmd_scenes)
 
     p = sub.add_parser(
@@ -577,7 +698,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--emulate",
         metavar="SCENE",
-        help="record from an emulated sensor streaming this scene's simulation",
+        help="record from an emulated sensor streaming this scene's simulation (a scene "
+        "file or a bundled scene's name)",
     )
     p.add_argument(
         "--filter",
@@ -596,7 +718,9 @@ def build_parser() -> argparse.ArgumentParser:
         "scene and pose, or an existing simulated file): align "
         "the emission and the gain, compare matched-filter "
         "envelopes, range profiles and images, match their "
-        "peaks, and write a JSON report and a picture.",
+        "peaks (a weaker peak within one STFT window of a stronger "
+        "one is reported as its side lobe), and write a JSON report "
+        "and a picture (docs/compare.md).",
     )
     p.add_argument(
         "real",
@@ -604,7 +728,7 @@ def build_parser() -> argparse.ArgumentParser:
         "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
     )
     p.add_argument("--index", type=int, default=0, help="recording in an .h5 file")
-    p.add_argument("--scene", help="scene file to simulate at --pose")
+    p.add_argument("--scene", help="scene file (or a bundled scene's name) to simulate at --pose")
     p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
@@ -618,8 +742,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
     )
     p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
-    p.add_argument("--method", default="das", help="comma-separated DOA methods")
-    p.add_argument("--out", default="out/compare", help="output folder")
+    p.add_argument("--method", default="das", help="comma-separated DOA methods (default: das)")
+    p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser(
@@ -647,8 +771,22 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="3 repetitions, few SNRs/snapshots, 0.5 degree grid (about a minute)",
     )
-    p.add_argument("--out", default="docs/reproduction", help="folder for figures and CSVs")
-    p.add_argument("--report", default="docs/REPRODUCTION.md", help="report to (re)write")
+    p.add_argument(
+        "--out",
+        default="reproduction",
+        help="folder for figures and CSVs (default: %(default)s, in the current folder; "
+        "the committed ones are docs/reproduction)",
+    )
+    p.add_argument(
+        "--report",
+        help="report to (re)write (default: OUT/REPRODUCTION.md; the committed one is "
+        "docs/REPRODUCTION.md, written with --out docs/reproduction)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="let a --quick run overwrite the report of a full run",
+    )
     p.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
     p.add_argument(
         "--report-only",

@@ -7,41 +7,68 @@ apart they are, at every stage of the pipeline.
    the matched-filter envelopes after the direct path (the echoes).  Without a
    direct path in the simulation, the whole recording sets the lag.  Both are
    reported, never hidden.
-2. Per channel: matched-filter envelopes, their correlation and their level
-   difference in dB along range.
+2. Per channel: matched-filter envelopes (zero-padded Hilbert transform), their
+   correlation and their level difference in dB along range.
 3. Range profiles (mean envelope power over channels).
 4. Images of the same methods; their peaks matched one to one
    (:func:`scipy.optimize.linear_sum_assignment`), with the range, azimuth,
-   elevation and level differences of each matched echo and the echoes only one
-   side has.
+   elevation and level differences of each matched echo.
+5. Unmatched peaks within one STFT window in range of a stronger peak of the same
+   image are that echo's side lobes (the window spreads one echo over the range
+   bins it overlaps, and the array's beam pattern puts lobes beside it in angle):
+   reported as side lobes with the array's own response there, not as echoes
+   only one side has.  What is left is listed as only in the real image or only
+   in the simulation.
+
+The results are typed (:class:`Comparison`, :class:`TrajectorySummary`); their
+``to_dict()`` is what ``comparison.json`` and ``summary.json`` hold.  Loading what
+the command line is given (:func:`load_real_recordings`) and pairing each real
+recording with its simulation (:func:`pair_with_scene`, :func:`pair_with_file`)
+live here too.
 """
 
 from __future__ import annotations
 
 import json
-import os
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.fft import next_fast_len
 from scipy.optimize import linear_sum_assignment
 from scipy.signal import hilbert
 
 import processing as P
+from processing.atomic import atomic_path, write_text
+from processing.errors import InputError
 
 __all__ = [
     "ComparisonError",
     "check_comparable",
     "align",
+    "envelope",
     "compare",
     "summarize",
     "write_comparison",
+    "write_summary",
+    "load_real_recordings",
+    "pair_with_scene",
+    "pair_with_file",
+    "Peak",
+    "MatchedEcho",
+    "SideLobe",
+    "MethodComparison",
+    "Alignment",
+    "Comparison",
+    "ComparisonArrays",
+    "TrajectorySummary",
 ]
 
 DIRECT_WINDOW_S = 1.0e-3  # beyond the call: the direct path's part used for alignment
 
 
-class ComparisonError(ValueError):
+class ComparisonError(InputError):
     """The two recordings cannot be compared; the message names what differs."""
 
 
@@ -67,6 +94,15 @@ def check_comparable(real: P.Recording, sim: P.Recording) -> None:
 def _mf(rec: P.Recording) -> np.ndarray:
     x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
     return P.matched_filter(x, rec.waveform.sampled(rec.sample_rate_hz))
+
+
+def envelope(x: np.ndarray) -> np.ndarray:
+    """Envelope |analytic signal| of x (..., T), zero-padded to twice its length: the
+    FFT-based Hilbert transform is circular, and without padding the strong direct
+    path at the start wraps around into the last samples (the range profiles' last
+    0.5 m climbed 30-50 dB)."""
+    n = x.shape[-1]
+    return np.abs(hilbert(x, N=next_fast_len(2 * n), axis=-1)[..., :n])
 
 
 def _shift(x: np.ndarray, samples: float) -> np.ndarray:
@@ -109,8 +145,8 @@ def _align(real: P.Recording, mf_r: np.ndarray, mf_s: np.ndarray, max_lag_s: flo
     # (the echoes): envelopes do not depend on the carrier's phase, and the direct
     # path of a real sensor is often clipped and would set the gain alone.  The
     # matched filter commutes with the delay, so its output is shifted, not recomputed.
-    env_s = np.abs(hilbert(_shift(mf_s, lag), axis=-1))
-    env_r = np.abs(hilbert(mf_r, axis=-1))
+    env_s = envelope(_shift(mf_s, lag))
+    env_r = envelope(mf_r)
     denom = float(np.sum(env_s[:, win:] ** 2))
     gain = float(np.sum(env_r[:, win:] * env_s[:, win:]) / denom) if denom > 0 else 0.0
     return lag, gain, env_r, env_s
@@ -120,13 +156,6 @@ def _align(real: P.Recording, mf_r: np.ndarray, mf_s: np.ndarray, max_lag_s: flo
 class MatchTolerance:
     range_m: float = 0.3
     angle_deg: float = 15.0
-
-
-def _peaks_table(img: P.Image, threshold_db: float) -> np.ndarray:
-    pk = img.peaks(threshold_db)
-    return np.column_stack(
-        [pk.range_m, np.rad2deg(pk.azimuth_rad), np.rad2deg(pk.elevation_rad), pk.level_db]
-    )
 
 
 def match_peaks(
@@ -150,6 +179,201 @@ def match_peaks(
     )
 
 
+@dataclass(frozen=True)
+class Peak:
+    """One image peak: range (m), azimuth and elevation (degrees), level (dB re the
+    image's maximum)."""
+
+    range_m: float
+    azimuth_deg: float
+    elevation_deg: float
+    level_db: float
+
+
+@dataclass(frozen=True)
+class MatchedEcho:
+    """A peak of the real image paired with one of the simulated image."""
+
+    real: Peak
+    sim: Peak
+
+    @property
+    def d_range_m(self) -> float:
+        return self.sim.range_m - self.real.range_m
+
+    @property
+    def d_azimuth_deg(self) -> float:
+        return self.sim.azimuth_deg - self.real.azimuth_deg
+
+    @property
+    def d_elevation_deg(self) -> float:
+        return self.sim.elevation_deg - self.real.elevation_deg
+
+    @property
+    def d_level_db(self) -> float:
+        return self.sim.level_db - self.real.level_db
+
+    def to_dict(self) -> dict:
+        return {
+            "real": asdict(self.real),
+            "sim": asdict(self.sim),
+            "d_range_m": self.d_range_m,
+            "d_azimuth_deg": self.d_azimuth_deg,
+            "d_elevation_deg": self.d_elevation_deg,
+            "d_level_db": self.d_level_db,
+        }
+
+
+@dataclass(frozen=True)
+class SideLobe:
+    """An unmatched peak within one STFT window in range of a stronger peak `of` of the
+    same image: that echo's side lobe.  `array_response_db` is the array's narrow-band
+    beam pattern (delay-and-sum, at the image's steering frequency) aimed at `of`,
+    evaluated at this peak's direction: how strong a pure side lobe would be there."""
+
+    peak: Peak
+    of: Peak
+    array_response_db: float
+
+    def to_dict(self) -> dict:
+        return {
+            **asdict(self.peak),
+            "of": asdict(self.of),
+            "array_response_db": self.array_response_db,
+        }
+
+
+@dataclass(frozen=True)
+class MethodComparison:
+    """The peaks of one method's two images: matched echoes, side lobes, the rest."""
+
+    method: str
+    matched: tuple[MatchedEcho, ...]
+    only_real: tuple[Peak, ...]
+    only_sim: tuple[Peak, ...]
+    side_lobes_real: tuple[SideLobe, ...]
+    side_lobes_sim: tuple[SideLobe, ...]
+    range_bin_m: float
+
+    def to_dict(self) -> dict:
+        return {
+            "matched": [m.to_dict() for m in self.matched],
+            "only_real": [asdict(p) for p in self.only_real],
+            "only_sim": [asdict(p) for p in self.only_sim],
+            "side_lobes_real": [s.to_dict() for s in self.side_lobes_real],
+            "side_lobes_sim": [s.to_dict() for s in self.side_lobes_sim],
+            "range_bin_m": self.range_bin_m,
+        }
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """Shift applied to the simulation (samples, and seconds) and gain real/sim."""
+
+    emission_shift_samples: float
+    emission_shift_s: float
+    gain: float
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Everything :func:`compare` measured.  `level_difference_db` (B,) is
+    10 log10(real / simulated) per `range_bin_m` range bin after alignment and gain."""
+
+    alignment: Alignment
+    envelope_correlation: tuple[float, ...]
+    range_bin_m: float
+    level_difference_db: tuple[float, ...]
+    images: dict[str, MethodComparison]
+
+    @property
+    def mean_envelope_correlation(self) -> float:
+        return float(np.mean(self.envelope_correlation))
+
+    def to_dict(self) -> dict:
+        return {
+            "alignment": asdict(self.alignment),
+            "channels": {
+                "envelope_correlation": list(self.envelope_correlation),
+                "mean_envelope_correlation": self.mean_envelope_correlation,
+            },
+            "range_profile": {
+                "range_bin_m": self.range_bin_m,
+                "level_difference_db": list(self.level_difference_db),
+                "note": "10 log10(real / simulated) per range bin, after alignment and gain",
+            },
+            "images": {m: r.to_dict() for m, r in self.images.items()},
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class ComparisonArrays:
+    """What the picture draws: range-bin edges (B + 1,) in m, the two range profiles
+    (B,) (mean envelope power) and the images of each method."""
+
+    edges_m: np.ndarray
+    profile_real: np.ndarray
+    profile_sim: np.ndarray
+    images_real: dict[str, P.Image]
+    images_sim: dict[str, P.Image]
+
+
+def _peaks(img: P.Image, threshold_db: float) -> list[Peak]:
+    pk = img.peaks(threshold_db)
+    return [
+        Peak(float(r), float(np.rad2deg(a)), float(np.rad2deg(e)), float(lv))
+        for r, a, e, lv in zip(pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db)
+    ]
+
+
+def _table(peaks: Sequence[Peak]) -> np.ndarray:
+    return np.array(
+        [[p.range_m, p.azimuth_deg, p.elevation_deg, p.level_db] for p in peaks]
+    ).reshape(-1, 4)
+
+
+def _unit(az_deg: float, el_deg: float) -> np.ndarray:
+    az, el = np.deg2rad(az_deg), np.deg2rad(el_deg)
+    return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+
+
+def array_response_db(
+    array: P.Array, frequency_hz: float, c: float, towards: Peak, at: Peak
+) -> float:
+    """Narrow-band delay-and-sum beam pattern aimed at `towards`, at `at`'s direction,
+    in dB re its maximum: |a(at)^H a(towards)|^2 / M^2."""
+    k = 2 * np.pi * frequency_hz / c
+    pos = array.positions_m
+    a0 = np.exp(1j * k * pos @ _unit(towards.azimuth_deg, towards.elevation_deg))
+    a1 = np.exp(1j * k * pos @ _unit(at.azimuth_deg, at.elevation_deg))
+    r = abs(np.vdot(a1, a0)) ** 2 / len(pos) ** 2
+    return float(10 * np.log10(max(r, 1e-30)))
+
+
+def side_lobes(
+    peaks: Sequence[Peak],
+    candidates: Sequence[int],
+    extent_m: float,
+    array: P.Array,
+    frequency_hz: float,
+    c: float,
+) -> tuple[list[SideLobe], list[int]]:
+    """Split `candidates` (indices into `peaks`, strongest first) into side lobes of a
+    stronger peak within `extent_m` in range, and the rest."""
+    lobes, rest = [], []
+    for i in candidates:
+        p = peaks[i]
+        parents = [
+            q for q in peaks if q.level_db > p.level_db and abs(q.range_m - p.range_m) <= extent_m
+        ]
+        if parents:
+            top = max(parents, key=lambda q: q.level_db)
+            lobes.append(SideLobe(p, top, array_response_db(array, frequency_hz, c, top, p)))
+        else:
+            rest.append(i)
+    return lobes, rest
+
+
 def compare(
     real: P.Recording,
     sim: P.Recording,
@@ -157,8 +381,9 @@ def compare(
     settings: P.ProcessingSettings | None = None,
     threshold_db: float = -12.0,
     range_bin_m: float = 0.05,
-) -> tuple[dict, dict]:
-    """Compare two recordings.  Returns (report dict, arrays for the picture)."""
+) -> tuple[Comparison, ComparisonArrays]:
+    """Compare two recordings (the steps of the module docstring).  Returns what was
+    measured and what the picture draws."""
     check_comparable(real, sim)
     lag, gain, env_r, env_s = _align(real, _mf(real), _mf(sim))
     env_s = gain * env_s
@@ -166,10 +391,10 @@ def compare(
     aligned = sim.with_samples(
         gain * _shift(sim.samples if sim.samples.ndim == 2 else sim.samples.mean(0), lag)
     )
-    corr = [
+    corr = tuple(
         float(np.corrcoef(er, es)[0, 1]) if er.std() > 0 and es.std() > 0 else 0.0
         for er, es in zip(env_r, env_s)
-    ]
+    )
     rng = real.time_s() * c / 2
     edges = np.arange(0, rng[-1] + range_bin_m, range_bin_m)
     idx = np.clip(np.digitize(rng, edges) - 1, 0, len(edges) - 2)
@@ -182,62 +407,39 @@ def compare(
         range_limits_m=(0.3, float(rng[-1])),
         grid=P.Grid.degrees((-90, 90), (-60, 60), 2),
     )
+    # one echo spreads over the range bins of every STFT window that overlaps it
+    extent_m = settings.window / fs * c / 2
     images_r = P.acoustic_images(real, methods, settings)
     images_s = P.acoustic_images(aligned, methods, settings)
     per_method = {}
     for m in methods:
-        a, b = _peaks_table(images_r[m], threshold_db), _peaks_table(images_s[m], threshold_db)
-        pairs, only_r, only_s = match_peaks(a, b)
-        per_method[m] = {
-            "matched": [
-                {
-                    "real": dict(
-                        zip(("range_m", "azimuth_deg", "elevation_deg", "level_db"), a[i].tolist())
-                    ),
-                    "sim": dict(
-                        zip(("range_m", "azimuth_deg", "elevation_deg", "level_db"), b[j].tolist())
-                    ),
-                    "d_range_m": float(b[j, 0] - a[i, 0]),
-                    "d_azimuth_deg": float(b[j, 1] - a[i, 1]),
-                    "d_elevation_deg": float(b[j, 2] - a[i, 2]),
-                    "d_level_db": float(b[j, 3] - a[i, 3]),
-                }
-                for i, j in pairs
-            ],
-            "only_real": [
-                dict(zip(("range_m", "azimuth_deg", "elevation_deg", "level_db"), a[i].tolist()))
-                for i in only_r
-            ],
-            "only_sim": [
-                dict(zip(("range_m", "azimuth_deg", "elevation_deg", "level_db"), b[j].tolist()))
-                for j in only_s
-            ],
-            "range_bin_m": images_r[m].bin_range_m,
-        }
-    report = {
-        "alignment": {"emission_shift_samples": lag, "emission_shift_s": lag / fs, "gain": gain},
-        "channels": {
-            "envelope_correlation": corr,
-            "mean_envelope_correlation": float(np.mean(corr)),
-        },
-        "range_profile": {
-            "range_bin_m": range_bin_m,
-            "level_difference_db": level_db.tolist(),
-            "note": "10 log10(real / simulated) per range bin, after alignment and gain",
-        },
-        "images": per_method,
-    }
-    arrays = {
-        "edges": edges,
-        "prof_r": prof_r,
-        "prof_s": prof_s,
-        "images_r": images_r,
-        "images_s": images_s,
-    }
-    return report, arrays
+        a, b = _peaks(images_r[m], threshold_db), _peaks(images_s[m], threshold_db)
+        pairs, only_r, only_s = match_peaks(_table(a), _table(b))
+        f = images_r[m].frequency_hz
+        lobes_r, only_r = side_lobes(a, only_r, extent_m, real.array, f, c)
+        lobes_s, only_s = side_lobes(b, only_s, extent_m, real.array, f, c)
+        per_method[m] = MethodComparison(
+            method=m,
+            matched=tuple(MatchedEcho(a[i], b[j]) for i, j in pairs),
+            only_real=tuple(a[i] for i in only_r),
+            only_sim=tuple(b[j] for j in only_s),
+            side_lobes_real=tuple(lobes_r),
+            side_lobes_sim=tuple(lobes_s),
+            range_bin_m=images_r[m].bin_range_m,
+        )
+    report = Comparison(
+        alignment=Alignment(lag, lag / fs, gain),
+        envelope_correlation=corr,
+        range_bin_m=range_bin_m,
+        level_difference_db=tuple(level_db.tolist()),
+        images=per_method,
+    )
+    return report, ComparisonArrays(edges, prof_r, prof_s, images_r, images_s)
 
 
-def write_comparison(report: dict, arrays: dict, out_dir: str | Path) -> list[Path]:
+def write_comparison(
+    report: Comparison, arrays: ComparisonArrays, out_dir: str | Path
+) -> list[Path]:
     """The JSON report and a side-by-side picture, written atomically."""
     import matplotlib
 
@@ -248,80 +450,188 @@ def write_comparison(report: dict, arrays: dict, out_dir: str | Path) -> list[Pa
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    js = out / "comparison.json"
-    tmp = js.with_suffix(".json.part")
-    tmp.write_text(json.dumps(report, indent=1))
-    os.replace(tmp, js)
-    methods = list(arrays["images_r"])
+    js = write_text(out / "comparison.json", json.dumps(report.to_dict(), indent=1))
+    methods = list(arrays.images_real)
     fig, axes = plt.subplots(len(methods), 3, figsize=(14, 4 * len(methods)), squeeze=False)
-    centres = (arrays["edges"][1:] + arrays["edges"][:-1]) / 2
+    centres = (arrays.edges_m[1:] + arrays.edges_m[:-1]) / 2
     for row, m in zip(axes, methods):
-        ir, is_ = arrays["images_r"][m], arrays["images_s"][m]
+        ir, is_ = arrays.images_real[m], arrays.images_sim[m]
         top = max([float(im.range_m.max()) for im in (ir, is_) if im.range_m.size] or [1.0])
         for ax, img, name in ((row[0], ir, "real"), (row[1], is_, "simulated")):
             draw_fan(ax, img, top * 1.05, 30.0)
             ax.set_title(f"{name}, {m}")
-        for k, pair in enumerate(report["images"][m]["matched"]):
-            for ax, side in ((row[0], "real"), (row[1], "sim")):
-                p = pair[side]
-                a = np.deg2rad(p["azimuth_deg"])
-                ax.plot(
-                    -p["range_m"] * np.sin(a),
-                    p["range_m"] * np.cos(a),
-                    "o",
-                    mfc="none",
-                    mec="cyan",
-                    ms=10,
-                )
-                ax.annotate(
-                    str(k),
-                    (-p["range_m"] * np.sin(a), p["range_m"] * np.cos(a)),
-                    color="cyan",
-                    fontsize=8,
-                )
+        for k, pair in enumerate(report.images[m].matched):
+            for ax, p in ((row[0], pair.real), (row[1], pair.sim)):
+                a = np.deg2rad(p.azimuth_deg)
+                xy = (p.range_m * np.sin(a), p.range_m * np.cos(a))
+                ax.plot(*xy, "o", mfc="none", mec="cyan", ms=10)
+                ax.annotate(str(k), xy, color="cyan", fontsize=8)
         ax = row[2]
-        ax.plot(centres, 10 * np.log10(arrays["prof_r"] + 1e-30), label="real")
-        ax.plot(centres, 10 * np.log10(arrays["prof_s"] + 1e-30), label="simulated (aligned)")
+        ax.plot(centres, 10 * np.log10(arrays.profile_real + 1e-30), label="real")
+        ax.plot(centres, 10 * np.log10(arrays.profile_sim + 1e-30), label="simulated (aligned)")
         ax.set_xlabel("range (m)")
         ax.set_ylabel("mean envelope power (dB)")
         ax.legend()
+        al = report.alignment
         ax.set_title(
-            f"range profiles; gain {report['alignment']['gain']:.3g}, "
-            f"shift {report['alignment']['emission_shift_samples']:.2f} samples"
+            f"range profiles; gain {al.gain:.3g}, shift {al.emission_shift_samples:.2f} samples"
         )
     png = out / "comparison.png"
-    tmpp = png.with_name(".comparison.part.png")
-    fig.savefig(tmpp, dpi=100, bbox_inches="tight")
+    with atomic_path(png) as tmp:
+        fig.savefig(tmp, dpi=100, bbox_inches="tight", format="png")
     plt.close(fig)
-    os.replace(tmpp, png)
     return [js, png]
 
 
-def summarize(reports: list[dict]) -> dict:
+@dataclass(frozen=True)
+class TrajectorySummary:
+    """One row per pose (dicts of numbers, one column per method and count) and the
+    medians over every matched echo."""
+
+    rows: tuple[dict, ...]
+    poses: int
+    mean_envelope_correlation: float
+    matched_echoes: int
+    median_abs_d_range_m: float | None
+    median_abs_d_azimuth_deg: float | None
+
+    def to_dict(self) -> dict:
+        return {
+            "rows": list(self.rows),
+            "summary": {
+                "poses": self.poses,
+                "mean_envelope_correlation": self.mean_envelope_correlation,
+                "matched_echoes": self.matched_echoes,
+                "median_abs_d_range_m": self.median_abs_d_range_m,
+                "median_abs_d_azimuth_deg": self.median_abs_d_azimuth_deg,
+            },
+        }
+
+
+def summarize(reports: Sequence[Comparison]) -> TrajectorySummary:
     """One line per pose of a trajectory and a summary over all of them."""
     rows, d_range, d_az, corr = [], [], [], []
     for i, r in enumerate(reports):
         row = {
             "pose": i,
-            "gain": r["alignment"]["gain"],
-            "emission_shift_samples": r["alignment"]["emission_shift_samples"],
-            "mean_envelope_correlation": r["channels"]["mean_envelope_correlation"],
+            "gain": r.alignment.gain,
+            "emission_shift_samples": r.alignment.emission_shift_samples,
+            "mean_envelope_correlation": r.mean_envelope_correlation,
         }
-        for m, img in r["images"].items():
-            row[f"{m}_matched"] = len(img["matched"])
-            row[f"{m}_only_real"] = len(img["only_real"])
-            row[f"{m}_only_sim"] = len(img["only_sim"])
-            d_range += [abs(p["d_range_m"]) for p in img["matched"]]
-            d_az += [abs(p["d_azimuth_deg"]) for p in img["matched"]]
-        corr.append(row["mean_envelope_correlation"])
+        for m, img in r.images.items():
+            row[f"{m}_matched"] = len(img.matched)
+            row[f"{m}_only_real"] = len(img.only_real)
+            row[f"{m}_only_sim"] = len(img.only_sim)
+            row[f"{m}_side_lobes_real"] = len(img.side_lobes_real)
+            d_range += [abs(p.d_range_m) for p in img.matched]
+            d_az += [abs(p.d_azimuth_deg) for p in img.matched]
+        corr.append(r.mean_envelope_correlation)
         rows.append(row)
-    return {
-        "rows": rows,
-        "summary": {
-            "poses": len(reports),
-            "mean_envelope_correlation": float(np.mean(corr)) if corr else 0.0,
-            "matched_echoes": len(d_range),
-            "median_abs_d_range_m": float(np.median(d_range)) if d_range else None,
-            "median_abs_d_azimuth_deg": float(np.median(d_az)) if d_az else None,
-        },
-    }
+    return TrajectorySummary(
+        rows=tuple(rows),
+        poses=len(reports),
+        mean_envelope_correlation=float(np.mean(corr)) if corr else 0.0,
+        matched_echoes=len(d_range),
+        median_abs_d_range_m=float(np.median(d_range)) if d_range else None,
+        median_abs_d_azimuth_deg=float(np.median(d_az)) if d_az else None,
+    )
+
+
+def write_summary(summary: TrajectorySummary, out_dir: str | Path) -> Path:
+    """``summary.json`` in `out_dir`, written atomically."""
+    return write_text(Path(out_dir) / "summary.json", json.dumps(summary.to_dict(), indent=1))
+
+
+# -- what the command line is given --------------------------------------------------
+
+
+def load_real_recordings(
+    source: str | Path,
+    *,
+    array: str = "ertis_v3d1",
+    call: str = "default_25_50",
+    speed_of_sound_m_s: float = 343.0,
+) -> list[P.Recording]:
+    """The real recordings of `source`: ``"rtisdev-sample"`` (the eRTIS sample of the
+    rtisdev wheel), raw tick words (``.bin``, decoded with the `array` and `call`
+    presets at `speed_of_sound_m_s`) or a recording file (``.h5``, read once).
+    Raises InputError naming the file or option."""
+    source = str(source)
+    if source == "rtisdev-sample" or source.endswith(".bin"):
+        from hardware import decode_frame
+        from processing.rtisdev import sample_recording
+
+        path = sample_recording() if source == "rtisdev-sample" else Path(source)
+        if not path.is_file():
+            raise InputError("no such file", file=path)
+        raw = np.frombuffer(path.read_bytes(), "<u4")
+        if raw.size == 0 or raw.size % 32768:
+            raise InputError(f"{raw.size} tick words, not a multiple of 32768", file=path)
+        try:
+            arr = P.preset(array)
+        except ValueError as exc:
+            raise InputError(str(exc), key="--array", value=array) from None
+        try:
+            wf = P.rtis_call(call)
+        except ValueError as exc:
+            raise InputError(str(exc), key="--call", value=call) from None
+        return [
+            decode_frame(raw, arr, wf, {"source": str(path)}, speed_of_sound_m_s=speed_of_sound_m_s)
+        ]
+    try:
+        return P.load_recordings(source)
+    except P.RecordingFileError as exc:
+        raise InputError(str(exc)) from None
+
+
+def _pick(recs: Sequence[P.Recording], i: int, key: str, what: str) -> P.Recording:
+    if not 0 <= i < len(recs):
+        raise InputError(f"{what} holds {len(recs)} recording(s)", key=key, value=i)
+    return recs[i]
+
+
+def pair_with_scene(
+    reals: Sequence[P.Recording], scene, *, every: bool = False, index: int = 0, pose: int = 0
+) -> list[tuple[P.Recording, P.Recording]]:
+    """(real, simulated) pairs: real recording `index` with the scene simulated at
+    `pose`, or with `every`, real recording i with pose i for every i.  Each
+    simulation has its real partner's length.  Raises InputError naming ``--index``,
+    ``--pose`` or the scene file (a scene the simulator refuses: an unreadable mesh)."""
+    from acousim.simulator import Simulator
+
+    chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
+    poses = list(range(len(reals))) if every else [pose]
+    n = len(scene.sensor.poses)
+    bad = [q for q in poses if not 0 <= q < n]
+    if bad:
+        raise InputError(f"the scene has {n} pose(s)", key="--pose", value=bad[0])
+    try:
+        simulator = Simulator(scene)
+        sims = [
+            simulator.simulate_pose(scene.sensor.poses[q], q, n_samples=r.n_samples)
+            for r, q in zip(chosen, poses)
+        ]
+    except ValueError as exc:
+        raise InputError(str(exc), file=scene.source) from None
+    return list(zip(chosen, sims))
+
+
+def pair_with_file(
+    reals: Sequence[P.Recording],
+    sims: Sequence[P.Recording],
+    *,
+    every: bool = False,
+    index: int = 0,
+    sim_index: int = 0,
+) -> list[tuple[P.Recording, P.Recording]]:
+    """(real, simulated) pairs from two files: recording `index` with simulated
+    recording `sim_index`, or with `every`, recording i with recording i for every i
+    both files hold.  Raises InputError naming ``--index`` or ``--sim-index``."""
+    if every:
+        return list(zip(reals, sims))
+    return [
+        (
+            _pick(reals, index, "--index", "the real file"),
+            _pick(sims, sim_index, "--sim-index", "the --sim file"),
+        )
+    ]

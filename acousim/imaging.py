@@ -3,7 +3,9 @@ fan images, elevation-azimuth maps, 3D renders of the scene, drive animations.""
 
 from __future__ import annotations
 
-import os
+import contextlib
+import signal
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -11,8 +13,16 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from processing.atomic import atomic_path
 
-__all__ = ["ImagingOptions", "image_recordings", "peaks_in_world", "write_pictures"]
+__all__ = [
+    "ImagingOptions",
+    "image_recordings",
+    "peak_positions",
+    "peaks_in_world",
+    "prepare_pictures",
+    "write_pictures",
+]
 
 
 @dataclass(frozen=True)
@@ -91,29 +101,83 @@ def _pose(rec: P.Recording):
     )
 
 
-def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:
-    """Image peaks as world points (N, 3): (az, el, range) from the array centre."""
-    pk = image.peaks(threshold_db)
-    centre = rec.array.positions_m.mean(axis=0)
+def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
+    """Peaks (az, el, range from the array centre) as points: (sensor frame (N, 3),
+    world frame (N, 3)), through the recording's pose (identity without one)."""
     d = np.column_stack(
         [
-            np.cos(pk.elevation_rad) * np.cos(pk.azimuth_rad),
-            np.cos(pk.elevation_rad) * np.sin(pk.azimuth_rad),
-            np.sin(pk.elevation_rad),
+            np.cos(peaks.elevation_rad) * np.cos(peaks.azimuth_rad),
+            np.cos(peaks.elevation_rad) * np.sin(peaks.azimuth_rad),
+            np.sin(peaks.elevation_rad),
         ]
-    )
-    return _pose(rec).to_world(centre + pk.range_m[:, None] * d)
+    ).reshape(-1, 3)
+    sensor = rec.array.positions_m.mean(axis=0) + peaks.range_m.reshape(-1, 1) * d
+    return sensor, _pose(rec).to_world(sensor)
 
 
-def _scene_triangles(rec: P.Recording) -> np.ndarray | None:
+def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:
+    """Image peaks as world points (N, 3): (az, el, range) from the array centre."""
+    return peak_positions(rec, image.peaks(threshold_db))[1]
+
+
+def _scene(rec: P.Recording):
+    """The recording's scene, when its file is still there (None for real data)."""
     file = rec.metadata.get("scene_file")
     if not file or not Path(file).is_file():
         return None
     from acousim.scene import load_scene
+
+    try:
+        return load_scene(file)
+    except ValueError:  # the scene file changed since: draw without it
+        return None
+
+
+def _scene_triangles(scene) -> np.ndarray | None:
+    if scene is None or not scene.meshes:
+        return None
     from acousim.trace.geometry import build_world
 
-    scene = load_scene(file)
-    return build_world(scene).triangles if scene.meshes else None
+    return build_world(scene).triangles
+
+
+def prepare_pictures(render_3d: bool = True, animation: bool = True) -> None:
+    """Import what the pictures need (matplotlib; pyvista/VTK and imageio for the 3D
+    views) before a command's work starts, so that Ctrl-C never lands in the middle of
+    VTK's import (which could crash the interpreter instead of stopping cleanly).
+    An interrupt during these imports is held back and raised once they are done."""
+    with _interrupt_after():
+        _import_pictures(render_3d, animation)
+
+
+@contextlib.contextmanager
+def _interrupt_after():
+    """Hold SIGINT back during the block, then raise KeyboardInterrupt if it came."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda sig, frame: caught.append(sig))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def _import_pictures(render_3d: bool, animation: bool) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+
+    if render_3d or animation:
+        from acousim.viz.render3d import import_pyvista
+
+        import_pyvista()
+    if animation:
+        import imageio.v2  # noqa: F401
 
 
 def write_pictures(
@@ -125,28 +189,48 @@ def write_pictures(
     render_3d: bool = True,
     animation: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    indices: Sequence[int] | None = None,
 ) -> list[Path]:
     """Fan images and elevation-azimuth maps of the first recording, its 3D render,
-    and for several recordings (a trajectory) an animated GIF of the drive."""
+    and for several recordings (a trajectory) an animated GIF of the drive.
+
+    indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
+    """
     from acousim.viz import elaz_figure, fan_figure
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    trajectory = len(recordings) > 1
     written = []
     first, imgs = recordings[0], images[0]
-    truth_sensor = _truth_sensor(first)
-    written.append(fan_figure(imgs, out / "fan.png", truth=truth_sensor, title=_title(first, 0)))
+    scene = _scene(first)
+    limit = _range_limit(first, options, scene)
+    title = _title(first, indices[0], trajectory)
+    written.append(
+        fan_figure(
+            imgs, out / "fan.png", truth=_truth_sensor(first), title=title, max_range_m=limit
+        )
+    )
     for m, img in imgs.items():
         if img.power.size:
-            written.append(elaz_figure(img, out / f"elaz_{m}.png"))
-    triangles = _scene_triangles(first) if render_3d or animation else None
+            written.append(elaz_figure(img, out / f"elaz_{m}.png", title=title))
+    triangles = _scene_triangles(scene) if render_3d or animation else None
     if render_3d:
         written.append(_render(first, imgs, triangles, out / "scene3d.png", options))
-    if animation and len(recordings) > 1:
+    if animation and trajectory:
         written.append(
-            _animate(recordings, images, triangles, out / "drive.gif", options, progress)
+            _animate(recordings, images, triangles, out / "drive.gif", options, progress, indices)
         )
     return written
+
+
+def _range_limit(rec: P.Recording, options: ImagingOptions, scene) -> float:
+    """The farthest range a picture may show: the imaged range, within the scene's."""
+    hi = options.settings(rec).range_limits_m[1]
+    if scene is not None:
+        hi = min(hi, float(scene.simulation.max_range_m))
+    return float(hi)
 
 
 def _sharpest(imgs: dict[str, P.Image]) -> str:
@@ -157,25 +241,47 @@ def _sharpest(imgs: dict[str, P.Image]) -> str:
     return next(iter(imgs))
 
 
-def _title(rec: P.Recording, i: int) -> str:
+def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
+    """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
     p = rec.metadata.get("pose")
-    where = f", t = {p['time_s']:.1f} s" if p else ""
+    moving = p and (trajectory or p.get("time_s", 0.0) or rec.metadata.get("pose_index", 0))
+    where = f", t = {p['time_s']:.1f} s" if moving else ""
     kind = "simulated" if rec.metadata.get("simulated") else "real"
-    return f"{rec.metadata.get('scene', kind)} — recording {i}{where}"
+    return f"{rec.metadata.get('scene', kind)} — recording {index}{where}"
+
+
+TRUTH_DRAWN_DB = 20.0  # fan pictures: ray-traced reflectors within this of the strongest
 
 
 def _truth_sensor(rec: P.Recording) -> np.ndarray | None:
+    """Ray-traced echo points (N, 3, sensor frame) within TRUTH_DRAWN_DB of the
+    strongest echo (the direct path excluded)."""
     t = rec.truth
     if t is None or not len(t):
         return None
     pts = t.position_sensor_m
-    kind = t.kind
-    amp = t.amplitude
-    echo = kind != "direct"
-    if not echo.any():
-        return None
-    strong = echo & (amp >= amp[echo].max() * 10 ** (-20 / 20))
-    return pts[strong]
+    lvl = _truth_level_db(t)
+    strong = lvl >= -TRUTH_DRAWN_DB
+    return pts[strong] if strong.any() else None
+
+
+def _truth_level_db(truth: P.GroundTruth) -> np.ndarray:
+    """Level (N,) of each ray-traced path in dB re the strongest echo; -inf for the
+    direct path (not a reflector)."""
+    kind = truth.kind
+    amp = np.abs(truth.amplitude)
+    echo = (kind != "direct") & (amp > 0)
+    lvl = np.full(amp.shape, -np.inf)
+    if echo.any():
+        lvl[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
+    return lvl
+
+
+def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None]:
+    truth = rec.truth
+    if truth is None or not len(truth):
+        return None, None
+    return truth.position_world_m, _truth_level_db(truth)
 
 
 def _render(rec, imgs, triangles, path, options):
@@ -183,57 +289,83 @@ def _render(rec, imgs, triangles, path, options):
 
     pose = _pose(rec)
     method = _sharpest(imgs)
-    truth_w = None if rec.truth is None else rec.truth.echoes().position_world_m
+    truth_w, level = _truth_world(rec)
     render_scene(
         path,
         triangles=triangles,
         sensor_position=pose.position_m,
         sensor_axis=pose.rotation[:, 0],
         truth=truth_w,
+        truth_level_db=level,
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
     )
     return Path(path)
 
 
-def _animate(recordings, images, triangles, path, options, progress):
+def _animate(recordings, images, triangles, path, options, progress, indices):
     import imageio.v2 as imageio
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acousim.viz.fan import draw_fan
+    from acousim.viz.fan import TRUTH_COLOR, draw_fan, fan_extent, truth_in_fan
     from acousim.viz.render3d import SceneRenderer
 
+    dr = 30.0
     method = _sharpest(images[0])
-    max_range = max(float(im[method].range_m.max()) for im in images if im[method].range_m.size)
+    scene = _scene(recordings[0])
+    limit = min(_range_limit(rec, options, scene) for rec in recordings)
+    truths = [_truth_sensor(rec) for rec in recordings]
+    truths_yx = [truth_in_fan(t) if t is not None else None for t in truths]
+    # one fitted extent for the whole drive (the axes do not jump between frames)
+    ext = np.array(
+        [
+            fan_extent(imgs[method], limit, dr, t)
+            for imgs, t in zip(images, truths_yx)
+            if imgs[method].range_m.size
+        ]
+        or [(1.0, -1.0, 0.0, 1.0)]
+    )
+    extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
-    renderer = SceneRenderer(triangles, window_size=(560, 420))
+    renderer = SceneRenderer(
+        triangles, window_size=(640, 480), with_truth=any(t is not None for t in truths)
+    )
     try:
-        for i, (rec, imgs) in enumerate(zip(recordings, images)):
+        for k, (rec, imgs) in enumerate(zip(recordings, images)):
             pose = _pose(rec)
+            truth_w, level = _truth_world(rec)
             view = renderer.frame(
                 pose.position_m,
                 pose.rotation[:, 0],
+                truth=truth_w,
+                truth_level_db=level,
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
             )
             fig, (a, b) = plt.subplots(
-                1, 2, figsize=(10, 4.2), gridspec_kw={"width_ratios": [1.35, 1]}
+                1,
+                2,
+                figsize=(12, 5.4),
+                gridspec_kw={"width_ratios": [1.2, 1]},
+                layout="constrained",
             )
             a.imshow(view)
             a.axis("off")
-            a.set_title(_title(rec, i), fontsize=9)
-            draw_fan(b, imgs[method], max_range, 30.0, pixels=500)  # ~400 px in the frame
-            b.set_title(f"{method}, top view (dB)", fontsize=9)
+            a.set_title(_title(rec, indices[k], True), fontsize=10)
+            im = draw_fan(b, imgs[method], limit, dr, pixels=600, extent=extent)
+            if truths_yx[k] is not None:
+                t = truths_yx[k]
+                b.scatter(t[:, 0], t[:, 1], s=60, facecolors="none", edgecolors=TRUTH_COLOR, lw=0.8)
+            b.set_title(f"{method}, top view; white circles: ray-traced reflectors", fontsize=9)
+            fig.colorbar(im, ax=b, shrink=0.8, label=f"dB re strongest ({dr:g} dB range)")
             fig.canvas.draw()
             frames.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
             plt.close(fig)
             if progress:
-                progress(i + 1, len(recordings))
+                progress(k + 1, len(recordings))
     finally:
         renderer.close()
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.part.gif")
-    imageio.mimsave(tmp, frames, duration=0.1, loop=0)
-    os.replace(tmp, path)
-    return path
+    with atomic_path(path) as tmp:
+        imageio.mimsave(tmp, frames, format="GIF", duration=0.1, loop=0)
+    return Path(path)

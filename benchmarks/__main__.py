@@ -8,7 +8,9 @@ import platform
 import sys
 from pathlib import Path
 
-from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode, recording_file
+from processing.atomic import write_text
+
+from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode, pictures, recording_file
 
 SECTIONS = {
     "doa": doa_speed,
@@ -16,6 +18,7 @@ SECTIONS = {
     "corridor": corridor,
     "pdm_decode": pdm_decode,
     "dataset": dataset,
+    "pictures": pictures,
     "recording_file": recording_file,
 }
 
@@ -81,9 +84,7 @@ def main(argv: list[str]) -> int:
     for name in SECTIONS:
         if name in sections:
             parts += [_marker(name), sections[name], ""]
-    tmp = out.with_suffix(".md.part")
-    tmp.write_text("\n".join(parts))
-    os.replace(tmp, out)
+    write_text(out, "\n".join(parts))
     print(f"wrote {out}")
     return 0
 

@@ -1,13 +1,21 @@
 """hardware: the real RTIS sensors over USB (pyusb), their 1-bit PDM frames, and an
 emulated sensor that runs the same driver without hardware.  Depends on processing."""
 
-from .device import DeviceNotFound, DeviceSettings, RtisDevice
+from .device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevice
 from .pdm import decode, encode
 from .protocol import Frame, FrameError, build_frame, parse_frame
-from .recorder import Recorder, RecordingInterrupted, RecordStats, decode_frame
+from .recorder import (
+    Recorder,
+    RecordingFailed,
+    RecordingInterrupted,
+    RecordStats,
+    check_acquisition,
+    decode_frame,
+)
 
 __all__ = [
     "DeviceNotFound",
+    "DeviceAccessDenied",
     "DeviceSettings",
     "RtisDevice",
     "decode",
@@ -18,6 +26,8 @@ __all__ = [
     "parse_frame",
     "Recorder",
     "RecordingInterrupted",
+    "RecordingFailed",
+    "check_acquisition",
     "RecordStats",
     "decode_frame",
 ]

@@ -8,15 +8,25 @@ bound, claims the data interface (class 0x0A) and uses its two bulk endpoints.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from processing.errors import InputError
+
 from .protocol import Frame, decode_answer, encode_command, frame_size, parse_frame
 
-__all__ = ["DeviceSettings", "RtisDevice", "DeviceNotFound", "find_ids"]
+__all__ = [
+    "DeviceSettings",
+    "RtisDevice",
+    "DeviceNotFound",
+    "DeviceAccessDenied",
+    "find_ids",
+    "parse_usb_id",
+]
 
 log = logging.getLogger(__name__)
 
@@ -25,13 +35,37 @@ class DeviceNotFound(RuntimeError):
     """No sensor matches the requested IDs, serial number or bus/address."""
 
 
+class DeviceAccessDenied(DeviceNotFound):
+    """The sensor is there but this user may not open it (no udev rule, see
+    docs/setup.md)."""
+
+
+def _hex_id(text: str, key: str) -> int:
+    try:
+        value = int(text, 16)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 0xFFFF:
+        raise InputError("expected a USB ID: 1 to 4 hex digits", key=key, value=text)
+    return value
+
+
+def parse_usb_id(text: str, key: str = "--device") -> tuple[int, int]:
+    """``"VID:PID"`` in hex -> (vendor, product); InputError naming `key` otherwise."""
+    vid, sep, pid = text.partition(":")
+    if not sep:
+        raise InputError("expected VID:PID in hex, e.g. 1209:0001", key=key, value=text)
+    return _hex_id(vid, key), _hex_id(pid, key)
+
+
 def find_ids() -> tuple[int, int]:
-    """(vendor, product) IDs from RTIS_VID/RTIS_PID (hex), default: the emulator's."""
+    """(vendor, product) IDs from RTIS_VID/RTIS_PID (hex), default: the emulator's.
+    A malformed variable raises InputError naming it."""
     from .emulator import EMULATOR_PID, EMULATOR_VID
 
     return (
-        int(os.environ.get("RTIS_VID", f"{EMULATOR_VID:x}"), 16),
-        int(os.environ.get("RTIS_PID", f"{EMULATOR_PID:x}"), 16),
+        _hex_id(os.environ.get("RTIS_VID", f"{EMULATOR_VID:x}"), "RTIS_VID"),
+        _hex_id(os.environ.get("RTIS_PID", f"{EMULATOR_PID:x}"), "RTIS_PID"),
     )
 
 
@@ -77,9 +111,11 @@ class RtisDevice:
         backend=None,
         timeout_ms: int = 2000,
     ) -> None:
-        vid, pid = find_ids()
-        self.vendor_id = vendor_id if vendor_id is not None else vid
-        self.product_id = product_id if product_id is not None else pid
+        if vendor_id is None or product_id is None:
+            vid, pid = find_ids()
+            vendor_id = vid if vendor_id is None else vendor_id
+            product_id = pid if product_id is None else product_id
+        self.vendor_id, self.product_id = vendor_id, product_id
         self.serial, self.bus, self.address = serial, bus, address
         self.backend = backend
         self.timeout_ms = timeout_ms
@@ -127,16 +163,18 @@ class RtisDevice:
                 + (f", address {self.address}" if self.address is not None else "")
             )
         dev = found[0]
-        dev.set_configuration()
+        try:
+            self._claim(dev)
+        except usb.core.USBError as exc:
+            if exc.errno != errno.EACCES and "Access denied" not in str(exc):
+                raise
+            raise DeviceAccessDenied(
+                f"the RTIS sensor {self.vendor_id:04x}:{self.product_id:04x} on bus "
+                f"{dev.bus} address {dev.address} cannot be opened by this user ({exc}): "
+                "install the udev rule of docs/setup.md, then replug the sensor"
+            ) from None
         cfg = dev.get_active_configuration()
         data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
-        if data is None:
-            raise DeviceNotFound("the device has no CDC data interface")
-        for intf in range(cfg.bNumInterfaces):
-            if dev.is_kernel_driver_active(intf):
-                log.debug("detaching the kernel driver from interface %d", intf)
-                dev.detach_kernel_driver(intf)
-        usb.util.claim_interface(dev, data.bInterfaceNumber)
         self.ep_out = usb.util.find_descriptor(
             data,
             custom_match=lambda e: (
@@ -158,6 +196,22 @@ class RtisDevice:
             dev.bus,
             dev.address,
         )
+
+    @staticmethod
+    def _claim(dev) -> None:
+        """Configure the device, detach kernel drivers, claim the CDC data interface."""
+        import usb.util
+
+        dev.set_configuration()
+        cfg = dev.get_active_configuration()
+        data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
+        if data is None:
+            raise DeviceNotFound("the device has no CDC data interface")
+        for intf in range(cfg.bNumInterfaces):
+            if dev.is_kernel_driver_active(intf):
+                log.debug("detaching the kernel driver from interface %d", intf)
+                dev.detach_kernel_driver(intf)
+        usb.util.claim_interface(dev, data.bInterfaceNumber)
 
     def close(self) -> None:
         if self.dev is not None:

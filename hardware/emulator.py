@@ -11,8 +11,11 @@ real driver (:mod:`hardware.device`) runs unchanged against it:
 
 Faults (``sensor.inject(...)``): ``"drop"`` skips the next frame's index (a lost
 frame), ``"corrupt"`` breaks the next frame's header, ``"stall"`` makes the next
-read time out, ``"short"`` truncates the next frame, ``"disconnect"`` unplugs the
-sensor (reads and writes fail, it does not enumerate) until ``reconnect()``.
+read after the next command time out (what was to be read stays queued: a late
+answer; one stall per command), ``"short"``
+truncates the next frame, ``"disconnect"`` unplugs the sensor (reads and writes
+fail, it does not enumerate) until ``reconnect()``, a power cycle that restarts
+its measurement counter at 0.
 """
 
 from __future__ import annotations
@@ -27,9 +30,18 @@ import numpy as np
 import usb.backend
 import usb.core
 
+from processing.errors import InputError
+
 from .protocol import COMMANDS, build_frame
 
-__all__ = ["EmulatedSensor", "EmulatorBackend", "EMULATOR_VID", "EMULATOR_PID", "recording_source"]
+__all__ = [
+    "EmulatedSensor",
+    "EmulatorBackend",
+    "EMULATOR_VID",
+    "EMULATOR_PID",
+    "recording_source",
+    "emulated_device",
+]
 
 #: pid.codes' test IDs: the real sensor's IDs are not published
 EMULATOR_VID = 0x1209
@@ -44,26 +56,57 @@ def recording_source(
 
     The signals are scaled by one full-scale value for all recordings (default: twice
     the largest absolute sample, keeping the modulator within +-0.5) and PDM-encoded.
-    """
-    from .pdm import encode
+    A recording shorter than the frame is continued with silence *before* modulation,
+    so the rest of the frame is the modulator's zero-signal stream (alternating bits,
+    decoding to 0), as on the real sensor; a longer one is cut to the frame.
 
+    Raises InputError when the channels do not fit the 32 bits of a tick word.
+    """
+    from .pdm import PDM_RATE_HZ, encode
+
+    channels = np.asarray(channels)
+    if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
+        raise InputError(
+            "the RTIS link carries at most 32 microphones (channels 0..31, one bit of a "
+            f"32-bit tick word each); this array has {channels.size}",
+            key="channels",
+            value=channels.tolist() if channels.size <= 8 else f"{channels.size} channels",
+        )
     recs = list(recordings)
     scale = full_scale or 2 * max(float(np.abs(r.samples).max()) for r in recs) or 1.0
-    cache: dict[int, np.ndarray] = {}
+    cache: dict[tuple[int, int], np.ndarray] = {}
 
     def source(index: int, n_ticks: int) -> np.ndarray:
         k = index % len(recs)
-        if k not in cache:
+        if (k, n_ticks) not in cache:
             r = recs[k]
-            words = encode(r.samples, channels, r.sample_rate_hz, scale)
-            cache[k] = words
-        w = cache[k]
-        out = np.zeros(n_ticks, np.uint32)
-        out[: min(n_ticks, w.size)] = w[:n_ticks]
-        return out
+            up = int(round(PDM_RATE_HZ / r.sample_rate_hz))
+            n = -(-n_ticks // up)  # samples that cover the frame
+            x = r.samples[..., :n]
+            x = np.concatenate([x, np.zeros((*x.shape[:-1], n - x.shape[-1]))], axis=-1)
+            cache[(k, n_ticks)] = encode(x, channels, r.sample_rate_hz, scale)[:n_ticks]
+        return cache[(k, n_ticks)]
 
     source.full_scale = scale  # type: ignore[attr-defined]
     return source
+
+
+def emulated_device(
+    recordings, channels: np.ndarray, *, serial: str | None = None, n_ticks: int = 163840
+):
+    """The whole emulator stack for a list of recordings at 450 kHz: returns
+    (open_device, sensor), where ``open_device()`` opens an RtisDevice on the emulated
+    sensor through the real driver (what :class:`hardware.Recorder` takes).  Raises
+    InputError for an array the link cannot carry (more than 32 microphones)."""
+    from .device import RtisDevice
+
+    sensor = EmulatedSensor(recording_source(recordings, channels), n_ticks=n_ticks)
+    backend = EmulatorBackend(sensor)
+
+    def open_device() -> RtisDevice:
+        return RtisDevice(backend.vid, backend.pid, serial=serial, backend=backend)
+
+    return open_device, sensor
 
 
 class EmulatedSensor:
@@ -97,6 +140,7 @@ class EmulatedSensor:
         self.bus, self.address = 1, 7
         self._out = bytearray()
         self._faults: deque[str] = deque()
+        self._stalled = False
         self.log: list[bytes] = []
 
     # -- faults ------------------------------------------------------------------
@@ -111,12 +155,16 @@ class EmulatedSensor:
                 self._faults.append(f)
 
     def reconnect(self) -> None:
+        """Plug the sensor back in: a power cycle (its counter starts at 0 again) and a
+        new USB address."""
         self.connected = True
-        self.address += 1  # a replugged device gets a new address
+        self.counter = 0
+        self.address += 1
 
     # -- the wire ----------------------------------------------------------------
     def write(self, data: bytes) -> int:
         self._check()
+        self._stalled = False
         self.log.append(bytes(data))
         for line in bytes(data).split(b"\n"):
             if line:
@@ -125,8 +173,9 @@ class EmulatedSensor:
 
     def read(self, size: int) -> bytes:
         self._check()
-        if self._faults and self._faults[0] == "stall":
+        if self._faults and self._faults[0] == "stall" and not self._stalled:
             self._faults.popleft()
+            self._stalled = True  # one stall per command: later reads get the late data
             raise usb.core.USBTimeoutError("Operation timed out", -7, errno.ETIMEDOUT)
         if not self._out:
             raise usb.core.USBTimeoutError("Operation timed out", -7, errno.ETIMEDOUT)
@@ -202,9 +251,16 @@ class EmulatorBackend(usb.backend.IBackend):
     """A pyusb backend under which an EmulatedSensor enumerates as a CDC-ACM device."""
 
     def __init__(
-        self, sensor: EmulatedSensor, vendor_id: int = EMULATOR_VID, product_id: int = EMULATOR_PID
+        self,
+        sensor: EmulatedSensor,
+        vendor_id: int = EMULATOR_VID,
+        product_id: int = EMULATOR_PID,
+        *,
+        deny_access: bool = False,
     ) -> None:
+        """`deny_access`: opening fails as it does for a user without a udev rule."""
         self.sensor = sensor
+        self.deny_access = deny_access
         self.vid, self.pid = vendor_id, product_id
         self.kernel_driver = {0: True, 1: True}  # cdc_acm binds to both, as on Linux
         self.strings = {1: "CoSys-Lab (emulated)", 2: "RTIS emulator", 3: sensor.serial}
@@ -302,6 +358,8 @@ class EmulatorBackend(usb.backend.IBackend):
 
     def open_device(self, dev):
         self.sensor._check()
+        if self.deny_access:
+            raise usb.core.USBError("Access denied (insufficient permissions)", -3, errno.EACCES)
         return dev
 
     def close_device(self, dev_handle):

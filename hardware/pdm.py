@@ -23,6 +23,7 @@ over time in the C kernel (or in numpy, vectorised over channels: the same bits)
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Literal, get_args
 
 import numpy as np
 from scipy import fft as sfft
@@ -37,7 +38,9 @@ __all__ = [
     "PDM_RATE_HZ",
     "DECIMATION",
     "FILTERS",
+    "FilterName",
     "ENGINES",
+    "Engine",
     "decimation_filter",
     "unpack_ticks",
     "decode",
@@ -48,13 +51,17 @@ __all__ = [
 
 PDM_RATE_HZ = 4.5e6
 DECIMATION = 10
-FILTERS = ("equiripple", "rtis")
+#: decimation filter names (checked in :func:`decimation_filter`)
+FilterName = Literal["equiripple", "rtis"]
+FILTERS: tuple[str, ...] = get_args(FilterName)
+#: decoding engines (checked in :func:`decode`); "auto" picks the first available
+Engine = Literal["table", "fft", "auto"]
 ENGINES = ("table", "fft") if _pdm_kernel is not None else ("fft",)
 _ROW_PAD = 257  # table rows per byte position: 256 values + 1 so positions do not alias
 
 
 @lru_cache(maxsize=8)
-def decimation_filter(name: str = "equiripple") -> np.ndarray:
+def decimation_filter(name: FilterName = "equiripple") -> np.ndarray:
     """Taps (L,) of a named decimation FIR at 4.5 MHz, unit gain at DC.
 
     ``"equiripple"``: 157 taps, passband 0-100 kHz (ripple < 0.01 dB), stopband from
@@ -81,9 +88,9 @@ def unpack_ticks(ticks: np.ndarray) -> np.ndarray:
 def decode(
     ticks: np.ndarray,
     channels: np.ndarray | None = None,
-    fir: np.ndarray | str | None = None,
+    fir: np.ndarray | FilterName | None = None,
     decimation: int = DECIMATION,
-    engine: str = "auto",
+    engine: Engine = "auto",
 ) -> np.ndarray:
     """Tick words (N,) -> decimated signals (C, N // decimation), float32.
 

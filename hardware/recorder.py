@@ -6,11 +6,24 @@ dropped; a time-out is retried (a measurement is idempotent: asking again is saf
 a disconnect closes the device and reopens it when it returns, then reconfigures
 it.  Nothing is hidden: every event is logged and counted in :class:`RecordStats`,
 and the statistics go into each recording's metadata.
+
+How gaps are found and kept from happening:
+
+1. The measurement counter is set to 0 when the device is first configured, so a
+   frame lost on the very first trigger shows as index 0 missing.
+2. After a reconnect (a power-cycled sensor counts from 0 again) the counter is set
+   to the next expected index; an index that still goes backwards is reported.
+3. After a time-out the input is drained before the next trigger, so a late frame
+   is never taken for the next trigger's (the drained measurement is reported lost).
+4. When the device fails for good (every retry timed out, or it did not come back
+   within the reconnect time-out), :meth:`Recorder.acquire` raises
+   :class:`RecordingFailed` carrying every complete measurement taken before.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -18,12 +31,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import processing as P
+from processing.errors import InputError
 
 from .device import DeviceNotFound, DeviceSettings, RtisDevice
 from .pdm import DECIMATION, PDM_RATE_HZ, decode
 from .protocol import FrameError
 
-__all__ = ["RecordStats", "Recorder", "RecordingInterrupted", "decode_frame"]
+__all__ = [
+    "RecordStats",
+    "Recorder",
+    "RecordingInterrupted",
+    "RecordingFailed",
+    "decode_frame",
+    "check_acquisition",
+]
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +56,8 @@ class RecordStats:
     corrupt: int = 0
     timeouts: int = 0
     reconnects: int = 0
+    #: (expected index, received index) where the counter went backwards
+    counter_resets: list[tuple[int, int]] = field(default_factory=list)
     events: list[str] = field(default_factory=list)
 
     def note(self, text: str) -> None:
@@ -69,10 +92,28 @@ def decode_frame(
     )
 
 
+def check_acquisition(count: int | None, duration_s: float | None, rate_hz: float | None) -> None:
+    """Refuse a request that cannot record anything: exactly one of a count (>= 1) or a
+    duration (finite, > 0 s); a rate, when given, finite and > 0 Hz.  Raises InputError
+    naming the command-line option."""
+    if (count is None) == (duration_s is None):
+        raise InputError("give exactly one of a count or a duration", key="--count/--duration")
+    if count is not None and count < 1:
+        raise InputError("must be at least 1", key="--count", value=count)
+    if duration_s is not None and not (math.isfinite(duration_s) and duration_s > 0):
+        raise InputError(
+            "must be a finite number of seconds > 0", key="--duration", value=duration_s
+        )
+    if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError("must be a finite rate > 0 per second", key="--rate", value=rate_hz)
+
+
 class Recorder:
     """Acquires measurements from an RtisDevice.
 
-    `open_device` makes (and remakes, after a disconnect) the device.
+    `open_device` makes (and remakes, after a disconnect) the device.  Raises
+    DeviceNotFound (also DeviceAccessDenied) when it cannot be opened and
+    RecordingFailed when it is found but does not answer while being configured.
     """
 
     def __init__(
@@ -95,13 +136,21 @@ class Recorder:
         self.c = speed_of_sound_m_s
         self.fir = fir
         self.stats = RecordStats()
-        self.device = self._connect()
-        self.firmware = self.device.firmware_version()
-        self._expected: int | None = None
+        self._expected = 0
+        import usb.core
+
+        try:
+            self.device = self._connect()
+            self.firmware = self.device.firmware_version()
+        except (usb.core.USBError, FrameError) as exc:  # found, but not answering
+            reason = f"the sensor did not answer while being configured: {exc}"
+            raise RecordingFailed([], reason) from exc
 
     def _connect(self) -> RtisDevice:
+        """Open and configure the device; its counter set to the next expected index."""
         dev = self.open_device()
         dev.configure(self.settings)
+        dev.command("B", self._expected)
         return dev
 
     def _reconnect(self) -> None:
@@ -121,20 +170,29 @@ class Recorder:
                 return
             except (DeviceNotFound, usb.core.USBError):
                 if time.monotonic() > deadline:
-                    raise
+                    raise DeviceNotFound(
+                        f"the sensor did not come back within {self.reconnect_timeout_s:g} s"
+                    ) from None
                 time.sleep(0.05)
 
     def measure(self) -> P.Recording | None:
         """One measurement, or None when its frame was corrupt (reported)."""
         import usb.core
 
-        for attempt in range(self.retries + 1):
+        timeouts = 0  # in a row; a reconnect does not use up a retry
+        while True:
             try:
                 frame = self.device.measure()
                 break
             except usb.core.USBTimeoutError:
+                timeouts += 1
                 self.stats.timeouts += 1
-                self.stats.note(f"time-out waiting for a frame (attempt {attempt + 1})")
+                self.stats.note(f"time-out waiting for a frame (attempt {timeouts})")
+                self._drain()  # a late answer or frame must not be read as the next one
+                if timeouts > self.retries:
+                    raise TimeoutError(
+                        f"no frame after {timeouts} attempts (all timed out)"
+                    ) from None
             except FrameError as exc:
                 self.stats.corrupt += 1
                 self.stats.note(f"frame dropped: {exc}")
@@ -145,13 +203,17 @@ class Recorder:
                     self._reconnect()
                 else:
                     raise
-        else:
-            raise TimeoutError(f"no frame after {self.retries + 1} attempts")
-        if self._expected is not None and frame.index != self._expected:
+        if frame.index > self._expected:
             lost = list(range(self._expected, frame.index))
             self.stats.lost_indices += lost
             self.stats.note(
                 f"measurement index jumped from {self._expected - 1} to {frame.index}: lost {lost}"
+            )
+        elif frame.index < self._expected:
+            self.stats.counter_resets.append((self._expected, frame.index))
+            self.stats.note(
+                f"measurement counter went back from {self._expected} to {frame.index} "
+                "(the sensor was reset): indices in this file are not continuous"
             )
         self._expected = frame.index + 1
         self.stats.frames += 1
@@ -170,14 +232,17 @@ class Recorder:
         )
 
     def _drain(self) -> None:
-        """Discard what is left of a bad frame on the wire."""
+        """Discard what is left on the wire (a bad frame, a late answer or frame)."""
         import usb.core
 
+        drained = 0
         try:
-            while self.device.ep_in.read(1 << 16, 50):
-                pass
+            while chunk := self.device.ep_in.read(1 << 16, 50):
+                drained += len(chunk)
         except usb.core.USBError:
             pass
+        if drained:
+            self.stats.note(f"discarded {drained} bytes left on the wire")
 
     def acquire(
         self,
@@ -187,9 +252,15 @@ class Recorder:
         on_record: Callable[[P.Recording], None] | None = None,
     ) -> list[P.Recording]:
         """Measurements until `count` are kept or `duration_s` has passed, at most
-        `rate_hz` per second.  KeyboardInterrupt stops after the last complete one."""
-        if count is None and duration_s is None:
-            raise ValueError("give a count or a duration")
+        `rate_hz` per second.
+
+        KeyboardInterrupt stops after the last complete one (:class:`RecordingInterrupted`);
+        a device that fails for good raises :class:`RecordingFailed`; both carry every
+        complete measurement.  Bad arguments raise InputError (:func:`check_acquisition`).
+        """
+        import usb.core
+
+        check_acquisition(count, duration_s, rate_hz)
         out: list[P.Recording] = []
         start = time.monotonic()
         period = 1.0 / rate_hz if rate_hz else 0.0
@@ -210,6 +281,9 @@ class Recorder:
         except KeyboardInterrupt:
             log.warning("interrupted: keeping %d complete measurement(s)", len(out))
             raise RecordingInterrupted(out) from None
+        except (TimeoutError, DeviceNotFound, usb.core.USBError) as exc:
+            self.stats.note(f"the sensor failed: {exc}")
+            raise RecordingFailed(out, str(exc)) from exc
         return out
 
 
@@ -219,3 +293,12 @@ class RecordingInterrupted(KeyboardInterrupt):
     def __init__(self, recordings: list[P.Recording]) -> None:
         super().__init__("interrupted")
         self.recordings = recordings
+
+
+class RecordingFailed(RuntimeError):
+    """The device failed for good; `recordings` holds every complete measurement."""
+
+    def __init__(self, recordings: list[P.Recording], reason: str) -> None:
+        super().__init__(f"the sensor failed after {len(recordings)} measurement(s): {reason}")
+        self.recordings = recordings
+        self.reason = reason

@@ -42,3 +42,12 @@ def test_input_error_names_file_key_and_value():
     assert isinstance(err, ValueError)
     assert (err.file, err.key, err.value) == ("scene.toml", "simulation.rays", -10)
     assert str(InputError("bad", key="--step")) == "--step: bad"
+
+
+def test_atomic_write_gives_the_usual_file_mode(tmp_path):
+    old = os.umask(0o022)
+    try:
+        write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644

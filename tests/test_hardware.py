@@ -10,12 +10,15 @@ from scipy.signal import freqz, upfirdn
 import processing as P
 from acousim.synth import PointReflectors, simulate_points
 from hardware import (
+    DeviceAccessDenied,
     DeviceNotFound,
     DeviceSettings,
     FrameError,
     Recorder,
+    RecordingFailed,
     RtisDevice,
     build_frame,
+    check_acquisition,
     decode,
     decode_frame,
     encode,
@@ -31,6 +34,7 @@ from hardware.pdm import (
     unpack_ticks,
 )
 from hardware.protocol import encode_command
+from processing.errors import InputError
 
 N_TICKS = 32768  # the smallest measurement keeps the tests fast
 
@@ -209,7 +213,109 @@ def test_each_fault_is_detected_and_survived(emulated, fault):
         assert st.corrupt == 1 and st.lost_indices == [1]
         assert ("bad header" if fault == "corrupt" else "short or long read") in st.events[0]
     else:
-        assert st.timeouts == 1 and st.lost_indices == []
+        # the late answer and frame of the timed-out trigger are drained, never read as
+        # the next trigger's: that measurement is reported lost, the next ones are whole
+        assert st.timeouts == 1 and st.lost_indices == [1]
+        assert any("discarded" in e for e in st.events)
+        assert [r.metadata["index"] for r in out] == [2, 3]
+
+
+def test_a_frame_dropped_on_the_first_trigger_is_reported(emulated):
+    _, _, sensor, _, recorder = emulated
+    sensor.counter = 17  # whatever the sensor counted before: the recorder restarts it
+    recorder.device.command("B", 17)
+    recorder = Recorder(
+        lambda: RtisDevice(backend=EmulatorBackend(sensor)),
+        DeviceSettings(n_ticks=N_TICKS),
+        recorder.array,
+        recorder.call,
+    )
+    sensor.inject("drop")
+    out = recorder.acquire(count=2)
+    assert [r.metadata["index"] for r in out] == [1, 2]
+    assert recorder.stats.lost_indices == [0]
+
+
+def test_after_a_reconnect_the_indices_go_on(emulated):
+    """A replugged sensor counts from 0 again: the recorder sets its counter back to
+    the next index, so indices stay continuous and nothing is reported lost."""
+    _, _, sensor, _, recorder = emulated
+    recorder.acquire(count=3)
+    sensor.inject("disconnect")
+    threading.Timer(0.2, sensor.reconnect).start()
+    out = recorder.acquire(count=3)
+    assert [r.metadata["index"] for r in out] == [3, 4, 5]
+    assert recorder.stats.lost_indices == [] and recorder.stats.counter_resets == []
+    # and a counter that goes back anyway is reported, not hidden
+    sensor.counter = 1
+    recorder.acquire(count=1)
+    assert recorder.stats.counter_resets == [(6, 1)]
+    assert "went back from 6 to 1" in recorder.stats.events[-1]
+
+
+@pytest.mark.parametrize("schedule", ["four stalls", "gone for good"])
+def test_a_fatal_failure_keeps_the_measurements_taken(emulated, schedule):
+    _, _, sensor, _, recorder = emulated
+    recorder.reconnect_timeout_s = 0.3
+
+    def fail_after_three(rec):
+        if rec.metadata["index"] == 2:
+            sensor.inject(*(["stall"] * 4 if schedule == "four stalls" else ["disconnect"]))
+
+    with pytest.raises(RecordingFailed) as info:
+        recorder.acquire(count=6, on_record=fail_after_three)
+    assert [r.metadata["index"] for r in info.value.recordings] == [0, 1, 2]
+    assert "after 3 measurement(s)" in str(info.value)
+    reason = "4 attempts" if schedule == "four stalls" else "did not come back within 0.3 s"
+    assert reason in str(info.value)
+
+
+def test_a_sensor_that_does_not_answer_is_a_failure_not_a_traceback(emulated):
+    _, _, sensor, backend, _ = emulated
+    sensor.inject("stall")  # the first command's answer never comes
+    with pytest.raises(RecordingFailed, match="did not answer while being configured"):
+        Recorder(lambda: RtisDevice(backend=backend), DeviceSettings(n_ticks=N_TICKS), None, None)
+
+
+@pytest.mark.parametrize(
+    "count, duration, rate, key",
+    [
+        (0, None, 10, "--count"),
+        (None, -1.0, 10, "--duration"),
+        (None, float("nan"), 10, "--duration"),
+        (None, float("inf"), 10, "--duration"),
+        (2, None, 0.0, "--rate"),
+        (None, None, 10, "--count/--duration"),
+        (1, 1.0, 10, "--count/--duration"),
+    ],
+)
+def test_acquisitions_that_cannot_record_are_refused(count, duration, rate, key):
+    with pytest.raises(InputError, match=key):
+        check_acquisition(count, duration, rate)
+
+
+def test_the_emulator_refuses_an_array_the_link_cannot_carry():
+    rec = P.Recording(np.zeros((64, 100)), 450e3, P.paper_8x8(), P.rtis_call())
+    with pytest.raises(InputError, match="at most 32 microphones.*this array has 64"):
+        recording_source([rec], np.arange(64))
+
+
+def test_the_rest_of_a_short_frame_decodes_to_silence():
+    """A recording shorter than the frame: the tail is the modulator's zero-signal
+    stream, which decodes to (nearly) 0, not to the -1 of zero tick words."""
+    rec, arr, _ = _scene_recording()
+    short = rec.with_samples(rec.samples[:, -1000:])  # holds the echo at 1.2 m
+    source = recording_source([short], arr.channels)
+    words = source(0, N_TICKS)
+    assert words.size == N_TICKS
+    y = decode(words, arr.channels) * source.full_scale
+    head = np.sqrt(np.mean(short.samples**2))
+    tail = y[:, 1200:]  # past the filter's reach into the signal
+    assert np.sqrt(np.mean(tail**2)) < 0.05 * head
+    assert np.max(np.abs(np.mean(tail, axis=1))) < 1e-3 * source.full_scale
+    # the zero-signal stream toggles: about half the bits of each channel set
+    bits = unpack_ticks(words[20000:])[:, arr.channels]
+    np.testing.assert_allclose(bits.mean(axis=0), 0.5, atol=0.01)
 
 
 def test_disconnect_and_reconnect(emulated):
@@ -230,6 +336,10 @@ def test_device_selection_by_serial_and_missing_device(emulated):
         RtisDevice(serial="NOPE", backend=backend)
     with pytest.raises(DeviceNotFound, match="1234:5678"):
         RtisDevice(0x1234, 0x5678, backend=backend)
+    # a user without the udev rule: pointed at docs/setup.md
+    denied = EmulatorBackend(sensor, deny_access=True)
+    with pytest.raises(DeviceAccessDenied, match="cannot be opened by this user.*docs/setup.md"):
+        RtisDevice(backend=denied)
 
 
 def test_real_ertis_sample_has_its_echo_near_3_2_m():
@@ -256,9 +366,13 @@ def test_real_ertis_sample_has_its_echo_near_3_2_m():
 
 
 def test_record_command_with_the_emulator(tmp_path, capsys, monkeypatch):
+    """`record --emulate scenes/wall.toml` images the wall as the strongest peak (the
+    frame's tail past the simulation is silence, not a false echo), and bad devices
+    and arguments are one-line errors."""
     from pathlib import Path
 
     from acousim.cli import main
+    from acousim.imaging import ImagingOptions, image_recordings
 
     scene = Path(__file__).resolve().parent.parent / "scenes" / "wall.toml"
     out = tmp_path / "rec.h5"
@@ -271,8 +385,146 @@ def test_record_command_with_the_emulator(tmp_path, capsys, monkeypatch):
     recs = P.load_recordings(out)
     assert len(recs) == 2 and recs[0].array.name == "urtis_v1"
     assert recs[0].metadata["device"]["firmware"] > 0
+    assert recs[0].n_samples == 16384  # a whole device frame, far past the 4 m scene
+    tail = recs[0].samples[:, 12000:]
+    assert np.sqrt(np.mean(tail**2)) < 0.01 * np.abs(recs[0].samples).max()
+    # the wall, 2 m ahead and the sensor turned by 15 degrees: the strongest peak of
+    # MUSIC-FBSS (the command line's imaging defaults) at 2 m (within one STFT window,
+    # 9.8 cm; 1.95 m today), azimuth -15 degrees; not the false echo at 5.9 m that zero
+    # tick words made
+    img = image_recordings(recs[:1], ImagingOptions(methods=("music-fbss",)))[0]["music-fbss"]
+    pk = img.peaks(-10)
+    assert pk.range_m[0] == pytest.approx(2.0, abs=0.1)
+    assert np.rad2deg(pk.azimuth_rad[0]) == pytest.approx(-15, abs=4)
     assert (
         main(["record", "--count", "1", "--out", str(tmp_path / "x.h5"), "--device", "dead:beef"])
         == 2
     )
     assert "no RTIS sensor with USB ID dead:beef" in capsys.readouterr().err
+    monkeypatch.setenv("RTIS_VID", "zz")
+    assert main(["record", "--count", "1", "--out", str(tmp_path / "x.h5")]) == 2
+    assert "RTIS_VID = 'zz': expected a USB ID" in capsys.readouterr().err
+    for bad, key in (
+        (["--count", "0"], "--count = 0"),
+        (["--duration", "-1"], "--duration = -1.0"),
+        (["--duration", "nan"], "--duration = nan"),
+    ):
+        assert main(["record", *bad, "--out", str(tmp_path / "x.h5")]) == 2
+        assert key in capsys.readouterr().err
+    assert not (tmp_path / "x.h5").exists()
+
+
+def test_record_command_keeps_the_measurements_when_the_sensor_fails(tmp_path, capsys, monkeypatch):
+    """Four stalls in a row after the third measurement: the three are saved and the
+    command exits 1 with the reason."""
+    from pathlib import Path
+
+    import hardware.emulator as emu
+    from acousim.cli import main
+
+    made = []
+    real = emu.emulated_device
+
+    def failing(*a, **kw):
+        open_device, sensor = real(*a, **kw)
+        made.append(sensor)
+        source = sensor.source
+
+        def source_then_fail(index, n):
+            if index == 3:  # the fourth trigger and the three retries time out
+                sensor.inject("stall", "stall", "stall", "stall")
+            return source(index, n)
+
+        sensor.source = source_then_fail
+        return open_device, sensor
+
+    monkeypatch.setattr(emu, "emulated_device", failing)
+    scene = Path(__file__).resolve().parent.parent / "scenes" / "wall.toml"
+    out = tmp_path / "rec.h5"
+    args = ["record", "--emulate", str(scene), "--count", "5", "--rate", "100", "--out", str(out)]
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    assert "3 measurement(s) written" in captured.out and "time-outs 4" in captured.out
+    assert "the sensor failed after 3 measurement(s)" in captured.err
+    assert [r.metadata["index"] for r in P.load_recordings(out)] == [0, 1, 2]
+
+
+def test_files_from_the_rtisdev_wheel_are_checked(tmp_path, monkeypatch):
+    """The pinned wheel and every file taken from it are checked whenever they are used:
+    a tampered cached layout (aperture ten times too large) or wheel is refused."""
+    import shutil
+
+    import scipy.io
+
+    from processing import rtisdev
+
+    wheel = rtisdev.wheel_path()  # the real cache (downloads once if empty)
+    monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path))
+    folder = tmp_path / f"rtisdev-{rtisdev.VERSION}"
+    folder.mkdir()
+    shutil.copy(wheel, folder / wheel.name)
+    layout = rtisdev.layout_file("eRTIS_v3D1")
+    assert layout.is_relative_to(tmp_path)
+    data = scipy.io.loadmat(layout)
+    key = next(k for k in data if not k.startswith("__"))
+    data[key] = data[key] * 10
+    scipy.io.savemat(layout, {key: data[key]})
+    with pytest.raises(rtisdev.IntegrityError, match="mic_coordinates.mat: sha256 .* not the"):
+        rtisdev.layout_file("eRTIS_v3D1")
+    layout.unlink()  # deleting it fetches the right one again from the wheel
+    assert rtisdev.layout_file("eRTIS_v3D1").read_bytes() != b""
+    rtisdev._verified.clear()  # as in a new process: the wheel is checked when first opened
+    with open(folder / wheel.name, "r+b") as f:  # one flipped byte in the wheel
+        f.seek(1000)
+        b = f.read(1)
+        f.seek(1000)
+        f.write(bytes([b[0] ^ 1]))
+    with pytest.raises(rtisdev.IntegrityError, match="pinned rtisdev 2.15.1 wheel"):
+        rtisdev.sample_recording()
+
+
+@pytest.mark.parametrize("moment", ["simulating", "measuring", "writing"])
+def test_record_command_interrupted(tmp_path, capsys, monkeypatch, moment):
+    """Ctrl-C while the emulated scene is simulated, while measuring (the third
+    trigger) or while the file is written: exit 130, and either no file at all or a
+    loadable one with every complete measurement."""
+    from pathlib import Path
+
+    import acousim.simulator as sim_mod
+    import hardware.emulator as emu
+    import processing.recording as rec_mod
+    from acousim.cli import main
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    if moment == "simulating":
+        monkeypatch.setattr(sim_mod.Simulator, "simulate_pose", boom)
+    elif moment == "measuring":
+        real = emu.emulated_device
+
+        def interrupting(*a, **kw):
+            open_device, sensor = real(*a, **kw)
+            source = sensor.source
+
+            def source_then_interrupt(index, n):
+                if index == 2:
+                    raise KeyboardInterrupt
+                return source(index, n)
+
+            sensor.source = source_then_interrupt
+            return open_device, sensor
+
+        monkeypatch.setattr(emu, "emulated_device", interrupting)
+    else:
+        monkeypatch.setattr(rec_mod, "_write_one", boom)
+    scene = Path(__file__).resolve().parent.parent / "scenes" / "wall.toml"
+    out = tmp_path / "rec.h5"
+    args = ["record", "--emulate", str(scene), "--count", "4", "--rate", "100", "--out", str(out)]
+    assert main(args) == 130
+    if moment == "measuring":
+        assert "2 measurement(s) written" in capsys.readouterr().out
+        assert [r.metadata["index"] for r in P.load_recordings(out)] == [0, 1]
+        assert [p.name for p in tmp_path.iterdir()] == ["rec.h5"]
+    else:
+        assert list(tmp_path.iterdir()) == []

@@ -206,7 +206,7 @@ def parse_scene(
     sim = Simulation(
         max_range_m=r.number(sim_t, "max_range_m", "simulation", 6.0, 0.05, 100),
         rays=r.number(sim_t, "rays", "simulation", 20000, 0, 10_000_000, integer=True),
-        bounces=r.number(sim_t, "bounces", "simulation", 2, 0, 6, integer=True),
+        bounces=r.number(sim_t, "bounces", "simulation", 3, 0, 6, integer=True),
         beam_deg=r.number(sim_t, "beam_deg", "simulation", 90.0, 1, 180),
         snr_db=r.number(sim_t, "snr_db", "simulation", math.inf, -60, math.inf),
         seed=r.number(sim_t, "seed", "simulation", 0, 0, 2**63 - 1, integer=True),

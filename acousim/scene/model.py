@@ -21,7 +21,10 @@ class Material:
     reflection : pressure reflection coefficient (0..1) of the specular part.
     diffuse : fraction of the reflected energy scattered diffusely (Lambert), 0..1.
     lobe_deg : width (standard deviation) of the reflection lobe around the mirror
-        direction used on curved surfaces and rough materials.
+        direction on curved surfaces, for paths with more than one reflection (the
+        first-order echo of a curved surface is exact geometric optics, see
+        ``acousim.trace.glints``); a sampling kernel: a wider lobe converges with
+        fewer rays but spreads a glint's energy in delay.
     """
 
     name: str
@@ -81,7 +84,8 @@ class Simulation:
     max_range_m : echoes are computed up to this range (the window is 2 r / c plus
         the call).
     rays : rays cast from the emitter over its beam per pose.
-    bounces : maximum number of reflections of a path.
+    bounces : maximum number of reflections of a path (3: a corner reflector's
+        triple bounce).
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
@@ -91,7 +95,7 @@ class Simulation:
 
     max_range_m: float = 6.0
     rays: int = 20000
-    bounces: int = 2
+    bounces: int = 3
     beam_deg: float = 90.0
     snr_db: float = float("inf")
     seed: int = 0

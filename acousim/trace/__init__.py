@@ -1,5 +1,8 @@
-"""Ray tracing of mesh scenes into paths (Embree via embreex)."""
+"""Ray tracing of mesh scenes into paths (Embree via embreex): see :mod:`.tracer`."""
 
-from .tracer import KIND, TracedPaths, Tracer, cone_directions
+from .paths import KIND, TracedPaths
+from .settings import TraceSettings
+from .shoot import cone_directions
+from .tracer import Tracer, trace_pose
 
-__all__ = ["KIND", "TracedPaths", "Tracer", "cone_directions"]
+__all__ = ["KIND", "TracedPaths", "TraceSettings", "Tracer", "cone_directions", "trace_pose"]

@@ -13,9 +13,16 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["RayCaster"]
+__all__ = ["RayCaster", "RAY_OFFSET", "DISTANCE_TOLERANCE"]
 
 _MIN_CHUNK = 20000
+
+#: a secondary ray starts this far off its surface (absolute m, relative to the
+#: scene's size): enough for Embree's float32 not to hit the surface it leaves
+RAY_OFFSET = (1e-7, 1e-6)
+#: two distances along a ray agree within this (absolute m, relative to the scene's
+#: size): Embree's float32 hit distances against float64 geometry
+DISTANCE_TOLERANCE = (1e-6, 1e-4)
 
 
 class RayCaster:
@@ -44,6 +51,10 @@ class RayCaster:
         self.threads = max(1, int(threads))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_cast = 0
+        #: offsets and tolerances scaled to this scene (m): see RAY_OFFSET and
+        #: DISTANCE_TOLERANCE
+        self.offset_m = RAY_OFFSET[0] + RAY_OFFSET[1] * self.scale
+        self.tolerance_m = DISTANCE_TOLERANCE[0] + DISTANCE_TOLERANCE[1] * self.scale
 
     def first_hit(
         self,

@@ -45,6 +45,29 @@ class World:
     def face_values(self, attr: str) -> np.ndarray:
         return np.array([getattr(m, attr) for m in self.materials])[self.material]
 
+    @property
+    def n_planes(self) -> int:
+        return int(self.plane.max()) + 1
+
+    @property
+    def surface(self) -> np.ndarray:
+        """(F,) surface id: the plane for planar faces, n_planes + the connected
+        component for curved faces (one id per curved object)."""
+        return np.where(self.curved, self.n_planes + self.component, self.plane)
+
+    def normals_at(self, x: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Unit normals (K, 3) at points x (K, 3) on faces f (K,): the face normal,
+        smooth (barycentric interpolation of the vertex normals) on curved faces."""
+        n = self.normals[f].copy()
+        cv = self.curved[f]
+        if cv.any():
+            from trimesh.triangles import points_to_barycentric
+
+            b = points_to_barycentric(self.triangles[f[cv]], x[cv])
+            sm = np.einsum("ki,kij->kj", b, self.vertex_normals[f[cv]])
+            n[cv] = sm / np.linalg.norm(sm, axis=1, keepdims=True)
+        return n
+
 
 def _load(path, transform) -> object:
     import trimesh
@@ -65,6 +88,55 @@ def _load(path, transform) -> object:
     if len(mesh.faces) == 0:
         raise ValueError(f"{path}: every face of the mesh is degenerate")
     return mesh
+
+
+def smooth_corner_normals(
+    triangles: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray,
+    adjacency: np.ndarray,
+    angles: np.ndarray,
+    edges: np.ndarray,
+) -> np.ndarray:
+    """Smooth normals (F, 3, 3) at the corners of every face, averaged only across the
+    edges of a curved surface.
+
+    1. Every corner (face, vertex) is a node; two faces that share an edge at a
+       dihedral angle below ``CURVED_MAX_ANGLE_DEG`` join their corners at both ends
+       of that edge.  Sharper edges (a cylinder's rim, a box's corner) join nothing,
+       so each side of them keeps its own normal.
+    2. The corners joined around a vertex form one smoothing group; its normal is the
+       sum of its faces' normals weighted by their angle at the vertex.
+
+    triangles (F, 3, 3), faces (F, 3) vertex indices, normals (F, 3), adjacency (A, 2)
+    face pairs with their dihedral angles (A,) in radians and shared edges (A, 2).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from trimesh.triangles import angles as corner_angles
+
+    n_faces = len(faces)
+    smooth = angles < np.deg2rad(CURVED_MAX_ANGLE_DEG)
+    pairs, shared = adjacency[smooth], edges[smooth]
+    rows, cols = [], []
+    for end in range(2):
+        v = shared[:, end]
+        # the corner of each face of the pair at vertex v
+        c0 = pairs[:, 0] * 3 + np.argmax(faces[pairs[:, 0]] == v[:, None], axis=1)
+        c1 = pairs[:, 1] * 3 + np.argmax(faces[pairs[:, 1]] == v[:, None], axis=1)
+        rows.append(c0)
+        cols.append(c1)
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(3 * n_faces,) * 2)
+    _, group = connected_components(graph, directed=False)
+    weight = corner_angles(triangles).ravel()
+    contrib = np.repeat(normals, 3, axis=0) * weight[:, None]
+    total = np.zeros((group.max() + 1, 3))
+    np.add.at(total, group, contrib)
+    out = total[group]
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    out = np.where(norm > 0, out / np.where(norm > 0, norm, 1), np.repeat(normals, 3, axis=0))
+    return out.reshape(n_faces, 3, 3)
 
 
 def build_world(scene: Scene) -> World:
@@ -91,7 +163,9 @@ def build_world(scene: Scene) -> World:
     # coplanar faces share a plane id: normals rounded to 1e-6, offsets to 10 µm
     key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
     _, plane = np.unique(key, axis=0, return_inverse=True)
-    vn = np.asarray(merged.vertex_normals, float)[merged.faces]
+    vn = smooth_corner_normals(
+        tri, np.asarray(merged.faces), normals, adj, ang, merged.face_adjacency_edges
+    )
     vn = np.where(curved[:, None, None], vn, normals[:, None, :])
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
     return World(

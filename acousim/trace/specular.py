@@ -1,13 +1,13 @@
 """Exact specular paths: image sources over a sequence of planes, checked both ways.
 
-Rays find which sequences of planes can form a specular path; for each sequence the
-emitter is mirrored plane by plane into its image, and the reflection points are
-found backwards from the receiver (the array centre) by intersecting the line to
-each image with its plane.  A path is kept only if a ray cast from each point
-towards the next meets exactly that plane first at exactly that distance
-(visibility, and the point lies on a face of the plane), and the last leg reaches
-the emitter unobstructed.  The delay at each microphone is then the exact distance
-from the image source, independent of the ray budget.
+Stage 2 of the tracer. Rays find which sequences of planes can form a specular path;
+for each sequence the emitter is mirrored plane by plane into its image, and the
+reflection points are found backwards from the receiver (the array centre) by
+intersecting the line to each image with its plane. A path is kept only if a ray
+cast from each point towards the next meets exactly that plane first at exactly that
+distance (visibility, and the point lies on a face of the plane), and the last leg
+reaches the emitter unobstructed. The delay at each microphone is then the exact
+distance from the image source, independent of the ray budget.
 """
 
 from __future__ import annotations
@@ -18,8 +18,9 @@ import numpy as np
 
 from .embree import RayCaster
 from .geometry import World
+from .paths import KIND, TracedPaths
 
-__all__ = ["SpecularPath", "refine_sequences", "mirror"]
+__all__ = ["SpecularPath", "refine_sequences", "mirror", "as_paths"]
 
 
 @dataclass(frozen=True)
@@ -45,8 +46,7 @@ def refine_sequences(
 ) -> list[SpecularPath]:
     """Valid specular paths among candidate plane sequences (batched by length)."""
     normal, offset, refl = _plane_table(world)
-    eps = 1e-6 * caster.scale + 1e-7  # offsets and tolerances scaled to the scene
-    tol = 1e-4 * caster.scale + 1e-6
+    eps, tol = caster.offset_m, caster.tolerance_m
     paths = []
     by_len: dict[int, list[tuple[int, ...]]] = {}
     for seq in sequences:
@@ -116,6 +116,20 @@ def refine_sequences(
     for p in paths:
         unique.setdefault(tuple(np.round(p.image_m / tol).astype(np.int64)), p)
     return list(unique.values())
+
+
+def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: float) -> TracedPaths:
+    """Specular paths as image sources (first leg 0), those within reach."""
+    if not specular:
+        return TracedPaths.empty()
+    image = np.array([p.image_m for p in specular])
+    amp = np.array([p.amplitude for p in specular])
+    pos = np.array([p.points_m[-1] for p in specular])
+    dep = np.array([p.departure for p in specular])
+    order = np.array([len(p.planes) for p in specular])
+    kind = np.full(len(amp), KIND["specular"])
+    paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep)
+    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * 1.01)
 
 
 def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:

@@ -1,15 +1,47 @@
 """Fan images (azimuth x range, the top view of the paper's Figs. 13-14) and
-elevation-azimuth maps, with matplotlib (Agg).  Files are written atomically."""
+elevation-azimuth maps, with matplotlib (Agg).  Files are written atomically.
+
+Conventions of every picture here (the sensor frame: x forward, y left, z up;
+azimuth positive towards +y, elevation positive towards +z):
+
+- fan images are seen from above with x forward pointing up the page and the
+  horizontal axis labelled in y, increasing to the LEFT (so the left of the sensor is
+  on the left of the picture, and the tick labels are true y values);
+- elevation-azimuth maps are seen from behind the sensor: azimuth increases to the
+  left, elevation upwards;
+- levels are dB relative to the strongest cell of each panel, shown over a stated
+  dynamic range (a colour bar says how many dB); range bins the energy gate removed
+  are drawn grey ("no data"), not black like a quiet bin.
+"""
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from processing import Image, to_db
+from processing.atomic import atomic_path
+
+__all__ = [
+    "FanRaster",
+    "NO_DATA_COLOR",
+    "TRUTH_COLOR",
+    "draw_fan",
+    "elaz_figure",
+    "fan_extent",
+    "fan_figure",
+    "fan_raster",
+    "full_range_fan",
+    "pick_slices",
+    "truth_in_fan",
+]
+
+NO_DATA_COLOR = (0.62, 0.62, 0.62)  # range bins removed by the energy gate: grey
+TRUTH_COLOR = "white"  # ray-traced reflectors: white circles
+CMAP = "inferno"
 
 
 def _plt():
@@ -21,11 +53,11 @@ def _plt():
     return plt
 
 
-def _save(fig, path: Path) -> Path:
+def _save(fig, path: str | Path) -> Path:
     path = Path(path)
-    tmp = path.with_name(f".{path.stem}.part{path.suffix}")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        # the figures are laid out by matplotlib's constrained layout: no "tight" pass
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
     return path
 
 
@@ -36,7 +68,8 @@ def full_range_fan(
 
     Each cell is the maximum over the elevations within ``elevation_limit_rad`` of the
     horizontal plane (near the poles every azimuth is the same direction, which would
-    smear the view); range bins the energy gate dropped are 0.
+    smear the view); range bins the energy gate dropped (or outside the imaged range
+    limits) are NaN: no data.
     """
     step = image.bin_range_m or 0.01
     top = (
@@ -45,15 +78,165 @@ def full_range_fan(
         else (float(image.range_m.max()) if image.range_m.size else step)
     )
     axis = np.arange(0.0, top + step / 2, step)
-    fan = np.zeros((axis.size, image.azimuth_rad.size))
+    fan = np.full((axis.size, image.azimuth_rad.size), np.nan)
     if image.range_m.size:
         idx = np.rint(image.range_m / step).astype(int)
         ok = (idx >= 0) & (idx < axis.size)
         band = np.abs(image.elevation_rad) <= elevation_limit_rad
         if not band.any():
             band = np.abs(image.elevation_rad) == np.abs(image.elevation_rad).min()
-        fan[idx[ok]] = np.maximum(fan[idx[ok]], image.power[ok][:, band].max(axis=1))
+        fan[idx[ok]] = np.fmax(fan[idx[ok]], image.power[ok][:, band].max(axis=1))
     return axis, fan
+
+
+def truth_in_fan(points_sensor_m: np.ndarray) -> np.ndarray:
+    """Ground-truth points (N, 3, sensor frame) placed where the fan draws their echo:
+    at their slant range along their azimuth, as (y, x) (N, 2) in metres.
+
+    The fan collapses elevation (range x azimuth), so a floor or ceiling point right
+    below or above the sensor is drawn at its slant range straight ahead (azimuth 0),
+    where the image shows that echo, not at the sensor.
+    """
+    p = np.asarray(points_sensor_m, float).reshape(-1, 3)
+    r = np.linalg.norm(p, axis=1)
+    az = np.arctan2(p[:, 1], p[:, 0])
+    return np.column_stack([r * np.sin(az), r * np.cos(az)])
+
+
+@dataclass(frozen=True)
+class FanRaster:
+    """The top view rasterised on square pixels.
+
+    db : (H, W) dB relative to the strongest cell, floored at -dynamic range; NaN
+        where there is no data or outside the field of view.
+    no_data : (H, W) bool, inside the field of view but removed by the energy gate.
+    extent : (y_left, y_right, x_bottom, x_top) in metres; y_left > y_right (y grows
+        to the left), row 0 is the bottom (origin "lower").
+    """
+
+    db: np.ndarray
+    no_data: np.ndarray
+    extent: tuple[float, float, float, float]
+
+
+def fan_extent(
+    image: Image,
+    max_range_m: float,
+    dynamic_range_db: float,
+    points_yx: np.ndarray | None = None,
+    margin_m: float = 0.25,
+) -> tuple[float, float, float, float]:
+    """The part of the fan worth drawing: (y_left, y_right, x_bottom, x_top) in metres.
+
+    It covers the cells within `dynamic_range_db` of the strongest, the given points
+    (N, 2) as (y, x), and the sensor, plus `margin_m`, clipped to the field of view
+    out to `max_range_m` (a corridor's echoes within 2 m are not lost in +-4.5 m axes).
+    """
+    rng, fan = full_range_fan(image, max_range_m)
+    a = image.azimuth_rad
+    pts = [np.zeros((1, 2))]
+    if np.isfinite(fan).any() and np.nanmax(fan) > 0:
+        db = to_db(np.nan_to_num(fan), floor_db=-np.inf)
+        i, j = np.nonzero(db >= -dynamic_range_db)
+        pts.append(np.column_stack([rng[i] * np.sin(a[j]), rng[i] * np.cos(a[j])]))
+    if points_yx is not None and len(points_yx):
+        p = np.asarray(points_yx, float)
+        pts.append(p[np.hypot(p[:, 0], p[:, 1]) <= max_range_m])
+    p = np.concatenate(pts)
+    # the whole field of view out to max_range_m: the clip box
+    ring = np.linspace(a.min(), a.max(), 181) if a.size else np.zeros(1)
+    fy = np.concatenate([[0.0], max_range_m * np.sin(ring)])
+    fx = np.concatenate([[0.0], max_range_m * np.cos(ring)])
+    y_lo = max(p[:, 0].min() - margin_m, fy.min())
+    y_hi = min(p[:, 0].max() + margin_m, fy.max())
+    x_lo = max(p[:, 1].min() - margin_m, fx.min())
+    x_hi = min(p[:, 1].max() + margin_m, fx.max())
+    if y_hi - y_lo < 0.5:  # never narrower than half a metre
+        c = (y_hi + y_lo) / 2
+        y_lo, y_hi = c - 0.25, c + 0.25
+    if x_hi - x_lo < 0.5:
+        x_hi = x_lo + 0.5
+    return (float(y_hi), float(y_lo), float(x_lo), float(x_hi))
+
+
+def fan_raster(
+    image: Image,
+    max_range_m: float,
+    dynamic_range_db: float = 25.0,
+    pixels: int = 800,
+    extent: tuple[float, float, float, float] | None = None,
+) -> FanRaster:
+    """Rasterise the top view of `image` on `pixels` columns (nearest polar cell per
+    pixel) after max-pooling range bins to the raster's resolution, so that no echo
+    thinner than a pixel disappears.  `extent` as in :class:`FanRaster` (default: the
+    whole field of view out to `max_range_m`)."""
+    rng, fan = full_range_fan(image, max_range_m)
+    r_edges, a_edges = _edges(rng), _edges(image.azimuth_rad)
+    if extent is None:
+        A, Rg = np.meshgrid(a_edges, np.clip(r_edges, 0, None))
+        Yw, Xw = Rg * np.sin(A), Rg * np.cos(A)
+        extent = (float(Yw.max()), float(Yw.min()), float(Xw.min()), float(Xw.max()))
+    y_left, y_right, x_lo, x_hi = extent
+    width = max(y_left - y_right, 1e-9)
+    height = max(int(round(pixels * (x_hi - x_lo) / width)), 1)
+    # max-pool range bins to about one per pixel
+    pixel_m = width / pixels
+    k = max(int(pixel_m / (rng[1] - rng[0])) if rng.size > 1 else 1, 1)
+    if k > 1:
+        pad = -rng.size % k
+        padded = np.pad(fan, ((0, pad), (0, 0)), constant_values=np.nan)
+        with np.errstate(invalid="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN blocks: no data
+                fan = np.nanmax(padded.reshape(-1, k, fan.shape[1]), axis=1)
+        step = rng[1] - rng[0]
+        rng = rng[0] + step * (k * np.arange(fan.shape[0]) + (k - 1) / 2)
+        r_edges = _edges(rng)
+    finite = np.isfinite(fan)
+    ref = float(fan[finite].max()) if finite.any() else 0.0
+    db = np.where(finite, to_db(np.nan_to_num(fan), ref or None, -dynamic_range_db), np.nan)
+    ys = _centres(y_left, y_right, pixels)  # y decreases from left to right
+    xs = _centres(x_lo, x_hi, height)
+    PY, PX = np.meshgrid(ys, xs)
+    i = np.searchsorted(r_edges, np.hypot(PX, PY)) - 1
+    j = np.searchsorted(a_edges, np.arctan2(PY, PX)) - 1
+    inside = (i >= 0) & (i < db.shape[0]) & (j >= 0) & (j < db.shape[1])
+    raster = np.full(PX.shape, np.nan)
+    raster[inside] = db[i[inside], j[inside]]
+    no_data = inside & np.isnan(raster)
+    return FanRaster(raster, no_data, (float(y_left), float(y_right), float(x_lo), float(x_hi)))
+
+
+def draw_fan(
+    ax,
+    image: Image,
+    max_range_m: float,
+    dynamic_range_db: float = 25.0,
+    pixels: int = 800,
+    extent: tuple[float, float, float, float] | None = None,
+):
+    """Draw the top view of an image on a matplotlib axis (x forward up, y to the left:
+    the horizontal axis is y in metres and increases leftwards).  Returns a
+    ScalarMappable of the colours (for a colour bar).  See :func:`fan_raster` for `extent`."""
+    import matplotlib as mpl
+
+    r = fan_raster(image, max_range_m, dynamic_range_db, pixels, extent)
+    # one RGBA picture: colours for the data, grey for no data, white outside the fan
+    norm = mpl.colors.Normalize(-dynamic_range_db, 0.0)
+    cmap = mpl.colormaps[CMAP]
+    rgba = cmap(norm(np.nan_to_num(r.db, nan=-dynamic_range_db)))
+    rgba[np.isnan(r.db)] = (1.0, 1.0, 1.0, 1.0)
+    rgba[r.no_data] = (*NO_DATA_COLOR, 1.0)
+    ax.imshow(rgba, origin="lower", extent=r.extent, interpolation="nearest")
+    im = mpl.cm.ScalarMappable(norm=norm, cmap=cmap)  # for a colour bar
+    ax.set_xlim(r.extent[0], r.extent[1])
+    ax.set_ylim(r.extent[2], r.extent[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel("y (m), left +")
+    ax.set_ylabel("x forward (m)")
+    return im
 
 
 def fan_figure(
@@ -65,83 +248,73 @@ def fan_figure(
     title: str | None = None,
     truth=None,
 ) -> Path:
-    """One fan panel per method, side by side (x forward, y to the left).
+    """One fan panel per method, side by side (x forward, y to the left), each with a
+    colour bar in dB; one legend for the no-data grey and the ground truth.
 
-    `truth` : optional (N, 3) positions (sensor frame) drawn as white circles.
+    max_range_m : the farthest range that may be drawn (the scene's range); the view
+        is fitted to the echoes within the dynamic range and the ground truth inside it.
+    truth : optional (N, 3) positions (sensor frame) drawn as white circles at their
+        slant range (see :func:`truth_in_fan`).
     """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
     plt = _plt()
     n = len(images)
     cols = n if n <= 4 else int(np.ceil(n / 2))
     rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.8 * cols, 2.5 * rows + 0.6), squeeze=False)
+    if max_range_m is None:
+        max_range_m = max(
+            (float(im.range_m.max()) for im in images.values() if im.range_m.size), default=1.0
+        )
+    t_yx = truth_in_fan(truth) if truth is not None and len(truth) else None
+    extents = [fan_extent(im, max_range_m, dynamic_range_db, t_yx) for im in images.values()] or [
+        (1.0, -1.0, 0.0, 1.0)
+    ]
+    e = np.array(extents)  # one extent for all panels: comparable side by side
+    extent = (e[:, 0].max(), e[:, 1].min(), e[:, 2].min(), e[:, 3].max())
+    aspect = (extent[3] - extent[2]) / (extent[0] - extent[1])
+    panel_w = 4.2
+    fig, axes = plt.subplots(
+        rows,
+        cols,
+        figsize=(panel_w * cols, min(max(panel_w * aspect, 2.4), 9.0) * rows + 1.0),
+        squeeze=False,
+        layout="constrained",
+    )
     for ax in axes.ravel()[n:]:
         ax.axis("off")
-    if max_range_m is None:
-        max_range_m = (
-            max((float(im.range_m.max()) for im in images.values() if im.range_m.size), default=1.0)
-            * 1.05
-        )
     for ax, (method, img) in zip(axes.ravel(), images.items()):
-        draw_fan(ax, img, max_range_m, dynamic_range_db)
-        if truth is not None and len(truth):
-            t = np.asarray(truth)
-            ax.scatter(-t[:, 1], t[:, 0], s=90, facecolors="none", edgecolors="cyan", lw=0.6)
+        im = draw_fan(ax, img, max_range_m, dynamic_range_db, extent=extent)
+        if t_yx is not None:
+            ax.scatter(
+                t_yx[:, 0], t_yx[:, 1], s=70, facecolors="none", edgecolors=TRUTH_COLOR, lw=0.8
+            )
         ax.set_title(method)
-    if title:
-        fig.suptitle(title)
-    out = _save(fig, Path(path))
+        fig.colorbar(im, ax=ax, shrink=0.85, label="dB re strongest cell")
+    handles = [Patch(color=NO_DATA_COLOR, label="no data (removed by the energy gate)")]
+    if t_yx is not None:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="none",
+                marker="o",
+                mfc="none",
+                mec="black",
+                label="ray-traced reflectors (white circles, within 20 dB of the strongest)",
+            )
+        )
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8)
+    head = f"top view, {dynamic_range_db:g} dB dynamic range"
+    fig.suptitle(f"{title}\n{head}" if title else head)
+    out = _save(fig, path)
     plt.close(fig)
     return out
 
 
-def draw_fan(
-    ax,
-    image: Image,
-    max_range_m: float,
-    dynamic_range_db: float = 25.0,
-    pixels: int = 800,
-) -> None:
-    """Draw the top view of an image on a matplotlib axis (x forward up, y left).
-
-    The polar cells are rasterised onto `pixels` columns (nearest cell per pixel)
-    after the range bins are max-pooled to the raster's resolution, so that no echo
-    thinner than a pixel disappears; far faster than a mesh of every cell.
-    """
-    rng, fan = full_range_fan(image, max_range_m)
-    if rng.size > pixels // 2:  # about `pixels` / 2 pixels cover the range
-        k = -(-rng.size // (pixels // 2))
-        pad = -rng.size % k
-        fan = np.pad(fan, ((0, pad), (0, 0))).reshape(-1, k, fan.shape[1]).max(axis=1)
-        rng = rng[0] + (rng[1] - rng[0]) * (k * np.arange(fan.shape[0]) + (k - 1) / 2)
-    db = to_db(fan, floor_db=-dynamic_range_db)
-    r_edges, a_edges = _edges(rng), _edges(image.azimuth_rad)
-    A, Rg = np.meshgrid(a_edges, r_edges)
-    X, Y = -Rg * np.sin(A), Rg * np.cos(A)  # horizontal: y to the left; vertical: x
-    extent = (X.min(), X.max(), Y.min(), Y.max())
-    height = max(int(round(pixels * (extent[3] - extent[2]) / (extent[1] - extent[0]))), 1)
-    PX, PY = np.meshgrid(_centres(extent[0], extent[1], pixels), _centres(*extent[2:], height))
-    i = np.searchsorted(r_edges, np.hypot(PX, PY)) - 1
-    j = np.searchsorted(a_edges, np.arctan2(-PX, PY)) - 1
-    inside = (i >= 0) & (i < db.shape[0]) & (j >= 0) & (j < db.shape[1])
-    raster = np.full(PX.shape, np.nan)
-    raster[inside] = db[i[inside], j[inside]]
-    ax.imshow(
-        raster,
-        origin="lower",
-        extent=extent,
-        cmap="inferno",
-        vmin=-dynamic_range_db,
-        vmax=0,
-        interpolation="nearest",
-    )
-    ax.set_aspect("equal")
-    ax.set_xlabel("y (m), left ←")
-    ax.set_ylabel("x forward (m)")
-    ax.set_facecolor("black")
-
-
 def _centres(lo: float, hi: float, n: int) -> np.ndarray:
-    """Centres (n,) of n equal cells covering [lo, hi]."""
+    """Centres (n,) of n equal cells from lo to hi (hi < lo gives a decreasing axis)."""
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
@@ -153,45 +326,94 @@ def _edges(x: np.ndarray) -> np.ndarray:
     return np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
 
 
+def pick_slices(
+    image: Image, n: int = 3, min_separation_m: float = 0.1, dynamic_range_db: float = 40.0
+) -> list[int]:
+    """Range bins (indices into ``image.range_m``) of up to `n` distinct echoes: the
+    strongest local maxima of the 3D image that lie inside the grid (not on its
+    elevation or azimuth border, where a source outside the grid, such as the floor at
+    -90 deg, leaks in), at least `min_separation_m` apart in range.  Falls back to
+    the strongest bins when the image has no interior maximum within
+    `dynamic_range_db` of the strongest cell."""
+    p = image.power
+    if p.size == 0:
+        return []
+    from scipy.ndimage import maximum_filter
+
+    floor = p.max() * 10 ** (-dynamic_range_db / 10)
+    local = (p >= maximum_filter(p, size=3, mode="nearest")) & (p > 0) & (p >= floor)
+    E, A = p.shape[1:]
+    border = np.zeros((E, A), bool)
+    if E > 2:
+        border[[0, -1], :] = True
+    if A > 2:
+        border[:, [0, -1]] = True
+    local &= ~border[None]
+    r, e, a = np.nonzero(local)
+    order = np.argsort(p[r, e, a])[::-1]
+    cand = list(r[order])
+    if not cand:
+        cand = list(np.argsort(p.reshape(p.shape[0], -1).max(axis=1))[::-1])
+    picks: list[int] = []
+    for i in cand:
+        if all(abs(image.range_m[i] - image.range_m[j]) >= min_separation_m for j in picks):
+            picks.append(int(i))
+        if len(picks) == n:
+            break
+    return picks
+
+
 def elaz_figure(
-    image: Image, path: str | Path, *, n_slices: int = 3, dynamic_range_db: float = 40.0
+    image: Image,
+    path: str | Path,
+    *,
+    n_slices: int = 3,
+    dynamic_range_db: float = 40.0,
+    title: str | None = None,
 ) -> Path:
-    """Elevation-azimuth maps at the `n_slices` strongest range bins."""
+    """Elevation-azimuth maps at the range slices of the `n_slices` strongest distinct
+    echoes inside the grid (see :func:`pick_slices`), seen from behind the sensor
+    (azimuth grows to the left), in dB relative to the image's strongest cell."""
     plt = _plt()
     if image.power.size == 0:
         raise ValueError(f"image {image.method!r} has no range bins to draw")
-    strength = image.power.reshape(image.power.shape[0], -1).max(axis=1)
-    order = np.argsort(strength)[::-1]
-    picks, used = [], []
-    for r in order:  # strongest bins, at least two bins apart
-        if all(abs(r - u) > 2 for u in used):
-            picks.append(r)
-            used.append(r)
-        if len(picks) == n_slices:
-            break
-    fig, axes = plt.subplots(1, len(picks), figsize=(4 * len(picks), 3.4), squeeze=False)
+    picks = sorted(
+        pick_slices(image, n_slices, dynamic_range_db=dynamic_range_db),
+        key=lambda i: image.range_m[i],
+    )
+    fig, axes = plt.subplots(
+        1,
+        len(picks),
+        figsize=(3.6 * len(picks) + 1.0, 3.6),
+        squeeze=False,
+        sharey=True,
+        layout="constrained",
+    )
     ref = image.power.max()
-    for ax, r in zip(axes[0], sorted(picks)):
+    az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
+    da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
+    de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
+    im = None
+    for k, (ax, r) in enumerate(zip(axes[0], picks)):
         db = to_db(image.power[r], ref, -dynamic_range_db)
-        ax.imshow(
-            db,
+        im = ax.imshow(
+            db[:, ::-1],  # column 0 is the largest azimuth, drawn at the left edge
             origin="lower",
             aspect="auto",
-            cmap="inferno",
+            cmap=CMAP,
             vmin=-dynamic_range_db,
             vmax=0,
-            extent=np.rad2deg(
-                [
-                    image.azimuth_rad[0],
-                    image.azimuth_rad[-1],
-                    image.elevation_rad[0],
-                    image.elevation_rad[-1],
-                ]
-            ),
+            interpolation="nearest",
+            # left edge = largest azimuth: seen from behind the sensor, left is left
+            extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
         )
-        ax.set_title(f"{image.method}, {image.range_m[r]:.2f} m")
-        ax.set_xlabel("azimuth (°)")
-        ax.set_ylabel("elevation (°)")
-    out = _save(fig, Path(path))
+        ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
+        ax.set_xlabel("azimuth (°), left +")
+        if k == 0:
+            ax.set_ylabel("elevation (°), up +")
+    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, label="dB re strongest cell")
+    head = f"{image.method}: strongest distinct echoes, {dynamic_range_db:g} dB dynamic range"
+    fig.suptitle(f"{title}\n{head}" if title else head, fontsize=10)
+    out = _save(fig, path)
     plt.close(fig)
     return out

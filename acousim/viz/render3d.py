@@ -1,48 +1,94 @@
 """3D views (pyvista, offscreen): the scene's meshes, the sensor at its pose, the
-reflectors the ray tracer found and the acoustic image's peaks placed in the scene."""
+reflectors the ray tracer found and the acoustic image's peaks placed in the scene.
+
+Every view has a legend and a 1 m scale bar.  Ray-traced reflectors are drawn only
+within `truth_range_db` of the strongest echo, the stronger ones larger, so that a
+few strong reflectors are not hidden among hundreds of weak scatterers.  Without a
+scene mesh (a real recording) the camera is fitted to the sensor and the peaks, and
+a labelled grid in metres gives the scale.
+"""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["SceneRenderer", "render_scene", "PEAK_COLOR", "TRUTH_COLOR", "SENSOR_COLOR"]
+from processing.atomic import atomic_path
+
+__all__ = [
+    "SceneRenderer",
+    "render_scene",
+    "import_pyvista",
+    "PEAK_COLOR",
+    "TRUTH_COLOR",
+    "SENSOR_COLOR",
+]
 
 PEAK_COLOR = (1.0, 0.1, 0.1)  # image peaks: red
 TRUTH_COLOR = (0.1, 0.8, 1.0)  # ray-traced reflectors: cyan
 SENSOR_COLOR = (1.0, 0.85, 0.0)  # the sensor: yellow
 
 
-def _pv():
+def import_pyvista():
+    """Import pyvista (and VTK) for offscreen rendering.  Commands call this before
+    their work starts: VTK's import is long, and an interrupt in the middle of it
+    could crash the interpreter instead of raising KeyboardInterrupt."""
     try:
         import pyvista as pv
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise ImportError("3D pictures need pyvista: pip install 'acousim[viz]'") from exc
     pv.OFF_SCREEN = True
+    try:  # offscreen is intended: no "bad X server connection" warning on every run
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    except ImportError:  # pragma: no cover - a VTK without its logger
+        pass
     return pv
 
 
+_pv = import_pyvista
+
+
 class SceneRenderer:
-    """One offscreen plotter for many frames of the same scene: the meshes are added
-    once, the sensor, reflectors and peaks are replaced per frame (a new plotter per
-    frame costs most of an animation's time).
+    """One offscreen plotter for many frames of the same scene: the meshes, legend
+    and scale are added once, the sensor, reflectors and peaks are replaced per frame
+    (a new plotter per frame costs most of an animation's time).
 
     triangles : (F, 3, 3) world-frame scene faces, or None.
+    with_truth : list the ray-traced reflectors in the legend.
     """
 
     def __init__(
-        self, triangles: np.ndarray | None, window_size: tuple[int, int] = (900, 600)
+        self,
+        triangles: np.ndarray | None,
+        window_size: tuple[int, int] = (900, 600),
+        with_truth: bool = True,
     ) -> None:
         self.pv = pv = _pv()
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background("white")
-        if triangles is not None and len(triangles):
+        self.has_mesh = triangles is not None and len(triangles) > 0
+        if self.has_mesh:
             tri = np.asarray(triangles)
             faces = np.hstack([np.full((len(tri), 1), 3), np.arange(3 * len(tri)).reshape(-1, 3)])
             mesh = pv.PolyData(tri.reshape(-1, 3), faces.ravel())
             self.plotter.add_mesh(mesh, color=(0.72, 0.72, 0.75), opacity=0.35, show_edges=False)
+            self.floor_z = float(tri[..., 2].min())
+        else:
+            self.floor_z = None
+        entries = [["sensor, arrow: its axis", SENSOR_COLOR], ["image peaks", PEAK_COLOR]]
+        if with_truth:
+            entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
+        self.plotter.add_legend(
+            entries,
+            bcolor="white",
+            border=True,
+            size=(0.36, 0.12),
+            loc="upper left",
+            face="circle",
+        )
         self._actors: list = []
 
     def frame(
@@ -52,9 +98,18 @@ class SceneRenderer:
         truth: np.ndarray | None = None,
         peaks: np.ndarray | None = None,
         camera: str = "chase",
+        truth_level_db: np.ndarray | None = None,
+        truth_range_db: float = 30.0,
     ) -> np.ndarray:
-        """Render one frame: (H, W, 3) uint8.  truth, peaks: (N, 3) world-frame points;
-        camera: 'chase' (above and behind the sensor) or 'top' (bird's eye)."""
+        """Render one frame: (H, W, 3) uint8.
+
+        truth, peaks : (N, 3) world-frame points.
+        truth_level_db : (N,) level of each reflector in dB re the strongest (default:
+            all 0 dB); those below -`truth_range_db` are not drawn, the others are
+            spheres from 2 cm (at the threshold) to 6 cm (the strongest) in diameter.
+        camera : 'chase' (above and behind the sensor) or 'top' (bird's eye); without
+            a scene mesh the camera is fitted to the sensor and the peaks.
+        """
         pv, plotter = self.pv, self.plotter
         for actor in self._actors:
             plotter.remove_actor(actor, render=False)
@@ -66,25 +121,89 @@ class SceneRenderer:
                 pv.Arrow(start=pos, direction=axis, scale=0.6), color=SENSOR_COLOR, render=False
             ),
         ]
-        for points, color, size in ((truth, TRUTH_COLOR, 6), (peaks, PEAK_COLOR, 14)):
-            if points is not None and len(points):
-                self._actors.append(
-                    plotter.add_mesh(
-                        pv.PolyData(np.asarray(points, float)),
-                        color=color,
-                        point_size=size,
-                        render_points_as_spheres=True,
-                        render=False,  # one render per frame: the screenshot's
-                    )
+        if truth is not None and len(truth):
+            t = np.asarray(truth, float).reshape(-1, 3)
+            lvl = np.zeros(len(t)) if truth_level_db is None else np.asarray(truth_level_db)
+            keep = lvl >= -truth_range_db
+            if keep.any():
+                cloud = pv.PolyData(t[keep])
+                cloud["diameter"] = 0.02 + 0.04 * (1 + lvl[keep] / truth_range_db)
+                glyphs = cloud.glyph(
+                    scale="diameter", orient=False, geom=pv.Sphere(radius=0.5, theta_resolution=10)
                 )
-        if camera == "top":
+                self._actors.append(plotter.add_mesh(glyphs, color=TRUTH_COLOR, render=False))
+        if peaks is not None and len(peaks):
+            self._actors.append(
+                plotter.add_mesh(
+                    pv.PolyData(np.asarray(peaks, float)),
+                    color=PEAK_COLOR,
+                    point_size=14,
+                    render_points_as_spheres=True,
+                    render=False,  # one render per frame: the screenshot's
+                )
+            )
+        self._actors.append(self._scale_bar(pos, axis))
+        if not self.has_mesh:
+            drawn = [np.asarray(q, float).reshape(-1, 3) for q in (peaks,) if q is not None]
+            if truth is not None and len(truth):
+                drawn.append(t[keep])
+            self._fit_camera(pos, axis, drawn)
+        elif camera == "top":
             focus = pos + 2.5 * axis
             plotter.camera_position = [tuple(focus + [0, 0, 9.0]), tuple(focus), (1, 0, 0)]
-        else:
-            eye = pos - 2.2 * axis + np.array([0, 0, 1.6])
-            plotter.camera_position = [tuple(eye), tuple(pos + 3.0 * axis), (0, 0, 1)]
+        else:  # behind and above, looking past the sensor: the sensor in the lower third
+            eye = pos - 2.8 * axis + np.array([0, 0, 1.5])
+            plotter.camera_position = [tuple(eye), tuple(pos + 2.0 * axis), (0, 0, 1)]
         plotter.render()  # the actors were added without rendering: once, here
         return plotter.screenshot(return_img=True)
+
+    def _scale_bar(self, pos: np.ndarray, axis: np.ndarray):
+        """A 1 m ruler across the view, 0.8 m in front of the sensor and 0.2 m below
+        it (above the floor, if the scene has one)."""
+        side = np.cross([0.0, 0.0, 1.0], axis)
+        side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([0, 1, 0])
+        z = pos[2] - 0.2
+        if self.floor_z is not None:
+            z = max(z, self.floor_z + 0.01)
+        a = np.array([*(pos[:2] + 0.8 * axis[:2]), z]) - 0.5 * side
+        return self.plotter.add_ruler(
+            a,
+            a + side,
+            title="1 m",
+            number_labels=2,
+            label_format="%.1f",
+            show_labels=False,
+            label_color="black",
+            tick_color="black",
+        )
+
+    def _fit_camera(self, pos, axis, points) -> None:
+        """No mesh: a labelled grid in metres around the sensor and the drawn points
+        (at least 2 m x 2 m x 1 m), seen from behind and above, zoomed to fit."""
+        p = np.concatenate([pos[None], (pos + axis)[None], *points])
+        lo, hi = p.min(axis=0) - 0.3, p.max(axis=0) + 0.3
+        centre = (lo + hi) / 2
+        half = np.maximum((hi - lo) / 2, [1.0, 1.0, 0.5])
+        lo, hi = centre - half, centre + half
+        self._actors.append(
+            self.plotter.show_grid(
+                bounds=[lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]],
+                color="grey",
+                xtitle="x (m)",
+                ytitle="y (m)",
+                ztitle="z (m)",
+                n_xlabels=4,
+                n_ylabels=4,
+                n_zlabels=3,
+                fmt="%.1f",
+                render=False,
+            )
+        )
+        size = float(np.max(hi - lo))
+        eye = centre - 1.6 * size * axis + np.array([0, 0, 1.1 * size])
+        self.plotter.camera_position = [tuple(eye), tuple(centre), (0, 0, 1)]
+        self.plotter.reset_camera(render=False)  # fit everything drawn, grid included
+        self.plotter.camera.zoom(0.9)
 
     def close(self) -> None:
         self.plotter.close()
@@ -100,19 +219,20 @@ def render_scene(
     peaks: np.ndarray | None = None,
     window_size: tuple[int, int] = (900, 600),
     camera: str = "chase",
+    truth_level_db: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Render a single frame (see :class:`SceneRenderer`); write it to `path` (PNG,
-    atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
-    renderer = SceneRenderer(triangles, window_size)
+    """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
+    (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
+    renderer = SceneRenderer(triangles, window_size, with_truth=truth is not None)
     try:
-        image = renderer.frame(sensor_position, sensor_axis, truth, peaks, camera)
+        image = renderer.frame(
+            sensor_position, sensor_axis, truth, peaks, camera, truth_level_db=truth_level_db
+        )
     finally:
         renderer.close()
     if path is not None:
-        path = Path(path)
-        tmp = path.with_name(f".{path.stem}.part.png")
         from matplotlib.image import imsave
 
-        imsave(tmp, image)
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            imsave(tmp, image, format="png")
     return image

@@ -1,0 +1,202 @@
+"""Acoustic images and their peaks as files any tool can read.
+
+Why HDF5 with dimension scales (and not NetCDF through xarray/h5netcdf): the
+recordings are already HDF5 and h5py is already a dependency, so nothing new is
+installed; dimension scales attach the axes (with units) to every image, which
+h5py, MATLAB's ``h5read``/``h5info`` and HDFView show (the netCDF-4 library reads
+HDF5 dimension scales too; not tested here).
+
+Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
+
+    /                               attrs: format = "acousim-images", version = 1
+    /recording_000030/              attrs: index (in the recording file), scene,
+                                    time_s, position_m, yaw_deg, pitch_deg, roll_deg
+        range_m        (R,)  float64  dimension scale, units "m"
+        elevation_deg  (E,)  float64  dimension scale, units "degree"
+        azimuth_deg    (A,)  float64  dimension scale, units "degree"
+        <method>       (R, E, A) float32  level in dB relative to the strongest cell
+                       of that image (0 dB), in steps of 1/128 dB; NaN: range bin
+                       removed by the energy gate (no data).  attrs: units "dB",
+                       method, frequency_hz, reference_power (linear power of 0 dB),
+                       resolution_db.
+
+Peaks CSV columns: see :data:`PEAK_COLUMNS`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+import processing as P
+from processing.atomic import atomic_path, write_text
+
+__all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
+
+QUANTUM_PER_DB = 128  # levels are stored as multiples of 1/128 dB
+FORMAT = "acousim-images"
+VERSION = 1
+
+PEAK_COLUMNS = (
+    "recording",  # index in the recording file
+    "method",
+    "range_m",  # from the array centre
+    "azimuth_deg",  # positive to the left (+y)
+    "elevation_deg",  # positive up (+z)
+    "level_db",  # re the strongest cell of that image
+    "x_m",  # sensor frame: x forward, y left, z up
+    "y_m",
+    "z_m",
+    "world_x_m",  # world frame, through the recording's pose (= sensor frame without one)
+    "world_y_m",
+    "world_z_m",
+)
+
+
+def _group_name(index: int, width: int) -> str:
+    return f"recording_{index:0{width}d}"
+
+
+def regular_range_axis(images: Sequence[P.Image]) -> np.ndarray:
+    """One regular range axis (R',) covering the kept bins of all `images` (same
+    recording, so the same bins): from the nearest to the farthest kept bin, in steps
+    of the STFT bin; bins in between that the energy gate removed are on it too."""
+    kept = [im for im in images if im.range_m.size]
+    if not kept:
+        return np.empty(0)
+    lo = min(float(im.range_m.min()) for im in kept)
+    hi = max(float(im.range_m.max()) for im in kept)
+    step = kept[0].bin_range_m or (
+        float(np.min(np.diff(kept[0].range_m))) if kept[0].range_m.size > 1 else 1.0
+    )
+    return lo + step * np.arange(int(np.rint((hi - lo) / step)) + 1)
+
+
+def write_image_data(
+    path: str | Path,
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    *,
+    compression: str | None = "gzip",
+) -> Path:
+    """Write every image of every recording to one HDF5 file (atomically).
+
+    recordings, images : as from :func:`acousim.imaging.image_recordings`.
+    indices : each recording's index in its file (default 0, 1, ...).
+    """
+    import h5py
+
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    width = max(6, len(str(max(indices, default=0))))
+    path = Path(path)
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["version"] = VERSION
+        f.attrs["description"] = (
+            "acoustic images: level in dB re the strongest cell of each image, "
+            "dimensions (range_m, elevation_deg, azimuth_deg); NaN = no data"
+        )
+        for idx, rec, imgs in zip(indices, recordings, images):
+            g = f.create_group(_group_name(idx, width))
+            g.attrs["index"] = idx
+            g.attrs["scene"] = str(rec.metadata.get("scene", ""))
+            pose = rec.metadata.get("pose")
+            if pose:
+                g.attrs["time_s"] = float(pose.get("time_s", 0.0))
+                g.attrs["position_m"] = np.asarray(pose["position_m"], float)
+                for k in ("yaw_deg", "pitch_deg", "roll_deg"):
+                    g.attrs[k] = float(pose[k])
+            first = next(iter(imgs.values()))
+            axis = regular_range_axis(list(imgs.values()))
+            scales = {
+                "range_m": (axis, "m"),
+                "elevation_deg": (np.rad2deg(first.elevation_rad), "degree"),
+                "azimuth_deg": (np.rad2deg(first.azimuth_rad), "degree"),
+            }
+            for name, (values, units) in scales.items():
+                d = g.create_dataset(name, data=values)
+                d.attrs["units"] = units
+                d.make_scale(name)
+            for method, img in imgs.items():
+                level = np.full((axis.size, img.elevation_rad.size, img.azimuth_rad.size), np.nan)
+                if img.range_m.size:
+                    k = np.rint(
+                        (img.range_m - axis[0]) / (axis[1] - axis[0] if axis.size > 1 else 1)
+                    )
+                    level[k.astype(int)] = P.to_db(img.power, floor_db=-300.0)
+                # multiples of 1/128 dB (error <= 0.004 dB): the low mantissa bits are
+                # zero and the shuffled, compressed file about half the size
+                level = np.round(level * QUANTUM_PER_DB) / QUANTUM_PER_DB
+                d = g.create_dataset(
+                    method,
+                    data=level.astype(np.float32),
+                    chunks=True if level.size else None,
+                    compression=compression if level.size else None,
+                    shuffle=bool(compression) and bool(level.size),
+                    fillvalue=np.float32(np.nan),
+                )
+                d.attrs["units"] = "dB"
+                d.attrs["long_name"] = f"{method} image level re its strongest cell"
+                d.attrs["method"] = method
+                d.attrs["frequency_hz"] = float(img.frequency_hz)
+                d.attrs["reference_power"] = float(img.power.max()) if img.power.size else 0.0
+                d.attrs["no_data"] = "NaN: range bin removed by the energy gate"
+                d.attrs["resolution_db"] = 1.0 / QUANTUM_PER_DB
+                for dim, name in enumerate(scales):
+                    d.dims[dim].label = name
+                    d.dims[dim].attach_scale(g[name])
+    return path
+
+
+def peak_rows(
+    recording: P.Recording, index: int, image: P.Image, threshold_db: float
+) -> list[tuple]:
+    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`."""
+    from acousim.imaging import peak_positions
+
+    pk = image.peaks(threshold_db)
+    if not pk.range_m.size:
+        return []
+    sensor, world = peak_positions(recording, pk)
+    return [
+        (
+            index,
+            image.method,
+            *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
+            *(float(v) for v in s),
+            *(float(v) for v in w),
+        )
+        for r, a, e, lv, s, w in zip(
+            pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world
+        )
+    ]
+
+
+def write_peaks_csv(
+    path: str | Path,
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    *,
+    threshold_db: float = -10.0,
+) -> Path:
+    """Write the peaks of every image within `threshold_db` of its strongest cell to
+    a CSV file (atomically), one row per peak, strongest first per image."""
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(PEAK_COLUMNS)
+    for idx, rec, imgs in zip(indices, recordings, images):
+        for img in imgs.values():
+            rows = peak_rows(rec, idx, img, threshold_db)  # strongest first
+            w.writerows([_fmt(row) for row in rows])
+    return write_text(path, buf.getvalue())
+
+
+def _fmt(row: tuple) -> list:
+    return [v if isinstance(v, (int, str)) else f"{v:.6g}" for v in row]

@@ -1,0 +1,238 @@
+"""ROS 2 bags (rosbag2, MCAP storage) of recordings and their images, written with
+the pure-Python ``rosbags`` library (no ROS installation needed).
+
+Topics (one message each per recording, all stamped with the recording's time;
+see docs/export.md for the full layout):
+
+============================  ===============================  =====================
+topic                         type                             content
+============================  ===============================  =====================
+``/acousim/raw``              ``std_msgs/msg/Float32MultiArray``  samples (M, T), row
+                                                               major: dim 0
+                                                               "microphone" (M),
+                                                               dim 1 "sample" (T)
+``/acousim/info``             ``std_msgs/msg/String``          JSON: sample rate,
+                                                               speed of sound, array
+                                                               geometry, call, fan
+                                                               extent, recording index
+``/acousim/peaks``            ``sensor_msgs/msg/PointCloud2``  image peaks in the
+                                                               sensor frame: float32
+                                                               x, y, z (m), level_db,
+                                                               range_m
+``/acousim/fan``              ``sensor_msgs/msg/Image``        top view, ``32FC1``, dB
+                                                               re strongest; NaN = no
+                                                               data; row 0 = farthest
+``/tf``                       ``tf2_msgs/msg/TFMessage``       world -> sensor pose
+============================  ===============================  =====================
+
+Time stamps: a real recording's ``timestamp`` (Unix time), else the pose's
+``time_s`` of a simulated trajectory, else the recording's index x 0.1 s.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+import processing as P
+from processing.atomic import TEMP_PREFIX
+
+__all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
+
+FRAME_WORLD = "world"
+FRAME_SENSOR = "acousim_sensor"
+TOPICS = {
+    "raw": ("/acousim/raw", "std_msgs/msg/Float32MultiArray"),
+    "info": ("/acousim/info", "std_msgs/msg/String"),
+    "peaks": ("/acousim/peaks", "sensor_msgs/msg/PointCloud2"),
+    "fan": ("/acousim/fan", "sensor_msgs/msg/Image"),
+    "tf": ("/tf", "tf2_msgs/msg/TFMessage"),
+}
+PEAK_FIELDS = ("x", "y", "z", "level_db", "range_m")
+
+
+def _typestore():
+    try:
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError as exc:  # pragma: no cover - depends on the install
+        raise ImportError("ROS 2 bags need rosbags: pip install 'acousim[ros]'") from exc
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def recording_time_ns(rec: P.Recording, index: int) -> int:
+    """The stamp of a recording (ns): its Unix timestamp (real), its pose's time
+    (simulated trajectory), else index x 0.1 s."""
+    if rec.metadata.get("timestamp") is not None:
+        t = float(rec.metadata["timestamp"])
+    elif rec.metadata.get("pose"):
+        t = float(rec.metadata["pose"].get("time_s", 0.0))
+    else:
+        t = 0.1 * index
+    return int(round(t * 1e9))
+
+
+def write_rosbag(
+    path: str | Path,
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    *,
+    method: str | None = None,
+    threshold_db: float = -10.0,
+    dynamic_range_db: float = 30.0,
+    fan_pixels: int = 400,
+) -> Path:
+    """Write a rosbag2 folder (MCAP storage) at `path`, which must not exist.
+
+    The bag is written into a temporary folder beside `path` and renamed when
+    complete: an error or Ctrl-C leaves nothing behind.
+
+    method : the image published as peaks and fan (default: the sharpest imaged,
+        as in the pictures).
+    threshold_db : peaks within this of the image's strongest cell.
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from acousim.imaging import _pose, _sharpest, peak_positions
+    from acousim.viz.fan import fan_raster
+
+    path = Path(path)
+    if path.exists():
+        raise FileExistsError(f"{path} exists already; a bag is never overwritten")
+    store = _typestore()
+    T = store.types
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    parent = path.parent if str(path.parent) else Path(".")
+    work = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX, suffix=f"-{path.name}", dir=parent))
+    try:
+        bag = work / path.name
+        with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+            conns = {
+                k: w.add_connection(topic, msgtype, typestore=store)
+                for k, (topic, msgtype) in TOPICS.items()
+            }
+
+            def put(key: str, msg, stamp: int) -> None:
+                w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
+
+            for idx, rec, imgs in zip(indices, recordings, images):
+                ns = recording_time_ns(rec, idx)
+                header = T["std_msgs/msg/Header"](
+                    stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
+                    frame_id=FRAME_SENSOR,
+                )
+                m = method or _sharpest(dict(imgs))
+                img = imgs[m]
+                put("raw", _raw_msg(T, rec), ns)
+                raster = fan_raster(img, _fan_range(img), dynamic_range_db, fan_pixels)
+                put("info", _info_msg(T, rec, idx, m, raster, dynamic_range_db), ns)
+                sensor, _ = peak_positions(rec, pk := img.peaks(threshold_db))
+                put("peaks", _cloud_msg(T, header, sensor, pk), ns)
+                put("fan", _image_msg(T, header, raster.db), ns)
+                put("tf", _tf_msg(T, header, _pose(rec)), ns)
+        bag.rename(path)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return path
+
+
+def _fan_range(img: P.Image) -> float:
+    return float(img.range_m.max()) if img.range_m.size else 1.0
+
+
+def _raw_msg(T, rec: P.Recording):
+    M, N = rec.samples.shape
+    dim = T["std_msgs/msg/MultiArrayDimension"]
+    layout = T["std_msgs/msg/MultiArrayLayout"](
+        dim=[dim(label="microphone", size=M, stride=M * N), dim(label="sample", size=N, stride=N)],
+        data_offset=0,
+    )
+    data = np.ascontiguousarray(rec.samples, dtype=np.float32).ravel()
+    return T["std_msgs/msg/Float32MultiArray"](layout=layout, data=data)
+
+
+def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_range_db: float):
+    wf = rec.waveform
+    info = {
+        "recording": index,
+        "scene": rec.metadata.get("scene"),
+        "simulated": bool(rec.metadata.get("simulated", False)),
+        "sample_rate_hz": rec.sample_rate_hz,
+        "speed_of_sound_m_s": rec.speed_of_sound_m_s,
+        "array": rec.array.name,
+        "mic_positions_m": np.asarray(rec.array.positions_m).tolist(),
+        "emitter_m": np.asarray(rec.array.emitter_m).tolist(),
+        "call": {
+            "kind": wf.kind,
+            "f_start_hz": wf.f_start_hz,
+            "f_end_hz": wf.f_end_hz,
+            "duration_s": wf.duration_s,
+        },
+        "raw": "std_msgs/Float32MultiArray (microphone, sample), row major, float32",
+        "image_method": method,
+        "fan": {
+            "encoding": "32FC1 level in dB re the strongest cell; NaN = no data",
+            "dynamic_range_db": dynamic_range_db,
+            "rows": "row 0 = farthest x (top of the picture), x decreasing downwards",
+            "columns": "column 0 = largest y (left), y decreasing to the right",
+            "extent_m": dict(
+                zip(("y_left", "y_right", "x_near", "x_far"), map(float, raster.extent))
+            ),
+        },
+    }
+    return T["std_msgs/msg/String"](data=json.dumps(info))
+
+
+def _cloud_msg(T, header, points_sensor: np.ndarray, pk: P.Peaks):
+    field = T["sensor_msgs/msg/PointField"]
+    fields = [field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(PEAK_FIELDS)]
+    n = len(pk)
+    table = np.column_stack(
+        [points_sensor.reshape(-1, 3), pk.level_db.reshape(-1, 1), pk.range_m.reshape(-1, 1)]
+    ).astype("<f4")
+    return T["sensor_msgs/msg/PointCloud2"](
+        header=header,
+        height=1,
+        width=n,
+        fields=fields,
+        is_bigendian=False,
+        point_step=4 * len(PEAK_FIELDS),
+        row_step=4 * len(PEAK_FIELDS) * n,
+        data=np.frombuffer(table.tobytes(), np.uint8),
+        is_dense=True,
+    )
+
+
+def _image_msg(T, header, db: np.ndarray):
+    top_row_first = np.ascontiguousarray(db[::-1], dtype="<f4")  # raster row 0 is nearest
+    h, w = top_row_first.shape
+    return T["sensor_msgs/msg/Image"](
+        header=header,
+        height=h,
+        width=w,
+        encoding="32FC1",
+        is_bigendian=False,
+        step=4 * w,
+        data=np.frombuffer(top_row_first.tobytes(), np.uint8),
+    )
+
+
+def _tf_msg(T, header, pose):
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(pose.rotation).as_quat()
+    p = np.asarray(pose.position_m, float)
+    stamped = T["geometry_msgs/msg/TransformStamped"](
+        header=T["std_msgs/msg/Header"](stamp=header.stamp, frame_id=FRAME_WORLD),
+        child_frame_id=FRAME_SENSOR,
+        transform=T["geometry_msgs/msg/Transform"](
+            translation=T["geometry_msgs/msg/Vector3"](x=p[0], y=p[1], z=p[2]),
+            rotation=T["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w),
+        ),
+    )
+    return T["tf2_msgs/msg/TFMessage"](transforms=[stamped])

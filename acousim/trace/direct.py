@@ -1,0 +1,60 @@
+"""Paths that need no rays: the direct path emitter -> array and explicit points."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .embree import RayCaster
+from .paths import KIND, TracedPaths
+
+__all__ = ["direct_path", "point_paths"]
+
+
+def direct_path(emitter: np.ndarray, receiver: np.ndarray, fallback: np.ndarray) -> TracedPaths:
+    """The emitter heard at the microphones: anchor the emitter, strength 1; the
+    departure points from the emitter to the array centre (`fallback` if they coincide)."""
+    dep = receiver - emitter
+    n = np.linalg.norm(dep)
+    dep = dep / n if n > 0 else np.asarray(fallback, float)
+    return TracedPaths(
+        emitter[None],
+        np.zeros(1),
+        np.ones(1),
+        emitter[None],
+        np.zeros(1, int),
+        np.full(1, KIND["direct"]),
+        dep[None],
+    )
+
+
+def point_paths(
+    points_m: np.ndarray,
+    strength: np.ndarray,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    max_path_m: float,
+    caster: RayCaster | None,
+) -> TracedPaths:
+    """Point reflectors (P, 3) of strength a_k (P,): 1. within reach, 2. visible from
+    the emitter and from the receiver (if there are meshes), 3. gain a_k / r_e / r_r."""
+    pts, a = np.asarray(points_m, float).reshape(-1, 3), np.asarray(strength, float)
+    r_e = np.linalg.norm(pts - emitter, axis=1)
+    r_r = np.linalg.norm(pts - receiver, axis=1)
+    keep = (r_e > 0) & (r_e + r_r <= max_path_m)
+    if caster is not None and keep.any():
+        for src in (emitter, receiver):
+            d = pts - src
+            L = np.linalg.norm(d, axis=1)
+            t, f = caster.first_hit(np.broadcast_to(src, d.shape), d)
+            keep &= ~((f >= 0) & (t < L - caster.offset_m))
+    pts, a, r_e = pts[keep], a[keep], r_e[keep]
+    n = len(a)
+    return TracedPaths(
+        pts,
+        r_e,
+        a / r_e,
+        pts,
+        np.ones(n, int),
+        np.full(n, KIND["point"]),
+        (pts - emitter) / r_e[:, None],
+    )

@@ -1,0 +1,72 @@
+"""Traced paths: the one form every stage of the tracer hands to the renderer.
+
+A path's length to microphone p is ``first_leg + |anchor - p|`` and its pressure gain
+``strength / |anchor - p|``: an image source has first_leg 0, a scatterer or an explicit
+point sits at its position with first_leg the way there from the emitter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from acousim.synth.echoes import Echoes
+
+__all__ = ["KIND", "TracedPaths"]
+
+#: what made a path (the ``kind`` code of :class:`TracedPaths`)
+KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3}
+
+
+@dataclass(frozen=True, eq=False)
+class TracedPaths:
+    """Every path of one pose (world frame).  N paths.
+
+    anchor_m (N, 3), first_leg_m (N,), strength (N,): see the module docstring.
+    position_m (N, 3): where the echo comes from (last reflection point, scatterer
+    position, point reflector, the emitter for the direct path).
+    order (N,): reflections; kind (N,): :data:`KIND` codes; departure (N, 3): unit
+    direction leaving the emitter.
+    """
+
+    anchor_m: np.ndarray
+    first_leg_m: np.ndarray
+    strength: np.ndarray
+    position_m: np.ndarray
+    order: np.ndarray
+    kind: np.ndarray
+    departure: np.ndarray
+
+    def __len__(self) -> int:
+        return self.strength.size
+
+    def echoes(
+        self, mics_world: np.ndarray, emitter_axis: np.ndarray, speed_of_sound_m_s: float
+    ) -> Echoes:
+        """Delays and gains at microphones (M, 3) in the world frame."""
+        last = np.linalg.norm(self.anchor_m[None, :, :] - mics_world[:, None, :], axis=2)
+        last = np.maximum(last, 1e-6)
+        length = self.first_leg_m[None, :] + last
+        gain = self.strength[None, :] / last
+        cos = np.clip(self.departure @ emitter_axis, -1, 1)
+        return Echoes(length / speed_of_sound_m_s, gain, length, self.order.copy(), np.arccos(cos))
+
+    def level_at(self, point: np.ndarray) -> np.ndarray:
+        """Pressure gain (N,) of every path at one point (the array centre)."""
+        return self.strength / np.maximum(np.linalg.norm(self.anchor_m - point, axis=1), 1e-6)
+
+    def select(self, keep: np.ndarray) -> TracedPaths:
+        return TracedPaths(*(getattr(self, f.name)[keep] for f in fields(self)))
+
+    @staticmethod
+    def concatenate(parts: list[TracedPaths]) -> TracedPaths:
+        if not parts:
+            return TracedPaths.empty()
+        names = [f.name for f in fields(TracedPaths)]
+        return TracedPaths(*(np.concatenate([getattr(p, f) for p in parts]) for f in names))
+
+    @staticmethod
+    def empty() -> TracedPaths:
+        z3, z = np.zeros((0, 3)), np.zeros(0)
+        return TracedPaths(z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), z3)

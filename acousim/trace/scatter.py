@@ -1,0 +1,98 @@
+"""Stage 4 of the tracer: scattering from curved and rough surfaces towards the receiver.
+
+Every hit on a curved face, or on a face whose material has a diffuse part, re-radiates
+the ray's power towards the receiver (the array centre):
+
+1. Select the hits on scattering faces.
+2. Connect each to the receiver: it must face the receiver and the whole path must fit
+   in ``max_path_m``.
+3. A shadow ray from the hit to the receiver checks the view.
+4. Intensity at the receiver: power x pattern / r^2, with the pattern a Gaussian lobe
+   of width ``lobe_deg`` around the mirror direction (curved faces, from the second
+   reflection on: the first-order glints are exact, :mod:`.glints`; weight
+   ``(1 - diffuse) R^2``, normalised over the hemisphere for small lobes) plus a
+   Lambert lobe (weight ``diffuse R^2``).  The Gaussian lobe is a sampling kernel: as
+   rays are added, the energy of a glint converges to geometric optics whatever its
+   width, but the lobe spreads that energy over nearby points, so its delay spread
+   grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .embree import RayCaster
+from .geometry import World
+from .shoot import Hits
+
+__all__ = ["Contributions", "scatter"]
+
+
+@dataclass(frozen=True, eq=False)
+class Contributions:
+    """Scattered contributions at the receiver.  K contributions.
+
+    point_m (K, 3) where they scatter; intensity (K,) at the receiver (1/m^2 for a
+    unit-power emitter); first_leg_m (K,) path length emitter -> point; last_leg_m
+    (K,) point -> receiver; departure (K, 3); surface (K,) :attr:`World.surface` id;
+    order (K,); lambert (K,) bool, a Lambert part only (a planar face, or a curved
+    face at the first reflection, whose glint is :mod:`.glints`'s).
+    """
+
+    point_m: np.ndarray
+    intensity: np.ndarray
+    first_leg_m: np.ndarray
+    last_leg_m: np.ndarray
+    departure: np.ndarray
+    surface: np.ndarray
+    order: np.ndarray
+    lambert: np.ndarray
+
+    def __len__(self) -> int:
+        return self.intensity.size
+
+
+def scatter(
+    world: World, caster: RayCaster, hits: Hits, receiver: np.ndarray, max_path_m: float
+) -> Contributions:
+    """What the hits of `hits` scatter to `receiver` (3,)."""
+    refl = world.face_values("reflection")
+    diffuse = world.face_values("diffuse")
+    lobe = np.deg2rad(world.face_values("lobe_deg"))
+    # 1. hits on scattering faces
+    sc = world.curved[hits.face] | (diffuse[hits.face] > 0)
+    x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
+    power, length, f = hits.power[sc], hits.length_m[sc], hits.face[sc]
+    # 2. towards the receiver, facing it, within the path budget
+    v = receiver - x
+    r2 = np.linalg.norm(v, axis=1)
+    u = v / np.maximum(r2, 1e-12)[:, None]
+    cos_s = np.einsum("ij,ij->i", u, normal)
+    ok = (cos_s > 0) & (length + r2 <= max_path_m)
+    # 3. shadow ray towards the receiver
+    idx = np.flatnonzero(ok)
+    eps = caster.offset_m
+    t, hit = caster.first_hit(x[idx] + eps * normal[idx], v[idx])
+    ok[idx[(hit >= 0) & (t < r2[idx] - eps)]] = False
+    # 4. the scattering pattern
+    psi = np.arccos(np.clip(np.einsum("ij,ij->i", u, mirror), -1, 1))
+    sig = lobe[f]
+    R2 = refl[f] ** 2
+    order = hits.order[sc]
+    spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
+    pattern = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
+    pattern += diffuse[f] * R2 * cos_s / np.pi
+    intensity = np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
+    keep = intensity > 0
+    return Contributions(
+        x[keep],
+        intensity[keep],
+        length[keep],
+        r2[keep],
+        hits.departure[sc][keep],
+        world.surface[f[keep]],
+        order[keep],
+        (~world.curved[f] | (order == 1))[keep],
+    )

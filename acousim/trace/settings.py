@@ -1,0 +1,51 @@
+"""The settings the tracer's stages take, read once from a scene."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acousim.scene.model import Scene
+
+__all__ = ["TraceSettings", "resolution_length"]
+
+
+def resolution_length(call, speed_of_sound_m_s: float) -> float:
+    """The call's range resolution as a path length (m): c / bandwidth, with the
+    bandwidth no smaller than 1 / duration (a pure tone resolves c * duration)."""
+    lo, hi = call.band_hz
+    return speed_of_sound_m_s / max(hi - lo, 1.0 / call.duration_s)
+
+
+@dataclass(frozen=True)
+class TraceSettings:
+    """What the stages need to know (SI units).
+
+    rays : rays shot over the beam per pose; bounces : maximum reflections of a ray;
+    beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
+    maximum range); resolution_m : the call's range resolution as a path length;
+    energy_floor_db : paths this far below the strongest echo are dropped;
+    direct_path : include the emitter -> microphone path.
+    """
+
+    rays: int
+    bounces: int
+    beam_rad: float
+    max_path_m: float
+    resolution_m: float
+    energy_floor_db: float
+    direct_path: bool
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> TraceSettings:
+        sim = scene.simulation
+        return cls(
+            rays=sim.rays,
+            bounces=sim.bounces,
+            beam_rad=float(np.deg2rad(sim.beam_deg)),
+            max_path_m=2 * sim.max_range_m,
+            resolution_m=resolution_length(scene.sensor.call, scene.environment.speed_of_sound_m_s),
+            energy_floor_db=sim.energy_floor_db,
+            direct_path=scene.sensor.direct_path,
+        )

@@ -1,0 +1,147 @@
+"""Stage 1 of the tracer: shoot rays from the emitter and follow them specularly.
+
+Rays leave the emitter on a deterministic equal-area spiral over its beam (a cone of
+half-angle ``beam_rad`` around the sensor's axis), so the result is a pure function of
+the scene and the pose, and converges as rays are added.
+
+1. Directions: :func:`cone_directions`; each ray carries its solid angle as power.
+2. For each bounce up to ``bounces``: the first face hit by every live ray (within
+   the path budget ``max_path_m``); the hit is recorded (point, normal facing the
+   incoming side, mirror direction, incoming power, path length so far, departure).
+3. The ray's sequence of planes, while it has met planar faces only, is a candidate
+   for the exact specular stage.
+4. The ray continues in the mirror direction with its power times ``R^2 (1 -
+   diffuse)`` of the face.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .embree import RayCaster
+from .geometry import World
+
+__all__ = ["Hits", "Shot", "cone_directions", "shoot"]
+
+
+@dataclass(frozen=True, eq=False)
+class Hits:
+    """Every hit of every ray on a face, all bounces (world frame).  K hits.
+
+    point_m (K, 3); normal (K, 3) unit, towards the side the ray came from;
+    mirror (K, 3) unit specular direction; power (K,) the ray's solid angle (sr) times
+    the reflection factors before this hit; length_m (K,) path length from the
+    emitter; departure (K, 3) unit direction leaving the emitter; face (K,); order (K,)
+    reflections including this one.
+    """
+
+    point_m: np.ndarray
+    normal: np.ndarray
+    mirror: np.ndarray
+    power: np.ndarray
+    length_m: np.ndarray
+    departure: np.ndarray
+    face: np.ndarray
+    order: np.ndarray
+
+    def __len__(self) -> int:
+        return self.power.size
+
+
+@dataclass(frozen=True, eq=False)
+class Shot:
+    """What the rays found: their hits and the candidate specular plane sequences."""
+
+    hits: Hits
+    sequences: list[tuple[int, ...]]
+    rays: int
+
+
+def cone_directions(n: int, axis: np.ndarray, half_angle_rad: float) -> np.ndarray:
+    """n unit vectors on an equal-area (Fibonacci) spiral over a cone around `axis`."""
+    i = np.arange(n) + 0.5
+    cos_t = 1 - (1 - np.cos(half_angle_rad)) * i / n
+    sin_t = np.sqrt(np.maximum(0, 1 - cos_t**2))
+    phi = i * np.pi * (3 - np.sqrt(5))
+    local = np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(helper, a)
+    u /= np.linalg.norm(u)
+    v = np.cross(a, u)
+    return local @ np.stack([a, u, v])
+
+
+def shoot(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    axis: np.ndarray,
+    rays: int,
+    bounces: int,
+    beam_rad: float,
+    max_path_m: float,
+) -> Shot:
+    """Shoot `rays` rays over the beam and follow each for up to `bounces` reflections."""
+    # 1. directions and powers
+    dirs = cone_directions(rays, axis, beam_rad)
+    d_omega = 2 * np.pi * (1 - np.cos(beam_rad)) / rays
+    origin = np.broadcast_to(emitter, dirs.shape).copy()
+    length = np.zeros(rays)
+    power = np.full(rays, d_omega)
+    departure = dirs.copy()
+    planar = np.ones(rays, bool)
+    seq = np.full((rays, bounces), -1)
+    alive = np.arange(rays)
+    refl = world.face_values("reflection")
+    diffuse = world.face_values("diffuse")
+    n_planes = world.n_planes
+    records = []
+    sequences: set[tuple[int, ...]] = set()
+    for b in range(bounces):
+        if alive.size == 0:
+            break
+        # 2. first hits of the live rays
+        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
+        x = origin[alive] + t[:, None] * dirs[alive]
+        length[alive] += t
+        # 3. candidate plane sequences (rays that met planar faces only)
+        seq[alive, b] = world.plane[f]
+        planar[alive] &= ~world.curved[f]
+        rows = seq[alive[planar[alive]], : b + 1]
+        if rows.size:  # unique rows via one integer code per row (np.unique(axis=0) is slow)
+            code = rows @ (n_planes ** np.arange(b + 1)).astype(np.int64)
+            _, first = np.unique(code, return_index=True)
+            sequences.update(tuple(int(v) for v in rows[i]) for i in first)
+        normal = world.normals_at(x, f)
+        inc = dirs[alive]
+        flip = np.einsum("ij,ij->i", normal, inc) > 0
+        normal[flip] *= -1  # the side the ray came from
+        mirror = inc - 2 * np.einsum("ij,ij->i", inc, normal)[:, None] * normal
+        records.append(
+            (
+                x,
+                normal,
+                mirror,
+                power[alive],
+                length[alive],
+                departure[alive],
+                f,
+                np.full(f.size, b + 1),
+            )
+        )
+        # 4. continue specularly
+        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        origin[alive] = x + caster.offset_m * normal
+        dirs[alive] = mirror
+        alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+    if records:
+        hits = Hits(*(np.concatenate(v) for v in zip(*records)))
+    else:
+        z3, z = np.zeros((0, 3)), np.zeros(0)
+        hits = Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int))
+    return Shot(hits, sorted(sequences), rays)

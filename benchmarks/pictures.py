@@ -1,0 +1,93 @@
+"""Pictures and export files of the corridor drive: time per picture and per file,
+and the size of each file per pose (``ACOUSIM_BENCH_PICTURE_POSES`` poses, default 10)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from acousim.export import write_image_data, write_peaks_csv
+from acousim.export.rosbag import write_rosbag
+from acousim.imaging import (
+    ImagingOptions,
+    _animate,
+    _render,
+    _scene,
+    _scene_triangles,
+    _truth_sensor,
+    image_recordings,
+    prepare_pictures,
+)
+from acousim.scene import load_scene
+from acousim.simulator import Simulator
+from acousim.viz import elaz_figure, fan_figure
+
+from .timing import best_time
+
+SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
+
+
+def run() -> str:
+    n = int(os.environ.get("ACOUSIM_BENCH_PICTURE_POSES", "10"))
+    prepare_pictures()
+    recs = Simulator(load_scene(SCENE)).run(list(range(n)))
+    options = ImagingOptions()
+    images = image_recordings(recs, options)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        first, imgs = recs[0], images[0]
+        truth = _truth_sensor(first)
+        tri = _scene_triangles(_scene(first))
+
+        def timed(name, fn, path=None, per=1):
+            t = best_time(fn, repeat=3)
+            size = f"{path.stat().st_size / per / 1e6:.2f}" if path and path.is_file() else ""
+            rows.append(f"| {name} | {t / per * 1e3:.0f} | {size} |")
+
+        timed("fan.png (3 methods)", lambda: fan_figure(imgs, out / "f.png", truth=truth))
+        timed("elaz_music-fbss.png", lambda: elaz_figure(imgs["music-fbss"], out / "e.png"))
+        timed("scene3d.png", lambda: _render(first, imgs, tri, out / "s.png", options))
+        timed(
+            "drive.gif, per frame",
+            lambda: _animate(recs, images, tri, out / "d.gif", options, None, range(n)),
+            per=n,
+        )
+        timed(
+            "images.h5, per pose (3 methods)",
+            lambda: write_image_data(out / "images.h5", recs, images),
+            out / "images.h5",
+            per=n,
+        )
+        timed(
+            "peaks.csv, per pose",
+            lambda: write_peaks_csv(out / "peaks.csv", recs, images),
+            out / "peaks.csv",
+            per=n,
+        )
+        bag = out / "bag"
+
+        def write_bag():
+            import shutil
+
+            shutil.rmtree(bag, ignore_errors=True)
+            write_rosbag(bag, recs, images)
+
+        t = best_time(write_bag, repeat=3)
+        size = sum(p.stat().st_size for p in bag.iterdir()) / n / 1e6
+        rows.append(f"| ROS 2 bag (MCAP), per pose | {t / n * 1e3:.0f} | {size:.2f} |")
+    return "\n".join(
+        [
+            f"## Pictures and export files: corridor drive, {n} poses, uRTIS",
+            "",
+            "Best of 3 runs of each writer on images already computed (DAS, Capon-FBSS, "
+            "MUSIC-FBSS, 2 degree grid); the drive animation includes its fan figures, the "
+            "bag the fan raster and peaks of MUSIC-FBSS and the raw samples as float32.",
+            "",
+            "| output | ms | MB |",
+            "|---|---|---|",
+            *rows,
+            "",
+        ]
+    )
