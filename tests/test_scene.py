@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from acousim.scene import Pose, SceneError, load_scene, parse_scene, rotation
+from processing.errors import InputError
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -36,25 +37,35 @@ def base(**over):
 @pytest.mark.parametrize(
     "data,pattern",
     [
-        (base(simulaton={}), r"\[simulaton\] unknown key 'simulaton'; did you mean 'simulation'"),
-        (base(simulation={"rays": -5}), r"\[simulation.rays\] value -5 outside"),
-        (base(simulation={"bounces": 1.5}), r"\[simulation.bounces\] must be a whole number"),
+        (base(simulaton={}), r"simulaton: unknown key 'simulaton'; did you mean 'simulation'"),
+        (base(simulation={"rays": -5}), r"simulation.rays = -5: outside the allowed range"),
+        (base(simulation={"bounces": 1.5}), r"simulation.bounces = 1.5: must be a whole number"),
         (base(simulation={"max_rnage_m": 3}), r"did you mean 'max_range_m'"),
-        (base(sensor={"array": "urtis"}), r"\[sensor.array\] 'urtis' is not one of .*did you mean"),
+        (base(simulation={"snr_db": math.nan}), r"simulation.snr_db = nan: .*not NaN"),
+        (base(simulation={"absorption": "no"}), r"simulation.absorption = 'no': must be true"),
+        (base(environment={"humidity_percent": 500}), r"environment.humidity_percent = 500"),
+        (base(environment=5), r"environment = 5: must be a table"),
+        (base(sensor={"array": "urtis"}), r"sensor.array = 'urtis': is not one of .*did you mean"),
         (
             base(sensor={"array": "urtis_v1", "sample_rate_hz": 80000}),
-            r"\[sensor.sample_rate_hz\] 80000 Hz is below twice",
+            r"sensor.sample_rate_hz = 80000.0: is below twice",
         ),
-        (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"\[points\[0\].position_m\] must be"),
-        (base(meshes=[{"file": "nope.stl"}]), r"\[meshes\[0\].file\] mesh file not found"),
-        (base(meshes=[{"file": "wall.toml", "units": "inch"}]), r"\[meshes\[0\].units\]"),
+        (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"points\[0\].position_m = .*must be"),
+        (base(points=[{"position_m": [1.0]}]), r"points\[0\].position_m = \[1.0\]: must be"),
+        (
+            base(meshes=[{"file": "nope.stl"}]),
+            r"meshes\[0\].file = 'nope.stl': mesh file not found",
+        ),
+        (base(meshes=[{"file": "wall.toml", "units": "inch"}]), r"meshes\[0\].units = 'inch'"),
+        (base(materials=[{"name": "m", "reflection": 5}]), r"materials\[0\].reflection = 5"),
         ({"sensor": {"array": "urtis_v1"}}, r"neither meshes nor points"),
     ],
 )
 def test_validation_errors_name_key_and_value(data, pattern):
     with pytest.raises(SceneError, match=pattern) as exc:
         parse_scene(data, base_dir=SCENES, source="bad.toml")
-    assert str(exc.value).startswith("bad.toml: [")
+    assert str(exc.value).startswith("bad.toml: ")
+    assert isinstance(exc.value, InputError)
 
 
 def test_not_toml_and_missing_file(tmp_path):

@@ -49,8 +49,12 @@ class World:
 def _load(path, transform) -> object:
     import trimesh
 
-    try:
-        mesh = trimesh.load(path, force="mesh", process=False)
+    try:  # a trimesh.Trimesh in memory is copied, never changed
+        mesh = (
+            path.copy()
+            if isinstance(path, trimesh.Trimesh)
+            else trimesh.load(path, force="mesh", process=False)
+        )
     except Exception as exc:  # trimesh raises many kinds
         raise ValueError(f"{path}: cannot read mesh ({exc})") from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
@@ -75,7 +79,7 @@ def build_world(scene: Scene) -> World:
     materials = list({m.material.name: m.material for m in scene.meshes}.values())
     names = [m.name for m in materials]
     for item in scene.meshes:
-        mesh = _load(item.path, item.transform)
+        mesh = _load(item.mesh, item.transform)
         meshes.append(mesh)
         mat_index.append(np.full(len(mesh.faces), names.index(item.material.name)))
     merged = trimesh.util.concatenate(meshes)
