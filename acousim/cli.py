@@ -1,27 +1,96 @@
 """The ``acousim`` command line: a thin layer that parses, calls the library, reports.
 
-Errors in what the user gave (a file, a key, a value) are reported on one line with
-exit code 2; files are written under a temporary name and renamed when complete, so
-an error or Ctrl-C leaves no partial output.
+Errors in what the user gave (a file, a key, a value) are
+:class:`processing.errors.InputError`, caught once in :func:`main` and reported on one
+line with exit code 2; every other exception is a bug and keeps its traceback.
+Numeric arguments are checked when parsed, by the same declarations
+(:mod:`processing.settings`) as the files. Files are written under a temporary name
+and renamed when complete, so an error or Ctrl-C leaves no partial output.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from processing.errors import InputError
+
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
 
 
-class UsageError(Exception):
-    """Bad input from the user: printed on one line, exit code 2."""
+class UsageError(InputError):
+    """Bad input on the command line: printed on one line by main(), exit code 2."""
+
+
+def _checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None):
+    """An argparse type: the text as a number checked by a setting declaration
+    (`declared()` returns a :class:`processing.settings.Setting`, imported lazily so
+    that building the parser stays light), else a range given here."""
+
+    def parse(text: str):
+        from processing.settings import Setting, check
+
+        decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
+        try:
+            value = int(text) if decl.kind == "int" else float(text)
+        except ValueError:
+            what = "a whole number" if decl.kind == "int" else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        try:
+            return check(decl, value, "")
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {exc.reason}") from None
+
+    parse.__name__ = kind
+    return parse
+
+
+def _declared(module: str, cls: str, name: str):
+    def get():
+        import importlib
+
+        from processing.settings import settings_of
+
+        return settings_of(getattr(importlib.import_module(module), cls))[name]
+
+    return get
+
+
+SEED = _checked("int", declared=_declared("acousim.scene.model", "Simulation", "seed"))
+INDEX = _checked("int", 0, 2**31 - 1)
+WORKERS = _checked("int", 1, 1024)
+
+
+def _methods(option: str, text: str) -> tuple[str, ...]:
+    """Comma-separated DOA methods, each one of processing.METHODS."""
+    import processing as P
+    from processing.settings import Setting, check
+
+    methods = tuple(m.strip() for m in text.split(",") if m.strip())
+    if not methods:
+        raise UsageError("no method given", key=option, value=text)
+    try:
+        return check(Setting("strings", choices=tuple(P.METHODS)), methods, option)
+    except InputError as exc:
+        raise UsageError(exc.reason, key=option, value=text) from None
+
+
+def _output_file(option: str, path: str | Path) -> Path:
+    """An output file path: not an existing folder, its folder writable."""
+    out = Path(path)
+    if out.is_dir():
+        raise UsageError("is a folder; give a file name", key=option, value=str(path))
+    _writable_dir(out.parent)
+    return out
 
 
 def bundled_scenes() -> Path:
@@ -37,6 +106,7 @@ def _progress(desc: str):
 
     def update(done: int, total: int) -> None:
         nonlocal bar
+        _stop_if_interrupted()
         if bar is None:
             bar = tqdm(
                 total=total, desc=desc, delay=1.0, disable=not sys.stderr.isatty(), leave=False
@@ -46,6 +116,34 @@ def _progress(desc: str):
             bar.close()
 
     return update
+
+
+_interrupted = False
+
+
+def _on_interrupt(signum, frame) -> None:
+    """SIGINT: remember it, then raise KeyboardInterrupt as Python does. Some optional
+    imports (trimesh's) catch BaseException and would swallow it; the flag makes
+    :func:`_stop_if_interrupted` raise it again at the next checkpoint."""
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def _stop_if_interrupted() -> None:
+    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came, even if it was swallowed."""
+    if _interrupted:
+        raise KeyboardInterrupt
+
+
+def _preload_simulation() -> None:
+    """Import what a simulation needs before its work starts (trimesh tries optional
+    imports that swallow a Ctrl-C), then honour an interrupt that came meanwhile."""
+    import trimesh  # noqa: F401
+
+    import acousim.simulator  # noqa: F401
+
+    _stop_if_interrupted()
 
 
 def _writable_dir(path: str | Path) -> Path:
@@ -63,26 +161,29 @@ def _writable_dir(path: str | Path) -> Path:
 
 
 def _load_scene(path: str | Path):
-    from acousim.scene import SceneError, load_scene
+    from acousim.scene import load_scene
 
-    try:
-        return load_scene(path)
-    except SceneError as exc:
-        raise UsageError(str(exc)) from None
+    return load_scene(path)
 
 
 def _parse_indices(option: str, text: str | None) -> list[int] | None:
-    if not text:
+    """Indices '0,3,5' or ranges '0:10' (end excluded); None when not given."""
+    if text is None:
         return None
     out: list[int] = []
-    try:
-        for part in text.split(","):
-            a, _, b = part.partition(":")
-            out.extend(range(int(a), int(b)) if b else [int(a)])
-    except ValueError:
-        raise UsageError(
-            f"{option} {text!r}: expected indices like '0,3,5' or a range '0:10'"
-        ) from None
+    expected = "expected indices like '0,3,5' or a range '0:10'"
+    for part in text.split(","):
+        a, colon, b = part.partition(":")
+        try:
+            lo = int(a)
+            hi = int(b) if colon else lo + 1
+        except ValueError:
+            raise UsageError(expected, key=option, value=text) from None
+        if lo < 0 or hi <= lo:
+            raise UsageError(
+                f"{part!r} selects nothing or a negative index; {expected}", key=option, value=text
+            )
+        out.extend(range(lo, hi))
     return out
 
 
@@ -93,10 +194,7 @@ def _simulate(scene, poses, seed):
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
         )
-    try:
-        recs = Simulator(scene).run(poses, progress=_progress("simulate"))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    recs = Simulator(scene).run(poses, progress=_progress("simulate"))
     for r in recs:
         if r.metadata.get("n_paths", 0) == 0:
             raise UsageError(
@@ -110,11 +208,13 @@ def _simulate(scene, poses, seed):
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import processing as P
 
+    poses = _parse_indices("--poses", args.poses)
     scene = _load_scene(args.scene)
-    out = Path(args.out or f"{scene.name}.h5")
-    _writable_dir(out.parent)
+    out = _output_file("--out", args.out or f"{scene.name}.h5")
+    _preload_simulation()
     t0 = time.perf_counter()
-    recs = _simulate(scene, _parse_indices("--poses", args.poses), args.seed)
+    recs = _simulate(scene, poses, args.seed)
+    _stop_if_interrupted()
     P.save_recordings(out, recs)
     print(
         f"{len(recs)} recording(s) of {scene.name!r} written to {out} "
@@ -127,32 +227,25 @@ def _cmd_image(args: argparse.Namespace) -> int:
     import processing as P
     from acousim.imaging import ImagingOptions, image_recordings, write_pictures
 
-    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
-    try:
-        options = ImagingOptions(
-            methods=methods,
-            step_deg=args.step,
-            energy_fraction=args.energy_fraction,
-            min_range_m=args.min_range,
-            max_range_m=args.max_range,
-        )
-    except ValueError as exc:
-        raise UsageError(f"--method {args.method!r}: {exc}") from None
+    options = ImagingOptions(
+        methods=_methods("--method", args.method),
+        step_deg=args.step,
+        energy_fraction=args.energy_fraction,
+        min_range_m=args.min_range,
+        max_range_m=args.max_range,
+    )
+    index = _parse_indices("--index", args.index)
     out = _writable_dir(args.out)
     try:
         recs = P.load_recordings(args.file)
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    index = _parse_indices("--index", args.index)
     if index is not None:
         bad = [i for i in index if not 0 <= i < len(recs)]
         if bad:
-            raise UsageError(f"--index {bad}: the file holds {len(recs)} recording(s)")
+            raise UsageError(f"the file holds {len(recs)} recording(s)", key="--index", value=bad)
         recs = [recs[i] for i in index]
-    try:
-        images = image_recordings(recs, options, _progress("image"))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    images = image_recordings(recs, options, _progress("image"))
     files = write_pictures(
         recs,
         images,
@@ -168,12 +261,12 @@ def _cmd_image(args: argparse.Namespace) -> int:
 
 
 def _cmd_scenes(args: argparse.Namespace) -> int:
-    from acousim.scene import SceneError, load_scene
+    from acousim.scene import load_scene
 
     for f in sorted(bundled_scenes().glob("*.toml")):
         try:
             sc = load_scene(f)
-        except SceneError as exc:
+        except InputError as exc:  # e.g. the ertis_v3d1 layout without network access
             print(f"{f.name}: invalid ({exc})")
             continue
         print(
@@ -189,7 +282,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     out = _writable_dir(args.out)
     scene = _load_scene(bundled_scenes() / "corridor.toml")
+    _preload_simulation()
     recs = _simulate(scene, None, args.seed)
+    _stop_if_interrupted()
     P.save_recordings(out / "corridor.h5", recs)
     t1 = time.perf_counter()
     options = ImagingOptions()
@@ -214,8 +309,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
     if (args.count is None) == (args.duration is None):
         raise UsageError("give exactly one of --count N or --duration S")
-    out = Path(args.out)
-    _writable_dir(out.parent)
+    out = _output_file("--out", args.out)
     try:
         array, call = P.preset(args.array), P.rtis_call(args.call)
     except ValueError as exc:
@@ -232,6 +326,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
         from hardware.emulator import EmulatedSensor, EmulatorBackend, recording_source
 
         scene = _load_scene(args.emulate)
+        _preload_simulation()
         if scene.sensor.sample_rate_hz != 450e3:
             raise UsageError(
                 f"--emulate {args.emulate}: the scene samples at "
@@ -315,10 +410,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
     out = _writable_dir(args.out)
-    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
-    bad = [m for m in methods if m not in P.METHODS]
-    if bad:
-        raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
+    methods = _methods("--method", args.method)
     pairs = []
     if args.scene:
         from acousim.simulator import Simulator
@@ -334,12 +426,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             pose = i if args.all else args.pose
             if not 0 <= pose < len(scene.sensor.poses):
                 raise UsageError(f"--pose {pose}: the scene has {len(scene.sensor.poses)}")
-            try:
-                sim = simulator.simulate_pose(
-                    scene.sensor.poses[pose], pose, n_samples=real.n_samples
-                )
-            except ValueError as exc:
-                raise UsageError(str(exc)) from None
+            sim = simulator.simulate_pose(scene.sensor.poses[pose], pose, n_samples=real.n_samples)
             pairs.append((real, sim))
     else:
         try:
@@ -364,10 +451,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         files = write_comparison(report, arrays, folder)
     if len(pairs) > 1:
         table = summarize(reports)
-        path = out / "summary.json"
-        tmp = path.with_suffix(".json.part")
-        tmp.write_text(json.dumps(table, indent=1))
-        os.replace(tmp, path)
+        from processing.atomic import write_text
+
+        path = write_text(out / "summary.json", json.dumps(table, indent=1))
         s = table["summary"]
         print(
             f"{s['poses']} poses: mean envelope correlation "
@@ -411,20 +497,18 @@ def _count_real(args: argparse.Namespace) -> int:
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
-    from acousim.dataset import SpecError, generate
+    from acousim.dataset import generate
 
     _writable_dir(args.out)
+    _preload_simulation()
     t0 = time.perf_counter()
-    try:
-        manifest = generate(
-            args.spec,
-            args.out,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            progress=_progress("shards"),
-        )
-    except (SpecError, ValueError) as exc:
-        raise UsageError(str(exc)) from None
+    manifest = generate(
+        args.spec,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=_progress("shards"),
+    )
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "
@@ -500,7 +584,7 @@ def build_parser() -> argparse.ArgumentParser:
         "fan images, a 3D render and an animation.",
     )
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
+    p.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser(
@@ -513,7 +597,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", help="scene file (.toml), see docs/scene-format.md")
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
-    p.add_argument("--seed", type=int, help="noise seed (default: the scene's)")
+    p.add_argument("--seed", type=SEED, help="noise seed (default: the scene's)")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(
@@ -532,21 +616,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", default="out", help="output folder (default: out)")
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
-    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
+    p.add_argument(
+        "--step",
+        type=_checked(
+            "float", declared=_declared("acousim.dataset.spec", "StoreOptions", "step_deg")
+        ),
+        default=2.0,
+        help="grid step in degrees, 0.1 to 45 (default: 2)",
+    )
     p.add_argument(
         "--energy-fraction",
-        type=float,
+        type=_checked("float", 0, 1),
         default=1e-3,
         help="keep range bins with at least this fraction of the strongest "
         "bin's energy (default: 1e-3; the paper uses 0.5)",
     )
     p.add_argument(
         "--min-range",
-        type=float,
+        type=_checked("float", 0, 1000),
         default=0.25,
         help="ignore nearer range bins, metres (default: 0.25: the direct path)",
     )
-    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
+    p.add_argument(
+        "--max-range",
+        type=_checked("float", 0.01, 1000),
+        default=None,
+        help="metres (default: all)",
+    )
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
     p.set_defaults(func=_cmd_image)
@@ -576,10 +672,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
     p.add_argument("--serial", help="serial number of the sensor to use")
-    p.add_argument("--count", type=int, help="number of measurements")
-    p.add_argument("--duration", type=float, help="seconds of recording")
+    p.add_argument("--count", type=_checked("int", 1, 10**9), help="number of measurements")
+    p.add_argument("--duration", type=_checked("float", 1e-3, 1e7), help="seconds of recording")
     p.add_argument(
-        "--rate", type=float, default=10.0, help="measurements per second at most (default: 10)"
+        "--rate",
+        type=_checked("float", 1e-3, 1e4),
+        default=10.0,
+        help="measurements per second at most (default: 10)",
     )
     p.add_argument("--array", default="ertis_v3d1", help="array preset (default: ertis_v3d1)")
     p.add_argument("--call", default="default_25_50", help="RTIS call preset")
@@ -612,11 +711,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="real recording: .h5, raw tick words (.bin), or "
         "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
     )
-    p.add_argument("--index", type=int, default=0, help="recording in an .h5 file")
+    p.add_argument("--index", type=INDEX, default=0, help="recording in an .h5 file")
     p.add_argument("--scene", help="scene file to simulate at --pose")
-    p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
+    p.add_argument("--pose", type=INDEX, default=0, help="pose index in the scene")
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
-    p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
+    p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
     p.add_argument(
         "--all",
         action="store_true",
@@ -640,7 +739,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("spec", help="dataset spec (.toml)")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--workers", type=int, default=2, help="local processes (default: 2)")
+    p.add_argument("--workers", type=WORKERS, default=2, help="local processes (default: 2)")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
     p.set_defaults(func=_cmd_dataset)
 
@@ -658,7 +757,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", default="docs/reproduction", help="folder for figures and CSVs")
     p.add_argument("--report", default="docs/REPRODUCTION.md", help="report to (re)write")
-    p.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
+    p.add_argument("--workers", type=WORKERS, default=2, help="processes (default: 2)")
     p.add_argument(
         "--report-only",
         action="store_true",
@@ -669,16 +768,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Parse, run one command; an InputError is one line on stderr and exit code 2,
+    Ctrl-C exit code 130, anything else a bug with its traceback."""
+    global _interrupted
     parser = build_parser()
     args = parser.parse_args(argv)
+    _interrupted = False
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGINT, _on_interrupt)
     try:
         return args.func(args)
-    except UsageError as exc:
+    except InputError as exc:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"acousim {args.command}: interrupted; no partial file was kept", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 if __name__ == "__main__":
