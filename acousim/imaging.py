@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from processing.errors import InputError
 
 __all__ = ["ImagingOptions", "image_recordings", "peaks_in_world", "write_pictures"]
 
@@ -41,7 +42,7 @@ class ImagingOptions:
     def __post_init__(self) -> None:
         for m in self.methods:
             if m not in P.METHODS:
-                raise ValueError(f"unknown method {m!r}; choose from {', '.join(P.METHODS)}")
+                raise InputError(f"unknown method {m!r}; choose from {', '.join(P.METHODS)}")
         object.__setattr__(
             self, "grid", P.Grid.degrees(self.azimuth_deg, self.elevation_deg, self.step_deg)
         )
@@ -68,7 +69,7 @@ def image_recordings(
         if rec.array.n_mics and not rec.array.is_ura:
             smooth = [m for m in options.methods if "-" in m]
             if smooth:
-                raise ValueError(
+                raise InputError(
                     f"recording {i}: array {rec.array.name!r} is not a URA, so "
                     f"{', '.join(smooth)} cannot be used; choose das, music, capon"
                 )

@@ -117,13 +117,21 @@ def test_trajectory_gives_an_animation(tmp_path):
     "args,pattern",
     [
         (["simulate", "{tmp}/nope.toml"], "no such scene file"),
-        (["simulate", "{tmp}/bad.toml"], r"\[simulaton\] unknown key.*did you mean 'simulation'"),
-        (["image", "{tmp}/r.h5", "--method", "das,bogus"], "unknown method 'bogus'"),
+        (["simulate", "{tmp}/bad.toml"], r"simulaton: unknown key.*did you mean 'simulation'"),
+        (
+            ["image", "{tmp}/r.h5", "--method", "das,bogus"],
+            "--method = 'das,bogus': 'bogus' is not",
+        ),
+        (["image", "{tmp}/r.h5", "--method", ""], "--method = '': no method given"),
+        (["image", "{tmp}/r.h5", "--method", " , "], "--method = ' , ': no method given"),
+        (["image", "{tmp}/r.h5", "--index", "1:0"], r"--index = '1:0': '1:0' selects nothing"),
+        (["simulate", "{tmp}/points.toml", "--poses", "3:1"], r"--poses = '3:1'"),
+        (["simulate", "{tmp}/points.toml", "--out", "{tmp}"], r"--out = .*is a folder"),
         (["image", "{tmp}/r.h5", "--out", "{tmp}/afile/sub"], "cannot be written"),
         (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
-        (["image", "{tmp}/r.h5", "--index", "7"], r"--index \[7\]: the file holds 1"),
+        (["image", "{tmp}/r.h5", "--index", "7"], r"--index = \[7\]: the file holds 1"),
         (["simulate", "{tmp}/empty.toml"], "no echo reaches the sensor"),
-        (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses 'x'"),
+        (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses = 'x'"),
     ],
 )
 def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
@@ -150,6 +158,33 @@ def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
     assert code == 2
     assert len(err.splitlines()) == 1 and re.search(pattern, err), err
     assert set(tmp_path.rglob("*")) - before <= {tmp_path / "out"}  # no partial files
+
+
+@pytest.mark.parametrize(
+    "args,pattern",
+    [
+        (["image", "r.h5", "--step", "0"], r"argument --step: '0': outside the allowed range"),
+        (["image", "r.h5", "--step", "nan"], r"argument --step: 'nan': .*not NaN"),
+        (["image", "r.h5", "--energy-fraction", "2"], r"argument --energy-fraction: '2'"),
+        (["simulate", "s.toml", "--seed", "-1"], r"argument --seed: '-1': outside"),
+        (["simulate", "s.toml", "--seed", "1.5"], r"argument --seed: '1.5' is not a whole"),
+        (["record", "--count", "0", "--out", "x.h5"], r"argument --count: '0': outside"),
+        (["record", "--duration", "-1", "--out", "x.h5"], r"argument --duration: '-1'"),
+        (["record", "--duration", "nan", "--out", "x.h5"], r"argument --duration: 'nan'"),
+        (["dataset", "d.toml", "--out", "d", "--workers", "0"], r"argument --workers: '0'"),
+        (["compare", "rtisdev-sample", "--index", "-1"], r"argument --index: '-1'"),
+    ],
+)
+def test_arguments_are_checked_when_parsed(capsys, args, pattern):
+    """Numbers are checked by their declarations before any work: argparse's usage
+    error, exit code 2, naming the argument (not another one) and the value."""
+    import re
+
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert re.search(pattern, err[-1]), err
 
 
 def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch, capsys):

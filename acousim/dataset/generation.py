@@ -24,6 +24,7 @@ import h5py
 import numpy as np
 
 import processing as P
+from processing.errors import InputError
 
 from .spec import DatasetSpec, load_spec
 
@@ -88,7 +89,7 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
             if _clear(str(choice.file), pos, choice.clearance_m):
                 break
         else:
-            raise RuntimeError(
+            raise InputError(
                 f"sample {i}: no collision-free pose in the region of {choice.file} after 100 draws"
             )
         yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
@@ -299,7 +300,7 @@ def generate(
         stale.unlink()  # an interrupted run's incomplete shard: redone
     existing = out / "spec.sha256"
     if existing.is_file() and existing.read_text().strip() != spec.sha256:
-        raise ValueError(
+        raise InputError(
             f"{out} holds a dataset of another spec (sha256 "
             f"{existing.read_text().strip()[:12]}...); use a new folder"
         )

@@ -37,6 +37,7 @@ import numpy as np
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.echoes import Echoes
+from processing.errors import InputError
 
 from .embree import RayCaster
 from .geometry import World, build_world
@@ -193,7 +194,7 @@ class Tracer:
             facing = np.einsum("ij,ij->i", self.world.normals[f[hit]], dirs[hit]) > 0
             closed = not np.isinf(t).any()
             if facing.mean() > 0.9 and closed:
-                raise ValueError(
+                raise InputError(
                     f"scene {self.scene.name!r}: the sensor at {np.round(emitter, 3).tolist()} "
                     "is inside a closed mesh (a wall or object): move its pose"
                 )
