@@ -87,6 +87,14 @@ class Array:
             object.__setattr__(self, "grid_index", gi)
             object.__setattr__(self, "pitch_m", (float(self.pitch_m[0]), float(self.pitch_m[1])))
 
+    def __repr__(self) -> str:
+        kind = f"URA {self.grid_shape[0]}x{self.grid_shape[1]}" if self.is_ura else "irregular"
+        z, y = self.aperture_m()
+        return (
+            f"Array({self.name!r}, {self.n_mics} mics, {kind}, "
+            f"aperture {y * 1e3:.1f} x {z * 1e3:.1f} mm (y x z))"
+        )
+
     @property
     def n_mics(self) -> int:
         """Number of microphones M."""
