@@ -107,8 +107,17 @@ def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.
 
 
 def _scene_triangles(rec: P.Recording) -> np.ndarray | None:
-    file = rec.metadata.get("scene_file")
-    if not file or not Path(file).is_file():
+    file = rec.metadata.get("scene_file")  # read only for the 3D view and the animation
+    if not file:
+        return None
+    if not isinstance(file, str) or Path(file).suffix.lower() != ".toml":
+        raise InputError(
+            "the recording's scene_file is not a scene file (.toml); "
+            "image without the 3D view (--no-3d --no-animation)",
+            key="scene_file",
+            value=file,
+        )
+    if not Path(file).is_file():
         return None
     from acousim.scene import load_scene
     from acousim.trace.geometry import build_world

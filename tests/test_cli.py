@@ -208,3 +208,31 @@ def test_info_and_scenes(tmp_path, capsys):
     listing = capsys.readouterr().out
     for name in ("corridor", "shoebox", "wall", "sphere", "points"):
         assert f"{name}.toml" in listing
+
+
+@pytest.mark.parametrize(
+    "scene_file,pattern",
+    [
+        ("/etc/passwd", r"scene_file = '/etc/passwd': the recording's scene_file is not a scene"),
+        ("{tmp}/fake.toml", r"fake.toml: not valid TOML"),
+    ],
+)
+def test_image_follows_scene_file_only_to_a_scene(tmp_path, capsys, scene_file, pattern):
+    """A recording's scene_file is opened only for the 3D view, and only a scene file."""
+    import re
+
+    (tmp_path / "fake.toml").write_text("root:x:0:0:root:/root:/bin/bash\n")
+    rec = P.Recording(
+        np.random.default_rng(0).normal(size=(64, 3000)),
+        500e3,
+        P.paper_8x8(),
+        P.paper_chirp(),
+        metadata={"scene_file": scene_file.format(tmp=tmp_path)},
+    )
+    P.save_recording(tmp_path / "r.h5", rec)
+    args = ["image", str(tmp_path / "r.h5"), "--method", "das", "--out", str(tmp_path / "o")]
+    assert main([*args, "--no-3d", "--no-animation"]) == 0
+    capsys.readouterr()
+    assert main([*args, "--no-animation"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(pattern, err), err
