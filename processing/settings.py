@@ -123,8 +123,8 @@ def setting(
         kind,
         default,
         unit,
-        float(lo),
-        float(hi),
+        lo,  # kept as given: an int bound compares exactly with an int value
+        hi,
         doc,
         None if choices is None else tuple(choices),
         length,
@@ -204,12 +204,16 @@ def _scalar(decl: Setting, value: Any, fail, rng: str) -> float | int:
     kind = "a whole number" if integer else "a number"
     if not _is_number(value):
         raise fail(f"must be {kind} in {rng}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an int beyond any float
+        raise fail(f"outside the allowed range {rng}") from None
     if math.isnan(v):
         raise fail(f"must be {kind} in {rng}, not NaN")
     if integer and not v.is_integer():
         raise fail(f"must be {kind} in {rng}")
-    if not decl.lo <= v <= decl.hi:
+    exact = int(value) if integer else v  # 2**63 is not float(2**63 - 1)
+    if not decl.lo <= exact <= decl.hi:
         unit = f" {decl.unit}" if decl.unit else ""
         raise fail(f"outside the allowed range {rng}{unit}")
     return int(value) if integer else v
