@@ -91,6 +91,8 @@ class Setting:
 
 
 def _fmt(x: float) -> str:
+    if isinstance(x, int):
+        return str(x)
     return "inf" if x == math.inf else "-inf" if x == -math.inf else f"{x:g}"
 
 

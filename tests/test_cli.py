@@ -236,3 +236,30 @@ def test_image_follows_scene_file_only_to_a_scene(tmp_path, capsys, scene_file, 
     assert main([*args, "--no-animation"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and re.search(pattern, err), err
+
+
+def test_a_swallowed_ctrl_c_still_stops_the_command(tmp_path, monkeypatch, capsys):
+    """trimesh's optional imports catch BaseException: an interrupt raised inside one is
+    lost to Python, but the command line's SIGINT handler remembers it and stops at
+    the next checkpoint (here: before the file is written)."""
+    import os
+    import signal
+    import time
+
+    import acousim.simulator
+
+    real_run = acousim.simulator.Simulator.run
+
+    def swallowing_run(self, *args, **kwargs):
+        try:  # what an optional import guarded by `except BaseException` does
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        except BaseException:
+            pass
+        return real_run(self, *args, **kwargs)
+
+    monkeypatch.setattr(acousim.simulator.Simulator, "run", swallowing_run)
+    scene = copy_scene(tmp_path, "points")
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 130
+    assert not (tmp_path / "x.h5").exists()
+    assert "interrupted" in capsys.readouterr().err
