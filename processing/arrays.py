@@ -84,8 +84,19 @@ class Array:
                 raise ValueError(
                     f"array {self.name!r}: grid_index needs shape (M, 2) and a pitch_m"
                 )
+            try:
+                pitch = (float(self.pitch_m[0]), float(self.pitch_m[1]))
+                shown = list(pitch)
+            except (TypeError, ValueError, IndexError):
+                pitch, shown = (np.nan, np.nan), self.pitch_m
+            if not all(np.isfinite(pitch)) or min(pitch) <= 0:
+                raise InputError(
+                    f"array {self.name!r}: must be two positive finite numbers (dz, dy)",
+                    key="pitch_m",
+                    value=shown,
+                )
             object.__setattr__(self, "grid_index", gi)
-            object.__setattr__(self, "pitch_m", (float(self.pitch_m[0]), float(self.pitch_m[1])))
+            object.__setattr__(self, "pitch_m", pitch)
 
     def __repr__(self) -> str:
         kind = f"URA {self.grid_shape[0]}x{self.grid_shape[1]}" if self.is_ura else "irregular"

@@ -103,3 +103,10 @@ def test_ertis_layout_from_rtisdev_wheel():
     assert a.aperture_m()[1] == pytest.approx(0.0665, abs=2e-3)
     assert a.aperture_m()[0] == pytest.approx(0.0376, abs=2e-3)
     np.testing.assert_allclose(a.positions_m.mean(axis=0), 0, atol=1e-12)
+
+
+@pytest.mark.parametrize("pitch", [(0.0, 0.0), (np.nan, np.nan), (-1e-3, 1e-3), "ab"])
+def test_ura_pitch_must_be_positive_and_finite(pitch):
+    base = P.ura(2, 2, 5e-3)
+    with pytest.raises(InputError, match="pitch_m"):
+        P.Array("bad", base.positions_m, grid_index=base.grid_index, pitch_m=pitch)
