@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import os
 import signal
 import sys
 import time
@@ -147,12 +146,15 @@ def _preload_simulation() -> None:
 
 
 def _writable_dir(path: str | Path) -> Path:
+    import tempfile
+
+    from processing.atomic import TEMP_PREFIX
+
     out = Path(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".acousim-write-test-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
+        with tempfile.NamedTemporaryFile(dir=out, prefix=TEMP_PREFIX):  # exclusive, removed
+            pass
     except OSError as exc:
         raise UsageError(
             f"output directory {str(out)!r} cannot be written ({exc.strerror})"

@@ -111,3 +111,32 @@ def test_pose_rotation_conventions():
     p = Pose([1.0, 2.0, 3.0], 0.3, 0.2, 0.1)
     x = np.array([[0.5, -0.2, 0.1]])
     np.testing.assert_allclose(p.to_sensor(p.to_world(x)), x, atol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "sensor,pattern",
+    [
+        ({"pose": {"pitch_deg": 120}}, r"sensor.pose.pitch_deg = 120"),
+        ({"pose": {"yaw_deg": "left"}}, r"sensor.pose.yaw_deg = 'left'"),
+        ({"trajectory": {"poses": [[0, 0, 0, 0, 95]]}}, r"trajectory row 0 pitch_deg = 95.0"),
+        ({"trajectory": {"poses": [[0, 0, 0, 400]]}}, r"trajectory row 0 yaw_deg = 400.0"),
+    ],
+)
+def test_pose_angles_in_tables_and_trajectories(sensor, pattern):
+    data = base(sensor={"array": "urtis_v1", **sensor})
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene(data, base_dir=SCENES, source="bad.toml")
+
+
+def test_pose_refuses_non_finite_values():
+    with pytest.raises(InputError, match="Pose.yaw_rad = nan"):
+        Pose([0, 0, 0], math.nan)
+    with pytest.raises(InputError, match="Pose.position_m"):
+        Pose([0, 0])
+
+
+def test_fractional_delays_are_the_renderers():
+    from acousim.scene.model import FRACTIONAL_DELAYS
+    from acousim.synth.render import METHODS
+
+    assert set(FRACTIONAL_DELAYS) <= set(METHODS)

@@ -49,6 +49,12 @@ EXTRA_KEYS: dict[str, set[str]] = {
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+#: a pose's angles, in [sensor.pose] and in every row of a trajectory
+POSE_ANGLES = {
+    "yaw_deg": Setting("float", 0.0, "deg", -360, 360, "turns left"),
+    "pitch_deg": Setting("float", 0.0, "deg", -90, 90, "points the sensor down"),
+    "roll_deg": Setting("float", 0.0, "deg", -360, 360, "about the sensor's axis"),
+}
 
 
 class _Reader:
@@ -272,16 +278,23 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
                 f"rows must be [x, y, z, yaw_deg(, pitch_deg, "
                 f"roll_deg)] of finite numbers, got shape {rows.shape}",
             )
+        for i, row in enumerate(rows):
+            for (name, decl), v in zip(POSE_ANGLES.items(), row[3:]):
+                r._check(decl, float(v), f"sensor.trajectory row {i} {name}")
         ang = np.deg2rad(np.pad(rows[:, 3:], ((0, 0), (0, 6 - rows.shape[1]))))
         return tuple(
             Pose(row[:3], *a, time_s=i / rate) for i, (row, a) in enumerate(zip(rows, ang))
         ), rate
     p = r.table(s, "pose", "sensor")
     r.check_keys(p, "sensor.pose", "sensor.pose")
+    angles = {
+        name: np.deg2rad(r._check(decl, p.get(name, decl.default), f"sensor.pose.{name}"))
+        for name, decl in POSE_ANGLES.items()
+    }
     pose = Pose(
         r.vector(p, "position_m", "sensor.pose", [0.0, 0.0, 0.0]),
-        np.deg2rad(r.number(p, "yaw_deg", "sensor.pose", 0.0, -360, 360)),
-        np.deg2rad(r.number(p, "pitch_deg", "sensor.pose", 0.0, -90, 90)),
-        np.deg2rad(r.number(p, "roll_deg", "sensor.pose", 0.0, -360, 360)),
+        angles["yaw_deg"],
+        angles["pitch_deg"],
+        angles["roll_deg"],
     )
     return (pose,), None
