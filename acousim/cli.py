@@ -24,6 +24,9 @@ from processing.errors import InputError
 
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
+# processing.PRESETS and the RTIS call presets, repeated for the same reason (tested)
+ARRAY_PRESETS = ("ertis_v3d1", "paper_8x8", "urtis_v1")
+CALL_PRESETS = ("default_20_80", "default_25_50")
 
 
 class UsageError(InputError):
@@ -81,6 +84,29 @@ def _methods(option: str, text: str) -> tuple[str, ...]:
         return check(Setting("strings", choices=tuple(P.METHODS)), methods, option)
     except InputError as exc:
         raise UsageError(exc.reason, key=option, value=text) from None
+
+
+def _check_scheduler(address: str) -> None:
+    """A Dask scheduler address tcp://host:port (or host:port) where something listens
+    (within 5 s); other protocols (tls://, ...) are left to Dask."""
+    import socket
+    from urllib.parse import urlsplit
+
+    url = urlsplit(address if "://" in address else f"tcp://{address}")
+    if url.scheme != "tcp":
+        return
+    try:
+        host, port = url.hostname, url.port
+    except ValueError:
+        host = port = None
+    if not host or not port:
+        raise UsageError("expected tcp://HOST:PORT", key="--scheduler", value=address)
+    try:
+        socket.create_connection((host, port), timeout=5).close()
+    except OSError as exc:
+        raise UsageError(
+            f"no Dask scheduler reachable ({exc.strerror or exc})", key="--scheduler", value=address
+        ) from None
 
 
 def _output_file(option: str, path: str | Path) -> Path:
@@ -501,6 +527,8 @@ def _count_real(args: argparse.Namespace) -> int:
 def _cmd_dataset(args: argparse.Namespace) -> int:
     from acousim.dataset import generate
 
+    if args.scheduler:
+        _check_scheduler(args.scheduler)
     _writable_dir(args.out)
     _preload_simulation()
     t0 = time.perf_counter()
@@ -682,8 +710,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=10.0,
         help="measurements per second at most (default: 10)",
     )
-    p.add_argument("--array", default="ertis_v3d1", help="array preset (default: ertis_v3d1)")
-    p.add_argument("--call", default="default_25_50", help="RTIS call preset")
+    p.add_argument(
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array preset (default: ertis_v3d1)",
+    )
+    p.add_argument("--call", default="default_25_50", choices=CALL_PRESETS, help="RTIS call preset")
     p.add_argument(
         "--emulate",
         metavar="SCENE",
@@ -725,9 +758,14 @@ def build_parser() -> argparse.ArgumentParser:
         " for every i; one row per pose and a summary in summary.json",
     )
     p.add_argument(
-        "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array of a raw .bin (default: ertis_v3d1)",
     )
-    p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
+    p.add_argument(
+        "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
+    )
     p.add_argument("--method", default="das", help="comma-separated DOA methods")
     p.add_argument("--out", default="out/compare", help="output folder")
     p.set_defaults(func=_cmd_compare)

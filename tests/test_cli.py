@@ -263,3 +263,28 @@ def test_a_swallowed_ctrl_c_still_stops_the_command(tmp_path, monkeypatch, capsy
     assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 130
     assert not (tmp_path / "x.h5").exists()
     assert "interrupted" in capsys.readouterr().err
+
+
+def test_unreachable_scheduler_is_refused_quickly(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as sock:  # a port where nothing listens once closed
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    spec = tmp_path / "s.toml"
+    spec.write_text(f"[[scenes]]\nfile = '{SCENES / 'points.toml'}'\n")
+    args = ["dataset", str(spec), "--out", str(tmp_path / "d")]
+    assert main([*args, "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    assert f"--scheduler = 'tcp://127.0.0.1:{port}': no Dask scheduler" in capsys.readouterr().err
+    assert main([*args, "--scheduler", "tcp://nohost"]) == 2
+    assert "expected tcp://HOST:PORT" in capsys.readouterr().err
+
+
+def test_preset_choices_match_the_library():
+    from acousim.cli import ARRAY_PRESETS, CALL_PRESETS
+
+    assert set(ARRAY_PRESETS) == set(P.PRESETS)
+    for name in CALL_PRESETS:
+        assert P.rtis_call(name).duration_s > 0
+    with pytest.raises(ValueError):
+        P.rtis_call("default_10_20")
