@@ -182,11 +182,13 @@ RANDOM = WALL + "poses = 'random'\nregion = "
         (WALL + "[store]\nstep_deg = 'a'\n", r"store.step_deg = 'a': must be a number"),
         (WALL + "[store]\nazimuth_deg = [10, -10]\n", r"store.azimuth_deg = .*low is above high"),
         ("scenes = [5]\n", r"scenes\[0\] = 5: must be a table"),
+        ("[[scenes]]\nfile = 'broken.toml'\n", r"scenes\[0\].file: not a usable scene .*rays"),
     ],
 )
 def test_malformed_specs(tmp_path, text, pattern):
     p = tmp_path / "bad.toml"
     p.write_text(text.format(scenes=SCENES))
+    (tmp_path / "broken.toml").write_text("[simulation]\nrays = -1\n")
     with pytest.raises(SpecError, match=pattern):
         load_spec(p)
 

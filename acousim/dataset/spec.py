@@ -257,6 +257,12 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         f = path.parent / name
         if not f.is_file():
             raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
+        from acousim.scene import load_scene
+
+        try:  # checked now, not in a worker halfway through the dataset
+            load_scene(f)
+        except InputError as exc:
+            raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
         region_t = s.get("region", {})
         region = read_table(Region, region_t, where=f"{where}.region", file=src)
         if choice.get("poses", "trajectory") == "random":
