@@ -35,6 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, get_args
 
+import numpy as np
+
 from .errors import InputError
 
 __all__ = [
@@ -141,8 +143,6 @@ def _is_number(v: Any) -> bool:
 
 
 def _is_np_number(v: Any) -> bool:
-    import numpy as np
-
     return isinstance(v, np.integer | np.floating)
 
 
@@ -155,9 +155,7 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
 
     rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
     if decl.kind == "bool":
-        if isinstance(value, bool) or (
-            _is_np_number(value) and value.dtype.kind == "b"  # numpy bool
-        ):
+        if isinstance(value, bool | np.bool_):
             return bool(value)
         raise fail("must be true or false")
     if decl.kind == "str":
