@@ -125,3 +125,34 @@ def test_import_acousim_is_light_and_gives_the_scene_api():
         "assert Simulator.__module__ == 'acousim.simulator'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+
+
+def test_every_declared_setting_is_documented():
+    """Adding a setting is one line in its dataclass; its line in the format docs too."""
+    from acousim.dataset import spec
+    from acousim.scene import model
+    from processing.settings import settings_of
+
+    docs = {
+        "scene-format.md": [
+            model.Environment,
+            model.Simulation,
+            model.Material,
+            model.PointItem,
+            model.Sensor,
+        ],
+        "dataset-format.md": [
+            spec.DatasetOptions,
+            spec.SceneChoice,
+            spec.StoreOptions,
+            spec.Region,
+        ],
+    }
+    for name, classes in docs.items():
+        text = (ROOT / "docs" / name).read_text()
+        for cls in classes:
+            for key in settings_of(cls):
+                assert re.search(rf"\b{key}\b", text), f"{cls.__name__}.{key} not in docs/{name}"
+        if name == "dataset-format.md":
+            for key in spec.RANDOMIZE:
+                assert re.search(rf"\b{key}\b", text), f"randomize.{key} not in docs/{name}"
