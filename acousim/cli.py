@@ -255,6 +255,10 @@ def _cmd_image(args: argparse.Namespace) -> int:
     import processing as P
     from acousim.imaging import ImagingOptions, image_recordings, write_pictures
 
+    if args.max_range is not None and args.max_range <= args.min_range:
+        raise UsageError(
+            f"must be above --min-range {args.min_range:g}", key="--max-range", value=args.max_range
+        )
     options = ImagingOptions(
         methods=_methods("--method", args.method),
         step_deg=args.step,

@@ -127,6 +127,10 @@ def test_trajectory_gives_an_animation(tmp_path):
         (["image", "{tmp}/r.h5", "--index", "1:0"], r"--index = '1:0': '1:0' selects nothing"),
         (["simulate", "{tmp}/points.toml", "--poses", "3:1"], r"--poses = '3:1'"),
         (["simulate", "{tmp}/points.toml", "--out", "{tmp}"], r"--out = .*is a folder"),
+        (
+            ["image", "{tmp}/r.h5", "--min-range", "2", "--max-range", "1"],
+            r"--max-range = 1.0: must be above --min-range 2",
+        ),
         (["image", "{tmp}/r.h5", "--out", "{tmp}/afile/sub"], "cannot be written"),
         (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
         (["image", "{tmp}/r.h5", "--index", "7"], r"--index = \[7\]: the file holds 1"),
