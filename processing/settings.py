@@ -21,7 +21,9 @@ The TOML loader then accepts ``[environment] wind_m_s = 3`` and refuses ``-1``,
 Kinds: ``float`` and ``int`` (ranges inclusive; NaN always refused, infinity only when
 a bound is infinite), ``bool`` (only true/false), ``str`` (optionally one of
 `choices`), ``strings`` (a list of such strings), ``vector`` (`length` finite
-numbers in range) and ``interval`` (a ``[low, high]`` pair of finite numbers inside
+numbers in range; any length when `length` is None, e.g. a reflection coefficient
+per frequency band: ``setting((0.9, 0.8), "", 0, 1, "per band", kind="vector")``)
+and ``interval`` (a ``[low, high]`` pair of finite numbers inside
 the range, low <= high).
 """
 

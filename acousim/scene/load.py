@@ -2,7 +2,11 @@
 ``docs/scene-format.md``.
 
 Every error names the file, the key and the bad value, and says what is allowed;
-an unknown key gets a did-you-mean.
+an unknown key gets a did-you-mean. The tables that map onto a dataclass
+(``[environment]``, ``[simulation]``, ``[[materials]]``, ``[[points]]`` and the scalar
+keys of ``[sensor]``) are read through its declared settings (``acousim.scene.model``):
+a new setting there needs no change here. Keys read by hand (the sensor's array,
+call, pose and trajectory, a mesh's placement) are listed in :data:`EXTRA_KEYS`.
 """
 
 from __future__ import annotations
