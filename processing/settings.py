@@ -188,14 +188,19 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
     except TypeError:
         items = None
     n = 2 if decl.kind == "interval" else decl.length
-    what = "[low, high]" if decl.kind == "interval" else f"a list of {n} numbers"
+    if decl.kind == "interval":
+        what = "[low, high]"
+    else:
+        what = "a list of finite numbers" if n is None else f"a list of {n} finite numbers"
+    if math.isfinite(decl.lo) or math.isfinite(decl.hi):
+        what += f" in {rng}"
     if items is None or (n is not None and len(items) != n):
-        raise fail(f"must be {what} in {rng}")
+        raise fail(f"must be {what}")
     if not all(_is_number(x) for x in items):
-        raise fail(f"must be {what} in {rng}")
+        raise fail(f"must be {what}")
     out = tuple(float(x) for x in items)
     if any(not math.isfinite(x) or not decl.lo <= x <= decl.hi for x in out):
-        raise fail(f"must be {what} in {rng}")
+        raise fail(f"must be {what}")
     if decl.kind == "interval" and out[0] > out[1]:
         raise fail("low is above high")
     return out
