@@ -299,7 +299,7 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
         try:
             sc = load_scene(f)
         except InputError as exc:  # e.g. the ertis_v3d1 layout without network access
-            print(f"{f.name}: invalid ({exc})")
+            print(f"{f.name}: cannot be loaded ({exc})")
             continue
         print(
             f"{f.name:16s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
