@@ -290,3 +290,82 @@ def test_fuzzed_dataset_specs(tmp_path, table, key, data):
         assert spec.compression == (None if value == "none" else value)
     else:
         assert getattr(spec, key) == value
+
+
+STRUCTURE = [
+    ("", "environment"),
+    ("", "simulation"),
+    ("", "sensor"),
+    ("", "scene"),
+    ("", "materials"),
+    ("", "meshes"),
+    ("", "points"),
+    ("sensor", "pose"),
+    ("sensor", "call"),
+    ("sensor", "trajectory"),
+    ("sensor", "array"),
+    ("sensor", "coordinates"),
+    ("sensor", "emitter_m"),
+    ("meshes", "file"),
+    ("meshes", "material"),
+    ("meshes", "rotation_deg"),
+    ("meshes", "units"),
+    ("materials", "name"),
+]
+shapes = st.one_of(
+    junk,
+    st.lists(
+        st.dictionaries(st.sampled_from(["file", "name", "x"]), scalar, max_size=2), max_size=2
+    ),
+    st.dictionaries(
+        st.sampled_from(["poses", "file", "rate_hz", "kind", "f_start_hz", "yaw_deg"]),
+        st.one_of(scalar, st.lists(st.lists(st.integers(-400, 400), max_size=7), max_size=3)),
+        max_size=3,
+    ),
+)
+
+
+@pytest.mark.parametrize("table,key", STRUCTURE)
+@FUZZ
+@given(data=st.data())
+def test_fuzzed_scene_structure(tmp_path, table, key, data):
+    """Tables, arrays of tables and nested keys replaced by values of any shape: either
+    a scene or an InputError naming the file, never another exception."""
+    import shutil
+
+    shutil.copy(SCENES / "meshes" / "wall.stl", tmp_path / "wall.stl")
+    value = data.draw(shapes)
+    doc = {
+        "sensor": {"array": "urtis_v1"},
+        "meshes": [{"file": "wall.stl"}],
+        "materials": [{"name": "m"}],
+        "points": [{"position_m": [1.0, 0.0, 0.0]}],
+    }
+    if table == "":
+        doc[key] = value
+    else:
+        target = doc[table]
+        (target[0] if isinstance(target, list) else target)[key] = value
+    top = {k: v for k, v in doc.items() if not isinstance(v, dict | list) or not v}
+    tables = {k: v for k, v in doc.items() if k not in top}
+    lines = [f"{k} = {toml_value(v)}" for k, v in top.items()]
+    text = (
+        "\n".join(lines)
+        + "\n"
+        + toml(
+            {
+                k: v
+                for k, v in tables.items()
+                if isinstance(v, dict) or all(isinstance(x, dict) for x in v)
+            }
+        )
+    )
+    for k, v in tables.items():
+        if isinstance(v, list) and not all(isinstance(x, dict) for x in v):
+            text = f"{k} = {toml_value(v)}\n" + text
+    path = tmp_path / "fuzz.toml"
+    path.write_text(text)
+    try:
+        load_scene(path)
+    except InputError as exc:
+        assert str(exc).startswith(str(path)), str(exc)
