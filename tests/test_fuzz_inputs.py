@@ -369,3 +369,53 @@ def test_fuzzed_scene_structure(tmp_path, table, key, data):
         load_scene(path)
     except InputError as exc:
         assert str(exc).startswith(str(path)), str(exc)
+
+
+SPEC_STRUCTURE = [
+    ("", "dataset"),
+    ("", "scenes"),
+    ("", "randomize"),
+    ("", "store"),
+    ("scenes", "region"),
+    ("scenes", "file"),
+    ("scenes", "poses"),
+    ("randomize", "snr_db"),
+    ("randomize", "mount_jitter_m"),
+    ("store", "images"),
+]
+
+
+@pytest.mark.parametrize("table,key", SPEC_STRUCTURE)
+@FUZZ
+@given(data=st.data())
+def test_fuzzed_spec_structure(tmp_path, table, key, data):
+    value = data.draw(shapes)
+    doc = {
+        "dataset": {"samples": 2},
+        "scenes": [{"file": str(SCENES / "wall.toml")}],
+        "randomize": {"snr_db": 20.0},
+        "store": {"raw": False},
+    }
+    if table == "":
+        doc[key] = value
+    else:
+        target = doc[table]
+        (target[0] if isinstance(target, list) else target)[key] = value
+    text = ""
+    for k, v in doc.items():
+        if (
+            isinstance(v, dict)
+            and v
+            or isinstance(v, list)
+            and v
+            and all(isinstance(x, dict) for x in v)
+        ):
+            text += toml({k: v})
+        else:
+            text = f"{k} = {toml_value(v)}\n" + text
+    path = tmp_path / "spec.toml"
+    path.write_text(text)
+    try:
+        load_spec(path)
+    except InputError as exc:
+        assert str(exc).startswith(str(path)), str(exc)
