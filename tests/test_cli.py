@@ -135,6 +135,7 @@ def test_trajectory_gives_an_animation(tmp_path):
         (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
         (["image", "{tmp}/r.h5", "--index", "7"], r"--index = \[7\]: the file holds 1"),
         (["simulate", "{tmp}/empty.toml"], "no echo reaches the sensor"),
+        (["simulate", "{tmp}/huge.toml"], r"would need about 98 GB .* above the limit of 8 GB"),
         (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses = 'x'"),
     ],
 )
@@ -149,6 +150,11 @@ def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
         '[sensor]\narray = "urtis_v1"\ndirect_path = false\n'
         "[simulation]\nmax_range_m = 1.0\n"
         "[[points]]\nposition_m = [5.0, 0.0, 0.0]\n"
+    )
+    (tmp_path / "huge.toml").write_text(  # each value allowed, together ~98 GB
+        '[sensor]\narray = "urtis_v1"\nsample_rate_hz = 1e8\n'
+        "[simulation]\nmax_range_m = 100.0\n"
+        "[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
     )
     copy_scene(tmp_path, "points")
     (tmp_path / "garbage.h5").write_text("nope")

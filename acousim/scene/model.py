@@ -251,7 +251,7 @@ class Simulation:
 
 def memory_limit_bytes() -> float:
     """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
-    text = os.environ.get("ACOUSIM_MAX_MEMORY_GB", "8")
+    text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
     try:
         gb = float(text)
     except ValueError:
