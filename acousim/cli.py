@@ -1,21 +1,31 @@
 """The ``acousim`` command line: a thin layer that parses, calls the library, reports.
 
-Errors in what the user gave (a file, a key, a value) are reported on one line with
-exit code 2; files are written under a temporary name and renamed when complete, so
-an error or Ctrl-C leaves no partial output.
+Errors in what the user gave (a file, a key, a value) are
+:class:`processing.errors.InputError`, caught once in :func:`main` and reported on one
+line with exit code 2; every other exception is a bug and keeps its traceback.
+Numeric arguments are checked when parsed, by the same declarations
+(:mod:`processing.settings`) as the files. Files are written under a temporary name
+and renamed when complete, so an error or Ctrl-C leaves no partial output.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
+from processing.errors import InputError
+
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
+# processing.PRESETS and the RTIS call presets, repeated for the same reason (tested)
+ARRAY_PRESETS = ("ertis_v3d1", "paper_8x8", "urtis_v1")
+CALL_PRESETS = ("default_20_80", "default_25_50")
 
 
 def _headless_vtk() -> None:
@@ -31,8 +41,93 @@ def _headless_vtk() -> None:
 _headless_vtk()  # before any command imports VTK
 
 
-class UsageError(Exception):
-    """Bad input from the user: printed on one line, exit code 2."""
+class UsageError(InputError):
+    """Bad input on the command line: printed on one line by main(), exit code 2."""
+
+
+def _checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None):
+    """An argparse type: the text as a number checked by a setting declaration
+    (`declared()` returns a :class:`processing.settings.Setting`, imported lazily so
+    that building the parser stays light), else a range given here."""
+
+    def parse(text: str):
+        from processing.settings import Setting, check
+
+        decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
+        try:
+            value = int(text) if decl.kind == "int" else float(text)
+        except ValueError:
+            what = "a whole number" if decl.kind == "int" else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        try:
+            return check(decl, value, "")
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {exc.reason}") from None
+
+    parse.__name__ = kind
+    return parse
+
+
+def _declared(module: str, cls: str, name: str):
+    def get():
+        import importlib
+
+        from processing.settings import settings_of
+
+        return settings_of(getattr(importlib.import_module(module), cls))[name]
+
+    return get
+
+
+SEED = _checked("int", declared=_declared("acousim.scene.model", "Simulation", "seed"))
+INDEX = _checked("int", 0, 2**31 - 1)
+WORKERS = _checked("int", 1, 1024)
+
+
+def _methods(option: str, text: str) -> tuple[str, ...]:
+    """Comma-separated DOA methods, each one of processing.METHODS."""
+    import processing as P
+    from processing.settings import Setting, check
+
+    methods = tuple(m.strip() for m in text.split(",") if m.strip())
+    if not methods:
+        raise UsageError("no method given", key=option, value=text)
+    try:
+        return check(Setting("strings", choices=tuple(P.METHODS)), methods, option)
+    except InputError as exc:
+        raise UsageError(exc.reason, key=option, value=text) from None
+
+
+def _check_scheduler(address: str) -> None:
+    """A Dask scheduler address tcp://host:port (or host:port) where something listens
+    (within 5 s); other protocols (tls://, ...) are left to Dask."""
+    import socket
+    from urllib.parse import urlsplit
+
+    url = urlsplit(address if "://" in address else f"tcp://{address}")
+    if url.scheme != "tcp":
+        return
+    try:
+        host, port = url.hostname, url.port
+    except ValueError:
+        host = port = None
+    if not host or not port:
+        raise UsageError("expected tcp://HOST:PORT", key="--scheduler", value=address)
+    try:
+        socket.create_connection((host, port), timeout=5).close()
+    except OSError as exc:
+        raise UsageError(
+            f"no Dask scheduler reachable ({exc.strerror or exc})", key="--scheduler", value=address
+        ) from None
+
+
+def _output_file(option: str, path: str | Path) -> Path:
+    """An output file path: not an existing folder, its folder writable."""
+    out = Path(path)
+    if out.is_dir():
+        raise UsageError("is a folder; give a file name", key=option, value=str(path))
+    _writable_dir(out.parent)
+    return out
 
 
 def bundled_scenes() -> Path:
@@ -50,6 +145,7 @@ def _progress(desc: str):
 
     def update(done: int, total: int) -> None:
         nonlocal bar
+        _stop_if_interrupted()
         if bar is None:
             bar = tqdm(
                 total=total, desc=desc, delay=1.0, disable=not sys.stderr.isatty(), leave=False
@@ -61,13 +157,44 @@ def _progress(desc: str):
     return update
 
 
+_interrupted = False
+
+
+def _on_interrupt(signum, frame) -> None:
+    """SIGINT: remember it, then raise KeyboardInterrupt as Python does. Some optional
+    imports (trimesh's) catch BaseException and would swallow it; the flag makes
+    :func:`_stop_if_interrupted` raise it again at the next checkpoint."""
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def _stop_if_interrupted() -> None:
+    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came, even if it was swallowed."""
+    if _interrupted:
+        raise KeyboardInterrupt
+
+
+def _preload_simulation() -> None:
+    """Import what a simulation needs before its work starts (trimesh tries optional
+    imports that swallow a Ctrl-C), then honour an interrupt that came meanwhile."""
+    import trimesh  # noqa: F401
+
+    import acousim.simulator  # noqa: F401
+
+    _stop_if_interrupted()
+
+
 def _writable_dir(path: str | Path) -> Path:
+    import tempfile
+
+    from processing.atomic import TEMP_PREFIX
+
     out = Path(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".acousim-write-test-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
+        with tempfile.NamedTemporaryFile(dir=out, prefix=TEMP_PREFIX):  # exclusive, removed
+            pass
     except OSError as exc:
         raise UsageError(
             f"output directory {str(out)!r} cannot be written ({exc.strerror})"
@@ -77,26 +204,29 @@ def _writable_dir(path: str | Path) -> Path:
 
 def _load_scene(path: str | Path):
     from acousim.bundled import resolve_scene
-    from acousim.scene import SceneError, load_scene
+    from acousim.scene import load_scene
 
-    try:
-        return load_scene(resolve_scene(path))  # a file, or a bundled scene's name
-    except SceneError as exc:
-        raise UsageError(str(exc)) from None
+    return load_scene(resolve_scene(path))  # a file, or a bundled scene's name
 
 
 def _parse_indices(option: str, text: str | None) -> list[int] | None:
-    if not text:
+    """Indices '0,3,5' or ranges '0:10' (end excluded); None when not given."""
+    if text is None:
         return None
     out: list[int] = []
-    try:
-        for part in text.split(","):
-            a, _, b = part.partition(":")
-            out.extend(range(int(a), int(b)) if b else [int(a)])
-    except ValueError:
-        raise UsageError(
-            f"{option} {text!r}: expected indices like '0,3,5' or a range '0:10'"
-        ) from None
+    expected = "expected indices like '0,3,5' or a range '0:10'"
+    for part in text.split(","):
+        a, colon, b = part.partition(":")
+        try:
+            lo = int(a)
+            hi = int(b) if colon else lo + 1
+        except ValueError:
+            raise UsageError(expected, key=option, value=text) from None
+        if lo < 0 or hi <= lo:
+            raise UsageError(
+                f"{part!r} selects nothing or a negative index; {expected}", key=option, value=text
+            )
+        out.extend(range(lo, hi))
     return out
 
 
@@ -107,10 +237,7 @@ def _simulate(scene, poses, seed):
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
         )
-    try:
-        recs = Simulator(scene).run(poses, progress=_progress("simulate"))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    recs = Simulator(scene).run(poses, progress=_progress("simulate"))
     for r in recs:
         if r.metadata.get("n_paths", 0) == 0:
             raise UsageError(
@@ -124,11 +251,13 @@ def _simulate(scene, poses, seed):
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import processing as P
 
+    poses = _parse_indices("--poses", args.poses)
     scene = _load_scene(args.scene)
-    out = Path(args.out or f"{scene.name}.h5")
-    _writable_dir(out.parent)
+    out = _output_file("--out", args.out or f"{scene.name}.h5")
+    _preload_simulation()
     t0 = time.perf_counter()
-    recs = _simulate(scene, _parse_indices("--poses", args.poses), args.seed)
+    recs = _simulate(scene, poses, args.seed)
+    _stop_if_interrupted()
     P.save_recordings(out, recs)
     print(
         f"{len(recs)} recording(s) of {scene.name!r} written to {out} "
@@ -143,18 +272,18 @@ def _load_and_image(args: argparse.Namespace):
     import processing as P
     from acousim.imaging import ImagingOptions, image_recordings
 
-    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
-    try:
-        options = ImagingOptions(
-            methods=methods,
-            step_deg=args.step,
-            energy_fraction=args.energy_fraction,
-            min_range_m=args.min_range,
-            max_range_m=args.max_range,
-            peak_threshold_db=args.peak_threshold,
+    if args.max_range is not None and args.max_range <= args.min_range:
+        raise UsageError(
+            f"must be above --min-range {args.min_range:g}", key="--max-range", value=args.max_range
         )
-    except ValueError as exc:
-        raise UsageError(f"--method {args.method!r}: {exc}") from None
+    options = ImagingOptions(
+        methods=_methods("--method", args.method),
+        step_deg=args.step,
+        energy_fraction=args.energy_fraction,
+        min_range_m=args.min_range,
+        max_range_m=args.max_range,
+        peak_threshold_db=args.peak_threshold,
+    )
     index = _parse_indices("--index", args.index)
     try:
         n = P.count_recordings(args.file)
@@ -172,10 +301,7 @@ def _load_and_image(args: argparse.Namespace):
 
 
 def _image_all(recs, options, image_recordings):
-    try:
-        return image_recordings(recs, options, _progress("image"))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    return image_recordings(recs, options, _progress("image"))
 
 
 def _cmd_image(args: argparse.Namespace) -> int:
@@ -246,21 +372,33 @@ def _imaging_arguments(p: argparse.ArgumentParser) -> None:
         help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
     )
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
-    p.add_argument("--step", type=float, default=2.0, help="grid step in degrees (default: 2)")
+    p.add_argument(
+        "--step",
+        type=_checked(
+            "float", declared=_declared("acousim.dataset.spec", "StoreOptions", "step_deg")
+        ),
+        default=2.0,
+        help="grid step in degrees, 0.1 to 45 (default: 2)",
+    )
     p.add_argument(
         "--energy-fraction",
-        type=float,
+        type=_checked("float", 0, 1),
         default=1e-3,
         help="keep range bins with at least this fraction of the strongest "
         "bin's energy (default: 1e-3; the paper uses 0.5)",
     )
     p.add_argument(
         "--min-range",
-        type=float,
+        type=_checked("float", 0, 1000),
         default=0.25,
         help="ignore nearer range bins, metres (default: 0.25: the direct path)",
     )
-    p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
+    p.add_argument(
+        "--max-range",
+        type=_checked("float", 0.01, 1000),
+        default=None,
+        help="metres (default: all)",
+    )
     p.add_argument(
         "--peak-threshold",
         type=float,
@@ -298,7 +436,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     out = _writable_dir(args.out)
     scene = _load_scene(bundled_scenes() / "corridor.toml")
+    _preload_simulation()
     recs = _simulate(scene, None, args.seed)
+    _stop_if_interrupted()
     P.save_recordings(out / "corridor.h5", recs)
     t1 = time.perf_counter()
     options = ImagingOptions()
@@ -350,10 +490,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
     try:
         check_acquisition(args.count, args.duration, args.rate)
-        out = Path(args.out)
-        _writable_dir(out.parent)
+        out = _output_file("--out", args.out)
         if args.emulate:
             scene = _load_scene(args.emulate)
+            _preload_simulation()
             array, call = scene.sensor.array, scene.sensor.call
             recs = _emulation_recordings(scene, args.count)
             try:
@@ -429,10 +569,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
     out = _writable_dir(args.out)
-    methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
-    bad = [m for m in methods if m not in P.METHODS]
-    if bad:
-        raise UsageError(f"--method: unknown method(s) {bad}; choose from {list(P.METHODS)}")
+    methods = _methods("--method", args.method)
     try:
         if args.scene:
             scene = _load_scene(args.scene)
@@ -498,20 +635,20 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
-    from acousim.dataset import SpecError, generate
+    from acousim.dataset import generate
 
+    if args.scheduler:
+        _check_scheduler(args.scheduler)
     _writable_dir(args.out)
+    _preload_simulation()
     t0 = time.perf_counter()
-    try:
-        manifest = generate(
-            args.spec,
-            args.out,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            progress=_progress("shards"),
-        )
-    except (SpecError, ValueError) as exc:
-        raise UsageError(str(exc)) from None
+    manifest = generate(
+        args.spec,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=_progress("shards"),
+    )
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "
@@ -601,7 +738,7 @@ def build_parser() -> argparse.ArgumentParser:
         "fan images, a 3D render and an animation.",
     )
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
+    p.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser(
@@ -618,7 +755,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
-    p.add_argument("--seed", type=int, help="noise seed (default: the scene's)")
+    p.add_argument("--seed", type=SEED, help="noise seed (default: the scene's)")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(
@@ -688,13 +825,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
     p.add_argument("--serial", help="serial number of the sensor to use")
-    p.add_argument("--count", type=int, help="number of measurements")
-    p.add_argument("--duration", type=float, help="seconds of recording")
+    p.add_argument("--count", type=_checked("int", 1, 10**9), help="number of measurements")
+    p.add_argument("--duration", type=_checked("float", 1e-3, 1e7), help="seconds of recording")
     p.add_argument(
-        "--rate", type=float, default=10.0, help="measurements per second at most (default: 10)"
+        "--rate",
+        type=_checked("float", 1e-3, 1e4),
+        default=10.0,
+        help="measurements per second at most (default: 10)",
     )
-    p.add_argument("--array", default="ertis_v3d1", help="array preset (default: ertis_v3d1)")
-    p.add_argument("--call", default="default_25_50", help="RTIS call preset")
+    p.add_argument(
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array preset (default: ertis_v3d1)",
+    )
+    p.add_argument("--call", default="default_25_50", choices=CALL_PRESETS, help="RTIS call preset")
     p.add_argument(
         "--emulate",
         metavar="SCENE",
@@ -727,11 +872,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="real recording: .h5, raw tick words (.bin), or "
         "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
     )
-    p.add_argument("--index", type=int, default=0, help="recording in an .h5 file")
+    p.add_argument("--index", type=INDEX, default=0, help="recording in an .h5 file")
     p.add_argument("--scene", help="scene file (or a bundled scene's name) to simulate at --pose")
-    p.add_argument("--pose", type=int, default=0, help="pose index in the scene")
+    p.add_argument("--pose", type=INDEX, default=0, help="pose index in the scene")
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
-    p.add_argument("--sim-index", type=int, default=0, help="recording in the --sim file")
+    p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
     p.add_argument(
         "--all",
         action="store_true",
@@ -739,9 +884,14 @@ def build_parser() -> argparse.ArgumentParser:
         " for every i; one row per pose and a summary in summary.json",
     )
     p.add_argument(
-        "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array of a raw .bin (default: ertis_v3d1)",
     )
-    p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
+    p.add_argument(
+        "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
+    )
     p.add_argument("--method", default="das", help="comma-separated DOA methods (default: das)")
     p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
     p.set_defaults(func=_cmd_compare)
@@ -755,7 +905,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("spec", help="dataset spec (.toml)")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--workers", type=int, default=2, help="local processes (default: 2)")
+    p.add_argument("--workers", type=WORKERS, default=2, help="local processes (default: 2)")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
     p.set_defaults(func=_cmd_dataset)
 
@@ -787,7 +937,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="let a --quick run overwrite the report of a full run",
     )
-    p.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
+    p.add_argument("--workers", type=WORKERS, default=2, help="processes (default: 2)")
     p.add_argument(
         "--report-only",
         action="store_true",
@@ -798,16 +948,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Parse, run one command; an InputError is one line on stderr and exit code 2,
+    Ctrl-C exit code 130, anything else a bug with its traceback."""
+    global _interrupted
     parser = build_parser()
     args = parser.parse_args(argv)
+    _interrupted = False
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGINT, _on_interrupt)
     try:
         return args.func(args)
-    except UsageError as exc:
+    except InputError as exc:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"acousim {args.command}: interrupted; no partial file was kept", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ import numpy as np
 
 import processing as P
 from processing.atomic import atomic_path
+from processing.errors import InputError
 
 __all__ = [
     "ImagingOptions",
@@ -121,9 +122,21 @@ def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.
 
 
 def _scene(rec: P.Recording):
-    """The recording's scene, when its file is still there (None for real data)."""
+    """The recording's scene, when its file is still there (None for real data).
+
+    Read only for the 3D view and the animation, and only a scene file (.toml): a
+    recording cannot make us open any other path."""
     file = rec.metadata.get("scene_file")
-    if not file or not Path(file).is_file():
+    if not file:
+        return None
+    if not isinstance(file, str) or Path(file).suffix.lower() != ".toml":
+        raise InputError(
+            "the recording's scene_file is not a scene file (.toml); "
+            "image without the 3D view (--no-3d --no-animation)",
+            key="scene_file",
+            value=file,
+        )
+    if not Path(file).is_file():
         return None
     from acousim.scene import load_scene
 

@@ -21,6 +21,7 @@ from acousim.scene.pose import Pose
 from acousim.synth.model import simulate
 from acousim.synth.response import PathResponse
 from acousim.trace.tracer import KIND, TracedPaths, Tracer
+from processing.errors import InputError
 
 __all__ = ["Simulator", "package_version"]
 
@@ -66,6 +67,7 @@ class Simulator:
         """
         scene = self.scene
         sensor = scene.sensor
+        scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
         paths = self.tracer.trace(pose)
         mics = pose.to_world(sensor.array.positions_m)
         echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
@@ -134,9 +136,10 @@ class Simulator:
         idx = list(range(len(all_poses))) if poses is None else list(poses)
         for i in idx:
             if not 0 <= i < len(all_poses):
-                raise ValueError(
+                raise InputError(
                     f"pose index {i} out of range: the scene has {len(all_poses)} pose(s)"
                 )
+        self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
         # trace the next pose while the current one is rendered (Embree, the FFTs and
         # the sparse products release the GIL)
         from concurrent.futures import ThreadPoolExecutor

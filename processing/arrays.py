@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
+
 __all__ = [
     "Array",
     "ura",
@@ -82,8 +84,27 @@ class Array:
                 raise ValueError(
                     f"array {self.name!r}: grid_index needs shape (M, 2) and a pitch_m"
                 )
+            try:
+                pitch = (float(self.pitch_m[0]), float(self.pitch_m[1]))
+                shown = list(pitch)
+            except (TypeError, ValueError, IndexError):
+                pitch, shown = (np.nan, np.nan), self.pitch_m
+            if not all(np.isfinite(pitch)) or min(pitch) <= 0:
+                raise InputError(
+                    f"array {self.name!r}: must be two positive finite numbers (dz, dy)",
+                    key="pitch_m",
+                    value=shown,
+                )
             object.__setattr__(self, "grid_index", gi)
-            object.__setattr__(self, "pitch_m", (float(self.pitch_m[0]), float(self.pitch_m[1])))
+            object.__setattr__(self, "pitch_m", pitch)
+
+    def __repr__(self) -> str:
+        kind = f"URA {self.grid_shape[0]}x{self.grid_shape[1]}" if self.is_ura else "irregular"
+        z, y = self.aperture_m()
+        return (
+            f"Array({self.name!r}, {self.n_mics} mics, {kind}, "
+            f"aperture {y * 1e3:.1f} x {z * 1e3:.1f} mm (y x z))"
+        )
 
     @property
     def n_mics(self) -> int:
@@ -243,31 +264,65 @@ def from_coordinates_file(
     """Read an array from a coordinates file.
 
     Supported: ``.mat`` (variable `variable`, an (M, 2) table of (y, z), the form of
-    CoSys-Lab's layout files) and text (``.csv``/``.txt``: two columns y, z, comma or
-    white-space separated, '#' comments).  `units` is 'mm' or 'm'.  NaN rows mark
-    unused channels.  Positions are centred on their centroid.
+    CoSys-Lab's layout files; MATLAB v5 through scipy, v7.3 through h5py) and text
+    (``.csv``/``.txt``: two columns y, z, comma or white-space separated, '#'
+    comments).  `units` is 'mm' or 'm'.  NaN rows mark
+    unused channels.  Positions are centred on their centroid.  A file that cannot be
+    used raises :class:`processing.errors.InputError` naming it.
     """
     path = Path(path)
     scale = {"mm": 1e-3, "m": 1.0}.get(units)
     if scale is None:
-        raise ValueError(f"{path}: units must be 'mm' or 'm', got {units!r}")
+        raise InputError("must be 'mm' or 'm'", file=path, key="units", value=units)
     if not path.is_file():
-        raise FileNotFoundError(f"array coordinates file not found: {path}")
+        raise InputError("array coordinates file not found", file=path)
     if path.suffix.lower() == ".mat":
-        from scipy.io import loadmat
-
-        data = loadmat(path)
-        if variable not in data:
-            found = [k for k in data if not k.startswith("__")]
-            raise ValueError(f"{path}: no variable {variable!r} (found {found})")
-        table = np.asarray(data[variable], dtype=float)
+        table = _read_mat(path, variable)
     else:
-        text = path.read_text().replace(",", " ")
         try:
+            text = path.read_text().replace(",", " ")
             table = np.loadtxt(text.splitlines(), ndmin=2, comments="#")
-        except ValueError as exc:
-            raise ValueError(f"{path}: not a table of numbers ({exc})") from exc
-    return from_coordinates(table * scale, name=name or path.stem, source=str(path))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise InputError(f"not a table of numbers ({exc})", file=path) from None
+    try:
+        return from_coordinates(table * scale, name=name or path.stem, source=str(path))
+    except InputError:
+        raise
+    except ValueError as exc:
+        raise InputError(str(exc), file=path) from None
+
+
+def _read_mat(path: Path, variable: str) -> np.ndarray:
+    """`variable` of a MATLAB file as a float table: v4-v7 with scipy, v7.3 (HDF5,
+    stored column-major, so transposed here) with h5py."""
+    import h5py
+
+    if h5py.is_hdf5(path):
+        with h5py.File(path, "r") as f:
+            found = [k for k in f if not k.startswith("#")]
+            if variable not in found or not isinstance(f[variable], h5py.Dataset):
+                raise InputError(f"no variable {variable!r} (found {found})", file=path)
+            data = f[variable]
+            if data.ndim != 2 or data.size > 1_000_000 or data.dtype.kind not in "fiu":
+                raise InputError(
+                    f"{variable!r} must be a numeric (M, 2) table, got {data.dtype} "
+                    f"{data.shape[::-1]}",
+                    file=path,
+                )
+            return np.asarray(data[()], dtype=float).T
+    from scipy.io import loadmat
+
+    try:
+        data = loadmat(path)
+    except (ValueError, TypeError, NotImplementedError, OSError) as exc:
+        raise InputError(f"not a readable MATLAB file ({exc})", file=path) from None
+    if variable not in data:
+        found = [k for k in data if not k.startswith("__")]
+        raise InputError(f"no variable {variable!r} (found {found})", file=path)
+    try:
+        return np.asarray(data[variable], dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{variable!r} is not a numeric table", file=path) from None
 
 
 def ertis_v3d1(path: str | Path | None = None) -> Array:
@@ -280,7 +335,16 @@ def ertis_v3d1(path: str | Path | None = None) -> Array:
     if path is None:
         from .rtisdev import layout_file
 
-        path = layout_file("eRTIS_v3D1")
+        try:
+            path = layout_file("eRTIS_v3D1")
+        except (OSError, RuntimeError) as exc:  # no network, no pip, a damaged cache
+            raise InputError(
+                f"the eRTIS v3D1 layout comes from the rtisdev wheel, which is not available "
+                f"({exc}); connect once to cache it, or give the layout file "
+                "(sensor.coordinates in a scene)",
+                key="array",
+                value="ertis_v3d1",
+            ) from None
     return from_coordinates_file(path, units="mm", name="ertis_v3d1")
 
 
@@ -293,9 +357,6 @@ PRESETS = {
 
 def preset(name: str) -> Array:
     """Return a preset array by name (one of :data:`PRESETS`)."""
-    try:
-        return PRESETS[name]()
-    except KeyError:
-        raise ValueError(
-            f"unknown array preset {name!r}; choose one of {sorted(PRESETS)}"
-        ) from None
+    if name not in PRESETS:
+        raise InputError(f"unknown array preset; choose one of {sorted(PRESETS)}", value=name)
+    return PRESETS[name]()

@@ -101,6 +101,15 @@ class Recording:
     metadata: dict = field(default_factory=dict)
     truth: GroundTruth | None = None
 
+    def __repr__(self) -> str:
+        shape = "x".join(str(n) for n in np.shape(self.samples))
+        kind = "simulated" if self.metadata.get("simulated") else "real"
+        return (
+            f"Recording({kind}, {self.array.name!r}, samples {shape} at "
+            f"{self.sample_rate_hz / 1e3:g} kHz, call {self.waveform.kind} "
+            f"{self.waveform.f_start_hz / 1e3:g}->{self.waveform.f_end_hz / 1e3:g} kHz)"
+        )
+
     def __post_init__(self) -> None:
         x = np.asarray(self.samples)
         if x.ndim not in (2, 3):

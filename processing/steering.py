@@ -54,6 +54,13 @@ class Grid:
         if np.any(np.abs(self.elevation_rad) > np.pi / 2 + 1e-12):
             raise ValueError("grid elevations must lie in [-90, 90] degrees")
 
+    def __repr__(self) -> str:
+        az, el = np.rad2deg(self.azimuth_rad), np.rad2deg(self.elevation_rad)
+        return (
+            f"Grid(azimuth {az[0]:g}..{az[-1]:g} deg x {az.size}, "
+            f"elevation {el[0]:g}..{el[-1]:g} deg x {el.size})"
+        )
+
     @classmethod
     def degrees(
         cls,

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 import processing as P
+from processing.errors import InputError
 
 
 def test_ura_geometry_is_centred_with_pitch():
@@ -44,7 +45,7 @@ def test_coordinates_file_text_with_unused_channel(tmp_path):
 
 
 def test_coordinates_file_errors_name_the_file(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nope.csv"):
+    with pytest.raises(InputError, match="nope.csv"):
         P.from_coordinates_file(tmp_path / "nope.csv")
     bad = tmp_path / "bad.csv"
     bad.write_text("1,2,3\n4,5,6\n")
@@ -52,6 +53,42 @@ def test_coordinates_file_errors_name_the_file(tmp_path):
         P.from_coordinates_file(bad)
     with pytest.raises(ValueError, match="units"):
         P.from_coordinates_file(bad, units="inch")
+
+
+def test_matlab_v73_coordinates_file(tmp_path):
+    """A v7.3 .mat is HDF5 behind a 512-byte header, matrices stored column-major: an
+    (M, 2) table is an HDF5 dataset of shape (2, M)."""
+    import h5py
+
+    yz_mm = np.array([[-10.0, 0.0], [10.0, 0.0], [0.0, 5.0], [np.nan, np.nan]])
+    path = tmp_path / "layout.mat"
+    with h5py.File(path, "w", userblock_size=512) as f:
+        f["mic_pos_final_pos"] = yz_mm.T
+    a = P.from_coordinates_file(path, units="mm")
+    assert a.n_mics == 3 and a.channels.tolist() == [0, 1, 2]
+    centroid = np.array([0.0, 5.0 / 3]) * 1e-3
+    np.testing.assert_allclose(a.positions_m[:, 1:], yz_mm[:3] * 1e-3 - centroid, atol=1e-15)
+    with pytest.raises(InputError, match="layout.mat.*no variable 'other'"):
+        P.from_coordinates_file(path, variable="other")
+    junk = tmp_path / "junk.mat"
+    junk.write_bytes(b"not a matlab file at all" * 10)
+    with pytest.raises(InputError, match="junk.mat"):
+        P.from_coordinates_file(junk)
+
+
+def test_ertis_preset_offline_is_an_input_error(monkeypatch, capsys):
+    import processing.rtisdev as rtisdev
+    from acousim.cli import main
+
+    def offline(sensor):
+        raise RuntimeError("could not download rtisdev with pip")
+
+    monkeypatch.setattr(rtisdev, "layout_file", offline)
+    with pytest.raises(InputError, match="ertis_v3d1.*rtisdev"):
+        P.preset("ertis_v3d1")
+    assert main(["scenes"]) == 0  # the other scenes are still listed
+    out = capsys.readouterr().out
+    assert "corridor.toml" in out and "rtisdev" in out
 
 
 def test_unknown_preset_lists_choices():
@@ -66,3 +103,10 @@ def test_ertis_layout_from_rtisdev_wheel():
     assert a.aperture_m()[1] == pytest.approx(0.0665, abs=2e-3)
     assert a.aperture_m()[0] == pytest.approx(0.0376, abs=2e-3)
     np.testing.assert_allclose(a.positions_m.mean(axis=0), 0, atol=1e-12)
+
+
+@pytest.mark.parametrize("pitch", [(0.0, 0.0), (np.nan, np.nan), (-1e-3, 1e-3), "ab"])
+def test_ura_pitch_must_be_positive_and_finite(pitch):
+    base = P.ura(2, 2, 5e-3)
+    with pytest.raises(InputError, match="pitch_m"):
+        P.Array("bad", base.positions_m, grid_index=base.grid_index, pitch_m=pitch)

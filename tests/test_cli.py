@@ -119,13 +119,26 @@ def test_trajectory_gives_an_animation(tmp_path):
     "args,pattern",
     [
         (["simulate", "{tmp}/nope.toml"], "no such scene file"),
-        (["simulate", "{tmp}/bad.toml"], r"\[simulaton\] unknown key.*did you mean 'simulation'"),
-        (["image", "{tmp}/r.h5", "--method", "das,bogus"], "unknown method 'bogus'"),
+        (["simulate", "{tmp}/bad.toml"], r"simulaton: unknown key.*did you mean 'simulation'"),
+        (
+            ["image", "{tmp}/r.h5", "--method", "das,bogus"],
+            "--method = 'das,bogus': 'bogus' is not",
+        ),
+        (["image", "{tmp}/r.h5", "--method", ""], "--method = '': no method given"),
+        (["image", "{tmp}/r.h5", "--method", " , "], "--method = ' , ': no method given"),
+        (["image", "{tmp}/r.h5", "--index", "1:0"], r"--index = '1:0': '1:0' selects nothing"),
+        (["simulate", "{tmp}/points.toml", "--poses", "3:1"], r"--poses = '3:1'"),
+        (["simulate", "{tmp}/points.toml", "--out", "{tmp}"], r"--out = .*is a folder"),
+        (
+            ["image", "{tmp}/r.h5", "--min-range", "2", "--max-range", "1"],
+            r"--max-range = 1.0: must be above --min-range 2",
+        ),
         (["image", "{tmp}/r.h5", "--out", "{tmp}/afile/sub"], "cannot be written"),
         (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
-        (["image", "{tmp}/r.h5", "--index", "7"], r"--index \[7\]: the file holds 1"),
+        (["image", "{tmp}/r.h5", "--index", "7"], r"--index = \[7\]: the file holds 1"),
         (["simulate", "{tmp}/empty.toml"], "no echo reaches the sensor"),
-        (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses 'x'"),
+        (["simulate", "{tmp}/huge.toml"], r"would need about 98 GB .* above the limit of 8 GB"),
+        (["simulate", "{tmp}/points.toml", "--poses", "x"], "--poses = 'x'"),
     ],
 )
 def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
@@ -140,6 +153,11 @@ def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
         "[simulation]\nmax_range_m = 1.0\n"
         "[[points]]\nposition_m = [5.0, 0.0, 0.0]\n"
     )
+    (tmp_path / "huge.toml").write_text(  # each value allowed, together ~98 GB
+        '[sensor]\narray = "urtis_v1"\nsample_rate_hz = 1e8\n'
+        "[simulation]\nmax_range_m = 100.0\n"
+        "[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
+    )
     copy_scene(tmp_path, "points")
     (tmp_path / "garbage.h5").write_text("nope")
     (tmp_path / "afile").write_text("a file, not a folder")
@@ -152,6 +170,33 @@ def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
     assert code == 2
     assert len(err.splitlines()) == 1 and re.search(pattern, err), err
     assert set(tmp_path.rglob("*")) - before <= {tmp_path / "out"}  # no partial files
+
+
+@pytest.mark.parametrize(
+    "args,pattern",
+    [
+        (["image", "r.h5", "--step", "0"], r"argument --step: '0': outside the allowed range"),
+        (["image", "r.h5", "--step", "nan"], r"argument --step: 'nan': .*not NaN"),
+        (["image", "r.h5", "--energy-fraction", "2"], r"argument --energy-fraction: '2'"),
+        (["simulate", "s.toml", "--seed", "-1"], r"argument --seed: '-1': outside"),
+        (["simulate", "s.toml", "--seed", "1.5"], r"argument --seed: '1.5' is not a whole"),
+        (["record", "--count", "0", "--out", "x.h5"], r"argument --count: '0': outside"),
+        (["record", "--duration", "-1", "--out", "x.h5"], r"argument --duration: '-1'"),
+        (["record", "--duration", "nan", "--out", "x.h5"], r"argument --duration: 'nan'"),
+        (["dataset", "d.toml", "--out", "d", "--workers", "0"], r"argument --workers: '0'"),
+        (["compare", "rtisdev-sample", "--index", "-1"], r"argument --index: '-1'"),
+    ],
+)
+def test_arguments_are_checked_when_parsed(capsys, args, pattern):
+    """Numbers are checked by their declarations before any work: argparse's usage
+    error, exit code 2, naming the argument (not another one) and the value."""
+    import re
+
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert re.search(pattern, err[-1]), err
 
 
 def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch, capsys):
@@ -175,3 +220,83 @@ def test_info_and_scenes(tmp_path, capsys):
     listing = capsys.readouterr().out
     for name in ("corridor", "shoebox", "wall", "sphere", "points"):
         assert f"{name}.toml" in listing
+
+
+@pytest.mark.parametrize(
+    "scene_file,pattern",
+    [
+        ("/etc/passwd", r"scene_file = '/etc/passwd': the recording's scene_file is not a scene"),
+        ("{tmp}/fake.toml", r"fake.toml: not valid TOML"),
+    ],
+)
+def test_image_follows_scene_file_only_to_a_scene(tmp_path, capsys, scene_file, pattern):
+    """A recording's scene_file is opened only for the 3D view, and only a scene file."""
+    import re
+
+    (tmp_path / "fake.toml").write_text("root:x:0:0:root:/root:/bin/bash\n")
+    rec = P.Recording(
+        np.random.default_rng(0).normal(size=(64, 3000)),
+        500e3,
+        P.paper_8x8(),
+        P.paper_chirp(),
+        metadata={"scene_file": scene_file.format(tmp=tmp_path)},
+    )
+    P.save_recording(tmp_path / "r.h5", rec)
+    args = ["image", str(tmp_path / "r.h5"), "--method", "das", "--out", str(tmp_path / "o")]
+    assert main([*args, "--no-3d", "--no-animation"]) == 0
+    capsys.readouterr()
+    assert main([*args, "--no-animation"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(pattern, err), err
+
+
+def test_a_swallowed_ctrl_c_still_stops_the_command(tmp_path, monkeypatch, capsys):
+    """trimesh's optional imports catch BaseException: an interrupt raised inside one is
+    lost to Python, but the command line's SIGINT handler remembers it and stops at
+    the next checkpoint (here: before the file is written)."""
+    import os
+    import signal
+    import time
+
+    import acousim.simulator
+
+    real_run = acousim.simulator.Simulator.run
+
+    def swallowing_run(self, *args, **kwargs):
+        try:  # what an optional import guarded by `except BaseException` does
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        except BaseException:
+            pass
+        return real_run(self, *args, **kwargs)
+
+    monkeypatch.setattr(acousim.simulator.Simulator, "run", swallowing_run)
+    scene = copy_scene(tmp_path, "points")
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 130
+    assert not (tmp_path / "x.h5").exists()
+    assert "interrupted" in capsys.readouterr().err
+
+
+def test_unreachable_scheduler_is_refused_quickly(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as sock:  # a port where nothing listens once closed
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    spec = tmp_path / "s.toml"
+    spec.write_text(f"[[scenes]]\nfile = '{SCENES / 'points.toml'}'\n")
+    args = ["dataset", str(spec), "--out", str(tmp_path / "d")]
+    assert main([*args, "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    assert f"--scheduler = 'tcp://127.0.0.1:{port}': no Dask scheduler" in capsys.readouterr().err
+    assert main([*args, "--scheduler", "tcp://nohost"]) == 2
+    assert "expected tcp://HOST:PORT" in capsys.readouterr().err
+
+
+def test_preset_choices_match_the_library():
+    from acousim.cli import ARRAY_PRESETS, CALL_PRESETS
+
+    assert set(ARRAY_PRESETS) == set(P.PRESETS)
+    for name in CALL_PRESETS:
+        assert P.rtis_call(name).duration_s > 0
+    with pytest.raises(ValueError):
+        P.rtis_call("default_10_20")

@@ -144,29 +144,51 @@ def test_dask_local_cluster(spec, tmp_path):
                 np.testing.assert_array_equal(sa[k], sb[k])
 
 
+WALL = "[[scenes]]\nfile = '{scenes}/wall.toml'\n"
+RANDOM = WALL + "poses = 'random'\nregion = "
+
+
 @pytest.mark.parametrize(
     "text,pattern",
     [
         (
-            "[dataset]\nsamples = 0\n[[scenes]]\nfile='{scenes}/wall.toml'\n",
-            r"\[dataset.samples\] must be",
+            "[dataset]\nsamples = 0\n[[scenes]]\nfile = '{scenes}/wall.toml'\n",
+            r"dataset.samples = 0: outside the allowed range",
         ),
-        ("[datset]\n", r"unknown key 'datset'; did you mean 'dataset'"),
+        ("[datset]\n", r"datset: unknown key 'datset'; did you mean 'dataset'"),
         ("[dataset]\n", r"needs at least one \[\[scenes\]\]"),
         ("[[scenes]]\nfile = 'nope.toml'\n", "scene file not found"),
+        (WALL + "[store]\nimages = ['bogus']\n", "store.images = .*'bogus' is not one of"),
         (
-            "[[scenes]]\nfile = '{scenes}/wall.toml'\n[store]\nimages = ['bogus']\n",
-            "unknown method 'bogus'",
+            WALL + "[randomize]\nsnr_db = {{dist='cauchy'}}\n",
+            r"randomize.snr_db.dist = 'cauchy': is not one of",
         ),
+        # issue 17: each names the key and the value
+        (WALL + "[store]\nraw = 'no'\n", r"store.raw = 'no': must be true or false"),
+        (WALL + "[randomize]\nhumidity_percent = 500\n", r"randomize.humidity_percent = 500"),
         (
-            "[[scenes]]\nfile = '{scenes}/wall.toml'\n[randomize]\nsnr_db = {{dist='cauchy'}}\n",
-            r"\[randomize.snr_db.dist\] 'cauchy'",
+            WALL + "[randomize]\nhumidity_percent = {{range = [20, 500]}}\n",
+            r"randomize.humidity_percent.range",
         ),
+        (WALL + "[randomize]\nsnr_db = nan\n", r"randomize.snr_db = nan: .*not NaN"),
+        (RANDOM + "{{x = [1.0], y = [0, 1], z = [0, 1]}}\n", r"region.x = \[1.0\]: must be"),
+        (RANDOM + "{{x = [0, 1], y = [0, 1]}}\n", r"scenes\[0\].region.z: missing"),
+        (RANDOM + "5\n", r"scenes\[0\].region = 5: must be a table"),
+        (
+            RANDOM + "{{x = [0, 1], y = [0, 1], z = [0, 1], yaw_deg = 'left'}}\n",
+            r"region.yaw_deg = 'left': must be",
+        ),
+        ("dataset = 5\n[[scenes]]\nfile = '{scenes}/wall.toml'\n", r"dataset = 5: must be a table"),
+        (WALL + "[store]\nstep_deg = 'a'\n", r"store.step_deg = 'a': must be a number"),
+        (WALL + "[store]\nazimuth_deg = [10, -10]\n", r"store.azimuth_deg = .*low is above high"),
+        ("scenes = [5]\n", r"scenes\[0\] = 5: must be a table"),
+        ("[[scenes]]\nfile = 'broken.toml'\n", r"scenes\[0\].file: not a usable scene .*rays"),
     ],
 )
 def test_malformed_specs(tmp_path, text, pattern):
     p = tmp_path / "bad.toml"
     p.write_text(text.format(scenes=SCENES))
+    (tmp_path / "broken.toml").write_text("[simulation]\nrays = -1\n")
     with pytest.raises(SpecError, match=pattern):
         load_spec(p)
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from acousim.scene import Pose, SceneError, load_scene, parse_scene, rotation
+from processing.errors import InputError
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -36,25 +37,35 @@ def base(**over):
 @pytest.mark.parametrize(
     "data,pattern",
     [
-        (base(simulaton={}), r"\[simulaton\] unknown key 'simulaton'; did you mean 'simulation'"),
-        (base(simulation={"rays": -5}), r"\[simulation.rays\] value -5 outside"),
-        (base(simulation={"bounces": 1.5}), r"\[simulation.bounces\] must be a whole number"),
+        (base(simulaton={}), r"simulaton: unknown key 'simulaton'; did you mean 'simulation'"),
+        (base(simulation={"rays": -5}), r"simulation.rays = -5: outside the allowed range"),
+        (base(simulation={"bounces": 1.5}), r"simulation.bounces = 1.5: must be a whole number"),
         (base(simulation={"max_rnage_m": 3}), r"did you mean 'max_range_m'"),
-        (base(sensor={"array": "urtis"}), r"\[sensor.array\] 'urtis' is not one of .*did you mean"),
+        (base(simulation={"snr_db": math.nan}), r"simulation.snr_db = nan: .*not NaN"),
+        (base(simulation={"absorption": "no"}), r"simulation.absorption = 'no': must be true"),
+        (base(environment={"humidity_percent": 500}), r"environment.humidity_percent = 500"),
+        (base(environment=5), r"environment = 5: must be a table"),
+        (base(sensor={"array": "urtis"}), r"sensor.array = 'urtis': is not one of .*did you mean"),
         (
             base(sensor={"array": "urtis_v1", "sample_rate_hz": 80000}),
-            r"\[sensor.sample_rate_hz\] 80000 Hz is below twice",
+            r"sensor.sample_rate_hz = 80000.0: is below twice",
         ),
-        (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"\[points\[0\].position_m\] must be"),
-        (base(meshes=[{"file": "nope.stl"}]), r"\[meshes\[0\].file\] mesh file not found"),
-        (base(meshes=[{"file": "wall.toml", "units": "inch"}]), r"\[meshes\[0\].units\]"),
+        (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"points\[0\].position_m = .*must be"),
+        (base(points=[{"position_m": [1.0]}]), r"points\[0\].position_m = \[1.0\]: must be"),
+        (
+            base(meshes=[{"file": "nope.stl"}]),
+            r"meshes\[0\].file = 'nope.stl': mesh file not found",
+        ),
+        (base(meshes=[{"file": "wall.toml", "units": "inch"}]), r"meshes\[0\].units = 'inch'"),
+        (base(materials=[{"name": "m", "reflection": 5}]), r"materials\[0\].reflection = 5"),
         ({"sensor": {"array": "urtis_v1"}}, r"neither meshes nor points"),
     ],
 )
 def test_validation_errors_name_key_and_value(data, pattern):
     with pytest.raises(SceneError, match=pattern) as exc:
         parse_scene(data, base_dir=SCENES, source="bad.toml")
-    assert str(exc.value).startswith("bad.toml: [")
+    assert str(exc.value).startswith("bad.toml: ")
+    assert isinstance(exc.value, InputError)
 
 
 def test_not_toml_and_missing_file(tmp_path):
@@ -100,3 +111,32 @@ def test_pose_rotation_conventions():
     p = Pose([1.0, 2.0, 3.0], 0.3, 0.2, 0.1)
     x = np.array([[0.5, -0.2, 0.1]])
     np.testing.assert_allclose(p.to_sensor(p.to_world(x)), x, atol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "sensor,pattern",
+    [
+        ({"pose": {"pitch_deg": 120}}, r"sensor.pose.pitch_deg = 120"),
+        ({"pose": {"yaw_deg": "left"}}, r"sensor.pose.yaw_deg = 'left'"),
+        ({"trajectory": {"poses": [[0, 0, 0, 0, 95]]}}, r"trajectory row 0 pitch_deg = 95.0"),
+        ({"trajectory": {"poses": [[0, 0, 0, 400]]}}, r"trajectory row 0 yaw_deg = 400.0"),
+    ],
+)
+def test_pose_angles_in_tables_and_trajectories(sensor, pattern):
+    data = base(sensor={"array": "urtis_v1", **sensor})
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene(data, base_dir=SCENES, source="bad.toml")
+
+
+def test_pose_refuses_non_finite_values():
+    with pytest.raises(InputError, match="Pose.yaw_rad = nan"):
+        Pose([0, 0, 0], math.nan)
+    with pytest.raises(InputError, match="Pose.position_m"):
+        Pose([0, 0])
+
+
+def test_fractional_delays_are_the_renderers():
+    from acousim.scene.model import FRACTIONAL_DELAYS
+    from acousim.synth.render import METHODS
+
+    assert set(FRACTIONAL_DELAYS) <= set(METHODS)

@@ -1,61 +1,165 @@
-"""Dataset spec files (TOML), documented in ``docs/dataset-format.md``."""
+"""Dataset spec files (TOML), documented in ``docs/dataset-format.md``.
+
+Every key is declared once (:func:`processing.settings.setting`) on the dataclass of
+its table: ``[dataset]`` :class:`DatasetOptions`, ``[[scenes]]`` :class:`SceneChoice`
+(its ``region`` :class:`Region`), ``[store]`` :class:`StoreOptions`. The
+``[randomize]`` keys draw values of scene settings and reuse those settings'
+declarations (:data:`RANDOMIZE`): a distribution must lie inside the allowed range,
+and normal draws are clipped to it. Adding a key is one ``setting(...)`` line (one
+entry of :data:`RANDOMIZE` for a randomized condition). Errors are
+:class:`SpecError`, an :class:`processing.errors.InputError` naming file, key, value.
+"""
 
 from __future__ import annotations
 
-import difflib
+import dataclasses
 import hashlib
 import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import processing as P
+from processing.errors import InputError
+from processing.settings import (
+    Setting,
+    check,
+    read_table,
+    refuse_unknown,
+    setting,
+    settings_of,
+    validate,
+)
 
-__all__ = ["Distribution", "SceneChoice", "StoreOptions", "DatasetSpec", "SpecError", "load_spec"]
+__all__ = [
+    "Distribution",
+    "Region",
+    "SceneChoice",
+    "StoreOptions",
+    "DatasetOptions",
+    "DatasetSpec",
+    "SpecError",
+    "RANDOMIZE",
+    "load_spec",
+]
 
 
-class SpecError(ValueError):
+class SpecError(InputError):
     """A spec file that cannot be used; the message names the file, the key and value."""
 
 
 @dataclass(frozen=True)
 class Distribution:
-    """uniform(low, high), normal(mean, sigma) or a constant."""
+    """uniform(low, high), normal(mean, sigma) or a constant; draws are clipped to
+    [lo, hi], the allowed range of the setting drawn."""
 
     kind: str
     a: float
     b: float = 0.0
+    lo: float = -math.inf
+    hi: float = math.inf
 
     def draw(self, rng) -> float:
         if self.kind == "uniform":
-            return float(rng.uniform(self.a, self.b))
-        if self.kind == "normal":
-            return float(rng.normal(self.a, self.b))
-        return self.a
+            v = float(rng.uniform(self.a, self.b))
+        elif self.kind == "normal":
+            v = float(rng.normal(self.a, self.b))
+        else:
+            v = self.a
+        return min(max(v, self.lo), self.hi)
+
+
+def _env(name: str) -> Setting:
+    from acousim.scene.model import Environment
+
+    return settings_of(Environment)[name]
+
+
+def _sim(name: str) -> Setting:
+    from acousim.scene.model import Simulation
+
+    return settings_of(Simulation)[name]
+
+
+#: the randomized conditions: what each draw must stay within
+RANDOMIZE: dict[str, Setting] = {
+    "temperature_c": _env("temperature_c"),
+    "humidity_percent": _env("humidity_percent"),
+    "snr_db": _sim("snr_db"),
+    "reflection_scale": Setting("float", 1.0, "", 0, 10, "scales every material's reflection"),
+    "mount_jitter_deg": Setting("float", 0.0, "deg", -45, 45, "yaw and pitch of the mounting"),
+    "mount_jitter_m": Setting("float", 0.0, "m", -1, 1, "x, y, z of the mounting"),
+}
+
+
+@dataclass(frozen=True)
+class Region:
+    """Where random poses are drawn (world frame): [low, high] per axis."""
+
+    x: tuple[float, float] = setting((0.0, 0.0), "m", -1e4, 1e4, "x range", kind="interval")
+    y: tuple[float, float] = setting((0.0, 0.0), "m", -1e4, 1e4, "y range", kind="interval")
+    z: tuple[float, float] = setting((0.0, 0.0), "m", -1e4, 1e4, "z range", kind="interval")
+    yaw_deg: tuple[float, float] = setting(
+        (0.0, 0.0), "deg", -360, 360, "yaw range", kind="interval"
+    )
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @dataclass(frozen=True)
 class SceneChoice:
+    """A scene a sample may use; `region` (x, y, z, yaw_deg: [low, high]) for random poses."""
+
     file: Path
-    weight: float = 1.0
-    poses: str = "trajectory"  # or "random"
-    region: dict = field(default_factory=dict)  # x, y, z, yaw_deg: [low, high]
-    clearance_m: float = 0.2
+    weight: float = setting(1.0, "", 0, 1e6, "relative probability of this scene")
+    poses: str = setting("trajectory", choices=("trajectory", "random"), doc="pose source")
+    region: dict = field(default_factory=dict)
+    clearance_m: float = setting(0.2, "m", 0, 10, "random poses: distance to every surface")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @dataclass(frozen=True)
 class StoreOptions:
-    raw: bool = False
-    snapshot: bool = True
-    images: tuple[str, ...] = ("das",)
-    labels: bool = True
-    depth_map: bool = True
-    step_deg: float = 4.0
-    azimuth_deg: tuple[float, float] = (-90.0, 90.0)
-    elevation_deg: tuple[float, float] = (-30.0, 30.0)
-    energy_fraction: float = 1e-3
-    min_range_m: float = 0.25
-    max_bins: int = 256
+    """What each sample stores (the ``[store]`` table)."""
+
+    raw: bool = setting(False, doc="the microphone signals (float32)")
+    snapshot: bool = setting(True, doc="the STFT snapshot of the kept range bins")
+    images: tuple[str, ...] = setting(
+        ("das",), kind="strings", choices=tuple(P.METHODS), doc="3D images (DOA methods)"
+    )
+    labels: bool = setting(True, doc="ray-traced reflectors")
+    depth_map: bool = setting(True, doc="distance to the nearest surface per direction")
+    step_deg: float = setting(4.0, "deg", 0.1, 45, "image grid step")
+    azimuth_deg: tuple[float, float] = setting(
+        (-90.0, 90.0), "deg", -90, 90, "image azimuths", kind="interval"
+    )
+    elevation_deg: tuple[float, float] = setting(
+        (-30.0, 30.0), "deg", -90, 90, "image elevations", kind="interval"
+    )
+    energy_fraction: float = setting(1e-3, "", 0, 1, "range-bin gate")
+    min_range_m: float = setting(0.25, "m", 0, 100, "ignore nearer range bins")
+    max_bins: int = setting(256, "", 1, 1_000_000, "at most this many range bins")
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+@dataclass(frozen=True)
+class DatasetOptions:
+    """The ``[dataset]`` table."""
+
+    name: str = setting("dataset", doc="dataset name (default: the spec's file name)")
+    samples: int = setting(100, "", 1, 10**9, "total samples")
+    shard_size: int = setting(64, "", 1, 10**6, "samples per HDF5 shard")
+    seed: int = setting(0, "", 0, 2**63 - 1, "sample i draws from SeedSequence([seed, i])")
+    compression: str = setting("gzip", choices=("gzip", "lzf", "none"), doc="HDF5 filter")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @dataclass(frozen=True)
@@ -71,157 +175,118 @@ class DatasetSpec:
     sha256: str
     compression: str | None = "gzip"
 
+    def __post_init__(self) -> None:
+        DatasetOptions(
+            self.name, self.samples, self.shard_size, self.seed, self.compression or "none"
+        )
+        if not self.scenes:
+            raise SpecError("needs at least one [[scenes]] table", file=self.source, key="scenes")
+
     @property
     def n_shards(self) -> int:
         return -(-self.samples // self.shard_size)
 
 
-KEYS = {
-    "": {"dataset", "scenes", "randomize", "store"},
-    "dataset": {"name", "samples", "shard_size", "seed", "compression"},
-    "scenes": {"file", "weight", "poses", "region", "clearance_m"},
-    "randomize": {
-        "temperature_c",
-        "humidity_percent",
-        "snr_db",
-        "reflection_scale",
-        "mount_jitter_deg",
-        "mount_jitter_m",
-    },
-    "store": {
-        "raw",
-        "snapshot",
-        "images",
-        "labels",
-        "depth_map",
-        "step_deg",
-        "azimuth_deg",
-        "elevation_deg",
-        "energy_fraction",
-        "min_range_m",
-        "max_bins",
-    },
-}
+def _fail(exc: InputError) -> SpecError:
+    return SpecError(exc.reason, file=exc.file, key=exc.key, value=exc.value)
 
 
-def _unknown(src: str, where: str, table: dict, section: str) -> None:
-    for k in table:
-        if k not in KEYS[section]:
-            close = difflib.get_close_matches(k, sorted(KEYS[section]), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise SpecError(f"{src}: [{where}{'.' if where else ''}{k}] unknown key {k!r}{hint}")
-
-
-def _num(src, where, v, lo=-math.inf, hi=math.inf, integer=False):
-    if (
-        isinstance(v, bool)
-        or not isinstance(v, int | float)
-        or not lo <= v <= hi
-        or (integer and not float(v).is_integer())
-    ):
-        kind = "a whole number" if integer else "a number"
-        raise SpecError(f"{src}: [{where}] must be {kind} in [{lo}, {hi}], got {v!r}")
-    return int(v) if integer else float(v)
-
-
-def _dist(src: str, where: str, v) -> Distribution:
-    if isinstance(v, int | float) and not isinstance(v, bool):
-        return Distribution("constant", float(v))
+def _table(src: str, data: dict, key: str) -> dict:
+    v = data.get(key, {})
     if not isinstance(v, dict):
-        raise SpecError(f"{src}: [{where}] must be a number or a table, got {v!r}")
+        raise SpecError("must be a table", file=src, key=key, value=v)
+    return v
+
+
+def _dist(src: str, where: str, v: Any, decl: Setting) -> Distribution:
+    if not isinstance(v, dict):
+        x = check(decl, v, where, src)
+        return Distribution("constant", x, lo=decl.lo, hi=decl.hi)
     kind = v.get("dist", "uniform")
+    check(Setting("str", choices=("uniform", "normal")), kind, f"{where}.dist", src)
     if kind == "uniform":
-        lo, hi = v.get("range", [None, None])
-        lo, hi = _num(src, f"{where}.range", lo), _num(src, f"{where}.range", hi)
-        if hi < lo:
-            raise SpecError(f"{src}: [{where}.range] low {lo} above high {hi}")
-        return Distribution("uniform", lo, hi)
-    if kind == "normal":
-        return Distribution(
-            "normal",
-            _num(src, f"{where}.mean", v.get("mean", 0.0)),
-            _num(src, f"{where}.sigma", v.get("sigma", 1.0), 0),
-        )
-    raise SpecError(f"{src}: [{where}.dist] {kind!r} is not 'uniform' or 'normal'")
+        allowed = {"dist", "range"}
+        bounds = dataclasses.replace(decl, kind="interval")
+        if "range" not in v:
+            raise SpecError("missing ([low, high])", file=src, key=f"{where}.range")
+        lo, hi = check(bounds, v["range"], f"{where}.range", src)
+        out = Distribution("uniform", lo, hi, decl.lo, decl.hi)
+    else:
+        allowed = {"dist", "mean", "sigma"}
+        mean = check(decl, v.get("mean", 0.0), f"{where}.mean", src)
+        span = decl.hi - decl.lo if math.isfinite(decl.hi - decl.lo) else 1e6
+        sigma = check(Setting("float", lo=0, hi=span), v.get("sigma", 1.0), f"{where}.sigma", src)
+        out = Distribution("normal", mean, sigma, decl.lo, decl.hi)
+    refuse_unknown(v, allowed, where=where, file=src)
+    return out
 
 
 def load_spec(path: str | Path) -> DatasetSpec:
+    """Read and validate a dataset spec; a :class:`SpecError` names file, key and value."""
     path = Path(path)
     src = str(path)
     if not path.is_file():
-        raise SpecError(f"{src}: no such dataset spec")
+        raise SpecError("no such dataset spec", file=src)
     raw = path.read_bytes()
     try:
         data = tomllib.loads(raw.decode())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{src}: not valid TOML ({exc})") from None
-    _unknown(src, "", data, "")
-    ds = data.get("dataset", {})
-    _unknown(src, "dataset", ds, "dataset")
-    scenes = []
+        raise SpecError(f"not valid TOML ({exc})", file=src) from None
+    try:
+        return _parse(data, path, src, hashlib.sha256(raw).hexdigest())
+    except SpecError:
+        raise
+    except InputError as exc:
+        raise _fail(exc) from None
+
+
+def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
+    refuse_unknown(data, ("dataset", "scenes", "randomize", "store"), where="", file=src)
+    ds = read_table(DatasetOptions, _table(src, data, "dataset"), where="dataset", file=src)
+    opts = DatasetOptions(**{"name": path.stem, **ds})
     items = data.get("scenes", [])
     if not isinstance(items, list) or not items:
-        raise SpecError(f"{src}: [scenes] needs at least one [[scenes]] table")
+        raise SpecError("needs at least one [[scenes]] table", file=src, key="scenes", value=items)
+    scenes = []
     for i, s in enumerate(items):
         where = f"scenes[{i}]"
-        _unknown(src, where, s, "scenes")
+        choice = read_table(SceneChoice, s, where=where, file=src, extra=("file", "region"))
         if "file" not in s:
-            raise SpecError(f"{src}: [{where}.file] missing")
-        f = path.parent / s["file"]
+            raise SpecError("missing", file=src, key=f"{where}.file")
+        name = check(Setting("str"), s["file"], f"{where}.file", src)
+        f = path.parent / name
         if not f.is_file():
-            raise SpecError(f"{src}: [{where}.file] scene file not found: {f}")
-        poses = s.get("poses", "trajectory")
-        if poses not in ("trajectory", "random"):
-            raise SpecError(f"{src}: [{where}.poses] {poses!r} is not 'trajectory' or 'random'")
-        region = s.get("region", {})
-        if poses == "random":
+            raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
+        from acousim.scene import load_scene
+
+        try:  # checked now, not in a worker halfway through the dataset
+            load_scene(f)
+        except InputError as exc:
+            raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
+        region_t = s.get("region", {})
+        region = read_table(Region, region_t, where=f"{where}.region", file=src)
+        if choice.get("poses", "trajectory") == "random":
             for k in ("x", "y", "z"):
                 if k not in region:
-                    raise SpecError(f"{src}: [{where}.region.{k}] missing for random poses")
-        scenes.append(
-            SceneChoice(
-                f,
-                _num(src, f"{where}.weight", s.get("weight", 1.0), 0),
-                poses,
-                region,
-                _num(src, f"{where}.clearance_m", s.get("clearance_m", 0.2), 0),
-            )
-        )
-    rnd = data.get("randomize", {})
-    _unknown(src, "randomize", rnd, "randomize")
-    st = data.get("store", {})
-    _unknown(src, "store", st, "store")
-    images = tuple(st.get("images", ["das"]))
-    for m in images:
-        if m not in P.METHODS:
-            raise SpecError(
-                f"{src}: [store.images] unknown method {m!r}; choose from {', '.join(P.METHODS)}"
-            )
+                    raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
+        scenes.append(SceneChoice(f, region=region, **choice))
+    if sum(s.weight for s in scenes) <= 0:
+        raise SpecError("at least one scene needs a positive weight", file=src, key="scenes")
+    rnd = _table(src, data, "randomize")
+    refuse_unknown(rnd, RANDOMIZE, where="randomize", file=src)
+    randomize = {k: _dist(src, f"randomize.{k}", v, RANDOMIZE[k]) for k, v in rnd.items()}
     store = StoreOptions(
-        raw=bool(st.get("raw", False)),
-        snapshot=bool(st.get("snapshot", True)),
-        images=images,
-        labels=bool(st.get("labels", True)),
-        depth_map=bool(st.get("depth_map", True)),
-        step_deg=_num(src, "store.step_deg", st.get("step_deg", 4.0), 0.1, 45),
-        azimuth_deg=tuple(st.get("azimuth_deg", (-90.0, 90.0))),
-        elevation_deg=tuple(st.get("elevation_deg", (-30.0, 30.0))),
-        energy_fraction=_num(src, "store.energy_fraction", st.get("energy_fraction", 1e-3), 0, 1),
-        min_range_m=_num(src, "store.min_range_m", st.get("min_range_m", 0.25), 0),
-        max_bins=_num(src, "store.max_bins", st.get("max_bins", 256), 1, integer=True),
+        **read_table(StoreOptions, _table(src, data, "store"), where="store", file=src)
     )
-    comp = ds.get("compression", "gzip")
-    if comp not in ("gzip", "lzf", "none"):
-        raise SpecError(f"{src}: [dataset.compression] {comp!r} is not gzip, lzf or none")
     return DatasetSpec(
-        name=str(ds.get("name", path.stem)),
-        samples=_num(src, "dataset.samples", ds.get("samples", 100), 1, integer=True),
-        shard_size=_num(src, "dataset.shard_size", ds.get("shard_size", 64), 1, integer=True),
-        seed=_num(src, "dataset.seed", ds.get("seed", 0), 0, 2**63 - 1, integer=True),
+        name=opts.name,
+        samples=opts.samples,
+        shard_size=opts.shard_size,
+        seed=opts.seed,
         scenes=tuple(scenes),
-        randomize={k: _dist(src, f"randomize.{k}", v) for k, v in rnd.items()},
+        randomize=randomize,
         store=store,
         source=src,
-        sha256=hashlib.sha256(raw).hexdigest(),
-        compression=None if comp == "none" else comp,
+        sha256=sha256,
+        compression=None if opts.compression == "none" else opts.compression,
     )

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from processing.atomic import atomic_path, write_text
 
 from .trials import (
     FREQUENCY_HZ,
@@ -76,18 +77,15 @@ def _map(config: StudyConfig, fn: Callable, items: list) -> list:
 
 
 def _write_csv(path: Path, header: list[str], rows: Iterable[list]) -> None:
-    tmp = path.with_suffix(".csv.part")
-    with open(tmp, "w", newline="") as f:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         w.writerows(rows)
-    os.replace(tmp, path)
 
 
 def _savefig(fig, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.part.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
 
 
 def _plt():
@@ -433,9 +431,7 @@ def run_study(
 
 
 def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(".json.part")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, path)
+    write_text(path, json.dumps(data, indent=1))
 
 
 def load_results(out_dir: str | Path) -> dict:

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from processing.atomic import write_text
+
 from .paper_study import POSITIONS
 
 SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
@@ -275,8 +277,6 @@ def write_report(results: dict, path: str | Path, figures_dir: str | Path, comma
     ]:
         lines += [f"### {title}", "", f"![{title}]({figs}/{name})", ""]
     lines += ["CSV files with every number are beside the figures.", ""]
-    tmp = path.with_suffix(".md.part")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp.write_text("\n".join(lines))
-    os.replace(tmp, path)
+    write_text(path, "\n".join(lines))
     return path

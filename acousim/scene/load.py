@@ -2,12 +2,15 @@
 ``docs/scene-format.md``.
 
 Every error names the file, the key and the bad value, and says what is allowed;
-an unknown key gets a did-you-mean.
+an unknown key gets a did-you-mean. The tables that map onto a dataclass
+(``[environment]``, ``[simulation]``, ``[[materials]]``, ``[[points]]`` and the scalar
+keys of ``[sensor]``) are read through its declared settings (``acousim.scene.model``):
+a new setting there needs no change here. Keys read by hand (the sensor's array,
+call, pose and trajectory, a mesh's placement) are listed in :data:`EXTRA_KEYS`.
 """
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import math
 import tomllib
@@ -17,6 +20,8 @@ from typing import Any
 import numpy as np
 
 import processing as P
+from processing.errors import InputError
+from processing.settings import Setting, check, read_table, refuse_unknown
 
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
 from .pose import Pose, rotation
@@ -24,156 +29,113 @@ from .pose import Pose, rotation
 __all__ = ["SceneError", "load_scene", "parse_scene"]
 
 
-class SceneError(ValueError):
+class SceneError(InputError):
     """A scene file that cannot be used; the message names the file, key and value."""
 
 
 NUM = (int, float)
-KEYS: dict[str, set[str]] = {
+#: keys read here rather than from a dataclass's declared settings
+EXTRA_KEYS: dict[str, set[str]] = {
     "": {"scene", "environment", "sensor", "simulation", "materials", "meshes", "points"},
     "scene": {"name", "description"},
-    "environment": {"temperature_c", "humidity_percent", "pressure_kpa"},
     "sensor": {
         "array",
         "coordinates",
         "coordinates_units",
         "emitter_m",
-        "emitter_radius_m",
-        "mic_radius_m",
         "call",
-        "sample_rate_hz",
-        "direct_path",
         "pose",
         "trajectory",
     },
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
     "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg"},
     "sensor.trajectory": {"poses", "file", "rate_hz"},
-    "simulation": {
-        "max_range_m",
-        "rays",
-        "bounces",
-        "beam_deg",
-        "snr_db",
-        "seed",
-        "fractional_delay",
-        "absorption",
-        "energy_floor_db",
-    },
-    "materials": {"name", "reflection", "diffuse", "lobe_deg"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
-    "points": {"position_m", "strength"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+#: a pose's angles, in [sensor.pose] and in every row of a trajectory
+POSE_ANGLES = {
+    "yaw_deg": Setting("float", 0.0, "deg", -360, 360, "turns left"),
+    "pitch_deg": Setting("float", 0.0, "deg", -90, 90, "points the sensor down"),
+    "roll_deg": Setting("float", 0.0, "deg", -360, 360, "about the sensor's axis"),
+}
 
 
 class _Reader:
     def __init__(self, source: str) -> None:
         self.source = source
 
-    def fail(self, key: str, msg: str) -> SceneError:
-        return SceneError(f"{self.source}: [{key}] {msg}")
+    def fail(self, key: str, msg: str, value: Any = ...) -> SceneError:
+        return SceneError(msg, file=self.source, key=key or "<file>", value=value)
 
     def check_keys(self, table: dict, section: str, where: str) -> None:
-        allowed = KEYS[section]
-        for k in table:
-            if k not in allowed:
-                close = difflib.get_close_matches(k, sorted(allowed), n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
-                raise self.fail(
-                    f"{where}.{k}".strip("."),
-                    f"unknown key {k!r}{hint} (allowed: {', '.join(sorted(allowed))})",
-                )
+        try:
+            refuse_unknown(table, EXTRA_KEYS[section], where=where, file=self.source)
+        except InputError as exc:
+            raise SceneError(exc.reason, file=exc.file, key=exc.key) from None
+
+    def settings(self, cls: type, table: dict, where: str, extra: set[str] = frozenset()):
+        """The declared settings of `cls` in `table` (checked), unknown keys refused."""
+        try:
+            return read_table(cls, table, where=where, file=self.source, extra=extra)
+        except InputError as exc:
+            raise SceneError(exc.reason, file=exc.file, key=exc.key, value=exc.value) from None
 
     def table(self, d: dict, key: str, where: str) -> dict:
         v = d.get(key, {})
         if not isinstance(v, dict):
-            raise self.fail(f"{where}.{key}".strip("."), f"must be a table, got {v!r}")
+            raise self.fail(f"{where}.{key}".strip("."), "must be a table", v)
         return v
 
     def table_list(self, data: dict, key: str):
-        """(where, table) for each table of an array of tables ``[[key]]``, keys checked."""
+        """(where, table) for each table of an array of tables ``[[key]]``."""
         items = data.get(key, [])
         if not isinstance(items, list):
-            raise self.fail(key, f"must be an array of tables ([[{key}]])")
+            raise self.fail(key, f"must be an array of tables ([[{key}]])", items)
         for i, t in enumerate(items):
             where = f"{key}[{i}]"
             if not isinstance(t, dict):
-                raise self.fail(where, "must be a table")
-            self.check_keys(t, key, where)
+                raise self.fail(where, "must be a table", t)
             yield where, t
 
-    def number(
-        self,
-        d: dict,
-        key: str,
-        where: str,
-        default: float,
-        lo: float = -math.inf,
-        hi: float = math.inf,
-        integer: bool = False,
-    ) -> float:
-        v = d.get(key, default)
-        name = f"{where}.{key}"
-        if isinstance(v, bool) or not isinstance(v, NUM):
-            raise self.fail(name, f"must be a number, got {v!r}")
-        if integer and (not float(v).is_integer()):
-            raise self.fail(name, f"must be a whole number, got {v!r}")
-        if math.isnan(v) or not lo <= v <= hi:
-            raise self.fail(name, f"value {v!r} outside the allowed range [{lo}, {hi}]")
-        return int(v) if integer else float(v)
+    def number(self, d, key, where, default, lo=-math.inf, hi=math.inf, integer=False):
+        decl = Setting("int" if integer else "float", default, lo=lo, hi=hi)
+        return self._check(decl, d.get(key, default), f"{where}.{key}")
 
     def vector(self, d: dict, key: str, where: str, default=None) -> np.ndarray:
         v = d.get(key, default)
-        name = f"{where}.{key}"
         if v is None:
-            raise self.fail(name, "missing (a list of 3 numbers)")
-        if (
-            not isinstance(v, list)
-            or len(v) != 3
-            or not all(isinstance(x, NUM) and not isinstance(x, bool) for x in v)
-            or not all(math.isfinite(x) for x in v)
-        ):
-            raise self.fail(name, f"must be a list of 3 finite numbers, got {v!r}")
-        return np.array(v, float)
+            raise self.fail(f"{where}.{key}", "missing (a list of 3 numbers)")
+        return np.array(self._check(Setting("vector", length=3), v, f"{where}.{key}"))
 
-    def string(
-        self,
-        d: dict,
-        key: str,
-        where: str,
-        default: str | None = None,
-        choices: set[str] | None = None,
-    ) -> str:
+    def string(self, d, key, where, default=None, choices=None) -> str:
         v = d.get(key, default)
-        name = f"{where}.{key}"
         if v is None:
-            raise self.fail(name, "missing")
-        if not isinstance(v, str):
-            raise self.fail(name, f"must be a string, got {v!r}")
-        if choices is not None and v not in choices:
-            close = difflib.get_close_matches(v, sorted(choices), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise self.fail(name, f"{v!r} is not one of {', '.join(sorted(choices))}{hint}")
-        return v
+            raise self.fail(f"{where}.{key}", "missing")
+        decl = Setting("str", choices=None if choices is None else tuple(sorted(choices)))
+        return self._check(decl, v, f"{where}.{key}")
 
     def boolean(self, d: dict, key: str, where: str, default: bool) -> bool:
-        v = d.get(key, default)
-        if not isinstance(v, bool):
-            raise self.fail(f"{where}.{key}", f"must be true or false, got {v!r}")
-        return v
+        return self._check(Setting("bool"), d.get(key, default), f"{where}.{key}")
+
+    def _check(self, decl: Setting, value: Any, key: str):
+        try:
+            return check(decl, value, key, self.source)
+        except InputError as exc:
+            raise SceneError(exc.reason, file=exc.file, key=exc.key, value=exc.value) from None
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file."""
+    """Read and validate a scene file (TOML, ``docs/scene-format.md``); a SceneError
+    (an :class:`processing.errors.InputError`) names the file, key and value."""
     path = Path(path)
     if not path.is_file():
-        raise SceneError(f"{path}: no such scene file")
+        raise SceneError("no such scene file", file=path)
     raw = path.read_bytes()
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: not valid TOML ({exc})") from None
+        raise SceneError(f"not valid TOML ({exc})", file=path) from None
     return parse_scene(
         data, base_dir=path.parent, source=str(path), sha256=hashlib.sha256(raw).hexdigest()
     )
@@ -192,48 +154,20 @@ def parse_scene(
     r.check_keys(data, "", "")
     meta = r.table(data, "scene", "")
     r.check_keys(meta, "scene", "scene")
-    env_t = r.table(data, "environment", "")
-    r.check_keys(env_t, "environment", "environment")
-    env = Environment(
-        temperature_c=r.number(env_t, "temperature_c", "environment", 20.0, -20, 50),
-        humidity_percent=r.number(env_t, "humidity_percent", "environment", 50.0, 0, 100),
-        pressure_kpa=r.number(env_t, "pressure_kpa", "environment", 101.325, 50, 120),
-    )
-    sim_t = r.table(data, "simulation", "")
-    r.check_keys(sim_t, "simulation", "simulation")
-    from acousim.synth.render import METHODS
-
-    sim = Simulation(
-        max_range_m=r.number(sim_t, "max_range_m", "simulation", 6.0, 0.05, 100),
-        rays=r.number(sim_t, "rays", "simulation", 20000, 0, 10_000_000, integer=True),
-        bounces=r.number(sim_t, "bounces", "simulation", 3, 0, 6, integer=True),
-        beam_deg=r.number(sim_t, "beam_deg", "simulation", 90.0, 1, 180),
-        snr_db=r.number(sim_t, "snr_db", "simulation", math.inf, -60, math.inf),
-        seed=r.number(sim_t, "seed", "simulation", 0, 0, 2**63 - 1, integer=True),
-        fractional_delay=r.string(
-            sim_t,
-            "fractional_delay",
-            "simulation",
-            "sinc",
-            {"sinc", "lagrange", "nearest"} & set(METHODS),
-        ),
-        absorption=r.boolean(sim_t, "absorption", "simulation", True),
-        energy_floor_db=r.number(sim_t, "energy_floor_db", "simulation", -80.0, -300, 0),
-    )
+    env = Environment(**r.settings(Environment, r.table(data, "environment", ""), "environment"))
+    sim = Simulation(**r.settings(Simulation, r.table(data, "simulation", ""), "simulation"))
     materials = {"default": Material("default")}
     for where, m in r.table_list(data, "materials"):
-        name = r.string(m, "name", where)
-        materials[name] = Material(
-            name,
-            reflection=r.number(m, "reflection", where, 0.95, 0, 1),
-            diffuse=r.number(m, "diffuse", where, 0.0, 0, 1),
-            lobe_deg=r.number(m, "lobe_deg", where, 5.0, 0.1, 90),
-        )
+        if "name" not in m:
+            raise r.fail(f"{where}.name", "missing")
+        mat = Material(**r.settings(Material, m, where))
+        materials[mat.name] = mat
     meshes = []
     for where, m in r.table_list(data, "meshes"):
+        r.check_keys(m, "meshes", where)
         file = base / r.string(m, "file", where)
         if not file.is_file():
-            raise r.fail(f"{where}.file", f"mesh file not found: {file}")
+            raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
         mat = r.string(m, "material", where, "default", set(materials))
         units = r.string(m, "units", where, "m", set(UNITS))
         scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
@@ -244,11 +178,9 @@ def parse_scene(
         meshes.append(MeshItem(file, materials[mat], T))
     points = []
     for where, p in r.table_list(data, "points"):
-        points.append(
-            PointItem(
-                tuple(r.vector(p, "position_m", where)), r.number(p, "strength", where, 1.0, 0, 1e6)
-            )
-        )
+        if "position_m" not in p:
+            raise r.fail(f"{where}.position_m", "missing (a list of 3 numbers)")
+        points.append(PointItem(**r.settings(PointItem, p, where)))
     sensor = _sensor(r, r.table(data, "sensor", ""), base)
     if not meshes and not points:
         raise r.fail("meshes", "the scene has neither meshes nor points: nothing can echo")
@@ -267,17 +199,20 @@ def parse_scene(
 
 
 def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
-    r.check_keys(s, "sensor", "sensor")
+    declared = r.settings(Sensor, s, "sensor", extra=EXTRA_KEYS["sensor"])
     if "coordinates" in s:
         units = r.string(s, "coordinates_units", "sensor", "mm", {"mm", "m"})
         file = base / r.string(s, "coordinates", "sensor")
         try:
             array = P.from_coordinates_file(file, units=units)
         except (OSError, ValueError) as exc:
-            raise r.fail("sensor.coordinates", str(exc)) from None
+            raise r.fail("sensor.coordinates", str(exc), s["coordinates"]) from None
     else:
         name = r.string(s, "array", "sensor", "urtis_v1", set(P.PRESETS))
-        array = P.preset(name)
+        try:
+            array = P.preset(name)
+        except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
+            raise r.fail("sensor.array", f"cannot load the preset ({exc})", name) from None
     emitter = r.vector(s, "emitter_m", "sensor", [0.0, 0.0, 0.0])
     array = P.Array(
         array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
@@ -297,27 +232,21 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
                 r.number(call, "duration_s", "sensor.call", 1e-3, 1e-6, 1),
                 r.number(call, "taper", "sensor.call", 0.0, 0, 0.5),
             )
-        except ValueError as exc:
-            raise r.fail("sensor.call", str(exc)) from None
+        except InputError:
+            raise
+        except ValueError as exc:  # the waveform's own consistency checks
+            raise r.fail("sensor.call", str(exc), call) from None
     else:
-        raise r.fail("sensor.call", f"must be a preset name or a table, got {call!r}")
-    fs = r.number(s, "sample_rate_hz", "sensor", 450e3, 1e3, 1e8)
+        raise r.fail("sensor.call", "must be a preset name or a table", call)
+    fs = declared.get("sample_rate_hz", 450e3)
     if max(wf.band_hz) >= fs / 2:
         raise r.fail(
             "sensor.sample_rate_hz",
-            f"{fs:g} Hz is below twice the call's highest frequency {max(wf.band_hz):g}",
+            f"is below twice the call's highest frequency {max(wf.band_hz):g} Hz",
+            fs,
         )
     poses, rate = _poses(r, s, base)
-    return Sensor(
-        array,
-        wf,
-        fs,
-        r.number(s, "emitter_radius_m", "sensor", 0.0, 0, 0.5),
-        r.boolean(s, "direct_path", "sensor", True),
-        poses,
-        rate,
-        r.number(s, "mic_radius_m", "sensor", 0.0, 0, 0.05),
-    )
+    return Sensor(array=array, call=wf, poses=poses, rate_hz=rate, **declared)
 
 
 def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | None]:
@@ -353,16 +282,23 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
                 f"rows must be [x, y, z, yaw_deg(, pitch_deg, "
                 f"roll_deg)] of finite numbers, got shape {rows.shape}",
             )
+        for i, row in enumerate(rows):
+            for (name, decl), v in zip(POSE_ANGLES.items(), row[3:]):
+                r._check(decl, float(v), f"sensor.trajectory row {i} {name}")
         ang = np.deg2rad(np.pad(rows[:, 3:], ((0, 0), (0, 6 - rows.shape[1]))))
         return tuple(
             Pose(row[:3], *a, time_s=i / rate) for i, (row, a) in enumerate(zip(rows, ang))
         ), rate
     p = r.table(s, "pose", "sensor")
     r.check_keys(p, "sensor.pose", "sensor.pose")
+    angles = {
+        name: np.deg2rad(r._check(decl, p.get(name, decl.default), f"sensor.pose.{name}"))
+        for name, decl in POSE_ANGLES.items()
+    }
     pose = Pose(
         r.vector(p, "position_m", "sensor.pose", [0.0, 0.0, 0.0]),
-        np.deg2rad(r.number(p, "yaw_deg", "sensor.pose", 0.0, -360, 360)),
-        np.deg2rad(r.number(p, "pitch_deg", "sensor.pose", 0.0, -90, 90)),
-        np.deg2rad(r.number(p, "roll_deg", "sensor.pose", 0.0, -360, 360)),
+        angles["yaw_deg"],
+        angles["pitch_deg"],
+        angles["roll_deg"],
     )
     return (pose,), None

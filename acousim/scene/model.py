@@ -1,17 +1,55 @@
-"""What a scene file describes, as small frozen dataclasses (SI units)."""
+"""What a scene describes, as small frozen dataclasses (SI units; degrees only in names
+ending ``_deg``).
+
+Every setting is declared once (:func:`processing.settings.setting`: type, unit,
+default, allowed range) and that declaration checks both the TOML loader and the
+Python constructors, so ``Material(reflection=5)`` is refused like
+``reflection = 5`` in a scene file. To add a setting, add one ``setting(...)`` line
+to its dataclass; the loader reads it from the table of the same name
+(``[environment]``, ``[simulation]``, ``[[materials]]``, ``[[points]]``, ``[sensor]``).
+
+Building a scene in code (every argument has a default except what echoes)::
+
+    import trimesh
+    import acousim
+
+    wall = acousim.MeshItem(trimesh.creation.box((0.1, 4, 3)),
+                            acousim.Material("brick", reflection=0.9),
+                            position_m=(2.0, 0, 0))
+    scene = acousim.Scene(meshes=[wall], sensor=acousim.Sensor(sample_rate_hz=450e3))
+    recordings = acousim.Simulator(scene).run()
+"""
 
 from __future__ import annotations
 
+import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from processing import Array, Waveform
+from processing.errors import InputError
+from processing.settings import setting, validate
 
 from .pose import Pose
 
-__all__ = ["Material", "MeshItem", "PointItem", "Sensor", "Environment", "Simulation", "Scene"]
+__all__ = [
+    "Material",
+    "MeshItem",
+    "PointItem",
+    "Sensor",
+    "Environment",
+    "Simulation",
+    "Scene",
+    "FRACTIONAL_DELAYS",
+    "memory_limit_bytes",
+]
+
+FRACTIONAL_DELAYS = ("sinc", "lagrange", "nearest")
+"""Fractional-delay interpolators of the renderer (``acousim.synth.render``)."""
 
 
 @dataclass(frozen=True)
@@ -27,34 +65,93 @@ class Material:
         fewer rays but spreads a glint's energy in delay.
     """
 
-    name: str
-    reflection: float = 0.95
-    diffuse: float = 0.0
-    lobe_deg: float = 5.0
+    name: str = setting("default", doc="name the meshes refer to")
+    reflection: float = setting(0.95, "", 0, 1, "pressure reflection coefficient")
+    diffuse: float = setting(0.0, "", 0, 1, "fraction of energy scattered diffusely")
+    lobe_deg: float = setting(5.0, "deg", 0.1, 90, "reflection lobe width (std)")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @dataclass(frozen=True, eq=False)
 class MeshItem:
-    """A mesh file placed in the world: `transform` (4, 4) maps file units to metres."""
+    """A mesh placed in the world.
 
-    path: Path
-    material: Material
-    transform: np.ndarray
+    mesh : a mesh file (any format trimesh reads) or a ``trimesh.Trimesh`` in memory
+        (copied when the world is built: the caller's mesh is never changed).
+    transform : (4, 4) maps the mesh's units to metres in the world; ``position_m``
+        (3,), when given, is added to its translation (a convenience for code).
+    """
+
+    mesh: Any
+    material: Material = field(default_factory=Material)
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))
+    position_m: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        mesh = self.mesh
+        if isinstance(mesh, str | os.PathLike):
+            mesh = Path(mesh)
+            if not mesh.is_file():
+                raise InputError("mesh file not found", key="MeshItem.mesh", value=str(mesh))
+        elif not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise InputError(
+                "must be a mesh file or a trimesh.Trimesh", key="MeshItem.mesh", value=mesh
+            )
+        if not isinstance(self.material, Material):
+            raise InputError("must be a Material", key="MeshItem.material", value=self.material)
+        T = np.array(self.transform, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InputError(
+                "must be a finite (4, 4) matrix", key="MeshItem.transform", value=self.transform
+            )
+        if self.position_m is not None:
+            p = _vector3(self.position_m, "MeshItem.position_m")
+            T[:3, 3] += p
+            object.__setattr__(self, "position_m", None)
+        object.__setattr__(self, "mesh", mesh)
+        object.__setattr__(self, "transform", T)
+
+    @property
+    def path(self) -> Path | None:
+        """The mesh file, or None for a mesh in memory."""
+        return self.mesh if isinstance(self.mesh, Path) else None
+
+
+def _vector3(value: Any, key: str) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        v = np.full(0, np.nan)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise InputError("must be 3 finite numbers", key=key, value=value)
+    return v
 
 
 @dataclass(frozen=True)
 class PointItem:
     """An explicit point reflector (world frame): strength a_k of eq. 1."""
 
-    position_m: tuple[float, float, float]
-    strength: float = 1.0
+    position_m: tuple[float, float, float] = setting(
+        kind="vector", unit="m", length=3, doc="position in the world"
+    )
+    strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @dataclass(frozen=True)
 class Environment:
-    temperature_c: float = 20.0
-    humidity_percent: float = 50.0
-    pressure_kpa: float = 101.325
+    """The air: sets the speed of sound and the absorption."""
+
+    temperature_c: float = setting(20.0, "degC", -20, 50, "air temperature")
+    humidity_percent: float = setting(50.0, "%", 0, 100, "relative humidity")
+    pressure_kpa: float = setting(101.325, "kPa", 50, 120, "static pressure")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
     @property
     def speed_of_sound_m_s(self) -> float:
@@ -63,18 +160,57 @@ class Environment:
         return speed_of_sound(self.temperature_c, self.humidity_percent)
 
 
+def _default_array() -> Array:
+    from processing import urtis_v1
+
+    return urtis_v1()
+
+
+def _default_call() -> Waveform:
+    from processing import rtis_call
+
+    return rtis_call("default_25_50")
+
+
 @dataclass(frozen=True, eq=False)
 class Sensor:
-    """The sonar: array, emitter, call and sampling, and where it is."""
+    """The sonar: array, emitter, call and sampling, and where it is.
 
-    array: Array
-    call: Waveform
-    sample_rate_hz: float
-    emitter_radius_m: float
-    direct_path: bool
-    poses: tuple[Pose, ...]
+    poses : one Pose or a sequence (a trajectory sampled at `rate_hz`).
+    """
+
+    array: Array = field(default_factory=_default_array)
+    call: Waveform = field(default_factory=_default_call)
+    sample_rate_hz: float = setting(450e3, "Hz", 1e3, 1e8, "sampling rate of the microphones")
+    emitter_radius_m: float = setting(0.0, "m", 0, 0.5, "emitter as a baffled piston; 0: omni")
+    direct_path: bool = setting(True, doc="include the emitter-to-microphone crosstalk")
+    poses: tuple[Pose, ...] = field(default_factory=lambda: (Pose(np.zeros(3)),))
     rate_hz: float | None = None
-    mic_radius_m: float = 0.0  # microphone port as a baffled piston; 0: omnidirectional
+    mic_radius_m: float = setting(0.0, "m", 0, 0.05, "microphone port as a piston; 0: omni")
+
+    def __post_init__(self) -> None:
+        validate(self)
+        if not isinstance(self.array, Array):
+            raise InputError("must be a processing.Array", key="Sensor.array", value=self.array)
+        if not isinstance(self.call, Waveform):
+            raise InputError("must be a processing.Waveform", key="Sensor.call", value=self.call)
+        poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
+        if not poses or not all(isinstance(p, Pose) for p in poses):
+            raise InputError("must be a Pose or a non-empty sequence of Poses", key="Sensor.poses")
+        object.__setattr__(self, "poses", poses)
+        if self.rate_hz is not None:
+            if isinstance(self.rate_hz, bool) or not 1e-3 <= float(self.rate_hz) <= 1e4:
+                raise InputError(
+                    "must be None or in [0.001, 10000] Hz", key="Sensor.rate_hz", value=self.rate_hz
+                )
+            object.__setattr__(self, "rate_hz", float(self.rate_hz))
+        top = max(self.call.band_hz)
+        if top >= self.sample_rate_hz / 2:
+            raise InputError(
+                f"is below twice the call's highest frequency {top:g} Hz",
+                key="Sensor.sample_rate_hz",
+                value=self.sample_rate_hz,
+            )
 
 
 @dataclass(frozen=True)
@@ -91,34 +227,122 @@ class Simulation:
         pose, are dropped.
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
+    max_memory_gb : refuse a simulation whose estimated memory
+        (:meth:`Scene.memory_bytes`) is above this many gigabytes (10^9 bytes). The
+        default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.
     """
 
-    max_range_m: float = 6.0
-    rays: int = 20000
-    bounces: int = 3
-    beam_deg: float = 90.0
-    snr_db: float = float("inf")
-    seed: int = 0
-    fractional_delay: str = "sinc"
-    absorption: bool = True
-    energy_floor_db: float = -80.0
+    max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
+    rays: int = setting(20000, "", 0, 10_000_000, "rays per pose")
+    bounces: int = setting(3, "", 0, 6, "maximum reflections of a path")
+    beam_deg: float = setting(90.0, "deg", 1, 180, "half-angle of the cone of rays")
+    snr_db: float = setting(math.inf, "dB", -60, math.inf, "noise below the echoes; inf: none")
+    seed: int = setting(0, "", 0, 2**63 - 1, "noise seed")
+    fractional_delay: str = setting(
+        "sinc", choices=FRACTIONAL_DELAYS, doc="fractional-delay interpolator"
+    )
+    absorption: bool = setting(True, doc="air absorption")
+    energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
+    max_memory_gb: float = setting(
+        math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
+    )
+
+    def __post_init__(self) -> None:
+        if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
+            object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
+        validate(self)
+
+
+def memory_limit_bytes() -> float:
+    """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
+    text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
+    try:
+        gb = float(text)
+    except ValueError:
+        gb = math.nan
+    if not (gb > 0 and math.isfinite(gb)):
+        raise InputError(
+            "must be a positive number of gigabytes", key="ACOUSIM_MAX_MEMORY_GB", value=text
+        )
+    return gb * 1e9
 
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    name: str
-    description: str
-    source: Path | None
-    file_sha256: str | None
-    materials: dict[str, Material]
-    meshes: tuple[MeshItem, ...]
-    points: tuple[PointItem, ...]
-    sensor: Sensor
+    """A whole scene; give at least one mesh or point. `materials` defaults to those of
+    the meshes; `source` and `file_sha256` identify a scene file (None in code)."""
+
+    name: str = "scene"
+    description: str = ""
+    source: Path | None = None
+    file_sha256: str | None = None
+    materials: dict[str, Material] = field(default_factory=dict)
+    meshes: tuple[MeshItem, ...] = ()
+    points: tuple[PointItem, ...] = ()
+    sensor: Sensor = field(default_factory=Sensor)
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
+
+    def __post_init__(self) -> None:
+        meshes, points = tuple(self.meshes), tuple(self.points)
+        for key, items, kind in (
+            ("Scene.meshes", meshes, MeshItem),
+            ("Scene.points", points, PointItem),
+        ):
+            bad = [x for x in items if not isinstance(x, kind)]
+            if bad:
+                raise InputError(f"must hold {kind.__name__} objects", key=key, value=bad[0])
+        if not meshes and not points:
+            raise InputError(
+                "the scene has neither meshes nor points: nothing can echo", key="Scene.meshes"
+            )
+        for key, value, kind in (
+            ("Scene.sensor", self.sensor, Sensor),
+            ("Scene.environment", self.environment, Environment),
+            ("Scene.simulation", self.simulation, Simulation),
+        ):
+            if not isinstance(value, kind):
+                raise InputError(f"must be a {kind.__name__}", key=key, value=value)
+        materials = {"default": Material("default"), **dict(self.materials)}
+        for m in meshes:
+            materials.setdefault(m.material.name, m.material)
+        object.__setattr__(self, "meshes", meshes)
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "materials", materials)
+        if self.source is not None:
+            object.__setattr__(self, "source", Path(self.source))
 
     def n_samples(self) -> int:
         """Recording length: the round trip to max_range plus the call."""
         c = self.environment.speed_of_sound_m_s
         t = 2 * self.simulation.max_range_m / c + self.sensor.call.duration_s
         return int(np.ceil(t * self.sensor.sample_rate_hz))
+
+    def memory_bytes(self, n_poses: int | None = None, n_samples: int | None = None) -> int:
+        """Estimated peak memory of simulating `n_poses` poses (default: all), bytes.
+
+        Every recording is kept (M microphones x T samples, float64) and one pose at
+        a time needs about six more such arrays of working memory (the render's
+        oversampled and FFT buffers): ``8 M T (n_poses + 6)``.
+        """
+        n = len(self.sensor.poses) if n_poses is None else n_poses
+        T = self.n_samples() if n_samples is None else n_samples
+        return 8 * self.sensor.array.n_mics * T * (n + 6)
+
+    def check_memory(self, n_poses: int | None = None, n_samples: int | None = None) -> None:
+        """Refuse (InputError) a simulation whose :meth:`memory_bytes` exceeds
+        ``simulation.max_memory_gb``."""
+        need = self.memory_bytes(n_poses, n_samples)
+        limit = self.simulation.max_memory_gb * 1e9
+        if need > limit:
+            raise InputError(
+                f"the simulation would need about {need / 1e9:.3g} GB "
+                f"({self.sensor.array.n_mics} mics x {n_samples or self.n_samples()} samples "
+                f"x {len(self.sensor.poses) if n_poses is None else n_poses} pose(s)), above "
+                f"the limit of {self.simulation.max_memory_gb:g} GB; lower sample_rate_hz or "
+                "max_range_m, simulate fewer poses, or raise simulation.max_memory_gb "
+                "(or $ACOUSIM_MAX_MEMORY_GB)",
+                file=self.source,
+                key="simulation.max_memory_gb",
+                value=self.simulation.max_memory_gb,
+            )

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.errors import InputError
+
 __all__ = ["Pose", "rotation"]
 
 
@@ -41,10 +43,24 @@ class Pose:
     time_s: float = 0.0
 
     def __post_init__(self) -> None:
-        p = np.asarray(self.position_m, float).reshape(3)
+        try:
+            p = np.asarray(self.position_m, float).reshape(3)
+        except (TypeError, ValueError):
+            p = np.full(3, np.nan)
         if not np.all(np.isfinite(p)):
-            raise ValueError(f"pose position must be finite, got {p}")
+            raise InputError(
+                "must be 3 finite numbers", key="Pose.position_m", value=self.position_m
+            )
         object.__setattr__(self, "position_m", p)
+        for name in ("yaw_rad", "pitch_rad", "roll_rad", "time_s"):
+            v = getattr(self, name)
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, int | float | np.number)
+                or not np.isfinite(v)
+            ):
+                raise InputError("must be a finite number", key=f"Pose.{name}", value=v)
+            object.__setattr__(self, name, float(v))
 
     @property
     def rotation(self) -> np.ndarray:

@@ -12,6 +12,7 @@ import logging
 import numpy as np
 
 from processing import Array, Recording, Waveform
+from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
 from .noise import add_noise, noise_sigma
@@ -91,7 +92,7 @@ def simulate(
     rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):
         if not np.any(clean):
-            raise ValueError(
+            raise InputError(
                 f"snr_db={snr_db} is relative to the echoes, but no echo reaches the "
                 f"{window_s * 1e3:.2f} ms window"
             )
@@ -122,7 +123,7 @@ def _echo_noise_sigma(
 ) -> float:
     echo = echoes.order > 0
     if not echo.any():
-        raise ValueError("snr_reference='echoes' but the scene has no echo besides the direct path")
+        raise InputError("snr_reference='echoes' but the scene has no echo besides the direct path")
     call = waveform.sampled(fs)
     power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
     if response is not None and response.active:

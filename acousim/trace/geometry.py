@@ -4,10 +4,12 @@ material, its plane and whether it belongs to a curved surface."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from acousim.scene.model import Material, Scene
+from processing.errors import InputError
 
 __all__ = ["World", "build_world", "CURVED_MAX_ANGLE_DEG"]
 
@@ -69,24 +71,33 @@ class World:
         return n
 
 
+def _name(mesh) -> str:
+    """How a mesh is named in an error: its file, or what it is (a mesh in memory)."""
+    return str(mesh) if isinstance(mesh, str | Path) else f"<{type(mesh).__name__} in memory>"
+
+
 def _load(path, transform) -> object:
     import trimesh
 
-    try:
-        mesh = trimesh.load(path, force="mesh", process=False)
+    try:  # a trimesh.Trimesh in memory is copied, never changed
+        mesh = (
+            path.copy()
+            if isinstance(path, trimesh.Trimesh)
+            else trimesh.load(path, force="mesh", process=False)
+        )
     except Exception as exc:  # trimesh raises many kinds
-        raise ValueError(f"{path}: cannot read mesh ({exc})") from None
+        raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
-        raise ValueError(f"{path}: mesh has no faces")
+        raise InputError("mesh has no faces", file=_name(path))
     if not np.all(np.isfinite(mesh.vertices)):
-        raise ValueError(f"{path}: mesh has NaN or inf vertices")
+        raise InputError("mesh has NaN or inf vertices", file=_name(path))
     mesh.apply_transform(transform)
     mesh.merge_vertices()
     mesh.update_faces(mesh.nondegenerate_faces(height=1e-9))
     mesh.update_faces(mesh.unique_faces())
     mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:
-        raise ValueError(f"{path}: every face of the mesh is degenerate")
+        raise InputError("every face of the mesh is degenerate", file=_name(path))
     return mesh
 
 
@@ -147,7 +158,7 @@ def build_world(scene: Scene) -> World:
     materials = list({m.material.name: m.material for m in scene.meshes}.values())
     names = [m.name for m in materials]
     for item in scene.meshes:
-        mesh = _load(item.path, item.transform)
+        mesh = _load(item.mesh, item.transform)
         meshes.append(mesh)
         mat_index.append(np.full(len(mesh.faces), names.index(item.material.name)))
     merged = trimesh.util.concatenate(meshes)

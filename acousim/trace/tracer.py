@@ -30,6 +30,7 @@ import numpy as np
 
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
+from processing.errors import InputError
 
 from .cluster import DIFFUSE_CELL_DEG, cluster
 from .direct import direct_path, point_paths
@@ -166,7 +167,7 @@ class Tracer:
             facing = np.einsum("ij,ij->i", self.world.normals[f[hit]], dirs[hit]) > 0
             closed = not np.isinf(t).any()
             if facing.mean() > 0.9 and closed:
-                raise ValueError(
+                raise InputError(
                     f"scene {self.scene.name!r}: the sensor at {np.round(emitter, 3).tolist()} "
                     "is inside a closed mesh (a wall or object): move its pose"
                 )
