@@ -36,25 +36,37 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
+from typing import Literal, get_args
+
 import numpy as np
 
 from .arrays import Array
+from .errors import InputError
 from .smoothing import covariance, default_subarray, smoothed_covariance
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
-__all__ = ["METHODS", "doa_spectrum", "method_matrix"]
+__all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
 
-METHODS = ("das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss")
+NarrowbandMethod = Literal[
+    "das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss"
+]
+#: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
+#: underscore variants: every caller checks names against this one tuple).
+NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
+METHODS = NARROWBAND_METHODS
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
 
 
 def _parse(method: str) -> tuple[str, str]:
-    m = method.lower().replace("_", "-")
-    if m not in METHODS:
-        raise ValueError(f"unknown DOA method {method!r}; choose one of {', '.join(METHODS)}")
-    base, _, smooth = m.partition("-")
+    if method not in NARROWBAND_METHODS:
+        raise InputError(
+            f"unknown DOA method; choose one of {', '.join(NARROWBAND_METHODS)}",
+            key="method",
+            value=method,
+        )
+    base, _, smooth = method.partition("-")
     return base, smooth
 
 
