@@ -28,6 +28,7 @@ from .broadband import (
     sphere_partition,
 )
 from .doa import NARROWBAND_METHODS, doa_spectrum
+from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
 from .matched_filter import matched_filter
 from .metrics import (
@@ -86,6 +87,7 @@ __all__ = [
     "fan",
     "sphere_partition",
     "doa_spectrum",
+    "InputError",
     "Image",
     "Peaks",
     "find_peaks",
