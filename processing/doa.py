@@ -30,8 +30,16 @@ Definitions that the paper leaves open, fixed here:
   well defined at every signal scale; an absolute b = -0.5 added to an unnormalised
   R would depend on the units of the recording and can make R_b indefinite.
 * A range bin whose covariance is zero (no energy) gets a spectrum of zeros for
-  every method.  MUSIC denominators are floored at ``1e-12 * L``, so spectra are
-  finite, real and non-negative.
+  every method.
+* MUSIC denominators ``a^H E_n E_n^H a`` are floored at ``MUSIC_FLOOR * L``
+  (``1e-12 * L``, L the (sub)array size), so spectra are finite, real and
+  non-negative.  The floor caps a noise-free MUSIC peak at about 120 dB over the
+  spectrum's median (whose denominators are of order L); with any noise the true
+  denominators are far above it.
+* Scale: the snapshots are divided by their largest magnitude before anything is
+  squared, so inputs of any magnitude (1e-160 or 1e+160) give the same spectrum,
+  and DAS and Capon powers are relative to that largest snapshot (squared).
+* Non-finite snapshots are an error naming the microphone and range bin.
 """
 
 from __future__ import annotations
@@ -154,6 +162,17 @@ def doa_spectrum(
     if backend not in ("auto", "coarray", "direct"):
         raise ValueError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
     x = x.astype(np.complex128, copy=False)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        m, r = np.argwhere(bad)[0][:2]
+        raise InputError(
+            f"non-finite snapshot at microphone {m}, range bin {r}",
+            key="snapshots",
+            value=x[m, r, 0],
+        )
+    peak = np.abs(x).max() if x.size else 0.0
+    if peak > 0:  # normalise before squaring: no overflow or underflow at any scale
+        x = x / peak
     if smooth:
         array.require_ura(f"method {method!r}")
     use_grid = array.is_ura and backend != "direct"

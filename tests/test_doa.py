@@ -79,6 +79,7 @@ def _direct_smoothed(x, arr, grid, method):
     from processing.steering import quadratic_form_direct, steering_matrix
 
     base, smooth = method.split("-")
+    x = x / np.abs(x).max()  # the documented scale: relative to the largest snapshot
     xg = x[arr.grid_order()].reshape(8, 8, *x.shape[1:])
     Cs = smoothed_covariance(xg, (5, 5), forward_backward=smooth == "fbss")
     Q, inverse = method_matrix(Cs, base)
