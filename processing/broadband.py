@@ -96,6 +96,7 @@ BROADBAND_METHODS: tuple[str, ...] = get_args(BroadbandMethod)
 
 Weighting = Literal["plain", "phat"]
 Focus = Literal["far", "near"]
+Engine = Literal["auto", "numba", "numpy"]
 
 
 @dataclass(frozen=True)
@@ -111,7 +112,10 @@ class BroadbandSettings:
     focus : 'far' (plane-wave steering) or 'near' (focus at each range).
     upsample : FFT upsampling of the baseband for near-field interpolation.
     band_hz : (low, high) band, Hz; None: the call's band.
-    chunk : directions processed at once (bounds the memory).
+    chunk : directions processed at once by the numpy engine (bounds the memory).
+    engine : 'numba' (compiled kernels, linear interpolation on the upsampled
+        baseband), 'numpy' (far field exact by phase ramps; slow) or 'auto' (numba
+        when installed).
     """
 
     range_limits_m: tuple[float, float] = (0.5, 5.0)
@@ -119,9 +123,10 @@ class BroadbandSettings:
     oversample: float = 2.0
     weighting: Weighting = "plain"
     focus: Focus = "far"
-    upsample: int = 16
+    upsample: int = 8
     band_hz: tuple[float, float] | None = None
     chunk: int = 16
+    engine: Engine = "auto"
 
     def __post_init__(self) -> None:
         lo, hi = self.range_limits_m
@@ -135,6 +140,8 @@ class BroadbandSettings:
             raise InputError(
                 f"choose one of {get_args(Weighting)}", key="weighting", value=self.weighting
             )
+        if self.engine not in get_args(Engine):
+            raise InputError(f"choose one of {get_args(Engine)}", key="engine", value=self.engine)
         if self.focus not in get_args(Focus):
             raise InputError(f"choose one of {get_args(Focus)}", key="focus", value=self.focus)
         if int(self.upsample) < 1 or int(self.chunk) < 1:
@@ -406,15 +413,116 @@ def energyscape(
     u = dirs.unit()
     G = u.shape[0]
     out = np.empty((r_out.size, G))
+    engine = settings.engine
+    if engine == "auto":
+        engine = "numba" if _kernels() is not None else "numpy"
+    if engine == "numba":
+        _compiled(recording, bb, u, idx, rng, order, cf, settings, out)
+    else:
+        _numpy(recording, bb, u, idx, rng, t, order, cf, settings, out)
+    return Energyscape(
+        power=out,
+        range_m=r_out,
+        directions=dirs,
+        method=method,
+        bin_range_m=c * D / bb.rate_hz / 2,
+    )
+
+
+def _kernels():
+    """The compiled kernels, or None when numba is not installed."""
+    try:
+        from . import _bbkernel
+    except ImportError:
+        return None
+    return _bbkernel
+
+
+def _fine(bb: Baseband, U: int, pad: int) -> np.ndarray:
+    """The baseband upsampled U times by FFT, `pad` zero baseband samples each side:
+    (K, M, (N + 2 pad) U)."""
+    K, M, N = bb.spectrum.shape
+    spec = np.zeros((K, M, N * U), complex)
+    half = N // 2
+    spec[..., :half] = bb.spectrum[..., :half]
+    spec[..., -(N - half) :] = bb.spectrum[..., half:]
+    fine = sfft.ifft(spec, axis=-1, overwrite_x=True)
+    fine *= U
+    return np.pad(fine, ((0, 0), (0, 0), (pad * U, pad * U)))
+
+
+def _rooted(z: np.ndarray, order: int) -> np.ndarray:
+    if order == 1:
+        return np.zeros((1,) * z.ndim, complex)
+    mag = np.abs(z)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(mag > 0, z * mag ** (1.0 / order - 1.0), 0)
+
+
+def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
+    """Steps 3-5 in the compiled kernels (linear interpolation, U-times upsampled)."""
+    kern = _kernels()
+    arr = recording.array
+    c = recording.speed_of_sound_m_s
+    U = int(settings.upsample)
+    reach = np.abs(np.concatenate([arr.positions_m, arr.emitter_m[None]])).sum(1).max()
+    pad = int(np.ceil(2 * reach / c * bb.rate_hz)) + 2
+    fine = _fine(bb, U, pad)
+    rooted = _rooted(fine, order)
+    binom = float(comb(arr.n_mics, order))
+    D = int(settings.decimation)
+    if settings.focus == "far":
+        d = _delays(arr, u, None, c)  # (G, M)
+        start = (idx[0] + pad) * U - d * bb.rate_hz * U
+        i0 = np.floor(start).astype(np.int64)
+        frac = start - i0
+        K, M, Nf = fine.shape
+
+        def poly(x):
+            x = x.reshape(x.shape[0], M, Nf // U, U).transpose(0, 1, 3, 2)
+            return (
+                np.ascontiguousarray(x.real, np.float32),
+                np.ascontiguousarray(x.imag, np.float32),
+            )
+
+        zr, zi = poly(fine)
+        rr, ri = poly(rooted) if order > 1 else (np.zeros((1, 1, 1, 1), np.float32),) * 2
+        phase = np.exp(-2j * np.pi * bb.f0_hz * d)
+        kern.far_field(zr, zi, rr, ri, i0 // U, i0 % U, frac, phase, order, cf, binom, D, out)
+    else:
+        t_fine = ((idx + pad) * U).astype(float)
+        rf = rooted if order > 1 else np.zeros((1, 1, 2), complex)
+        kern.near_field(
+            fine,
+            rf,
+            u,
+            arr.positions_m,
+            arr.emitter_m,
+            rng[idx],
+            t_fine,
+            bb.rate_hz * U,
+            bb.f0_hz,
+            c,
+            order,
+            cf,
+            binom,
+            D,
+            out,
+        )
+
+
+def _numpy(recording, bb, u, idx, rng, t, order, cf, settings, out) -> None:
+    """Steps 3-5 in numpy: far field exactly (phase ramps on the spectrum), near field
+    by linear interpolation; the reference of the compiled path."""
+    c = recording.speed_of_sound_m_s
+    K, M, N = bb.signal.shape
+    D = int(settings.decimation)
+    G = u.shape[0]
     f_abs = bb.f0_hz + bb.freq_hz
     near = settings.focus == "near"
     if near:
         U = int(settings.upsample)
-        padded = np.zeros((K, M, N * U), complex)
-        half = N // 2
-        padded[..., :half] = bb.spectrum[..., :half]
-        padded[..., -(N - half) :] = bb.spectrum[..., half:]
-        fine = sfft.ifft(padded, axis=-1) * U  # (K, M, N U), rate U * rate_hz
+        fine = _fine(bb, U, 0)  # (K, M, N U), rate U * rate_hz
     for g0 in range(0, G, int(settings.chunk)):
         ug = u[g0 : g0 + int(settings.chunk)]
         if not near:
@@ -438,10 +546,3 @@ def energyscape(
             power = combine(s, order, cf)
         # power (K, g, n): mean over measurements, block mean over D samples
         out[:, g0 : g0 + ug.shape[0]] = power.mean(axis=0).reshape(ug.shape[0], -1, D).mean(-1).T
-    return Energyscape(
-        power=out,
-        range_m=r_out,
-        directions=dirs,
-        method=method,
-        bin_range_m=c * D / bb.rate_hz / 2,
-    )
