@@ -29,23 +29,25 @@ from numba import njit, prange
 
 @njit(cache=True, inline="always")
 def _combine(S, E, P, M, order, cf, binom):
+    """Power of one output sample from S, E and the power sums P[1..5] (no
+    allocation: the Newton-Girard recursion written out to order 5)."""
     if order == 1:
         v = S / M
-        out = v.real * v.real + v.imag * v.imag
     else:
-        e = np.empty(order + 1, np.complex128)
-        e[0] = 1.0
-        for kk in range(1, order + 1):
-            acc = 0j
-            for i in range(1, kk + 1):
-                term = e[kk - i] * P[i]
-                if i % 2 == 1:
-                    acc += term
+        p1, p2, p3, p4, p5 = P[1], P[2], P[3], P[4], P[5]
+        e = (p1 * p1 - p2) / 2
+        if order >= 3:
+            e3 = (e * p1 - p1 * p2 + p3) / 3
+            if order >= 4:
+                e4 = (e3 * p1 - e * p2 + p1 * p3 - p4) / 4
+                if order == 5:
+                    e = (e4 * p1 - e3 * p2 + e * p3 - p1 * p4 + p5) / 5
                 else:
-                    acc -= term
-            e[kk] = acc / kk
-        v = e[order] / binom
-        out = v.real * v.real + v.imag * v.imag
+                    e = e4
+            else:
+                e = e3
+        v = e / binom
+    out = v.real * v.real + v.imag * v.imag
     if cf:
         if E > 0:
             out *= (S.real * S.real + S.imag * S.imag) / (M * E)
@@ -71,9 +73,9 @@ def far_field(zr, zi, rr, ri, q0, ph0, frac, phase, order, cf, binom, D, out):
         Sr = np.empty(Nw, np.float32)
         Si = np.empty(Nw, np.float32)
         E = np.empty(Nw, np.float32)
-        Pr = np.empty((order + 1, Nw), np.float32)
-        Pi = np.empty((order + 1, Nw), np.float32)
-        Pj = np.empty(order + 1, np.complex128)
+        Pr = np.empty((6, Nw), np.float32)
+        Pi = np.empty((6, Nw), np.float32)
+        Pj = np.zeros(6, np.complex128)
         for k in range(K):
             Sr[:] = 0
             Si[:] = 0
@@ -113,19 +115,33 @@ def far_field(zr, zi, rr, ri, q0, ph0, frac, phase, order, cf, binom, D, out):
                     ci = ri[k, m, ph, q : q + Nw]
                     dr = rr[k, m, ph1, q1 : q1 + Nw]
                     di = ri[k, m, ph1, q1 : q1 + Nw]
+                    # every power up to 5, branch-free so the loop vectorises
+                    p1r, p1i, p2r, p2i = Pr[1], Pi[1], Pr[2], Pi[2]
+                    p3r, p3i, p4r, p4i = Pr[3], Pi[3], Pr[4], Pi[4]
+                    p5r, p5i = Pr[5], Pi[5]
                     for j in range(Nw):
                         xr = cr[j] * a0r - ci[j] * a0i + dr[j] * a1r - di[j] * a1i
                         xi = cr[j] * a0i + ci[j] * a0r + dr[j] * a1i + di[j] * a1r
-                        tr, ti = xr, xi
-                        Pr[1, j] += tr
-                        Pi[1, j] += ti
-                        for kk in range(2, order + 1):
-                            tr, ti = tr * xr - ti * xi, tr * xi + ti * xr
-                            Pr[kk, j] += tr
-                            Pi[kk, j] += ti
+                        x2r = xr * xr - xi * xi
+                        x2i = 2 * xr * xi
+                        x3r = x2r * xr - x2i * xi
+                        x3i = x2r * xi + x2i * xr
+                        x4r = x2r * x2r - x2i * x2i
+                        x4i = 2 * x2r * x2i
+                        p1r[j] += xr
+                        p1i[j] += xi
+                        p2r[j] += x2r
+                        p2i[j] += x2i
+                        p3r[j] += x3r
+                        p3i[j] += x3i
+                        p4r[j] += x4r
+                        p4i[j] += x4i
+                        p5r[j] += x4r * xr - x4i * xi
+                        p5i[j] += x4r * xi + x4i * xr
             for j in range(Nw):
-                for kk in range(order + 1):
-                    Pj[kk] = complex(Pr[kk, j], Pi[kk, j])
+                if order > 1:
+                    for kk in range(1, 6):
+                        Pj[kk] = complex(Pr[kk, j], Pi[kk, j])
                 acc[j] += _combine(complex(Sr[j], Si[j]), E[j], Pj, M, order, cf, binom)
         for r in range(R):
             v = 0.0
@@ -144,7 +160,7 @@ def near_field(zf, rf, u, pos, emitter, ranges, t_fine, rate_fine, f0, c, order,
     R = out.shape[0]
     two_pi_f0 = 2 * math.pi * f0
     for g in prange(G):
-        P = np.empty(order + 1, np.complex128)
+        P = np.zeros(6, np.complex128)
         di = np.empty(M, np.int64)
         df = np.empty(M)
         dw = np.empty(M, np.complex128)
@@ -174,7 +190,7 @@ def near_field(zf, rf, u, pos, emitter, ranges, t_fine, rate_fine, f0, c, order,
                 for k in range(K):
                     S = 0j
                     E = 0.0
-                    for kk in range(order + 1):
+                    for kk in range(6):
                         P[kk] = 0
                     for m in range(M):
                         i0 = di[m]
