@@ -304,8 +304,8 @@ def baseband(
     nb = sfft.next_fast_len(int(np.ceil(settings.oversample * (k_hi - k_lo + 1))))
     H, taper, kb, kc = _template_bins(recording.waveform, fs, n, k_lo, k_hi, nb)
     if peak > 0:  # normalise before anything is squared: any magnitude works
-        x = x * np.float32(1 / peak) if single else x / peak
-    elif single:
+        x = x / peak
+    if single:
         x = x.astype(np.float32)
     X = sfft.rfft(x, n, axis=-1, workers=-1)[..., kc]
     Y = X * H
