@@ -8,10 +8,11 @@ import platform
 import sys
 from pathlib import Path
 
-from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode
+from . import broadband, corridor, dataset, doa_speed, fractional_delay, pdm_decode
 
 SECTIONS = {
     "doa": doa_speed,
+    "broadband": broadband,
     "fractional_delay": fractional_delay,
     "corridor": corridor,
     "pdm_decode": pdm_decode,
