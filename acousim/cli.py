@@ -528,7 +528,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="das,capon-fbss,music-fbss",
-        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
+        help="comma-separated methods: narrowband das, music[-fss|-fbss], "
+        "capon[-fss|-fbss]; wideband capon[-fbss]-wb, music[-fbss]-wb; broadband das-bb, "
+        "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss)",
     )
     p.add_argument("--out", default="out", help="output folder (default: out)")
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
@@ -627,7 +629,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--array", default="ertis_v3d1", help="array of a raw .bin (default: ertis_v3d1)"
     )
     p.add_argument("--call", default="default_25_50", help="call of a raw .bin")
-    p.add_argument("--method", default="das", help="comma-separated DOA methods")
+    p.add_argument(
+        "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
+    )
     p.add_argument("--out", default="out/compare", help="output folder")
     p.set_defaults(func=_cmd_compare)
 

@@ -66,11 +66,12 @@ def image_recordings(
     out = []
     for i, rec in enumerate(recordings):
         if rec.array.n_mics and not rec.array.is_ura:
-            smooth = [m for m in options.methods if "-" in m]
+            smooth = [m for m in options.methods if P.requires_ura(m)]
             if smooth:
                 raise ValueError(
                     f"recording {i}: array {rec.array.name!r} is not a URA, so "
-                    f"{', '.join(smooth)} cannot be used; choose das, music, capon"
+                    f"{', '.join(smooth)} cannot be used; choose das, music, capon "
+                    "or a wideband (-wb) or broadband (-bb) method"
                 )
         out.append(P.acoustic_images(rec, options.methods, options.settings(rec)))
         if progress:

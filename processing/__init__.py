@@ -48,6 +48,7 @@ from .pipeline import (
     check_method,
     estimate_memory_bytes,
     recording_snapshot,
+    requires_ura,
 )
 from .recording import (
     Recording,
@@ -76,6 +77,7 @@ __all__ = [
     "METHODS",
     "Method",
     "check_method",
+    "requires_ura",
     "estimate_memory_bytes",
     "NARROWBAND_METHODS",
     "BROADBAND_METHODS",

@@ -31,6 +31,7 @@ __all__ = [
     "Method",
     "METHODS",
     "check_method",
+    "requires_ura",
     "ProcessingSettings",
     "recording_snapshot",
     "acoustic_images",
@@ -46,6 +47,11 @@ METHODS: tuple[str, ...] = get_args(Method)  # nested Literals flatten
 #: Default limit on the memory one imaging call may allocate (bytes); override with
 #: ``ProcessingSettings(memory_limit_bytes=...)``.
 MEMORY_LIMIT_BYTES = 4 * 2**30
+
+
+def requires_ura(method: str) -> bool:
+    """True for the spatially smoothed methods (``-fss``, ``-fbss``), which need a URA."""
+    return "-fss" in check_method(method) or "-fbss" in method
 
 
 def check_method(name: str) -> Method:

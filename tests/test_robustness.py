@@ -77,3 +77,26 @@ def test_an_empty_recording_images_to_no_range_bins_not_an_error():
     rec = echo_recording(P.paper_8x8(), [], n_samples=2048)
     img = P.acoustic_image(rec, "das", P.ProcessingSettings(grid=P.Grid.degrees(step=10)))
     assert img.power.shape[0] == 0
+
+
+@pytest.mark.parametrize("base", ["music", "capon"])
+@pytest.mark.parametrize("n_snap", [1, 3, 20])
+def test_eigen_shortcuts_equal_the_plain_eigendecomposition(base, n_snap):
+    """Gram-matrix (S < L) and real unitary (FBSS) shortcuts against numpy's eigh."""
+    from processing.doa import method_matrix
+    from processing.smoothing import subarray_snapshots
+
+    rng = np.random.default_rng(n_snap)
+    Y = rng.standard_normal((4, 16, n_snap)) + 1j * rng.standard_normal((4, 16, n_snap))
+    Y[:, :, 0] *= 10  # one strong direction
+    C = Y @ Y.conj().transpose(0, 2, 1) / n_snap
+    plain, _ = method_matrix(C, base)
+    fast, _ = method_matrix(C, base, data=Y)
+    np.testing.assert_allclose(fast, plain, rtol=1e-8, atol=1e-8 * np.abs(plain).max())
+    xg = rng.standard_normal((6, 6, 3, n_snap)) + 1j * rng.standard_normal((6, 6, 3, n_snap))
+    Yf = subarray_snapshots(xg, (4, 4), forward_backward=True)
+    Cf = Yf @ Yf.conj().transpose(0, 2, 1) / Yf.shape[-1]
+    Cf = 0.5 * (Cf + Cf[:, ::-1, ::-1].conj())
+    plain, _ = method_matrix(Cf, base)
+    fast, _ = method_matrix(Cf, base, centro=True)
+    np.testing.assert_allclose(fast, plain, rtol=1e-8, atol=1e-8 * np.abs(plain).max())
