@@ -129,12 +129,12 @@ def _cmd_image(args: argparse.Namespace) -> int:
 
     methods = tuple(m.strip() for m in args.method.split(",") if m.strip())
     try:
-        options = ImagingOptions(
+        given = {"energy_fraction": args.energy_fraction, "min_range_m": args.min_range}
+        options = ImagingOptions(  # unset options keep ProcessingSettings' defaults
             methods=methods,
             step_deg=args.step,
-            energy_fraction=args.energy_fraction,
-            min_range_m=args.min_range,
             max_range_m=args.max_range,
+            **{k: v for k, v in given.items() if v is not None},
         )
     except ValueError as exc:
         raise UsageError(f"--method {args.method!r}: {exc}") from None
@@ -538,15 +538,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--energy-fraction",
         type=float,
-        default=1e-3,
+        default=None,
         help="keep range bins with at least this fraction of the strongest "
-        "bin's energy (default: 1e-3; the paper uses 0.5)",
+        "bin's energy (default: 1e-3, ProcessingSettings'; the paper uses 0.5)",
     )
     p.add_argument(
         "--min-range",
         type=float,
-        default=0.25,
-        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
+        default=None,
+        help="ignore nearer range bins, metres (default: 0.25, ProcessingSettings': "
+        "the direct path)",
     )
     p.add_argument("--max-range", type=float, default=None, help="metres (default: all)")
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")

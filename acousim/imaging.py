@@ -32,8 +32,8 @@ class ImagingOptions:
     azimuth_deg: tuple[float, float] = (-90.0, 90.0)
     elevation_deg: tuple[float, float] = (-40.0, 40.0)
     step_deg: float = 2.0
-    energy_fraction: float = 1e-3
-    min_range_m: float = 0.25
+    energy_fraction: float = P.ProcessingSettings.energy_fraction  # one declaration
+    min_range_m: float = P.ProcessingSettings.range_limits_m[0]
     max_range_m: float | None = None
     peak_threshold_db: float = -10.0
     grid: P.Grid = field(init=False, repr=False)

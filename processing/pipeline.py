@@ -65,13 +65,19 @@ def check_method(name: str) -> Method:
 
 @dataclass(frozen=True)
 class ProcessingSettings:
-    """Parameters of the flow; defaults are the paper's.
+    """Parameters of the flow.
 
     window, overlap : STFT window and overlap in samples.
     frequency_hz : steering frequency (None: the STFT bin of highest energy within the
         call's band and below the array's alias-free limit, see ``Array.alias_free_hz``).
-    energy_fraction : range-bin energy gate relative to the strongest bin.
-    range_limits_m : (min, max) range considered, or None for all.
+    energy_fraction : range-bin energy gate relative to the strongest bin (default
+        1e-3: a room has echoes far weaker than the strongest; the paper's single
+        reflector used 0.5).
+    range_limits_m : (min, max) range considered, or None for all (default: from
+        0.25 m, beyond the emitter-to-microphone crosstalk).
+
+    These defaults are the command line's too (``acousim image`` reads them from
+    here): one declaration.
     max_bins : keep at most this many range bins (the strongest).
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
@@ -86,8 +92,8 @@ class ProcessingSettings:
     window: int = 256
     overlap: int = 240
     frequency_hz: float | None = None
-    energy_fraction: float = 0.5
-    range_limits_m: tuple[float, float] | None = None
+    energy_fraction: float = 1e-3
+    range_limits_m: tuple[float, float] | None = (0.25, float("inf"))
     max_bins: int | None = None
     subarray: tuple[int, int] | None = None
     loading: float = -0.5

@@ -30,7 +30,11 @@ def test_time_domain_plane_wave_pins_the_sign_convention():
     """A far reflector at (+35, +20) must image at (+35, +20), not the mirror."""
     arr = P.paper_8x8()
     rec = echo_recording(arr, [(35, 20, 3.0, 1.0)], n_samples=12000)
-    settings = P.ProcessingSettings(frequency_hz=F, grid=P.Grid.degrees(step=1.0))
+    settings = P.ProcessingSettings(
+        frequency_hz=F,
+        grid=P.Grid.degrees(step=1.0),
+        energy_fraction=0.5,  # the paper's gate
+    )
     for method in ["das", "music-fbss", "capon-fbss"]:
         img = P.acoustic_image(rec, method, settings)
         pk = img.peaks(-1, max_peaks=1)
