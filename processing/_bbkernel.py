@@ -57,15 +57,16 @@ def _combine(S, E, P, M, order, cf, binom):
 
 
 @njit(parallel=True, cache=True, fastmath=True)
-def far_field(zr, zi, rr, ri, q0, ph0, frac, phase, order, cf, binom, D, out):
+def far_field(zr, zi, rr, ri, q, ph, w, order, cf, binom, D, out):
     """zr, zi (and rooted rr, ri): (K, M, U, Nq) float32 real and imaginary parts;
-    q0, ph0 (G, M) int; frac (G, M); phase (G, M) complex; out (R, G) written.
+    q, ph (G, M, T) int: polyphase row and start of each of the T interpolation taps;
+    w (G, M, T) complex: tap weights times the carrier phase; out (R, G) written.
 
     Real and imaginary parts in separate float32 rows so the inner loop over output
     samples vectorises; sums of M = 32 terms in float32 err by about 1e-6.
     """
     K, M, U, Nq = zr.shape
-    G = q0.shape[0]
+    G, _, T = q.shape
     R = out.shape[0]
     Nw = R * D
     for g in prange(G):
@@ -73,6 +74,8 @@ def far_field(zr, zi, rr, ri, q0, ph0, frac, phase, order, cf, binom, D, out):
         Sr = np.empty(Nw, np.float32)
         Si = np.empty(Nw, np.float32)
         E = np.empty(Nw, np.float32)
+        xr = np.empty(Nw, np.float32)
+        xi = np.empty(Nw, np.float32)
         Pr = np.empty((6, Nw), np.float32)
         Pi = np.empty((6, Nw), np.float32)
         Pj = np.zeros(6, np.complex128)
@@ -83,61 +86,60 @@ def far_field(zr, zi, rr, ri, q0, ph0, frac, phase, order, cf, binom, D, out):
             Pr[:] = 0
             Pi[:] = 0
             for m in range(M):
-                ph = ph0[g, m]
-                q = q0[g, m]
-                f = frac[g, m]
-                w0 = phase[g, m] * (1.0 - f)
-                w1 = phase[g, m] * f
-                a0r, a0i = np.float32(w0.real), np.float32(w0.imag)
-                a1r, a1i = np.float32(w1.real), np.float32(w1.imag)
-                ph1 = ph + 1
-                q1 = q
-                if ph1 == U:
-                    ph1 = 0
-                    q1 = q + 1
-                ar = zr[k, m, ph, q : q + Nw]
-                ai = zi[k, m, ph, q : q + Nw]
-                br = zr[k, m, ph1, q1 : q1 + Nw]
-                bi = zi[k, m, ph1, q1 : q1 + Nw]
-                if cf:
+                if order == 1 and not cf:  # plain DAS: accumulate the sum directly
+                    for t in range(T):
+                        wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
+                        ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+                        ai = zi[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+                        for j in range(Nw):
+                            Sr[j] += ar[j] * wr - ai[j] * wi
+                            Si[j] += ar[j] * wi + ai[j] * wr
+                    continue
+                xr[:] = 0
+                xi[:] = 0
+                for t in range(T):
+                    wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
+                    ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+                    ai = zi[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
                     for j in range(Nw):
-                        sr = ar[j] * a0r - ai[j] * a0i + br[j] * a1r - bi[j] * a1i
-                        si = ar[j] * a0i + ai[j] * a0r + br[j] * a1i + bi[j] * a1r
-                        Sr[j] += sr
-                        Si[j] += si
-                        E[j] += sr * sr + si * si
-                else:
-                    for j in range(Nw):
-                        Sr[j] += ar[j] * a0r - ai[j] * a0i + br[j] * a1r - bi[j] * a1i
-                        Si[j] += ar[j] * a0i + ai[j] * a0r + br[j] * a1i + bi[j] * a1r
+                        xr[j] += ar[j] * wr - ai[j] * wi
+                        xi[j] += ar[j] * wi + ai[j] * wr
+                for j in range(Nw):
+                    Sr[j] += xr[j]
+                    Si[j] += xi[j]
+                    E[j] += xr[j] * xr[j] + xi[j] * xi[j]
                 if order > 1:
-                    cr = rr[k, m, ph, q : q + Nw]
-                    ci = ri[k, m, ph, q : q + Nw]
-                    dr = rr[k, m, ph1, q1 : q1 + Nw]
-                    di = ri[k, m, ph1, q1 : q1 + Nw]
+                    xr[:] = 0
+                    xi[:] = 0
+                    for t in range(T):
+                        wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
+                        ar = rr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+                        ai = ri[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+                        for j in range(Nw):
+                            xr[j] += ar[j] * wr - ai[j] * wi
+                            xi[j] += ar[j] * wi + ai[j] * wr
                     # every power up to 5, branch-free so the loop vectorises
                     p1r, p1i, p2r, p2i = Pr[1], Pi[1], Pr[2], Pi[2]
                     p3r, p3i, p4r, p4i = Pr[3], Pi[3], Pr[4], Pi[4]
                     p5r, p5i = Pr[5], Pi[5]
                     for j in range(Nw):
-                        xr = cr[j] * a0r - ci[j] * a0i + dr[j] * a1r - di[j] * a1i
-                        xi = cr[j] * a0i + ci[j] * a0r + dr[j] * a1i + di[j] * a1r
-                        x2r = xr * xr - xi * xi
-                        x2i = 2 * xr * xi
-                        x3r = x2r * xr - x2i * xi
-                        x3i = x2r * xi + x2i * xr
+                        ur, ui = xr[j], xi[j]
+                        x2r = ur * ur - ui * ui
+                        x2i = 2 * ur * ui
+                        x3r = x2r * ur - x2i * ui
+                        x3i = x2r * ui + x2i * ur
                         x4r = x2r * x2r - x2i * x2i
                         x4i = 2 * x2r * x2i
-                        p1r[j] += xr
-                        p1i[j] += xi
+                        p1r[j] += ur
+                        p1i[j] += ui
                         p2r[j] += x2r
                         p2i[j] += x2i
                         p3r[j] += x3r
                         p3i[j] += x3i
                         p4r[j] += x4r
                         p4i[j] += x4i
-                        p5r[j] += x4r * xr - x4i * xi
-                        p5i[j] += x4r * xi + x4i * xr
+                        p5r[j] += x4r * ur - x4i * ui
+                        p5i[j] += x4r * ui + x4i * ur
             for j in range(Nw):
                 if order > 1:
                     for kk in range(1, 6):

@@ -99,6 +99,7 @@ BROADBAND_METHODS: tuple[str, ...] = get_args(BroadbandMethod)
 Weighting = Literal["plain", "phat"]
 Focus = Literal["far", "near"]
 Engine = Literal["auto", "numba", "numpy"]
+Interpolation = Literal["linear", "cubic"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,8 @@ class BroadbandSettings:
     engine : 'numba' (compiled kernels, linear interpolation on the upsampled
         baseband), 'numpy' (far field exact by phase ramps; slow) or 'auto' (numba
         when installed).
+    interpolation : 'cubic' (4-point Lagrange) or 'linear' between the samples of
+        the upsampled baseband, compiled far-field path.
     """
 
     range_limits_m: tuple[float, float] = (0.5, 5.0)
@@ -129,6 +132,7 @@ class BroadbandSettings:
     band_hz: tuple[float, float] | None = None
     chunk: int = 16
     engine: Engine = "auto"
+    interpolation: Interpolation = "cubic"
 
     def __post_init__(self) -> None:
         lo, hi = self.range_limits_m
@@ -144,6 +148,12 @@ class BroadbandSettings:
             )
         if self.engine not in get_args(Engine):
             raise InputError(f"choose one of {get_args(Engine)}", key="engine", value=self.engine)
+        if self.interpolation not in get_args(Interpolation):
+            raise InputError(
+                f"choose one of {get_args(Interpolation)}",
+                key="interpolation",
+                value=self.interpolation,
+            )
         if self.focus not in get_args(Focus):
             raise InputError(f"choose one of {get_args(Focus)}", key="focus", value=self.focus)
         if int(self.upsample) < 1 or int(self.chunk) < 1:
@@ -499,7 +509,23 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
         d = _delays(arr, u, None, c)  # (G, M)
         start = (idx[0] + pad) * U - d * bb.rate_hz * U
         i0 = np.floor(start).astype(np.int64)
-        frac = start - i0
+        f = (start - i0)[..., None]
+        if settings.interpolation == "cubic":  # Lagrange on the nodes -1, 0, 1, 2
+            offsets = np.arange(-1, 3)
+            taps = np.concatenate(
+                [
+                    -f * (f - 1) * (f - 2) / 6,
+                    (f + 1) * (f - 1) * (f - 2) / 2,
+                    -(f + 1) * f * (f - 2) / 2,
+                    (f + 1) * f * (f - 1) / 6,
+                ],
+                axis=-1,
+            )
+        else:
+            offsets = np.arange(2)
+            taps = np.concatenate([1 - f, f], axis=-1)
+        node = i0[..., None] + offsets  # (G, M, T) fine indices
+        w = taps * np.exp(-2j * np.pi * bb.f0_hz * d)[..., None]
         K, M, Nf = fine.shape
 
         def poly(x):
@@ -511,8 +537,7 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
 
         zr, zi = poly(fine)
         rr, ri = poly(rooted) if order > 1 else (np.zeros((1, 1, 1, 1), np.float32),) * 2
-        phase = np.exp(-2j * np.pi * bb.f0_hz * d)
-        kern.far_field(zr, zi, rr, ri, i0 // U, i0 % U, frac, phase, order, cf, binom, D, out)
+        kern.far_field(zr, zi, rr, ri, node // U, node % U, w, order, cf, binom, D, out)
     else:
         t_fine = ((idx + pad) * U).astype(float)
         rf = rooted if order > 1 else np.zeros((1, 1, 2), complex)

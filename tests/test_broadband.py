@@ -206,5 +206,5 @@ def test_compiled_engine_matches_the_numpy_reference(method, focus):
     s = dict(range_limits_m=(0.5, 2.0), focus=focus)
     ref = B.energyscape(rec, B.fan(n=61), method, B.BroadbandSettings(**s, engine="numpy")).power
     got = B.energyscape(rec, B.fan(n=61), method, B.BroadbandSettings(**s, engine="numba")).power
-    # far field: linear interpolation (U = 8) against exact phase ramps, about -55 dB
+    # far field: cubic interpolation (U = 8) against exact phase ramps, about -50 dB
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-2 * ref.max())
