@@ -232,3 +232,21 @@ def test_real_ertis_sample_echo_stays_where_das_puts_it():
         assert pk.range_m[0] == pytest.approx(ref.range_m[0], abs=0.02), m
         assert abs(pk.azimuth_rad[0] - ref.azimuth_rad[0]) <= np.deg2rad(2.01), m
         assert abs(pk.elevation_rad[0] - ref.elevation_rad[0]) <= np.deg2rad(2.01), m
+
+
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_phat_weighting_and_repeated_measurements(engine):
+    if engine == "numba":
+        pytest.importorskip("numba")
+    rec = echo_recording(URA, [(39, 0, 1.1, 1.0)], fs=FS, n_samples=4096, waveform=WF, noise=0.01)
+    s = B.BroadbandSettings(range_limits_m=(0.5, 2.0), weighting="phat", engine=engine)
+    es = B.energyscape(rec, B.fan(n=61), "das-cf-bb", s)
+    az, _, r = _peak(es)
+    assert az == pytest.approx(39, abs=1e-9)
+    assert r == pytest.approx(1.1, abs=es.bin_range_m)
+    # K identical measurements average to the single one
+    twice = rec.with_samples(np.stack([rec.samples, rec.samples]))
+    s = B.BroadbandSettings(range_limits_m=(0.5, 2.0), engine=engine)
+    one = B.energyscape(rec, B.fan(n=61), "dmas3-bb", s).power
+    two = B.energyscape(twice, B.fan(n=61), "dmas3-bb", s).power
+    np.testing.assert_allclose(two, one, rtol=1e-5, atol=1e-7 * one.max())
