@@ -152,60 +152,79 @@ def far_field(zr, zi, rr, ri, q, ph, w, order, cf, binom, D, out):
             out[r, g] = v / (D * K)
 
 
+@njit(cache=True, inline="always")
+def _near_delay(u0, u1, u2, rj, pos, emitter, c, out):
+    """Delays (s) of every microphone for the focus point at range rj along u."""
+    x0, x1, x2 = rj * u0, rj * u1, rj * u2
+    de = math.sqrt((x0 - emitter[0]) ** 2 + (x1 - emitter[1]) ** 2 + (x2 - emitter[2]) ** 2)
+    for m in range(pos.shape[0]):
+        dm = math.sqrt((x0 - pos[m, 0]) ** 2 + (x1 - pos[m, 1]) ** 2 + (x2 - pos[m, 2]) ** 2)
+        out[m] = (2 * rj - de - dm) / c
+
+
 @njit(parallel=True, cache=True)
-def near_field(zf, rf, u, pos, emitter, ranges, t_fine, rate_fine, f0, c, order, cf, binom, D, out):
-    """zf, rf (K, M, Nf) complex upsampled baseband (rf: rooted); u (G, 3); pos (M, 3);
-    ranges, t_fine (Nw,): range and fine index of each output sample before delay;
-    out (R, G) written."""
+def near_field(
+    zf, rf, u, pos, emitter, range0, range_step, t0, rate_fine, f0, c, order, cf, binom, D, out
+):
+    """zf, rf (K, M, Nf) complex upsampled baseband (rf: rooted); u (G, 3); pos (M, 3).
+
+    Output sample j is at range ``range0 + j range_step`` and, before its delay, at
+    fine index ``t0 + j rate_fine range_step * 2 / c``.  The delays are exact at the
+    ends of each block of D samples and linear in between (their curvature over one
+    block is below 1e-8 s at 0.5 m for a 6 cm aperture), the carrier phase follows
+    them by a constant rotation per sample; out (R, G) written.
+    """
     K, M, Nf = zf.shape
     G = u.shape[0]
     R = out.shape[0]
     two_pi_f0 = 2 * math.pi * f0
+    fine_per_sample = rate_fine * 2 * range_step / c
     for g in prange(G):
         P = np.zeros(6, np.complex128)
-        di = np.empty(M, np.int64)
-        df = np.empty(M)
-        dw = np.empty(M, np.complex128)
+        d_lo = np.empty(M)
+        d_hi = np.empty(M)
+        ph = np.empty(M, np.complex128)
+        rot = np.empty(M, np.complex128)
+        _near_delay(u[g, 0], u[g, 1], u[g, 2], range0, pos, emitter, c, d_lo)
         for r in range(R):
+            _near_delay(
+                u[g, 0], u[g, 1], u[g, 2], range0 + (r + 1) * D * range_step, pos, emitter, c, d_hi
+            )
+            for m in range(M):
+                ph[m] = complex(math.cos(two_pi_f0 * d_lo[m]), -math.sin(two_pi_f0 * d_lo[m]))
+                step = two_pi_f0 * (d_hi[m] - d_lo[m]) / D
+                rot[m] = complex(math.cos(step), -math.sin(step))
             v = 0.0
-            for j in range(r * D, (r + 1) * D):
-                rj = ranges[j]
-                x0, x1, x2 = rj * u[g, 0], rj * u[g, 1], rj * u[g, 2]
-                de = math.sqrt(
-                    (x0 - emitter[0]) ** 2 + (x1 - emitter[1]) ** 2 + (x2 - emitter[2]) ** 2
-                )
-                for m in range(M):
-                    dm = math.sqrt(
-                        (x0 - pos[m, 0]) ** 2 + (x1 - pos[m, 1]) ** 2 + (x2 - pos[m, 2]) ** 2
-                    )
-                    d = (2 * rj - de - dm) / c
-                    p = t_fine[j] - d * rate_fine
-                    i0 = int(math.floor(p))
-                    if i0 < 0:
-                        i0 = 0
-                    if i0 > Nf - 2:
-                        i0 = Nf - 2
-                    fr = min(max(p - i0, 0.0), 1.0)
-                    di[m] = i0
-                    df[m] = fr
-                    dw[m] = complex(math.cos(two_pi_f0 * d), -math.sin(two_pi_f0 * d))
+            for jj in range(D):
+                j = r * D + jj
+                tj = t0 + j * fine_per_sample
                 for k in range(K):
                     S = 0j
                     E = 0.0
                     for kk in range(6):
                         P[kk] = 0
                     for m in range(M):
-                        i0 = di[m]
-                        fr = df[m]
-                        s = (zf[k, m, i0] * (1 - fr) + zf[k, m, i0 + 1] * fr) * dw[m]
+                        d = d_lo[m] + (d_hi[m] - d_lo[m]) * jj / D
+                        p = tj - d * rate_fine
+                        i0 = int(math.floor(p))
+                        if i0 < 0:
+                            i0 = 0
+                        if i0 > Nf - 2:
+                            i0 = Nf - 2
+                        fr = min(max(p - i0, 0.0), 1.0)
+                        s = (zf[k, m, i0] * (1 - fr) + zf[k, m, i0 + 1] * fr) * ph[m]
                         S += s
                         E += s.real * s.real + s.imag * s.imag
                         if order > 1:
-                            rr = (rf[k, m, i0] * (1 - fr) + rf[k, m, i0 + 1] * fr) * dw[m]
+                            rr = (rf[k, m, i0] * (1 - fr) + rf[k, m, i0 + 1] * fr) * ph[m]
                             t = rr
                             P[1] += t
                             for kk in range(2, order + 1):
                                 t = t * rr
                                 P[kk] += t
                     v += _combine(S, E, P, M, order, cf, binom)
+                for m in range(M):
+                    ph[m] *= rot[m]
+            for m in range(M):
+                d_lo[m] = d_hi[m]
             out[r, g] = v / (D * K)

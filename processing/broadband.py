@@ -539,25 +539,12 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
         rr, ri = poly(rooted) if order > 1 else (np.zeros((1, 1, 1, 1), np.float32),) * 2
         kern.far_field(zr, zi, rr, ri, node // U, node % U, w, order, cf, binom, D, out)
     else:
-        t_fine = ((idx + pad) * U).astype(float)
         rf = rooted if order > 1 else np.zeros((1, 1, 2), complex)
+        step = c / (2 * bb.rate_hz)  # range per baseband sample
         kern.near_field(
-            fine,
-            rf,
-            u,
-            arr.positions_m,
-            arr.emitter_m,
-            rng[idx],
-            t_fine,
-            bb.rate_hz * U,
-            bb.f0_hz,
-            c,
-            order,
-            cf,
-            binom,
-            D,
-            out,
-        )
+            fine, rf, u, arr.positions_m, arr.emitter_m, float(rng[idx[0]]), step,
+            float((idx[0] + pad) * U), bb.rate_hz * U, bb.f0_hz, c, order, cf, binom, D, out,
+        )  # fmt: skip
 
 
 def _numpy(recording, bb, u, idx, rng, t, order, cf, settings, out) -> None:
