@@ -12,12 +12,14 @@ and decimation into an *energyscape* of directions x ranges.  Steps here:
    inverse-transformed at a rate ``oversample * B`` (B the band's width): the
    analytic signal of the matched-filter output, demodulated and decimated in one
    step, exactly (no filter ripple; only the FFT's circular wrap at the ends).
-3. **Exact fractional delays**: the aligned channel of microphone m for a focus
-   point is ``z_m(t - d) exp(-j 2 pi f0 d)`` with ``d`` the delay below.  Far-field
-   steering applies the delay as a phase ramp on the baseband spectrum (exact for
-   any fractional delay); near-field focusing, whose delay changes with range,
-   interpolates linearly on a baseband upsampled ``upsample`` times by FFT (error
-   below -55 dB for ``upsample=16``; ``benchmarks/broadband.py`` measures it).
+3. **Fractional delays** (never rounded to whole samples): the aligned channel of
+   microphone m for a focus point is ``z_m(t - d) exp(-j 2 pi f0 d)`` with ``d``
+   the delay below.  The numpy engine steers the far field exactly, as a phase ramp
+   on the baseband spectrum; the compiled engine (numba, :mod:`._bbkernel`)
+   interpolates a baseband upsampled ``upsample`` (8) times by FFT, 4-point
+   Lagrange for the far field (about -53 dB from the exact ramp) and linear for
+   near-field focusing, whose delay changes with range (the numpy engine
+   interpolates the same way there); ``benchmarks/broadband.py`` measures both.
 4. **Combination** of the M aligned channels ``s_m`` at each direction and time:
 
    =========  ================================================================
