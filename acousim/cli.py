@@ -272,18 +272,20 @@ def _load_and_image(args: argparse.Namespace):
     import processing as P
     from acousim.imaging import ImagingOptions, image_recordings
 
-    if args.max_range is not None and args.max_range <= args.min_range:
-        raise UsageError(
-            f"must be above --min-range {args.min_range:g}", key="--max-range", value=args.max_range
-        )
-    options = ImagingOptions(
+    given = {"energy_fraction": args.energy_fraction, "min_range_m": args.min_range}
+    options = ImagingOptions(  # unset options keep ProcessingSettings' defaults
         methods=_methods("--method", args.method),
         step_deg=args.step,
-        energy_fraction=args.energy_fraction,
-        min_range_m=args.min_range,
         max_range_m=args.max_range,
         peak_threshold_db=args.peak_threshold,
+        **{k: v for k, v in given.items() if v is not None},
     )
+    if options.max_range_m is not None and options.max_range_m <= options.min_range_m:
+        raise UsageError(
+            f"must be above --min-range {options.min_range_m:g}",
+            key="--max-range",
+            value=args.max_range,
+        )
     index = _parse_indices("--index", args.index)
     try:
         n = P.count_recordings(args.file)
@@ -369,7 +371,9 @@ def _imaging_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--method",
         default="das,capon-fbss,music-fbss",
-        help="comma-separated DOA methods (default: das,capon-fbss,music-fbss)",
+        help="comma-separated methods: narrowband das, music[-fss|-fbss], "
+        "capon[-fss|-fbss]; wideband capon[-fbss]-wb, music[-fbss]-wb; broadband das-bb, "
+        "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss)",
     )
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
     p.add_argument(
@@ -383,15 +387,16 @@ def _imaging_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--energy-fraction",
         type=_checked("float", 0, 1),
-        default=1e-3,
+        default=None,
         help="keep range bins with at least this fraction of the strongest "
-        "bin's energy (default: 1e-3; the paper uses 0.5)",
+        "bin's energy (default: 1e-3, ProcessingSettings'; the paper uses 0.5)",
     )
     p.add_argument(
         "--min-range",
         type=_checked("float", 0, 1000),
-        default=0.25,
-        help="ignore nearer range bins, metres (default: 0.25: the direct path)",
+        default=None,
+        help="ignore nearer range bins, metres (default: 0.25, ProcessingSettings': "
+        "the direct path)",
     )
     p.add_argument(
         "--max-range",
@@ -892,7 +897,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
     )
-    p.add_argument("--method", default="das", help="comma-separated DOA methods (default: das)")
+    p.add_argument(
+        "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
+    )
     p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
     p.set_defaults(func=_cmd_compare)
 

@@ -43,8 +43,8 @@ class ImagingOptions:
     azimuth_deg: tuple[float, float] = (-90.0, 90.0)
     elevation_deg: tuple[float, float] = (-40.0, 40.0)
     step_deg: float = 2.0
-    energy_fraction: float = 1e-3
-    min_range_m: float = 0.25
+    energy_fraction: float = P.ProcessingSettings.energy_fraction  # one declaration
+    min_range_m: float = P.ProcessingSettings.range_limits_m[0]
     max_range_m: float | None = None
     peak_threshold_db: float = -10.0
     grid: P.Grid = field(init=False, repr=False)
@@ -77,11 +77,12 @@ def image_recordings(
     out = []
     for i, rec in enumerate(recordings):
         if rec.array.n_mics and not rec.array.is_ura:
-            smooth = [m for m in options.methods if "-" in m]
+            smooth = [m for m in options.methods if P.requires_ura(m)]
             if smooth:
                 raise ValueError(
                     f"recording {i}: array {rec.array.name!r} is not a URA, so "
-                    f"{', '.join(smooth)} cannot be used; choose das, music, capon"
+                    f"{', '.join(smooth)} cannot be used; choose das, music, capon "
+                    "or a wideband (-wb) or broadband (-bb) method"
                 )
         out.append(P.acoustic_images(rec, options.methods, options.settings(rec)))
         if progress:

@@ -10,10 +10,20 @@ from pathlib import Path
 
 from processing.atomic import write_text
 
-from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode, pictures, recording_file
+from . import (
+    broadband,
+    corridor,
+    dataset,
+    doa_speed,
+    fractional_delay,
+    pdm_decode,
+    pictures,
+    recording_file,
+)
 
 SECTIONS = {
     "doa": doa_speed,
+    "broadband": broadband,
     "fractional_delay": fractional_delay,
     "corridor": corridor,
     "pdm_decode": pdm_decode,

@@ -1,7 +1,9 @@
 """processing: one pipeline for simulated and real sonar recordings.
 
 recording -> :func:`matched_filter` -> :func:`stft_snapshot` -> :func:`doa_spectrum`
--> :class:`Image` -> peaks and metrics.  Units are SI throughout (m, s, Hz, rad).
+-> :class:`Image` -> peaks and metrics; broadband energyscapes (:func:`energyscape`,
+methods ``*-bb``) and wideband subspace methods (``*-wb``) give the same Image
+through :func:`acoustic_images`.  Units are SI throughout (m, s, Hz, rad).
 This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
@@ -16,7 +18,17 @@ from .arrays import (
     ura,
     urtis_v1,
 )
-from .doa import METHODS, doa_spectrum
+from .broadband import (
+    BROADBAND_METHODS,
+    BroadbandSettings,
+    Directions,
+    Energyscape,
+    energyscape,
+    fan,
+    sphere_partition,
+)
+from .doa import NARROWBAND_METHODS, doa_spectrum
+from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
 from .matched_filter import matched_filter
 from .metrics import (
@@ -27,7 +39,17 @@ from .metrics import (
     range_resolution,
     solid_angle_3db,
 )
-from .pipeline import ProcessingSettings, acoustic_image, acoustic_images, recording_snapshot
+from .pipeline import (
+    METHODS,
+    Method,
+    ProcessingSettings,
+    acoustic_image,
+    acoustic_images,
+    check_method,
+    estimate_memory_bytes,
+    recording_snapshot,
+    requires_ura,
+)
 from .recording import (
     GroundTruth,
     Recording,
@@ -42,6 +64,7 @@ from .smoothing import covariance, smoothed_covariance
 from .snapshot import Snapshot, stft_snapshot
 from .steering import Grid, steering_matrix
 from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
+from .wideband import WIDEBAND_METHODS
 
 __all__ = [
     "PRESETS",
@@ -54,7 +77,21 @@ __all__ = [
     "ura",
     "urtis_v1",
     "METHODS",
+    "Method",
+    "check_method",
+    "requires_ura",
+    "estimate_memory_bytes",
+    "NARROWBAND_METHODS",
+    "BROADBAND_METHODS",
+    "WIDEBAND_METHODS",
+    "BroadbandSettings",
+    "Directions",
+    "Energyscape",
+    "energyscape",
+    "fan",
+    "sphere_partition",
     "doa_spectrum",
+    "InputError",
     "Image",
     "Peaks",
     "find_peaks",

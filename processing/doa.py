@@ -30,65 +30,147 @@ Definitions that the paper leaves open, fixed here:
   well defined at every signal scale; an absolute b = -0.5 added to an unnormalised
   R would depend on the units of the recording and can make R_b indefinite.
 * A range bin whose covariance is zero (no energy) gets a spectrum of zeros for
-  every method.  MUSIC denominators are floored at ``1e-12 * L``, so spectra are
-  finite, real and non-negative.
+  every method.
+* MUSIC denominators ``a^H E_n E_n^H a`` are floored at ``MUSIC_FLOOR * L``
+  (``1e-12 * L``, L the (sub)array size), so spectra are finite, real and
+  non-negative.  The floor caps a noise-free MUSIC peak at about 120 dB over the
+  spectrum's median (whose denominators are of order L); with any noise the true
+  denominators are far above it.
+* Scale: the snapshots are divided by their largest magnitude before anything is
+  squared, so inputs of any magnitude (1e-160 or 1e+160) give the same spectrum,
+  and DAS and Capon powers are relative to that largest snapshot (squared).
+* Non-finite snapshots are an error naming the microphone and range bin.
 """
 
 from __future__ import annotations
 
+from typing import Literal, get_args
+
 import numpy as np
 
 from .arrays import Array
-from .smoothing import covariance, default_subarray, smoothed_covariance
+from .errors import InputError
+from .smoothing import covariance, default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
-__all__ = ["METHODS", "doa_spectrum", "method_matrix"]
+__all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
 
-METHODS = ("das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss")
+NarrowbandMethod = Literal[
+    "das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss"
+]
+#: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
+#: underscore variants: every caller checks names against this one tuple).
+NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
+METHODS = NARROWBAND_METHODS
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
 
 
 def _parse(method: str) -> tuple[str, str]:
-    m = method.lower().replace("_", "-")
-    if m not in METHODS:
-        raise ValueError(f"unknown DOA method {method!r}; choose one of {', '.join(METHODS)}")
-    base, _, smooth = m.partition("-")
+    if method not in NARROWBAND_METHODS:
+        raise InputError(
+            f"unknown DOA method; choose one of {', '.join(NARROWBAND_METHODS)}",
+            key="method",
+            value=method,
+        )
+    base, _, smooth = method.partition("-")
     return base, smooth
 
 
 def method_matrix(
-    C: np.ndarray, base: str, *, loading: float = -0.5, n_sources: int | None = None
+    C: np.ndarray,
+    base: str,
+    *,
+    loading: float = -0.5,
+    n_sources: int | None = None,
+    data: np.ndarray | None = None,
+    centro: bool = False,
 ) -> tuple[np.ndarray, bool]:
     """The Hermitian matrix Q of a method from covariances C (R, L, L).
 
     Returns (Q, inverse): the spectrum is ``a^H Q a`` (DAS) or its inverse.
+
+    Shortcuts, same result (tests compare them with the plain eigendecomposition):
+    `data` (R, L, S) with ``C = Y Y^H / S`` and S < L: the nonzero eigenpairs come
+    from the S x S Gram matrix (the signal-subspace shortcut; every other eigenvalue
+    is 0).  `centro`: C is centro-Hermitian (FBSS), so a unitary change of basis
+    makes it real symmetric and a real eigendecomposition suffices.
     """
     L = C.shape[-1]
     if base == "das":
         return C, False
-    w, U = np.linalg.eigh(C)  # ascending, real
+    if base == "capon" and not loading > -1:
+        raise ValueError(f"loading must be > -1 (in units of the noise floor), got {loading}")
+    if base == "music" and n_sources is not None and not 0 <= n_sources < L:
+        raise ValueError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
+    if base not in ("music", "capon"):
+        raise ValueError(f"unknown method base {base!r}")
+    if data is not None and data.shape[-1] < L and (n_sources or 0) <= data.shape[-1]:
+        return _low_rank(data, base, loading, n_sources), True
+    if centro:
+        T = _unitary(L)
+        Cr = (T.conj().T @ C @ T).real
+        w, V = np.linalg.eigh(0.5 * (Cr + Cr.transpose(0, 2, 1)))
+        U = T @ V
+    else:
+        w, U = np.linalg.eigh(C)  # ascending, real
     w = np.maximum(w, 0.0)
     if base == "music":
         if n_sources is None:
             noise = w <= w.mean(axis=-1, keepdims=True) * (1 + 1e-12)
         else:
-            if not 0 <= n_sources < L:
-                raise ValueError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
             noise = np.zeros(w.shape, bool)
             noise[:, : L - n_sources] = True
         return (U * noise[:, None, :]) @ U.conj().transpose(0, 2, 1), True
-    if base == "capon":
-        if not loading > -1:
-            raise ValueError(f"loading must be > -1 (in units of the noise floor), got {loading}")
-        trace = w.sum(axis=-1, keepdims=True)
-        floor = EIG_FLOOR * trace / L
-        wf = np.maximum(w, floor)
-        mu = wf + loading * wf.min(axis=-1, keepdims=True)
-        inv = np.divide(1.0, mu, out=np.zeros_like(mu), where=mu > 0)
-        return (U * inv[:, None, :]) @ U.conj().transpose(0, 2, 1), True
-    raise ValueError(f"unknown method base {base!r}")
+    trace = w.sum(axis=-1, keepdims=True)
+    floor = EIG_FLOOR * trace / L
+    wf = np.maximum(w, floor)
+    mu = wf + loading * wf.min(axis=-1, keepdims=True)
+    inv = np.divide(1.0, mu, out=np.zeros_like(mu), where=mu > 0)
+    return (U * inv[:, None, :]) @ U.conj().transpose(0, 2, 1), True
+
+
+def _unitary(L: int) -> np.ndarray:
+    """Unitary T (L, L) with ``T^H C T`` real for every centro-Hermitian C."""
+    k = L // 2
+    I, J = np.eye(k), np.eye(k)[::-1]
+    T = np.zeros((L, L), complex)
+    T[:k, :k], T[:k, L - k :] = I, 1j * I
+    T[L - k :, :k], T[L - k :, L - k :] = J, -1j * J
+    if L % 2:
+        T[k, k] = np.sqrt(2)
+    return T / np.sqrt(2)
+
+
+def _low_rank(Y: np.ndarray, base: str, loading: float, n_sources: int | None) -> np.ndarray:
+    """Q of MUSIC or Capon from snapshots Y (R, L, S), S < L, without an L x L
+    eigendecomposition: C = Y Y^H / S has S eigenpairs from the Gram matrix
+    ``Y^H Y / S = V diag(lam) V^H`` (``u = Y v / sqrt(S lam)``) and L - S zeros."""
+    R, L, S = Y.shape
+    lam, V = np.linalg.eigh(Y.conj().transpose(0, 2, 1) @ Y / S)  # (R, S), ascending
+    lam = np.maximum(lam, 0.0)
+    tiny = 1e-13 * lam.max(axis=-1, keepdims=True)
+    ok = lam > tiny
+    scale = np.divide(1.0, np.sqrt(S * lam), out=np.zeros_like(lam), where=ok)
+    U = (Y @ V) * scale[:, None, :]  # (R, L, S) orthonormal columns where ok
+    lam = np.where(ok, lam, 0.0)
+    eye = np.eye(L)
+    if base == "music":
+        if n_sources is None:  # signal: above the mean of all L eigenvalues
+            signal = lam > lam.sum(axis=-1, keepdims=True) / L * (1 + 1e-12)
+        else:
+            signal = np.zeros(lam.shape, bool)
+            signal[:, S - n_sources :] = True
+        Us = U * signal[:, None, :]
+        return eye - Us @ Us.conj().transpose(0, 2, 1)
+    floor = EIG_FLOOR * lam.sum(axis=-1, keepdims=True) / L  # the zeros floor to this
+    mu = np.maximum(lam, floor) + loading * floor
+    mu0 = floor * (1 + loading)
+    inv0 = np.divide(1.0, mu0, out=np.zeros_like(mu0), where=mu0 > 0)
+    d = 1.0 / np.where(mu > 0, mu, np.inf) - inv0
+    d = np.where(ok, d, 0.0)
+    return inv0[:, :, None] * eye + (U * d[:, None, :]) @ U.conj().transpose(0, 2, 1)
 
 
 def doa_spectrum(
@@ -142,6 +224,17 @@ def doa_spectrum(
     if backend not in ("auto", "coarray", "direct"):
         raise ValueError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
     x = x.astype(np.complex128, copy=False)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        m, r = np.argwhere(bad)[0][:2]
+        raise InputError(
+            f"non-finite snapshot at microphone {m}, range bin {r}",
+            key="snapshots",
+            value=x[m, r, 0],
+        )
+    peak = np.abs(x).max() if x.size else 0.0
+    if peak > 0:  # normalise before squaring: no overflow or underflow at any scale
+        x = x / peak
     if smooth:
         array.require_ura(f"method {method!r}")
     use_grid = array.is_ura and backend != "direct"
@@ -154,20 +247,27 @@ def doa_spectrum(
         if smooth:
             sub = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
             xg = x[order].reshape(nz, ny, *x.shape[1:])
-            C = smoothed_covariance(xg, sub, forward_backward=smooth == "fbss")
+            Y = subarray_snapshots(xg, sub, forward_backward=smooth == "fbss")
+            C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
+            if smooth == "fbss":
+                C = 0.5 * (C + C[:, ::-1, ::-1].conj())
             shape = sub
         else:
+            Y = np.moveaxis(x[order], 0, 1)
             C = covariance(x[order])
             shape = (nz, ny)
         dz, dy = array.pitch_m
         rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
         positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
     else:
+        Y = np.moveaxis(x, 0, 1)
         C = covariance(x)
         shape = None
         positions = array.positions_m
 
-    Q, inverse = method_matrix(C, base, loading=loading, n_sources=n_sources)
+    Q, inverse = method_matrix(
+        C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
+    )
     if use_grid:
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)

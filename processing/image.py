@@ -92,12 +92,19 @@ class Image:
 def find_peaks(image: Image, threshold_db: float = -20.0, *, max_peaks: int | None = None) -> Peaks:
     """Local maxima of the 3D image (a 3x3x3 neighbourhood) above a threshold.
 
-    Plateaus count once (their first cell in index order).
+    Plateaus count once (their first cell in index order).  At elevation +-90
+    degrees every azimuth is the same direction: those cells take their row's
+    maximum first, so a source at the zenith is one peak.
     """
     p = image.power
     if p.size == 0 or p.max() <= 0:
         e = np.empty(0)
         return Peaks(e, e, e, e)
+    pole = np.abs(np.abs(image.elevation_rad) - np.pi / 2) < 1e-9
+    if pole.any() and image.azimuth_rad.size > 1:
+        # every azimuth at +-90 degrees is one direction: one value, so one peak
+        p = p.copy()
+        p[:, pole, :] = p[:, pole, :].max(axis=2, keepdims=True)
     local = maximum_filter(p, size=3, mode="nearest")
     level = to_db(p)
     mask = (p >= local) & (level >= threshold_db)

@@ -3,8 +3,8 @@
 * Angular resolution: the solid angle (steradians) of the -3 dB region of the point
   spread function, on the range slice that holds the image maximum: the cells
   connected to the peak (4-neighbourhood) whose level is within 3 dB of it, each
-  weighted by its area on the unit sphere, ``cos(el) d_az d_el`` (cells end half-way
-  to their neighbours and at the ends of the grid).
+  weighted by its area on the unit sphere, ``d_az (sin(el_top) - sin(el_bottom))``
+  (cells end half-way to their neighbours and at the ends of the grid).
 * Range resolution: along the range slices, the profile of each slice's maximum;
   the distance between the -3 dB points around the strongest slice, linearly
   interpolated between slices where the crossing lies inside the kept bins, or the
@@ -42,11 +42,22 @@ def _cell_widths(x: np.ndarray) -> np.ndarray:
     return np.diff(edges)
 
 
+def _cell_edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges: midpoints between grid values; end cells stop at the grid's ends
+    (a single value gets a cell of width 1 centred on it)."""
+    if x.size == 1:
+        return np.array([x[0] - 0.5, x[0] + 0.5])
+    return np.concatenate([[x[0]], (x[1:] + x[:-1]) / 2, [x[-1]]])
+
+
 def cell_solid_angles(elevation_rad: np.ndarray, azimuth_rad: np.ndarray) -> np.ndarray:
-    """Solid angle of each grid cell, shape (E, A), in steradians."""
-    d_el = _cell_widths(elevation_rad)
+    """Area on the unit sphere of each grid cell, shape (E, A), in steradians:
+    ``d_az (sin(el_top) - sin(el_bottom))`` between the cell's edges (exact for
+    every cell, also those at +-90 degrees, where cos(el) at the centre is 0)."""
+    el_edges = np.clip(_cell_edges(np.asarray(elevation_rad, float)), -np.pi / 2, np.pi / 2)
+    band = np.diff(np.sin(el_edges))
     d_az = _cell_widths(azimuth_rad)
-    return (np.cos(elevation_rad) * d_el)[:, None] * d_az[None, :]
+    return band[:, None] * d_az[None, :]
 
 
 def solid_angle_3db(
@@ -75,14 +86,19 @@ def angular_resolution(image: Image) -> float:
 
 
 def range_profile(image: Image) -> np.ndarray:
-    """Maximum of each range slice, shape (R,)."""
-    return image.power.reshape(image.power.shape[0], -1).max(axis=1)
+    """Maximum of each range slice, shape (R,) (empty for an image of no range bins)."""
+    R = image.power.shape[0]
+    if R == 0:
+        return np.zeros(0)
+    return image.power.reshape(R, -1).max(axis=1)
 
 
 def range_resolution(image: Image) -> float:
     """-3 dB extent (m) of the range profile around its maximum."""
     prof = range_profile(image)
-    if prof.size == 0 or prof.max() <= 0:
+    if prof.size == 0:
+        raise ValueError("the image has no range bins: range resolution is undefined")
+    if prof.max() <= 0:
         raise ValueError("the image has no energy: range resolution is undefined")
     rng = image.range_m
     step = image.bin_range_m or (np.median(np.diff(rng)) if rng.size > 1 else 0.0)

@@ -121,6 +121,16 @@ class Recording:
                 f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
                 f"has {self.array.n_mics} microphones"
             )
+        bad = ~np.isfinite(x)
+        if bad.any():
+            where = np.argwhere(bad)[0]
+            raise InputError(
+                f"{int(bad.sum())} non-finite sample(s); first at channel {int(where[-2])}, "
+                f"sample {int(where[-1])}"
+                + (f", measurement {int(where[0])}" if x.ndim == 3 else ""),
+                key="samples",
+                value=float(x[tuple(where)]),
+            )
         if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
             raise ValueError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
         if not (np.isfinite(self.speed_of_sound_m_s) and 200 < self.speed_of_sound_m_s < 500):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["covariance", "smoothed_covariance", "default_subarray"]
+__all__ = ["covariance", "smoothed_covariance", "subarray_snapshots", "default_subarray"]
 
 
 def covariance(x: np.ndarray) -> np.ndarray:
@@ -27,6 +27,26 @@ def covariance(x: np.ndarray) -> np.ndarray:
 def default_subarray(shape: tuple[int, int]) -> tuple[int, int]:
     """The paper's proportion (5 of 8) applied to each dimension, at least 1."""
     return tuple(max(1, int(round(n * 5 / 8))) for n in shape)
+
+
+def subarray_snapshots(
+    x_grid: np.ndarray, subarray: tuple[int, int], *, forward_backward: bool = False
+) -> np.ndarray:
+    """The snapshots Y (R, L, S) whose ``Y Y^H / S`` is the smoothed covariance.
+
+    Every subarray position (Pz x Py) of every measurement (K) is one snapshot,
+    S = Pz Py K; forward-backward appends the exchange-conjugates ``J Y*`` (2S).
+    """
+    nz, ny = x_grid.shape[:2]
+    lz, ly = (int(v) for v in subarray)
+    if not (1 <= lz <= nz and 1 <= ly <= ny):
+        raise ValueError(f"subarray {subarray} must fit in the {nz}x{ny} array and be >= 1x1")
+    win = sliding_window_view(x_grid, (lz, ly), axis=(0, 1))  # (Pz, Py, R, K, Lz, Ly)
+    R = x_grid.shape[2]
+    Y = np.moveaxis(win, 2, 0).reshape(R, -1, lz * ly).transpose(0, 2, 1)  # (R, L, S)
+    if forward_backward:
+        Y = np.concatenate([Y, Y[:, ::-1, :].conj()], axis=-1)
+    return Y
 
 
 def smoothed_covariance(
@@ -47,15 +67,8 @@ def smoothed_covariance(
     -------
     ndarray, shape (R, L, L), L = Lz * Ly, in row-major subarray order.
     """
-    nz, ny = x_grid.shape[:2]
-    lz, ly = (int(v) for v in subarray)
-    if not (1 <= lz <= nz and 1 <= ly <= ny):
-        raise ValueError(f"subarray {subarray} must fit in the {nz}x{ny} array and be >= 1x1")
-    win = sliding_window_view(x_grid, (lz, ly), axis=(0, 1))  # (Pz, Py, R, K, Lz, Ly)
-    R = x_grid.shape[2]
-    Y = np.moveaxis(win, 2, 0).reshape(R, -1, lz * ly)  # (R, Pz*Py*K, L)
-    Y = Y.transpose(0, 2, 1)  # (R, L, S)
+    Y = subarray_snapshots(x_grid, subarray, forward_backward=forward_backward)
     C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
-    if forward_backward:
+    if forward_backward:  # exactly centro-Hermitian despite rounding
         C = 0.5 * (C + C[:, ::-1, ::-1].conj())
     return C

@@ -27,7 +27,7 @@ def test_solid_angle_only_counts_the_region_connected_to_the_peak():
     p[90, 90] = 1.0
     p[10, 10] = 0.9  # a separate lobe above -3 dB
     area = P.solid_angle_3db(p, g.elevation_rad, g.azimuth_rad)
-    assert area == pytest.approx(np.deg2rad(1) ** 2, rel=1e-6)
+    assert area == pytest.approx(np.deg2rad(1) * 2 * np.sin(np.deg2rad(0.5)), rel=1e-9)
 
 
 def _image_from_profile(profile, step):

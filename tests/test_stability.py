@@ -11,7 +11,7 @@ from processing.doa import doa_spectrum
 
 F = 31250.0
 GRID = P.Grid.degrees(step=5.0)
-ALL = list(P.METHODS)
+ALL = list(P.NARROWBAND_METHODS)
 
 
 @pytest.fixture(scope="module")
