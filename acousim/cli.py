@@ -294,7 +294,7 @@ def _load_and_image(args: argparse.Namespace):
         if index is not None:
             bad = [i for i in index if not 0 <= i < n]
             if bad:
-                raise UsageError(f"--index {bad}: the file holds {n} recording(s)")
+                raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
         index = list(range(n)) if index is None else index
         recs = [P.load_recording(args.file, i) for i in index]  # only those asked for
     except P.RecordingFileError as exc:

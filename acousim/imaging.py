@@ -141,10 +141,7 @@ def _scene(rec: P.Recording):
         return None
     from acousim.scene import load_scene
 
-    try:
-        return load_scene(file)
-    except ValueError:  # the scene file changed since: draw without it
-        return None
+    return load_scene(file)  # a scene file that no longer loads is an InputError
 
 
 def _scene_triangles(scene) -> np.ndarray | None:
@@ -218,8 +215,8 @@ def write_pictures(
     trajectory = len(recordings) > 1
     written = []
     first, imgs = recordings[0], images[0]
-    scene = _scene(first)
-    limit = _range_limit(first, options, scene)
+    scene = _scene(first) if render_3d or animation else None
+    limit = _range_limit(first, options)
     title = _title(first, indices[0], trajectory)
     written.append(
         fan_figure(
@@ -239,11 +236,13 @@ def write_pictures(
     return written
 
 
-def _range_limit(rec: P.Recording, options: ImagingOptions, scene) -> float:
-    """The farthest range a picture may show: the imaged range, within the scene's."""
+def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
+    """The farthest range a picture may show: the imaged range, within the simulated
+    one (the recording's ``max_range_m`` metadata, when it was simulated)."""
     hi = options.settings(rec).range_limits_m[1]
-    if scene is not None:
-        hi = min(hi, float(scene.simulation.max_range_m))
+    simulated = rec.metadata.get("max_range_m")
+    if isinstance(simulated, int | float) and simulated > 0:
+        hi = min(hi, float(simulated))
     return float(hi)
 
 
@@ -329,7 +328,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
     dr = 30.0
     method = _sharpest(images[0])
     scene = _scene(recordings[0])
-    limit = min(_range_limit(rec, options, scene) for rec in recordings)
+    limit = min(_range_limit(rec, options) for rec in recordings)
     truths = [_truth_sensor(rec) for rec in recordings]
     truths_yx = [truth_in_fan(t) if t is not None else None for t in truths]
     # one fitted extent for the whole drive (the axes do not jump between frames)

@@ -81,6 +81,7 @@ class Simulator:
             "scene": scene.name,
             "scene_file": str(scene.source) if scene.source else None,
             "scene_sha256": scene.file_sha256,
+            "max_range_m": float(scene.simulation.max_range_m),
             "acousim_version": package_version(),
             "pose": pose.to_dict(),
             "pose_index": index,

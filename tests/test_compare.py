@@ -153,11 +153,25 @@ def test_compare_errors_exit_2(tmp_path, capsys):
     assert "exactly one of --scene" in capsys.readouterr().err
     for extra, message in (
         (["--sim", str(tmp_path / "b.h5"), "--index", "3"], "--index = 3: the real file holds 1"),
-        (["--sim", str(tmp_path / "b.h5"), "--sim-index", "-1"], "--sim-index = -1: the --sim"),
+        (["--sim", str(tmp_path / "b.h5"), "--sim-index", "5"], "--sim-index = 5: the --sim"),
         (["--scene", str(SCENES / "points.toml"), "--pose", "4"], "--pose = 4: the scene has 1"),
     ):
         assert main(["compare", str(tmp_path / "a.h5"), *extra, "--out", str(tmp_path / "o")]) == 2
         assert message in capsys.readouterr().err
+    # a negative index is refused by the parser (argparse's exit code 2)
+    with pytest.raises(SystemExit) as exit_:
+        main(
+            [
+                "compare",
+                str(tmp_path / "a.h5"),
+                "--sim",
+                str(tmp_path / "b.h5"),
+                "--sim-index",
+                "-1",
+            ]
+        )
+    assert exit_.value.code == 2
+    assert "--sim-index: '-1': outside the allowed range" in capsys.readouterr().err
 
 
 def test_trajectory_comparison_has_a_row_per_pose(tmp_path, capsys):

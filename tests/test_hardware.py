@@ -404,12 +404,15 @@ def test_record_command_with_the_emulator(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("RTIS_VID", "zz")
     assert main(["record", "--count", "1", "--out", str(tmp_path / "x.h5")]) == 2
     assert "RTIS_VID = 'zz': expected a USB ID" in capsys.readouterr().err
+    # refused by the parser (argparse's exit code 2), before anything starts
     for bad, key in (
-        (["--count", "0"], "--count = 0"),
-        (["--duration", "-1"], "--duration = -1.0"),
-        (["--duration", "nan"], "--duration = nan"),
+        (["--count", "0"], "--count: '0': outside the allowed range"),
+        (["--duration", "-1"], "--duration: '-1': outside the allowed range"),
+        (["--duration", "nan"], "--duration: 'nan'"),
     ):
-        assert main(["record", *bad, "--out", str(tmp_path / "x.h5")]) == 2
+        with pytest.raises(SystemExit) as exit_:
+            main(["record", *bad, "--out", str(tmp_path / "x.h5")])
+        assert exit_.value.code == 2
         assert key in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
 
