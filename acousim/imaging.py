@@ -327,7 +327,6 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
 
     dr = 30.0
     method = _sharpest(images[0])
-    scene = _scene(recordings[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
     truths = [_truth_sensor(rec) for rec in recordings]
     truths_yx = [truth_in_fan(t) if t is not None else None for t in truths]
