@@ -47,8 +47,15 @@ KEYS: dict[str, set[str]] = {
         "trajectory",
     },
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
-    "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg"},
-    "sensor.trajectory": {"poses", "file", "rate_hz"},
+    "sensor.pose": {
+        "position_m",
+        "yaw_deg",
+        "pitch_deg",
+        "roll_deg",
+        "velocity_m_s",
+        "angular_rate_deg_s",
+    },
+    "sensor.trajectory": {"poses", "file", "rate_hz", "continuous"},
     "simulation": {
         "max_range_m",
         "rays",
@@ -62,7 +69,7 @@ KEYS: dict[str, set[str]] = {
     },
     "materials": {"name", "reflection", "diffuse", "lobe_deg"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
-    "points": {"position_m", "strength"},
+    "points": {"position_m", "strength", "velocity_m_s"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 
@@ -246,7 +253,9 @@ def parse_scene(
     for where, p in r.table_list(data, "points"):
         points.append(
             PointItem(
-                tuple(r.vector(p, "position_m", where)), r.number(p, "strength", where, 1.0, 0, 1e6)
+                tuple(r.vector(p, "position_m", where)),
+                r.number(p, "strength", where, 1.0, 0, 1e6),
+                tuple(float(v) for v in r.vector(p, "velocity_m_s", where, [0.0, 0.0, 0.0])),
             )
         )
     sensor = _sensor(r, r.table(data, "sensor", ""), base)
@@ -317,7 +326,27 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         poses,
         rate,
         r.number(s, "mic_radius_m", "sensor", 0.0, 0, 0.05),
+        _motion(r, s, poses),
     )
+
+
+def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):
+    """The sensor's motion during measurements: a trajectory moves through its poses
+    (unless ``continuous = false``); a single pose moves if it has a velocity or an
+    angular rate.  None: frozen poses."""
+    from .trajectory import Trajectory
+
+    if "trajectory" in s:
+        t = s["trajectory"]
+        if r.boolean(t, "continuous", "sensor.trajectory", True) and len(poses) >= 2:
+            return Trajectory.through(poses)
+        return None
+    p = s.get("pose", {})
+    v = r.vector(p, "velocity_m_s", "sensor.pose", [0.0, 0.0, 0.0])
+    w = r.vector(p, "angular_rate_deg_s", "sensor.pose", [0.0, 0.0, 0.0])
+    if not (np.any(v) or np.any(w)):
+        return None
+    return Trajectory.constant(poses[0], v, np.deg2rad(w))
 
 
 def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | None]:

@@ -41,10 +41,16 @@ class MeshItem:
 
 @dataclass(frozen=True)
 class PointItem:
-    """An explicit point reflector (world frame): strength a_k of eq. 1."""
+    """An explicit point reflector (world frame): strength a_k of eq. 1; it may move
+    at `velocity_m_s` (position_m is where it is at time 0 of the trajectory)."""
 
     position_m: tuple[float, float, float]
     strength: float = 1.0
+    velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)  # world frame; position at t = 0
+
+    @property
+    def moving(self) -> bool:
+        return any(v != 0 for v in self.velocity_m_s)
 
 
 @dataclass(frozen=True)
@@ -72,6 +78,9 @@ class Sensor:
     poses: tuple[Pose, ...]
     rate_hz: float | None = None
     mic_radius_m: float = 0.0  # microphone port as a baffled piston; 0: omnidirectional
+    #: continuous motion during measurements (acousim.scene.trajectory.Trajectory);
+    #: None: every pose is frozen for its measurement
+    motion: object | None = None
 
 
 @dataclass(frozen=True)
