@@ -74,10 +74,10 @@ __all__ = [
 ]
 
 #: relative error of interpolating the time-scaled call between Doppler nodes
-DOPPLER_TOLERANCE = 3e-5
+DOPPLER_TOLERANCE = 1e-4
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
-NODE_QUANTUM = 1e-4
+NODE_QUANTUM = 5e-4
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
 TABLE_STEP_S = 2.5e-4
@@ -279,7 +279,7 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         new = t_r + np.linalg.norm(kin.mics(t, mic) - anchor, axis=-1) / c
         change = np.max(np.abs(new - t)) if new.size else 0.0
         t = new
-        if change < 1e-15:
+        if change < 1e-14:
             break
     return t, anchor, first
 
@@ -313,7 +313,11 @@ def arrivals(
     tm, _, _ = _arrival_times(paths, kin, np.full((M, N), duration_s / 2), c)
     last = np.maximum(np.linalg.norm(kin.mics(t0) - anchor, axis=-1), 1e-6)
     length = first + last
-    gain = paths.strength[None, :] / last
+    # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
+    # the one at its reflection
+    exact = paths.first_leg == FIRST_LEG["exact"]
+    spread = np.where(exact[None, :], paths.first_leg_m[None, :] / np.maximum(first, 1e-9), 1.0)
+    gain = paths.strength[None, :] * spread / last
     cos = np.clip(paths.departure @ emitter_axis, -1, 1)
     # the linear law through the first and last sample, shifted by the mean of the
     # (parabolic) deviation: two thirds of the deviation at the middle
@@ -470,7 +474,10 @@ def render_doppler(
         dtype = np.float64
     # 4. impulses per set, FFT, sum of products, back
     h, pad = _impulses(d - lo, gains, n_span, method, taps, n, dtype)
-    spec = np.einsum("qmf,fq->mf", sfft.rfft(h, axis=-1, workers=FFT_WORKERS), filt)
+    spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
+    spec = spectra[0] * filt[:, 0]
+    for q in range(1, spectra.shape[0]):
+        spec += spectra[q] * filt[:, q]
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
