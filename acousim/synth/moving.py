@@ -77,10 +77,14 @@ __all__ = [
 DOPPLER_TOLERANCE = 1e-4
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
-NODE_QUANTUM = 5e-4
+NODE_QUANTUM = 2e-3
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
 TABLE_STEP_S = 2.5e-4
+#: the table is replaced by a polynomial in time of this degree where it fits it
+#: within POLY_FIT_M
+POLY_DEGREE = 8
+POLY_FIT_M = 1e-10
 FIRST_LEG = {"fixed": 0, "fermat": 1, "exact": 2}
 
 
@@ -203,6 +207,26 @@ class SensorKinematics:
             table = trajectory.to_world(pts, self.t0 + self.grid)  # (G, 1 + M, 3)
             self.emitter_table = table[:, 0]
             self.mic_table = table[:, 1:]
+            # a polynomial in time through the table where it fits (within one
+            # segment of a trajectory: always), evaluated without look-ups
+            self.mid = 0.5 * (self.grid[0] + self.grid[-1])
+            self.half = 0.5 * (self.grid[-1] - self.grid[0])
+            x = (self.grid - self.mid) / self.half
+            flat = table.reshape(table.shape[0], -1)
+            coef = np.polynomial.polynomial.polyfit(x, flat, POLY_DEGREE)  # (D + 1, P * 3)
+            fit = np.polynomial.polynomial.polyval(x, coef).T
+            self.poly = None
+            if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                self.poly = coef.reshape(POLY_DEGREE + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
+                deriv = np.polynomial.polynomial.polyder(coef) / self.half
+                self.poly_v = deriv.reshape(POLY_DEGREE, *table.shape[1:])
+
+    @staticmethod
+    def _horner(coef, x):
+        p = coef[-1]
+        for c in coef[-2::-1]:
+            p = p * x + c
+        return p
 
     def _lookup(self, table, t):
         x = (np.asarray(t, float) - self.grid[0]) / self.step
@@ -217,6 +241,8 @@ class SensorKinematics:
             return np.broadcast_to(self.emitter0, (*tau.shape, 3))
         if self.step is None:
             return self.trajectory.to_world(self.array.emitter_m[None], self.t0 + tau)[..., 0, :]
+        if self.poly is not None:
+            return self._horner(self.poly[:, 0], ((tau - self.mid) / self.half)[..., None])
         i, w = self._lookup(self.emitter_table, tau)
         return self.emitter_table[i] * (1 - w) + self.emitter_table[i + 1] * w
 
@@ -235,9 +261,31 @@ class SensorKinematics:
             p = self.trajectory.position(self.t0 + t)
             local = self.array.positions_m[np.broadcast_to(idx, t.shape)]
             return np.einsum("...ij,...j->...i", R, local) + p
+        if self.poly is not None:
+            x = ((t - self.mid) / self.half)[..., None]
+            if m is None:
+                shape = (-1, t.shape[0], *([1] * (t.ndim - 1)), 3)
+                return self._horner(self.poly[:, 1:].reshape(shape), x)
+            return self._horner(self.poly[:, 1 + m], x)
         i, w = self._lookup(self.mic_table, t)
         idx = np.broadcast_to(idx, t.shape)
         return self.mic_table[i, idx] * (1 - w) + self.mic_table[i + 1, idx] * w
+
+    def mics_and_velocity(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Tabulated kinematics only: positions and velocities (M, ..., 3) of
+        microphone i at times ``t[i]``."""
+        t = np.asarray(t, float)
+        if self.poly is not None:
+            x = ((t - self.mid) / self.half)[..., None]
+            shape = (-1, t.shape[0], *([1] * (t.ndim - 1)), 3)
+            return (
+                self._horner(self.poly[:, 1:].reshape(shape), x),
+                self._horner(self.poly_v[:, 1:].reshape(shape), x),
+            )
+        idx = np.broadcast_to(np.arange(t.shape[0]).reshape(-1, *([1] * (t.ndim - 1))), t.shape)
+        i, w = self._lookup(self.mic_table, t)
+        a, b = self.mic_table[i, idx], self.mic_table[i + 1, idx]
+        return a + (b - a) * w, (b - a) / self.step
 
 
 def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None):
@@ -275,6 +323,18 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
             break
     anchor = a0 + np.einsum("...ij,...j->...i", J, de) + u * t_r[..., None]
     t = t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
+    if mic is None and not kin.static and kin.step is not None:
+        # Newton on f(t) = t - t_r - |m(t) - A| / c (the table's slope as m')
+        for _ in range(20):
+            pos, vel = kin.mics_and_velocity(t)
+            diff = pos - anchor
+            dist = np.sqrt(np.einsum("...i,...i->...", diff, diff))
+            slope = 1 - np.einsum("...i,...i->...", vel, diff) / (np.maximum(dist, 1e-12) * c)
+            step = (t - t_r - dist / c) / slope
+            t = t - step
+            if np.max(np.abs(step)) < 1e-14:
+                break
+        return t, anchor, first
     for _ in range(20):
         new = t_r + np.linalg.norm(kin.mics(t, mic) - anchor, axis=-1) / c
         change = np.max(np.abs(new - t)) if new.size else 0.0
@@ -461,18 +521,21 @@ def render_doppler(
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
     shaped = response is not None and response.active
     if shaped:
-        g, U, V, band = _factors(echoes, g, spectra[K // 2], fs, n, response)
-        filt = np.zeros((spectra.shape[1], K * V.shape[1]), complex)
-        filt[band] = (spectra[:, band].T[:, :, None] * U[:, None, :]).reshape(band.sum(), -1)
-        gains = (g[:, :, None, None] * weights[:, :, :, None] * V[None, :, None, :]).reshape(
-            M, echoes.n_paths, -1
-        )
+        g, U, V, band, direct = _factors(echoes, g, spectra[K // 2], fs, n, response)
+        filt = spectra[:, band].T[:, :, None] * U[:, None, :]  # (F_band, K, Q)
         dtype = np.float32
     else:
-        filt = spectra.T
-        gains = g[:, :, None] * weights
+        band = np.ones(spectra.shape[1], bool)
+        filt = spectra.T[:, :, None]
+        V = np.ones((echoes.n_paths, 1))
+        direct = np.zeros(1, bool)
         dtype = np.float64
-    # 4. impulses per set, FFT, sum of products, back
+    # 4. gain sets (path, microphone) x filters: the K x Q products compressed per
+    # group (direct path, echoes) to the rank their sum needs
+    gains, filt_band = _compress(g, weights, V, filt, echoes.order == 0, direct, tolerance)
+    filt = np.zeros((spectra.shape[1], filt_band.shape[1]), complex)
+    filt[band] = filt_band
+    # 5. impulses per set, FFT, sum of products, back
     h, pad = _impulses(d - lo, gains, n_span, method, taps, n, dtype)
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
     spec = spectra[0] * filt[:, 0]
@@ -506,9 +569,61 @@ def _factors(echoes: Echoes, g, W, fs, n, response: PathResponse):
         V[group] = Vw / weight[group, None]
         Vs.append(V)
         Us.append(Uc)
+    direct = np.concatenate(
+        [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
+    )
     V, Uc = np.concatenate(Vs, axis=1), np.concatenate(Us, axis=1)
     U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
-    return g, U, V, band
+    return g, U, V, band, direct
+
+
+def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
+    """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
+    with fewer sets.
+
+    g (M, N) path gains, weights (M, N, K) Lagrange weights of the Doppler nodes,
+    V (N, Q) response terms, filt (F, K, Q) the filters b_jq (spectra), set_direct
+    (Q,) which response terms belong to the direct path.  Per group of paths (the
+    direct path, the echoes), with G (paths x S) the gains and B (F x S) the filters
+    (S = K Q' sets): ``G B^T = U' D``, ``G = U' L^(1/2) E^T`` (eigendecomposition of
+    the Gram matrix G^T G, formed from the factors without G), ``D = L^(1/2) E^T
+    B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
+    matrix) truncated where the discarded energy falls below `tolerance`^2 of the
+    total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
+    (gains (M, N, R), filters (F, R)).
+    """
+    M, N, K = weights.shape
+    out_g, out_f = [], []
+    for group in (True, False):
+        paths = path_direct == group
+        terms = set_direct == group
+        if not paths.any() or not terms.any():
+            continue
+        gp, lp, Vp = g[:, paths], weights[:, paths], V[paths][:, terms]
+        Q = Vp.shape[1]
+        # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
+        X = np.einsum("mnj,mnk->njk", (gp**2)[:, :, None] * lp, lp)
+        VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
+        gram = (X.reshape(-1, K * K).T @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
+        gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
+        lam, E = np.linalg.eigh(gram)
+        keep = lam > 1e-13 * max(lam.max(), 1e-300)
+        if not keep.any():
+            continue
+        lam, E = lam[keep], E[:, keep]
+        B = filt[:, :, terms].reshape(filt.shape[0], K * Q)
+        D = (np.sqrt(lam)[:, None] * E.T) @ B.T  # (s, F)
+        s2, Y = np.linalg.eigh((D @ D.conj().T).real)
+        s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
+        tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
+        r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
+        T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
+        P = np.einsum("nq,jqr->njr", Vp, T)
+        g_new = np.zeros((M, N, r))
+        g_new[:, paths] = np.einsum("mnj,njr->mnr", gp[:, :, None] * lp, P)
+        out_g.append(g_new)
+        out_f.append((Y[:, :r].T @ D).T)
+    return np.concatenate(out_g, axis=2), np.concatenate(out_f, axis=1)
 
 
 def render_doppler_reference(
