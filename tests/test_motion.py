@@ -46,6 +46,7 @@ def wall_paths(d):
         (np.eye(3) - 2 * np.outer(n, n))[None],
         np.zeros(1, int),
         np.zeros((1, 3)),
+        np.full(1, 2 * d),
     )
 
 
@@ -305,8 +306,18 @@ def test_first_order_image_sources_follow_the_emitter_exactly():
     mp = MovingPaths.from_traced(first, e0)
     one = (first.kind == 1) & (first.order == 1)
     assert one.sum() >= 4
-    predicted = mp.anchor_m[one] + np.einsum("nij,j->ni", mp.mirror[one], e1 - e0)
+    anchors, firsts = mp.moved(e0, e1)
     traced = sim.paths(later)
     img = traced.anchor_m[(traced.kind == 1) & (traced.order == 1)]
-    dist = np.linalg.norm(predicted[:, None] - img[None], axis=2).min(axis=1)
+    dist = np.linalg.norm(anchors[one][:, None] - img[None], axis=2).min(axis=1)
     assert np.all(dist < 1e-9)
+    # second order: the image sources too (their planes recovered from the path)
+    # (paths at an edge, both reflections at one point, keep Fermat's law: their
+    # planes cannot be recovered from the path)
+    two = (first.kind == 1) & (first.order == 2) & np.any(mp.mirror != 0, axis=(1, 2))
+    img2 = traced.anchor_m[(traced.kind == 1) & (traced.order == 2)]
+    mic = later.to_world(array.positions_m[0])
+    pred = firsts[two] + np.linalg.norm(anchors[two] - mic, axis=1)
+    true = np.linalg.norm(img2 - mic, axis=1)
+    err = np.abs(pred[:, None] - true[None]).min(axis=1)
+    assert two.sum() >= 3 and np.all(err < 1e-9)

@@ -17,10 +17,15 @@ traced once, at the pose of the start of the emission.  Then:
    stays where it is while the microphones move (an image source depends only on
    the emitter), so ``|m(t) - A|`` holds for any reception time;
 2. the emitting side moves only during the call (2.5 mm at 1 m/s): the image source
-   of a first-order reflection is mirrored exactly with the emitter; the first leg
-   of higher-order and scattered paths changes by ``-departure . (e(tau) - e(0))``
-   (Fermat: the path length is stationary in its reflection points, so holding them
-   still is exact to first order); point reflectors use ``|A - e(tau)|`` exactly;
+   of a first- or second-order reflection moves exactly with the emitter (its
+   planes found from the traced path); the first leg
+   of higher-order and scattered paths changes, for an emitter displacement de, by
+   ``-u.de + (|de|^2 - (u.de)^2) / (2 L)`` with u the departure direction and L the
+   unfolded length from the emitter (Fermat: the length is stationary in the
+   reflection points, so the first-order term holds them still; the second-order
+   term is that of the image source ``|m - A - J de|`` for any orthogonal J of the
+   reflections; third order: below 0.1 ns at 2 m/s); point reflectors use
+   ``|A - e(tau)|`` exactly;
 3. which paths exist (visibility, the energy floor) is that of the emission pose;
 4. gains (spreading, directivity, air absorption) are those at the start of the
    echo: the echo's level changes by v T / r during a call (0.1 % at 1 m/s, 2.5 m).
@@ -50,7 +55,7 @@ Rendering:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy import fft as sfft
@@ -98,10 +103,13 @@ class MovingPaths:
     ``first_leg + |anchor - p|``, gain ``strength / |anchor - p|``).
     departure (N, 3): unit direction leaving the emitter.  order (N,).
     mirror (N, 3, 3): the anchor moves by ``mirror @ (e(tau) - e(0))`` (identity
-    for the direct path, the reflection for a first-order image source, zero else).
+    for the direct path, the reflections' linear part for a first- or second-order
+    image source, zero else).
     first_leg (N,): :data:`FIRST_LEG` codes: fixed, Fermat (``-departure . de``) or
     exact (``|A - e(tau)|``, point reflectors).
     velocity_m_s (N, 3): of the anchor (moving point reflectors), from tau = 0.
+    fermat_length_m (N,): L of the second-order term of a Fermat first leg (the
+    first leg of a scattered path, the image distance of a specular one).
     """
 
     anchor_m: np.ndarray
@@ -112,6 +120,7 @@ class MovingPaths:
     mirror: np.ndarray
     first_leg: np.ndarray
     velocity_m_s: np.ndarray
+    fermat_length_m: np.ndarray
 
     def __len__(self) -> int:
         return self.strength.size
@@ -134,7 +143,19 @@ class MovingPaths:
             normal /= np.linalg.norm(normal, axis=1, keepdims=True)
             mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
             first[one] = FIRST_LEG["fixed"]
+        two = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
+        if two.size:
+            J, ok = _second_order_mirror(
+                emitter_m, paths.departure[two], paths.position_m[two], paths.anchor_m[two]
+            )
+            mirror[two[ok]] = J[ok]
+            first[two[ok]] = FIRST_LEG["fixed"]
         first[paths.kind == KIND["point"]] = FIRST_LEG["exact"]
+        unfolded = np.where(
+            paths.first_leg_m > 0,
+            paths.first_leg_m,
+            np.linalg.norm(paths.anchor_m - emitter_m, axis=1),
+        )
         return cls(
             paths.anchor_m,
             paths.first_leg_m,
@@ -144,6 +165,7 @@ class MovingPaths:
             mirror,
             first,
             np.zeros((n, 3)),
+            np.maximum(unfolded, 1e-6),
         )
 
     @classmethod
@@ -162,25 +184,62 @@ class MovingPaths:
             np.zeros((n, 3, 3)),
             np.full(n, FIRST_LEG["exact"]),
             np.asarray(velocity_m_s, float).reshape(-1, 3),
+            r_e,
         )
 
     @staticmethod
     def concatenate(parts: list[MovingPaths]) -> MovingPaths:
         return MovingPaths(
-            *(
-                np.concatenate([getattr(p, f) for p in parts])
-                for f in (
-                    "anchor_m",
-                    "first_leg_m",
-                    "strength",
-                    "departure",
-                    "order",
-                    "mirror",
-                    "first_leg",
-                    "velocity_m_s",
-                )
-            )
+            *(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(MovingPaths))
         )
+
+    def select(self, keep) -> MovingPaths:
+        """The paths where `keep` (a mask, indices or a slice) selects."""
+        return MovingPaths(*(getattr(self, f.name)[keep] for f in fields(MovingPaths)))
+
+    def moved(self, emitter0: np.ndarray, emitter1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Static paths after the emitter moved from `emitter0` to `emitter1` (3,):
+        anchors (N, 3) and first legs (N,) (the law of the module docstring)."""
+        de = emitter1 - emitter0
+        anchor = self.anchor_m + self.mirror @ de
+        along = self.departure @ de
+        fermat = self.first_leg_m - along + (de @ de - along**2) / (2 * self.fermat_length_m)
+        first = np.where(self.first_leg == FIRST_LEG["fermat"], fermat, self.first_leg_m)
+        exact = np.linalg.norm(anchor - emitter1, axis=1)
+        first = np.where(self.first_leg == FIRST_LEG["exact"], exact, first)
+        return anchor, first
+
+
+def _second_order_mirror(e, dep, x2, image):
+    """The linear part J (S, 3, 3) of a second-order image source ``A = J e + b`` from
+    the emitter e (3,), the departure (S, 3), the last reflection point x2 (S, 3) and
+    the image (S, 3); and where it is valid (S,).
+
+    The first reflection point is ``x1 = e + s dep`` with ``s + |x2 - x1| = |x2 - A|``
+    (unfolded, the first image lies on the line x2 -> x1 at the distance of A from
+    x2): ``s = (R^2 - |w|^2) / (2 (R - w.dep))``, w = x2 - e, R = |x2 - A|; the
+    normals follow from the law of reflection at x1 and x2.
+    """
+    w = x2 - e
+    R = np.linalg.norm(x2 - image, axis=1)
+    den = 2 * (R - np.einsum("si,si->s", w, dep))
+    s = (R**2 - np.einsum("si,si->s", w, w)) / np.where(np.abs(den) > 1e-12, den, 1.0)
+    x1 = e + s[:, None] * dep
+    u = x2 - x1
+    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+    out = x2 - image
+    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-12)
+    n1, n2 = u - dep, out - u
+    n1 /= np.maximum(np.linalg.norm(n1, axis=1, keepdims=True), 1e-12)
+    n2 /= np.maximum(np.linalg.norm(n2, axis=1, keepdims=True), 1e-12)
+    eye = np.eye(3)
+    M1 = eye - 2 * n1[:, :, None] * n1[:, None, :]
+    M2 = eye - 2 * n2[:, :, None] * n2[:, None, :]
+    J = M2 @ M1
+    # valid: a proper solution that maps the departure onto the last leg
+    ok = (np.abs(den) > 1e-12) & (s > 0)
+    ok &= np.linalg.norm(np.einsum("sij,sj->si", J, dep) - out, axis=1) < 1e-6
+    return J, ok
 
 
 class SensorKinematics:
@@ -289,15 +348,20 @@ class SensorKinematics:
 
 
 def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None):
-    """Reception times of the samples emitted at `tau`; tau (M, N) with mic None
-    (row i: microphone i) or (N, S) for microphone `mic` (path n in row n).
+    """Reception times of the samples emitted at `tau`: a number (one emission time
+    for every path and microphone), (M, N) with mic None (row i: microphone i), or
+    (N, S) for microphone `mic` (path n in row n).
 
-    Returns (t, anchor, first_leg), each of tau's shape (anchor with a last axis 3).
+    Returns (t, anchor, first_leg): t (M, N) (a number or mic None) or (N, S), the
+    others broadcast against it (anchor with a last axis 3).
     """
     tau = np.asarray(tau, float)
     e = kin.emitter(tau)
     de = e - kin.emitter0
-    if mic is None:
+    scalar = tau.ndim == 0
+    if scalar:
+        sel = (slice(None),)  # paths only: (N, ...)
+    elif mic is None:
         sel = (None, slice(None))  # paths along the last axis: (1, N, ...)
     else:
         sel = (slice(None), None)  # paths along the first axis: (N, 1, ...)
@@ -307,13 +371,15 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
     f0 = paths.first_leg_m[sel]
     mode = paths.first_leg[sel]
     dep = paths.departure[sel]
+    lf = paths.fermat_length_m[sel]
     moving = bool(np.any(paths.velocity_m_s))
     t_r = tau + f0 / c
     first = f0
     for _ in range(8 if moving else 1):
-        anchor = a0 + np.einsum("...ij,...j->...i", J, de) + u * t_r[..., None]
+        anchor = a0 + np.matmul(J, de[..., None])[..., 0] + u * t_r[..., None]
         exact = np.linalg.norm(anchor - e, axis=-1)
-        fermat = f0 - np.einsum("...i,...i->...", dep, de)
+        along = np.sum(dep * de, axis=-1)
+        fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
         first = np.where(mode == FIRST_LEG["fermat"], fermat, f0)
         first = np.where(mode == FIRST_LEG["exact"], exact, first)
         new = tau + first / c
@@ -321,7 +387,11 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         t_r = new
         if done:
             break
-    anchor = a0 + np.einsum("...ij,...j->...i", J, de) + u * t_r[..., None]
+    anchor = a0 + np.matmul(J, de[..., None])[..., 0] + u * t_r[..., None]
+    if scalar:
+        shape = (kin.mics0.shape[0], len(paths))
+        t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
+        first = np.broadcast_to(first, shape)
     t = t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
     if mic is None and not kin.static and kin.step is not None:
         # Newton on f(t) = t - t_r - |m(t) - A| / c (the table's slope as m')
@@ -367,10 +437,9 @@ def arrivals(
     """Reception times of the first, middle and last sample of the call for every
     path and microphone; the delays and time-compression factors of the fast method."""
     c = speed_of_sound_m_s
-    M, N = kin.mics0.shape[0], len(paths)
-    t0, anchor, first = _arrival_times(paths, kin, np.zeros((M, N)), c)
-    t1, _, _ = _arrival_times(paths, kin, np.full((M, N), duration_s), c)
-    tm, _, _ = _arrival_times(paths, kin, np.full((M, N), duration_s / 2), c)
+    t0, anchor, first = _arrival_times(paths, kin, 0.0, c)
+    t1, _, _ = _arrival_times(paths, kin, duration_s, c)
+    tm, _, _ = _arrival_times(paths, kin, duration_s / 2, c)
     last = np.maximum(np.linalg.norm(kin.mics(t0) - anchor, axis=-1), 1e-6)
     length = first + last
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
@@ -602,7 +671,8 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
         gp, lp, Vp = g[:, paths], weights[:, paths], V[paths][:, terms]
         Q = Vp.shape[1]
         # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
-        X = np.einsum("mnj,mnk->njk", (gp**2)[:, :, None] * lp, lp)
+        lt = lp.transpose(1, 0, 2)  # (n, m, j)
+        X = np.matmul(((gp**2).T[:, :, None] * lt).transpose(0, 2, 1), lt)  # (n, j, k)
         VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
         gram = (X.reshape(-1, K * K).T @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
         gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
@@ -620,7 +690,7 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
         P = np.einsum("nq,jqr->njr", Vp, T)
         g_new = np.zeros((M, N, r))
-        g_new[:, paths] = np.einsum("mnj,njr->mnr", gp[:, :, None] * lp, P)
+        g_new[:, paths] = np.matmul(gp.T[:, :, None] * lt, P).transpose(1, 0, 2)
         out_g.append(g_new)
         out_f.append((Y[:, :r].T @ D).T)
     return np.concatenate(out_g, axis=2), np.concatenate(out_f, axis=1)
@@ -654,7 +724,7 @@ def render_doppler_reference(
     for m in range(M):
         fine = np.zeros(n_fine)
         for k in range(N):
-            one = _select(paths, k)
+            one = paths.select(slice(k, k + 1))
             ends, _, _ = _arrival_times(one, kin, np.array([[0.0, T]]), c, mic=m)
             t_a, t_b = ends[0]
             i0 = max(int(np.floor(t_a * fs_fine)) - 2, 0)
@@ -675,21 +745,3 @@ def render_doppler_reference(
         spec[int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
         out[m] = sfft.irfft(spec, n_fine)[::oversample]
     return out
-
-
-def _select(paths: MovingPaths, k: int) -> MovingPaths:
-    return MovingPaths(
-        *(
-            getattr(paths, f)[k : k + 1]
-            for f in (
-                "anchor_m",
-                "first_leg_m",
-                "strength",
-                "departure",
-                "order",
-                "mirror",
-                "first_leg",
-                "velocity_m_s",
-            )
-        )
-    )
