@@ -56,6 +56,7 @@ Rendering:
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from functools import lru_cache
 
 import numpy as np
 from scipy import fft as sfft
@@ -88,7 +89,7 @@ NODE_QUANTUM = 2e-3
 TABLE_STEP_S = 2.5e-4
 #: the table is replaced by a polynomial in time of this degree where it fits it
 #: within POLY_FIT_M
-POLY_DEGREE = 8
+POLY_DEGREE = 6
 POLY_FIT_M = 1e-10
 FIRST_LEG = {"fixed": 0, "fermat": 1, "exact": 2}
 
@@ -469,6 +470,16 @@ def scaled_call(waveform: Waveform, rate: float) -> Waveform:
     )
 
 
+@lru_cache(maxsize=1024)
+def _node_count(x: float, tolerance: float) -> int:
+    """The fewest Chebyshev nodes that interpolate exp(i x s) on [-1, 1] to
+    `tolerance`."""
+    k = 1
+    while k < 64 and _chebyshev_error(k, x) > tolerance:
+        k += 1
+    return k
+
+
 def _chebyshev_error(k: int, x: float) -> float:
     """Largest error of interpolating exp(i x s), s in [-1, 1], at k Chebyshev nodes."""
     nodes = np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
@@ -514,9 +525,7 @@ def doppler_nodes(
     f_top = max(waveform.band_hz) if waveform.taper > 0 else ANTI_ALIAS_CUTOFF * sample_rate_hz / 2
     span = waveform.duration_s / lo + 2 * 256 / sample_rate_hz
     x = 2 * np.pi * f_top * span * (hi - lo) / 2
-    k = 1
-    while k < 64 and _chebyshev_error(k, x) > tolerance:
-        k += 1
+    k = _node_count(float(np.ceil(x * 100) / 100), float(tolerance))
     centre, half = (hi + lo) / 2, (hi - lo) / 2
     return centre + half * np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
 
@@ -533,7 +542,9 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
         if key not in _TEMPLATES:
             if len(_TEMPLATES) > 256:
                 _TEMPLATES.clear()
-            _TEMPLATES[key] = scaled_call(waveform, float(a)).band_limited(fs)
+            # a tapered call has no energy where 8x oversampling would alias it
+            over = 8 if waveform.taper > 0 else 64
+            _TEMPLATES[key] = scaled_call(waveform, float(a)).band_limited(fs, oversample=over)
         y, start = _TEMPLATES[key]
         calls.append(y)
     L = max(y.size for y in calls)
@@ -671,8 +682,7 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
         gp, lp, Vp = g[:, paths], weights[:, paths], V[paths][:, terms]
         Q = Vp.shape[1]
         # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
-        lt = lp.transpose(1, 0, 2)  # (n, m, j)
-        X = np.matmul(((gp**2).T[:, :, None] * lt).transpose(0, 2, 1), lt)  # (n, j, k)
+        X = np.einsum("mnj,mnk->njk", (gp**2)[:, :, None] * lp, lp, optimize=True)
         VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
         gram = (X.reshape(-1, K * K).T @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
         gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
@@ -682,17 +692,18 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
             continue
         lam, E = lam[keep], E[:, keep]
         B = filt[:, :, terms].reshape(filt.shape[0], K * Q)
-        D = (np.sqrt(lam)[:, None] * E.T) @ B.T  # (s, F)
-        s2, Y = np.linalg.eigh((D @ D.conj().T).real)
+        S = np.sqrt(lam)[:, None] * E.T  # D = S B^T, (s, F)
+        Br = np.concatenate([B.real, B.imag])  # Re(B^T conj(B)) = Br^T Br
+        s2, Y = np.linalg.eigh(S @ (Br.T @ Br) @ S.T)
         s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
         P = np.einsum("nq,jqr->njr", Vp, T)
         g_new = np.zeros((M, N, r))
-        g_new[:, paths] = np.matmul(gp.T[:, :, None] * lt, P).transpose(1, 0, 2)
+        g_new[:, paths] = np.einsum("mnj,njr->mnr", gp[:, :, None] * lp, P, optimize=True)
         out_g.append(g_new)
-        out_f.append((Y[:, :r].T @ D).T)
+        out_f.append(B @ (Y[:, :r].T @ S).T)
     return np.concatenate(out_g, axis=2), np.concatenate(out_f, axis=1)
 
 
