@@ -46,6 +46,15 @@ def package_version() -> str:
         return "unknown"
 
 
+def _on(trajectory, pose: Pose) -> bool:
+    """Whether `pose` is where `trajectory` is at ``pose.time_s``."""
+    t = pose.time_s
+    return bool(
+        np.allclose(trajectory.position(t), pose.position_m, rtol=0, atol=1e-9)
+        and np.allclose(trajectory.rotation(t), pose.rotation, rtol=0, atol=1e-9)
+    )
+
+
 class Simulator:
     """Simulates a scene; the ray-tracing scene is built once and reused for every pose."""
 
@@ -86,10 +95,14 @@ class Simulator:
         real recording).  `motion`: the sensor's
         :class:`~acousim.scene.trajectory.Trajectory` during the measurement (`pose`
         is where it is at the start of the emission, at ``pose.time_s``), None for a
-        frozen pose; by default the scene's.
+        frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
+        is frozen).
         """
-        if motion is SCENE_MOTION or (isinstance(motion, str) and motion == SCENE_MOTION):
+        if isinstance(motion, str) and motion == SCENE_MOTION:
             motion = self.scene.sensor.motion
+            if motion is not None and not _on(motion, pose):
+                log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
+                motion = None
         if motion is not None or self.moving_points:
             return self._simulate_moving(pose, index, seed, n_samples, motion)
         scene = self.scene

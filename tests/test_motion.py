@@ -321,3 +321,34 @@ def test_first_order_image_sources_follow_the_emitter_exactly():
     true = np.linalg.norm(img2 - mic, axis=1)
     err = np.abs(pred[:, None] - true[None]).min(axis=1)
     assert two.sum() >= 3 and np.all(err < 1e-9)
+
+
+def test_dataset_spec_randomises_speed_and_turn_rate(tmp_path):
+    from acousim.dataset import load_spec
+    from acousim.dataset.generation import _motion, sample_parameters
+
+    p = tmp_path / "drive.toml"
+    p.write_text(
+        f"""
+[dataset]
+name = "drive"
+samples = 2
+shard_size = 2
+seed = 1
+
+[[scenes]]
+file = "{SCENES}/wall.toml"
+
+[randomize]
+speed_m_s = {{ dist = "uniform", range = [0.5, 1.5] }}
+turn_rate_deg_s = {{ dist = "uniform", range = [-90.0, 90.0] }}
+"""
+    )
+    spec = load_spec(p)
+    params = sample_parameters(spec, 0)
+    c = params["conditions"]
+    assert 0.5 <= c["speed_m_s"] <= 1.5 and -90 <= c["turn_rate_deg_s"] <= 90
+    pose = Pose(params["pose"]["position_m"], params["pose"]["yaw_rad"])
+    tr = _motion(pose, c)
+    assert np.linalg.norm(tr.velocity(0.0)) == pytest.approx(c["speed_m_s"])
+    assert np.rad2deg(tr.angular_velocity(0.0)[2]) == pytest.approx(c["turn_rate_deg_s"])

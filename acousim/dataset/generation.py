@@ -159,7 +159,7 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     p = params["pose"]
     pose = Pose(p["position_m"], p["yaw_rad"], p["pitch_rad"], p["roll_rad"])
     sim = Simulator(scene, threads=1)
-    rec = sim.simulate_pose(pose, 0)
+    rec = sim.simulate_pose(pose, 0, motion=_motion(pose, params["conditions"]))
     st = spec.store
     arrays: dict[str, np.ndarray] = {}
     if st.raw:
@@ -190,6 +190,19 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     if st.depth_map:
         arrays["labels/depth_m"] = _depth_map(params["scene"], pose, grid, scene)
     return arrays, params
+
+
+def _motion(pose, conditions: dict):
+    """The sensor driving forward (along its axis) at ``speed_m_s`` and turning about
+    the vertical at ``turn_rate_deg_s`` during the measurement, when the spec
+    randomises them; None (a frozen pose) otherwise."""
+    from acousim.scene.trajectory import Trajectory
+
+    speed = conditions.get("speed_m_s", 0.0)
+    turn = conditions.get("turn_rate_deg_s", 0.0)
+    if speed == 0 and turn == 0:
+        return None
+    return Trajectory.constant(pose, speed * pose.rotation[:, 0], [0, 0, np.deg2rad(turn)])
 
 
 def _depth_map(scene_file: str, pose, grid: P.Grid, scene) -> np.ndarray:

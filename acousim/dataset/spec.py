@@ -87,6 +87,8 @@ KEYS = {
         "reflection_scale",
         "mount_jitter_deg",
         "mount_jitter_m",
+        "speed_m_s",
+        "turn_rate_deg_s",
     },
     "store": {
         "raw",
