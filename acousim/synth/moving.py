@@ -248,7 +248,8 @@ class SensorKinematics:
     the emission.
 
     `trajectory` None: the sensor stays at `pose`.  With `step_s`, the motion is
-    tabulated over ``[-step, window_s]`` and interpolated linearly (the fast
+    tabulated over ``[0, window_s + step_s]`` and represented by a polynomial in time
+    where one fits the table within POLY_FIT_M, else interpolated linearly (the fast
     method); without, every query evaluates the trajectory (the reference).
     """
 
@@ -261,8 +262,10 @@ class SensorKinematics:
         self.static = trajectory is None
         self.step = step_s
         if not self.static and step_s is not None:
-            n = int(np.ceil((window_s + 2 * step_s) / step_s)) + 2
-            self.grid = -step_s + step_s * np.arange(n)
+            # from the start of the emission (no earlier time is ever asked for: the
+            # pose may be a knot of the trajectory, where its derivatives jump)
+            n = int(np.ceil((window_s + step_s) / step_s)) + 2
+            self.grid = step_s * np.arange(n)
             pts = np.vstack([array.emitter_m[None], array.positions_m])
             table = trajectory.to_world(pts, self.t0 + self.grid)  # (G, 1 + M, 3)
             self.emitter_table = table[:, 0]
@@ -348,7 +351,7 @@ class SensorKinematics:
         return a + (b - a) * w, (b - a) / self.step
 
 
-def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None):
+def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None, guess=None):
     """Reception times of the samples emitted at `tau`: a number (one emission time
     for every path and microphone), (M, N) with mic None (row i: microphone i), or
     (N, S) for microphone `mic` (path n in row n).
@@ -393,8 +396,12 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
         first = np.broadcast_to(first, shape)
-    t = t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
     if mic is None and not kin.static and kin.step is not None:
+        t = (
+            t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
+            if guess is None
+            else guess
+        )
         # Newton on f(t) = t - t_r - |m(t) - A| / c (the table's slope as m')
         for _ in range(20):
             pos, vel = kin.mics_and_velocity(t)
@@ -403,9 +410,12 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
             slope = 1 - np.einsum("...i,...i->...", vel, diff) / (np.maximum(dist, 1e-12) * c)
             step = (t - t_r - dist / c) / slope
             t = t - step
-            if np.max(np.abs(step)) < 1e-14:
+            # quadratic convergence: after a step s the error is about s^2 |f''| / 2
+            # with |f''| below 1e-2 / s for a robot: s < 1e-7 s leaves < 1e-16 s
+            if np.max(np.abs(step)) < 1e-7:
                 break
         return t, anchor, first
+    t = t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
     for _ in range(20):
         new = t_r + np.linalg.norm(kin.mics(t, mic) - anchor, axis=-1) / c
         change = np.max(np.abs(new - t)) if new.size else 0.0
@@ -439,8 +449,9 @@ def arrivals(
     path and microphone; the delays and time-compression factors of the fast method."""
     c = speed_of_sound_m_s
     t0, anchor, first = _arrival_times(paths, kin, 0.0, c)
-    t1, _, _ = _arrival_times(paths, kin, duration_s, c)
-    tm, _, _ = _arrival_times(paths, kin, duration_s / 2, c)
+    # started from a line, then from the chord: one or two Newton steps each
+    t1, _, _ = _arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
+    tm, _, _ = _arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
     last = np.maximum(np.linalg.norm(kin.mics(t0) - anchor, axis=-1), 1e-6)
     length = first + last
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
