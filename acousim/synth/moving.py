@@ -88,6 +88,10 @@ DOPPLER_TOLERANCE = 1e-4
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
 NODE_QUANTUM = 2e-3
+#: the gain sets are compressed to `tolerance` times this (relative amplitude of
+#: what is left out): 3e-4, -70 dB by default, below the static renderer's response
+#: factorisation (-67 dB, BENCHMARKS.md)
+COMPRESS_FACTOR = 3.0
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
 TABLE_STEP_S = 2.5e-4
@@ -627,7 +631,9 @@ def render_doppler(
         dtype = np.float64
     # 4. gain sets (path, microphone) x filters: the K x Q products compressed per
     # group (direct path, echoes) to the rank their sum needs
-    gains, filt_band = _compress(g, weights, V, filt, echoes.order == 0, direct, tolerance)
+    gains, filt_band = _compress(
+        g, weights, V, filt, echoes.order == 0, direct, tolerance * COMPRESS_FACTOR
+    )
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), complex)
     filt[band] = filt_band
     # 5. impulses per set, FFT, sum of products, back
