@@ -291,6 +291,18 @@ class SensorKinematics:
                 self.poly = coef.reshape(POLY_DEGREE + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
                 deriv = np.polynomial.polynomial.polyder(coef) / self.half
                 self.poly_v = deriv.reshape(POLY_DEGREE, *table.shape[1:])
+                # per microphone (M, D + 1, 3) for batched products with the powers
+                self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
+                self.mic_poly_v = np.ascontiguousarray(self.poly_v[:, 1:].transpose(1, 0, 2))
+
+    def _powers(self, t: np.ndarray, degree: int) -> np.ndarray:
+        """Powers 0..degree of the normalised time: t (M, ...) -> (M, K, degree + 1)."""
+        x = ((t - self.mid) / self.half).reshape(t.shape[0], -1)
+        X = np.empty((degree + 1, *x.shape))  # each power contiguous
+        X[0] = 1.0
+        for k in range(1, degree + 1):
+            np.multiply(X[k - 1], x, out=X[k])
+        return np.moveaxis(X, 0, -1)
 
     @staticmethod
     def _horner(coef, x):
@@ -333,11 +345,10 @@ class SensorKinematics:
             local = self.array.positions_m[np.broadcast_to(idx, t.shape)]
             return np.einsum("...ij,...j->...i", R, local) + p
         if self.poly is not None:
-            x = ((t - self.mid) / self.half)[..., None]
             if m is None:
-                shape = (-1, t.shape[0], *([1] * (t.ndim - 1)), 3)
-                return self._horner(self.poly[:, 1:].reshape(shape), x)
-            return self._horner(self.poly[:, 1 + m], x)
+                X = self._powers(t, POLY_DEGREE)
+                return np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
+            return self._horner(self.poly[:, 1 + m], ((t - self.mid) / self.half)[..., None])
         i, w = self._lookup(self.mic_table, t)
         idx = np.broadcast_to(idx, t.shape)
         return self.mic_table[i, idx] * (1 - w) + self.mic_table[i + 1, idx] * w
@@ -347,12 +358,10 @@ class SensorKinematics:
         microphone i at times ``t[i]``."""
         t = np.asarray(t, float)
         if self.poly is not None:
-            x = ((t - self.mid) / self.half)[..., None]
-            shape = (-1, t.shape[0], *([1] * (t.ndim - 1)), 3)
-            return (
-                self._horner(self.poly[:, 1:].reshape(shape), x),
-                self._horner(self.poly_v[:, 1:].reshape(shape), x),
-            )
+            X = self._powers(t, POLY_DEGREE)
+            pos = np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
+            vel = np.matmul(X[..., :-1], self.mic_poly_v).reshape(*t.shape, 3)
+            return pos, vel
         idx = np.broadcast_to(np.arange(t.shape[0]).reshape(-1, *([1] * (t.ndim - 1))), t.shape)
         i, w = self._lookup(self.mic_table, t)
         a, b = self.mic_table[i, idx], self.mic_table[i + 1, idx]
