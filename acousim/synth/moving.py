@@ -582,6 +582,20 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
     return out, start
 
 
+_SPECTRA: dict = {}
+
+
+def _template_spectra(waveform, fs, nodes, n, calls) -> np.ndarray:
+    """rfft of the templates at length n (cached: a drive keeps its nodes and n)."""
+    key = (waveform, fs, tuple(nodes.tolist()), n)
+    if key not in _SPECTRA:
+        if len(_SPECTRA) > 8:
+            _SPECTRA.clear()
+        _SPECTRA[key] = sfft.rfft(calls, n, axis=-1)
+        _SPECTRA[key].flags.writeable = False
+    return _SPECTRA[key]
+
+
 def render_doppler(
     echoes: Echoes,
     rate: np.ndarray,
@@ -624,7 +638,7 @@ def render_doppler(
         return out
     n_span = hi - lo
     n = sfft.next_fast_len(n_span + L + 2 * taps + 258, real=True)
-    spectra = sfft.rfft(calls, n, axis=-1)  # (K, F)
+    spectra = _template_spectra(waveform, fs, nodes, n, calls)  # (K, F)
     g = echoes.gain
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
     shaped = response is not None and response.active
