@@ -582,20 +582,6 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
     return out, start
 
 
-_SPECTRA: dict = {}
-
-
-def _template_spectra(waveform, fs, nodes, n, calls) -> np.ndarray:
-    """rfft of the templates at length n (cached: a drive keeps its nodes and n)."""
-    key = (waveform, fs, tuple(nodes.tolist()), n)
-    if key not in _SPECTRA:
-        if len(_SPECTRA) > 8:
-            _SPECTRA.clear()
-        _SPECTRA[key] = sfft.rfft(calls, n, axis=-1)
-        _SPECTRA[key].flags.writeable = False
-    return _SPECTRA[key]
-
-
 def render_doppler(
     echoes: Echoes,
     rate: np.ndarray,
@@ -638,24 +624,27 @@ def render_doppler(
         return out
     n_span = hi - lo
     n = sfft.next_fast_len(n_span + L + 2 * taps + 258, real=True)
-    spectra = _template_spectra(waveform, fs, nodes, n, calls)  # (K, F)
+    key = (waveform, fs, tuple(nodes.tolist()), n)
+    spectra = _cached(("spectra", *key), lambda: sfft.rfft(calls, n, axis=-1))  # (K, F)
     g = echoes.gain
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
     shaped = response is not None and response.active
     if shaped:
         g, U, V, band, direct = _factors(echoes, g, spectra[K // 2], fs, n, response)
-        filt = spectra[:, band].T[:, :, None] * U[:, None, :]  # (F_band, K, Q)
         dtype = np.float32
     else:
         band = np.ones(spectra.shape[1], bool)
-        filt = spectra.T[:, :, None]
+        U = np.ones((band.size, 1))
         V = np.ones((echoes.n_paths, 1))
         direct = np.zeros(1, bool)
         dtype = np.float64
-    # 4. gain sets (path, microphone) x filters: the K x Q products compressed per
-    # group (direct path, echoes) to the rank their sum needs
+    # 4. gain sets (path, microphone) x filters (template j times response term q):
+    # the K x Q products compressed per group (direct path, echoes) to the rank
+    # their sum needs
+    W = spectra[:, band]
+    WW = _cached(("products", waveform, fs, tuple(nodes.tolist()), n, band.sum()), _products, W)
     gains, filt_band = _compress(
-        g, weights, V, filt, echoes.order == 0, direct, tolerance * COMPRESS_FACTOR
+        g, weights, V, W, WW, U, echoes.order == 0, direct, tolerance * COMPRESS_FACTOR
     )
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), complex)
     filt[band] = filt_band
@@ -701,13 +690,33 @@ def _factors(echoes: Echoes, g, W, fs, n, response: PathResponse):
     return g, U, V, band, direct
 
 
-def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
+def _products(W: np.ndarray) -> np.ndarray:
+    """Re(conj(W_j) W_k) of the template spectra W (K, F) for j <= k (symmetric):
+    (K (K + 1) / 2, F), rows in the order of ``np.triu_indices(K)``."""
+    j, k = np.triu_indices(W.shape[0])
+    return (W.conj()[j] * W[k]).real
+
+
+_CACHE: dict = {}
+
+
+def _cached(key, fn, *args):
+    if key not in _CACHE:
+        if len(_CACHE) > 8:
+            _CACHE.clear()
+        _CACHE[key] = fn(*args)
+    return _CACHE[key]
+
+
+def _compress(g, weights, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
     g (M, N) path gains, weights (M, N, K) Lagrange weights of the Doppler nodes,
-    V (N, Q) response terms, filt (F, K, Q) the filters b_jq (spectra), set_direct
-    (Q,) which response terms belong to the direct path.  Per group of paths (the
+    V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
+    template spectra W (K, F), their products WW (:func:`_products`) and the
+    response terms U (F, Q); set_direct (Q,) which response terms belong to the
+    direct path.  Per group of paths (the
     direct path, the echoes), with G (paths x S) the gains and B (F x S) the filters
     (S = K Q' sets): ``G B^T = U' D``, ``G = U' L^(1/2) E^T`` (eigendecomposition of
     the Gram matrix G^T G, formed from the factors without G), ``D = L^(1/2) E^T
@@ -735,10 +744,18 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
         if not keep.any():
             continue
         lam, E = lam[keep], E[:, keep]
-        B = filt[:, :, terms].reshape(filt.shape[0], K * Q)
+        Uq = U[:, terms]
         S = np.sqrt(lam)[:, None] * E.T  # D = S B^T, (s, F)
-        Br = np.concatenate([B.real, B.imag])  # Re(B^T conj(B)) = Br^T Br
-        s2, Y = np.linalg.eigh(S @ (Br.T @ Br) @ S.T)
+        # Re(B^T conj(B)) from the template products and the response terms
+        qa, qb = np.triu_indices(Q)
+        part = WW @ (Uq[:, qa] * Uq[:, qb])  # both symmetric: upper triangles only
+        full = np.empty((K, K, Q, Q))
+        ja, jb = np.triu_indices(K)
+        for c, (a, b) in enumerate(zip(qa, qb)):
+            full[ja, jb, a, b] = full[jb, ja, a, b] = part[:, c]
+            full[ja, jb, b, a] = full[jb, ja, b, a] = part[:, c]
+        BB = full.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
+        s2, Y = np.linalg.eigh(S @ BB @ S.T)
         s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
@@ -747,7 +764,8 @@ def _compress(g, weights, V, filt, path_direct, set_direct, tolerance):
         g_new = np.zeros((M, N, r))
         g_new[:, paths] = np.einsum("mnj,njr->mnr", gp[:, :, None] * lp, P, optimize=True)
         out_g.append(g_new)
-        out_f.append(B @ (Y[:, :r].T @ S).T)
+        Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
+        out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
     return np.concatenate(out_g, axis=2), np.concatenate(out_f, axis=1)
 
 
