@@ -227,11 +227,13 @@ class Simulator:
 
     def _moving_points(self, pose):
         """Moving point reflectors at the start of the emission within the range:
-        positions (P, 3), strengths (P,), velocities (P, 3).  Not tested for
-        occlusion by meshes (the traced points are)."""
+        positions (P, 3), strengths (P,), velocities (P, 3) (a point on a track moves
+        at its velocity then during the measurement).  Not tested for occlusion by
+        meshes (the traced points are)."""
         pts = self.moving_points
-        v = np.array([p.velocity_m_s for p in pts], float)
-        pos = np.array([p.position_m for p in pts], float) + v * pose.time_s
+        now = [p.at(pose.time_s) for p in pts]
+        pos = np.array([x for x, _ in now], float)
+        v = np.array([u for _, u in now], float)
         a = np.array([p.strength for p in pts], float)
         array = self.scene.sensor.array
         r_e = np.linalg.norm(pos - pose.to_world(array.emitter_m), axis=1)

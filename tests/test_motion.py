@@ -373,3 +373,30 @@ def test_standing_still_in_motion_renders_as_the_static_scene():
             echoes = still
         err = 20 * np.log10(np.linalg.norm(moving - still) / np.linalg.norm(echoes))
         assert err < -70
+
+
+def test_point_on_its_own_track():
+    """A reflector walking along a track: where and how fast it is at the start of
+    the emission comes from the track (straight here: 1 m/s along -y)."""
+    sc = parse_scene(
+        {
+            "sensor": {"array": "urtis_v1", "direct_path": False},
+            "simulation": {"max_range_m": 3.0, "absorption": False},
+            "points": [
+                {"track": [[0.0, 2.0, 1.0, 0.0], [1.0, 2.0, 0.0, 0.0], [2.0, 2.0, -1.0, 0]]}
+            ],
+        }
+    )
+    p = sc.points[0]
+    assert p.moving
+    pos, vel = p.at(0.5)
+    assert np.allclose(pos, [2.0, 0.5, 0.0]) and np.allclose(vel, [0.0, -1.0, 0.0])
+    with pytest.raises(ValueError, match=r"points\[0\].track"):
+        parse_scene({"sensor": {"array": "urtis_v1"}, "points": [{"track": [[0, 1, 2]]}]})
+    pose = Pose([0.0, 0, 0], time_s=1.0)  # the point crosses the axis at x = 2 m
+    sim = Simulator(sc)
+    rec = sim.simulate_pose(pose)
+    assert rec.metadata["truth"]["velocity_world_m_s"][0] == pytest.approx([0, -1.0, 0])
+    truth = rec.metadata["truth"]["position_world_m"][0]
+    assert truth == pytest.approx([2.0, 0.0, 0.0])  # where it is at the emission
+    assert np.any(rec.samples)

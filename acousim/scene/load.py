@@ -69,7 +69,7 @@ KEYS: dict[str, set[str]] = {
     },
     "materials": {"name", "reflection", "diffuse", "lobe_deg"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
-    "points": {"position_m", "strength", "velocity_m_s"},
+    "points": {"position_m", "strength", "velocity_m_s", "track"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 
@@ -251,11 +251,14 @@ def parse_scene(
         meshes.append(MeshItem(file, materials[mat], T))
     points = []
     for where, p in r.table_list(data, "points"):
+        track = _track(r, p, where)
+        start = None if track is None else list(track[0][1:])  # (unused with a track)
         points.append(
             PointItem(
-                tuple(r.vector(p, "position_m", where)),
+                tuple(r.vector(p, "position_m", where, start)),
                 r.number(p, "strength", where, 1.0, 0, 1e6),
                 tuple(float(v) for v in r.vector(p, "velocity_m_s", where, [0.0, 0.0, 0.0])),
+                track,
             )
         )
     sensor = _sensor(r, r.table(data, "sensor", ""), base)
@@ -328,6 +331,22 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         r.number(s, "mic_radius_m", "sensor", 0.0, 0, 0.05),
         _motion(r, s, poses),
     )
+
+
+def _track(r: _Reader, p: dict, where: str):
+    """A point's own trajectory: rows [t_s, x, y, z], at least two, times increasing."""
+    if "track" not in p:
+        return None
+    rows = p["track"]
+    try:
+        arr = np.array(rows, float)
+    except (ValueError, TypeError):
+        arr = np.zeros((0, 0))
+    if arr.ndim != 2 or arr.shape[0] < 2 or arr.shape[1] != 4 or not np.all(np.isfinite(arr)):
+        raise r.fail(f"{where}.track", f"must be two or more rows [t_s, x, y, z], got {rows!r}")
+    if not np.all(np.diff(arr[:, 0]) > 0):
+        raise r.fail(f"{where}.track", f"times must increase, got {arr[:, 0].tolist()}")
+    return tuple(tuple(float(v) for v in row) for row in arr)
 
 
 def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):

@@ -47,10 +47,25 @@ class PointItem:
     position_m: tuple[float, float, float]
     strength: float = 1.0
     velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)  # world frame; position at t = 0
+    #: its own trajectory instead: rows (t_s, x, y, z), times increasing
+    track: tuple[tuple[float, float, float, float], ...] | None = None
 
     @property
     def moving(self) -> bool:
-        return any(v != 0 for v in self.velocity_m_s)
+        return self.track is not None or any(v != 0 for v in self.velocity_m_s)
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position and velocity (3,) at time `t_s` of the trajectory clock: along
+        its track (a cubic spline with natural ends, extended by its end pieces), or
+        moving at its velocity from its position at time 0."""
+        if self.track is None:
+            v = np.asarray(self.velocity_m_s, float)
+            return np.asarray(self.position_m, float) + v * t_s, v
+        from scipy.interpolate import CubicSpline
+
+        rows = np.asarray(self.track, float)
+        spline = CubicSpline(rows[:, 0], rows[:, 1:], bc_type="natural")
+        return spline(t_s), spline(t_s, 1)
 
 
 @dataclass(frozen=True)
