@@ -185,8 +185,8 @@ def parse_scene(
         declared = r.settings(PointItem, p, where, extra=EXTRA_KEYS["points"])
         try:
             points.append(PointItem(**declared, track=p.get("track")))
-        except InputError as exc:  # the track, checked by the model
-            raise r.fail(f"{where}.track", exc.reason, p["track"]) from None
+        except InputError as exc:  # the track, checked by the model (the rest read above)
+            raise r.fail(f"{where}.track", exc.reason, p.get("track")) from None
     sensor = _sensor(r, r.table(data, "sensor", ""), base)
     if not meshes and not points:
         raise r.fail("meshes", "the scene has neither meshes nor points: nothing can echo")
