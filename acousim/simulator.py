@@ -4,10 +4,19 @@
 needed to redo or compare it: the scene file's hash, the package version, the seed,
 the pose, and the ground truth (paths: position, amplitude at the array centre,
 order and kind).
+
+A scene with motion (a continuous trajectory, a pose with a velocity or an angular
+rate, moving point reflectors) is rendered with the exact kinematics of
+:mod:`acousim.synth.moving` (retarded time per path and microphone, Doppler); its
+recordings also store the motion (``metadata["motion"]``: the pose at the start of
+the emission, the velocity and the angular velocity) and the velocity of each path
+(``rec.truth.velocity_world_m_s``).  A scene without motion takes
+the static path unchanged.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import logging
 from collections.abc import Callable, Iterable
@@ -29,6 +38,9 @@ KIND_NAMES = {v: k for k, v in KIND.items()}
 
 log = logging.getLogger(__name__)
 
+#: `simulate_pose(motion=SCENE_MOTION)`: the scene's own motion
+SCENE_MOTION = "scene"
+
 
 def package_version() -> str:
     try:
@@ -37,12 +49,29 @@ def package_version() -> str:
         return "unknown"
 
 
+def _on(trajectory, pose: Pose) -> bool:
+    """Whether `pose` is where `trajectory` is at ``pose.time_s``."""
+    t = pose.time_s
+    return bool(
+        np.allclose(trajectory.position(t), pose.position_m, rtol=0, atol=1e-9)
+        and np.allclose(trajectory.rotation(t), pose.rotation, rtol=0, atol=1e-9)
+    )
+
+
 class Simulator:
     """Simulates a scene; the ray-tracing scene is built once and reused for every pose."""
 
     def __init__(self, scene: Scene, threads: int = 2) -> None:
         self.scene = scene
+        # moving point reflectors are not traced (no occlusion test): see _moving_points
+        self.moving_points = tuple(p for p in scene.points if p.moving)
+        if self.moving_points:
+            # the tracer sees the still points only; a copy, not a new Scene, which
+            # would refuse a scene whose only reflectors move ("nothing can echo")
+            scene = copy.copy(scene)
+            object.__setattr__(scene, "points", tuple(p for p in scene.points if not p.moving))
         self.tracer = Tracer(scene, threads)
+        scene = self.scene
         env = scene.environment
         self.c = env.speed_of_sound_m_s
         self.response = PathResponse(
@@ -58,13 +87,29 @@ class Simulator:
         return self.tracer.trace(pose)
 
     def simulate_pose(
-        self, pose: Pose, index: int = 0, seed: int | None = None, n_samples: int | None = None
+        self,
+        pose: Pose,
+        index: int = 0,
+        seed: int | None = None,
+        n_samples: int | None = None,
+        motion=SCENE_MOTION,
     ) -> P.Recording:
         """One recording at `pose`; the noise seed is derived from (scene seed, index).
 
         `n_samples` overrides the length the scene's maximum range implies (to match a
-        real recording).
+        real recording).  `motion`: the sensor's
+        :class:`~acousim.scene.trajectory.Trajectory` during the measurement (`pose`
+        is where it is at the start of the emission, at ``pose.time_s``), None for a
+        frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
+        is frozen).
         """
+        if isinstance(motion, str) and motion == SCENE_MOTION:
+            motion = self.scene.sensor.motion
+            if motion is not None and not _on(motion, pose):
+                log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
+                motion = None
+        if motion is not None or self.moving_points:
+            return self._simulate_moving(pose, index, seed, n_samples, motion)
         scene = self.scene
         sensor = scene.sensor
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
@@ -108,6 +153,103 @@ class Simulator:
             metadata=meta,
         )
         return dataclasses.replace(rec, truth=truth)
+
+    def _simulate_moving(self, pose, index, seed, n_samples, motion) -> P.Recording:
+        """A measurement in motion (see :mod:`acousim.synth.moving`).
+
+        1. Paths traced at the pose of the start of the emission; moving point
+           reflectors placed where they are then.
+        2. Per path and microphone, the reception times of the call's first, middle
+           and last sample solved for the moving emitter, reflector and microphone.
+        3. Rendered as time-scaled calls at fractional delays; noise as for a static
+           pose.
+        """
+        from acousim.synth.moving import TABLE_STEP_S, MovingPaths, SensorKinematics, arrivals
+
+        scene, sensor = self.scene, self.scene.sensor
+        array = sensor.array
+        scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
+        paths = self.tracer.trace(pose)
+        emitter = pose.to_world(array.emitter_m)
+        moving = MovingPaths.from_traced(paths, emitter)
+        truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
+        if self.moving_points:
+            pos, a, v = self._moving_points(pose)
+            extra = MovingPaths.points(pos, a, v, emitter)
+            moving = MovingPaths.concatenate([moving, extra])
+            truth_pos = np.concatenate([truth_pos, pos])
+            kinds = kinds + ["point"] * len(a)
+        n = n_samples or scene.n_samples()
+        kin = SensorKinematics(motion, pose, array, n / sensor.sample_rate_hz, TABLE_STEP_S)
+        arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
+        echoes = arr.echoes
+        mics = pose.to_world(array.positions_m)
+        if sensor.mic_radius_m > 0:
+            echoes = self._mic_directivity(echoes, moving, mics, pose.rotation[:, 0])
+        base = scene.simulation.seed if seed is None else seed
+        noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
+        receiver = mics.mean(axis=0)
+        level = moving.strength / np.maximum(
+            np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
+        )
+        t = pose.time_s
+        velocity = np.zeros(3) if motion is None else motion.velocity(t)
+        turn = np.zeros(3) if motion is None else motion.angular_velocity(t)
+        meta = {
+            "scene": scene.name,
+            "scene_file": str(scene.source) if scene.source else None,
+            "scene_sha256": scene.file_sha256,
+            "acousim_version": package_version(),
+            "pose": pose.to_dict(),
+            "pose_index": index,
+            "motion": {
+                "emission_pose": pose.to_dict(),
+                "velocity_m_s": velocity.tolist(),
+                "angular_velocity_deg_s": np.rad2deg(turn).tolist(),
+                "doppler_min": float(arr.rate.min()) if arr.rate.size else 1.0,
+                "doppler_max": float(arr.rate.max()) if arr.rate.size else 1.0,
+            },
+        }
+        truth = P.GroundTruth(
+            position_world_m=truth_pos,
+            position_sensor_m=pose.to_sensor(truth_pos),
+            amplitude=level,
+            order=moving.order,
+            kind=np.array(kinds, dtype=str),
+            velocity_world_m_s=moving.velocity_m_s,
+        )
+        rec = simulate(
+            echoes,
+            array,
+            sensor.call,
+            sensor.sample_rate_hz,
+            n,
+            speed_of_sound_m_s=self.c,
+            snr_db=scene.simulation.snr_db,
+            seed=noise_seed,
+            method=scene.simulation.fractional_delay,
+            response=self.response,
+            snr_reference="echoes",
+            metadata=meta,
+            doppler=arr.rate,
+        )
+        return dataclasses.replace(rec, truth=truth)
+
+    def _moving_points(self, pose):
+        """Moving point reflectors at the start of the emission within the range:
+        positions (P, 3), strengths (P,), velocities (P, 3) (a point on a track moves
+        at its velocity then during the measurement).  Not tested for occlusion by
+        meshes (the traced points are)."""
+        pts = self.moving_points
+        now = [p.at(pose.time_s) for p in pts]
+        pos = np.array([x for x, _ in now], float)
+        v = np.array([u for _, u in now], float)
+        a = np.array([p.strength for p in pts], float)
+        array = self.scene.sensor.array
+        r_e = np.linalg.norm(pos - pose.to_world(array.emitter_m), axis=1)
+        r_r = np.linalg.norm(pos - pose.to_world(array.positions_m.mean(axis=0)), axis=1)
+        keep = (r_e > 0) & (r_e + r_r <= 2 * self.scene.simulation.max_range_m)
+        return pos[keep], a[keep], v[keep]
 
     def _mic_directivity(self, echoes, paths, mics, axis):
         """Microphone directivity: a baffled piston of radius mic_radius_m facing the

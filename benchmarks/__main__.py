@@ -16,6 +16,7 @@ from . import (
     dataset,
     doa_speed,
     fractional_delay,
+    motion,
     pdm_decode,
     pictures,
     recording_file,
@@ -30,6 +31,7 @@ SECTIONS = {
     "dataset": dataset,
     "pictures": pictures,
     "recording_file": recording_file,
+    "motion": motion,
 }
 
 

@@ -18,7 +18,8 @@ The file format (schema version 2; version 1 files still load) is described in
         array/grid_index   (M, 2) int   (URA only; attrs pitch_m=(dz, dy))
         truth/...          ground truth (simulations): position_world_m (N, 3),
                            position_sensor_m (N, 3), amplitude (N,), order (N,),
-                           kind (N,) ASCII
+                           kind (N,) ASCII, velocity_world_m_s (N, 3) (scenes with
+                           motion only)
         metadata           scalar string: JSON object (pose, scene, seed, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
                waveform (JSON)
@@ -178,6 +179,9 @@ class GroundTruth:
         Number of reflections (0: the direct path from the emitter).
     kind : ndarray, shape (N,), str
         ``"direct"``, ``"specular"``, ``"scatter"`` or ``"point"``.
+    velocity_world_m_s : ndarray, shape (N, 3), optional
+        Velocity of each path's last reflection (world frame, m/s) at the start of
+        the emission; None for a scene without motion.
     """
 
     position_world_m: np.ndarray
@@ -185,6 +189,7 @@ class GroundTruth:
     amplitude: np.ndarray
     order: np.ndarray
     kind: np.ndarray
+    velocity_world_m_s: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
@@ -210,6 +215,13 @@ class GroundTruth:
         object.__setattr__(self, "amplitude", amp)
         object.__setattr__(self, "order", order.astype(np.int64))
         object.__setattr__(self, "kind", kind)
+        if self.velocity_world_m_s is not None:
+            vel = np.asarray(self.velocity_world_m_s, float).reshape(-1, 3)
+            if len(vel) != n:
+                raise ValueError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
+            if not np.all(np.isfinite(vel)):
+                raise ValueError("truth velocities must be finite")
+            object.__setattr__(self, "velocity_world_m_s", vel)
 
     def __len__(self) -> int:
         return len(self.amplitude)
@@ -226,6 +238,7 @@ class GroundTruth:
             self.amplitude[keep],
             self.order[keep],
             self.kind[keep],
+            None if self.velocity_world_m_s is None else self.velocity_world_m_s[keep],
         )
 
 
@@ -313,7 +326,10 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
             ("amplitude", rec.truth.amplitude, "1"),
             ("order", rec.truth.order.astype(np.int16), "1"),
             ("kind", rec.truth.kind.astype("S16"), None),
+            ("velocity_world_m_s", rec.truth.velocity_world_m_s, "m/s"),
         ):
+            if data is None:  # a scene without motion
+                continue
             ds = t.create_dataset(name, data=data, **kw)
             if units:
                 ds.attrs["units"] = units
@@ -657,6 +673,10 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
     ):
         fields[name] = _read(path, _dataset(path, t, name, ndim, kind, units), f"{key}/{name}")
     fields["kind"] = np.char.decode(fields["kind"], "ascii", errors="replace")
+    if "velocity_world_m_s" in t:  # scenes with motion
+        name = "velocity_world_m_s"
+        ds = _dataset(path, t, name, (2,), "f", "m/s")
+        fields[name] = _read(path, ds, f"{key}/{name}")
     try:
         return GroundTruth(**fields)
     except ValueError as exc:
@@ -671,7 +691,12 @@ def _truth_v1(path: Path, g: h5py.Group, meta: dict) -> GroundTruth | None:
     key = f"{g.name}/metadata: truth"
     try:
         return GroundTruth(
-            t["position_world_m"], t["position_sensor_m"], t["amplitude"], t["order"], t["kind"]
+            t["position_world_m"],
+            t["position_sensor_m"],
+            t["amplitude"],
+            t["order"],
+            t["kind"],
+            t.get("velocity_world_m_s"),
         )
     except (ValueError, TypeError, KeyError) as exc:
         raise RecordingFileError(f"malformed ({exc!r})", file=path, key=key) from None

@@ -53,6 +53,10 @@ def vector3(v) -> bool:
     return isinstance(v, list) and len(v) == 3 and all(_number(x) and math.isfinite(x) for x in v)
 
 
+def vector3_in(lo, hi):
+    return lambda v: vector3(v) and all(lo <= x <= hi for x in v)
+
+
 def interval(lo, hi):
     def ok(v):
         return (
@@ -85,6 +89,7 @@ SCENE_ORACLE = {
     ("materials", "lobe_deg"): (real(0.1, 90), (0.1, 90)),
     ("points", "strength"): (real(0, 1e6), (0, 1e6)),
     ("points", "position_m"): (vector3, None),
+    ("points", "velocity_m_s"): (vector3_in(-100, 100), None),
     ("sensor", "sample_rate_hz"): (lambda v: real(1e3, 1e8)(v) and v > 100e3, (1e5, 1e8)),
     ("sensor", "emitter_radius_m"): (real(0, 0.5), (0, 0.5)),
     ("sensor", "mic_radius_m"): (real(0, 0.05), (0, 0.05)),
@@ -237,6 +242,8 @@ SPEC_ORACLE = {
     ("randomize", "humidity_percent"): (real(0, 100), (0, 100)),
     ("randomize", "temperature_c"): (real(-20, 50), (-20, 50)),
     ("randomize", "snr_db"): (real(-60, math.inf), (-60, math.inf)),
+    ("randomize", "speed_m_s"): (real(-100, 100), (-100, 100)),
+    ("randomize", "turn_rate_deg_s"): (real(-3600, 3600), (-3600, 3600)),
     ("scenes", "weight"): (lambda v: real(0, 1e6)(v) and v > 0, (0, 1e6)),
     ("scenes", "clearance_m"): (real(0, 10), (0, 10)),
     ("region", "x"): (interval(-1e4, 1e4), None),

@@ -215,7 +215,7 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     scene = _varied_scene(params, spec)
     pose = _pose(params["pose"])
     sim = Simulator(scene, threads=1)
-    rec = sim.simulate_pose(pose, 0)
+    rec = sim.simulate_pose(pose, 0, motion=_motion(pose, params["conditions"]))
     st = spec.store
     arrays: dict[str, np.ndarray] = {}
     if st.raw:
@@ -273,6 +273,19 @@ def _range_axis(
     if index.size and not np.allclose(axis[index], snap.range_m, rtol=0, atol=1e-9):
         raise AssertionError("snapshot bins off the regular range axis")  # pragma: no cover
     return axis, index
+
+
+def _motion(pose, conditions: dict):
+    """The sensor driving forward (along its axis) at ``speed_m_s`` and turning about
+    the vertical at ``turn_rate_deg_s`` during the measurement, when the spec
+    randomises them; None (a frozen pose) otherwise."""
+    from acousim.scene.trajectory import Trajectory
+
+    speed = conditions.get("speed_m_s", 0.0)
+    turn = conditions.get("turn_rate_deg_s", 0.0)
+    if speed == 0 and turn == 0:
+        return None
+    return Trajectory.constant(pose, speed * pose.rotation[:, 0], [0, 0, np.deg2rad(turn)])
 
 
 def _depth_map(scene_file: str, pose, grid: P.Grid, scene) -> np.ndarray:

@@ -82,6 +82,15 @@ def _sim(name: str) -> Setting:
     return settings_of(Simulation)[name]
 
 
+def _rate(name: str, unit: str, doc: str) -> Setting:
+    """The sensor's speed or turn rate, within the scene's declaration of that rate
+    (``acousim.scene.trajectory.RATES``), as one number."""
+    from acousim.scene.trajectory import RATES
+
+    decl = RATES[name]
+    return dataclasses.replace(decl, kind="float", default=0.0, unit=unit, doc=doc, length=None)
+
+
 #: the randomized conditions: what each draw must stay within
 RANDOMIZE: dict[str, Setting] = {
     "temperature_c": _env("temperature_c"),
@@ -90,6 +99,8 @@ RANDOMIZE: dict[str, Setting] = {
     "reflection_scale": Setting("float", 1.0, "", 0, 10, "scales every material's reflection"),
     "mount_jitter_deg": Setting("float", 0.0, "deg", -45, 45, "yaw and pitch of the mounting"),
     "mount_jitter_m": Setting("float", 0.0, "m", -1, 1, "x, y, z of the mounting"),
+    "speed_m_s": _rate("velocity_m_s", "m/s", "driving along the sensor's axis"),
+    "turn_rate_deg_s": _rate("angular_rate_deg_s", "deg/s", "turning about the vertical"),
 }
 
 

@@ -25,6 +25,7 @@ from processing.settings import Setting, check, read_table, refuse_unknown
 
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
 from .pose import Pose, rotation
+from .trajectory import CONTINUOUS, RATES, Trajectory
 
 __all__ = ["SceneError", "load_scene", "parse_scene"]
 
@@ -48,9 +49,10 @@ EXTRA_KEYS: dict[str, set[str]] = {
         "trajectory",
     },
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
-    "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg"},
-    "sensor.trajectory": {"poses", "file", "rate_hz"},
+    "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg", *RATES},
+    "sensor.trajectory": {"poses", "file", "rate_hz", "continuous"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
+    "points": {"track"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 #: a pose's angles, in [sensor.pose] and in every row of a trajectory
@@ -178,9 +180,13 @@ def parse_scene(
         meshes.append(MeshItem(file, materials[mat], T))
     points = []
     for where, p in r.table_list(data, "points"):
-        if "position_m" not in p:
+        if "position_m" not in p and "track" not in p:
             raise r.fail(f"{where}.position_m", "missing (a list of 3 numbers)")
-        points.append(PointItem(**r.settings(PointItem, p, where)))
+        declared = r.settings(PointItem, p, where, extra=EXTRA_KEYS["points"])
+        try:
+            points.append(PointItem(**declared, track=p.get("track")))
+        except InputError as exc:  # the track, checked by the model (the rest read above)
+            raise r.fail(f"{where}.track", exc.reason, p.get("track")) from None
     sensor = _sensor(r, r.table(data, "sensor", ""), base)
     if not meshes and not points:
         raise r.fail("meshes", "the scene has neither meshes nor points: nothing can echo")
@@ -246,7 +252,29 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
             fs,
         )
     poses, rate = _poses(r, s, base)
-    return Sensor(array=array, call=wf, poses=poses, rate_hz=rate, **declared)
+    return Sensor(
+        array=array, call=wf, poses=poses, rate_hz=rate, motion=_motion(r, s, poses), **declared
+    )
+
+
+def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):
+    """The sensor's motion during measurements: a trajectory moves through its poses
+    (unless ``continuous = false``); a single pose moves if it has a velocity or an
+    angular rate.  None: frozen poses."""
+    if "trajectory" in s:
+        t = s["trajectory"]
+        key = "sensor.trajectory.continuous"
+        if r._check(CONTINUOUS, t.get("continuous", CONTINUOUS.default), key) and len(poses) >= 2:
+            return Trajectory.through(poses)
+        return None
+    p = s.get("pose", {})
+    v, w = (
+        np.array(r._check(decl, p.get(name, decl.default), f"sensor.pose.{name}"))
+        for name, decl in RATES.items()
+    )
+    if not (np.any(v) or np.any(w)):
+        return None
+    return Trajectory.constant(poses[0], v, np.deg2rad(w))
 
 
 def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | None]:

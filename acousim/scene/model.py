@@ -45,8 +45,17 @@ __all__ = [
     "Simulation",
     "Scene",
     "FRACTIONAL_DELAYS",
+    "MAX_SPEED_M_S",
+    "MAX_TURN_DEG_S",
+    "track_rows",
     "memory_limit_bytes",
 ]
+
+MAX_SPEED_M_S = 100.0
+"""Fastest motion of the sensor or a reflector (m/s, each velocity component; well
+below the speed of sound, which the retarded-time solution needs)."""
+MAX_TURN_DEG_S = 3600.0
+"""Fastest turn of the sensor (degrees/s about each world axis)."""
 
 FRACTIONAL_DELAYS = ("sinc", "lagrange", "nearest")
 """Fractional-delay interpolators of the renderer (``acousim.synth.render``)."""
@@ -131,15 +140,77 @@ def _vector3(value: Any, key: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class PointItem:
-    """An explicit point reflector (world frame): strength a_k of eq. 1."""
+    """An explicit point reflector (world frame): strength a_k of eq. 1; it may move
+    at `velocity_m_s` (position_m is where it is at time 0 of the trajectory)."""
 
-    position_m: tuple[float, float, float] = setting(
-        kind="vector", unit="m", length=3, doc="position in the world"
+    position_m: tuple[float, float, float] | None = setting(
+        None, "m", kind="vector", length=3, doc="position at time 0 (required without a track)"
     )
     strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
+    velocity_m_s: tuple[float, float, float] = setting(
+        (0.0, 0.0, 0.0),
+        "m/s",
+        -MAX_SPEED_M_S,
+        MAX_SPEED_M_S,
+        "velocity (world frame) from position_m at time 0",
+        kind="vector",
+        length=3,
+    )
+    #: its own trajectory instead: rows (t_s, x, y, z), two or more, times increasing
+    #: (a table, checked by :func:`track_rows`; read by hand from TOML)
+    track: tuple[tuple[float, float, float, float], ...] | None = None
 
     def __post_init__(self) -> None:
+        if self.track is not None:
+            track = track_rows(self.track, "PointItem.track")
+            object.__setattr__(self, "track", track)
+            if self.position_m is None:  # where the track starts (unused with a track)
+                object.__setattr__(self, "position_m", track[0][1:])
+        elif self.position_m is None:
+            raise InputError("missing (a list of 3 numbers)", key="PointItem.position_m")
         validate(self)
+
+    @property
+    def moving(self) -> bool:
+        return self.track is not None or any(v != 0 for v in self.velocity_m_s)
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position and velocity (3,) at time `t_s` of the trajectory clock: along
+        its track (a cubic spline with natural ends, extended by its end pieces), or
+        moving at its velocity from its position at time 0."""
+        if self.track is None:
+            v = np.asarray(self.velocity_m_s, float)
+            return np.asarray(self.position_m, float) + v * t_s, v
+        from scipy.interpolate import CubicSpline
+
+        rows = np.asarray(self.track, float)
+        spline = CubicSpline(rows[:, 0], rows[:, 1:], bc_type="natural")
+        return spline(t_s), spline(t_s, 1)
+
+
+def track_rows(value: Any, key: str) -> tuple[tuple[float, float, float, float], ...]:
+    """A point's track checked: two or more rows [t_s, x, y, z] of finite numbers
+    (positions in m, speeds between rows up to MAX_SPEED_M_S), times increasing."""
+    try:
+        ok = not isinstance(value, str | bytes) and all(
+            not isinstance(x, bool | str | bytes) for row in value for x in row
+        )
+        arr = np.array(value, float) if ok else np.zeros((0, 0))
+    except (ValueError, TypeError):
+        arr = np.zeros((0, 0))
+    if arr.ndim != 2 or arr.shape[0] < 2 or arr.shape[1] != 4 or not np.all(np.isfinite(arr)):
+        raise InputError(
+            "must be two or more rows [t_s, x, y, z] of finite numbers", key=key, value=value
+        )
+    dt = np.diff(arr[:, 0])
+    if not np.all(dt > 0):
+        raise InputError("times must increase", key=key, value=arr[:, 0].tolist())
+    speed = np.linalg.norm(np.diff(arr[:, 1:], axis=0), axis=1) / dt
+    if np.any(speed > MAX_SPEED_M_S):
+        raise InputError(
+            f"moves faster than {MAX_SPEED_M_S:g} m/s between rows", key=key, value=value
+        )
+    return tuple(tuple(float(v) for v in row) for row in arr)
 
 
 @dataclass(frozen=True)
@@ -187,6 +258,10 @@ class Sensor:
     poses: tuple[Pose, ...] = field(default_factory=lambda: (Pose(np.zeros(3)),))
     rate_hz: float | None = None
     mic_radius_m: float = setting(0.0, "m", 0, 0.05, "microphone port as a piston; 0: omni")
+    #: continuous motion during measurements (:class:`acousim.scene.trajectory.Trajectory`,
+    #: whose rates are declared in ``acousim.scene.trajectory.RATES``); None: every pose
+    #: is frozen for its measurement
+    motion: Any = None
 
     def __post_init__(self) -> None:
         validate(self)
@@ -204,6 +279,15 @@ class Sensor:
                     "must be None or in [0.001, 10000] Hz", key="Sensor.rate_hz", value=self.rate_hz
                 )
             object.__setattr__(self, "rate_hz", float(self.rate_hz))
+        if self.motion is not None:
+            from .trajectory import Trajectory
+
+            if not isinstance(self.motion, Trajectory):
+                raise InputError(
+                    "must be None or an acousim.scene.trajectory.Trajectory",
+                    key="Sensor.motion",
+                    value=self.motion,
+                )
         top = max(self.call.band_hz)
         if top >= self.sample_rate_hz / 2:
             raise InputError(

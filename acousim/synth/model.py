@@ -41,6 +41,7 @@ def simulate(
     response: PathResponse | None = None,
     snr_reference: str = "signal",
     metadata: dict | None = None,
+    doppler: np.ndarray | None = None,
 ) -> Recording:
     """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
     :mod:`acousim.synth.noise`).
@@ -58,6 +59,10 @@ def simulate(
         echoes did not overlap: ``sum_n mean_m(g_mn^2) |H_n(f_c)|^2 E_call / (M L)``
         per microphone, with E_call the call's energy and H_n the path response at
         the band centre.
+    doppler : ndarray (M, N), optional
+        Time compression of each echo (a moving scene: ``tau = doppler (t - delay)``,
+        see :mod:`acousim.synth.moving`); rendered by
+        :func:`acousim.synth.moving.render_doppler`.
     seed : int
         Seed of the noise generator (numpy Generator); the same seed gives the same
         bytes.
@@ -79,16 +84,32 @@ def simulate(
             window_s * 1e3,
         )
         echoes = echoes.select(inside)
-    clean = render(
-        echoes,
-        waveform,
-        sample_rate_hz,
-        n_samples,
-        emission_index=emission_index,
-        method=method,
-        taps=taps,
-        response=response,
-    )
+        doppler = None if doppler is None else doppler[:, inside]
+    if doppler is not None:
+        from .moving import render_doppler
+
+        clean = render_doppler(
+            echoes,
+            doppler,
+            waveform,
+            sample_rate_hz,
+            n_samples,
+            emission_index=emission_index,
+            method=method,
+            taps=taps,
+            response=response,
+        )
+    else:
+        clean = render(
+            echoes,
+            waveform,
+            sample_rate_hz,
+            n_samples,
+            emission_index=emission_index,
+            method=method,
+            taps=taps,
+            response=response,
+        )
     rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):
         if not np.any(clean):

@@ -1,0 +1,178 @@
+"""Continuous sensor motion: where the sensor is at any instant of a measurement.
+
+A :class:`Trajectory` is a function of time (seconds, the trajectory's clock: pose i
+of a file trajectory is at ``i / rate_hz``) giving the sensor's position (m, world
+frame) and its rotation sensor -> world.  Two forms:
+
+1. **Through poses** (:meth:`Trajectory.through`): positions by a cubic spline through
+   the poses (natural ends; linear for two poses), orientations by spherical linear
+   interpolation between consecutive poses (a constant angular velocity on each
+   segment, ``R(t) = R_i exp(s log(R_i^T R_(i+1)))``, s the fraction of the segment:
+   what :class:`scipy.spatial.transform.Slerp` computes, here also extrapolated past
+   the last pose, so the last measurement window is covered).
+2. **Constant rates** (:meth:`Trajectory.constant`): one pose with a velocity (m/s,
+   world frame) and an angular velocity (rad/s, world frame: ``R(t) = exp(w t) R_0``;
+   a positive z rate turns left).
+
+Each pose is where the sensor is at the *start of the emission* of its measurement.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
+
+from processing.errors import InputError
+from processing.settings import Setting, check
+
+from .model import MAX_SPEED_M_S, MAX_TURN_DEG_S
+from .pose import Pose
+
+__all__ = ["Trajectory", "RATES", "CONTINUOUS"]
+
+#: the rates of a constant motion, declared once: the keys of ``[sensor.pose]`` and
+#: the arguments of :meth:`Trajectory.constant` (there in rad/s)
+RATES: dict[str, Setting] = {
+    "velocity_m_s": Setting(
+        "vector",
+        (0.0, 0.0, 0.0),
+        "m/s",
+        -MAX_SPEED_M_S,
+        MAX_SPEED_M_S,
+        "velocity during measurements (world frame)",
+        length=3,
+    ),
+    "angular_rate_deg_s": Setting(
+        "vector",
+        (0.0, 0.0, 0.0),
+        "deg/s",
+        -MAX_TURN_DEG_S,
+        MAX_TURN_DEG_S,
+        "turn rates about world x, y, z (+z turns left)",
+        length=3,
+    ),
+}
+#: ``[sensor.trajectory] continuous``: the sensor moves between its poses
+CONTINUOUS = Setting("bool", True, doc="move between the poses; false: frozen poses")
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Sensor motion; build it with :meth:`through` or :meth:`constant`.
+
+    times_s (K,), positions_m (K, 3), rotations (K,) scipy Rotation; with K = 1 the
+    motion is ``velocity_m_s`` and ``angular_velocity_rad_s`` (world frame) from
+    ``times_s[0]``.
+    """
+
+    times_s: np.ndarray
+    positions_m: np.ndarray
+    rotations: Rotation
+    velocity_m_s: np.ndarray
+    angular_velocity_rad_s: np.ndarray
+
+    @classmethod
+    def constant(
+        cls, pose: Pose, velocity_m_s=(0.0, 0.0, 0.0), angular_velocity_rad_s=(0.0, 0.0, 0.0)
+    ) -> Trajectory:
+        """A pose moving at a constant velocity (m/s) and turning at a constant rate
+        (rad/s), both world frame and within :data:`RATES` (an InputError otherwise)."""
+        v = np.array(check(RATES["velocity_m_s"], _listed(velocity_m_s), "velocity_m_s"))
+        deg = RATES["angular_rate_deg_s"]
+        rad = dataclasses.replace(deg, unit="rad/s", lo=np.deg2rad(deg.lo), hi=np.deg2rad(deg.hi))
+        w = np.array(check(rad, _listed(angular_velocity_rad_s), "angular_velocity_rad_s"))
+        return cls(
+            np.array([pose.time_s], float),
+            pose.position_m[None, :].copy(),
+            Rotation.from_matrix(pose.rotation[None]),
+            v,
+            w,
+        )
+
+    @classmethod
+    def through(cls, poses: tuple[Pose, ...] | list[Pose]) -> Trajectory:
+        """The smooth motion through poses at increasing ``time_s``."""
+        if len(poses) < 2:
+            raise InputError("a trajectory through poses needs at least two poses", key="poses")
+        t = np.array([p.time_s for p in poses], float)
+        if not np.all(np.diff(t) > 0):
+            raise InputError("pose times must increase", key="poses", value=t.tolist())
+        pos = np.array([p.position_m for p in poses])
+        rot = Rotation.from_matrix(np.array([p.rotation for p in poses]))
+        return cls(t, pos, rot, np.zeros(3), np.zeros(3))
+
+    @property
+    def is_constant(self) -> bool:
+        return self.times_s.size == 1
+
+    def _spline(self) -> CubicSpline | None:
+        if self.is_constant:
+            return None
+        spline = self.__dict__.get("_spline_cache")
+        if spline is None:
+            # natural ends (zero acceleration): a straight line through two poses
+            ends = ((2, np.zeros(3)), (2, np.zeros(3)))
+            spline = CubicSpline(self.times_s, self.positions_m, bc_type=ends)
+            self.__dict__["_spline_cache"] = spline
+        return spline
+
+    def position(self, t_s) -> np.ndarray:
+        """Sensor position (..., 3) at times `t_s` (...)."""
+        t = np.asarray(t_s, float)
+        if self.is_constant:
+            return self.positions_m[0] + (t - self.times_s[0])[..., None] * self.velocity_m_s
+        return self._spline()(t)
+
+    def rotation(self, t_s) -> np.ndarray:
+        """Rotation sensor -> world (..., 3, 3) at times `t_s` (...)."""
+        t = np.asarray(t_s, float)
+        flat = t.ravel()
+        if self.is_constant:
+            dt = (flat - self.times_s[0])[:, None]
+            turn = Rotation.from_rotvec(dt * self.angular_velocity_rad_s)
+            R = (turn * self.rotations[0]).as_matrix()
+        else:
+            i = np.searchsorted(self.times_s, flat, side="right") - 1
+            i = np.clip(i, 0, self.times_s.size - 2)
+            t0, t1 = self.times_s[i], self.times_s[i + 1]
+            r0 = self.rotations[i]
+            step = (r0.inv() * self.rotations[i + 1]).as_rotvec()
+            R = (r0 * Rotation.from_rotvec(step * ((flat - t0) / (t1 - t0))[:, None])).as_matrix()
+        return R.reshape(*t.shape, 3, 3)
+
+    def to_world(self, points_sensor: np.ndarray, t_s) -> np.ndarray:
+        """Sensor-frame points (P, 3) at times (...): world positions (..., P, 3)."""
+        R = self.rotation(t_s)
+        p = self.position(t_s)
+        return np.einsum("...ij,pj->...pi", R, np.asarray(points_sensor, float)) + p[..., None, :]
+
+    def velocity(self, t_s: float) -> np.ndarray:
+        """Velocity (3,) m/s at time `t_s` (world frame)."""
+        if self.is_constant:
+            return self.velocity_m_s.copy()
+        return self._spline()(float(t_s), 1)
+
+    def angular_velocity(self, t_s: float) -> np.ndarray:
+        """Angular velocity (3,) rad/s at time `t_s` (world frame)."""
+        if self.is_constant:
+            return self.angular_velocity_rad_s.copy()
+        t = self.times_s
+        i = int(np.clip(np.searchsorted(t, t_s, side="right") - 1, 0, t.size - 2))
+        r0 = self.rotations[i]
+        step = (self.rotations[i + 1] * r0.inv()).as_rotvec()  # world frame
+        return step / (t[i + 1] - t[i])
+
+    def pose(self, t_s: float) -> Pose:
+        """The pose at time `t_s`."""
+        R = self.rotation(float(t_s))
+        yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
+        return Pose(self.position(float(t_s)), yaw, pitch, roll, time_s=float(t_s))
+
+
+def _listed(value):
+    """A vector argument as a list (numpy arrays included) for :func:`check`."""
+    return np.asarray(value).tolist() if isinstance(value, np.ndarray) else value
