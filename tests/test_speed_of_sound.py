@@ -53,3 +53,14 @@ def test_water_vapour_at_saturation():
     """Saturation vapour pressure of water at 20 deg C is 2339 Pa (steam tables)."""
     x_w = water_vapour_mole_fraction(20.0, 100.0)
     assert x_w * 101325 == pytest.approx(2339 * 1.0045, rel=2e-3)
+
+
+def test_scene_environment_passes_its_pressure():
+    """Cramer's pressure dependence is weak but real: a scene at 80 kPa uses it
+    (the same function of the three values, not of two)."""
+    from acousim.scene.model import Environment
+    from acousim.synth.air import speed_of_sound
+
+    env = Environment(temperature_c=25.0, humidity_percent=80.0, pressure_kpa=80.0)
+    assert env.speed_of_sound_m_s == speed_of_sound(25.0, 80.0, 80.0)
+    assert env.speed_of_sound_m_s != speed_of_sound(25.0, 80.0, 101.325)

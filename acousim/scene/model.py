@@ -228,7 +228,7 @@ class Environment:
     def speed_of_sound_m_s(self) -> float:
         from acousim.synth.air import speed_of_sound
 
-        return speed_of_sound(self.temperature_c, self.humidity_percent)
+        return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
 
 def _default_array() -> Array:
