@@ -122,15 +122,7 @@ class Simulator:
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
         level = paths.strength / np.maximum(np.linalg.norm(paths.anchor_m - receiver, axis=1), 1e-9)
-        meta = {
-            "scene": scene.name,
-            "scene_file": str(scene.source) if scene.source else None,
-            "scene_sha256": scene.file_sha256,
-            "max_range_m": float(scene.simulation.max_range_m),
-            "acousim_version": package_version(),
-            "pose": pose.to_dict(),
-            "pose_index": index,
-        }
+        meta = _metadata(scene, pose, index)
         truth = P.GroundTruth(
             position_world_m=paths.position_m,
             position_sensor_m=pose.to_sensor(paths.position_m),
@@ -196,12 +188,7 @@ class Simulator:
         velocity = np.zeros(3) if motion is None else motion.velocity(t)
         turn = np.zeros(3) if motion is None else motion.angular_velocity(t)
         meta = {
-            "scene": scene.name,
-            "scene_file": str(scene.source) if scene.source else None,
-            "scene_sha256": scene.file_sha256,
-            "acousim_version": package_version(),
-            "pose": pose.to_dict(),
-            "pose_index": index,
+            **_metadata(scene, pose, index),
             "motion": {
                 "emission_pose": pose.to_dict(),
                 "velocity_m_s": velocity.tolist(),
@@ -298,3 +285,16 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
+
+
+def _metadata(scene: Scene, pose: Pose, index: int) -> dict:
+    """A simulated recording's metadata: where it came from and the pose."""
+    return {
+        "scene": scene.name,
+        "scene_file": str(scene.source) if scene.source else None,
+        "scene_sha256": scene.file_sha256,
+        "max_range_m": float(scene.simulation.max_range_m),
+        "acousim_version": package_version(),
+        "pose": pose.to_dict(),
+        "pose_index": index,
+    }
