@@ -59,6 +59,8 @@ KEYS: dict[str, set[str]] = {
         "fractional_delay",
         "absorption",
         "energy_floor_db",
+        "diffraction",
+        "diffraction_step_m",
     },
     "materials": {"name", "reflection", "diffuse", "lobe_deg"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
@@ -219,6 +221,8 @@ def parse_scene(
         ),
         absorption=r.boolean(sim_t, "absorption", "simulation", True),
         energy_floor_db=r.number(sim_t, "energy_floor_db", "simulation", -80.0, -300, 0),
+        diffraction=r.boolean(sim_t, "diffraction", "simulation", False),
+        diffraction_step_m=r.number(sim_t, "diffraction_step_m", "simulation", 1e-3, 1e-5, 0.1),
     )
     materials = {"default": Material("default")}
     for where, m in r.table_list(data, "materials"):

@@ -85,6 +85,9 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); with
+        ``bounces >= 2`` also combined with one specular reflection before or after.
+    diffraction_step_m : edge-element step, in excess path length (m).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     """
@@ -98,6 +101,8 @@ class Simulation:
     fractional_delay: str = "sinc"
     absorption: bool = True
     energy_floor_db: float = -80.0
+    diffraction: bool = False
+    diffraction_step_m: float = 1e-3
 
 
 @dataclass(frozen=True, eq=False)

@@ -52,7 +52,7 @@ __all__ = ["EdgeElements", "edge_elements", "cylindrical", "DEFAULT_STEP_M"]
 #: default excess path length per edge element (m): a quarter wavelength at 85 kHz
 DEFAULT_STEP_M = 1e-3
 #: the first steps next to the apex are subdivided by halving this many times
-_REFINE = 5
+_REFINE = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,6 +107,7 @@ def edge_elements(
     receiver: np.ndarray,
     step_m: float = DEFAULT_STEP_M,
     max_path_m: float = np.inf,
+    reflection: tuple[float, float] = (1.0, 1.0),
 ) -> EdgeElements:
     """BTM edge elements of one straight rigid edge (see the module docstring).
 
@@ -161,6 +162,7 @@ def edge_elements(
     half = nu * phi / 2
     s, c = np.sin(half), np.cos(half)
     flip = s < 0
+    term_weight = np.array([reflection[1], 1.0, 1.0, reflection[0]], float)
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
 
     z_mid = (rR * zS + rS * zR) / (rS + rR)  # the unclipped apex
@@ -175,9 +177,9 @@ def edge_elements(
 
     ea, eb = eta(za), eta(zb)
 
-    def prim(e):  # sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
+    def prim(e):  # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
         t = np.tanh(nu * e / 2)[:, None]
-        return np.arctan2(t * c[None, :], s[None, :]).sum(axis=1)
+        return np.arctan2(t * c[None, :], s[None, :]) @ term_weight
 
     # eta grows away from the apex on both sides: each element runs from ea to eb
     integral = (2 / nu) * (prim(eb) - prim(ea))

@@ -46,7 +46,7 @@ __all__ = ["TracedPaths", "Tracer", "cone_directions", "KIND"]
 
 log = logging.getLogger(__name__)
 
-KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3}
+KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3, "diffraction": 4}
 #: diffuse (Lambert) contributions of planar walls are binned this many range
 #: resolutions wide (see BENCHMARKS.md for the time it saves and the error it costs)
 DIFFUSE_BIN_FACTOR = 4
@@ -181,8 +181,36 @@ class Tracer:
         if self.world is not None and sim.rays > 0:
             self._check_pose(emitter, receiver)
             parts.append(self._rays(emitter, receiver, axis, max_len))
+        if self.world is not None and sim.diffraction:
+            parts.append(self._diffraction(emitter, receiver, max_len))
         paths = TracedPaths.concatenate(parts) if parts else TracedPaths.empty()
         return self._floor(paths, receiver)
+
+    def _diffraction(self, emitter, receiver, max_len) -> TracedPaths:
+        """Edge diffraction (acousim.trace.diffraction), edges found once per scene."""
+        from .diffraction import diffract
+        from .edges import find_edges, triangles_mesh
+
+        world, sim = self.world, self.scene.simulation
+        if not hasattr(self, "_edges"):
+            self._edges = find_edges(triangles_mesh(world.triangles))
+            first = np.unique(world.plane, return_index=True)[1]
+            refl = world.face_values("reflection")
+            self._planes = (world.normals[first], world.offsets[first], refl[first])
+        d = diffract(
+            self._edges,
+            self.caster,
+            emitter,
+            receiver,
+            max_len,
+            world.face_values("reflection"),
+            sim.diffraction_step_m,
+            self._planes if sim.bounces >= 2 else None,
+        )
+        kind = np.full(len(d), KIND["diffraction"])
+        return TracedPaths(
+            d.anchor_m, d.first_leg_m, d.strength, d.position_m, d.order, kind, d.departure
+        )
 
     def _check_pose(self, emitter: np.ndarray, receiver: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
@@ -418,7 +446,9 @@ class Tracer:
     def _floor(self, paths: TracedPaths, receiver: np.ndarray) -> TracedPaths:
         if len(paths) == 0:
             return paths
-        level = paths.strength / np.maximum(np.linalg.norm(paths.anchor_m - receiver, axis=1), 1e-6)
+        level = np.abs(paths.strength) / np.maximum(
+            np.linalg.norm(paths.anchor_m - receiver, axis=1), 1e-6
+        )  # diffraction paths are signed
         echo = paths.kind != KIND["direct"]
         top = level[echo].max() if echo.any() else level.max()
         keep = ~echo | (level >= top * 10 ** (self.scene.simulation.energy_floor_db / 20))
