@@ -80,7 +80,11 @@ class EdgeElements:
 
 
 def cylindrical(
-    points: np.ndarray, start: np.ndarray, axis: np.ndarray, face_dir: np.ndarray, normal: np.ndarray
+    points: np.ndarray,
+    start: np.ndarray,
+    axis: np.ndarray,
+    face_dir: np.ndarray,
+    normal: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cylindrical coordinates (r, theta, z) of points (N, 3) about an edge.
 

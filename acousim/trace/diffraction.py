@@ -98,8 +98,12 @@ def _elements(
             owner.append(np.full(len(el), e))
     if not parts:
         return EdgeElements.empty(), np.zeros(0, int)
-    cat = EdgeElements(*(np.concatenate([getattr(p, f) for p in parts]) for f in (
-        "point_m", "first_leg_m", "second_leg_m", "amplitude")))
+    cat = EdgeElements(
+        *(
+            np.concatenate([getattr(p, f) for p in parts])
+            for f in ("point_m", "first_leg_m", "second_leg_m", "amplitude")
+        )
+    )
     return cat, np.concatenate(owner)
 
 
@@ -137,7 +141,10 @@ def diffract(
         return _empty()
     refl = np.asarray(face_reflection, float)
     r_edge = np.column_stack(
-        [refl[edges.faces[:, 0]], refl[np.where(edges.faces[:, 1] >= 0, edges.faces[:, 1], edges.faces[:, 0])]]
+        [
+            refl[edges.faces[:, 0]],
+            refl[np.where(edges.faces[:, 1] >= 0, edges.faces[:, 1], edges.faces[:, 0])],
+        ]
     )
     scale = caster.scale if caster is not None else 1.0
     tol = 1e-5 * scale + 1e-7
@@ -158,16 +165,36 @@ def diffract(
             for before in (True, False):
                 out.append(
                     _with_reflection(
-                        edges, caster, emitter, receiver, n, off, rp, before, r_edge,
-                        step_m, max_path_m, tol,
+                        edges,
+                        caster,
+                        emitter,
+                        receiver,
+                        n,
+                        off,
+                        rp,
+                        before,
+                        r_edge,
+                        step_m,
+                        max_path_m,
+                        tol,
                     )
                 )
     out = [p for p in out if len(p)]
     if not out:
         return _empty()
     return DiffractedPaths(
-        *(np.concatenate([getattr(p, f) for p in out]) for f in (
-            "anchor_m", "first_leg_m", "strength", "position_m", "departure", "edge", "order"))
+        *(
+            np.concatenate([getattr(p, f) for p in out])
+            for f in (
+                "anchor_m",
+                "first_leg_m",
+                "strength",
+                "position_m",
+                "departure",
+                "edge",
+                "order",
+            )
+        )
     )
 
 
@@ -224,11 +251,15 @@ def _with_reflection(
         # departure: from the emitter towards the reflection point
         dep = x[ok] - emitter
         dep /= np.linalg.norm(dep, axis=1, keepdims=True)
-        return DiffractedPaths(p.anchor_m, p.first_leg_m, p.strength, p.position_m, dep, p.edge, p.order)
+        return DiffractedPaths(
+            p.anchor_m, p.first_leg_m, p.strength, p.position_m, dep, p.edge, p.order
+        )
     # after the edge: the path to microphone q is |emitter - z| + |z - image(q)|;
     # anchor the path at the element's image so that |anchor - q| is that last leg
     anchor = _mirror(p.position_m, n, off)
-    return DiffractedPaths(anchor, p.first_leg_m, p.strength, p.position_m, p.departure, p.edge, p.order)
+    return DiffractedPaths(
+        anchor, p.first_leg_m, p.strength, p.position_m, p.departure, p.edge, p.order
+    )
 
 
 def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> DiffractedPaths:

@@ -72,7 +72,9 @@ def triangles_mesh(triangles: np.ndarray):
     import trimesh
 
     tri = np.asarray(triangles, float)
-    mesh = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(tri.shape[0] * 3).reshape(-1, 3), process=False)
+    mesh = trimesh.Trimesh(
+        tri.reshape(-1, 3), np.arange(tri.shape[0] * 3).reshape(-1, 3), process=False
+    )
     mesh.merge_vertices()
     return mesh
 
