@@ -271,14 +271,27 @@ def test_plate_whose_mirror_point_misses_it_matches_physical_optics(tmp_path, tu
 
 
 def test_edges_of_a_box_a_sheet_a_sphere_and_a_cylinder():
-    box = find_edges(trimesh.creation.box([1.0, 1.0, 1.0]))
+    box_mesh = trimesh.creation.box([1.0, 1.0, 1.0])
+    box = find_edges(box_mesh)
     assert len(box) == 12  # the face diagonals (coplanar seams) are not edges
-    assert np.allclose(box.wedge_rad, 1.5 * np.pi)
     assert np.allclose(box.length_m, 1.0)
+    outside, inside = np.array([3.0, 2.0, 1.0]), np.array([0.1, 0.2, -0.1])
+    keep, wedge = box.oriented(outside, outside)
+    # box edges seen from outside: 270 degrees of air, except the three edges on the
+    # far side, whose quadrant behind the box holds the point (they are hidden)
+    assert np.allclose(wedge.angle_rad[keep], 1.5 * np.pi)
+    assert np.allclose(wedge.angle_rad[~keep], 0.5 * np.pi)
+    n_seen = keep.sum()
+    assert n_seen == 9
+    keep, wedge = box.oriented(inside, inside)  # a room's corners: no real wedge
+    assert not keep.any() and np.allclose(wedge.angle_rad, 0.5 * np.pi)
+    flipped = find_edges(trimesh.Trimesh(box_mesh.vertices, box_mesh.faces[:, ::-1]))
+    assert flipped.oriented(outside, outside)[0].sum() == n_seen  # winding does not matter
     sheet = find_edges(
         trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
     )
-    assert len(sheet) == 4 and np.allclose(sheet.wedge_rad, 2 * np.pi)
+    assert len(sheet) == 4 and np.allclose(sheet.angle_rad, 2 * np.pi)
+    assert sheet.oriented([0.5, 0.5, 1.0], [0.5, 0.5, -1.0])[0].all()  # both sides
     assert np.all(sheet.faces[:, 1] == -1)
     # face_dir points into the face: the edge midpoint moved along it is inside
     mid = 0.5 * (sheet.start_m + sheet.end_m) + 0.1 * sheet.face_dir
@@ -286,7 +299,8 @@ def test_edges_of_a_box_a_sheet_a_sphere_and_a_cylinder():
     assert len(find_edges(trimesh.creation.icosphere(3))) == 0  # a tessellated sphere
     cyl_edges = find_edges(trimesh.creation.cylinder(0.1, 1.0, sections=32))
     assert len(cyl_edges) == 64  # the two rims, not the 32 seams of the side
-    assert np.allclose(cyl_edges.wedge_rad, 1.5 * np.pi)
+    keep, wedge = cyl_edges.oriented([2.0, 0, 0], [2.0, 0, 0])
+    assert keep.sum() == 32 and np.allclose(wedge.angle_rad[keep], 1.5 * np.pi)
 
 
 def test_hidden_edges_do_not_diffract_and_truth_lists_diffraction(tmp_path):

@@ -61,6 +61,7 @@ KEYS: dict[str, set[str]] = {
         "energy_floor_db",
         "diffraction",
         "diffraction_step_m",
+        "diffraction_reflections",
     },
     "materials": {"name", "reflection", "diffuse", "lobe_deg"},
     "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
@@ -223,6 +224,7 @@ def parse_scene(
         energy_floor_db=r.number(sim_t, "energy_floor_db", "simulation", -80.0, -300, 0),
         diffraction=r.boolean(sim_t, "diffraction", "simulation", False),
         diffraction_step_m=r.number(sim_t, "diffraction_step_m", "simulation", 1e-3, 1e-5, 0.1),
+        diffraction_reflections=r.boolean(sim_t, "diffraction_reflections", "simulation", False),
     )
     materials = {"default": Material("default")}
     for where, m in r.table_list(data, "materials"):

@@ -85,9 +85,10 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); with
-        ``bounces >= 2`` also combined with one specular reflection before or after.
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`).
     diffraction_step_m : edge-element step, in excess path length (m).
+    diffraction_reflections : also edge diffraction combined with one specular
+        reflection before or after the edge (image sources; slow in large scenes).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     """
@@ -103,6 +104,7 @@ class Simulation:
     energy_floor_db: float = -80.0
     diffraction: bool = False
     diffraction_step_m: float = 1e-3
+    diffraction_reflections: bool = False
 
 
 @dataclass(frozen=True, eq=False)

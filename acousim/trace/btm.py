@@ -22,7 +22,10 @@ Discretisation (this module; a pure function of the geometry):
 1. Split the edge at its apex point (the point of least path length m + l).
 2. On each side, cut the edge at equal steps ``step_m`` of excess path length
    ``m + l - L_apex`` (so each element spans about ``step_m / c`` of delay; the first
-   steps are subdivided geometrically, where the integrand peaks).
+   step is subdivided geometrically, 8 times, where the integrand peaks), up to the
+   edge's end or ``max_excess_m``, whichever comes first; in the latter case the
+   second half of the kept response is tapered (raised cosine), so that the cut
+   adds no spurious end echo.
 3. Integrate each element by product integration in the variable eta: the peaked
    factor ``beta_i`` is integrated exactly,
    ``integral beta_i d eta = (2 / nu) atan(tanh(nu eta / 2) / tan(nu phi_i / 2))``,
@@ -47,10 +50,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EdgeElements", "edge_elements", "cylindrical", "DEFAULT_STEP_M"]
+__all__ = ["EdgeElements", "edge_elements", "cylindrical", "DEFAULT_STEP_M", "DEFAULT_MAX_EXCESS_M"]
 
 #: default excess path length per edge element (m): a quarter wavelength at 85 kHz
 DEFAULT_STEP_M = 1e-3
+#: default length of the edge's response kept, in excess path length (m); its last
+#: half is tapered (raised cosine) so that the cut makes no spurious end echo
+DEFAULT_MAX_EXCESS_M = 0.05
 #: the first steps next to the apex are subdivided by halving this many times
 _REFINE = 8
 
@@ -112,6 +118,7 @@ def edge_elements(
     step_m: float = DEFAULT_STEP_M,
     max_path_m: float = np.inf,
     reflection: tuple[float, float] = (1.0, 1.0),
+    max_excess_m: float = DEFAULT_MAX_EXCESS_M,
 ) -> EdgeElements:
     """BTM edge elements of one straight rigid edge (see the module docstring).
 
@@ -136,6 +143,8 @@ def edge_elements(
     def path(z):
         return np.hypot(rS, z - zS) + np.hypot(rR, z - zR)
 
+    pts = pts.astype(float)
+
     # 1. the apex, clipped to the edge
     z_apex = float(np.clip((rR * zS + rS * zR) / (rS + rR), 0.0, length))
     l_apex = path(z_apex)
@@ -145,7 +154,8 @@ def edge_elements(
         excess_end = path(z_end) - l_apex
         if abs(z_end - z_apex) <= 0 or excess_end <= 0:
             continue
-        excess_end = min(excess_end, max_path_m - l_apex)
+        cut = excess_end > max_excess_m  # an artificial end: taper towards it
+        excess_end = min(excess_end, max_path_m - l_apex, max_excess_m)
         if excess_end <= 0:
             continue
         first = step_m * 0.5 ** np.arange(_REFINE, 0, -1)
@@ -153,14 +163,22 @@ def edge_elements(
         e = np.concatenate([[0.0], first[first < excess_end], rest[rest < excess_end]])
         e = np.append(e, excess_end)
         mid = 0.5 * (e[:-1] + e[1:])
-        z = _invert(path, l_apex, z_apex, z_end, np.concatenate([e, mid]))
-        z[0] = z_apex  # exactly (bisection wanders by sqrt(eps) where the path is flat)
-        bounds.append((z[: e.size], z[e.size :]))
+        z = _on_spheroid(
+            pts[0], pts[1], start, axis, l_apex + np.concatenate([e, mid]), z_end > z_apex
+        )
+        z = np.clip(z, min(z_apex, z_end), max(z_apex, z_end))
+        z[0] = z_apex  # exactly (the roots lose precision where the path is flat)
+        taper = np.ones(mid.size)
+        if cut:
+            x = np.clip((mid - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
+            taper = 0.5 * (1 + np.cos(np.pi * x))
+        bounds.append((z[: e.size], z[e.size :], taper))
     if not bounds:
         return EdgeElements.empty()
     za = np.concatenate([b[0][:-1] for b in bounds])
     zb = np.concatenate([b[0][1:] for b in bounds])
     zc = np.concatenate([b[1] for b in bounds])
+    taper = np.concatenate([b[2] for b in bounds])
     # 3. product integration in eta
     phi = np.pi + np.array([tS + tR, tS - tR, -tS + tR, -tS - tR])
     half = nu * phi / 2
@@ -193,7 +211,7 @@ def edge_elements(
     dz = np.abs(zb - za)
     ok = deta > 0
     weight = np.where(ok, dz / np.where(ok, deta, 1.0), 0.0) / (m_c * l_c)
-    amp = -(nu / (4 * np.pi)) * weight * integral
+    amp = -(nu / (4 * np.pi)) * weight * integral * taper
     # 4. one impulse per element at its mid-path point
     keep = ok & (amp != 0)
     pts_c = start + zc[keep, None] * axis
@@ -206,15 +224,30 @@ def _acosh1p(x: np.ndarray) -> np.ndarray:
     return np.log1p(x + np.sqrt(x * (x + 2)))
 
 
-def _invert(path, l_apex: float, z_apex: float, z_end: float, excess: np.ndarray) -> np.ndarray:
-    """z between z_apex and z_end where path(z) = l_apex + excess (path is monotone
-    there): vectorised bisection to machine precision."""
-    lo = np.full(excess.shape, z_apex)
-    hi = np.full(excess.shape, z_end)
-    target = l_apex + excess
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        below = path(mid) < target
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    return 0.5 * (lo + hi)
+def _on_spheroid(
+    source: np.ndarray,
+    receiver: np.ndarray,
+    start: np.ndarray,
+    axis: np.ndarray,
+    path_m: np.ndarray,
+    upper: bool,
+) -> np.ndarray:
+    """Positions z along the line start + z axis where |S - x| + |x - R| = path_m.
+
+    Points of equal path length lie on a spheroid with foci S and R (semi-axes
+    a = path / 2 and b = sqrt(a^2 - |S - R|^2 / 4)); its intersection with the line
+    is a quadratic in z.  upper: the larger root (else the smaller).
+    """
+    centre = 0.5 * (source + receiver)
+    focal = receiver - source
+    c = 0.5 * np.linalg.norm(focal)
+    u = focal / (2 * c) if c > 0 else axis
+    a2 = (0.5 * path_m) ** 2
+    b2 = np.maximum(a2 - c * c, 0.0)
+    y0 = start - centre
+    y0u, eu, y0e = y0 @ u, axis @ u, y0 @ axis
+    q2 = b2 * eu**2 + a2 * (1 - eu**2)
+    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
+    q0 = b2 * y0u**2 + a2 * (y0 @ y0 - y0u**2) - a2 * b2
+    root = np.sqrt(np.maximum(q1**2 - 4 * q2 * q0, 0.0))
+    return (-q1 + (root if upper else -root)) / (2 * q2)

@@ -72,26 +72,49 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
 
 def _elements(
     edges: Edges,
-    idx: np.ndarray,
+    candidates: np.ndarray,
     source: np.ndarray,
     receiver: np.ndarray,
-    reflection: np.ndarray,
+    face_reflection: np.ndarray,
     step_m: float,
     max_path_m: float,
+    caster,
+    tol: float,
+    seen_from: tuple[np.ndarray, ...],
 ) -> tuple[EdgeElements, np.ndarray]:
+    """BTM elements of the candidate edges (indices) that form a convex wedge on the
+    side of source and receiver and that every point of `seen_from` sees (at one of
+    five points along the edge, at least)."""
+    keep, wedge = edges.oriented(source, receiver)
+    idx = np.asarray(candidates, int)
+    idx = idx[keep[idx]]
+    if idx.size and caster is not None and seen_from:
+        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+        pts = (
+            edges.start_m[idx, None, :]
+            + frac[None, :, None] * (edges.end_m[idx] - edges.start_m[idx])[:, None, :]
+        )
+        pts = pts.reshape(-1, 3)
+        seen = np.ones(pts.shape[0], bool)
+        for p in seen_from:
+            seen &= _visible(caster, p, pts, tol)
+        idx = idx[seen.reshape(-1, frac.size).any(axis=1)]
+    refl = np.asarray(face_reflection, float)
+    f1 = wedge.faces[:, 0]
+    f2 = np.where(wedge.faces[:, 1] >= 0, wedge.faces[:, 1], f1)
     parts, owner = [], []
     for e in idx:
         el = edge_elements(
-            edges.start_m[e],
-            edges.end_m[e],
-            edges.face_dir[e],
-            edges.normal[e],
-            float(edges.wedge_rad[e]),
+            wedge.start_m[e],
+            wedge.end_m[e],
+            wedge.face_dir[e],
+            wedge.normal[e],
+            float(wedge.angle_rad[e]),
             source,
             receiver,
             step_m,
             max_path_m,
-            (float(reflection[e, 0]), float(reflection[e, 1])),
+            (float(refl[f1[e]]), float(refl[f2[e]])),
         )
         if len(el):
             parts.append(el)
@@ -139,13 +162,7 @@ def diffract(
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
         return _empty()
-    refl = np.asarray(face_reflection, float)
-    r_edge = np.column_stack(
-        [
-            refl[edges.faces[:, 0]],
-            refl[np.where(edges.faces[:, 1] >= 0, edges.faces[:, 1], edges.faces[:, 0])],
-        ]
-    )
+    r_edge = np.asarray(face_reflection, float)
     scale = caster.scale if caster is not None else 1.0
     tol = 1e-5 * scale + 1e-7
     out = []
@@ -154,7 +171,9 @@ def diffract(
         receiver, edges.start_m, edges.end_m
     )
     idx = np.flatnonzero(near <= max_path_m)
-    el, owner = _elements(edges, idx, emitter, receiver, r_edge, step_m, max_path_m)
+    el, owner = _elements(
+        edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
+    )
     # 4. visibility both ways
     ok = _visible(caster, emitter, el.point_m, tol) & _visible(caster, receiver, el.point_m, tol)
     out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1))
@@ -223,7 +242,8 @@ def _with_reflection(
     idx = np.flatnonzero((near <= max_path_m) & (side_m * real_side > tol))
     if idx.size == 0:
         return _empty()
-    el, owner = _elements(edges, idx, src, rcv, r_edge, step_m, max_path_m)
+    other = receiver if before else emitter
+    el, owner = _elements(edges, idx, src, rcv, r_edge, step_m, max_path_m, caster, tol, (other,))
     if len(el) == 0:
         return _empty()
     outer = emitter if before else receiver  # the leg that reflects

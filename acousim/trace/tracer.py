@@ -205,7 +205,7 @@ class Tracer:
             max_len,
             world.face_values("reflection"),
             sim.diffraction_step_m,
-            self._planes if sim.bounces >= 2 else None,
+            self._planes if sim.diffraction_reflections else None,
         )
         kind = np.full(len(d), KIND["diffraction"])
         return TracedPaths(
