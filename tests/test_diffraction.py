@@ -329,3 +329,52 @@ def test_hidden_edges_do_not_diffract_and_truth_lists_diffraction(tmp_path):
     assert d.position_m[:, 0].max() <= silhouette + 1e-4
     assert (d.position_m[:, 0] < 2.0).any()  # the front edges do
     assert np.all(d.order == 1)
+
+
+def test_edge_seen_through_a_floor_reflection(tmp_path):
+    """A screen's lower rim 0.3 m above a rigid floor: with reflections on, the edge
+    is also reached through the floor (image of the emitter below it) and left
+    through the floor (image of the receiver); the shortest such path is the
+    unfolded distance from the image to the rim plus the rim to the receiver."""
+    floor = trimesh.Trimesh(
+        [[-1, -3, 0], [5, -3, 0], [5, 3, 0], [-1, 3, 0]], [[0, 1, 2], [0, 2, 3]]
+    )
+    screen = trimesh.Trimesh(
+        [[2, -1, 0.3], [2, 1, 0.3], [2, 1, 0.8], [2, -1, 0.8]], [[0, 1, 2], [0, 2, 3]]
+    )
+    floor.export(tmp_path / "floor.obj")
+    screen.export(tmp_path / "screen.obj")
+    sim = {"max_range_m": 4.0, "rays": 2000, "bounces": 1, "diffraction": True}
+    sim["diffraction_reflections"] = True
+    sim["energy_floor_db"] = -200.0
+    scene = parse_scene(
+        {
+            "sensor": {
+                "array": "urtis_v1",
+                "direct_path": False,
+                "pose": {"position_m": [0.0, 0.0, 0.5]},
+            },
+            "simulation": sim,
+            "meshes": [{"file": "floor.obj"}, {"file": "screen.obj"}],
+        },
+        base_dir=tmp_path,
+    )
+    tracer = Tracer(scene, threads=1)
+    pose = scene.sensor.poses[0]
+    e = pose.to_world(scene.sensor.array.emitter_m)
+    r = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
+    paths = tracer.trace(pose)
+    d = paths.select((paths.kind == KIND["diffraction"]) & (paths.order == 2))
+    rim = np.abs(d.position_m[:, 2] - 0.3) < 1e-9
+    assert rim.sum() > 0
+    total = d.first_leg_m + np.linalg.norm(d.anchor_m - r, axis=1)
+
+    def unfolded(a, b):  # shortest path a -> rim line (x = 2, z = 0.3) -> b
+        ra, rb = np.hypot(2 - a[0], 0.3 - a[2]), np.hypot(2 - b[0], 0.3 - b[2])
+        return np.hypot(ra + rb, b[1] - a[1])
+
+    image_e, image_r = e * [1, 1, -1], r * [1, 1, -1]
+    for shortest in (unfolded(image_e, r), unfolded(e, image_r)):
+        near = np.abs(total[rim] - shortest)
+        assert near.min() < 1e-5  # the element at the apex
+    assert total[rim].min() >= min(unfolded(image_e, r), unfolded(e, image_r)) - 1e-9
