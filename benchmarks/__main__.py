@@ -8,7 +8,7 @@ import platform
 import sys
 from pathlib import Path
 
-from . import corridor, dataset, doa_speed, fractional_delay, pdm_decode
+from . import corridor, dataset, diffraction, doa_speed, fractional_delay, pdm_decode
 
 SECTIONS = {
     "doa": doa_speed,
@@ -16,6 +16,7 @@ SECTIONS = {
     "corridor": corridor,
     "pdm_decode": pdm_decode,
     "dataset": dataset,
+    "diffraction": diffraction,
 }
 
 
