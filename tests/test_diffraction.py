@@ -329,6 +329,11 @@ def test_hidden_edges_do_not_diffract_and_truth_lists_diffraction(tmp_path):
     assert d.position_m[:, 0].max() <= silhouette + 1e-4
     assert (d.position_m[:, 0] < 2.0).any()  # the front edges do
     assert np.all(d.order == 1)
+    rec = sim.simulate_pose(pose, 0)
+    truth = rec.metadata["truth"]
+    kinds = np.asarray(truth["kind"])
+    assert (kinds == "diffraction").sum() == len(d)
+    assert np.all(np.asarray(truth["amplitude"]) >= 0)  # magnitudes, though paths are signed
 
 
 def test_edge_seen_through_a_floor_reflection(tmp_path):
