@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .btm import DEFAULT_STEP_M, EdgeElements, edge_elements
+from .btm import DEFAULT_STEP_M, EdgeElements, many_edge_elements
 from .edges import Edges
 
 __all__ = ["DiffractedPaths", "diffract", "DEFAULT_STEP_M"]
@@ -100,34 +100,21 @@ def _elements(
             seen &= _visible(caster, p, pts, tol)
         idx = idx[seen.reshape(-1, frac.size).any(axis=1)]
     refl = np.asarray(face_reflection, float)
-    f1 = wedge.faces[:, 0]
-    f2 = np.where(wedge.faces[:, 1] >= 0, wedge.faces[:, 1], f1)
-    parts, owner = [], []
-    for e in idx:
-        el = edge_elements(
-            wedge.start_m[e],
-            wedge.end_m[e],
-            wedge.face_dir[e],
-            wedge.normal[e],
-            float(wedge.angle_rad[e]),
-            source,
-            receiver,
-            step_m,
-            max_path_m,
-            (float(refl[f1[e]]), float(refl[f2[e]])),
-        )
-        if len(el):
-            parts.append(el)
-            owner.append(np.full(len(el), e))
-    if not parts:
-        return EdgeElements.empty(), np.zeros(0, int)
-    cat = EdgeElements(
-        *(
-            np.concatenate([getattr(p, f) for p in parts])
-            for f in ("point_m", "first_leg_m", "second_leg_m", "amplitude")
-        )
+    f1 = wedge.faces[idx, 0]
+    f2 = np.where(wedge.faces[idx, 1] >= 0, wedge.faces[idx, 1], f1)
+    el, local = many_edge_elements(
+        wedge.start_m[idx],
+        wedge.end_m[idx],
+        wedge.face_dir[idx],
+        wedge.normal[idx],
+        wedge.angle_rad[idx],
+        source,
+        receiver,
+        step_m,
+        max_path_m,
+        np.column_stack([refl[f1], refl[f2]]),
     )
-    return cat, np.concatenate(owner)
+    return el, idx[local]
 
 
 def _visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
