@@ -54,7 +54,6 @@ __all__ = [
     "EdgeElements",
     "many_edge_elements",
     "edge_elements",
-    "cylindrical",
     "DEFAULT_STEP_M",
     "DEFAULT_MAX_EXCESS_M",
 ]
@@ -90,28 +89,6 @@ class EdgeElements:
     def empty() -> EdgeElements:
         z = np.zeros(0)
         return EdgeElements(np.zeros((0, 3)), z, z, z)
-
-
-def cylindrical(
-    points: np.ndarray,
-    start: np.ndarray,
-    axis: np.ndarray,
-    face_dir: np.ndarray,
-    normal: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Cylindrical coordinates (r, theta, z) of points (N, 3) about an edge.
-
-    `axis` is the unit edge direction from `start`, `face_dir` the unit direction
-    from the edge into face 1 (perpendicular to the edge), `normal` face 1's outward
-    normal (towards the air).  theta in [0, 2 pi) is measured from face 1 through
-    the air.
-    """
-    d = np.atleast_2d(points) - start
-    z = d @ axis
-    v = d - z[:, None] * axis
-    r = np.linalg.norm(v, axis=1)
-    theta = np.mod(np.arctan2(v @ normal, v @ face_dir), 2 * np.pi)
-    return r, theta, z
 
 
 def edge_elements(
