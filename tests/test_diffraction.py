@@ -416,3 +416,17 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
     apex = np.array([near[0], near[1], 0.0])
     expected = (np.linalg.norm(apex - e) + np.linalg.norm(apex - r)) / rec.speed_of_sound_m_s
     assert abs(t - expected) * rec.speed_of_sound_m_s < 0.01
+
+
+def test_scene_keys_for_diffraction(tmp_path):
+    base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
+    assert parse_scene(base).simulation.diffraction is False
+    sim = parse_scene(
+        {**base, "simulation": {"diffraction": True, "diffraction_step_m": 0.002}}
+    ).simulation
+    assert sim.diffraction and sim.diffraction_step_m == 0.002
+    assert not sim.diffraction_reflections
+    with pytest.raises(ValueError, match="diffraction"):
+        parse_scene({**base, "simulation": {"diffraction": "yes"}})
+    with pytest.raises(ValueError, match="diffraction_step_m"):
+        parse_scene({**base, "simulation": {"diffraction_step_m": 0.0}})
