@@ -147,8 +147,8 @@ def many_edge_elements(
     max_excess_m: float = DEFAULT_MAX_EXCESS_M,
 ) -> tuple[EdgeElements, np.ndarray]:
     """:func:`edge_elements` of E edges at once (arrays (E, 3) and (E,); reflection
-    (E, 2)); one source and one receiver (3,).  Returns the elements of all edges and
-    the edge index (K,) of each."""
+    (E, 2)); one receiver (3,) and one source (3,) or one per edge (E, 3).  Returns
+    the elements of all edges and the edge index (K,) of each."""
     n_e = wedge_rad.size
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     if reflection is None:
@@ -212,14 +212,15 @@ def many_edge_elements(
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
     upper = (side_of % 2) == 1
+    src = np.broadcast_to(source, (n_e, 3))[edge_of]
     za = _on_spheroid_many(
-        source, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + ea_ex, upper
+        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + ea_ex, upper
     )
     zb = _on_spheroid_many(
-        source, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + eb_ex, upper
+        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + eb_ex, upper
     )
     zc = _on_spheroid_many(
-        source, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + mid_ex, upper
+        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + mid_ex, upper
     )
     lo = np.minimum(z_apex[edge_of], z_end[side_of])
     hi = np.maximum(z_apex[edge_of], z_end[side_of])
@@ -272,18 +273,20 @@ def _on_spheroid_many(source, receiver, start, axis, path_m, upper):
     |S - x| + |x - R| = path_m (K,): points of equal path length lie on a spheroid
     with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 / 4)), whose
     intersection with a line is a quadratic in z; upper (K,): the larger root (else
-    the smaller)."""
+    the smaller).  source, receiver: (3,) or (K, 3)."""
+    k = len(path_m)
+    source = np.broadcast_to(source, (k, 3))
+    receiver = np.broadcast_to(receiver, (k, 3))
     centre = 0.5 * (source + receiver)
     focal = receiver - source
-    c = 0.5 * np.linalg.norm(focal)
+    c = 0.5 * np.linalg.norm(focal, axis=1)
+    # unit focal axis (zero for a sphere, S = R: then any axis will do)
+    u = focal / np.where(c > 0, 2 * c, 1.0)[:, None]
     a2 = (0.5 * path_m) ** 2
     b2 = np.maximum(a2 - c * c, 0.0)
     y0 = start - centre
-    if c > 0:
-        u = focal / (2 * c)
-        y0u, eu = y0 @ u, axis @ u
-    else:  # a sphere: any axis
-        y0u, eu = np.zeros(len(path_m)), np.zeros(len(path_m))
+    y0u = np.einsum("ij,ij->i", y0, u)
+    eu = np.einsum("ij,ij->i", axis, u)
     y0e = np.einsum("ij,ij->i", y0, axis)
     q2 = b2 * eu**2 + a2 * (1 - eu**2)
     q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
@@ -296,63 +299,3 @@ def _acosh1p(x: np.ndarray) -> np.ndarray:
     """acosh(1 + x), accurate for small x >= 0."""
     x = np.maximum(x, 0.0)
     return np.log1p(x + np.sqrt(x * (x + 2)))
-
-
-def _on_spheroid_many(source, receiver, start, axis, path_m, upper):
-    """Positions z along K lines start + z axis (start, axis (K, 3)) where
-    |S - x| + |x - R| = path_m (K,): points of equal path length lie on a spheroid
-    with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 / 4)), whose
-    intersection with a line is a quadratic in z; upper (K,): the larger root (else
-    the smaller)."""
-    centre = 0.5 * (source + receiver)
-    focal = receiver - source
-    c = 0.5 * np.linalg.norm(focal)
-    a2 = (0.5 * path_m) ** 2
-    b2 = np.maximum(a2 - c * c, 0.0)
-    y0 = start - centre
-    if c > 0:
-        u = focal / (2 * c)
-        y0u, eu = y0 @ u, axis @ u
-    else:  # a sphere: any axis
-        y0u, eu = np.zeros(len(path_m)), np.zeros(len(path_m))
-    y0e = np.einsum("ij,ij->i", y0, axis)
-    q2 = b2 * eu**2 + a2 * (1 - eu**2)
-    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
-    q0 = b2 * y0u**2 + a2 * (np.einsum("ij,ij->i", y0, y0) - y0u**2) - a2 * b2
-    root = np.sqrt(np.maximum(q1**2 - 4 * q2 * q0, 0.0))
-    return (-q1 + np.where(upper, root, -root)) / (2 * q2)
-
-
-def _acosh1p(x: np.ndarray) -> np.ndarray:
-    """acosh(1 + x), accurate for small x >= 0."""
-    x = np.maximum(x, 0.0)
-    return np.log1p(x + np.sqrt(x * (x + 2)))
-
-
-def _on_spheroid(
-    source: np.ndarray,
-    receiver: np.ndarray,
-    start: np.ndarray,
-    axis: np.ndarray,
-    path_m: np.ndarray,
-    upper: bool,
-) -> np.ndarray:
-    """Positions z along the line start + z axis where |S - x| + |x - R| = path_m.
-
-    Points of equal path length lie on a spheroid with foci S and R (semi-axes
-    a = path / 2 and b = sqrt(a^2 - |S - R|^2 / 4)); its intersection with the line
-    is a quadratic in z.  upper: the larger root (else the smaller).
-    """
-    centre = 0.5 * (source + receiver)
-    focal = receiver - source
-    c = 0.5 * np.linalg.norm(focal)
-    u = focal / (2 * c) if c > 0 else axis
-    a2 = (0.5 * path_m) ** 2
-    b2 = np.maximum(a2 - c * c, 0.0)
-    y0 = start - centre
-    y0u, eu, y0e = y0 @ u, axis @ u, y0 @ axis
-    q2 = b2 * eu**2 + a2 * (1 - eu**2)
-    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
-    q0 = b2 * y0u**2 + a2 * (y0 @ y0 - y0u**2) - a2 * b2
-    root = np.sqrt(np.maximum(q1**2 - 4 * q2 * q0, 0.0))
-    return (-q1 + (root if upper else -root)) / (2 * q2)
