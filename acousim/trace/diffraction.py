@@ -9,10 +9,12 @@ Steps of :func:`diffract`:
 
 1. Cull edges that cannot contribute within ``max_path_m`` (shortest path from the
    emitter over the edge's segment to the receiver is longer).
-2. For every remaining edge: its BTM elements for the emitter and the receiver
-   (edge-element step ``step_m``), with the faces' reflection factors applied to
-   the terms of their images.
-3. Optionally (``reflections=True``) the same with the emitter replaced by its image
+2. Keep the edges whose side holding the emitter and the receiver is a convex wedge
+   (:meth:`Edges.oriented`) and that both see at one of five points along the edge
+   (rays); their BTM elements for the emitter and the receiver, all edges in one
+   vectorised pass (edge-element step ``step_m``), with the faces' reflection
+   factors applied to the terms of their images.
+3. Optionally (``planes`` given) the same with the emitter replaced by its image
    in each planar face of the scene (a specular reflection before the edge) and the
    receiver by its image (a reflection after the edge); an element is kept only if
    the reflection point lies on a face of that plane (checked by casting the leg).
