@@ -16,8 +16,10 @@ Steps of :func:`diffract`:
    factors applied to the terms of their images.
 3. Optionally (``planes`` given) the same with the emitter replaced by its image
    in each planar face of the scene (a specular reflection before the edge) and the
-   receiver by its image (a reflection after the edge); an element is kept only if
-   the reflection point lies on a face of that plane (checked by casting the leg).
+   receiver by its image (a reflection after the edge), all (edge, plane) pairs in
+   one pass; a pair is tried if, at one of five points along the edge, the other
+   end sees it and the reflection lands on a face of the plane; an element is kept
+   only if its own reflection point lies on a face of the plane (a ray).
 4. Visibility: an element is kept only if nothing lies between it and the emitter
    (or the reflection point) and between it and the receiver: one ray each way
    through the Embree scene, blocked if it meets a face before the element
@@ -139,6 +141,7 @@ def diffract(
     face_reflection: np.ndarray,
     step_m: float = DEFAULT_STEP_M,
     planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    floor_db: float = -np.inf,
 ) -> DiffractedPaths:
     """First-order edge diffraction (see the module docstring).
 
@@ -146,7 +149,10 @@ def diffract(
     emitter, receiver (3,); max_path_m: longest path kept; face_reflection (F,):
     pressure reflection factor per face; step_m: edge-element step (excess path
     length, m); planes: (normal (P, 3), offset (P,), reflection (P,)) of the planes
-    to combine with one specular reflection before or after the edge (None: none).
+    to combine with one specular reflection before or after the edge (None: none);
+    floor_db: elements weaker than this relative to the strongest first-order one
+    are dropped before their visibility is checked (pass the tracer's energy floor:
+    its strongest echo is at least as strong, so nothing it would keep is lost).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -163,30 +169,32 @@ def diffract(
     el, owner = _elements(
         edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
     )
-    # 4. visibility both ways
-    ok = _visible(caster, emitter, el.point_m, tol) & _visible(caster, receiver, el.point_m, tol)
+    # 4. visibility both ways (of the elements above the floor)
+    floor = np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20)
+    strong = np.abs(el.amplitude) >= floor
+    ok = strong.copy()
+    ok[strong] = _visible(caster, emitter, el.point_m[strong], tol) & _visible(
+        caster, receiver, el.point_m[strong], tol
+    )
     out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1))
     # 3. one reflection before or after the edge
     if planes is not None:
-        normal, offset, p_refl = planes
-        for n, off, rp in zip(normal, offset, p_refl):
-            for before in (True, False):
-                out.append(
-                    _with_reflection(
-                        edges,
-                        caster,
-                        emitter,
-                        receiver,
-                        n,
-                        off,
-                        rp,
-                        before,
-                        r_edge,
-                        step_m,
-                        max_path_m,
-                        tol,
-                    )
+        for before in (True, False):
+            out.append(
+                _reflected(
+                    edges,
+                    caster,
+                    emitter,
+                    receiver,
+                    planes,
+                    before,
+                    r_edge,
+                    step_m,
+                    max_path_m,
+                    tol,
+                    floor,
                 )
+            )
     out = [p for p in out if len(p)]
     if not out:
         return _empty()
@@ -206,68 +214,122 @@ def diffract(
     )
 
 
-def _mirror(p: np.ndarray, n: np.ndarray, off: float) -> np.ndarray:
-    return p - 2 * (p @ n - off)[..., None] * n if p.ndim > 1 else p - 2 * (p @ n - off) * n
-
-
-def _with_reflection(
-    edges, caster, emitter, receiver, n, off, rp, before, r_edge, step_m, max_path_m, tol
+def _reflected(
+    edges,
+    caster,
+    emitter,
+    receiver,
+    planes,
+    before,
+    face_reflection,
+    step_m,
+    max_path_m,
+    tol,
+    floor,
 ) -> DiffractedPaths:
-    """Paths emitter -> plane -> edge -> receiver (before) or emitter -> edge -> plane
-    -> receiver (after), through the image of the emitter or of the receiver."""
-    src = _mirror(emitter, n, off) if before else emitter
-    rcv = receiver if before else _mirror(receiver, n, off)
-    # the two points must be on the same side of the plane as the real ones
-    side_e, side_r = emitter @ n - off, receiver @ n - off
-    if abs(side_e) < tol or abs(side_r) < tol:
-        return _empty()
-    near = _segment_distance(src, edges.start_m, edges.end_m) + _segment_distance(
-        rcv, edges.start_m, edges.end_m
+    """All paths emitter -> plane -> edge -> receiver (before) or emitter -> edge ->
+    plane -> receiver (after) at once, for every plane and edge: the reflecting leg's
+    real end (emitter before, receiver after) is replaced by its image in the plane.
+    After the edge the elements are computed from the receiver's image towards the
+    emitter (the BTM response is reciprocal) and turned round."""
+    normal, offset, p_refl = planes
+    ref = emitter if before else receiver  # the end whose leg reflects
+    oth = receiver if before else emitter
+    side_ref, side_oth = normal @ ref - offset, normal @ oth - offset
+    usable = (np.abs(side_ref) >= tol) & (np.abs(side_oth) >= tol)
+    images = ref - 2 * side_ref[:, None] * normal  # (P, 3)
+    mids = 0.5 * (edges.start_m + edges.end_m)
+    side_mid = mids @ normal.T - offset  # (E, P)
+    near = _segment_distance(oth, edges.start_m, edges.end_m)[:, None] + np.stack(
+        [_segment_distance(i, edges.start_m, edges.end_m) for i in images], axis=1
     )
-    # the edge must be on the real side of the plane (not in the plane itself)
-    mid = 0.5 * (edges.start_m + edges.end_m)
-    side_m = mid @ n - off
-    real_side = side_e if before else side_r
-    idx = np.flatnonzero((near <= max_path_m) & (side_m * real_side > tol))
-    if idx.size == 0:
+    e_idx, p_idx = np.nonzero(
+        usable[None, :] & (side_mid * side_ref[None, :] > tol) & (near <= max_path_m)
+    )
+    if e_idx.size == 0:
         return _empty()
-    other = receiver if before else emitter
-    el, owner = _elements(edges, idx, src, rcv, r_edge, step_m, max_path_m, caster, tol, (other,))
+    # orientation, visibility from the other end, elements: one row per (edge, plane)
+    keep, wedge = edges.select(e_idx).oriented(images[p_idx], oth)
+    rows = np.flatnonzero(keep)
+    if rows.size and caster is not None:
+        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+        pts = (
+            wedge.start_m[rows, None, :]
+            + frac[None, :, None] * (wedge.end_m[rows] - wedge.start_m[rows])[:, None, :]
+        )
+        seen = _visible(caster, oth, pts.reshape(-1, 3), tol).reshape(-1, frac.size)
+        # and the reflection towards those points must land on a face of the plane
+        img = np.repeat(images[p_idx[rows]], frac.size, axis=0)
+        nn = np.repeat(normal[p_idx[rows]], frac.size, axis=0)
+        oo = np.repeat(offset[p_idx[rows]], frac.size)
+        d = pts.reshape(-1, 3) - img
+        dn = np.einsum("ij,ij->i", d, nn)
+        t_ = (oo - np.einsum("ij,ij->i", img, nn)) / np.where(np.abs(dn) < 1e-12, 1e-12, dn)
+        x = img + t_[:, None] * d
+        v = x - ref
+        dist = np.linalg.norm(v, axis=1)
+        t, f = caster.first_hit(np.broadcast_to(ref, v.shape), v, dist + 10 * tol)
+        lands = ((t_ > 0) & (t_ < 1) & (f >= 0) & (np.abs(t - dist) <= 10 * tol)).reshape(
+            -1, frac.size
+        )
+        rows = rows[(seen & lands).any(axis=1)]
+    if rows.size == 0:
+        return _empty()
+    refl = np.asarray(face_reflection, float)
+    f1 = wedge.faces[rows, 0]
+    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
+    el, local = many_edge_elements(
+        wedge.start_m[rows],
+        wedge.end_m[rows],
+        wedge.face_dir[rows],
+        wedge.normal[rows],
+        wedge.angle_rad[rows],
+        images[p_idx[rows]],
+        oth,
+        step_m,
+        max_path_m,
+        np.column_stack([refl[f1], refl[f2]]),
+    )
     if len(el) == 0:
         return _empty()
-    outer = emitter if before else receiver  # the leg that reflects
-    image = src if before else rcv
+    strong = np.abs(el.amplitude * p_refl[p_idx[rows[local]]]) >= floor
+    el = EdgeElements(*(getattr(el, f)[strong] for f in _FIELDS))
+    row = rows[local[strong]]
+    n, off, image = normal[p_idx[row]], offset[p_idx[row]], images[p_idx[row]]
+    z = el.point_m
     # reflection point: where the line image -> element crosses the plane
-    d = el.point_m - image
-    s_ = (off - image @ n) / np.where(np.abs(d @ n) < 1e-12, 1e-12, d @ n)
+    d = z - image
+    dn = np.einsum("ij,ij->i", d, n)
+    s_ = (off - np.einsum("ij,ij->i", image, n)) / np.where(np.abs(dn) < 1e-12, 1e-12, dn)
     x = image + s_[:, None] * d
     ok = (s_ > 0) & (s_ < 1)
-    # the reflecting leg: from the reflection point (nudged off the plane) to the
-    # element and to the real emitter/receiver; it must meet this plane's face: a ray
-    # from the real point towards x must hit a face exactly at x
     if caster is not None and ok.any():
-        v = x - outer
+        # the real end must meet a face exactly at x; x (nudged off the plane) and
+        # the other end must see the element
+        v = x - ref
         dist = np.linalg.norm(v, axis=1)
-        t, f = caster.first_hit(np.broadcast_to(outer, v.shape), v, dist + 10 * tol)
+        t, f = caster.first_hit(np.broadcast_to(ref, v.shape), v, dist + 10 * tol)
         ok &= (f >= 0) & (np.abs(t - dist) <= 10 * tol)
-        x_off = x + np.sign(real_side) * tol * n
-        ok &= _visible(caster, x_off, el.point_m, tol)
-        other = receiver if before else emitter
-        ok &= _visible(caster, other, el.point_m, tol)
-    amp_scale = np.full(len(el), rp)
-    p = _paths(el, owner, ok, src, el.point_m, amp_scale, 2)
-    if before:
-        # departure: from the emitter towards the reflection point
-        dep = x[ok] - emitter
+        x_off = x + (np.sign(side_ref[p_idx[row]]) * tol)[:, None] * n
+        ok &= _visible(caster, x_off, z, tol) & _visible(caster, oth, z, tol)
+    k = np.flatnonzero(ok)
+    amp = el.amplitude[k] * p_refl[p_idx[row[k]]]
+    edge = e_idx[row[k]]
+    order = np.full(k.size, 2)
+    if before:  # image source: first leg from the image, anchor on the edge
+        dep = x[k] - emitter
         dep /= np.linalg.norm(dep, axis=1, keepdims=True)
         return DiffractedPaths(
-            p.anchor_m, p.first_leg_m, p.strength, p.position_m, dep, p.edge, p.order
+            z[k], el.first_leg_m[k], amp * el.second_leg_m[k], z[k], dep, edge, order
         )
-    # after the edge: the path to microphone q is |emitter - z| + |z - image(q)|;
-    # anchor the path at the element's image so that |anchor - q| is that last leg
-    anchor = _mirror(p.position_m, n, off)
+    # after: computed receiver-image -> edge -> emitter; the path is emitter -> z ->
+    # plane -> microphone, so the first leg is |emitter - z| and the anchor is z's
+    # image (its distance to the receiver is the reflected leg)
+    zk, nk = z[k], n[k]
+    anchor = zk - 2 * (np.einsum("ij,ij->i", zk, nk) - off[k])[:, None] * nk
+    dep = (zk - emitter) / el.second_leg_m[k][:, None]
     return DiffractedPaths(
-        anchor, p.first_leg_m, p.strength, p.position_m, p.departure, p.edge, p.order
+        anchor, el.second_leg_m[k], amp * el.first_leg_m[k], zk, dep, edge, order
     )
 
 
@@ -289,3 +351,6 @@ def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> Diffrac
 def _empty() -> DiffractedPaths:
     z3, z = np.zeros((0, 3)), np.zeros(0)
     return DiffractedPaths(z3, z, z, z3, z3, np.zeros(0, int), np.zeros(0, int))
+
+
+_FIELDS = ("point_m", "first_leg_m", "second_leg_m", "amplitude")

@@ -206,6 +206,7 @@ class Tracer:
             world.face_values("reflection"),
             sim.diffraction_step_m,
             self._planes if sim.diffraction_reflections else None,
+            sim.energy_floor_db,
         )
         kind = np.full(len(d), KIND["diffraction"])
         return TracedPaths(
