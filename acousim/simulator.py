@@ -76,7 +76,7 @@ class Simulator:
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
-        level = paths.strength / np.maximum(np.linalg.norm(paths.anchor_m - receiver, axis=1), 1e-9)
+        level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         meta = {
             "scene": scene.name,
             "scene_file": str(scene.source) if scene.source else None,

@@ -14,6 +14,7 @@ from . import (
     broadband,
     corridor,
     dataset,
+    diffraction,
     doa_speed,
     fractional_delay,
     pdm_decode,
@@ -30,6 +31,7 @@ SECTIONS = {
     "dataset": dataset,
     "pictures": pictures,
     "recording_file": recording_file,
+    "diffraction": diffraction,
 }
 
 
