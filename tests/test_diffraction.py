@@ -463,3 +463,11 @@ def test_diffraction_is_reciprocal():
         assert len(forward) > 0
         a, b = spectrum(forward, r, k), spectrum(backward, s, k)
         assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(a))
+
+
+def test_every_path_kind_is_a_ground_truth_kind():
+    """The tracer's kinds (acousim) and the recording's (processing, which imports no
+    acousim) are the same names: a diffraction path can be written and read back."""
+    from processing.recording import _KINDS
+
+    assert set(KIND) == set(_KINDS)
