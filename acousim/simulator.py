@@ -121,7 +121,7 @@ class Simulator:
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
-        level = paths.strength / np.maximum(np.linalg.norm(paths.anchor_m - receiver, axis=1), 1e-9)
+        level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         meta = _metadata(scene, pose, index)
         truth = P.GroundTruth(
             position_world_m=paths.position_m,
@@ -181,7 +181,7 @@ class Simulator:
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
-        level = moving.strength / np.maximum(
+        level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
             np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
         )
         t = pose.time_s

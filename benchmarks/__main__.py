@@ -14,6 +14,7 @@ from . import (
     broadband,
     corridor,
     dataset,
+    diffraction,
     doa_speed,
     fractional_delay,
     motion,
@@ -32,6 +33,7 @@ SECTIONS = {
     "pictures": pictures,
     "recording_file": recording_file,
     "motion": motion,
+    "diffraction": diffraction,
 }
 
 

@@ -162,7 +162,7 @@ class Recording:
         return replace(self, samples=samples)
 
 
-_KINDS = ("direct", "specular", "scatter", "point")
+_KINDS = ("direct", "specular", "scatter", "point", "diffraction")
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,11 +174,13 @@ class GroundTruth:
     position_world_m, position_sensor_m : ndarray, shape (N, 3)
         Where each path's last reflection is, in the world and the sensor frame (m).
     amplitude : ndarray, shape (N,)
-        Path strength at the array centre (relative pressure, 1 = the emitter at 1 m).
+        Path strength at the array centre (relative pressure, 1 = the emitter at 1 m),
+        a magnitude (edge-diffraction paths are signed in the tracer).
     order : ndarray, shape (N,), int
-        Number of reflections (0: the direct path from the emitter).
+        Number of reflections (0: the direct path from the emitter; an edge counts as
+        one).
     kind : ndarray, shape (N,), str
-        ``"direct"``, ``"specular"``, ``"scatter"`` or ``"point"``.
+        ``"direct"``, ``"specular"``, ``"scatter"``, ``"point"`` or ``"diffraction"``.
     velocity_world_m_s : ndarray, shape (N, 3), optional
         Velocity of each path's last reflection (world frame, m/s) at the start of
         the emission; None for a scene without motion.

@@ -309,6 +309,10 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`).
+    diffraction_step_m : edge-element step, in excess path length (m).
+    diffraction_reflections : also edge diffraction combined with one specular
+        reflection before or after the edge (image sources; slow in large scenes).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -327,6 +331,9 @@ class Simulation:
     )
     absorption: bool = setting(True, doc="air absorption")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
+    diffraction: bool = setting(False, doc="edge diffraction (BTM)")
+    diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
+    diffraction_reflections: bool = setting(False, doc="also edge + one reflection (slow)")
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )

@@ -2,7 +2,9 @@
 
 A path's length to microphone p is ``first_leg + |anchor - p|`` and its pressure gain
 ``strength / |anchor - p|``: an image source has first_leg 0, a scatterer or an explicit
-point sits at its position with first_leg the way there from the emitter.
+point sits at its position with first_leg the way there from the emitter, an edge
+element (diffraction) on its edge.  Strengths are signed (edge elements may be
+negative); levels compare magnitudes.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from acousim.synth.echoes import Echoes
 __all__ = ["KIND", "TracedPaths"]
 
 #: what made a path (the ``kind`` code of :class:`TracedPaths`)
-KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3}
+KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3, "diffraction": 4}
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,8 +55,11 @@ class TracedPaths:
         return Echoes(length / speed_of_sound_m_s, gain, length, self.order.copy(), np.arccos(cos))
 
     def level_at(self, point: np.ndarray) -> np.ndarray:
-        """Pressure gain (N,) of every path at one point (the array centre)."""
-        return self.strength / np.maximum(np.linalg.norm(self.anchor_m - point, axis=1), 1e-6)
+        """Magnitude of the pressure gain (N,) of every path at one point (the array
+        centre)."""
+        return np.abs(self.strength) / np.maximum(
+            np.linalg.norm(self.anchor_m - point, axis=1), 1e-6
+        )
 
     def select(self, keep: np.ndarray) -> TracedPaths:
         return TracedPaths(*(getattr(self, f.name)[keep] for f in fields(self)))

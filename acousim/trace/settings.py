@@ -26,7 +26,9 @@ class TraceSettings:
     beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
     maximum range); resolution_m : the call's range resolution as a path length;
     energy_floor_db : paths this far below the strongest echo are dropped;
-    direct_path : include the emitter -> microphone path.
+    direct_path : include the emitter -> microphone path; diffraction : edge
+    diffraction (stage 3); diffraction_step_m : its edge-element step (excess path
+    length, m); diffraction_reflections : also edge + one specular reflection.
     """
 
     rays: int
@@ -36,6 +38,9 @@ class TraceSettings:
     resolution_m: float
     energy_floor_db: float
     direct_path: bool
+    diffraction: bool
+    diffraction_step_m: float
+    diffraction_reflections: bool
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -48,4 +53,7 @@ class TraceSettings:
             resolution_m=resolution_length(scene.sensor.call, scene.environment.speed_of_sound_m_s),
             energy_floor_db=sim.energy_floor_db,
             direct_path=scene.sensor.direct_path,
+            diffraction=sim.diffraction,
+            diffraction_step_m=sim.diffraction_step_m,
+            diffraction_reflections=sim.diffraction_reflections,
         )

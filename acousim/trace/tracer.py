@@ -8,8 +8,10 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 2. Specular refinement (:mod:`.specular`): every candidate plane sequence made an
    exact image-source path, or rejected; and (:mod:`.glints`) the first-order
    specular points of curved surfaces, found without rays.
-3. Edge diffraction: not a stage yet; it plugs in here, taking the world, the caster,
-   the shot and the settings and returning :class:`TracedPaths`.
+3. Edge diffraction (:mod:`.diffraction`, if ``settings.diffraction``): first-order
+   BTM elements of every edge the emitter and the receiver see, optionally with one
+   specular reflection before or after the edge; no rays needed (the edges and the
+   plane table of the world are built once, :class:`DiffractingGeometry`).
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
    receiver.
 5. Clustering (:mod:`.cluster`): scattered contributions into point reflectors.
@@ -33,6 +35,7 @@ from acousim.scene.pose import Pose
 from processing.errors import InputError
 
 from .cluster import DIFFUSE_CELL_DEG, cluster
+from .diffraction import DiffractingGeometry, edge_diffraction
 from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
@@ -66,12 +69,14 @@ def trace_pose(
     receiver: np.ndarray,
     rotation: np.ndarray,
     points: tuple[np.ndarray, np.ndarray] | None = None,
+    edges: DiffractingGeometry | None = None,
 ) -> TracedPaths:
     """Every path of one pose (world frame): the stages 0 to 6 of the module docstring.
 
     emitter, receiver (array centre): (3,) each; rotation (3, 3): the sensor's axes as
     columns (x: its axis); points: positions (P, 3) and strengths (P,) of explicit
-    point reflectors.
+    point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
+    this pose only, when diffraction is on and none is given).
     """
     axis = rotation[:, 0]
     parts = []
@@ -80,6 +85,7 @@ def trace_pose(
         parts.append(direct_path(emitter, receiver, rotation[:, 1]))
     if points is not None and len(points[1]):
         parts.append(point_paths(*points, emitter, receiver, settings.max_path_m, caster))
+    shot = None
     if world is not None and caster is not None and settings.rays > 0:
         # 1. shoot
         shot = shoot(
@@ -98,7 +104,21 @@ def trace_pose(
         parts.append(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
         )
-        # 3. edge diffraction plugs in here
+    # 3. edge diffraction
+    if world is not None and caster is not None and settings.diffraction:
+        parts.append(
+            edge_diffraction(
+                edges if edges is not None else DiffractingGeometry.of(world),
+                caster,
+                emitter,
+                receiver,
+                settings.max_path_m,
+                settings.diffraction_step_m,
+                settings.diffraction_reflections,
+                settings.energy_floor_db,
+            )
+        )
+    if shot is not None:
         # 4. scattering
         contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
         # 5. clustering
@@ -124,6 +144,12 @@ class Tracer:
         self.settings = TraceSettings.from_scene(scene)
         self.world: World | None = build_world(scene) if scene.meshes else None
         self.caster = RayCaster(self.world.triangles, threads) if self.world else None
+        #: the world's diffracting edges and planes, found once (if diffraction is on)
+        self.edges = (
+            DiffractingGeometry.of(self.world)
+            if self.world is not None and self.settings.diffraction
+            else None
+        )
         if self.world is None:
             log.debug("scene %r has no meshes: no ray tracing", scene.name)
         self._points = None
@@ -152,6 +178,7 @@ class Tracer:
             receiver,
             pose.rotation,
             self._points,
+            self.edges,
         )
         if len(self._cache) > 256:
             self._cache.clear()

@@ -1,0 +1,424 @@
+"""The edge-diffraction stage: first-order BTM diffraction of every edge in view.
+
+Input: the scene's diffracting edges (:mod:`acousim.trace.edges`), the ray caster,
+the emitter and the receiver (the array centre).  Output: one point reflector per
+edge element (:mod:`acousim.trace.btm`) in the tracer's path form, so synthesis,
+air absorption, directivity and noise apply unchanged.
+
+Steps of :func:`diffract`:
+
+1. Cull edges that cannot contribute within ``max_path_m`` (shortest path from the
+   emitter over the edge's segment to the receiver is longer).
+2. Keep the edges whose side holding the emitter and the receiver is a convex wedge
+   (:meth:`Edges.oriented`) and that both see at one of five points along the edge
+   (rays); their BTM elements for the emitter and the receiver, all edges in one
+   vectorised pass (edge-element step ``step_m``), with the faces' reflection
+   factors applied to the terms of their images.
+3. Optionally (``planes`` given) the same with the emitter replaced by its image
+   in each planar face of the scene (a specular reflection before the edge) and the
+   receiver by its image (a reflection after the edge), all (edge, plane) pairs in
+   one pass; a pair is tried if, at one of five points along the edge, the other
+   end sees it and the reflection lands on a face of the plane; an element is kept
+   only if its own reflection point lies on a face of the plane (a ray).
+4. Visibility: an element is kept only if nothing lies between it and the emitter
+   (or the reflection point) and between it and the receiver: one ray each way
+   through the Embree scene, blocked if it meets a face before the element (by more
+   than the caster's ``tolerance_m``: the element lies on its own faces).
+
+:func:`edge_diffraction` is the tracer's stage 3: :func:`diffract` on the
+:class:`DiffractingGeometry` of a world (built once per world), its paths in the
+tracer's form with kind ``"diffraction"``.
+
+Valid where the edges are straight and their faces nearly rigid (BTM is exact for
+an infinite rigid wedge; a finite edge is integrated over its length).  Not
+modelled: edge-to-edge (second-order) diffraction; diffraction of the diffuse and
+curved-surface parts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .btm import DEFAULT_STEP_M, EdgeElements, many_edge_elements
+from .edges import Edges, find_edges, triangles_mesh
+from .embree import DISTANCE_TOLERANCE, RAY_OFFSET
+from .geometry import World
+from .paths import KIND, TracedPaths
+
+__all__ = [
+    "DiffractedPaths",
+    "DiffractingGeometry",
+    "diffract",
+    "edge_diffraction",
+    "DEFAULT_STEP_M",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class DiffractedPaths:
+    """N diffraction paths in the tracer's path form (world frame, metres).
+
+    anchor_m (N, 3): the element's point on the edge (or, for a reflection after
+    the edge, its image); first_leg_m (N,): emitter (or its image) to the element;
+    strength (N,): signed, the gain at a microphone p is ``strength / |anchor - p|``;
+    position_m (N, 3): the element's point on the edge; departure (N, 3): unit
+    direction leaving the emitter; edge (N,): index into the Edges; order (N,):
+    interactions (1: the edge alone, 2: a reflection and the edge).
+    """
+
+    anchor_m: np.ndarray
+    first_leg_m: np.ndarray
+    strength: np.ndarray
+    position_m: np.ndarray
+    departure: np.ndarray
+    edge: np.ndarray
+    order: np.ndarray
+
+    def __len__(self) -> int:
+        return self.strength.size
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (E,) from a point (3,) to segments a-b (E, 3)."""
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+    return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+
+
+def _elements(
+    edges: Edges,
+    candidates: np.ndarray,
+    source: np.ndarray,
+    receiver: np.ndarray,
+    face_reflection: np.ndarray,
+    step_m: float,
+    max_path_m: float,
+    caster,
+    tol: float,
+    seen_from: tuple[np.ndarray, ...],
+) -> tuple[EdgeElements, np.ndarray]:
+    """BTM elements of the candidate edges (indices) that form a convex wedge on the
+    side of source and receiver and that every point of `seen_from` sees (at one of
+    five points along the edge, at least)."""
+    keep, wedge = edges.oriented(source, receiver)
+    idx = np.asarray(candidates, int)
+    idx = idx[keep[idx]]
+    if idx.size and caster is not None and seen_from:
+        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+        pts = (
+            edges.start_m[idx, None, :]
+            + frac[None, :, None] * (edges.end_m[idx] - edges.start_m[idx])[:, None, :]
+        )
+        pts = pts.reshape(-1, 3)
+        seen = np.ones(pts.shape[0], bool)
+        for p in seen_from:
+            seen &= _visible(caster, p, pts, tol)
+        idx = idx[seen.reshape(-1, frac.size).any(axis=1)]
+    refl = np.asarray(face_reflection, float)
+    f1 = wedge.faces[idx, 0]
+    f2 = np.where(wedge.faces[idx, 1] >= 0, wedge.faces[idx, 1], f1)
+    el, local = many_edge_elements(
+        wedge.start_m[idx],
+        wedge.end_m[idx],
+        wedge.face_dir[idx],
+        wedge.normal[idx],
+        wedge.angle_rad[idx],
+        source,
+        receiver,
+        step_m,
+        max_path_m,
+        np.column_stack([refl[f1], refl[f2]]),
+    )
+    return el, idx[local]
+
+
+def _visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
+    """(K,) True where the segment from origin (3,) or (K, 3) to points (K, 3) is free."""
+    if caster is None or points.shape[0] == 0:
+        return np.ones(points.shape[0], bool)
+    o = np.broadcast_to(origin, points.shape)
+    d = points - o
+    dist = np.linalg.norm(d, axis=1)
+    t, f = caster.first_hit(o, d, dist + tol)
+    return ~((f >= 0) & (t < dist - tol))
+
+
+def diffract(
+    edges: Edges,
+    caster,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    max_path_m: float,
+    face_reflection: np.ndarray,
+    step_m: float = DEFAULT_STEP_M,
+    planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    floor_db: float = -np.inf,
+) -> DiffractedPaths:
+    """First-order edge diffraction (see the module docstring).
+
+    edges: the scene's diffracting edges; caster: the RayCaster (None: no occlusion);
+    emitter, receiver (3,); max_path_m: longest path kept; face_reflection (F,):
+    pressure reflection factor per face; step_m: edge-element step (excess path
+    length, m); planes: (normal (P, 3), offset (P,), reflection (P,)) of the planes
+    to combine with one specular reflection before or after the edge (None: none);
+    floor_db: elements weaker than this relative to the strongest first-order one
+    are dropped before their visibility is checked (pass the tracer's energy floor:
+    its strongest echo is at least as strong, so nothing it would keep is lost).
+    """
+    emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
+    if len(edges) == 0:
+        return _empty()
+    r_edge = np.asarray(face_reflection, float)
+    # distances along a ray agree within tol; a ray leaves a surface this far off it
+    tol = caster.tolerance_m if caster is not None else sum(DISTANCE_TOLERANCE)
+    nudge = caster.offset_m if caster is not None else sum(RAY_OFFSET)
+    out = []
+    # 1-2. direct legs
+    near = _segment_distance(emitter, edges.start_m, edges.end_m) + _segment_distance(
+        receiver, edges.start_m, edges.end_m
+    )
+    idx = np.flatnonzero(near <= max_path_m)
+    el, owner = _elements(
+        edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
+    )
+    # 4. visibility both ways (of the elements above the floor)
+    floor = np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20)
+    strong = np.abs(el.amplitude) >= floor
+    ok = strong.copy()
+    ok[strong] = _visible(caster, emitter, el.point_m[strong], tol) & _visible(
+        caster, receiver, el.point_m[strong], tol
+    )
+    out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1))
+    # 3. one reflection before or after the edge
+    if planes is not None:
+        for before in (True, False):
+            out.append(
+                _reflected(
+                    edges,
+                    caster,
+                    emitter,
+                    receiver,
+                    planes,
+                    before,
+                    r_edge,
+                    step_m,
+                    max_path_m,
+                    tol,
+                    nudge,
+                    floor,
+                )
+            )
+    out = [p for p in out if len(p)]
+    if not out:
+        return _empty()
+    return DiffractedPaths(
+        *(
+            np.concatenate([getattr(p, f) for p in out])
+            for f in (
+                "anchor_m",
+                "first_leg_m",
+                "strength",
+                "position_m",
+                "departure",
+                "edge",
+                "order",
+            )
+        )
+    )
+
+
+def _reflected(
+    edges,
+    caster,
+    emitter,
+    receiver,
+    planes,
+    before,
+    face_reflection,
+    step_m,
+    max_path_m,
+    tol,
+    nudge,
+    floor,
+) -> DiffractedPaths:
+    """All paths emitter -> plane -> edge -> receiver (before) or emitter -> edge ->
+    plane -> receiver (after) at once, for every plane and edge: the reflecting leg's
+    real end (emitter before, receiver after) is replaced by its image in the plane.
+    After the edge the elements are computed from the receiver's image towards the
+    emitter (the BTM response is reciprocal) and turned round."""
+    normal, offset, p_refl = planes
+    ref = emitter if before else receiver  # the end whose leg reflects
+    oth = receiver if before else emitter
+    side_ref, side_oth = normal @ ref - offset, normal @ oth - offset
+    usable = (np.abs(side_ref) >= tol) & (np.abs(side_oth) >= tol)
+    images = ref - 2 * side_ref[:, None] * normal  # (P, 3)
+    mids = 0.5 * (edges.start_m + edges.end_m)
+    side_mid = mids @ normal.T - offset  # (E, P)
+    near = _segment_distance(oth, edges.start_m, edges.end_m)[:, None] + np.stack(
+        [_segment_distance(i, edges.start_m, edges.end_m) for i in images], axis=1
+    )
+    e_idx, p_idx = np.nonzero(
+        usable[None, :] & (side_mid * side_ref[None, :] > tol) & (near <= max_path_m)
+    )
+    if e_idx.size == 0:
+        return _empty()
+    # orientation, visibility from the other end, elements: one row per (edge, plane)
+    keep, wedge = edges.select(e_idx).oriented(images[p_idx], oth)
+    rows = np.flatnonzero(keep)
+    if rows.size and caster is not None:
+        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+        pts = (
+            wedge.start_m[rows, None, :]
+            + frac[None, :, None] * (wedge.end_m[rows] - wedge.start_m[rows])[:, None, :]
+        )
+        seen = _visible(caster, oth, pts.reshape(-1, 3), tol).reshape(-1, frac.size)
+        # and the reflection towards those points must land on a face of the plane
+        img = np.repeat(images[p_idx[rows]], frac.size, axis=0)
+        nn = np.repeat(normal[p_idx[rows]], frac.size, axis=0)
+        oo = np.repeat(offset[p_idx[rows]], frac.size)
+        d = pts.reshape(-1, 3) - img
+        dn = np.einsum("ij,ij->i", d, nn)
+        t_ = (oo - np.einsum("ij,ij->i", img, nn)) / np.where(np.abs(dn) < 1e-12, 1e-12, dn)
+        x = img + t_[:, None] * d
+        v = x - ref
+        dist = np.linalg.norm(v, axis=1)
+        t, f = caster.first_hit(np.broadcast_to(ref, v.shape), v, dist + tol)
+        lands = ((t_ > 0) & (t_ < 1) & (f >= 0) & (np.abs(t - dist) <= tol)).reshape(-1, frac.size)
+        rows = rows[(seen & lands).any(axis=1)]
+    if rows.size == 0:
+        return _empty()
+    refl = np.asarray(face_reflection, float)
+    f1 = wedge.faces[rows, 0]
+    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
+    el, local = many_edge_elements(
+        wedge.start_m[rows],
+        wedge.end_m[rows],
+        wedge.face_dir[rows],
+        wedge.normal[rows],
+        wedge.angle_rad[rows],
+        images[p_idx[rows]],
+        oth,
+        step_m,
+        max_path_m,
+        np.column_stack([refl[f1], refl[f2]]),
+    )
+    if len(el) == 0:
+        return _empty()
+    strong = np.abs(el.amplitude * p_refl[p_idx[rows[local]]]) >= floor
+    el = EdgeElements(*(getattr(el, f)[strong] for f in _FIELDS))
+    row = rows[local[strong]]
+    n, off, image = normal[p_idx[row]], offset[p_idx[row]], images[p_idx[row]]
+    z = el.point_m
+    # reflection point: where the line image -> element crosses the plane
+    d = z - image
+    dn = np.einsum("ij,ij->i", d, n)
+    s_ = (off - np.einsum("ij,ij->i", image, n)) / np.where(np.abs(dn) < 1e-12, 1e-12, dn)
+    x = image + s_[:, None] * d
+    ok = (s_ > 0) & (s_ < 1)
+    if caster is not None and ok.any():
+        # the real end must meet a face exactly at x; x (nudged off the plane) and
+        # the other end must see the element
+        v = x - ref
+        dist = np.linalg.norm(v, axis=1)
+        t, f = caster.first_hit(np.broadcast_to(ref, v.shape), v, dist + tol)
+        ok &= (f >= 0) & (np.abs(t - dist) <= tol)
+        x_off = x + (np.sign(side_ref[p_idx[row]]) * nudge)[:, None] * n
+        ok &= _visible(caster, x_off, z, tol) & _visible(caster, oth, z, tol)
+    k = np.flatnonzero(ok)
+    amp = el.amplitude[k] * p_refl[p_idx[row[k]]]
+    edge = e_idx[row[k]]
+    order = np.full(k.size, 2)
+    if before:  # image source: first leg from the image, anchor on the edge
+        dep = x[k] - emitter
+        dep /= np.linalg.norm(dep, axis=1, keepdims=True)
+        return DiffractedPaths(
+            z[k], el.first_leg_m[k], amp * el.second_leg_m[k], z[k], dep, edge, order
+        )
+    # after: computed receiver-image -> edge -> emitter; the path is emitter -> z ->
+    # plane -> microphone, so the first leg is |emitter - z| and the anchor is z's
+    # image (its distance to the receiver is the reflected leg)
+    zk, nk = z[k], n[k]
+    anchor = zk - 2 * (np.einsum("ij,ij->i", zk, nk) - off[k])[:, None] * nk
+    dep = (zk - emitter) / el.second_leg_m[k][:, None]
+    return DiffractedPaths(
+        anchor, el.second_leg_m[k], amp * el.first_leg_m[k], zk, dep, edge, order
+    )
+
+
+def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> DiffractedPaths:
+    k = np.flatnonzero(ok)
+    dep = points[k] - source
+    dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
+    return DiffractedPaths(
+        points[k],
+        el.first_leg_m[k],
+        el.amplitude[k] * scale[k] * el.second_leg_m[k],
+        points[k],
+        dep,
+        owner[k],
+        np.full(k.size, order),
+    )
+
+
+def _empty() -> DiffractedPaths:
+    z3, z = np.zeros((0, 3)), np.zeros(0)
+    return DiffractedPaths(z3, z, z, z3, z3, np.zeros(0, int), np.zeros(0, int))
+
+
+_FIELDS = ("point_m", "first_leg_m", "second_leg_m", "amplitude")
+
+
+@dataclass(frozen=True, eq=False)
+class DiffractingGeometry:
+    """What the stage needs of a world, built once per world (not per pose).
+
+    edges: its diffracting edges (:func:`find_edges`); face_reflection (F,): pressure
+    reflection factor per face; planes: (normal (P, 3), offset (P,), reflection (P,))
+    of every plane, for the reflections before or after an edge.
+    """
+
+    edges: Edges
+    face_reflection: np.ndarray
+    planes: tuple[np.ndarray, np.ndarray, np.ndarray]
+
+    @classmethod
+    def of(cls, world: World) -> DiffractingGeometry:
+        refl = world.face_values("reflection")
+        first = np.unique(world.plane, return_index=True)[1]
+        planes = (world.normals[first], world.offsets[first], refl[first])
+        return cls(find_edges(triangles_mesh(world.triangles)), refl, planes)
+
+
+def edge_diffraction(
+    geometry: DiffractingGeometry,
+    caster,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    max_path_m: float,
+    step_m: float,
+    reflections: bool,
+    floor_db: float,
+) -> TracedPaths:
+    """Stage 3 of the tracer: :func:`diffract` as :class:`TracedPaths` of kind
+    ``"diffraction"`` (order 1, or 2 with a reflection before or after the edge).
+
+    reflections: also the paths with one specular reflection (``planes``);
+    floor_db: the tracer's energy floor (dB, negative).
+    """
+    d = diffract(
+        geometry.edges,
+        caster,
+        emitter,
+        receiver,
+        max_path_m,
+        geometry.face_reflection,
+        step_m,
+        geometry.planes if reflections else None,
+        floor_db,
+    )
+    kind = np.full(len(d), KIND["diffraction"])
+    return TracedPaths(
+        d.anchor_m, d.first_leg_m, d.strength, d.position_m, d.order, kind, d.departure
+    )

@@ -1,0 +1,185 @@
+"""Which edges of a mesh diffract: real wedges, not seams.
+
+An edge diffracts when the air around it is a wedge whose open angle ``thW`` is
+larger than pi: the rim of a thin sheet (an edge of one face only, ``thW = 2 pi``)
+or a convex edge between two faces (a box edge, ``thW = 3 pi / 2``).  Left out:
+
+* coplanar seams of a triangulated face (``thW = pi``: nothing to diffract);
+* seams of a tessellated curved surface, where neighbouring faces turn by less than
+  :data:`acousim.trace.geometry.CURVED_MAX_ANGLE_DEG` (those belong to the curved-
+  surface model of the tracer);
+* concave edges (``thW < pi``, inside corners): the image sources of the two faces
+  already give their field exactly when ``thW = pi / n`` and nearly otherwise;
+* edges shared by more than two faces (non-manifold).
+
+Which side of an edge is air is not read from the face normals (a room's walls and
+a box's faces are wound differently, and sheets have no inside): an edge keeps both
+of its sides, and :meth:`Edges.oriented` picks, for a source and a receiver, the side
+they are in.  That side diffracts if it is a convex wedge (open angle above pi plus
+the curved-surface threshold); an inside corner (open angle below pi) does not.
+
+Steps of :func:`find_edges`:
+
+1. Merge vertices and list every face-adjacent pair (trimesh) and every edge used by
+   one face only.
+2. For a pair (A, B): ``face_dir`` is the unit vector in A's plane, perpendicular to
+   the edge, pointing into A; ``normal`` is A's unit normal; ``angle_rad`` is the
+   angle from ``face_dir`` to B's own direction ``other_dir``, turning towards
+   ``normal``: the open angle of that side (the other side's is 2 pi minus it).
+3. Keep rims and pairs whose faces turn by more than ``min_turn_deg`` either way
+   (not coplanar seams, not seams of curved surfaces).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from .geometry import CURVED_MAX_ANGLE_DEG
+
+__all__ = ["Edges", "find_edges", "triangles_mesh"]
+
+
+@dataclass(frozen=True, eq=False)
+class Edges:
+    """E candidate diffracting edges (world frame, metres).
+
+    start_m, end_m (E, 3): endpoints; face_dir (E, 3): unit direction from the edge
+    into face 1; normal (E, 3): face 1's unit normal (either side); other_dir (E, 3):
+    unit direction from the edge into face 2 (face 1's for a rim); angle_rad (E,):
+    angle from face_dir to other_dir turning towards normal (2 pi for a rim); faces
+    (E, 2): face 1 and face 2 (-1 for the missing second face of a rim).
+    """
+
+    start_m: np.ndarray
+    end_m: np.ndarray
+    face_dir: np.ndarray
+    normal: np.ndarray
+    other_dir: np.ndarray
+    angle_rad: np.ndarray
+    faces: np.ndarray
+
+    def __len__(self) -> int:
+        return self.angle_rad.size
+
+    @property
+    def length_m(self) -> np.ndarray:
+        return np.linalg.norm(self.end_m - self.start_m, axis=1)
+
+    def select(self, keep: np.ndarray) -> Edges:
+        return Edges(*(getattr(self, f.name)[keep] for f in fields(self)))
+
+    def oriented(
+        self, source: np.ndarray, receiver: np.ndarray, min_turn_deg: float = CURVED_MAX_ANGLE_DEG
+    ) -> tuple[np.ndarray, Edges]:
+        """The edges as wedges seen from the side of `source` and `receiver` (3,).
+
+        Returns (keep (E,), edges) where ``keep`` marks the edges whose source side
+        is also the receiver's and is a convex wedge (open angle above pi +
+        min_turn_deg), and ``edges`` has, per edge, face 1 and its normal chosen so
+        that the air is at angles 0 .. angle_rad (the open angle of that side).
+        """
+        axis = self.end_m - self.start_m
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+
+        def theta(p):
+            v = p - self.start_m
+            v -= np.einsum("ij,ij->i", v, axis)[:, None] * axis
+            a = np.arctan2(
+                np.einsum("ij,ij->i", v, self.normal), np.einsum("ij,ij->i", v, self.face_dir)
+            )
+            return np.mod(a, 2 * np.pi)
+
+        ts, tr = theta(np.asarray(source, float)), theta(np.asarray(receiver, float))
+        side_s, side_r = ts > self.angle_rad, tr > self.angle_rad  # True: the other side
+        flip = side_s[:, None]
+        turn = np.cross(self.face_dir, self.normal)  # rotation axis of the angles
+        normal_b = np.cross(turn, self.other_dir)
+        oriented = Edges(
+            self.start_m,
+            self.end_m,
+            np.where(flip, self.other_dir, self.face_dir),
+            np.where(flip, normal_b, self.normal),
+            np.where(flip, self.face_dir, self.other_dir),
+            np.where(side_s, 2 * np.pi - self.angle_rad, self.angle_rad),
+            np.where(flip & (self.faces[:, 1:] >= 0), self.faces[:, ::-1], self.faces),
+        )
+        keep = (side_s == side_r) & (oriented.angle_rad > np.pi + np.deg2rad(min_turn_deg))
+        return keep, oriented
+
+    @staticmethod
+    def empty() -> Edges:
+        z3 = np.zeros((0, 3))
+        return Edges(z3, z3, z3, z3, z3, np.zeros(0), np.zeros((0, 2), int))
+
+
+def triangles_mesh(triangles: np.ndarray):
+    """A trimesh mesh from a triangle soup (F, 3, 3), vertices merged, face order kept."""
+    import trimesh
+
+    tri = np.asarray(triangles, float)
+    mesh = trimesh.Trimesh(
+        tri.reshape(-1, 3), np.arange(tri.shape[0] * 3).reshape(-1, 3), process=False
+    )
+    mesh.merge_vertices()
+    return mesh
+
+
+def _into_face(mesh, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Unit vectors in each face's plane, perpendicular to its edge (vertex pair),
+    pointing into the face."""
+    v = mesh.vertices
+    a, b = v[edges[:, 0]], v[edges[:, 1]]
+    axis = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+    centre = v[mesh.faces[faces]].mean(axis=1)
+    d = centre - a
+    d -= np.einsum("ij,ij->i", d, axis)[:, None] * axis
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
+    """The diffracting edges of a trimesh mesh (see the module docstring).
+
+    min_turn_deg : an edge is kept when its faces turn by more than this (degrees)
+        either way; smaller turns are seams of a curved surface.
+    """
+    import trimesh
+
+    normals = np.asarray(mesh.face_normals, float)
+    v = np.asarray(mesh.vertices, float)
+    # 1. adjacent pairs, non-manifold edges left out (trimesh lists each pair once)
+    adj = np.asarray(mesh.face_adjacency, int).reshape(-1, 2)
+    adj_edges = np.asarray(mesh.face_adjacency_edges, int).reshape(-1, 2)
+    sorted_edges = np.sort(np.asarray(mesh.edges, int), axis=1)
+    edge_face = np.asarray(mesh.edges_face, int)
+    groups = trimesh.grouping.group_rows(sorted_edges)
+    single = np.array([g[0] for g in groups if len(g) == 1], int)
+    multi = {tuple(sorted_edges[g[0]]) for g in groups if len(g) > 2}
+    if multi and adj_edges.size:
+        keep = np.array([tuple(e) not in multi for e in np.sort(adj_edges, axis=1)])
+        adj, adj_edges = adj[keep], adj_edges[keep]
+    # 2. open angle of each pair
+    fa, fb = adj[:, 0], adj[:, 1]
+    dir_a = _into_face(mesh, fa, adj_edges)
+    dir_b = _into_face(mesh, fb, adj_edges)
+    na = normals[fa]
+    wedge = np.mod(
+        np.arctan2(np.einsum("ij,ij->i", dir_b, na), np.einsum("ij,ij->i", dir_b, dir_a)),
+        2 * np.pi,
+    )
+    # 3. real wedges (either side) and rims
+    real = np.abs(wedge - np.pi) > np.deg2rad(min_turn_deg)
+    rim_edges = sorted_edges[single]
+    rim_faces = edge_face[single]
+    start = np.concatenate([v[adj_edges[real, 0]], v[rim_edges[:, 0]]])
+    end = np.concatenate([v[adj_edges[real, 1]], v[rim_edges[:, 1]]])
+    rim_dir = _into_face(mesh, rim_faces, rim_edges)
+    face_dir = np.concatenate([dir_a[real], rim_dir])
+    normal = np.concatenate([na[real], normals[rim_faces]])
+    other_dir = np.concatenate([dir_b[real], rim_dir])
+    angle = np.concatenate([wedge[real], np.full(rim_faces.size, 2 * np.pi)])
+    faces = np.concatenate(
+        [adj[real], np.column_stack([rim_faces, np.full(rim_faces.size, -1)])]
+    ).astype(int)
+    return Edges(start, end, face_dir, normal, other_dir, angle, faces)
