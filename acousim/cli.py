@@ -696,9 +696,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
         try:
             results = load_results(args.out)
-        except (OSError, KeyError, ValueError) as exc:
+        except InputError as exc:
             raise UsageError(f"--report-only: no finished study in {args.out!r} ({exc})") from None
-        quick = results["config"].repetitions < 20
+        quick = results.config.repetitions < 20
     else:
         config = StudyConfig.quick(args.workers) if quick else StudyConfig(workers=args.workers)
         results = run_study(
