@@ -85,17 +85,16 @@ WORKERS = _checked("int", 1, 1024)
 
 
 def _methods(option: str, text: str) -> tuple[str, ...]:
-    """Comma-separated DOA methods, each one of processing.METHODS."""
+    """Comma-separated DOA methods, each checked by :func:`processing.check_method`."""
     import processing as P
-    from processing.settings import Setting, check
 
     methods = tuple(m.strip() for m in text.split(",") if m.strip())
     if not methods:
         raise UsageError("no method given", key=option, value=text)
     try:
-        return check(Setting("strings", choices=tuple(P.METHODS)), methods, option)
+        return tuple(P.check_method(m) for m in methods)
     except InputError as exc:
-        raise UsageError(exc.reason, key=option, value=text) from None
+        raise UsageError(f"{exc.value!r}: {exc.reason}", key=option, value=text) from None
 
 
 def _check_scheduler(address: str) -> None:
@@ -475,7 +474,7 @@ def _emulation_recordings(scene, count: int | None) -> list:
     try:
         sim = Simulator(scene)
         return [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
-    except ValueError as exc:  # an unreadable mesh, a scene the simulator refuses
+    except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
         raise UsageError(f"--emulate {scene.source}: {exc}") from None
 
 
@@ -509,10 +508,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
                 ) from None
         else:
             vid, pid = parse_usb_id(args.device) if args.device else find_ids()
-            try:
-                array, call = P.preset(args.array), P.rtis_call(args.call)
-            except ValueError as exc:
-                raise UsageError(str(exc)) from None
+            array, call = P.preset(args.array), P.rtis_call(args.call)
 
             def open_device():
                 return RtisDevice(vid, pid, serial=args.serial)
@@ -700,9 +696,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
         try:
             results = load_results(args.out)
-        except (OSError, KeyError, ValueError) as exc:
+        except InputError as exc:
             raise UsageError(f"--report-only: no finished study in {args.out!r} ({exc})") from None
-        quick = results["config"].repetitions < 20
+        quick = results.config.repetitions < 20
     else:
         config = StudyConfig.quick(args.workers) if quick else StudyConfig(workers=args.workers)
         results = run_study(
@@ -717,11 +713,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 def _cmd_info(args: argparse.Namespace) -> int:
     from acousim.dataset.info import describe
 
-    try:
-        for line in describe(args.file):
-            print(line)
-    except ValueError as exc:  # InputError and the recording loader's errors
-        raise UsageError(str(exc)) from None
+    for line in describe(args.file):  # an InputError is reported by main()
+        print(line)
     return 0
 
 

@@ -51,8 +51,7 @@ class ImagingOptions:
 
     def __post_init__(self) -> None:
         for m in self.methods:
-            if m not in P.METHODS:
-                raise ValueError(f"unknown method {m!r}; choose from {', '.join(P.METHODS)}")
+            P.check_method(m)
         object.__setattr__(
             self, "grid", P.Grid.degrees(self.azimuth_deg, self.elevation_deg, self.step_deg)
         )

@@ -6,7 +6,7 @@ import numpy as np
 
 import processing as P
 from acousim.synth import PointReflectors, point_echoes, render
-from acousim.synth.render import DEFAULT_METHOD, DEFAULT_TAPS
+from acousim.synth.render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS
 
 from .timing import best_time
 
@@ -30,37 +30,39 @@ def run() -> str:
     wf = P.paper_chirp()
     counts = [1, 10, 100, 1000, 10000]
     # error: against the band-limited reference on 4 microphones and up to 20 echoes
-    # (every method is linear in the echoes, so the error per echo is what counts)
+    # (every interpolator is linear in the echoes, so the error per echo is what counts)
     err_refl = _reflectors(rng, 20)
     err_e = point_echoes(err_refl, arr, C)
     err_e = type(err_e)(
         *(v[:4] for v in (err_e.delay_s, err_e.gain, err_e.path_length_m)), err_e.order
     )
-    ref = render(err_e, wf, FS, T, method="reference")
+    ref = render(err_e, wf, FS, T, interpolator="reference")
     errors = {}
-    for method, taps in CONFIGS:
-        y = render(err_e, wf, FS, T, method=method, taps=taps or DEFAULT_TAPS)
-        errors[method, taps] = 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2))
-    header = "| method | taps | error (dB) | " + " | ".join(f"N={n}" for n in counts) + " |"
+    for interpolator, taps in CONFIGS:
+        y = render(err_e, wf, FS, T, interpolator=interpolator, taps=taps or DEFAULT_TAPS)
+        errors[interpolator, taps] = 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2))
+    header = "| interpolator | taps | error (dB) | " + " | ".join(f"N={n}" for n in counts) + " |"
     rows = [header, "|---|---|---|" + "---|" * len(counts)]
-    for method, taps in CONFIGS:
+    for interpolator, taps in CONFIGS:
         cells = []
         for n in counts:
-            if (method == "fft" and n > 100) or (method == "exact" and n > 1000):
+            if (interpolator == "fft" and n > 100) or (interpolator == "exact" and n > 1000):
                 cells.append("—")
                 continue
             refl = _reflectors(rng, n)
             e = point_echoes(refl, arr, C)
             t = best_time(
-                lambda e=e, m=method, k=taps: render(
-                    e, wf, FS, T, method=m, taps=k or DEFAULT_TAPS
+                lambda e=e, m=interpolator, k=taps: render(
+                    e, wf, FS, T, interpolator=m, taps=k or DEFAULT_TAPS
                 ),
                 repeat=2 if n >= 1000 else 3,
             )
             cells.append(f"{t * 1e3:.1f}")
         tap_txt = str(taps) if taps else "—"
         rows.append(
-            f"| {method} | {tap_txt} | {errors[method, taps]:.1f} | " + " | ".join(cells) + " |"
+            f"| {interpolator} | {tap_txt} | {errors[interpolator, taps]:.1f} | "
+            + " | ".join(cells)
+            + " |"
         )
     return "\n".join(
         [
@@ -71,7 +73,7 @@ def run() -> str:
             "at t - d evaluated at 64 x fs, low-passed at 0.8 x Nyquist, decimated), "
             "measured on 20 echoes x 4 microphones. `exact` samples the analytic call "
             "directly: its error is the aliasing of the call's untapered edges. "
-            f"Default: `{DEFAULT_METHOD}` with {DEFAULT_TAPS} taps, the fastest at or below "
+            f"Default: `{DEFAULT_INTERPOLATOR}` with {DEFAULT_TAPS} taps, the fastest at or below "
             "-60 dB.",
             "",
             *rows,

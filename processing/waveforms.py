@@ -13,6 +13,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.signal import chirp
 
+from .errors import InputError
+
 #: Anti-alias cut-off of recorded calls, as a fraction of the Nyquist frequency.
 ANTI_ALIAS_CUTOFF = 0.8
 
@@ -140,7 +142,11 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
     """An RTIS call preset: ``default_25_50`` or ``default_20_80`` (2.5 ms)."""
     presets = {"default_25_50": (50e3, 25e3), "default_20_80": (80e3, 20e3)}
     if preset not in presets:
-        raise ValueError(f"unknown RTIS call {preset!r}; choose one of {sorted(presets)}")
+        raise InputError(
+            f"unknown RTIS call preset; choose one of {', '.join(sorted(presets))}",
+            key="call",
+            value=preset,
+        )
     f_max, f_min = presets[preset]
     return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)
 

@@ -122,7 +122,7 @@ def test_trajectory_gives_an_animation(tmp_path):
         (["simulate", "{tmp}/bad.toml"], r"simulaton: unknown key.*did you mean 'simulation'"),
         (
             ["image", "{tmp}/r.h5", "--method", "das,bogus"],
-            "--method = 'das,bogus': 'bogus' is not",
+            "--method = 'das,bogus': 'bogus': unknown method; choose one of das",
         ),
         (["image", "{tmp}/r.h5", "--method", ""], "--method = '': no method given"),
         (["image", "{tmp}/r.h5", "--method", " , "], "--method = ' , ': no method given"),
@@ -301,5 +301,26 @@ def test_preset_choices_match_the_library():
     assert set(ARRAY_PRESETS) == set(P.PRESETS)
     for name in CALL_PRESETS:
         assert P.rtis_call(name).duration_s > 0
-    with pytest.raises(ValueError):
+    from processing.errors import InputError
+
+    with pytest.raises(InputError, match="call = 'default_10_20': unknown RTIS call preset"):
         P.rtis_call("default_10_20")
+
+
+def test_a_bug_keeps_its_traceback_and_bad_input_is_one_line(tmp_path, monkeypatch, capsys):
+    import acousim.dataset.info as info
+    from processing.errors import InputError
+
+    def bug(path):
+        raise ValueError("a bug deep inside")
+
+    monkeypatch.setattr(info, "describe", bug)
+    with pytest.raises(ValueError, match="a bug deep inside"):
+        main(["info", str(tmp_path)])
+
+    def bad(path):
+        raise InputError("not a recording", file=path)
+
+    monkeypatch.setattr(info, "describe", bad)
+    assert main(["info", str(tmp_path)]) == 2
+    assert f"acousim info: error: {tmp_path}: not a recording" in capsys.readouterr().err

@@ -225,7 +225,7 @@ def test_static_scene_takes_the_unchanged_path():
         speed_of_sound_m_s=sim.c,
         snr_db=sc.simulation.snr_db,
         seed=seed,
-        method=sc.simulation.fractional_delay,
+        interpolator=sc.simulation.fractional_delay,
         response=sim.response,
         snr_reference="echoes",
     )

@@ -91,3 +91,24 @@ def test_matched_filter_numbers_and_report(study):
     assert "| Fig. 12" in text and "1.003 m" in text
     for png in ["fig03_spectrogram.png", "fig06_angular_vs_snr.png", "fig12_multiple_sources.png"]:
         assert (out / png).stat().st_size > 10_000
+
+
+def test_report_only_reads_back_the_same_statistics(study, tmp_path, capsys):
+    import shutil
+
+    from acousim.experiments import Attenuation, StudyResults, load_results
+
+    out, report = study
+    results = load_results(out)
+    assert isinstance(results, StudyResults) and results.config.repetitions == 3
+    assert isinstance(results.fig11[16.0, "das"], Attenuation)
+    again = out / "again.md"  # beside the figures, as the first report
+    assert main(["reproduce", "--report-only", "--out", str(out), "--report", str(again)]) == 0
+    assert again.read_text() == report.read_text()  # the same numbers, read back
+    broken = tmp_path / "broken"
+    shutil.copytree(out, broken)
+    (broken / "fig11_attenuation_vs_spacing.csv").write_text("spacing_deg,method\n10,das\n")
+    capsys.readouterr()
+    assert main(["reproduce", "--report-only", "--out", str(broken)]) == 2
+    err = capsys.readouterr().err
+    assert "fig11_attenuation_vs_spacing.csv: malformed study file" in err

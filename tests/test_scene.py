@@ -137,6 +137,7 @@ def test_pose_refuses_non_finite_values():
 
 def test_fractional_delays_are_the_renderers():
     from acousim.scene.model import FRACTIONAL_DELAYS
-    from acousim.synth.render import METHODS
+    from acousim.synth.render import INTERPOLATORS
 
-    assert set(FRACTIONAL_DELAYS) <= set(METHODS)
+    assert set(FRACTIONAL_DELAYS) == {"sinc", "lagrange", "nearest"}
+    assert set(FRACTIONAL_DELAYS) <= set(INTERPOLATORS)

@@ -34,23 +34,23 @@ def test_echo_delay_and_spherical_spreading():
         point_echoes(refl, arr, C, "cylindrical")
 
 
-@pytest.mark.parametrize("method,bound_db", [("sinc", -60), ("lagrange", -55), ("fft", -60)])
-def test_fast_fractional_delays_against_the_band_limited_reference(method, bound_db):
+@pytest.mark.parametrize("interpolator,bound_db", [("sinc", -60), ("lagrange", -55), ("fft", -60)])
+def test_fast_fractional_delays_against_the_band_limited_reference(interpolator, bound_db):
     rng = np.random.default_rng(0)
     refl = PointReflectors(rng.uniform([0.3, -0.5, -0.5], [1.5, 0.5, 0.5], (3, 3)), 1.0)
     arr = P.ura(2, 2, 5e-3)
     e = point_echoes(refl, arr, C)
     wf = P.paper_chirp()
-    ref = render(e, wf, FS, 6000, method="reference")
-    y = render(e, wf, FS, 6000, method=method)
+    ref = render(e, wf, FS, 6000, interpolator="reference")
+    y = render(e, wf, FS, 6000, interpolator=interpolator)
     err = 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2))
     assert err < bound_db
 
 
 def test_no_global_delay_echo_peaks_at_its_delay():
     e = point_echoes(PointReflectors([[1.3, 0, 0]], 1.0), one_mic(), C)
-    for method in ["sinc", "lagrange", "exact", "fft"]:
-        y = render(e, P.paper_chirp(), FS, 8000, method=method, emission_index=50)
+    for interpolator in ["sinc", "lagrange", "exact", "fft"]:
+        y = render(e, P.paper_chirp(), FS, 8000, interpolator=interpolator, emission_index=50)
         mf = P.matched_filter(y, P.paper_chirp().sampled(FS))
         assert abs(np.argmax(mf[0]) - (50 + 2.6 / C * FS)) <= 0.5
 
@@ -160,7 +160,18 @@ def test_an_echo_within_the_calls_padding_of_sample_zero_keeps_its_delay():
             np.array([[delay_samples / fs]]), np.ones((1, 1)), np.ones((1, 1)), np.zeros(1, int)
         )
         y = render(e, wf, fs, 8000)
-        ref = render(e, wf, fs, 8000, method="exact")
+        ref = render(e, wf, fs, 8000, interpolator="exact")
         mf = np.abs(P.matched_filter(np.vstack([y, ref]), wf.sampled(fs)))
         assert abs(np.argmax(mf[0]) - np.argmax(mf[1])) <= 1
         assert 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)) < -35
+
+
+def test_an_unknown_or_unfit_interpolator_is_an_input_error_naming_it():
+    from acousim.synth import PathResponse
+    from processing.errors import InputError
+
+    e = point_echoes(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), C)
+    with pytest.raises(InputError, match="interpolator = 'cubic'"):
+        render(e, P.paper_chirp(), FS, 4000, interpolator="cubic")
+    with pytest.raises(InputError, match="interpolator = 'fft': a path response"):
+        render(e, P.paper_chirp(), FS, 4000, interpolator="fft", response=PathResponse())

@@ -1,5 +1,23 @@
 """The paper's simulation study (section IV), reproduced."""
 
-from .paper_study import StudyConfig, run_study
+from .paper_study import (
+    Attenuation,
+    PulseNumbers,
+    Resolution,
+    SourceCount,
+    StudyConfig,
+    StudyResults,
+    load_results,
+    run_study,
+)
 
-__all__ = ["StudyConfig", "run_study"]
+__all__ = [
+    "Attenuation",
+    "PulseNumbers",
+    "Resolution",
+    "SourceCount",
+    "StudyConfig",
+    "StudyResults",
+    "load_results",
+    "run_study",
+]

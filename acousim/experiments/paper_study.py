@@ -1,7 +1,8 @@
 """Section IV of the paper: every experiment, its CSV and its figure.
 
 ``run_study(StudyConfig(...), out_dir)`` runs Figs. 3-4, 6-7, 9-10, 11 and 12 and
-returns their headline numbers; :mod:`acousim.experiments.report` turns them into
+returns their statistics (:class:`StudyResults`, small frozen dataclasses whose field
+names are the CSV columns); :mod:`acousim.experiments.report` turns them into
 ``docs/REPRODUCTION.md``.  Readings of the paper fixed here (and stated in the
 report): SNR as in :mod:`acousim.synth.noise`; spreading 1/(2 r) as in eq. 1; the
 steering frequency 31.25 kHz the paper states; 5x5 subarrays; Capon loading -0.5
@@ -16,13 +17,15 @@ import json
 import os
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 import processing as P
 from processing.atomic import atomic_path, write_text
+from processing.errors import InputError
 
 from .trials import (
     FREQUENCY_HZ,
@@ -65,6 +68,76 @@ class StudyConfig:
         )
 
 
+@dataclass(frozen=True)
+class PulseNumbers:
+    """Figs. 3-4: the matched filter's range estimate and the echo's widths (m)."""
+
+    range_estimate_m: float
+    raw_extent_m: float
+    width_3db_m: float
+    rayleigh_width_m: float
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """Figs. 6/7 and 9/10, one position, swept value and method: mean and standard
+    deviation over the repetitions of the angular (sr) and range (m) resolution."""
+
+    angular_sr_mean: float
+    range_m_mean: float
+    angular_sr_std: float
+    range_m_std: float
+
+
+@dataclass(frozen=True)
+class Attenuation:
+    """Fig. 11, one spacing and method: maximum attenuation between the two sources (dB),
+    mean and standard deviation over the repetitions."""
+
+    attenuation_db_mean: float
+    attenuation_db_std: float
+
+
+@dataclass(frozen=True)
+class SourceCount:
+    """Fig. 12, one number of sources and method: mean number of sources resolved,
+    dynamic range (dB) of the mean spectrum, and that spectrum (normalised, over
+    azimuth; None when read back from the CSV)."""
+
+    resolved_mean: float
+    dynamic_range_db: float
+    mean_spectrum: np.ndarray | None = field(default=None, compare=False, repr=False)
+
+
+Position = tuple[float, float, float]
+"""(azimuth deg, elevation deg, range m) of a reflector."""
+Sweep = dict[tuple[Position, Any, str], Resolution]
+"""Figs. 6/7 and 9/10: (position, swept value, method) -> Resolution."""
+
+
+@dataclass(frozen=True)
+class StudyResults:
+    """Everything :func:`run_study` computes (and :func:`load_results` reads back)."""
+
+    config: StudyConfig
+    frequency_hz: float
+    fig3_4: PulseNumbers
+    fig6_7: Sweep
+    fig9_10: Sweep
+    fig11: dict[tuple[float, str], Attenuation]
+    fig12: dict[tuple[int, str], SourceCount]
+
+
+def _columns(cls: type) -> list[str]:
+    """The CSV columns of a statistics dataclass: its float fields, in order."""
+    return [f.name for f in fields(cls) if f.name != "mean_spectrum"]
+
+
+def _read_row(cls: type, row: dict[str, str]):
+    """A statistics dataclass from a CSV row (its columns named by its fields)."""
+    return cls(**{name: float(row[name]) for name in _columns(cls)})
+
+
 def _seed(config: StudyConfig, *key: int) -> int:
     return int(np.random.SeedSequence([config.seed, *key]).generate_state(1)[0])
 
@@ -100,7 +173,7 @@ def _plt():
 # -- Figs. 3 and 4 -----------------------------------------------------------------
 
 
-def fig3_4(config: StudyConfig, out: Path) -> dict:
+def fig3_4(config: StudyConfig, out: Path) -> PulseNumbers:
     """Spectrogram of the received signal and the matched-filter output, (30, 30, 1 m)."""
     rec = simulate_trial(Trial(((30.0, 30.0, 1.0),), 20.0, _seed(config, 3)))
     x = rec.samples[0]
@@ -135,10 +208,10 @@ def fig3_4(config: StudyConfig, out: Path) -> dict:
         ["range_m", "mf_normalised"],
         zip(rng_axis[sel], mf[sel] / np.abs(mf).max()),
     )
-    return {"range_estimate_m": float(rng_axis[i]), "raw_extent_m": float(raw_extent), **widths}
+    return PulseNumbers(float(rng_axis[i]), float(raw_extent), *widths)
 
 
-def _pulse_widths(mf: np.ndarray) -> dict:
+def _pulse_widths(mf: np.ndarray) -> tuple[float, float]:
     """-3 dB width and Rayleigh (first-null to first-null) width of the compressed
     echo's envelope, in metres of range, from an 8x band-limited interpolation."""
     from scipy.signal import hilbert, resample
@@ -153,16 +226,13 @@ def _pulse_widths(mf: np.ndarray) -> dict:
     right = j + int(np.argmax(d_env[j:] > 0))
     left = j - int(np.argmax(d_env[:j][::-1] < 0))
     to_m = C / 2 / (FS * up)
-    return {
-        "width_3db_m": float((above[-1] - above[0]) * to_m),
-        "rayleigh_width_m": float((right - left) * to_m),
-    }
+    return float((above[-1] - above[0]) * to_m), float((right - left) * to_m)
 
 
 # -- Figs. 6/7 and 9/10: resolution against SNR and against snapshots ----------------
 
 
-def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> dict:
+def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Sweep:
     trials = [
         make_trial(p, v, rep, _seed(config, key, ip, iv, rep))
         for ip, p in enumerate(POSITIONS)
@@ -176,8 +246,11 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> dict
         for v in values:
             reps = [next(it) for _ in range(config.repetitions)]
             for m in PAPER_METHODS:
-                arr = np.array([r[m] for r in reps])  # (reps, 2)
-                stats[p, v, m] = (np.nanmean(arr, axis=0), np.nanstd(arr, axis=0))
+                arr = np.array([r[m] for r in reps])  # (reps, 2): angular sr, range m
+                (sr_mean, rng_mean), (sr_std, rng_std) = np.nanmean(arr, 0), np.nanstd(arr, 0)
+                stats[p, v, m] = Resolution(
+                    float(sr_mean), float(rng_mean), float(sr_std), float(rng_std)
+                )
     return stats
 
 
@@ -191,13 +264,14 @@ class _resolution_job:
         return resolution_trial(trial, self.step)
 
 
-def _plot_sweep(stats, values, xlabel, index, ylabel, title, path, log=True):
+def _plot_sweep(stats: Sweep, values, xlabel, what, ylabel, title, path, log=True):
+    """`what`: 'angular_sr' or 'range_m'."""
     plt = _plt()
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
     for ax, p in zip(axes, POSITIONS):
         for m in PAPER_METHODS:
-            mean = np.array([stats[p, v, m][0][index] for v in values])
-            std = np.array([stats[p, v, m][1][index] for v in values])
+            mean = np.array([getattr(stats[p, v, m], f"{what}_mean") for v in values])
+            std = np.array([getattr(stats[p, v, m], f"{what}_std") for v in values])
             ax.errorbar(values, mean, yerr=std, label=m, capsize=2, marker="o", ms=3)
         ax.set_title(f"({p[0]:.0f}°, {p[1]:.0f}°, {p[2]:.0f} m)")
         ax.set_xlabel(xlabel)
@@ -211,30 +285,17 @@ def _plot_sweep(stats, values, xlabel, index, ylabel, title, path, log=True):
     plt.close(fig)
 
 
-def _sweep_csv(stats, values, name, path):
+def _sweep_csv(stats: Sweep, values, name, path):
     rows = [
-        [p[0], p[1], v, m, *stats[p, v, m][0], *stats[p, v, m][1]]
+        [p[0], p[1], v, m, *dataclasses.astuple(stats[p, v, m])]
         for p in POSITIONS
         for v in values
         for m in PAPER_METHODS
     ]
-    _write_csv(
-        path,
-        [
-            "azimuth_deg",
-            "elevation_deg",
-            name,
-            "method",
-            "angular_sr_mean",
-            "range_m_mean",
-            "angular_sr_std",
-            "range_m_std",
-        ],
-        rows,
-    )
+    _write_csv(path, ["azimuth_deg", "elevation_deg", name, "method", *_columns(Resolution)], rows)
 
 
-def fig6_7(config: StudyConfig, out: Path) -> dict:
+def fig6_7(config: StudyConfig, out: Path) -> Sweep:
     stats = _resolution_sweep(
         config, config.snrs_db, lambda p, snr, rep, seed: Trial((p,), float(snr), seed), key=6
     )
@@ -243,7 +304,7 @@ def fig6_7(config: StudyConfig, out: Path) -> dict:
         stats,
         config.snrs_db,
         "SNR (dB)",
-        0,
+        "angular_sr",
         "angular resolution (sr)",
         "Fig. 6: angular resolution against SNR, one snapshot",
         out / "fig06_angular_vs_snr.png",
@@ -252,7 +313,7 @@ def fig6_7(config: StudyConfig, out: Path) -> dict:
         stats,
         config.snrs_db,
         "SNR (dB)",
-        1,
+        "range_m",
         "range resolution (m)",
         "Fig. 7: range resolution against SNR",
         out / "fig07_range_vs_snr.png",
@@ -261,7 +322,7 @@ def fig6_7(config: StudyConfig, out: Path) -> dict:
     return stats
 
 
-def fig9_10(config: StudyConfig, out: Path) -> dict:
+def fig9_10(config: StudyConfig, out: Path) -> Sweep:
     stats = _resolution_sweep(
         config, config.snapshots, lambda p, k, rep, seed: Trial((p,), 3.0, seed, int(k)), key=9
     )
@@ -270,7 +331,7 @@ def fig9_10(config: StudyConfig, out: Path) -> dict:
         stats,
         config.snapshots,
         "snapshots",
-        0,
+        "angular_sr",
         "angular resolution (sr)",
         "Fig. 9: angular resolution against snapshots, 3 dB SNR",
         out / "fig09_angular_vs_snapshots.png",
@@ -279,7 +340,7 @@ def fig9_10(config: StudyConfig, out: Path) -> dict:
         stats,
         config.snapshots,
         "snapshots",
-        1,
+        "range_m",
         "range resolution (m)",
         "Fig. 10: range resolution against snapshots",
         out / "fig10_range_vs_snapshots.png",
@@ -299,7 +360,7 @@ class _cut_job:
         return azimuth_cut_trial(trial, self.step)
 
 
-def fig11(config: StudyConfig, out: Path) -> dict:
+def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation]:
     """Maximum attenuation between two sources against their spacing, 10 dB SNR."""
     trials = [
         Trial(((-s / 2, 0.0, 1.0), (s / 2, 0.0, 1.0)), 10.0, _seed(config, 11, i, rep))
@@ -314,19 +375,23 @@ def fig11(config: StudyConfig, out: Path) -> dict:
         reps = [next(it) for _ in range(config.repetitions)]
         for m in PAPER_METHODS:
             att = [P.max_attenuation(r[m], az, np.deg2rad(-s / 2), np.deg2rad(s / 2)) for r in reps]
-            stats[s, m] = (float(np.mean(att)), float(np.std(att)))
+            stats[s, m] = Attenuation(float(np.mean(att)), float(np.std(att)))
     _write_csv(
         out / "fig11_attenuation_vs_spacing.csv",
-        ["spacing_deg", "method", "attenuation_db_mean", "attenuation_db_std"],
-        [[s, m, *stats[s, m]] for s in config.spacings_deg for m in PAPER_METHODS],
+        ["spacing_deg", "method", *_columns(Attenuation)],
+        [
+            [s, m, *dataclasses.astuple(stats[s, m])]
+            for s in config.spacings_deg
+            for m in PAPER_METHODS
+        ],
     )
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4))
     for m in PAPER_METHODS:
         ax.errorbar(
             config.spacings_deg,
-            [stats[s, m][0] for s in config.spacings_deg],
-            yerr=[stats[s, m][1] for s in config.spacings_deg],
+            [stats[s, m].attenuation_db_mean for s in config.spacings_deg],
+            yerr=[stats[s, m].attenuation_db_std for s in config.spacings_deg],
             label=m,
             marker="o",
             ms=3,
@@ -361,7 +426,7 @@ def resolved_count(cut: np.ndarray, az_rad: np.ndarray, sources_deg: list[float]
     return int(sum(ok))
 
 
-def fig12(config: StudyConfig, out: Path) -> dict:
+def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
     """Spectra for 1 to 5 sources 40° apart at 1 m, 10 dB SNR, summed over range."""
     az = np.deg2rad(np.arange(-90, 90 + config.cut_step_deg / 2, config.cut_step_deg))
     layouts = {n: [40.0 * (i - (n - 1) / 2) for i in range(n)] for n in range(1, 6)}
@@ -378,18 +443,24 @@ def fig12(config: StudyConfig, out: Path) -> dict:
         for m in PAPER_METHODS:
             mean = np.mean([r[m] / r[m].max() for r in reps], axis=0)
             counts = [resolved_count(r[m], az, layouts[n]) for r in reps]
-            result[n, m] = (mean, float(np.mean(counts)), P.dynamic_range_db(mean))
+            result[n, m] = SourceCount(
+                float(np.mean(counts)), float(P.dynamic_range_db(mean)), mean
+            )
     _write_csv(
         out / "fig12_resolved_sources.csv",
-        ["n_sources", "method", "resolved_mean", "dynamic_range_db"],
-        [[n, m, result[n, m][1], result[n, m][2]] for n in layouts for m in PAPER_METHODS],
+        ["n_sources", "method", *_columns(SourceCount)],
+        [
+            [n, m, result[n, m].resolved_mean, result[n, m].dynamic_range_db]
+            for n in layouts
+            for m in PAPER_METHODS
+        ],
     )
     plt = _plt()
     fig, axes = plt.subplots(5, 5, figsize=(15, 11), sharex=True, sharey=True)
     for i, n in enumerate(layouts):
         for j, m in enumerate(PAPER_METHODS):
             ax = axes[i, j]
-            ax.plot(np.rad2deg(az), P.to_db(result[n, m][0], floor_db=-80), lw=0.9)
+            ax.plot(np.rad2deg(az), P.to_db(result[n, m].mean_spectrum, floor_db=-80), lw=0.9)
             for a in layouts[n]:
                 ax.axvline(a, color="r", lw=0.6)
             if i == 0:
@@ -407,25 +478,28 @@ def fig12(config: StudyConfig, out: Path) -> dict:
 
 def run_study(
     config: StudyConfig, out_dir: str | Path, progress: Callable[[str], None] | None = None
-) -> dict:
+) -> StudyResults:
     """Run every experiment, writing CSVs and PNGs into `out_dir`; return the results."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda s: None)
-    results = {}
-    for name, fn in [
-        ("fig3_4", fig3_4),
-        ("fig6_7", fig6_7),
-        ("fig9_10", fig9_10),
-        ("fig11", fig11),
-        ("fig12", fig12),
-    ]:
+
+    def run(name: str, fn: Callable):
         say(name)
-        results[name] = fn(config, out)
-    results["config"] = config
-    results["frequency_hz"] = FREQUENCY_HZ
+        return fn(config, out)
+
+    results = StudyResults(
+        config=config,
+        frequency_hz=FREQUENCY_HZ,
+        fig3_4=run("fig3_4", fig3_4),
+        fig6_7=run("fig6_7", fig6_7),
+        fig9_10=run("fig9_10", fig9_10),
+        fig11=run("fig11", fig11),
+        fig12=run("fig12", fig12),
+    )
     _write_json(
-        out / "study.json", {"config": dataclasses.asdict(config), "fig3_4": results["fig3_4"]}
+        out / "study.json",
+        {"config": dataclasses.asdict(config), "fig3_4": dataclasses.asdict(results.fig3_4)},
     )
     return results
 
@@ -434,48 +508,54 @@ def _write_json(path: Path, data: dict) -> None:
     write_text(path, json.dumps(data, indent=1))
 
 
-def load_results(out_dir: str | Path) -> dict:
+def load_results(out_dir: str | Path) -> StudyResults:
     """The results of a finished run, read back from its CSV and JSON files (to rewrite
-    the report without running the study again)."""
+    the report without running the study again); :class:`InputError` naming the file
+    when one is missing or malformed."""
     out = Path(out_dir)
-    meta = json.loads((out / "study.json").read_text())
-    config = StudyConfig(
-        **{k: tuple(v) if isinstance(v, list) else v for k, v in meta["config"].items()}
-    )
+    path = out / "study.json"
+    try:
+        meta = json.loads(path.read_text())
+        config = StudyConfig(
+            **{k: tuple(v) if isinstance(v, list) else v for k, v in meta["config"].items()}
+        )
+        pulse = PulseNumbers(**meta["fig3_4"])
 
-    def sweep(name, key, cast):
-        stats = {}
-        with open(out / name) as f:
-            for r in csv.DictReader(f):
-                p = (float(r["azimuth_deg"]), float(r["elevation_deg"]), 1.0)
-                mean = np.array([float(r["angular_sr_mean"]), float(r["range_m_mean"])])
-                std = np.array([float(r["angular_sr_std"]), float(r["range_m_std"])])
-                stats[p, cast(r[key]), r["method"]] = (mean, std)
-        return stats
+        def table(name: str) -> list[dict[str, str]]:
+            nonlocal path
+            path = out / name
+            with open(path, newline="") as f:
+                return list(csv.DictReader(f))
 
-    with open(out / "fig11_attenuation_vs_spacing.csv") as f:
-        f11 = {
-            (float(r["spacing_deg"]), r["method"]): (
-                float(r["attenuation_db_mean"]),
-                float(r["attenuation_db_std"]),
-            )
-            for r in csv.DictReader(f)
-        }
-    with open(out / "fig12_resolved_sources.csv") as f:
-        f12 = {
-            (int(r["n_sources"]), r["method"]): (
-                None,
-                float(r["resolved_mean"]),
-                float(r["dynamic_range_db"]),
-            )
-            for r in csv.DictReader(f)
-        }
-    return {
-        "config": config,
-        "frequency_hz": FREQUENCY_HZ,
-        "fig3_4": meta["fig3_4"],
-        "fig6_7": sweep("fig06_07_resolution_vs_snr.csv", "snr_db", float),
-        "fig9_10": sweep("fig09_10_resolution_vs_snapshots.csv", "snapshots", int),
-        "fig11": f11,
-        "fig12": f12,
-    }
+        def sweep(name: str, key: str, cast: Callable) -> Sweep:
+            return {
+                (
+                    (float(r["azimuth_deg"]), float(r["elevation_deg"]), 1.0),
+                    cast(r[key]),
+                    r["method"],
+                ): _read_row(Resolution, r)
+                for r in table(name)
+            }
+
+        results = StudyResults(
+            config=config,
+            frequency_hz=FREQUENCY_HZ,
+            fig3_4=pulse,
+            fig6_7=sweep("fig06_07_resolution_vs_snr.csv", "snr_db", float),
+            fig9_10=sweep("fig09_10_resolution_vs_snapshots.csv", "snapshots", int),
+            fig11={
+                (float(r["spacing_deg"]), r["method"]): _read_row(Attenuation, r)
+                for r in table("fig11_attenuation_vs_spacing.csv")
+            },
+            fig12={
+                (int(r["n_sources"]), r["method"]): _read_row(SourceCount, r)
+                for r in table("fig12_resolved_sources.csv")
+            },
+        )
+    except OSError as exc:
+        raise InputError(f"cannot read ({exc.strerror or exc})", file=path) from None
+    except (ValueError, KeyError, TypeError) as exc:  # parsing the file's text
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"malformed study file ({exc!r})", file=path) from None
+    return results

@@ -10,7 +10,7 @@ import numpy as np
 
 from processing.atomic import write_text
 
-from .paper_study import POSITIONS
+from .paper_study import POSITIONS, StudyResults, Sweep
 
 SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
 SMOOTHED9_NOTE = (
@@ -21,15 +21,17 @@ SMOOTHED9_NOTE = (
 )
 
 
-def _mean(stats, p, v, m, index):
-    return float(stats[p, v, m][0][index])
+def _mean(stats: Sweep, p, v, m, index):
+    """Mean angular (index 0, sr) or range (index 1, m) resolution."""
+    r = stats[p, v, m]
+    return r.angular_sr_mean if index == 0 else r.range_m_mean
 
 
-def headline(results: dict) -> list[tuple[str, str, str, str]]:
+def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
     """Rows (claim, paper, ours, why they differ or agree)."""
-    cfg = results["config"]
-    f34, s67, s910 = results["fig3_4"], results["fig6_7"], results["fig9_10"]
-    f11, f12 = results["fig11"], results["fig12"]
+    cfg = results.config
+    f34, s67, s910 = results.fig3_4, results.fig6_7, results.fig9_10
+    f11, f12 = results.fig11, results.fig12
     p0, p30, p60 = POSITIONS
     snrs, snaps = cfg.snrs_db, cfg.snapshots
     hi_snr = [v for v in snrs if v >= 0]
@@ -38,7 +40,7 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
         (
             "Fig. 4: matched-filter range estimate, reflector at (30°, 30°, 1 m)",
             "1.003 m",
-            f"{f34['range_estimate_m']:.4f} m",
+            f"{f34.range_estimate_m:.4f} m",
             "Our estimate is half the emitter→reflector→microphone path for microphone 0, at "
             "a corner of the array (emitter at the centre): (1 + 1.0163)/2 = 1.0082 m. The "
             "paper does not say which microphone or where its emitter is; the centre "
@@ -49,8 +51,8 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
         (
             "Fig. 4: echo width before → after the matched filter",
             "≈20 cm → ≈6 mm",
-            f"{f34['raw_extent_m'] * 100:.1f} cm → {f34['rayleigh_width_m'] * 1e3:.1f} mm "
-            f"(−3 dB: {f34['width_3db_m'] * 1e3:.1f} mm)",
+            f"{f34.raw_extent_m * 100:.1f} cm → {f34.rayleigh_width_m * 1e3:.1f} mm "
+            f"(−3 dB: {f34.width_3db_m * 1e3:.1f} mm)",
             "Before: the 1 ms call spans c·T/2. After: first null to first null of the "
             "compressed envelope, 2/B·c/2 for B = 65 kHz; the paper's 'Rayleigh width'.",
         )
@@ -158,11 +160,11 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
     spac = cfg.spacings_deg
 
     def last_above(m, level):
-        ok = [s for s in spac if f11[s, m][0] > level]
+        ok = [s for s in spac if f11[s, m].attenuation_db_mean > level]
         # the smallest spacing such that every larger spacing also stays above `level`
         best = None
         for s in sorted(spac, reverse=True):
-            if f11[s, m][0] > level:
+            if f11[s, m].attenuation_db_mean > level:
                 best = s
             else:
                 break
@@ -184,7 +186,7 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
             "The −3 dB beamwidth of 8 × 5 mm at 31.25 kHz is about 23°.",
         )
     )
-    music_max = max(f11[s, "music"][0] for s in spac)
+    music_max = max(f11[s, "music"].attenuation_db_mean for s in spac)
     rows.append(
         (
             "Fig. 11: plain MUSIC, best dip; under 3 dB from",
@@ -200,8 +202,9 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
         (
             "Fig. 12: coherent sources resolved at one range (Capon-FBSS, MUSIC-FBSS), 4 → 5",
             "4 resolved → not 5",
-            f"{f12[4, 'capon-fbss'][1]:.1f}, {f12[4, 'music-fbss'][1]:.1f} → "
-            f"{f12[5, 'capon-fbss'][1]:.1f}, {f12[5, 'music-fbss'][1]:.1f}",
+            f"{f12[4, 'capon-fbss'].resolved_mean:.1f}, {f12[4, 'music-fbss'].resolved_mean:.1f}"
+            f" → {f12[5, 'capon-fbss'].resolved_mean:.1f}, "
+            f"{f12[5, 'music-fbss'].resolved_mean:.1f}",
             "Mean number of sources with their own peak and a 3 dB dip to each neighbour. "
             "A row of the 8 × 8 array holds four 5 × 5 subarrays: agrees.",
         )
@@ -209,21 +212,23 @@ def headline(results: dict) -> list[tuple[str, str, str, str]]:
     return rows
 
 
-def s67_methods(stats) -> list[str]:
+def s67_methods(stats: Sweep) -> list[str]:
     return sorted({k[2] for k in stats})
 
 
 def _first_below(f11, spac, m):
     for s in sorted(spac, reverse=True):
-        if f11[s, m][0] < 3:
+        if f11[s, m].attenuation_db_mean < 3:
             return s
     return None
 
 
-def write_report(results: dict, path: str | Path, figures_dir: str | Path, command: str) -> Path:
+def write_report(
+    results: StudyResults, path: str | Path, figures_dir: str | Path, command: str
+) -> Path:
     path = Path(path)
     figs = os.path.relpath(Path(figures_dir), path.parent)
-    cfg = results["config"]
+    cfg = results.config
     lines = [
         "# Reproduction of the paper's simulation study",
         "",
@@ -232,7 +237,7 @@ def write_report(results: dict, path: str | Path, figures_dir: str | Path, comma
         "Microphone Arrays*, section IV.",
         "",
         f"Settings: 8 × 8 URA at 5 mm, linear chirp 20 → 85 kHz in 1 ms at 500 kHz, "
-        f"c = 343 m/s, spreading 1/(2r), steering at {results['frequency_hz'] / 1e3:.2f} kHz, "
+        f"c = 343 m/s, spreading 1/(2r), steering at {results.frequency_hz / 1e3:.2f} kHz, "
         f"STFT window 256 / overlap 240, half-energy gate, 5 × 5 subarrays, "
         f"{cfg.repetitions} repetitions, grid step {cfg.grid_step_deg}° "
         f"(cuts {cfg.cut_step_deg}°).",

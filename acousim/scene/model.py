@@ -34,6 +34,7 @@ from processing import Array, Waveform
 from processing.errors import InputError
 from processing.settings import setting, validate
 
+from ..synth.render import SHAPED_INTERPOLATORS, ShapedDelay
 from .pose import Pose
 
 __all__ = [
@@ -57,8 +58,9 @@ below the speed of sound, which the retarded-time solution needs)."""
 MAX_TURN_DEG_S = 3600.0
 """Fastest turn of the sensor (degrees/s about each world axis)."""
 
-FRACTIONAL_DELAYS = ("sinc", "lagrange", "nearest")
-"""Fractional-delay interpolators of the renderer (``acousim.synth.render``)."""
+FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
+"""Fractional-delay interpolators a scene may choose: those of the renderer that take
+a path response (:data:`acousim.synth.render.ShapedDelay`)."""
 
 
 @dataclass(frozen=True)
@@ -326,7 +328,7 @@ class Simulation:
     beam_deg: float = setting(90.0, "deg", 1, 180, "half-angle of the cone of rays")
     snr_db: float = setting(math.inf, "dB", -60, math.inf, "noise below the echoes; inf: none")
     seed: int = setting(0, "", 0, 2**63 - 1, "noise seed")
-    fractional_delay: str = setting(
+    fractional_delay: ShapedDelay = setting(
         "sinc", choices=FRACTIONAL_DELAYS, doc="fractional-delay interpolator"
     )
     absorption: bool = setting(True, doc="air absorption")

@@ -4,7 +4,13 @@ from .air import absorption_db_per_m, speed_of_sound
 from .echoes import SPREADING, Echoes, PointReflectors, direct_path_echoes, point_echoes
 from .model import simulate, simulate_points
 from .noise import add_noise, noise_sigma, signal_power
-from .render import DEFAULT_METHOD, METHODS, render
+from .render import (
+    DEFAULT_INTERPOLATOR,
+    INTERPOLATORS,
+    FractionalDelay,
+    check_interpolator,
+    render,
+)
 from .response import PathResponse, piston_directivity
 
 __all__ = [
@@ -22,7 +28,9 @@ __all__ = [
     "speed_of_sound",
     "PathResponse",
     "piston_directivity",
-    "DEFAULT_METHOD",
-    "METHODS",
+    "DEFAULT_INTERPOLATOR",
+    "INTERPOLATORS",
+    "FractionalDelay",
+    "check_interpolator",
     "render",
 ]

@@ -16,7 +16,7 @@ from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
 from .noise import add_noise, noise_sigma
-from .render import DEFAULT_METHOD, DEFAULT_TAPS, render
+from .render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS, FractionalDelay, render
 from .response import PathResponse
 
 __all__ = ["simulate", "simulate_points"]
@@ -36,7 +36,7 @@ def simulate(
     n_measurements: int | None = None,
     seed: int | None = 0,
     emission_index: int = 0,
-    method: str = DEFAULT_METHOD,
+    interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
     snr_reference: str = "signal",
@@ -95,7 +95,7 @@ def simulate(
             sample_rate_hz,
             n_samples,
             emission_index=emission_index,
-            method=method,
+            interpolator=interpolator,
             taps=taps,
             response=response,
         )
@@ -106,7 +106,7 @@ def simulate(
             sample_rate_hz,
             n_samples,
             emission_index=emission_index,
-            method=method,
+            interpolator=interpolator,
             taps=taps,
             response=response,
         )

@@ -66,11 +66,17 @@ import numpy as np
 from scipy import fft as sfft
 
 from processing import Array, Waveform
-from processing.errors import InputError
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .echoes import Echoes
-from .render import DEFAULT_TAPS, FFT_WORKERS, RESPONSE_POINTS, _impulses
+from .render import (
+    DEFAULT_TAPS,
+    FFT_WORKERS,
+    RESPONSE_POINTS,
+    FractionalDelay,
+    _impulses,
+    check_interpolator,
+)
 from .response import PathResponse, factorise
 
 __all__ = [
@@ -591,7 +597,7 @@ def render_doppler(
     n_samples: int,
     *,
     emission_index: int = 0,
-    method: str = "sinc",
+    interpolator: FractionalDelay = "sinc",
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
     tolerance: float = DOPPLER_TOLERANCE,
@@ -599,16 +605,16 @@ def render_doppler(
     """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
     microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).
 
-    `method`: 'sinc' or 'lagrange' fractional delays, as the static renderer.
+    `interpolator`: 'sinc' or 'lagrange' fractional delays, as the static renderer.
     `response`: air absorption and emitter directivity, factorised as the static
     renderer does (:mod:`acousim.synth.response`).
     """
-    if method not in ("sinc", "lagrange"):
-        raise InputError(
-            "a moving scene needs 'sinc' or 'lagrange'",
-            key="simulation.fractional_delay",
-            value=method,
-        )
+    check_interpolator(
+        interpolator,
+        ("sinc", "lagrange"),
+        need="a moving scene",
+        key="simulation.fractional_delay",
+    )
     M = echoes.delay_s.shape[0]
     out = np.zeros((M, n_samples))
     if echoes.n_paths == 0:
@@ -652,7 +658,7 @@ def render_doppler(
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), complex)
     filt[band] = filt_band
     # 5. impulses per set, FFT, sum of products, back
-    h, pad = _impulses(d - lo, gains, n_span, method, taps, n, dtype)
+    h, pad = _impulses(d - lo, gains, n_span, interpolator, taps, n, dtype)
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
     spec = spectra[0] * filt[:, 0]
     for q in range(1, spectra.shape[0]):

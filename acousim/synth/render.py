@@ -6,7 +6,8 @@ The recorded call is band-limited, as the sensor's anti-alias filter makes it
 (:meth:`processing.Waveform.band_limited`): an untapered chirp sampled directly
 carries -42 dB of aliasing from its edges that no sampled system records.
 
-Methods (``method=``), measured against ``reference`` in ``BENCHMARKS.md``:
+Interpolators (``interpolator=``, :data:`FractionalDelay`), measured against
+``reference`` in ``BENCHMARKS.md``:
 
 ``reference``
     The analytic call evaluated at ``t - d`` for every echo at 64 times the sample
@@ -26,13 +27,14 @@ Methods (``method=``), measured against ``reference`` in ``BENCHMARKS.md``:
 ``nearest``
     Delays rounded to the nearest sample: a baseline, not for use.
 
-No method adds a global delay: an echo with delay d peaks, after the matched
+No interpolator adds a global delay: an echo with delay d peaks, after the matched
 filter, at ``d * fs`` samples after the emission.
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Literal, get_args
 
 import numpy as np
 import scipy.sparse as sp
@@ -41,20 +43,52 @@ from scipy.signal import fftconvolve
 from scipy.special import i0
 
 from processing import Waveform
+from processing.errors import InputError
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .echoes import Echoes
 from .response import PathResponse, factorise
 
-__all__ = ["render", "METHODS", "DEFAULT_METHOD", "DEFAULT_TAPS"]
+__all__ = [
+    "render",
+    "FractionalDelay",
+    "ShapedDelay",
+    "INTERPOLATORS",
+    "SHAPED_INTERPOLATORS",
+    "DEFAULT_INTERPOLATOR",
+    "DEFAULT_TAPS",
+    "check_interpolator",
+]
 
-METHODS = ("reference", "exact", "sinc", "lagrange", "fft", "nearest")
-DEFAULT_METHOD = "sinc"
+ShapedDelay = Literal["sinc", "lagrange", "nearest"]
+"""Interpolators that take a path response (absorption, directivity): the choices
+of a scene's ``simulation.fractional_delay``."""
+FractionalDelay = Literal["reference", "exact", "sinc", "lagrange", "fft", "nearest"]
+"""Every fractional-delay interpolator of :func:`render` (see the module docstring)."""
+INTERPOLATORS: tuple[str, ...] = get_args(FractionalDelay)
+SHAPED_INTERPOLATORS: tuple[str, ...] = get_args(ShapedDelay)
+DEFAULT_INTERPOLATOR: ShapedDelay = "sinc"
 DEFAULT_TAPS = 6
 KAISER_BETA = 8.0
 TABLE_PHASES = 4096
 FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
+
+
+def check_interpolator(
+    interpolator: object,
+    allowed: tuple[str, ...] = INTERPOLATORS,
+    *,
+    need: str = "",
+    key: str = "interpolator",
+) -> FractionalDelay:
+    """`interpolator` if it is one of `allowed`, else :class:`InputError` naming `key`
+    (`need`: why only `allowed`, e.g. "a path response"): the one check of the
+    fractional-delay option."""
+    if not isinstance(interpolator, str) or interpolator not in allowed:
+        why = f"{need} needs" if need else "unknown fractional-delay interpolator; choose"
+        raise InputError(f"{why} one of {', '.join(allowed)}", key=key, value=interpolator)
+    return interpolator  # type: ignore[return-value]
 
 
 def render(
@@ -64,21 +98,26 @@ def render(
     n_samples: int,
     *,
     emission_index: int = 0,
-    method: str = DEFAULT_METHOD,
+    interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
 ) -> np.ndarray:
     """Microphone signals of `echoes`, shape (M, T), float64.
 
     `response` adds air absorption and emitter directivity per path (see
-    :mod:`acousim.synth.response`); it needs the sinc, lagrange or nearest method.
+    :mod:`acousim.synth.response`); it needs a
+    :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).
 
     Echoes that start after the end of the window are expected to have been
     dropped by the caller (:func:`acousim.synth.model.simulate`); those that start
     inside it and run past its end are truncated.
     """
-    if method not in METHODS:
-        raise ValueError(f"unknown fractional-delay method {method!r}; choose one of {METHODS}")
+    shaped = response is not None and response.active
+    check_interpolator(
+        interpolator,
+        SHAPED_INTERPOLATORS if shaped else INTERPOLATORS,
+        need="a path response (absorption, directivity)" if shaped else "",
+    )
     M = echoes.delay_s.shape[0]
     out = np.zeros((M, n_samples))
     if echoes.n_paths == 0:
@@ -86,15 +125,9 @@ def render(
     fs = sample_rate_hz
     d = echoes.delay_s * fs + emission_index  # (M, N) in samples
     g = echoes.gain
-    shaped = response is not None and response.active
-    if shaped and method not in ("sinc", "lagrange", "nearest"):
-        raise ValueError(
-            f"a path response (absorption, directivity) needs method 'sinc', "
-            f"'lagrange' or 'nearest', not {method!r}"
-        )
-    if method == "exact":
+    if interpolator == "exact":
         return _render_exact(d, g, waveform, fs, n_samples, out)
-    if method == "reference":
+    if interpolator == "reference":
         U = 64
         fine = _render_exact(
             d * U, g, waveform, fs * U, n_samples * U, np.zeros((M, n_samples * U))
@@ -104,10 +137,10 @@ def render(
         return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
     call, start = waveform.band_limited(fs)
     d = d + start  # sample i of `call` is at i + start
-    if method == "fft":
+    if interpolator == "fft":
         return _render_fft(d, g, call, n_samples)
     # span of the output that echoes reach: only that part is computed
-    half = 0 if method == "nearest" else taps
+    half = 0 if interpolator == "nearest" else taps
     # the span may start before sample 0: the band-limited call starts `pad` samples
     # before its echo's delay, and the direct path arrives within a few samples
     lo = int(np.floor(d.min())) - half
@@ -116,9 +149,9 @@ def render(
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, g, call, fs, n_span, method, taps, response)
+        y = _render_shaped(echoes, d - lo, g, call, fs, n_span, interpolator, taps, response)
     else:
-        h = _impulses(d - lo, g, n_span, method, taps)  # (M, n_span)
+        h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
