@@ -72,10 +72,12 @@ def test_interrupted_simulate(tmp_path, delay_s):
     args = ["simulate", "corridor.toml", "--poses", "0:16", "--out", "out.h5"]
     code = run_and_interrupt(args, tmp_path, delay_s)
     assert leftovers(tmp_path) == []
-    if code == 0:
+    # an interrupt that lands after the rename (exit 130 with the file written) is fine:
+    # whatever file exists is whole
+    if (tmp_path / "out.h5").exists():
         assert len(P.load_recordings(tmp_path / "out.h5")) == 16
     else:
-        assert not (tmp_path / "out.h5").exists()
+        assert code != 0
 
 
 SPEC = """
