@@ -487,6 +487,32 @@ def _fine(bb: Baseband, U: int, pad: int, dtype=complex) -> np.ndarray:
     return np.pad(fine, ((0, 0), (0, 0), (pad * U, pad * U)))
 
 
+def _polyphase(bb: Baseband, U: int) -> np.ndarray:
+    """The baseband upsampled U times by FFT, in polyphase order and complex64:
+    (K, M, U, N), ``[k, m, p, n]`` = sample ``n U + p`` of :func:`_fine` (unpadded).
+
+    Phase p is the N-point inverse transform of the spectrum delayed by ``p / U``
+    samples (``exp(2j pi f p / (U rate))`` on the signed bins), so the U phases come
+    straight out of one batched FFT with no transposing copy.
+    """
+    K, M, N = bb.spectrum.shape
+    signed = np.fft.fftfreq(N, 1 / N)  # the bin of _fine's zero-padding convention
+    if N % 2 == 0:
+        signed[N // 2] = -N // 2
+    shift = np.exp(2j * np.pi * np.arange(U)[:, None] * signed[None, :] / (N * U))
+    spec = bb.spectrum.astype(np.complex64)[:, :, None, :] * shift.astype(np.complex64)
+    return sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)
+
+
+def _split(z: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndarray]:
+    """Real and imaginary parts of z (..., N) as float32 (..., N + 2 pad), zero-padded."""
+    shape = (*z.shape[:-1], z.shape[-1] + 2 * pad)
+    zr, zi = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    zr[..., pad : pad + z.shape[-1]] = z.real
+    zi[..., pad : pad + z.shape[-1]] = z.imag
+    return zr, zi
+
+
 def _rooted(z: np.ndarray, order: int) -> np.ndarray:
     if order == 1:
         return np.zeros((1,) * z.ndim, complex)
@@ -503,8 +529,6 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
     U = int(settings.upsample)
     reach = np.abs(np.concatenate([arr.positions_m, arr.emitter_m[None]])).sum(1).max()
     pad = int(np.ceil(2 * reach / c * bb.rate_hz)) + 2
-    fine = _fine(bb, U, pad, np.complex64 if settings.focus == "far" else complex)
-    rooted = _rooted(fine, order)
     binom = float(comb(arr.n_mics, order))
     D = int(settings.decimation)
     if settings.focus == "far":
@@ -528,19 +552,16 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
             taps = np.concatenate([1 - f, f], axis=-1)
         node = i0[..., None] + offsets  # (G, M, T) fine indices
         w = taps * np.exp(-2j * np.pi * bb.f0_hz * d)[..., None]
-        K, M, Nf = fine.shape
-
-        def poly(x):
-            x = x.reshape(x.shape[0], M, Nf // U, U).transpose(0, 1, 3, 2)
-            return (
-                np.ascontiguousarray(x.real, np.float32),
-                np.ascontiguousarray(x.imag, np.float32),
-            )
-
-        zr, zi = poly(fine)
-        rr, ri = poly(rooted) if order > 1 else (np.zeros((1, 1, 1, 1), np.float32),) * 2
+        Z = _polyphase(bb, U)
+        zr, zi = _split(Z, pad)
+        if order > 1:
+            rr, ri = _split(_rooted(Z, order), pad)
+        else:
+            rr, ri = (np.zeros((1, 1, 1, 1), np.float32),) * 2
         kern.far_field(zr, zi, rr, ri, node // U, node % U, w, order, cf, binom, D, out)
     else:
+        fine = _fine(bb, U, pad)
+        rooted = _rooted(fine, order)
         rf = rooted if order > 1 else np.zeros((1, 1, 2), complex)
         step = c / (2 * bb.rate_hz)  # range per baseband sample
         kern.near_field(
