@@ -275,8 +275,9 @@ class Baseband:
 @lru_cache(maxsize=8)
 def _template_bins(
     waveform: Waveform, fs: float, n: int, k_lo: int, k_hi: int, nb: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """conj(H) at the baseband bins, the band taper and the bins (cached per call)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """conj(H) at the baseband bins, the band taper, the bins and the plain weight
+    (cached per call)."""
     kb = np.fft.fftfreq(nb, 1 / nb).astype(int)  # baseband bin offsets in FFT order
     k0 = (k_lo + k_hi) // 2
     k = k0 + kb
@@ -285,9 +286,12 @@ def _template_bins(
     taper[inside] = tukey(k_hi - k_lo + 1, 0.2)[k[inside] - k_lo]
     kc = np.clip(k, 0, n // 2)
     H = np.conj(sfft.rfft(waveform.sampled(fs), n)[kc])
-    for a in (H, taper, kb, kc):
+    # the plain matched filter, band taper and analytic-signal scale (2 nb / n) of the
+    # n-point real inverse transform folded into one weight per baseband bin
+    plain = H * (taper * (2 * nb / n) / max(np.abs(H).max(), 1e-300))
+    for a in (H, taper, kb, kc, plain):
         a.flags.writeable = False
-    return H, taper, kb, kc
+    return H, taper, kb, kc, plain
 
 
 def baseband(
@@ -314,21 +318,23 @@ def baseband(
     k_lo, k_hi = int(np.ceil(lo / df)), int(np.floor(hi / df))
     k0 = (k_lo + k_hi) // 2
     nb = sfft.next_fast_len(int(np.ceil(settings.oversample * (k_hi - k_lo + 1))))
-    H, taper, kb, kc = _template_bins(recording.waveform, fs, n, k_lo, k_hi, nb)
+    H, taper, kb, kc, plain = _template_bins(recording.waveform, fs, n, k_lo, k_hi, nb)
+    dtype = np.float32 if single else np.float64
     if peak > 0:  # normalise before anything is squared: any magnitude works
-        x = x / peak
-    if single:
-        x = x.astype(np.float32)
+        x = np.divide(x, peak, out=np.empty(x.shape, dtype), casting="unsafe")
+    else:
+        x = x.astype(dtype)
     X = sfft.rfft(x, n, axis=-1, workers=-1)[..., kc]
-    Y = X * H
+    scale = 2 * nb / n  # analytic signal of the n-point real inverse transform
     if settings.weighting == "phat":
+        Y = X * H
         mag = np.abs(Y)
         Y = np.divide(Y, mag, out=np.zeros_like(Y), where=mag > 1e-12 * mag.max(initial=0))
-    else:
-        Y = Y / max(np.abs(H).max(), 1e-300)
-    scale = 2 * nb / n  # analytic signal of the n-point real inverse transform
+        Y *= (taper * scale).astype(Y.real.dtype)
+    else:  # one product with the cached weight
+        Y = X * plain.astype(X.dtype, copy=False)
     return Baseband(
-        spectrum=Y * (taper * scale),
+        spectrum=Y,
         freq_hz=kb * df,
         f0_hz=k0 * df,
         rate_hz=nb * df,
@@ -495,13 +501,21 @@ def _polyphase(bb: Baseband, U: int) -> np.ndarray:
     samples (``exp(2j pi f p / (U rate))`` on the signed bins), so the U phases come
     straight out of one batched FFT with no transposing copy.
     """
-    K, M, N = bb.spectrum.shape
-    signed = np.fft.fftfreq(N, 1 / N)  # the bin of _fine's zero-padding convention
+    spec = bb.spectrum.astype(np.complex64)[:, :, None, :] * _phase_shifts(bb.spectrum.shape[-1], U)
+    return sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)
+
+
+@lru_cache(maxsize=8)
+def _phase_shifts(N: int, U: int) -> np.ndarray:
+    """``exp(2j pi f p / (N U))`` (U, N) complex64 on the signed bins f of an N-point
+    spectrum in FFT order (bin N/2 negative: _fine's zero-padding convention)."""
+    signed = np.fft.fftfreq(N, 1 / N)
     if N % 2 == 0:
         signed[N // 2] = -N // 2
     shift = np.exp(2j * np.pi * np.arange(U)[:, None] * signed[None, :] / (N * U))
-    spec = bb.spectrum.astype(np.complex64)[:, :, None, :] * shift.astype(np.complex64)
-    return sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)
+    shift = shift.astype(np.complex64)
+    shift.flags.writeable = False
+    return shift
 
 
 def _split(z: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndarray]:
