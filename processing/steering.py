@@ -221,18 +221,32 @@ class CoarrayKernel:
         basis = self._y_basis
         E, A = basis.shape[0], basis.shape[2]
         out = np.empty((E, R, A))
+        post = _floor_invert() if floor is not None else None
         for e in range(E):  # a loop of GEMMs beats numpy's batched matmul here (5x)
             block = out[e]
             np.dot(H[e], basis[e], out=block)
-            if floor is not None:
-                np.maximum(block, floor, out=block)
-            if invert:
-                np.divide(1.0, block, out=block)  # twice as fast as np.reciprocal
+            if post is not None:
+                post(block, floor, invert)
+            else:
+                if floor is not None:
+                    np.maximum(block, floor, out=block)
+                if invert:
+                    np.divide(1.0, block, out=block)  # twice as fast as np.reciprocal
         return out.transpose(1, 0, 2)
 
     def __call__(self, Q: np.ndarray) -> np.ndarray:
         """``Re(a^H Q a)`` for Hermitian Q (R, L, L) in row-major grid order: (R, E, A)."""
         return self.evaluate(self.coefficients(Q))
+
+
+@lru_cache(maxsize=1)
+def _floor_invert():
+    """The compiled floor-and-invert pass, or None when numba is not installed."""
+    try:
+        from ._doakernel import floor_invert
+    except ImportError:
+        return None
+    return floor_invert
 
 
 @lru_cache(maxsize=32)
