@@ -14,6 +14,12 @@ capon*         R_b^-1 (loaded covariance, eq. 9)          1 / a^H Q a (MPDR)
 
 ``-fss``/``-fbss`` use the spatially smoothed covariance of subarrays (URA only).
 
+Speed (URA fast path): with fewer snapshots S than (sub)array elements L, Q is
+``c0 I + U diag(d) U^H`` with S columns from the S x S Gram matrix (no L x L
+eigendecomposition, no covariance), and the co-array coefficients come straight from
+those factors (:meth:`processing.steering.CoarrayKernel.coefficients_low_rank`);
+the floor and reciprocal below are applied per elevation block inside the kernel.
+
 Definitions that the paper leaves open, fixed here:
 
 * Noise subspace: eigenvectors whose eigenvalue is not above the mean eigenvalue

@@ -16,7 +16,9 @@ For a URA, ``a^H Q a = sum_d c[d] exp(j k (v dy_d + w dz_d))`` where ``c`` sums 
 along the difference co-array (2Nz-1 x 2Ny-1 lags), v = sin(az) cos(el) and
 w = sin(el).  Summing first over the z lags (per elevation) and then over the y lags
 (a real matrix product, using ``c[-d] = conj(c[d])``) costs O(E (R Ny A)) instead of
-O(E A R M^2): this is :class:`CoarrayKernel`.
+O(E A R M^2): this is :class:`CoarrayKernel`.  When ``Q = c0 I + U diag(d) U^H`` with
+few columns (fewer snapshots than microphones), the co-array coefficients are 2D
+autocorrelations of U's columns (zero-padded FFTs), so Q is never formed.
 """
 
 from __future__ import annotations
