@@ -56,6 +56,80 @@ def _combine(S, E, P, M, order, cf, binom):
     return out
 
 
+@njit(cache=True, inline="always", fastmath=True)
+def _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, add):
+    """The interpolated, phase-rotated channel m of direction g: written to (or, with
+    `add`, added to) xr, xi (Nw,).  The 4-tap (cubic) case sums its taps in one pass,
+    so the accumulators are loaded and stored once instead of once per tap."""
+    T = q.shape[2]
+    if T == 4:
+        p0, p1, p2, p3 = ph[g, m, 0], ph[g, m, 1], ph[g, m, 2], ph[g, m, 3]
+        s0, s1, s2, s3 = q[g, m, 0], q[g, m, 1], q[g, m, 2], q[g, m, 3]
+        a0r, a0i = zr[k, m, p0, s0 : s0 + Nw], zi[k, m, p0, s0 : s0 + Nw]
+        a1r, a1i = zr[k, m, p1, s1 : s1 + Nw], zi[k, m, p1, s1 : s1 + Nw]
+        a2r, a2i = zr[k, m, p2, s2 : s2 + Nw], zi[k, m, p2, s2 : s2 + Nw]
+        a3r, a3i = zr[k, m, p3, s3 : s3 + Nw], zi[k, m, p3, s3 : s3 + Nw]
+        w0r, w0i = np.float32(w[g, m, 0].real), np.float32(w[g, m, 0].imag)
+        w1r, w1i = np.float32(w[g, m, 1].real), np.float32(w[g, m, 1].imag)
+        w2r, w2i = np.float32(w[g, m, 2].real), np.float32(w[g, m, 2].imag)
+        w3r, w3i = np.float32(w[g, m, 3].real), np.float32(w[g, m, 3].imag)
+        if add:
+            for j in range(Nw):
+                xr[j] += (
+                    a0r[j] * w0r
+                    - a0i[j] * w0i
+                    + a1r[j] * w1r
+                    - a1i[j] * w1i
+                    + a2r[j] * w2r
+                    - a2i[j] * w2i
+                    + a3r[j] * w3r
+                    - a3i[j] * w3i
+                )
+                xi[j] += (
+                    a0r[j] * w0i
+                    + a0i[j] * w0r
+                    + a1r[j] * w1i
+                    + a1i[j] * w1r
+                    + a2r[j] * w2i
+                    + a2i[j] * w2r
+                    + a3r[j] * w3i
+                    + a3i[j] * w3r
+                )
+        else:
+            for j in range(Nw):
+                xr[j] = (
+                    a0r[j] * w0r
+                    - a0i[j] * w0i
+                    + a1r[j] * w1r
+                    - a1i[j] * w1i
+                    + a2r[j] * w2r
+                    - a2i[j] * w2i
+                    + a3r[j] * w3r
+                    - a3i[j] * w3i
+                )
+                xi[j] = (
+                    a0r[j] * w0i
+                    + a0i[j] * w0r
+                    + a1r[j] * w1i
+                    + a1i[j] * w1r
+                    + a2r[j] * w2i
+                    + a2i[j] * w2r
+                    + a3r[j] * w3i
+                    + a3i[j] * w3r
+                )
+        return
+    if not add:
+        xr[:] = 0
+        xi[:] = 0
+    for t in range(T):
+        wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
+        ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+        ai = zi[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
+        for j in range(Nw):
+            xr[j] += ar[j] * wr - ai[j] * wi
+            xi[j] += ar[j] * wi + ai[j] * wr
+
+
 @njit(parallel=True, cache=True, fastmath=True)
 def far_field(zr, zi, rr, ri, q, ph, w, order, cf, binom, D, out):
     """zr, zi (and rooted rr, ri): (K, M, U, Nq) float32 real and imaginary parts;
@@ -87,37 +161,15 @@ def far_field(zr, zi, rr, ri, q, ph, w, order, cf, binom, D, out):
             Pi[:] = 0
             for m in range(M):
                 if order == 1 and not cf:  # plain DAS: accumulate the sum directly
-                    for t in range(T):
-                        wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
-                        ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                        ai = zi[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                        for j in range(Nw):
-                            Sr[j] += ar[j] * wr - ai[j] * wi
-                            Si[j] += ar[j] * wi + ai[j] * wr
+                    _interpolate(zr, zi, k, m, g, q, ph, w, Nw, Sr, Si, True)
                     continue
-                xr[:] = 0
-                xi[:] = 0
-                for t in range(T):
-                    wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
-                    ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                    ai = zi[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                    for j in range(Nw):
-                        xr[j] += ar[j] * wr - ai[j] * wi
-                        xi[j] += ar[j] * wi + ai[j] * wr
+                _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, False)
                 for j in range(Nw):
                     Sr[j] += xr[j]
                     Si[j] += xi[j]
                     E[j] += xr[j] * xr[j] + xi[j] * xi[j]
                 if order > 1:
-                    xr[:] = 0
-                    xi[:] = 0
-                    for t in range(T):
-                        wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
-                        ar = rr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                        ai = ri[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]
-                        for j in range(Nw):
-                            xr[j] += ar[j] * wr - ai[j] * wi
-                            xi[j] += ar[j] * wi + ai[j] * wr
+                    _interpolate(rr, ri, k, m, g, q, ph, w, Nw, xr, xi, False)
                     # every power up to 5, branch-free so the loop vectorises
                     p1r, p1i, p2r, p2i = Pr[1], Pi[1], Pr[2], Pi[2]
                     p3r, p3i, p4r, p4i = Pr[3], Pi[3], Pr[4], Pi[4]

@@ -275,8 +275,9 @@ class Baseband:
 @lru_cache(maxsize=8)
 def _template_bins(
     waveform: Waveform, fs: float, n: int, k_lo: int, k_hi: int, nb: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """conj(H) at the baseband bins, the band taper and the bins (cached per call)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """conj(H) at the baseband bins, the band taper, the bins and the plain weight
+    (cached per call)."""
     kb = np.fft.fftfreq(nb, 1 / nb).astype(int)  # baseband bin offsets in FFT order
     k0 = (k_lo + k_hi) // 2
     k = k0 + kb
@@ -285,9 +286,12 @@ def _template_bins(
     taper[inside] = tukey(k_hi - k_lo + 1, 0.2)[k[inside] - k_lo]
     kc = np.clip(k, 0, n // 2)
     H = np.conj(sfft.rfft(waveform.sampled(fs), n)[kc])
-    for a in (H, taper, kb, kc):
+    # the plain matched filter, band taper and analytic-signal scale (2 nb / n) of the
+    # n-point real inverse transform folded into one weight per baseband bin
+    plain = H * (taper * (2 * nb / n) / max(np.abs(H).max(), 1e-300))
+    for a in (H, taper, kb, kc, plain):
         a.flags.writeable = False
-    return H, taper, kb, kc
+    return H, taper, kb, kc, plain
 
 
 def baseband(
@@ -314,21 +318,23 @@ def baseband(
     k_lo, k_hi = int(np.ceil(lo / df)), int(np.floor(hi / df))
     k0 = (k_lo + k_hi) // 2
     nb = sfft.next_fast_len(int(np.ceil(settings.oversample * (k_hi - k_lo + 1))))
-    H, taper, kb, kc = _template_bins(recording.waveform, fs, n, k_lo, k_hi, nb)
+    H, taper, kb, kc, plain = _template_bins(recording.waveform, fs, n, k_lo, k_hi, nb)
+    dtype = np.float32 if single else np.float64
     if peak > 0:  # normalise before anything is squared: any magnitude works
-        x = x / peak
-    if single:
-        x = x.astype(np.float32)
+        x = np.divide(x, peak, out=np.empty(x.shape, dtype), casting="unsafe")
+    else:
+        x = x.astype(dtype)
     X = sfft.rfft(x, n, axis=-1, workers=-1)[..., kc]
-    Y = X * H
+    scale = 2 * nb / n  # analytic signal of the n-point real inverse transform
     if settings.weighting == "phat":
+        Y = X * H
         mag = np.abs(Y)
         Y = np.divide(Y, mag, out=np.zeros_like(Y), where=mag > 1e-12 * mag.max(initial=0))
-    else:
-        Y = Y / max(np.abs(H).max(), 1e-300)
-    scale = 2 * nb / n  # analytic signal of the n-point real inverse transform
+        Y *= (taper * scale).astype(Y.real.dtype)
+    else:  # one product with the cached weight
+        Y = X * plain.astype(X.dtype, copy=False)
     return Baseband(
-        spectrum=Y * (taper * scale),
+        spectrum=Y,
         freq_hz=kb * df,
         f0_hz=k0 * df,
         rate_hz=nb * df,
@@ -487,6 +493,40 @@ def _fine(bb: Baseband, U: int, pad: int, dtype=complex) -> np.ndarray:
     return np.pad(fine, ((0, 0), (0, 0), (pad * U, pad * U)))
 
 
+def _polyphase(bb: Baseband, U: int) -> np.ndarray:
+    """The baseband upsampled U times by FFT, in polyphase order and complex64:
+    (K, M, U, N), ``[k, m, p, n]`` = sample ``n U + p`` of :func:`_fine` (unpadded).
+
+    Phase p is the N-point inverse transform of the spectrum delayed by ``p / U``
+    samples (``exp(2j pi f p / (U rate))`` on the signed bins), so the U phases come
+    straight out of one batched FFT with no transposing copy.
+    """
+    spec = bb.spectrum.astype(np.complex64)[:, :, None, :] * _phase_shifts(bb.spectrum.shape[-1], U)
+    return sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)
+
+
+@lru_cache(maxsize=8)
+def _phase_shifts(N: int, U: int) -> np.ndarray:
+    """``exp(2j pi f p / (N U))`` (U, N) complex64 on the signed bins f of an N-point
+    spectrum in FFT order (bin N/2 negative: _fine's zero-padding convention)."""
+    signed = np.fft.fftfreq(N, 1 / N)
+    if N % 2 == 0:
+        signed[N // 2] = -N // 2
+    shift = np.exp(2j * np.pi * np.arange(U)[:, None] * signed[None, :] / (N * U))
+    shift = shift.astype(np.complex64)
+    shift.flags.writeable = False
+    return shift
+
+
+def _split(z: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndarray]:
+    """Real and imaginary parts of z (..., N) as float32 (..., N + 2 pad), zero-padded."""
+    shape = (*z.shape[:-1], z.shape[-1] + 2 * pad)
+    zr, zi = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    zr[..., pad : pad + z.shape[-1]] = z.real
+    zi[..., pad : pad + z.shape[-1]] = z.imag
+    return zr, zi
+
+
 def _rooted(z: np.ndarray, order: int) -> np.ndarray:
     if order == 1:
         return np.zeros((1,) * z.ndim, complex)
@@ -503,8 +543,6 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
     U = int(settings.upsample)
     reach = np.abs(np.concatenate([arr.positions_m, arr.emitter_m[None]])).sum(1).max()
     pad = int(np.ceil(2 * reach / c * bb.rate_hz)) + 2
-    fine = _fine(bb, U, pad, np.complex64 if settings.focus == "far" else complex)
-    rooted = _rooted(fine, order)
     binom = float(comb(arr.n_mics, order))
     D = int(settings.decimation)
     if settings.focus == "far":
@@ -528,19 +566,16 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
             taps = np.concatenate([1 - f, f], axis=-1)
         node = i0[..., None] + offsets  # (G, M, T) fine indices
         w = taps * np.exp(-2j * np.pi * bb.f0_hz * d)[..., None]
-        K, M, Nf = fine.shape
-
-        def poly(x):
-            x = x.reshape(x.shape[0], M, Nf // U, U).transpose(0, 1, 3, 2)
-            return (
-                np.ascontiguousarray(x.real, np.float32),
-                np.ascontiguousarray(x.imag, np.float32),
-            )
-
-        zr, zi = poly(fine)
-        rr, ri = poly(rooted) if order > 1 else (np.zeros((1, 1, 1, 1), np.float32),) * 2
+        Z = _polyphase(bb, U)
+        zr, zi = _split(Z, pad)
+        if order > 1:
+            rr, ri = _split(_rooted(Z, order), pad)
+        else:
+            rr, ri = (np.zeros((1, 1, 1, 1), np.float32),) * 2
         kern.far_field(zr, zi, rr, ri, node // U, node % U, w, order, cf, binom, D, out)
     else:
+        fine = _fine(bb, U, pad)
+        rooted = _rooted(fine, order)
         rf = rooted if order > 1 else np.zeros((1, 1, 2), complex)
         step = c / (2 * bb.rate_hz)  # range per baseband sample
         kern.near_field(

@@ -14,6 +14,12 @@ capon*         R_b^-1 (loaded covariance, eq. 9)          1 / a^H Q a (MPDR)
 
 ``-fss``/``-fbss`` use the spatially smoothed covariance of subarrays (URA only).
 
+Speed (URA fast path): with fewer snapshots S than (sub)array elements L, Q is
+``c0 I + U diag(d) U^H`` with S columns from the S x S Gram matrix (no L x L
+eigendecomposition, no covariance), and the co-array coefficients come straight from
+those factors (:meth:`processing.steering.CoarrayKernel.coefficients_low_rank`);
+the floor and reciprocal below are applied per elevation block inside the kernel.
+
 Definitions that the paper leaves open, fixed here:
 
 * Noise subspace: eigenvectors whose eigenvalue is not above the mean eigenvalue
@@ -50,7 +56,7 @@ import numpy as np
 
 from .arrays import Array
 from .errors import InputError
-from .smoothing import covariance, default_subarray, subarray_snapshots
+from .smoothing import default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
 __all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
@@ -100,12 +106,7 @@ def method_matrix(
     L = C.shape[-1]
     if base == "das":
         return C, False
-    if base == "capon" and not loading > -1:
-        raise ValueError(f"loading must be > -1 (in units of the noise floor), got {loading}")
-    if base == "music" and n_sources is not None and not 0 <= n_sources < L:
-        raise ValueError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
-    if base not in ("music", "capon"):
-        raise ValueError(f"unknown method base {base!r}")
+    _check(base, L, loading, n_sources)
     if data is not None and data.shape[-1] < L and (n_sources or 0) <= data.shape[-1]:
         return _low_rank(data, base, loading, n_sources), True
     if centro:
@@ -131,6 +132,15 @@ def method_matrix(
     return (U * inv[:, None, :]) @ U.conj().transpose(0, 2, 1), True
 
 
+def _check(base: str, L: int, loading: float, n_sources: int | None) -> None:
+    if base == "capon" and not loading > -1:
+        raise ValueError(f"loading must be > -1 (in units of the noise floor), got {loading}")
+    if base == "music" and n_sources is not None and not 0 <= n_sources < L:
+        raise ValueError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
+    if base not in ("music", "capon"):
+        raise ValueError(f"unknown method base {base!r}")
+
+
 def _unitary(L: int) -> np.ndarray:
     """Unitary T (L, L) with ``T^H C T`` real for every centro-Hermitian C."""
     k = L // 2
@@ -145,8 +155,19 @@ def _unitary(L: int) -> np.ndarray:
 
 def _low_rank(Y: np.ndarray, base: str, loading: float, n_sources: int | None) -> np.ndarray:
     """Q of MUSIC or Capon from snapshots Y (R, L, S), S < L, without an L x L
-    eigendecomposition: C = Y Y^H / S has S eigenpairs from the Gram matrix
-    ``Y^H Y / S = V diag(lam) V^H`` (``u = Y v / sqrt(S lam)``) and L - S zeros."""
+    eigendecomposition (see :func:`_low_rank_factors`)."""
+    c0, U, d = _low_rank_factors(Y, base, loading, n_sources)
+    L = Y.shape[1]
+    return c0[:, None, None] * np.eye(L) + (U * d[:, None, :]) @ U.conj().transpose(0, 2, 1)
+
+
+def _low_rank_factors(
+    Y: np.ndarray, base: str, loading: float, n_sources: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``Q = c0 I + U diag(d) U^H`` of MUSIC or Capon from snapshots Y (R, L, S), S < L:
+    returns c0 (R,), U (R, L, S), d (R, S).  C = Y Y^H / S has S eigenpairs from the
+    Gram matrix ``Y^H Y / S = V diag(lam) V^H`` (``u = Y v / sqrt(S lam)``) and L - S
+    zeros."""
     R, L, S = Y.shape
     lam, V = np.linalg.eigh(Y.conj().transpose(0, 2, 1) @ Y / S)  # (R, S), ascending
     lam = np.maximum(lam, 0.0)
@@ -155,22 +176,20 @@ def _low_rank(Y: np.ndarray, base: str, loading: float, n_sources: int | None) -
     scale = np.divide(1.0, np.sqrt(S * lam), out=np.zeros_like(lam), where=ok)
     U = (Y @ V) * scale[:, None, :]  # (R, L, S) orthonormal columns where ok
     lam = np.where(ok, lam, 0.0)
-    eye = np.eye(L)
     if base == "music":
         if n_sources is None:  # signal: above the mean of all L eigenvalues
             signal = lam > lam.sum(axis=-1, keepdims=True) / L * (1 + 1e-12)
         else:
             signal = np.zeros(lam.shape, bool)
             signal[:, S - n_sources :] = True
-        Us = U * signal[:, None, :]
-        return eye - Us @ Us.conj().transpose(0, 2, 1)
+        return np.ones(R), U, -signal.astype(float)
     floor = EIG_FLOOR * lam.sum(axis=-1, keepdims=True) / L  # the zeros floor to this
     mu = np.maximum(lam, floor) + loading * floor
     mu0 = floor * (1 + loading)
     inv0 = np.divide(1.0, mu0, out=np.zeros_like(mu0), where=mu0 > 0)
     d = 1.0 / np.where(mu > 0, mu, np.inf) - inv0
     d = np.where(ok, d, 0.0)
-    return inv0[:, :, None] * eye + (U * d[:, None, :]) @ U.conj().transpose(0, 2, 1)
+    return inv0[:, 0], U, d
 
 
 def doa_spectrum(
@@ -248,42 +267,55 @@ def doa_spectrum(
             sub = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
             xg = x[order].reshape(nz, ny, *x.shape[1:])
             Y = subarray_snapshots(xg, sub, forward_backward=smooth == "fbss")
-            C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
-            if smooth == "fbss":
-                C = 0.5 * (C + C[:, ::-1, ::-1].conj())
             shape = sub
         else:
             Y = np.moveaxis(x[order], 0, 1)
-            C = covariance(x[order])
             shape = (nz, ny)
         dz, dy = array.pitch_m
         rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
         positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
     else:
         Y = np.moveaxis(x, 0, 1)
-        C = covariance(x)
         shape = None
         positions = array.positions_m
 
-    Q, inverse = method_matrix(
-        C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
-    )
+    L = Y.shape[1]
+    low_rank = use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]
+    if low_rank:  # co-array coefficients straight from the factors, no L x L matrix
+        if base == "das":
+            S = Y.shape[-1]
+            factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
+        else:
+            _check(base, L, loading, n_sources)
+            factors = _low_rank_factors(Y, base, loading, n_sources)
+        inverse = base != "das"
+        power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
+        empty = np.flatnonzero(power <= 0)
+    else:
+        C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
+        if smooth == "fbss":  # exactly centro-Hermitian despite rounding
+            C = 0.5 * (C + C[:, ::-1, ::-1].conj())
+        Q, inverse = method_matrix(
+            C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
+        )
+        empty = np.flatnonzero(np.einsum("rii->r", C).real <= 0)
+    if inverse:
+        floor = MUSIC_FLOOR * L if base == "music" else np.finfo(float).tiny
+    else:
+        floor = 0.0
     if use_grid:
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
         )
-        form = kernel(Q)
+        coeffs = kernel.coefficients_low_rank(*factors) if low_rank else kernel.coefficients(Q)
+        P = kernel.evaluate(coeffs, floor=floor, invert=inverse)
     else:
         form = quadratic_form_direct(
             Q, steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
         )
-    empty = np.einsum("rii->r", C).real <= 0
-    if inverse:
-        L = C.shape[-1]
-        floor = MUSIC_FLOOR * L if base == "music" else np.finfo(float).tiny
         P = np.maximum(form, floor, out=form)
-        np.reciprocal(P, out=P)
-    else:
-        P = np.maximum(form, 0.0, out=form)
-    P[empty] = 0.0
+        if inverse:
+            np.reciprocal(P, out=P)
+    if empty.size:
+        P[empty] = 0.0
     return P

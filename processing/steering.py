@@ -16,7 +16,9 @@ For a URA, ``a^H Q a = sum_d c[d] exp(j k (v dy_d + w dz_d))`` where ``c`` sums 
 along the difference co-array (2Nz-1 x 2Ny-1 lags), v = sin(az) cos(el) and
 w = sin(el).  Summing first over the z lags (per elevation) and then over the y lags
 (a real matrix product, using ``c[-d] = conj(c[d])``) costs O(E (R Ny A)) instead of
-O(E A R M^2): this is :class:`CoarrayKernel`.
+O(E A R M^2): this is :class:`CoarrayKernel`.  When ``Q = c0 I + U diag(d) U^H`` with
+few columns (fewer snapshots than microphones), the co-array coefficients are 2D
+autocorrelations of U's columns (zero-padded FFTs), so Q is never formed.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.sparse as sp
+from scipy import fft as sfft
 
 __all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
 
@@ -179,9 +182,36 @@ class CoarrayKernel:
         c = self._scatter @ Q.reshape(R, L * L).T  # (K, R)
         return c.T.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
-    def evaluate(self, coeffs: np.ndarray) -> np.ndarray:
+    def coefficients_low_rank(self, c0: np.ndarray, U: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """Co-array coefficients of ``Q = c0 I + U diag(d) U^H`` without forming Q.
+
+        c0 : (R,) real; U : (R, L, S) complex; d : (R, S) real.  The coefficient of
+        lag l is ``sum_s d_s sum_m U[m, s] conj(U[m + l, s])`` (a 2D autocorrelation of
+        each column on the grid, by zero-padded FFT) plus ``L c0`` at lag 0.
+        Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
+        """
+        R, L, S = U.shape
+        nz, ny = self.shape
+        if L != nz * ny:
+            raise ValueError(f"U has {L} rows, expected {nz * ny} for a {nz}x{ny} array")
+        g = U.reshape(R, nz, ny, S)
+        spec = sfft.fft2(g, s=(2 * nz, 2 * ny), axes=(1, 2))
+        power = np.einsum("rzys,rs->rzy", spec.real**2 + spec.imag**2, d)
+        corr = sfft.ifft2(power, axes=(1, 2))  # corr[l] = sum d U[m + l] conj(U[m])
+        iz = np.arange(-(nz - 1), nz) % (2 * nz)
+        iy = np.arange(-(ny - 1), ny) % (2 * ny)
+        c = corr[:, iz][:, :, iy].conj()
+        c[:, nz - 1, ny - 1] += L * np.asarray(c0, dtype=float)
+        return c
+
+    def evaluate(
+        self, coeffs: np.ndarray, *, floor: float | None = None, invert: bool = False
+    ) -> np.ndarray:
         """``Re(a^H Q a)`` from co-array coefficients (R, 2Nz-1, 2Ny-1): (R, E, A).
 
+        `floor`: the form is raised to at least `floor`; `invert`: then replaced by its
+        reciprocal (MUSIC and Capon spectra).  Both are applied to each elevation's
+        block while it is in cache, instead of in passes over the whole image.
         The result is a transposed view of a C-contiguous (E, R, A) array.
         """
         ny = self.shape[1]
@@ -193,13 +223,32 @@ class CoarrayKernel:
         basis = self._y_basis
         E, A = basis.shape[0], basis.shape[2]
         out = np.empty((E, R, A))
+        post = _floor_invert() if floor is not None else None
         for e in range(E):  # a loop of GEMMs beats numpy's batched matmul here (5x)
-            np.dot(H[e], basis[e], out=out[e])
+            block = out[e]
+            np.dot(H[e], basis[e], out=block)
+            if post is not None:
+                post(block, floor, invert)
+            else:
+                if floor is not None:
+                    np.maximum(block, floor, out=block)
+                if invert:
+                    np.divide(1.0, block, out=block)  # twice as fast as np.reciprocal
         return out.transpose(1, 0, 2)
 
     def __call__(self, Q: np.ndarray) -> np.ndarray:
         """``Re(a^H Q a)`` for Hermitian Q (R, L, L) in row-major grid order: (R, E, A)."""
         return self.evaluate(self.coefficients(Q))
+
+
+@lru_cache(maxsize=1)
+def _floor_invert():
+    """The compiled floor-and-invert pass, or None when numba is not installed."""
+    try:
+        from ._doakernel import floor_invert
+    except ImportError:
+        return None
+    return floor_invert
 
 
 @lru_cache(maxsize=32)

@@ -250,3 +250,20 @@ def test_phat_weighting_and_repeated_measurements(engine):
     one = B.energyscape(rec, B.fan(n=61), "dmas3-bb", s).power
     two = B.energyscape(twice, B.fan(n=61), "dmas3-bb", s).power
     np.testing.assert_allclose(two, one, rtol=1e-5, atol=1e-7 * one.max())
+
+
+def test_polyphase_upsampling_equals_zero_padded_fft():
+    """The U phases of the compiled path's upsampled baseband, against the band-limited
+    interpolation written out as a sum of complex exponentials in the test."""
+    from processing.broadband import Baseband, _polyphase
+
+    N, U = 12, 4
+    rng = np.random.default_rng(2)
+    spec = rng.standard_normal((1, 2, N)) + 1j * rng.standard_normal((1, 2, N))
+    spec[..., N // 2] = 0  # no Nyquist bin: its sign convention is then immaterial
+    bb = Baseband(spec, np.zeros(N), 0.0, 1.0, 0.0)
+    f = np.fft.fftfreq(N, 1 / N)
+    t = np.arange(N * U) / U  # fine sample times in baseband samples
+    want = (spec[..., None, :] * np.exp(2j * np.pi * f * t[:, None] / N)).sum(-1) / N
+    got = _polyphase(bb, U)  # (K, M, U, N): [..., p, n] is fine sample n U + p
+    np.testing.assert_allclose(got.transpose(0, 1, 3, 2).reshape(1, 2, -1), want, atol=1e-5)

@@ -60,15 +60,16 @@ def test_das_beamwidth_matches_array_theory():
     assert above[-1] - above[0] == pytest.approx(theory, abs=0.1)
 
 
+@pytest.mark.parametrize("K", [1, 2])  # 1: every method on the low-rank co-array path
 @pytest.mark.parametrize("method", P.NARROWBAND_METHODS)
-def test_coarray_fast_path_equals_plain_formula(method):
+def test_coarray_fast_path_equals_plain_formula(method, K):
     arr = P.paper_8x8()
     grid = P.Grid.degrees(step=7.0)
     rng = np.random.default_rng(5)
     x = (
-        plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal((1, 3, 2))
+        plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal((1, 3, K))
         + plane_wave_snapshot(arr, -40, 0, F)[:, None, None]
-        + 0.1 * (rng.standard_normal((64, 3, 2)) + 1j * rng.standard_normal((64, 3, 2)))
+        + 0.1 * (rng.standard_normal((64, 3, K)) + 1j * rng.standard_normal((64, 3, K)))
     )
     fast = doa_spectrum(x, arr, F, grid, method, backend="coarray")
     plain = doa_spectrum(x, arr, F, grid, method, backend="direct") if "-" not in method else None
@@ -144,3 +145,36 @@ def test_unknown_method_and_bad_shapes():
 def test_direction_convention_helper():
     np.testing.assert_allclose(direction(90, 0), [0, 1, 0], atol=1e-15)
     np.testing.assert_allclose(direction(0, 90), [0, 0, 1], atol=1e-15)
+
+
+def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums():
+    """c0 I + U diag(d) U^H summed along each co-array lag, written out in the test."""
+    from processing.steering import coarray_kernel
+
+    nz, ny, R, S = 4, 3, 2, 2
+    rng = np.random.default_rng(3)
+    U = rng.standard_normal((R, nz * ny, S)) + 1j * rng.standard_normal((R, nz * ny, S))
+    d, c0 = rng.standard_normal((R, S)), rng.standard_normal(R)
+    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(step=30.0), F, C)
+    got = kern.coefficients_low_rank(c0, U, d)
+    want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
+    for r in range(R):
+        Q = c0[r] * np.eye(nz * ny) + (U[r] * d[r]) @ U[r].conj().T
+        for m in range(nz * ny):
+            for n in range(nz * ny):  # Q[m, n] belongs to the lag of n - m
+                lz = n // ny - m // ny + nz - 1
+                ly = n % ny - m % ny + ny - 1
+                want[r, lz, ly] += Q[m, n]
+    np.testing.assert_allclose(got, want, atol=1e-12)
+
+
+def test_compiled_floor_and_reciprocal_equal_numpy():
+    pytest.importorskip("numba")
+    from processing._doakernel import floor_invert
+
+    x = np.random.default_rng(0).standard_normal((7, 9))
+    for floor, invert in ((1e-3, True), (0.0, False)):
+        got = x.copy()
+        floor_invert(got, floor, invert)
+        want = np.maximum(x, floor)
+        np.testing.assert_array_equal(got, 1 / want if invert else want)
