@@ -97,29 +97,6 @@ def _methods(option: str, text: str) -> tuple[str, ...]:
         raise UsageError(f"{exc.value!r}: {exc.reason}", key=option, value=text) from None
 
 
-def _check_scheduler(address: str) -> None:
-    """A Dask scheduler address tcp://host:port (or host:port) where something listens
-    (within 5 s); other protocols (tls://, ...) are left to Dask."""
-    import socket
-    from urllib.parse import urlsplit
-
-    url = urlsplit(address if "://" in address else f"tcp://{address}")
-    if url.scheme != "tcp":
-        return
-    try:
-        host, port = url.hostname, url.port
-    except ValueError:
-        host = port = None
-    if not host or not port:
-        raise UsageError("expected tcp://HOST:PORT", key="--scheduler", value=address)
-    try:
-        socket.create_connection((host, port), timeout=5).close()
-    except OSError as exc:
-        raise UsageError(
-            f"no Dask scheduler reachable ({exc.strerror or exc})", key="--scheduler", value=address
-        ) from None
-
-
 def _output_file(option: str, path: str | Path) -> Path:
     """An output file path: not an existing folder, its folder writable."""
     out = Path(path)
@@ -639,7 +616,9 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     from acousim.dataset import generate
 
     if args.scheduler:
-        _check_scheduler(args.scheduler)
+        from acousim.dataset.safety import check_scheduler
+
+        check_scheduler(args.scheduler)
     _writable_dir(args.out)
     _preload_simulation()
     t0 = time.perf_counter()

@@ -71,11 +71,14 @@ def watch_parent(parent_pid: int) -> None:
 
 
 def check_scheduler(address: str, timeout_s: float = 5.0) -> None:
-    """Fail at once, with the address, when nothing listens there (Dask's Client would
-    wait 30 s and raise a bare OSError)."""
+    """Fail at once, with the address, when nothing listens at a tcp:// (or host:port)
+    address (Dask's Client would wait 30 s and raise a bare OSError); other protocols
+    are left to Dask."""
     from urllib.parse import urlsplit
 
     parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return  # tls://, ucx://, ...: left to Dask
     try:
         host, port = parts.hostname, parts.port
     except ValueError:
