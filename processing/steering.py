@@ -182,6 +182,28 @@ class CoarrayKernel:
         c = self._scatter @ Q.reshape(R, L * L).T  # (K, R)
         return c.T.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
+    def coefficients_unitary(self, Qr: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Co-array coefficients of ``Q = T Qr T^H`` from real Qr (R, L, L) and a fixed
+        unitary T (L, L), without forming the complex Q: the map from Qr's entries to
+        the lag sums is one dense (L^2, K) complex matrix, cached per T, applied as two
+        real matrix products.  Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
+        """
+        R, L, _ = Qr.shape
+        nz, ny = self.shape
+        if L != nz * ny:
+            raise ValueError(f"Qr is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
+        cache = self.__dict__.setdefault("_unitary_maps", {})
+        key = T.tobytes()
+        if key not in cache:  # vec(T Qr T^H) = kron(T, conj T) vec(Qr), row-major
+            M = np.asarray((self._scatter @ np.kron(T, T.conj())).T)  # (L^2, K)
+            cache[key] = (np.ascontiguousarray(M.real), np.ascontiguousarray(M.imag))
+        Mr, Mi = cache[key]
+        q = Qr.reshape(R, L * L)
+        c = np.empty((R, Mr.shape[1]), complex)
+        c.real = q @ Mr
+        c.imag = q @ Mi
+        return c.reshape(R, 2 * nz - 1, 2 * ny - 1)
+
     def coefficients_low_rank(self, c0: np.ndarray, U: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Co-array coefficients of ``Q = c0 I + U diag(d) U^H`` without forming Q.
 

@@ -168,6 +168,27 @@ def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums():
     np.testing.assert_allclose(got, want, atol=1e-12)
 
 
+def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
+    """Q = T Qr T^H (real symmetric Qr, any unitary T) summed along each co-array lag."""
+    from processing.steering import coarray_kernel
+
+    nz, ny, R = 3, 4, 2
+    L = nz * ny
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((R, L, L))
+    Qr = A + A.transpose(0, 2, 1)
+    T, _ = np.linalg.qr(rng.standard_normal((L, L)) + 1j * rng.standard_normal((L, L)))
+    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(step=30.0), F, C)
+    got = kern.coefficients_unitary(Qr, T)
+    want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
+    for r in range(R):
+        Q = T @ Qr[r] @ T.conj().T
+        for m in range(L):
+            for n in range(L):  # Q[m, n] belongs to the lag of n - m
+                want[r, n // ny - m // ny + nz - 1, n % ny - m % ny + ny - 1] += Q[m, n]
+    np.testing.assert_allclose(got, want, atol=1e-12)
+
+
 def test_compiled_floor_and_reciprocal_equal_numpy():
     pytest.importorskip("numba")
     from processing._doakernel import floor_invert
