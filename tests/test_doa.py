@@ -147,11 +147,12 @@ def test_direction_convention_helper():
     np.testing.assert_allclose(direction(0, 90), [0, 0, 1], atol=1e-15)
 
 
-def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums():
+@pytest.mark.parametrize("S", [2, 3, 5])  # by FFT (L > 4 S) and by the formed matrix
+def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
     """c0 I + U diag(d) U^H summed along each co-array lag, written out in the test."""
     from processing.steering import coarray_kernel
 
-    nz, ny, R, S = 4, 3, 2, 2
+    nz, ny, R = 4, 3, 2
     rng = np.random.default_rng(3)
     U = rng.standard_normal((R, nz * ny, S)) + 1j * rng.standard_normal((R, nz * ny, S))
     d, c0 = rng.standard_normal((R, S)), rng.standard_normal(R)
