@@ -183,10 +183,11 @@ class CoarrayKernel:
         return c.T.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
     def coefficients_unitary(self, Qr: np.ndarray, T: np.ndarray) -> np.ndarray:
-        """Co-array coefficients of ``Q = T Qr T^H`` from real Qr (R, L, L) and a fixed
-        unitary T (L, L), without forming the complex Q: the map from Qr's entries to
-        the lag sums is one dense (L^2, K) complex matrix, cached per T, applied as two
-        real matrix products.  Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
+        """Co-array coefficients of ``Q = T Qr T^H`` from real symmetric Qr (R, L, L)
+        and a fixed unitary T (L, L), without forming the complex Q: the map from the
+        L (L + 1) / 2 entries of Qr's upper triangle to the real and imaginary parts of
+        the lag sums is one real (L (L + 1) / 2, 2K) matrix, cached per T, applied as
+        one real matrix product.  Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
         """
         R, L, _ = Qr.shape
         nz, ny = self.shape
@@ -195,13 +196,22 @@ class CoarrayKernel:
         cache = self.__dict__.setdefault("_unitary_maps", {})
         key = T.tobytes()
         if key not in cache:  # vec(T Qr T^H) = kron(T, conj T) vec(Qr), row-major
-            M = np.asarray((self._scatter @ np.kron(T, T.conj())).T)  # (L^2, K)
-            cache[key] = (np.ascontiguousarray(M.real), np.ascontiguousarray(M.imag))
-        Mr, Mi = cache[key]
-        q = Qr.reshape(R, L * L)
-        c = np.empty((R, Mr.shape[1]), complex)
-        c.real = q @ Mr
-        c.imag = q @ Mi
+            M = np.asarray((self._scatter @ np.kron(T, T.conj())).T).reshape(L, L, -1)
+            iu = np.triu_indices(L)
+            Ms = M + M.transpose(1, 0, 2)  # Qr[i, j] = Qr[j, i]: fold the pairs
+            Ms[np.arange(L), np.arange(L)] = M[np.arange(L), np.arange(L)]
+            Ms = Ms[iu]
+            cache[key] = (iu, np.ascontiguousarray(np.concatenate([Ms.real, Ms.imag], axis=1)))
+        iu, Mri = cache[key]
+        q = Qr[:, iu[0], iu[1]]  # (R, L (L + 1) / 2)
+        # products of 4 bins at a time stay under OpenBLAS's threading threshold: a
+        # threaded GEMM here leaves spinning workers that slow down what follows
+        pad = -R % 4
+        if pad:
+            q = np.concatenate([q, np.zeros((pad, q.shape[1]))])
+        ri = (q.reshape(-1, 4, q.shape[1]) @ Mri).reshape(-1, Mri.shape[1])[:R]  # (R, 2K)
+        K = Mri.shape[1] // 2
+        c = ri[:, :K] + 1j * ri[:, K:]
         return c.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
     def coefficients_low_rank(self, c0: np.ndarray, U: np.ndarray, d: np.ndarray) -> np.ndarray:
