@@ -1,7 +1,8 @@
 """Imaging speed of the 8x8 array on a 1 degree grid, 200 range bins, against error
-(narrowband methods; MUSIC and Capon use the Gram-matrix and real FBSS shortcuts of
-processing.doa.method_matrix, with one snapshot per bin the co-array coefficients come
-straight from the low-rank factors; the plain column uses numpy's complex eigh)."""
+(narrowband methods; MUSIC and Capon use the Gram-matrix shortcut with fewer snapshots
+than (sub)array elements, the co-array coefficients coming straight from the low-rank
+factors, and FBSS stays real from the covariance to the co-array coefficients; the plain
+column uses numpy's complex eigh)."""
 
 from __future__ import annotations
 

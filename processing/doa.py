@@ -19,6 +19,10 @@ Speed (URA fast path): with fewer snapshots S than (sub)array elements L, Q is
 eigendecomposition, no covariance), and the co-array coefficients come straight from
 those factors (:meth:`processing.steering.CoarrayKernel.coefficients_low_rank`);
 the floor and reciprocal below are applied per elevation block inside the kernel.
+FBSS (S >= L) stays real throughout: the real covariance ``T^H C T`` comes from the
+forward snapshots alone, the eigendecomposition and Q are real, and the co-array
+coefficients of ``T Qr T^H`` are two real matrix products
+(:meth:`processing.steering.CoarrayKernel.coefficients_unitary`).
 
 Definitions that the paper leaves open, fixed here:
 
@@ -151,6 +155,21 @@ def _unitary(L: int) -> np.ndarray:
     if L % 2:
         T[k, k] = np.sqrt(2)
     return T / np.sqrt(2)
+
+
+def _centro_matrix(
+    Y: np.ndarray, T: np.ndarray, base: str, loading: float, n_sources: int | None
+) -> tuple[np.ndarray, bool, np.ndarray]:
+    """Real Qr (R, L, L) with ``Q = T Qr T^H`` from FBSS snapshots Y = [Yf, J Yf*]
+    (R, L, 2S), plus (inverse, empty bins).  With Z = T^H Yf and ``J T* = T``, the
+    real form of the FBSS covariance is ``T^H C T = Re(Z Z^H) / S = W W^T / S`` for
+    the real W = [Re Z, Im Z] (L, 2S): no complex covariance, no complex basis change."""
+    S = Y.shape[-1] // 2
+    Z = T.conj().T @ Y[:, :, :S]
+    W = np.concatenate([Z.real, Z.imag], axis=-1)
+    Cr = (W @ W.transpose(0, 2, 1)) / S
+    Qr, inverse = method_matrix(Cr, base, loading=loading, n_sources=n_sources)
+    return Qr, inverse, np.flatnonzero(np.einsum("rii->r", Cr) <= 0)
 
 
 def _low_rank(Y: np.ndarray, base: str, loading: float, n_sources: int | None) -> np.ndarray:
@@ -291,6 +310,9 @@ def doa_spectrum(
         inverse = base != "das"
         power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
         empty = np.flatnonzero(power <= 0)
+    elif smooth == "fbss" and use_grid:  # real from the start, Q never formed complex
+        T = _unitary(L)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
     else:
         C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
         if smooth == "fbss":  # exactly centro-Hermitian despite rounding
@@ -307,7 +329,12 @@ def doa_spectrum(
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
         )
-        coeffs = kernel.coefficients_low_rank(*factors) if low_rank else kernel.coefficients(Q)
+        if low_rank:
+            coeffs = kernel.coefficients_low_rank(*factors)
+        elif smooth == "fbss":
+            coeffs = kernel.coefficients_unitary(Qr, T)
+        else:
+            coeffs = kernel.coefficients(Q)
         P = kernel.evaluate(coeffs, floor=floor, invert=inverse)
     else:
         form = quadratic_form_direct(

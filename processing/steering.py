@@ -182,18 +182,56 @@ class CoarrayKernel:
         c = self._scatter @ Q.reshape(R, L * L).T  # (K, R)
         return c.T.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
+    def coefficients_unitary(self, Qr: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Co-array coefficients of ``Q = T Qr T^H`` from real symmetric Qr (R, L, L)
+        and a fixed unitary T (L, L), without forming the complex Q: the map from the
+        L (L + 1) / 2 entries of Qr's upper triangle to the real and imaginary parts of
+        the lag sums is one real (L (L + 1) / 2, 2K) matrix, cached per T, applied as
+        one real matrix product.  Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
+        """
+        R, L, _ = Qr.shape
+        nz, ny = self.shape
+        if L != nz * ny:
+            raise ValueError(f"Qr is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
+        cache = self.__dict__.setdefault("_unitary_maps", {})
+        key = T.tobytes()
+        if key not in cache:  # vec(T Qr T^H) = kron(T, conj T) vec(Qr), row-major
+            M = np.asarray((self._scatter @ np.kron(T, T.conj())).T).reshape(L, L, -1)
+            iu = np.triu_indices(L)
+            Ms = M + M.transpose(1, 0, 2)  # Qr[i, j] = Qr[j, i]: fold the pairs
+            Ms[np.arange(L), np.arange(L)] = M[np.arange(L), np.arange(L)]
+            Ms = Ms[iu]
+            cache[key] = (iu, np.ascontiguousarray(np.concatenate([Ms.real, Ms.imag], axis=1)))
+        iu, Mri = cache[key]
+        q = Qr[:, iu[0], iu[1]]  # (R, L (L + 1) / 2)
+        # products of 4 bins at a time stay under OpenBLAS's threading threshold: a
+        # threaded GEMM here leaves spinning workers that slow down what follows
+        pad = -R % 4
+        if pad:
+            q = np.concatenate([q, np.zeros((pad, q.shape[1]))])
+        ri = (q.reshape(-1, 4, q.shape[1]) @ Mri).reshape(-1, Mri.shape[1])[:R]  # (R, 2K)
+        K = Mri.shape[1] // 2
+        c = ri[:, :K] + 1j * ri[:, K:]
+        return c.reshape(R, 2 * nz - 1, 2 * ny - 1)
+
     def coefficients_low_rank(self, c0: np.ndarray, U: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Co-array coefficients of ``Q = c0 I + U diag(d) U^H`` without forming Q.
 
         c0 : (R,) real; U : (R, L, S) complex; d : (R, S) real.  The coefficient of
         lag l is ``sum_s d_s sum_m U[m, s] conj(U[m + l, s])`` (a 2D autocorrelation of
-        each column on the grid, by zero-padded FFT) plus ``L c0`` at lag 0.
+        each column on the grid, by zero-padded FFT) plus ``L c0`` at lag 0.  With many
+        columns (L <= 4 S, e.g. the 16 of a smoothed 5x5 subarray) forming
+        ``U diag(d) U^H`` and summing its lags is cheaper than S FFTs, and is used.
         Returns (R, 2Nz-1, 2Ny-1), as :meth:`coefficients`.
         """
         R, L, S = U.shape
         nz, ny = self.shape
         if L != nz * ny:
             raise ValueError(f"U has {L} rows, expected {nz * ny} for a {nz}x{ny} array")
+        if L <= 4 * S:
+            c = self.coefficients((U * d[:, None, :]) @ U.conj().transpose(0, 2, 1))
+            c[:, nz - 1, ny - 1] += L * np.asarray(c0, dtype=float)
+            return c
         g = U.reshape(R, nz, ny, S)
         spec = sfft.fft2(g, s=(2 * nz, 2 * ny), axes=(1, 2))
         power = np.einsum("rzys,rs->rzy", spec.real**2 + spec.imag**2, d)

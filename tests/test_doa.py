@@ -147,11 +147,12 @@ def test_direction_convention_helper():
     np.testing.assert_allclose(direction(0, 90), [0, 0, 1], atol=1e-15)
 
 
-def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums():
+@pytest.mark.parametrize("S", [2, 3, 5])  # by FFT (L > 4 S) and by the formed matrix
+def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
     """c0 I + U diag(d) U^H summed along each co-array lag, written out in the test."""
     from processing.steering import coarray_kernel
 
-    nz, ny, R, S = 4, 3, 2, 2
+    nz, ny, R = 4, 3, 2
     rng = np.random.default_rng(3)
     U = rng.standard_normal((R, nz * ny, S)) + 1j * rng.standard_normal((R, nz * ny, S))
     d, c0 = rng.standard_normal((R, S)), rng.standard_normal(R)
@@ -168,6 +169,27 @@ def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums():
     np.testing.assert_allclose(got, want, atol=1e-12)
 
 
+def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
+    """Q = T Qr T^H (real symmetric Qr, any unitary T) summed along each co-array lag."""
+    from processing.steering import coarray_kernel
+
+    nz, ny, R = 3, 4, 2
+    L = nz * ny
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((R, L, L))
+    Qr = A + A.transpose(0, 2, 1)
+    T, _ = np.linalg.qr(rng.standard_normal((L, L)) + 1j * rng.standard_normal((L, L)))
+    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(step=30.0), F, C)
+    got = kern.coefficients_unitary(Qr, T)
+    want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
+    for r in range(R):
+        Q = T @ Qr[r] @ T.conj().T
+        for m in range(L):
+            for n in range(L):  # Q[m, n] belongs to the lag of n - m
+                want[r, n // ny - m // ny + nz - 1, n % ny - m % ny + ny - 1] += Q[m, n]
+    np.testing.assert_allclose(got, want, atol=1e-12)
+
+
 def test_compiled_floor_and_reciprocal_equal_numpy():
     pytest.importorskip("numba")
     from processing._doakernel import floor_invert
@@ -178,3 +200,18 @@ def test_compiled_floor_and_reciprocal_equal_numpy():
         floor_invert(got, floor, invert)
         want = np.maximum(x, floor)
         np.testing.assert_array_equal(got, 1 / want if invert else want)
+
+
+@pytest.mark.parametrize("sub", [(4, 4), (5, 6), (3, 7)])
+@pytest.mark.parametrize("method", ["capon-fbss", "music-fbss"])
+def test_real_fbss_coarray_path_equals_the_complex_direct_formula(method, sub):
+    """The co-array FBSS path (real covariance, real Q, folded lag map) against the
+    direct route: complex covariance, complex eigh, explicit steering vectors."""
+    arr = P.paper_8x8()
+    grid = P.Grid.degrees(step=6.0)
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal((64, 3)) + 1j * rng.standard_normal((64, 3))
+    x += np.exp(1j * 2 * np.pi * F / C * arr.positions_m @ direction(25, -10))[:, None]
+    fast = doa_spectrum(x, arr, F, grid, method, subarray=sub)
+    plain = doa_spectrum(x, arr, F, grid, method, subarray=sub, backend="direct")
+    np.testing.assert_allclose(fast, plain, rtol=1e-9)
