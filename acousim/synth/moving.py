@@ -536,7 +536,7 @@ def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
     if hit.any():
         w[hit] = 1.0
     np.divide(bw, w, out=w)
-    w /= w.sum(axis=-1, keepdims=True)
+    w /= (w @ np.ones(K))[..., None]  # a product: faster than a sum along a short axis
     if hit.any():
         on = hit.any(axis=-1)
         w[on] = hit[on]
@@ -781,8 +781,10 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
         out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
     # the new gains of all groups at once: g_new[n, m] = gl[n, m] @ P[n], (N, M, R)
-    g_new = np.matmul(gl, np.concatenate(out_p, axis=2))
-    return np.ascontiguousarray(g_new.transpose(2, 1, 0)), np.concatenate(out_f, axis=1)
+    P = np.concatenate(out_p, axis=2)
+    g_new = np.empty((P.shape[2], M, N))
+    np.matmul(gl, P, out=g_new.transpose(2, 1, 0))
+    return g_new, np.concatenate(out_f, axis=1)
 
 
 def render_doppler_reference(
