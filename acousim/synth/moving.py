@@ -360,6 +360,22 @@ class SensorKinematics:
         idx = np.broadcast_to(idx, t.shape)
         return self.mic_table[i, idx] * (1 - w) + self.mic_table[i + 1, idx] * w
 
+    def mics_by_axis(self, t: np.ndarray, velocity: bool = False):
+        """Polynomial kinematics only: positions (M, 3, N) of microphone i at times
+        ``t[i]`` (t (M, N)), coordinates in rows (no short last axis to reduce over),
+        and with `velocity` the velocities too."""
+        M, N = t.shape
+        X = np.empty((M, POLY_DEGREE + 1, N))
+        X[:, 0] = 1.0
+        np.subtract(t, self.mid, out=X[:, 1])
+        X[:, 1] /= self.half
+        for k in range(2, POLY_DEGREE + 1):
+            np.multiply(X[:, k - 1], X[:, 1], out=X[:, k])
+        pos = np.matmul(self.mic_poly.transpose(0, 2, 1), X)
+        if not velocity:
+            return pos
+        return pos, np.matmul(self.mic_poly_v.transpose(0, 2, 1), X[:, :-1])
+
     def mics_and_velocity(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Tabulated kinematics only: positions and velocities (M, ..., 3) of
         microphone i at times ``t[i]``."""
@@ -420,6 +436,8 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
         first = np.broadcast_to(first, shape)
+    if mic is None and getattr(kin, "poly", None) is not None and t_r.ndim == 2:
+        return _newton_by_axis(kin, t_r, anchor, c, guess), anchor, first
     if mic is None and not kin.static and kin.step is not None:
         t = (
             t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
@@ -447,6 +465,30 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         if change < 1e-14:
             break
     return t, anchor, first
+
+
+def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.ndarray:
+    """Reception times (M, N) for the polynomial kinematics: Newton on
+    ``f(t) = t - t_r - |m(t) - A| / c`` as in :func:`_arrival_times`, with the
+    coordinates in rows (t_r (M, N), anchor (M or 1, N, 3))."""
+    A = np.moveaxis(anchor, -1, -2)  # (M or 1, 3, N)
+    if guess is None:
+        diff = kin.mics_by_axis(t_r) - A
+        t = t_r + np.sqrt(np.sum(diff * diff, axis=1)) / c
+    else:
+        t = np.array(guess, float)
+    for _ in range(20):
+        pos, vel = kin.mics_by_axis(t, velocity=True)
+        diff = pos - A
+        dist = np.sqrt(np.sum(diff * diff, axis=1))
+        slope = 1 - np.sum(vel * diff, axis=1) / (np.maximum(dist, 1e-12) * c)
+        step = (t - t_r - dist / c) / slope
+        t = t - step
+        # quadratic convergence: after a step s the error is about s^2 |f''| / 2
+        # with |f''| below 1e-2 / s for a robot: s < 1e-7 s leaves < 1e-16 s
+        if np.max(np.abs(step)) < 1e-7:
+            break
+    return t
 
 
 @dataclass(frozen=True, eq=False)
