@@ -155,6 +155,21 @@ def test_fast_renderer_against_the_per_sample_reference():
     assert err <= -60
 
 
+def test_fast_renderer_keeps_the_direct_path_without_a_response():
+    """No Doppler, no path response: the direct path (order 0) and an echo as the
+    static renderer gives them (the direct path was once dropped here)."""
+    from acousim.synth.render import render
+
+    wf = P.rtis_call("default_20_80")
+    delay = np.array([[1.0e-4, 3.0e-3], [1.1e-4, 3.2e-3]])
+    echoes = Echoes(
+        delay, np.array([[1.0, 0.1], [1.0, 0.1]]), delay * C, np.array([0, 1]), np.zeros(2)
+    )
+    fast = render_doppler(echoes, np.ones((2, 2)), wf, FS, 4000)
+    static = render(echoes, wf, FS, 4000, interpolator="sinc")
+    assert np.linalg.norm(fast - static) <= 1e-6 * np.linalg.norm(static)
+
+
 def test_static_reference_agrees_with_static_echoes():
     """No motion: the reference renders the plain delayed call (a second check of
     the retarded-time solver against |A - e| + |A - m|)."""

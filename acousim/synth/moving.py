@@ -360,6 +360,22 @@ class SensorKinematics:
         idx = np.broadcast_to(idx, t.shape)
         return self.mic_table[i, idx] * (1 - w) + self.mic_table[i + 1, idx] * w
 
+    def mics_by_axis(self, t: np.ndarray, velocity: bool = False):
+        """Polynomial kinematics only: positions (M, 3, N) of microphone i at times
+        ``t[i]`` (t (M, N)), coordinates in rows (no short last axis to reduce over),
+        and with `velocity` the velocities too."""
+        M, N = t.shape
+        X = np.empty((M, POLY_DEGREE + 1, N))
+        X[:, 0] = 1.0
+        np.subtract(t, self.mid, out=X[:, 1])
+        X[:, 1] /= self.half
+        for k in range(2, POLY_DEGREE + 1):
+            np.multiply(X[:, k - 1], X[:, 1], out=X[:, k])
+        pos = np.matmul(self.mic_poly.transpose(0, 2, 1), X)
+        if not velocity:
+            return pos
+        return pos, np.matmul(self.mic_poly_v.transpose(0, 2, 1), X[:, :-1])
+
     def mics_and_velocity(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Tabulated kinematics only: positions and velocities (M, ..., 3) of
         microphone i at times ``t[i]``."""
@@ -420,6 +436,8 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
         first = np.broadcast_to(first, shape)
+    if mic is None and getattr(kin, "poly", None) is not None and t_r.ndim == 2:
+        return _newton_by_axis(kin, t_r, anchor, c, guess), anchor, first
     if mic is None and not kin.static and kin.step is not None:
         t = (
             t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
@@ -447,6 +465,30 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         if change < 1e-14:
             break
     return t, anchor, first
+
+
+def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.ndarray:
+    """Reception times (M, N) for the polynomial kinematics: Newton on
+    ``f(t) = t - t_r - |m(t) - A| / c`` as in :func:`_arrival_times`, with the
+    coordinates in rows (t_r (M, N), anchor (M or 1, N, 3))."""
+    A = np.moveaxis(anchor, -1, -2)  # (M or 1, 3, N)
+    if guess is None:
+        diff = kin.mics_by_axis(t_r) - A
+        t = t_r + np.sqrt(np.sum(diff * diff, axis=1)) / c
+    else:
+        t = np.array(guess, float)
+    for _ in range(20):
+        pos, vel = kin.mics_by_axis(t, velocity=True)
+        diff = pos - A
+        dist = np.sqrt(np.sum(diff * diff, axis=1))
+        slope = 1 - np.sum(vel * diff, axis=1) / (np.maximum(dist, 1e-12) * c)
+        step = (t - t_r - dist / c) / slope
+        t = t - step
+        # quadratic convergence: after a step s the error is about s^2 |f''| / 2
+        # with |f''| below 1e-2 / s for a robot: s < 1e-7 s leaves < 1e-16 s
+        if np.max(np.abs(step)) < 1e-7:
+            break
+    return t
 
 
 @dataclass(frozen=True, eq=False)
@@ -531,14 +573,15 @@ def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
     diff = nodes[:, None] - nodes[None, :]
     np.fill_diagonal(diff, 1.0)
     bw = 1.0 / np.prod(diff, axis=1)
-    d = x[..., None] - nodes
-    hit = d == 0
-    d = np.where(hit, 1.0, d)
-    terms = bw / d
-    w = terms / terms.sum(axis=-1, keepdims=True)
-    on = hit.any(axis=-1)
-    if on.any():
-        w[on] = hit[on].astype(float)
+    w = x[..., None] - nodes  # in place from here: (..., K) is the large array
+    hit = w == 0
+    if hit.any():
+        w[hit] = 1.0
+    np.divide(bw, w, out=w)
+    w /= (w @ np.ones(K))[..., None]  # a product: faster than a sum along a short axis
+    if hit.any():
+        on = hit.any(axis=-1)
+        w[on] = hit[on]
     return w
 
 
@@ -624,7 +667,8 @@ def render_doppler(
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
     calls, start = _templates(waveform, fs, nodes)
     K, L = calls.shape
-    weights = _lagrange(nodes, rate)  # (M, N, K)
+    # the path gains times the Lagrange weights, path-major: (N, M, K)
+    gl = _lagrange(nodes, rate.T)
     # 2. the span of the output the echoes reach
     d = echoes.delay_s * fs + emission_index + start
     lo = int(np.floor(d.min())) - taps
@@ -636,6 +680,7 @@ def render_doppler(
     key = (waveform, fs, tuple(nodes.tolist()), n)
     spectra = _cached(("spectra", *key), lambda: sfft.rfft(calls, n, axis=-1))  # (K, F)
     g = echoes.gain
+    N = echoes.n_paths
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
     shaped = response is not None and response.active
     if shaped:
@@ -647,18 +692,21 @@ def render_doppler(
         V = np.ones((echoes.n_paths, 1))
         direct = np.zeros(1, bool)
         dtype = np.float64
+    # the direct path is a group of its own only where it has its own response terms
+    path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
+    gl *= g.T[:, :, None]
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
     W = spectra[:, band]
     WW = _cached(("products", waveform, fs, tuple(nodes.tolist()), n, band.sum()), _products, W)
-    gains, filt_band = _compress(
-        g, weights, V, W, WW, U, echoes.order == 0, direct, tolerance * COMPRESS_FACTOR
-    )
-    filt = np.zeros((spectra.shape[1], filt_band.shape[1]), complex)
+    gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, tolerance * COMPRESS_FACTOR)
+    cdtype = np.complex64 if dtype == np.float32 else complex
+    filt = np.zeros((spectra.shape[1], filt_band.shape[1]), cdtype)
     filt[band] = filt_band
-    # 5. impulses per set, FFT, sum of products, back
-    h, pad = _impulses(d - lo, gains, n_span, interpolator, taps, n, dtype)
+    # 5. impulses per set, FFT, sum of products, back (gains (R, M, N) seen as
+    # (M, N, R): the sets are contiguous, as the sparse products take them)
+    h, pad = _impulses(d - lo, gains.transpose(1, 2, 0), n_span, interpolator, taps, n, dtype)
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
     spec = spectra[0] * filt[:, 0]
     for q in range(1, spectra.shape[0]):
@@ -717,34 +765,36 @@ def _cached(key, fn, *args):
     return _CACHE[key]
 
 
-def _compress(g, weights, V, W, WW, U, path_direct, set_direct, tolerance):
+def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    g (M, N) path gains, weights (M, N, K) Lagrange weights of the Doppler nodes,
-    V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
-    template spectra W (K, F), their products WW (:func:`_products`) and the
-    response terms U (F, Q); set_direct (Q,) which response terms belong to the
-    direct path.  Per group of paths (the
+    gl (N, M, K) path gains times the Lagrange weights of the Doppler nodes (path
+    n, microphone m, node j), V (N, Q) response terms; the filters
+    ``b_jq(f) = W_j(f) U_q(f)`` from the template spectra W (K, F), their products
+    WW (:func:`_products`) and the response terms U (F, Q); path_direct (N,) and
+    set_direct (Q,) which paths and response terms belong to the direct path.  Per
+    group of paths (the
     direct path, the echoes), with G (paths x S) the gains and B (F x S) the filters
     (S = K Q' sets): ``G B^T = U' D``, ``G = U' L^(1/2) E^T`` (eigendecomposition of
     the Gram matrix G^T G, formed from the factors without G), ``D = L^(1/2) E^T
     B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
     matrix) truncated where the discarded energy falls below `tolerance`^2 of the
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
-    (gains (M, N, R), filters (F, R)).
+    (gains (R, M, N), filters (F, R)).
     """
-    M, N, K = weights.shape
-    out_g, out_f = [], []
+    N, M, K = gl.shape
+    # per path, sum over microphones of g^2 l_j l_k: (N, K, K), for every group
+    X = np.matmul(gl.transpose(0, 2, 1), gl)
+    out_p, out_f = [], []
     for group in (True, False):
         paths = path_direct == group
         terms = set_direct == group
         if not paths.any() or not terms.any():
             continue
-        gp, lp, Vp = g[:, paths], weights[:, paths], V[paths][:, terms]
+        Vp = np.where(paths[:, None], V[:, terms], 0.0)  # (N, Q'): zero off the group
         Q = Vp.shape[1]
         # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
-        X = np.einsum("mnj,mnk->njk", (gp**2)[:, :, None] * lp, lp, optimize=True)
         VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
         gram = (X.reshape(-1, K * K).T @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
         gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
@@ -769,13 +819,14 @@ def _compress(g, weights, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        P = np.einsum("nq,jqr->njr", Vp, T)
-        g_new = np.zeros((M, N, r))
-        g_new[:, paths] = np.einsum("mnj,njr->mnr", gp[:, :, None] * lp, P, optimize=True)
-        out_g.append(g_new)
+        out_p.append(np.einsum("nq,jqr->njr", Vp, T))  # zero off the group
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
         out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
-    return np.concatenate(out_g, axis=2), np.concatenate(out_f, axis=1)
+    # the new gains of all groups at once: g_new[n, m] = gl[n, m] @ P[n], (N, M, R)
+    P = np.concatenate(out_p, axis=2)
+    g_new = np.empty((P.shape[2], M, N))
+    np.matmul(gl, P, out=g_new.transpose(2, 1, 0))
+    return g_new, np.concatenate(out_f, axis=1)
 
 
 def render_doppler_reference(
