@@ -72,12 +72,12 @@ from .echoes import Echoes
 from .render import (
     DEFAULT_TAPS,
     FFT_WORKERS,
-    RESPONSE_POINTS,
     FractionalDelay,
     _impulses,
     check_interpolator,
+    response_factors,
 )
-from .response import PathResponse, factorise
+from .response import PathResponse
 
 __all__ = [
     "MovingPaths",
@@ -684,7 +684,7 @@ def render_doppler(
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
     shaped = response is not None and response.active
     if shaped:
-        g, U, V, band, direct = _factors(echoes, g, spectra[K // 2], fs, n, response)
+        g, U, V, band, direct = response_factors(echoes, g, spectra[K // 2], fs, n, response)
         dtype = np.float32
     else:
         band = np.ones(spectra.shape[1], bool)
@@ -714,37 +714,6 @@ def render_doppler(
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
-
-
-def _factors(echoes: Echoes, g, W, fs, n, response: PathResponse):
-    """Per-microphone absorption gain and the separable response terms: (g, U (F_band,
-    Q), V (N, Q), band mask), as :func:`acousim.synth.render._render_shaped`."""
-    freqs = np.arange(W.size) * fs / n
-    band = np.abs(W) > 1e-6 * np.abs(W).max()
-    fb = freqs[band]
-    main = freqs[np.abs(W) > 1e-3 * np.abs(W).max()]
-    coarse = np.linspace(main[0], main[-1], min(RESPONSE_POINTS, main.size))
-    length = echoes.path_length_m.mean(axis=0)
-    f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
-    alpha = response.alpha_db_per_m(f_c)
-    g = g * 10 ** (-alpha * (echoes.path_length_m - length[None, :]) / 20)
-    H = response.matrix(coarse, length, echoes.angles())
-    weight = np.sqrt(np.mean(g**2, axis=0)) + 1e-300
-    Vs, Us = [], []
-    for group in (echoes.order == 0, echoes.order != 0):
-        if not group.any():
-            continue
-        Uc, Vw = factorise(H[:, group] * weight[group])
-        V = np.zeros((echoes.n_paths, Vw.shape[1]))
-        V[group] = Vw / weight[group, None]
-        Vs.append(V)
-        Us.append(Uc)
-    direct = np.concatenate(
-        [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
-    )
-    V, Uc = np.concatenate(Vs, axis=1), np.concatenate(Us, axis=1)
-    U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
-    return g, U, V, band, direct
 
 
 def _products(W: np.ndarray) -> np.ndarray:

@@ -168,6 +168,26 @@ def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np
     """
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
+    g, U, V, band, _ = response_factors(echoes, g, W, fs, n, response)
+    # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
+    h, pad = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps, n, np.float32)
+    filt = np.zeros((W.size, V.shape[1]), np.complex64)
+    filt[band] = W[band, None] * U
+    spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (Q, M, F)
+    spec = np.einsum("qmf,fq->mf", spectra, filt)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+
+
+def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response):
+    """The per-microphone absorption gain and the separable path-response terms.
+
+    Returns ``(g (M, N), U (F_band, Q), V (N, Q), band (F,) bool, direct (Q,) bool)``:
+    the path response over the call's band is ``U @ V.T``, factorised on a coarse grid
+    (it is smooth in f) with each path weighted by its gain, so that the rank is set by
+    the error of the rendered signal; the direct path (order 0) is factorised apart from
+    the echoes (``direct`` marks its terms), so its level does not set their accuracy.
+    `W` is the call's spectrum on an n-point real FFT at `fs`.
+    """
     freqs = np.arange(W.size) * fs / n
     band = np.abs(W) > 1e-6 * np.abs(W).max()
     fb = freqs[band]
@@ -196,13 +216,10 @@ def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np
         Us.append(Uc)
     V, Uc = np.concatenate(Vs, axis=1), np.concatenate(Us, axis=1)
     U = np.stack([np.interp(fb, coarse, Uc[:, q]) for q in range(V.shape[1])], axis=1)
-    # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
-    h, pad = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps, n, np.float32)
-    filt = np.zeros((W.size, V.shape[1]), np.complex64)
-    filt[band] = W[band, None] * U
-    spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (Q, M, F)
-    spec = np.einsum("qmf,fq->mf", spectra, filt)
-    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+    direct = np.concatenate(
+        [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
+    )
+    return g, U, V, band, direct
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):
