@@ -20,6 +20,9 @@ and decimation into an *energyscape* of directions x ranges.  Steps here:
    Lagrange for the far field (about -53 dB from the exact ramp) and linear for
    near-field focusing, whose delay changes with range (the numpy engine
    interpolates the same way there); ``benchmarks/broadband.py`` measures both.
+   Plain far-field DAS needs no aligned channels: both engines sum the phase-ramped
+   spectra over the microphones and inverse-transform one beam per direction,
+   exactly (the compiled kernel in float32, about -65 dB from float64).
 4. **Combination** of the M aligned channels ``s_m`` at each direction and time:
 
    =========  ================================================================
@@ -122,7 +125,7 @@ class BroadbandSettings:
         baseband), 'numpy' (far field exact by phase ramps; slow) or 'auto' (numba
         when installed).
     interpolation : 'cubic' (4-point Lagrange) or 'linear' between the samples of
-        the upsampled baseband, compiled far-field path.
+        the upsampled baseband, compiled far-field path (not plain DAS: exact).
     """
 
     range_limits_m: tuple[float, float] = (0.5, 5.0)
@@ -545,7 +548,9 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
     pad = int(np.ceil(2 * reach / c * bb.rate_hz)) + 2
     binom = float(comb(arr.n_mics, order))
     D = int(settings.decimation)
-    if settings.focus == "far":
+    if settings.focus == "far" and order == 1 and not cf:
+        _das_spectrum(kern, bb, _delays(arr, u, None, c), idx, arr.n_mics, D, out)
+    elif settings.focus == "far":
         d = _delays(arr, u, None, c)  # (G, M)
         start = (idx[0] + pad) * U - d * bb.rate_hz * U
         i0 = np.floor(start).astype(np.int64)
@@ -582,6 +587,27 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
             fine, rf, u, arr.positions_m, arr.emitter_m, float(rng[idx[0]]), step,
             float((idx[0] + pad) * U), bb.rate_hz * U, bb.f0_hz, c, order, cf, binom, D, out,
         )  # fmt: skip
+
+
+def _das_spectrum(kern, bb: Baseband, d: np.ndarray, idx, M: int, D: int, out) -> None:
+    """Plain far-field DAS, exact: the M channels steered by phase ramps and summed
+    in the frequency domain (the compiled kernel), one inverse FFT per direction."""
+    K, _, N = bb.spectrum.shape
+    half = (N + 1) // 2  # FFT order -> ascending: bins N - N//2 .. N - 1 come first
+    Nb = -(-N // 16) * 16
+    Xr = np.zeros((K, bb.spectrum.shape[1], Nb), np.float32)
+    Xi = np.zeros_like(Xr)
+    ascending = np.concatenate([bb.spectrum[..., half:], bb.spectrum[..., :half]], axis=-1)
+    Xr[..., :N] = ascending.real
+    Xi[..., :N] = ascending.imag
+    df = float(bb.freq_hz[1] - bb.freq_hz[0])
+    f_start = bb.f0_hz + float(bb.freq_hz[half]) if N > 1 else bb.f0_hz
+    beams = np.empty((K, d.shape[0], Nb), np.complex64)
+    kern.far_das_spectrum(Xr, Xi, d, f_start, df, beams)
+    spec = np.concatenate([beams[..., N - half : N], beams[..., : N - half]], axis=-1)
+    z = sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)[..., idx[0] : idx[-1] + 1]
+    power = (z.real**2 + z.imag**2) / M**2  # (K, G, n)
+    out[:] = power.mean(axis=0).reshape(d.shape[0], -1, D).mean(-1).T
 
 
 def _numpy(recording, bb, u, idx, rng, t, order, cf, settings, out) -> None:
