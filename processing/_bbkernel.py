@@ -291,8 +291,9 @@ def far_das_spectrum(Xr, Xi, d, f_start, df, beams):
 
     Xr, Xi (K, M, Nb) float32: the baseband spectrum in ascending frequency, bin n at
     ``f_start + n df`` (absolute, Hz; Nb a multiple of 16, zero-padded); d (G, M)
-    delays, s; beams (K, G, Nb) complex64 written with
-    ``sum_m X[k, m, n] exp(-2j pi (f_start + n df) d[g, m])``.
+    delays, s; beams (K, G, N) complex64 written with
+    ``sum_m X[k, m, n] exp(-2j pi (f_start + n df) d[g, m])`` for the N <= Nb bins
+    in FFT order (the ``N - (N + 1) // 2`` negative ones first in X, last in beams).
 
     The steering phases of one (direction, microphone) are built without trigonometry
     in the loop: 16 bins from float64 values, then each bin from the one 16 bins below
@@ -328,5 +329,9 @@ def far_das_spectrum(Xr, Xi, d, f_start, df, beams):
                 for n in range(Nb):
                     Br[n] += xr[n] * pr[n] - xi[n] * pi[n]
                     Bi[n] += xr[n] * pi[n] + xi[n] * pr[n]
-            for n in range(Nb):
-                beams[k, g, n] = complex(Br[n], Bi[n])
+            N = beams.shape[2]  # back to FFT order: the n_neg negative bins come first
+            n_neg = N - (N + 1) // 2
+            for n in range(n_neg):
+                beams[k, g, N - n_neg + n] = complex(Br[n], Bi[n])
+            for n in range(n_neg, N):
+                beams[k, g, n - n_neg] = complex(Br[n], Bi[n])

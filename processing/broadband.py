@@ -307,7 +307,7 @@ def baseband(
     x = recording.samples
     x = x[None] if x.ndim == 2 else x
     fs = recording.sample_rate_hz
-    peak = np.max(np.abs(x)) if x.size else 0.0
+    peak = max(x.max(), -x.min()) if x.size else 0.0  # max |x| without a temporary
     if not np.isfinite(peak):
         raise InputError("samples must be finite", key="samples", value=peak)
     h_size = int(np.ceil(recording.waveform.duration_s * fs - 1e-9))
@@ -597,17 +597,20 @@ def _das_spectrum(kern, bb: Baseband, d: np.ndarray, idx, M: int, D: int, out) -
     Nb = -(-N // 16) * 16
     Xr = np.zeros((K, bb.spectrum.shape[1], Nb), np.float32)
     Xi = np.zeros_like(Xr)
-    ascending = np.concatenate([bb.spectrum[..., half:], bb.spectrum[..., :half]], axis=-1)
-    Xr[..., :N] = ascending.real
-    Xi[..., :N] = ascending.imag
-    df = float(bb.freq_hz[1] - bb.freq_hz[0])
+    Xr[..., : N - half] = bb.spectrum[..., half:].real
+    Xr[..., N - half : N] = bb.spectrum[..., :half].real
+    Xi[..., : N - half] = bb.spectrum[..., half:].imag
+    Xi[..., N - half : N] = bb.spectrum[..., :half].imag
+    df = float(bb.freq_hz[1] - bb.freq_hz[0]) if N > 1 else 0.0
     f_start = bb.f0_hz + float(bb.freq_hz[half]) if N > 1 else bb.f0_hz
-    beams = np.empty((K, d.shape[0], Nb), np.complex64)
+    G = d.shape[0]
+    beams = np.empty((K, G, N), np.complex64)
     kern.far_das_spectrum(Xr, Xi, d, f_start, df, beams)
-    spec = np.concatenate([beams[..., N - half : N], beams[..., : N - half]], axis=-1)
-    z = sfft.ifft(spec, axis=-1, overwrite_x=True, workers=-1)[..., idx[0] : idx[-1] + 1]
-    power = (z.real**2 + z.imag**2) / M**2  # (K, G, n)
-    out[:] = power.mean(axis=0).reshape(d.shape[0], -1, D).mean(-1).T
+    z = sfft.ifft(beams, axis=-1, overwrite_x=True, workers=-1)[..., idx[0] : idx[-1] + 1]
+    # |z|^2 summed over the K measurements and blocks of D samples, in float32 pairs
+    sq = z.view(np.float32)
+    sq = np.square(sq, out=sq).reshape(K, G, -1, 2 * D).sum(axis=(0, 3))
+    out[:] = (sq / (M * M * D * K)).T
 
 
 def _numpy(recording, bb, u, idx, rng, t, order, cf, settings, out) -> None:
