@@ -20,9 +20,10 @@ and decimation into an *energyscape* of directions x ranges.  Steps here:
    Lagrange for the far field (about -53 dB from the exact ramp) and linear for
    near-field focusing, whose delay changes with range (the numpy engine
    interpolates the same way there); ``benchmarks/broadband.py`` measures both.
-   Plain far-field DAS needs no aligned channels: both engines sum the phase-ramped
-   spectra over the microphones and inverse-transform one beam per direction,
-   exactly (the compiled kernel in float32, about -65 dB from float64).
+   Plain far-field DAS needs no aligned channels: both engines (the compiled one up
+   to 512 directions, where it is the faster) sum the phase-ramped spectra over the
+   microphones and inverse-transform one beam per direction, exactly (the compiled
+   kernel in float32, about -65 dB from float64).
 4. **Combination** of the M aligned channels ``s_m`` at each direction and time:
 
    =========  ================================================================
@@ -125,7 +126,8 @@ class BroadbandSettings:
         baseband), 'numpy' (far field exact by phase ramps; slow) or 'auto' (numba
         when installed).
     interpolation : 'cubic' (4-point Lagrange) or 'linear' between the samples of
-        the upsampled baseband, compiled far-field path (not plain DAS: exact).
+        the upsampled baseband, compiled far-field path (not plain DAS of up to 512
+        directions: exact).
     """
 
     range_limits_m: tuple[float, float] = (0.5, 5.0)
@@ -548,7 +550,10 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
     pad = int(np.ceil(2 * reach / c * bb.rate_hz)) + 2
     binom = float(comb(arr.n_mics, order))
     D = int(settings.decimation)
-    if settings.focus == "far" and order == 1 and not cf:
+    # plain far-field DAS of a few hundred directions: the exact frequency-domain sum
+    # is faster (no upsampling FFT); above about 500 directions the interpolation's
+    # per-direction cost is lower (eRTIS, 32 x 16384 samples, measured)
+    if settings.focus == "far" and order == 1 and not cf and u.shape[0] <= _SPECTRAL_DAS_MAX:
         _das_spectrum(kern, bb, _delays(arr, u, None, c), idx, arr.n_mics, D, out)
     elif settings.focus == "far":
         d = _delays(arr, u, None, c)  # (G, M)
@@ -587,6 +592,9 @@ def _compiled(recording, bb, u, idx, rng, order, cf, settings, out) -> None:
             fine, rf, u, arr.positions_m, arr.emitter_m, float(rng[idx[0]]), step,
             float((idx[0] + pad) * U), bb.rate_hz * U, bb.f0_hz, c, order, cf, binom, D, out,
         )  # fmt: skip
+
+
+_SPECTRAL_DAS_MAX = 512  # directions
 
 
 def _das_spectrum(kern, bb: Baseband, d: np.ndarray, idx, M: int, D: int, out) -> None:
