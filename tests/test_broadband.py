@@ -210,6 +210,22 @@ def test_compiled_engine_matches_the_numpy_reference(method, focus):
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-2 * ref.max())
 
 
+@pytest.mark.parametrize("spectral_max", [0, 512])
+def test_compiled_plain_das_both_paths_match_the_numpy_reference(spectral_max, monkeypatch):
+    """Plain far-field DAS: the interpolating kernel (many directions) and the exact
+    frequency-domain sum (few) against the numpy engine, two measurements."""
+    pytest.importorskip("numba")
+    monkeypatch.setattr(B, "_SPECTRAL_DAS_MAX", spectral_max)
+    one = echo_recording(URA, [(15, 0, 1.2, 1.0)], fs=FS, n_samples=4096, waveform=WF, noise=0.01)
+    two = np.stack([one.samples, 0.5 * one.samples])
+    rec = P.Recording(two, FS, URA, WF, one.speed_of_sound_m_s, 0)
+    s = dict(range_limits_m=(0.5, 2.0))
+    ref = B.energyscape(rec, B.fan(n=61), "das-bb", B.BroadbandSettings(**s, engine="numpy")).power
+    got = B.energyscape(rec, B.fan(n=61), "das-bb", B.BroadbandSettings(**s, engine="numba")).power
+    tol = 1e-2 if spectral_max == 0 else 1e-5  # cubic interpolation, or float32 only
+    np.testing.assert_allclose(got, ref, rtol=0, atol=tol * ref.max())
+
+
 def test_real_ertis_sample_echo_stays_where_das_puts_it():
     """The real eRTIS measurement (rtisdev-sample): every broadband method finds the
     echo at 3.2 m where narrowband DAS does (same direction within a grid step)."""
