@@ -41,14 +41,27 @@ def locked(out: Path):
                 "or use another --out",
                 file=out,
             ) from None
+        _LOCK_FDS.add(fd)
         yield
     finally:
+        _LOCK_FDS.discard(fd)
         os.close(fd)
+
+
+#: lock descriptors held by this process: a forked pool worker closes its copies
+#: (watch_parent), so that only the generator itself holds the folder's lock
+_LOCK_FDS: set[int] = set()
 
 
 def watch_parent(parent_pid: int) -> None:
     """Pool worker initializer: exit as soon as the main process is gone (a killed
-    main process must not leave workers computing for minutes)."""
+    main process must not leave workers computing for minutes). Also closes the
+    worker's inherited copy of the folder lock, which would otherwise outlive a killed
+    main process for as long as the worker does."""
+    for fd in list(_LOCK_FDS):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _LOCK_FDS.clear()
     with contextlib.suppress(Exception):  # Linux: the kernel signals us at once
         import ctypes
         import signal
