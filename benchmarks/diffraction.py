@@ -13,6 +13,7 @@ from acousim.scene import load_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
 from acousim.trace.btm import DEFAULT_STEP_M, edge_elements
+from tests.test_diffraction import physical_optics  # the tests' independent reference
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POSES = list(range(10, 30))  # two seconds of the drive, as in the corridor section
@@ -90,27 +91,6 @@ def _corridor(step: float | None, poses: list[int]) -> tuple[float, float]:
     return per, float(n)
 
 
-def _physical_optics(v, emitter, receiver, k, n):
-    """Kirchhoff field of a rigid flat quad (corners v (4, 3)), midpoint rule."""
-    u, w = v[1] - v[0], v[3] - v[0]
-    s = (np.arange(n) + 0.5) / n
-    x = (v[0] + s[:, None, None] * u + s[None, :, None] * w).reshape(-1, 3)
-    normal = np.cross(u, w)
-    area = np.linalg.norm(normal) / n**2
-    normal /= np.linalg.norm(normal)
-    r1 = np.linalg.norm(x - emitter, axis=1)
-    r2 = np.linalg.norm(x - receiver, axis=1)
-    cos = (np.abs((emitter - x) @ normal) / r1 + np.abs((receiver - x) @ normal) / r2) / 2
-    return np.array(
-        [
-            np.sum(np.exp(-1j * kk * (r1 + r2)) / (r1 * r2) * (1j * kk + 1 / r2) * cos)
-            * area
-            / (2 * np.pi)
-            for kk in k
-        ]
-    )
-
-
 def _quads(kind: str, size: float, rotation: np.ndarray, centre: np.ndarray) -> list[np.ndarray]:
     """Corners of a square plate (facing -x before rotation) or of a cube's faces."""
     h = size / 2
@@ -175,7 +155,7 @@ def _object_level(kind, size, distance, rot_deg, tmp) -> tuple[float, float, np.
     for q in quads:
         outward = q.mean(axis=0) - centre  # a plate (through the centre) is two-sided
         if np.linalg.norm(outward) < 1e-9 or outward @ (e - q.mean(axis=0)) > 0:
-            po = po + _physical_optics(q, e, r, k, n=int(size / 0.0005))
+            po = po + physical_optics(q, e, r, k, n=int(size / 0.0005))
     wall = 1 / (2 * distance)
 
     def band(h):

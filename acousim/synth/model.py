@@ -85,31 +85,15 @@ def simulate(
         )
         echoes = echoes.select(inside)
         doppler = None if doppler is None else doppler[:, inside]
+    options = dict(
+        emission_index=emission_index, interpolator=interpolator, taps=taps, response=response
+    )
     if doppler is not None:
         from .moving import render_doppler
 
-        clean = render_doppler(
-            echoes,
-            doppler,
-            waveform,
-            sample_rate_hz,
-            n_samples,
-            emission_index=emission_index,
-            interpolator=interpolator,
-            taps=taps,
-            response=response,
-        )
+        clean = render_doppler(echoes, doppler, waveform, sample_rate_hz, n_samples, **options)
     else:
-        clean = render(
-            echoes,
-            waveform,
-            sample_rate_hz,
-            n_samples,
-            emission_index=emission_index,
-            interpolator=interpolator,
-            taps=taps,
-            response=response,
-        )
+        clean = render(echoes, waveform, sample_rate_hz, n_samples, **options)
     rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):
         if not np.any(clean):
