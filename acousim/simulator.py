@@ -118,8 +118,6 @@ class Simulator:
         echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
         if sensor.mic_radius_m > 0:
             echoes = self._mic_directivity(echoes, paths, mics, pose.rotation[:, 0])
-        base = scene.simulation.seed if seed is None else seed
-        noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         meta = _metadata(scene, pose, index)
@@ -130,21 +128,8 @@ class Simulator:
             order=paths.order,
             kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
         )
-        rec = simulate(
-            echoes,
-            sensor.array,
-            sensor.call,
-            sensor.sample_rate_hz,
-            n_samples or scene.n_samples(),
-            speed_of_sound_m_s=self.c,
-            snr_db=scene.simulation.snr_db,
-            seed=noise_seed,
-            interpolator=scene.simulation.fractional_delay,
-            response=self.response,
-            snr_reference="echoes",
-            metadata=meta,
-        )
-        return dataclasses.replace(rec, truth=truth)
+        n = n_samples or scene.n_samples()
+        return self._record(echoes, sensor.array, n, index, seed, meta, truth)
 
     def _simulate_moving(self, pose, index, seed, n_samples, motion) -> P.Recording:
         """A measurement in motion (see :mod:`acousim.synth.moving`).
@@ -178,8 +163,6 @@ class Simulator:
         mics = pose.to_world(array.positions_m)
         if sensor.mic_radius_m > 0:
             echoes = self._mic_directivity(echoes, moving, mics, pose.rotation[:, 0])
-        base = scene.simulation.seed if seed is None else seed
-        noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         receiver = mics.mean(axis=0)
         level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
             np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
@@ -205,12 +188,20 @@ class Simulator:
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=moving.velocity_m_s,
         )
+        return self._record(echoes, array, n, index, seed, meta, truth, doppler=arr.rate)
+
+    def _record(self, echoes, array, n_samples, index, seed, meta, truth, doppler=None):
+        """Render the echoes with the scene's noise (seeded per pose index) into a
+        Recording carrying its metadata and ground truth."""
+        scene = self.scene
+        base = scene.simulation.seed if seed is None else seed
+        noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         rec = simulate(
             echoes,
             array,
-            sensor.call,
-            sensor.sample_rate_hz,
-            n,
+            scene.sensor.call,
+            scene.sensor.sample_rate_hz,
+            n_samples,
             speed_of_sound_m_s=self.c,
             snr_db=scene.simulation.snr_db,
             seed=noise_seed,
@@ -218,7 +209,7 @@ class Simulator:
             response=self.response,
             snr_reference="echoes",
             metadata=meta,
-            doppler=arr.rate,
+            doppler=doppler,
         )
         return dataclasses.replace(rec, truth=truth)
 
