@@ -622,8 +622,10 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     _writable_dir(args.out)
     _preload_simulation()
     t0 = time.perf_counter()
+    from acousim.bundled import resolve
+
     manifest = generate(
-        args.spec,
+        resolve("datasets", args.spec),  # a file, or a bundled spec's name
         args.out,
         workers=args.workers,
         scheduler=args.scheduler,
@@ -882,7 +884,9 @@ def build_parser() -> argparse.ArgumentParser:
         "from a spec file (docs/dataset-format.md), on local "
         "processes or a Dask cluster. Run it again to resume.",
     )
-    p.add_argument("spec", help="dataset spec (.toml)")
+    p.add_argument(
+        "spec", help="dataset spec (.toml) or a bundled spec's name (e.g. corridor_small)"
+    )
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--workers", type=WORKERS, default=2, help="local processes (default: 2)")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")

@@ -324,3 +324,19 @@ def test_a_bug_keeps_its_traceback_and_bad_input_is_one_line(tmp_path, monkeypat
     monkeypatch.setattr(info, "describe", bad)
     assert main(["info", str(tmp_path)]) == 2
     assert f"acousim info: error: {tmp_path}: not a recording" in capsys.readouterr().err
+
+
+def test_dataset_takes_a_bundled_spec_by_name(tmp_path, monkeypatch):
+    import acousim.dataset
+    from acousim.bundled import data_dir
+
+    seen = []
+
+    def fake_generate(spec, out, **kw):
+        seen.append(Path(spec))
+        s = {"samples_computed": 0, "samples_per_second": 0.0, "bytes_per_sample": 0.0}
+        return {"samples": 0, "shards": [], "summary": s}
+
+    monkeypatch.setattr(acousim.dataset, "generate", fake_generate)
+    assert main(["dataset", "corridor_small", "--out", str(tmp_path / "d")]) == 0
+    assert seen == [data_dir("datasets") / "corridor_small.toml"]
