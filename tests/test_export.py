@@ -210,3 +210,20 @@ def test_ctrl_c_during_image_stops_cleanly(recording_file, tmp_path, delay_s):
     assert proc.returncode in (0, 130, -signal.SIGINT), err.decode()[-2000:]
     if out.exists():
         assert not [p.name for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_images_open_as_netcdf_in_xarray(recording_file, tmp_path):
+    """xarray (through h5netcdf, not our code) sees each image with its axes as
+    coordinates; the strongest cell is the reflector worked out by hand."""
+    import xarray as xr  # with h5netcdf: the dev extra, installed by `make`
+
+    out = tmp_path / "img"
+    assert main(["image", str(recording_file), "--out", str(out), "--no-3d", *ARGS]) == 0
+    with xr.open_dataset(out / "images.h5", engine="h5netcdf", group="recording_000000") as ds:
+        das = ds["das"]
+        assert das.dims == ("range_m", "elevation_deg", "azimuth_deg")
+        top = das.where(das == das.max(), drop=True)
+        assert abs(float(top.range_m[0]) - RANGE) < 0.03
+        assert abs(float(top.azimuth_deg[0]) - AZ) <= 3.0
+        assert abs(float(top.elevation_deg[0]) - EL) <= 3.0
+        assert ds.attrs["index"] == 0
