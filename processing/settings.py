@@ -24,8 +24,8 @@ a bound is infinite), ``bool`` (only true/false), ``str`` (optionally one of
 numbers in range; any length when `length` is None, e.g. a reflection coefficient
 per frequency band: ``setting((0.9, 0.8), "", 0, 1, "per band", kind="vector")``),
 ``scalar_or_vector`` (a number, or a list of numbers, each in range: a material's
-reflection, constant or a table over frequency) and ``interval`` (a ``[low, high]`` pair of finite numbers inside
-the range, low <= high).
+reflection, constant or a table over frequency) and ``interval`` (a ``[low, high]``
+pair of finite numbers inside the range, low <= high).
 """
 
 from __future__ import annotations
@@ -53,9 +53,7 @@ __all__ = [
     "settings_of",
 ]
 
-Kind = Literal[
-    "float", "int", "bool", "str", "strings", "vector", "scalar_or_vector", "interval"
-]
+Kind = Literal["float", "int", "bool", "str", "strings", "vector", "scalar_or_vector", "interval"]
 _KINDS = get_args(Kind)
 
 
@@ -175,7 +173,9 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         return _scalar(decl, value, fail, rng)
     if decl.kind == "scalar_or_vector":
         if _is_number(value):
-            return _scalar(Setting("float", lo=decl.lo, hi=decl.hi, unit=decl.unit), value, fail, rng)
+            return _scalar(
+                Setting("float", lo=decl.lo, hi=decl.hi, unit=decl.unit), value, fail, rng
+            )
         try:
             return check(Setting("vector", lo=decl.lo, hi=decl.hi), value, key, file)
         except InputError:

@@ -85,7 +85,12 @@ class Material:
         0.95, "", 0, 1, "pressure reflection coefficient (or a table)", kind="scalar_or_vector"
     )
     diffuse: float | tuple[float, ...] = setting(
-        0.0, "", 0, 1, "fraction of energy scattered diffusely (or a table)", kind="scalar_or_vector"
+        0.0,
+        "",
+        0,
+        1,
+        "fraction of energy scattered diffusely (or a table)",
+        kind="scalar_or_vector",
     )
     lobe_deg: float = setting(5.0, "deg", 0.1, 90, "reflection lobe width (std)")
     frequencies_khz: tuple[float, ...] = setting(

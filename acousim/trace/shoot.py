@@ -151,7 +151,5 @@ def shoot(
         hits = Hits(*(np.concatenate(v) for v in zip(*records)))
     else:
         z3, z = np.zeros((0, 3)), np.zeros(0)
-        hits = Hits(
-            z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0]
-        )
+        hits = Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0])
     return Shot(hits, sorted(sequences), rays)
