@@ -219,6 +219,7 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
     if not parts:
         raise InputError("mesh has no faces", file=_name(path))
     mesh = trimesh.util.concatenate(parts)
+    mesh.merge_vertices()  # the groups of one file stay connected (face order kept)
     sizes = np.cumsum([0] + [len(p.faces) for p in parts])
     groups: dict[str, np.ndarray] = {}
     for i, answers in enumerate(names):
