@@ -350,3 +350,34 @@ def test_material_in_python_refuses_what_the_file_refuses():
     m = Material("m", frequencies_khz=(20, 40, 60), reflection=(1.0, 0.5, 0.5), diffuse=0.1)
     R, d = m.at([10e3, 30e3, 50e3, 90e3])
     assert np.allclose(R, [1.0, 0.75, 0.5, 0.5]) and np.allclose(d, 0.1)
+
+
+def test_a_sphere_glint_follows_its_table(tmp_path):
+    """A sphere of radius a at r from its surface: the glint is R(f) a / (2 r (r + a))
+    (geometric optics), its strength times its path response."""
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.2)
+    sphere.apply_translation([1.7, 0.0, 0.0])
+    table = [0.9, 0.7, 0.5, 0.3]
+    scene = _scene(
+        tmp_path,
+        [(sphere, {"material": "t"})],
+        [{"name": "t", "frequencies_khz": TABLE_KHZ, "reflection": table}],
+    )
+    sim = Simulator(scene)
+    paths = sim.paths(scene.sensor.poses[0])
+    centre = scene.sensor.array.positions_m.mean(axis=0)
+    glint = np.argmax(np.abs(paths.strength) / np.linalg.norm(paths.anchor_m - centre, axis=1))
+    f = CHECK_KHZ * 1e3
+    H = sim.response.matrix(f, np.ones(len(paths)), None, paths.interactions)[:, glint]
+    level = paths.strength[glint] * H / np.linalg.norm(paths.anchor_m[glint] - centre)
+    a, r = 0.2, 1.5
+    expected = np.interp(f, np.multiply(TABLE_KHZ, 1e3), table) * a / (2 * r * (r + a))
+    # the tessellated sphere against the smooth one: as test_scatter's 0.2 dB
+    assert np.abs(_db(level) - _db(expected)).max() < 0.2
+
+
+def test_scaling_a_table_scales_every_value():
+    m = Material("m", frequencies_khz=(20, 40), reflection=(0.8, 0.4), diffuse=(0.1, 0.2))
+    s = m.scaled(0.5)
+    assert s.reflection == (0.4, 0.2) and s.diffuse == m.diffuse
+    assert s.frequencies_khz == m.frequencies_khz

@@ -22,6 +22,7 @@ Building a scene in code (every argument has a default except what echoes)::
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -145,6 +146,12 @@ class Material:
         from acousim.synth.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
+
+    def scaled(self, factor: float) -> Material:
+        """The material with its reflection (every value of a table) times `factor`."""
+        r = self.reflection
+        r = tuple(v * factor for v in r) if isinstance(r, tuple) else r * factor
+        return dataclasses.replace(self, reflection=r)
 
     def at(self, frequency_hz) -> tuple[np.ndarray, np.ndarray]:
         """(reflection, diffuse) at `frequency_hz` (any shape)."""
