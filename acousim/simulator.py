@@ -81,6 +81,7 @@ class Simulator:
             humidity_percent=env.humidity_percent,
             pressure_kpa=env.pressure_kpa,
             emitter_radius_m=scene.sensor.emitter_radius_m,
+            materials=self.tracer.world.spectra if self.tracer.world is not None else None,
         )
 
     def paths(self, pose: Pose) -> TracedPaths:
@@ -160,6 +161,11 @@ class Simulator:
         kin = SensorKinematics(motion, pose, array, n / sensor.sample_rate_hz, TABLE_STEP_S)
         arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
+        if paths.interactions.shape[1]:  # material tables: the traced paths come first
+            extra = np.zeros((len(moving) - len(paths), paths.interactions.shape[1]), int)
+            echoes = dataclasses.replace(
+                echoes, interactions=np.concatenate([paths.interactions, extra])
+            )
         mics = pose.to_world(array.positions_m)
         if sensor.mic_radius_m > 0:
             echoes = self._mic_directivity(echoes, moving, mics, pose.rotation[:, 0])
@@ -247,6 +253,7 @@ class Simulator:
             echoes.path_length_m,
             echoes.order,
             echoes.emitter_angle_rad,
+            echoes.interactions,
         )
 
     def run(

@@ -17,6 +17,7 @@ from . import (
     diffraction,
     doa_speed,
     fractional_delay,
+    materials,
     motion,
     pdm_decode,
     pictures,
@@ -34,6 +35,7 @@ SECTIONS = {
     "recording_file": recording_file,
     "motion": motion,
     "diffraction": diffraction,
+    "materials": materials,
 }
 
 

@@ -22,9 +22,10 @@ Kinds: ``float`` and ``int`` (ranges inclusive; NaN always refused, infinity onl
 a bound is infinite), ``bool`` (only true/false), ``str`` (optionally one of
 `choices`), ``strings`` (a list of such strings), ``vector`` (`length` finite
 numbers in range; any length when `length` is None, e.g. a reflection coefficient
-per frequency band: ``setting((0.9, 0.8), "", 0, 1, "per band", kind="vector")``)
-and ``interval`` (a ``[low, high]`` pair of finite numbers inside
-the range, low <= high).
+per frequency band: ``setting((0.9, 0.8), "", 0, 1, "per band", kind="vector")``),
+``scalar_or_vector`` (a number, or a list of numbers, each in range: a material's
+reflection, constant or a table over frequency) and ``interval`` (a ``[low, high]``
+pair of finite numbers inside the range, low <= high).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ __all__ = [
     "settings_of",
 ]
 
-Kind = Literal["float", "int", "bool", "str", "strings", "vector", "interval"]
+Kind = Literal["float", "int", "bool", "str", "strings", "vector", "scalar_or_vector", "interval"]
 _KINDS = get_args(Kind)
 
 
@@ -87,7 +88,7 @@ class Setting:
             parts.append(self.unit)
         if self.choices:
             parts.append("one of " + ", ".join(self.choices))
-        elif self.kind in ("float", "int", "vector", "interval"):
+        elif self.kind in ("float", "int", "vector", "scalar_or_vector", "interval"):
             parts.append(f"[{_fmt(self.lo)}, {_fmt(self.hi)}]")
         if self.default not in (None, dataclasses.MISSING):
             parts.append(f"default {self.default!r}")
@@ -170,6 +171,15 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         return value
     if decl.kind in ("float", "int"):
         return _scalar(decl, value, fail, rng)
+    if decl.kind == "scalar_or_vector":
+        if _is_number(value):
+            return _scalar(
+                Setting("float", lo=decl.lo, hi=decl.hi, unit=decl.unit), value, fail, rng
+            )
+        try:
+            return check(Setting("vector", lo=decl.lo, hi=decl.hi), value, key, file)
+        except InputError:
+            raise fail(f"must be a number or a list of numbers in {rng}") from None
     if decl.kind == "strings":
         if isinstance(value, str) or not isinstance(value, Iterable):
             raise fail("must be a list of strings")

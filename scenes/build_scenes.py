@@ -75,6 +75,28 @@ def drive(rate_hz: float = 10.0, duration_s: float = 6.0) -> np.ndarray:
     return np.column_stack([x, y, np.full_like(x, 0.45), yaw])
 
 
+def panel_wall() -> str:
+    """An OBJ of a wall (plane x = 2, facing -x, y and z within +-2 m) with a 1 m
+    square panel in its middle, as two groups, ``wall`` and ``panel`` (the wall's
+    faces leave the panel's square free)."""
+    ys, zs = [-2.0, -0.5, 0.5, 2.0], [-1.5, -0.5, 0.5, 1.5]
+    verts, groups = [], {"wall": [], "panel": []}
+    for i in range(3):
+        for j in range(3):
+            y0, y1, z0, z1 = ys[i], ys[i + 1], zs[j], zs[j + 1]
+            k = len(verts) + 1
+            # counter-clockwise seen from -x: the normal points to -x
+            verts += [(2.0, y0, z0), (2.0, y0, z1), (2.0, y1, z1), (2.0, y1, z0)]
+            group = "panel" if (i, j) == (1, 1) else "wall"
+            groups[group] += [(k, k + 1, k + 2), (k, k + 2, k + 3)]
+    lines = ["# a wall with a panel in its middle: groups 'wall' and 'panel'", "o panel_wall"]
+    lines += [f"v {x:g} {y:g} {z:g}" for x, y, z in verts]
+    for name, faces in groups.items():
+        lines.append(f"g {name}")
+        lines += [f"f {a} {b} {c}" for a, b, c in faces]
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
     MESHES.mkdir(exist_ok=True)
     corridor().export(MESHES / "corridor.stl")
@@ -93,6 +115,7 @@ def main() -> None:
     sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.2)
     sphere.apply_translation([1.5, 0.0, 0.0])
     sphere.export(MESHES / "sphere.stl")
+    (MESHES / "panel_wall.obj").write_text(panel_wall())
     print(f"wrote meshes to {MESHES}")
 
 

@@ -87,6 +87,8 @@ SCENE_ORACLE = {
     ("materials", "reflection"): (real(0, 1), (0, 1)),
     ("materials", "diffuse"): (real(0, 1), (0, 1)),
     ("materials", "lobe_deg"): (real(0.1, 90), (0.1, 90)),
+    # a table needs reflection or diffuse as a list of as many values: alone, only empty
+    ("materials", "frequencies_khz"): (lambda v: v == [], None),
     ("points", "strength"): (real(0, 1e6), (0, 1e6)),
     ("points", "position_m"): (vector3, None),
     ("points", "velocity_m_s"): (vector3_in(-100, 100), None),

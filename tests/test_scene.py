@@ -13,7 +13,7 @@ from processing.errors import InputError
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
-@pytest.mark.parametrize("name", ["corridor", "shoebox", "wall", "sphere", "points"])
+@pytest.mark.parametrize("name", ["corridor", "shoebox", "wall", "sphere", "points", "panel_wall"])
 def test_bundled_scenes_load(name):
     sc = load_scene(SCENES / f"{name}.toml")
     assert sc.name == name and sc.description and sc.file_sha256

@@ -192,11 +192,17 @@ def _varied_scene(params: dict, spec: DatasetSpec):
     if "reflection_scale" in c:
         s = min(
             max(c["reflection_scale"], 0.0),
-            1.0 / max([m.material.reflection for m in meshes] or [1.0]),
+            1.0
+            / max(
+                [x.reference[0] for m in meshes for x in (m.material, *m.materials.values())]
+                or [1.0]
+            ),
         )
         meshes = tuple(
             dataclasses.replace(
-                m, material=dataclasses.replace(m.material, reflection=m.material.reflection * s)
+                m,
+                material=m.material.scaled(s),
+                materials={g: x.scaled(s) for g, x in m.materials.items()},
             )
             for m in meshes
         )

@@ -51,7 +51,7 @@ EXTRA_KEYS: dict[str, set[str]] = {
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
     "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg", *RATES},
     "sensor.trajectory": {"poses", "file", "rate_hz", "continuous"},
-    "meshes": {"file", "material", "units", "position_m", "rotation_deg", "scale"},
+    "meshes": {"file", "material", "materials", "units", "position_m", "rotation_deg", "scale"},
     "points": {"track"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
@@ -162,7 +162,11 @@ def parse_scene(
     for where, m in r.table_list(data, "materials"):
         if "name" not in m:
             raise r.fail(f"{where}.name", "missing")
-        mat = Material(**r.settings(Material, m, where))
+        try:
+            mat = Material(**r.settings(Material, m, where))
+        except InputError as exc:  # a table's consistency, checked by the model
+            key = f"{where}.{exc.key.split('.')[-1]}" if exc.key else where
+            raise r.fail(key, exc.reason, exc.value) from None
         materials[mat.name] = mat
     meshes = []
     for where, m in r.table_list(data, "meshes"):
@@ -177,7 +181,12 @@ def parse_scene(
         T = np.eye(4)
         T[:3, :3] = rotation(rot[2], rot[1], rot[0]) * scale  # (roll, pitch, yaw) given x,y,z
         T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
-        meshes.append(MeshItem(file, materials[mat], T))
+        groups = r.table(m, "materials", where)
+        by_group = {
+            str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
+            for g in groups
+        }
+        meshes.append(MeshItem(file, materials[mat], T, materials=by_group))
     points = []
     for where, p in r.table_list(data, "points"):
         if "position_m" not in p and "track" not in p:

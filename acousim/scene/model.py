@@ -22,6 +22,7 @@ Building a scene in code (every argument has a default except what echoes)::
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -74,15 +75,96 @@ class Material:
         first-order echo of a curved surface is exact geometric optics, see
         ``acousim.trace.glints``); a sampling kernel: a wider lobe converges with
         fewer rays but spreads a glint's energy in delay.
+    frequencies_khz : table frequencies (kHz, increasing); when given, `reflection`
+        and/or `diffuse` may be lists of the same length: their values there,
+        interpolated linearly in frequency and held at the end values outside the
+        table (:mod:`acousim.synth.materials`).  Empty: single numbers.
     """
 
     name: str = setting("default", doc="name the meshes refer to")
-    reflection: float = setting(0.95, "", 0, 1, "pressure reflection coefficient")
-    diffuse: float = setting(0.0, "", 0, 1, "fraction of energy scattered diffusely")
+    reflection: float | tuple[float, ...] = setting(
+        0.95, "", 0, 1, "pressure reflection coefficient (or a table)", kind="scalar_or_vector"
+    )
+    diffuse: float | tuple[float, ...] = setting(
+        0.0,
+        "",
+        0,
+        1,
+        "fraction of energy scattered diffusely (or a table)",
+        kind="scalar_or_vector",
+    )
     lobe_deg: float = setting(5.0, "deg", 0.1, 90, "reflection lobe width (std)")
+    frequencies_khz: tuple[float, ...] = setting(
+        (), "kHz", 0, 1e4, "table frequencies, increasing", kind="vector"
+    )
 
     def __post_init__(self) -> None:
         validate(self)
+        f = self.frequencies_khz
+        tables = {k: getattr(self, k) for k in ("reflection", "diffuse")}
+        lists = {k: v for k, v in tables.items() if isinstance(v, tuple)}
+        if not f:
+            if lists:
+                k, v = next(iter(lists.items()))
+                raise InputError(
+                    "a table needs frequencies_khz (of the same length)",
+                    key=f"Material.{k}",
+                    value=list(v),
+                )
+            return
+        if not lists:
+            raise InputError(
+                "given, but reflection and diffuse are single numbers: give one of them "
+                "as a list of values at these frequencies, or leave frequencies_khz out",
+                key="Material.frequencies_khz",
+                value=list(f),
+            )
+        if any(b <= a for a, b in zip(f, f[1:])):
+            raise InputError(
+                "must increase strictly", key="Material.frequencies_khz", value=list(f)
+            )
+        for k, v in lists.items():
+            if len(v) != len(f):
+                raise InputError(
+                    f"has {len(v)} values but frequencies_khz has {len(f)}",
+                    key=f"Material.{k}",
+                    value=list(v),
+                )
+
+    @property
+    def frequency_dependent(self) -> bool:
+        """Whether reflection or diffuse is a table over frequency."""
+        return bool(self.frequencies_khz)
+
+    @property
+    def reference(self) -> tuple[float, float]:
+        """(reflection, diffuse): the single numbers the tracer uses; a table's
+        largest reflection and mean diffuse fraction
+        (:func:`acousim.synth.materials.reference`), the numbers themselves otherwise."""
+        if not self.frequency_dependent:
+            return self.reflection, self.diffuse
+        from acousim.synth.materials import reference
+
+        return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
+
+    def scaled(self, factor: float) -> Material:
+        """The material with its reflection (every value of a table) times `factor`."""
+        r = self.reflection
+        r = tuple(v * factor for v in r) if isinstance(r, tuple) else r * factor
+        return dataclasses.replace(self, reflection=r)
+
+    def at(self, frequency_hz) -> tuple[np.ndarray, np.ndarray]:
+        """(reflection, diffuse) at `frequency_hz` (any shape)."""
+        f = np.asarray(frequency_hz, float)
+        if not self.frequency_dependent:
+            return np.full(f.shape, self.reflection), np.full(f.shape, self.diffuse)
+        from acousim.synth.materials import interpolate
+
+        table = np.multiply(self.frequencies_khz, 1e3)
+        return tuple(
+            interpolate(f, table, np.broadcast_to(getattr(self, k), table.shape))
+            for k in ("reflection", "diffuse")
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,12 +175,17 @@ class MeshItem:
         (copied when the world is built: the caller's mesh is never changed).
     transform : (4, 4) maps the mesh's units to metres in the world; ``position_m``
         (3,), when given, is added to its translation (a convenience for code).
+    materials : {group name: Material} for the face groups of a mesh file (OBJ
+        groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names; see
+        ``acousim.trace.geometry.face_groups``); faces of other groups take
+        `material`.  Empty: the whole mesh is `material`.
     """
 
     mesh: Any
     material: Material = field(default_factory=Material)
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     position_m: tuple[float, float, float] | None = None
+    materials: dict[str, Material] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         mesh = self.mesh
@@ -112,6 +199,15 @@ class MeshItem:
             )
         if not isinstance(self.material, Material):
             raise InputError("must be a Material", key="MeshItem.material", value=self.material)
+        groups = dict(self.materials)
+        for group, mat in groups.items():
+            if not isinstance(group, str) or not isinstance(mat, Material):
+                raise InputError(
+                    "must map group names (str) to Materials",
+                    key=f"MeshItem.materials[{group!r}]",
+                    value=mat,
+                )
+        object.__setattr__(self, "materials", groups)
         T = np.array(self.transform, dtype=float)
         if T.shape != (4, 4) or not np.all(np.isfinite(T)):
             raise InputError(
@@ -398,7 +494,8 @@ class Scene:
                 raise InputError(f"must be a {kind.__name__}", key=key, value=value)
         materials = {"default": Material("default"), **dict(self.materials)}
         for m in meshes:
-            materials.setdefault(m.material.name, m.material)
+            for mat in (m.material, *m.materials.values()):
+                materials.setdefault(mat.name, mat)
         object.__setattr__(self, "meshes", meshes)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "materials", materials)

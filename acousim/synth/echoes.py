@@ -40,6 +40,9 @@ class Echoes:
     emitter_angle_rad : ndarray, shape (N,), optional
         Angle between the emitter's axis and the direction the path leaves in (for
         emitter directivity); None when unknown (treated as on axis).
+    interactions : ndarray of int, shape (N, K), optional
+        Frequency-dependent material interactions of each path
+        (:mod:`acousim.synth.materials`); None: none.
     """
 
     delay_s: np.ndarray
@@ -47,6 +50,7 @@ class Echoes:
     path_length_m: np.ndarray
     order: np.ndarray
     emitter_angle_rad: np.ndarray | None = None
+    interactions: np.ndarray | None = None
 
     @property
     def n_paths(self) -> int:
@@ -66,6 +70,7 @@ class Echoes:
             self.path_length_m[:, keep],
             self.order[keep],
             self.angles()[keep],
+            None if self.interactions is None else self.interactions[keep],
         )
 
     @staticmethod
@@ -87,7 +92,23 @@ class Echoes:
             ),
             np.concatenate([p.order for p in parts]),
             np.concatenate([p.angles() for p in parts]),
+            _counts(parts),
         )
+
+
+def _counts(parts: list[Echoes]) -> np.ndarray | None:
+    """The interaction counts of several Echoes side by side (zeros where absent)."""
+    if all(p.interactions is None for p in parts):
+        return None
+    k = max(p.interactions.shape[1] for p in parts if p.interactions is not None)
+    return np.concatenate(
+        [
+            np.zeros((p.n_paths, k), int)
+            if p.interactions is None
+            else np.pad(p.interactions, ((0, 0), (0, k - p.interactions.shape[1])))
+            for p in parts
+        ]
+    )
 
 
 @dataclass(frozen=True, eq=False)

@@ -133,8 +133,9 @@ def _echo_noise_sigma(
     power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
     if response is not None and response.active:
         f_c = float(np.mean(waveform.band_hz))
+        counts = None if echoes.interactions is None else echoes.interactions[echo]
         h = response.matrix(
-            np.array([f_c]), echoes.path_length_m.mean(axis=0)[echo], echoes.angles()[echo]
+            np.array([f_c]), echoes.path_length_m.mean(axis=0)[echo], echoes.angles()[echo], counts
         )[0]
         power = power * h**2
     p_s = float(np.sum(power) * np.sum(call**2) / call.size)

@@ -200,7 +200,7 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
     alpha = response.alpha_db_per_m(f_c)
     g = g * 10 ** (-alpha * (echoes.path_length_m - length[None, :]) / 20)
-    H = response.matrix(coarse, length, echoes.angles())  # (F', N)
+    H = response.matrix(coarse, length, echoes.angles(), echoes.interactions)  # (F', N)
     # factor H on a coarse grid over the band (H is smooth in f), interpolate U; each
     # path weighted by its gain, so the rank is set by the error of the rendered
     # signal and thousands of weak scatterers do not inflate it

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.special import j1
 
 from .air import absorption_db_per_m
+from .materials import MaterialSpectra
 
 __all__ = ["PathResponse", "piston_directivity", "factorise"]
 
@@ -52,6 +53,9 @@ class PathResponse:
         ISO 9613-1 air absorption at the given atmosphere.
     emitter_radius_m : float
         Baffled-piston radius of the emitter; 0 is omnidirectional.
+    materials : MaterialSpectra, optional
+        Frequency-dependent materials: each path's response is multiplied by its
+        interactions' gains over their references (:mod:`acousim.synth.materials`).
     """
 
     speed_of_sound_m_s: float = 343.0
@@ -60,15 +64,21 @@ class PathResponse:
     humidity_percent: float = 50.0
     pressure_kpa: float = 101.325
     emitter_radius_m: float = 0.0
+    materials: MaterialSpectra | None = None
 
     @property
     def active(self) -> bool:
-        return self.absorption or self.emitter_radius_m > 0
+        return self.absorption or self.emitter_radius_m > 0 or self.materials is not None
 
     def matrix(
-        self, freqs: np.ndarray, length_m: np.ndarray, theta_rad: np.ndarray | None
+        self,
+        freqs: np.ndarray,
+        length_m: np.ndarray,
+        theta_rad: np.ndarray | None,
+        interactions: np.ndarray | None = None,
     ) -> np.ndarray:
-        """H(f, n): shape (F, N)."""
+        """H(f, n): shape (F, N); `interactions` (N, K): the paths' material
+        interaction counts (None: none)."""
         H = np.ones((freqs.size, length_m.size))
         if self.absorption:
             alpha = absorption_db_per_m(
@@ -79,6 +89,8 @@ class PathResponse:
             H *= piston_directivity(
                 freqs[:, None], theta_rad[None, :], self.emitter_radius_m, self.speed_of_sound_m_s
             )
+        if self.materials is not None and interactions is not None and interactions.size:
+            H *= self.materials.factor(freqs, interactions)
         return H
 
     def alpha_db_per_m(self, f: float) -> float:

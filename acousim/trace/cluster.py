@@ -10,7 +10,8 @@ apart, and keeps their delay and direction:
    cell (seen from the receiver) of about ``DIFFUSE_CELL_DEG`` times the order,
    whatever the surface: a ring of equal delay is many directions, and it must not
    collapse onto its axis, while two surfaces in one direction at one delay are one
-   echo to the sonar.
+   echo to the sonar.  With frequency-dependent materials, contributions with
+   different material interactions are in different groups (their spectra differ).
 2. Bin each group by path length, anchored at the group's nearest contribution:
    glints in bins one range resolution wide (the call's ``c / bandwidth`` of path),
    so that a compact glint is never split in two (two paths at one delay add
@@ -62,6 +63,10 @@ def members(
     # 1. groups: surface and order, and a direction cell for the Lambert tail
     surface = np.where(c.lambert, -1, c.surface.astype(np.int64))  # a tail: any surface
     group, n_group = _dense((surface + 1) * 64 + c.order)
+    if c.interactions is not None and c.interactions.shape[1]:
+        _, signature = np.unique(c.interactions, axis=0, return_inverse=True)
+        signature = signature.ravel().astype(np.int64)
+        group, n_group = _dense(group.astype(np.int64) * (signature.max() + 1) + signature)
     if c.lambert.any():
         q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
         span = int(np.abs(q).max()) * 2 + 1
@@ -107,6 +112,17 @@ def cluster(
     dep = mean(c.departure)
     dep /= np.linalg.norm(dep, axis=1, keepdims=True)
     order = np.rint(mean(c.order.astype(float))).astype(int)
+    counts = None
+    if c.interactions is not None and c.interactions.shape[1]:
+        counts = np.zeros((n, c.interactions.shape[1]), int)
+        counts[inv] = c.interactions  # one signature per cluster (step 1)
     return TracedPaths(
-        anchor, length - last, np.sqrt(w) * last, anchor, order, np.full(n, KIND["scatter"]), dep
+        anchor,
+        length - last,
+        np.sqrt(w) * last,
+        anchor,
+        order,
+        np.full(n, KIND["scatter"]),
+        dep,
+        counts,
     )

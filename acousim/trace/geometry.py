@@ -1,5 +1,10 @@
 """The world: every mesh of a scene merged into one triangle set with, per face, its
-material, its plane and whether it belongs to a curved surface."""
+material, its plane and whether it belongs to a curved surface.
+
+A mesh item with a ``materials`` map ({group: Material}) is read group by group
+(:func:`face_groups`), each group's faces taking its material; coplanar faces of
+different materials are different planes (a felt panel on a wall is its own
+reflector)."""
 
 from __future__ import annotations
 
@@ -8,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from acousim.scene.model import Material, Scene
+from acousim.scene.model import Material, MeshItem, Scene
+from acousim.synth.materials import MaterialSpectra
 from processing.errors import InputError
 
-__all__ = ["World", "build_world", "CURVED_MAX_ANGLE_DEG"]
+__all__ = ["World", "build_world", "face_groups", "CURVED_MAX_ANGLE_DEG"]
 
 #: adjacent faces meeting at a dihedral angle between 0.05 and this many degrees are a
 #: tessellated curved surface (sphere, pipe); sharper edges are corners of planar walls
@@ -27,6 +33,10 @@ class World:
     on the face's plane; plane : (F,) plane id shared by coplanar faces; curved : (F,)
     bool; vertex_normals : (F, 3, 3) smooth normals at the corners (for curved faces);
     material : (F,) index into `materials`; component : (F,) connected surface id.
+    The tracer sees each material's reference numbers (:attr:`Material.reference`);
+    `spectra` describes the frequency-dependent ones (None: none) and `interaction`
+    (len(materials), 2) the columns of their specular and diffuse interactions in
+    the paths' ``interactions`` counts (-1: a material of single numbers).
     """
 
     triangles: np.ndarray
@@ -39,13 +49,35 @@ class World:
     materials: tuple[Material, ...]
     area: np.ndarray
     component: np.ndarray
+    spectra: MaterialSpectra | None = None
+    interaction: np.ndarray | None = None
 
     @property
     def n_faces(self) -> int:
         return self.triangles.shape[0]
 
+    @property
+    def n_interactions(self) -> int:
+        """K: columns of the paths' interaction counts (0 without tables)."""
+        return 0 if self.spectra is None else self.spectra.n_columns
+
     def face_values(self, attr: str) -> np.ndarray:
-        return np.array([getattr(m, attr) for m in self.materials])[self.material]
+        """(F,) a material attribute per face; reflection and diffuse are the
+        tracer's reference numbers (:attr:`Material.reference`)."""
+        ref = {"reflection": 0, "diffuse": 1}
+        if attr in ref:
+            values = [m.reference[ref[attr]] for m in self.materials]
+        else:
+            values = [getattr(m, attr) for m in self.materials]
+        return np.array(values)[self.material]
+
+    def face_interactions(self, mode: int) -> np.ndarray:
+        """(F,) the interaction column of each face's material for `mode` (0:
+        specular, 1: diffuse), -1 for materials of single numbers; None without
+        tables."""
+        if self.spectra is None:
+            return None
+        return self.interaction[self.material, mode]
 
     @property
     def n_planes(self) -> int:
@@ -150,17 +182,87 @@ def smooth_corner_normals(
     return out.reshape(n_faces, 3, 3)
 
 
+def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
+    """A mesh file read group by group: the merged mesh (as :func:`_load` gives it)
+    and, for every name a group answers to, its faces (bool (F,)).
+
+    A file that trimesh reads as a scene has one geometry per group: OBJ groups
+    (``g``) and objects (``o``), or ``usemtl`` materials when the .mtl file is
+    present; GLB/GLTF meshes placed by nodes.  A group answers to its node name,
+    its geometry name and its visual material's name.  A mesh in memory
+    (``trimesh.Trimesh``) or a file of one group has the single group ``""``.
+    """
+    import trimesh
+
+    if isinstance(path, trimesh.Trimesh):
+        mesh = _load(path, transform)
+        return mesh, {"": np.ones(len(mesh.faces), bool)}
+    try:
+        loaded = trimesh.load(path, process=False, split_groups=True)
+    except TypeError:  # a loader without OBJ's split_groups
+        loaded = trimesh.load(path, process=False)
+    except Exception as exc:  # trimesh raises many kinds
+        raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
+    if not isinstance(loaded, trimesh.Scene):
+        mesh = _load(loaded, transform)
+        return mesh, {"": np.ones(len(mesh.faces), bool)}
+    parts, names = [], []
+    for node in loaded.graph.nodes_geometry:
+        T, geom_name = loaded.graph[node]
+        geom = loaded.geometry[geom_name]
+        if not hasattr(geom, "faces") or len(geom.faces) == 0:
+            continue
+        part = _load(geom, np.asarray(transform) @ T)
+        material = getattr(getattr(geom.visual, "material", None), "name", None)
+        parts.append(part)
+        names.append({str(n) for n in (node, geom_name, material) if n})
+    if not parts:
+        raise InputError("mesh has no faces", file=_name(path))
+    mesh = trimesh.util.concatenate(parts)
+    mesh.merge_vertices()  # the groups of one file stay connected (face order kept)
+    sizes = np.cumsum([0] + [len(p.faces) for p in parts])
+    groups: dict[str, np.ndarray] = {}
+    for i, answers in enumerate(names):
+        for n in answers:
+            groups.setdefault(n, np.zeros(len(mesh.faces), bool))[sizes[i] : sizes[i + 1]] = True
+    return mesh, groups
+
+
+def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str]):
+    """The mesh of `item` and its faces' material indices into `names`."""
+    if not item.materials:
+        mesh = _load(item.mesh, item.transform)
+        return mesh, np.full(len(mesh.faces), names.index(item.material.name))
+    mesh, groups = face_groups(item.mesh, item.transform)
+    mat = np.full(len(mesh.faces), names.index(item.material.name))
+    for group, material in item.materials.items():
+        if group not in groups:
+            raise InputError(
+                f"mesh {_name(item.mesh)} has no group {group!r} (its groups: "
+                f"{', '.join(sorted(g for g in groups if g)) or 'none'})",
+                file=scene.source,
+                key=f"meshes[{index}].materials",
+                value=group,
+            )
+        mat[groups[group]] = names.index(material.name)
+    return mesh, mat
+
+
 def build_world(scene: Scene) -> World:
     """Load, transform, clean and merge the meshes of a scene."""
     import trimesh
 
     meshes, mat_index = [], []
-    materials = list({m.material.name: m.material for m in scene.meshes}.values())
+    materials = list(
+        {
+            m.name: m for item in scene.meshes for m in (item.material, *item.materials.values())
+        }.values()
+    )
     names = [m.name for m in materials]
-    for item in scene.meshes:
-        mesh = _load(item.mesh, item.transform)
+    for i, item in enumerate(scene.meshes):
+        mesh, mat = _material_of_faces(item, i, scene, names)
         meshes.append(mesh)
-        mat_index.append(np.full(len(mesh.faces), names.index(item.material.name)))
+        mat_index.append(mat)
     merged = trimesh.util.concatenate(meshes)
     tri = np.asarray(merged.triangles, float)
     normals = np.asarray(merged.face_normals, float)
@@ -171,8 +273,12 @@ def build_world(scene: Scene) -> World:
     ang = merged.face_adjacency_angles
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
-    # coplanar faces share a plane id: normals rounded to 1e-6, offsets to 10 µm
+    material = np.concatenate(mat_index)
+    # coplanar faces share a plane id: normals rounded to 1e-6, offsets to 10 µm;
+    # faces of another material are another plane
     key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
+    if len(materials) > 1:
+        key = np.column_stack([key, material])
     _, plane = np.unique(key, axis=0, return_inverse=True)
     vn = smooth_corner_normals(
         tri, np.asarray(merged.faces), normals, adj, ang, merged.face_adjacency_edges
@@ -186,8 +292,32 @@ def build_world(scene: Scene) -> World:
         plane.ravel(),
         curved,
         vn,
-        np.concatenate(mat_index),
+        material,
         tuple(materials),
         np.asarray(merged.area_faces),
         np.asarray(component),
+        *_spectra(materials),
     )
+
+
+def _spectra(materials: list[Material]) -> tuple[MaterialSpectra | None, np.ndarray | None]:
+    """The frequency-dependent materials' spectra and the interaction columns of
+    every material (see :class:`World`)."""
+    tables = [m for m in materials if m.frequency_dependent]
+    if not tables:
+        return None, None
+    column = np.full((len(materials), 2), -1)
+    for j, m in enumerate(tables):
+        column[materials.index(m)] = (2 * j, 2 * j + 1)
+
+    def arr(m, attr):
+        return np.broadcast_to(np.asarray(getattr(m, attr), float), (len(m.frequencies_khz),))
+
+    spectra = MaterialSpectra(
+        tuple(m.name for m in tables),
+        tuple(np.multiply(m.frequencies_khz, 1e3) for m in tables),
+        tuple(arr(m, "reflection") for m in tables),
+        tuple(arr(m, "diffuse") for m in tables),
+        np.array([m.reference for m in tables], float),
+    )
+    return spectra, column

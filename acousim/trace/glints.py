@@ -195,4 +195,11 @@ def glints(
     R = world.face_values("reflection")[f] * np.sqrt(1 - world.face_values("diffuse")[f])
     amp = R / r1 * factor.prod(axis=1)
     n_g = f.size
-    return TracedPaths(x, r1, amp * r2, x, np.ones(n_g, int), np.full(n_g, KIND["scatter"]), dep)
+    counts = None
+    if world.spectra is not None:  # the specular interaction of the face's material
+        column = world.face_interactions(0)[f]
+        counts = np.zeros((n_g, world.n_interactions), int)
+        counts[np.flatnonzero(column >= 0), column[column >= 0]] = 1
+    return TracedPaths(
+        x, r1, amp * r2, x, np.ones(n_g, int), np.full(n_g, KIND["scatter"]), dep, counts
+    )

@@ -30,6 +30,10 @@ class TracedPaths:
     position, point reflector, the emitter for the direct path).
     order (N,): reflections; kind (N,): :data:`KIND` codes; departure (N, 3): unit
     direction leaving the emitter.
+    interactions (N, K) int: how often the path met each frequency-dependent
+    material interaction (:class:`acousim.synth.materials.MaterialSpectra` columns;
+    K = 0, the default, in a scene without material tables); its strength holds the
+    reference gains, the renderer applies the rest.
     """
 
     anchor_m: np.ndarray
@@ -39,6 +43,11 @@ class TracedPaths:
     order: np.ndarray
     kind: np.ndarray
     departure: np.ndarray
+    interactions: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.interactions is None:
+            object.__setattr__(self, "interactions", np.zeros((self.strength.size, 0), int))
 
     def __len__(self) -> int:
         return self.strength.size
@@ -52,7 +61,10 @@ class TracedPaths:
         length = self.first_leg_m[None, :] + last
         gain = self.strength[None, :] / last
         cos = np.clip(self.departure @ emitter_axis, -1, 1)
-        return Echoes(length / speed_of_sound_m_s, gain, length, self.order.copy(), np.arccos(cos))
+        counts = self.interactions if self.interactions.shape[1] else None
+        return Echoes(
+            length / speed_of_sound_m_s, gain, length, self.order.copy(), np.arccos(cos), counts
+        )
 
     def level_at(self, point: np.ndarray) -> np.ndarray:
         """Magnitude of the pressure gain (N,) of every path at one point (the array
@@ -68,8 +80,13 @@ class TracedPaths:
     def concatenate(parts: list[TracedPaths]) -> TracedPaths:
         if not parts:
             return TracedPaths.empty()
-        names = [f.name for f in fields(TracedPaths)]
-        return TracedPaths(*(np.concatenate([getattr(p, f) for p in parts]) for f in names))
+        names = [f.name for f in fields(TracedPaths) if f.name != "interactions"]
+        k = max(p.interactions.shape[1] for p in parts)
+        counts = [np.pad(p.interactions, ((0, 0), (0, k - p.interactions.shape[1]))) for p in parts]
+        return TracedPaths(
+            *(np.concatenate([getattr(p, f) for p in parts]) for f in names),
+            np.concatenate(counts),
+        )
 
     @staticmethod
     def empty() -> TracedPaths:

@@ -15,11 +15,15 @@ the ray's power towards the receiver (the array centre):
    rays are added, the energy of a glint converges to geometric optics whatever its
    width, but the lobe spreads that energy over nearby points, so its delay spread
    grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
+5. With frequency-dependent materials, the lobe part and the Lambert part of a hit
+   on such a material are separate contributions (a specular and a diffuse
+   interaction: :mod:`acousim.synth.materials`), each carrying the ray's earlier
+   interactions plus its own.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -38,7 +42,8 @@ class Contributions:
     unit-power emitter); first_leg_m (K,) path length emitter -> point; last_leg_m
     (K,) point -> receiver; departure (K, 3); surface (K,) :attr:`World.surface` id;
     order (K,); lambert (K,) bool, a Lambert part only (a planar face, or a curved
-    face at the first reflection, whose glint is :mod:`.glints`'s).
+    face at the first reflection, whose glint is :mod:`.glints`'s); interactions
+    (K, C) frequency-dependent material interactions (C = ``World.n_interactions``).
     """
 
     point_m: np.ndarray
@@ -49,6 +54,7 @@ class Contributions:
     surface: np.ndarray
     order: np.ndarray
     lambert: np.ndarray
+    interactions: np.ndarray | None = None
 
     def __len__(self) -> int:
         return self.intensity.size
@@ -82,17 +88,41 @@ def scatter(
     R2 = refl[f] ** 2
     order = hits.order[sc]
     spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
-    pattern = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
-    pattern += diffuse[f] * R2 * cos_s / np.pi
-    intensity = np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
-    keep = intensity > 0
+    lobe_part = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
+    lambert_part = diffuse[f] * R2 * cos_s / np.pi
+    lambert = ~world.curved[f] | (order == 1)
+    history = hits.interactions[sc]
+
+    def at_receiver(pattern):
+        return np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
+
+    if world.spectra is None:
+        parts = [(at_receiver(lobe_part + lambert_part), history)]
+    else:  # 5. the two interactions apart, each with its own count
+        parts = []
+        for mode, part in enumerate((lobe_part, lambert_part)):
+            counts = history.copy()
+            c = world.face_interactions(mode)[f]
+            counts[np.flatnonzero(c >= 0), c[c >= 0]] += 1
+            parts.append((at_receiver(part), counts))
+    out = []
+    for intensity, counts in parts:
+        keep = intensity > 0
+        out.append(
+            Contributions(
+                x[keep],
+                intensity[keep],
+                length[keep],
+                r2[keep],
+                hits.departure[sc][keep],
+                world.surface[f[keep]],
+                order[keep],
+                lambert[keep],
+                counts[keep],
+            )
+        )
+    if len(out) == 1:
+        return out[0]
     return Contributions(
-        x[keep],
-        intensity[keep],
-        length[keep],
-        r2[keep],
-        hits.departure[sc][keep],
-        world.surface[f[keep]],
-        order[keep],
-        (~world.curved[f] | (order == 1))[keep],
+        *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
     )

@@ -34,7 +34,8 @@ class Hits:
     mirror (K, 3) unit specular direction; power (K,) the ray's solid angle (sr) times
     the reflection factors before this hit; length_m (K,) path length from the
     emitter; departure (K, 3) unit direction leaving the emitter; face (K,); order (K,)
-    reflections including this one.
+    reflections including this one; interactions (K, C) the frequency-dependent
+    material interactions before this hit (C = ``World.n_interactions``, often 0).
     """
 
     point_m: np.ndarray
@@ -45,6 +46,7 @@ class Hits:
     departure: np.ndarray
     face: np.ndarray
     order: np.ndarray
+    interactions: np.ndarray | None = None
 
     def __len__(self) -> int:
         return self.power.size
@@ -97,6 +99,8 @@ def shoot(
     alive = np.arange(rays)
     refl = world.face_values("reflection")
     diffuse = world.face_values("diffuse")
+    column = world.face_interactions(0)  # specular interactions (None: no tables)
+    history = np.zeros((rays, world.n_interactions), int)
     n_planes = world.n_planes
     records = []
     sequences: set[tuple[int, ...]] = set()
@@ -132,10 +136,14 @@ def shoot(
                 departure[alive],
                 f,
                 np.full(f.size, b + 1),
+                history[alive],
             )
         )
         # 4. continue specularly
         power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        if column is not None:
+            c = column[f]
+            history[alive[c >= 0], c[c >= 0]] += 1
         origin[alive] = x + caster.offset_m * normal
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
@@ -143,5 +151,5 @@ def shoot(
         hits = Hits(*(np.concatenate(v) for v in zip(*records)))
     else:
         z3, z = np.zeros((0, 3)), np.zeros(0)
-        hits = Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int))
+        hits = Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0])
     return Shot(hits, sorted(sequences), rays)

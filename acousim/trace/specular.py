@@ -30,6 +30,7 @@ class SpecularPath:
     points_m: np.ndarray  # (k, 3) reflection points, emitter side first
     amplitude: float  # product of the pressure reflection factors
     departure: np.ndarray  # (3,) unit direction leaving the emitter
+    interactions: np.ndarray | None = None  # (K,) material interaction counts
 
 
 def mirror(point: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
@@ -45,7 +46,8 @@ def refine_sequences(
     receiver: np.ndarray,
 ) -> list[SpecularPath]:
     """Valid specular paths among candidate plane sequences (batched by length)."""
-    normal, offset, refl = _plane_table(world)
+    normal, offset, refl, column = _plane_table(world)
+    K = world.n_interactions
     eps, tol = caster.offset_m, caster.tolerance_m
     paths = []
     by_len: dict[int, list[tuple[int, ...]]] = {}
@@ -100,6 +102,11 @@ def refine_sequences(
         t, f = caster.first_hit(cur[live] + eps * d / L[:, None], d)
         ok[live[(f >= 0) & (t < L - tol)]] = False
         amp = np.prod(refl[ids], axis=1)
+        counts = np.zeros((S, K), int)
+        if K:  # frequency-dependent materials: count each plane's specular interaction
+            for j in range(k):
+                c = column[ids[:, j]]
+                np.add.at(counts, (np.flatnonzero(c >= 0), c[c >= 0]), 1)
         for i in np.flatnonzero(ok):
             dep = points[i, 0] - emitter
             paths.append(
@@ -109,6 +116,7 @@ def refine_sequences(
                     points[i].copy(),
                     float(amp[i]),
                     dep / np.linalg.norm(dep),
+                    counts[i] if K else None,
                 )
             )
     # two orders of the same reflections that meet at an edge are one path (same image)
@@ -128,7 +136,10 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
     dep = np.array([p.departure for p in specular])
     order = np.array([len(p.planes) for p in specular])
     kind = np.full(len(amp), KIND["specular"])
-    paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep)
+    counts = None
+    if specular[0].interactions is not None:
+        counts = np.array([p.interactions for p in specular])
+    paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep, counts)
     return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * 1.01)
 
 
@@ -147,4 +158,6 @@ def _plane_table(world: World):
     first = np.full(n_planes, -1)
     first[world.plane[::-1]] = np.arange(world.n_faces)[::-1]
     refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
-    return world.normals[first], world.offsets[first], refl[first]
+    column = world.face_interactions(0)
+    column = None if column is None else column[first]
+    return world.normals[first], world.offsets[first], refl[first], column
