@@ -296,6 +296,23 @@ def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None
     return truth.position_world_m, _truth_level_db(truth)
 
 
+def _sweep(rec: P.Recording):
+    """The sensor's positions and axes over the recording's window if it moved or
+    turned during it (``metadata["motion"]``), else None (nothing to smear)."""
+    from acousim.viz.render3d import sensor_sweep
+
+    motion = rec.metadata.get("motion")
+    if not motion:
+        return None
+    v = np.asarray(motion.get("velocity_m_s", (0.0, 0.0, 0.0)), float)
+    w = np.deg2rad(np.asarray(motion.get("angular_velocity_deg_s", (0.0, 0.0, 0.0)), float))
+    window = rec.samples.shape[-1] / rec.sample_rate_hz
+    if np.linalg.norm(w) * window < np.deg2rad(0.1) and np.linalg.norm(v) * window < 1e-3:
+        return None
+    pose = _pose(rec)
+    return sensor_sweep(pose.position_m, pose.rotation, v, w, window)
+
+
 def _render(rec, imgs, triangles, path, options):
     from acousim.viz.render3d import render_scene
 
@@ -310,6 +327,7 @@ def _render(rec, imgs, triangles, path, options):
         truth=truth_w,
         truth_level_db=level,
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
+        sweep=_sweep(rec),
     )
     return Path(path)
 
@@ -340,8 +358,12 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
     )
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
+    sweeps = [_sweep(rec) for rec in recordings]
     renderer = SceneRenderer(
-        triangles, window_size=(640, 480), with_truth=any(t is not None for t in truths)
+        triangles,
+        window_size=(640, 480),
+        with_truth=any(t is not None for t in truths),
+        with_sweep=any(s is not None for s in sweeps),
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
@@ -353,6 +375,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
                 truth=truth_w,
                 truth_level_db=level,
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
+                sweep=sweeps[k],
             )
             fig, (a, b) = plt.subplots(
                 1,
