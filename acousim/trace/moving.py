@@ -25,7 +25,7 @@ measurement, whose emission starts at ``pose.time_s``:
      ``2 d / (c + v)``, compressed by ``(c + v) / (c - v)``); otherwise the
      reflection point slides on the plane, which changes the path length only to
      second order (Fermat): 0.3 ns against tracing again at the reflection instant
-     for a wall at 2 m/s and a sensor at 2 m/s and 180 deg/s;
+     for a wall at 1.7 m/s and a sensor at 2 m/s and 180 deg/s;
    - a point reached straight from the emitter (a glint of a curved surface, a
      first-order scatterer or edge element): a point reflector moving with the mesh,
      its first leg solved exactly (retarded time) as for a moving point reflector;
@@ -123,7 +123,8 @@ class MovingWorld:
         tol = 10 * tracer.caster.tolerance_m
         for k, (caster, face_normals) in enumerate(alone):
             t, face = caster.first_hit(start, d)
-            hit = (face >= 0) & (np.abs(t - t_world) <= tol)  # the first surface met
+            hit = (face >= 0) & np.isfinite(t_world)
+            hit[hit] = np.abs(t[hit] - t_world[hit]) <= tol  # the first surface met
             hit &= (t <= length + tol) & (t >= length - CLUSTER_DEPTH_M)  # at the point
             hit &= on[ask] < 0
             on[ask[hit]] = k
