@@ -92,3 +92,26 @@ def test_sweep_is_drawn_and_grows_with_the_turn_rate():
     assert changed[0].sum() == 0 < changed[1].sum() < changed[2].sum()
     orange = np.abs(images[2] - np.array(SWEEP_COLOR)).max(axis=2) < 0.15
     assert (orange & changed[2]).sum() > 20
+
+
+def test_moving_mesh_drawn_where_it_is_in_each_recording():
+    import trimesh
+
+    import acousim
+    from acousim.imaging import _moving_triangles, _scene_triangles
+
+    wall = acousim.MeshItem(trimesh.creation.box((0.1, 4, 2)), position_m=(3.0, 0, 0))
+    box = acousim.MeshItem(
+        trimesh.creation.box((0.4, 0.4, 1.0)), position_m=(2.0, -1.0, 0), velocity_m_s=(0, 1, 0)
+    )
+    sc = acousim.Scene(
+        meshes=[wall, box],
+        sensor=acousim.Sensor(poses=(Pose([0.0, 0, 0], time_s=0.5),)),
+        simulation=acousim.Simulation(rays=500, max_range_m=4.0),
+    )
+    rec = Simulator(sc).simulate_pose(sc.sensor.poses[0])
+    still = _scene_triangles(sc)
+    assert still.reshape(-1, 3)[:, 0].min() == pytest.approx(2.95)  # the wall only
+    moved = _moving_triangles(sc, rec).reshape(-1, 3)
+    # the box 0.5 s later: its centre at y = -1 + 0.5
+    assert (moved.min(axis=0) + moved.max(axis=0)) / 2 == pytest.approx([2.0, -0.5, 0.0])

@@ -41,6 +41,16 @@ AXIS_LENGTH_M = 0.6
 WEDGE_LENGTH_M = 1.5
 
 
+MOVING_COLOR = (0.45, 0.35, 0.7)  # meshes that move (a person, a robot): violet
+
+
+def _polydata(pv, triangles: np.ndarray):
+    """A pyvista mesh of (F, 3, 3) triangles."""
+    tri = np.asarray(triangles, float)
+    faces = np.hstack([np.full((len(tri), 1), 3), np.arange(3 * len(tri)).reshape(-1, 3)])
+    return pv.PolyData(tri.reshape(-1, 3), faces.ravel())
+
+
 def sensor_sweep(
     position_m: np.ndarray,
     rotation: np.ndarray,
@@ -102,6 +112,7 @@ class SceneRenderer:
     triangles : (F, 3, 3) world-frame scene faces, or None.
     with_truth : list the ray-traced reflectors in the legend.
     with_sweep : list the sensor's sweep during the measurement in the legend.
+    with_moving : list the moving meshes (drawn per frame) in the legend.
     """
 
     def __init__(
@@ -110,6 +121,7 @@ class SceneRenderer:
         window_size: tuple[int, int] = (900, 600),
         with_truth: bool = True,
         with_sweep: bool = False,
+        with_moving: bool = False,
     ) -> None:
         self.pv = pv = _pv()
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
@@ -117,8 +129,7 @@ class SceneRenderer:
         self.has_mesh = triangles is not None and len(triangles) > 0
         if self.has_mesh:
             tri = np.asarray(triangles)
-            faces = np.hstack([np.full((len(tri), 1), 3), np.arange(3 * len(tri)).reshape(-1, 3)])
-            mesh = pv.PolyData(tri.reshape(-1, 3), faces.ravel())
+            mesh = _polydata(pv, tri)
             self.plotter.add_mesh(mesh, color=(0.72, 0.72, 0.75), opacity=0.35, show_edges=False)
             self.floor_z = float(tri[..., 2].min())
         else:
@@ -126,13 +137,15 @@ class SceneRenderer:
         entries = [["sensor, arrow: its axis", SENSOR_COLOR], ["image peaks", PEAK_COLOR]]
         if with_sweep:
             entries.append(["its sweep during the measurement", SWEEP_COLOR])
+        if with_moving:
+            entries.append(["moving meshes, at the emission", MOVING_COLOR])
         if with_truth:
             entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
         self.plotter.add_legend(
             entries,
             bcolor="white",
             border=True,
-            size=(0.36, 0.12),
+            size=(0.36, max(0.12, 0.03 * len(entries))),
             loc="upper left",
             face="circle",
         )
@@ -148,6 +161,7 @@ class SceneRenderer:
         truth_level_db: np.ndarray | None = None,
         truth_range_db: float = 30.0,
         sweep: tuple[np.ndarray, np.ndarray] | None = None,
+        moving_triangles: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render one frame: (H, W, 3) uint8.
 
@@ -159,6 +173,8 @@ class SceneRenderer:
             a scene mesh the camera is fitted to the sensor and the peaks.
         sweep : the sensor's positions and axes (K, 3) each over its measurement
             (:func:`sensor_sweep`): drawn as fading axes and the wedge they sweep.
+        moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they
+            are in this frame.
         """
         pv, plotter = self.pv, self.plotter
         for actor in self._actors:
@@ -175,6 +191,10 @@ class SceneRenderer:
         ]
         if sweep is not None:
             self._actors += self._sweep(*sweep)
+        if moving_triangles is not None and len(moving_triangles):
+            self._actors.append(
+                plotter.add_mesh(_polydata(pv, moving_triangles), color=MOVING_COLOR, render=False)
+            )
         if truth is not None and len(truth):
             t = np.asarray(truth, float).reshape(-1, 3)
             lvl = np.zeros(len(t)) if truth_level_db is None else np.asarray(truth_level_db)
@@ -303,11 +323,16 @@ def render_scene(
     camera: str = "chase",
     truth_level_db: np.ndarray | None = None,
     sweep: tuple[np.ndarray, np.ndarray] | None = None,
+    moving_triangles: np.ndarray | None = None,
 ) -> np.ndarray:
     """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
     (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
     renderer = SceneRenderer(
-        triangles, window_size, with_truth=truth is not None, with_sweep=sweep is not None
+        triangles,
+        window_size,
+        with_truth=truth is not None,
+        with_sweep=sweep is not None,
+        with_moving=moving_triangles is not None,
     )
     try:
         image = renderer.frame(
@@ -318,6 +343,7 @@ def render_scene(
             camera,
             truth_level_db=truth_level_db,
             sweep=sweep,
+            moving_triangles=moving_triangles,
         )
     finally:
         renderer.close()
