@@ -263,3 +263,64 @@ def test_mesh_motion_keys_in_files_and_code(tmp_path):
         {**base, "meshes": [{"file": "box.stl", "position_m": [2, 0, 0]}]}, base_dir=tmp_path
     )
     assert isinstance(Simulator(still).tracer, Tracer)
+
+
+def _mirror(p, n, off):
+    return p - 2 * (np.dot(n, p) - off) * n
+
+
+def _cross(a, b, n, off):
+    """Where the segment a -> b meets the plane n . x = off."""
+    return a + (off - np.dot(n, a)) / np.dot(n, b - a) * (b - a)
+
+
+def _two_bounce(planes, tau):
+    """Reception time (monostatic, at the origin) of the sample emitted at `tau` by
+    way of two planes in order, each ``(n, offset(t))`` (n . x = offset at time t):
+    image sources of the planes where they are at each reflection instant, the
+    instants iterated until the sound takes them to travel between the points."""
+    (n1, off1), (n2, off2) = planes
+    e = m = np.zeros(3)
+    t1 = t2 = tau
+    for _ in range(100):
+        A1 = _mirror(e, n1, off1(t1))
+        A2 = _mirror(A1, n2, off2(t2))
+        x2 = _cross(A2, m, n2, off2(t2))
+        x1 = _cross(A1, x2, n1, off1(t1))
+        new1 = tau + np.linalg.norm(x1 - e) / C
+        new2 = new1 + np.linalg.norm(x2 - x1) / C
+        if max(abs(new1 - t1), abs(new2 - t2)) < 1e-15:
+            break
+        t1, t2 = new1, new2
+    return tau + np.linalg.norm(m - A2) / C
+
+
+def test_wall_and_floor_both_orders_follow_the_wall():
+    """A wall closing at 1.5 m/s above a still floor tilted by 10 degrees: the two
+    second-order echoes (floor then wall, wall then floor: the moving wall last or
+    first) against the retarded-time solution of the two planes."""
+    d, v, h, tilt = 2.0, 1.5, 0.4, np.deg2rad(10)
+    R = trimesh.transformations.rotation_matrix(tilt, [0, 1, 0])
+    T = R.copy()
+    T[:3, 3] = (0, 0, -h - 0.1)
+    floor = acousim.MeshItem(trimesh.creation.box((20, 20, 0.2)), acousim.Material("f", 1.0), T)
+    n_floor = R[:3, :3] @ [0, 0, 1.0]
+    off_floor = np.dot(n_floor, T[:3, :3] @ [0, 0, 0.1] + T[:3, 3])
+    wall = (np.array([1.0, 0, 0]), lambda t: d - v * t)
+    still = (n_floor, lambda t: off_floor)
+    sc = _scene([_wall(d, (-v, 0, 0)), floor])
+    sim = Simulator(sc)
+    moving, pos, kinds, _ = sim.moving_paths(Pose([0.0, 0, 0]))
+    kin = SensorKinematics(None, Pose([0.0, 0, 0]), ONE, sc.n_samples() / FS, 2.5e-4)
+    a = arrivals(moving, kin, TONE.duration_s, C, AXIS)
+    t0 = a.echoes.delay_s[0] - a.curvature_s[0] * (2 / 3)
+    t1 = t0 + TONE.duration_s / a.rate[0]
+    two = np.flatnonzero((np.array(kinds) == "specular") & (moving.order == 2))
+    last_on_wall = np.abs(pos[two, 0] - d) < 1e-9
+    assert two.size == 2 and last_on_wall.sum() == 1
+    for k, wall_last in zip(two, last_on_wall):
+        planes = (still, wall) if wall_last else (wall, still)
+        assert abs(t0[k] - _two_bounce(planes, 0.0)) < 1e-9
+        assert abs(t1[k] - _two_bounce(planes, TONE.duration_s)) < 1e-9
+        frozen = (still, (wall[0], lambda t: d)) if wall_last else ((wall[0], lambda t: d), still)
+        assert abs(_two_bounce(frozen, 0.0) - t0[k]) > 1e-6  # the motion matters

@@ -33,12 +33,17 @@ measurement, whose emission starts at ``pose.time_s``:
      the sound assumed to arrive from the receiver's side (d_in = -d_out), so the
      path lengthens at ``k (d_in - d_out) . u``.
 
-   Stated approximation: only the last reflection's motion is followed.  A path that
-   meets a moving mesh before its last reflection (a second-order path from the moving
-   mesh to a static wall) is rendered as if the mesh stood where it is at the start of
-   the emission: right delay at that instant, no Doppler from the mesh.  The error of
-   the rest against the paths traced again at many instants is measured in
-   ``benchmarks/motion.py``.
+4. **Second-order reflections that meet a moving mesh first** (:func:`ride_first`):
+   the first reflection point is recovered from the traced path
+   (:func:`first_reflections`), and if it lies on a moving mesh (seen from the
+   emitter) the first image moves as above, mirrored in the second plane (within 1 ns
+   of the two-plane retarded-time solution in the tests).
+
+   Stated approximation: beyond these, a path that meets a moving mesh before its
+   last reflection (third and higher orders, or a scattered path) is rendered as if
+   the mesh stood where it is at the start of the emission: right delay at that
+   instant, no Doppler from the mesh.  The error of the image sources against the
+   wall traced again at the reflection instant is measured in ``benchmarks/motion.py``.
 """
 
 from __future__ import annotations
@@ -57,7 +62,7 @@ from .paths import KIND, TracedPaths
 from .settings import TraceSettings
 from .tracer import Tracer
 
-__all__ = ["MovingWorld", "ride"]
+__all__ = ["MovingWorld", "ride", "ride_first", "first_reflections"]
 
 #: a scattered path's position (the mean of its hits) may lie this far inside a curved
 #: moving mesh and still belong to it (m)
@@ -103,22 +108,33 @@ class MovingWorld:
         """Every path of `pose`, the moving meshes where they are at ``pose.time_s``."""
         return self.tracer_at(pose.time_s).trace(pose)
 
+    def velocities(self, pose: Pose) -> np.ndarray:
+        """The moving meshes' velocities (K, 3) at the start of the emission."""
+        v = [self.scene.meshes[i].at(pose.time_s)[1] for i in self.moving]
+        return np.array(v, float).reshape(-1, 3)
+
     def riders(self, paths: TracedPaths, pose: Pose):
         """Which moving mesh each path's last point lies on (N,) (an index into
-        `velocities`, -1: none), the normal (N, 3) of the face it lies on, and the
-        moving meshes' velocities (K, 3) at the start of the emission."""
-        _, tracer, alone = self._world(pose.time_s)
-        velocities = np.array([self.scene.meshes[i].at(pose.time_s)[1] for i in self.moving])
-        velocities = velocities.reshape(-1, 3)
+        :meth:`velocities`, -1: none) and the normal (N, 3) of the face it lies on."""
         on = np.full(len(paths), -1)
         normals = np.zeros((len(paths), 3))
         ask = np.flatnonzero((paths.kind != KIND["direct"]) & (paths.kind != KIND["point"]))
-        if ask.size == 0 or not self.moving:
-            return on, normals, velocities
         receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
-        d = paths.position_m[ask] - receiver
+        on[ask], normals[ask] = self.on_moving(pose, receiver, paths.position_m[ask])
+        return on, normals
+
+    def on_moving(self, pose: Pose, origin: np.ndarray, points: np.ndarray):
+        """Which moving mesh each of `points` (P, 3) lies on, seen from `origin` (3,)
+        (the first surface a ray meets on the way there, at the point), and the
+        normal of the face there: (P,) indices (-1: none), (P, 3)."""
+        on = np.full(len(points), -1)
+        normals = np.zeros((len(points), 3))
+        if not len(points) or not self.moving:
+            return on, normals
+        _, tracer, alone = self._world(pose.time_s)
+        d = points - origin
         length = np.linalg.norm(d, axis=1)
-        start = np.broadcast_to(receiver, d.shape)
+        start = np.broadcast_to(origin, d.shape)
         t_world, _ = tracer.caster.first_hit(start, d)
         tol = 10 * tracer.caster.tolerance_m
         for k, (caster, face_normals) in enumerate(alone):
@@ -126,10 +142,31 @@ class MovingWorld:
             hit = (face >= 0) & np.isfinite(t_world)
             hit[hit] = np.abs(t[hit] - t_world[hit]) <= tol  # the first surface met
             hit &= (t <= length + tol) & (t >= length - CLUSTER_DEPTH_M)  # at the point
-            hit &= on[ask] < 0
-            on[ask[hit]] = k
-            normals[ask[hit]] = face_normals[face[hit]]
-        return on, normals, velocities
+            hit &= on < 0
+            on[hit] = k
+            normals[hit] = face_normals[face[hit]]
+        return on, normals
+
+
+def first_reflections(paths: TracedPaths, emitter: np.ndarray):
+    """The first reflection point (S, 3) of each second-order specular path, the
+    paths' indices (S,), and their two unit normals (S, 3) each: from the emitter
+    (3,), the departure, the last reflection point and the image source (unfolded,
+    the first image lies on the line from the last point back along the middle leg at
+    the image's distance)."""
+    idx = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
+    dep, x2, image = paths.departure[idx], paths.position_m[idx], paths.anchor_m[idx]
+    w = x2 - emitter
+    R = np.linalg.norm(x2 - image, axis=1)
+    den = 2 * (R - np.einsum("si,si->s", w, dep))
+    s = (R**2 - np.einsum("si,si->s", w, w)) / np.where(np.abs(den) > 1e-12, den, 1.0)
+    ok = (np.abs(den) > 1e-12) & (s > 1e-9)
+    x1 = emitter + s[:, None] * dep
+    mid = _unit(x2 - x1)
+    n1 = _unit(mid - dep)
+    n2 = _unit(_unit(x2 - image) - mid)
+    ok &= np.linalg.norm(x2 - x1, axis=1) > 1e-9  # not both at one point (an edge)
+    return x1[ok], idx[ok], n1[ok], n2[ok]
 
 
 def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver, c: float):
@@ -182,6 +219,32 @@ def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver,
         moving, anchor_m=anchor, velocity_m_s=velocity, first_leg=first, mirror=mirror
     )
     return out, truth
+
+
+def ride_first(moving, idx, x1, n1, n2, on1, velocities, emitter, c: float):
+    """`moving` with the second-order image sources `idx` (S,) whose first reflection
+    (at `x1` (S, 3), normal `n1`; the second plane's normal `n2`) lies on a moving
+    mesh (`on1` (S,), -1: none) following it: the first image moves at
+    ``2 k (n1 . u) n1`` from when the sound reaches the first plane, mirrored in the
+    second plane (k and the emitter's timing as for the last reflection)."""
+    sel = on1 >= 0
+    if not sel.any():
+        return moving
+    idx, x1, n1, n2 = idx[sel], x1[sel], n1[sel], n2[sel]
+    u = velocities[on1[sel]]
+    d_in = _unit(x1 - emitter)
+    k = c / (c - np.einsum("ij,ij->i", d_in, u))
+    first_image = 2 * (k * np.einsum("ij,ij->i", n1, u))[:, None] * n1
+    # mirrored in the second plane
+    u_image = first_image - 2 * np.einsum("ij,ij->i", first_image, n2)[:, None] * n2
+    lead = np.linalg.norm(x1 - emitter, axis=1) / c
+    anchor = moving.anchor_m.copy()
+    anchor[idx] += u_image * lead[:, None]
+    velocity = moving.velocity_m_s.copy()
+    velocity[idx] += u_image
+    mirror = moving.mirror.copy()
+    mirror[idx] -= u_image[:, :, None] * d_in[:, None, :] / c
+    return dataclasses.replace(moving, anchor_m=anchor, velocity_m_s=velocity, mirror=mirror)
 
 
 def _caster(item) -> tuple[RayCaster, np.ndarray]:
