@@ -6,7 +6,7 @@ the pose, and the ground truth (paths: position, amplitude at the array centre,
 order and kind).
 
 A scene with motion (a continuous trajectory, a pose with a velocity or an angular
-rate, moving point reflectors) is rendered with the exact kinematics of
+rate, moving point reflectors or meshes) is rendered with the exact kinematics of
 :mod:`acousim.synth.moving` (retarded time per path and microphone, Doppler); its
 recordings also store the motion (``metadata["motion"]``: the pose at the start of
 the emission, the velocity and the angular velocity) and the velocity of each path
