@@ -4,6 +4,7 @@ fan images, elevation-azimuth maps, 3D renders of the scene, drive animations.""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import signal
 import threading
 from collections.abc import Callable, Sequence
@@ -144,11 +145,26 @@ def _scene(rec: P.Recording):
 
 
 def _scene_triangles(scene) -> np.ndarray | None:
-    if scene is None or not scene.meshes:
+    """The faces (F, 3, 3) of the scene's meshes that do not move."""
+    if scene is None or not any(not m.moving for m in scene.meshes):
         return None
     from acousim.trace.geometry import build_world
 
+    if any(m.moving for m in scene.meshes):
+        scene = dataclasses.replace(scene, meshes=tuple(m for m in scene.meshes if not m.moving))
     return build_world(scene).triangles
+
+
+def _moving_triangles(scene, rec: P.Recording) -> np.ndarray | None:
+    """The faces (F, 3, 3) of the scene's moving meshes where they are at the start of
+    the recording's emission (None: none moves)."""
+    if scene is None or not any(m.moving for m in scene.meshes):
+        return None
+    from acousim.trace.geometry import build_world
+
+    t = _pose(rec).time_s
+    moving = tuple(m.placed_at(t) for m in scene.meshes if m.moving)
+    return build_world(dataclasses.replace(scene, meshes=moving)).triangles
 
 
 def prepare_pictures(render_3d: bool = True, animation: bool = True) -> None:
@@ -227,10 +243,21 @@ def write_pictures(
             written.append(elaz_figure(img, out / f"elaz_{m}.png", title=title))
     triangles = _scene_triangles(scene) if render_3d or animation else None
     if render_3d:
-        written.append(_render(first, imgs, triangles, out / "scene3d.png", options))
+        written.append(
+            _render(
+                first,
+                imgs,
+                triangles,
+                out / "scene3d.png",
+                options,
+                _moving_triangles(scene, first),
+            )
+        )
     if animation and trajectory:
         written.append(
-            _animate(recordings, images, triangles, out / "drive.gif", options, progress, indices)
+            _animate(
+                recordings, images, triangles, out / "drive.gif", options, progress, indices, scene
+            )
         )
     return written
 
@@ -296,7 +323,29 @@ def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None
     return truth.position_world_m, _truth_level_db(truth)
 
 
-def _render(rec, imgs, triangles, path, options):
+#: the sensor's sweep during a measurement is drawn when it turns or moves this much
+SWEEP_MIN_RAD = np.deg2rad(0.5)
+SWEEP_MIN_M = 0.05
+
+
+def _sweep(rec: P.Recording):
+    """The sensor's positions and axes over the recording's window if it moved or
+    turned during it (``metadata["motion"]``), else None (nothing to smear)."""
+    from acousim.viz.render3d import sensor_sweep
+
+    motion = rec.metadata.get("motion")
+    if not motion:
+        return None
+    v = np.asarray(motion.get("velocity_m_s", (0.0, 0.0, 0.0)), float)
+    w = np.deg2rad(np.asarray(motion.get("angular_velocity_deg_s", (0.0, 0.0, 0.0)), float))
+    window = rec.samples.shape[-1] / rec.sample_rate_hz
+    if np.linalg.norm(w) * window < SWEEP_MIN_RAD and np.linalg.norm(v) * window < SWEEP_MIN_M:
+        return None  # too small to be seen
+    pose = _pose(rec)
+    return sensor_sweep(pose.position_m, pose.rotation, v, w, window)
+
+
+def _render(rec, imgs, triangles, path, options, moving=None):
     from acousim.viz.render3d import render_scene
 
     pose = _pose(rec)
@@ -310,11 +359,13 @@ def _render(rec, imgs, triangles, path, options):
         truth=truth_w,
         truth_level_db=level,
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
+        sweep=_sweep(rec),
+        moving_triangles=moving,
     )
     return Path(path)
 
 
-def _animate(recordings, images, triangles, path, options, progress, indices):
+def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
     import imageio.v2 as imageio
     import matplotlib
 
@@ -340,8 +391,13 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
     )
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
+    sweeps = [_sweep(rec) for rec in recordings]
     renderer = SceneRenderer(
-        triangles, window_size=(640, 480), with_truth=any(t is not None for t in truths)
+        triangles,
+        window_size=(640, 480),
+        with_truth=any(t is not None for t in truths),
+        with_sweep=any(s is not None for s in sweeps),
+        with_moving=scene is not None and any(m.moving for m in scene.meshes),
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
@@ -353,6 +409,8 @@ def _animate(recordings, images, triangles, path, options, progress, indices):
                 truth=truth_w,
                 truth_level_db=level,
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
+                sweep=sweeps[k],
+                moving_triangles=_moving_triangles(scene, rec),
             )
             fig, (a, b) = plt.subplots(
                 1,

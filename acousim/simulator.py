@@ -6,7 +6,7 @@ the pose, and the ground truth (paths: position, amplitude at the array centre,
 order and kind).
 
 A scene with motion (a continuous trajectory, a pose with a velocity or an angular
-rate, moving point reflectors) is rendered with the exact kinematics of
+rate, moving point reflectors or meshes) is rendered with the exact kinematics of
 :mod:`acousim.synth.moving` (retarded time per path and microphone, Doppler); its
 recordings also store the motion (``metadata["motion"]``: the pose at the start of
 the emission, the velocity and the angular velocity) and the velocity of each path
@@ -70,7 +70,15 @@ class Simulator:
             # would refuse a scene whose only reflectors move ("nothing can echo")
             scene = copy.copy(scene)
             object.__setattr__(scene, "points", tuple(p for p in scene.points if not p.moving))
-        self.tracer = Tracer(scene, threads)
+        #: meshes that move: the world is rebuilt per emission instant (a scene
+        #: without them keeps its one world)
+        self.moving_meshes = any(m.moving for m in scene.meshes)
+        if self.moving_meshes:
+            from acousim.trace.moving import MovingWorld
+
+            self.tracer = MovingWorld(scene, threads)
+        else:
+            self.tracer = Tracer(scene, threads)
         scene = self.scene
         env = scene.environment
         self.c = env.speed_of_sound_m_s
@@ -109,7 +117,7 @@ class Simulator:
             if motion is not None and not _on(motion, pose):
                 log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
                 motion = None
-        if motion is not None or self.moving_points:
+        if motion is not None or self.moving_points or self.moving_meshes:
             return self._simulate_moving(pose, index, seed, n_samples, motion)
         scene = self.scene
         sensor = scene.sensor
@@ -135,37 +143,26 @@ class Simulator:
     def _simulate_moving(self, pose, index, seed, n_samples, motion) -> P.Recording:
         """A measurement in motion (see :mod:`acousim.synth.moving`).
 
-        1. Paths traced at the pose of the start of the emission; moving point
-           reflectors placed where they are then.
+        1. Paths traced at the pose of the start of the emission, moving meshes and
+           point reflectors placed where they are then (:meth:`moving_paths`).
         2. Per path and microphone, the reception times of the call's first, middle
            and last sample solved for the moving emitter, reflector and microphone.
         3. Rendered as time-scaled calls at fractional delays; noise as for a static
            pose.
         """
-        from acousim.synth.moving import TABLE_STEP_S, MovingPaths, SensorKinematics, arrivals
+        from acousim.synth.moving import TABLE_STEP_S, SensorKinematics, arrivals
 
         scene, sensor = self.scene, self.scene.sensor
         array = sensor.array
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
-        paths = self.tracer.trace(pose)
-        emitter = pose.to_world(array.emitter_m)
-        moving = MovingPaths.from_traced(paths, emitter)
-        truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
-        if self.moving_points:
-            pos, a, v = self._moving_points(pose)
-            extra = MovingPaths.points(pos, a, v, emitter)
-            moving = MovingPaths.concatenate([moving, extra])
-            truth_pos = np.concatenate([truth_pos, pos])
-            kinds = kinds + ["point"] * len(a)
+        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose)
         n = n_samples or scene.n_samples()
         kin = SensorKinematics(motion, pose, array, n / sensor.sample_rate_hz, TABLE_STEP_S)
         arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
-        if paths.interactions.shape[1]:  # material tables: the traced paths come first
-            extra = np.zeros((len(moving) - len(paths), paths.interactions.shape[1]), int)
-            echoes = dataclasses.replace(
-                echoes, interactions=np.concatenate([paths.interactions, extra])
-            )
+        if interactions.shape[1]:  # material tables: the traced paths come first
+            extra = np.zeros((len(moving) - len(interactions), interactions.shape[1]), int)
+            echoes = dataclasses.replace(echoes, interactions=np.concatenate([interactions, extra]))
         mics = pose.to_world(array.positions_m)
         if sensor.mic_radius_m > 0:
             echoes = self._mic_directivity(echoes, moving, mics, pose.rotation[:, 0])
@@ -192,9 +189,48 @@ class Simulator:
             amplitude=level,
             order=moving.order,
             kind=np.array(kinds, dtype=str),
-            velocity_world_m_s=moving.velocity_m_s,
+            velocity_world_m_s=truth_vel,
         )
         return self._record(echoes, array, n, index, seed, meta, truth, doppler=arr.rate)
+
+    def moving_paths(self, pose: Pose):
+        """The paths of a measurement in motion starting at `pose`:
+        :class:`~acousim.synth.moving.MovingPaths`, and for the ground truth the
+        positions (N, 3) at the start of the emission, the kind names and the velocities
+        (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.moving`)."""
+        return self._moving(pose)[:4]
+
+    def _moving(self, pose: Pose):
+        """:meth:`moving_paths` and the traced paths' material interactions (the traced
+        paths come first, moving points after)."""
+        from acousim.synth.moving import MovingPaths
+
+        paths = self.tracer.trace(pose)
+        emitter = pose.to_world(self.scene.sensor.array.emitter_m)
+        moving = MovingPaths.from_traced(paths, emitter)
+        truth_vel = moving.velocity_m_s
+        if self.moving_meshes:
+            from acousim.trace.moving import first_reflections, ride, ride_first
+
+            on, normals = self.tracer.riders(paths, pose)
+            velocities = self.tracer.velocities(pose)
+            receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
+            moving, truth_vel = ride(
+                moving, paths, on, normals, velocities, emitter, receiver, self.c
+            )
+            # second-order reflections whose first point is on a moving mesh
+            x1, idx, n1, n2 = first_reflections(paths, emitter)
+            on1, _ = self.tracer.on_moving(pose, emitter, x1)
+            moving = ride_first(moving, idx, x1, n1, n2, on1, velocities, emitter, self.c)
+        truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
+        if self.moving_points:
+            pos, a, v = self._moving_points(pose)
+            extra = MovingPaths.points(pos, a, v, emitter)
+            moving = MovingPaths.concatenate([moving, extra])
+            truth_pos = np.concatenate([truth_pos, pos])
+            kinds = kinds + ["point"] * len(a)
+            truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
+        return moving, truth_pos, kinds, truth_vel, paths.interactions
 
     def _record(self, echoes, array, n_samples, index, seed, meta, truth, doppler=None):
         """Render the echoes with the scene's noise (seeded per pose index) into a

@@ -21,7 +21,7 @@ import numpy as np
 
 import processing as P
 from processing.errors import InputError
-from processing.settings import Setting, check, read_table, refuse_unknown
+from processing.settings import Setting, check, read_table, refuse_unknown, settings_of
 
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
 from .pose import Pose, rotation
@@ -51,7 +51,17 @@ EXTRA_KEYS: dict[str, set[str]] = {
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
     "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg", *RATES},
     "sensor.trajectory": {"poses", "file", "rate_hz", "continuous"},
-    "meshes": {"file", "material", "materials", "units", "position_m", "rotation_deg", "scale"},
+    "meshes": {
+        "file",
+        "material",
+        "materials",
+        "units",
+        "position_m",
+        "rotation_deg",
+        "scale",
+        "velocity_m_s",
+        "track",
+    },
     "points": {"track"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
@@ -186,7 +196,21 @@ def parse_scene(
             str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
             for g in groups
         }
-        meshes.append(MeshItem(file, materials[mat], T, materials=by_group))
+        # a moving mesh: its velocity read through the declaration, its track as a point's
+        v = settings_of(MeshItem)["velocity_m_s"]
+        velocity = r._check(v, m.get("velocity_m_s", v.default), f"{where}.velocity_m_s")
+        try:
+            item = MeshItem(
+                file,
+                materials[mat],
+                T,
+                materials=by_group,
+                velocity_m_s=velocity,
+                track=m.get("track"),
+            )
+        except InputError as exc:  # the track, checked by the model
+            raise r.fail(f"{where}.track", exc.reason, m.get("track")) from None
+        meshes.append(item)
     points = []
     for where, p in r.table_list(data, "points"):
         if "position_m" not in p and "track" not in p:

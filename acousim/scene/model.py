@@ -64,6 +64,19 @@ FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
 a path response (:data:`acousim.synth.render.ShapedDelay`)."""
 
 
+def _velocity_setting():
+    """The velocity of a moving point or mesh, declared once for both."""
+    return setting(
+        (0.0, 0.0, 0.0),
+        "m/s",
+        -MAX_SPEED_M_S,
+        MAX_SPEED_M_S,
+        "velocity (world frame) from position_m at time 0",
+        kind="vector",
+        length=3,
+    )
+
+
 @dataclass(frozen=True)
 class Material:
     """How a surface reflects.
@@ -186,6 +199,11 @@ class MeshItem:
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     position_m: tuple[float, float, float] | None = None
     materials: dict[str, Material] = field(default_factory=dict)
+    #: a moving mesh (a person, another robot): it translates rigidly, at this
+    #: velocity from where `transform` puts it at time 0, or along its own `track`
+    #: (rows t_s, x, y, z: where the mesh's origin is; :func:`track_rows`), as a point
+    velocity_m_s: tuple[float, float, float] = _velocity_setting()
+    track: tuple[tuple[float, float, float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         mesh = self.mesh
@@ -219,6 +237,26 @@ class MeshItem:
             object.__setattr__(self, "position_m", None)
         object.__setattr__(self, "mesh", mesh)
         object.__setattr__(self, "transform", T)
+        if self.track is not None:
+            object.__setattr__(self, "track", track_rows(self.track, "MeshItem.track"))
+        validate(self)
+
+    @property
+    def moving(self) -> bool:
+        return _moves(self)
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Where the mesh's origin is (3,) and its velocity (3,) at time `t_s` of the
+        trajectory clock (as :meth:`PointItem.at`; still: the transform's translation)."""
+        return _motion_at(self, self.transform[:3, 3], t_s)
+
+    def placed_at(self, t_s: float) -> MeshItem:
+        """The mesh where it is at time `t_s` (itself if it does not move)."""
+        if not self.moving:
+            return self
+        T = self.transform.copy()
+        T[:3, 3] = self.at(t_s)[0]
+        return dataclasses.replace(self, transform=T, velocity_m_s=(0.0, 0.0, 0.0), track=None)
 
     @property
     def path(self) -> Path | None:
@@ -245,15 +283,7 @@ class PointItem:
         None, "m", kind="vector", length=3, doc="position at time 0 (required without a track)"
     )
     strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
-    velocity_m_s: tuple[float, float, float] = setting(
-        (0.0, 0.0, 0.0),
-        "m/s",
-        -MAX_SPEED_M_S,
-        MAX_SPEED_M_S,
-        "velocity (world frame) from position_m at time 0",
-        kind="vector",
-        length=3,
-    )
+    velocity_m_s: tuple[float, float, float] = _velocity_setting()
     #: its own trajectory instead: rows (t_s, x, y, z), two or more, times increasing
     #: (a table, checked by :func:`track_rows`; read by hand from TOML)
     track: tuple[tuple[float, float, float, float], ...] | None = None
@@ -270,20 +300,31 @@ class PointItem:
 
     @property
     def moving(self) -> bool:
-        return self.track is not None or any(v != 0 for v in self.velocity_m_s)
+        return _moves(self)
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Position and velocity (3,) at time `t_s` of the trajectory clock: along
         its track (a cubic spline with natural ends, extended by its end pieces), or
         moving at its velocity from its position at time 0."""
-        if self.track is None:
-            v = np.asarray(self.velocity_m_s, float)
-            return np.asarray(self.position_m, float) + v * t_s, v
-        from scipy.interpolate import CubicSpline
+        return _motion_at(self, self.position_m, t_s)
 
-        rows = np.asarray(self.track, float)
-        spline = CubicSpline(rows[:, 0], rows[:, 1:], bc_type="natural")
-        return spline(t_s), spline(t_s, 1)
+
+def _moves(item) -> bool:
+    """Whether a point or a mesh has a track or a non-zero velocity."""
+    return item.track is not None or any(v != 0 for v in item.velocity_m_s)
+
+
+def _motion_at(item, start_m, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity (3,) at `t_s` of an item (point or mesh) with a
+    ``velocity_m_s`` and a ``track``, at `start_m` at time 0 without a track."""
+    if item.track is None:
+        v = np.asarray(item.velocity_m_s, float)
+        return np.asarray(start_m, float) + v * t_s, v
+    from scipy.interpolate import CubicSpline
+
+    rows = np.asarray(item.track, float)
+    spline = CubicSpline(rows[:, 0], rows[:, 1:], bc_type="natural")
+    return spline(t_s), spline(t_s, 1)
 
 
 def track_rows(value: Any, key: str) -> tuple[tuple[float, float, float, float], ...]:

@@ -6,6 +6,10 @@ within `truth_range_db` of the strongest echo, the stronger ones larger, so that
 few strong reflectors are not hidden among hundreds of weak scatterers.  Without a
 scene mesh (a real recording) the camera is fitted to the sensor and the peaks, and
 a labelled grid in metres gives the scale.
+
+A sensor that moves or turns during its measurement is drawn smeared (motion blur):
+its axis at several instants of the measurement window, fading, and the wedge they
+sweep (:func:`sensor_sweep`, :func:`sweep_wedge`).
 """
 
 from __future__ import annotations
@@ -23,11 +27,60 @@ __all__ = [
     "PEAK_COLOR",
     "TRUTH_COLOR",
     "SENSOR_COLOR",
+    "SWEEP_COLOR",
+    "sensor_sweep",
+    "sweep_wedge",
 ]
 
 PEAK_COLOR = (1.0, 0.1, 0.1)  # image peaks: red
 TRUTH_COLOR = (0.1, 0.8, 1.0)  # ray-traced reflectors: cyan
 SENSOR_COLOR = (1.0, 0.85, 0.0)  # the sensor: yellow
+SWEEP_COLOR = (1.0, 0.45, 0.0)  # the sensor's sweep during a measurement: orange
+#: length of the drawn axis and of the swept wedge (m)
+AXIS_LENGTH_M = 0.6
+WEDGE_LENGTH_M = 1.5
+
+
+MOVING_COLOR = (0.45, 0.35, 0.7)  # meshes that move (a person, a robot): violet
+
+
+def _polydata(pv, triangles: np.ndarray):
+    """A pyvista mesh of (F, 3, 3) triangles."""
+    tri = np.asarray(triangles, float)
+    faces = np.hstack([np.full((len(tri), 1), 3), np.arange(3 * len(tri)).reshape(-1, 3)])
+    return pv.PolyData(tri.reshape(-1, 3), faces.ravel())
+
+
+def sensor_sweep(
+    position_m: np.ndarray,
+    rotation: np.ndarray,
+    velocity_m_s: np.ndarray,
+    angular_velocity_rad_s: np.ndarray,
+    window_s: float,
+    count: int = 6,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where the sensor is and where it points at `count` instants spread evenly over
+    a measurement window of `window_s`, from the start of the emission (position (3,),
+    rotation sensor -> world (3, 3)) at constant rates (world frame; as a recording's
+    ``metadata["motion"]`` stores them): positions (K, 3), unit axes (K, 3)."""
+    from scipy.spatial.transform import Rotation
+
+    t = np.linspace(0.0, window_s, count)
+    turn = Rotation.from_rotvec(np.outer(t, np.asarray(angular_velocity_rad_s, float)))
+    axes = turn.apply(np.asarray(rotation, float)[:, 0])  # R(t) = exp(w t) R_0
+    positions = np.asarray(position_m, float) + np.outer(t, np.asarray(velocity_m_s, float))
+    return positions, axes
+
+
+def sweep_wedge(positions: np.ndarray, axes: np.ndarray, length_m: float = WEDGE_LENGTH_M):
+    """The surface the sensor's axis (a segment of `length_m` from the sensor) sweeps
+    through the instants of :func:`sensor_sweep`: vertices (2 K, 3) (sensor, tip for
+    each instant) and quads (K - 1, 4) of vertex indices."""
+    tips = positions + length_m * axes
+    vertices = np.stack([positions, tips], axis=1).reshape(-1, 3)
+    k = np.arange(len(positions) - 1)
+    quads = np.column_stack([2 * k, 2 * k + 1, 2 * k + 3, 2 * k + 2])
+    return vertices, quads
 
 
 def import_pyvista():
@@ -58,6 +111,8 @@ class SceneRenderer:
 
     triangles : (F, 3, 3) world-frame scene faces, or None.
     with_truth : list the ray-traced reflectors in the legend.
+    with_sweep : list the sensor's sweep during the measurement in the legend.
+    with_moving : list the moving meshes (drawn per frame) in the legend.
     """
 
     def __init__(
@@ -65,6 +120,8 @@ class SceneRenderer:
         triangles: np.ndarray | None,
         window_size: tuple[int, int] = (900, 600),
         with_truth: bool = True,
+        with_sweep: bool = False,
+        with_moving: bool = False,
     ) -> None:
         self.pv = pv = _pv()
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
@@ -72,20 +129,23 @@ class SceneRenderer:
         self.has_mesh = triangles is not None and len(triangles) > 0
         if self.has_mesh:
             tri = np.asarray(triangles)
-            faces = np.hstack([np.full((len(tri), 1), 3), np.arange(3 * len(tri)).reshape(-1, 3)])
-            mesh = pv.PolyData(tri.reshape(-1, 3), faces.ravel())
+            mesh = _polydata(pv, tri)
             self.plotter.add_mesh(mesh, color=(0.72, 0.72, 0.75), opacity=0.35, show_edges=False)
             self.floor_z = float(tri[..., 2].min())
         else:
             self.floor_z = None
         entries = [["sensor, arrow: its axis", SENSOR_COLOR], ["image peaks", PEAK_COLOR]]
+        if with_sweep:
+            entries.append(["its sweep during the measurement", SWEEP_COLOR])
+        if with_moving:
+            entries.append(["moving meshes, at the emission", MOVING_COLOR])
         if with_truth:
             entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
         self.plotter.add_legend(
             entries,
             bcolor="white",
             border=True,
-            size=(0.36, 0.12),
+            size=(0.36, max(0.12, 0.03 * len(entries))),
             loc="upper left",
             face="circle",
         )
@@ -100,6 +160,8 @@ class SceneRenderer:
         camera: str = "chase",
         truth_level_db: np.ndarray | None = None,
         truth_range_db: float = 30.0,
+        sweep: tuple[np.ndarray, np.ndarray] | None = None,
+        moving_triangles: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render one frame: (H, W, 3) uint8.
 
@@ -109,6 +171,10 @@ class SceneRenderer:
             spheres from 2 cm (at the threshold) to 6 cm (the strongest) in diameter.
         camera : 'chase' (above and behind the sensor) or 'top' (bird's eye); without
             a scene mesh the camera is fitted to the sensor and the peaks.
+        sweep : the sensor's positions and axes (K, 3) each over its measurement
+            (:func:`sensor_sweep`): drawn as fading axes and the wedge they sweep.
+        moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they
+            are in this frame.
         """
         pv, plotter = self.pv, self.plotter
         for actor in self._actors:
@@ -118,9 +184,17 @@ class SceneRenderer:
         self._actors = [
             plotter.add_mesh(pv.Sphere(radius=0.06, center=pos), color=SENSOR_COLOR, render=False),
             plotter.add_mesh(
-                pv.Arrow(start=pos, direction=axis, scale=0.6), color=SENSOR_COLOR, render=False
+                pv.Arrow(start=pos, direction=axis, scale=AXIS_LENGTH_M),
+                color=SENSOR_COLOR,
+                render=False,
             ),
         ]
+        if sweep is not None:
+            self._actors += self._sweep(*sweep)
+        if moving_triangles is not None and len(moving_triangles):
+            self._actors.append(
+                plotter.add_mesh(_polydata(pv, moving_triangles), color=MOVING_COLOR, render=False)
+            )
         if truth is not None and len(truth):
             t = np.asarray(truth, float).reshape(-1, 3)
             lvl = np.zeros(len(t)) if truth_level_db is None else np.asarray(truth_level_db)
@@ -156,6 +230,34 @@ class SceneRenderer:
             plotter.camera_position = [tuple(eye), tuple(pos + 2.0 * axis), (0, 0, 1)]
         plotter.render()  # the actors were added without rendering: once, here
         return plotter.screenshot(return_img=True)
+
+    def _sweep(self, positions: np.ndarray, axes: np.ndarray) -> list:
+        """Motion blur: the wedge the axis sweeps (translucent) and the axis at each
+        instant after the first, fading towards the end of the window."""
+        pv, plotter = self.pv, self.plotter
+        vertices, quads = sweep_wedge(positions, axes)
+        faces = np.column_stack([np.full(len(quads), 4), quads]).ravel()
+        actors = [
+            plotter.add_mesh(
+                pv.PolyData(vertices, faces),
+                color=SWEEP_COLOR,
+                opacity=0.45,
+                render=False,
+            )
+        ]
+        k = len(positions)
+        for i in range(1, k):
+            line = pv.Line(positions[i], positions[i] + WEDGE_LENGTH_M * axes[i])
+            actors.append(
+                plotter.add_mesh(
+                    line,
+                    color=SWEEP_COLOR,
+                    line_width=3,
+                    opacity=0.9 - 0.6 * (i - 1) / max(k - 2, 1),
+                    render=False,
+                )
+            )
+        return actors
 
     def _scale_bar(self, pos: np.ndarray, axis: np.ndarray):
         """A 1 m ruler across the view, 0.8 m in front of the sensor and 0.2 m below
@@ -220,13 +322,28 @@ def render_scene(
     window_size: tuple[int, int] = (900, 600),
     camera: str = "chase",
     truth_level_db: np.ndarray | None = None,
+    sweep: tuple[np.ndarray, np.ndarray] | None = None,
+    moving_triangles: np.ndarray | None = None,
 ) -> np.ndarray:
     """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
     (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
-    renderer = SceneRenderer(triangles, window_size, with_truth=truth is not None)
+    renderer = SceneRenderer(
+        triangles,
+        window_size,
+        with_truth=truth is not None,
+        with_sweep=sweep is not None,
+        with_moving=moving_triangles is not None,
+    )
     try:
         image = renderer.frame(
-            sensor_position, sensor_axis, truth, peaks, camera, truth_level_db=truth_level_db
+            sensor_position,
+            sensor_axis,
+            truth,
+            peaks,
+            camera,
+            truth_level_db=truth_level_db,
+            sweep=sweep,
+            moving_triangles=moving_triangles,
         )
     finally:
         renderer.close()
