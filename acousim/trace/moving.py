@@ -89,6 +89,12 @@ class MovingWorld:
         self._lock = threading.Lock()
         self.settings = TraceSettings.from_scene(self.scene)
 
+    @property
+    def world(self):
+        """The world at time 0: its materials (and their spectra) are those of every
+        instant, only the moving meshes' places change."""
+        return self.tracer_at(0.0).world
+
     def tracer_at(self, t_s: float) -> Tracer:
         """The tracer of the world at time `t_s` (moving meshes placed there)."""
         return self._world(t_s)[1]
