@@ -601,8 +601,10 @@ def doppler_nodes(
     lo = np.floor(rate_min / NODE_QUANTUM) * NODE_QUANTUM
     hi = np.ceil(rate_max / NODE_QUANTUM) * NODE_QUANTUM
     f_top = max(waveform.band_hz) if waveform.taper > 0 else ANTI_ALIAS_CUTOFF * sample_rate_hz / 2
-    span = waveform.duration_s / lo + 2 * 256 / sample_rate_hz
-    x = 2 * np.pi * f_top * span * (hi - lo) / 2
+    # the templates are scaled about the call's middle (:func:`_templates`): the time
+    # from the pivot reaches half the scaled call and the band-limiting margin
+    reach = waveform.duration_s / (2 * lo) + 256 / sample_rate_hz
+    x = 2 * np.pi * f_top * reach * (hi - lo) / 2
     k = _node_count(float(np.ceil(x * 100) / 100), float(tolerance))
     centre, half = (hi + lo) / 2, (hi - lo) / 2
     return centre + half * np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
@@ -669,16 +671,23 @@ def render_doppler(
     K, L = calls.shape
     # the path gains times the Lagrange weights, path-major: (N, M, K)
     gl = _lagrange(nodes, rate.T)
-    # 2. the span of the output the echoes reach
-    d = echoes.delay_s * fs + emission_index + start
-    lo = int(np.floor(d.min())) - taps
-    hi = min(int(np.ceil(d.max())) + taps + L + 1, n_samples)
+    # 2. the span of the output the echoes reach; each echo placed where its call's
+    # middle (the pivot p) arrives less p: ``t0 + p / a - p``, and template j
+    # advanced by p (1 / a_j - 1), so that every template is scaled about the pivot
+    # (half the phase excursion over the Doppler factors of scaling about the start:
+    # fewer nodes and sets)
+    pivot = waveform.duration_s / 2
+    advance = pivot * (1 / nodes - 1)  # (K,) s
+    margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
+    d = (echoes.delay_s + pivot * (1 / rate - 1)) * fs + emission_index + start
+    lo = int(np.floor(d.min())) - taps - margin
+    hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
         return out
     n_span = hi - lo
-    n = sfft.next_fast_len(n_span + L + 2 * taps + 258, real=True)
+    n = sfft.next_fast_len(n_span + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = _cached(("spectra", *key), lambda: sfft.rfft(calls, n, axis=-1))  # (K, F)
+    spectra = _cached(("spectra", *key), _template_spectra, calls, advance * fs, n)  # (K, F)
     g = echoes.gain
     N = echoes.n_paths
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
@@ -714,6 +723,16 @@ def render_doppler(
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
+
+
+def _template_spectra(calls: np.ndarray, advance: np.ndarray, n: int) -> np.ndarray:
+    """Spectra (K, n // 2 + 1) of the templates `calls` (K, L) advanced by `advance`
+    (K,) samples: ``y_j(i + advance_j)``, band-limited, exact (a linear phase)."""
+    spectra = sfft.rfft(calls, n, axis=-1)
+    if np.any(advance):
+        f = np.arange(spectra.shape[1]) / n  # cycles per sample
+        spectra *= np.exp(2j * np.pi * advance[:, None] * f[None, :])
+    return spectra
 
 
 def _products(W: np.ndarray) -> np.ndarray:
