@@ -665,12 +665,10 @@ def render_doppler(
     if echoes.n_paths == 0:
         return out
     fs = sample_rate_hz
-    # 1. Doppler nodes and the time-scaled calls there; Lagrange weights per path
+    # 1. Doppler nodes and the time-scaled calls there
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
     calls, start = _templates(waveform, fs, nodes)
     K, L = calls.shape
-    # the path gains times the Lagrange weights, path-major: (N, M, K)
-    gl = _lagrange(nodes, rate.T)
     # 2. the span of the output the echoes reach; each echo placed where its call's
     # middle (the pivot p) arrives less p: ``t0 + p / a - p``, and template j
     # advanced by p (1 / a_j - 1), so that every template is scaled about the pivot
@@ -703,12 +701,16 @@ def render_doppler(
         dtype = np.float64
     # the direct path is a group of its own only where it has its own response terms
     path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
-    gl *= g.T[:, :, None]
+    # the interpolant in the Doppler factor as a Chebyshev series: path gains times
+    # T_p(s) (s the factor mapped onto [-1, 1]), (K, M, N), and the
+    # templates' Chebyshev coefficients (the same polynomial as the Lagrange form,
+    # with a three-term recurrence in place of the barycentric weights)
+    gl = _chebyshev_terms(nodes, rate, g)
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
-    W = spectra[:, band]
-    WW = _cached(("products", waveform, fs, tuple(nodes.tolist()), n, band.sum()), _products, W)
+    W = _cached(("coefficients", *key, band.sum()), _chebyshev_coefficients, spectra[:, band])
+    WW = _cached(("products", *key, band.sum()), _products, W)
     gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, tolerance * COMPRESS_FACTOR)
     cdtype = np.complex64 if dtype == np.float32 else complex
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), cdtype)
@@ -723,6 +725,34 @@ def render_doppler(
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
+
+
+def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]."""
+    K = nodes.size
+    out = np.empty((K, *rate.shape))
+    out[0] = gain
+    if K > 1:
+        x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+        s = (rate - (nodes[0] - half * x[0])) / half
+        np.multiply(gain, s, out=out[1])
+        s *= 2
+        for p in range(2, K):
+            np.multiply(s, out[p - 1], out=out[p])
+            out[p] -= out[p - 2]
+    return out
+
+
+def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
+    """Chebyshev coefficients (K, ...) of the interpolant through `values` (K, ...)
+    at the K Chebyshev nodes of :func:`doppler_nodes` (first kind, in its order)."""
+    K = values.shape[0]
+    theta = (2 * np.arange(K) + 1) * np.pi / (2 * K)
+    C = np.cos(np.outer(np.arange(K), theta)) * (2.0 / K)  # C[p, j] = 2 T_p(x_j) / K
+    C[0] /= 2
+    return np.tensordot(C, values, axes=1)
 
 
 def _template_spectra(calls: np.ndarray, advance: np.ndarray, n: int) -> np.ndarray:
@@ -757,8 +787,8 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    gl (N, M, K) path gains times the Lagrange weights of the Doppler nodes (path
-    n, microphone m, node j), V (N, Q) response terms; the filters
+    gl (K, M, N) path gains times the Doppler terms (term j, microphone m, path
+    n: the Chebyshev polynomials of :func:`_chebyshev_terms`), V (N, Q) response terms; the filters
     ``b_jq(f) = W_j(f) U_q(f)`` from the template spectra W (K, F), their products
     WW (:func:`_products`) and the response terms U (F, Q); path_direct (N,) and
     set_direct (Q,) which paths and response terms belong to the direct path.  Per
@@ -771,9 +801,10 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
     (gains (R, M, N), filters (F, R)).
     """
-    N, M, K = gl.shape
+    K, M, N = gl.shape
+    A = gl.transpose(2, 0, 1)  # (N, K, M)
     # per path, sum over microphones of g^2 l_j l_k: (N, K, K), for every group
-    X = np.matmul(gl.transpose(0, 2, 1), gl)
+    X = np.matmul(A, A.transpose(0, 2, 1))
     out_p, out_f = [], []
     for group in (True, False):
         paths = path_direct == group
@@ -810,10 +841,10 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         out_p.append(np.einsum("nq,jqr->njr", Vp, T))  # zero off the group
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
         out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
-    # the new gains of all groups at once: g_new[n, m] = gl[n, m] @ P[n], (N, M, R)
-    P = np.concatenate(out_p, axis=2)
+    # the new gains of all groups at once: g_new[:, m, n] = P[n]^T gl[:, m, n]
+    P = np.concatenate(out_p, axis=2)  # (N, K, R)
     g_new = np.empty((P.shape[2], M, N))
-    np.matmul(gl, P, out=g_new.transpose(2, 1, 0))
+    np.matmul(P.transpose(0, 2, 1), A, out=g_new.transpose(2, 0, 1))
     return g_new, np.concatenate(out_f, axis=1)
 
 
