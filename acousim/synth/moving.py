@@ -521,7 +521,9 @@ def arrivals(
     # started from a line, then from the chord: one or two Newton steps each
     t1, _, _ = _arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
     tm, _, _ = _arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
-    last = np.maximum(np.linalg.norm(kin.mics(t0) - anchor, axis=-1), 1e-6)
+    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
+    # (within c times its error, below 1e-10 m)
+    last = np.maximum(c * t0 - first, 1e-6)
     length = first + last
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
