@@ -707,10 +707,10 @@ def render_doppler(
     # the direct path is a group of its own only where it has its own response terms
     path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
     # the interpolant in the Doppler factor as a Chebyshev series: path gains times
-    # T_p(s) (s the factor mapped onto [-1, 1]), (K, M, N), and the
+    # T_p(s) (s the factor mapped onto [-1, 1]), (K, N, M), and the
     # templates' Chebyshev coefficients (the same polynomial as the Lagrange form,
     # with a three-term recurrence in place of the barycentric weights)
-    gl = _chebyshev_terms(nodes, rate, g)
+    gl = _chebyshev_terms(nodes, rate.T, g.T)
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
@@ -774,7 +774,7 @@ def _products(W: np.ndarray) -> np.ndarray:
     """Re(conj(W_j) W_k) of the template spectra W (K, F) for j <= k (symmetric):
     (K (K + 1) / 2, F), rows in the order of ``np.triu_indices(K)``."""
     j, k = np.triu_indices(W.shape[0])
-    return (W.conj()[j] * W[k]).real
+    return np.ascontiguousarray((W.conj()[j] * W[k]).real)
 
 
 _CACHE: dict = {}
@@ -792,8 +792,8 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    gl (K, M, N) path gains times the Doppler terms (term j, microphone m, path
-    n: the Chebyshev polynomials of :func:`_chebyshev_terms`), V (N, Q) response terms; the filters
+    gl (K, N, M) path gains times the Doppler terms (term j, path n, microphone
+    m: the Chebyshev polynomials of :func:`_chebyshev_terms`), V (N, Q) response terms; the filters
     ``b_jq(f) = W_j(f) U_q(f)`` from the template spectra W (K, F), their products
     WW (:func:`_products`) and the response terms U (F, Q); path_direct (N,) and
     set_direct (Q,) which paths and response terms belong to the direct path.  Per
@@ -806,8 +806,8 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
     (gains (R, M, N), filters (F, R)).
     """
-    K, M, N = gl.shape
-    A = gl.transpose(2, 0, 1)  # (N, K, M)
+    K, N, M = gl.shape
+    A = gl.transpose(1, 0, 2)  # (N, K, M)
     # per path, sum over microphones of g^2 l_j l_k: (N, K, K), for every group
     X = np.matmul(A, A.transpose(0, 2, 1))
     out_p, out_f = [], []
@@ -843,9 +843,10 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        out_p.append(np.einsum("nq,jqr->njr", Vp, T))  # zero off the group
+        out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
-        out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
+        UT = (Uq @ Tf.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)  # (F, K, r)
+        out_f.append(np.matmul(W.T[:, None, :], UT)[:, 0])  # sum over j of W_j UT_j
     # the new gains of all groups at once: g_new[:, m, n] = P[n]^T gl[:, m, n]
     P = np.concatenate(out_p, axis=2)  # (N, K, R)
     g_new = np.empty((P.shape[2], M, N))
