@@ -39,17 +39,22 @@ Rendering:
     the middle sample; the deviation left is what this method neglects), so the
     echo is the call time-scaled by ``a``: ``w(a s)`` is again a sweep of the same
     kind (frequencies times a, duration over a), band-limited as the static
-    renderer's call.  The scale factors of all paths lie in a small interval
+    renderer's call.  The templates are scaled about the middle of the call (the
+    pivot p = T/2): ``w(p + a (s - p))``, the echo placed at ``t0 + p / a - p``
+    (half the phase excursion over the Doppler factors of scaling about the start:
+    fewer nodes and sets).  The scale factors of all paths lie in a small interval
     (widened to multiples of NODE_QUANTUM, so that a drive reuses its templates);
-    the call is tabulated at K Chebyshev nodes of it and every path gets the
-    Lagrange weights of its own factor, K chosen so the interpolation error stays
-    below ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 12-16 for a
-    drive at 1 m/s).  With the Q separable terms of the path responses (absorption,
-    directivity: :mod:`acousim.synth.response`) that makes K Q sets of gains, each
-    with its filter; their sum is compressed to the few sets it needs (a real SVD
-    from Gram matrices, per group: direct path, echoes; 70 -> 10 on the corridor)
-    and rendered as the static renderer does: fractional-delay impulses per set,
-    FFT, products with the filters, summed.
+    the call is tabulated at K Chebyshev nodes of it and its interpolant in the
+    factor written as a Chebyshev series: every path gets ``T_k(s)`` of its own
+    factor (s mapped onto [-1, 1]; a three-term recurrence), the templates their
+    Chebyshev coefficients; K chosen so the interpolation error stays below
+    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 9 for the corridor
+    drive at 1 m/s).  With the Q separable terms of the path responses
+    (absorption, directivity: :mod:`acousim.synth.response`) that makes K Q sets of
+    gains, each with its filter; their sum is compressed to the few sets it needs
+    (a real SVD from Gram matrices, per group: direct path, echoes; 45 -> 8 on the
+    corridor) and rendered as the static renderer does: fractional-delay impulses
+    per set, FFT, products with the filters, summed.
 ``render_doppler_reference`` (exact)
     Per output sample at 64 times the sample rate, the emission time solved exactly
     (Newton on the retarded-time equation with the continuous trajectory), the
