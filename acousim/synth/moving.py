@@ -617,9 +617,11 @@ def doppler_nodes(
     lo = np.floor(rate_min / NODE_QUANTUM) * NODE_QUANTUM
     hi = np.ceil(rate_max / NODE_QUANTUM) * NODE_QUANTUM
     f_top = max(waveform.band_hz) if waveform.taper > 0 else ANTI_ALIAS_CUTOFF * sample_rate_hz / 2
-    # the templates are scaled about the call's middle (:func:`_templates`): the time
-    # from the pivot reaches half the scaled call and the band-limiting margin
-    reach = waveform.duration_s / (2 * lo) + 256 / sample_rate_hz
+    # the templates are scaled about the call's middle (:func:`render_doppler`): the
+    # time from the pivot reaches half the scaled call, and for an untapered call the
+    # ringing of its band limit (a tapered call has no energy there)
+    ringing = 0 if waveform.taper > 0 else 256 / sample_rate_hz
+    reach = waveform.duration_s / (2 * lo) + ringing
     x = 2 * np.pi * f_top * reach * (hi - lo) / 2
     k = _node_count(float(np.ceil(x * 100) / 100), float(tolerance))
     centre, half = (hi + lo) / 2, (hi - lo) / 2
