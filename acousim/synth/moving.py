@@ -48,11 +48,11 @@ Rendering:
     factor written as a Chebyshev series: every path gets ``T_k(s)`` of its own
     factor (s mapped onto [-1, 1]; a three-term recurrence), the templates their
     Chebyshev coefficients; K chosen so the interpolation error stays below
-    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 9 for the corridor
+    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 7 for the corridor
     drive at 1 m/s).  With the Q separable terms of the path responses
     (absorption, directivity: :mod:`acousim.synth.response`) that makes K Q sets of
     gains, each with its filter; their sum is compressed to the few sets it needs
-    (a real SVD from Gram matrices, per group: direct path, echoes; 45 -> 8 on the
+    (a real SVD from Gram matrices, per group: direct path, echoes; 35 -> 8 on the
     corridor) and rendered as the static renderer does: fractional-delay impulses
     per set, FFT, products with the filters, summed.
 ``render_doppler_reference`` (exact)
