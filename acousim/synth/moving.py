@@ -609,9 +609,11 @@ def doppler_nodes(
     tolerance: float = DOPPLER_TOLERANCE,
 ) -> np.ndarray:
     """Chebyshev nodes (K,) covering [rate_min, rate_max] (widened to multiples of
-    :data:`NODE_QUANTUM`): K is the fewest that interpolate ``w(a s)`` in a to
-    `tolerance` (the phase ``2 pi f s a`` spans ``x = 2 pi f_top T h``, h the half
-    width; f_top the call's top frequency, the band limit for an untapered call)."""
+    :data:`NODE_QUANTUM`): K is the fewest that interpolate ``w(p + a (s - p))``
+    in a to `tolerance` (p = T / 2, the pivot of :func:`render_doppler`: the phase
+    ``2 pi f (s - p) a`` spans ``x = 2 pi f_top (T / 2 + ringing) h``, h the half
+    width; f_top the call's top frequency, the band limit for an untapered call,
+    whose band-limit ringing of 256 samples counts too)."""
     if rate_max - rate_min < 1e-12:
         return np.array([rate_min])
     lo = np.floor(rate_min / NODE_QUANTUM) * NODE_QUANTUM
