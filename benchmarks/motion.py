@@ -239,7 +239,8 @@ def run(small: bool = False) -> str:
         "## Motion within a measurement: Doppler renderer, geometry, corridor drive",
         "",
         "**Renderer.** The fast renderer (linear delay law per path and microphone, the "
-        "call time-scaled at Chebyshev nodes of the Doppler factors, sets compressed) "
+        "call time-scaled about its middle at Chebyshev nodes of the Doppler factors and "
+        "interpolated as a Chebyshev series, sets compressed) "
         "against the exact reference (emission time solved per sample at 64x the rate, "
         "analytic call, band-limited); uRTIS microphones 0, 9, 20, 29; RTIS 80-20 kHz "
         "call; point reflectors 1-4 m away, one walking towards the sensor at 1 m/s; "

@@ -39,17 +39,22 @@ Rendering:
     the middle sample; the deviation left is what this method neglects), so the
     echo is the call time-scaled by ``a``: ``w(a s)`` is again a sweep of the same
     kind (frequencies times a, duration over a), band-limited as the static
-    renderer's call.  The scale factors of all paths lie in a small interval
+    renderer's call.  The templates are scaled about the middle of the call (the
+    pivot p = T/2): ``w(p + a (s - p))``, the echo placed at ``t0 + p / a - p``
+    (half the phase excursion over the Doppler factors of scaling about the start:
+    fewer nodes and sets).  The scale factors of all paths lie in a small interval
     (widened to multiples of NODE_QUANTUM, so that a drive reuses its templates);
-    the call is tabulated at K Chebyshev nodes of it and every path gets the
-    Lagrange weights of its own factor, K chosen so the interpolation error stays
-    below ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 12-16 for a
-    drive at 1 m/s).  With the Q separable terms of the path responses (absorption,
-    directivity: :mod:`acousim.synth.response`) that makes K Q sets of gains, each
-    with its filter; their sum is compressed to the few sets it needs (a real SVD
-    from Gram matrices, per group: direct path, echoes; 70 -> 10 on the corridor)
-    and rendered as the static renderer does: fractional-delay impulses per set,
-    FFT, products with the filters, summed.
+    the call is tabulated at K Chebyshev nodes of it and its interpolant in the
+    factor written as a Chebyshev series: every path gets ``T_k(s)`` of its own
+    factor (s mapped onto [-1, 1]; a three-term recurrence), the templates their
+    Chebyshev coefficients; K chosen so the interpolation error stays below
+    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 7 for the corridor
+    drive at 1 m/s).  With the Q separable terms of the path responses
+    (absorption, directivity: :mod:`acousim.synth.response`) that makes K Q sets of
+    gains, each with its filter; their sum is compressed to the few sets it needs
+    (a real SVD from Gram matrices, per group: direct path, echoes; 35 -> 8 on the
+    corridor) and rendered as the static renderer does: fractional-delay impulses
+    per set, FFT, products with the filters, summed.
 ``render_doppler_reference`` (exact)
     Per output sample at 64 times the sample rate, the emission time solved exactly
     (Newton on the retarded-time equation with the continuous trajectory), the
@@ -107,6 +112,9 @@ TABLE_STEP_S = 2.5e-4
 POLY_DEGREE = 6
 POLY_FIT_M = 1e-10
 FIRST_LEG = {"fixed": 0, "fermat": 1, "exact": 2}
+#: Newton on the reception time stops after a step below this (error: about the
+#: step squared times 0.1 / s, see :func:`_newton_by_axis`)
+NEWTON_STOP_S = 2e-5
 
 
 @dataclass(frozen=True, eq=False)
@@ -419,8 +427,14 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
     moving = bool(np.any(paths.velocity_m_s))
     t_r = tau + f0 / c
     first = f0
+    # the anchors moved with the emitter: one matrix-vector product for a single
+    # emission time (batched 3 x 3 products cost 50 times more)
+    if scalar:
+        shift = (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
+    else:
+        shift = np.matmul(J, de[..., None])[..., 0]
     for _ in range(8 if moving else 1):
-        anchor = a0 + np.matmul(J, de[..., None])[..., 0] + u * t_r[..., None]
+        anchor = a0 + shift + u * t_r[..., None]
         exact = np.linalg.norm(anchor - e, axis=-1)
         along = np.sum(dep * de, axis=-1)
         fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
@@ -431,7 +445,7 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         t_r = new
         if done:
             break
-    anchor = a0 + np.matmul(J, de[..., None])[..., 0] + u * t_r[..., None]
+    anchor = a0 + shift + u * t_r[..., None]
     if scalar:
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
@@ -471,12 +485,10 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
     """Reception times (M, N) for the polynomial kinematics: Newton on
     ``f(t) = t - t_r - |m(t) - A| / c`` as in :func:`_arrival_times`, with the
     coordinates in rows (t_r (M, N), anchor (M or 1, N, 3))."""
-    A = np.moveaxis(anchor, -1, -2)  # (M or 1, 3, N)
-    if guess is None:
-        diff = kin.mics_by_axis(t_r) - A
-        t = t_r + np.sqrt(np.sum(diff * diff, axis=1)) / c
-    else:
-        t = np.array(guess, float)
+    A = np.ascontiguousarray(np.moveaxis(anchor, -1, -2))  # (M or 1, 3, N)
+    # without a guess, the first Newton step starts at t_r, where f = -|m - A| / c:
+    # exact for a microphone at constant velocity
+    t = np.broadcast_to(t_r, t_r.shape) if guess is None else np.array(guess, float)
     for _ in range(20):
         pos, vel = kin.mics_by_axis(t, velocity=True)
         diff = pos - A
@@ -485,8 +497,10 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
         step = (t - t_r - dist / c) / slope
         t = t - step
         # quadratic convergence: after a step s the error is about s^2 |f''| / 2
-        # with |f''| below 1e-2 / s for a robot: s < 1e-7 s leaves < 1e-16 s
-        if np.max(np.abs(step)) < 1e-7:
+        # with |f''| <= (|m''| + |m'|^2 / |m - A|) / c: below 0.2 / s at 1 m/s for
+        # the direct path (2 cm), 1.5 / s at 3 m/s; s < NEWTON_STOP_S leaves
+        # 4e-11 s (-95 dB at 80 kHz), 3e-10 s (-78 dB)
+        if np.max(np.abs(step)) < NEWTON_STOP_S:
             break
     return t
 
@@ -518,7 +532,9 @@ def arrivals(
     # started from a line, then from the chord: one or two Newton steps each
     t1, _, _ = _arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
     tm, _, _ = _arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
-    last = np.maximum(np.linalg.norm(kin.mics(t0) - anchor, axis=-1), 1e-6)
+    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
+    # (within c times its error, below 1e-10 m)
+    last = np.maximum(c * t0 - first, 1e-6)
     length = first + last
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
@@ -593,16 +609,22 @@ def doppler_nodes(
     tolerance: float = DOPPLER_TOLERANCE,
 ) -> np.ndarray:
     """Chebyshev nodes (K,) covering [rate_min, rate_max] (widened to multiples of
-    :data:`NODE_QUANTUM`): K is the fewest that interpolate ``w(a s)`` in a to
-    `tolerance` (the phase ``2 pi f s a`` spans ``x = 2 pi f_top T h``, h the half
-    width; f_top the call's top frequency, the band limit for an untapered call)."""
+    :data:`NODE_QUANTUM`): K is the fewest that interpolate ``w(p + a (s - p))``
+    in a to `tolerance` (p = T / 2, the pivot of :func:`render_doppler`: the phase
+    ``2 pi f (s - p) a`` spans ``x = 2 pi f_top (T / 2 + ringing) h``, h the half
+    width; f_top the call's top frequency, the band limit for an untapered call,
+    whose band-limit ringing of 256 samples counts too)."""
     if rate_max - rate_min < 1e-12:
         return np.array([rate_min])
     lo = np.floor(rate_min / NODE_QUANTUM) * NODE_QUANTUM
     hi = np.ceil(rate_max / NODE_QUANTUM) * NODE_QUANTUM
     f_top = max(waveform.band_hz) if waveform.taper > 0 else ANTI_ALIAS_CUTOFF * sample_rate_hz / 2
-    span = waveform.duration_s / lo + 2 * 256 / sample_rate_hz
-    x = 2 * np.pi * f_top * span * (hi - lo) / 2
+    # the templates are scaled about the call's middle (:func:`render_doppler`): the
+    # time from the pivot reaches half the scaled call, and for an untapered call the
+    # ringing of its band limit (a tapered call has no energy there)
+    ringing = 0 if waveform.taper > 0 else 256 / sample_rate_hz
+    reach = waveform.duration_s / (2 * lo) + ringing
+    x = 2 * np.pi * f_top * reach * (hi - lo) / 2
     k = _node_count(float(np.ceil(x * 100) / 100), float(tolerance))
     centre, half = (hi + lo) / 2, (hi - lo) / 2
     return centre + half * np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
@@ -663,22 +685,27 @@ def render_doppler(
     if echoes.n_paths == 0:
         return out
     fs = sample_rate_hz
-    # 1. Doppler nodes and the time-scaled calls there; Lagrange weights per path
+    # 1. Doppler nodes and the time-scaled calls there
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
     calls, start = _templates(waveform, fs, nodes)
     K, L = calls.shape
-    # the path gains times the Lagrange weights, path-major: (N, M, K)
-    gl = _lagrange(nodes, rate.T)
-    # 2. the span of the output the echoes reach
-    d = echoes.delay_s * fs + emission_index + start
-    lo = int(np.floor(d.min())) - taps
-    hi = min(int(np.ceil(d.max())) + taps + L + 1, n_samples)
+    # 2. the span of the output the echoes reach; each echo placed where its call's
+    # middle (the pivot p) arrives less p: ``t0 + p / a - p``, and template j
+    # advanced by p (1 / a_j - 1), so that every template is scaled about the pivot
+    # (half the phase excursion over the Doppler factors of scaling about the start:
+    # fewer nodes and sets)
+    pivot = waveform.duration_s / 2
+    advance = pivot * (1 / nodes - 1)  # (K,) s
+    margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
+    d = (echoes.delay_s + pivot * (1 / rate - 1)) * fs + emission_index + start
+    lo = int(np.floor(d.min())) - taps - margin
+    hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
         return out
     n_span = hi - lo
-    n = sfft.next_fast_len(n_span + L + 2 * taps + 258, real=True)
+    n = sfft.next_fast_len(n_span + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = _cached(("spectra", *key), lambda: sfft.rfft(calls, n, axis=-1))  # (K, F)
+    spectra = _cached(("spectra", *key), _template_spectra, calls, advance * fs, n)  # (K, F)
     g = echoes.gain
     N = echoes.n_paths
     # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
@@ -694,12 +721,16 @@ def render_doppler(
         dtype = np.float64
     # the direct path is a group of its own only where it has its own response terms
     path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
-    gl *= g.T[:, :, None]
+    # the interpolant in the Doppler factor as a Chebyshev series: path gains times
+    # T_p(s) (s the factor mapped onto [-1, 1]), (K, N, M), and the
+    # templates' Chebyshev coefficients (the same polynomial as the Lagrange form,
+    # with a three-term recurrence in place of the barycentric weights)
+    gl = _chebyshev_terms(nodes, rate.T, g.T)
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
-    W = spectra[:, band]
-    WW = _cached(("products", waveform, fs, tuple(nodes.tolist()), n, band.sum()), _products, W)
+    W = _cached(("coefficients", *key, band.sum()), _chebyshev_coefficients, spectra[:, band])
+    WW = _cached(("products", *key, band.sum()), _products, W)
     gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, tolerance * COMPRESS_FACTOR)
     cdtype = np.complex64 if dtype == np.float32 else complex
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), cdtype)
@@ -716,11 +747,49 @@ def render_doppler(
     return out
 
 
+def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]."""
+    K = nodes.size
+    out = np.empty((K, *rate.shape))
+    out[0] = gain
+    if K > 1:
+        x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+        s = (rate - (nodes[0] - half * x[0])) / half
+        np.multiply(gain, s, out=out[1])
+        s *= 2
+        for p in range(2, K):
+            np.multiply(s, out[p - 1], out=out[p])
+            out[p] -= out[p - 2]
+    return out
+
+
+def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
+    """Chebyshev coefficients (K, ...) of the interpolant through `values` (K, ...)
+    at the K Chebyshev nodes of :func:`doppler_nodes` (first kind, in its order)."""
+    K = values.shape[0]
+    theta = (2 * np.arange(K) + 1) * np.pi / (2 * K)
+    C = np.cos(np.outer(np.arange(K), theta)) * (2.0 / K)  # C[p, j] = 2 T_p(x_j) / K
+    C[0] /= 2
+    return np.tensordot(C, values, axes=1)
+
+
+def _template_spectra(calls: np.ndarray, advance: np.ndarray, n: int) -> np.ndarray:
+    """Spectra (K, n // 2 + 1) of the templates `calls` (K, L) advanced by `advance`
+    (K,) samples: ``y_j(i + advance_j)``, band-limited, exact (a linear phase)."""
+    spectra = sfft.rfft(calls, n, axis=-1)
+    if np.any(advance):
+        f = np.arange(spectra.shape[1]) / n  # cycles per sample
+        spectra *= np.exp(2j * np.pi * advance[:, None] * f[None, :])
+    return spectra
+
+
 def _products(W: np.ndarray) -> np.ndarray:
     """Re(conj(W_j) W_k) of the template spectra W (K, F) for j <= k (symmetric):
     (K (K + 1) / 2, F), rows in the order of ``np.triu_indices(K)``."""
     j, k = np.triu_indices(W.shape[0])
-    return (W.conj()[j] * W[k]).real
+    return np.ascontiguousarray((W.conj()[j] * W[k]).real)
 
 
 _CACHE: dict = {}
@@ -738,8 +807,8 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    gl (N, M, K) path gains times the Lagrange weights of the Doppler nodes (path
-    n, microphone m, node j), V (N, Q) response terms; the filters
+    gl (K, N, M) path gains times the Doppler terms (term j, path n, microphone
+    m: the Chebyshev polynomials of :func:`_chebyshev_terms`), V (N, Q) response terms; the filters
     ``b_jq(f) = W_j(f) U_q(f)`` from the template spectra W (K, F), their products
     WW (:func:`_products`) and the response terms U (F, Q); path_direct (N,) and
     set_direct (Q,) which paths and response terms belong to the direct path.  Per
@@ -752,9 +821,10 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
     (gains (R, M, N), filters (F, R)).
     """
-    N, M, K = gl.shape
+    K, N, M = gl.shape
+    A = gl.transpose(1, 0, 2)  # (N, K, M)
     # per path, sum over microphones of g^2 l_j l_k: (N, K, K), for every group
-    X = np.matmul(gl.transpose(0, 2, 1), gl)
+    X = np.matmul(A, A.transpose(0, 2, 1))
     out_p, out_f = [], []
     for group in (True, False):
         paths = path_direct == group
@@ -788,13 +858,14 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        out_p.append(np.einsum("nq,jqr->njr", Vp, T))  # zero off the group
+        out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
-        out_f.append(sum(W[j][:, None] * (Uq @ Tf[j]) for j in range(K)))
-    # the new gains of all groups at once: g_new[n, m] = gl[n, m] @ P[n], (N, M, R)
-    P = np.concatenate(out_p, axis=2)
+        UT = (Uq @ Tf.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)  # (F, K, r)
+        out_f.append(np.matmul(W.T[:, None, :], UT)[:, 0])  # sum over j of W_j UT_j
+    # the new gains of all groups at once: g_new[:, m, n] = P[n]^T gl[:, m, n]
+    P = np.concatenate(out_p, axis=2)  # (N, K, R)
     g_new = np.empty((P.shape[2], M, N))
-    np.matmul(gl, P, out=g_new.transpose(2, 1, 0))
+    np.matmul(P.transpose(0, 2, 1), A, out=g_new.transpose(2, 0, 1))
     return g_new, np.concatenate(out_f, axis=1)
 
 
