@@ -40,8 +40,9 @@ Discretisation (this module; a pure function of the geometry):
    amplitude).
 
 Valid for rigid (or uniformly reflecting) straight edges; the faces' absorption is
-applied by the caller as a factor.  Not modelled here: edge-to-edge (second-order)
-diffraction, which the stage adds by combining these elements.
+applied by the caller as a factor.  Second order (edge to edge, two edges sharing a
+plane): :func:`edge_pair_elements`, the double line integral, discretised on its
+own (equal elements, bins of path length).
 """
 
 from __future__ import annotations
@@ -52,6 +53,9 @@ import numpy as np
 
 __all__ = [
     "EdgeElements",
+    "EdgePairElements",
+    "Wedge",
+    "edge_pair_elements",
     "many_edge_elements",
     "edge_elements",
     "DEFAULT_STEP_M",

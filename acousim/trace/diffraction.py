@@ -1,4 +1,5 @@
-"""The edge-diffraction stage: first-order BTM diffraction of every edge in view.
+"""The edge-diffraction stage: first-order BTM diffraction of every edge in view
+(and, as an option, second order: edge to edge).
 
 Input: the scene's diffracting edges (:mod:`acousim.trace.edges`), the ray caster,
 the emitter and the receiver (the array centre).  Output: one point reflector per
@@ -31,8 +32,8 @@ tracer's form with kind ``"diffraction"``.
 
 Valid where the edges are straight and their faces nearly rigid (BTM is exact for
 an infinite rigid wedge; a finite edge is integrated over its length).  Not
-modelled: edge-to-edge (second-order) diffraction; diffraction of the diffuse and
-curved-surface parts.
+modelled: edge to edge between edges that share no plane, third order, edge to edge
+with reflections; diffraction of the diffuse and curved-surface parts.
 """
 
 from __future__ import annotations
