@@ -248,6 +248,29 @@ def _strip() -> tuple[np.ndarray, np.ndarray]:
     return one, two
 
 
+def _bar() -> list[str]:
+    """A 2 cm square bar turned 45° (edge on) at 2 m against the exact 2D bar (the
+    tests' boundary-element reference, 8000 panels per metre), 20-80 kHz: error of
+    first order alone and with edge to edge."""
+    from tests.test_diffraction_order2 import diamond_orders, rect_far_field
+
+    d = 2.0
+    freqs = np.arange(20e3, 81e3, 10e3)
+    k = 2 * np.pi * freqs / C
+    first, second = diamond_orders(d, k)
+    exact = np.array([np.conj(rect_far_field(kk, 0.02, 0.02, np.pi / 4)) for kk in k])
+    exact *= np.exp(-2j * k * d) / (np.sqrt(2) * d**1.5)
+    rows = []
+    for i, f in enumerate(freqs):
+        e1 = 20 * np.log10(abs(first[i]) / abs(exact[i]))
+        e2 = 20 * np.log10(abs(first[i] + second[i]) / abs(exact[i]))
+        rows.append(
+            f"| {f / 1e3:.0f} | {20 * np.log10(abs(exact[i]) * 2 * d):.1f} | {e1:+.2f} "
+            f"| {e2:+.2f} |"
+        )
+    return rows
+
+
 def _edge_to_edge() -> list[str]:
     """What second order (edge to edge) adds on thin plates facing the sensor at
     0.5 m, and on a long strip against the exact strip solution."""
@@ -334,6 +357,16 @@ def run(poses: list[int] | None = None) -> str:
             "| edge-to-edge paths | trace ms, order 1 / 2 |",
             "|---|---|---|---|---|---|",
             *_edge_to_edge(),
+            "",
+            "A 2 cm x 4 m square bar turned 45° (its front edge towards the sensor: no "
+            "specular echo; three edges in view, two edge-to-edge pairs each way) at 2 m, "
+            "against the exact 2D bar (boundary elements, tests/test_diffraction_order2.py; "
+            "converged to about 0.1 dB at 60-80 kHz) taken to 3D by stationary phase: error "
+            "of ours in dB.",
+            "",
+            "| kHz | exact (dB re wall) | first order | with edge to edge |",
+            "|---|---|---|---|",
+            *_bar(),
             "",
         ]
     )
