@@ -422,3 +422,31 @@ def test_scene_key_diffraction_order(tmp_path):
     for bad in (0, 3, 1.5, "two"):
         with pytest.raises(InputError, match="diffraction_order"):
             parse_scene({**base, "simulation": {"diffraction_order": bad}})
+
+
+def test_edge_to_edge_runs_over_a_face_not_across_a_gap():
+    """Two coplanar plates with a gap between them: edges of different plates share
+    the plane but no face, so no path runs between them; each plate keeps its own."""
+    from acousim.trace.diffraction import diffract
+    from acousim.trace.embree import RayCaster
+
+    def plate(y0):
+        v = np.array([[0.5, y0, -0.02], [0.5, y0 + 0.04, -0.02], [0.5, y0 + 0.04, 0.02]])
+        v = np.vstack([v, [0.5, y0, 0.02]])
+        return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+    o = np.zeros(3)
+
+    def count(mesh, check=True):
+        edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
+        refl = np.ones(len(mesh.faces))
+        d = diffract(
+            edges, caster if check else None, o, o, 8.0, refl, order=2, face_plane=plane_ids(mesh)
+        )
+        return int((d.order == 2).sum())
+
+    both = trimesh.util.concatenate([plate(-0.07), plate(0.03)])
+    alone = count(plate(-0.07)) + count(plate(0.03))
+    assert alone > 0
+    assert count(both) == alone
+    assert count(both, check=False) > alone  # unchecked, the gap would be crossed
