@@ -426,7 +426,9 @@ def edge_pair_elements(
        changes by at most step_m over one pair).
     2. Keep the elements that can lie on a path within ``max_excess_m`` of the
        shortest one (lower bound of the path through z1: m + |z1 - R|; through z2:
-       |S - z2| + l).
+       |S - z2| + l), and for each z1 the interval of z2 whose paths can (the path
+       is convex in z2: found on every 16th element, the limit relaxed by what 8
+       elements can change).
     3. Evaluate the integrand at the midpoints of every kept pair (midpoint rule;
        the integrand has no singularity unless S or R lies in the plane of the
        shared face); taper the second half of the excess range (raised cosine) if
@@ -480,15 +482,36 @@ def edge_pair_elements(
     z2_on2 = (p2 - wedge2.start_m) @ wedge2.axis
     r2_1, _, z2_1 = wedge1.cylindrical(p2)  # edge 2's elements about edge 1
     r1_2, _, z1_2 = wedge2.cylindrical(p1)  # edge 1's elements about edge 2
+    # the pairs within the limit: for each z1 an interval of z2 (the path is convex
+    # in z2), found on every G-th z2 with the limit relaxed by what G / 2 elements
+    # can change (the path changes by at most 2 dz2 per element)
+    g_step = 16
+    coarse = k2[::g_step]
+    coarse = np.unique(np.append(coarse, k2[-1]))
+    n_c = np.linalg.norm(p1[k1, None, :] - p2[None, coarse, :], axis=2)
+    near = m_all[k1, None] + n_c + l_all[None, coarse] <= limit + g_step * dzs[1]
+    any_ = near.any(axis=1)
+    first_c = np.argmax(near, axis=1)
+    last_c = near.shape[1] - 1 - np.argmax(near[:, ::-1], axis=1)
+    lo = np.clip(coarse[first_c] - g_step, k2[0], k2[-1] + 1)
+    hi = np.clip(coarse[last_c] + g_step + 1, k2[0], k2[-1] + 1)
+    rows, lo, hi = k1[any_], lo[any_], hi[any_]
+    counts = np.maximum(hi - lo, 0)
     parts = []
-    rows_per = max(1, _PAIR_CHUNK // k2.size)
-    for s in range(0, k1.size, rows_per):
-        a = k1[s : s + rows_per][:, None]
-        b = k2[None, :]
-        n = np.linalg.norm(p1[a] - p2[b], axis=2)
+    start = 0
+    while start < rows.size:
+        # as many rows as fit in one chunk of pairs (at least one)
+        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), _PAIR_CHUNK)))
+        c = counts[start:stop]
+        a = np.repeat(rows[start:stop], c)
+        b = np.repeat(lo[start:stop], c) + (np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c))
+        start = stop
+        if a.size == 0:
+            continue
+        n = np.linalg.norm(p1[a] - p2[b], axis=1)
         path = m_all[a] + n + l_all[b]
         ok = (path <= limit) & (r2_1[b] > 0) & (r1_2[a] > 0)
-        a, b = np.broadcast_to(a, path.shape)[ok], np.broadcast_to(b, path.shape)[ok]
+        a, b = a[ok], b[ok]
         if a.size == 0:
             continue
         m, n, l_, path = m_all[a], n[ok], l_all[b], path[ok]
@@ -514,15 +537,15 @@ def edge_pair_elements(
         return EdgePairElements.empty()
     # 4. bins of step_m / 4 in path length
     bin_ = np.floor((path - path.min()) / (step_m / 4)).astype(int)
-    _, inv = np.unique(bin_, return_inverse=True)
+    used = np.flatnonzero(np.bincount(bin_))
     w = np.abs(amp)
-    wsum = np.bincount(inv, w)
+    wsum = np.bincount(bin_, w)[used]
     wsum = np.where(wsum > 0, wsum, 1.0)
 
     def mean(x):
-        return np.bincount(inv, w * x) / wsum
+        return np.bincount(bin_, w * x)[used] / wsum
 
-    total = np.bincount(inv, amp)
+    total = np.bincount(bin_, amp)[used]
     length = mean(path)
     q1 = np.column_stack([mean(p1[a, i]) for i in range(3)])
     q2 = np.column_stack([mean(p2[b, i]) for i in range(3)])
