@@ -452,6 +452,9 @@ class Simulation:
     diffraction_step_m : edge-element step, in excess path length (m).
     diffraction_reflections : also edge diffraction combined with one specular
         reflection before or after the edge (image sources; slow in large scenes).
+    diffraction_order : 1, or 2 to add edge-to-edge diffraction between edges that
+        share a plane (the rims of a plate, the edges of a box face; slow for long
+        edges).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -473,6 +476,7 @@ class Simulation:
     diffraction: bool = setting(False, doc="edge diffraction (BTM)")
     diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
     diffraction_reflections: bool = setting(False, doc="also edge + one reflection (slow)")
+    diffraction_order: int = setting(1, "", 1, 2, "1, or 2: also edge to edge")
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )

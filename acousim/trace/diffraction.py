@@ -1,4 +1,5 @@
-"""The edge-diffraction stage: first-order BTM diffraction of every edge in view.
+"""The edge-diffraction stage: first-order BTM diffraction of every edge in view
+(and, as an option, second order: edge to edge).
 
 Input: the scene's diffracting edges (:mod:`acousim.trace.edges`), the ray caster,
 the emitter and the receiver (the array centre).  Output: one point reflector per
@@ -31,8 +32,8 @@ tracer's form with kind ``"diffraction"``.
 
 Valid where the edges are straight and their faces nearly rigid (BTM is exact for
 an infinite rigid wedge; a finite edge is integrated over its length).  Not
-modelled: edge-to-edge (second-order) diffraction; diffraction of the diffuse and
-curved-surface parts.
+modelled: edge to edge between edges that share no plane, third order, edge to edge
+with reflections; diffraction of the diffuse and curved-surface parts.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .btm import DEFAULT_STEP_M, EdgeElements, many_edge_elements
+from .btm import DEFAULT_STEP_M, EdgeElements, Wedge, edge_pair_elements, many_edge_elements
 from .edges import Edges, find_edges, triangles_mesh
 from .embree import DISTANCE_TOLERANCE, RAY_OFFSET
 from .geometry import World
@@ -155,8 +156,11 @@ def diffract(
     step_m: float = DEFAULT_STEP_M,
     planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     floor_db: float = -np.inf,
+    order: int = 1,
+    face_plane: np.ndarray | None = None,
 ) -> DiffractedPaths:
-    """First-order edge diffraction (see the module docstring).
+    """First-order edge diffraction, and second order if asked (see the module
+    docstring).
 
     edges: the scene's diffracting edges; caster: the RayCaster (None: no occlusion);
     emitter, receiver (3,); max_path_m: longest path kept; face_reflection (F,):
@@ -165,7 +169,9 @@ def diffract(
     to combine with one specular reflection before or after the edge (None: none);
     floor_db: elements weaker than this relative to the strongest first-order one
     are dropped before their visibility is checked (pass the tracer's energy floor:
-    its strongest echo is at least as strong, so nothing it would keep is lost).
+    its strongest echo is at least as strong, so nothing it would keep is lost);
+    order: 1, or 2 to add edge-to-edge diffraction over pairs of edges that share a
+    plane (``face_plane`` (F,): the plane id of each face, needed then).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -191,6 +197,13 @@ def diffract(
         caster, receiver, el.point_m[strong], tol
     )
     out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1))
+    # 5. edge to edge
+    if order >= 2 and face_plane is not None:
+        out.append(
+            _edge_to_edge(
+                edges, caster, emitter, receiver, face_plane, r_edge, step_m, max_path_m, tol, nudge
+            )
+        )
     # 3. one reflection before or after the edge
     if planes is not None:
         for before in (True, False):
@@ -347,6 +360,118 @@ def _reflected(
     )
 
 
+def _edge_to_edge(
+    edges: Edges,
+    caster,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    face_plane: np.ndarray,
+    face_reflection: np.ndarray,
+    step_m: float,
+    max_path_m: float,
+    tol: float,
+    nudge: float,
+) -> DiffractedPaths:
+    """Step 5: second-order paths emitter -> edge 1 -> edge 2 -> receiver over every
+    ordered pair of edges that share a plane (:func:`edge_pair_elements`).
+
+    A pair is tried if the emitter is on a convex side of edge 1 and sees it, the
+    receiver likewise for edge 2 (at one of five points along it), the two edges
+    are not collinear, and the plane holds a face half way between the edges' mid
+    points (the path runs over the face: a ray down onto the plane there).  Edge 2
+    lies on a face of wedge 1: at angle 0 about edge 1 if the shared plane is its
+    face 1, else at its open angle (and likewise edge 1 about edge 2).  Both rims of
+    a thin plate: the path runs along both of its sides (``sides = 2``).
+    Visibility is checked per edge, not per element.
+    """
+    keep1, w1 = edges.oriented(emitter, emitter)
+    keep2, w2 = edges.oriented(receiver, receiver)
+    n_e = len(edges)
+    frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+    pts = (
+        edges.start_m[:, None, :] + frac[None, :, None] * (edges.end_m - edges.start_m)[:, None, :]
+    ).reshape(-1, 3)
+    near_s = _segment_distance(emitter, edges.start_m, edges.end_m)
+    near_r = _segment_distance(receiver, edges.start_m, edges.end_m)
+    keep1 &= near_s < max_path_m
+    keep2 &= near_r < max_path_m
+    if caster is not None:
+        seen_s = _visible(caster, emitter, pts, tol).reshape(n_e, -1).any(axis=1)
+        seen_r = _visible(caster, receiver, pts, tol).reshape(n_e, -1).any(axis=1)
+        keep1 &= seen_s
+        keep2 &= seen_r
+    plane = np.asarray(face_plane, int)
+    p_a = plane[edges.faces[:, 0]]
+    p_b = np.where(edges.faces[:, 1] >= 0, plane[np.maximum(edges.faces[:, 1], 0)], p_a)
+    i, j = np.nonzero(keep1[:, None] & keep2[None, :])
+    common = (p_a[i] == p_a[j]) | (p_a[i] == p_b[j])
+    common |= (p_b[i] == p_a[j]) | (p_b[i] == p_b[j])
+    ok = (i != j) & common
+    i, j = i[ok], j[ok]
+    if i.size == 0:
+        return _empty()
+    shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
+    rim = edges.faces[:, 1] < 0
+    refl = np.asarray(face_reflection, float)
+    out = []
+    for a, b, p in zip(i, j, shared):
+        wa, wb = _wedge(w1, a, refl), _wedge(w2, b, refl)
+        ra, _, _ = wa.cylindrical(np.stack([wb.start_m, wb.end_m]))
+        if ra.max() <= tol:  # collinear: no path over the face
+            continue
+        # the path runs over a face of the shared plane (a ray down onto it)
+        mid = 0.25 * (wa.start_m + wa.end_m + wb.start_m + wb.end_m)
+        f = w1.faces[a, 0] if plane[w1.faces[a, 0]] == p else w1.faces[a, 1]
+        # face 1's normal points into the air; face 2's air side is the other way
+        # from the direction of growing angle there
+        turn = np.cross(w1.face_dir[a], w1.normal[a])
+        up = w1.normal[a] if f == w1.faces[a, 0] else -np.cross(turn, w1.other_dir[a])
+        if caster is not None:
+            lift = 10 * nudge + tol
+            t, hit = caster.first_hit((mid + lift * up)[None], -up[None], 2 * lift)
+            if hit[0] < 0 or plane[hit[0]] != p or abs(t[0] - lift) > tol + nudge:
+                continue
+        th_ab = 0.0 if plane[w1.faces[a, 0]] == p else w1.angle_rad[a]
+        th_ba = 0.0 if plane[w2.faces[b, 0]] == p else w2.angle_rad[b]
+        sides = 2 if (rim[a] and rim[b]) else 1
+        el = edge_pair_elements(wa, wb, th_ab, th_ba, sides, emitter, receiver, step_m, max_path_m)
+        if len(el) == 0:
+            continue
+        dep = el.first_point_m - emitter
+        dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
+        out.append(
+            DiffractedPaths(
+                el.point_m,
+                el.first_leg_m,
+                el.amplitude * el.second_leg_m,
+                el.point_m,
+                dep,
+                np.full(len(el), b),
+                np.full(len(el), 2),
+            )
+        )
+    if not out:
+        return _empty()
+    return DiffractedPaths(*(np.concatenate([getattr(p, f) for p in out]) for f in _PATH_FIELDS))
+
+
+def _wedge(w: Edges, e: int, refl: np.ndarray) -> Wedge:
+    """Edge e of oriented edges as a :class:`Wedge` (its faces' reflection factors)."""
+    f1 = w.faces[e, 0]
+    f2 = w.faces[e, 1] if w.faces[e, 1] >= 0 else f1
+    return Wedge(
+        w.start_m[e],
+        w.end_m[e],
+        w.face_dir[e],
+        w.normal[e],
+        float(w.angle_rad[e]),
+        (float(refl[f1]), float(refl[f2])),
+    )
+
+
+_PATH_FIELDS = ("anchor_m", "first_leg_m", "strength", "position_m", "departure", "edge", "order")
+
+
 def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> DiffractedPaths:
     k = np.flatnonzero(ok)
     dep = points[k] - source
@@ -376,19 +501,21 @@ class DiffractingGeometry:
 
     edges: its diffracting edges (:func:`find_edges`); face_reflection (F,): pressure
     reflection factor per face; planes: (normal (P, 3), offset (P,), reflection (P,))
-    of every plane, for the reflections before or after an edge.
+    of every plane, for the reflections before or after an edge; face_plane (F,):
+    the plane id of each face (which edges share a plane, for edge to edge).
     """
 
     edges: Edges
     face_reflection: np.ndarray
     planes: tuple[np.ndarray, np.ndarray, np.ndarray]
+    face_plane: np.ndarray | None = None
 
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
         refl = world.face_values("reflection")
         first = np.unique(world.plane, return_index=True)[1]
         planes = (world.normals[first], world.offsets[first], refl[first])
-        return cls(find_edges(triangles_mesh(world.triangles)), refl, planes)
+        return cls(find_edges(triangles_mesh(world.triangles)), refl, planes, world.plane)
 
 
 def edge_diffraction(
@@ -400,12 +527,15 @@ def edge_diffraction(
     step_m: float,
     reflections: bool,
     floor_db: float,
+    order: int = 1,
 ) -> TracedPaths:
     """Stage 3 of the tracer: :func:`diffract` as :class:`TracedPaths` of kind
-    ``"diffraction"`` (order 1, or 2 with a reflection before or after the edge).
+    ``"diffraction"`` (order 1, or 2 with a reflection before or after the edge or
+    with a second edge).
 
     reflections: also the paths with one specular reflection (``planes``);
-    floor_db: the tracer's energy floor (dB, negative).
+    floor_db: the tracer's energy floor (dB, negative); order: 2 adds edge-to-edge
+    diffraction.
     """
     d = diffract(
         geometry.edges,
@@ -417,6 +547,8 @@ def edge_diffraction(
         step_m,
         geometry.planes if reflections else None,
         floor_db,
+        order,
+        geometry.face_plane,
     )
     kind = np.full(len(d), KIND["diffraction"])
     return TracedPaths(

@@ -28,7 +28,8 @@ class TraceSettings:
     energy_floor_db : paths this far below the strongest echo are dropped;
     direct_path : include the emitter -> microphone path; diffraction : edge
     diffraction (stage 3); diffraction_step_m : its edge-element step (excess path
-    length, m); diffraction_reflections : also edge + one specular reflection.
+    length, m); diffraction_reflections : also edge + one specular reflection;
+    diffraction_order : 1, or 2 to add edge-to-edge diffraction.
     """
 
     rays: int
@@ -41,6 +42,7 @@ class TraceSettings:
     diffraction: bool
     diffraction_step_m: float
     diffraction_reflections: bool
+    diffraction_order: int = 1
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -56,4 +58,5 @@ class TraceSettings:
             diffraction=sim.diffraction,
             diffraction_step_m=sim.diffraction_step_m,
             diffraction_reflections=sim.diffraction_reflections,
+            diffraction_order=sim.diffraction_order,
         )

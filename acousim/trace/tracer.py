@@ -10,7 +10,8 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
    specular points of curved surfaces, found without rays.
 3. Edge diffraction (:mod:`.diffraction`, if ``settings.diffraction``): first-order
    BTM elements of every edge the emitter and the receiver see, optionally with one
-   specular reflection before or after the edge; no rays needed (the edges and the
+   specular reflection before or after the edge, and (``diffraction_order`` 2) edge
+   to edge; no rays needed (the edges and the
    plane table of the world are built once, :class:`DiffractingGeometry`).
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
    receiver.
@@ -116,6 +117,7 @@ def trace_pose(
                 settings.diffraction_step_m,
                 settings.diffraction_reflections,
                 settings.energy_floor_db,
+                settings.diffraction_order,
             )
         )
     if shot is not None:
