@@ -185,6 +185,11 @@ class Tracer:
         self._cache[key] = paths
         return paths
 
+    def forget(self) -> None:
+        """Empty the cache of traced poses (the next trace of any pose pays in full:
+        for timing)."""
+        self._cache.clear()
+
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
         dirs = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
