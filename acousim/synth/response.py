@@ -38,10 +38,16 @@ def piston_directivity(frequency_hz, theta_rad, radius_m: float, speed_of_sound_
     f = np.asarray(frequency_hz, float)
     th = np.abs(np.asarray(theta_rad, float))
     x = 2 * np.pi * f / speed_of_sound_m_s * radius_m * np.sin(np.minimum(th, np.pi / 2))
-    safe = np.where(np.abs(x) < 1e-8, 1.0, x)
-    d = np.where(np.abs(x) < 1e-8, 1.0, 2 * j1(safe) / safe)
+    small = np.abs(x) < 1e-8
+    x = np.where(small, 1.0, x) if small.any() else np.asarray(x, float)
+    d = j1(x)
+    d *= 2
+    d /= x
+    if small.any():
+        d[small] = 1.0
     fade = np.clip(2 - 2 * th / np.pi, 0.0, 1.0)  # 1 up to 90°, 0 at 180°
-    return d * fade
+    d *= fade
+    return d
 
 
 @dataclass(frozen=True)
