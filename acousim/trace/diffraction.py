@@ -155,6 +155,7 @@ def diffract(
     step_m: float = DEFAULT_STEP_M,
     planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     floor_db: float = -np.inf,
+    floor_level: float = 0.0,
 ) -> DiffractedPaths:
     """First-order edge diffraction (see the module docstring).
 
@@ -165,7 +166,11 @@ def diffract(
     to combine with one specular reflection before or after the edge (None: none);
     floor_db: elements weaker than this relative to the strongest first-order one
     are dropped before their visibility is checked (pass the tracer's energy floor:
-    its strongest echo is at least as strong, so nothing it would keep is lost).
+    its strongest echo is at least as strong, so nothing it would keep is lost);
+    floor_level: elements weaker than this gain at the receiver are dropped too,
+    before their visibility is checked (the tracer passes its energy floor under the
+    strongest echo it has found before this stage: elements below it would be
+    dropped by the floor at the end anyway).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -184,7 +189,7 @@ def diffract(
         edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
     )
     # 4. visibility both ways (of the elements above the floor)
-    floor = np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20)
+    floor = max(np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20), floor_level)
     strong = np.abs(el.amplitude) >= floor
     ok = strong.copy()
     ok[strong] = _visible(caster, emitter, el.point_m[strong], tol) & _visible(
@@ -400,12 +405,14 @@ def edge_diffraction(
     step_m: float,
     reflections: bool,
     floor_db: float,
+    floor_level: float = 0.0,
 ) -> TracedPaths:
     """Stage 3 of the tracer: :func:`diffract` as :class:`TracedPaths` of kind
     ``"diffraction"`` (order 1, or 2 with a reflection before or after the edge).
 
     reflections: also the paths with one specular reflection (``planes``);
-    floor_db: the tracer's energy floor (dB, negative).
+    floor_db: the tracer's energy floor (dB, negative); floor_level: see
+    :func:`diffract`.
     """
     d = diffract(
         geometry.edges,
@@ -417,6 +424,7 @@ def edge_diffraction(
         step_m,
         geometry.planes if reflections else None,
         floor_db,
+        floor_level,
     )
     kind = np.full(len(d), KIND["diffraction"])
     return TracedPaths(

@@ -116,6 +116,7 @@ def trace_pose(
                 settings.diffraction_step_m,
                 settings.diffraction_reflections,
                 settings.energy_floor_db,
+                _floor_so_far(parts, receiver, settings.energy_floor_db),
             )
         )
     if shot is not None:
@@ -133,6 +134,18 @@ def trace_pose(
         )
     # 6. energy floor
     return energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+
+
+def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
+    """The energy floor (a gain at the receiver) under the strongest echo of `parts`:
+    the final floor (step 6) lies at or above it, so a later stage may drop what is
+    below it (less 1e-9 relative, for rounding) without changing the result."""
+    top = 0.0
+    for p in parts:
+        echo = p.kind != KIND["direct"]
+        if echo.any():
+            top = max(top, float(p.select(echo).level_at(receiver).max()))
+    return top * 10 ** (floor_db / 20) * (1 - 1e-9)
 
 
 class Tracer:
