@@ -37,6 +37,8 @@ def accumulate(start, phase, gains, table, out):  # pragma: no cover - compiled
             row = table[phase[m, n]]
             for q in range(Q):  # taps innermost: contiguous, vectorised (2x faster)
                 g = gains[m, n, q]
+                if g == 0.0:  # e.g. an echo in the direct path's set: nothing to add
+                    continue
                 a = acc[q, s : s + K]
                 for j in range(K):
                     a[j] += row[j] * g
