@@ -200,3 +200,16 @@ def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monke
     sparse = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
     assert np.any(compiled)
     assert compiled.tobytes() == sparse.tobytes()
+
+
+def test_noise_drawn_in_advance_is_the_noise_drawn_after():
+    from acousim.synth.noise import NoiseDraw, add_noise
+
+    clean = np.linspace(-1, 1, 3 * 500).reshape(3, 500)
+    later = add_noise(clean, 0.3, np.random.default_rng(11), 2)
+    rng = np.random.default_rng(11)
+    early = add_noise(clean, 0.3, rng, 2, NoiseDraw(rng, (2, 3, 500)))
+    assert early.tobytes() == later.tobytes()
+    rng = np.random.default_rng(11)
+    with pytest.raises(ValueError, match="shape"):
+        add_noise(clean, 0.3, rng, None, NoiseDraw(rng, (2, 3, 500)))
