@@ -181,7 +181,8 @@ def run(small: bool = False) -> str:
     lines += [
         "**Corridor drive in motion.** The corridor's poses at 20 Hz "
         f"({speed:.2f} m/s, turning with the drive), default settings, time per "
-        "measurement of `Simulator.run` (best of 3): frozen poses against the continuous "
+        "measurement of `Simulator.run` (best of 3, each run tracing every pose anew): "
+        "frozen poses against the continuous "
         "trajectory. Target: at most 1.5x.",
         "",
         "| drive | ms per measurement | ratio |",
