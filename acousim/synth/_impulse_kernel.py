@@ -17,13 +17,14 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def accumulate(start, phase, gains, table, out):  # pragma: no cover - compiled
+def accumulate(start, phase, scale, gains, table, out):  # pragma: no cover - compiled
     """Sum of weighted impulses into `out` (Q, M, B), which must be zero.
 
     start (M, N) int64: buffer index of each impulse's first tap; phase (M, N)
-    intp: its row of `table` (P, K), the K tap weights; gains (M, N, Q) float64: its
-    Q gains.  Row q of microphone m receives ``table[phase[m, n], j] * gains[m, n, q]``
-    at ``start[m, n] + j``.
+    intp: its row of `table` (P, K), the K tap weights; scale (M, N) times gains
+    (M, N, Q), float64 (either may be a broadcast view): its Q gains, formed here.
+    Row q of microphone m receives
+    ``table[phase[m, n], j] * (scale[m, n] * gains[m, n, q])`` at ``start[m, n] + j``.
     """
     M, N = start.shape
     Q = gains.shape[2]
@@ -36,7 +37,7 @@ def accumulate(start, phase, gains, table, out):  # pragma: no cover - compiled
             s = start[m, n]
             row = table[phase[m, n]]
             for q in range(Q):  # taps innermost: contiguous, vectorised (2x faster)
-                g = gains[m, n, q]
+                g = scale[m, n] * gains[m, n, q]
                 if g == 0.0:  # e.g. an echo in the direct path's set: nothing to add
                     continue
                 a = acc[q, s : s + K]

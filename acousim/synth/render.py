@@ -175,7 +175,7 @@ def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np
     W = sfft.rfft(call, n)
     g, U, V, band, _ = response_factors(echoes, g, W, fs, n, response)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
-    h, pad = _impulses(d, g[:, :, None] * V[None, :, :], n_span, method, taps, n, np.float32)
+    h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
     filt[band] = W[band, None] * U
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (Q, M, F)
@@ -293,13 +293,15 @@ def _impulses(
     taps: int,
     width: int | None = None,
     dtype: type = np.float64,
+    V: np.ndarray | None = None,
 ):
     """Sum of interpolated impulses; d in samples from the span start.
 
-    `g` is (M, N), or (M, N, Q) for Q sets of gains sharing the same delays: the
-    kernel weights are looked up once and applied to every set.  The sums run in a
-    compiled loop (:mod:`._impulse_kernel`, numba) or, without numba, as sparse
-    products; both give the same bits.  Without `width`: returns (M, n_span) or
+    `g` is (M, N), or (M, N, Q) for Q sets of gains sharing the same delays, or
+    (M, N) with `V` (N, Q): the sets ``g[m, n] * V[n, q]`` (not formed in memory
+    when compiled): the kernel weights are looked up once and applied to every set.
+    The sums run in a compiled loop (:mod:`._impulse_kernel`, numba) or, without
+    numba, as sparse products; both give the same bits.  Without `width`: returns (M, n_span) or
     (Q, M, n_span).  With `width` (a buffer length, for an FFT): returns
     ``(h, pad)`` with h of shape (Q, M, width) and span sample i at buffer index
     ``pad + i``.  Taps beyond the span's margin of `taps` samples are dropped.
@@ -322,14 +324,19 @@ def _impulses(
         first = np.clip(n0.astype(np.int64), -1, n_span) + pad + 1 - taps
         table = _kernel_table(method, taps)
     # first (M, N): index of each impulse's first tap in its microphone's buffer
-    G = g if many else g[..., None]  # (M, N, Q)
     kernel = _compiled()
     if kernel is not None:
-        h = np.zeros((G.shape[2], M, buf), dtype)
-        kernel(first, phase, G, table, h)
+        if V is not None:  # g (M, N) times V (N, Q), formed in the kernel
+            scale, gains = g, np.broadcast_to(V[None], (M, *V.shape))
+        else:
+            scale, gains = np.broadcast_to(1.0, (M, N)), g if many else g[..., None]
+        h = np.zeros((gains.shape[2], M, buf), dtype)
+        kernel(first, phase, scale, gains, table, h)
     else:
+        G = g[:, :, None] * V[None] if V is not None else g if many else g[..., None]
         first = first + (np.arange(M) * buf)[:, None]
         h = _impulses_sparse(first, phase, G, table, M * buf, dtype).reshape(-1, M, buf)
+    many = many or V is not None
     if width is not None:
         return h, pad
     h = h[:, :, pad : pad + n_span]
