@@ -301,10 +301,10 @@ def _impulses(
     (M, N) with `V` (N, Q): the sets ``g[m, n] * V[n, q]`` (not formed in memory
     when compiled): the kernel weights are looked up once and applied to every set.
     The sums run in a compiled loop (:mod:`._impulse_kernel`, numba) or, without
-    numba, as sparse products; both give the same bits.  Without `width`: returns (M, n_span) or
-    (Q, M, n_span).  With `width` (a buffer length, for an FFT): returns
-    ``(h, pad)`` with h of shape (Q, M, width) and span sample i at buffer index
-    ``pad + i``.  Taps beyond the span's margin of `taps` samples are dropped.
+    numba, as sparse products; both give the same bits.  Without `width`: returns
+    (M, n_span) or (Q, M, n_span).  With `width` (a buffer length, for an FFT):
+    returns ``(h, pad)`` with h of shape (Q, M, width) and span sample i at buffer
+    index ``pad + i``.  Taps beyond the span's margin of `taps` samples are dropped.
     `dtype` is the output's (the sums run in float64).
     """
     M, N = d.shape
