@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import logging
 from collections.abc import Callable, Iterable
 from importlib.metadata import PackageNotFoundError, version
@@ -42,6 +43,7 @@ log = logging.getLogger(__name__)
 SCENE_MOTION = "scene"
 
 
+@functools.lru_cache(maxsize=1)  # looked up once: 1.4 ms per recording otherwise
 def package_version() -> str:
     try:
         return version("acousim")

@@ -175,3 +175,41 @@ def test_an_unknown_or_unfit_interpolator_is_an_input_error_naming_it():
         render(e, P.paper_chirp(), FS, 4000, interpolator="cubic")
     with pytest.raises(InputError, match="interpolator = 'fft': a path response"):
         render(e, P.paper_chirp(), FS, 4000, interpolator="fft", response=PathResponse())
+
+
+@pytest.mark.parametrize("interpolator", ["sinc", "lagrange", "nearest"])
+def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monkeypatch):
+    """The numba accumulation adds every term in the sparse product's order: the same
+    bytes with and without numba (with a path response: several gain sets)."""
+    pytest.importorskip("numba")
+    import importlib
+
+    from acousim.synth import Echoes, PathResponse
+
+    render_mod = importlib.import_module("acousim.synth.render")  # the module
+    rng = np.random.default_rng(5)
+    arr = P.ura(2, 3, 3.85e-3)
+    refl = PointReflectors(rng.uniform([0.3, -2, -1], [5, 2, 1], (60, 3)), 1.0)
+    e0 = point_echoes(refl, arr, C)
+    theta = np.arccos(refl.positions_m[:, 0] / np.linalg.norm(refl.positions_m, axis=1))
+    e = Echoes(e0.delay_s, e0.gain, e0.path_length_m, e0.order, theta)
+    wf, fs = P.rtis_call(), 450e3
+    resp = PathResponse(emitter_radius_m=0.004)
+    compiled = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    monkeypatch.setattr(render_mod, "_compiled", lambda: None)
+    sparse = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    assert np.any(compiled)
+    assert compiled.tobytes() == sparse.tobytes()
+
+
+def test_noise_drawn_in_advance_is_the_noise_drawn_after():
+    from acousim.synth.noise import NoiseDraw, add_noise
+
+    clean = np.linspace(-1, 1, 3 * 500).reshape(3, 500)
+    later = add_noise(clean, 0.3, np.random.default_rng(11), 2)
+    rng = np.random.default_rng(11)
+    early = add_noise(clean, 0.3, rng, 2, NoiseDraw(rng, (2, 3, 500)))
+    assert early.tobytes() == later.tobytes()
+    rng = np.random.default_rng(11)
+    with pytest.raises(ValueError, match="shape"):
+        add_noise(clean, 0.3, rng, None, NoiseDraw(rng, (2, 3, 500)))

@@ -15,7 +15,7 @@ from processing import Array, Recording, Waveform
 from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
-from .noise import add_noise, noise_sigma
+from .noise import NoiseDraw, add_noise, noise_sigma
 from .render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS, FractionalDelay, render
 from .response import PathResponse
 
@@ -88,13 +88,17 @@ def simulate(
     options = dict(
         emission_index=emission_index, interpolator=interpolator, taps=taps, response=response
     )
+    rng = np.random.default_rng(seed)
+    # the noise is drawn in a background thread while the echoes are rendered
+    M = array.n_mics
+    shape = (M, n_samples) if n_measurements is None else (n_measurements, M, n_samples)
+    drawn = NoiseDraw(rng, shape) if np.isfinite(snr_db) else None
     if doppler is not None:
         from .moving import render_doppler
 
         clean = render_doppler(echoes, doppler, waveform, sample_rate_hz, n_samples, **options)
     else:
         clean = render(echoes, waveform, sample_rate_hz, n_samples, **options)
-    rng = np.random.default_rng(seed)
     if np.isfinite(snr_db):
         if not np.any(clean):
             raise InputError(
@@ -108,7 +112,7 @@ def simulate(
             sigma = noise_sigma(clean, snr_db, call_samples)
         else:
             raise ValueError(f"snr_reference must be 'signal' or 'echoes', got {snr_reference!r}")
-        samples = add_noise(clean, sigma, rng, n_measurements)
+        samples = add_noise(clean, sigma, rng, n_measurements, drawn)
     else:
         log.debug("infinite SNR: no noise generated")
         samples = (

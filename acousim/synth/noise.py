@@ -14,9 +14,11 @@ Gaussian with variance sigma^2, independent between microphones and measurements
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
-__all__ = ["signal_power", "noise_sigma", "add_noise"]
+__all__ = ["signal_power", "noise_sigma", "add_noise", "NoiseDraw"]
 
 
 def signal_power(clean: np.ndarray, call_samples: int) -> float:
@@ -31,12 +33,48 @@ def noise_sigma(clean: np.ndarray, snr_db: float, call_samples: int) -> float:
     return float(np.sqrt(signal_power(clean, call_samples) / 10 ** (snr_db / 10)))
 
 
+class NoiseDraw:
+    """``rng.standard_normal(shape)`` drawn in a background thread, started now, while
+    the caller renders (numpy's generators release the GIL while they fill an
+    array): the same values as drawing them later, off the renderer's path."""
+
+    def __init__(self, rng: np.random.Generator, shape: tuple[int, ...]) -> None:
+        self.shape = tuple(shape)
+        self._out: list = []
+        self._thread = threading.Thread(target=self._draw, args=(rng,), daemon=True)
+        self._thread.start()
+
+    def _draw(self, rng: np.random.Generator) -> None:
+        try:
+            self._out.append(rng.standard_normal(self.shape))
+        except BaseException as error:  # handed to the caller by result()
+            self._out.append(error)
+
+    def result(self) -> np.ndarray:
+        """The draws (shape), once drawn; the drawing's exception, if it failed."""
+        self._thread.join()
+        out = self._out[0]
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+
 def add_noise(
-    clean: np.ndarray, sigma: float, rng: np.random.Generator, n_measurements: int | None = None
+    clean: np.ndarray,
+    sigma: float,
+    rng: np.random.Generator,
+    n_measurements: int | None = None,
+    drawn: NoiseDraw | None = None,
 ) -> np.ndarray:
-    """`clean` (M, T) plus white Gaussian noise; (K, M, T) when `n_measurements` is given."""
+    """`clean` (M, T) plus white Gaussian noise; (K, M, T) when `n_measurements` is given.
+
+    `drawn`: the unit normal draws of `rng`, made in advance (:class:`NoiseDraw`) of
+    the output's shape; the result is the same as without it.
+    """
     shape = clean.shape if n_measurements is None else (n_measurements, *clean.shape)
-    out = rng.standard_normal(shape)
+    if drawn is not None and drawn.shape != shape:
+        raise ValueError(f"noise drawn for shape {drawn.shape}, the output is {shape}")
+    out = rng.standard_normal(shape) if drawn is None else drawn.result()
     out *= sigma  # in place: the same values as clean + sigma * z, without temporaries
     out += clean
     return out

@@ -217,14 +217,13 @@ def many_edge_elements(
     edge_of = side_edge[side_of]
     upper = (side_of % 2) == 1
     src = np.broadcast_to(source, (n_e, 3))[edge_of]
-    za = _on_spheroid_many(
-        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + ea_ex, upper
-    )
-    zb = _on_spheroid_many(
-        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + eb_ex, upper
-    )
-    zc = _on_spheroid_many(
-        src, receiver, start[edge_of], axis[edge_of], l_apex[edge_of] + mid_ex, upper
+    za, zb, zc = _on_spheroid_many(
+        src,
+        receiver,
+        start[edge_of],
+        axis[edge_of],
+        l_apex[edge_of] + np.stack([ea_ex, eb_ex, mid_ex]),
+        upper,
     )
     lo = np.minimum(z_apex[edge_of], z_end[side_of])
     hi = np.maximum(z_apex[edge_of], z_end[side_of])
@@ -241,31 +240,33 @@ def many_edge_elements(
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
     weight4 = np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
 
+    # per-element copies of the per-edge values, gathered once
+    rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], zS[g], zR[g], nu[g]
+
     def eta(z):
         # cosh(eta) - 1 without cancellation:
         # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
-        a, b = z - zS[g], z - zR[g]
-        ml = np.hypot(rS[g], a) * np.hypot(rR[g], b)
-        arg = ((rS[g] + rR[g]) * (z - z_mid[g])) ** 2 / (
-            (ml - a * b + rS[g] * rR[g]) * rS[g] * rR[g]
-        )
+        a, b = z - zS_g, z - zR_g
+        ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
+        arg = ((rS_g + rR_g) * (z - z_mid[g])) ** 2 / ((ml - a * b + rS_g * rR_g) * rS_g * rR_g)
         return _acosh1p(arg)
 
-    ea, eb = eta(za), eta(zb)
+    ea, eb = eta(np.stack([za, zb]))
     ea = np.where(j == 0, np.where(z_apex[g] == z_mid[g], 0.0, ea), ea)
 
     def prim(e):  # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
-        t = np.tanh(nu[g] * e / 2)[:, None]
-        return (np.arctan2(t * c[g], s[g]) * weight4[g]).sum(axis=1)
+        t = np.tanh(nu_g * e / 2)[..., None]
+        return (np.arctan2(t * c[g], s[g]) * weight4[g]).sum(axis=-1)
 
     # eta grows away from the apex on both sides: each element runs from ea to eb
-    integral = (2 / nu[g]) * (prim(eb) - prim(ea))
+    pb, pa = prim(np.stack([eb, ea]))
+    integral = (2 / nu_g) * (pb - pa)
     deta = np.abs(eb - ea)
-    m_c = np.hypot(rS[g], zc - zS[g])
-    l_c = np.hypot(rR[g], zc - zR[g])
+    m_c = np.hypot(rS_g, zc - zS_g)
+    l_c = np.hypot(rR_g, zc - zR_g)
     ok = deta > 0
     weight = np.where(ok, np.abs(zb - za) / np.where(ok, deta, 1.0), 0.0) / (m_c * l_c)
-    amp = -(nu[g] / (4 * np.pi)) * weight * integral * taper
+    amp = -(nu_g / (4 * np.pi)) * weight * integral * taper
     # 4. one impulse per element at its mid-path point
     keep = ok & (amp != 0)
     pts_c = start[g[keep]] + zc[keep, None] * axis[g[keep]]
@@ -277,8 +278,9 @@ def _on_spheroid_many(source, receiver, start, axis, path_m, upper):
     |S - x| + |x - R| = path_m (K,): points of equal path length lie on a spheroid
     with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 / 4)), whose
     intersection with a line is a quadratic in z; upper (K,): the larger root (else
-    the smaller).  source, receiver: (3,) or (K, 3)."""
-    k = len(path_m)
+    the smaller).  source, receiver: (3,) or (K, 3); path_m may be (..., K): several
+    path lengths per line, solved at once."""
+    k = np.shape(path_m)[-1]
     source = np.broadcast_to(source, (k, 3))
     receiver = np.broadcast_to(receiver, (k, 3))
     centre = 0.5 * (source + receiver)

@@ -158,6 +158,7 @@ def diffract(
     floor_db: float = -np.inf,
     order: int = 1,
     face_plane: np.ndarray | None = None,
+    floor_level: float = 0.0,
 ) -> DiffractedPaths:
     """First-order edge diffraction, and second order if asked (see the module
     docstring).
@@ -172,6 +173,10 @@ def diffract(
     its strongest echo is at least as strong, so nothing it would keep is lost);
     order: 1, or 2 to add edge-to-edge diffraction over pairs of edges that share a
     plane (``face_plane`` (F,): the plane id of each face, needed then).
+    floor_level: elements weaker than this gain at the receiver are dropped too,
+    before their visibility is checked (the tracer passes its energy floor under the
+    strongest echo it has found before this stage: elements below it would be
+    dropped by the floor at the end anyway).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -190,7 +195,7 @@ def diffract(
         edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
     )
     # 4. visibility both ways (of the elements above the floor)
-    floor = np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20)
+    floor = max(np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20), floor_level)
     strong = np.abs(el.amplitude) >= floor
     ok = strong.copy()
     ok[strong] = _visible(caster, emitter, el.point_m[strong], tol) & _visible(
@@ -528,14 +533,15 @@ def edge_diffraction(
     reflections: bool,
     floor_db: float,
     order: int = 1,
+    floor_level: float = 0.0,
 ) -> TracedPaths:
     """Stage 3 of the tracer: :func:`diffract` as :class:`TracedPaths` of kind
     ``"diffraction"`` (order 1, or 2 with a reflection before or after the edge or
     with a second edge).
 
     reflections: also the paths with one specular reflection (``planes``);
-    floor_db: the tracer's energy floor (dB, negative); order: 2 adds edge-to-edge
-    diffraction.
+    floor_db: the tracer's energy floor (dB, negative); floor_level: see
+    :func:`diffract`; order: 2 adds edge-to-edge diffraction.
     """
     d = diffract(
         geometry.edges,
@@ -549,6 +555,7 @@ def edge_diffraction(
         floor_db,
         order,
         geometry.face_plane,
+        floor_level,
     )
     kind = np.full(len(d), KIND["diffraction"])
     return TracedPaths(

@@ -95,6 +95,12 @@ class MovingWorld:
         instant, only the moving meshes' places change."""
         return self.tracer_at(0.0).world
 
+    def forget(self) -> None:
+        """Drop the worlds and paths traced so far (a benchmark's repetition pays for
+        its traces)."""
+        with self._lock:
+            self._worlds.clear()
+
     def tracer_at(self, t_s: float) -> Tracer:
         """The tracer of the world at time `t_s` (moving meshes placed there)."""
         return self._world(t_s)[1]

@@ -118,6 +118,7 @@ def trace_pose(
                 settings.diffraction_reflections,
                 settings.energy_floor_db,
                 settings.diffraction_order,
+                _floor_so_far(parts, receiver, settings.energy_floor_db),
             )
         )
     if shot is not None:
@@ -135,6 +136,18 @@ def trace_pose(
         )
     # 6. energy floor
     return energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+
+
+def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
+    """The energy floor (a gain at the receiver) under the strongest echo of `parts`:
+    the final floor (step 6) lies at or above it, so a later stage may drop what is
+    below it (less 1e-9 relative, for rounding) without changing the result."""
+    top = 0.0
+    for p in parts:
+        echo = p.kind != KIND["direct"]
+        if echo.any():
+            top = max(top, float(p.select(echo).level_at(receiver).max()))
+    return top * 10 ** (floor_db / 20) * (1 - 1e-9)
 
 
 class Tracer:
@@ -186,6 +199,11 @@ class Tracer:
             self._cache.clear()
         self._cache[key] = paths
         return paths
+
+    def forget(self) -> None:
+        """Empty the cache of traced poses (the next trace of any pose pays in full:
+        for timing)."""
+        self._cache.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
