@@ -22,6 +22,7 @@ from . import (
     pictures,
     recording_file,
 )
+from .fullwave import compare as fullwave
 
 SECTIONS = {
     "doa": doa_speed,
@@ -34,6 +35,7 @@ SECTIONS = {
     "recording_file": recording_file,
     "motion": motion,
     "diffraction": diffraction,
+    "fullwave": fullwave,
 }
 
 
