@@ -147,13 +147,19 @@ def run_case(obj: str, freq: float, ppw: float, eta: complex | None = None) -> l
     return rows
 
 
-PLAN = {
-    # (object, ppw, frequencies in kHz): cheapest and most needed first
-    "sphere": [(6.0, (20, 40, 60)), (10.0, (20,))],
-    "plate": [(6.0, (20, 30, 40, 50, 60, 70, 80)), (10.0, (20, 40, 60, 80))],
-    "plate_thick": [(6.0, (20,))],
-    "cube": [(6.0, (20, 30, 40, 50, 60, 70, 80))],
-}
+PLAN = [
+    # (object, ppw, frequencies in kHz) in the order run: cheapest and most needed first
+    ("plate", 6.0, (20, 30, 40, 50, 60, 70, 80)),
+    ("sphere", 6.0, (20, 40)),
+    ("cube", 6.0, (20, 30, 40)),
+    ("plate", 10.0, (20, 40, 60)),
+    ("sphere", 10.0, (20,)),
+    ("plate_thick", 6.0, (20,)),
+    ("plate", 6.0, tuple(np.arange(22.5, 80, 5.0))),
+    ("sphere", 6.0, (60,)),
+    ("cube", 6.0, (50, 60, 70, 80)),
+]
+OBJECTS = ("plate", "plate_thick", "sphere", "cube")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -173,29 +179,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
     done = _done(args.out)
-    for obj in args.objects:
-        for ppw, freqs in PLAN[obj]:
-            if args.ppw is not None and ppw != args.ppw:
+    for obj, ppw, freqs in PLAN:
+        if obj not in args.objects or (args.ppw is not None and ppw != args.ppw):
+            continue
+        for f_khz in freqs:
+            if f_khz > args.max_khz or (obj, f_khz * 1e3, ppw) in done:
                 continue
-            for f_khz in freqs:
-                if f_khz > args.max_khz or (obj, f_khz * 1e3, ppw) in done:
-                    continue
-                rows = run_case(obj, f_khz * 1e3, ppw)
-                _append(args.out, rows)
-                print(
-                    obj,
-                    f_khz,
-                    "kHz",
-                    ppw,
-                    "ppw:",
-                    [r["level_db"] for r in rows],
-                    rows[0]["exact_level_db"],
-                    rows[0]["dofs"],
-                    "dofs",
-                    rows[0]["assemble_s"],
-                    "s",
-                    flush=True,
-                )
+            rows = run_case(obj, f_khz * 1e3, ppw)
+            _append(args.out, rows)
+            print(
+                obj,
+                f_khz,
+                "kHz",
+                ppw,
+                "ppw:",
+                [r["level_db"] for r in rows],
+                rows[0]["exact_level_db"],
+                rows[0]["dofs"],
+                "dofs",
+                rows[0]["assemble_s"],
+                "s",
+                flush=True,
+            )
     return 0
 
 

@@ -19,6 +19,7 @@ dofs), W phi = dp_inc/dn, and p_s = double-layer potential of phi.
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
@@ -43,14 +44,15 @@ def _bempp():
     return bempp
 
 
-def _incident(bempp, space, k: float, source: np.ndarray, eta: complex):
-    """Projection of p_inc + eta dp_inc/dn on the space (unit point source)."""
-    params = np.array([k, source[0], source[1], source[2], eta], complex)
-
+@functools.cache
+def _callables():
+    """The incident-field callables, compiled once (numba) per process: p_inc + eta
+    dp_inc/dn and dp_inc/dn for a unit point source; parameters (k, source x, y, z,
+    eta) as a complex array."""
     from bempp_cl.api.assembly.grid_function import callable as bempp_callable
 
     @bempp_callable(complex=True, jit=True, parameterized=True)
-    def inc(x, n, domain_index, result, p):  # noqa: ARG001
+    def combined(x, n, domain_index, result, p):  # noqa: ARG001
         kk = p[0].real
         d0, d1, d2 = x[0] - p[1].real, x[1] - p[2].real, x[2] - p[3].real
         r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -58,7 +60,24 @@ def _incident(bempp, space, k: float, source: np.ndarray, eta: complex):
         dgdr = g * (1j * kk - 1 / r)
         result[0] = g + p[4] * dgdr * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
 
-    return bempp.GridFunction(space, fun=inc, function_parameters=params)
+    @bempp_callable(complex=True, jit=True, parameterized=True)
+    def derivative(x, n, domain_index, result, p):  # noqa: ARG001
+        kk = p[0].real
+        d0, d1, d2 = x[0] - p[1].real, x[1] - p[2].real, x[2] - p[3].real
+        r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        g = np.exp(1j * kk * r) / (4 * np.pi * r)
+        result[0] = g * (1j * kk - 1 / r) * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
+
+    return combined, derivative
+
+
+def _incident(bempp, space, k: float, source: np.ndarray, eta: complex, closed: bool):
+    """Projection on the space of p_inc + eta dp_inc/dn (closed) or of dp_inc/dn
+    (screen), for a unit point source."""
+    combined, derivative = _callables()
+    params = np.array([k, source[0], source[1], source[2], eta], complex)
+    fun = combined if closed else derivative
+    return bempp.GridFunction(space, fun=fun, function_parameters=params)
 
 
 def _gmres(matrix: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, int]:
@@ -109,10 +128,7 @@ def rigid(
     t1 = time.perf_counter()
     out, iterations = np.zeros(len(sources), complex), 0
     for i, src in enumerate(sources):
-        if closed:
-            rhs = _incident(bempp, space, k, src, eta)
-        else:
-            rhs = _incident_derivative(bempp, space, k, src)
+        rhs = _incident(bempp, space, k, src, eta, closed)
         coef, its = _gmres(mat, rhs.projections(space))
         iterations = max(iterations, its)
         u = bempp.GridFunction(space, coefficients=coef)
@@ -120,19 +136,3 @@ def rigid(
         out[i] = np.asarray(pot * u).ravel()[0]
     t2 = time.perf_counter()
     return Solve(out, space.global_dof_count, iterations, t1 - t0, t2 - t1)
-
-
-def _incident_derivative(bempp, space, k: float, source: np.ndarray):
-    """Projection of dp_inc/dn on the space (unit point source)."""
-    from bempp_cl.api.assembly.grid_function import callable as bempp_callable
-
-    @bempp_callable(complex=True, jit=True, parameterized=True)
-    def dinc(x, n, domain_index, result, p):  # noqa: ARG001
-        kk = p[0].real
-        d0, d1, d2 = x[0] - p[1].real, x[1] - p[2].real, x[2] - p[3].real
-        r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        g = np.exp(1j * kk * r) / (4 * np.pi * r)
-        result[0] = g * (1j * kk - 1 / r) * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
-
-    params = np.array([k, source[0], source[1], source[2]], complex)
-    return bempp.GridFunction(space, fun=dinc, function_parameters=params)
