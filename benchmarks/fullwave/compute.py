@@ -97,7 +97,9 @@ def _append(path: Path, rows: list[dict]) -> None:
                 "an infinite rigid wall through the object's centre (image source at 1 m); "
                 "phase_deg = arg(p_s / p_wall), time factor exp(-i omega t); c = 343 m/s.\n"
                 "# exact_*: the rigid-sphere series (sphere rows). ppw: quad side h = "
-                "wavelength / ppw. Seconds on the shared 2-core machine, under nice.\n"
+                "wavelength / ppw. Seconds on the shared 2-core machine (heavily loaded by "
+                "other work), under nice; the first solve of each run includes about a "
+                "minute of compilation.\n"
             )
         w = csv.DictWriter(f, FIELDS)
         if new:
