@@ -23,6 +23,7 @@ from . import (
     pictures,
     recording_file,
 )
+from .fullwave import compare as fullwave
 
 SECTIONS = {
     "doa": doa_speed,
@@ -36,6 +37,7 @@ SECTIONS = {
     "motion": motion,
     "diffraction": diffraction,
     "materials": materials,
+    "fullwave": fullwave,
 }
 
 
