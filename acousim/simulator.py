@@ -22,12 +22,14 @@ import functools
 import logging
 from collections.abc import Callable, Iterable
 from importlib.metadata import PackageNotFoundError, version
+from typing import NamedTuple
 
 import numpy as np
 
 import processing as P
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
+from acousim.synth.echoes import Echoes
 from acousim.synth.model import simulate
 from acousim.synth.response import PathResponse
 from acousim.trace.tracer import KIND, TracedPaths, Tracer
@@ -58,6 +60,16 @@ def _on(trajectory, pose: Pose) -> bool:
         np.allclose(trajectory.position(t), pose.position_m, rtol=0, atol=1e-9)
         and np.allclose(trajectory.rotation(t), pose.rotation, rtol=0, atol=1e-9)
     )
+
+
+class _Prepared(NamedTuple):
+    """A recording but its samples (:meth:`Simulator._prepare`)."""
+
+    echoes: Echoes
+    n_samples: int
+    metadata: dict
+    truth: P.GroundTruth
+    doppler: np.ndarray | None = None  # (M, N) Doppler factors of a measurement in motion
 
 
 class Simulator:
@@ -114,13 +126,20 @@ class Simulator:
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
         is frozen).
         """
+        return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+
+    def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
+        """Everything of a recording but its samples: the paths traced and turned into
+        echoes (per microphone delays and gains; in motion, their Doppler factors),
+        the metadata and the ground truth.  :meth:`run` prepares the next pose in a
+        thread while the current one renders."""
         if isinstance(motion, str) and motion == SCENE_MOTION:
             motion = self.scene.sensor.motion
             if motion is not None and not _on(motion, pose):
                 log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
                 motion = None
         if motion is not None or self.moving_points or self.moving_meshes:
-            return self._simulate_moving(pose, index, seed, n_samples, motion)
+            return self._prepare_moving(pose, index, n_samples, motion)
         scene = self.scene
         sensor = scene.sensor
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
@@ -139,10 +158,9 @@ class Simulator:
             order=paths.order,
             kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
         )
-        n = n_samples or scene.n_samples()
-        return self._record(echoes, sensor.array, n, index, seed, meta, truth)
+        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth)
 
-    def _simulate_moving(self, pose, index, seed, n_samples, motion) -> P.Recording:
+    def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
         """A measurement in motion (see :mod:`acousim.synth.moving`).
 
         1. Paths traced at the pose of the start of the emission, moving meshes and
@@ -193,7 +211,7 @@ class Simulator:
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=truth_vel,
         )
-        return self._record(echoes, array, n, index, seed, meta, truth, doppler=arr.rate)
+        return _Prepared(echoes, n, meta, truth, arr.rate)
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
@@ -234,15 +252,16 @@ class Simulator:
             truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
         return moving, truth_pos, kinds, truth_vel, paths.interactions
 
-    def _record(self, echoes, array, n_samples, index, seed, meta, truth, doppler=None):
-        """Render the echoes with the scene's noise (seeded per pose index) into a
-        Recording carrying its metadata and ground truth."""
+    def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
+        """Render the prepared echoes with the scene's noise (seeded per pose index)
+        into a Recording carrying its metadata and ground truth."""
         scene = self.scene
+        echoes, n_samples, meta, truth, doppler = prep
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         rec = simulate(
             echoes,
-            array,
+            scene.sensor.array,
             scene.sensor.call,
             scene.sensor.sample_rate_hz,
             n_samples,
@@ -306,18 +325,22 @@ class Simulator:
                     f"pose index {i} out of range: the scene has {len(all_poses)} pose(s)"
                 )
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
-        # trace the next pose while the current one is rendered (Embree, the FFTs and
-        # the sparse products release the GIL)
+        # prepare the next pose (trace, echoes, in motion the arrival times) while the
+        # current one is rendered (Embree, numpy's large operations, the FFTs and the
+        # compiled impulse sums release the GIL)
         from concurrent.futures import ThreadPoolExecutor
+
+        def prepare(i: int) -> _Prepared:
+            return self._prepare(all_poses[i], i, None, SCENE_MOTION)
 
         out = []
         with ThreadPoolExecutor(1) as pool:
-            ahead = pool.submit(self.tracer.trace, all_poses[idx[0]]) if idx else None
+            ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
-                ahead.result()
+                prep = ahead.result()
                 if k + 1 < len(idx):
-                    ahead = pool.submit(self.tracer.trace, all_poses[idx[k + 1]])
-                out.append(self.simulate_pose(all_poses[i], i))
+                    ahead = pool.submit(prepare, idx[k + 1])
+                out.append(self._record(prep, i, None))
                 if progress:
                     progress(k + 1, len(idx))
         return out
