@@ -107,32 +107,42 @@ def _elements(
     idx = np.asarray(candidates, int)
     idx = idx[keep[idx]]
     if idx.size and caster is not None and seen_from:
-        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
-        pts = (
-            edges.start_m[idx, None, :]
-            + frac[None, :, None] * (edges.end_m[idx] - edges.start_m[idx])[:, None, :]
-        )
-        pts = pts.reshape(-1, 3)
+        pts = _probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
         seen = np.ones(pts.shape[0], bool)
         for p in seen_from:
             seen &= _visible(caster, p, pts, tol)
-        idx = idx[seen.reshape(-1, frac.size).any(axis=1)]
+        idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
+    el, local = _wedge_elements(wedge, idx, source, receiver, face_reflection, step_m, max_path_m)
+    return el, idx[local]
+
+
+def _wedge_elements(wedge, rows, source, receiver, face_reflection, step_m, max_path_m):
+    """:func:`many_edge_elements` of the oriented edges `wedge` at `rows`, each with
+    the reflection factors of its two faces (a thin plate's one face twice)."""
     refl = np.asarray(face_reflection, float)
-    f1 = wedge.faces[idx, 0]
-    f2 = np.where(wedge.faces[idx, 1] >= 0, wedge.faces[idx, 1], f1)
-    el, local = many_edge_elements(
-        wedge.start_m[idx],
-        wedge.end_m[idx],
-        wedge.face_dir[idx],
-        wedge.normal[idx],
-        wedge.angle_rad[idx],
+    f1 = wedge.faces[rows, 0]
+    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
+    return many_edge_elements(
+        wedge.start_m[rows],
+        wedge.end_m[rows],
+        wedge.face_dir[rows],
+        wedge.normal[rows],
+        wedge.angle_rad[rows],
         source,
         receiver,
         step_m,
         max_path_m,
         np.column_stack([refl[f1], refl[f2]]),
     )
-    return el, idx[local]
+
+
+#: where along an edge (fractions of its length) visibility is probed
+PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+
+
+def _probe_points(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Points (E, 5, 3) at PROBE_FRACTIONS along edges from start (E, 3) to end."""
+    return start[:, None, :] + PROBE_FRACTIONS[None, :, None] * (end - start)[:, None, :]
 
 
 def _visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
@@ -286,11 +296,8 @@ def _reflected(
     keep, wedge = edges.select(e_idx).oriented(images[p_idx], oth)
     rows = np.flatnonzero(keep)
     if rows.size and caster is not None:
-        frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
-        pts = (
-            wedge.start_m[rows, None, :]
-            + frac[None, :, None] * (wedge.end_m[rows] - wedge.start_m[rows])[:, None, :]
-        )
+        frac = PROBE_FRACTIONS
+        pts = _probe_points(wedge.start_m[rows], wedge.end_m[rows])
         seen = _visible(caster, oth, pts.reshape(-1, 3), tol).reshape(-1, frac.size)
         # and the reflection towards those points must land on a face of the plane
         img = np.repeat(images[p_idx[rows]], frac.size, axis=0)
@@ -307,20 +314,8 @@ def _reflected(
         rows = rows[(seen & lands).any(axis=1)]
     if rows.size == 0:
         return _empty()
-    refl = np.asarray(face_reflection, float)
-    f1 = wedge.faces[rows, 0]
-    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
-    el, local = many_edge_elements(
-        wedge.start_m[rows],
-        wedge.end_m[rows],
-        wedge.face_dir[rows],
-        wedge.normal[rows],
-        wedge.angle_rad[rows],
-        images[p_idx[rows]],
-        oth,
-        step_m,
-        max_path_m,
-        np.column_stack([refl[f1], refl[f2]]),
+    el, local = _wedge_elements(
+        wedge, rows, images[p_idx[rows]], oth, face_reflection, step_m, max_path_m
     )
     if len(el) == 0:
         return _empty()
@@ -392,10 +387,7 @@ def _edge_to_edge(
     keep1, w1 = edges.oriented(emitter, emitter)
     keep2, w2 = edges.oriented(receiver, receiver)
     n_e = len(edges)
-    frac = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
-    pts = (
-        edges.start_m[:, None, :] + frac[None, :, None] * (edges.end_m - edges.start_m)[:, None, :]
-    ).reshape(-1, 3)
+    pts = _probe_points(edges.start_m, edges.end_m).reshape(-1, 3)
     near_s = _segment_distance(emitter, edges.start_m, edges.end_m)
     near_r = _segment_distance(receiver, edges.start_m, edges.end_m)
     keep1 &= near_s < max_path_m
