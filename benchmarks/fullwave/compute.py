@@ -165,6 +165,12 @@ PLAN = [
     ("cube", 4.0, (40, 50, 60, 70, 80)),
     ("sphere", 6.0, (60,)),
     ("cube", 6.0, (50, 60, 70, 80)),
+    # the turned plate's notches (a level far below its neighbours: the rims nearly
+    # cancel) converge slowly with the mesh, about linearly in h: finer meshes there
+    ("plate", 10.0, (25, 50, 75)),
+    ("plate", 14.0, (25,)),
+    ("plate", 20.0, (25,)),
+    ("plate", 28.0, (25,)),
 ]
 OBJECTS = ("plate", "plate_thick", "sphere", "cube")
 
