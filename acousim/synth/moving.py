@@ -48,13 +48,14 @@ Rendering:
     factor written as a Chebyshev series: every path gets ``T_k(s)`` of its own
     factor (s mapped onto [-1, 1]; a three-term recurrence), the templates their
     Chebyshev coefficients; K chosen so the interpolation error stays below
-    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 7 for the corridor
+    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 6 for the corridor
     drive at 1 m/s).  With the Q separable terms of the path responses
     (absorption, directivity: :mod:`acousim.synth.response`) that makes K Q sets of
     gains, each with its filter; their sum is compressed to the few sets it needs
-    (a real SVD from Gram matrices, per group: direct path, echoes; 35 -> 8 on the
-    corridor) and rendered as the static renderer does: fractional-delay impulses
-    per set, FFT, products with the filters, summed.
+    (a real SVD from Gram matrices, per group: direct path, echoes, to
+    ``COMPRESS_TOLERANCE``; 30 -> 6 on the corridor) and rendered as the static
+    renderer does: fractional-delay impulses per set, FFT, products with the
+    filters, summed.
 ``render_doppler_reference`` (exact)
     Per output sample at 64 times the sample rate, the emission time solved exactly
     (Newton on the retarded-time equation with the continuous trajectory), the
@@ -93,17 +94,20 @@ __all__ = [
     "render_doppler",
     "render_doppler_reference",
     "DOPPLER_TOLERANCE",
+    "COMPRESS_TOLERANCE",
 ]
 
-#: relative error of interpolating the time-scaled call between Doppler nodes
-DOPPLER_TOLERANCE = 1e-4
+#: relative error of interpolating the time-scaled call between Doppler nodes (a
+#: bound at the call's top frequency: the renderer's error stays far below it)
+DOPPLER_TOLERANCE = 1e-3
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
 NODE_QUANTUM = 2e-3
-#: the gain sets are compressed to `tolerance` times this (relative amplitude of
-#: what is left out): 3e-4, -70 dB by default, below the static renderer's response
-#: factorisation (-67 dB, BENCHMARKS.md)
-COMPRESS_FACTOR = 3.0
+#: the gain sets are compressed to this relative amplitude of what is left out
+#: (-63 dB): the renderer's error against the exact reference stays below -65 dB at
+#: 2 m/s and 180 deg/s (BENCHMARKS.md, motion: its time against error, 3e-4 -> -71 dB
+#: with 8 sets instead of 6 on the corridor)
+COMPRESS_TOLERANCE = 7e-4
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
 TABLE_STEP_S = 2.5e-4
@@ -666,13 +670,15 @@ def render_doppler(
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
     tolerance: float = DOPPLER_TOLERANCE,
+    compress_tolerance: float = COMPRESS_TOLERANCE,
 ) -> np.ndarray:
     """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
     microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).
 
     `interpolator`: 'sinc' or 'lagrange' fractional delays, as the static renderer.
     `response`: air absorption and emitter directivity, factorised as the static
-    renderer does (:mod:`acousim.synth.response`).
+    renderer does (:mod:`acousim.synth.response`).  `tolerance`: of the Doppler
+    nodes' interpolation; `compress_tolerance`: of the gain sets' compression.
     """
     check_interpolator(
         interpolator,
@@ -731,7 +737,7 @@ def render_doppler(
     # their sum needs
     W = _cached(("coefficients", *key, band.sum()), _chebyshev_coefficients, spectra[:, band])
     WW = _cached(("products", *key, band.sum()), _products, W)
-    gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, tolerance * COMPRESS_FACTOR)
+    gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, compress_tolerance)
     cdtype = np.complex64 if dtype == np.float32 else complex
     filt = np.zeros((spectra.shape[1], filt_band.shape[1]), cdtype)
     filt[band] = filt_band
