@@ -32,6 +32,7 @@ from acousim.scene.pose import Pose
 from acousim.synth.echoes import Echoes
 from acousim.synth.model import simulate
 from acousim.synth.response import PathResponse
+from acousim.trace.direct import seen
 from acousim.trace.tracer import KIND, TracedPaths, Tracer
 from processing.errors import InputError
 
@@ -77,7 +78,7 @@ class Simulator:
 
     def __init__(self, scene: Scene, threads: int = 2) -> None:
         self.scene = scene
-        # moving point reflectors are not traced (no occlusion test): see _moving_points
+        # moving point reflectors are placed per emission instant: see _moving_points
         self.moving_points = tuple(p for p in scene.points if p.moving)
         if self.moving_points:
             # the tracer sees the still points only; a copy, not a new Scene, which
@@ -277,10 +278,11 @@ class Simulator:
         return dataclasses.replace(rec, truth=truth)
 
     def _moving_points(self, pose):
-        """Moving point reflectors at the start of the emission within the range:
-        positions (P, 3), strengths (P,), velocities (P, 3) (a point on a track moves
-        at its velocity then during the measurement).  Not tested for occlusion by
-        meshes (the traced points are)."""
+        """Moving point reflectors at the start of the emission within the range and
+        seen from the emitter and the array's centre (through the world of that
+        instant, moving meshes placed there): positions (P, 3), strengths (P,),
+        velocities (P, 3) (a point on a track moves at its velocity then during the
+        measurement)."""
         pts = self.moving_points
         now = [p.at(pose.time_s) for p in pts]
         pos = np.array([x for x, _ in now], float)
@@ -290,6 +292,11 @@ class Simulator:
         r_e = np.linalg.norm(pos - pose.to_world(array.emitter_m), axis=1)
         r_r = np.linalg.norm(pos - pose.to_world(array.positions_m.mean(axis=0)), axis=1)
         keep = (r_e > 0) & (r_e + r_r <= 2 * self.scene.simulation.max_range_m)
+        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        if tracer.caster is not None and keep.any():
+            emitter = pose.to_world(array.emitter_m)
+            receiver = pose.to_world(array.positions_m.mean(axis=0))
+            keep[keep] = seen(pos[keep], (emitter, receiver), tracer.caster)
         return pos[keep], a[keep], v[keep]
 
     def _mic_directivity(self, echoes, paths, mics, axis):

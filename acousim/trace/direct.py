@@ -27,6 +27,19 @@ def direct_path(emitter: np.ndarray, receiver: np.ndarray, fallback: np.ndarray)
     )
 
 
+def seen(points_m: np.ndarray, origins, caster: RayCaster) -> np.ndarray:
+    """Which of the points (P, 3) every one of `origins` (each (3,)) sees: (P,) bool,
+    no face met before the point (less the caster's ray offset: a point on a face
+    is seen)."""
+    keep = np.ones(len(points_m), bool)
+    for src in origins:
+        d = points_m - src
+        L = np.linalg.norm(d, axis=1)
+        t, f = caster.first_hit(np.broadcast_to(src, d.shape), d)
+        keep &= ~((f >= 0) & (t < L - caster.offset_m))
+    return keep
+
+
 def point_paths(
     points_m: np.ndarray,
     strength: np.ndarray,
@@ -42,11 +55,7 @@ def point_paths(
     r_r = np.linalg.norm(pts - receiver, axis=1)
     keep = (r_e > 0) & (r_e + r_r <= max_path_m)
     if caster is not None and keep.any():
-        for src in (emitter, receiver):
-            d = pts - src
-            L = np.linalg.norm(d, axis=1)
-            t, f = caster.first_hit(np.broadcast_to(src, d.shape), d)
-            keep &= ~((f >= 0) & (t < L - caster.offset_m))
+        keep[keep] = seen(pts[keep], (emitter, receiver), caster)
     pts, a, r_e = pts[keep], a[keep], r_e[keep]
     n = len(a)
     return TracedPaths(
