@@ -231,18 +231,19 @@ class Simulator:
         moving = MovingPaths.from_traced(paths, emitter)
         truth_vel = moving.velocity_m_s
         if self.moving_meshes:
-            from acousim.trace.moving import first_reflections, ride, ride_first
+            from acousim.trace.moving import follow_chains, ride
 
             on, normals = self.tracer.riders(paths, pose)
             velocities = self.tracer.velocities(pose)
             receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
+            still = moving
             moving, truth_vel = ride(
                 moving, paths, on, normals, velocities, emitter, receiver, self.c
             )
-            # second-order reflections whose first point is on a moving mesh
-            x1, idx, n1, n2 = first_reflections(paths, emitter)
-            on1, _ = self.tracer.on_moving(pose, emitter, x1)
-            moving = ride_first(moving, idx, x1, n1, n2, on1, velocities, emitter, self.c)
+            # reflections of second order and up: every moving plane of the chain
+            moving = follow_chains(
+                self.tracer, moving, still, paths, pose, emitter, receiver, self.c
+            )
         truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
         if self.moving_points:
             pos, a, v = self._moving_points(pose)

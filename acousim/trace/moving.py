@@ -33,17 +33,20 @@ measurement, whose emission starts at ``pose.time_s``:
      the sound assumed to arrive from the receiver's side (d_in = -d_out), so the
      path lengthens at ``k (d_in - d_out) . u``.
 
-4. **Second-order reflections that meet a moving mesh first** (:func:`ride_first`):
-   the first reflection point is recovered from the traced path
-   (:func:`first_reflections`), and if it lies on a moving mesh (seen from the
-   emitter) the first image moves as above, mirrored in the second plane (within 1 ns
-   of the two-plane retarded-time solution in the tests).
+4. **Reflections of second order and up** (:func:`follow_chains`): each specular
+   path's reflection points are found again by following its departure through the
+   world (:func:`bounces`); if any lies on a moving mesh (seen from the point
+   before), the path's image is rebuilt with every plane where it is when the
+   sound meets it, at the start of the emission and a little later
+   (:func:`ride_chain`; this replaces step 3's law for those paths): within 1 ns of
+   the retarded-time solutions of two and three planes in the tests.
 
-   Stated approximation: beyond these, a path that meets a moving mesh before its
-   last reflection (third and higher orders, or a scattered path) is rendered as if
-   the mesh stood where it is at the start of the emission: right delay at that
-   instant, no Doppler from the mesh.  The error of the image sources against the
-   wall traced again at the reflection instant is measured in ``benchmarks/motion.py``.
+   Stated approximation: a scattered or diffracted path that meets a moving mesh
+   before its last point is rendered as if the mesh stood where it is at the start
+   of the emission (right delay at that instant, no Doppler from it), and a path
+   whose reflection points cannot be found again (grazing, at an edge) keeps
+   step 3's law.  The error of the image sources against the wall traced again
+   at the reflection instant is measured in ``benchmarks/motion.py``.
 """
 
 from __future__ import annotations
@@ -62,8 +65,11 @@ from .paths import KIND, TracedPaths
 from .settings import TraceSettings
 from .tracer import Tracer
 
-__all__ = ["MovingWorld", "ride", "ride_first", "first_reflections"]
+__all__ = ["MovingWorld", "ride", "bounces", "ride_chain", "follow_chains"]
 
+#: the image of a chain of moving planes is solved at the start of the emission and
+#: this much later, and moves linearly between (its curvature is of order (v / c)^2)
+CHAIN_SPAN_S = 5e-3
 #: a scattered path's position (the mean of its hits) may lie this far inside a curved
 #: moving mesh and still belong to it (m)
 CLUSTER_DEPTH_M = 0.05
@@ -160,25 +166,38 @@ class MovingWorld:
         return on, normals
 
 
-def first_reflections(paths: TracedPaths, emitter: np.ndarray):
-    """The first reflection point (S, 3) of each second-order specular path, the
-    paths' indices (S,), and their two unit normals (S, 3) each: from the emitter
-    (3,), the departure, the last reflection point and the image source (unfolded,
-    the first image lies on the line from the last point back along the middle leg at
-    the image's distance)."""
-    idx = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
-    dep, x2, image = paths.departure[idx], paths.position_m[idx], paths.anchor_m[idx]
-    w = x2 - emitter
-    R = np.linalg.norm(x2 - image, axis=1)
-    den = 2 * (R - np.einsum("si,si->s", w, dep))
-    s = (R**2 - np.einsum("si,si->s", w, w)) / np.where(np.abs(den) > 1e-12, den, 1.0)
-    ok = (np.abs(den) > 1e-12) & (s > 1e-9)
-    x1 = emitter + s[:, None] * dep
-    mid = _unit(x2 - x1)
-    n1 = _unit(mid - dep)
-    n2 = _unit(_unit(x2 - image) - mid)
-    ok &= np.linalg.norm(x2 - x1, axis=1) > 1e-9  # not both at one point (an edge)
-    return x1[ok], idx[ok], n1[ok], n2[ok]
+def bounces(paths: TracedPaths, tracer, emitter: np.ndarray) -> list[tuple]:
+    """The reflection points and normals of the specular paths of order two and more,
+    found again by following each path's departure from the emitter (3,) through the
+    world of `tracer` (a :class:`~acousim.trace.tracer.Tracer`): a specular path's
+    ray meets its own reflection points in turn.  Per order N, a tuple (indices (S,),
+    points (S, N, 3), unit normals (S, N, 3) towards the side the sound comes from);
+    a path whose ray does not end at its traced last point (within 1 um: grazing or
+    an edge) is left out (it keeps the last-reflection law alone)."""
+    out = []
+    if tracer.caster is None:
+        return out
+    specular = paths.kind == KIND["specular"]
+    for order in np.unique(paths.order[specular & (paths.order >= 2)]).tolist():
+        idx = np.flatnonzero(specular & (paths.order == order))
+        o = np.broadcast_to(emitter, (idx.size, 3)).copy()
+        d = paths.departure[idx].copy()
+        pts = np.empty((idx.size, order, 3))
+        nrm = np.empty((idx.size, order, 3))
+        ok = np.ones(idx.size, bool)
+        for b in range(order):
+            t, f = tracer.caster.first_hit(o, d)
+            ok &= f >= 0
+            x = o + np.where(ok, t, 0.0)[:, None] * d
+            n = tracer.world.normals[np.where(ok, f, 0)]
+            n = np.where((np.einsum("ij,ij->i", n, d) > 0)[:, None], -n, n)
+            d = d - 2 * np.einsum("ij,ij->i", d, n)[:, None] * n
+            pts[:, b], nrm[:, b] = x, n
+            o = x + tracer.caster.offset_m * d
+        ok &= np.linalg.norm(pts[:, -1] - paths.position_m[idx], axis=1) < 1e-6
+        if ok.any():
+            out.append((idx[ok], pts[ok], nrm[ok]))
+    return out
 
 
 def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver, c: float):
@@ -233,30 +252,101 @@ def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver,
     return out, truth
 
 
-def ride_first(moving, idx, x1, n1, n2, on1, velocities, emitter, c: float):
-    """`moving` with the second-order image sources `idx` (S,) whose first reflection
-    (at `x1` (S, 3), normal `n1`; the second plane's normal `n2`) lies on a moving
-    mesh (`on1` (S,), -1: none) following it: the first image moves at
-    ``2 k (n1 . u) n1`` from when the sound reaches the first plane, mirrored in the
-    second plane (k and the emitter's timing as for the last reflection)."""
-    sel = on1 >= 0
-    if not sel.any():
+def ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c: float):
+    """`moving` with the image sources `idx` (S,) of N-th order specular paths
+    (reflection points `pts` (S, N, 3) at the start of the emission, normals `nrm`
+    (S, N, 3), from :func:`bounces`) that meet a moving mesh (`on` (S, N): the mesh
+    of each reflection, an index into `velocities` (K, 3), -1: a still face)
+    following every moving plane, in the order the sound meets them; `base`: the
+    same paths before :func:`ride` (whose law for the last reflection this replaces).
+
+    Each plane b (its point x_b, normal n_b, velocity u_b) at time t is
+    ``n_b . y = n_b . x_b + (n_b . u_b) t``.  For the sound emitted at tau the images
+    are built in the order the sound meets the planes, each plane where it is when
+    the sound meets it: leaving image I along d (the direction it arrives in) it
+    meets plane b after s with ``s (n_b . d - n_b . u_b / c) = n_b . x_b +
+    (n_b . u_b) tau - n_b . I``, at ``t_b = tau + s / c``, and the next image is I
+    mirrored in the plane there (:func:`_chain_image`, which also finds the
+    reflection points again for those instants).  The last image is solved so at
+    the start of the emission and CHAIN_SPAN_S later and moves linearly between;
+    the anchor moves by what the motion adds to the still chain; an emitter moving
+    by de makes the sound arrive ``departure . de / c`` sooner.  Against the
+    retarded-time solutions of two and three planes: within 1 ns (the tests)."""
+    rows = np.flatnonzero((on >= 0).any(axis=1))
+    if rows.size == 0:
         return moving
-    idx, x1, n1, n2 = idx[sel], x1[sel], n1[sel], n2[sel]
-    u = velocities[on1[sel]]
-    d_in = _unit(x1 - emitter)
-    k = c / (c - np.einsum("ij,ij->i", d_in, u))
-    first_image = 2 * (k * np.einsum("ij,ij->i", n1, u))[:, None] * n1
-    # mirrored in the second plane
-    u_image = first_image - 2 * np.einsum("ij,ij->i", first_image, n2)[:, None] * n2
-    lead = np.linalg.norm(x1 - emitter, axis=1) / c
+    idx, pts, nrm, on = idx[rows], pts[rows], nrm[rows], on[rows]
+    S = idx.size
+    e = np.broadcast_to(emitter, (S, 3)).astype(float)
+    u = np.where((on >= 0)[..., None], velocities[np.maximum(on, 0)], 0.0)  # (S, N, 3)
+    nu = np.einsum("sbi,sbi->sb", nrm, u)
+    h = np.einsum("sbi,sbi->sb", nrm, pts)  # the planes at the start of the emission
+    P0 = _chain_image(0.0, e, nrm, h, nu, pts, receiver, c)
+    V = (_chain_image(CHAIN_SPAN_S, e, nrm, h, nu, pts, receiver, c) - P0) / CHAIN_SPAN_S
+    P_still = _chain_image(0.0, e, nrm, h, 0 * nu, pts, receiver, c)
     anchor = moving.anchor_m.copy()
-    anchor[idx] += u_image * lead[:, None]
     velocity = moving.velocity_m_s.copy()
-    velocity[idx] += u_image
     mirror = moving.mirror.copy()
-    mirror[idx] -= u_image[:, :, None] * d_in[:, None, :] / c
+    anchor[idx] = base.anchor_m[idx] + (P0 - P_still)
+    velocity[idx] = base.velocity_m_s[idx] + V
+    mirror[idx] = base.mirror[idx] - V[:, :, None] * base.departure[idx][:, None, :] / c
     return dataclasses.replace(moving, anchor_m=anchor, velocity_m_s=velocity, mirror=mirror)
+
+
+def _chain_image(tau, e, nrm, h, nu, pts, receiver, c: float) -> np.ndarray:
+    """The last image (S, 3) of the sound emitted at `tau` (s) from `e` (S, 3) by way
+    of S chains of N planes (normals `nrm` (S, N, 3), offsets `h` (S, N) at time 0,
+    normal speeds `nu` (S, N)), each plane where it is when the sound meets it
+    (:func:`ride_chain`); the reflection points, first `pts` (S, N, 3), found again
+    from the receiver (3,) back and the chain redone (three times: the points move
+    by (v / c) times the path, their effect is of second order)."""
+    S, N = h.shape
+    x = pts
+    for _ in range(3):
+        prev = np.concatenate([e[:, None], x[:, :-1]], axis=1)
+        d = _unit(x - prev)  # the direction the sound meets each plane in
+        P = e.copy()
+        images, hit = np.empty((S, N, 3)), np.empty((S, N))
+        for b in range(N):
+            n = nrm[:, b]
+            g = np.einsum("ij,ij->i", n, P) - h[:, b] - nu[:, b] * tau
+            s = -g / (np.einsum("ij,ij->i", n, d[:, b]) - nu[:, b] / c)  # to the plane
+            hit[:, b] = tau + s / c
+            P = P - 2 * (np.einsum("ij,ij->i", n, P) - h[:, b] - nu[:, b] * hit[:, b])[:, None] * n
+            images[:, b] = P
+        # each point on the line from its image to the next point (the receiver
+        # last), on its plane where it is when the sound meets it
+        x = np.empty_like(pts)
+        towards = np.broadcast_to(receiver, (S, 3))
+        for b in range(N - 1, -1, -1):
+            n, A = nrm[:, b], images[:, b]
+            off = h[:, b] + nu[:, b] * hit[:, b]
+            step = (off - np.einsum("ij,ij->i", n, A)) / np.einsum("ij,ij->i", n, towards - A)
+            x[:, b] = A + step[:, None] * (towards - A)
+            towards = x[:, b]
+    return P
+
+
+def follow_chains(
+    world: MovingWorld, moving, base, paths: TracedPaths, pose: Pose, emitter, receiver, c
+):
+    """`moving` with every specular path of order two or more that meets a moving
+    mesh following it at each of its reflections (:func:`bounces` in the world of
+    the emission instant; each point tested with :meth:`MovingWorld.on_moving` from
+    the point before it; :func:`ride_chain`); `base`: the paths before :func:`ride`."""
+    velocities = world.velocities(pose)
+    offset = world.tracer_at(pose.time_s).caster.offset_m
+    for idx, pts, nrm in bounces(paths, world.tracer_at(pose.time_s), emitter):
+        on = np.full((idx.size, pts.shape[1]), -1)
+        for b in range(pts.shape[1]):
+            # from the point before (off its face, or it would meet that face first)
+            if b == 0:
+                origin = emitter
+            else:
+                origin = pts[:, b - 1] + offset * _unit(pts[:, b] - pts[:, b - 1])
+            on[:, b] = world.on_moving(pose, origin, pts[:, b])[0]
+        moving = ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c)
+    return moving
 
 
 def _caster(item) -> tuple[RayCaster, np.ndarray]:
