@@ -739,15 +739,20 @@ def render_doppler(
     WW = _cached(("products", *key, band.sum()), _products, W)
     gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, compress_tolerance)
     cdtype = np.complex64 if dtype == np.float32 else complex
-    filt = np.zeros((spectra.shape[1], filt_band.shape[1]), cdtype)
-    filt[band] = filt_band
-    # 5. impulses per set, FFT, sum of products, back (gains (R, M, N) seen as
-    # (M, N, R): the sets are contiguous, as the sparse products take them)
+    # the filters over the bins from the band's first to its last (zero elsewhere)
+    b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
+    filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
+    filt[:, band[b0:b1]] = filt_band.T
+    # 5. impulses per set, FFT, sum of products over the band, back (gains (R, M, N)
+    # seen as (M, N, R): the sets are contiguous, as the sparse products take them)
     h, pad = _impulses(d - lo, gains.transpose(1, 2, 0), n_span, interpolator, taps, n, dtype)
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
-    spec = spectra[0] * filt[:, 0]
+    spec = np.zeros(spectra.shape[1:], spectra.dtype)
+    inband = spec[:, b0:b1]
+    np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
+    term = np.empty_like(inband)
     for q in range(1, spectra.shape[0]):
-        spec += spectra[q] * filt[:, q]
+        inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
