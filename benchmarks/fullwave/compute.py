@@ -171,6 +171,8 @@ PLAN = [
     ("plate", 14.0, (25,)),
     ("plate", 20.0, (25,)),
     ("plate", 28.0, (25,)),
+    ("plate", 14.0, (35, 40)),
+    ("cube", 8.0, (30,)),
 ]
 OBJECTS = ("plate", "plate_thick", "sphere", "cube")
 
