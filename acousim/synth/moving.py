@@ -493,6 +493,19 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
     # without a guess, the first Newton step starts at t_r, where f = -|m - A| / c:
     # exact for a microphone at constant velocity
     t = np.broadcast_to(t_r, t_r.shape) if guess is None else np.array(guess, float)
+    compiled = _arrival_kernel()
+    if compiled is not None:  # the same iteration, compiled (numba)
+        return compiled(
+            np.broadcast_to(t_r, t.shape),
+            A,
+            t,
+            kin.mic_poly,
+            kin.mic_poly_v,
+            kin.mid,
+            kin.half,
+            c,
+            NEWTON_STOP_S,
+        )
     for _ in range(20):
         pos, vel = kin.mics_by_axis(t, velocity=True)
         diff = pos - A
@@ -507,6 +520,16 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
         if np.max(np.abs(step)) < NEWTON_STOP_S:
             break
     return t
+
+
+@lru_cache(maxsize=1)
+def _arrival_kernel():
+    """The compiled Newton solve, or None when numba is not installed."""
+    try:
+        from ._arrival_kernel import solve
+    except ImportError:  # numba is optional (the 'fast' extra)
+        return None
+    return solve
 
 
 @dataclass(frozen=True, eq=False)
