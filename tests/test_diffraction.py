@@ -29,10 +29,11 @@ C = 343.0
 # -- the exact wedge field ------------------------------------------------------------
 
 
-def wedge_series(wedge, r_s, th_s, r_r, th_r, dz, k, n_alpha=900, n_beta=300):
+def wedge_series(wedge, r_s, th_s, r_r, th_r, dz, k, n_alpha=900, n_beta=300, soft=False):
     """Exact field of a rigid wedge (open angle `wedge`, faces at theta = 0 and
     theta = wedge) at receivers (r_r, th_r[i], dz) for a point source (r_s, th_s, 0),
-    in units where the free field is exp(-j k R) / R.
+    in units where the free field is exp(-j k R) / R; `soft`: of a pressure-release
+    wedge (Dirichlet: sines in place of the cosines).
 
     2D Green's function of the Neumann wedge (time factor exp(-i w t)):
         G2 = (i pi / (2 wedge)) sum_n eps_n J_{nu n}(kt r<) H1_{nu n}(kt r>) cos cos,
@@ -64,7 +65,8 @@ def wedge_series(wedge, r_s, th_s, r_r, th_r, dz, k, n_alpha=900, n_beta=300):
     ev = np.where(np.isfinite(ev), ev, 0)
     s_ev = ((w * k * np.sinh(beta) * np.cos(kz * dz))[:, None] * ev).sum(0) / wedge
     modal = eps * (s_prop + s_ev)
-    g3 = (modal[None, :] * np.cos(mu * th_s) * np.cos(np.outer(th_r, mu))).sum(1) / np.pi
+    trig = np.sin if soft else np.cos
+    g3 = (modal[None, :] * trig(mu * th_s) * trig(np.outer(th_r, mu))).sum(1) / np.pi
     return np.conj(4 * np.pi * g3)  # exp(+ikR) convention -> ours, exp(-jkR)
 
 
@@ -72,17 +74,18 @@ def cyl(r, th, z):
     return np.array([r * np.cos(th), r * np.sin(th), z])
 
 
-def geometric(wedge, r_s, th_s, r_r, th_r, dz, k):
-    """Direct and reflected waves of an infinite wedge where they are visible."""
+def geometric(wedge, r_s, th_s, r_r, th_r, dz, k, reflection=1.0):
+    """Direct and reflected waves of an infinite wedge where they are visible (the
+    reflected ones times `reflection`)."""
     rcv = cyl(r_r, th_r, dz)
     out = 0.0
     images = [(th_s, abs(th_r - th_s) < np.pi)]  # (source angle, visible)
     images.append((-th_s, th_r + th_s < np.pi))  # image in the face theta = 0
     images.append((2 * wedge - th_s, th_r + th_s > 2 * wedge - np.pi))  # face theta = wedge
-    for th, visible in images:
+    for i, (th, visible) in enumerate(images):
         if visible:
             d = np.linalg.norm(cyl(r_s, th, 0.0) - rcv)
-            out = out + np.exp(-1j * k * d) / d
+            out = out + (1.0 if i == 0 else reflection) * np.exp(-1j * k * d) / d
     return out
 
 

@@ -149,10 +149,13 @@ def many_edge_elements(
     max_path_m: float = np.inf,
     reflection: np.ndarray | None = None,
     max_excess_m: float = DEFAULT_MAX_EXCESS_M,
+    terms: np.ndarray | None = None,
 ) -> tuple[EdgeElements, np.ndarray]:
     """:func:`edge_elements` of E edges at once (arrays (E, 3) and (E,); reflection
     (E, 2)); one receiver (3,) and one source (3,) or one per edge (E, 3).  Returns
-    the elements of all edges and the edge index (K,) of each."""
+    the elements of all edges and the edge index (K,) of each.  `terms` (E, 4), if
+    given, weighs the four terms of each edge in place of ``(R2, 1, 1, R1)`` (a part
+    of the response alone: the image term of one face, say)."""
     n_e = wedge_rad.size
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     if reflection is None:
@@ -238,7 +241,11 @@ def many_edge_elements(
     s, c = np.sin(half), np.cos(half)
     flip = s < 0
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
-    weight4 = np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
+    weight4 = (
+        np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
+        if terms is None
+        else np.asarray(terms, float)
+    )
 
     # per-element copies of the per-edge values, gathered once
     rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], zS[g], zR[g], nu[g]

@@ -66,7 +66,9 @@ class DiffractedPaths:
     strength (N,): signed, the gain at a microphone p is ``strength / |anchor - p|``;
     position_m (N, 3): the element's point on the edge; departure (N, 3): unit
     direction leaving the emitter; edge (N,): index into the Edges; order (N,):
-    interactions (1: the edge alone, 2: a reflection and the edge).
+    interactions (1: the edge alone, 2: a reflection and the edge); counts (N, K):
+    the path's interactions with frequency-dependent materials (a face's image
+    term, a reflection before or after the edge; K = 0 without tables).
     """
 
     anchor_m: np.ndarray
@@ -76,6 +78,11 @@ class DiffractedPaths:
     departure: np.ndarray
     edge: np.ndarray
     order: np.ndarray
+    counts: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.counts is None:
+            object.__setattr__(self, "counts", np.zeros((self.strength.size, 0), int))
 
     def __len__(self) -> int:
         return self.strength.size
@@ -99,7 +106,8 @@ def _elements(
     caster,
     tol: float,
     seen_from: tuple[np.ndarray, ...],
-) -> tuple[EdgeElements, np.ndarray]:
+    face_column: np.ndarray | None = None,
+) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """BTM elements of the candidate edges (indices) that form a convex wedge on the
     side of source and receiver and that every point of `seen_from` sees (at one of
     five points along the edge, at least)."""
@@ -112,28 +120,70 @@ def _elements(
         for p in seen_from:
             seen &= _visible(caster, p, pts, tol)
         idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
-    el, local = _wedge_elements(wedge, idx, source, receiver, face_reflection, step_m, max_path_m)
-    return el, idx[local]
+    el, local, counts = _wedge_elements(
+        wedge, idx, source, receiver, face_reflection, step_m, max_path_m, face_column
+    )
+    return el, idx[local], counts
 
 
-def _wedge_elements(wedge, rows, source, receiver, face_reflection, step_m, max_path_m):
+def _wedge_elements(
+    wedge, rows, source, receiver, face_reflection, step_m, max_path_m, face_column=None
+):
     """:func:`many_edge_elements` of the oriented edges `wedge` at `rows`, each with
-    the reflection factors of its two faces (a thin plate's one face twice)."""
+    the reflection factors of its two faces (a thin plate's one face twice).
+
+    With `face_column` (F,) (each face's specular interaction column of a
+    frequency-dependent material, -1: a material of single numbers; None: no
+    tables) the image term of each such face is an element of its own, which counts
+    one interaction in that column (so the path response applies the table: see
+    :mod:`acousim.synth.materials`), and the rest of the element another.  Returns
+    (elements, their rows' local indices (K,), counts (K, C) or None)."""
     refl = np.asarray(face_reflection, float)
     f1 = wedge.faces[rows, 0]
     f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
-    return many_edge_elements(
-        wedge.start_m[rows],
-        wedge.end_m[rows],
-        wedge.face_dir[rows],
-        wedge.normal[rows],
-        wedge.angle_rad[rows],
-        source,
-        receiver,
-        step_m,
-        max_path_m,
-        np.column_stack([refl[f1], refl[f2]]),
-    )
+    R1, R2 = refl[f1], refl[f2]
+
+    def part(sel, terms):
+        return many_edge_elements(
+            wedge.start_m[rows[sel]],
+            wedge.end_m[rows[sel]],
+            wedge.face_dir[rows[sel]],
+            wedge.normal[rows[sel]],
+            wedge.angle_rad[rows[sel]],
+            source if np.ndim(source) == 1 else source[sel],
+            receiver,
+            step_m,
+            max_path_m,
+            terms=terms,
+        )
+
+    every = np.arange(rows.size)
+    one = np.ones(rows.size)
+    if face_column is None:
+        el, local = part(every, np.column_stack([R2, one, one, R1]))
+        return el, local, None
+    c1, c2 = face_column[f1], face_column[f2]
+    # the element without the image terms of table faces, then each of those alone
+    parts = [
+        (every, np.column_stack([np.where(c2 < 0, R2, 0), one, one, np.where(c1 < 0, R1, 0)]), None)
+    ]
+    zero = np.zeros(rows.size)
+    parts.append((np.flatnonzero(c2 >= 0), np.column_stack([R2, zero, zero, zero]), c2))
+    parts.append((np.flatnonzero(c1 >= 0), np.column_stack([zero, zero, zero, R1]), c1))
+    els, locals_, counts = [], [], []
+    n_col = int(np.max(face_column, initial=-1)) + 2  # columns come in pairs
+    for sel, terms, column in parts:
+        if sel.size == 0:
+            continue
+        el, local = part(sel, terms[sel])
+        c = np.zeros((len(el), n_col), int)
+        if column is not None:
+            c[np.arange(len(el)), column[sel][local]] = 1
+        els.append(el)
+        locals_.append(sel[local])
+        counts.append(c)
+    el = EdgeElements(*(np.concatenate([getattr(e, f) for e in els]) for f in _FIELDS))
+    return el, np.concatenate(locals_), np.concatenate(counts)
 
 
 #: where along an edge (fractions of its length) visibility is probed
@@ -169,6 +219,8 @@ def diffract(
     order: int = 1,
     face_plane: np.ndarray | None = None,
     floor_level: float = 0.0,
+    face_column: np.ndarray | None = None,
+    plane_column: np.ndarray | None = None,
 ) -> DiffractedPaths:
     """First-order edge diffraction, and second order if asked (see the module
     docstring).
@@ -186,7 +238,11 @@ def diffract(
     floor_level: elements weaker than this gain at the receiver are dropped too,
     before their visibility is checked (the tracer passes its energy floor under the
     strongest echo it has found before this stage: elements below it would be
-    dropped by the floor at the end anyway).
+    dropped by the floor at the end anyway).  face_column (F,) and plane_column
+    (P,): the specular interaction column of each face's and each plane's material
+    if it is a table over frequency (-1: single numbers; None: no tables): such a
+    face's image term, and such a plane's reflection before or after the edge,
+    count in the paths' interactions (edge to edge keeps the reference numbers).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -201,8 +257,18 @@ def diffract(
         receiver, edges.start_m, edges.end_m
     )
     idx = np.flatnonzero(near <= max_path_m)
-    el, owner = _elements(
-        edges, idx, emitter, receiver, r_edge, step_m, max_path_m, caster, tol, (emitter, receiver)
+    el, owner, counts = _elements(
+        edges,
+        idx,
+        emitter,
+        receiver,
+        r_edge,
+        step_m,
+        max_path_m,
+        caster,
+        tol,
+        (emitter, receiver),
+        face_column,
     )
     # 4. visibility both ways (of the elements above the floor)
     floor = max(np.abs(el.amplitude).max(initial=0.0) * 10 ** (floor_db / 20), floor_level)
@@ -211,7 +277,7 @@ def diffract(
     ok[strong] = _visible(caster, emitter, el.point_m[strong], tol) & _visible(
         caster, receiver, el.point_m[strong], tol
     )
-    out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1))
+    out.append(_paths(el, owner, ok, emitter, el.point_m, np.ones(len(el)), 1, counts))
     # 5. edge to edge
     if order >= 2 and face_plane is not None:
         out.append(
@@ -236,25 +302,22 @@ def diffract(
                     tol,
                     nudge,
                     floor,
+                    face_column,
+                    plane_column,
                 )
             )
     out = [p for p in out if len(p)]
     if not out:
         return _empty()
-    return DiffractedPaths(
-        *(
-            np.concatenate([getattr(p, f) for p in out])
-            for f in (
-                "anchor_m",
-                "first_leg_m",
-                "strength",
-                "position_m",
-                "departure",
-                "edge",
-                "order",
-            )
-        )
-    )
+    return _concatenate(out)
+
+
+def _concatenate(parts: list[DiffractedPaths]) -> DiffractedPaths:
+    """The paths of `parts` one after the other (their counts padded to the widest)."""
+    k = max(p.counts.shape[1] for p in parts)
+    counts = np.concatenate([np.pad(p.counts, ((0, 0), (0, k - p.counts.shape[1]))) for p in parts])
+    fields = (np.concatenate([getattr(p, f) for p in parts]) for f in _PATH_FIELDS)
+    return DiffractedPaths(*fields, counts)
 
 
 def _reflected(
@@ -270,6 +333,8 @@ def _reflected(
     tol,
     nudge,
     floor,
+    face_column=None,
+    plane_column=None,
 ) -> DiffractedPaths:
     """All paths emitter -> plane -> edge -> receiver (before) or emitter -> edge ->
     plane -> receiver (after) at once, for every plane and edge: the reflecting leg's
@@ -314,14 +379,19 @@ def _reflected(
         rows = rows[(seen & lands).any(axis=1)]
     if rows.size == 0:
         return _empty()
-    el, local = _wedge_elements(
-        wedge, rows, images[p_idx[rows]], oth, face_reflection, step_m, max_path_m
+    el, local, counts = _wedge_elements(
+        wedge, rows, images[p_idx[rows]], oth, face_reflection, step_m, max_path_m, face_column
     )
     if len(el) == 0:
         return _empty()
     strong = np.abs(el.amplitude * p_refl[p_idx[rows[local]]]) >= floor
     el = EdgeElements(*(getattr(el, f)[strong] for f in _FIELDS))
     row = rows[local[strong]]
+    if counts is not None:  # and the plane's own reflection
+        counts = counts[strong]
+        column = plane_column[p_idx[row]]
+        table = column >= 0
+        counts[np.flatnonzero(table), column[table]] += 1
     n, off, image = normal[p_idx[row]], offset[p_idx[row]], images[p_idx[row]]
     z = el.point_m
     # reflection point: where the line image -> element crosses the plane
@@ -343,11 +413,12 @@ def _reflected(
     amp = el.amplitude[k] * p_refl[p_idx[row[k]]]
     edge = e_idx[row[k]]
     order = np.full(k.size, 2)
+    counts = None if counts is None else counts[k]
     if before:  # image source: first leg from the image, anchor on the edge
         dep = x[k] - emitter
         dep /= np.linalg.norm(dep, axis=1, keepdims=True)
         return DiffractedPaths(
-            z[k], el.first_leg_m[k], amp * el.second_leg_m[k], z[k], dep, edge, order
+            z[k], el.first_leg_m[k], amp * el.second_leg_m[k], z[k], dep, edge, order, counts
         )
     # after: computed receiver-image -> edge -> emitter; the path is emitter -> z ->
     # plane -> microphone, so the first leg is |emitter - z| and the anchor is z's
@@ -356,7 +427,7 @@ def _reflected(
     anchor = zk - 2 * (np.einsum("ij,ij->i", zk, nk) - off[k])[:, None] * nk
     dep = (zk - emitter) / el.second_leg_m[k][:, None]
     return DiffractedPaths(
-        anchor, el.second_leg_m[k], amp * el.first_leg_m[k], zk, dep, edge, order
+        anchor, el.second_leg_m[k], amp * el.first_leg_m[k], zk, dep, edge, order, counts
     )
 
 
@@ -449,7 +520,7 @@ def _edge_to_edge(
         )
     if not out:
         return _empty()
-    return DiffractedPaths(*(np.concatenate([getattr(p, f) for p in out]) for f in _PATH_FIELDS))
+    return _concatenate(out)
 
 
 def _wedge(w: Edges, e: int, refl: np.ndarray) -> Wedge:
@@ -469,7 +540,7 @@ def _wedge(w: Edges, e: int, refl: np.ndarray) -> Wedge:
 _PATH_FIELDS = ("anchor_m", "first_leg_m", "strength", "position_m", "departure", "edge", "order")
 
 
-def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> DiffractedPaths:
+def _paths(el: EdgeElements, owner, ok, source, points, scale, order, counts=None):
     k = np.flatnonzero(ok)
     dep = points[k] - source
     dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
@@ -481,6 +552,7 @@ def _paths(el: EdgeElements, owner, ok, source, points, scale, order) -> Diffrac
         dep,
         owner[k],
         np.full(k.size, order),
+        None if counts is None else counts[k],
     )
 
 
@@ -499,20 +571,33 @@ class DiffractingGeometry:
     edges: its diffracting edges (:func:`find_edges`); face_reflection (F,): pressure
     reflection factor per face; planes: (normal (P, 3), offset (P,), reflection (P,))
     of every plane, for the reflections before or after an edge; face_plane (F,):
-    the plane id of each face (which edges share a plane, for edge to edge).
+    the plane id of each face (which edges share a plane, for edge to edge);
+    face_column (F,), plane_column (P,): the specular interaction column of each
+    face's and plane's frequency-dependent material (-1: single numbers; None: a
+    world without tables).
     """
 
     edges: Edges
     face_reflection: np.ndarray
     planes: tuple[np.ndarray, np.ndarray, np.ndarray]
     face_plane: np.ndarray | None = None
+    face_column: np.ndarray | None = None
+    plane_column: np.ndarray | None = None
 
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
         refl = world.face_values("reflection")
         first = np.unique(world.plane, return_index=True)[1]
         planes = (world.normals[first], world.offsets[first], refl[first])
-        return cls(find_edges(triangles_mesh(world.triangles)), refl, planes, world.plane)
+        column = world.face_interactions(0)
+        return cls(
+            find_edges(triangles_mesh(world.triangles)),
+            refl,
+            planes,
+            world.plane,
+            column,
+            None if column is None else column[first],
+        )
 
 
 def edge_diffraction(
@@ -548,8 +633,17 @@ def edge_diffraction(
         order,
         geometry.face_plane,
         floor_level,
+        geometry.face_column,
+        geometry.plane_column,
     )
     kind = np.full(len(d), KIND["diffraction"])
     return TracedPaths(
-        d.anchor_m, d.first_leg_m, d.strength, d.position_m, d.order, kind, d.departure
+        d.anchor_m,
+        d.first_leg_m,
+        d.strength,
+        d.position_m,
+        d.order,
+        kind,
+        d.departure,
+        interactions=d.counts,
     )
