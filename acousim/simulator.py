@@ -233,12 +233,12 @@ class Simulator:
         if self.moving_meshes:
             from acousim.trace.moving import follow_chains, ride
 
-            on, normals = self.tracer.riders(paths, pose)
+            on, normals, glint = self.tracer.riders(paths, pose)
             velocities = self.tracer.velocities(pose)
             receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
             still = moving
             moving, truth_vel = ride(
-                moving, paths, on, normals, velocities, emitter, receiver, self.c
+                moving, paths, on, normals, glint, velocities, emitter, receiver, self.c
             )
             # reflections of second order and up: every moving plane of the chain
             moving = follow_chains(

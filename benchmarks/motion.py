@@ -278,7 +278,7 @@ def _passerby(small: bool) -> tuple[float, float, int]:
             best = min(best, (time.perf_counter() - t0) / len(idx))
         out.append(best)
     paths = sim.paths(poses[idx[0]])
-    on, _ = sim.tracer.riders(paths, poses[idx[0]])
+    on, _, _ = sim.tracer.riders(paths, poses[idx[0]])
     return out[0], out[1], int((on >= 0).sum())
 
 

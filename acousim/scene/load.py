@@ -61,10 +61,14 @@ EXTRA_KEYS: dict[str, set[str]] = {
         "scale",
         "velocity_m_s",
         "track",
+        "angular_rate_deg_s",
     },
     "points": {"track"},
 }
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+#: ``[[meshes]] angular_rate_deg_s``: a mesh turning about its origin (read in degrees,
+#: kept in rad/s: MeshItem.angular_velocity_rad_s); the sensor's rates, for a mesh
+MESH_TURN = RATES["angular_rate_deg_s"]
 #: a pose's angles, in [sensor.pose] and in every row of a trajectory
 POSE_ANGLES = {
     "yaw_deg": Setting("float", 0.0, "deg", -360, 360, "turns left"),
@@ -199,6 +203,9 @@ def parse_scene(
         # a moving mesh: its velocity read through the declaration, its track as a point's
         v = settings_of(MeshItem)["velocity_m_s"]
         velocity = r._check(v, m.get("velocity_m_s", v.default), f"{where}.velocity_m_s")
+        turn = r._check(
+            MESH_TURN, m.get("angular_rate_deg_s", MESH_TURN.default), f"{where}.angular_rate_deg_s"
+        )
         try:
             item = MeshItem(
                 file,
@@ -207,6 +214,7 @@ def parse_scene(
                 materials=by_group,
                 velocity_m_s=velocity,
                 track=m.get("track"),
+                angular_velocity_rad_s=tuple(np.deg2rad(turn)),
             )
         except InputError as exc:  # the track, checked by the model
             raise r.fail(f"{where}.track", exc.reason, m.get("track")) from None

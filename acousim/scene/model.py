@@ -204,6 +204,17 @@ class MeshItem:
     #: (rows t_s, x, y, z: where the mesh's origin is; :func:`track_rows`), as a point
     velocity_m_s: tuple[float, float, float] = _velocity_setting()
     track: tuple[tuple[float, float, float, float], ...] | None = None
+    #: and it turns at this angular velocity (world frame) about its origin (where
+    #: the transform, the velocity or the track put it): ``R(t) = exp(w t) R_0``
+    angular_velocity_rad_s: tuple[float, float, float] = setting(
+        (0.0, 0.0, 0.0),
+        "rad/s",
+        -math.radians(MAX_TURN_DEG_S),
+        math.radians(MAX_TURN_DEG_S),
+        "turns about world x, y, z through its origin (file: angular_rate_deg_s)",
+        kind="vector",
+        length=3,
+    )
 
     def __post_init__(self) -> None:
         mesh = self.mesh
@@ -243,20 +254,38 @@ class MeshItem:
 
     @property
     def moving(self) -> bool:
-        return _moves(self)
+        return _moves(self) or self.turning
+
+    @property
+    def turning(self) -> bool:
+        return any(w != 0 for w in self.angular_velocity_rad_s)
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Where the mesh's origin is (3,) and its velocity (3,) at time `t_s` of the
         trajectory clock (as :meth:`PointItem.at`; still: the transform's translation)."""
         return _motion_at(self, self.transform[:3, 3], t_s)
 
+    def rotation_at(self, t_s: float) -> np.ndarray:
+        """The turn (3, 3) of the mesh at time `t_s` from where it is at time 0."""
+        from scipy.spatial.transform import Rotation
+
+        w = np.asarray(self.angular_velocity_rad_s, float)
+        return Rotation.from_rotvec(w * t_s).as_matrix()
+
     def placed_at(self, t_s: float) -> MeshItem:
         """The mesh where it is at time `t_s` (itself if it does not move)."""
         if not self.moving:
             return self
         T = self.transform.copy()
+        T[:3, :3] = self.rotation_at(t_s) @ T[:3, :3]
         T[:3, 3] = self.at(t_s)[0]
-        return dataclasses.replace(self, transform=T, velocity_m_s=(0.0, 0.0, 0.0), track=None)
+        return dataclasses.replace(
+            self,
+            transform=T,
+            velocity_m_s=(0.0, 0.0, 0.0),
+            track=None,
+            angular_velocity_rad_s=(0.0, 0.0, 0.0),
+        )
 
     @property
     def path(self) -> Path | None:

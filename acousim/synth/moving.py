@@ -138,6 +138,8 @@ class MovingPaths:
     velocity_m_s (N, 3): of the anchor (moving point reflectors), from tau = 0.
     fermat_length_m (N,): L of the second-order term of a Fermat first leg (the
     first leg of a scattered path, the image distance of a specular one).
+    acceleration_m_s2 (N, 3): of the anchor (the image in a turning plane), from
+    tau = 0: it is at ``anchor + velocity t + acceleration t^2 / 2`` (None: zero).
     """
 
     anchor_m: np.ndarray
@@ -149,6 +151,11 @@ class MovingPaths:
     first_leg: np.ndarray
     velocity_m_s: np.ndarray
     fermat_length_m: np.ndarray
+    acceleration_m_s2: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.acceleration_m_s2 is None:
+            object.__setattr__(self, "acceleration_m_s2", np.zeros_like(self.anchor_m))
 
     def __len__(self) -> int:
         return self.strength.size
@@ -424,6 +431,8 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
     a0 = paths.anchor_m[sel]
     J = paths.mirror[sel]
     u = paths.velocity_m_s[sel]
+    acc = paths.acceleration_m_s2[sel]
+    accelerating = bool(np.any(paths.acceleration_m_s2))
     f0 = paths.first_leg_m[sel]
     mode = paths.first_leg[sel]
     dep = paths.departure[sel]
@@ -437,8 +446,13 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         shift = (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
     else:
         shift = np.matmul(J, de[..., None])[..., 0]
+
+    def at(t):  # the anchors where they are at t (s)
+        out = a0 + shift + u * t[..., None]
+        return out + 0.5 * acc * t[..., None] ** 2 if accelerating else out
+
     for _ in range(8 if moving else 1):
-        anchor = a0 + shift + u * t_r[..., None]
+        anchor = at(t_r)
         exact = np.linalg.norm(anchor - e, axis=-1)
         along = np.sum(dep * de, axis=-1)
         fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
@@ -449,7 +463,7 @@ def _arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic
         t_r = new
         if done:
             break
-    anchor = a0 + shift + u * t_r[..., None]
+    anchor = at(t_r)
     if scalar:
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]

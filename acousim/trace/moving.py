@@ -1,7 +1,8 @@
 """Meshes that move (a person, another robot): the world at each emission instant, and
 how the paths that end on a moving mesh follow it during the measurement.
 
-A moving mesh translates rigidly (``MeshItem.velocity_m_s`` or ``track``).  For one
+A moving mesh translates rigidly (``MeshItem.velocity_m_s`` or ``track``) and may turn
+at a constant rate about its origin (``MeshItem.angular_velocity_rad_s``).  For one
 measurement, whose emission starts at ``pose.time_s``:
 
 1. **World per emission instant** (:class:`MovingWorld`): the Embree scene is rebuilt
@@ -13,8 +14,10 @@ measurement, whose emission starts at ``pose.time_s``:
    last reflection or scattering point (``TracedPaths.position_m``) lies on a moving
    mesh, seen from the array centre (a ray to the point meets that mesh first, at the
    point).
-3. **Their motion** (:func:`ride`), with u the mesh's velocity at the start of the
-   emission, d_in / d_out the unit directions in which the sound arrives at / leaves
+3. **Their motion** (:func:`ride`), with u the velocity of the point at the start of
+   the emission (``v + w x (x - o)`` on a turning mesh; a glint, on a curved face,
+   slides over the turning surface and takes the mesh's translation v), d_in /
+   d_out the unit directions in which the sound arrives at / leaves
    the point, k = c / (c - d_in . u) (the reflection happens later on a receding mesh):
 
    - an image source (a specular reflection on a plane, any order): it moves at
@@ -67,12 +70,27 @@ from .tracer import Tracer
 
 __all__ = ["MovingWorld", "ride", "bounces", "ride_chain", "follow_chains"]
 
-#: the image of a chain of moving planes is solved at the start of the emission and
-#: this much later, and moves linearly between (its curvature is of order (v / c)^2)
+#: the image of a chain of moving planes is solved at the start of the emission, this
+#: much later and half way, and moves on the parabola through the three (a turning
+#: plane's image moves on a circle; the calls of the sensors last 1-5 ms)
 CHAIN_SPAN_S = 5e-3
 #: a scattered path's position (the mean of its hits) may lie this far inside a curved
 #: moving mesh and still belong to it (m)
 CLUSTER_DEPTH_M = 0.05
+
+
+@dataclasses.dataclass(frozen=True)
+class Motions:
+    """K moving meshes at the start of an emission: velocity (K, 3) of their origins
+    (m/s), angular velocity (K, 3) (rad/s, world frame) and origin (K, 3) (m)."""
+
+    velocity: np.ndarray
+    angular: np.ndarray
+    origin: np.ndarray
+
+    def of_points(self, k: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Velocities (N, 3) of points `x` (N, 3) of meshes `k` (N,)."""
+        return self.velocity[k] + np.cross(self.angular[k], x - self.origin[k])
 
 
 class MovingWorld:
@@ -126,34 +144,48 @@ class MovingWorld:
         """Every path of `pose`, the moving meshes where they are at ``pose.time_s``."""
         return self.tracer_at(pose.time_s).trace(pose)
 
-    def velocities(self, pose: Pose) -> np.ndarray:
-        """The moving meshes' velocities (K, 3) at the start of the emission."""
-        v = [self.scene.meshes[i].at(pose.time_s)[1] for i in self.moving]
-        return np.array(v, float).reshape(-1, 3)
+    def velocities(self, pose: Pose) -> Motions:
+        """The moving meshes' motions at the start of the emission."""
+        meshes = [self.scene.meshes[i] for i in self.moving]
+        now = [m.at(pose.time_s) for m in meshes]
+        return Motions(
+            np.array([v for _, v in now], float).reshape(-1, 3),
+            np.array([m.angular_velocity_rad_s for m in meshes], float).reshape(-1, 3),
+            np.array([o for o, _ in now], float).reshape(-1, 3),
+        )
+
+    @property
+    def turning(self) -> bool:
+        """Whether a moving mesh turns."""
+        return any(self.scene.meshes[i].turning for i in self.moving)
 
     def riders(self, paths: TracedPaths, pose: Pose):
         """Which moving mesh each path's last point lies on (N,) (an index into
-        :meth:`velocities`, -1: none) and the normal (N, 3) of the face it lies on."""
+        :meth:`velocities`, -1: none), the normal (N, 3) of the face it lies on, and
+        whether that face is curved (N,) (a glint there slides over the surface)."""
         on = np.full(len(paths), -1)
         normals = np.zeros((len(paths), 3))
         ask = np.flatnonzero((paths.kind != KIND["direct"]) & (paths.kind != KIND["point"]))
         receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
-        on[ask], normals[ask] = self.on_moving(pose, receiver, paths.position_m[ask])
-        return on, normals
+        glint = np.zeros(len(paths), bool)
+        on[ask], normals[ask], glint[ask] = self.on_moving(pose, receiver, paths.position_m[ask])
+        return on, normals, glint
 
     def on_moving(self, pose: Pose, origin: np.ndarray, points: np.ndarray):
         """Which moving mesh each of `points` (P, 3) lies on, seen from `origin` (3,)
         (the first surface a ray meets on the way there, at the point), and the
-        normal of the face there: (P,) indices (-1: none), (P, 3)."""
+        normal of the face there, and whether that face is curved: (P,) indices (-1:
+        none), (P, 3), (P,)."""
         on = np.full(len(points), -1)
         normals = np.zeros((len(points), 3))
+        curved = np.zeros(len(points), bool)
         if not len(points) or not self.moving:
-            return on, normals
+            return on, normals, curved
         _, tracer, alone = self._world(pose.time_s)
         d = points - origin
         length = np.linalg.norm(d, axis=1)
         start = np.broadcast_to(origin, d.shape)
-        t_world, _ = tracer.caster.first_hit(start, d)
+        t_world, f_world = tracer.caster.first_hit(start, d)
         tol = 10 * tracer.caster.tolerance_m
         for k, (caster, face_normals) in enumerate(alone):
             t, face = caster.first_hit(start, d)
@@ -163,22 +195,24 @@ class MovingWorld:
             hit &= on < 0
             on[hit] = k
             normals[hit] = face_normals[face[hit]]
-        return on, normals
+            curved[hit] = tracer.world.curved[f_world[hit]]
+        return on, normals, curved
 
 
-def bounces(paths: TracedPaths, tracer, emitter: np.ndarray) -> list[tuple]:
-    """The reflection points and normals of the specular paths of order two and more,
-    found again by following each path's departure from the emitter (3,) through the
-    world of `tracer` (a :class:`~acousim.trace.tracer.Tracer`): a specular path's
-    ray meets its own reflection points in turn.  Per order N, a tuple (indices (S,),
-    points (S, N, 3), unit normals (S, N, 3) towards the side the sound comes from);
-    a path whose ray does not end at its traced last point (within 1 um: grazing or
-    an edge) is left out (it keeps the last-reflection law alone)."""
+def bounces(paths: TracedPaths, tracer, emitter: np.ndarray, min_order: int = 2) -> list[tuple]:
+    """The reflection points and normals of the specular paths of order `min_order`
+    and more, found again by following each path's departure from the emitter (3,)
+    through the world of `tracer` (a :class:`~acousim.trace.tracer.Tracer`): a
+    specular path's ray meets its own reflection points in turn.  Per order N, a
+    tuple (indices (S,), points (S, N, 3), unit normals (S, N, 3) towards the side
+    the sound comes from); a path whose ray does not end at its traced last point
+    (within 1 um: grazing or an edge) or that meets a curved surface (a glint: no
+    plane to mirror in) is left out (it keeps the last-reflection law alone)."""
     out = []
     if tracer.caster is None:
         return out
     specular = paths.kind == KIND["specular"]
-    for order in np.unique(paths.order[specular & (paths.order >= 2)]).tolist():
+    for order in np.unique(paths.order[specular & (paths.order >= min_order)]).tolist():
         idx = np.flatnonzero(specular & (paths.order == order))
         o = np.broadcast_to(emitter, (idx.size, 3)).copy()
         d = paths.departure[idx].copy()
@@ -188,6 +222,7 @@ def bounces(paths: TracedPaths, tracer, emitter: np.ndarray) -> list[tuple]:
         for b in range(order):
             t, f = tracer.caster.first_hit(o, d)
             ok &= f >= 0
+            ok &= ~tracer.world.curved[np.where(ok, f, 0)]  # planes only (no glints)
             x = o + np.where(ok, t, 0.0)[:, None] * d
             n = tracer.world.normals[np.where(ok, f, 0)]
             n = np.where((np.einsum("ij,ij->i", n, d) > 0)[:, None], -n, n)
@@ -200,10 +235,10 @@ def bounces(paths: TracedPaths, tracer, emitter: np.ndarray) -> list[tuple]:
     return out
 
 
-def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver, c: float):
+def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, receiver, c):
     """The :class:`~acousim.synth.moving.MovingPaths` `moving` (from `paths`, traced
     with the emitter at `emitter` (3,)) with the paths whose last point lies on a
-    moving mesh (`on` (N,), an index into `velocities` (K, 3), -1: none; on a face
+    moving mesh (`on` (N,), an index into `velocities` (:class:`Motions`), -1: none; on a face
     of normal `normals` (N, 3)) following it, by the laws of the module docstring
     (step 3); and the velocity of each path's last point (N, 3), for the ground
     truth."""
@@ -213,8 +248,6 @@ def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver,
     sel = np.flatnonzero(on >= 0)
     if sel.size == 0:
         return moving, truth
-    u = velocities[on[sel]]
-    truth[sel] = u
     x = paths.position_m[sel]
     a0 = moving.anchor_m[sel]
     d_out = _unit(receiver - x)
@@ -222,6 +255,13 @@ def ride(moving, paths: TracedPaths, on, normals, velocities, emitter, receiver,
     straight = ~image & (
         np.abs(paths.first_leg_m[sel] - np.linalg.norm(x - emitter, axis=1)) <= 1e-9
     )
+    # a point of a turning mesh moves at v + w x (x - o); a glint (reached straight,
+    # on a curved face: `glint` (N,)) is no material point: it slides over the
+    # turning surface, and follows the mesh's translation alone (exact for a body of
+    # revolution spinning about its axis, a sphere about its centre)
+    glint = straight & glint[sel]
+    u = np.where(glint[:, None], velocities.velocity[on[sel]], velocities.of_points(on[sel], x))
+    truth[sel] = u
     n = normals[sel]
     # the sound met the plane along d_out mirrored in it (unknown elsewhere: from
     # the receiver's side)
@@ -278,29 +318,71 @@ def ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c
     idx, pts, nrm, on = idx[rows], pts[rows], nrm[rows], on[rows]
     S = idx.size
     e = np.broadcast_to(emitter, (S, 3)).astype(float)
-    u = np.where((on >= 0)[..., None], velocities[np.maximum(on, 0)], 0.0)  # (S, N, 3)
-    nu = np.einsum("sbi,sbi->sb", nrm, u)
-    h = np.einsum("sbi,sbi->sb", nrm, pts)  # the planes at the start of the emission
-    P0 = _chain_image(0.0, e, nrm, h, nu, pts, receiver, c)
-    V = (_chain_image(CHAIN_SPAN_S, e, nrm, h, nu, pts, receiver, c) - P0) / CHAIN_SPAN_S
-    P_still = _chain_image(0.0, e, nrm, h, 0 * nu, pts, receiver, c)
+    k = np.maximum(on, 0)
+    mov = (on >= 0)[..., None]
+    planes = (
+        nrm,
+        pts,
+        np.where(mov, velocities.velocity[k], 0.0),  # (S, N, 3) each
+        np.where(mov, velocities.angular[k], 0.0),
+        np.where(mov, velocities.origin[k], 0.0),
+    )
+    still = (nrm, pts, *(np.zeros_like(pts) for _ in range(3)))
+    # the image at three emission instants: P0 + V tau + A tau^2 / 2 through them
+    h = CHAIN_SPAN_S / 2
+    P0, P1, P2 = (_chain_image(tau, e, planes, receiver, c) for tau in (0.0, h, 2 * h))
+    V = (4 * P1 - 3 * P0 - P2) / (2 * h)
+    A = (P2 - 2 * P1 + P0) / h**2
+    P_still = _chain_image(0.0, e, still, receiver, c)
     anchor = moving.anchor_m.copy()
     velocity = moving.velocity_m_s.copy()
     mirror = moving.mirror.copy()
     anchor[idx] = base.anchor_m[idx] + (P0 - P_still)
     velocity[idx] = base.velocity_m_s[idx] + V
+    acceleration = moving.acceleration_m_s2.copy()
+    acceleration[idx] = base.acceleration_m_s2[idx] + A
     mirror[idx] = base.mirror[idx] - V[:, :, None] * base.departure[idx][:, None, :] / c
-    return dataclasses.replace(moving, anchor_m=anchor, velocity_m_s=velocity, mirror=mirror)
+    return dataclasses.replace(
+        moving,
+        anchor_m=anchor,
+        velocity_m_s=velocity,
+        mirror=mirror,
+        acceleration_m_s2=acceleration,
+    )
 
 
-def _chain_image(tau, e, nrm, h, nu, pts, receiver, c: float) -> np.ndarray:
+def _turn(w: np.ndarray, vectors: np.ndarray, t) -> np.ndarray:
+    """`vectors` (..., 3) turned at angular velocities `w` (..., 3) (rad/s) for `t`
+    (...) s (Rodrigues)."""
+    rot = w * np.asarray(t, float)[..., None]
+    angle = np.linalg.norm(rot, axis=-1, keepdims=True)
+    axis = rot / np.where(angle > 0, angle, 1.0)
+    cos, sin = np.cos(angle), np.sin(angle)
+    along = np.sum(axis * vectors, axis=-1, keepdims=True)
+    return vectors * cos + np.cross(axis, vectors) * sin + axis * along * (1 - cos)
+
+
+def _plane_at(planes, b: int, t: np.ndarray):
+    """Normal (S, 3) and offset (S,) of plane b of each chain at times `t` (S,): the
+    plane through x_b with normal n_b at time 0, of a mesh moving at v, turning at w
+    about its origin o (all (S, N, 3) in `planes`)."""
+    n0, x0, v, w, o = (a[:, b] for a in planes)
+    n = _turn(w, n0, t)
+    q = o + v * t[:, None] + _turn(w, x0 - o, t)
+    return n, np.einsum("ij,ij->i", n, q)
+
+
+def _chain_image(tau, e, planes, receiver, c: float) -> np.ndarray:
     """The last image (S, 3) of the sound emitted at `tau` (s) from `e` (S, 3) by way
-    of S chains of N planes (normals `nrm` (S, N, 3), offsets `h` (S, N) at time 0,
-    normal speeds `nu` (S, N)), each plane where it is when the sound meets it
-    (:func:`ride_chain`); the reflection points, first `pts` (S, N, 3), found again
-    from the receiver (3,) back and the chain redone (three times: the points move
-    by (v / c) times the path, their effect is of second order)."""
-    S, N = h.shape
+    of S chains of N planes (`planes`: normals and points (S, N, 3) at time 0, the
+    velocity, angular velocity and origin of each plane's mesh, zero for a still
+    one), each plane where it is when the sound meets it (:func:`ride_chain`): the
+    instant solved by fixed-point iteration (contracting by about v / c); the
+    reflection points, first the traced ones, found again from the receiver (3,)
+    back and the chain redone (three times: they move by about (v / c) times the
+    path, an effect of second order)."""
+    pts = planes[1]
+    S, N = pts.shape[:2]
     x = pts
     for _ in range(3):
         prev = np.concatenate([e[:, None], x[:, :-1]], axis=1)
@@ -308,20 +390,23 @@ def _chain_image(tau, e, nrm, h, nu, pts, receiver, c: float) -> np.ndarray:
         P = e.copy()
         images, hit = np.empty((S, N, 3)), np.empty((S, N))
         for b in range(N):
-            n = nrm[:, b]
-            g = np.einsum("ij,ij->i", n, P) - h[:, b] - nu[:, b] * tau
-            s = -g / (np.einsum("ij,ij->i", n, d[:, b]) - nu[:, b] / c)  # to the plane
-            hit[:, b] = tau + s / c
-            P = P - 2 * (np.einsum("ij,ij->i", n, P) - h[:, b] - nu[:, b] * hit[:, b])[:, None] * n
+            t = np.full(S, float(tau))
+            for _ in range(5):  # when the sound leaving P along d meets the plane
+                n, h = _plane_at(planes, b, t)
+                s = (h - np.einsum("ij,ij->i", n, P)) / np.einsum("ij,ij->i", n, d[:, b])
+                t = tau + s / c
+            n, h = _plane_at(planes, b, t)
+            hit[:, b] = t
+            P = P - 2 * (np.einsum("ij,ij->i", n, P) - h)[:, None] * n
             images[:, b] = P
         # each point on the line from its image to the next point (the receiver
         # last), on its plane where it is when the sound meets it
         x = np.empty_like(pts)
         towards = np.broadcast_to(receiver, (S, 3))
         for b in range(N - 1, -1, -1):
-            n, A = nrm[:, b], images[:, b]
-            off = h[:, b] + nu[:, b] * hit[:, b]
-            step = (off - np.einsum("ij,ij->i", n, A)) / np.einsum("ij,ij->i", n, towards - A)
+            n, h = _plane_at(planes, b, hit[:, b])
+            A = images[:, b]
+            step = (h - np.einsum("ij,ij->i", n, A)) / np.einsum("ij,ij->i", n, towards - A)
             x[:, b] = A + step[:, None] * (towards - A)
             towards = x[:, b]
     return P
@@ -336,7 +421,10 @@ def follow_chains(
     the point before it; :func:`ride_chain`); `base`: the paths before :func:`ride`."""
     velocities = world.velocities(pose)
     offset = world.tracer_at(pose.time_s).caster.offset_m
-    for idx, pts, nrm in bounces(paths, world.tracer_at(pose.time_s), emitter):
+    # a turning plane's image moves in ways the last-reflection law does not know:
+    # then first-order reflections take this way too
+    first = 1 if world.turning else 2
+    for idx, pts, nrm in bounces(paths, world.tracer_at(pose.time_s), emitter, first):
         on = np.full((idx.size, pts.shape[1]), -1)
         for b in range(pts.shape[1]):
             # from the point before (off its face, or it would meet that face first)
