@@ -367,6 +367,8 @@ def _plane_at(planes, b: int, t: np.ndarray):
     plane through x_b with normal n_b at time 0, of a mesh moving at v, turning at w
     about its origin o (all (S, N, 3) in `planes`)."""
     n0, x0, v, w, o = (a[:, b] for a in planes)
+    if not w.any():  # translating only
+        return n0, np.einsum("ij,ij->i", n0, x0 + v * t[:, None])
     n = _turn(w, n0, t)
     q = o + v * t[:, None] + _turn(w, x0 - o, t)
     return n, np.einsum("ij,ij->i", n, q)
@@ -391,9 +393,17 @@ def _chain_image(tau, e, planes, receiver, c: float) -> np.ndarray:
         images, hit = np.empty((S, N, 3)), np.empty((S, N))
         for b in range(N):
             t = np.full(S, float(tau))
-            for _ in range(5):  # when the sound leaving P along d meets the plane
-                n, h = _plane_at(planes, b, t)
-                s = (h - np.einsum("ij,ij->i", n, P)) / np.einsum("ij,ij->i", n, d[:, b])
+            if planes[3][:, b].any():  # turning: when the sound meets it, iterated
+                for _ in range(5):
+                    n, h = _plane_at(planes, b, t)
+                    s = (h - np.einsum("ij,ij->i", n, P)) / np.einsum("ij,ij->i", n, d[:, b])
+                    t = tau + s / c
+            else:  # translating: n . (P + s d) = n . (x0 + v (tau + s / c)), linear in s
+                n, x0, v = planes[0][:, b], planes[1][:, b], planes[2][:, b]
+                nv = np.einsum("ij,ij->i", n, v)
+                s = (np.einsum("ij,ij->i", n, x0 - P) + nv * tau) / (
+                    np.einsum("ij,ij->i", n, d[:, b]) - nv / c
+                )
                 t = tau + s / c
             n, h = _plane_at(planes, b, t)
             hit[:, b] = t
