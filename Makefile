@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 # Debian packages: VTK (pyvista) offscreen rendering, libusb for pyusb, gcc for the PDM kernel.
 DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0 gcc
 
-.PHONY: demo test bench lint format clean system-deps python-check
+.PHONY: demo test bench lint format clean system-deps python-check fullwave
 
 $(STAMP): pyproject.toml setup.py hardware/_pdm_kernel.c Makefile
 	@$(MAKE) --no-print-directory python-check
@@ -39,6 +39,10 @@ test: $(STAMP)  ## run the test suite
 
 bench: $(STAMP)  ## run every benchmark and rewrite BENCHMARKS.md
 	$(BIN)/python -m benchmarks
+
+fullwave: $(STAMP)  ## install the full-wave reference's extra (bempp-cl, pyopencl, Debian's pocl)
+	@$(MAKE) --no-print-directory system-deps DEBS="pocl-opencl-icd"
+	$(BIN)/python -m pip install --quiet -e ".[fullwave]"
 
 lint: $(STAMP)
 	$(BIN)/ruff check processing acousim hardware tests benchmarks

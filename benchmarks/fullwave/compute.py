@@ -2,8 +2,9 @@
 
     nice -n 10 python -m benchmarks.fullwave.compute [--max-khz 80] [--objects ...]
 
-Needs the ``fullwave`` extra (bempp-cl; pyopencl with an OpenCL CPU driver such as
-Debian's pocl-opencl-icd makes the assembly faster, numba is the fallback). Each row is
+Needs the ``fullwave`` extra: ``make fullwave`` installs bempp-cl, pyopencl and Debian's
+OpenCL CPU driver pocl-opencl-icd (without an OpenCL driver bempp falls back to numba,
+slower). Each row is
 appended as soon as it is solved and rows already in the file are skipped, so the run can
 be stopped and resumed.
 
