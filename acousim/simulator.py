@@ -54,6 +54,23 @@ def package_version() -> str:
         return "unknown"
 
 
+@functools.lru_cache(maxsize=1)
+def _blas():
+    """The process's BLAS thread pools (threadpoolctl), looked up once."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread.  The simulator's matrix products
+    are small (tens to thousands of rows): a second BLAS thread gains nothing on
+    them, but it spins against :meth:`Simulator.run`'s own second thread (the next
+    pose prepared while this one renders) and it changes the summation order, so
+    the last bits of a recording would depend on the host's thread settings."""
+    return _blas().limit(limits=1, user_api="blas")
+
+
 def _on(trajectory, pose: Pose) -> bool:
     """Whether `pose` is where `trajectory` is at ``pose.time_s``."""
     t = pose.time_s
@@ -127,7 +144,8 @@ class Simulator:
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
         is frozen).
         """
-        return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+        with one_blas_thread():
+            return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
 
     def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
         """Everything of a recording but its samples: the paths traced and turned into
@@ -342,7 +360,7 @@ class Simulator:
             return self._prepare(all_poses[i], i, None, SCENE_MOTION)
 
         out = []
-        with ThreadPoolExecutor(1) as pool:
+        with one_blas_thread(), ThreadPoolExecutor(1) as pool:
             ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
                 prep = ahead.result()
