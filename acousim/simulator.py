@@ -31,6 +31,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.echoes import Echoes
 from acousim.synth.model import simulate
+from acousim.synth.moving import DopplerPlan
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
 from acousim.trace.tracer import KIND, TracedPaths, Tracer
@@ -87,7 +88,7 @@ class _Prepared(NamedTuple):
     n_samples: int
     metadata: dict
     truth: P.GroundTruth
-    doppler: np.ndarray | None = None  # (M, N) Doppler factors of a measurement in motion
+    doppler: DopplerPlan | None = None  # the echoes of a measurement in motion, planned
 
 
 class Simulator:
@@ -186,10 +187,13 @@ class Simulator:
            point reflectors placed where they are then (:meth:`moving_paths`).
         2. Per path and microphone, the reception times of the call's first, middle
            and last sample solved for the moving emitter, reflector and microphone.
-        3. Rendered as time-scaled calls at fractional delays; noise as for a static
-           pose.
+        3. The echoes that reach the window planned as time-scaled calls at
+           fractional delays (:func:`~acousim.synth.moving.plan_doppler`: Doppler
+           nodes, path responses, gain sets); :meth:`_record` renders the plan, with
+           noise as for a static pose.
         """
-        from acousim.synth.moving import TABLE_STEP_S, SensorKinematics, arrivals
+        from acousim.synth.model import in_window
+        from acousim.synth.moving import TABLE_STEP_S, SensorKinematics, arrivals, plan_doppler
 
         scene, sensor = self.scene, self.scene.sensor
         array = sensor.array
@@ -230,7 +234,18 @@ class Simulator:
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=truth_vel,
         )
-        return _Prepared(echoes, n, meta, truth, arr.rate)
+        keep = in_window(echoes, n, sensor.sample_rate_hz)
+        echoes, rate = echoes.select(keep), arr.rate[:, keep]
+        plan = plan_doppler(
+            echoes,
+            rate,
+            sensor.call,
+            sensor.sample_rate_hz,
+            n,
+            interpolator=scene.simulation.fractional_delay,
+            response=self.response,
+        )
+        return _Prepared(echoes, n, meta, truth, plan)
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:

@@ -90,19 +90,20 @@ TOLERANCES = ((1e-4, 3e-4), (1e-3, 3e-4), (1e-3, 7e-4), (3e-3, 1e-3), (1e-2, 3e-
 
 
 def _corridor_echoes():
-    """The arguments the corridor drive passes to `render_doppler` for one pose."""
+    """The arguments the corridor drive passes to `plan_doppler` (those of
+    `render_doppler`) for one pose."""
     seen = []
-    real = _moving.render_doppler
+    real = _moving.plan_doppler
 
     def spy(*args, **kwargs):
         seen.append((args, kwargs))
         return real(*args, **kwargs)
 
-    _moving.render_doppler = spy
+    _moving.plan_doppler = spy
     try:
         Simulator(load_scene(ROOT / "corridor.toml")).run([12])
     finally:
-        _moving.render_doppler = real
+        _moving.plan_doppler = real
     return seen[0]
 
 

@@ -15,11 +15,12 @@ from processing import Array, Recording, Waveform
 from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
+from .moving import DopplerPlan, render_doppler, render_planned
 from .noise import NoiseDraw, add_noise, noise_sigma
 from .render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS, FractionalDelay, render
 from .response import PathResponse
 
-__all__ = ["simulate", "simulate_points"]
+__all__ = ["simulate", "simulate_points", "in_window"]
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +42,7 @@ def simulate(
     response: PathResponse | None = None,
     snr_reference: str = "signal",
     metadata: dict | None = None,
-    doppler: np.ndarray | None = None,
+    doppler: np.ndarray | DopplerPlan | None = None,
 ) -> Recording:
     """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
     :mod:`acousim.synth.noise`).
@@ -62,7 +63,10 @@ def simulate(
     doppler : ndarray (M, N), optional
         Time compression of each echo (a moving scene: ``tau = doppler (t - delay)``,
         see :mod:`acousim.synth.moving`); rendered by
-        :func:`acousim.synth.moving.render_doppler`.
+        :func:`acousim.synth.moving.render_doppler`.  Or the
+        :class:`~acousim.synth.moving.DopplerPlan` of `echoes` (made in advance by
+        :func:`~acousim.synth.moving.plan_doppler` from the echoes
+        :func:`in_window` keeps, with the same options).
     seed : int
         Seed of the noise generator (numpy Generator); the same seed gives the same
         bytes.
@@ -75,14 +79,10 @@ def simulate(
             f"array {array.name!r} has {array.n_mics}"
         )
     window_s = (n_samples - emission_index) / sample_rate_hz
-    inside = echoes.delay_s.min(axis=0) < window_s if echoes.n_paths else np.zeros(0, bool)
-    if echoes.n_paths and not inside.all():
-        log.debug(
-            "skipped %d of %d paths that arrive after the %.2f ms window",
-            int((~inside).sum()),
-            echoes.n_paths,
-            window_s * 1e3,
-        )
+    inside = in_window(echoes, n_samples, sample_rate_hz, emission_index)
+    if not inside.all():
+        if isinstance(doppler, DopplerPlan):
+            raise ValueError("a Doppler plan is made of the echoes inside the window only")
         echoes = echoes.select(inside)
         doppler = None if doppler is None else doppler[:, inside]
     options = dict(
@@ -93,9 +93,9 @@ def simulate(
     M = array.n_mics
     shape = (M, n_samples) if n_measurements is None else (n_measurements, M, n_samples)
     drawn = NoiseDraw(rng, shape) if np.isfinite(snr_db) else None
-    if doppler is not None:
-        from .moving import render_doppler
-
+    if isinstance(doppler, DopplerPlan):
+        clean = render_planned(doppler)
+    elif doppler is not None:
         clean = render_doppler(echoes, doppler, waveform, sample_rate_hz, n_samples, **options)
     else:
         clean = render(echoes, waveform, sample_rate_hz, n_samples, **options)
@@ -125,6 +125,23 @@ def simulate(
     return Recording(
         samples, sample_rate_hz, array, waveform, speed_of_sound_m_s, emission_index, meta
     )
+
+
+def in_window(
+    echoes: Echoes, n_samples: int, sample_rate_hz: float, emission_index: int = 0
+) -> np.ndarray:
+    """Which paths (N,) start before the end of a recording of `n_samples` samples
+    at any microphone (the others are skipped, logged at debug level)."""
+    window_s = (n_samples - emission_index) / sample_rate_hz
+    inside = echoes.delay_s.min(axis=0) < window_s if echoes.n_paths else np.zeros(0, bool)
+    if not inside.all():
+        log.debug(
+            "skipped %d of %d paths that arrive after the %.2f ms window",
+            int((~inside).sum()),
+            echoes.n_paths,
+            window_s * 1e3,
+        )
+    return inside
 
 
 def _echo_noise_sigma(

@@ -91,6 +91,9 @@ __all__ = [
     "Arrivals",
     "arrivals",
     "doppler_nodes",
+    "DopplerPlan",
+    "plan_doppler",
+    "render_planned",
     "render_doppler",
     "render_doppler_reference",
     "DOPPLER_TOLERANCE",
@@ -695,6 +698,37 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
     return out, start
 
 
+@dataclass(frozen=True, eq=False)
+class DopplerPlan:
+    """Everything :func:`render_doppler` computes before the samples
+    (:func:`plan_doppler`, steps 1-4): the echoes' impulse positions, their compressed
+    gain sets and the sets' filters.  :func:`render_planned` makes the samples (step
+    5).  A simulator prepares the plan of the next measurement while the current
+    one renders.
+
+    positions (M, N): samples from the span's start (float); gains (R, M, N);
+    filters (R, B) over the bins ``first_bin .. first_bin + B`` of an
+    ``n_fft``-point real FFT; the span is output samples ``lo .. hi``; R = 0: no
+    echo reaches the output.
+    """
+
+    positions: np.ndarray
+    gains: np.ndarray
+    filters: np.ndarray
+    first_bin: int
+    lo: int
+    hi: int
+    n_fft: int
+    n_mics: int
+    n_samples: int
+    interpolator: FractionalDelay
+    taps: int
+
+    @property
+    def empty(self) -> bool:
+        return self.gains.shape[0] == 0
+
+
 def render_doppler(
     echoes: Echoes,
     rate: np.ndarray,
@@ -716,7 +750,40 @@ def render_doppler(
     `response`: air absorption and emitter directivity, factorised as the static
     renderer does (:mod:`acousim.synth.response`).  `tolerance`: of the Doppler
     nodes' interpolation; `compress_tolerance`: of the gain sets' compression.
+    The same as :func:`render_planned` of :func:`plan_doppler`.
     """
+    plan = plan_doppler(
+        echoes,
+        rate,
+        waveform,
+        sample_rate_hz,
+        n_samples,
+        emission_index=emission_index,
+        interpolator=interpolator,
+        taps=taps,
+        response=response,
+        tolerance=tolerance,
+        compress_tolerance=compress_tolerance,
+    )
+    return render_planned(plan)
+
+
+def plan_doppler(
+    echoes: Echoes,
+    rate: np.ndarray,
+    waveform: Waveform,
+    sample_rate_hz: float,
+    n_samples: int,
+    *,
+    emission_index: int = 0,
+    interpolator: FractionalDelay = "sinc",
+    taps: int = DEFAULT_TAPS,
+    response: PathResponse | None = None,
+    tolerance: float = DOPPLER_TOLERANCE,
+    compress_tolerance: float = COMPRESS_TOLERANCE,
+) -> DopplerPlan:
+    """Steps 1-4 of :func:`render_doppler` (same arguments): the
+    :class:`DopplerPlan` that :func:`render_planned` turns into samples."""
     check_interpolator(
         interpolator,
         ("sinc", "lagrange"),
@@ -724,9 +791,15 @@ def render_doppler(
         key="simulation.fractional_delay",
     )
     M = echoes.delay_s.shape[0]
-    out = np.zeros((M, n_samples))
+
+    def nothing() -> DopplerPlan:
+        return DopplerPlan(
+            np.zeros((M, 0)), np.zeros((0, M, 0)), np.zeros((0, 0), complex),
+            0, 0, 0, 0, M, n_samples, interpolator, taps,
+        )  # fmt: skip
+
     if echoes.n_paths == 0:
-        return out
+        return nothing()
     fs = sample_rate_hz
     # 1. Doppler nodes and the time-scaled calls there
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
@@ -744,7 +817,7 @@ def render_doppler(
     lo = int(np.floor(d.min())) - taps - margin
     hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
-        return out
+        return nothing()
     n_span = hi - lo
     n = sfft.next_fast_len(n_span + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
@@ -780,9 +853,33 @@ def render_doppler(
     b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
     filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
     filt[:, band[b0:b1]] = filt_band.T
-    # 5. impulses per set, FFT, sum of products over the band, back (gains (R, M, N)
-    # seen as (M, N, R): the sets are contiguous, as the sparse products take them)
-    h, pad = _impulses(d - lo, gains.transpose(1, 2, 0), n_span, interpolator, taps, n, dtype)
+    return DopplerPlan(d - lo, gains, filt, int(b0), lo, hi, n, M, n_samples, interpolator, taps)
+
+
+def render_planned(plan: DopplerPlan) -> np.ndarray:
+    """Step 5 of :func:`render_doppler`: the microphone signals (M, T) of a
+    :class:`DopplerPlan`: impulses per gain set, FFT, the sum of their products with
+    the sets' filters over the band, back."""
+    out = np.zeros((plan.n_mics, plan.n_samples))
+    if plan.empty:
+        return out
+    lo, hi, n = plan.lo, plan.hi, plan.n_fft
+    n_span = hi - lo
+    filt = plan.filters
+    b0 = plan.first_bin
+    b1 = b0 + filt.shape[1]
+    dtype = np.float32 if filt.dtype == np.complex64 else np.float64
+    # gains (R, M, N) seen as (M, N, R): the sets are contiguous, as the sparse
+    # products take them
+    h, pad = _impulses(
+        plan.positions,
+        plan.gains.transpose(1, 2, 0),
+        n_span,
+        plan.interpolator,
+        plan.taps,
+        n,
+        dtype,
+    )
     spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, M, F)
     spec = np.zeros(spectra.shape[1:], spectra.dtype)
     inband = spec[:, b0:b1]
