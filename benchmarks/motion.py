@@ -119,7 +119,7 @@ def _tolerance_table(small: bool) -> list[str]:
 
     def counting(*a, **k):
         out = real_compress(*a, **k)
-        sets.append(out[0].shape[0])
+        sets.append(out[0].shape[2])
         return out
 
     cases = [_case(case, wf, n)[::2] for case in _render_cases(small)[1:]]

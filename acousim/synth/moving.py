@@ -706,7 +706,7 @@ class DopplerPlan:
     5).  A simulator prepares the plan of the next measurement while the current
     one renders.
 
-    positions (M, N): samples from the span's start (float); gains (R, M, N);
+    positions (M, N): samples from the span's start (float); gains (M, N, R);
     filters (R, B) over the bins ``first_bin .. first_bin + B`` of an
     ``n_fft``-point real FFT; the span is output samples ``lo .. hi``; R = 0: no
     echo reaches the output.
@@ -726,7 +726,7 @@ class DopplerPlan:
 
     @property
     def empty(self) -> bool:
-        return self.gains.shape[0] == 0
+        return self.gains.shape[2] == 0
 
 
 def render_doppler(
@@ -794,7 +794,7 @@ def plan_doppler(
 
     def nothing() -> DopplerPlan:
         return DopplerPlan(
-            np.zeros((M, 0)), np.zeros((0, M, 0)), np.zeros((0, 0), complex),
+            np.zeros((M, 0)), np.zeros((M, 0, 0)), np.zeros((0, 0), complex),
             0, 0, 0, 0, M, n_samples, interpolator, taps,
         )  # fmt: skip
 
@@ -869,11 +869,10 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     b0 = plan.first_bin
     b1 = b0 + filt.shape[1]
     dtype = np.float32 if filt.dtype == np.complex64 else np.float64
-    # gains (R, M, N) seen as (M, N, R): the sets are contiguous, as the sparse
-    # products take them
+    # gains (M, N, R): the sets contiguous, as the impulse sums take them
     h, pad = _impulses(
         plan.positions,
-        plan.gains.transpose(1, 2, 0),
+        plan.gains,
         n_span,
         plan.interpolator,
         plan.taps,
@@ -964,7 +963,7 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
     matrix) truncated where the discarded energy falls below `tolerance`^2 of the
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
-    (gains (R, M, N), filters (F, R)).
+    (gains (M, N, R), filters (F, R)).
     """
     K, N, M = gl.shape
     A = gl.transpose(1, 0, 2)  # (N, K, M)
@@ -1004,13 +1003,14 @@ def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
         out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
-        Tf = (Y[:, :r].T @ S).T.reshape(K, Q, r)  # filters: sum_jq W_j U_q Tf[j, q]
-        UT = (Uq @ Tf.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)  # (F, K, r)
-        out_f.append(np.matmul(W.T[:, None, :], UT)[:, 0])  # sum over j of W_j UT_j
-    # the new gains of all groups at once: g_new[:, m, n] = P[n]^T gl[:, m, n]
+        Tf = (Y[:, :r].T @ S).T  # (K Q, r): filters sum_jq W_j U_q Tf[(j, q)]
+        WU = (W.T[:, :, None] * Uq[:, None, :]).reshape(-1, K * Q)  # (F, K Q)
+        out_f.append(WU @ Tf)
+    # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[n], stored
+    # (M, N, R), the sets innermost as the impulse sums take them
     P = np.concatenate(out_p, axis=2)  # (N, K, R)
-    g_new = np.empty((P.shape[2], M, N))
-    np.matmul(P.transpose(0, 2, 1), A, out=g_new.transpose(2, 0, 1))
+    g_new = np.empty((M, N, P.shape[2]))
+    np.matmul(gl.transpose(1, 2, 0), P, out=g_new.transpose(1, 0, 2))
     return g_new, np.concatenate(out_f, axis=1)
 
 
