@@ -114,8 +114,8 @@ COMPRESS_TOLERANCE = 7e-4
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
 TABLE_STEP_S = 2.5e-4
-#: the table is replaced by a polynomial in time of this degree where it fits it
-#: within POLY_FIT_M
+#: the table is replaced by a polynomial in time of the lowest degree up to this one
+#: that fits it within POLY_FIT_M
 POLY_DEGREE = 6
 POLY_FIT_M = 1e-10
 FIRST_LEG = {"fixed": 0, "fermat": 1, "exact": 2}
@@ -313,13 +313,19 @@ class SensorKinematics:
             self.half = 0.5 * (self.grid[-1] - self.grid[0])
             x = (self.grid - self.mid) / self.half
             flat = table.reshape(table.shape[0], -1)
-            coef = np.polynomial.polynomial.polyfit(x, flat, POLY_DEGREE)  # (D + 1, P * 3)
-            fit = np.polynomial.polynomial.polyval(x, coef).T
             self.poly = None
+            # the lowest degree that fits (a sensor on a trajectory: 3, the cubic
+            # of its segment; every Newton step evaluates it per path and microphone)
+            for degree in range(1, POLY_DEGREE + 1):
+                coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
+                fit = np.polynomial.polynomial.polyval(x, coef).T
+                if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                    break
             if np.max(np.abs(fit - flat)) < POLY_FIT_M:
-                self.poly = coef.reshape(POLY_DEGREE + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
+                self.degree = degree
+                self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
                 deriv = np.polynomial.polynomial.polyder(coef) / self.half
-                self.poly_v = deriv.reshape(POLY_DEGREE, *table.shape[1:])
+                self.poly_v = deriv.reshape(degree, *table.shape[1:])
                 # per microphone (M, D + 1, 3) for batched products with the powers
                 self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
                 self.mic_poly_v = np.ascontiguousarray(self.poly_v[:, 1:].transpose(1, 0, 2))
@@ -375,7 +381,7 @@ class SensorKinematics:
             return np.einsum("...ij,...j->...i", R, local) + p
         if self.poly is not None:
             if m is None:
-                X = self._powers(t, POLY_DEGREE)
+                X = self._powers(t, self.degree)
                 return np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
             return self._horner(self.poly[:, 1 + m], ((t - self.mid) / self.half)[..., None])
         i, w = self._lookup(self.mic_table, t)
@@ -387,11 +393,11 @@ class SensorKinematics:
         ``t[i]`` (t (M, N)), coordinates in rows (no short last axis to reduce over),
         and with `velocity` the velocities too."""
         M, N = t.shape
-        X = np.empty((M, POLY_DEGREE + 1, N))
+        X = np.empty((M, self.degree + 1, N))
         X[:, 0] = 1.0
         np.subtract(t, self.mid, out=X[:, 1])
         X[:, 1] /= self.half
-        for k in range(2, POLY_DEGREE + 1):
+        for k in range(2, self.degree + 1):
             np.multiply(X[:, k - 1], X[:, 1], out=X[:, k])
         pos = np.matmul(self.mic_poly.transpose(0, 2, 1), X)
         if not velocity:
@@ -403,7 +409,7 @@ class SensorKinematics:
         microphone i at times ``t[i]``."""
         t = np.asarray(t, float)
         if self.poly is not None:
-            X = self._powers(t, POLY_DEGREE)
+            X = self._powers(t, self.degree)
             pos = np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
             vel = np.matmul(X[..., :-1], self.mic_poly_v).reshape(*t.shape, 3)
             return pos, vel
@@ -700,22 +706,32 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
 
 @dataclass(frozen=True, eq=False)
 class DopplerPlan:
-    """Everything :func:`render_doppler` computes before the samples
-    (:func:`plan_doppler`, steps 1-4): the echoes' impulse positions, their compressed
-    gain sets and the sets' filters.  :func:`render_planned` makes the samples (step
-    5).  A simulator prepares the plan of the next measurement while the current
-    one renders.
+    """What :func:`render_doppler` computes from the echoes before the samples
+    (:func:`plan_doppler`, steps 1-3): where the impulses go, the path gains times
+    the Doppler terms and the path responses' separable terms.
+    :func:`render_planned` compresses them into gain sets and makes the samples
+    (steps 4-5).  A simulator plans the next measurement while the current one
+    renders.
 
-    positions (M, N): samples from the span's start (float); gains (M, N, R);
-    filters (R, B) over the bins ``first_bin .. first_bin + B`` of an
-    ``n_fft``-point real FFT; the span is output samples ``lo .. hi``; R = 0: no
-    echo reaches the output.
+    positions (M, N): impulse positions, samples from the span's start (the span is
+    output samples ``lo .. hi``); terms (K, N, M): path gains times the Chebyshev
+    terms of their Doppler factors; responses (N, Q) and response_spectra (B, Q):
+    the path responses' separable terms; templates (K, B): the Chebyshev
+    coefficients of the time-scaled calls' spectra and products their products
+    (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
+    direct_paths (N,) and direct_terms (Q,): the direct path's group; single: the
+    impulses and their spectra in single precision (with a path response).
     """
 
     positions: np.ndarray
-    gains: np.ndarray
-    filters: np.ndarray
-    first_bin: int
+    terms: np.ndarray
+    responses: np.ndarray
+    response_spectra: np.ndarray
+    templates: np.ndarray
+    products: np.ndarray
+    direct_paths: np.ndarray
+    direct_terms: np.ndarray
+    band: np.ndarray
     lo: int
     hi: int
     n_fft: int
@@ -723,10 +739,12 @@ class DopplerPlan:
     n_samples: int
     interpolator: FractionalDelay
     taps: int
+    compress_tolerance: float
+    single: bool
 
     @property
     def empty(self) -> bool:
-        return self.gains.shape[2] == 0
+        return self.terms.shape[1] == 0
 
 
 def render_doppler(
@@ -782,7 +800,7 @@ def plan_doppler(
     tolerance: float = DOPPLER_TOLERANCE,
     compress_tolerance: float = COMPRESS_TOLERANCE,
 ) -> DopplerPlan:
-    """Steps 1-4 of :func:`render_doppler` (same arguments): the
+    """Steps 1-3 of :func:`render_doppler` (same arguments): the
     :class:`DopplerPlan` that :func:`render_planned` turns into samples."""
     check_interpolator(
         interpolator,
@@ -793,9 +811,11 @@ def plan_doppler(
     M = echoes.delay_s.shape[0]
 
     def nothing() -> DopplerPlan:
+        none = np.zeros((0, 0))
         return DopplerPlan(
-            np.zeros((M, 0)), np.zeros((M, 0, 0)), np.zeros((0, 0), complex),
-            0, 0, 0, 0, M, n_samples, interpolator, taps,
+            np.zeros((M, 0)), np.zeros((1, 0, M)), none, none, none, none,
+            np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool),
+            0, 0, 0, M, n_samples, interpolator, taps, compress_tolerance, False,
         )  # fmt: skip
 
     if echoes.n_paths == 0:
@@ -828,13 +848,11 @@ def plan_doppler(
     shaped = response is not None and response.active
     if shaped:
         g, U, V, band, direct = response_factors(echoes, g, spectra[K // 2], fs, n, response)
-        dtype = np.float32
     else:
         band = np.ones(spectra.shape[1], bool)
         U = np.ones((band.size, 1))
         V = np.ones((echoes.n_paths, 1))
         direct = np.zeros(1, bool)
-        dtype = np.float64
     # the direct path is a group of its own only where it has its own response terms
     path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
     # the interpolant in the Doppler factor as a Chebyshev series: path gains times
@@ -842,37 +860,47 @@ def plan_doppler(
     # templates' Chebyshev coefficients (the same polynomial as the Lagrange form,
     # with a three-term recurrence in place of the barycentric weights)
     gl = _chebyshev_terms(nodes, rate.T, g.T)
-    # 4. gain sets (path, microphone) x filters (template j times response term q):
-    # the K x Q products compressed per group (direct path, echoes) to the rank
-    # their sum needs
     W = _cached(("coefficients", *key, band.sum()), _chebyshev_coefficients, spectra[:, band])
     WW = _cached(("products", *key, band.sum()), _products, W)
-    gains, filt_band = _compress(gl, V, W, WW, U, path_direct, direct, compress_tolerance)
-    cdtype = np.complex64 if dtype == np.float32 else complex
-    # the filters over the bins from the band's first to its last (zero elsewhere)
-    b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
-    filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
-    filt[:, band[b0:b1]] = filt_band.T
-    return DopplerPlan(d - lo, gains, filt, int(b0), lo, hi, n, M, n_samples, interpolator, taps)
+    return DopplerPlan(
+        d - lo, gl, V, U, W, WW, path_direct, direct, band,
+        lo, hi, n, M, n_samples, interpolator, taps, compress_tolerance, shaped,
+    )  # fmt: skip
 
 
 def render_planned(plan: DopplerPlan) -> np.ndarray:
-    """Step 5 of :func:`render_doppler`: the microphone signals (M, T) of a
-    :class:`DopplerPlan`: impulses per gain set, FFT, the sum of their products with
-    the sets' filters over the band, back."""
+    """Steps 4-5 of :func:`render_doppler`: the microphone signals (M, T) of a
+    :class:`DopplerPlan`."""
     out = np.zeros((plan.n_mics, plan.n_samples))
     if plan.empty:
         return out
     lo, hi, n = plan.lo, plan.hi, plan.n_fft
     n_span = hi - lo
-    filt = plan.filters
-    b0 = plan.first_bin
-    b1 = b0 + filt.shape[1]
-    dtype = np.float32 if filt.dtype == np.complex64 else np.float64
+    dtype = np.float32 if plan.single else np.float64
+    # 4. gain sets (path, microphone) x filters (template j times response term q):
+    # the K x Q products compressed per group (direct path, echoes) to the rank
+    # their sum needs
+    gains, filt_band = _compress(
+        plan.terms,
+        plan.responses,
+        plan.templates,
+        plan.products,
+        plan.response_spectra,
+        plan.direct_paths,
+        plan.direct_terms,
+        plan.compress_tolerance,
+    )
+    # the filters over the bins from the band's first to its last (zero elsewhere)
+    band = plan.band
+    b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
+    cdtype = np.complex64 if plan.single else complex
+    filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
+    filt[:, band[b0:b1]] = filt_band.T
+    # 5. impulses per set, FFT, sum of products over the band, back
     # gains (M, N, R): the sets contiguous, as the impulse sums take them
     h, pad = _impulses(
         plan.positions,
-        plan.gains,
+        gains,
         n_span,
         plan.interpolator,
         plan.taps,
