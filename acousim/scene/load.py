@@ -213,11 +213,13 @@ def parse_scene(
                 T,
                 materials=by_group,
                 velocity_m_s=velocity,
-                track=m.get("track"),
+                track=_mesh_track(m.get("track")),
                 angular_velocity_rad_s=tuple(np.deg2rad(turn)),
             )
-        except InputError as exc:  # the track, checked by the model
-            raise r.fail(f"{where}.track", exc.reason, m.get("track")) from None
+        except InputError as exc:  # the track or the turn, checked by the model
+            turn = (exc.key or "").endswith("angular_velocity_rad_s")
+            key = "angular_rate_deg_s" if turn else "track"
+            raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
         meshes.append(item)
     points = []
     for where, p in r.table_list(data, "points"):
@@ -371,3 +373,17 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
         angles["roll_deg"],
     )
     return (pose,), None
+
+
+def _mesh_track(value):
+    """A mesh's track as the model takes it: rows [t_s, x, y, z] as they are; rows
+    [t_s, x, y, z, roll_deg, pitch_deg, yaw_deg] with the angles in radians
+    (anything else is passed on, for the model's error)."""
+    try:
+        rows = np.array(value, float)
+    except (TypeError, ValueError):
+        return value
+    if rows.ndim != 2 or rows.shape[1] != 7:
+        return value
+    rows[:, 4:] = np.deg2rad(rows[:, 4:])
+    return rows.tolist()

@@ -201,10 +201,13 @@ class MeshItem:
     materials: dict[str, Material] = field(default_factory=dict)
     #: a moving mesh (a person, another robot): it translates rigidly, at this
     #: velocity from where `transform` puts it at time 0, or along its own `track`
-    #: (rows t_s, x, y, z: where the mesh's origin is; :func:`track_rows`), as a point
+    #: (rows t_s, x, y, z: where the mesh's origin is, as a point's; or rows t_s, x,
+    #: y, z, roll, pitch, yaw (rad): also how it is turned about its origin then,
+    #: ``R(t) R_0`` with R as a pose's, interpolated by a rotation spline:
+    #: :func:`track_rows`)
     velocity_m_s: tuple[float, float, float] = _velocity_setting()
-    track: tuple[tuple[float, float, float, float], ...] | None = None
-    #: and it turns at this angular velocity (world frame) about its origin (where
+    track: tuple[tuple[float, ...], ...] | None = None
+    #: or it turns at this angular velocity (world frame) about its origin (where
     #: the transform, the velocity or the track put it): ``R(t) = exp(w t) R_0``
     angular_velocity_rad_s: tuple[float, float, float] = setting(
         (0.0, 0.0, 0.0),
@@ -249,8 +252,15 @@ class MeshItem:
         object.__setattr__(self, "mesh", mesh)
         object.__setattr__(self, "transform", T)
         if self.track is not None:
-            object.__setattr__(self, "track", track_rows(self.track, "MeshItem.track"))
+            track = track_rows(self.track, "MeshItem.track", turns=True)
+            object.__setattr__(self, "track", track)
         validate(self)
+        if self._track_turns and any(w != 0 for w in self.angular_velocity_rad_s):
+            raise InputError(
+                "a track with orientations turns the mesh itself: give no angular velocity",
+                key="MeshItem.angular_velocity_rad_s",
+                value=self.angular_velocity_rad_s,
+            )
 
     @property
     def moving(self) -> bool:
@@ -258,7 +268,11 @@ class MeshItem:
 
     @property
     def turning(self) -> bool:
-        return any(w != 0 for w in self.angular_velocity_rad_s)
+        return self._track_turns or any(w != 0 for w in self.angular_velocity_rad_s)
+
+    @property
+    def _track_turns(self) -> bool:
+        return self.track is not None and len(self.track[0]) == 7
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Where the mesh's origin is (3,) and its velocity (3,) at time `t_s` of the
@@ -266,11 +280,21 @@ class MeshItem:
         return _motion_at(self, self.transform[:3, 3], t_s)
 
     def rotation_at(self, t_s: float) -> np.ndarray:
-        """The turn (3, 3) of the mesh at time `t_s` from where it is at time 0."""
+        """The turn (3, 3) of the mesh at time `t_s` about its origin, after its
+        transform's rotation: ``exp(w t)``, or its track's orientation."""
+        if self._track_turns:
+            return _track_rotation(self.track, t_s)[0].as_matrix()
         from scipy.spatial.transform import Rotation
 
         w = np.asarray(self.angular_velocity_rad_s, float)
         return Rotation.from_rotvec(w * t_s).as_matrix()
+
+    def angular_velocity_at(self, t_s: float) -> np.ndarray:
+        """The angular velocity (3,) in rad/s, world frame, at time `t_s`."""
+        if self._track_turns:
+            turn, rate = _track_rotation(self.track, t_s)
+            return turn.apply(rate)
+        return np.asarray(self.angular_velocity_rad_s, float)
 
     def placed_at(self, t_s: float) -> MeshItem:
         """The mesh where it is at time `t_s` (itself if it does not move)."""
@@ -352,13 +376,39 @@ def _motion_at(item, start_m, t_s: float) -> tuple[np.ndarray, np.ndarray]:
     from scipy.interpolate import CubicSpline
 
     rows = np.asarray(item.track, float)
-    spline = CubicSpline(rows[:, 0], rows[:, 1:], bc_type="natural")
+    spline = CubicSpline(rows[:, 0], rows[:, 1:4], bc_type="natural")
     return spline(t_s), spline(t_s, 1)
 
 
-def track_rows(value: Any, key: str) -> tuple[tuple[float, float, float, float], ...]:
-    """A point's track checked: two or more rows [t_s, x, y, z] of finite numbers
-    (positions in m, speeds between rows up to MAX_SPEED_M_S), times increasing."""
+def _track_rotations(rows: np.ndarray):
+    """The rotations (scipy Rotation, one per row) of a track's roll, pitch, yaw
+    columns (rad), each ``Rz(yaw) Ry(pitch) Rx(roll)`` as a pose's."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("ZYX", rows[:, [6, 5, 4]])
+
+
+def _track_rotation(track, t_s: float):
+    """A turning track's orientation at `t_s` (a scipy Rotation) and its angular
+    velocity (3,) in the mesh's own frame: a rotation spline through the rows (a
+    constant turn rate between equally spaced rows is kept exactly); before the
+    first row and after the last, turning on at the end's rate."""
+    from scipy.spatial.transform import Rotation, RotationSpline
+
+    rows = np.asarray(track, float)
+    spline = RotationSpline(rows[:, 0], _track_rotations(rows))
+    t = float(np.clip(t_s, rows[0, 0], rows[-1, 0]))
+    turn, rate = spline(t), spline(t, 1)
+    if t != t_s:  # beyond an end: on at the end's rate (body frame)
+        turn = turn * Rotation.from_rotvec(rate * (t_s - t))
+    return turn, rate
+
+
+def track_rows(value: Any, key: str, turns: bool = False) -> tuple[tuple[float, ...], ...]:
+    """A track checked: two or more rows [t_s, x, y, z] of finite numbers
+    (positions in m, speeds between rows up to MAX_SPEED_M_S), times increasing;
+    with `turns` (a mesh's), rows [t_s, x, y, z, roll, pitch, yaw] (rad) may give
+    its orientation too (turning between rows up to MAX_TURN_DEG_S)."""
     try:
         ok = not isinstance(value, str | bytes) and all(
             not isinstance(x, bool | str | bytes) for row in value for x in row
@@ -366,18 +416,30 @@ def track_rows(value: Any, key: str) -> tuple[tuple[float, float, float, float],
         arr = np.array(value, float) if ok else np.zeros((0, 0))
     except (ValueError, TypeError):
         arr = np.zeros((0, 0))
-    if arr.ndim != 2 or arr.shape[0] < 2 or arr.shape[1] != 4 or not np.all(np.isfinite(arr)):
-        raise InputError(
-            "must be two or more rows [t_s, x, y, z] of finite numbers", key=key, value=value
-        )
+    widths = (4, 7) if turns else (4,)
+    if (
+        arr.ndim != 2
+        or arr.shape[0] < 2
+        or arr.shape[1] not in widths
+        or not np.all(np.isfinite(arr))
+    ):
+        form = "[t_s, x, y, z] or [t_s, x, y, z, roll, pitch, yaw]" if turns else "[t_s, x, y, z]"
+        raise InputError(f"must be two or more rows {form} of finite numbers", key=key, value=value)
     dt = np.diff(arr[:, 0])
     if not np.all(dt > 0):
         raise InputError("times must increase", key=key, value=arr[:, 0].tolist())
-    speed = np.linalg.norm(np.diff(arr[:, 1:], axis=0), axis=1) / dt
+    speed = np.linalg.norm(np.diff(arr[:, 1:4], axis=0), axis=1) / dt
     if np.any(speed > MAX_SPEED_M_S):
         raise InputError(
             f"moves faster than {MAX_SPEED_M_S:g} m/s between rows", key=key, value=value
         )
+    if arr.shape[1] == 7:
+        rot = _track_rotations(arr)
+        rate = (rot[:-1].inv() * rot[1:]).magnitude() / dt
+        if np.any(rate > math.radians(MAX_TURN_DEG_S)):
+            raise InputError(
+                f"turns faster than {MAX_TURN_DEG_S:g} deg/s between rows", key=key, value=value
+            )
     return tuple(tuple(float(v) for v in row) for row in arr)
 
 

@@ -150,7 +150,7 @@ class MovingWorld:
         now = [m.at(pose.time_s) for m in meshes]
         return Motions(
             np.array([v for _, v in now], float).reshape(-1, 3),
-            np.array([m.angular_velocity_rad_s for m in meshes], float).reshape(-1, 3),
+            np.array([m.angular_velocity_at(pose.time_s) for m in meshes], float).reshape(-1, 3),
             np.array([o for o, _ in now], float).reshape(-1, 3),
         )
 
