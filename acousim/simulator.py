@@ -88,7 +88,8 @@ class _Prepared(NamedTuple):
     n_samples: int
     metadata: dict
     truth: P.GroundTruth
-    doppler: DopplerPlan | None = None  # the echoes of a measurement in motion, planned
+    #: a measurement in motion: its echoes planned, or their Doppler factors (M, N)
+    doppler: DopplerPlan | np.ndarray | None = None
 
 
 class Simulator:
@@ -148,7 +149,9 @@ class Simulator:
         with one_blas_thread():
             return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
 
-    def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
+    def _prepare(
+        self, pose: Pose, index: int, n_samples: int | None, motion, plan=True
+    ) -> _Prepared:
         """Everything of a recording but its samples: the paths traced and turned into
         echoes (per microphone delays and gains; in motion, their Doppler factors),
         the metadata and the ground truth.  :meth:`run` prepares the next pose in a
@@ -159,7 +162,7 @@ class Simulator:
                 log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
                 motion = None
         if motion is not None or self.moving_points or self.moving_meshes:
-            return self._prepare_moving(pose, index, n_samples, motion)
+            return self._prepare_moving(pose, index, n_samples, motion, plan)
         scene = self.scene
         sensor = scene.sensor
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
@@ -180,7 +183,7 @@ class Simulator:
         )
         return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth)
 
-    def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
+    def _prepare_moving(self, pose, index, n_samples, motion, plan=True) -> _Prepared:
         """A measurement in motion (see :mod:`acousim.synth.moving`).
 
         1. Paths traced at the pose of the start of the emission, moving meshes and
@@ -189,8 +192,10 @@ class Simulator:
            and last sample solved for the moving emitter, reflector and microphone.
         3. The echoes that reach the window planned as time-scaled calls at
            fractional delays (:func:`~acousim.synth.moving.plan_doppler`: Doppler
-           nodes, path responses, gain sets); :meth:`_record` renders the plan, with
-           noise as for a static pose.
+           nodes, path responses, Doppler terms), if `plan` (a bool, or a callable
+           asked now: :meth:`run` leaves the plan to the rendering thread when that
+           one is already waiting); :meth:`_record` renders it, with noise as for a
+           static pose.
         """
         from acousim.synth.model import in_window
         from acousim.synth.moving import TABLE_STEP_S, SensorKinematics, arrivals, plan_doppler
@@ -236,7 +241,9 @@ class Simulator:
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)
         echoes, rate = echoes.select(keep), arr.rate[:, keep]
-        plan = plan_doppler(
+        if not (plan() if callable(plan) else plan):  # simulate() plans and renders
+            return _Prepared(echoes, n, meta, truth, rate)
+        doppler = plan_doppler(
             echoes,
             rate,
             sensor.call,
@@ -245,7 +252,7 @@ class Simulator:
             interpolator=scene.simulation.fractional_delay,
             response=self.response,
         )
-        return _Prepared(echoes, n, meta, truth, plan)
+        return _Prepared(echoes, n, meta, truth, doppler)
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
@@ -368,17 +375,26 @@ class Simulator:
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
         # prepare the next pose (trace, echoes, in motion the arrival times) while the
         # current one is rendered (Embree, numpy's large operations, the FFTs and the
-        # compiled impulse sums release the GIL)
+        # compiled impulse sums release the GIL); in motion the preparing thread
+        # also plans the render, unless the rendering thread is already waiting for
+        # it (then that one plans: the two threads share the work whichever is the
+        # slower; the same bytes either way)
+        import threading
         from concurrent.futures import ThreadPoolExecutor
 
+        waiting = threading.Event()
+
         def prepare(i: int) -> _Prepared:
-            return self._prepare(all_poses[i], i, None, SCENE_MOTION)
+            plan = lambda: not waiting.is_set()  # noqa: E731
+            return self._prepare(all_poses[i], i, None, SCENE_MOTION, plan)
 
         out = []
         with one_blas_thread(), ThreadPoolExecutor(1) as pool:
             ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
+                waiting.set()
                 prep = ahead.result()
+                waiting.clear()
                 if k + 1 < len(idx):
                     ahead = pool.submit(prepare, idx[k + 1])
                 out.append(self._record(prep, i, None))
