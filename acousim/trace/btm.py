@@ -324,7 +324,9 @@ class Wedge:
     start_m, end_m (3,): edge endpoints; face_dir (3,): unit direction from the edge
     into face 1; normal (3,): face 1's unit normal, towards the air; angle_rad: open
     (air) angle in (pi, 2 pi]; reflection: pressure reflection factors (R1, R2) of
-    face 1 and face 2 (1: rigid).
+    face 1 and face 2 (1: rigid); terms: the weights of the four beta terms in the
+    order of :meth:`beta` (None: ``(R2, 1, 1, R1)``; a part of the wedge's response,
+    e.g. the image term of one face alone, as :func:`many_edge_elements` takes).
     """
 
     start_m: np.ndarray
@@ -333,6 +335,7 @@ class Wedge:
     normal: np.ndarray
     angle_rad: float
     reflection: tuple[float, float] = (1.0, 1.0)
+    terms: tuple[float, float, float, float] | None = None
 
     @property
     def length_m(self) -> float:
@@ -358,14 +361,19 @@ class Wedge:
         nu = np.pi / self.angle_rad
         c = np.cosh(nu * np.arccosh(np.maximum(cosh_eta, 1.0)))
         r1, r2 = self.reflection
+        weights = (r2, 1.0, 1.0, r1) if self.terms is None else self.terms
         out = 0.0
-        for w, phi in (
-            (r2, np.pi + th_a + th_b),
-            (1.0, np.pi + th_a - th_b),
-            (1.0, np.pi - th_a + th_b),
-            (r1, np.pi - th_a - th_b),
+        for w, phi in zip(
+            weights,
+            (
+                np.pi + th_a + th_b,
+                np.pi + th_a - th_b,
+                np.pi - th_a + th_b,
+                np.pi - th_a - th_b,
+            ),
         ):
-            out = out + w * np.sin(nu * phi) / (c - np.cos(nu * phi))
+            if w != 0:
+                out = out + w * np.sin(nu * phi) / (c - np.cos(nu * phi))
         return out
 
 

@@ -38,7 +38,8 @@ with reflections; diffraction of the diffuse and curved-surface parts.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import itertools
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -242,7 +243,7 @@ def diffract(
     (P,): the specular interaction column of each face's and each plane's material
     if it is a table over frequency (-1: single numbers; None: no tables): such a
     face's image term, and such a plane's reflection before or after the edge,
-    count in the paths' interactions (edge to edge keeps the reference numbers).
+    count in the paths' interactions (edge to edge too: :func:`_edge_to_edge`).
     """
     emitter, receiver = np.asarray(emitter, float), np.asarray(receiver, float)
     if len(edges) == 0:
@@ -282,7 +283,17 @@ def diffract(
     if order >= 2 and face_plane is not None:
         out.append(
             _edge_to_edge(
-                edges, caster, emitter, receiver, face_plane, r_edge, step_m, max_path_m, tol, nudge
+                edges,
+                caster,
+                emitter,
+                receiver,
+                face_plane,
+                r_edge,
+                step_m,
+                max_path_m,
+                tol,
+                nudge,
+                face_column,
             )
         )
     # 3. one reflection before or after the edge
@@ -442,6 +453,7 @@ def _edge_to_edge(
     max_path_m: float,
     tol: float,
     nudge: float,
+    face_column: np.ndarray | None = None,
 ) -> DiffractedPaths:
     """Step 5: second-order paths emitter -> edge 1 -> edge 2 -> receiver over every
     ordered pair of edges that share a plane (:func:`edge_pair_elements`).
@@ -453,7 +465,11 @@ def _edge_to_edge(
     lies on a face of wedge 1: at angle 0 about edge 1 if the shared plane is its
     face 1, else at its open angle (and likewise edge 1 about edge 2).  Both rims of
     a thin plate: the path runs along both of its sides (``sides = 2``).
-    Visibility is checked per edge, not per element.
+    Visibility is checked per edge, not per element.  With `face_column` (as
+    :func:`_wedge_elements`), each wedge's response is split into the part without
+    the image terms of its table faces and each of those terms alone
+    (:func:`_wedge_parts`); every pair of parts is a set of paths of its own, which
+    counts one interaction with each table face whose image term it holds.
     """
     keep1, w1 = edges.oriented(emitter, emitter)
     keep2, w2 = edges.oriented(receiver, receiver)
@@ -481,6 +497,8 @@ def _edge_to_edge(
     shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
     rim = edges.faces[:, 1] < 0
     refl = np.asarray(face_reflection, float)
+    # interaction columns come in pairs (specular, diffuse), as _wedge_elements's
+    n_col = 0 if face_column is None else int(np.max(face_column, initial=-1)) + 2
     out = []
     for a, b, p in zip(i, j, shared):
         wa, wb = _wedge(w1, a, refl), _wedge(w2, b, refl)
@@ -502,25 +520,58 @@ def _edge_to_edge(
         th_ab = 0.0 if plane[w1.faces[a, 0]] == p else w1.angle_rad[a]
         th_ba = 0.0 if plane[w2.faces[b, 0]] == p else w2.angle_rad[b]
         sides = 2 if (rim[a] and rim[b]) else 1
-        el = edge_pair_elements(wa, wb, th_ab, th_ba, sides, emitter, receiver, step_m, max_path_m)
-        if len(el) == 0:
-            continue
-        dep = el.first_point_m - emitter
-        dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
-        out.append(
-            DiffractedPaths(
-                el.point_m,
-                el.first_leg_m,
-                el.amplitude * el.second_leg_m,
-                el.point_m,
-                dep,
-                np.full(len(el), b),
-                np.full(len(el), 2),
+        for (pa, ca), (pb, cb) in itertools.product(
+            _wedge_parts(wa, w1, a, face_column), _wedge_parts(wb, w2, b, face_column)
+        ):
+            el = edge_pair_elements(
+                pa, pb, th_ab, th_ba, sides, emitter, receiver, step_m, max_path_m
             )
-        )
+            if len(el) == 0:
+                continue
+            dep = el.first_point_m - emitter
+            dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
+            counts = None
+            if face_column is not None:
+                counts = np.zeros((len(el), n_col), int)
+                for column in (ca, cb):
+                    if column >= 0:
+                        counts[:, column] += 1
+            out.append(
+                DiffractedPaths(
+                    el.point_m,
+                    el.first_leg_m,
+                    el.amplitude * el.second_leg_m,
+                    el.point_m,
+                    dep,
+                    np.full(len(el), b),
+                    np.full(len(el), 2),
+                    counts,
+                )
+            )
     if not out:
         return _empty()
     return _concatenate(out)
+
+
+def _wedge_parts(wedge: Wedge, w: Edges, e: int, face_column) -> list[tuple[Wedge, int]]:
+    """Wedge e of oriented edges `w` (as `wedge`) whole, or, if a face has a table
+    material (`face_column`, as :func:`_wedge_elements`), split into the part without
+    those faces' image terms and each such term alone: (part, its table column or
+    -1).  The parts sum to the whole wedge (beta is linear in its term weights)."""
+    if face_column is None:
+        return [(wedge, -1)]
+    f1 = w.faces[e, 0]
+    f2 = w.faces[e, 1] if w.faces[e, 1] >= 0 else f1
+    c1, c2 = int(face_column[f1]), int(face_column[f2])
+    if c1 < 0 and c2 < 0:
+        return [(wedge, -1)]
+    r1, r2 = wedge.reflection
+    parts = [(replace(wedge, terms=(r2 if c2 < 0 else 0.0, 1.0, 1.0, r1 if c1 < 0 else 0.0)), -1)]
+    if c2 >= 0:
+        parts.append((replace(wedge, terms=(r2, 0.0, 0.0, 0.0)), c2))
+    if c1 >= 0:
+        parts.append((replace(wedge, terms=(0.0, 0.0, 0.0, r1)), c1))
+    return parts
 
 
 def _wedge(w: Edges, e: int, refl: np.ndarray) -> Wedge:
