@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 import processing as P
+from acousim.allocator import keep_freed_memory
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.echoes import Echoes
@@ -96,6 +97,7 @@ class Simulator:
     """Simulates a scene; the ray-tracing scene is built once and reused for every pose."""
 
     def __init__(self, scene: Scene, threads: int = 2) -> None:
+        keep_freed_memory()  # fresh pages cost a fault each: see acousim.allocator
         self.scene = scene
         # moving point reflectors are placed per emission instant: see _moving_points
         self.moving_points = tuple(p for p in scene.points if p.moving)
