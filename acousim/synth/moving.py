@@ -693,13 +693,15 @@ def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.nda
     start = 0
     for a in nodes:
         key = (waveform, fs, float(a))
-        if key not in _TEMPLATES:
+        found = _TEMPLATES.get(key)  # one look-up: threads share the cache
+        if found is None:
             if len(_TEMPLATES) > 256:
                 _TEMPLATES.clear()
             # a tapered call has no energy where 8x oversampling would alias it
             over = 8 if waveform.taper > 0 else 64
-            _TEMPLATES[key] = scaled_call(waveform, float(a)).band_limited(fs, oversample=over)
-        y, start = _TEMPLATES[key]
+            found = scaled_call(waveform, float(a)).band_limited(fs, oversample=over)
+            _TEMPLATES[key] = found
+        y, start = found
         calls.append(y)
     L = max(y.size for y in calls)
     out = np.zeros((len(calls), L))
@@ -970,11 +972,13 @@ _CACHE: dict = {}
 
 
 def _cached(key, fn, *args):
-    if key not in _CACHE:
+    """``fn(*args)``, computed once per key (one look-up: threads share the cache)."""
+    found = _CACHE.get(key)
+    if found is None:
         if len(_CACHE) > 8:
             _CACHE.clear()
-        _CACHE[key] = fn(*args)
-    return _CACHE[key]
+        found = _CACHE[key] = fn(*args)
+    return found
 
 
 def _compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
