@@ -16,6 +16,7 @@ the scene and the pose, and converges as rays are added.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,13 +62,22 @@ class Shot:
     rays: int
 
 
-def cone_directions(n: int, axis: np.ndarray, half_angle_rad: float) -> np.ndarray:
-    """n unit vectors on an equal-area (Fibonacci) spiral over a cone around `axis`."""
+@functools.lru_cache(maxsize=8)
+def _spiral(n: int, half_angle_rad: float) -> np.ndarray:
+    """The spiral of :func:`cone_directions` around +x (n, 3), computed once per
+    (n, angle): every pose of a scene shoots the same rays, turned."""
     i = np.arange(n) + 0.5
     cos_t = 1 - (1 - np.cos(half_angle_rad)) * i / n
     sin_t = np.sqrt(np.maximum(0, 1 - cos_t**2))
     phi = i * np.pi * (3 - np.sqrt(5))
     local = np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+    local.flags.writeable = False
+    return local
+
+
+def cone_directions(n: int, axis: np.ndarray, half_angle_rad: float) -> np.ndarray:
+    """n unit vectors on an equal-area (Fibonacci) spiral over a cone around `axis`."""
+    local = _spiral(int(n), float(half_angle_rad))
     a = np.asarray(axis, float) / np.linalg.norm(axis)
     helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(helper, a)
