@@ -1,84 +1,34 @@
 """A mesh on a track that also gives its orientation (another robot turning as it
 drives by): rows [t, x, y, z, roll, pitch, yaw].
 
-Independent references: the exact monostatic echo of a wall turning about an axis in
-its own face (the sample emitted at tau meets the wall at t1 = tau + D(t1) / c, D the
-distance to the wall's plane at t1, and returns at t1 + D(t1) / c, solved here by
-iteration), as in tests/test_moving_mesh_turning.py, now with the turn given by the
-track's rows instead of a rate; the velocity of a point of a turning body
-``w x (x - o)``."""
+Independent reference: the exact monostatic echo of a wall turning about an axis in
+its own face, as in tests/test_moving_mesh_turning.py (whose check this reuses),
+now with the turn given by the track's rows instead of a rate."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import trimesh
+from scipy.spatial.transform import Rotation
 
 import acousim
-import processing as P
-from acousim.scene import Pose, parse_scene
-from acousim.simulator import Simulator
-from acousim.synth.moving import SensorKinematics, arrivals
+from acousim.scene import parse_scene
 from processing.errors import InputError
+from tests.test_moving_mesh_turning import check_turning_wall, wall_box
 
 pytest.importorskip("embreex")
 
-ONE = P.Array("one", np.zeros((1, 3)))  # a microphone on the emitter: monostatic
-CALL = P.Waveform("linear", 40e3, 40e3, 2e-3)
 D, W = 2.0, np.deg2rad(90.0)  # the wall 2 m ahead, turning at 90 deg/s about z
-
-
-def _wall_box():
-    box = trimesh.creation.box((0.2, 20, 20))
-    box.apply_translation((0.1, 0, 0))  # the face at the mesh's origin
-    return box
-
-
-def _track(times):
-    """The wall standing at (D, 0, 0), its yaw W t (rad)."""
-    return [[t, D, 0.0, 0.0, 0.0, 0.0, W * t] for t in times]
-
-
-def _arrivals(mesh, t0):
-    sensor = acousim.Sensor(
-        array=ONE, call=CALL, direct_path=False, poses=(Pose([0.0, 0, 0], time_s=t0),)
-    )
-    sim_settings = acousim.Simulation(max_range_m=4.0, rays=4000, absorption=False, beam_deg=80.0)
-    sim = Simulator(acousim.Scene(meshes=[mesh], sensor=sensor, simulation=sim_settings))
-    pose = sensor.poses[0]
-    moving, pos, kinds, vel = sim.moving_paths(pose)
-    kin = SensorKinematics(None, pose, ONE, 0.03, 2.5e-4)
-    a = arrivals(moving, kin, CALL.duration_s, sim.c, pose.rotation[:, 0])
-    return a, np.asarray(kinds), pos, vel, sim.c
 
 
 @pytest.mark.parametrize("t0", [0.2, 0.55])
 def test_wall_turned_by_its_track_against_the_exact_echo(t0):
-    """Rows every 0.25 s with the yaw W t: the first, middle and last sample of the
-    echo within 1 ns of the exact reception times, and the reflection point moving
-    as a point of the turning wall."""
-    wall = acousim.MeshItem(
-        _wall_box(), acousim.Material("w", 1.0), track=_track(np.arange(0.0, 1.01, 0.25))
-    )
+    """Rows every 0.25 s, the wall standing at (D, 0, 0) with the yaw W t (rad)."""
+    rows = [[t, D, 0.0, 0.0, 0.0, 0.0, W * t] for t in np.arange(0.0, 1.01, 0.25)]
+    wall = acousim.MeshItem(wall_box(), acousim.Material("w", 1.0), track=rows)
     assert wall.turning
-    a, kinds, pos, vel, c = _arrivals(wall, t0)
-    spec = np.flatnonzero(kinds == "specular")
-    first = spec[np.argmin(a.echoes.delay_s[0, spec])]
-
-    def exact(tau):
-        t1 = tau
-        for _ in range(50):
-            t1 = tau + D * np.cos(W * (t0 + t1)) / c
-        return t1 + D * np.cos(W * (t0 + t1)) / c
-
-    T = CALL.duration_s
-    t_first = a.echoes.delay_s[0, first] - a.curvature_s[0, first] * (2 / 3)
-    t_last = t_first + T / a.rate[0, first]
-    t_mid = 0.5 * (t_first + t_last) + a.curvature_s[0, first]
-    for ours, tau in ((t_first, 0.0), (t_mid, T / 2), (t_last, T)):
-        assert ours == pytest.approx(exact(tau), abs=1e-9)
-    x = pos[first]
-    assert vel[first] == pytest.approx(np.cross([0, 0, W], x - [D, 0, 0]), abs=1e-9)
+    check_turning_wall(wall, t0, D, W)
 
 
 def test_track_turns_in_a_scene_file_are_degrees(tmp_path):
@@ -92,8 +42,6 @@ def test_track_turns_in_a_scene_file_are_degrees(tmp_path):
     # spline between two rows is the constant-rate turn between them)
     half = mesh.rotation_at(0.5)
     turn = np.deg2rad([10.0, 0.0, 90.0])
-    from scipy.spatial.transform import Rotation
-
     end = Rotation.from_euler("ZYX", turn[::-1])
     expected = Rotation.from_rotvec(end.as_rotvec() / 2).as_matrix()
     assert half == pytest.approx(expected, abs=1e-9)

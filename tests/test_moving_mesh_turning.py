@@ -37,16 +37,30 @@ def _arrivals(meshes, t0):
 
 @pytest.mark.parametrize("t0", [0.2, 0.5])
 def test_wall_turning_about_an_axis_in_its_face(t0):
-    """A wall whose face holds a vertical axis 2 m ahead, turning at 90 deg/s: at
-    time t its face is the plane through (d, 0, 0) with normal (cos wt, sin wt, 0),
-    d cos(wt) from the sensor.  The sample emitted at tau meets it at t1 = tau +
-    D(t1) / c and returns at t1 + D(t1) / c (solved here by iteration)."""
+    """A wall whose face holds a vertical axis 2 m ahead, turning at 90 deg/s."""
     d, w = 2.0, np.deg2rad(90.0)
-    box = trimesh.creation.box((0.2, 20, 20))
-    box.apply_translation((0.1, 0, 0))  # the face at the mesh's origin
     wall = acousim.MeshItem(
-        box, acousim.Material("w", 1.0), position_m=(d, 0, 0), angular_velocity_rad_s=(0, 0, w)
+        wall_box(),
+        acousim.Material("w", 1.0),
+        position_m=(d, 0, 0),
+        angular_velocity_rad_s=(0, 0, w),
     )
+    check_turning_wall(wall, t0, d, w)
+
+
+def wall_box():
+    """A 20 m square wall 0.2 m thick, its front face at the mesh's origin."""
+    box = trimesh.creation.box((0.2, 20, 20))
+    box.apply_translation((0.1, 0, 0))
+    return box
+
+
+def check_turning_wall(wall, t0, d, w):
+    """`wall` (its face the plane through (d, 0, 0) with normal (cos wt, sin wt, 0) at
+    time t, d cos(wt) from the sensor) against the exact monostatic echo: the sample
+    emitted at tau meets it at t1 = tau + D(t1) / c and returns at t1 + D(t1) / c
+    (solved here by iteration): the first, middle and last sample within 1 ns, the
+    Doppler factor of the turn, the reflection point moving as a point of the wall."""
     a, kinds, pos, vel, c = _arrivals([wall], t0)
     spec = np.flatnonzero(kinds == "specular")
     first = spec[np.argmin(a.echoes.delay_s[0, spec])]
