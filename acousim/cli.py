@@ -152,12 +152,22 @@ def _stop_if_interrupted() -> None:
 
 
 def _preload_simulation() -> None:
-    """Import what a simulation needs before its work starts (trimesh tries optional
-    imports that swallow a Ctrl-C), then honour an interrupt that came meanwhile."""
-    import trimesh  # noqa: F401
+    """Import what a simulation needs before its work starts, with Ctrl-C held back
+    until the imports are done (trimesh tries optional imports that catch
+    BaseException: an interrupt there broke its import with a TypeError), then honour
+    an interrupt that came meanwhile."""
+    import signal
 
-    import acousim.simulator  # noqa: F401
+    held = hasattr(signal, "pthread_sigmask")
+    if held:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        import trimesh  # noqa: F401
 
+        import acousim.simulator  # noqa: F401
+    finally:
+        if held:  # a Ctrl-C that came meanwhile is delivered now
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     _stop_if_interrupted()
 
 
