@@ -28,19 +28,18 @@ import numpy as np
 
 import processing as P
 from acousim.allocator import keep_freed_memory
+from acousim.core.echoes import Echoes
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
-from acousim.synth.echoes import Echoes
 from acousim.synth.model import simulate
 from acousim.synth.moving import DopplerPlan
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
-from acousim.trace.tracer import KIND, TracedPaths, Tracer
+from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.tracer import Tracer
 from processing.errors import InputError
 
 __all__ = ["Simulator", "package_version"]
-
-KIND_NAMES = {v: k for k, v in KIND.items()}
 
 log = logging.getLogger(__name__)
 
@@ -181,7 +180,7 @@ class Simulator:
             position_sensor_m=pose.to_sensor(paths.position_m),
             amplitude=level,
             order=paths.order,
-            kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
+            kind=np.array(kind_names(paths.kind), dtype=str),
         )
         return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth)
 
@@ -286,7 +285,7 @@ class Simulator:
             moving = follow_chains(
                 self.tracer, moving, still, paths, pose, emitter, receiver, self.c
             )
-        truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
+        truth_pos, kinds = paths.position_m, kind_names(paths.kind)
         if self.moving_points:
             pos, a, v = self._moving_points(pose)
             extra = MovingPaths.points(pos, a, v, emitter)
@@ -346,7 +345,7 @@ class Simulator:
         """Microphone directivity: a baffled piston of radius mic_radius_m facing the
         sensor's axis, at the centre of the call's band (MEMS ports are small: the
         pattern barely changes across the band), as a gain per microphone and path."""
-        from acousim.synth.echoes import Echoes
+        from acousim.core.echoes import Echoes
         from acousim.synth.response import piston_directivity
 
         arrival = paths.anchor_m[None, :, :] - mics[:, None, :]  # towards the source

@@ -16,10 +16,10 @@ from scipy.signal import correlate, hilbert
 
 import acousim
 import processing as P
+from acousim.core.echoes import Echoes
 from acousim.scene import Pose, load_scene, parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from acousim.synth.echoes import Echoes
 from acousim.synth.model import simulate
 from acousim.synth.moving import (
     MovingPaths,

@@ -31,11 +31,11 @@ from typing import Any
 
 import numpy as np
 
+from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from processing import Array, Waveform
 from processing.errors import InputError
 from processing.settings import setting, validate
 
-from ..synth.render import SHAPED_INTERPOLATORS, ShapedDelay
 from .pose import Pose
 
 __all__ = [
@@ -91,7 +91,7 @@ class Material:
     frequencies_khz : table frequencies (kHz, increasing); when given, `reflection`
         and/or `diffuse` may be lists of the same length: their values there,
         interpolated linearly in frequency and held at the end values outside the
-        table (:mod:`acousim.synth.materials`).  Empty: single numbers.
+        table (:mod:`acousim.core.materials`).  Empty: single numbers.
     """
 
     name: str = setting("default", doc="name the meshes refer to")
@@ -153,10 +153,10 @@ class Material:
     def reference(self) -> tuple[float, float]:
         """(reflection, diffuse): the single numbers the tracer uses; a table's
         largest reflection and mean diffuse fraction
-        (:func:`acousim.synth.materials.reference`), the numbers themselves otherwise."""
+        (:func:`acousim.core.materials.reference`), the numbers themselves otherwise."""
         if not self.frequency_dependent:
             return self.reflection, self.diffuse
-        from acousim.synth.materials import reference
+        from acousim.core.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
 
@@ -171,7 +171,7 @@ class Material:
         f = np.asarray(frequency_hz, float)
         if not self.frequency_dependent:
             return np.full(f.shape, self.reflection), np.full(f.shape, self.diffuse)
-        from acousim.synth.materials import interpolate
+        from acousim.core.materials import interpolate
 
         table = np.multiply(self.frequencies_khz, 1e3)
         return tuple(
@@ -456,7 +456,7 @@ class Environment:
 
     @property
     def speed_of_sound_m_s(self) -> float:
-        from acousim.synth.air import speed_of_sound
+        from acousim.core.air import speed_of_sound
 
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 

@@ -1,6 +1,7 @@
 """The signal model: echoes of point reflectors and paths -> microphone signals."""
 
-from .air import absorption_db_per_m, speed_of_sound
+from acousim.core.air import absorption_db_per_m, speed_of_sound
+
 from .echoes import SPREADING, Echoes, PointReflectors, direct_path_echoes, point_echoes
 from .model import simulate, simulate_points
 from .noise import add_noise, noise_sigma, signal_power

@@ -34,7 +34,6 @@ filter, at ``d * fs`` samples after the emission.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Literal, get_args
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,11 +41,18 @@ from scipy import fft as sfft
 from scipy.signal import fftconvolve
 from scipy.special import i0
 
+from acousim.core.delays import (
+    DEFAULT_INTERPOLATOR,
+    INTERPOLATORS,
+    SHAPED_INTERPOLATORS,
+    FractionalDelay,
+    ShapedDelay,
+    check_interpolator,
+)
+from acousim.core.echoes import Echoes
 from processing import Waveform
-from processing.errors import InputError
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
-from .echoes import Echoes
 from .response import PathResponse, factorise
 
 __all__ = [
@@ -60,36 +66,12 @@ __all__ = [
     "check_interpolator",
 ]
 
-ShapedDelay = Literal["sinc", "lagrange", "nearest"]
-"""Interpolators that take a path response (absorption, directivity): the choices
-of a scene's ``simulation.fractional_delay``."""
-FractionalDelay = Literal["reference", "exact", "sinc", "lagrange", "fft", "nearest"]
-"""Every fractional-delay interpolator of :func:`render` (see the module docstring)."""
-INTERPOLATORS: tuple[str, ...] = get_args(FractionalDelay)
-SHAPED_INTERPOLATORS: tuple[str, ...] = get_args(ShapedDelay)
-DEFAULT_INTERPOLATOR: ShapedDelay = "sinc"
 DEFAULT_TAPS = 6
 KAISER_BETA = 8.0
 TABLE_PHASES = 4096
 FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
-
-
-def check_interpolator(
-    interpolator: object,
-    allowed: tuple[str, ...] = INTERPOLATORS,
-    *,
-    need: str = "",
-    key: str = "interpolator",
-) -> FractionalDelay:
-    """`interpolator` if it is one of `allowed`, else :class:`InputError` naming `key`
-    (`need`: why only `allowed`, e.g. "a path response"): the one check of the
-    fractional-delay option."""
-    if not isinstance(interpolator, str) or interpolator not in allowed:
-        why = f"{need} needs" if need else "unknown fractional-delay interpolator; choose"
-        raise InputError(f"{why} one of {', '.join(allowed)}", key=key, value=interpolator)
-    return interpolator  # type: ignore[return-value]
 
 
 def render(
