@@ -10,22 +10,21 @@ from pathlib import Path
 
 import numpy as np
 
+import acousim.simulator as _simulator
+import acousim.synth.doppler as _doppler
 import processing as P
+from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
+from acousim.kinematics.reference import render_doppler_reference
 from acousim.scene import Pose, load_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from acousim.synth import moving as _moving
-from acousim.synth.moving import (
+from acousim.synth.doppler import (
     COMPRESS_TOLERANCE,
     DOPPLER_TOLERANCE,
-    TABLE_STEP_S,
-    MovingPaths,
-    SensorKinematics,
-    arrivals,
     doppler_nodes,
     render_doppler,
-    render_doppler_reference,
 )
+from acousim.trace.following import MovingPaths
 
 from .timing import best_time
 
@@ -93,17 +92,17 @@ def _corridor_echoes():
     """The arguments the corridor drive passes to `plan_doppler` (those of
     `render_doppler`) for one pose."""
     seen = []
-    real = _moving.plan_doppler
+    real = _simulator.plan_doppler
 
     def spy(*args, **kwargs):
         seen.append((args, kwargs))
         return real(*args, **kwargs)
 
-    _moving.plan_doppler = spy
+    _simulator.plan_doppler = spy
     try:
         Simulator(load_scene(ROOT / "corridor.toml")).run([12])
     finally:
-        _moving.plan_doppler = real
+        _simulator.plan_doppler = real
     return seen[0]
 
 
@@ -115,7 +114,7 @@ def _tolerance_table(small: bool) -> list[str]:
     n = int(0.03 * FS)
     args, kwargs = _corridor_echoes()
     sets = []
-    real_compress = _moving._compress
+    real_compress = _doppler.compress
 
     def counting(*a, **k):
         out = real_compress(*a, **k)
@@ -126,11 +125,11 @@ def _tolerance_table(small: bool) -> list[str]:
     rows = []
     for tn, tc in TOLERANCES:
         opts = dict(kwargs, tolerance=tn, compress_tolerance=tc)
-        _moving._compress = counting
+        _doppler.compress = counting
         try:
-            render = best_time(lambda o=opts: _moving.render_doppler(*args, **o), repeat=5)
+            render = best_time(lambda o=opts: _doppler.render_doppler(*args, **o), repeat=5)
         finally:
-            _moving._compress = real_compress
+            _doppler.compress = real_compress
         nodes = doppler_nodes(float(args[1].min()), float(args[1].max()), args[2], args[3], tn)
         errs = []
         for a, ref in cases:
@@ -345,7 +344,7 @@ def run(small: bool = False) -> str:
         "moved with the emitter: first- and second-order image sources exactly (their "
         "planes recovered from the traced path), the others (reflections at an edge, "
         "whose two points coincide in the trace; higher orders; scattering) by the "
-        "second-order Fermat law of `acousim.synth.moving`; against the shoebox traced "
+        "second-order Fermat law of `acousim.trace.following`; against the shoebox traced "
         "again at the pose of five later instants of the 2.5 ms call. Largest error of "
         "the path length to any microphone (the receiving side is exact: image sources "
         "do not depend on the receiver); 'lost': paths without a counterpart in the "

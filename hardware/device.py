@@ -17,7 +17,15 @@ import numpy as np
 
 from processing.errors import InputError
 
-from .protocol import Frame, decode_answer, encode_command, frame_size, parse_frame
+from .protocol import (
+    EMULATOR_PID,
+    EMULATOR_VID,
+    Frame,
+    decode_answer,
+    encode_command,
+    frame_size,
+    parse_frame,
+)
 
 __all__ = [
     "DeviceSettings",
@@ -61,8 +69,6 @@ def parse_usb_id(text: str, key: str = "--device") -> tuple[int, int]:
 def find_ids() -> tuple[int, int]:
     """(vendor, product) IDs from RTIS_VID/RTIS_PID (hex), default: the emulator's.
     A malformed variable raises InputError naming it."""
-    from .emulator import EMULATOR_PID, EMULATOR_VID
-
     return (
         _hex_id(os.environ.get("RTIS_VID", f"{EMULATOR_VID:x}"), "RTIS_VID"),
         _hex_id(os.environ.get("RTIS_PID", f"{EMULATOR_PID:x}"), "RTIS_PID"),

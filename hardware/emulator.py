@@ -32,7 +32,7 @@ import usb.core
 
 from processing.errors import InputError
 
-from .protocol import COMMANDS, build_frame
+from .protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
 
 __all__ = [
     "EmulatedSensor",
@@ -43,9 +43,6 @@ __all__ = [
     "emulated_device",
 ]
 
-#: pid.codes' test IDs: the real sensor's IDs are not published
-EMULATOR_VID = 0x1209
-EMULATOR_PID = 0x0001
 EP_OUT, EP_IN, EP_NOTIFY = 0x01, 0x82, 0x83
 
 

@@ -70,6 +70,7 @@ from scipy.signal.windows import tukey
 
 from .arrays import Array
 from .errors import InputError
+from .kernels import optional_kernel
 from .recording import Recording
 from .steering import Grid
 from .waveforms import Waveform
@@ -478,11 +479,7 @@ def energyscape(
 
 def _kernels():
     """The compiled kernels, or None when numba is not installed."""
-    try:
-        from . import _bbkernel
-    except ImportError:
-        return None
-    return _bbkernel
+    return optional_kernel("processing._bbkernel")
 
 
 def _fine(bb: Baseband, U: int, pad: int, dtype=complex) -> np.ndarray:

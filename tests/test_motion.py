@@ -17,17 +17,14 @@ from scipy.signal import correlate, hilbert
 import acousim
 import processing as P
 from acousim.core.echoes import Echoes
+from acousim.kinematics import SensorKinematics, arrivals
+from acousim.kinematics.reference import render_doppler_reference
 from acousim.scene import Pose, load_scene, parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
+from acousim.synth.doppler import render_doppler
 from acousim.synth.model import simulate
-from acousim.synth.moving import (
-    MovingPaths,
-    SensorKinematics,
-    arrivals,
-    render_doppler,
-    render_doppler_reference,
-)
+from acousim.trace.following import MovingPaths
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 C = 343.0
@@ -476,7 +473,7 @@ def test_doppler_series_is_the_interpolant_through_the_nodes():
     """The Doppler terms (Chebyshev series of the templates' coefficients) give, at any
     factor in the interval, the polynomial through the K node values: against a
     polynomial fitted here through the nodes (numpy, power basis)."""
-    from acousim.synth.moving import _chebyshev_coefficients, _chebyshev_terms, doppler_nodes
+    from acousim.synth.doppler import _chebyshev_coefficients, _chebyshev_terms, doppler_nodes
 
     wf = P.rtis_call("default_20_80")
     nodes = doppler_nodes(0.9985, 1.0058, wf, FS)
@@ -529,14 +526,33 @@ def test_fast_renderer_with_absorption_and_directivity_against_exact_filtering()
 
 
 def test_moving_recording_does_not_depend_on_the_hosts_blas_threads():
-    """The same seed gives the same bytes whatever BLAS's thread count: with two BLAS
-    threads the moving corridor's gain-set products summed in another order (a
-    different last bit) before the simulator pinned BLAS to one thread."""
-    from threadpoolctl import threadpool_limits
+    """The same seed gives the same bytes whatever the host's BLAS threads: with two
+    BLAS threads the moving corridor's gain-set products summed in another order (a
+    different last bit) before BLAS was pinned to one thread; the entry point pins
+    it (acousim.process.configure), in a process started with 1 or 2 threads."""
+    import hashlib
+    import os
+    import subprocess
+    import sys
 
-    sim = Simulator(load_scene(SCENES / "corridor.toml"))
+    script = (
+        "import hashlib\n"
+        "from acousim.process import configure\n"
+        "from acousim.scene import load_scene\n"
+        "from acousim.simulator import Simulator\n"
+        "configure()\n"
+        f"sim = Simulator(load_scene({str(SCENES / 'corridor.toml')!r}))\n"
+        "rec = sim.simulate_pose(sim.scene.sensor.poses[5], 5)\n"
+        "print(hashlib.sha256(rec.samples.tobytes()).hexdigest())\n"
+    )
     out = []
-    for threads in (1, 2):
-        with threadpool_limits(limits=threads, user_api="blas"):
-            out.append(sim.simulate_pose(sim.scene.sensor.poses[5], 5).samples)
-    assert out[0].tobytes() == out[1].tobytes()
+    for threads in ("1", "2"):
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+        run = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True
+        )
+        out.append(run.stdout.strip())
+    # and in this process (configured by the tests' conftest, as the command line)
+    sim = Simulator(load_scene(SCENES / "corridor.toml"))
+    here = sim.simulate_pose(sim.scene.sensor.poses[5], 5).samples
+    assert out[0] == out[1] == hashlib.sha256(here.tobytes()).hexdigest()

@@ -15,7 +15,7 @@ from processing import Array, Recording, Waveform
 from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
-from .moving import DopplerPlan, render_doppler, render_planned
+from .doppler import DopplerPlan, render_doppler, render_planned
 from .noise import NoiseDraw, add_noise, noise_sigma
 from .render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS, FractionalDelay, render
 from .response import PathResponse
@@ -62,10 +62,10 @@ def simulate(
         the band centre.
     doppler : ndarray (M, N), optional
         Time compression of each echo (a moving scene: ``tau = doppler (t - delay)``,
-        see :mod:`acousim.synth.moving`); rendered by
-        :func:`acousim.synth.moving.render_doppler`.  Or the
-        :class:`~acousim.synth.moving.DopplerPlan` of `echoes` (made in advance by
-        :func:`~acousim.synth.moving.plan_doppler` from the echoes
+        see :mod:`acousim.synth.doppler`); rendered by
+        :func:`acousim.synth.doppler.render_doppler`.  Or the
+        :class:`~acousim.synth.doppler.DopplerPlan` of `echoes` (made in advance by
+        :func:`~acousim.synth.doppler.plan_doppler` from the echoes
         :func:`in_window` keeps, with the same options).
     seed : int
         Seed of the noise generator (numpy Generator); the same seed gives the same

@@ -51,6 +51,7 @@ from acousim.core.delays import (
 )
 from acousim.core.echoes import Echoes
 from processing import Waveform
+from processing.kernels import optional_kernel
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .response import PathResponse, factorise
@@ -342,11 +343,6 @@ def _impulses_sparse(start, phase, G, table, rows_out, dtype) -> np.ndarray:
     return h
 
 
-@lru_cache(maxsize=1)
 def _compiled():
     """The compiled accumulation, or None when numba is not installed."""
-    try:
-        from ._impulse_kernel import accumulate
-    except ImportError:  # numba is optional (the 'fast' extra)
-        return None
-    return accumulate
+    return optional_kernel("acousim.synth._impulse_kernel", "accumulate")

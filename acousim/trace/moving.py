@@ -63,6 +63,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 
 from .embree import RayCaster
+from .following import FirstLeg
 from .geometry import _load
 from .paths import KIND, TracedPaths
 from .settings import TraceSettings
@@ -236,14 +237,12 @@ def bounces(paths: TracedPaths, tracer, emitter: np.ndarray, min_order: int = 2)
 
 
 def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, receiver, c):
-    """The :class:`~acousim.synth.moving.MovingPaths` `moving` (from `paths`, traced
+    """The :class:`~acousim.trace.following.MovingPaths` `moving` (from `paths`, traced
     with the emitter at `emitter` (3,)) with the paths whose last point lies on a
     moving mesh (`on` (N,), an index into `velocities` (:class:`Motions`), -1: none; on a face
     of normal `normals` (N, 3)) following it, by the laws of the module docstring
     (step 3); and the velocity of each path's last point (N, 3), for the ground
     truth."""
-    from acousim.synth.moving import FIRST_LEG
-
     truth = moving.velocity_m_s.copy()
     sel = np.flatnonzero(on >= 0)
     if sel.size == 0:
@@ -281,7 +280,7 @@ def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, re
     velocity = moving.velocity_m_s.copy()
     velocity[sel] = vel
     first = moving.first_leg.copy()
-    first[sel[straight]] = FIRST_LEG["exact"]
+    first[sel[straight]] = FirstLeg.exact
     # an image source: the emitter moving by de shortens the way to the plane by
     # d_in . de, so the sound meets the plane (d_in . de) / c sooner
     mirror = moving.mirror.copy()
