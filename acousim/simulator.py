@@ -39,8 +39,9 @@ from acousim.core.echoes import Echoes
 from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
-from acousim.synth.doppler import DopplerPlan, plan_doppler
+from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
 from acousim.synth.model import in_window, simulate
+from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
 from acousim.trace.following import MovingPaths
@@ -120,6 +121,9 @@ class Simulator:
             emitter_radius_m=scene.sensor.emitter_radius_m,
             materials=self.tracer.world.spectra if self.tracer.world is not None else None,
         )
+        self.options = RenderOptions(interpolator=scene.simulation.fractional_delay)
+        #: the Doppler renderer's templates and spectra, reused from pose to pose
+        self.doppler_cache = DopplerCache()
 
     def paths(self, pose: Pose) -> TracedPaths:
         return self.tracer.trace(pose)
@@ -182,7 +186,7 @@ class Simulator:
            and point reflectors placed where they are then (:meth:`moving_paths`);
         2. kinematics: per path and microphone, the reception times of the call's
            first, middle and last sample for the moving emitter, reflector and
-           microphone (:func:`acousim.kinematics.arrivals`): the echoes and their
+           microphone (:func:`acousim.kinematics.retarded`): the echoes and their
            Doppler factors, those that reach the window kept.
         Rendering (:meth:`_planned`, :meth:`_record`) follows.
         """
@@ -229,8 +233,9 @@ class Simulator:
             sensor.call,
             sensor.sample_rate_hz,
             prep.n_samples,
-            interpolator=self.scene.simulation.fractional_delay,
+            options=self.options,
             response=self.response,
+            cache=self.doppler_cache,
         )
         return dataclasses.replace(prep, plan=plan)
 
@@ -279,18 +284,13 @@ class Simulator:
         prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
+        sensor = scene.sensor
         rec = simulate(
             prep.echoes,
-            scene.sensor.array,
-            scene.sensor.call,
-            scene.sensor.sample_rate_hz,
-            prep.n_samples,
-            speed_of_sound_m_s=self.c,
-            snr_db=scene.simulation.snr_db,
-            seed=noise_seed,
-            interpolator=scene.simulation.fractional_delay,
+            Capture(sensor.array, sensor.call, sensor.sample_rate_hz, prep.n_samples, self.c),
+            noise=Noise(scene.simulation.snr_db, noise_seed, "echoes"),
+            options=self.options,
             response=self.response,
-            snr_reference="echoes",
             metadata=prep.metadata,
             doppler=prep.plan,
         )

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import processing as P
-from acousim.kinematics import arrivals as mv
+from acousim.kinematics import retarded as mv
 from acousim.kinematics.sensor import TABLE_STEP_S, SensorKinematics
 from acousim.scene import Pose
 from acousim.scene.trajectory import Trajectory

@@ -24,6 +24,7 @@ from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from acousim.synth.doppler import render_doppler
 from acousim.synth.model import simulate
+from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.trace.following import MovingPaths
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -230,16 +231,10 @@ def test_static_scene_takes_the_unchanged_path():
     seed = int(np.random.SeedSequence([sc.simulation.seed, 0]).generate_state(1)[0])
     ref = simulate(
         echoes,
-        sc.sensor.array,
-        sc.sensor.call,
-        sc.sensor.sample_rate_hz,
-        sc.n_samples(),
-        speed_of_sound_m_s=sim.c,
-        snr_db=sc.simulation.snr_db,
-        seed=seed,
-        interpolator=sc.simulation.fractional_delay,
+        Capture(sc.sensor.array, sc.sensor.call, sc.sensor.sample_rate_hz, sc.n_samples(), sim.c),
+        noise=Noise(snr_db=sc.simulation.snr_db, seed=seed, reference="echoes"),
+        options=RenderOptions(interpolator=sc.simulation.fractional_delay),
         response=sim.response,
-        snr_reference="echoes",
     )
     assert rec.samples.tobytes() == ref.samples.tobytes()
     assert "motion" not in rec.metadata

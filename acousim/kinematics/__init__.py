@@ -10,7 +10,7 @@ microphone, solved from the retarded-time equation, and the Doppler factors
 (:func:`acousim.kinematics.reference.render_doppler_reference`).
 """
 
-from .arrivals import Arrivals, arrival_times, arrivals
+from .retarded import Arrivals, arrival_times, arrivals
 from .sensor import TABLE_STEP_S, SensorKinematics
 
 __all__ = ["Arrivals", "arrival_times", "arrivals", "SensorKinematics", "TABLE_STEP_S"]

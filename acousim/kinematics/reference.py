@@ -16,7 +16,7 @@ from acousim.trace.following import MovingPaths
 from processing import Array, Waveform
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
-from .arrivals import arrival_times
+from .retarded import arrival_times
 from .sensor import SensorKinematics
 
 __all__ = ["render_doppler_reference"]

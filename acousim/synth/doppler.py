@@ -41,15 +41,15 @@ from functools import lru_cache
 import numpy as np
 from scipy import fft as sfft
 
+from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
 from processing import Waveform
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .compress import compress
+from .options import COMPRESS_TOLERANCE, DEFAULT_OPTIONS, DOPPLER_TOLERANCE, RenderOptions
 from .render import (
-    DEFAULT_TAPS,
     FFT_WORKERS,
-    FractionalDelay,
     _impulses,
     check_interpolator,
     response_factors,
@@ -59,6 +59,7 @@ from .response import PathResponse
 __all__ = [
     "doppler_nodes",
     "DopplerPlan",
+    "DopplerCache",
     "plan_doppler",
     "render_planned",
     "render_doppler",
@@ -67,17 +68,9 @@ __all__ = [
     "COMPRESS_TOLERANCE",
 ]
 
-#: relative error of interpolating the time-scaled call between Doppler nodes (a
-#: bound at the call's top frequency: the renderer's error stays far below it)
-DOPPLER_TOLERANCE = 1e-3
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
 NODE_QUANTUM = 2e-3
-#: the gain sets are compressed to this relative amplitude of what is left out
-#: (-63 dB): the renderer's error against the exact reference stays below -65 dB at
-#: 2 m/s and 180 deg/s (BENCHMARKS.md, motion: its time against error, 3e-4 -> -71 dB
-#: with 8 sets instead of 6 on the corridor)
-COMPRESS_TOLERANCE = 7e-4
 #: microphones rendered together: the corridor's 30 in two blocks renders in 0.95 of
 #: the time of one block (paired runs; its buffers are smaller), in 1.01 with three
 #: blocks and 1.08 with six (more, smaller FFT calls)
@@ -165,24 +158,33 @@ def doppler_nodes(
     return centre + half * np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
 
 
-_TEMPLATES: dict = {}
+class DopplerCache:
+    """What the Doppler renderer reuses from one measurement to the next (the nodes
+    of a drive's consecutive poses are shared: :data:`NODE_QUANTUM`): the band-limited
+    time-scaled calls per node, and per set of nodes their spectra, Chebyshev
+    coefficients and products.  Owned by its user (a :class:`acousim.Simulator`
+    has one), bounded, safe across threads (:class:`acousim.core.cache.LruCache`)."""
+
+    def __init__(self, templates: int = 256, spectra: int = 12) -> None:
+        self.templates = LruCache(templates)
+        self.spectra = LruCache(spectra)
 
 
-def _templates(waveform: Waveform, fs: float, nodes: np.ndarray) -> tuple[np.ndarray, int]:
+def _scaled_template(waveform: Waveform, fs: float, a: float) -> tuple[np.ndarray, int]:
+    # a tapered call has no energy where 8x oversampling would alias it
+    over = 8 if waveform.taper > 0 else 64
+    return scaled_call(waveform, a).band_limited(fs, oversample=over)
+
+
+def _templates(
+    waveform: Waveform, fs: float, nodes: np.ndarray, cache: DopplerCache
+) -> tuple[np.ndarray, int]:
     """Band-limited time-scaled calls (K, L), sample i at time (i + start) / fs."""
     calls = []
     start = 0
     for a in nodes:
         key = (waveform, fs, float(a))
-        found = _TEMPLATES.get(key)  # one look-up: threads share the cache
-        if found is None:
-            if len(_TEMPLATES) > 256:
-                _TEMPLATES.clear()
-            # a tapered call has no energy where 8x oversampling would alias it
-            over = 8 if waveform.taper > 0 else 64
-            found = scaled_call(waveform, float(a)).band_limited(fs, oversample=over)
-            _TEMPLATES[key] = found
-        y, start = found
+        y, start = cache.templates.get(key, lambda a=a: _scaled_template(waveform, fs, float(a)))
         calls.append(y)
     L = max(y.size for y in calls)
     out = np.zeros((len(calls), L))
@@ -206,8 +208,9 @@ class DopplerPlan:
     the path responses' separable terms; templates (K, B): the Chebyshev
     coefficients of the time-scaled calls' spectra and products their products
     (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
-    direct_paths (N,) and direct_terms (Q,): the direct path's group; single: the
-    impulses and their spectra in single precision (with a path response).
+    direct_paths (N,) and direct_terms (Q,): the direct path's group; options: the
+    fractional delays and the compression's tolerance; single: the impulses and
+    their spectra in single precision (with a path response).
     """
 
     positions: np.ndarray
@@ -224,9 +227,7 @@ class DopplerPlan:
     n_fft: int
     n_mics: int
     n_samples: int
-    interpolator: FractionalDelay
-    taps: int
-    compress_tolerance: float
+    options: RenderOptions
     single: bool
 
     @property
@@ -241,21 +242,19 @@ def render_doppler(
     sample_rate_hz: float,
     n_samples: int,
     *,
-    emission_index: int = 0,
-    interpolator: FractionalDelay = "sinc",
-    taps: int = DEFAULT_TAPS,
+    options: RenderOptions = DEFAULT_OPTIONS,
     response: PathResponse | None = None,
-    tolerance: float = DOPPLER_TOLERANCE,
-    compress_tolerance: float = COMPRESS_TOLERANCE,
+    cache: DopplerCache | None = None,
 ) -> np.ndarray:
     """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
     microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).
 
-    `interpolator`: 'sinc' or 'lagrange' fractional delays, as the static renderer.
-    `response`: air absorption and emitter directivity, factorised as the static
-    renderer does (:mod:`acousim.synth.response`).  `tolerance`: of the Doppler
-    nodes' interpolation; `compress_tolerance`: of the gain sets' compression.
-    The same as :func:`render_planned` of :func:`plan_doppler`.
+    `options`: the fractional delays ('sinc' or 'lagrange', as the static renderer),
+    the emission's sample, the tolerances of the Doppler nodes' interpolation and of
+    the gain sets' compression.  `response`: air absorption and emitter directivity,
+    factorised as the static renderer does (:mod:`acousim.synth.response`).
+    `cache`: reused between calls (None: a fresh one).  The same as
+    :func:`render_planned` of :func:`plan_doppler`.
     """
     plan = plan_doppler(
         echoes,
@@ -263,14 +262,46 @@ def render_doppler(
         waveform,
         sample_rate_hz,
         n_samples,
-        emission_index=emission_index,
-        interpolator=interpolator,
-        taps=taps,
+        options=options,
         response=response,
-        tolerance=tolerance,
-        compress_tolerance=compress_tolerance,
+        cache=cache,
     )
     return render_planned(plan)
+
+
+def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerPlan:
+    """A plan of no echo: silence."""
+    none, no = np.zeros((0, 0)), np.zeros(0, bool)
+    return DopplerPlan(
+        positions=np.zeros((n_mics, 0)),
+        terms=np.zeros((1, 0, n_mics)),
+        responses=none,
+        response_spectra=none,
+        templates=none,
+        products=none,
+        direct_paths=no,
+        direct_terms=no,
+        band=no,
+        lo=0,
+        hi=0,
+        n_fft=0,
+        n_mics=n_mics,
+        n_samples=n_samples,
+        options=options,
+        single=False,
+    )
+
+
+def _response_terms(echoes: Echoes, spectrum: np.ndarray, fs: float, n: int, response):
+    """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
+    v_q(n) (as the static renderer): gains (M, N), U (F, Q), V (N, Q), the band (F,)
+    and which terms are the direct path's (Q,); whether a response shapes them."""
+    if response is not None and response.active:
+        return (*response_factors(echoes, echoes.gain, spectrum, fs, n, response), True)
+    band = np.ones(spectrum.size, bool)
+    U = np.ones((band.size, 1))
+    V = np.ones((echoes.n_paths, 1))
+    return echoes.gain, U, V, band, np.zeros(1, bool), False
 
 
 def plan_doppler(
@@ -280,97 +311,51 @@ def plan_doppler(
     sample_rate_hz: float,
     n_samples: int,
     *,
-    emission_index: int = 0,
-    interpolator: FractionalDelay = "sinc",
-    taps: int = DEFAULT_TAPS,
+    options: RenderOptions = DEFAULT_OPTIONS,
     response: PathResponse | None = None,
-    tolerance: float = DOPPLER_TOLERANCE,
-    compress_tolerance: float = COMPRESS_TOLERANCE,
+    cache: DopplerCache | None = None,
 ) -> DopplerPlan:
     """Steps 1-3 of :func:`render_doppler` (same arguments): the
     :class:`DopplerPlan` that :func:`render_planned` turns into samples."""
-    check_interpolator(
-        interpolator,
-        ("sinc", "lagrange"),
-        need="a moving scene",
-        key="simulation.fractional_delay",
-    )
+    need = "a moving scene"
+    check_interpolator(options.interpolator, ("sinc", "lagrange"), need=need, key=_KEY)
     M = echoes.delay_s.shape[0]
-
-    def nothing() -> DopplerPlan:
-        none, no = np.zeros((0, 0)), np.zeros(0, bool)
-        return DopplerPlan(
-            positions=np.zeros((M, 0)),
-            terms=np.zeros((1, 0, M)),
-            responses=none,
-            response_spectra=none,
-            templates=none,
-            products=none,
-            direct_paths=no,
-            direct_terms=no,
-            band=no,
-            lo=0,
-            hi=0,
-            n_fft=0,
-            n_mics=M,
-            n_samples=n_samples,
-            interpolator=interpolator,
-            taps=taps,
-            compress_tolerance=compress_tolerance,
-            single=False,
-        )
-
     if echoes.n_paths == 0:
-        return nothing()
-    fs = sample_rate_hz
+        return _empty_plan(M, n_samples, options)
+    cache = DopplerCache() if cache is None else cache
+    fs, taps = sample_rate_hz, options.taps
     # 1. Doppler nodes and the time-scaled calls there
+    tolerance = options.doppler_tolerance
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
-    calls, start = _templates(waveform, fs, nodes)
+    calls, start = _templates(waveform, fs, nodes, cache)
     K, L = calls.shape
-    # 2. the span of the output the echoes reach; each echo placed where its call's
-    # middle (the pivot p) arrives less p: ``t0 + p / a - p``, and template j
-    # advanced by p (1 / a_j - 1), so that every template is scaled about the pivot
-    # (half the phase excursion over the Doppler factors of scaling about the start:
-    # fewer nodes and sets)
-    pivot = waveform.duration_s / 2
-    advance = pivot * (1 / nodes - 1)  # (K,) s
-    margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
-    d = (echoes.delay_s + pivot * (1 / rate - 1)) * fs + emission_index + start
+    # 2. the span of the output the echoes reach
+    d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
+    d = d + options.emission_index + start  # the order of the sums of before: same bits
     lo = int(np.floor(d.min())) - taps - margin
     hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
-        return nothing()
-    n_span = hi - lo
-    n = sfft.next_fast_len(n_span + L + 2 * taps + 258 + 2 * margin, real=True)
+        return _empty_plan(M, n_samples, options)
+    n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = _cached(("spectra", *key), _template_spectra, calls, advance * fs, n)  # (K, F)
-    g = echoes.gain
-    N = echoes.n_paths
-    # 3. path responses as separable terms u_q(f) v_q(n) (as the static renderer)
-    shaped = response is not None and response.active
-    if shaped:
-        g, U, V, band, direct = response_factors(echoes, g, spectra[K // 2], fs, n, response)
-    else:
-        band = np.ones(spectra.shape[1], bool)
-        U = np.ones((band.size, 1))
-        V = np.ones((echoes.n_paths, 1))
-        direct = np.zeros(1, bool)
-    # the direct path is a group of its own only where it has its own response terms
-    path_direct = echoes.order == 0 if direct.any() else np.zeros(N, bool)
-    # the interpolant in the Doppler factor as a Chebyshev series: path gains times
-    # T_p(s) (s the factor mapped onto [-1, 1]), (K, N, M), and the
-    # templates' Chebyshev coefficients (the same polynomial as the Lagrange form,
-    # with a three-term recurrence in place of the barycentric weights)
-    gl = _chebyshev_terms(nodes, rate.T, g.T)
-    W = _cached(("coefficients", *key, band.sum()), _chebyshev_coefficients, spectra[:, band])
-    WW = _cached(("products", *key, band.sum()), _products, W)
+    spectra = cache.spectra.get(  # (K, F)
+        ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
+    )
+    # 3. path responses; the direct path is a group of its own only where it has
+    # its own response terms
+    g, U, V, band, direct, shaped = _response_terms(echoes, spectra[K // 2], fs, n, response)
+    path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
+    # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
+    W = cache.spectra.get(
+        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
+    )
     return DopplerPlan(
         positions=d - lo,
-        terms=gl,
+        terms=_chebyshev_terms(nodes, rate.T, g.T),
         responses=V,
         response_spectra=U,
         templates=W,
-        products=WW,
+        products=cache.spectra.get(("products", *key, band.sum()), lambda: _products(W)),
         direct_paths=path_direct,
         direct_terms=direct,
         band=band,
@@ -379,11 +364,25 @@ def plan_doppler(
         n_fft=n,
         n_mics=M,
         n_samples=n_samples,
-        interpolator=interpolator,
-        taps=taps,
-        compress_tolerance=compress_tolerance,
+        options=options,
         single=shaped,
     )
+
+
+_KEY = "simulation.fractional_delay"
+
+
+def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
+    """Where each echo's impulse goes (M, N), in samples from the emission (before
+    the templates' start): where its call's middle (the pivot p) arrives less p,
+    ``t0 + p / a - p``; template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that
+    every template is scaled about the pivot (half the phase excursion over the
+    Doppler factors of scaling about the start: fewer nodes and sets); and the
+    margin (samples) the advances need."""
+    pivot = duration_s / 2
+    advance = pivot * (1 / nodes - 1)  # (K,) s
+    margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
+    return (delay_s + pivot * (1 / rate - 1)) * fs, advance, margin
 
 
 def render_planned(plan: DopplerPlan) -> np.ndarray:
@@ -406,7 +405,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.response_spectra,
         plan.direct_paths,
         plan.direct_terms,
-        plan.compress_tolerance,
+        plan.options.compress_tolerance,
     )
     # the filters over the bins from the band's first to its last (zero elsewhere)
     band = plan.band
@@ -420,8 +419,9 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     for m0 in range(0, M, MICS_PER_BLOCK):
         mics = slice(m0, min(m0 + MICS_PER_BLOCK, M))
         # gains (M, N, R): the sets contiguous, as the impulse sums take them
+        opts = plan.options
         h, pad = _impulses(
-            plan.positions[mics], gains[mics], n_span, plan.interpolator, plan.taps, n, dtype
+            plan.positions[mics], gains[mics], n_span, opts.interpolator, opts.taps, n, dtype
         )
         spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, mics, F)
         spec = np.zeros(spectra.shape[1:], spectra.dtype)
@@ -437,7 +437,10 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
 
 def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
     """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
-    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]."""
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]: the interpolant of
+    the time-scaled call in the Doppler factor as a Chebyshev series, the path gains
+    times T_p(s) (a three-term recurrence) and the templates' Chebyshev coefficients
+    (the same polynomial as the Lagrange form, without barycentric weights)."""
     K = nodes.size
     out = np.empty((K, *rate.shape))
     out[0] = gain
@@ -478,16 +481,3 @@ def _products(W: np.ndarray) -> np.ndarray:
     (K (K + 1) / 2, F), rows in the order of ``np.triu_indices(K)``."""
     j, k = np.triu_indices(W.shape[0])
     return np.ascontiguousarray((W.conj()[j] * W[k]).real)
-
-
-_CACHE: dict = {}
-
-
-def _cached(key, fn, *args):
-    """``fn(*args)``, computed once per key (one look-up: threads share the cache)."""
-    found = _CACHE.get(key)
-    if found is None:
-        if len(_CACHE) > 8:
-            _CACHE.clear()
-        found = _CACHE[key] = fn(*args)
-    return found

@@ -4,7 +4,7 @@ The sensor moves and turns during a measurement (30-36 ms), point reflectors and
 meshes may move too.  The kinematics stage (:mod:`acousim.kinematics`) solves when
 each sample of the call reaches each microphone; what it needs of a path is here: its
 last anchor (image source, scatterer or reflector) A and how it moves, and its first
-leg F (see :mod:`acousim.kinematics.arrivals` for the retarded-time equation).
+leg F (see :mod:`acousim.kinematics.retarded` for the retarded-time equation).
 
 Approximation of the geometry (stated, measured in ``BENCHMARKS.md``): paths are
 traced once, at the pose of the start of the emission.  Then:
