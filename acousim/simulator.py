@@ -44,7 +44,7 @@ from acousim.synth.model import in_window, simulate
 from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
-from acousim.trace.following import MovingPaths
+from acousim.trace.following import Endpoints, MovingPaths
 from acousim.trace.paths import TracedPaths, kind_names
 from acousim.trace.tracer import Tracer
 from processing.errors import InputError
@@ -260,13 +260,10 @@ class Simulator:
             velocities = self.tracer.velocities(pose)
             receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
             still = moving
-            moving, truth_vel = ride(
-                moving, paths, on, normals, glint, velocities, emitter, receiver, self.c
-            )
+            ends = Endpoints(emitter, receiver, self.c)
+            moving, truth_vel = ride(moving, paths, on, normals, glint, velocities, ends)
             # reflections of second order and up: every moving plane of the chain
-            moving = follow_chains(
-                self.tracer, moving, still, paths, pose, emitter, receiver, self.c
-            )
+            moving = follow_chains(self.tracer, moving, still, paths, pose, ends)
         truth_pos, kinds = paths.position_m, kind_names(paths.kind)
         if self.moving_points:
             pos, a, v = self._moving_points(pose)

@@ -148,7 +148,9 @@ def test_fast_renderer_against_the_per_sample_reference():
     kin = SensorKinematics(traj, pose, arr, n / FS, 2.5e-4)
     a = arrivals(paths, kin, wf.duration_s, C, np.array([1.0, 0, 0]))
     fast = render_doppler(a.echoes, a.rate, wf, FS, n)
-    exact = render_doppler_reference(paths, traj, pose, arr, wf, FS, n, C, a.echoes.gain)
+    exact = render_doppler_reference(
+        paths, SensorKinematics.exact(traj, pose, arr), wf, FS, n, C, a.echoes.gain
+    )
     err = 20 * np.log10(np.linalg.norm(fast - exact) / np.linalg.norm(exact))
     assert err <= -60
 
@@ -512,7 +514,13 @@ def test_fast_renderer_with_absorption_and_directivity_against_exact_filtering()
     exact = np.zeros_like(fast)
     for k in range(len(paths)):
         one = render_doppler_reference(
-            paths.select([k]), traj, pose, arr, wf, FS, n, C, a.echoes.gain[:, [k]]
+            paths.select([k]),
+            SensorKinematics.exact(traj, pose, arr),
+            wf,
+            FS,
+            n,
+            C,
+            a.echoes.gain[:, [k]],
         )
         H = response.matrix(f, length[0, [k]], echoes.angles()[[k]])[:, 0]
         exact += np.fft.irfft(np.fft.rfft(one, nfft) * H, nfft)[:, :n]

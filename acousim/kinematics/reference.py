@@ -13,7 +13,7 @@ import numpy as np
 from scipy import fft as sfft
 
 from acousim.trace.following import MovingPaths
-from processing import Array, Waveform
+from processing import Waveform
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .retarded import arrival_times
@@ -24,9 +24,7 @@ __all__ = ["render_doppler_reference"]
 
 def render_doppler_reference(
     paths: MovingPaths,
-    trajectory,
-    pose,
-    array: Array,
+    sensor: SensorKinematics,
     waveform: Waveform,
     sample_rate_hz: float,
     n_samples: int,
@@ -36,15 +34,17 @@ def render_doppler_reference(
     oversample: int = 64,
 ) -> np.ndarray:
     """The exact echoes (M, T): per output sample at `oversample` times the rate the
-    emission time solved on the continuous `trajectory` (None: static sensor), the
-    analytic call evaluated there times `gain` (M, N), low-passed at 0.8 Nyquist and
-    decimated.  No air absorption or directivity."""
+    emission time solved on the continuous trajectory of `sensor`
+    (:meth:`SensorKinematics.exact`), the analytic call evaluated there times `gain`
+    (M, N), low-passed at 0.8 Nyquist and decimated.  No air absorption or
+    directivity."""
     c = speed_of_sound_m_s
     fs_fine = sample_rate_hz * oversample
     n_fine = n_samples * oversample
-    window = n_samples / sample_rate_hz
-    kin = SensorKinematics(trajectory, pose, array, window, None)
-    M, N = array.n_mics, len(paths)
+    kin = sensor
+    if kin.step is not None:
+        raise ValueError("the reference needs the exact kinematics: SensorKinematics.exact")
+    M, N = kin.array.n_mics, len(paths)
     T = waveform.duration_s
     out = np.zeros((M, n_samples))
     for m in range(M):

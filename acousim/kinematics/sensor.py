@@ -68,6 +68,12 @@ class SensorKinematics:
                 self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
                 self.mic_poly_v = np.ascontiguousarray(self.poly_v[:, 1:].transpose(1, 0, 2))
 
+    @classmethod
+    def exact(cls, trajectory, pose, array: Array) -> SensorKinematics:
+        """The kinematics evaluated on `trajectory` (None: static) at every query:
+        the reference's."""
+        return cls(trajectory, pose, array, 0.0, None)
+
     def _powers(self, t: np.ndarray, degree: int) -> np.ndarray:
         """Powers 0..degree of the normalised time: t (M, ...) -> (M, K, degree + 1)."""
         x = ((t - self.mid) / self.half).reshape(t.shape[0], -1)

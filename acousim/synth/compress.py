@@ -13,13 +13,13 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    gl (K, N, M) path gains times the Doppler terms (term j, path n, microphone
-    m: the Chebyshev polynomials of :func:`_chebyshev_terms`), V (N, Q) response terms; the filters
-    ``b_jq(f) = W_j(f) U_q(f)`` from the template spectra W (K, F), their products
-    WW (:func:`_products`) and the response terms U (F, Q); path_direct (N,) and
-    set_direct (Q,) which paths and response terms belong to the direct path.  Per
-    group of paths (the
-    direct path, the echoes), with G (paths x S) the gains and B (F x S) the filters
+    gl (K, N, M) path gains times the Doppler terms (term j, path n, microphone m:
+    the Chebyshev polynomials of :func:`acousim.synth.doppler._chebyshev_terms`),
+    V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
+    template spectra W (K, F), their products WW (:func:`acousim.synth.doppler._products`)
+    and the response terms U (F, Q); path_direct (N,) and set_direct (Q,) which paths
+    and response terms belong to the direct path.  Per group of paths (the direct
+    path, the echoes), with G (paths x S) the gains and B (F x S) the filters
     (S = K Q' sets): ``G B^T = U' D``, ``G = U' L^(1/2) E^T`` (eigendecomposition of
     the Gram matrix G^T G, formed from the factors without G), ``D = L^(1/2) E^T
     B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
@@ -50,15 +50,7 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         lam, E = lam[keep], E[:, keep]
         Uq = U[:, terms]
         S = np.sqrt(lam)[:, None] * E.T  # D = S B^T, (s, F)
-        # Re(B^T conj(B)) from the template products and the response terms
-        qa, qb = np.triu_indices(Q)
-        part = WW @ (Uq[:, qa] * Uq[:, qb])  # both symmetric: upper triangles only
-        full = np.empty((K, K, Q, Q))
-        ja, jb = np.triu_indices(K)
-        for c, (a, b) in enumerate(zip(qa, qb)):
-            full[ja, jb, a, b] = full[jb, ja, a, b] = part[:, c]
-            full[ja, jb, b, a] = full[jb, ja, b, a] = part[:, c]
-        BB = full.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
+        BB = _filter_gram(WW, Uq, K)
         s2, Y = np.linalg.eigh(S @ BB @ S.T)
         s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
@@ -74,3 +66,18 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     g_new = np.empty((M, N, P.shape[2]))
     np.matmul(gl.transpose(1, 2, 0), P, out=g_new.transpose(1, 0, 2))
     return g_new, np.concatenate(out_f, axis=1)
+
+
+def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:
+    """Re(B^T conj(B)) (K Q, K Q) of the filters ``b_jq = W_j U_q`` from the template
+    products WW (:func:`acousim.synth.doppler._products`) and the response terms
+    Uq (F, Q): both symmetric, the upper triangles only."""
+    Q = Uq.shape[1]
+    qa, qb = np.triu_indices(Q)
+    part = WW @ (Uq[:, qa] * Uq[:, qb])
+    full = np.empty((K, K, Q, Q))
+    ja, jb = np.triu_indices(K)
+    for c, (a, b) in enumerate(zip(qa, qb)):
+        full[ja, jb, a, b] = full[jb, ja, a, b] = part[:, c]
+        full[ja, jb, b, a] = full[jb, ja, b, a] = part[:, c]
+    return full.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)

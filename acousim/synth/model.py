@@ -37,31 +37,16 @@ def simulate(
     doppler: np.ndarray | DopplerPlan | None = None,
 ) -> Recording:
     """Render echoes into a Recording of `capture` (array, call, sampling, window),
-    with `noise` (eq. 2, see :mod:`acousim.synth.noise`).
+    with `noise` (eq. 2, :class:`~acousim.synth.options.Noise` states its options).
 
-    Parameters
-    ----------
-    noise : Noise
-        snr_db, seed (the same seed gives the same bytes), n_measurements (K
-        measurements of the static scene with independent noise: samples (K, M, T))
-        and the reference: 'signal', eq. 2 on the rendered signal (the paper's
-        study); 'echoes', the signal power is that of the echoes alone, the direct
-        path (order 0, tens of dB louder in a real sensor) left out, estimated from
-        the path gains as if the echoes did not overlap: ``sum_n mean_m(g_mn^2)
-        |H_n(f_c)|^2 E_call / (M L)`` per microphone, with E_call the call's energy
-        and H_n the path response at the band centre.
-    options : RenderOptions
-        The emission's sample, the fractional delays, the Doppler renderer's
-        tolerances.
-    response : PathResponse, optional
-        Air absorption and emitter directivity per path.
-    doppler : ndarray (M, N), optional
-        Time compression of each echo (a moving scene: ``tau = doppler (t - delay)``,
-        see :mod:`acousim.kinematics`); rendered by
-        :func:`acousim.synth.doppler.render_doppler`.  Or the
-        :class:`~acousim.synth.doppler.DopplerPlan` of `echoes` (made in advance by
-        :func:`~acousim.synth.doppler.plan_doppler` from the echoes
-        :func:`in_window` keeps, with the same options).
+    `options`: the emission's sample, the fractional delays, the Doppler renderer's
+    tolerances.  `response`: air absorption and emitter directivity per path.
+    `doppler` (M, N): the time compression of each echo (a moving scene:
+    ``tau = doppler (t - delay)``, :mod:`acousim.kinematics`), rendered by
+    :func:`acousim.synth.doppler.render_doppler`; or the
+    :class:`~acousim.synth.doppler.DopplerPlan` of `echoes` (made in advance by
+    :func:`~acousim.synth.doppler.plan_doppler` from the echoes :func:`in_window`
+    keeps, with the same options).
     """
     cap = capture
     if cap.n_samples < 1:

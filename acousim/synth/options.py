@@ -68,10 +68,18 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class Noise:
-    """The sensor noise (eq. 2, :mod:`acousim.synth.noise`): `snr_db` (inf: none)
-    relative to `reference`, drawn from a numpy Generator seeded with `seed` (the
-    same seed, the same bytes); `n_measurements` K measurements of the static scene
-    with independent noise (samples (K, M, T)), None: one (M, T)."""
+    """The sensor noise (eq. 2, :mod:`acousim.synth.noise`): `snr_db` (inf: none),
+    drawn from a numpy Generator seeded with `seed` (the same seed, the same bytes);
+    `n_measurements` K measurements of the static scene with independent noise
+    (samples (K, M, T)), None: one (M, T).
+
+    `reference`: 'signal', eq. 2 on the rendered signal (the paper's study);
+    'echoes', the signal power is that of the echoes alone, the direct path (order
+    0, tens of dB louder in a real sensor) left out, estimated from the path gains as
+    if the echoes did not overlap: ``sum_n mean_m(g_mn^2) |H_n(f_c)|^2 E_call / (M L)``
+    per microphone, with E_call the call's energy and H_n the path response at the
+    band centre.
+    """
 
     snr_db: float = np.inf
     seed: int | None = 0

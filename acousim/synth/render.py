@@ -112,13 +112,7 @@ def render(
     if interpolator == "exact":
         return _render_exact(d, g, waveform, fs, n_samples, out)
     if interpolator == "reference":
-        U = 64
-        fine = _render_exact(
-            d * U, g, waveform, fs * U, n_samples * U, np.zeros((M, n_samples * U))
-        )
-        spec = sfft.rfft(fine, axis=-1)
-        spec[:, int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
-        return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
+        return _render_reference(d, g, waveform, fs, n_samples)
     call, start = waveform.band_limited(fs)
     d = d + start  # sample i of `call` is at i + start
     if interpolator == "fft":
@@ -133,7 +127,7 @@ def render(
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, g, call, fs, n_span, interpolator, taps, response)
+        y = _render_shaped(echoes, d - lo, call, fs, n_span, interpolator, taps, response)
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
@@ -141,7 +135,19 @@ def render(
     return out
 
 
-def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np.ndarray:
+def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np.ndarray:
+    """The exact band-limited echoes (the ``reference`` interpolator): the analytic
+    call at 64 times the sample rate, low-passed at 0.8 Nyquist and decimated."""
+    U = 64
+    fine = _render_exact(
+        d * U, g, waveform, fs * U, n_samples * U, np.zeros((d.shape[0], n_samples * U))
+    )
+    spec = sfft.rfft(fine, axis=-1)
+    spec[:, int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
+    return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
+
+
+def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain.
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
@@ -156,7 +162,7 @@ def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np
     """
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
-    g, U, V, band, _ = response_factors(echoes, g, W, fs, n, response)
+    g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)

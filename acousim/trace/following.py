@@ -36,7 +36,18 @@ import numpy as np
 
 from .paths import KIND, TracedPaths
 
-__all__ = ["FirstLeg", "MovingPaths"]
+__all__ = ["Endpoints", "FirstLeg", "MovingPaths"]
+
+
+@dataclass(frozen=True)
+class Endpoints:
+    """Where the sound of a measurement leaves and arrives, at the start of the
+    emission: the emitter (3,) and the receiver (3,: the array's centre) in the
+    world frame (m), and the speed of sound (m/s)."""
+
+    emitter_m: np.ndarray
+    receiver_m: np.ndarray
+    speed_of_sound_m_s: float
 
 
 class FirstLeg(IntEnum):
