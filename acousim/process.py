@@ -1,6 +1,7 @@
 """Process-wide policy for a simulating process, set once at its entry point.
 
-A library object never changes the process: the command line (``acousim``), the
+A library object never changes the process: the command line (``acousim``, its
+simulating commands: :func:`acousim.cli.common.preload_simulation`), the
 benchmarks, the dataset's worker processes and the tests call :func:`configure` at
 their start; a script that wants the same bytes and speed calls it too.
 
@@ -32,8 +33,14 @@ BLAS_THREADS = 1
 def configure() -> None:
     """Set the policy of the module docstring (once per process; later calls do
     nothing)."""
+    import os
+
+    import numpy  # noqa: F401  (its BLAS loaded, for threadpoolctl to find)
     from threadpoolctl import threadpool_limits
 
+    # libraries loaded later (scipy's own BLAS) read their thread count from these
+    for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS"):
+        os.environ[name] = str(BLAS_THREADS)
     threadpool_limits(limits=BLAS_THREADS, user_api="blas")
     kept = keep_freed_memory()
     log.debug("process configured: BLAS on %d thread, freed memory kept: %s", BLAS_THREADS, kept)
