@@ -6,7 +6,7 @@ import argparse
 
 from processing.errors import InputError
 
-from .common import INDEX, UsageError, load_scene, methods, writable_dir
+from .common import INDEX, UsageError, load_scene, methods, preload_simulation, writable_dir
 from .record import ARRAY_PRESETS, CALL_PRESETS
 
 
@@ -72,6 +72,7 @@ def _pairs(args: argparse.Namespace):
         c = sims[0].speed_of_sound_m_s
     reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
     if args.scene:
+        preload_simulation()  # it simulates: the process's policy set
         return pair_with_scene(reals, scene, every=args.all, index=args.index, pose=args.pose)
     return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
 
