@@ -18,6 +18,10 @@ from processing.atomic import atomic_path
 from processing.errors import InputError
 from processing.settings import setting, validate
 
+#: peaks kept within this many dB of each image's strongest cell: the default of
+#: the pictures, the peak files and the bags (one home)
+PEAK_THRESHOLD_DB = -10.0
+
 __all__ = [
     "ImagingOptions",
     "image_recordings",
@@ -60,7 +64,11 @@ class ImagingOptions:
         None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
     )
     peak_threshold_db: float = setting(
-        -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+        PEAK_THRESHOLD_DB,
+        "dB",
+        -200,
+        0,
+        "peaks kept within this many dB of each image's strongest cell",
     )
     grid: P.Grid = field(init=False, repr=False)
 

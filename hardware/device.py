@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
 from .protocol import (
     EMULATOR_PID,
@@ -82,7 +83,7 @@ class DeviceSettings:
 
     n_ticks: int = 163840
     clock_mode: int = 0  # 0: 4.5 MHz, 1: 1.125 MHz
-    dac_rate_hz: int = 450000
+    dac_rate_hz: int = int(RTIS_SAMPLE_RATE_HZ)
     call: np.ndarray | None = None  # samples in [-1, 1]
     emissions: int = 1
     behaviour: int = 0

@@ -31,6 +31,7 @@ import usb.backend
 import usb.core
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
 from .protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
 
@@ -123,7 +124,7 @@ class EmulatedSensor:
         self.settings = {
             "G": n_ticks,
             "F": 0,
-            "D": 450000,
+            "D": int(RTIS_SAMPLE_RATE_HZ),
             "E": 1125,
             "I": 1,
             "H": 0,

@@ -31,6 +31,7 @@ from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
 from .matched_filter import matched_filter
+from .methods import MethodSpec, parse_method
 from .metrics import (
     angular_resolution,
     dynamic_range_db,
@@ -79,6 +80,8 @@ __all__ = [
     "METHODS",
     "Method",
     "check_method",
+    "parse_method",
+    "MethodSpec",
     "requires_ura",
     "estimate_memory_bytes",
     "NARROWBAND_METHODS",

@@ -54,23 +54,16 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
-from typing import Literal, get_args
-
 import numpy as np
 
 from .arrays import Array
 from .errors import InputError
+from .methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from .smoothing import default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
 __all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
 
-NarrowbandMethod = Literal[
-    "das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss"
-]
-#: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
-#: underscore variants: every caller checks names against this one tuple).
-NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
 METHODS = NARROWBAND_METHODS
 
 EIG_FLOOR = 1e-3
@@ -78,14 +71,15 @@ MUSIC_FLOOR = 1e-12
 
 
 def _parse(method: str) -> tuple[str, str]:
-    if method not in NARROWBAND_METHODS:
+    """(base, smoothing) of a narrowband method, or an InputError naming it."""
+    spec = parse_method(method) if method in NARROWBAND_METHODS else None
+    if spec is None:
         raise InputError(
             f"unknown DOA method; choose one of {', '.join(NARROWBAND_METHODS)}",
             key="method",
             value=method,
         )
-    base, _, smooth = method.partition("-")
-    return base, smooth
+    return spec.base, spec.smoothing
 
 
 def method_matrix(

@@ -17,20 +17,16 @@ combine them incoherently:
 
 from __future__ import annotations
 
-from typing import Literal, get_args
-
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
 from .arrays import Array
 from .doa import doa_spectrum
+from .methods import WIDEBAND_METHODS, WidebandMethod
 from .steering import Grid
 
 __all__ = ["WidebandMethod", "WIDEBAND_METHODS", "band_frequencies", "wideband_spectrum"]
-
-WidebandMethod = Literal["capon-wb", "capon-fbss-wb", "music-wb", "music-fbss-wb"]
-WIDEBAND_METHODS: tuple[str, ...] = get_args(WidebandMethod)
 
 
 def band_frequencies(

@@ -78,7 +78,8 @@ def _pairs(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare import compare, summarize, write_comparison, write_summary
+    from acousim.compare import compare, write_comparison
+    from acousim.compare_summary import summarize, write_summary
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.imaging import PEAK_THRESHOLD_DB
 from processing.atomic import TEMP_PREFIX
 
 __all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
@@ -83,7 +84,7 @@ def write_rosbag(
     indices: Sequence[int] | None = None,
     *,
     method: str | None = None,
-    threshold_db: float = -10.0,
+    threshold_db: float = PEAK_THRESHOLD_DB,
     dynamic_range_db: float = 30.0,
     fan_pixels: int = 400,
 ) -> Path:

@@ -34,6 +34,7 @@ import numpy as np
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from processing import Array, Waveform
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 from processing.settings import setting, validate
 
 from .motion import (
@@ -382,7 +383,9 @@ class Sensor:
 
     array: Array = field(default_factory=_default_array)
     call: Waveform = field(default_factory=_default_call)
-    sample_rate_hz: float = setting(450e3, "Hz", 1e3, 1e8, "sampling rate of the microphones")
+    sample_rate_hz: float = setting(
+        RTIS_SAMPLE_RATE_HZ, "Hz", 1e3, 1e8, "sampling rate of the microphones"
+    )
     emitter_radius_m: float = setting(0.0, "m", 0, 0.5, "emitter as a baffled piston; 0: omni")
     direct_path: bool = setting(True, doc="include the emitter-to-microphone crosstalk")
     poses: tuple[Pose, ...] = field(default_factory=lambda: (Pose(np.zeros(3)),))
