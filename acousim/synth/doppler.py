@@ -235,56 +235,26 @@ class DopplerPlan:
         return self.terms.shape[1] == 0
 
 
-def render_doppler(
-    echoes: Echoes,
-    rate: np.ndarray,
-    waveform: Waveform,
-    sample_rate_hz: float,
-    n_samples: int,
-    *,
-    options: RenderOptions = DEFAULT_OPTIONS,
-    response: PathResponse | None = None,
-    cache: DopplerCache | None = None,
-) -> np.ndarray:
+def render_doppler(*args, **kwargs) -> np.ndarray:
     """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
-    microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).
-
+    microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).  The
+    arguments of :func:`plan_doppler` (echoes, rate, waveform, sample rate, samples;
     `options`: the fractional delays ('sinc' or 'lagrange', as the static renderer),
-    the emission's sample, the tolerances of the Doppler nodes' interpolation and of
-    the gain sets' compression.  `response`: air absorption and emitter directivity,
-    factorised as the static renderer does (:mod:`acousim.synth.response`).
-    `cache`: reused between calls (None: a fresh one).  The same as
-    :func:`render_planned` of :func:`plan_doppler`.
-    """
-    plan = plan_doppler(
-        echoes,
-        rate,
-        waveform,
-        sample_rate_hz,
-        n_samples,
-        options=options,
-        response=response,
-        cache=cache,
-    )
-    return render_planned(plan)
+    the emission's sample and the tolerances; `response`: air absorption and emitter
+    directivity, factorised as the static renderer does; `cache`: reused between
+    calls): :func:`render_planned` of its plan."""
+    return render_planned(plan_doppler(*args, **kwargs))
 
 
 def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerPlan:
     """A plan of no echo: silence."""
-    none, no = np.zeros((0, 0)), np.zeros(0, bool)
+    none = dict.fromkeys(("responses", "response_spectra", "templates", "products"))
     return DopplerPlan(
         positions=np.zeros((n_mics, 0)),
         terms=np.zeros((1, 0, n_mics)),
-        responses=none,
-        response_spectra=none,
-        templates=none,
-        products=none,
-        direct_paths=no,
-        direct_terms=no,
-        band=no,
-        lo=0,
-        hi=0,
-        n_fft=0,
+        **{k: np.zeros((0, 0)) for k in none},
+        **{k: np.zeros(0, bool) for k in ("direct_paths", "direct_terms", "band")},
+        **dict.fromkeys(("lo", "hi", "n_fft"), 0),
         n_mics=n_mics,
         n_samples=n_samples,
         options=options,
