@@ -285,18 +285,16 @@ def plan_doppler(
     response: PathResponse | None = None,
     cache: DopplerCache | None = None,
 ) -> DopplerPlan:
-    """Steps 1-3 of :func:`render_doppler` (same arguments): the
-    :class:`DopplerPlan` that :func:`render_planned` turns into samples."""
-    need = "a moving scene"
-    check_interpolator(options.interpolator, ("sinc", "lagrange"), need=need, key=_KEY)
+    """Steps 1-3 of :func:`render_doppler`: its :class:`DopplerPlan`."""
+    check_interpolator(options.interpolator, ("sinc", "lagrange"), need=_NEED, key=_KEY)
     M = echoes.delay_s.shape[0]
     if echoes.n_paths == 0:
         return _empty_plan(M, n_samples, options)
     cache = DopplerCache() if cache is None else cache
     fs, taps = sample_rate_hz, options.taps
     # 1. Doppler nodes and the time-scaled calls there
-    tolerance = options.doppler_tolerance
-    nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tolerance)
+    tol = options.doppler_tolerance
+    nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
     calls, start = _templates(waveform, fs, nodes, cache)
     K, L = calls.shape
     # 2. the span of the output the echoes reach
@@ -308,11 +306,10 @@ def plan_doppler(
         return _empty_plan(M, n_samples, options)
     n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = cache.spectra.get(  # (K, F)
+    spectra = cache.spectra.get(
         ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
     )
-    # 3. path responses; the direct path is a group of its own only where it has
-    # its own response terms
+    # 3. path responses (the direct path a group of its own if it has its own terms)
     g, U, V, band, direct, shaped = _response_terms(echoes, spectra[K // 2], fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
     # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
@@ -339,7 +336,7 @@ def plan_doppler(
     )
 
 
-_KEY = "simulation.fractional_delay"
+_KEY, _NEED = "simulation.fractional_delay", "a moving scene"
 
 
 def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
