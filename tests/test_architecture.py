@@ -32,8 +32,12 @@ FORBIDDEN = (
     ("acousim.core", "acousim.trace"),
     ("acousim.core", "acousim.kinematics"),
     ("acousim.core", "acousim.synth"),
+    ("acousim.scene", "acousim.trace"),
+    ("acousim.scene", "acousim.kinematics"),
+    ("acousim.scene", "acousim.synth"),
     ("processing", "acousim"),
     ("processing", "hardware"),
+    ("hardware", "acousim"),
 )
 
 
