@@ -60,10 +60,6 @@ class FirstLeg(IntEnum):
     exact = 2
 
 
-#: the first-leg laws by name (``FirstLeg.exact``)
-FIRST_LEG = FirstLeg
-
-
 @dataclass(frozen=True, eq=False)
 class MovingPaths:
     """Paths of one measurement and how they follow the motion.  N paths, world frame,
