@@ -62,7 +62,7 @@ from .recording import (
     save_recordings,
 )
 from .smoothing import covariance, smoothed_covariance
-from .snapshot import Snapshot, stft_snapshot
+from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid, steering_matrix
 from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
 from .wideband import WIDEBAND_METHODS
@@ -121,6 +121,8 @@ __all__ = [
     "covariance",
     "smoothed_covariance",
     "Snapshot",
+    "Stft",
+    "BinGate",
     "stft_snapshot",
     "Grid",
     "steering_matrix",

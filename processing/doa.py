@@ -54,6 +54,8 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .arrays import Array
@@ -62,9 +64,32 @@ from .methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from .smoothing import default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
-__all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
+__all__ = [
+    "NarrowbandMethod",
+    "NARROWBAND_METHODS",
+    "METHODS",
+    "SubspaceOptions",
+    "doa_spectrum",
+    "method_matrix",
+]
 
 METHODS = NARROWBAND_METHODS
+
+
+@dataclass(frozen=True)
+class SubspaceOptions:
+    """How the covariance methods use the snapshots: the smoothing `subarray`
+    (Lz, Ly) (None: 5/8 of each dimension), the Capon `loading` (in units of the
+    noise floor, see :func:`method_matrix`) and the MUSIC signal subspace size
+    `n_sources` (None: the mean-eigenvalue rule)."""
+
+    subarray: tuple[int, int] | None = None
+    loading: float = -0.5
+    n_sources: int | None = None
+
+
+#: the defaults (:class:`processing.ProcessingSettings` declares the same)
+SUBSPACE_DEFAULTS = SubspaceOptions()
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
@@ -213,9 +238,7 @@ def doa_spectrum(
     method: str = "das",
     *,
     speed_of_sound_m_s: float = 343.0,
-    subarray: tuple[int, int] | None = None,
-    loading: float = -0.5,
-    n_sources: int | None = None,
+    options: SubspaceOptions = SUBSPACE_DEFAULTS,
     backend: str = "auto",
 ) -> np.ndarray:
     """Spatial spectrum of every range bin.
@@ -230,6 +253,8 @@ def doa_spectrum(
     grid : Grid
     method : str
         One of :data:`METHODS`.
+    options : SubspaceOptions
+        The subarray, loading and subspace size below.
     subarray : (Lz, Ly), optional
         Smoothing subarray (default: 5/8 of each dimension, 5x5 for 8x8).
     loading : float
@@ -246,6 +271,7 @@ def doa_spectrum(
         Real, non-negative spectrum (linear power or pseudo-power).
     """
     base, smooth = _parse(method)
+    subarray, loading, n_sources = options.subarray, options.loading, options.n_sources
     x = np.asarray(snapshots)
     if x.ndim == 2:
         x = x[:, :, None]

@@ -17,14 +17,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .broadband import BroadbandSettings, Directions, energyscape
-from .doa import doa_spectrum
+from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from .errors import InputError
 from .image import Image
 from .matched_filter import matched_filter
 from .methods import METHODS, Method, check_method, parse_method, requires_ura
 from .recording import Recording
 from .settings import setting, validate
-from .snapshot import Snapshot, stft_snapshot
+from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid
 from .wideband import band_frequencies, band_snapshots, wideband_spectrum
 
@@ -85,7 +85,9 @@ class ProcessingSettings:
     max_bins: int | None = setting(None, "", 1, 1 << 30, "keep the strongest bins", kind="int")
     #: smoothing subarray (rows, columns); None: 5/8 of each dimension
     subarray: tuple[int, int] | None = None
-    loading: float = setting(-0.5, "", -1e6, 1e6, "Capon load (noise floor units)")
+    loading: float = setting(
+        SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
+    )
     n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
     grid: Grid = field(default_factory=lambda: Grid.degrees(step=2.0))
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)
@@ -93,6 +95,11 @@ class ProcessingSettings:
     memory_limit_bytes: float = setting(
         float(MEMORY_LIMIT_BYTES), "B", 0, float("inf"), "refuse a larger imaging job"
     )
+
+    @property
+    def subspace(self) -> SubspaceOptions:
+        """The covariance methods' options of these settings."""
+        return SubspaceOptions(self.subarray, self.loading, self.n_sources)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -131,13 +138,10 @@ def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Sn
         recording.sample_rate_hz,
         speed_of_sound_m_s=recording.speed_of_sound_m_s,
         emission_index=recording.emission_index,
-        window=settings.window,
-        overlap=settings.overlap,
+        stft=Stft(settings.window, settings.overlap),
         frequency_hz=settings.frequency_hz,
         band_hz=_search_band(recording),
-        energy_fraction=settings.energy_fraction,
-        range_limits_m=settings.range_limits_m,
-        max_bins=settings.max_bins,
+        gate=BinGate(settings.energy_fraction, settings.range_limits_m, settings.max_bins),
     )
 
 
@@ -264,9 +268,7 @@ def acoustic_images(
                 grid,
                 method,
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
-                subarray=settings.subarray,
-                loading=settings.loading,
-                n_sources=settings.n_sources,
+                options=settings.subspace,
             )
         else:
             power = doa_spectrum(
@@ -276,9 +278,7 @@ def acoustic_images(
                 grid,
                 method,
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
-                subarray=settings.subarray,
-                loading=settings.loading,
-                n_sources=settings.n_sources,
+                options=settings.subspace,
             )
         out[method] = Image(
             power=power,
