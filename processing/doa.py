@@ -107,6 +107,50 @@ def _parse(method: str) -> tuple[str, str]:
     return spec.base, spec.smoothing
 
 
+def _normalised(snapshots, array: Array) -> np.ndarray:
+    """The snapshots (M, R, K) checked (shape, finite) and divided by their largest
+    magnitude (before squaring: no overflow or underflow at any scale)."""
+    x = np.asarray(snapshots)
+    if x.ndim == 2:
+        x = x[:, :, None]
+    if x.ndim != 3 or x.shape[0] != array.n_mics:
+        raise ValueError(
+            f"snapshots must have shape (M={array.n_mics}, R[, K]), got {np.shape(snapshots)}"
+        )
+    x = x.astype(np.complex128, copy=False)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        m, r = np.argwhere(bad)[0][:2]
+        raise InputError(
+            f"non-finite snapshot at microphone {m}, range bin {r}",
+            key="snapshots",
+            value=x[m, r, 0],
+        )
+    peak = np.abs(x).max() if x.size else 0.0
+    return x / peak if peak > 0 else x
+
+
+def _arranged(x: np.ndarray, array: Array, smooth: str, use_grid: bool, subarray):
+    """The snapshots as rows per range bin, Y (R, L, K): in grid order on a URA
+    (spatially smoothed with `smooth`), and the grid `shape` of the L elements (None
+    off the grid) and their positions (L, 3)."""
+    if not (array.is_ura and (smooth or use_grid)):
+        return np.moveaxis(x, 0, 1), None, array.positions_m
+    order = array.grid_order()
+    nz, ny = array.grid_shape
+    if smooth:
+        shape = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
+        xg = x[order].reshape(nz, ny, *x.shape[1:])
+        Y = subarray_snapshots(xg, shape, forward_backward=smooth == "fbss")
+    else:
+        Y = np.moveaxis(x[order], 0, 1)
+        shape = (nz, ny)
+    dz, dy = array.pitch_m
+    rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
+    positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
+    return Y, shape, positions
+
+
 def method_matrix(
     C: np.ndarray,
     base: str,
@@ -271,53 +315,17 @@ def doa_spectrum(
         Real, non-negative spectrum (linear power or pseudo-power).
     """
     base, smooth = _parse(method)
-    subarray, loading, n_sources = options.subarray, options.loading, options.n_sources
-    x = np.asarray(snapshots)
-    if x.ndim == 2:
-        x = x[:, :, None]
-    if x.ndim != 3 or x.shape[0] != array.n_mics:
-        raise ValueError(
-            f"snapshots must have shape (M={array.n_mics}, R[, K]), got {np.shape(snapshots)}"
-        )
+    loading, n_sources = options.loading, options.n_sources
     if backend not in ("auto", "coarray", "direct"):
         raise ValueError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
-    x = x.astype(np.complex128, copy=False)
-    bad = ~np.isfinite(x)
-    if bad.any():
-        m, r = np.argwhere(bad)[0][:2]
-        raise InputError(
-            f"non-finite snapshot at microphone {m}, range bin {r}",
-            key="snapshots",
-            value=x[m, r, 0],
-        )
-    peak = np.abs(x).max() if x.size else 0.0
-    if peak > 0:  # normalise before squaring: no overflow or underflow at any scale
-        x = x / peak
+    x = _normalised(snapshots, array)
     if smooth:
         array.require_ura(f"method {method!r}")
     use_grid = array.is_ura and backend != "direct"
     if backend == "coarray" and not array.is_ura:
         array.require_ura("the 'coarray' backend")
 
-    if array.is_ura and (smooth or use_grid):
-        order = array.grid_order()
-        nz, ny = array.grid_shape
-        if smooth:
-            sub = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
-            xg = x[order].reshape(nz, ny, *x.shape[1:])
-            Y = subarray_snapshots(xg, sub, forward_backward=smooth == "fbss")
-            shape = sub
-        else:
-            Y = np.moveaxis(x[order], 0, 1)
-            shape = (nz, ny)
-        dz, dy = array.pitch_m
-        rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-        positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
-    else:
-        Y = np.moveaxis(x, 0, 1)
-        shape = None
-        positions = array.positions_m
-
+    Y, shape, positions = _arranged(x, array, smooth, use_grid, options.subarray)
     L = Y.shape[1]
     low_rank = use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]
     if low_rank:  # co-array coefficients straight from the factors, no L x L matrix
