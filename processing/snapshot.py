@@ -96,34 +96,14 @@ def stft_snapshot(
 ) -> Snapshot:
     """Snapshots of a matched-filtered recording at one STFT frequency.
 
-    Parameters
-    ----------
-    mf : ndarray, shape (M, T) or (K, M, T)
-        Matched-filter output (K measurements of a static scene allowed).
-    sample_rate_hz : float
-    stft : Stft
-        Window, overlap and window type.
-    frequency_hz : float, optional
-        Steering frequency; default: the STFT bin with the highest energy.
-    band_hz : (low, high), optional
-        Where to look for the bin of highest energy (e.g. the band of the call, up to
-        the array's alias-free limit).  Ignored when `frequency_hz` is given.
-    gate : BinGate
-        Which range bins are kept (energy fraction, range limits, at most how many).
+    `mf` (M, T) or (K, M, T): matched-filter output (K measurements of a static scene
+    allowed), sampled at `sample_rate_hz`; `stft`: window, overlap, window type;
+    `frequency_hz`: the steering frequency (None: the STFT bin of highest energy,
+    searched inside `band_hz` (low, high) when given: the call's band up to the
+    array's alias-free limit); `gate`: which range bins are kept.
     """
     window, overlap = stft.window, stft.overlap
-    energy_fraction = gate.energy_fraction
-    x = np.asarray(mf)
-    if x.ndim == 2:
-        x = x[None]
-    if x.ndim != 3:
-        raise ValueError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
-    if not 0 <= overlap < window:
-        raise ValueError(f"overlap must be in [0, window={window}), got {overlap}")
-    if not 0 <= energy_fraction <= 1:
-        raise ValueError(f"energy_fraction must be in [0, 1], got {energy_fraction}")
-    if x.shape[-1] < window:
-        raise ValueError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
+    x = _checked(mf, stft, gate)
     hop = window - overlap
     win = get_window(stft.window_type, window)
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's
@@ -145,13 +125,7 @@ def stft_snapshot(
     column = frames @ kernel  # (K, M, P): one DFT bin of every frame
     energy = (column.real**2 + column.imag**2).sum(axis=(0, 1))
     energy = np.where(candidate, energy, 0.0)
-    top = energy.max() if energy.size else 0.0
-    keep = (energy >= energy_fraction * top) & (energy > 0)
-    if gate.max_bins is not None and keep.sum() > gate.max_bins:
-        order = np.argsort(energy)[::-1][: gate.max_bins]
-        keep = np.zeros_like(keep)
-        keep[order] = True
-    idx = np.flatnonzero(keep)
+    idx = _kept(energy, gate)
     data = np.moveaxis(column[:, :, idx], 0, -1)  # (M, R, K)
     if data.shape[-1] == 1 and np.asarray(mf).ndim == 2:
         data = data[..., 0]
@@ -176,3 +150,32 @@ def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz) -> int:
             raise ValueError(f"band_hz {band_hz} holds no STFT frequency bin")
         power = np.where(inband, power, -1.0)
     return int(np.argmax(power))
+
+
+def _checked(mf, stft: Stft, gate: BinGate) -> np.ndarray:
+    """The matched-filter output as (K, M, T), the STFT and the gate checked."""
+    x = np.asarray(mf)
+    if x.ndim == 2:
+        x = x[None]
+    if x.ndim != 3:
+        raise ValueError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
+    window, overlap = stft.window, stft.overlap
+    if not 0 <= overlap < window:
+        raise ValueError(f"overlap must be in [0, window={window}), got {overlap}")
+    if not 0 <= gate.energy_fraction <= 1:
+        raise ValueError(f"energy_fraction must be in [0, 1], got {gate.energy_fraction}")
+    if x.shape[-1] < window:
+        raise ValueError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
+    return x
+
+
+def _kept(energy: np.ndarray, gate: BinGate) -> np.ndarray:
+    """Indices of the range bins the gate keeps, in range order, from their energy
+    (P,) (zero outside the range limits)."""
+    top = energy.max() if energy.size else 0.0
+    keep = (energy >= gate.energy_fraction * top) & (energy > 0)
+    if gate.max_bins is not None and keep.sum() > gate.max_bins:
+        order = np.argsort(energy)[::-1][: gate.max_bins]
+        keep = np.zeros_like(keep)
+        keep[order] = True
+    return np.flatnonzero(keep)
