@@ -217,6 +217,19 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
     )
 
 
+def _band_snapshots(recording: Recording, settings: ProcessingSettings, snap: Snapshot):
+    """The frequencies (F,) of the ``-wb`` methods and the snapshots (F, M, R, K) of
+    the kept range bins of `snap` at each."""
+    freqs = band_frequencies(
+        _search_band(recording), recording.sample_rate_hz, settings.window, settings.max_freqs
+    )
+    mf = matched_filter(recording.samples, recording.waveform.sampled(recording.sample_rate_hz))
+    xb = band_snapshots(
+        mf, recording.sample_rate_hz, recording.emission_index, snap.time_s, settings.window, freqs
+    )
+    return freqs, xb
+
+
 def acoustic_images(
     recording: Recording,
     methods: Sequence[str] = ("das",),
@@ -238,29 +251,13 @@ def acoustic_images(
     snap = snapshot if snapshot is not None else recording_snapshot(recording, settings)
     _check_memory(recording, rest, settings, snap.n_bins)
     grid = settings.grid
-    freqs = mf = None
+    freqs = None
     for method in rest:
         if snap.n_bins == 0:
             power = np.zeros((0, *grid.shape))
         elif family[method] == "wideband":
             if freqs is None:
-                freqs = band_frequencies(
-                    _search_band(recording),
-                    recording.sample_rate_hz,
-                    settings.window,
-                    settings.max_freqs,
-                )
-                mf = matched_filter(
-                    recording.samples, recording.waveform.sampled(recording.sample_rate_hz)
-                )
-                xb = band_snapshots(
-                    mf,
-                    recording.sample_rate_hz,
-                    recording.emission_index,
-                    snap.time_s,
-                    settings.window,
-                    freqs,
-                )
+                freqs, xb = _band_snapshots(recording, settings, snap)
             power = wideband_spectrum(
                 xb,
                 recording.array,
