@@ -195,7 +195,11 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise fail(f"{v!r} is not one of {', '.join(decl.choices)}{hint}")
         return out
-    # vector or interval
+    return _numbers(decl, value, fail, rng)  # vector or interval
+
+
+def _numbers(decl: Setting, value: Any, fail, rng: str) -> tuple[float, ...]:
+    """A ``vector`` or ``interval`` setting's value checked: a tuple of floats."""
     try:
         items = None if isinstance(value, str | bytes | Mapping) else list(value)
     except TypeError:
