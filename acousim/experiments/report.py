@@ -271,6 +271,39 @@ def _first_below(f11, spac, m):
     return None
 
 
+#: the report's readings of the paper (how we read what it leaves open)
+_READINGS = [
+    "## Readings of the paper",
+    "",
+    "- **SNR (eq. 2)**: signal power = noise-free energy averaged over microphones, "
+    "divided by the call length in samples, i.e. the echo's mean power while one call "
+    "lasts; white Gaussian noise, independent per microphone and snapshot.",
+    "- **Steering sign**: with an exp(−jωt) STFT, eq. 7 as printed images the mirror "
+    "direction; we steer with exp(+jk u·p) (pinned by a test).",
+    "- **Capon loading**: the paper's b = −0.5 has no scale of its own; we load by "
+    "−0.5 times the smallest eigenvalue after a white-noise floor of 1e−3·tr(R)/L, "
+    "which keeps R_b positive definite at any signal scale.",
+    "- **Angular resolution**: the −3 dB region connected to the image maximum, on its "
+    "range slice, weighted by cos(elevation). **Range resolution**: the −3 dB extent "
+    "of the per-slice maxima over the kept range bins.",
+    "- **Figs. 11–12**: spectra at elevation 0 summed over the kept range bins; the "
+    "attenuation is the lower of the two source peaks over the deepest point between "
+    "them.",
+    "",
+]
+#: the figures, in the paper's order
+_FIGURES = [
+    ("fig03_spectrogram.png", "Fig. 3"),
+    ("fig04_matched_filter.png", "Fig. 4"),
+    ("fig06_angular_vs_snr.png", "Fig. 6"),
+    ("fig07_range_vs_snr.png", "Fig. 7"),
+    ("fig09_angular_vs_snapshots.png", "Fig. 9"),
+    ("fig10_range_vs_snapshots.png", "Fig. 10"),
+    ("fig11_attenuation_vs_spacing.png", "Fig. 11"),
+    ("fig12_multiple_sources.png", "Fig. 12"),
+]
+
+
 def write_report(
     results: StudyResults, path: str | Path, figures_dir: str | Path, command: str
 ) -> Path:
@@ -298,36 +331,11 @@ def write_report(
     lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in headline(results)]
     lines += [
         "",
-        "## Readings of the paper",
-        "",
-        "- **SNR (eq. 2)**: signal power = noise-free energy averaged over microphones, "
-        "divided by the call length in samples, i.e. the echo's mean power while one call "
-        "lasts; white Gaussian noise, independent per microphone and snapshot.",
-        "- **Steering sign**: with an exp(−jωt) STFT, eq. 7 as printed images the mirror "
-        "direction; we steer with exp(+jk u·p) (pinned by a test).",
-        "- **Capon loading**: the paper's b = −0.5 has no scale of its own; we load by "
-        "−0.5 times the smallest eigenvalue after a white-noise floor of 1e−3·tr(R)/L, "
-        "which keeps R_b positive definite at any signal scale.",
-        "- **Angular resolution**: the −3 dB region connected to the image maximum, on its "
-        "range slice, weighted by cos(elevation). **Range resolution**: the −3 dB extent "
-        "of the per-slice maxima over the kept range bins.",
-        "- **Figs. 11–12**: spectra at elevation 0 summed over the kept range bins; the "
-        "attenuation is the lower of the two source peaks over the deepest point between "
-        "them.",
-        "",
+        *_READINGS,
         "## Figures",
         "",
     ]
-    for name, title in [
-        ("fig03_spectrogram.png", "Fig. 3"),
-        ("fig04_matched_filter.png", "Fig. 4"),
-        ("fig06_angular_vs_snr.png", "Fig. 6"),
-        ("fig07_range_vs_snr.png", "Fig. 7"),
-        ("fig09_angular_vs_snapshots.png", "Fig. 9"),
-        ("fig10_range_vs_snapshots.png", "Fig. 10"),
-        ("fig11_attenuation_vs_spacing.png", "Fig. 11"),
-        ("fig12_multiple_sources.png", "Fig. 12"),
-    ]:
+    for name, title in _FIGURES:
         lines += [f"### {title}", "", f"![{title}]({figs}/{name})", ""]
     lines += ["CSV files with every number are beside the figures.", ""]
     path.parent.mkdir(parents=True, exist_ok=True)
