@@ -285,37 +285,19 @@ def doa_spectrum(
     options: SubspaceOptions = SUBSPACE_DEFAULTS,
     backend: str = "auto",
 ) -> np.ndarray:
-    """Spatial spectrum of every range bin.
+    """Spatial spectrum (R, E, A), float64, of every range bin: real, non-negative
+    (linear power or pseudo-power).
 
-    Parameters
-    ----------
-    snapshots : ndarray, complex, shape (M, R) or (M, R, K)
-        Narrow-band snapshots (see :func:`processing.snapshot.stft_snapshot`).
-    array : Array
-    frequency_hz : float
-        Steering frequency.
-    grid : Grid
-    method : str
-        One of :data:`METHODS`.
-    options : SubspaceOptions
-        The subarray, loading and subspace size below.
-    subarray : (Lz, Ly), optional
-        Smoothing subarray (default: 5/8 of each dimension, 5x5 for 8x8).
-    loading : float
-        Capon diagonal load in units of the noise floor (see the module docstring).
-    n_sources : int, optional
-        MUSIC signal-subspace dimension (default: the paper's mean-eigenvalue rule).
-    backend : {'auto', 'coarray', 'direct'}
-        'coarray' is the fast URA path; 'direct' evaluates the plain formula with
-        explicit steering vectors (any array, slow); 'auto' picks 'coarray' for URAs.
-
-    Returns
-    -------
-    ndarray, float64, shape (R, E, A)
-        Real, non-negative spectrum (linear power or pseudo-power).
+    `snapshots` (M, R) or (M, R, K), complex: narrow-band snapshots
+    (:func:`processing.snapshot.stft_snapshot`) at `frequency_hz` (the steering
+    frequency), steered over `grid`; `method`: one of :data:`METHODS`; `options`:
+    the smoothing subarray (Lz, Ly) (default: 5/8 of each dimension, 5x5 for 8x8),
+    the Capon diagonal load in units of the noise floor (module docstring) and the
+    MUSIC signal-subspace dimension (default: the paper's mean-eigenvalue rule);
+    `backend`: 'coarray' is the fast URA path, 'direct' evaluates the plain formula
+    with explicit steering vectors (any array, slow), 'auto' picks 'coarray' for URAs.
     """
     base, smooth = _parse(method)
-    loading, n_sources = options.loading, options.n_sources
     if backend not in ("auto", "coarray", "direct"):
         raise ValueError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
     x = _normalised(snapshots, array)
@@ -326,51 +308,57 @@ def doa_spectrum(
         array.require_ura("the 'coarray' backend")
 
     Y, shape, positions = _arranged(x, array, smooth, use_grid, options.subarray)
-    L = Y.shape[1]
-    low_rank = use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]
-    if low_rank:  # co-array coefficients straight from the factors, no L x L matrix
-        if base == "das":
-            S = Y.shape[-1]
-            factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
-        else:
-            _check(base, L, loading, n_sources)
-            factors = _low_rank_factors(Y, base, loading, n_sources)
-        inverse = base != "das"
-        power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
-        empty = np.flatnonzero(power <= 0)
-    elif smooth == "fbss" and use_grid:  # real from the start, Q never formed complex
-        T = _unitary(L)
-        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
-    else:
-        C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
-        if smooth == "fbss":  # exactly centro-Hermitian despite rounding
-            C = 0.5 * (C + C[:, ::-1, ::-1].conj())
-        Q, inverse = method_matrix(
-            C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
-        )
-        empty = np.flatnonzero(np.einsum("rii->r", C).real <= 0)
+    form, parts, inverse, empty = _method_form(Y, base, smooth, use_grid, options)
     if inverse:
-        floor = MUSIC_FLOOR * L if base == "music" else np.finfo(float).tiny
+        floor = MUSIC_FLOOR * Y.shape[1] if base == "music" else np.finfo(float).tiny
     else:
         floor = 0.0
     if use_grid:
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
         )
-        if low_rank:
-            coeffs = kernel.coefficients_low_rank(*factors)
-        elif smooth == "fbss":
-            coeffs = kernel.coefficients_unitary(Qr, T)
-        else:
-            coeffs = kernel.coefficients(Q)
-        P = kernel.evaluate(coeffs, floor=floor, invert=inverse)
+        coefficients = {
+            "low_rank": kernel.coefficients_low_rank,
+            "unitary": kernel.coefficients_unitary,
+            "full": kernel.coefficients,
+        }[form]
+        P = kernel.evaluate(coefficients(*parts), floor=floor, invert=inverse)
     else:
-        form = quadratic_form_direct(
-            Q, steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
-        )
-        P = np.maximum(form, floor, out=form)
+        steering = steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
+        quadratic = quadratic_form_direct(parts[0], steering)
+        P = np.maximum(quadratic, floor, out=quadratic)
         if inverse:
             np.reciprocal(P, out=P)
     if empty.size:
         P[empty] = 0.0
     return P
+
+
+def _method_form(Y: np.ndarray, base: str, smooth: str, use_grid: bool, options):
+    """The method's matrix of the arranged snapshots Y (R, L, K), in the form its
+    evaluation takes: 'low_rank' (co-array coefficients straight from the factors,
+    no L x L matrix), 'unitary' (forward-backward on the grid: real from the start,
+    Q never formed complex) or 'full' (Q (R, L, L)); its parts, whether the spectrum
+    is its inverse, and the range bins without energy."""
+    loading, n_sources = options.loading, options.n_sources
+    L = Y.shape[1]
+    if use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]:
+        if base == "das":
+            S = Y.shape[-1]
+            factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
+        else:
+            _check(base, L, loading, n_sources)
+            factors = _low_rank_factors(Y, base, loading, n_sources)
+        power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
+        return "low_rank", factors, base != "das", np.flatnonzero(power <= 0)
+    if smooth == "fbss" and use_grid:
+        T = _unitary(L)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
+        return "unitary", (Qr, T), inverse, empty
+    C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
+    if smooth == "fbss":  # exactly centro-Hermitian despite rounding
+        C = 0.5 * (C + C[:, ::-1, ::-1].conj())
+    Q, inverse = method_matrix(
+        C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
+    )
+    return "full", (Q,), inverse, np.flatnonzero(np.einsum("rii->r", C).real <= 0)
