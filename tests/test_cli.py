@@ -118,7 +118,7 @@ def test_trajectory_gives_an_animation(tmp_path):
 @pytest.mark.parametrize(
     "args,pattern",
     [
-        (["simulate", "{tmp}/nope.toml"], "no such scene file"),
+        (["simulate", "{tmp}/nope.toml"], "nope.toml: no such file, nor a bundled scene"),
         (["simulate", "{tmp}/bad.toml"], r"simulaton: unknown key.*did you mean 'simulation'"),
         (
             ["image", "{tmp}/r.h5", "--method", "das,bogus"],

@@ -90,7 +90,7 @@ def test_the_installed_wheel_carries_its_scenes(installed):
 
 def test_a_missing_scene_name_is_still_a_clear_error(tmp_path, capsys):
     assert main(["simulate", "no_such_scene", "--out", str(tmp_path / "x.h5")]) == 2
-    assert "no_such_scene: no such scene file" in capsys.readouterr().err
+    assert "no_such_scene: no such file, nor a bundled scene" in capsys.readouterr().err
 
 
 def test_reproduce_defaults_stay_out_of_docs(tmp_path, capsys):
