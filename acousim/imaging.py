@@ -93,14 +93,10 @@ def image_recordings(
 def _pose(rec: P.Recording):
     from acousim.scene.pose import Pose
 
-    p = rec.metadata.get("pose")
-    if not p:
+    p = rec.provenance.pose
+    if p is None:
         return Pose(np.zeros(3))
-    return Pose(
-        p["position_m"],
-        *np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]]),
-        time_s=p.get("time_s", 0.0),
-    )
+    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
 
 
 def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
@@ -282,11 +278,12 @@ def _sharpest(imgs: dict[str, P.Image]) -> str:
 
 def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
-    p = rec.metadata.get("pose")
-    moving = p and (trajectory or p.get("time_s", 0.0) or rec.metadata.get("pose_index", 0))
-    where = f", t = {p['time_s']:.1f} s" if moving else ""
-    kind = "simulated" if rec.metadata.get("simulated") else "real"
-    return f"{rec.metadata.get('scene', kind)} — recording {index}{where}"
+    prov = rec.provenance
+    p = prov.pose
+    moving = p is not None and (trajectory or p.time_s or prov.pose_index)
+    where = f", t = {p.time_s:.1f} s" if moving else ""
+    name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
+    return f"{name or prov.kind} — recording {index}{where}"
 
 
 TRUTH_DRAWN_DB = 20.0  # fan pictures: ray-traced reflectors within this of the strongest
@@ -333,11 +330,11 @@ def _sweep(rec: P.Recording):
     turned during it (``metadata["motion"]``), else None (nothing to smear)."""
     from acousim.viz.render3d import sensor_sweep
 
-    motion = rec.metadata.get("motion")
-    if not motion:
+    motion = rec.provenance.motion
+    if motion is None:
         return None
-    v = np.asarray(motion.get("velocity_m_s", (0.0, 0.0, 0.0)), float)
-    w = np.deg2rad(np.asarray(motion.get("angular_velocity_deg_s", (0.0, 0.0, 0.0)), float))
+    v = np.asarray(motion.velocity_m_s, float)
+    w = np.asarray(motion.angular_velocity_rad_s, float)
     window = rec.samples.shape[-1] / rec.sample_rate_hz
     if np.linalg.norm(w) * window < SWEEP_MIN_RAD and np.linalg.norm(v) * window < SWEEP_MIN_M:
         return None  # too small to be seen

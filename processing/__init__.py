@@ -50,6 +50,7 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
+from .provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 from .recording import (
     GroundTruth,
     Recording,
@@ -108,6 +109,10 @@ __all__ = [
     "acoustic_images",
     "recording_snapshot",
     "Recording",
+    "Provenance",
+    "SensorPose",
+    "SensorMotion",
+    "provenance_metadata",
     "RecordingFileError",
     "GroundTruth",
     "count_recordings",

@@ -33,6 +33,7 @@ import math
 from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 
 import h5py
@@ -42,6 +43,7 @@ from numpy.typing import DTypeLike
 from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
+from .provenance import Provenance
 from .waveforms import Waveform
 
 __all__ = [
@@ -88,7 +90,8 @@ class Recording:
     emission_index : int
         Sample index at which the emission starts (see the module docstring).
     metadata : dict
-        JSON-serialisable: pose, scene, seed, ``simulated`` (bool), device settings...
+        JSON-serialisable: provenance, pose, scene, seed, device settings...; read
+        where it came from through :attr:`provenance` (typed), not by key.
     truth : GroundTruth, optional
         The simulated paths (None for a real recording).
     """
@@ -104,7 +107,7 @@ class Recording:
 
     def __repr__(self) -> str:
         shape = "x".join(str(n) for n in np.shape(self.samples))
-        kind = "simulated" if self.metadata.get("simulated") else "real"
+        kind = self.provenance.kind
         return (
             f"Recording({kind}, {self.array.name!r}, samples {shape} at "
             f"{self.sample_rate_hz / 1e3:g} kHz, call {self.waveform.kind} "
@@ -144,6 +147,12 @@ class Recording:
         object.__setattr__(self, "emission_index", int(self.emission_index))
         object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
         object.__setattr__(self, "speed_of_sound_m_s", float(self.speed_of_sound_m_s))
+
+    @cached_property
+    def provenance(self) -> Provenance:
+        """Where the recording came from: simulated, real or emulated, its scene, pose
+        and motion (:mod:`processing.provenance`), read from the metadata."""
+        return Provenance.from_metadata(self.metadata)
 
     @property
     def n_samples(self) -> int:
@@ -632,6 +641,10 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
         raise RecordingFileError("must be a JSON object", file=path, key=key)
     if "pose" in meta:
         _check_pose(path, f"{key}: pose", meta["pose"])
+    try:
+        Provenance.from_metadata(meta, file=path, key=key)
+    except InputError as exc:
+        raise RecordingFileError(exc.reason, file=path, key=exc.key, value=exc.value) from None
     return meta
 
 

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 import processing as P
 from processing.errors import InputError
@@ -38,12 +39,13 @@ def _recordings(path: Path) -> list[str]:
     lines = [f"{path}: {n} recording(s)"]
     for i in range(n):
         r = P.load_recording(path, i)
-        kind = "simulated" if r.metadata.get("simulated") else "real"
+        prov = r.provenance
+        kind = prov.kind + (f" ({prov.scene})" if prov.scene else "")
         where = ""
-        if "pose" in r.metadata:
-            p = r.metadata["pose"]
-            yaw = p.get("yaw_deg", 0.0)
-            where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {yaw:.1f}°"
+        if prov.pose is not None:
+            p = prov.pose
+            yaw = np.rad2deg(p.yaw_rad)
+            where = f", pose {[round(v, 3) for v in p.position_m]} yaw {yaw:.1f}°"
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
         lines.append(
             f"  [{i}] {kind}, array {r.array.name} ({r.array.n_mics} mics), "

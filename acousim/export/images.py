@@ -10,7 +10,8 @@ Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
 
     /                               attrs: format = "acousim-images", version = 1
     /recording_000030/              attrs: index (in the recording file), scene,
-                                    time_s, position_m, yaw_deg, pitch_deg, roll_deg
+                                    provenance (simulated/real/emulated), time_s,
+                                    position_m, yaw_deg, pitch_deg, roll_deg
         range_m        (R,)  float64  dimension scale, units "m"
         elevation_deg  (E,)  float64  dimension scale, units "degree"
         azimuth_deg    (A,)  float64  dimension scale, units "degree"
@@ -104,13 +105,14 @@ def write_image_data(
         for idx, rec, imgs in zip(indices, recordings, images):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
-            g.attrs["scene"] = str(rec.metadata.get("scene", ""))
-            pose = rec.metadata.get("pose")
-            if pose:
-                g.attrs["time_s"] = float(pose.get("time_s", 0.0))
-                g.attrs["position_m"] = np.asarray(pose["position_m"], float)
-                for k in ("yaw_deg", "pitch_deg", "roll_deg"):
-                    g.attrs[k] = float(pose[k])
+            prov = rec.provenance
+            g.attrs["scene"] = prov.scene or ""
+            g.attrs["provenance"] = prov.kind  # simulated, real or emulated
+            if prov.pose is not None:
+                g.attrs["time_s"] = prov.pose.time_s
+                g.attrs["position_m"] = np.asarray(prov.pose.position_m, float)
+                for k in ("yaw", "pitch", "roll"):
+                    g.attrs[f"{k}_deg"] = float(np.rad2deg(getattr(prov.pose, f"{k}_rad")))
             first = next(iter(imgs.values()))
             axis = regular_range_axis(list(imgs.values()))
             scales = {

@@ -67,10 +67,11 @@ def _typestore():
 def recording_time_ns(rec: P.Recording, index: int) -> int:
     """The stamp of a recording (ns): its Unix timestamp (real), its pose's time
     (simulated trajectory), else index x 0.1 s."""
-    if rec.metadata.get("timestamp") is not None:
-        t = float(rec.metadata["timestamp"])
-    elif rec.metadata.get("pose"):
-        t = float(rec.metadata["pose"].get("time_s", 0.0))
+    prov = rec.provenance
+    if prov.timestamp_s is not None:
+        t = prov.timestamp_s
+    elif prov.pose is not None:
+        t = prov.pose.time_s
     else:
         t = 0.1 * index
     return int(round(t * 1e9))
@@ -160,8 +161,9 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
     wf = rec.waveform
     info = {
         "recording": index,
-        "scene": rec.metadata.get("scene"),
-        "simulated": bool(rec.metadata.get("simulated", False)),
+        "scene": rec.provenance.scene,
+        "provenance": rec.provenance.kind,  # simulated, real or emulated
+        "simulated": rec.provenance.simulated,
         "sample_rate_hz": rec.sample_rate_hz,
         "speed_of_sound_m_s": rec.speed_of_sound_m_s,
         "array": rec.array.name,
