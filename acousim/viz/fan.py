@@ -26,6 +26,7 @@ from processing import Image, to_db
 from processing.atomic import atomic_path
 
 __all__ = [
+    "DYNAMIC_RANGE_DB",
     "FanRaster",
     "NO_DATA_COLOR",
     "TRUTH_COLOR",
@@ -39,6 +40,9 @@ __all__ = [
     "truth_in_fan",
 ]
 
+#: the dynamic range of every picture (fan, el-az maps, animation, the bag's fan
+#: image) unless one is given (``--dynamic-range-db``); printed on every colour bar
+DYNAMIC_RANGE_DB = 30.0
 NO_DATA_COLOR = (0.62, 0.62, 0.62)  # range bins removed by the energy gate: grey
 TRUTH_COLOR = "white"  # ray-traced reflectors: white circles
 CMAP = "inferno"
