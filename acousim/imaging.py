@@ -18,6 +18,8 @@ from processing.atomic import atomic_path
 from processing.errors import InputError
 from processing.settings import setting, validate
 
+from .viz.fan import DYNAMIC_RANGE_DB
+
 __all__ = [
     "ImagingOptions",
     "image_recordings",
@@ -39,6 +41,8 @@ class ImagingOptions:
         reflector; a room needs a lower gate).
     min_range_m : bins nearer than this are ignored (the direct path).
     peak_threshold_db : peaks drawn in the 3D view.
+    dynamic_range_db : of every picture (fan, el-az maps, 3D view's reflectors,
+        animation, the bag's fan image).
     """
 
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
@@ -61,6 +65,9 @@ class ImagingOptions:
     )
     peak_threshold_db: float = setting(
         -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+    )
+    dynamic_range_db: float = setting(
+        DYNAMIC_RANGE_DB, "dB", 1, 200, "levels shown below each picture's strongest cell"
     )
     grid: P.Grid = field(init=False, repr=False)
 
@@ -244,14 +251,25 @@ def write_pictures(
     scene = _scene(first) if render_3d or animation else None
     limit = _range_limit(first, options)
     title = _title(first, indices[0], trajectory)
+    dr = options.dynamic_range_db
+    truth = _truth_sensor(first, dr)
     written.append(
         fan_figure(
-            imgs, out / "fan.png", truth=_truth_sensor(first), title=title, max_range_m=limit
+            imgs,
+            out / "fan.png",
+            truth=truth,
+            title=title,
+            max_range_m=limit,
+            dynamic_range_db=dr,
         )
     )
     for m, img in imgs.items():
         if img.power.size:
-            written.append(elaz_figure(img, out / f"elaz_{m}.png", title=title))
+            written.append(
+                elaz_figure(
+                    img, out / f"elaz_{m}.png", title=title, truth=truth, dynamic_range_db=dr
+                )
+            )
     triangles = _scene_triangles(scene) if render_3d or animation else None
     if render_3d:
         written.append(
@@ -301,19 +319,13 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     return f"{name or prov.kind} — recording {index}{where}"
 
 
-TRUTH_DRAWN_DB = 20.0  # fan pictures: ray-traced reflectors within this of the strongest
+def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
+    """Ray-traced echo points (N, 3; sensor frame, from the array centre, m) within
+    `dynamic_range_db` of the strongest echo (the direct path excluded), or None."""
+    from acousim.viz.truth import echo_points
 
-
-def _truth_sensor(rec: P.Recording) -> np.ndarray | None:
-    """Ray-traced echo points (N, 3, sensor frame) within TRUTH_DRAWN_DB of the
-    strongest echo (the direct path excluded)."""
-    t = rec.truth
-    if t is None or not len(t):
-        return None
-    pts = t.position_sensor_m
-    lvl = _truth_level_db(t)
-    strong = lvl >= -TRUTH_DRAWN_DB
-    return pts[strong] if strong.any() else None
+    pts, _ = echo_points(rec.truth, rec.array.positions_m.mean(axis=0), dynamic_range_db)
+    return pts if len(pts) else None
 
 
 def _truth_level_db(truth: P.GroundTruth) -> np.ndarray:
@@ -373,30 +385,40 @@ def _render(rec, imgs, triangles, path, options, moving=None):
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
         sweep=_sweep(rec),
         moving_triangles=moving,
+        truth_range_db=options.dynamic_range_db,
     )
     return Path(path)
 
 
+#: the animation's frame delay when the recordings carry no times (ms)
+FRAME_DELAY_MS = 100
+
+
+def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
+    """The GIF's delay between frames (ms): the median time between the recordings'
+    poses (the drive plays in real time), 20 ms to 1 s, else :data:`FRAME_DELAY_MS`.
+    GIF stores hundredths of a second, so the delay is rounded to 10 ms."""
+    times = [r.provenance.pose.time_s for r in recordings if r.provenance.pose is not None]
+    step = np.median(np.diff(times)) if len(times) == len(recordings) > 1 else 0.0
+    ms = step * 1e3 if step > 0 else FRAME_DELAY_MS
+    return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
+
+
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
-    import imageio.v2 as imageio
-    import matplotlib
+    import imageio.v3 as iio
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from acousim.viz.fan import TRUTH_COLOR, draw_fan, fan_extent, truth_in_fan
+    from acousim.viz.fan import fan_extent
     from acousim.viz.render3d import SceneRenderer
 
-    dr = 30.0
+    dr = options.dynamic_range_db
     method = _sharpest(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
-    truths = [_truth_sensor(rec) for rec in recordings]
-    truths_yx = [truth_in_fan(t) if t is not None else None for t in truths]
+    marks = [_fan_marks(rec, imgs[method], limit, dr) for rec, imgs in zip(recordings, images)]
     # one fitted extent for the whole drive (the axes do not jump between frames)
     ext = np.array(
         [
-            fan_extent(imgs[method], limit, dr, t)
-            for imgs, t in zip(images, truths_yx)
+            fan_extent(imgs[method], limit, dr, m.xy if m is not None else None)
+            for imgs, m in zip(images, marks)
             if imgs[method].range_m.size
         ]
         or [(1.0, -1.0, 0.0, 1.0)]
@@ -407,9 +429,10 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     renderer = SceneRenderer(
         triangles,
         window_size=(640, 480),
-        with_truth=any(t is not None for t in truths),
+        with_truth=any(m is not None for m in marks),
         with_sweep=any(s is not None for s in sweeps),
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        truth_range_db=dr,
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
@@ -424,29 +447,57 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 sweep=sweeps[k],
                 moving_triangles=_moving_triangles(scene, rec),
             )
-            fig, (a, b) = plt.subplots(
-                1,
-                2,
-                figsize=(12, 5.4),
-                gridspec_kw={"width_ratios": [1.2, 1]},
-                layout="constrained",
-            )
-            a.imshow(view)
-            a.axis("off")
-            a.set_title(_title(rec, indices[k], True), fontsize=10)
-            im = draw_fan(b, imgs[method], limit, dr, pixels=600, extent=extent)
-            if truths_yx[k] is not None:
-                t = truths_yx[k]
-                b.scatter(t[:, 0], t[:, 1], s=60, facecolors="none", edgecolors=TRUTH_COLOR, lw=0.8)
-            b.set_title(f"{method}, top view; white circles: ray-traced reflectors", fontsize=9)
-            fig.colorbar(im, ax=b, shrink=0.8, label=f"dB re strongest ({dr:g} dB range)")
-            fig.canvas.draw()
-            frames.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
-            plt.close(fig)
+            title = _title(rec, indices[k], True)
+            frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
             if progress:
                 progress(k + 1, len(recordings))
     finally:
         renderer.close()
-    with atomic_path(path) as tmp:
-        imageio.mimsave(tmp, frames, format="GIF", duration=0.1, loop=0)
+    with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
+        iio.imwrite(
+            tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
+        )
     return Path(path)
+
+
+def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):
+    """The traced reflectors' marks on a recording's fan (None: no ground truth)."""
+    from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
+    from acousim.viz.truth import fan_marks
+
+    truth = _truth_sensor(rec, dynamic_range_db)
+    if truth is None:
+        return None
+    a = image.azimuth_rad
+    span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
+    return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span)
+
+
+def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
+    """One animation frame (H, W, 3) uint8: the 3D view beside the fan with its marks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    from acousim.viz.fan import NO_DATA_COLOR, colorbar_label, draw_fan, legend_inside
+    from acousim.viz.truth import legend_handles
+
+    fig, (a, b) = plt.subplots(
+        1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
+    )
+    a.imshow(view)
+    a.axis("off")
+    a.set_title(title, fontsize=10)
+    im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
+    drawn = marks.draw(b) if marks is not None else set()
+    b.set_title(f"{image.method}, top view", fontsize=9)
+    fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
+    # the same entries in every frame: the frames keep one size
+    handles = [Patch(color=NO_DATA_COLOR, label="no data (energy gate)")]
+    legend_inside(fig, handles + legend_handles({"in", "off", "behind"} if marks is not None else drawn))
+    fig.canvas.draw()
+    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return frame

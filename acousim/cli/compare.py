@@ -6,7 +6,7 @@ import argparse
 
 from processing.errors import InputError
 
-from .common import INDEX, UsageError, load_scene, methods, writable_dir
+from .common import INDEX, UsageError, choice, load_scene, methods, writable_dir
 from .record import ARRAY_PRESETS, CALL_PRESETS
 
 
@@ -41,11 +41,14 @@ def register(sub) -> None:
     p.add_argument(
         "--array",
         default="ertis_v3d1",
-        choices=ARRAY_PRESETS,
-        help="array of a raw .bin (default: ertis_v3d1)",
+        type=choice("array preset", ARRAY_PRESETS),
+        help=f"array of a raw .bin: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
     )
     p.add_argument(
-        "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
+        "--call",
+        default="default_25_50",
+        type=choice("RTIS call preset", CALL_PRESETS),
+        help=f"call of a raw .bin: {', '.join(CALL_PRESETS)} (default: default_25_50)",
     )
     p.add_argument(
         "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"

@@ -18,7 +18,9 @@ def register(sub) -> None:
         description="Image recordings and write a rosbag2 folder (MCAP storage) "
         "with the raw samples (std_msgs/Float32MultiArray), the image peaks "
         "(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor "
-        "pose (/tf) and the sensor's description (std_msgs/String, JSON). Needs "
+        "pose (/tf), the sensor's description (std_msgs/String, JSON), /clock, the "
+        "scene's meshes (visualization_msgs/MarkerArray) and the traced reflectors "
+        "(sensor_msgs/PointCloud2). Needs "
         "the rosbags package (pip install 'acousim[ros]'); no ROS installation. "
         "Layout: docs/export.md.",
     )
@@ -54,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
         index,
         method=args.image_method,
         threshold_db=options.peak_threshold_db,
+        dynamic_range_db=options.dynamic_range_db,
     )
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
     return 0

@@ -27,6 +27,7 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
     add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
     add_declared(p, "--peak-threshold", IMAGING, "peak_threshold_db")
+    add_declared(p, "--dynamic-range-db", IMAGING, "dynamic_range_db", note="every picture")
 
 
 def load_and_image(args: argparse.Namespace):
@@ -41,6 +42,7 @@ def load_and_image(args: argparse.Namespace):
         "min_range_m": args.min_range,
         "max_range_m": args.max_range,
         "peak_threshold_db": args.peak_threshold,
+        "dynamic_range_db": args.dynamic_range_db,
     }
     options = ImagingOptions(  # unset options keep their declared defaults
         methods=methods("--method", args.method),
@@ -94,8 +96,10 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from acousim.export import write_image_data, write_peaks_csv
     from acousim.imaging import prepare_pictures, write_pictures
+    from acousim.outputs import our_files, tidy
 
     out = writable_dir(args.out)
+    before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     animation = not args.no_animation and len(recs) > 1
     prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
@@ -120,4 +124,6 @@ def run(args: argparse.Namespace) -> int:
     )
     for f in files:
         print(f"  {f}")
+    for line in tidy(out, before, files).lines():  # the user's own files stay
+        print(f"  ({line})")
     return 0
