@@ -267,7 +267,12 @@ def write_pictures(
         if img.power.size:
             written.append(
                 elaz_figure(
-                    img, out / f"elaz_{m}.png", title=title, truth=truth, dynamic_range_db=dr
+                    img,
+                    out / f"elaz_{m}.png",
+                    title=title,
+                    truth=truth,
+                    dynamic_range_db=dr,
+                    truth_tolerance_m=_half_range_resolution(first, img, options),
                 )
             )
     triangles = _scene_triangles(scene) if render_3d or animation else None
@@ -289,6 +294,13 @@ def write_pictures(
             )
         )
     return written
+
+
+def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:
+    """Half the image's range resolution (m): the reflectors an el-az slice may show."""
+    from acousim.matching import image_resolution
+
+    return image_resolution(rec, image, options.settings(rec).window).range_m / 2
 
 
 def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
@@ -320,12 +332,14 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
 
 
 def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
-    """Ray-traced echo points (N, 3; sensor frame, from the array centre, m) within
-    `dynamic_range_db` of the strongest echo (the direct path excluded), or None."""
-    from acousim.viz.truth import echo_points
+    """Ray-traced reflectors (:class:`acousim.viz.truth.Reflectors`) within
+    `dynamic_range_db` + :data:`acousim.viz.truth.MARGIN_DB` of the strongest echo
+    (the direct path excluded), or None."""
+    from acousim.viz.truth import MARGIN_DB, echo_points
 
-    pts, _ = echo_points(rec.truth, rec.array.positions_m.mean(axis=0), dynamic_range_db)
-    return pts if len(pts) else None
+    centre = rec.array.positions_m.mean(axis=0)
+    found = echo_points(rec.truth, centre, dynamic_range_db + MARGIN_DB)
+    return found if len(found) else None
 
 
 def _truth_level_db(truth: P.GroundTruth) -> np.ndarray:
@@ -470,7 +484,7 @@ def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db:
         return None
     a = image.azimuth_rad
     span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
-    return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span)
+    return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
 
 
 def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
@@ -491,12 +505,15 @@ def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> 
     a.axis("off")
     a.set_title(title, fontsize=10)
     im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
-    drawn = marks.draw(b) if marks is not None else set()
+    step = (extent[0] - extent[1]) / 40  # marks closer than ~1/40 of the view are one
+    drawn = marks.draw(b, min_separation=step) if marks is not None else set()
     b.set_title(f"{image.method}, top view", fontsize=9)
     fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
     # the same entries in every frame: the frames keep one size
     handles = [Patch(color=NO_DATA_COLOR, label="no data (energy gate)")]
-    legend_inside(fig, handles + legend_handles({"in", "off", "behind"} if marks is not None else drawn))
+    every = {"in", "off", "behind", "weak"}
+    marked = legend_handles(every if marks is not None else drawn, dynamic_range_db)
+    legend_inside(fig, handles + marked)
     fig.canvas.draw()
     frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)

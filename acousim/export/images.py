@@ -55,6 +55,14 @@ PEAK_COLUMNS = (
     "world_x_m",  # world frame, through the recording's pose (= sensor frame without one)
     "world_y_m",
     "world_z_m",
+    "on_grid_edge",  # 1: on the grid's first/last azimuth or elevation (may not be a peak)
+    "truth_kind",  # the traced reflector within the image's resolution ("" if none)
+    "truth_x_m",  # where it was traced, sensor frame (m)
+    "truth_y_m",
+    "truth_z_m",
+    "truth_level_db",  # re the strongest traced echo
+    "truth_offset_deg",  # angle between the peak and the (mirrored) reflector
+    "truth_behind",  # 1: behind the array, heard as its mirror (-x, y, z)
 )
 
 
@@ -156,27 +164,53 @@ def write_image_data(
 
 
 def peak_rows(
-    recording: P.Recording, index: int, image: P.Image, threshold_db: float
+    recording: P.Recording,
+    index: int,
+    image: P.Image,
+    threshold_db: float,
+    *,
+    window_samples: int = P.ProcessingSettings.window,
 ) -> list[tuple]:
-    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`."""
+    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`, each
+    with its grid-edge flag and its traced reflector (:mod:`acousim.matching`;
+    `window_samples`: the STFT window the image was made with)."""
     from acousim.imaging import peak_positions
+    from acousim.matching import image_resolution, match_peaks, on_grid_edge
 
     pk = image.peaks(threshold_db)
     if not pk.range_m.size:
         return []
     sensor, world = peak_positions(recording, pk)
-    return [
-        (
-            index,
-            image.method,
-            *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
-            *(float(v) for v in s),
-            *(float(v) for v in w),
+    edge = on_grid_edge(image, pk)
+    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
+    rows = []
+    for k, (r, a, e, lv, s, w) in enumerate(
+        zip(pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world)
+    ):
+        hit = m.index[k] >= 0
+        truth = (
+            (
+                str(m.kind[k]),
+                *(float(v) for v in m.position_sensor_m[k]),
+                float(m.level_db[k]),
+                float(np.rad2deg(m.offset_rad[k])),
+                int(m.behind[k]),
+            )
+            if hit
+            else ("",) * 7
         )
-        for r, a, e, lv, s, w in zip(
-            pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world
+        rows.append(
+            (
+                index,
+                image.method,
+                *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
+                *(float(v) for v in s),
+                *(float(v) for v in w),
+                int(edge[k]),
+                *truth,
+            )
         )
-    ]
+    return rows
 
 
 def write_peaks_csv(

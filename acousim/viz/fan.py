@@ -276,9 +276,9 @@ def make_fan_figure(
 
     max_range_m : the farthest range that may be drawn (the scene's range); the view
         is fitted to the echoes within the dynamic range and the marks inside it.
-    truth : optional (N, 3) reflector positions (sensor frame, from the array
-        centre, m), marked at their slant range along their azimuth
-        (:func:`acousim.viz.truth.fan_marks`).
+    truth : optional traced reflectors (:class:`acousim.viz.truth.Reflectors`, or
+        points (N, 3) in the sensor frame from the array centre, m), marked at
+        their slant range along their azimuth (:func:`acousim.viz.truth.fan_marks`).
     """
     from matplotlib.patches import Patch
 
@@ -296,7 +296,7 @@ def make_fan_figure(
     if truth is not None and len(truth) and n:
         az = next(iter(images.values())).azimuth_rad
         span = (float(az.min()), float(az.max())) if az.size else (-np.pi / 2, np.pi / 2)
-        marks = fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span)
+        marks = fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
     t_yx = marks.xy if marks is not None else None
     extents = [fan_extent(im, max_range_m, dynamic_range_db, t_yx) for im in images.values()] or [
         (1.0, -1.0, 0.0, 1.0)
@@ -317,12 +317,12 @@ def make_fan_figure(
     drawn: set[str] = set()
     for ax, (method, img) in zip(axes.ravel(), images.items()):
         im = draw_fan(ax, img, max_range_m, dynamic_range_db, extent=extent)
-        if marks is not None:
-            drawn |= marks.draw(ax)
+        if marks is not None:  # marks closer than ~1/40 of the view are one
+            drawn |= marks.draw(ax, min_separation=(extent[0] - extent[1]) / 40)
         ax.set_title(method)
         fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(dynamic_range_db))
     handles = [Patch(color=NO_DATA_COLOR, label="no data (energy gate)")]
-    handles += legend_handles(drawn)
+    handles += legend_handles(drawn, dynamic_range_db)
     legend_inside(fig, handles)
     head = (
         f"top view, {dynamic_range_db:g} dB dynamic range; "
@@ -427,10 +427,10 @@ def make_elaz_figure(
     (azimuth grows to the left), in dB relative to the image's strongest cell.
     Returns the matplotlib Figure.
 
-    truth : optional (N, 3) reflector positions (sensor frame, from the array centre,
-        m); those within `truth_tolerance_m` (default: one range bin,
-        ``image.bin_range_m``) of a slice's range are marked on it
-        (:func:`acousim.viz.truth.elaz_marks`).
+    truth : optional traced reflectors (as for :func:`make_fan_figure`); those
+        within `truth_tolerance_m` (default: three range bins; the pictures give half
+        the image's range resolution, :mod:`acousim.matching`) of a slice's range
+        are marked on it (:func:`acousim.viz.truth.elaz_marks`).
     """
     from .truth import elaz_marks, legend_handles
 
@@ -453,7 +453,7 @@ def make_elaz_figure(
     az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
     da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
     de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
-    tol = truth_tolerance_m if truth_tolerance_m is not None else (image.bin_range_m or 0.05)
+    tol = truth_tolerance_m if truth_tolerance_m is not None else 3 * (image.bin_range_m or 0.01)
     spans = (
         (float(image.azimuth_rad.min()), float(image.azimuth_rad.max())),
         (float(image.elevation_rad.min()), float(image.elevation_rad.max())),
@@ -473,7 +473,8 @@ def make_elaz_figure(
             extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
         )
         if truth is not None and len(truth):
-            drawn |= elaz_marks(truth, float(image.range_m[r]), tol, *spans).draw(ax, 40.0)
+            marks = elaz_marks(truth, float(image.range_m[r]), tol, *spans, dynamic_range_db)
+            drawn |= marks.draw(ax, 40.0, min_separation=4.0)  # degrees
         ax.set_xlim(az[-1] + da, az[0] - da)
         ax.set_ylim(el[0] - de, el[-1] + de)
         ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
@@ -482,9 +483,9 @@ def make_elaz_figure(
             ax.set_ylabel("elevation (°), up +")
     fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, label=colorbar_label(dynamic_range_db))
     if drawn:
-        legend_inside(fig, legend_handles(drawn))
+        legend_inside(fig, legend_handles(drawn, dynamic_range_db))
     head = f"{image.method}: strongest distinct echoes, {dynamic_range_db:g} dB dynamic range"
     if truth is not None:
-        head += f"; reflectors within {tol * 100:.0f} cm of each slice's range"
+        head += f"; marks: reflectors within {tol * 100:.0f} cm of the slice's range"
     fig.suptitle(f"{title}\n{head}" if title else head, fontsize=10)
     return fig

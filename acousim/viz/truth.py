@@ -15,8 +15,12 @@ Three marks (:data:`MARKS`), in every picture's legend:
   nearest its direction);
 - ``behind``: behind the array, drawn at its mirror (then placed as above).
 
-Only reflectors within the picture's dynamic range of the strongest traced echo are
-drawn (a weaker one cannot show); the direct path is not a reflector.  Positions are
+Only reflectors within the picture's dynamic range plus :data:`MARGIN_DB` of the
+strongest traced echo are drawn: a much weaker one cannot show, but many weak ones
+can add up (a floor's scatter points, each 34 dB below the strongest echo, make a
+bright arc in the corridor); those below the dynamic range are drawn small.  Marks
+closer together than a picture's spacing are
+drawn once, the strongest.  The direct path is not a reflector.  Positions are
 relative to the array's centre (where the images' ranges start), sensor frame, m.
 """
 
@@ -26,7 +30,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MARKS", "TruthMarks", "echo_points", "elaz_marks", "fan_marks", "legend_handles"]
+__all__ = [
+    "MARGIN_DB",
+    "MARKS",
+    "TruthMarks",
+    "echo_points",
+    "elaz_marks",
+    "fan_marks",
+    "legend_handles",
+]
 
 #: matplotlib marker style of each mark (drawn over the inferno colour map)
 MARKS = {
@@ -35,57 +47,98 @@ MARKS = {
     "behind": {"marker": "D", "label": "traced reflector behind the array (at its mirror)"},
 }
 EDGE_COLOR = "white"
+#: reflectors this much below a picture's dynamic range are still marked (dB)
+MARGIN_DB = 10.0
+WEAK_SCALE = 0.3  # area of a weak reflector's mark re a strong one's
+
+
+@dataclass(frozen=True)
+class Reflectors:
+    """Traced reflectors to mark: points_m (N, 3) in the sensor frame from the array
+    centre (m), level_db (N,) re the strongest traced echo; the strongest first."""
+
+    points_m: np.ndarray
+    level_db: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.level_db)
+
+
+def as_reflectors(truth) -> Reflectors:
+    """Reflectors as given, or bare points (N, 3) at 0 dB."""
+    if isinstance(truth, Reflectors):
+        return truth
+    p = np.asarray(truth, float).reshape(-1, 3)
+    return Reflectors(p, np.zeros(len(p)))
 
 
 @dataclass(frozen=True)
 class TruthMarks:
     """Reflectors placed in a picture: xy (N, 2) in the picture's axes' units, mark
-    (N,) one of ``"in"``, ``"off"``, ``"behind"``."""
+    (N,) one of ``"in"``, ``"off"``, ``"behind"``; weak (N,) below the picture's
+    dynamic range (drawn small)."""
 
     xy: np.ndarray
     mark: np.ndarray
+    weak: np.ndarray
 
     def __len__(self) -> int:
         return len(self.mark)
 
-    def draw(self, ax, size: float = 45.0) -> set[str]:
-        """Scatter the marks on a matplotlib axis (hollow, white); returns the marks
-        drawn (for the legend)."""
+    def thinned(self, min_separation: float) -> TruthMarks:
+        """At most one mark of each kind within `min_separation` (the axes' units) of
+        another: the first kept (:func:`echo_points` puts the strongest first), so
+        that a floor's hundred scatter points do not hide the picture."""
+        keep = np.zeros(len(self), bool)
+        for name in MARKS:
+            kept: list[np.ndarray] = []
+            for i in np.nonzero(self.mark == name)[0]:
+                if all(np.hypot(*(self.xy[i] - q)) >= min_separation for q in kept):
+                    kept.append(self.xy[i])
+                    keep[i] = True
+        return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
+
+    def draw(self, ax, size: float = 45.0, min_separation: float = 0.0) -> set[str]:
+        """Scatter the marks on a matplotlib axis (hollow, white), thinned to
+        `min_separation`; returns the marks drawn (for the legend)."""
+        marks = self.thinned(min_separation) if min_separation > 0 else self
         drawn = set()
         for name, style in MARKS.items():
-            k = self.mark == name
-            if k.any():
-                ax.scatter(
-                    self.xy[k, 0],
-                    self.xy[k, 1],
-                    s=size,
-                    marker=style["marker"],
-                    facecolors="none",
-                    edgecolors=EDGE_COLOR,
-                    linewidths=0.9,
-                    clip_on=True,
-                )
-                drawn.add(name)
+            for weak, scale, width in ((False, 1.0, 0.9), (True, WEAK_SCALE, 0.6)):
+                k = (marks.mark == name) & (marks.weak == weak)
+                if k.any():
+                    ax.scatter(
+                        marks.xy[k, 0],
+                        marks.xy[k, 1],
+                        s=size * scale,
+                        marker=style["marker"],
+                        facecolors="none",
+                        edgecolors=EDGE_COLOR,
+                        linewidths=width,
+                        clip_on=True,
+                    )
+                    drawn.add(name)
+                    if weak:
+                        drawn.add("weak")
         return drawn
 
 
-def echo_points(
-    truth, array_centre_m: np.ndarray, dynamic_range_db: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The traced reflectors worth drawing: (points (N, 3) relative to the array
-    centre in the sensor frame, m; level (N,) in dB re the strongest echo), those
-    within `dynamic_range_db` of the strongest, the direct path left out."""
+def echo_points(truth, array_centre_m: np.ndarray, range_db: float) -> Reflectors:
+    """The traced reflectors (a recording's ground truth) worth drawing: those within
+    `range_db` of the strongest echo, the direct path left out; the strongest first."""
+    none = Reflectors(np.zeros((0, 3)), np.zeros(0))
     if truth is None or not len(truth):
-        return np.zeros((0, 3)), np.zeros(0)
+        return none
     amp = np.abs(np.asarray(truth.amplitude, float))
     echo = (np.asarray(truth.kind) != "direct") & (amp > 0)
     if not echo.any():
-        return np.zeros((0, 3)), np.zeros(0)
+        return none
     level = np.full(amp.shape, -np.inf)
     level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
-    keep = level >= -dynamic_range_db
+    keep = np.nonzero(level >= -range_db)[0]
+    keep = keep[np.argsort(-level[keep], kind="stable")]
     pts = np.asarray(truth.position_sensor_m, float)[keep] - np.asarray(array_centre_m, float)
-    return pts, level[keep]
+    return Reflectors(pts, level[keep])
 
 
 def _mirrored(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -109,50 +162,73 @@ def _marks(inside: np.ndarray, behind: np.ndarray) -> np.ndarray:
 
 
 def fan_marks(
-    points: np.ndarray,
+    truth,
     max_range_m: float,
     elevation_band_rad: float,
     azimuth_span_rad: tuple[float, float],
+    dynamic_range_db: float = np.inf,
 ) -> TruthMarks:
     """Marks on a fan (top view, range x azimuth; elevation collapsed over
     |elevation| <= `elevation_band_rad`): each reflector where the fan shows its
     echo, at its slant range along its azimuth, as (y, x) in m; those beyond
-    `max_range_m` or outside the azimuth span are not drawn."""
-    p, behind = _mirrored(points)
+    `max_range_m` or outside the azimuth span are not drawn.  `truth`:
+    :class:`Reflectors` (or points (N, 3) at 0 dB); weak below `dynamic_range_db`."""
+    t = as_reflectors(truth)
+    p, behind = _mirrored(t.points_m)
     r, az, el = _angles(p)
     shown = (r <= max_range_m) & (az >= azimuth_span_rad[0]) & (az <= azimuth_span_rad[1])
     inside = np.abs(el) <= elevation_band_rad
     xy = np.column_stack([r * np.sin(az), r * np.cos(az)])
-    return TruthMarks(xy[shown], _marks(inside, behind)[shown])
+    weak = t.level_db < -dynamic_range_db
+    return TruthMarks(xy[shown], _marks(inside, behind)[shown], weak[shown])
 
 
 def elaz_marks(
-    points: np.ndarray,
+    truth,
     range_m: float,
     tolerance_m: float,
     azimuth_span_rad: tuple[float, float],
     elevation_span_rad: tuple[float, float],
+    dynamic_range_db: float = np.inf,
 ) -> TruthMarks:
     """Marks on an elevation-azimuth map at the range slice `range_m`: reflectors
     within `tolerance_m` of it, as (azimuth, elevation) in degrees; one outside the
-    angular grid is drawn at the grid's edge nearest its direction ("off")."""
-    p, behind = _mirrored(points)
+    angular grid is drawn at the grid's edge nearest its direction ("off").  `truth`
+    as for :func:`fan_marks`."""
+    t = as_reflectors(truth)
+    p, behind = _mirrored(t.points_m)
     r, az, el = _angles(p)
     near = np.abs(r - range_m) <= tolerance_m
     a = np.clip(az, *azimuth_span_rad)
     e = np.clip(el, *elevation_span_rad)
     inside = (a == az) & (e == el)
     xy = np.rad2deg(np.column_stack([a, e]))
-    return TruthMarks(xy[near], _marks(inside, behind)[near])
+    weak = t.level_db < -dynamic_range_db
+    return TruthMarks(xy[near], _marks(inside, behind)[near], weak[near])
 
 
-def legend_handles(drawn: set[str]) -> list:
-    """Legend entries (matplotlib Line2D) of the marks drawn, black on the legend's
-    white."""
+def legend_handles(drawn: set[str], dynamic_range_db: float | None = None) -> list:
+    """Legend entries (matplotlib Line2D) of the marks drawn (and of the small weak
+    ones, "weak" in `drawn`), black on the legend's white."""
     from matplotlib.lines import Line2D
 
-    return [
+    out = [
         Line2D([], [], ls="none", mfc="none", mec="black", label=s["label"], marker=s["marker"])
         for name, s in MARKS.items()
         if name in drawn
     ]
+    if "weak" in drawn and dynamic_range_db is not None:
+        lo, hi = dynamic_range_db, dynamic_range_db + MARGIN_DB
+        out.append(
+            Line2D(
+                [],
+                [],
+                ls="none",
+                mfc="none",
+                mec="black",
+                marker="o",
+                markersize=6 * WEAK_SCALE**0.5,
+                label=f"small: {lo:g} to {hi:g} dB below the strongest traced echo",
+            )
+        )
+    return out
