@@ -96,8 +96,8 @@ def _not_found(kind: Kind, path: Path) -> str:
     folder = len(path.parts) > 1
     if folder and stem in names:
         return (
-            f"no such file; the bundled {what} {stem!r} has that file name: give "
-            f"{stem!r} (bundled names work from any folder)"
+            f"no such file; a bundled {what} has that file name: give {stem!r} "
+            "(bundled names work from any folder)"
         )
     close = did_you_mean(stem, names)
     if close is not None:

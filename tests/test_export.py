@@ -102,6 +102,17 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
         w = np.array([float(top[c]) for c in ("world_x_m", "world_y_m", "world_z_m")])
         assert np.linalg.norm(s - P_SENSOR) < 0.06
         assert np.linalg.norm(w - P_WORLD) < 0.06
+        # the peak's traced reflector: the point placed by hand, inside the grid
+        assert top["on_grid_edge"] == "0" and top["truth_kind"] == "point"
+        t = np.array([float(top[c]) for c in ("truth_x_m", "truth_y_m", "truth_z_m")])
+        np.testing.assert_allclose(t, P_SENSOR, atol=1e-6)
+        assert float(top["truth_level_db"]) == 0.0 and top["truth_behind"] == "0"
+        assert float(top["truth_offset_deg"]) <= 3.0
+    from acousim.dataset.info import describe
+
+    lines = describe(out / "images.h5")
+    assert lines[0].endswith("images of 1 recording(s) (format acousim-images)")
+    assert "[0] simulated (left): das, music-fbss" in lines[1]
 
 
 def test_rosbag_reads_back_with_rosbags(recording_file, tmp_path):
@@ -210,6 +221,11 @@ def test_rosbag_carries_clock_scene_meshes_and_traced_reflectors(tmp_path):
     to_sensor = np.array([[np.cos(yaw), np.sin(yaw), 0], [-np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
     np.testing.assert_allclose(best[:3], to_sensor @ foot[0], atol=0.02)
     assert best[3] == 0.0 and best[4] == 1
+    from acousim.dataset.info import describe
+
+    lines = describe(bag)
+    assert "8 message(s)" in lines[0] and "recordings: 1 simulated" in lines[1]  # 8 topics
+    assert "  /acousim/scene: visualization_msgs/msg/MarkerArray, 1 message(s)" in lines
 
 
 def test_interrupted_image_leaves_no_partial_file(recording_file, tmp_path, monkeypatch):

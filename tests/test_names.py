@@ -1,6 +1,8 @@
 """Near misses get a suggestion, once: scene names, dataset specs, methods, array
 presets, calls; a missing path named like a bundled file names the bundled one."""
 
+import re
+
 import pytest
 
 import processing as P
@@ -63,11 +65,11 @@ def test_bundled_names_resolve_from_any_folder(tmp_path, monkeypatch):
             "corridr",
             "no such file, nor a bundled scene of that name; did you mean 'corridor'?",
         ),
-        ("scenes", "scenes/wall.toml", "the bundled scene 'wall' has that file name: give 'wall'"),
+        ("scenes", "scenes/wall.toml", "a bundled scene has that file name: give 'wall'"),
         (
             "datasets",
             "datasets/corridor_small.toml",
-            "the bundled dataset spec 'corridor_small' has that file name",
+            "a bundled dataset spec has that file name: give 'corridor_small'",
         ),
         ("datasets", "corridor_smal", "did you mean 'corridor_small'?"),
     ],
@@ -80,3 +82,52 @@ def test_a_missing_scene_or_spec_says_which_bundled_name_to_use(
         resolve(kind, typed)
     assert message in str(err.value)
     assert str(err.value).startswith(f"{typed}: ")  # the value named once, first
+
+
+@pytest.mark.parametrize(
+    "argv,bad,expected",
+    [
+        (
+            ["simulate", "corridr"],
+            "corridr",
+            "corridr: no such file, nor a bundled scene of that name; did you mean 'corridor'?",
+        ),
+        (
+            ["simulate", "scenes/wall.toml"],
+            "scenes/wall.toml",
+            "a bundled scene has that file name: give 'wall'",
+        ),
+        (
+            ["dataset", "corridor_smal", "--out", "d"],
+            "corridor_smal",
+            "did you mean 'corridor_small'?",
+        ),
+        (
+            ["image", "x.h5", "--method", "das,dass"],
+            "dass",
+            "--method = 'dass': unknown method; did you mean 'das'?",
+        ),
+        (
+            ["record", "--array", "urtis", "--count", "1", "--out", "r.h5"],
+            "urtis",
+            "'urtis': unknown array preset; did you mean 'urtis_v1'?",
+        ),
+        (
+            ["record", "--call", "default_2550", "--count", "1", "--out", "r.h5"],
+            "default_2550",
+            "did you mean 'default_25_50'?",
+        ),
+    ],
+)
+def test_the_command_line_suggests_the_name(tmp_path, monkeypatch, capsys, argv, bad, expected):
+    from acousim.cli import main
+
+    monkeypatch.chdir(tmp_path)  # an empty folder
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert expected in err
+    assert len(re.findall(re.escape(bad) + r"(?!\w)", err)) == 1, err  # named once
