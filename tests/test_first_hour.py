@@ -72,6 +72,10 @@ def test_every_readme_command_then_every_doc_block_runs_from_an_empty_folder(
         assert (folder / name).is_file(), name
     assert (folder / "corridor_bag" / "metadata.yaml").is_file()
     assert (folder / "data" / "cs" / "manifest.json").is_file()
+    # `record --emulate` wrote emulated recordings, not real ones
+    import processing as P
+
+    assert {r.provenance.kind for r in P.load_recordings(folder / "rec.h5")} == {"emulated"}
     monkeypatch.chdir(folder)
     ran = []
     for doc in DOCS:
