@@ -240,8 +240,6 @@ def write_pictures(
 
     indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
     """
-    from acousim.viz import elaz_figure, fan_figure
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
@@ -251,30 +249,7 @@ def write_pictures(
     scene = _scene(first) if render_3d or animation else None
     limit = _range_limit(first, options)
     title = _title(first, indices[0], trajectory)
-    dr = options.dynamic_range_db
-    truth = _truth_sensor(first, dr)
-    written.append(
-        fan_figure(
-            imgs,
-            out / "fan.png",
-            truth=truth,
-            title=title,
-            max_range_m=limit,
-            dynamic_range_db=dr,
-        )
-    )
-    for m, img in imgs.items():
-        if img.power.size:
-            written.append(
-                elaz_figure(
-                    img,
-                    out / f"elaz_{m}.png",
-                    title=title,
-                    truth=truth,
-                    dynamic_range_db=dr,
-                    truth_tolerance_m=_half_range_resolution(first, img, options),
-                )
-            )
+    written += _stills(first, imgs, out, options, limit, title)
     triangles = _scene_triangles(scene) if render_3d or animation else None
     if render_3d:
         written.append(
@@ -293,6 +268,22 @@ def write_pictures(
                 recordings, images, triangles, out / "drive.gif", options, progress, indices, scene
             )
         )
+    return written
+
+
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str):
+    """The fan (every method) and each method's el-az maps of one recording, with
+    its traced reflectors marked: the files written."""
+    from acousim.viz import elaz_figure, fan_figure
+
+    dr = options.dynamic_range_db
+    truth = _truth_sensor(rec, dr)
+    kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
+    written = [fan_figure(imgs, out / "fan.png", max_range_m=limit, **kw)]
+    for m, img in imgs.items():
+        if img.power.size:
+            tol = _half_range_resolution(rec, img, options)
+            written.append(elaz_figure(img, out / f"elaz_{m}.png", truth_tolerance_m=tol, **kw))
     return written
 
 
@@ -421,7 +412,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
     import imageio.v3 as iio
 
-    from acousim.viz.fan import fan_extent
+    from acousim.viz.fan import common_extent
     from acousim.viz.render3d import SceneRenderer
 
     dr = options.dynamic_range_db
@@ -429,14 +420,9 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     limit = min(_range_limit(rec, options) for rec in recordings)
     marks = [_fan_marks(rec, imgs[method], limit, dr) for rec, imgs in zip(recordings, images)]
     # one fitted extent for the whole drive (the axes do not jump between frames)
-    ext = np.array(
-        [
-            fan_extent(imgs[method], limit, dr, m.xy if m is not None else None)
-            for imgs, m in zip(images, marks)
-            if imgs[method].range_m.size
-        ]
-        or [(1.0, -1.0, 0.0, 1.0)]
-    )
+    kept = [(imgs[method], m) for imgs, m in zip(images, marks) if imgs[method].range_m.size]
+    extents = [common_extent([im], limit, dr, m.xy if m else None) for im, m in kept]
+    ext = np.array(extents or [(1.0, -1.0, 0.0, 1.0)])
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
     sweeps = [_sweep(rec) for rec in recordings]
@@ -493,10 +479,8 @@ def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> 
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Patch
 
-    from acousim.viz.fan import NO_DATA_COLOR, colorbar_label, draw_fan, legend_inside
-    from acousim.viz.truth import legend_handles
+    from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, legend_inside
 
     fig, (a, b) = plt.subplots(
         1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
@@ -510,10 +494,8 @@ def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> 
     b.set_title(f"{image.method}, top view", fontsize=9)
     fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
     # the same entries in every frame: the frames keep one size
-    handles = [Patch(color=NO_DATA_COLOR, label="no data (energy gate)")]
     every = {"in", "off", "behind", "weak"}
-    marked = legend_handles(every if marks is not None else drawn, dynamic_range_db)
-    legend_inside(fig, handles + marked)
+    legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
     fig.canvas.draw()
     frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)

@@ -280,9 +280,7 @@ def make_fan_figure(
         points (N, 3) in the sensor frame from the array centre, m), marked at
         their slant range along their azimuth (:func:`acousim.viz.truth.fan_marks`).
     """
-    from matplotlib.patches import Patch
-
-    from .truth import fan_marks, legend_handles
+    from .truth import fan_marks
 
     plt = _plt()
     n = len(images)
@@ -297,12 +295,9 @@ def make_fan_figure(
         az = next(iter(images.values())).azimuth_rad
         span = (float(az.min()), float(az.max())) if az.size else (-np.pi / 2, np.pi / 2)
         marks = fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
-    t_yx = marks.xy if marks is not None else None
-    extents = [fan_extent(im, max_range_m, dynamic_range_db, t_yx) for im in images.values()] or [
-        (1.0, -1.0, 0.0, 1.0)
-    ]
-    e = np.array(extents)  # one extent for all panels: comparable side by side
-    extent = (e[:, 0].max(), e[:, 1].min(), e[:, 2].min(), e[:, 3].max())
+    extent = common_extent(
+        list(images.values()), max_range_m, dynamic_range_db, marks.xy if marks else None
+    )
     aspect = (extent[3] - extent[2]) / (extent[0] - extent[1])
     panel_w = 4.2
     fig, axes = plt.subplots(
@@ -321,15 +316,33 @@ def make_fan_figure(
             drawn |= marks.draw(ax, min_separation=(extent[0] - extent[1]) / 40)
         ax.set_title(method)
         fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(dynamic_range_db))
-    handles = [Patch(color=NO_DATA_COLOR, label="no data (energy gate)")]
-    handles += legend_handles(drawn, dynamic_range_db)
-    legend_inside(fig, handles)
-    head = (
-        f"top view, {dynamic_range_db:g} dB dynamic range; "
-        f"elevation within ±{np.rad2deg(FAN_ELEVATION_BAND_RAD):g}° is this slice"
+    legend_inside(fig, fan_legend(drawn, dynamic_range_db))
+    band = np.rad2deg(FAN_ELEVATION_BAND_RAD)
+    head = f"top view, {dynamic_range_db:g} dB dynamic range; elevation within ±{band:g}°"
+    fig.suptitle(
+        f"{title}\n{head} is this slice" if title else f"{head} is this slice", fontsize=10
     )
-    fig.suptitle(f"{title}\n{head}" if title else head, fontsize=10)
     return fig
+
+
+def common_extent(images, max_range_m: float, dynamic_range_db: float, points_yx=None):
+    """One :func:`fan_extent` covering every image (panels or frames side by side keep
+    the same axes)."""
+    e = np.array(
+        [fan_extent(im, max_range_m, dynamic_range_db, points_yx) for im in images]
+        or [(1.0, -1.0, 0.0, 1.0)]
+    )
+    return (e[:, 0].max(), e[:, 1].min(), e[:, 2].min(), e[:, 3].max())
+
+
+def fan_legend(drawn: set[str], dynamic_range_db: float) -> list:
+    """A fan's legend entries: the no-data grey and the marks drawn."""
+    from matplotlib.patches import Patch
+
+    from .truth import legend_handles
+
+    grey = Patch(color=NO_DATA_COLOR, label="no data (energy gate)")
+    return [grey, *legend_handles(drawn, dynamic_range_db)]
 
 
 def colorbar_label(dynamic_range_db: float) -> str:
@@ -413,6 +426,31 @@ def elaz_figure(image: Image, path: str | Path, **kw) -> Path:
     return out
 
 
+def _elaz_panel(ax, image: Image, r: int, dynamic_range_db: float):
+    """Draw the elevation-azimuth map of range bin `r` on `ax` (seen from behind the
+    sensor); returns the AxesImage (for a colour bar)."""
+    az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
+    da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
+    de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
+    db = to_db(image.power[r], image.power.max(), -dynamic_range_db)
+    im = ax.imshow(
+        db[:, ::-1],  # column 0 is the largest azimuth, drawn at the left edge
+        origin="lower",
+        aspect="auto",
+        cmap=CMAP,
+        vmin=-dynamic_range_db,
+        vmax=0,
+        interpolation="nearest",
+        # left edge = largest azimuth: seen from behind the sensor, left is left
+        extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
+    )
+    ax.set_xlim(az[-1] + da, az[0] - da)  # marks at the grid's edge do not widen it
+    ax.set_ylim(el[0] - de, el[-1] + de)
+    ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
+    ax.set_xlabel("azimuth (°), left +")
+    return im
+
+
 def make_elaz_figure(
     image: Image,
     *,
@@ -449,10 +487,6 @@ def make_elaz_figure(
         sharey=True,
         layout="constrained",
     )
-    ref = image.power.max()
-    az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
-    da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
-    de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
     tol = truth_tolerance_m if truth_tolerance_m is not None else 3 * (image.bin_range_m or 0.01)
     spans = (
         (float(image.azimuth_rad.min()), float(image.azimuth_rad.max())),
@@ -460,25 +494,10 @@ def make_elaz_figure(
     )
     im, drawn = None, set()
     for k, (ax, r) in enumerate(zip(axes[0], picks)):
-        db = to_db(image.power[r], ref, -dynamic_range_db)
-        im = ax.imshow(
-            db[:, ::-1],  # column 0 is the largest azimuth, drawn at the left edge
-            origin="lower",
-            aspect="auto",
-            cmap=CMAP,
-            vmin=-dynamic_range_db,
-            vmax=0,
-            interpolation="nearest",
-            # left edge = largest azimuth: seen from behind the sensor, left is left
-            extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
-        )
+        im = _elaz_panel(ax, image, r, dynamic_range_db)
         if truth is not None and len(truth):
             marks = elaz_marks(truth, float(image.range_m[r]), tol, *spans, dynamic_range_db)
             drawn |= marks.draw(ax, 40.0, min_separation=4.0)  # degrees
-        ax.set_xlim(az[-1] + da, az[0] - da)
-        ax.set_ylim(el[0] - de, el[-1] + de)
-        ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
-        ax.set_xlabel("azimuth (°), left +")
         if k == 0:
             ax.set_ylabel("elevation (°), up +")
     fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, label=colorbar_label(dynamic_range_db))
