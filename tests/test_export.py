@@ -108,6 +108,7 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
         np.testing.assert_allclose(t, P_SENSOR, atol=1e-6)
         assert float(top["truth_level_db"]) == 0.0 and top["truth_behind"] == "0"
         assert float(top["truth_offset_deg"]) <= 3.0
+        assert top["provenance"] == "simulated"
     from acousim.dataset.info import describe
 
     lines = describe(out / "images.h5")

@@ -63,6 +63,7 @@ PEAK_COLUMNS = (
     "truth_level_db",  # re the strongest traced echo
     "truth_offset_deg",  # angle between the peak and the (mirrored) reflector
     "truth_behind",  # 1: behind the array, heard as its mirror (-x, y, z)
+    "provenance",  # the recording's: simulated, real or emulated
 )
 
 
@@ -208,6 +209,7 @@ def peak_rows(
                 *(float(v) for v in w),
                 int(edge[k]),
                 *truth,
+                recording.provenance.kind,
             )
         )
     return rows
