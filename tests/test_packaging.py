@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from acousim.cli import build_parser, main
+from processing.errors import InputError
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md")
@@ -123,7 +124,8 @@ def test_names_of_bundled_files(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "wall.toml").write_text("# the user's own")
     assert resolve_scene("wall.toml") == Path("wall.toml")
-    assert resolve_scene("sub/wall") == Path("sub/wall")
+    with pytest.raises(InputError, match="sub/wall: no such file; a bundled scene has that"):
+        resolve_scene("sub/wall")  # a folder: never looked up, but the name is suggested
 
 
 @pytest.mark.skipif(shutil.which("make") is None, reason="no make")

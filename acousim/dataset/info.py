@@ -23,15 +23,8 @@ __all__ = ["describe"]
 def describe(path: str | Path) -> list[str]:
     """Lines describing `path`; raises InputError for what acousim does not write."""
     path = Path(path)
-    if path.is_dir():
-        if (path / "manifest.json").is_file():
-            return _folder(path)
-        if (path / "metadata.yaml").is_file():
-            return _bag(path)
-        raise InputError(
-            "a folder that is neither a dataset (manifest.json) nor a ROS 2 bag (metadata.yaml)",
-            file=path,
-        )
+    if path.is_dir():  # a ROS 2 bag, else a dataset (the reader names what is missing)
+        return _bag(path) if (path / "metadata.yaml").is_file() else _folder(path)
     if not path.is_file():
         raise InputError("no such file or folder", file=path)
     try:
