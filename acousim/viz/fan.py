@@ -298,6 +298,8 @@ def make_fan_figure(
     extent = common_extent(
         list(images.values()), max_range_m, dynamic_range_db, marks.xy if marks else None
     )
+    if marks is not None:  # one mark per 1/40 of the view's width, the strongest
+        marks = marks.thinned((extent[0] - extent[1]) / 40)
     aspect = (extent[3] - extent[2]) / (extent[0] - extent[1])
     panel_w = 4.2
     fig, axes = plt.subplots(
@@ -312,8 +314,8 @@ def make_fan_figure(
     drawn: set[str] = set()
     for ax, (method, img) in zip(axes.ravel(), images.items()):
         im = draw_fan(ax, img, max_range_m, dynamic_range_db, extent=extent)
-        if marks is not None:  # marks closer than ~1/40 of the view are one
-            drawn |= marks.draw(ax, min_separation=(extent[0] - extent[1]) / 40)
+        if marks is not None:
+            drawn |= marks.draw(ax)
         ax.set_title(method)
         fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(dynamic_range_db))
     legend_inside(fig, fan_legend(drawn, dynamic_range_db))

@@ -18,9 +18,9 @@ Three marks (:data:`MARKS`), in every picture's legend:
 Only reflectors within the picture's dynamic range plus :data:`MARGIN_DB` of the
 strongest traced echo are drawn: a much weaker one cannot show, but many weak ones
 can add up (a floor's scatter points, each 34 dB below the strongest echo, make a
-bright arc in the corridor); those below the dynamic range are drawn small.  Marks
-closer together than a picture's spacing are
-drawn once, the strongest.  The direct path is not a reflector.  Positions are
+bright arc in the corridor); those below the dynamic range are drawn small.  Of each
+mark, one is drawn per square of a picture's spacing (:meth:`TruthMarks.thinned`):
+the strongest.  The direct path is not a reflector.  Positions are
 relative to the array's centre (where the images' ranges start), sensor frame, m.
 """
 
@@ -86,16 +86,17 @@ class TruthMarks:
         return len(self.mark)
 
     def thinned(self, min_separation: float) -> TruthMarks:
-        """At most one mark of each kind within `min_separation` (the axes' units) of
-        another: the first kept (:func:`echo_points` puts the strongest first), so
-        that a floor's hundred scatter points do not hide the picture."""
-        keep = np.zeros(len(self), bool)
-        for name in MARKS:
-            kept: list[np.ndarray] = []
-            for i in np.nonzero(self.mark == name)[0]:
-                if all(np.hypot(*(self.xy[i] - q)) >= min_separation for q in kept):
-                    kept.append(self.xy[i])
-                    keep[i] = True
+        """At most one mark of each kind in each square cell of `min_separation` (the
+        axes' units): the first kept (:func:`echo_points` puts the strongest first),
+        so that a floor's hundreds of scatter points do not hide the picture."""
+        if not len(self) or min_separation <= 0:
+            return self
+        cell = np.floor(self.xy / min_separation).astype(np.int64)
+        order = {name: k for k, name in enumerate(MARKS)}
+        kind = np.array([order[m] for m in self.mark])
+        key = np.column_stack([kind, cell])
+        _, first = np.unique(key, axis=0, return_index=True)  # the first of each cell
+        keep = np.sort(first)
         return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
 
     def draw(self, ax, size: float = 45.0, min_separation: float = 0.0) -> set[str]:
