@@ -27,6 +27,13 @@ from .broadband import (
     fan,
     sphere_partition,
 )
+from .calibration import (
+    ArrayCalibration,
+    apply_calibration,
+    attach_calibration,
+    find_echo,
+    fit_array_calibration,
+)
 from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
@@ -126,4 +133,9 @@ __all__ = [
     "linear_chirp",
     "paper_chirp",
     "rtis_call",
+    "ArrayCalibration",
+    "apply_calibration",
+    "attach_calibration",
+    "find_echo",
+    "fit_array_calibration",
 ]
