@@ -68,9 +68,7 @@ class ArrayCalibration:
         g = tuple(float(v) for v in self.gain_db)
         p = tuple(float(v) for v in self.phase_rad)
         if len(g) != len(p) or not g:
-            raise InputError(
-                f"gain_db has {len(g)} values, phase has {len(p)}", key=METADATA_KEY
-            )
+            raise InputError(f"gain_db has {len(g)} values, phase has {len(p)}", key=METADATA_KEY)
         if not all(map(math.isfinite, (*g, *p, float(self.delay_s)))):
             raise InputError("must be finite numbers", key=METADATA_KEY, value=[g, p])
         object.__setattr__(self, "gain_db", g)
@@ -110,6 +108,7 @@ class ArrayCalibration:
         """Samples (..., M, T) with the calibration removed: each channel divided by
         its gain, turned back by its phase, and all advanced by the delay (zero
         padded FFT: nothing wraps around)."""
+        dtype = np.asarray(samples).dtype
         x = np.asarray(samples, float)
         if x.shape[-2] != self.n_mics:
             raise InputError(
@@ -124,7 +123,7 @@ class ArrayCalibration:
         h = h * np.exp(2j * np.pi * f * self.delay_s)[None, :]
         h[:, 0] = 1 / g  # a phase is undefined at 0 Hz (and the call has no energy there)
         X = sfft.rfft(x, n, axis=-1) * h
-        return sfft.irfft(X, n, axis=-1)[..., :T].astype(x.dtype)
+        return sfft.irfft(X, n, axis=-1)[..., :T].astype(dtype)
 
 
 def apply_calibration(recording: Recording, calibration: ArrayCalibration) -> Recording:

@@ -108,9 +108,7 @@ class FeatureSpace:
             raise InputError("too many bands for the recording's length", key="bands", value=bands)
         # each band tapered (Tukey, half its width in the ramps): a hard band edge
         # would ring in time, as 1/t, and leak the direct path across the gate
-        self._taper = [
-            windows.tukey(b.size, TAPER).astype(np.complex64) for b in self.band_bins
-        ]
+        self._taper = [windows.tukey(b.size, TAPER).astype(np.complex64) for b in self.band_bins]
         self.n2 = sfft.next_fast_len(int(np.ceil(BASEBAND_MARGIN * max(map(len, self.band_bins)))))
         self.call_spectrum = np.conj(sfft.rfft(call, n))
         used = np.concatenate(self.band_bins)
@@ -132,6 +130,10 @@ class FeatureSpace:
         inside = np.flatnonzero((r >= min_range_m) & (r < max_range_m))
         self.gate = slice(int(inside[0]), int(inside[-1]) + 1)
         which = np.floor((r[self.gate] - min_range_m) / bin_m).astype(int)
+        counts = np.bincount(which - which[0])
+        if counts.size > 1 and counts[-1] < counts[0]:  # a partial last bin: dropped
+            self.gate = slice(self.gate.start, self.gate.stop - int(counts[-1]))
+            which = which[: which.size - int(counts[-1])]
         self.bin_starts = np.flatnonzero(np.diff(which, prepend=-1))
         counts = np.diff(np.append(self.bin_starts, which.size))
         if counts.min() < 2:

@@ -134,7 +134,9 @@ def _check(scene: Scene, recs: Sequence[P.Recording], poses: Sequence[int]) -> N
                 file=scene.source,
             )
         if r.n_samples != recs[0].n_samples or r.emission_index != recs[0].emission_index:
-            raise InputError("recordings of different lengths or emission indices", key="recordings")
+            raise InputError(
+                "recordings of different lengths or emission indices", key="recordings"
+            )
 
 
 def _used_materials(scene: Scene) -> list[str]:
@@ -148,7 +150,8 @@ def _used_materials(scene: Scene) -> list[str]:
 
 def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.ndarray, float]:
     """A recording's energies (B, D, R) after aligning it on the start model."""
-    from acousim.compare import _shift, align as align_lag
+    from acousim.compare import _shift
+    from acousim.compare import align as align_lag
 
     x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
     lag = 0.0
@@ -159,21 +162,46 @@ def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.nd
     return space.energies(space.envelopes(x)), lag
 
 
+def _observe(model: GroupModel, params, space, recs, poses, align: bool):
+    """Per recording: its pose's path groups, its measured energies (aligned on the
+    start model) and the lag applied."""
+    groups, measured, lags = [], [], []
+    logs0 = params.log_gains(params.start())[0] - model.log_reference
+    for rec, pose in zip(recs, poses):
+        g = model.pose(pose, rec, space, keep_signals=align)
+        start = 0.0
+        if align:  # the start model at the bands' mean gain
+            w0 = np.exp(g.counts @ logs0.mean(axis=0))
+            start = np.einsum("g,gmt->mt", w0, g.signals)
+            g = dataclasses.replace(g, signals=None)
+        E, lag = _measured(rec, g.direct, start, space, align)
+        groups.append(g)
+        measured.append(np.maximum(E, 1e-300))
+        lags.append(lag)
+    return groups, measured, lags
+
+
 def calibrate(
     scene: Scene,
     recordings: Sequence[P.Recording],
     poses: Sequence[int] | None = None,
-    settings: CalibrationSettings = CalibrationSettings(),
+    settings: CalibrationSettings | None = None,
 ) -> Calibration:
     """Fit the materials of `scene` to `recordings` (recording i taken at pose
     ``poses[i]``; default: its ``metadata["pose_index"]``, else i).  Raises
     InputError naming what does not fit together."""
     t0 = time.perf_counter()
+    settings = settings or CalibrationSettings()
     recs = list(recordings)
     if poses is None:
         poses = [int(r.metadata.get("pose_index", i)) for i, r in enumerate(recs)]
     _check(scene, recs, list(poses))
     free = settings.free(_used_materials(scene))
+    for name in settings.tables:
+        if name not in free:
+            raise InputError(
+                f"is not a fitted material ({', '.join(free)})", key="tables", value=name
+            )
     fits = tuple(
         MaterialFit.start(
             scene.materials[name],
@@ -195,24 +223,10 @@ def calibrate(
     )
     params = ParameterSet(fits, space.band_hz)
     model = GroupModel(scene, fits)
-    groups, measured, lags = [], [], []
-    logs0 = params.log_gains(params.start())[0] - model.log_reference
-    for rec, pose in zip(recs, poses):
-        g = model.pose(pose, rec, space, keep_signals=settings.align)
-        start = 0.0
-        if settings.align:  # the start model at the bands' mean gain
-            w0 = np.exp(g.counts @ logs0.mean(axis=0))
-            start = np.einsum("g,gmt->mt", w0, g.signals)
-            g = dataclasses.replace(g, signals=None)
-        E, lag = _measured(rec, g.direct, start, space, settings.align)
-        groups.append(g)
-        measured.append(np.maximum(E, 1e-300))
-        lags.append(lag)
+    groups, measured, lags = _observe(model, params, space, recs, poses, settings.align)
     problem = Problem(
         params, space, tuple(groups), tuple(measured), model.log_reference, settings.fit_level
     )
-    global LAST_PROBLEM
-    LAST_PROBLEM = problem
     sol = solve(
         problem,
         loss=settings.loss,
@@ -289,7 +303,9 @@ def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tupl
         for r in np.flatnonzero(np.isfinite(score.max(axis=0))):
             d = int(np.argmax(score[:, r]))
             out.append(
-                Unexplained(k, float(problem.space.range_m[r]), *map(float, angles[d]), float(score[d, r]))
+                Unexplained(
+                    k, float(problem.space.range_m[r]), *map(float, angles[d]), float(score[d, r])
+                )
             )
     out.sort(key=lambda u: -u.excess_db)
     return tuple(out[:MAX_UNEXPLAINED])

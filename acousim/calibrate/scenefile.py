@@ -39,9 +39,7 @@ def _blocks(lines: list[str]) -> list[tuple[int, int]]:
     out = []
     for i, line in enumerate(lines):
         if _MATERIALS.match(line):
-            end = next(
-                (j for j in range(i + 1, len(lines)) if _HEADER.match(lines[j])), len(lines)
-            )
+            end = next((j for j in range(i + 1, len(lines)) if _HEADER.match(lines[j])), len(lines))
             out.append((i, end))
     return out
 
