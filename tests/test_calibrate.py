@@ -263,3 +263,36 @@ def test_calibration_in_the_file_is_applied_once(tmp_path):
     bad = P.save_recording(tmp_path / "bad.h5", broken)
     with pytest.raises(InputError, match="bad.h5"):
         P.load_recording(bad)
+
+
+def test_command_line(corridor, capsys):
+    from acousim.cli import main
+
+    tmp, recs = corridor
+    P.save_recordings(tmp / "truth.h5", recs[:2])
+    code = main(
+        [
+            "calibrate",
+            str(tmp / "truth.h5"),
+            "--scene",
+            str(tmp / "start.toml"),
+            "--out",
+            str(tmp / "cli.toml"),
+            "--poses",
+            "0,12",
+            "--param",
+            "plaster",
+            "--report",
+            str(tmp / "cli.json"),
+        ]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "plaster.reflection" in text and "metal" not in text.split("range_m")[0]
+    fitted = load_scene(tmp / "cli.toml")
+    assert abs(fitted.materials["plaster"].reflection - PLASTER[0]) < 0.05
+    assert fitted.materials["metal"].reflection == 0.99  # not fitted: as it was
+    import json
+
+    report = json.loads((tmp / "cli.json").read_text())
+    assert report["rms_db_after"] < report["rms_db_before"]

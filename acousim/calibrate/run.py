@@ -93,6 +93,29 @@ class Calibration:
     solution: Solution
     seconds: float
 
+    def to_dict(self) -> dict:
+        """Every number of the report (JSON-ready)."""
+        return {
+            "parameters": [dataclasses.asdict(p) for p in self.parameters],
+            "rms_db_before": self.rms_db_before,
+            "rms_db_after": self.rms_db_after,
+            "range_m": self.range_m.tolist(),
+            "residual_db_before": self.residual_db_before.tolist(),
+            "residual_db_after": self.residual_db_after.tolist(),
+            "lag_samples": list(self.lag_samples),
+            "noise_db": list(self.noise_db),
+            "level_db": self.level_db,
+            "unexplained": [dataclasses.asdict(u) for u in self.unexplained],
+            "evaluations": self.solution.evaluations,
+            "status": self.solution.status,
+            "seconds": self.seconds,
+        }
+
+    def to_json(self) -> str:
+        import json
+
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
     def summary(self) -> str:
         """A human-readable report."""
         lines = [
