@@ -9,9 +9,12 @@ echo arrives `delay_s` later than its geometry says:
 
 :func:`fit_array_calibration` fits them from one echo whose position is known (a
 wall, a corner reflector; or :func:`find_echo`: the strongest peak of the DAS image):
-the echo is gated, each channel's spectrum divided by the call's and by its
-geometric delay, the common delay found where the channels add up most, and each
-channel's complex amplitude taken by least squares over the band.  Only relative
+the echo is gated, each channel's spectrum multiplied by the call's conjugate and
+undone by its geometric delay, and the resulting (channels x frequencies) matrix
+taken as rank one, ``c_m h(f)`` (its leading singular pair): c the channels' complex
+gains, h what they share (the call through the emitter, the air and the reflector:
+a real sensor's response is not flat over the band), the common delay the one at
+which h adds up most.  Only relative
 gains and phases can be told from an echo of unknown strength: gains are given
 relative to their mean (dB), phases relative to their circular mean.
 
@@ -187,6 +190,7 @@ def fit_array_calibration(
     *,
     reflector: str = "point",
     gate_margin_s: float = GATE_MARGIN_S,
+    band_hz: tuple[float, float] | None = None,
 ) -> CalibrationFit:
     """Fit an :class:`ArrayCalibration` from the echo of a reflector at `position_m`
     (sensor frame, m).  `reflector`: ``point`` (a corner reflector, a small
@@ -196,7 +200,9 @@ def fit_array_calibration(
     flatter; at 3.2 m across a 10 cm aperture the two differ by up to about 0.2 mm
     of path, 8 degrees at 40 kHz).  The echo is gated from its earliest arrival
     minus `gate_margin_s` to its latest plus the call and the margin; other echoes
-    must lie outside."""
+    must lie outside.  The fit uses the frequencies where the call's spectrum is
+    within 6 dB of its peak, inside `band_hz` (Hz) when given (two halves of the band
+    fitted apart tell how far the model's constant phase holds)."""
     fs, e0 = recording.sample_rate_hz, recording.emission_index
     x = recording.samples if recording.samples.ndim == 2 else recording.samples.mean(axis=0)
     tau = _geometry_delays(recording, position_m, reflector)  # (M,)
@@ -212,24 +218,31 @@ def fit_array_calibration(
     k = np.arange(n // 2 + 1)
     C = sfft.rfft(call, n)
     band = np.abs(C) > 0.5 * np.abs(C).max()
+    if band_hz is not None:
+        f = k * fs / n
+        band &= (f >= min(band_hz)) & (f <= max(band_hz))
+        if band.sum() < 8:
+            raise InputError("holds too little of the call", key="band_hz", value=band_hz)
     k, C = k[band], C[band]
     X = sfft.rfft(seg, n, axis=-1)[:, band]
     D = (tau * fs + e0 - a)[:, None]  # each echo's delay in the segment (samples)
     Z = X * np.conj(C) * np.exp(2j * np.pi * k * D / n)  # ~ c_m |C|^2 e^{-2 pi i k d / n}
 
-    def amplitudes(d: float) -> np.ndarray:
-        return (Z * np.exp(2j * np.pi * k * d / n)).sum(axis=1) / np.sum(np.abs(C) ** 2)
+    # Z ~ c_m h(f): the channels' complex gains times what they share (the call
+    # through the emitter, the air and the reflector, and the common delay): the
+    # leading singular pair (a real sensor's common response is not flat)
+    U, sv, Vh = np.linalg.svd(Z, full_matrices=False)
+    c, h = U[:, 0] * sv[0], Vh[0]
+    model = np.outer(c, h)
+    resid = np.sqrt(np.sum(np.abs(Z - model) ** 2, axis=1) / np.sum(np.abs(model) ** 2, axis=1))
 
-    def power(d: float) -> float:
-        return -float(np.sum(np.abs(amplitudes(d)) ** 2))
+    def power(d: float) -> float:  # the common delay: where h adds up most
+        return -float(np.abs(np.sum(h * np.exp(2j * np.pi * k * d / n))))
 
     span = MAX_DELAY_S * fs
     grid = np.arange(-span, span + 0.25, 0.25)
     best = grid[int(np.argmin([power(d) for d in grid]))]
     d = minimize_scalar(power, bounds=(best - 0.5, best + 0.5), method="bounded").x
-    c = amplitudes(d)
-    model = c[:, None] * np.abs(C) ** 2 * np.exp(-2j * np.pi * k * d / n)
-    resid = np.sqrt(np.sum(np.abs(Z - model) ** 2, axis=1) / np.sum(np.abs(model) ** 2, axis=1))
     gain = 20 * np.log10(np.abs(c))
     unit = c / np.abs(c)
     phase = np.angle(unit * np.conj(np.sum(unit)))
