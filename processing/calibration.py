@@ -162,8 +162,8 @@ def on_load(recording: Recording, source=None) -> Recording:
 @dataclass(frozen=True)
 class CalibrationFit:
     """calibration; position_m (3,) of the echo used (sensor frame); residual_db
-    (M,): each channel's misfit over the band relative to its echo (dB); delay_s:
-    the common delay found."""
+    (M,): each channel's misfit to the rank-one model over the band, relative to its
+    echo (dB)."""
 
     calibration: ArrayCalibration
     position_m: np.ndarray
@@ -182,6 +182,34 @@ def _geometry_delays(recording: Recording, position_m: np.ndarray, reflector: st
     u = (p - arr.positions_m.mean(axis=0)) / np.linalg.norm(p - arr.positions_m.mean(axis=0))
     image = arr.emitter_m + 2 * np.dot(p - arr.emitter_m, u) * u
     return np.linalg.norm(image - arr.positions_m, axis=1) / c
+
+
+def _echo_matrix(recording: Recording, tau, gate_margin_s, band_hz, position_m):
+    """The gated echo's spectra (M, K) times the call's conjugate with each channel's
+    geometric delay `tau` (M,) undone, their FFT bins (K,) and the FFT length."""
+    fs, e0 = recording.sample_rate_hz, recording.emission_index
+    x = recording.samples if recording.samples.ndim == 2 else recording.samples.mean(axis=0)
+    call = recording.waveform.sampled(fs)
+    a = int(np.floor((tau.min() - gate_margin_s) * fs)) + e0
+    b = int(np.ceil((tau.max() + gate_margin_s) * fs)) + e0 + call.size
+    if a < 0 or b > x.shape[-1]:
+        raise InputError(
+            "the echo's gate lies outside the recording", key="position_m", value=list(position_m)
+        )
+    seg = x[:, a:b] * windows.tukey(b - a, 0.2)
+    n = sfft.next_fast_len(2 * (b - a), real=True)
+    k = np.arange(n // 2 + 1)
+    C = sfft.rfft(call, n)
+    band = np.abs(C) > 0.5 * np.abs(C).max()
+    if band_hz is not None:
+        f = k * fs / n
+        band &= (f >= min(band_hz)) & (f <= max(band_hz))
+        if band.sum() < 8:
+            raise InputError("holds too little of the call", key="band_hz", value=band_hz)
+    k, C = k[band], C[band]
+    X = sfft.rfft(seg, n, axis=-1)[:, band]
+    D = (tau * fs + e0 - a)[:, None]  # each echo's delay in the segment (samples)
+    return X * np.conj(C) * np.exp(2j * np.pi * k * D / n), k, n
 
 
 def fit_array_calibration(
@@ -203,31 +231,9 @@ def fit_array_calibration(
     must lie outside.  The fit uses the frequencies where the call's spectrum is
     within 6 dB of its peak, inside `band_hz` (Hz) when given (two halves of the band
     fitted apart tell how far the model's constant phase holds)."""
-    fs, e0 = recording.sample_rate_hz, recording.emission_index
-    x = recording.samples if recording.samples.ndim == 2 else recording.samples.mean(axis=0)
+    fs = recording.sample_rate_hz
     tau = _geometry_delays(recording, position_m, reflector)  # (M,)
-    call = recording.waveform.sampled(fs)
-    a = int(np.floor((tau.min() - gate_margin_s) * fs)) + e0
-    b = int(np.ceil((tau.max() + gate_margin_s) * fs)) + e0 + call.size
-    if a < 0 or b > x.shape[-1]:
-        raise InputError(
-            "the echo's gate lies outside the recording", key="position_m", value=list(position_m)
-        )
-    seg = x[:, a:b] * windows.tukey(b - a, 0.2)
-    n = sfft.next_fast_len(2 * (b - a), real=True)
-    k = np.arange(n // 2 + 1)
-    C = sfft.rfft(call, n)
-    band = np.abs(C) > 0.5 * np.abs(C).max()
-    if band_hz is not None:
-        f = k * fs / n
-        band &= (f >= min(band_hz)) & (f <= max(band_hz))
-        if band.sum() < 8:
-            raise InputError("holds too little of the call", key="band_hz", value=band_hz)
-    k, C = k[band], C[band]
-    X = sfft.rfft(seg, n, axis=-1)[:, band]
-    D = (tau * fs + e0 - a)[:, None]  # each echo's delay in the segment (samples)
-    Z = X * np.conj(C) * np.exp(2j * np.pi * k * D / n)  # ~ c_m |C|^2 e^{-2 pi i k d / n}
-
+    Z, k, n = _echo_matrix(recording, tau, gate_margin_s, band_hz, position_m)
     # Z ~ c_m h(f): the channels' complex gains times what they share (the call
     # through the emitter, the air and the reflector, and the common delay): the
     # leading singular pair (a real sensor's common response is not flat)

@@ -296,3 +296,44 @@ def test_command_line(corridor, capsys):
 
     report = json.loads((tmp / "cli.json").read_text())
     assert report["rms_db_after"] < report["rms_db_before"]
+
+
+def test_jacobian_is_the_derivative(corridor):
+    """The analytic Jacobian against central differences of the residuals."""
+    from acousim.calibrate.fit import Problem
+    from acousim.calibrate.groups import GroupModel
+    from acousim.calibrate.parameters import MaterialFit, ParameterSet
+    from acousim.calibrate.run import _observe
+
+    tmp, recs = corridor
+    scene = load_scene(tmp / "start.toml")
+    fits = (
+        MaterialFit.start(scene.materials["plaster"], (25.0, 50.0)),
+        MaterialFit.start(scene.materials["metal"]),
+    )
+    space = FeatureSpace(recs[0], bands=3, directions=Directions((-20.0, 20.0), (0.0,)))
+    params = ParameterSet(fits, space.band_hz)
+    model = GroupModel(scene, fits)
+    groups, measured, _ = _observe(model, params, space, recs[:2], POSES[:2], True)
+    problem = Problem(params, space, tuple(groups), tuple(measured), model.log_reference, True)
+    x = problem.start() + np.array([-0.2, -0.1, 0.1, 0.15, -0.05, 0.05, 0.3, -0.2, 0.1])
+    J = problem.jacobian(x)
+    for k in range(x.size):
+        h = 1e-4 * max(1.0, abs(x[k]))
+        e = np.zeros_like(x)
+        e[k] = h
+        fd = (problem.residuals(x + e) - problem.residuals(x - e)) / (2 * h)
+        err = np.max(np.abs(fd - J[:, k])) / np.max(np.abs(fd))
+        assert err < 5e-3, k  # the envelopes are single precision: ~1e-3 measured
+
+
+def test_find_echo_finds_the_reflector():
+    arr, wf, fs = P.urtis_v1(), P.rtis_call("default_25_50"), 450e3
+    where = np.array([2.0, 0.35, -0.2])
+    rec = simulate_points(
+        PointReflectors(where[None], np.array([1.0])), arr, wf, fs, 8192, snr_db=30, seed=4
+    )
+    found = P.find_echo(rec, 1.0, 3.0)
+    assert np.linalg.norm(found) == pytest.approx(np.linalg.norm(where), abs=0.03)
+    cos = found @ where / np.linalg.norm(found) / np.linalg.norm(where)
+    assert np.rad2deg(np.arccos(min(cos, 1.0))) < 2.0  # the image's 2 degree grid

@@ -122,27 +122,9 @@ class FeatureSpace:
         # envelope sample i2 is at sample i2 n / n2 of the full rate
         t = (np.arange(self.n2) * n / self.n2 - recording.emission_index) / fs
         r = c * t / 2
-        max_range_m = float(r[r < T / fs * c / 2].max()) if max_range_m is None else max_range_m
-        if not 0 <= min_range_m < max_range_m:
-            raise InputError(
-                f"must be below max_range_m={max_range_m:g}", key="min_range_m", value=min_range_m
-            )
-        inside = np.flatnonzero((r >= min_range_m) & (r < max_range_m))
-        self.gate = slice(int(inside[0]), int(inside[-1]) + 1)
-        which = np.floor((r[self.gate] - min_range_m) / bin_m).astype(int)
-        counts = np.bincount(which - which[0])
-        if counts.size > 1 and counts[-1] < counts[0]:  # a partial last bin: dropped
-            self.gate = slice(self.gate.start, self.gate.stop - int(counts[-1]))
-            which = which[: which.size - int(counts[-1])]
-        self.bin_starts = np.flatnonzero(np.diff(which, prepend=-1))
-        counts = np.diff(np.append(self.bin_starts, which.size))
-        if counts.min() < 2:
-            raise InputError(
-                f"range bins hold fewer than 2 envelope samples (one every "
-                f"{c * n / self.n2 / fs / 2 * 100:.2f} cm); widen them",
-                key="bin_m",
-                value=bin_m,
-            )
+        if max_range_m is None:
+            max_range_m = float(r[r < T / fs * c / 2].max())
+        which, counts = self._range_bins(r, min_range_m, max_range_m, bin_m)
         self.range_m = min_range_m + (which[self.bin_starts] + 0.5) * bin_m
         self.bin_samples = counts
         # noise energy per range bin for white noise of unit variance per sample
@@ -153,6 +135,30 @@ class FeatureSpace:
             ]
         )
         self.noise_unit = np.outer(power * n / (self.n_mics * self.n2**2), counts)  # (B, R)
+
+    def _range_bins(self, r: np.ndarray, lo: float, hi: float, bin_m: float):
+        """Sets the gate and the bins' first samples from the envelope samples'
+        ranges `r`; returns each gated sample's bin index and the bins' sizes."""
+        if not 0 <= lo < hi:
+            raise InputError(f"must be below max_range_m={hi:g}", key="min_range_m", value=lo)
+        inside = np.flatnonzero((r >= lo) & (r < hi))
+        self.gate = slice(int(inside[0]), int(inside[-1]) + 1)
+        which = np.floor((r[self.gate] - lo) / bin_m).astype(int)
+        counts = np.bincount(which - which[0])
+        if counts.size > 1 and counts[-1] < counts[0]:  # a partial last bin: dropped
+            self.gate = slice(self.gate.start, self.gate.stop - int(counts[-1]))
+            which = which[: which.size - int(counts[-1])]
+        self.bin_starts = np.flatnonzero(np.diff(which, prepend=-1))
+        counts = np.diff(np.append(self.bin_starts, which.size))
+        if counts.min() < 2:
+            step = (r[1] - r[0]) * 100
+            raise InputError(
+                f"range bins hold fewer than 2 envelope samples (one every {step:.2f} cm); "
+                "widen them",
+                key="bin_m",
+                value=bin_m,
+            )
+        return which, counts
 
     @property
     def shape(self) -> tuple[int, int, int]:

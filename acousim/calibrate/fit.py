@@ -89,7 +89,8 @@ class Problem:
         logs = logs - self.log_reference
         level = np.exp(log_level)
         energies, jacs = [], []
-        for p, (g, unit) in enumerate(zip(self.groups, [self.space.noise_unit] * len(self.groups))):
+        unit = self.space.noise_unit
+        for p, g in enumerate(self.groups):
             logw = np.einsum("gc,bc->gb", g.counts, logs)  # (G, B)
             w = np.exp(logw).astype(np.complex64)
             y = np.einsum("gb,gbdt->bdt", w, g.envelopes) + g.direct_envelopes
