@@ -123,7 +123,7 @@ class Calibration:
         lines = [
             f"residual (rms log energy): {self.rms_db_before:.2f} dB -> {self.rms_db_after:.2f} "
             f"dB in {self.solution.evaluations} evaluations, {self.seconds:.1f} s "
-            f"({self.seconds_fit:.1f} s of them fitting)",
+            f"({self.seconds_fit:.2f} s of them fitting)",
             "parameter                           start    fitted   +- sigma",
         ]
         lines += [
