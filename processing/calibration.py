@@ -34,7 +34,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import fft as sfft
-from scipy.optimize import minimize_scalar
 from scipy.signal import windows
 
 from .errors import InputError
@@ -231,6 +230,8 @@ def fit_array_calibration(
     must lie outside.  The fit uses the frequencies where the call's spectrum is
     within 6 dB of its peak, inside `band_hz` (Hz) when given (two halves of the band
     fitted apart tell how far the model's constant phase holds)."""
+    from scipy.optimize import minimize_scalar  # imported when used: processing stays light
+
     fs = recording.sample_rate_hz
     tau = _geometry_delays(recording, position_m, reflector)  # (M,)
     Z, k, n = _echo_matrix(recording, tau, gate_margin_s, band_hz, position_m)

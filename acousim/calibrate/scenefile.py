@@ -77,7 +77,8 @@ def edit_scene_text(text: str, values: dict[str, dict[str, tuple]]) -> str:
     for material, keys in values.items():
         if material not in names or len(blocks) != len(parsed):
             raise InputError(
-                "no [[materials]] block of this name in the scene file",
+                "no [[materials]] block of this name in the scene file: add one, or leave "
+                "the material out of the fitted parameters",
                 key="materials",
                 value=material,
             )
