@@ -337,3 +337,18 @@ def test_find_echo_finds_the_reflector():
     assert np.linalg.norm(found) == pytest.approx(np.linalg.norm(where), abs=0.03)
     cos = found @ where / np.linalg.norm(found) / np.linalg.norm(where)
     assert np.rad2deg(np.arccos(min(cos, 1.0))) < 2.0  # the image's 2 degree grid
+
+
+def test_time_offset_is_found_and_removed(corridor):
+    """Recordings that start 7.3 samples late: the lag is found, the fit holds."""
+    tmp, recs = corridor
+    late = []
+    for r in recs[:3]:
+        n = 2 * r.n_samples
+        f = np.fft.rfftfreq(n)
+        x = np.fft.irfft(np.fft.rfft(r.samples, n) * np.exp(-2j * np.pi * f * 7.3), n)
+        late.append(r.with_samples(x[:, : r.n_samples]))
+    cal = calibrate(load_scene(tmp / "start.toml"), late, POSES[:3])
+    assert cal.lag_samples == pytest.approx([7.3] * 3, abs=0.1)
+    assert abs(cal.materials["plaster"].reflection - PLASTER[0]) < 0.05
+    assert abs(cal.materials["plaster"].diffuse - PLASTER[1]) < 0.10
