@@ -27,6 +27,7 @@ from .broadband import (
     fan,
     sphere_partition,
 )
+from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
@@ -50,6 +51,7 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
+from .pointcloud import PointCloud
 from .recording import (
     GroundTruth,
     Recording,
@@ -111,6 +113,11 @@ __all__ = [
     "RecordingFileError",
     "GroundTruth",
     "count_recordings",
+    "write_chirp",
+    "read_chirp",
+    "is_chirp",
+    "count_chirp",
+    "PointCloud",
     "load_recording",
     "load_recordings",
     "save_recording",
