@@ -132,7 +132,7 @@ def write_chirp(
             _write_transforms(f, [poses[i] for i in owner])
         if all(r.lidar is not None for r in recs):
             _write_lidar(sensors, f, recs, owner, emission)
-        ours = f.create_group(OURS)
+        ours = f.require_group(OURS)
         ours.attrs.update(schema=OUR_SCHEMA, schema_version=OUR_VERSION)
         ours.attrs.update(timestamps_synthetic=synthetic, period_s=float(period_s))
         ours.create_dataset("capture_recording", data=owner.astype(np.int64))
