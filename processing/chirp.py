@@ -93,6 +93,7 @@ def write_chirp(
     start_time_s: float = 0.0,
     period_s: float = DEFAULT_PERIOD_S,
     checksum: bool = True,
+    compression: str | None = None,
 ) -> Path:
     """Write recordings as one CHIRP file, atomically (:mod:`processing.atomic`).
 
@@ -102,7 +103,10 @@ def write_chirp(
     ``time_s`` (a trajectory), plus `start_time_s`; measurement k of a recording
     k x `period_s` later; when those do not increase strictly, capture i is at
     `start_time_s` + i x `period_s`. Samples are float32 (a float64 recording is
-    rounded: at most 2**-24 of each sample).
+    rounded: at most 2**-24 of each sample), one chunk per capture, with HDF5's
+    fletcher32 `checksum` and a sha256 per capture (in ``acousim/capture_sha256``),
+    `compression` ``"gzip"``, ``"lzf"`` or None (default: recorded noise does not
+    compress). The same recordings give the same bytes.
     """
     path = Path(path)
     recs = list(recordings)
@@ -124,7 +128,8 @@ def write_chirp(
         f.attrs["n_reference_captures"] = len(owner)
         f.attrs["reference_sensor"] = ACOUSTIC
         sensors = f.create_group("sensors")
-        sums = _write_acoustic(sensors, recs, owner, measure, sample0, checksum)
+        opts = {"fletcher32": checksum, "compression": compression}
+        sums = _write_acoustic(sensors, recs, owner, measure, sample0, opts)
         _write_transmitter(sensors, first, emission)
         poses = [r.metadata.get("pose") for r in recs]
         if all(isinstance(p, dict) for p in poses):
@@ -191,7 +196,7 @@ def _sensor(parent: h5py.Group, name: str, kind: str, to_origin=None) -> h5py.Gr
     return g
 
 
-def _write_acoustic(sensors, recs, owner, measure, sample0, checksum) -> list[bytes]:
+def _write_acoustic(sensors, recs, owner, measure, sample0, opts) -> list[bytes]:
     first = recs[0]
     M, T = first.array.n_mics, first.n_samples
     g = _sensor(sensors, ACOUSTIC, "acoustic_sensor", np.eye(4))
@@ -199,9 +204,7 @@ def _write_acoustic(sensors, recs, owner, measure, sample0, checksum) -> list[by
     g.create_dataset(
         "calibration/receiver_relative_translations", data=first.array.positions_m
     ).attrs["units"] = "m"
-    d = g.create_dataset(
-        "data/signals", (len(owner), T, M), np.float32, chunks=(1, T, M), fletcher32=checksum
-    )
+    d = g.create_dataset("data/signals", (len(owner), T, M), np.float32, chunks=(1, T, M), **opts)
     sums = []
     for k, (i, j) in enumerate(zip(owner, measure)):
         x = recs[i].samples if recs[i].samples.ndim == 2 else recs[i].samples[j]
