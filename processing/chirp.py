@@ -31,8 +31,8 @@ source)::
 
 Every sensor we write is ``sync_mode = "reference_capture"``: one row per capture.
 A recording of K measurements becomes K captures. Reading takes the array, the rate,
-the call (ours; else fitted to the transmitter's samples, :func:`fit_sweep`; else the
-`call` given), poses (odometry) and scans (LiDAR) of any CHIRP file; what it lacks is
+the call (ours; else fitted to the transmitter's samples,
+:func:`processing.waveforms.fit_sweep`; else the `call` given), poses (odometry) and scans (LiDAR) of any CHIRP file; what it lacks is
 an :class:`ChirpFileError` naming the file and the field.
 """
 
@@ -366,7 +366,7 @@ def read_chirp(
     A file we wrote gives back what was written (samples as float32). Any other:
     one (M, T) recording per capture, array from ``receiver_relative_translations``,
     emitter from the transmitter's ``to_origin``, call fitted to its ``signals``
-    (or `call`, which is required when it has no transmitter signal), speed of
+    (when that fails or there is no transmitter signal: `call`, else an error), speed of
     sound `speed_of_sound_m_s` (default 343 m/s), pose from ``odometry_00``, scan
     from ``lidar_00``.
     """

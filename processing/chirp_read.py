@@ -200,11 +200,11 @@ class Reader:
             raise self.fail(str(exc), key=key) from None
 
     def call(self, given: Waveform | None) -> Waveform:
-        """The given call, else the sweep fitted to the transmitter's signal."""
-        if given is not None:
-            return self.below_nyquist(given, "call")
+        """The sweep fitted to the transmitter's signal when it fits, else `given`."""
         key = f"/sensors/{TRANSMITTER}/data/signals"
         if self.tx is None or "data/signals" not in self.tx:
+            if given is not None:
+                return self.below_nyquist(given, "call")
             raise self.fail(
                 "the file has no transmitter signal, so the call is unknown: give the call "
                 "(--call, or call= in Python)",
@@ -216,14 +216,16 @@ class Reader:
             wf, corr = fit_sweep(self.read(d), fs)
         except ValueError as exc:
             wf, corr = None, f"no fit: {exc}"
-        if wf is None or corr < FIT_MIN_CORRELATION:
-            raise self.fail(
-                f"the transmitter's signal is not a linear or hyperbolic sweep we can describe "
-                f"(best fit correlates {corr if wf is None else f'{corr:.3f}'}, below "
-                f"{FIT_MIN_CORRELATION}): give the call (--call, or call= in Python)",
-                key=key,
-            )
-        return self.below_nyquist(wf, key)
+        if wf is not None and corr >= FIT_MIN_CORRELATION:
+            return self.below_nyquist(wf, key)
+        if given is not None:
+            return self.below_nyquist(given, "call")
+        raise self.fail(
+            f"the transmitter's signal is not a linear or hyperbolic sweep we can describe "
+            f"(best fit correlates {corr if wf is None else f'{corr:.3f}'}, below "
+            f"{FIT_MIN_CORRELATION}): give the call (--call, or call= in Python)",
+            key=key,
+        )
 
     def below_nyquist(self, wf: Waveform, key: str) -> Waveform:
         if max(wf.band_hz) > self.fs / 2:

@@ -388,7 +388,8 @@ def load_recording(
     """Read recording `index` of a file (negative: from the end), and only that one.
 
     A CHIRP file (``processing.chirp``) is read as well; `call` is the emitted call
-    for one that does not say it (ignored otherwise).
+    for one that does not say it (ignored otherwise: a file of ours, and a CHIRP file
+    whose transmitter signal is a sweep :func:`processing.waveforms.fit_sweep` fits).
 
     Every field is checked: samples finite and at most `max_bytes` bytes (declared
     shape times item size, checked before reading), compression filters available,

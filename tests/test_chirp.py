@@ -216,6 +216,7 @@ def test_what_it_lacks(tmp_path, corridor, exported):
         f["sensors/acoustic_sensor_00"].attrs["sample_rate_hz"] = 450e3
     with pytest.raises(ChirpFileError, match="not a linear or hyperbolic sweep"):
         P.load_recording(path)
+    assert P.load_recording(path, call=P.paper_chirp()).waveform == P.paper_chirp()
 
 
 def test_refuses_mixed_recordings(tmp_path, corridor):
