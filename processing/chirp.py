@@ -30,10 +30,11 @@ source)::
                  call's parameters, emission index, speed of sound, array extras)
 
 Every sensor we write is ``sync_mode = "reference_capture"``: one row per capture.
-A recording of K measurements becomes K captures. Reading takes the array, the rate,
-the call (ours; else fitted to the transmitter's samples,
-:func:`processing.waveforms.fit_sweep`; else the `call` given), poses (odometry) and scans (LiDAR) of any CHIRP file; what it lacks is
-an :class:`ChirpFileError` naming the file and the field.
+A recording of K measurements becomes K captures. Reading (:mod:`processing.chirp_read`)
+takes the array, the rate, the call (ours; else fitted to the transmitter's samples,
+:func:`processing.waveforms.fit_sweep`; else the `call` given), poses (odometry) and
+scans (LiDAR) of any CHIRP file; what it lacks is a :class:`ChirpFileError` naming
+the file and the field.
 """
 
 from __future__ import annotations

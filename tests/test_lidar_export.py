@@ -1,0 +1,97 @@
+"""A corridor drive with a LiDAR: its scans at the sonar's captures in the ROS 2 bag
+(PointCloud2, read back with rosbags), in CHIRP (lidar_00 on the acoustic time grid)
+and in the 3D picture."""
+
+import dataclasses
+
+import h5py
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.bundled import resolve
+from acousim.cli import main
+from acousim.scene import load_scene
+from acousim.scene.lidar import lidar_preset
+from acousim.simulator import Simulator
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    scene = load_scene(resolve("scenes", "corridor"))
+    lidar = lidar_preset("vlp16", azimuth_step_deg=1.0, position_m=(0.0, 0.0, 0.15))
+    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, lidar=lidar))
+    recs = Simulator(scene).run([0, 1])
+    path = tmp_path_factory.mktemp("drive") / "drive.h5"
+    P.save_recordings(path, recs)
+    return path, P.load_recordings(path)
+
+
+def test_rosbag_pointcloud2(drive, tmp_path):
+    pytest.importorskip("rosbags", reason="rosbags not installed (pip install 'acousim[ros]')")
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    path, recs = drive
+    bag = tmp_path / "bag"
+    assert main(["export", str(path), "--out", str(bag), "--method", "das", "--step", "10"]) == 0
+    clouds = []
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        for conn, stamp, raw in reader.messages():
+            if conn.topic == "/acousim/lidar":
+                assert conn.msgtype == "sensor_msgs/msg/PointCloud2"
+                clouds.append((stamp, reader.deserialize(raw, conn.msgtype)))
+    assert [s for s, _ in clouds] == [0, 100_000_000]  # the drive's 10 Hz captures
+    for (_, msg), rec in zip(clouds, recs):
+        assert msg.header.frame_id == "acousim_sensor" and msg.width == len(rec.lidar)
+        names = [(f.name, f.offset, f.datatype) for f in msg.fields]
+        assert names == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7), ("intensity", 12, 7),
+                         ("time", 16, 7), ("ring", 20, 4)]  # fmt: skip
+        raw = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.width, msg.point_step)
+        xyz = raw[:, :12].copy().view("<f4").reshape(-1, 3)
+        # the scan's points moved into the sonar frame by the 15 cm mounting
+        expect = rec.lidar.points_m + [0, 0, 0.15]
+        np.testing.assert_allclose(xyz, expect, atol=2e-6)
+        ring = raw[:, 20:22].copy().view("<u2").ravel()
+        np.testing.assert_array_equal(ring, rec.lidar.ring)
+
+
+def test_chirp_lidar_on_the_acoustic_grid(drive, tmp_path):
+    _, recs = drive
+    P.write_chirp(tmp_path / "c.h5", recs)
+    with h5py.File(tmp_path / "c.h5") as f:
+        lidar, ac = f["sensors/lidar_00"], f["sensors/acoustic_transmitter_00"]
+        np.testing.assert_array_equal(lidar["data/timestamps"][()], ac["data/timestamps"][()])
+        np.testing.assert_allclose(lidar["calibration/to_origin"][:3, 3], [0, 0, 0.15])
+        counts = lidar["data/point_counts"][()]
+        pts = lidar["data/points"][()]
+        assert counts.tolist() == [len(r.lidar) for r in recs]
+        for k in range(2):
+            assert np.isfinite(pts[k, : counts[k]]).all() and np.isnan(pts[k, counts[k] :]).all()
+        # the floor (z = 0 in the world, the LiDAR 0.45 + 0.15 m above it): many points
+        # on it, none below it
+        z = pts[0, : counts[0], 2]
+        assert (np.abs(z + 0.60) < 1e-3).sum() > 150 and z.min() > -0.60 - 1e-3
+
+
+def test_3d_picture_shows_the_scan(drive, tmp_path):
+    pytest.importorskip("pyvista", reason="pyvista not installed (pip install 'acousim[viz]')")
+    from acousim.imaging import lidar_in_world
+    from acousim.trace.geometry import build_world
+    from acousim.viz.render3d import LIDAR_COLOR, render_scene
+
+    _, recs = drive
+    rec = recs[1]
+    pose = rec.metadata["pose"]
+    yaw = np.deg2rad(pose["yaw_deg"])
+    tri = build_world(load_scene(resolve("scenes", "corridor"))).triangles
+    args = dict(triangles=tri, sensor_position=np.array(pose["position_m"]),
+                sensor_axis=np.array([np.cos(yaw), np.sin(yaw), 0.0]))  # fmt: skip
+    with_scan = render_scene(tmp_path / "a.png", lidar=lidar_in_world(rec), **args)
+    without = render_scene(None, **args)
+    green = np.array(LIDAR_COLOR) * 255
+
+    def greens(img):
+        return int((np.abs(img[..., :3].astype(float) - green).max(axis=-1) < 40).sum())
+
+    assert greens(with_scan) > 300 and greens(without) == 0
