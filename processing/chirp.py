@@ -103,11 +103,9 @@ def write_chirp(
     recording's ``metadata["timestamp"]`` (a real recording, Unix s) or its pose's
     ``time_s`` (a trajectory), plus `start_time_s`; measurement k of a recording
     k x `period_s` later; when those do not increase strictly, capture i is at
-    `start_time_s` + i x `period_s`. Samples are float32 (a float64 recording is
-    rounded: at most 2**-24 of each sample), one chunk per capture, with HDF5's
-    fletcher32 `checksum` and a sha256 per capture (in ``acousim/capture_sha256``),
-    `compression` ``"gzip"``, ``"lzf"`` or None (default: recorded noise does not
-    compress). The same recordings give the same bytes.
+    `start_time_s` + i x `period_s`. Samples: float32 (float64 rounded: 2**-24 at
+    most), a chunk per capture, HDF5's fletcher32 `checksum`, a sha256 per capture,
+    `compression` "gzip", "lzf" or None. The same recordings give the same bytes.
     """
     path = Path(path)
     recs = list(recordings)
@@ -141,8 +139,8 @@ def write_chirp(
         ours = f.require_group(OURS)
         ours.attrs.update(schema=OUR_SCHEMA, schema_version=OUR_VERSION)
         ours.attrs.update(timestamps_synthetic=synthetic, period_s=float(period_s))
-        ours.create_dataset("capture_recording", data=owner.astype(np.int64))
-        ours.create_dataset("capture_measurement", data=measure.astype(np.int64))
+        for name, data in (("recording", owner), ("measurement", measure)):
+            ours.create_dataset(f"capture_{name}", data=data.astype(np.int64))
         ours.create_dataset("capture_sha256", data=np.array(sums, dtype="S64"))
         _write_array_extras(ours, first.array)
         for i, rec in enumerate(recs):

@@ -68,7 +68,7 @@ def scan(
     when = np.repeat(times, C)
     empty = PointCloud(np.zeros((0, 3)), np.zeros(0), mount, np.zeros(0, int), np.zeros(0),
                        lidar.name, lidar.rate_hz)  # fmt: skip
-    if world is None or caster is None:
+    if world is None or caster is None:  # a scene of point reflectors only
         return empty
     lo, hi = lidar.range_m
     _, face = caster.first_hit(o_world, d_world, hi * (1 + 1e-6) + caster.tolerance_m)
@@ -86,12 +86,5 @@ def scan(
     if not idx.size:
         return empty
     points = d_lidar.reshape(-1, 3)[idx] * t[keep][:, None]
-    return PointCloud(
-        points,
-        np.abs(cos[keep]),
-        mount,
-        ring[idx],
-        when[idx],
-        lidar.name,
-        lidar.rate_hz,
-    )
+    return PointCloud(points, np.abs(cos[keep]), mount, ring[idx], when[idx], lidar.name,
+                      lidar.rate_hz)  # fmt: skip
