@@ -135,6 +135,10 @@ def test_chirppy_reads_it(corridor, exported):
             np.testing.assert_allclose(odo.get_pose_matrix(k)[:3, :3], R, atol=1e-12)
         tx = ds.get_acoustic_transmitter(0)
         assert tx.get_emitted_signal().size == 1125
+        # every sensor's reader at a reference capture (what its data loader does)
+        sample = ds[1]
+        assert set(sample) == {"acoustic_sensor_00", "acoustic_transmitter_00", "odometry_00"}
+        assert sample["odometry_00"]["timestamp"] == sample["acoustic_transmitter_00"]["timestamp"]
 
 
 def test_ours_reads_it_back(corridor, exported):
@@ -255,3 +259,55 @@ def test_damaged_capture(tmp_path, exported):
     P.load_recording(path, 0)  # the others are intact
     with pytest.raises(ChirpFileError, match="checksum"):
         P.load_recording(path, 1)
+
+
+def _signals_2d(f):
+    x = f["sensors/acoustic_sensor_00/data/signals"][0]
+    del f["sensors/acoustic_sensor_00/data/signals"]
+    f["sensors/acoustic_sensor_00/data/signals"] = x
+
+
+def _mics_short(f):
+    g = f["sensors/acoustic_sensor_00/calibration"]
+    x = g["receiver_relative_translations"][:-1]
+    del g["receiver_relative_translations"]
+    g["receiver_relative_translations"] = x
+
+
+def _mics_twice(f):
+    d = f["sensors/acoustic_sensor_00/calibration/receiver_relative_translations"]
+    d[1] = d[0]
+
+
+def _no_calibration(f):
+    del f["sensors/acoustic_sensor_00/calibration"]
+
+
+def _bad_transform(f):
+    f["sensors/acoustic_transmitter_00/calibration/to_origin"][0, 0] = 2.0
+
+
+def _nan_sample(f):
+    f["sensors/acoustic_sensor_00/data/signals"][0, 5, 5] = np.nan
+
+
+@pytest.mark.parametrize(
+    "damage, key, words",
+    [
+        (_signals_2d, "data/signals", "expected 3 dimensions"),
+        (_mics_short, "receiver_relative_translations", "must be finite (30, 3) metres"),
+        (_mics_twice, "receiver_relative_translations", "two microphones at the same position"),
+        (_no_calibration, "receiver_relative_translations", "missing"),
+        (_bad_transform, "to_origin", "rigid 4x4 transform"),
+        (_nan_sample, "data/signals", "NaN or infinite"),
+    ],
+)
+def test_refusals_name_the_field(tmp_path, exported, damage, key, words):
+    path = tmp_path / "bad.h5"
+    shutil.copy(exported, path)
+    with h5py.File(path, "a") as f:
+        del f["acousim"]  # a file not of ours: every field read from CHIRP's own
+        damage(f)
+    with pytest.raises(ChirpFileError) as err:
+        P.load_recording(path)
+    assert str(path) in str(err.value) and key in str(err.value) and words in str(err.value)

@@ -72,6 +72,16 @@ def test_chirp_lidar_on_the_acoustic_grid(drive, tmp_path):
         # on it, none below it
         z = pts[0, : counts[0], 2]
         assert (np.abs(z + 0.60) < 1e-3).sum() > 150 and z.min() > -0.60 - 1e-3
+    chirppy = pytest.importorskip(
+        "chirppy", reason="cosys-chirppy not installed (pip install cosys-chirppy)"
+    )
+    with chirppy.CHIRPDataset(tmp_path / "c.h5") as ds:
+        lidar = ds.get_lidar(0)
+        for k, rec in enumerate(recs):
+            got = ds.transform_points(lidar.get_all_points(k), "lidar_00", "acoustic_sensor_00")
+            np.testing.assert_allclose(got[:, :3], rec.lidar.in_sensor(), atol=2e-6)
+            np.testing.assert_allclose(got[:, 3], rec.lidar.intensity, atol=1e-6)
+            assert ds[k]["lidar_00"]["point_count"] == len(rec.lidar)
 
 
 def test_3d_picture_shows_the_scan(drive, tmp_path):

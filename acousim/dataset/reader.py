@@ -98,12 +98,18 @@ class DatasetReader:
             self._files[name] = h5py.File(self._shard_path(name), "r")
         return self._files[name]
 
+    def _images(self) -> None:
+        if self.manifest.get("shard_format") == "chirp":
+            raise DatasetError("CHIRP shards hold no images, so no image axes", file=self.folder)
+
     @property
     def azimuth_deg(self) -> np.ndarray:
+        self._images()
         return self._file(next(iter(self._hashes)))["axes/azimuth_deg"][()]
 
     @property
     def elevation_deg(self) -> np.ndarray:
+        self._images()
         return self._file(next(iter(self._hashes)))["axes/elevation_deg"][()]
 
     def __getitem__(self, i: int) -> dict:
