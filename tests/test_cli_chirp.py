@@ -33,6 +33,11 @@ def test_call_asked_for(tmp_path, capsys):
     assert main(["export", str(rec), "--format", "chirp", "--out", str(chirp)]) == 0
     with h5py.File(chirp, "a") as f:
         del f["acousim"], f["sensors/acoustic_transmitter_00"]
+    capsys.readouterr()
+    assert main(["info", str(chirp)]) == 0  # described, with what it lacks
+    assert "its recordings cannot be read: the file has no transmitter signal" in (
+        capsys.readouterr().out
+    )
     args = ["image", str(chirp), "--out", str(tmp_path / "img"), "--method", "das", "--no-3d"]
     assert main(args) == 2
     assert "give the call (--call" in capsys.readouterr().err

@@ -105,3 +105,37 @@ def test_3d_picture_shows_the_scan(drive, tmp_path):
         return int((np.abs(img[..., :3].astype(float) - green).max(axis=-1) < 40).sum())
 
     assert greens(with_scan) > 300 and greens(without) == 0
+
+
+def test_full_capture_sensors_are_aligned(drive, tmp_path):
+    """A CHIRP file (not of ours) whose LiDAR and odometry store their own streams
+    (sync_mode full_capture, as Cosys-Lab's recordings do): the LiDAR by the nearest
+    timestamp, the odometry through sync_to_reference_index."""
+    _, recs = drive
+    path = tmp_path / "full.h5"
+    P.write_chirp(path, recs)
+    with h5py.File(path, "a") as f:
+        del f["acousim"]
+        g = f["sensors/lidar_00"]
+        g.attrs["sync_mode"] = "full_capture"
+        pts, n = g["data/points"][()], g["data/point_counts"][()]
+        # three scans at 0.03, 0.07 and 0.12 s: nearest to the captures at 0 and 0.1 s
+        # are the first and the third (which holds capture 1's points)
+        for name, data in (("points", pts[[0, 0, 1]]), ("point_counts", n[[0, 0, 1]]),
+                           ("timestamps", np.array([0.03, 0.07, 0.12])),):  # fmt: skip
+            del g[f"data/{name}"]
+            g[f"data/{name}"] = data
+        o = f["sensors/odometry_00"]
+        o.attrs["sync_mode"] = "full_capture"
+        for name in ("position", "orientation"):
+            d = o[f"data/{name}"][()]
+            del o[f"data/{name}"]
+            o[f"data/{name}"] = d[[1, 0]]  # stored in the other order ...
+        o["data/sync_to_reference_index"] = np.array([1, 0])  # ... and mapped back
+    back = P.load_recordings(path)
+    for a, b in zip(recs, back):
+        np.testing.assert_allclose(b.lidar.in_sensor(), a.lidar.in_sensor(), atol=2e-6)
+        np.testing.assert_allclose(
+            b.metadata["pose"]["position_m"], a.metadata["pose"]["position_m"], atol=1e-12
+        )
+        assert b.metadata["pose"]["yaw_deg"] == pytest.approx(a.metadata["pose"]["yaw_deg"])
