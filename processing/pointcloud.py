@@ -119,22 +119,25 @@ def write_point_cloud(g: h5py.Group, pc: PointCloud, checksum: bool = True) -> N
     g.attrs["rate_hz"] = pc.rate_hz
 
 
-def read_point_cloud(path: str | Path, g: h5py.Group) -> PointCloud:
-    """The scan in group `g` of file `path`; an InputError names the file and field."""
+def read_point_cloud(
+    path: str | Path, g: h5py.Group, error: type[InputError] = InputError
+) -> PointCloud:
+    """The scan in group `g` of file `path`; an `error` (an InputError) names the file
+    and the field."""
 
     def get(name: str, ndim: int, kinds: str, required: bool = True):
         key = f"{g.name}/{name}"
         if name not in g:
             if required:
-                raise InputError("missing", file=path, key=key)
+                raise error("missing", file=path, key=key)
             return None
         d = g[name]
         if not isinstance(d, h5py.Dataset) or d.ndim != ndim or d.dtype.kind not in kinds:
-            raise InputError(f"must be a {ndim}-D numeric dataset", file=path, key=key)
+            raise error(f"must be a {ndim}-D numeric dataset", file=path, key=key)
         try:
             return d[()]
         except OSError as exc:
-            raise InputError(f"cannot be read ({exc})", file=path, key=key) from None
+            raise error(f"cannot be read ({exc})", file=path, key=key) from None
 
     try:
         return PointCloud(
@@ -149,4 +152,4 @@ def read_point_cloud(path: str | Path, g: h5py.Group) -> PointCloud:
     except ValueError as exc:
         if isinstance(exc, InputError):
             raise
-        raise InputError(str(exc), file=path, key=g.name) from None
+        raise error(str(exc), file=path, key=g.name) from None

@@ -372,8 +372,8 @@ def load_recordings(
 ) -> list[Recording]:
     """Read every recording of a file, validating every field (see :func:`load_recording`)."""
     path = Path(path)
-    if _chirp(path):
-        return _chirp(path).read_chirp(path, call=call, max_bytes=max_bytes)
+    if chirp := _chirp(path):
+        return chirp.read_chirp(path, call=call, max_bytes=max_bytes)
     with _open(path) as (f, version, names):
         return [_read_one(path, f["recordings"][n], version, max_bytes) for n in names]
 
@@ -397,8 +397,8 @@ def load_recording(
     truth. A problem raises :class:`RecordingFileError` naming the file and field.
     """
     path = Path(path)
-    if _chirp(path):
-        return _chirp(path).read_chirp(path, call=call, max_bytes=max_bytes, index=index)[0]
+    if chirp := _chirp(path):
+        return chirp.read_chirp(path, call=call, max_bytes=max_bytes, index=index)[0]
     with _open(path) as (f, version, names):
         if not -len(names) <= index < len(names):
             raise RecordingFileError(
@@ -409,8 +409,8 @@ def load_recording(
 
 def count_recordings(path: str | Path) -> int:
     """How many recordings a file holds (without reading them)."""
-    if _chirp(Path(path)):
-        return _chirp(Path(path)).count_chirp(path)
+    if chirp := _chirp(Path(path)):
+        return chirp.count_chirp(path)
     with _open(Path(path)) as (_, _, names):
         return len(names)
 
@@ -742,7 +742,7 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
     waveform = _waveform(path, g, fs)
     meta = _metadata(path, g)
     truth = _truth(path, g) if version >= 2 else _truth_v1(path, g, meta)
-    lidar = read_point_cloud(path, g["lidar"]) if "lidar" in g else None
+    lidar = read_point_cloud(path, g["lidar"], RecordingFileError) if "lidar" in g else None
     try:
         return Recording(
             samples=samples,

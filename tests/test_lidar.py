@@ -163,3 +163,17 @@ def test_recordings_carry_the_scan(tmp_path):
     again = P.load_recording(tmp_path / "c.h5")
     np.testing.assert_array_equal(again.lidar.points_m, back.lidar.points_m)
     np.testing.assert_array_equal(again.lidar.time_s, back.lidar.time_s)
+
+
+def test_damaged_scan_is_refused(tmp_path):
+    import h5py
+
+    rec = Simulator(_with_lidar("wall", LIDAR_PRESETS["vlp16"])).run()[0]
+    path = tmp_path / "r.h5"
+    P.save_recording(path, rec)
+    with h5py.File(path, "a") as f:
+        f["recordings/000000/lidar/to_sensor"][0, 0] = 3.0
+    with pytest.raises(
+        P.RecordingFileError, match="lidar: point cloud: to_sensor must be a rigid transform"
+    ):
+        P.load_recording(path)
