@@ -27,6 +27,13 @@ from .broadband import (
     fan,
     sphere_partition,
 )
+from .calibration import (
+    ArrayCalibration,
+    apply_calibration,
+    attach_calibration,
+    find_echo,
+    fit_array_calibration,
+)
 from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
@@ -133,4 +140,9 @@ __all__ = [
     "linear_chirp",
     "paper_chirp",
     "rtis_call",
+    "ArrayCalibration",
+    "apply_calibration",
+    "attach_calibration",
+    "find_echo",
+    "fit_array_calibration",
 ]

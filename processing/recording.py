@@ -744,7 +744,7 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
     truth = _truth(path, g) if version >= 2 else _truth_v1(path, g, meta)
     lidar = read_point_cloud(path, g["lidar"], RecordingFileError) if "lidar" in g else None
     try:
-        return Recording(
+        rec = Recording(
             samples=samples,
             sample_rate_hz=fs,
             array=array,
@@ -759,3 +759,6 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
         if isinstance(exc, RecordingFileError):
             raise
         raise RecordingFileError(str(exc), file=path, key=g.name) from None
+    from .calibration import on_load  # a stored array calibration, applied once
+
+    return on_load(rec, path)
