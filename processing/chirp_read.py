@@ -268,13 +268,15 @@ class Reader:
         )
 
     def _ours(self, i: int, captures: np.ndarray, x: np.ndarray, array: Array) -> Recording:
+        from .calibration import on_load  # a stored array calibration, as recording files
+
         g = self.group(f"{self.ours.name}/recordings/{i:06d}")
         order = np.argsort(self.read(self.ours["capture_measurement"])[captures])
         x = x[order]
         try:
             wf = Waveform.from_dict(json.loads(_text(g.attrs["waveform"])))
             meta = json.loads(_text(self.read(g["metadata"])) or "{}")
-            return Recording(
+            rec = Recording(
                 samples=x[0] if len(x) == 1 else x,
                 sample_rate_hz=self.fs,
                 array=array,
@@ -289,6 +291,7 @@ class Reader:
             if isinstance(exc, ChirpFileError):
                 raise
             raise self.fail(f"malformed ({exc})", key=g.name) from None
+        return on_load(rec, self.path)
 
     def truth(self, g: h5py.Group) -> GroundTruth | None:
         if "truth" not in g:

@@ -311,3 +311,18 @@ def test_refusals_name_the_field(tmp_path, exported, damage, key, words):
     with pytest.raises(ChirpFileError) as err:
         P.load_recording(path)
     assert str(path) in str(err.value) and key in str(err.value) and words in str(err.value)
+
+
+def test_array_calibration_travels(tmp_path):
+    """A calibration carried to be applied on loading (processing.calibration) is
+    applied when the CHIRP copy is loaded, as for a recording file."""
+    rec = echo_recording(P.urtis_v1(), [(0, 0, 1.0, 1.0)], fs=450e3, n_samples=3000,
+                         waveform=P.rtis_call())  # fmt: skip
+    cal = P.ArrayCalibration(gain_db=np.linspace(-3, 3, 30), phase_rad=np.zeros(30))
+    carried = P.attach_calibration(rec.with_samples(rec.samples.astype(np.float32)), cal)
+    P.save_recording(tmp_path / "r.h5", carried)
+    P.write_chirp(tmp_path / "c.h5", [carried])
+    a, b = P.load_recording(tmp_path / "r.h5"), P.load_recording(tmp_path / "c.h5")
+    assert b.metadata["array_calibration"]["applied"] is True
+    assert not np.allclose(b.samples, carried.samples)  # corrected on loading
+    np.testing.assert_allclose(a.samples, b.samples, atol=1e-6 * np.abs(a.samples).max())
