@@ -168,32 +168,37 @@ def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, floa
 
     A file may hold the emitted call only as samples (a CHIRP transmitter's
     ``signals``). The instantaneous frequency (phase of the analytic signal) where the
-    envelope is above half its peak (the middle 80 % of that time: the
-    analytic signal rings at abrupt edges) is fitted by a line in time (``linear``) and by a
-    line in period (``hyperbolic``), the better kept; its ends at t = 0 and t = T
-    (T: from the sample before the first non-zero one to the last non-zero one) give
-    the frequencies; the taper is the one of 0, 0.05, ..., 0.5 that correlates best.
-    Returns ``(waveform, correlation)``: the magnitude of the normalised complex
+    envelope is above half its peak (the middle 80 % of that time: the analytic
+    signal rings at abrupt edges) is fitted by a line in time (``linear``) and by a
+    line in period (``hyperbolic``), the better kept; its values at the call's ends
+    give the frequencies. The call starts at its first non-zero sample or the one
+    before (a call that starts in sine phase has a zero first sample), whichever
+    correlates better; its taper is the one of 0, 0.05, ..., 0.5 that correlates
+    best. Returns ``(waveform, correlation)``: the magnitude of the normalised complex
     correlation between the fit and the samples (1: the same call up to its phase).
     Callers accept it above :data:`FIT_MIN_CORRELATION`.
     """
-    from scipy.signal import hilbert
-
     x = np.asarray(signal, float).reshape(-1)
-    fs = float(sample_rate_hz)
     peak = float(np.max(np.abs(x))) if x.size else 0.0
     if x.size < 8 or not peak > 0 or not np.all(np.isfinite(x)):
         raise ValueError("a call needs at least 8 finite samples, not all zero")
     nz = np.flatnonzero(np.abs(x) > 1e-9 * peak)
-    start, end = max(int(nz[0]) - 1, 0), int(nz[-1]) + 1
-    x = x[start:end]
+    end = int(nz[-1]) + 1
+    starts = sorted({max(int(nz[0]) - 1, 0), int(nz[0])})
+    return max((_fit_from(x[s:end], float(sample_rate_hz)) for s in starts), key=lambda r: r[1])
+
+
+def _fit_from(x: np.ndarray, fs: float) -> tuple[Waveform, float]:
+    """:func:`fit_sweep` for a call that starts at x[0] and ends at x[-1]."""
+    from scipy.signal import hilbert
+
     z = hilbert(x)
     env = np.abs(z)
     f = np.diff(np.unwrap(np.angle(z))) * fs / (2 * np.pi)  # at (i + 0.5) / fs
     t = (np.arange(f.size) + 0.5) / fs
     strong = (env[:-1] > 0.5 * env.max()) & (env[1:] > 0.5 * env.max()) & (f > 0)
-    idx = np.flatnonzero(strong)  # the middle 80 % of those: the analytic signal's
-    strong[idx[: len(idx) // 10]] = strong[idx[len(idx) - len(idx) // 10 :]] = False  # edges ring
+    idx = np.flatnonzero(strong)  # the middle 80 % of those
+    strong[idx[: len(idx) // 10]] = strong[idx[len(idx) - len(idx) // 10 :]] = False
     if strong.sum() < 4:
         raise ValueError("the call is too short or too weak to fit")
     T = x.size / fs
@@ -208,10 +213,10 @@ def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, floa
         raise ValueError("the call's frequency does not follow a sweep")
     fits = []
     for taper in np.round(np.linspace(0, 0.5, 11), 2):
-        w = Waveform(kind, float(f0), float(f1), T, float(taper))
-        y = hilbert(w.at(np.arange(x.size) / fs))
-        corr = abs(np.vdot(y, z)) / (np.linalg.norm(y) * np.linalg.norm(z))
-        fits.append((corr, taper, float(np.max(np.abs(w.at(np.arange(x.size) / fs))))))
+        y = Waveform(kind, float(f0), float(f1), T, float(taper)).at(np.arange(x.size) / fs)
+        h = hilbert(y)
+        corr = abs(np.vdot(h, z)) / (np.linalg.norm(h) * np.linalg.norm(z))
+        fits.append((corr, taper, float(np.max(np.abs(y)))))
     corr, taper, top = max(fits)
     amplitude = float(np.max(np.abs(x))) / top if top > 0 else 1.0
     return Waveform(kind, float(f0), float(f1), T, float(taper), amplitude), float(corr)

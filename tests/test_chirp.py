@@ -326,3 +326,27 @@ def test_array_calibration_travels(tmp_path):
     assert b.metadata["array_calibration"]["applied"] is True
     assert not np.allclose(b.samples, carried.samples)  # corrected on loading
     np.testing.assert_allclose(a.samples, b.samples, atol=1e-6 * np.abs(a.samples).max())
+
+
+@pytest.mark.parametrize(
+    "call, tol",
+    [
+        (P.rtis_call("default_25_50"), 1e-6),
+        (P.linear_chirp(30e3, 90e3, 2e-3, 0.2), 1e-6),
+        (P.paper_chirp(), 5e-4),  # untapered: the analytic signal rings at the edges
+    ],
+)
+def test_fit_sweep(call, tol):
+    """A call known only as samples (padded with zeros, its phase turned by 40 degrees,
+    as another device may store it) is recognised: kind, band, duration, taper."""
+    from scipy.signal import hilbert
+
+    from processing.waveforms import fit_sweep
+
+    z = hilbert(call.sampled(450e3))
+    x = np.concatenate([np.zeros(37), np.real(z * np.exp(1j * np.deg2rad(40))), np.zeros(11)])
+    fit, corr = fit_sweep(x, 450e3)
+    assert fit.kind == call.kind and fit.taper == call.taper and corr > 0.999
+    assert abs(fit.f_start_hz / call.f_start_hz - 1) < tol
+    assert abs(fit.f_end_hz / call.f_end_hz - 1) < tol
+    assert abs(fit.duration_s - call.duration_s) <= 1 / 450e3
