@@ -151,7 +151,7 @@ class Reader:
                 value=self.signals.shape,
             )
         array, emitter_note = self.array()
-        wf = None if self.ours is not None else self.call(call)
+        wf = None if self.ours is not None else self.call(call)  # (call, its start)
         return [self.recording(i, g, array, wf, c, emitter_note) for i, g in zip(wanted, groups)]
 
     def samples(self, captures: np.ndarray) -> np.ndarray:
@@ -199,12 +199,13 @@ class Reader:
         except ValueError as exc:
             raise self.fail(str(exc), key=key) from None
 
-    def call(self, given: Waveform | None) -> Waveform:
-        """The sweep fitted to the transmitter's signal when it fits, else `given`."""
+    def call(self, given: Waveform | None) -> tuple[Waveform, int]:
+        """The sweep fitted to the transmitter's signal when it fits, else `given`; and
+        the sample of the transmitter's signal at which the call starts."""
         key = f"/sensors/{TRANSMITTER}/data/signals"
         if self.tx is None or "data/signals" not in self.tx:
             if given is not None:
-                return self.below_nyquist(given, "call")
+                return self.below_nyquist(given, "call"), 0
             raise self.fail(
                 "the file has no transmitter signal, so the call is unknown: give the call "
                 "(--call, or call= in Python)",
@@ -213,13 +214,13 @@ class Reader:
         d = self.dataset(self.tx, "data/signals", 1, "f")
         fs = float(self.tx.attrs.get("sample_rate_hz", self.fs))
         try:
-            wf, corr = fit_sweep(self.read(d), fs)
+            wf, corr, start = fit_sweep(self.read(d), fs)
         except ValueError as exc:
             wf, corr = None, f"no fit: {exc}"
         if wf is not None and corr >= FIT_MIN_CORRELATION:
-            return self.below_nyquist(wf, key)
+            return self.below_nyquist(wf, key), int(round(start * self.fs / fs))
         if given is not None:
-            return self.below_nyquist(given, "call")
+            return self.below_nyquist(given, "call"), 0
         raise self.fail(
             f"the transmitter's signal is not a linear or hyperbolic sweep we can describe "
             f"(best fit correlates {corr if wf is None else f'{corr:.3f}'}, below "
@@ -243,10 +244,10 @@ class Reader:
         k = int(captures[0])
         t_ac = self.timestamps(self.ac)
         t_tx = self.timestamps(self.tx) if self.tx is not None else None
-        e = 0
+        wf, e = wf  # the call starts `e` samples into the transmitter's signal
         if t_ac is not None and t_tx is not None and len(t_tx) == self.n:
-            e = int(round((t_tx[k] - t_ac[k]) * self.fs))
-            e = e if 0 <= e < self.T else 0
+            e += int(round((t_tx[k] - t_ac[k]) * self.fs))
+        e = e if 0 <= e < self.T else 0
         meta = {"simulated": False, "source": "chirp", "chirp_file": str(self.path), "capture": k}
         if emitter_note:
             meta["emitter_assumed_at_origin"] = True

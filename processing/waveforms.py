@@ -163,7 +163,7 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
     return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)
 
 
-def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, float]:
+def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, float, int]:
     """The :class:`Waveform` that best describes a sampled call, and how well.
 
     A file may hold the emitted call only as samples (a CHIRP transmitter's
@@ -174,9 +174,10 @@ def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, floa
     give the frequencies. The call starts at its first non-zero sample or the one
     before (a call that starts in sine phase has a zero first sample), whichever
     correlates better; its taper is the one of 0, 0.05, ..., 0.5 that correlates
-    best. Returns ``(waveform, correlation)``: the magnitude of the normalised complex
-    correlation between the fit and the samples (1: the same call up to its phase).
-    Callers accept it above :data:`FIT_MIN_CORRELATION`.
+    best. Returns ``(waveform, correlation, start)``: the magnitude of the normalised
+    complex correlation between the fit and the samples (1: the same call up to its
+    phase; callers accept it above :data:`FIT_MIN_CORRELATION`), and the sample of
+    `signal` at which the call starts (after leading zeros).
     """
     x = np.asarray(signal, float).reshape(-1)
     peak = float(np.max(np.abs(x))) if x.size else 0.0
@@ -185,7 +186,8 @@ def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, floa
     nz = np.flatnonzero(np.abs(x) > 1e-9 * peak)
     end = int(nz[-1]) + 1
     starts = sorted({max(int(nz[0]) - 1, 0), int(nz[0])})
-    return max((_fit_from(x[s:end], float(sample_rate_hz)) for s in starts), key=lambda r: r[1])
+    fits = [(*_fit_from(x[s:end], float(sample_rate_hz)), s) for s in starts]
+    return max(fits, key=lambda r: r[1])
 
 
 def _fit_from(x: np.ndarray, fs: float) -> tuple[Waveform, float]:

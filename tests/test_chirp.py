@@ -199,6 +199,15 @@ def test_foreign_file(tmp_path):
     assert np.unravel_index(a.power.argmax(), a.power.shape) == np.unravel_index(
         b.power.argmax(), b.power.shape
     )
+    # a transmitter signal stored with 10 leading zeros: the call starts 10 samples
+    # after the transmitter's timestamp
+    with h5py.File(path, "a") as f:
+        d = f["sensors/acoustic_transmitter_00/data/signals"]
+        x = np.concatenate([np.zeros(10, np.float32), d[()]])
+        del f["sensors/acoustic_transmitter_00/data/signals"]
+        f["sensors/acoustic_transmitter_00/data/signals"] = x
+        f["sensors/acoustic_transmitter_00/data/timestamps"][0] -= 10 / 450e3
+    assert P.load_recording(path).emission_index == 25
 
 
 def test_what_it_lacks(tmp_path, corridor, exported):
@@ -345,7 +354,8 @@ def test_fit_sweep(call, tol):
 
     z = hilbert(call.sampled(450e3))
     x = np.concatenate([np.zeros(37), np.real(z * np.exp(1j * np.deg2rad(40))), np.zeros(11)])
-    fit, corr = fit_sweep(x, 450e3)
+    fit, corr, start = fit_sweep(x, 450e3)
+    assert start == 37
     assert fit.kind == call.kind and fit.taper == call.taper and corr > 0.999
     assert abs(fit.f_start_hz / call.f_start_hz - 1) < tol
     assert abs(fit.f_end_hz / call.f_end_hz - 1) < tol
