@@ -34,6 +34,7 @@ from .calibration import (
     find_echo,
     fit_array_calibration,
 )
+from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
@@ -57,6 +58,7 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
+from .pointcloud import PointCloud
 from .recording import (
     GroundTruth,
     Recording,
@@ -118,6 +120,11 @@ __all__ = [
     "RecordingFileError",
     "GroundTruth",
     "count_recordings",
+    "write_chirp",
+    "read_chirp",
+    "is_chirp",
+    "count_chirp",
+    "PointCloud",
     "load_recording",
     "load_recordings",
     "save_recording",
