@@ -333,23 +333,13 @@ def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
     return found if len(found) else None
 
 
-def _truth_level_db(truth: P.GroundTruth) -> np.ndarray:
-    """Level (N,) of each ray-traced path in dB re the strongest echo; -inf for the
-    direct path (not a reflector)."""
-    kind = truth.kind
-    amp = np.abs(truth.amplitude)
-    echo = (kind != "direct") & (amp > 0)
-    lvl = np.full(amp.shape, -np.inf)
-    if echo.any():
-        lvl[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
-    return lvl
-
-
 def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None]:
     truth = rec.truth
     if truth is None or not len(truth):
         return None, None
-    return truth.position_world_m, _truth_level_db(truth)
+    from acousim.viz.truth import truth_level_db
+
+    return truth.position_world_m, truth_level_db(truth)
 
 
 #: the sensor's sweep during a measurement is drawn when it turns or moves this much

@@ -23,6 +23,8 @@ import numpy as np
 
 import processing as P
 
+from .viz.truth import truth_level_db
+
 __all__ = ["Match", "Resolution", "image_resolution", "match_peaks", "on_grid_edge"]
 
 
@@ -101,12 +103,10 @@ def match_peaks(rec: P.Recording, peaks: P.Peaks, resolution: Resolution) -> Mat
     t = rec.truth
     if t is None or not len(t) or not n:
         return empty
-    amp = np.abs(np.asarray(t.amplitude, float))
-    echo = (np.asarray(t.kind) != "direct") & (amp > 0)
+    level = truth_level_db(t)  # -inf: the direct path
+    echo = np.isfinite(level)
     if not echo.any():
         return empty
-    level = np.full(amp.shape, -np.inf)
-    level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
     p = np.asarray(t.position_sensor_m, float) - rec.array.positions_m.mean(axis=0)
     behind = p[:, 0] < 0
     m = p.copy()

@@ -371,13 +371,13 @@ def _reflector_msg(T, header, rec: P.Recording):
     """The traced echo paths' reflection points (the direct path left out) as a
     PointCloud2 in the sensor frame: x, y, z (m), level_db (re the strongest echo),
     order (number of reflections)."""
-    from acousim.imaging import _truth_level_db
+    from acousim.viz.truth import truth_level_db
 
     t = rec.truth
     if t is None or not len(t):
         table = np.zeros((0, len(REFLECTOR_FIELDS)), "<f4")
     else:
-        lvl = _truth_level_db(t)
+        lvl = truth_level_db(t)
         keep = np.isfinite(lvl)
         table = np.column_stack(
             [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None]]

@@ -33,11 +33,14 @@ import numpy as np
 __all__ = [
     "MARGIN_DB",
     "MARKS",
+    "Reflectors",
     "TruthMarks",
+    "as_reflectors",
     "echo_points",
     "elaz_marks",
     "fan_marks",
     "legend_handles",
+    "truth_level_db",
 ]
 
 #: matplotlib marker style of each mark (drawn over the inferno colour map)
@@ -124,18 +127,23 @@ class TruthMarks:
         return drawn
 
 
+def truth_level_db(truth) -> np.ndarray:
+    """Level (N,) of each ray-traced path of a ground truth in dB re the strongest
+    echo; -inf for the direct path (not a reflector) and for a path of no strength."""
+    amp = np.abs(np.asarray(truth.amplitude, float))
+    echo = (np.asarray(truth.kind) != "direct") & (amp > 0)
+    level = np.full(amp.shape, -np.inf)
+    if echo.any():
+        level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
+    return level
+
+
 def echo_points(truth, array_centre_m: np.ndarray, range_db: float) -> Reflectors:
     """The traced reflectors (a recording's ground truth) worth drawing: those within
     `range_db` of the strongest echo, the direct path left out; the strongest first."""
-    none = Reflectors(np.zeros((0, 3)), np.zeros(0))
     if truth is None or not len(truth):
-        return none
-    amp = np.abs(np.asarray(truth.amplitude, float))
-    echo = (np.asarray(truth.kind) != "direct") & (amp > 0)
-    if not echo.any():
-        return none
-    level = np.full(amp.shape, -np.inf)
-    level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
+        return Reflectors(np.zeros((0, 3)), np.zeros(0))
+    level = truth_level_db(truth)
     keep = np.nonzero(level >= -range_db)[0]
     keep = keep[np.argsort(-level[keep], kind="stable")]
     pts = np.asarray(truth.position_sensor_m, float)[keep] - np.asarray(array_centre_m, float)
