@@ -20,6 +20,10 @@ from processing.settings import setting, validate
 
 from .viz.fan import DYNAMIC_RANGE_DB
 
+#: peaks kept within this many dB of each image's strongest cell: the default of
+#: the pictures, the peak files and the bags (one home)
+PEAK_THRESHOLD_DB = -10.0
+
 __all__ = [
     "ImagingOptions",
     "image_recordings",
@@ -64,7 +68,11 @@ class ImagingOptions:
         None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
     )
     peak_threshold_db: float = setting(
-        -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+        PEAK_THRESHOLD_DB,
+        "dB",
+        -200,
+        0,
+        "peaks kept within this many dB of each image's strongest cell",
     )
     dynamic_range_db: float = setting(
         DYNAMIC_RANGE_DB, "dB", 1, 200, "levels shown below each picture's strongest cell"

@@ -39,6 +39,7 @@ from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
 from .matched_filter import matched_filter
+from .methods import MethodSpec, parse_method
 from .metrics import (
     angular_resolution,
     dynamic_range_db,
@@ -71,7 +72,7 @@ from .recording import (
     save_recordings,
 )
 from .smoothing import covariance, smoothed_covariance
-from .snapshot import Snapshot, stft_snapshot
+from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid, steering_matrix
 from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
 from .wideband import WIDEBAND_METHODS
@@ -89,6 +90,8 @@ __all__ = [
     "METHODS",
     "Method",
     "check_method",
+    "parse_method",
+    "MethodSpec",
     "requires_ura",
     "estimate_memory_bytes",
     "NARROWBAND_METHODS",
@@ -137,6 +140,8 @@ __all__ = [
     "covariance",
     "smoothed_covariance",
     "Snapshot",
+    "Stft",
+    "BinGate",
     "stft_snapshot",
     "Grid",
     "steering_matrix",

@@ -54,38 +54,57 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
-from typing import Literal, get_args
+from dataclasses import dataclass
 
 import numpy as np
 
 from .arrays import Array
 from .errors import InputError
+from .methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from .smoothing import default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
-__all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
-
-NarrowbandMethod = Literal[
-    "das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss"
+__all__ = [
+    "NarrowbandMethod",
+    "NARROWBAND_METHODS",
+    "METHODS",
+    "SubspaceOptions",
+    "doa_spectrum",
+    "method_matrix",
 ]
-#: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
-#: underscore variants: every caller checks names against this one tuple).
-NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
+
 METHODS = NARROWBAND_METHODS
+
+
+@dataclass(frozen=True)
+class SubspaceOptions:
+    """How the covariance methods use the snapshots: the smoothing `subarray`
+    (Lz, Ly) (None: 5/8 of each dimension), the Capon `loading` (in units of the
+    noise floor, see :func:`method_matrix`) and the MUSIC signal subspace size
+    `n_sources` (None: the mean-eigenvalue rule)."""
+
+    subarray: tuple[int, int] | None = None
+    loading: float = -0.5
+    n_sources: int | None = None
+
+
+#: the defaults (:class:`processing.ProcessingSettings` declares the same)
+SUBSPACE_DEFAULTS = SubspaceOptions()
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
 
 
 def _parse(method: str) -> tuple[str, str]:
-    if method not in NARROWBAND_METHODS:
+    """(base, smoothing) of a narrowband method, or an InputError naming it."""
+    spec = parse_method(method) if method in NARROWBAND_METHODS else None
+    if spec is None:
         raise InputError(
             f"unknown DOA method; choose one of {', '.join(NARROWBAND_METHODS)}",
             key="method",
             value=method,
         )
-    base, _, smooth = method.partition("-")
-    return base, smooth
+    return spec.base, spec.smoothing
 
 
 def method_matrix(
@@ -219,9 +238,7 @@ def doa_spectrum(
     method: str = "das",
     *,
     speed_of_sound_m_s: float = 343.0,
-    subarray: tuple[int, int] | None = None,
-    loading: float = -0.5,
-    n_sources: int | None = None,
+    options: SubspaceOptions = SUBSPACE_DEFAULTS,
     backend: str = "auto",
 ) -> np.ndarray:
     """Spatial spectrum of every range bin.
@@ -236,6 +253,8 @@ def doa_spectrum(
     grid : Grid
     method : str
         One of :data:`METHODS`.
+    options : SubspaceOptions
+        The subarray, loading and subspace size below.
     subarray : (Lz, Ly), optional
         Smoothing subarray (default: 5/8 of each dimension, 5x5 for 8x8).
     loading : float
@@ -252,6 +271,7 @@ def doa_spectrum(
         Real, non-negative spectrum (linear power or pseudo-power).
     """
     base, smooth = _parse(method)
+    subarray, loading, n_sources = options.subarray, options.loading, options.n_sources
     x = np.asarray(snapshots)
     if x.ndim == 2:
         x = x[:, :, None]

@@ -30,6 +30,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import fft as sfft
 
+from .kernels import optional_kernel
+
 __all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
 
 
@@ -279,14 +281,9 @@ class CoarrayKernel:
         return self.evaluate(self.coefficients(Q))
 
 
-@lru_cache(maxsize=1)
 def _floor_invert():
     """The compiled floor-and-invert pass, or None when numba is not installed."""
-    try:
-        from ._doakernel import floor_invert
-    except ImportError:
-        return None
-    return floor_invert
+    return optional_kernel("processing._doakernel", "floor_invert")
 
 
 @lru_cache(maxsize=32)

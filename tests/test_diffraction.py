@@ -473,4 +473,4 @@ def test_every_path_kind_is_a_ground_truth_kind():
     acousim) are the same names: a diffraction path can be written and read back."""
     from processing.recording import _KINDS
 
-    assert set(KIND) == set(_KINDS)
+    assert {k.name for k in KIND} == set(_KINDS)

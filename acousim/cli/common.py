@@ -196,7 +196,8 @@ def progress(desc: str):
 
 
 def preload_simulation() -> None:
-    """Import what a simulation needs before its work starts, with Ctrl-C held back
+    """Import what a simulation needs before its work starts and set the process's
+    policy (:func:`acousim.process.configure`), with Ctrl-C held back
     until the imports are done (trimesh tries optional imports that catch
     BaseException: an interrupt there broke its import with a TypeError), then honour
     an interrupt that came meanwhile."""
@@ -209,6 +210,9 @@ def preload_simulation() -> None:
         import trimesh  # noqa: F401
 
         import acousim.simulator  # noqa: F401
+        from acousim.process import configure
+
+        configure()  # a simulating process's policy: BLAS threads, the allocator
     finally:
         if held:  # a Ctrl-C that came meanwhile is delivered now
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})

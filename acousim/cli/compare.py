@@ -6,7 +6,15 @@ import argparse
 
 from processing.errors import InputError
 
-from .common import INDEX, UsageError, choice, load_scene, methods, writable_dir
+from .common import (
+    INDEX,
+    UsageError,
+    choice,
+    load_scene,
+    methods,
+    preload_simulation,
+    writable_dir,
+)
 from .image import CHIRP_CALLS
 from .record import ARRAY_PRESETS
 
@@ -83,6 +91,7 @@ def _pairs(args: argparse.Namespace):
         c = sims[0].speed_of_sound_m_s
     reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
     if args.scene:
+        preload_simulation()  # it simulates: the process's policy set
         recorded = (
             args.pose is None and P.is_chirp(args.real) and all("pose" in r.metadata for r in reals)
         )
@@ -93,7 +102,8 @@ def _pairs(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare import compare, summarize, write_comparison, write_summary
+    from acousim.compare import compare, write_comparison
+    from acousim.compare_summary import summarize, write_summary
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")

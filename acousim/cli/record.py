@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
 from .common import (
     UsageError,
@@ -77,10 +78,10 @@ def emulation_recordings(scene, count: int | None) -> list:
     `count`, else 10), simulated at the sensor's 450 kHz."""
     from acousim.simulator import Simulator
 
-    if scene.sensor.sample_rate_hz != 450e3:
+    if scene.sensor.sample_rate_hz != RTIS_SAMPLE_RATE_HZ:
         raise UsageError(
             f"--emulate {scene.source}: the scene samples at "
-            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at {RTIS_SAMPLE_RATE_HZ:g}"
         )
     n = min(len(scene.sensor.poses), count or 10)
     try:
@@ -116,7 +117,11 @@ def _recorder(args: argparse.Namespace):
             return RtisDevice(vid, pid, serial=args.serial)
 
     return Recorder(
-        open_device, DeviceSettings(call=call.sampled(450e3)), array, call, fir=args.filter
+        open_device,
+        DeviceSettings(call=call.sampled(RTIS_SAMPLE_RATE_HZ)),
+        array,
+        call,
+        fir=args.filter,
     )
 
 

@@ -418,6 +418,15 @@ def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
     axes.attrs["energy_fraction"] = st.energy_fraction
 
 
+def _worker_start(parent_pid: int) -> None:
+    """A local worker process's entry: exit with its parent, the process's policy
+    (:func:`acousim.process.configure`)."""
+    from acousim.process import configure
+
+    watch_parent(parent_pid)
+    configure()
+
+
 def _shard_job(args: tuple[str, int, str]) -> dict:
     """One shard, with BLAS on one thread: the summation order (and so every bit of
     the result) must not depend on the worker's thread settings (Dask's workers run
@@ -498,7 +507,7 @@ def generate(
                 client.gather(futures)
         elif workers > 1 and len(jobs) > 1:
             with ProcessPoolExecutor(
-                workers, initializer=watch_parent, initargs=(os.getpid(),)
+                workers, initializer=_worker_start, initargs=(os.getpid(),)
             ) as pool:
                 for _ in pool.map(_shard_job, jobs):
                     done_count += 1

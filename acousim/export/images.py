@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.imaging import PEAK_THRESHOLD_DB
 from processing.atomic import atomic_path, write_text
 
 __all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
@@ -221,7 +222,7 @@ def write_peaks_csv(
     images: Sequence[Mapping[str, P.Image]],
     indices: Sequence[int] | None = None,
     *,
-    threshold_db: float = -10.0,
+    threshold_db: float = PEAK_THRESHOLD_DB,
 ) -> Path:
     """Write the peaks of every image within `threshold_db` of its strongest cell to
     a CSV file (atomically), one row per peak, strongest first per image."""

@@ -58,6 +58,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.imaging import PEAK_THRESHOLD_DB
 from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.atomic import TEMP_PREFIX
 
@@ -112,7 +113,7 @@ def write_rosbag(
     indices: Sequence[int] | None = None,
     *,
     method: str | None = None,
-    threshold_db: float = -10.0,
+    threshold_db: float = PEAK_THRESHOLD_DB,
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     fan_pixels: int = 400,
 ) -> Path:

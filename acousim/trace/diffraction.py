@@ -137,7 +137,7 @@ def _wedge_elements(
     frequency-dependent material, -1: a material of single numbers; None: no
     tables) the image term of each such face is an element of its own, which counts
     one interaction in that column (so the path response applies the table: see
-    :mod:`acousim.synth.materials`), and the rest of the element another.  Returns
+    :mod:`acousim.core.materials`), and the rest of the element another.  Returns
     (elements, their rows' local indices (K,), counts (K, C) or None)."""
     refl = np.asarray(face_reflection, float)
     f1 = wedge.faces[rows, 0]

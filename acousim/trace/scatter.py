@@ -17,7 +17,7 @@ the ray's power towards the receiver (the array centre):
    grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
 5. With frequency-dependent materials, the lobe part and the Lambert part of a hit
    on such a material are separate contributions (a specular and a diffuse
-   interaction: :mod:`acousim.synth.materials`), each carrying the ray's earlier
+   interaction: :mod:`acousim.core.materials`), each carrying the ray's earlier
    interactions plus its own.
 """
 
