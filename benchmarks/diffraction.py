@@ -221,7 +221,7 @@ def _strip() -> tuple[np.ndarray, np.ndarray]:
     """Error (dB, 20-80 kHz) of geometric + first order, and + second order, of a
     2 cm wide, 4 m long rigid strip 2 m from a monostatic sensor against the exact
     strip (the tests' reference: tests/test_diffraction_order2.py)."""
-    from acousim.trace.btm import Wedge, edge_pair_elements
+    from acousim.trace.btm_pairs import Wedge, edge_pair_elements
     from tests.test_diffraction_order2 import strip_far_field
 
     d, w, length = 2.0, 0.02, 4.0

@@ -446,7 +446,7 @@ def test_scene_keys_for_diffraction(tmp_path):
 def test_diffraction_is_reciprocal():
     """Swapping emitter and receiver leaves the diffracted field unchanged (a
     property of the exact solution): a tilted box and a tilted plate, bistatic."""
-    from acousim.trace.diffraction import diffract
+    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
     from acousim.trace.embree import RayCaster
 
     box = trimesh.creation.box([0.3, 0.2, 0.25])
@@ -461,8 +461,9 @@ def test_diffraction_is_reciprocal():
     for mesh in (box, plate):
         edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
         refl = np.ones(len(mesh.faces))
-        forward = diffract(edges, caster, s, r, 8.0, refl)
-        backward = diffract(edges, caster, r, s, 8.0, refl)
+        geometry, options = DiffractingGeometry(edges, refl), DiffractionOptions(max_path_m=8.0)
+        forward = diffract(geometry, caster, s, r, options)
+        backward = diffract(geometry, caster, r, s, options)
         assert len(forward) > 0
         a, b = spectrum(forward, r, k), spectrum(backward, s, k)
         assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(a))
