@@ -333,8 +333,12 @@ def plane_ids(mesh) -> np.ndarray:
 
 
 def test_edge_to_edge_is_reciprocal():
-    """Swapping emitter and receiver leaves the second-order field unchanged (within
-    1e-3 of its peak): a turned box and a turned plate, bistatic."""
+    """Swapping emitter and receiver leaves the second-order field unchanged: a
+    turned box and a turned plate, bistatic.  The discretisation is not symmetric
+    in S and R (edge 1 is cut in steps of its profile, edge 2 in steps of the path
+    from each element of edge 1), so the two differ by its error: within 3 % of the
+    peak at the default 1 mm step (measured 2.2 and 1.7 %), and converging: within
+    1 % at 0.25 mm (0.7 and 0.2 %)."""
     from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
     from acousim.trace.embree import RayCaster
 
@@ -351,13 +355,16 @@ def test_edge_to_edge_is_reciprocal():
         edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
         refl, planes = np.ones(len(mesh.faces)), plane_ids(mesh)
         geometry = DiffractingGeometry(edges, refl, face_plane=planes)
-        options = DiffractionOptions(max_path_m=8.0, order=2)
-        fwd = diffract(geometry, caster, s, r, options)
-        bwd = diffract(geometry, caster, r, s, options)
-        a = _spectrum(fwd, fwd.order == 2, r, k)
-        b = _spectrum(bwd, bwd.order == 2, s, k)
-        assert (fwd.order == 2).sum() > 10
-        assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(a)), np.abs(a - b) / np.abs(a)
+        errors = []
+        for step in (1e-3, 0.25e-3):
+            options = DiffractionOptions(max_path_m=8.0, step_m=step, order=2)
+            fwd = diffract(geometry, caster, s, r, options)
+            bwd = diffract(geometry, caster, r, s, options)
+            a = _spectrum(fwd, fwd.order == 2, r, k)
+            b = _spectrum(bwd, bwd.order == 2, s, k)
+            assert (fwd.order == 2).sum() > 10
+            errors.append(np.max(np.abs(a - b)) / np.max(np.abs(a)))
+        assert errors[0] < 3e-2 and errors[1] < 1e-2 and errors[1] < errors[0], errors
 
 
 def _spectrum(paths, sel, receiver, k):
@@ -419,9 +426,9 @@ def test_plate_facing_the_sensor_with_second_order_matches_physical_optics(tmp_p
 
 def test_scene_key_diffraction_order(tmp_path):
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
-    assert parse_scene(base).simulation.diffraction_order == 1
-    sim = parse_scene({**base, "simulation": {"diffraction_order": 2}}).simulation
-    assert sim.diffraction_order == 2
+    assert parse_scene(base).simulation.diffraction_order == 2  # edge to edge by default
+    sim = parse_scene({**base, "simulation": {"diffraction_order": 1}}).simulation
+    assert sim.diffraction_order == 1
     for bad in (0, 3, 1.5, "two"):
         with pytest.raises(InputError, match="diffraction_order"):
             parse_scene({**base, "simulation": {"diffraction_order": bad}})

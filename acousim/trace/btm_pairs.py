@@ -47,14 +47,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .btm import DEFAULT_MAX_EXCESS_M, DEFAULT_STEP_M, EdgeRows, _REFINE, integrate_rows
+from processing.compiled import compiled
 
-OUTER = 0.5
-CAP_M = np.inf
+from .btm import DEFAULT_MAX_EXCESS_M, DEFAULT_STEP_M, EdgeRows, integrate_rows
+
+#: bins per element step (each bin is BIN * step_m of path length)
 BIN = 0.25
+#: the first step next to each apex (edge 1's, and edge 2's for each element of
+#: edge 1) is subdivided by halving this many times, as first order
 OUTER_REFINE = 8
 INNER_REFINE = 8
-INNER = 1.0
 __all__ = ["EdgePairElements", "PairGeometry", "Wedge", "edge_pair_elements", "pair_elements"]
 
 
@@ -292,7 +294,16 @@ def _apex(s, r, start, axis, length):
 
 def shortest_paths(pairs: PairGeometry, source, receiver) -> tuple[np.ndarray, np.ndarray]:
     """(z1 at the pair's shortest path, that path's length) (N,) each: the least of
-    the convex profile, by bisection on the sign of its slope (60 halvings)."""
+    the convex profile, by bisection on the sign of its slope (60 halvings; compiled
+    if numba is installed)."""
+    kernel = compiled("acousim.trace._pair_kernel")
+    if kernel is not None:
+        ax1, len1 = pairs.edge1()
+        ax2, len2 = pairs.edge2()
+        z, p = np.empty(len(pairs)), np.empty(len(pairs))
+        args = (pairs.start1, ax1, len1, pairs.start2, ax2, len2)
+        kernel.shortest(np.asarray(source, float), np.asarray(receiver, float), *args, z, p)
+        return z, p
     prof = _Profile(pairs, source, receiver)
     _, length = pairs.edge1()
     k = np.arange(len(pairs))
@@ -329,21 +340,30 @@ def pair_elements(
     step_m: float = DEFAULT_STEP_M,
     max_path_m: float = np.inf,
     max_excess_m: float = DEFAULT_MAX_EXCESS_M,
+    bin_m: float | None = None,
+    use_kernel: bool = True,
 ) -> EdgePairElements:
     """Edge-to-edge elements of every pair at once (steps 1-4 of the module
     docstring).  source, receiver (3,); step_m: excess path per element and four
     bins per step (m); paths longer than max_path_m are left out; the response is
-    kept to max_excess_m beyond each pair's shortest path (second half tapered)."""
+    kept to max_excess_m beyond each pair's shortest path (second half tapered);
+    bin_m: the bins' width (m; None: step_m / 4);
+    use_kernel: the compiled kernel (:mod:`._pair_kernel`) if numba is installed,
+    else (or False) whole arrays in numpy (they agree within rounding)."""
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     if len(pairs) == 0 or step_m <= 0:
         return EdgePairElements.empty()
+    kernel = compiled("acousim.trace._pair_kernel") if use_kernel else None
+    if kernel is not None and np.isfinite(max_excess_m):
+        limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN)
+        return _compiled_elements(kernel, pairs, source, receiver, limits)
     z_apex, p_min = shortest_paths(pairs, source, receiver)
     limit = np.minimum(p_min + max_excess_m, max_path_m)
-    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, step_m * OUTER)
+    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, step_m)
     if outer is None:
         return EdgePairElements.empty()
     k, z1, dz1 = outer
-    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, step_m * INNER)
+    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, step_m)
     if g.size == 0:
         return EdgePairElements.empty()
     kg = k[g]
@@ -354,7 +374,11 @@ def pair_elements(
     amp = el["amp"] * np.where(cut, 0.5 * (1 + np.cos(np.pi * x)), 1.0)
     good = np.isfinite(amp) & (amp != 0)
     return _bins(
-        kg[good], path[good], amp[good], el["x1"][good], el["x2"][good], receiver, step_m * BIN
+        kg[good],
+        path[good] - p_min[kg[good]],
+        (amp[good], path[good], el["x1"][good], el["x2"][good]),
+        receiver,
+        bin_m or step_m * BIN,
     )
 
 
@@ -389,14 +413,9 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     inner = np.flatnonzero(j < np.repeat(counts - 1, counts))  # each boundary but a side's last
     a, b = zb[inner], zb[inner + 1]
     kk = kk[inner]
-    # elements longer than CAP_M split into equal parts
-    parts = np.maximum(np.ceil(np.abs(b - a) / CAP_M), 1).astype(int)
-    row = np.repeat(np.arange(a.size), parts)
-    t = (np.arange(row.size) - np.repeat(np.cumsum(parts) - parts, parts) + 0.5) / parts[row]
-    z = a[row] + t * (b - a)[row]
-    dz = np.abs(b - a)[row] / parts[row]
+    dz = np.abs(b - a)
     keep = dz > 0
-    return kk[row][keep], z[keep], dz[keep]
+    return kk[keep], (0.5 * (a + b))[keep], dz[keep]
 
 
 def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
@@ -463,13 +482,13 @@ def _farthest(pairs: PairGeometry, source, receiver) -> np.ndarray:
     return best
 
 
-def _bins(k, path, amp, x1, x2, receiver, width) -> EdgePairElements:
-    """Step 4: elements summed into bins of `width` of path length, per pair."""
+def _bins(k, excess, values, receiver, width) -> EdgePairElements:
+    """Step 4: elements summed into bins of `width` of excess path length (m), per
+    pair k; values: (amplitude, path, point on edge 1, point on edge 2)."""
     if k.size == 0:
         return EdgePairElements.empty()
-    lo = np.full(k.max() + 1, np.inf)
-    np.minimum.at(lo, k, path)
-    b = np.floor((path - lo[k]) / width).astype(np.int64)
+    amp, path, x1, x2 = values
+    b = np.maximum(np.floor(excess / width), 0).astype(np.int64)
     key = k.astype(np.int64) * (int(b.max()) + 1) + b
     used, inv = np.unique(key, return_inverse=True)
     w = np.abs(amp)
@@ -486,3 +505,47 @@ def _bins(k, path, amp, x1, x2, receiver, width) -> EdgePairElements:
     second = np.linalg.norm(q2 - receiver, axis=1)
     pair = used // (int(b.max()) + 1)
     return EdgePairElements(q1, q2, length - second, second, total, pair)
+
+
+def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> EdgePairElements:
+    """:func:`pair_elements` by the compiled kernel; limits: (step, longest path,
+    excess kept, bin width) in metres."""
+    step_m, max_path_m, max_excess_m, width = limits
+    p = pairs
+    n = len(p)
+    ax1, len1 = p.edge1()
+    ax2, len2 = p.edge2()
+    z_apex, p_min = np.empty(n), np.empty(n)
+    kernel.shortest(source, receiver, p.start1, ax1, len1, p.start2, ax2, len2, z_apex, p_min)
+    rs, ts, zs = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
+    rr, tr, zr = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
+    nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
+    far = _farthest(p, source, receiver)
+    geo = np.column_stack(
+        [p.start1, ax1, len1, p.start2, ax2, len2, nu1, nu2, rs, zs, rr, zr, p.sides,
+         (far - p_min > max_excess_m).astype(float), p_min, z_apex]
+    )  # fmt: skip
+    consts = np.empty((n, 6, 4))
+    phi1 = np.pi + np.stack([ts + p.theta12, ts - p.theta12, -ts + p.theta12, -ts - p.theta12], 1)
+    consts[:, 0], consts[:, 1], consts[:, 2] = np.sin(nu1[:, None] * phi1), np.cos(nu1[:, None] * phi1), p.terms1
+    phi2 = np.pi + np.stack([p.theta21 + tr, p.theta21 - tr, -p.theta21 + tr, -p.theta21 - tr], 1)
+    half = nu2[:, None] * phi2 / 2
+    sh, ch = np.sin(half), np.cos(half)
+    flip = sh < 0
+    consts[:, 3], consts[:, 4], consts[:, 5] = np.where(flip, -sh, sh), np.where(flip, -ch, ch), p.terms2
+    live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
+    nb = int(np.ceil(max_excess_m / width)) + 2
+    cfg = np.array([step_m, step_m, OUTER_REFINE, INNER_REFINE, max_excess_m, max_path_m, width, nb], float)
+    idx = np.flatnonzero(live)
+    acc = np.zeros((idx.size, nb, 9))
+    count = np.zeros((idx.size, nb), np.int64)
+    kernel.pair_bins(source, receiver, np.ascontiguousarray(geo[idx]), np.ascontiguousarray(consts[idx]), cfg, acc, count)
+    k, b = np.nonzero(count)
+    if k.size == 0:
+        return EdgePairElements.empty()
+    a = acc[k, b]
+    wsum = np.where(a[:, 1] > 0, a[:, 1], 1.0)
+    length = a[:, 2] / wsum
+    q1, q2 = a[:, 3:6] / wsum[:, None], a[:, 6:9] / wsum[:, None]
+    second = np.linalg.norm(q2 - receiver, axis=1)
+    return EdgePairElements(q1, q2, length - second, second, a[:, 0], idx[k])

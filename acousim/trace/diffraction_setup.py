@@ -67,7 +67,8 @@ class DiffractionOptions:
     edge pairs whose bound is) weaker than this gain at the receiver are dropped too
     (the tracer passes its energy floor under the strongest echo found before this
     stage); select_pairs: False integrates every edge pair in full (to measure what
-    the selection skips; the result after the tracer's floor is the same).
+    the selection skips); pair_step_m: the element step of edge to edge (excess
+    path length, m; None: step_m); its bins stay ``step_m / 4`` wide.
     """
 
     max_path_m: float
@@ -77,6 +78,7 @@ class DiffractionOptions:
     floor_db: float = -np.inf
     floor_level: float = 0.0
     select_pairs: bool = True
+    pair_step_m: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -34,7 +34,7 @@ from .btm_pairs import BIN, PairGeometry, pair_elements
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
 from .first_order import probe_points, segment_distance, visible
-from .pair_bound import pair_bound
+from .pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
 
 __all__ = ["candidate_pairs", "edge_to_edge"]
 
@@ -47,19 +47,18 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
         return empty_paths()
     opt = ctx.options
     if opt.select_pairs and floor > 0:
-        bound = pair_bound(
-            rows,
-            ctx.emitter,
-            ctx.receiver,
-            max_excess_m=DEFAULT_MAX_EXCESS_M,
-            max_path_m=opt.max_path_m,
-            bin_m=opt.step_m * BIN,
-        )
-        keep = np.flatnonzero(bound >= floor)
+        keep = _selected(ctx, rows, floor)
         rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
-    el = pair_elements(rows, ctx.emitter, ctx.receiver, step_m=opt.step_m, max_path_m=opt.max_path_m)
+    el = pair_elements(
+        rows,
+        ctx.emitter,
+        ctx.receiver,
+        step_m=opt.step_m if opt.pair_step_m is None else opt.pair_step_m,
+        bin_m=opt.step_m * BIN,
+        max_path_m=opt.max_path_m,
+    )
     if len(el) == 0:
         return empty_paths()
     dep = el.first_point_m - ctx.emitter
@@ -82,6 +81,26 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
         np.full(len(el), 2),
         counts,
     )
+
+
+def _selected(ctx: StageContext, rows: PairGeometry, floor: float) -> np.ndarray:
+    """Indices of the pairs whose contribution can reach `floor` (a gain at the
+    receiver): the closed-form bound of their largest path first (rigorous), then
+    the estimate of it (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`."""
+    opt = ctx.options
+    bound = pair_bound(
+        rows,
+        ctx.emitter,
+        ctx.receiver,
+        max_excess_m=DEFAULT_MAX_EXCESS_M,
+        max_path_m=opt.max_path_m,
+        bin_m=opt.step_m * BIN,
+    )
+    keep = np.flatnonzero(bound >= floor)
+    if keep.size:
+        est = pair_estimate(_take(rows, keep), ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
+        keep = keep[ESTIMATE_MARGIN * est >= floor]
+    return keep
 
 
 def _take(rows: PairGeometry, keep: np.ndarray) -> PairGeometry:

@@ -43,7 +43,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .btm_pairs import PairGeometry, cylindrical, shortest_paths
+from .btm import DEFAULT_MAX_EXCESS_M
+from .btm_pairs import PairGeometry, _beta, cylindrical, shortest_paths
 from .btm_pairs import _apex as _edge_apex
 
 __all__ = ["ESTIMATE_MARGIN", "beta_bound", "pair_bound", "pair_estimate"]
@@ -268,29 +269,36 @@ def _apex(s, r, start, axis, length):
 
 
 def pair_estimate(
-    pairs: PairGeometry, source: np.ndarray, receiver: np.ndarray, *, wavenumber: float
+    pairs: PairGeometry,
+    source: np.ndarray,
+    receiver: np.ndarray,
+    *,
+    bin_m: float,
+    excess_m: float = DEFAULT_MAX_EXCESS_M,
 ) -> np.ndarray:
-    """Estimate (N,) of the largest magnitude of each pair's edge-to-edge response
-    |H_2(f)| at wavenumber k (the band's lowest: the response falls as 1/k), by
-    stationary phase at the pair's shortest path (z1*, z2*), with the beta sums by
-    their bounds (:func:`beta_bound`):
+    """Estimate (N,) of the largest bin amplitude of each pair (bins of bin_m of
+    path length, as :func:`pair_bound`), at the pair's shortest path (z1*, z2*):
 
-    * inside the edges: ``f nu1 nu2 / (16 pi^2) B1 B2 / (m n l) 2 pi / (k sqrt(det H))``
-      with H the Hessian of the path in (z1, z2) there;
-    * at a corner the two edges share (n = 0 there): the 1 / n singularity
-      integrated over the quarter plane, ``... B1 B2 / (m l) (pi / 2) / (c k g)``,
-      with c = sqrt(1 - |cos alpha|) and g the least slope of the path away from
-      the corner along either edge.
+    * inside the edges: the integrand there times the area of one bin about a
+      minimum, ``f nu1 nu2 / (16 pi^2) B1 B2 / (m n l) 2 pi bin / sqrt(det H)``
+      (B1, B2: :func:`beta_bound`; H: the Hessian of the path in (z1, z2) there);
+    * at the end of an edge, where the path grows with slope g: a bin is a strip
+      ``bin / g`` wide and at most ``2 sqrt(2 excess_m / H22)`` long (the last bin
+      kept, the largest), or at the ends of both ``bin excess_m / (g1 g2)``;
+    * at a corner the two edges share (n = 0 there): the 1 / n singularity over the
+      bin's triangle ``g1 a + g2 b <= bin``, ``(pi / 2) (bin / g) / (c m l)`` (c =
+      sqrt(1 - |cos alpha|), g the lesser slope of the path away from the corner
+      along either edge), with the beta sums at ``bin / g`` from the corner.
 
-    Not a bound; what it misses is measured (BENCHMARKS.md, diffraction, and
-    ``tests/test_edge_pair_selection.py``), and the stage keeps a margin of
-    :data:`ESTIMATE_MARGIN` on it.
+    Not a bound (far bins of long edges can exceed the first one); what it misses
+    is measured (BENCHMARKS.md, diffraction; ``tests/test_edge_pair_selection.py``),
+    and the stage keeps a margin of :data:`ESTIMATE_MARGIN` on it.
     """
     p = pairs
     if len(p) == 0:
         return np.zeros(0)
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
-    ax1, _ = p.edge1()
+    ax1, len1 = p.edge1()
     ax2, len2 = p.edge2()
     rs, ts, _ = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
     rr, tr, _ = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
@@ -304,7 +312,6 @@ def pair_estimate(
     d1, d, d2 = x1 - source, x1 - x2, receiver - x2
     m, n, l_ = (np.linalg.norm(v, axis=1) for v in (d1, d, d2))
     scale = 0.5 * p.sides * nu1 * nu2 / (16 * np.pi**2) * b1 * b2
-    k = float(wavenumber)
     with np.errstate(divide="ignore", invalid="ignore"):
         dh = d / n[:, None]
         c1, c2, c12 = _dot(dh, ax1), _dot(dh, ax2), _dot(ax1, ax2)
@@ -312,29 +319,58 @@ def pair_estimate(
         h22 = rr**2 / l_**3 + (1 - c2**2) / n
         h12 = (c1 * c2 - c12) / n
         det = np.maximum(h11 * h22 - h12**2, 1e-300)
-        area = 2 * np.pi / (k * np.sqrt(det))
-        # an end of an edge: the integral across it is one-sided, 1 / (k g)
-        len1 = np.linalg.norm(p.end1 - p.start1, axis=1)
+        area = 2 * np.pi * bin_m / np.sqrt(det)
+        # at an end of an edge the path grows there with slope g: a bin is a strip
+        # bin / g wide along the other edge (up to the excess kept), or a triangle-
+        # like band at the ends of both
         end1 = (z1 <= 1e-9 * len1) | (z1 >= len1 * (1 - 1e-9))
         end2 = (z2 <= 1e-9 * len2) | (z2 >= len2 * (1 - 1e-9))
         g1 = np.abs(_dot(d1, ax1) / m + c1)
         g2 = np.abs(-_dot(d2, ax2) / l_ - c2)
-        one1 = np.sqrt(2 * np.pi / (k * h22)) / (k * g1)
-        one2 = np.sqrt(2 * np.pi / (k * h11)) / (k * g2)
-        area = np.where(end1 & ~end2, np.minimum(area, one1), area)
-        area = np.where(end2 & ~end1, np.minimum(area, one2), area)
-        area = np.where(end1 & end2, np.minimum(area, 1 / (k * k * g1 * g2)), area)
+        strip1 = bin_m / g1 * 2 * np.sqrt(2 * excess_m / h22)
+        strip2 = bin_m / g2 * 2 * np.sqrt(2 * excess_m / h11)
+        area = np.where(end1 & ~end2, np.minimum(area, strip1), area)
+        area = np.where(end2 & ~end1, np.minimum(area, strip2), area)
+        area = np.where(end1 & end2, np.minimum(area, bin_m * excess_m / (g1 * g2)), area)
         inside = scale / (m * n * l_) * area
         # a shared corner: the slopes of the path away from it along each edge
         s1 = 1 + _dot(d1, ax1) / m * np.where(z1 > 0.5 * len1, -1, 1)
         s2 = 1 + _dot(-d2, ax2) / l_ * np.where(z2 > 0.5 * len2, -1, 1)
         g = np.maximum(np.minimum(s1, s2), 1e-3)
         c = np.sqrt(np.maximum(1 - np.abs(c12), 1e-6))
-        corner = scale / (m * l_) * (np.pi / 2) / (c * k * g)
+        corner = scale * (np.pi / 2) * (bin_m / g) / (c * m * l_)
     tiny = n <= 1e-9 * np.maximum(m, l_)
     out = np.where(tiny, corner, inside)
     return np.where(np.isfinite(out), out, np.inf)
 
 
+def _corner_betas(p: PairGeometry, ends, at, delta) -> np.ndarray:
+    """f nu1 nu2 / (16 pi^2) |beta_1 beta_2| (N,) at the points `delta` (N,) away from
+    the corner (z1, z2 = at) along each edge (the region that dominates the corner's
+    integral at the wavenumber of delta = pi / (k g))."""
+    source, receiver = ends
+    z1, z2 = at
+    ax1, len1 = p.edge1()
+    ax2, len2 = p.edge2()
+    w1 = np.clip(z1 + np.where(z1 > 0.5 * len1, -delta, delta), 0, len1)
+    w2 = np.clip(z2 + np.where(z2 > 0.5 * len2, -delta, delta), 0, len2)
+    x1 = p.start1 + w1[:, None] * ax1
+    x2 = p.start2 + w2[:, None] * ax2
+    m = np.linalg.norm(x1 - source, axis=1)
+    n = np.linalg.norm(x1 - x2, axis=1)
+    l_ = np.linalg.norm(receiver - x2, axis=1)
+    rs, ts, zs = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
+    r21, _, z21 = cylindrical(x2, p.start1, ax1, p.face_dir1, p.normal1)
+    rr, tr, zr = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
+    r12, _, z12 = cylindrical(x1, p.start2, ax2, p.face_dir2, p.normal2)
+    nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cosh1 = ((w1 - zs) * (w1 - z21) + m * n) / (rs * r21)
+        cosh2 = ((w2 - z12) * (w2 - zr) + n * l_) / (r12 * rr)
+    b1 = _beta(nu1, ts, p.theta12, cosh1, p.terms1)
+    b2 = _beta(nu2, p.theta21, tr, cosh2, p.terms2)
+    return np.abs(0.5 * p.sides * nu1 * nu2 / (16 * np.pi**2) * b1 * b2)
+
+
 #: the stage integrates a pair whose estimate times this reaches the floor
-ESTIMATE_MARGIN = 10.0
+ESTIMATE_MARGIN = 5.0

@@ -116,6 +116,7 @@ def trace_pose(
                 order=settings.diffraction_order,
                 floor_db=settings.energy_floor_db,
                 floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
+                pair_step_m=settings.diffraction_pair_step_m,
             )
             parts.append(edge_diffraction(geometry, caster, emitter, receiver, options))
     if shot is not None:
