@@ -288,7 +288,7 @@ def pair_estimate(
     * at a corner the two edges share (n = 0 there): the 1 / n singularity over the
       bin's triangle ``g1 a + g2 b <= bin``, ``(pi / 2) (bin / g) / (c m l)`` (c =
       sqrt(1 - |cos alpha|), g the lesser slope of the path away from the corner
-      along either edge), with the beta sums at ``bin / g`` from the corner.
+      along either edge), times :data:`CORNER_MARGIN`.
 
     Not a bound (far bins of long edges can exceed the first one); what it misses
     is measured (BENCHMARKS.md, diffraction; ``tests/test_edge_pair_selection.py``),
@@ -338,7 +338,7 @@ def pair_estimate(
         s2 = 1 + _dot(-d2, ax2) / l_ * np.where(z2 > 0.5 * len2, -1, 1)
         g = np.maximum(np.minimum(s1, s2), 1e-3)
         c = np.sqrt(np.maximum(1 - np.abs(c12), 1e-6))
-        corner = scale * (np.pi / 2) * (bin_m / g) / (c * m * l_)
+        corner = scale * (np.pi / 2) * (bin_m / g) / (c * m * l_) * CORNER_MARGIN
     tiny = n <= 1e-9 * np.maximum(m, l_)
     out = np.where(tiny, corner, inside)
     return np.where(np.isfinite(out), out, np.inf)
@@ -371,6 +371,10 @@ def _corner_betas(p: PairGeometry, ends, at, delta) -> np.ndarray:
     b2 = _beta(nu2, p.theta21, tr, cosh2, p.terms2)
     return np.abs(0.5 * p.sides * nu1 * nu2 / (16 * np.pi**2) * b1 * b2)
 
+
+#: the corner estimate is scaled up by this (it is the least reliable: measured
+#: between 0.1 and 10^4 times the largest bin)
+CORNER_MARGIN = 10.0
 
 #: the stage integrates a pair whose estimate times this reaches the floor
 ESTIMATE_MARGIN = 5.0
