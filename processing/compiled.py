@@ -9,13 +9,13 @@ paid once per process.
 from __future__ import annotations
 
 import importlib
-from functools import lru_cache
+from functools import cache
 from types import ModuleType
 
 __all__ = ["compiled"]
 
 
-@lru_cache(maxsize=None)
+@cache
 def compiled(module: str) -> ModuleType | None:
     """The kernel module `module` (a dotted name), or None when numba is not
     installed."""

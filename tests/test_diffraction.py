@@ -447,7 +447,9 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
 def test_scene_keys_for_diffraction(tmp_path):
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
     assert parse_scene(base).simulation.diffraction is True  # on by default
-    assert parse_scene({**base, "simulation": {"diffraction": False}}).simulation.diffraction is False
+    assert (
+        parse_scene({**base, "simulation": {"diffraction": False}}).simulation.diffraction is False
+    )
     sim = parse_scene(
         {**base, "simulation": {"diffraction": True, "diffraction_step_m": 0.002}}
     ).simulation

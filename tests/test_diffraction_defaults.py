@@ -101,7 +101,15 @@ def _fullwave() -> dict[tuple[str, int], tuple[np.ndarray, np.ndarray]]:
     return {k: (np.array(a), np.array(b)) for k, (a, b) in out.items()}
 
 
-CASES = [("plate", 0), ("plate", 5), ("plate", 10), ("plate", 20), ("plate", 30), ("cube", 0), ("cube", 45)]
+CASES = [
+    ("plate", 0),
+    ("plate", 5),
+    ("plate", 10),
+    ("plate", 20),
+    ("plate", 30),
+    ("cube", 0),
+    ("cube", 45),
+]
 
 
 @pytest.mark.parametrize("obj,angle", CASES)
@@ -136,14 +144,14 @@ def test_five_centimetre_plate_at_default_settings_matches_physical_optics(tmp_p
     paths, e, r = default_paths(tmp_path, quads, 3.0)
     assert ((paths.kind == KIND["diffraction"]) & (paths.order == 2)).any()  # edge to edge
     k = 2 * np.pi * FREQS / C
-    err = 20 * np.log10(np.abs(spectrum(paths, r, k)) / np.abs(physical_optics(quads[0], e, r, k, 400)))
+    err = 20 * np.log10(
+        np.abs(spectrum(paths, r, k)) / np.abs(physical_optics(quads[0], e, r, k, 400))
+    )
     assert np.max(np.abs(err)) < 1.0, err
 
 
 @pytest.mark.parametrize("turn", [7.5, 10.0, 20.0])
-def test_plate_missing_its_mirror_point_at_default_settings_matches_physical_optics(
-    tmp_path, turn
-):
+def test_plate_missing_its_mirror_point_at_default_settings_matches_physical_optics(tmp_path, turn):
     """A 0.5 m rigid plate 2 m ahead turned so that its mirror point misses it (no
     specular echo; silent under geometric optics): at the defaults within 3 dB of
     physical optics at every frequency of 20-85 kHz."""
@@ -151,5 +159,7 @@ def test_plate_missing_its_mirror_point_at_default_settings_matches_physical_opt
     paths, e, r = default_paths(tmp_path, quads, 3.0)
     assert not (paths.kind == KIND["specular"]).any()
     k = 2 * np.pi * FREQS / C
-    err = 20 * np.log10(np.abs(spectrum(paths, r, k)) / np.abs(physical_optics(quads[0], e, r, k, 800)))
+    err = 20 * np.log10(
+        np.abs(spectrum(paths, r, k)) / np.abs(physical_optics(quads[0], e, r, k, 800))
+    )
     assert np.max(np.abs(err)) < 3.0, err

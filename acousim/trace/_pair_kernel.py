@@ -221,11 +221,9 @@ def _edge2(z1, dz1, src, rcv, g, c, limit, cfg, acc, count):  # pragma: no cover
     length dz1), times beta_1 and the outer weight, into the pair's bins acc (B, 9)
     and count (B,)."""
     step, refine = cfg[1], int(cfg[3])
-    excess, width, nb = cfg[4], cfg[6], int(cfg[7])
     s1, a1 = g[0:3], g[3:6]
     s2, a2, len2 = g[7:10], g[10:13], g[13]
-    nu1, nu2, rs1, zs1, rr, zr = g[14], g[15], g[16], g[17], g[18], g[19]
-    p_min = g[22]
+    nu1, nu2, rr, zr = g[14], g[15], g[18], g[19]
     x = (s1[0] + z1 * a1[0], s1[1] + z1 * a1[1], s1[2] + z1 * a1[2])
     m = math.sqrt((x[0] - src[0]) ** 2 + (x[1] - src[1]) ** 2 + (x[2] - src[2]) ** 2)
     d0, d1, d2 = x[0] - s2[0], x[1] - s2[1], x[2] - s2[2]

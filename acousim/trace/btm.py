@@ -333,7 +333,9 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
         # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
         a, b = z - zS_g, z - zR_g
         ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
-        arg = ((rS_g + rR_g) * (z - cuts.z_mid[g])) ** 2 / ((ml - a * b + rS_g * rR_g) * rS_g * rR_g)
+        arg = ((rS_g + rR_g) * (z - cuts.z_mid[g])) ** 2 / (
+            (ml - a * b + rS_g * rR_g) * rS_g * rR_g
+        )
         return _acosh1p(arg)
 
     za, zb, zc = cuts.za, cuts.zb, cuts.zc

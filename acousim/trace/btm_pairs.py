@@ -153,8 +153,6 @@ class EdgePairElements:
         return EdgePairElements(z3, z3, z, z, z, np.zeros(0, int))
 
 
-
-
 @dataclass(frozen=True, eq=False)
 class PairGeometry:
     """N ordered edge pairs that share a plane (world frame, metres).
@@ -407,7 +405,11 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     counts = n_in[sides] + 1  # boundaries per side: the template's below the end, and the end
     side_of = np.repeat(sides, counts)
     j = np.arange(side_of.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    level = np.where(j < np.repeat(counts - 1, counts), template[np.minimum(j, template.size - 1)], e_end[side_of])
+    level = np.where(
+        j < np.repeat(counts - 1, counts),
+        template[np.minimum(j, template.size - 1)],
+        e_end[side_of],
+    )
     kk = side_pair[side_of]
     zb = _levels(prof, kk, z_apex[kk], z_end[side_of], p_min[kk], level)
     inner = np.flatnonzero(j < np.repeat(counts - 1, counts))  # each boundary but a side's last
@@ -449,7 +451,14 @@ def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
     nu1 = np.pi / p.angle1[kg]
     beta1 = _beta(nu1, tS, p.theta12[kg], cosh1, p.terms1[kg])
     amp = (-nu1 / (4 * np.pi)) * (0.5 * p.sides[kg]) * dz1[g] / m[g] * beta1 * el.amplitude
-    arrays = {"m": m[g], "n": n_leg, "l": el.second_leg_m, "amp": amp, "x1": x1[g], "x2": el.point_m}
+    arrays = {
+        "m": m[g],
+        "n": n_leg,
+        "l": el.second_leg_m,
+        "amp": amp,
+        "x1": x1[g],
+        "x2": el.point_m,
+    }
     return arrays, g
 
 
@@ -527,19 +536,37 @@ def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) ->
     )  # fmt: skip
     consts = np.empty((n, 6, 4))
     phi1 = np.pi + np.stack([ts + p.theta12, ts - p.theta12, -ts + p.theta12, -ts - p.theta12], 1)
-    consts[:, 0], consts[:, 1], consts[:, 2] = np.sin(nu1[:, None] * phi1), np.cos(nu1[:, None] * phi1), p.terms1
+    consts[:, 0], consts[:, 1], consts[:, 2] = (
+        np.sin(nu1[:, None] * phi1),
+        np.cos(nu1[:, None] * phi1),
+        p.terms1,
+    )
     phi2 = np.pi + np.stack([p.theta21 + tr, p.theta21 - tr, -p.theta21 + tr, -p.theta21 - tr], 1)
     half = nu2[:, None] * phi2 / 2
     sh, ch = np.sin(half), np.cos(half)
     flip = sh < 0
-    consts[:, 3], consts[:, 4], consts[:, 5] = np.where(flip, -sh, sh), np.where(flip, -ch, ch), p.terms2
+    consts[:, 3], consts[:, 4], consts[:, 5] = (
+        np.where(flip, -sh, sh),
+        np.where(flip, -ch, ch),
+        p.terms2,
+    )
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
     nb = int(np.ceil(max_excess_m / width)) + 2
-    cfg = np.array([step_m, step_m, OUTER_REFINE, INNER_REFINE, max_excess_m, max_path_m, width, nb], float)
+    cfg = np.array(
+        [step_m, step_m, OUTER_REFINE, INNER_REFINE, max_excess_m, max_path_m, width, nb], float
+    )
     idx = np.flatnonzero(live)
     acc = np.zeros((idx.size, nb, 9))
     count = np.zeros((idx.size, nb), np.int64)
-    kernel.pair_bins(source, receiver, np.ascontiguousarray(geo[idx]), np.ascontiguousarray(consts[idx]), cfg, acc, count)
+    kernel.pair_bins(
+        source,
+        receiver,
+        np.ascontiguousarray(geo[idx]),
+        np.ascontiguousarray(consts[idx]),
+        cfg,
+        acc,
+        count,
+    )
     k, b = np.nonzero(count)
     if k.size == 0:
         return EdgePairElements.empty()

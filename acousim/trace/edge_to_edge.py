@@ -181,7 +181,11 @@ def _over_a_face(ctx: StageContext, w1, i, j, shared) -> np.ndarray:
     up = np.where(on_first[:, None], w1.normal[i], -np.cross(turn, w1.other_dir[i]))
     lift = 10 * ctx.nudge + ctx.tol
     t, hit = ctx.caster.first_hit(mid + lift * up, -up, np.full(i.size, 2 * lift))
-    return (hit >= 0) & (plane[np.maximum(hit, 0)] == shared) & (np.abs(t - lift) <= ctx.tol + ctx.nudge)
+    return (
+        (hit >= 0)
+        & (plane[np.maximum(hit, 0)] == shared)
+        & (np.abs(t - lift) <= ctx.tol + ctx.nudge)
+    )
 
 
 def _parts(ctx: StageContext, w, idx):

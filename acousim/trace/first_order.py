@@ -40,7 +40,9 @@ def visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.nd
     return ~((f >= 0) & (t < dist - tol))
 
 
-def edges_in_view(ctx: StageContext, candidates: np.ndarray) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
+def edges_in_view(
+    ctx: StageContext, candidates: np.ndarray
+) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """BTM elements of the candidate edges (indices) that form a convex wedge on the
     side of the emitter and the receiver and that both see (at one of five points
     along the edge, at least): (elements, the edge of each, counts or None)."""
@@ -99,7 +101,11 @@ def wedge_elements(
     # the element without the image terms of table faces, then each of those alone
     zero = np.zeros(rows.size)
     parts = [
-        (every, np.column_stack([np.where(c2 < 0, R2, 0), one, one, np.where(c1 < 0, R1, 0)]), None),
+        (
+            every,
+            np.column_stack([np.where(c2 < 0, R2, 0), one, one, np.where(c1 < 0, R1, 0)]),
+            None,
+        ),
         (np.flatnonzero(c2 >= 0), np.column_stack([R2, zero, zero, zero]), c2),
         (np.flatnonzero(c1 >= 0), np.column_stack([zero, zero, zero, R1]), c1),
     ]
@@ -115,5 +121,7 @@ def wedge_elements(
         els.append(el)
         locals_.append(sel[local])
         counts.append(c)
+    if not els:  # no edge in view
+        return EdgeElements.empty(), np.zeros(0, int), np.zeros((0, n_col), int)
     el = EdgeElements(*(np.concatenate([getattr(e, f) for e in els]) for f in ELEMENT_FIELDS))
     return el, np.concatenate(locals_), np.concatenate(counts)

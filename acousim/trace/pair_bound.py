@@ -124,7 +124,9 @@ def _segment_segment(a1, b1, a2, b2):
     ok = den > 1e-12 * np.maximum(aa * ee, 1e-300)
     s = np.clip(np.where(ok, (bb * ff - cc * ee) / np.where(ok, den, 1.0), 0.0), 0, 1)
     t = np.clip(np.where(ok, (aa * ff - bb * cc) / np.where(ok, den, 1.0), 0.0), 0, 1)
-    cands.append(np.where(ok, np.linalg.norm(a1 + s[:, None] * d1 - a2 - t[:, None] * d2, axis=1), np.inf))
+    cands.append(
+        np.where(ok, np.linalg.norm(a1 + s[:, None] * d1 - a2 - t[:, None] * d2, axis=1), np.inf)
+    )
     return np.min(np.stack(cands), axis=0)
 
 
@@ -180,7 +182,10 @@ def _inverse_distance_integral(a1, b1, a2, b2):
     pa, qa, sa = _interval_abs(-t1, l1 - t1)
     pb, qb, sb = _interval_abs(-t2, l2 - t2)
     rect = (
-        _quadrant(pa, pb) + sb * _quadrant(pa, qb) + sa * _quadrant(qa, pb) + sa * sb * _quadrant(qa, qb)
+        _quadrant(pa, pb)
+        + sb * _quadrant(pa, qb)
+        + sa * _quadrant(qa, pb)
+        + sa * sb * _quadrant(qa, qb)
     )
     meet = rect / np.sqrt(np.maximum(1 - np.abs(cos), 1e-300))
     return np.where(parallel, par, meet)
