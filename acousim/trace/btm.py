@@ -270,28 +270,10 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
         np.minimum(real_end, max_path_m[side_edge] - l_apex[side_edge]), max_excess_m
     )
     live = good[side_edge] & (np.abs(z_end - z_apex[side_edge]) > 0) & (e_end > 0)
-    e_cap = float(e_end[live].max()) if live.any() else 0.0
-    template = np.concatenate(
-        [
-            [0.0],
-            step_m * 0.5 ** np.arange(refine, 0, -1),
-            step_m * np.arange(1, int(np.ceil(e_cap / step_m)) + 1),
-        ]
-    )
-    n_inner = np.where(live, np.searchsorted(template, e_end, side="left"), 0)  # entries < end
-    sides = np.flatnonzero(live & (n_inner > 0))
-    if sides.size == 0:
+    steps = _excess_steps(e_end, live, step_m, refine)
+    if steps is None:
         return None
-    counts = n_inner[sides]  # elements per side
-    side_of = np.repeat(sides, counts)  # per element
-    offset = np.cumsum(counts) - counts
-    j = np.arange(side_of.size) - np.repeat(offset, counts)  # element index within its side
-    ea_ex = template[j]
-    eb_ex = np.where(
-        j + 1 < np.repeat(counts, counts),
-        template[np.minimum(j + 1, template.size - 1)],
-        e_end[side_of],
-    )
+    side_of, j, ea_ex, eb_ex = steps
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
     za, zb, zc = _on_spheroid_many(
@@ -310,6 +292,34 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
         x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
     taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
     return _Cuts(edge_of, j == 0, za, zb, zc, taper, z_apex, z_mid)
+
+
+def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
+    """The elements of every live side, in excess path length: (side (K,), index
+    within its side (K,), start (K,), end (K,)); steps of step_m from the apex, the
+    first subdivided `refine` times by halving, the last ending at e_end (S,)."""
+    e_cap = float(e_end[live].max()) if live.any() else 0.0
+    template = np.concatenate(
+        [
+            [0.0],
+            step_m * 0.5 ** np.arange(refine, 0, -1),
+            step_m * np.arange(1, int(np.ceil(e_cap / step_m)) + 1),
+        ]
+    )
+    n_inner = np.where(live, np.searchsorted(template, e_end, side="left"), 0)  # entries < end
+    sides = np.flatnonzero(live & (n_inner > 0))
+    if sides.size == 0:
+        return None
+    counts = n_inner[sides]  # elements per side
+    side_of = np.repeat(sides, counts)  # per element
+    offset = np.cumsum(counts) - counts
+    j = np.arange(side_of.size) - np.repeat(offset, counts)  # element index within its side
+    eb_ex = np.where(
+        j + 1 < np.repeat(counts, counts),
+        template[np.minimum(j + 1, template.size - 1)],
+        e_end[side_of],
+    )
+    return side_of, j, template[j], eb_ex
 
 
 def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:

@@ -109,8 +109,14 @@ def wedge_elements(
         (np.flatnonzero(c2 >= 0), np.column_stack([R2, zero, zero, zero]), c2),
         (np.flatnonzero(c1 >= 0), np.column_stack([zero, zero, zero, R1]), c1),
     ]
+    return _joined(parts, part, int(np.max(face_column, initial=-1)) + 2)
+
+
+def _joined(parts, part, n_col: int):
+    """The elements of every (rows, terms, table column) part of
+    :func:`wedge_elements` (`part` computes one), joined: (elements, rows' local
+    indices, counts (K, n_col))."""
     els, locals_, counts = [], [], []
-    n_col = int(np.max(face_column, initial=-1)) + 2  # columns come in pairs
     for sel, terms, column in parts:
         if sel.size == 0:
             continue

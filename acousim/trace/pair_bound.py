@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import PairGeometry, _beta, cylindrical, shortest_paths
+from .btm_pairs import PairGeometry, cylindrical, shortest_paths
 from .btm_pairs import _apex as _edge_apex
 
 __all__ = ["ESTIMATE_MARGIN", "beta_bound", "pair_bound", "pair_estimate"]
@@ -317,6 +317,29 @@ def pair_estimate(
     d1, d, d2 = x1 - source, x1 - x2, receiver - x2
     m, n, l_ = (np.linalg.norm(v, axis=1) for v in (d1, d, d2))
     scale = 0.5 * p.sides * nu1 * nu2 / (16 * np.pi**2) * b1 * b2
+    legs = (d1, d, d2, m, n, l_)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inside = scale / (m * n * l_) * _bin_area(p, legs, (z1, z2, rs, rr), (bin_m, excess_m))
+        # a shared corner: the slopes of the path away from it along each edge
+        s1 = 1 + _dot(d1, ax1) / m * np.where(z1 > 0.5 * len1, -1, 1)
+        s2 = 1 + _dot(-d2, ax2) / l_ * np.where(z2 > 0.5 * len2, -1, 1)
+        g = np.maximum(np.minimum(s1, s2), 1e-3)
+        c = np.sqrt(np.maximum(1 - np.abs(_dot(ax1, ax2)), 1e-6))
+        corner = scale * (np.pi / 2) * (bin_m / g) / (c * m * l_) * CORNER_MARGIN
+    tiny = n <= 1e-9 * np.maximum(m, l_)
+    out = np.where(tiny, corner, inside)
+    return np.where(np.isfinite(out), out, np.inf)
+
+
+def _bin_area(p: PairGeometry, legs, at, widths) -> np.ndarray:
+    """The area (N,) in (z1, z2) of one bin about the shortest path (see
+    :func:`pair_estimate`); legs: (S -> z1, z1 - z2, R - z2 vectors and lengths),
+    at: (z1, z2, r of S about edge 1, r of R about edge 2), widths: (bin, excess)."""
+    d1, d, d2, m, n, l_ = legs
+    z1, z2, rs, rr = at
+    bin_m, excess_m = widths
+    ax1, len1 = p.edge1()
+    ax2, len2 = p.edge2()
     with np.errstate(divide="ignore", invalid="ignore"):
         dh = d / n[:, None]
         c1, c2, c12 = _dot(dh, ax1), _dot(dh, ax2), _dot(ax1, ax2)
@@ -326,8 +349,8 @@ def pair_estimate(
         det = np.maximum(h11 * h22 - h12**2, 1e-300)
         area = 2 * np.pi * bin_m / np.sqrt(det)
         # at an end of an edge the path grows there with slope g: a bin is a strip
-        # bin / g wide along the other edge (up to the excess kept), or a triangle-
-        # like band at the ends of both
+        # bin / g wide along the other edge (up to the excess kept), or a band at
+        # the ends of both
         end1 = (z1 <= 1e-9 * len1) | (z1 >= len1 * (1 - 1e-9))
         end2 = (z2 <= 1e-9 * len2) | (z2 >= len2 * (1 - 1e-9))
         g1 = np.abs(_dot(d1, ax1) / m + c1)
@@ -336,45 +359,7 @@ def pair_estimate(
         strip2 = bin_m / g2 * 2 * np.sqrt(2 * excess_m / h11)
         area = np.where(end1 & ~end2, np.minimum(area, strip1), area)
         area = np.where(end2 & ~end1, np.minimum(area, strip2), area)
-        area = np.where(end1 & end2, np.minimum(area, bin_m * excess_m / (g1 * g2)), area)
-        inside = scale / (m * n * l_) * area
-        # a shared corner: the slopes of the path away from it along each edge
-        s1 = 1 + _dot(d1, ax1) / m * np.where(z1 > 0.5 * len1, -1, 1)
-        s2 = 1 + _dot(-d2, ax2) / l_ * np.where(z2 > 0.5 * len2, -1, 1)
-        g = np.maximum(np.minimum(s1, s2), 1e-3)
-        c = np.sqrt(np.maximum(1 - np.abs(c12), 1e-6))
-        corner = scale * (np.pi / 2) * (bin_m / g) / (c * m * l_) * CORNER_MARGIN
-    tiny = n <= 1e-9 * np.maximum(m, l_)
-    out = np.where(tiny, corner, inside)
-    return np.where(np.isfinite(out), out, np.inf)
-
-
-def _corner_betas(p: PairGeometry, ends, at, delta) -> np.ndarray:
-    """f nu1 nu2 / (16 pi^2) |beta_1 beta_2| (N,) at the points `delta` (N,) away from
-    the corner (z1, z2 = at) along each edge (the region that dominates the corner's
-    integral at the wavenumber of delta = pi / (k g))."""
-    source, receiver = ends
-    z1, z2 = at
-    ax1, len1 = p.edge1()
-    ax2, len2 = p.edge2()
-    w1 = np.clip(z1 + np.where(z1 > 0.5 * len1, -delta, delta), 0, len1)
-    w2 = np.clip(z2 + np.where(z2 > 0.5 * len2, -delta, delta), 0, len2)
-    x1 = p.start1 + w1[:, None] * ax1
-    x2 = p.start2 + w2[:, None] * ax2
-    m = np.linalg.norm(x1 - source, axis=1)
-    n = np.linalg.norm(x1 - x2, axis=1)
-    l_ = np.linalg.norm(receiver - x2, axis=1)
-    rs, ts, zs = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
-    r21, _, z21 = cylindrical(x2, p.start1, ax1, p.face_dir1, p.normal1)
-    rr, tr, zr = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
-    r12, _, z12 = cylindrical(x1, p.start2, ax2, p.face_dir2, p.normal2)
-    nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cosh1 = ((w1 - zs) * (w1 - z21) + m * n) / (rs * r21)
-        cosh2 = ((w2 - z12) * (w2 - zr) + n * l_) / (r12 * rr)
-    b1 = _beta(nu1, ts, p.theta12, cosh1, p.terms1)
-    b2 = _beta(nu2, p.theta21, tr, cosh2, p.terms2)
-    return np.abs(0.5 * p.sides * nu1 * nu2 / (16 * np.pi**2) * b1 * b2)
+        return np.where(end1 & end2, np.minimum(area, bin_m * excess_m / (g1 * g2)), area)
 
 
 #: the corner estimate is scaled up by this (it is the least reliable: measured
