@@ -376,7 +376,8 @@ def run() -> str:
             f"The corridor, `Simulator.run` over {len(pairs.POSES)} poses, each variant in turn in "
             "one process (5 rounds; the tracer's cache emptied each time): median ms per "
             "measurement, measurements/s, the median of the per-round ratios to diffraction "
-            "off, and diffraction paths per pose (of them second order: edge to edge, or an edge and a reflection). 'moving': the "
+            "off, and diffraction paths per pose (of them second order: edge to edge, or an "
+            "edge and a reflection). 'moving': the "
             "file's drive (the Doppler renderer); 'frozen': its poses without motion.",
             "",
             "| drive | diffraction | ms per measurement | measurements/s | time / off | "

@@ -363,8 +363,9 @@ def _bin_area(p: PairGeometry, legs, at, widths) -> np.ndarray:
 
 
 #: the corner estimate is scaled up by this (it is the least reliable: measured
-#: between 0.1 and 10^4 times the largest bin)
-CORNER_MARGIN = 10.0
+#: between 0.1 and 10^4 times the largest bin; with ESTIMATE_MARGIN, at least 1.5
+#: times it in every case measured)
+CORNER_MARGIN = 3.0
 
 #: the stage integrates a pair whose estimate times this reaches the floor
 ESTIMATE_MARGIN = 5.0
