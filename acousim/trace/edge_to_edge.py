@@ -12,10 +12,12 @@ edge 1 about edge 2).  Both rims of a thin plate: the path runs along both of it
 sides (``sides = 2``).  Visibility is checked per edge, not per element.
 
 Order per pair: each candidate's largest path (one bin) is bounded in closed form
-(:func:`acousim.trace.pair_bound.pair_bound`); only the pairs whose bound reaches
-the stage's floor are integrated (the rest would be dropped by the tracer's energy
-floor whatever their value: what is skipped is measured in BENCHMARKS.md and
-``tests/test_edge_pair_bound.py``).
+(:func:`acousim.trace.pair_bound.pair_bound`) and estimated at the pair's shortest
+path (:func:`acousim.trace.pair_bound.pair_estimate`, with a margin); only the
+pairs whose bound and estimate reach the stage's floor are integrated, the others
+keep first order alone (their paths would be dropped by the tracer's energy floor:
+what is skipped is measured in BENCHMARKS.md and
+``tests/test_edge_pair_selection.py``).
 
 With frequency-dependent materials (``face_column``), each wedge's response is split
 into the part without the image terms of its table faces and each of those terms

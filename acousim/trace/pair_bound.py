@@ -1,4 +1,5 @@
-"""A closed-form upper bound of what one pair of edges adds by edge-to-edge diffraction.
+"""Which edge pairs can matter: a closed-form upper bound, and an estimate, of the
+largest path one pair of edges adds by edge-to-edge diffraction.
 
 The edge-to-edge response of edges 1 and 2 (:mod:`acousim.trace.btm_pairs`) is::
 
@@ -23,7 +24,7 @@ The bound, for every pair (all factors are upper bounds):
    ``|S - z2| + l <= limit``: two sub-segments, of lengths L1, L2, found on the
    spheroids with foci S and R.  m_min, l_min (m_max, l_max): the least (largest)
    distances of S and R to them; n_min: the least distance between them.
-3. Three bounds of the largest bin, the least of which is taken:
+3. Bounds of the largest bin, the least of which is taken:
    (a) the whole integral of |integrand| (every bin is at most the sum):
    ``B1 B2 / (m_min l_min) int int dz1 dz2 / n``, the last in closed form for two
    coplanar segments (parallel: exactly; on lines meeting at an angle alpha:
@@ -33,10 +34,20 @@ The bound, for every pair (all factors are upper bounds):
    ``kappa2 = r_R^2 / l_max^3`` (r_R: R's distance from edge 2), so they span at
    most ``2 sqrt(2 bin / kappa2)``: ``B1 B2 L1 2 sqrt(2 bin / kappa2) / (m_min
    n_min l_min)``;
-   (c) the same with the roles of the edges swapped (``kappa1 = r_S^2 / m_max^3``).
+   (c) the same with the roles of the edges swapped (``kappa1 = r_S^2 / m_max^3``);
+   (d) one bin about the least path: along every ray from it the path grows with
+   curvature at least that of H = diag(kappa1, kappa2) (the Hessian of n is positive
+   semi-definite), so a bin covers at most ``2 pi bin / sqrt(kappa1 kappa2)`` of
+   (z1, z2), over which ``1 / n <= 1 / n_min``;
+   (e) for edges on lines that meet: the same area with ``1 / n`` integrated about
+   the meeting point (:func:`_near_meeting_point`).
 
-Tested in ``tests/test_edge_pair_bound.py`` (every pair of a scene integrated in
-full: each skipped pair's largest bin under its bound, and under the floor).
+The bound is rigorous but loose (10 to 10^4 times the largest bin in the corridor);
+:func:`pair_estimate` estimates the largest bin at the pair's shortest path, and the
+stage integrates a pair if the bound and the estimate times :data:`ESTIMATE_MARGIN`
+both reach the floor.  Tested in ``tests/test_edge_pair_selection.py`` (every pair
+of a scene integrated in full: the bound above each pair's largest bin; the stage's
+paths above the floor those of the full computation).
 """
 
 from __future__ import annotations
