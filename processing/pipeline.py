@@ -19,7 +19,7 @@ import numpy as np
 
 from .broadband import BroadbandMethod, BroadbandSettings, Directions, energyscape
 from .doa import NarrowbandMethod, doa_spectrum
-from .errors import InputError
+from .errors import InputError, unknown_choice
 from .image import Image
 from .matched_filter import matched_filter
 from .recording import Recording
@@ -58,7 +58,9 @@ def check_method(name: str) -> Method:
     """`name` when it is one of :data:`METHODS`, else an InputError naming it."""
     if name not in METHODS:
         raise InputError(
-            f"unknown method; choose one of {', '.join(METHODS)}", key="method", value=name
+            unknown_choice("method", name, METHODS) + " (all: processing.METHODS)",
+            key="method",
+            value=name,
         )
     return name  # type: ignore[return-value]
 

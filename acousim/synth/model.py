@@ -11,7 +11,7 @@ import logging
 
 import numpy as np
 
-from processing import Array, Recording, Waveform
+from processing import Array, Recording, Waveform, provenance_metadata
 from processing.errors import InputError
 
 from .echoes import Echoes, PointReflectors, point_echoes
@@ -120,7 +120,12 @@ def simulate(
             if n_measurements is None
             else np.broadcast_to(clean, (n_measurements, *clean.shape)).copy()
         )
-    meta = {"simulated": True, "seed": seed, "snr_db": float(snr_db), "n_paths": echoes.n_paths}
+    meta = {
+        **provenance_metadata("simulated"),
+        "seed": seed,
+        "snr_db": float(snr_db),
+        "n_paths": echoes.n_paths,
+    }
     meta.update(metadata or {})
     return Recording(
         samples, sample_rate_hz, array, waveform, speed_of_sound_m_s, emission_index, meta
