@@ -31,8 +31,10 @@ def _apex(px, py, pz, r, s, a, length):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def _profile(z1, src, rcv, s1, a1, s2, a2, len2):  # pragma: no cover - compiled
-    """P1(z1) = m + min over edge 2 of (n + l), and its slope."""
+def _profile(z1, pair):  # pragma: no cover - compiled
+    """P1(z1) = m + min over edge 2 of (n + l), and its slope; pair: (source,
+    receiver, start and axis of edge 1, start, axis and length of edge 2)."""
+    src, rcv, s1, a1, s2, a2, len2 = pair
     x = s1[0] + z1 * a1[0]
     y = s1[1] + z1 * a1[1]
     w = s1[2] + z1 * a1[2]
@@ -50,59 +52,38 @@ def _profile(z1, src, rcv, s1, a1, s2, a2, len2):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def shortest(src, rcv, s1, a1, len1, s2, a2, len2, z_out, p_out):  # pragma: no cover
+def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
     """Per pair: z1 of the shortest path (60 halvings on the profile's slope) and its
-    length, into z_out, p_out (N,)."""
-    for k in range(len1.size):
-        lo, hi = 0.0, len1[k]
+    length, into out (N, 2); geo (N, 14): start1, axis1, length1, start2, axis2,
+    length2 (the first 14 columns of :func:`pair_bins`' geo)."""
+    for k in range(geo.shape[0]):
+        g = geo[k]
+        pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
+        lo, hi = 0.0, g[6]
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            if _profile(mid, src, rcv, s1[k], a1[k], s2[k], a2[k], len2[k])[1] > 0:
+            if _profile(mid, pair)[1] > 0:
                 hi = mid
             else:
                 lo = mid
         z = 0.5 * (lo + hi)
-        z_out[k] = z
-        p_out[k] = _profile(z, src, rcv, s1[k], a1[k], s2[k], a2[k], len2[k])[0]
+        out[k, 0] = z
+        out[k, 1] = _profile(z, pair)[0]
 
 
 @njit(cache=True, nogil=True)
-def _level(target, z_apex, z_end, src, rcv, s1, a1, s2, a2, len2):  # pragma: no cover
+def _level(target, z_apex, z_end, pair):  # pragma: no cover - compiled
     """z between the apex and z_end where the profile reaches target (Newton from
     z_end: monotone on a convex function)."""
     lo, hi = min(z_apex, z_end), max(z_apex, z_end)
     z = z_end
     for _ in range(40):
-        value, slope = _profile(z, src, rcv, s1, a1, s2, a2, len2)
+        value, slope = _profile(z, pair)
         gap = value - target
         if abs(gap) < 1e-13 + 1e-12 * abs(target) or abs(slope) <= 1e-12:
             break
         z = min(max(z - gap / slope, lo), hi)
     return z
-
-
-@njit(cache=True, nogil=True)
-def _spheroid(src, rcv, s, a, path, upper):  # pragma: no cover - compiled
-    """z along the line s + z a where |src - x| + |x - rcv| = path (larger root if
-    upper)."""
-    cx, cy, cz = 0.5 * (src[0] + rcv[0]), 0.5 * (src[1] + rcv[1]), 0.5 * (src[2] + rcv[2])
-    fx, fy, fz = rcv[0] - src[0], rcv[1] - src[1], rcv[2] - src[2]
-    c = 0.5 * math.sqrt(fx * fx + fy * fy + fz * fz)
-    if c > 0:
-        ux, uy, uz = fx / (2 * c), fy / (2 * c), fz / (2 * c)
-    else:
-        ux, uy, uz = 0.0, 0.0, 0.0
-    a2 = (0.5 * path) ** 2
-    b2 = max(a2 - c * c, 0.0)
-    yx, yy, yz = s[0] - cx, s[1] - cy, s[2] - cz
-    y0u = yx * ux + yy * uy + yz * uz
-    eu = a[0] * ux + a[1] * uy + a[2] * uz
-    y0e = yx * a[0] + yy * a[1] + yz * a[2]
-    q2 = b2 * eu * eu + a2 * (1 - eu * eu)
-    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
-    q0 = b2 * y0u * y0u + a2 * ((yx * yx + yy * yy + yz * yz) - y0u * y0u) - a2 * b2
-    root = math.sqrt(max(q1 * q1 - 4 * q2 * q0, 0.0))
-    return (-q1 + (root if upper else -root)) / (2 * q2)
 
 
 @njit(cache=True, nogil=True)
@@ -125,7 +106,10 @@ def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True)
 def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
-    """:func:`_spheroid` from its constants `form`."""
+    """z along the line where |src - x| + |x - rcv| = path (the larger root if
+    upper), from the constants `form` of :func:`_spheroid_form`: points of equal
+    path lie on a spheroid with foci src and rcv, whose intersection with a line is
+    a quadratic in z."""
     cc, y0u, eu, y0e, yy = form
     a2 = (0.5 * path) ** 2
     b2 = max(a2 - cc, 0.0)
@@ -193,13 +177,13 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - com
     excess, max_path = cfg[4], cfg[5]
     for k in range(geo.shape[0]):
         g = geo[k]
-        s1, a1, len1 = g[0:3], g[3:6], g[6]
-        s2, a2, len2 = g[7:10], g[10:13], g[13]
+        len1 = g[6]
+        pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
         p_min, z_apex = g[22], g[23]
         limit = min(p_min + excess, max_path)
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
-            real_end = _profile(z_end, src, rcv, s1, a1, s2, a2, len2)[0] - p_min
+            real_end = _profile(z_end, pair)[0] - p_min
             e_end = min(real_end, limit - p_min)
             if not (abs(z_end - z_apex) > 0 and e_end > 0):
                 continue
@@ -207,19 +191,21 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - com
             za = z_apex
             for j in range(n_in):
                 lev = e_end if j + 1 >= n_in else _level_value(j + 1, step_o, ref_o)
-                zb = _level(p_min + lev, z_apex, z_end, src, rcv, s1, a1, s2, a2, len2)
+                zb = _level(p_min + lev, z_apex, z_end, pair)
                 dz = abs(zb - za)
                 if dz > 0:
                     z1 = 0.5 * (za + zb)
-                    _edge2(z1, dz, src, rcv, g, consts[k], limit, cfg, acc[k], count[k])
+                    _edge2((z1, dz), (src, rcv), g, consts[k], limit, cfg, (acc[k], count[k]))
                 za = zb
 
 
 @njit(cache=True, nogil=True)
-def _edge2(z1, dz1, src, rcv, g, c, limit, cfg, acc, count):  # pragma: no cover - compiled
-    """The first-order elements of edge 2 with the source at z1 on edge 1 (element
-    length dz1), times beta_1 and the outer weight, into the pair's bins acc (B, 9)
-    and count (B,)."""
+def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
+    """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
+    (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
+    (acc (B, 9), count (B,)); ends: (source, receiver)."""
+    z1, dz1 = element
+    src, rcv = ends
     step, refine = cfg[1], int(cfg[3])
     s1, a1 = g[0:3], g[3:6]
     s2, a2, len2 = g[7:10], g[10:13], g[13]
@@ -263,13 +249,16 @@ def _edge2(z1, dz1, src, rcv, g, c, limit, cfg, acc, count):  # pragma: no cover
                 amp_in = -(nu2 / (4 * math.pi)) * (abs(zb - za) / deta / (n_c * l_c))
                 amp_in *= (2 / nu2) * (pb - pa)
                 if amp_in != 0:
-                    _add(x, m, z1, zc, n_c, l_c, amp_in * outer, g, c, cfg, acc, count)
+                    _add(x, (m, z1, zc, n_c, l_c, amp_in * outer), g, c, cfg, out)
             e_a, za, ea, pa = e_b, zb, eb, pb
 
 
 @njit(cache=True, nogil=True)
-def _add(x, m, z1, zc, n_c, l_c, amp, g, c, cfg, acc, count):  # pragma: no cover - compiled
-    """beta_1 at the element (z1 on edge 1, zc on edge 2), the taper, into its bin."""
+def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
+    """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
+    x: the point z1), the taper, into its bin of out (acc, count)."""
+    m, z1, zc, n_c, l_c, amp = el
+    acc, count = out
     s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
     excess, width, nb = cfg[4], cfg[6], int(cfg[7])

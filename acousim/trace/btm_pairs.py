@@ -278,6 +278,13 @@ class _Profile:
         return value, slope
 
 
+def _edge_table(pairs: PairGeometry) -> np.ndarray:
+    """(N, 14): start1, axis1, length1, start2, axis2, length2 of each pair."""
+    ax1, len1 = pairs.edge1()
+    ax2, len2 = pairs.edge2()
+    return np.column_stack([pairs.start1, ax1, len1, pairs.start2, ax2, len2])
+
+
 def _apex(s, r, start, axis, length):
     """First-order apex (K,) of s (K, 3) or (3,) and r (3,) on K edges (z along each
     edge from its start, clipped to it): the point of least |s - x| + |x - r|."""
@@ -296,12 +303,11 @@ def shortest_paths(pairs: PairGeometry, source, receiver) -> tuple[np.ndarray, n
     if numba is installed)."""
     kernel = compiled("acousim.trace._pair_kernel")
     if kernel is not None:
-        ax1, len1 = pairs.edge1()
-        ax2, len2 = pairs.edge2()
-        z, p = np.empty(len(pairs)), np.empty(len(pairs))
-        args = (pairs.start1, ax1, len1, pairs.start2, ax2, len2)
-        kernel.shortest(np.asarray(source, float), np.asarray(receiver, float), *args, z, p)
-        return z, p
+        out = np.empty((len(pairs), 2))
+        kernel.shortest(
+            np.asarray(source, float), np.asarray(receiver, float), _edge_table(pairs), out
+        )
+        return out[:, 0], out[:, 1]
     prof = _Profile(pairs, source, receiver)
     _, length = pairs.edge1()
     k = np.arange(len(pairs))
@@ -524,8 +530,7 @@ def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) ->
     n = len(p)
     ax1, len1 = p.edge1()
     ax2, len2 = p.edge2()
-    z_apex, p_min = np.empty(n), np.empty(n)
-    kernel.shortest(source, receiver, p.start1, ax1, len1, p.start2, ax2, len2, z_apex, p_min)
+    z_apex, p_min = shortest_paths(p, source, receiver)
     rs, ts, zs = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
     rr, tr, zr = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
     nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
