@@ -23,7 +23,7 @@ from acousim.trace.edge_to_edge import candidate_pairs
 from acousim.trace.edges import find_edges
 from acousim.trace.embree import RayCaster
 from acousim.trace.pair_bound import pair_bound
-from processing.compiled import compiled
+from processing.kernels import optional_kernel
 from tests.test_diffraction_order2 import plane_ids
 
 #: a gain at the receiver 80 dB under a rigid wall 1 m away (1 / (2 m))
@@ -104,7 +104,9 @@ def test_what_the_selection_skips_is_below_the_floor(stage):
     )
 
 
-@pytest.mark.skipif(compiled("acousim.trace._pair_kernel") is None, reason="numba not installed")
+@pytest.mark.skipif(
+    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+)
 def test_the_compiled_kernel_and_numpy_agree(stage):
     geometry, caster = stage
     options = DiffractionOptions(max_path_m=8.0, order=2)

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.compiled import compiled
+from processing.kernels import optional_kernel
 
 from .btm import DEFAULT_MAX_EXCESS_M, DEFAULT_STEP_M, EdgeRows, integrate_rows
 
@@ -301,7 +301,7 @@ def shortest_paths(pairs: PairGeometry, source, receiver) -> tuple[np.ndarray, n
     """(z1 at the pair's shortest path, that path's length) (N,) each: the least of
     the convex profile, by bisection on the sign of its slope (60 halvings; compiled
     if numba is installed)."""
-    kernel = compiled("acousim.trace._pair_kernel")
+    kernel = optional_kernel("acousim.trace._pair_kernel")
     if kernel is not None:
         out = np.empty((len(pairs), 2))
         kernel.shortest(
@@ -357,7 +357,7 @@ def pair_elements(
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     if len(pairs) == 0 or step_m <= 0:
         return EdgePairElements.empty()
-    kernel = compiled("acousim.trace._pair_kernel") if use_kernel else None
+    kernel = optional_kernel("acousim.trace._pair_kernel") if use_kernel else None
     if kernel is not None and np.isfinite(max_excess_m):
         limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN)
         return _compiled_elements(kernel, pairs, source, receiver, limits)
