@@ -32,6 +32,7 @@ __all__ = [
     "Environment",
     "Simulation",
     "Pose",
+    "Trajectory",
     "SceneError",
 ]
 

@@ -86,6 +86,8 @@ class _Prepared:
     rate: np.ndarray | None = None
     #: a measurement in motion: its render planned (:meth:`Simulator._planned`)
     plan: DopplerPlan | None = None
+    #: the LiDAR's scan at the pose (a scene with ``sensor.lidar``)
+    lidar: P.PointCloud | None = None
 
 
 class Simulator:
@@ -177,7 +179,8 @@ class Simulator:
             order=paths.order,
             kind=np.array(kind_names(paths.kind), dtype=str),
         )
-        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth)
+        lidar = self.lidar_scan(pose, index, motion)
+        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, lidar=lidar)
 
     def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
         """A measurement in motion, down the stages:
@@ -218,7 +221,8 @@ class Simulator:
             velocity_world_m_s=truth_vel,
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)
-        return _Prepared(echoes.select(keep), n, meta, truth, rate=arr.rate[:, keep])
+        lidar = self.lidar_scan(pose, index, motion)
+        return _Prepared(echoes.select(keep), n, meta, truth, rate=arr.rate[:, keep], lidar=lidar)
 
     def _planned(self, prep: _Prepared) -> _Prepared:
         """`prep` with the render of its echoes in motion planned (time-scaled calls at
@@ -238,6 +242,21 @@ class Simulator:
             cache=self.doppler_cache,
         )
         return dataclasses.replace(prep, plan=plan)
+
+    def lidar_scan(self, pose: Pose, index: int = 0, motion=None) -> P.PointCloud | None:
+        """The scene's LiDAR (``sensor.lidar``) scanning from `pose` (None: the scene
+        has none); `motion`: the sensor's trajectory during the scan (None: still);
+        range noise seeded by (scene seed, `index`)."""
+        lidar = self.scene.sensor.lidar
+        if lidar is None:
+            return None
+        from acousim.trace.lidar import scan
+
+        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        seed = int(
+            np.random.SeedSequence([self.scene.simulation.seed, index, 1]).generate_state(1)[0]
+        )
+        return scan(tracer.world, tracer.caster, lidar, pose, motion=motion, seed=seed)
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
@@ -291,7 +310,7 @@ class Simulator:
             metadata=prep.metadata,
             doppler=prep.plan,
         )
-        return dataclasses.replace(rec, truth=prep.truth)
+        return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 
     def _moving_points(self, pose):
         """Moving point reflectors at the start of the emission within the range and

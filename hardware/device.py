@@ -125,6 +125,8 @@ class RtisDevice:
         self.vendor_id, self.product_id = vendor_id, product_id
         self.serial, self.bus, self.address = serial, bus, address
         self.backend = backend
+        #: True when the backend is the emulated sensor (its recordings are emulated)
+        self.emulated = bool(getattr(backend, "emulated", False))
         self.timeout_ms = timeout_ms
         self.dev = None
         self.settings = DeviceSettings()

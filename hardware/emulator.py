@@ -248,6 +248,8 @@ def _desc(**kw) -> SimpleNamespace:
 class EmulatorBackend(usb.backend.IBackend):
     """A pyusb backend under which an EmulatedSensor enumerates as a CDC-ACM device."""
 
+    emulated = True  # recordings through it are labelled "emulated"
+
     def __init__(
         self,
         sensor: EmulatedSensor,

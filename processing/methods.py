@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Literal, get_args
 
-from .errors import InputError
+from .errors import InputError, unknown_choice
 
 __all__ = [
     "NarrowbandMethod",
@@ -111,7 +111,9 @@ def check_method(name: str) -> Method:
     """`name` when it is one of :data:`METHODS`, else an InputError naming it."""
     if name not in METHODS:
         raise InputError(
-            f"unknown method; choose one of {', '.join(METHODS)}", key="method", value=name
+            unknown_choice("method", name, METHODS) + " (all: processing.METHODS)",
+            key="method",
+            value=name,
         )
     return name  # type: ignore[return-value]
 

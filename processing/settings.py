@@ -31,7 +31,6 @@ pair of finite numbers inside the range, low <= high).
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -40,7 +39,7 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, did_you_mean
 
 __all__ = [
     "Kind",
@@ -61,8 +60,8 @@ _KINDS = get_args(Kind)
 class Setting:
     """The declaration of one setting.
 
-    default : the value when none is given (``dataclasses.MISSING``: required; None:
-        optional, and None is then accepted as "not set").
+    default : the value when none is given (``dataclasses.MISSING``: required).
+    optional : None is accepted as "not set" (:func:`setting` with a None default).
     unit : SI unit, or a file-boundary unit in the name (``deg``), "" when unitless.
     lo, hi : allowed range, inclusive (numbers, and every element of a vector).
     choices : allowed strings (``str`` kind).
@@ -77,6 +76,7 @@ class Setting:
     doc: str = ""
     choices: tuple[str, ...] | None = None
     length: int | None = None
+    optional: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in _KINDS:
@@ -136,6 +136,7 @@ def setting(
         doc,
         None if choices is None else tuple(choices),
         length,
+        optional=default is None,
     )
     if default is dataclasses.MISSING:
         return dataclasses.field(metadata={"setting": decl})
@@ -158,7 +159,7 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         return InputError(msg, file=file, key=key, value=value)
 
     rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
-    if value is None and decl.default is None:  # an optional setting left unset
+    if value is None and decl.optional:  # an optional setting left unset
         return None
     if decl.kind == "bool":
         if isinstance(value, bool | np.bool_):
@@ -168,8 +169,8 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         if not isinstance(value, str):
             raise fail("must be a string")
         if decl.choices is not None and value not in decl.choices:
-            close = difflib.get_close_matches(value, decl.choices, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            close = did_you_mean(value, decl.choices)
+            hint = f"; did you mean {close!r}?" if close else ""
             raise fail(f"is not one of {', '.join(decl.choices)}{hint}")
         return value
     if decl.kind in ("float", "int"):
@@ -191,8 +192,8 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
             if not isinstance(v, str):
                 raise fail("must be a list of strings")
             if decl.choices is not None and v not in decl.choices:
-                close = difflib.get_close_matches(v, decl.choices, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
+                close = did_you_mean(v, decl.choices)
+                hint = f"; did you mean {close!r}?" if close else ""
                 raise fail(f"{v!r} is not one of {', '.join(decl.choices)}{hint}")
         return out
     return _numbers(decl, value, fail, rng)  # vector or interval
@@ -288,8 +289,8 @@ def refuse_unknown(
     allowed = sorted(set(allowed))
     for k in table:
         if k not in allowed:
-            close = difflib.get_close_matches(str(k), allowed, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            close = did_you_mean(str(k), allowed)
+            hint = f"; did you mean {close!r}?" if close else ""
             raise InputError(
                 f"unknown key {k!r}{hint} (allowed: {', '.join(allowed)})",
                 file=file,

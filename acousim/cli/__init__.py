@@ -23,6 +23,7 @@ import sys
 from processing.errors import InputError
 
 from . import (
+    calibrate,
     compare,
     dataset,
     demo,
@@ -40,7 +41,19 @@ from .record import ARRAY_PRESETS, CALL_PRESETS, PDM_FILTERS
 __all__ = ["main", "build_parser", "UsageError", "ARRAY_PRESETS", "CALL_PRESETS", "PDM_FILTERS"]
 
 # in the order `acousim --help` lists them
-COMMANDS = (demo, simulate, image, export, scenes, info, record, compare, dataset, reproduce)
+COMMANDS = (
+    demo,
+    simulate,
+    image,
+    export,
+    scenes,
+    info,
+    record,
+    compare,
+    calibrate,
+    dataset,
+    reproduce,
+)
 
 
 def _headless_vtk() -> None:

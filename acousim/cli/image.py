@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import UsageError, methods, parse_indices, progress, writable_dir
+from .common import UsageError, choice, methods, parse_indices, progress, writable_dir
 from .options import DeclaredHelp, add_declared
 
 IMAGING = "acousim.imaging:ImagingOptions"
@@ -13,7 +13,7 @@ IMAGING = "acousim.imaging:ImagingOptions"
 
 def imaging_arguments(p: argparse.ArgumentParser) -> None:
     """Options shared by `image` and `export`."""
-    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument("file", help="recording file (.h5: ours, or a CHIRP file)")
     p.add_argument(
         "--method",
         default="das,capon-fbss,music-fbss",
@@ -27,6 +27,26 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
     add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
     add_declared(p, "--peak-threshold", IMAGING, "peak_threshold_db")
+    add_declared(p, "--dynamic-range-db", IMAGING, "dynamic_range_db", note="every picture")
+    p.add_argument(
+        "--call",
+        type=choice("call", CHIRP_CALLS),
+        help="the emitted call of a CHIRP file that does not say it (no transmitter "
+        "signal, or one that is not a sweep): an RTIS preset or 'paper' (ignored otherwise)",
+    )
+
+
+#: calls a CHIRP file may be read with (--call): the RTIS presets and the paper's chirp
+CHIRP_CALLS = ("default_20_80", "default_25_50", "paper")
+
+
+def call_waveform(name: str | None):
+    """The Waveform of a --call name (None: None)."""
+    import processing as P
+
+    if name is None:
+        return None
+    return P.paper_chirp() if name == "paper" else P.rtis_call(name)
 
 
 def load_and_image(args: argparse.Namespace):
@@ -41,6 +61,7 @@ def load_and_image(args: argparse.Namespace):
         "min_range_m": args.min_range,
         "max_range_m": args.max_range,
         "peak_threshold_db": args.peak_threshold,
+        "dynamic_range_db": args.dynamic_range_db,
     }
     options = ImagingOptions(  # unset options keep their declared defaults
         methods=methods("--method", args.method),
@@ -62,7 +83,8 @@ def load_and_image(args: argparse.Namespace):
             if bad:
                 raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
         index = list(range(n)) if index is None else index
-        recs = [P.load_recording(args.file, i) for i in index]  # only those asked for
+        call = call_waveform(args.call)
+        recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
     return recs, index, options, lambda: image_recordings(recs, options, progress("image"))
@@ -94,8 +116,10 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from acousim.export import write_image_data, write_peaks_csv
     from acousim.imaging import prepare_pictures, write_pictures
+    from acousim.outputs import our_files, tidy
 
     out = writable_dir(args.out)
+    before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     animation = not args.no_animation and len(recs) > 1
     prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
@@ -120,4 +144,6 @@ def run(args: argparse.Namespace) -> int:
     )
     for f in files:
         print(f"  {f}")
+    for line in tidy(out, before, files).lines():  # the user's own files stay
+        print(f"  ({line})")
     return 0

@@ -8,7 +8,15 @@ import sys
 from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
-from .common import UsageError, checked, load_scene, output_file, preload_simulation, progress
+from .common import (
+    UsageError,
+    checked,
+    choice,
+    load_scene,
+    output_file,
+    preload_simulation,
+    progress,
+)
 
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
@@ -39,10 +47,15 @@ def register(sub) -> None:
     p.add_argument(
         "--array",
         default="ertis_v3d1",
-        choices=ARRAY_PRESETS,
-        help="array preset (default: ertis_v3d1)",
+        type=choice("array preset", ARRAY_PRESETS),
+        help=f"array preset: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
     )
-    p.add_argument("--call", default="default_25_50", choices=CALL_PRESETS, help="RTIS call preset")
+    p.add_argument(
+        "--call",
+        default="default_25_50",
+        type=choice("RTIS call preset", CALL_PRESETS),
+        help=f"RTIS call preset: {', '.join(CALL_PRESETS)} (default: default_25_50)",
+    )
     p.add_argument(
         "--emulate",
         metavar="SCENE",

@@ -395,9 +395,16 @@ class Sensor:
     #: whose rates are declared in ``acousim.scene.trajectory.RATES``); None: every pose
     #: is frozen for its measurement
     motion: Any = None
+    #: a LiDAR beside the sonar (:class:`acousim.scene.lidar.Lidar`), scanning at
+    #: every pose; None: none
+    lidar: Any = None
 
     def __post_init__(self) -> None:
         validate(self)
+        from .lidar import Lidar
+
+        if self.lidar is not None and not isinstance(self.lidar, Lidar):
+            raise InputError("must be None or an acousim.scene.lidar.Lidar", key="Sensor.lidar")
         if not isinstance(self.array, Array):
             raise InputError("must be a processing.Array", key="Sensor.array", value=self.array)
         if not isinstance(self.call, Waveform):
@@ -442,13 +449,14 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`).
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); on by
+        default (false: geometric optics alone).
     diffraction_step_m : edge-element step, in excess path length (m).
     diffraction_reflections : also edge diffraction combined with one specular
         reflection before or after the edge (image sources; slow in large scenes).
-    diffraction_order : 1, or 2 to add edge-to-edge diffraction between edges that
-        share a plane (the rims of a plate, the edges of a box face; slow for long
-        edges).
+    diffraction_order : 2 (default): each edge, and edge to edge over the pairs of
+        edges that share a plane (the rims of a plate, the edges of a box face)
+        where a pair can reach the energy floor; 1: each edge alone.
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -467,10 +475,10 @@ class Simulation:
     )
     absorption: bool = setting(True, doc="air absorption")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
-    diffraction: bool = setting(False, doc="edge diffraction (BTM)")
+    diffraction: bool = setting(True, doc="edge diffraction (BTM)")
     diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
     diffraction_reflections: bool = setting(False, doc="also edge + one reflection (slow)")
-    diffraction_order: int = setting(1, "", 1, 2, "1, or 2: also edge to edge")
+    diffraction_order: int = setting(2, "", 1, 2, "2: also edge to edge where it matters; 1: not")
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )

@@ -11,7 +11,7 @@ import logging
 
 import numpy as np
 
-from processing import Array, Recording, Waveform
+from processing import Array, Recording, Waveform, provenance_metadata
 from processing.errors import InputError
 
 from .doppler import DopplerPlan, render_doppler, render_planned
@@ -71,7 +71,7 @@ def simulate(
     clean = _render(echoes, cap, options, response, doppler)
     samples = _noisy(clean, echoes, cap, noise, options, response, rng, drawn)
     meta = {
-        "simulated": True,
+        **provenance_metadata("simulated"),
         "seed": noise.seed,
         "snr_db": float(noise.snr_db),
         "n_paths": echoes.n_paths,
