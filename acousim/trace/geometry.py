@@ -17,7 +17,14 @@ from acousim.scene.model import Material, MeshItem, Scene
 from acousim.synth.materials import MaterialSpectra
 from processing.errors import InputError
 
-__all__ = ["World", "build_world", "face_groups", "CURVED_MAX_ANGLE_DEG"]
+__all__ = [
+    "World",
+    "build_world",
+    "face_groups",
+    "plane_ids",
+    "face_adjacency",
+    "CURVED_MAX_ANGLE_DEG",
+]
 
 #: adjacent faces meeting at a dihedral angle between 0.05 and this many degrees are a
 #: tessellated curved surface (sphere, pipe); sharper edges are corners of planar walls
@@ -37,6 +44,8 @@ class World:
     `spectra` describes the frequency-dependent ones (None: none) and `interaction`
     (len(materials), 2) the columns of their specular and diffuse interactions in
     the paths' ``interactions`` counts (-1: a material of single numbers).
+    vertices (V, 3) and faces (F, 3) (vertex indices): the same triangles, indexed
+    (for the ray caster; None: use `triangles`).
     """
 
     triangles: np.ndarray
@@ -51,6 +60,8 @@ class World:
     component: np.ndarray
     spectra: MaterialSpectra | None = None
     interaction: np.ndarray | None = None
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
 
     @property
     def n_faces(self) -> int:
@@ -249,7 +260,12 @@ def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str
 
 
 def build_world(scene: Scene) -> World:
-    """Load, transform, clean and merge the meshes of a scene."""
+    """Load, transform, clean and merge the meshes of a scene.
+
+    Near-linear in the faces: coplanar faces are grouped by a hash of their plane
+    (:func:`plane_ids`), the smooth corner normals are found for curved faces only,
+    and the merged vertices and faces are kept for the ray caster (Embree's indexed
+    mesh: no per-corner copies)."""
     import trimesh
 
     meshes, mat_index = [], []
@@ -264,32 +280,27 @@ def build_world(scene: Scene) -> World:
         meshes.append(mesh)
         mat_index.append(mat)
     merged = trimesh.util.concatenate(meshes)
+    vertices, faces = np.asarray(merged.vertices, float), np.asarray(merged.faces)
     tri = np.asarray(merged.triangles, float)
     normals = np.asarray(merged.face_normals, float)
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
-    adj = merged.face_adjacency
-    ang = merged.face_adjacency_angles
+    adj, shared = face_adjacency(faces)
+    ang = trimesh.geometry.vector_angle(normals[adj])
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
     material = np.concatenate(mat_index)
-    # coplanar faces share a plane id: normals rounded to 1e-6, offsets to 10 µm;
-    # faces of another material are another plane
-    key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
-    if len(materials) > 1:
-        key = np.column_stack([key, material])
-    _, plane = np.unique(key, axis=0, return_inverse=True)
-    vn = smooth_corner_normals(
-        tri, np.asarray(merged.faces), normals, adj, ang, merged.face_adjacency_edges
-    )
-    vn = np.where(curved[:, None, None], vn, normals[:, None, :])
+    plane = plane_ids(normals, offsets, material if len(materials) > 1 else None)
+    vn = np.repeat(normals[:, None, :], 3, axis=1)
+    if curved.any():
+        vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
     return World(
         tri,
         normals,
         offsets,
-        plane.ravel(),
+        plane,
         curved,
         vn,
         material,
@@ -297,7 +308,82 @@ def build_world(scene: Scene) -> World:
         np.asarray(merged.area_faces),
         np.asarray(component),
         *_spectra(materials),
+        vertices=vertices,
+        faces=faces,
     )
+
+
+def plane_ids(
+    normals: np.ndarray, offsets: np.ndarray, material: np.ndarray | None = None
+) -> np.ndarray:
+    """(F,) plane id of every face: coplanar faces (normals rounded to 1e-6, offsets
+    to 10 µm) share one; faces of another material (if `material` is given) are
+    another plane.  Ids are numbered in the lexicographic order of (normal, offset,
+    material), as ``np.unique(axis=0)`` of those rows would, but the F rows are
+    grouped by a hash (one 1-D sort, checked for collisions) and only the distinct
+    planes are sorted as rows."""
+    key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
+    if material is not None:
+        key = np.column_stack([key, material])
+    key = np.ascontiguousarray(key + 0.0)  # -0.0 is 0.0, as np.unique compares them
+    words = key.view(np.uint64)
+    code = np.zeros(len(key), np.uint64)
+    with np.errstate(over="ignore"):
+        for j in range(words.shape[1]):
+            code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
+            code ^= code >> np.uint64(29)
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(key[first][inverse], key):  # a hash collision: sort the rows
+        return np.unique(key, axis=0, return_inverse=True)[1].ravel()
+    _, rank = np.unique(key[first], axis=0, return_inverse=True)
+    return rank.ravel()[inverse]
+
+
+def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Faces that share an edge (an edge of exactly two faces), as trimesh's
+    ``face_adjacency`` finds them, in one sort of integer edge codes: the pairs (A, 2),
+    each in ascending order, and their shared edges (A, 2) as ascending vertex ids.
+    faces (F, 3) vertex indices."""
+    f = faces.astype(np.int64)
+    u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
+    n = int(u.max()) + 1
+    code = np.minimum(u, v) * n + np.maximum(u, v)
+    order = np.argsort(code)
+    code = code[order]
+    same = code[1:] == code[:-1]
+    alone_before = np.concatenate([[True], ~same[:-1]])
+    alone_after = np.concatenate([~same[1:], [True]])
+    start = np.flatnonzero(same & alone_before & alone_after)
+    a, b = order[start] // 3, order[start + 1] // 3
+    keep = a != b
+    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
+    shared = code[start[keep]]
+    return pairs, np.column_stack([shared // n, shared % n])
+
+
+def _curved_corner_normals(tri, faces, normals, curved, adjacency) -> np.ndarray:
+    """:func:`smooth_corner_normals` of the curved faces (C, 3, 3), computed on the
+    faces that share a vertex with a curved face only: a corner's smoothing group
+    holds faces around that one vertex, so its sums are those of the whole mesh, in
+    the same order (flat faces keep their face normal).  adjacency: the face pairs,
+    their dihedral angles and shared edges of :func:`face_adjacency`."""
+    near = np.zeros(int(faces.max()) + 1, bool)
+    near[faces[curved].ravel()] = True
+    ring = near[faces].any(axis=1)
+    index = np.full(len(tri), -1)
+    index[ring] = np.arange(int(ring.sum()))
+    adj, ang, shared = adjacency
+    keep = ring[adj].all(axis=1)
+    vn = smooth_corner_normals(
+        tri[ring],
+        faces[ring],
+        normals[ring],
+        index[adj[keep]],
+        ang[keep],
+        shared[keep],
+    )
+    return vn[curved[ring]]
 
 
 def _spectra(materials: list[Material]) -> tuple[MaterialSpectra | None, np.ndarray | None]:

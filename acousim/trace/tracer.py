@@ -138,6 +138,12 @@ def trace_pose(
     return energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
 
 
+def caster_of(world: World, threads: int = 2) -> RayCaster:
+    """The ray caster of a world (its indexed mesh when it has one)."""
+    indexed = None if world.vertices is None else (world.vertices, world.faces)
+    return RayCaster(world.triangles, threads, indexed=indexed)
+
+
 def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
     """The energy floor (a gain at the receiver) under the strongest echo of `parts`:
     the final floor (step 6) lies at or above it, so a later stage may drop what is
@@ -158,7 +164,7 @@ class Tracer:
         self.scene = scene
         self.settings = TraceSettings.from_scene(scene)
         self.world: World | None = build_world(scene) if scene.meshes else None
-        self.caster = RayCaster(self.world.triangles, threads) if self.world else None
+        self.caster = caster_of(self.world, threads) if self.world else None
         #: the world's diffracting edges and planes, found once (if diffraction is on)
         self.edges = (
             DiffractingGeometry.of(self.world)
