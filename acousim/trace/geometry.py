@@ -72,15 +72,54 @@ class World:
         """K: columns of the paths' interaction counts (0 without tables)."""
         return 0 if self.spectra is None else self.spectra.n_columns
 
+    def _cached(self, key, make):
+        """A derived array computed once per world (read-only): per-pose work then
+        depends on planes and paths, not on the number of faces."""
+        cache = self.__dict__.setdefault("_derived", {})
+        if key not in cache:
+            value = make()
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+            cache[key] = value
+        return cache[key]
+
     def face_values(self, attr: str) -> np.ndarray:
         """(F,) a material attribute per face; reflection and diffuse are the
-        tracer's reference numbers (:attr:`Material.reference`)."""
-        ref = {"reflection": 0, "diffuse": 1}
-        if attr in ref:
-            values = [m.reference[ref[attr]] for m in self.materials]
-        else:
-            values = [getattr(m, attr) for m in self.materials]
-        return np.array(values)[self.material]
+        tracer's reference numbers (:attr:`Material.reference`).  Read-only."""
+
+        def make():
+            ref = {"reflection": 0, "diffuse": 1}
+            if attr in ref:
+                values = [m.reference[ref[attr]] for m in self.materials]
+            else:
+                values = [getattr(m, attr) for m in self.materials]
+            return np.array(values)[self.material]
+
+        return self._cached(("values", attr), make)
+
+    @property
+    def plane_first(self) -> np.ndarray:
+        """(n_planes,) the first face of every plane (read-only)."""
+
+        def make():
+            first = np.full(self.n_planes, -1)
+            first[self.plane[::-1]] = np.arange(self.n_faces)[::-1]
+            return first
+
+        return self._cached("plane_first", make)
+
+    def plane_faces(self, pid: int) -> tuple[np.ndarray, np.ndarray]:
+        """The faces of plane `pid` (ascending) and their bounding boxes (n, 2, 3)."""
+
+        def make():
+            order = np.argsort(self.plane, kind="stable")
+            starts = np.searchsorted(self.plane[order], np.arange(self.n_planes + 1))
+            box = np.stack([self.triangles.min(axis=1), self.triangles.max(axis=1)], axis=1)
+            return order, starts, box
+
+        order, starts, box = self._cached("plane_faces", make)
+        faces = order[starts[pid] : starts[pid + 1]]
+        return faces, box[faces]
 
     def face_interactions(self, mode: int) -> np.ndarray:
         """(F,) the interaction column of each face's material for `mode` (0:
@@ -92,13 +131,15 @@ class World:
 
     @property
     def n_planes(self) -> int:
-        return int(self.plane.max()) + 1
+        return self._cached("n_planes", lambda: int(self.plane.max()) + 1)
 
     @property
     def surface(self) -> np.ndarray:
         """(F,) surface id: the plane for planar faces, n_planes + the connected
-        component for curved faces (one id per curved object)."""
-        return np.where(self.curved, self.n_planes + self.component, self.plane)
+        component for curved faces (one id per curved object).  Read-only."""
+        return self._cached(
+            "surface", lambda: np.where(self.curved, self.n_planes + self.component, self.plane)
+        )
 
     def normals_at(self, x: np.ndarray, f: np.ndarray) -> np.ndarray:
         """Unit normals (K, 3) at points x (K, 3) on faces f (K,): the face normal,
@@ -290,6 +331,7 @@ def build_world(scene: Scene) -> World:
     ang = trimesh.geometry.vector_angle(normals[adj])
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
+    curved |= smooth_patches(adj, ang, shared, vertices, len(tri))
     material = np.concatenate(mat_index)
     plane = plane_ids(normals, offsets, material if len(materials) > 1 else None)
     vn = np.repeat(normals[:, None, :], 3, axis=1)
@@ -338,6 +380,37 @@ def plane_ids(
         return np.unique(key, axis=0, return_inverse=True)[1].ravel()
     _, rank = np.unique(key[first], axis=0, return_inverse=True)
     return rank.ravel()[inverse]
+
+
+def smooth_patches(
+    adjacency: np.ndarray, angles: np.ndarray, shared: np.ndarray, vertices: np.ndarray, n: int
+) -> np.ndarray:
+    """(n,) bool: faces of flat patches that belong to a curved surface.
+
+    A patch is a set of faces joined by flat edges (dihedral angle at most 0.05°): a
+    facet of a tessellated pipe or sphere, however finely it is subdivided.  It is
+    curved when at least as much of its rim meets its neighbours smoothly (below
+    ``CURVED_MAX_ANGLE_DEG``) as sharply: a pipe's facet, not a wall that one fillet
+    touches.  So subdividing a curved surface's facets keeps them curved (only the
+    faces along the facets' edges have a smooth neighbour)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    flat = angles <= _FLAT_ANGLE
+    pairs = adjacency[flat]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, patch = connected_components(graph, directed=False)
+    length = np.linalg.norm(vertices[shared[:, 0]] - vertices[shared[:, 1]], axis=1)
+    smooth = ~flat & (angles < np.deg2rad(CURVED_MAX_ANGLE_DEG))
+    sharp = angles >= np.deg2rad(CURVED_MAX_ANGLE_DEG)
+
+    def rim(edges):
+        return np.bincount(
+            patch[adjacency[edges]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
+        )
+
+    soft, hard = rim(smooth), rim(sharp)
+    return ((soft > 0) & (soft >= hard))[patch]
 
 
 def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -144,20 +144,31 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
 
 
 def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:
-    """Whether x lies on (or within `tol` of) one of the faces of plane `pid`."""
+    """Whether x lies on (or within `tol` of) one of the faces of plane `pid`: a
+    point whose least barycentric coordinate is -m lies within 2 m times the longest
+    edge of the face's bounding box, so only the faces whose box, grown by 2 tol,
+    holds x are tested."""
     from trimesh.triangles import points_to_barycentric
 
-    tri = world.triangles[world.plane == pid]
+    faces, box = world.plane_faces(pid)
+    near = np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
+    tri = world.triangles[faces[near]]
+    if len(tri) == 0:
+        return False
     bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
     edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
     return bool(np.any(-np.min(bary, axis=1) * edge <= tol))
 
 
 def _plane_table(world: World):
-    n_planes = int(world.plane.max()) + 1
-    first = np.full(n_planes, -1)
-    first[world.plane[::-1]] = np.arange(world.n_faces)[::-1]
-    refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
-    column = world.face_interactions(0)
-    column = None if column is None else column[first]
-    return world.normals[first], world.offsets[first], refl[first], column
+    """Per plane: normal, offset, specular pressure factor and interaction column
+    (computed once per world)."""
+
+    def make():
+        first = world.plane_first
+        refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
+        column = world.face_interactions(0)
+        column = None if column is None else column[first]
+        return world.normals[first], world.offsets[first], refl[first], column
+
+    return world._cached("plane_table", make)
