@@ -175,7 +175,7 @@ class Simulator:
             echoes = self._mic_directivity(echoes, paths, mics, pose.rotation[:, 0])
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
-        meta = _metadata(scene, pose, index)
+        meta = {**_metadata(scene, pose, index), "rays": self.tracer.rays_used(pose)}
         truth = P.GroundTruth(
             position_world_m=paths.position_m,
             position_sensor_m=pose.to_sensor(paths.position_m),
@@ -225,6 +225,7 @@ class Simulator:
         turn = np.zeros(3) if motion is None else motion.angular_velocity(t)
         meta = {
             **_metadata(scene, pose, index),
+            "rays": self.tracer.rays_used(pose),
             "motion": {
                 "emission_pose": pose.to_dict(),
                 "velocity_m_s": velocity.tolist(),

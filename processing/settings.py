@@ -62,6 +62,8 @@ class Setting:
     """The declaration of one setting.
 
     default : the value when none is given (``dataclasses.MISSING``: required; None: none).
+    optional : None is a value (unset: the code finds one, e.g. an automatic budget);
+        :func:`setting` declares so a field whose default is None.
     unit : SI unit, or a file-boundary unit in the name (``deg``), "" when unitless.
     lo, hi : allowed range, inclusive (numbers, and every element of a vector).
     choices : allowed strings (``str`` kind).
@@ -76,6 +78,7 @@ class Setting:
     doc: str = ""
     choices: tuple[str, ...] | None = None
     length: int | None = None
+    optional: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in _KINDS:
@@ -92,6 +95,8 @@ class Setting:
             parts.append(f"[{_fmt(self.lo)}, {_fmt(self.hi)}]")
         if self.default not in (None, dataclasses.MISSING):
             parts.append(f"default {self.default!r}")
+        elif self.optional:
+            parts.append("default unset")
         return ", ".join(parts)
 
 
@@ -113,7 +118,9 @@ def setting(
     length: int | None = None,
 ) -> Any:
     """A dataclass field carrying its :class:`Setting`; the kind follows the default's
-    type unless given (an int default with a fractional range: pass ``kind="float"``)."""
+    type unless given (an int default with a fractional range: pass ``kind="float"``).
+    A default of None makes an optional setting (give its `kind`): None stays None,
+    unset."""
     if kind is None:
         kind = (
             "bool"
@@ -135,6 +142,7 @@ def setting(
         doc,
         None if choices is None else tuple(choices),
         length,
+        default is None,
     )
     if default is dataclasses.MISSING:
         return dataclasses.field(metadata={"setting": decl})
@@ -156,6 +164,8 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
     def fail(msg: str) -> InputError:
         return InputError(msg, file=file, key=key, value=value)
 
+    if value is None and decl.optional:  # an optional setting left unset
+        return None
     rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
     if decl.kind == "bool":
         if isinstance(value, bool | np.bool_):

@@ -111,15 +111,32 @@ class World:
     def plane_faces(self, pid: int) -> tuple[np.ndarray, np.ndarray]:
         """The faces of plane `pid` (ascending) and their bounding boxes (n, 2, 3)."""
 
+        order, starts, box = self._plane_index()
+        faces = order[starts[pid] : starts[pid + 1]]
+        return faces, box[faces]
+
+    @property
+    def plane_boxes(self) -> np.ndarray:
+        """(n_planes, 2, 3) the bounding box of every plane's faces (read-only)."""
+
+        def make():
+            order, starts, box = self._plane_index()
+            lo = np.minimum.reduceat(box[order, 0], starts[:-1], axis=0)
+            hi = np.maximum.reduceat(box[order, 1], starts[:-1], axis=0)
+            return np.stack([lo, hi], axis=1)
+
+        return self._cached("plane_boxes", make)
+
+    def _plane_index(self):
+        """Faces sorted by plane, where each plane starts, and every face's box."""
+
         def make():
             order = np.argsort(self.plane, kind="stable")
             starts = np.searchsorted(self.plane[order], np.arange(self.n_planes + 1))
             box = np.stack([self.triangles.min(axis=1), self.triangles.max(axis=1)], axis=1)
             return order, starts, box
 
-        order, starts, box = self._cached("plane_faces", make)
-        faces = order[starts[pid] : starts[pid + 1]]
-        return faces, box[faces]
+        return self._cached("plane_index", make)
 
     def face_interactions(self, mode: int) -> np.ndarray:
         """(F,) the interaction column of each face's material for `mode` (0:

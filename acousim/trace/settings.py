@@ -22,7 +22,8 @@ def resolution_length(call, speed_of_sound_m_s: float) -> float:
 class TraceSettings:
     """What the stages need to know (SI units).
 
-    rays : rays shot over the beam per pose; bounces : maximum reflections of a ray;
+    rays : rays shot over the beam per pose (None: the automatic budget of
+    :mod:`.budget`, at most ``rays_max``); bounces : maximum reflections of a ray;
     beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
     maximum range); resolution_m : the call's range resolution as a path length;
     energy_floor_db : paths this far below the strongest echo are dropped;
@@ -32,7 +33,7 @@ class TraceSettings:
     diffraction_order : 1, or 2 to add edge-to-edge diffraction.
     """
 
-    rays: int
+    rays: int | None
     bounces: int
     beam_rad: float
     max_path_m: float
@@ -43,6 +44,7 @@ class TraceSettings:
     diffraction_step_m: float
     diffraction_reflections: bool
     diffraction_order: int = 1
+    rays_max: int = 400_000
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -59,4 +61,5 @@ class TraceSettings:
             diffraction_step_m=sim.diffraction_step_m,
             diffraction_reflections=sim.diffraction_reflections,
             diffraction_order=sim.diffraction_order,
+            rays_max=sim.rays_max,
         )

@@ -20,7 +20,7 @@ from .embree import RayCaster
 from .geometry import World
 from .paths import KIND, TracedPaths
 
-__all__ = ["SpecularPath", "refine_sequences", "mirror", "as_paths"]
+__all__ = ["SpecularPath", "refine_sequences", "by_length", "mirror", "as_paths"]
 
 
 @dataclass(frozen=True)
@@ -41,20 +41,18 @@ def mirror(point: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
 def refine_sequences(
     world: World,
     caster: RayCaster,
-    sequences: list[tuple[int, ...]],
+    sequences: list[tuple[int, ...]] | dict[int, np.ndarray],
     emitter: np.ndarray,
     receiver: np.ndarray,
 ) -> list[SpecularPath]:
-    """Valid specular paths among candidate plane sequences (batched by length)."""
+    """Valid specular paths among candidate plane sequences (batched by length), given
+    as tuples of plane ids in order, or as arrays (S, k) of them by length k."""
     normal, offset, refl, column = _plane_table(world)
     K = world.n_interactions
     eps, tol = caster.offset_m, caster.tolerance_m
     paths = []
-    by_len: dict[int, list[tuple[int, ...]]] = {}
-    for seq in sequences:
-        by_len.setdefault(len(seq), []).append(seq)
-    for k, seqs in sorted(by_len.items()):
-        ids = np.array(seqs, int)  # (S, k)
+    by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
+    for k, ids in sorted(by_len.items()):
         S = ids.shape[0]
         images = np.empty((S, k + 1, 3))
         images[:, 0] = emitter
@@ -74,13 +72,17 @@ def refine_sequences(
             length = np.linalg.norm(direction, axis=1)
             ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
             x = cur + np.maximum(s_, 0)[:, None] * direction
+            # a reflection point off its plane's box is on none of its faces (every
+            # check below would refuse it): no ray for it
+            box = world.plane_boxes[ids[:, j]]
+            ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
             # a reflection point on the previous one: the path meets an edge between
             # two planes (both reflections happen there); no leg to check for it
             at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
-            unit = direction / length[:, None]
+            unit = direction / np.maximum(length, 1e-300)[:, None]
             start = cur + (eps if j < k - 1 else 0.0) * unit
-            for i in np.flatnonzero(ok & at_edge):
-                ok[i] = _on_plane(world, ids[i, j], x[i], tol)
+            sel = np.flatnonzero(ok & at_edge)
+            ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
             live = np.flatnonzero(ok & ~at_edge)
             t, f = caster.first_hit(start[live], (x - start)[live])
             dist = np.linalg.norm(x[live] - start[live], axis=1)
@@ -90,8 +92,8 @@ def refine_sequences(
             # a hit at the right distance on another plane: the point is on an edge
             # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
             # lies on a face of the expected plane, within the tolerance
-            for i in np.flatnonzero(other):
-                good[i] = _on_plane(world, ids[live[i], j], x[live[i]], tol)
+            sel = np.flatnonzero(other)
+            good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
             ok[live[~good]] = False
             points[:, j] = x
             cur = x
@@ -126,6 +128,14 @@ def refine_sequences(
     return list(unique.values())
 
 
+def by_length(sequences: list[tuple[int, ...]]) -> dict[int, np.ndarray]:
+    """Plane sequences as arrays (S, k) of plane ids by length k (their order kept)."""
+    by_len: dict[int, list[tuple[int, ...]]] = {}
+    for seq in sequences:
+        by_len.setdefault(len(seq), []).append(seq)
+    return {k: np.array(seqs, int).reshape(len(seqs), k) for k, seqs in by_len.items()}
+
+
 def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: float) -> TracedPaths:
     """Specular paths as image sources (first leg 0), those within reach."""
     if not specular:
@@ -143,21 +153,31 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
     return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * 1.01)
 
 
-def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:
-    """Whether x lies on (or within `tol` of) one of the faces of plane `pid`: a
-    point whose least barycentric coordinate is -m lies within 2 m times the longest
-    edge of the face's bounding box, so only the faces whose box, grown by 2 tol,
-    holds x are tested."""
+def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.ndarray:
+    """(K,) whether each point x (K, 3) lies on (or within `tol` of) one of the faces
+    of its plane `pids` (K,).  A point whose least barycentric coordinate on a face is
+    -m lies within 2 m times the face's longest edge of the face's bounding box, so
+    only the faces whose box, grown by 2 tol, holds the point are tested (and none of
+    a plane whose whole box does not hold it)."""
     from trimesh.triangles import points_to_barycentric
 
-    faces, box = world.plane_faces(pid)
-    near = np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
-    tri = world.triangles[faces[near]]
-    if len(tri) == 0:
-        return False
-    bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
-    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
-    return bool(np.any(-np.min(bary, axis=1) * edge <= tol))
+    out = np.zeros(len(pids), bool)
+    grow = 2.01 * tol
+    box = world.plane_boxes[pids]
+    inside = np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1)
+    for pid in np.unique(pids[inside]):
+        idx = np.flatnonzero(inside & (pids == pid))
+        faces, fbox = world.plane_faces(int(pid))
+        p = x[idx, None, :]
+        near = np.all((fbox[None, :, 0] - grow <= p) & (p <= fbox[None, :, 1] + grow), axis=2)
+        row, col = np.nonzero(near)
+        if row.size == 0:
+            continue
+        tri = world.triangles[faces[col]]
+        bary = points_to_barycentric(tri, x[idx[row]])
+        edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+        out[idx[row[-np.min(bary, axis=1) * edge <= tol]]] = True
+    return out
 
 
 def _plane_table(world: World):

@@ -35,6 +35,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from processing.errors import InputError
 
+from .budget import RayWork, ray_work
 from .cluster import DIFFUSE_CELL_DEG, cluster
 from .diffraction import DiffractingGeometry, edge_diffraction
 from .direct import direct_path, point_paths
@@ -79,6 +80,20 @@ def trace_pose(
     point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
     this pose only, when diffraction is on and none is given).
     """
+    return traced_with_rays(world, caster, settings, emitter, receiver, rotation, points, edges)[0]
+
+
+def traced_with_rays(
+    world: World | None,
+    caster: RayCaster | None,
+    settings: TraceSettings,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    rotation: np.ndarray,
+    points: tuple[np.ndarray, np.ndarray] | None = None,
+    edges: DiffractingGeometry | None = None,
+) -> tuple[TracedPaths, int]:
+    """:func:`trace_pose`, and the number of rays it shot."""
     axis = rotation[:, 0]
     parts = []
     # 0. no rays needed
@@ -86,21 +101,12 @@ def trace_pose(
         parts.append(direct_path(emitter, receiver, rotation[:, 1]))
     if points is not None and len(points[1]):
         parts.append(point_paths(*points, emitter, receiver, settings.max_path_m, caster))
-    shot = None
-    if world is not None and caster is not None and settings.rays > 0:
-        # 1. shoot
-        shot = shoot(
-            world,
-            caster,
-            emitter,
-            axis,
-            settings.rays,
-            settings.bounces,
-            settings.beam_rad,
-            settings.max_path_m,
-        )
+    work = None
+    if world is not None and caster is not None and settings.rays != 0:
+        # 1. shoot (and 4. scatter: the automatic budget watches the tail converge)
+        work = _ray_work(world, caster, settings, emitter, receiver, axis)
         # 2. specular refinement
-        specular = refine_sequences(world, caster, shot.sequences, emitter, receiver)
+        specular = refine_sequences(world, caster, work.sequences, emitter, receiver)
         parts.append(as_paths(specular, emitter, settings.max_path_m))
         parts.append(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
@@ -121,21 +127,41 @@ def trace_pose(
                 _floor_so_far(parts, receiver, settings.energy_floor_db),
             )
         )
-    if shot is not None:
-        # 4. scattering
-        contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+    if work is not None and work.contributions is not None:
         # 5. clustering
-        scattered = cluster(contributions, receiver, settings.resolution_m)
+        scattered = cluster(work.contributions, receiver, settings.resolution_m)
         parts.append(scattered)
         log.debug(
             "traced %d rays: %d candidate sequences, %d specular paths, %d scatterers",
-            shot.rays,
-            len(shot.sequences),
+            work.rays,
+            sum(map(len, work.sequences.values()))
+            if isinstance(work.sequences, dict)
+            else len(work.sequences),
             len(specular),
             len(scattered),
         )
     # 6. energy floor
-    return energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    return paths, 0 if work is None else work.rays
+
+
+def _ray_work(world, caster, settings, emitter, receiver, axis) -> RayWork:
+    """Stages 1 and 4: the automatic budget (:mod:`.budget`) when ``settings.rays`` is
+    None, else exactly ``settings.rays`` rays on the deterministic spiral."""
+    if settings.rays is None:
+        return ray_work(world, caster, settings, emitter, receiver, axis)
+    shot = shoot(
+        world,
+        caster,
+        emitter,
+        axis,
+        settings.rays,
+        settings.bounces,
+        settings.beam_rad,
+        settings.max_path_m,
+    )
+    contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+    return RayWork(shot.sequences, contributions, shot.rays)
 
 
 def caster_of(world: World, threads: int = 2) -> RayCaster:
@@ -180,6 +206,7 @@ class Tracer:
                 np.array([p.strength for p in scene.points], float),
             )
         self._cache: dict[tuple, TracedPaths] = {}
+        self._rays: dict[tuple, int] = {}
 
     def trace(self, pose: Pose) -> TracedPaths:
         key = pose.key()
@@ -189,9 +216,9 @@ class Tracer:
         array = self.scene.sensor.array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
-        if self.world is not None and self.settings.rays > 0:
+        if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
-        paths = trace_pose(
+        paths, rays = traced_with_rays(
             self.world,
             self.caster,
             self.settings,
@@ -203,13 +230,22 @@ class Tracer:
         )
         if len(self._cache) > 256:
             self._cache.clear()
+            self._rays.clear()
         self._cache[key] = paths
+        self._rays[key] = rays
         return paths
+
+    def rays_used(self, pose: Pose) -> int:
+        """How many rays the trace of `pose` shot (traced now if it was not)."""
+        if pose.key() not in self._rays:
+            self.trace(pose)
+        return self._rays[pose.key()]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:
         for timing)."""
         self._cache.clear()
+        self._rays.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
