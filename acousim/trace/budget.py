@@ -13,33 +13,39 @@ diffraction and explicit points need no rays.  So, per pose (:func:`ray_work`):
    can scatter: a material with a diffuse part, or a curved surface met from the
    second reflection on.  A scene that needs neither (the shoebox, the sphere, the
    wall) shoots no ray at all.
-2. Otherwise the rays are the deterministic spiral of :func:`.shoot.cone_directions`
-   (no random choice: the same rays as a scene whose ``rays`` is that number),
-   :data:`START_RAYS` first, then twice as many, and so on, until two successive
-   spirals agree: the larger found no new specular path (when the rays find them:
-   its new plane sequences are refined at once, and only those that make a path
-   are kept) and no curved surface's glint of a higher order (a new surface and
-   order among the lobes of :mod:`.scatter`), and the diffuse (Lambert) tail's
-   energy in every range bin of :data:`TAIL_BIN_M` holding at least
-   ``10^(-TAIL_SPAN_DB/10)`` of the strongest bin's energy moved by less than
-   :data:`TAIL_TOLERANCE_DB`; or until the next spiral would pass ``rays_max``.  The
-   larger spiral's paths are kept (its rays are what the recording's metadata
-   reports); the doubling costs at most as many rays again.
+2. Otherwise the rays go out in batches: the deterministic spiral of
+   :func:`.shoot.cone_directions` of :data:`START_RAYS` rays, then the same spiral
+   shifted in both of its lattice coordinates by golden-ratio steps (no random
+   choice; every batch covers the beam evenly, between the others' rays), each
+   batch as many rays as all before it.  After each batch the rays stop if that
+   batch found no new specular path (when the rays find the plane sequences: its
+   new sequences are refined at once, and only those that make a path are kept)
+   and no new curved-surface glint of a higher order (a surface and order among
+   the lobes of :mod:`.scatter`), and if its own estimate of the diffuse
+   (Lambert) tail's energy agrees with that of all the batches before it within
+   :data:`TAIL_TOLERANCE_DB` in every range bin of :data:`TAIL_BIN_M` holding at
+   least ``10^(-TAIL_SPAN_DB/10)`` of the strongest bin's energy; or before the
+   next batch would pass ``rays_max``.  All batches' hits make the paths, each ray
+   weighted by the beam's solid angle over all the rays; the recording's metadata
+   reports how many.
 
-Why these numbers: the spiral's error in a bin's energy falls about as fast as the
-rays grow, so when n and 2 n rays agree to 0.25 dB the 2 n estimate is about that
-close to its limit, leaving room within the 0.5 dB asked of the tail against ten
-times the old fixed budgets (`tests/test_budget.py`), whose own estimate is off by
-0.1 to 0.4 dB (the corridor at 20,000 against 50,000 rays).  Bins 20 dB under the
-strongest carry a hundredth of its energy: a few rays reach them, their estimate
-moves by decibels from one spiral to the next, and they change no image.  1000 rays
-is the fewest at which the corridor's strongest bins are within a few tenths of a dB.
+Why these numbers: the batch and the batches before it are two independent
+estimates of as many rays each; when they agree to 0.4 dB, their mean is about half
+that (0.2 dB) from its limit (two independent errors differ by about 1.4 times
+either, their mean is 0.7 times either), leaving room within the 0.5 dB asked of the
+tail against ten times the old fixed budgets (`tests/test_budget.py`), whose own
+estimate is 0.1 to 0.4 dB off (the corridor's spiral at 20,000 against 50,000
+rays).  Bins 20 dB under the strongest carry a hundredth of its energy: few rays
+reach them, their estimate moves by decibels from one batch to the next, and they
+change no image.  1000 rays is where the corridor's strongest bins agree within a
+few tenths of a dB; the corridor's poses stop at 2000 or 4000 rays (it used to set
+5000).
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -47,7 +53,7 @@ from .embree import RayCaster
 from .geometry import World
 from .scatter import Contributions, scatter
 from .settings import TraceSettings
-from .shoot import shoot
+from .shoot import follow
 from .specular import refine_sequences
 
 __all__ = [
@@ -73,7 +79,7 @@ START_RAYS = 1000
 #: range bins (m) in which the diffuse tail's energy must have converged
 TAIL_BIN_M = 0.5
 #: ... two spirals, one of twice the rays of the other, agreeing to this (dB)
-TAIL_TOLERANCE_DB = 0.25
+TAIL_TOLERANCE_DB = 0.4
 #: ... in the bins holding at least this share (dB) of the strongest bin's energy
 TAIL_SPAN_DB = 20.0
 #: enumerate every plane sequence (no rays for the specular stage) up to this many
@@ -151,9 +157,10 @@ def lobes(c: Contributions | None) -> set[tuple[int, int]]:
     return set(zip(c.surface[~c.lambert].tolist(), c.order[~c.lambert].tolist()))
 
 
-def _valid(world, caster, sequences, emitter, receiver) -> set[tuple[int, ...]]:
-    """The sequences among `sequences` that make a specular path (:mod:`.specular`)."""
-    paths = refine_sequences(world, caster, sorted(sequences), emitter, receiver)
+def _valid(world, caster, sequences, ends, max_path_m) -> set[tuple[int, ...]]:
+    """The sequences among `sequences` that make a specular path within reach
+    (:mod:`.specular`); ends: (emitter, receiver)."""
+    paths = refine_sequences(world, caster, sorted(sequences), *ends, max_path_m)
     return {p.planes for p in paths}
 
 
@@ -171,6 +178,50 @@ def tail_agrees(energy: np.ndarray, before: np.ndarray) -> bool:
     return bool(np.all(hi <= lo * 10 ** (TAIL_TOLERANCE_DB / 10)))
 
 
+def _batch_spiral(n: int, half_angle_rad: float, batch: int) -> np.ndarray:
+    """Batch `batch` of the automatic budget around +x (n, 3): the spiral of
+    :func:`.shoot.cone_directions` (batch 0 is that spiral), its lattice shifted in
+    both coordinates by the golden-ratio sequences of the batch (deterministic: no
+    random choice), so that every batch covers the beam evenly, elsewhere."""
+    u = (0.5 + batch * 0.6180339887498949) % 1.0
+    v = (batch * 0.7548776662466927) % 1.0
+    i = np.arange(n)
+    cos_t = 1 - (1 - np.cos(half_angle_rad)) * (i + u) / n
+    sin_t = np.sqrt(np.maximum(0, 1 - cos_t**2))
+    phi = (i + u) * np.pi * (3 - np.sqrt(5)) + 2 * np.pi * v
+    return np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+
+
+def batch_directions(n: int, axis: np.ndarray, half_angle_rad: float, batch: int) -> np.ndarray:
+    """Batch `batch` (n, 3) of the automatic budget's rays, turned onto `axis`."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(helper, a)
+    u /= np.linalg.norm(u)
+    return _batch_spiral(n, half_angle_rad, batch) @ np.stack([a, u, np.cross(a, u)])
+
+
+def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray:
+    """The mean of two estimates per bin, of n_a and n_b rays (a None: b)."""
+    if a is None:
+        return b
+    width = max(len(a), len(b))
+    return (np.pad(a, (0, width - len(a))) * n_a + np.pad(b, (0, width - len(b))) * n_b) / (
+        n_a + n_b
+    )
+
+
+def _merge(parts: list[tuple[Contributions, float]]) -> Contributions:
+    """Batches of contributions as one sample, each batch's intensities times its
+    weight (its share of the rays)."""
+    out = {
+        f.name: np.concatenate([getattr(c, f.name) for c, _ in parts])
+        for f in fields(Contributions)
+    }
+    out["intensity"] = np.concatenate([c.intensity * w for c, w in parts])
+    return Contributions(**out)
+
+
 def ray_work(
     world: World,
     caster: RayCaster,
@@ -184,32 +235,41 @@ def ray_work(
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
         return RayWork(every, None, 0)
-    n, before, shot_rays = min(START_RAYS, settings.rays_max), None, 0
-    tried, sequences, glints = set(), set(), set()
-    while True:
-        shot = shoot(
-            world,
-            caster,
-            emitter,
-            axis,
-            n,
-            settings.bounces,
-            settings.beam_rad,
-            settings.max_path_m,
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
+    tried, sequences, glints, parts = set(), set(), set(), []
+    total, before = 0, None
+    for batch in range(64):
+        n = max(1, min(START_RAYS, settings.rays_max)) if batch < 2 else total
+        if total + n > settings.rays_max:
+            break
+        dirs = batch_directions(n, axis, settings.beam_rad, batch)
+        shot = follow(
+            world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m
         )
-        shot_rays += n
         found = set()
         if not enumerate_all:  # the rays find the plane sequences: keep the paths
-            found = _valid(world, caster, set(shot.sequences) - tried, emitter, receiver)
+            new = set(shot.sequences) - tried
+            found = _valid(world, caster, new, (emitter, receiver), settings.max_path_m)
             tried |= set(shot.sequences)
             sequences |= found
-        contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
-        energy = tail_energy(contributions) if tail else np.zeros(0)
-        new_lobes = lobes(contributions) - glints
+        part = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+        new_lobes = lobes(part) - glints
         glints |= new_lobes
+        energy = tail_energy(part) if tail else np.zeros(0)
         settled = before is not None and not (found or new_lobes) and tail_agrees(energy, before)
-        if settled or 2 * n > settings.rays_max:
+        parts.append((part, n))
+        before = _mean(before, total, energy, n)
+        total += n
+        log.debug(
+            "batch %d: %d rays, %d new paths, %d new glints, tail agrees %s",
+            batch,
+            n,
+            len(found),
+            len(new_lobes),
+            settled,
+        )
+        if settled:
             break
-        n, before = 2 * n, energy
-    log.debug("automatic budget: %d rays (%d shot in all)", n, shot_rays)
-    return RayWork(every if enumerate_all else sorted(sequences), contributions, n)
+    log.debug("automatic budget: %d rays", total)
+    contributions = _merge([(c, n / total) for c, n in parts])
+    return RayWork(every if enumerate_all else sorted(sequences), contributions, total)

@@ -20,6 +20,9 @@ from .embree import RayCaster
 from .geometry import World
 from .paths import KIND, TracedPaths
 
+#: an image source within this times the longest path is within reach
+REACH = 1.01
+
 __all__ = ["SpecularPath", "refine_sequences", "by_length", "mirror", "as_paths"]
 
 
@@ -44,9 +47,12 @@ def refine_sequences(
     sequences: list[tuple[int, ...]] | dict[int, np.ndarray],
     emitter: np.ndarray,
     receiver: np.ndarray,
+    max_path_m: float | None = None,
 ) -> list[SpecularPath]:
     """Valid specular paths among candidate plane sequences (batched by length), given
-    as tuples of plane ids in order, or as arrays (S, k) of them by length k."""
+    as tuples of plane ids in order, or as arrays (S, k) of them by length k; with
+    `max_path_m`, only those :func:`as_paths` keeps (image within reach), the others
+    refused before any ray."""
     normal, offset, refl, column = _plane_table(world)
     K = world.n_interactions
     eps, tol = caster.offset_m, caster.tolerance_m
@@ -61,6 +67,8 @@ def refine_sequences(
             prev = images[:, j]
             images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
         ok = np.ones(S, bool)
+        if max_path_m is not None:
+            ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
         cur = np.broadcast_to(receiver, (S, 3)).copy()
         points = np.empty((S, k, 3))
         for j in range(k - 1, -1, -1):
@@ -150,7 +158,7 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
     if specular[0].interactions is not None:
         counts = np.array([p.interactions for p in specular])
     paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep, counts)
-    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * 1.01)
+    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * REACH)
 
 
 def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.ndarray:

@@ -106,7 +106,9 @@ def traced_with_rays(
         # 1. shoot (and 4. scatter: the automatic budget watches the tail converge)
         work = _ray_work(world, caster, settings, emitter, receiver, axis)
         # 2. specular refinement
-        specular = refine_sequences(world, caster, work.sequences, emitter, receiver)
+        specular = refine_sequences(
+            world, caster, work.sequences, emitter, receiver, settings.max_path_m
+        )
         parts.append(as_paths(specular, emitter, settings.max_path_m))
         parts.append(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
