@@ -115,6 +115,27 @@ class World:
         faces = order[starts[pid] : starts[pid + 1]]
         return faces, box[faces]
 
+    def faces_near(self, pid: int, x: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
+        """(row, face) pairs: the faces of plane `pid` whose bounding box, grown by
+        `grow` (m), holds the point x[row] (x: (n, 3)).  The plane's faces are kept
+        sorted along the axis of its largest extent, so only a strip one face wide
+        around each point is tested (not every face of a finely tessellated wall)."""
+        strips = self._cached("plane_strips", dict)
+        if pid not in strips:
+            faces, box = self.plane_faces(pid)
+            axis = int(np.argmax(box[:, 1].max(axis=0) - box[:, 0].min(axis=0)))
+            o = np.argsort(box[:, 0, axis], kind="stable")
+            width = float((box[:, 1, axis] - box[:, 0, axis]).max())
+            strips[pid] = (axis, faces[o], box[o], box[o, 0, axis], width)
+        axis, faces, box, lo, width = strips[pid]
+        i0 = np.searchsorted(lo, x[:, axis] - grow - width, "left")
+        count = np.searchsorted(lo, x[:, axis] + grow, "right") - i0
+        row = np.repeat(np.arange(len(x)), count)
+        k = np.repeat(i0 - np.cumsum(count) + count, count) + np.arange(count.sum())
+        p = x[row]
+        near = np.all((box[k, 0] - grow <= p) & (p <= box[k, 1] + grow), axis=1)
+        return row[near], faces[k[near]]
+
     @property
     def plane_boxes(self) -> np.ndarray:
         """(n_planes, 2, 3) the bounding box of every plane's faces (read-only)."""

@@ -175,13 +175,10 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
     inside = np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1)
     for pid in np.unique(pids[inside]):
         idx = np.flatnonzero(inside & (pids == pid))
-        faces, fbox = world.plane_faces(int(pid))
-        p = x[idx, None, :]
-        near = np.all((fbox[None, :, 0] - grow <= p) & (p <= fbox[None, :, 1] + grow), axis=2)
-        row, col = np.nonzero(near)
+        row, face = world.faces_near(int(pid), x[idx], grow)
         if row.size == 0:
             continue
-        tri = world.triangles[faces[col]]
+        tri = world.triangles[face]
         bary = points_to_barycentric(tri, x[idx[row]])
         edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
         out[idx[row[-np.min(bary, axis=1) * edge <= tol]]] = True
