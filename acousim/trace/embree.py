@@ -35,7 +35,8 @@ class RayCaster:
     threads : worker threads for large batches of rays.
     indexed : optional (vertices (V, 3), faces (F, 3)), the same triangles as a
         vertex table and indices (``vertices[faces] == triangles``): handed to Embree
-        as its indexed mesh, no per-corner copy (the same hits, built faster).
+        as its indexed mesh, no per-corner copy (the same hits, built faster); every
+        vertex must be a corner of a face.
     """
 
     def __init__(
@@ -51,20 +52,19 @@ class RayCaster:
             raise ImportError(
                 "ray tracing meshes needs embreex: pip install 'acousim[sim]'"
             ) from exc
-        corners = np.asarray(triangles, dtype=np.float64).reshape(-1, 3)
+        # every vertex of an indexed mesh is a corner of a face (World's contract)
+        corners = np.asarray(triangles if indexed is None else indexed[0], dtype=np.float64)
+        corners = corners.reshape(-1, 3)
         lo, hi = corners.min(axis=0), corners.max(axis=0)
         self.origin = (lo + hi) / 2
         self.scale = float(np.linalg.norm(hi - lo)) or 1.0
         self._scene = rtcs.EmbreeScene()
+        local = (corners - self.origin).astype(np.float32)
         if indexed is None:
-            local = (corners - self.origin).astype(np.float32).reshape(-1, 3, 3)
-            self._mesh = mc.TriangleMesh(self._scene, local)
+            self._mesh = mc.TriangleMesh(self._scene, local.reshape(-1, 3, 3))
         else:
-            self._mesh = mc.TriangleMesh(
-                self._scene,
-                np.ascontiguousarray(np.asarray(indexed[0], float) - self.origin, np.float32),
-                np.ascontiguousarray(indexed[1], np.int32),
-            )
+            faces = np.ascontiguousarray(indexed[1], np.int32)
+            self._mesh = mc.TriangleMesh(self._scene, local, faces)
         self.threads = max(1, int(threads))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_cast = 0

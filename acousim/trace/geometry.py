@@ -44,8 +44,8 @@ class World:
     `spectra` describes the frequency-dependent ones (None: none) and `interaction`
     (len(materials), 2) the columns of their specular and diffuse interactions in
     the paths' ``interactions`` counts (-1: a material of single numbers).
-    vertices (V, 3) and faces (F, 3) (vertex indices): the same triangles, indexed
-    (for the ray caster; None: use `triangles`).
+    vertices (V, 3) and faces (F, 3) (vertex indices): the same triangles, indexed,
+    every vertex a corner of a face (for the ray caster; None: use `triangles`).
     """
 
     triangles: np.ndarray
@@ -372,7 +372,8 @@ def build_world(scene: Scene) -> World:
     curved |= smooth_patches(adj, ang, shared, vertices, len(tri))
     material = np.concatenate(mat_index)
     plane = plane_ids(normals, offsets, material if len(materials) > 1 else None)
-    vn = np.repeat(normals[:, None, :], 3, axis=1)
+    vn = np.empty((len(tri), 3, 3))
+    vn[:] = normals[:, None, :]
     if curved.any():
         vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
@@ -406,7 +407,18 @@ def plane_ids(
     if material is not None:
         key = np.column_stack([key, material])
     key = np.ascontiguousarray(key + 0.0)  # -0.0 is 0.0, as np.unique compares them
-    words = key.view(np.uint64)
+    first, inverse = row_groups(key)
+    _, rank = np.unique(key[first], axis=0, return_inverse=True)
+    return rank.ravel()[inverse]
+
+
+def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
+    make -0.0 0.0 first): the first row of every group (G,) and the group of every
+    row (n,), groups in no particular order.  One 1-D sort of a hash of each row,
+    checked for collisions (then the rows themselves are sorted)."""
+    key = np.ascontiguousarray(key)
+    words = key.view(np.uint64).reshape(len(key), -1)
     code = np.zeros(len(key), np.uint64)
     with np.errstate(over="ignore"):
         for j in range(words.shape[1]):
@@ -414,10 +426,9 @@ def plane_ids(
             code ^= code >> np.uint64(29)
     _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
-    if not np.array_equal(key[first][inverse], key):  # a hash collision: sort the rows
-        return np.unique(key, axis=0, return_inverse=True)[1].ravel()
-    _, rank = np.unique(key[first], axis=0, return_inverse=True)
-    return rank.ravel()[inverse]
+    if not np.array_equal(key[first][inverse], key):  # a hash collision
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.ravel()
 
 
 def smooth_patches(

@@ -34,10 +34,10 @@ from __future__ import annotations
 import numpy as np
 
 from .embree import RayCaster
-from .geometry import World
+from .geometry import World, row_groups
 from .paths import KIND, TracedPaths
 
-__all__ = ["glints", "CAUSTIC_CAP"]
+__all__ = ["glints", "curved_groups", "CAUSTIC_CAP"]
 
 #: largest gain of one principal direction of a focusing (concave) surface
 CAUSTIC_CAP = 3.0
@@ -77,7 +77,7 @@ def _residual(world, f, b, emitter, receiver) -> np.ndarray:
 _GROUP_CELL_M = 0.05
 
 
-def _groups(world: World):
+def curved_groups(world: World):
     """The curved faces (ascending) grouped once per world: the faces by group, where
     each group starts, and per group a ball (centre, radius) holding its faces, the
     mean normal and the largest angle of a face normal from it, and the largest
@@ -97,8 +97,7 @@ def _groups(world: World):
                 np.round(nf * 4),
             ]
         ).astype(np.int64)
-        _, group = np.unique(key, axis=0, return_inverse=True)
-        group = group.ravel()
+        group = row_groups(key)[1]
         order = np.argsort(group, kind="stable")
         starts = np.searchsorted(group[order], np.arange(group.max() + 2))
         count = np.bincount(group)
@@ -129,7 +128,7 @@ def _near_bisecting(world: World, emitter: np.ndarray, receiver: np.ndarray) -> 
     bisector turns within its ball and its normals spread, exceeds the largest corner
     spread plus 1.5 times the largest angle a face subtends, and a margin).  The
     faces kept are then tested one by one, as before."""
-    faces, starts, mid, radius, mean, off, spread, ext = _groups(world)
+    faces, starts, mid, radius, mean, off, spread, ext = curved_groups(world)
     if len(mid) == 0:
         return faces
     h = _bisector(mid, emitter, receiver)

@@ -42,7 +42,7 @@ from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
 from .geometry import World, build_world
-from .glints import glints
+from .glints import curved_groups, glints
 from .paths import KIND, TracedPaths
 from .scatter import scatter
 from .settings import TraceSettings, resolution_length
@@ -201,6 +201,8 @@ class Tracer:
         )
         if self.world is None:
             log.debug("scene %r has no meshes: no ray tracing", scene.name)
+        else:
+            self._build_tables()
         self._points = None
         if scene.points:
             self._points = (
@@ -209,6 +211,16 @@ class Tracer:
             )
         self._cache: dict[tuple, TracedPaths] = {}
         self._rays: dict[tuple, int] = {}
+
+    def _build_tables(self) -> None:
+        """What every pose uses, built once here rather than by the first pose:
+        Embree's tree (built at the first ray), the planes' tables and boxes and the
+        groups of curved faces (preparation and per-pose cost apart)."""
+        self.caster.first_hit(self.world.triangles[:1, 0], np.ones((1, 3)))
+        _ = self.world.plane_boxes, self.world.surface
+        for attr in ("reflection", "diffuse", "lobe_deg"):
+            self.world.face_values(attr)
+        curved_groups(self.world)
 
     def trace(self, pose: Pose) -> TracedPaths:
         key = pose.key()
