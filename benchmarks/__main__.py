@@ -20,8 +20,10 @@ from . import (
     materials,
     motion,
     pdm_decode,
+    peer,
     pictures,
     recording_file,
+    scaling,
 )
 from .fullwave import compare as fullwave
 
@@ -38,6 +40,8 @@ SECTIONS = {
     "diffraction": diffraction,
     "materials": materials,
     "fullwave": fullwave,
+    "peer": peer,
+    "scaling": scaling,
 }
 
 

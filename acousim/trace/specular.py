@@ -172,16 +172,29 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
     out = np.zeros(len(pids), bool)
     grow = 2.01 * tol
     box = world.plane_boxes[pids]
-    inside = np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1)
-    for pid in np.unique(pids[inside]):
-        idx = np.flatnonzero(inside & (pids == pid))
-        row, face = world.faces_near(int(pid), x[idx], grow)
-        if row.size == 0:
-            continue
-        tri = world.triangles[face]
-        bary = points_to_barycentric(tri, x[idx[row]])
-        edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
-        out[idx[row[-np.min(bary, axis=1) * edge <= tol]]] = True
+    inside = np.flatnonzero(np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1))
+    if inside.size == 0:
+        return out
+    order, starts, _ = world._plane_index()
+    count = np.diff(starts)[pids[inside]]
+    if count.sum() <= 20000:  # every face of each point's plane, in one pass
+        row = np.repeat(np.arange(inside.size), count)
+        first = np.repeat(starts[pids[inside]] - np.cumsum(count) + count, count)
+        face = order[first + np.arange(count.sum())]
+    else:  # large planes: a strip of faces around each point (World.faces_near)
+        rows, faces = [], []
+        for pid in np.unique(pids[inside]):
+            idx = np.flatnonzero(pids[inside] == pid)
+            r, f = world.faces_near(int(pid), x[inside[idx]], grow)
+            rows.append(idx[r])
+            faces.append(f)
+        row, face = np.concatenate(rows), np.concatenate(faces)
+    if row.size == 0:
+        return out
+    tri = world.triangles[face]
+    bary = points_to_barycentric(tri, x[inside[row]])
+    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+    out[inside[row[-np.min(bary, axis=1) * edge <= tol]]] = True
     return out
 
 
