@@ -534,9 +534,9 @@ class Simulation:
     max_range_m : echoes are computed up to this range (the window is 2 r / c plus
         the call).
     rays : rays cast from the emitter over its beam per pose; unset (the default):
-        found per pose, the automatic budget of :mod:`acousim.trace.budget` (spirals of
-        doubling rays until they find nothing new and the diffuse tail has
-        converged; no rays where nothing needs them).  A number gives exactly that many rays, on
+        found per pose, the automatic budget of :mod:`acousim.trace.budget` (batches
+        of rays until one finds nothing new and the diffuse tail has converged; no
+        rays where nothing needs them).  A number gives exactly that many rays, on
         the deterministic spiral.
     rays_max : cap of the automatic budget (rays per pose).
     bounces : maximum number of reflections of a path (3: a corner reflector's

@@ -4,7 +4,9 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 
 0. Paths without rays (:mod:`.direct`): the direct path and the explicit points.
 1. Shoot (:mod:`.shoot`): rays over the beam, followed specularly; their hits and the
-   sequences of planes they met.
+   sequences of planes they met.  How many: ``settings.rays``, or (None, the default)
+   the automatic budget of :mod:`.budget`, which also enumerates every plane sequence
+   where there are few and shoots no ray where nothing scatters.
 2. Specular refinement (:mod:`.specular`): every candidate plane sequence made an
    exact image-source path, or rejected; and (:mod:`.glints`) the first-order
    specular points of curved surfaces, found without rays.
@@ -131,17 +133,8 @@ def traced_with_rays(
         )
     if work is not None and work.contributions is not None:
         # 5. clustering
-        scattered = cluster(work.contributions, receiver, settings.resolution_m)
-        parts.append(scattered)
-        log.debug(
-            "traced %d rays: %d candidate sequences, %d specular paths, %d scatterers",
-            work.rays,
-            sum(map(len, work.sequences.values()))
-            if isinstance(work.sequences, dict)
-            else len(work.sequences),
-            len(specular),
-            len(scattered),
-        )
+        parts.append(cluster(work.contributions, receiver, settings.resolution_m))
+        log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
     paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
     return paths, 0 if work is None else work.rays
