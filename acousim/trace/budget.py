@@ -44,6 +44,7 @@ few tenths of a dB; the corridor's poses stop at 2000 or 4000 rays (it used to s
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass, fields
 
@@ -74,11 +75,11 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: rays of the automatic budget's first spiral (then doubled)
+#: rays of the automatic budget's first batch (each next batch: all the rays before)
 START_RAYS = 1000
 #: range bins (m) in which the diffuse tail's energy must have converged
 TAIL_BIN_M = 0.5
-#: ... two spirals, one of twice the rays of the other, agreeing to this (dB)
+#: ... a batch and all the batches before it agreeing to this (dB)
 TAIL_TOLERANCE_DB = 0.4
 #: ... in the bins holding at least this share (dB) of the strongest bin's energy
 TAIL_SPAN_DB = 20.0
@@ -178,6 +179,7 @@ def tail_agrees(energy: np.ndarray, before: np.ndarray) -> bool:
     return bool(np.all(hi <= lo * 10 ** (TAIL_TOLERANCE_DB / 10)))
 
 
+@functools.lru_cache(maxsize=16)
 def _batch_spiral(n: int, half_angle_rad: float, batch: int) -> np.ndarray:
     """Batch `batch` of the automatic budget around +x (n, 3): the spiral of
     :func:`.shoot.cone_directions` (batch 0 is that spiral), its lattice shifted in
@@ -189,7 +191,9 @@ def _batch_spiral(n: int, half_angle_rad: float, batch: int) -> np.ndarray:
     cos_t = 1 - (1 - np.cos(half_angle_rad)) * (i + u) / n
     sin_t = np.sqrt(np.maximum(0, 1 - cos_t**2))
     phi = (i + u) * np.pi * (3 - np.sqrt(5)) + 2 * np.pi * v
-    return np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+    local = np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+    local.flags.writeable = False  # cached: every pose turns the same batches
+    return local
 
 
 def batch_directions(n: int, axis: np.ndarray, half_angle_rad: float, batch: int) -> np.ndarray:
@@ -198,7 +202,9 @@ def batch_directions(n: int, axis: np.ndarray, half_angle_rad: float, batch: int
     helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(helper, a)
     u /= np.linalg.norm(u)
-    return _batch_spiral(n, half_angle_rad, batch) @ np.stack([a, u, np.cross(a, u)])
+    return _batch_spiral(int(n), float(half_angle_rad), int(batch)) @ np.stack(
+        [a, u, np.cross(a, u)]
+    )
 
 
 def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray:
