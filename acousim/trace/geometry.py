@@ -152,10 +152,12 @@ class World:
         """Faces sorted by plane, where each plane starts, and every face's box."""
 
         def make():
-            order = np.argsort(self.plane, kind="stable")
+            order = radix_argsort(self.plane)
             starts = np.searchsorted(self.plane[order], np.arange(self.n_planes + 1))
-            box = np.stack([self.triangles.min(axis=1), self.triangles.max(axis=1)], axis=1)
-            return order, starts, box
+            t = self.triangles
+            lo = np.minimum(np.minimum(t[:, 0], t[:, 1]), t[:, 2])
+            hi = np.maximum(np.maximum(t[:, 0], t[:, 1]), t[:, 2])
+            return order, starts, np.stack([lo, hi], axis=1)
 
         return self._cached("plane_index", make)
 
@@ -412,6 +414,20 @@ def plane_ids(
     return rank.ravel()[inverse]
 
 
+def radix_argsort(code: np.ndarray) -> np.ndarray:
+    """A stable argsort of non-negative integers (n,), 16 bits a pass (numpy's radix
+    sort of 16-bit keys): linear in n, for the long integer columns of a mesh."""
+    code = np.asarray(code)
+    order = np.arange(len(code))
+    top, shift = int(code.max(initial=0)), 0
+    while True:
+        key = ((code[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(key, kind="stable")]
+        shift += 16
+        if top >> shift == 0:
+            return order
+
+
 def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
     make -0.0 0.0 first): the first row of every group (G,) and the group of every
@@ -471,7 +487,7 @@ def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
     n = int(u.max()) + 1
     code = np.minimum(u, v) * n + np.maximum(u, v)
-    order = np.argsort(code)
+    order = radix_argsort(code)
     code = code[order]
     same = code[1:] == code[:-1]
     alone_before = np.concatenate([[True], ~same[:-1]])

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from .embree import RayCaster
-from .geometry import World, row_groups
+from .geometry import World, radix_argsort, row_groups
 from .paths import KIND, TracedPaths
 
 __all__ = ["glints", "curved_groups", "CAUSTIC_CAP"]
@@ -98,7 +98,7 @@ def curved_groups(world: World):
             ]
         ).astype(np.int64)
         group = row_groups(key)[1]
-        order = np.argsort(group, kind="stable")
+        order = radix_argsort(group)
         starts = np.searchsorted(group[order], np.arange(group.max() + 2))
         count = np.bincount(group)
         mid = np.stack([np.bincount(group, centre[:, k]) for k in range(3)], axis=1)
