@@ -100,3 +100,12 @@ def test_the_indexed_mesh_casts_the_same_rays():
     np.testing.assert_array_equal(f0, f1)
     np.testing.assert_array_equal(t0, t1)
     assert (f0 >= 0).mean() > 0.5
+
+
+def test_radix_argsort_is_a_stable_sort():
+    from acousim.trace.geometry import radix_argsort
+
+    rng = np.random.default_rng(1)
+    for top in (1, 300, 70_000, 2**40):
+        code = rng.integers(0, top, 5000)
+        np.testing.assert_array_equal(radix_argsort(code), np.argsort(code, kind="stable"))
