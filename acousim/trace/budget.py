@@ -8,8 +8,9 @@ diffraction and explicit points need no rays.  So, per pose (:func:`ray_work`):
 1. Plan (:func:`plan`).  Where the planes are few (at most :data:`ENUMERATE_MAX`
    sequences), every sequence of up to ``bounces`` planes (no plane twice in a row)
    goes to the specular stage: image sources with their visibility checks, which no
-   ray can miss, whatever their departure (the emitter's directivity weighs them;
-   ``beam_deg`` bounds only the rays).  The rays are then needed only if some hit
+   ray can miss; those that leave the emitter within the beam (``beam_deg``, the
+   cone the rays fill) are kept, and any other whose sequence a ray met (as a fixed
+   budget keeps it).  The rays are then needed only if some hit
    can scatter: a material with a diffuse part, or a curved surface met from the
    second reflection on.  A scene that needs neither (the shoebox, the sphere, the
    wall) shoots no ray at all.
@@ -65,6 +66,7 @@ __all__ = [
     "TAIL_TOLERANCE_DB",
     "RayWork",
     "all_sequences",
+    "in_beam",
     "n_sequences",
     "plan",
     "ray_work",
@@ -97,6 +99,8 @@ class RayWork:
     sequences: list[tuple[int, ...]] | dict[int, np.ndarray]
     contributions: Contributions | None
     rays: int
+    #: enumerated sequences: those the rays met (None: the sequences are the rays')
+    met: frozenset[tuple[int, ...]] | None = None
 
 
 def _planar_planes(world: World) -> np.ndarray:
@@ -240,9 +244,9 @@ def ray_work(
     enumerate_all, tail = plan(world, settings)
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
-        return RayWork(every, None, 0)
+        return RayWork(every, None, 0, frozenset())
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
-    tried, sequences, glints, parts = set(), set(), set(), []
+    tried, sequences, glints, parts, met = set(), set(), set(), [], set()
     total, before = 0, None
     for batch in range(64):
         n = max(1, min(START_RAYS, settings.rays_max)) if batch < 2 else total
@@ -253,7 +257,9 @@ def ray_work(
             world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m
         )
         found = set()
-        if not enumerate_all:  # the rays find the plane sequences: keep the paths
+        if enumerate_all:
+            met |= set(shot.sequences)
+        else:  # the rays find the plane sequences: keep the paths
             new = set(shot.sequences) - tried
             found = _valid(world, caster, new, (emitter, receiver), settings.max_path_m)
             tried |= set(shot.sequences)
@@ -278,4 +284,17 @@ def ray_work(
             break
     log.debug("automatic budget: %d rays", total)
     contributions = _merge([(c, n / total) for c, n in parts])
-    return RayWork(every if enumerate_all else sorted(sequences), contributions, total)
+    if enumerate_all:
+        return RayWork(every, contributions, total, frozenset(met))
+    return RayWork(sorted(sequences), contributions, total)
+
+
+def in_beam(specular: list, work: RayWork, axis: np.ndarray, beam_rad: float) -> list:
+    """The specular paths of enumerated sequences that leave the emitter within the
+    beam (``beam_deg``: the emitter's cone, as for the rays), or whose sequence the
+    rays met (a ray in the beam found it, as a fixed budget would); all paths when
+    the sequences are the rays' own."""
+    if work.met is None:
+        return specular
+    low = np.cos(beam_rad) - 1e-9
+    return [p for p in specular if p.planes in work.met or p.departure @ axis >= low]

@@ -37,7 +37,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from processing.errors import InputError
 
-from .budget import RayWork, ray_work
+from .budget import RayWork, in_beam, ray_work
 from .cluster import DIFFUSE_CELL_DEG, cluster
 from .diffraction import DiffractingGeometry, edge_diffraction
 from .direct import direct_path, point_paths
@@ -111,6 +111,7 @@ def traced_with_rays(
         specular = refine_sequences(
             world, caster, work.sequences, emitter, receiver, settings.max_path_m
         )
+        specular = in_beam(specular, work, axis, settings.beam_rad)
         parts.append(as_paths(specular, emitter, settings.max_path_m))
         parts.append(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
