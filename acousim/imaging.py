@@ -16,6 +16,7 @@ import numpy as np
 import processing as P
 from processing.atomic import atomic_path
 from processing.errors import InputError
+from processing.settings import setting, validate
 
 __all__ = [
     "ImagingOptions",
@@ -43,14 +44,28 @@ class ImagingOptions:
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
     azimuth_deg: tuple[float, float] = (-90.0, 90.0)
     elevation_deg: tuple[float, float] = (-40.0, 40.0)
-    step_deg: float = 2.0
-    energy_fraction: float = P.ProcessingSettings.energy_fraction  # one declaration
-    min_range_m: float = P.ProcessingSettings.range_limits_m[0]
-    max_range_m: float | None = None
-    peak_threshold_db: float = -10.0
+    step_deg: float = setting(2.0, "deg", 0.1, 45, "grid step")
+    energy_fraction: float = setting(
+        P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
+        "",
+        0,
+        1,
+        "keep range bins with at least this fraction of the strongest bin's energy "
+        "(the paper uses 0.5)",
+    )
+    min_range_m: float = setting(
+        P.ProcessingSettings.range_limits_m[0], "m", 0, 1000, "ignore nearer range bins"
+    )
+    max_range_m: float | None = setting(
+        None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
+    )
+    peak_threshold_db: float = setting(
+        -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+    )
     grid: P.Grid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        validate(self)
         for m in self.methods:
             P.check_method(m)
         object.__setattr__(
@@ -345,6 +360,15 @@ def _sweep(rec: P.Recording):
     return sensor_sweep(pose.position_m, pose.rotation, v, w, window)
 
 
+def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
+    """The recording's LiDAR points in the world frame (P, 3) through its pose (the
+    scan's own frame at each firing: for a moving sensor, as its unit reports them),
+    None without a scan."""
+    if rec.lidar is None:
+        return None
+    return _pose(rec).to_world(rec.lidar.in_sensor())
+
+
 def _render(rec, imgs, triangles, path, options, moving=None):
     from acousim.viz.render3d import render_scene
 
@@ -361,6 +385,7 @@ def _render(rec, imgs, triangles, path, options, moving=None):
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
         sweep=_sweep(rec),
         moving_triangles=moving,
+        lidar=lidar_in_world(rec),
     )
     return Path(path)
 
@@ -398,6 +423,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         with_truth=any(t is not None for t in truths),
         with_sweep=any(s is not None for s in sweeps),
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        with_lidar=any(rec.lidar is not None for rec in recordings),
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
@@ -411,6 +437,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
                 sweep=sweeps[k],
                 moving_triangles=_moving_triangles(scene, rec),
+                lidar=lidar_in_world(rec),
             )
             fig, (a, b) = plt.subplots(
                 1,

@@ -61,9 +61,8 @@ _KINDS = get_args(Kind)
 class Setting:
     """The declaration of one setting.
 
-    default : the value when none is given (``dataclasses.MISSING``: required; None: none).
-    optional : None is a value (unset: the code finds one, e.g. an automatic budget);
-        :func:`setting` declares so a field whose default is None.
+    default : the value when none is given (``dataclasses.MISSING``: required).
+    optional : None is accepted as "not set" (:func:`setting` with a None default).
     unit : SI unit, or a file-boundary unit in the name (``deg``), "" when unitless.
     lo, hi : allowed range, inclusive (numbers, and every element of a vector).
     choices : allowed strings (``str`` kind).
@@ -118,9 +117,7 @@ def setting(
     length: int | None = None,
 ) -> Any:
     """A dataclass field carrying its :class:`Setting`; the kind follows the default's
-    type unless given (an int default with a fractional range: pass ``kind="float"``).
-    A default of None makes an optional setting (give its `kind`): None stays None,
-    unset."""
+    type unless given (an int default with a fractional range: pass ``kind="float"``)."""
     if kind is None:
         kind = (
             "bool"
@@ -142,7 +139,7 @@ def setting(
         doc,
         None if choices is None else tuple(choices),
         length,
-        default is None,
+        optional=default is None,
     )
     if default is dataclasses.MISSING:
         return dataclasses.field(metadata={"setting": decl})
@@ -164,9 +161,9 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
     def fail(msg: str) -> InputError:
         return InputError(msg, file=file, key=key, value=value)
 
+    rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
     if value is None and decl.optional:  # an optional setting left unset
         return None
-    rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
     if decl.kind == "bool":
         if isinstance(value, bool | np.bool_):
             return bool(value)

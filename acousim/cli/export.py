@@ -1,0 +1,89 @@
+"""``acousim export``: recordings and their images to a ROS 2 bag (MCAP)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .common import UsageError, writable_dir
+from .image import imaging_arguments, load_and_image
+from .options import DeclaredHelp
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "export",
+        formatter_class=DeclaredHelp,
+        help="write recordings to a ROS 2 bag (MCAP) or a CHIRP file",
+        description="--format rosbag (default): image recordings and write a rosbag2 "
+        "folder (MCAP storage) with the raw samples (std_msgs/Float32MultiArray), the "
+        "image peaks and LiDAR scans (sensor_msgs/PointCloud2), the fan image "
+        "(sensor_msgs/Image), the sensor pose (/tf) and the sensor's description "
+        "(std_msgs/String, JSON); needs the rosbags package (pip install "
+        "'acousim[ros]'), no ROS installation. --format chirp: write the recordings "
+        "as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by their chirppy): "
+        "signals, array, call, times, poses, LiDAR scans and our ground truth; the "
+        "imaging options do not apply. Layout: docs/export.md.",
+    )
+    imaging_arguments(p)
+    p.add_argument(
+        "--format",
+        choices=("rosbag", "chirp"),
+        default="rosbag",
+        help="rosbag (default) or chirp",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write",
+    )
+    p.add_argument(
+        "--image-method",
+        default=None,
+        help="the method published as peaks and fan (default: the sharpest imaged)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if args.format == "chirp":
+        return _chirp(args, out)
+    if out.exists():
+        raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
+    writable_dir(out.parent)
+    try:
+        from acousim.export.rosbag import write_rosbag
+    except ImportError as exc:
+        raise UsageError(str(exc)) from None
+    recs, index, options, image_all = load_and_image(args)
+    if args.image_method and args.image_method not in options.methods:
+        raise UsageError(
+            f"--image-method {args.image_method!r} is not among --method {args.method!r}"
+        )
+    images = image_all()
+    write_rosbag(
+        out,
+        recs,
+        images,
+        index,
+        method=args.image_method,
+        threshold_db=options.peak_threshold_db,
+    )
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
+    return 0
+
+
+def _chirp(args: argparse.Namespace, out: Path) -> int:
+    import processing as P
+
+    if out.is_dir():
+        raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
+    writable_dir(out.parent if str(out.parent) else Path("."))
+    recs, _, _, _ = load_and_image(args)  # the images are not made
+    try:
+        P.write_chirp(out, recs)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    print(f"{len(recs)} recording(s) written to the CHIRP file {out}")
+    return 0
