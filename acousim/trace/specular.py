@@ -67,6 +67,7 @@ def refine_sequences(
             prev = images[:, j]
             images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
         ok = np.ones(S, bool)
+        edges: list[tuple[int, int]] = []
         if max_path_m is not None:
             ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
         cur = np.broadcast_to(receiver, (S, 3)).copy()
@@ -91,6 +92,7 @@ def refine_sequences(
             start = cur + (eps if j < k - 1 else 0.0) * unit
             sel = np.flatnonzero(ok & at_edge)
             ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
+            edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
             live = np.flatnonzero(ok & ~at_edge)
             t, f = caster.first_hit(start[live], (x - start)[live])
             dist = np.linalg.norm(x[live] - start[live], axis=1)
@@ -105,6 +107,11 @@ def refine_sequences(
             ok[live[~good]] = False
             points[:, j] = x
             cur = x
+        # two reflections at one point of an edge: only inside a concave corner
+        for i, j in edges:
+            if ok[i]:
+                before = emitter if j == 0 else points[i, j - 1]
+                ok[i] = _concave(world, ids[i, j], ids[i, j + 1], points[i, j], before, tol)
         # last leg: from the first reflection point to the emitter, unobstructed
         live = np.flatnonzero(ok)
         d = emitter - cur[live]
@@ -196,6 +203,34 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
     edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
     out[inside[row[-np.min(bary, axis=1) * edge <= tol]]] = True
     return out
+
+
+def _touching(world: World, pid: int, x: np.ndarray, tol: float) -> np.ndarray:
+    """Centroids (n, 3) of the faces of plane `pid` that x lies on (within `tol`)."""
+    from trimesh.triangles import points_to_barycentric
+
+    _, faces = world.faces_near(pid, x[None], 2.01 * tol)
+    tri = world.triangles[faces]
+    if len(tri) == 0:
+        return np.zeros((0, 3))
+    bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
+    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+    return tri[-np.min(bary, axis=1) * edge <= tol].mean(axis=1)
+
+
+def _concave(world: World, a: int, b: int, x: np.ndarray, before: np.ndarray, tol) -> bool:
+    """Whether planes a and b, meeting at the edge point x, form a corner concave
+    towards the side the path comes from (`before`: the point before its reflection
+    on a): a face of each that holds x reaches into the front of the other.  At a
+    convex edge (a door frame's outer corner) the two reflections at one point are
+    no specular path (that echo is the edge's diffraction)."""
+    normal, offset, _, _ = _plane_table(world)
+    for p, q in ((a, b), (b, a)):
+        side = np.sign(normal[p] @ (before - x))
+        centroids = _touching(world, int(q), x, tol)
+        if side == 0 or not np.any(side * (centroids - x) @ normal[p] > tol):
+            return False
+    return True
 
 
 def _plane_table(world: World):
