@@ -111,14 +111,20 @@ def test_automatic_budget_finds_what_ten_times_the_old_rays_find(name):
         assert work.rays < 10 * old
 
 
-def test_scenes_without_scattering_shoot_no_ray():
+def test_scenes_without_scattering_shoot_at_most_a_probe():
     """The shoebox, the plate, the wall and the sphere (rigid, smooth, one bounce on the
-    curved one): image sources and glints only."""
+    curved one): image sources and glints; over the whole sphere no ray at all, in a
+    narrower beam one batch that tells which plane sequences the beam meets; the
+    sphere (no planes) none."""
     for name in ("shoebox", "ertis_sample", "wall", "sphere"):
         scene = load_scene(SCENES / f"{name}.toml")
+        pose = scene.sensor.poses[0]
         tracer = Tracer(scene)
-        tracer.trace(scene.sensor.poses[0])
-        assert tracer.rays_used(scene.sensor.poses[0]) == 0, name
+        tracer.trace(pose)
+        assert tracer.rays_used(pose) == (0 if name == "sphere" else 1000), name
+        whole = Tracer(_with(scene, beam_deg=180.0))
+        whole.trace(pose)
+        assert whole.rays_used(pose) == 0, name
 
 
 def test_same_seed_same_bytes_and_the_rays_in_the_metadata():
@@ -195,4 +201,3 @@ def test_enumerated_edge_paths_only_in_concave_corners(tmp_path):
     tracer = Tracer(scene)
     paths = tracer.trace(pose)
     assert not np.any((paths.kind == KIND["specular"]) & (paths.order == 2))
-    assert tracer.rays_used(pose) == 0

@@ -10,10 +10,12 @@ diffraction and explicit points need no rays.  So, per pose (:func:`ray_work`):
    goes to the specular stage: image sources with their visibility checks, which no
    ray can miss; those that leave the emitter within the beam (``beam_deg``, the
    cone the rays fill) are kept, and any other whose sequence a ray met (as a fixed
-   budget keeps it).  The rays are then needed only if some hit
-   can scatter: a material with a diffuse part, or a curved surface met from the
-   second reflection on.  A scene that needs neither (the shoebox, the sphere, the
-   wall) shoots no ray at all.
+   budget keeps it).  The rays are then needed only if some hit can scatter: a
+   material with a diffuse part, or a curved surface met from the second
+   reflection on.  A scene that needs neither (the shoebox, the plate, the wall)
+   shoots no ray if its beam is the whole sphere, else one batch that tells which
+   sequences a ray in the beam meets (a wall along the axis, whose path leaves at
+   the beam's edge, is then kept on either side of it); the sphere (no planes) none.
 2. Otherwise the rays go out in batches: the deterministic spiral of
    :func:`.shoot.cone_directions` of :data:`START_RAYS` rays, then the same spiral
    shifted in both of its lattice coordinates by golden-ratio steps (no random
@@ -244,7 +246,7 @@ def ray_work(
     enumerate_all, tail = plan(world, settings)
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
-        return RayWork(every, None, 0, frozenset())
+        return _probe(world, caster, settings, emitter, axis, every)
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     tried, sequences, glints, parts, met = set(), set(), set(), [], set()
     total, before = 0, None
@@ -287,6 +289,20 @@ def ray_work(
     if enumerate_all:
         return RayWork(every, contributions, total, frozenset(met))
     return RayWork(sorted(sequences), contributions, total)
+
+
+def _probe(world, caster, settings, emitter, axis, every) -> RayWork:
+    """Enumerated sequences and nothing that scatters: no rays, unless the beam is
+    narrower than the whole sphere; then one batch of :data:`START_RAYS` finds the
+    sequences a ray in the beam meets (a wall along the axis, whose path leaves the
+    emitter at the beam's edge, is kept whichever side of it the path leaves)."""
+    if settings.beam_rad >= np.pi or not every:
+        return RayWork(every, None, 0, frozenset())
+    n = min(START_RAYS, settings.rays_max)
+    dirs = batch_directions(n, axis, settings.beam_rad, 0)
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
+    shot = follow(world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m)
+    return RayWork(every, None, n, frozenset(shot.sequences))
 
 
 def in_beam(specular: list, work: RayWork, axis: np.ndarray, beam_rad: float) -> list:
