@@ -108,10 +108,12 @@ def refine_sequences(
             points[:, j] = x
             cur = x
         # two reflections at one point of an edge: only inside a concave corner
-        for i, j in edges:
-            if ok[i]:
-                before = emitter if j == 0 else points[i, j - 1]
-                ok[i] = _concave(world, ids[i, j], ids[i, j + 1], points[i, j], before, tol)
+        edges = [(i, j) for i, j in edges if ok[i]]
+        if edges:
+            i, j = np.array(edges).T
+            before = np.where((j == 0)[:, None], emitter, points[i, np.maximum(j - 1, 0)])
+            pairs = np.column_stack([ids[i, j], ids[i, j + 1]])
+            ok[i[~_concave(world, pairs, points[i, j], before, tol)]] = False
         # last leg: from the first reflection point to the emitter, unobstructed
         live = np.flatnonzero(ok)
         d = emitter - cur[live]
@@ -170,18 +172,26 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
 
 def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.ndarray:
     """(K,) whether each point x (K, 3) lies on (or within `tol` of) one of the faces
-    of its plane `pids` (K,).  A point whose least barycentric coordinate on a face is
-    -m lies within 2 m times the face's longest edge of the face's bounding box, so
-    only the faces whose box, grown by 2 tol, holds the point are tested (and none of
-    a plane whose whole box does not hold it)."""
+    of its plane `pids` (K,)."""
+    out = np.zeros(len(pids), bool)
+    out[_holding(world, pids, x, tol)[0]] = True
+    return out
+
+
+def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
+    """(row, face) pairs: point x[row] lies on face `face` of its plane pids[row]
+    (within `tol`).  A point whose least barycentric coordinate on a face is -m lies
+    within 2 m times the face's longest edge of the face's bounding box, so only the
+    faces whose box, grown by 2 tol, holds the point are tested (and none of a plane
+    whose whole box does not hold it)."""
     from trimesh.triangles import points_to_barycentric
 
-    out = np.zeros(len(pids), bool)
+    none = np.zeros(0, int), np.zeros(0, int)
     grow = 2.01 * tol
     box = world.plane_boxes[pids]
     inside = np.flatnonzero(np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1))
     if inside.size == 0:
-        return out
+        return none
     order, starts, _ = world._plane_index()
     count = np.diff(starts)[pids[inside]]
     if count.sum() <= 20000:  # every face of each point's plane, in one pass
@@ -197,40 +207,35 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
             faces.append(f)
         row, face = np.concatenate(rows), np.concatenate(faces)
     if row.size == 0:
-        return out
+        return none
     tri = world.triangles[face]
     bary = points_to_barycentric(tri, x[inside[row]])
     edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
-    out[inside[row[-np.min(bary, axis=1) * edge <= tol]]] = True
-    return out
+    on = -np.min(bary, axis=1) * edge <= tol
+    return inside[row[on]], face[on]
 
 
-def _touching(world: World, pid: int, x: np.ndarray, tol: float) -> np.ndarray:
-    """Centroids (n, 3) of the faces of plane `pid` that x lies on (within `tol`)."""
-    from trimesh.triangles import points_to_barycentric
-
-    _, faces = world.faces_near(pid, x[None], 2.01 * tol)
-    tri = world.triangles[faces]
-    if len(tri) == 0:
-        return np.zeros((0, 3))
-    bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
-    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
-    return tri[-np.min(bary, axis=1) * edge <= tol].mean(axis=1)
-
-
-def _concave(world: World, a: int, b: int, x: np.ndarray, before: np.ndarray, tol) -> bool:
-    """Whether planes a and b, meeting at the edge point x, form a corner concave
-    towards the side the path comes from (`before`: the point before its reflection
-    on a): a face of each that holds x reaches into the front of the other.  At a
-    convex edge (a door frame's outer corner) the two reflections at one point are
-    no specular path (that echo is the edge's diffraction)."""
-    normal, offset, _, _ = _plane_table(world)
-    for p, q in ((a, b), (b, a)):
-        side = np.sign(normal[p] @ (before - x))
-        centroids = _touching(world, int(q), x, tol)
-        if side == 0 or not np.any(side * (centroids - x) @ normal[p] > tol):
-            return False
-    return True
+def _concave(world: World, planes: np.ndarray, x: np.ndarray, before: np.ndarray, tol):
+    """(E,) whether planes a and b (planes: (E, 2)), meeting at the edge point x
+    (E, 3), form a corner concave towards the side the path comes from (`before`
+    (E, 3): the point before its reflection on a): a face of each that holds x
+    reaches into the front of the other.  At a convex edge (a door frame's outer
+    corner) the two reflections at one point are no specular path (that echo is the
+    edge's diffraction)."""
+    normal = _plane_table(world)[0]
+    n = len(planes)
+    p, q = (
+        np.concatenate([planes[:, 0], planes[:, 1]]),
+        np.concatenate([planes[:, 1], planes[:, 0]]),
+    )
+    at, come = np.concatenate([x, x]), np.concatenate([before, before])
+    side = np.sign(np.einsum("ij,ij->i", normal[p], come - at))
+    row, face = _holding(world, q, at, tol)
+    centroid = world.triangles[face].mean(axis=1)
+    reach = side[row] * np.einsum("ij,ij->i", centroid - at[row], normal[p[row]]) > tol
+    good = np.zeros(2 * n, bool)
+    good[row[reach]] = True
+    return good[:n] & good[n:] & (side[:n] != 0) & (side[n:] != 0)
 
 
 def _plane_table(world: World):
