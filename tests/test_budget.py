@@ -201,3 +201,28 @@ def test_enumerated_edge_paths_only_in_concave_corners(tmp_path):
     tracer = Tracer(scene)
     paths = tracer.trace(pose)
     assert not np.any((paths.kind == KIND["specular"]) & (paths.order == 2))
+
+
+def test_shoebox_third_order_matches_pyroomacoustics():
+    """Every plane sequence of up to 3 walls enumerated (no rays): the same image
+    sources as pyroomacoustics' image-source model (an implementation not ours),
+    including those whose reflections meet in the room's corners."""
+    pra = pytest.importorskip("pyroomacoustics")
+    scene = _with(load_scene(SCENES / "shoebox.toml"), bounces=3, beam_deg=180.0)
+    room_box = np.array([[-1.0, 3.2], [-1.6, 1.9], [-1.1, 1.5]])  # scenes/build_scenes.py
+    pose = scene.sensor.poses[0]
+    tracer = Tracer(scene)
+    paths = tracer.trace(pose)
+    assert tracer.rays_used(pose) == 0
+    spec = paths.select(paths.kind == KIND["specular"])
+    room = pra.ShoeBox(room_box[:, 1] - room_box[:, 0], fs=450000, max_order=3)
+    room.add_source(pose.to_world(scene.sensor.array.emitter_m) - room_box[:, 0])
+    mics = pose.to_world(scene.sensor.array.positions_m)
+    room.add_microphone_array((mics - room_box[:, 0]).T)
+    room.image_source_model()
+    src = room.sources[0]
+    images = src.images[:, src.orders >= 1].T + room_box[:, 0]
+    assert len(images) == len(spec) == 62
+    for img, order in zip(images, src.orders[src.orders >= 1]):
+        j = np.flatnonzero(np.linalg.norm(spec.anchor_m - img, axis=1) < 1e-6)
+        assert j.size == 1 and spec.order[j[0]] == order

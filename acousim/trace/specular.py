@@ -111,7 +111,7 @@ def refine_sequences(
         edges = [(i, j) for i, j in edges if ok[i]]
         if edges:
             i, j = np.array(edges).T
-            before = np.where((j == 0)[:, None], emitter, points[i, np.maximum(j - 1, 0)])
+            before = np.array([_before(points[a], b, emitter, tol) for a, b in edges])
             pairs = np.column_stack([ids[i, j], ids[i, j + 1]])
             ok[i[~_concave(world, pairs, points[i, j], before, tol)]] = False
         # last leg: from the first reflection point to the emitter, unobstructed
@@ -213,6 +213,16 @@ def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
     edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
     on = -np.min(bary, axis=1) * edge <= tol
     return inside[row[on]], face[on]
+
+
+def _before(points: np.ndarray, j: int, emitter: np.ndarray, tol: float) -> np.ndarray:
+    """The last point of a path (its reflection points (k, 3), emitter side first)
+    before reflection j that is not where reflection j is (the emitter if none): in
+    a corner, three reflections can share one point."""
+    for m in range(j - 1, -1, -1):
+        if np.linalg.norm(points[m] - points[j]) > tol:
+            return points[m]
+    return emitter
 
 
 def _concave(world: World, planes: np.ndarray, x: np.ndarray, before: np.ndarray, tol):
