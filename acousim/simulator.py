@@ -171,7 +171,7 @@ class Simulator:
             echoes = self._mic_directivity(echoes, paths, mics, pose.rotation[:, 0])
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
-        meta = _metadata(scene, pose, index)
+        meta = {**_metadata(scene, pose, index), "rays": self.tracer.rays_used(pose)}
         truth = P.GroundTruth(
             position_world_m=paths.position_m,
             position_sensor_m=pose.to_sensor(paths.position_m),
@@ -211,7 +211,11 @@ class Simulator:
         level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
             np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
         )
-        meta = {**_metadata(scene, pose, index), "motion": _motion(pose, motion, arr.rate)}
+        meta = {
+            **_metadata(scene, pose, index),
+            "rays": self.tracer.rays_used(pose),
+            "motion": _motion(pose, motion, arr.rate),
+        }
         truth = P.GroundTruth(
             position_world_m=truth_pos,
             position_sensor_m=pose.to_sensor(truth_pos),

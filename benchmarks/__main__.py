@@ -22,8 +22,10 @@ from . import (
     materials,
     motion,
     pdm_decode,
+    peer,
     pictures,
     recording_file,
+    scaling,
 )
 from .fullwave import compare as fullwave
 
@@ -42,6 +44,8 @@ SECTIONS = {
     "calibration": calibration,
     "array_calibration": array_calibration,
     "fullwave": fullwave,
+    "peer": peer,
+    "scaling": scaling,
 }
 
 

@@ -19,9 +19,11 @@ from acousim.trace.shoot import shoot
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POSES = list(range(10, 30))  # two seconds of the drive
+#: the fixed budget the corridor set before the automatic one (the default now)
+OLD_RAYS = 5000
 
 
-def _scene(rays: int, snr_db: float | None = None, direct_path: bool = True):
+def _scene(rays: int | None, snr_db: float | None = None, direct_path: bool = True):
     sc = load_scene(SCENE)
     sim = dataclasses.replace(sc.simulation, rays=rays)
     if snr_db is not None:
@@ -37,9 +39,8 @@ def _clean(rays: int, poses: list[int]) -> tuple[list[np.ndarray], list]:
 
 
 def run() -> str:
-    default = load_scene(SCENE)
-    base_rays = default.simulation.rays
-    budgets = [base_rays // 8, base_rays // 4, base_rays // 2, base_rays, base_rays * 2]
+    base_rays = OLD_RAYS
+    budgets = [None, base_rays // 8, base_rays // 4, base_rays // 2, base_rays, base_rays * 2]
     err_poses = POSES[::5]
     ref, ref_paths = _clean(16 * base_rays, err_poses)
     rows = []
@@ -57,16 +58,18 @@ def run() -> str:
         err = [10 * np.log10(np.sum((s - r) ** 2) / np.sum(r**2)) for s, r in zip(samples, ref)]
         lvl = [_profile_error_db(s, r) for s, r in zip(samples, ref)]
         found = np.mean([_specular_found(p, q) for p, q in zip(paths, ref_paths)])
-        mark = " (default)" if rays == base_rays else ""
+        label = "automatic (default)" if rays is None else f"{rays}"
+        if rays is None:
+            label += f": {_median_rays(err_poses)}"
         n_paths = np.mean([len(p) for p in paths])
         rows.append(
-            f"| {rays}{mark} | {n_paths:.0f} | {per * 1e3:.0f} | {1 / per:.1f} | "
+            f"| {label} | {n_paths:.0f} | {per * 1e3:.0f} | {1 / per:.1f} | "
             f"{trace_t * 1e3:.0f} | {np.mean(err):.1f} | {max(err):.1f} | {np.mean(lvl):.2f} | "
             f"{found * 100:.0f} % |"
         )
     n_paths = np.mean([len(p) for p in ref_paths])
     off, mean_off, angle = _diffuse_placement(err_poses)
-    e_spec, e_scat, share = _error_by_kind(base_rays, err_poses, 16 * base_rays)
+    e_spec, e_scat, share = _error_by_kind(None, err_poses, 16 * base_rays)
     spec_text = "no difference at all" if e_spec < -300 else f"{e_spec:.0f} dB"
     return "\n".join(
         [
@@ -77,8 +80,8 @@ def run() -> str:
             "every pose anew), trace time "
             "alone, and the error of "
             "the noise-free echoes (the direct path left out: it is the same in both and 40 dB "
-            "louder) against a reference traced with 16x the default rays "
-            f"({16 * base_rays} rays; {n_paths:.0f} paths per pose), relative RMS over all "
+            "louder) against a reference traced with 16x the 5000 rays the corridor used to "
+            f"set ({16 * base_rays} rays; {n_paths:.0f} paths per pose), relative RMS over all "
             "microphones and samples, mean and worst of 4 poses; 'level error': mean "
             "absolute difference in dB of the echo energy in 10 cm range bins (bins within "
             "40 dB of the strongest), which is what images show of the diffuse part: its "
@@ -88,12 +91,14 @@ def run() -> str:
             "finds; found paths are exact, so the remaining error is the sampling of the "
             "scattered (diffuse and curved-surface) energy. Target: 10 measurements/s.",
             "",
+            _paired_drive(),
+            "",
             "| rays | paths per pose | ms per measurement | measurements/s | trace ms | "
             "error (dB) | worst (dB) | level error (dB) | specular found |",
             "|---|---|---|---|---|---|---|---|---|",
             *rows,
             "",
-            "Where the error at the default rays comes from (the same 4 poses, each kind "
+            "Where the error at the automatic budget comes from (the same 4 poses, each kind "
             "of path rendered alone against the same kind in the reference): the specular "
             f"paths, {spec_text} (image sources are exact once found); the "
             f"scattered paths (diffuse reflectors and glints), {e_scat:+.1f} dB of their "
@@ -103,7 +108,7 @@ def run() -> str:
             "by +3 dB); its energy per range bin converges (the level error).",
             "",
             "The diffuse (Lambert) tail is gathered into point reflectors "
-            "(`acousim.trace.cluster`); at the default rays, of the first-order diffuse "
+            f"(`acousim.trace.cluster`); at {base_rays} rays, of the first-order diffuse "
             f"energy {off * 100:.1f} % lies more than 5 cm of range from its reflector's "
             f"range (mean {mean_off * 100:.2f} cm), and the energy-weighted mean angle "
             f"between a contribution's direction and its reflector's is {angle:.1f}°.",
@@ -148,7 +153,7 @@ def _error_by_kind(rays: int, poses: list[int], ref_rays: int) -> tuple[float, f
 def _diffuse_placement(poses: list[int]) -> tuple[float, float, float]:
     """Share of first-order Lambert energy placed more than 5 cm of range away from its
     contributions, the mean distance (m) and the mean angle (deg), energy-weighted."""
-    sim = Simulator(_scene(load_scene(SCENE).simulation.rays))
+    sim = Simulator(_scene(OLD_RAYS))
     tracer, settings = sim.tracer, sim.tracer.settings
     array = sim.scene.sensor.array
     far = total = dist = ang = 0.0
@@ -185,7 +190,40 @@ def _diffuse_placement(poses: list[int]) -> tuple[float, float, float]:
     return far / total, dist / total, ang / total
 
 
-def _trace_time(rays: int) -> float:
+def _paired_drive(pairs: int = 5) -> str:
+    """The drive at the automatic budget against the fixed 5000 rays: `Simulator.run`
+    over POSES, alternating, every trace paid; medians of the pairs' ratios (wall and
+    CPU time)."""
+    sims = [Simulator(_scene(r)) for r in (None, OLD_RAYS)]
+    for sim in sims:
+        sim.run([0])
+    wall, cpu = [], []
+    for _ in range(pairs):
+        w, c = [], []
+        for sim in sims:
+            sim.tracer.forget()
+            t, p = time.perf_counter(), time.process_time()
+            sim.run(POSES)
+            w.append(time.perf_counter() - t)
+            c.append(time.process_time() - p)
+        wall.append(w[0] / w[1])
+        cpu.append(c[0] / c[1])
+    return (
+        f"The drive at the automatic budget against the fixed {OLD_RAYS} rays it used to "
+        f"set, {pairs} alternating pairs of `run()` over the same 20 poses: "
+        f"{np.median(wall):.2f}x the wall time, {np.median(cpu):.2f}x the CPU time "
+        "(medians of the pairs' ratios)."
+    )
+
+
+def _median_rays(poses: list[int]) -> str:
+    """The automatic budget's rays over `poses`: 'min to max' (or the one value)."""
+    sim = Simulator(_scene(None))
+    rays = [sim.simulate_pose(sim.scene.sensor.poses[i], i).metadata["rays"] for i in poses]
+    return f"{min(rays)}" if min(rays) == max(rays) else f"{min(rays)}-{max(rays)} rays"
+
+
+def _trace_time(rays: int | None) -> float:
     sim = Simulator(_scene(rays))
     poses = sim.scene.sensor.poses
     sim.paths(poses[0])

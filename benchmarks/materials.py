@@ -112,7 +112,7 @@ def run() -> str:
         [
             "## Frequency-dependent materials",
             "",
-            "The corridor (its own 5000 rays and 2 bounces) as bundled and with its "
+            "The corridor (its automatic ray budget and 2 bounces) as bundled and with its "
             "plaster given as a table over 20-80 kHz (example values, not measured): time "
             f"per measurement of `Simulator.run` over {len(POSES)} poses, best of 3, each "
             "run tracing every pose anew.",

@@ -93,6 +93,8 @@ class Setting:
             parts.append(f"[{_fmt(self.lo)}, {_fmt(self.hi)}]")
         if self.default not in (None, dataclasses.MISSING):
             parts.append(f"default {self.default!r}")
+        elif self.optional:
+            parts.append("default unset")
         return ", ".join(parts)
 
 

@@ -87,13 +87,13 @@ def _scene(path: str):
 @lru_cache(maxsize=4)
 def _world_caster(path: str):
     """Geometry for collision checks, built once per scene file and process."""
-    from acousim.trace.embree import RayCaster
     from acousim.trace.geometry import build_world
+    from acousim.trace.tracer import caster_of
 
     scene = _scene(path)
     if not scene.meshes:
         return None
-    return RayCaster(build_world(scene).triangles, threads=1)
+    return caster_of(build_world(scene), threads=1)
 
 
 def _clear(path: str, position: np.ndarray, clearance: float) -> bool:

@@ -443,7 +443,12 @@ class Simulation:
 
     max_range_m : echoes are computed up to this range (the window is 2 r / c plus
         the call).
-    rays : rays cast from the emitter over its beam per pose.
+    rays : rays cast from the emitter over its beam per pose; unset (the default):
+        found per pose, the automatic budget of :mod:`acousim.trace.budget` (batches
+        of rays until one finds nothing new and the diffuse tail has converged; no
+        rays where nothing needs them).  A number gives exactly that many rays, on
+        the deterministic spiral.
+    rays_max : cap of the automatic budget (rays per pose).
     bounces : maximum number of reflections of a path (3: a corner reflector's
         triple bounce).
     beam_deg : half-angle of the cone of rays around the emitter axis.
@@ -465,7 +470,10 @@ class Simulation:
     """
 
     max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
-    rays: int = setting(20000, "", 0, 10_000_000, "rays per pose")
+    rays: int | None = setting(
+        None, "", 0, 10_000_000, "rays per pose; unset: automatic", kind="int"
+    )
+    rays_max: int = setting(400_000, "", 1, 10_000_000, "cap of the automatic ray budget")
     bounces: int = setting(3, "", 0, 6, "maximum reflections of a path")
     beam_deg: float = setting(90.0, "deg", 1, 180, "half-angle of the cone of rays")
     snr_db: float = setting(math.inf, "dB", -60, math.inf, "noise below the echoes; inf: none")

@@ -32,9 +32,19 @@ class RayCaster:
     ----------
     triangles : ndarray, shape (F, 3, 3)
         Triangle vertices in world metres (float64).
+    threads : worker threads for large batches of rays.
+    indexed : optional (vertices (V, 3), faces (F, 3)), the same triangles as a
+        vertex table and indices (``vertices[faces] == triangles``): handed to Embree
+        as its indexed mesh, no per-corner copy (the same hits, built faster); every
+        vertex must be a corner of a face.
     """
 
-    def __init__(self, triangles: np.ndarray, threads: int = 2) -> None:
+    def __init__(
+        self,
+        triangles: np.ndarray,
+        threads: int = 2,
+        indexed: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         try:
             import embreex.mesh_construction as mc
             import embreex.rtcore_scene as rtcs
@@ -42,12 +52,19 @@ class RayCaster:
             raise ImportError(
                 "ray tracing meshes needs embreex: pip install 'acousim[sim]'"
             ) from exc
-        tri = np.asarray(triangles, dtype=np.float64)
-        lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+        # every vertex of an indexed mesh is a corner of a face (World's contract)
+        corners = np.asarray(triangles if indexed is None else indexed[0], dtype=np.float64)
+        corners = corners.reshape(-1, 3)
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
         self.origin = (lo + hi) / 2
         self.scale = float(np.linalg.norm(hi - lo)) or 1.0
         self._scene = rtcs.EmbreeScene()
-        self._mesh = mc.TriangleMesh(self._scene, (tri - self.origin).astype(np.float32))
+        local = (corners - self.origin).astype(np.float32)
+        if indexed is None:
+            self._mesh = mc.TriangleMesh(self._scene, local.reshape(-1, 3, 3))
+        else:
+            faces = np.ascontiguousarray(indexed[1], np.int32)
+            self._mesh = mc.TriangleMesh(self._scene, local, faces)
         self.threads = max(1, int(threads))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_cast = 0

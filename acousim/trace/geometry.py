@@ -17,7 +17,14 @@ from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
 from processing.errors import InputError
 
-__all__ = ["World", "build_world", "face_groups", "CURVED_MAX_ANGLE_DEG"]
+__all__ = [
+    "World",
+    "build_world",
+    "face_groups",
+    "plane_ids",
+    "face_adjacency",
+    "CURVED_MAX_ANGLE_DEG",
+]
 
 #: adjacent faces meeting at a dihedral angle between 0.05 and this many degrees are a
 #: tessellated curved surface (sphere, pipe); sharper edges are corners of planar walls
@@ -37,6 +44,8 @@ class World:
     `spectra` describes the frequency-dependent ones (None: none) and `interaction`
     (len(materials), 2) the columns of their specular and diffuse interactions in
     the paths' ``interactions`` counts (-1: a material of single numbers).
+    vertices (V, 3) and faces (F, 3) (vertex indices): the same triangles, indexed,
+    every vertex a corner of a face (for the ray caster; None: use `triangles`).
     """
 
     triangles: np.ndarray
@@ -51,6 +60,8 @@ class World:
     component: np.ndarray
     spectra: MaterialSpectra | None = None
     interaction: np.ndarray | None = None
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
 
     @property
     def n_faces(self) -> int:
@@ -61,15 +72,94 @@ class World:
         """K: columns of the paths' interaction counts (0 without tables)."""
         return 0 if self.spectra is None else self.spectra.n_columns
 
+    def _cached(self, key, make):
+        """A derived array computed once per world (read-only): per-pose work then
+        depends on planes and paths, not on the number of faces."""
+        cache = self.__dict__.setdefault("_derived", {})
+        if key not in cache:
+            value = make()
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+            cache[key] = value
+        return cache[key]
+
     def face_values(self, attr: str) -> np.ndarray:
         """(F,) a material attribute per face; reflection and diffuse are the
-        tracer's reference numbers (:attr:`Material.reference`)."""
-        ref = {"reflection": 0, "diffuse": 1}
-        if attr in ref:
-            values = [m.reference[ref[attr]] for m in self.materials]
-        else:
-            values = [getattr(m, attr) for m in self.materials]
-        return np.array(values)[self.material]
+        tracer's reference numbers (:attr:`Material.reference`).  Read-only."""
+
+        def make():
+            ref = {"reflection": 0, "diffuse": 1}
+            if attr in ref:
+                values = [m.reference[ref[attr]] for m in self.materials]
+            else:
+                values = [getattr(m, attr) for m in self.materials]
+            return np.array(values)[self.material]
+
+        return self._cached(("values", attr), make)
+
+    @property
+    def plane_first(self) -> np.ndarray:
+        """(n_planes,) the first face of every plane (read-only)."""
+
+        def make():
+            first = np.full(self.n_planes, -1)
+            first[self.plane[::-1]] = np.arange(self.n_faces)[::-1]
+            return first
+
+        return self._cached("plane_first", make)
+
+    def plane_faces(self, pid: int) -> tuple[np.ndarray, np.ndarray]:
+        """The faces of plane `pid` (ascending) and their bounding boxes (n, 2, 3)."""
+
+        order, starts, box = self._plane_index()
+        faces = order[starts[pid] : starts[pid + 1]]
+        return faces, box[faces]
+
+    def faces_near(self, pid: int, x: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
+        """(row, face) pairs: the faces of plane `pid` whose bounding box, grown by
+        `grow` (m), holds the point x[row] (x: (n, 3)).  The plane's faces are kept
+        sorted along the axis of its largest extent, so only a strip one face wide
+        around each point is tested (not every face of a finely tessellated wall)."""
+        strips = self._cached("plane_strips", dict)
+        if pid not in strips:
+            faces, box = self.plane_faces(pid)
+            axis = int(np.argmax(box[:, 1].max(axis=0) - box[:, 0].min(axis=0)))
+            o = np.argsort(box[:, 0, axis], kind="stable")
+            width = float((box[:, 1, axis] - box[:, 0, axis]).max())
+            strips[pid] = (axis, faces[o], box[o], box[o, 0, axis], width)
+        axis, faces, box, lo, width = strips[pid]
+        i0 = np.searchsorted(lo, x[:, axis] - grow - width, "left")
+        count = np.searchsorted(lo, x[:, axis] + grow, "right") - i0
+        row = np.repeat(np.arange(len(x)), count)
+        k = np.repeat(i0 - np.cumsum(count) + count, count) + np.arange(count.sum())
+        p = x[row]
+        near = np.all((box[k, 0] - grow <= p) & (p <= box[k, 1] + grow), axis=1)
+        return row[near], faces[k[near]]
+
+    @property
+    def plane_boxes(self) -> np.ndarray:
+        """(n_planes, 2, 3) the bounding box of every plane's faces (read-only)."""
+
+        def make():
+            order, starts, box = self._plane_index()
+            lo = np.minimum.reduceat(box[order, 0], starts[:-1], axis=0)
+            hi = np.maximum.reduceat(box[order, 1], starts[:-1], axis=0)
+            return np.stack([lo, hi], axis=1)
+
+        return self._cached("plane_boxes", make)
+
+    def _plane_index(self):
+        """Faces sorted by plane, where each plane starts, and every face's box."""
+
+        def make():
+            order = radix_argsort(self.plane)
+            starts = np.searchsorted(self.plane[order], np.arange(self.n_planes + 1))
+            t = self.triangles
+            lo = np.minimum(np.minimum(t[:, 0], t[:, 1]), t[:, 2])
+            hi = np.maximum(np.maximum(t[:, 0], t[:, 1]), t[:, 2])
+            return order, starts, np.stack([lo, hi], axis=1)
+
+        return self._cached("plane_index", make)
 
     def face_interactions(self, mode: int) -> np.ndarray:
         """(F,) the interaction column of each face's material for `mode` (0:
@@ -81,13 +171,15 @@ class World:
 
     @property
     def n_planes(self) -> int:
-        return int(self.plane.max()) + 1
+        return self._cached("n_planes", lambda: int(self.plane.max()) + 1)
 
     @property
     def surface(self) -> np.ndarray:
         """(F,) surface id: the plane for planar faces, n_planes + the connected
-        component for curved faces (one id per curved object)."""
-        return np.where(self.curved, self.n_planes + self.component, self.plane)
+        component for curved faces (one id per curved object).  Read-only."""
+        return self._cached(
+            "surface", lambda: np.where(self.curved, self.n_planes + self.component, self.plane)
+        )
 
     def normals_at(self, x: np.ndarray, f: np.ndarray) -> np.ndarray:
         """Unit normals (K, 3) at points x (K, 3) on faces f (K,): the face normal,
@@ -249,7 +341,12 @@ def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str
 
 
 def build_world(scene: Scene) -> World:
-    """Load, transform, clean and merge the meshes of a scene."""
+    """Load, transform, clean and merge the meshes of a scene.
+
+    Near-linear in the faces: coplanar faces are grouped by a hash of their plane
+    (:func:`plane_ids`), the smooth corner normals are found for curved faces only,
+    and the merged vertices and faces are kept for the ray caster (Embree's indexed
+    mesh: no per-corner copies)."""
     import trimesh
 
     meshes, mat_index = [], []
@@ -264,32 +361,29 @@ def build_world(scene: Scene) -> World:
         meshes.append(mesh)
         mat_index.append(mat)
     merged = trimesh.util.concatenate(meshes)
+    vertices, faces = np.asarray(merged.vertices, float), np.asarray(merged.faces)
     tri = np.asarray(merged.triangles, float)
     normals = np.asarray(merged.face_normals, float)
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
-    adj = merged.face_adjacency
-    ang = merged.face_adjacency_angles
+    adj, shared = face_adjacency(faces)
+    ang = trimesh.geometry.vector_angle(normals[adj])
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
+    curved |= smooth_patches(adj, ang, shared, vertices, len(tri))
     material = np.concatenate(mat_index)
-    # coplanar faces share a plane id: normals rounded to 1e-6, offsets to 10 µm;
-    # faces of another material are another plane
-    key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
-    if len(materials) > 1:
-        key = np.column_stack([key, material])
-    _, plane = np.unique(key, axis=0, return_inverse=True)
-    vn = smooth_corner_normals(
-        tri, np.asarray(merged.faces), normals, adj, ang, merged.face_adjacency_edges
-    )
-    vn = np.where(curved[:, None, None], vn, normals[:, None, :])
+    plane = plane_ids(normals, offsets, material if len(materials) > 1 else None)
+    vn = np.empty((len(tri), 3, 3))
+    vn[:] = normals[:, None, :]
+    if curved.any():
+        vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
     return World(
         tri,
         normals,
         offsets,
-        plane.ravel(),
+        plane,
         curved,
         vn,
         material,
@@ -297,7 +391,137 @@ def build_world(scene: Scene) -> World:
         np.asarray(merged.area_faces),
         np.asarray(component),
         *_spectra(materials),
+        vertices=vertices,
+        faces=faces,
     )
+
+
+def plane_ids(
+    normals: np.ndarray, offsets: np.ndarray, material: np.ndarray | None = None
+) -> np.ndarray:
+    """(F,) plane id of every face: coplanar faces (normals rounded to 1e-6, offsets
+    to 10 µm) share one; faces of another material (if `material` is given) are
+    another plane.  Ids are numbered in the lexicographic order of (normal, offset,
+    material), as ``np.unique(axis=0)`` of those rows would, but the F rows are
+    grouped by a hash (one 1-D sort, checked for collisions) and only the distinct
+    planes are sorted as rows."""
+    key = np.column_stack([np.round(normals, 6), np.round(offsets, 5)])
+    if material is not None:
+        key = np.column_stack([key, material])
+    key = np.ascontiguousarray(key + 0.0)  # -0.0 is 0.0, as np.unique compares them
+    first, inverse = row_groups(key)
+    _, rank = np.unique(key[first], axis=0, return_inverse=True)
+    return rank.ravel()[inverse]
+
+
+def radix_argsort(code: np.ndarray) -> np.ndarray:
+    """A stable argsort of non-negative integers (n,), 16 bits a pass (numpy's radix
+    sort of 16-bit keys): linear in n, for the long integer columns of a mesh."""
+    code = np.asarray(code)
+    order = np.arange(len(code))
+    top, shift = int(code.max(initial=0)), 0
+    while True:
+        key = ((code[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(key, kind="stable")]
+        shift += 16
+        if top >> shift == 0:
+            return order
+
+
+def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
+    make -0.0 0.0 first): the first row of every group (G,) and the group of every
+    row (n,), groups in no particular order.  One 1-D sort of a hash of each row,
+    checked for collisions (then the rows themselves are sorted)."""
+    key = np.ascontiguousarray(key)
+    words = key.view(np.uint64).reshape(len(key), -1)
+    code = np.zeros(len(key), np.uint64)
+    with np.errstate(over="ignore"):
+        for j in range(words.shape[1]):
+            code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
+            code ^= code >> np.uint64(29)
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(key[first][inverse], key):  # a hash collision
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.ravel()
+
+
+def smooth_patches(
+    adjacency: np.ndarray, angles: np.ndarray, shared: np.ndarray, vertices: np.ndarray, n: int
+) -> np.ndarray:
+    """(n,) bool: faces of flat patches that belong to a curved surface.
+
+    A patch is a set of faces joined by flat edges (dihedral angle at most 0.05°): a
+    facet of a tessellated pipe or sphere, however finely it is subdivided.  It is
+    curved when at least as much of its rim meets its neighbours smoothly (below
+    ``CURVED_MAX_ANGLE_DEG``) as sharply: a pipe's facet, not a wall that one fillet
+    touches.  So subdividing a curved surface's facets keeps them curved (only the
+    faces along the facets' edges have a smooth neighbour)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    flat = angles <= _FLAT_ANGLE
+    pairs = adjacency[flat]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, patch = connected_components(graph, directed=False)
+    length = np.linalg.norm(vertices[shared[:, 0]] - vertices[shared[:, 1]], axis=1)
+    smooth = ~flat & (angles < np.deg2rad(CURVED_MAX_ANGLE_DEG))
+    sharp = angles >= np.deg2rad(CURVED_MAX_ANGLE_DEG)
+
+    def rim(edges):
+        return np.bincount(
+            patch[adjacency[edges]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
+        )
+
+    soft, hard = rim(smooth), rim(sharp)
+    return ((soft > 0) & (soft >= hard))[patch]
+
+
+def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Faces that share an edge (an edge of exactly two faces), as trimesh's
+    ``face_adjacency`` finds them, in one sort of integer edge codes: the pairs (A, 2),
+    each in ascending order, and their shared edges (A, 2) as ascending vertex ids.
+    faces (F, 3) vertex indices."""
+    f = faces.astype(np.int64)
+    u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
+    n = int(u.max()) + 1
+    code = np.minimum(u, v) * n + np.maximum(u, v)
+    order = radix_argsort(code)
+    code = code[order]
+    same = code[1:] == code[:-1]
+    alone_before = np.concatenate([[True], ~same[:-1]])
+    alone_after = np.concatenate([~same[1:], [True]])
+    start = np.flatnonzero(same & alone_before & alone_after)
+    a, b = order[start] // 3, order[start + 1] // 3
+    keep = a != b
+    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
+    shared = code[start[keep]]
+    return pairs, np.column_stack([shared // n, shared % n])
+
+
+def _curved_corner_normals(tri, faces, normals, curved, adjacency) -> np.ndarray:
+    """:func:`smooth_corner_normals` of the curved faces (C, 3, 3), computed on the
+    faces that share a vertex with a curved face only: a corner's smoothing group
+    holds faces around that one vertex, so its sums are those of the whole mesh, in
+    the same order (flat faces keep their face normal).  adjacency: the face pairs,
+    their dihedral angles and shared edges of :func:`face_adjacency`."""
+    near = np.zeros(int(faces.max()) + 1, bool)
+    near[faces[curved].ravel()] = True
+    ring = near[faces].any(axis=1)
+    index = np.full(len(tri), -1)
+    index[ring] = np.arange(int(ring.sum()))
+    adj, ang, shared = adjacency
+    keep = ring[adj].all(axis=1)
+    vn = smooth_corner_normals(
+        tri[ring],
+        faces[ring],
+        normals[ring],
+        index[adj[keep]],
+        ang[keep],
+        shared[keep],
+    )
+    return vn[curved[ring]]
 
 
 def _spectra(materials: list[Material]) -> tuple[MaterialSpectra | None, np.ndarray | None]:

@@ -34,10 +34,10 @@ from __future__ import annotations
 import numpy as np
 
 from .embree import RayCaster
-from .geometry import World
+from .geometry import World, radix_argsort, row_groups
 from .paths import KIND, TracedPaths
 
-__all__ = ["glints", "CAUSTIC_CAP"]
+__all__ = ["glints", "curved_groups", "CAUSTIC_CAP"]
 
 #: largest gain of one principal direction of a focusing (concave) surface
 CAUSTIC_CAP = 3.0
@@ -70,6 +70,82 @@ def _bisector(x: np.ndarray, emitter: np.ndarray, receiver: np.ndarray) -> np.nd
 
 def _residual(world, f, b, emitter, receiver) -> np.ndarray:
     return _normal(world, f, b) - _bisector(_point(world, f, b), emitter, receiver)
+
+
+#: curved faces are grouped for the cone test by connected surface, cell of this size
+#: (m) and normal (rounded to quarters of its components)
+_GROUP_CELL_M = 0.05
+
+
+def curved_groups(world: World):
+    """The curved faces (ascending) grouped once per world: the faces by group, where
+    each group starts, and per group a ball (centre, radius) holding its faces, the
+    mean normal and the largest angle of a face normal from it, and the largest
+    corner spread and extent of its faces (as step 1 uses them)."""
+
+    def make():
+        f = np.flatnonzero(world.curved)
+        if f.size == 0:
+            z = np.zeros(0)
+            return f, np.zeros(1, int), np.zeros((0, 3)), z, np.zeros((0, 3)), z, z, z
+        centre = world.triangles[f].mean(axis=1)
+        nf = world.normals[f]
+        key = np.column_stack(
+            [
+                world.component[f],
+                np.floor(centre / _GROUP_CELL_M),
+                np.round(nf * 4),
+            ]
+        ).astype(np.int64)
+        group = row_groups(key)[1]
+        order = radix_argsort(group)
+        starts = np.searchsorted(group[order], np.arange(group.max() + 2))
+        count = np.bincount(group)
+        mid = np.stack([np.bincount(group, centre[:, k]) for k in range(3)], axis=1)
+        mid /= count[:, None]
+        extent = np.linalg.norm(world.triangles[f] - centre[:, None], axis=2).max(axis=1)
+        radius = np.zeros(len(count))
+        np.maximum.at(radius, group, np.linalg.norm(centre - mid[group], axis=1) + extent)
+        mean = np.stack([np.bincount(group, nf[:, k]) for k in range(3)], axis=1)
+        mean /= np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-300)
+        off = np.zeros(len(count))
+        cos_n = np.clip(np.einsum("ij,ij->i", nf, mean[group]), -1, 1)
+        np.maximum.at(off, group, np.arccos(cos_n))
+        cos_corner = np.einsum("kij,kj->ki", world.vertex_normals[f], nf).min(axis=1)
+        spread = np.zeros(len(count))
+        np.maximum.at(spread, group, np.arccos(np.clip(cos_corner, -1, 1)))
+        ext = np.zeros(len(count))
+        np.maximum.at(ext, group, extent)
+        return f[order], starts, mid, radius, mean, off, spread, ext
+
+    return world._cached("glint_groups", make)
+
+
+def _near_bisecting(world: World, emitter: np.ndarray, receiver: np.ndarray) -> np.ndarray:
+    """The curved faces (ascending) of the groups in which a face may pass step 1's
+    cone test: a group is left out when even its best face cannot (the angle between
+    the bisector at the group's centre and its mean normal, less how far the
+    bisector turns within its ball and its normals spread, exceeds the largest corner
+    spread plus 1.5 times the largest angle a face subtends, and a margin).  The
+    faces kept are then tested one by one, as before."""
+    faces, starts, mid, radius, mean, off, spread, ext = curved_groups(world)
+    if len(mid) == 0:
+        return faces
+    h = _bisector(mid, emitter, receiver)
+    d_e = np.linalg.norm(emitter - mid, axis=1)
+    d_r = np.linalg.norm(receiver - mid, axis=1)
+    s = np.linalg.norm((emitter - mid) / d_e[:, None] + (receiver - mid) / d_r[:, None], axis=1)
+    near = np.minimum(d_e, d_r) <= 2 * radius
+    turn = 2 * radius / np.maximum(d_e - radius, 1e-300) + 2 * radius / np.maximum(
+        d_r - radius, 1e-300
+    )  # how far the sum of the two unit vectors moves within the ball
+    dh = np.where(near | (turn >= s), np.pi, np.arcsin(np.minimum(1.0, turn / s)))
+    subtended = np.where(
+        d_e > radius, np.arcsin(np.minimum(1.0, ext / np.maximum(d_e - radius, 1e-300))), np.pi
+    )
+    angle = np.arccos(np.clip(np.einsum("ij,ij->i", h, mean), -1, 1))
+    keep = angle - 1.5 * dh - off <= spread + 1.5 * subtended + 2e-3
+    return np.sort(faces[np.repeat(keep, np.diff(starts))])
 
 
 def _shape_operator(world: World, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -147,7 +223,7 @@ def _candidates(world: World, emitter: np.ndarray, receiver: np.ndarray) -> np.n
     lies within the cone of the corner normals (half-angle `spread` around the face
     normal), and the bisector there within the angle the face subtends of the
     bisector at its centre."""
-    f = np.flatnonzero(world.curved)
+    f = _near_bisecting(world, emitter, receiver)
     if f.size == 0:
         return f
     towards = np.einsum("kij,kij->ki", world.vertex_normals[f], emitter - world.triangles[f])

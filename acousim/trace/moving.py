@@ -145,6 +145,10 @@ class MovingWorld:
         """Every path of `pose`, the moving meshes where they are at ``pose.time_s``."""
         return self.tracer_at(pose.time_s).trace(pose)
 
+    def rays_used(self, pose: Pose) -> int:
+        """How many rays the trace of `pose` shot."""
+        return self.tracer_at(pose.time_s).rays_used(pose)
+
     def velocities(self, pose: Pose) -> Motions:
         """The moving meshes' motions at the start of the emission."""
         meshes = [self.scene.meshes[i] for i in self.moving]

@@ -25,7 +25,8 @@ def resolution_length(call, speed_of_sound_m_s: float) -> float:
 class TraceSettings:
     """What the stages need to know (SI units).
 
-    rays : rays shot over the beam per pose; bounces : maximum reflections of a ray;
+    rays : rays shot over the beam per pose (None: the automatic budget of
+    :mod:`.budget`, at most ``rays_max``); bounces : maximum reflections of a ray;
     beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
     maximum range); resolution_m : the call's range resolution as a path length;
     energy_floor_db : paths this far below the strongest echo are dropped;
@@ -38,7 +39,7 @@ class TraceSettings:
     quarter wavelength at :data:`STEP_FREQUENCY_HZ`; a 25-50 kHz call takes 1.7 mm).
     """
 
-    rays: int
+    rays: int | None
     bounces: int
     beam_rad: float
     max_path_m: float
@@ -50,6 +51,7 @@ class TraceSettings:
     diffraction_reflections: bool
     diffraction_order: int = 1
     diffraction_pair_step_m: float | None = None
+    rays_max: int = 400_000
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -68,4 +70,5 @@ class TraceSettings:
             diffraction_order=sim.diffraction_order,
             diffraction_pair_step_m=sim.diffraction_step_m
             * max(1.0, STEP_FREQUENCY_HZ / max(scene.sensor.call.band_hz)),
+            rays_max=sim.rays_max,
         )

@@ -24,7 +24,7 @@ import numpy as np
 from .embree import RayCaster
 from .geometry import World
 
-__all__ = ["Hits", "Shot", "cone_directions", "shoot"]
+__all__ = ["Hits", "Shot", "cone_directions", "follow", "shoot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,6 +100,22 @@ def shoot(
     # 1. directions and powers
     dirs = cone_directions(rays, axis, beam_rad)
     d_omega = 2 * np.pi * (1 - np.cos(beam_rad)) / rays
+    return follow(world, caster, emitter, dirs, d_omega, bounces, max_path_m)
+
+
+def follow(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    d_omega: float,
+    bounces: int,
+    max_path_m: float,
+) -> Shot:
+    """Steps 2 to 4 for rays leaving the emitter in directions `dirs` (R, 3), unit,
+    each carrying the solid angle `d_omega` (sr) as power."""
+    rays = len(dirs)
+    dirs = np.array(dirs, float)
     origin = np.broadcast_to(emitter, dirs.shape).copy()
     length = np.zeros(rays)
     power = np.full(rays, d_omega)

@@ -20,7 +20,10 @@ from .embree import RayCaster
 from .geometry import World
 from .paths import KIND, TracedPaths
 
-__all__ = ["SpecularPath", "refine_sequences", "mirror", "as_paths"]
+#: an image source within this times the longest path is within reach
+REACH = 1.01
+
+__all__ = ["SpecularPath", "refine_sequences", "by_length", "mirror", "as_paths"]
 
 
 @dataclass(frozen=True)
@@ -41,20 +44,21 @@ def mirror(point: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
 def refine_sequences(
     world: World,
     caster: RayCaster,
-    sequences: list[tuple[int, ...]],
+    sequences: list[tuple[int, ...]] | dict[int, np.ndarray],
     emitter: np.ndarray,
     receiver: np.ndarray,
+    max_path_m: float | None = None,
 ) -> list[SpecularPath]:
-    """Valid specular paths among candidate plane sequences (batched by length)."""
+    """Valid specular paths among candidate plane sequences (batched by length), given
+    as tuples of plane ids in order, or as arrays (S, k) of them by length k; with
+    `max_path_m`, only those :func:`as_paths` keeps (image within reach), the others
+    refused before any ray."""
     normal, offset, refl, column = _plane_table(world)
     K = world.n_interactions
     eps, tol = caster.offset_m, caster.tolerance_m
     paths = []
-    by_len: dict[int, list[tuple[int, ...]]] = {}
-    for seq in sequences:
-        by_len.setdefault(len(seq), []).append(seq)
-    for k, seqs in sorted(by_len.items()):
-        ids = np.array(seqs, int)  # (S, k)
+    by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
+    for k, ids in sorted(by_len.items()):
         S = ids.shape[0]
         images = np.empty((S, k + 1, 3))
         images[:, 0] = emitter
@@ -63,6 +67,9 @@ def refine_sequences(
             prev = images[:, j]
             images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
         ok = np.ones(S, bool)
+        edges: list[tuple[int, int]] = []
+        if max_path_m is not None:
+            ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
         cur = np.broadcast_to(receiver, (S, 3)).copy()
         points = np.empty((S, k, 3))
         for j in range(k - 1, -1, -1):
@@ -74,13 +81,18 @@ def refine_sequences(
             length = np.linalg.norm(direction, axis=1)
             ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
             x = cur + np.maximum(s_, 0)[:, None] * direction
+            # a reflection point off its plane's box is on none of its faces (every
+            # check below would refuse it): no ray for it
+            box = world.plane_boxes[ids[:, j]]
+            ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
             # a reflection point on the previous one: the path meets an edge between
             # two planes (both reflections happen there); no leg to check for it
             at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
-            unit = direction / length[:, None]
+            unit = direction / np.maximum(length, 1e-300)[:, None]
             start = cur + (eps if j < k - 1 else 0.0) * unit
-            for i in np.flatnonzero(ok & at_edge):
-                ok[i] = _on_plane(world, ids[i, j], x[i], tol)
+            sel = np.flatnonzero(ok & at_edge)
+            ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
+            edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
             live = np.flatnonzero(ok & ~at_edge)
             t, f = caster.first_hit(start[live], (x - start)[live])
             dist = np.linalg.norm(x[live] - start[live], axis=1)
@@ -90,11 +102,18 @@ def refine_sequences(
             # a hit at the right distance on another plane: the point is on an edge
             # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
             # lies on a face of the expected plane, within the tolerance
-            for i in np.flatnonzero(other):
-                good[i] = _on_plane(world, ids[live[i], j], x[live[i]], tol)
+            sel = np.flatnonzero(other)
+            good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
             ok[live[~good]] = False
             points[:, j] = x
             cur = x
+        # two reflections at one point of an edge: only inside a concave corner
+        edges = [(i, j) for i, j in edges if ok[i]]
+        if edges:
+            i, j = np.array(edges).T
+            before = np.array([_before(points[a], b, emitter, tol) for a, b in edges])
+            pairs = np.column_stack([ids[i, j], ids[i, j + 1]])
+            ok[i[~_concave(world, pairs, points[i, j], before, tol)]] = False
         # last leg: from the first reflection point to the emitter, unobstructed
         live = np.flatnonzero(ok)
         d = emitter - cur[live]
@@ -126,6 +145,14 @@ def refine_sequences(
     return list(unique.values())
 
 
+def by_length(sequences: list[tuple[int, ...]]) -> dict[int, np.ndarray]:
+    """Plane sequences as arrays (S, k) of plane ids by length k (their order kept)."""
+    by_len: dict[int, list[tuple[int, ...]]] = {}
+    for seq in sequences:
+        by_len.setdefault(len(seq), []).append(seq)
+    return {k: np.array(seqs, int).reshape(len(seqs), k) for k, seqs in by_len.items()}
+
+
 def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: float) -> TracedPaths:
     """Specular paths as image sources (first leg 0), those within reach."""
     if not specular:
@@ -140,24 +167,96 @@ def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: floa
     if specular[0].interactions is not None:
         counts = np.array([p.interactions for p in specular])
     paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep, counts)
-    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * 1.01)
+    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * REACH)
 
 
-def _on_plane(world: World, pid: int, x: np.ndarray, tol: float) -> bool:
-    """Whether x lies on (or within `tol` of) one of the faces of plane `pid`."""
+def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.ndarray:
+    """(K,) whether each point x (K, 3) lies on (or within `tol` of) one of the faces
+    of its plane `pids` (K,)."""
+    out = np.zeros(len(pids), bool)
+    out[_holding(world, pids, x, tol)[0]] = True
+    return out
+
+
+def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
+    """(row, face) pairs: point x[row] lies on face `face` of its plane pids[row]
+    (within `tol`).  A point whose least barycentric coordinate on a face is -m lies
+    within 2 m times the face's longest edge of the face's bounding box, so only the
+    faces whose box, grown by 2 tol, holds the point are tested (and none of a plane
+    whose whole box does not hold it)."""
     from trimesh.triangles import points_to_barycentric
 
-    tri = world.triangles[world.plane == pid]
-    bary = points_to_barycentric(tri, np.broadcast_to(x, (len(tri), 3)))
+    none = np.zeros(0, int), np.zeros(0, int)
+    grow = 2.01 * tol
+    box = world.plane_boxes[pids]
+    inside = np.flatnonzero(np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1))
+    if inside.size == 0:
+        return none
+    order, starts, _ = world._plane_index()
+    count = np.diff(starts)[pids[inside]]
+    if count.sum() <= 20000:  # every face of each point's plane, in one pass
+        row = np.repeat(np.arange(inside.size), count)
+        first = np.repeat(starts[pids[inside]] - np.cumsum(count) + count, count)
+        face = order[first + np.arange(count.sum())]
+    else:  # large planes: a strip of faces around each point (World.faces_near)
+        rows, faces = [], []
+        for pid in np.unique(pids[inside]):
+            idx = np.flatnonzero(pids[inside] == pid)
+            r, f = world.faces_near(int(pid), x[inside[idx]], grow)
+            rows.append(idx[r])
+            faces.append(f)
+        row, face = np.concatenate(rows), np.concatenate(faces)
+    if row.size == 0:
+        return none
+    tri = world.triangles[face]
+    bary = points_to_barycentric(tri, x[inside[row]])
     edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
-    return bool(np.any(-np.min(bary, axis=1) * edge <= tol))
+    on = -np.min(bary, axis=1) * edge <= tol
+    return inside[row[on]], face[on]
+
+
+def _before(points: np.ndarray, j: int, emitter: np.ndarray, tol: float) -> np.ndarray:
+    """The last point of a path (its reflection points (k, 3), emitter side first)
+    before reflection j that is not where reflection j is (the emitter if none): in
+    a corner, three reflections can share one point."""
+    for m in range(j - 1, -1, -1):
+        if np.linalg.norm(points[m] - points[j]) > tol:
+            return points[m]
+    return emitter
+
+
+def _concave(world: World, planes: np.ndarray, x: np.ndarray, before: np.ndarray, tol):
+    """(E,) whether planes a and b (planes: (E, 2)), meeting at the edge point x
+    (E, 3), form a corner concave towards the side the path comes from (`before`
+    (E, 3): the point before its reflection on a): a face of each that holds x
+    reaches into the front of the other.  At a convex edge (a door frame's outer
+    corner) the two reflections at one point are no specular path (that echo is the
+    edge's diffraction)."""
+    normal = _plane_table(world)[0]
+    n = len(planes)
+    p, q = (
+        np.concatenate([planes[:, 0], planes[:, 1]]),
+        np.concatenate([planes[:, 1], planes[:, 0]]),
+    )
+    at, come = np.concatenate([x, x]), np.concatenate([before, before])
+    side = np.sign(np.einsum("ij,ij->i", normal[p], come - at))
+    row, face = _holding(world, q, at, tol)
+    centroid = world.triangles[face].mean(axis=1)
+    reach = side[row] * np.einsum("ij,ij->i", centroid - at[row], normal[p[row]]) > tol
+    good = np.zeros(2 * n, bool)
+    good[row[reach]] = True
+    return good[:n] & good[n:] & (side[:n] != 0) & (side[n:] != 0)
 
 
 def _plane_table(world: World):
-    n_planes = int(world.plane.max()) + 1
-    first = np.full(n_planes, -1)
-    first[world.plane[::-1]] = np.arange(world.n_faces)[::-1]
-    refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
-    column = world.face_interactions(0)
-    column = None if column is None else column[first]
-    return world.normals[first], world.offsets[first], refl[first], column
+    """Per plane: normal, offset, specular pressure factor and interaction column
+    (computed once per world)."""
+
+    def make():
+        first = world.plane_first
+        refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
+        column = world.face_interactions(0)
+        column = None if column is None else column[first]
+        return world.normals[first], world.offsets[first], refl[first], column
+
+    return world._cached("plane_table", make)

@@ -4,7 +4,9 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 
 0. Paths without rays (:mod:`.direct`): the direct path and the explicit points.
 1. Shoot (:mod:`.shoot`): rays over the beam, followed specularly; their hits and the
-   sequences of planes they met.
+   sequences of planes they met.  How many: ``settings.rays``, or (None, the default)
+   the automatic budget of :mod:`.budget`, which also enumerates every plane sequence
+   where there are few and shoots no ray where nothing scatters.
 2. Specular refinement (:mod:`.specular`): every candidate plane sequence made an
    exact image-source path, or rejected; and (:mod:`.glints`) the first-order
    specular points of curved surfaces, found without rays.
@@ -35,13 +37,14 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from processing.errors import InputError
 
+from .budget import RayWork, in_beam, ray_work
 from .cluster import DIFFUSE_CELL_DEG, cluster
 from .diffraction import DiffractingGeometry, DiffractionOptions, edge_diffraction
 from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
 from .geometry import World, build_world
-from .glints import glints
+from .glints import curved_groups, glints
 from .paths import KIND, TracedPaths
 from .scatter import scatter
 from .settings import TraceSettings, resolution_length
@@ -79,6 +82,20 @@ def trace_pose(
     point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
     this pose only, when diffraction is on and none is given).
     """
+    return traced_with_rays(world, caster, settings, emitter, receiver, rotation, points, edges)[0]
+
+
+def traced_with_rays(
+    world: World | None,
+    caster: RayCaster | None,
+    settings: TraceSettings,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    rotation: np.ndarray,
+    points: tuple[np.ndarray, np.ndarray] | None = None,
+    edges: DiffractingGeometry | None = None,
+) -> tuple[TracedPaths, int]:
+    """:func:`trace_pose`, and the number of rays it shot."""
     axis = rotation[:, 0]
     parts = []
     # 0. no rays needed
@@ -86,21 +103,15 @@ def trace_pose(
         parts.append(direct_path(emitter, receiver, rotation[:, 1]))
     if points is not None and len(points[1]):
         parts.append(point_paths(*points, emitter, receiver, settings.max_path_m, caster))
-    shot = None
-    if world is not None and caster is not None and settings.rays > 0:
-        # 1. shoot
-        shot = shoot(
-            world,
-            caster,
-            emitter,
-            axis,
-            settings.rays,
-            settings.bounces,
-            settings.beam_rad,
-            settings.max_path_m,
-        )
+    work = None
+    if world is not None and caster is not None and settings.rays != 0:
+        # 1. shoot (and 4. scatter: the automatic budget watches the tail converge)
+        work = _ray_work(world, caster, settings, emitter, receiver, axis)
         # 2. specular refinement
-        specular = refine_sequences(world, caster, shot.sequences, emitter, receiver)
+        specular = refine_sequences(
+            world, caster, work.sequences, emitter, receiver, settings.max_path_m
+        )
+        specular = in_beam(specular, work, axis, settings.beam_rad)
         parts.append(as_paths(specular, emitter, settings.max_path_m))
         parts.append(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
@@ -119,21 +130,38 @@ def trace_pose(
                 pair_step_m=settings.diffraction_pair_step_m,
             )
             parts.append(edge_diffraction(geometry, caster, emitter, receiver, options))
-    if shot is not None:
-        # 4. scattering
-        contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+    if work is not None and work.contributions is not None:
         # 5. clustering
-        scattered = cluster(contributions, receiver, settings.resolution_m)
-        parts.append(scattered)
-        log.debug(
-            "traced %d rays: %d candidate sequences, %d specular paths, %d scatterers",
-            shot.rays,
-            len(shot.sequences),
-            len(specular),
-            len(scattered),
-        )
+        parts.append(cluster(work.contributions, receiver, settings.resolution_m))
+        log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
-    return energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    return paths, 0 if work is None else work.rays
+
+
+def _ray_work(world, caster, settings, emitter, receiver, axis) -> RayWork:
+    """Stages 1 and 4: the automatic budget (:mod:`.budget`) when ``settings.rays`` is
+    None, else exactly ``settings.rays`` rays on the deterministic spiral."""
+    if settings.rays is None:
+        return ray_work(world, caster, settings, emitter, receiver, axis)
+    shot = shoot(
+        world,
+        caster,
+        emitter,
+        axis,
+        settings.rays,
+        settings.bounces,
+        settings.beam_rad,
+        settings.max_path_m,
+    )
+    contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+    return RayWork(shot.sequences, contributions, shot.rays)
+
+
+def caster_of(world: World, threads: int = 2) -> RayCaster:
+    """The ray caster of a world (its indexed mesh when it has one)."""
+    indexed = None if world.vertices is None else (world.vertices, world.faces)
+    return RayCaster(world.triangles, threads, indexed=indexed)
 
 
 def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
@@ -156,7 +184,7 @@ class Tracer:
         self.scene = scene
         self.settings = TraceSettings.from_scene(scene)
         self.world: World | None = build_world(scene) if scene.meshes else None
-        self.caster = RayCaster(self.world.triangles, threads) if self.world else None
+        self.caster = caster_of(self.world, threads) if self.world else None
         #: the world's diffracting edges and planes, found once (if diffraction is on)
         self.edges = (
             DiffractingGeometry.of(self.world)
@@ -165,6 +193,8 @@ class Tracer:
         )
         if self.world is None:
             log.debug("scene %r has no meshes: no ray tracing", scene.name)
+        else:
+            self._build_tables()
         self._points = None
         if scene.points:
             self._points = (
@@ -172,6 +202,17 @@ class Tracer:
                 np.array([p.strength for p in scene.points], float),
             )
         self._cache: dict[tuple, TracedPaths] = {}
+        self._rays: dict[tuple, int] = {}
+
+    def _build_tables(self) -> None:
+        """What every pose uses, built once here rather than by the first pose:
+        Embree's tree (built at the first ray), the planes' tables and boxes and the
+        groups of curved faces (preparation and per-pose cost apart)."""
+        self.caster.first_hit(self.world.triangles[:1, 0], np.ones((1, 3)))
+        _ = self.world.plane_boxes, self.world.surface
+        for attr in ("reflection", "diffuse", "lobe_deg"):
+            self.world.face_values(attr)
+        curved_groups(self.world)
 
     def trace(self, pose: Pose) -> TracedPaths:
         key = pose.key()
@@ -181,9 +222,9 @@ class Tracer:
         array = self.scene.sensor.array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
-        if self.world is not None and self.settings.rays > 0:
+        if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
-        paths = trace_pose(
+        paths, rays = traced_with_rays(
             self.world,
             self.caster,
             self.settings,
@@ -195,13 +236,22 @@ class Tracer:
         )
         if len(self._cache) > 256:
             self._cache.clear()
+            self._rays.clear()
         self._cache[key] = paths
+        self._rays[key] = rays
         return paths
+
+    def rays_used(self, pose: Pose) -> int:
+        """How many rays the trace of `pose` shot (traced now if it was not)."""
+        if pose.key() not in self._rays:
+            self.trace(pose)
+        return self._rays[pose.key()]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:
         for timing)."""
         self._cache.clear()
+        self._rays.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""

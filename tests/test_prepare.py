@@ -1,0 +1,111 @@
+"""Preparing a world in near-linear time: the fast groupings against the slow, plain
+ones (numpy's row sort, trimesh's adjacency), and a finely tessellated mesh prepared
+into the same planes and curved patches as its coarse original."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from acousim.scene import load_scene
+from acousim.trace.embree import RayCaster
+from acousim.trace.geometry import (
+    build_world,
+    face_adjacency,
+    plane_ids,
+    smooth_corner_normals,
+)
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+
+
+def test_plane_ids_are_numpys_sorted_unique_rows():
+    rng = np.random.default_rng(3)
+    normals = rng.normal(size=(40, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    normals[:5] = [0.0, 0.0, 1.0]
+    normals[5:8] = [-0.0, 0.0, 1.0]  # -0.0 and 0.0 are one plane, as np.unique has it
+    offsets = rng.normal(size=40)
+    offsets[:8] = 1.0
+    pick = rng.integers(0, 40, 5000)
+    material = rng.integers(0, 2, 5000)
+    for mat in (None, material):
+        key = np.column_stack([np.round(normals[pick], 6), np.round(offsets[pick], 5)])
+        if mat is not None:
+            key = np.column_stack([key, mat])
+        expected = np.unique(key, axis=0, return_inverse=True)[1].ravel()
+        np.testing.assert_array_equal(plane_ids(normals[pick], offsets[pick], mat), expected)
+
+
+def test_face_adjacency_is_trimeshs():
+    for mesh in (
+        trimesh.creation.icosphere(3),
+        trimesh.creation.box(),
+        trimesh.load(SCENES / "meshes" / "corridor.stl", force="mesh"),
+    ):
+        mesh.merge_vertices()
+        pairs, edges = face_adjacency(np.asarray(mesh.faces))
+        ours = set(map(tuple, np.column_stack([pairs, edges]).tolist()))
+        theirs = np.column_stack([mesh.face_adjacency, mesh.face_adjacency_edges])
+        assert ours == set(map(tuple, theirs.tolist()))
+
+
+def test_a_subdivided_mesh_keeps_its_planes_and_curved_surfaces():
+    """The corridor's mesh with every face split in 16 (11,328 faces): the same
+    planar planes (by their normal and offset) and the same curved area, and the
+    smooth corner normals of the curved faces are those of the whole mesh's."""
+    scene = load_scene(SCENES / "corridor.toml")
+    mesh = trimesh.load(SCENES / "meshes" / "corridor.stl", force="mesh", process=False)
+    fine = mesh.subdivide().subdivide()
+    worlds = [
+        build_world(
+            dataclasses.replace(scene, meshes=(dataclasses.replace(scene.meshes[0], mesh=m),))
+        )
+        for m in (mesh, fine)
+    ]
+
+    def planes(w):
+        flat = ~w.curved
+        key = np.column_stack([np.round(w.normals[flat], 5), np.round(w.offsets[flat], 4)])
+        return set(map(tuple, np.unique(key, axis=0).tolist()))
+
+    assert planes(worlds[0]) == planes(worlds[1])
+    assert len(np.unique(worlds[1].plane[~worlds[1].curved])) == len(planes(worlds[0]))
+    area = [w.area[w.curved].sum() for w in worlds]
+    assert abs(area[1] / area[0] - 1) < 1e-9
+    w = worlds[1]
+    tri_mesh = trimesh.Trimesh(w.vertices, w.faces, process=False)
+    every = smooth_corner_normals(
+        w.triangles,
+        w.faces,
+        w.normals,
+        tri_mesh.face_adjacency,
+        tri_mesh.face_adjacency_angles,
+        tri_mesh.face_adjacency_edges,
+    )
+    np.testing.assert_array_equal(w.vertex_normals[w.curved], every[w.curved])
+
+
+def test_the_indexed_mesh_casts_the_same_rays():
+    scene = load_scene(SCENES / "corridor.toml")
+    world = build_world(scene)
+    soup = RayCaster(world.triangles, 1)
+    indexed = RayCaster(world.triangles, 1, indexed=(world.vertices, world.faces))
+    rng = np.random.default_rng(0)
+    origins = rng.uniform(-1, 1, (5000, 3)) * [10, 0.9, 1.2] + [10, 0, 1.3]
+    dirs = rng.normal(size=(5000, 3))
+    t0, f0 = soup.first_hit(origins, dirs)
+    t1, f1 = indexed.first_hit(origins, dirs)
+    np.testing.assert_array_equal(f0, f1)
+    np.testing.assert_array_equal(t0, t1)
+    assert (f0 >= 0).mean() > 0.5
+
+
+def test_radix_argsort_is_a_stable_sort():
+    from acousim.trace.geometry import radix_argsort
+
+    rng = np.random.default_rng(1)
+    for top in (1, 300, 70_000, 2**40):
+        code = rng.integers(0, top, 5000)
+        np.testing.assert_array_equal(radix_argsort(code), np.argsort(code, kind="stable"))
