@@ -79,7 +79,7 @@ def image_recordings(
         if rec.array.n_mics and not rec.array.is_ura:
             smooth = [m for m in options.methods if P.requires_ura(m)]
             if smooth:
-                raise ValueError(
+                raise InputError(
                     f"recording {i}: array {rec.array.name!r} is not a URA, so "
                     f"{', '.join(smooth)} cannot be used; choose das, music, capon "
                     "or a wideband (-wb) or broadband (-bb) method"

@@ -23,7 +23,6 @@ import json
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from functools import lru_cache
 from pathlib import Path
 
@@ -31,6 +30,7 @@ import h5py
 import numpy as np
 
 import processing as P
+from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
 
@@ -127,8 +127,15 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
             if _clear(str(choice.file), pos, choice.clearance_m):
                 break
         else:
-            raise RuntimeError(
-                f"sample {i}: no collision-free pose in the region of {choice.file} after 100 draws"
+            from .spec import SpecError
+
+            raise SpecError(
+                f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
+                f"in 100 draws in the region of {choice.file}; widen the region or lower "
+                "clearance_m",
+                file=spec.source,
+                key=f"scenes[{k}].region",
+                value=reg,
             )
         yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
         position, pitch, roll, extra = pos, 0.0, 0.0, {}
@@ -409,6 +416,47 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
         return write_shard(load_spec(spec_path), k, out)
 
 
+def _worker_init(parent_pid: int) -> None:
+    """Pool worker initializer: Ctrl-C is the main process's (a terminal sends it to
+    the whole process group), and exit when the main process is gone."""
+    interrupt.ignore_in_worker()
+    watch_parent(parent_pid)
+
+
+#: how often the main process looks for Ctrl-C while its workers compute (s)
+POLL_S = 0.1
+
+
+def _run_pool(jobs: list, workers: int, out: Path, step: Callable[[], None]) -> None:
+    """Run the shard jobs on local processes; `step()` after each finished shard.
+
+    Ctrl-C (or any error) stops the workers (the shards they were computing are
+    redone on resume, their temporary files removed) and the shards not started;
+    finished shards stay, whole, with their sidecars."""
+    import multiprocessing
+
+    pool = multiprocessing.Pool(workers, initializer=_worker_init, initargs=(os.getpid(),))
+    try:
+        results = pool.imap_unordered(_shard_job, jobs)
+        for _ in jobs:
+            while True:
+                interrupt.check()
+                try:
+                    results.next(timeout=POLL_S)  # a worker's error is raised here
+                    break
+                except multiprocessing.TimeoutError:
+                    continue
+            step()
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        pool.join()
+        for stale in out.glob(f"{TEMP_PREFIX}*"):
+            stale.unlink(missing_ok=True)
+        raise
+    pool.join()
+
+
 def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     """Finished shards whose bytes match their sidecar's sha256, and the shards found
     damaged (removed, to be redone)."""
@@ -477,15 +525,17 @@ def generate(
                         progress(done_count, spec.n_shards)
                 client.gather(futures)
         elif workers > 1 and len(jobs) > 1:
-            with ProcessPoolExecutor(
-                workers, initializer=watch_parent, initargs=(os.getpid(),)
-            ) as pool:
-                for _ in pool.map(_shard_job, jobs):
-                    done_count += 1
-                    if progress:
-                        progress(done_count, spec.n_shards)
+
+            def step() -> None:
+                nonlocal done_count
+                done_count += 1
+                if progress:
+                    progress(done_count, spec.n_shards)
+
+            _run_pool(jobs, workers, out, step)
         else:
             for job in jobs:
+                interrupt.check()
                 _shard_job(job)
                 done_count += 1
                 if progress:

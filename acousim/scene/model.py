@@ -36,7 +36,7 @@ from processing.errors import InputError
 from processing.settings import setting, validate
 
 from ..synth.render import SHAPED_INTERPOLATORS, ShapedDelay
-from .pose import Pose
+from .pose import MAX_COORDINATE_M, MAX_TIME_S, Pose
 
 __all__ = [
     "Material",
@@ -322,8 +322,10 @@ def _vector3(value: Any, key: str) -> np.ndarray:
         v = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         v = np.full(0, np.nan)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InputError("must be 3 finite numbers", key=key, value=value)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_COORDINATE_M):
+        raise InputError(
+            f"must be 3 finite numbers within +-{MAX_COORDINATE_M:g} m", key=key, value=value
+        )
     return v
 
 
@@ -333,7 +335,13 @@ class PointItem:
     at `velocity_m_s` (position_m is where it is at time 0 of the trajectory)."""
 
     position_m: tuple[float, float, float] | None = setting(
-        None, "m", kind="vector", length=3, doc="position at time 0 (required without a track)"
+        None,
+        "m",
+        -MAX_COORDINATE_M,
+        MAX_COORDINATE_M,
+        "position at time 0 (required without a track)",
+        kind="vector",
+        length=3,
     )
     strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
     velocity_m_s: tuple[float, float, float] = _velocity_setting()
@@ -422,9 +430,16 @@ def track_rows(value: Any, key: str, turns: bool = False) -> tuple[tuple[float, 
         or arr.shape[0] < 2
         or arr.shape[1] not in widths
         or not np.all(np.isfinite(arr))
+        or np.any(np.abs(arr[:, 1:4]) > MAX_COORDINATE_M)
+        or np.any(np.abs(arr[:, 0]) > MAX_TIME_S)
     ):
         form = "[t_s, x, y, z] or [t_s, x, y, z, roll, pitch, yaw]" if turns else "[t_s, x, y, z]"
-        raise InputError(f"must be two or more rows {form} of finite numbers", key=key, value=value)
+        raise InputError(
+            f"must be two or more rows {form} of finite numbers (|t_s| <= {MAX_TIME_S:g}, "
+            f"positions within +-{MAX_COORDINATE_M:g} m)",
+            key=key,
+            value=value,
+        )
     dt = np.diff(arr[:, 0])
     if not np.all(dt > 0):
         raise InputError("times must increase", key=key, value=arr[:, 0].tolist())
