@@ -16,6 +16,7 @@ import numpy as np
 import processing as P
 from processing.atomic import atomic_path
 from processing.errors import InputError
+from processing.settings import setting, validate
 
 __all__ = [
     "ImagingOptions",
@@ -43,14 +44,28 @@ class ImagingOptions:
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
     azimuth_deg: tuple[float, float] = (-90.0, 90.0)
     elevation_deg: tuple[float, float] = (-40.0, 40.0)
-    step_deg: float = 2.0
-    energy_fraction: float = P.ProcessingSettings.energy_fraction  # one declaration
-    min_range_m: float = P.ProcessingSettings.range_limits_m[0]
-    max_range_m: float | None = None
-    peak_threshold_db: float = -10.0
+    step_deg: float = setting(2.0, "deg", 0.1, 45, "grid step")
+    energy_fraction: float = setting(
+        P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
+        "",
+        0,
+        1,
+        "keep range bins with at least this fraction of the strongest bin's energy "
+        "(the paper uses 0.5)",
+    )
+    min_range_m: float = setting(
+        P.ProcessingSettings.range_limits_m[0], "m", 0, 1000, "ignore nearer range bins"
+    )
+    max_range_m: float | None = setting(
+        None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
+    )
+    peak_threshold_db: float = setting(
+        -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+    )
     grid: P.Grid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        validate(self)
         for m in self.methods:
             P.check_method(m)
         object.__setattr__(

@@ -61,7 +61,8 @@ _KINDS = get_args(Kind)
 class Setting:
     """The declaration of one setting.
 
-    default : the value when none is given (``dataclasses.MISSING``: required; None: none).
+    default : the value when none is given (``dataclasses.MISSING``: required; None:
+        optional, and None is then accepted as "not set").
     unit : SI unit, or a file-boundary unit in the name (``deg``), "" when unitless.
     lo, hi : allowed range, inclusive (numbers, and every element of a vector).
     choices : allowed strings (``str`` kind).
@@ -157,6 +158,8 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         return InputError(msg, file=file, key=key, value=value)
 
     rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
+    if value is None and decl.default is None:  # an optional setting left unset
+        return None
     if decl.kind == "bool":
         if isinstance(value, bool | np.bool_):
             return bool(value)

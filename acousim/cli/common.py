@@ -1,0 +1,220 @@
+"""What every command shares: the usage error, argument types checked by the settings'
+declarations, output paths, progress bars, the Ctrl-C checkpoint and scene loading."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+from pathlib import Path
+
+from processing.errors import InputError
+
+
+class UsageError(InputError):
+    """Bad input on the command line: printed on one line by main(), exit code 2."""
+
+
+def checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None):
+    """An argparse type: the text as a number checked by a setting declaration
+    (`declared()` returns a :class:`processing.settings.Setting`, imported lazily so
+    that building the parser stays light), else a range given here."""
+
+    def parse(text: str):
+        from processing.settings import Setting, check
+
+        decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
+        try:
+            value = int(text) if decl.kind == "int" else float(text)
+        except ValueError:
+            what = "a whole number" if decl.kind == "int" else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        try:
+            return check(decl, value, "")
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {exc.reason}") from None
+
+    parse.__name__ = kind
+    return parse
+
+
+def declared(module: str, cls: str, name: str):
+    """A function returning the declaration of `module.cls.name` (imported when called)."""
+
+    def get():
+        import importlib
+
+        from processing.settings import settings_of
+
+        return settings_of(getattr(importlib.import_module(module), cls))[name]
+
+    return get
+
+
+SEED = checked("int", declared=declared("acousim.scene.model", "Simulation", "seed"))
+INDEX = checked("int", 0, 2**31 - 1)
+WORKERS = checked("int", 1, 1024)
+
+
+def methods(option: str, text: str) -> tuple[str, ...]:
+    """Comma-separated DOA methods, each checked by :func:`processing.check_method`."""
+    import processing as P
+
+    names = tuple(m.strip() for m in text.split(",") if m.strip())
+    if not names:
+        raise UsageError("no method given", key=option, value=text)
+    try:
+        return tuple(P.check_method(m) for m in names)
+    except InputError as exc:
+        raise UsageError(f"{exc.value!r}: {exc.reason}", key=option, value=text) from None
+
+
+def writable_dir(path: str | Path) -> Path:
+    """An output folder, made if needed, that can be written (tried with a temporary
+    file); else a UsageError."""
+    import tempfile
+
+    from processing.atomic import TEMP_PREFIX
+
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=TEMP_PREFIX):  # exclusive, removed
+            pass
+    except OSError as exc:
+        raise UsageError(
+            f"output directory {str(out)!r} cannot be written ({exc.strerror})"
+        ) from None
+    return out
+
+
+def output_file(option: str, path: str | Path) -> Path:
+    """An output file path: not an existing folder, its folder writable."""
+    out = Path(path)
+    if out.is_dir():
+        raise UsageError("is a folder; give a file name", key=option, value=str(path))
+    writable_dir(out.parent)
+    return out
+
+
+def bundled_scenes() -> Path:
+    """The bundled scenes' folder (installed package data, or the source tree's)."""
+    from acousim.bundled import data_dir
+
+    return data_dir("scenes")
+
+
+def load_scene(path: str | Path):
+    """A scene file, or a bundled scene's name."""
+    from acousim.bundled import resolve_scene
+    from acousim.scene import load_scene as load
+
+    return load(resolve_scene(path))
+
+
+def parse_indices(option: str, text: str | None) -> list[int] | None:
+    """Indices '0,3,5' or ranges '0:10' (end excluded); None when not given."""
+    if text is None:
+        return None
+    out: list[int] = []
+    expected = "expected indices like '0,3,5' or a range '0:10'"
+    for part in text.split(","):
+        a, colon, b = part.partition(":")
+        try:
+            lo = int(a)
+            hi = int(b) if colon else lo + 1
+        except ValueError:
+            raise UsageError(expected, key=option, value=text) from None
+        if lo < 0 or hi <= lo:
+            raise UsageError(
+                f"{part!r} selects nothing or a negative index; {expected}", key=option, value=text
+            )
+        out.extend(range(lo, hi))
+    return out
+
+
+# --- Ctrl-C -------------------------------------------------------------------------
+
+_interrupted = False
+
+
+def on_interrupt(signum, frame) -> None:
+    """SIGINT: remember it, then raise KeyboardInterrupt as Python does. Some optional
+    imports (trimesh's) catch BaseException and would swallow it; the flag makes
+    :func:`stop_if_interrupted` raise it again at the next checkpoint."""
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def reset_interrupt() -> None:
+    global _interrupted
+    _interrupted = False
+
+
+def stop_if_interrupted() -> None:
+    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came, even if it was swallowed."""
+    if _interrupted:
+        raise KeyboardInterrupt
+
+
+def progress(desc: str):
+    """A tqdm progress callback (and a Ctrl-C checkpoint): shown after a second, and
+    only on a terminal."""
+    from tqdm import tqdm
+
+    bar = None
+
+    def update(done: int, total: int) -> None:
+        nonlocal bar
+        stop_if_interrupted()
+        if bar is None:
+            bar = tqdm(
+                total=total, desc=desc, delay=1.0, disable=not sys.stderr.isatty(), leave=False
+            )
+        bar.update(done - bar.n)
+        if done == total:
+            bar.close()
+
+    return update
+
+
+def preload_simulation() -> None:
+    """Import what a simulation needs before its work starts, with Ctrl-C held back
+    until the imports are done (trimesh tries optional imports that catch
+    BaseException: an interrupt there broke its import with a TypeError), then honour
+    an interrupt that came meanwhile."""
+    import signal
+
+    held = hasattr(signal, "pthread_sigmask")
+    if held:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        import trimesh  # noqa: F401
+
+        import acousim.simulator  # noqa: F401
+    finally:
+        if held:  # a Ctrl-C that came meanwhile is delivered now
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    stop_if_interrupted()
+
+
+def simulate(scene, poses, seed):
+    """The recordings of `scene` at `poses` (None: all), with `seed` if given; a
+    UsageError when no echo reaches the sensor."""
+    from acousim.simulator import Simulator
+
+    if seed is not None:
+        scene = dataclasses.replace(
+            scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
+        )
+    recs = Simulator(scene).run(poses, progress=progress("simulate"))
+    for r in recs:
+        if r.metadata.get("n_paths", 0) == 0:
+            raise UsageError(
+                f"scene {scene.name!r}: no echo reaches the sensor at pose "
+                f"{r.metadata.get('pose_index')} (nothing within "
+                f"{scene.simulation.max_range_m} m)"
+            )
+    return recs

@@ -1,0 +1,131 @@
+"""``acousim compare``: a real recording beside its simulation."""
+
+from __future__ import annotations
+
+import argparse
+
+from processing.errors import InputError
+
+from .common import INDEX, UsageError, load_scene, methods, writable_dir
+from .record import ARRAY_PRESETS, CALL_PRESETS
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="compare a real recording with its simulation",
+        description="Put a real recording beside its simulation (from a "
+        "scene and pose, or an existing simulated file): align "
+        "the emission and the gain, compare matched-filter "
+        "envelopes, range profiles and images, match their "
+        "peaks (a weaker peak within one STFT window of a stronger "
+        "one is reported as its side lobe), and write a JSON report "
+        "and a picture (docs/compare.md).",
+    )
+    p.add_argument(
+        "real",
+        help="real recording: .h5, raw tick words (.bin), or "
+        "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
+    )
+    p.add_argument("--index", type=INDEX, default=0, help="recording in an .h5 file")
+    p.add_argument("--scene", help="scene file (or a bundled scene's name) to simulate at --pose")
+    p.add_argument("--pose", type=INDEX, default=0, help="pose index in the scene")
+    p.add_argument("--sim", help="an existing simulated recording file (.h5)")
+    p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
+    p.add_argument(
+        "--all",
+        action="store_true",
+        help="a trajectory: compare recording i with pose i (or --sim recording i)"
+        " for every i; one row per pose and a summary in summary.json",
+    )
+    p.add_argument(
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array of a raw .bin (default: ertis_v3d1)",
+    )
+    p.add_argument(
+        "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
+    )
+    p.add_argument(
+        "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
+    )
+    p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
+    p.set_defaults(func=run)
+
+
+def _pairs(args: argparse.Namespace):
+    """The (real, simulated) recordings to compare, as the arguments ask."""
+    import processing as P
+    from acousim.compare import load_real_recordings, pair_with_file, pair_with_scene
+
+    if args.scene:
+        scene = load_scene(args.scene)
+        c = scene.environment.speed_of_sound_m_s
+    else:
+        try:
+            sims = P.load_recordings(args.sim)
+        except P.RecordingFileError as exc:
+            raise UsageError(f"--sim {args.sim}: {exc}") from None
+        if not sims:
+            raise UsageError(f"--sim {args.sim}: the file holds no recording")
+        c = sims[0].speed_of_sound_m_s
+    reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
+    if args.scene:
+        return pair_with_scene(reals, scene, every=args.all, index=args.index, pose=args.pose)
+    return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acousim.compare import compare, summarize, write_comparison, write_summary
+
+    if (args.scene is None) == (args.sim is None):
+        raise UsageError("give exactly one of --scene SCENE or --sim SIM")
+    out = writable_dir(args.out)
+    names = methods("--method", args.method)
+    try:
+        pairs = _pairs(args)
+        reports = []
+        for n, (real, sim) in enumerate(pairs):
+            try:
+                report, arrays = compare(real, sim, names)
+            except InputError as exc:
+                raise UsageError(f"pair {n}: {exc}") from None
+            reports.append(report)
+            folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
+            files = write_comparison(report, arrays, folder)
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+    if len(reports) > 1:
+        s = summarize(reports)
+        path = write_summary(s, out)
+        print(
+            f"{s.poses} poses: mean envelope correlation {s.mean_envelope_correlation:.2f}, "
+            f"{s.matched_echoes} matched echoes (median |d_range| {s.median_abs_d_range_m}, "
+            f"median |d_azimuth| {s.median_abs_d_azimuth_deg}); {path}"
+        )
+        return 0
+    _print_report(reports[0])
+    for f in files:
+        print(f"  {f}")
+    return 0
+
+
+def _print_report(report) -> None:
+    al = report.alignment
+    print(
+        f"aligned by {al.emission_shift_samples:.2f} samples, gain {al.gain:.3g}; "
+        f"mean envelope correlation {report.mean_envelope_correlation:.2f}"
+    )
+    for m, r in report.images.items():
+        for k, p in enumerate(r.matched):
+            print(
+                f"  {m} echo {k}: real {p.real.range_m:.3f} m {p.real.azimuth_deg:+.0f}°, "
+                f"sim {p.sim.range_m:.3f} m {p.sim.azimuth_deg:+.0f}° "
+                f"(d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
+            )
+        print(
+            f"  {m}: {len(r.side_lobes_real)} side lobe(s) in the real image, "
+            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
+            f"in the real image, {len(r.only_sim)} only in the simulation"
+        )

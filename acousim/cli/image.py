@@ -1,0 +1,123 @@
+"""``acousim image``: image recordings and write pictures and data files (and the
+options `image` and `export` share)."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import UsageError, methods, parse_indices, progress, writable_dir
+from .options import DeclaredHelp, add_declared
+
+IMAGING = "acousim.imaging:ImagingOptions"
+
+
+def imaging_arguments(p: argparse.ArgumentParser) -> None:
+    """Options shared by `image` and `export`."""
+    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument(
+        "--method",
+        default="das,capon-fbss,music-fbss",
+        help="comma-separated methods: narrowband das, music[-fss|-fbss], "
+        "capon[-fss|-fbss]; wideband capon[-fbss]-wb, music[-fbss]-wb; broadband das-bb, "
+        "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss)",
+    )
+    p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
+    add_declared(p, "--step", IMAGING, "step_deg")
+    add_declared(p, "--energy-fraction", IMAGING, "energy_fraction")
+    add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
+    add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
+    add_declared(p, "--peak-threshold", IMAGING, "peak_threshold_db")
+
+
+def load_and_image(args: argparse.Namespace):
+    """`image` and `export`: the options, the recordings of --index and their indices
+    in the file, and a function that images them (called once the command is ready)."""
+    import processing as P
+    from acousim.imaging import ImagingOptions, image_recordings
+
+    given = {
+        "step_deg": args.step,
+        "energy_fraction": args.energy_fraction,
+        "min_range_m": args.min_range,
+        "max_range_m": args.max_range,
+        "peak_threshold_db": args.peak_threshold,
+    }
+    options = ImagingOptions(  # unset options keep their declared defaults
+        methods=methods("--method", args.method),
+        **{k: v for k, v in given.items() if v is not None},
+    )
+    if options.max_range_m is not None and options.max_range_m <= options.min_range_m:
+        raise UsageError(
+            f"must be above --min-range {options.min_range_m:g}",
+            key="--max-range",
+            value=args.max_range,
+        )
+    index = parse_indices("--index", args.index)
+    try:
+        n = P.count_recordings(args.file)
+        if n == 0:
+            raise UsageError(f"{args.file}: the file holds no recordings")
+        if index is not None:
+            bad = [i for i in index if not 0 <= i < n]
+            if bad:
+                raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
+        index = list(range(n)) if index is None else index
+        recs = [P.load_recording(args.file, i) for i in index]  # only those asked for
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    return recs, index, options, lambda: image_recordings(recs, options, progress("image"))
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "image",
+        formatter_class=DeclaredHelp,
+        help="image recordings and write pictures and data files",
+        description="Run the processing pipeline on simulated or real "
+        "recordings and write the images as data (images.h5: range x "
+        "elevation x azimuth in dB with its axes; peaks.csv), fan images "
+        "(azimuth x range), elevation-azimuth maps, a 3D render and, for a "
+        "trajectory, an animated GIF. File layouts: docs/export.md.",
+    )
+    imaging_arguments(p)
+    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
+    p.add_argument("--no-animation", action="store_true", help="skip the animation")
+    p.add_argument(
+        "--no-data",
+        action="store_true",
+        help="skip images.h5 and peaks.csv (about 2 MB per image of a corridor pose)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acousim.export import write_image_data, write_peaks_csv
+    from acousim.imaging import prepare_pictures, write_pictures
+
+    out = writable_dir(args.out)
+    recs, index, options, image_all = load_and_image(args)
+    animation = not args.no_animation and len(recs) > 1
+    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
+    images = image_all()
+    files = []
+    if not args.no_data:
+        files += [
+            write_image_data(out / "images.h5", recs, images, index),
+            write_peaks_csv(
+                out / "peaks.csv", recs, images, index, threshold_db=options.peak_threshold_db
+            ),
+        ]
+    files += write_pictures(
+        recs,
+        images,
+        out,
+        options,
+        render_3d=not args.no_3d,
+        animation=animation,
+        progress=progress("animate"),
+        indices=index,
+    )
+    for f in files:
+        print(f"  {f}")
+    return 0

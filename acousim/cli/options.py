@@ -1,0 +1,40 @@
+"""Command-line options generated from the settings' declarations.
+
+An option's type, range, unit, default and help come from the dataclass field that
+declares the setting (:mod:`processing.settings`), so the command line, the Python
+constructor and the files accept and refuse the same values. The declaration is
+imported only when an argument is parsed or ``--help`` is printed: building the
+parser stays light (no numpy, no scipy), so Ctrl-C and ``--version`` answer at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import checked, declared
+
+
+class DeclaredHelp(argparse.HelpFormatter):
+    """Formats an option added by :func:`add_declared` with its declaration's text."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        get = getattr(action, "declaration", None)
+        if get is None:
+            return action.help
+        decl = get()
+        note = getattr(action, "note", "")
+        return f"{decl.doc} ({decl.describe()}{'; ' + note if note else ''})".replace("%", "%%")
+
+
+def add_declared(
+    parser: argparse.ArgumentParser, flag: str, where: str, name: str, *, note: str = ""
+) -> argparse.Action:
+    """Add `flag` for the setting `name` of the dataclass `where` ("module:Class"):
+    parsed and checked by its declaration. It defaults to None (not given), so the
+    declared default applies where the value is used: one home for each default."""
+    module, cls = where.split(":")
+    get = declared(module, cls, name)
+    # the help text is made by DeclaredHelp from the declaration, when asked for
+    action = parser.add_argument(flag, type=checked("number", declared=get), help="-")
+    action.declaration, action.note = get, note
+    return action

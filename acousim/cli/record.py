@@ -1,0 +1,161 @@
+"""``acousim record``: measurements from an RTIS sensor over USB, or an emulated one."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from processing.errors import InputError
+
+from .common import UsageError, checked, load_scene, output_file, preload_simulation, progress
+
+# hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
+PDM_FILTERS = ("equiripple", "rtis")
+# processing.PRESETS and the RTIS call presets, repeated for the same reason (tested)
+ARRAY_PRESETS = ("ertis_v3d1", "paper_8x8", "urtis_v1")
+CALL_PRESETS = ("default_20_80", "default_25_50")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "record",
+        help="record measurements from an RTIS sensor over USB",
+        description="Record measurements from a real RTIS sensor (pyusb) or "
+        "an emulated one, decode their PDM frames and write "
+        "them to an HDF5 file. Ctrl-C keeps every complete "
+        "measurement.",
+    )
+    p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
+    p.add_argument("--serial", help="serial number of the sensor to use")
+    p.add_argument("--count", type=checked("int", 1, 10**9), help="number of measurements")
+    p.add_argument("--duration", type=checked("float", 1e-3, 1e7), help="seconds of recording")
+    p.add_argument(
+        "--rate",
+        type=checked("float", 1e-3, 1e4),
+        default=10.0,
+        help="measurements per second at most (default: 10)",
+    )
+    p.add_argument(
+        "--array",
+        default="ertis_v3d1",
+        choices=ARRAY_PRESETS,
+        help="array preset (default: ertis_v3d1)",
+    )
+    p.add_argument("--call", default="default_25_50", choices=CALL_PRESETS, help="RTIS call preset")
+    p.add_argument(
+        "--emulate",
+        metavar="SCENE",
+        help="record from an emulated sensor streaming this scene's simulation (a scene "
+        "file or a bundled scene's name)",
+    )
+    p.add_argument(
+        "--filter",
+        choices=PDM_FILTERS,
+        default="equiripple",
+        help="PDM decimation filter: equiripple (default, 157 taps, >80 dB alias "
+        "rejection) or rtis (the vendor host's 512-tap FIR, 2-3x slower)",
+    )
+    p.add_argument("--out", required=True, help="output file (.h5)")
+    p.set_defaults(func=run)
+
+
+def emulation_recordings(scene, count: int | None) -> list:
+    """The recordings an emulated sensor streams: the scene's first poses (at most
+    `count`, else 10), simulated at the sensor's 450 kHz."""
+    from acousim.simulator import Simulator
+
+    if scene.sensor.sample_rate_hz != 450e3:
+        raise UsageError(
+            f"--emulate {scene.source}: the scene samples at "
+            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+        )
+    n = min(len(scene.sensor.poses), count or 10)
+    try:
+        sim = Simulator(scene)
+        return [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
+    except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
+        raise UsageError(f"--emulate {scene.source}: {exc}") from None
+
+
+def _recorder(args: argparse.Namespace):
+    """The Recorder for the real or emulated sensor the arguments name."""
+    import processing as P
+    from hardware import DeviceSettings, Recorder
+    from hardware.device import RtisDevice, find_ids, parse_usb_id
+    from hardware.emulator import emulated_device
+
+    if args.emulate:
+        scene = load_scene(args.emulate)
+        preload_simulation()
+        array, call = scene.sensor.array, scene.sensor.call
+        recs = emulation_recordings(scene, args.count)
+        try:
+            open_device, _ = emulated_device(recs, array.channels, serial=args.serial)
+        except InputError as exc:
+            raise UsageError(
+                f"--emulate {args.emulate}: array {array.name!r}: {exc.reason}"
+            ) from None
+    else:
+        vid, pid = parse_usb_id(args.device) if args.device else find_ids()
+        array, call = P.preset(args.array), P.rtis_call(args.call)
+
+        def open_device():
+            return RtisDevice(vid, pid, serial=args.serial)
+
+    return Recorder(
+        open_device, DeviceSettings(call=call.sampled(450e3)), array, call, fir=args.filter
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    import processing as P
+    from hardware import (
+        DeviceNotFound,
+        RecordingFailed,
+        RecordingInterrupted,
+        check_acquisition,
+    )
+
+    try:
+        check_acquisition(args.count, args.duration, args.rate)
+        out = output_file("--out", args.out)
+        recorder = _recorder(args)
+    except (InputError, DeviceNotFound) as exc:
+        raise UsageError(str(exc)) from None
+    except RecordingFailed as exc:
+        print(f"acousim record: error: {exc.reason}; nothing recorded", file=sys.stderr)
+        return 1
+    bar = progress("record")
+    kept: list = []
+
+    def keep(rec) -> None:
+        kept.append(rec)
+        if args.count:
+            bar(len(kept), args.count)
+
+    interrupted, failure = False, None
+    try:
+        recorder.acquire(args.count, args.duration, args.rate, on_record=keep)
+    except RecordingInterrupted:
+        interrupted = True
+    except RecordingFailed as exc:
+        failure = exc
+    if kept:
+        P.save_recordings(out, kept)
+    print(_summary(out, kept, recorder.stats, interrupted, failure))
+    if failure:
+        print(f"acousim record: error: {failure}", file=sys.stderr)
+        return 1
+    return 130 if interrupted else 0
+
+
+def _summary(out, kept, st, interrupted: bool, failure) -> str:
+    return (
+        (f"{len(kept)} measurement(s) written to {out}" if kept else "no measurement taken")
+        + (" (interrupted)" if interrupted else "")
+        + (" (the sensor failed)" if failure else "")
+        + f"; lost {len(st.lost_indices)}"
+        + (f" (indices {st.lost_indices[:10]})" if st.lost_indices else "")
+        + f", corrupt {st.corrupt}, time-outs {st.timeouts}, reconnects {st.reconnects}"
+        + (f", counter resets {len(st.counter_resets)}" if st.counter_resets else "")
+    )

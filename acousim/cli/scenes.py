@@ -1,0 +1,40 @@
+"""``acousim scenes``: the bundled scenes and what each shows."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import bundled_scenes
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "scenes",
+        help="list the bundled scenes",
+        description="List the bundled scenes and what each shows; `acousim simulate "
+        "NAME` runs one by its name.",
+    )
+    p.add_argument("-v", "--verbose", action="store_true", help="also say where they are")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acousim.bundled import scene_files
+    from acousim.scene import SceneError, load_scene
+    from processing.errors import InputError
+
+    for f in scene_files():
+        try:
+            sc = load_scene(f)
+        except (SceneError, InputError) as exc:
+            print(f"{f.name:18s} invalid ({exc})")
+            continue
+        except (OSError, RuntimeError) as exc:  # e.g. a layout that cannot be fetched
+            print(f"{f.name:18s} unavailable here ({exc})")
+            continue
+        print(
+            f"{f.name:18s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
+        )
+    if args.verbose:
+        print(f"(in {bundled_scenes()}; `acousim simulate wall` runs wall.toml)")
+    return 0
