@@ -36,6 +36,7 @@ from acousim.synth.moving import DopplerPlan
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
 from acousim.trace.tracer import KIND, TracedPaths, Tracer
+from processing import interrupt
 from processing.errors import InputError
 
 __all__ = ["Simulator", "package_version"]
@@ -394,6 +395,7 @@ class Simulator:
         with one_blas_thread(), ThreadPoolExecutor(1) as pool:
             ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
+                interrupt.check()  # Ctrl-C (when the command line records it): stop here
                 waiting.set()
                 prep = ahead.result()
                 waiting.clear()
