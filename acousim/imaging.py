@@ -110,13 +110,13 @@ def image_recordings(
 def _pose(rec: P.Recording):
     from acousim.scene.pose import Pose
 
-    p = rec.metadata.get("pose")
-    if not p:
+    p = P.pose_of(rec.metadata)
+    if p is None:
         return Pose(np.zeros(3))
     return Pose(
         p["position_m"],
         *np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]]),
-        time_s=p.get("time_s", 0.0),
+        time_s=p["time_s"],
     )
 
 
@@ -299,8 +299,8 @@ def _sharpest(imgs: dict[str, P.Image]) -> str:
 
 def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
-    p = rec.metadata.get("pose")
-    moving = p and (trajectory or p.get("time_s", 0.0) or rec.metadata.get("pose_index", 0))
+    p = P.pose_of(rec.metadata)
+    moving = p and (trajectory or p["time_s"] or rec.metadata.get("pose_index", 0))
     where = f", t = {p['time_s']:.1f} s" if moving else ""
     kind = "simulated" if rec.metadata.get("simulated") else "real"
     return f"{rec.metadata.get('scene', kind)} — recording {index}{where}"

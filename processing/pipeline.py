@@ -11,6 +11,7 @@ one place, :func:`check_method`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal, get_args
@@ -37,6 +38,8 @@ __all__ = [
     "acoustic_images",
     "acoustic_image",
     "estimate_memory_bytes",
+    "front_end_bytes",
+    "check_memory",
 ]
 
 Method = Literal[NarrowbandMethod, WidebandMethod, BroadbandMethod]
@@ -105,7 +108,10 @@ class ProcessingSettings:
 
 
 def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Snapshot:
-    """Matched filter and STFT snapshot of a recording (all its measurements)."""
+    """Matched filter and STFT snapshot of a recording (all its measurements); an
+    InputError, before allocating, when they would need more than
+    ``settings.memory_limit_bytes``."""
+    _check_memory(recording, [], settings)
     template = recording.waveform.sampled(recording.sample_rate_hz)
     mf = matched_filter(recording.samples, template)
     return stft_snapshot(
@@ -137,10 +143,12 @@ def estimate_memory_bytes(
 ) -> int:
     """Bytes an imaging job needs at its peak (an estimate, before allocating).
 
-    Narrowband: the image and two temporaries of its size (R x E x A float64) plus
-    the steering tables (E x A x (M + 2 sqrt(M))); broadband: the output (R x G)
-    and one chunk of aligned channels (chunk x M x N complex, three times).
-    `n_bins` is the number of kept range bins when known (else every STFT frame).
+    Every job first samples the call and matched-filters the recording
+    (:func:`front_end_bytes`); then narrowband: the image and two temporaries of its
+    size (R x E x A float64) plus the steering tables (E x A x (M + 2 sqrt(M)));
+    broadband: the output (R x G) and one chunk of aligned channels (chunk x M x N
+    complex, three times). `n_bins` is the number of kept range bins when known
+    (else every STFT frame).
     """
     E, A = settings.grid.shape
     G = E * A
@@ -149,7 +157,7 @@ def estimate_memory_bytes(
     T = recording.n_samples
     hop = max(1, settings.window - settings.overlap)
     R = n_bins if n_bins is not None else T // hop
-    total = 0
+    total = front_end_bytes(recording, settings)
     for m in methods:
         if m.endswith("-bb"):
             bb = settings.broadband
@@ -162,9 +170,52 @@ def estimate_memory_bytes(
     return int(total)
 
 
+def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
+    """Bytes of the stages every method shares, at their peak: the sampled call
+    (L = duration x rate samples, a few float64 temporaries of its length), the
+    matched filter (K x M channels on an FFT of T + L points: the input, its
+    spectrum and the product, the output) and the STFT snapshot (the windowed frames
+    searched for the strongest bin, K x M x P x window, and their spectra)."""
+    w = recording.waveform
+    K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
+    L = math.ceil(w.duration_s * recording.sample_rate_hz)
+    n = T + L
+    template = 8 * 8 * L
+    mf = K * M * (8 * T + 2 * 16 * (n // 2 + 1) + 8 * n)
+    hop = max(1, settings.window - settings.overlap)
+    P = max(0, (T - settings.window) // hop + 1)
+    snapshot = K * M * T * 8 + K * M * P * (8 * settings.window + 16 * (settings.window // 2 + 2))
+    return int(template + max(mf, snapshot))
+
+
+def check_memory(
+    recording: Recording,
+    methods: Sequence[str] = (),
+    settings: ProcessingSettings | None = None,
+    n_bins: int | None = None,
+) -> None:
+    """An InputError, before anything is allocated, when imaging `recording` by
+    `methods` (none: the matched filter and snapshots only) would need more than
+    ``settings.memory_limit_bytes`` (see :func:`estimate_memory_bytes`)."""
+    _check_memory(recording, list(methods), settings or ProcessingSettings(), n_bins)
+
+
 def _check_memory(recording, methods, settings, n_bins=None) -> None:
     need = estimate_memory_bytes(recording, methods, settings, n_bins)
     if need > settings.memory_limit_bytes:
+        front = front_end_bytes(recording, settings)
+        if front > settings.memory_limit_bytes:
+            w = recording.waveform
+            raise InputError(
+                f"imaging would need about {front / 2**30:.1f} GiB for the matched filter "
+                f"and snapshots alone ({recording.n_samples} samples of "
+                f"{recording.array.n_mics} microphones, a {w.duration_s:g} s call at "
+                f"{recording.sample_rate_hz:g} Hz), above the limit of "
+                f"{settings.memory_limit_bytes / 2**30:.1f} GiB "
+                "(ProcessingSettings(memory_limit_bytes=...))",
+                key="sample_rate_hz, waveform.duration_s",
+                value=(recording.sample_rate_hz, w.duration_s),
+            )
         raise InputError(
             f"imaging would need about {need / 2**30:.1f} GiB, above the limit of "
             f"{settings.memory_limit_bytes / 2**30:.1f} GiB (a coarser grid step, fewer "
@@ -207,7 +258,7 @@ def acoustic_images(
     above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
     methods = [check_method(m) for m in methods]
-    _check_memory(recording, [m for m in methods if m.endswith("-bb")], settings)
+    _check_memory(recording, [m for m in methods if m.endswith("-bb")], settings)  # + front end
     out = {m: _broadband_image(recording, m, settings) for m in methods if m.endswith("-bb")}
     rest = [m for m in methods if not m.endswith("-bb")]
     if not rest:

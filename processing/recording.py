@@ -56,6 +56,7 @@ __all__ = [
     "GroundTruth",
     "count_recordings",
     "MAX_SAMPLE_BYTES",
+    "pose_of",
 ]
 
 SCHEMA = "acousim.recordings"
@@ -114,11 +115,11 @@ class Recording:
     def __post_init__(self) -> None:
         x = np.asarray(self.samples)
         if x.ndim not in (2, 3):
-            raise ValueError(f"samples must have shape (M, T) or (K, M, T), got {x.shape}")
+            raise InputError(f"samples must have shape (M, T) or (K, M, T), got {x.shape}")
         if not np.issubdtype(x.dtype, np.floating):
             x = x.astype(np.float64)
         if x.shape[-2] != self.array.n_mics:
-            raise ValueError(
+            raise InputError(
                 f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
                 f"has {self.array.n_mics} microphones"
             )
@@ -133,13 +134,13 @@ class Recording:
                 value=float(x[tuple(where)]),
             )
         if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
-            raise ValueError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
+            raise InputError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
         if not (np.isfinite(self.speed_of_sound_m_s) and 200 < self.speed_of_sound_m_s < 500):
-            raise ValueError(
+            raise InputError(
                 f"speed_of_sound_m_s must be in (200, 500) m/s, got {self.speed_of_sound_m_s}"
             )
         if not 0 <= int(self.emission_index) < x.shape[-1]:
-            raise ValueError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
+            raise InputError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
         object.__setattr__(self, "samples", x)
         object.__setattr__(self, "emission_index", int(self.emission_index))
         object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
@@ -202,16 +203,16 @@ class GroundTruth:
         n = len(pw)
         for name, a in (("position_sensor_m", ps), ("amplitude", amp), ("order", order)):
             if len(a) != n:
-                raise ValueError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+                raise InputError(f"truth {name} has {len(a)} entries, position_world_m {n}")
         if len(kind) != n:
-            raise ValueError(f"truth kind has {len(kind)} entries, position_world_m {n}")
+            raise InputError(f"truth kind has {len(kind)} entries, position_world_m {n}")
         if not (np.all(np.isfinite(pw)) and np.all(np.isfinite(ps)) and np.all(np.isfinite(amp))):
-            raise ValueError("truth positions and amplitudes must be finite")
+            raise InputError("truth positions and amplitudes must be finite")
         if order.size and (order.dtype.kind not in "iu" or order.min() < 0):
-            raise ValueError(f"truth order must be non-negative integers, got {order.dtype}")
+            raise InputError(f"truth order must be non-negative integers, got {order.dtype}")
         bad = sorted(set(kind.tolist()) - set(_KINDS))
         if bad:
-            raise ValueError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
+            raise InputError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
         object.__setattr__(self, "position_world_m", pw)
         object.__setattr__(self, "position_sensor_m", ps)
         object.__setattr__(self, "amplitude", amp)
@@ -220,9 +221,9 @@ class GroundTruth:
         if self.velocity_world_m_s is not None:
             vel = np.asarray(self.velocity_world_m_s, float).reshape(-1, 3)
             if len(vel) != n:
-                raise ValueError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
+                raise InputError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
             if not np.all(np.isfinite(vel)):
-                raise ValueError("truth velocities must be finite")
+                raise InputError("truth velocities must be finite")
             object.__setattr__(self, "velocity_world_m_s", vel)
 
     def __len__(self) -> int:
@@ -277,6 +278,8 @@ def save_recordings(
     dtype = np.dtype(dtype)
     if dtype not in (np.float32, np.float64):
         raise ValueError(f"dtype must be float32 or float64, got {dtype}")
+    for i, rec in enumerate(recordings):  # what the reader would refuse is never written
+        _check_for_writing(path, i, rec)
     width = _name_width(len(recordings))
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["schema"] = SCHEMA
@@ -287,6 +290,22 @@ def save_recordings(
             opts = {"dtype": dtype, "compression": compression, "checksum": checksum}
             _write_one(group.create_group(f"{i:0{width}d}"), rec, opts)
     return path
+
+
+def _check_for_writing(path: Path, i: int, rec: Recording) -> None:
+    """The reader's checks of the fields a Recording does not check itself (the
+    waveform below Nyquist, the metadata's known keys, JSON-serialisable metadata)."""
+    where = f"recording {i}"
+    if not isinstance(rec, Recording):
+        raise InputError("not a Recording", file=path, key=where, value=type(rec).__name__)
+    _check_waveform(path, f"{where}.waveform", rec.waveform, rec.sample_rate_hz)
+    try:
+        text = json.dumps(rec.metadata, default=_json_default, allow_nan=True)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"not JSON-serialisable ({exc})", file=path, key=f"{where}.metadata"
+        ) from None
+    _check_metadata(path, f"{where}.metadata", json.loads(text))
 
 
 def _name_width(n: int) -> int:
@@ -609,6 +628,11 @@ def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
         w = Waveform.from_dict(json.loads(text))
     except (ValueError, TypeError, KeyError, AttributeError) as exc:
         raise RecordingFileError(f"not a waveform ({exc})", file=path, key=key) from None
+    _check_waveform(path, key, w, sample_rate_hz)
+    return w
+
+
+def _check_waveform(path: Path, key: str, w: Waveform, sample_rate_hz: float) -> None:
     top = max(w.f_start_hz, w.f_end_hz)
     if top > sample_rate_hz / 2:
         raise RecordingFileError(
@@ -616,7 +640,6 @@ def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
             file=path,
             key=key,
         )
-    return w
 
 
 def _metadata(path: Path, g: h5py.Group) -> dict:
@@ -628,30 +651,92 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
         meta = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
     except (ValueError, TypeError, AttributeError) as exc:
         raise RecordingFileError(f"not JSON ({exc})", file=path, key=key) from None
+    _check_metadata(path, key, meta)
+    return meta
+
+
+#: the largest |coordinate| (m) of a pose in a file (acousim.scene's bound)
+MAX_POSE_COORDINATE_M = 1e6
+
+
+def _number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _vector(v, bound: float = math.inf) -> bool:
+    return isinstance(v, list) and len(v) == 3 and all(_number(x) and abs(x) <= bound for x in v)
+
+
+def _check_metadata(path: Path, key: str, meta) -> None:
+    """The metadata keys the programs read, each checked (others are free)."""
     if not isinstance(meta, dict):
         raise RecordingFileError("must be a JSON object", file=path, key=key)
     if "pose" in meta:
         _check_pose(path, f"{key}: pose", meta["pose"])
-    return meta
+    checks = {
+        "scene": (lambda v: isinstance(v, str), "a string"),
+        "scene_file": (lambda v: v is None or isinstance(v, str), "a string or null"),
+        "simulated": (lambda v: isinstance(v, bool), "true or false"),
+        "pose_index": (
+            lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+            "a whole number >= 0",
+        ),
+        "n_paths": (
+            lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+            "a whole number >= 0",
+        ),
+        "max_range_m": (lambda v: _number(v) and v > 0, "a positive number"),
+        "timestamp": (lambda v: v is None or _number(v), "a finite number or null"),
+        "motion": (
+            _motion_ok,
+            "{velocity_m_s: [3 numbers], angular_velocity_deg_s: "
+            "[3 numbers], emission_pose: a pose, doppler_min, doppler_max}",
+        ),
+    }
+    for name, (ok, form) in checks.items():
+        if name in meta and not ok(meta[name]):
+            raise RecordingFileError(
+                f"must be {form}", file=path, key=f"{key}: {name}", value=meta[name]
+            )
+
+
+def _motion_ok(m) -> bool:
+    if not isinstance(m, dict):
+        return False
+    vectors = all(_vector(m[k]) for k in ("velocity_m_s", "angular_velocity_deg_s") if k in m)
+    numbers = all(_number(m[k]) and m[k] > 0 for k in ("doppler_min", "doppler_max") if k in m)
+    pose = "emission_pose" not in m or _pose_ok(m["emission_pose"])
+    return vectors and numbers and pose
+
+
+_POSE_DEFAULTS = {"yaw_deg": 0.0, "pitch_deg": 0.0, "roll_deg": 0.0, "time_s": 0.0}
+
+
+def _pose_ok(pose) -> bool:
+    return (
+        isinstance(pose, dict)
+        and _vector(pose.get("position_m"), MAX_POSE_COORDINATE_M)
+        and all(_number(pose.get(k, d)) for k, d in _POSE_DEFAULTS.items())
+    )
+
+
+def pose_of(metadata: dict, key: str = "pose") -> dict | None:
+    """The pose a recording's metadata holds (``metadata[key]``), complete: position_m
+    and yaw_deg, pitch_deg, roll_deg, time_s, the ones absent from the file 0 (the
+    form every reader uses); None without one. Loading has checked it."""
+    pose = metadata.get(key)
+    if not pose:
+        return None
+    return {"position_m": list(pose["position_m"]), **_POSE_DEFAULTS, **pose}
 
 
 def _check_pose(path: Path, key: str, pose) -> None:
-    """A pose in a file: position_m (3 metres), yaw_deg/pitch_deg/roll_deg, time_s."""
-    ok = isinstance(pose, dict)
-    if ok:
-        p = pose.get("position_m")
-        ok = (
-            isinstance(p, list)
-            and len(p) == 3
-            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in p)
-        )
-        for name in ("yaw_deg", "pitch_deg", "roll_deg", "time_s"):
-            v = pose.get(name, 0.0)
-            ok = ok and isinstance(v, (int, float)) and math.isfinite(v)
-    if not ok:
+    """A pose in a file: position_m (3 metres, required), yaw_deg, pitch_deg,
+    roll_deg, time_s (each 0 when absent), finite numbers."""
+    if not _pose_ok(pose):
         raise RecordingFileError(
-            "must be {position_m: [x, y, z], yaw_deg, pitch_deg, roll_deg, time_s} with "
-            "finite numbers",
+            "must be {position_m: [x, y, z][, yaw_deg, pitch_deg, roll_deg, time_s]} with "
+            f"finite numbers (positions within +-{MAX_POSE_COORDINATE_M:g} m)",
             file=path,
             key=key,
             value=pose,

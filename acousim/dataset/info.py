@@ -40,9 +40,9 @@ def _recordings(path: Path) -> list[str]:
         r = P.load_recording(path, i)
         kind = "simulated" if r.metadata.get("simulated") else "real"
         where = ""
-        if "pose" in r.metadata:
-            p = r.metadata["pose"]
-            yaw = p.get("yaw_deg", 0.0)
+        p = P.pose_of(r.metadata)
+        if p:
+            yaw = p["yaw_deg"]
             where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {yaw:.1f}°"
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
         lines.append(

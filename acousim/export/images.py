@@ -105,9 +105,9 @@ def write_image_data(
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
             g.attrs["scene"] = str(rec.metadata.get("scene", ""))
-            pose = rec.metadata.get("pose")
+            pose = P.pose_of(rec.metadata)
             if pose:
-                g.attrs["time_s"] = float(pose.get("time_s", 0.0))
+                g.attrs["time_s"] = float(pose["time_s"])
                 g.attrs["position_m"] = np.asarray(pose["position_m"], float)
                 for k in ("yaw_deg", "pitch_deg", "roll_deg"):
                     g.attrs[k] = float(pose[k])
