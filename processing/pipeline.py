@@ -174,8 +174,9 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     """Bytes of the stages every method shares, at their peak: the sampled call
     (L = duration x rate samples, a few float64 temporaries of its length), the
     matched filter (K x M channels on an FFT of T + L points: the input, its
-    spectrum and the product, the output) and the STFT snapshot (the windowed frames
-    searched for the strongest bin, K x M x P x window, and their spectra)."""
+    spectrum and the product, the output) and the STFT snapshot (the frames searched
+    for the strongest bin, K x M x P x window, three times, and their spectra);
+    within 1.5 times the peak numpy allocates (tests/test_reliability.py)."""
     w = recording.waveform
     K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
     L = math.ceil(w.duration_s * recording.sample_rate_hz)
@@ -184,7 +185,10 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     mf = K * M * (8 * T + 2 * 16 * (n // 2 + 1) + 8 * n)
     hop = max(1, settings.window - settings.overlap)
     P = max(0, (T - settings.window) // hop + 1)
-    snapshot = K * M * T * 8 + K * M * P * (8 * settings.window + 16 * (settings.window // 2 + 2))
+    # the candidate frames copied, windowed (and copied once more by the FFT), then
+    # their spectra
+    frames = K * M * P * (24 * settings.window + 16 * (settings.window // 2 + 1))
+    snapshot = K * M * T * 8 + frames
     return int(template + max(mf, snapshot))
 
 
