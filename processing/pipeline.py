@@ -11,7 +11,6 @@ one place, :func:`check_method`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal, get_args
@@ -179,17 +178,17 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     within 1.5 times the peak numpy allocates (tests/test_reliability.py)."""
     w = recording.waveform
     K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
-    L = math.ceil(w.duration_s * recording.sample_rate_hz)
+    L = float(w.duration_s) * float(recording.sample_rate_hz)  # float: never overflows
     n = T + L
-    template = 8 * 8 * L
-    mf = K * M * (8 * T + 2 * 16 * (n // 2 + 1) + 8 * n)
+    template = 8.0 * 8 * L
+    mf = float(K * M) * (8 * T + 2 * 16 * (n / 2 + 1) + 8 * n)
     hop = max(1, settings.window - settings.overlap)
     P = max(0, (T - settings.window) // hop + 1)
     # the candidate frames copied, windowed (and copied once more by the FFT), then
     # their spectra
     frames = K * M * P * (24 * settings.window + 16 * (settings.window // 2 + 1))
     snapshot = K * M * T * 8 + frames
-    return int(template + max(mf, snapshot))
+    return int(min(template + max(mf, snapshot), 2.0**62))
 
 
 def check_memory(

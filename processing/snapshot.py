@@ -83,7 +83,9 @@ def stft_snapshot(
         Steering frequency; default: the STFT bin with the highest energy.
     band_hz : (low, high), optional
         Where to look for the bin of highest energy (e.g. the band of the call, up to
-        the array's alias-free limit).  Ignored when `frequency_hz` is given.
+        the array's alias-free limit); when no bin lies in it (a window too short for
+        the sample rate) the bin nearest its centre.  Ignored when `frequency_hz` is
+        given.
     energy_fraction : float
         Keep time bins whose energy is at least this fraction of the maximum (paper:
         0.5).  0 keeps every bin.  Bins with zero energy are never kept, so an
@@ -123,8 +125,8 @@ def stft_snapshot(
         power = (spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2))
         if band_hz is not None:
             inband = (freqs >= band_hz[0]) & (freqs <= band_hz[1])
-            if not inband.any():
-                raise ValueError(f"band_hz {band_hz} holds no STFT frequency bin")
+            if not inband.any():  # bins wider than the band: the one nearest its centre
+                inband = np.arange(freqs.size) == np.argmin(np.abs(freqs - np.mean(band_hz)))
             power = np.where(inband, power, -1.0)
         fbin = int(np.argmax(power))
     else:
