@@ -280,6 +280,14 @@ def save_recordings(
         raise ValueError(f"dtype must be float32 or float64, got {dtype}")
     for i, rec in enumerate(recordings):  # what the reader would refuse is never written
         _check_for_writing(path, i, rec)
+        big = float(np.max(np.abs(rec.samples), initial=0.0))
+        if big > np.finfo(dtype).max:
+            raise InputError(
+                f"samples reach {big:.3g}, beyond {dtype} (written as inf, which the reader "
+                "refuses); save with dtype=np.float64",
+                file=path,
+                key=f"recording {i}.samples",
+            )
     width = _name_width(len(recordings))
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["schema"] = SCHEMA

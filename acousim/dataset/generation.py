@@ -509,6 +509,8 @@ def generate(
         write_text(existing, spec.sha256 + "\n")
         done, damaged = _done(spec, out)
         todo = [k for k in range(spec.n_shards) if k not in done]
+        if todo:  # a spec that cannot make its first sample fails here, before any worker
+            sample_parameters(spec, todo[0] * spec.shard_size)
         jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
         done_count = spec.n_shards - len(todo)
         t0 = time.perf_counter()
