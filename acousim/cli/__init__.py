@@ -24,7 +24,15 @@ import sys
 import threading
 from typing import Any
 
-__all__ = ["main", "build_parser", "UsageError", "ARRAY_PRESETS", "CALL_PRESETS", "PDM_FILTERS"]
+__all__ = [
+    "main",
+    "run",
+    "build_parser",
+    "UsageError",
+    "ARRAY_PRESETS",
+    "CALL_PRESETS",
+    "PDM_FILTERS",
+]
 
 #: names this package offers, imported on first use (they import processing)
 _LAZY = {
@@ -97,13 +105,14 @@ def _record_early(signum, frame) -> None:
     _early_interrupt = True
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
     """Parse, run one command; an InputError is one line on stderr and exit code 2,
     Ctrl-C exit code 130 with one line, anything else a bug with its traceback.
 
     Ctrl-C only sets a flag (:mod:`processing.interrupt`, installed here, the only
-    place that changes the process's SIGINT handler, and restored on return); the work
-    stops at its next checkpoint and no output file is replaced."""
+    place that changes the process's SIGINT handler, and restored on return unless
+    `restore_sigint` is false); the work stops at its next checkpoint and no output
+    file is replaced."""
     global _early_interrupt
     _early_interrupt = False
     previous = None
@@ -112,8 +121,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _main(argv, previous is not None)
     finally:
-        if previous is not None:
+        if previous is not None and restore_sigint:
             signal.signal(signal.SIGINT, previous)
+
+
+def run() -> None:
+    """The program's entry (the ``acousim`` command, ``python -m acousim.cli``): main(),
+    its exit code, and a Ctrl-C after the command has finished still only recorded
+    (Python's default handler, restored, would end the process by the signal while it
+    exits)."""
+    sys.exit(main(restore_sigint=False))
 
 
 def _main(argv: list[str] | None, handled: bool) -> int:
