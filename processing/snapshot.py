@@ -20,6 +20,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from .errors import InputError
+
 __all__ = ["Snapshot", "stft_snapshot"]
 
 
@@ -100,13 +102,13 @@ def stft_snapshot(
     if x.ndim == 2:
         x = x[None]
     if x.ndim != 3:
-        raise ValueError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
+        raise InputError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
     if not 0 <= overlap < window:
-        raise ValueError(f"overlap must be in [0, window={window}), got {overlap}")
+        raise InputError(f"overlap must be in [0, window={window}), got {overlap}")
     if not 0 <= energy_fraction <= 1:
-        raise ValueError(f"energy_fraction must be in [0, 1], got {energy_fraction}")
+        raise InputError(f"energy_fraction must be in [0, 1], got {energy_fraction}")
     if x.shape[-1] < window:
-        raise ValueError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
+        raise InputError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
     hop = window - overlap
     win = get_window(window_type, window)
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's

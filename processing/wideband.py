@@ -25,6 +25,7 @@ from scipy.signal import get_window
 
 from .arrays import Array
 from .doa import doa_spectrum
+from .errors import InputError
 from .steering import Grid
 
 __all__ = ["WidebandMethod", "WIDEBAND_METHODS", "band_frequencies", "wideband_spectrum"]
@@ -86,7 +87,7 @@ def wideband_spectrum(
 ) -> np.ndarray:
     """Incoherent wideband spectrum (R, E, A) from snapshots (F, M, R, K) (steps 3-4)."""
     if method not in WIDEBAND_METHODS:
-        raise ValueError(f"unknown wideband method {method!r}; choose one of {WIDEBAND_METHODS}")
+        raise InputError(f"unknown wideband method {method!r}; choose one of {WIDEBAND_METHODS}")
     narrow = method[: -len("-wb")]
     music = narrow.startswith("music")
     acc = None

@@ -265,3 +265,12 @@ def test_a_mesh_placed_beyond_the_world_is_refused_without_a_warning(tmp_path):
         warnings.simplefilter("error")
         with pytest.raises(InputError, match="mesh vertices reach beyond"):
             Simulator(scene).run()
+
+
+def test_a_recording_shorter_than_the_stft_window_is_one_line(tmp_path, capsys):
+    """It loads (a valid file) and imaging refuses it with a sentence (was a
+    ValueError traceback)."""
+    rec = small_recording()
+    path = P.save_recording(tmp_path / "short.h5", rec.with_samples(rec.samples[:, :100]))
+    assert main(["image", str(path), "--out", str(tmp_path / "o"), "--no-3d"]) == 2
+    assert "100 samples, fewer than the window 256" in capsys.readouterr().err
