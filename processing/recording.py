@@ -671,6 +671,9 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
 
 #: the largest |coordinate| (m) of a pose in a file (acousim.scene's bound)
 MAX_POSE_COORDINATE_M = 1e6
+#: the largest |time| (s) of a pose or a timestamp in a file (a ROS stamp's int32
+#: seconds, year 2033)
+MAX_TIME_S = 2e9
 
 
 def _number(v) -> bool:
@@ -700,7 +703,10 @@ def _check_metadata(path: Path, key: str, meta) -> None:
             "a whole number >= 0",
         ),
         "max_range_m": (lambda v: _number(v) and v > 0, "a positive number"),
-        "timestamp": (lambda v: v is None or _number(v), "a finite number or null"),
+        "timestamp": (
+            lambda v: v is None or (_number(v) and abs(v) <= MAX_TIME_S),
+            f"a number within +-{MAX_TIME_S:g} s or null",
+        ),
         "motion": (
             _motion_ok,
             "{velocity_m_s: [3 numbers], angular_velocity_deg_s: "
@@ -731,6 +737,7 @@ def _pose_ok(pose) -> bool:
         isinstance(pose, dict)
         and _vector(pose.get("position_m"), MAX_POSE_COORDINATE_M)
         and all(_number(pose.get(k, d)) for k, d in _POSE_DEFAULTS.items())
+        and abs(pose.get("time_s", 0.0)) <= MAX_TIME_S
     )
 
 

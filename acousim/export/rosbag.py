@@ -40,7 +40,9 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from processing import interrupt
 from processing.atomic import TEMP_PREFIX
+from processing.errors import InputError
 
 __all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
 
@@ -70,7 +72,7 @@ def recording_time_ns(rec: P.Recording, index: int) -> int:
     if rec.metadata.get("timestamp") is not None:
         t = float(rec.metadata["timestamp"])
     elif rec.metadata.get("pose"):
-        t = float(rec.metadata["pose"].get("time_s", 0.0))
+        t = float(P.pose_of(rec.metadata)["time_s"])
     else:
         t = 0.1 * index
     return int(round(t * 1e9))
@@ -104,6 +106,15 @@ def write_rosbag(
     path = Path(path)
     if path.exists():
         raise FileExistsError(f"{path} exists already; a bag is never overwritten")
+    several = [
+        i for i, r in zip(indices or range(len(recordings)), recordings) if r.samples.ndim != 2
+    ]
+    if several:
+        raise InputError(
+            "holds several measurements (K, M, T); a bag takes one per recording",
+            key="recording",
+            value=several[0],
+        )
     store = _typestore()
     T = store.types
     indices = list(indices) if indices is not None else list(range(len(recordings)))
@@ -121,6 +132,7 @@ def write_rosbag(
                 w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
 
             for idx, rec, imgs in zip(indices, recordings, images):
+                interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
                 ns = recording_time_ns(rec, idx)
                 header = T["std_msgs/msg/Header"](
                     stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
@@ -135,10 +147,23 @@ def write_rosbag(
                 put("peaks", _cloud_msg(T, header, sensor, pk), ns)
                 put("fan", _image_msg(T, header, raster.db), ns)
                 put("tf", _tf_msg(T, header, _pose(rec)), ns)
-        bag.rename(path)
+        _rename_unless_interrupted(bag, path)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return path
+
+
+def _rename_unless_interrupted(bag: Path, path: Path) -> None:
+    """The finished bag renamed into place, unless Ctrl-C came (SIGINT held back from
+    the check to the rename, as processing.atomic does for files)."""
+    import signal
+
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        interrupt.check()
+        bag.rename(path)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def _fan_range(img: P.Image) -> float:
