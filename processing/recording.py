@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -42,6 +41,7 @@ from numpy.typing import DTypeLike
 from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
+from .metadata import metadata_problem, pose_of
 from .waveforms import Waveform
 
 __all__ = [
@@ -669,99 +669,12 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
     return meta
 
 
-#: the largest |coordinate| (m) of a pose in a file (acousim.scene's bound)
-MAX_POSE_COORDINATE_M = 1e6
-#: the largest |time| (s) of a pose or a timestamp in a file (a ROS stamp's int32
-#: seconds, year 2033)
-MAX_TIME_S = 2e9
-
-
-def _number(v) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _vector(v, bound: float = math.inf) -> bool:
-    return isinstance(v, list) and len(v) == 3 and all(_number(x) and abs(x) <= bound for x in v)
-
-
 def _check_metadata(path: Path, key: str, meta) -> None:
-    """The metadata keys the programs read, each checked (others are free)."""
-    if not isinstance(meta, dict):
-        raise RecordingFileError("must be a JSON object", file=path, key=key)
-    if "pose" in meta:
-        _check_pose(path, f"{key}: pose", meta["pose"])
-    checks = {
-        "scene": (lambda v: isinstance(v, str), "a string"),
-        "scene_file": (lambda v: v is None or isinstance(v, str), "a string or null"),
-        "simulated": (lambda v: isinstance(v, bool), "true or false"),
-        "pose_index": (
-            lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-            "a whole number >= 0",
-        ),
-        "n_paths": (
-            lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-            "a whole number >= 0",
-        ),
-        "max_range_m": (lambda v: _number(v) and v > 0, "a positive number"),
-        "timestamp": (
-            lambda v: v is None or (_number(v) and abs(v) <= MAX_TIME_S),
-            f"a number within +-{MAX_TIME_S:g} s or null",
-        ),
-        "motion": (
-            _motion_ok,
-            "{velocity_m_s: [3 numbers], angular_velocity_deg_s: "
-            "[3 numbers], emission_pose: a pose, doppler_min, doppler_max}",
-        ),
-    }
-    for name, (ok, form) in checks.items():
-        if name in meta and not ok(meta[name]):
-            raise RecordingFileError(
-                f"must be {form}", file=path, key=f"{key}: {name}", value=meta[name]
-            )
-
-
-def _motion_ok(m) -> bool:
-    if not isinstance(m, dict):
-        return False
-    vectors = all(_vector(m[k]) for k in ("velocity_m_s", "angular_velocity_deg_s") if k in m)
-    numbers = all(_number(m[k]) and m[k] > 0 for k in ("doppler_min", "doppler_max") if k in m)
-    pose = "emission_pose" not in m or _pose_ok(m["emission_pose"])
-    return vectors and numbers and pose
-
-
-_POSE_DEFAULTS = {"yaw_deg": 0.0, "pitch_deg": 0.0, "roll_deg": 0.0, "time_s": 0.0}
-
-
-def _pose_ok(pose) -> bool:
-    return (
-        isinstance(pose, dict)
-        and _vector(pose.get("position_m"), MAX_POSE_COORDINATE_M)
-        and all(_number(pose.get(k, d)) for k, d in _POSE_DEFAULTS.items())
-        and abs(pose.get("time_s", 0.0)) <= MAX_TIME_S
-    )
-
-
-def pose_of(metadata: dict, key: str = "pose") -> dict | None:
-    """The pose a recording's metadata holds (``metadata[key]``), complete: position_m
-    and yaw_deg, pitch_deg, roll_deg, time_s, the ones absent from the file 0 (the
-    form every reader uses); None without one. Loading has checked it."""
-    pose = metadata.get(key)
-    if not pose:
-        return None
-    return {"position_m": list(pose["position_m"]), **_POSE_DEFAULTS, **pose}
-
-
-def _check_pose(path: Path, key: str, pose) -> None:
-    """A pose in a file: position_m (3 metres, required), yaw_deg, pitch_deg,
-    roll_deg, time_s (each 0 when absent), finite numbers."""
-    if not _pose_ok(pose):
-        raise RecordingFileError(
-            "must be {position_m: [x, y, z][, yaw_deg, pitch_deg, roll_deg, time_s]} with "
-            f"finite numbers (positions within +-{MAX_POSE_COORDINATE_M:g} m)",
-            file=path,
-            key=key,
-            value=pose,
-        )
+    """The metadata keys the programs read, each checked (processing.metadata)."""
+    problem = metadata_problem(meta)
+    if problem is not None:
+        sub, reason, value = problem
+        raise RecordingFileError(reason, file=path, key=f"{key}{sub}", value=value)
 
 
 def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
