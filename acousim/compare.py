@@ -72,6 +72,23 @@ class ComparisonError(InputError):
     """The two recordings cannot be compared; the message names what differs."""
 
 
+CALL_RTOL = 1e-3
+"""Two calls are the same when of one kind with frequencies and durations within this
+(relative) and tapers within 0.01: a call fitted to a CHIRP file's transmitter
+samples (:func:`processing.waveforms.fit_sweep`) is the preset within 1e-6. Their
+amplitudes are a gain, which the alignment estimates."""
+
+
+def same_call(a: P.Waveform, b: P.Waveform) -> bool:
+    """Whether two calls are the same within :data:`CALL_RTOL`."""
+    pairs = [(a.f_start_hz, b.f_start_hz), (a.f_end_hz, b.f_end_hz), (a.duration_s, b.duration_s)]
+    return (
+        a.kind == b.kind
+        and all(abs(x - y) <= CALL_RTOL * abs(y) for x, y in pairs)
+        and abs(a.taper - b.taper) <= 0.01
+    )
+
+
 def check_comparable(real: P.Recording, sim: P.Recording) -> None:
     diffs = []
     if real.array.n_mics != sim.array.n_mics or not np.allclose(
@@ -85,7 +102,7 @@ def check_comparable(real: P.Recording, sim: P.Recording) -> None:
         diffs.append(f"sample rates ({real.sample_rate_hz:g} vs {sim.sample_rate_hz:g} Hz)")
     if real.n_samples != sim.n_samples:
         diffs.append(f"lengths ({real.n_samples} vs {sim.n_samples} samples)")
-    if real.waveform != sim.waveform:
+    if not same_call(real.waveform, sim.waveform):
         diffs.append(f"calls ({real.waveform.to_dict()} vs {sim.waveform.to_dict()})")
     if diffs:
         raise ComparisonError("the recordings differ in " + "; ".join(diffs))
@@ -551,12 +568,14 @@ def load_real_recordings(
     source: str | Path,
     *,
     array: str = "ertis_v3d1",
-    call: str = "default_25_50",
+    call: str | None = None,
     speed_of_sound_m_s: float = 343.0,
 ) -> list[P.Recording]:
     """The real recordings of `source`: ``"rtisdev-sample"`` (the eRTIS sample of the
     rtisdev wheel), raw tick words (``.bin``, decoded with the `array` and `call`
-    presets at `speed_of_sound_m_s`) or a recording file (``.h5``, read once).
+    presets, default ``default_25_50``, at `speed_of_sound_m_s`), a recording file
+    (``.h5``, read once) or a CHIRP file (`call`: ``paper`` or a preset, for one that
+    does not say it; `speed_of_sound_m_s` for one not of ours).
     Raises InputError naming the file or option."""
     source = str(source)
     if source == "rtisdev-sample" or source.endswith(".bin"):
@@ -574,13 +593,16 @@ def load_real_recordings(
         except ValueError as exc:
             raise InputError(str(exc), key="--array", value=array) from None
         try:
-            wf = P.rtis_call(call)
+            wf = P.rtis_call(call or "default_25_50")
         except ValueError as exc:
             raise InputError(str(exc), key="--call", value=call) from None
         return [
             decode_frame(raw, arr, wf, {"source": str(path)}, speed_of_sound_m_s=speed_of_sound_m_s)
         ]
     try:
+        if P.is_chirp(source):
+            wf = None if call is None else P.paper_chirp() if call == "paper" else P.rtis_call(call)
+            return P.read_chirp(source, call=wf, speed_of_sound_m_s=speed_of_sound_m_s)
         return P.load_recordings(source)
     except P.RecordingFileError as exc:
         raise InputError(str(exc)) from None
@@ -593,29 +615,55 @@ def _pick(recs: Sequence[P.Recording], i: int, key: str, what: str) -> P.Recordi
 
 
 def pair_with_scene(
-    reals: Sequence[P.Recording], scene, *, every: bool = False, index: int = 0, pose: int = 0
+    reals: Sequence[P.Recording],
+    scene,
+    *,
+    every: bool = False,
+    index: int = 0,
+    pose: int = 0,
+    recorded: bool = False,
 ) -> list[tuple[P.Recording, P.Recording]]:
     """(real, simulated) pairs: real recording `index` with the scene simulated at
-    `pose`, or with `every`, real recording i with pose i for every i.  Each
-    simulation has its real partner's length.  Raises InputError naming ``--index``,
-    ``--pose`` or the scene file (a scene the simulator refuses: an unreadable mesh)."""
-    from acousim.simulator import Simulator
+    `pose`, or with `every`, real recording i with pose i for every i; with
+    `recorded`, each at the pose its own metadata holds (a CHIRP file's odometry),
+    frozen.  Each simulation has its real partner's length.  Raises InputError naming
+    ``--index``, ``--pose`` or the scene file (a scene the simulator refuses: an
+    unreadable mesh)."""
+    from acousim.simulator import SCENE_MOTION, Simulator
 
     chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
-    poses = list(range(len(reals))) if every else [pose]
-    n = len(scene.sensor.poses)
-    bad = [q for q in poses if not 0 <= q < n]
-    if bad:
-        raise InputError(f"the scene has {n} pose(s)", key="--pose", value=bad[0])
+    if recorded:
+        bare = [i for i, r in enumerate(chosen) if not isinstance(r.metadata.get("pose"), dict)]
+        if bare:
+            raise InputError("has no pose to simulate at", key="real recording", value=bare[0])
+        first = 0 if every else index
+        targets = [
+            (_recorded_pose(r.metadata["pose"]), None, first + i) for i, r in enumerate(chosen)
+        ]
+    else:
+        poses = list(range(len(reals))) if every else [pose]
+        n = len(scene.sensor.poses)
+        bad = [q for q in poses if not 0 <= q < n]
+        if bad:
+            raise InputError(f"the scene has {n} pose(s)", key="--pose", value=bad[0])
+        targets = [(scene.sensor.poses[q], SCENE_MOTION, q) for q in poses]
     try:
         simulator = Simulator(scene)
         sims = [
-            simulator.simulate_pose(scene.sensor.poses[q], q, n_samples=r.n_samples)
-            for r, q in zip(chosen, poses)
+            simulator.simulate_pose(p, q, n_samples=r.n_samples, motion=m)
+            for r, (p, m, q) in zip(chosen, targets)
         ]
     except ValueError as exc:
         raise InputError(str(exc), file=scene.source) from None
     return list(zip(chosen, sims))
+
+
+def _recorded_pose(p: dict):
+    """A pose as files hold it (degrees) as a :class:`~acousim.scene.pose.Pose`."""
+    from acousim.scene.pose import Pose
+
+    angles = np.deg2rad([p.get(k, 0.0) for k in ("yaw_deg", "pitch_deg", "roll_deg")])
+    return Pose(p["position_m"], *angles, time_s=p.get("time_s", 0.0))
 
 
 def pair_with_file(

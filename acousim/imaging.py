@@ -362,6 +362,15 @@ def _sweep(rec: P.Recording):
     return sensor_sweep(pose.position_m, pose.rotation, v, w, window)
 
 
+def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
+    """The recording's LiDAR points in the world frame (P, 3) through its pose (the
+    scan's own frame at each firing: for a moving sensor, as its unit reports them),
+    None without a scan."""
+    if rec.lidar is None:
+        return None
+    return _pose(rec).to_world(rec.lidar.in_sensor())
+
+
 def _render(rec, imgs, triangles, path, options, moving=None):
     from acousim.viz.render3d import render_scene
 
@@ -378,6 +387,7 @@ def _render(rec, imgs, triangles, path, options, moving=None):
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
         sweep=_sweep(rec),
         moving_triangles=moving,
+        lidar=lidar_in_world(rec),
     )
     return Path(path)
 
@@ -415,6 +425,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         with_truth=any(t is not None for t in truths),
         with_sweep=any(s is not None for s in sweeps),
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        with_lidar=any(rec.lidar is not None for rec in recordings),
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
@@ -428,6 +439,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
                 sweep=sweeps[k],
                 moving_triangles=_moving_triangles(scene, rec),
+                lidar=lidar_in_world(rec),
             )
             fig, (a, b) = plt.subplots(
                 1,

@@ -95,6 +95,8 @@ class _Prepared(NamedTuple):
     truth: P.GroundTruth
     #: a measurement in motion: its echoes planned, or their Doppler factors (M, N)
     doppler: DopplerPlan | np.ndarray | None = None
+    #: the LiDAR's scan at the pose (a scene with ``sensor.lidar``)
+    lidar: P.PointCloud | None = None
 
 
 class Simulator:
@@ -188,7 +190,8 @@ class Simulator:
             order=paths.order,
             kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
         )
-        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth)
+        lidar = self.lidar_scan(pose, index, motion)
+        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, None, lidar)
 
     def _prepare_moving(self, pose, index, n_samples, motion, plan=True) -> _Prepared:
         """A measurement in motion (see :mod:`acousim.synth.moving`).
@@ -248,8 +251,9 @@ class Simulator:
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)
         echoes, rate = echoes.select(keep), arr.rate[:, keep]
+        lidar = self.lidar_scan(pose, index, motion)
         if not (plan() if callable(plan) else plan):  # simulate() plans and renders
-            return _Prepared(echoes, n, meta, truth, rate)
+            return _Prepared(echoes, n, meta, truth, rate, lidar)
         doppler = plan_doppler(
             echoes,
             rate,
@@ -259,7 +263,22 @@ class Simulator:
             interpolator=scene.simulation.fractional_delay,
             response=self.response,
         )
-        return _Prepared(echoes, n, meta, truth, doppler)
+        return _Prepared(echoes, n, meta, truth, doppler, lidar)
+
+    def lidar_scan(self, pose: Pose, index: int = 0, motion=None) -> P.PointCloud | None:
+        """The scene's LiDAR (``sensor.lidar``) scanning from `pose` (None: the scene
+        has none); `motion`: the sensor's trajectory during the scan (None: still);
+        range noise seeded by (scene seed, `index`)."""
+        lidar = self.scene.sensor.lidar
+        if lidar is None:
+            return None
+        from acousim.trace.lidar import scan
+
+        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        seed = int(
+            np.random.SeedSequence([self.scene.simulation.seed, index, 1]).generate_state(1)[0]
+        )
+        return scan(tracer.world, tracer.caster, lidar, pose, motion=motion, seed=seed)
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
@@ -305,7 +324,7 @@ class Simulator:
         """Render the prepared echoes with the scene's noise (seeded per pose index)
         into a Recording carrying its metadata and ground truth."""
         scene = self.scene
-        echoes, n_samples, meta, truth, doppler = prep
+        echoes, n_samples, meta, truth, doppler, lidar = prep
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         rec = simulate(
@@ -323,7 +342,7 @@ class Simulator:
             metadata=meta,
             doppler=doppler,
         )
-        return dataclasses.replace(rec, truth=truth)
+        return dataclasses.replace(rec, truth=truth, lidar=lidar)
 
     def _check_points_clear(self, pose: Pose) -> None:
         """An InputError when a point reflector (where it is at the pose's time) lies

@@ -11,7 +11,9 @@ from pathlib import Path
 from processing.atomic import write_text
 
 from . import (
+    array_calibration,
     broadband,
+    calibration,
     corridor,
     dataset,
     diffraction,
@@ -37,6 +39,8 @@ SECTIONS = {
     "motion": motion,
     "diffraction": diffraction,
     "materials": materials,
+    "calibration": calibration,
+    "array_calibration": array_calibration,
     "fullwave": fullwave,
 }
 

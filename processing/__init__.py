@@ -27,6 +27,14 @@ from .broadband import (
     fan,
     sphere_partition,
 )
+from .calibration import (
+    ArrayCalibration,
+    apply_calibration,
+    attach_calibration,
+    find_echo,
+    fit_array_calibration,
+)
+from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
@@ -52,6 +60,7 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
+from .pointcloud import PointCloud
 from .recording import (
     GroundTruth,
     Recording,
@@ -116,6 +125,11 @@ __all__ = [
     "RecordingFileError",
     "GroundTruth",
     "count_recordings",
+    "write_chirp",
+    "read_chirp",
+    "is_chirp",
+    "count_chirp",
+    "PointCloud",
     "load_recording",
     "load_recordings",
     "pose_of",
@@ -132,4 +146,9 @@ __all__ = [
     "linear_chirp",
     "paper_chirp",
     "rtis_call",
+    "ArrayCalibration",
+    "apply_calibration",
+    "attach_calibration",
+    "find_echo",
+    "fit_array_calibration",
 ]

@@ -42,6 +42,7 @@ from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
 from .metadata import metadata_problem, pose_of
+from .pointcloud import PointCloud, read_point_cloud, write_point_cloud
 from .waveforms import Waveform
 
 __all__ = [
@@ -92,6 +93,8 @@ class Recording:
         JSON-serialisable: pose, scene, seed, ``simulated`` (bool), device settings...
     truth : GroundTruth, optional
         The simulated paths (None for a real recording).
+    lidar : PointCloud, optional
+        A LiDAR scan taken at the recording's pose (None: none).
     """
 
     samples: np.ndarray
@@ -102,6 +105,7 @@ class Recording:
     emission_index: int = 0
     metadata: dict = field(default_factory=dict)
     truth: GroundTruth | None = None
+    lidar: PointCloud | None = None
 
     def __repr__(self) -> str:
         shape = "x".join(str(n) for n in np.shape(self.samples))
@@ -362,6 +366,8 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
             ds = t.create_dataset(name, data=data, **kw)
             if units:
                 ds.attrs["units"] = units
+    if rec.lidar is not None:
+        write_point_cloud(g.create_group("lidar"), rec.lidar, opts["checksum"])
     # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
 
@@ -388,17 +394,29 @@ def save_recording(path: str | Path, recording: Recording, **kw) -> Path:
 # ---------------------------------------------------------------- reading
 
 
-def load_recordings(path: str | Path, *, max_bytes: int = MAX_SAMPLE_BYTES) -> list[Recording]:
+def load_recordings(
+    path: str | Path, *, max_bytes: int = MAX_SAMPLE_BYTES, call: Waveform | None = None
+) -> list[Recording]:
     """Read every recording of a file, validating every field (see :func:`load_recording`)."""
     path = Path(path)
+    if chirp := _chirp(path):
+        return chirp.read_chirp(path, call=call, max_bytes=max_bytes)
     with _open(path) as (f, version, names):
         return [_read_one(path, f["recordings"][n], version, max_bytes) for n in names]
 
 
 def load_recording(
-    path: str | Path, index: int = 0, *, max_bytes: int = MAX_SAMPLE_BYTES
+    path: str | Path,
+    index: int = 0,
+    *,
+    max_bytes: int = MAX_SAMPLE_BYTES,
+    call: Waveform | None = None,
 ) -> Recording:
     """Read recording `index` of a file (negative: from the end), and only that one.
+
+    A CHIRP file (``processing.chirp``) is read as well; `call` is the emitted call
+    for one that does not say it (ignored otherwise: a file of ours, and a CHIRP file
+    whose transmitter signal is a sweep :func:`processing.waveforms.fit_sweep` fits).
 
     Every field is checked: samples finite and at most `max_bytes` bytes (declared
     shape times item size, checked before reading), compression filters available,
@@ -406,6 +424,8 @@ def load_recording(
     truth. A problem raises :class:`RecordingFileError` naming the file and field.
     """
     path = Path(path)
+    if chirp := _chirp(path):
+        return chirp.read_chirp(path, call=call, max_bytes=max_bytes, index=index)[0]
     with _open(path) as (f, version, names):
         if not -len(names) <= index < len(names):
             raise RecordingFileError(
@@ -416,8 +436,17 @@ def load_recording(
 
 def count_recordings(path: str | Path) -> int:
     """How many recordings a file holds (without reading them)."""
+    if chirp := _chirp(Path(path)):
+        return chirp.count_chirp(path)
     with _open(Path(path)) as (_, _, names):
         return len(names)
+
+
+def _chirp(path: Path):
+    """The module :mod:`processing.chirp` if `path` is a CHIRP file, else None."""
+    from . import chirp
+
+    return chirp if chirp.is_chirp(path) else None
 
 
 @contextmanager
@@ -732,8 +761,9 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
     waveform = _waveform(path, g, fs)
     meta = _metadata(path, g)
     truth = _truth(path, g) if version >= 2 else _truth_v1(path, g, meta)
+    lidar = read_point_cloud(path, g["lidar"], RecordingFileError) if "lidar" in g else None
     try:
-        return Recording(
+        rec = Recording(
             samples=samples,
             sample_rate_hz=fs,
             array=array,
@@ -742,8 +772,12 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
             emission_index=_attr(path, g, "emission_index", int),
             metadata=meta,
             truth=truth,
+            lidar=lidar,
         )
     except (ValueError, TypeError) as exc:
         if isinstance(exc, RecordingFileError):
             raise
         raise RecordingFileError(str(exc), file=path, key=g.name) from None
+    from .calibration import on_load  # a stored array calibration, applied once
+
+    return on_load(rec, path)

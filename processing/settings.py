@@ -61,8 +61,8 @@ _KINDS = get_args(Kind)
 class Setting:
     """The declaration of one setting.
 
-    default : the value when none is given (``dataclasses.MISSING``: required; None:
-        optional, and None is then accepted as "not set").
+    default : the value when none is given (``dataclasses.MISSING``: required).
+    optional : None is accepted as "not set" (:func:`setting` with a None default).
     unit : SI unit, or a file-boundary unit in the name (``deg``), "" when unitless.
     lo, hi : allowed range, inclusive (numbers, and every element of a vector).
     choices : allowed strings (``str`` kind).
@@ -77,6 +77,7 @@ class Setting:
     doc: str = ""
     choices: tuple[str, ...] | None = None
     length: int | None = None
+    optional: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in _KINDS:
@@ -136,6 +137,7 @@ def setting(
         doc,
         None if choices is None else tuple(choices),
         length,
+        optional=default is None,
     )
     if default is dataclasses.MISSING:
         return dataclasses.field(metadata={"setting": decl})
@@ -158,7 +160,7 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         return InputError(msg, file=file, key=key, value=value)
 
     rng = f"[{_fmt(decl.lo)}, {_fmt(decl.hi)}]"
-    if value is None and decl.default is None:  # an optional setting left unset
+    if value is None and decl.optional:  # an optional setting left unset
         return None
     if decl.kind == "bool":
         if isinstance(value, bool | np.bool_):

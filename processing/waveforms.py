@@ -27,12 +27,18 @@ __all__ = [
     "rtis_call",
     "MAX_FREQUENCY_HZ",
     "MAX_DURATION_S",
+    "fit_sweep",
+    "FIT_MIN_CORRELATION",
 ]
 
 MAX_FREQUENCY_HZ = 1e9
 """Highest frequency (Hz) of a call: far above any air-borne ultrasound."""
 MAX_DURATION_S = 1e3
 """Longest call (s); the memory estimate refuses far shorter ones at a high rate."""
+
+#: :func:`fit_sweep` accepts a fit whose analytic signal correlates at least this well
+#: with the sampled call (magnitude of the normalised complex correlation)
+FIT_MIN_CORRELATION = 0.95
 
 
 @dataclass(frozen=True)
@@ -183,6 +189,67 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
         )
     f_max, f_min = presets[preset]
     return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)
+
+
+def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, float, int]:
+    """The :class:`Waveform` that best describes a sampled call, and how well.
+
+    A file may hold the emitted call only as samples (a CHIRP transmitter's
+    ``signals``). The instantaneous frequency (phase of the analytic signal) where the
+    envelope is above half its peak (the middle 80 % of that time: the analytic
+    signal rings at abrupt edges) is fitted by a line in time (``linear``) and by a
+    line in period (``hyperbolic``), the better kept; its values at the call's ends
+    give the frequencies. The call starts at its first non-zero sample or the one
+    before (a call that starts in sine phase has a zero first sample), whichever
+    correlates better; its taper is the one of 0, 0.05, ..., 0.5 that correlates
+    best. Returns ``(waveform, correlation, start)``: the magnitude of the normalised
+    complex correlation between the fit and the samples (1: the same call up to its
+    phase; callers accept it above :data:`FIT_MIN_CORRELATION`), and the sample of
+    `signal` at which the call starts (after leading zeros).
+    """
+    x = np.asarray(signal, float).reshape(-1)
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if x.size < 8 or not peak > 0 or not np.all(np.isfinite(x)):
+        raise ValueError("a call needs at least 8 finite samples, not all zero")
+    nz = np.flatnonzero(np.abs(x) > 1e-9 * peak)
+    end = int(nz[-1]) + 1
+    starts = sorted({max(int(nz[0]) - 1, 0), int(nz[0])})
+    fits = [(*_fit_from(x[s:end], float(sample_rate_hz)), s) for s in starts]
+    return max(fits, key=lambda r: r[1])
+
+
+def _fit_from(x: np.ndarray, fs: float) -> tuple[Waveform, float]:
+    """:func:`fit_sweep` for a call that starts at x[0] and ends at x[-1]."""
+    from scipy.signal import hilbert
+
+    z = hilbert(x)
+    env = np.abs(z)
+    f = np.diff(np.unwrap(np.angle(z))) * fs / (2 * np.pi)  # at (i + 0.5) / fs
+    t = (np.arange(f.size) + 0.5) / fs
+    strong = (env[:-1] > 0.5 * env.max()) & (env[1:] > 0.5 * env.max()) & (f > 0)
+    idx = np.flatnonzero(strong)  # the middle 80 % of those
+    strong[idx[: len(idx) // 10]] = strong[idx[len(idx) - len(idx) // 10 :]] = False
+    if strong.sum() < 4:
+        raise ValueError("the call is too short or too weak to fit")
+    T = x.size / fs
+    best = None
+    for kind, g, inv in (("linear", f, lambda v: v), ("hyperbolic", 1 / f, lambda v: 1 / v)):
+        coef = np.polyfit(t[strong], g[strong], 1)
+        resid = np.std(inv(np.polyval(coef, t[strong])) - f[strong])
+        if best is None or resid < best[0]:
+            best = (resid, kind, inv(np.polyval(coef, 0.0)), inv(np.polyval(coef, T)))
+    _, kind, f0, f1 = best
+    if not (f0 > 0 and f1 > 0 and np.isfinite(f0) and np.isfinite(f1)):
+        raise ValueError("the call's frequency does not follow a sweep")
+    fits = []
+    for taper in np.round(np.linspace(0, 0.5, 11), 2):
+        y = Waveform(kind, float(f0), float(f1), T, float(taper)).at(np.arange(x.size) / fs)
+        h = hilbert(y)
+        corr = abs(np.vdot(h, z)) / (np.linalg.norm(h) * np.linalg.norm(z))
+        fits.append((corr, taper, float(np.max(np.abs(y)))))
+    corr, taper, top = max(fits)
+    amplitude = float(np.max(np.abs(x))) / top if top > 0 else 1.0
+    return Waveform(kind, float(f0), float(f1), T, float(taper), amplitude), float(corr)
 
 
 @lru_cache(maxsize=16)

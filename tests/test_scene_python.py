@@ -130,7 +130,7 @@ def test_import_acousim_is_light_and_gives_the_scene_api():
 def test_every_declared_setting_is_documented():
     """Adding a setting is one line in its dataclass; its line in the format docs too."""
     from acousim.dataset import spec
-    from acousim.scene import model
+    from acousim.scene import lidar, model
     from processing.settings import settings_of
 
     docs = {
@@ -140,6 +140,7 @@ def test_every_declared_setting_is_documented():
             model.Material,
             model.PointItem,
             model.Sensor,
+            lidar.Lidar,
         ],
         "dataset-format.md": [
             spec.DatasetOptions,

@@ -22,7 +22,6 @@ import os
 import signal
 import sys
 import threading
-from typing import Any
 
 __all__ = [
     "main",
@@ -43,7 +42,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     if name in _LAZY:
         import importlib
 
@@ -54,6 +53,7 @@ def __getattr__(name: str) -> Any:
 def _commands() -> tuple:
     """The command modules, in the order `acousim --help` lists them."""
     from . import (
+        calibrate,
         compare,
         dataset,
         demo,
@@ -66,7 +66,19 @@ def _commands() -> tuple:
         simulate,
     )
 
-    return (demo, simulate, image, export, scenes, info, record, compare, dataset, reproduce)
+    return (
+        demo,
+        simulate,
+        image,
+        export,
+        scenes,
+        info,
+        record,
+        compare,
+        calibrate,
+        dataset,
+        reproduce,
+    )
 
 
 def _headless_vtk() -> None:
@@ -126,11 +138,14 @@ def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
 
 
 def run() -> None:
-    """The program's entry (the ``acousim`` command, ``python -m acousim.cli``): main(),
-    its exit code, and a Ctrl-C after the command has finished still only recorded
-    (Python's default handler, restored, would end the process by the signal while it
-    exits)."""
-    sys.exit(main(restore_sigint=False))
+    """The program's entry (the ``acousim`` command, ``python -m acousim.cli``): main()
+    and its exit code; a Ctrl-C after the command has finished changes nothing."""
+    code = main(restore_sigint=False)
+    # done: a Ctrl-C now changes nothing. Ignored rather than left to the flag handler,
+    # which the interpreter's finalisation resets to the default (a Ctrl-C in those
+    # last milliseconds ended the process by the signal, without a word)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(code)
 
 
 def _main(argv: list[str] | None, handled: bool) -> int:

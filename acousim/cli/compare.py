@@ -7,7 +7,8 @@ import argparse
 from processing.errors import InputError
 
 from .common import INDEX, UsageError, load_scene, methods, progress, writable_dir
-from .record import ARRAY_PRESETS, CALL_PRESETS
+from .image import CHIRP_CALLS
+from .record import ARRAY_PRESETS
 
 
 def register(sub) -> None:
@@ -24,12 +25,18 @@ def register(sub) -> None:
     )
     p.add_argument(
         "real",
-        help="real recording: .h5, raw tick words (.bin), or "
+        help="real recording: .h5 (ours, or a CHIRP file), raw tick words (.bin), or "
         "'rtisdev-sample' (the eRTIS sample of the rtisdev wheel)",
     )
     p.add_argument("--index", type=INDEX, default=0, help="recording in an .h5 file")
     p.add_argument("--scene", help="scene file (or a bundled scene's name) to simulate at --pose")
-    p.add_argument("--pose", type=INDEX, default=0, help="pose index in the scene")
+    p.add_argument(
+        "--pose",
+        type=INDEX,
+        default=None,
+        help="pose index in the scene (default: 0; for a CHIRP file with odometry, each "
+        "recording's own pose)",
+    )
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
     p.add_argument(
@@ -45,7 +52,10 @@ def register(sub) -> None:
         help="array of a raw .bin (default: ertis_v3d1)",
     )
     p.add_argument(
-        "--call", default="default_25_50", choices=CALL_PRESETS, help="call of a raw .bin"
+        "--call",
+        default=None,
+        choices=CHIRP_CALLS,
+        help="call of a raw .bin (default: default_25_50), or of a CHIRP file that does not say it",
     )
     p.add_argument(
         "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
@@ -72,7 +82,12 @@ def _pairs(args: argparse.Namespace):
         c = sims[0].speed_of_sound_m_s
     reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
     if args.scene:
-        return pair_with_scene(reals, scene, every=args.all, index=args.index, pose=args.pose)
+        recorded = (
+            args.pose is None and P.is_chirp(args.real) and all("pose" in r.metadata for r in reals)
+        )
+        return pair_with_scene(
+            reals, scene, every=args.all, index=args.index, pose=args.pose or 0, recorded=recorded
+        )
     return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
 
 

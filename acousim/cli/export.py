@@ -14,16 +14,29 @@ def register(sub) -> None:
     p = sub.add_parser(
         "export",
         formatter_class=DeclaredHelp,
-        help="write recordings and their images to a ROS 2 bag (MCAP)",
-        description="Image recordings and write a rosbag2 folder (MCAP storage) "
-        "with the raw samples (std_msgs/Float32MultiArray), the image peaks "
-        "(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor "
-        "pose (/tf) and the sensor's description (std_msgs/String, JSON). Needs "
-        "the rosbags package (pip install 'acousim[ros]'); no ROS installation. "
-        "Layout: docs/export.md.",
+        help="write recordings to a ROS 2 bag (MCAP) or a CHIRP file",
+        description="--format rosbag (default): image recordings and write a rosbag2 "
+        "folder (MCAP storage) with the raw samples (std_msgs/Float32MultiArray), the "
+        "image peaks and LiDAR scans (sensor_msgs/PointCloud2), the fan image "
+        "(sensor_msgs/Image), the sensor pose (/tf) and the sensor's description "
+        "(std_msgs/String, JSON); needs the rosbags package (pip install "
+        "'acousim[ros]'), no ROS installation. --format chirp: write the recordings "
+        "as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by their chirppy): "
+        "signals, array, call, times, poses, LiDAR scans and our ground truth; the "
+        "imaging options do not apply. Layout: docs/export.md.",
     )
     imaging_arguments(p)
-    p.add_argument("--out", required=True, help="bag folder to create (must not exist)")
+    p.add_argument(
+        "--format",
+        choices=("rosbag", "chirp"),
+        default="rosbag",
+        help="rosbag (default) or chirp",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write",
+    )
     p.add_argument(
         "--image-method",
         default=None,
@@ -34,6 +47,8 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
+    if args.format == "chirp":
+        return _chirp(args, out)
     if out.exists():
         raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
     writable_dir(out.parent)
@@ -56,4 +71,19 @@ def run(args: argparse.Namespace) -> int:
         threshold_db=options.peak_threshold_db,
     )
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
+    return 0
+
+
+def _chirp(args: argparse.Namespace, out: Path) -> int:
+    import processing as P
+
+    if out.is_dir():
+        raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
+    writable_dir(out.parent if str(out.parent) else Path("."))
+    recs, _, _, _ = load_and_image(args)  # the images are not made
+    try:
+        P.write_chirp(out, recs)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    print(f"{len(recs)} recording(s) written to the CHIRP file {out}")
     return 0

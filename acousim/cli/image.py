@@ -13,7 +13,7 @@ IMAGING = "acousim.imaging:ImagingOptions"
 
 def imaging_arguments(p: argparse.ArgumentParser) -> None:
     """Options shared by `image` and `export`."""
-    p.add_argument("file", help="recording file (.h5)")
+    p.add_argument("file", help="recording file (.h5: ours, or a CHIRP file)")
     p.add_argument(
         "--method",
         default="das,capon-fbss,music-fbss",
@@ -27,6 +27,25 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
     add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
     add_declared(p, "--peak-threshold", IMAGING, "peak_threshold_db")
+    p.add_argument(
+        "--call",
+        choices=CHIRP_CALLS,
+        help="the emitted call of a CHIRP file that does not say it (no transmitter "
+        "signal, or one that is not a sweep): an RTIS preset or 'paper' (ignored otherwise)",
+    )
+
+
+#: calls a CHIRP file may be read with (--call): the RTIS presets and the paper's chirp
+CHIRP_CALLS = ("default_20_80", "default_25_50", "paper")
+
+
+def call_waveform(name: str | None):
+    """The Waveform of a --call name (None: None)."""
+    import processing as P
+
+    if name is None:
+        return None
+    return P.paper_chirp() if name == "paper" else P.rtis_call(name)
 
 
 def load_and_image(args: argparse.Namespace):
@@ -62,7 +81,8 @@ def load_and_image(args: argparse.Namespace):
             if bad:
                 raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
         index = list(range(n)) if index is None else index
-        recs = [P.load_recording(args.file, i) for i in index]  # only those asked for
+        call = call_waveform(args.call)
+        recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
     return recs, index, options, lambda: image_recordings(recs, options, progress("image"))

@@ -40,6 +40,7 @@ from .spec import DatasetSpec, load_spec
 __all__ = [
     "sample_parameters",
     "make_sample",
+    "simulate_sample",
     "write_shard",
     "generate",
     "shard_name",
@@ -216,19 +217,26 @@ def _varied_scene(params: dict, spec: DatasetSpec):
     return dataclasses.replace(scene, environment=env, simulation=sim, meshes=meshes)
 
 
-def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
-    """(arrays, parameters) of sample i.
-
-    The parameters gain ``frequency_hz`` (the steering frequency of the snapshot and
-    images), ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
-    """
+def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
+    """(recording, parameters, varied scene, pose) of sample i; `n_samples`: the
+    recording's length (default: the scene's maximum range in the sample's air)."""
     from acousim.simulator import Simulator
 
     params = sample_parameters(spec, i)
     scene = _varied_scene(params, spec)
     pose = _pose(params["pose"])
     sim = Simulator(scene, threads=1)
-    rec = sim.simulate_pose(pose, 0, motion=_motion(pose, params["conditions"]))
+    motion = _motion(pose, params["conditions"])
+    return sim.simulate_pose(pose, 0, n_samples=n_samples, motion=motion), params, scene, pose
+
+
+def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
+    """(arrays, parameters) of sample i.
+
+    The parameters gain ``frequency_hz`` (the steering frequency of the snapshot and
+    images), ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
+    """
+    rec, params, scene, pose = simulate_sample(spec, i)
     st = spec.store
     arrays: dict[str, np.ndarray] = {}
     if st.raw:
@@ -329,6 +337,27 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
     final = out / shard_name(k)
     records = []
     t0 = time.perf_counter()
+    if spec.format == "chirp":
+        from .chirp_shards import write_chirp_shard
+
+        records, digest, size = write_chirp_shard(spec, k, lo, hi, final)
+    else:
+        records, digest, size = _write_acousim_shard(spec, k, lo, hi, final)
+    side = {
+        "shard": k,
+        "file": final.name,
+        "sha256": digest,
+        "samples": records,
+        "seconds": time.perf_counter() - t0,
+        "bytes": size,
+    }
+    write_text(out / f"{final.stem}.json", json.dumps(side, sort_keys=True))
+    return side
+
+
+def _write_acousim_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Path):
+    """Shard k in our format (docs/dataset-format.md): (records, sha256, bytes)."""
+    records = []
     with atomic_path(final) as tmp:
         arrays_seen: dict[str, P.Array] = {}
         with h5py.File(tmp, "w", track_order=True, libver="latest") as f:
@@ -360,16 +389,7 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
                 _dataset(a, "emitter_m", array.emitter_m, None).attrs["units"] = b"m"
         digest = hashlib.sha256(tmp.read_bytes()).hexdigest()
         size = tmp.stat().st_size
-    side = {
-        "shard": k,
-        "file": final.name,
-        "sha256": digest,
-        "samples": records,
-        "seconds": time.perf_counter() - t0,
-        "bytes": size,
-    }
-    write_text(out / f"{final.stem}.json", json.dumps(side, sort_keys=True))
-    return side
+    return records, digest, size
 
 
 def _dataset(parent: h5py.Group, name: str, a: np.ndarray, compression) -> h5py.Dataset:
@@ -560,6 +580,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
         "spec_sha256": spec.sha256,
         "samples": len(samples),
         "shard_size": spec.shard_size,
+        "shard_format": spec.format,
         "shards": [
             {
                 "file": s["file"],

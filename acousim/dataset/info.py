@@ -33,11 +33,30 @@ def describe(path: str | Path) -> list[str]:
     return _recordings(path)
 
 
+def _chirp(path: Path) -> list[str]:
+    """A CHIRP file's header: version, captures and sensors."""
+    with h5py.File(path, "r") as f:
+        sensors = f.get("sensors", {})
+        kinds = [f"{k} ({sensors[k].attrs.get('sensor_type', '?')})" for k in sensors]
+        return [
+            f"{path}: CHIRP file, format {f.attrs.get('format_version', '?')}, "
+            f"{f.attrs.get('n_reference_captures', '?')} capture(s); sensors: "
+            + (", ".join(kinds) or "none")
+            + ("; acousim group (ground truth, metadata)" if "acousim" in f else "")
+        ]
+
+
 def _recordings(path: Path) -> list[str]:
     n = P.count_recordings(path)
-    lines = [f"{path}: {n} recording(s)"]
+    lines = _chirp(path) if P.is_chirp(path) else []
+    lines.append(f"{path}: {n} recording(s)")
     for i in range(n):
-        r = P.load_recording(path, i)
+        try:
+            r = P.load_recording(path, i)
+        except P.RecordingFileError as exc:
+            if not P.is_chirp(path):
+                raise
+            return [*lines, f"  its recordings cannot be read: {exc.reason} ({exc.key})"]
         kind = "simulated" if r.metadata.get("simulated") else "real"
         where = ""
         p = P.pose_of(r.metadata)
@@ -45,6 +64,8 @@ def _recordings(path: Path) -> list[str]:
             yaw = p["yaw_deg"]
             where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {yaw:.1f}°"
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
+        if r.lidar is not None:
+            truth += f", LiDAR {r.lidar.name} scan of {len(r.lidar)} points"
         lines.append(
             f"  [{i}] {kind}, array {r.array.name} ({r.array.n_mics} mics), "
             f"{r.n_measurements} measurement(s) x {r.n_samples} samples at "

@@ -98,12 +98,18 @@ class DatasetReader:
             self._files[name] = h5py.File(self._shard_path(name), "r")
         return self._files[name]
 
+    def _images(self) -> None:
+        if self.manifest.get("shard_format") == "chirp":
+            raise DatasetError("CHIRP shards hold no images, so no image axes", file=self.folder)
+
     @property
     def azimuth_deg(self) -> np.ndarray:
+        self._images()
         return self._file(next(iter(self._hashes)))["axes/azimuth_deg"][()]
 
     @property
     def elevation_deg(self) -> np.ndarray:
+        self._images()
         return self._file(next(iter(self._hashes)))["axes/elevation_deg"][()]
 
     def __getitem__(self, i: int) -> dict:
@@ -111,6 +117,8 @@ class DatasetReader:
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
         rec = self._table[i]
         name = f"shard_{rec['shard']:05d}.h5"
+        if self.manifest.get("shard_format") == "chirp":
+            return self._chirp_sample(name, rec["offset"])
         g = self._file(name)[f"{rec['offset']:05d}"]
         raw = g.attrs["params"]
         out: dict = {"params": json.loads(raw.decode() if isinstance(raw, bytes) else raw)}
@@ -129,13 +137,34 @@ class DatasetReader:
         g.visititems(visit)
         return out
 
+    def _chirp_sample(self, name: str, offset: int) -> dict:
+        """A sample of a CHIRP shard (``[dataset] format = "chirp"``): its parameters,
+        ``raw`` (M, T), the ``labels/...`` of the ground truth and, with a LiDAR,
+        ``lidar/points_m`` (P, 3, LiDAR frame) and ``lidar/intensity`` (P,)."""
+        import processing as P
+
+        if self.verify_on_open and name not in self._files:
+            self._check(name)
+            self._files[name] = None  # checked once; read through processing
+        r = P.load_recording(self._shard_path(name), offset)
+        out = {"params": r.metadata.get("sample", {}), "raw": r.samples}
+        if r.truth is not None:
+            out["labels/position_sensor_m"] = r.truth.position_sensor_m.astype(np.float32)
+            out["labels/amplitude"] = r.truth.amplitude.astype(np.float32)
+            out["labels/order"] = r.truth.order.astype(np.int8)
+        if r.lidar is not None:
+            out["lidar/points_m"] = r.lidar.points_m.astype(np.float32)
+            out["lidar/intensity"] = r.lidar.intensity.astype(np.float32)
+        return out
+
     def __iter__(self) -> Iterator[dict]:
         for i in range(len(self)):
             yield self[i]
 
     def close(self) -> None:
         for f in self._files.values():
-            f.close()
+            if f is not None:
+                f.close()
         self._files.clear()
 
     def torch(self, keys: tuple[str, ...] = ("image/das", "labels/depth_m")) -> TorchAdapter:

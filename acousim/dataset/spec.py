@@ -18,7 +18,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 import processing as P
 from processing.errors import InputError
@@ -43,6 +43,9 @@ __all__ = [
     "RANDOMIZE",
     "load_spec",
 ]
+
+
+ShardFormat = Literal["acousim", "chirp"]
 
 
 class SpecError(InputError):
@@ -168,6 +171,12 @@ class DatasetOptions:
     shard_size: int = setting(64, "", 1, 10**6, "samples per HDF5 shard")
     seed: int = setting(0, "", 0, 2**63 - 1, "sample i draws from SeedSequence([seed, i])")
     compression: str = setting("gzip", choices=("gzip", "lzf", "none"), doc="HDF5 filter")
+    format: ShardFormat = setting(
+        "acousim",
+        choices=get_args(ShardFormat),
+        doc="shards: acousim (images, snapshots, labels) or chirp (CHIRP files: the "
+        "recordings, ground truth and LiDAR scans; [store] does not apply)",
+    )
 
     def __post_init__(self) -> None:
         validate(self)
@@ -185,10 +194,16 @@ class DatasetSpec:
     source: str
     sha256: str
     compression: str | None = "gzip"
+    format: ShardFormat = "acousim"
 
     def __post_init__(self) -> None:
         DatasetOptions(
-            self.name, self.samples, self.shard_size, self.seed, self.compression or "none"
+            self.name,
+            self.samples,
+            self.shard_size,
+            self.seed,
+            self.compression or "none",
+            self.format,
         )
         if not self.scenes:
             raise SpecError("needs at least one [[scenes]] table", file=self.source, key="scenes")
@@ -300,4 +315,5 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         source=src,
         sha256=sha256,
         compression=None if opts.compression == "none" else opts.compression,
+        format=opts.format,
     )

@@ -5,7 +5,10 @@
 - :func:`write_peaks_csv` : the image peaks, one row each, as CSV;
 - :func:`write_rosbag` : a rosbag2 (MCAP) with the raw recordings, the peaks as
   ``sensor_msgs/PointCloud2``, the fan image as ``sensor_msgs/Image`` and the
-  sensor pose as TF (needs the ``rosbags`` package: ``pip install 'acousim[ros]'``).
+  sensor pose as TF, the LiDAR scans as ``sensor_msgs/PointCloud2``
+  (:mod:`acousim.export.lidar_cloud`; needs the ``rosbags`` package:
+  ``pip install 'acousim[ros]'``);
+- CHIRP files (Cosys-Lab's dataset format) are :func:`processing.write_chirp`.
 
 The layouts are documented in ``docs/export.md``.
 """

@@ -23,6 +23,9 @@ topic                         type                             content
                                                                re strongest; NaN = no
                                                                data; row 0 = farthest
 ``/tf``                       ``tf2_msgs/msg/TFMessage``       world -> sensor pose
+``/acousim/lidar``            ``sensor_msgs/msg/PointCloud2``  the LiDAR scan (only
+                                                               recordings with one;
+                                                               ``lidar_cloud``)
 ============================  ===============================  =====================
 
 Time stamps: a real recording's ``timestamp`` (Unix time), else the pose's
@@ -131,6 +134,8 @@ def write_rosbag(
             def put(key: str, msg, stamp: int) -> None:
                 w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
 
+            scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
+
             for idx, rec, imgs in zip(indices, recordings, images):
                 interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
                 ns = recording_time_ns(rec, idx)
@@ -147,6 +152,7 @@ def write_rosbag(
                 put("peaks", _cloud_msg(T, header, sensor, pk), ns)
                 put("fan", _image_msg(T, header, raster.db), ns)
                 put("tf", _tf_msg(T, header, _pose(rec)), ns)
+                scans(rec, header, ns)
         _rename_unless_interrupted(bag, path)
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -164,6 +170,23 @@ def _rename_unless_interrupted(bag: Path, path: Path) -> None:
         bag.rename(path)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+def _lidar_writer(w, store, recordings):
+    """A function writing a recording's LiDAR scan (:mod:`acousim.export.lidar_cloud`)
+    to ``/acousim/lidar``; the topic exists only when some recording has a scan."""
+    from .lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
+
+    if all(r.lidar is None for r in recordings):
+        return lambda rec, header, ns: None
+    conn = w.add_connection(*LIDAR_TOPIC, typestore=store)
+
+    def write(rec: P.Recording, header, ns: int) -> None:
+        if rec.lidar is not None:
+            msg = lidar_cloud_msg(store.types, header, rec.lidar)
+            w.write(conn, ns, store.serialize_cdr(msg, LIDAR_TOPIC[1]))
+
+    return write
 
 
 def _fan_range(img: P.Image) -> float:

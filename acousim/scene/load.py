@@ -11,6 +11,7 @@ call, pose and trajectory, a mesh's placement) are listed in :data:`EXTRA_KEYS`.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import tomllib
@@ -23,6 +24,7 @@ import processing as P
 from processing.errors import InputError
 from processing.settings import Setting, check, read_table, refuse_unknown, settings_of
 
+from .lidar import LIDAR_PRESETS, PRESET, Lidar
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
 from .pose import MAX_COORDINATE_M, Pose, rotation
 from .trajectory import CONTINUOUS, RATES, Trajectory
@@ -47,6 +49,7 @@ EXTRA_KEYS: dict[str, set[str]] = {
         "call",
         "pose",
         "trajectory",
+        "lidar",
     },
     "sensor.call": {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper"},
     "sensor.pose": {"position_m", "yaw_deg", "pitch_deg", "roll_deg", *RATES},
@@ -297,8 +300,24 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         )
     poses, rate = _poses(r, s, base)
     return Sensor(
-        array=array, call=wf, poses=poses, rate_hz=rate, motion=_motion(r, s, poses), **declared
+        array=array,
+        call=wf,
+        poses=poses,
+        rate_hz=rate,
+        motion=_motion(r, s, poses),
+        lidar=_lidar(r, s),
+        **declared,
     )
+
+
+def _lidar(r: _Reader, s: dict) -> Lidar | None:
+    """``[sensor.lidar]``: a preset, any of whose declared settings the table overrides."""
+    if "lidar" not in s:
+        return None
+    t = r.table(s, "lidar", "sensor")
+    preset = r._check(PRESET, t.get("preset", PRESET.default), "sensor.lidar.preset")
+    changed = r.settings(Lidar, t, "sensor.lidar", extra={"preset"})
+    return dataclasses.replace(LIDAR_PRESETS[preset], **changed)
 
 
 def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):

@@ -507,9 +507,16 @@ class Sensor:
     #: whose rates are declared in ``acousim.scene.trajectory.RATES``); None: every pose
     #: is frozen for its measurement
     motion: Any = None
+    #: a LiDAR beside the sonar (:class:`acousim.scene.lidar.Lidar`), scanning at
+    #: every pose; None: none
+    lidar: Any = None
 
     def __post_init__(self) -> None:
         validate(self)
+        from .lidar import Lidar
+
+        if self.lidar is not None and not isinstance(self.lidar, Lidar):
+            raise InputError("must be None or an acousim.scene.lidar.Lidar", key="Sensor.lidar")
         if not isinstance(self.array, Array):
             raise InputError("must be a processing.Array", key="Sensor.array", value=self.array)
         if not isinstance(self.call, Waveform):

@@ -42,6 +42,7 @@ WEDGE_LENGTH_M = 1.5
 
 
 MOVING_COLOR = (0.45, 0.35, 0.7)  # meshes that move (a person, a robot): violet
+LIDAR_COLOR = (0.15, 0.6, 0.2)  # the LiDAR's points: green
 
 
 def _polydata(pv, triangles: np.ndarray):
@@ -113,6 +114,7 @@ class SceneRenderer:
     with_truth : list the ray-traced reflectors in the legend.
     with_sweep : list the sensor's sweep during the measurement in the legend.
     with_moving : list the moving meshes (drawn per frame) in the legend.
+    with_lidar : list the LiDAR's points in the legend.
     """
 
     def __init__(
@@ -122,6 +124,7 @@ class SceneRenderer:
         with_truth: bool = True,
         with_sweep: bool = False,
         with_moving: bool = False,
+        with_lidar: bool = False,
     ) -> None:
         self.pv = pv = _pv()
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
@@ -141,6 +144,8 @@ class SceneRenderer:
             entries.append(["moving meshes, at the emission", MOVING_COLOR])
         if with_truth:
             entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
+        if with_lidar:
+            entries.append(["LiDAR points", LIDAR_COLOR])
         self.plotter.add_legend(
             entries,
             bcolor="white",
@@ -162,6 +167,7 @@ class SceneRenderer:
         truth_range_db: float = 30.0,
         sweep: tuple[np.ndarray, np.ndarray] | None = None,
         moving_triangles: np.ndarray | None = None,
+        lidar: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render one frame: (H, W, 3) uint8.
 
@@ -175,6 +181,7 @@ class SceneRenderer:
             (:func:`sensor_sweep`): drawn as fading axes and the wedge they sweep.
         moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they
             are in this frame.
+        lidar : (P, 3) world-frame points of the LiDAR's scan (small dots).
         """
         pv, plotter = self.pv, self.plotter
         for actor in self._actors:
@@ -206,6 +213,15 @@ class SceneRenderer:
                     scale="diameter", orient=False, geom=pv.Sphere(radius=0.5, theta_resolution=10)
                 )
                 self._actors.append(plotter.add_mesh(glyphs, color=TRUTH_COLOR, render=False))
+        if lidar is not None and len(lidar):
+            self._actors.append(
+                plotter.add_mesh(
+                    pv.PolyData(np.asarray(lidar, float).reshape(-1, 3)),
+                    color=LIDAR_COLOR,
+                    point_size=3,
+                    render=False,
+                )
+            )
         if peaks is not None and len(peaks):
             self._actors.append(
                 plotter.add_mesh(
@@ -218,7 +234,7 @@ class SceneRenderer:
             )
         self._actors.append(self._scale_bar(pos, axis))
         if not self.has_mesh:
-            drawn = [np.asarray(q, float).reshape(-1, 3) for q in (peaks,) if q is not None]
+            drawn = [np.asarray(q, float).reshape(-1, 3) for q in (peaks, lidar) if q is not None]
             if truth is not None and len(truth):
                 drawn.append(t[keep])
             self._fit_camera(pos, axis, drawn)
@@ -324,6 +340,7 @@ def render_scene(
     truth_level_db: np.ndarray | None = None,
     sweep: tuple[np.ndarray, np.ndarray] | None = None,
     moving_triangles: np.ndarray | None = None,
+    lidar: np.ndarray | None = None,
 ) -> np.ndarray:
     """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
     (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
@@ -333,6 +350,7 @@ def render_scene(
         with_truth=truth is not None,
         with_sweep=sweep is not None,
         with_moving=moving_triangles is not None,
+        with_lidar=lidar is not None,
     )
     try:
         image = renderer.frame(
@@ -344,6 +362,7 @@ def render_scene(
             truth_level_db=truth_level_db,
             sweep=sweep,
             moving_triangles=moving_triangles,
+            lidar=lidar,
         )
     finally:
         renderer.close()

@@ -1,0 +1,168 @@
+"""The fit: robust least squares on log energies, with the exact Jacobian.
+
+For pose p, band b, direction d and range bin r the model's energy is
+
+``E = L sum_{t in r} |z0_bd(t) + sum_G w_Gb(theta) z_Gbd(t)|^2 + s_p N_br``
+
+(z: a group's envelope at its traced gains, w its gain factor (:mod:`.parameters`),
+z0 the direct path's (fixed: what of it leaks past the gate),
+L an overall level (1 unless fitted), s_p the noise variance of recording p and
+N_br the noise energy a unit variance leaves in that bin, :class:`.FeatureSpace`).
+The residual is ``log E - log E_measured``: a bin 3 dB off counts the same at every
+range, whether the echo is loud or the tail is faint.  Its derivatives:
+
+``dE/dw_Gb = 2 L Re sum_t conj(y_bd(t)) z_Gbd(t)``, ``dw_Gb/dtheta = w_Gb dlog w_Gb/dtheta``
+
+and ``dlog E / dlog s_p = s_p N / E``, ``dlog E / dlog L = 1 - s_p N / E``.  Every
+evaluation costs one weighted sum of the stored envelopes per pose (and one
+correlation per group for the Jacobian): no tracing, no rendering.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .features import FeatureSpace
+from .groups import PoseGroups
+from .parameters import ParameterSet
+
+__all__ = ["Problem", "Solution", "solve", "robust_cost"]
+
+
+def robust_cost(r: np.ndarray, loss: str, scale: float) -> float:
+    """The cost :func:`scipy.optimize.least_squares` minimises:
+    ``0.5 C^2 sum rho((r / C)^2)``."""
+    z = (np.asarray(r) / scale) ** 2
+    rho = {
+        "linear": lambda: z,
+        "soft_l1": lambda: 2 * (np.sqrt(1 + z) - 1),
+        "huber": lambda: np.where(z <= 1, z, 2 * np.sqrt(z) - 1),
+        "cauchy": lambda: np.log1p(z),
+        "arctan": lambda: np.arctan(z),
+    }[loss]()
+    return float(0.5 * scale**2 * np.sum(rho))
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Everything a fit evaluates: the parameters, the feature space, and per pose
+    its groups and measured energies (B, D, R)."""
+
+    parameters: ParameterSet
+    space: FeatureSpace
+    groups: tuple[PoseGroups, ...]
+    measured: tuple[np.ndarray, ...]
+    log_reference: np.ndarray
+    fit_level: bool = False
+
+    @property
+    def n_materials(self) -> int:
+        return len(self.parameters.layout())
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """(material parameters, log noise variances (poses,), log level)."""
+        P, K = self.n_materials, len(self.groups)
+        return x[:P], x[P : P + K], (x[P + K] if self.fit_level else 0.0)
+
+    def start(self) -> np.ndarray:
+        theta = self.parameters.start()
+        # noise: the quietest tenth of the bins, as if they held noise alone
+        noise = [
+            np.log(np.quantile(m / self.space.noise_unit[:, None, :], 0.1) + 1e-300)
+            for m in self.measured
+        ]
+        return np.concatenate([theta, noise, [0.0] if self.fit_level else []])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self.parameters.bounds()
+        k = len(self.groups) + int(self.fit_level)
+        return np.concatenate([lo, np.full(k, -np.inf)]), np.concatenate([hi, np.full(k, np.inf)])
+
+    def model(self, x: np.ndarray, jacobian: bool = False):
+        """Model energies per pose (B, D, R) and, with `jacobian`, d log E / dx per
+        pose (B, D, R, len(x))."""
+        theta, log_noise, log_level = self.unpack(x)
+        logs, grad = self.parameters.log_gains(theta)  # (B, C), (B, C, P)
+        logs = logs - self.log_reference
+        level = np.exp(log_level)
+        energies, jacs = [], []
+        unit = self.space.noise_unit
+        for p, g in enumerate(self.groups):
+            logw = np.einsum("gc,bc->gb", g.counts, logs)  # (G, B)
+            w = np.exp(logw).astype(np.complex64)
+            y = np.einsum("gb,gbdt->bdt", w, g.envelopes) + g.direct_envelopes
+            echo = self.space.energies(y)
+            noise = np.exp(log_noise[p]) * unit[:, None, :]
+            E = level * echo + noise
+            energies.append(E)
+            if not jacobian:
+                continue
+            J = np.zeros((*E.shape, x.size))
+            # dE/dw (G, B, D, R), then through w to the material parameters
+            dEdw = 2 * self.space.bin_sums(np.real(np.conj(y)[None] * g.envelopes))
+            dlogw = np.einsum("gc,bcp->gbp", g.counts, grad)  # (G, B, P)
+            dw = np.exp(logw)[..., None] * dlogw
+            J[..., : theta.size] = level * np.einsum("gbdr,gbp->bdrp", dEdw, dw) / E[..., None]
+            J[..., theta.size + p] = noise / E
+            if self.fit_level:
+                J[..., -1] = level * echo / E
+            jacs.append(J)
+        return (energies, jacs) if jacobian else energies
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return np.concatenate(
+            [np.log(E).ravel() - np.log(m).ravel() for E, m in zip(self.model(x), self.measured)]
+        )
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        _, jacs = self.model(x, jacobian=True)
+        return np.concatenate([J.reshape(-1, x.size) for J in jacs])
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """x : the fitted vector; sigma : its one-sigma uncertainties (from the robust
+    Gauss-Newton Hessian at the solution, scaled by the residuals' spread; bins are
+    treated as independent, which beams that overlap are not: a lower bound);
+    start : the start; evaluations; cost_start, cost : the robust costs; status :
+    the solver's message."""
+
+    x: np.ndarray
+    sigma: np.ndarray
+    start: np.ndarray
+    evaluations: int
+    cost_start: float
+    cost: float
+    status: str
+
+
+def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: int) -> Solution:
+    """Fit `problem` (:func:`scipy.optimize.least_squares`, trust-region reflective
+    within the parameters' bounds, the analytic Jacobian)."""
+    x0 = problem.start()
+    lo, hi = problem.bounds()
+    x0 = np.clip(x0, lo, hi)
+    res = least_squares(
+        problem.residuals,
+        x0,
+        jac=problem.jacobian,
+        bounds=(lo, hi),
+        loss=loss,
+        f_scale=loss_scale,
+        max_nfev=max_evaluations,
+        x_scale="jac",
+        method="trf",
+    )
+    rho0 = robust_cost(problem.residuals(x0), loss, loss_scale)
+    J = res.jac
+    dof = max(res.fun.size - x0.size, 1)
+    s2 = 2 * res.cost / dof
+    try:
+        cov = np.linalg.pinv(J.T @ J) * s2
+        sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:  # pragma: no cover
+        sigma = np.full(x0.size, np.nan)
+    return Solution(res.x, sigma, x0, int(res.nfev), float(rho0), float(res.cost), res.message)

@@ -1,0 +1,340 @@
+"""``calibrate(scene, recordings)``: fit a scene's materials to recordings of it.
+
+1. The recordings are checked against the scene's sensor (sample rate, array).
+2. The scene is traced once per recording's pose with the fitted materials counted,
+   each group of paths rendered once and reduced to band envelopes (:mod:`.groups`,
+   :mod:`.features`).
+3. Each recording is shifted onto the simulation (its direct path's lag,
+   :func:`acousim.compare.align`; reported) and reduced to energies per band,
+   direction and range bin.
+4. Robust least squares (:mod:`.fit`) from the scene's values.
+5. The result: the fitted materials with their uncertainties, the residual per
+   range bin before and after, and the bins the fitted scene still cannot explain
+   (echoes the scene lacks: reported, their weight kept small by the robust loss).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+import processing as P
+from acousim.scene.model import Material, Scene
+from processing.errors import InputError
+
+from .features import FeatureSpace
+from .fit import Problem, Solution, solve
+from .groups import GroupModel
+from .parameters import MaterialFit, ParameterSet
+from .settings import CalibrationSettings
+
+__all__ = ["calibrate", "Calibration", "FittedParameter", "Unexplained", "DB_PER_NEPER"]
+
+DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
+UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and 10 dB above noise
+MAX_UNEXPLAINED = 20
+
+
+@dataclass(frozen=True)
+class FittedParameter:
+    """One fitted number: ``name`` (``material.reflection[@f kHz]``), start, value,
+    sigma (one standard deviation)."""
+
+    name: str
+    start: float
+    value: float
+    sigma: float
+
+
+@dataclass(frozen=True)
+class Unexplained:
+    """A bin the fitted scene leaves well below the recording: an echo the scene
+    lacks (or a model error).  pose (the recording's index), range_m, azimuth_deg,
+    elevation_deg, excess_db (recording over model)."""
+
+    recording: int
+    range_m: float
+    azimuth_deg: float
+    elevation_deg: float
+    excess_db: float
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """What :func:`calibrate` found.
+
+    parameters : every fitted number; materials : {name: fitted Material};
+    material_sigma : {name: (sigma of reflection, sigma of diffuse)} (arrays for
+    tables); range_m (R,) and residual_db_before, residual_db_after (R,): the rms of
+    the log-energy residual per range bin over recordings, bands and directions;
+    rms_db_before, rms_db_after: over every bin; lag_samples (per recording):
+    the shift applied to the simulation to align it; noise_db (per recording): the
+    fitted noise variance (dB re 1); level_db: the fitted overall level (0 unless
+    fitted); unexplained: bins the fit leaves under the recording; solution: the
+    solver's numbers; seconds: the whole call's time.
+    """
+
+    parameters: tuple[FittedParameter, ...]
+    materials: dict[str, Material]
+    material_sigma: dict[str, tuple]
+    range_m: np.ndarray
+    residual_db_before: np.ndarray
+    residual_db_after: np.ndarray
+    rms_db_before: float
+    rms_db_after: float
+    lag_samples: tuple[float, ...]
+    noise_db: tuple[float, ...]
+    level_db: float
+    unexplained: tuple[Unexplained, ...]
+    solution: Solution
+    seconds: float
+    seconds_fit: float = 0.0
+
+    def to_dict(self) -> dict:
+        """Every number of the report (JSON-ready)."""
+        return {
+            "parameters": [dataclasses.asdict(p) for p in self.parameters],
+            "rms_db_before": self.rms_db_before,
+            "rms_db_after": self.rms_db_after,
+            "range_m": self.range_m.tolist(),
+            "residual_db_before": self.residual_db_before.tolist(),
+            "residual_db_after": self.residual_db_after.tolist(),
+            "lag_samples": list(self.lag_samples),
+            "noise_db": list(self.noise_db),
+            "level_db": self.level_db,
+            "unexplained": [dataclasses.asdict(u) for u in self.unexplained],
+            "evaluations": self.solution.evaluations,
+            "status": self.solution.status,
+            "seconds": self.seconds,
+            "seconds_fit": self.seconds_fit,
+        }
+
+    def to_json(self) -> str:
+        import json
+
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
+    def summary(self) -> str:
+        """A human-readable report."""
+        lines = [
+            f"residual (rms log energy): {self.rms_db_before:.2f} dB -> {self.rms_db_after:.2f} "
+            f"dB in {self.solution.evaluations} evaluations, {self.seconds:.1f} s "
+            f"({self.seconds_fit:.2f} s of them fitting)",
+            "parameter                           start    fitted   +- sigma",
+        ]
+        lines += [
+            f"{p.name:<34} {p.start:7.3f}  {p.value:7.3f}  {p.sigma:7.3f}" for p in self.parameters
+        ]
+        lines.append("range_m  residual before -> after (dB)")
+        lines += [
+            f"{r:6.2f}   {a:6.2f} -> {b:6.2f}"
+            for r, a, b in zip(self.range_m, self.residual_db_before, self.residual_db_after)
+        ]
+        if self.unexplained:
+            lines.append("unexplained (recording above the fitted scene):")
+            lines += [
+                f"  recording {u.recording} at {u.range_m:.2f} m, az {u.azimuth_deg:+.0f} deg, "
+                f"el {u.elevation_deg:+.0f} deg: +{u.excess_db:.1f} dB"
+                for u in self.unexplained
+            ]
+        return "\n".join(lines)
+
+
+def _check(scene: Scene, recs: Sequence[P.Recording], poses: Sequence[int]) -> None:
+    if not recs:
+        raise InputError("no recording to calibrate against", key="recordings")
+    if len(poses) != len(recs):
+        raise InputError(
+            f"{len(recs)} recording(s) but {len(poses)} pose(s)", key="poses", value=list(poses)
+        )
+    s = scene.sensor
+    for i, r in enumerate(recs):
+        if r.sample_rate_hz != s.sample_rate_hz or r.array.n_mics != s.array.n_mics:
+            raise InputError(
+                f"recording {i} ({r.array.n_mics} mics at {r.sample_rate_hz:g} Hz) does not "
+                f"match the scene's sensor ({s.array.n_mics} at {s.sample_rate_hz:g} Hz)",
+                file=scene.source,
+            )
+        if r.n_samples != recs[0].n_samples or r.emission_index != recs[0].emission_index:
+            raise InputError(
+                "recordings of different lengths or emission indices", key="recordings"
+            )
+
+
+def _used_materials(scene: Scene) -> list[str]:
+    names = []
+    for item in scene.meshes:
+        for m in (item.material, *item.materials.values()):
+            if m.name not in names:
+                names.append(m.name)
+    return names
+
+
+def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.ndarray, float]:
+    """A recording's energies (B, D, R) after aligning it on the start model."""
+    from acousim.compare import _shift
+    from acousim.compare import align as align_lag
+
+    x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
+    lag = 0.0
+    if align:
+        sim = rec.with_samples(groups_signal + sim_direct)
+        lag = align_lag(rec, sim)[0]
+        x = _shift(x, -lag)
+    return space.energies(space.envelopes(x)), lag
+
+
+def _observe(model: GroupModel, params, space, recs, poses, align: bool):
+    """Per recording: its pose's path groups, its measured energies (aligned on the
+    start model) and the lag applied."""
+    groups, measured, lags = [], [], []
+    logs0 = params.log_gains(params.start())[0] - model.log_reference
+    for rec, pose in zip(recs, poses):
+        g = model.pose(pose, rec, space, keep_signals=align)
+        start = 0.0
+        if align:  # the start model at the bands' mean gain
+            w0 = np.exp(g.counts @ logs0.mean(axis=0))
+            start = np.einsum("g,gmt->mt", w0, g.signals)
+            g = dataclasses.replace(g, signals=None)
+        E, lag = _measured(rec, g.direct, start, space, align)
+        groups.append(g)
+        measured.append(np.maximum(E, 1e-300))
+        lags.append(lag)
+    return groups, measured, lags
+
+
+def calibrate(
+    scene: Scene,
+    recordings: Sequence[P.Recording],
+    poses: Sequence[int] | None = None,
+    settings: CalibrationSettings | None = None,
+) -> Calibration:
+    """Fit the materials of `scene` to `recordings` (recording i taken at pose
+    ``poses[i]``; default: its ``metadata["pose_index"]``, else i).  Raises
+    InputError naming what does not fit together."""
+    t0 = time.perf_counter()
+    settings = settings or CalibrationSettings()
+    recs = list(recordings)
+    if poses is None:
+        poses = [int(r.metadata.get("pose_index", i)) for i, r in enumerate(recs)]
+    _check(scene, recs, list(poses))
+    free = settings.free(_used_materials(scene))
+    for name in settings.tables:
+        if name not in free:
+            raise InputError(
+                f"is not a fitted material ({', '.join(free)})", key="tables", value=name
+            )
+    fits = tuple(
+        MaterialFit.start(
+            scene.materials[name],
+            settings.tables.get(name),
+            fit_reflection=a,
+            fit_diffuse=b,
+        )
+        for name, (a, b) in free.items()
+    )
+    points = max(f.n_points for f in fits)
+    bands = settings.bands or (1 if points == 1 else min(2 * points, 16))
+    space = FeatureSpace(
+        recs[0],
+        bands=bands,
+        directions=settings.directions,
+        min_range_m=settings.min_range_m,
+        max_range_m=settings.max_range_m or scene.simulation.max_range_m - settings.bin_m,
+        bin_m=settings.bin_m,
+    )
+    params = ParameterSet(fits, space.band_hz)
+    model = GroupModel(scene, fits)
+    groups, measured, lags = _observe(model, params, space, recs, poses, settings.align)
+    problem = Problem(
+        params, space, tuple(groups), tuple(measured), model.log_reference, settings.fit_level
+    )
+    t1 = time.perf_counter()
+    sol = solve(
+        problem,
+        loss=settings.loss,
+        loss_scale=settings.loss_scale,
+        max_evaluations=settings.max_evaluations,
+    )
+    t2 = time.perf_counter()
+    out = _result(problem, sol, scene, lags, t2 - t0)
+    return dataclasses.replace(out, seconds_fit=t2 - t1)
+
+
+def _per_bin(problem: Problem, x: np.ndarray) -> np.ndarray:
+    """(recordings, B, D, R) residuals in dB at x."""
+    return np.stack(
+        [DB_PER_NEPER * np.log(E / m) for E, m in zip(problem.model(x), problem.measured)]
+    )
+
+
+def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float) -> Calibration:
+    params = problem.parameters
+    P_ = problem.n_materials
+    names = params.names
+    fitted = tuple(
+        FittedParameter(n, float(a), float(b), float(s))
+        for n, a, b, s in zip(names, sol.start[:P_], sol.x[:P_], sol.sigma[:P_])
+    )
+    materials, sigmas = {}, {}
+    values = params.values(sol.x[:P_])
+    sig = [[np.zeros(m.n_points), np.zeros(m.n_points)] for m in params.materials]
+    for s, (j, k, i) in zip(sol.sigma[:P_], params.layout()):
+        sig[j][0 if k == "reflection" else 1][i] = s
+    for m, (R, d), (sR, sd) in zip(params.materials, values, sig):
+        base = scene.materials[m.name]
+        if m.is_table:
+            materials[m.name] = Material(
+                m.name,
+                tuple(float(v) for v in R),
+                tuple(float(v) for v in d),
+                base.lobe_deg,
+                tuple(f / 1e3 for f in m.frequencies_hz),
+            )
+            sigmas[m.name] = (sR, sd)
+        else:
+            materials[m.name] = Material(m.name, float(R[0]), float(d[0]), base.lobe_deg)
+            sigmas[m.name] = (float(sR[0]), float(sd[0]))
+    before, after = _per_bin(problem, sol.start), _per_bin(problem, sol.x)
+    _, log_noise, log_level = problem.unpack(sol.x)
+    return Calibration(
+        fitted,
+        materials,
+        sigmas,
+        problem.space.range_m,
+        np.sqrt(np.mean(before**2, axis=(0, 1, 2))),
+        np.sqrt(np.mean(after**2, axis=(0, 1, 2))),
+        float(np.sqrt(np.mean(before**2))),
+        float(np.sqrt(np.mean(after**2))),
+        tuple(float(v) for v in lags),
+        tuple(float(DB_PER_NEPER * v) for v in log_noise),
+        float(DB_PER_NEPER * log_level),
+        _unexplained(problem, sol.x, -after),
+        sol,
+        seconds,
+    )
+
+
+def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tuple:
+    """Bins at least UNEXPLAINED_DB above the fitted model and 10 dB above the
+    fitted noise: per recording and range bin the direction of the largest excess."""
+    _, log_noise, _ = problem.unpack(x)
+    angles = problem.space.directions.angles_deg()
+    out = []
+    for k, (m, ex) in enumerate(zip(problem.measured, excess_db)):
+        noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
+        loud = (ex > UNEXPLAINED_DB) & (m > 10 * noise)
+        score = np.where(loud, ex, -np.inf).max(axis=0)  # over bands: (D, R)
+        for r in np.flatnonzero(np.isfinite(score.max(axis=0))):
+            d = int(np.argmax(score[:, r]))
+            out.append(
+                Unexplained(
+                    k, float(problem.space.range_m[r]), *map(float, angles[d]), float(score[d, r])
+                )
+            )
+    out.sort(key=lambda u: -u.excess_db)
+    return tuple(out[:MAX_UNEXPLAINED])

@@ -1,0 +1,127 @@
+"""``acousim calibrate``: fit a scene's materials to recordings of it."""
+
+from __future__ import annotations
+
+import argparse
+
+from processing.errors import InputError
+
+from .common import UsageError, load_scene, output_file, parse_indices
+from .options import DeclaredHelp, add_declared
+
+SETTINGS = "acousim.calibrate.settings:CalibrationSettings"
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "calibrate",
+        help="fit a scene's materials to recordings of it",
+        formatter_class=DeclaredHelp,
+        description="Fit the reflection and diffuse fraction of a scene's materials "
+        "(every material a mesh uses, or --param) to recordings of the scene: trace "
+        "once, render each group of paths once, and fit the energy per range bin, "
+        "direction and band by robust least squares. Writes the scene file with only "
+        "the fitted values changed, each with its uncertainty in a comment, and prints "
+        "the residual before and after per range bin and per parameter "
+        "(docs/compare.md).",
+    )
+    p.add_argument("recordings", help="recording file (.h5), or 'rtisdev-sample'")
+    p.add_argument("--scene", required=True, help="scene file (.toml) the recordings are of")
+    p.add_argument(
+        "--out", required=True, help="fitted scene file (in the scene's folder: relative paths)"
+    )
+    p.add_argument(
+        "--poses",
+        help="scene pose of each recording: '0,12,24' or '0:5' (default: each recording's "
+        "pose_index, else its position in the file)",
+    )
+    p.add_argument(
+        "--param",
+        help="free parameters, comma-separated: MATERIAL, MATERIAL.reflection or "
+        "MATERIAL.diffuse (default: every material a mesh uses, both)",
+    )
+    p.add_argument(
+        "--table",
+        action="append",
+        default=[],
+        metavar="MATERIAL=F1,F2,...",
+        help="fit MATERIAL as a table over frequency at these kHz (repeatable)",
+    )
+    add_declared(p, "--bands", SETTINGS, "bands")
+    add_declared(p, "--min-range", SETTINGS, "min_range_m", note="the direct path lies nearer")
+    add_declared(p, "--max-range", SETTINGS, "max_range_m", note="default: the scene's")
+    add_declared(p, "--bin", SETTINGS, "bin_m")
+    add_declared(p, "--loss-scale", SETTINGS, "loss_scale")
+    add_declared(p, "--max-evaluations", SETTINGS, "max_evaluations")
+    p.add_argument("--loss", help="robust loss: soft_l1 (default), huber, cauchy, arctan, linear")
+    p.add_argument(
+        "--fit-level",
+        action="store_true",
+        help="also fit one overall level (a real recording's unknown gain)",
+    )
+    p.add_argument(
+        "--no-align", action="store_true", help="do not shift the recordings onto the simulation"
+    )
+    p.add_argument("--report", help="also write the report as JSON to this file")
+    p.set_defaults(func=run)
+
+
+def _tables(items: list[str]) -> dict:
+    out = {}
+    for item in items:
+        name, eq, values = item.partition("=")
+        try:
+            out[name.strip()] = tuple(float(v) for v in values.split(","))
+        except ValueError:
+            eq = ""
+        if not eq or not name.strip():
+            raise UsageError("expected MATERIAL=F1,F2,... (kHz)", key="--table", value=item)
+    return out
+
+
+def _settings(args: argparse.Namespace):
+    from acousim.calibrate import CalibrationSettings
+
+    given = {
+        "bands": args.bands,
+        "min_range_m": args.min_range,
+        "max_range_m": args.max_range,
+        "bin_m": args.bin,
+        "loss_scale": args.loss_scale,
+        "max_evaluations": args.max_evaluations,
+        "loss": args.loss,
+    }
+    kw = {k: v for k, v in given.items() if v is not None}
+    if args.param:
+        kw["parameters"] = tuple(s.strip() for s in args.param.split(",") if s.strip())
+    return CalibrationSettings(
+        tables=_tables(args.table), fit_level=args.fit_level, align=not args.no_align, **kw
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from acousim.calibrate import calibrate, write_scene
+    from acousim.compare import load_real_recordings
+
+    out = output_file("--out", args.out)
+    report = output_file("--report", args.report) if args.report else None
+    try:
+        settings = _settings(args)
+        scene = load_scene(args.scene)
+        recs = load_real_recordings(
+            args.recordings, speed_of_sound_m_s=scene.environment.speed_of_sound_m_s
+        )
+        poses = parse_indices("--poses", args.poses)
+        cal = calibrate(scene, recs, poses, settings)
+        if scene.source is None:
+            raise UsageError("needs a scene file to write the fitted one from", key="--scene")
+        write_scene(scene.source, out, cal)
+        if report:
+            from processing.atomic import write_text
+
+            write_text(report, cal.to_json())
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+    print(cal.summary())
+    print(f"fitted scene written to {out}" + (f", report to {report}" if report else ""))
+    return 0

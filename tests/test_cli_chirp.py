@@ -1,0 +1,62 @@
+"""The command line with CHIRP files: export, info, image and compare."""
+
+import h5py
+import numpy as np
+
+import processing as P
+from acousim.bundled import resolve
+from acousim.cli import main
+
+
+def test_export_then_image_gives_the_same_image(tmp_path, capsys):
+    rec = tmp_path / "wall.h5"
+    assert main(["simulate", str(resolve("scenes", "wall")), "--out", str(rec)]) == 0
+    chirp = tmp_path / "wall_chirp.h5"
+    assert main(["export", str(rec), "--format", "chirp", "--out", str(chirp)]) == 0
+    assert P.is_chirp(chirp)
+    assert main(["info", str(chirp)]) == 0
+    assert "CHIRP file, format 2.1, 1 capture(s)" in capsys.readouterr().out
+    for f, out in ((rec, "a"), (chirp, "b")):
+        args = ["image", str(f), "--out", str(tmp_path / out), "--method", "das,das-bb"]
+        assert main([*args, "--no-3d", "--no-animation"]) == 0
+    with h5py.File(tmp_path / "a/images.h5") as a, h5py.File(tmp_path / "b/images.h5") as b:
+        for name in ("das", "das-bb", "range_m"):
+            key = f"recording_000000/{name}"
+            np.testing.assert_array_equal(a[key][()], b[key][()])
+    assert (tmp_path / "a/peaks.csv").read_text() == (tmp_path / "b/peaks.csv").read_text()
+
+
+def test_call_asked_for(tmp_path, capsys):
+    rec = tmp_path / "wall.h5"
+    assert main(["simulate", str(resolve("scenes", "wall")), "--out", str(rec)]) == 0
+    chirp = tmp_path / "bare.h5"
+    assert main(["export", str(rec), "--format", "chirp", "--out", str(chirp)]) == 0
+    with h5py.File(chirp, "a") as f:
+        del f["acousim"], f["sensors/acoustic_transmitter_00"]
+    capsys.readouterr()
+    assert main(["info", str(chirp)]) == 0  # described, with what it lacks
+    assert "its recordings cannot be read: the file has no transmitter signal" in (
+        capsys.readouterr().out
+    )
+    args = ["image", str(chirp), "--out", str(tmp_path / "img"), "--method", "das", "--no-3d"]
+    assert main(args) == 2
+    assert "give the call (--call" in capsys.readouterr().err
+    assert main([*args, "--no-animation", "--call", "default_25_50"]) == 0
+
+
+def test_compare_at_the_recorded_poses(tmp_path, capsys):
+    """A CHIRP file with odometry (not of ours) against the scene: simulated at each
+    capture's own pose (recordings 1 and 2 of the drive, odometry in a file whose
+    recording 0 is pose 2: the poses come from the file, not the scene's order)."""
+    sim = tmp_path / "drive.h5"
+    scene = str(resolve("scenes", "corridor"))
+    assert main(["simulate", scene, "--poses", "2", "--out", str(sim)]) == 0
+    chirp = tmp_path / "drive_chirp.h5"
+    assert main(["export", str(sim), "--format", "chirp", "--out", str(chirp)]) == 0
+    with h5py.File(chirp, "a") as f:
+        del f["acousim"]
+    out = tmp_path / "cmp"
+    assert main(["compare", str(chirp), "--scene", scene, "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "mean envelope correlation 1.00" in text
+    assert "d_range +0.0 cm" in text
