@@ -140,11 +140,14 @@ def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
 def run() -> None:
     """The program's entry (the ``acousim`` command, ``python -m acousim.cli``): main()
     and its exit code; a Ctrl-C after the command has finished changes nothing."""
-    code = main(restore_sigint=False)
-    # done: a Ctrl-C now changes nothing. Ignored rather than left to the flag handler,
-    # which the interpreter's finalisation resets to the default (a Ctrl-C in those
-    # last milliseconds ended the process by the signal, without a word)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        code = main(restore_sigint=False)
+    finally:
+        # done (or argparse's exit): a Ctrl-C now changes nothing. Ignored rather than
+        # left to the flag handler, which the interpreter's finalisation resets to the
+        # default (a Ctrl-C in those last milliseconds ended the process by the
+        # signal, without a word)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     sys.exit(code)
 
 
