@@ -89,9 +89,9 @@ def _snapshot(path: Path) -> dict:
     return {str(p): p.read_bytes() for p in path.rglob("*") if p.is_file()} if path.exists() else {}
 
 
-def one(command: str, base: Path, work: Path, delay_s: float) -> tuple[int, str | None]:
-    """Run `command` with Ctrl-C after `delay_s`: its exit code, and None if everything
-    held, else why."""
+def one(command: str, base: Path, work: Path, delay_s: float) -> tuple[int, str | None, bool]:
+    """Run `command` with Ctrl-C after `delay_s`: its exit code, None if everything
+    held (else why, or "python start-up"), and whether it had finished first."""
     args, output = COMMANDS[command]
     folder = Path(tempfile.mkdtemp(dir=work))
     _prepare(folder, base)
@@ -105,24 +105,25 @@ def one(command: str, base: Path, work: Path, delay_s: float) -> tuple[int, str 
         start_new_session=True,
     )
     time.sleep(delay_s)
+    finished_first = proc.poll() is not None
     try:
         os.killpg(proc.pid, signal.SIGINT)
     except ProcessLookupError:
-        pass
+        finished_first = True
     try:
         _, err = proc.communicate(timeout=600)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.communicate()
-        return 0, "ignored the interrupt"
+        return 0, "ignored the interrupt", False
     text = err.decode(errors="replace")
     lines = [ln for ln in text.splitlines() if ln.strip()]
     code = proc.returncode
     problems = []
-    if code == -signal.SIGINT and delay_s < 0.2:
-        # Python's own start, before any of our code: killed by the signal (a shell
-        # reports 130), no traceback expected
-        return code, None if "Traceback" not in text else "interpreter start-up: traceback"
+    if code in (1, -signal.SIGINT) and _in_python_start(text):
+        # Python's own start, before any of our code runs (its site imports, runpy):
+        # killed by the signal, or "Fatal Python error"; nothing of ours to fix
+        return code, "python start-up", finished_first
     if code not in (0, 130):
         problems.append(f"exit {code}")
     if "Traceback" in text or "Exception ignored" in text:
@@ -134,7 +135,17 @@ def one(command: str, base: Path, work: Path, delay_s: float) -> tuple[int, str 
     if code == 130 and output and command != "record" and _snapshot(folder / output) != before:
         problems.append("earlier output changed")
     shutil.rmtree(folder, ignore_errors=True)
-    return code, "; ".join(problems) + f" ({text[-300:]!r})" if problems else None
+    why = "; ".join(problems) + f" ({text[-300:]!r})" if problems else None
+    return code, why, finished_first
+
+
+def _in_python_start(stderr: str) -> bool:
+    """Whether an interrupt landed before any of this project's code ran: Python's
+    fatal start-up errors, or a traceback without a frame of ours (or none at all)."""
+    if "init_import_site" in stderr or "Could not import runpy module" in stderr:
+        return True
+    ours = [ln for ln in stderr.splitlines() if ln.strip().startswith("File") and str(ROOT) in ln]
+    return not ours
 
 
 def sweep(command: str, base: Path, work: Path, step_s: float) -> tuple[int, dict, list]:
@@ -143,14 +154,14 @@ def sweep(command: str, base: Path, work: Path, step_s: float) -> tuple[int, dic
     failures = []
     delay, runs = 0.05, 0
     while True:
-        t0 = time.perf_counter()
-        code, why = one(command, base, work, delay)
+        code, why, finished_first = one(command, base, work, delay)
         runs += 1
-        key = f"exit {code}" + ("" if why is None else " failed")
+        start = why == "python start-up"
+        key = "python start-up" if start else f"exit {code}" + ("" if why is None else " failed")
         outcomes[key] = outcomes.get(key, 0) + 1
-        if why:
+        if why and not start:
             failures.append((round(delay, 2), why))
-        if time.perf_counter() - t0 < delay + 0.05:  # finished before the interrupt
+        if finished_first:  # the run ended before its interrupt: the sweep is complete
             break
         delay += step_s
     return runs, outcomes, failures
