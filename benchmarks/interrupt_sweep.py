@@ -10,6 +10,7 @@ temporary file; leave the earlier output byte-identical when it exits 130 (`reco
 keeps what it measured, its documented behaviour: the file then loads).
 
     python -m benchmarks.interrupt_sweep [--step 0.25] [--commands simulate,image]
+    python -m benchmarks.interrupt_sweep --step 0.05 --until 1 --commands simulate
 
 Prints one line per command: runs, exits 130 / 0 / other, and the failures.
 """
@@ -17,6 +18,7 @@ Prints one line per command: runs, exits 130 / 0 / other, and the failures.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import signal
@@ -148,8 +150,10 @@ def _in_python_start(stderr: str) -> bool:
     return not ours
 
 
-def sweep(command: str, base: Path, work: Path, step_s: float) -> tuple[int, dict, list]:
-    """Moments from 0.05 s until a run finishes before its interrupt."""
+def sweep(
+    command: str, base: Path, work: Path, step_s: float, until_s: float = math.inf
+) -> tuple[int, dict, list]:
+    """Moments from 0.05 s until a run finishes before its interrupt (or `until_s`)."""
     outcomes: dict[str, int] = {}
     failures = []
     delay, runs = 0.05, 0
@@ -161,7 +165,7 @@ def sweep(command: str, base: Path, work: Path, step_s: float) -> tuple[int, dic
         outcomes[key] = outcomes.get(key, 0) + 1
         if why and not start:
             failures.append((round(delay, 2), why))
-        if finished_first:  # the run ended before its interrupt: the sweep is complete
+        if finished_first or delay + step_s > until_s:  # the run ended before its interrupt
             break
         delay += step_s
     return runs, outcomes, failures
@@ -171,12 +175,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--step", type=float, default=0.25, help="seconds between moments")
     parser.add_argument("--commands", default=",".join(COMMANDS), help="comma-separated")
+    parser.add_argument("--until", type=float, default=math.inf, help="last moment (s)")
     args = parser.parse_args(argv)
     bad = 0
     with tempfile.TemporaryDirectory() as tmp:
         base = _base(Path(tmp))
         for command in args.commands.split(","):
-            runs, outcomes, failures = sweep(command, base, Path(tmp), args.step)
+            runs, outcomes, failures = sweep(command, base, Path(tmp), args.step, args.until)
             print(f"{command}: {runs} moments, {outcomes}", flush=True)
             for delay, why in failures:
                 print(f"  at {delay} s: {why}", flush=True)
