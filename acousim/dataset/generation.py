@@ -34,7 +34,8 @@ from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
 
-from .safety import check_scheduler, locked, sha256_file, watch_parent
+from .runners import run_dask, run_pool
+from .safety import check_scheduler, locked, sha256_file
 from .spec import DatasetSpec, load_spec
 
 __all__ = [
@@ -436,47 +437,6 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
         return write_shard(load_spec(spec_path), k, out)
 
 
-def _worker_init(parent_pid: int) -> None:
-    """Pool worker initializer: Ctrl-C is the main process's (a terminal sends it to
-    the whole process group), and exit when the main process is gone."""
-    interrupt.ignore_in_worker()
-    watch_parent(parent_pid)
-
-
-#: how often the main process looks for Ctrl-C while its workers compute (s)
-POLL_S = 0.1
-
-
-def _run_pool(jobs: list, workers: int, out: Path, step: Callable[[], None]) -> None:
-    """Run the shard jobs on local processes; `step()` after each finished shard.
-
-    Ctrl-C (or any error) stops the workers (the shards they were computing are
-    redone on resume, their temporary files removed) and the shards not started;
-    finished shards stay, whole, with their sidecars."""
-    import multiprocessing
-
-    pool = multiprocessing.Pool(workers, initializer=_worker_init, initargs=(os.getpid(),))
-    try:
-        results = pool.imap_unordered(_shard_job, jobs)
-        for _ in jobs:
-            while True:
-                interrupt.check()
-                try:
-                    results.next(timeout=POLL_S)  # a worker's error is raised here
-                    break
-                except multiprocessing.TimeoutError:
-                    continue
-            step()
-        pool.close()
-    except BaseException:
-        pool.terminate()
-        pool.join()
-        for stale in out.glob(f"{TEMP_PREFIX}*"):
-            stale.unlink(missing_ok=True)
-        raise
-    pool.join()
-
-
 def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     """Finished shards whose bytes match their sidecar's sha256, and the shards found
     damaged (removed, to be redone)."""
@@ -536,32 +496,22 @@ def generate(
         t0 = time.perf_counter()
         if progress:
             progress(done_count, spec.n_shards)
+
+        def step() -> None:
+            nonlocal done_count
+            done_count += 1
+            if progress:
+                progress(done_count, spec.n_shards)
+
         if scheduler:
-            from dask.distributed import Client, as_completed
-
-            with Client(scheduler, timeout="10s") as client:
-                futures = client.map(_shard_job, jobs, pure=False)
-                for _ in as_completed(futures):
-                    done_count += 1
-                    if progress:
-                        progress(done_count, spec.n_shards)
-                client.gather(futures)
+            run_dask(_shard_job, jobs, scheduler, step)
         elif workers > 1 and len(jobs) > 1:
-
-            def step() -> None:
-                nonlocal done_count
-                done_count += 1
-                if progress:
-                    progress(done_count, spec.n_shards)
-
-            _run_pool(jobs, workers, out, step)
+            run_pool(_shard_job, jobs, workers, out, step)
         else:
             for job in jobs:
                 interrupt.check()
                 _shard_job(job)
-                done_count += 1
-                if progress:
-                    progress(done_count, spec.n_shards)
+                step()
         elapsed = time.perf_counter() - t0
         manifest = _manifest(spec, out, elapsed, todo)
     manifest["summary"]["damaged_shards"] = damaged
