@@ -18,7 +18,6 @@ command line starts fast).
 from __future__ import annotations
 
 import importlib
-from typing import Any
 
 __all__ = [
     "Simulator",
@@ -41,7 +40,7 @@ _WHERE = {"Simulator": "acousim.simulator"} | {
 }
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:  # (no typing import: the command line starts fast)
     if name in _WHERE:
         value = getattr(importlib.import_module(_WHERE[name]), name)
         globals()[name] = value

@@ -410,6 +410,8 @@ def compare(
     """Compare two recordings (the steps of the module docstring).  Returns what was
     measured and what the picture draws."""
     check_comparable(real, sim)
+    for rec in (real, sim):  # before the matched filters: an InputError, not a MemoryError
+        P.check_memory(rec, methods, settings)
     lag, gain, env_r, env_s = _align(real, _mf(real), _mf(sim))
     env_s = gain * env_s
     fs, c = real.sample_rate_hz, real.speed_of_sound_m_s

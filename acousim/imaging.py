@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from processing import interrupt
 from processing.atomic import atomic_path
 from processing.errors import InputError
 from processing.settings import setting, validate
@@ -106,10 +107,11 @@ def image_recordings(
     """Images of every recording by every method."""
     out = []
     for i, rec in enumerate(recordings):
+        interrupt.check()  # Ctrl-C (when the command line records it): stop here
         if rec.array.n_mics and not rec.array.is_ura:
             smooth = [m for m in options.methods if P.requires_ura(m)]
             if smooth:
-                raise ValueError(
+                raise InputError(
                     f"recording {i}: array {rec.array.name!r} is not a URA, so "
                     f"{', '.join(smooth)} cannot be used; choose das, music, capon "
                     "or a wideband (-wb) or broadband (-bb) method"

@@ -47,9 +47,13 @@ from acousim.trace.direct import seen
 from acousim.trace.following import Endpoints, MovingPaths
 from acousim.trace.paths import TracedPaths, kind_names
 from acousim.trace.tracer import Tracer
+from processing import interrupt
 from processing.errors import InputError
 
-__all__ = ["Simulator", "package_version"]
+__all__ = ["Simulator", "package_version", "MIN_POINT_DISTANCE_M"]
+
+MIN_POINT_DISTANCE_M = 1e-3
+"""Nearest a point reflector may be to the emitter or a microphone (m)."""
 
 log = logging.getLogger(__name__)
 
@@ -159,6 +163,7 @@ class Simulator:
             if motion is not None and not _on(motion, pose):
                 log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
                 motion = None
+        self._check_points_clear(pose)
         if motion is not None or self.moving_points or self.moving_meshes:
             return self._prepare_moving(pose, index, n_samples, motion)
         scene = self.scene
@@ -316,6 +321,27 @@ class Simulator:
         )
         return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 
+    def _check_points_clear(self, pose: Pose) -> None:
+        """An InputError when a point reflector (where it is at the pose's time) lies
+        within MIN_POINT_DISTANCE_M of the emitter or a microphone: the point model's
+        1/r spreading would overflow the samples (checked before any computation)."""
+        items = self.scene.points + self.moving_points
+        if not items:
+            return
+        pts = np.array([p.at(pose.time_s)[0] if p.moving else p.position_m for p in items])
+        array = self.scene.sensor.array
+        ends = pose.to_world(np.vstack([array.emitter_m, array.positions_m]))
+        gap = np.linalg.norm(pts[:, None, :] - ends[None, :, :], axis=2).min(axis=1)
+        near = np.flatnonzero(gap < MIN_POINT_DISTANCE_M)
+        if near.size:
+            k = int(near[0])
+            raise InputError(
+                f"point reflector at {pts[k].tolist()} m is {gap[k]:.3g} m from the emitter "
+                f"or a microphone at pose {pose.to_dict()}; keep it at least "
+                f"{MIN_POINT_DISTANCE_M:g} m away",
+                key="points.position_m",
+            )
+
     def _moving_points(self, pose):
         """Moving point reflectors at the start of the emission within the range and
         seen from the emitter and the array's centre (through the world of that
@@ -389,6 +415,7 @@ class Simulator:
         with ThreadPoolExecutor(1) as pool:
             ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
+                interrupt.check()  # Ctrl-C (when the command line records it): stop here
                 waiting.set()
                 prep = ahead.result()
                 waiting.clear()

@@ -252,11 +252,15 @@ class Recorder:
         duration_s: float | None = None,
         rate_hz: float | None = None,
         on_record: Callable[[P.Recording], None] | None = None,
+        *,
+        stop: Callable[[], bool] | None = None,
     ) -> list[P.Recording]:
         """Measurements until `count` are kept or `duration_s` has passed, at most
         `rate_hz` per second.
 
-        KeyboardInterrupt stops after the last complete one (:class:`RecordingInterrupted`);
+        KeyboardInterrupt, or `stop()` turning true (checked before every measurement
+        and while waiting for the next, e.g. :func:`processing.interrupt.requested`),
+        stops after the last complete one (:class:`RecordingInterrupted`);
         a device that fails for good raises :class:`RecordingFailed`; both carry every
         complete measurement.  Bad arguments raise InputError (:func:`check_acquisition`).
         """
@@ -271,22 +275,31 @@ class Recorder:
                 duration_s is None or time.monotonic() - start < duration_s
             ):
                 t0 = time.monotonic()
+                if stop is not None and stop():
+                    raise KeyboardInterrupt
                 rec = self.measure()
                 if rec is not None:
                     rec.metadata["record_stats"] = {"lost_so_far": len(self.stats.lost_indices)}
                     out.append(rec)
                     if on_record:
                         on_record(rec)
-                wait = period - (time.monotonic() - t0)
-                if wait > 0:
-                    time.sleep(wait)
+                _wait_until(t0 + period, stop)
         except KeyboardInterrupt:
-            log.warning("interrupted: keeping %d complete measurement(s)", len(out))
+            log.info("interrupted: keeping %d complete measurement(s)", len(out))
             raise RecordingInterrupted(out) from None
         except (TimeoutError, DeviceNotFound, usb.core.USBError) as exc:
             self.stats.note(f"the sensor failed: {exc}")
             raise RecordingFailed(out, str(exc)) from exc
         return out
+
+
+def _wait_until(t_end: float, stop: Callable[[], bool] | None, step_s: float = 0.05) -> None:
+    """Sleep until time.monotonic() reaches `t_end`, in steps, returning early (and
+    raising KeyboardInterrupt) when `stop()` turns true."""
+    while (left := t_end - time.monotonic()) > 0:
+        if stop is not None and stop():
+            raise KeyboardInterrupt
+        time.sleep(min(left, step_s))
 
 
 class RecordingInterrupted(KeyboardInterrupt):

@@ -29,7 +29,13 @@ __all__ = [
     "from_coordinates_file",
     "PRESETS",
     "preset",
+    "MAX_EXTENT_M",
 ]
+
+MAX_EXTENT_M = 10.0
+"""Largest coordinate (m, each axis, sensor frame) of a microphone or the emitter:
+an array is centimetres across; the bound keeps every computation on its geometry
+(centroids, distances squared) free of overflow, checked before any of it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,39 +68,19 @@ class Array:
     channels: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        pos = np.asarray(self.positions_m, dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
-            raise ValueError(
-                f"array {self.name!r}: positions_m must have shape (M, 3), got {pos.shape}"
+        pos, emitter = _points(self.name, self.positions_m, self.emitter_m)
+        channels = np.arange(pos.shape[0]) if self.channels is None else np.asarray(self.channels)
+        if channels.shape != (pos.shape[0],) or channels.dtype.kind not in "iu":
+            raise InputError(
+                f"array {self.name!r}: must be {pos.shape[0]} whole numbers",
+                key="channels",
+                value=channels.tolist(),
             )
-        if not np.all(np.isfinite(pos)):
-            raise ValueError(f"array {self.name!r}: positions_m contains NaN or inf")
-        emitter = np.asarray(self.emitter_m, dtype=float).reshape(3)
-        channels = (
-            np.arange(pos.shape[0]) if self.channels is None else np.asarray(self.channels, int)
-        )
-        if channels.shape != (pos.shape[0],):
-            raise ValueError(f"array {self.name!r}: channels must have shape ({pos.shape[0]},)")
         object.__setattr__(self, "positions_m", pos)
         object.__setattr__(self, "emitter_m", emitter)
-        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "channels", channels.astype(int))
         if self.grid_index is not None:
-            gi = np.asarray(self.grid_index, dtype=int)
-            if gi.shape != (pos.shape[0], 2) or self.pitch_m is None:
-                raise ValueError(
-                    f"array {self.name!r}: grid_index needs shape (M, 2) and a pitch_m"
-                )
-            try:
-                pitch = (float(self.pitch_m[0]), float(self.pitch_m[1]))
-                shown = list(pitch)
-            except (TypeError, ValueError, IndexError):
-                pitch, shown = (np.nan, np.nan), self.pitch_m
-            if not all(np.isfinite(pitch)) or min(pitch) <= 0:
-                raise InputError(
-                    f"array {self.name!r}: must be two positive finite numbers (dz, dy)",
-                    key="pitch_m",
-                    value=shown,
-                )
+            gi, pitch = _grid(self.name, self.grid_index, self.pitch_m, pos.shape[0])
             object.__setattr__(self, "grid_index", gi)
             object.__setattr__(self, "pitch_m", pitch)
 
@@ -124,14 +110,14 @@ class Array:
     def grid_shape(self) -> tuple[int, int]:
         """(rows, columns) of the URA grid."""
         if self.grid_index is None:
-            raise ValueError(f"array {self.name!r} is not a uniform rectangular array")
+            raise InputError(f"array {self.name!r} is not a uniform rectangular array")
         return int(self.grid_index[:, 0].max()) + 1, int(self.grid_index[:, 1].max()) + 1
 
     def grid_order(self) -> np.ndarray:
         """Microphone indices in row-major grid order (row along z, column along y).
 
         ``x[..., array.grid_order()]`` reshaped to ``(rows, cols)`` puts a snapshot on
-        its grid.  Raises ValueError for an array that is not a full URA.
+        its grid.  Raises InputError for an array that is not a full URA.
         """
         self.require_ura("grid ordering")
         rows, cols = self.grid_shape
@@ -139,9 +125,9 @@ class Array:
         return np.argsort(cells, kind="stable")
 
     def require_ura(self, what: str) -> None:
-        """Raise a clear ValueError when `what` needs a URA and this array is not one."""
+        """Raise a clear InputError when `what` needs a URA and this array is not one."""
         if not self.is_ura:
-            raise ValueError(
+            raise InputError(
                 f"{what} needs a uniform rectangular array, but array {self.name!r} "
                 f"({self.n_mics} microphones) is irregular; use 'das', 'music' or 'capon'"
             )
@@ -158,6 +144,65 @@ class Array:
         """Extent (z, y) of the array in metres."""
         p = self.positions_m
         return float(np.ptp(p[:, 2])), float(np.ptp(p[:, 1]))
+
+
+def _points(name: str, positions, emitter) -> tuple[np.ndarray, np.ndarray]:
+    """Microphone positions (M, 3) and emitter (3,) checked: finite, within
+    MAX_EXTENT_M, no two microphones at one place (InputError otherwise)."""
+    try:
+        pos = np.asarray(positions, dtype=float)
+        em = np.asarray(emitter, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise InputError(f"array {name!r}: not numbers", key="positions_m") from None
+    if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
+        raise InputError(
+            f"array {name!r}: must have shape (M, 3)", key="positions_m", value=pos.shape
+        )
+    for key, v in (("positions_m", pos), ("emitter_m", em)):
+        if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_EXTENT_M):
+            raise InputError(
+                f"array {name!r}: must be finite and within +-{MAX_EXTENT_M:g} m",
+                key=key,
+                value=v.tolist(),
+            )
+    _, first, count = np.unique(pos, axis=0, return_index=True, return_counts=True)
+    if np.any(count > 1):
+        i = int(first[np.argmax(count > 1)])
+        raise InputError(
+            f"array {name!r}: two microphones at the same position (microphone {i})",
+            key="positions_m",
+            value=pos[i].tolist(),
+        )
+    return pos, em
+
+
+def _grid(name: str, grid_index, pitch_m, n: int) -> tuple[np.ndarray, tuple[float, float]]:
+    """A URA's (row, column) per microphone (M, 2), each in [0, M), and its pitch."""
+    gi = np.asarray(grid_index)
+    if gi.shape != (n, 2) or gi.dtype.kind not in "iu" or pitch_m is None:
+        raise InputError(
+            f"array {name!r}: grid_index needs shape ({n}, 2) of whole numbers and a pitch_m",
+            key="grid_index",
+            value=gi.shape,
+        )
+    if gi.size and (gi.min() < 0 or gi.max() >= n):
+        raise InputError(
+            f"array {name!r}: grid indices must lie in [0, {n})",
+            key="grid_index",
+            value=[int(gi.min()), int(gi.max())],
+        )
+    try:
+        pitch = (float(pitch_m[0]), float(pitch_m[1]))
+        shown = list(pitch)
+    except (TypeError, ValueError, IndexError):
+        pitch, shown = (np.nan, np.nan), pitch_m
+    if not all(np.isfinite(pitch)) or min(pitch) <= 0 or max(pitch) > MAX_EXTENT_M:
+        raise InputError(
+            f"array {name!r}: must be two positive finite numbers (dz, dy)",
+            key="pitch_m",
+            value=shown,
+        )
+    return gi.astype(int), pitch
 
 
 def ura(
@@ -236,13 +281,18 @@ def from_coordinates(
     """
     yz = np.asarray(yz_m, dtype=float)
     if yz.ndim != 2 or yz.shape[1] != 2:
-        raise ValueError(f"{source}: expected an (M, 2) table of (y, z), got shape {yz.shape}")
+        raise InputError(f"{source}: expected an (M, 2) table of (y, z), got shape {yz.shape}")
     used = ~np.isnan(yz).any(axis=1)
     if not used.any():
-        raise ValueError(f"{source}: every row is NaN, no microphone left")
+        raise InputError(f"{source}: every row is NaN, no microphone left")
     yz_used = yz[used]
     if not np.all(np.isfinite(yz_used)):
-        raise ValueError(f"{source}: coordinates contain inf")
+        raise InputError(f"{source}: coordinates contain inf")
+    if np.any(np.abs(yz_used) > MAX_EXTENT_M):  # before the centroid, which would overflow
+        raise InputError(
+            f"{source}: coordinates beyond +-{MAX_EXTENT_M:g} m (wrong units?)",
+            value=float(np.abs(yz_used).max()),
+        )
     if centre:
         yz_used = yz_used - yz_used.mean(axis=0)
     pos = np.column_stack([np.zeros(len(yz_used)), yz_used])

@@ -5,18 +5,27 @@ unpredictable name, ``O_EXCL``, so a planted symlink is never followed), yields 
 path for any writer (h5py, matplotlib, imageio, VTK), renames it over the target on
 success and removes it on any exception, ``KeyboardInterrupt`` included. A reader
 never sees a half-written file and an interrupted write leaves nothing behind.
+
+A Ctrl-C recorded by :mod:`processing.interrupt` is honoured just before the rename
+(SIGINT held back from the check to the rename), so an interrupted run never replaces
+an existing file. Inside :func:`committed_together` every file is renamed at the end
+of the block, all or none: an interrupted command that writes several files leaves
+the previous set as it was.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "write_bytes", "write_text", "TEMP_PREFIX"]
+from . import interrupt
+
+__all__ = ["atomic_path", "committed_together", "write_bytes", "write_text", "TEMP_PREFIX"]
 
 TEMP_PREFIX = ".acousim-tmp-"
 """Prefix of every temporary file (``.acousim-tmp-<random>-<name>``)."""
@@ -43,12 +52,54 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             _restore(mask)  # a held-back Ctrl-C is raised here, inside the outer try
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file gets the usual mode
         yield tmp
-        os.replace(tmp, path)
+        pending = _GROUP.get()
+        if pending is not None:
+            pending.append((tmp, path))  # renamed when the group ends
+        else:
+            _commit([(tmp, path)])
     except BaseException:
         if tmp is not None:
             with contextlib.suppress(OSError):
                 tmp.unlink()
         raise
+
+
+_GROUP: contextvars.ContextVar[list | None] = contextvars.ContextVar("atomic_group", default=None)
+
+
+@contextlib.contextmanager
+def committed_together() -> Iterator[None]:
+    """Files written with :func:`atomic_path` inside the block are renamed into place
+    together when it ends, none of them if it raises or Ctrl-C came (their temporaries
+    are removed)."""
+    pending: list[tuple[Path, Path]] = []
+    token = _GROUP.set(pending)
+    try:
+        yield
+        _GROUP.reset(token)
+        token = None
+        _commit(pending)
+    except BaseException:
+        for tmp, _ in pending:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise
+    finally:
+        if token is not None:
+            _GROUP.reset(token)
+
+
+def _commit(moves: list[tuple[Path, Path]]) -> None:
+    """Rename temporaries to their targets unless Ctrl-C came: SIGINT is held back
+    from the check to the last rename, so a Ctrl-C is either before (nothing renamed,
+    KeyboardInterrupt) or after (every file complete)."""
+    mask = _block_sigint()
+    try:
+        interrupt.check()
+        for tmp, path in moves:
+            os.replace(tmp, path)
+    finally:
+        _restore(mask)
 
 
 def _block_sigint():

@@ -114,7 +114,7 @@ def _normalised(snapshots, array: Array) -> np.ndarray:
     if x.ndim == 2:
         x = x[:, :, None]
     if x.ndim != 3 or x.shape[0] != array.n_mics:
-        raise ValueError(
+        raise InputError(
             f"snapshots must have shape (M={array.n_mics}, R[, K]), got {np.shape(snapshots)}"
         )
     x = x.astype(np.complex128, copy=False)
@@ -201,11 +201,11 @@ def method_matrix(
 
 def _check(base: str, L: int, loading: float, n_sources: int | None) -> None:
     if base == "capon" and not loading > -1:
-        raise ValueError(f"loading must be > -1 (in units of the noise floor), got {loading}")
+        raise InputError(f"loading must be > -1 (in units of the noise floor), got {loading}")
     if base == "music" and n_sources is not None and not 0 <= n_sources < L:
-        raise ValueError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
+        raise InputError(f"n_sources must be in [0, {L - 1}], got {n_sources}")
     if base not in ("music", "capon"):
-        raise ValueError(f"unknown method base {base!r}")
+        raise InputError(f"unknown method base {base!r}")
 
 
 def _unitary(L: int) -> np.ndarray:
@@ -299,7 +299,7 @@ def doa_spectrum(
     """
     base, smooth = _parse(method)
     if backend not in ("auto", "coarray", "direct"):
-        raise ValueError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
+        raise InputError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
     x = _normalised(snapshots, array)
     if smooth:
         array.require_ura(f"method {method!r}")

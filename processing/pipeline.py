@@ -39,6 +39,8 @@ __all__ = [
     "acoustic_images",
     "acoustic_image",
     "estimate_memory_bytes",
+    "front_end_bytes",
+    "check_memory",
 ]
 
 #: Default limit on the memory one imaging call may allocate (bytes); override with
@@ -130,7 +132,10 @@ class ProcessingSettings:
 
 
 def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Snapshot:
-    """Matched filter and STFT snapshot of a recording (all its measurements)."""
+    """Matched filter and STFT snapshot of a recording (all its measurements); an
+    InputError, before allocating, when they would need more than
+    ``settings.memory_limit_bytes``."""
+    _check_memory(recording, [], settings)
     template = recording.waveform.sampled(recording.sample_rate_hz)
     mf = matched_filter(recording.samples, template)
     return stft_snapshot(
@@ -159,10 +164,12 @@ def estimate_memory_bytes(
 ) -> int:
     """Bytes an imaging job needs at its peak (an estimate, before allocating).
 
-    Narrowband: the image and two temporaries of its size (R x E x A float64) plus
-    the steering tables (E x A x (M + 2 sqrt(M))); broadband: the output (R x G)
-    and one chunk of aligned channels (chunk x M x N complex, three times).
-    `n_bins` is the number of kept range bins when known (else every STFT frame).
+    Every job first samples the call and matched-filters the recording
+    (:func:`front_end_bytes`); then narrowband: the image and two temporaries of its
+    size (R x E x A float64) plus the steering tables (E x A x (M + 2 sqrt(M)));
+    broadband: the output (R x G) and one chunk of aligned channels (chunk x M x N
+    complex, three times). `n_bins` is the number of kept range bins when known
+    (else every STFT frame).
     """
     E, A = settings.grid.shape
     G = E * A
@@ -171,7 +178,7 @@ def estimate_memory_bytes(
     T = recording.n_samples
     hop = max(1, settings.window - settings.overlap)
     R = n_bins if n_bins is not None else T // hop
-    total = 0
+    total = front_end_bytes(recording, settings)
     for m in methods:
         if parse_method(m).family == "broadband":
             bb = settings.broadband
@@ -184,9 +191,56 @@ def estimate_memory_bytes(
     return int(total)
 
 
+def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
+    """Bytes of the stages every method shares, at their peak: the sampled call
+    (L = duration x rate samples, a few float64 temporaries of its length), the
+    matched filter (K x M channels on an FFT of T + L points: the input, its
+    spectrum and the product, the output) and the STFT snapshot (the frames searched
+    for the strongest bin, K x M x P x window, three times, and their spectra);
+    within 1.5 times the peak numpy allocates (tests/test_reliability.py)."""
+    w = recording.waveform
+    K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
+    L = float(w.duration_s) * float(recording.sample_rate_hz)  # float: never overflows
+    n = T + L
+    template = 8.0 * 8 * L
+    mf = float(K * M) * (8 * T + 2 * 16 * (n / 2 + 1) + 8 * n)
+    hop = max(1, settings.window - settings.overlap)
+    P = max(0, (T - settings.window) // hop + 1)
+    # the candidate frames copied, windowed (and copied once more by the FFT), then
+    # their spectra
+    frames = K * M * P * (24 * settings.window + 16 * (settings.window // 2 + 1))
+    snapshot = K * M * T * 8 + frames
+    return int(min(template + max(mf, snapshot), 2.0**62))
+
+
+def check_memory(
+    recording: Recording,
+    methods: Sequence[str] = (),
+    settings: ProcessingSettings | None = None,
+    n_bins: int | None = None,
+) -> None:
+    """An InputError, before anything is allocated, when imaging `recording` by
+    `methods` (none: the matched filter and snapshots only) would need more than
+    ``settings.memory_limit_bytes`` (see :func:`estimate_memory_bytes`)."""
+    _check_memory(recording, list(methods), settings or ProcessingSettings(), n_bins)
+
+
 def _check_memory(recording, methods, settings, n_bins=None) -> None:
     need = estimate_memory_bytes(recording, methods, settings, n_bins)
     if need > settings.memory_limit_bytes:
+        front = front_end_bytes(recording, settings)
+        if front > settings.memory_limit_bytes:
+            w = recording.waveform
+            raise InputError(
+                f"imaging would need about {front / 2**30:.1f} GiB for the matched filter "
+                f"and snapshots alone ({recording.n_samples} samples of "
+                f"{recording.array.n_mics} microphones, a {w.duration_s:g} s call at "
+                f"{recording.sample_rate_hz:g} Hz), above the limit of "
+                f"{settings.memory_limit_bytes / 2**30:.1f} GiB "
+                "(ProcessingSettings(memory_limit_bytes=...))",
+                key="sample_rate_hz, waveform.duration_s",
+                value=(recording.sample_rate_hz, w.duration_s),
+            )
         raise InputError(
             f"imaging would need about {need / 2**30:.1f} GiB, above the limit of "
             f"{settings.memory_limit_bytes / 2**30:.1f} GiB (a coarser grid step, fewer "
@@ -241,9 +295,10 @@ def acoustic_images(
     the matched filter and STFT.  Raises InputError for an unknown method or a job
     above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
+    methods = [check_method(m) for m in methods]
     family = {m: parse_method(m).family for m in methods}
     broadband = [m for m in methods if family[m] == "broadband"]
-    _check_memory(recording, broadband, settings)
+    _check_memory(recording, broadband, settings)  # + the front end
     out = {m: _broadband_image(recording, m, settings) for m in broadband}
     rest = [m for m in methods if family[m] != "broadband"]
     if not rest:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -43,6 +42,7 @@ from numpy.typing import DTypeLike
 from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
+from .metadata import metadata_problem, pose_of
 from .pointcloud import PointCloud, read_point_cloud, write_point_cloud
 from .provenance import Provenance
 from .waveforms import Waveform
@@ -59,6 +59,7 @@ __all__ = [
     "GroundTruth",
     "count_recordings",
     "MAX_SAMPLE_BYTES",
+    "pose_of",
 ]
 
 SCHEMA = "acousim.recordings"
@@ -121,11 +122,11 @@ class Recording:
     def __post_init__(self) -> None:
         x = np.asarray(self.samples)
         if x.ndim not in (2, 3):
-            raise ValueError(f"samples must have shape (M, T) or (K, M, T), got {x.shape}")
+            raise InputError(f"samples must have shape (M, T) or (K, M, T), got {x.shape}")
         if not np.issubdtype(x.dtype, np.floating):
             x = x.astype(np.float64)
         if x.shape[-2] != self.array.n_mics:
-            raise ValueError(
+            raise InputError(
                 f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
                 f"has {self.array.n_mics} microphones"
             )
@@ -140,13 +141,13 @@ class Recording:
                 value=float(x[tuple(where)]),
             )
         if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
-            raise ValueError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
+            raise InputError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
         if not (np.isfinite(self.speed_of_sound_m_s) and 200 < self.speed_of_sound_m_s < 500):
-            raise ValueError(
+            raise InputError(
                 f"speed_of_sound_m_s must be in (200, 500) m/s, got {self.speed_of_sound_m_s}"
             )
         if not 0 <= int(self.emission_index) < x.shape[-1]:
-            raise ValueError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
+            raise InputError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
         object.__setattr__(self, "samples", x)
         object.__setattr__(self, "emission_index", int(self.emission_index))
         object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
@@ -215,16 +216,16 @@ class GroundTruth:
         n = len(pw)
         for name, a in (("position_sensor_m", ps), ("amplitude", amp), ("order", order)):
             if len(a) != n:
-                raise ValueError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+                raise InputError(f"truth {name} has {len(a)} entries, position_world_m {n}")
         if len(kind) != n:
-            raise ValueError(f"truth kind has {len(kind)} entries, position_world_m {n}")
+            raise InputError(f"truth kind has {len(kind)} entries, position_world_m {n}")
         if not (np.all(np.isfinite(pw)) and np.all(np.isfinite(ps)) and np.all(np.isfinite(amp))):
-            raise ValueError("truth positions and amplitudes must be finite")
+            raise InputError("truth positions and amplitudes must be finite")
         if order.size and (order.dtype.kind not in "iu" or order.min() < 0):
-            raise ValueError(f"truth order must be non-negative integers, got {order.dtype}")
+            raise InputError(f"truth order must be non-negative integers, got {order.dtype}")
         bad = sorted(set(kind.tolist()) - set(_KINDS))
         if bad:
-            raise ValueError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
+            raise InputError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
         object.__setattr__(self, "position_world_m", pw)
         object.__setattr__(self, "position_sensor_m", ps)
         object.__setattr__(self, "amplitude", amp)
@@ -233,9 +234,9 @@ class GroundTruth:
         if self.velocity_world_m_s is not None:
             vel = np.asarray(self.velocity_world_m_s, float).reshape(-1, 3)
             if len(vel) != n:
-                raise ValueError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
+                raise InputError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
             if not np.all(np.isfinite(vel)):
-                raise ValueError("truth velocities must be finite")
+                raise InputError("truth velocities must be finite")
             object.__setattr__(self, "velocity_world_m_s", vel)
 
     def __len__(self) -> int:
@@ -290,6 +291,16 @@ def save_recordings(
     dtype = np.dtype(dtype)
     if dtype not in (np.float32, np.float64):
         raise ValueError(f"dtype must be float32 or float64, got {dtype}")
+    for i, rec in enumerate(recordings):  # what the reader would refuse is never written
+        _check_for_writing(path, i, rec)
+        big = float(np.max(np.abs(rec.samples), initial=0.0))
+        if big > np.finfo(dtype).max:
+            raise InputError(
+                f"samples reach {big:.3g}, beyond {dtype} (written as inf, which the reader "
+                "refuses); save with dtype=np.float64",
+                file=path,
+                key=f"recording {i}.samples",
+            )
     width = _name_width(len(recordings))
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["schema"] = SCHEMA
@@ -300,6 +311,22 @@ def save_recordings(
             opts = {"dtype": dtype, "compression": compression, "checksum": checksum}
             _write_one(group.create_group(f"{i:0{width}d}"), rec, opts)
     return path
+
+
+def _check_for_writing(path: Path, i: int, rec: Recording) -> None:
+    """The reader's checks of the fields a Recording does not check itself (the
+    waveform below Nyquist, the metadata's known keys, JSON-serialisable metadata)."""
+    where = f"recording {i}"
+    if not isinstance(rec, Recording):
+        raise InputError("not a Recording", file=path, key=where, value=type(rec).__name__)
+    _check_waveform(path, f"{where}.waveform", rec.waveform, rec.sample_rate_hz)
+    try:
+        text = json.dumps(rec.metadata, default=_json_default, allow_nan=True)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"not JSON-serialisable ({exc})", file=path, key=f"{where}.metadata"
+        ) from None
+    _check_metadata(path, f"{where}.metadata", json.loads(text))
 
 
 def _name_width(n: int) -> int:
@@ -647,6 +674,17 @@ def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
         w = Waveform.from_dict(json.loads(text))
     except (ValueError, TypeError, KeyError, AttributeError) as exc:
         raise RecordingFileError(f"not a waveform ({exc})", file=path, key=key) from None
+    _check_waveform(path, key, w, sample_rate_hz)
+    return w
+
+
+def _check_waveform(path: Path, key: str, w: Waveform, sample_rate_hz: float) -> None:
+    if w.duration_s * sample_rate_hz < 1:
+        raise RecordingFileError(
+            f"lasts {w.duration_s:g} s, less than one sample at {sample_rate_hz:g} Hz",
+            file=path,
+            key=key,
+        )
     top = max(w.f_start_hz, w.f_end_hz)
     if top > sample_rate_hz / 2:
         raise RecordingFileError(
@@ -654,7 +692,6 @@ def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
             file=path,
             key=key,
         )
-    return w
 
 
 def _metadata(path: Path, g: h5py.Group) -> dict:
@@ -666,10 +703,7 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
         meta = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
     except (ValueError, TypeError, AttributeError) as exc:
         raise RecordingFileError(f"not JSON ({exc})", file=path, key=key) from None
-    if not isinstance(meta, dict):
-        raise RecordingFileError("must be a JSON object", file=path, key=key)
-    if "pose" in meta:
-        _check_pose(path, f"{key}: pose", meta["pose"])
+    _check_metadata(path, key, meta)  # the keys the programs read, each checked
     try:
         Provenance.from_metadata(meta, file=path, key=key)
     except InputError as exc:
@@ -677,27 +711,12 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
     return meta
 
 
-def _check_pose(path: Path, key: str, pose) -> None:
-    """A pose in a file: position_m (3 metres), yaw_deg/pitch_deg/roll_deg, time_s."""
-    ok = isinstance(pose, dict)
-    if ok:
-        p = pose.get("position_m")
-        ok = (
-            isinstance(p, list)
-            and len(p) == 3
-            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in p)
-        )
-        for name in ("yaw_deg", "pitch_deg", "roll_deg", "time_s"):
-            v = pose.get(name, 0.0)
-            ok = ok and isinstance(v, (int, float)) and math.isfinite(v)
-    if not ok:
-        raise RecordingFileError(
-            "must be {position_m: [x, y, z], yaw_deg, pitch_deg, roll_deg, time_s} with "
-            "finite numbers",
-            file=path,
-            key=key,
-            value=pose,
-        )
+def _check_metadata(path: Path, key: str, meta) -> None:
+    """The metadata keys the programs read, each checked (processing.metadata)."""
+    problem = metadata_problem(meta)
+    if problem is not None:
+        sub, reason, value = problem
+        raise RecordingFileError(reason, file=path, key=f"{key}{sub}", value=value)
 
 
 def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from .errors import InputError
+
 __all__ = ["covariance", "smoothed_covariance", "subarray_snapshots", "default_subarray"]
 
 
@@ -40,7 +42,7 @@ def subarray_snapshots(
     nz, ny = x_grid.shape[:2]
     lz, ly = (int(v) for v in subarray)
     if not (1 <= lz <= nz and 1 <= ly <= ny):
-        raise ValueError(f"subarray {subarray} must fit in the {nz}x{ny} array and be >= 1x1")
+        raise InputError(f"subarray {subarray} must fit in the {nz}x{ny} array and be >= 1x1")
     win = sliding_window_view(x_grid, (lz, ly), axis=(0, 1))  # (Pz, Py, R, K, Lz, Ly)
     R = x_grid.shape[2]
     Y = np.moveaxis(win, 2, 0).reshape(R, -1, lz * ly).transpose(0, 2, 1)  # (R, L, S)

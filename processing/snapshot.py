@@ -20,6 +20,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from .errors import InputError
+
 __all__ = ["Snapshot", "Stft", "BinGate", "stft_snapshot"]
 
 
@@ -146,8 +148,8 @@ def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz) -> int:
     power = (spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2))
     if band_hz is not None:
         inband = (freqs >= band_hz[0]) & (freqs <= band_hz[1])
-        if not inband.any():
-            raise ValueError(f"band_hz {band_hz} holds no STFT frequency bin")
+        if not inband.any():  # bins wider than the band: the one nearest its centre
+            inband = np.arange(freqs.size) == np.argmin(np.abs(freqs - np.mean(band_hz)))
         power = np.where(inband, power, -1.0)
     return int(np.argmax(power))
 
@@ -158,14 +160,14 @@ def _checked(mf, stft: Stft, gate: BinGate) -> np.ndarray:
     if x.ndim == 2:
         x = x[None]
     if x.ndim != 3:
-        raise ValueError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
+        raise InputError(f"mf must have shape (M, T) or (K, M, T), got {np.shape(mf)}")
     window, overlap = stft.window, stft.overlap
     if not 0 <= overlap < window:
-        raise ValueError(f"overlap must be in [0, window={window}), got {overlap}")
+        raise InputError(f"overlap must be in [0, window={window}), got {overlap}")
     if not 0 <= gate.energy_fraction <= 1:
-        raise ValueError(f"energy_fraction must be in [0, 1], got {gate.energy_fraction}")
+        raise InputError(f"energy_fraction must be in [0, 1], got {gate.energy_fraction}")
     if x.shape[-1] < window:
-        raise ValueError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
+        raise InputError(f"recording has {x.shape[-1]} samples, fewer than the window {window}")
     return x
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import fft as sfft
 
+from .errors import InputError
 from .kernels import optional_kernel
 
 __all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
@@ -52,12 +53,12 @@ class Grid:
         for name in ("azimuth_rad", "elevation_rad"):
             v = np.atleast_1d(np.asarray(getattr(self, name), dtype=float))
             if v.ndim != 1 or v.size == 0 or not np.all(np.isfinite(v)):
-                raise ValueError(f"grid {name} must be a non-empty finite 1-D array")
+                raise InputError(f"grid {name} must be a non-empty finite 1-D array")
             if v.size > 1 and np.any(np.diff(v) <= 0):
-                raise ValueError(f"grid {name} must be strictly increasing")
+                raise InputError(f"grid {name} must be strictly increasing")
             object.__setattr__(self, name, v)
         if np.any(np.abs(self.elevation_rad) > np.pi / 2 + 1e-12):
-            raise ValueError("grid elevations must lie in [-90, 90] degrees")
+            raise InputError("grid elevations must lie in [-90, 90] degrees")
 
     def __repr__(self) -> str:
         az, el = np.rad2deg(self.azimuth_rad), np.rad2deg(self.elevation_rad)
@@ -76,7 +77,7 @@ class Grid:
         """A regular grid from (min, max) limits and a step, all in degrees (inclusive)."""
         s_az, s_el = (step, step) if np.isscalar(step) else step
         if not (s_az > 0 and s_el > 0):
-            raise ValueError(f"grid step must be positive, got {step}")
+            raise InputError(f"grid step must be positive, got {step}")
 
         def axis(lo: float, hi: float, step: float) -> np.ndarray:
             n = int(np.floor((hi - lo) / step + 1e-9))
@@ -180,7 +181,7 @@ class CoarrayKernel:
         R, L, _ = Q.shape
         nz, ny = self.shape
         if L != nz * ny:
-            raise ValueError(f"Q is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
+            raise InputError(f"Q is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
         c = self._scatter @ Q.reshape(R, L * L).T  # (K, R)
         return c.T.reshape(R, 2 * nz - 1, 2 * ny - 1)
 
@@ -194,7 +195,7 @@ class CoarrayKernel:
         R, L, _ = Qr.shape
         nz, ny = self.shape
         if L != nz * ny:
-            raise ValueError(f"Qr is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
+            raise InputError(f"Qr is {L}x{L}, expected {nz * ny} for a {nz}x{ny} array")
         cache = self.__dict__.setdefault("_unitary_maps", {})
         key = T.tobytes()
         if key not in cache:  # vec(T Qr T^H) = kron(T, conj T) vec(Qr), row-major
@@ -229,7 +230,7 @@ class CoarrayKernel:
         R, L, S = U.shape
         nz, ny = self.shape
         if L != nz * ny:
-            raise ValueError(f"U has {L} rows, expected {nz * ny} for a {nz}x{ny} array")
+            raise InputError(f"U has {L} rows, expected {nz * ny} for a {nz}x{ny} array")
         if L <= 4 * S:
             c = self.coefficients((U * d[:, None, :]) @ U.conj().transpose(0, 2, 1))
             c[:, nz - 1, ny - 1] += L * np.asarray(c0, dtype=float)

@@ -7,6 +7,7 @@ at any rate (:meth:`Waveform.sampled`).  Time 0 is the first sample of the emiss
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -24,9 +25,16 @@ __all__ = [
     "hyperbolic_sweep",
     "paper_chirp",
     "rtis_call",
+    "MAX_FREQUENCY_HZ",
+    "MAX_DURATION_S",
     "fit_sweep",
     "FIT_MIN_CORRELATION",
 ]
+
+MAX_FREQUENCY_HZ = 1e9
+"""Highest frequency (Hz) of a call: far above any air-borne ultrasound."""
+MAX_DURATION_S = 1e3
+"""Longest call (s); the memory estimate refuses far shorter ones at a high rate."""
 
 #: :func:`fit_sweep` accepts a fit whose analytic signal correlates at least this well
 #: with the sampled call (magnitude of the normalised complex correlation)
@@ -61,15 +69,24 @@ class Waveform:
 
     def __post_init__(self) -> None:
         if self.kind not in ("linear", "hyperbolic"):
-            raise ValueError(f"waveform kind must be 'linear' or 'hyperbolic', got {self.kind!r}")
-        if not (self.f_start_hz > 0 and self.f_end_hz > 0):
-            raise ValueError(
-                f"waveform frequencies must be positive, got {self.f_start_hz}, {self.f_end_hz}"
+            raise InputError(
+                "must be 'linear' or 'hyperbolic'", key="waveform.kind", value=self.kind
             )
-        if not self.duration_s > 0:
-            raise ValueError(f"waveform duration_s must be positive, got {self.duration_s}")
-        if not 0 <= self.taper <= 0.5:
-            raise ValueError(f"waveform taper must be in [0, 0.5], got {self.taper}")
+        for name, lo, hi in (
+            ("f_start_hz", 0.0, MAX_FREQUENCY_HZ),
+            ("f_end_hz", 0.0, MAX_FREQUENCY_HZ),
+            ("duration_s", 0.0, MAX_DURATION_S),
+            ("taper", -1.0, 0.5),
+            ("amplitude", -math.inf, math.inf),
+        ):
+            v = getattr(self, name)
+            ok = isinstance(v, int | float | np.number) and not isinstance(v, bool)
+            if not (ok and math.isfinite(v) and lo < v <= hi and (name != "taper" or v >= 0)):
+                what = "in [0, 0.5]" if name == "taper" else f"in (0, {hi:g}]"
+                if name == "amplitude":
+                    what = "finite"
+                raise InputError(f"must be a number {what}", key=f"waveform.{name}", value=v)
+            object.__setattr__(self, name, float(v))
 
     @property
     def band_hz(self) -> tuple[float, float]:
@@ -128,7 +145,18 @@ class Waveform:
 
     @classmethod
     def from_dict(cls, d: dict) -> Waveform:
-        return cls(**{k: (str(v) if k == "kind" else float(v)) for k, v in d.items()})
+        """From :meth:`to_dict`'s form; an InputError naming a missing, unknown or
+        malformed field."""
+        if not isinstance(d, dict):
+            raise InputError("must be an object {kind, f_start_hz, ...}", key="waveform", value=d)
+        known = {"kind", "f_start_hz", "f_end_hz", "duration_s", "taper", "amplitude"}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise InputError("unknown field", key=f"waveform.{unknown[0]}", value=d[unknown[0]])
+        missing = sorted({"kind", "f_start_hz", "f_end_hz", "duration_s"} - set(d))
+        if missing:
+            raise InputError("missing", key=f"waveform.{missing[0]}")
+        return cls(**d)
 
 
 def linear_chirp(

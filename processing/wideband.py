@@ -23,6 +23,7 @@ from scipy.signal import get_window
 
 from .arrays import Array
 from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
+from .errors import InputError
 from .methods import WIDEBAND_METHODS, WidebandMethod
 from .steering import Grid
 
@@ -80,7 +81,7 @@ def wideband_spectrum(
 ) -> np.ndarray:
     """Incoherent wideband spectrum (R, E, A) from snapshots (F, M, R, K) (steps 3-4)."""
     if method not in WIDEBAND_METHODS:
-        raise ValueError(f"unknown wideband method {method!r}; choose one of {WIDEBAND_METHODS}")
+        raise InputError(f"unknown wideband method {method!r}; choose one of {WIDEBAND_METHODS}")
     narrow = method[: -len("-wb")]
     music = narrow.startswith("music")
     acc = None

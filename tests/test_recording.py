@@ -307,8 +307,8 @@ def test_time_axis_starts_at_emission():
 def test_failed_write_leaves_no_file(tmp_path):
     bad = make()
     object.__setattr__(bad, "metadata", {"x": object()})
-    with pytest.raises(TypeError):
-        P.save_recording(tmp_path / "r.h5", bad)
+    with pytest.raises(P.InputError, match="metadata: not JSON-serialisable"):
+        P.save_recording(tmp_path / "r.h5", bad)  # refused before anything is written
     assert list(tmp_path.iterdir()) == []
 
 

@@ -15,45 +15,70 @@ here, at the entry point, never by a library object.
 
 from __future__ import annotations
 
-import argparse
+# Light on purpose: nothing here imports numpy, scipy or h5py at import time, so that
+# main() installs its Ctrl-C handler a few milliseconds after the process starts
+# rather than after a second of imports (during which Ctrl-C printed a traceback).
 import os
 import signal
 import sys
+import threading
 
-from processing.errors import InputError
+__all__ = [
+    "main",
+    "run",
+    "build_parser",
+    "UsageError",
+    "ARRAY_PRESETS",
+    "CALL_PRESETS",
+    "PDM_FILTERS",
+]
 
-from . import (
-    calibrate,
-    compare,
-    dataset,
-    demo,
-    export,
-    image,
-    info,
-    record,
-    reproduce,
-    scenes,
-    simulate,
-)
-from .common import UsageError, on_interrupt, reset_interrupt
-from .record import ARRAY_PRESETS, CALL_PRESETS, PDM_FILTERS
+#: names this package offers, imported on first use (they import processing)
+_LAZY = {
+    "UsageError": "common",
+    "ARRAY_PRESETS": "record",
+    "CALL_PRESETS": "record",
+    "PDM_FILTERS": "record",
+}
 
-__all__ = ["main", "build_parser", "UsageError", "ARRAY_PRESETS", "CALL_PRESETS", "PDM_FILTERS"]
 
-# in the order `acousim --help` lists them
-COMMANDS = (
-    demo,
-    simulate,
-    image,
-    export,
-    scenes,
-    info,
-    record,
-    compare,
-    calibrate,
-    dataset,
-    reproduce,
-)
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _commands() -> tuple:
+    """The command modules, in the order `acousim --help` lists them."""
+    from . import (
+        calibrate,
+        compare,
+        dataset,
+        demo,
+        export,
+        image,
+        info,
+        record,
+        reproduce,
+        scenes,
+        simulate,
+    )
+
+    return (
+        demo,
+        simulate,
+        image,
+        export,
+        scenes,
+        info,
+        record,
+        compare,
+        calibrate,
+        dataset,
+        reproduce,
+    )
 
 
 def _headless_vtk() -> None:
@@ -66,8 +91,10 @@ def _headless_vtk() -> None:
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser():
     """The parser of every command (light: no numpy or scipy is imported)."""
+    import argparse
+
     from acousim.bundled import version
 
     parser = argparse.ArgumentParser(
@@ -76,31 +103,78 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for command in COMMANDS:
+    for command in _commands():
         command.register(sub)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Parse, run one command; an InputError is one line on stderr and exit code 2,
-    Ctrl-C exit code 130, anything else a bug with its traceback."""
-    _headless_vtk()  # before any command imports VTK
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    reset_interrupt()
-    import threading
+_early_interrupt = False
 
+
+def _record_early(signum, frame) -> None:
+    """SIGINT while main() imports what it needs: only remembered (never raised)."""
+    global _early_interrupt
+    _early_interrupt = True
+
+
+def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
+    """Parse, run one command; an InputError is one line on stderr and exit code 2,
+    Ctrl-C exit code 130 with one line, anything else a bug with its traceback.
+
+    Ctrl-C only sets a flag (:mod:`processing.interrupt`, installed here, the only
+    place that changes the process's SIGINT handler, and restored on return unless
+    `restore_sigint` is false); the work stops at its next checkpoint and no output
+    file is replaced."""
+    global _early_interrupt
+    _early_interrupt = False
     previous = None
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, on_interrupt)
+        previous = signal.signal(signal.SIGINT, _record_early)  # first, before any import
     try:
+        return _main(argv, previous is not None)
+    finally:
+        if previous is not None and restore_sigint:
+            signal.signal(signal.SIGINT, previous)
+
+
+def run() -> None:
+    """The program's entry (the ``acousim`` command, ``python -m acousim.cli``): main()
+    and its exit code; a Ctrl-C after the command has finished changes nothing."""
+    try:
+        code = main(restore_sigint=False)
+    finally:
+        # done (or argparse's exit): a Ctrl-C now changes nothing. Ignored rather than
+        # left to the flag handler, which the interpreter's finalisation resets to the
+        # default (a Ctrl-C in those last milliseconds ended the process by the
+        # signal, without a word)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(code)
+
+
+def _main(argv: list[str] | None, handled: bool) -> int:
+    from processing import interrupt
+    from processing.errors import InputError
+
+    from .common import announce
+
+    interrupt.reset()
+    if handled:
+        signal.signal(signal.SIGINT, interrupt.handler)
+    if _early_interrupt:  # came while importing: now the same request
+        interrupt.handler(signal.SIGINT, None)
+    _headless_vtk()  # before any command imports VTK
+    args = build_parser().parse_args(argv)
+    announce(args.command)
+    try:
+        interrupt.check()
         return args.func(args)
     except InputError as exc:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"acousim {args.command}: interrupted; no partial file was kept", file=sys.stderr)
+        print(
+            f"acousim {args.command}: interrupted; no partial file was kept and no "
+            "existing output replaced",
+            file=sys.stderr,
+        )
         return 130
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)

@@ -1,7 +1,5 @@
 """``python -m acousim.cli``: the same as the ``acousim`` command."""
 
-import sys
+from . import run
 
-from . import main
-
-sys.exit(main())
+run()

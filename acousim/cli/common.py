@@ -149,34 +149,42 @@ def parse_indices(option: str, text: str | None) -> list[int] | None:
     return out
 
 
-# --- Ctrl-C -------------------------------------------------------------------------
+# --- Ctrl-C and progress ----------------------------------------------------------
 
-_interrupted = False
-
-
-def on_interrupt(signum, frame) -> None:
-    """SIGINT: remember it, then raise KeyboardInterrupt as Python does. Some optional
-    imports (trimesh's) catch BaseException and would swallow it; the flag makes
-    :func:`stop_if_interrupted` raise it again at the next checkpoint."""
-    global _interrupted
-    _interrupted = True
-    raise KeyboardInterrupt
+PROGRESS_LINES = "ACOUSIM_PROGRESS_LINES"
+"""Environment variable: set to 1, every command says on stderr (one flushed line
+each) when it has started (its Ctrl-C handler installed) and each step of its
+progress, e.g. ``acousim simulate: simulate 3/16``; for logs and for tests that
+must act at a known point of a run."""
 
 
-def reset_interrupt() -> None:
-    global _interrupted
-    _interrupted = False
+def _lines() -> bool:
+    import os
+
+    return os.environ.get(PROGRESS_LINES, "") not in ("", "0")
+
+
+_command = "acousim"
+
+
+def announce(command: str) -> None:
+    """'acousim COMMAND: started' on stderr, with ACOUSIM_PROGRESS_LINES set."""
+    global _command
+    _command = f"acousim {command}"
+    if _lines():
+        print(f"acousim {command}: started", file=sys.stderr, flush=True)
 
 
 def stop_if_interrupted() -> None:
-    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came, even if it was swallowed."""
-    if _interrupted:
-        raise KeyboardInterrupt
+    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came (see processing.interrupt)."""
+    from processing import interrupt
+
+    interrupt.check()
 
 
 def progress(desc: str):
-    """A tqdm progress callback (and a Ctrl-C checkpoint): shown after a second, and
-    only on a terminal."""
+    """A progress callback and a Ctrl-C checkpoint: a tqdm bar shown after a second, and
+    only on a terminal; plain lines with ACOUSIM_PROGRESS_LINES set."""
     from tqdm import tqdm
 
     bar = None
@@ -184,6 +192,9 @@ def progress(desc: str):
     def update(done: int, total: int) -> None:
         nonlocal bar
         stop_if_interrupted()
+        if _lines():
+            print(f"{_command}: {desc} {done}/{total}", file=sys.stderr, flush=True)
+            return
         if bar is None:
             bar = tqdm(
                 total=total, desc=desc, delay=1.0, disable=not sys.stderr.isatty(), leave=False
@@ -196,26 +207,17 @@ def progress(desc: str):
 
 
 def preload_simulation() -> None:
-    """Import what a simulation needs before its work starts and set the process's
-    policy (:func:`acousim.process.configure`), with Ctrl-C held back
-    until the imports are done (trimesh tries optional imports that catch
-    BaseException: an interrupt there broke its import with a TypeError), then honour
-    an interrupt that came meanwhile."""
-    import signal
+    """Import what a simulation needs before its work starts (Ctrl-C meanwhile is only
+    recorded, see processing.interrupt: an import that catches BaseException, as
+    trimesh's optional ones do, cannot swallow it), set the process's policy
+    (:func:`acousim.process.configure`: BLAS threads, the allocator), then honour a
+    Ctrl-C."""
+    import trimesh  # noqa: F401
 
-    held = hasattr(signal, "pthread_sigmask")
-    if held:
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        import trimesh  # noqa: F401
+    import acousim.simulator  # noqa: F401
+    from acousim.process import configure
 
-        import acousim.simulator  # noqa: F401
-        from acousim.process import configure
-
-        configure()  # a simulating process's policy: BLAS threads, the allocator
-    finally:
-        if held:  # a Ctrl-C that came meanwhile is delivered now
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    configure()  # a simulating process's policy: BLAS threads, the allocator
     stop_if_interrupted()
 
 

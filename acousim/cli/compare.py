@@ -13,6 +13,7 @@ from .common import (
     load_scene,
     methods,
     preload_simulation,
+    progress,
     writable_dir,
 )
 from .image import CHIRP_CALLS
@@ -104,27 +105,33 @@ def _pairs(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     from acousim.compare import compare, write_comparison
     from acousim.compare_summary import summarize, write_summary
+    from processing.atomic import committed_together
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
     out = writable_dir(args.out)
     names = methods("--method", args.method)
-    try:
-        pairs = _pairs(args)
-        reports = []
-        for n, (real, sim) in enumerate(pairs):
-            try:
-                report, arrays = compare(real, sim, names)
-            except InputError as exc:
-                raise UsageError(f"pair {n}: {exc}") from None
-            reports.append(report)
-            folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
-            files = write_comparison(report, arrays, folder)
-    except InputError as exc:
-        raise UsageError(str(exc)) from None
+    with committed_together():  # every file or none (Ctrl-C, an error)
+        try:
+            pairs = _pairs(args)
+            reports = []
+            step = progress("compare")
+            for n, (real, sim) in enumerate(pairs):
+                step(n, len(pairs))  # a Ctrl-C checkpoint
+                try:
+                    report, arrays = compare(real, sim, names)
+                except InputError as exc:
+                    raise UsageError(f"pair {n}: {exc}") from None
+                reports.append(report)
+                folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
+                files = write_comparison(report, arrays, folder)
+            step(len(pairs), len(pairs))
+        except InputError as exc:
+            raise UsageError(str(exc)) from None
+        if len(reports) > 1:
+            s = summarize(reports)
+            path = write_summary(s, out)
     if len(reports) > 1:
-        s = summarize(reports)
-        path = write_summary(s, out)
         print(
             f"{s.poses} poses: mean envelope correlation {s.mean_envelope_correlation:.2f}, "
             f"{s.matched_echoes} matched echoes (median |d_range| {s.median_abs_d_range_m}, "

@@ -12,7 +12,6 @@ from .common import (
     preload_simulation,
     progress,
     simulate,
-    stop_if_interrupted,
     writable_dir,
 )
 
@@ -33,21 +32,22 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import processing as P
     from acousim.imaging import ImagingOptions, image_recordings, write_pictures
+    from processing.atomic import committed_together
 
     t0 = time.perf_counter()
     out = writable_dir(args.out)
     scene = load_scene(bundled_scenes() / "corridor.toml")
     preload_simulation()
     recs = simulate(scene, None, args.seed)
-    stop_if_interrupted()
-    P.save_recordings(out / "corridor.h5", recs)
     t1 = time.perf_counter()
     options = ImagingOptions()
     images = image_recordings(recs, options, progress("image"))
     t2 = time.perf_counter()
-    files = [out / "corridor.h5"] + write_pictures(
-        recs, images, out, options, progress=progress("animate")
-    )
+    with committed_together():  # every file or none (Ctrl-C, an error)
+        P.save_recordings(out / "corridor.h5", recs)
+        files = [out / "corridor.h5"] + write_pictures(
+            recs, images, out, options, progress=progress("animate")
+        )
     print(
         f"corridor drive: {len(recs)} poses simulated in {t1 - t0:.1f} s, imaged in "
         f"{t2 - t1:.1f} s, pictures in {time.perf_counter() - t2:.1f} s:"

@@ -114,9 +114,9 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.export import write_image_data, write_peaks_csv
-    from acousim.imaging import prepare_pictures, write_pictures
+    from acousim.imaging import prepare_pictures
     from acousim.outputs import our_files, tidy
+    from processing.atomic import committed_together
 
     out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
@@ -124,6 +124,19 @@ def run(args: argparse.Namespace) -> int:
     animation = not args.no_animation and len(recs) > 1
     prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
     images = image_all()
+    with committed_together():  # every file or none (Ctrl-C, an error)
+        files = _write_all(args, out, recs, images, index, options, animation)
+    for f in files:
+        print(f"  {f}")
+    for line in tidy(out, before, files).lines():  # the user's own files stay
+        print(f"  ({line})")
+    return 0
+
+
+def _write_all(args, out, recs, images, index, options, animation) -> list:
+    from acousim.export import write_image_data, write_peaks_csv
+    from acousim.imaging import write_pictures
+
     files = []
     if not args.no_data:
         files += [
@@ -142,8 +155,4 @@ def run(args: argparse.Namespace) -> int:
         progress=progress("animate"),
         indices=index,
     )
-    for f in files:
-        print(f"  {f}")
-    for line in tidy(out, before, files).lines():  # the user's own files stay
-        print(f"  ({line})")
-    return 0
+    return files

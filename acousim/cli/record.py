@@ -16,6 +16,7 @@ from .common import (
     output_file,
     preload_simulation,
     progress,
+    stop_if_interrupted,
 )
 
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
@@ -86,7 +87,11 @@ def emulation_recordings(scene, count: int | None) -> list:
     n = min(len(scene.sensor.poses), count or 10)
     try:
         sim = Simulator(scene)
-        return [sim.simulate_pose(scene.sensor.poses[i], i) for i in range(n)]
+        out = []
+        for i in range(n):
+            stop_if_interrupted()
+            out.append(sim.simulate_pose(scene.sensor.poses[i], i))
+        return out
     except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
         raise UsageError(f"--emulate {scene.source}: {exc}") from None
 
@@ -133,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
         RecordingInterrupted,
         check_acquisition,
     )
+    from processing import interrupt
 
     try:
         check_acquisition(args.count, args.duration, args.rate)
@@ -153,14 +159,24 @@ def run(args: argparse.Namespace) -> int:
 
     interrupted, failure = False, None
     try:
-        recorder.acquire(args.count, args.duration, args.rate, on_record=keep)
+        recorder.acquire(
+            args.count, args.duration, args.rate, on_record=keep, stop=interrupt.requested
+        )
     except RecordingInterrupted:
+        # the first Ctrl-C stops the acquisition; what was kept is saved (a second
+        # Ctrl-C during the save leaves --out as it was)
+        interrupt.consume()
         interrupted = True
     except RecordingFailed as exc:
         failure = exc
     if kept:
         P.save_recordings(out, kept)
     print(_summary(out, kept, recorder.stats, interrupted, failure))
+    if interrupted:
+        print(
+            f"acousim record: interrupted; {len(kept)} complete measurement(s) kept",
+            file=sys.stderr,
+        )
     if failure:
         print(f"acousim record: error: {failure}", file=sys.stderr)
         return 1

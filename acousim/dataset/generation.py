@@ -23,7 +23,6 @@ import json
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from functools import lru_cache
 from pathlib import Path
 
@@ -31,10 +30,12 @@ import h5py
 import numpy as np
 
 import processing as P
+from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
 
-from .safety import check_scheduler, locked, sha256_file, watch_parent
+from .runners import run_dask, run_pool
+from .safety import check_scheduler, locked, sha256_file
 from .spec import DatasetSpec, load_spec
 
 __all__ = [
@@ -128,8 +129,15 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
             if _clear(str(choice.file), pos, choice.clearance_m):
                 break
         else:
-            raise RuntimeError(
-                f"sample {i}: no collision-free pose in the region of {choice.file} after 100 draws"
+            from .spec import SpecError
+
+            raise SpecError(
+                f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
+                f"in 100 draws in the region of {choice.file}; widen the region or lower "
+                "clearance_m",
+                file=spec.source,
+                key=f"scenes[{k}].region",
+                value=reg,
             )
         yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
         position, pitch, roll, extra = pos, 0.0, 0.0, {}
@@ -418,15 +426,6 @@ def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
     axes.attrs["energy_fraction"] = st.energy_fraction
 
 
-def _worker_start(parent_pid: int) -> None:
-    """A local worker process's entry: exit with its parent, the process's policy
-    (:func:`acousim.process.configure`)."""
-    from acousim.process import configure
-
-    watch_parent(parent_pid)
-    configure()
-
-
 def _shard_job(args: tuple[str, int, str]) -> dict:
     """One shard, with BLAS on one thread: the summation order (and so every bit of
     the result) must not depend on the worker's thread settings (Dask's workers run
@@ -490,35 +489,29 @@ def generate(
         write_text(existing, spec.sha256 + "\n")
         done, damaged = _done(spec, out)
         todo = [k for k in range(spec.n_shards) if k not in done]
+        if todo:  # a spec that cannot make its first sample fails here, before any worker
+            sample_parameters(spec, todo[0] * spec.shard_size)
         jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
         done_count = spec.n_shards - len(todo)
         t0 = time.perf_counter()
         if progress:
             progress(done_count, spec.n_shards)
-        if scheduler:
-            from dask.distributed import Client, as_completed
 
-            with Client(scheduler, timeout="10s") as client:
-                futures = client.map(_shard_job, jobs, pure=False)
-                for _ in as_completed(futures):
-                    done_count += 1
-                    if progress:
-                        progress(done_count, spec.n_shards)
-                client.gather(futures)
+        def step() -> None:
+            nonlocal done_count
+            done_count += 1
+            if progress:
+                progress(done_count, spec.n_shards)
+
+        if scheduler:
+            run_dask(_shard_job, jobs, scheduler, step)
         elif workers > 1 and len(jobs) > 1:
-            with ProcessPoolExecutor(
-                workers, initializer=_worker_start, initargs=(os.getpid(),)
-            ) as pool:
-                for _ in pool.map(_shard_job, jobs):
-                    done_count += 1
-                    if progress:
-                        progress(done_count, spec.n_shards)
+            run_pool(_shard_job, jobs, workers, out, step)
         else:
             for job in jobs:
+                interrupt.check()
                 _shard_job(job)
-                done_count += 1
-                if progress:
-                    progress(done_count, spec.n_shards)
+                step()
         elapsed = time.perf_counter() - t0
         manifest = _manifest(spec, out, elapsed, todo)
     manifest["summary"]["damaged_shards"] = damaged

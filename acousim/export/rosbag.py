@@ -60,7 +60,9 @@ import numpy as np
 import processing as P
 from acousim.imaging import PEAK_THRESHOLD_DB
 from acousim.viz.fan import DYNAMIC_RANGE_DB
+from processing import interrupt
 from processing.atomic import TEMP_PREFIX
+from processing.errors import InputError
 
 __all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
 
@@ -135,6 +137,15 @@ def write_rosbag(
     path = Path(path)
     if path.exists():
         raise FileExistsError(f"{path} exists already; a bag is never overwritten")
+    several = [
+        i for i, r in zip(indices or range(len(recordings)), recordings) if r.samples.ndim != 2
+    ]
+    if several:
+        raise InputError(
+            "holds several measurements (K, M, T); a bag takes one per recording",
+            key="recording",
+            value=several[0],
+        )
     store = _typestore()
     T = store.types
     indices = list(indices) if indices is not None else list(range(len(recordings)))
@@ -155,6 +166,7 @@ def write_rosbag(
             scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
 
             for idx, rec, imgs in zip(indices, recordings, images):
+                interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
                 ns = recording_time_ns(rec, idx)
                 header = T["std_msgs/msg/Header"](
                     stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
@@ -171,10 +183,23 @@ def write_rosbag(
                 put("tf", _tf_msg(T, header, _pose(rec)), ns)
                 scene.write(rec, header, ns)
                 scans(rec, header, ns)
-        bag.rename(path)
+        _rename_unless_interrupted(bag, path)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return path
+
+
+def _rename_unless_interrupted(bag: Path, path: Path) -> None:
+    """The finished bag renamed into place, unless Ctrl-C came (SIGINT held back from
+    the check to the rename, as processing.atomic does for files)."""
+    import signal
+
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        interrupt.check()
+        bag.rename(path)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def _lidar_writer(w, store, recordings):

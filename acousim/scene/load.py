@@ -27,7 +27,7 @@ from processing.settings import Setting, check, read_table, refuse_unknown, sett
 
 from .lidar import LIDAR_PRESETS, PRESET, Lidar
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
-from .pose import Pose, rotation
+from .pose import MAX_COORDINATE_M, Pose, rotation
 from .trajectory import CONTINUOUS, RATES, Trajectory
 
 __all__ = ["SceneError", "load_scene", "parse_scene"]
@@ -126,7 +126,8 @@ class _Reader:
         v = d.get(key, default)
         if v is None:
             raise self.fail(f"{where}.{key}", "missing (a list of 3 numbers)")
-        return np.array(self._check(Setting("vector", length=3), v, f"{where}.{key}"))
+        decl = Setting("vector", lo=-MAX_COORDINATE_M, hi=MAX_COORDINATE_M, length=3)
+        return np.array(self._check(decl, v, f"{where}.{key}"))
 
     def string(self, d, key, where, default=None, choices=None) -> str:
         v = d.get(key, default)

@@ -47,7 +47,7 @@ from .motion import (
     vector3,
     velocity_setting,
 )
-from .pose import Pose
+from .pose import MAX_COORDINATE_M, Pose
 
 __all__ = [
     "Material",
@@ -315,7 +315,13 @@ class PointItem:
     at `velocity_m_s` (position_m is where it is at time 0 of the trajectory)."""
 
     position_m: tuple[float, float, float] | None = setting(
-        None, "m", kind="vector", length=3, doc="position at time 0 (required without a track)"
+        None,
+        "m",
+        -MAX_COORDINATE_M,
+        MAX_COORDINATE_M,
+        "position at time 0 (required without a track)",
+        kind="vector",
+        length=3,
     )
     strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
     velocity_m_s: tuple[float, float, float] = velocity_setting()

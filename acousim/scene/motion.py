@@ -12,6 +12,8 @@ import numpy as np
 from processing.errors import InputError
 from processing.settings import setting
 
+from .pose import MAX_COORDINATE_M, MAX_TIME_S
+
 __all__ = ["MAX_SPEED_M_S", "MAX_TURN_DEG_S", "track_rows", "velocity_setting"]
 
 MAX_SPEED_M_S = 100.0
@@ -39,8 +41,10 @@ def vector3(value: Any, key: str) -> np.ndarray:
         v = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         v = np.full(0, np.nan)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InputError("must be 3 finite numbers", key=key, value=value)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_COORDINATE_M):
+        raise InputError(
+            f"must be 3 finite numbers within +-{MAX_COORDINATE_M:g} m", key=key, value=value
+        )
     return v
 
 
@@ -104,9 +108,16 @@ def track_rows(value: Any, key: str, turns: bool = False) -> tuple[tuple[float, 
         or arr.shape[0] < 2
         or arr.shape[1] not in widths
         or not np.all(np.isfinite(arr))
+        or np.any(np.abs(arr[:, 1:4]) > MAX_COORDINATE_M)
+        or np.any(np.abs(arr[:, 0]) > MAX_TIME_S)
     ):
         form = "[t_s, x, y, z] or [t_s, x, y, z, roll, pitch, yaw]" if turns else "[t_s, x, y, z]"
-        raise InputError(f"must be two or more rows {form} of finite numbers", key=key, value=value)
+        raise InputError(
+            f"must be two or more rows {form} of finite numbers (|t_s| <= {MAX_TIME_S:g}, "
+            f"positions within +-{MAX_COORDINATE_M:g} m)",
+            key=key,
+            value=value,
+        )
     dt = np.diff(arr[:, 0])
     if not np.all(dt > 0):
         raise InputError("times must increase", key=key, value=arr[:, 0].tolist())

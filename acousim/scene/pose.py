@@ -13,7 +13,15 @@ import numpy as np
 
 from processing.errors import InputError
 
-__all__ = ["Pose", "rotation"]
+__all__ = ["Pose", "rotation", "MAX_COORDINATE_M", "MAX_TIME_S"]
+
+MAX_COORDINATE_M = 1e6
+"""Largest coordinate (m, each axis) of anything in a scene: poses, points, mesh
+vertices, tracks. 1000 km is beyond any sonar scene; checked when the scene is read,
+so that no distance squared overflows (a warning before the error)."""
+
+MAX_TIME_S = 1e7
+"""Largest time (s) of a pose or a track row (115 days)."""
 
 
 def rotation(yaw_rad: float, pitch_rad: float = 0.0, roll_rad: float = 0.0) -> np.ndarray:
@@ -47,9 +55,11 @@ class Pose:
             p = np.asarray(self.position_m, float).reshape(3)
         except (TypeError, ValueError):
             p = np.full(3, np.nan)
-        if not np.all(np.isfinite(p)):
+        if not np.all(np.isfinite(p)) or np.any(np.abs(p) > MAX_COORDINATE_M):
             raise InputError(
-                "must be 3 finite numbers", key="Pose.position_m", value=self.position_m
+                f"must be 3 finite numbers within +-{MAX_COORDINATE_M:g} m",
+                key="Pose.position_m",
+                value=self.position_m,
             )
         object.__setattr__(self, "position_m", p)
         for name in ("yaw_rad", "pitch_rad", "roll_rad", "time_s"):
@@ -58,6 +68,7 @@ class Pose:
                 isinstance(v, bool)
                 or not isinstance(v, int | float | np.number)
                 or not np.isfinite(v)
+                or abs(v) > (MAX_TIME_S if name == "time_s" else 1e6)
             ):
                 raise InputError("must be a finite number", key=f"Pose.{name}", value=v)
             object.__setattr__(self, name, float(v))

@@ -10,6 +10,7 @@ import numpy as np
 
 from acousim.core.echoes import Echoes
 from processing import Array
+from processing.errors import InputError
 
 __all__ = ["Echoes", "PointReflectors", "point_echoes", "direct_path_echoes", "SPREADING"]
 
@@ -62,7 +63,10 @@ def point_echoes(
     r_e = np.linalg.norm(p - array.emitter_m, axis=1)  # (N,)
     r_m = np.linalg.norm(p[None, :, :] - array.positions_m[:, None, :], axis=2)  # (M, N)
     if np.any(r_e == 0) or np.any(r_m == 0):
-        raise ValueError("a point reflector coincides with the emitter or a microphone")
+        raise InputError(
+            "a point reflector coincides with the emitter or a microphone",
+            key="positions_m",
+        )
     length = r_e[None, :] + r_m
     if spreading == "paper":
         gain = reflectors.strength / (2 * r_m)

@@ -133,13 +133,16 @@ def _noisy(clean, echoes, cap: Capture, noise: Noise, options, response, rng, dr
 def in_window(
     echoes: Echoes, n_samples: int, sample_rate_hz: float, emission_index: int = 0
 ) -> np.ndarray:
-    """Which paths (N,) start before the end of a recording of `n_samples` samples
-    at any microphone (the others are skipped, logged at debug level)."""
+    """Which paths (N,) are heard in a recording of `n_samples` samples: they start
+    before its end at some microphone, with a nonzero gain there (a point reflector
+    of strength 0 adds nothing). The others are skipped, logged at debug level."""
     window_s = (n_samples - emission_index) / sample_rate_hz
-    inside = echoes.delay_s.min(axis=0) < window_s if echoes.n_paths else np.zeros(0, bool)
+    if not echoes.n_paths:
+        return np.zeros(0, bool)
+    inside = np.any((echoes.delay_s < window_s) & (echoes.gain != 0), axis=0)
     if not inside.all():
         log.debug(
-            "skipped %d of %d paths that arrive after the %.2f ms window",
+            "skipped %d of %d paths, silent or arriving after the %.2f ms window",
             int((~inside).sum()),
             echoes.n_paths,
             window_s * 1e3,

@@ -215,6 +215,16 @@ def _load(path, transform) -> object:
         raise InputError("mesh has no faces", file=_name(path))
     if not np.all(np.isfinite(mesh.vertices)):
         raise InputError("mesh has NaN or inf vertices", file=_name(path))
+    from acousim.scene.pose import MAX_COORDINATE_M
+
+    # checked before transforming: a product of huge numbers would overflow first
+    T = np.asarray(transform, float)
+    reach = float(np.abs(mesh.vertices).max()) * float(np.abs(T[:3, :3]).sum(axis=1).max())
+    if not reach + float(np.abs(T[:3, 3]).max()) <= MAX_COORDINATE_M:
+        raise InputError(
+            f"mesh vertices reach beyond +-{MAX_COORDINATE_M:g} m once placed",
+            file=_name(path),
+        )
     mesh.apply_transform(transform)
     mesh.merge_vertices()
     mesh.update_faces(mesh.nondegenerate_faces(height=1e-9))
