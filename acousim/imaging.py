@@ -92,6 +92,7 @@ class ImagingOptions:
         hi = self.max_range_m or recording.speed_of_sound_m_s * recording.n_samples / (
             2 * recording.sample_rate_hz
         )
+        hi = max(hi, self.min_range_m)  # a recording shorter than min_range: no bin
         return P.ProcessingSettings(
             energy_fraction=self.energy_fraction,
             grid=self.grid,
