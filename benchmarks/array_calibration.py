@@ -34,7 +34,7 @@ METHODS = ("das-bb", "dmas2-cf-bb")
 
 def recording() -> P.Recording:
     """The sample, with the array's emitter where the scene puts it."""
-    from acousim.compare import load_real_recordings
+    from acousim.compare_inputs import load_real_recordings
     from acousim.scene import load_scene
 
     (rec,) = load_real_recordings("rtisdev-sample")

@@ -101,7 +101,7 @@ def _settings(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from acousim.calibrate import calibrate, write_scene
-    from acousim.compare import load_real_recordings
+    from acousim.compare_inputs import load_real_recordings
 
     out = output_file("--out", args.out)
     report = output_file("--report", args.report) if args.report else None

@@ -77,7 +77,7 @@ def register(sub) -> None:
 def _pairs(args: argparse.Namespace):
     """The (real, simulated) recordings to compare, as the arguments ask."""
     import processing as P
-    from acousim.compare import load_real_recordings, pair_with_file, pair_with_scene
+    from acousim.compare_inputs import load_real_recordings, pair_with_file, pair_with_scene
 
     if args.scene:
         scene = load_scene(args.scene)
