@@ -31,6 +31,7 @@ __all__ = [
     "Environment",
     "Simulation",
     "Pose",
+    "Trajectory",
     "SceneError",
 ]
 

@@ -11,7 +11,7 @@ memory until it exits.
 
 :func:`keep_freed_memory` sets that policy once per process (glibc's ``mallopt``;
 elsewhere, or with the environment variable ``ACOUSIM_KEEP_FREED_MEMORY=0``, it
-does nothing).  :class:`acousim.simulator.Simulator` calls it.
+does nothing).  :func:`acousim.process.configure` calls it, at the entry point.
 """
 
 from __future__ import annotations

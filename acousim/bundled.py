@@ -14,10 +14,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
+from processing.errors import InputError, did_you_mean
+
 __all__ = [
     "Kind",
     "data_dir",
     "scene_files",
+    "bundled_names",
     "find_bundled",
     "find_scene",
     "resolve",
@@ -51,6 +54,11 @@ def scene_files() -> list[Path]:
     return sorted(data_dir("scenes").glob("*.toml"))
 
 
+def bundled_names(kind: Kind) -> list[str]:
+    """The names of the bundled scenes or dataset specs (file names without .toml)."""
+    return sorted(p.stem for p in data_dir(kind).glob("*.toml"))
+
+
 def find_bundled(kind: Kind, name: str) -> Path | None:
     """The bundled scene or dataset spec called `name` (``"corridor"`` or
     ``"corridor.toml"``), or None; a name with a folder in it is never bundled."""
@@ -68,12 +76,34 @@ def find_scene(name: str) -> Path | None:
 
 def resolve(kind: Kind, text: str | Path) -> Path:
     """A scene (or dataset spec) argument -> a path: an existing file as given, else a
-    bundled one of that name, else the path as given (the loader then says it does not
-    exist)."""
+    bundled one of that name.  Neither: an InputError naming the argument once, with
+    the bundled name to use when the file name is a bundled one
+    (``scenes/wall.toml`` outside the source tree) or a near miss (``corridr``)."""
     path = Path(text)
     if path.is_file():
         return path
-    return find_bundled(kind, str(text)) or path
+    found = find_bundled(kind, str(text))
+    if found is not None:
+        return found
+    raise InputError(_not_found(kind, path), file=str(text))
+
+
+def _not_found(kind: Kind, path: Path) -> str:
+    """Why `path` is neither a file nor a bundled name, and what to type instead."""
+    what = "scene" if kind == "scenes" else "dataset spec"
+    names = bundled_names(kind)
+    stem = path.name[:-5] if path.name.endswith(".toml") else path.name
+    folder = len(path.parts) > 1
+    if folder and stem in names:
+        return (
+            f"no such file; a bundled {what} has that file name: give {stem!r} "
+            "(bundled names work from any folder)"
+        )
+    close = did_you_mean(stem, names)
+    if close is not None:
+        return f"no such file, nor a bundled {what} of that name; did you mean {close!r}?"
+    listing = "acousim scenes lists them" if kind == "scenes" else ", ".join(names)
+    return f"no such file, nor a bundled {what} of that name (bundled: {listing})"
 
 
 def resolve_scene(text: str | Path) -> Path:

@@ -49,9 +49,7 @@ __all__ = [
     "align",
     "envelope",
     "compare",
-    "summarize",
     "write_comparison",
-    "write_summary",
     "load_real_recordings",
     "pair_with_scene",
     "pair_with_file",
@@ -62,7 +60,6 @@ __all__ = [
     "Alignment",
     "Comparison",
     "ComparisonArrays",
-    "TrajectorySummary",
 ]
 
 DIRECT_WINDOW_S = 1.0e-3  # beyond the call: the direct path's part used for alignment
@@ -391,6 +388,17 @@ def side_lobes(
     return lobes, rest
 
 
+def _range_profiles(rng, env_r, env_s, range_bin_m: float):
+    """Energy of the envelopes (M, T) per range bin of `range_bin_m` over the ranges
+    `rng` (T,): the bin edges, both profiles and their ratio in dB."""
+    edges = np.arange(0, rng[-1] + range_bin_m, range_bin_m)
+    idx = np.clip(np.digitize(rng, edges) - 1, 0, len(edges) - 2)
+    prof_r = np.bincount(idx, (env_r**2).mean(axis=0), len(edges) - 1)
+    prof_s = np.bincount(idx, (env_s**2).mean(axis=0), len(edges) - 1)
+    tiny = 1e-30
+    return edges, prof_r, prof_s, 10 * np.log10((prof_r + tiny) / (prof_s + tiny))
+
+
 def compare(
     real: P.Recording,
     sim: P.Recording,
@@ -415,12 +423,7 @@ def compare(
         for er, es in zip(env_r, env_s)
     )
     rng = real.time_s() * c / 2
-    edges = np.arange(0, rng[-1] + range_bin_m, range_bin_m)
-    idx = np.clip(np.digitize(rng, edges) - 1, 0, len(edges) - 2)
-    prof_r = np.bincount(idx, (env_r**2).mean(axis=0), len(edges) - 1)
-    prof_s = np.bincount(idx, (env_s**2).mean(axis=0), len(edges) - 1)
-    tiny = 1e-30
-    level_db = 10 * np.log10((prof_r + tiny) / (prof_s + tiny))
+    edges, prof_r, prof_s, level_db = _range_profiles(rng, env_r, env_s, range_bin_m)
     settings = settings or P.ProcessingSettings(
         energy_fraction=0.3,
         range_limits_m=(0.3, float(rng[-1])),
@@ -500,65 +503,6 @@ def write_comparison(
         fig.savefig(tmp, dpi=100, bbox_inches="tight", format="png")
     plt.close(fig)
     return [js, png]
-
-
-@dataclass(frozen=True)
-class TrajectorySummary:
-    """One row per pose (dicts of numbers, one column per method and count) and the
-    medians over every matched echo."""
-
-    rows: tuple[dict, ...]
-    poses: int
-    mean_envelope_correlation: float
-    matched_echoes: int
-    median_abs_d_range_m: float | None
-    median_abs_d_azimuth_deg: float | None
-
-    def to_dict(self) -> dict:
-        return {
-            "rows": list(self.rows),
-            "summary": {
-                "poses": self.poses,
-                "mean_envelope_correlation": self.mean_envelope_correlation,
-                "matched_echoes": self.matched_echoes,
-                "median_abs_d_range_m": self.median_abs_d_range_m,
-                "median_abs_d_azimuth_deg": self.median_abs_d_azimuth_deg,
-            },
-        }
-
-
-def summarize(reports: Sequence[Comparison]) -> TrajectorySummary:
-    """One line per pose of a trajectory and a summary over all of them."""
-    rows, d_range, d_az, corr = [], [], [], []
-    for i, r in enumerate(reports):
-        row = {
-            "pose": i,
-            "gain": r.alignment.gain,
-            "emission_shift_samples": r.alignment.emission_shift_samples,
-            "mean_envelope_correlation": r.mean_envelope_correlation,
-        }
-        for m, img in r.images.items():
-            row[f"{m}_matched"] = len(img.matched)
-            row[f"{m}_only_real"] = len(img.only_real)
-            row[f"{m}_only_sim"] = len(img.only_sim)
-            row[f"{m}_side_lobes_real"] = len(img.side_lobes_real)
-            d_range += [abs(p.d_range_m) for p in img.matched]
-            d_az += [abs(p.d_azimuth_deg) for p in img.matched]
-        corr.append(r.mean_envelope_correlation)
-        rows.append(row)
-    return TrajectorySummary(
-        rows=tuple(rows),
-        poses=len(reports),
-        mean_envelope_correlation=float(np.mean(corr)) if corr else 0.0,
-        matched_echoes=len(d_range),
-        median_abs_d_range_m=float(np.median(d_range)) if d_range else None,
-        median_abs_d_azimuth_deg=float(np.median(d_az)) if d_az else None,
-    )
-
-
-def write_summary(summary: TrajectorySummary, out_dir: str | Path) -> Path:
-    """``summary.json`` in `out_dir`, written atomically."""
-    return write_text(Path(out_dir) / "summary.json", json.dumps(summary.to_dict(), indent=1))
 
 
 # -- what the command line is given --------------------------------------------------

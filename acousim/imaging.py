@@ -19,6 +19,12 @@ from processing.atomic import atomic_path
 from processing.errors import InputError
 from processing.settings import setting, validate
 
+from .viz.fan import DYNAMIC_RANGE_DB
+
+#: peaks kept within this many dB of each image's strongest cell: the default of
+#: the pictures, the peak files and the bags (one home)
+PEAK_THRESHOLD_DB = -10.0
+
 __all__ = [
     "ImagingOptions",
     "image_recordings",
@@ -40,6 +46,8 @@ class ImagingOptions:
         reflector; a room needs a lower gate).
     min_range_m : bins nearer than this are ignored (the direct path).
     peak_threshold_db : peaks drawn in the 3D view.
+    dynamic_range_db : of every picture (fan, el-az maps, 3D view's reflectors,
+        animation, the bag's fan image).
     """
 
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
@@ -61,7 +69,14 @@ class ImagingOptions:
         None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
     )
     peak_threshold_db: float = setting(
-        -10.0, "dB", -200, 0, "peaks kept within this many dB of each image's strongest cell"
+        PEAK_THRESHOLD_DB,
+        "dB",
+        -200,
+        0,
+        "peaks kept within this many dB of each image's strongest cell",
+    )
+    dynamic_range_db: float = setting(
+        DYNAMIC_RANGE_DB, "dB", 1, 200, "levels shown below each picture's strongest cell"
     )
     grid: P.Grid = field(init=False, repr=False)
 
@@ -110,14 +125,10 @@ def image_recordings(
 def _pose(rec: P.Recording):
     from acousim.scene.pose import Pose
 
-    p = P.pose_of(rec.metadata)
+    p = rec.provenance.pose
     if p is None:
         return Pose(np.zeros(3))
-    return Pose(
-        p["position_m"],
-        *np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]]),
-        time_s=p["time_s"],
-    )
+    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
 
 
 def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
@@ -239,8 +250,6 @@ def write_pictures(
 
     indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
     """
-    from acousim.viz import elaz_figure, fan_figure
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
@@ -250,14 +259,7 @@ def write_pictures(
     scene = _scene(first) if render_3d or animation else None
     limit = _range_limit(first, options)
     title = _title(first, indices[0], trajectory)
-    written.append(
-        fan_figure(
-            imgs, out / "fan.png", truth=_truth_sensor(first), title=title, max_range_m=limit
-        )
-    )
-    for m, img in imgs.items():
-        if img.power.size:
-            written.append(elaz_figure(img, out / f"elaz_{m}.png", title=title))
+    written += _stills(first, imgs, out, options, limit, title)
     triangles = _scene_triangles(scene) if render_3d or animation else None
     if render_3d:
         written.append(
@@ -277,6 +279,29 @@ def write_pictures(
             )
         )
     return written
+
+
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str):
+    """The fan (every method) and each method's el-az maps of one recording, with
+    its traced reflectors marked: the files written."""
+    from acousim.viz import elaz_figure, fan_figure
+
+    dr = options.dynamic_range_db
+    truth = _truth_sensor(rec, dr)
+    kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
+    written = [fan_figure(imgs, out / "fan.png", max_range_m=limit, **kw)]
+    for m, img in imgs.items():
+        if img.power.size:
+            tol = _half_range_resolution(rec, img, options)
+            written.append(elaz_figure(img, out / f"elaz_{m}.png", truth_tolerance_m=tol, **kw))
+    return written
+
+
+def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:
+    """Half the image's range resolution (m): the reflectors an el-az slice may show."""
+    from acousim.matching import image_resolution
+
+    return image_resolution(rec, image, options.settings(rec).window).range_m / 2
 
 
 def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
@@ -299,45 +324,32 @@ def _sharpest(imgs: dict[str, P.Image]) -> str:
 
 def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
-    p = P.pose_of(rec.metadata)
-    moving = p and (trajectory or p["time_s"] or rec.metadata.get("pose_index", 0))
-    where = f", t = {p['time_s']:.1f} s" if moving else ""
-    kind = "simulated" if rec.metadata.get("simulated") else "real"
-    return f"{rec.metadata.get('scene', kind)} — recording {index}{where}"
+    prov = rec.provenance
+    p = prov.pose
+    moving = p is not None and (trajectory or p.time_s or prov.pose_index)
+    where = f", t = {p.time_s:.1f} s" if moving else ""
+    name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
+    return f"{name or prov.kind} — recording {index}{where}"
 
 
-TRUTH_DRAWN_DB = 20.0  # fan pictures: ray-traced reflectors within this of the strongest
+def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
+    """Ray-traced reflectors (:class:`acousim.viz.truth.Reflectors`) within
+    `dynamic_range_db` + :data:`acousim.viz.truth.MARGIN_DB` of the strongest echo
+    (the direct path excluded), or None."""
+    from acousim.viz.truth import MARGIN_DB, echo_points
 
-
-def _truth_sensor(rec: P.Recording) -> np.ndarray | None:
-    """Ray-traced echo points (N, 3, sensor frame) within TRUTH_DRAWN_DB of the
-    strongest echo (the direct path excluded)."""
-    t = rec.truth
-    if t is None or not len(t):
-        return None
-    pts = t.position_sensor_m
-    lvl = _truth_level_db(t)
-    strong = lvl >= -TRUTH_DRAWN_DB
-    return pts[strong] if strong.any() else None
-
-
-def _truth_level_db(truth: P.GroundTruth) -> np.ndarray:
-    """Level (N,) of each ray-traced path in dB re the strongest echo; -inf for the
-    direct path (not a reflector)."""
-    kind = truth.kind
-    amp = np.abs(truth.amplitude)
-    echo = (kind != "direct") & (amp > 0)
-    lvl = np.full(amp.shape, -np.inf)
-    if echo.any():
-        lvl[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
-    return lvl
+    centre = rec.array.positions_m.mean(axis=0)
+    found = echo_points(rec.truth, centre, dynamic_range_db + MARGIN_DB)
+    return found if len(found) else None
 
 
 def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None]:
     truth = rec.truth
     if truth is None or not len(truth):
         return None, None
-    return truth.position_world_m, _truth_level_db(truth)
+    from acousim.viz.truth import truth_level_db
+
+    return truth.position_world_m, truth_level_db(truth)
 
 
 #: the sensor's sweep during a measurement is drawn when it turns or moves this much
@@ -350,11 +362,11 @@ def _sweep(rec: P.Recording):
     turned during it (``metadata["motion"]``), else None (nothing to smear)."""
     from acousim.viz.render3d import sensor_sweep
 
-    motion = rec.metadata.get("motion")
-    if not motion:
+    motion = rec.provenance.motion
+    if motion is None:
         return None
-    v = np.asarray(motion.get("velocity_m_s", (0.0, 0.0, 0.0)), float)
-    w = np.deg2rad(np.asarray(motion.get("angular_velocity_deg_s", (0.0, 0.0, 0.0)), float))
+    v = np.asarray(motion.velocity_m_s, float)
+    w = np.asarray(motion.angular_velocity_rad_s, float)
     window = rec.samples.shape[-1] / rec.sample_rate_hz
     if np.linalg.norm(w) * window < SWEEP_MIN_RAD and np.linalg.norm(v) * window < SWEEP_MIN_M:
         return None  # too small to be seen
@@ -387,44 +399,50 @@ def _render(rec, imgs, triangles, path, options, moving=None):
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
         sweep=_sweep(rec),
         moving_triangles=moving,
+        truth_range_db=options.dynamic_range_db,
         lidar=lidar_in_world(rec),
     )
     return Path(path)
 
 
+#: the animation's frame delay when the recordings carry no times (ms)
+FRAME_DELAY_MS = 100
+
+
+def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
+    """The GIF's delay between frames (ms): the median time between the recordings'
+    poses (the drive plays in real time), 20 ms to 1 s, else :data:`FRAME_DELAY_MS`.
+    GIF stores hundredths of a second, so the delay is rounded to 10 ms."""
+    times = [r.provenance.pose.time_s for r in recordings if r.provenance.pose is not None]
+    step = np.median(np.diff(times)) if len(times) == len(recordings) > 1 else 0.0
+    ms = step * 1e3 if step > 0 else FRAME_DELAY_MS
+    return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
+
+
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
-    import imageio.v2 as imageio
-    import matplotlib
+    import imageio.v3 as iio
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from acousim.viz.fan import TRUTH_COLOR, draw_fan, fan_extent, truth_in_fan
+    from acousim.viz.fan import common_extent
     from acousim.viz.render3d import SceneRenderer
 
-    dr = 30.0
+    dr = options.dynamic_range_db
     method = _sharpest(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
-    truths = [_truth_sensor(rec) for rec in recordings]
-    truths_yx = [truth_in_fan(t) if t is not None else None for t in truths]
+    marks = [_fan_marks(rec, imgs[method], limit, dr) for rec, imgs in zip(recordings, images)]
     # one fitted extent for the whole drive (the axes do not jump between frames)
-    ext = np.array(
-        [
-            fan_extent(imgs[method], limit, dr, t)
-            for imgs, t in zip(images, truths_yx)
-            if imgs[method].range_m.size
-        ]
-        or [(1.0, -1.0, 0.0, 1.0)]
-    )
+    kept = [(imgs[method], m) for imgs, m in zip(images, marks) if imgs[method].range_m.size]
+    extents = [common_extent([im], limit, dr, m.xy if m else None) for im, m in kept]
+    ext = np.array(extents or [(1.0, -1.0, 0.0, 1.0)])
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
     sweeps = [_sweep(rec) for rec in recordings]
     renderer = SceneRenderer(
         triangles,
         window_size=(640, 480),
-        with_truth=any(t is not None for t in truths),
+        with_truth=any(m is not None for m in marks),
         with_sweep=any(s is not None for s in sweeps),
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        truth_range_db=dr,
         with_lidar=any(rec.lidar is not None for rec in recordings),
     )
     try:
@@ -441,29 +459,56 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 moving_triangles=_moving_triangles(scene, rec),
                 lidar=lidar_in_world(rec),
             )
-            fig, (a, b) = plt.subplots(
-                1,
-                2,
-                figsize=(12, 5.4),
-                gridspec_kw={"width_ratios": [1.2, 1]},
-                layout="constrained",
-            )
-            a.imshow(view)
-            a.axis("off")
-            a.set_title(_title(rec, indices[k], True), fontsize=10)
-            im = draw_fan(b, imgs[method], limit, dr, pixels=600, extent=extent)
-            if truths_yx[k] is not None:
-                t = truths_yx[k]
-                b.scatter(t[:, 0], t[:, 1], s=60, facecolors="none", edgecolors=TRUTH_COLOR, lw=0.8)
-            b.set_title(f"{method}, top view; white circles: ray-traced reflectors", fontsize=9)
-            fig.colorbar(im, ax=b, shrink=0.8, label=f"dB re strongest ({dr:g} dB range)")
-            fig.canvas.draw()
-            frames.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
-            plt.close(fig)
+            title = _title(rec, indices[k], True)
+            frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
             if progress:
                 progress(k + 1, len(recordings))
     finally:
         renderer.close()
-    with atomic_path(path) as tmp:
-        imageio.mimsave(tmp, frames, format="GIF", duration=0.1, loop=0)
+    with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
+        iio.imwrite(
+            tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
+        )
     return Path(path)
+
+
+def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):
+    """The traced reflectors' marks on a recording's fan (None: no ground truth)."""
+    from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
+    from acousim.viz.truth import fan_marks
+
+    truth = _truth_sensor(rec, dynamic_range_db)
+    if truth is None:
+        return None
+    a = image.azimuth_rad
+    span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
+    return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
+
+
+def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
+    """One animation frame (H, W, 3) uint8: the 3D view beside the fan with its marks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, legend_inside
+
+    fig, (a, b) = plt.subplots(
+        1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
+    )
+    a.imshow(view)
+    a.axis("off")
+    a.set_title(title, fontsize=10)
+    im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
+    step = (extent[0] - extent[1]) / 40  # marks closer than ~1/40 of the view are one
+    drawn = marks.draw(b, min_separation=step) if marks is not None else set()
+    b.set_title(f"{image.method}, top view", fontsize=9)
+    fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
+    # the same entries in every frame: the frames keep one size
+    every = {"in", "off", "behind", "weak"}
+    legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
+    fig.canvas.draw()
+    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return frame

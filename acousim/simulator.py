@@ -5,13 +5,22 @@ needed to redo or compare it: the scene file's hash, the package version, the se
 the pose, and the ground truth (paths: position, amplitude at the array centre,
 order and kind).
 
+One pose goes down the stages once: trace (:mod:`acousim.trace`: the paths at the
+pose of the start of the emission) -> kinematics (static: delays and gains at the
+microphones; in motion, :mod:`acousim.kinematics`: reception times and Doppler
+factors per path and microphone) -> render (:mod:`acousim.synth`) -> record (a
+:class:`processing.Recording`).
+
 A scene with motion (a continuous trajectory, a pose with a velocity or an angular
 rate, moving point reflectors or meshes) is rendered with the exact kinematics of
-:mod:`acousim.synth.moving` (retarded time per path and microphone, Doppler); its
+:mod:`acousim.kinematics` (retarded time per path and microphone, Doppler); its
 recordings also store the motion (``metadata["motion"]``: the pose at the start of
 the emission, the velocity and the angular velocity) and the velocity of each path
 (``rec.truth.velocity_world_m_s``).  A scene without motion takes
 the static path unchanged.
+
+Process-wide policy (BLAS threads, the allocator) is not set here: the entry point
+calls :func:`acousim.process.configure`.
 """
 
 from __future__ import annotations
@@ -22,20 +31,22 @@ import functools
 import logging
 from collections.abc import Callable, Iterable
 from importlib.metadata import PackageNotFoundError, version
-from typing import NamedTuple
 
 import numpy as np
 
 import processing as P
-from acousim.allocator import keep_freed_memory
+from acousim.core.echoes import Echoes
+from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
-from acousim.synth.echoes import Echoes
-from acousim.synth.model import simulate
-from acousim.synth.moving import DopplerPlan
+from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
+from acousim.synth.model import in_window, simulate
+from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
-from acousim.trace.tracer import KIND, TracedPaths, Tracer
+from acousim.trace.following import Endpoints, MovingPaths
+from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.tracer import Tracer
 from processing import interrupt
 from processing.errors import InputError
 
@@ -43,8 +54,6 @@ __all__ = ["Simulator", "package_version", "MIN_POINT_DISTANCE_M"]
 
 MIN_POINT_DISTANCE_M = 1e-3
 """Nearest a point reflector may be to the emitter or a microphone (m)."""
-
-KIND_NAMES = {v: k for k, v in KIND.items()}
 
 log = logging.getLogger(__name__)
 
@@ -60,23 +69,6 @@ def package_version() -> str:
         return "unknown"
 
 
-@functools.lru_cache(maxsize=1)
-def _blas():
-    """The process's BLAS thread pools (threadpoolctl), looked up once."""
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-def one_blas_thread():
-    """A context in which BLAS runs on one thread.  The simulator's matrix products
-    are small (tens to thousands of rows): a second BLAS thread gains nothing on
-    them, but it spins against :meth:`Simulator.run`'s own second thread (the next
-    pose prepared while this one renders) and it changes the summation order, so
-    the last bits of a recording would depend on the host's thread settings."""
-    return _blas().limit(limits=1, user_api="blas")
-
-
 def _on(trajectory, pose: Pose) -> bool:
     """Whether `pose` is where `trajectory` is at ``pose.time_s``."""
     t = pose.time_s
@@ -86,15 +78,18 @@ def _on(trajectory, pose: Pose) -> bool:
     )
 
 
-class _Prepared(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class _Prepared:
     """A recording but its samples (:meth:`Simulator._prepare`)."""
 
     echoes: Echoes
     n_samples: int
     metadata: dict
     truth: P.GroundTruth
-    #: a measurement in motion: its echoes planned, or their Doppler factors (M, N)
-    doppler: DopplerPlan | np.ndarray | None = None
+    #: a measurement in motion: the Doppler factor (M, N) of each echo (None: static)
+    rate: np.ndarray | None = None
+    #: a measurement in motion: its render planned (:meth:`Simulator._planned`)
+    plan: DopplerPlan | None = None
     #: the LiDAR's scan at the pose (a scene with ``sensor.lidar``)
     lidar: P.PointCloud | None = None
 
@@ -103,7 +98,6 @@ class Simulator:
     """Simulates a scene; the ray-tracing scene is built once and reused for every pose."""
 
     def __init__(self, scene: Scene, threads: int = 2) -> None:
-        keep_freed_memory()  # fresh pages cost a fault each: see acousim.allocator
         self.scene = scene
         # moving point reflectors are placed per emission instant: see _moving_points
         self.moving_points = tuple(p for p in scene.points if p.moving)
@@ -133,6 +127,9 @@ class Simulator:
             emitter_radius_m=scene.sensor.emitter_radius_m,
             materials=self.tracer.world.spectra if self.tracer.world is not None else None,
         )
+        self.options = RenderOptions(interpolator=scene.simulation.fractional_delay)
+        #: the Doppler renderer's templates and spectra, reused from pose to pose
+        self.doppler_cache = DopplerCache()
 
     def paths(self, pose: Pose) -> TracedPaths:
         return self.tracer.trace(pose)
@@ -154,12 +151,9 @@ class Simulator:
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
         is frozen).
         """
-        with one_blas_thread():
-            return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+        return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
 
-    def _prepare(
-        self, pose: Pose, index: int, n_samples: int | None, motion, plan=True
-    ) -> _Prepared:
+    def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
         """Everything of a recording but its samples: the paths traced and turned into
         echoes (per microphone delays and gains; in motion, their Doppler factors),
         the metadata and the ground truth.  :meth:`run` prepares the next pose in a
@@ -171,7 +165,7 @@ class Simulator:
                 motion = None
         self._check_points_clear(pose)
         if motion is not None or self.moving_points or self.moving_meshes:
-            return self._prepare_moving(pose, index, n_samples, motion, plan)
+            return self._prepare_moving(pose, index, n_samples, motion)
         scene = self.scene
         sensor = scene.sensor
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
@@ -188,28 +182,22 @@ class Simulator:
             position_sensor_m=pose.to_sensor(paths.position_m),
             amplitude=level,
             order=paths.order,
-            kind=np.array([KIND_NAMES[c] for c in paths.kind.tolist()], dtype=str),
+            kind=np.array(kind_names(paths.kind), dtype=str),
         )
         lidar = self.lidar_scan(pose, index, motion)
-        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, None, lidar)
+        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, lidar=lidar)
 
-    def _prepare_moving(self, pose, index, n_samples, motion, plan=True) -> _Prepared:
-        """A measurement in motion (see :mod:`acousim.synth.moving`).
+    def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
+        """A measurement in motion, down the stages:
 
-        1. Paths traced at the pose of the start of the emission, moving meshes and
-           point reflectors placed where they are then (:meth:`moving_paths`).
-        2. Per path and microphone, the reception times of the call's first, middle
-           and last sample solved for the moving emitter, reflector and microphone.
-        3. The echoes that reach the window planned as time-scaled calls at
-           fractional delays (:func:`~acousim.synth.moving.plan_doppler`: Doppler
-           nodes, path responses, Doppler terms), if `plan` (a bool, or a callable
-           asked now: :meth:`run` leaves the plan to the rendering thread when that
-           one is already waiting); :meth:`_record` renders it, with noise as for a
-           static pose.
+        1. trace: the paths at the pose of the start of the emission, moving meshes
+           and point reflectors placed where they are then (:meth:`moving_paths`);
+        2. kinematics: per path and microphone, the reception times of the call's
+           first, middle and last sample for the moving emitter, reflector and
+           microphone (:func:`acousim.kinematics.retarded`): the echoes and their
+           Doppler factors, those that reach the window kept.
+        Rendering (:meth:`_planned`, :meth:`_record`) follows.
         """
-        from acousim.synth.model import in_window
-        from acousim.synth.moving import TABLE_STEP_S, SensorKinematics, arrivals, plan_doppler
-
         scene, sensor = self.scene, self.scene.sensor
         array = sensor.array
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
@@ -228,19 +216,7 @@ class Simulator:
         level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
             np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
         )
-        t = pose.time_s
-        velocity = np.zeros(3) if motion is None else motion.velocity(t)
-        turn = np.zeros(3) if motion is None else motion.angular_velocity(t)
-        meta = {
-            **_metadata(scene, pose, index),
-            "motion": {
-                "emission_pose": pose.to_dict(),
-                "velocity_m_s": velocity.tolist(),
-                "angular_velocity_deg_s": np.rad2deg(turn).tolist(),
-                "doppler_min": float(arr.rate.min()) if arr.rate.size else 1.0,
-                "doppler_max": float(arr.rate.max()) if arr.rate.size else 1.0,
-            },
-        }
+        meta = {**_metadata(scene, pose, index), "motion": _motion(pose, motion, arr.rate)}
         truth = P.GroundTruth(
             position_world_m=truth_pos,
             position_sensor_m=pose.to_sensor(truth_pos),
@@ -250,20 +226,27 @@ class Simulator:
             velocity_world_m_s=truth_vel,
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)
-        echoes, rate = echoes.select(keep), arr.rate[:, keep]
         lidar = self.lidar_scan(pose, index, motion)
-        if not (plan() if callable(plan) else plan):  # simulate() plans and renders
-            return _Prepared(echoes, n, meta, truth, rate, lidar)
-        doppler = plan_doppler(
-            echoes,
-            rate,
+        return _Prepared(echoes.select(keep), n, meta, truth, rate=arr.rate[:, keep], lidar=lidar)
+
+    def _planned(self, prep: _Prepared) -> _Prepared:
+        """`prep` with the render of its echoes in motion planned (time-scaled calls at
+        fractional delays: :func:`~acousim.synth.doppler.plan_doppler`); a static
+        or already planned one as it is."""
+        if prep.rate is None or prep.plan is not None:
+            return prep
+        sensor = self.scene.sensor
+        plan = plan_doppler(
+            prep.echoes,
+            prep.rate,
             sensor.call,
             sensor.sample_rate_hz,
-            n,
-            interpolator=scene.simulation.fractional_delay,
+            prep.n_samples,
+            options=self.options,
             response=self.response,
+            cache=self.doppler_cache,
         )
-        return _Prepared(echoes, n, meta, truth, doppler, lidar)
+        return dataclasses.replace(prep, plan=plan)
 
     def lidar_scan(self, pose: Pose, index: int = 0, motion=None) -> P.PointCloud | None:
         """The scene's LiDAR (``sensor.lidar``) scanning from `pose` (None: the scene
@@ -282,7 +265,7 @@ class Simulator:
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
-        :class:`~acousim.synth.moving.MovingPaths`, and for the ground truth the
+        :class:`~acousim.trace.following.MovingPaths`, and for the ground truth the
         positions (N, 3) at the start of the emission, the kind names and the velocities
         (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.moving`)."""
         return self._moving(pose)[:4]
@@ -290,8 +273,6 @@ class Simulator:
     def _moving(self, pose: Pose):
         """:meth:`moving_paths` and the traced paths' material interactions (the traced
         paths come first, moving points after)."""
-        from acousim.synth.moving import MovingPaths
-
         paths = self.tracer.trace(pose)
         emitter = pose.to_world(self.scene.sensor.array.emitter_m)
         moving = MovingPaths.from_traced(paths, emitter)
@@ -303,14 +284,11 @@ class Simulator:
             velocities = self.tracer.velocities(pose)
             receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
             still = moving
-            moving, truth_vel = ride(
-                moving, paths, on, normals, glint, velocities, emitter, receiver, self.c
-            )
+            ends = Endpoints(emitter, receiver, self.c)
+            moving, truth_vel = ride(moving, paths, on, normals, glint, velocities, ends)
             # reflections of second order and up: every moving plane of the chain
-            moving = follow_chains(
-                self.tracer, moving, still, paths, pose, emitter, receiver, self.c
-            )
-        truth_pos, kinds = paths.position_m, [KIND_NAMES[c] for c in paths.kind.tolist()]
+            moving = follow_chains(self.tracer, moving, still, paths, pose, ends)
+        truth_pos, kinds = paths.position_m, kind_names(paths.kind)
         if self.moving_points:
             pos, a, v = self._moving_points(pose)
             extra = MovingPaths.points(pos, a, v, emitter)
@@ -324,25 +302,20 @@ class Simulator:
         """Render the prepared echoes with the scene's noise (seeded per pose index)
         into a Recording carrying its metadata and ground truth."""
         scene = self.scene
-        echoes, n_samples, meta, truth, doppler, lidar = prep
+        prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
+        sensor = scene.sensor
         rec = simulate(
-            echoes,
-            scene.sensor.array,
-            scene.sensor.call,
-            scene.sensor.sample_rate_hz,
-            n_samples,
-            speed_of_sound_m_s=self.c,
-            snr_db=scene.simulation.snr_db,
-            seed=noise_seed,
-            interpolator=scene.simulation.fractional_delay,
+            prep.echoes,
+            Capture(sensor.array, sensor.call, sensor.sample_rate_hz, prep.n_samples, self.c),
+            noise=Noise(scene.simulation.snr_db, noise_seed, "echoes"),
+            options=self.options,
             response=self.response,
-            snr_reference="echoes",
-            metadata=meta,
-            doppler=doppler,
+            metadata=prep.metadata,
+            doppler=prep.plan,
         )
-        return dataclasses.replace(rec, truth=truth, lidar=lidar)
+        return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 
     def _check_points_clear(self, pose: Pose) -> None:
         """An InputError when a point reflector (where it is at the pose's time) lies
@@ -391,7 +364,6 @@ class Simulator:
         """Microphone directivity: a baffled piston of radius mic_radius_m facing the
         sensor's axis, at the centre of the call's band (MEMS ports are small: the
         pattern barely changes across the band), as a gain per microphone and path."""
-        from acousim.synth.echoes import Echoes
         from acousim.synth.response import piston_directivity
 
         arrival = paths.anchor_m[None, :, :] - mics[:, None, :]  # towards the source
@@ -432,11 +404,11 @@ class Simulator:
         waiting = threading.Event()
 
         def prepare(i: int) -> _Prepared:
-            plan = lambda: not waiting.is_set()  # noqa: E731
-            return self._prepare(all_poses[i], i, None, SCENE_MOTION, plan)
+            prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
+            return prep if waiting.is_set() else self._planned(prep)
 
         out = []
-        with one_blas_thread(), ThreadPoolExecutor(1) as pool:
+        with ThreadPoolExecutor(1) as pool:
             ahead = pool.submit(prepare, idx[0]) if idx else None
             for k, i in enumerate(idx):
                 interrupt.check()  # Ctrl-C (when the command line records it): stop here
@@ -449,6 +421,22 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
+
+
+def _motion(pose: Pose, motion, rate: np.ndarray) -> dict:
+    """A recording in motion's metadata ``motion``: the pose at the start of the
+    emission, the velocity (m/s) and angular velocity (deg/s) there (a frozen pose:
+    zero) and the range of the Doppler factors `rate` (M, N)."""
+    t = pose.time_s
+    velocity = np.zeros(3) if motion is None else motion.velocity(t)
+    turn = np.zeros(3) if motion is None else motion.angular_velocity(t)
+    return {
+        "emission_pose": pose.to_dict(),
+        "velocity_m_s": velocity.tolist(),
+        "angular_velocity_deg_s": np.rad2deg(turn).tolist(),
+        "doppler_min": float(rate.min()) if rate.size else 1.0,
+        "doppler_max": float(rate.max()) if rate.size else 1.0,
+    }
 
 
 def _metadata(scene: Scene, pose: Pose, index: int) -> dict:

@@ -83,6 +83,9 @@ def _previous_sections(path: Path) -> dict[str, str]:
 
 
 def main(argv: list[str]) -> int:
+    from acousim.process import configure
+
+    configure()  # the process's policy, as the command line sets it
     wanted = argv or list(SECTIONS)
     unknown = [w for w in wanted if w not in SECTIONS]
     if unknown:

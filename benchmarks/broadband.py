@@ -8,6 +8,7 @@ import numpy as np
 
 import processing as P
 from processing import broadband as B
+from processing import broadband_engines as E
 
 from .timing import best_time
 
@@ -139,12 +140,12 @@ def _integer_delays(arr: P.Array) -> str:
     rec = _point_recording(arr)
     plain = B.BroadbandSettings(engine="numpy")
     exact = B.energyscape(rec, B.fan(), "das-bb", plain).power
-    original = B._delays
+    original = E._delays
     try:
-        B._delays = lambda *a: np.round(original(*a) * FS) / FS
+        E._delays = lambda *a: np.round(original(*a) * FS) / FS
         rounded = B.energyscape(rec, B.fan(), "das-bb", plain).power
     finally:
-        B._delays = original
+        E._delays = original
     az = np.rad2deg(B.fan().azimuth_rad)
     rng = np.arange(exact.shape[0])  # same range axis for both
     loss = 10 * np.log10(exact.max() / rounded.max())

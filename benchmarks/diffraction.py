@@ -1,16 +1,14 @@
-"""Edge diffraction: the edge-element step against error and time, and the corridor
-with diffraction on."""
+"""Edge diffraction: the edge-element step against error and time, objects against
+physical optics and the full-wave reference, and (:mod:`.diffraction_pairs`) edge to
+edge and the cost of the defaults in the corridor."""
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 
 import numpy as np
 
-from acousim.scene import load_scene
-from acousim.simulator import Simulator
 from acousim.trace import KIND
 from acousim.trace.btm import DEFAULT_STEP_M, edge_elements
 from tests.test_diffraction import physical_optics  # the tests' independent reference
@@ -73,29 +71,6 @@ def _element_table() -> list[str]:
     return rows
 
 
-def _corridor(step: float | None, poses: list[int], frozen: bool) -> tuple[float, float]:
-    """Seconds per measurement of `Simulator.run` over `poses` (best of 3, each run
-    tracing every pose anew) and diffraction paths per pose; `frozen`: the drive's
-    poses without motion within a measurement (else the file's moving drive)."""
-    sc = load_scene(SCENE)
-    sim_settings = dataclasses.replace(
-        sc.simulation, diffraction=step is not None, diffraction_step_m=step or DEFAULT_STEP_M
-    )
-    sensor = dataclasses.replace(sc.sensor, motion=None) if frozen else sc.sensor
-    sim = Simulator(dataclasses.replace(sc, simulation=sim_settings, sensor=sensor))
-    sim.run([0])
-    per = np.inf
-    for _ in range(3):  # best of 3: this shared machine's neighbours vary
-        sim.tracer.forget()  # every repetition pays for the trace
-        t0 = time.perf_counter()
-        sim.run(poses)
-        per = min(per, (time.perf_counter() - t0) / len(poses))
-    n = np.mean(
-        [np.sum(sim.paths(sim.scene.sensor.poses[i]).kind == KIND["diffraction"]) for i in poses]
-    )
-    return per, float(n)
-
-
 def _quads(kind: str, size: float, rotation: np.ndarray, centre: np.ndarray) -> list[np.ndarray]:
     """Corners of a square plate (facing -x before rotation) or of a cube's faces."""
     h = size / 2
@@ -148,9 +123,15 @@ def _object_response(kind, size, distance, rot_deg, tmp, order=1, n_freq=13):
                 "rays": 20000,
                 "bounces": 2,
                 "beam_deg": 60.0,
-                "diffraction": True,
-                "diffraction_order": order,
-                "energy_floor_db": -200.0,
+                **(
+                    {}
+                    if order is None
+                    else {
+                        "diffraction": True,
+                        "diffraction_order": order,
+                        "energy_floor_db": -200.0,
+                    }
+                ),
             },
             "materials": [{"name": "rigid", "reflection": 1.0}],
             "meshes": [{"file": "object.obj", "material": "rigid"}],
@@ -165,7 +146,7 @@ def _object_response(kind, size, distance, rot_deg, tmp, order=1, n_freq=13):
     paths = tracer.trace(pose)
     seconds = time.perf_counter() - t0
     n_e2e = 0
-    if order == 2:  # edge-to-edge paths: the order-2 diffraction paths order 1 lacks
+    if order != 1:  # edge-to-edge paths: the order-2 diffraction paths order 1 lacks
         n_e2e = int(np.sum((paths.kind == KIND["diffraction"]) & (paths.order == 2)))
     k = 2 * np.pi * np.linspace(20e3, 80e3, n_freq) / C
     last = np.linalg.norm(paths.anchor_m - r, axis=1)
@@ -209,7 +190,7 @@ def _objects() -> list[str]:
     with tempfile.TemporaryDirectory() as tmp:
         for name, kind, size, dist, rot, full_wave in cases:
             ours, po, ends = _object_level(kind, size, dist, rot, Path(tmp))
-            ours2, _, ends2 = _object_level(kind, size, dist, rot, Path(tmp), order=2)
+            ours2, _, ends2 = _object_level(kind, size, dist, rot, Path(tmp), order=None)
             rows.append(
                 f"| {name} | {ours:.1f} | {ours2:.1f} | {ends[0]:.1f} / {ends[1]:.1f} | "
                 f"{ends2[0]:.1f} / {ends2[1]:.1f} | {po:.1f} | {full_wave} |"
@@ -221,7 +202,7 @@ def _strip() -> tuple[np.ndarray, np.ndarray]:
     """Error (dB, 20-80 kHz) of geometric + first order, and + second order, of a
     2 cm wide, 4 m long rigid strip 2 m from a monostatic sensor against the exact
     strip (the tests' reference: tests/test_diffraction_order2.py)."""
-    from acousim.trace.btm import Wedge, edge_pair_elements
+    from acousim.trace.btm_pairs import Wedge, edge_pair_elements
     from tests.test_diffraction_order2 import strip_far_field
 
     d, w, length = 2.0, 0.02, 4.0
@@ -284,7 +265,7 @@ def _against_fullwave() -> list[str]:
                     continue
                 full = np.array([ref[(obj, angle, round(freqs[i]))][0] for i in have])
                 cells = []
-                for order in (1, 2):
+                for order in (1, None):
                     spec = _object_response(obj, 0.04, 0.5, (angle, 0), Path(tmp), order, 13)[3][0]
                     ours = spec[have]
                     band = 10 * np.log10(np.mean(10 ** (ours / 10)) / np.mean(10 ** (full / 10)))
@@ -300,9 +281,11 @@ def _against_fullwave() -> list[str]:
     return [
         "Against the cached full-wave levels (benchmarks/data/fullwave.csv, bempp-cl, "
         "monostatic, 40 mm objects at 0.5 m, every 5 kHz where computed): ours minus "
-        "full-wave, band power (dB) / worst single frequency (dB).",
+        "full-wave, band power (dB) / worst single frequency (dB); first order only "
+        "(`diffraction_order = 1`, floor -200 dB) and at the default settings (a scene "
+        "that says nothing about diffraction).",
         "",
-        "| object | frequencies | full-wave band (dB re wall) | first order | with edge to edge |",
+        "| object | frequencies | full-wave band (dB re wall) | first order | defaults |",
         "|---|---|---|---|---|",
         *rows,
         "",
@@ -357,19 +340,9 @@ def _edge_to_edge() -> list[str]:
     return rows
 
 
-def run(poses: list[int] | None = None) -> str:
-    poses = POSES if poses is None else poses
-    rows = []
-    for step in (None, 4e-3, 2e-3, 1e-3):
-        frozen, n = _corridor(step, poses, frozen=True)
-        moving, _ = _corridor(step, poses, frozen=False)
-        name = "off" if step is None else f"on, step {step * 1e3:g} mm"
-        if step == DEFAULT_STEP_M:
-            name += " (default step)"
-        rows.append(
-            f"| {name} | {frozen * 1e3:.0f} | {1 / frozen:.1f} | {moving * 1e3:.0f} | "
-            f"{1 / moving:.1f} | {n:.0f} |"
-        )
+def run() -> str:
+    from . import diffraction_pairs as pairs
+
     one, two = _strip()
     return "\n".join(
         [
@@ -387,35 +360,68 @@ def run(poses: list[int] | None = None) -> str:
             "|---|---|---|---|",
             *_element_table(),
             "",
-            f"Corridor at its default settings, `Simulator.run` over {len(poses)} poses (best "
-            "of 3, each run tracing every pose anew: the tracer's cache emptied), with edge "
-            "diffraction off and on (`simulation.diffraction`); 'frozen': the drive's poses "
-            "without motion during a measurement, 'moving': the file's drive as it is (the "
-            "Doppler renderer, see the motion section). Target: 15 measurements/s.",
+            "Edge to edge (`acousim.trace.btm_pairs`): the element step (of both edges, "
+            "excess path length) against error and time. The reciprocity test's turned "
+            "box (6 x 5 x 4 cm, 0.5 m, bistatic; 32 edge pairs), its edge-to-edge field "
+            "at 13 frequencies of 20-80 kHz against the same at a 0.05 mm step, worst "
+            "difference relative to the field's peak; time of all pairs, compiled kernel "
+            "(numba, best of 3) and the numpy path (best of 2). The stage takes the scene's "
+            "step scaled to the call's highest frequency (1 mm at 85 kHz: 1.7 mm for the "
+            "corridor's 25-50 kHz call); bins of a quarter of the scene's step.",
             "",
-            "| diffraction | frozen ms per measurement | frozen measurements/s | moving ms | "
-            "moving measurements/s | diffraction paths per pose |",
+            "| step (mm) | ms, compiled | ms, numpy | worst error (of the peak) |",
+            "|---|---|---|---|",
+            *pairs.step_table(),
+            "",
+            f"The corridor, `Simulator.run` over {len(pairs.POSES)} poses, each variant in turn in "
+            "one process (5 rounds; the tracer's cache emptied each time): median ms per "
+            "measurement, measurements/s, the median of the per-round ratios to diffraction "
+            "off, and diffraction paths per pose (of them second order: edge to edge, or an "
+            "edge and a reflection). 'moving': the "
+            "file's drive (the Doppler renderer); 'frozen': its poses without motion.",
+            "",
+            "| drive | diffraction | ms per measurement | measurements/s | time / off | "
+            "diffraction paths (of them second order) |",
             "|---|---|---|---|---|---|",
-            *rows,
+            *pairs.corridor_table(),
+            "",
+            "What the per-pair selection skips (corridor poses, defaults): the candidate "
+            "edge pairs (sharing a plane, seen), those integrated, those with a path at or "
+            "above the energy floor when every pair is integrated, and the largest path of "
+            "a skipped pair relative to the floor (negative: below it, so the tracer's floor "
+            "would have dropped it).",
+            "",
+            "| pose | candidate pairs | integrated | reaching the floor | largest skipped |",
+            "|---|---|---|---|---|",
+            *pairs.skipped_table(),
+            "",
+            "Scenes without many edges, diffraction off (the old default) against the "
+            "defaults, in turn (7 rounds): the wall's rim is an edge (its paths are real "
+            "echoes), the sphere has none.",
+            "",
+            "| scene | diffracting edges | ms off | ms defaults | ratio | diffraction paths |",
+            "|---|---|---|---|---|---|",
+            *pairs.scenes_table(),
             "",
             "Objects that geometric optics gets wrong: band power at 20-80 kHz (13 "
             "frequencies), dB relative to an infinite rigid wall at the same distance, "
-            "monostatic uRTIS, rigid faces; physical optics over the lit faces (0.5 mm "
+            "monostatic uRTIS, rigid faces; first order only (floor -200 dB) and at the "
+            "defaults; physical optics over the lit faces (0.5 mm "
             "cells); full-wave: the boundary-element levels quoted in issue 13 (read as "
             "relative to the same wall). Before edge diffraction the turned objects were "
             "silent and the 40 mm plate face on was 0 dB.",
             "",
-            "| object | ours (dB) | ours with edge to edge (dB) | ours at 20 / 80 kHz (dB) "
-            "| with edge to edge, 20 / 80 kHz (dB) | physical optics (dB) "
+            "| object | ours, first order (dB) | ours, defaults (dB) | first order at 20 / 80 kHz "
+            "(dB) | defaults, 20 / 80 kHz (dB) | physical optics (dB) "
             "| full-wave, issue 13 (dB) |",
             "|---|---|---|---|---|---|---|",
             *_objects(),
             "",
             "What second-order (edge-to-edge) diffraction adds (`simulation.diffraction_order "
-            "= 2`) on square plates facing the sensor at 0.5 m: band power at 20-80 kHz (dB "
-            "re the wall) with first order only and with edge to edge, the largest change at "
-            "one frequency (25 frequencies), the edge-to-edge paths added, and the trace time "
-            "of the pose (best of 3). "
+            "= 2`, floor -200 dB: every pair) on square plates facing the sensor at 0.5 m: "
+            "band power at 20-80 kHz (dB re the wall) with first order only and with edge "
+            "to edge, the largest change at one frequency (25 frequencies), the edge-to-edge "
+            "paths added, and the trace time of the pose (best of 3). "
             f"On a 2 cm x 4 m strip at 2 m, against the exact strip solution "
             "(tests/test_diffraction_order2.py), 13 frequencies of 20-80 kHz: first order "
             f"{one.min():.2f} to {one.max():.2f} dB, with edge to edge {two.min():.2f} to "

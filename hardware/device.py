@@ -16,8 +16,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
-from .protocol import Frame, decode_answer, encode_command, frame_size, parse_frame
+from .protocol import (
+    EMULATOR_PID,
+    EMULATOR_VID,
+    Frame,
+    decode_answer,
+    encode_command,
+    frame_size,
+    parse_frame,
+)
 
 __all__ = [
     "DeviceSettings",
@@ -61,8 +70,6 @@ def parse_usb_id(text: str, key: str = "--device") -> tuple[int, int]:
 def find_ids() -> tuple[int, int]:
     """(vendor, product) IDs from RTIS_VID/RTIS_PID (hex), default: the emulator's.
     A malformed variable raises InputError naming it."""
-    from .emulator import EMULATOR_PID, EMULATOR_VID
-
     return (
         _hex_id(os.environ.get("RTIS_VID", f"{EMULATOR_VID:x}"), "RTIS_VID"),
         _hex_id(os.environ.get("RTIS_PID", f"{EMULATOR_PID:x}"), "RTIS_PID"),
@@ -76,7 +83,7 @@ class DeviceSettings:
 
     n_ticks: int = 163840
     clock_mode: int = 0  # 0: 4.5 MHz, 1: 1.125 MHz
-    dac_rate_hz: int = 450000
+    dac_rate_hz: int = int(RTIS_SAMPLE_RATE_HZ)
     call: np.ndarray | None = None  # samples in [-1, 1]
     emissions: int = 1
     behaviour: int = 0
@@ -118,6 +125,8 @@ class RtisDevice:
         self.vendor_id, self.product_id = vendor_id, product_id
         self.serial, self.bus, self.address = serial, bus, address
         self.backend = backend
+        #: True when the backend is the emulated sensor (its recordings are emulated)
+        self.emulated = bool(getattr(backend, "emulated", False))
         self.timeout_ms = timeout_ms
         self.dev = None
         self.settings = DeviceSettings()

@@ -31,8 +31,9 @@ import usb.backend
 import usb.core
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
-from .protocol import COMMANDS, build_frame
+from .protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
 
 __all__ = [
     "EmulatedSensor",
@@ -43,9 +44,6 @@ __all__ = [
     "emulated_device",
 ]
 
-#: pid.codes' test IDs: the real sensor's IDs are not published
-EMULATOR_VID = 0x1209
-EMULATOR_PID = 0x0001
 EP_OUT, EP_IN, EP_NOTIFY = 0x01, 0x82, 0x83
 
 
@@ -126,7 +124,7 @@ class EmulatedSensor:
         self.settings = {
             "G": n_ticks,
             "F": 0,
-            "D": 450000,
+            "D": int(RTIS_SAMPLE_RATE_HZ),
             "E": 1125,
             "I": 1,
             "H": 0,
@@ -249,6 +247,8 @@ def _desc(**kw) -> SimpleNamespace:
 
 class EmulatorBackend(usb.backend.IBackend):
     """A pyusb backend under which an EmulatedSensor enumerates as a CDC-ACM device."""
+
+    emulated = True  # recordings through it are labelled "emulated"
 
     def __init__(
         self,

@@ -29,6 +29,10 @@ __all__ = [
     "TICKS_MULTIPLE",
 ]
 
+#: pid.codes' test IDs, the emulator's (:mod:`hardware.emulator`) and the default
+#: of :func:`hardware.device.find_ids`: the real sensor's IDs are not published
+EMULATOR_VID = 0x1209
+EMULATOR_PID = 0x0001
 HEADER = 0x51534E12
 FOOTER = 0x2F418672
 TICKS_MULTIPLE = 32768

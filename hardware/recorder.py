@@ -88,7 +88,7 @@ def decode_frame(
         call,
         speed_of_sound_m_s,
         0,
-        {"simulated": False, "decimation_filter": name, **(metadata or {})},
+        {**P.provenance_metadata("real"), "decimation_filter": name, **(metadata or {})},
     )
 
 
@@ -226,6 +226,8 @@ class Recorder:
             },
             "index": frame.index,
             "timestamp": time.time(),
+            # the emulated sensor streams a simulation through the same driver
+            **P.provenance_metadata("emulated" if self.device.emulated else "real"),
         }
         return decode_frame(
             frame.ticks, self.array, self.call, meta, self.fir, speed_of_sound_m_s=self.c

@@ -39,6 +39,7 @@ from .doa import NARROWBAND_METHODS, doa_spectrum
 from .errors import InputError
 from .image import Image, Peaks, find_peaks, to_db
 from .matched_filter import matched_filter
+from .methods import MethodSpec, parse_method
 from .metrics import (
     angular_resolution,
     dynamic_range_db,
@@ -61,6 +62,7 @@ from .pipeline import (
     requires_ura,
 )
 from .pointcloud import PointCloud
+from .provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 from .recording import (
     GroundTruth,
     Recording,
@@ -73,7 +75,7 @@ from .recording import (
     save_recordings,
 )
 from .smoothing import covariance, smoothed_covariance
-from .snapshot import Snapshot, stft_snapshot
+from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid, steering_matrix
 from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
 from .wideband import WIDEBAND_METHODS
@@ -91,6 +93,8 @@ __all__ = [
     "METHODS",
     "Method",
     "check_method",
+    "parse_method",
+    "MethodSpec",
     "requires_ura",
     "check_memory",
     "estimate_memory_bytes",
@@ -122,6 +126,10 @@ __all__ = [
     "acoustic_images",
     "recording_snapshot",
     "Recording",
+    "Provenance",
+    "SensorPose",
+    "SensorMotion",
+    "provenance_metadata",
     "RecordingFileError",
     "GroundTruth",
     "count_recordings",
@@ -138,6 +146,8 @@ __all__ = [
     "covariance",
     "smoothed_covariance",
     "Snapshot",
+    "Stft",
+    "BinGate",
     "stft_snapshot",
     "Grid",
     "steering_matrix",

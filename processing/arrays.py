@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, unknown_choice
 
 __all__ = [
     "Array",
@@ -408,5 +408,5 @@ PRESETS = {
 def preset(name: str) -> Array:
     """Return a preset array by name (one of :data:`PRESETS`)."""
     if name not in PRESETS:
-        raise InputError(f"unknown array preset; choose one of {sorted(PRESETS)}", value=name)
+        raise InputError(unknown_choice("array preset", name, PRESETS), key="array", value=name)
     return PRESETS[name]()

@@ -54,38 +54,101 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
-from typing import Literal, get_args
+from dataclasses import dataclass
 
 import numpy as np
 
 from .arrays import Array
 from .errors import InputError
+from .methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from .smoothing import default_subarray, subarray_snapshots
 from .steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
 
-__all__ = ["NarrowbandMethod", "NARROWBAND_METHODS", "METHODS", "doa_spectrum", "method_matrix"]
-
-NarrowbandMethod = Literal[
-    "das", "music", "music-fss", "music-fbss", "capon", "capon-fss", "capon-fbss"
+__all__ = [
+    "NarrowbandMethod",
+    "NARROWBAND_METHODS",
+    "METHODS",
+    "SubspaceOptions",
+    "doa_spectrum",
+    "method_matrix",
 ]
-#: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
-#: underscore variants: every caller checks names against this one tuple).
-NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
+
 METHODS = NARROWBAND_METHODS
+
+
+@dataclass(frozen=True)
+class SubspaceOptions:
+    """How the covariance methods use the snapshots: the smoothing `subarray`
+    (Lz, Ly) (None: 5/8 of each dimension), the Capon `loading` (in units of the
+    noise floor, see :func:`method_matrix`) and the MUSIC signal subspace size
+    `n_sources` (None: the mean-eigenvalue rule)."""
+
+    subarray: tuple[int, int] | None = None
+    loading: float = -0.5
+    n_sources: int | None = None
+
+
+#: the defaults (:class:`processing.ProcessingSettings` declares the same)
+SUBSPACE_DEFAULTS = SubspaceOptions()
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
 
 
 def _parse(method: str) -> tuple[str, str]:
-    if method not in NARROWBAND_METHODS:
+    """(base, smoothing) of a narrowband method, or an InputError naming it."""
+    spec = parse_method(method) if method in NARROWBAND_METHODS else None
+    if spec is None:
         raise InputError(
             f"unknown DOA method; choose one of {', '.join(NARROWBAND_METHODS)}",
             key="method",
             value=method,
         )
-    base, _, smooth = method.partition("-")
-    return base, smooth
+    return spec.base, spec.smoothing
+
+
+def _normalised(snapshots, array: Array) -> np.ndarray:
+    """The snapshots (M, R, K) checked (shape, finite) and divided by their largest
+    magnitude (before squaring: no overflow or underflow at any scale)."""
+    x = np.asarray(snapshots)
+    if x.ndim == 2:
+        x = x[:, :, None]
+    if x.ndim != 3 or x.shape[0] != array.n_mics:
+        raise InputError(
+            f"snapshots must have shape (M={array.n_mics}, R[, K]), got {np.shape(snapshots)}"
+        )
+    x = x.astype(np.complex128, copy=False)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        m, r = np.argwhere(bad)[0][:2]
+        raise InputError(
+            f"non-finite snapshot at microphone {m}, range bin {r}",
+            key="snapshots",
+            value=x[m, r, 0],
+        )
+    peak = np.abs(x).max() if x.size else 0.0
+    return x / peak if peak > 0 else x
+
+
+def _arranged(x: np.ndarray, array: Array, smooth: str, use_grid: bool, subarray):
+    """The snapshots as rows per range bin, Y (R, L, K): in grid order on a URA
+    (spatially smoothed with `smooth`), and the grid `shape` of the L elements (None
+    off the grid) and their positions (L, 3)."""
+    if not (array.is_ura and (smooth or use_grid)):
+        return np.moveaxis(x, 0, 1), None, array.positions_m
+    order = array.grid_order()
+    nz, ny = array.grid_shape
+    if smooth:
+        shape = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
+        xg = x[order].reshape(nz, ny, *x.shape[1:])
+        Y = subarray_snapshots(xg, shape, forward_backward=smooth == "fbss")
+    else:
+        Y = np.moveaxis(x[order], 0, 1)
+        shape = (nz, ny)
+    dz, dy = array.pitch_m
+    rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
+    positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
+    return Y, shape, positions
 
 
 def method_matrix(
@@ -219,130 +282,83 @@ def doa_spectrum(
     method: str = "das",
     *,
     speed_of_sound_m_s: float = 343.0,
-    subarray: tuple[int, int] | None = None,
-    loading: float = -0.5,
-    n_sources: int | None = None,
+    options: SubspaceOptions = SUBSPACE_DEFAULTS,
     backend: str = "auto",
 ) -> np.ndarray:
-    """Spatial spectrum of every range bin.
+    """Spatial spectrum (R, E, A), float64, of every range bin: real, non-negative
+    (linear power or pseudo-power).
 
-    Parameters
-    ----------
-    snapshots : ndarray, complex, shape (M, R) or (M, R, K)
-        Narrow-band snapshots (see :func:`processing.snapshot.stft_snapshot`).
-    array : Array
-    frequency_hz : float
-        Steering frequency.
-    grid : Grid
-    method : str
-        One of :data:`METHODS`.
-    subarray : (Lz, Ly), optional
-        Smoothing subarray (default: 5/8 of each dimension, 5x5 for 8x8).
-    loading : float
-        Capon diagonal load in units of the noise floor (see the module docstring).
-    n_sources : int, optional
-        MUSIC signal-subspace dimension (default: the paper's mean-eigenvalue rule).
-    backend : {'auto', 'coarray', 'direct'}
-        'coarray' is the fast URA path; 'direct' evaluates the plain formula with
-        explicit steering vectors (any array, slow); 'auto' picks 'coarray' for URAs.
-
-    Returns
-    -------
-    ndarray, float64, shape (R, E, A)
-        Real, non-negative spectrum (linear power or pseudo-power).
+    `snapshots` (M, R) or (M, R, K), complex: narrow-band snapshots
+    (:func:`processing.snapshot.stft_snapshot`) at `frequency_hz` (the steering
+    frequency), steered over `grid`; `method`: one of :data:`METHODS`; `options`:
+    the smoothing subarray (Lz, Ly) (default: 5/8 of each dimension, 5x5 for 8x8),
+    the Capon diagonal load in units of the noise floor (module docstring) and the
+    MUSIC signal-subspace dimension (default: the paper's mean-eigenvalue rule);
+    `backend`: 'coarray' is the fast URA path, 'direct' evaluates the plain formula
+    with explicit steering vectors (any array, slow), 'auto' picks 'coarray' for URAs.
     """
     base, smooth = _parse(method)
-    x = np.asarray(snapshots)
-    if x.ndim == 2:
-        x = x[:, :, None]
-    if x.ndim != 3 or x.shape[0] != array.n_mics:
-        raise InputError(
-            f"snapshots must have shape (M={array.n_mics}, R[, K]), got {np.shape(snapshots)}"
-        )
     if backend not in ("auto", "coarray", "direct"):
         raise InputError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
-    x = x.astype(np.complex128, copy=False)
-    bad = ~np.isfinite(x)
-    if bad.any():
-        m, r = np.argwhere(bad)[0][:2]
-        raise InputError(
-            f"non-finite snapshot at microphone {m}, range bin {r}",
-            key="snapshots",
-            value=x[m, r, 0],
-        )
-    peak = np.abs(x).max() if x.size else 0.0
-    if peak > 0:  # normalise before squaring: no overflow or underflow at any scale
-        x = x / peak
+    x = _normalised(snapshots, array)
     if smooth:
         array.require_ura(f"method {method!r}")
     use_grid = array.is_ura and backend != "direct"
     if backend == "coarray" and not array.is_ura:
         array.require_ura("the 'coarray' backend")
 
-    if array.is_ura and (smooth or use_grid):
-        order = array.grid_order()
-        nz, ny = array.grid_shape
-        if smooth:
-            sub = default_subarray((nz, ny)) if subarray is None else tuple(subarray)
-            xg = x[order].reshape(nz, ny, *x.shape[1:])
-            Y = subarray_snapshots(xg, sub, forward_backward=smooth == "fbss")
-            shape = sub
-        else:
-            Y = np.moveaxis(x[order], 0, 1)
-            shape = (nz, ny)
-        dz, dy = array.pitch_m
-        rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-        positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
-    else:
-        Y = np.moveaxis(x, 0, 1)
-        shape = None
-        positions = array.positions_m
-
-    L = Y.shape[1]
-    low_rank = use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]
-    if low_rank:  # co-array coefficients straight from the factors, no L x L matrix
-        if base == "das":
-            S = Y.shape[-1]
-            factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
-        else:
-            _check(base, L, loading, n_sources)
-            factors = _low_rank_factors(Y, base, loading, n_sources)
-        inverse = base != "das"
-        power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
-        empty = np.flatnonzero(power <= 0)
-    elif smooth == "fbss" and use_grid:  # real from the start, Q never formed complex
-        T = _unitary(L)
-        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
-    else:
-        C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
-        if smooth == "fbss":  # exactly centro-Hermitian despite rounding
-            C = 0.5 * (C + C[:, ::-1, ::-1].conj())
-        Q, inverse = method_matrix(
-            C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
-        )
-        empty = np.flatnonzero(np.einsum("rii->r", C).real <= 0)
+    Y, shape, positions = _arranged(x, array, smooth, use_grid, options.subarray)
+    form, parts, inverse, empty = _method_form(Y, base, smooth, use_grid, options)
     if inverse:
-        floor = MUSIC_FLOOR * L if base == "music" else np.finfo(float).tiny
+        floor = MUSIC_FLOOR * Y.shape[1] if base == "music" else np.finfo(float).tiny
     else:
         floor = 0.0
     if use_grid:
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
         )
-        if low_rank:
-            coeffs = kernel.coefficients_low_rank(*factors)
-        elif smooth == "fbss":
-            coeffs = kernel.coefficients_unitary(Qr, T)
-        else:
-            coeffs = kernel.coefficients(Q)
-        P = kernel.evaluate(coeffs, floor=floor, invert=inverse)
+        coefficients = {
+            "low_rank": kernel.coefficients_low_rank,
+            "unitary": kernel.coefficients_unitary,
+            "full": kernel.coefficients,
+        }[form]
+        P = kernel.evaluate(coefficients(*parts), floor=floor, invert=inverse)
     else:
-        form = quadratic_form_direct(
-            Q, steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
-        )
-        P = np.maximum(form, floor, out=form)
+        steering = steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
+        quadratic = quadratic_form_direct(parts[0], steering)
+        P = np.maximum(quadratic, floor, out=quadratic)
         if inverse:
             np.reciprocal(P, out=P)
     if empty.size:
         P[empty] = 0.0
     return P
+
+
+def _method_form(Y: np.ndarray, base: str, smooth: str, use_grid: bool, options):
+    """The method's matrix of the arranged snapshots Y (R, L, K), in the form its
+    evaluation takes: 'low_rank' (co-array coefficients straight from the factors,
+    no L x L matrix), 'unitary' (forward-backward on the grid: real from the start,
+    Q never formed complex) or 'full' (Q (R, L, L)); its parts, whether the spectrum
+    is its inverse, and the range bins without energy."""
+    loading, n_sources = options.loading, options.n_sources
+    L = Y.shape[1]
+    if use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]:
+        if base == "das":
+            S = Y.shape[-1]
+            factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
+        else:
+            _check(base, L, loading, n_sources)
+            factors = _low_rank_factors(Y, base, loading, n_sources)
+        power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
+        return "low_rank", factors, base != "das", np.flatnonzero(power <= 0)
+    if smooth == "fbss" and use_grid:
+        T = _unitary(L)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
+        return "unitary", (Qr, T), inverse, empty
+    C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
+    if smooth == "fbss":  # exactly centro-Hermitian despite rounding
+        C = 0.5 * (C + C[:, ::-1, ::-1].conj())
+    Q, inverse = method_matrix(
+        C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
+    )
+    return "full", (Q,), inverse, np.flatnonzero(np.einsum("rii->r", C).real <= 0)

@@ -8,10 +8,12 @@ and keeps its traceback.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["InputError"]
+__all__ = ["InputError", "did_you_mean", "unknown_choice"]
 
 
 class InputError(ValueError):
@@ -55,3 +57,35 @@ class InputError(ValueError):
 def _short(value: Any, limit: int = 80) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def did_you_mean(value: str, choices: Iterable[str]) -> str | None:
+    """The choice closest to a mistyped `value` (difflib, ratio >= 0.6; the
+    case-insensitive match first), or None."""
+    options = [str(c) for c in choices]
+    text = str(value)
+    for c in options:
+        if c.lower() == text.lower():
+            return c
+    close = difflib.get_close_matches(text, options, n=1)
+    if not close:  # 'capon_fbss' for 'capon-fbss': compare with separators unified
+        unify = {c.replace("_", "-").lower(): c for c in options}
+        close = [
+            unify[c] for c in difflib.get_close_matches(text.replace("_", "-").lower(), unify, n=1)
+        ]
+    return close[0] if close else None
+
+
+def unknown_choice(what: str, value: str, choices: Iterable[str], *, listed: int = 8) -> str:
+    """The reason for an unknown name, without the name itself (the error shows the
+    value once): "unknown scene; did you mean 'corridor'?" when one is close, else the
+    choices when there are at most `listed`, else their number."""
+    options = sorted(str(c) for c in choices)
+    close = did_you_mean(value, options)
+    if close is not None:
+        return f"unknown {what}; did you mean {close!r}?"
+    if len(options) <= listed:
+        return f"unknown {what}; choose one of {', '.join(options)}"
+    return (
+        f"unknown {what}; none of the {len(options)} is close (e.g. {', '.join(options[:4])}, ...)"
+    )

@@ -13,24 +13,26 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Literal, get_args
 
 import numpy as np
 
-from .broadband import BroadbandMethod, BroadbandSettings, Directions, energyscape
-from .doa import NarrowbandMethod, doa_spectrum
+from .broadband import BroadbandSettings, Directions, energyscape
+from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from .errors import InputError
 from .image import Image
 from .matched_filter import matched_filter
+from .methods import METHODS, Method, check_method, parse_method, requires_ura
 from .recording import Recording
-from .snapshot import Snapshot, stft_snapshot
+from .settings import setting, validate
+from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid
-from .wideband import WidebandMethod, band_frequencies, band_snapshots, wideband_spectrum
+from .wideband import band_frequencies, band_snapshots, wideband_spectrum
 
 __all__ = [
     "Method",
     "METHODS",
     "check_method",
+    "parse_method",
     "requires_ura",
     "ProcessingSettings",
     "recording_snapshot",
@@ -41,28 +43,9 @@ __all__ = [
     "check_memory",
 ]
 
-Method = Literal[NarrowbandMethod, WidebandMethod, BroadbandMethod]
-#: Every imaging method: narrowband (processing.doa), wideband (``-wb``), broadband
-#: (``-bb``).  Callers (command line, dataset specs) check names against this tuple.
-METHODS: tuple[str, ...] = get_args(Method)  # nested Literals flatten
-
 #: Default limit on the memory one imaging call may allocate (bytes); override with
 #: ``ProcessingSettings(memory_limit_bytes=...)``.
 MEMORY_LIMIT_BYTES = 4 * 2**30
-
-
-def requires_ura(method: str) -> bool:
-    """True for the spatially smoothed methods (``-fss``, ``-fbss``), which need a URA."""
-    return "-fss" in check_method(method) or "-fbss" in method
-
-
-def check_method(name: str) -> Method:
-    """`name` when it is one of :data:`METHODS`, else an InputError naming it."""
-    if name not in METHODS:
-        raise InputError(
-            f"unknown method; choose one of {', '.join(METHODS)}", key="method", value=name
-        )
-    return name  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)
@@ -91,19 +74,61 @@ class ProcessingSettings:
         :func:`estimate_memory_bytes`).
     """
 
-    window: int = 256
-    overlap: int = 240
-    frequency_hz: float | None = None
-    energy_fraction: float = 1e-3
+    window: int = setting(256, "samples", 2, 1 << 20, "STFT window")
+    overlap: int = setting(240, "samples", 0, 1 << 20, "STFT overlap (below the window)")
+    frequency_hz: float | None = setting(
+        None, "Hz", 0, 1e9, "steering frequency; None: the strongest bin", kind="float"
+    )
+    energy_fraction: float = setting(
+        1e-3, "", 0, 1, "keep range bins with at least this fraction of the strongest's energy"
+    )
+    #: (min, max) m, max may be inf; None: all (checked in __post_init__)
     range_limits_m: tuple[float, float] | None = (0.25, float("inf"))
-    max_bins: int | None = None
+    max_bins: int | None = setting(None, "", 1, 1 << 30, "keep the strongest bins", kind="int")
+    #: smoothing subarray (rows, columns); None: 5/8 of each dimension
     subarray: tuple[int, int] | None = None
-    loading: float = -0.5
-    n_sources: int | None = None
+    loading: float = setting(
+        SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
+    )
+    n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
     grid: Grid = field(default_factory=lambda: Grid.degrees(step=2.0))
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)
-    max_freqs: int = 12
-    memory_limit_bytes: float = MEMORY_LIMIT_BYTES
+    max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
+    memory_limit_bytes: float = setting(
+        float(MEMORY_LIMIT_BYTES), "B", 0, float("inf"), "refuse a larger imaging job"
+    )
+
+    @property
+    def subspace(self) -> SubspaceOptions:
+        """The covariance methods' options of these settings."""
+        return SubspaceOptions(self.subarray, self.loading, self.n_sources)
+
+    def __post_init__(self) -> None:
+        validate(self)
+        if self.overlap >= self.window:
+            raise InputError(
+                "must be below the window", key="ProcessingSettings.overlap", value=self.overlap
+            )
+        limits = self.range_limits_m
+        if limits is not None:
+            try:
+                lo, hi = (float(x) for x in limits)
+            except (TypeError, ValueError):
+                lo = hi = float("nan")
+            if not 0 <= lo <= hi:  # NaN fails too
+                raise InputError(
+                    "must be (min, max) with 0 <= min <= max (max may be inf), or None",
+                    key="ProcessingSettings.range_limits_m",
+                    value=limits,
+                )
+        if not isinstance(self.grid, Grid):
+            raise InputError("must be a Grid", key="ProcessingSettings.grid", value=self.grid)
+        if not isinstance(self.broadband, BroadbandSettings):
+            raise InputError(
+                "must be a BroadbandSettings",
+                key="ProcessingSettings.broadband",
+                value=self.broadband,
+            )
 
 
 def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Snapshot:
@@ -118,13 +143,10 @@ def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Sn
         recording.sample_rate_hz,
         speed_of_sound_m_s=recording.speed_of_sound_m_s,
         emission_index=recording.emission_index,
-        window=settings.window,
-        overlap=settings.overlap,
+        stft=Stft(settings.window, settings.overlap),
         frequency_hz=settings.frequency_hz,
         band_hz=_search_band(recording),
-        energy_fraction=settings.energy_fraction,
-        range_limits_m=settings.range_limits_m,
-        max_bins=settings.max_bins,
+        gate=BinGate(settings.energy_fraction, settings.range_limits_m, settings.max_bins),
     )
 
 
@@ -158,7 +180,7 @@ def estimate_memory_bytes(
     R = n_bins if n_bins is not None else T // hop
     total = front_end_bytes(recording, settings)
     for m in methods:
-        if m.endswith("-bb"):
+        if parse_method(m).family == "broadband":
             bb = settings.broadband
             lo, hi = recording.waveform.band_hz
             N = int(bb.oversample * (hi - lo) * (T / recording.sample_rate_hz + 0.01)) + 1
@@ -249,6 +271,19 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
     )
 
 
+def _band_snapshots(recording: Recording, settings: ProcessingSettings, snap: Snapshot):
+    """The frequencies (F,) of the ``-wb`` methods and the snapshots (F, M, R, K) of
+    the kept range bins of `snap` at each."""
+    freqs = band_frequencies(
+        _search_band(recording), recording.sample_rate_hz, settings.window, settings.max_freqs
+    )
+    mf = matched_filter(recording.samples, recording.waveform.sampled(recording.sample_rate_hz))
+    xb = band_snapshots(
+        mf, recording.sample_rate_hz, recording.emission_index, snap.time_s, settings.window, freqs
+    )
+    return freqs, xb
+
+
 def acoustic_images(
     recording: Recording,
     methods: Sequence[str] = ("das",),
@@ -260,38 +295,23 @@ def acoustic_images(
     the matched filter and STFT.  Raises InputError for an unknown method or a job
     above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
-    methods = [check_method(m) for m in methods]
-    _check_memory(recording, [m for m in methods if m.endswith("-bb")], settings)  # + front end
-    out = {m: _broadband_image(recording, m, settings) for m in methods if m.endswith("-bb")}
-    rest = [m for m in methods if not m.endswith("-bb")]
+    family = {m: parse_method(m).family for m in methods}
+    broadband = [m for m in methods if family[m] == "broadband"]
+    _check_memory(recording, broadband, settings)
+    out = {m: _broadband_image(recording, m, settings) for m in broadband}
+    rest = [m for m in methods if family[m] != "broadband"]
     if not rest:
         return {m: out[m] for m in methods}
     snap = snapshot if snapshot is not None else recording_snapshot(recording, settings)
     _check_memory(recording, rest, settings, snap.n_bins)
     grid = settings.grid
-    freqs = mf = None
+    freqs = None
     for method in rest:
         if snap.n_bins == 0:
             power = np.zeros((0, *grid.shape))
-        elif method.endswith("-wb"):
+        elif family[method] == "wideband":
             if freqs is None:
-                freqs = band_frequencies(
-                    _search_band(recording),
-                    recording.sample_rate_hz,
-                    settings.window,
-                    settings.max_freqs,
-                )
-                mf = matched_filter(
-                    recording.samples, recording.waveform.sampled(recording.sample_rate_hz)
-                )
-                xb = band_snapshots(
-                    mf,
-                    recording.sample_rate_hz,
-                    recording.emission_index,
-                    snap.time_s,
-                    settings.window,
-                    freqs,
-                )
+                freqs, xb = _band_snapshots(recording, settings, snap)
             power = wideband_spectrum(
                 xb,
                 recording.array,
@@ -299,9 +319,7 @@ def acoustic_images(
                 grid,
                 method,
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
-                subarray=settings.subarray,
-                loading=settings.loading,
-                n_sources=settings.n_sources,
+                options=settings.subspace,
             )
         else:
             power = doa_spectrum(
@@ -311,9 +329,7 @@ def acoustic_images(
                 grid,
                 method,
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
-                subarray=settings.subarray,
-                loading=settings.loading,
-                n_sources=settings.n_sources,
+                options=settings.subspace,
             )
         out[method] = Image(
             power=power,

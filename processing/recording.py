@@ -32,6 +32,7 @@ import json
 from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 
 import h5py
@@ -43,6 +44,7 @@ from .atomic import atomic_path
 from .errors import InputError
 from .metadata import metadata_problem, pose_of
 from .pointcloud import PointCloud, read_point_cloud, write_point_cloud
+from .provenance import Provenance
 from .waveforms import Waveform
 
 __all__ = [
@@ -90,7 +92,8 @@ class Recording:
     emission_index : int
         Sample index at which the emission starts (see the module docstring).
     metadata : dict
-        JSON-serialisable: pose, scene, seed, ``simulated`` (bool), device settings...
+        JSON-serialisable: provenance, pose, scene, seed, device settings...; read
+        where it came from through :attr:`provenance` (typed), not by key.
     truth : GroundTruth, optional
         The simulated paths (None for a real recording).
     lidar : PointCloud, optional
@@ -109,7 +112,7 @@ class Recording:
 
     def __repr__(self) -> str:
         shape = "x".join(str(n) for n in np.shape(self.samples))
-        kind = "simulated" if self.metadata.get("simulated") else "real"
+        kind = self.provenance.kind
         return (
             f"Recording({kind}, {self.array.name!r}, samples {shape} at "
             f"{self.sample_rate_hz / 1e3:g} kHz, call {self.waveform.kind} "
@@ -149,6 +152,12 @@ class Recording:
         object.__setattr__(self, "emission_index", int(self.emission_index))
         object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
         object.__setattr__(self, "speed_of_sound_m_s", float(self.speed_of_sound_m_s))
+
+    @cached_property
+    def provenance(self) -> Provenance:
+        """Where the recording came from: simulated, real or emulated, its scene, pose
+        and motion (:mod:`processing.provenance`), read from the metadata."""
+        return Provenance.from_metadata(self.metadata)
 
     @property
     def n_samples(self) -> int:
@@ -695,6 +704,10 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
     except (ValueError, TypeError, AttributeError) as exc:
         raise RecordingFileError(f"not JSON ({exc})", file=path, key=key) from None
     _check_metadata(path, key, meta)
+    try:
+        Provenance.from_metadata(meta, file=path, key=key)
+    except InputError as exc:
+        raise RecordingFileError(exc.reason, file=path, key=exc.key, value=exc.value) from None
     return meta
 
 

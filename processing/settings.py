@@ -31,7 +31,6 @@ pair of finite numbers inside the range, low <= high).
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -40,7 +39,7 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, did_you_mean
 
 __all__ = [
     "Kind",
@@ -170,8 +169,8 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         if not isinstance(value, str):
             raise fail("must be a string")
         if decl.choices is not None and value not in decl.choices:
-            close = difflib.get_close_matches(value, decl.choices, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            close = did_you_mean(value, decl.choices)
+            hint = f"; did you mean {close!r}?" if close else ""
             raise fail(f"is not one of {', '.join(decl.choices)}{hint}")
         return value
     if decl.kind in ("float", "int"):
@@ -193,11 +192,15 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
             if not isinstance(v, str):
                 raise fail("must be a list of strings")
             if decl.choices is not None and v not in decl.choices:
-                close = difflib.get_close_matches(v, decl.choices, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
+                close = did_you_mean(v, decl.choices)
+                hint = f"; did you mean {close!r}?" if close else ""
                 raise fail(f"{v!r} is not one of {', '.join(decl.choices)}{hint}")
         return out
-    # vector or interval
+    return _numbers(decl, value, fail, rng)  # vector or interval
+
+
+def _numbers(decl: Setting, value: Any, fail, rng: str) -> tuple[float, ...]:
+    """A ``vector`` or ``interval`` setting's value checked: a tuple of floats."""
     try:
         items = None if isinstance(value, str | bytes | Mapping) else list(value)
     except TypeError:
@@ -286,8 +289,8 @@ def refuse_unknown(
     allowed = sorted(set(allowed))
     for k in table:
         if k not in allowed:
-            close = difflib.get_close_matches(str(k), allowed, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            close = did_you_mean(str(k), allowed)
+            hint = f"; did you mean {close!r}?" if close else ""
             raise InputError(
                 f"unknown key {k!r}{hint} (allowed: {', '.join(allowed)})",
                 file=file,

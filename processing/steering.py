@@ -31,6 +31,7 @@ import scipy.sparse as sp
 from scipy import fft as sfft
 
 from .errors import InputError
+from .kernels import optional_kernel
 
 __all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
 
@@ -281,14 +282,9 @@ class CoarrayKernel:
         return self.evaluate(self.coefficients(Q))
 
 
-@lru_cache(maxsize=1)
 def _floor_invert():
     """The compiled floor-and-invert pass, or None when numba is not installed."""
-    try:
-        from ._doakernel import floor_invert
-    except ImportError:
-        return None
-    return floor_invert
+    return optional_kernel("processing._doakernel", "floor_invert")
 
 
 @lru_cache(maxsize=32)

@@ -14,7 +14,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.signal import chirp
 
-from .errors import InputError
+from .errors import InputError, unknown_choice
 
 #: Anti-alias cut-off of recorded calls, as a fraction of the Nyquist frequency.
 ANTI_ALIAS_CUTOFF = 0.8
@@ -183,7 +183,7 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
     presets = {"default_25_50": (50e3, 25e3), "default_20_80": (80e3, 20e3)}
     if preset not in presets:
         raise InputError(
-            f"unknown RTIS call preset; choose one of {', '.join(sorted(presets))}",
+            unknown_choice("RTIS call preset", preset, presets),
             key="call",
             value=preset,
         )

@@ -17,21 +17,17 @@ combine them incoherently:
 
 from __future__ import annotations
 
-from typing import Literal, get_args
-
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
 from .arrays import Array
-from .doa import doa_spectrum
+from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from .errors import InputError
+from .methods import WIDEBAND_METHODS, WidebandMethod
 from .steering import Grid
 
 __all__ = ["WidebandMethod", "WIDEBAND_METHODS", "band_frequencies", "wideband_spectrum"]
-
-WidebandMethod = Literal["capon-wb", "capon-fbss-wb", "music-wb", "music-fbss-wb"]
-WIDEBAND_METHODS: tuple[str, ...] = get_args(WidebandMethod)
 
 
 def band_frequencies(
@@ -81,9 +77,7 @@ def wideband_spectrum(
     method: WidebandMethod,
     *,
     speed_of_sound_m_s: float = 343.0,
-    subarray: tuple[int, int] | None = None,
-    loading: float = -0.5,
-    n_sources: int | None = None,
+    options: SubspaceOptions = SUBSPACE_DEFAULTS,
 ) -> np.ndarray:
     """Incoherent wideband spectrum (R, E, A) from snapshots (F, M, R, K) (steps 3-4)."""
     if method not in WIDEBAND_METHODS:
@@ -99,9 +93,7 @@ def wideband_spectrum(
             grid,
             narrow,
             speed_of_sound_m_s=speed_of_sound_m_s,
-            subarray=subarray,
-            loading=loading,
-            n_sources=n_sources,
+            options=options,
         )
         if music:
             p = np.divide(1.0, p, out=np.zeros_like(p), where=p > 0)

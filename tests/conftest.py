@@ -5,6 +5,14 @@ import numpy as np
 import processing as P
 
 
+def pytest_configure(config):
+    """The process's policy (BLAS threads, the allocator), as the command line sets
+    it at its entry (acousim.process)."""
+    from acousim.process import configure
+
+    configure()
+
+
 def direction(az_deg: float, el_deg: float) -> np.ndarray:
     az, el = np.deg2rad(az_deg), np.deg2rad(el_deg)
     return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])

@@ -54,3 +54,34 @@ def test_freed_blocks_are_reused_without_page_faults():
 def test_the_policy_can_be_declined():
     on, *_ = _run({"ACOUSIM_KEEP_FREED_MEMORY": "0"})
     assert on == "False"
+
+
+LIBRARY = """
+import functools
+from threadpoolctl import threadpool_info
+import acousim.allocator as A
+import processing as P
+from acousim.scene import Scene, Sensor, PointItem
+from acousim.simulator import Simulator
+blas = lambda: sorted(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas")
+before = blas()
+scene = Scene(sensor=Sensor(array=P.preset("urtis_v1")), points=(PointItem((1.0, 0.0, 0.0)),))
+sim = Simulator(scene)
+sim.run()
+print(A.keep_freed_memory.cache_info().currsize, before == blas())
+from acousim.process import configure
+configure()
+print(A.keep_freed_memory.cache_info().currsize, set(blas()) <= {1})
+"""
+
+
+def test_a_simulator_leaves_the_process_alone_the_entry_point_sets_its_policy():
+    """Constructing and running a Simulator neither sets the allocator's policy nor
+    limits BLAS's threads; acousim.process.configure (the entry point's call) does
+    both."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    out = subprocess.run(
+        [sys.executable, "-c", LIBRARY], capture_output=True, text=True, env=env, check=True
+    ).stdout.split()
+    assert out == ["0", "True", "1", "True"]

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import processing as P
+from acousim.kinematics import retarded as mv
+from acousim.kinematics.sensor import TABLE_STEP_S, SensorKinematics
 from acousim.scene import Pose
 from acousim.scene.trajectory import Trajectory
-from acousim.synth import moving as mv
 
 pytest.importorskip("numba")
 
@@ -20,7 +21,7 @@ def _case():
     arr = P.preset("urtis_v1")
     pose = Pose([0.0, 0, 0])
     traj = Trajectory.constant(pose, [2.0, 0.4, 0], np.deg2rad([0, 0, 180]))
-    kin = mv.SensorKinematics(traj, pose, arr, 0.04, mv.TABLE_STEP_S)
+    kin = SensorKinematics(traj, pose, arr, 0.04, TABLE_STEP_S)
     rng = np.random.default_rng(7)
     N = 200
     anchor = np.column_stack([rng.uniform(0.5, 5, N), rng.uniform(-2, 2, N), rng.uniform(-1, 1, N)])

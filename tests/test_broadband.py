@@ -15,6 +15,7 @@ from scipy.signal import hilbert
 
 import processing as P
 from processing import broadband as B
+from processing import broadband_engines as E
 
 WF = P.rtis_call("default_25_50")
 FS = 450e3
@@ -215,7 +216,7 @@ def test_compiled_plain_das_both_paths_match_the_numpy_reference(spectral_max, m
     """Plain far-field DAS: the interpolating kernel (many directions) and the exact
     frequency-domain sum (few) against the numpy engine, two measurements."""
     pytest.importorskip("numba")
-    monkeypatch.setattr(B, "_SPECTRAL_DAS_MAX", spectral_max)
+    monkeypatch.setattr(E, "_SPECTRAL_DAS_MAX", spectral_max)
     one = echo_recording(URA, [(15, 0, 1.2, 1.0)], fs=FS, n_samples=4096, waveform=WF, noise=0.01)
     two = np.stack([one.samples, 0.5 * one.samples])
     rec = P.Recording(two, FS, URA, WF, one.speed_of_sound_m_s, 0)
@@ -271,7 +272,8 @@ def test_phat_weighting_and_repeated_measurements(engine):
 def test_polyphase_upsampling_equals_zero_padded_fft():
     """The U phases of the compiled path's upsampled baseband, against the band-limited
     interpolation written out as a sum of complex exponentials in the test."""
-    from processing.broadband import Baseband, _polyphase
+    from processing.broadband import Baseband
+    from processing.broadband_engines import _polyphase
 
     N, U = 12, 4
     rng = np.random.default_rng(2)

@@ -19,6 +19,7 @@ from acousim.scene.load import load_scene
 from acousim.simulator import Simulator
 from acousim.synth.echoes import PointReflectors
 from acousim.synth.model import simulate_points
+from acousim.synth.options import Noise
 from processing.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -222,7 +223,7 @@ def test_microphone_gains_and_phases(array):
     arr, wf, fs = P.preset(array), P.rtis_call("default_25_50"), 450e3
     where = np.array([2.2, -0.4, 0.3])
     rec = simulate_points(
-        PointReflectors(where[None], np.array([1.0])), arr, wf, fs, 8192, snr_db=20, seed=11
+        PointReflectors(where[None], np.array([1.0])), arr, wf, fs, 8192, noise=Noise(20.0, 11)
     )
     rng = np.random.default_rng(2027)
     g = rng.uniform(-2, 2, arr.n_mics)
@@ -331,7 +332,7 @@ def test_find_echo_finds_the_reflector():
     arr, wf, fs = P.urtis_v1(), P.rtis_call("default_25_50"), 450e3
     where = np.array([2.0, 0.35, -0.2])
     rec = simulate_points(
-        PointReflectors(where[None], np.array([1.0])), arr, wf, fs, 8192, snr_db=30, seed=4
+        PointReflectors(where[None], np.array([1.0])), arr, wf, fs, 8192, noise=Noise(30.0, 4)
     )
     found = P.find_echo(rec, 1.0, 3.0)
     assert np.linalg.norm(found) == pytest.approx(np.linalg.norm(where), abs=0.03)

@@ -115,14 +115,54 @@ def test_trajectory_gives_an_animation(tmp_path):
     assert np.abs(view[2] - view[0]).mean() > 0.5
 
 
+def test_the_animation_plays_at_the_drive_rate_and_a_second_run_leaves_no_stale_file(
+    tmp_path, capsys
+):
+    """drive.gif's frame delay, read back with Pillow, is the corridor drive's pose
+    interval (rate_hz = 10 in corridor.toml: 100 ms); imaging again into the folder
+    with another method removes our stale picture and keeps the user's files."""
+    import tomllib
+
+    from PIL import Image
+
+    scene = copy_scene(tmp_path, "corridor")
+    rate = tomllib.loads(scene.read_text())["sensor"]["trajectory"]["rate_hz"]
+    out, img = tmp_path / "c.h5", tmp_path / "img"
+    assert main(["simulate", str(scene), "--out", str(out), "--poses", "0:2"]) == 0
+    base = ["image", str(out), "--out", str(img), "--no-3d", "--step", "4"]
+    assert main([*base, "--method", "das"]) == 0
+    with Image.open(img / "drive.gif") as gif:
+        delays = []
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            delays.append(gif.info["duration"])
+    assert gif.n_frames == 2 and delays == [1000 / rate] * 2
+    (img / "notes.txt").write_text("mine")
+    (img / "elaz_mine.png").write_bytes(b"mine")  # not a method's name: the user's
+    capsys.readouterr()
+    assert main([*base, "--method", "capon", "--no-animation"]) == 0
+    said = capsys.readouterr().out
+    names = sorted(p.name for p in img.iterdir())
+    assert names == [
+        "elaz_capon.png",
+        "elaz_mine.png",
+        "fan.png",
+        "images.h5",
+        "notes.txt",
+        "peaks.csv",
+    ]
+    assert "removed, stale from an earlier run: drive.gif, elaz_das.png" in said
+    assert "replaced from an earlier run: fan.png, images.h5, peaks.csv" in said
+
+
 @pytest.mark.parametrize(
     "args,pattern",
     [
-        (["simulate", "{tmp}/nope.toml"], "no such scene file"),
+        (["simulate", "{tmp}/nope.toml"], "nope.toml: no such file, nor a bundled scene"),
         (["simulate", "{tmp}/bad.toml"], r"simulaton: unknown key.*did you mean 'simulation'"),
         (
             ["image", "{tmp}/r.h5", "--method", "das,bogus"],
-            "--method = 'das,bogus': 'bogus': unknown method; choose one of das",
+            "--method = 'bogus': unknown method; none of the 21 is close",
         ),
         (["image", "{tmp}/r.h5", "--method", ""], "--method = '': no method given"),
         (["image", "{tmp}/r.h5", "--method", " , "], "--method = ' , ': no method given"),

@@ -156,7 +156,9 @@ def test_wedge_matches_the_exact_solution(wedge, f):
 # -- finite plates against physical optics --------------------------------------------
 
 
-def plate_tracer(tmp_path: Path, side, turn_deg=0.0, distance=2.0, beam_deg=10.0):
+def plate_tracer(tmp_path: Path, side, turn_deg=0.0, distance=2.0, beam_deg=10.0, order=1):
+    """Paths of a square rigid plate (side, m) at `distance` facing the sensor, turned
+    by turn_deg about z; order: diffraction_order (None: the scene's default)."""
     h = side / 2
     v = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)
     t = np.deg2rad(turn_deg)
@@ -173,6 +175,7 @@ def plate_tracer(tmp_path: Path, side, turn_deg=0.0, distance=2.0, beam_deg=10.0
                 "beam_deg": beam_deg,
                 "diffraction": True,
                 "energy_floor_db": -200.0,
+                **({} if order is None else {"diffraction_order": order}),
             },
             "materials": [{"name": "rigid", "reflection": 1.0}],
             "meshes": [{"file": "plate.obj", "material": "rigid"}],
@@ -317,7 +320,13 @@ def test_hidden_edges_do_not_diffract_and_truth_lists_diffraction(tmp_path):
     scene = parse_scene(
         {
             "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {"max_range_m": 3.0, "rays": 2000, "bounces": 1, "diffraction": True},
+            "simulation": {
+                "max_range_m": 3.0,
+                "rays": 2000,
+                "bounces": 1,
+                "diffraction": True,
+                "diffraction_order": 1,
+            },
             "meshes": [{"file": "box.obj"}],
         },
         base_dir=tmp_path,
@@ -408,7 +417,13 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
     scene = parse_scene(
         {
             "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 60.0},
+            "simulation": {
+                "max_range_m": 4.0,
+                "rays": 20000,
+                "bounces": 1,
+                "beam_deg": 60.0,
+                "diffraction": False,
+            },
             "materials": [{"name": "rigid", "reflection": 1.0}],
             "meshes": [{"file": "plate.obj", "material": "rigid"}],
         },
@@ -431,7 +446,10 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
 
 def test_scene_keys_for_diffraction(tmp_path):
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
-    assert parse_scene(base).simulation.diffraction is False
+    assert parse_scene(base).simulation.diffraction is True  # on by default
+    assert (
+        parse_scene({**base, "simulation": {"diffraction": False}}).simulation.diffraction is False
+    )
     sim = parse_scene(
         {**base, "simulation": {"diffraction": True, "diffraction_step_m": 0.002}}
     ).simulation
@@ -446,7 +464,7 @@ def test_scene_keys_for_diffraction(tmp_path):
 def test_diffraction_is_reciprocal():
     """Swapping emitter and receiver leaves the diffracted field unchanged (a
     property of the exact solution): a tilted box and a tilted plate, bistatic."""
-    from acousim.trace.diffraction import diffract
+    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
     from acousim.trace.embree import RayCaster
 
     box = trimesh.creation.box([0.3, 0.2, 0.25])
@@ -461,8 +479,9 @@ def test_diffraction_is_reciprocal():
     for mesh in (box, plate):
         edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
         refl = np.ones(len(mesh.faces))
-        forward = diffract(edges, caster, s, r, 8.0, refl)
-        backward = diffract(edges, caster, r, s, 8.0, refl)
+        geometry, options = DiffractingGeometry(edges, refl), DiffractionOptions(max_path_m=8.0)
+        forward = diffract(geometry, caster, s, r, options)
+        backward = diffract(geometry, caster, r, s, options)
         assert len(forward) > 0
         a, b = spectrum(forward, r, k), spectrum(backward, s, k)
         assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(a))
@@ -473,4 +492,4 @@ def test_every_path_kind_is_a_ground_truth_kind():
     acousim) are the same names: a diffraction path can be written and read back."""
     from processing.recording import _KINDS
 
-    assert set(KIND) == set(_KINDS)
+    assert {k.name for k in KIND} == set(_KINDS)

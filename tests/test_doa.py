@@ -3,7 +3,7 @@ import pytest
 from conftest import direction, echo_recording, plane_wave_snapshot
 
 import processing as P
-from processing.doa import doa_spectrum
+from processing.doa import SubspaceOptions, doa_spectrum
 
 F, C = 31250.0, 343.0
 SMOOTHED = ["music-fss", "music-fbss", "capon-fss", "capon-fbss"]
@@ -139,7 +139,14 @@ def test_unknown_method_and_bad_shapes():
     with pytest.raises(ValueError, match="M=64"):
         doa_spectrum(np.ones((10, 1)), arr, F, P.Grid.degrees(step=10), "das")
     with pytest.raises(ValueError, match="loading"):
-        doa_spectrum(np.ones((64, 1)), arr, F, P.Grid.degrees(step=10), "capon", loading=-1)
+        doa_spectrum(
+            np.ones((64, 1)),
+            arr,
+            F,
+            P.Grid.degrees(step=10),
+            "capon",
+            options=SubspaceOptions(loading=-1),
+        )
 
 
 def test_direction_convention_helper():
@@ -212,6 +219,7 @@ def test_real_fbss_coarray_path_equals_the_complex_direct_formula(method, sub):
     rng = np.random.default_rng(11)
     x = rng.standard_normal((64, 3)) + 1j * rng.standard_normal((64, 3))
     x += np.exp(1j * 2 * np.pi * F / C * arr.positions_m @ direction(25, -10))[:, None]
-    fast = doa_spectrum(x, arr, F, grid, method, subarray=sub)
-    plain = doa_spectrum(x, arr, F, grid, method, subarray=sub, backend="direct")
+    opts = SubspaceOptions(subarray=sub)
+    fast = doa_spectrum(x, arr, F, grid, method, options=opts)
+    plain = doa_spectrum(x, arr, F, grid, method, options=opts, backend="direct")
     np.testing.assert_allclose(fast, plain, rtol=1e-9)

@@ -102,6 +102,18 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
         w = np.array([float(top[c]) for c in ("world_x_m", "world_y_m", "world_z_m")])
         assert np.linalg.norm(s - P_SENSOR) < 0.06
         assert np.linalg.norm(w - P_WORLD) < 0.06
+        # the peak's traced reflector: the point placed by hand, inside the grid
+        assert top["on_grid_edge"] == "0" and top["truth_kind"] == "point"
+        t = np.array([float(top[c]) for c in ("truth_x_m", "truth_y_m", "truth_z_m")])
+        np.testing.assert_allclose(t, P_SENSOR, atol=1e-6)
+        assert float(top["truth_level_db"]) == 0.0 and top["truth_behind"] == "0"
+        assert float(top["truth_offset_deg"]) <= 3.0
+        assert top["provenance"] == "simulated"
+    from acousim.dataset.info import describe
+
+    lines = describe(out / "images.h5")
+    assert lines[0].endswith("images of 1 recording(s) (format acousim-images)")
+    assert "[0] simulated (left): das, music-fbss" in lines[1]
 
 
 def test_rosbag_reads_back_with_rosbags(recording_file, tmp_path):
@@ -116,7 +128,15 @@ def test_rosbag_reads_back_with_rosbags(recording_file, tmp_path):
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
         for conn, stamp, raw in reader.messages():
             msgs[conn.topic] = (conn.msgtype, stamp, reader.deserialize(raw, conn.msgtype))
-    assert set(msgs) == {"/acousim/raw", "/acousim/info", "/acousim/peaks", "/acousim/fan", "/tf"}
+    assert set(msgs) == {
+        "/acousim/raw",
+        "/acousim/info",
+        "/acousim/peaks",
+        "/acousim/fan",
+        "/tf",
+        "/clock",
+        "/acousim/reflectors",  # the point reflector; no mesh, so no /acousim/scene
+    }
     # raw samples: (microphone, sample), row major, float32
     kind, stamp, raw = msgs["/acousim/raw"]
     assert kind == "std_msgs/msg/Float32MultiArray" and stamp == 0
@@ -127,6 +147,7 @@ def test_rosbag_reads_back_with_rosbags(recording_file, tmp_path):
         np.asarray(raw.data).reshape(dims[0].size, dims[1].size), rec.samples.astype(np.float32)
     )
     info = json.loads(msgs["/acousim/info"][2].data)
+    assert info["provenance"] == "simulated" and info["fan"]["dynamic_range_db"] == 30
     assert info["sample_rate_hz"] == 500e3 and len(info["mic_positions_m"]) == 64
     assert info["image_method"] == "music-fbss"
     # the pose as TF: world -> sensor, translation and a 30 deg yaw
@@ -160,6 +181,52 @@ def test_rosbag_reads_back_with_rosbags(recording_file, tmp_path):
     assert np.hypot(y - expect[0], x - expect[1]) < 0.08, (y, x, expect)
     # a second export never overwrites
     assert main(["export", str(recording_file), "--out", str(bag), *ARGS]) == 2
+
+
+def test_rosbag_carries_clock_scene_meshes_and_traced_reflectors(tmp_path):
+    """The bag alone shows the scene: /clock at every recording's stamp, the wall's
+    triangles as a marker in the world frame, the traced reflection point as a cloud
+    in the sensor frame where geometry puts it (the wall's nearest point)."""
+    import trimesh
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    from acousim.bundled import find_scene
+
+    rec_file, bag = tmp_path / "wall.h5", tmp_path / "bag"
+    assert main(["simulate", "wall", "--out", str(rec_file)]) == 0
+    assert main(["export", str(rec_file), "--out", str(bag), "--method", "das"]) == 0
+    msgs: dict = {}
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        for conn, stamp, raw in reader.messages():
+            msgs.setdefault(conn.topic, []).append((stamp, reader.deserialize(raw, conn.msgtype)))
+    ((stamp, clock),) = msgs["/clock"]
+    assert clock.clock.sec * 10**9 + clock.clock.nanosec == stamp == msgs["/tf"][0][0]
+    # the scene: one TRIANGLE_LIST marker holding every triangle of wall.stl
+    ((_, array),) = msgs["/acousim/scene"]
+    (marker,) = array.markers
+    assert marker.type == 11 and marker.header.frame_id == "world"  # TRIANGLE_LIST
+    mesh = trimesh.load(find_scene("wall").parent / "meshes" / "wall.stl")
+    pts = np.array([[p.x, p.y, p.z] for p in marker.points])
+    assert len(pts) == 3 * len(mesh.faces)
+    ours = sorted(map(tuple, np.round(pts, 6)))
+    assert ours == sorted(map(tuple, np.round(mesh.triangles.reshape(-1, 3), 6)))
+    # the reflectors: the specular point is the wall's point nearest the sensor
+    ((_, cloud),) = msgs["/acousim/reflectors"]
+    assert [f.name for f in cloud.fields] == ["x", "y", "z", "level_db", "order"]
+    assert cloud.header.frame_id == "acousim_sensor"
+    table = np.frombuffer(bytes(cloud.data), "<f4").reshape(cloud.width, 5)
+    best = table[np.argmax(table[:, 3])]
+    foot, _, _ = trimesh.proximity.closest_point(mesh, [[0.0, 0.0, 0.0]])
+    yaw = np.deg2rad(15.0)  # wall.toml's sensor pose: at the origin, yaw 15 deg
+    to_sensor = np.array([[np.cos(yaw), np.sin(yaw), 0], [-np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+    np.testing.assert_allclose(best[:3], to_sensor @ foot[0], atol=0.02)
+    assert best[3] == 0.0 and best[4] == 1
+    from acousim.dataset.info import describe
+
+    lines = describe(bag)
+    assert "8 message(s)" in lines[0] and "recordings: 1 simulated" in lines[1]  # 8 topics
+    assert "  /acousim/scene: visualization_msgs/msg/MarkerArray, 1 message(s)" in lines
 
 
 def test_interrupted_image_leaves_no_partial_file(recording_file, tmp_path, monkeypatch):

@@ -199,6 +199,21 @@ def test_simulate_pdm_driver_decode_round_trip(emulated):
     assert np.max(np.abs(envelope_peak(out[0].samples) - envelope_peak(rec.samples))) <= 1
 
 
+def test_emulated_recordings_say_so_in_memory_and_in_the_file(emulated, tmp_path):
+    """A pipeline that keeps only real data must not take an emulated recording."""
+    rec, _, _, _, recorder = emulated
+    out = recorder.acquire(count=1)
+    assert rec.provenance.kind == "simulated"  # the source
+    assert out[0].provenance.kind == "emulated" and not out[0].provenance.simulated
+    P.save_recordings(tmp_path / "e.h5", out)
+    back = P.load_recording(tmp_path / "e.h5")
+    assert back.provenance.kind == "emulated" and back.metadata["simulated"] is False
+    assert "Recording(emulated" in repr(back)
+    from acousim.dataset.info import describe
+
+    assert "] emulated, array" in "\n".join(describe(tmp_path / "e.h5"))
+
+
 @pytest.mark.parametrize("fault", ["drop", "corrupt", "stall", "short"])
 def test_each_fault_is_detected_and_survived(emulated, fault):
     _, _, sensor, _, recorder = emulated

@@ -46,6 +46,9 @@ def _scene(tmp_path, meshes, materials, beam_deg=90.0, max_range_m=3.5, bounces=
                 "bounces": bounces,
                 "beam_deg": beam_deg,
                 "max_range_m": max_range_m,
+                # the specular levels of finite panels: geometric optics alone (their
+                # rims' diffraction, on by default, is checked in test_edge_materials)
+                "diffraction": False,
             },
             "materials": materials,
             "meshes": files,

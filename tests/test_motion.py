@@ -16,18 +16,16 @@ from scipy.signal import correlate, hilbert
 
 import acousim
 import processing as P
+from acousim.core.echoes import Echoes
+from acousim.kinematics import SensorKinematics, arrivals
+from acousim.kinematics.reference import render_doppler_reference
 from acousim.scene import Pose, load_scene, parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from acousim.synth.echoes import Echoes
+from acousim.synth.doppler import render_doppler
 from acousim.synth.model import simulate
-from acousim.synth.moving import (
-    MovingPaths,
-    SensorKinematics,
-    arrivals,
-    render_doppler,
-    render_doppler_reference,
-)
+from acousim.synth.options import Capture, Noise, RenderOptions
+from acousim.trace.following import MovingPaths
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 C = 343.0
@@ -150,7 +148,9 @@ def test_fast_renderer_against_the_per_sample_reference():
     kin = SensorKinematics(traj, pose, arr, n / FS, 2.5e-4)
     a = arrivals(paths, kin, wf.duration_s, C, np.array([1.0, 0, 0]))
     fast = render_doppler(a.echoes, a.rate, wf, FS, n)
-    exact = render_doppler_reference(paths, traj, pose, arr, wf, FS, n, C, a.echoes.gain)
+    exact = render_doppler_reference(
+        paths, SensorKinematics.exact(traj, pose, arr), wf, FS, n, C, a.echoes.gain
+    )
     err = 20 * np.log10(np.linalg.norm(fast - exact) / np.linalg.norm(exact))
     assert err <= -60
 
@@ -233,16 +233,10 @@ def test_static_scene_takes_the_unchanged_path():
     seed = int(np.random.SeedSequence([sc.simulation.seed, 0]).generate_state(1)[0])
     ref = simulate(
         echoes,
-        sc.sensor.array,
-        sc.sensor.call,
-        sc.sensor.sample_rate_hz,
-        sc.n_samples(),
-        speed_of_sound_m_s=sim.c,
-        snr_db=sc.simulation.snr_db,
-        seed=seed,
-        interpolator=sc.simulation.fractional_delay,
+        Capture(sc.sensor.array, sc.sensor.call, sc.sensor.sample_rate_hz, sc.n_samples(), sim.c),
+        noise=Noise(snr_db=sc.simulation.snr_db, seed=seed, reference="echoes"),
+        options=RenderOptions(interpolator=sc.simulation.fractional_delay),
         response=sim.response,
-        snr_reference="echoes",
     )
     assert rec.samples.tobytes() == ref.samples.tobytes()
     assert "motion" not in rec.metadata
@@ -476,7 +470,7 @@ def test_doppler_series_is_the_interpolant_through_the_nodes():
     """The Doppler terms (Chebyshev series of the templates' coefficients) give, at any
     factor in the interval, the polynomial through the K node values: against a
     polynomial fitted here through the nodes (numpy, power basis)."""
-    from acousim.synth.moving import _chebyshev_coefficients, _chebyshev_terms, doppler_nodes
+    from acousim.synth.doppler import _chebyshev_coefficients, _chebyshev_terms, doppler_nodes
 
     wf = P.rtis_call("default_20_80")
     nodes = doppler_nodes(0.9985, 1.0058, wf, FS)
@@ -520,7 +514,13 @@ def test_fast_renderer_with_absorption_and_directivity_against_exact_filtering()
     exact = np.zeros_like(fast)
     for k in range(len(paths)):
         one = render_doppler_reference(
-            paths.select([k]), traj, pose, arr, wf, FS, n, C, a.echoes.gain[:, [k]]
+            paths.select([k]),
+            SensorKinematics.exact(traj, pose, arr),
+            wf,
+            FS,
+            n,
+            C,
+            a.echoes.gain[:, [k]],
         )
         H = response.matrix(f, length[0, [k]], echoes.angles()[[k]])[:, 0]
         exact += np.fft.irfft(np.fft.rfft(one, nfft) * H, nfft)[:, :n]
@@ -529,14 +529,33 @@ def test_fast_renderer_with_absorption_and_directivity_against_exact_filtering()
 
 
 def test_moving_recording_does_not_depend_on_the_hosts_blas_threads():
-    """The same seed gives the same bytes whatever BLAS's thread count: with two BLAS
-    threads the moving corridor's gain-set products summed in another order (a
-    different last bit) before the simulator pinned BLAS to one thread."""
-    from threadpoolctl import threadpool_limits
+    """The same seed gives the same bytes whatever the host's BLAS threads: with two
+    BLAS threads the moving corridor's gain-set products summed in another order (a
+    different last bit) before BLAS was pinned to one thread; the entry point pins
+    it (acousim.process.configure), in a process started with 1 or 2 threads."""
+    import hashlib
+    import os
+    import subprocess
+    import sys
 
-    sim = Simulator(load_scene(SCENES / "corridor.toml"))
+    script = (
+        "import hashlib\n"
+        "from acousim.process import configure\n"
+        "from acousim.scene import load_scene\n"
+        "from acousim.simulator import Simulator\n"
+        "configure()\n"
+        f"sim = Simulator(load_scene({str(SCENES / 'corridor.toml')!r}))\n"
+        "rec = sim.simulate_pose(sim.scene.sensor.poses[5], 5)\n"
+        "print(hashlib.sha256(rec.samples.tobytes()).hexdigest())\n"
+    )
     out = []
-    for threads in (1, 2):
-        with threadpool_limits(limits=threads, user_api="blas"):
-            out.append(sim.simulate_pose(sim.scene.sensor.poses[5], 5).samples)
-    assert out[0].tobytes() == out[1].tobytes()
+    for threads in ("1", "2"):
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+        run = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True
+        )
+        out.append(run.stdout.strip())
+    # and in this process (configured by the tests' conftest, as the command line)
+    sim = Simulator(load_scene(SCENES / "corridor.toml"))
+    here = sim.simulate_pose(sim.scene.sensor.poses[5], 5).samples
+    assert out[0] == out[1] == hashlib.sha256(here.tobytes()).hexdigest()

@@ -10,9 +10,9 @@ import trimesh
 
 import acousim
 import processing as P
+from acousim.kinematics import SensorKinematics, arrivals
 from acousim.scene import Pose
 from acousim.simulator import Simulator
-from acousim.synth.moving import SensorKinematics, arrivals
 
 pytest.importorskip("embreex")
 

@@ -11,9 +11,9 @@ import trimesh
 
 import acousim
 import processing as P
+from acousim.kinematics import SensorKinematics, arrivals
 from acousim.scene import Pose, parse_scene
 from acousim.simulator import Simulator
-from acousim.synth.moving import SensorKinematics, arrivals
 from processing.errors import InputError
 
 pytest.importorskip("embreex")

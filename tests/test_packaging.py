@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from acousim.cli import build_parser, main
+from processing.errors import InputError
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md")
@@ -90,7 +91,7 @@ def test_the_installed_wheel_carries_its_scenes(installed):
 
 def test_a_missing_scene_name_is_still_a_clear_error(tmp_path, capsys):
     assert main(["simulate", "no_such_scene", "--out", str(tmp_path / "x.h5")]) == 2
-    assert "no_such_scene: no such scene file" in capsys.readouterr().err
+    assert "no_such_scene: no such file, nor a bundled scene" in capsys.readouterr().err
 
 
 def test_reproduce_defaults_stay_out_of_docs(tmp_path, capsys):
@@ -123,7 +124,8 @@ def test_names_of_bundled_files(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "wall.toml").write_text("# the user's own")
     assert resolve_scene("wall.toml") == Path("wall.toml")
-    assert resolve_scene("sub/wall") == Path("sub/wall")
+    with pytest.raises(InputError, match="sub/wall: no such file; a bundled scene has that"):
+        resolve_scene("sub/wall")  # a folder: never looked up, but the name is suggested
 
 
 @pytest.mark.skipif(shutil.which("make") is None, reason="no make")

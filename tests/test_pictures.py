@@ -8,14 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from matplotlib.image import imread
 
 import processing as P
 from acousim.cli import main
 from acousim.viz.fan import (
     draw_fan,
     elaz_figure,
-    fan_figure,
     fan_raster,
     pick_slices,
     truth_in_fan,
@@ -126,37 +124,122 @@ def test_gated_range_bins_are_no_data_not_quiet():
     assert not r.no_data[fov & (dist > 0.85) & (dist < 1.15)].any()
 
 
-def test_fan_figure_states_its_scale_and_fits_the_extent(tmp_path):
-    import matplotlib
+def _inside(artist, fig) -> bool:
+    """The artist's drawn box lies within the figure's (from the layout, in pixels)."""
+    b, f = artist.get_window_extent(), fig.bbox
+    return b.x0 >= f.x0 - 0.5 and b.x1 <= f.x1 + 0.5 and b.y0 >= f.y0 - 0.5 and b.y1 <= f.y1 + 0.5
 
-    matplotlib.use("Agg")
+
+def test_fan_figure_states_its_scale_and_fits_the_extent():
+    import matplotlib
     import matplotlib.pyplot as plt
 
-    captured = {}
-    real_save = plt.Figure.savefig
+    from acousim.viz.fan import DYNAMIC_RANGE_DB, make_fan_figure
 
-    def spy(fig, *a, **k):
-        captured["fig"] = fig
-        return real_save(fig, *a, **k)
-
-    plt.Figure.savefig = spy
-    try:
-        img = blob_image([(1.5, 20.0, 0.0, 0.0), (1.2, -30.0, 0.0, -6.0)])
-        truth = np.array([[1.5 * np.cos(np.deg2rad(20)), 1.5 * np.sin(np.deg2rad(20)), 0.0]])
-        fan_figure({"das": img}, tmp_path / "f.png", max_range_m=6.0, truth=truth, title="t")
-    finally:
-        plt.Figure.savefig = real_save
-    fig = captured["fig"]
+    img = blob_image([(1.5, 20.0, 0.0, 0.0), (1.2, -30.0, 0.0, -6.0)])
+    truth = np.array([[1.5 * np.cos(np.deg2rad(20)), 1.5 * np.sin(np.deg2rad(20)), 0.0]])
+    fig = make_fan_figure({"das": img}, max_range_m=6.0, truth=truth, title="t")
+    fig.canvas.draw()
     texts = [t.get_text() for t in fig.findobj(matplotlib.text.Text)]
-    assert any("dB" in t for t in texts)  # colour bar label
-    assert any("25 dB dynamic range" in t for t in texts)
-    assert any("no data" in t for t in texts) and any("ray-traced" in t for t in texts)
+    assert f"dB re strongest cell ({DYNAMIC_RANGE_DB:g} dB range)" in texts  # colour bar
+    assert any(f"{DYNAMIC_RANGE_DB:g} dB dynamic range" in t for t in texts)
+    assert any("no data" in t for t in texts) and "traced reflector in this slice" in texts
     ax = fig.axes[0]
     # echoes within 1.6 m: the view reaches ~2 m, not the 6 m of the scene
     assert ax.get_ylim()[1] < 2.2
     assert ax.get_xlim()[0] > ax.get_xlim()[1]  # y grows to the left
-    pic = imread(tmp_path / "f.png")
-    assert pic.shape[0] > 200
+    assert all(_inside(leg, fig) for leg in fig.legends)
+    plt.close(fig)
+
+
+ALL_MARKS = np.array(
+    [
+        [1.0, 0.3, 0.0],  # in front, in the fan's elevation band
+        [0.2, 0.0, -0.45],  # the floor below: 66 deg down, off the fan's slice
+        [-1.0, 0.5, 0.0],  # behind the array: drawn at its mirror (1.0, 0.5, 0)
+    ]
+)
+
+
+@pytest.mark.parametrize("n_methods", [1, 3, 5])
+def test_legends_lie_within_the_figure(n_methods):
+    """The legend of the fan (one to five panels) and of the el-az maps, with every
+    mark in it, lies inside the figure (it was cut at both sides below one panel)."""
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import make_elaz_figure, make_fan_figure
+    from acousim.viz.truth import Reflectors
+
+    img = blob_image([(1.04, 16.7, 0.0, 0.0), (0.49, 0.0, -40.0, -3.0), (1.12, 26.6, 0.0, -3)])
+    methods = ["das", "capon-fbss", "music-fbss", "das-bb", "music"][:n_methods]
+    truth = Reflectors(ALL_MARKS, np.array([0.0, -5.0, -35.0]))  # the last one weak
+    for fig in (
+        make_fan_figure({m: img for m in methods}, max_range_m=3.0, truth=truth),
+        make_elaz_figure(img, truth=truth, truth_tolerance_m=0.1),
+    ):
+        fig.canvas.draw()
+        assert fig.legends, "no legend"
+        for leg in fig.legends:
+            assert _inside(leg, fig), (leg.get_window_extent(), fig.bbox)
+        labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert any("behind the array" in t for t in labels)
+        plt.close(fig)
+
+
+def test_marks_in_the_fan_off_its_slice_and_behind_the_array():
+    from acousim.viz.truth import fan_marks
+
+    m = fan_marks(ALL_MARKS, 5.0, np.deg2rad(30), (-np.pi / 2, np.pi / 2))
+    assert list(m.mark) == ["in", "off", "behind"]
+    # each at its slant range along its azimuth, as (y, x); the back one mirrored
+    r0 = np.hypot(1.0, 0.3)
+    np.testing.assert_allclose(m.xy[0], [0.3, 1.0], atol=1e-12)
+    np.testing.assert_allclose(m.xy[1], [0.0, np.hypot(0.2, 0.45)], atol=1e-12)
+    np.testing.assert_allclose(m.xy[2], [0.5, 1.0], atol=1e-12)
+    assert np.hypot(*m.xy[0]) == pytest.approx(r0)
+    # beyond the drawn range: not marked
+    assert len(fan_marks(ALL_MARKS, 0.9, np.deg2rad(30), (-np.pi / 2, np.pi / 2))) == 1
+
+
+def test_marks_on_an_elevation_azimuth_slice():
+    from acousim.viz.truth import elaz_marks
+
+    spans = ((-np.pi / 2, np.pi / 2), (np.deg2rad(-40), np.deg2rad(40)))
+    floor = np.array([[0.2, 0.0, -0.45]])  # 0.492 m away, 66 deg down
+    m = elaz_marks(floor, 0.49, 0.02, *spans)
+    assert list(m.mark) == ["off"]  # outside the grid: at its bottom edge, azimuth 0
+    np.testing.assert_allclose(m.xy[0], [0.0, -40.0], atol=1e-9)
+    assert len(elaz_marks(floor, 0.60, 0.02, *spans)) == 0  # another slice's range
+    back = np.array([[-1.0, 0.0, 0.2]])  # heard as its mirror: azimuth 0, el +11.3
+    m = elaz_marks(back, float(np.linalg.norm(back)), 0.02, *spans)
+    assert list(m.mark) == ["behind"]
+    np.testing.assert_allclose(m.xy[0], [0.0, np.rad2deg(np.arctan2(0.2, 1.0))], atol=1e-9)
+
+
+def test_every_picture_has_one_default_dynamic_range_and_prints_it():
+    import inspect
+
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from acousim.export.rosbag import write_rosbag
+    from acousim.imaging import ImagingOptions
+    from acousim.viz.fan import DYNAMIC_RANGE_DB, make_elaz_figure, make_fan_figure
+
+    assert ImagingOptions().dynamic_range_db == DYNAMIC_RANGE_DB
+    for fn in (make_fan_figure, make_elaz_figure, write_rosbag, fan_raster, draw_fan):
+        assert inspect.signature(fn).parameters["dynamic_range_db"].default == DYNAMIC_RANGE_DB
+    img = blob_image([(1.5, 20.0, 0.0, 0.0)])
+    for dr in (DYNAMIC_RANGE_DB, 17.0):  # a given one is printed too
+        for fig in (
+            make_fan_figure({"das": img}, dynamic_range_db=dr),
+            make_elaz_figure(img, dynamic_range_db=dr),
+        ):
+            labels = [a.get_ylabel() for a in fig.axes]
+            assert f"dB re strongest cell ({dr:g} dB range)" in labels
+            texts = [t.get_text() for t in fig.findobj(matplotlib.text.Text)]
+            assert any(f"{dr:g} dB dynamic range" in t for t in texts)
+            plt.close(fig)
 
 
 def test_floor_truth_is_drawn_at_its_slant_range():

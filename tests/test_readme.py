@@ -24,7 +24,7 @@ def test_readme_processing_example_finds_the_echo(tmp_path, monkeypatch, capsys)
     rec = echo_recording(
         P.paper_8x8(), [(0, 0, 0.05, 30.0), (30, -10, 1.2, 1.0)], n_samples=4096, noise=1e-3
     )
-    P.save_recording(tmp_path / "measurement.h5", rec)
+    P.save_recording(tmp_path / "corridor.h5", rec)  # the name the README reads
     monkeypatch.chdir(tmp_path)
     scope: dict = {}
     exec(_five_lines(), scope)

@@ -76,7 +76,7 @@ def test_mesh_in_memory_gives_the_mirror_echo_and_is_not_changed():
 
 def test_documented_example_runs():
     text = (ROOT / "docs" / "scene-format.md").read_text()
-    (code,) = re.findall(r"```python\n(.*?)```", text, re.S)
+    code = re.findall(r"```python\n(.*?)```", text, re.S)[0]  # the moving one: test_first_hour
     namespace: dict = {}
     exec(compile(code, "docs/scene-format.md", "exec"), namespace)
     rec = namespace["recording"]
@@ -157,3 +157,15 @@ def test_every_declared_setting_is_documented():
         if name == "dataset-format.md":
             for key in spec.RANDOMIZE:
                 assert re.search(rf"\b{key}\b", text), f"randomize.{key} not in docs/{name}"
+
+
+def test_a_pose_in_degrees_is_the_pose_in_radians():
+    """Pose.degrees, beside the radians constructor: the same rotation, worked out by
+    hand for yaw 90 (x forward turns to +y) and pitch 30 (x tips down towards -z)."""
+    p = acousim.Pose.degrees((1.0, 2.0, 0.5), yaw_deg=90.0, time_s=0.3)
+    assert (p.yaw_rad, p.time_s) == (pytest.approx(math.pi / 2), 0.3)
+    np.testing.assert_allclose(p.rotation[:, 0], [0.0, 1.0, 0.0], atol=1e-12)
+    q = acousim.Pose.degrees((0, 0, 0), pitch_deg=30.0)
+    np.testing.assert_allclose(q.rotation[:, 0], [math.cos(math.pi / 6), 0, -0.5], atol=1e-12)
+    with pytest.raises(InputError, match="Pose.yaw_deg"):
+        acousim.Pose.degrees((0, 0, 0), yaw_deg="90")

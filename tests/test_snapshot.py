@@ -20,7 +20,7 @@ def test_energy_gate_keeps_bins_around_the_echo():
 def test_same_transform_as_scipy_shorttimefft():
     rng = np.random.default_rng(1)
     x = rng.standard_normal((3, 2048))
-    snap = P.stft_snapshot(x, 500e3, frequency_hz=31250, energy_fraction=0)
+    snap = P.stft_snapshot(x, 500e3, frequency_hz=31250, gate=P.BinGate(energy_fraction=0))
     sft = ShortTimeFFT(get_window("hann", 256), 16, 500e3)
     ref = sft.stft(x)  # (3, F, P), slices centred on p * hop
     col = ref[:, 16, :]
@@ -48,12 +48,12 @@ def test_all_zero_recording_keeps_no_bins_and_range_limits():
     assert snap.n_bins == 0 and snap.data.shape == (4, 0)
     rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0), (0, 0, 0.5, 4.0)])
     mf = P.matched_filter(rec.samples, rec.waveform.sampled(500e3))
-    snap = P.stft_snapshot(mf, 500e3, frequency_hz=31250, range_limits_m=(0.8, 2.0))
+    snap = P.stft_snapshot(mf, 500e3, frequency_hz=31250, gate=P.BinGate(range_limits_m=(0.8, 2.0)))
     assert snap.n_bins > 0 and np.all(snap.range_m > 0.9)
 
 
 def test_bad_stft_parameters():
     with pytest.raises(ValueError, match="overlap"):
-        P.stft_snapshot(np.zeros((2, 1000)), 1e3, window=64, overlap=64)
+        P.stft_snapshot(np.zeros((2, 1000)), 1e3, stft=P.Stft(window=64, overlap=64))
     with pytest.raises(ValueError, match="fewer than the window"):
         P.stft_snapshot(np.zeros((2, 10)), 1e3)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from acousim.synth.air import speed_of_sound, water_vapour_mole_fraction
+from acousim.core.air import speed_of_sound, water_vapour_mole_fraction
 
 
 @pytest.mark.parametrize(
@@ -58,8 +58,8 @@ def test_water_vapour_at_saturation():
 def test_scene_environment_passes_its_pressure():
     """Cramer's pressure dependence is weak but real: a scene at 80 kPa uses it
     (the same function of the three values, not of two)."""
+    from acousim.core.air import speed_of_sound
     from acousim.scene.model import Environment
-    from acousim.synth.air import speed_of_sound
 
     env = Environment(temperature_c=25.0, humidity_percent=80.0, pressure_kpa=80.0)
     assert env.speed_of_sound_m_s == speed_of_sound(25.0, 80.0, 80.0)

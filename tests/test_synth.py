@@ -5,6 +5,8 @@ import pytest
 
 import processing as P
 from acousim.synth import (
+    Capture,
+    Noise,
     PointReflectors,
     direct_path_echoes,
     point_echoes,
@@ -63,9 +65,7 @@ def test_snr_definition_matches_eq2():
         wf,
         FS,
         20000,
-        snr_db=10.0,
-        seed=1,
-        n_measurements=40,
+        noise=Noise(snr_db=10.0, seed=1, n_measurements=40),
     )
     clean = simulate_points(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), wf, FS, 20000)
     noise = rec.samples - clean.samples[None]
@@ -78,9 +78,9 @@ def test_snr_definition_matches_eq2():
 
 def test_seeded_noise_is_reproducible_and_measurements_independent():
     args = (PointReflectors([[1.0, 0.1, 0]], 1.0), P.paper_8x8(), P.paper_chirp(), FS, 4096)
-    a = simulate_points(*args, snr_db=0, seed=7, n_measurements=3)
-    b = simulate_points(*args, snr_db=0, seed=7, n_measurements=3)
-    c = simulate_points(*args, snr_db=0, seed=8, n_measurements=3)
+    a = simulate_points(*args, noise=Noise(snr_db=0, seed=7, n_measurements=3))
+    b = simulate_points(*args, noise=Noise(snr_db=0, seed=7, n_measurements=3))
+    c = simulate_points(*args, noise=Noise(snr_db=0, seed=8, n_measurements=3))
     assert a.samples.tobytes() == b.samples.tobytes()
     assert not np.array_equal(a.samples, c.samples)
     assert a.samples.shape == (3, 64, 4096)
@@ -108,10 +108,10 @@ def test_empty_echoes_render_silence():
     from acousim.synth import Echoes
 
     e = Echoes.concatenate([Echoes.empty(1), Echoes.empty(1)])
-    rec = simulate(e, one_mic(), P.paper_chirp(), FS, 100)
+    rec = simulate(e, Capture(one_mic(), P.paper_chirp(), FS, 100))
     assert np.all(rec.samples == 0)
     with pytest.raises(ValueError, match="no echo reaches"):
-        simulate(e, one_mic(), P.paper_chirp(), FS, 100, snr_db=10)
+        simulate(e, Capture(one_mic(), P.paper_chirp(), FS, 100), noise=Noise(snr_db=10))
 
 
 def test_path_responses_match_exact_per_path_filtering():

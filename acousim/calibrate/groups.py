@@ -21,7 +21,7 @@ import numpy as np
 
 import processing as P
 from acousim.scene.model import Material, Scene
-from acousim.simulator import Simulator, one_blas_thread
+from acousim.simulator import Simulator
 from acousim.synth.model import in_window
 from acousim.synth.render import render
 from processing.errors import InputError
@@ -132,27 +132,26 @@ class GroupModel:
         if not 0 <= pose_index < len(poses):
             raise InputError(f"the scene has {len(poses)} pose(s)", key="poses", value=pose_index)
         n = recording.n_samples
-        with one_blas_thread():
-            prep = sim._prepare(poses[pose_index], pose_index, n, None)
-            echoes = prep.echoes
-            echoes = echoes.select(in_window(echoes, n, recording.sample_rate_hz))
-            counts = echoes.interactions
-            if counts is None:
-                counts = np.zeros((echoes.n_paths, 0), int)
-            sig = counts[:, self.columns] if counts.shape[1] else np.zeros((echoes.n_paths, 0))
-            direct = echoes.order == 0
-            keys, inv = np.unique(sig[~direct], axis=0, return_inverse=True)
-            opts = dict(
-                interpolator=scene.simulation.fractional_delay,
-                response=sim.response,
-                emission_index=recording.emission_index,
-            )
-            call, fs = scene.sensor.call, scene.sensor.sample_rate_hz
-            idx = np.flatnonzero(~direct)
-            signals = np.zeros((keys.shape[0], echoes.delay_s.shape[0], n))
-            for g in range(keys.shape[0]):
-                signals[g] = render(echoes.select(idx[inv.ravel() == g]), call, fs, n, **opts)
-            d = render(echoes.select(np.flatnonzero(direct)), call, fs, n, **opts)
+        prep = sim._prepare(poses[pose_index], pose_index, n, None)
+        echoes = prep.echoes
+        echoes = echoes.select(in_window(echoes, n, recording.sample_rate_hz))
+        counts = echoes.interactions
+        if counts is None:
+            counts = np.zeros((echoes.n_paths, 0), int)
+        sig = counts[:, self.columns] if counts.shape[1] else np.zeros((echoes.n_paths, 0))
+        direct = echoes.order == 0
+        keys, inv = np.unique(sig[~direct], axis=0, return_inverse=True)
+        opts = dict(
+            interpolator=scene.simulation.fractional_delay,
+            response=sim.response,
+            emission_index=recording.emission_index,
+        )
+        call, fs = scene.sensor.call, scene.sensor.sample_rate_hz
+        idx = np.flatnonzero(~direct)
+        signals = np.zeros((keys.shape[0], echoes.delay_s.shape[0], n))
+        for g in range(keys.shape[0]):
+            signals[g] = render(echoes.select(idx[inv.ravel() == g]), call, fs, n, **opts)
+        d = render(echoes.select(np.flatnonzero(direct)), call, fs, n, **opts)
         env = space.envelopes(signals)
         return PoseGroups(
             env, keys.astype(int), d, space.envelopes(d), signals if keep_signals else None

@@ -66,8 +66,23 @@ def methods(option: str, text: str) -> tuple[str, ...]:
         raise UsageError("no method given", key=option, value=text)
     try:
         return tuple(P.check_method(m) for m in names)
-    except InputError as exc:
-        raise UsageError(f"{exc.value!r}: {exc.reason}", key=option, value=text) from None
+    except InputError as exc:  # the bad name once, with a suggestion
+        raise UsageError(exc.reason, key=option, value=exc.value) from None
+
+
+def choice(what: str, options: tuple[str, ...]):
+    """An argparse type: one of `options`, else an error naming the value once with
+    the nearest option ("did you mean 'urtis_v1'?")."""
+
+    def parse(text: str) -> str:
+        from processing.errors import unknown_choice
+
+        if text not in options:
+            raise argparse.ArgumentTypeError(f"{text!r}: {unknown_choice(what, text, options)}")
+        return text
+
+    parse.__name__ = what
+    return parse
 
 
 def writable_dir(path: str | Path) -> Path:
@@ -192,13 +207,16 @@ def progress(desc: str):
 
 
 def preload_simulation() -> None:
-    """Import what a simulation needs before its work starts (Ctrl-C meanwhile is only
-    recorded, see processing.interrupt: an import that catches BaseException, as
-    trimesh's optional ones do, cannot swallow it), then honour a Ctrl-C."""
+    """Import what a simulation needs before its work starts and set the process's
+    policy (:func:`acousim.process.configure`); Ctrl-C meanwhile is only recorded (see
+    processing.interrupt: an import that catches BaseException, as trimesh's optional
+    ones do, cannot swallow it), then honoured."""
     import trimesh  # noqa: F401
 
     import acousim.simulator  # noqa: F401
+    from acousim.process import configure
 
+    configure()  # a simulating process's policy: BLAS threads, the allocator
     stop_if_interrupted()
 
 

@@ -6,7 +6,16 @@ import argparse
 
 from processing.errors import InputError
 
-from .common import INDEX, UsageError, load_scene, methods, progress, writable_dir
+from .common import (
+    INDEX,
+    UsageError,
+    choice,
+    load_scene,
+    methods,
+    preload_simulation,
+    progress,
+    writable_dir,
+)
 from .image import CHIRP_CALLS
 from .record import ARRAY_PRESETS
 
@@ -48,14 +57,15 @@ def register(sub) -> None:
     p.add_argument(
         "--array",
         default="ertis_v3d1",
-        choices=ARRAY_PRESETS,
-        help="array of a raw .bin (default: ertis_v3d1)",
+        type=choice("array preset", ARRAY_PRESETS),
+        help=f"array of a raw .bin: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
     )
     p.add_argument(
         "--call",
         default=None,
-        choices=CHIRP_CALLS,
-        help="call of a raw .bin (default: default_25_50), or of a CHIRP file that does not say it",
+        type=choice("call", CHIRP_CALLS),
+        help=f"call of a raw .bin (default: default_25_50), or of a CHIRP file that does not "
+        f"say it: {', '.join(CHIRP_CALLS)}",
     )
     p.add_argument(
         "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
@@ -82,6 +92,7 @@ def _pairs(args: argparse.Namespace):
         c = sims[0].speed_of_sound_m_s
     reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
     if args.scene:
+        preload_simulation()  # it simulates: the process's policy set
         recorded = (
             args.pose is None and P.is_chirp(args.real) and all("pose" in r.metadata for r in reals)
         )
@@ -92,7 +103,8 @@ def _pairs(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare import compare, summarize, write_comparison, write_summary
+    from acousim.compare import compare, write_comparison
+    from acousim.compare_summary import summarize, write_summary
     from processing.atomic import committed_together
 
     if (args.scene is None) == (args.sim is None):

@@ -18,8 +18,10 @@ def register(sub) -> None:
         description="--format rosbag (default): image recordings and write a rosbag2 "
         "folder (MCAP storage) with the raw samples (std_msgs/Float32MultiArray), the "
         "image peaks and LiDAR scans (sensor_msgs/PointCloud2), the fan image "
-        "(sensor_msgs/Image), the sensor pose (/tf) and the sensor's description "
-        "(std_msgs/String, JSON); needs the rosbags package (pip install "
+        "(sensor_msgs/Image), the sensor pose (/tf), the sensor's description "
+        "(std_msgs/String, JSON), /clock, the scene's meshes "
+        "(visualization_msgs/MarkerArray) and the traced reflectors "
+        "(sensor_msgs/PointCloud2); needs the rosbags package (pip install "
         "'acousim[ros]'), no ROS installation. --format chirp: write the recordings "
         "as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by their chirppy): "
         "signals, array, call, times, poses, LiDAR scans and our ground truth; the "
@@ -69,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         index,
         method=args.image_method,
         threshold_db=options.peak_threshold_db,
+        dynamic_range_db=options.dynamic_range_db,
     )
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import UsageError, methods, parse_indices, progress, writable_dir
+from .common import UsageError, choice, methods, parse_indices, progress, writable_dir
 from .options import DeclaredHelp, add_declared
 
 IMAGING = "acousim.imaging:ImagingOptions"
@@ -27,9 +27,10 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
     add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
     add_declared(p, "--peak-threshold", IMAGING, "peak_threshold_db")
+    add_declared(p, "--dynamic-range-db", IMAGING, "dynamic_range_db", note="every picture")
     p.add_argument(
         "--call",
-        choices=CHIRP_CALLS,
+        type=choice("call", CHIRP_CALLS),
         help="the emitted call of a CHIRP file that does not say it (no transmitter "
         "signal, or one that is not a sweep): an RTIS preset or 'paper' (ignored otherwise)",
     )
@@ -60,6 +61,7 @@ def load_and_image(args: argparse.Namespace):
         "min_range_m": args.min_range,
         "max_range_m": args.max_range,
         "peak_threshold_db": args.peak_threshold,
+        "dynamic_range_db": args.dynamic_range_db,
     }
     options = ImagingOptions(  # unset options keep their declared defaults
         methods=methods("--method", args.method),
@@ -113,9 +115,11 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from acousim.imaging import prepare_pictures
+    from acousim.outputs import our_files, tidy
     from processing.atomic import committed_together
 
     out = writable_dir(args.out)
+    before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     animation = not args.no_animation and len(recs) > 1
     prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
@@ -124,6 +128,8 @@ def run(args: argparse.Namespace) -> int:
         files = _write_all(args, out, recs, images, index, options, animation)
     for f in files:
         print(f"  {f}")
+    for line in tidy(out, before, files).lines():  # the user's own files stay
+        print(f"  ({line})")
     return 0
 
 

@@ -1,4 +1,4 @@
-"""``acousim info``: what a recording file, a dataset shard or a dataset folder holds."""
+"""``acousim info``: what a file or folder acousim wrote holds."""
 
 from __future__ import annotations
 
@@ -8,11 +8,15 @@ import argparse
 def register(sub) -> None:
     p = sub.add_parser(
         "info",
-        help="describe a recording file, a dataset shard or a dataset folder",
-        description="Print what a recording file (HDF5), a dataset shard (.h5) or a "
-        "dataset folder (with its manifest.json) holds.",
+        help="describe any file or folder acousim writes (recordings, images.h5, "
+        "a ROS 2 bag, a dataset)",
+        description="Print what a recording file (HDF5; simulated, real or emulated), "
+        "an image file (images.h5), a ROS 2 bag folder (acousim export), a dataset "
+        "shard (.h5) or a dataset folder (with its manifest.json) holds.",
     )
-    p.add_argument("file", help="recording file, dataset shard or dataset folder")
+    p.add_argument(
+        "file", help="recording file, images.h5, bag folder, dataset shard or dataset folder"
+    )
     p.set_defaults(func=run)
 
 

@@ -6,10 +6,12 @@ import argparse
 import sys
 
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
 from .common import (
     UsageError,
     checked,
+    choice,
     load_scene,
     output_file,
     preload_simulation,
@@ -46,10 +48,15 @@ def register(sub) -> None:
     p.add_argument(
         "--array",
         default="ertis_v3d1",
-        choices=ARRAY_PRESETS,
-        help="array preset (default: ertis_v3d1)",
+        type=choice("array preset", ARRAY_PRESETS),
+        help=f"array preset: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
     )
-    p.add_argument("--call", default="default_25_50", choices=CALL_PRESETS, help="RTIS call preset")
+    p.add_argument(
+        "--call",
+        default="default_25_50",
+        type=choice("RTIS call preset", CALL_PRESETS),
+        help=f"RTIS call preset: {', '.join(CALL_PRESETS)} (default: default_25_50)",
+    )
     p.add_argument(
         "--emulate",
         metavar="SCENE",
@@ -72,10 +79,10 @@ def emulation_recordings(scene, count: int | None) -> list:
     `count`, else 10), simulated at the sensor's 450 kHz."""
     from acousim.simulator import Simulator
 
-    if scene.sensor.sample_rate_hz != 450e3:
+    if scene.sensor.sample_rate_hz != RTIS_SAMPLE_RATE_HZ:
         raise UsageError(
             f"--emulate {scene.source}: the scene samples at "
-            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at 450000"
+            f"{scene.sensor.sample_rate_hz:g} Hz; the sensor at {RTIS_SAMPLE_RATE_HZ:g}"
         )
     n = min(len(scene.sensor.poses), count or 10)
     try:
@@ -115,7 +122,11 @@ def _recorder(args: argparse.Namespace):
             return RtisDevice(vid, pid, serial=args.serial)
 
     return Recorder(
-        open_device, DeviceSettings(call=call.sampled(450e3)), array, call, fir=args.filter
+        open_device,
+        DeviceSettings(call=call.sampled(RTIS_SAMPLE_RATE_HZ)),
+        array,
+        call,
+        fir=args.filter,
     )
 
 

@@ -34,7 +34,7 @@ def _coldest(spec: DatasetSpec, name: str, default: float) -> float:
 
 def capture_samples(spec: DatasetSpec) -> int:
     """Samples per capture of every sample of the spec (see the module docstring)."""
-    from acousim.synth.air import speed_of_sound
+    from acousim.core.air import speed_of_sound
 
     from .generation import _scene
 

@@ -1,5 +1,6 @@
-"""What a file holds, in a few lines: a recording file, a dataset shard or a dataset
-folder (used by ``acousim info``)."""
+"""What a file holds, in a few lines: a recording file, a dataset shard, a dataset
+folder, an image file (``images.h5``) or a ROS 2 bag folder: everything acousim writes
+(used by ``acousim info``)."""
 
 from __future__ import annotations
 
@@ -7,30 +8,103 @@ import json
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 import processing as P
 from processing.errors import InputError
 
 from .generation import SHARD_SCHEMA
 
+IMAGES_FORMAT = "acousim-images"  # acousim.export.images.FORMAT (not imported: light)
+
 __all__ = ["describe"]
 
 
 def describe(path: str | Path) -> list[str]:
-    """Lines describing `path`; raises InputError for what none of the three is."""
+    """Lines describing `path`; raises InputError for what acousim does not write."""
     path = Path(path)
-    if path.is_dir():
-        return _folder(path)
+    if path.is_dir():  # a ROS 2 bag, else a dataset (the reader names what is missing)
+        return _bag(path) if (path / "metadata.yaml").is_file() else _folder(path)
     if not path.is_file():
         raise InputError("no such file or folder", file=path)
     try:
         with h5py.File(path, "r") as f:
-            schema = f.attrs.get("schema")
+            schema, fmt = f.attrs.get("schema"), f.attrs.get("format")
     except OSError as exc:
         raise InputError(f"not an HDF5 file ({exc})", file=path) from None
-    if isinstance(schema, bytes) and schema.decode(errors="replace") == SHARD_SCHEMA:
+    if _text(schema) == SHARD_SCHEMA:
         return _shard(path)
+    if _text(fmt) == IMAGES_FORMAT:
+        return _images(path)
     return _recordings(path)
+
+
+def _text(v) -> str | None:
+    return v.decode(errors="replace") if isinstance(v, bytes) else v
+
+
+def _images(path: Path) -> list[str]:
+    """An images.h5 (acousim.export.images): one line per imaged recording."""
+    with h5py.File(path, "r") as f:
+        groups = sorted(k for k in f if isinstance(f[k], h5py.Group))
+        lines = [f"{path}: images of {len(groups)} recording(s) (format {IMAGES_FORMAT})"]
+        for name in groups:
+            g = f[name]
+            methods = [k for k in g if k not in ("range_m", "elevation_deg", "azimuth_deg")]
+            shape = g[methods[0]].shape if methods else ()
+            r = g["range_m"][()] if "range_m" in g else np.empty(0)
+            span = f", range {r[0]:.2f}..{r[-1]:.2f} m" if r.size else ""
+            kind = _text(g.attrs.get("provenance", "")) or "unknown provenance"
+            scene = _text(g.attrs.get("scene", ""))
+            lines.append(
+                f"  [{g.attrs.get('index', name)}] {kind}{f' ({scene})' if scene else ''}: "
+                f"{', '.join(methods)} (range x elevation x azimuth {shape}{span})"
+            )
+    return lines
+
+
+def _bag(path: Path) -> list[str]:
+    """A ROS 2 bag folder (acousim.export.rosbag): topics, counts, provenance."""
+    try:
+        from rosbags.rosbag2 import Reader, ReaderError
+    except ImportError:
+        raise InputError(
+            "a ROS 2 bag; reading it needs rosbags (pip install 'acousim[ros]')", file=path
+        ) from None
+    try:
+        reader = Reader(path)
+        reader.open()
+    except ReaderError as exc:  # a damaged or foreign bag
+        raise InputError(f"not a readable ROS 2 bag ({exc})", file=path) from None
+    try:
+        span = (reader.end_time - reader.start_time) / 1e9 if reader.message_count else 0.0
+        lines = [
+            f"{path}: ROS 2 bag ({', '.join(sorted(p.name for p in path.glob('*.mcap')))}), "
+            f"{reader.message_count} message(s) over {span:.2f} s"
+        ]
+        info = [c for c in reader.connections if c.topic == "/acousim/info"]
+        kinds: dict[str, int] = {}
+        for _, _, raw in reader.messages(connections=info):
+            kind = _bag_provenance(raw)
+            kinds[kind] = kinds.get(kind, 0) + 1
+        if kinds:
+            lines.append("  recordings: " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
+        for c in sorted(reader.connections, key=lambda c: c.topic):
+            lines.append(f"  {c.topic}: {c.msgtype}, {c.msgcount} message(s)")
+    finally:
+        reader.close()
+    return lines
+
+
+def _bag_provenance(raw: bytes) -> str:
+    from rosbags.typesys import Stores, get_typestore
+
+    msg = get_typestore(Stores.ROS2_HUMBLE).deserialize_cdr(raw, "std_msgs/msg/String")
+    try:
+        info = json.loads(msg.data)
+    except ValueError:
+        return "unknown"
+    return str(info.get("provenance", "simulated" if info.get("simulated") else "real"))
 
 
 def _chirp(path: Path) -> list[str]:
@@ -57,12 +131,13 @@ def _recordings(path: Path) -> list[str]:
             if not P.is_chirp(path):
                 raise
             return [*lines, f"  its recordings cannot be read: {exc.reason} ({exc.key})"]
-        kind = "simulated" if r.metadata.get("simulated") else "real"
+        prov = r.provenance
+        kind = prov.kind + (f" ({prov.scene})" if prov.scene else "")
         where = ""
-        p = P.pose_of(r.metadata)
-        if p:
-            yaw = p["yaw_deg"]
-            where = f", pose {[round(v, 3) for v in p['position_m']]} yaw {yaw:.1f}°"
+        if prov.pose is not None:
+            p = prov.pose
+            yaw = np.rad2deg(p.yaw_rad)
+            where = f", pose {[round(v, 3) for v in p.position_m]} yaw {yaw:.1f}°"
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
         if r.lidar is not None:
             truth += f", LiDAR {r.lidar.name} scan of {len(r.lidar)} points"

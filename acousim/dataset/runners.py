@@ -27,10 +27,13 @@ POLL_S = 0.1
 
 
 def _worker_init(parent_pid: int) -> None:
-    """Pool worker initializer: Ctrl-C is the main process's, and exit when the main
-    process is gone."""
+    """Pool worker initializer: Ctrl-C is the main process's, exit when the main
+    process is gone, the process's policy (:func:`acousim.process.configure`)."""
+    from acousim.process import configure
+
     interrupt.ignore_in_worker()
     watch_parent(parent_pid)
+    configure()
 
 
 def run_pool(job: Callable, jobs: list, workers: int, out: Path, step: Callable[[], None]) -> None:

@@ -154,7 +154,9 @@ class StoreOptions:
     elevation_deg: tuple[float, float] = setting(
         (-30.0, 30.0), "deg", -90, 90, "image elevations", kind="interval"
     )
-    energy_fraction: float = setting(1e-3, "", 0, 1, "range-bin gate")
+    energy_fraction: float = setting(
+        P.ProcessingSettings.energy_fraction, "", 0, 1, "range-bin gate"
+    )
     min_range_m: float = setting(0.25, "m", 0, 100, "ignore nearer range bins")
     max_bins: int = setting(256, "", 1, 1_000_000, "at most this many range bins")
 

@@ -27,14 +27,34 @@ def _mean(stats: Sweep, p, v, m, index):
     return r.angular_sr_mean if index == 0 else r.range_m_mean
 
 
+def _context(results: StudyResults):
+    """The study's results and settings the headline rows read."""
+    cfg = results.config
+    snrs, snaps = cfg.snrs_db, cfg.snapshots
+    return (
+        cfg,
+        results.fig3_4,
+        results.fig6_7,
+        results.fig9_10,
+        results.fig11,
+        results.fig12,
+        *POSITIONS,
+        snrs,
+        snaps,
+        [v for v in snrs if v >= 0],
+    )
+
+
 def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
     """Rows (claim, paper, ours, why they differ or agree)."""
-    cfg = results.config
-    f34, s67, s910 = results.fig3_4, results.fig6_7, results.fig9_10
-    f11, f12 = results.fig11, results.fig12
-    p0, p30, p60 = POSITIONS
-    snrs, snaps = cfg.snrs_db, cfg.snapshots
-    hi_snr = [v for v in snrs if v >= 0]
+    parts = (_fig4_rows, _fig6_7_rows, _fig6_7_failing_rows, _fig9_10_rows, _fig11_12_rows)
+
+    return [row for part in parts for row in part(results)]
+
+
+def _fig4_rows(results: StudyResults) -> list:
+    """Fig. 4: the range estimate and the echo width."""
+    cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
     rows = []
     rows.append(
         (
@@ -57,6 +77,13 @@ def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
             "compressed envelope, 2/B·c/2 for B = 65 kHz; the paper's 'Rayleigh width'.",
         )
     )
+    return rows
+
+
+def _fig6_7_rows(results: StudyResults) -> list:
+    """Figs. 6-7: angular resolution by method and SNR."""
+    cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
+    rows = []
     das0 = np.mean([_mean(s67, p0, v, "das", 0) for v in hi_snr])
     das60 = np.mean([_mean(s67, p60, v, "das", 0) for v in hi_snr])
     rows.append(
@@ -89,6 +116,13 @@ def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
             "snapshot, so its lobe wanders and widens; above 0 dB it is stable.",
         )
     )
+    return rows
+
+
+def _fig6_7_failing_rows(results: StudyResults) -> list:
+    """Figs. 6-7: where MUSIC fails."""
+    cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
+    rows = []
     failing = [(p, v) for p in POSITIONS for v in snrs if _mean(s67, p, v, "music", 0) > 0.1]
     rng67 = max(
         _mean(s67, p, v, m, 1)
@@ -115,6 +149,13 @@ def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
             "a 3 dB metric): the paper's own explanation for Fig. 10." + lost,
         )
     )
+    return rows
+
+
+def _fig9_10_rows(results: StudyResults) -> list:
+    """Figs. 9-10: snapshots and smoothing."""
+    cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
+    rows = []
     sm9 = max(_mean(s910, p, k, m, 0) for p in POSITIONS for k in snaps for m in SMOOTHED)
     rows.append(
         (
@@ -157,6 +198,13 @@ def headline(results: StudyResults) -> list[tuple[str, str, str, str]]:
             "Same bound as Fig. 7.",
         )
     )
+    return rows
+
+
+def _fig11_12_rows(results: StudyResults) -> list:
+    """Figs. 11-12: two reflectors, attenuation and spacing."""
+    cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
+    rows = []
     spac = cfg.spacings_deg
 
     def last_above(m, level):
@@ -223,6 +271,39 @@ def _first_below(f11, spac, m):
     return None
 
 
+#: the report's readings of the paper (how we read what it leaves open)
+_READINGS = [
+    "## Readings of the paper",
+    "",
+    "- **SNR (eq. 2)**: signal power = noise-free energy averaged over microphones, "
+    "divided by the call length in samples, i.e. the echo's mean power while one call "
+    "lasts; white Gaussian noise, independent per microphone and snapshot.",
+    "- **Steering sign**: with an exp(−jωt) STFT, eq. 7 as printed images the mirror "
+    "direction; we steer with exp(+jk u·p) (pinned by a test).",
+    "- **Capon loading**: the paper's b = −0.5 has no scale of its own; we load by "
+    "−0.5 times the smallest eigenvalue after a white-noise floor of 1e−3·tr(R)/L, "
+    "which keeps R_b positive definite at any signal scale.",
+    "- **Angular resolution**: the −3 dB region connected to the image maximum, on its "
+    "range slice, weighted by cos(elevation). **Range resolution**: the −3 dB extent "
+    "of the per-slice maxima over the kept range bins.",
+    "- **Figs. 11–12**: spectra at elevation 0 summed over the kept range bins; the "
+    "attenuation is the lower of the two source peaks over the deepest point between "
+    "them.",
+    "",
+]
+#: the figures, in the paper's order
+_FIGURES = [
+    ("fig03_spectrogram.png", "Fig. 3"),
+    ("fig04_matched_filter.png", "Fig. 4"),
+    ("fig06_angular_vs_snr.png", "Fig. 6"),
+    ("fig07_range_vs_snr.png", "Fig. 7"),
+    ("fig09_angular_vs_snapshots.png", "Fig. 9"),
+    ("fig10_range_vs_snapshots.png", "Fig. 10"),
+    ("fig11_attenuation_vs_spacing.png", "Fig. 11"),
+    ("fig12_multiple_sources.png", "Fig. 12"),
+]
+
+
 def write_report(
     results: StudyResults, path: str | Path, figures_dir: str | Path, command: str
 ) -> Path:
@@ -250,36 +331,11 @@ def write_report(
     lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in headline(results)]
     lines += [
         "",
-        "## Readings of the paper",
-        "",
-        "- **SNR (eq. 2)**: signal power = noise-free energy averaged over microphones, "
-        "divided by the call length in samples, i.e. the echo's mean power while one call "
-        "lasts; white Gaussian noise, independent per microphone and snapshot.",
-        "- **Steering sign**: with an exp(−jωt) STFT, eq. 7 as printed images the mirror "
-        "direction; we steer with exp(+jk u·p) (pinned by a test).",
-        "- **Capon loading**: the paper's b = −0.5 has no scale of its own; we load by "
-        "−0.5 times the smallest eigenvalue after a white-noise floor of 1e−3·tr(R)/L, "
-        "which keeps R_b positive definite at any signal scale.",
-        "- **Angular resolution**: the −3 dB region connected to the image maximum, on its "
-        "range slice, weighted by cos(elevation). **Range resolution**: the −3 dB extent "
-        "of the per-slice maxima over the kept range bins.",
-        "- **Figs. 11–12**: spectra at elevation 0 summed over the kept range bins; the "
-        "attenuation is the lower of the two source peaks over the deepest point between "
-        "them.",
-        "",
+        *_READINGS,
         "## Figures",
         "",
     ]
-    for name, title in [
-        ("fig03_spectrogram.png", "Fig. 3"),
-        ("fig04_matched_filter.png", "Fig. 4"),
-        ("fig06_angular_vs_snr.png", "Fig. 6"),
-        ("fig07_range_vs_snr.png", "Fig. 7"),
-        ("fig09_angular_vs_snapshots.png", "Fig. 9"),
-        ("fig10_range_vs_snapshots.png", "Fig. 10"),
-        ("fig11_attenuation_vs_spacing.png", "Fig. 11"),
-        ("fig12_multiple_sources.png", "Fig. 12"),
-    ]:
+    for name, title in _FIGURES:
         lines += [f"### {title}", "", f"![{title}]({figs}/{name})", ""]
     lines += ["CSV files with every number are beside the figures.", ""]
     path.parent.mkdir(parents=True, exist_ok=True)

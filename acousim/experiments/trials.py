@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import processing as P
-from acousim.synth import PointReflectors, simulate_points
+from acousim.synth import Noise, PointReflectors, simulate_points
 
 PAPER_METHODS = ("das", "capon-fbss", "music", "music-fss", "music-fbss")
 FS = 500e3
@@ -52,9 +52,11 @@ def simulate_trial(trial: Trial) -> P.Recording:
         N_SAMPLES,
         speed_of_sound_m_s=C,
         spreading="paper",
-        snr_db=trial.snr_db,
-        seed=trial.seed,
-        n_measurements=trial.n_snapshots if trial.n_snapshots > 1 else None,
+        noise=Noise(
+            snr_db=trial.snr_db,
+            seed=trial.seed,
+            n_measurements=trial.n_snapshots if trial.n_snapshots > 1 else None,
+        ),
     )
 
 

@@ -10,7 +10,8 @@ Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
 
     /                               attrs: format = "acousim-images", version = 1
     /recording_000030/              attrs: index (in the recording file), scene,
-                                    time_s, position_m, yaw_deg, pitch_deg, roll_deg
+                                    provenance (simulated/real/emulated), time_s,
+                                    position_m, yaw_deg, pitch_deg, roll_deg
         range_m        (R,)  float64  dimension scale, units "m"
         elevation_deg  (E,)  float64  dimension scale, units "degree"
         azimuth_deg    (A,)  float64  dimension scale, units "degree"
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.imaging import PEAK_THRESHOLD_DB
 from processing.atomic import atomic_path, write_text
 
 __all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
@@ -54,6 +56,15 @@ PEAK_COLUMNS = (
     "world_x_m",  # world frame, through the recording's pose (= sensor frame without one)
     "world_y_m",
     "world_z_m",
+    "on_grid_edge",  # 1: on the grid's first/last azimuth or elevation (may not be a peak)
+    "truth_kind",  # the traced reflector within the image's resolution ("" if none)
+    "truth_x_m",  # where it was traced, sensor frame (m)
+    "truth_y_m",
+    "truth_z_m",
+    "truth_level_db",  # re the strongest traced echo
+    "truth_offset_deg",  # angle between the peak and the (mirrored) reflector
+    "truth_behind",  # 1: behind the array, heard as its mirror (-x, y, z)
+    "provenance",  # the recording's: simulated, real or emulated
 )
 
 
@@ -104,13 +115,14 @@ def write_image_data(
         for idx, rec, imgs in zip(indices, recordings, images):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
-            g.attrs["scene"] = str(rec.metadata.get("scene", ""))
-            pose = P.pose_of(rec.metadata)
-            if pose:
-                g.attrs["time_s"] = float(pose["time_s"])
-                g.attrs["position_m"] = np.asarray(pose["position_m"], float)
-                for k in ("yaw_deg", "pitch_deg", "roll_deg"):
-                    g.attrs[k] = float(pose[k])
+            prov = rec.provenance
+            g.attrs["scene"] = prov.scene or ""
+            g.attrs["provenance"] = prov.kind  # simulated, real or emulated
+            if prov.pose is not None:
+                g.attrs["time_s"] = prov.pose.time_s
+                g.attrs["position_m"] = np.asarray(prov.pose.position_m, float)
+                for k in ("yaw", "pitch", "roll"):
+                    g.attrs[f"{k}_deg"] = float(np.rad2deg(getattr(prov.pose, f"{k}_rad")))
             first = next(iter(imgs.values()))
             axis = regular_range_axis(list(imgs.values()))
             scales = {
@@ -154,27 +166,54 @@ def write_image_data(
 
 
 def peak_rows(
-    recording: P.Recording, index: int, image: P.Image, threshold_db: float
+    recording: P.Recording,
+    index: int,
+    image: P.Image,
+    threshold_db: float,
+    *,
+    window_samples: int = P.ProcessingSettings.window,
 ) -> list[tuple]:
-    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`."""
+    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`, each
+    with its grid-edge flag and its traced reflector (:mod:`acousim.matching`;
+    `window_samples`: the STFT window the image was made with)."""
     from acousim.imaging import peak_positions
+    from acousim.matching import image_resolution, match_peaks, on_grid_edge
 
     pk = image.peaks(threshold_db)
     if not pk.range_m.size:
         return []
     sensor, world = peak_positions(recording, pk)
-    return [
-        (
-            index,
-            image.method,
-            *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
-            *(float(v) for v in s),
-            *(float(v) for v in w),
+    edge = on_grid_edge(image, pk)
+    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
+    rows = []
+    for k, (r, a, e, lv, s, w) in enumerate(
+        zip(pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world)
+    ):
+        hit = m.index[k] >= 0
+        truth = (
+            (
+                str(m.kind[k]),
+                *(float(v) for v in m.position_sensor_m[k]),
+                float(m.level_db[k]),
+                float(np.rad2deg(m.offset_rad[k])),
+                int(m.behind[k]),
+            )
+            if hit
+            else ("",) * 7
         )
-        for r, a, e, lv, s, w in zip(
-            pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world
+        rows.append(
+            (
+                index,
+                image.method,
+                *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
+                *(float(v) for v in s),
+                *(float(v) for v in w),
+                int(edge[k]),
+                *truth,
+                recording.provenance.kind,
+            )
         )
-    ]
+    return rows
 
 
 def write_peaks_csv(
@@ -183,7 +222,7 @@ def write_peaks_csv(
     images: Sequence[Mapping[str, P.Image]],
     indices: Sequence[int] | None = None,
     *,
-    threshold_db: float = -10.0,
+    threshold_db: float = PEAK_THRESHOLD_DB,
 ) -> Path:
     """Write the peaks of every image within `threshold_db` of its strongest cell to
     a CSV file (atomically), one row per peak, strongest first per image."""

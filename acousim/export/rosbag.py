@@ -23,10 +23,25 @@ topic                         type                             content
                                                                re strongest; NaN = no
                                                                data; row 0 = farthest
 ``/tf``                       ``tf2_msgs/msg/TFMessage``       world -> sensor pose
+``/clock``                    ``rosgraph_msgs/msg/Clock``      the recording's time
+                                                               (for use_sim_time)
+``/acousim/scene``            ``visualization_msgs/msg/``      the scene's meshes in
+                              ``MarkerArray``                  the world frame: id 0
+                                                               still meshes (first
+                                                               stamp), id 1 moving
+                                                               ones (every stamp)
+``/acousim/reflectors``       ``sensor_msgs/msg/PointCloud2``  traced reflectors
+                                                               (simulations) in the
+                                                               sensor frame: float32
+                                                               x, y, z (m), level_db
+                                                               re strongest, order
 ``/acousim/lidar``            ``sensor_msgs/msg/PointCloud2``  the LiDAR scan (only
                                                                recordings with one;
                                                                ``lidar_cloud``)
 ============================  ===============================  =====================
+
+``/acousim/scene`` is written when the recording's scene file can be read,
+``/acousim/reflectors`` when the recordings carry ground truth.
 
 Time stamps: a real recording's ``timestamp`` (Unix time), else the pose's
 ``time_s`` of a simulated trajectory, else the recording's index x 0.1 s.
@@ -43,6 +58,8 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.imaging import PEAK_THRESHOLD_DB
+from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing import interrupt
 from processing.atomic import TEMP_PREFIX
 from processing.errors import InputError
@@ -59,6 +76,15 @@ TOPICS = {
     "tf": ("/tf", "tf2_msgs/msg/TFMessage"),
 }
 PEAK_FIELDS = ("x", "y", "z", "level_db", "range_m")
+#: optional topics: written when the recordings have them (see the module docstring)
+SCENE_TOPICS = {
+    "clock": ("/clock", "rosgraph_msgs/msg/Clock"),
+    "scene": ("/acousim/scene", "visualization_msgs/msg/MarkerArray"),
+    "reflectors": ("/acousim/reflectors", "sensor_msgs/msg/PointCloud2"),
+}
+REFLECTOR_FIELDS = ("x", "y", "z", "level_db", "order")
+SCENE_COLOR = (0.7, 0.7, 0.75, 0.5)  # RGBA of the still meshes; moving ones are orange
+MOVING_COLOR = (1.0, 0.55, 0.1, 0.7)
 
 
 def _typestore():
@@ -72,10 +98,11 @@ def _typestore():
 def recording_time_ns(rec: P.Recording, index: int) -> int:
     """The stamp of a recording (ns): its Unix timestamp (real), its pose's time
     (simulated trajectory), else index x 0.1 s."""
-    if rec.metadata.get("timestamp") is not None:
-        t = float(rec.metadata["timestamp"])
-    elif rec.metadata.get("pose"):
-        t = float(P.pose_of(rec.metadata)["time_s"])
+    prov = rec.provenance
+    if prov.timestamp_s is not None:
+        t = prov.timestamp_s
+    elif prov.pose is not None:
+        t = prov.pose.time_s
     else:
         t = 0.1 * index
     return int(round(t * 1e9))
@@ -88,8 +115,8 @@ def write_rosbag(
     indices: Sequence[int] | None = None,
     *,
     method: str | None = None,
-    threshold_db: float = -10.0,
-    dynamic_range_db: float = 30.0,
+    threshold_db: float = PEAK_THRESHOLD_DB,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
     fan_pixels: int = 400,
 ) -> Path:
     """Write a rosbag2 folder (MCAP storage) at `path`, which must not exist.
@@ -100,6 +127,7 @@ def write_rosbag(
     method : the image published as peaks and fan (default: the sharpest imaged,
         as in the pictures).
     threshold_db : peaks within this of the image's strongest cell.
+    dynamic_range_db : of the fan image (levels below -dynamic_range_db are floored).
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -134,6 +162,7 @@ def write_rosbag(
             def put(key: str, msg, stamp: int) -> None:
                 w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
 
+            scene = _SceneTopics(w, store, recordings)
             scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
 
             for idx, rec, imgs in zip(indices, recordings, images):
@@ -152,6 +181,7 @@ def write_rosbag(
                 put("peaks", _cloud_msg(T, header, sensor, pk), ns)
                 put("fan", _image_msg(T, header, raster.db), ns)
                 put("tf", _tf_msg(T, header, _pose(rec)), ns)
+                scene.write(rec, header, ns)
                 scans(rec, header, ns)
         _rename_unless_interrupted(bag, path)
     finally:
@@ -208,8 +238,9 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
     wf = rec.waveform
     info = {
         "recording": index,
-        "scene": rec.metadata.get("scene"),
-        "simulated": bool(rec.metadata.get("simulated", False)),
+        "scene": rec.provenance.scene,
+        "provenance": rec.provenance.kind,  # simulated, real or emulated
+        "simulated": rec.provenance.simulated,
         "sample_rate_hz": rec.sample_rate_hz,
         "speed_of_sound_m_s": rec.speed_of_sound_m_s,
         "array": rec.array.name,
@@ -284,3 +315,112 @@ def _tf_msg(T, header, pose):
         ),
     )
     return T["tf2_msgs/msg/TFMessage"](transforms=[stamped])
+
+
+class _SceneTopics:
+    """/clock, the scene's meshes as markers and the traced reflectors (see the module
+    docstring): what a viewer needs to show the scene beside the images."""
+
+    def __init__(self, writer, store, recordings: Sequence[P.Recording]) -> None:
+        from acousim.imaging import _scene, _scene_triangles
+
+        self.w, self.store, self.T = writer, store, store.types
+        self.scene = _scene(recordings[0]) if recordings else None
+        self.still = _scene_triangles(self.scene)
+        self.moving = self.scene is not None and any(m.moving for m in self.scene.meshes)
+        keys = ["clock"]
+        if self.still is not None or self.moving:
+            keys.append("scene")
+        if any(r.truth is not None and len(r.truth) for r in recordings):
+            keys.append("reflectors")
+        self.conns = {k: writer.add_connection(*SCENE_TOPICS[k], typestore=store) for k in keys}
+        self.first = True
+
+    def _put(self, key: str, msg, stamp: int) -> None:
+        self.w.write(self.conns[key], stamp, self.store.serialize_cdr(msg, SCENE_TOPICS[key][1]))
+
+    def write(self, rec: P.Recording, header, ns: int) -> None:
+        self._put("clock", self.T["rosgraph_msgs/msg/Clock"](clock=header.stamp), ns)
+        if "scene" in self.conns:
+            markers = []
+            if self.first and self.still is not None:
+                markers.append(_mesh_marker(self.T, header, 0, self.still, SCENE_COLOR))
+            if self.moving:
+                from acousim.imaging import _moving_triangles
+
+                tri = _moving_triangles(self.scene, rec)
+                markers.append(_mesh_marker(self.T, header, 1, tri, MOVING_COLOR))
+            if markers:
+                self._put("scene", self.T["visualization_msgs/msg/MarkerArray"](markers), ns)
+        if "reflectors" in self.conns:
+            self._put("reflectors", _reflector_msg(self.T, header, rec), ns)
+        self.first = False
+
+
+def _mesh_marker(T, header, marker_id: int, triangles: np.ndarray, rgba):
+    """A TRIANGLE_LIST marker of triangles (F, 3, 3) in the world frame, kept until
+    replaced (lifetime 0)."""
+    M = T["visualization_msgs/msg/Marker"]
+    point = T["geometry_msgs/msg/Point"]
+    pts = [point(x=float(x), y=float(y), z=float(z)) for x, y, z in triangles.reshape(-1, 3)]
+    return M(
+        header=T["std_msgs/msg/Header"](stamp=header.stamp, frame_id=FRAME_WORLD),
+        ns="acousim_scene",
+        id=marker_id,
+        type=M.TRIANGLE_LIST,
+        action=M.ADD,
+        pose=T["geometry_msgs/msg/Pose"](
+            position=point(x=0.0, y=0.0, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        ),
+        scale=T["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
+        color=T["std_msgs/msg/ColorRGBA"](*map(float, rgba)),
+        lifetime=T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        frame_locked=False,
+        points=pts,
+        colors=[],
+        texture_resource="",
+        texture=T["sensor_msgs/msg/CompressedImage"](
+            header=T["std_msgs/msg/Header"](stamp=header.stamp, frame_id=FRAME_WORLD),
+            format="",
+            data=np.zeros(0, np.uint8),
+        ),
+        uv_coordinates=[],
+        text="",
+        mesh_resource="",
+        mesh_file=T["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
+        mesh_use_embedded_materials=False,
+    )
+
+
+def _reflector_msg(T, header, rec: P.Recording):
+    """The traced echo paths' reflection points (the direct path left out) as a
+    PointCloud2 in the sensor frame: x, y, z (m), level_db (re the strongest echo),
+    order (number of reflections)."""
+    from acousim.viz.truth import truth_level_db
+
+    t = rec.truth
+    if t is None or not len(t):
+        table = np.zeros((0, len(REFLECTOR_FIELDS)), "<f4")
+    else:
+        lvl = truth_level_db(t)
+        keep = np.isfinite(lvl)
+        table = np.column_stack(
+            [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None]]
+        ).astype("<f4")
+    field = T["sensor_msgs/msg/PointField"]
+    fields = [
+        field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(REFLECTOR_FIELDS)
+    ]
+    n, step = len(table), 4 * len(REFLECTOR_FIELDS)
+    return T["sensor_msgs/msg/PointCloud2"](
+        header=header,
+        height=1,
+        width=n,
+        fields=fields,
+        is_bigendian=False,
+        point_step=step,
+        row_step=step * n,
+        data=np.frombuffer(table.tobytes(), np.uint8),
+        is_dense=True,
+    )

@@ -3,6 +3,7 @@
 from .load import SceneError, load_scene, parse_scene
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
 from .pose import Pose, rotation
+from .trajectory import Trajectory
 
 __all__ = [
     "SceneError",
@@ -16,5 +17,6 @@ __all__ = [
     "Sensor",
     "Simulation",
     "Pose",
+    "Trajectory",
     "rotation",
 ]

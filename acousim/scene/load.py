@@ -22,6 +22,7 @@ import numpy as np
 
 import processing as P
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 from processing.settings import Setting, check, read_table, refuse_unknown, settings_of
 
 from .lidar import LIDAR_PRESETS, PRESET, Lidar
@@ -291,7 +292,7 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
             raise r.fail("sensor.call", str(exc), call) from None
     else:
         raise r.fail("sensor.call", "must be a preset name or a table", call)
-    fs = declared.get("sample_rate_hz", 450e3)
+    fs = declared.get("sample_rate_hz", RTIS_SAMPLE_RATE_HZ)
     if max(wf.band_hz) >= fs / 2:
         raise r.fail(
             "sensor.sample_rate_hz",

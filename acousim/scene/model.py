@@ -31,12 +31,23 @@ from typing import Any
 
 import numpy as np
 
+from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from processing import Array, Waveform
 from processing.errors import InputError
+from processing.rtis import RTIS_SAMPLE_RATE_HZ
 from processing.settings import setting, validate
 
-from ..synth.render import SHAPED_INTERPOLATORS, ShapedDelay
-from .pose import MAX_COORDINATE_M, MAX_TIME_S, Pose
+from .motion import (
+    MAX_SPEED_M_S,
+    MAX_TURN_DEG_S,
+    motion_at,
+    moves,
+    track_rotation,
+    track_rows,
+    vector3,
+    velocity_setting,
+)
+from .pose import MAX_COORDINATE_M, Pose
 
 __all__ = [
     "Material",
@@ -53,28 +64,9 @@ __all__ = [
     "memory_limit_bytes",
 ]
 
-MAX_SPEED_M_S = 100.0
-"""Fastest motion of the sensor or a reflector (m/s, each velocity component; well
-below the speed of sound, which the retarded-time solution needs)."""
-MAX_TURN_DEG_S = 3600.0
-"""Fastest turn of the sensor (degrees/s about each world axis)."""
-
 FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
 """Fractional-delay interpolators a scene may choose: those of the renderer that take
 a path response (:data:`acousim.synth.render.ShapedDelay`)."""
-
-
-def _velocity_setting():
-    """The velocity of a moving point or mesh, declared once for both."""
-    return setting(
-        (0.0, 0.0, 0.0),
-        "m/s",
-        -MAX_SPEED_M_S,
-        MAX_SPEED_M_S,
-        "velocity (world frame) from position_m at time 0",
-        kind="vector",
-        length=3,
-    )
 
 
 @dataclass(frozen=True)
@@ -91,7 +83,7 @@ class Material:
     frequencies_khz : table frequencies (kHz, increasing); when given, `reflection`
         and/or `diffuse` may be lists of the same length: their values there,
         interpolated linearly in frequency and held at the end values outside the
-        table (:mod:`acousim.synth.materials`).  Empty: single numbers.
+        table (:mod:`acousim.core.materials`).  Empty: single numbers.
     """
 
     name: str = setting("default", doc="name the meshes refer to")
@@ -153,10 +145,10 @@ class Material:
     def reference(self) -> tuple[float, float]:
         """(reflection, diffuse): the single numbers the tracer uses; a table's
         largest reflection and mean diffuse fraction
-        (:func:`acousim.synth.materials.reference`), the numbers themselves otherwise."""
+        (:func:`acousim.core.materials.reference`), the numbers themselves otherwise."""
         if not self.frequency_dependent:
             return self.reflection, self.diffuse
-        from acousim.synth.materials import reference
+        from acousim.core.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
 
@@ -171,7 +163,7 @@ class Material:
         f = np.asarray(frequency_hz, float)
         if not self.frequency_dependent:
             return np.full(f.shape, self.reflection), np.full(f.shape, self.diffuse)
-        from acousim.synth.materials import interpolate
+        from acousim.core.materials import interpolate
 
         table = np.multiply(self.frequencies_khz, 1e3)
         return tuple(
@@ -205,7 +197,7 @@ class MeshItem:
     #: y, z, roll, pitch, yaw (rad): also how it is turned about its origin then,
     #: ``R(t) R_0`` with R as a pose's, interpolated by a rotation spline:
     #: :func:`track_rows`)
-    velocity_m_s: tuple[float, float, float] = _velocity_setting()
+    velocity_m_s: tuple[float, float, float] = velocity_setting()
     track: tuple[tuple[float, ...], ...] | None = None
     #: or it turns at this angular velocity (world frame) about its origin (where
     #: the transform, the velocity or the track put it): ``R(t) = exp(w t) R_0``
@@ -246,7 +238,7 @@ class MeshItem:
                 "must be a finite (4, 4) matrix", key="MeshItem.transform", value=self.transform
             )
         if self.position_m is not None:
-            p = _vector3(self.position_m, "MeshItem.position_m")
+            p = vector3(self.position_m, "MeshItem.position_m")
             T[:3, 3] += p
             object.__setattr__(self, "position_m", None)
         object.__setattr__(self, "mesh", mesh)
@@ -264,7 +256,7 @@ class MeshItem:
 
     @property
     def moving(self) -> bool:
-        return _moves(self) or self.turning
+        return moves(self) or self.turning
 
     @property
     def turning(self) -> bool:
@@ -277,13 +269,13 @@ class MeshItem:
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Where the mesh's origin is (3,) and its velocity (3,) at time `t_s` of the
         trajectory clock (as :meth:`PointItem.at`; still: the transform's translation)."""
-        return _motion_at(self, self.transform[:3, 3], t_s)
+        return motion_at(self, self.transform[:3, 3], t_s)
 
     def rotation_at(self, t_s: float) -> np.ndarray:
         """The turn (3, 3) of the mesh at time `t_s` about its origin, after its
         transform's rotation: ``exp(w t)``, or its track's orientation."""
         if self._track_turns:
-            return _track_rotation(self.track, t_s)[0].as_matrix()
+            return track_rotation(self.track, t_s)[0].as_matrix()
         from scipy.spatial.transform import Rotation
 
         w = np.asarray(self.angular_velocity_rad_s, float)
@@ -292,7 +284,7 @@ class MeshItem:
     def angular_velocity_at(self, t_s: float) -> np.ndarray:
         """The angular velocity (3,) in rad/s, world frame, at time `t_s`."""
         if self._track_turns:
-            turn, rate = _track_rotation(self.track, t_s)
+            turn, rate = track_rotation(self.track, t_s)
             return turn.apply(rate)
         return np.asarray(self.angular_velocity_rad_s, float)
 
@@ -317,18 +309,6 @@ class MeshItem:
         return self.mesh if isinstance(self.mesh, Path) else None
 
 
-def _vector3(value: Any, key: str) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        v = np.full(0, np.nan)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_COORDINATE_M):
-        raise InputError(
-            f"must be 3 finite numbers within +-{MAX_COORDINATE_M:g} m", key=key, value=value
-        )
-    return v
-
-
 @dataclass(frozen=True)
 class PointItem:
     """An explicit point reflector (world frame): strength a_k of eq. 1; it may move
@@ -344,7 +324,7 @@ class PointItem:
         length=3,
     )
     strength: float = setting(1.0, "", 0, 1e6, "amplitude at 1 m relative to the call")
-    velocity_m_s: tuple[float, float, float] = _velocity_setting()
+    velocity_m_s: tuple[float, float, float] = velocity_setting()
     #: its own trajectory instead: rows (t_s, x, y, z), two or more, times increasing
     #: (a table, checked by :func:`track_rows`; read by hand from TOML)
     track: tuple[tuple[float, float, float, float], ...] | None = None
@@ -361,101 +341,13 @@ class PointItem:
 
     @property
     def moving(self) -> bool:
-        return _moves(self)
+        return moves(self)
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Position and velocity (3,) at time `t_s` of the trajectory clock: along
         its track (a cubic spline with natural ends, extended by its end pieces), or
         moving at its velocity from its position at time 0."""
-        return _motion_at(self, self.position_m, t_s)
-
-
-def _moves(item) -> bool:
-    """Whether a point or a mesh has a track or a non-zero velocity."""
-    return item.track is not None or any(v != 0 for v in item.velocity_m_s)
-
-
-def _motion_at(item, start_m, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Position and velocity (3,) at `t_s` of an item (point or mesh) with a
-    ``velocity_m_s`` and a ``track``, at `start_m` at time 0 without a track."""
-    if item.track is None:
-        v = np.asarray(item.velocity_m_s, float)
-        return np.asarray(start_m, float) + v * t_s, v
-    from scipy.interpolate import CubicSpline
-
-    rows = np.asarray(item.track, float)
-    spline = CubicSpline(rows[:, 0], rows[:, 1:4], bc_type="natural")
-    return spline(t_s), spline(t_s, 1)
-
-
-def _track_rotations(rows: np.ndarray):
-    """The rotations (scipy Rotation, one per row) of a track's roll, pitch, yaw
-    columns (rad), each ``Rz(yaw) Ry(pitch) Rx(roll)`` as a pose's."""
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_euler("ZYX", rows[:, [6, 5, 4]])
-
-
-def _track_rotation(track, t_s: float):
-    """A turning track's orientation at `t_s` (a scipy Rotation) and its angular
-    velocity (3,) in the mesh's own frame: a rotation spline through the rows (a
-    constant turn rate between equally spaced rows is kept exactly); before the
-    first row and after the last, turning on at the end's rate."""
-    from scipy.spatial.transform import Rotation, RotationSpline
-
-    rows = np.asarray(track, float)
-    spline = RotationSpline(rows[:, 0], _track_rotations(rows))
-    t = float(np.clip(t_s, rows[0, 0], rows[-1, 0]))
-    turn, rate = spline(t), spline(t, 1)
-    if t != t_s:  # beyond an end: on at the end's rate (body frame)
-        turn = turn * Rotation.from_rotvec(rate * (t_s - t))
-    return turn, rate
-
-
-def track_rows(value: Any, key: str, turns: bool = False) -> tuple[tuple[float, ...], ...]:
-    """A track checked: two or more rows [t_s, x, y, z] of finite numbers
-    (positions in m, speeds between rows up to MAX_SPEED_M_S), times increasing;
-    with `turns` (a mesh's), rows [t_s, x, y, z, roll, pitch, yaw] (rad) may give
-    its orientation too (turning between rows up to MAX_TURN_DEG_S)."""
-    try:
-        ok = not isinstance(value, str | bytes) and all(
-            not isinstance(x, bool | str | bytes) for row in value for x in row
-        )
-        arr = np.array(value, float) if ok else np.zeros((0, 0))
-    except (ValueError, TypeError):
-        arr = np.zeros((0, 0))
-    widths = (4, 7) if turns else (4,)
-    if (
-        arr.ndim != 2
-        or arr.shape[0] < 2
-        or arr.shape[1] not in widths
-        or not np.all(np.isfinite(arr))
-        or np.any(np.abs(arr[:, 1:4]) > MAX_COORDINATE_M)
-        or np.any(np.abs(arr[:, 0]) > MAX_TIME_S)
-    ):
-        form = "[t_s, x, y, z] or [t_s, x, y, z, roll, pitch, yaw]" if turns else "[t_s, x, y, z]"
-        raise InputError(
-            f"must be two or more rows {form} of finite numbers (|t_s| <= {MAX_TIME_S:g}, "
-            f"positions within +-{MAX_COORDINATE_M:g} m)",
-            key=key,
-            value=value,
-        )
-    dt = np.diff(arr[:, 0])
-    if not np.all(dt > 0):
-        raise InputError("times must increase", key=key, value=arr[:, 0].tolist())
-    speed = np.linalg.norm(np.diff(arr[:, 1:4], axis=0), axis=1) / dt
-    if np.any(speed > MAX_SPEED_M_S):
-        raise InputError(
-            f"moves faster than {MAX_SPEED_M_S:g} m/s between rows", key=key, value=value
-        )
-    if arr.shape[1] == 7:
-        rot = _track_rotations(arr)
-        rate = (rot[:-1].inv() * rot[1:]).magnitude() / dt
-        if np.any(rate > math.radians(MAX_TURN_DEG_S)):
-            raise InputError(
-                f"turns faster than {MAX_TURN_DEG_S:g} deg/s between rows", key=key, value=value
-            )
-    return tuple(tuple(float(v) for v in row) for row in arr)
+        return motion_at(self, self.position_m, t_s)
 
 
 @dataclass(frozen=True)
@@ -471,7 +363,7 @@ class Environment:
 
     @property
     def speed_of_sound_m_s(self) -> float:
-        from acousim.synth.air import speed_of_sound
+        from acousim.core.air import speed_of_sound
 
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
@@ -497,7 +389,9 @@ class Sensor:
 
     array: Array = field(default_factory=_default_array)
     call: Waveform = field(default_factory=_default_call)
-    sample_rate_hz: float = setting(450e3, "Hz", 1e3, 1e8, "sampling rate of the microphones")
+    sample_rate_hz: float = setting(
+        RTIS_SAMPLE_RATE_HZ, "Hz", 1e3, 1e8, "sampling rate of the microphones"
+    )
     emitter_radius_m: float = setting(0.0, "m", 0, 0.5, "emitter as a baffled piston; 0: omni")
     direct_path: bool = setting(True, doc="include the emitter-to-microphone crosstalk")
     poses: tuple[Pose, ...] = field(default_factory=lambda: (Pose(np.zeros(3)),))
@@ -561,13 +455,14 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`).
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); on by
+        default (false: geometric optics alone).
     diffraction_step_m : edge-element step, in excess path length (m).
     diffraction_reflections : also edge diffraction combined with one specular
         reflection before or after the edge (image sources; slow in large scenes).
-    diffraction_order : 1, or 2 to add edge-to-edge diffraction between edges that
-        share a plane (the rims of a plate, the edges of a box face; slow for long
-        edges).
+    diffraction_order : 2 (default): each edge, and edge to edge over the pairs of
+        edges that share a plane (the rims of a plate, the edges of a box face)
+        where a pair can reach the energy floor; 1: each edge alone.
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -586,10 +481,10 @@ class Simulation:
     )
     absorption: bool = setting(True, doc="air absorption")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
-    diffraction: bool = setting(False, doc="edge diffraction (BTM)")
+    diffraction: bool = setting(True, doc="edge diffraction (BTM)")
     diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
     diffraction_reflections: bool = setting(False, doc="also edge + one reflection (slow)")
-    diffraction_order: int = setting(1, "", 1, 2, "1, or 2: also edge to edge")
+    diffraction_order: int = setting(2, "", 1, 2, "2: also edge to edge where it matters; 1: not")
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )

@@ -73,6 +73,24 @@ class Pose:
                 raise InputError("must be a finite number", key=f"Pose.{name}", value=v)
             object.__setattr__(self, name, float(v))
 
+    @classmethod
+    def degrees(
+        cls,
+        position_m,
+        yaw_deg: float = 0.0,
+        pitch_deg: float = 0.0,
+        roll_deg: float = 0.0,
+        *,
+        time_s: float = 0.0,
+    ) -> Pose:
+        """A pose with its angles in degrees (what scene files and people type);
+        ``Pose(position_m, yaw_rad, pitch_rad, roll_rad)`` takes radians."""
+        for name, v in (("yaw_deg", yaw_deg), ("pitch_deg", pitch_deg), ("roll_deg", roll_deg)):
+            if isinstance(v, bool) or not isinstance(v, int | float | np.number):
+                raise InputError("must be a finite number", key=f"Pose.{name}", value=v)
+        yaw, pitch, roll = np.deg2rad([yaw_deg, pitch_deg, roll_deg])
+        return cls(position_m, float(yaw), float(pitch), float(roll), time_s)
+
     @property
     def rotation(self) -> np.ndarray:
         """Sensor -> world rotation (3, 3)."""

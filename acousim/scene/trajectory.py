@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from processing.errors import InputError
 from processing.settings import Setting, check
 
-from .model import MAX_SPEED_M_S, MAX_TURN_DEG_S
+from .motion import MAX_SPEED_M_S, MAX_TURN_DEG_S
 from .pose import Pose
 
 __all__ = ["Trajectory", "RATES", "CONTINUOUS"]

@@ -11,120 +11,123 @@ import logging
 
 import numpy as np
 
-from processing import Array, Recording, Waveform
+from processing import Array, Recording, Waveform, provenance_metadata
 from processing.errors import InputError
 
+from .doppler import DopplerPlan, render_doppler, render_planned
 from .echoes import Echoes, PointReflectors, point_echoes
-from .moving import DopplerPlan, render_doppler, render_planned
 from .noise import NoiseDraw, add_noise, noise_sigma
-from .render import DEFAULT_INTERPOLATOR, DEFAULT_TAPS, FractionalDelay, render
+from .options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, RenderOptions
+from .render import render
 from .response import PathResponse
 
-__all__ = ["simulate", "simulate_points", "in_window"]
+__all__ = ["simulate", "simulate_points", "in_window", "Capture", "Noise", "RenderOptions"]
 
 log = logging.getLogger(__name__)
 
 
 def simulate(
     echoes: Echoes,
-    array: Array,
-    waveform: Waveform,
-    sample_rate_hz: float,
-    n_samples: int,
+    capture: Capture,
     *,
-    speed_of_sound_m_s: float = 343.0,
-    snr_db: float = np.inf,
-    n_measurements: int | None = None,
-    seed: int | None = 0,
-    emission_index: int = 0,
-    interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
-    taps: int = DEFAULT_TAPS,
+    noise: Noise = NO_NOISE,
+    options: RenderOptions = DEFAULT_OPTIONS,
     response: PathResponse | None = None,
-    snr_reference: str = "signal",
     metadata: dict | None = None,
     doppler: np.ndarray | DopplerPlan | None = None,
 ) -> Recording:
-    """Render echoes into a Recording, with noise at `snr_db` (eq. 2, see
-    :mod:`acousim.synth.noise`).
+    """Render echoes into a Recording of `capture` (array, call, sampling, window),
+    with `noise` (eq. 2, :class:`~acousim.synth.options.Noise` states its options).
 
-    Parameters
-    ----------
-    n_measurements : int, optional
-        K measurements of the static scene with independent noise: samples (K, M, T).
-    response : PathResponse, optional
-        Air absorption and emitter directivity per path.
-    snr_reference : {'signal', 'echoes'}
-        'signal': eq. 2 on the rendered signal (the paper's study).  'echoes': the
-        signal power is that of the echoes alone, the direct path (order 0, tens of
-        dB louder in a real sensor) left out, estimated from the path gains as if the
-        echoes did not overlap: ``sum_n mean_m(g_mn^2) |H_n(f_c)|^2 E_call / (M L)``
-        per microphone, with E_call the call's energy and H_n the path response at
-        the band centre.
-    doppler : ndarray (M, N), optional
-        Time compression of each echo (a moving scene: ``tau = doppler (t - delay)``,
-        see :mod:`acousim.synth.moving`); rendered by
-        :func:`acousim.synth.moving.render_doppler`.  Or the
-        :class:`~acousim.synth.moving.DopplerPlan` of `echoes` (made in advance by
-        :func:`~acousim.synth.moving.plan_doppler` from the echoes
-        :func:`in_window` keeps, with the same options).
-    seed : int
-        Seed of the noise generator (numpy Generator); the same seed gives the same
-        bytes.
+    `options`: the emission's sample, the fractional delays, the Doppler renderer's
+    tolerances.  `response`: air absorption and emitter directivity per path.
+    `doppler` (M, N): the time compression of each echo (a moving scene:
+    ``tau = doppler (t - delay)``, :mod:`acousim.kinematics`), rendered by
+    :func:`acousim.synth.doppler.render_doppler`; or the
+    :class:`~acousim.synth.doppler.DopplerPlan` of `echoes` (made in advance by
+    :func:`~acousim.synth.doppler.plan_doppler` from the echoes :func:`in_window`
+    keeps, with the same options).
     """
-    if n_samples < 1:
-        raise ValueError(f"n_samples must be positive, got {n_samples}")
-    if echoes.delay_s.shape[0] != array.n_mics:
+    cap = capture
+    if cap.n_samples < 1:
+        raise ValueError(f"n_samples must be positive, got {cap.n_samples}")
+    if echoes.delay_s.shape[0] != cap.array.n_mics:
         raise ValueError(
             f"echoes are for {echoes.delay_s.shape[0]} microphones, "
-            f"array {array.name!r} has {array.n_mics}"
+            f"array {cap.array.name!r} has {cap.array.n_mics}"
         )
-    window_s = (n_samples - emission_index) / sample_rate_hz
-    inside = in_window(echoes, n_samples, sample_rate_hz, emission_index)
+    inside = in_window(echoes, cap.n_samples, cap.sample_rate_hz, options.emission_index)
     if not inside.all():
         if isinstance(doppler, DopplerPlan):
             raise ValueError("a Doppler plan is made of the echoes inside the window only")
         echoes = echoes.select(inside)
         doppler = None if doppler is None else doppler[:, inside]
-    options = dict(
-        emission_index=emission_index, interpolator=interpolator, taps=taps, response=response
-    )
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(noise.seed)
     # the noise is drawn in a background thread while the echoes are rendered
-    M = array.n_mics
-    shape = (M, n_samples) if n_measurements is None else (n_measurements, M, n_samples)
-    drawn = NoiseDraw(rng, shape) if np.isfinite(snr_db) else None
-    if isinstance(doppler, DopplerPlan):
-        clean = render_planned(doppler)
-    elif doppler is not None:
-        clean = render_doppler(echoes, doppler, waveform, sample_rate_hz, n_samples, **options)
-    else:
-        clean = render(echoes, waveform, sample_rate_hz, n_samples, **options)
-    if np.isfinite(snr_db):
-        if not np.any(clean):
-            raise InputError(
-                f"snr_db={snr_db} is relative to the echoes, but no echo reaches the "
-                f"{window_s * 1e3:.2f} ms window"
-            )
-        call_samples = int(np.ceil(waveform.duration_s * sample_rate_hz))
-        if snr_reference == "echoes":
-            sigma = _echo_noise_sigma(echoes, waveform, sample_rate_hz, snr_db, response)
-        elif snr_reference == "signal":
-            sigma = noise_sigma(clean, snr_db, call_samples)
-        else:
-            raise ValueError(f"snr_reference must be 'signal' or 'echoes', got {snr_reference!r}")
-        samples = add_noise(clean, sigma, rng, n_measurements, drawn)
-    else:
-        log.debug("infinite SNR: no noise generated")
-        samples = (
-            clean
-            if n_measurements is None
-            else np.broadcast_to(clean, (n_measurements, *clean.shape)).copy()
-        )
-    meta = {"simulated": True, "seed": seed, "snr_db": float(snr_db), "n_paths": echoes.n_paths}
+    M = cap.array.n_mics
+    n = noise.n_measurements
+    shape = (M, cap.n_samples) if n is None else (n, M, cap.n_samples)
+    drawn = NoiseDraw(rng, shape) if np.isfinite(noise.snr_db) else None
+    clean = _render(echoes, cap, options, response, doppler)
+    samples = _noisy(clean, echoes, cap, noise, options, response, rng, drawn)
+    meta = {
+        **provenance_metadata("simulated"),
+        "seed": noise.seed,
+        "snr_db": float(noise.snr_db),
+        "n_paths": echoes.n_paths,
+    }
     meta.update(metadata or {})
     return Recording(
-        samples, sample_rate_hz, array, waveform, speed_of_sound_m_s, emission_index, meta
+        samples,
+        cap.sample_rate_hz,
+        cap.array,
+        cap.waveform,
+        cap.speed_of_sound_m_s,
+        options.emission_index,
+        meta,
     )
+
+
+def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> np.ndarray:
+    """The noise-free signals (M, T): static, time-scaled by `doppler`, or planned."""
+    if isinstance(doppler, DopplerPlan):
+        return render_planned(doppler)
+    args = (cap.waveform, cap.sample_rate_hz, cap.n_samples)
+    if doppler is not None:
+        return render_doppler(echoes, doppler, *args, options=options, response=response)
+    return render(
+        echoes,
+        *args,
+        emission_index=options.emission_index,
+        interpolator=options.interpolator,
+        taps=options.taps,
+        response=response,
+    )
+
+
+def _noisy(clean, echoes, cap: Capture, noise: Noise, options, response, rng, drawn):
+    """`clean` with the noise of eq. 2 (a copy per measurement; as it is at infinite
+    SNR)."""
+    fs, waveform = cap.sample_rate_hz, cap.waveform
+    if not np.isfinite(noise.snr_db):
+        log.debug("infinite SNR: no noise generated")
+        if noise.n_measurements is None:
+            return clean
+        return np.broadcast_to(clean, (noise.n_measurements, *clean.shape)).copy()
+    if not np.any(clean):
+        window_s = (cap.n_samples - options.emission_index) / fs
+        raise InputError(
+            f"snr_db={noise.snr_db} is relative to the echoes, but no echo reaches the "
+            f"{window_s * 1e3:.2f} ms window"
+        )
+    call_samples = int(np.ceil(waveform.duration_s * fs))
+    if noise.reference == "echoes":
+        sigma = _echo_noise_sigma(echoes, waveform, fs, noise.snr_db, response)
+    elif noise.reference == "signal":
+        sigma = noise_sigma(clean, noise.snr_db, call_samples)
+    else:
+        raise ValueError(f"snr_reference must be 'signal' or 'echoes', got {noise.reference!r}")
+    return add_noise(clean, sigma, rng, noise.n_measurements, drawn)
 
 
 def in_window(
@@ -175,9 +178,9 @@ def simulate_points(
     *,
     speed_of_sound_m_s: float = 343.0,
     spreading: str = "spherical",
-    **kw,
+    noise: Noise = NO_NOISE,
 ) -> Recording:
-    """Eq. 1 for point reflectors (see :func:`simulate` for the other parameters)."""
+    """Eq. 1 for point reflectors (see :func:`simulate`; the default options)."""
     echoes = point_echoes(reflectors, array, speed_of_sound_m_s, spreading)
     meta = {
         "reflectors": {
@@ -186,14 +189,5 @@ def simulate_points(
         },
         "spreading": spreading,
     }
-    meta.update(kw.pop("metadata", None) or {})
-    return simulate(
-        echoes,
-        array,
-        waveform,
-        sample_rate_hz,
-        n_samples,
-        speed_of_sound_m_s=speed_of_sound_m_s,
-        metadata=meta,
-        **kw,
-    )
+    capture = Capture(array, waveform, sample_rate_hz, n_samples, speed_of_sound_m_s)
+    return simulate(echoes, capture, noise=noise, metadata=meta)

@@ -34,7 +34,6 @@ filter, at ``d * fs`` samples after the emission.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Literal, get_args
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,11 +41,19 @@ from scipy import fft as sfft
 from scipy.signal import fftconvolve
 from scipy.special import i0
 
+from acousim.core.delays import (
+    DEFAULT_INTERPOLATOR,
+    INTERPOLATORS,
+    SHAPED_INTERPOLATORS,
+    FractionalDelay,
+    ShapedDelay,
+    check_interpolator,
+)
+from acousim.core.echoes import Echoes
 from processing import Waveform
-from processing.errors import InputError
+from processing.kernels import optional_kernel
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
-from .echoes import Echoes
 from .response import PathResponse, factorise
 
 __all__ = [
@@ -60,36 +67,12 @@ __all__ = [
     "check_interpolator",
 ]
 
-ShapedDelay = Literal["sinc", "lagrange", "nearest"]
-"""Interpolators that take a path response (absorption, directivity): the choices
-of a scene's ``simulation.fractional_delay``."""
-FractionalDelay = Literal["reference", "exact", "sinc", "lagrange", "fft", "nearest"]
-"""Every fractional-delay interpolator of :func:`render` (see the module docstring)."""
-INTERPOLATORS: tuple[str, ...] = get_args(FractionalDelay)
-SHAPED_INTERPOLATORS: tuple[str, ...] = get_args(ShapedDelay)
-DEFAULT_INTERPOLATOR: ShapedDelay = "sinc"
 DEFAULT_TAPS = 6
 KAISER_BETA = 8.0
 TABLE_PHASES = 4096
 FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
-
-
-def check_interpolator(
-    interpolator: object,
-    allowed: tuple[str, ...] = INTERPOLATORS,
-    *,
-    need: str = "",
-    key: str = "interpolator",
-) -> FractionalDelay:
-    """`interpolator` if it is one of `allowed`, else :class:`InputError` naming `key`
-    (`need`: why only `allowed`, e.g. "a path response"): the one check of the
-    fractional-delay option."""
-    if not isinstance(interpolator, str) or interpolator not in allowed:
-        why = f"{need} needs" if need else "unknown fractional-delay interpolator; choose"
-        raise InputError(f"{why} one of {', '.join(allowed)}", key=key, value=interpolator)
-    return interpolator  # type: ignore[return-value]
 
 
 def render(
@@ -129,13 +112,7 @@ def render(
     if interpolator == "exact":
         return _render_exact(d, g, waveform, fs, n_samples, out)
     if interpolator == "reference":
-        U = 64
-        fine = _render_exact(
-            d * U, g, waveform, fs * U, n_samples * U, np.zeros((M, n_samples * U))
-        )
-        spec = sfft.rfft(fine, axis=-1)
-        spec[:, int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
-        return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
+        return _render_reference(d, g, waveform, fs, n_samples)
     call, start = waveform.band_limited(fs)
     d = d + start  # sample i of `call` is at i + start
     if interpolator == "fft":
@@ -150,7 +127,7 @@ def render(
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, g, call, fs, n_span, interpolator, taps, response)
+        y = _render_shaped(echoes, d - lo, call, fs, n_span, interpolator, taps, response)
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
@@ -158,7 +135,19 @@ def render(
     return out
 
 
-def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np.ndarray:
+def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np.ndarray:
+    """The exact band-limited echoes (the ``reference`` interpolator): the analytic
+    call at 64 times the sample rate, low-passed at 0.8 Nyquist and decimated."""
+    U = 64
+    fine = _render_exact(
+        d * U, g, waveform, fs * U, n_samples * U, np.zeros((d.shape[0], n_samples * U))
+    )
+    spec = sfft.rfft(fine, axis=-1)
+    spec[:, int(ANTI_ALIAS_CUTOFF * n_samples / 2) + 1 :] = 0.0
+    return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
+
+
+def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain.
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
@@ -173,7 +162,7 @@ def _render_shaped(echoes, d, g, call, fs, n_span, method, taps, response) -> np
     """
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
-    g, U, V, band, _ = response_factors(echoes, g, W, fs, n, response)
+    g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -360,11 +349,6 @@ def _impulses_sparse(start, phase, G, table, rows_out, dtype) -> np.ndarray:
     return h
 
 
-@lru_cache(maxsize=1)
 def _compiled():
     """The compiled accumulation, or None when numba is not installed."""
-    try:
-        from ._impulse_kernel import accumulate
-    except ImportError:  # numba is optional (the 'fast' extra)
-        return None
-    return accumulate
+    return optional_kernel("acousim.synth._impulse_kernel", "accumulate")

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import j1
 
-from .air import absorption_db_per_m
-from .materials import MaterialSpectra
+from acousim.core.air import absorption_db_per_m
+from acousim.core.materials import MaterialSpectra
 
 __all__ = ["PathResponse", "piston_directivity", "factorise"]
 
@@ -61,7 +61,7 @@ class PathResponse:
         Baffled-piston radius of the emitter; 0 is omnidirectional.
     materials : MaterialSpectra, optional
         Frequency-dependent materials: each path's response is multiplied by its
-        interactions' gains over their references (:mod:`acousim.synth.materials`).
+        interactions' gains over their references (:mod:`acousim.core.materials`).
     """
 
     speed_of_sound_m_s: float = 343.0

@@ -41,8 +41,8 @@ Discretisation (this module; a pure function of the geometry):
 
 Valid for rigid (or uniformly reflecting) straight edges; the faces' absorption is
 applied by the caller as a factor.  Second order (edge to edge, two edges sharing a
-plane): :func:`edge_pair_elements`, the double line integral, discretised on its
-own (equal elements, bins of path length).
+plane): :mod:`acousim.trace.btm_pairs`, whose inner integral is this one
+(:func:`integrate_rows`, a source on the face of the second edge).
 """
 
 from __future__ import annotations
@@ -53,9 +53,8 @@ import numpy as np
 
 __all__ = [
     "EdgeElements",
-    "EdgePairElements",
-    "Wedge",
-    "edge_pair_elements",
+    "EdgeRows",
+    "integrate_rows",
     "many_edge_elements",
     "edge_elements",
     "DEFAULT_STEP_M",
@@ -161,8 +160,7 @@ def many_edge_elements(
     if reflection is None:
         reflection = np.ones((n_e, 2))
     length = np.linalg.norm(end - start, axis=1)
-    good = length > 0
-    axis = (end - start) / np.where(good, length, 1.0)[:, None]
+    axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
 
     def cyl(p):
         d = p - start
@@ -171,13 +169,89 @@ def many_edge_elements(
         th = np.arctan2(np.einsum("ij,ij->i", v, normal), np.einsum("ij,ij->i", v, face_dir))
         return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
 
-    rS, tS, zS = cyl(source)
-    rR, tR, zR = cyl(receiver)
-    tiny = 1e-9 * np.maximum(np.maximum(rS, rR), length)
+    weight4 = (
+        np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
+        if terms is None
+        else np.asarray(terms, float)
+    )
+    rows = EdgeRows(
+        start, axis, length, np.asarray(wedge_rad, float), *cyl(source), *cyl(receiver),
+        np.broadcast_to(source, (n_e, 3)), receiver, weight4,
+    )  # fmt: skip
+    return integrate_rows(
+        rows, step_m=step_m, max_path_m=np.full(n_e, max_path_m), max_excess_m=max_excess_m
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class EdgeRows:
+    """E edges, each with its own source, as the first-order integral needs them.
+
+    start (E, 3), axis (E, 3), length (E,): the edge (m); wedge_rad (E,): open angle;
+    r_s, th_s, z_s and r_r, th_r, z_r (E,): cylindrical coordinates of the source
+    and the receiver about the edge (theta from face 1 through the air); source
+    (E, 3), receiver (3,): the points; weight4 (E, 4): the weights of the four beta
+    terms (``(R2, 1, 1, R1)`` for the whole wedge).
+    """
+
+    start: np.ndarray
+    axis: np.ndarray
+    length: np.ndarray
+    wedge_rad: np.ndarray
+    r_s: np.ndarray
+    th_s: np.ndarray
+    z_s: np.ndarray
+    r_r: np.ndarray
+    th_r: np.ndarray
+    z_r: np.ndarray
+    source: np.ndarray
+    receiver: np.ndarray
+    weight4: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class _Cuts:
+    """The elements of :func:`integrate_rows` before integration (per element K)."""
+
+    row: np.ndarray  # (K,) the row (edge) of each element
+    first: np.ndarray  # (K,) True for the element next to the apex
+    za: np.ndarray  # (K,) its ends and centre along the edge (m)
+    zb: np.ndarray
+    zc: np.ndarray
+    taper: np.ndarray  # (K,) raised-cosine taper (1 where the edge is not cut)
+    z_apex: np.ndarray  # (E,) the apex, clipped to the edge, and unclipped
+    z_mid: np.ndarray
+
+
+def integrate_rows(
+    rows: EdgeRows,
+    *,
+    step_m: float,
+    max_path_m: np.ndarray,
+    max_excess_m: float,
+    refine: int = _REFINE,
+) -> tuple[EdgeElements, np.ndarray]:
+    """The BTM elements of every row (steps 1-4 of the module docstring): the
+    elements of all rows and the row of each.  max_path_m (E,): per row, elements
+    whose path is longer are left out; refine: the first step is subdivided by
+    halving this many times."""
+    cuts = _cut(rows, step_m, max_path_m, max_excess_m, refine)
+    if cuts is None:
+        return EdgeElements.empty(), np.zeros(0, int)
+    return _integrate(rows, cuts)
+
+
+def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | None:
+    """Steps 1-2: the apex and the element boundaries of every row."""
+    r = rows
+    n_e = r.length.size
+    good = r.length > 0
+    tiny = 1e-9 * np.maximum(np.maximum(r.r_s, r.r_r), r.length)
     # on the edge line or inside the solid: nothing
-    good &= (rS > tiny) & (rR > tiny) & (tS <= wedge_rad) & (tR <= wedge_rad) & (step_m > 0)
-    rS, rR = np.where(good, rS, 1.0), np.where(good, rR, 1.0)
-    nu = np.pi / wedge_rad
+    good &= (r.r_s > tiny) & (r.r_r > tiny) & (r.th_s <= r.wedge_rad) & (r.th_r <= r.wedge_rad)
+    good &= step_m > 0
+    rS, rR = np.where(good, r.r_s, 1.0), np.where(good, r.r_r, 1.0)
+    zS, zR = r.z_s, r.z_r
 
     def path(z, i):
         return np.hypot(rS[i], z - zS[i]) + np.hypot(rR[i], z - zR[i])
@@ -185,85 +259,102 @@ def many_edge_elements(
     every = np.arange(n_e)
     # 1. the apex, clipped to the edge
     z_mid = (rR * zS + rS * zR) / (rS + rR)  # unclipped
-    z_apex = np.clip(z_mid, 0.0, length)
+    z_apex = np.clip(z_mid, 0.0, r.length)
     l_apex = path(z_apex, every)
     # 2. element boundaries in excess path length on each side (side 0: towards z = 0)
     side_edge = np.repeat(every, 2)
-    z_end = np.column_stack([np.zeros(n_e), length]).ravel()
+    z_end = np.column_stack([np.zeros(n_e), r.length]).ravel()
     real_end = path(z_end, side_edge) - l_apex[side_edge]
     cut = real_end > max_excess_m  # an artificial end: taper towards it
-    e_end = np.minimum(np.minimum(real_end, max_path_m - l_apex[side_edge]), max_excess_m)
+    e_end = np.minimum(
+        np.minimum(real_end, max_path_m[side_edge] - l_apex[side_edge]), max_excess_m
+    )
     live = good[side_edge] & (np.abs(z_end - z_apex[side_edge]) > 0) & (e_end > 0)
+    steps = _excess_steps(e_end, live, step_m, refine)
+    if steps is None:
+        return None
+    side_of, j, ea_ex, eb_ex = steps
+    mid_ex = 0.5 * (ea_ex + eb_ex)
+    edge_of = side_edge[side_of]
+    za, zb, zc = _on_spheroid_many(
+        r.source[edge_of],
+        r.receiver,
+        r.start[edge_of],
+        r.axis[edge_of],
+        l_apex[edge_of] + np.stack([ea_ex, eb_ex, mid_ex]),
+        (side_of % 2) == 1,
+    )
+    lo = np.minimum(z_apex[edge_of], z_end[side_of])
+    hi = np.maximum(z_apex[edge_of], z_end[side_of])
+    za, zb, zc = np.clip(za, lo, hi), np.clip(zb, lo, hi), np.clip(zc, lo, hi)
+    za = np.where(j == 0, z_apex[edge_of], za)  # exactly (roots lose precision at the apex)
+    with np.errstate(invalid="ignore"):
+        x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
+    taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
+    return _Cuts(edge_of, j == 0, za, zb, zc, taper, z_apex, z_mid)
+
+
+def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
+    """The elements of every live side, in excess path length: (side (K,), index
+    within its side (K,), start (K,), end (K,)); steps of step_m from the apex, the
+    first subdivided `refine` times by halving, the last ending at e_end (S,)."""
     e_cap = float(e_end[live].max()) if live.any() else 0.0
     template = np.concatenate(
         [
             [0.0],
-            step_m * 0.5 ** np.arange(_REFINE, 0, -1),
+            step_m * 0.5 ** np.arange(refine, 0, -1),
             step_m * np.arange(1, int(np.ceil(e_cap / step_m)) + 1),
         ]
     )
     n_inner = np.where(live, np.searchsorted(template, e_end, side="left"), 0)  # entries < end
     sides = np.flatnonzero(live & (n_inner > 0))
     if sides.size == 0:
-        return EdgeElements.empty(), np.zeros(0, int)
+        return None
     counts = n_inner[sides]  # elements per side
     side_of = np.repeat(sides, counts)  # per element
     offset = np.cumsum(counts) - counts
     j = np.arange(side_of.size) - np.repeat(offset, counts)  # element index within its side
-    ea_ex = template[j]
     eb_ex = np.where(
         j + 1 < np.repeat(counts, counts),
         template[np.minimum(j + 1, template.size - 1)],
         e_end[side_of],
     )
-    mid_ex = 0.5 * (ea_ex + eb_ex)
-    edge_of = side_edge[side_of]
-    upper = (side_of % 2) == 1
-    src = np.broadcast_to(source, (n_e, 3))[edge_of]
-    za, zb, zc = _on_spheroid_many(
-        src,
-        receiver,
-        start[edge_of],
-        axis[edge_of],
-        l_apex[edge_of] + np.stack([ea_ex, eb_ex, mid_ex]),
-        upper,
-    )
-    lo = np.minimum(z_apex[edge_of], z_end[side_of])
-    hi = np.maximum(z_apex[edge_of], z_end[side_of])
-    za, zb, zc = np.clip(za, lo, hi), np.clip(zb, lo, hi), np.clip(zc, lo, hi)
-    za = np.where(j == 0, z_apex[edge_of], za)  # exactly (roots lose precision at the apex)
-    x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
-    taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
-    # 3. product integration in eta
-    g = edge_of
-    phi = np.pi + np.stack([tS + tR, tS - tR, -tS + tR, -tS - tR], axis=1)  # (E, 4)
+    return side_of, j, template[j], eb_ex
+
+
+def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
+    """Steps 3-4: product integration in eta, one impulse per element."""
+    r, g = rows, cuts.row
+    nu = np.pi / r.wedge_rad
+    rS = np.where(r.r_s > 0, r.r_s, 1.0)
+    rR = np.where(r.r_r > 0, r.r_r, 1.0)
+    phi = np.pi + np.stack(
+        [r.th_s + r.th_r, r.th_s - r.th_r, -r.th_s + r.th_r, -r.th_s - r.th_r], axis=1
+    )  # (E, 4)
     half = nu[:, None] * phi / 2
     s, c = np.sin(half), np.cos(half)
     flip = s < 0
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
-    weight4 = (
-        np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
-        if terms is None
-        else np.asarray(terms, float)
-    )
-
     # per-element copies of the per-edge values, gathered once
-    rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], zS[g], zR[g], nu[g]
+    rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], r.z_s[g], r.z_r[g], nu[g]
 
     def eta(z):
         # cosh(eta) - 1 without cancellation:
         # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
         a, b = z - zS_g, z - zR_g
         ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
-        arg = ((rS_g + rR_g) * (z - z_mid[g])) ** 2 / ((ml - a * b + rS_g * rR_g) * rS_g * rR_g)
+        arg = ((rS_g + rR_g) * (z - cuts.z_mid[g])) ** 2 / (
+            (ml - a * b + rS_g * rR_g) * rS_g * rR_g
+        )
         return _acosh1p(arg)
 
+    za, zb, zc = cuts.za, cuts.zb, cuts.zc
     ea, eb = eta(np.stack([za, zb]))
-    ea = np.where(j == 0, np.where(z_apex[g] == z_mid[g], 0.0, ea), ea)
+    ea = np.where(cuts.first, np.where(cuts.z_apex[g] == cuts.z_mid[g], 0.0, ea), ea)
 
     def prim(e):  # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
         t = np.tanh(nu_g * e / 2)[..., None]
-        return (np.arctan2(t * c[g], s[g]) * weight4[g]).sum(axis=-1)
+        return (np.arctan2(t * c[g], s[g]) * r.weight4[g]).sum(axis=-1)
 
     # eta grows away from the apex on both sides: each element runs from ea to eb
     pb, pa = prim(np.stack([eb, ea]))
@@ -273,10 +364,10 @@ def many_edge_elements(
     l_c = np.hypot(rR_g, zc - zR_g)
     ok = deta > 0
     weight = np.where(ok, np.abs(zb - za) / np.where(ok, deta, 1.0), 0.0) / (m_c * l_c)
-    amp = -(nu_g / (4 * np.pi)) * weight * integral * taper
+    amp = -(nu_g / (4 * np.pi)) * weight * integral * cuts.taper
     # 4. one impulse per element at its mid-path point
     keep = ok & (amp != 0)
-    pts_c = start[g[keep]] + zc[keep, None] * axis[g[keep]]
+    pts_c = r.start[g[keep]] + zc[keep, None] * r.axis[g[keep]]
     return EdgeElements(pts_c, m_c[keep], l_c[keep], amp[keep]), g[keep]
 
 
@@ -312,259 +403,3 @@ def _acosh1p(x: np.ndarray) -> np.ndarray:
     """acosh(1 + x), accurate for small x >= 0."""
     x = np.maximum(x, 0.0)
     return np.log1p(x + np.sqrt(x * (x + 2)))
-
-
-# -- second order: edge to edge ---------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class Wedge:
-    """One straight wedge as the second-order integral needs it (world frame, metres).
-
-    start_m, end_m (3,): edge endpoints; face_dir (3,): unit direction from the edge
-    into face 1; normal (3,): face 1's unit normal, towards the air; angle_rad: open
-    (air) angle in (pi, 2 pi]; reflection: pressure reflection factors (R1, R2) of
-    face 1 and face 2 (1: rigid); terms: the weights of the four beta terms in the
-    order of :meth:`beta` (None: ``(R2, 1, 1, R1)``; a part of the wedge's response,
-    e.g. the image term of one face alone, as :func:`many_edge_elements` takes).
-    """
-
-    start_m: np.ndarray
-    end_m: np.ndarray
-    face_dir: np.ndarray
-    normal: np.ndarray
-    angle_rad: float
-    reflection: tuple[float, float] = (1.0, 1.0)
-    terms: tuple[float, float, float, float] | None = None
-
-    @property
-    def length_m(self) -> float:
-        return float(np.linalg.norm(self.end_m - self.start_m))
-
-    @property
-    def axis(self) -> np.ndarray:
-        return (self.end_m - self.start_m) / self.length_m
-
-    def cylindrical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(r, theta, z) of points p (..., 3) about the edge; theta in [0, 2 pi) from
-        face 1 towards its normal, z along the edge from its start."""
-        d = np.asarray(p, float) - self.start_m
-        z = d @ self.axis
-        v = d - z[..., None] * self.axis
-        th = np.mod(np.arctan2(v @ self.normal, v @ self.face_dir), 2 * np.pi)
-        return np.linalg.norm(v, axis=-1), th, z
-
-    def beta(self, th_a, th_b, cosh_eta) -> np.ndarray:
-        """Sum of the four beta terms for angles th_a, th_b (of the two ends about
-        the edge) and cosh(eta); the terms of the images in face 1 and face 2 are
-        scaled by their reflection factors (as in :func:`many_edge_elements`)."""
-        nu = np.pi / self.angle_rad
-        c = np.cosh(nu * np.arccosh(np.maximum(cosh_eta, 1.0)))
-        r1, r2 = self.reflection
-        weights = (r2, 1.0, 1.0, r1) if self.terms is None else self.terms
-        out = 0.0
-        for w, phi in zip(
-            weights,
-            (
-                np.pi + th_a + th_b,
-                np.pi + th_a - th_b,
-                np.pi - th_a + th_b,
-                np.pi - th_a - th_b,
-            ),
-        ):
-            if w != 0:
-                out = out + w * np.sin(nu * phi) / (c - np.cos(nu * phi))
-        return out
-
-
-@dataclass(frozen=True, eq=False)
-class EdgePairElements:
-    """K elements of the edge-to-edge paths S -> edge 1 -> edge 2 -> R (world frame).
-
-    first_point_m (K, 3): mean point on edge 1; point_m (K, 3): mean point on edge 2;
-    first_leg_m (K,): path length from S over edge 1 to point_m; second_leg_m (K,):
-    |point_m - R|; amplitude (K,): the element's impulse amplitude at R (free field
-    ``1/r`` units), signed.  The path length of an element at R is exact
-    (first_leg_m + second_leg_m); its points are means over the element.
-    """
-
-    first_point_m: np.ndarray
-    point_m: np.ndarray
-    first_leg_m: np.ndarray
-    second_leg_m: np.ndarray
-    amplitude: np.ndarray
-
-    def __len__(self) -> int:
-        return self.amplitude.size
-
-    @staticmethod
-    def empty() -> EdgePairElements:
-        z3, z = np.zeros((0, 3)), np.zeros(0)
-        return EdgePairElements(z3, z3, z, z, z)
-
-
-#: pairs of edge elements evaluated at once (memory: about 30 arrays of this size)
-_PAIR_CHUNK = 1 << 19
-
-
-def edge_pair_elements(
-    wedge1: Wedge,
-    wedge2: Wedge,
-    theta_12: float,
-    theta_21: float,
-    sides: int,
-    source: np.ndarray,
-    receiver: np.ndarray,
-    step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
-    max_excess_m: float = DEFAULT_MAX_EXCESS_M,
-) -> EdgePairElements:
-    """Second-order (edge-to-edge) BTM diffraction of two edges that share a face.
-
-    The double line integral (the edge-source form of Svensson and Calamia)::
-
-        h_2(t) = f (nu1 nu2 / 16 pi^2) int int delta(t - (m + n + l)/c)
-                 beta_1 beta_2 / (m n l) dz1 dz2
-
-    with m = |S - z1|, n = |z1 - z2|, l = |z2 - R|; beta_1 the first-order beta sum
-    of wedge 1 for the source S and the "receiver" z2 (at angle theta_12 about edge
-    1: 0 or the open angle, as edge 2 lies on a face plane of wedge 1), beta_2 that of
-    wedge 2 for the "source" z1 (angle theta_21) and R.  The path from z1 to z2 runs
-    along the shared face, where the field of edge 1 already holds the face's
-    doubling and an edge source of edge 2 on its own face is doubled again: each side
-    of the face along which the path runs counts half, ``f = sides / 2`` (1 for a box
-    face, air on one side; 2 for the two rims of a thin plate, air on both sides,
-    whose two products are equal because beta changes sign from one side to the
-    other).  The formula is symmetric in S and R (reciprocal).
-
-    Steps:
-
-    1. Cut each edge into equal elements of length step_m / 2 (so that the path
-       changes by at most step_m over one pair).
-    2. Keep the elements that can lie on a path within ``max_excess_m`` of the
-       shortest one (lower bound of the path through z1: m + |z1 - R|; through z2:
-       |S - z2| + l), and for each z1 the interval of z2 whose paths can (the path
-       is convex in z2: found on every 16th element, the limit relaxed by what 8
-       elements can change).
-    3. Evaluate the integrand at the midpoints of every kept pair (midpoint rule;
-       the integrand has no singularity unless S or R lies in the plane of the
-       shared face); taper the second half of the excess range (raised cosine) if
-       the edges reach beyond it, as in first order.
-    4. Sum the pairs into bins of step_m / 4 of path length (a phase spread of
-       +-0.18 rad at 85 kHz): one element per bin, at the bin's mean path length
-       (weights |amplitude|) and mean points.
-
-    wedge1, wedge2: the two wedges, oriented for S and for R (the air around each is
-    at angles 0 .. angle_rad); source, receiver (3,); step_m: path length per bin
-    (m); pairs longer than max_path_m are left out; theta_12, theta_21: the angle
-    of edge 2 about edge 1 and of edge 1 about edge 2 (rad); sides: 1 or 2 (above).
-    """
-    source, receiver = np.asarray(source, float), np.asarray(receiver, float)
-    if sides <= 0 or step_m <= 0:
-        return EdgePairElements.empty()
-    # 1. elements
-    pts, dzs = [], []
-    for w in (wedge1, wedge2):
-        n = max(int(np.ceil(w.length_m / (step_m / 2))), 1)
-        t = (np.arange(n) + 0.5) / n
-        pts.append(w.start_m + t[:, None] * (w.end_m - w.start_m))
-        dzs.append(w.length_m / n)
-    p1, p2 = pts
-    m_all = np.linalg.norm(p1 - source, axis=1)
-    l_all = np.linalg.norm(p2 - receiver, axis=1)
-    # 2. an upper bound of the shortest path (a coarse grid), lower bounds per element
-    c1 = np.unique(np.linspace(0, len(p1) - 1, min(len(p1), 65)).astype(int))
-    c2 = np.unique(np.linspace(0, len(p2) - 1, min(len(p2), 65)).astype(int))
-    n_c = np.linalg.norm(p1[c1, None, :] - p2[None, c2, :], axis=2)
-    shortest = float((m_all[c1, None] + n_c + l_all[None, c2]).min())
-    limit = min(shortest + max_excess_m, max_path_m)
-    k1 = np.flatnonzero(m_all + np.linalg.norm(p1 - receiver, axis=1) <= limit)
-    k2 = np.flatnonzero(np.linalg.norm(p2 - source, axis=1) + l_all <= limit)
-    if k1.size == 0 or k2.size == 0:
-        return EdgePairElements.empty()
-    # does the domain reach beyond max_excess (then taper): path is convex in (z1, z2)
-    ends1 = np.stack([wedge1.start_m, wedge1.end_m])
-    ends2 = np.stack([wedge2.start_m, wedge2.end_m])
-    far = (
-        np.linalg.norm(ends1 - source, axis=1)[:, None]
-        + np.linalg.norm(ends1[:, None] - ends2[None], axis=2)
-        + np.linalg.norm(ends2 - receiver, axis=1)[None, :]
-    ).max()
-    cut = far - shortest > max_excess_m
-    rS, tS, zS = wedge1.cylindrical(source)
-    rR, tR, zR = wedge2.cylindrical(receiver)
-    nu1, nu2 = np.pi / wedge1.angle_rad, np.pi / wedge2.angle_rad
-    scale = 0.5 * sides * nu1 * nu2 / (16 * np.pi**2) * dzs[0] * dzs[1]
-    z1_on1 = (p1 - wedge1.start_m) @ wedge1.axis
-    z2_on2 = (p2 - wedge2.start_m) @ wedge2.axis
-    r2_1, _, z2_1 = wedge1.cylindrical(p2)  # edge 2's elements about edge 1
-    r1_2, _, z1_2 = wedge2.cylindrical(p1)  # edge 1's elements about edge 2
-    # the pairs within the limit: for each z1 an interval of z2 (the path is convex
-    # in z2), found on every G-th z2 with the limit relaxed by what G / 2 elements
-    # can change (the path changes by at most 2 dz2 per element)
-    g_step = 16
-    coarse = k2[::g_step]
-    coarse = np.unique(np.append(coarse, k2[-1]))
-    n_c = np.linalg.norm(p1[k1, None, :] - p2[None, coarse, :], axis=2)
-    near = m_all[k1, None] + n_c + l_all[None, coarse] <= limit + g_step * dzs[1]
-    any_ = near.any(axis=1)
-    first_c = np.argmax(near, axis=1)
-    last_c = near.shape[1] - 1 - np.argmax(near[:, ::-1], axis=1)
-    lo = np.clip(coarse[first_c] - g_step, k2[0], k2[-1] + 1)
-    hi = np.clip(coarse[last_c] + g_step + 1, k2[0], k2[-1] + 1)
-    rows, lo, hi = k1[any_], lo[any_], hi[any_]
-    counts = np.maximum(hi - lo, 0)
-    parts = []
-    start = 0
-    while start < rows.size:
-        # as many rows as fit in one chunk of pairs (at least one)
-        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), _PAIR_CHUNK)))
-        c = counts[start:stop]
-        a = np.repeat(rows[start:stop], c)
-        b = np.repeat(lo[start:stop], c) + (np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c))
-        start = stop
-        if a.size == 0:
-            continue
-        n = np.linalg.norm(p1[a] - p2[b], axis=1)
-        path = m_all[a] + n + l_all[b]
-        ok = (path <= limit) & (r2_1[b] > 0) & (r1_2[a] > 0)
-        a, b = a[ok], b[ok]
-        if a.size == 0:
-            continue
-        m, n, l_, path = m_all[a], n[ok], l_all[b], path[ok]
-        # 3. the integrand at the midpoints
-        cosh1 = ((z1_on1[a] - zS) * (z1_on1[a] - z2_1[b]) + m * n) / (rS * r2_1[b])
-        cosh2 = ((z2_on2[b] - z1_2[a]) * (z2_on2[b] - zR) + n * l_) / (r1_2[a] * rR)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            amp = (
-                scale
-                * wedge1.beta(tS, theta_12, cosh1)
-                * wedge2.beta(theta_21, tR, cosh2)
-                / (m * n * l_)
-            )
-        if cut:
-            x = np.clip((path - shortest - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
-            amp = amp * 0.5 * (1 + np.cos(np.pi * x))
-        good = np.isfinite(amp) & (amp != 0)
-        parts.append((a[good], b[good], path[good], amp[good]))
-    if not parts:
-        return EdgePairElements.empty()
-    a, b, path, amp = (np.concatenate(x) for x in zip(*parts))
-    if a.size == 0:
-        return EdgePairElements.empty()
-    # 4. bins of step_m / 4 in path length
-    bin_ = np.floor((path - path.min()) / (step_m / 4)).astype(int)
-    used = np.flatnonzero(np.bincount(bin_))
-    w = np.abs(amp)
-    wsum = np.bincount(bin_, w)[used]
-    wsum = np.where(wsum > 0, wsum, 1.0)
-
-    def mean(x):
-        return np.bincount(bin_, w * x)[used] / wsum
-
-    total = np.bincount(bin_, amp)[used]
-    length = mean(path)
-    q1 = np.column_stack([mean(p1[a, i]) for i in range(3)])
-    q2 = np.column_stack([mean(p2[b, i]) for i in range(3)])
-    second = np.linalg.norm(q2 - receiver, axis=1)
-    return EdgePairElements(q1, q2, length - second, second, total)

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
-from acousim.synth.materials import MaterialSpectra
 from processing.errors import InputError
 
 __all__ = ["World", "build_world", "face_groups", "CURVED_MAX_ANGLE_DEG"]

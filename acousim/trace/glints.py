@@ -99,15 +99,59 @@ def glints(
     max_path_m: float,
 ) -> TracedPaths:
     """First-order geometric-optics echoes of the curved surfaces (kind "scatter")."""
-    # 1. candidates: curved faces with a corner normal towards the sensor
-    f = np.flatnonzero(world.curved)
+    # 1. candidate faces; 2. the specular point on each, one per point
+    f = _candidates(world, emitter, receiver)
     if f.size == 0:
         return TracedPaths.empty()
+    f, b = _specular_points(world, f, emitter, receiver)
+    x = _point(world, f, b)
+    keep = _distinct(x, caster.tolerance_m)  # one per point
+    f, b, x = f[keep], b[keep], x[keep]
+    # 3. within reach, within the beam, visible from the emitter and the receiver
+    r1 = np.linalg.norm(emitter - x, axis=1)
+    r2 = np.linalg.norm(receiver - x, axis=1)
+    dep = (x - emitter) / r1[:, None]
+    ok = (r1 + r2 <= max_path_m) & (dep @ axis >= np.cos(beam_rad) - 1e-12)
+    n = _normal(world, f, b)
+    for end in (emitter, receiver):
+        idx = np.flatnonzero(ok)
+        start = x[idx] + caster.offset_m * n[idx]
+        d = end - start
+        L = np.linalg.norm(d, axis=1)
+        t, hit = caster.first_hit(start, d)
+        ok[idx[(hit >= 0) & (t < L - caster.tolerance_m)]] = False
+    f, x, r1, r2, dep = f[ok], x[ok], r1[ok], r2[ok], dep[ok]
+    if f.size == 0:
+        return TracedPaths.empty()
+    # 4. amplitude from the curvature of the reflected wavefront
+    _, S = _shape_operator(world, f)
+    K = np.eye(2) / r1[:, None, None] + 2 * S
+    k = np.linalg.eigvalsh(K)  # (K, 2) principal curvatures of the reflected wave
+    factor = np.minimum(1 / np.sqrt(np.abs(1 + r2[:, None] * k)), CAUSTIC_CAP)
+    R = world.face_values("reflection")[f] * np.sqrt(1 - world.face_values("diffuse")[f])
+    amp = R / r1 * factor.prod(axis=1)
+    n_g = f.size
+    counts = None
+    if world.spectra is not None:  # the specular interaction of the face's material
+        column = world.face_interactions(0)[f]
+        counts = np.zeros((n_g, world.n_interactions), int)
+        counts[np.flatnonzero(column >= 0), column[column >= 0]] = 1
+    return TracedPaths(
+        x, r1, amp * r2, x, np.ones(n_g, int), np.full(n_g, KIND["scatter"]), dep, counts
+    )
+
+
+def _candidates(world: World, emitter: np.ndarray, receiver: np.ndarray) -> np.ndarray:
+    """Step 1 of :func:`glints`: the curved faces (indices) with a corner normal
+    towards the sensor whose normals can bisect: the normal at the specular point
+    lies within the cone of the corner normals (half-angle `spread` around the face
+    normal), and the bisector there within the angle the face subtends of the
+    bisector at its centre."""
+    f = np.flatnonzero(world.curved)
+    if f.size == 0:
+        return f
     towards = np.einsum("kij,kij->ki", world.vertex_normals[f], emitter - world.triangles[f])
     f = f[(towards > 0).any(axis=1)]
-    # ... whose normals can bisect: the normal at the specular point lies within the
-    # cone of the corner normals (half-angle `spread` around the face normal), and the
-    # bisector there within the angle the face subtends of the bisector at its centre
     centre = world.triangles[f].mean(axis=1)
     h = _bisector(centre, emitter, receiver)
     nf = world.normals[f]
@@ -118,8 +162,12 @@ def glints(
     subtended = np.arcsin(np.minimum(1.0, extent / np.maximum(dist, 1e-12)))
     angle = np.arccos(np.clip(np.einsum("ij,ij->i", h, nf), -1, 1))
     f = f[angle <= spread + 1.5 * subtended + 1e-3]
-    if f.size == 0:
-        return TracedPaths.empty()
+    return f
+
+
+def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver: np.ndarray):
+    """Step 2 of :func:`glints`: the faces `f` that hold a specular point and its
+    barycentric coordinates (K, 2)."""
     # 2. Gauss-Newton for the specular point on each face, steps halved until the
     #    residual drops (long faces, such as a pipe's, overshoot with full steps);
     #    a face leaves the search once converged, stuck, or far outside its edges
@@ -161,45 +209,15 @@ def glints(
     res = np.linalg.norm(_residual(world, f, b, emitter, receiver), axis=1)
     bary = np.column_stack([1 - b.sum(axis=1), b])
     ok = (res < _CONVERGED) & (bary.min(axis=1) >= -_INSIDE)
-    f, b = f[ok], b[ok]
-    x = _point(world, f, b)
-    # one per point: neighbours meet on their shared edge
-    tol = caster.tolerance_m
-    keep = np.ones(f.size, bool)
-    for i in range(f.size):
+    return f[ok], b[ok]
+
+
+def _distinct(x: np.ndarray, tol: float) -> np.ndarray:
+    """Which of the points `x` (K, 3) to keep: one per point (neighbours meet on
+    their shared edge), within `tol` (m)."""
+    keep = np.ones(len(x), bool)
+    for i in range(len(x)):
         if keep[i]:
             same = np.linalg.norm(x[i + 1 :] - x[i], axis=1) <= tol
             keep[i + 1 :][same] = False
-    f, b, x = f[keep], b[keep], x[keep]
-    # 3. within reach, within the beam, visible from the emitter and the receiver
-    r1 = np.linalg.norm(emitter - x, axis=1)
-    r2 = np.linalg.norm(receiver - x, axis=1)
-    dep = (x - emitter) / r1[:, None]
-    ok = (r1 + r2 <= max_path_m) & (dep @ axis >= np.cos(beam_rad) - 1e-12)
-    n = _normal(world, f, b)
-    for end in (emitter, receiver):
-        idx = np.flatnonzero(ok)
-        start = x[idx] + caster.offset_m * n[idx]
-        d = end - start
-        L = np.linalg.norm(d, axis=1)
-        t, hit = caster.first_hit(start, d)
-        ok[idx[(hit >= 0) & (t < L - caster.tolerance_m)]] = False
-    f, x, r1, r2, dep = f[ok], x[ok], r1[ok], r2[ok], dep[ok]
-    if f.size == 0:
-        return TracedPaths.empty()
-    # 4. amplitude from the curvature of the reflected wavefront
-    _, S = _shape_operator(world, f)
-    K = np.eye(2) / r1[:, None, None] + 2 * S
-    k = np.linalg.eigvalsh(K)  # (K, 2) principal curvatures of the reflected wave
-    factor = np.minimum(1 / np.sqrt(np.abs(1 + r2[:, None] * k)), CAUSTIC_CAP)
-    R = world.face_values("reflection")[f] * np.sqrt(1 - world.face_values("diffuse")[f])
-    amp = R / r1 * factor.prod(axis=1)
-    n_g = f.size
-    counts = None
-    if world.spectra is not None:  # the specular interaction of the face's material
-        column = world.face_interactions(0)[f]
-        counts = np.zeros((n_g, world.n_interactions), int)
-        counts[np.flatnonzero(column >= 0), column[column >= 0]] = 1
-    return TracedPaths(
-        x, r1, amp * r2, x, np.ones(n_g, int), np.full(n_g, KIND["scatter"]), dep, counts
-    )
+    return keep

@@ -63,6 +63,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 
 from .embree import RayCaster
+from .following import Endpoints, FirstLeg
 from .geometry import _load
 from .paths import KIND, TracedPaths
 from .settings import TraceSettings
@@ -235,15 +236,14 @@ def bounces(paths: TracedPaths, tracer, emitter: np.ndarray, min_order: int = 2)
     return out
 
 
-def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, receiver, c):
-    """The :class:`~acousim.synth.moving.MovingPaths` `moving` (from `paths`, traced
-    with the emitter at `emitter` (3,)) with the paths whose last point lies on a
+def ride(moving, paths: TracedPaths, on, normals, glint, velocities, ends: Endpoints):
+    """The :class:`~acousim.trace.following.MovingPaths` `moving` (from `paths`, traced
+    with the emitter at ``ends.emitter_m``) with the paths whose last point lies on a
     moving mesh (`on` (N,), an index into `velocities` (:class:`Motions`), -1: none; on a face
     of normal `normals` (N, 3)) following it, by the laws of the module docstring
     (step 3); and the velocity of each path's last point (N, 3), for the ground
     truth."""
-    from acousim.synth.moving import FIRST_LEG
-
+    emitter, receiver, c = ends.emitter_m, ends.receiver_m, ends.speed_of_sound_m_s
     truth = moving.velocity_m_s.copy()
     sel = np.flatnonzero(on >= 0)
     if sel.size == 0:
@@ -281,7 +281,7 @@ def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, re
     velocity = moving.velocity_m_s.copy()
     velocity[sel] = vel
     first = moving.first_leg.copy()
-    first[sel[straight]] = FIRST_LEG["exact"]
+    first[sel[straight]] = FirstLeg.exact
     # an image source: the emitter moving by de shortens the way to the plane by
     # d_in . de, so the sound meets the plane (d_in . de) / c sooner
     mirror = moving.mirror.copy()
@@ -292,7 +292,7 @@ def ride(moving, paths: TracedPaths, on, normals, glint, velocities, emitter, re
     return out, truth
 
 
-def ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c: float):
+def ride_chain(moving, base, idx, pts, nrm, on, velocities, ends: Endpoints):
     """`moving` with the image sources `idx` (S,) of N-th order specular paths
     (reflection points `pts` (S, N, 3) at the start of the emission, normals `nrm`
     (S, N, 3), from :func:`bounces`) that meet a moving mesh (`on` (S, N): the mesh
@@ -317,7 +317,8 @@ def ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c
         return moving
     idx, pts, nrm, on = idx[rows], pts[rows], nrm[rows], on[rows]
     S = idx.size
-    e = np.broadcast_to(emitter, (S, 3)).astype(float)
+    receiver, c = ends.receiver_m, ends.speed_of_sound_m_s
+    e = np.broadcast_to(ends.emitter_m, (S, 3)).astype(float)
     k = np.maximum(on, 0)
     mov = (on >= 0)[..., None]
     planes = (
@@ -423,7 +424,7 @@ def _chain_image(tau, e, planes, receiver, c: float) -> np.ndarray:
 
 
 def follow_chains(
-    world: MovingWorld, moving, base, paths: TracedPaths, pose: Pose, emitter, receiver, c
+    world: MovingWorld, moving, base, paths: TracedPaths, pose: Pose, ends: Endpoints
 ):
     """`moving` with every specular path of order two or more that meets a moving
     mesh following it at each of its reflections (:func:`bounces` in the world of
@@ -434,6 +435,7 @@ def follow_chains(
     # a turning plane's image moves in ways the last-reflection law does not know:
     # then first-order reflections take this way too
     first = 1 if world.turning else 2
+    emitter = ends.emitter_m
     for idx, pts, nrm in bounces(paths, world.tracer_at(pose.time_s), emitter, first):
         on = np.full((idx.size, pts.shape[1]), -1)
         for b in range(pts.shape[1]):
@@ -443,7 +445,7 @@ def follow_chains(
             else:
                 origin = pts[:, b - 1] + offset * _unit(pts[:, b] - pts[:, b - 1])
             on[:, b] = world.on_moving(pose, origin, pts[:, b])[0]
-        moving = ride_chain(moving, base, idx, pts, nrm, on, velocities, emitter, receiver, c)
+        moving = ride_chain(moving, base, idx, pts, nrm, on, velocities, ends)
     return moving
 
 

@@ -10,15 +10,34 @@ negative); levels compare magnitudes.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from enum import IntEnum
 
 import numpy as np
 
-from acousim.synth.echoes import Echoes
+from acousim.core.echoes import Echoes
 
-__all__ = ["KIND", "TracedPaths"]
+__all__ = ["KIND", "PathKind", "TracedPaths", "kind_names"]
 
-#: what made a path (the ``kind`` code of :class:`TracedPaths`)
-KIND = {"direct": 0, "specular": 1, "scatter": 2, "point": 3, "diffraction": 4}
+
+class PathKind(IntEnum):
+    """What made a path (the ``kind`` code of :class:`TracedPaths`); the names are
+    those of a recording's ground truth (``PathKind(code).name``)."""
+
+    direct = 0
+    specular = 1
+    scatter = 2
+    point = 3
+    diffraction = 4
+
+
+#: the path kinds by name (``KIND["specular"]``, ``KIND.specular``)
+KIND = PathKind
+_NAMES = tuple(k.name for k in PathKind)
+
+
+def kind_names(codes: np.ndarray) -> list[str]:
+    """The names of :class:`PathKind` `codes` (N,)."""
+    return [_NAMES[c] for c in codes.tolist()]
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,10 +47,10 @@ class TracedPaths:
     anchor_m (N, 3), first_leg_m (N,), strength (N,): see the module docstring.
     position_m (N, 3): where the echo comes from (last reflection point, scatterer
     position, point reflector, the emitter for the direct path).
-    order (N,): reflections; kind (N,): :data:`KIND` codes; departure (N, 3): unit
+    order (N,): reflections; kind (N,): :class:`PathKind` codes; departure (N, 3): unit
     direction leaving the emitter.
     interactions (N, K) int: how often the path met each frequency-dependent
-    material interaction (:class:`acousim.synth.materials.MaterialSpectra` columns;
+    material interaction (:class:`acousim.core.materials.MaterialSpectra` columns;
     K = 0, the default, in a scene without material tables); its strength holds the
     reference gains, the renderer applies the rest.
     """

@@ -17,7 +17,7 @@ the ray's power towards the receiver (the array centre):
    grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
 5. With frequency-dependent materials, the lobe part and the Lambert part of a hit
    on such a material are separate contributions (a specular and a diffuse
-   interaction: :mod:`acousim.synth.materials`), each carrying the ray's earlier
+   interaction: :mod:`acousim.core.materials`), each carrying the ray's earlier
    interactions plus its own.
 """
 
@@ -64,9 +64,7 @@ def scatter(
     world: World, caster: RayCaster, hits: Hits, receiver: np.ndarray, max_path_m: float
 ) -> Contributions:
     """What the hits of `hits` scatter to `receiver` (3,)."""
-    refl = world.face_values("reflection")
     diffuse = world.face_values("diffuse")
-    lobe = np.deg2rad(world.face_values("lobe_deg"))
     # 1. hits on scattering faces
     sc = world.curved[hits.face] | (diffuse[hits.face] > 0)
     x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
@@ -83,13 +81,8 @@ def scatter(
     t, hit = caster.first_hit(x[idx] + eps * normal[idx], v[idx])
     ok[idx[(hit >= 0) & (t < r2[idx] - eps)]] = False
     # 4. the scattering pattern
-    psi = np.arccos(np.clip(np.einsum("ij,ij->i", u, mirror), -1, 1))
-    sig = lobe[f]
-    R2 = refl[f] ** 2
     order = hits.order[sc]
-    spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
-    lobe_part = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
-    lambert_part = diffuse[f] * R2 * cos_s / np.pi
+    lobe_part, lambert_part = _pattern(world, u, mirror, cos_s, f, order)
     lambert = ~world.curved[f] | (order == 1)
     history = hits.interactions[sc]
 
@@ -126,3 +119,17 @@ def scatter(
     return Contributions(
         *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
     )
+
+
+def _pattern(world: World, u, mirror, cos_s, f, order) -> tuple[np.ndarray, np.ndarray]:
+    """The scattering pattern towards the unit directions `u` (N, 3) of hits on faces
+    `f` (N,) of reflection `order` (N,): the specular lobe of a curved face (about
+    the mirror direction (N, 3); first order is the glints' business) and the Lambert
+    part (``cos_s`` (N,) the cosine to the face normal)."""
+    diffuse = world.face_values("diffuse")
+    R2 = world.face_values("reflection")[f] ** 2
+    sig = np.deg2rad(world.face_values("lobe_deg"))[f]
+    psi = np.arccos(np.clip(np.einsum("ij,ij->i", u, mirror), -1, 1))
+    spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
+    lobe_part = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
+    return lobe_part, diffuse[f] * R2 * cos_s / np.pi

@@ -8,7 +8,10 @@ import numpy as np
 
 from acousim.scene.model import Scene
 
-__all__ = ["TraceSettings", "resolution_length"]
+__all__ = ["STEP_FREQUENCY_HZ", "TraceSettings", "resolution_length"]
+
+#: the frequency (Hz) whose quarter wavelength the default edge-element step is
+STEP_FREQUENCY_HZ = 85e3
 
 
 def resolution_length(call, speed_of_sound_m_s: float) -> float:
@@ -29,7 +32,10 @@ class TraceSettings:
     direct_path : include the emitter -> microphone path; diffraction : edge
     diffraction (stage 3); diffraction_step_m : its edge-element step (excess path
     length, m); diffraction_reflections : also edge + one specular reflection;
-    diffraction_order : 1, or 2 to add edge-to-edge diffraction.
+    diffraction_order : 1, or 2 to add edge-to-edge diffraction;
+    diffraction_pair_step_m : the element step of edge to edge: the edge-element
+    step scaled to the call's highest frequency (the default step, 1 mm, is a
+    quarter wavelength at :data:`STEP_FREQUENCY_HZ`; a 25-50 kHz call takes 1.7 mm).
     """
 
     rays: int
@@ -43,6 +49,7 @@ class TraceSettings:
     diffraction_step_m: float
     diffraction_reflections: bool
     diffraction_order: int = 1
+    diffraction_pair_step_m: float | None = None
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -59,4 +66,6 @@ class TraceSettings:
             diffraction_step_m=sim.diffraction_step_m,
             diffraction_reflections=sim.diffraction_reflections,
             diffraction_order=sim.diffraction_order,
+            diffraction_pair_step_m=sim.diffraction_step_m
+            * max(1.0, STEP_FREQUENCY_HZ / max(scene.sensor.call.band_hz)),
         )

@@ -36,7 +36,7 @@ from acousim.scene.pose import Pose
 from processing.errors import InputError
 
 from .cluster import DIFFUSE_CELL_DEG, cluster
-from .diffraction import DiffractingGeometry, edge_diffraction
+from .diffraction import DiffractingGeometry, DiffractionOptions, edge_diffraction
 from .direct import direct_path, point_paths
 from .embree import RayCaster
 from .floor import energy_floor
@@ -107,20 +107,18 @@ def trace_pose(
         )
     # 3. edge diffraction
     if world is not None and caster is not None and settings.diffraction:
-        parts.append(
-            edge_diffraction(
-                edges if edges is not None else DiffractingGeometry.of(world),
-                caster,
-                emitter,
-                receiver,
-                settings.max_path_m,
-                settings.diffraction_step_m,
-                settings.diffraction_reflections,
-                settings.energy_floor_db,
-                settings.diffraction_order,
-                _floor_so_far(parts, receiver, settings.energy_floor_db),
+        geometry = edges if edges is not None else DiffractingGeometry.of(world)
+        if len(geometry.edges):
+            options = DiffractionOptions(
+                max_path_m=settings.max_path_m,
+                step_m=settings.diffraction_step_m,
+                reflections=settings.diffraction_reflections,
+                order=settings.diffraction_order,
+                floor_db=settings.energy_floor_db,
+                floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
+                pair_step_m=settings.diffraction_pair_step_m,
             )
-        )
+            parts.append(edge_diffraction(geometry, caster, emitter, receiver, options))
     if shot is not None:
         # 4. scattering
         contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)

@@ -9,9 +9,13 @@ azimuth positive towards +y, elevation positive towards +z):
   on the left of the picture, and the tick labels are true y values);
 - elevation-azimuth maps are seen from behind the sensor: azimuth increases to the
   left, elevation upwards;
-- levels are dB relative to the strongest cell of each panel, shown over a stated
-  dynamic range (a colour bar says how many dB); range bins the energy gate removed
-  are drawn grey ("no data"), not black like a quiet bin.
+- levels are dB relative to the strongest cell of each panel, shown over one
+  dynamic range (:data:`DYNAMIC_RANGE_DB` unless given; every colour bar says how
+  many dB); range bins the energy gate removed are drawn grey ("no data"), not black
+  like a quiet bin;
+- ray-traced reflectors are marked in every picture, those off the picture's slice
+  and those behind the array (at their mirror) with their own markers
+  (:mod:`acousim.viz.truth`), and every legend lies inside the figure.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from processing import Image, to_db
 from processing.atomic import atomic_path
 
 __all__ = [
+    "DYNAMIC_RANGE_DB",
     "FanRaster",
     "NO_DATA_COLOR",
     "TRUTH_COLOR",
@@ -35,10 +40,17 @@ __all__ = [
     "fan_figure",
     "fan_raster",
     "full_range_fan",
+    "make_elaz_figure",
+    "make_fan_figure",
     "pick_slices",
     "truth_in_fan",
 ]
 
+#: the dynamic range of every picture (fan, el-az maps, animation, the bag's fan
+#: image) unless one is given (``--dynamic-range-db``); printed on every colour bar
+DYNAMIC_RANGE_DB = 30.0
+#: the fan collapses elevation over this band around the horizontal plane
+FAN_ELEVATION_BAND_RAD = float(np.deg2rad(30.0))
 NO_DATA_COLOR = (0.62, 0.62, 0.62)  # range bins removed by the energy gate: grey
 TRUTH_COLOR = "white"  # ray-traced reflectors: white circles
 CMAP = "inferno"
@@ -62,7 +74,9 @@ def _save(fig, path: str | Path) -> Path:
 
 
 def full_range_fan(
-    image: Image, max_range_m: float | None = None, elevation_limit_rad: float = np.deg2rad(30.0)
+    image: Image,
+    max_range_m: float | None = None,
+    elevation_limit_rad: float = FAN_ELEVATION_BAND_RAD,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Top view on a regular range axis: (range_m (R',), power (R', A)).
 
@@ -162,7 +176,7 @@ def fan_extent(
 def fan_raster(
     image: Image,
     max_range_m: float,
-    dynamic_range_db: float = 25.0,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
     pixels: int = 800,
     extent: tuple[float, float, float, float] | None = None,
 ) -> FanRaster:
@@ -213,7 +227,7 @@ def draw_fan(
     ax,
     image: Image,
     max_range_m: float,
-    dynamic_range_db: float = 25.0,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
     pixels: int = 800,
     extent: tuple[float, float, float, float] | None = None,
 ):
@@ -239,25 +253,34 @@ def draw_fan(
     return im
 
 
-def fan_figure(
+def fan_figure(images: Mapping[str, Image], path: str | Path, **kw) -> Path:
+    """Write :func:`make_fan_figure` (same keywords) to `path` (atomically)."""
+    plt = _plt()
+    fig = make_fan_figure(images, **kw)
+    out = _save(fig, path)
+    plt.close(fig)
+    return out
+
+
+def make_fan_figure(
     images: Mapping[str, Image],
-    path: str | Path,
     *,
     max_range_m: float | None = None,
-    dynamic_range_db: float = 25.0,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
     title: str | None = None,
     truth=None,
-) -> Path:
+):
     """One fan panel per method, side by side (x forward, y to the left), each with a
-    colour bar in dB; one legend for the no-data grey and the ground truth.
+    colour bar in dB; one legend, inside the figure, for the no-data grey and the
+    traced reflectors' marks.  Returns the matplotlib Figure.
 
     max_range_m : the farthest range that may be drawn (the scene's range); the view
-        is fitted to the echoes within the dynamic range and the ground truth inside it.
-    truth : optional (N, 3) positions (sensor frame) drawn as white circles at their
-        slant range (see :func:`truth_in_fan`).
+        is fitted to the echoes within the dynamic range and the marks inside it.
+    truth : optional traced reflectors (:class:`acousim.viz.truth.Reflectors`, or
+        points (N, 3) in the sensor frame from the array centre, m), marked at
+        their slant range along their azimuth (:func:`acousim.viz.truth.fan_marks`).
     """
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
+    from .truth import fan_marks
 
     plt = _plt()
     n = len(images)
@@ -267,50 +290,83 @@ def fan_figure(
         max_range_m = max(
             (float(im.range_m.max()) for im in images.values() if im.range_m.size), default=1.0
         )
-    t_yx = truth_in_fan(truth) if truth is not None and len(truth) else None
-    extents = [fan_extent(im, max_range_m, dynamic_range_db, t_yx) for im in images.values()] or [
-        (1.0, -1.0, 0.0, 1.0)
-    ]
-    e = np.array(extents)  # one extent for all panels: comparable side by side
-    extent = (e[:, 0].max(), e[:, 1].min(), e[:, 2].min(), e[:, 3].max())
+    marks = None
+    if truth is not None and len(truth) and n:
+        az = next(iter(images.values())).azimuth_rad
+        span = (float(az.min()), float(az.max())) if az.size else (-np.pi / 2, np.pi / 2)
+        marks = fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
+    extent = common_extent(
+        list(images.values()), max_range_m, dynamic_range_db, marks.xy if marks else None
+    )
+    if marks is not None:  # one mark per 1/40 of the view's width, the strongest
+        marks = marks.thinned((extent[0] - extent[1]) / 40)
     aspect = (extent[3] - extent[2]) / (extent[0] - extent[1])
     panel_w = 4.2
     fig, axes = plt.subplots(
         rows,
         cols,
-        figsize=(panel_w * cols, min(max(panel_w * aspect, 2.4), 9.0) * rows + 1.0),
+        figsize=(panel_w * cols, min(max(panel_w * aspect, 2.4), 9.0) * rows + 1.2),
         squeeze=False,
         layout="constrained",
     )
     for ax in axes.ravel()[n:]:
         ax.axis("off")
+    drawn: set[str] = set()
     for ax, (method, img) in zip(axes.ravel(), images.items()):
         im = draw_fan(ax, img, max_range_m, dynamic_range_db, extent=extent)
-        if t_yx is not None:
-            ax.scatter(
-                t_yx[:, 0], t_yx[:, 1], s=70, facecolors="none", edgecolors=TRUTH_COLOR, lw=0.8
-            )
+        if marks is not None:
+            drawn |= marks.draw(ax)
         ax.set_title(method)
-        fig.colorbar(im, ax=ax, shrink=0.85, label="dB re strongest cell")
-    handles = [Patch(color=NO_DATA_COLOR, label="no data (removed by the energy gate)")]
-    if t_yx is not None:
-        handles.append(
-            Line2D(
-                [],
-                [],
-                ls="none",
-                marker="o",
-                mfc="none",
-                mec="black",
-                label="ray-traced reflectors (white circles, within 20 dB of the strongest)",
-            )
+        fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(dynamic_range_db))
+    legend_inside(fig, fan_legend(drawn, dynamic_range_db))
+    band = np.rad2deg(FAN_ELEVATION_BAND_RAD)
+    head = f"top view, {dynamic_range_db:g} dB dynamic range; elevation within ±{band:g}°"
+    fig.suptitle(
+        f"{title}\n{head} is this slice" if title else f"{head} is this slice", fontsize=10
+    )
+    return fig
+
+
+def common_extent(images, max_range_m: float, dynamic_range_db: float, points_yx=None):
+    """One :func:`fan_extent` covering every image (panels or frames side by side keep
+    the same axes)."""
+    e = np.array(
+        [fan_extent(im, max_range_m, dynamic_range_db, points_yx) for im in images]
+        or [(1.0, -1.0, 0.0, 1.0)]
+    )
+    return (e[:, 0].max(), e[:, 1].min(), e[:, 2].min(), e[:, 3].max())
+
+
+def fan_legend(drawn: set[str], dynamic_range_db: float) -> list:
+    """A fan's legend entries: the no-data grey and the marks drawn."""
+    from matplotlib.patches import Patch
+
+    from .truth import legend_handles
+
+    grey = Patch(color=NO_DATA_COLOR, label="no data (energy gate)")
+    return [grey, *legend_handles(drawn, dynamic_range_db)]
+
+
+def colorbar_label(dynamic_range_db: float) -> str:
+    """Every colour bar's label: the unit and the dynamic range shown."""
+    return f"dB re strongest cell ({dynamic_range_db:g} dB range)"
+
+
+def legend_inside(fig, handles, fontsize: float = 8):
+    """A legend below the panels that fits the figure's width: as many columns as fit
+    (down to one), and a wider figure only when one column is still too wide."""
+    renderer = fig.canvas.get_renderer()
+    for ncols in range(min(len(handles), 3), 0, -1):
+        leg = fig.legend(
+            handles=handles, loc="outside lower center", ncols=ncols, fontsize=fontsize
         )
-    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8)
-    head = f"top view, {dynamic_range_db:g} dB dynamic range"
-    fig.suptitle(f"{title}\n{head}" if title else head)
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
+        width = leg.get_window_extent(renderer).width
+        if width <= 0.96 * fig.bbox.width:
+            return leg
+        if ncols > 1:
+            leg.remove()
+    fig.set_figwidth(width / fig.dpi / 0.9)
+    return leg
 
 
 def _centres(lo: float, hi: float, n: int) -> np.ndarray:
@@ -363,17 +419,61 @@ def pick_slices(
     return picks
 
 
-def elaz_figure(
+def elaz_figure(image: Image, path: str | Path, **kw) -> Path:
+    """Write :func:`make_elaz_figure` (same keywords) to `path` (atomically)."""
+    plt = _plt()
+    fig = make_elaz_figure(image, **kw)
+    out = _save(fig, path)
+    plt.close(fig)
+    return out
+
+
+def _elaz_panel(ax, image: Image, r: int, dynamic_range_db: float):
+    """Draw the elevation-azimuth map of range bin `r` on `ax` (seen from behind the
+    sensor); returns the AxesImage (for a colour bar)."""
+    az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
+    da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
+    de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
+    db = to_db(image.power[r], image.power.max(), -dynamic_range_db)
+    im = ax.imshow(
+        db[:, ::-1],  # column 0 is the largest azimuth, drawn at the left edge
+        origin="lower",
+        aspect="auto",
+        cmap=CMAP,
+        vmin=-dynamic_range_db,
+        vmax=0,
+        interpolation="nearest",
+        # left edge = largest azimuth: seen from behind the sensor, left is left
+        extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
+    )
+    ax.set_xlim(az[-1] + da, az[0] - da)  # marks at the grid's edge do not widen it
+    ax.set_ylim(el[0] - de, el[-1] + de)
+    ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
+    ax.set_xlabel("azimuth (°), left +")
+    return im
+
+
+def make_elaz_figure(
     image: Image,
-    path: str | Path,
     *,
     n_slices: int = 3,
-    dynamic_range_db: float = 40.0,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
     title: str | None = None,
-) -> Path:
+    truth=None,
+    truth_tolerance_m: float | None = None,
+):
     """Elevation-azimuth maps at the range slices of the `n_slices` strongest distinct
     echoes inside the grid (see :func:`pick_slices`), seen from behind the sensor
-    (azimuth grows to the left), in dB relative to the image's strongest cell."""
+    (azimuth grows to the left), in dB relative to the image's strongest cell.
+    Returns the matplotlib Figure.
+
+    truth : optional traced reflectors (as for :func:`make_fan_figure`); those
+        within `truth_tolerance_m` (default: three range bins; the pictures give half
+        the image's range resolution, :mod:`acousim.matching`) of a slice's range
+        are marked on it (:func:`acousim.viz.truth.elaz_marks`).
+    """
+    from .truth import elaz_marks, legend_handles
+
     plt = _plt()
     if image.power.size == 0:
         raise ValueError(f"image {image.method!r} has no range bins to draw")
@@ -384,36 +484,29 @@ def elaz_figure(
     fig, axes = plt.subplots(
         1,
         len(picks),
-        figsize=(3.6 * len(picks) + 1.0, 3.6),
+        figsize=(3.6 * len(picks) + 1.0, 4.2),
         squeeze=False,
         sharey=True,
         layout="constrained",
     )
-    ref = image.power.max()
-    az, el = np.rad2deg(image.azimuth_rad), np.rad2deg(image.elevation_rad)
-    da = (az[1] - az[0]) / 2 if az.size > 1 else 0.5
-    de = (el[1] - el[0]) / 2 if el.size > 1 else 0.5
-    im = None
+    tol = truth_tolerance_m if truth_tolerance_m is not None else 3 * (image.bin_range_m or 0.01)
+    spans = (
+        (float(image.azimuth_rad.min()), float(image.azimuth_rad.max())),
+        (float(image.elevation_rad.min()), float(image.elevation_rad.max())),
+    )
+    im, drawn = None, set()
     for k, (ax, r) in enumerate(zip(axes[0], picks)):
-        db = to_db(image.power[r], ref, -dynamic_range_db)
-        im = ax.imshow(
-            db[:, ::-1],  # column 0 is the largest azimuth, drawn at the left edge
-            origin="lower",
-            aspect="auto",
-            cmap=CMAP,
-            vmin=-dynamic_range_db,
-            vmax=0,
-            interpolation="nearest",
-            # left edge = largest azimuth: seen from behind the sensor, left is left
-            extent=(az[-1] + da, az[0] - da, el[0] - de, el[-1] + de),
-        )
-        ax.set_title(f"{image.range_m[r]:.2f} m", fontsize=10)
-        ax.set_xlabel("azimuth (°), left +")
+        im = _elaz_panel(ax, image, r, dynamic_range_db)
+        if truth is not None and len(truth):
+            marks = elaz_marks(truth, float(image.range_m[r]), tol, *spans, dynamic_range_db)
+            drawn |= marks.draw(ax, 40.0, min_separation=4.0)  # degrees
         if k == 0:
             ax.set_ylabel("elevation (°), up +")
-    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, label="dB re strongest cell")
+    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, label=colorbar_label(dynamic_range_db))
+    if drawn:
+        legend_inside(fig, legend_handles(drawn, dynamic_range_db))
     head = f"{image.method}: strongest distinct echoes, {dynamic_range_db:g} dB dynamic range"
+    if truth is not None:
+        head += f"; marks: reflectors within {tol * 100:.0f} cm of the slice's range"
     fig.suptitle(f"{title}\n{head}" if title else head, fontsize=10)
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
+    return fig

@@ -20,6 +20,8 @@ import numpy as np
 
 from processing.atomic import atomic_path
 
+from .fan import DYNAMIC_RANGE_DB
+
 __all__ = [
     "SceneRenderer",
     "render_scene",
@@ -114,6 +116,7 @@ class SceneRenderer:
     with_truth : list the ray-traced reflectors in the legend.
     with_sweep : list the sensor's sweep during the measurement in the legend.
     with_moving : list the moving meshes (drawn per frame) in the legend.
+    truth_range_db : reflectors within this of the strongest echo are drawn (dB).
     with_lidar : list the LiDAR's points in the legend.
     """
 
@@ -124,9 +127,11 @@ class SceneRenderer:
         with_truth: bool = True,
         with_sweep: bool = False,
         with_moving: bool = False,
+        truth_range_db: float = DYNAMIC_RANGE_DB,
         with_lidar: bool = False,
     ) -> None:
         self.pv = pv = _pv()
+        self.truth_range_db = truth_range_db
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background("white")
         self.has_mesh = triangles is not None and len(triangles) > 0
@@ -143,7 +148,9 @@ class SceneRenderer:
         if with_moving:
             entries.append(["moving meshes, at the emission", MOVING_COLOR])
         if with_truth:
-            entries.append(["ray-traced reflectors, size: level", TRUTH_COLOR])
+            entries.append(
+                [f"traced reflectors within {truth_range_db:g} dB, size: level", TRUTH_COLOR]
+            )
         if with_lidar:
             entries.append(["LiDAR points", LIDAR_COLOR])
         self.plotter.add_legend(
@@ -164,7 +171,7 @@ class SceneRenderer:
         peaks: np.ndarray | None = None,
         camera: str = "chase",
         truth_level_db: np.ndarray | None = None,
-        truth_range_db: float = 30.0,
+        truth_range_db: float | None = None,
         sweep: tuple[np.ndarray, np.ndarray] | None = None,
         moving_triangles: np.ndarray | None = None,
         lidar: np.ndarray | None = None,
@@ -173,7 +180,8 @@ class SceneRenderer:
 
         truth, peaks : (N, 3) world-frame points.
         truth_level_db : (N,) level of each reflector in dB re the strongest (default:
-            all 0 dB); those below -`truth_range_db` are not drawn, the others are
+            all 0 dB); those below -`truth_range_db` (default: the renderer's) are not
+            drawn, the others are
             spheres from 2 cm (at the threshold) to 6 cm (the strongest) in diameter.
         camera : 'chase' (above and behind the sensor) or 'top' (bird's eye); without
             a scene mesh the camera is fitted to the sensor and the peaks.
@@ -205,6 +213,7 @@ class SceneRenderer:
         if truth is not None and len(truth):
             t = np.asarray(truth, float).reshape(-1, 3)
             lvl = np.zeros(len(t)) if truth_level_db is None else np.asarray(truth_level_db)
+            truth_range_db = truth_range_db or self.truth_range_db
             keep = lvl >= -truth_range_db
             if keep.any():
                 cloud = pv.PolyData(t[keep])
@@ -340,6 +349,7 @@ def render_scene(
     truth_level_db: np.ndarray | None = None,
     sweep: tuple[np.ndarray, np.ndarray] | None = None,
     moving_triangles: np.ndarray | None = None,
+    truth_range_db: float = DYNAMIC_RANGE_DB,
     lidar: np.ndarray | None = None,
 ) -> np.ndarray:
     """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
@@ -350,6 +360,7 @@ def render_scene(
         with_truth=truth is not None,
         with_sweep=sweep is not None,
         with_moving=moving_triangles is not None,
+        truth_range_db=truth_range_db,
         with_lidar=lidar is not None,
     )
     try:

@@ -1,4 +1,4 @@
-"""Compiled Newton solve of :func:`acousim.synth.moving._newton_by_axis` (numba;
+"""Compiled Newton solve of :func:`acousim.kinematics.retarded._newton_by_axis` (numba;
 optional: without numba the same iteration runs on whole arrays in numpy).
 
 Per microphone m (a row), Newton on ``f(t) = t - t_r - |m(t) - A| / c`` for every

@@ -1,0 +1,4 @@
+"""What every stage shares, below all of them: the air (:mod:`.air`), the materials'
+frequency-dependent reflection (:mod:`.materials`), the echoes a renderer takes
+(:mod:`.echoes`) and the fractional-delay interpolators' names (:mod:`.delays`).
+Imports nothing of acousim (see docs/architecture.md)."""

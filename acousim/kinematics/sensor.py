@@ -1,0 +1,163 @@
+"""Where the sensor's emitter and microphones are during a measurement
+(:class:`SensorKinematics`), times from the start of the emission."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from processing import Array
+
+__all__ = ["SensorKinematics", "TABLE_STEP_S"]
+
+#: the trajectory is tabulated at this step for the fast method (linear interpolation
+#: between: error a h^2 / 8, below 1e-8 m for a robot)
+TABLE_STEP_S = 2.5e-4
+#: the table is replaced by a polynomial in time of the lowest degree up to this one
+#: that fits it within POLY_FIT_M
+POLY_DEGREE = 6
+POLY_FIT_M = 1e-10
+
+
+class SensorKinematics:
+    """Emitter and microphone positions over a measurement, times from the start of
+    the emission.
+
+    `trajectory` None: the sensor stays at `pose`.  With `step_s`, the motion is
+    tabulated over ``[0, window_s + step_s]`` and represented by a polynomial in time
+    where one fits the table within POLY_FIT_M, else interpolated linearly (the fast
+    method); without, every query evaluates the trajectory (the reference).
+    """
+
+    def __init__(self, trajectory, pose, array: Array, window_s: float, step_s: float | None):
+        self.trajectory = trajectory
+        self.t0 = pose.time_s
+        self.array = array
+        self.emitter0 = pose.to_world(array.emitter_m)
+        self.mics0 = pose.to_world(array.positions_m)
+        self.static = trajectory is None
+        self.step = step_s
+        if not self.static and step_s is not None:
+            # from the start of the emission (no earlier time is ever asked for: the
+            # pose may be a knot of the trajectory, where its derivatives jump)
+            n = int(np.ceil((window_s + step_s) / step_s)) + 2
+            self.grid = step_s * np.arange(n)
+            pts = np.vstack([array.emitter_m[None], array.positions_m])
+            table = trajectory.to_world(pts, self.t0 + self.grid)  # (G, 1 + M, 3)
+            self.emitter_table = table[:, 0]
+            self.mic_table = table[:, 1:]
+            # a polynomial in time through the table where it fits (within one
+            # segment of a trajectory: always), evaluated without look-ups
+            self.mid = 0.5 * (self.grid[0] + self.grid[-1])
+            self.half = 0.5 * (self.grid[-1] - self.grid[0])
+            x = (self.grid - self.mid) / self.half
+            flat = table.reshape(table.shape[0], -1)
+            self.poly = None
+            # the lowest degree that fits (a sensor on a trajectory: 3, the cubic
+            # of its segment; every Newton step evaluates it per path and microphone)
+            for degree in range(1, POLY_DEGREE + 1):
+                coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
+                fit = np.polynomial.polynomial.polyval(x, coef).T
+                if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                    break
+            if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                self.degree = degree
+                self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
+                deriv = np.polynomial.polynomial.polyder(coef) / self.half
+                self.poly_v = deriv.reshape(degree, *table.shape[1:])
+                # per microphone (M, D + 1, 3) for batched products with the powers
+                self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
+                self.mic_poly_v = np.ascontiguousarray(self.poly_v[:, 1:].transpose(1, 0, 2))
+
+    @classmethod
+    def exact(cls, trajectory, pose, array: Array) -> SensorKinematics:
+        """The kinematics evaluated on `trajectory` (None: static) at every query:
+        the reference's."""
+        return cls(trajectory, pose, array, 0.0, None)
+
+    def _powers(self, t: np.ndarray, degree: int) -> np.ndarray:
+        """Powers 0..degree of the normalised time: t (M, ...) -> (M, K, degree + 1)."""
+        x = ((t - self.mid) / self.half).reshape(t.shape[0], -1)
+        X = np.empty((degree + 1, *x.shape))  # each power contiguous
+        X[0] = 1.0
+        for k in range(1, degree + 1):
+            np.multiply(X[k - 1], x, out=X[k])
+        return np.moveaxis(X, 0, -1)
+
+    @staticmethod
+    def _horner(coef, x):
+        p = coef[-1]
+        for c in coef[-2::-1]:
+            p = p * x + c
+        return p
+
+    def _lookup(self, table, t):
+        x = (np.asarray(t, float) - self.grid[0]) / self.step
+        i = np.clip(np.floor(x).astype(np.intp), 0, self.grid.size - 2)
+        w = (x - i)[..., None]
+        return i, w
+
+    def emitter(self, tau) -> np.ndarray:
+        """Emitter positions (..., 3) at times `tau` (...)."""
+        tau = np.asarray(tau, float)
+        if self.static:
+            return np.broadcast_to(self.emitter0, (*tau.shape, 3))
+        if self.step is None:
+            return self.trajectory.to_world(self.array.emitter_m[None], self.t0 + tau)[..., 0, :]
+        if self.poly is not None:
+            return self._horner(self.poly[:, 0], ((tau - self.mid) / self.half)[..., None])
+        i, w = self._lookup(self.emitter_table, tau)
+        return self.emitter_table[i] * (1 - w) + self.emitter_table[i + 1] * w
+
+    def mics(self, t, m: int | None = None) -> np.ndarray:
+        """Microphone positions (..., 3): of microphone `m` at times `t` (...), or with
+        m None, of microphone i at times ``t[i]`` (t of shape (M, ...))."""
+        t = np.asarray(t, float)
+        if m is None:
+            idx = np.arange(t.shape[0]).reshape(-1, *([1] * (t.ndim - 1)))
+        else:
+            idx = np.full(t.shape, m)
+        if self.static:
+            return self.mics0[np.broadcast_to(idx, t.shape)]
+        if self.step is None:
+            R = self.trajectory.rotation(self.t0 + t)
+            p = self.trajectory.position(self.t0 + t)
+            local = self.array.positions_m[np.broadcast_to(idx, t.shape)]
+            return np.einsum("...ij,...j->...i", R, local) + p
+        if self.poly is not None:
+            if m is None:
+                X = self._powers(t, self.degree)
+                return np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
+            return self._horner(self.poly[:, 1 + m], ((t - self.mid) / self.half)[..., None])
+        i, w = self._lookup(self.mic_table, t)
+        idx = np.broadcast_to(idx, t.shape)
+        return self.mic_table[i, idx] * (1 - w) + self.mic_table[i + 1, idx] * w
+
+    def mics_by_axis(self, t: np.ndarray, velocity: bool = False):
+        """Polynomial kinematics only: positions (M, 3, N) of microphone i at times
+        ``t[i]`` (t (M, N)), coordinates in rows (no short last axis to reduce over),
+        and with `velocity` the velocities too."""
+        M, N = t.shape
+        X = np.empty((M, self.degree + 1, N))
+        X[:, 0] = 1.0
+        np.subtract(t, self.mid, out=X[:, 1])
+        X[:, 1] /= self.half
+        for k in range(2, self.degree + 1):
+            np.multiply(X[:, k - 1], X[:, 1], out=X[:, k])
+        pos = np.matmul(self.mic_poly.transpose(0, 2, 1), X)
+        if not velocity:
+            return pos
+        return pos, np.matmul(self.mic_poly_v.transpose(0, 2, 1), X[:, :-1])
+
+    def mics_and_velocity(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Tabulated kinematics only: positions and velocities (M, ..., 3) of
+        microphone i at times ``t[i]``."""
+        t = np.asarray(t, float)
+        if self.poly is not None:
+            X = self._powers(t, self.degree)
+            pos = np.matmul(X, self.mic_poly).reshape(*t.shape, 3)
+            vel = np.matmul(X[..., :-1], self.mic_poly_v).reshape(*t.shape, 3)
+            return pos, vel
+        idx = np.broadcast_to(np.arange(t.shape[0]).reshape(-1, *([1] * (t.ndim - 1))), t.shape)
+        i, w = self._lookup(self.mic_table, t)
+        a, b = self.mic_table[i, idx], self.mic_table[i + 1, idx]
+        return a + (b - a) * w, (b - a) / self.step

@@ -1,0 +1,65 @@
+"""The output folder of ``acousim image``: after a run it holds that run's files and
+no stale file of ours from an earlier run; the user's own files stay untouched.
+
+Our files are known by name (:func:`is_ours`): ``fan.png``, ``elaz_<method>.png``
+for a method of :data:`processing.METHODS`, ``scene3d.png``, ``drive.gif``,
+``images.h5`` and ``peaks.csv``.  Anything else in the folder is the user's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import processing as P
+
+__all__ = ["OUR_FILES", "FolderChanges", "is_ours", "our_files", "tidy"]
+
+OUR_FILES = ("fan.png", "scene3d.png", "drive.gif", "images.h5", "peaks.csv")
+
+
+def is_ours(name: str) -> bool:
+    """Whether a file name is one ``acousim image`` writes."""
+    if name in OUR_FILES:
+        return True
+    return name.startswith("elaz_") and name.endswith(".png") and name[5:-4] in P.METHODS
+
+
+def our_files(folder: str | Path) -> set[Path]:
+    """Our files now in `folder` (none when it does not exist)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return set()
+    return {p for p in folder.iterdir() if p.is_file() and is_ours(p.name)}
+
+
+@dataclass(frozen=True)
+class FolderChanges:
+    """What a run did to files of an earlier one: `replaced` (written again) and
+    `removed` (not written by this run, so stale), sorted paths."""
+
+    replaced: tuple[Path, ...]
+    removed: tuple[Path, ...]
+
+    def lines(self) -> list[str]:
+        """What to tell the user (nothing when nothing was there)."""
+        out = []
+        if self.replaced:
+            out.append("replaced from an earlier run: " + ", ".join(p.name for p in self.replaced))
+        if self.removed:
+            out.append(
+                "removed, stale from an earlier run: " + ", ".join(p.name for p in self.removed)
+            )
+        return out
+
+
+def tidy(folder: str | Path, before: set[Path], written: Iterable[str | Path]) -> FolderChanges:
+    """Remove our files that were in `folder` before the run (`before`, from
+    :func:`our_files`) and that the run did not write again; say what was replaced."""
+    now = {Path(p).resolve() for p in written}
+    replaced = sorted(p for p in before if p.resolve() in now)
+    stale = sorted(p for p in before if p.resolve() not in now)
+    for p in stale:
+        p.unlink(missing_ok=True)
+    return FolderChanges(tuple(replaced), tuple(stale))

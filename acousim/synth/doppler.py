@@ -1,0 +1,450 @@
+"""Rendering echoes in motion: the call time-scaled by each path's Doppler factor.
+
+The kinematics stage (:mod:`acousim.kinematics`) gives, per path and microphone, the
+reception time of the start of the call and its Doppler factor (the time compression
+``d tau / d t``); this module renders them.
+
+``render_doppler`` (fast)
+    Per path and microphone the emission time is taken linear in the reception
+    time, ``tau = a (t - t0)`` (a from the exact solution at the first and last
+    sample of the call, t0 shifted by the mean of the parabolic deviation measured at
+    the middle sample; the deviation left is what this method neglects), so the
+    echo is the call time-scaled by ``a``: ``w(a s)`` is again a sweep of the same
+    kind (frequencies times a, duration over a), band-limited as the static
+    renderer's call.  The templates are scaled about the middle of the call (the
+    pivot p = T/2): ``w(p + a (s - p))``, the echo placed at ``t0 + p / a - p``
+    (half the phase excursion over the Doppler factors of scaling about the start:
+    fewer nodes and sets).  The scale factors of all paths lie in a small interval
+    (widened to multiples of NODE_QUANTUM, so that a drive reuses its templates);
+    the call is tabulated at K Chebyshev nodes of it and its interpolant in the
+    factor written as a Chebyshev series: every path gets ``T_k(s)`` of its own
+    factor (s mapped onto [-1, 1]; a three-term recurrence), the templates their
+    Chebyshev coefficients; K chosen so the interpolation error stays below
+    ``DOPPLER_TOLERANCE`` (K = 1 when all factors are equal, 6 for the corridor
+    drive at 1 m/s).  With the Q separable terms of the path responses
+    (absorption, directivity: :mod:`acousim.synth.response`) that makes K Q sets of
+    gains, each with its filter; their sum is compressed to the few sets it needs
+    (a real SVD from Gram matrices, per group: direct path, echoes, to
+    ``COMPRESS_TOLERANCE``; 30 -> 6 on the corridor) and rendered as the static
+    renderer does: fractional-delay impulses per set, FFT, products with the
+    filters, summed.
+
+The exact per-sample reference is
+:func:`acousim.kinematics.reference.render_doppler_reference`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy import fft as sfft
+
+from acousim.core.cache import LruCache
+from acousim.core.echoes import Echoes
+from processing import Waveform
+from processing.waveforms import ANTI_ALIAS_CUTOFF
+
+from .compress import compress
+from .options import COMPRESS_TOLERANCE, DEFAULT_OPTIONS, DOPPLER_TOLERANCE, RenderOptions
+from .render import (
+    FFT_WORKERS,
+    _impulses,
+    check_interpolator,
+    response_factors,
+)
+from .response import PathResponse
+
+__all__ = [
+    "doppler_nodes",
+    "DopplerPlan",
+    "DopplerCache",
+    "plan_doppler",
+    "render_planned",
+    "render_doppler",
+    "scaled_call",
+    "DOPPLER_TOLERANCE",
+    "COMPRESS_TOLERANCE",
+]
+
+#: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
+#: share their nodes and templates
+NODE_QUANTUM = 2e-3
+#: microphones rendered together: the corridor's 30 in two blocks renders in 0.95 of
+#: the time of one block (paired runs; its buffers are smaller), in 1.01 with three
+#: blocks and 1.08 with six (more, smaller FFT calls)
+MICS_PER_BLOCK = 15
+
+
+def scaled_call(waveform: Waveform, rate: float) -> Waveform:
+    """The call time-scaled: ``w(rate t)``, a sweep of the same kind with its
+    frequencies times `rate` and its duration over `rate` (exact for the linear and
+    the hyperbolic sweep, and for the taper)."""
+    return Waveform(
+        waveform.kind,
+        waveform.f_start_hz * rate,
+        waveform.f_end_hz * rate,
+        waveform.duration_s / rate,
+        waveform.taper,
+        waveform.amplitude,
+    )
+
+
+@lru_cache(maxsize=1024)
+def _node_count(x: float, tolerance: float) -> int:
+    """The fewest Chebyshev nodes that interpolate exp(i x s) on [-1, 1] to
+    `tolerance`."""
+    k = 1
+    while k < 64 and _chebyshev_error(k, x) > tolerance:
+        k += 1
+    return k
+
+
+def _chebyshev_error(k: int, x: float) -> float:
+    """Largest error of interpolating exp(i x s), s in [-1, 1], at k Chebyshev nodes."""
+    nodes = np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
+    s = np.linspace(-1, 1, 801)
+    return float(np.max(np.abs(_lagrange(nodes, s) @ np.exp(1j * x * nodes) - np.exp(1j * x * s))))
+
+
+def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Lagrange basis of `nodes` (K,) at `x` (...): weights (..., K) (barycentric)."""
+    x = np.asarray(x, float)
+    K = nodes.size
+    if K == 1:
+        return np.ones((*x.shape, 1))
+    diff = nodes[:, None] - nodes[None, :]
+    np.fill_diagonal(diff, 1.0)
+    bw = 1.0 / np.prod(diff, axis=1)
+    w = x[..., None] - nodes  # in place from here: (..., K) is the large array
+    hit = w == 0
+    if hit.any():
+        w[hit] = 1.0
+    np.divide(bw, w, out=w)
+    w /= (w @ np.ones(K))[..., None]  # a product: faster than a sum along a short axis
+    if hit.any():
+        on = hit.any(axis=-1)
+        w[on] = hit[on]
+    return w
+
+
+def doppler_nodes(
+    rate_min: float,
+    rate_max: float,
+    waveform: Waveform,
+    sample_rate_hz: float,
+    tolerance: float = DOPPLER_TOLERANCE,
+) -> np.ndarray:
+    """Chebyshev nodes (K,) covering [rate_min, rate_max] (widened to multiples of
+    :data:`NODE_QUANTUM`): K is the fewest that interpolate ``w(p + a (s - p))``
+    in a to `tolerance` (p = T / 2, the pivot of :func:`render_doppler`: the phase
+    ``2 pi f (s - p) a`` spans ``x = 2 pi f_top (T / 2 + ringing) h``, h the half
+    width; f_top the call's top frequency, the band limit for an untapered call,
+    whose band-limit ringing of 256 samples counts too)."""
+    if rate_max - rate_min < 1e-12:
+        return np.array([rate_min])
+    lo = np.floor(rate_min / NODE_QUANTUM) * NODE_QUANTUM
+    hi = np.ceil(rate_max / NODE_QUANTUM) * NODE_QUANTUM
+    f_top = max(waveform.band_hz) if waveform.taper > 0 else ANTI_ALIAS_CUTOFF * sample_rate_hz / 2
+    # the templates are scaled about the call's middle (:func:`render_doppler`): the
+    # time from the pivot reaches half the scaled call, and for an untapered call the
+    # ringing of its band limit (a tapered call has no energy there)
+    ringing = 0 if waveform.taper > 0 else 256 / sample_rate_hz
+    reach = waveform.duration_s / (2 * lo) + ringing
+    x = 2 * np.pi * f_top * reach * (hi - lo) / 2
+    k = _node_count(float(np.ceil(x * 100) / 100), float(tolerance))
+    centre, half = (hi + lo) / 2, (hi - lo) / 2
+    return centre + half * np.cos((2 * np.arange(k) + 1) * np.pi / (2 * k))
+
+
+class DopplerCache:
+    """What the Doppler renderer reuses from one measurement to the next (the nodes
+    of a drive's consecutive poses are shared: :data:`NODE_QUANTUM`): the band-limited
+    time-scaled calls per node, and per set of nodes their spectra, Chebyshev
+    coefficients and products.  Owned by its user (a :class:`acousim.Simulator`
+    has one), bounded, safe across threads (:class:`acousim.core.cache.LruCache`)."""
+
+    def __init__(self, templates: int = 256, spectra: int = 12) -> None:
+        self.templates = LruCache(templates)
+        self.spectra = LruCache(spectra)
+
+
+def _scaled_template(waveform: Waveform, fs: float, a: float) -> tuple[np.ndarray, int]:
+    # a tapered call has no energy where 8x oversampling would alias it
+    over = 8 if waveform.taper > 0 else 64
+    return scaled_call(waveform, a).band_limited(fs, oversample=over)
+
+
+def _templates(
+    waveform: Waveform, fs: float, nodes: np.ndarray, cache: DopplerCache
+) -> tuple[np.ndarray, int]:
+    """Band-limited time-scaled calls (K, L), sample i at time (i + start) / fs."""
+    calls = []
+    start = 0
+    for a in nodes:
+        key = (waveform, fs, float(a))
+        y, start = cache.templates.get(key, lambda a=a: _scaled_template(waveform, fs, float(a)))
+        calls.append(y)
+    L = max(y.size for y in calls)
+    out = np.zeros((len(calls), L))
+    for j, y in enumerate(calls):
+        out[j, : y.size] = y
+    return out, start
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class DopplerPlan:
+    """What :func:`render_doppler` computes from the echoes before the samples
+    (:func:`plan_doppler`, steps 1-3): where the impulses go, the path gains times
+    the Doppler terms and the path responses' separable terms.
+    :func:`render_planned` compresses them into gain sets and makes the samples
+    (steps 4-5).  A simulator plans the next measurement while the current one
+    renders.
+
+    positions (M, N): impulse positions, samples from the span's start (the span is
+    output samples ``lo .. hi``); terms (K, N, M): path gains times the Chebyshev
+    terms of their Doppler factors; responses (N, Q) and response_spectra (B, Q):
+    the path responses' separable terms; templates (K, B): the Chebyshev
+    coefficients of the time-scaled calls' spectra and products their products
+    (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
+    direct_paths (N,) and direct_terms (Q,): the direct path's group; options: the
+    fractional delays and the compression's tolerance; single: the impulses and
+    their spectra in single precision (with a path response).
+    """
+
+    positions: np.ndarray
+    terms: np.ndarray
+    responses: np.ndarray
+    response_spectra: np.ndarray
+    templates: np.ndarray
+    products: np.ndarray
+    direct_paths: np.ndarray
+    direct_terms: np.ndarray
+    band: np.ndarray
+    lo: int
+    hi: int
+    n_fft: int
+    n_mics: int
+    n_samples: int
+    options: RenderOptions
+    single: bool
+
+    @property
+    def empty(self) -> bool:
+        return self.terms.shape[1] == 0
+
+
+def render_doppler(*args, **kwargs) -> np.ndarray:
+    """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
+    microphone m is ``g w_bl(rate (t - delay))`` (see the module docstring).  The
+    arguments of :func:`plan_doppler` (echoes, rate, waveform, sample rate, samples;
+    `options`: the fractional delays ('sinc' or 'lagrange', as the static renderer),
+    the emission's sample and the tolerances; `response`: air absorption and emitter
+    directivity, factorised as the static renderer does; `cache`: reused between
+    calls): :func:`render_planned` of its plan."""
+    return render_planned(plan_doppler(*args, **kwargs))
+
+
+def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerPlan:
+    """A plan of no echo: silence."""
+    none = dict.fromkeys(("responses", "response_spectra", "templates", "products"))
+    return DopplerPlan(
+        positions=np.zeros((n_mics, 0)),
+        terms=np.zeros((1, 0, n_mics)),
+        **{k: np.zeros((0, 0)) for k in none},
+        **{k: np.zeros(0, bool) for k in ("direct_paths", "direct_terms", "band")},
+        **dict.fromkeys(("lo", "hi", "n_fft"), 0),
+        n_mics=n_mics,
+        n_samples=n_samples,
+        options=options,
+        single=False,
+    )
+
+
+def _response_terms(echoes: Echoes, spectrum: np.ndarray, fs: float, n: int, response):
+    """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
+    v_q(n) (as the static renderer): gains (M, N), U (F, Q), V (N, Q), the band (F,)
+    and which terms are the direct path's (Q,); whether a response shapes them."""
+    if response is not None and response.active:
+        return (*response_factors(echoes, echoes.gain, spectrum, fs, n, response), True)
+    band = np.ones(spectrum.size, bool)
+    U = np.ones((band.size, 1))
+    V = np.ones((echoes.n_paths, 1))
+    return echoes.gain, U, V, band, np.zeros(1, bool), False
+
+
+def plan_doppler(
+    echoes: Echoes,
+    rate: np.ndarray,
+    waveform: Waveform,
+    sample_rate_hz: float,
+    n_samples: int,
+    *,
+    options: RenderOptions = DEFAULT_OPTIONS,
+    response: PathResponse | None = None,
+    cache: DopplerCache | None = None,
+) -> DopplerPlan:
+    """Steps 1-3 of :func:`render_doppler`: its :class:`DopplerPlan`."""
+    check_interpolator(options.interpolator, ("sinc", "lagrange"), need=_NEED, key=_KEY)
+    M = echoes.delay_s.shape[0]
+    if echoes.n_paths == 0:
+        return _empty_plan(M, n_samples, options)
+    cache = DopplerCache() if cache is None else cache
+    fs, taps = sample_rate_hz, options.taps
+    # 1. Doppler nodes and the time-scaled calls there
+    tol = options.doppler_tolerance
+    nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
+    calls, start = _templates(waveform, fs, nodes, cache)
+    K, L = calls.shape
+    # 2. the span of the output the echoes reach
+    d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
+    d = d + options.emission_index + start  # the order of the sums of before: same bits
+    lo = int(np.floor(d.min())) - taps - margin
+    hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
+    if hi <= max(lo, 0):
+        return _empty_plan(M, n_samples, options)
+    n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
+    key = (waveform, fs, tuple(nodes.tolist()), n)
+    spectra = cache.spectra.get(
+        ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
+    )
+    # 3. path responses (the direct path a group of its own if it has its own terms)
+    g, U, V, band, direct, shaped = _response_terms(echoes, spectra[K // 2], fs, n, response)
+    path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
+    # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
+    W = cache.spectra.get(
+        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
+    )
+    return DopplerPlan(
+        positions=d - lo,
+        terms=_chebyshev_terms(nodes, rate.T, g.T),
+        responses=V,
+        response_spectra=U,
+        templates=W,
+        products=cache.spectra.get(("products", *key, band.sum()), lambda: _products(W)),
+        direct_paths=path_direct,
+        direct_terms=direct,
+        band=band,
+        lo=lo,
+        hi=hi,
+        n_fft=n,
+        n_mics=M,
+        n_samples=n_samples,
+        options=options,
+        single=shaped,
+    )
+
+
+_KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
+    """Where each echo's impulse goes (M, N), in samples from the emission (before
+    the templates' start): where its call's middle (the pivot p) arrives less p,
+    ``t0 + p / a - p``; template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that
+    every template is scaled about the pivot (half the phase excursion over the
+    Doppler factors of scaling about the start: fewer nodes and sets); and the
+    margin (samples) the advances need."""
+    pivot = duration_s / 2
+    advance = pivot * (1 / nodes - 1)  # (K,) s
+    margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
+    return (delay_s + pivot * (1 / rate - 1)) * fs, advance, margin
+
+
+def render_planned(plan: DopplerPlan) -> np.ndarray:
+    """Steps 4-5 of :func:`render_doppler`: the microphone signals (M, T) of a
+    :class:`DopplerPlan`."""
+    out = np.zeros((plan.n_mics, plan.n_samples))
+    if plan.empty:
+        return out
+    lo, hi, n = plan.lo, plan.hi, plan.n_fft
+    n_span = hi - lo
+    dtype = np.float32 if plan.single else np.float64
+    # 4. gain sets (path, microphone) x filters (template j times response term q):
+    # the K x Q products compressed per group (direct path, echoes) to the rank
+    # their sum needs
+    gains, filt_band = compress(
+        plan.terms,
+        plan.responses,
+        plan.templates,
+        plan.products,
+        plan.response_spectra,
+        plan.direct_paths,
+        plan.direct_terms,
+        plan.options.compress_tolerance,
+    )
+    # the filters over the bins from the band's first to its last (zero elsewhere)
+    band = plan.band
+    b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
+    cdtype = np.complex64 if plan.single else complex
+    filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
+    filt[:, band[b0:b1]] = filt_band.T
+    # 5. impulses per set, FFT, sum of products over the band, back: blocks of
+    # microphones (the rows are independent: the same bits)
+    M = plan.n_mics
+    for m0 in range(0, M, MICS_PER_BLOCK):
+        mics = slice(m0, min(m0 + MICS_PER_BLOCK, M))
+        # gains (M, N, R): the sets contiguous, as the impulse sums take them
+        opts = plan.options
+        h, pad = _impulses(
+            plan.positions[mics], gains[mics], n_span, opts.interpolator, opts.taps, n, dtype
+        )
+        spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, mics, F)
+        spec = np.zeros(spectra.shape[1:], spectra.dtype)
+        inband = spec[:, b0:b1]
+        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
+        term = np.empty_like(inband)
+        for q in range(1, spectra.shape[0]):
+            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
+        y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+        out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]: the interpolant of
+    the time-scaled call in the Doppler factor as a Chebyshev series, the path gains
+    times T_p(s) (a three-term recurrence) and the templates' Chebyshev coefficients
+    (the same polynomial as the Lagrange form, without barycentric weights)."""
+    K = nodes.size
+    out = np.empty((K, *rate.shape))
+    out[0] = gain
+    if K > 1:
+        x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+        s = (rate - (nodes[0] - half * x[0])) / half
+        np.multiply(gain, s, out=out[1])
+        s *= 2
+        for p in range(2, K):
+            np.multiply(s, out[p - 1], out=out[p])
+            out[p] -= out[p - 2]
+    return out
+
+
+def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
+    """Chebyshev coefficients (K, ...) of the interpolant through `values` (K, ...)
+    at the K Chebyshev nodes of :func:`doppler_nodes` (first kind, in its order)."""
+    K = values.shape[0]
+    theta = (2 * np.arange(K) + 1) * np.pi / (2 * K)
+    C = np.cos(np.outer(np.arange(K), theta)) * (2.0 / K)  # C[p, j] = 2 T_p(x_j) / K
+    C[0] /= 2
+    return np.tensordot(C, values, axes=1)
+
+
+def _template_spectra(calls: np.ndarray, advance: np.ndarray, n: int) -> np.ndarray:
+    """Spectra (K, n // 2 + 1) of the templates `calls` (K, L) advanced by `advance`
+    (K,) samples: ``y_j(i + advance_j)``, band-limited, exact (a linear phase)."""
+    spectra = sfft.rfft(calls, n, axis=-1)
+    if np.any(advance):
+        f = np.arange(spectra.shape[1]) / n  # cycles per sample
+        spectra *= np.exp(2j * np.pi * advance[:, None] * f[None, :])
+    return spectra
+
+
+def _products(W: np.ndarray) -> np.ndarray:
+    """Re(conj(W_j) W_k) of the template spectra W (K, F) for j <= k (symmetric):
+    (K (K + 1) / 2, F), rows in the order of ``np.triu_indices(K)``."""
+    j, k = np.triu_indices(W.shape[0])
+    return np.ascontiguousarray((W.conj()[j] * W[k]).real)

@@ -1,0 +1,217 @@
+"""Edge-to-edge diffraction in the stage: which pairs of edges, their order chosen
+by what they can contribute, and their paths.
+
+Paths emitter -> edge 1 -> edge 2 -> receiver over ordered pairs of edges that
+share a plane (:mod:`acousim.trace.btm_pairs`).  A pair is a candidate if the
+emitter is on a convex side of edge 1 and sees it, the receiver likewise for edge
+2 (at one of five points along it), the two edges are not collinear, and the plane
+holds a face half way between the edges' mid points (the path runs over the face:
+a ray down onto the plane there).  Edge 2 lies on a face of wedge 1: at angle 0
+about edge 1 if the shared plane is its face 1, else at its open angle (and likewise
+edge 1 about edge 2).  Both rims of a thin plate: the path runs along both of its
+sides (``sides = 2``).  Visibility is checked per edge, not per element.
+
+Order per pair: each candidate's largest path (one bin) is bounded in closed form
+(:func:`acousim.trace.pair_bound.pair_bound`) and estimated at the pair's shortest
+path (:func:`acousim.trace.pair_bound.pair_estimate`, with a margin); only the
+pairs whose bound and estimate reach the stage's floor are integrated, the others
+keep first order alone (their paths would be dropped by the tracer's energy floor:
+what is skipped is measured in BENCHMARKS.md and
+``tests/test_edge_pair_selection.py``).
+
+With frequency-dependent materials (``face_column``), each wedge's response is split
+into the part without the image terms of its table faces and each of those terms
+alone; every pair of parts is a set of paths of its own, which counts one
+interaction with each table face whose image term it holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+
+from .btm import DEFAULT_MAX_EXCESS_M
+from .btm_pairs import BIN, PairGeometry, pair_elements
+from .diffracted import DiffractedPaths, empty_paths
+from .diffraction_setup import StageContext
+from .first_order import probe_points, segment_distance, visible
+from .pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
+
+__all__ = ["candidate_pairs", "edge_to_edge"]
+
+
+def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
+    """The edge-to-edge paths of the pose; pairs whose bound is below `floor` (a gain
+    at the receiver) are skipped unless ``ctx.options.select_pairs`` is False."""
+    rows, edge2, columns = candidate_pairs(ctx)
+    if len(rows) == 0:
+        return empty_paths()
+    opt = ctx.options
+    if opt.select_pairs and floor > 0:
+        keep = _selected(ctx, rows, floor)
+        rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
+        if len(rows) == 0:
+            return empty_paths()
+    el = pair_elements(
+        rows,
+        ctx.emitter,
+        ctx.receiver,
+        step_m=opt.step_m if opt.pair_step_m is None else opt.pair_step_m,
+        bin_m=opt.step_m * BIN,
+        max_path_m=opt.max_path_m,
+    )
+    if len(el) == 0:
+        return empty_paths()
+    dep = el.first_point_m - ctx.emitter
+    dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
+    counts = None
+    if ctx.geometry.face_column is not None:
+        n_col = int(np.max(ctx.geometry.face_column, initial=-1)) + 2
+        counts = np.zeros((len(el), n_col), int)
+        for side in (0, 1):
+            c = columns[el.pair, side]
+            table = np.flatnonzero(c >= 0)
+            counts[table, c[table]] += 1
+    return DiffractedPaths(
+        el.point_m,
+        el.first_leg_m,
+        el.amplitude * el.second_leg_m,
+        el.point_m,
+        dep,
+        edge2[el.pair],
+        np.full(len(el), 2),
+        counts,
+    )
+
+
+def _selected(ctx: StageContext, rows: PairGeometry, floor: float) -> np.ndarray:
+    """Indices of the pairs whose contribution can reach `floor` (a gain at the
+    receiver): the closed-form bound of their largest path first (rigorous), then
+    the estimate of it (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`."""
+    opt = ctx.options
+    bound = pair_bound(
+        rows,
+        ctx.emitter,
+        ctx.receiver,
+        max_excess_m=DEFAULT_MAX_EXCESS_M,
+        max_path_m=opt.max_path_m,
+        bin_m=opt.step_m * BIN,
+    )
+    keep = np.flatnonzero(bound >= floor)
+    if keep.size:
+        est = pair_estimate(_take(rows, keep), ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
+        keep = keep[ESTIMATE_MARGIN * est >= floor]
+    return keep
+
+
+def _take(rows: PairGeometry, keep: np.ndarray) -> PairGeometry:
+    return PairGeometry(*(getattr(rows, f.name)[keep] for f in fields(rows)))
+
+
+def _seen_edges(ctx: StageContext):
+    """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
+    receiver (as edge 2), kept where convex, within reach and seen."""
+    edges = ctx.geometry.edges
+    keep1, w1 = edges.oriented(ctx.emitter, ctx.emitter)
+    keep2, w2 = edges.oriented(ctx.receiver, ctx.receiver)
+    keep1 &= segment_distance(ctx.emitter, edges.start_m, edges.end_m) < ctx.options.max_path_m
+    keep2 &= segment_distance(ctx.receiver, edges.start_m, edges.end_m) < ctx.options.max_path_m
+    if ctx.caster is not None:
+        n_e = len(edges)
+        pts = probe_points(edges.start_m, edges.end_m).reshape(-1, 3)
+        keep1 &= visible(ctx.caster, ctx.emitter, pts, ctx.tol).reshape(n_e, -1).any(axis=1)
+        keep2 &= visible(ctx.caster, ctx.receiver, pts, ctx.tol).reshape(n_e, -1).any(axis=1)
+    return keep1, w1, keep2, w2
+
+
+def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.ndarray]:
+    """Every candidate pair (see the module docstring), one row per pair of parts:
+    (the rows, edge 2's index (N,), the table column of each part (N, 2), -1: none)."""
+    keep1, w1, keep2, w2 = _seen_edges(ctx)
+    plane = np.asarray(ctx.geometry.face_plane, int)
+    faces = ctx.geometry.edges.faces
+    p_a = plane[faces[:, 0]]
+    p_b = np.where(faces[:, 1] >= 0, plane[np.maximum(faces[:, 1], 0)], p_a)
+    i, j = np.nonzero(keep1[:, None] & keep2[None, :])
+    common = (p_a[i] == p_a[j]) | (p_a[i] == p_b[j]) | (p_b[i] == p_a[j]) | (p_b[i] == p_b[j])
+    ok = (i != j) & common
+    i, j = i[ok], j[ok]
+    shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
+    good = _not_collinear(w1, i, j, ctx.tol) & _over_a_face(ctx, w1, i, j, shared)
+    i, j, shared = i[good], j[good], shared[good]
+    th12 = np.where(plane[w1.faces[i, 0]] == shared, 0.0, w1.angle_rad[i])
+    th21 = np.where(plane[w2.faces[j, 0]] == shared, 0.0, w2.angle_rad[j])
+    rim = faces[:, 1] < 0
+    sides = np.where(rim[i] & rim[j], 2, 1)
+    t1, c1, o1 = _parts(ctx, w1, i)
+    t2, c2, o2 = _parts(ctx, w2, j)
+    # every pair of parts: a row
+    q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+    rows = PairGeometry(
+        w1.start_m[i[q]], w1.end_m[i[q]], w2.start_m[j[q]], w2.end_m[j[q]],
+        w1.face_dir[i[q]], w1.normal[i[q]], w2.face_dir[j[q]], w2.normal[j[q]],
+        w1.angle_rad[i[q]], w2.angle_rad[j[q]], th12[q], th21[q],
+        t1[q, u], t2[q, v], sides[q],
+    )  # fmt: skip
+    return rows, j[q], np.column_stack([c1[q, u], c2[q, v]])
+
+
+def _not_collinear(w1, i, j, tol) -> np.ndarray:
+    """(N,) True where an end of edge j lies off the line of edge i by more than tol."""
+    axis = w1.end_m[i] - w1.start_m[i]
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    off = 0.0
+    for end in (w1.start_m[j], w1.end_m[j]):
+        d = end - w1.start_m[i]
+        r = np.linalg.norm(d - np.einsum("ij,ij->i", d, axis)[:, None] * axis, axis=1)
+        off = np.maximum(off, r)
+    return off > tol
+
+
+def _over_a_face(ctx: StageContext, w1, i, j, shared) -> np.ndarray:
+    """(N,) True where a ray down onto the shared plane, half way between the two
+    edges' mid points, meets a face of that plane (the path runs over a face)."""
+    if ctx.caster is None or i.size == 0:
+        return np.ones(i.size, bool)
+    plane = np.asarray(ctx.geometry.face_plane, int)
+    mid = 0.25 * (w1.start_m[i] + w1.end_m[i] + w1.start_m[j] + w1.end_m[j])
+    on_first = plane[w1.faces[i, 0]] == shared
+    # face 1's normal points into the air; face 2's air side is the other way from
+    # the direction of growing angle there
+    turn = np.cross(w1.face_dir[i], w1.normal[i])
+    up = np.where(on_first[:, None], w1.normal[i], -np.cross(turn, w1.other_dir[i]))
+    lift = 10 * ctx.nudge + ctx.tol
+    t, hit = ctx.caster.first_hit(mid + lift * up, -up, np.full(i.size, 2 * lift))
+    return (
+        (hit >= 0)
+        & (plane[np.maximum(hit, 0)] == shared)
+        & (np.abs(t - lift) <= ctx.tol + ctx.nudge)
+    )
+
+
+def _parts(ctx: StageContext, w, idx):
+    """The parts of wedges idx of oriented edges w: (terms (N, 3, 4), table column
+    (N, 3), which parts exist (N, 3)).  Part 0: the whole wedge, or without the image
+    terms of its table faces; parts 1 and 2: the image term of face 2 and of face 1
+    alone where that face has a table (see the module docstring); they sum to the
+    whole wedge (beta is linear in its term weights)."""
+    refl = np.asarray(ctx.geometry.face_reflection, float)
+    f1 = w.faces[idx, 0]
+    f2 = np.where(w.faces[idx, 1] >= 0, w.faces[idx, 1], f1)
+    r1, r2 = refl[f1], refl[f2]
+    one, zero = np.ones(idx.size), np.zeros(idx.size)
+    column = ctx.geometry.face_column
+    c1 = np.full(idx.size, -1) if column is None else np.asarray(column)[f1]
+    c2 = np.full(idx.size, -1) if column is None else np.asarray(column)[f2]
+    terms = np.stack(
+        [
+            np.column_stack([np.where(c2 < 0, r2, 0), one, one, np.where(c1 < 0, r1, 0)]),
+            np.column_stack([r2, zero, zero, zero]),
+            np.column_stack([zero, zero, zero, r1]),
+        ],
+        axis=1,
+    )
+    columns = np.column_stack([np.full(idx.size, -1), c2, c1])
+    exists = np.column_stack([one > 0, c2 >= 0, c1 >= 0])
+    return terms, columns, exists

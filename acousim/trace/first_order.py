@@ -1,0 +1,133 @@
+"""First-order edge diffraction of the edges in view: which edges a point sees
+(rays to five points along each), and their BTM elements with the faces'
+reflection factors (and frequency-dependent materials) applied."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .btm import EdgeElements, many_edge_elements
+from .diffracted import ELEMENT_FIELDS
+from .diffraction_setup import StageContext
+from .edges import Edges
+
+__all__ = ["PROBE_FRACTIONS", "edges_in_view", "probe_points", "segment_distance", "visible"]
+
+#: where along an edge (fractions of its length) visibility is probed
+PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
+
+
+def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (E,) from a point (3,) to segments a-b (E, 3)."""
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+    return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+
+
+def probe_points(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Points (E, 5, 3) at PROBE_FRACTIONS along edges from start (E, 3) to end."""
+    return start[:, None, :] + PROBE_FRACTIONS[None, :, None] * (end - start)[:, None, :]
+
+
+def visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
+    """(K,) True where the segment from origin (3,) or (K, 3) to points (K, 3) is free."""
+    if caster is None or points.shape[0] == 0:
+        return np.ones(points.shape[0], bool)
+    o = np.broadcast_to(origin, points.shape)
+    d = points - o
+    dist = np.linalg.norm(d, axis=1)
+    t, f = caster.first_hit(o, d, dist + tol)
+    return ~((f >= 0) & (t < dist - tol))
+
+
+def edges_in_view(
+    ctx: StageContext, candidates: np.ndarray
+) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
+    """BTM elements of the candidate edges (indices) that form a convex wedge on the
+    side of the emitter and the receiver and that both see (at one of five points
+    along the edge, at least): (elements, the edge of each, counts or None)."""
+    edges = ctx.geometry.edges
+    keep, wedge = edges.oriented(ctx.emitter, ctx.receiver)
+    idx = np.asarray(candidates, int)
+    idx = idx[keep[idx]]
+    if idx.size and ctx.caster is not None:
+        pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
+        seen = np.ones(pts.shape[0], bool)
+        for p in (ctx.emitter, ctx.receiver):
+            seen &= visible(ctx.caster, p, pts, ctx.tol)
+        idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
+    el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter)
+    return el, idx[local], counts
+
+
+def wedge_elements(
+    ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray
+) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
+    """:func:`many_edge_elements` of the oriented edges `wedge` at `rows` for
+    `source` (3,) or one per row (R, 3) and the receiver, each with the reflection
+    factors of its two faces (a thin plate's one face twice).
+
+    With the geometry's `face_column` (each face's specular interaction column of a
+    frequency-dependent material, -1: a material of single numbers; None: no
+    tables) the image term of each such face is an element of its own, which counts
+    one interaction in that column (so the path response applies the table: see
+    :mod:`acousim.core.materials`), and the rest of the element another.  Returns
+    (elements, their rows' local indices (K,), counts (K, C) or None)."""
+    refl = np.asarray(ctx.geometry.face_reflection, float)
+    face_column = ctx.geometry.face_column
+    f1 = wedge.faces[rows, 0]
+    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
+    R1, R2 = refl[f1], refl[f2]
+    every, one = np.arange(rows.size), np.ones(rows.size)
+
+    def part(sel, terms):
+        return many_edge_elements(
+            wedge.start_m[rows[sel]],
+            wedge.end_m[rows[sel]],
+            wedge.face_dir[rows[sel]],
+            wedge.normal[rows[sel]],
+            wedge.angle_rad[rows[sel]],
+            source if np.ndim(source) == 1 else source[sel],
+            ctx.receiver,
+            ctx.options.step_m,
+            ctx.options.max_path_m,
+            terms=terms,
+        )
+
+    if face_column is None:
+        el, local = part(every, np.column_stack([R2, one, one, R1]))
+        return el, local, None
+    c1, c2 = face_column[f1], face_column[f2]
+    # the element without the image terms of table faces, then each of those alone
+    zero = np.zeros(rows.size)
+    parts = [
+        (
+            every,
+            np.column_stack([np.where(c2 < 0, R2, 0), one, one, np.where(c1 < 0, R1, 0)]),
+            None,
+        ),
+        (np.flatnonzero(c2 >= 0), np.column_stack([R2, zero, zero, zero]), c2),
+        (np.flatnonzero(c1 >= 0), np.column_stack([zero, zero, zero, R1]), c1),
+    ]
+    return _joined(parts, part, int(np.max(face_column, initial=-1)) + 2)
+
+
+def _joined(parts, part, n_col: int):
+    """The elements of every (rows, terms, table column) part of
+    :func:`wedge_elements` (`part` computes one), joined: (elements, rows' local
+    indices, counts (K, n_col))."""
+    els, locals_, counts = [], [], []
+    for sel, terms, column in parts:
+        if sel.size == 0:
+            continue
+        el, local = part(sel, terms[sel])
+        c = np.zeros((len(el), n_col), int)
+        if column is not None:
+            c[np.arange(len(el)), column[sel][local]] = 1
+        els.append(el)
+        locals_.append(sel[local])
+        counts.append(c)
+    if not els:  # no edge in view
+        return EdgeElements.empty(), np.zeros(0, int), np.zeros((0, n_col), int)
+    el = EdgeElements(*(np.concatenate([getattr(e, f) for e in els]) for f in ELEMENT_FIELDS))
+    return el, np.concatenate(locals_), np.concatenate(counts)

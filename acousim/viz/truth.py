@@ -1,0 +1,243 @@
+"""Ray-traced reflectors placed in the pictures, so that every bright spot can be told
+apart: an echo from a reflector in the picture's slice, one from outside the slice
+that leaks in, or one from behind the array.
+
+A planar array (microphones in the y-z plane) cannot tell front from back: a
+reflector at sensor-frame (x, y, z) with x < 0 is heard exactly as its mirror
+(-x, y, z).  Such reflectors are drawn at their mirror, with their own marker.
+
+Three marks (:data:`MARKS`), in every picture's legend:
+
+- ``in``: in front of the array and inside the picture's slice (the fan's elevation
+  band; an elevation-azimuth map's angular grid at its range slice);
+- ``off``: in front, outside the slice (a floor point 60 degrees down leaks into the
+  fan at its slant range straight ahead; on a map it is drawn at the grid's edge
+  nearest its direction);
+- ``behind``: behind the array, drawn at its mirror (then placed as above).
+
+Only reflectors within the picture's dynamic range plus :data:`MARGIN_DB` of the
+strongest traced echo are drawn: a much weaker one cannot show, but many weak ones
+can add up (a floor's scatter points, each 34 dB below the strongest echo, make a
+bright arc in the corridor); those below the dynamic range are drawn small.  Of each
+mark, one is drawn per square of a picture's spacing (:meth:`TruthMarks.thinned`):
+the strongest.  The direct path is not a reflector.  Positions are
+relative to the array's centre (where the images' ranges start), sensor frame, m.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "MARGIN_DB",
+    "MARKS",
+    "Reflectors",
+    "TruthMarks",
+    "as_reflectors",
+    "echo_points",
+    "elaz_marks",
+    "fan_marks",
+    "legend_handles",
+    "truth_level_db",
+]
+
+#: matplotlib marker style of each mark (drawn over the inferno colour map)
+MARKS = {
+    "in": {"marker": "o", "label": "traced reflector in this slice"},
+    "off": {"marker": "^", "label": "traced reflector off the slice"},
+    "behind": {"marker": "D", "label": "traced reflector behind the array (at its mirror)"},
+}
+EDGE_COLOR = "white"
+#: reflectors this much below a picture's dynamic range are still marked (dB)
+MARGIN_DB = 10.0
+WEAK_SCALE = 0.3  # area of a weak reflector's mark re a strong one's
+
+
+@dataclass(frozen=True)
+class Reflectors:
+    """Traced reflectors to mark: points_m (N, 3) in the sensor frame from the array
+    centre (m), level_db (N,) re the strongest traced echo; the strongest first."""
+
+    points_m: np.ndarray
+    level_db: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.level_db)
+
+
+def as_reflectors(truth) -> Reflectors:
+    """Reflectors as given, or bare points (N, 3) at 0 dB."""
+    if isinstance(truth, Reflectors):
+        return truth
+    p = np.asarray(truth, float).reshape(-1, 3)
+    return Reflectors(p, np.zeros(len(p)))
+
+
+@dataclass(frozen=True)
+class TruthMarks:
+    """Reflectors placed in a picture: xy (N, 2) in the picture's axes' units, mark
+    (N,) one of ``"in"``, ``"off"``, ``"behind"``; weak (N,) below the picture's
+    dynamic range (drawn small)."""
+
+    xy: np.ndarray
+    mark: np.ndarray
+    weak: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.mark)
+
+    def thinned(self, min_separation: float) -> TruthMarks:
+        """At most one mark of each kind in each square cell of `min_separation` (the
+        axes' units): the first kept (:func:`echo_points` puts the strongest first),
+        so that a floor's hundreds of scatter points do not hide the picture."""
+        if not len(self) or min_separation <= 0:
+            return self
+        cell = np.floor(self.xy / min_separation).astype(np.int64)
+        order = {name: k for k, name in enumerate(MARKS)}
+        kind = np.array([order[m] for m in self.mark])
+        key = np.column_stack([kind, cell])
+        _, first = np.unique(key, axis=0, return_index=True)  # the first of each cell
+        keep = np.sort(first)
+        return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
+
+    def draw(self, ax, size: float = 45.0, min_separation: float = 0.0) -> set[str]:
+        """Scatter the marks on a matplotlib axis (hollow, white), thinned to
+        `min_separation`; returns the marks drawn (for the legend)."""
+        marks = self.thinned(min_separation) if min_separation > 0 else self
+        drawn = set()
+        for name, style in MARKS.items():
+            for weak, scale, width in ((False, 1.0, 0.9), (True, WEAK_SCALE, 0.6)):
+                k = (marks.mark == name) & (marks.weak == weak)
+                if k.any():
+                    ax.scatter(
+                        marks.xy[k, 0],
+                        marks.xy[k, 1],
+                        s=size * scale,
+                        marker=style["marker"],
+                        facecolors="none",
+                        edgecolors=EDGE_COLOR,
+                        linewidths=width,
+                        clip_on=True,
+                    )
+                    drawn.add(name)
+                    if weak:
+                        drawn.add("weak")
+        return drawn
+
+
+def truth_level_db(truth) -> np.ndarray:
+    """Level (N,) of each ray-traced path of a ground truth in dB re the strongest
+    echo; -inf for the direct path (not a reflector) and for a path of no strength."""
+    amp = np.abs(np.asarray(truth.amplitude, float))
+    echo = (np.asarray(truth.kind) != "direct") & (amp > 0)
+    level = np.full(amp.shape, -np.inf)
+    if echo.any():
+        level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
+    return level
+
+
+def echo_points(truth, array_centre_m: np.ndarray, range_db: float) -> Reflectors:
+    """The traced reflectors (a recording's ground truth) worth drawing: those within
+    `range_db` of the strongest echo, the direct path left out; the strongest first."""
+    if truth is None or not len(truth):
+        return Reflectors(np.zeros((0, 3)), np.zeros(0))
+    level = truth_level_db(truth)
+    keep = np.nonzero(level >= -range_db)[0]
+    keep = keep[np.argsort(-level[keep], kind="stable")]
+    pts = np.asarray(truth.position_sensor_m, float)[keep] - np.asarray(array_centre_m, float)
+    return Reflectors(pts, level[keep])
+
+
+def _mirrored(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(points with those behind the array (x < 0) mirrored to the front, behind (N,))."""
+    p = np.array(points, float).reshape(-1, 3)
+    behind = p[:, 0] < 0
+    p[behind, 0] *= -1
+    return p, behind
+
+
+def _angles(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(range (N,), azimuth (N,), elevation (N,)) of sensor-frame points, m and rad."""
+    r = np.linalg.norm(p, axis=1)
+    az = np.arctan2(p[:, 1], p[:, 0])
+    el = np.arctan2(p[:, 2], np.hypot(p[:, 0], p[:, 1]))
+    return r, az, el
+
+
+def _marks(inside: np.ndarray, behind: np.ndarray) -> np.ndarray:
+    return np.where(behind, "behind", np.where(inside, "in", "off"))
+
+
+def fan_marks(
+    truth,
+    max_range_m: float,
+    elevation_band_rad: float,
+    azimuth_span_rad: tuple[float, float],
+    dynamic_range_db: float = np.inf,
+) -> TruthMarks:
+    """Marks on a fan (top view, range x azimuth; elevation collapsed over
+    |elevation| <= `elevation_band_rad`): each reflector where the fan shows its
+    echo, at its slant range along its azimuth, as (y, x) in m; those beyond
+    `max_range_m` or outside the azimuth span are not drawn.  `truth`:
+    :class:`Reflectors` (or points (N, 3) at 0 dB); weak below `dynamic_range_db`."""
+    t = as_reflectors(truth)
+    p, behind = _mirrored(t.points_m)
+    r, az, el = _angles(p)
+    shown = (r <= max_range_m) & (az >= azimuth_span_rad[0]) & (az <= azimuth_span_rad[1])
+    inside = np.abs(el) <= elevation_band_rad
+    xy = np.column_stack([r * np.sin(az), r * np.cos(az)])
+    weak = t.level_db < -dynamic_range_db
+    return TruthMarks(xy[shown], _marks(inside, behind)[shown], weak[shown])
+
+
+def elaz_marks(
+    truth,
+    range_m: float,
+    tolerance_m: float,
+    azimuth_span_rad: tuple[float, float],
+    elevation_span_rad: tuple[float, float],
+    dynamic_range_db: float = np.inf,
+) -> TruthMarks:
+    """Marks on an elevation-azimuth map at the range slice `range_m`: reflectors
+    within `tolerance_m` of it, as (azimuth, elevation) in degrees; one outside the
+    angular grid is drawn at the grid's edge nearest its direction ("off").  `truth`
+    as for :func:`fan_marks`."""
+    t = as_reflectors(truth)
+    p, behind = _mirrored(t.points_m)
+    r, az, el = _angles(p)
+    near = np.abs(r - range_m) <= tolerance_m
+    a = np.clip(az, *azimuth_span_rad)
+    e = np.clip(el, *elevation_span_rad)
+    inside = (a == az) & (e == el)
+    xy = np.rad2deg(np.column_stack([a, e]))
+    weak = t.level_db < -dynamic_range_db
+    return TruthMarks(xy[near], _marks(inside, behind)[near], weak[near])
+
+
+def legend_handles(drawn: set[str], dynamic_range_db: float | None = None) -> list:
+    """Legend entries (matplotlib Line2D) of the marks drawn (and of the small weak
+    ones, "weak" in `drawn`), black on the legend's white."""
+    from matplotlib.lines import Line2D
+
+    out = [
+        Line2D([], [], ls="none", mfc="none", mec="black", label=s["label"], marker=s["marker"])
+        for name, s in MARKS.items()
+        if name in drawn
+    ]
+    if "weak" in drawn and dynamic_range_db is not None:
+        lo, hi = dynamic_range_db, dynamic_range_db + MARGIN_DB
+        out.append(
+            Line2D(
+                [],
+                [],
+                ls="none",
+                mfc="none",
+                mec="black",
+                marker="o",
+                markersize=6 * WEAK_SCALE**0.5,
+                label=f"small: {lo:g} to {hi:g} dB below the strongest traced echo",
+            )
+        )
+    return out
