@@ -42,7 +42,7 @@ from numpy.typing import DTypeLike
 from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
-from .metadata import metadata_problem, pose_of
+from .metadata import metadata_problem
 from .pointcloud import PointCloud, read_point_cloud, write_point_cloud
 from .provenance import Provenance
 from .waveforms import Waveform
@@ -59,7 +59,6 @@ __all__ = [
     "GroundTruth",
     "count_recordings",
     "MAX_SAMPLE_BYTES",
-    "pose_of",
 ]
 
 SCHEMA = "acousim.recordings"

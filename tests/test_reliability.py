@@ -184,7 +184,7 @@ def test_metadata_is_checked_key_by_key(tmp_path, meta, key):
 
 def test_a_pose_without_its_angles_reads_as_zero_angles(tmp_path, capsys):
     """It ended in KeyError: 'yaw_deg' in the imaging; absent angles are 0, read in
-    one place (processing.pose_of)."""
+    one place (Recording.provenance)."""
     from acousim.imaging import _pose
 
     meta = {"pose": {"position_m": [1.0, 2.0, 0.5]}}
