@@ -70,7 +70,6 @@ from .recording import (
     count_recordings,
     load_recording,
     load_recordings,
-    pose_of,
     save_recording,
     save_recordings,
 )
@@ -140,7 +139,6 @@ __all__ = [
     "PointCloud",
     "load_recording",
     "load_recordings",
-    "pose_of",
     "save_recording",
     "save_recordings",
     "covariance",

@@ -1,5 +1,6 @@
 """The metadata of a recording (a JSON object): the keys the programs read, checked
-one by one when a file is read and before one is written; the one reading of a pose.
+one by one when a file is read and before one is written (the typed reading of
+them is :class:`processing.provenance.Provenance`).
 
 Keys (others are free, see docs/recording-format.md): ``pose`` (position_m required;
 yaw_deg, pitch_deg, roll_deg, time_s, 0 when absent), ``motion`` (velocity_m_s,
@@ -13,7 +14,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["metadata_problem", "pose_of", "MAX_POSE_COORDINATE_M", "MAX_TIME_S"]
+__all__ = ["metadata_problem", "MAX_POSE_COORDINATE_M", "MAX_TIME_S"]
 
 MAX_POSE_COORDINATE_M = 1e6
 """The largest |coordinate| (m) of a pose in a file (acousim.scene's bound)."""
@@ -88,13 +89,3 @@ def metadata_problem(meta: Any) -> tuple[str, str, Any] | None:
         if name in meta and not ok(meta[name]):
             return f": {name}", f"must be {form}", meta[name]
     return None
-
-
-def pose_of(metadata: dict, key: str = "pose") -> dict | None:
-    """The pose a recording's metadata holds (``metadata[key]``), complete: position_m
-    and yaw_deg, pitch_deg, roll_deg, time_s, the ones absent from the file 0 (the
-    form every reader uses); None without one. Loading has checked it."""
-    pose = metadata.get(key)
-    if not pose:
-        return None
-    return {"position_m": list(pose["position_m"]), **_POSE_DEFAULTS, **pose}

@@ -295,10 +295,9 @@ def acoustic_images(
     the matched filter and STFT.  Raises InputError for an unknown method or a job
     above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
-    methods = [check_method(m) for m in methods]
     family = {m: parse_method(m).family for m in methods}
     broadband = [m for m in methods if family[m] == "broadband"]
-    _check_memory(recording, broadband, settings)  # + the front end
+    _check_memory(recording, broadband, settings)
     out = {m: _broadband_image(recording, m, settings) for m in broadband}
     rest = [m for m in methods if family[m] != "broadband"]
     if not rest:

@@ -42,7 +42,7 @@ from numpy.typing import DTypeLike
 from .arrays import Array
 from .atomic import atomic_path
 from .errors import InputError
-from .metadata import metadata_problem, pose_of
+from .metadata import metadata_problem
 from .pointcloud import PointCloud, read_point_cloud, write_point_cloud
 from .provenance import Provenance
 from .waveforms import Waveform
@@ -59,7 +59,6 @@ __all__ = [
     "GroundTruth",
     "count_recordings",
     "MAX_SAMPLE_BYTES",
-    "pose_of",
 ]
 
 SCHEMA = "acousim.recordings"
@@ -703,7 +702,7 @@ def _metadata(path: Path, g: h5py.Group) -> dict:
         meta = json.loads(raw.decode() if isinstance(raw, bytes) else raw)
     except (ValueError, TypeError, AttributeError) as exc:
         raise RecordingFileError(f"not JSON ({exc})", file=path, key=key) from None
-    _check_metadata(path, key, meta)  # the keys the programs read, each checked
+    _check_metadata(path, key, meta)
     try:
         Provenance.from_metadata(meta, file=path, key=key)
     except InputError as exc:

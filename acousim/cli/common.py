@@ -207,11 +207,10 @@ def progress(desc: str):
 
 
 def preload_simulation() -> None:
-    """Import what a simulation needs before its work starts (Ctrl-C meanwhile is only
-    recorded, see processing.interrupt: an import that catches BaseException, as
-    trimesh's optional ones do, cannot swallow it), set the process's policy
-    (:func:`acousim.process.configure`: BLAS threads, the allocator), then honour a
-    Ctrl-C."""
+    """Import what a simulation needs before its work starts and set the process's
+    policy (:func:`acousim.process.configure`); Ctrl-C meanwhile is only recorded (see
+    processing.interrupt: an import that catches BaseException, as trimesh's optional
+    ones do, cannot swallow it), then honoured."""
     import trimesh  # noqa: F401
 
     import acousim.simulator  # noqa: F401

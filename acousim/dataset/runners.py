@@ -28,7 +28,7 @@ POLL_S = 0.1
 
 def _worker_init(parent_pid: int) -> None:
     """Pool worker initializer: Ctrl-C is the main process's, exit when the main
-    process is gone, and the process's policy (:func:`acousim.process.configure`)."""
+    process is gone, the process's policy (:func:`acousim.process.configure`)."""
     from acousim.process import configure
 
     interrupt.ignore_in_worker()
