@@ -162,25 +162,26 @@ def _count_below(e_end, step, refine):  # pragma: no cover - compiled
 def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - compiled
     """Every pair's elements summed into its bins (see the module docstring).
 
-    src, rcv (3,); geo (N, 24): per pair start1 (0-2), axis1 (3-5), length1 (6),
+    src, rcv (3,); geo (N, 25): per pair start1 (0-2), axis1 (3-5), length1 (6),
     start2 (7-9), axis2 (10-12), length2 (13), nu1, nu2 (14, 15), r and z of the
     source about edge 1 (16, 17), of the receiver about edge 2 (18, 19), sides (20),
-    taper (21: 1 if the edges reach beyond the excess kept), the shortest path (22)
-    and its z1 (23); consts (N, 6, 4): sin and cos of nu1 phi_i of beta_1, its
-    weights, the halved sines and cosines of nu2 phi_i of beta_2 (sine >= 0) and its
-    weights; cfg (8,): outer step, inner step, outer and inner refinements, excess
-    kept, longest path, bin width (m), bins per pair.  Adds into acc (N, B, 9): per
-    bin the sum of amplitudes, of |amplitude|, and of |amplitude| times the path,
-    the point on edge 1 (3) and on edge 2 (3); count (N, B): elements per bin.
+    taper (21: 1 if the edges reach beyond the excess kept), the shortest path (22),
+    its z1 (23) and the longest path kept (24); consts (N, 6, 4): sin and cos of nu1
+    phi_i of beta_1, its weights, the halved sines and cosines of nu2 phi_i of
+    beta_2 (sine >= 0) and its weights; cfg (8,): outer step, inner step, outer and
+    inner refinements, excess kept, longest path (not used: geo 24), bin width (m),
+    bins per pair.  Adds into acc (N, B, 9): per bin the sum of amplitudes, of
+    |amplitude|, and of |amplitude| times the path, the point on edge 1 (3) and on
+    edge 2 (3); count (N, B): elements per bin.
     """
     step_o, ref_o = cfg[0], int(cfg[2])
-    excess, max_path = cfg[4], cfg[5]
+    excess = cfg[4]
     for k in range(geo.shape[0]):
         g = geo[k]
         len1 = g[6]
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
         p_min, z_apex = g[22], g[23]
-        limit = min(p_min + excess, max_path)
+        limit = min(p_min + excess, g[24])
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min

@@ -56,7 +56,6 @@ BIN = 0.25
 #: the first step next to each apex (edge 1's, and edge 2's for each element of
 #: edge 1) is subdivided by halving this many times, as first order
 OUTER_REFINE = 8
-INNER_REFINE = 8
 __all__ = ["EdgePairElements", "PairGeometry", "Wedge", "edge_pair_elements", "pair_elements"]
 
 
@@ -342,32 +341,41 @@ def pair_elements(
     receiver: np.ndarray,
     *,
     step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
+    max_path_m: float | np.ndarray = np.inf,
     max_excess_m: float = DEFAULT_MAX_EXCESS_M,
     bin_m: float | None = None,
     use_kernel: bool = True,
 ) -> EdgePairElements:
     """Edge-to-edge elements of every pair at once (steps 1-4 of the module
     docstring).  source, receiver (3,); step_m: excess path per element and four
-    bins per step (m); paths longer than max_path_m are left out; the response is
-    kept to max_excess_m beyond each pair's shortest path (second half tapered);
+    bins per step (m); paths longer than max_path_m (m; one, or (N,) one per pair)
+    are left out (the bins of paths shorter by two steps are as without it); the
+    response is kept to max_excess_m beyond each pair's shortest path (second half
+    tapered);
     bin_m: the bins' width (m; None: step_m / 4);
     use_kernel: the compiled kernel (:mod:`._pair_kernel`) if numba is installed,
     else (or False) whole arrays in numpy (they agree within rounding)."""
+    limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN, OUTER_REFINE)
+    return _elements(pairs, source, receiver, limits, use_kernel)
+
+
+def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel) -> EdgePairElements:
+    """:func:`pair_elements`; limits: (step, longest path, excess kept, bin width) in
+    metres and the halvings of the first step next to each apex (in both edges)."""
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
+    step_m, max_path_m, max_excess_m, bin_m, refine = limits
     if len(pairs) == 0 or step_m <= 0:
         return EdgePairElements.empty()
     kernel = optional_kernel("acousim.trace._pair_kernel") if use_kernel else None
     if kernel is not None and np.isfinite(max_excess_m):
-        limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN)
         return _compiled_elements(kernel, pairs, source, receiver, limits)
     z_apex, p_min = shortest_paths(pairs, source, receiver)
     limit = np.minimum(p_min + max_excess_m, max_path_m)
-    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, step_m)
+    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, (step_m, refine))
     if outer is None:
         return EdgePairElements.empty()
     k, z1, dz1 = outer
-    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, step_m)
+    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, (step_m, refine))
     if g.size == 0:
         return EdgePairElements.empty()
     kg = k[g]
@@ -382,12 +390,14 @@ def pair_elements(
         path[good] - p_min[kg[good]],
         (amp[good], path[good], el["x1"][good], el["x2"][good]),
         receiver,
-        bin_m or step_m * BIN,
+        bin_m,
     )
 
 
-def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
-    """Step 2: the elements of edge 1: (pair (K,), centre z1 (K,), length (K,))."""
+def _outer(prof: _Profile, z_apex, p_min, limit, steps):
+    """Step 2: the elements of edge 1: (pair (K,), centre z1 (K,), length (K,));
+    steps: (element step (m), halvings of the first one)."""
+    step_m, refine = steps
     p = prof.pairs
     n = len(p)
     _, length = p.edge1()
@@ -402,7 +412,7 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     template = np.concatenate(
         [
             [0.0],
-            step_m * 0.5 ** np.arange(OUTER_REFINE, 0, -1),
+            step_m * 0.5 ** np.arange(refine, 0, -1),
             step_m * np.arange(1, int(np.ceil(e_cap / step_m)) + 1),
         ]
     )
@@ -426,10 +436,12 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     return kk[keep], (0.5 * (a + b))[keep], dz[keep]
 
 
-def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
+def _inner(pairs: PairGeometry, source, receiver, outer, limit, steps):
     """Step 3: for each element of edge 1, the first-order elements of edge 2 with
-    the source there, times beta_1 and the outer weight.  Returns (a dict of per
-    element arrays: m, n, l, amp, x1, x2; the outer element of each)."""
+    the source there, times beta_1 and the outer weight (steps: element step (m),
+    halvings of the first one).  Returns (a dict of per element arrays: m, n, l,
+    amp, x1, x2; the outer element of each)."""
+    step_m, refine = steps
     p = pairs
     k, z1, dz1 = outer
     ax1, _ = p.edge1()
@@ -443,7 +455,7 @@ def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
         x1, receiver, p.terms2[k],
     )  # fmt: skip
     el, g = integrate_rows(
-        rows, step_m=step_m, max_path_m=limit[k] - m, max_excess_m=np.inf, refine=INNER_REFINE
+        rows, step_m=step_m, max_path_m=limit[k] - m, max_excess_m=np.inf, refine=refine
     )
     if g.size == 0:
         return {}, g
@@ -524,8 +536,8 @@ def _bins(k, excess, values, receiver, width) -> EdgePairElements:
 
 def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> EdgePairElements:
     """:func:`pair_elements` by the compiled kernel; limits: (step, longest path,
-    excess kept, bin width) in metres."""
-    step_m, max_path_m, max_excess_m, width = limits
+    excess kept, bin width) in metres and the halvings of the first step."""
+    step_m, max_path_m, max_excess_m, width, refine = limits
     p = pairs
     n = len(p)
     ax1, len1 = p.edge1()
@@ -537,7 +549,8 @@ def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) ->
     far = _farthest(p, source, receiver)
     geo = np.column_stack(
         [p.start1, ax1, len1, p.start2, ax2, len2, nu1, nu2, rs, zs, rr, zr, p.sides,
-         (far - p_min > max_excess_m).astype(float), p_min, z_apex]
+         (far - p_min > max_excess_m).astype(float), p_min, z_apex,
+         np.broadcast_to(max_path_m, (n,))]
     )  # fmt: skip
     consts = np.empty((n, 6, 4))
     phi1 = np.pi + np.stack([ts + p.theta12, ts - p.theta12, -ts + p.theta12, -ts - p.theta12], 1)
@@ -557,9 +570,8 @@ def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) ->
     )
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
     nb = int(np.ceil(max_excess_m / width)) + 2
-    cfg = np.array(
-        [step_m, step_m, OUTER_REFINE, INNER_REFINE, max_excess_m, max_path_m, width, nb], float
-    )
+    longest = float(np.max(max_path_m))
+    cfg = np.array([step_m, step_m, refine, refine, max_excess_m, longest, width, nb], float)
     idx = np.flatnonzero(live)
     acc = np.zeros((idx.size, nb, 9))
     count = np.zeros((idx.size, nb), np.int64)

@@ -43,11 +43,14 @@ The bound, for every pair (all factors are upper bounds):
    the meeting point (:func:`_near_meeting_point`).
 
 The bound is rigorous but loose (10 to 10^4 times the largest bin in the corridor);
-:func:`pair_estimate` estimates the largest bin at the pair's shortest path, and the
-stage integrates a pair if the bound and the estimate times :data:`ESTIMATE_MARGIN`
-both reach the floor.  Tested in ``tests/test_edge_pair_selection.py`` (every pair
-of a scene integrated in full: the bound above each pair's largest bin; the stage's
-paths above the floor those of the full computation).
+:func:`pair_estimate` estimates the largest bin at the pair's shortest path, and
+:func:`coarse_estimate` integrates the pair at a coarse step (:data:`COARSE_STEPS`
+times the element step, a tenth of the cost); the stage integrates a pair at the
+fine step if the bound, the estimate times :data:`ESTIMATE_MARGIN` and the coarse
+estimate times :data:`COARSE_MARGIN` all reach the floor.  Tested in
+``tests/test_edge_pair_selection.py`` (every pair of a scene integrated in full:
+the bound above each pair's largest bin; the stage's paths above the floor those
+of the full computation).
 """
 
 from __future__ import annotations
@@ -55,10 +58,17 @@ from __future__ import annotations
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import PairGeometry, cylindrical, shortest_paths
+from .btm_pairs import BIN, PairGeometry, _elements, cylindrical, shortest_paths
 from .btm_pairs import _apex as _edge_apex
 
-__all__ = ["ESTIMATE_MARGIN", "beta_bound", "pair_bound", "pair_estimate"]
+__all__ = [
+    "COARSE_MARGIN",
+    "ESTIMATE_MARGIN",
+    "beta_bound",
+    "coarse_estimate",
+    "pair_bound",
+    "pair_estimate",
+]
 
 
 def _dot(a, b):
@@ -380,3 +390,42 @@ CORNER_MARGIN = 3.0
 
 #: the stage integrates a pair whose estimate times this reaches the floor
 ESTIMATE_MARGIN = 5.0
+
+
+#: the coarse pass's element step and bins, in element steps and bins of the fine one
+COARSE_STEPS = 4
+#: halvings of the coarse pass's first step next to each apex
+COARSE_REFINE = 4
+#: the stage integrates a pair whose coarse estimate times this reaches the floor
+#: (the largest fine bin measured at up to 2.8 times the coarse estimate in the
+#: corridor, BENCHMARKS.md: at 1/sqrt(excess) onsets, at an edge's end, the fine
+#: bins resolve a peak the coarse ones average over, sqrt(COARSE_STEPS))
+COARSE_MARGIN = 5.0
+
+
+def coarse_estimate(
+    pairs: PairGeometry,
+    source: np.ndarray,
+    receiver: np.ndarray,
+    *,
+    step_m: float,
+    bin_m: float,
+    floor: float,
+    max_path_m: float = np.inf,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
+    step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
+    scaled to bin_m's width (m): (the largest bin (N,); the longest path (N,, m) of
+    a bin whose estimate times :data:`COARSE_MARGIN` reaches `floor`, plus two
+    coarse steps and a coarse bin: the fine integral stops there).  Not bounds: what
+    they miss is measured, as for :func:`pair_estimate`."""
+    coarse = COARSE_STEPS * step_m
+    limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, coarse * BIN, COARSE_REFINE)
+    el = _elements(pairs, source, receiver, limits, True)
+    amp = np.abs(el.amplitude) * bin_m / (coarse * BIN)
+    largest, longest = np.zeros(len(pairs)), np.zeros(len(pairs))
+    np.maximum.at(largest, el.pair, amp)
+    reach = COARSE_MARGIN * amp >= floor
+    path = el.first_leg_m + el.second_leg_m
+    np.maximum.at(longest, el.pair[reach], path[reach] + coarse * (2 + BIN))
+    return largest, np.minimum(longest, max_path_m)
