@@ -34,7 +34,7 @@ from dataclasses import fields
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import BIN, PairGeometry, pair_elements
+from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
 from .first_order import probe_points, segment_distance, visible
@@ -56,20 +56,15 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
     if len(rows) == 0:
         return empty_paths()
     opt = ctx.options
-    longest = opt.max_path_m
+    step = dict(step_m=_pair_step(opt), bin_m=opt.step_m * BIN, max_path_m=opt.max_path_m)
     if opt.select_pairs and floor > 0:
-        keep, longest = _selected(ctx, rows, floor)
+        keep, live = _selected(ctx, rows, floor)
         rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
-    el = pair_elements(
-        rows,
-        ctx.emitter,
-        ctx.receiver,
-        step_m=_pair_step(opt),
-        bin_m=opt.step_m * BIN,
-        max_path_m=longest,
-    )
+        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, **step)
+    else:
+        el = pair_elements(rows, ctx.emitter, ctx.receiver, **step)
     if len(el) == 0:
         return empty_paths()
     dep = el.first_point_m - ctx.emitter
@@ -96,7 +91,8 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
 
 def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
     """(indices (K,) of the pairs whose contribution can reach `floor` (a gain at the
-    receiver), the longest path (K,, m) to integrate each to): the closed-form bound
+    receiver), the bins of path to integrate each in (:func:`pair_elements_in`)):
+    the closed-form bound
     of their largest path first (rigorous), then the estimate of it
     (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`, then the coarse
     integral's estimates (:func:`coarse_estimate`) times :data:`COARSE_MARGIN`."""
@@ -114,8 +110,8 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         est = pair_estimate(_take(rows, keep), ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
         keep = keep[ESTIMATE_MARGIN * est >= floor]
     if keep.size == 0:
-        return keep, np.zeros(0)
-    est, longest = coarse_estimate(
+        return keep, (np.zeros((0, 1), bool), 1.0)
+    est, (live, width) = coarse_estimate(
         _take(rows, keep),
         ctx.emitter,
         ctx.receiver,
@@ -125,7 +121,7 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         max_path_m=opt.max_path_m,
     )
     ok = COARSE_MARGIN * est >= floor
-    return keep[ok], longest[ok]
+    return keep[ok], (live[ok], width)
 
 
 def _pair_step(opt) -> float:

@@ -412,20 +412,34 @@ def coarse_estimate(
     bin_m: float,
     floor: float,
     max_path_m: float = np.inf,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, tuple[np.ndarray, float]]:
     """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
     step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
-    scaled to bin_m's width (m): (the largest bin (N,); the longest path (N,, m) of
-    a bin whose estimate times :data:`COARSE_MARGIN` reaches `floor`, plus two
-    coarse steps and a coarse bin: the fine integral stops there).  Not bounds: what
-    they miss is measured, as for :func:`pair_estimate`."""
+    (of width w) scaled to bin_m's width (m): (the largest bin (N,); (the coarse
+    bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and their
+    neighbours (N, B), w): the live bins of
+    :func:`acousim.trace.btm_pairs.pair_elements_in`).  Not bounds: what they miss
+    is measured, as for :func:`pair_estimate`."""
     coarse = COARSE_STEPS * step_m
-    limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, coarse * BIN, COARSE_REFINE)
+    width = coarse * BIN
+    limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, width, COARSE_REFINE)
     el = _elements(pairs, source, receiver, limits, True)
-    amp = np.abs(el.amplitude) * bin_m / (coarse * BIN)
-    largest, longest = np.zeros(len(pairs)), np.zeros(len(pairs))
+    amp = np.abs(el.amplitude) * bin_m / width
+    largest = np.zeros(len(pairs))
     np.maximum.at(largest, el.pair, amp)
-    reach = COARSE_MARGIN * amp >= floor
-    path = el.first_leg_m + el.second_leg_m
-    np.maximum.at(longest, el.pair[reach], path[reach] + coarse * (2 + BIN))
-    return largest, np.minimum(longest, max_path_m)
+    _, p_min = shortest_paths(pairs, source, receiver)
+    excess = el.first_leg_m + el.second_leg_m - p_min[el.pair]
+    b = np.maximum(np.floor(excess / width), 0).astype(np.int64)
+    n_b = int(np.ceil(DEFAULT_MAX_EXCESS_M / width)) + 4
+    dense = np.zeros((len(pairs), n_b))
+    np.add.at(dense, (el.pair, np.minimum(b, n_b - 1)), amp)
+    # a coarse element's bin holds what the fine bins of one coarse step share:
+    # the level of a bin is its own or the mean over a step either side
+    spread = 1 + 2 * COARSE_STEPS
+    pad = np.pad(dense, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))
+    mean = sum(pad[:, i : i + n_b] for i in range(spread)) / spread
+    reach = COARSE_MARGIN * np.maximum(dense, mean) >= floor
+    live = np.zeros_like(reach)
+    for i in range(spread):
+        live |= np.pad(reach, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))[:, i : i + n_b]
+    return largest, (live, width)
