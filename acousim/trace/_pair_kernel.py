@@ -123,7 +123,7 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True)
 def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     a, b = z - zs, z - zr
-    ml = math.hypot(rs, a) * math.hypot(rr, b)
+    ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
     arg = ((rs + rr) * (z - z_mid)) ** 2 / ((ml - a * b + rs * rr) * rs * rr)
     arg = max(arg, 0.0)
     return math.log1p(arg + math.sqrt(arg * (arg + 2)))
@@ -245,8 +245,8 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
             e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
             zb = min(max(_on_spheroid(form, l_apex + e_b, side == 1), lo), hi)
             zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), side == 1), lo), hi)
-            n_c = math.hypot(rs, zc - zs)
-            l_c = math.hypot(rr, zc - zr)
+            n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
+            l_c = math.sqrt(rr * rr + (zc - zr) ** 2)
             if not out[2][_bin(m + n_c + l_c - g[22], cfg)]:
                 e_a, za, stale = e_b, zb, True
                 continue
