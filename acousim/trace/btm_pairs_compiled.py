@@ -59,22 +59,15 @@ def compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> 
     )
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
     nb = int(np.ceil(max_excess_m / width)) + 2
-    longest = float(np.max(max_path_m))
+    longest = float(np.max(max_path_m))  # the kernel reads geo's column 24
     cfg = np.array([step_m, step_m, refine, refine, max_excess_m, longest, width, nb], float)
     idx = np.flatnonzero(live)
     acc = np.zeros((idx.size, nb, 9))
     count = np.zeros((idx.size, nb), np.int64)
     mask = np.ones((n, nb), np.uint8) if wanted is None else fine_live(wanted, nb, width)
-    kernel.pair_bins(
-        source,
-        receiver,
-        np.ascontiguousarray(geo[idx]),
-        np.ascontiguousarray(consts[idx]),
-        cfg,
-        acc,
-        count,
-        np.ascontiguousarray(mask[idx]),
-    )
+    tables = (np.ascontiguousarray(x[idx]) for x in (geo, consts, mask))
+    g, c, m = tables
+    kernel.pair_bins(source, receiver, g, c, cfg, acc, count, m)
     k, b = np.nonzero(count)
     if k.size == 0:
         return EdgePairElements.empty()
