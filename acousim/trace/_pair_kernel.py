@@ -123,7 +123,7 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True)
 def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     a, b = z - zs, z - zr
-    ml = math.hypot(rs, a) * math.hypot(rr, b)
+    ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
     arg = ((rs + rr) * (z - z_mid)) ** 2 / ((ml - a * b + rs * rr) * rs * rr)
     arg = max(arg, 0.0)
     return math.log1p(arg + math.sqrt(arg * (arg + 2)))
@@ -159,28 +159,31 @@ def _count_below(e_end, step, refine):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - compiled
+def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover - compiled
     """Every pair's elements summed into its bins (see the module docstring).
 
-    src, rcv (3,); geo (N, 24): per pair start1 (0-2), axis1 (3-5), length1 (6),
+    src, rcv (3,); geo (N, 25): per pair start1 (0-2), axis1 (3-5), length1 (6),
     start2 (7-9), axis2 (10-12), length2 (13), nu1, nu2 (14, 15), r and z of the
     source about edge 1 (16, 17), of the receiver about edge 2 (18, 19), sides (20),
-    taper (21: 1 if the edges reach beyond the excess kept), the shortest path (22)
-    and its z1 (23); consts (N, 6, 4): sin and cos of nu1 phi_i of beta_1, its
-    weights, the halved sines and cosines of nu2 phi_i of beta_2 (sine >= 0) and its
-    weights; cfg (8,): outer step, inner step, outer and inner refinements, excess
-    kept, longest path, bin width (m), bins per pair.  Adds into acc (N, B, 9): per
-    bin the sum of amplitudes, of |amplitude|, and of |amplitude| times the path,
-    the point on edge 1 (3) and on edge 2 (3); count (N, B): elements per bin.
+    taper (21: 1 if the edges reach beyond the excess kept), the shortest path (22),
+    its z1 (23) and the longest path kept (24); consts (N, 6, 4): sin and cos of nu1
+    phi_i of beta_1, its weights, the halved sines and cosines of nu2 phi_i of
+    beta_2 (sine >= 0) and its weights; cfg (8,): outer step, inner step, outer and
+    inner refinements, excess kept, longest path (not used: geo 24), bin width (m),
+    bins per pair.  Adds into acc (N, B, 9): per bin the sum of amplitudes, of
+    |amplitude|, and of |amplitude| times the path, the point on edge 1 (3) and on
+    edge 2 (3); count (N, B): elements per bin.  live (N, B): the bins to fill (an
+    element of another bin is skipped before its beta terms are evaluated; the bins
+    filled are those of the whole integral).
     """
     step_o, ref_o = cfg[0], int(cfg[2])
-    excess, max_path = cfg[4], cfg[5]
+    excess = cfg[4]
     for k in range(geo.shape[0]):
         g = geo[k]
         len1 = g[6]
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
         p_min, z_apex = g[22], g[23]
-        limit = min(p_min + excess, max_path)
+        limit = min(p_min + excess, g[24])
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -195,7 +198,8 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - com
                 dz = abs(zb - za)
                 if dz > 0:
                     z1 = 0.5 * (za + zb)
-                    _edge2((z1, dz), (src, rcv), g, consts[k], limit, cfg, (acc[k], count[k]))
+                    out = (acc[k], count[k], live[k])
+                    _edge2((z1, dz), (src, rcv), g, consts[k], limit, cfg, out)
                 za = zb
 
 
@@ -203,7 +207,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count):  # pragma: no cover - com
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
-    (acc (B, 9), count (B,)); ends: (source, receiver)."""
+    (acc (B, 9), count (B,), live (B,): the bins to fill); ends: (source, receiver)."""
     z1, dz1 = element
     src, rcv = ends
     step, refine = cfg[1], int(cfg[3])
@@ -236,16 +240,24 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
         za = z_apex
         ea = 0.0 if z_apex == z_mid else _eta(za, rs, zs, rr, zr, z_mid)
         pa = _prim(ea, nu2, c[3], c[4], c[5])
+        stale = False
         for j in range(n_in):
             e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
             zb = min(max(_on_spheroid(form, l_apex + e_b, side == 1), lo), hi)
             zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), side == 1), lo), hi)
+            n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
+            l_c = math.sqrt(rr * rr + (zc - zr) ** 2)
+            if not out[2][_bin(m + n_c + l_c - g[22], cfg)]:
+                e_a, za, stale = e_b, zb, True
+                continue
+            if stale:  # the prim at za, as the skipped element would have left it
+                ea = _eta(za, rs, zs, rr, zr, z_mid)
+                pa = _prim(ea, nu2, c[3], c[4], c[5])
+                stale = False
             eb = _eta(zb, rs, zs, rr, zr, z_mid)
             pb = _prim(eb, nu2, c[3], c[4], c[5])
             deta = abs(eb - ea)
             if deta > 0:
-                n_c = math.hypot(rs, zc - zs)
-                l_c = math.hypot(rr, zc - zr)
                 amp_in = -(nu2 / (4 * math.pi)) * (abs(zb - za) / deta / (n_c * l_c))
                 amp_in *= (2 / nu2) * (pb - pa)
                 if amp_in != 0:
@@ -258,10 +270,10 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
     x: the point z1), the taper, into its bin of out (acc, count)."""
     m, z1, zc, n_c, l_c, amp = el
-    acc, count = out
+    acc, count, _ = out
     s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
-    excess, width, nb = cfg[4], cfg[6], int(cfg[7])
+    excess = cfg[4]
     y = (s2[0] + zc * a2[0], s2[1] + zc * a2[1], s2[2] + zc * a2[2])
     e0, e1, e2 = y[0] - s1[0], y[1] - s1[1], y[2] - s1[2]
     z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
@@ -280,7 +292,7 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
         amp *= 0.5 * (1 + math.cos(math.pi * t))
     if not (math.isfinite(amp) and amp != 0):
         return
-    b = min(max(int(math.floor(ex / width)), 0), nb - 1)
+    b = _bin(ex, cfg)
     w = abs(amp)
     acc[b, 0] += amp
     acc[b, 1] += w
@@ -292,3 +304,9 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     acc[b, 7] += w * y[1]
     acc[b, 8] += w * y[2]
     count[b] += 1
+
+
+@njit(cache=True, nogil=True)
+def _bin(ex, cfg):  # pragma: no cover - compiled
+    """The bin of excess path ex (m): cfg[6] wide, cfg[7] of them, the last open."""
+    return min(max(int(math.floor(ex / cfg[6])), 0), int(cfg[7]) - 1)

@@ -56,8 +56,14 @@ BIN = 0.25
 #: the first step next to each apex (edge 1's, and edge 2's for each element of
 #: edge 1) is subdivided by halving this many times, as first order
 OUTER_REFINE = 8
-INNER_REFINE = 8
-__all__ = ["EdgePairElements", "PairGeometry", "Wedge", "edge_pair_elements", "pair_elements"]
+__all__ = [
+    "EdgePairElements",
+    "PairGeometry",
+    "Wedge",
+    "edge_pair_elements",
+    "pair_elements",
+    "pair_elements_in",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -342,32 +348,63 @@ def pair_elements(
     receiver: np.ndarray,
     *,
     step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
+    max_path_m: float | np.ndarray = np.inf,
     max_excess_m: float = DEFAULT_MAX_EXCESS_M,
     bin_m: float | None = None,
     use_kernel: bool = True,
 ) -> EdgePairElements:
     """Edge-to-edge elements of every pair at once (steps 1-4 of the module
     docstring).  source, receiver (3,); step_m: excess path per element and four
-    bins per step (m); paths longer than max_path_m are left out; the response is
-    kept to max_excess_m beyond each pair's shortest path (second half tapered);
+    bins per step (m); paths longer than max_path_m (m; one, or (N,) one per pair)
+    are left out (the bins of paths shorter by two steps are as without it); the
+    response is kept to max_excess_m beyond each pair's shortest path (second half
+    tapered);
     bin_m: the bins' width (m; None: step_m / 4);
     use_kernel: the compiled kernel (:mod:`._pair_kernel`) if numba is installed,
     else (or False) whole arrays in numpy (they agree within rounding)."""
+    limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN, OUTER_REFINE)
+    return _elements(pairs, source, receiver, limits, use_kernel)
+
+
+def pair_elements_in(
+    pairs: PairGeometry,
+    source: np.ndarray,
+    receiver: np.ndarray,
+    live: tuple[np.ndarray, float],
+    *,
+    step_m: float = DEFAULT_STEP_M,
+    bin_m: float | None = None,
+    max_path_m: float = np.inf,
+) -> EdgePairElements:
+    """:func:`pair_elements` (excess kept :data:`DEFAULT_MAX_EXCESS_M`), only the
+    bins of excess path within `live`: (mask (N, B), width w (m)), bin b of pair k
+    the excess [b w, (b + 1) w) beyond the pair's shortest path.  The bins given are
+    those of the whole integral (the compiled kernel skips an element of another
+    bin before evaluating its beta terms)."""
+    limits = (step_m, max_path_m, DEFAULT_MAX_EXCESS_M, bin_m or step_m * BIN, OUTER_REFINE)
+    return _elements(pairs, source, receiver, limits, True, live)
+
+
+def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=None):
+    """:func:`pair_elements` (:class:`EdgePairElements`); limits: (step, longest path,
+    excess kept, bin width) in metres and the halvings of the first step next to
+    each apex (in both edges); live: as :func:`pair_elements_in` (None: all)."""
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
+    step_m, max_path_m, max_excess_m, bin_m, refine = limits
     if len(pairs) == 0 or step_m <= 0:
         return EdgePairElements.empty()
     kernel = optional_kernel("acousim.trace._pair_kernel") if use_kernel else None
     if kernel is not None and np.isfinite(max_excess_m):
-        limits = (step_m, max_path_m, max_excess_m, bin_m or step_m * BIN)
-        return _compiled_elements(kernel, pairs, source, receiver, limits)
+        from .btm_pairs_compiled import compiled_elements  # it imports this module
+
+        return compiled_elements(kernel, pairs, source, receiver, (limits, live))
     z_apex, p_min = shortest_paths(pairs, source, receiver)
     limit = np.minimum(p_min + max_excess_m, max_path_m)
-    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, step_m)
+    outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, (step_m, refine))
     if outer is None:
         return EdgePairElements.empty()
     k, z1, dz1 = outer
-    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, step_m)
+    el, g = _inner(pairs, source, receiver, (k, z1, dz1), limit, (step_m, refine))
     if g.size == 0:
         return EdgePairElements.empty()
     kg = k[g]
@@ -377,17 +414,25 @@ def pair_elements(
     cut = (far - p_min > max_excess_m)[kg]
     amp = el["amp"] * np.where(cut, 0.5 * (1 + np.cos(np.pi * x)), 1.0)
     good = np.isfinite(amp) & (amp != 0)
+    if live is not None:
+        b = np.floor((path - p_min[kg]) / bin_m).astype(np.int64)
+        from .btm_pairs_compiled import fine_live
+
+        mask = fine_live(live, int(b.max(initial=0)) + 1, bin_m)
+        good &= mask[kg, np.maximum(b, 0)] > 0
     return _bins(
         kg[good],
         path[good] - p_min[kg[good]],
         (amp[good], path[good], el["x1"][good], el["x2"][good]),
         receiver,
-        bin_m or step_m * BIN,
+        bin_m,
     )
 
 
-def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
-    """Step 2: the elements of edge 1: (pair (K,), centre z1 (K,), length (K,))."""
+def _outer(prof: _Profile, z_apex, p_min, limit, steps):
+    """Step 2: the elements of edge 1: (pair (K,), centre z1 (K,), length (K,));
+    steps: (element step (m), halvings of the first one)."""
+    step_m, refine = steps
     p = prof.pairs
     n = len(p)
     _, length = p.edge1()
@@ -402,7 +447,7 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     template = np.concatenate(
         [
             [0.0],
-            step_m * 0.5 ** np.arange(OUTER_REFINE, 0, -1),
+            step_m * 0.5 ** np.arange(refine, 0, -1),
             step_m * np.arange(1, int(np.ceil(e_cap / step_m)) + 1),
         ]
     )
@@ -426,10 +471,12 @@ def _outer(prof: _Profile, z_apex, p_min, limit, step_m):
     return kk[keep], (0.5 * (a + b))[keep], dz[keep]
 
 
-def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
+def _inner(pairs: PairGeometry, source, receiver, outer, limit, steps):
     """Step 3: for each element of edge 1, the first-order elements of edge 2 with
-    the source there, times beta_1 and the outer weight.  Returns (a dict of per
-    element arrays: m, n, l, amp, x1, x2; the outer element of each)."""
+    the source there, times beta_1 and the outer weight (steps: element step (m),
+    halvings of the first one).  Returns (a dict of per element arrays: m, n, l,
+    amp, x1, x2; the outer element of each)."""
+    step_m, refine = steps
     p = pairs
     k, z1, dz1 = outer
     ax1, _ = p.edge1()
@@ -443,7 +490,7 @@ def _inner(pairs: PairGeometry, source, receiver, outer, limit, step_m):
         x1, receiver, p.terms2[k],
     )  # fmt: skip
     el, g = integrate_rows(
-        rows, step_m=step_m, max_path_m=limit[k] - m, max_excess_m=np.inf, refine=INNER_REFINE
+        rows, step_m=step_m, max_path_m=limit[k] - m, max_excess_m=np.inf, refine=refine
     )
     if g.size == 0:
         return {}, g
@@ -520,64 +567,3 @@ def _bins(k, excess, values, receiver, width) -> EdgePairElements:
     second = np.linalg.norm(q2 - receiver, axis=1)
     pair = used // (int(b.max()) + 1)
     return EdgePairElements(q1, q2, length - second, second, total, pair)
-
-
-def _compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> EdgePairElements:
-    """:func:`pair_elements` by the compiled kernel; limits: (step, longest path,
-    excess kept, bin width) in metres."""
-    step_m, max_path_m, max_excess_m, width = limits
-    p = pairs
-    n = len(p)
-    ax1, len1 = p.edge1()
-    ax2, len2 = p.edge2()
-    z_apex, p_min = shortest_paths(p, source, receiver)
-    rs, ts, zs = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
-    rr, tr, zr = cylindrical(receiver, p.start2, ax2, p.face_dir2, p.normal2)
-    nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
-    far = _farthest(p, source, receiver)
-    geo = np.column_stack(
-        [p.start1, ax1, len1, p.start2, ax2, len2, nu1, nu2, rs, zs, rr, zr, p.sides,
-         (far - p_min > max_excess_m).astype(float), p_min, z_apex]
-    )  # fmt: skip
-    consts = np.empty((n, 6, 4))
-    phi1 = np.pi + np.stack([ts + p.theta12, ts - p.theta12, -ts + p.theta12, -ts - p.theta12], 1)
-    consts[:, 0], consts[:, 1], consts[:, 2] = (
-        np.sin(nu1[:, None] * phi1),
-        np.cos(nu1[:, None] * phi1),
-        p.terms1,
-    )
-    phi2 = np.pi + np.stack([p.theta21 + tr, p.theta21 - tr, -p.theta21 + tr, -p.theta21 - tr], 1)
-    half = nu2[:, None] * phi2 / 2
-    sh, ch = np.sin(half), np.cos(half)
-    flip = sh < 0
-    consts[:, 3], consts[:, 4], consts[:, 5] = (
-        np.where(flip, -sh, sh),
-        np.where(flip, -ch, ch),
-        p.terms2,
-    )
-    live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
-    nb = int(np.ceil(max_excess_m / width)) + 2
-    cfg = np.array(
-        [step_m, step_m, OUTER_REFINE, INNER_REFINE, max_excess_m, max_path_m, width, nb], float
-    )
-    idx = np.flatnonzero(live)
-    acc = np.zeros((idx.size, nb, 9))
-    count = np.zeros((idx.size, nb), np.int64)
-    kernel.pair_bins(
-        source,
-        receiver,
-        np.ascontiguousarray(geo[idx]),
-        np.ascontiguousarray(consts[idx]),
-        cfg,
-        acc,
-        count,
-    )
-    k, b = np.nonzero(count)
-    if k.size == 0:
-        return EdgePairElements.empty()
-    a = acc[k, b]
-    wsum = np.where(a[:, 1] > 0, a[:, 1], 1.0)
-    length = a[:, 2] / wsum
-    q1, q2 = a[:, 3:6] / wsum[:, None], a[:, 6:9] / wsum[:, None]
-    second = np.linalg.norm(q2 - receiver, axis=1)
-    return EdgePairElements(q1, q2, length - second, second, a[:, 0], idx[k])

@@ -13,8 +13,10 @@ sides (``sides = 2``).  Visibility is checked per edge, not per element.
 
 Order per pair: each candidate's largest path (one bin) is bounded in closed form
 (:func:`acousim.trace.pair_bound.pair_bound`) and estimated at the pair's shortest
-path (:func:`acousim.trace.pair_bound.pair_estimate`, with a margin); only the
-pairs whose bound and estimate reach the stage's floor are integrated, the others
+path (:func:`acousim.trace.pair_bound.pair_estimate`, with a margin) and by the
+pair's integral at a coarse step (:func:`acousim.trace.pair_bound.coarse_estimate`,
+with a margin); only the pairs whose bound and estimates reach the stage's floor
+are integrated at the fine step, the others
 keep first order alone (their paths would be dropped by the tracer's energy floor:
 what is skipped is measured in BENCHMARKS.md and
 ``tests/test_edge_pair_selection.py``).
@@ -32,11 +34,17 @@ from dataclasses import fields
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import BIN, PairGeometry, pair_elements
+from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
 from .first_order import probe_points, segment_distance, visible
-from .pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
+from .pair_bound import (
+    COARSE_MARGIN,
+    ESTIMATE_MARGIN,
+    coarse_estimate,
+    pair_bound,
+    pair_estimate,
+)
 
 __all__ = ["candidate_pairs", "edge_to_edge"]
 
@@ -48,19 +56,15 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
     if len(rows) == 0:
         return empty_paths()
     opt = ctx.options
+    step = dict(step_m=_pair_step(opt), bin_m=opt.step_m * BIN, max_path_m=opt.max_path_m)
     if opt.select_pairs and floor > 0:
-        keep = _selected(ctx, rows, floor)
+        keep, live = _selected(ctx, rows, floor)
         rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
-    el = pair_elements(
-        rows,
-        ctx.emitter,
-        ctx.receiver,
-        step_m=opt.step_m if opt.pair_step_m is None else opt.pair_step_m,
-        bin_m=opt.step_m * BIN,
-        max_path_m=opt.max_path_m,
-    )
+        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, **step)
+    else:
+        el = pair_elements(rows, ctx.emitter, ctx.receiver, **step)
     if len(el) == 0:
         return empty_paths()
     dep = el.first_point_m - ctx.emitter
@@ -85,10 +89,13 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
     )
 
 
-def _selected(ctx: StageContext, rows: PairGeometry, floor: float) -> np.ndarray:
-    """Indices of the pairs whose contribution can reach `floor` (a gain at the
-    receiver): the closed-form bound of their largest path first (rigorous), then
-    the estimate of it (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`."""
+def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
+    """(indices (K,) of the pairs whose contribution can reach `floor` (a gain at the
+    receiver), the bins of path to integrate each in (:func:`pair_elements_in`)):
+    the closed-form bound
+    of their largest path first (rigorous), then the estimate of it
+    (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`, then the coarse
+    integral's estimates (:func:`coarse_estimate`) times :data:`COARSE_MARGIN`."""
     opt = ctx.options
     bound = pair_bound(
         rows,
@@ -102,7 +109,23 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float) -> np.ndarray
     if keep.size:
         est = pair_estimate(_take(rows, keep), ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
         keep = keep[ESTIMATE_MARGIN * est >= floor]
-    return keep
+    if keep.size == 0:
+        return keep, (np.zeros((0, 1), bool), 1.0)
+    est, (live, width) = coarse_estimate(
+        _take(rows, keep),
+        ctx.emitter,
+        ctx.receiver,
+        step_m=_pair_step(opt),
+        bin_m=opt.step_m * BIN,
+        floor=floor,
+        max_path_m=opt.max_path_m,
+    )
+    ok = COARSE_MARGIN * est >= floor
+    return keep[ok], (live[ok], width)
+
+
+def _pair_step(opt) -> float:
+    return opt.step_m if opt.pair_step_m is None else opt.pair_step_m
 
 
 def _take(rows: PairGeometry, keep: np.ndarray) -> PairGeometry:

@@ -43,11 +43,14 @@ The bound, for every pair (all factors are upper bounds):
    the meeting point (:func:`_near_meeting_point`).
 
 The bound is rigorous but loose (10 to 10^4 times the largest bin in the corridor);
-:func:`pair_estimate` estimates the largest bin at the pair's shortest path, and the
-stage integrates a pair if the bound and the estimate times :data:`ESTIMATE_MARGIN`
-both reach the floor.  Tested in ``tests/test_edge_pair_selection.py`` (every pair
-of a scene integrated in full: the bound above each pair's largest bin; the stage's
-paths above the floor those of the full computation).
+:func:`pair_estimate` estimates the largest bin at the pair's shortest path, and
+:func:`coarse_estimate` integrates the pair at a coarse step (:data:`COARSE_STEPS`
+times the element step, a tenth of the cost); the stage integrates a pair at the
+fine step if the bound, the estimate times :data:`ESTIMATE_MARGIN` and the coarse
+estimate times :data:`COARSE_MARGIN` all reach the floor.  Tested in
+``tests/test_edge_pair_selection.py`` (every pair of a scene integrated in full:
+the bound above each pair's largest bin; the stage's paths above the floor those
+of the full computation).
 """
 
 from __future__ import annotations
@@ -55,10 +58,17 @@ from __future__ import annotations
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import PairGeometry, cylindrical, shortest_paths
+from .btm_pairs import BIN, PairGeometry, _elements, cylindrical, shortest_paths
 from .btm_pairs import _apex as _edge_apex
 
-__all__ = ["ESTIMATE_MARGIN", "beta_bound", "pair_bound", "pair_estimate"]
+__all__ = [
+    "COARSE_MARGIN",
+    "ESTIMATE_MARGIN",
+    "beta_bound",
+    "coarse_estimate",
+    "pair_bound",
+    "pair_estimate",
+]
 
 
 def _dot(a, b):
@@ -380,3 +390,56 @@ CORNER_MARGIN = 3.0
 
 #: the stage integrates a pair whose estimate times this reaches the floor
 ESTIMATE_MARGIN = 5.0
+
+
+#: the coarse pass's element step and bins, in element steps and bins of the fine one
+COARSE_STEPS = 4
+#: halvings of the coarse pass's first step next to each apex
+COARSE_REFINE = 4
+#: the stage integrates a pair whose coarse estimate times this reaches the floor
+#: (the largest fine bin measured at up to 2.8 times the coarse estimate in the
+#: corridor, BENCHMARKS.md: at 1/sqrt(excess) onsets, at an edge's end, the fine
+#: bins resolve a peak the coarse ones average over, sqrt(COARSE_STEPS))
+COARSE_MARGIN = 5.0
+
+
+def coarse_estimate(
+    pairs: PairGeometry,
+    source: np.ndarray,
+    receiver: np.ndarray,
+    *,
+    step_m: float,
+    bin_m: float,
+    floor: float,
+    max_path_m: float = np.inf,
+) -> tuple[np.ndarray, tuple[np.ndarray, float]]:
+    """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
+    step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
+    (of width w) scaled to bin_m's width (m): (the largest bin (N,); (the coarse
+    bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and their
+    neighbours (N, B), w): the live bins of
+    :func:`acousim.trace.btm_pairs.pair_elements_in`).  Not bounds: what they miss
+    is measured, as for :func:`pair_estimate`."""
+    coarse = COARSE_STEPS * step_m
+    width = coarse * BIN
+    limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, width, COARSE_REFINE)
+    el = _elements(pairs, source, receiver, limits, True)
+    amp = np.abs(el.amplitude) * bin_m / width
+    largest = np.zeros(len(pairs))
+    np.maximum.at(largest, el.pair, amp)
+    _, p_min = shortest_paths(pairs, source, receiver)
+    excess = el.first_leg_m + el.second_leg_m - p_min[el.pair]
+    b = np.maximum(np.floor(excess / width), 0).astype(np.int64)
+    n_b = int(np.ceil(DEFAULT_MAX_EXCESS_M / width)) + 4
+    dense = np.zeros((len(pairs), n_b))
+    np.add.at(dense, (el.pair, np.minimum(b, n_b - 1)), amp)
+    # a coarse element's bin holds what the fine bins of one coarse step share:
+    # the level of a bin is its own or the mean over a step either side
+    spread = 1 + 2 * COARSE_STEPS
+    pad = np.pad(dense, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))
+    mean = sum(pad[:, i : i + n_b] for i in range(spread)) / spread
+    reach = COARSE_MARGIN * np.maximum(dense, mean) >= floor
+    live = np.zeros_like(reach)
+    for i in range(spread):
+        live |= np.pad(reach, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))[:, i : i + n_b]
+    return largest, (live, width)
