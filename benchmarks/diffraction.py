@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, edge_elements
+from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, Wedge, edge_elements
 from tests.test_diffraction import physical_optics  # the tests' independent reference
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
@@ -30,14 +30,16 @@ def _screen(step: float, th_r: float) -> tuple[np.ndarray, int, float]:
     k = 2 * np.pi * FREQS / C
     t0 = time.perf_counter()
     el = edge_elements(
-        np.array([0.0, 0, -10]),
-        np.array([0.0, 0, 10]),
-        np.array([1.0, 0, 0]),
-        np.array([0.0, 1, 0]),
-        2 * np.pi,
+        Wedge(
+            np.array([0.0, 0, -10]),
+            np.array([0.0, 0, 10]),
+            np.array([1.0, 0, 0]),
+            np.array([0.0, 1, 0]),
+            2 * np.pi,
+        ),
         _cyl(0.15, np.deg2rad(60), 0),
         _cyl(0.10, th_r, 0.05),
-        step,
+        ElementLimits(step_m=step),
     )
     dt = time.perf_counter() - t0
     path = el.first_leg_m + el.second_leg_m
@@ -223,7 +225,8 @@ def _strip() -> tuple[np.ndarray, np.ndarray]:
         return (e.amplitude * np.exp(-1j * k[:, None] * (e.first_leg_m + e.second_leg_m))).sum(1)
 
     first = sum(
-        resp(edge_elements(r.start_m, r.end_m, r.face_dir, r.normal, 2 * np.pi, o, o)) for r in rims
+        resp(edge_elements(Wedge(r.start_m, r.end_m, r.face_dir, r.normal, 2 * np.pi), o, o))
+        for r in rims
     )
     second = sum(resp(edge_pair_elements(rims[i], rims[1 - i], 0.0, 0.0, 2, o, o)) for i in (0, 1))
     exact = np.array([np.conj(strip_far_field(kk, w / 2)) for kk in k])

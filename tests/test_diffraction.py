@@ -19,7 +19,7 @@ import processing as P
 from acousim.scene import parse_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, edge_elements
+from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, Wedge, edge_elements
 from acousim.trace.edges import find_edges
 from acousim.trace.tracer import Tracer
 
@@ -92,14 +92,16 @@ def geometric(wedge, r_s, th_s, r_r, th_r, dz, k, reflection=1.0):
 def btm_field(wedge, r_s, th_s, r_r, th_r, dz, k, step=DEFAULT_STEP_M):
     """Ours: geometric part plus the BTM elements of a 20 m edge along z."""
     el = edge_elements(
-        np.array([0.0, 0, -10]),
-        np.array([0.0, 0, 10]),
-        np.array([1.0, 0, 0]),  # face 1 is the half-plane y = 0, x > 0
-        np.array([0.0, 1, 0]),
-        wedge,
+        Wedge(
+            np.array([0.0, 0, -10]),
+            np.array([0.0, 0, 10]),
+            np.array([1.0, 0, 0]),  # face 1 is the half-plane y = 0, x > 0
+            np.array([0.0, 1, 0]),
+            wedge,
+        ),
         cyl(r_s, th_s, 0.0),
         cyl(r_r, th_r, dz),
-        step,
+        ElementLimits(step_m=step),
     )
     path = el.first_leg_m + el.second_leg_m
     return geometric(wedge, r_s, th_s, r_r, th_r, dz, k) + np.sum(

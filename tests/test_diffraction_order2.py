@@ -201,7 +201,8 @@ def test_long_strip_with_second_order_matches_the_exact_strip():
     first = sum(
         resp(e.amplitude, e.first_leg_m + e.second_leg_m)
         for e in (
-            edge_elements(r.start_m, r.end_m, r.face_dir, r.normal, 2 * np.pi, o, o) for r in rims
+            edge_elements(Wedge(r.start_m, r.end_m, r.face_dir, r.normal, 2 * np.pi), o, o)
+            for r in rims
         )
     )
     one_side = sum(
@@ -254,7 +255,7 @@ def diamond_orders(d_centre, k):
         return (e.amplitude * np.exp(-1j * k[:, None] * (e.first_leg_m + e.second_leg_m))).sum(1)
 
     first = sum(
-        resp(edge_elements(w.start_m, w.end_m, w.face_dir, w.normal, w.angle_rad, o, o))
+        resp(edge_elements(Wedge(w.start_m, w.end_m, w.face_dir, w.normal, w.angle_rad), o, o))
         for w in (front, upper, lower)
     )
     # the front edge's face 1 is shared with the upper edge, its face 2 with the lower

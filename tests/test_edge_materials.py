@@ -16,7 +16,7 @@ import trimesh
 
 from acousim.scene import parse_scene
 from acousim.trace import KIND
-from acousim.trace.btm import edge_elements
+from acousim.trace.btm import Wedge, edge_elements
 from acousim.trace.tracer import Tracer
 from tests.test_diffraction import cyl, geometric, wedge_series
 
@@ -40,14 +40,16 @@ def test_wedge_with_reflecting_faces_is_the_mean_of_rigid_and_soft(R):
         ours = []
         for t in th_r:
             el = edge_elements(
-                np.array([0.0, 0, -10]),
-                np.array([0.0, 0, 10]),
-                np.array([1.0, 0, 0]),
-                np.array([0.0, 1, 0]),
-                wedge,
+                Wedge(
+                    np.array([0.0, 0, -10]),
+                    np.array([0.0, 0, 10]),
+                    np.array([1.0, 0, 0]),
+                    np.array([0.0, 1, 0]),
+                    wedge,
+                    reflection=(R, R),
+                ),
                 cyl(0.15, th_s, 0.0),
                 cyl(0.10, t, dz),
-                reflection=(R, R),
             )
             path = el.first_leg_m + el.second_leg_m
             diffracted = np.sum(el.amplitude * np.exp(-1j * k * path))

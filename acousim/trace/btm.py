@@ -58,6 +58,9 @@ __all__ = [
     "many_edge_elements",
     "edge_elements",
     "DEFAULT_STEP_M",
+    "ElementLimits",
+    "DEFAULT_LIMITS",
+    "Wedge",
     "DEFAULT_MAX_EXCESS_M",
 ]
 
@@ -94,71 +97,131 @@ class EdgeElements:
         return EdgeElements(np.zeros((0, 3)), z, z, z)
 
 
+@dataclass(frozen=True, eq=False)
+class Wedge:
+    """One straight wedge as the second-order integral needs it (world frame, metres).
+
+    start_m, end_m (3,): edge endpoints; face_dir (3,): unit direction from the edge
+    into face 1; normal (3,): face 1's unit normal, towards the air; angle_rad: open
+    (air) angle in (pi, 2 pi]; reflection: pressure reflection factors (R1, R2) of
+    face 1 and face 2 (1: rigid); terms: the weights of the four beta terms in the
+    order of :meth:`beta` (None: ``(R2, 1, 1, R1)``; a part of the wedge's response,
+    e.g. the image term of one face alone).  For :func:`many_edge_elements`, E wedges
+    at once: every field with a leading axis of E (reflection (E, 2) or one pair for
+    all, terms (E, 4) or None).
+    """
+
+    start_m: np.ndarray
+    end_m: np.ndarray
+    face_dir: np.ndarray
+    normal: np.ndarray
+    angle_rad: float
+    reflection: tuple[float, float] = (1.0, 1.0)
+    terms: tuple[float, float, float, float] | None = None
+
+    @property
+    def length_m(self) -> float:
+        return float(np.linalg.norm(self.end_m - self.start_m))
+
+    @property
+    def axis(self) -> np.ndarray:
+        return (self.end_m - self.start_m) / self.length_m
+
+    def cylindrical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(r, theta, z) of points p (..., 3) about the edge; theta in [0, 2 pi) from
+        face 1 towards its normal, z along the edge from its start."""
+        d = np.asarray(p, float) - self.start_m
+        z = d @ self.axis
+        v = d - z[..., None] * self.axis
+        th = np.mod(np.arctan2(v @ self.normal, v @ self.face_dir), 2 * np.pi)
+        return np.linalg.norm(v, axis=-1), th, z
+
+    def beta(self, th_a, th_b, cosh_eta) -> np.ndarray:
+        """Sum of the four beta terms for angles th_a, th_b (of the two ends about
+        the edge) and cosh(eta); the terms of the images in face 1 and face 2 are
+        scaled by their reflection factors (as in :func:`many_edge_elements`)."""
+        nu = np.pi / self.angle_rad
+        c = np.cosh(nu * np.arccosh(np.maximum(cosh_eta, 1.0)))
+        r1, r2 = self.reflection
+        weights = (r2, 1.0, 1.0, r1) if self.terms is None else self.terms
+        out = 0.0
+        for w, phi in zip(
+            weights,
+            (
+                np.pi + th_a + th_b,
+                np.pi + th_a - th_b,
+                np.pi - th_a + th_b,
+                np.pi - th_a - th_b,
+            ),
+        ):
+            if w != 0:
+                out = out + w * np.sin(nu * phi) / (c - np.cos(nu * phi))
+        return out
+
+
+@dataclass(frozen=True)
+class ElementLimits:
+    """How an edge is cut into elements: `step_m`, the excess path length per
+    element (m); elements whose path is longer than `max_path_m` are left out;
+    `max_excess_m`, the response is kept up to this excess path length beyond the
+    apex, its second half tapered (the far parts of a long edge add little in the
+    band but cost one element per step)."""
+
+    step_m: float = DEFAULT_STEP_M
+    max_path_m: float = np.inf
+    max_excess_m: float = DEFAULT_MAX_EXCESS_M
+
+
+#: the default limits (the default step, no longest path, the default extent)
+DEFAULT_LIMITS = ElementLimits()
+
+
 def edge_elements(
-    start: np.ndarray,
-    end: np.ndarray,
-    face_dir: np.ndarray,
-    normal: np.ndarray,
-    wedge_rad: float,
+    wedge: Wedge,
     source: np.ndarray,
     receiver: np.ndarray,
-    step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
-    reflection: tuple[float, float] = (1.0, 1.0),
-    max_excess_m: float = DEFAULT_MAX_EXCESS_M,
+    limits: ElementLimits = DEFAULT_LIMITS,
 ) -> EdgeElements:
-    """BTM edge elements of one straight rigid edge (see the module docstring).
-
-    start, end (3,): edge endpoints; face_dir (3,): unit direction from the edge
-    into face 1; normal (3,): face 1's unit normal, towards the air; wedge_rad: open
-    (air) angle of the wedge, in (pi, 2 pi]; source, receiver (3,); step_m: excess
-    path length per element (m); elements whose path is longer than max_path_m are
-    left out; reflection: pressure reflection factors (R1, R2) of face 1 and face 2,
+    """BTM edge elements of one straight edge (see the module docstring): `wedge`
+    its geometry and the pressure reflection factors (R1, R2) of face 1 and face 2,
     which scale the two terms tied to the images in those faces (phi_4 and phi_1:
-    the ones that make the reflection boundaries continuous); 1 for a rigid wedge;
-    max_excess_m: the response is kept up to this excess path length beyond the
-    apex, its second half tapered (the far parts of a long edge add little in the
-    band but cost one element per step).
-    """
+    the ones that make the reflection boundaries continuous; 1 for a rigid wedge);
+    source, receiver (3,); `limits`: the element step, the longest path and the
+    response's extent."""
     el, _ = many_edge_elements(
-        np.asarray(start, float)[None],
-        np.asarray(end, float)[None],
-        np.asarray(face_dir, float)[None],
-        np.asarray(normal, float)[None],
-        np.array([wedge_rad], float),
-        np.asarray(source, float),
-        np.asarray(receiver, float),
-        step_m,
-        max_path_m,
-        np.array([reflection], float),
-        max_excess_m,
+        Wedge(
+            np.asarray(wedge.start_m, float)[None],
+            np.asarray(wedge.end_m, float)[None],
+            np.asarray(wedge.face_dir, float)[None],
+            np.asarray(wedge.normal, float)[None],
+            np.array([wedge.angle_rad], float),
+            np.array([wedge.reflection], float),
+            None if wedge.terms is None else np.array([wedge.terms], float),
+        ),
+        source,
+        receiver,
+        limits,
     )
     return el
 
 
 def many_edge_elements(
-    start: np.ndarray,
-    end: np.ndarray,
-    face_dir: np.ndarray,
-    normal: np.ndarray,
-    wedge_rad: np.ndarray,
+    wedges: Wedge,
     source: np.ndarray,
     receiver: np.ndarray,
-    step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
-    reflection: np.ndarray | None = None,
-    max_excess_m: float = DEFAULT_MAX_EXCESS_M,
-    terms: np.ndarray | None = None,
+    limits: ElementLimits = DEFAULT_LIMITS,
 ) -> tuple[EdgeElements, np.ndarray]:
-    """:func:`edge_elements` of E edges at once (arrays (E, 3) and (E,); reflection
-    (E, 2)); one receiver (3,) and one source (3,) or one per edge (E, 3).  Returns
-    the elements of all edges and the edge index (K,) of each.  `terms` (E, 4), if
-    given, weighs the four terms of each edge in place of ``(R2, 1, 1, R1)`` (a part
-    of the response alone: the image term of one face, say)."""
+    """:func:`edge_elements` of E wedges at once (`wedges`' fields with a leading
+    axis of E); one receiver (3,) and one source (3,) or one per edge (E, 3).
+    Returns the elements of all edges and the edge index (K,) of each.  The wedges'
+    `terms` (E, 4), if given, weigh the four terms of each edge in place of
+    ``(R2, 1, 1, R1)`` (a part of the response alone: the image term of one face)."""
+    start, end = np.asarray(wedges.start_m, float), np.asarray(wedges.end_m, float)
+    face_dir, normal = np.asarray(wedges.face_dir, float), np.asarray(wedges.normal, float)
+    wedge_rad = np.asarray(wedges.angle_rad, float)
     n_e = wedge_rad.size
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
-    if reflection is None:
-        reflection = np.ones((n_e, 2))
+    reflection = np.broadcast_to(np.asarray(wedges.reflection, float), (n_e, 2))
     length = np.linalg.norm(end - start, axis=1)
     axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
 
@@ -171,15 +234,18 @@ def many_edge_elements(
 
     weight4 = (
         np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
-        if terms is None
-        else np.asarray(terms, float)
+        if wedges.terms is None
+        else np.asarray(wedges.terms, float)
     )
     rows = EdgeRows(
-        start, axis, length, np.asarray(wedge_rad, float), *cyl(source), *cyl(receiver),
+        start, axis, length, wedge_rad, *cyl(source), *cyl(receiver),
         np.broadcast_to(source, (n_e, 3)), receiver, weight4,
     )  # fmt: skip
     return integrate_rows(
-        rows, step_m=step_m, max_path_m=np.full(n_e, max_path_m), max_excess_m=max_excess_m
+        rows,
+        step_m=limits.step_m,
+        max_path_m=np.full(n_e, limits.max_path_m),
+        max_excess_m=limits.max_excess_m,
     )
 
 

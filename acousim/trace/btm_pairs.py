@@ -49,7 +49,15 @@ import numpy as np
 
 from processing.kernels import optional_kernel
 
-from .btm import DEFAULT_MAX_EXCESS_M, DEFAULT_STEP_M, EdgeRows, integrate_rows
+from .btm import (
+    DEFAULT_LIMITS,
+    DEFAULT_MAX_EXCESS_M,
+    DEFAULT_STEP_M,
+    EdgeRows,
+    ElementLimits,
+    Wedge,
+    integrate_rows,
+)
 
 #: bins per element step (each bin is BIN * step_m of path length)
 BIN = 0.25
@@ -64,66 +72,6 @@ __all__ = [
     "pair_elements",
     "pair_elements_in",
 ]
-
-
-@dataclass(frozen=True, eq=False)
-class Wedge:
-    """One straight wedge as the second-order integral needs it (world frame, metres).
-
-    start_m, end_m (3,): edge endpoints; face_dir (3,): unit direction from the edge
-    into face 1; normal (3,): face 1's unit normal, towards the air; angle_rad: open
-    (air) angle in (pi, 2 pi]; reflection: pressure reflection factors (R1, R2) of
-    face 1 and face 2 (1: rigid); terms: the weights of the four beta terms in the
-    order of :meth:`beta` (None: ``(R2, 1, 1, R1)``; a part of the wedge's response,
-    e.g. the image term of one face alone, as :func:`many_edge_elements` takes).
-    """
-
-    start_m: np.ndarray
-    end_m: np.ndarray
-    face_dir: np.ndarray
-    normal: np.ndarray
-    angle_rad: float
-    reflection: tuple[float, float] = (1.0, 1.0)
-    terms: tuple[float, float, float, float] | None = None
-
-    @property
-    def length_m(self) -> float:
-        return float(np.linalg.norm(self.end_m - self.start_m))
-
-    @property
-    def axis(self) -> np.ndarray:
-        return (self.end_m - self.start_m) / self.length_m
-
-    def cylindrical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(r, theta, z) of points p (..., 3) about the edge; theta in [0, 2 pi) from
-        face 1 towards its normal, z along the edge from its start."""
-        d = np.asarray(p, float) - self.start_m
-        z = d @ self.axis
-        v = d - z[..., None] * self.axis
-        th = np.mod(np.arctan2(v @ self.normal, v @ self.face_dir), 2 * np.pi)
-        return np.linalg.norm(v, axis=-1), th, z
-
-    def beta(self, th_a, th_b, cosh_eta) -> np.ndarray:
-        """Sum of the four beta terms for angles th_a, th_b (of the two ends about
-        the edge) and cosh(eta); the terms of the images in face 1 and face 2 are
-        scaled by their reflection factors (as in :func:`many_edge_elements`)."""
-        nu = np.pi / self.angle_rad
-        c = np.cosh(nu * np.arccosh(np.maximum(cosh_eta, 1.0)))
-        r1, r2 = self.reflection
-        weights = (r2, 1.0, 1.0, r1) if self.terms is None else self.terms
-        out = 0.0
-        for w, phi in zip(
-            weights,
-            (
-                np.pi + th_a + th_b,
-                np.pi + th_a - th_b,
-                np.pi - th_a + th_b,
-                np.pi - th_a - th_b,
-            ),
-        ):
-            if w != 0:
-                out = out + w * np.sin(nu * phi) / (c - np.cos(nu * phi))
-        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -245,18 +193,16 @@ def edge_pair_elements(
     sides: int,
     source: np.ndarray,
     receiver: np.ndarray,
-    step_m: float = DEFAULT_STEP_M,
-    max_path_m: float = np.inf,
-    max_excess_m: float = DEFAULT_MAX_EXCESS_M,
+    limits: ElementLimits = DEFAULT_LIMITS,
 ) -> EdgePairElements:
     """:func:`pair_elements` of one pair of wedges (see :class:`PairGeometry`)."""
     return pair_elements(
         PairGeometry.of(wedge1, wedge2, theta_12, theta_21, sides),
         source,
         receiver,
-        step_m=step_m,
-        max_path_m=max_path_m,
-        max_excess_m=max_excess_m,
+        step_m=limits.step_m,
+        max_path_m=limits.max_path_m,
+        max_excess_m=limits.max_excess_m,
     )
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .btm import EdgeElements, many_edge_elements
+from .btm import EdgeElements, ElementLimits, Wedge, many_edge_elements
 from .diffracted import ELEMENT_FIELDS
 from .diffraction_setup import StageContext
 from .edges import Edges
@@ -82,16 +82,17 @@ def wedge_elements(
 
     def part(sel, terms):
         return many_edge_elements(
-            wedge.start_m[rows[sel]],
-            wedge.end_m[rows[sel]],
-            wedge.face_dir[rows[sel]],
-            wedge.normal[rows[sel]],
-            wedge.angle_rad[rows[sel]],
+            Wedge(
+                wedge.start_m[rows[sel]],
+                wedge.end_m[rows[sel]],
+                wedge.face_dir[rows[sel]],
+                wedge.normal[rows[sel]],
+                wedge.angle_rad[rows[sel]],
+                terms=terms,
+            ),
             source if np.ndim(source) == 1 else source[sel],
             ctx.receiver,
-            ctx.options.step_m,
-            ctx.options.max_path_m,
-            terms=terms,
+            ElementLimits(step_m=ctx.options.step_m, max_path_m=ctx.options.max_path_m),
         )
 
     if face_column is None:
