@@ -385,14 +385,12 @@ def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
 
 
 def _render(rec, imgs, triangles, path, options, moving=None):
-    from acousim.viz.render3d import render_scene
+    from acousim.viz.render3d import FrameContent, render_scene
 
     pose = _pose(rec)
     method = _sharpest(imgs)
     truth_w, level = _truth_world(rec)
-    render_scene(
-        path,
-        triangles=triangles,
+    content = FrameContent(
         sensor_position=pose.position_m,
         sensor_axis=pose.rotation[:, 0],
         truth=truth_w,
@@ -400,9 +398,9 @@ def _render(rec, imgs, triangles, path, options, moving=None):
         peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
         sweep=_sweep(rec),
         moving_triangles=moving,
-        truth_range_db=options.dynamic_range_db,
         lidar=lidar_in_world(rec),
     )
+    render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
     return Path(path)
 
 
@@ -424,7 +422,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     import imageio.v3 as iio
 
     from acousim.viz.fan import common_extent
-    from acousim.viz.render3d import SceneRenderer
+    from acousim.viz.render3d import FrameContent, SceneRenderer
 
     dr = options.dynamic_range_db
     method = _sharpest(images[0])
@@ -450,9 +448,9 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
             pose = _pose(rec)
             truth_w, level = _truth_world(rec)
-            view = renderer.frame(
-                pose.position_m,
-                pose.rotation[:, 0],
+            content = FrameContent(
+                sensor_position=pose.position_m,
+                sensor_axis=pose.rotation[:, 0],
                 truth=truth_w,
                 truth_level_db=level,
                 peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
@@ -460,6 +458,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 moving_triangles=_moving_triangles(scene, rec),
                 lidar=lidar_in_world(rec),
             )
+            view = renderer.frame(content)
             title = _title(rec, indices[k], True)
             frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
             if progress:
