@@ -384,22 +384,29 @@ def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
     return _pose(rec).to_world(rec.lidar.in_sensor())
 
 
-def _render(rec, imgs, triangles, path, options, moving=None):
-    from acousim.viz.render3d import FrameContent, render_scene
+def _frame_content(rec, img, options, sweep, moving):
+    """What the 3D view of `rec` draws: the sensor at its pose, the traced reflectors,
+    the peaks of `img`, the sweep, the moving meshes' faces and the LiDAR scan."""
+    from acousim.viz.render3d import FrameContent
 
     pose = _pose(rec)
-    method = _sharpest(imgs)
     truth_w, level = _truth_world(rec)
-    content = FrameContent(
+    return FrameContent(
         sensor_position=pose.position_m,
         sensor_axis=pose.rotation[:, 0],
         truth=truth_w,
         truth_level_db=level,
-        peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
-        sweep=_sweep(rec),
+        peaks=peaks_in_world(rec, img, options.peak_threshold_db),
+        sweep=sweep,
         moving_triangles=moving,
         lidar=lidar_in_world(rec),
     )
+
+
+def _render(rec, imgs, triangles, path, options, moving=None):
+    from acousim.viz.render3d import render_scene
+
+    content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
     render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
     return Path(path)
 
@@ -422,7 +429,7 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     import imageio.v3 as iio
 
     from acousim.viz.fan import common_extent
-    from acousim.viz.render3d import FrameContent, SceneRenderer
+    from acousim.viz.render3d import SceneRenderer
 
     dr = options.dynamic_range_db
     method = _sharpest(images[0])
@@ -446,19 +453,8 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
-            pose = _pose(rec)
-            truth_w, level = _truth_world(rec)
-            content = FrameContent(
-                sensor_position=pose.position_m,
-                sensor_axis=pose.rotation[:, 0],
-                truth=truth_w,
-                truth_level_db=level,
-                peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
-                sweep=sweeps[k],
-                moving_triangles=_moving_triangles(scene, rec),
-                lidar=lidar_in_world(rec),
-            )
-            view = renderer.frame(content)
+            moving = _moving_triangles(scene, rec)
+            view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
             title = _title(rec, indices[k], True)
             frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
             if progress:

@@ -285,20 +285,26 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
 
 
 def _cloud_msg(T, header, points_sensor: np.ndarray, pk: P.Peaks):
-    field = T["sensor_msgs/msg/PointField"]
-    fields = [field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(PEAK_FIELDS)]
-    n = len(pk)
     table = np.column_stack(
         [points_sensor.reshape(-1, 3), pk.level_db.reshape(-1, 1), pk.range_m.reshape(-1, 1)]
     ).astype("<f4")
+    return _point_cloud(T, header, table, PEAK_FIELDS)
+
+
+def _point_cloud(T, header, table: np.ndarray, names) -> object:
+    """A PointCloud2 of the rows of `table` (N, F) little-endian float32, one field
+    per column named by `names` (F)."""
+    field = T["sensor_msgs/msg/PointField"]
+    fields = [field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(names)]
+    n, step = len(table), 4 * len(names)
     return T["sensor_msgs/msg/PointCloud2"](
         header=header,
         height=1,
         width=n,
         fields=fields,
         is_bigendian=False,
-        point_step=4 * len(PEAK_FIELDS),
-        row_step=4 * len(PEAK_FIELDS) * n,
+        point_step=step,
+        row_step=step * n,
         data=np.frombuffer(table.tobytes(), np.uint8),
         is_dense=True,
     )
@@ -425,19 +431,4 @@ def _reflector_msg(T, header, rec: P.Recording):
         table = np.column_stack(
             [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None]]
         ).astype("<f4")
-    field = T["sensor_msgs/msg/PointField"]
-    fields = [
-        field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(REFLECTOR_FIELDS)
-    ]
-    n, step = len(table), 4 * len(REFLECTOR_FIELDS)
-    return T["sensor_msgs/msg/PointCloud2"](
-        header=header,
-        height=1,
-        width=n,
-        fields=fields,
-        is_bigendian=False,
-        point_step=step,
-        row_step=step * n,
-        data=np.frombuffer(table.tobytes(), np.uint8),
-        is_dense=True,
-    )
+    return _point_cloud(T, header, table, REFLECTOR_FIELDS)
