@@ -384,25 +384,30 @@ def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
     return _pose(rec).to_world(rec.lidar.in_sensor())
 
 
-def _render(rec, imgs, triangles, path, options, moving=None):
-    from acousim.viz.render3d import render_scene
+def _frame_content(rec, img, options, sweep, moving):
+    """What the 3D view of `rec` draws: the sensor at its pose, the traced reflectors,
+    the peaks of `img`, the sweep, the moving meshes' faces and the LiDAR scan."""
+    from acousim.viz.render3d import FrameContent
 
     pose = _pose(rec)
-    method = _sharpest(imgs)
     truth_w, level = _truth_world(rec)
-    render_scene(
-        path,
-        triangles=triangles,
+    return FrameContent(
         sensor_position=pose.position_m,
         sensor_axis=pose.rotation[:, 0],
         truth=truth_w,
         truth_level_db=level,
-        peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
-        sweep=_sweep(rec),
+        peaks=peaks_in_world(rec, img, options.peak_threshold_db),
+        sweep=sweep,
         moving_triangles=moving,
-        truth_range_db=options.dynamic_range_db,
         lidar=lidar_in_world(rec),
     )
+
+
+def _render(rec, imgs, triangles, path, options, moving=None):
+    from acousim.viz.render3d import render_scene
+
+    content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
+    render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
     return Path(path)
 
 
@@ -448,18 +453,8 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
     )
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
-            pose = _pose(rec)
-            truth_w, level = _truth_world(rec)
-            view = renderer.frame(
-                pose.position_m,
-                pose.rotation[:, 0],
-                truth=truth_w,
-                truth_level_db=level,
-                peaks=peaks_in_world(rec, imgs[method], options.peak_threshold_db),
-                sweep=sweeps[k],
-                moving_triangles=_moving_triangles(scene, rec),
-                lidar=lidar_in_world(rec),
-            )
+            moving = _moving_triangles(scene, rec)
+            view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
             title = _title(rec, indices[k], True)
             frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
             if progress:

@@ -137,6 +137,47 @@ class RtisDevice:
         import usb.core
         import usb.util
 
+        dev = self._find()
+        try:
+            self._claim(dev)
+        except usb.core.USBError as exc:
+            if exc.errno != errno.EACCES and "Access denied" not in str(exc):
+                raise
+            raise DeviceAccessDenied(
+                f"the RTIS sensor {self.vendor_id:04x}:{self.product_id:04x} on bus "
+                f"{dev.bus} address {dev.address} cannot be opened by this user ({exc}): "
+                "install the udev rule of docs/setup.md, then replug the sensor"
+            ) from None
+        cfg = dev.get_active_configuration()
+        data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
+        self.ep_out = usb.util.find_descriptor(
+            data,
+            custom_match=lambda e: (
+                usb.util.endpoint_direction(e.bEndpointAddress) == usb.util.ENDPOINT_OUT
+            ),
+        )
+        self.ep_in = usb.util.find_descriptor(
+            data,
+            custom_match=lambda e: (
+                usb.util.endpoint_direction(e.bEndpointAddress) == usb.util.ENDPOINT_IN
+            ),
+        )
+        self.dev = dev
+        self.bus, self.address = dev.bus, dev.address
+        log.info(
+            "sensor %04x:%04x on bus %s address %s",
+            self.vendor_id,
+            self.product_id,
+            dev.bus,
+            dev.address,
+        )
+
+    def _find(self):
+        """The first USB device matching the sensor's ID (and bus, address, serial
+        when given); DeviceNotFound when there is none or no USB backend."""
+        import usb.core
+        import usb.util
+
         def match(d) -> bool:
             if self.bus is not None and d.bus != self.bus:
                 return False
@@ -171,40 +212,7 @@ class RtisDevice:
                 + (f", bus {self.bus}" if self.bus is not None else "")
                 + (f", address {self.address}" if self.address is not None else "")
             )
-        dev = found[0]
-        try:
-            self._claim(dev)
-        except usb.core.USBError as exc:
-            if exc.errno != errno.EACCES and "Access denied" not in str(exc):
-                raise
-            raise DeviceAccessDenied(
-                f"the RTIS sensor {self.vendor_id:04x}:{self.product_id:04x} on bus "
-                f"{dev.bus} address {dev.address} cannot be opened by this user ({exc}): "
-                "install the udev rule of docs/setup.md, then replug the sensor"
-            ) from None
-        cfg = dev.get_active_configuration()
-        data = usb.util.find_descriptor(cfg, bInterfaceClass=0x0A)
-        self.ep_out = usb.util.find_descriptor(
-            data,
-            custom_match=lambda e: (
-                usb.util.endpoint_direction(e.bEndpointAddress) == usb.util.ENDPOINT_OUT
-            ),
-        )
-        self.ep_in = usb.util.find_descriptor(
-            data,
-            custom_match=lambda e: (
-                usb.util.endpoint_direction(e.bEndpointAddress) == usb.util.ENDPOINT_IN
-            ),
-        )
-        self.dev = dev
-        self.bus, self.address = dev.bus, dev.address
-        log.info(
-            "sensor %04x:%04x on bus %s address %s",
-            self.vendor_id,
-            self.product_id,
-            dev.bus,
-            dev.address,
-        )
+        return found[0]
 
     @staticmethod
     def _claim(dev) -> None:

@@ -77,7 +77,7 @@ from .broadband_engines import (
 )
 from .errors import InputError
 from .methods import BROADBAND_METHODS, BroadbandMethod, parse_method
-from .recording import Recording
+from .recording_types import Recording
 from .settings import setting, validate
 from .steering import Grid
 from .waveforms import Waveform

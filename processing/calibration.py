@@ -37,7 +37,7 @@ from scipy import fft as sfft
 from scipy.signal import windows
 
 from .errors import InputError
-from .recording import Recording
+from .recording_types import Recording
 
 __all__ = [
     "ArrayCalibration",

@@ -50,8 +50,18 @@ import numpy as np
 from .arrays import Array
 from .atomic import atomic_path
 from .chirp_frames import pose_matrix, quaternion_of
+from .chirp_names import (  # noqa: F401  (re-exported)
+    ACOUSTIC,
+    LIDAR,
+    ODOMETRY,
+    OUR_SCHEMA,
+    OUR_VERSION,
+    OURS,
+    TRANSMITTER,
+    ChirpFileError,
+)
 from .errors import InputError
-from .recording import MAX_SAMPLE_BYTES, Recording, RecordingFileError
+from .recording_types import MAX_SAMPLE_BYTES, Recording
 from .waveforms import Waveform
 
 __all__ = [
@@ -65,9 +75,6 @@ __all__ = [
 ]
 
 FORMAT_VERSION = "2.1"
-ACOUSTIC, TRANSMITTER = "acoustic_sensor_00", "acoustic_transmitter_00"
-ODOMETRY, LIDAR = "odometry_00", "lidar_00"
-OURS, OUR_SCHEMA, OUR_VERSION = "acousim", "acousim.chirp", 1
 DEFAULT_PERIOD_S = 0.1
 """Capture spacing (s) when the recordings' own times do not increase."""
 _TRUTH = (
@@ -78,10 +85,6 @@ _TRUTH = (
     ("kind", None),
     ("velocity_world_m_s", "m/s"),
 )
-
-
-class ChirpFileError(RecordingFileError):
-    """A CHIRP file that cannot be read or written as asked; names file and field."""
 
 
 # ---------------------------------------------------------------- writing

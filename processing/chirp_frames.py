@@ -14,7 +14,11 @@ __all__ = ["rotation", "pose_matrix", "quaternion_of", "matrix_of_quaternion", "
 
 
 def rotation(yaw_rad: float, pitch_rad: float = 0.0, roll_rad: float = 0.0) -> np.ndarray:
-    """Sensor -> world rotation (3, 3), ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
+    """Sensor -> world rotation (3, 3), ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    With y to the left, a positive rotation about y turns +x towards -z: a positive
+    pitch points the sensor down.
+    """
     cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
     cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
     cr, sr = np.cos(roll_rad), np.sin(roll_rad)

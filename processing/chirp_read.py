@@ -14,10 +14,10 @@ import h5py
 import numpy as np
 
 from .arrays import Array
-from .chirp import ACOUSTIC, LIDAR, ODOMETRY, OUR_SCHEMA, OURS, TRANSMITTER, ChirpFileError
 from .chirp_frames import euler_of, matrix_of_quaternion
+from .chirp_names import ACOUSTIC, LIDAR, ODOMETRY, OUR_SCHEMA, OURS, TRANSMITTER, ChirpFileError
 from .pointcloud import PointCloud
-from .recording import MAX_SAMPLE_BYTES, GroundTruth, Recording
+from .recording_types import MAX_SAMPLE_BYTES, GroundTruth, Recording
 from .waveforms import FIT_MIN_CORRELATION, Waveform, fit_sweep
 
 __all__ = ["Reader", "DEFAULT_SPEED_OF_SOUND_M_S"]

@@ -22,7 +22,7 @@ from .errors import InputError
 from .image import Image
 from .matched_filter import matched_filter
 from .methods import METHODS, Method, check_method, parse_method, requires_ura
-from .recording import Recording
+from .recording_types import Recording
 from .settings import setting, validate
 from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from .steering import Grid

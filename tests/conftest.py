@@ -13,6 +13,21 @@ def pytest_configure(config):
     configure()
 
 
+def rotation_zyx(yaw, pitch=0.0, roll=0.0) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll) (3, 3), angles in rad, written out independently
+    of the package (sensor axes as columns in the world frame)."""
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cr, sr = np.cos(roll), np.sin(roll)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
 def direction(az_deg: float, el_deg: float) -> np.ndarray:
     az, el = np.deg2rad(az_deg), np.deg2rad(el_deg)
     return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])

@@ -10,6 +10,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
+from conftest import rotation_zyx
 
 import processing as P
 from acousim.bundled import resolve
@@ -34,20 +35,6 @@ def exported(corridor, tmp_path_factory):
     path = tmp_path_factory.mktemp("chirp") / "corridor_chirp.h5"
     P.write_chirp(path, corridor)
     return path
-
-
-def _rotation(yaw, pitch, roll):
-    """R = Rz(yaw) Ry(pitch) Rx(roll) written out, independent of the package."""
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    cp, sp = np.cos(pitch), np.sin(pitch)
-    cr, sr = np.cos(roll), np.sin(roll)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def _quat_matrix(q):
@@ -88,7 +75,7 @@ def test_independent_reader(corridor, exported):
         for k, rec in enumerate(corridor):
             p = rec.metadata["pose"]
             np.testing.assert_allclose(odo["position"][k], p["position_m"], atol=1e-12)
-            R = _rotation(*np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]]))
+            R = rotation_zyx(*np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]]))
             np.testing.assert_allclose(_quat_matrix(odo["orientation"][k]), R, atol=1e-12)
             assert np.isclose(odo["yaw"][k], np.deg2rad(p["yaw_deg"]))
             v = rec.metadata["motion"]["velocity_m_s"]
@@ -131,7 +118,7 @@ def test_chirppy_reads_it(corridor, exported):
         for k, rec in enumerate(corridor):
             p = rec.metadata["pose"]
             np.testing.assert_allclose(odo.get_pose_matrix(k)[:3, 3], p["position_m"])
-            R = _rotation(np.deg2rad(p["yaw_deg"]), 0, 0)
+            R = rotation_zyx(np.deg2rad(p["yaw_deg"]), 0, 0)
             np.testing.assert_allclose(odo.get_pose_matrix(k)[:3, :3], R, atol=1e-12)
         tx = ds.get_acoustic_transmitter(0)
         assert tx.get_emitted_signal().size == 1125

@@ -196,20 +196,31 @@ def _loaded(scene, table, key):
     return list(v) if isinstance(v, tuple) else v
 
 
+def _accepted(load, path, case):
+    """`case` (table, key, value, allowed, text) written to `path` and loaded: the
+    result if accepted (it must be allowed), None if refused (it must not be, with
+    an InputError naming the file and the key)."""
+    table, key, value, allowed, text = case
+    path.write_text(text)
+    try:
+        loaded = load(path)
+    except InputError as exc:
+        assert not allowed, f"{table}.{key} = {value!r} is allowed but refused: {exc}"
+        assert str(exc).startswith(f"{path}: ") and key in str(exc), str(exc)
+        return None
+    assert allowed, f"{table}.{key} = {value!r} was silently accepted"
+    return loaded
+
+
 @pytest.mark.parametrize("table,key", sorted(SCENE_ORACLE))
 @FUZZ
 @given(data=st.data())
 def test_fuzzed_scene_files(tmp_path, table, key, data):
-    table, key, value, allowed, text = data.draw(scene_case(table, key))
-    path = tmp_path / "fuzz.toml"
-    path.write_text(text)
-    try:
-        scene = load_scene(path)
-    except InputError as exc:
-        assert not allowed, f"{table}.{key} = {value!r} is allowed but refused: {exc}"
-        assert str(exc).startswith(f"{path}: ") and key in str(exc), str(exc)
+    case = data.draw(scene_case(table, key))
+    table, key, value, _, _ = case
+    scene = _accepted(load_scene, tmp_path / "fuzz.toml", case)
+    if scene is None:
         return
-    assert allowed, f"{table}.{key} = {value!r} was silently accepted"
     got = _loaded(scene, table, key)
     if isinstance(value, float | int) and not isinstance(value, bool):
         assert math.isclose(got, value, rel_tol=1e-12, abs_tol=1e-9)
@@ -280,16 +291,11 @@ def spec_case(draw, table, key):
 @FUZZ
 @given(data=st.data())
 def test_fuzzed_dataset_specs(tmp_path, table, key, data):
-    table, key, value, allowed, text = data.draw(spec_case(table, key))
-    path = tmp_path / "spec.toml"
-    path.write_text(text)
-    try:
-        spec = load_spec(path)
-    except InputError as exc:
-        assert not allowed, f"{table}.{key} = {value!r} is allowed but refused: {exc}"
-        assert str(exc).startswith(f"{path}: ") and key in str(exc), str(exc)
+    case = data.draw(spec_case(table, key))
+    table, key, value, _, _ = case
+    spec = _accepted(load_spec, tmp_path / "spec.toml", case)
+    if spec is None:
         return
-    assert allowed, f"{table}.{key} = {value!r} was silently accepted"
     if table == "randomize":
         d = spec.randomize[key]
         # a TOML integer is read as the float nearest to it (2**53 + 1 -> 2**53)

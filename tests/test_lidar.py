@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import rotation_zyx
 
 import processing as P
 from acousim.bundled import resolve
@@ -15,19 +16,6 @@ from acousim.scene.load import parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from processing.errors import InputError
-
-
-def _rotation(yaw, pitch=0.0, roll=0.0):
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    cp, sp = np.cos(pitch), np.sin(pitch)
-    cr, sr = np.cos(roll), np.sin(roll)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def _beams(lidar: Lidar):
@@ -67,8 +55,8 @@ def test_wall_ranges():
     scene = _with_lidar("wall", lidar)
     pose = scene.sensor.poses[0]
     pc = Simulator(scene).lidar_scan(pose)
-    R = _rotation(pose.yaw_rad) @ _rotation(*np.deg2rad([-10.0, 5.0, 2.0]))
-    o = pose.position_m + _rotation(pose.yaw_rad) @ np.array([0.03, -0.05, 0.08])
+    R = rotation_zyx(pose.yaw_rad) @ rotation_zyx(*np.deg2rad([-10.0, 5.0, 2.0]))
+    o = pose.position_m + rotation_zyx(pose.yaw_rad) @ np.array([0.03, -0.05, 0.08])
     d = _beams(lidar) @ R.T  # (A, C, 3) world
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (2.0 - o[0]) / d[..., 0]
@@ -113,7 +101,7 @@ def test_moving_sensor_scans_from_where_it_is():
     scene = _with_lidar("wall", lidar, motion)
     pc = Simulator(scene).lidar_scan(pose, motion=motion)
     x0 = 2.0 * pc.time_s  # sensor's x at each point's firing time
-    d = pc.points_m / pc.range_m()[:, None] @ _rotation(pose.yaw_rad).T
+    d = pc.points_m / pc.range_m()[:, None] @ rotation_zyx(pose.yaw_rad).T
     np.testing.assert_allclose(pc.range_m(), (2.0 - x0) / d[:, 0], atol=1e-3)
     assert pc.time_s.max() > 0.06  # a third of a turn at 5 Hz
 

@@ -88,17 +88,17 @@ def test_3d_picture_shows_the_scan(drive, tmp_path):
     pytest.importorskip("pyvista", reason="pyvista not installed (pip install 'acousim[viz]')")
     from acousim.imaging import lidar_in_world
     from acousim.trace.geometry import build_world
-    from acousim.viz.render3d import LIDAR_COLOR, render_scene
+    from acousim.viz.render3d import LIDAR_COLOR, FrameContent, render_scene
 
     _, recs = drive
     rec = recs[1]
     pose = rec.metadata["pose"]
     yaw = np.deg2rad(pose["yaw_deg"])
     tri = build_world(load_scene(resolve("scenes", "corridor"))).triangles
-    args = dict(triangles=tri, sensor_position=np.array(pose["position_m"]),
-                sensor_axis=np.array([np.cos(yaw), np.sin(yaw), 0.0]))  # fmt: skip
-    with_scan = render_scene(tmp_path / "a.png", lidar=lidar_in_world(rec), **args)
-    without = render_scene(None, **args)
+    at = (np.array(pose["position_m"]), np.array([np.cos(yaw), np.sin(yaw), 0.0]))
+    scan = FrameContent(*at, lidar=lidar_in_world(rec))
+    with_scan = render_scene(tmp_path / "a.png", scan, triangles=tri)
+    without = render_scene(None, FrameContent(*at), triangles=tri)
     green = np.array(LIDAR_COLOR) * 255
 
     def greens(img):

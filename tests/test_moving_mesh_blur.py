@@ -69,7 +69,7 @@ def test_sweep_is_drawn_and_grows_with_the_turn_rate():
     """Pixels changed by drawing the sweep (same camera, same frame otherwise): none
     without it, more at 360 deg/s than at 90 deg/s, and orange among them."""
     pytest.importorskip("pyvista")
-    from acousim.viz.render3d import SceneRenderer
+    from acousim.viz.render3d import FrameContent, SceneRenderer
 
     pose = Pose([0.0, 0.0, 0.0])
     renderer = SceneRenderer(None, window_size=(400, 300), with_sweep=True)
@@ -80,10 +80,12 @@ def test_sweep_is_drawn_and_grows_with_the_turn_rate():
                 pose.position_m, pose.rotation, np.zeros(3), [0, 0, np.deg2rad(rate or 0)], 0.036
             )
             image = renderer.frame(
-                pose.position_m,
-                pose.rotation[:, 0],
-                peaks=np.array([[2.0, 1.0, 0.0]]),
-                sweep=None if rate is None else sweep,
+                FrameContent(
+                    pose.position_m,
+                    pose.rotation[:, 0],
+                    peaks=np.array([[2.0, 1.0, 0.0]]),
+                    sweep=None if rate is None else sweep,
+                )
             )
             images.append(np.asarray(image, float) / 255)
     finally:

@@ -299,15 +299,13 @@ def test_image_index_titles_the_picture_with_its_recording(tmp_path, monkeypatch
 
 
 def test_3d_render_of_a_real_recording_is_not_empty(tmp_path):
-    from acousim.viz.render3d import PEAK_COLOR, SENSOR_COLOR, render_scene
+    from acousim.viz.render3d import PEAK_COLOR, SENSOR_COLOR, FrameContent, render_scene
 
     peaks = np.array([[2.0, 0.5, 0.2], [3.0, -0.8, 0.0]])
     pic = render_scene(
         tmp_path / "r.png",
+        FrameContent(np.zeros(3), np.array([1.0, 0.0, 0.0]), peaks=peaks),
         triangles=None,
-        sensor_position=np.zeros(3),
-        sensor_axis=np.array([1.0, 0.0, 0.0]),
-        peaks=peaks,
     )
     red = np.all(np.abs(pic / 255 - np.array(PEAK_COLOR)) < 0.25, axis=2)
     yellow = np.all(np.abs(pic / 255 - np.array(SENSOR_COLOR)) < 0.25, axis=2)
@@ -321,19 +319,18 @@ def test_3d_render_of_a_real_recording_is_not_empty(tmp_path):
 def test_3d_truth_below_the_threshold_is_not_drawn_and_stronger_is_larger(tmp_path):
     from scipy import ndimage
 
-    from acousim.viz.render3d import TRUTH_COLOR, render_scene
+    from acousim.viz.render3d import TRUTH_COLOR, FrameContent, render_scene
 
     # three reflectors 2 m ahead, side by side: 0 dB, -20 dB, -40 dB (under -30 dB)
     truth = np.array([[2.0, 0.6, 0.0], [2.0, 0.0, 0.0], [2.0, -0.6, 0.0]])
-    pic = render_scene(
-        None,
-        triangles=None,
-        sensor_position=np.zeros(3),
-        sensor_axis=np.array([1.0, 0.0, 0.0]),
+    content = FrameContent(
+        np.zeros(3),
+        np.array([1.0, 0.0, 0.0]),
         truth=truth,
         truth_level_db=np.array([0.0, -20.0, -40.0]),
         peaks=np.array([[3.0, 0.0, 0.5]]),
     )
+    pic = render_scene(None, content, triangles=None)
     cyan = np.all(np.abs(pic / 255 - np.array(TRUTH_COLOR)) < 0.3, axis=2)
     cyan[: int(0.2 * pic.shape[0]), : int(0.45 * pic.shape[1])] = False  # the legend
     labels, n = ndimage.label(cyan)

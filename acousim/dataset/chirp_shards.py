@@ -36,7 +36,7 @@ def capture_samples(spec: DatasetSpec) -> int:
     """Samples per capture of every sample of the spec (see the module docstring)."""
     from acousim.core.air import speed_of_sound
 
-    from .generation import _scene
+    from .samples import _scene
 
     n = 0
     for choice in spec.scenes:
@@ -54,7 +54,7 @@ def capture_samples(spec: DatasetSpec) -> int:
 
 def write_chirp_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Path):
     """Samples lo..hi-1 as the CHIRP file `final`: (records, sha256, bytes)."""
-    from .generation import simulate_sample
+    from .samples import simulate_sample
 
     n = capture_samples(spec)
     recs, records = [], []

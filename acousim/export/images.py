@@ -115,14 +115,7 @@ def write_image_data(
         for idx, rec, imgs in zip(indices, recordings, images):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
-            prov = rec.provenance
-            g.attrs["scene"] = prov.scene or ""
-            g.attrs["provenance"] = prov.kind  # simulated, real or emulated
-            if prov.pose is not None:
-                g.attrs["time_s"] = prov.pose.time_s
-                g.attrs["position_m"] = np.asarray(prov.pose.position_m, float)
-                for k in ("yaw", "pitch", "roll"):
-                    g.attrs[f"{k}_deg"] = float(np.rad2deg(getattr(prov.pose, f"{k}_rad")))
+            _write_provenance(g, rec.provenance)
             first = next(iter(imgs.values()))
             axis = regular_range_axis(list(imgs.values()))
             scales = {
@@ -135,34 +128,49 @@ def write_image_data(
                 d.attrs["units"] = units
                 d.make_scale(name)
             for method, img in imgs.items():
-                level = np.full((axis.size, img.elevation_rad.size, img.azimuth_rad.size), np.nan)
-                if img.range_m.size:
-                    k = np.rint(
-                        (img.range_m - axis[0]) / (axis[1] - axis[0] if axis.size > 1 else 1)
-                    )
-                    level[k.astype(int)] = P.to_db(img.power, floor_db=-300.0)
-                # multiples of 1/128 dB (error <= 0.004 dB): the low mantissa bits are
-                # zero and the shuffled, compressed file about half the size
-                level = np.round(level * QUANTUM_PER_DB) / QUANTUM_PER_DB
-                d = g.create_dataset(
-                    method,
-                    data=level.astype(np.float32),
-                    chunks=True if level.size else None,
-                    compression=compression if level.size else None,
-                    shuffle=bool(compression) and bool(level.size),
-                    fillvalue=np.float32(np.nan),
-                )
-                d.attrs["units"] = "dB"
-                d.attrs["long_name"] = f"{method} image level re its strongest cell"
-                d.attrs["method"] = method
-                d.attrs["frequency_hz"] = float(img.frequency_hz)
-                d.attrs["reference_power"] = float(img.power.max()) if img.power.size else 0.0
-                d.attrs["no_data"] = "NaN: range bin removed by the energy gate"
-                d.attrs["resolution_db"] = 1.0 / QUANTUM_PER_DB
-                for dim, name in enumerate(scales):
-                    d.dims[dim].label = name
-                    d.dims[dim].attach_scale(g[name])
+                _write_image(g, method, img, axis, list(scales), compression)
     return path
+
+
+def _write_provenance(g, prov) -> None:
+    """A recording's scene, provenance kind and pose (degrees) as the group's attributes."""
+    g.attrs["scene"] = prov.scene or ""
+    g.attrs["provenance"] = prov.kind  # simulated, real or emulated
+    if prov.pose is not None:
+        g.attrs["time_s"] = prov.pose.time_s
+        g.attrs["position_m"] = np.asarray(prov.pose.position_m, float)
+        for k in ("yaw", "pitch", "roll"):
+            g.attrs[f"{k}_deg"] = float(np.rad2deg(getattr(prov.pose, f"{k}_rad")))
+
+
+def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, compression):
+    """One image's level (dB, quantised) on the regular range `axis` (m), its
+    dimensions attached to the group's `scales`."""
+    level = np.full((axis.size, img.elevation_rad.size, img.azimuth_rad.size), np.nan)
+    if img.range_m.size:
+        k = np.rint((img.range_m - axis[0]) / (axis[1] - axis[0] if axis.size > 1 else 1))
+        level[k.astype(int)] = P.to_db(img.power, floor_db=-300.0)
+    # multiples of 1/128 dB (error <= 0.004 dB): the low mantissa bits are
+    # zero and the shuffled, compressed file about half the size
+    level = np.round(level * QUANTUM_PER_DB) / QUANTUM_PER_DB
+    d = g.create_dataset(
+        method,
+        data=level.astype(np.float32),
+        chunks=True if level.size else None,
+        compression=compression if level.size else None,
+        shuffle=bool(compression) and bool(level.size),
+        fillvalue=np.float32(np.nan),
+    )
+    d.attrs["units"] = "dB"
+    d.attrs["long_name"] = f"{method} image level re its strongest cell"
+    d.attrs["method"] = method
+    d.attrs["frequency_hz"] = float(img.frequency_hz)
+    d.attrs["reference_power"] = float(img.power.max()) if img.power.size else 0.0
+    d.attrs["no_data"] = "NaN: range bin removed by the energy gate"
+    d.attrs["resolution_db"] = 1.0 / QUANTUM_PER_DB
+    for dim, name in enumerate(scales):
+        d.dims[dim].label = name
+        d.dims[dim].attach_scale(g[name])
 
 
 def peak_rows(

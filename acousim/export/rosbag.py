@@ -53,6 +53,7 @@ import json
 import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -129,11 +130,6 @@ def write_rosbag(
     threshold_db : peaks within this of the image's strongest cell.
     dynamic_range_db : of the fan image (levels below -dynamic_range_db are floored).
     """
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    from acousim.imaging import _pose, _sharpest, peak_positions
-    from acousim.viz.fan import fan_raster
-
     path = Path(path)
     if path.exists():
         raise FileExistsError(f"{path} exists already; a bag is never overwritten")
@@ -146,47 +142,68 @@ def write_rosbag(
             key="recording",
             value=several[0],
         )
-    store = _typestore()
-    T = store.types
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     parent = path.parent if str(path.parent) else Path(".")
     work = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX, suffix=f"-{path.name}", dir=parent))
     try:
         bag = work / path.name
-        with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-            conns = {
-                k: w.add_connection(topic, msgtype, typestore=store)
-                for k, (topic, msgtype) in TOPICS.items()
-            }
-
-            def put(key: str, msg, stamp: int) -> None:
-                w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
-
-            scene = _SceneTopics(w, store, recordings)
-            scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
-
-            for idx, rec, imgs in zip(indices, recordings, images):
-                interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
-                ns = recording_time_ns(rec, idx)
-                header = T["std_msgs/msg/Header"](
-                    stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
-                    frame_id=FRAME_SENSOR,
-                )
-                m = method or _sharpest(dict(imgs))
-                img = imgs[m]
-                put("raw", _raw_msg(T, rec), ns)
-                raster = fan_raster(img, _fan_range(img), dynamic_range_db, fan_pixels)
-                put("info", _info_msg(T, rec, idx, m, raster, dynamic_range_db), ns)
-                sensor, _ = peak_positions(rec, pk := img.peaks(threshold_db))
-                put("peaks", _cloud_msg(T, header, sensor, pk), ns)
-                put("fan", _image_msg(T, header, raster.db), ns)
-                put("tf", _tf_msg(T, header, _pose(rec)), ns)
-                scene.write(rec, header, ns)
-                scans(rec, header, ns)
+        options = _BagOptions(method, threshold_db, dynamic_range_db, fan_pixels)
+        _write_bag(bag, recordings, images, indices, options)
         _rename_unless_interrupted(bag, path)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return path
+
+
+@dataclass(frozen=True)
+class _BagOptions:
+    """What :func:`write_rosbag` publishes of each recording (see its parameters)."""
+
+    method: str | None
+    threshold_db: float
+    dynamic_range_db: float
+    fan_pixels: int
+
+
+def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions) -> None:
+    """The bag's topics, one message of each per recording, written into `bag`."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from acousim.imaging import _pose, _sharpest, peak_positions
+    from acousim.viz.fan import fan_raster
+
+    store = _typestore()
+    T = store.types
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {
+            k: w.add_connection(topic, msgtype, typestore=store)
+            for k, (topic, msgtype) in TOPICS.items()
+        }
+
+        def put(key: str, msg, stamp: int) -> None:
+            w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
+
+        scene = _SceneTopics(w, store, recordings)
+        scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
+
+        for idx, rec, imgs in zip(indices, recordings, images):
+            interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
+            ns = recording_time_ns(rec, idx)
+            header = T["std_msgs/msg/Header"](
+                stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
+                frame_id=FRAME_SENSOR,
+            )
+            m = o.method or _sharpest(dict(imgs))
+            img = imgs[m]
+            put("raw", _raw_msg(T, rec), ns)
+            raster = fan_raster(img, _fan_range(img), o.dynamic_range_db, o.fan_pixels)
+            put("info", _info_msg(T, rec, idx, m, raster, o.dynamic_range_db), ns)
+            sensor, _ = peak_positions(rec, pk := img.peaks(o.threshold_db))
+            put("peaks", _cloud_msg(T, header, sensor, pk), ns)
+            put("fan", _image_msg(T, header, raster.db), ns)
+            put("tf", _tf_msg(T, header, _pose(rec)), ns)
+            scene.write(rec, header, ns)
+            scans(rec, header, ns)
 
 
 def _rename_unless_interrupted(bag: Path, path: Path) -> None:
@@ -268,20 +285,26 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
 
 
 def _cloud_msg(T, header, points_sensor: np.ndarray, pk: P.Peaks):
-    field = T["sensor_msgs/msg/PointField"]
-    fields = [field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(PEAK_FIELDS)]
-    n = len(pk)
     table = np.column_stack(
         [points_sensor.reshape(-1, 3), pk.level_db.reshape(-1, 1), pk.range_m.reshape(-1, 1)]
     ).astype("<f4")
+    return _point_cloud(T, header, table, PEAK_FIELDS)
+
+
+def _point_cloud(T, header, table: np.ndarray, names) -> object:
+    """A PointCloud2 of the rows of `table` (N, F) little-endian float32, one field
+    per column named by `names` (F)."""
+    field = T["sensor_msgs/msg/PointField"]
+    fields = [field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(names)]
+    n, step = len(table), 4 * len(names)
     return T["sensor_msgs/msg/PointCloud2"](
         header=header,
         height=1,
         width=n,
         fields=fields,
         is_bigendian=False,
-        point_step=4 * len(PEAK_FIELDS),
-        row_step=4 * len(PEAK_FIELDS) * n,
+        point_step=step,
+        row_step=step * n,
         data=np.frombuffer(table.tobytes(), np.uint8),
         is_dense=True,
     )
@@ -408,19 +431,4 @@ def _reflector_msg(T, header, rec: P.Recording):
         table = np.column_stack(
             [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None]]
         ).astype("<f4")
-    field = T["sensor_msgs/msg/PointField"]
-    fields = [
-        field(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(REFLECTOR_FIELDS)
-    ]
-    n, step = len(table), 4 * len(REFLECTOR_FIELDS)
-    return T["sensor_msgs/msg/PointCloud2"](
-        header=header,
-        height=1,
-        width=n,
-        fields=fields,
-        is_bigendian=False,
-        point_step=step,
-        row_step=step * n,
-        data=np.frombuffer(table.tobytes(), np.uint8),
-        is_dense=True,
-    )
+    return _point_cloud(T, header, table, REFLECTOR_FIELDS)

@@ -177,55 +177,8 @@ def parse_scene(
     r.check_keys(meta, "scene", "scene")
     env = Environment(**r.settings(Environment, r.table(data, "environment", ""), "environment"))
     sim = Simulation(**r.settings(Simulation, r.table(data, "simulation", ""), "simulation"))
-    materials = {"default": Material("default")}
-    for where, m in r.table_list(data, "materials"):
-        if "name" not in m:
-            raise r.fail(f"{where}.name", "missing")
-        try:
-            mat = Material(**r.settings(Material, m, where))
-        except InputError as exc:  # a table's consistency, checked by the model
-            key = f"{where}.{exc.key.split('.')[-1]}" if exc.key else where
-            raise r.fail(key, exc.reason, exc.value) from None
-        materials[mat.name] = mat
-    meshes = []
-    for where, m in r.table_list(data, "meshes"):
-        r.check_keys(m, "meshes", where)
-        file = base / r.string(m, "file", where)
-        if not file.is_file():
-            raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
-        mat = r.string(m, "material", where, "default", set(materials))
-        units = r.string(m, "units", where, "m", set(UNITS))
-        scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
-        rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
-        T = np.eye(4)
-        T[:3, :3] = rotation(rot[2], rot[1], rot[0]) * scale  # (roll, pitch, yaw) given x,y,z
-        T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
-        groups = r.table(m, "materials", where)
-        by_group = {
-            str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
-            for g in groups
-        }
-        # a moving mesh: its velocity read through the declaration, its track as a point's
-        v = settings_of(MeshItem)["velocity_m_s"]
-        velocity = r._check(v, m.get("velocity_m_s", v.default), f"{where}.velocity_m_s")
-        turn = r._check(
-            MESH_TURN, m.get("angular_rate_deg_s", MESH_TURN.default), f"{where}.angular_rate_deg_s"
-        )
-        try:
-            item = MeshItem(
-                file,
-                materials[mat],
-                T,
-                materials=by_group,
-                velocity_m_s=velocity,
-                track=_mesh_track(m.get("track")),
-                angular_velocity_rad_s=tuple(np.deg2rad(turn)),
-            )
-        except InputError as exc:  # the track or the turn, checked by the model
-            turn = (exc.key or "").endswith("angular_velocity_rad_s")
-            key = "angular_rate_deg_s" if turn else "track"
-            raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
-        meshes.append(item)
+    materials = _materials(r, data)
+    meshes = [_mesh(r, m, where, base, materials) for where, m in r.table_list(data, "meshes")]
     points = []
     for where, p in r.table_list(data, "points"):
         if "position_m" not in p and "track" not in p:
@@ -250,6 +203,62 @@ def parse_scene(
         environment=env,
         simulation=sim,
     )
+
+
+def _materials(r: _Reader, data: dict) -> dict[str, Material]:
+    """The scene's materials by name, ``default`` among them."""
+    materials = {"default": Material("default")}
+    for where, m in r.table_list(data, "materials"):
+        if "name" not in m:
+            raise r.fail(f"{where}.name", "missing")
+        try:
+            mat = Material(**r.settings(Material, m, where))
+        except InputError as exc:  # a table's consistency, checked by the model
+            key = f"{where}.{exc.key.split('.')[-1]}" if exc.key else where
+            raise r.fail(key, exc.reason, exc.value) from None
+        materials[mat.name] = mat
+    return materials
+
+
+def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshItem:
+    """One ``[[meshes]]`` table: its file (relative to `base`), materials (by name
+    from `materials`), placement and motion."""
+    r.check_keys(m, "meshes", where)
+    file = base / r.string(m, "file", where)
+    if not file.is_file():
+        raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
+    mat = r.string(m, "material", where, "default", set(materials))
+    units = r.string(m, "units", where, "m", set(UNITS))
+    scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
+    rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
+    T = np.eye(4)
+    T[:3, :3] = rotation(rot[2], rot[1], rot[0]) * scale  # (roll, pitch, yaw) given x,y,z
+    T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
+    groups = r.table(m, "materials", where)
+    by_group = {
+        str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
+        for g in groups
+    }
+    # a moving mesh: its velocity read through the declaration, its track as a point's
+    v = settings_of(MeshItem)["velocity_m_s"]
+    velocity = r._check(v, m.get("velocity_m_s", v.default), f"{where}.velocity_m_s")
+    turn = r._check(
+        MESH_TURN, m.get("angular_rate_deg_s", MESH_TURN.default), f"{where}.angular_rate_deg_s"
+    )
+    try:
+        return MeshItem(
+            file,
+            materials[mat],
+            T,
+            materials=by_group,
+            velocity_m_s=velocity,
+            track=_mesh_track(m.get("track")),
+            angular_velocity_rad_s=tuple(np.deg2rad(turn)),
+        )
+    except InputError as exc:  # the track or the turn, checked by the model
+        turn = (exc.key or "").endswith("angular_velocity_rad_s")
+        key = "angular_rate_deg_s" if turn else "track"
+        raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
 
 
 def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:

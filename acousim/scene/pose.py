@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.chirp_frames import rotation  # the one sensor -> world rotation
 from processing.errors import InputError
 
 __all__ = ["Pose", "rotation", "MAX_COORDINATE_M", "MAX_TIME_S"]
@@ -22,21 +23,6 @@ so that no distance squared overflows (a warning before the error)."""
 
 MAX_TIME_S = 1e7
 """Largest time (s) of a pose or a track row (115 days)."""
-
-
-def rotation(yaw_rad: float, pitch_rad: float = 0.0, roll_rad: float = 0.0) -> np.ndarray:
-    """Rotation matrix sensor -> world, ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
-
-    With y to the left, a positive rotation about y turns +x towards -z: a positive
-    pitch points the sensor down.
-    """
-    cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
-    cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
-    cr, sr = np.cos(roll_rad), np.sin(roll_rad)
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    return rz @ ry @ rx
 
 
 @dataclass(frozen=True, eq=False)

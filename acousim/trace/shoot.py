@@ -143,28 +143,10 @@ def follow(
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
         rows = seq[alive[planar[alive]], : b + 1]
-        if rows.size:  # unique rows via one integer code per row (np.unique(axis=0) is slow)
-            code = rows @ (n_planes ** np.arange(b + 1)).astype(np.int64)
-            _, first = np.unique(code, return_index=True)
-            sequences.update(tuple(int(v) for v in rows[i]) for i in first)
-        normal = world.normals_at(x, f)
-        inc = dirs[alive]
-        flip = np.einsum("ij,ij->i", normal, inc) > 0
-        normal[flip] *= -1  # the side the ray came from
-        mirror = inc - 2 * np.einsum("ij,ij->i", inc, normal)[:, None] * normal
-        records.append(
-            (
-                x,
-                normal,
-                mirror,
-                power[alive],
-                length[alive],
-                departure[alive],
-                f,
-                np.full(f.size, b + 1),
-                history[alive],
-            )
-        )
+        sequences.update(_unique_rows(rows, n_planes))
+        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+        geo = (x, normal, mirror, power[alive], length[alive], departure[alive])
+        records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
         # 4. continue specularly
         power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
         if column is not None:
@@ -173,9 +155,31 @@ def follow(
         origin[alive] = x + caster.offset_m * normal
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+    return Shot(_hits(records, history), sorted(sequences), rays)
+
+
+def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
+    """The distinct rows (plane sequences) of `rows` (N, B), via one integer code per
+    row (np.unique(axis=0) is slow)."""
+    if not rows.size:
+        return []
+    code = rows @ (n_planes ** np.arange(rows.shape[1])).astype(np.int64)
+    _, first = np.unique(code, return_index=True)
+    return [tuple(int(v) for v in rows[i]) for i in first]
+
+
+def _reflect(normal: np.ndarray, inc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(normals (N, 3) turned to the side the rays `inc` (N, 3) came from, the
+    mirrored directions (N, 3))."""
+    flip = np.einsum("ij,ij->i", normal, inc) > 0
+    normal[flip] *= -1  # the side the ray came from
+    mirror = inc - 2 * np.einsum("ij,ij->i", inc, normal)[:, None] * normal
+    return normal, mirror
+
+
+def _hits(records: list, history: np.ndarray) -> Hits:
+    """The hits of every bounce, concatenated (none: empty arrays)."""
     if records:
-        hits = Hits(*(np.concatenate(v) for v in zip(*records)))
-    else:
-        z3, z = np.zeros((0, 3)), np.zeros(0)
-        hits = Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0])
-    return Shot(hits, sorted(sequences), rays)
+        return Hits(*(np.concatenate(v) for v in zip(*records)))
+    z3, z = np.zeros((0, 3)), np.zeros(0)
+    return Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0])

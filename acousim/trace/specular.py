@@ -58,55 +58,13 @@ def refine_sequences(
     eps, tol = caster.offset_m, caster.tolerance_m
     paths = []
     by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
-    for k, ids in sorted(by_len.items()):
+    for _k, ids in sorted(by_len.items()):
         S = ids.shape[0]
-        images = np.empty((S, k + 1, 3))
-        images[:, 0] = emitter
-        for j in range(k):
-            n, off = normal[ids[:, j]], offset[ids[:, j]]
-            prev = images[:, j]
-            images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
+        images = _images(ids, emitter, normal, offset)
         ok = np.ones(S, bool)
-        edges: list[tuple[int, int]] = []
         if max_path_m is not None:
             ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
-        cur = np.broadcast_to(receiver, (S, 3)).copy()
-        points = np.empty((S, k, 3))
-        for j in range(k - 1, -1, -1):
-            n, off = normal[ids[:, j]], offset[ids[:, j]]
-            direction = images[:, j + 1] - cur
-            denom = np.einsum("si,si->s", direction, n)
-            safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
-            s_ = (off - np.einsum("si,si->s", cur, n)) / safe
-            length = np.linalg.norm(direction, axis=1)
-            ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
-            x = cur + np.maximum(s_, 0)[:, None] * direction
-            # a reflection point off its plane's box is on none of its faces (every
-            # check below would refuse it): no ray for it
-            box = world.plane_boxes[ids[:, j]]
-            ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
-            # a reflection point on the previous one: the path meets an edge between
-            # two planes (both reflections happen there); no leg to check for it
-            at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
-            unit = direction / np.maximum(length, 1e-300)[:, None]
-            start = cur + (eps if j < k - 1 else 0.0) * unit
-            sel = np.flatnonzero(ok & at_edge)
-            ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
-            edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
-            live = np.flatnonzero(ok & ~at_edge)
-            t, f = caster.first_hit(start[live], (x - start)[live])
-            dist = np.linalg.norm(x[live] - start[live], axis=1)
-            good = (f >= 0) & (np.abs(t - dist) <= tol)
-            other = good.copy()
-            other[good] = world.plane[f[good]] != ids[live[good], j]
-            # a hit at the right distance on another plane: the point is on an edge
-            # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
-            # lies on a face of the expected plane, within the tolerance
-            sel = np.flatnonzero(other)
-            good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
-            ok[live[~good]] = False
-            points[:, j] = x
-            cur = x
+        points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
         edges = [(i, j) for i, j in edges if ok[i]]
         if edges:
@@ -121,11 +79,7 @@ def refine_sequences(
         t, f = caster.first_hit(cur[live] + eps * d / L[:, None], d)
         ok[live[(f >= 0) & (t < L - tol)]] = False
         amp = np.prod(refl[ids], axis=1)
-        counts = np.zeros((S, K), int)
-        if K:  # frequency-dependent materials: count each plane's specular interaction
-            for j in range(k):
-                c = column[ids[:, j]]
-                np.add.at(counts, (np.flatnonzero(c >= 0), c[c >= 0]), 1)
+        counts = _counts(ids, column, K)
         for i in np.flatnonzero(ok):
             dep = points[i, 0] - emitter
             paths.append(
@@ -143,6 +97,81 @@ def refine_sequences(
     for p in paths:
         unique.setdefault(tuple(np.round(p.image_m / tol).astype(np.int64)), p)
     return list(unique.values())
+
+
+def _images(ids: np.ndarray, emitter: np.ndarray, normal, offset) -> np.ndarray:
+    """Image sources (S, k + 1, 3) of sequences `ids` (S, k): the emitter mirrored
+    across each plane in turn."""
+    S, k = ids.shape
+    images = np.empty((S, k + 1, 3))
+    images[:, 0] = emitter
+    for j in range(k):
+        n, off = normal[ids[:, j]], offset[ids[:, j]]
+        prev = images[:, j]
+        images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
+    return images
+
+
+def _counts(ids: np.ndarray, column, K: int) -> np.ndarray:
+    """(S, K) specular interactions of each sequence per interaction column (zeros
+    without frequency-dependent materials, K = 0)."""
+    S, k = ids.shape
+    counts = np.zeros((S, K), int)
+    if K:  # frequency-dependent materials: count each plane's specular interaction
+        for j in range(k):
+            c = column[ids[:, j]]
+            np.add.at(counts, (np.flatnonzero(c >= 0), c[c >= 0]), 1)
+    return counts
+
+
+def _reflection_points(world, caster, ids, images, receiver, ok):
+    """Backwards from the receiver, the reflection points (S, k, 3) of sequences `ids`
+    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) where
+    reflections j and j + 1 meet at an edge, and the first reflection points (S, 3)
+    (the receiver for k = 0); `ok` (S,) is cleared in place for
+    sequences whose points miss their plane or whose legs are blocked."""
+    normal, offset = _plane_table(world)[:2]
+    eps, tol = caster.offset_m, caster.tolerance_m
+    S, k = ids.shape
+    edges: list[tuple[int, int]] = []
+    cur = np.broadcast_to(receiver, (S, 3)).copy()
+    points = np.empty((S, k, 3))
+    for j in range(k - 1, -1, -1):
+        n, off = normal[ids[:, j]], offset[ids[:, j]]
+        direction = images[:, j + 1] - cur
+        denom = np.einsum("si,si->s", direction, n)
+        safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
+        s_ = (off - np.einsum("si,si->s", cur, n)) / safe
+        length = np.linalg.norm(direction, axis=1)
+        ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
+        x = cur + np.maximum(s_, 0)[:, None] * direction
+        # a reflection point off its plane's box is on none of its faces (every
+        # check below would refuse it): no ray for it
+        box = world.plane_boxes[ids[:, j]]
+        ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
+        # a reflection point on the previous one: the path meets an edge between
+        # two planes (both reflections happen there); no leg to check for it
+        at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
+        unit = direction / np.maximum(length, 1e-300)[:, None]
+        start = cur + (eps if j < k - 1 else 0.0) * unit
+        sel = np.flatnonzero(ok & at_edge)
+        ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
+        edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
+        live = np.flatnonzero(ok & ~at_edge)
+        t, f = caster.first_hit(start[live], (x - start)[live])
+        dist = np.linalg.norm(x[live] - start[live], axis=1)
+        good = (f >= 0) & (np.abs(t - dist) <= tol)
+        other = good.copy()
+        other[good] = world.plane[f[good]] != ids[live[good], j]
+        # a hit at the right distance on another plane: the point is on an edge
+        # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
+        # lies on a face of the expected plane, within the tolerance
+        sel = np.flatnonzero(other)
+        good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
+        ok[live[~good]] = False
+        points[:, j] = x
+        cur = x
+    return points, edges, cur
 
 
 def by_length(sequences: list[tuple[int, ...]]) -> dict[int, np.ndarray]:

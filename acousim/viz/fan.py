@@ -280,8 +280,6 @@ def make_fan_figure(
         points (N, 3) in the sensor frame from the array centre, m), marked at
         their slant range along their azimuth (:func:`acousim.viz.truth.fan_marks`).
     """
-    from .truth import fan_marks
-
     plt = _plt()
     n = len(images)
     cols = n if n <= 4 else int(np.ceil(n / 2))
@@ -290,11 +288,7 @@ def make_fan_figure(
         max_range_m = max(
             (float(im.range_m.max()) for im in images.values() if im.range_m.size), default=1.0
         )
-    marks = None
-    if truth is not None and len(truth) and n:
-        az = next(iter(images.values())).azimuth_rad
-        span = (float(az.min()), float(az.max())) if az.size else (-np.pi / 2, np.pi / 2)
-        marks = fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
+    marks = _marks(images, truth, max_range_m, dynamic_range_db)
     extent = common_extent(
         list(images.values()), max_range_m, dynamic_range_db, marks.xy if marks else None
     )
@@ -325,6 +319,18 @@ def make_fan_figure(
         f"{title}\n{head} is this slice" if title else f"{head} is this slice", fontsize=10
     )
     return fig
+
+
+def _marks(images: Mapping[str, Image], truth, max_range_m: float, dynamic_range_db: float):
+    """The traced reflectors' fan marks over the first image's azimuth span (None
+    without truth or images)."""
+    from .truth import fan_marks
+
+    if truth is None or not len(truth) or not images:
+        return None
+    az = next(iter(images.values())).azimuth_rad
+    span = (float(az.min()), float(az.max())) if az.size else (-np.pi / 2, np.pi / 2)
+    return fan_marks(truth, max_range_m, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
 
 
 def common_extent(images, max_range_m: float, dynamic_range_db: float, points_yx=None):

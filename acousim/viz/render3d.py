@@ -14,6 +14,7 @@ sweep (:func:`sensor_sweep`, :func:`sweep_wedge`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from .fan import DYNAMIC_RANGE_DB
 
 __all__ = [
     "SceneRenderer",
+    "FrameContent",
     "render_scene",
     "import_pyvista",
     "PEAK_COLOR",
@@ -45,6 +47,34 @@ WEDGE_LENGTH_M = 1.5
 
 MOVING_COLOR = (0.45, 0.35, 0.7)  # meshes that move (a person, a robot): violet
 LIDAR_COLOR = (0.15, 0.6, 0.2)  # the LiDAR's points: green
+
+
+@dataclass(frozen=True)
+class FrameContent:
+    """What one frame draws; points in the world frame (m).
+
+    sensor_position (3,), sensor_axis (3,) : the sensor and where it points.
+    truth, peaks : (N, 3) points: ray-traced reflectors, image peaks.
+    truth_level_db : (N,) level of each reflector in dB re the strongest (default:
+        all 0 dB); those below -`truth_range_db` (default: the renderer's) are not
+        drawn, the others are spheres from 2 cm (at the threshold) to 6 cm (the
+        strongest) in diameter.
+    sweep : the sensor's positions and axes (K, 3) each over its measurement
+        (:func:`sensor_sweep`): drawn as fading axes and the wedge they sweep.
+    moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they are
+        in this frame.
+    lidar : (P, 3) points of the LiDAR's scan (small dots).
+    """
+
+    sensor_position: np.ndarray
+    sensor_axis: np.ndarray
+    truth: np.ndarray | None = None
+    peaks: np.ndarray | None = None
+    truth_level_db: np.ndarray | None = None
+    truth_range_db: float | None = None
+    sweep: tuple[np.ndarray, np.ndarray] | None = None
+    moving_triangles: np.ndarray | None = None
+    lidar: np.ndarray | None = None
 
 
 def _polydata(pv, triangles: np.ndarray):
@@ -163,78 +193,38 @@ class SceneRenderer:
         )
         self._actors: list = []
 
-    def frame(
-        self,
-        sensor_position: np.ndarray,
-        sensor_axis: np.ndarray,
-        truth: np.ndarray | None = None,
-        peaks: np.ndarray | None = None,
-        camera: str = "chase",
-        truth_level_db: np.ndarray | None = None,
-        truth_range_db: float | None = None,
-        sweep: tuple[np.ndarray, np.ndarray] | None = None,
-        moving_triangles: np.ndarray | None = None,
-        lidar: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """Render one frame: (H, W, 3) uint8.
+    def frame(self, content: FrameContent, *, camera: str = "chase") -> np.ndarray:
+        """Render one frame of `content` (:class:`FrameContent`): (H, W, 3) uint8.
 
-        truth, peaks : (N, 3) world-frame points.
-        truth_level_db : (N,) level of each reflector in dB re the strongest (default:
-            all 0 dB); those below -`truth_range_db` (default: the renderer's) are not
-            drawn, the others are
-            spheres from 2 cm (at the threshold) to 6 cm (the strongest) in diameter.
         camera : 'chase' (above and behind the sensor) or 'top' (bird's eye); without
             a scene mesh the camera is fitted to the sensor and the peaks.
-        sweep : the sensor's positions and axes (K, 3) each over its measurement
-            (:func:`sensor_sweep`): drawn as fading axes and the wedge they sweep.
-        moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they
-            are in this frame.
-        lidar : (P, 3) world-frame points of the LiDAR's scan (small dots).
         """
-        pv, plotter = self.pv, self.plotter
+        c = content
+        plotter = self.plotter
         for actor in self._actors:
             plotter.remove_actor(actor, render=False)
-        pos = np.asarray(sensor_position, float)
-        axis = np.asarray(sensor_axis, float) / np.linalg.norm(sensor_axis)
-        self._actors = [
-            plotter.add_mesh(pv.Sphere(radius=0.06, center=pos), color=SENSOR_COLOR, render=False),
-            plotter.add_mesh(
-                pv.Arrow(start=pos, direction=axis, scale=AXIS_LENGTH_M),
-                color=SENSOR_COLOR,
-                render=False,
-            ),
-        ]
-        if sweep is not None:
-            self._actors += self._sweep(*sweep)
-        if moving_triangles is not None and len(moving_triangles):
-            self._actors.append(
-                plotter.add_mesh(_polydata(pv, moving_triangles), color=MOVING_COLOR, render=False)
-            )
-        if truth is not None and len(truth):
-            t = np.asarray(truth, float).reshape(-1, 3)
-            lvl = np.zeros(len(t)) if truth_level_db is None else np.asarray(truth_level_db)
-            truth_range_db = truth_range_db or self.truth_range_db
-            keep = lvl >= -truth_range_db
-            if keep.any():
-                cloud = pv.PolyData(t[keep])
-                cloud["diameter"] = 0.02 + 0.04 * (1 + lvl[keep] / truth_range_db)
-                glyphs = cloud.glyph(
-                    scale="diameter", orient=False, geom=pv.Sphere(radius=0.5, theta_resolution=10)
-                )
-                self._actors.append(plotter.add_mesh(glyphs, color=TRUTH_COLOR, render=False))
-        if lidar is not None and len(lidar):
+        pos = np.asarray(c.sensor_position, float)
+        axis = np.asarray(c.sensor_axis, float) / np.linalg.norm(c.sensor_axis)
+        self._actors = self._sensor(pos, axis)
+        if c.sweep is not None:
+            self._actors += self._sweep(*c.sweep)
+        if c.moving_triangles is not None and len(c.moving_triangles):
+            mesh = _polydata(self.pv, c.moving_triangles)
+            self._actors.append(plotter.add_mesh(mesh, color=MOVING_COLOR, render=False))
+        drawn_truth = self._truth(c)
+        if c.lidar is not None and len(c.lidar):
             self._actors.append(
                 plotter.add_mesh(
-                    pv.PolyData(np.asarray(lidar, float).reshape(-1, 3)),
+                    self.pv.PolyData(np.asarray(c.lidar, float).reshape(-1, 3)),
                     color=LIDAR_COLOR,
                     point_size=3,
                     render=False,
                 )
             )
-        if peaks is not None and len(peaks):
+        if c.peaks is not None and len(c.peaks):
             self._actors.append(
                 plotter.add_mesh(
-                    pv.PolyData(np.asarray(peaks, float)),
+                    self.pv.PolyData(np.asarray(c.peaks, float)),
                     color=PEAK_COLOR,
                     point_size=14,
                     render_points_as_spheres=True,
@@ -242,10 +232,50 @@ class SceneRenderer:
                 )
             )
         self._actors.append(self._scale_bar(pos, axis))
+        self._place_camera(c, pos, axis, camera, drawn_truth)
+        plotter.render()  # the actors were added without rendering: once, here
+        return plotter.screenshot(return_img=True)
+
+    def _sensor(self, pos: np.ndarray, axis: np.ndarray) -> list:
+        """The sensor: a sphere at `pos` and an arrow along its unit `axis`."""
+        pv, plotter = self.pv, self.plotter
+        return [
+            plotter.add_mesh(pv.Sphere(radius=0.06, center=pos), color=SENSOR_COLOR, render=False),
+            plotter.add_mesh(
+                pv.Arrow(start=pos, direction=axis, scale=AXIS_LENGTH_M),
+                color=SENSOR_COLOR,
+                render=False,
+            ),
+        ]
+
+    def _truth(self, c: FrameContent) -> np.ndarray | None:
+        """Draw the reflectors within the dynamic range (spheres sized by level);
+        returns the drawn points (K, 3), None when there is no truth."""
+        if c.truth is None or not len(c.truth):
+            return None
+        pv = self.pv
+        t = np.asarray(c.truth, float).reshape(-1, 3)
+        lvl = np.zeros(len(t)) if c.truth_level_db is None else np.asarray(c.truth_level_db)
+        truth_range_db = c.truth_range_db or self.truth_range_db
+        keep = lvl >= -truth_range_db
+        if keep.any():
+            cloud = pv.PolyData(t[keep])
+            cloud["diameter"] = 0.02 + 0.04 * (1 + lvl[keep] / truth_range_db)
+            glyphs = cloud.glyph(
+                scale="diameter", orient=False, geom=pv.Sphere(radius=0.5, theta_resolution=10)
+            )
+            self._actors.append(self.plotter.add_mesh(glyphs, color=TRUTH_COLOR, render=False))
+        return t[keep]
+
+    def _place_camera(self, c: FrameContent, pos, axis, camera: str, truth) -> None:
+        """The camera: fitted to what is drawn (no mesh), bird's eye or chasing."""
+        plotter = self.plotter
         if not self.has_mesh:
-            drawn = [np.asarray(q, float).reshape(-1, 3) for q in (peaks, lidar) if q is not None]
-            if truth is not None and len(truth):
-                drawn.append(t[keep])
+            drawn = [
+                np.asarray(q, float).reshape(-1, 3) for q in (c.peaks, c.lidar) if q is not None
+            ]
+            if truth is not None:
+                drawn.append(truth)
             self._fit_camera(pos, axis, drawn)
         elif camera == "top":
             focus = pos + 2.5 * axis
@@ -253,8 +283,6 @@ class SceneRenderer:
         else:  # behind and above, looking past the sensor: the sensor in the lower third
             eye = pos - 2.8 * axis + np.array([0, 0, 1.5])
             plotter.camera_position = [tuple(eye), tuple(pos + 2.0 * axis), (0, 0, 1)]
-        plotter.render()  # the actors were added without rendering: once, here
-        return plotter.screenshot(return_img=True)
 
     def _sweep(self, positions: np.ndarray, axes: np.ndarray) -> list:
         """Motion blur: the wedge the axis sweeps (translucent) and the axis at each
@@ -338,43 +366,27 @@ class SceneRenderer:
 
 def render_scene(
     path: str | Path | None,
+    content: FrameContent,
     *,
     triangles: np.ndarray | None,
-    sensor_position: np.ndarray,
-    sensor_axis: np.ndarray,
-    truth: np.ndarray | None = None,
-    peaks: np.ndarray | None = None,
     window_size: tuple[int, int] = (900, 600),
     camera: str = "chase",
-    truth_level_db: np.ndarray | None = None,
-    sweep: tuple[np.ndarray, np.ndarray] | None = None,
-    moving_triangles: np.ndarray | None = None,
     truth_range_db: float = DYNAMIC_RANGE_DB,
-    lidar: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Render a single frame (see :meth:`SceneRenderer.frame`); write it to `path`
-    (PNG, atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
+    """Render a single frame of `content` (see :meth:`SceneRenderer.frame`) among the
+    scene's `triangles` (F, 3, 3) (None: no mesh); write it to `path` (PNG,
+    atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
     renderer = SceneRenderer(
         triangles,
         window_size,
-        with_truth=truth is not None,
-        with_sweep=sweep is not None,
-        with_moving=moving_triangles is not None,
+        with_truth=content.truth is not None,
+        with_sweep=content.sweep is not None,
+        with_moving=content.moving_triangles is not None,
         truth_range_db=truth_range_db,
-        with_lidar=lidar is not None,
+        with_lidar=content.lidar is not None,
     )
     try:
-        image = renderer.frame(
-            sensor_position,
-            sensor_axis,
-            truth,
-            peaks,
-            camera,
-            truth_level_db=truth_level_db,
-            sweep=sweep,
-            moving_triangles=moving_triangles,
-            lidar=lidar,
-        )
+        image = renderer.frame(content, camera=camera)
     finally:
         renderer.close()
     if path is not None:
