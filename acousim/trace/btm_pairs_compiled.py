@@ -7,7 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .btm_pairs import EdgePairElements, PairGeometry, _farthest, cylindrical, shortest_paths
+from .btm_pair_geometry import (
+    EdgePairElements,
+    PairGeometry,
+    _farthest,
+    cylindrical,
+    shortest_paths,
+)
 
 __all__ = ["compiled_elements", "fine_live"]
 

@@ -58,8 +58,9 @@ from __future__ import annotations
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import BIN, PairGeometry, _elements, cylindrical, shortest_paths
-from .btm_pairs import _apex as _edge_apex
+from .btm_pair_geometry import PairGeometry, cylindrical, shortest_paths
+from .btm_pair_geometry import _apex as _edge_apex
+from .btm_pairs import BIN, _elements
 
 __all__ = [
     "COARSE_MARGIN",
