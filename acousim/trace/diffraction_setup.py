@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .btm import DEFAULT_STEP_M
-from .edges import Edges, find_edges, triangles_mesh
+from .edges import Edges, find_edges, merge_collinear, triangles_mesh
 from .embree import DISTANCE_TOLERANCE, RAY_OFFSET
 from .geometry import World
 
@@ -42,8 +42,9 @@ class DiffractingGeometry:
         first = np.unique(world.plane, return_index=True)[1]
         planes = (world.normals[first], world.offsets[first], refl[first])
         column = world.face_interactions(0)
+        key = world.plane * (int(world.material.max(initial=0)) + 1) + world.material
         return cls(
-            find_edges(triangles_mesh(world.triangles)),
+            merge_collinear(find_edges(triangles_mesh(world.triangles)), key),
             refl,
             planes,
             world.plane,

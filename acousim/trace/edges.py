@@ -38,7 +38,7 @@ import numpy as np
 
 from .geometry import CURVED_MAX_ANGLE_DEG
 
-__all__ = ["Edges", "find_edges", "triangles_mesh"]
+__all__ = ["Edges", "find_edges", "merge_collinear", "triangles_mesh"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,3 +183,67 @@ def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
         [adj[real], np.column_stack([rim_faces, np.full(rim_faces.size, -1)])]
     ).astype(int)
     return Edges(start, end, face_dir, normal, other_dir, angle, faces)
+
+
+def merge_collinear(edges: Edges, face_key: np.ndarray, tol_m: float = 1e-6) -> Edges:
+    """`edges` with the collinear pieces of one straight edge joined: a tessellated
+    face cuts an edge into segments end to end, which are one wedge (same line,
+    same faces' planes and materials by `face_key` (F,), same face directions and open
+    angle). Joining them makes the stage's cost depend on the scene's edges, not on
+    its tessellation (the elements of one long edge are those of its pieces)."""
+    if len(edges) < 2:
+        return edges
+    d = edges.end_m - edges.start_m
+    length = np.linalg.norm(d, axis=1)
+    u = d / np.where(length > 0, length, 1.0)[:, None]
+    # 1. a canonical direction for each line, so that both windings of it agree
+    lead = np.take_along_axis(u, np.argmax(np.abs(u), axis=1)[:, None], axis=1)[:, 0]
+    flip = lead < 0
+    u = np.where(flip[:, None], -u, u)
+    start = np.where(flip[:, None], edges.end_m, edges.start_m)
+    end = np.where(flip[:, None], edges.start_m, edges.end_m)
+    t0, t1 = np.einsum("ij,ij->i", start, u), np.einsum("ij,ij->i", end, u)
+    foot = start - t0[:, None] * u  # the line's point nearest the origin
+    # 2. the wedges that may be one: same line, faces' keys, directions and angle
+    f = edges.faces
+    keys = np.column_stack(
+        [
+            np.round(u * 1e6),
+            np.round(foot / tol_m),
+            np.round(edges.face_dir * 1e6),
+            np.round(edges.normal * 1e6),
+            np.round(edges.other_dir * 1e6),
+            np.round(edges.angle_rad * 1e6),
+            face_key[f[:, 0]],
+            np.where(f[:, 1] >= 0, face_key[np.maximum(f[:, 1], 0)], -1),
+        ]
+    )
+    group = np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+    # 3. along each line, pieces that touch (within tol_m) are joined
+    order = np.lexsort((t0, group))
+    g, a, b = group[order], t0[order], t1[order]
+    new = np.ones(order.size, bool)
+    run_end = b[0]
+    for k in range(1, order.size):  # a short loop over the edges (thousands)
+        if g[k] == g[k - 1] and a[k] <= run_end + tol_m:
+            new[k] = False
+            run_end = max(run_end, b[k])
+        else:
+            run_end = b[k]
+    run = np.cumsum(new) - 1
+    first = order[new]
+    lo = np.full(first.size, np.inf)
+    hi = np.full(first.size, -np.inf)
+    np.minimum.at(lo, run, a)
+    np.maximum.at(hi, run, b)
+    out = edges.select(first)
+    uu, pf = u[first], foot[first]
+    return Edges(
+        pf + lo[:, None] * uu,
+        pf + hi[:, None] * uu,
+        out.face_dir,
+        out.normal,
+        out.other_dir,
+        out.angle_rad,
+        out.faces,
+    )
