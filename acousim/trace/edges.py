@@ -144,7 +144,6 @@ def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
     min_turn_deg : an edge is kept when its faces turn by more than this (degrees)
         either way; smaller turns are seams of a curved surface.
     """
-    import trimesh
 
     normals = np.asarray(mesh.face_normals, float)
     v = np.asarray(mesh.vertices, float)
@@ -153,11 +152,16 @@ def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
     adj_edges = np.asarray(mesh.face_adjacency_edges, int).reshape(-1, 2)
     sorted_edges = np.sort(np.asarray(mesh.edges, int), axis=1)
     edge_face = np.asarray(mesh.edges_face, int)
-    groups = trimesh.grouping.group_rows(sorted_edges)
-    single = np.array([g[0] for g in groups if len(g) == 1], int)
-    multi = {tuple(sorted_edges[g[0]]) for g in groups if len(g) > 2}
-    if multi and adj_edges.size:
-        keep = np.array([tuple(e) not in multi for e in np.sort(adj_edges, axis=1)])
+    # each vertex pair as one integer: the edges used by one face (rims) and by more
+    # than two (non-manifold), without a Python loop over the edges
+    n_v = np.int64(max(len(v), 1))
+    code = sorted_edges[:, 0].astype(np.int64) * n_v + sorted_edges[:, 1]
+    _, first, count = np.unique(code, return_index=True, return_counts=True)
+    single = np.sort(first[count == 1])
+    multi = np.unique(code)[count > 2]
+    if multi.size and adj_edges.size:
+        pair = np.sort(adj_edges, axis=1)
+        keep = ~np.isin(pair[:, 0].astype(np.int64) * n_v + pair[:, 1], multi)
         adj, adj_edges = adj[keep], adj_edges[keep]
     # 2. open angle of each pair
     fa, fb = adj[:, 0], adj[:, 1]
