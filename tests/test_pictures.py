@@ -164,7 +164,8 @@ ALL_MARKS = np.array(
 @pytest.mark.parametrize("n_methods", [1, 3, 5])
 def test_legends_lie_within_the_figure(n_methods):
     """The legend of the fan (one to five panels) and of the el-az maps, with every
-    mark in it, lies inside the figure (it was cut at both sides below one panel)."""
+    mark in it, and the title lie inside the figure (both were cut at both sides of
+    one panel)."""
     import matplotlib.pyplot as plt
 
     from acousim.viz.fan import make_elaz_figure, make_fan_figure
@@ -181,6 +182,8 @@ def test_legends_lie_within_the_figure(n_methods):
         assert fig.legends, "no legend"
         for leg in fig.legends:
             assert _inside(leg, fig), (leg.get_window_extent(), fig.bbox)
+        if fig._suptitle is not None:  # the title too (one panel cut it at both sides)
+            assert _inside(fig._suptitle, fig), (fig._suptitle.get_window_extent(), fig.bbox)
         labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
         assert any("behind the array" in t for t in labels)
         plt.close(fig)

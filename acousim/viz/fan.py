@@ -314,11 +314,23 @@ def make_fan_figure(
         fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(dynamic_range_db))
     legend_inside(fig, fan_legend(drawn, dynamic_range_db))
     band = np.rad2deg(FAN_ELEVATION_BAND_RAD)
-    head = f"top view, {dynamic_range_db:g} dB dynamic range; elevation within ±{band:g}°"
-    fig.suptitle(
-        f"{title}\n{head} is this slice" if title else f"{head} is this slice", fontsize=10
+    sep = "; " if cols > 1 else ";\n"  # one panel: too narrow for the line (it was cut)
+    head = (
+        f"top view, {dynamic_range_db:g} dB dynamic range{sep}elevation within "
+        f"±{band:g}° is this slice"
     )
+    fitted_title(fig, f"{title}\n{head}" if title else head)
     return fig
+
+
+def fitted_title(fig, text: str, fontsize: float = 10.0) -> None:
+    """`text` as the figure's title, each line wrapped at its "; " and ", " where it
+    is wider than the figure (a one-panel figure cut it at both sides)."""
+    import textwrap
+
+    chars = max(20, int(fig.get_figwidth() * 72 / (0.6 * fontsize)))  # ~average glyph
+    lines = [textwrap.fill(line, chars, break_on_hyphens=False) for line in text.split("\n")]
+    fig.suptitle("\n".join(lines), fontsize=fontsize)
 
 
 def _marks(images: Mapping[str, Image], truth, max_range_m: float, dynamic_range_db: float):
@@ -514,5 +526,5 @@ def make_elaz_figure(
     head = f"{image.method}: strongest distinct echoes, {dynamic_range_db:g} dB dynamic range"
     if truth is not None:
         head += f"; marks: reflectors within {tol * 100:.0f} cm of the slice's range"
-    fig.suptitle(f"{title}\n{head}" if title else head, fontsize=10)
+    fitted_title(fig, f"{title}\n{head}" if title else head)
     return fig
