@@ -58,8 +58,7 @@ from __future__ import annotations
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pair_geometry import PairGeometry, cylindrical, shortest_paths
-from .btm_pair_geometry import _apex as _edge_apex
+from .btm_pair_geometry import PairGeometry, _apex, _dot, cylindrical, shortest_paths
 from .btm_pairs import BIN, _elements
 
 __all__ = [
@@ -70,10 +69,6 @@ __all__ = [
     "pair_bound",
     "pair_estimate",
 ]
-
-
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
 
 
 def _cylindrical(p, start, end, face_dir, normal):
@@ -283,18 +278,6 @@ def _near_meeting_point(ax1, ax2, bin_m, k1, k2):
         return np.where(c > 1e-5, 4 * np.pi * np.sqrt(bin_m) / (c * (k1 * k2) ** 0.25), np.inf)
 
 
-def _apex(s, r, start, axis, length):
-    """The first-order apex (z along each edge, clipped to it) of s (N, 3) or (3,)
-    and r (3,): the point of least |s - x| + |x - r| on the edge's line."""
-    ds, dr = s - start, r - start
-    zs, zr = _dot(ds, axis), _dot(dr, axis)
-    rs = np.linalg.norm(ds - zs[:, None] * axis, axis=1)
-    rr = np.linalg.norm(dr - zr[:, None] * axis, axis=1)
-    tot = rs + rr
-    z = np.where(tot > 0, (rr * zs + rs * zr) / np.where(tot > 0, tot, 1.0), zs)
-    return np.clip(z, 0.0, length)
-
-
 def pair_estimate(
     pairs: PairGeometry,
     source: np.ndarray,
@@ -334,7 +317,7 @@ def pair_estimate(
     b2 = beta_bound(nu2, p.theta21, tr, p.terms2)
     z1, _ = shortest_paths(p, source, receiver)
     x1 = p.start1 + z1[:, None] * ax1
-    z2 = _edge_apex(x1, receiver, p.start2, ax2, len2)
+    z2 = _apex(x1, receiver, p.start2, ax2, len2)
     x2 = p.start2 + z2[:, None] * ax2
     d1, d, d2 = x1 - source, x1 - x2, receiver - x2
     m, n, l_ = (np.linalg.norm(v, axis=1) for v in (d1, d, d2))
