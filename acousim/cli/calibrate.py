@@ -1,4 +1,12 @@
-"""``acousim calibrate``: fit a scene's materials to recordings of it."""
+"""``acousim calibrate``: fit a scene's materials to recordings of it.
+
+Fit the reflection and diffuse fraction of a scene's materials (every material a mesh
+uses, or --param) to recordings of the scene: trace once, render each group of paths
+once, and fit the energy per range bin, direction and band by robust least squares.
+Writes the scene file with only the fitted values changed, each with its uncertainty in
+a comment, and prints the residual before and after per range bin and per parameter
+(docs/compare.md).
+"""
 
 from __future__ import annotations
 
@@ -6,25 +14,14 @@ import argparse
 
 from processing.errors import InputError
 
-from .common import UsageError, load_scene, output_file, parse_indices
-from .options import DeclaredHelp, add_declared
+from .common import UsageError, add_command, load_scene, output_file, parse_indices
+from .options import add_declared
 
 SETTINGS = "acousim.calibrate.settings:CalibrationSettings"
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "calibrate",
-        help="fit a scene's materials to recordings of it",
-        formatter_class=DeclaredHelp,
-        description="Fit the reflection and diffuse fraction of a scene's materials "
-        "(every material a mesh uses, or --param) to recordings of the scene: trace "
-        "once, render each group of paths once, and fit the energy per range bin, "
-        "direction and band by robust least squares. Writes the scene file with only "
-        "the fitted values changed, each with its uncertainty in a comment, and prints "
-        "the residual before and after per range bin and per parameter "
-        "(docs/compare.md).",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument("recordings", help="recording file (.h5), or 'rtisdev-sample'")
     p.add_argument("--scene", required=True, help="scene file (.toml) the recordings are of")
     p.add_argument(
@@ -63,7 +60,6 @@ def register(sub) -> None:
         "--no-align", action="store_true", help="do not shift the recordings onto the simulation"
     )
     p.add_argument("--report", help="also write the report as JSON to this file")
-    p.set_defaults(func=run)
 
 
 def _tables(items: list[str]) -> dict:

@@ -52,9 +52,35 @@ def declared(module: str, cls: str, name: str):
     return get
 
 
+def add_command(sub, doc: str, run) -> argparse.ArgumentParser:
+    """Register the command a module's docstring declares and return its parser.
+
+    The docstring's first paragraph, "``acousim NAME``: HELP.", gives the command's
+    name and its line in ``acousim --help``; the paragraphs after it are the
+    description of ``acousim NAME --help``; `run(args)` handles it. Options added by
+    :func:`acousim.cli.options.add_declared` get their help from their declarations."""
+    from .options import DeclaredHelp
+
+    head, _, body = doc.strip().partition("\n\n")
+    name, _, summary = " ".join(head.split()).partition(": ")
+    parser = sub.add_parser(
+        name.strip("`").split()[-1],
+        help=summary.rstrip("."),
+        description=" ".join(body.split()),
+        formatter_class=DeclaredHelp,
+    )
+    parser.set_defaults(func=run)
+    return parser
+
+
 SEED = checked("int", declared=declared("acousim.scene.model", "Simulation", "seed"))
 INDEX = checked("int", 0, 2**31 - 1)
 WORKERS = checked("int", 1, 1024)
+
+
+def add_seed(parser: argparse.ArgumentParser) -> None:
+    """The --seed option of a command that simulates (the scene's seed by default)."""
+    parser.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
 
 
 def methods(option: str, text: str) -> tuple[str, ...]:

@@ -1,4 +1,11 @@
-"""``acousim compare``: a real recording beside its simulation."""
+"""``acousim compare``: compare a real recording with its simulation.
+
+Put a real recording beside its simulation (from a scene and pose, or an existing
+simulated file): align the emission and the gain, compare matched-filter envelopes,
+range profiles and images, match their peaks (a weaker peak within one STFT window of a
+stronger one is reported as its side lobe), and write a JSON report and a picture
+(docs/compare.md).
+"""
 
 from __future__ import annotations
 
@@ -9,6 +16,7 @@ from processing.errors import InputError
 from .common import (
     INDEX,
     UsageError,
+    add_command,
     choice,
     load_scene,
     methods,
@@ -17,21 +25,11 @@ from .common import (
     writable_dir,
 )
 from .image import CHIRP_CALLS
-from .record import ARRAY_PRESETS
+from .record import add_array
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "compare",
-        help="compare a real recording with its simulation",
-        description="Put a real recording beside its simulation (from a "
-        "scene and pose, or an existing simulated file): align "
-        "the emission and the gain, compare matched-filter "
-        "envelopes, range profiles and images, match their "
-        "peaks (a weaker peak within one STFT window of a stronger "
-        "one is reported as its side lobe), and write a JSON report "
-        "and a picture (docs/compare.md).",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument(
         "real",
         help="real recording: .h5 (ours, or a CHIRP file), raw tick words (.bin), or "
@@ -54,12 +52,7 @@ def register(sub) -> None:
         help="a trajectory: compare recording i with pose i (or --sim recording i)"
         " for every i; one row per pose and a summary in summary.json",
     )
-    p.add_argument(
-        "--array",
-        default="ertis_v3d1",
-        type=choice("array preset", ARRAY_PRESETS),
-        help=f"array of a raw .bin: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
-    )
+    add_array(p, "array of a raw .bin")
     p.add_argument(
         "--call",
         default=None,
@@ -71,7 +64,6 @@ def register(sub) -> None:
         "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
     )
     p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
-    p.set_defaults(func=run)
 
 
 def _pairs(args: argparse.Namespace):

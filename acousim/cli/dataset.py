@@ -1,28 +1,25 @@
-"""``acousim dataset``: a sharded, reproducible, resumable dataset from a spec."""
+"""``acousim dataset``: generate a dataset of simulated measurements.
+
+Generate a sharded, reproducible, resumable dataset from a spec file
+(docs/dataset-format.md), on local processes or a Dask cluster. Run it again to resume.
+"""
 
 from __future__ import annotations
 
 import argparse
 import time
 
-from .common import WORKERS, preload_simulation, progress, writable_dir
+from .common import WORKERS, add_command, preload_simulation, progress, writable_dir
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "dataset",
-        help="generate a dataset of simulated measurements",
-        description="Generate a sharded, reproducible, resumable dataset "
-        "from a spec file (docs/dataset-format.md), on local "
-        "processes or a Dask cluster. Run it again to resume.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument(
         "spec", help="dataset spec (.toml) or a bundled spec's name (e.g. corridor_small)"
     )
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--workers", type=WORKERS, default=2, help="local processes (default: 2)")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,4 +1,8 @@
-"""``acousim demo``: the corridor drive simulated, imaged and pictured."""
+"""``acousim demo``: simulate the corridor drive and write its pictures.
+
+Simulate the bundled corridor drive (uRTIS at 10 Hz), image it with DAS, Capon-FBSS and
+MUSIC-FBSS, and write fan images, a 3D render and an animation.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +10,8 @@ import argparse
 import time
 
 from .common import (
-    SEED,
+    add_command,
+    add_seed,
     bundled_scenes,
     load_scene,
     preload_simulation,
@@ -17,16 +22,9 @@ from .common import (
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "demo",
-        help="simulate the corridor drive and write its pictures",
-        description="Simulate the bundled corridor drive (uRTIS at 10 Hz), "
-        "image it with DAS, Capon-FBSS and MUSIC-FBSS, and write "
-        "fan images, a 3D render and an animation.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
-    p.set_defaults(func=run)
+    add_seed(p)
 
 
 def run(args: argparse.Namespace) -> int:

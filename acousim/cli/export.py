@@ -1,32 +1,27 @@
-"""``acousim export``: recordings and their images to a ROS 2 bag (MCAP)."""
+"""``acousim export``: write recordings to a ROS 2 bag (MCAP) or a CHIRP file.
+
+--format rosbag (default): image recordings and write a rosbag2 folder (MCAP storage)
+with the raw samples (std_msgs/Float32MultiArray), the image peaks and LiDAR scans
+(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor pose (/tf), the
+sensor's description (std_msgs/String, JSON), /clock, the scene's meshes
+(visualization_msgs/MarkerArray) and the traced reflectors (sensor_msgs/PointCloud2);
+needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --format
+chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
+their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
+the imaging options do not apply. Layout: docs/export.md.
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from .common import UsageError, writable_dir
+from .common import UsageError, add_command, writable_dir
 from .image import imaging_arguments, load_and_image
-from .options import DeclaredHelp
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "export",
-        formatter_class=DeclaredHelp,
-        help="write recordings to a ROS 2 bag (MCAP) or a CHIRP file",
-        description="--format rosbag (default): image recordings and write a rosbag2 "
-        "folder (MCAP storage) with the raw samples (std_msgs/Float32MultiArray), the "
-        "image peaks and LiDAR scans (sensor_msgs/PointCloud2), the fan image "
-        "(sensor_msgs/Image), the sensor pose (/tf), the sensor's description "
-        "(std_msgs/String, JSON), /clock, the scene's meshes "
-        "(visualization_msgs/MarkerArray) and the traced reflectors "
-        "(sensor_msgs/PointCloud2); needs the rosbags package (pip install "
-        "'acousim[ros]'), no ROS installation. --format chirp: write the recordings "
-        "as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by their chirppy): "
-        "signals, array, call, times, poses, LiDAR scans and our ground truth; the "
-        "imaging options do not apply. Layout: docs/export.md.",
-    )
+    p = add_command(sub, __doc__, run)
     imaging_arguments(p)
     p.add_argument(
         "--format",
@@ -44,7 +39,6 @@ def register(sub) -> None:
         default=None,
         help="the method published as peaks and fan (default: the sharpest imaged)",
     )
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,12 +1,17 @@
-"""``acousim image``: image recordings and write pictures and data files (and the
-options `image` and `export` share)."""
+"""``acousim image``: image recordings and write pictures and data files.
+
+Run the processing pipeline on simulated or real recordings and write the images as data
+(images.h5: range x elevation x azimuth in dB with its axes; peaks.csv), fan images
+(azimuth x range), elevation-azimuth maps, a 3D render and, for a trajectory, an
+animated GIF. File layouts: docs/export.md.
+"""
 
 from __future__ import annotations
 
 import argparse
 
-from .common import UsageError, choice, methods, parse_indices, progress, writable_dir
-from .options import DeclaredHelp, add_declared
+from .common import UsageError, add_command, choice, methods, parse_indices, progress, writable_dir
+from .options import add_declared
 
 IMAGING = "acousim.imaging:ImagingOptions"
 
@@ -91,16 +96,7 @@ def load_and_image(args: argparse.Namespace):
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "image",
-        formatter_class=DeclaredHelp,
-        help="image recordings and write pictures and data files",
-        description="Run the processing pipeline on simulated or real "
-        "recordings and write the images as data (images.h5: range x "
-        "elevation x azimuth in dB with its axes; peaks.csv), fan images "
-        "(azimuth x range), elevation-azimuth maps, a 3D render and, for a "
-        "trajectory, an animated GIF. File layouts: docs/export.md.",
-    )
+    p = add_command(sub, __doc__, run)
     imaging_arguments(p)
     p.add_argument("--out", default="out", help="output folder (default: out)")
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
@@ -110,7 +106,6 @@ def register(sub) -> None:
         action="store_true",
         help="skip images.h5 and peaks.csv (about 2 MB per image of a corridor pose)",
     )
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

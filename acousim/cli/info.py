@@ -1,23 +1,23 @@
-"""``acousim info``: what a file or folder acousim wrote holds."""
+"""``acousim info``: describe any file or folder acousim writes (recordings, images.h5, a
+ROS 2 bag, a dataset).
+
+Print what a recording file (HDF5; simulated, real or emulated), an image file
+(images.h5), a ROS 2 bag folder (acousim export), a dataset shard (.h5) or a dataset
+folder (with its manifest.json) holds.
+"""
 
 from __future__ import annotations
 
 import argparse
 
+from .common import add_command
+
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "info",
-        help="describe any file or folder acousim writes (recordings, images.h5, "
-        "a ROS 2 bag, a dataset)",
-        description="Print what a recording file (HDF5; simulated, real or emulated), "
-        "an image file (images.h5), a ROS 2 bag folder (acousim export), a dataset "
-        "shard (.h5) or a dataset folder (with its manifest.json) holds.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument(
         "file", help="recording file, images.h5, bag folder, dataset shard or dataset folder"
     )
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

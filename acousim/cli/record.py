@@ -1,4 +1,8 @@
-"""``acousim record``: measurements from an RTIS sensor over USB, or an emulated one."""
+"""``acousim record``: record measurements from an RTIS sensor over USB.
+
+Record measurements from a real RTIS sensor (pyusb) or an emulated one, decode their PDM
+frames and write them to an HDF5 file. Ctrl-C keeps every complete measurement.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +14,7 @@ from processing.rtis import RTIS_SAMPLE_RATE_HZ
 
 from .common import (
     UsageError,
+    add_command,
     checked,
     choice,
     load_scene,
@@ -26,15 +31,18 @@ ARRAY_PRESETS = ("ertis_v3d1", "paper_8x8", "urtis_v1")
 CALL_PRESETS = ("default_20_80", "default_25_50")
 
 
-def register(sub) -> None:
-    p = sub.add_parser(
-        "record",
-        help="record measurements from an RTIS sensor over USB",
-        description="Record measurements from a real RTIS sensor (pyusb) or "
-        "an emulated one, decode their PDM frames and write "
-        "them to an HDF5 file. Ctrl-C keeps every complete "
-        "measurement.",
+def add_array(parser, what: str) -> None:
+    """The --array option: one of ARRAY_PRESETS, described as `what`."""
+    parser.add_argument(
+        "--array",
+        default="ertis_v3d1",
+        type=choice("array preset", ARRAY_PRESETS),
+        help=f"{what}: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
     )
+
+
+def register(sub) -> None:
+    p = add_command(sub, __doc__, run)
     p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
     p.add_argument("--serial", help="serial number of the sensor to use")
     p.add_argument("--count", type=checked("int", 1, 10**9), help="number of measurements")
@@ -45,12 +53,7 @@ def register(sub) -> None:
         default=10.0,
         help="measurements per second at most (default: 10)",
     )
-    p.add_argument(
-        "--array",
-        default="ertis_v3d1",
-        type=choice("array preset", ARRAY_PRESETS),
-        help=f"array preset: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
-    )
+    add_array(p, "array preset")
     p.add_argument(
         "--call",
         default="default_25_50",
@@ -71,7 +74,6 @@ def register(sub) -> None:
         "rejection) or rtis (the vendor host's 512-tap FIR, 2-3x slower)",
     )
     p.add_argument("--out", required=True, help="output file (.h5)")
-    p.set_defaults(func=run)
 
 
 def emulation_recordings(scene, count: int | None) -> list:

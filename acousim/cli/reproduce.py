@@ -1,4 +1,8 @@
-"""``acousim reproduce``: the paper's simulation study and its report."""
+"""``acousim reproduce``: reproduce the paper's simulation study.
+
+Run the paper's section IV experiments (Figs. 3-12), write a CSV and a PNG per figure
+and regenerate the report that puts the paper's numbers beside ours.
+"""
 
 from __future__ import annotations
 
@@ -8,17 +12,11 @@ from pathlib import Path
 
 from processing.errors import InputError
 
-from .common import WORKERS, UsageError, writable_dir
+from .common import WORKERS, UsageError, add_command, writable_dir
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "reproduce",
-        help="reproduce the paper's simulation study",
-        description="Run the paper's section IV experiments (Figs. 3-12), "
-        "write a CSV and a PNG per figure and regenerate the "
-        "report that puts the paper's numbers beside ours.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument(
         "--quick",
         action="store_true",
@@ -46,7 +44,6 @@ def register(sub) -> None:
         action="store_true",
         help="rewrite the report from the CSVs of a finished run in --out",
     )
-    p.set_defaults(func=run)
 
 
 def _refuse_to_overwrite_a_full_run(out: Path, report: Path) -> None:

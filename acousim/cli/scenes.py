@@ -1,21 +1,19 @@
-"""``acousim scenes``: the bundled scenes and what each shows."""
+"""``acousim scenes``: list the bundled scenes.
+
+List the bundled scenes and what each shows; `acousim simulate NAME` runs one by its
+name.
+"""
 
 from __future__ import annotations
 
 import argparse
 
-from .common import bundled_scenes
+from .common import add_command, bundled_scenes
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "scenes",
-        help="list the bundled scenes",
-        description="List the bundled scenes and what each shows; `acousim simulate "
-        "NAME` runs one by its name.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument("-v", "--verbose", action="store_true", help="also say where they are")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

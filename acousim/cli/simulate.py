@@ -1,4 +1,8 @@
-"""``acousim simulate``: a scene file into an HDF5 recording file."""
+"""``acousim simulate``: simulate a scene file into an HDF5 recording file.
+
+Run a scene file for its pose or its whole trajectory and write every recording, with
+its ground truth, to one HDF5 file.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +10,8 @@ import argparse
 import time
 
 from .common import (
-    SEED,
+    add_command,
+    add_seed,
     load_scene,
     output_file,
     parse_indices,
@@ -17,13 +22,7 @@ from .common import (
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "simulate",
-        help="simulate a scene file into an HDF5 recording file",
-        description="Run a scene file for its pose or its whole trajectory "
-        "and write every recording, with its ground truth, to one "
-        "HDF5 file.",
-    )
+    p = add_command(sub, __doc__, run)
     p.add_argument(
         "scene",
         help="scene file (.toml, see docs/scene-format.md) or a bundled scene's name "
@@ -31,8 +30,7 @@ def register(sub) -> None:
     )
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
-    p.add_argument("--seed", type=SEED, help="noise seed (default: the scene's)")
-    p.set_defaults(func=run)
+    add_seed(p)
 
 
 def run(args: argparse.Namespace) -> int:
