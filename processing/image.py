@@ -29,12 +29,17 @@ def to_db(
 
 @dataclass(frozen=True, eq=False)
 class Peaks:
-    """Local maxima of an image, strongest first.  Angles in radians, levels in dB."""
+    """Local maxima of an image, strongest first.  P peaks."""
 
     azimuth_rad: np.ndarray
+    """(P,) azimuth of each peak, rad."""
     elevation_rad: np.ndarray
+    """(P,) elevation of each peak, rad."""
     range_m: np.ndarray
+    """(P,) range of each peak, m."""
     level_db: np.ndarray
+    """(P,) level of each peak, dB relative to the image's strongest cell: 0 for the
+    strongest peak, at least :func:`find_peaks`' threshold for the others."""
 
     def __len__(self) -> int:
         return self.level_db.size

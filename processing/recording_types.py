@@ -141,31 +141,24 @@ _KINDS = ("direct", "specular", "scatter", "point", "diffraction")
 
 @dataclass(frozen=True, eq=False)
 class GroundTruth:
-    """The simulated paths of one recording (N paths), in SI units.
-
-    Attributes
-    ----------
-    position_world_m, position_sensor_m : ndarray, shape (N, 3)
-        Where each path's last reflection is, in the world and the sensor frame (m).
-    amplitude : ndarray, shape (N,)
-        Path strength at the array centre (relative pressure, 1 = the emitter at 1 m),
-        a magnitude (edge-diffraction paths are signed in the tracer).
-    order : ndarray, shape (N,), int
-        Number of reflections (0: the direct path from the emitter; an edge counts as
-        one).
-    kind : ndarray, shape (N,), str
-        ``"direct"``, ``"specular"``, ``"scatter"``, ``"point"`` or ``"diffraction"``.
-    velocity_world_m_s : ndarray, shape (N, 3), optional
-        Velocity of each path's last reflection (world frame, m/s) at the start of
-        the emission; None for a scene without motion.
-    """
+    """The simulated paths of one recording (N paths), in SI units."""
 
     position_world_m: np.ndarray
+    """(N, 3) where each path's last reflection is, world frame, m."""
     position_sensor_m: np.ndarray
+    """(N, 3) the same in the sensor frame, m."""
     amplitude: np.ndarray
+    """(N,) path strength at the array centre (relative pressure, 1 = the emitter at
+    1 m), a magnitude (edge-diffraction paths are signed in the tracer)."""
     order: np.ndarray
+    """(N,) int, number of reflections (0: the direct path from the emitter; an edge
+    counts as one)."""
     kind: np.ndarray
+    """(N,) str, ``"direct"``, ``"specular"``, ``"scatter"``, ``"point"`` or
+    ``"diffraction"``."""
     velocity_world_m_s: np.ndarray | None = None
+    """(N, 3) velocity of each path's last reflection at the start of the emission,
+    world frame, m/s; None for a scene without motion."""
 
     def __post_init__(self) -> None:
         pw = np.asarray(self.position_world_m, float).reshape(-1, 3)

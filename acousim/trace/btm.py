@@ -75,18 +75,16 @@ _REFINE = 8
 
 @dataclass(frozen=True, eq=False)
 class EdgeElements:
-    """K edge elements of one edge for one source-receiver pair (world frame, metres).
-
-    point_m (K, 3): the element's point on the edge (its mid-path point);
-    first_leg_m (K,): |S - point|; second_leg_m (K,): |point - R|;
-    amplitude (K,): the element's impulse amplitude at R (free field ``1/r`` units),
-    signed.
-    """
+    """K edge elements of one edge for one source-receiver pair (world frame, metres)."""
 
     point_m: np.ndarray
+    """(K, 3) the element's point on the edge (its mid-path point), m."""
     first_leg_m: np.ndarray
+    """(K,) |S - point|, m."""
     second_leg_m: np.ndarray
+    """(K,) |point - R|, m."""
     amplitude: np.ndarray
+    """(K,) the element's signed impulse amplitude at R (free field ``1/r`` units)."""
 
     def __len__(self) -> int:
         return self.amplitude.size

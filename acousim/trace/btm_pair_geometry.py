@@ -19,21 +19,22 @@ from .btm import Wedge
 class EdgePairElements:
     """K elements of the edge-to-edge paths S -> edge 1 -> edge 2 -> R (world frame).
 
-    pair (K,): the pair (of :class:`PairGeometry`) each element belongs to.
-
-    first_point_m (K, 3): mean point on edge 1; point_m (K, 3): mean point on edge 2;
-    first_leg_m (K,): path length from S over edge 1 to point_m; second_leg_m (K,):
-    |point_m - R|; amplitude (K,): the element's impulse amplitude at R (free field
-    ``1/r`` units), signed.  The path length of an element at R is exact
-    (first_leg_m + second_leg_m); its points are means over the element.
+    The path length of an element at R is exact (first_leg_m + second_leg_m); its
+    points are means over the element.
     """
 
     first_point_m: np.ndarray
+    """(K, 3) mean point on edge 1, m."""
     point_m: np.ndarray
+    """(K, 3) mean point on edge 2, m."""
     first_leg_m: np.ndarray
+    """(K,) path length from S over edge 1 to point_m, m."""
     second_leg_m: np.ndarray
+    """(K,) |point_m - R|, m."""
     amplitude: np.ndarray
+    """(K,) the element's signed impulse amplitude at R (free field ``1/r`` units)."""
     pair: np.ndarray | None = None
+    """(K,) int, the pair (of :class:`PairGeometry`) each element belongs to (None: 0)."""
 
     def __post_init__(self):
         if self.pair is None:
@@ -50,32 +51,40 @@ class EdgePairElements:
 
 @dataclass(frozen=True, eq=False)
 class PairGeometry:
-    """N ordered edge pairs that share a plane (world frame, metres).
-
-    start1, end1, start2, end2 (N, 3): the edges; face_dir1, normal1 (N, 3): edge
-    1's wedge oriented for the source (air at angles 0 .. angle1; normal towards the
-    air), face_dir2, normal2 edge 2's oriented for the receiver; angle1, angle2
-    (N,): open angles (rad); theta12, theta21 (N,): the angle of edge 2 about edge 1
-    and of edge 1 about edge 2 (rad: 0 or the open angle); terms1, terms2 (N, 4):
-    the weights of the four beta terms of each wedge (``(R2, 1, 1, R1)``: the whole
-    wedge, see :class:`Wedge`); sides (N,): 1 or 2 (see the module docstring).
-    """
+    """N ordered edge pairs that share a plane (world frame, metres)."""
 
     start1: np.ndarray
+    """(N, 3) edge 1's first endpoint, m."""
     end1: np.ndarray
+    """(N, 3) edge 1's second endpoint, m."""
     start2: np.ndarray
+    """(N, 3) edge 2's first endpoint, m."""
     end2: np.ndarray
+    """(N, 3) edge 2's second endpoint, m."""
     face_dir1: np.ndarray
+    """(N, 3) unit face direction of edge 1's wedge oriented for the source (air at
+    angles 0 .. angle1)."""
     normal1: np.ndarray
+    """(N, 3) unit normal of edge 1's oriented wedge, towards the air."""
     face_dir2: np.ndarray
+    """(N, 3) unit face direction of edge 2's wedge oriented for the receiver."""
     normal2: np.ndarray
+    """(N, 3) unit normal of edge 2's oriented wedge, towards the air."""
     angle1: np.ndarray
+    """(N,) open angle of edge 1's wedge, rad."""
     angle2: np.ndarray
+    """(N,) open angle of edge 2's wedge, rad."""
     theta12: np.ndarray
+    """(N,) the angle of edge 2 about edge 1, rad (0 or the open angle)."""
     theta21: np.ndarray
+    """(N,) the angle of edge 1 about edge 2, rad (0 or the open angle)."""
     terms1: np.ndarray
+    """(N, 4) weights of the four beta terms of edge 1's wedge (``(R2, 1, 1, R1)``:
+    the whole wedge, see :class:`Wedge`)."""
     terms2: np.ndarray
+    """(N, 4) weights of the four beta terms of edge 2's wedge."""
     sides: np.ndarray
+    """(N,) int, 1 or 2 (see the module docstring)."""
 
     def __len__(self) -> int:
         return self.angle1.size

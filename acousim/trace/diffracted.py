@@ -18,26 +18,27 @@ _PATH_FIELDS = ("anchor_m", "first_leg_m", "strength", "position_m", "departure"
 
 @dataclass(frozen=True, eq=False)
 class DiffractedPaths:
-    """N diffraction paths in the tracer's path form (world frame, metres).
-
-    anchor_m (N, 3): the element's point on the edge (or, for a reflection after
-    the edge, its image); first_leg_m (N,): emitter (or its image) to the element;
-    strength (N,): signed, the gain at a microphone p is ``strength / |anchor - p|``;
-    position_m (N, 3): the element's point on the edge; departure (N, 3): unit
-    direction leaving the emitter; edge (N,): index into the Edges; order (N,):
-    interactions (1: the edge alone, 2: a reflection and the edge, or two edges);
-    counts (N, K): the path's interactions with frequency-dependent materials (a
-    face's image term, a reflection before or after the edge; K = 0 without tables).
-    """
+    """N diffraction paths in the tracer's path form (world frame, metres)."""
 
     anchor_m: np.ndarray
+    """(N, 3) the element's point on the edge (or, for a reflection after the edge,
+    its image), m."""
     first_leg_m: np.ndarray
+    """(N,) path length from the emitter (or its image) to the element, m."""
     strength: np.ndarray
+    """(N,) signed: the gain at a microphone p is ``strength / |anchor - p|``, m."""
     position_m: np.ndarray
+    """(N, 3) the element's point on the edge, m."""
     departure: np.ndarray
+    """(N, 3) unit direction leaving the emitter."""
     edge: np.ndarray
+    """(N,) int, index into the Edges."""
     order: np.ndarray
+    """(N,) int, interactions (1: the edge alone, 2: a reflection and the edge, or two
+    edges)."""
     counts: np.ndarray | None = None
+    """(N, K) int, the path's interactions with frequency-dependent materials (a
+    face's image term, a reflection before or after the edge; K = 0 without tables)."""
 
     def __post_init__(self):
         if self.counts is None:

@@ -43,22 +43,23 @@ __all__ = ["Edges", "find_edges", "merge_collinear", "triangles_mesh"]
 
 @dataclass(frozen=True, eq=False)
 class Edges:
-    """E candidate diffracting edges (world frame, metres).
-
-    start_m, end_m (E, 3): endpoints; face_dir (E, 3): unit direction from the edge
-    into face 1; normal (E, 3): face 1's unit normal (either side); other_dir (E, 3):
-    unit direction from the edge into face 2 (face 1's for a rim); angle_rad (E,):
-    angle from face_dir to other_dir turning towards normal (2 pi for a rim); faces
-    (E, 2): face 1 and face 2 (-1 for the missing second face of a rim).
-    """
+    """E candidate diffracting edges (world frame, metres)."""
 
     start_m: np.ndarray
+    """(E, 3) first endpoints, m."""
     end_m: np.ndarray
+    """(E, 3) second endpoints, m."""
     face_dir: np.ndarray
+    """(E, 3) unit direction from the edge into face 1."""
     normal: np.ndarray
+    """(E, 3) face 1's unit normal (either side)."""
     other_dir: np.ndarray
+    """(E, 3) unit direction from the edge into face 2 (face 1's for a rim)."""
     angle_rad: np.ndarray
+    """(E,) angle from face_dir to other_dir turning towards normal (2 pi for a rim),
+    rad."""
     faces: np.ndarray
+    """(E, 2) int, face 1 and face 2 (-1 for the missing second face of a rim)."""
 
     def __len__(self) -> int:
         return self.angle_rad.size

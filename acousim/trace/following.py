@@ -63,34 +63,35 @@ class FirstLeg(IntEnum):
 @dataclass(frozen=True, eq=False)
 class MovingPaths:
     """Paths of one measurement and how they follow the motion.  N paths, world frame,
-    at the start of the emission (tau = 0).
-
-    anchor_m (N, 3), first_leg_m (N,), strength (N,): as
+    at the start of the emission (tau = 0); anchor, first leg and strength as in
     :class:`acousim.trace.paths.TracedPaths` (path length to a microphone p
-    ``first_leg + |anchor - p|``, gain ``strength / |anchor - p|``).
-    departure (N, 3): unit direction leaving the emitter.  order (N,).
-    mirror (N, 3, 3): the anchor moves by ``mirror @ (e(tau) - e(0))`` (identity
-    for the direct path, the reflections' linear part for a first- or second-order
-    image source, zero else).
-    first_leg (N,): :class:`FirstLeg` codes: fixed, Fermat (``-departure . de``) or
-    exact (``|A - e(tau)|``, point reflectors).
-    velocity_m_s (N, 3): of the anchor (moving point reflectors), from tau = 0.
-    fermat_length_m (N,): L of the second-order term of a Fermat first leg (the
-    first leg of a scattered path, the image distance of a specular one).
-    acceleration_m_s2 (N, 3): of the anchor (the image in a turning plane), from
-    tau = 0: it is at ``anchor + velocity t + acceleration t^2 / 2`` (None: zero).
-    """
+    ``first_leg + |anchor - p|``, gain ``strength / |anchor - p|``)."""
 
     anchor_m: np.ndarray
+    """(N, 3) the anchor at tau = 0, m."""
     first_leg_m: np.ndarray
+    """(N,) path length from the emitter to the anchor at tau = 0, m."""
     strength: np.ndarray
+    """(N,) signed pressure gain times the last leg's length, m."""
     departure: np.ndarray
+    """(N, 3) unit direction leaving the emitter."""
     order: np.ndarray
+    """(N,) int, reflections."""
     mirror: np.ndarray
+    """(N, 3, 3): the anchor moves by ``mirror @ (e(tau) - e(0))`` (identity for the
+    direct path, the reflections' linear part for a first- or second-order image
+    source, zero else)."""
     first_leg: np.ndarray
+    """(N,) int, :class:`FirstLeg` codes: fixed, Fermat (``-departure . de``) or exact
+    (``|A - e(tau)|``, point reflectors)."""
     velocity_m_s: np.ndarray
+    """(N, 3) of the anchor (moving point reflectors), from tau = 0, m/s."""
     fermat_length_m: np.ndarray
+    """(N,) L of the second-order term of a Fermat first leg (the first leg of a
+    scattered path, the image distance of a specular one), m."""
     acceleration_m_s2: np.ndarray | None = None
+    """(N, 3) of the anchor (the image in a turning plane), from tau = 0, m/s^2: it is
+    at ``anchor + velocity t + acceleration t^2 / 2`` (None: zero)."""
 
     def __post_init__(self) -> None:
         if self.acceleration_m_s2 is None:

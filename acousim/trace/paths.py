@@ -42,27 +42,29 @@ def kind_names(codes: np.ndarray) -> list[str]:
 
 @dataclass(frozen=True, eq=False)
 class TracedPaths:
-    """Every path of one pose (world frame).  N paths.
-
-    anchor_m (N, 3), first_leg_m (N,), strength (N,): see the module docstring.
-    position_m (N, 3): where the echo comes from (last reflection point, scatterer
-    position, point reflector, the emitter for the direct path).
-    order (N,): reflections; kind (N,): :class:`PathKind` codes; departure (N, 3): unit
-    direction leaving the emitter.
-    interactions (N, K) int: how often the path met each frequency-dependent
-    material interaction (:class:`acousim.core.materials.MaterialSpectra` columns;
-    K = 0, the default, in a scene without material tables); its strength holds the
-    reference gains, the renderer applies the rest.
-    """
+    """Every path of one pose (world frame).  N paths; anchor, first leg and strength
+    as in the module docstring."""
 
     anchor_m: np.ndarray
+    """(N, 3) the image source, scatterer, point or edge element, m."""
     first_leg_m: np.ndarray
+    """(N,) path length from the emitter to the anchor, m (0 for an image source)."""
     strength: np.ndarray
+    """(N,) signed pressure gain times the last leg's length, m."""
     position_m: np.ndarray
+    """(N, 3) where the echo comes from (last reflection point, scatterer position,
+    point reflector, the emitter for the direct path), m."""
     order: np.ndarray
+    """(N,) int, reflections."""
     kind: np.ndarray
+    """(N,) int, :class:`PathKind` codes."""
     departure: np.ndarray
+    """(N, 3) unit direction leaving the emitter."""
     interactions: np.ndarray | None = None
+    """(N, K) int, how often the path met each frequency-dependent material
+    interaction (:class:`acousim.core.materials.MaterialSpectra` columns; K = 0, the
+    default, in a scene without material tables); its strength holds the reference
+    gains, the renderer applies the rest."""
 
     def __post_init__(self) -> None:
         if self.interactions is None:

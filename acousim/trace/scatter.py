@@ -36,25 +36,28 @@ __all__ = ["Contributions", "scatter"]
 
 @dataclass(frozen=True, eq=False)
 class Contributions:
-    """Scattered contributions at the receiver.  K contributions.
-
-    point_m (K, 3) where they scatter; intensity (K,) at the receiver (1/m^2 for a
-    unit-power emitter); first_leg_m (K,) path length emitter -> point; last_leg_m
-    (K,) point -> receiver; departure (K, 3); surface (K,) :attr:`World.surface` id;
-    order (K,); lambert (K,) bool, a Lambert part only (a planar face, or a curved
-    face at the first reflection, whose glint is :mod:`.glints`'s); interactions
-    (K, C) frequency-dependent material interactions (C = ``World.n_interactions``).
-    """
+    """Scattered contributions at the receiver.  K contributions."""
 
     point_m: np.ndarray
+    """(K, 3) where they scatter, m."""
     intensity: np.ndarray
+    """(K,) at the receiver, 1/m^2 for a unit-power emitter."""
     first_leg_m: np.ndarray
+    """(K,) path length emitter -> point, m."""
     last_leg_m: np.ndarray
+    """(K,) path length point -> receiver, m."""
     departure: np.ndarray
+    """(K, 3) unit direction leaving the emitter."""
     surface: np.ndarray
+    """(K,) int, :attr:`World.surface` id."""
     order: np.ndarray
+    """(K,) int, reflections including the scattering one."""
     lambert: np.ndarray
+    """(K,) bool, a Lambert part only (a planar face, or a curved face at the first
+    reflection, whose glint is :mod:`.glints`'s)."""
     interactions: np.ndarray | None = None
+    """(K, C) int, frequency-dependent material interactions (C =
+    ``World.n_interactions``)."""
 
     def __len__(self) -> int:
         return self.intensity.size

@@ -29,25 +29,27 @@ __all__ = ["Hits", "Shot", "cone_directions", "follow", "shoot"]
 
 @dataclass(frozen=True, eq=False)
 class Hits:
-    """Every hit of every ray on a face, all bounces (world frame).  K hits.
-
-    point_m (K, 3); normal (K, 3) unit, towards the side the ray came from;
-    mirror (K, 3) unit specular direction; power (K,) the ray's solid angle (sr) times
-    the reflection factors before this hit; length_m (K,) path length from the
-    emitter; departure (K, 3) unit direction leaving the emitter; face (K,); order (K,)
-    reflections including this one; interactions (K, C) the frequency-dependent
-    material interactions before this hit (C = ``World.n_interactions``, often 0).
-    """
+    """Every hit of every ray on a face, all bounces (world frame).  K hits."""
 
     point_m: np.ndarray
+    """(K, 3) where the ray hit, m."""
     normal: np.ndarray
+    """(K, 3) unit face normal, towards the side the ray came from."""
     mirror: np.ndarray
+    """(K, 3) unit specular direction."""
     power: np.ndarray
+    """(K,) the ray's solid angle (sr) times the reflection factors before this hit."""
     length_m: np.ndarray
+    """(K,) path length from the emitter, m."""
     departure: np.ndarray
+    """(K, 3) unit direction leaving the emitter."""
     face: np.ndarray
+    """(K,) int, the face hit."""
     order: np.ndarray
+    """(K,) int, reflections including this one."""
     interactions: np.ndarray | None = None
+    """(K, C) int, the frequency-dependent material interactions before this hit
+    (C = ``World.n_interactions``, often 0)."""
 
     def __len__(self) -> int:
         return self.power.size
