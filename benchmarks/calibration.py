@@ -13,7 +13,6 @@ its fit alone; the largest error against the truth (reflection, diffuse).
 
 from __future__ import annotations
 
-import shutil
 import tempfile
 from pathlib import Path
 
@@ -21,71 +20,28 @@ import numpy as np
 
 from acousim.calibrate import CalibrationSettings, calibrate
 from acousim.scene import load_scene
-from acousim.simulator import Simulator
 
-ROOT = Path(__file__).resolve().parent.parent
+from .corridor_cabinet import folder, simulate_truth
+
 POSES = [0, 12, 24, 36, 48, 6, 18, 30, 42, 54]
 TRUTH = {"plaster": (0.70, 0.35), "metal": (0.90, 0.05)}
 TABLE = ((25.0, 37.5, 50.0), (0.85, 0.70, 0.50))
 
-SCENE = """[scene]
-name = "corridor_metal"
-[sensor]
-array = "urtis_v1"
-call = "default_25_50"
-sample_rate_hz = 450000
-emitter_m = [0.0, 0.0, -0.012]
-emitter_radius_m = 0.004
-[sensor.trajectory]
-file = "corridor_drive.csv"
-rate_hz = 10
-[simulation]
-max_range_m = 4.0
-rays = {rays}
-bounces = 2
-snr_db = 30.0
-seed = 1
-[[materials]]
-name = "plaster"
-{plaster}
-[[materials]]
-name = "metal"
-{metal}
-lobe_deg = 3.0
-[[meshes]]
-file = "corridor.stl"
-material = "plaster"
-[[meshes]]
-file = "cabinet.stl"
-material = "metal"
-"""
-
 
 def _scenes(tmp: Path, table: bool):
-    import trimesh
-
-    shutil.copy(ROOT / "scenes/meshes/corridor.stl", tmp / "corridor.stl")
-    shutil.copy(ROOT / "scenes/corridor_drive.csv", tmp / "corridor_drive.csv")
-    trimesh.creation.box(bounds=[[4.5, 0.45, 0.0], [5.0, 1.0, 1.9]]).export(tmp / "cabinet.stl")
-    (tmp / "start.toml").write_text(
-        SCENE.format(
-            rays=5000,
-            plaster="reflection = 0.95\ndiffuse = 0.2",
-            metal="reflection = 0.99\ndiffuse = 0.0",
-        )
-    )
+    """The scene the fit starts from, and the recordings of the truth."""
     p, m = TRUTH["plaster"], TRUTH["metal"]
     plaster = f"reflection = {p[0]}\ndiffuse = {p[1]}"
     if table:
         plaster = (
             f"frequencies_khz = {list(TABLE[0])}\nreflection = {list(TABLE[1])}\ndiffuse = {p[1]}"
         )
-    (tmp / "truth.toml").write_text(
-        SCENE.format(rays=7000, plaster=plaster, metal=f"reflection = {m[0]}\ndiffuse = {m[1]}")
+    recs = simulate_truth(
+        folder(tmp) / "truth.toml",
+        POSES,
+        plaster=plaster,
+        metal=f"reflection = {m[0]}\ndiffuse = {m[1]}",
     )
-    truth = load_scene(tmp / "truth.toml")
-    sim = Simulator(truth)
-    recs = [sim.simulate_pose(truth.sensor.poses[i], i, motion=None) for i in POSES]
     return load_scene(tmp / "start.toml"), recs
 
 

@@ -4,7 +4,6 @@ written here, never read from the code under test."""
 from __future__ import annotations
 
 import dataclasses
-import shutil
 import tomllib
 from pathlib import Path
 
@@ -16,10 +15,10 @@ import processing as P
 from acousim.calibrate import CalibrationSettings, calibrate, write_scene
 from acousim.calibrate.features import Directions, FeatureSpace
 from acousim.scene.load import load_scene
-from acousim.simulator import Simulator
 from acousim.synth.echoes import PointReflectors
 from acousim.synth.model import simulate_points
 from acousim.synth.options import Noise
+from benchmarks import corridor_cabinet
 from processing.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,75 +29,17 @@ METAL = (0.90, 0.05)
 TABLE_KHZ = (25.0, 37.5, 50.0)
 TABLE_R = (0.85, 0.70, 0.50)
 
-SCENE = """# a corridor with a metal cabinet
-[scene]
-name = "corridor_metal"
-
-[sensor]
-array = "urtis_v1"
-call = "default_25_50"
-sample_rate_hz = 450000
-emitter_m = [0.0, 0.0, -0.012]
-emitter_radius_m = 0.004
-direct_path = true
-
-[sensor.trajectory]
-file = "corridor_drive.csv"
-rate_hz = 10
-
-[simulation]
-max_range_m = 4.0
-rays = {rays}
-bounces = 2
-snr_db = 30.0
-seed = 1
-
-[[materials]]
-name = "plaster"   # a guess
-{plaster}
-lobe_deg = 5.0
-
-[[materials]]
-name = "metal"
-{metal}
-lobe_deg = 3.0
-
-[[meshes]]
-file = "corridor.stl"
-material = "plaster"
-
-[[meshes]]
-file = "cabinet.stl"
-material = "metal"
-{extra}"""
-
-BUNDLED = dict(plaster="reflection = 0.95\ndiffuse = 0.2", metal="reflection = 0.99\ndiffuse = 0.0")
-
-
-def _folder(tmp: Path) -> Path:
-    import trimesh
-
-    shutil.copy(ROOT / "scenes/meshes/corridor.stl", tmp / "corridor.stl")
-    shutil.copy(ROOT / "scenes/corridor_drive.csv", tmp / "corridor_drive.csv")
-    trimesh.creation.box(bounds=[[4.5, 0.45, 0.0], [5.0, 1.0, 1.9]]).export(tmp / "cabinet.stl")
-    # the fit starts from the bundled values and traces fewer rays than the truth
-    # (another draw of the diffuse tail)
-    (tmp / "start.toml").write_text(SCENE.format(rays=5000, extra="", **BUNDLED))
-    return tmp
-
 
 def _truth(tmp: Path, name: str, plaster: str, extra: str = "") -> list[P.Recording]:
     metal = f"reflection = {METAL[0]}\ndiffuse = {METAL[1]}"
-    path = tmp / name
-    path.write_text(SCENE.format(rays=7000, plaster=plaster, metal=metal, extra=extra))
-    scene = load_scene(path)
-    sim = Simulator(scene)
-    return [sim.simulate_pose(scene.sensor.poses[i], i, motion=None) for i in POSES]
+    return corridor_cabinet.simulate_truth(
+        tmp / name, POSES, plaster=plaster, metal=metal, extra=extra
+    )
 
 
 @pytest.fixture(scope="module")
 def corridor(tmp_path_factory):
-    tmp = _folder(tmp_path_factory.mktemp("corridor"))
+    tmp = corridor_cabinet.folder(tmp_path_factory.mktemp("corridor"))
     recs = _truth(tmp, "truth.toml", f"reflection = {PLASTER[0]}\ndiffuse = {PLASTER[1]}")
     return tmp, recs
 
@@ -145,7 +86,7 @@ def test_materials_recovered_from_five_noisy_poses(corridor):
 
 def test_scene_lacking_an_echo_reports_it(tmp_path):
     """A post the scene lacks: the fit holds, the report names its range."""
-    tmp = _folder(tmp_path)
+    tmp = corridor_cabinet.folder(tmp_path)
     post = "\n[[points]]\nposition_m = [3.0, -0.5, 0.45]\nstrength = 0.3\n"
     plaster = f"reflection = {PLASTER[0]}\ndiffuse = {PLASTER[1]}"
     recs = _truth(tmp, "truth.toml", plaster, post)[:3]
@@ -162,7 +103,7 @@ def test_scene_lacking_an_echo_reports_it(tmp_path):
 
 
 def test_material_table_within_1_db(tmp_path):
-    tmp = _folder(tmp_path)
+    tmp = corridor_cabinet.folder(tmp_path)
     table = (
         f"frequencies_khz = {list(TABLE_KHZ)}\nreflection = {list(TABLE_R)}\ndiffuse = {PLASTER[1]}"
     )
