@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, Wedge, edge_elements
+from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
+from tests._scenes import first_pose, rigid_scene, screen, spectrum, square_faces, turn_z
 from tests.test_diffraction import physical_optics  # the tests' independent reference
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
@@ -30,13 +31,7 @@ def _screen(step: float, th_r: float) -> tuple[np.ndarray, int, float]:
     k = 2 * np.pi * FREQS / C
     t0 = time.perf_counter()
     el = edge_elements(
-        Wedge(
-            np.array([0.0, 0, -10]),
-            np.array([0.0, 0, 10]),
-            np.array([1.0, 0, 0]),
-            np.array([0.0, 1, 0]),
-            2 * np.pi,
-        ),
+        screen(),
         _cyl(0.15, np.deg2rad(60), 0),
         _cyl(0.10, th_r, 0.05),
         ElementLimits(step_m=step),
@@ -73,24 +68,6 @@ def _element_table() -> list[str]:
     return rows
 
 
-def _quads(kind: str, size: float, rotation: np.ndarray, centre: np.ndarray) -> list[np.ndarray]:
-    """Corners of a square plate (facing -x before rotation) or of a cube's faces."""
-    h = size / 2
-    if kind == "plate":
-        local = [np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)]
-    else:
-        local = []
-        for i in range(3):
-            j, m = [a for a in range(3) if a != i]
-            for sign in (1, -1):
-                q = np.zeros((4, 3))
-                q[:, i] = sign * h
-                q[:, j] = [-h, h, h, -h]
-                q[:, m] = [-h, -h, h, h]
-                local.append(q)
-    return [q @ rotation.T + centre for q in local]
-
-
 def _object_level(kind, size, distance, rot_deg, tmp, order=1) -> tuple[float, float, np.ndarray]:
     """Band power (20-80 kHz, dB re an infinite rigid wall at the same distance) of
     ours (diffraction order 1 or 2) and of physical optics (lit faces), and ours at
@@ -102,47 +79,18 @@ def _object_level(kind, size, distance, rot_deg, tmp, order=1) -> tuple[float, f
 def _object_response(kind, size, distance, rot_deg, tmp, order=1, n_freq=13):
     """:func:`_object_level` and ours over n_freq frequencies of 20-80 kHz (dB re the
     wall), with the trace time (s) and the number of edge-to-edge paths."""
-    import trimesh
 
-    from acousim.scene import parse_scene
     from acousim.trace.tracer import Tracer
 
-    rz, ry = np.deg2rad(rot_deg)
-    rot_z = np.array([[np.cos(rz), -np.sin(rz), 0], [np.sin(rz), np.cos(rz), 0], [0, 0, 1]])
+    ry = np.deg2rad(rot_deg[1])
     rot_y = np.array([[np.cos(ry), 0, np.sin(ry)], [0, 1, 0], [-np.sin(ry), 0, np.cos(ry)]])
-    rotation = rot_y @ rot_z
     centre = np.array([distance, 0, 0])
-    quads = _quads(kind, size, rotation, centre)
-    tris = np.concatenate([[q[[0, 1, 2]], q[[0, 2, 3]]] for q in quads])
-    trimesh.Trimesh(tris.reshape(-1, 3), np.arange(tris.shape[0] * 3).reshape(-1, 3)).export(
-        tmp / "object.obj"
-    )
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": distance + 1.0,
-                "rays": 20000,
-                "bounces": 2,
-                "beam_deg": 60.0,
-                **(
-                    {}
-                    if order is None
-                    else {
-                        "diffraction": True,
-                        "diffraction_order": order,
-                        "energy_floor_db": -200.0,
-                    }
-                ),
-            },
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "object.obj", "material": "rigid"}],
-        },
-        base_dir=tmp,
-    )
-    pose = scene.sensor.poses[0]
-    e = pose.to_world(scene.sensor.array.emitter_m)
-    r = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
+    quads = square_faces(kind, size, rot_y @ turn_z(rot_deg[0]), centre)
+    simulation = {"max_range_m": distance + 1.0, "rays": 20000, "bounces": 2, "beam_deg": 60.0}
+    if order is not None:
+        simulation.update(diffraction=True, diffraction_order=order, energy_floor_db=-200.0)
+    scene = rigid_scene(tmp, quads, simulation)
+    pose, e, r = first_pose(scene)
     tracer = Tracer(scene, threads=1)
     t0 = time.perf_counter()
     paths = tracer.trace(pose)
@@ -151,8 +99,7 @@ def _object_response(kind, size, distance, rot_deg, tmp, order=1, n_freq=13):
     if order != 1:  # edge-to-edge paths: the order-2 diffraction paths order 1 lacks
         n_e2e = int(np.sum((paths.kind == KIND["diffraction"]) & (paths.order == 2)))
     k = 2 * np.pi * np.linspace(20e3, 80e3, n_freq) / C
-    last = np.linalg.norm(paths.anchor_m - r, axis=1)
-    ours = (paths.strength / last * np.exp(-1j * k[:, None] * (paths.first_leg_m + last))).sum(1)
+    ours = spectrum(paths, r, k)
     po = 0
     for q in quads:
         outward = q.mean(axis=0) - centre  # a plate (through the centre) is two-sided

@@ -19,9 +19,10 @@ import processing as P
 from acousim.scene import parse_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, Wedge, edge_elements
+from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
 from acousim.trace.edges import find_edges
 from acousim.trace.tracer import Tracer
+from tests import _scenes as scenes
 
 C = 343.0
 
@@ -92,13 +93,7 @@ def geometric(wedge, r_s, th_s, r_r, th_r, dz, k, reflection=1.0):
 def btm_field(wedge, r_s, th_s, r_r, th_r, dz, k, step=DEFAULT_STEP_M):
     """Ours: geometric part plus the BTM elements of a 20 m edge along z."""
     el = edge_elements(
-        Wedge(
-            np.array([0.0, 0, -10]),
-            np.array([0.0, 0, 10]),
-            np.array([1.0, 0, 0]),  # face 1 is the half-plane y = 0, x > 0
-            np.array([0.0, 1, 0]),
-            wedge,
-        ),
+        scenes.screen(angle_rad=wedge),  # face 1 is the half-plane y = 0, x > 0
         cyl(r_s, th_s, 0.0),
         cyl(r_r, th_r, dz),
         ElementLimits(step_m=step),
@@ -161,40 +156,10 @@ def test_wedge_matches_the_exact_solution(wedge, f):
 def plate_tracer(tmp_path: Path, side, turn_deg=0.0, distance=2.0, beam_deg=10.0, order=1):
     """Paths of a square rigid plate (side, m) at `distance` facing the sensor, turned
     by turn_deg about z; order: diffraction_order (None: the scene's default)."""
-    h = side / 2
-    v = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)
-    t = np.deg2rad(turn_deg)
-    rz = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
-    v = v @ rz.T + [distance, 0, 0]
-    trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]]).export(tmp_path / "plate.obj")
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": 4.0,
-                "rays": 20000,
-                "bounces": 1,
-                "beam_deg": beam_deg,
-                "diffraction": True,
-                "energy_floor_db": -200.0,
-                **({} if order is None else {"diffraction_order": order}),
-            },
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "plate.obj", "material": "rigid"}],
-        },
-        base_dir=tmp_path,
+    more = {} if order is None else {"diffraction_order": order}
+    return scenes.plate_paths(
+        tmp_path, side, turn_deg, distance, max_range_m=4.0, beam_deg=beam_deg, **more
     )
-    tracer = Tracer(scene, threads=1)
-    pose = scene.sensor.poses[0]
-    emitter = pose.to_world(scene.sensor.array.emitter_m)
-    receiver = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
-    return tracer.trace(pose), v, emitter, receiver
-
-
-def spectrum(paths, receiver, k):
-    last = np.linalg.norm(paths.anchor_m - receiver, axis=1)
-    phase = np.exp(-1j * k[:, None] * (paths.first_leg_m + last)[None, :])
-    return (paths.strength / last * phase).sum(axis=1)
 
 
 def physical_optics(v, emitter, receiver, k, n):
@@ -230,7 +195,7 @@ def test_small_plate_facing_the_sensor_matches_physical_optics(tmp_path, side):
     k = 2 * np.pi * FREQS / C
     paths, v, e, r = plate_tracer(tmp_path, side)
     assert (paths.kind == KIND["diffraction"]).sum() >= 8  # two halves of four rims
-    ours = spectrum(paths, r, k)
+    ours = scenes.spectrum(paths, r, k)
     ref = physical_optics(v, e, r, k, n=400)
     err = 20 * np.log10(np.abs(ours) / np.abs(ref))
     assert np.max(np.abs(err)) < 1.0, err
@@ -247,7 +212,7 @@ def test_plate_turning_through_its_edge_stays_continuous(tmp_path):
     def level(turn):
         p, *_, r = plate_tracer(tmp_path, 0.5, turn, beam_deg=60)
         has_specular[turn] = bool((p.kind == KIND["specular"]).any())
-        return np.abs(spectrum(p, r, k))
+        return np.abs(scenes.spectrum(p, r, k))
 
     level(lo), level(hi)
     assert has_specular[lo] and not has_specular[hi]
@@ -270,7 +235,7 @@ def test_plate_whose_mirror_point_misses_it_matches_physical_optics(tmp_path, tu
     k = 2 * np.pi * FREQS / C
     paths, v, e, r = plate_tracer(tmp_path, 0.5, turn, beam_deg=60)
     assert not (paths.kind == KIND["specular"]).any()
-    ours = spectrum(paths, r, k)
+    ours = scenes.spectrum(paths, r, k)
     ref = physical_optics(v, e, r, k, n=800)
     err = 20 * np.log10(np.abs(ours) / np.abs(ref))
     assert np.max(np.abs(err)) < 3.0, err
@@ -416,21 +381,8 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
     from processing import matched_filter
 
     paths, v, e, r = plate_tracer(tmp_path, 0.5, 10.0, beam_deg=60)
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": 4.0,
-                "rays": 20000,
-                "bounces": 1,
-                "beam_deg": 60.0,
-                "diffraction": False,
-            },
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "plate.obj", "material": "rigid"}],
-        },
-        base_dir=tmp_path,
-    )
+    simulation = {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 60.0}
+    scene = scenes.rigid_scene(tmp_path, [v], {**simulation, "diffraction": False})
     pose = scene.sensor.poses[0]
     silent = Simulator(scene).simulate_pose(pose, 0)
     assert np.max(np.abs(silent.samples)) == 0
@@ -469,13 +421,7 @@ def test_diffraction_is_reciprocal():
     from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
     from acousim.trace.embree import RayCaster
 
-    box = trimesh.creation.box([0.3, 0.2, 0.25])
-    box.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0.3, 0.2, 1]))
-    box.apply_translation([1.5, 0.1, 0])
-    h = 0.05
-    rot = trimesh.transformations.rotation_matrix(0.35, [0.2, 0.3, 1])[:3, :3]
-    corners = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]]) @ rot.T + [1.0, 0, 0]
-    plate = trimesh.Trimesh(corners, [[0, 1, 2], [0, 2, 3]])
+    box, plate = scenes.turned_box_and_plate([0.3, 0.2, 0.25], [1.5, 0.1, 0], 0.05, [1.0, 0, 0])
     s, r = np.array([0, 0.05, 0.02]), np.array([0.1, -0.2, 0.1])
     k = 2 * np.pi * np.linspace(20e3, 80e3, 13) / C
     for mesh in (box, plate):
@@ -485,7 +431,7 @@ def test_diffraction_is_reciprocal():
         forward = diffract(geometry, caster, s, r, options)
         backward = diffract(geometry, caster, r, s, options)
         assert len(forward) > 0
-        a, b = spectrum(forward, r, k), spectrum(backward, s, k)
+        a, b = scenes.spectrum(forward, r, k), scenes.spectrum(backward, s, k)
         assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(a))
 
 

@@ -19,68 +19,28 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
 
-from acousim.scene import parse_scene
 from acousim.trace import KIND
-from acousim.trace.tracer import Tracer
+from tests._scenes import rigid_scene, spectrum, square_faces, trace_first_pose, turn_z
 from tests.test_diffraction import physical_optics
 
 C = 343.0
 FULLWAVE = Path(__file__).resolve().parent.parent / "benchmarks" / "data" / "fullwave.csv"
 
 
-def _rotation(deg: float) -> np.ndarray:
-    t = np.deg2rad(deg)
-    return np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
-
-
 def _faces(kind: str, size: float, turn_deg: float, distance: float) -> list[np.ndarray]:
     """Corners (4, 3) of a square plate (facing -x before the turn) or of a cube's
     six faces, centred at (distance, 0, 0), turned about z."""
-    h = size / 2
-    if kind == "plate":
-        local = [np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)]
-    else:
-        local = []
-        for i in range(3):
-            j, m = [a for a in range(3) if a != i]
-            for sign in (1, -1):
-                q = np.zeros((4, 3))
-                q[:, i] = sign * h
-                q[:, j] = [-h, h, h, -h]
-                q[:, m] = [-h, -h, h, h]
-                local.append(q)
-    return [q @ _rotation(turn_deg).T + [distance, 0, 0] for q in local]
+    return square_faces(kind, size, turn_z(turn_deg), [distance, 0, 0])
 
 
 def default_paths(tmp_path: Path, quads: list[np.ndarray], max_range_m: float, beam_deg=60.0):
     """The paths of one pose of a uRTIS facing +x at the origin, for rigid faces
     `quads`, with every simulation setting at its default but the range and the
     beam (nothing about diffraction)."""
-    tris = np.concatenate([[q[[0, 1, 2]], q[[0, 2, 3]]] for q in quads])
-    mesh = trimesh.Trimesh(tris.reshape(-1, 3), np.arange(tris.shape[0] * 3).reshape(-1, 3))
-    mesh.export(tmp_path / "object.obj")
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {"max_range_m": max_range_m, "beam_deg": beam_deg},
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "object.obj", "material": "rigid"}],
-        },
-        base_dir=tmp_path,
-    )
+    scene = rigid_scene(tmp_path, quads, {"max_range_m": max_range_m, "beam_deg": beam_deg})
     assert scene.simulation.diffraction and scene.simulation.diffraction_order == 2
-    pose = scene.sensor.poses[0]
-    emitter = pose.to_world(scene.sensor.array.emitter_m)
-    receiver = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
-    return Tracer(scene, threads=1).trace(pose), emitter, receiver
-
-
-def spectrum(paths, receiver, k) -> np.ndarray:
-    last = np.linalg.norm(paths.anchor_m - receiver, axis=1)
-    phase = np.exp(-1j * k[:, None] * (paths.first_leg_m + last)[None, :])
-    return (paths.strength / last * phase).sum(axis=1)
+    return trace_first_pose(scene)
 
 
 def _fullwave() -> dict[tuple[str, int], tuple[np.ndarray, np.ndarray]]:

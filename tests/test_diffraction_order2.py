@@ -29,8 +29,8 @@ from acousim.trace import KIND
 from acousim.trace.btm import edge_elements
 from acousim.trace.btm_pairs import Wedge, edge_pair_elements
 from acousim.trace.edges import find_edges
-from acousim.trace.tracer import Tracer
 from processing.errors import InputError
+from tests import _scenes as scenes
 
 C = 343.0
 
@@ -343,13 +343,7 @@ def test_edge_to_edge_is_reciprocal():
     from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
     from acousim.trace.embree import RayCaster
 
-    box = trimesh.creation.box([0.06, 0.05, 0.04])
-    box.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0.3, 0.2, 1]))
-    box.apply_translation([0.5, 0.02, 0])
-    h = 0.03
-    rot = trimesh.transformations.rotation_matrix(0.35, [0.2, 0.3, 1])[:3, :3]
-    corners = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]]) @ rot.T + [0.4, 0, 0]
-    plate = trimesh.Trimesh(corners, [[0, 1, 2], [0, 2, 3]])
+    box, plate = scenes.turned_box_and_plate([0.06, 0.05, 0.04], [0.5, 0.02, 0], 0.03, [0.4, 0, 0])
     s, r = np.array([0, 0.05, 0.02]), np.array([0.1, -0.2, 0.1])
     k = 2 * np.pi * np.linspace(20e3, 80e3, 13) / C
     for mesh in (box, plate):
@@ -369,39 +363,19 @@ def test_edge_to_edge_is_reciprocal():
 
 
 def _spectrum(paths, sel, receiver, k):
-    last = np.linalg.norm(paths.anchor_m[sel] - receiver, axis=1)
-    phase = np.exp(-1j * k[:, None] * (paths.first_leg_m[sel] + last)[None, :])
-    return (paths.strength[sel] / last * phase).sum(axis=1)
+    return scenes.spectrum(paths, receiver, k, sel)
 
 
 def plate_paths(tmp_path: Path, side, distance, order, turn_deg=0.0):
-    h = side / 2
-    v = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)
-    t = np.deg2rad(turn_deg)
-    rz = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
-    v = v @ rz.T + [distance, 0, 0]
-    trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]]).export(tmp_path / "plate.obj")
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": distance + 1.0,
-                "rays": 20000,
-                "bounces": 1,
-                "beam_deg": 30.0,
-                "diffraction": True,
-                "diffraction_order": order,
-                "energy_floor_db": -200.0,
-            },
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "plate.obj", "material": "rigid"}],
-        },
-        base_dir=tmp_path,
+    return scenes.plate_paths(
+        tmp_path,
+        side,
+        turn_deg,
+        distance,
+        max_range_m=distance + 1.0,
+        beam_deg=30.0,
+        diffraction_order=order,
     )
-    pose = scene.sensor.poses[0]
-    emitter = pose.to_world(scene.sensor.array.emitter_m)
-    receiver = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
-    return Tracer(scene, threads=1).trace(pose), v, emitter, receiver
 
 
 @pytest.mark.parametrize("side", [0.04, 0.10])

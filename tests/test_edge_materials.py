@@ -12,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
 
-from acousim.scene import parse_scene
 from acousim.trace import KIND
-from acousim.trace.btm import Wedge, edge_elements
+from acousim.trace.btm import edge_elements
 from acousim.trace.tracer import Tracer
+from tests._scenes import first_pose, rigid_scene, screen, square_faces, turn_z
 from tests.test_diffraction import cyl, geometric, wedge_series
 
 C = 343.0
@@ -40,14 +39,7 @@ def test_wedge_with_reflecting_faces_is_the_mean_of_rigid_and_soft(R):
         ours = []
         for t in th_r:
             el = edge_elements(
-                Wedge(
-                    np.array([0.0, 0, -10]),
-                    np.array([0.0, 0, 10]),
-                    np.array([1.0, 0, 0]),
-                    np.array([0.0, 1, 0]),
-                    wedge,
-                    reflection=(R, R),
-                ),
+                screen(angle_rad=wedge, reflection=(R, R)),
                 cyl(0.15, th_s, 0.0),
                 cyl(0.10, t, dz),
             )
@@ -64,32 +56,19 @@ def _screen_paths(tmp_path: Path, material: dict, order: int = 1):
     """The diffraction paths of a 0.6 m square thin screen at 1 m, turned 40 degrees
     (no specular echo: edges only), and the world's material spectra; `order` 2:
     edge to edge too."""
-    h = 0.3
-    v = np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)
-    t = np.deg2rad(40.0)
-    rz = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
-    v = v @ rz.T + [1.0, 0, 0]
-    trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]]).export(tmp_path / "screen.obj")
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": 2.0,
-                "rays": 2000,
-                "diffraction": True,
-                "diffraction_order": order,
-                "energy_floor_db": -200.0,
-                "beam_deg": 60.0,
-            },
-            "materials": [{"name": "m", **material}],
-            "meshes": [{"file": "screen.obj", "material": "m"}],
-        },
-        base_dir=tmp_path,
-    )
-    pose = scene.sensor.poses[0]
+    quads = square_faces("plate", 0.6, turn_z(40.0), [1.0, 0, 0])
+    simulation = {
+        "max_range_m": 2.0,
+        "rays": 2000,
+        "diffraction": True,
+        "diffraction_order": order,
+        "energy_floor_db": -200.0,
+        "beam_deg": 60.0,
+    }
+    scene = rigid_scene(tmp_path, quads, simulation, material)
+    pose, _, r = first_pose(scene)
     tracer = Tracer(scene, threads=1)
     paths = tracer.trace(pose)
-    r = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
     return paths, tracer.world.spectra, r
 
 

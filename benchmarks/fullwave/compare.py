@@ -68,51 +68,19 @@ def _complex(r: dict) -> complex:
 def ours(kind: str, angle_deg: float, freqs: np.ndarray, tmp: Path) -> np.ndarray:
     """Our p / p_wall (complex, (F,)) for the 40 mm plate or cube, centre at D, turned by
     angle_deg about z; time factor exp(-i omega t) as in the reference."""
-    import trimesh
+    from tests._scenes import rigid_scene, spectrum, square_faces, trace_first_pose, turn_z
 
-    from acousim.scene import parse_scene
-    from acousim.trace.tracer import Tracer
-
-    h = SIDE / 2
-    if kind == "plate":
-        quads = [np.array([[0, -h, -h], [0, h, -h], [0, h, h], [0, -h, h]], float)]
-    else:
-        quads = []
-        for i in range(3):
-            j, m = [a for a in range(3) if a != i]
-            for sign in (1, -1):
-                q = np.zeros((4, 3))
-                q[:, i], q[:, j], q[:, m] = sign * h, [-h, h, h, -h], [-h, -h, h, h]
-                quads.append(q)
-    a = np.deg2rad(angle_deg)
-    rot = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1.0]])
-    tris = np.concatenate([[q[[0, 1, 2]], q[[0, 2, 3]]] for q in quads]) @ rot.T
-    tris = tris + np.array([D, 0, 0])
-    trimesh.Trimesh(tris.reshape(-1, 3), np.arange(tris.size // 3).reshape(-1, 3)).export(
-        tmp / "object.obj"
-    )
-    scene = parse_scene(
-        {
-            "sensor": {"array": "urtis_v1", "direct_path": False},
-            "simulation": {
-                "max_range_m": D + 1.0,
-                "rays": 20000,
-                "bounces": 2,
-                "beam_deg": 60.0,
-                "diffraction": True,
-                "energy_floor_db": -200.0,
-            },
-            "materials": [{"name": "rigid", "reflection": 1.0}],
-            "meshes": [{"file": "object.obj", "material": "rigid"}],
-        },
-        base_dir=tmp,
-    )
-    pose = scene.sensor.poses[0]
-    r = pose.to_world(scene.sensor.array.positions_m.mean(axis=0))
-    paths = Tracer(scene, threads=1).trace(pose)
-    k = 2 * np.pi * np.asarray(freqs) / C
-    last = np.linalg.norm(paths.anchor_m - r, axis=1)
-    h_ours = (paths.strength / last * np.exp(-1j * k[:, None] * (paths.first_leg_m + last))).sum(1)
+    quads = square_faces(kind, SIDE, turn_z(angle_deg), [D, 0, 0])
+    simulation = {
+        "max_range_m": D + 1.0,
+        "rays": 20000,
+        "bounces": 2,
+        "beam_deg": 60.0,
+        "diffraction": True,
+        "energy_floor_db": -200.0,
+    }
+    paths, _, r = trace_first_pose(rigid_scene(tmp, quads, simulation))
+    h_ours = spectrum(paths, r, 2 * np.pi * np.asarray(freqs) / C)
     # ours uses exp(+i omega t) (phase exp(-ikL)); conjugate to the reference's convention
     return np.conj(h_ours) / (1 / (2 * D))
 
