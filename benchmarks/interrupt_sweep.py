@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
 PREFIX = ".acousim-tmp-"
 
+#: a dataset of four samples of a scene (also tests/test_interrupt.py's)
 SPEC = """[dataset]
 samples = 4
 shard_size = 1

@@ -24,6 +24,7 @@ from pathlib import Path
 import pytest
 
 import processing as P
+from benchmarks.interrupt_sweep import SPEC  # a small dataset of points.toml
 from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, committed_together, write_text
 
@@ -176,22 +177,6 @@ def test_interrupted_record_keeps_what_it_measured(tmp_path, after):
     else:
         n = len(P.load_recordings(tmp_path / "rec.h5"))
         assert 2 <= n < 40
-
-
-SPEC = """
-[dataset]
-samples = 4
-shard_size = 1
-seed = 3
-
-[[scenes]]
-file = "{scene}"
-
-[store]
-images = ["das"]
-step_deg = 10.0
-depth_map = false
-"""
 
 
 @pytest.mark.parametrize("after", ["started", "shards 1/4"])
