@@ -170,10 +170,7 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
     if decl.kind == "str":
         if not isinstance(value, str):
             raise fail("must be a string")
-        if decl.choices is not None and value not in decl.choices:
-            close = did_you_mean(value, decl.choices)
-            hint = f"; did you mean {close!r}?" if close else ""
-            raise fail(f"is not one of {', '.join(decl.choices)}{hint}")
+        _one_of(decl, value, fail, "")
         return value
     if decl.kind in ("float", "int"):
         return _scalar(decl, value, fail, rng)
@@ -193,12 +190,18 @@ def check(decl: Setting, value: Any, key: str, file: str | Path | None = None) -
         for v in out:
             if not isinstance(v, str):
                 raise fail("must be a list of strings")
-            if decl.choices is not None and v not in decl.choices:
-                close = did_you_mean(v, decl.choices)
-                hint = f"; did you mean {close!r}?" if close else ""
-                raise fail(f"{v!r} is not one of {', '.join(decl.choices)}{hint}")
+            _one_of(decl, v, fail, f"{v!r} ")
         return out
     return _numbers(decl, value, fail, rng)  # vector or interval
+
+
+def _one_of(decl: Setting, value: str, fail, what: str) -> None:
+    """Raise `fail` ("`what`is not one of ..."; did you mean ...) unless `value` is one
+    of the declared choices (any string where none are declared)."""
+    if decl.choices is not None and value not in decl.choices:
+        close = did_you_mean(value, decl.choices)
+        hint = f"; did you mean {close!r}?" if close else ""
+        raise fail(f"{what}is not one of {', '.join(decl.choices)}{hint}")
 
 
 def _numbers(decl: Setting, value: Any, fail, rng: str) -> tuple[float, ...]:

@@ -287,14 +287,7 @@ def _floor_invert():
     return optional_kernel("processing._doakernel", "floor_invert")
 
 
-@lru_cache(maxsize=32)
-def coarray_kernel(
-    shape: tuple[int, int],
-    pitch_m: tuple[float, float],
-    grid: Grid,
-    frequency_hz: float,
-    speed_of_sound_m_s: float,
-) -> CoarrayKernel:
-    """A cached :class:`CoarrayKernel` (grids hash by identity): its precomputed
-    phases are reused by every method and recording that shares the grid."""
-    return CoarrayKernel(shape, pitch_m, grid, frequency_hz, speed_of_sound_m_s)
+#: ``coarray_kernel(shape, pitch_m, grid, frequency_hz, speed_of_sound_m_s)``: a cached
+#: :class:`CoarrayKernel` (grids hash by identity): its precomputed phases are reused
+#: by every method and recording that shares the grid (at most 32 kept)
+coarray_kernel = lru_cache(maxsize=32)(CoarrayKernel)

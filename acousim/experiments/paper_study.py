@@ -18,6 +18,7 @@ import os
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, fields
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -239,7 +240,7 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Swee
         for iv, v in enumerate(values)
         for rep in range(config.repetitions)
     ]
-    results = _map(config, _resolution_job(config.grid_step_deg), trials)
+    results = _map(config, partial(resolution_trial, step=config.grid_step_deg), trials)
     stats = {}
     it = iter(results)
     for p in POSITIONS:
@@ -252,16 +253,6 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Swee
                     float(sr_mean), float(rng_mean), float(sr_std), float(rng_std)
                 )
     return stats
-
-
-class _resolution_job:
-    """Picklable callable: the resolution metrics of one trial."""
-
-    def __init__(self, step: float) -> None:
-        self.step = step
-
-    def __call__(self, trial: Trial) -> dict:
-        return resolution_trial(trial, self.step)
 
 
 def _plot_sweep(stats: Sweep, values, xlabel, what, ylabel, title, path, log=True):
@@ -352,14 +343,6 @@ def fig9_10(config: StudyConfig, out: Path) -> Sweep:
 # -- Figs. 11 and 12: two sources, and up to five ------------------------------------
 
 
-class _cut_job:
-    def __init__(self, step: float) -> None:
-        self.step = step
-
-    def __call__(self, trial: Trial) -> dict:
-        return azimuth_cut_trial(trial, self.step)
-
-
 def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation]:
     """Maximum attenuation between two sources against their spacing, 10 dB SNR."""
     trials = [
@@ -367,7 +350,7 @@ def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation
         for i, s in enumerate(config.spacings_deg)
         for rep in range(config.repetitions)
     ]
-    cuts = _map(config, _cut_job(config.cut_step_deg), trials)
+    cuts = _map(config, partial(azimuth_cut_trial, step=config.cut_step_deg), trials)
     az = np.deg2rad(np.arange(-90, 90 + config.cut_step_deg / 2, config.cut_step_deg))
     stats = {}
     it = iter(cuts)
@@ -435,7 +418,7 @@ def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
         for n in layouts
         for rep in range(config.repetitions)
     ]
-    cuts = _map(config, _cut_job(config.cut_step_deg), trials)
+    cuts = _map(config, partial(azimuth_cut_trial, step=config.cut_step_deg), trials)
     result = {}
     it = iter(cuts)
     for n in layouts:

@@ -30,17 +30,29 @@ apart, and keeps their delay and direction:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .paths import KIND, TracedPaths
 from .scatter import Contributions
 
-__all__ = ["cluster", "members", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
+__all__ = ["Cells", "cluster", "members", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
 
 #: direction cells (deg, seen from the receiver, times the order) of the Lambert tail
 DIFFUSE_CELL_DEG = 10.0
 #: ... and its bins are this many range resolutions (times the order) long
 DIFFUSE_BIN_FACTOR = 4.0
+
+
+@dataclass(frozen=True)
+class Cells:
+    """How finely the Lambert tail is clustered (steps 1 and 2)."""
+
+    cell_deg: float = DIFFUSE_CELL_DEG
+    """direction cells seen from the receiver, deg, times the order."""
+    bin_factor: float = DIFFUSE_BIN_FACTOR
+    """the tail's bins are this many range resolutions long, times the order."""
 
 
 def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
@@ -50,14 +62,10 @@ def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
 
 
 def members(
-    c: Contributions,
-    receiver: np.ndarray,
-    resolution_m: float,
-    cell_deg: float = DIFFUSE_CELL_DEG,
-    bin_factor: float = DIFFUSE_BIN_FACTOR,
+    c: Contributions, receiver: np.ndarray, resolution_m: float, cells: Cells = Cells()
 ) -> tuple[np.ndarray, int]:
     """Steps 1 and 2: the cluster (K,) of every contribution, and the number of
-    clusters."""
+    clusters; the receiver (3,) in metres, the range resolution as a path length (m)."""
     total = c.first_leg_m + c.last_leg_m
     u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
     # 1. groups: surface and order, and a direction cell for the Lambert tail
@@ -68,7 +76,7 @@ def members(
         signature = signature.ravel().astype(np.int64)
         group, n_group = _dense(group.astype(np.int64) * (signature.max() + 1) + signature)
     if c.lambert.any():
-        q = np.round(u / (np.deg2rad(cell_deg) * c.order[:, None])).astype(np.int64)
+        q = np.round(u / (np.deg2rad(cells.cell_deg) * c.order[:, None])).astype(np.int64)
         span = int(np.abs(q).max()) * 2 + 1
         cell = ((q[:, 0] * span + q[:, 1]) * span + q[:, 2]) + 1
         cell = np.where(c.lambert, cell, 0)
@@ -76,17 +84,13 @@ def members(
     # 2. bins anchored at each group's nearest contribution
     start = np.full(n_group, np.inf)
     np.minimum.at(start, group, total)
-    width = np.where(c.lambert, bin_factor * c.order * resolution_m, resolution_m)
+    width = np.where(c.lambert, cells.bin_factor * c.order * resolution_m, resolution_m)
     bins = np.floor((total - start[group]) / width).astype(np.int64)
     return _dense(group.astype(np.int64) * (int(bins.max()) + 1) + bins)
 
 
 def cluster(
-    c: Contributions,
-    receiver: np.ndarray,
-    resolution_m: float,
-    cell_deg: float = DIFFUSE_CELL_DEG,
-    bin_factor: float = DIFFUSE_BIN_FACTOR,
+    c: Contributions, receiver: np.ndarray, resolution_m: float, cells: Cells = Cells()
 ) -> TracedPaths:
     """Point reflectors (paths of kind "scatter") for contributions `c`; the receiver
     (3,) in metres, the range resolution as a path length (m)."""
@@ -95,7 +99,7 @@ def cluster(
     inten = c.intensity
     total = c.first_leg_m + c.last_leg_m
     u = (c.point_m - receiver) / c.last_leg_m[:, None]
-    inv, n = members(c, receiver, resolution_m, cell_deg, bin_factor)
+    inv, n = members(c, receiver, resolution_m, cells)
     # 3. one reflector per bin: summed intensity at the mean path length and direction
     w = np.bincount(inv, inten, n)
 

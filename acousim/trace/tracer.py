@@ -74,28 +74,15 @@ def trace_pose(
     rotation: np.ndarray,
     points: tuple[np.ndarray, np.ndarray] | None = None,
     edges: DiffractingGeometry | None = None,
-) -> TracedPaths:
-    """Every path of one pose (world frame): the stages 0 to 6 of the module docstring.
+) -> tuple[TracedPaths, int]:
+    """Every path of one pose (world frame), the stages 0 to 6 of the module docstring,
+    and the number of rays it shot.
 
     emitter, receiver (array centre): (3,) each; rotation (3, 3): the sensor's axes as
     columns (x: its axis); points: positions (P, 3) and strengths (P,) of explicit
     point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
     this pose only, when diffraction is on and none is given).
     """
-    return traced_with_rays(world, caster, settings, emitter, receiver, rotation, points, edges)[0]
-
-
-def traced_with_rays(
-    world: World | None,
-    caster: RayCaster | None,
-    settings: TraceSettings,
-    emitter: np.ndarray,
-    receiver: np.ndarray,
-    rotation: np.ndarray,
-    points: tuple[np.ndarray, np.ndarray] | None = None,
-    edges: DiffractingGeometry | None = None,
-) -> tuple[TracedPaths, int]:
-    """:func:`trace_pose`, and the number of rays it shot."""
     axis = rotation[:, 0]
     parts = []
     # 0. no rays needed
@@ -224,7 +211,7 @@ class Tracer:
         receiver = pose.to_world(array.positions_m.mean(axis=0))
         if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
-        paths, rays = traced_with_rays(
+        paths, rays = trace_pose(
             self.world,
             self.caster,
             self.settings,
