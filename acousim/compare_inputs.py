@@ -84,13 +84,12 @@ def pair_with_scene(
 
     chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
     if recorded:
-        bare = [i for i, r in enumerate(chosen) if not isinstance(r.metadata.get("pose"), dict)]
+        poses = [r.provenance.pose for r in chosen]
+        bare = [i for i, p in enumerate(poses) if p is None]
         if bare:
             raise InputError("has no pose to simulate at", key="real recording", value=bare[0])
         first = 0 if every else index
-        targets = [
-            (_recorded_pose(r.metadata["pose"]), None, first + i) for i, r in enumerate(chosen)
-        ]
+        targets = [(_recorded_pose(p), None, first + i) for i, p in enumerate(poses)]
     else:
         poses = list(range(len(reals))) if every else [pose]
         n = len(scene.sensor.poses)
@@ -109,12 +108,11 @@ def pair_with_scene(
     return list(zip(chosen, sims))
 
 
-def _recorded_pose(p: dict):
-    """A pose as files hold it (degrees) as a :class:`~acousim.scene.pose.Pose`."""
+def _recorded_pose(p: P.SensorPose):
+    """A recording's pose (its provenance) as a :class:`~acousim.scene.pose.Pose`."""
     from acousim.scene.pose import Pose
 
-    angles = np.deg2rad([p.get(k, 0.0) for k in ("yaw_deg", "pitch_deg", "roll_deg")])
-    return Pose(p["position_m"], *angles, time_s=p.get("time_s", 0.0))
+    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
 
 
 def pair_with_file(

@@ -156,10 +156,10 @@ def _scene(rec: P.Recording):
 
     Read only for the 3D view and the animation, and only a scene file (.toml): a
     recording cannot make us open any other path."""
-    file = rec.metadata.get("scene_file")
+    file = rec.provenance.scene_file
     if not file:
         return None
-    if not isinstance(file, str) or Path(file).suffix.lower() != ".toml":
+    if Path(file).suffix.lower() != ".toml":
         raise InputError(
             "the recording's scene_file is not a scene file (.toml); "
             "image without the 3D view (--no-3d --no-animation)",
@@ -307,11 +307,11 @@ def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOpt
 
 def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
     """The farthest range a picture may show: the imaged range, within the simulated
-    one (the recording's ``max_range_m`` metadata, when it was simulated)."""
+    one (the recording's provenance ``max_range_m``, when it was simulated)."""
     hi = options.settings(rec).range_limits_m[1]
-    simulated = rec.metadata.get("max_range_m")
-    if isinstance(simulated, int | float) and simulated > 0:
-        hi = min(hi, float(simulated))
+    simulated = rec.provenance.max_range_m
+    if simulated is not None:
+        hi = min(hi, simulated)
     return float(hi)
 
 
@@ -360,7 +360,7 @@ SWEEP_MIN_M = 0.05
 
 def _sweep(rec: P.Recording):
     """The sensor's positions and axes over the recording's window if it moved or
-    turned during it (``metadata["motion"]``), else None (nothing to smear)."""
+    turned during it (``provenance.motion``), else None (nothing to smear)."""
     from acousim.viz.render3d import sensor_sweep
 
     motion = rec.provenance.motion

@@ -41,7 +41,7 @@ def image_resolution(rec: P.Recording, image: P.Image, window_samples: int) -> R
     is the STFT window of the processing settings."""
     c, fs = rec.speed_of_sound_m_s, rec.sample_rate_hz
     rng = c * window_samples / (2 * fs)
-    if image.method.endswith("-bb"):
+    if P.parse_method(image.method).family == "broadband":
         rng = max(image.bin_range_m, c / (2 * fs))
     pos = np.asarray(rec.array.positions_m, float)
     d = np.linalg.norm(pos[:, None] - pos[None], axis=-1).max() if len(pos) > 1 else 0.0

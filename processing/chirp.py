@@ -49,7 +49,7 @@ import numpy as np
 
 from .arrays import Array
 from .atomic import atomic_path
-from .chirp_frames import pose_matrix, quaternion_of
+from .chirp_frames import quaternion_of
 from .chirp_names import (  # noqa: F401  (re-exported)
     ACOUSTIC,
     LIDAR,
@@ -61,6 +61,7 @@ from .chirp_names import (  # noqa: F401  (re-exported)
     ChirpFileError,
 )
 from .errors import InputError
+from .provenance import SensorMotion, SensorPose
 from .recording_types import MAX_SAMPLE_BYTES, Recording
 from .waveforms import Waveform
 
@@ -103,7 +104,7 @@ def write_chirp(
 
     All must share the array, sample rate, call and length (CHIRP has one receiver
     array and one signals array). Times: each capture's emission is at its
-    recording's ``metadata["timestamp"]`` (a real recording, Unix s) or its pose's
+    recording's provenance ``timestamp_s`` (a real recording, Unix s) or its pose's
     ``time_s`` (a trajectory), plus `start_time_s`; measurement k of a recording
     k x `period_s` later; when those do not increase strictly, capture i is at
     `start_time_s` + i x `period_s`. Samples: float32 (float64 rounded: 2**-24 at
@@ -119,7 +120,8 @@ def write_chirp(
         raise InputError("must be a positive number of seconds", key="period_s", value=period_s)
     owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
     measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
-    emission, synthetic = _emission_times(recs, owner, measure, period_s)
+    provenance = [r.provenance for r in recs]
+    emission, synthetic = _emission_times(provenance, owner, measure, period_s)
     emission = emission + float(start_time_s)
     first = recs[0]
     fs = first.sample_rate_hz
@@ -133,10 +135,9 @@ def write_chirp(
         opts = {"fletcher32": checksum, "compression": compression}
         sums = _write_acoustic(sensors, recs, owner, measure, sample0, opts)
         _write_transmitter(sensors, first, emission)
-        poses = [r.metadata.get("pose") for r in recs]
-        if all(isinstance(p, dict) for p in poses):
-            _write_odometry(sensors, recs, owner, emission)
-            _write_transforms(f, [poses[i] for i in owner])
+        if all(p.pose is not None for p in provenance):
+            _write_odometry(sensors, provenance, owner, emission)
+            _write_transforms(f, [provenance[i].pose for i in owner])
         if all(r.lidar is not None for r in recs):
             _write_lidar(sensors, f, recs, owner, emission)
         ours = f.require_group(OURS)
@@ -176,14 +177,15 @@ def _check_one_sensor(path: Path, recs: list[Recording]) -> None:
         )
 
 
-def _emission_times(recs, owner, measure, period_s) -> tuple[np.ndarray, bool]:
-    """Each capture's emission time (s) and whether they are synthetic (see write_chirp)."""
+def _emission_times(provenance, owner, measure, period_s) -> tuple[np.ndarray, bool]:
+    """Each capture's emission time (s) and whether they are synthetic (see write_chirp);
+    `provenance` the recordings' :class:`~processing.provenance.Provenance`."""
     base = []
-    for r in recs:
-        t = r.metadata.get("timestamp")
-        if t is None and isinstance(r.metadata.get("pose"), dict):
-            t = r.metadata["pose"].get("time_s")
-        base.append(float(t) if isinstance(t, int | float) and np.isfinite(t) else np.nan)
+    for p in provenance:
+        t = p.timestamp_s
+        if t is None and p.pose is not None:
+            t = p.pose.time_s
+        base.append(float(t) if t is not None and np.isfinite(t) else np.nan)
     t = np.array(base)[owner] + measure * period_s
     if np.all(np.isfinite(t)) and np.all(np.diff(t) > 0):
         return t, False
@@ -226,7 +228,7 @@ def _write_transmitter(sensors, rec: Recording, emission: np.ndarray) -> None:
     g.create_dataset("data/timestamps", data=emission).attrs["units"] = "s"
 
 
-def _write_odometry(sensors, recs, owner, emission) -> None:
+def _write_odometry(sensors, provenance, owner, emission) -> None:
     """The sensor's pose per capture: base_link (= origin, the array) in odom (= our
     world), velocities in base_link; exact, so the covariances are zero."""
     n = len(owner)
@@ -236,13 +238,11 @@ def _write_odometry(sensors, recs, owner, emission) -> None:
     pos, quat, yaw = np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n)
     lin, ang = np.zeros((n, 3)), np.zeros((n, 3))
     for k, i in enumerate(owner):
-        p = recs[i].metadata["pose"]
-        T = pose_matrix(p)
-        pos[k], quat[k], yaw[k] = T[:3, 3], quaternion_of(T[:3, :3]), np.deg2rad(p["yaw_deg"])
-        motion = recs[i].metadata.get("motion") or {}
-        lin[k] = T[:3, :3].T @ np.asarray(motion.get("velocity_m_s", np.zeros(3)), float)
-        w = np.deg2rad(np.asarray(motion.get("angular_velocity_deg_s", np.zeros(3)), float))
-        ang[k] = T[:3, :3].T @ w
+        p, motion = provenance[i].pose, provenance[i].motion or SensorMotion()
+        T = p.matrix()
+        pos[k], quat[k], yaw[k] = T[:3, 3], quaternion_of(T[:3, :3]), p.yaw_rad
+        lin[k] = T[:3, :3].T @ np.asarray(motion.velocity_m_s, float)
+        ang[k] = T[:3, :3].T @ np.asarray(motion.angular_velocity_rad_s, float)
     for name, data, units in (
         ("position", pos, "m"),
         ("orientation", quat, None),
@@ -259,13 +259,14 @@ def _write_odometry(sensors, recs, owner, emission) -> None:
             d.attrs["units"] = units
 
 
-def _write_transforms(f: h5py.File, poses: list[dict]) -> None:
+def _write_transforms(f: h5py.File, poses: list[SensorPose]) -> None:
     """base_link is the origin (the array); the ground frame only when the sensor's
     height above our world's z = 0 plane is the same at every capture."""
     g = f.create_group("transforms")
     g.create_dataset("base_link_to_origin", data=np.eye(4))
-    z = np.array([float(p["position_m"][2]) for p in poses])
-    flat = all(abs(float(p.get(a, 0.0))) < 1e-9 for p in poses for a in ("pitch_deg", "roll_deg"))
+    z = np.array([p.position_m[2] for p in poses])
+    level = np.deg2rad(1e-9)  # pitch and roll under 1e-9 degrees
+    flat = all(abs(a) < level for p in poses for a in (p.pitch_rad, p.roll_rad))
     if np.ptp(z) < 1e-9 and flat:
         ground = np.eye(4)
         ground[2, 3] = -z[0]

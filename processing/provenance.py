@@ -11,6 +11,10 @@ In the metadata (and so in the file, ``docs/recording-format.md``)::
                  when ``simulated`` is true, else "real")
     simulated    bool, kept for readers of older versions (true only if simulated)
     scene        the scene's name (simulated and emulated recordings)
+    scene_file   the scene file simulated, or null
+    max_range_m  the range the simulation traced, m
+    n_paths      the paths the simulation rendered
+    sample       a dataset sample's drawn parameters (acousim.dataset, CHIRP shards)
     pose         {position_m, yaw_deg, pitch_deg, roll_deg, time_s} at the emission
     pose_index   the pose's index in the scene's trajectory
     motion       {velocity_m_s, angular_velocity_deg_s, ...} during the measurement
@@ -24,13 +28,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
 import numpy as np
 
+from .chirp_frames import rotation
 from .errors import InputError
 
-__all__ = ["KINDS", "Kind", "Provenance", "SensorMotion", "SensorPose", "provenance_metadata"]
+__all__ = [
+    "KINDS",
+    "Kind",
+    "Provenance",
+    "SensorMotion",
+    "SensorPose",
+    "kind_of",
+    "provenance_metadata",
+]
 
 Kind = Literal["simulated", "real", "emulated"]
 KINDS: tuple[str, ...] = get_args(Kind)
@@ -46,6 +59,13 @@ class SensorPose:
     pitch_rad: float = 0.0
     roll_rad: float = 0.0
     time_s: float = 0.0
+
+    def matrix(self) -> np.ndarray:
+        """The 4x4 transform sensor -> world."""
+        T = np.eye(4)
+        T[:3, :3] = rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
+        T[:3, 3] = self.position_m
+        return T
 
 
 @dataclass(frozen=True)
@@ -67,6 +87,14 @@ class Provenance:
     pose_index: int | None = None
     motion: SensorMotion | None = None
     timestamp_s: float | None = None
+    scene_file: str | None = None
+    """The scene file a simulation ran (None: not known, or not simulated)."""
+    max_range_m: float | None = None
+    """The range a simulation traced, m (None: not simulated)."""
+    n_paths: int | None = None
+    """The paths a simulation rendered (None: not simulated)."""
+    sample: dict[str, Any] | None = None
+    """A dataset sample's drawn parameters (:mod:`acousim.dataset`), else None."""
 
     @property
     def simulated(self) -> bool:
@@ -76,9 +104,7 @@ class Provenance:
     @classmethod
     def from_metadata(cls, meta: dict, *, file=None, key: str = "metadata") -> Provenance:
         """Read from a recording's metadata; an InputError names the key and value."""
-        kind = meta.get("provenance")
-        if kind is None:  # files written before the field: simulated or real
-            kind = "simulated" if meta.get("simulated") else "real"
+        kind = kind_of(meta)
         if kind not in KINDS:
             raise InputError(
                 f"must be one of {', '.join(KINDS)}",
@@ -86,17 +112,32 @@ class Provenance:
                 key=f"{key}: provenance",
                 value=kind,
             )
-        scene = meta.get("scene")
-        index = meta.get("pose_index")
-        stamp = meta.get("timestamp")
+        scene, scene_file = meta.get("scene"), meta.get("scene_file")
+        index, paths = meta.get("pose_index"), meta.get("n_paths")
+        stamp, reach = meta.get("timestamp"), meta.get("max_range_m")
+        sample = meta.get("sample")
         return cls(
-            kind,
+            kind,  # type: ignore[arg-type]
             scene=str(scene) if scene is not None else None,
             pose=_pose(meta.get("pose")),
             pose_index=int(index) if isinstance(index, int | float) else None,
             motion=_motion(meta.get("motion"), file, key),
             timestamp_s=float(stamp) if _finite(stamp) else None,
+            scene_file=scene_file if isinstance(scene_file, str) else None,
+            max_range_m=float(reach) if _finite(reach) and reach > 0 else None,
+            n_paths=int(paths) if _finite(paths) else None,
+            sample=dict(sample) if isinstance(sample, dict) else None,
         )
+
+
+def kind_of(meta: dict) -> str:
+    """The provenance kind a recording's metadata (or a message holding its keys) says:
+    its ``provenance``, else, before the field, "simulated" when ``simulated`` is
+    true and "real" otherwise (not checked: see :meth:`Provenance.from_metadata`)."""
+    kind = meta.get("provenance")
+    if kind is None:  # files written before the field: simulated or real
+        kind = "simulated" if meta.get("simulated") else "real"
+    return kind
 
 
 def provenance_metadata(kind: Kind) -> dict:

@@ -214,13 +214,14 @@ def calibrate(
     settings: CalibrationSettings | None = None,
 ) -> Calibration:
     """Fit the materials of `scene` to `recordings` (recording i taken at pose
-    ``poses[i]``; default: its ``metadata["pose_index"]``, else i).  Raises
+    ``poses[i]``; default: its ``provenance.pose_index``, else i).  Raises
     InputError naming what does not fit together."""
     t0 = time.perf_counter()
     settings = settings or CalibrationSettings()
     recs = list(recordings)
     if poses is None:
-        poses = [int(r.metadata.get("pose_index", i)) for i, r in enumerate(recs)]
+        indices = [r.provenance.pose_index for r in recs]
+        poses = [i if q is None else q for i, q in enumerate(indices)]
     _check(scene, recs, list(poses))
     free = settings.free(_used_materials(scene))
     for name in settings.tables:

@@ -12,6 +12,7 @@ import numpy as np
 
 import processing as P
 from processing.errors import InputError
+from processing.provenance import kind_of
 
 from .generation import SHARD_SCHEMA
 
@@ -104,7 +105,7 @@ def _bag_provenance(raw: bytes) -> str:
         info = json.loads(msg.data)
     except ValueError:
         return "unknown"
-    return str(info.get("provenance", "simulated" if info.get("simulated") else "real"))
+    return str(kind_of(info))
 
 
 def _chirp(path: Path) -> list[str]:

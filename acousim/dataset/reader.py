@@ -147,7 +147,7 @@ class DatasetReader:
             self._check(name)
             self._files[name] = None  # checked once; read through processing
         r = P.load_recording(self._shard_path(name), offset)
-        out = {"params": r.metadata.get("sample", {}), "raw": r.samples}
+        out = {"params": r.provenance.sample or {}, "raw": r.samples}
         if r.truth is not None:
             out["labels/position_sensor_m"] = r.truth.position_sensor_m.astype(np.float32)
             out["labels/amplitude"] = r.truth.amplitude.astype(np.float32)

@@ -95,7 +95,7 @@ def sensor_sweep(
     """Where the sensor is and where it points at `count` instants spread evenly over
     a measurement window of `window_s`, from the start of the emission (position (3,),
     rotation sensor -> world (3, 3)) at constant rates (world frame; as a recording's
-    ``metadata["motion"]`` stores them): positions (K, 3), unit axes (K, 3)."""
+    ``provenance.motion`` holds them): positions (K, 3), unit axes (K, 3)."""
     from scipy.spatial.transform import Rotation
 
     t = np.linspace(0.0, window_s, count)
