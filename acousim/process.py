@@ -18,15 +18,28 @@ from __future__ import annotations
 
 import functools
 import logging
+from dataclasses import dataclass
 
 from acousim.allocator import keep_freed_memory
+from processing.settings import setting, validate
 
-__all__ = ["configure", "BLAS_THREADS"]
+__all__ = ["configure", "BLAS_THREADS", "Workers"]
 
 log = logging.getLogger(__name__)
 
 #: BLAS threads of a simulating process
 BLAS_THREADS = 1
+
+
+@dataclass(frozen=True)
+class Workers:
+    """How many local processes a command that fans out (``acousim dataset``,
+    ``acousim reproduce``) runs."""
+
+    workers: int = setting(2, "", 1, 1024, "local processes")
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 @functools.lru_cache(maxsize=1)

@@ -5,6 +5,7 @@ from .device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevi
 from .pdm import decode, encode
 from .protocol import Frame, FrameError, build_frame, parse_frame
 from .recorder import (
+    Acquisition,
     Recorder,
     RecordingFailed,
     RecordingInterrupted,
@@ -27,6 +28,7 @@ __all__ = [
     "Recorder",
     "RecordingInterrupted",
     "RecordingFailed",
+    "Acquisition",
     "check_acquisition",
     "RecordStats",
     "decode_frame",

@@ -23,7 +23,6 @@ How gaps are found and kept from happening:
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -32,6 +31,7 @@ import numpy as np
 
 import processing as P
 from processing.errors import InputError
+from processing.settings import check, setting, settings_of, validate
 
 from .device import DeviceNotFound, DeviceSettings, RtisDevice
 from .pdm import DECIMATION, PDM_RATE_HZ, decode
@@ -43,6 +43,7 @@ __all__ = [
     "RecordingInterrupted",
     "RecordingFailed",
     "decode_frame",
+    "Acquisition",
     "check_acquisition",
 ]
 
@@ -92,20 +93,34 @@ def decode_frame(
     )
 
 
+@dataclass(frozen=True)
+class Acquisition:
+    """What a recording run asks for (``acousim record``): exactly one of a count or a
+    duration (:func:`check_acquisition`), at most `rate_hz` measurements a second."""
+
+    count: int | None = setting(None, "", 1, 10**9, "number of measurements", kind="int")
+    duration_s: float | None = setting(None, "s", 1e-3, 1e7, "seconds of recording", kind="float")
+    rate_hz: float = setting(10.0, "Hz", 1e-3, 1e4, "measurements per second at most")
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+#: the command-line option of each field of :class:`Acquisition`
+_OPTIONS = {"count": "--count", "duration_s": "--duration", "rate_hz": "--rate"}
+
+
 def check_acquisition(count: int | None, duration_s: float | None, rate_hz: float | None) -> None:
-    """Refuse a request that cannot record anything: exactly one of a count (>= 1) or a
-    duration (finite, > 0 s); a rate, when given, finite and > 0 Hz.  Raises InputError
-    naming the command-line option."""
+    """Refuse a request that cannot record anything: exactly one of a count or a
+    duration, each in its declared range (:class:`Acquisition`); a rate, when given
+    (None: as fast as the sensor answers), in its range too.  Raises InputError naming
+    the command-line option."""
     if (count is None) == (duration_s is None):
         raise InputError("give exactly one of a count or a duration", key="--count/--duration")
-    if count is not None and count < 1:
-        raise InputError("must be at least 1", key="--count", value=count)
-    if duration_s is not None and not (math.isfinite(duration_s) and duration_s > 0):
-        raise InputError(
-            "must be a finite number of seconds > 0", key="--duration", value=duration_s
-        )
-    if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0):
-        raise InputError("must be a finite rate > 0 per second", key="--rate", value=rate_hz)
+    declared = settings_of(Acquisition)
+    for name, value in (("count", count), ("duration_s", duration_s), ("rate_hz", rate_hz)):
+        if value is not None:
+            check(declared[name], value, _OPTIONS[name])
 
 
 class Recorder:

@@ -546,3 +546,25 @@ def test_record_command_interrupted(tmp_path, capsys, monkeypatch, moment):
         assert [p.name for p in tmp_path.iterdir()] == ["rec.h5"]
     else:
         assert list(tmp_path.iterdir()) == []
+
+
+def test_acquisition_ranges_are_the_declared_ones():
+    """--count, --duration and --rate are declared once (hardware.Acquisition): the
+    library's check and the command line refuse the same values, naming the option."""
+    from acousim.cli import build_parser
+    from hardware import Acquisition
+
+    assert Acquisition().rate_hz == 10.0  # the one home of the command line's default
+    for count, duration, rate, key in (
+        (10**9 + 1, None, 10, "--count"),
+        (None, 1e-4, 10, "--duration"),
+        (None, 1.0, 2e4, "--rate"),
+    ):
+        with pytest.raises(InputError, match=key):
+            check_acquisition(count, duration, rate)
+    check_acquisition(10**9, None, None)  # the largest count, as fast as the sensor answers
+    check_acquisition(None, 1e-3, 1e4)
+    with pytest.raises(InputError, match="rate_hz"):
+        Acquisition(rate_hz=0.0)
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["record", "--rate", "2e4", "--out", "x.h5"])

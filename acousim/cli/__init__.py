@@ -1,7 +1,9 @@
 """The ``acousim`` command line: a thin layer that parses, calls the library, reports.
 
-One module per command (``simulate``, ``image``, ...), each with ``register(sub)``,
-which declares its arguments, and ``run(args)``: parse → call the library → report.
+One module per command (``simulate``, ``image``, ...): its docstring is its help
+(the first line in ``acousim --help``, the rest in ``acousim NAME --help``),
+``register(sub)`` adds it (:func:`acousim.cli.common.add_command`) and declares its
+arguments, and ``run(args)`` handles it: parse → call the library → report.
 Shared helpers are in :mod:`acousim.cli.common`; options that set a declared setting
 are generated from its declaration (:mod:`acousim.cli.options`).
 

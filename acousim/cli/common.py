@@ -52,15 +52,26 @@ def declared(module: str, cls: str, name: str):
     return get
 
 
+class DeclaredHelp(argparse.HelpFormatter):
+    """Formats an option added by :func:`add_declared` with its declaration's text."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        get = getattr(action, "declaration", None)
+        if get is None:
+            return action.help
+        decl = get()
+        note = getattr(action, "note", "")
+        return f"{decl.doc} ({decl.describe()}{'; ' + note if note else ''})".replace("%", "%%")
+
+
 def add_command(sub, doc: str, run) -> argparse.ArgumentParser:
     """Register the command a module's docstring declares and return its parser.
 
     The docstring's first paragraph, "``acousim NAME``: HELP.", gives the command's
     name and its line in ``acousim --help``; the paragraphs after it are the
     description of ``acousim NAME --help``; `run(args)` handles it. Options added by
-    :func:`acousim.cli.options.add_declared` get their help from their declarations."""
-    from .options import DeclaredHelp
-
+    :func:`acousim.cli.options.add_declared` get their help from their declarations
+    (:class:`DeclaredHelp`)."""
     head, _, body = doc.strip().partition("\n\n")
     name, _, summary = " ".join(head.split()).partition(": ")
     parser = sub.add_parser(
@@ -75,7 +86,6 @@ def add_command(sub, doc: str, run) -> argparse.ArgumentParser:
 
 SEED = checked("int", declared=declared("acousim.scene.model", "Simulation", "seed"))
 INDEX = checked("int", 0, 2**31 - 1)
-WORKERS = checked("int", 1, 1024)
 
 
 def add_seed(parser: argparse.ArgumentParser) -> None:
@@ -257,10 +267,11 @@ def simulate(scene, poses, seed):
         )
     recs = Simulator(scene).run(poses, progress=progress("simulate"))
     for r in recs:
-        if r.metadata.get("n_paths", 0) == 0:
+        prov = r.provenance
+        if not prov.n_paths:
             raise UsageError(
                 f"scene {scene.name!r}: no echo reaches the sensor at pose "
-                f"{r.metadata.get('pose_index')} (nothing within "
+                f"{prov.pose_index} (nothing within "
                 f"{scene.simulation.max_range_m} m)"
             )
     return recs

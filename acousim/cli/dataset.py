@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from .common import WORKERS, add_command, preload_simulation, progress, writable_dir
+from .common import add_command, preload_simulation, progress, writable_dir
+from .options import add_declared
 
 
 def register(sub) -> None:
@@ -18,13 +19,14 @@ def register(sub) -> None:
         "spec", help="dataset spec (.toml) or a bundled spec's name (e.g. corridor_small)"
     )
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--workers", type=WORKERS, default=2, help="local processes (default: 2)")
+    add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
 
 
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import resolve
     from acousim.dataset import generate
+    from acousim.process import Workers
 
     if args.scheduler:
         from acousim.dataset.safety import check_scheduler
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     manifest = generate(
         resolve("datasets", args.spec),  # a file, or a bundled spec's name
         args.out,
-        workers=args.workers,
+        workers=Workers().workers if args.workers is None else args.workers,
         scheduler=args.scheduler,
         progress=progress("shards"),
     )

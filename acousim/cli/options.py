@@ -11,19 +11,9 @@ from __future__ import annotations
 
 import argparse
 
-from .common import checked, declared
+from .common import DeclaredHelp, checked, declared
 
-
-class DeclaredHelp(argparse.HelpFormatter):
-    """Formats an option added by :func:`add_declared` with its declaration's text."""
-
-    def _get_help_string(self, action: argparse.Action) -> str | None:
-        get = getattr(action, "declaration", None)
-        if get is None:
-            return action.help
-        decl = get()
-        note = getattr(action, "note", "")
-        return f"{decl.doc} ({decl.describe()}{'; ' + note if note else ''})".replace("%", "%%")
+__all__ = ["DeclaredHelp", "add_declared"]
 
 
 def add_declared(

@@ -15,7 +15,6 @@ from processing.rtis import RTIS_SAMPLE_RATE_HZ
 from .common import (
     UsageError,
     add_command,
-    checked,
     choice,
     load_scene,
     output_file,
@@ -23,12 +22,15 @@ from .common import (
     progress,
     stop_if_interrupted,
 )
+from .options import add_declared
 
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
 # processing.PRESETS and the RTIS call presets, repeated for the same reason (tested)
 ARRAY_PRESETS = ("ertis_v3d1", "paper_8x8", "urtis_v1")
 CALL_PRESETS = ("default_20_80", "default_25_50")
+#: the declarations of --count, --duration and --rate
+ACQUISITION = "hardware.recorder:Acquisition"
 
 
 def add_array(parser, what: str) -> None:
@@ -45,14 +47,9 @@ def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     p.add_argument("--device", help="USB VID:PID in hex (default: $RTIS_VID:$RTIS_PID)")
     p.add_argument("--serial", help="serial number of the sensor to use")
-    p.add_argument("--count", type=checked("int", 1, 10**9), help="number of measurements")
-    p.add_argument("--duration", type=checked("float", 1e-3, 1e7), help="seconds of recording")
-    p.add_argument(
-        "--rate",
-        type=checked("float", 1e-3, 1e4),
-        default=10.0,
-        help="measurements per second at most (default: 10)",
-    )
+    add_declared(p, "--count", ACQUISITION, "count")
+    add_declared(p, "--duration", ACQUISITION, "duration_s")
+    add_declared(p, "--rate", ACQUISITION, "rate_hz")
     add_array(p, "array preset")
     p.add_argument(
         "--call",
@@ -135,6 +132,7 @@ def _recorder(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     import processing as P
     from hardware import (
+        Acquisition,
         DeviceNotFound,
         RecordingFailed,
         RecordingInterrupted,
@@ -142,8 +140,9 @@ def run(args: argparse.Namespace) -> int:
     )
     from processing import interrupt
 
+    rate = Acquisition().rate_hz if args.rate is None else args.rate  # the declared default
     try:
-        check_acquisition(args.count, args.duration, args.rate)
+        check_acquisition(args.count, args.duration, rate)
         out = output_file("--out", args.out)
         recorder = _recorder(args)
     except (InputError, DeviceNotFound) as exc:
@@ -161,9 +160,7 @@ def run(args: argparse.Namespace) -> int:
 
     interrupted, failure = False, None
     try:
-        recorder.acquire(
-            args.count, args.duration, args.rate, on_record=keep, stop=interrupt.requested
-        )
+        recorder.acquire(args.count, args.duration, rate, on_record=keep, stop=interrupt.requested)
     except RecordingInterrupted:
         # the first Ctrl-C stops the acquisition; what was kept is saved (a second
         # Ctrl-C during the save leaves --out as it was)

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from processing.errors import InputError
 
-from .common import WORKERS, UsageError, add_command, writable_dir
+from .common import UsageError, add_command, writable_dir
+from .options import add_declared
 
 
 def register(sub) -> None:
@@ -38,7 +39,7 @@ def register(sub) -> None:
         action="store_true",
         help="let a --quick run overwrite the report of a full run",
     )
-    p.add_argument("--workers", type=WORKERS, default=2, help="processes (default: 2)")
+    add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument(
         "--report-only",
         action="store_true",
@@ -70,6 +71,7 @@ def _refuse_to_overwrite_a_full_run(out: Path, report: Path) -> None:
 def run(args: argparse.Namespace) -> int:
     from acousim.experiments import StudyConfig, run_study
     from acousim.experiments.report import write_report
+    from acousim.process import Workers
 
     writable_dir(args.out)
     report_path = Path(args.report) if args.report else Path(args.out) / "REPRODUCTION.md"
@@ -86,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"--report-only: no finished study in {args.out!r} ({exc})") from None
         quick = results.config.repetitions < 20
     else:
-        config = StudyConfig.quick(args.workers) if quick else StudyConfig(workers=args.workers)
+        workers = Workers().workers if args.workers is None else args.workers
+        config = StudyConfig.quick(workers) if quick else StudyConfig(workers=workers)
         results = run_study(
             config, args.out, progress=lambda s: print(f"running {s} ...", flush=True)
         )
