@@ -401,3 +401,43 @@ def test_a_chunk_that_cannot_be_found_is_not_read_as_zeros(tmp_path):
         d.attrs.update(attrs)
     with pytest.raises(P.RecordingFileError, match=r"samples.sha256: samples differ"):
         P.load_recording(path)
+
+
+def test_provenance_reads_the_simulation_facts_typed(tmp_path):
+    """The simulation's facts cross modules typed (Recording.provenance), read back
+    from a file as they were written; a recording without them (real, or written
+    before them) has None; a file of schema 1 (only ``simulated``) still says its kind."""
+    facts = {
+        "scene_file": "/scenes/corridor.toml",
+        "max_range_m": 6.0,
+        "n_paths": 4423,
+        "pose_index": 12,
+        "sample": {"temperature_c": 21.5, "snr_db": 30.0},
+        "timestamp": 1.7e9,
+        "motion": {"velocity_m_s": [0.5, 0.0, 0.0], "angular_velocity_deg_s": [0, 0, 90.0]},
+    }
+    rec = make()
+    rec = P.Recording(
+        rec.samples, 500e3, rec.array, rec.waveform, 343.2, 7, {**rec.metadata, **facts}
+    )
+    back = P.load_recording(P.save_recording(tmp_path / "r.h5", rec))
+    p = back.provenance
+    assert (p.kind, p.simulated, p.scene_file, p.max_range_m, p.n_paths, p.pose_index) == (
+        "simulated",
+        True,
+        "/scenes/corridor.toml",
+        6.0,
+        4423,
+        12,
+    )
+    assert p.sample == {"temperature_c": 21.5, "snr_db": 30.0} and p.timestamp_s == 1.7e9
+    assert p.motion.velocity_m_s == (0.5, 0.0, 0.0)
+    assert p.motion.angular_velocity_rad_s[2] == pytest.approx(np.pi / 2, rel=1e-15)
+    # the pose's transform: yaw 10 degrees about z, written here by hand
+    c, s = np.cos(np.pi / 18), np.sin(np.pi / 18)
+    expected = np.array([[c, -s, 0, 1.0], [s, c, 0, 2.0], [0, 0, 1, 0.0], [0, 0, 0, 1]])
+    np.testing.assert_allclose(p.pose.matrix(), expected, atol=1e-15)
+    bare = P.Provenance.from_metadata({"simulated": False})
+    assert bare.kind == "real"
+    assert (bare.scene_file, bare.max_range_m, bare.n_paths, bare.sample) == (None,) * 4
+    assert P.Provenance.from_metadata({"simulated": True}).kind == "simulated"
