@@ -17,12 +17,16 @@ from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
 from processing.errors import InputError
 
+from .mesh_index import EdgeTable, edge_table, face_adjacency, radix_argsort, row_groups
+
 __all__ = [
     "World",
     "build_world",
     "face_groups",
     "plane_ids",
     "face_adjacency",
+    "radix_argsort",
+    "row_groups",
     "CURVED_MAX_ANGLE_DEG",
 ]
 
@@ -168,6 +172,12 @@ class World:
         if self.spectra is None:
             return None
         return self.interaction[self.material, mode]
+
+    @property
+    def edge_table(self) -> EdgeTable:
+        """The faces' :class:`~acousim.trace.mesh_index.EdgeTable` (over `faces`; the
+        one :func:`build_world` found, not sorted again)."""
+        return self._cached("edge_table", lambda: edge_table(self.faces))
 
     @property
     def n_planes(self) -> int:
@@ -377,7 +387,8 @@ def build_world(scene: Scene) -> World:
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
-    adj, shared = face_adjacency(faces)
+    table = edge_table(faces)
+    adj, shared = table.pairs, table.shared
     ang = trimesh.geometry.vector_angle(normals[adj])
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
@@ -389,7 +400,7 @@ def build_world(scene: Scene) -> World:
     if curved.any():
         vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
-    return World(
+    world = World(
         tri,
         normals,
         offsets,
@@ -404,6 +415,8 @@ def build_world(scene: Scene) -> World:
         vertices=vertices,
         faces=faces,
     )
+    world._cached("edge_table", lambda: table)  # sorted once, kept for the edges
+    return world
 
 
 def plane_ids(
@@ -422,39 +435,6 @@ def plane_ids(
     first, inverse = row_groups(key)
     _, rank = np.unique(key[first], axis=0, return_inverse=True)
     return rank.ravel()[inverse]
-
-
-def radix_argsort(code: np.ndarray) -> np.ndarray:
-    """A stable argsort of non-negative integers (n,), 16 bits a pass (numpy's radix
-    sort of 16-bit keys): linear in n, for the long integer columns of a mesh."""
-    code = np.asarray(code)
-    order = np.arange(len(code))
-    top, shift = int(code.max(initial=0)), 0
-    while True:
-        key = ((code[order] >> shift) & 0xFFFF).astype(np.uint16)
-        order = order[np.argsort(key, kind="stable")]
-        shift += 16
-        if top >> shift == 0:
-            return order
-
-
-def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
-    make -0.0 0.0 first): the first row of every group (G,) and the group of every
-    row (n,), groups in no particular order.  One 1-D sort of a hash of each row,
-    checked for collisions (then the rows themselves are sorted)."""
-    key = np.ascontiguousarray(key)
-    words = key.view(np.uint64).reshape(len(key), -1)
-    code = np.zeros(len(key), np.uint64)
-    with np.errstate(over="ignore"):
-        for j in range(words.shape[1]):
-            code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
-            code ^= code >> np.uint64(29)
-    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    if not np.array_equal(key[first][inverse], key):  # a hash collision
-        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    return first, inverse.ravel()
 
 
 def smooth_patches(
@@ -486,28 +466,6 @@ def smooth_patches(
 
     soft, hard = rim(smooth), rim(sharp)
     return ((soft > 0) & (soft >= hard))[patch]
-
-
-def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Faces that share an edge (an edge of exactly two faces), as trimesh's
-    ``face_adjacency`` finds them, in one sort of integer edge codes: the pairs (A, 2),
-    each in ascending order, and their shared edges (A, 2) as ascending vertex ids.
-    faces (F, 3) vertex indices."""
-    f = faces.astype(np.int64)
-    u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
-    n = int(u.max()) + 1
-    code = np.minimum(u, v) * n + np.maximum(u, v)
-    order = radix_argsort(code)
-    code = code[order]
-    same = code[1:] == code[:-1]
-    alone_before = np.concatenate([[True], ~same[:-1]])
-    alone_after = np.concatenate([~same[1:], [True]])
-    start = np.flatnonzero(same & alone_before & alone_after)
-    a, b = order[start] // 3, order[start + 1] // 3
-    keep = a != b
-    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
-    shared = code[start[keep]]
-    return pairs, np.column_stack([shared // n, shared % n])
 
 
 def _curved_corner_normals(tri, faces, normals, curved, adjacency) -> np.ndarray:

@@ -1,0 +1,120 @@
+"""Integer groupings of a mesh, each in one linear-time sort: a stable radix argsort,
+equal rows by a hash, merged vertex ids, and the edge table (which faces share each
+edge, which edges belong to one face only).  Used to prepare a world
+(:mod:`acousim.trace.geometry`) and to find its diffracting edges
+(:mod:`acousim.trace.edges`) without rebuilding a trimesh mesh."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "EdgeTable",
+    "edge_table",
+    "face_adjacency",
+    "merged_vertex_ids",
+    "radix_argsort",
+    "row_groups",
+]
+
+#: vertices equal after rounding to this many decimals (of a metre) are one vertex,
+#: as trimesh's ``merge_vertices`` has it (``trimesh.constants.tol.merge`` = 1e-8)
+MERGE_DIGITS = 8
+
+
+def radix_argsort(code: np.ndarray) -> np.ndarray:
+    """A stable argsort of non-negative integers (n,), 16 bits a pass (numpy's radix
+    sort of 16-bit keys): linear in n, for the long integer columns of a mesh."""
+    code = np.asarray(code)
+    order = np.arange(len(code))
+    top, shift = int(code.max(initial=0)), 0
+    while True:
+        key = ((code[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(key, kind="stable")]
+        shift += 16
+        if top >> shift == 0:
+            return order
+
+
+def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
+    make -0.0 0.0 first): the first row of every group (G,) and the group of every
+    row (n,), groups in no particular order.  One 1-D sort of a hash of each row,
+    checked for collisions (then the rows themselves are sorted)."""
+    key = np.ascontiguousarray(key)
+    words = key.view(np.uint64).reshape(len(key), -1)
+    code = np.zeros(len(key), np.uint64)
+    with np.errstate(over="ignore"):
+        for j in range(words.shape[1]):
+            code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
+            code ^= code >> np.uint64(29)
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(key[first][inverse], key):  # a hash collision
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.ravel()
+
+
+def merged_vertex_ids(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) (m) merged as trimesh's ``merge_vertices`` merges them (equal
+    after rounding to :data:`MERGE_DIGITS` decimals): the first vertex of every merged
+    vertex (M,) and the merged vertex of every vertex (V,)."""
+    key = np.round(np.asarray(vertices, float) * 10**MERGE_DIGITS).astype(np.int64)
+    return row_groups(key)
+
+
+@dataclass(frozen=True, eq=False)
+class EdgeTable:
+    """The edges of a mesh of F faces (vertex indices).
+
+    pairs (A, 2): the faces sharing an edge of exactly two faces (ascending in each
+    row); shared (A, 2): that edge's vertices (ascending); same_way (A,) bool: both
+    faces run along the edge in the same direction (faces on one side of it if their
+    normals agree: a fold; a consistently wound mesh has none); rim_face (R,) and
+    rim_edge (R, 2): the face and vertices (ascending) of every edge of one face only,
+    in the order of the faces.  Edges of three faces or more are in neither."""
+
+    pairs: np.ndarray
+    shared: np.ndarray
+    same_way: np.ndarray
+    rim_face: np.ndarray
+    rim_edge: np.ndarray
+
+
+def edge_table(faces: np.ndarray) -> EdgeTable:
+    """The :class:`EdgeTable` of faces (F, 3) (vertex indices), in one radix sort of
+    the 3 F edges' integer codes (a vertex pair as one integer)."""
+    f = np.asarray(faces).astype(np.int64)
+    u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
+    n = int(u.max(initial=0)) + 1
+    code = np.minimum(u, v) * n + np.maximum(u, v)
+    order = radix_argsort(code)
+    code, forward = code[order], (u < v)[order]
+    new = np.concatenate([[True], code[1:] != code[:-1], [True]])  # a group starts here
+    starts = np.flatnonzero(new)
+    size = np.diff(starts)
+    two = starts[:-1][size == 2]
+    a, b = order[two] // 3, order[two + 1] // 3
+    keep = a != b  # a degenerate face's two halves of one edge are no pair
+    two = two[keep]
+    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
+    one = np.sort(order[starts[:-1][size == 1]])  # the rims, in the order of the faces
+    one_code = np.minimum(u[one], v[one]) * n + np.maximum(u[one], v[one])
+    return EdgeTable(
+        pairs,
+        np.column_stack([code[two] // n, code[two] % n]),
+        forward[two] == forward[two + 1],
+        one // 3,
+        np.column_stack([one_code // n, one_code % n]),
+    )
+
+
+def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Faces that share an edge (an edge of exactly two faces), as trimesh's
+    ``face_adjacency`` finds them: the pairs (A, 2), each in ascending order, and
+    their shared edges (A, 2) as ascending vertex ids (:func:`edge_table`).
+    faces (F, 3) vertex indices."""
+    table = edge_table(faces)
+    return table.pairs, table.shared
