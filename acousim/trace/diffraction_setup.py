@@ -40,7 +40,7 @@ class DiffractingGeometry:
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
         refl = world.face_values("reflection")
-        first = np.unique(world.plane, return_index=True)[1]
+        first = world.plane_first
         planes = (world.normals[first], world.offsets[first], refl[first])
         column = world.face_interactions(0)
         key = world.plane * (int(world.material.max(initial=0)) + 1) + world.material

@@ -237,12 +237,53 @@ def _load(path, transform) -> object:
         )
     mesh.apply_transform(transform)
     mesh.merge_vertices()
-    mesh.update_faces(mesh.nondegenerate_faces(height=1e-9))
+    vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces)
+    mesh.update_faces(_nondegenerate(vertices[faces], height_m=1e-9))
     mesh.update_faces(mesh.unique_faces())
     mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))
     return mesh
+
+
+def _cross(tri: np.ndarray) -> np.ndarray:
+    """(F, 3) the cross products (b - a) x (c - b) of triangles (F, 3, 3) [a, b, c],
+    component by component (the same numbers as trimesh's ``triangles_cross``)."""
+    u, w = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1]
+    out = np.empty((len(tri), 3))
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        np.subtract(u[:, j] * w[:, k], u[:, k] * w[:, j], out=out[:, i])
+    return out
+
+
+def _nondegenerate(tri: np.ndarray, height_m: float) -> np.ndarray:
+    """(F,) bool: triangles (F, 3, 3) whose heights over both edges from the first
+    corner exceed `height_m` (m), as trimesh's ``nondegenerate_faces`` tells them
+    (an edge of 1e-8 m or less has height 0)."""
+    area2 = np.sqrt((_cross(tri) ** 2).sum(axis=1))  # twice the area
+    ok = np.ones(len(tri), bool)
+    for corner in (1, 2):
+        e = tri[:, corner] - tri[:, 0]
+        length = (e**2).sum(axis=1) ** 0.5
+        long = length > 1e-8
+        height = np.zeros(len(tri))
+        height[long] = area2[long] / length[long]
+        ok &= height > height_m
+    return ok
+
+
+def _face_frames(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (F, 3) (zero for a face without area) and areas (F,) (m²) of
+    triangles (F, 3, 3) [a, b, c] along (b - a) x (c - b), computed as trimesh's
+    ``face_normals`` and ``area_faces`` compute them (the same numbers), once."""
+    cross = _cross(tri)
+    norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
+    area = np.sqrt((cross**2).sum(axis=1)) / 2.0
+    valid = norm > 1e-13  # trimesh.util.TOL_ZERO
+    unit = np.zeros_like(cross)
+    unit[valid] = cross[valid] * (norm[valid] ** -1)[:, None]
+    return unit, area
 
 
 def smooth_corner_normals(
@@ -382,8 +423,8 @@ def build_world(scene: Scene) -> World:
         mat_index.append(mat)
     merged = trimesh.util.concatenate(meshes)
     vertices, faces = np.asarray(merged.vertices, float), np.asarray(merged.faces)
-    tri = np.asarray(merged.triangles, float)
-    normals = np.asarray(merged.face_normals, float)
+    tri = vertices[faces]
+    normals, area = _face_frames(tri)
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
@@ -409,7 +450,7 @@ def build_world(scene: Scene) -> World:
         vn,
         material,
         tuple(materials),
-        np.asarray(merged.area_faces),
+        area,
         np.asarray(component),
         *_spectra(materials),
         vertices=vertices,

@@ -84,14 +84,13 @@ class EdgeTable:
 
 
 def edge_table(faces: np.ndarray) -> EdgeTable:
-    """The :class:`EdgeTable` of faces (F, 3) (vertex indices), in one radix sort of
-    the 3 F edges' integer codes (a vertex pair as one integer)."""
+    """The :class:`EdgeTable` of faces (F, 3) (vertex indices), in one sort of the
+    3 F edges' integer codes (a vertex pair as one integer)."""
     f = np.asarray(faces).astype(np.int64)
     u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
     n = int(u.max(initial=0)) + 1
-    code = np.minimum(u, v) * n + np.maximum(u, v)
-    order = radix_argsort(code)
-    code, forward = code[order], (u < v)[order]
+    order, code = _sorted_codes(np.minimum(u, v) * n + np.maximum(u, v), n * n)
+    forward = (u < v)[order]
     new = np.concatenate([[True], code[1:] != code[:-1], [True]])  # a group starts here
     starts = np.flatnonzero(new)
     size = np.diff(starts)
@@ -99,16 +98,28 @@ def edge_table(faces: np.ndarray) -> EdgeTable:
     a, b = order[two] // 3, order[two + 1] // 3
     keep = a != b  # a degenerate face's two halves of one edge are no pair
     two = two[keep]
-    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
     one = np.sort(order[starts[:-1][size == 1]])  # the rims, in the order of the faces
     one_code = np.minimum(u[one], v[one]) * n + np.maximum(u[one], v[one])
     return EdgeTable(
-        pairs,
+        np.column_stack([a[keep], b[keep]]),  # a < b: the sort is stable
         np.column_stack([code[two] // n, code[two] % n]),
         forward[two] == forward[two + 1],
         one // 3,
         np.column_stack([one_code // n, one_code % n]),
     )
+
+
+def _sorted_codes(code: np.ndarray, top: int) -> tuple[np.ndarray, np.ndarray]:
+    """A stable argsort of non-negative integers `code` (n,) below `top`, and the
+    sorted codes.  When a code and its index fit in 63 bits, the two are sorted as
+    one integer (numpy's stable sort of values, quick on a mesh's mostly ordered
+    codes); else :func:`radix_argsort`."""
+    shift = max(len(code) - 1, 1).bit_length()
+    if (top - 1).bit_length() + shift <= 63:
+        key = np.sort((code << shift) | np.arange(len(code)), kind="stable")
+        return key & ((1 << shift) - 1), key >> shift
+    order = radix_argsort(code)
+    return order, code[order]
 
 
 def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
