@@ -17,7 +17,14 @@ from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
 from processing.errors import InputError
 
-from .mesh_index import EdgeTable, edge_table, face_adjacency, radix_argsort, row_groups
+from .mesh_index import (
+    EdgeTable,
+    edge_table,
+    face_adjacency,
+    merged_vertex_ids,
+    radix_argsort,
+    row_groups,
+)
 
 __all__ = [
     "World",
@@ -115,9 +122,9 @@ class World:
     def plane_faces(self, pid: int) -> tuple[np.ndarray, np.ndarray]:
         """The faces of plane `pid` (ascending) and their bounding boxes (n, 2, 3)."""
 
-        order, starts, box = self._plane_index()
+        order, starts, (lo, hi) = self._plane_index()
         faces = order[starts[pid] : starts[pid + 1]]
-        return faces, box[faces]
+        return faces, np.stack([lo[faces], hi[faces]], axis=1)
 
     def faces_near(self, pid: int, x: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
         """(row, face) pairs: the faces of plane `pid` whose bounding box, grown by
@@ -145,15 +152,16 @@ class World:
         """(n_planes, 2, 3) the bounding box of every plane's faces (read-only)."""
 
         def make():
-            order, starts, box = self._plane_index()
-            lo = np.minimum.reduceat(box[order, 0], starts[:-1], axis=0)
-            hi = np.maximum.reduceat(box[order, 1], starts[:-1], axis=0)
+            order, starts, (lo, hi) = self._plane_index()
+            lo = np.minimum.reduceat(lo[order], starts[:-1], axis=0)
+            hi = np.maximum.reduceat(hi[order], starts[:-1], axis=0)
             return np.stack([lo, hi], axis=1)
 
         return self._cached("plane_boxes", make)
 
     def _plane_index(self):
-        """Faces sorted by plane, where each plane starts, and every face's box."""
+        """Faces sorted by plane, where each plane starts, and every face's box:
+        (lowest corner (F, 3), highest corner (F, 3))."""
 
         def make():
             order = radix_argsort(self.plane)
@@ -161,7 +169,7 @@ class World:
             t = self.triangles
             lo = np.minimum(np.minimum(t[:, 0], t[:, 1]), t[:, 2])
             hi = np.maximum(np.maximum(t[:, 0], t[:, 1]), t[:, 2])
-            return order, starts, np.stack([lo, hi], axis=1)
+            return order, starts, (lo, hi)
 
         return self._cached("plane_index", make)
 
@@ -236,14 +244,39 @@ def _load(path, transform) -> object:
             file=_name(path),
         )
     mesh.apply_transform(transform)
-    mesh.merge_vertices()
-    vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces)
-    mesh.update_faces(_nondegenerate(vertices[faces], height_m=1e-9))
-    mesh.update_faces(mesh.unique_faces())
-    mesh.remove_unreferenced_vertices()
-    if len(mesh.faces) == 0:
+    vertices, faces = _clean(mesh)
+    if len(faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))
-    return mesh
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def _clean(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices (V, 3) and faces (F, 3) of a trimesh mesh cleaned as its
+    ``merge_vertices``, ``nondegenerate_faces(height=1e-9)``, ``unique_faces`` and
+    ``remove_unreferenced_vertices`` clean it (the same arrays), on arrays: vertices
+    equal to 1e-8 m merged (:func:`merged_vertex_ids`; trimesh's own merge for a
+    mesh whose vertices also carry texture coordinates or normals), faces with a
+    height of 1e-9 m or less dropped, then repeated faces, then unused vertices."""
+    uv = getattr(mesh.visual, "uv", None) if mesh.visual.kind == "texture" else None
+    if uv is not None or "vertex_normals" in mesh._cache.cache:
+        mesh.merge_vertices()
+        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+    else:
+        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+        used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)))
+        first, group = merged_vertex_ids(vertices[used])
+        rank = np.empty(len(first), np.int64)  # groups numbered by first occurrence
+        order = np.argsort(first)
+        rank[order] = np.arange(len(first))
+        into = np.zeros(len(vertices), np.int64)
+        into[used] = rank[group]
+        vertices, faces = vertices[used[first[order]]], into[faces]
+    faces = faces[_nondegenerate(vertices[faces], height_m=1e-9)]
+    faces = faces[np.sort(row_groups(np.sort(faces, axis=1))[0])]
+    used = np.zeros(len(vertices), bool)
+    used[faces] = True
+    into = np.cumsum(used) - 1
+    return vertices[used], into[faces]
 
 
 def _cross(tri: np.ndarray) -> np.ndarray:
@@ -421,8 +454,9 @@ def build_world(scene: Scene) -> World:
         mesh, mat = _material_of_faces(item, i, scene, names)
         meshes.append(mesh)
         mat_index.append(mat)
-    merged = trimesh.util.concatenate(meshes)
-    vertices, faces = np.asarray(merged.vertices, float), np.asarray(merged.faces)
+    vertices = np.concatenate([np.asarray(m.vertices, float) for m in meshes])
+    start = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    faces = np.concatenate([np.asarray(m.faces, np.int64) + s for m, s in zip(meshes, start)])
     tri = vertices[faces]
     normals, area = _face_frames(tri)
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
