@@ -187,15 +187,16 @@ def world_edges(world: World, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edg
     """The diffracting edges of a world: those of its triangles with their vertices
     merged across meshes (as trimesh's ``merge_vertices`` merges them), found from the
     world's own indexed faces, planes and edge table (:attr:`World.edge_table`,
-    sorted again only when meshes share vertices).  Only the pairs of faces on
-    different planes (or folded onto one) are measured: a tessellated wall's seams
-    cost nothing.  min_turn_deg as in :func:`find_edges`."""
+    sorted again only when meshes share vertices: :attr:`World.vertex_groups`).
+    Only the pairs of faces on different planes (or folded onto one) are measured:
+    a tessellated wall's seams cost nothing.  min_turn_deg as in :func:`find_edges`."""
     if world.vertices is None:  # a triangle soup
-        vertices, faces = world.triangles.reshape(-1, 3), np.arange(3 * world.n_faces)
-        faces = faces.reshape(-1, 3)
+        vertices = world.triangles.reshape(-1, 3)
+        faces = np.arange(3 * world.n_faces).reshape(-1, 3)
+        first, inverse = merged_vertex_ids(vertices)
     else:
         vertices, faces = world.vertices, world.faces
-    first, inverse = merged_vertex_ids(vertices)
+        first, inverse = world.vertex_groups
     if world.vertices is not None and len(first) == len(vertices):
         table = world.edge_table
     else:

@@ -19,8 +19,12 @@ from processing.errors import InputError
 
 from .mesh_index import (
     EdgeTable,
+    MeshPart,
+    clean_mesh,
     edge_table,
     face_adjacency,
+    face_cross,
+    face_frames,
     merged_vertex_ids,
     radix_argsort,
     row_groups,
@@ -188,6 +192,14 @@ class World:
         return self._cached("edge_table", lambda: edge_table(self.faces))
 
     @property
+    def vertex_groups(self) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices merged as trimesh's ``merge_vertices`` merges a triangle
+        soup (equal to 1e-8 m; meshes of a scene may share vertices): the first
+        vertex of every merged one (M,) and the merged one of every vertex (V,)
+        (:func:`~acousim.trace.mesh_index.merged_vertex_ids`)."""
+        return self._cached("vertex_groups", lambda: merged_vertex_ids(self.vertices))
+
+    @property
     def n_planes(self) -> int:
         return self._cached("n_planes", lambda: int(self.plane.max()) + 1)
 
@@ -219,6 +231,15 @@ def _name(mesh) -> str:
 
 
 def _load(path, transform) -> object:
+    """A mesh file or a ``trimesh.Trimesh`` (copied) placed by `transform` and
+    cleaned (:func:`clean_mesh`), as a ``trimesh.Trimesh``."""
+    import trimesh
+
+    part = _load_part(path, transform)
+    return trimesh.Trimesh(part.vertices, part.faces, process=False)
+
+
+def _load_part(path, transform) -> MeshPart:
     import trimesh
 
     try:  # a trimesh.Trimesh in memory is copied, never changed
@@ -244,79 +265,10 @@ def _load(path, transform) -> object:
             file=_name(path),
         )
     mesh.apply_transform(transform)
-    vertices, faces = _clean(mesh)
-    if len(faces) == 0:
+    part = clean_mesh(mesh)
+    if len(part.faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))
-    return trimesh.Trimesh(vertices, faces, process=False)
-
-
-def _clean(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """The vertices (V, 3) and faces (F, 3) of a trimesh mesh cleaned as its
-    ``merge_vertices``, ``nondegenerate_faces(height=1e-9)``, ``unique_faces`` and
-    ``remove_unreferenced_vertices`` clean it (the same arrays), on arrays: vertices
-    equal to 1e-8 m merged (:func:`merged_vertex_ids`; trimesh's own merge for a
-    mesh whose vertices also carry texture coordinates or normals), faces with a
-    height of 1e-9 m or less dropped, then repeated faces, then unused vertices."""
-    uv = getattr(mesh.visual, "uv", None) if mesh.visual.kind == "texture" else None
-    if uv is not None or "vertex_normals" in mesh._cache.cache:
-        mesh.merge_vertices()
-        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
-    else:
-        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
-        used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)))
-        first, group = merged_vertex_ids(vertices[used])
-        rank = np.empty(len(first), np.int64)  # groups numbered by first occurrence
-        order = np.argsort(first)
-        rank[order] = np.arange(len(first))
-        into = np.zeros(len(vertices), np.int64)
-        into[used] = rank[group]
-        vertices, faces = vertices[used[first[order]]], into[faces]
-    faces = faces[_nondegenerate(vertices[faces], height_m=1e-9)]
-    faces = faces[np.sort(row_groups(np.sort(faces, axis=1))[0])]
-    used = np.zeros(len(vertices), bool)
-    used[faces] = True
-    into = np.cumsum(used) - 1
-    return vertices[used], into[faces]
-
-
-def _cross(tri: np.ndarray) -> np.ndarray:
-    """(F, 3) the cross products (b - a) x (c - b) of triangles (F, 3, 3) [a, b, c],
-    component by component (the same numbers as trimesh's ``triangles_cross``)."""
-    u, w = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1]
-    out = np.empty((len(tri), 3))
-    for i in range(3):
-        j, k = (i + 1) % 3, (i + 2) % 3
-        np.subtract(u[:, j] * w[:, k], u[:, k] * w[:, j], out=out[:, i])
-    return out
-
-
-def _nondegenerate(tri: np.ndarray, height_m: float) -> np.ndarray:
-    """(F,) bool: triangles (F, 3, 3) whose heights over both edges from the first
-    corner exceed `height_m` (m), as trimesh's ``nondegenerate_faces`` tells them
-    (an edge of 1e-8 m or less has height 0)."""
-    area2 = np.sqrt((_cross(tri) ** 2).sum(axis=1))  # twice the area
-    ok = np.ones(len(tri), bool)
-    for corner in (1, 2):
-        e = tri[:, corner] - tri[:, 0]
-        length = (e**2).sum(axis=1) ** 0.5
-        long = length > 1e-8
-        height = np.zeros(len(tri))
-        height[long] = area2[long] / length[long]
-        ok &= height > height_m
-    return ok
-
-
-def _face_frames(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit normals (F, 3) (zero for a face without area) and areas (F,) (m²) of
-    triangles (F, 3, 3) [a, b, c] along (b - a) x (c - b), computed as trimesh's
-    ``face_normals`` and ``area_faces`` compute them (the same numbers), once."""
-    cross = _cross(tri)
-    norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
-    area = np.sqrt((cross**2).sum(axis=1)) / 2.0
-    valid = norm > 1e-13  # trimesh.util.TOL_ZERO
-    unit = np.zeros_like(cross)
-    unit[valid] = cross[valid] * (norm[valid] ** -1)[:, None]
-    return unit, area
+    return part
 
 
 def smooth_corner_normals(
@@ -415,11 +367,13 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
 
 
 def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str]):
-    """The mesh of `item` and its faces' material indices into `names`."""
+    """The mesh of `item` (:class:`MeshPart`) and its faces' material indices into
+    `names`."""
     if not item.materials:
-        mesh = _load(item.mesh, item.transform)
-        return mesh, np.full(len(mesh.faces), names.index(item.material.name))
+        part = _load_part(item.mesh, item.transform)
+        return part, np.full(len(part.faces), names.index(item.material.name))
     mesh, groups = face_groups(item.mesh, item.transform)
+    part = MeshPart(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), None, False)
     mat = np.full(len(mesh.faces), names.index(item.material.name))
     for group, material in item.materials.items():
         if group not in groups:
@@ -431,7 +385,7 @@ def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str
                 value=group,
             )
         mat[groups[group]] = names.index(material.name)
-    return mesh, mat
+    return part, mat
 
 
 def build_world(scene: Scene) -> World:
@@ -443,22 +397,21 @@ def build_world(scene: Scene) -> World:
     mesh: no per-corner copies)."""
     import trimesh
 
-    meshes, mat_index = [], []
     materials = list(
         {
             m.name: m for item in scene.meshes for m in (item.material, *item.materials.values())
         }.values()
     )
     names = [m.name for m in materials]
-    for i, item in enumerate(scene.meshes):
-        mesh, mat = _material_of_faces(item, i, scene, names)
-        meshes.append(mesh)
-        mat_index.append(mat)
-    vertices = np.concatenate([np.asarray(m.vertices, float) for m in meshes])
-    start = np.cumsum([0] + [len(m.vertices) for m in meshes])
-    faces = np.concatenate([np.asarray(m.faces, np.int64) + s for m, s in zip(meshes, start)])
+    parts, mat_index = zip(
+        *(_material_of_faces(item, i, scene, names) for i, item in enumerate(scene.meshes))
+    )
+    vertices = np.concatenate([p.vertices for p in parts])
+    start = np.cumsum([0] + [len(p.vertices) for p in parts])
+    faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
     tri = vertices[faces]
-    normals, area = _face_frames(tri)
+    cross = [face_cross(p.vertices[p.faces]) if p.cross is None else p.cross for p in parts]
+    normals, area = face_frames(np.concatenate(cross))
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
@@ -491,6 +444,8 @@ def build_world(scene: Scene) -> World:
         faces=faces,
     )
     world._cached("edge_table", lambda: table)  # sorted once, kept for the edges
+    if len(parts) == 1 and parts[0].distinct:  # no vertex to merge with another
+        world._cached("vertex_groups", lambda: (np.arange(len(vertices)),) * 2)
     return world
 
 

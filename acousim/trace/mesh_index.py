@@ -1,6 +1,7 @@
-"""Integer groupings of a mesh, each in one linear-time sort: a stable radix argsort,
-equal rows by a hash, merged vertex ids, and the edge table (which faces share each
-edge, which edges belong to one face only).  Used to prepare a world
+"""A mesh on arrays: integer groupings, each in one linear-time sort (a stable radix
+argsort, equal rows by a hash, merged vertex ids, the edge table: which faces share
+each edge, which edges belong to one face only), the faces' cross products, normals
+and areas, and a mesh cleaned as trimesh cleans it (:func:`clean_mesh`).  Used to prepare a world
 (:mod:`acousim.trace.geometry`) and to find its diffracting edges
 (:mod:`acousim.trace.edges`) without rebuilding a trimesh mesh."""
 
@@ -12,6 +13,11 @@ import numpy as np
 
 __all__ = [
     "EdgeTable",
+    "MeshPart",
+    "clean_mesh",
+    "face_cross",
+    "face_frames",
+    "nondegenerate",
     "edge_table",
     "face_adjacency",
     "merged_vertex_ids",
@@ -129,3 +135,88 @@ def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     faces (F, 3) vertex indices."""
     table = edge_table(faces)
     return table.pairs, table.shared
+
+
+@dataclass(frozen=True, eq=False)
+class MeshPart:
+    """One mesh of a scene, loaded and cleaned: vertices (V, 3) m, faces (F, 3),
+    the faces' cross products (F, 3) (:func:`face_cross`; None: not computed) and
+    whether no two vertices are equal to 1e-8 m (merged by position)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    cross: np.ndarray | None
+    distinct: bool
+
+
+def face_cross(tri: np.ndarray) -> np.ndarray:
+    """(F, 3) the cross products (b - a) x (c - b) of triangles (F, 3, 3) [a, b, c],
+    component by component (the same numbers as trimesh's ``triangles_cross``)."""
+    u, w = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1]
+    out = np.empty((len(tri), 3))
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        np.subtract(u[:, j] * w[:, k], u[:, k] * w[:, j], out=out[:, i])
+    return out
+
+
+def nondegenerate(tri: np.ndarray, height_m: float, cross: np.ndarray) -> np.ndarray:
+    """(F,) bool: triangles (F, 3, 3) whose heights over both edges from the first
+    corner exceed `height_m` (m), as trimesh's ``nondegenerate_faces`` tells them
+    (an edge of 1e-8 m or less has height 0); cross (F, 3): their :func:`face_cross`."""
+    area2 = np.sqrt((cross**2).sum(axis=1))  # twice the area
+    ok = np.ones(len(tri), bool)
+    for corner in (1, 2):
+        e = tri[:, corner] - tri[:, 0]
+        length = (e**2).sum(axis=1) ** 0.5
+        long = length > 1e-8
+        height = np.zeros(len(tri))
+        height[long] = area2[long] / length[long]
+        ok &= height > height_m
+    return ok
+
+
+def face_frames(cross: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (F, 3) (zero for a face without area) and areas (F,) (m²) of
+    triangles [a, b, c] from their cross products (F, 3) (b - a) x (c - b)
+    (:func:`face_cross`), computed as trimesh's ``face_normals`` and ``area_faces``
+    compute them (the same numbers)."""
+    norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
+    area = np.sqrt((cross**2).sum(axis=1)) / 2.0
+    valid = norm > 1e-13  # trimesh.util.TOL_ZERO
+    unit = np.zeros_like(cross)
+    unit[valid] = cross[valid] * (norm[valid] ** -1)[:, None]
+    return unit, area
+
+
+def clean_mesh(mesh) -> MeshPart:
+    """The vertices (V, 3) and faces (F, 3) of a trimesh mesh cleaned as its
+    ``merge_vertices``, ``nondegenerate_faces(height=1e-9)``, ``unique_faces`` and
+    ``remove_unreferenced_vertices`` clean it (the same arrays), on arrays: vertices
+    equal to 1e-8 m merged (:func:`merged_vertex_ids`; trimesh's own merge for a
+    mesh whose vertices also carry texture coordinates or normals), faces with a
+    height of 1e-9 m or less dropped, then repeated faces, then unused vertices."""
+    uv = getattr(mesh.visual, "uv", None) if mesh.visual.kind == "texture" else None
+    distinct = uv is None and "vertex_normals" not in mesh._cache.cache
+    if not distinct:
+        mesh.merge_vertices()
+        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+    else:
+        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+        used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)))
+        first, group = merged_vertex_ids(vertices[used])
+        rank = np.empty(len(first), np.int64)  # groups numbered by first occurrence
+        order = np.argsort(first)
+        rank[order] = np.arange(len(first))
+        into = np.zeros(len(vertices), np.int64)
+        into[used] = rank[group]
+        vertices, faces = vertices[used[first[order]]], into[faces]
+    tri = vertices[faces]
+    cross = face_cross(tri)
+    keep = np.flatnonzero(nondegenerate(tri, height_m=1e-9, cross=cross))
+    keep = keep[np.sort(row_groups(np.sort(faces[keep], axis=1))[0])]
+    faces, cross = faces[keep], cross[keep]
+    used = np.zeros(len(vertices), bool)
+    used[faces] = True
+    into = np.cumsum(used) - 1
+    return MeshPart(vertices[used], into[faces], cross, distinct)
