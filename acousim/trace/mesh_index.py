@@ -56,8 +56,16 @@ def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         for j in range(words.shape[1]):
             code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
             code ^= code >> np.uint64(29)
-    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
+    # np.unique(code, return_index=True, return_inverse=True), the same numbers
+    order = np.argsort(code, kind="stable")
+    code = code[order]
+    new = np.concatenate([[True], code[1:] != code[:-1]])
+    inverse = np.empty(len(key), np.intp)
+    if new.all():  # distinct hashes: distinct rows
+        inverse[order] = np.arange(len(key))
+        return order, inverse
+    inverse[order] = np.cumsum(new) - 1
+    first = order[new]
     if not np.array_equal(key[first][inverse], key):  # a hash collision
         _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
     return first, inverse.ravel()
@@ -189,6 +197,20 @@ def face_frames(cross: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return unit, area
 
 
+def _first_of_rows(rows: np.ndarray) -> np.ndarray:
+    """The first of every group of equal rows of non-negative integers (n, 3), in
+    order.  A row packed into one integer when it fits (exact); most meshes repeat
+    no face, which one sort of the values tells."""
+    bits = int(rows.max(initial=0)).bit_length()
+    if 3 * bits > 63:
+        return np.sort(row_groups(rows)[0])
+    code = (rows[:, 0] << (2 * bits)) | (rows[:, 1] << bits) | rows[:, 2]
+    ordered = np.sort(code)
+    if not (ordered[1:] == ordered[:-1]).any():
+        return np.arange(len(rows))
+    return np.sort(np.unique(code, return_index=True)[1])
+
+
 def clean_mesh(mesh) -> MeshPart:
     """The vertices (V, 3) and faces (F, 3) of a trimesh mesh cleaned as its
     ``merge_vertices``, ``nondegenerate_faces(height=1e-9)``, ``unique_faces`` and
@@ -214,7 +236,7 @@ def clean_mesh(mesh) -> MeshPart:
     tri = vertices[faces]
     cross = face_cross(tri)
     keep = np.flatnonzero(nondegenerate(tri, height_m=1e-9, cross=cross))
-    keep = keep[np.sort(row_groups(np.sort(faces[keep], axis=1))[0])]
+    keep = keep[_first_of_rows(np.sort(faces[keep], axis=1))]
     faces, cross = faces[keep], cross[keep]
     used = np.zeros(len(vertices), bool)
     used[faces] = True
