@@ -78,10 +78,11 @@ def _faces() -> list[str]:
         "### Faces: the corridor's mesh subdivided 0 to 5 times (the same geometry)",
         "",
         "Preparation: `Tracer(scene)` (read and merge the mesh, group its faces into "
-        "planes and curved patches, corner normals, Embree's indexed mesh and tree, the "
-        "tables every pose uses) against embreex's own scene build on the same "
-        "triangles to its first ray, alternating, median of the ratios (3 pairs, 2 at "
-        "725k faces).  Per pose: a trace (automatic budget) of 8 poses of the drive, "
+        "planes and curved patches, corner normals, the diffracting edges, Embree's "
+        "indexed mesh and tree, the tables every pose uses) against embreex's own scene "
+        "build on the same triangles to its first ray, alternating, median of the "
+        "ratios (3 pairs, 2 at 725k faces).  Per pose: a trace (automatic budget) of 8 "
+        "poses of the drive, "
         f"against the original mesh ({base_ms:.1f} ms), 3 alternating pairs.  Targets: "
         "preparation at most 2x embreex's build, a pose at most 2x one in the original.",
         "",

@@ -391,10 +391,12 @@ def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str
 def build_world(scene: Scene) -> World:
     """Load, transform, clean and merge the meshes of a scene.
 
-    Near-linear in the faces: coplanar faces are grouped by a hash of their plane
-    (:func:`plane_ids`), the smooth corner normals are found for curved faces only,
-    and the merged vertices and faces are kept for the ray caster (Embree's indexed
-    mesh: no per-corner copies)."""
+    Near-linear in the faces, on arrays (:func:`~acousim.trace.mesh_index.clean_mesh`
+    cleans a mesh as trimesh would): coplanar faces are grouped by a hash of their
+    plane (:func:`plane_ids`), the faces' edges in one sort of integer codes (kept:
+    :attr:`World.edge_table`, for the diffracting edges too), the smooth corner
+    normals are found for curved faces only, and the merged vertices and faces are
+    kept for the ray caster (Embree's indexed mesh: no per-corner copies)."""
     import trimesh
 
     materials = list(
