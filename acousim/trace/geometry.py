@@ -413,13 +413,13 @@ def build_world(scene: Scene) -> World:
     faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
     tri = vertices[faces]
     cross = [face_cross(p.vertices[p.faces]) if p.cross is None else p.cross for p in parts]
-    normals, area = face_frames(np.concatenate(cross))
+    normals, area = face_frames(cross[0] if len(cross) == 1 else np.concatenate(cross))
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
     table = edge_table(faces)
     adj, shared = table.pairs, table.shared
-    ang = trimesh.geometry.vector_angle(normals[adj])
+    ang = _pair_angles(normals, adj)
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
     curved |= smooth_patches(adj, ang, shared, vertices, len(tri))
@@ -449,6 +449,13 @@ def build_world(scene: Scene) -> World:
     if len(parts) == 1 and parts[0].distinct:  # no vertex to merge with another
         world._cached("vertex_groups", lambda: (np.arange(len(vertices)),) * 2)
     return world
+
+
+def _pair_angles(normals: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """(A,) angles (rad) between the unit normals (F, 3) of face pairs (A, 2), as
+    trimesh's ``vector_angle`` computes them (the same numbers)."""
+    dots = np.dot(normals[pairs[:, 0]] * normals[pairs[:, 1]], [1.0, 1.0, 1.0])
+    return np.abs(np.arccos(np.clip(dots, -1.0, 1.0)))
 
 
 def plane_ids(
@@ -487,16 +494,16 @@ def smooth_patches(
     pairs = adjacency[flat]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, patch = connected_components(graph, directed=False)
-    length = np.linalg.norm(vertices[shared[:, 0]] - vertices[shared[:, 1]], axis=1)
-    smooth = ~flat & (angles < np.deg2rad(CURVED_MAX_ANGLE_DEG))
-    sharp = angles >= np.deg2rad(CURVED_MAX_ANGLE_DEG)
+    rough = np.flatnonzero(~flat)  # the patches' rims (few, however fine the mesh)
+    length = np.linalg.norm(vertices[shared[rough, 0]] - vertices[shared[rough, 1]], axis=1)
+    smooth = angles[rough] < np.deg2rad(CURVED_MAX_ANGLE_DEG)
 
     def rim(edges):
         return np.bincount(
-            patch[adjacency[edges]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
+            patch[adjacency[rough[edges]]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
         )
 
-    soft, hard = rim(smooth), rim(sharp)
+    soft, hard = rim(smooth), rim(~smooth)
     return ((soft > 0) & (soft >= hard))[patch]
 
 

@@ -236,7 +236,10 @@ def clean_mesh(mesh) -> MeshPart:
     tri = vertices[faces]
     cross = face_cross(tri)
     keep = np.flatnonzero(nondegenerate(tri, height_m=1e-9, cross=cross))
-    keep = keep[_first_of_rows(np.sort(faces[keep], axis=1))]
+    f = faces[keep]
+    low = np.minimum(np.minimum(f[:, 0], f[:, 1]), f[:, 2])
+    high = np.maximum(np.maximum(f[:, 0], f[:, 1]), f[:, 2])
+    keep = keep[_first_of_rows(np.column_stack([low, f.sum(axis=1) - low - high, high]))]
     faces, cross = faces[keep], cross[keep]
     used = np.zeros(len(vertices), bool)
     used[faces] = True
