@@ -263,6 +263,6 @@ def test_edge_codes_sort_stably_either_way():
     code = rng.integers(0, 1000, 5000)
     expected = np.argsort(code, kind="stable")
     for top in (1000, 2**62):  # one integer with the index, or the radix sort
-        order, sorted_code = _sorted_codes(code, top)
+        order, sorted_code = _sorted_codes(code.copy(), top)  # sorted in place
         np.testing.assert_array_equal(order, expected)
         np.testing.assert_array_equal(sorted_code, code[expected])

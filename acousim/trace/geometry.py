@@ -411,7 +411,8 @@ def build_world(scene: Scene) -> World:
     vertices = np.concatenate([p.vertices for p in parts])
     start = np.cumsum([0] + [len(p.vertices) for p in parts])
     faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
-    tri = vertices[faces]
+    tri = parts[0].triangles if len(parts) == 1 else None  # the corners kept
+    tri = vertices[faces] if tri is None else tri
     cross = [face_cross(p.vertices[p.faces]) if p.cross is None else p.cross for p in parts]
     normals, area = face_frames(cross[0] if len(cross) == 1 else np.concatenate(cross))
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])

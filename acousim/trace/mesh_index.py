@@ -99,12 +99,18 @@ class EdgeTable:
 
 def edge_table(faces: np.ndarray) -> EdgeTable:
     """The :class:`EdgeTable` of faces (F, 3) (vertex indices), in one sort of the
-    3 F edges' integer codes (a vertex pair as one integer)."""
-    f = np.asarray(faces).astype(np.int64)
+    3 F edges' integer codes (a vertex pair as one integer; few copies of 3 F
+    integers: a finely tessellated mesh's memory is first touched here)."""
+    f = np.asarray(faces, np.int64)
     u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
     n = int(u.max(initial=0)) + 1
-    order, code = _sorted_codes(np.minimum(u, v) * n + np.maximum(u, v), n * n)
-    forward = (u < v)[order]
+    code = np.minimum(u, v)
+    code *= n
+    code += np.maximum(u, v)
+    forward = u < v
+    del v
+    order, code = _sorted_codes(code, n * n)
+    forward = forward[order]
     new = np.concatenate([[True], code[1:] != code[:-1], [True]])  # a group starts here
     starts = np.flatnonzero(new)
     size = np.diff(starts)
@@ -113,25 +119,30 @@ def edge_table(faces: np.ndarray) -> EdgeTable:
     keep = a != b  # a degenerate face's two halves of one edge are no pair
     two = two[keep]
     one = np.sort(order[starts[:-1][size == 1]])  # the rims, in the order of the faces
-    one_code = np.minimum(u[one], v[one]) * n + np.maximum(u[one], v[one])
+    face, corner = np.divmod(one, 3)
+    end = np.sort(np.column_stack([f[face, corner], f[face, (corner + 1) % 3]]), axis=1)
     return EdgeTable(
         np.column_stack([a[keep], b[keep]]),  # a < b: the sort is stable
         np.column_stack([code[two] // n, code[two] % n]),
         forward[two] == forward[two + 1],
-        one // 3,
-        np.column_stack([one_code // n, one_code % n]),
+        face,
+        end,
     )
 
 
 def _sorted_codes(code: np.ndarray, top: int) -> tuple[np.ndarray, np.ndarray]:
     """A stable argsort of non-negative integers `code` (n,) below `top`, and the
-    sorted codes.  When a code and its index fit in 63 bits, the two are sorted as
-    one integer (numpy's stable sort of values, quick on a mesh's mostly ordered
-    codes); else :func:`radix_argsort`."""
+    sorted codes (`code` is consumed: sorted in place).  When a code and its index
+    fit in 63 bits, the two are sorted as one integer (numpy's stable sort of
+    values, quick on a mesh's mostly ordered codes); else :func:`radix_argsort`."""
     shift = max(len(code) - 1, 1).bit_length()
     if (top - 1).bit_length() + shift <= 63:
-        key = np.sort((code << shift) | np.arange(len(code)), kind="stable")
-        return key & ((1 << shift) - 1), key >> shift
+        code <<= shift
+        code |= np.arange(len(code))
+        code.sort(kind="stable")
+        order = code & ((1 << shift) - 1)
+        code >>= shift
+        return order, code
     order = radix_argsort(code)
     return order, code[order]
 
@@ -148,13 +159,15 @@ def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True, eq=False)
 class MeshPart:
     """One mesh of a scene, loaded and cleaned: vertices (V, 3) m, faces (F, 3),
-    the faces' cross products (F, 3) (:func:`face_cross`; None: not computed) and
-    whether no two vertices are equal to 1e-8 m (merged by position)."""
+    the faces' cross products (F, 3) (:func:`face_cross`; None: not computed),
+    whether no two vertices are equal to 1e-8 m (merged by position) and the
+    faces' corners (F, 3, 3) m (None: not computed)."""
 
     vertices: np.ndarray
     faces: np.ndarray
     cross: np.ndarray | None
     distinct: bool
+    triangles: np.ndarray | None = None
 
 
 def face_cross(tri: np.ndarray) -> np.ndarray:
@@ -240,8 +253,9 @@ def clean_mesh(mesh) -> MeshPart:
     low = np.minimum(np.minimum(f[:, 0], f[:, 1]), f[:, 2])
     high = np.maximum(np.maximum(f[:, 0], f[:, 1]), f[:, 2])
     keep = keep[_first_of_rows(np.column_stack([low, f.sum(axis=1) - low - high, high]))]
-    faces, cross = faces[keep], cross[keep]
+    if len(keep) < len(faces):
+        faces, cross, tri = faces[keep], cross[keep], tri[keep]
     used = np.zeros(len(vertices), bool)
     used[faces] = True
     into = np.cumsum(used) - 1
-    return MeshPart(vertices[used], into[faces], cross, distinct)
+    return MeshPart(vertices[used], into[faces], cross, distinct, tri)
