@@ -408,9 +408,11 @@ def build_world(scene: Scene) -> World:
     parts, mat_index = zip(
         *(_material_of_faces(item, i, scene, names) for i, item in enumerate(scene.meshes))
     )
-    vertices = np.concatenate([p.vertices for p in parts])
-    start = np.cumsum([0] + [len(p.vertices) for p in parts])
-    faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
+    vertices, faces = parts[0].vertices, parts[0].faces
+    if len(parts) > 1:
+        start = np.cumsum([0] + [len(p.vertices) for p in parts])
+        vertices = np.concatenate([p.vertices for p in parts])
+        faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
     tri = parts[0].triangles if len(parts) == 1 else None  # the corners kept
     tri = vertices[faces] if tri is None else tri
     cross = [face_cross(p.vertices[p.faces]) if p.cross is None else p.cross for p in parts]
