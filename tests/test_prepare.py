@@ -149,3 +149,25 @@ def test_a_mesh_is_cleaned_as_trimesh_cleans_it():
     np.testing.assert_array_equal(ours.faces, mesh.faces)
     np.testing.assert_array_equal(ours.cross, mesh.triangles_cross)
     assert ours.distinct
+
+
+def test_a_mesh_in_memory_is_never_changed():
+    """A trimesh mesh given to a scene keeps its vertices and faces, placed by a
+    transform or not, with or without vertex normals (trimesh's own merge)."""
+    scene = load_scene(SCENES / "shoebox.toml")
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0)).subdivide()
+    smooth = trimesh.creation.icosphere(2)
+    _ = smooth.vertex_normals  # cached: merged by trimesh with its normals
+    moved = np.eye(4)
+    moved[:3, 3] = [0.5, 0.0, 0.0]
+    for mesh in (box, smooth):
+        before = (mesh.vertices.copy(), mesh.faces.copy())
+        for transform in (np.eye(4), moved):
+            item = dataclasses.replace(scene.meshes[0], mesh=mesh, transform=transform)
+            world = build_world(dataclasses.replace(scene, meshes=(item,)))
+            assert world.n_faces == len(before[1])
+            assert np.allclose(
+                world.triangles.reshape(-1, 3).min(axis=0), before[0].min(axis=0) + transform[:3, 3]
+            )
+        np.testing.assert_array_equal(mesh.vertices, before[0])
+        np.testing.assert_array_equal(mesh.faces, before[1])

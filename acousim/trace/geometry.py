@@ -242,9 +242,9 @@ def _load(path, transform) -> object:
 def _load_part(path, transform) -> MeshPart:
     import trimesh
 
-    try:  # a trimesh.Trimesh in memory is copied, never changed
+    try:  # a trimesh.Trimesh in memory is never changed (copied to be moved)
         mesh = (
-            path.copy()
+            path
             if isinstance(path, trimesh.Trimesh)
             else trimesh.load(path, force="mesh", process=False)
         )
@@ -264,7 +264,9 @@ def _load_part(path, transform) -> MeshPart:
             f"mesh vertices reach beyond +-{MAX_COORDINATE_M:g} m once placed",
             file=_name(path),
         )
-    mesh.apply_transform(transform)
+    if not trimesh.util.allclose(T, np.eye(4), 1e-8):  # trimesh's own test
+        mesh = mesh.copy() if mesh is path else mesh
+        mesh.apply_transform(T)
     part = clean_mesh(mesh)
     if len(part.faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))

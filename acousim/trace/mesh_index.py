@@ -230,10 +230,12 @@ def clean_mesh(mesh) -> MeshPart:
     ``remove_unreferenced_vertices`` clean it (the same arrays), on arrays: vertices
     equal to 1e-8 m merged (:func:`merged_vertex_ids`; trimesh's own merge for a
     mesh whose vertices also carry texture coordinates or normals), faces with a
-    height of 1e-9 m or less dropped, then repeated faces, then unused vertices."""
+    height of 1e-9 m or less dropped, then repeated faces, then unused vertices.
+    `mesh` itself is not changed."""
     uv = getattr(mesh.visual, "uv", None) if mesh.visual.kind == "texture" else None
     distinct = uv is None and "vertex_normals" not in mesh._cache.cache
     if not distinct:
+        mesh = mesh.copy()  # the caller's mesh is not changed
         mesh.merge_vertices()
         vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
     else:
