@@ -138,12 +138,14 @@ def _wedges(
     table: EdgeTable,
     flat: np.ndarray,
     min_turn_deg: float,
+    rank: np.ndarray | None = None,
 ) -> Edges:
     """Steps 2 and 3 of :func:`find_edges`: the open angle of every pair of `table`
     not marked `flat` (A,) (a seam between two faces of one plane, known to turn by
     nothing), the real wedges among them, and the rims.  vertices (V, 3) m, faces
-    (F, 3) vertex ids, normals (F, 3) unit."""
-    adj, adj_edges = table.pairs[~flat], table.shared[~flat]
+    (F, 3) vertex ids, normals (F, 3) unit; rank (V,): the order in which an edge's
+    ends are listed (None: by vertex id)."""
+    adj, adj_edges = table.pairs[~flat], _ordered(table.shared[~flat], rank)
     fa, fb = adj[:, 0], adj[:, 1]
     dir_a = _into_face(vertices, faces, fa, adj_edges)
     dir_b = _into_face(vertices, faces, fb, adj_edges)
@@ -153,7 +155,7 @@ def _wedges(
         2 * np.pi,
     )
     real = np.abs(wedge - np.pi) > np.deg2rad(min_turn_deg)
-    rim_faces, rim_edges = table.rim_face, table.rim_edge
+    rim_faces, rim_edges = table.rim_face, _ordered(table.rim_edge, rank)
     rim_dir = _into_face(vertices, faces, rim_faces, rim_edges)
     return Edges(
         np.concatenate([vertices[adj_edges[real, 0]], vertices[rim_edges[:, 0]]]),
@@ -166,6 +168,14 @@ def _wedges(
             [adj[real], np.column_stack([rim_faces, np.full(rim_faces.size, -1)])]
         ).astype(int),
     )
+
+
+def _ordered(edges: np.ndarray, rank: np.ndarray | None) -> np.ndarray:
+    """Edges (n, 2) (vertex ids) with their ends in ascending `rank` (V,)."""
+    if rank is None:
+        return edges
+    swap = rank[edges[:, 0]] > rank[edges[:, 1]]
+    return np.where(swap[:, None], edges[:, ::-1], edges)
 
 
 def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
@@ -202,8 +212,13 @@ def world_edges(world: World, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edg
     else:
         vertices, faces = vertices[first], inverse[faces]
         table = edge_table(faces)
+    # an edge's ends listed in the order the faces first use them, as in a triangle
+    # soup merged by trimesh (the same numbers to the last bit)
+    corners = faces.ravel()
+    rank = np.empty(len(vertices), np.int64)
+    rank[corners[::-1]] = np.arange(len(corners))[::-1]  # the last write is the first use
     flat = _flat(table, world.plane)
-    return _wedges(vertices, faces, world.normals, table, flat, min_turn_deg)
+    return _wedges(vertices, faces, world.normals, table, flat, min_turn_deg, rank)
 
 
 def _flat(table: EdgeTable, plane: np.ndarray) -> np.ndarray:
