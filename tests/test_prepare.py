@@ -109,3 +109,65 @@ def test_radix_argsort_is_a_stable_sort():
     for top in (1, 300, 70_000, 2**40):
         code = rng.integers(0, top, 5000)
         np.testing.assert_array_equal(radix_argsort(code), np.argsort(code, kind="stable"))
+
+
+def test_row_groups_are_numpys_unique_rows():
+    """The first row of every group and the group of every row, numbered as
+    np.unique numbers the rows' hashes: distinct rows, and rows with repeats."""
+    from acousim.trace.geometry import row_groups
+
+    rng = np.random.default_rng(8)
+    distinct = rng.permutation(3000).reshape(-1, 3).astype(np.int64)
+    repeats = rng.integers(0, 4, (3000, 3)).astype(np.int64)
+    for key in (distinct, repeats):
+        first, group = row_groups(key)
+        np.testing.assert_array_equal(key[first][group], key)  # each row in its group
+        assert len(first) == len(np.unique(key, axis=0))
+        # the first row of a group comes before every other row of it
+        assert np.all(first[group] <= np.arange(len(key)))
+
+
+def test_a_mesh_is_cleaned_as_trimesh_cleans_it():
+    """clean_mesh against trimesh's own steps (merge_vertices, nondegenerate_faces,
+    unique_faces, remove_unreferenced_vertices): a soup with near-duplicate
+    vertices, repeated and degenerate faces and an unused vertex."""
+    from acousim.trace.mesh_index import clean_mesh
+
+    rng = np.random.default_rng(1)
+    v = np.round(rng.uniform(0, 1, (300, 3)), 2)
+    v[::7] = v[1::7] + 3e-9  # equal to 1e-8 m: merged
+    f = rng.integers(0, 300, (2000, 3))
+    f[::11] = f[1::11]  # repeated faces
+    f[::13, 2] = f[::13, 1]  # degenerate faces
+    mesh = trimesh.Trimesh(np.vstack([v, [[9.0, 9.0, 9.0]]]), f, process=False)
+    ours = clean_mesh(mesh.copy())
+    mesh.merge_vertices()
+    mesh.update_faces(mesh.nondegenerate_faces(height=1e-9))
+    mesh.update_faces(mesh.unique_faces())
+    mesh.remove_unreferenced_vertices()
+    np.testing.assert_array_equal(ours.vertices, mesh.vertices)
+    np.testing.assert_array_equal(ours.faces, mesh.faces)
+    np.testing.assert_array_equal(ours.cross, mesh.triangles_cross)
+    assert ours.distinct
+
+
+def test_a_mesh_in_memory_is_never_changed():
+    """A trimesh mesh given to a scene keeps its vertices and faces, placed by a
+    transform or not, with or without vertex normals (trimesh's own merge)."""
+    scene = load_scene(SCENES / "shoebox.toml")
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0)).subdivide()
+    smooth = trimesh.creation.icosphere(2)
+    _ = smooth.vertex_normals  # cached: merged by trimesh with its normals
+    moved = np.eye(4)
+    moved[:3, 3] = [0.5, 0.0, 0.0]
+    for mesh in (box, smooth):
+        before = (mesh.vertices.copy(), mesh.faces.copy())
+        for transform in (np.eye(4), moved):
+            item = dataclasses.replace(scene.meshes[0], mesh=mesh, transform=transform)
+            world = build_world(dataclasses.replace(scene, meshes=(item,)))
+            assert world.n_faces == len(before[1])
+            assert np.allclose(
+                world.triangles.reshape(-1, 3).min(axis=0), before[0].min(axis=0) + transform[:3, 3]
+            )
+        np.testing.assert_array_equal(mesh.vertices, before[0])
+        np.testing.assert_array_equal(mesh.faces, before[1])

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .btm import DEFAULT_STEP_M
-from .edges import Edges, find_edges, merge_collinear, triangles_mesh
+from .edges import Edges, merge_collinear, world_edges
 from .embree import DISTANCE_TOLERANCE, RAY_OFFSET
 from .geometry import World
 
@@ -20,7 +20,8 @@ __all__ = ["DiffractingGeometry", "DiffractionOptions", "StageContext"]
 class DiffractingGeometry:
     """What the stage needs of a world, built once per world (not per pose).
 
-    edges: its diffracting edges (:func:`find_edges`); face_reflection (F,): pressure
+    edges: its diffracting edges (:func:`~acousim.trace.edges.world_edges`, collinear
+    pieces joined by :func:`~acousim.trace.edges.merge_collinear`); face_reflection (F,): pressure
     reflection factor per face; planes: (normal (P, 3), offset (P,), reflection (P,))
     of every plane, for the reflections before or after an edge (None: none);
     face_plane (F,): the plane id of each face (which edges share a plane, for edge
@@ -39,12 +40,12 @@ class DiffractingGeometry:
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
         refl = world.face_values("reflection")
-        first = np.unique(world.plane, return_index=True)[1]
+        first = world.plane_first
         planes = (world.normals[first], world.offsets[first], refl[first])
         column = world.face_interactions(0)
         key = world.plane * (int(world.material.max(initial=0)) + 1) + world.material
         return cls(
-            merge_collinear(find_edges(triangles_mesh(world.triangles)), key),
+            merge_collinear(world_edges(world), key),
             refl,
             planes,
             world.plane,

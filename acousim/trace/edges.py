@@ -18,10 +18,12 @@ of its sides, and :meth:`Edges.oriented` picks, for a source and a receiver, the
 they are in.  That side diffracts if it is a convex wedge (open angle above pi plus
 the curved-surface threshold); an inside corner (open angle below pi) does not.
 
-Steps of :func:`find_edges`:
+Steps of :func:`find_edges` (a trimesh mesh) and :func:`world_edges` (a world):
 
-1. Merge vertices and list every face-adjacent pair (trimesh) and every edge used by
-   one face only.
+1. List every pair of faces sharing an edge and every edge used by one face only
+   (:func:`acousim.trace.mesh_index.edge_table`, one sort of integer edge codes).
+   A pair of faces on one plane that lie on either side of their edge is a flat
+   seam and is not measured (most pairs of a finely tessellated wall).
 2. For a pair (A, B): ``face_dir`` is the unit vector in A's plane, perpendicular to
    the edge, pointing into A; ``normal`` is A's unit normal; ``angle_rad`` is the
    angle from ``face_dir`` to B's own direction ``other_dir``, turning towards
@@ -36,9 +38,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .geometry import CURVED_MAX_ANGLE_DEG
+from .geometry import CURVED_MAX_ANGLE_DEG, World, plane_ids
+from .mesh_index import EdgeTable, edge_table, merged_vertex_ids
 
-__all__ = ["Edges", "find_edges", "merge_collinear", "triangles_mesh"]
+__all__ = ["Edges", "find_edges", "merge_collinear", "world_edges"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,79 +118,115 @@ class Edges:
         return Edges(z3, z3, z3, z3, z3, np.zeros(0), np.zeros((0, 2), int))
 
 
-def triangles_mesh(triangles: np.ndarray):
-    """A trimesh mesh from a triangle soup (F, 3, 3), vertices merged, face order kept."""
-    import trimesh
-
-    tri = np.asarray(triangles, float)
-    mesh = trimesh.Trimesh(
-        tri.reshape(-1, 3), np.arange(tri.shape[0] * 3).reshape(-1, 3), process=False
-    )
-    mesh.merge_vertices()
-    return mesh
-
-
-def _into_face(mesh, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Unit vectors in each face's plane, perpendicular to its edge (vertex pair),
-    pointing into the face."""
-    v = mesh.vertices
-    a, b = v[edges[:, 0]], v[edges[:, 1]]
+def _into_face(
+    vertices: np.ndarray, faces: np.ndarray, face: np.ndarray, edge: np.ndarray
+) -> np.ndarray:
+    """Unit vectors (n, 3) in the plane of each face `face` (n,), perpendicular to its
+    edge `edge` (n, 2) (vertex ids), pointing into the face.  vertices (V, 3) m,
+    faces (F, 3) vertex ids."""
+    a, b = vertices[edge[:, 0]], vertices[edge[:, 1]]
     axis = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
-    centre = v[mesh.faces[faces]].mean(axis=1)
+    centre = vertices[faces[face]].mean(axis=1)
     d = centre - a
     d -= np.einsum("ij,ij->i", d, axis)[:, None] * axis
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
-    """The diffracting edges of a trimesh mesh (see the module docstring).
-
-    min_turn_deg : an edge is kept when its faces turn by more than this (degrees)
-        either way; smaller turns are seams of a curved surface.
-    """
-
-    normals = np.asarray(mesh.face_normals, float)
-    v = np.asarray(mesh.vertices, float)
-    # 1. adjacent pairs, non-manifold edges left out (trimesh lists each pair once)
-    adj = np.asarray(mesh.face_adjacency, int).reshape(-1, 2)
-    adj_edges = np.asarray(mesh.face_adjacency_edges, int).reshape(-1, 2)
-    sorted_edges = np.sort(np.asarray(mesh.edges, int), axis=1)
-    edge_face = np.asarray(mesh.edges_face, int)
-    # each vertex pair as one integer: the edges used by one face (rims) and by more
-    # than two (non-manifold), without a Python loop over the edges
-    n_v = np.int64(max(len(v), 1))
-    code = sorted_edges[:, 0].astype(np.int64) * n_v + sorted_edges[:, 1]
-    _, first, count = np.unique(code, return_index=True, return_counts=True)
-    single = np.sort(first[count == 1])
-    multi = np.unique(code)[count > 2]
-    if multi.size and adj_edges.size:
-        pair = np.sort(adj_edges, axis=1)
-        keep = ~np.isin(pair[:, 0].astype(np.int64) * n_v + pair[:, 1], multi)
-        adj, adj_edges = adj[keep], adj_edges[keep]
-    # 2. open angle of each pair
+def _wedges(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray,
+    table: EdgeTable,
+    flat: np.ndarray,
+    min_turn_deg: float,
+    rank: np.ndarray | None = None,
+) -> Edges:
+    """Steps 2 and 3 of :func:`find_edges`: the open angle of every pair of `table`
+    not marked `flat` (A,) (a seam between two faces of one plane, known to turn by
+    nothing), the real wedges among them, and the rims.  vertices (V, 3) m, faces
+    (F, 3) vertex ids, normals (F, 3) unit; rank (V,): the order in which an edge's
+    ends are listed (None: by vertex id)."""
+    adj, adj_edges = table.pairs[~flat], _ordered(table.shared[~flat], rank)
     fa, fb = adj[:, 0], adj[:, 1]
-    dir_a = _into_face(mesh, fa, adj_edges)
-    dir_b = _into_face(mesh, fb, adj_edges)
+    dir_a = _into_face(vertices, faces, fa, adj_edges)
+    dir_b = _into_face(vertices, faces, fb, adj_edges)
     na = normals[fa]
     wedge = np.mod(
         np.arctan2(np.einsum("ij,ij->i", dir_b, na), np.einsum("ij,ij->i", dir_b, dir_a)),
         2 * np.pi,
     )
-    # 3. real wedges (either side) and rims
     real = np.abs(wedge - np.pi) > np.deg2rad(min_turn_deg)
-    rim_edges = sorted_edges[single]
-    rim_faces = edge_face[single]
-    start = np.concatenate([v[adj_edges[real, 0]], v[rim_edges[:, 0]]])
-    end = np.concatenate([v[adj_edges[real, 1]], v[rim_edges[:, 1]]])
-    rim_dir = _into_face(mesh, rim_faces, rim_edges)
-    face_dir = np.concatenate([dir_a[real], rim_dir])
-    normal = np.concatenate([na[real], normals[rim_faces]])
-    other_dir = np.concatenate([dir_b[real], rim_dir])
-    angle = np.concatenate([wedge[real], np.full(rim_faces.size, 2 * np.pi)])
-    faces = np.concatenate(
-        [adj[real], np.column_stack([rim_faces, np.full(rim_faces.size, -1)])]
-    ).astype(int)
-    return Edges(start, end, face_dir, normal, other_dir, angle, faces)
+    rim_faces, rim_edges = table.rim_face, _ordered(table.rim_edge, rank)
+    rim_dir = _into_face(vertices, faces, rim_faces, rim_edges)
+    return Edges(
+        np.concatenate([vertices[adj_edges[real, 0]], vertices[rim_edges[:, 0]]]),
+        np.concatenate([vertices[adj_edges[real, 1]], vertices[rim_edges[:, 1]]]),
+        np.concatenate([dir_a[real], rim_dir]),
+        np.concatenate([na[real], normals[rim_faces]]),
+        np.concatenate([dir_b[real], rim_dir]),
+        np.concatenate([wedge[real], np.full(rim_faces.size, 2 * np.pi)]),
+        np.concatenate(
+            [adj[real], np.column_stack([rim_faces, np.full(rim_faces.size, -1)])]
+        ).astype(int),
+    )
+
+
+def _ordered(edges: np.ndarray, rank: np.ndarray | None) -> np.ndarray:
+    """Edges (n, 2) (vertex ids) with their ends in ascending `rank` (V,)."""
+    if rank is None:
+        return edges
+    swap = rank[edges[:, 0]] > rank[edges[:, 1]]
+    return np.where(swap[:, None], edges[:, ::-1], edges)
+
+
+def find_edges(mesh, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
+    """The diffracting edges of a trimesh mesh (see the module docstring), over its
+    own vertices (merge them first for a triangle soup).
+
+    min_turn_deg : an edge is kept when its faces turn by more than this (degrees)
+        either way; smaller turns are seams of a curved surface.
+    """
+    vertices = np.asarray(mesh.vertices, float)
+    faces = np.asarray(mesh.faces, int)
+    normals = np.asarray(mesh.face_normals, float)
+    plane = plane_ids(normals, np.einsum("fi,fi->f", normals, vertices[faces[:, 0]]))
+    table = edge_table(faces)
+    return _wedges(vertices, faces, normals, table, _flat(table, plane), min_turn_deg)
+
+
+def world_edges(world: World, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> Edges:
+    """The diffracting edges of a world: those of its triangles with their vertices
+    merged across meshes (as trimesh's ``merge_vertices`` merges them), found from the
+    world's own indexed faces, planes and edge table (:attr:`World.edge_table`,
+    sorted again only when meshes share vertices: :attr:`World.vertex_groups`).
+    Only the pairs of faces on different planes (or folded onto one) are measured:
+    a tessellated wall's seams cost nothing.  min_turn_deg as in :func:`find_edges`."""
+    if world.vertices is None:  # a triangle soup
+        vertices = world.triangles.reshape(-1, 3)
+        faces = np.arange(3 * world.n_faces).reshape(-1, 3)
+        first, inverse = merged_vertex_ids(vertices)
+    else:
+        vertices, faces = world.vertices, world.faces
+        first, inverse = world.vertex_groups
+    if world.vertices is not None and len(first) == len(vertices):
+        table = world.edge_table
+    else:
+        vertices, faces = vertices[first], inverse[faces]
+        table = edge_table(faces)
+    # an edge's ends listed in the order the faces first use them, as in a triangle
+    # soup merged by trimesh (the same numbers to the last bit)
+    corners = faces.ravel()
+    rank = np.empty(len(vertices), np.int64)
+    rank[corners[::-1]] = np.arange(len(corners))[::-1]  # the last write is the first use
+    flat = _flat(table, world.plane)
+    return _wedges(vertices, faces, world.normals, table, flat, min_turn_deg, rank)
+
+
+def _flat(table: EdgeTable, plane: np.ndarray) -> np.ndarray:
+    """(A,) bool: pairs of `table` that are flat seams: both faces on one plane (ids
+    `plane` (F,): normals equal within 1e-6) on either side of the edge (they run
+    along it in opposite directions).  Their open angle is pi: never a wedge."""
+    return (plane[table.pairs[:, 0]] == plane[table.pairs[:, 1]]) & ~table.same_way
 
 
 def merge_collinear(edges: Edges, face_key: np.ndarray, tol_m: float = 1e-6) -> Edges:

@@ -17,12 +17,27 @@ from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
 from processing.errors import InputError
 
+from .mesh_index import (
+    EdgeTable,
+    MeshPart,
+    clean_mesh,
+    edge_table,
+    face_adjacency,
+    face_cross,
+    face_frames,
+    merged_vertex_ids,
+    radix_argsort,
+    row_groups,
+)
+
 __all__ = [
     "World",
     "build_world",
     "face_groups",
     "plane_ids",
     "face_adjacency",
+    "radix_argsort",
+    "row_groups",
     "CURVED_MAX_ANGLE_DEG",
 ]
 
@@ -111,9 +126,9 @@ class World:
     def plane_faces(self, pid: int) -> tuple[np.ndarray, np.ndarray]:
         """The faces of plane `pid` (ascending) and their bounding boxes (n, 2, 3)."""
 
-        order, starts, box = self._plane_index()
+        order, starts, (lo, hi) = self._plane_index()
         faces = order[starts[pid] : starts[pid + 1]]
-        return faces, box[faces]
+        return faces, np.stack([lo[faces], hi[faces]], axis=1)
 
     def faces_near(self, pid: int, x: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
         """(row, face) pairs: the faces of plane `pid` whose bounding box, grown by
@@ -141,15 +156,16 @@ class World:
         """(n_planes, 2, 3) the bounding box of every plane's faces (read-only)."""
 
         def make():
-            order, starts, box = self._plane_index()
-            lo = np.minimum.reduceat(box[order, 0], starts[:-1], axis=0)
-            hi = np.maximum.reduceat(box[order, 1], starts[:-1], axis=0)
+            order, starts, (lo, hi) = self._plane_index()
+            lo = np.minimum.reduceat(lo[order], starts[:-1], axis=0)
+            hi = np.maximum.reduceat(hi[order], starts[:-1], axis=0)
             return np.stack([lo, hi], axis=1)
 
         return self._cached("plane_boxes", make)
 
     def _plane_index(self):
-        """Faces sorted by plane, where each plane starts, and every face's box."""
+        """Faces sorted by plane, where each plane starts, and every face's box:
+        (lowest corner (F, 3), highest corner (F, 3))."""
 
         def make():
             order = radix_argsort(self.plane)
@@ -157,7 +173,7 @@ class World:
             t = self.triangles
             lo = np.minimum(np.minimum(t[:, 0], t[:, 1]), t[:, 2])
             hi = np.maximum(np.maximum(t[:, 0], t[:, 1]), t[:, 2])
-            return order, starts, np.stack([lo, hi], axis=1)
+            return order, starts, (lo, hi)
 
         return self._cached("plane_index", make)
 
@@ -168,6 +184,20 @@ class World:
         if self.spectra is None:
             return None
         return self.interaction[self.material, mode]
+
+    @property
+    def edge_table(self) -> EdgeTable:
+        """The faces' :class:`~acousim.trace.mesh_index.EdgeTable` (over `faces`; the
+        one :func:`build_world` found, not sorted again)."""
+        return self._cached("edge_table", lambda: edge_table(self.faces))
+
+    @property
+    def vertex_groups(self) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices merged as trimesh's ``merge_vertices`` merges a triangle
+        soup (equal to 1e-8 m; meshes of a scene may share vertices): the first
+        vertex of every merged one (M,) and the merged one of every vertex (V,)
+        (:func:`~acousim.trace.mesh_index.merged_vertex_ids`)."""
+        return self._cached("vertex_groups", lambda: merged_vertex_ids(self.vertices))
 
     @property
     def n_planes(self) -> int:
@@ -201,11 +231,20 @@ def _name(mesh) -> str:
 
 
 def _load(path, transform) -> object:
+    """A mesh file or a ``trimesh.Trimesh`` (copied) placed by `transform` and
+    cleaned (:func:`clean_mesh`), as a ``trimesh.Trimesh``."""
     import trimesh
 
-    try:  # a trimesh.Trimesh in memory is copied, never changed
+    part = _load_part(path, transform)
+    return trimesh.Trimesh(part.vertices, part.faces, process=False)
+
+
+def _load_part(path, transform) -> MeshPart:
+    import trimesh
+
+    try:  # a trimesh.Trimesh in memory is never changed (copied to be moved)
         mesh = (
-            path.copy()
+            path
             if isinstance(path, trimesh.Trimesh)
             else trimesh.load(path, force="mesh", process=False)
         )
@@ -225,14 +264,13 @@ def _load(path, transform) -> object:
             f"mesh vertices reach beyond +-{MAX_COORDINATE_M:g} m once placed",
             file=_name(path),
         )
-    mesh.apply_transform(transform)
-    mesh.merge_vertices()
-    mesh.update_faces(mesh.nondegenerate_faces(height=1e-9))
-    mesh.update_faces(mesh.unique_faces())
-    mesh.remove_unreferenced_vertices()
-    if len(mesh.faces) == 0:
+    if not trimesh.util.allclose(T, np.eye(4), 1e-8):  # trimesh's own test
+        mesh = mesh.copy() if mesh is path else mesh
+        mesh.apply_transform(T)
+    part = clean_mesh(mesh)
+    if len(part.faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))
-    return mesh
+    return part
 
 
 def smooth_corner_normals(
@@ -331,11 +369,13 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
 
 
 def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str]):
-    """The mesh of `item` and its faces' material indices into `names`."""
+    """The mesh of `item` (:class:`MeshPart`) and its faces' material indices into
+    `names`."""
     if not item.materials:
-        mesh = _load(item.mesh, item.transform)
-        return mesh, np.full(len(mesh.faces), names.index(item.material.name))
+        part = _load_part(item.mesh, item.transform)
+        return part, np.full(len(part.faces), names.index(item.material.name))
     mesh, groups = face_groups(item.mesh, item.transform)
+    part = MeshPart(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), None, False)
     mat = np.full(len(mesh.faces), names.index(item.material.name))
     for group, material in item.materials.items():
         if group not in groups:
@@ -347,38 +387,44 @@ def _material_of_faces(item: MeshItem, index: int, scene: Scene, names: list[str
                 value=group,
             )
         mat[groups[group]] = names.index(material.name)
-    return mesh, mat
+    return part, mat
 
 
 def build_world(scene: Scene) -> World:
     """Load, transform, clean and merge the meshes of a scene.
 
-    Near-linear in the faces: coplanar faces are grouped by a hash of their plane
-    (:func:`plane_ids`), the smooth corner normals are found for curved faces only,
-    and the merged vertices and faces are kept for the ray caster (Embree's indexed
-    mesh: no per-corner copies)."""
+    Near-linear in the faces, on arrays (:func:`~acousim.trace.mesh_index.clean_mesh`
+    cleans a mesh as trimesh would): coplanar faces are grouped by a hash of their
+    plane (:func:`plane_ids`), the faces' edges in one sort of integer codes (kept:
+    :attr:`World.edge_table`, for the diffracting edges too), the smooth corner
+    normals are found for curved faces only, and the merged vertices and faces are
+    kept for the ray caster (Embree's indexed mesh: no per-corner copies)."""
     import trimesh
 
-    meshes, mat_index = [], []
     materials = list(
         {
             m.name: m for item in scene.meshes for m in (item.material, *item.materials.values())
         }.values()
     )
     names = [m.name for m in materials]
-    for i, item in enumerate(scene.meshes):
-        mesh, mat = _material_of_faces(item, i, scene, names)
-        meshes.append(mesh)
-        mat_index.append(mat)
-    merged = trimesh.util.concatenate(meshes)
-    vertices, faces = np.asarray(merged.vertices, float), np.asarray(merged.faces)
-    tri = np.asarray(merged.triangles, float)
-    normals = np.asarray(merged.face_normals, float)
+    parts, mat_index = zip(
+        *(_material_of_faces(item, i, scene, names) for i, item in enumerate(scene.meshes))
+    )
+    vertices, faces = parts[0].vertices, parts[0].faces
+    if len(parts) > 1:
+        start = np.cumsum([0] + [len(p.vertices) for p in parts])
+        vertices = np.concatenate([p.vertices for p in parts])
+        faces = np.concatenate([p.faces + s for p, s in zip(parts, start)])
+    tri = parts[0].triangles if len(parts) == 1 else None  # the corners kept
+    tri = vertices[faces] if tri is None else tri
+    cross = [face_cross(p.vertices[p.faces]) if p.cross is None else p.cross for p in parts]
+    normals, area = face_frames(cross[0] if len(cross) == 1 else np.concatenate(cross))
     offsets = np.einsum("fi,fi->f", normals, tri[:, 0])
     # curved faces: a neighbour at a small but non-zero dihedral angle
     curved = np.zeros(len(tri), bool)
-    adj, shared = face_adjacency(faces)
-    ang = trimesh.geometry.vector_angle(normals[adj])
+    table = edge_table(faces)
+    adj, shared = table.pairs, table.shared
+    ang = _pair_angles(normals, adj)
     smooth = (ang > _FLAT_ANGLE) & (ang < np.deg2rad(CURVED_MAX_ANGLE_DEG))
     curved[adj[smooth].ravel()] = True
     curved |= smooth_patches(adj, ang, shared, vertices, len(tri))
@@ -389,7 +435,7 @@ def build_world(scene: Scene) -> World:
     if curved.any():
         vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
     component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
-    return World(
+    world = World(
         tri,
         normals,
         offsets,
@@ -398,12 +444,23 @@ def build_world(scene: Scene) -> World:
         vn,
         material,
         tuple(materials),
-        np.asarray(merged.area_faces),
+        area,
         np.asarray(component),
         *_spectra(materials),
         vertices=vertices,
         faces=faces,
     )
+    world._cached("edge_table", lambda: table)  # sorted once, kept for the edges
+    if len(parts) == 1 and parts[0].distinct:  # no vertex to merge with another
+        world._cached("vertex_groups", lambda: (np.arange(len(vertices)),) * 2)
+    return world
+
+
+def _pair_angles(normals: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """(A,) angles (rad) between the unit normals (F, 3) of face pairs (A, 2), as
+    trimesh's ``vector_angle`` computes them (the same numbers)."""
+    dots = np.dot(normals[pairs[:, 0]] * normals[pairs[:, 1]], [1.0, 1.0, 1.0])
+    return np.abs(np.arccos(np.clip(dots, -1.0, 1.0)))
 
 
 def plane_ids(
@@ -424,39 +481,6 @@ def plane_ids(
     return rank.ravel()[inverse]
 
 
-def radix_argsort(code: np.ndarray) -> np.ndarray:
-    """A stable argsort of non-negative integers (n,), 16 bits a pass (numpy's radix
-    sort of 16-bit keys): linear in n, for the long integer columns of a mesh."""
-    code = np.asarray(code)
-    order = np.arange(len(code))
-    top, shift = int(code.max(initial=0)), 0
-    while True:
-        key = ((code[order] >> shift) & 0xFFFF).astype(np.uint16)
-        order = order[np.argsort(key, kind="stable")]
-        shift += 16
-        if top >> shift == 0:
-            return order
-
-
-def row_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Equal rows of `key` (n, k) of 8-byte numbers (floats compared by their bytes:
-    make -0.0 0.0 first): the first row of every group (G,) and the group of every
-    row (n,), groups in no particular order.  One 1-D sort of a hash of each row,
-    checked for collisions (then the rows themselves are sorted)."""
-    key = np.ascontiguousarray(key)
-    words = key.view(np.uint64).reshape(len(key), -1)
-    code = np.zeros(len(key), np.uint64)
-    with np.errstate(over="ignore"):
-        for j in range(words.shape[1]):
-            code = (code ^ words[:, j]) * np.uint64(0x100000001B3)
-            code ^= code >> np.uint64(29)
-    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    if not np.array_equal(key[first][inverse], key):  # a hash collision
-        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    return first, inverse.ravel()
-
-
 def smooth_patches(
     adjacency: np.ndarray, angles: np.ndarray, shared: np.ndarray, vertices: np.ndarray, n: int
 ) -> np.ndarray:
@@ -475,39 +499,17 @@ def smooth_patches(
     pairs = adjacency[flat]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, patch = connected_components(graph, directed=False)
-    length = np.linalg.norm(vertices[shared[:, 0]] - vertices[shared[:, 1]], axis=1)
-    smooth = ~flat & (angles < np.deg2rad(CURVED_MAX_ANGLE_DEG))
-    sharp = angles >= np.deg2rad(CURVED_MAX_ANGLE_DEG)
+    rough = np.flatnonzero(~flat)  # the patches' rims (few, however fine the mesh)
+    length = np.linalg.norm(vertices[shared[rough, 0]] - vertices[shared[rough, 1]], axis=1)
+    smooth = angles[rough] < np.deg2rad(CURVED_MAX_ANGLE_DEG)
 
     def rim(edges):
         return np.bincount(
-            patch[adjacency[edges]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
+            patch[adjacency[rough[edges]]].ravel(), np.repeat(length[edges], 2), patch.max() + 1
         )
 
-    soft, hard = rim(smooth), rim(sharp)
+    soft, hard = rim(smooth), rim(~smooth)
     return ((soft > 0) & (soft >= hard))[patch]
-
-
-def face_adjacency(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Faces that share an edge (an edge of exactly two faces), as trimesh's
-    ``face_adjacency`` finds them, in one sort of integer edge codes: the pairs (A, 2),
-    each in ascending order, and their shared edges (A, 2) as ascending vertex ids.
-    faces (F, 3) vertex indices."""
-    f = faces.astype(np.int64)
-    u, v = f.ravel(), f[:, [1, 2, 0]].ravel()  # edge 3 i + j of face i: corners j, j + 1
-    n = int(u.max()) + 1
-    code = np.minimum(u, v) * n + np.maximum(u, v)
-    order = radix_argsort(code)
-    code = code[order]
-    same = code[1:] == code[:-1]
-    alone_before = np.concatenate([[True], ~same[:-1]])
-    alone_after = np.concatenate([~same[1:], [True]])
-    start = np.flatnonzero(same & alone_before & alone_after)
-    a, b = order[start] // 3, order[start + 1] // 3
-    keep = a != b
-    pairs = np.sort(np.column_stack([a[keep], b[keep]]), axis=1)
-    shared = code[start[keep]]
-    return pairs, np.column_stack([shared // n, shared % n])
 
 
 def _curved_corner_normals(tri, faces, normals, curved, adjacency) -> np.ndarray:
