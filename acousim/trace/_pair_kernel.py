@@ -104,7 +104,7 @@ def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
     return c * c, y0u, eu, y0e, yx * yx + yy * yy + yz * yz
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     """z along the line where |src - x| + |x - rcv| = path (the larger root if
     upper), from the constants `form` of :func:`_spheroid_form`: points of equal
@@ -120,7 +120,7 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     return (-q1 + (root if upper else -root)) / (2 * q2)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     a, b = z - zs, z - zr
     ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
@@ -129,12 +129,13 @@ def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     return math.log1p(arg + math.sqrt(arg * (arg + 2)))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _prim(e, nu, hs, hc, w):  # pragma: no cover - compiled
     t = math.tanh(nu * e / 2)
     out = 0.0
     for i in range(4):
-        out += math.atan2(t * hc[i], hs[i]) * w[i]
+        if w[i] != 0:
+            out += math.atan2(t * hc[i], hs[i]) * w[i]
     return out
 
 
@@ -265,7 +266,7 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
             e_a, za, ea, pa = e_b, zb, eb, pb
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
     x: the point z1), the taper, into its bin of out (acc, count)."""
@@ -279,7 +280,7 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
     r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
     cosh1 = ((z1 - zs1) * (z1 - z21) + m * n_c) / (rs1 * r21) if r21 > 0 else math.inf
-    big = math.cosh(nu1 * math.acosh(max(cosh1, 1.0))) if cosh1 < 1e300 else math.inf
+    big = _cosh_nu(nu1, cosh1)
     beta = 0.0
     for i in range(4):
         if c[2, i] != 0:
@@ -306,7 +307,18 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     count[b] += 1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _cosh_nu(nu, x):  # pragma: no cover - compiled
+    """cosh(nu acosh(x)) (x below 1 taken as 1): (y^nu + y^-nu) / 2 with
+    y = x + sqrt(x^2 - 1)."""
+    if not x < 1e300:
+        return math.inf
+    x = max(x, 1.0)
+    yn = math.exp(nu * math.log(x + math.sqrt((x - 1.0) * (x + 1.0))))
+    return 0.5 * (yn + 1.0 / yn)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _bin(ex, cfg):  # pragma: no cover - compiled
     """The bin of excess path ex (m): cfg[6] wide, cfg[7] of them, the last open."""
     return min(max(int(math.floor(ex / cfg[6])), 0), int(cfg[7]) - 1)
