@@ -16,6 +16,10 @@ import math
 import numpy as np
 from numba import njit
 
+#: an element is evaluated if a bin within this of its path (m) is live (the path
+#: from its excess level and from its points agree to rounding)
+PATH_SLACK = 1e-6
+
 
 @njit(cache=True, nogil=True)
 def _apex(px, py, pz, r, s, a, length):  # pragma: no cover - compiled
@@ -185,6 +189,10 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
         p_min, z_apex = g[22], g[23]
         limit = min(p_min + excess, g[24])
+        last = -1  # the last live bin
+        for b in range(live.shape[1]):
+            if live[k, b]:
+                last = b
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -196,6 +204,8 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
             for j in range(n_in):
                 lev = e_end if j + 1 >= n_in else _level_value(j + 1, step_o, ref_o)
                 zb = _level(p_min + lev, z_apex, z_end, pair)
+                if _bin(_profile(0.5 * (za + zb), pair)[0] - p_min - PATH_SLACK, cfg) > last:
+                    break  # every path of this element and the ones after: past the live bins
                 dz = abs(zb - za)
                 if dz > 0:
                     z1 = 0.5 * (za + zb)
@@ -244,6 +254,15 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
         stale = False
         for j in range(n_in):
             e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
+            # the element's path is m + l_apex + its mid excess (its point lies on
+            # that spheroid): skipped without solving for its points unless a bin
+            # within PATH_SLACK of it is live
+            ex = m + l_apex + 0.5 * (e_a + e_b) - g[22]
+            if not (out[2][_bin(ex - PATH_SLACK, cfg)] or out[2][_bin(ex + PATH_SLACK, cfg)]):
+                e_a, stale = e_b, True
+                continue
+            if stale:  # za, as the skipped element would have left it
+                za = min(max(_on_spheroid(form, l_apex + e_a, side == 1), lo), hi)
             zb = min(max(_on_spheroid(form, l_apex + e_b, side == 1), lo), hi)
             zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), side == 1), lo), hi)
             n_c = math.sqrt(rs * rs + (zc - zs) ** 2)

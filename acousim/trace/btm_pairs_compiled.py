@@ -50,8 +50,8 @@ def _merge_terms(c: np.ndarray) -> None:
 
 def compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> EdgePairElements:
     """:func:`pair_elements` by the compiled kernel; limits: ((step, longest path,
-    excess kept, bin width) in metres and the halvings of the first step, the live
-    bins or None)."""
+    excess kept, bin width) in metres and the halvings of the first step (edge 1's,
+    edge 2's), the live bins or None)."""
     (step_m, max_path_m, max_excess_m, width, refine), wanted = limits
     p = pairs
     n = len(p)
@@ -88,7 +88,7 @@ def compiled_elements(kernel, pairs: PairGeometry, source, receiver, limits) -> 
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
     nb = int(np.ceil(max_excess_m / width)) + 2
     longest = float(np.max(max_path_m))  # the kernel reads geo's column 24
-    cfg = np.array([step_m, step_m, refine, refine, max_excess_m, longest, width, nb], float)
+    cfg = np.array([step_m, step_m, *refine, max_excess_m, longest, width, nb], float)
     idx = np.flatnonzero(live)
     acc = np.zeros((idx.size, nb, 9))
     count = np.zeros((idx.size, nb), np.int64)

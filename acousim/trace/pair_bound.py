@@ -378,8 +378,8 @@ ESTIMATE_MARGIN = 5.0
 
 #: the coarse pass's element step and bins, in element steps and bins of the fine one
 COARSE_STEPS = 4
-#: halvings of the coarse pass's first step next to each apex
-COARSE_REFINE = 4
+#: halvings of the coarse pass's first step next to edge 1's apex and edge 2's
+COARSE_REFINE = (4, 4)
 #: the stage integrates a pair whose coarse estimate times this reaches the floor
 #: (the largest fine bin measured at up to 2.8 times the coarse estimate in the
 #: corridor, BENCHMARKS.md: at 1/sqrt(excess) onsets, at an edge's end, the fine
