@@ -379,12 +379,16 @@ ESTIMATE_MARGIN = 5.0
 #: the coarse pass's element step and bins, in element steps and bins of the fine one
 COARSE_STEPS = 4
 #: halvings of the coarse pass's first step next to edge 1's apex and edge 2's
-COARSE_REFINE = (4, 4)
+#: (2 and 2: a tenth less time than 4 and 4, the same pairs and bins selected in
+#: the 20 poses of the corridor benchmark, and closer to the fine bins: its largest
+#: bin up to 2.0 times the coarse estimate there, against 2.6 with 4 and 4)
+COARSE_REFINE = (2, 2)
 #: the stage integrates a pair whose coarse estimate times this reaches the floor
-#: (the largest fine bin measured at up to 2.8 times the coarse estimate in the
-#: corridor, BENCHMARKS.md: at 1/sqrt(excess) onsets, at an edge's end, the fine
-#: bins resolve a peak the coarse ones average over, sqrt(COARSE_STEPS))
-COARSE_MARGIN = 5.0
+#: (the largest fine bin measured at up to 2.0 times the coarse estimate in the
+#: corridor, 20 poses: at 1/sqrt(excess) onsets, at an edge's end, the fine bins
+#: resolve a peak the coarse ones average over, sqrt(COARSE_STEPS)), and in the
+#: bins whose coarse level times this reaches it
+COARSE_MARGIN = 4.0
 
 
 def coarse_estimate(
