@@ -142,20 +142,23 @@ def pair_elements_in(
     step_m: float = DEFAULT_STEP_M,
     bin_m: float | None = None,
     max_path_m: float = np.inf,
+    workers=None,
 ) -> EdgePairElements:
     """:func:`pair_elements` (excess kept :data:`DEFAULT_MAX_EXCESS_M`), only the
     bins of excess path within `live`: (mask (N, B), width w (m)), bin b of pair k
     the excess [b w, (b + 1) w) beyond the pair's shortest path.  The bins given are
     those of the whole integral (the compiled kernel skips an element of another
-    bin before evaluating its beta terms)."""
+    bin before evaluating its beta terms).  workers: the threads to share the pairs
+    among (:func:`acousim.trace.btm_pairs_compiled.compiled_elements`; None: this one)."""
     limits = (step_m, max_path_m, DEFAULT_MAX_EXCESS_M, bin_m or step_m * BIN, REFINE)
-    return _elements(pairs, source, receiver, limits, True, live)
+    return _elements(pairs, source, receiver, limits, True, live, workers)
 
 
-def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=None):
+def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=None, workers=None):
     """:func:`pair_elements` (:class:`EdgePairElements`); limits: (step, longest path,
     excess kept, bin width) in metres and the halvings of the first step next to
-    each apex (in both edges); live: as :func:`pair_elements_in` (None: all)."""
+    each apex (in both edges); live: as :func:`pair_elements_in` (None: all);
+    workers: the compiled kernel's (:func:`pair_elements_in`)."""
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     step_m, max_path_m, max_excess_m, bin_m, refine = limits
     if len(pairs) == 0 or step_m <= 0:
@@ -164,7 +167,7 @@ def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=No
     if kernel is not None and np.isfinite(max_excess_m):
         from .btm_pairs_compiled import compiled_elements
 
-        return compiled_elements(kernel, pairs, source, receiver, (limits, live))
+        return compiled_elements(kernel, pairs, source, receiver, (limits, live), workers)
     z_apex, p_min = shortest_paths(pairs, source, receiver)
     limit = np.minimum(p_min + max_excess_m, max_path_m)
     outer = _outer(_Profile(pairs, source, receiver), z_apex, p_min, limit, (step_m, refine[0]))

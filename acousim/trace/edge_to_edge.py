@@ -65,7 +65,7 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
         rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
-        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, **step)
+        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, workers=ctx.caster, **step)
     else:
         el = pair_elements(rows, ctx.emitter, ctx.receiver, **step)
     if len(el) == 0:
@@ -122,6 +122,7 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         bin_m=opt.step_m * BIN,
         floor=floor,
         max_path_m=opt.max_path_m,
+        workers=ctx.caster,
     )
     ok = COARSE_MARGIN * est >= floor
     return keep[ok], (live[ok], width)

@@ -400,6 +400,7 @@ def coarse_estimate(
     bin_m: float,
     floor: float,
     max_path_m: float = np.inf,
+    workers=None,
 ) -> tuple[np.ndarray, tuple[np.ndarray, float]]:
     """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
     step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
@@ -407,11 +408,12 @@ def coarse_estimate(
     bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and their
     neighbours (N, B), w): the live bins of
     :func:`acousim.trace.btm_pairs.pair_elements_in`).  Not bounds: what they miss
-    is measured, as for :func:`pair_estimate`."""
+    is measured, as for :func:`pair_estimate`.  workers: the threads to share the
+    pairs among (:func:`acousim.trace.btm_pairs.pair_elements_in`)."""
     coarse = COARSE_STEPS * step_m
     width = coarse * BIN
     limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, width, COARSE_REFINE)
-    el = _elements(pairs, source, receiver, limits, True)
+    el = _elements(pairs, source, receiver, limits, True, workers=workers)
     amp = np.abs(el.amplitude) * bin_m / width
     largest = np.zeros(len(pairs))
     np.maximum.at(largest, el.pair, amp)
