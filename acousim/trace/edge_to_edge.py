@@ -37,7 +37,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pairs import BIN, EdgePairElements, PairGeometry, pair_elements, pair_elements_in
+from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
 from .first_order import probe_points, segment_distance, visible
@@ -68,10 +68,6 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
         el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, workers=ctx.caster, **step)
     else:
         el = pair_elements(rows, ctx.emitter, ctx.receiver, **step)
-    if floor > 0:  # the tracer's final floor lies at or above `floor`: these go anyway
-        el = EdgePairElements(
-            *(getattr(el, f.name)[np.abs(el.amplitude) >= floor] for f in fields(el))
-        )
     if len(el) == 0:
         return empty_paths()
     dep = el.first_point_m - ctx.emitter
