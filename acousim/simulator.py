@@ -401,19 +401,30 @@ class Simulator:
         # compiled impulse sums release the GIL); in motion the preparing thread
         # also plans the render, unless the rendering thread is already waiting for
         # it (then that one plans: the two threads share the work whichever is the
-        # slower; the same bytes either way)
+        # slower; the same bytes either way).  The pose after that is traced
+        # meanwhile in a third thread (the tracer's cache hands its paths to the
+        # preparing one), unless meshes move (their tracer keeps one instant)
         import threading
         from concurrent.futures import ThreadPoolExecutor
 
         waiting = threading.Event()
+        traced: dict[int, object] = {}
 
         def prepare(i: int) -> _Prepared:
+            if i in traced:
+                traced.pop(i).result()  # traced ahead (cached), or its error raised here
             prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
             return prep if waiting.is_set() else self._planned(prep)
 
         out = []
-        with ThreadPoolExecutor(1) as pool:
+        with ThreadPoolExecutor(1) as pool, ThreadPoolExecutor(1) as tracing:
+
+            def trace_ahead(k: int) -> None:
+                if k < len(idx) and not self.moving_meshes:
+                    traced[idx[k]] = tracing.submit(self.tracer.trace, all_poses[idx[k]])
+
             ahead = pool.submit(prepare, idx[0]) if idx else None
+            trace_ahead(1)
             for k, i in enumerate(idx):
                 interrupt.check()  # Ctrl-C (when the command line records it): stop here
                 waiting.set()
@@ -421,6 +432,7 @@ class Simulator:
                 waiting.clear()
                 if k + 1 < len(idx):
                     ahead = pool.submit(prepare, idx[k + 1])
+                    trace_ahead(k + 2)
                 out.append(self._record(prep, i, None))
                 if progress:
                     progress(k + 1, len(idx))

@@ -75,8 +75,9 @@ def run() -> str:
         [
             "## Corridor: uRTIS (30 microphones), 450 kHz, 6 m, default settings",
             "",
-            "Time per measurement of `Simulator.run` over 20 poses of the drive (tracing the "
-            "next pose while the current one is rendered; the best of 3 runs, each tracing "
+            "Time per measurement of `Simulator.run` over 20 poses of the drive (preparing "
+            "the next pose and tracing the one after while the current one is rendered; the "
+            "best of 3 runs, each tracing "
             "every pose anew), trace time "
             "alone, and the error of "
             "the noise-free echoes (the direct path left out: it is the same in both and 40 dB "

@@ -16,6 +16,10 @@ import math
 import numpy as np
 from numba import njit
 
+#: an element is evaluated if a bin within this of its path (m) is live (the path
+#: from its excess level and from its points agree to rounding)
+PATH_SLACK = 1e-6
+
 
 @njit(cache=True, nogil=True)
 def _apex(px, py, pz, r, s, a, length):  # pragma: no cover - compiled
@@ -104,7 +108,7 @@ def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
     return c * c, y0u, eu, y0e, yx * yx + yy * yy + yz * yz
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     """z along the line where |src - x| + |x - rcv| = path (the larger root if
     upper), from the constants `form` of :func:`_spheroid_form`: points of equal
@@ -120,7 +124,7 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     return (-q1 + (root if upper else -root)) / (2 * q2)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     a, b = z - zs, z - zr
     ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
@@ -129,12 +133,13 @@ def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     return math.log1p(arg + math.sqrt(arg * (arg + 2)))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _prim(e, nu, hs, hc, w):  # pragma: no cover - compiled
     t = math.tanh(nu * e / 2)
     out = 0.0
     for i in range(4):
-        out += math.atan2(t * hc[i], hs[i]) * w[i]
+        if w[i] != 0:
+            out += math.atan2(t * hc[i], hs[i]) * w[i]
     return out
 
 
@@ -184,6 +189,10 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
         p_min, z_apex = g[22], g[23]
         limit = min(p_min + excess, g[24])
+        last = -1  # the last live bin
+        for b in range(live.shape[1]):
+            if live[k, b]:
+                last = b
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -195,6 +204,8 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
             for j in range(n_in):
                 lev = e_end if j + 1 >= n_in else _level_value(j + 1, step_o, ref_o)
                 zb = _level(p_min + lev, z_apex, z_end, pair)
+                if _bin(_profile(0.5 * (za + zb), pair)[0] - p_min - PATH_SLACK, cfg) > last:
+                    break  # every path of this element and the ones after: past the live bins
                 dz = abs(zb - za)
                 if dz > 0:
                     z1 = 0.5 * (za + zb)
@@ -243,6 +254,15 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
         stale = False
         for j in range(n_in):
             e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
+            # the element's path is m + l_apex + its mid excess (its point lies on
+            # that spheroid): skipped without solving for its points unless a bin
+            # within PATH_SLACK of it is live
+            ex = m + l_apex + 0.5 * (e_a + e_b) - g[22]
+            if not (out[2][_bin(ex - PATH_SLACK, cfg)] or out[2][_bin(ex + PATH_SLACK, cfg)]):
+                e_a, stale = e_b, True
+                continue
+            if stale:  # za, as the skipped element would have left it
+                za = min(max(_on_spheroid(form, l_apex + e_a, side == 1), lo), hi)
             zb = min(max(_on_spheroid(form, l_apex + e_b, side == 1), lo), hi)
             zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), side == 1), lo), hi)
             n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
@@ -265,7 +285,7 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
             e_a, za, ea, pa = e_b, zb, eb, pb
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
     x: the point z1), the taper, into its bin of out (acc, count)."""
@@ -279,7 +299,7 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
     r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
     cosh1 = ((z1 - zs1) * (z1 - z21) + m * n_c) / (rs1 * r21) if r21 > 0 else math.inf
-    big = math.cosh(nu1 * math.acosh(max(cosh1, 1.0))) if cosh1 < 1e300 else math.inf
+    big = _cosh_nu(nu1, cosh1)
     beta = 0.0
     for i in range(4):
         if c[2, i] != 0:
@@ -306,7 +326,18 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     count[b] += 1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _cosh_nu(nu, x):  # pragma: no cover - compiled
+    """cosh(nu acosh(x)) (x below 1 taken as 1): (y^nu + y^-nu) / 2 with
+    y = x + sqrt(x^2 - 1)."""
+    if not x < 1e300:
+        return math.inf
+    x = max(x, 1.0)
+    yn = math.exp(nu * math.log(x + math.sqrt((x - 1.0) * (x + 1.0))))
+    return 0.5 * (yn + 1.0 / yn)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _bin(ex, cfg):  # pragma: no cover - compiled
     """The bin of excess path ex (m): cfg[6] wide, cfg[7] of them, the last open."""
     return min(max(int(math.floor(ex / cfg[6])), 0), int(cfg[7]) - 1)

@@ -9,7 +9,9 @@ holds a face half way between the edges' mid points (the path runs over the face
 a ray down onto the plane there).  Edge 2 lies on a face of wedge 1: at angle 0
 about edge 1 if the shared plane is its face 1, else at its open angle (and likewise
 edge 1 about edge 2).  Both rims of a thin plate: the path runs along both of its
-sides (``sides = 2``).  Visibility is checked per edge, not per element.
+sides (``sides = 2``).  Visibility is checked per edge, not per element.  The
+pairs that share a plane and are not collinear, and whether each runs over a face,
+do not change from pose to pose: they are found once per geometry (and caster).
 
 Order per pair: each candidate's largest path (one bin) is bounded in closed form
 (:func:`acousim.trace.pair_bound.pair_bound`) and estimated at the pair's shortest
@@ -29,7 +31,8 @@ interaction with each table face whose image term it holds.
 
 from __future__ import annotations
 
-from dataclasses import fields
+import weakref
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -62,7 +65,7 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
         rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
-        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, **step)
+        el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, workers=ctx.caster, **step)
     else:
         el = pair_elements(rows, ctx.emitter, ctx.receiver, **step)
     if len(el) == 0:
@@ -119,6 +122,7 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         bin_m=opt.step_m * BIN,
         floor=floor,
         max_path_m=opt.max_path_m,
+        workers=ctx.caster,
     )
     ok = COARSE_MARGIN * est >= floor
     return keep[ok], (live[ok], width)
@@ -140,11 +144,14 @@ def _seen_edges(ctx: StageContext):
     keep2, w2 = edges.oriented(ctx.receiver, ctx.receiver)
     keep1 &= segment_distance(ctx.emitter, edges.start_m, edges.end_m) < ctx.options.max_path_m
     keep2 &= segment_distance(ctx.receiver, edges.start_m, edges.end_m) < ctx.options.max_path_m
-    if ctx.caster is not None:
-        n_e = len(edges)
-        pts = probe_points(edges.start_m, edges.end_m).reshape(-1, 3)
-        keep1 &= visible(ctx.caster, ctx.emitter, pts, ctx.tol).reshape(n_e, -1).any(axis=1)
-        keep2 &= visible(ctx.caster, ctx.receiver, pts, ctx.tol).reshape(n_e, -1).any(axis=1)
+    if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
+        for keep, point in ((keep1, ctx.emitter), (keep2, ctx.receiver)):
+            idx = np.flatnonzero(keep)
+            if idx.size == 0:
+                continue
+            pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
+            seen = visible(ctx.caster, point, pts, ctx.tol).reshape(idx.size, -1).any(axis=1)
+            keep[idx] = seen
     return keep1, w1, keep2, w2
 
 
@@ -152,17 +159,13 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     """Every candidate pair (see the module docstring), one row per pair of parts:
     (the rows, edge 2's index (N,), the table column of each part (N, 2), -1: none)."""
     keep1, w1, keep2, w2 = _seen_edges(ctx)
+    table = _pair_table(ctx)
+    at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    i, j, shared = table.i[at], table.j[at], table.shared[at]
+    good = table.over_a_face(ctx, w1, at)
+    i, j, shared = i[good], j[good], shared[good]
     plane = np.asarray(ctx.geometry.face_plane, int)
     faces = ctx.geometry.edges.faces
-    p_a = plane[faces[:, 0]]
-    p_b = np.where(faces[:, 1] >= 0, plane[np.maximum(faces[:, 1], 0)], p_a)
-    i, j = np.nonzero(keep1[:, None] & keep2[None, :])
-    common = (p_a[i] == p_a[j]) | (p_a[i] == p_b[j]) | (p_b[i] == p_a[j]) | (p_b[i] == p_b[j])
-    ok = (i != j) & common
-    i, j = i[ok], j[ok]
-    shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
-    good = _not_collinear(w1, i, j, ctx.tol) & _over_a_face(ctx, w1, i, j, shared)
-    i, j, shared = i[good], j[good], shared[good]
     th12 = np.where(plane[w1.faces[i, 0]] == shared, 0.0, w1.angle_rad[i])
     th21 = np.where(plane[w2.faces[j, 0]] == shared, 0.0, w2.angle_rad[j])
     rim = faces[:, 1] < 0
@@ -180,6 +183,68 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     return rows, j[q], np.column_stack([c1[q, u], c2[q, v]])
 
 
+@dataclass(frozen=True, eq=False)
+class _PairTable:
+    """What does not change from pose to pose: the ordered pairs of edges (i, j)
+    that share a plane (`shared`, edge i's first plane where both of its planes
+    are shared) and are not collinear, sorted by (i, j); and whether the path of
+    each runs over a face of that plane (:func:`_over_a_face`; found for a pair
+    when a pose first needs it: a pair whose edges both see the emitter and the
+    receiver on a convex side has one orientation, a thin sheet's rim never turns,
+    so the answer is the pose's own)."""
+
+    i: np.ndarray
+    j: np.ndarray
+    shared: np.ndarray
+    caster: object
+    tol: float
+    known: np.ndarray  # (K,) int8: -1 not yet asked, 0 no, 1 yes
+
+    def over_a_face(self, ctx: StageContext, w1, at: np.ndarray) -> np.ndarray:
+        """(len(at),) :func:`_over_a_face` of the pairs `at` (indices into the table)."""
+        ask = at[self.known[at] < 0]
+        if ask.size:
+            over = _over_a_face(ctx, w1, self.i[ask], self.j[ask], self.shared[ask])
+            self.known[ask] = over
+        return self.known[at] > 0
+
+
+#: the pose-independent pair table of each diffracting geometry (a memo, weakly
+#: keyed: it goes with the geometry)
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _pair_table(ctx: StageContext) -> _PairTable:
+    """The geometry's :class:`_PairTable` for this caster and tolerance (built on
+    first use)."""
+    table = _TABLES.get(ctx.geometry)
+    if table is not None and table.caster is ctx.caster and table.tol == ctx.tol:
+        return table
+    edges = ctx.geometry.edges
+    plane = np.asarray(ctx.geometry.face_plane, int)
+    p_a = plane[edges.faces[:, 0]]
+    p_b = np.where(edges.faces[:, 1] >= 0, plane[np.maximum(edges.faces[:, 1], 0)], p_a)
+    # every ordered pair of distinct edges with a plane in common
+    owner = np.concatenate([np.arange(len(edges)), np.flatnonzero(p_b != p_a)])
+    on = np.concatenate([p_a, p_b[p_b != p_a]])
+    order = np.argsort(on, kind="stable")
+    owner, on = owner[order], on[order]
+    start = np.searchsorted(on, on, side="left")
+    size = np.searchsorted(on, on, side="right") - start
+    first = np.repeat(owner, size)
+    second = owner[np.repeat(start, size) + _ranges(size)]
+    key = np.unique(first * len(edges) + second)
+    i, j = key // len(edges), key % len(edges)
+    ok = i != j
+    i, j = i[ok], j[ok]
+    shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
+    good = _not_collinear(edges, i, j, ctx.tol)
+    i, j, shared = i[good], j[good], shared[good]
+    table = _PairTable(i, j, shared, ctx.caster, ctx.tol, np.full(i.size, -1, np.int8))
+    _TABLES[ctx.geometry] = table
+    return table
+
+
 def _not_collinear(w1, i, j, tol) -> np.ndarray:
     """(N,) True where an end of edge j lies off the line of edge i by more than tol."""
     axis = w1.end_m[i] - w1.start_m[i]
@@ -190,6 +255,11 @@ def _not_collinear(w1, i, j, tol) -> np.ndarray:
         r = np.linalg.norm(d - np.einsum("ij,ij->i", d, axis)[:, None] * axis, axis=1)
         off = np.maximum(off, r)
     return off > tol
+
+
+def _ranges(size: np.ndarray) -> np.ndarray:
+    """0 .. size[k] - 1 for each k, one after the other."""
+    return np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size)
 
 
 def _over_a_face(ctx: StageContext, w1, i, j, shared) -> np.ndarray:

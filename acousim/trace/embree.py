@@ -73,6 +73,13 @@ class RayCaster:
         self.offset_m = RAY_OFFSET[0] + RAY_OFFSET[1] * self.scale
         self.tolerance_m = DISTANCE_TOLERANCE[0] + DISTANCE_TOLERANCE[1] * self.scale
 
+    def map(self, fn, items: list) -> list:
+        """``[fn(x) for x in items]`` on the caster's worker threads (in this thread
+        when it has one): for work that releases the GIL, as Embree does."""
+        if self._pool is None or len(items) < 2:
+            return [fn(x) for x in items]
+        return list(self._pool.map(fn, items))
+
     def first_hit(
         self,
         origins: np.ndarray,

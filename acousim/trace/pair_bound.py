@@ -378,13 +378,17 @@ ESTIMATE_MARGIN = 5.0
 
 #: the coarse pass's element step and bins, in element steps and bins of the fine one
 COARSE_STEPS = 4
-#: halvings of the coarse pass's first step next to each apex
-COARSE_REFINE = 4
+#: halvings of the coarse pass's first step next to edge 1's apex and edge 2's
+#: (2 and 2: a tenth less time than 4 and 4, the same pairs and bins selected in
+#: the 20 poses of the corridor benchmark, and closer to the fine bins: its largest
+#: bin up to 2.0 times the coarse estimate there, against 2.6 with 4 and 4)
+COARSE_REFINE = (2, 2)
 #: the stage integrates a pair whose coarse estimate times this reaches the floor
-#: (the largest fine bin measured at up to 2.8 times the coarse estimate in the
-#: corridor, BENCHMARKS.md: at 1/sqrt(excess) onsets, at an edge's end, the fine
-#: bins resolve a peak the coarse ones average over, sqrt(COARSE_STEPS))
-COARSE_MARGIN = 5.0
+#: (the largest fine bin measured at up to 2.0 times the coarse estimate in the
+#: corridor, 20 poses: at 1/sqrt(excess) onsets, at an edge's end, the fine bins
+#: resolve a peak the coarse ones average over, sqrt(COARSE_STEPS)), and in the
+#: bins whose coarse level times this reaches it
+COARSE_MARGIN = 4.0
 
 
 def coarse_estimate(
@@ -396,6 +400,7 @@ def coarse_estimate(
     bin_m: float,
     floor: float,
     max_path_m: float = np.inf,
+    workers=None,
 ) -> tuple[np.ndarray, tuple[np.ndarray, float]]:
     """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
     step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
@@ -403,11 +408,12 @@ def coarse_estimate(
     bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and their
     neighbours (N, B), w): the live bins of
     :func:`acousim.trace.btm_pairs.pair_elements_in`).  Not bounds: what they miss
-    is measured, as for :func:`pair_estimate`."""
+    is measured, as for :func:`pair_estimate`.  workers: the threads to share the
+    pairs among (:func:`acousim.trace.btm_pairs.pair_elements_in`)."""
     coarse = COARSE_STEPS * step_m
     width = coarse * BIN
     limits = (coarse, max_path_m, DEFAULT_MAX_EXCESS_M, width, COARSE_REFINE)
-    el = _elements(pairs, source, receiver, limits, True)
+    el = _elements(pairs, source, receiver, limits, True, workers=workers)
     amp = np.abs(el.amplitude) * bin_m / width
     largest = np.zeros(len(pairs))
     np.maximum.at(largest, el.pair, amp)
