@@ -4,7 +4,8 @@ emitter and receiver (:class:`StageContext`, passed to each of its steps)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,6 +37,10 @@ class DiffractingGeometry:
     face_plane: np.ndarray | None = None
     face_column: np.ndarray | None = None
     plane_column: np.ndarray | None = None
+    #: what the stage keeps between poses (edge to edge's pair table): one entry a
+    #: kind, replaced when its caster or tolerance changes; guarded by `memo_lock`
+    memo: dict = field(default_factory=dict, repr=False, compare=False)
+    memo_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:

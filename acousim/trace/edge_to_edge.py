@@ -31,7 +31,6 @@ interaction with each table face whose image term it holds.
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -209,17 +208,19 @@ class _PairTable:
         return self.known[at] > 0
 
 
-#: the pose-independent pair table of each diffracting geometry (a memo, weakly
-#: keyed: it goes with the geometry)
-_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
 def _pair_table(ctx: StageContext) -> _PairTable:
     """The geometry's :class:`_PairTable` for this caster and tolerance (built on
-    first use)."""
-    table = _TABLES.get(ctx.geometry)
-    if table is not None and table.caster is ctx.caster and table.tol == ctx.tol:
-        return table
+    first use, kept in the geometry's memo: it goes with the geometry)."""
+    with ctx.geometry.memo_lock:
+        table = ctx.geometry.memo.get("pair_table")
+        if table is None or table.caster is not ctx.caster or table.tol != ctx.tol:
+            table = _new_pair_table(ctx)
+            ctx.geometry.memo["pair_table"] = table
+    return table
+
+
+def _new_pair_table(ctx: StageContext) -> _PairTable:
+    """Build :class:`_PairTable` (see there)."""
     edges = ctx.geometry.edges
     plane = np.asarray(ctx.geometry.face_plane, int)
     p_a = plane[edges.faces[:, 0]]
@@ -240,9 +241,7 @@ def _pair_table(ctx: StageContext) -> _PairTable:
     shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
     good = _not_collinear(edges, i, j, ctx.tol)
     i, j, shared = i[good], j[good], shared[good]
-    table = _PairTable(i, j, shared, ctx.caster, ctx.tol, np.full(i.size, -1, np.int8))
-    _TABLES[ctx.geometry] = table
-    return table
+    return _PairTable(i, j, shared, ctx.caster, ctx.tol, np.full(i.size, -1, np.int8))
 
 
 def _not_collinear(w1, i, j, tol) -> np.ndarray:
