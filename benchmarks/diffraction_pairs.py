@@ -158,7 +158,7 @@ def skipped_table(poses=(5, 15, 25, 40)) -> list[str]:
             )  # fmt: skip
             largest = np.zeros(len(rows))
             np.maximum.at(largest, el.pair, np.abs(el.amplitude))
-            keep, _ = _selected(ctx, rows, floor)
+            keep, _, _ = _selected(ctx, rows, floor)
             skipped = np.setdiff1d(np.arange(len(rows)), keep)
             worst = largest[skipped].max() / floor if skipped.size else 0.0
             out.append(

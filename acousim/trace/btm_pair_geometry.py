@@ -6,7 +6,7 @@ pair.  Below both :mod:`.btm_pairs` (the integral) and :mod:`.btm_pairs_compiled
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -107,6 +107,15 @@ class PairGeometry:
             terms(wedge1), terms(wedge2), np.array([sides], int),
         )  # fmt: skip
 
+    def take(self, keep: np.ndarray) -> PairGeometry:
+        """The pairs at `keep` (indices or a mask), with the shortest paths found for
+        these (:func:`shortest_paths`), if any."""
+        out = PairGeometry(*(getattr(self, f.name)[keep] for f in fields(self)))
+        memo = self.__dict__.get("_shortest")
+        if memo is not None:
+            object.__setattr__(out, "_shortest", (memo[0], memo[1][keep], memo[2][keep]))
+        return out
+
     def edge1(self):
         """(axis (N, 3), length (N,)) of edge 1."""
         return _axis(self.start1, self.end1)
@@ -150,7 +159,19 @@ def _apex(s, r, start, axis, length):
 def shortest_paths(pairs: PairGeometry, source, receiver) -> tuple[np.ndarray, np.ndarray]:
     """(z1 at the pair's shortest path, that path's length) (N,) each: the least of
     the convex profile, by bisection on the sign of its slope (60 halvings; compiled
-    if numba is installed)."""
+    if numba is installed).  Kept on `pairs` for this source and receiver (the stage
+    asks up to four times a pose; :meth:`PairGeometry.take` keeps those of the rows
+    taken): the arrays returned are not to be changed."""
+    key = (np.asarray(source, float).tobytes(), np.asarray(receiver, float).tobytes())
+    memo = pairs.__dict__.get("_shortest")
+    if memo is not None and memo[0] == key:
+        return memo[1], memo[2]
+    z, p = _shortest_paths(pairs, source, receiver)
+    object.__setattr__(pairs, "_shortest", (key, z, p))
+    return z, p
+
+
+def _shortest_paths(pairs: PairGeometry, source, receiver) -> tuple[np.ndarray, np.ndarray]:
     kernel = optional_kernel("acousim.trace._pair_kernel")
     if kernel is not None:
         out = np.empty((len(pairs), 2))

@@ -31,7 +31,7 @@ interaction with each table face whose image term it holds.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -60,8 +60,8 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
     opt = ctx.options
     step = dict(step_m=_pair_step(opt), bin_m=opt.step_m * BIN, max_path_m=opt.max_path_m)
     if opt.select_pairs and floor > 0:
-        keep, live = _selected(ctx, rows, floor)
-        rows, edge2, columns = _take(rows, keep), edge2[keep], columns[keep]
+        keep, live, rows = _selected(ctx, rows, floor)
+        edge2, columns = edge2[keep], columns[keep]
         if len(rows) == 0:
             return empty_paths()
         el = pair_elements_in(rows, ctx.emitter, ctx.receiver, live, workers=ctx.caster, **step)
@@ -93,7 +93,8 @@ def edge_to_edge(ctx: StageContext, floor: float) -> DiffractedPaths:
 
 def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
     """(indices (K,) of the pairs whose contribution can reach `floor` (a gain at the
-    receiver), the bins of path to integrate each in (:func:`pair_elements_in`)):
+    receiver), the bins of path to integrate each in (:func:`pair_elements_in`),
+    those rows):
     the closed-form bound
     of their largest path first (rigorous), then the estimate of it
     (:func:`pair_estimate`) times :data:`ESTIMATE_MARGIN`, then the coarse
@@ -109,12 +110,16 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
     )
     keep = np.flatnonzero(bound >= floor)
     if keep.size:
-        est = pair_estimate(_take(rows, keep), ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
-        keep = keep[ESTIMATE_MARGIN * est >= floor]
+        # one set of rows from here on: their shortest paths found once (the
+        # estimate, the coarse and the fine pass ask for them)
+        sub = _take(rows, keep)
+        est = pair_estimate(sub, ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
+        ok = ESTIMATE_MARGIN * est >= floor
+        keep, sub = keep[ok], _take(sub, ok)
     if keep.size == 0:
-        return keep, (np.zeros((0, 1), bool), 1.0)
+        return keep, (np.zeros((0, 1), bool), 1.0), _take(rows, keep)
     est, (live, width) = coarse_estimate(
-        _take(rows, keep),
+        sub,
         ctx.emitter,
         ctx.receiver,
         step_m=_pair_step(opt),
@@ -124,7 +129,7 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         workers=ctx.caster,
     )
     ok = COARSE_MARGIN * est >= floor
-    return keep[ok], (live[ok], width)
+    return keep[ok], (live[ok], width), _take(sub, ok)
 
 
 def _pair_step(opt) -> float:
@@ -132,7 +137,7 @@ def _pair_step(opt) -> float:
 
 
 def _take(rows: PairGeometry, keep: np.ndarray) -> PairGeometry:
-    return PairGeometry(*(getattr(rows, f.name)[keep] for f in fields(rows)))
+    return rows.take(keep)
 
 
 def _seen_edges(ctx: StageContext):

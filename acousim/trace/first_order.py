@@ -11,7 +11,14 @@ from .diffracted import ELEMENT_FIELDS
 from .diffraction_setup import StageContext
 from .edges import Edges
 
-__all__ = ["PROBE_FRACTIONS", "edges_in_view", "probe_points", "segment_distance", "visible"]
+__all__ = [
+    "PROBE_FRACTIONS",
+    "edge_bound",
+    "edges_in_view",
+    "probe_points",
+    "segment_distance",
+    "visible",
+]
 
 #: where along an edge (fractions of its length) visibility is probed
 PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
@@ -50,6 +57,11 @@ def edges_in_view(
     keep, wedge = edges.oriented(ctx.emitter, ctx.receiver)
     idx = np.asarray(candidates, int)
     idx = idx[keep[idx]]
+    if idx.size and ctx.options.floor_level > 0:
+        # no element of these edges can reach the floor (which lies at or above
+        # floor_level): they are left out before their rays and their elements
+        bound = edge_bound(ctx, wedge, idx, ctx.emitter)
+        idx = idx[bound >= ctx.options.floor_level]
     if idx.size and ctx.caster is not None:
         pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
         seen = np.ones(pts.shape[0], bool)
@@ -58,6 +70,83 @@ def edges_in_view(
         idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
     el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter)
     return el, idx[local], counts
+
+
+def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray):
+    """An upper bound (R,) of |amplitude| of every BTM element of the oriented edges
+    `wedge` at `rows` for `source` (3,) and the receiver (those of
+    :func:`wedge_elements`, whichever of their terms it computes).
+
+    An element from z_a to z_b has ``|a| = nu/(4 pi) |z_b - z_a| / (m l) |I| /
+    |eta_b - eta_a|`` (:mod:`acousim.trace.btm`, step 3; taper <= 1), where I
+    integrates in eta the terms ``w_i sin(nu phi_i) / (cosh(nu eta) - cos(nu
+    phi_i))``; eta is smallest at the apex (clipped to the edge), so ``|I| <=
+    |eta_b - eta_a| C`` with the terms at that eta; m, l are at least the distances
+    from the source and the receiver to the segment; and the excess path e(z) from
+    the apex is convex with ``e'' = r_s^2/m^3 + r_r^2/l^3 >= kappa`` (m, l at most
+    the farther end's) and e' at least its value at the apex (0 at an inner apex),
+    so an element of excess step at most ``step_m`` spans at most ``sqrt(2 step_m /
+    kappa)``, ``step_m / e'(apex)`` and the edge's length.  A term on its boundary
+    (the denominator 0) gives an infinite bound.  A 1 % margin covers the rounding
+    of the elements computed (the bound reaches 0.9997 of the largest element at
+    most, where the element at a clipped apex is short).
+    ``tests/test_first_order_bound.py`` checks it against every edge's largest
+    element (random boxes and plates, corridor poses)."""
+    length = np.linalg.norm(wedge.end_m[rows] - wedge.start_m[rows], axis=1)
+    nu = np.pi / wedge.angle_rad[rows]
+    (rs, ts, zs), (rr, tr, zr) = (_cylindrical(wedge, rows, p) for p in (source, ctx.receiver))
+    half = nu[:, None] * (np.pi + np.stack([ts + tr, ts - tr, -ts + tr, -ts - tr], axis=1)) / 2
+    R1, R2 = _face_reflections(ctx, wedge, rows)
+    w = np.abs(np.column_stack([R2, np.ones(rows.size), np.ones(rows.size), R1]))
+    step = ctx.options.step_m
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z_mid = (rr * zs + rs * zr) / (rs + rr)
+        z_apex = np.clip(z_mid, 0.0, length)
+        # cosh(eta) at the apex (eta grows away from it): cosh(nu eta) at least that
+        a, b = z_apex - zs, z_apex - zr
+        arg = ((rs + rr) * (z_apex - z_mid)) ** 2 / (
+            (np.hypot(rs, a) * np.hypot(rr, b) - a * b + rs * rr) * rs * rr
+        )
+        cosh_nu = np.cosh(nu * np.arccosh(1 + np.maximum(arg, 0.0)))[:, None]
+        # |sin(nu phi)| / (cosh(nu eta) - cos(nu phi)), |cot(nu phi / 2)| at eta = 0
+        term = np.abs(np.sin(2 * half)) / (cosh_nu - np.cos(2 * half))
+        term = np.where(cosh_nu - np.cos(2 * half) > 1e-12 * cosh_nu, term, np.inf)
+        c = nu / (4 * np.pi) * np.where(w > 0, w * term, 0.0).sum(axis=1)
+        # the element's span: the excess path e(z) from the apex is convex with
+        # e'' >= kappa and e' >= its slope at the apex (0 at an inner apex)
+        slope = np.abs(a / np.hypot(rs, a) + b / np.hypot(rr, b)) * (z_apex != z_mid)
+        far_s = np.maximum(np.hypot(rs, zs), np.hypot(rs, length - zs))
+        far_r = np.maximum(np.hypot(rr, zr), np.hypot(rr, length - zr))
+        kappa = (rs / far_s) ** 2 / far_s + (rr / far_r) ** 2 / far_r
+        span = np.minimum(np.minimum(length, np.sqrt(2 * step / kappa)), step / slope)
+        d = np.hypot(rs, zs - np.clip(zs, 0, length)) * np.hypot(rr, zr - np.clip(zr, 0, length))
+        bound = c * span / d
+        bound *= 1.01  # a margin for the rounding of the elements computed
+    return np.where(np.isnan(bound), np.inf, bound)
+
+
+def _cylindrical(wedge: Edges, rows: np.ndarray, p: np.ndarray):
+    """(r, theta, z) (R,) of point p (3,) about the edges `wedge` at `rows` (theta
+    from face 1 towards its normal, z from the start)."""
+    start = wedge.start_m[rows]
+    axis = wedge.end_m[rows] - start
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+    v = p - start
+    z = np.einsum("ij,ij->i", v, axis)
+    v -= z[:, None] * axis
+    th = np.arctan2(
+        np.einsum("ij,ij->i", v, wedge.normal[rows]), np.einsum("ij,ij->i", v, wedge.face_dir[rows])
+    )
+    return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
+
+
+def _face_reflections(ctx: StageContext, wedge: Edges, rows: np.ndarray):
+    """(R1, R2) (R,): the reflection factors of faces 1 and 2 of the edges at rows
+    (a thin plate's one face twice)."""
+    refl = np.asarray(ctx.geometry.face_reflection, float)
+    f1 = wedge.faces[rows, 0]
+    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
+    return refl[f1], refl[f2]
 
 
 def wedge_elements(
@@ -73,11 +162,8 @@ def wedge_elements(
     one interaction in that column (so the path response applies the table: see
     :mod:`acousim.core.materials`), and the rest of the element another.  Returns
     (elements, their rows' local indices (K,), counts (K, C) or None)."""
-    refl = np.asarray(ctx.geometry.face_reflection, float)
     face_column = ctx.geometry.face_column
-    f1 = wedge.faces[rows, 0]
-    f2 = np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)
-    R1, R2 = refl[f1], refl[f2]
+    R1, R2 = _face_reflections(ctx, wedge, rows)
     every, one = np.arange(rows.size), np.ones(rows.size)
 
     def part(sel, terms):
@@ -98,7 +184,11 @@ def wedge_elements(
     if face_column is None:
         el, local = part(every, np.column_stack([R2, one, one, R1]))
         return el, local, None
-    c1, c2 = face_column[f1], face_column[f2]
+    f1 = wedge.faces[rows, 0]
+    c1, c2 = (
+        face_column[f1],
+        face_column[np.where(wedge.faces[rows, 1] >= 0, wedge.faces[rows, 1], f1)],
+    )
     # the element without the image terms of table faces, then each of those alone
     zero = np.zeros(rows.size)
     parts = [
