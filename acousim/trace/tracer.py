@@ -33,6 +33,7 @@ import logging
 
 import numpy as np
 
+from acousim.core.cache import LruCache
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from processing.errors import InputError
@@ -188,8 +189,8 @@ class Tracer:
                 np.array([p.position_m for p in scene.points], float),
                 np.array([p.strength for p in scene.points], float),
             )
-        self._cache: dict[tuple, TracedPaths] = {}
-        self._rays: dict[tuple, int] = {}
+        # the traced poses (paths, rays shot), the least recently used dropped first
+        self._traced = LruCache(256)
 
     def _build_tables(self) -> None:
         """What every pose uses, built once here rather than by the first pose:
@@ -202,16 +203,16 @@ class Tracer:
         curved_groups(self.world)
 
     def trace(self, pose: Pose) -> TracedPaths:
-        key = pose.key()
-        if key in self._cache:
-            log.debug("pose %s traced before: reusing its paths", key)
-            return self._cache[key]
+        """The paths of `pose` (traced once; kept for the poses traced last)."""
+        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[0]
+
+    def _trace_now(self, pose: Pose) -> tuple[TracedPaths, int]:
         array = self.scene.sensor.array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
         if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
-        paths, rays = trace_pose(
+        return trace_pose(
             self.world,
             self.caster,
             self.settings,
@@ -221,24 +222,15 @@ class Tracer:
             self._points,
             self.edges,
         )
-        if len(self._cache) > 256:
-            self._cache.clear()
-            self._rays.clear()
-        self._cache[key] = paths
-        self._rays[key] = rays
-        return paths
 
     def rays_used(self, pose: Pose) -> int:
         """How many rays the trace of `pose` shot (traced now if it was not)."""
-        if pose.key() not in self._rays:
-            self.trace(pose)
-        return self._rays[pose.key()]
+        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[1]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:
         for timing)."""
-        self._cache.clear()
-        self._rays.clear()
+        self._traced.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
