@@ -112,12 +112,12 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
     if keep.size:
         # one set of rows from here on: their shortest paths found once (the
         # estimate, the coarse and the fine pass ask for them)
-        sub = _take(rows, keep)
+        sub = rows.take(keep)
         est = pair_estimate(sub, ctx.emitter, ctx.receiver, bin_m=opt.step_m * BIN)
         ok = ESTIMATE_MARGIN * est >= floor
-        keep, sub = keep[ok], _take(sub, ok)
+        keep, sub = keep[ok], sub.take(ok)
     if keep.size == 0:
-        return keep, (np.zeros((0, 1), bool), 1.0), _take(rows, keep)
+        return keep, (np.zeros((0, 1), bool), 1.0), rows.take(keep)
     est, (live, width) = coarse_estimate(
         sub,
         ctx.emitter,
@@ -129,15 +129,11 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         workers=ctx.caster,
     )
     ok = COARSE_MARGIN * est >= floor
-    return keep[ok], (live[ok], width), _take(sub, ok)
+    return keep[ok], (live[ok], width), sub.take(ok)
 
 
 def _pair_step(opt) -> float:
     return opt.step_m if opt.pair_step_m is None else opt.pair_step_m
-
-
-def _take(rows: PairGeometry, keep: np.ndarray) -> PairGeometry:
-    return rows.take(keep)
 
 
 def _seen_edges(ctx: StageContext):
