@@ -389,6 +389,13 @@ COARSE_REFINE = (2, 2)
 #: resolve a peak the coarse ones average over, sqrt(COARSE_STEPS)), and in the
 #: bins whose coarse level times this reaches it
 COARSE_MARGIN = 4.0
+#: the fine pass integrates the coarse bins that reach the floor and this many
+#: either side of each (half of a coarse element's step); in the 30 poses 0, 2, ...,
+#: 58 of the corridor drive 2 misses none of the 15,794 fine bins above the stage's
+#: floor that 4 keep, in 88 % of the fine pass's time (1: none either, 80 %, but 3
+#: of 525 in tests/test_edge_pair_selection.py's room; 0: 192 missed, up to 3.3 dB
+#: above the floor)
+LIVE_SPREAD = 2
 
 
 def coarse_estimate(
@@ -405,8 +412,8 @@ def coarse_estimate(
     """Estimates from each pair's integral at :data:`COARSE_STEPS` times the element
     step step_m (m) with :data:`COARSE_REFINE` halvings next to the apexes, its bins
     (of width w) scaled to bin_m's width (m): (the largest bin (N,); (the coarse
-    bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and their
-    neighbours (N, B), w): the live bins of
+    bins whose estimate times :data:`COARSE_MARGIN` reaches `floor` and
+    :data:`LIVE_SPREAD` either side (N, B), w): the live bins of
     :func:`acousim.trace.btm_pairs.pair_elements_in`).  Not bounds: what they miss
     is measured, as for :func:`pair_estimate`.  workers: the threads to share the
     pairs among (:func:`acousim.trace.btm_pairs.pair_elements_in`)."""
@@ -429,7 +436,8 @@ def coarse_estimate(
     pad = np.pad(dense, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))
     mean = sum(pad[:, i : i + n_b] for i in range(spread)) / spread
     reach = COARSE_MARGIN * np.maximum(dense, mean) >= floor
-    live = np.zeros_like(reach)
-    for i in range(spread):
-        live |= np.pad(reach, ((0, 0), (COARSE_STEPS, COARSE_STEPS)))[:, i : i + n_b]
+    live = reach.copy()
+    for k in range(1, LIVE_SPREAD + 1):
+        live[:, k:] |= reach[:, :-k]
+        live[:, :-k] |= reach[:, k:]
     return largest, (live, width)
