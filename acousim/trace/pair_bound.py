@@ -330,7 +330,7 @@ def pair_estimate(
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     kernel = optional_kernel("acousim.trace._bound_kernel") if use_kernel else None
     if kernel is not None:
-        z1, _ = shortest_paths(p, source, receiver)
+        z1 = np.ascontiguousarray(shortest_paths(p, source, receiver)[0])  # one signature
         out = np.empty(len(p))
         widths = (float(bin_m), float(excess_m), CORNER_MARGIN)
         kernel.estimates(_point(source), _point(receiver), _columns(p), z1, widths, out)
