@@ -243,6 +243,12 @@ def pair_bound(
         limits = (float(max_excess_m), float(max_path_m), float(bin_m))
         kernel.bounds(_point(source), _point(receiver), _columns(p), limits, out)
         return out
+    return _bound_numpy(p, source, receiver, (max_excess_m, max_path_m, bin_m))
+
+
+def _bound_numpy(p: PairGeometry, source, receiver, limits) -> np.ndarray:
+    """:func:`pair_bound` on whole arrays; limits: (max excess, max path, bin) (m)."""
+    max_excess_m, max_path_m, bin_m = limits
     rs, ts, _, ax1, len1 = _cylindrical(source, p.start1, p.end1, p.face_dir1, p.normal1)
     rr, tr, _, ax2, len2 = _cylindrical(receiver, p.start2, p.end2, p.face_dir2, p.normal2)
     nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
@@ -335,6 +341,12 @@ def pair_estimate(
         widths = (float(bin_m), float(excess_m), CORNER_MARGIN)
         kernel.estimates(_point(source), _point(receiver), _columns(p), z1, widths, out)
         return out
+    return _estimate_numpy(p, source, receiver, (bin_m, excess_m))
+
+
+def _estimate_numpy(p: PairGeometry, source, receiver, widths) -> np.ndarray:
+    """:func:`pair_estimate` on whole arrays; widths: (bin, excess) (m)."""
+    bin_m, excess_m = widths
     ax1, len1 = p.edge1()
     ax2, len2 = p.edge2()
     rs, ts, _ = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
