@@ -51,11 +51,20 @@ estimate times :data:`COARSE_MARGIN` all reach the floor.  Tested in
 ``tests/test_edge_pair_selection.py`` (every pair of a scene integrated in full:
 the bound above each pair's largest bin; the stage's paths above the floor those
 of the full computation).
+
+Both :func:`pair_bound` and :func:`pair_estimate` run compiled, one pass over the
+pairs in scalar math (:mod:`._bound_kernel`, numba, the ``fast`` extra), else on
+whole numpy arrays here; the two agree within rounding
+(``tests/test_pair_bound_kernel.py``).
 """
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
+
+from processing.kernels import optional_kernel
 
 from .btm import DEFAULT_MAX_EXCESS_M
 from .btm_pair_geometry import PairGeometry, _apex, _dot, cylindrical, shortest_paths
@@ -216,15 +225,30 @@ def pair_bound(
     max_excess_m: float,
     max_path_m: float,
     bin_m: float,
+    use_kernel: bool = True,
 ) -> np.ndarray:
     """Upper bound (N,) of the largest bin amplitude (free-field 1/r units at R) of
     each pair's edge-to-edge response (see the module docstring); 0 where no path
     of the pair is within max_path_m.  source, receiver (3,); bin_m: the bins'
-    width in path length (m)."""
+    width in path length (m); use_kernel: the compiled kernel
+    (:mod:`._bound_kernel`) if numba is installed, else (or False) numpy (they
+    agree within rounding)."""
     p = pairs
     n = len(p)
     if n == 0:
         return np.zeros(0)
+    kernel = optional_kernel("acousim.trace._bound_kernel") if use_kernel else None
+    if kernel is not None:
+        out = np.empty(n)
+        limits = (float(max_excess_m), float(max_path_m), float(bin_m))
+        kernel.bounds(_point(source), _point(receiver), _columns(p), limits, out)
+        return out
+    return _bound_numpy(p, source, receiver, (max_excess_m, max_path_m, bin_m))
+
+
+def _bound_numpy(p: PairGeometry, source, receiver, limits) -> np.ndarray:
+    """:func:`pair_bound` on whole arrays; limits: (max excess, max path, bin) (m)."""
+    max_excess_m, max_path_m, bin_m = limits
     rs, ts, _, ax1, len1 = _cylindrical(source, p.start1, p.end1, p.face_dir1, p.normal1)
     rr, tr, _, ax2, len2 = _cylindrical(receiver, p.start2, p.end2, p.face_dir2, p.normal2)
     nu1, nu2 = np.pi / p.angle1, np.pi / p.angle2
@@ -285,6 +309,7 @@ def pair_estimate(
     *,
     bin_m: float,
     excess_m: float = DEFAULT_MAX_EXCESS_M,
+    use_kernel: bool = True,
 ) -> np.ndarray:
     """Estimate (N,) of the largest bin amplitude of each pair (bins of bin_m of
     path length, as :func:`pair_bound`), at the pair's shortest path (z1*, z2*):
@@ -302,12 +327,26 @@ def pair_estimate(
 
     Not a bound (far bins of long edges can exceed the first one); what it misses
     is measured (BENCHMARKS.md, diffraction; ``tests/test_edge_pair_selection.py``),
-    and the stage keeps a margin of :data:`ESTIMATE_MARGIN` on it.
+    and the stage keeps a margin of :data:`ESTIMATE_MARGIN` on it.  use_kernel: as
+    :func:`pair_bound`.
     """
     p = pairs
     if len(p) == 0:
         return np.zeros(0)
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
+    kernel = optional_kernel("acousim.trace._bound_kernel") if use_kernel else None
+    if kernel is not None:
+        z1 = np.ascontiguousarray(shortest_paths(p, source, receiver)[0])  # one signature
+        out = np.empty(len(p))
+        widths = (float(bin_m), float(excess_m), CORNER_MARGIN)
+        kernel.estimates(_point(source), _point(receiver), _columns(p), z1, widths, out)
+        return out
+    return _estimate_numpy(p, source, receiver, (bin_m, excess_m))
+
+
+def _estimate_numpy(p: PairGeometry, source, receiver, widths) -> np.ndarray:
+    """:func:`pair_estimate` on whole arrays; widths: (bin, excess) (m)."""
+    bin_m, excess_m = widths
     ax1, len1 = p.edge1()
     ax2, len2 = p.edge2()
     rs, ts, _ = cylindrical(source, p.start1, ax1, p.face_dir1, p.normal1)
@@ -334,6 +373,20 @@ def pair_estimate(
     tiny = n <= 1e-9 * np.maximum(m, l_)
     out = np.where(tiny, corner, inside)
     return np.where(np.isfinite(out), out, np.inf)
+
+
+def _point(x) -> np.ndarray:
+    """A point (3,) as the kernel takes it (float, contiguous)."""
+    return np.ascontiguousarray(x, float).reshape(3)
+
+
+def _columns(p: PairGeometry) -> tuple:
+    """The arrays of `p` in the order of its fields, as :mod:`._bound_kernel` takes
+    them (float, but `sides`, and contiguous)."""
+    return tuple(
+        np.ascontiguousarray(getattr(p, f.name), int if f.name == "sides" else float)
+        for f in fields(p)
+    )
 
 
 def _bin_area(p: PairGeometry, legs, at, widths) -> np.ndarray:
