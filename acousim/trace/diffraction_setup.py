@@ -42,6 +42,15 @@ class DiffractingGeometry:
     memo: dict = field(default_factory=dict, repr=False, compare=False)
     memo_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
+    def kept(self, key: str, build):
+        """``memo[key]``, built by ``build()`` on first use (under `memo_lock`): for
+        what depends on the geometry alone (not on the caster or the pose)."""
+        with self.memo_lock:
+            value = self.memo.get(key)
+            if value is None:
+                value = self.memo[key] = build()
+        return value
+
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
         refl = world.face_values("reflection")
@@ -92,13 +101,16 @@ class DiffractionOptions:
 class StageContext:
     """One pose's stage: the geometry, the ray caster (None: no occlusion), the
     emitter and receiver (3,), the options, and the caster's distance tolerance and
-    ray offset (m)."""
+    ray offset (m).  `cache`: what the pose's steps find once and share (the edges
+    oriented for the emitter and the receiver, their distances, which probe points
+    each sees: :func:`acousim.trace.first_order.pose_edges`)."""
 
     geometry: DiffractingGeometry
     caster: object
     emitter: np.ndarray
     receiver: np.ndarray
     options: DiffractionOptions
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def tol(self) -> float:

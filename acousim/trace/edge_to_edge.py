@@ -39,7 +39,7 @@ from .btm import DEFAULT_MAX_EXCESS_M
 from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
-from .first_order import probe_points, segment_distance, visible
+from .first_order import pose_edges, probe_seen
 from .pair_bound import (
     COARSE_MARGIN,
     ESTIMATE_MARGIN,
@@ -139,20 +139,14 @@ def _pair_step(opt) -> float:
 def _seen_edges(ctx: StageContext):
     """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
     receiver (as edge 2), kept where convex, within reach and seen."""
-    edges = ctx.geometry.edges
-    keep1, w1 = edges.oriented(ctx.emitter, ctx.emitter)
-    keep2, w2 = edges.oriented(ctx.receiver, ctx.receiver)
-    keep1 &= segment_distance(ctx.emitter, edges.start_m, edges.end_m) < ctx.options.max_path_m
-    keep2 &= segment_distance(ctx.receiver, edges.start_m, edges.end_m) < ctx.options.max_path_m
+    pose = pose_edges(ctx)
+    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m)
+    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m)
     if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
-        for keep, point in ((keep1, ctx.emitter), (keep2, ctx.receiver)):
+        for which, keep in enumerate((keep1, keep2)):
             idx = np.flatnonzero(keep)
-            if idx.size == 0:
-                continue
-            pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
-            seen = visible(ctx.caster, point, pts, ctx.tol).reshape(idx.size, -1).any(axis=1)
-            keep[idx] = seen
-    return keep1, w1, keep2, w2
+            keep[idx] = probe_seen(ctx, which, idx).any(axis=1)
+    return keep1, pose.wedge_e, keep2, pose.wedge_r
 
 
 def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.ndarray]:

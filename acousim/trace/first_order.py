@@ -4,18 +4,23 @@ reflection factors (and frequency-dependent materials) applied."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .btm import EdgeElements, ElementLimits, Wedge, many_edge_elements
 from .diffracted import ELEMENT_FIELDS
 from .diffraction_setup import StageContext
-from .edges import Edges
+from .edges import EdgeFrame, Edges, convex
 
 __all__ = [
     "PROBE_FRACTIONS",
     "edge_bound",
     "edges_in_view",
+    "PoseEdges",
+    "pose_edges",
     "probe_points",
+    "probe_seen",
     "segment_distance",
     "visible",
 ]
@@ -47,14 +52,73 @@ def visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.nd
     return ~((f >= 0) & (t < dist - tol))
 
 
+@dataclass(frozen=True, eq=False)
+class PoseEdges:
+    """What the stage's steps ask of every edge of the geometry for one pose, found
+    once (:func:`pose_edges`): the side of the emitter and of the receiver (E,)
+    (True: the side of face 2, :meth:`Edges.oriented`), the edges oriented for
+    each side and whether that side is a convex wedge, the distances (E,) from
+    the emitter and the receiver to each edge (m), and which probe points of each
+    edge each sees (:func:`probe_seen`)."""
+
+    side_e: np.ndarray
+    side_r: np.ndarray
+    wedge_e: Edges
+    wedge_r: Edges
+    convex_e: np.ndarray
+    convex_r: np.ndarray
+    dist_e: np.ndarray
+    dist_r: np.ndarray
+    seen: np.ndarray  # (2, E, 5) int8: -1 not yet cast, 0 blocked, 1 seen
+
+
+def pose_edges(ctx: StageContext) -> PoseEdges:
+    """The pose's :class:`PoseEdges` (found on first use, kept in ``ctx.cache``)."""
+    got = ctx.cache.get("edges")
+    if got is not None:
+        return got
+    edges = ctx.geometry.edges
+    frame = ctx.geometry.kept("edge_frame", lambda: EdgeFrame.of(edges))
+    side_e = frame.theta(edges, ctx.emitter) > edges.angle_rad
+    side_r = frame.theta(edges, ctx.receiver) > edges.angle_rad
+    wedge_e, wedge_r = frame.turned(edges, side_e), frame.turned(edges, side_r)
+    got = ctx.cache["edges"] = PoseEdges(
+        side_e,
+        side_r,
+        wedge_e,
+        wedge_r,
+        convex(wedge_e),
+        convex(wedge_r),
+        segment_distance(ctx.emitter, edges.start_m, edges.end_m),
+        segment_distance(ctx.receiver, edges.start_m, edges.end_m),
+        np.full((2, len(edges), PROBE_FRACTIONS.size), -1, np.int8),
+    )
+    return got
+
+
+def probe_seen(ctx: StageContext, which: int, idx: np.ndarray) -> np.ndarray:
+    """(len(idx), 5) True where probe point k of edge idx[i] (:data:`PROBE_FRACTIONS`)
+    is seen from the emitter (`which` 0) or the receiver (1): one ray each, cast
+    once a pose (kept in :func:`pose_edges`)."""
+    known = pose_edges(ctx).seen[which]
+    ask = idx[known[idx, 0] < 0]
+    if ask.size:
+        edges = ctx.geometry.edges
+        probes = ctx.geometry.kept("probes", lambda: probe_points(edges.start_m, edges.end_m))
+        point = ctx.emitter if which == 0 else ctx.receiver
+        seen = visible(ctx.caster, point, probes[ask].reshape(-1, 3), ctx.tol)
+        known[ask] = seen.reshape(ask.size, -1)
+    return known[idx] > 0
+
+
 def edges_in_view(
     ctx: StageContext, candidates: np.ndarray
 ) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """BTM elements of the candidate edges (indices) that form a convex wedge on the
     side of the emitter and the receiver and that both see (at one of five points
     along the edge, at least): (elements, the edge of each, counts or None)."""
-    edges = ctx.geometry.edges
-    keep, wedge = edges.oriented(ctx.emitter, ctx.receiver)
+    pose = pose_edges(ctx)
+    keep, wedge = (pose.side_e == pose.side_r) & pose.convex_e, pose.wedge_e
     idx = np.asarray(candidates, int)
     idx = idx[keep[idx]]
     if idx.size and ctx.options.floor_level > 0:
@@ -63,11 +127,8 @@ def edges_in_view(
         bound = edge_bound(ctx, wedge, idx, ctx.emitter)
         idx = idx[bound >= ctx.options.floor_level]
     if idx.size and ctx.caster is not None:
-        pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
-        seen = np.ones(pts.shape[0], bool)
-        for p in (ctx.emitter, ctx.receiver):
-            seen &= visible(ctx.caster, p, pts, ctx.tol)
-        idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
+        seen = probe_seen(ctx, 0, idx) & probe_seen(ctx, 1, idx)
+        idx = idx[seen.any(axis=1)]
     el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter)
     return el, idx[local], counts
 
