@@ -340,22 +340,26 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
     side_of, j, ea_ex, eb_ex = steps
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
-    za, zb, zc = _on_spheroid_many(
-        r.source[edge_of],
-        r.receiver,
-        r.start[edge_of],
-        r.axis[edge_of],
-        l_apex[edge_of] + np.stack([ea_ex, eb_ex, mid_ex]),
+    # the roots at each element's end and centre (its start is the previous
+    # element's end, the same excess path, or the apex for the first), clipped to
+    # the side's span
+    lines = _spheroid_lines(r.source, r.receiver, r.start, r.axis)
+    zb, zc = _spheroid_roots(
+        np.take(lines, edge_of, axis=1),
+        l_apex[edge_of] + np.stack([eb_ex, mid_ex]),
         (side_of % 2) == 1,
     )
-    lo = np.minimum(z_apex[edge_of], z_end[side_of])
-    hi = np.maximum(z_apex[edge_of], z_end[side_of])
-    za, zb, zc = np.clip(za, lo, hi), np.clip(zb, lo, hi), np.clip(zc, lo, hi)
-    za = np.where(j == 0, z_apex[edge_of], za)  # exactly (roots lose precision at the apex)
+    lo = np.minimum(z_apex[side_edge], z_end)
+    hi = np.maximum(z_apex[side_edge], z_end)
+    zb, zc = np.clip(np.stack([zb, zc]), lo[side_of], hi[side_of])
+    first = j == 0
+    za = np.empty_like(zb)
+    za[1:] = zb[:-1]
+    za[first] = z_apex[edge_of[first]]  # exactly (roots lose precision at the apex)
     with np.errstate(invalid="ignore"):
         x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
     taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
-    return _Cuts(edge_of, j == 0, za, zb, zc, taper, z_apex, z_mid)
+    return _Cuts(edge_of, first, za, zb, zc, taper, z_apex, z_mid)
 
 
 def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
@@ -387,8 +391,11 @@ def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: in
 
 
 def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
-    """Steps 3-4: product integration in eta, one impulse per element."""
-    r, g = rows, cuts.row
+    """Steps 3-4: product integration in eta, one impulse per element.  Each
+    element runs from its start to its end in eta; the start of each but the
+    first of its side is the end of the one before, so eta and the primitive are
+    found at the ends of all (K) and at the starts of the first ones."""
+    r, g, n_k = rows, cuts.row, cuts.row.size
     nu = np.pi / r.wedge_rad
     rS = np.where(r.r_s > 0, r.r_s, 1.0)
     rR = np.where(r.r_r > 0, r.r_r, 1.0)
@@ -399,29 +406,30 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     s, c = np.sin(half), np.cos(half)
     flip = s < 0
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
-    # per-element copies of the per-edge values, gathered once
-    rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], r.z_s[g], r.z_r[g], nu[g]
-
-    def eta(z):
-        # cosh(eta) - 1 without cancellation:
-        # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
-        a, b = z - zS_g, z - zR_g
-        ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
-        arg = ((rS_g + rR_g) * (z - cuts.z_mid[g])) ** 2 / (
-            (ml - a * b + rS_g * rR_g) * rS_g * rR_g
-        )
-        return _acosh1p(arg)
-
-    za, zb, zc = cuts.za, cuts.zb, cuts.zc
-    ea, eb = eta(np.stack([za, zb]))
-    ea = np.where(cuts.first, np.where(cuts.z_apex[g] == cuts.z_mid[g], 0.0, ea), ea)
-
-    def prim(e):  # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
-        t = np.tanh(nu_g * e / 2)[..., None]
-        return (np.arctan2(t * c[g], s[g]) * r.weight4[g]).sum(axis=-1)
-
+    first = np.flatnonzero(cuts.first)
+    gg = np.concatenate([g, g[first]])  # every element's end, then the first starts
+    # per-edge values, gathered once for the K + F points
+    rS_g, rR_g, zS_g, zR_g, nu_g, zm_g, sum_g, prod_g = np.take(
+        np.stack([rS, rR, r.z_s, r.z_r, nu, cuts.z_mid, rS + rR, rS * rR]), gg, axis=1
+    )
+    c_g, s_g, w_g = np.take(np.stack([c, s, np.asarray(r.weight4, float)]), gg, axis=1)
+    z = np.concatenate([cuts.zb, cuts.za[first]])
+    # cosh(eta) - 1 without cancellation:
+    # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
+    a, b = z - zS_g, z - zR_g
+    ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
+    e = _acosh1p((sum_g * (z - zm_g)) ** 2 / ((ml - a * b + prod_g) * rS_g * rR_g))
+    e[n_k:] = np.where(cuts.z_apex[g[first]] == cuts.z_mid[g[first]], 0.0, e[n_k:])
+    # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
+    t = np.tanh(nu_g * e / 2)[:, None]
+    prim = (np.arctan2(t * c_g, s_g) * w_g).sum(axis=-1)
+    eb, pb = e[:n_k], prim[:n_k]
+    ea, pa = np.empty(n_k), np.empty(n_k)
+    ea[1:], pa[1:] = eb[:-1], pb[:-1]
+    ea[first], pa[first] = e[n_k:], prim[n_k:]
     # eta grows away from the apex on both sides: each element runs from ea to eb
-    pb, pa = prim(np.stack([eb, ea]))
+    rS_g, rR_g, zS_g, zR_g, nu_g = rS_g[:n_k], rR_g[:n_k], zS_g[:n_k], zR_g[:n_k], nu_g[:n_k]
+    za, zb, zc = cuts.za, cuts.zb, cuts.zc
     integral = (2 / nu_g) * (pb - pa)
     deta = np.abs(eb - ea)
     m_c = np.hypot(rS_g, zc - zS_g)
@@ -435,30 +443,37 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     return EdgeElements(pts_c, m_c[keep], l_c[keep], amp[keep]), g[keep]
 
 
-def _on_spheroid_many(source, receiver, start, axis, path_m, upper):
-    """Positions z along K lines start + z axis (start, axis (K, 3)) where
-    |S - x| + |x - R| = path_m (K,): points of equal path length lie on a spheroid
-    with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 / 4)), whose
-    intersection with a line is a quadratic in z; upper (K,): the larger root (else
-    the smaller).  source, receiver: (3,) or (K, 3); path_m may be (..., K): several
-    path lengths per line, solved at once."""
-    k = np.shape(path_m)[-1]
-    source = np.broadcast_to(source, (k, 3))
-    receiver = np.broadcast_to(receiver, (k, 3))
+def _spheroid_lines(source, receiver, start, axis) -> np.ndarray:
+    """What :func:`_spheroid_roots` needs of L lines start + z axis (start, axis (L,
+    3)) and foci source, receiver ((3,) or (L, 3)): (8, L), see there."""
+    n = np.shape(start)[0]
+    source = np.broadcast_to(source, (n, 3))
+    receiver = np.broadcast_to(receiver, (n, 3))
     centre = 0.5 * (source + receiver)
     focal = receiver - source
     c = 0.5 * np.linalg.norm(focal, axis=1)
     # unit focal axis (zero for a sphere, S = R: then any axis will do)
     u = focal / np.where(c > 0, 2 * c, 1.0)[:, None]
-    a2 = (0.5 * path_m) ** 2
-    b2 = np.maximum(a2 - c * c, 0.0)
     y0 = start - centre
     y0u = np.einsum("ij,ij->i", y0, u)
     eu = np.einsum("ij,ij->i", axis, u)
     y0e = np.einsum("ij,ij->i", y0, axis)
-    q2 = b2 * eu**2 + a2 * (1 - eu**2)
-    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
-    q0 = b2 * y0u**2 + a2 * (np.einsum("ij,ij->i", y0, y0) - y0u**2) - a2 * b2
+    y0y0 = np.einsum("ij,ij->i", y0, y0)
+    return np.stack([c * c, eu**2, 1 - eu**2, y0u, eu, y0e - y0u * eu, y0u**2, y0y0 - y0u**2])
+
+
+def _spheroid_roots(lines: np.ndarray, path_m: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Positions z along K lines (`lines` (8, K): :func:`_spheroid_lines` of each)
+    where |S - x| + |x - R| = path_m (..., K): points of equal path length lie on a
+    spheroid with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 /
+    4)), whose intersection with a line is a quadratic in z; upper (K,): the larger
+    root (else the smaller)."""
+    c2, eu2, one_eu2, y0u, eu, y0e_u, y0u2, y0y0_u = lines
+    a2 = (0.5 * path_m) ** 2
+    b2 = np.maximum(a2 - c2, 0.0)
+    q2 = b2 * eu2 + a2 * one_eu2
+    q1 = 2 * (b2 * y0u * eu + a2 * y0e_u)
+    q0 = b2 * y0u2 + a2 * y0y0_u - a2 * b2
     root = np.sqrt(np.maximum(q1**2 - 4 * q2 * q0, 0.0))
     return (-q1 + np.where(upper, root, -root)) / (2 * q2)
 
