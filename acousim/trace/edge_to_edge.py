@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
+from .btm_pair_geometry import segment_axes
 from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
@@ -159,7 +160,8 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     good = table.over_a_face(ctx, w1, at)
     i, j, shared = i[good], j[good], shared[good]
     plane = np.asarray(ctx.geometry.face_plane, int)
-    faces = ctx.geometry.edges.faces
+    edges = ctx.geometry.edges
+    faces = edges.faces
     th12 = np.where(plane[w1.faces[i, 0]] == shared, 0.0, w1.angle_rad[i])
     th21 = np.where(plane[w2.faces[j, 0]] == shared, 0.0, w2.angle_rad[j])
     rim = faces[:, 1] < 0
@@ -168,13 +170,15 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     t2, c2, o2 = _parts(ctx, w2, j)
     # every pair of parts: a row
     q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+    iq, jq = i[q], j[q]
+    axis, length = ctx.geometry.kept("edge_axes", lambda: segment_axes(edges.start_m, edges.end_m))
     rows = PairGeometry(
-        w1.start_m[i[q]], w1.end_m[i[q]], w2.start_m[j[q]], w2.end_m[j[q]],
-        w1.face_dir[i[q]], w1.normal[i[q]], w2.face_dir[j[q]], w2.normal[j[q]],
-        w1.angle_rad[i[q]], w2.angle_rad[j[q]], th12[q], th21[q],
+        w1.start_m[iq], w1.end_m[iq], w2.start_m[jq], w2.end_m[jq],
+        w1.face_dir[iq], w1.normal[iq], w2.face_dir[jq], w2.normal[jq],
+        w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q],
         t1[q, u], t2[q, v], sides[q],
-    )  # fmt: skip
-    return rows, j[q], np.column_stack([c1[q, u], c2[q, v]])
+    ).with_axes((axis[iq], length[iq]), (axis[jq], length[jq]))  # fmt: skip
+    return rows, jq, np.column_stack([c1[q, u], c2[q, v]])
 
 
 @dataclass(frozen=True, eq=False)
