@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "EdgeCoordinates",
     "EdgeElements",
     "EdgeRows",
     "integrate_rows",
@@ -203,40 +204,73 @@ def edge_elements(
     return el
 
 
+@dataclass(frozen=True, eq=False)
+class EdgeCoordinates:
+    """E edges' unit axes (E, 3) and lengths (E,) (m), and the cylindrical
+    coordinates (r, theta, z) (E,) each of a source and of a receiver about each
+    edge (theta in [0, 2 pi) from face 1 towards its normal, z along the edge from
+    its start), as :func:`many_edge_elements` finds them."""
+
+    axis: np.ndarray
+    length: np.ndarray
+    source: tuple[np.ndarray, np.ndarray, np.ndarray]
+    receiver: tuple[np.ndarray, np.ndarray, np.ndarray]
+
+    @classmethod
+    def of(cls, start, end, face_dir, normal, source, receiver) -> EdgeCoordinates:
+        """Those of edges start-end (E, 3) with face 1's direction and normal (E, 3),
+        for a source (3,) or (E, 3) and a receiver (3,)."""
+        length = np.linalg.norm(end - start, axis=1)
+        axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
+
+        def cyl(p):
+            d = p - start
+            z = np.einsum("ij,ij->i", d, axis)
+            v = d - z[:, None] * axis
+            th = np.arctan2(np.einsum("ij,ij->i", v, normal), np.einsum("ij,ij->i", v, face_dir))
+            return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
+
+        return cls(axis, length, cyl(source), cyl(receiver))
+
+    def take(self, keep: np.ndarray) -> EdgeCoordinates:
+        """Those of the edges at `keep` (indices or a mask)."""
+        return EdgeCoordinates(
+            self.axis[keep],
+            self.length[keep],
+            tuple(x[keep] for x in self.source),
+            tuple(x[keep] for x in self.receiver),
+        )
+
+
 def many_edge_elements(
     wedges: Wedge,
     source: np.ndarray,
     receiver: np.ndarray,
     limits: ElementLimits = DEFAULT_LIMITS,
+    known: EdgeCoordinates | None = None,
 ) -> tuple[EdgeElements, np.ndarray]:
     """:func:`edge_elements` of E wedges at once (`wedges`' fields with a leading
     axis of E); one receiver (3,) and one source (3,) or one per edge (E, 3).
     Returns the elements of all edges and the edge index (K,) of each.  The wedges'
     `terms` (E, 4), if given, weigh the four terms of each edge in place of
-    ``(R2, 1, 1, R1)`` (a part of the response alone: the image term of one face)."""
+    ``(R2, 1, 1, R1)`` (a part of the response alone: the image term of one face).
+    known: the wedges' :class:`EdgeCoordinates` for this source and receiver, if
+    already found (None: found here)."""
     start, end = np.asarray(wedges.start_m, float), np.asarray(wedges.end_m, float)
     face_dir, normal = np.asarray(wedges.face_dir, float), np.asarray(wedges.normal, float)
     wedge_rad = np.asarray(wedges.angle_rad, float)
     n_e = wedge_rad.size
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     reflection = np.broadcast_to(np.asarray(wedges.reflection, float), (n_e, 2))
-    length = np.linalg.norm(end - start, axis=1)
-    axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
-
-    def cyl(p):
-        d = p - start
-        z = np.einsum("ij,ij->i", d, axis)
-        v = d - z[:, None] * axis
-        th = np.arctan2(np.einsum("ij,ij->i", v, normal), np.einsum("ij,ij->i", v, face_dir))
-        return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
-
+    if known is None:
+        known = EdgeCoordinates.of(start, end, face_dir, normal, source, receiver)
     weight4 = (
         np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
         if wedges.terms is None
         else np.asarray(wedges.terms, float)
     )
     rows = EdgeRows(
-        start, axis, length, wedge_rad, *cyl(source), *cyl(receiver),
+        start, known.axis, known.length, wedge_rad, *known.source, *known.receiver,
         np.broadcast_to(source, (n_e, 3)), receiver, weight4,
     )  # fmt: skip
     return integrate_rows(

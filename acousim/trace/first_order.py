@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .btm import EdgeElements, ElementLimits, Wedge, many_edge_elements
+from .btm import EdgeCoordinates, EdgeElements, ElementLimits, Wedge, many_edge_elements
 from .diffracted import ELEMENT_FIELDS
 from .diffraction_setup import StageContext
 from .edges import EdgeFrame, Edges, convex
@@ -121,19 +121,28 @@ def edges_in_view(
     keep, wedge = (pose.side_e == pose.side_r) & pose.convex_e, pose.wedge_e
     idx = np.asarray(candidates, int)
     idx = idx[keep[idx]]
+    # the edges' axes and the emitter's and receiver's coordinates about them, found
+    # once for the bound and the elements
+    known = _coordinates(ctx, wedge, idx, ctx.emitter)
     if idx.size and ctx.options.floor_level > 0:
         # no element of these edges can reach the floor (which lies at or above
         # floor_level): they are left out before their rays and their elements
-        bound = edge_bound(ctx, wedge, idx, ctx.emitter)
-        idx = idx[bound >= ctx.options.floor_level]
+        reach = edge_bound(ctx, wedge, idx, ctx.emitter, known) >= ctx.options.floor_level
+        idx, known = idx[reach], known.take(reach)
     if idx.size and ctx.caster is not None:
-        seen = probe_seen(ctx, 0, idx) & probe_seen(ctx, 1, idx)
-        idx = idx[seen.any(axis=1)]
-    el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter)
+        seen = (probe_seen(ctx, 0, idx) & probe_seen(ctx, 1, idx)).any(axis=1)
+        idx, known = idx[seen], known.take(seen)
+    el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter, known)
     return el, idx[local], counts
 
 
-def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray):
+def edge_bound(
+    ctx: StageContext,
+    wedge: Edges,
+    rows: np.ndarray,
+    source: np.ndarray,
+    known: EdgeCoordinates | None = None,
+):
     """An upper bound (R,) of |amplitude| of every BTM element of the oriented edges
     `wedge` at `rows` for `source` (3,) and the receiver (those of
     :func:`wedge_elements`, whichever of their terms it computes).
@@ -152,10 +161,13 @@ def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.nda
     of the elements computed (the bound reaches 0.9997 of the largest element at
     most, where the element at a clipped apex is short).
     ``tests/test_first_order_bound.py`` checks it against every edge's largest
-    element (random boxes and plates, corridor poses)."""
-    length = np.linalg.norm(wedge.end_m[rows] - wedge.start_m[rows], axis=1)
+    element (random boxes and plates, corridor poses).  known: the rows'
+    :class:`EdgeCoordinates` for `source` and the receiver (None: found here)."""
+    if known is None:
+        known = _coordinates(ctx, wedge, rows, source)
+    length = known.length
     nu = np.pi / wedge.angle_rad[rows]
-    (rs, ts, zs), (rr, tr, zr) = (_cylindrical(wedge, rows, p) for p in (source, ctx.receiver))
+    (rs, ts, zs), (rr, tr, zr) = known.source, known.receiver
     half = nu[:, None] * (np.pi + np.stack([ts + tr, ts - tr, -ts + tr, -ts - tr], axis=1)) / 2
     R1, R2 = _face_reflections(ctx, wedge, rows)
     w = np.abs(np.column_stack([R2, np.ones(rows.size), np.ones(rows.size), R1]))
@@ -186,19 +198,17 @@ def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.nda
     return np.where(np.isnan(bound), np.inf, bound)
 
 
-def _cylindrical(wedge: Edges, rows: np.ndarray, p: np.ndarray):
-    """(r, theta, z) (R,) of point p (3,) about the edges `wedge` at `rows` (theta
-    from face 1 towards its normal, z from the start)."""
-    start = wedge.start_m[rows]
-    axis = wedge.end_m[rows] - start
-    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
-    v = p - start
-    z = np.einsum("ij,ij->i", v, axis)
-    v -= z[:, None] * axis
-    th = np.arctan2(
-        np.einsum("ij,ij->i", v, wedge.normal[rows]), np.einsum("ij,ij->i", v, wedge.face_dir[rows])
+def _coordinates(ctx: StageContext, wedge: Edges, rows: np.ndarray, source) -> EdgeCoordinates:
+    """:class:`EdgeCoordinates` of the edges `wedge` at `rows` for `source` (3,) or
+    (R, 3) and the receiver."""
+    return EdgeCoordinates.of(
+        wedge.start_m[rows],
+        wedge.end_m[rows],
+        wedge.face_dir[rows],
+        wedge.normal[rows],
+        source,
+        ctx.receiver,
     )
-    return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
 
 
 def _face_reflections(ctx: StageContext, wedge: Edges, rows: np.ndarray):
@@ -211,7 +221,11 @@ def _face_reflections(ctx: StageContext, wedge: Edges, rows: np.ndarray):
 
 
 def wedge_elements(
-    ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray
+    ctx: StageContext,
+    wedge: Edges,
+    rows: np.ndarray,
+    source: np.ndarray,
+    known: EdgeCoordinates | None = None,
 ) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """:func:`many_edge_elements` of the oriented edges `wedge` at `rows` for
     `source` (3,) or one per row (R, 3) and the receiver, each with the reflection
@@ -222,24 +236,28 @@ def wedge_elements(
     tables) the image term of each such face is an element of its own, which counts
     one interaction in that column (so the path response applies the table: see
     :mod:`acousim.core.materials`), and the rest of the element another.  Returns
-    (elements, their rows' local indices (K,), counts (K, C) or None)."""
+    (elements, their rows' local indices (K,), counts (K, C) or None).  known: the
+    rows' :class:`EdgeCoordinates` for `source` and the receiver (None: found in
+    :func:`many_edge_elements`)."""
     face_column = ctx.geometry.face_column
     R1, R2 = _face_reflections(ctx, wedge, rows)
     every, one = np.arange(rows.size), np.ones(rows.size)
 
     def part(sel, terms):
+        at = rows if sel is every else rows[sel]
         return many_edge_elements(
             Wedge(
-                wedge.start_m[rows[sel]],
-                wedge.end_m[rows[sel]],
-                wedge.face_dir[rows[sel]],
-                wedge.normal[rows[sel]],
-                wedge.angle_rad[rows[sel]],
+                wedge.start_m[at],
+                wedge.end_m[at],
+                wedge.face_dir[at],
+                wedge.normal[at],
+                wedge.angle_rad[at],
                 terms=terms,
             ),
             source if np.ndim(source) == 1 else source[sel],
             ctx.receiver,
             ElementLimits(step_m=ctx.options.step_m, max_path_m=ctx.options.max_path_m),
+            None if known is None else known if sel is every else known.take(sel),
         )
 
     if face_column is None:
