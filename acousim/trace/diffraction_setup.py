@@ -37,18 +37,23 @@ class DiffractingGeometry:
     face_plane: np.ndarray | None = None
     face_column: np.ndarray | None = None
     plane_column: np.ndarray | None = None
-    #: what the stage keeps between poses (edge to edge's pair table): one entry a
-    #: kind, replaced when its caster or tolerance changes; guarded by `memo_lock`
+    #: what the stage keeps between poses (edge to edge's pair table, replaced when
+    #: its caster or tolerance changes; per-edge constants: :meth:`kept`); guarded
+    #: by `memo_lock`
     memo: dict = field(default_factory=dict, repr=False, compare=False)
     memo_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     def kept(self, key: str, build):
-        """``memo[key]``, built by ``build()`` on first use (under `memo_lock`): for
-        what depends on the geometry alone (not on the caster or the pose)."""
+        """``memo[key]``, built by ``build()`` on first use: for what depends on the
+        geometry alone (not on the caster or the pose).  Built outside `memo_lock`
+        (a build may ask for another entry); two threads that build one at once
+        keep the first (builds are deterministic)."""
         with self.memo_lock:
             value = self.memo.get(key)
-            if value is None:
-                value = self.memo[key] = build()
+        if value is None:
+            value = build()
+            with self.memo_lock:
+                value = self.memo.setdefault(key, value)
         return value
 
     @classmethod

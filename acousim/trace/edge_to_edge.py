@@ -40,7 +40,7 @@ from .btm_pair_geometry import segment_axes
 from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
-from .first_order import pose_edges, probe_seen
+from .first_order import edge_frame, pose_edges, probe_seen
 from .pair_bound import (
     COARSE_MARGIN,
     ESTIMATE_MARGIN,
@@ -156,29 +156,50 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     keep1, w1, keep2, w2 = _seen_edges(ctx)
     table = _pair_table(ctx)
     at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    at = at[table.over_a_face(ctx, w1, at)]
     i, j, shared = table.i[at], table.j[at], table.shared[at]
-    good = table.over_a_face(ctx, w1, at)
-    i, j, shared = i[good], j[good], shared[good]
     plane = np.asarray(ctx.geometry.face_plane, int)
     edges = ctx.geometry.edges
-    faces = edges.faces
     th12 = np.where(plane[w1.faces[i, 0]] == shared, 0.0, w1.angle_rad[i])
     th21 = np.where(plane[w2.faces[j, 0]] == shared, 0.0, w2.angle_rad[j])
-    rim = faces[:, 1] < 0
+    rim = edges.faces[:, 1] < 0
     sides = np.where(rim[i] & rim[j], 2, 1)
-    t1, c1, o1 = _parts(ctx, w1, i)
-    t2, c2, o2 = _parts(ctx, w2, j)
-    # every pair of parts: a row
-    q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+    # the parts of each wedge (its table of parts either way round, per geometry)
+    terms, column, exists = _part_table(ctx)
+    pose = pose_edges(ctx)
+    s1, s2 = pose.side_e[i].astype(np.intp), pose.side_r[j].astype(np.intp)
+    if ctx.geometry.face_column is None:  # one part a wedge: a row a pair
+        q, t1, t2 = np.arange(i.size), terms[s1, i, 0], terms[s2, j, 0]
+        columns = np.full((i.size, 2), -1)
+    else:  # every pair of parts: a row
+        o1, o2 = exists[s1, i], exists[s2, j]
+        q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+        t1, t2 = terms[s1[q], i[q], u], terms[s2[q], j[q], v]
+        columns = np.column_stack([column[s1[q], i[q], u], column[s2[q], j[q], v]])
     iq, jq = i[q], j[q]
     axis, length = ctx.geometry.kept("edge_axes", lambda: segment_axes(edges.start_m, edges.end_m))
     rows = PairGeometry(
         w1.start_m[iq], w1.end_m[iq], w2.start_m[jq], w2.end_m[jq],
         w1.face_dir[iq], w1.normal[iq], w2.face_dir[jq], w2.normal[jq],
-        w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q],
-        t1[q, u], t2[q, v], sides[q],
+        w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q], t1, t2, sides[q],
     ).with_axes((axis[iq], length[iq]), (axis[jq], length[jq]))  # fmt: skip
-    return rows, jq, np.column_stack([c1[q, u], c2[q, v]])
+    return rows, jq, columns
+
+
+def _part_table(ctx: StageContext):
+    """:func:`_parts` of every edge of the geometry as listed (index 0) and turned
+    (1): terms (2, E, 3, 4), table column (2, E, 3), which parts exist (2, E, 3)
+    (per geometry, kept in its memo)."""
+
+    def build():
+        edges, frame = ctx.geometry.edges, edge_frame(ctx.geometry)
+        every = np.arange(len(edges))
+        both = [
+            _parts(ctx, frame.turned(edges, np.full(every.size, f, bool)), every) for f in (0, 1)
+        ]
+        return tuple(np.stack(x) for x in zip(*both))
+
+    return ctx.geometry.kept("edge_parts", build)
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,6 +16,7 @@ from .edges import EdgeFrame, Edges, convex
 __all__ = [
     "PROBE_FRACTIONS",
     "edge_bound",
+    "edge_frame",
     "edges_in_view",
     "PoseEdges",
     "pose_edges",
@@ -72,13 +73,18 @@ class PoseEdges:
     seen: np.ndarray  # (2, E, 5) int8: -1 not yet cast, 0 blocked, 1 seen
 
 
+def edge_frame(geometry) -> EdgeFrame:
+    """The :class:`EdgeFrame` of the geometry's edges (kept in its memo)."""
+    return geometry.kept("edge_frame", lambda: EdgeFrame.of(geometry.edges))
+
+
 def pose_edges(ctx: StageContext) -> PoseEdges:
     """The pose's :class:`PoseEdges` (found on first use, kept in ``ctx.cache``)."""
     got = ctx.cache.get("edges")
     if got is not None:
         return got
     edges = ctx.geometry.edges
-    frame = ctx.geometry.kept("edge_frame", lambda: EdgeFrame.of(edges))
+    frame = edge_frame(ctx.geometry)
     side_e = frame.theta(edges, ctx.emitter) > edges.angle_rad
     side_r = frame.theta(edges, ctx.receiver) > edges.angle_rad
     wedge_e, wedge_r = frame.turned(edges, side_e), frame.turned(edges, side_r)
