@@ -89,9 +89,12 @@ def diffract(
     floor = max(top * 10 ** (options.floor_db / 20), options.floor_level)
     strong = np.abs(el.amplitude) >= floor
     ok = strong.copy()
-    ok[strong] = visible(caster, emitter, el.point_m[strong], ctx.tol) & visible(
-        caster, receiver, el.point_m[strong], ctx.tol
+    pts = el.point_m[strong]
+    ends = np.concatenate(
+        [np.broadcast_to(emitter, pts.shape), np.broadcast_to(receiver, pts.shape)]
     )
+    free = visible(caster, ends, np.concatenate([pts, pts]), ctx.tol)  # one batch
+    ok[strong] = free[: len(pts)] & free[len(pts) :]
     out = [element_paths(el, owner, ok, emitter, counts)]
     # 4. edge to edge
     if options.order >= 2 and geometry.face_plane is not None:

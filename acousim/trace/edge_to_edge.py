@@ -144,9 +144,9 @@ def _seen_edges(ctx: StageContext):
     keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m)
     keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m)
     if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
-        for which, keep in enumerate((keep1, keep2)):
-            idx = np.flatnonzero(keep)
-            keep[idx] = probe_seen(ctx, which, idx).any(axis=1)
+        idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
+        seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
+        keep1[idx1], keep2[idx2] = seen1.any(axis=1), seen2.any(axis=1)
     return keep1, pose.wedge_e, keep2, pose.wedge_r
 
 

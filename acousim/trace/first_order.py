@@ -102,19 +102,28 @@ def pose_edges(ctx: StageContext) -> PoseEdges:
     return got
 
 
-def probe_seen(ctx: StageContext, which: int, idx: np.ndarray) -> np.ndarray:
-    """(len(idx), 5) True where probe point k of edge idx[i] (:data:`PROBE_FRACTIONS`)
-    is seen from the emitter (`which` 0) or the receiver (1): one ray each, cast
-    once a pose (kept in :func:`pose_edges`)."""
-    known = pose_edges(ctx).seen[which]
-    ask = idx[known[idx, 0] < 0]
-    if ask.size:
+def probe_seen(ctx: StageContext, *asks: tuple[int, np.ndarray]) -> list[np.ndarray]:
+    """For each (which, idx) of `asks`: (len(idx), 5) True where probe point k of
+    edge idx[i] (:data:`PROBE_FRACTIONS`) is seen from the emitter (`which` 0) or
+    the receiver (1).  One ray each, cast once a pose (kept in :func:`pose_edges`),
+    the rays not cast before for all `asks` in one batch."""
+    seen = pose_edges(ctx).seen
+    casts = [(which, idx[seen[which][idx, 0] < 0]) for which, idx in asks]
+    casts = [(which, ask) for which, ask in casts if ask.size]
+    if casts:
         edges = ctx.geometry.edges
         probes = ctx.geometry.kept("probes", lambda: probe_points(edges.start_m, edges.end_m))
-        point = ctx.emitter if which == 0 else ctx.receiver
-        seen = visible(ctx.caster, point, probes[ask].reshape(-1, 3), ctx.tol)
-        known[ask] = seen.reshape(ask.size, -1)
-    return known[idx] > 0
+        points = [probes[ask].reshape(-1, 3) for _, ask in casts]
+        origins = [
+            np.broadcast_to(ctx.emitter if which == 0 else ctx.receiver, pts.shape)
+            for (which, _), pts in zip(casts, points)
+        ]
+        free = visible(ctx.caster, np.concatenate(origins), np.concatenate(points), ctx.tol)
+        for (which, ask), part in zip(
+            casts, np.split(free, np.cumsum([p.shape[0] for p in points])[:-1])
+        ):
+            seen[which][ask] = part.reshape(ask.size, -1)
+    return [seen[which][idx] > 0 for which, idx in asks]
 
 
 def edges_in_view(
@@ -136,7 +145,8 @@ def edges_in_view(
         reach = edge_bound(ctx, wedge, idx, ctx.emitter, known) >= ctx.options.floor_level
         idx, known = idx[reach], known.take(reach)
     if idx.size and ctx.caster is not None:
-        seen = (probe_seen(ctx, 0, idx) & probe_seen(ctx, 1, idx)).any(axis=1)
+        from_e, from_r = probe_seen(ctx, (0, idx), (1, idx))
+        seen = (from_e & from_r).any(axis=1)
         idx, known = idx[seen], known.take(seen)
     el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter, known)
     return el, idx[local], counts
