@@ -110,6 +110,9 @@ class PairGeometry:
     def take(self, keep: np.ndarray) -> PairGeometry:
         """The pairs at `keep` (indices or a mask), with the shortest paths found for
         these (:func:`shortest_paths`) and the edges' axes, if any."""
+        keep = np.asarray(keep)
+        if keep.dtype == bool:  # indices: each field is gathered faster
+            keep = np.flatnonzero(keep)
         out = PairGeometry(*(getattr(self, name)[keep] for name in _FIELDS))
         memo = self.__dict__.get("_shortest")
         if memo is not None:

@@ -30,10 +30,14 @@ __all__ = [
 PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
 
 
-def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance (E,) from a point (3,) to segments a-b (E, 3)."""
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+def segment_distance(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, span: tuple | None = None
+) -> np.ndarray:
+    """Distance (E,) from a point (3,) to segments a-b (E, 3); span: (b - a, |b -
+    a|^2) if known (None: found here)."""
+    ab, ab2 = (b - a, None) if span is None else span
+    ab2 = np.einsum("ij,ij->i", ab, ab) if ab2 is None else ab2
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / ab2, 0, 1)
     return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
 
 
@@ -60,7 +64,8 @@ class PoseEdges:
     (True: the side of face 2, :meth:`Edges.oriented`), the edges oriented for
     each side and whether that side is a convex wedge, the distances (E,) from
     the emitter and the receiver to each edge (m), and which probe points of each
-    edge each sees (:func:`probe_seen`)."""
+    edge each sees (:func:`probe_seen`).  Shared by the steps: not to be changed
+    (``convex_r`` and ``wedge_r`` may be ``convex_e`` and ``wedge_e``)."""
 
     side_e: np.ndarray
     side_r: np.ndarray
@@ -87,19 +92,30 @@ def pose_edges(ctx: StageContext) -> PoseEdges:
     frame = edge_frame(ctx.geometry)
     side_e = frame.theta(edges, ctx.emitter) > edges.angle_rad
     side_r = frame.theta(edges, ctx.receiver) > edges.angle_rad
-    wedge_e, wedge_r = frame.turned(edges, side_e), frame.turned(edges, side_r)
+    wedge_e = frame.turned(edges, side_e)
+    # the emitter and the receiver are mostly on the same side of every edge
+    same = np.array_equal(side_e, side_r)
+    wedge_r = wedge_e if same else frame.turned(edges, side_r)
+    convex_e = convex(wedge_e)
+    span = ctx.geometry.kept("edge_span", lambda: _span(edges))
     got = ctx.cache["edges"] = PoseEdges(
         side_e,
         side_r,
         wedge_e,
         wedge_r,
-        convex(wedge_e),
-        convex(wedge_r),
-        segment_distance(ctx.emitter, edges.start_m, edges.end_m),
-        segment_distance(ctx.receiver, edges.start_m, edges.end_m),
+        convex_e,
+        convex_e if same else convex(wedge_r),
+        segment_distance(ctx.emitter, edges.start_m, edges.end_m, span),
+        segment_distance(ctx.receiver, edges.start_m, edges.end_m, span),
         np.full((2, len(edges), PROBE_FRACTIONS.size), -1, np.int8),
     )
     return got
+
+
+def _span(edges: Edges) -> tuple[np.ndarray, np.ndarray]:
+    """(end - start (E, 3), its squared length (E,)) of every edge."""
+    ab = edges.end_m - edges.start_m
+    return ab, np.einsum("ij,ij->i", ab, ab)
 
 
 def probe_seen(ctx: StageContext, *asks: tuple[int, np.ndarray]) -> list[np.ndarray]:
