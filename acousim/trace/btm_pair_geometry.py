@@ -113,14 +113,15 @@ class PairGeometry:
         keep = np.asarray(keep)
         if keep.dtype == bool:  # indices: each field is gathered faster
             keep = np.flatnonzero(keep)
-        out = PairGeometry(*(getattr(self, name)[keep] for name in _FIELDS))
+        # (np.take gathers rows much faster than indexing does)
+        out = PairGeometry(*(np.take(getattr(self, name), keep, axis=0) for name in _FIELDS))
         memo = self.__dict__.get("_shortest")
         if memo is not None:
             object.__setattr__(out, "_shortest", (memo[0], memo[1][keep], memo[2][keep]))
         for key in ("_edge1", "_edge2"):
             axis = self.__dict__.get(key)
             if axis is not None:
-                object.__setattr__(out, key, (axis[0][keep], axis[1][keep]))
+                object.__setattr__(out, key, (np.take(axis[0], keep, axis=0), axis[1][keep]))
         return out
 
     def with_axes(self, edge1, edge2) -> PairGeometry:

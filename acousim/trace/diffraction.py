@@ -89,7 +89,7 @@ def diffract(
     floor = max(top * 10 ** (options.floor_db / 20), options.floor_level)
     strong = np.abs(el.amplitude) >= floor
     ok = strong.copy()
-    pts = el.point_m[strong]
+    pts = np.take(el.point_m, np.flatnonzero(strong), axis=0)
     ends = np.concatenate(
         [np.broadcast_to(emitter, pts.shape), np.broadcast_to(receiver, pts.shape)]
     )

@@ -178,11 +178,15 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
         columns = np.column_stack([column[s1[q], i[q], u], column[s2[q], j[q], v]])
     iq, jq = i[q], j[q]
     axis, length = ctx.geometry.kept("edge_axes", lambda: segment_axes(edges.start_m, edges.end_m))
+
+    def at(x, k):  # rows of x (np.take gathers them much faster than indexing does)
+        return np.take(x, k, axis=0)
+
     rows = PairGeometry(
-        w1.start_m[iq], w1.end_m[iq], w2.start_m[jq], w2.end_m[jq],
-        w1.face_dir[iq], w1.normal[iq], w2.face_dir[jq], w2.normal[jq],
+        at(w1.start_m, iq), at(w1.end_m, iq), at(w2.start_m, jq), at(w2.end_m, jq),
+        at(w1.face_dir, iq), at(w1.normal, iq), at(w2.face_dir, jq), at(w2.normal, jq),
         w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q], t1, t2, sides[q],
-    ).with_axes((axis[iq], length[iq]), (axis[jq], length[jq]))  # fmt: skip
+    ).with_axes((at(axis, iq), length[iq]), (at(axis, jq), length[jq]))  # fmt: skip
     return rows, jq, columns
 
 

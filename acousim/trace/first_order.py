@@ -129,7 +129,7 @@ def probe_seen(ctx: StageContext, *asks: tuple[int, np.ndarray]) -> list[np.ndar
     if casts:
         edges = ctx.geometry.edges
         probes = ctx.geometry.kept("probes", lambda: probe_points(edges.start_m, edges.end_m))
-        points = [probes[ask].reshape(-1, 3) for _, ask in casts]
+        points = [np.take(probes, ask, axis=0).reshape(-1, 3) for _, ask in casts]
         origins = [
             np.broadcast_to(ctx.emitter if which == 0 else ctx.receiver, pts.shape)
             for (which, _), pts in zip(casts, points)
