@@ -39,9 +39,12 @@ class DiffractingGeometry:
     plane_column: np.ndarray | None = None
     #: what the stage keeps between poses (edge to edge's pair table, replaced when
     #: its caster or tolerance changes; per-edge constants: :meth:`kept`); guarded
-    #: by `memo_lock`
-    memo: dict = field(default_factory=dict, repr=False, compare=False)
-    memo_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    #: by `memo_lock`; a geometry made from another (dataclasses.replace) starts
+    #: with its own
+    memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    memo_lock: threading.Lock = field(
+        default_factory=threading.Lock, init=False, repr=False, compare=False
+    )
 
     def kept(self, key: str, build):
         """``memo[key]``, built by ``build()`` on first use: for what depends on the
