@@ -416,11 +416,8 @@ def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: in
     side_of = np.repeat(sides, counts)  # per element
     offset = np.cumsum(counts) - counts
     j = np.arange(side_of.size) - np.repeat(offset, counts)  # element index within its side
-    eb_ex = np.where(
-        j + 1 < np.repeat(counts, counts),
-        template[np.minimum(j + 1, template.size - 1)],
-        e_end[side_of],
-    )
+    eb_ex = template[np.minimum(j + 1, template.size - 1)]
+    eb_ex[offset + counts - 1] = e_end[sides]  # the last of each side ends at its end
     return side_of, j, template[j], eb_ex
 
 

@@ -85,9 +85,9 @@ def diffract(
     near = pose.dist_e + pose.dist_r
     el, owner, counts = edges_in_view(ctx, np.flatnonzero(near <= options.max_path_m))
     # 3. visibility both ways (of the elements above the floor)
-    top = np.abs(el.amplitude).max(initial=0.0)
-    floor = max(top * 10 ** (options.floor_db / 20), options.floor_level)
-    strong = np.abs(el.amplitude) >= floor
+    size = np.abs(el.amplitude)
+    floor = max(size.max(initial=0.0) * 10 ** (options.floor_db / 20), options.floor_level)
+    strong = size >= floor
     ok = strong.copy()
     pts = np.take(el.point_m, np.flatnonzero(strong), axis=0)
     ends = np.concatenate(

@@ -209,17 +209,17 @@ def edge_bound(
         z_apex = np.clip(z_mid, 0.0, length)
         # cosh(eta) at the apex (eta grows away from it): cosh(nu eta) at least that
         a, b = z_apex - zs, z_apex - zr
-        arg = ((rs + rr) * (z_apex - z_mid)) ** 2 / (
-            (np.hypot(rs, a) * np.hypot(rr, b) - a * b + rs * rr) * rs * rr
-        )
+        m, l_ = np.hypot(rs, a), np.hypot(rr, b)
+        arg = ((rs + rr) * (z_apex - z_mid)) ** 2 / ((m * l_ - a * b + rs * rr) * rs * rr)
         cosh_nu = np.cosh(nu * np.arccosh(1 + np.maximum(arg, 0.0)))[:, None]
         # |sin(nu phi)| / (cosh(nu eta) - cos(nu phi)), |cot(nu phi / 2)| at eta = 0
-        term = np.abs(np.sin(2 * half)) / (cosh_nu - np.cos(2 * half))
-        term = np.where(cosh_nu - np.cos(2 * half) > 1e-12 * cosh_nu, term, np.inf)
+        nu_phi = 2 * half
+        gap = cosh_nu - np.cos(nu_phi)
+        term = np.where(gap > 1e-12 * cosh_nu, np.abs(np.sin(nu_phi)) / gap, np.inf)
         c = nu / (4 * np.pi) * np.where(w > 0, w * term, 0.0).sum(axis=1)
         # the element's span: the excess path e(z) from the apex is convex with
         # e'' >= kappa and e' >= its slope at the apex (0 at an inner apex)
-        slope = np.abs(a / np.hypot(rs, a) + b / np.hypot(rr, b)) * (z_apex != z_mid)
+        slope = np.abs(a / m + b / l_) * (z_apex != z_mid)
         far_s = np.maximum(np.hypot(rs, zs), np.hypot(rs, length - zs))
         far_r = np.maximum(np.hypot(rr, zr), np.hypot(rr, length - zr))
         kappa = (rs / far_s) ** 2 / far_s + (rr / far_r) ** 2 / far_r
