@@ -88,12 +88,12 @@ def test_corridor_bound_holds_and_the_paths_are_the_same(corridor, monkeypatch):
     poses = [sim.scene.sensor.poses[i] for i in (3, 15, 27)]
     seen = []
 
-    def checking(ctx, wedge, rows, source):
+    def checking(ctx, wedge, rows, source, known=None):
         largest, bound = _largest_and_bound(ctx)
         assert np.all(largest <= bound)
         # the floor leaves out some edges: the bound is of use
         seen.append((int(np.sum(bound < ctx.options.floor_level)), largest.size))
-        return EDGE_BOUND(ctx, wedge, rows, source)
+        return EDGE_BOUND(ctx, wedge, rows, source, known)
 
     monkeypatch.setattr(first_order, "edge_bound", checking)
     with_bound = []
@@ -102,7 +102,9 @@ def test_corridor_bound_holds_and_the_paths_are_the_same(corridor, monkeypatch):
         with_bound.append(sim.paths(p))
     assert all(skipped > 0 for skipped, _ in seen)
     monkeypatch.setattr(
-        first_order, "edge_bound", lambda ctx, wedge, rows, source: np.full(rows.size, np.inf)
+        first_order,
+        "edge_bound",
+        lambda ctx, wedge, rows, source, known=None: np.full(rows.size, np.inf),
     )
     for p, a in zip(poses, with_bound):
         sim.tracer.forget()

@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "EdgeCoordinates",
     "EdgeElements",
     "EdgeRows",
     "integrate_rows",
@@ -203,40 +204,73 @@ def edge_elements(
     return el
 
 
+@dataclass(frozen=True, eq=False)
+class EdgeCoordinates:
+    """E edges' unit axes (E, 3) and lengths (E,) (m), and the cylindrical
+    coordinates (r, theta, z) (E,) each of a source and of a receiver about each
+    edge (theta in [0, 2 pi) from face 1 towards its normal, z along the edge from
+    its start), as :func:`many_edge_elements` finds them."""
+
+    axis: np.ndarray
+    length: np.ndarray
+    source: tuple[np.ndarray, np.ndarray, np.ndarray]
+    receiver: tuple[np.ndarray, np.ndarray, np.ndarray]
+
+    @classmethod
+    def of(cls, start, end, face_dir, normal, source, receiver) -> EdgeCoordinates:
+        """Those of edges start-end (E, 3) with face 1's direction and normal (E, 3),
+        for a source (3,) or (E, 3) and a receiver (3,)."""
+        length = np.linalg.norm(end - start, axis=1)
+        axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
+
+        def cyl(p):
+            d = p - start
+            z = np.einsum("ij,ij->i", d, axis)
+            v = d - z[:, None] * axis
+            th = np.arctan2(np.einsum("ij,ij->i", v, normal), np.einsum("ij,ij->i", v, face_dir))
+            return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
+
+        return cls(axis, length, cyl(source), cyl(receiver))
+
+    def take(self, keep: np.ndarray) -> EdgeCoordinates:
+        """Those of the edges at `keep` (indices or a mask)."""
+        return EdgeCoordinates(
+            self.axis[keep],
+            self.length[keep],
+            tuple(x[keep] for x in self.source),
+            tuple(x[keep] for x in self.receiver),
+        )
+
+
 def many_edge_elements(
     wedges: Wedge,
     source: np.ndarray,
     receiver: np.ndarray,
     limits: ElementLimits = DEFAULT_LIMITS,
+    known: EdgeCoordinates | None = None,
 ) -> tuple[EdgeElements, np.ndarray]:
     """:func:`edge_elements` of E wedges at once (`wedges`' fields with a leading
     axis of E); one receiver (3,) and one source (3,) or one per edge (E, 3).
     Returns the elements of all edges and the edge index (K,) of each.  The wedges'
     `terms` (E, 4), if given, weigh the four terms of each edge in place of
-    ``(R2, 1, 1, R1)`` (a part of the response alone: the image term of one face)."""
+    ``(R2, 1, 1, R1)`` (a part of the response alone: the image term of one face).
+    known: the wedges' :class:`EdgeCoordinates` for this source and receiver, if
+    already found (None: found here)."""
     start, end = np.asarray(wedges.start_m, float), np.asarray(wedges.end_m, float)
     face_dir, normal = np.asarray(wedges.face_dir, float), np.asarray(wedges.normal, float)
     wedge_rad = np.asarray(wedges.angle_rad, float)
     n_e = wedge_rad.size
     source, receiver = np.asarray(source, float), np.asarray(receiver, float)
     reflection = np.broadcast_to(np.asarray(wedges.reflection, float), (n_e, 2))
-    length = np.linalg.norm(end - start, axis=1)
-    axis = (end - start) / np.where(length > 0, length, 1.0)[:, None]
-
-    def cyl(p):
-        d = p - start
-        z = np.einsum("ij,ij->i", d, axis)
-        v = d - z[:, None] * axis
-        th = np.arctan2(np.einsum("ij,ij->i", v, normal), np.einsum("ij,ij->i", v, face_dir))
-        return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
-
+    if known is None:
+        known = EdgeCoordinates.of(start, end, face_dir, normal, source, receiver)
     weight4 = (
         np.column_stack([reflection[:, 1], np.ones(n_e), np.ones(n_e), reflection[:, 0]])
         if wedges.terms is None
         else np.asarray(wedges.terms, float)
     )
     rows = EdgeRows(
-        start, axis, length, wedge_rad, *cyl(source), *cyl(receiver),
+        start, known.axis, known.length, wedge_rad, *known.source, *known.receiver,
         np.broadcast_to(source, (n_e, 3)), receiver, weight4,
     )  # fmt: skip
     return integrate_rows(
@@ -340,22 +374,26 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
     side_of, j, ea_ex, eb_ex = steps
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
-    za, zb, zc = _on_spheroid_many(
-        r.source[edge_of],
-        r.receiver,
-        r.start[edge_of],
-        r.axis[edge_of],
-        l_apex[edge_of] + np.stack([ea_ex, eb_ex, mid_ex]),
+    # the roots at each element's end and centre (its start is the previous
+    # element's end, the same excess path, or the apex for the first), clipped to
+    # the side's span
+    lines = _spheroid_lines(r.source, r.receiver, r.start, r.axis)
+    zb, zc = _spheroid_roots(
+        np.take(lines, edge_of, axis=1),
+        l_apex[edge_of] + np.stack([eb_ex, mid_ex]),
         (side_of % 2) == 1,
     )
-    lo = np.minimum(z_apex[edge_of], z_end[side_of])
-    hi = np.maximum(z_apex[edge_of], z_end[side_of])
-    za, zb, zc = np.clip(za, lo, hi), np.clip(zb, lo, hi), np.clip(zc, lo, hi)
-    za = np.where(j == 0, z_apex[edge_of], za)  # exactly (roots lose precision at the apex)
+    lo = np.minimum(z_apex[side_edge], z_end)
+    hi = np.maximum(z_apex[side_edge], z_end)
+    zb, zc = np.clip(np.stack([zb, zc]), lo[side_of], hi[side_of])
+    first = j == 0
+    za = np.empty_like(zb)
+    za[1:] = zb[:-1]
+    za[first] = z_apex[edge_of[first]]  # exactly (roots lose precision at the apex)
     with np.errstate(invalid="ignore"):
         x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
     taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
-    return _Cuts(edge_of, j == 0, za, zb, zc, taper, z_apex, z_mid)
+    return _Cuts(edge_of, first, za, zb, zc, taper, z_apex, z_mid)
 
 
 def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
@@ -378,17 +416,17 @@ def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: in
     side_of = np.repeat(sides, counts)  # per element
     offset = np.cumsum(counts) - counts
     j = np.arange(side_of.size) - np.repeat(offset, counts)  # element index within its side
-    eb_ex = np.where(
-        j + 1 < np.repeat(counts, counts),
-        template[np.minimum(j + 1, template.size - 1)],
-        e_end[side_of],
-    )
+    eb_ex = template[np.minimum(j + 1, template.size - 1)]
+    eb_ex[offset + counts - 1] = e_end[sides]  # the last of each side ends at its end
     return side_of, j, template[j], eb_ex
 
 
 def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
-    """Steps 3-4: product integration in eta, one impulse per element."""
-    r, g = rows, cuts.row
+    """Steps 3-4: product integration in eta, one impulse per element.  Each
+    element runs from its start to its end in eta; the start of each but the
+    first of its side is the end of the one before, so eta and the primitive are
+    found at the ends of all (K) and at the starts of the first ones."""
+    r, g, n_k = rows, cuts.row, cuts.row.size
     nu = np.pi / r.wedge_rad
     rS = np.where(r.r_s > 0, r.r_s, 1.0)
     rR = np.where(r.r_r > 0, r.r_r, 1.0)
@@ -399,29 +437,30 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     s, c = np.sin(half), np.cos(half)
     flip = s < 0
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
-    # per-element copies of the per-edge values, gathered once
-    rS_g, rR_g, zS_g, zR_g, nu_g = rS[g], rR[g], r.z_s[g], r.z_r[g], nu[g]
-
-    def eta(z):
-        # cosh(eta) - 1 without cancellation:
-        # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
-        a, b = z - zS_g, z - zR_g
-        ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
-        arg = ((rS_g + rR_g) * (z - cuts.z_mid[g])) ** 2 / (
-            (ml - a * b + rS_g * rR_g) * rS_g * rR_g
-        )
-        return _acosh1p(arg)
-
-    za, zb, zc = cuts.za, cuts.zb, cuts.zc
-    ea, eb = eta(np.stack([za, zb]))
-    ea = np.where(cuts.first, np.where(cuts.z_apex[g] == cuts.z_mid[g], 0.0, ea), ea)
-
-    def prim(e):  # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
-        t = np.tanh(nu_g * e / 2)[..., None]
-        return (np.arctan2(t * c[g], s[g]) * r.weight4[g]).sum(axis=-1)
-
+    first = np.flatnonzero(cuts.first)
+    gg = np.concatenate([g, g[first]])  # every element's end, then the first starts
+    # per-edge values, gathered once for the K + F points
+    rS_g, rR_g, zS_g, zR_g, nu_g, zm_g, sum_g, prod_g = np.take(
+        np.stack([rS, rR, r.z_s, r.z_r, nu, cuts.z_mid, rS + rR, rS * rR]), gg, axis=1
+    )
+    c_g, s_g, w_g = np.take(np.stack([c, s, np.asarray(r.weight4, float)]), gg, axis=1)
+    z = np.concatenate([cuts.zb, cuts.za[first]])
+    # cosh(eta) - 1 without cancellation:
+    # ((rS + rR)(z - z_mid))^2 / ((m l - (z - zS)(z - zR) + rS rR) rS rR)
+    a, b = z - zS_g, z - zR_g
+    ml = np.hypot(rS_g, a) * np.hypot(rR_g, b)
+    e = _acosh1p((sum_g * (z - zm_g)) ** 2 / ((ml - a * b + prod_g) * rS_g * rR_g))
+    e[n_k:] = np.where(cuts.z_apex[g[first]] == cuts.z_mid[g[first]], 0.0, e[n_k:])
+    # weighted sum over the four terms of atan(tanh(nu eta/2) / tan(nu phi/2))
+    t = np.tanh(nu_g * e / 2)[:, None]
+    prim = (np.arctan2(t * c_g, s_g) * w_g).sum(axis=-1)
+    eb, pb = e[:n_k], prim[:n_k]
+    ea, pa = np.empty(n_k), np.empty(n_k)
+    ea[1:], pa[1:] = eb[:-1], pb[:-1]
+    ea[first], pa[first] = e[n_k:], prim[n_k:]
     # eta grows away from the apex on both sides: each element runs from ea to eb
-    pb, pa = prim(np.stack([eb, ea]))
+    rS_g, rR_g, zS_g, zR_g, nu_g = rS_g[:n_k], rR_g[:n_k], zS_g[:n_k], zR_g[:n_k], nu_g[:n_k]
+    za, zb, zc = cuts.za, cuts.zb, cuts.zc
     integral = (2 / nu_g) * (pb - pa)
     deta = np.abs(eb - ea)
     m_c = np.hypot(rS_g, zc - zS_g)
@@ -430,35 +469,44 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     weight = np.where(ok, np.abs(zb - za) / np.where(ok, deta, 1.0), 0.0) / (m_c * l_c)
     amp = -(nu_g / (4 * np.pi)) * weight * integral * cuts.taper
     # 4. one impulse per element at its mid-path point
-    keep = ok & (amp != 0)
-    pts_c = r.start[g[keep]] + zc[keep, None] * r.axis[g[keep]]
-    return EdgeElements(pts_c, m_c[keep], l_c[keep], amp[keep]), g[keep]
+    keep = np.flatnonzero(ok & (amp != 0))
+    g = g[keep]
+    # (np.take gathers rows much faster than indexing does)
+    pts_c = np.take(r.start, g, axis=0) + zc[keep][:, None] * np.take(r.axis, g, axis=0)
+    return EdgeElements(pts_c, m_c[keep], l_c[keep], amp[keep]), g
 
 
-def _on_spheroid_many(source, receiver, start, axis, path_m, upper):
-    """Positions z along K lines start + z axis (start, axis (K, 3)) where
-    |S - x| + |x - R| = path_m (K,): points of equal path length lie on a spheroid
-    with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 / 4)), whose
-    intersection with a line is a quadratic in z; upper (K,): the larger root (else
-    the smaller).  source, receiver: (3,) or (K, 3); path_m may be (..., K): several
-    path lengths per line, solved at once."""
-    k = np.shape(path_m)[-1]
-    source = np.broadcast_to(source, (k, 3))
-    receiver = np.broadcast_to(receiver, (k, 3))
+def _spheroid_lines(source, receiver, start, axis) -> np.ndarray:
+    """What :func:`_spheroid_roots` needs of L lines start + z axis (start, axis (L,
+    3)) and foci source, receiver ((3,) or (L, 3)): (8, L), see there."""
+    n = np.shape(start)[0]
+    source = np.broadcast_to(source, (n, 3))
+    receiver = np.broadcast_to(receiver, (n, 3))
     centre = 0.5 * (source + receiver)
     focal = receiver - source
     c = 0.5 * np.linalg.norm(focal, axis=1)
     # unit focal axis (zero for a sphere, S = R: then any axis will do)
     u = focal / np.where(c > 0, 2 * c, 1.0)[:, None]
-    a2 = (0.5 * path_m) ** 2
-    b2 = np.maximum(a2 - c * c, 0.0)
     y0 = start - centre
     y0u = np.einsum("ij,ij->i", y0, u)
     eu = np.einsum("ij,ij->i", axis, u)
     y0e = np.einsum("ij,ij->i", y0, axis)
-    q2 = b2 * eu**2 + a2 * (1 - eu**2)
-    q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
-    q0 = b2 * y0u**2 + a2 * (np.einsum("ij,ij->i", y0, y0) - y0u**2) - a2 * b2
+    y0y0 = np.einsum("ij,ij->i", y0, y0)
+    return np.stack([c * c, eu**2, 1 - eu**2, y0u, eu, y0e - y0u * eu, y0u**2, y0y0 - y0u**2])
+
+
+def _spheroid_roots(lines: np.ndarray, path_m: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Positions z along K lines (`lines` (8, K): :func:`_spheroid_lines` of each)
+    where |S - x| + |x - R| = path_m (..., K): points of equal path length lie on a
+    spheroid with foci S and R (semi-axes a = path / 2, b = sqrt(a^2 - |S - R|^2 /
+    4)), whose intersection with a line is a quadratic in z; upper (K,): the larger
+    root (else the smaller)."""
+    c2, eu2, one_eu2, y0u, eu, y0e_u, y0u2, y0y0_u = lines
+    a2 = (0.5 * path_m) ** 2
+    b2 = np.maximum(a2 - c2, 0.0)
+    q2 = b2 * eu2 + a2 * one_eu2
+    q1 = 2 * (b2 * y0u * eu + a2 * y0e_u)
+    q0 = b2 * y0u2 + a2 * y0y0_u - a2 * b2
     root = np.sqrt(np.maximum(q1**2 - 4 * q2 * q0, 0.0))
     return (-q1 + np.where(upper, root, -root)) / (2 * q2)
 

@@ -109,23 +109,51 @@ class PairGeometry:
 
     def take(self, keep: np.ndarray) -> PairGeometry:
         """The pairs at `keep` (indices or a mask), with the shortest paths found for
-        these (:func:`shortest_paths`), if any."""
-        out = PairGeometry(*(getattr(self, f.name)[keep] for f in fields(self)))
+        these (:func:`shortest_paths`) and the edges' axes, if any."""
+        keep = np.asarray(keep)
+        if keep.dtype == bool:  # indices: each field is gathered faster
+            keep = np.flatnonzero(keep)
+        # (np.take gathers rows much faster than indexing does)
+        out = PairGeometry(*(np.take(getattr(self, name), keep, axis=0) for name in _FIELDS))
         memo = self.__dict__.get("_shortest")
         if memo is not None:
             object.__setattr__(out, "_shortest", (memo[0], memo[1][keep], memo[2][keep]))
+        for key in ("_edge1", "_edge2"):
+            axis = self.__dict__.get(key)
+            if axis is not None:
+                object.__setattr__(out, key, (np.take(axis[0], keep, axis=0), axis[1][keep]))
         return out
 
+    def with_axes(self, edge1, edge2) -> PairGeometry:
+        """These pairs, told the (axis (N, 3), length (N,)) of edge 1 and of edge 2
+        (as :func:`segment_axes` finds them: e.g. gathered from each edge's own); returns
+        self."""
+        object.__setattr__(self, "_edge1", edge1)
+        object.__setattr__(self, "_edge2", edge2)
+        return self
+
     def edge1(self):
-        """(axis (N, 3), length (N,)) of edge 1."""
-        return _axis(self.start1, self.end1)
+        """(axis (N, 3), length (N,)) of edge 1 (found once: not to be changed)."""
+        got = self.__dict__.get("_edge1")
+        if got is None:
+            got = segment_axes(self.start1, self.end1)
+            object.__setattr__(self, "_edge1", got)
+        return got
 
     def edge2(self):
-        """(axis (N, 3), length (N,)) of edge 2."""
-        return _axis(self.start2, self.end2)
+        """(axis (N, 3), length (N,)) of edge 2 (found once: not to be changed)."""
+        got = self.__dict__.get("_edge2")
+        if got is None:
+            got = segment_axes(self.start2, self.end2)
+            object.__setattr__(self, "_edge2", got)
+        return got
 
 
-def _axis(start, end):
+_FIELDS = tuple(f.name for f in fields(PairGeometry))
+
+
+def segment_axes(start, end):
+    """(unit vector (N, 3) from start to end (N, 3), length (N,)) of N segments."""
     length = np.linalg.norm(end - start, axis=1)
     return (end - start) / np.where(length > 0, length, 1.0)[:, None], length
 

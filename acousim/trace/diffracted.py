@@ -60,9 +60,18 @@ def concatenate(parts: list[DiffractedPaths]) -> DiffractedPaths:
     if not parts:
         return empty_paths()
     k = max(p.counts.shape[1] for p in parts)
-    counts = np.concatenate([np.pad(p.counts, ((0, 0), (0, k - p.counts.shape[1]))) for p in parts])
+    counts = np.concatenate([_widened(p.counts, k) for p in parts])
     fields = (np.concatenate([getattr(p, f) for p in parts]) for f in _PATH_FIELDS)
     return DiffractedPaths(*fields, counts)
+
+
+def _widened(counts: np.ndarray, k: int) -> np.ndarray:
+    """counts (N, C) padded with zero columns to (N, k)."""
+    if counts.shape[1] == k:
+        return counts
+    out = np.zeros((counts.shape[0], k), counts.dtype)
+    out[:, : counts.shape[1]] = counts
+    return out
 
 
 def element_paths(
@@ -71,7 +80,7 @@ def element_paths(
     """First-order paths of the elements `el` (of edges `owner` (K,)) where `ok` (K,):
     anchor on the edge, first leg from `source` (3,); counts (K, C) or None."""
     k = np.flatnonzero(ok)
-    points = el.point_m[k]
+    points = np.take(el.point_m, k, axis=0)  # (faster than indexing)
     dep = points - source
     dep /= np.maximum(np.linalg.norm(dep, axis=1, keepdims=True), 1e-12)
     return DiffractedPaths(

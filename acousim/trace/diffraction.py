@@ -48,7 +48,7 @@ from .diffracted import DiffractedPaths, concatenate, element_paths, empty_paths
 from .diffraction_setup import DiffractingGeometry, DiffractionOptions, StageContext
 from .edge_reflected import reflected_paths
 from .edge_to_edge import edge_to_edge
-from .first_order import edges_in_view, segment_distance, visible
+from .first_order import edges_in_view, pose_edges, visible
 from .paths import KIND, TracedPaths
 
 __all__ = [
@@ -81,18 +81,20 @@ def diffract(
         return empty_paths()
     ctx = StageContext(geometry, caster, emitter, receiver, options)
     # 1-2. direct legs
-    near = segment_distance(emitter, edges.start_m, edges.end_m) + segment_distance(
-        receiver, edges.start_m, edges.end_m
-    )
+    pose = pose_edges(ctx)
+    near = pose.dist_e + pose.dist_r
     el, owner, counts = edges_in_view(ctx, np.flatnonzero(near <= options.max_path_m))
     # 3. visibility both ways (of the elements above the floor)
-    top = np.abs(el.amplitude).max(initial=0.0)
-    floor = max(top * 10 ** (options.floor_db / 20), options.floor_level)
-    strong = np.abs(el.amplitude) >= floor
+    size = np.abs(el.amplitude)
+    floor = max(size.max(initial=0.0) * 10 ** (options.floor_db / 20), options.floor_level)
+    strong = size >= floor
     ok = strong.copy()
-    ok[strong] = visible(caster, emitter, el.point_m[strong], ctx.tol) & visible(
-        caster, receiver, el.point_m[strong], ctx.tol
+    pts = np.take(el.point_m, np.flatnonzero(strong), axis=0)
+    ends = np.concatenate(
+        [np.broadcast_to(emitter, pts.shape), np.broadcast_to(receiver, pts.shape)]
     )
+    free = visible(caster, ends, np.concatenate([pts, pts]), ctx.tol)  # one batch
+    ok[strong] = free[: len(pts)] & free[len(pts) :]
     out = [element_paths(el, owner, ok, emitter, counts)]
     # 4. edge to edge
     if options.order >= 2 and geometry.face_plane is not None:

@@ -37,10 +37,27 @@ class DiffractingGeometry:
     face_plane: np.ndarray | None = None
     face_column: np.ndarray | None = None
     plane_column: np.ndarray | None = None
-    #: what the stage keeps between poses (edge to edge's pair table): one entry a
-    #: kind, replaced when its caster or tolerance changes; guarded by `memo_lock`
-    memo: dict = field(default_factory=dict, repr=False, compare=False)
-    memo_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    #: what the stage keeps between poses (edge to edge's pair table, replaced when
+    #: its caster or tolerance changes; per-edge constants: :meth:`kept`); guarded
+    #: by `memo_lock`; a geometry made from another (dataclasses.replace) starts
+    #: with its own
+    memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    memo_lock: threading.Lock = field(
+        default_factory=threading.Lock, init=False, repr=False, compare=False
+    )
+
+    def kept(self, key: str, build):
+        """``memo[key]``, built by ``build()`` on first use: for what depends on the
+        geometry alone (not on the caster or the pose).  Built outside `memo_lock`
+        (a build may ask for another entry); two threads that build one at once
+        keep the first (builds are deterministic)."""
+        with self.memo_lock:
+            value = self.memo.get(key)
+        if value is None:
+            value = build()
+            with self.memo_lock:
+                value = self.memo.setdefault(key, value)
+        return value
 
     @classmethod
     def of(cls, world: World) -> DiffractingGeometry:
@@ -92,13 +109,16 @@ class DiffractionOptions:
 class StageContext:
     """One pose's stage: the geometry, the ray caster (None: no occlusion), the
     emitter and receiver (3,), the options, and the caster's distance tolerance and
-    ray offset (m)."""
+    ray offset (m).  `cache`: what the pose's steps find once and share (the edges
+    oriented for the emitter and the receiver, their distances, which probe points
+    each sees: :func:`acousim.trace.first_order.pose_edges`)."""
 
     geometry: DiffractingGeometry
     caster: object
     emitter: np.ndarray
     receiver: np.ndarray
     options: DiffractionOptions
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def tol(self) -> float:

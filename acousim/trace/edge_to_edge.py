@@ -36,10 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
+from .btm_pair_geometry import segment_axes
 from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
-from .first_order import probe_points, segment_distance, visible
+from .first_order import edge_frame, pose_edges, probe_seen
 from .pair_bound import (
     COARSE_MARGIN,
     ESTIMATE_MARGIN,
@@ -139,20 +140,14 @@ def _pair_step(opt) -> float:
 def _seen_edges(ctx: StageContext):
     """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
     receiver (as edge 2), kept where convex, within reach and seen."""
-    edges = ctx.geometry.edges
-    keep1, w1 = edges.oriented(ctx.emitter, ctx.emitter)
-    keep2, w2 = edges.oriented(ctx.receiver, ctx.receiver)
-    keep1 &= segment_distance(ctx.emitter, edges.start_m, edges.end_m) < ctx.options.max_path_m
-    keep2 &= segment_distance(ctx.receiver, edges.start_m, edges.end_m) < ctx.options.max_path_m
+    pose = pose_edges(ctx)
+    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m)
+    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m)
     if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
-        for keep, point in ((keep1, ctx.emitter), (keep2, ctx.receiver)):
-            idx = np.flatnonzero(keep)
-            if idx.size == 0:
-                continue
-            pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
-            seen = visible(ctx.caster, point, pts, ctx.tol).reshape(idx.size, -1).any(axis=1)
-            keep[idx] = seen
-    return keep1, w1, keep2, w2
+        idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
+        seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
+        keep1[idx1], keep2[idx2] = seen1.any(axis=1), seen2.any(axis=1)
+    return keep1, pose.wedge_e, keep2, pose.wedge_r
 
 
 def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.ndarray]:
@@ -161,26 +156,54 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     keep1, w1, keep2, w2 = _seen_edges(ctx)
     table = _pair_table(ctx)
     at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    at = at[table.over_a_face(ctx, w1, at)]
     i, j, shared = table.i[at], table.j[at], table.shared[at]
-    good = table.over_a_face(ctx, w1, at)
-    i, j, shared = i[good], j[good], shared[good]
     plane = np.asarray(ctx.geometry.face_plane, int)
-    faces = ctx.geometry.edges.faces
+    edges = ctx.geometry.edges
     th12 = np.where(plane[w1.faces[i, 0]] == shared, 0.0, w1.angle_rad[i])
     th21 = np.where(plane[w2.faces[j, 0]] == shared, 0.0, w2.angle_rad[j])
-    rim = faces[:, 1] < 0
+    rim = edges.faces[:, 1] < 0
     sides = np.where(rim[i] & rim[j], 2, 1)
-    t1, c1, o1 = _parts(ctx, w1, i)
-    t2, c2, o2 = _parts(ctx, w2, j)
-    # every pair of parts: a row
-    q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+    # the parts of each wedge (its table of parts either way round, per geometry)
+    terms, column, exists = _part_table(ctx)
+    pose = pose_edges(ctx)
+    s1, s2 = pose.side_e[i].astype(np.intp), pose.side_r[j].astype(np.intp)
+    if ctx.geometry.face_column is None:  # one part a wedge: a row a pair
+        q, t1, t2 = np.arange(i.size), terms[s1, i, 0], terms[s2, j, 0]
+        columns = np.full((i.size, 2), -1)
+    else:  # every pair of parts: a row
+        o1, o2 = exists[s1, i], exists[s2, j]
+        q, u, v = np.nonzero(o1[:, :, None] & o2[:, None, :])
+        t1, t2 = terms[s1[q], i[q], u], terms[s2[q], j[q], v]
+        columns = np.column_stack([column[s1[q], i[q], u], column[s2[q], j[q], v]])
+    iq, jq = i[q], j[q]
+    axis, length = ctx.geometry.kept("edge_axes", lambda: segment_axes(edges.start_m, edges.end_m))
+
+    def at(x, k):  # rows of x (np.take gathers them much faster than indexing does)
+        return np.take(x, k, axis=0)
+
     rows = PairGeometry(
-        w1.start_m[i[q]], w1.end_m[i[q]], w2.start_m[j[q]], w2.end_m[j[q]],
-        w1.face_dir[i[q]], w1.normal[i[q]], w2.face_dir[j[q]], w2.normal[j[q]],
-        w1.angle_rad[i[q]], w2.angle_rad[j[q]], th12[q], th21[q],
-        t1[q, u], t2[q, v], sides[q],
-    )  # fmt: skip
-    return rows, j[q], np.column_stack([c1[q, u], c2[q, v]])
+        at(w1.start_m, iq), at(w1.end_m, iq), at(w2.start_m, jq), at(w2.end_m, jq),
+        at(w1.face_dir, iq), at(w1.normal, iq), at(w2.face_dir, jq), at(w2.normal, jq),
+        w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q], t1, t2, sides[q],
+    ).with_axes((at(axis, iq), length[iq]), (at(axis, jq), length[jq]))  # fmt: skip
+    return rows, jq, columns
+
+
+def _part_table(ctx: StageContext):
+    """:func:`_parts` of every edge of the geometry as listed (index 0) and turned
+    (1): terms (2, E, 3, 4), table column (2, E, 3), which parts exist (2, E, 3)
+    (per geometry, kept in its memo)."""
+
+    def build():
+        edges, frame = ctx.geometry.edges, edge_frame(ctx.geometry)
+        every = np.arange(len(edges))
+        both = [
+            _parts(ctx, frame.turned(edges, np.full(every.size, f, bool)), every) for f in (0, 1)
+        ]
+        return tuple(np.stack(x) for x in zip(*both))
+
+    return ctx.geometry.kept("edge_parts", build)
 
 
 @dataclass(frozen=True, eq=False)

@@ -41,7 +41,7 @@ import numpy as np
 from .geometry import CURVED_MAX_ANGLE_DEG, World, plane_ids
 from .mesh_index import EdgeTable, edge_table, merged_vertex_ids
 
-__all__ = ["Edges", "find_edges", "merge_collinear", "world_edges"]
+__all__ = ["EdgeFrame", "Edges", "convex", "find_edges", "merge_collinear", "world_edges"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,7 +75,11 @@ class Edges:
         return Edges(*(getattr(self, f.name)[keep] for f in fields(self)))
 
     def oriented(
-        self, source: np.ndarray, receiver: np.ndarray, min_turn_deg: float = CURVED_MAX_ANGLE_DEG
+        self,
+        source: np.ndarray,
+        receiver: np.ndarray,
+        min_turn_deg: float = CURVED_MAX_ANGLE_DEG,
+        frame: EdgeFrame | None = None,
     ) -> tuple[np.ndarray, Edges]:
         """The edges as wedges seen from the side of `source` and `receiver` (3,).
 
@@ -83,39 +87,65 @@ class Edges:
         is also the receiver's and is a convex wedge (open angle above pi +
         min_turn_deg), and ``edges`` has, per edge, face 1 and its normal chosen so
         that the air is at angles 0 .. angle_rad (the open angle of that side).
+        frame: these edges' :class:`EdgeFrame` (None: found here).
         """
-        axis = self.end_m - self.start_m
-        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-
-        def theta(p):
-            v = p - self.start_m
-            v -= np.einsum("ij,ij->i", v, axis)[:, None] * axis
-            a = np.arctan2(
-                np.einsum("ij,ij->i", v, self.normal), np.einsum("ij,ij->i", v, self.face_dir)
-            )
-            return np.mod(a, 2 * np.pi)
-
-        ts, tr = theta(np.asarray(source, float)), theta(np.asarray(receiver, float))
-        side_s, side_r = ts > self.angle_rad, tr > self.angle_rad  # True: the other side
-        flip = side_s[:, None]
-        turn = np.cross(self.face_dir, self.normal)  # rotation axis of the angles
-        normal_b = np.cross(turn, self.other_dir)
-        oriented = Edges(
-            self.start_m,
-            self.end_m,
-            np.where(flip, self.other_dir, self.face_dir),
-            np.where(flip, normal_b, self.normal),
-            np.where(flip, self.face_dir, self.other_dir),
-            np.where(side_s, 2 * np.pi - self.angle_rad, self.angle_rad),
-            np.where(flip & (self.faces[:, 1:] >= 0), self.faces[:, ::-1], self.faces),
-        )
-        keep = (side_s == side_r) & (oriented.angle_rad > np.pi + np.deg2rad(min_turn_deg))
-        return keep, oriented
+        frame = EdgeFrame.of(self) if frame is None else frame
+        side_s = frame.theta(self, source) > self.angle_rad  # True: the other side
+        side_r = frame.theta(self, receiver) > self.angle_rad
+        oriented = frame.turned(self, side_s)
+        return (side_s == side_r) & convex(oriented, min_turn_deg), oriented
 
     @staticmethod
     def empty() -> Edges:
         z3 = np.zeros((0, 3))
         return Edges(z3, z3, z3, z3, z3, np.zeros(0), np.zeros((0, 2), int))
+
+
+def convex(edges: Edges, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> np.ndarray:
+    """(E,) True where the open angle of `edges` (oriented) is above pi + min_turn_deg."""
+    return edges.angle_rad > np.pi + np.deg2rad(min_turn_deg)
+
+
+@dataclass(frozen=True, eq=False)
+class EdgeFrame:
+    """What :meth:`Edges.oriented` needs of E edges that does not depend on the
+    source or the receiver (found once per set of edges)."""
+
+    axis: np.ndarray
+    """(E, 3) unit vector from start to end."""
+    normal_b: np.ndarray
+    """(E, 3) face 2's normal on the side of face 1's (turning the same way)."""
+
+    @classmethod
+    def of(cls, edges: Edges) -> EdgeFrame:
+        axis = edges.end_m - edges.start_m
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        turn = np.cross(edges.face_dir, edges.normal)  # rotation axis of the angles
+        return cls(axis, np.cross(turn, edges.other_dir))
+
+    def theta(self, edges: Edges, p: np.ndarray) -> np.ndarray:
+        """(E,) the angle of point p (3,) about each edge, from face 1 towards its
+        normal, in [0, 2 pi)."""
+        v = np.asarray(p, float) - edges.start_m
+        v -= np.einsum("ij,ij->i", v, self.axis)[:, None] * self.axis
+        a = np.arctan2(
+            np.einsum("ij,ij->i", v, edges.normal), np.einsum("ij,ij->i", v, edges.face_dir)
+        )
+        return np.mod(a, 2 * np.pi)
+
+    def turned(self, edges: Edges, flip: np.ndarray) -> Edges:
+        """`edges` with faces 1 and 2 swapped where `flip` (E,) (seen from the other
+        side: the open angle is 2 pi minus the angle)."""
+        f = flip[:, None]
+        return Edges(
+            edges.start_m,
+            edges.end_m,
+            np.where(f, edges.other_dir, edges.face_dir),
+            np.where(f, self.normal_b, edges.normal),
+            np.where(f, edges.face_dir, edges.other_dir),
+            np.where(flip, 2 * np.pi - edges.angle_rad, edges.angle_rad),
+            np.where(f & (edges.faces[:, 1:] >= 0), edges.faces[:, ::-1], edges.faces),
+        )
 
 
 def _into_face(

@@ -4,18 +4,24 @@ reflection factors (and frequency-dependent materials) applied."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .btm import EdgeElements, ElementLimits, Wedge, many_edge_elements
+from .btm import EdgeCoordinates, EdgeElements, ElementLimits, Wedge, many_edge_elements
 from .diffracted import ELEMENT_FIELDS
 from .diffraction_setup import StageContext
-from .edges import Edges
+from .edges import EdgeFrame, Edges, convex
 
 __all__ = [
     "PROBE_FRACTIONS",
     "edge_bound",
+    "edge_frame",
     "edges_in_view",
+    "PoseEdges",
+    "pose_edges",
     "probe_points",
+    "probe_seen",
     "segment_distance",
     "visible",
 ]
@@ -24,10 +30,14 @@ __all__ = [
 PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
 
 
-def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance (E,) from a point (3,) to segments a-b (E, 3)."""
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+def segment_distance(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, span: tuple | None = None
+) -> np.ndarray:
+    """Distance (E,) from a point (3,) to segments a-b (E, 3); span: (b - a, |b -
+    a|^2) if known (None: found here)."""
+    ab, ab2 = (b - a, None) if span is None else span
+    ab2 = np.einsum("ij,ij->i", ab, ab) if ab2 is None else ab2
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / ab2, 0, 1)
     return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
 
 
@@ -47,32 +57,124 @@ def visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.nd
     return ~((f >= 0) & (t < dist - tol))
 
 
+@dataclass(frozen=True, eq=False)
+class PoseEdges:
+    """What the stage's steps ask of every edge of the geometry for one pose, found
+    once (:func:`pose_edges`): the side of the emitter and of the receiver (E,)
+    (True: the side of face 2, :meth:`Edges.oriented`), the edges oriented for
+    each side and whether that side is a convex wedge, the distances (E,) from
+    the emitter and the receiver to each edge (m), and which probe points of each
+    edge each sees (:func:`probe_seen`).  Shared by the steps: not to be changed
+    (``convex_r`` and ``wedge_r`` may be ``convex_e`` and ``wedge_e``)."""
+
+    side_e: np.ndarray
+    side_r: np.ndarray
+    wedge_e: Edges
+    wedge_r: Edges
+    convex_e: np.ndarray
+    convex_r: np.ndarray
+    dist_e: np.ndarray
+    dist_r: np.ndarray
+    seen: np.ndarray  # (2, E, 5) int8: -1 not yet cast, 0 blocked, 1 seen
+
+
+def edge_frame(geometry) -> EdgeFrame:
+    """The :class:`EdgeFrame` of the geometry's edges (kept in its memo)."""
+    return geometry.kept("edge_frame", lambda: EdgeFrame.of(geometry.edges))
+
+
+def pose_edges(ctx: StageContext) -> PoseEdges:
+    """The pose's :class:`PoseEdges` (found on first use, kept in ``ctx.cache``)."""
+    got = ctx.cache.get("edges")
+    if got is not None:
+        return got
+    edges = ctx.geometry.edges
+    frame = edge_frame(ctx.geometry)
+    side_e = frame.theta(edges, ctx.emitter) > edges.angle_rad
+    side_r = frame.theta(edges, ctx.receiver) > edges.angle_rad
+    wedge_e = frame.turned(edges, side_e)
+    # the emitter and the receiver are mostly on the same side of every edge
+    same = np.array_equal(side_e, side_r)
+    wedge_r = wedge_e if same else frame.turned(edges, side_r)
+    convex_e = convex(wedge_e)
+    span = ctx.geometry.kept("edge_span", lambda: _span(edges))
+    got = ctx.cache["edges"] = PoseEdges(
+        side_e,
+        side_r,
+        wedge_e,
+        wedge_r,
+        convex_e,
+        convex_e if same else convex(wedge_r),
+        segment_distance(ctx.emitter, edges.start_m, edges.end_m, span),
+        segment_distance(ctx.receiver, edges.start_m, edges.end_m, span),
+        np.full((2, len(edges), PROBE_FRACTIONS.size), -1, np.int8),
+    )
+    return got
+
+
+def _span(edges: Edges) -> tuple[np.ndarray, np.ndarray]:
+    """(end - start (E, 3), its squared length (E,)) of every edge."""
+    ab = edges.end_m - edges.start_m
+    return ab, np.einsum("ij,ij->i", ab, ab)
+
+
+def probe_seen(ctx: StageContext, *asks: tuple[int, np.ndarray]) -> list[np.ndarray]:
+    """For each (which, idx) of `asks`: (len(idx), 5) True where probe point k of
+    edge idx[i] (:data:`PROBE_FRACTIONS`) is seen from the emitter (`which` 0) or
+    the receiver (1).  One ray each, cast once a pose (kept in :func:`pose_edges`),
+    the rays not cast before for all `asks` in one batch."""
+    seen = pose_edges(ctx).seen
+    casts = [(which, idx[seen[which][idx, 0] < 0]) for which, idx in asks]
+    casts = [(which, ask) for which, ask in casts if ask.size]
+    if casts:
+        edges = ctx.geometry.edges
+        probes = ctx.geometry.kept("probes", lambda: probe_points(edges.start_m, edges.end_m))
+        points = [np.take(probes, ask, axis=0).reshape(-1, 3) for _, ask in casts]
+        origins = [
+            np.broadcast_to(ctx.emitter if which == 0 else ctx.receiver, pts.shape)
+            for (which, _), pts in zip(casts, points)
+        ]
+        free = visible(ctx.caster, np.concatenate(origins), np.concatenate(points), ctx.tol)
+        for (which, ask), part in zip(
+            casts, np.split(free, np.cumsum([p.shape[0] for p in points])[:-1])
+        ):
+            seen[which][ask] = part.reshape(ask.size, -1)
+    return [seen[which][idx] > 0 for which, idx in asks]
+
+
 def edges_in_view(
     ctx: StageContext, candidates: np.ndarray
 ) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """BTM elements of the candidate edges (indices) that form a convex wedge on the
     side of the emitter and the receiver and that both see (at one of five points
     along the edge, at least): (elements, the edge of each, counts or None)."""
-    edges = ctx.geometry.edges
-    keep, wedge = edges.oriented(ctx.emitter, ctx.receiver)
+    pose = pose_edges(ctx)
+    keep, wedge = (pose.side_e == pose.side_r) & pose.convex_e, pose.wedge_e
     idx = np.asarray(candidates, int)
     idx = idx[keep[idx]]
+    # the edges' axes and the emitter's and receiver's coordinates about them, found
+    # once for the bound and the elements
+    known = _coordinates(ctx, wedge, idx, ctx.emitter)
     if idx.size and ctx.options.floor_level > 0:
         # no element of these edges can reach the floor (which lies at or above
         # floor_level): they are left out before their rays and their elements
-        bound = edge_bound(ctx, wedge, idx, ctx.emitter)
-        idx = idx[bound >= ctx.options.floor_level]
+        reach = edge_bound(ctx, wedge, idx, ctx.emitter, known) >= ctx.options.floor_level
+        idx, known = idx[reach], known.take(reach)
     if idx.size and ctx.caster is not None:
-        pts = probe_points(edges.start_m[idx], edges.end_m[idx]).reshape(-1, 3)
-        seen = np.ones(pts.shape[0], bool)
-        for p in (ctx.emitter, ctx.receiver):
-            seen &= visible(ctx.caster, p, pts, ctx.tol)
-        idx = idx[seen.reshape(-1, PROBE_FRACTIONS.size).any(axis=1)]
-    el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter)
+        from_e, from_r = probe_seen(ctx, (0, idx), (1, idx))
+        seen = (from_e & from_r).any(axis=1)
+        idx, known = idx[seen], known.take(seen)
+    el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter, known)
     return el, idx[local], counts
 
 
-def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray):
+def edge_bound(
+    ctx: StageContext,
+    wedge: Edges,
+    rows: np.ndarray,
+    source: np.ndarray,
+    known: EdgeCoordinates | None = None,
+):
     """An upper bound (R,) of |amplitude| of every BTM element of the oriented edges
     `wedge` at `rows` for `source` (3,) and the receiver (those of
     :func:`wedge_elements`, whichever of their terms it computes).
@@ -91,10 +193,13 @@ def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.nda
     of the elements computed (the bound reaches 0.9997 of the largest element at
     most, where the element at a clipped apex is short).
     ``tests/test_first_order_bound.py`` checks it against every edge's largest
-    element (random boxes and plates, corridor poses)."""
-    length = np.linalg.norm(wedge.end_m[rows] - wedge.start_m[rows], axis=1)
+    element (random boxes and plates, corridor poses).  known: the rows'
+    :class:`EdgeCoordinates` for `source` and the receiver (None: found here)."""
+    if known is None:
+        known = _coordinates(ctx, wedge, rows, source)
+    length = known.length
     nu = np.pi / wedge.angle_rad[rows]
-    (rs, ts, zs), (rr, tr, zr) = (_cylindrical(wedge, rows, p) for p in (source, ctx.receiver))
+    (rs, ts, zs), (rr, tr, zr) = known.source, known.receiver
     half = nu[:, None] * (np.pi + np.stack([ts + tr, ts - tr, -ts + tr, -ts - tr], axis=1)) / 2
     R1, R2 = _face_reflections(ctx, wedge, rows)
     w = np.abs(np.column_stack([R2, np.ones(rows.size), np.ones(rows.size), R1]))
@@ -104,17 +209,17 @@ def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.nda
         z_apex = np.clip(z_mid, 0.0, length)
         # cosh(eta) at the apex (eta grows away from it): cosh(nu eta) at least that
         a, b = z_apex - zs, z_apex - zr
-        arg = ((rs + rr) * (z_apex - z_mid)) ** 2 / (
-            (np.hypot(rs, a) * np.hypot(rr, b) - a * b + rs * rr) * rs * rr
-        )
+        m, l_ = np.hypot(rs, a), np.hypot(rr, b)
+        arg = ((rs + rr) * (z_apex - z_mid)) ** 2 / ((m * l_ - a * b + rs * rr) * rs * rr)
         cosh_nu = np.cosh(nu * np.arccosh(1 + np.maximum(arg, 0.0)))[:, None]
         # |sin(nu phi)| / (cosh(nu eta) - cos(nu phi)), |cot(nu phi / 2)| at eta = 0
-        term = np.abs(np.sin(2 * half)) / (cosh_nu - np.cos(2 * half))
-        term = np.where(cosh_nu - np.cos(2 * half) > 1e-12 * cosh_nu, term, np.inf)
+        nu_phi = 2 * half
+        gap = cosh_nu - np.cos(nu_phi)
+        term = np.where(gap > 1e-12 * cosh_nu, np.abs(np.sin(nu_phi)) / gap, np.inf)
         c = nu / (4 * np.pi) * np.where(w > 0, w * term, 0.0).sum(axis=1)
         # the element's span: the excess path e(z) from the apex is convex with
         # e'' >= kappa and e' >= its slope at the apex (0 at an inner apex)
-        slope = np.abs(a / np.hypot(rs, a) + b / np.hypot(rr, b)) * (z_apex != z_mid)
+        slope = np.abs(a / m + b / l_) * (z_apex != z_mid)
         far_s = np.maximum(np.hypot(rs, zs), np.hypot(rs, length - zs))
         far_r = np.maximum(np.hypot(rr, zr), np.hypot(rr, length - zr))
         kappa = (rs / far_s) ** 2 / far_s + (rr / far_r) ** 2 / far_r
@@ -125,19 +230,17 @@ def edge_bound(ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.nda
     return np.where(np.isnan(bound), np.inf, bound)
 
 
-def _cylindrical(wedge: Edges, rows: np.ndarray, p: np.ndarray):
-    """(r, theta, z) (R,) of point p (3,) about the edges `wedge` at `rows` (theta
-    from face 1 towards its normal, z from the start)."""
-    start = wedge.start_m[rows]
-    axis = wedge.end_m[rows] - start
-    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
-    v = p - start
-    z = np.einsum("ij,ij->i", v, axis)
-    v -= z[:, None] * axis
-    th = np.arctan2(
-        np.einsum("ij,ij->i", v, wedge.normal[rows]), np.einsum("ij,ij->i", v, wedge.face_dir[rows])
+def _coordinates(ctx: StageContext, wedge: Edges, rows: np.ndarray, source) -> EdgeCoordinates:
+    """:class:`EdgeCoordinates` of the edges `wedge` at `rows` for `source` (3,) or
+    (R, 3) and the receiver."""
+    return EdgeCoordinates.of(
+        wedge.start_m[rows],
+        wedge.end_m[rows],
+        wedge.face_dir[rows],
+        wedge.normal[rows],
+        source,
+        ctx.receiver,
     )
-    return np.linalg.norm(v, axis=1), np.mod(th, 2 * np.pi), z
 
 
 def _face_reflections(ctx: StageContext, wedge: Edges, rows: np.ndarray):
@@ -150,7 +253,11 @@ def _face_reflections(ctx: StageContext, wedge: Edges, rows: np.ndarray):
 
 
 def wedge_elements(
-    ctx: StageContext, wedge: Edges, rows: np.ndarray, source: np.ndarray
+    ctx: StageContext,
+    wedge: Edges,
+    rows: np.ndarray,
+    source: np.ndarray,
+    known: EdgeCoordinates | None = None,
 ) -> tuple[EdgeElements, np.ndarray, np.ndarray | None]:
     """:func:`many_edge_elements` of the oriented edges `wedge` at `rows` for
     `source` (3,) or one per row (R, 3) and the receiver, each with the reflection
@@ -161,24 +268,28 @@ def wedge_elements(
     tables) the image term of each such face is an element of its own, which counts
     one interaction in that column (so the path response applies the table: see
     :mod:`acousim.core.materials`), and the rest of the element another.  Returns
-    (elements, their rows' local indices (K,), counts (K, C) or None)."""
+    (elements, their rows' local indices (K,), counts (K, C) or None).  known: the
+    rows' :class:`EdgeCoordinates` for `source` and the receiver (None: found in
+    :func:`many_edge_elements`)."""
     face_column = ctx.geometry.face_column
     R1, R2 = _face_reflections(ctx, wedge, rows)
     every, one = np.arange(rows.size), np.ones(rows.size)
 
     def part(sel, terms):
+        at = rows if sel is every else rows[sel]
         return many_edge_elements(
             Wedge(
-                wedge.start_m[rows[sel]],
-                wedge.end_m[rows[sel]],
-                wedge.face_dir[rows[sel]],
-                wedge.normal[rows[sel]],
-                wedge.angle_rad[rows[sel]],
+                wedge.start_m[at],
+                wedge.end_m[at],
+                wedge.face_dir[at],
+                wedge.normal[at],
+                wedge.angle_rad[at],
                 terms=terms,
             ),
             source if np.ndim(source) == 1 else source[sel],
             ctx.receiver,
             ElementLimits(step_m=ctx.options.step_m, max_path_m=ctx.options.max_path_m),
+            None if known is None else known if sel is every else known.take(sel),
         )
 
     if face_column is None:
