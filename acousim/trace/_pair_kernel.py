@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 #: an element is evaluated if a bin within this of its path (m) is live (the path
@@ -134,13 +133,75 @@ def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _prim(e, nu, hs, hc, w):  # pragma: no cover - compiled
-    t = math.tanh(nu * e / 2)
+def _prim(e, nu, form, c):  # pragma: no cover - compiled
+    """The primitive of beta_2 in eta at eta = e: sum_i w_i atan2(t hc_i, hs_i) with
+    t = tanh(nu e / 2) = u / v (u = expm1(nu e), v = u + 2; t = 1 past nu e = 40,
+    where tanh rounds to 1), each atan2 taken as atan2(u hc_i, v hs_i) (v > 0).
+    form: :func:`_terms` of beta_2 (c: the pair's consts): two terms of equal (or
+    opposite) weights as the argument of the product of their complex numbers
+    (hs_i >= 0: each angle within [-pi/2, pi/2], their sum within [-pi, pi])."""
+    x = nu * e
+    if x > 40.0:
+        u, v = 1.0, 1.0
+    else:
+        u = math.expm1(x)
+        v = u + 2.0
+    mode, w, a, b, k = form
+    if mode == 1:
+        return w * math.atan2(u * k, v * a)
+    if mode == 2:
+        return w * math.atan2(u * v * k, a * v * v - u * u * b)
     out = 0.0
     for i in range(4):
-        if w[i] != 0:
-            out += math.atan2(t * hc[i], hs[i]) * w[i]
+        if c[5, i] != 0:
+            out += math.atan2(u * c[4, i], v * c[3, i]) * c[5, i]
     return out
+
+
+@njit(cache=True, nogil=True)
+def _terms(w):  # pragma: no cover - compiled
+    """(how, i0, i1) for the four weights w of a beta sum: how 1 for one term (i0),
+    2 for two of equal weights (i0, i1), 3 for two of opposite weights, 0 else."""
+    i0, i1, n = -1, -1, 0
+    for i in range(4):
+        if w[i] != 0:
+            n += 1
+            if i0 < 0:
+                i0 = i
+            else:
+                i1 = i
+    if n == 1:
+        return 1, i0, i0
+    if n == 2 and w[i1] == w[i0]:
+        return 2, i0, i1
+    if n == 2 and w[i1] == -w[i0]:
+        return 3, i0, i1
+    return 0, i0, i1
+
+
+@njit(cache=True, nogil=True)
+def _forms(c):  # pragma: no cover - compiled
+    """The merged forms of one pair's beta sums (c (6, 4): its consts): beta_1's
+    (how, w, s0, c0, s1, c1: w (s0 / (B - c0) + s1 / (B - c1)), s1 negated for
+    opposite weights) and the primitive of beta_2's (how, w, a, b, k) as
+    :func:`_prim` reads it (how 1: a = hs, k = hc; 2: the product of the two terms
+    (hs_0 + i t hc_0) (hs_1 +- i t hc_1) times v^2 is a v^2 - u^2 b + i u v k)."""
+    how1, i0, i1 = _terms(c[2])
+    sign1 = -1.0 if how1 == 3 else 1.0
+    beta1 = (min(how1, 2), c[2, max(i0, 0)], c[0, max(i0, 0)], c[1, max(i0, 0)],
+             sign1 * c[0, max(i1, 0)], c[1, max(i1, 0)])  # fmt: skip
+    how2, j0, j1 = _terms(c[5])
+    j0, j1 = max(j0, 0), max(j1, 0)
+    hs0, hc0, hs1, hc1 = c[3, j0], c[4, j0], c[3, j1], c[4, j1]
+    if how2 == 1:
+        prim = (1, c[5, j0], hs0, 0.0, hc0)
+    elif how2 == 2:
+        prim = (2, c[5, j0], hs0 * hs1, hc0 * hc1, hc0 * hs1 + hc1 * hs0)
+    elif how2 == 3:
+        prim = (2, c[5, j0], hs0 * hs1, -(hc0 * hc1), hc0 * hs1 - hc1 * hs0)
+    else:
+        prim = (0, 0.0, 0.0, 0.0, 0.0)
+    return beta1, prim
 
 
 @njit(cache=True, nogil=True)
@@ -179,7 +240,8 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
     |amplitude|, and of |amplitude| times the path, the point on edge 1 (3) and on
     edge 2 (3); count (N, B): elements per bin.  live (N, B): the bins to fill (an
     element of another bin is skipped before its beta terms are evaluated; the bins
-    filled are those of the whole integral).
+    filled are those of the whole integral).  Each pair's bins depend on that pair
+    alone (the pairs may be split among calls in any way).
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
@@ -193,6 +255,8 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
         for b in range(live.shape[1]):
             if live[k, b]:
                 last = b
+        c = (consts[k],) + _forms(consts[k])
+        out = (acc[k], count[k], live[k])
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -208,9 +272,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
                     break  # every path of this element and the ones after: past the live bins
                 dz = abs(zb - za)
                 if dz > 0:
-                    z1 = 0.5 * (za + zb)
-                    out = (acc[k], count[k], live[k])
-                    _edge2((z1, dz), (src, rcv), g, consts[k], limit, cfg, out)
+                    _edge2((0.5 * (za + zb), dz), (src, rcv), g, c, limit, cfg, out)
                 za = zb
 
 
@@ -218,10 +280,10 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
-    (acc (B, 9), count (B,), live (B,): the bins to fill); ends: (source, receiver)."""
+    (acc (B, 9), count (B,), live (B,): the bins to fill); ends: (source, receiver);
+    c: the pair's consts and :func:`_forms`."""
     z1, dz1 = element
     src, rcv = ends
-    step, refine = cfg[1], int(cfg[3])
     s1, a1 = g[0:3], g[3:6]
     s2, a2, len2 = g[7:10], g[10:13], g[13]
     nu1, nu2, rr, zr = g[14], g[15], g[18], g[19]
@@ -235,84 +297,101 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     z_mid = (rr * zs + rs * zr) / (rs + rr)
     z_apex = min(max(z_mid, 0.0), len2)
     l_apex = math.hypot(rs, z_apex - zs) + math.hypot(rr, z_apex - zr)
+    # the outer weight with beta_2's -(nu2 / (4 pi)) (2 / nu2)
     outer = (-nu1 / (4 * math.pi)) * 0.5 * g[20] * dz1 / m
-    xa = np.empty(3)
-    xa[0], xa[1], xa[2] = x
-    form = _spheroid_form(xa, rcv, s2, a2)
+    outer *= -(nu2 / (4 * math.pi)) * (2 / nu2)
+    form = _spheroid_form(x, rcv, s2, a2)
+    source = (x, m, z1, outer)
+    legs = (rs, zs, rr, zr, z_mid, l_apex)
     for side in range(2):
         z_end = 0.0 if side == 0 else len2
         real_end = math.hypot(rs, z_end - zs) + math.hypot(rr, z_end - zr) - l_apex
         e_end = min(real_end, limit - m - l_apex)
-        if not (abs(z_end - z_apex) > 0 and e_end > 0):
-            continue
-        n_in = _count_below(e_end, step, refine)
-        lo, hi = min(z_apex, z_end), max(z_apex, z_end)
-        e_a = 0.0
-        za = z_apex
-        ea = 0.0 if z_apex == z_mid else _eta(za, rs, zs, rr, zr, z_mid)
-        pa = _prim(ea, nu2, c[3], c[4], c[5])
-        stale = False
-        for j in range(n_in):
-            e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
-            # the element's path is m + l_apex + its mid excess (its point lies on
-            # that spheroid): skipped without solving for its points unless a bin
-            # within PATH_SLACK of it is live
-            ex = m + l_apex + 0.5 * (e_a + e_b) - g[22]
-            if not (out[2][_bin(ex - PATH_SLACK, cfg)] or out[2][_bin(ex + PATH_SLACK, cfg)]):
-                e_a, stale = e_b, True
-                continue
-            if stale:  # za, as the skipped element would have left it
-                za = min(max(_on_spheroid(form, l_apex + e_a, side == 1), lo), hi)
-            zb = min(max(_on_spheroid(form, l_apex + e_b, side == 1), lo), hi)
-            zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), side == 1), lo), hi)
-            n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
-            l_c = math.sqrt(rr * rr + (zc - zr) ** 2)
-            if not out[2][_bin(m + n_c + l_c - g[22], cfg)]:
-                e_a, za, stale = e_b, zb, True
-                continue
-            if stale:  # the prim at za, as the skipped element would have left it
-                ea = _eta(za, rs, zs, rr, zr, z_mid)
-                pa = _prim(ea, nu2, c[3], c[4], c[5])
-                stale = False
-            eb = _eta(zb, rs, zs, rr, zr, z_mid)
-            pb = _prim(eb, nu2, c[3], c[4], c[5])
-            deta = abs(eb - ea)
-            if deta > 0:
-                amp_in = -(nu2 / (4 * math.pi)) * (abs(zb - za) / deta / (n_c * l_c))
-                amp_in *= (2 / nu2) * (pb - pa)
-                if amp_in != 0:
-                    _add(x, (m, z1, zc, n_c, l_c, amp_in * outer), g, c, cfg, out)
-            e_a, za, ea, pa = e_b, zb, eb, pb
+        if abs(z_end - z_apex) > 0 and e_end > 0:
+            _side((z_apex, z_end, e_end), (source, legs, form), g, c, cfg, out)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
+def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
+    """The elements of edge 2 from its apex z_apex to z_end, up to excess e_end
+    (ends); at: (the source point x on edge 1, m, z1, the outer weight), (rs, zs,
+    rr, zr, z_mid, l_apex) about edge 2, the spheroid form of x and the receiver."""
+    z_apex, z_end, e_end = ends
+    (x, m, z1, outer), legs, form = at
+    rs, zs, rr, zr, z_mid, l_apex = legs
+    nu2, p_min = g[15], g[22]
+    step, refine = cfg[1], int(cfg[3])
+    upper = z_end > z_apex
+    lo, hi = min(z_apex, z_end), max(z_apex, z_end)
+    live = out[2]
+    # the live test before the element's points: a bin within PATH_SLACK of its mid
+    # path m + l_apex + its mid excess (its point lies on that spheroid); a margin
+    # of 1e-6 bin over floor((ex -+ PATH_SLACK) / width) keeps it a superset
+    inv_w = 1.0 / cfg[6]
+    slack = PATH_SLACK * inv_w + 1e-6
+    top = int(cfg[7]) - 1
+    base = m + l_apex - p_min
+    n_in = _count_below(e_end, step, refine)
+    e_a, za = 0.0, z_apex
+    ea = 0.0 if z_apex == z_mid else _eta(za, rs, zs, rr, zr, z_mid)
+    pa = _prim(ea, nu2, c[2], c[0])
+    stale = False
+    for j in range(n_in):
+        e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
+        q = (base + 0.5 * (e_a + e_b)) * inv_w
+        b0 = min(max(int(math.floor(q - slack)), 0), top)
+        b1 = min(max(int(math.floor(q + slack)), 0), top)
+        if not (live[b0] or live[b1]):
+            e_a, stale = e_b, True
+            continue
+        if stale:  # za, as the skipped element would have left it
+            za = min(max(_on_spheroid(form, l_apex + e_a, upper), lo), hi)
+        zb = min(max(_on_spheroid(form, l_apex + e_b, upper), lo), hi)
+        zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), upper), lo), hi)
+        n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
+        l_c = math.sqrt(rr * rr + (zc - zr) ** 2)
+        b = _bin(m + n_c + l_c - p_min, cfg)
+        if not live[b]:
+            e_a, za, stale = e_b, zb, True
+            continue
+        if stale:  # the prim at za, as the skipped element would have left it
+            ea = _eta(za, rs, zs, rr, zr, z_mid)
+            pa = _prim(ea, nu2, c[2], c[0])
+            stale = False
+        eb = _eta(zb, rs, zs, rr, zr, z_mid)
+        pb = _prim(eb, nu2, c[2], c[0])
+        deta = abs(eb - ea)
+        if deta > 0 and pb != pa:
+            amp = outer * (abs(zb - za) * (pb - pa)) / (deta * (n_c * l_c))
+            if amp != 0:
+                _add(x, (m, z1, zc, n_c, l_c, amp), (g, c, cfg, b), out)
+        e_a, za, ea, pa = e_b, zb, eb, pb
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _add(x, el, tables, out):  # pragma: no cover - compiled
     """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
-    x: the point z1), the taper, into its bin of out (acc, count)."""
+    x: the point z1), the taper, into its bin b of out (acc, count); tables: (g,
+    c, cfg, b)."""
     m, z1, zc, n_c, l_c, amp = el
+    g, c, cfg, b = tables
     acc, count, _ = out
     s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
-    excess = cfg[4]
     y = (s2[0] + zc * a2[0], s2[1] + zc * a2[1], s2[2] + zc * a2[2])
     e0, e1, e2 = y[0] - s1[0], y[1] - s1[1], y[2] - s1[2]
     z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
     r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
     cosh1 = ((z1 - zs1) * (z1 - z21) + m * n_c) / (rs1 * r21) if r21 > 0 else math.inf
-    big = _cosh_nu(nu1, cosh1)
-    beta = 0.0
-    for i in range(4):
-        if c[2, i] != 0:
-            beta += c[2, i] * c[0, i] / (big - c[1, i])
-    amp = amp * beta
+    amp = amp * _beta1(_cosh_nu(nu1, cosh1), c)
     path = m + n_c + l_c
     ex = path - p_min
-    if g[21] > 0:
-        t = min(max((ex - excess / 2) / (excess / 2), 0.0), 1.0)
+    half = 0.5 * cfg[4]
+    if g[21] > 0 and ex > half:  # the taper (1 up to half the excess kept)
+        t = min((ex - half) / half, 1.0)
         amp *= 0.5 * (1 + math.cos(math.pi * t))
     if not (math.isfinite(amp) and amp != 0):
         return
-    b = _bin(ex, cfg)
     w = abs(amp)
     acc[b, 0] += amp
     acc[b, 1] += w
@@ -324,6 +403,27 @@ def _add(x, el, g, c, cfg, out):  # pragma: no cover - compiled
     acc[b, 7] += w * y[1]
     acc[b, 8] += w * y[2]
     count[b] += 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _beta1(big, c):  # pragma: no cover - compiled
+    """beta_1's sum of sin_i / (big - cos_i) times the weights (c: the pair's consts
+    and :func:`_forms`): two terms over one division while their product of
+    denominators stays below 1e300."""
+    how, w, s0, c0, s1, c1 = c[1]
+    if how == 1:
+        return w * s0 / (big - c0)
+    if how == 2:
+        d0, d1 = big - c0, big - c1
+        den = d0 * d1
+        if den < 1e300:
+            return w * (s0 * d1 + s1 * d0) / den
+        return w * (s0 / d0 + s1 / d1)
+    beta = 0.0
+    for i in range(4):
+        if c[0][2, i] != 0:
+            beta += c[0][2, i] * c[0][0, i] / (big - c[0][1, i])
+    return beta
 
 
 @njit(cache=True, nogil=True, inline="always")
