@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 #: an element is evaluated if a bin within this of its path (m) is live (the path
@@ -124,35 +125,46 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _eta(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
-    """eta of the point z on edge 2 (acosh of the first-order cosh eta, from its
-    well-conditioned form): log1p(s) with s = e^eta - 1, log(1 + s) past s = 1
-    (where the sum loses at most an ulp of eta; log is the cheaper)."""
+def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
+    """e^eta - 1 at the point z on edge 2 (eta: the acosh of the first-order cosh
+    eta, from its well-conditioned form; see :func:`_log1p`)."""
     a, b = z - zs, z - zr
     ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
     arg = ((rs + rr) * (z - z_mid)) ** 2 / ((ml - a * b + rs * rr) * rs * rr)
     arg = max(arg, 0.0)
-    s = arg + math.sqrt(arg * (arg + 2))
+    return arg + math.sqrt(arg * (arg + 2))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _log1p(s):  # pragma: no cover - compiled
+    """log1p(s), as log(1 + s) past s = 1 (where the sum loses at most an ulp of the
+    result; log is the cheaper)."""
     return math.log(1.0 + s) if s > 1.0 else math.log1p(s)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _prim(e, nu, form, c):  # pragma: no cover - compiled
-    """The primitive of beta_2 in eta at eta = e: sum_i w_i atan2(t hc_i, hs_i) with
-    t = tanh(nu e / 2) = u / v (u = expm1(nu e), v = u + 2; t = 1 past nu e = 40,
-    where tanh rounds to 1), each atan2 taken as atan2(u hc_i, v hs_i) (v > 0).
-    form: :func:`_terms` of beta_2 (c: the pair's consts): two terms of equal (or
-    opposite) weights as the argument of the product of their complex numbers
-    (hs_i >= 0: each angle within [-pi/2, pi/2], their sum within [-pi, pi])."""
+def _tanh_uv(e, nu):  # pragma: no cover - compiled
+    """tanh(nu e / 2) as u / v: u = expm1(nu e), v = u + 2 (exp(nu e) -+ 1 past
+    nu e = 1, within an ulp of them there; 1 and 1 past nu e = 40, where tanh
+    rounds to 1)."""
     x = nu * e
     if x > 40.0:
-        u, v = 1.0, 1.0
-    elif x > 1.0:  # exp(x) -+ 1 within an ulp of u and v here
+        return 1.0, 1.0
+    if x > 1.0:
         big = math.exp(x)
-        u, v = big - 1.0, big + 1.0
-    else:
-        u = math.expm1(x)
-        v = u + 2.0
+        return big - 1.0, big + 1.0
+    u = math.expm1(x)
+    return u, u + 2.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _prim(u, v, form, c):  # pragma: no cover - compiled
+    """The primitive of beta_2 in eta at the eta of t = tanh(nu eta / 2) = u / v
+    (:func:`_tanh_uv`): sum_i w_i atan2(t hc_i, hs_i), each atan2 taken as
+    atan2(u hc_i, v hs_i) (v > 0).  form: :func:`_terms` of beta_2 (c: the pair's
+    consts): two terms of equal (or opposite) weights as the argument of the
+    product of their complex numbers (hs_i >= 0: each angle within [-pi/2, pi/2],
+    their sum within [-pi, pi])."""
     mode, w, a, b, k = form
     if mode == 1:
         return w * _atan2(u * k, v * a)
@@ -263,6 +275,13 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
+    # scratch for the elements of one side of edge 2 (at most those below `excess`)
+    n_max = _count_below(excess, cfg[1], int(cfg[3])) + 2
+    levels = np.empty(n_max)
+    for j in range(n_max):
+        levels[j] = _level_value(j, cfg[1], int(cfg[3]))
+    buf = np.empty((11, n_max))
+    bins = np.empty(n_max, np.int64)
     for k in range(geo.shape[0]):
         g = geo[k]
         len1 = g[6]
@@ -274,7 +293,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
             if live[k, b]:
                 last = b
         c = (consts[k],) + _forms(consts[k])
-        out = (acc[k], count[k], live[k])
+        out = (acc[k], count[k], live[k], buf, bins, levels)
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -298,7 +317,9 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
-    (acc (B, 9), count (B,), live (B,): the bins to fill); ends: (source, receiver);
+    (acc (B, 9), count (B,), live (B,): the bins to fill, scratch (11, n) and (n,), the inner
+    element template's levels);
+    ends: (source, receiver);
     c: the pair's consts and :func:`_forms`."""
     z1, dz1 = element
     src, rcv = ends
@@ -333,94 +354,154 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
 def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     """The elements of edge 2 from its apex z_apex to z_end, up to excess e_end
     (ends); at: (the source point x on edge 1, m, z1, the outer weight), (rs, zs,
-    rr, zr, z_mid, l_apex) about edge 2, the spheroid form of x and the receiver."""
+    rr, zr, z_mid, l_apex) about edge 2, the spheroid form of x and the receiver.
+    In stages over the side's elements, each stage's elements independent of each
+    other (so that the processor overlaps them; the same numbers as element by
+    element): the ends, the bins (:func:`_live_bins`), eta and the primitive at the
+    ends of the live elements, their amplitudes (:func:`_amplitudes`), their sums."""
     z_apex, z_end, e_end = ends
     (x, m, z1, outer), legs, form = at
     rs, zs, rr, zr, z_mid, l_apex = legs
-    nu2, p_min = g[15], g[22]
-    step, refine = cfg[1], int(cfg[3])
+    nu2 = g[15]
     upper = z_end > z_apex
     lo, hi = min(z_apex, z_end), max(z_apex, z_end)
-    live = out[2]
-    # the live test before the element's points: a bin within PATH_SLACK of its mid
-    # path m + l_apex + its mid excess (its point lies on that spheroid); a margin
-    # of 1e-6 bin over floor((ex -+ PATH_SLACK) / width) keeps it a superset
+    buf, bins = out[3], out[4]
+    lev, zb, eta, prim, vv, need = buf[0], buf[1], buf[2], buf[3], buf[9], buf[10]
+    levels = out[5]  # the template's levels, below the excess kept (and one more)
+    n = 0
+    while n < levels.size - 1 and levels[n] < e_end:
+        lev[n] = levels[n]
+        n += 1
+    lev[n] = e_end
+    zb[0] = z_apex
+    for j in range(1, n + 1):
+        zb[j] = min(max(_on_spheroid(form, l_apex + lev[j], upper), lo), hi)
+    _live_bins(n, (m, l_apex, (form, upper, lo, hi), legs), g, cfg, out)
+    for j in range(n + 1):  # the ends of the live elements: their eta
+        need[j] = (j < n and bins[j] >= 0) or (j > 0 and bins[j - 1] >= 0)
+        if need[j]:
+            if j == 0:
+                eta[j] = 0.0 if z_apex == z_mid else _eta_s(z_apex, rs, zs, rr, zr, z_mid)
+            else:
+                eta[j] = _eta_s(zb[j], rs, zs, rr, zr, z_mid)
+    for j in range(n + 1):
+        if need[j]:
+            eta[j] = _log1p(eta[j])
+    for j in range(n + 1):  # the primitive of beta_2 there
+        if need[j]:
+            prim[j], vv[j] = _tanh_uv(eta[j], nu2)
+    for j in range(n + 1):
+        if need[j]:
+            prim[j] = _prim(prim[j], vv[j], c[2], c[0])
+    _amplitudes(n, (x, m, z1, outer), g, c, cfg, out)
+    _sums(n, (x, m), g, out)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
+    """The bin of each of the n elements of a side (out[4]; -1 if not live), its
+    point zc, n and l (out[3] rows 4-6); at: (m, l_apex, (the spheroid form of the
+    source point and the receiver, the root, the clip), (rs, zs, rr, zr, ...)).
+    An element is tested before its points are solved for: its mid path m + l_apex
+    + its mid excess (its point lies on that spheroid) is within PATH_SLACK of a
+    live bin (a margin of 1e-6 bin over floor((ex -+ PATH_SLACK) / width) keeps
+    this a superset of those bins)."""
+    m, l_apex, (form, upper, lo, hi), legs = at
+    rs, zs, rr, zr = legs[0], legs[1], legs[2], legs[3]
+    live, buf, bins = out[2], out[3], out[4]
+    lev, zc, nn, ll = buf[0], buf[4], buf[5], buf[6]
+    p_min = g[22]
     inv_w = 1.0 / cfg[6]
     slack = PATH_SLACK * inv_w + 1e-6
     top = int(cfg[7]) - 1
     base = m + l_apex - p_min
-    n_in = _count_below(e_end, step, refine)
-    e_a, za = 0.0, z_apex
-    ea = 0.0 if z_apex == z_mid else _eta(za, rs, zs, rr, zr, z_mid)
-    pa = _prim(ea, nu2, c[2], c[0])
-    stale = False
-    for j in range(n_in):
-        e_b = e_end if j + 1 >= n_in else _level_value(j + 1, step, refine)
-        q = (base + 0.5 * (e_a + e_b)) * inv_w
+    for j in range(n):
+        bins[j] = -1
+        q = (base + 0.5 * (lev[j] + lev[j + 1])) * inv_w
         b0 = min(max(int(math.floor(q - slack)), 0), top)
         b1 = min(max(int(math.floor(q + slack)), 0), top)
         if not (live[b0] or live[b1]):
-            e_a, stale = e_b, True
             continue
-        if stale:  # za, as the skipped element would have left it
-            za = min(max(_on_spheroid(form, l_apex + e_a, upper), lo), hi)
-        zb = min(max(_on_spheroid(form, l_apex + e_b, upper), lo), hi)
-        zc = min(max(_on_spheroid(form, l_apex + 0.5 * (e_a + e_b), upper), lo), hi)
-        n_c = math.sqrt(rs * rs + (zc - zs) ** 2)
-        l_c = math.sqrt(rr * rr + (zc - zr) ** 2)
+        z = min(max(_on_spheroid(form, l_apex + 0.5 * (lev[j] + lev[j + 1]), upper), lo), hi)
+        n_c = math.sqrt(rs * rs + (z - zs) ** 2)
+        l_c = math.sqrt(rr * rr + (z - zr) ** 2)
         b = _bin(m + n_c + l_c - p_min, cfg)
-        if not live[b]:
-            e_a, za, stale = e_b, zb, True
-            continue
-        if stale:  # the prim at za, as the skipped element would have left it
-            ea = _eta(za, rs, zs, rr, zr, z_mid)
-            pa = _prim(ea, nu2, c[2], c[0])
-            stale = False
-        eb = _eta(zb, rs, zs, rr, zr, z_mid)
-        pb = _prim(eb, nu2, c[2], c[0])
-        deta = abs(eb - ea)
-        if deta > 0 and pb != pa:
-            amp = outer * (abs(zb - za) * (pb - pa)) / (deta * (n_c * l_c))
-            if amp != 0:
-                _add(x, (m, z1, zc, n_c, l_c, amp), (g, c, cfg, b), out)
-        e_a, za, ea, pa = e_b, zb, eb, pb
+        if live[b]:
+            bins[j], zc[j], nn[j], ll[j] = b, z, n_c, l_c
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _add(x, el, tables, out):  # pragma: no cover - compiled
-    """beta_1 at the element (el: m, z1 on edge 1, zc on edge 2, n, l, amplitude;
-    x: the point z1), the taper, into its bin b of out (acc, count); tables: (g,
-    c, cfg, b)."""
-    m, z1, zc, n_c, l_c, amp = el
-    g, c, cfg, b = tables
-    acc, count, _ = out
+def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
+    """The amplitude of each live element of a side (out[3] row 7; 0: none): the
+    mean of beta_2 over it (the primitive's step over eta's) times dz / (n l), the
+    outer weight, beta_1 at its point and the taper; at: (x, m, z1, outer weight)."""
+    x, m, z1, outer = at
+    buf, bins = out[3], out[4]
+    zb, eta, prim, zc, nn, ll = buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
+    amps, cosh1 = buf[7], buf[8]
     s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
-    y = (s2[0] + zc * a2[0], s2[1] + zc * a2[1], s2[2] + zc * a2[2])
-    e0, e1, e2 = y[0] - s1[0], y[1] - s1[1], y[2] - s1[2]
-    z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
-    r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
-    cosh1 = ((z1 - zs1) * (z1 - z21) + m * n_c) / (rs1 * r21) if r21 > 0 else math.inf
-    amp = amp * _beta1(_cosh_nu(nu1, cosh1), c)
-    path = m + n_c + l_c
-    ex = path - p_min
     half = 0.5 * cfg[4]
-    if g[21] > 0 and ex > half:  # the taper (1 up to half the excess kept)
-        t = min((ex - half) / half, 1.0)
-        amp *= 0.5 * (1 + math.cos(math.pi * t))
-    if not (math.isfinite(amp) and amp != 0):
-        return
-    w = abs(amp)
-    acc[b, 0] += amp
-    acc[b, 1] += w
-    acc[b, 2] += w * path
-    acc[b, 3] += w * x[0]
-    acc[b, 4] += w * x[1]
-    acc[b, 5] += w * x[2]
-    acc[b, 6] += w * y[0]
-    acc[b, 7] += w * y[1]
-    acc[b, 8] += w * y[2]
-    count[b] += 1
+    for j in range(n):
+        amps[j] = 0.0
+        if bins[j] < 0:
+            continue
+        deta = abs(eta[j + 1] - eta[j])
+        pa, pb = prim[j], prim[j + 1]
+        if not (deta > 0 and pb != pa):
+            continue
+        amp = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
+        if amp == 0:
+            continue
+        e0 = s2[0] + zc[j] * a2[0] - s1[0]
+        e1 = s2[1] + zc[j] * a2[1] - s1[1]
+        e2 = s2[2] + zc[j] * a2[2] - s1[2]
+        z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
+        r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
+        if r21 > 0:
+            cosh1[j] = ((z1 - zs1) * (z1 - z21) + m * nn[j]) / (rs1 * r21)
+        else:
+            cosh1[j] = math.inf
+        amps[j] = amp
+    for j in range(n):  # beta_1
+        if amps[j] != 0:
+            amps[j] = amps[j] * _beta1(_cosh_nu(nu1, cosh1[j]), c)
+    for j in range(n):  # the taper (1 up to half the excess kept), finite ones
+        amp = amps[j]
+        if amp == 0:
+            continue
+        ex = m + nn[j] + ll[j] - p_min
+        if g[21] > 0 and ex > half:
+            t = min((ex - half) / half, 1.0)
+            amp *= 0.5 * (1 + math.cos(math.pi * t))
+        amps[j] = amp if math.isfinite(amp) else 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _sums(n, at, g, out):  # pragma: no cover - compiled
+    """The live elements of a side with an amplitude (out[3] row 7) summed into
+    their bins (out: acc, count), in order; at: (the point x on edge 1, m)."""
+    x, m = at
+    acc, count, buf, bins = out[0], out[1], out[3], out[4]
+    zc, nn, ll, amps = buf[4], buf[5], buf[6], buf[7]
+    s2, a2 = g[7:10], g[10:13]
+    for j in range(n):
+        amp = amps[j]
+        if amp == 0:
+            continue
+        b = bins[j]
+        path = m + nn[j] + ll[j]
+        w = abs(amp)
+        acc[b, 0] += amp
+        acc[b, 1] += w
+        acc[b, 2] += w * path
+        acc[b, 3] += w * x[0]
+        acc[b, 4] += w * x[1]
+        acc[b, 5] += w * x[2]
+        acc[b, 6] += w * (s2[0] + zc[j] * a2[0])
+        acc[b, 7] += w * (s2[1] + zc[j] * a2[1])
+        acc[b, 8] += w * (s2[2] + zc[j] * a2[2])
+        count[b] += 1
 
 
 @njit(cache=True, nogil=True, inline="always")
