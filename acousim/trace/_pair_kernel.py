@@ -6,7 +6,9 @@ by Newton's method on the profile, for each element of edge 1 the first-order
 elements of edge 2 (equal excess steps, beta_2 integrated in eta, beta_1 at the
 element), each summed straight into its bin of path length.  The two agree within
 rounding (the order of the sums differs), which ``tests/test_edge_pair_selection.py``
-checks.
+checks.  Compiled with numpy's error model: a division by zero gives inf or NaN, as
+in the numpy path (an element whose amplitude is not finite is dropped), instead
+of a check before every division.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from numba import njit
 PATH_SLACK = 1e-6
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _apex(px, py, pz, r, s, a, length):  # pragma: no cover - compiled
     """First-order apex on an edge (start s, axis a, length) of p and r, clipped."""
     dsx, dsy, dsz = px - s[0], py - s[1], pz - s[2]
@@ -34,7 +36,7 @@ def _apex(px, py, pz, r, s, a, length):  # pragma: no cover - compiled
     return min(max(z, 0.0), length)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _profile(z1, pair):  # pragma: no cover - compiled
     """P1(z1) = m + min over edge 2 of (n + l), and its slope; pair: (source,
     receiver, start and axis of edge 1, start, axis and length of edge 2)."""
@@ -55,7 +57,7 @@ def _profile(z1, pair):  # pragma: no cover - compiled
     return value, slope
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
     """Per pair: z1 of the shortest path (60 halvings on the profile's slope) and its
     length, into out (N, 2); geo (N, 14): start1, axis1, length1, start2, axis2,
@@ -75,7 +77,7 @@ def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
         out[k, 1] = _profile(z, pair)[0]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _level(target, z_apex, z_end, pair):  # pragma: no cover - compiled
     """z between the apex and z_end where the profile reaches target (Newton from
     z_end: monotone on a convex function)."""
@@ -90,7 +92,7 @@ def _level(target, z_apex, z_end, pair):  # pragma: no cover - compiled
     return z
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
     """The constants of :func:`_spheroid` for one line and two foci: (c^2, y0u, eu,
     y0e, |y0|^2)."""
@@ -108,7 +110,7 @@ def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
     return c * c, y0u, eu, y0e, yx * yx + yy * yy + yz * yz
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     """z along the line where |src - x| + |x - rcv| = path (the larger root if
     upper), from the constants `form` of :func:`_spheroid_form`: points of equal
@@ -124,7 +126,7 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     return (-q1 + (root if upper else -root)) / (2 * q2)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     """e^eta - 1 at the point z on edge 2 (eta: the acosh of the first-order cosh
     eta, from its well-conditioned form; see :func:`_log1p`)."""
@@ -135,14 +137,14 @@ def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     return arg + math.sqrt(arg * (arg + 2))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _log1p(s):  # pragma: no cover - compiled
     """log1p(s), as log(1 + s) past s = 1 (where the sum loses at most an ulp of the
     result; log is the cheaper)."""
     return math.log(1.0 + s) if s > 1.0 else math.log1p(s)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _tanh_uv(e, nu):  # pragma: no cover - compiled
     """tanh(nu e / 2) as u / v: u = expm1(nu e), v = u + 2 (exp(nu e) -+ 1 past
     nu e = 1, within an ulp of them there; 1 and 1 past nu e = 40, where tanh
@@ -157,7 +159,7 @@ def _tanh_uv(e, nu):  # pragma: no cover - compiled
     return u, u + 2.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _prim(u, v, form, c):  # pragma: no cover - compiled
     """The primitive of beta_2 in eta at the eta of t = tanh(nu eta / 2) = u / v
     (:func:`_tanh_uv`): sum_i w_i atan2(t hc_i, hs_i), each atan2 taken as
@@ -177,7 +179,7 @@ def _prim(u, v, form, c):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _atan2(y, x):  # pragma: no cover - compiled
     """atan2(y, x) as atan(y / x), plus pi of y's sign for x < 0 (the cheaper; within
     an ulp of pi); the library's atan2 for x = 0 (and NaN)."""
@@ -188,7 +190,7 @@ def _atan2(y, x):  # pragma: no cover - compiled
     return math.atan2(y, x)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _terms(w):  # pragma: no cover - compiled
     """(how, i0, i1) for the four weights w of a beta sum: how 1 for one term (i0),
     2 for two of equal weights (i0, i1), 3 for two of opposite weights, 0 else."""
@@ -209,7 +211,7 @@ def _terms(w):  # pragma: no cover - compiled
     return 0, i0, i1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _forms(c):  # pragma: no cover - compiled
     """The merged forms of one pair's beta sums (c (6, 4): its consts): beta_1's
     (how, w, s0, c0, s1, c1: w (s0 / (B - c0) + s1 / (B - c1)), s1 negated for
@@ -234,7 +236,7 @@ def _forms(c):  # pragma: no cover - compiled
     return beta1, prim
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _level_value(j, step, refine):  # pragma: no cover - compiled
     """The j-th excess level of the element template (0, step 2^-refine, ..., step / 2,
     step, 2 step, ...)."""
@@ -245,7 +247,7 @@ def _level_value(j, step, refine):  # pragma: no cover - compiled
     return step * (j - refine)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _count_below(e_end, step, refine):  # pragma: no cover - compiled
     """How many template levels lie below e_end."""
     j = 0
@@ -254,7 +256,7 @@ def _count_below(e_end, step, refine):  # pragma: no cover - compiled
     return j
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover - compiled
     """Every pair's elements summed into its bins (see the module docstring).
 
@@ -313,7 +315,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
                 za = zb
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
@@ -350,7 +352,7 @@ def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
             _side((z_apex, z_end, e_end), (source, legs, form), g, c, cfg, out)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     """The elements of edge 2 from its apex z_apex to z_end, up to excess e_end
     (ends); at: (the source point x on edge 1, m, z1, the outer weight), (rs, zs,
@@ -397,7 +399,7 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     _sums(n, (x, m), g, out)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
     """The bin of each of the n elements of a side (out[4]; -1 if not live), its
     point zc, n and l (out[3] rows 4-6); at: (m, l_apex, (the spheroid form of the
@@ -430,7 +432,7 @@ def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
             bins[j], zc[j], nn[j], ll[j] = b, z, n_c, l_c
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
     """The amplitude of each live element of a side (out[3] row 7; 0: none): the
     mean of beta_2 over it (the primitive's step over eta's) times dz / (n l), the
@@ -477,7 +479,7 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
         amps[j] = amp if math.isfinite(amp) else 0.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _sums(n, at, g, out):  # pragma: no cover - compiled
     """The live elements of a side with an amplitude (out[3] row 7) summed into
     their bins (out: acc, count), in order; at: (the point x on edge 1, m)."""
@@ -504,7 +506,7 @@ def _sums(n, at, g, out):  # pragma: no cover - compiled
         count[b] += 1
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _beta1(big, c):  # pragma: no cover - compiled
     """beta_1's sum of sin_i / (big - cos_i) times the weights (c: the pair's consts
     and :func:`_forms`): two terms over one division while their product of
@@ -525,7 +527,7 @@ def _beta1(big, c):  # pragma: no cover - compiled
     return beta
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _cosh_nu(nu, x):  # pragma: no cover - compiled
     """cosh(nu acosh(x)) (x below 1 taken as 1): (y^nu + y^-nu) / 2 with
     y = x + sqrt(x^2 - 1)."""
@@ -536,7 +538,7 @@ def _cosh_nu(nu, x):  # pragma: no cover - compiled
     return 0.5 * (yn + 1.0 / yn)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _bin(ex, cfg):  # pragma: no cover - compiled
     """The bin of excess path ex (m): cfg[6] wide, cfg[7] of them, the last open."""
     return min(max(int(math.floor(ex / cfg[6])), 0), int(cfg[7]) - 1)
