@@ -118,12 +118,18 @@ def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     a quadratic in z."""
     cc, y0u, eu, y0e, yy = form
     a2 = (0.5 * path) ** 2
-    b2 = max(a2 - cc, 0.0)
+    b2 = _clip(a2 - cc, 0.0, math.inf)
     q2 = b2 * eu * eu + a2 * (1 - eu * eu)
     q1 = 2 * (b2 * y0u * eu + a2 * (y0e - y0u * eu))
     q0 = b2 * y0u * y0u + a2 * (yy - y0u * y0u) - a2 * b2
-    root = math.sqrt(max(q1 * q1 - 4 * q2 * q0, 0.0))
+    root = math.sqrt(_clip(q1 * q1 - 4 * q2 * q0, 0.0, math.inf))
     return (-q1 + (root if upper else -root)) / (2 * q2)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _clip(z, lo, hi):  # pragma: no cover - compiled
+    """min(max(z, lo), hi) for lo <= hi, as selects (loops of it vectorize)."""
+    return lo if z < lo else (hi if z > hi else z)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -133,7 +139,7 @@ def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
     a, b = z - zs, z - zr
     ml = math.sqrt((rs * rs + a * a) * (rr * rr + b * b))
     arg = ((rs + rr) * (z - z_mid)) ** 2 / ((ml - a * b + rs * rr) * rs * rr)
-    arg = max(arg, 0.0)
+    arg = _clip(arg, 0.0, math.inf)
     return arg + math.sqrt(arg * (arg + 2))
 
 
@@ -282,7 +288,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
     levels = np.empty(n_max)
     for j in range(n_max):
         levels[j] = _level_value(j, cfg[1], int(cfg[3]))
-    buf = np.empty((11, n_max))
+    buf = np.empty((12, n_max))
     bins = np.empty(n_max, np.int64)
     for k in range(geo.shape[0]):
         g = geo[k]
@@ -319,7 +325,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
-    (acc (B, 9), count (B,), live (B,): the bins to fill, scratch (11, n) and (n,), the inner
+    (acc (B, 9), count (B,), live (B,): the bins to fill, scratch (12, n) and (n,), the inner
     element template's levels);
     ends: (source, receiver);
     c: the pair's consts and :func:`_forms`."""
@@ -377,16 +383,13 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     lev[n] = e_end
     zb[0] = z_apex
     for j in range(1, n + 1):
-        zb[j] = min(max(_on_spheroid(form, l_apex + lev[j], upper), lo), hi)
+        zb[j] = _clip(_on_spheroid(form, l_apex + lev[j], upper), lo, hi)
     _live_bins(n, (m, l_apex, (form, upper, lo, hi), legs), g, cfg, out)
-    for j in range(n + 1):  # the ends of the live elements: their eta
+    eta[0] = 0.0 if z_apex == z_mid else _eta_s(z_apex, rs, zs, rr, zr, z_mid)
+    for j in range(1, n + 1):  # e^eta - 1 at every end (a loop that vectorizes)
+        eta[j] = _eta_s(zb[j], rs, zs, rr, zr, z_mid)
+    for j in range(n + 1):  # eta at the ends of the live elements
         need[j] = (j < n and bins[j] >= 0) or (j > 0 and bins[j - 1] >= 0)
-        if need[j]:
-            if j == 0:
-                eta[j] = 0.0 if z_apex == z_mid else _eta_s(z_apex, rs, zs, rr, zr, z_mid)
-            else:
-                eta[j] = _eta_s(zb[j], rs, zs, rr, zr, z_mid)
-    for j in range(n + 1):
         if need[j]:
             eta[j] = _log1p(eta[j])
     for j in range(n + 1):  # the primitive of beta_2 there
@@ -402,18 +405,25 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
     """The bin of each of the n elements of a side (out[4]; -1 if not live), its
-    point zc, n and l (out[3] rows 4-6); at: (m, l_apex, (the spheroid form of the
-    source point and the receiver, the root, the clip), (rs, zs, rr, zr, ...)).
-    An element is tested before its points are solved for: its mid path m + l_apex
-    + its mid excess (its point lies on that spheroid) is within PATH_SLACK of a
-    live bin (a margin of 1e-6 bin over floor((ex -+ PATH_SLACK) / width) keeps
-    this a superset of those bins)."""
+    point zc, n and l (out[3] rows 4-6; of every element, in a loop that
+    vectorizes); at: (m, l_apex, (the spheroid form of the source point and the
+    receiver, the root, the clip), (rs, zs, rr, zr, ...)).  An element is first
+    tested on its mid path m + l_apex + its mid excess (its point lies on that
+    spheroid): within PATH_SLACK of a live bin (a margin of 1e-6 bin over
+    floor((ex -+ PATH_SLACK) / width) keeps this a superset of those bins), then
+    on its path's bin."""
     m, l_apex, (form, upper, lo, hi), legs = at
     rs, zs, rr, zr = legs[0], legs[1], legs[2], legs[3]
     live, buf, bins = out[2], out[3], out[4]
-    lev, zc, nn, ll = buf[0], buf[4], buf[5], buf[6]
-    p_min = g[22]
-    inv_w = 1.0 / cfg[6]
+    lev, zc, nn, ll, quot = buf[0], buf[4], buf[5], buf[6], buf[11]
+    p_min, width = g[22], cfg[6]
+    for j in range(n):
+        z = _clip(_on_spheroid(form, l_apex + 0.5 * (lev[j] + lev[j + 1]), upper), lo, hi)
+        zc[j] = z
+        nn[j] = math.sqrt(rs * rs + (z - zs) ** 2)
+        ll[j] = math.sqrt(rr * rr + (z - zr) ** 2)
+        quot[j] = (m + nn[j] + ll[j] - p_min) / width
+    inv_w = 1.0 / width
     slack = PATH_SLACK * inv_w + 1e-6
     top = int(cfg[7]) - 1
     base = m + l_apex - p_min
@@ -422,14 +432,10 @@ def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
         q = (base + 0.5 * (lev[j] + lev[j + 1])) * inv_w
         b0 = min(max(int(math.floor(q - slack)), 0), top)
         b1 = min(max(int(math.floor(q + slack)), 0), top)
-        if not (live[b0] or live[b1]):
-            continue
-        z = min(max(_on_spheroid(form, l_apex + 0.5 * (lev[j] + lev[j + 1]), upper), lo), hi)
-        n_c = math.sqrt(rs * rs + (z - zs) ** 2)
-        l_c = math.sqrt(rr * rr + (z - zr) ** 2)
-        b = _bin(m + n_c + l_c - p_min, cfg)
-        if live[b]:
-            bins[j], zc[j], nn[j], ll[j] = b, z, n_c, l_c
+        if live[b0] or live[b1]:
+            b = min(max(int(math.floor(quot[j])), 0), top)  # _bin of its path
+            if live[b]:
+                bins[j] = b
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -440,34 +446,29 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
     x, m, z1, outer = at
     buf, bins = out[3], out[4]
     zb, eta, prim, zc, nn, ll = buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
-    amps, cosh1 = buf[7], buf[8]
+    amps, ey1 = buf[7], buf[8]
     s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
     half = 0.5 * cfg[4]
+    for j in range(n):  # e^eta of beta_1 at every element's point (vectorizes)
+        e0 = s2[0] + zc[j] * a2[0] - s1[0]
+        e1 = s2[1] + zc[j] * a2[1] - s1[1]
+        e2 = s2[2] + zc[j] * a2[2] - s1[2]
+        z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
+        r21 = math.sqrt(_clip(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0, math.inf))
+        ratio = ((z1 - zs1) * (z1 - z21) + m * nn[j]) / (rs1 * r21)
+        ey1[j] = _acosh_y(ratio if r21 > 0 else math.inf)
     for j in range(n):
         amps[j] = 0.0
         if bins[j] < 0:
             continue
         deta = abs(eta[j + 1] - eta[j])
         pa, pb = prim[j], prim[j + 1]
-        if not (deta > 0 and pb != pa):
-            continue
-        amp = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
-        if amp == 0:
-            continue
-        e0 = s2[0] + zc[j] * a2[0] - s1[0]
-        e1 = s2[1] + zc[j] * a2[1] - s1[1]
-        e2 = s2[2] + zc[j] * a2[2] - s1[2]
-        z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
-        r21 = math.sqrt(max(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0))
-        if r21 > 0:
-            cosh1[j] = ((z1 - zs1) * (z1 - z21) + m * nn[j]) / (rs1 * r21)
-        else:
-            cosh1[j] = math.inf
-        amps[j] = amp
+        if deta > 0 and pb != pa:
+            amps[j] = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
     for j in range(n):  # beta_1
         if amps[j] != 0:
-            amps[j] = amps[j] * _beta1(_cosh_nu(nu1, cosh1[j]), c)
+            amps[j] = amps[j] * _beta1(_cosh_nu(nu1, ey1[j]), c)
     for j in range(n):  # the taper (1 up to half the excess kept), finite ones
         amp = amps[j]
         if amp == 0:
@@ -528,14 +529,21 @@ def _beta1(big, c):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _cosh_nu(nu, x):  # pragma: no cover - compiled
-    """cosh(nu acosh(x)) (x below 1 taken as 1): (y^nu + y^-nu) / 2 with
-    y = x + sqrt(x^2 - 1)."""
-    if not x < 1e300:
+def _cosh_nu(nu, y):  # pragma: no cover - compiled
+    """cosh(nu acosh(x)) = (y^nu + y^-nu) / 2 from y = :func:`_acosh_y` of x."""
+    if not y < math.inf:
         return math.inf
-    x = max(x, 1.0)
-    yn = math.exp(nu * math.log(x + math.sqrt((x - 1.0) * (x + 1.0))))
+    yn = math.exp(nu * math.log(y))
     return 0.5 * (yn + 1.0 / yn)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _acosh_y(x):  # pragma: no cover - compiled
+    """y = x + sqrt(x^2 - 1) = e^acosh(x) (x below 1 taken as 1; inf from x = 1e300
+    on, and for NaN), as selects (loops of it vectorize)."""
+    x1 = _clip(x, 1.0, math.inf)
+    y = x1 + math.sqrt((x1 - 1.0) * (x1 + 1.0))
+    return y if x < 1e300 else math.inf
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
