@@ -78,18 +78,47 @@ def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _level(target, z_apex, z_end, pair):  # pragma: no cover - compiled
-    """z between the apex and z_end where the profile reaches target (Newton from
-    z_end: monotone on a convex function)."""
+def _cuts(n, ends, pair, work):  # pragma: no cover - compiled
+    """The cuts of edge 1 into work[0][0, :n] where the profile reaches the targets
+    work[0][1, :n] (m), between the apex and z_end (ends): Newton's method from
+    z_end (monotone on a convex function), all the cuts in lockstep (each one's
+    iterates exactly as alone, their steps independent of each other, so that the
+    processor overlaps them); work[1]: scratch (n,) bool."""
+    cut, active = work
+    z_apex, z_end = ends
     lo, hi = min(z_apex, z_end), max(z_apex, z_end)
-    z = z_end
+    for j in range(n):
+        cut[0, j] = z_end
+        active[j] = True
     for _ in range(40):
-        value, slope = _profile(z, pair)
-        gap = value - target
-        if abs(gap) < 1e-13 + 1e-12 * abs(target) or abs(slope) <= 1e-12:
-            break
-        z = min(max(z - gap / slope, lo), hi)
-    return z
+        more = False
+        for j in range(n):
+            if not active[j]:
+                continue
+            value, slope = _profile(cut[0, j], pair)
+            gap = value - cut[1, j]
+            if abs(gap) < 1e-13 + 1e-12 * abs(cut[1, j]) or abs(slope) <= 1e-12:
+                active[j] = False
+            else:
+                cut[0, j] = min(max(cut[0, j] - gap / slope, lo), hi)
+                more = True
+        if not more:
+            return
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _scratch(cfg):  # pragma: no cover - compiled
+    """:func:`pair_bins`' scratch: the inner element template's levels below the
+    excess kept (and one more), rows for the elements of one side of edge 2 (12, n)
+    and their bins (n,), the cuts of one side of edge 1 and their targets (2, n_o)
+    and flags (n_o,)."""
+    n_max = _count_below(cfg[4], cfg[1], int(cfg[3])) + 2
+    levels = np.empty(n_max)
+    for j in range(n_max):
+        levels[j] = _level_value(j, cfg[1], int(cfg[3]))
+    n_out = _count_below(cfg[4], cfg[0], int(cfg[2])) + 2
+    out = (np.empty((12, n_max)), np.empty(n_max, np.int64))
+    return levels, out[0], out[1], np.empty((2, n_out)), np.empty(n_out, np.bool_)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -283,13 +312,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
-    # scratch for the elements of one side of edge 2 (at most those below `excess`)
-    n_max = _count_below(excess, cfg[1], int(cfg[3])) + 2
-    levels = np.empty(n_max)
-    for j in range(n_max):
-        levels[j] = _level_value(j, cfg[1], int(cfg[3]))
-    buf = np.empty((12, n_max))
-    bins = np.empty(n_max, np.int64)
+    levels, buf, bins, cut, active = _scratch(cfg)
     for k in range(geo.shape[0]):
         g = geo[k]
         len1 = g[6]
@@ -308,11 +331,14 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
             e_end = min(real_end, limit - p_min)
             if not (abs(z_end - z_apex) > 0 and e_end > 0):
                 continue
-            n_in = _count_below(e_end, step_o, ref_o)
-            za = z_apex
+            n_in = min(_count_below(e_end, step_o, ref_o), active.size)
             for j in range(n_in):
                 lev = e_end if j + 1 >= n_in else _level_value(j + 1, step_o, ref_o)
-                zb = _level(p_min + lev, z_apex, z_end, pair)
+                cut[1, j] = p_min + lev
+            _cuts(n_in, (z_apex, z_end), pair, (cut, active))
+            za = z_apex
+            for j in range(n_in):
+                zb = cut[0, j]
                 if _bin(_profile(0.5 * (za + zb), pair)[0] - p_min - PATH_SLACK, cfg) > last:
                     break  # every path of this element and the ones after: past the live bins
                 dz = abs(zb - za)
