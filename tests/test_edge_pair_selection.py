@@ -154,6 +154,26 @@ def test_the_kernel_and_numpy_agree_with_face_reflections(stage, reflection):
     np.testing.assert_allclose(a.amplitude, b.amplitude, rtol=0, atol=1e-7 * scale)
 
 
+@pytest.mark.skipif(
+    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+)
+def test_the_pairs_shared_among_threads_give_the_same_bytes(stage):
+    """The kernel's pairs dealt out to two threads, each filling its own rows of
+    the same bins: every path bit for bit as in one thread."""
+    geometry, caster = stage
+    options = DiffractionOptions(max_path_m=8.0, order=2)
+    rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
+    live = (np.ones((len(rows), 54), bool), 4 * BIN_M)
+    one = pair_elements_in(rows, EMITTER, RECEIVER, live, max_path_m=8.0)
+    two = pair_elements_in(
+        rows, EMITTER, RECEIVER, live, max_path_m=8.0,
+        workers=RayCaster(room_objects().triangles, 2),
+    )  # fmt: skip
+    assert len(one) > 1000
+    for name in ("pair", "amplitude", "first_leg_m", "second_leg_m", "point_m", "first_point_m"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+
+
 def test_the_live_bins_are_those_of_the_whole_integral(stage):
     """pair_elements_in with half the 1 mm bins of excess path (chosen at random,
     seeded) live: every bin it fills is equal, bit for bit, to the same bin of the

@@ -300,8 +300,9 @@ def _count_below(e_end, step, refine):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover - compiled
-    """Every pair's elements summed into its bins (see the module docstring).
+def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover - compiled
+    """The elements of the pairs `rows` (int indices) summed into their bins (see
+    the module docstring).
 
     src, rcv (3,); geo (N, 25): per pair start1 (0-2), axis1 (3-5), length1 (6),
     start2 (7-9), axis2 (10-12), length2 (13), nu1, nu2 (14, 15), r and z of the
@@ -311,17 +312,19 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
     phi_i of beta_1, its weights, the halved sines and cosines of nu2 phi_i of
     beta_2 (sine >= 0) and its weights; cfg (8,): outer step, inner step, outer and
     inner refinements, excess kept, longest path (not used: geo 24), bin width (m),
-    bins per pair.  Adds into acc (N, B, 9): per bin the sum of amplitudes, of
+    bins per pair.  Adds into out: (acc (N, B, 9): per bin the sum of amplitudes, of
     |amplitude|, and of |amplitude| times the path, the point on edge 1 (3) and on
-    edge 2 (3); count (N, B): elements per bin.  live (N, B): the bins to fill (an
-    element of another bin is skipped before its beta terms are evaluated; the bins
-    filled are those of the whole integral).  Each pair's bins depend on that pair
-    alone (the pairs may be split among calls in any way).
+    edge 2 (3); count (N, B): elements per bin), only their rows `rows`.  live (N,
+    B): the bins to fill (an element of another bin is skipped before its beta
+    terms are evaluated; the bins filled are those of the whole integral).  Each
+    pair's bins depend on that pair alone: the pairs may be split among calls in
+    any way, and calls on disjoint rows may run at once on the same arrays.
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
+    acc, count = out
     levels, buf, bins, cut, active = _scratch(cfg)
-    for k in range(geo.shape[0]):
+    for k in rows:
         g = geo[k]
         len1 = g[6]
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
@@ -332,7 +335,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
             if live[k, b]:
                 last = b
         c = (consts[k],) + _forms(consts[k])
-        out = (acc[k], count[k], live[k], buf, bins, levels)
+        work = (acc[k], count[k], live[k], buf, bins, levels)
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -351,7 +354,7 @@ def pair_bins(src, rcv, geo, consts, cfg, acc, count, live):  # pragma: no cover
                     break  # every path of this element and the ones after: past the live bins
                 dz = abs(zb - za)
                 if dz > 0:
-                    _edge2((0.5 * (za + zb), dz), (src, rcv), g, c, limit, cfg, out)
+                    _edge2((0.5 * (za + zb), dz), (src, rcv), g, c, limit, cfg, work)
                 za = zb
 
 

@@ -113,25 +113,21 @@ def compiled_elements(
 
 
 def _run(kernel, args, workers) -> None:
-    """``kernel.pair_bins(*args)``, the pairs shared among the workers' threads
-    (:func:`compiled_elements`): the pairs ordered by their live bins (a measure of
-    their work), dealt out in turn, each share's tables copied, its bins put back."""
+    """``kernel.pair_bins`` on every pair of args (source, receiver, geo, consts,
+    cfg, acc, count, live), the pairs shared among the workers' threads
+    (:func:`compiled_elements`): ordered by their live bins (a measure of their
+    work) and dealt out in turn, each thread filling its own pairs' rows of the
+    same acc and count (each pair's bins are the same whichever thread fills them)."""
     source, receiver, g, c, cfg, acc, count, m = args
     n = g.shape[0]
     parts = 1 if workers is None else min(int(workers.threads), n)
     if parts < 2:
-        kernel.pair_bins(source, receiver, g, c, cfg, acc, count, m)
+        kernel.pair_bins(source, receiver, g, c, cfg, (acc, count), m, np.arange(n))
         return
     order = np.argsort(-m.sum(axis=1), kind="stable")
     shares = [order[i::parts] for i in range(parts)]
 
     def one(share):
-        a, k = (
-            np.zeros((share.size, *acc.shape[1:])),
-            np.zeros((share.size, count.shape[1]), np.int64),
-        )
-        kernel.pair_bins(source, receiver, g[share], c[share], cfg, a, k, m[share])
-        return a, k
+        kernel.pair_bins(source, receiver, g, c, cfg, (acc, count), m, share)
 
-    for share, (a, k) in zip(shares, workers.map(one, shares)):
-        acc[share], count[share] = a, k
+    workers.map(one, shares)
