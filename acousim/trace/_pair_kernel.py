@@ -234,6 +234,23 @@ def _atan2(y, x):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _merge(c):  # pragma: no cover - compiled
+    """Equal beta terms summed into one (in place): c (3, 4), the sines, cosines and
+    weights of a wedge's four terms.  A point on a face plane of the wedge (edge 2
+    for edge 1, edge 1 for edge 2: always so in edge to edge) makes them equal two
+    by two (angles that differ by 0 or 2 pi): two terms are left (:func:`_terms`)."""
+    merged = np.zeros(4, np.bool_)
+    for j in range(1, 4):
+        for i in range(j):
+            if merged[j] or merged[i]:
+                continue
+            if abs(c[0, i] - c[0, j]) <= 1e-12 and abs(c[1, i] - c[1, j]) <= 1e-12:
+                c[2, i] += c[2, j]
+                c[2, j] = 0.0
+                merged[j] = True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _terms(w):  # pragma: no cover - compiled
     """(how, i0, i1) for the four weights w of a beta sum: how 1 for one term (i0),
     2 for two of equal weights (i0, i1), 3 for two of opposite weights, 0 else."""
@@ -310,15 +327,16 @@ def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover 
     taper (21: 1 if the edges reach beyond the excess kept), the shortest path (22),
     its z1 (23) and the longest path kept (24); consts (N, 6, 4): sin and cos of nu1
     phi_i of beta_1, its weights, the halved sines and cosines of nu2 phi_i of
-    beta_2 (sine >= 0) and its weights; cfg (8,): outer step, inner step, outer and
-    inner refinements, excess kept, longest path (not used: geo 24), bin width (m),
-    bins per pair.  Adds into out: (acc (N, B, 9): per bin the sum of amplitudes, of
-    |amplitude|, and of |amplitude| times the path, the point on edge 1 (3) and on
-    edge 2 (3); count (N, B): elements per bin), only their rows `rows`.  live (N,
-    B): the bins to fill (an element of another bin is skipped before its beta
-    terms are evaluated; the bins filled are those of the whole integral).  Each
-    pair's bins depend on that pair alone: the pairs may be split among calls in
-    any way, and calls on disjoint rows may run at once on the same arrays.
+    beta_2 (sine >= 0) and its weights (equal terms merged here, :func:`_merge`);
+    cfg (8,): outer step, inner step, outer and inner refinements, excess kept,
+    longest path (not used: geo 24), bin width (m), bins per pair.  Adds into out:
+    (acc (N, B, 9): per bin the sum of amplitudes, of |amplitude|, and of
+    |amplitude| times the path, the point on edge 1 (3) and on edge 2 (3); count
+    (N, B): elements per bin), only their rows `rows`.  live (N, B): the bins to
+    fill (an element of another bin is skipped before its beta terms are
+    evaluated; the bins filled are those of the whole integral).  Each pair's bins
+    depend on that pair alone: the pairs may be split among calls in any way, and
+    calls on disjoint rows may run at once on the same arrays.
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
@@ -334,7 +352,10 @@ def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover 
         for b in range(live.shape[1]):
             if live[k, b]:
                 last = b
-        c = (consts[k],) + _forms(consts[k])
+        ck = consts[k].copy()
+        _merge(ck[0:3])
+        _merge(ck[3:6])
+        c = (ck,) + _forms(ck)
         work = (acc[k], count[k], live[k], buf, bins, levels)
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
