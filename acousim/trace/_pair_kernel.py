@@ -524,9 +524,15 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
         pa, pb = prim[j], prim[j + 1]
         if deta > 0 and pb != pa:
             amps[j] = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
-    for j in range(n):  # beta_1
+    for j in range(n):  # beta_1: log y, y^nu, the sum (each a loop of its own)
+        if amps[j] != 0 and ey1[j] < math.inf:
+            ey1[j] = math.log(ey1[j])
+    for j in range(n):
+        if amps[j] != 0 and ey1[j] < math.inf:
+            ey1[j] = math.exp(nu1 * ey1[j])
+    for j in range(n):
         if amps[j] != 0:
-            amps[j] = amps[j] * _beta1(_cosh_nu(nu1, ey1[j]), c)
+            amps[j] = amps[j] * _beta1(_cosh_nu_of(ey1[j]), c)
     for j in range(n):  # the taper (1 up to half the excess kept), finite ones
         amp = amps[j]
         if amp == 0:
@@ -587,11 +593,11 @@ def _beta1(big, c):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _cosh_nu(nu, y):  # pragma: no cover - compiled
-    """cosh(nu acosh(x)) = (y^nu + y^-nu) / 2 from y = :func:`_acosh_y` of x."""
-    if not y < math.inf:
+def _cosh_nu_of(yn):  # pragma: no cover - compiled
+    """cosh(nu acosh(x)) = (y^nu + y^-nu) / 2 from yn = y^nu (y = :func:`_acosh_y`
+    of x; inf: inf)."""
+    if not yn < math.inf:
         return math.inf
-    yn = math.exp(nu * math.log(y))
     return 0.5 * (yn + 1.0 / yn)
 
 
