@@ -14,6 +14,8 @@ computation (every pair integrated):
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
@@ -122,6 +124,54 @@ def test_the_compiled_kernel_and_numpy_agree(stage):
     np.testing.assert_allclose(
         a.first_leg_m + a.second_leg_m, b.first_leg_m + b.second_leg_m, atol=1e-9
     )
+
+
+@pytest.mark.skipif(
+    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+)
+@pytest.mark.parametrize(
+    "reflection", [(0.6, 0.9), (-1.0, 1.0), (0.0, 0.7), (-0.4, 0.0), (-1.5, -0.5)]
+)
+def test_the_kernel_and_numpy_agree_with_face_reflections(stage, reflection):
+    """Faces that reflect less than fully (or invert: -1) weight the beta terms
+    (R2, 1, 1, R1): the kernel's shortcuts for one term, for two of equal or (the
+    last case, reflections beyond 1 only to get there) opposite weights, and its
+    general sum, against the numpy path's four-term sums."""
+    geometry, caster = stage
+    options = DiffractionOptions(max_path_m=8.0, order=2)
+    rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
+    r1, r2 = reflection
+    terms = np.array([r2, 1.0, 1.0, r1])
+    n = len(rows)
+    rows = dataclasses.replace(
+        rows, terms1=np.tile(terms, (n, 1)), terms2=np.tile(terms[::-1], (n, 1))
+    )
+    a = pair_elements(rows, EMITTER, RECEIVER, use_kernel=True)
+    b = pair_elements(rows, EMITTER, RECEIVER, use_kernel=False)
+    assert len(a) == len(b) > 1000
+    np.testing.assert_array_equal(a.pair, b.pair)
+    scale = np.max(np.abs(b.amplitude))
+    np.testing.assert_allclose(a.amplitude, b.amplitude, rtol=0, atol=1e-7 * scale)
+
+
+@pytest.mark.skipif(
+    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+)
+def test_the_pairs_shared_among_threads_give_the_same_bytes(stage):
+    """The kernel's pairs dealt out to two threads, each filling its own rows of
+    the same bins: every path bit for bit as in one thread."""
+    geometry, caster = stage
+    options = DiffractionOptions(max_path_m=8.0, order=2)
+    rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
+    live = (np.ones((len(rows), 54), bool), 4 * BIN_M)
+    one = pair_elements_in(rows, EMITTER, RECEIVER, live, max_path_m=8.0)
+    two = pair_elements_in(
+        rows, EMITTER, RECEIVER, live, max_path_m=8.0,
+        workers=RayCaster(room_objects().triangles, 2),
+    )  # fmt: skip
+    assert len(one) > 1000
+    for name in ("pair", "amplitude", "first_leg_m", "second_leg_m", "point_m", "first_point_m"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
 
 
 def test_the_live_bins_are_those_of_the_whole_integral(stage):

@@ -28,26 +28,6 @@ def fine_live(live, n_bins: int, width: float) -> np.ndarray:
     return (mask[:, lo] | mask[:, hi]).astype(np.uint8)
 
 
-def _merge_terms(c: np.ndarray) -> None:
-    """Equal beta terms summed into one (in place): c (N, 3, 4), the sines, cosines
-    and weights of the four terms of each pair.  A point on a face plane of the
-    wedge (edge 2 for edge 1, edge 1 for edge 2: always so in edge to edge) makes
-    them equal two by two (angles that differ by 0 or 2 pi), so the kernel
-    evaluates two (it skips a term of weight 0)."""
-    merged = np.zeros(c.shape[::2], bool)
-    for j in range(1, 4):
-        for i in range(j):
-            same = (
-                ~merged[:, j]
-                & ~merged[:, i]
-                & (np.abs(c[:, 0, i] - c[:, 0, j]) <= 1e-12)
-                & (np.abs(c[:, 1, i] - c[:, 1, j]) <= 1e-12)
-            )
-            c[same, 2, i] += c[same, 2, j]
-            c[same, 2, j] = 0.0
-            merged[:, j] |= same
-
-
 def compiled_elements(
     kernel, pairs: PairGeometry, source, receiver, limits, workers=None
 ) -> EdgePairElements:
@@ -88,8 +68,6 @@ def compiled_elements(
         np.where(flip, -ch, ch),
         p.terms2,
     )
-    _merge_terms(consts[:, 0:3])
-    _merge_terms(consts[:, 3:6])
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
     nb = int(np.ceil(max_excess_m / width)) + 2
     longest = float(np.max(max_path_m))  # the kernel reads geo's column 24
@@ -113,25 +91,21 @@ def compiled_elements(
 
 
 def _run(kernel, args, workers) -> None:
-    """``kernel.pair_bins(*args)``, the pairs shared among the workers' threads
-    (:func:`compiled_elements`): the pairs ordered by their live bins (a measure of
-    their work), dealt out in turn, each share's tables copied, its bins put back."""
+    """``kernel.pair_bins`` on every pair of args (source, receiver, geo, consts,
+    cfg, acc, count, live), the pairs shared among the workers' threads
+    (:func:`compiled_elements`): ordered by their live bins (a measure of their
+    work) and dealt out in turn, each thread filling its own pairs' rows of the
+    same acc and count (each pair's bins are the same whichever thread fills them)."""
     source, receiver, g, c, cfg, acc, count, m = args
     n = g.shape[0]
     parts = 1 if workers is None else min(int(workers.threads), n)
     if parts < 2:
-        kernel.pair_bins(source, receiver, g, c, cfg, acc, count, m)
+        kernel.pair_bins(source, receiver, g, c, cfg, (acc, count), m, np.arange(n))
         return
     order = np.argsort(-m.sum(axis=1), kind="stable")
     shares = [order[i::parts] for i in range(parts)]
 
     def one(share):
-        a, k = (
-            np.zeros((share.size, *acc.shape[1:])),
-            np.zeros((share.size, count.shape[1]), np.int64),
-        )
-        kernel.pair_bins(source, receiver, g[share], c[share], cfg, a, k, m[share])
-        return a, k
+        kernel.pair_bins(source, receiver, g, c, cfg, (acc, count), m, share)
 
-    for share, (a, k) in zip(shares, workers.map(one, shares)):
-        acc[share], count[share] = a, k
+    workers.map(one, shares)
