@@ -54,8 +54,10 @@ def _expected_bounds(span: float) -> np.ndarray:
     return np.append(bounds[bounds < span], span)
 
 
-@pytest.mark.parametrize("seed", range(6))
-def test_elements_lie_at_equal_steps_of_excess_path(seed):
+def _case(seed: int):
+    """A random wedge, emitter and receiver (seeded), the edge's axis, length and path
+    through a point z along it, and the least path's z and length (a bounded search,
+    not the module's apex)."""
     rng = np.random.default_rng(seed)
     w = _wedge(rng)
     s, r = _point(rng, w), _point(rng, w)
@@ -67,7 +69,12 @@ def test_elements_lie_at_equal_steps_of_excess_path(seed):
         return np.linalg.norm(s - x) + np.linalg.norm(x - r)
 
     best = minimize_scalar(path, bounds=(0.0, length), method="bounded", options={"xatol": 1e-12})
-    z_apex, l_apex = best.x, best.fun
+    return w, s, r, (axis, length, path), (best.x, best.fun)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_elements_lie_at_equal_steps_of_excess_path(seed):
+    w, s, r, (axis, length, path), (z_apex, l_apex) = _case(seed)
     el = edge_elements(w, s, r, ElementLimits(step_m=STEP, max_excess_m=EXTENT))
     z = (el.point_m - w.start_m) @ axis
     # every element on the edge
@@ -119,18 +126,7 @@ def test_each_element_holds_the_integral_over_its_steps(seed):
     """Each element's amplitude is the BTM integral over its own span (adaptive
     quadrature between the points where the path reaches its step bounds): the
     elements tile the edge, none overlaps its neighbour or leaves a gap."""
-    rng = np.random.default_rng(100 + seed)
-    w = _wedge(rng)
-    s, r = _point(rng, w), _point(rng, w)
-    length = np.linalg.norm(w.end_m - w.start_m)
-    axis = (w.end_m - w.start_m) / length
-
-    def path(z):
-        x = w.start_m + z * axis
-        return np.linalg.norm(s - x) + np.linalg.norm(x - r)
-
-    best = minimize_scalar(path, bounds=(0.0, length), method="bounded", options={"xatol": 1e-12})
-    z_apex, l_apex = best.x, best.fun
+    w, s, r, (axis, length, path), (z_apex, l_apex) = _case(100 + seed)
     el = edge_elements(w, s, r, ElementLimits(step_m=STEP, max_excess_m=1e9))
     z = (el.point_m - w.start_m) @ axis
     f = _btm_integrand(w, s, r)
