@@ -10,13 +10,10 @@ checks.  Compiled with numpy's error model: a division by zero gives inf or NaN,
 in the numpy path (an element whose amplitude is not finite is dropped), instead
 of a check before every division.
 
-For speed, with the same elements in the same bins: the cuts of each side of edge
-1 are found in lockstep and the elements of each side of edge 2 in stages, loops
-whose elements are independent of each other (so that the processor overlaps
-their transcendental functions; the loops of square roots and divisions
-vectorize); two beta terms of equal or opposite weights (a wedge's merged terms)
-over one atan2 and one division; log, exp and atan in place of log1p, expm1 and
-atan2 where they are within an ulp or two.
+For speed, the same elements in the same bins: the cuts of edge 1 in lockstep,
+edge 2's elements in stages of independent loops (:func:`_side`); two beta terms
+of equal or opposite weights over one atan2 and one division; log, exp and atan
+for log1p, expm1 and atan2 where they are within an ulp or two.
 """
 
 from __future__ import annotations
@@ -90,8 +87,7 @@ def _cuts(n, ends, pair, work):  # pragma: no cover - compiled
     """The cuts of edge 1 into work[0][0, :n] where the profile reaches the targets
     work[0][1, :n] (m), between the apex and z_end (ends): Newton's method from
     z_end (monotone on a convex function), all the cuts in lockstep (each one's
-    iterates exactly as alone, their steps independent of each other, so that the
-    processor overlaps them); work[1]: scratch (n,) bool."""
+    iterates as alone; the processor overlaps them); work[1]: scratch (n,) bool."""
     cut, active = work
     z_apex, z_end = ends
     lo, hi = min(z_apex, z_end), max(z_apex, z_end)
@@ -116,10 +112,9 @@ def _cuts(n, ends, pair, work):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _scratch(cfg):  # pragma: no cover - compiled
-    """:func:`pair_bins`' scratch: the inner element template's levels below the
-    excess kept (and one more), rows for the elements of one side of edge 2 (12, n)
-    and their bins (n,), the cuts of one side of edge 1 and their targets (2, n_o)
-    and flags (n_o,)."""
+    """:func:`pair_bins`' scratch: the inner template's levels below the excess kept
+    (and one more), rows for one side of edge 2's elements (12, n) and their bins
+    (n,), one side of edge 1's cuts and targets (2, n_o) and flags (n_o,)."""
     n_max = _count_below(cfg[4], cfg[1], int(cfg[3])) + 2
     levels = np.empty(n_max)
     for j in range(n_max):
@@ -131,8 +126,7 @@ def _scratch(cfg):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
-    """The constants of :func:`_spheroid` for one line and two foci: (c^2, y0u, eu,
-    y0e, |y0|^2)."""
+    """:func:`_on_spheroid`'s constants of a line and two foci: (c^2, y0u, eu, y0e, |y0|^2)."""
     cx, cy, cz = 0.5 * (src[0] + rcv[0]), 0.5 * (src[1] + rcv[1]), 0.5 * (src[2] + rcv[2])
     fx, fy, fz = rcv[0] - src[0], rcv[1] - src[1], rcv[2] - src[2]
     c = 0.5 * math.sqrt(fx * fx + fy * fy + fz * fz)
@@ -150,9 +144,8 @@ def _spheroid_form(src, rcv, s, a):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _on_spheroid(form, path, upper):  # pragma: no cover - compiled
     """z along the line where |src - x| + |x - rcv| = path (the larger root if
-    upper), from the constants `form` of :func:`_spheroid_form`: points of equal
-    path lie on a spheroid with foci src and rcv, whose intersection with a line is
-    a quadratic in z."""
+    upper; `form`: :func:`_spheroid_form`): a spheroid with foci src and rcv meets
+    the line at the roots of a quadratic in z."""
     cc, y0u, eu, y0e, yy = form
     a2 = (0.5 * path) ** 2
     b2 = _clip(a2 - cc, 0.0, math.inf)
@@ -182,8 +175,7 @@ def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _log1p(s):  # pragma: no cover - compiled
-    """log1p(s), as log(1 + s) past s = 1 (where the sum loses at most an ulp of the
-    result; log is the cheaper)."""
+    """log1p(s), as the cheaper log(1 + s) past s = 1 (within an ulp there)."""
     return math.log(1.0 + s) if s > 1.0 else math.log1p(s)
 
 
@@ -252,8 +244,8 @@ def _merge(c):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _terms(w):  # pragma: no cover - compiled
-    """(how, i0, i1) for the four weights w of a beta sum: how 1 for one term (i0),
-    2 for two of equal weights (i0, i1), 3 for two of opposite weights, 0 else."""
+    """(how, i0, i1) for a beta sum's four weights w: how 1: one term (i0), 2: two
+    of equal weights (i0, i1), 3: two of opposite weights, 0: else."""
     i0, i1, n = -1, -1, 0
     for i in range(4):
         if w[i] != 0:
@@ -298,8 +290,7 @@ def _forms(c):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _level_value(j, step, refine):  # pragma: no cover - compiled
-    """The j-th excess level of the element template (0, step 2^-refine, ..., step / 2,
-    step, 2 step, ...)."""
+    """The j-th excess level of the element template (0, step 2^-refine, ..., step)."""
     if j == 0:
         return 0.0
     if j <= refine:
@@ -329,14 +320,13 @@ def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover 
     phi_i of beta_1, its weights, the halved sines and cosines of nu2 phi_i of
     beta_2 (sine >= 0) and its weights (equal terms merged here, :func:`_merge`);
     cfg (8,): outer step, inner step, outer and inner refinements, excess kept,
-    longest path (not used: geo 24), bin width (m), bins per pair.  Adds into out:
-    (acc (N, B, 9): per bin the sum of amplitudes, of |amplitude|, and of
-    |amplitude| times the path, the point on edge 1 (3) and on edge 2 (3); count
-    (N, B): elements per bin), only their rows `rows`.  live (N, B): the bins to
-    fill (an element of another bin is skipped before its beta terms are
-    evaluated; the bins filled are those of the whole integral).  Each pair's bins
-    depend on that pair alone: the pairs may be split among calls in any way, and
-    calls on disjoint rows may run at once on the same arrays.
+    longest path (not used: geo 24), bin width (m), bins per pair.  Adds into the
+    rows `rows` of out: (acc (N, B, 9): per bin the sum of amplitudes, |amplitude|,
+    |amplitude| times the path, and times the point on edge 1 (3) and edge 2 (3);
+    count (N, B): elements per bin).  live (N, B): the bins to fill (others'
+    elements skipped before their beta terms; the bins filled as in the whole
+    integral).  A pair's bins depend on it alone: calls on disjoint rows may run at
+    once on the same arrays.
     """
     step_o, ref_o = cfg[0], int(cfg[2])
     excess = cfg[4]
@@ -383,10 +373,9 @@ def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover 
 def _edge2(element, ends, g, c, limit, cfg, out):  # pragma: no cover - compiled
     """The first-order elements of edge 2 with the source at z1 on edge 1 (element:
     (z1, its length)), times beta_1 and the outer weight, into the pair's bins out:
-    (acc (B, 9), count (B,), live (B,): the bins to fill, scratch (12, n) and (n,), the inner
-    element template's levels);
-    ends: (source, receiver);
-    c: the pair's consts and :func:`_forms`."""
+    (acc (B, 9), count (B,), live (B,): the bins to fill, scratch (12, n) and (n,),
+    the inner element template's levels); ends: (source, receiver); c: the pair's
+    consts and :func:`_forms`."""
     z1, dz1 = element
     src, rcv = ends
     s1, a1 = g[0:3], g[3:6]
@@ -562,12 +551,9 @@ def _sums(n, at, g, out):  # pragma: no cover - compiled
         acc[b, 0] += amp
         acc[b, 1] += w
         acc[b, 2] += w * path
-        acc[b, 3] += w * x[0]
-        acc[b, 4] += w * x[1]
-        acc[b, 5] += w * x[2]
-        acc[b, 6] += w * (s2[0] + zc[j] * a2[0])
-        acc[b, 7] += w * (s2[1] + zc[j] * a2[1])
-        acc[b, 8] += w * (s2[2] + zc[j] * a2[2])
+        for i in range(3):
+            acc[b, 3 + i] += w * x[i]
+            acc[b, 6 + i] += w * (s2[i] + zc[j] * a2[i])
         count[b] += 1
 
 
@@ -596,9 +582,7 @@ def _beta1(big, c):  # pragma: no cover - compiled
 def _cosh_nu_of(yn):  # pragma: no cover - compiled
     """cosh(nu acosh(x)) = (y^nu + y^-nu) / 2 from yn = y^nu (y = :func:`_acosh_y`
     of x; inf: inf)."""
-    if not yn < math.inf:
-        return math.inf
-    return 0.5 * (yn + 1.0 / yn)
+    return 0.5 * (yn + 1.0 / yn) if yn < math.inf else math.inf
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
