@@ -36,7 +36,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .btm import DEFAULT_MAX_EXCESS_M
-from .btm_pair_geometry import segment_axes
 from .btm_pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from .diffracted import DiffractedPaths, empty_paths
 from .diffraction_setup import StageContext
@@ -177,7 +176,8 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
         t1, t2 = terms[s1[q], i[q], u], terms[s2[q], j[q], v]
         columns = np.column_stack([column[s1[q], i[q], u], column[s2[q], j[q], v]])
     iq, jq = i[q], j[q]
-    axis, length = ctx.geometry.kept("edge_axes", lambda: segment_axes(edges.start_m, edges.end_m))
+    frame = edge_frame(ctx.geometry)  # each edge's axis and length, found once
+    axis, length = frame.axis, frame.length
 
     def at(x, k):  # rows of x (np.take gathers them much faster than indexing does)
         return np.take(x, k, axis=0)

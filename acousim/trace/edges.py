@@ -79,7 +79,6 @@ class Edges:
         source: np.ndarray,
         receiver: np.ndarray,
         min_turn_deg: float = CURVED_MAX_ANGLE_DEG,
-        frame: EdgeFrame | None = None,
     ) -> tuple[np.ndarray, Edges]:
         """The edges as wedges seen from the side of `source` and `receiver` (3,).
 
@@ -87,9 +86,8 @@ class Edges:
         is also the receiver's and is a convex wedge (open angle above pi +
         min_turn_deg), and ``edges`` has, per edge, face 1 and its normal chosen so
         that the air is at angles 0 .. angle_rad (the open angle of that side).
-        frame: these edges' :class:`EdgeFrame` (None: found here).
         """
-        frame = EdgeFrame.of(self) if frame is None else frame
+        frame = EdgeFrame.of(self)
         side_s = frame.theta(self, source) > self.angle_rad  # True: the other side
         side_r = frame.theta(self, receiver) > self.angle_rad
         oriented = frame.turned(self, side_s)
@@ -108,9 +106,16 @@ def convex(edges: Edges, min_turn_deg: float = CURVED_MAX_ANGLE_DEG) -> np.ndarr
 
 @dataclass(frozen=True, eq=False)
 class EdgeFrame:
-    """What :meth:`Edges.oriented` needs of E edges that does not depend on the
-    source or the receiver (found once per set of edges)."""
+    """What the diffraction stage asks of E edges that depends on neither the
+    source nor the receiver (found once per set of edges: :meth:`Edges.oriented`,
+    the distances to the edges, the edge pairs' axes)."""
 
+    span: np.ndarray
+    """(E, 3) end minus start (m)."""
+    span2: np.ndarray
+    """(E,) its squared length (m^2)."""
+    length: np.ndarray
+    """(E,) its length (m)."""
     axis: np.ndarray
     """(E, 3) unit vector from start to end."""
     normal_b: np.ndarray
@@ -118,10 +123,12 @@ class EdgeFrame:
 
     @classmethod
     def of(cls, edges: Edges) -> EdgeFrame:
-        axis = edges.end_m - edges.start_m
-        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        span = edges.end_m - edges.start_m
+        length = np.linalg.norm(span, axis=1)
+        axis = span / np.where(length > 0, length, 1.0)[:, None]
         turn = np.cross(edges.face_dir, edges.normal)  # rotation axis of the angles
-        return cls(axis, np.cross(turn, edges.other_dir))
+        span2 = np.einsum("ij,ij->i", span, span)
+        return cls(span, span2, length, axis, np.cross(turn, edges.other_dir))
 
     def theta(self, edges: Edges, p: np.ndarray) -> np.ndarray:
         """(E,) the angle of point p (3,) about each edge, from face 1 towards its

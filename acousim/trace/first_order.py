@@ -97,7 +97,6 @@ def pose_edges(ctx: StageContext) -> PoseEdges:
     same = np.array_equal(side_e, side_r)
     wedge_r = wedge_e if same else frame.turned(edges, side_r)
     convex_e = convex(wedge_e)
-    span = ctx.geometry.kept("edge_span", lambda: _span(edges))
     got = ctx.cache["edges"] = PoseEdges(
         side_e,
         side_r,
@@ -105,17 +104,11 @@ def pose_edges(ctx: StageContext) -> PoseEdges:
         wedge_r,
         convex_e,
         convex_e if same else convex(wedge_r),
-        segment_distance(ctx.emitter, edges.start_m, edges.end_m, span),
-        segment_distance(ctx.receiver, edges.start_m, edges.end_m, span),
+        segment_distance(ctx.emitter, edges.start_m, edges.end_m, (frame.span, frame.span2)),
+        segment_distance(ctx.receiver, edges.start_m, edges.end_m, (frame.span, frame.span2)),
         np.full((2, len(edges), PROBE_FRACTIONS.size), -1, np.int8),
     )
     return got
-
-
-def _span(edges: Edges) -> tuple[np.ndarray, np.ndarray]:
-    """(end - start (E, 3), its squared length (E,)) of every edge."""
-    ab = edges.end_m - edges.start_m
-    return ab, np.einsum("ij,ij->i", ab, ab)
 
 
 def probe_seen(ctx: StageContext, *asks: tuple[int, np.ndarray]) -> list[np.ndarray]:
