@@ -14,7 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
-from processing.errors import InputError, did_you_mean
+from processing.base.errors import InputError, did_you_mean
 
 __all__ = [
     "Kind",

@@ -21,7 +21,7 @@ import logging
 from dataclasses import dataclass
 
 from acousim.allocator import keep_freed_memory
-from processing.settings import setting, validate
+from processing.base.settings import setting, validate
 
 __all__ = ["configure", "BLAS_THREADS", "Workers"]
 

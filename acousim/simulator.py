@@ -40,15 +40,15 @@ from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
-from acousim.synth.model import in_window, simulate
 from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse
+from acousim.synth.signal_model import in_window, simulate
 from acousim.trace.direct import seen
-from acousim.trace.following import Endpoints, MovingPaths
+from acousim.trace.motion.following import Endpoints, MovingPaths
 from acousim.trace.paths import TracedPaths, kind_names
 from acousim.trace.tracer import Tracer
-from processing import interrupt
-from processing.errors import InputError
+from processing.base import interrupt
+from processing.base.errors import InputError
 
 __all__ = ["Simulator", "package_version", "MIN_POINT_DISTANCE_M"]
 
@@ -110,7 +110,7 @@ class Simulator:
         #: without them keeps its one world)
         self.moving_meshes = any(m.moving for m in scene.meshes)
         if self.moving_meshes:
-            from acousim.trace.moving import MovingWorld
+            from acousim.trace.motion.moving_world import MovingWorld
 
             self.tracer = MovingWorld(scene, threads)
         else:
@@ -269,9 +269,9 @@ class Simulator:
 
     def moving_paths(self, pose: Pose):
         """The paths of a measurement in motion starting at `pose`:
-        :class:`~acousim.trace.following.MovingPaths`, and for the ground truth the
+        :class:`~acousim.trace.motion.following.MovingPaths`, and for the ground truth the
         positions (N, 3) at the start of the emission, the kind names and the velocities
-        (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.moving`)."""
+        (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.motion.moving_world`)."""
         return self._moving(pose)[:4]
 
     def _moving(self, pose: Pose):
@@ -282,7 +282,7 @@ class Simulator:
         moving = MovingPaths.from_traced(paths, emitter)
         truth_vel = moving.velocity_m_s
         if self.moving_meshes:
-            from acousim.trace.moving import follow_chains, ride
+            from acousim.trace.motion.moving_world import follow_chains, ride
 
             on, normals, glint = self.tracer.riders(paths, pose)
             velocities = self.tracer.velocities(pose)

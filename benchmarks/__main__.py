@@ -8,7 +8,7 @@ import platform
 import sys
 from pathlib import Path
 
-from processing.atomic import write_text
+from processing.base.atomic import write_text
 
 from . import (
     array_calibration,

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
-from processing.broadband import BroadbandSettings
-from processing.metrics import solid_angle_3db
+from processing.imaging.broadband.energyscape import BroadbandSettings
+from processing.imaging.metrics import solid_angle_3db
 
 ROOT = Path(__file__).resolve().parent.parent
 RANGE_M = (2.8, 3.6)
@@ -34,7 +34,7 @@ METHODS = ("das-bb", "dmas2-cf-bb")
 
 def recording() -> P.Recording:
     """The sample, with the array's emitter where the scene puts it."""
-    from acousim.compare_inputs import load_real_recordings
+    from acousim.compare.inputs import load_real_recordings
     from acousim.scene import load_scene
 
     (rec,) = load_real_recordings("rtisdev-sample")

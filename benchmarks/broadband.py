@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 import processing as P
-from processing import broadband as B
-from processing import broadband_engines as E
+from processing.imaging.broadband import energyscape as B
+from processing.imaging.broadband import engines as E
 
 from .timing import best_time
 
@@ -76,7 +76,7 @@ def _fan_table(rec: P.Recording, limits: tuple[float, float]) -> list[str]:
 def _real_sample() -> P.Recording | None:
     try:
         from hardware import decode_frame
-        from processing.rtisdev import sample_recording
+        from processing.formats.rtisdev import sample_recording
 
         raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
         return decode_frame(raw, P.ertis_v3d1(), P.rtis_call("default_25_50"))

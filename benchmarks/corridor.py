@@ -13,9 +13,9 @@ import numpy as np
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.cluster import members
-from acousim.trace.scatter import scatter
-from acousim.trace.shoot import shoot
+from acousim.trace.rays.cluster import members
+from acousim.trace.rays.scatter import scatter
+from acousim.trace.rays.shoot import shoot
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POSES = list(range(10, 30))  # two seconds of the drive
@@ -109,7 +109,7 @@ def run() -> str:
             "by +3 dB); its energy per range bin converges (the level error).",
             "",
             "The diffuse (Lambert) tail is gathered into point reflectors "
-            f"(`acousim.trace.cluster`); at {base_rays} rays, of the first-order diffuse "
+            f"(`acousim.trace.rays.cluster`); at {base_rays} rays, of the first-order diffuse "
             f"energy {off * 100:.1f} % lies more than 5 cm of range from its reflector's "
             f"range (mean {mean_off * 100:.2f} cm), and the energy-weighted mean angle "
             f"between a contribution's direction and its reflector's is {angle:.1f}°.",

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
+from acousim.trace.diffraction.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
 from tests._scenes import first_pose, rigid_scene, screen, spectrum, square_faces, turn_z
 from tests.test_diffraction import physical_optics  # the tests' independent reference
 
@@ -151,7 +151,7 @@ def _strip() -> tuple[np.ndarray, np.ndarray]:
     """Error (dB, 20-80 kHz) of geometric + first order, and + second order, of a
     2 cm wide, 4 m long rigid strip 2 m from a monostatic sensor against the exact
     strip (the tests' reference: tests/test_diffraction_order2.py)."""
-    from acousim.trace.btm_pairs import Wedge, edge_pair_elements
+    from acousim.trace.diffraction.pairs import Wedge, edge_pair_elements
     from tests.test_diffraction_order2 import strip_far_field
 
     d, w, length = 2.0, 0.02, 4.0
@@ -310,7 +310,7 @@ def run() -> str:
             "|---|---|---|---|",
             *_element_table(),
             "",
-            "Edge to edge (`acousim.trace.btm_pairs`): the element step (of both edges, "
+            "Edge to edge (`acousim.trace.diffraction.pairs`): the element step (of both edges, "
             "excess path length) against error and time. The reciprocity test's turned "
             "box (6 x 5 x 4 cm, 0.5 m, bistatic; 32 edge pairs), its edge-to-edge field "
             "at 13 frequencies of 20-80 kHz against the same at a 0.05 mm step, worst "

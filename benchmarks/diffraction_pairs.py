@@ -15,12 +15,12 @@ import trimesh
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.btm_pairs import pair_elements
-from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions
-from acousim.trace.diffraction_setup import StageContext
-from acousim.trace.edge_to_edge import _selected, candidate_pairs
-from acousim.trace.edges import find_edges
-from acousim.trace.embree import RayCaster
+from acousim.trace.diffraction.edge_to_edge import _selected, candidate_pairs
+from acousim.trace.diffraction.pairs import pair_elements
+from acousim.trace.diffraction.setup import StageContext
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
+from acousim.trace.world.edges import find_edges
+from acousim.trace.world.embree import RayCaster
 from tests.test_diffraction_order2 import plane_ids
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -135,7 +135,7 @@ def skipped_table(poses=(5, 15, 25, 40)) -> list[str]:
     sim = _corridor()
     tracer = sim.tracer
     cap = {}
-    import acousim.trace.diffraction as stage
+    import acousim.trace.diffraction.stage as stage
 
     original = stage.edge_to_edge
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 import processing as P
-from processing.doa import doa_spectrum
+from processing.imaging.doa import doa_spectrum
 
 from .timing import best_time
 
@@ -71,9 +71,9 @@ def run() -> str:
 
 def _plain(x, arr, grid, method):
     """The textbook formulas with explicit steering vectors (no structure exploited)."""
-    from processing.doa import _parse, method_matrix
-    from processing.smoothing import covariance, default_subarray, smoothed_covariance
-    from processing.steering import quadratic_form_direct, steering_matrix
+    from processing.imaging.doa import _parse, method_matrix
+    from processing.imaging.smoothing import covariance, default_subarray, smoothed_covariance
+    from processing.imaging.steering import quadratic_form_direct, steering_matrix
 
     base, smooth = _parse(method)
     x = x / np.abs(x).max()  # the documented scale: relative to the largest snapshot

@@ -26,7 +26,7 @@ from acousim.synth.doppler import (
     render_doppler,
 )
 from acousim.synth.options import RenderOptions
-from acousim.trace.following import MovingPaths
+from acousim.trace.motion.following import MovingPaths
 
 from .timing import best_time
 
@@ -206,7 +206,7 @@ def _geometry_table() -> list[str]:
 def _moving_mesh_table() -> list[str]:
     """Moving meshes: the first-order echo of a wall moving during the measurement
     (turned 20 degrees, closing and sliding), paths traced once at the emission
-    instant and moved by the law of :mod:`acousim.trace.moving`, against the
+    instant and moved by the law of :mod:`acousim.trace.motion.moving_world`, against the
     reception times found by tracing the wall again where it is at the reflection
     instant (``tests/test_moving_mesh.reference_reception``)."""
     import trimesh
@@ -357,7 +357,7 @@ def run(small: bool = False) -> str:
         "moved with the emitter: first- and second-order image sources exactly (their "
         "planes recovered from the traced path), the others (reflections at an edge, "
         "whose two points coincide in the trace; higher orders; scattering) by the "
-        "second-order Fermat law of `acousim.trace.following`; against the shoebox traced "
+        "second-order Fermat law of `acousim.trace.motion.following`; against the shoebox traced "
         "again at the pose of five later instants of the 2.5 ms call. Largest error of "
         "the path length to any microphone (the receiving side is exact: image sources "
         "do not depend on the receiver); 'lost': paths without a counterpart in the "
@@ -370,7 +370,7 @@ def run(small: bool = False) -> str:
         "",
         "**Moving meshes.** A wall turned 20 degrees moving during the measurement, "
         "traced once where it is at the start of the emission, its image source moved "
-        "as that of a translating plane (`acousim.trace.moving`), against the wall "
+        "as that of a translating plane (`acousim.trace.motion.moving_world`), against the wall "
         "traced again where it is at the instant of reflection (reception times of the "
         "first and last sample of the call, uRTIS microphones 0, 9, 20, 29); 'frozen': "
         "the error if the wall were left where it is at the emission.",

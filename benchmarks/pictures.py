@@ -9,7 +9,7 @@ from pathlib import Path
 
 from acousim.export import write_image_data, write_peaks_csv
 from acousim.export.rosbag import write_rosbag
-from acousim.imaging import (
+from acousim.imaging.run import (
     ImagingOptions,
     _animate,
     _render,

@@ -15,7 +15,7 @@ import trimesh
 import processing as P
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
-from acousim.trace import budget
+from acousim.trace.rays import budget
 from acousim.trace.tracer import Tracer
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"

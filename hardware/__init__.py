@@ -1,10 +1,10 @@
 """hardware: the real RTIS sensors over USB (pyusb), their 1-bit PDM frames, and an
 emulated sensor that runs the same driver without hardware.  Depends on processing."""
 
-from .device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevice
-from .pdm import decode, encode
-from .protocol import Frame, FrameError, build_frame, parse_frame
-from .recorder import (
+from hardware.device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevice
+from hardware.pdm import decode, encode
+from hardware.protocol import Frame, FrameError, build_frame, parse_frame
+from hardware.recorder import (
     Acquisition,
     Recorder,
     RecordingFailed,

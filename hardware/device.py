@@ -15,10 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.errors import InputError
-from processing.rtis import RTIS_SAMPLE_RATE_HZ
-
-from .protocol import (
+from hardware.protocol import (
     EMULATOR_PID,
     EMULATOR_VID,
     Frame,
@@ -27,6 +24,8 @@ from .protocol import (
     frame_size,
     parse_frame,
 )
+from processing.base.errors import InputError
+from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 __all__ = [
     "DeviceSettings",

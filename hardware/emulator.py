@@ -30,10 +30,9 @@ import numpy as np
 import usb.backend
 import usb.core
 
-from processing.errors import InputError
-from processing.rtis import RTIS_SAMPLE_RATE_HZ
-
-from .protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
+from hardware.protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
+from processing.base.errors import InputError
+from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 __all__ = [
     "EmulatedSensor",
@@ -60,7 +59,7 @@ def recording_source(
 
     Raises InputError when the channels do not fit the 32 bits of a tick word.
     """
-    from .pdm import PDM_RATE_HZ, encode
+    from hardware.pdm import PDM_RATE_HZ, encode
 
     channels = np.asarray(channels)
     if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
@@ -96,7 +95,7 @@ def emulated_device(
     (open_device, sensor), where ``open_device()`` opens an RtisDevice on the emulated
     sensor through the real driver (what :class:`hardware.Recorder` takes).  Raises
     InputError for an array the link cannot carry (more than 32 microphones)."""
-    from .device import RtisDevice
+    from hardware.device import RtisDevice
 
     sensor = EmulatedSensor(recording_source(recordings, channels), n_ticks=n_ticks)
     backend = EmulatorBackend(sensor)

@@ -30,7 +30,7 @@ from scipy import fft as sfft
 from scipy.signal import firwin, remez, resample_poly
 
 try:
-    from . import _pdm_kernel
+    from hardware import _pdm_kernel
 except ImportError:  # built by setup.py; without a C compiler the numpy engine remains
     _pdm_kernel = None
 

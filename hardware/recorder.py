@@ -30,12 +30,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import processing as P
-from processing.errors import InputError
-from processing.settings import check, setting, settings_of, validate
-
-from .device import DeviceNotFound, DeviceSettings, RtisDevice
-from .pdm import DECIMATION, PDM_RATE_HZ, decode
-from .protocol import FrameError
+from hardware.device import DeviceNotFound, DeviceSettings, RtisDevice
+from hardware.pdm import DECIMATION, PDM_RATE_HZ, decode
+from hardware.protocol import FrameError
+from processing.base.errors import InputError
+from processing.base.settings import check, setting, settings_of, validate
 
 __all__ = [
     "RecordStats",
@@ -274,7 +273,7 @@ class Recorder:
         `rate_hz` per second.
 
         KeyboardInterrupt, or `stop()` turning true (checked before every measurement
-        and while waiting for the next, e.g. :func:`processing.interrupt.requested`),
+        and while waiting for the next, e.g. :func:`processing.base.interrupt.requested`),
         stops after the last complete one (:class:`RecordingInterrupted`);
         a device that fails for good raises :class:`RecordingFailed`; both carry every
         complete measurement.  Bad arguments raise InputError (:func:`check_acquisition`).

@@ -7,18 +7,19 @@ through :func:`acoustic_images`.  Units are SI throughout (m, s, Hz, rad).
 This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
-from .arrays import (
-    PRESETS,
-    Array,
-    ertis_v3d1,
-    from_coordinates,
-    from_coordinates_file,
-    paper_8x8,
-    preset,
-    ura,
-    urtis_v1,
+from processing.base.errors import InputError
+from processing.formats.chirp.write import count_chirp, is_chirp, read_chirp, write_chirp
+from processing.formats.native import (
+    GroundTruth,
+    Recording,
+    RecordingFileError,
+    count_recordings,
+    load_recording,
+    load_recordings,
+    save_recording,
+    save_recordings,
 )
-from .broadband import (
+from processing.imaging.broadband.energyscape import (
     BROADBAND_METHODS,
     BroadbandSettings,
     Directions,
@@ -27,20 +28,11 @@ from .broadband import (
     fan,
     sphere_partition,
 )
-from .calibration import (
-    ArrayCalibration,
-    apply_calibration,
-    attach_calibration,
-    find_echo,
-    fit_array_calibration,
-)
-from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
-from .doa import NARROWBAND_METHODS, doa_spectrum
-from .errors import InputError
-from .image import Image, Peaks, find_peaks, to_db
-from .matched_filter import matched_filter
-from .methods import MethodSpec, parse_method
-from .metrics import (
+from processing.imaging.doa import NARROWBAND_METHODS, doa_spectrum
+from processing.imaging.image import Image, Peaks, find_peaks, to_db
+from processing.imaging.matched_filter import matched_filter
+from processing.imaging.methods import MethodSpec, parse_method
+from processing.imaging.metrics import (
     angular_resolution,
     dynamic_range_db,
     max_attenuation,
@@ -48,7 +40,7 @@ from .metrics import (
     range_resolution,
     solid_angle_3db,
 )
-from .pipeline import (
+from processing.imaging.pipeline import (
     METHODS,
     Method,
     ProcessingSettings,
@@ -61,23 +53,31 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
-from .pointcloud import PointCloud
-from .provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
-from .recording import (
-    GroundTruth,
-    Recording,
-    RecordingFileError,
-    count_recordings,
-    load_recording,
-    load_recordings,
-    save_recording,
-    save_recordings,
+from processing.imaging.smoothing import covariance, smoothed_covariance
+from processing.imaging.snapshot import BinGate, Snapshot, Stft, stft_snapshot
+from processing.imaging.steering import Grid, steering_matrix
+from processing.imaging.wideband import WIDEBAND_METHODS
+from processing.sensor.arrays import (
+    PRESETS,
+    Array,
+    ertis_v3d1,
+    from_coordinates,
+    from_coordinates_file,
+    paper_8x8,
+    preset,
+    ura,
+    urtis_v1,
 )
-from .smoothing import covariance, smoothed_covariance
-from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
-from .steering import Grid, steering_matrix
-from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
-from .wideband import WIDEBAND_METHODS
+from processing.sensor.calibration import (
+    ArrayCalibration,
+    apply_calibration,
+    attach_calibration,
+    find_echo,
+    fit_array_calibration,
+)
+from processing.sensor.calls import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
+from processing.sensor.pointcloud import PointCloud
+from processing.sensor.provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 
 __all__ = [
     "PRESETS",

@@ -98,8 +98,8 @@ def spectrum(paths, receiver: np.ndarray, k: np.ndarray, sel=None) -> np.ndarray
 def screen(angle_rad: float = 2 * np.pi, **options):
     """A wedge's edge along z from -10 to 10 m, its face 1 the half-plane y = 0,
     x > 0 (normal +y), of open angle `angle_rad` (2 pi: a thin screen); `options` go
-    to :class:`acousim.trace.btm.Wedge`."""
-    from acousim.trace.btm import Wedge
+    to :class:`acousim.trace.diffraction.btm.Wedge`."""
+    from acousim.trace.diffraction.btm import Wedge
 
     start, end = np.array([0.0, 0, -10]), np.array([0.0, 0, 10])
     return Wedge(start, end, np.array([1.0, 0, 0]), np.array([0.0, 1, 0]), angle_rad, **options)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import processing as P
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 
 def test_ura_geometry_is_centred_with_pitch():
@@ -77,7 +77,7 @@ def test_matlab_v73_coordinates_file(tmp_path):
 
 
 def test_ertis_preset_offline_is_an_input_error(monkeypatch, capsys):
-    import processing.rtisdev as rtisdev
+    import processing.formats.rtisdev as rtisdev
     from acousim.cli import main
 
     def offline(sensor):

@@ -4,8 +4,8 @@ import os
 
 import pytest
 
-from processing.atomic import TEMP_PREFIX, atomic_path, write_text
-from processing.errors import InputError
+from processing.base.atomic import TEMP_PREFIX, atomic_path, write_text
+from processing.base.errors import InputError
 
 
 def test_atomic_write_renames_on_success(tmp_path):

@@ -1,6 +1,6 @@
 """Broadband energyscapes (DAS, DAS-CF, DMAS2-5(-CF)) and wideband Capon/MUSIC.
 
-References are independent of processing.broadband: exact analytic echoes
+References are independent of processing.imaging.broadband.energyscape: exact analytic echoes
 (conftest.echo_recording), a brute-force elementary symmetric polynomial, and the
 plain time-domain delay-and-sum written here at the full sample rate.
 """
@@ -14,8 +14,8 @@ from conftest import echo_recording
 from scipy.signal import hilbert
 
 import processing as P
-from processing import broadband as B
-from processing import broadband_engines as E
+from processing.imaging.broadband import energyscape as B
+from processing.imaging.broadband import engines as E
 
 WF = P.rtis_call("default_25_50")
 FS = 450e3
@@ -232,7 +232,7 @@ def test_real_ertis_sample_echo_stays_where_das_puts_it():
     echo at 3.2 m where narrowband DAS does (same direction within a grid step)."""
     try:
         from hardware import decode_frame
-        from processing.rtisdev import sample_recording
+        from processing.formats.rtisdev import sample_recording
 
         raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
         rec = decode_frame(raw, P.ertis_v3d1(), P.rtis_call("default_25_50"))
@@ -272,8 +272,8 @@ def test_phat_weighting_and_repeated_measurements(engine):
 def test_polyphase_upsampling_equals_zero_padded_fft():
     """The U phases of the compiled path's upsampled baseband, against the band-limited
     interpolation written out as a sum of complex exponentials in the test."""
-    from processing.broadband import Baseband
-    from processing.broadband_engines import _polyphase
+    from processing.imaging.broadband.energyscape import Baseband
+    from processing.imaging.broadband.engines import _polyphase
 
     N, U = 12, 4
     rng = np.random.default_rng(2)

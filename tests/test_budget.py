@@ -11,9 +11,9 @@ import pytest
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.budget import ray_work
-from acousim.trace.scatter import scatter
-from acousim.trace.shoot import shoot
+from acousim.trace.rays.budget import ray_work
+from acousim.trace.rays.scatter import scatter
+from acousim.trace.rays.shoot import shoot
 from acousim.trace.tracer import Tracer
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"

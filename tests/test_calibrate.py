@@ -15,11 +15,11 @@ import processing as P
 from acousim.calibrate import CalibrationSettings, calibrate, write_scene
 from acousim.calibrate.features import Directions, FeatureSpace
 from acousim.scene.load import load_scene
-from acousim.synth.echoes import PointReflectors
-from acousim.synth.model import simulate_points
 from acousim.synth.options import Noise
+from acousim.synth.point_echoes import PointReflectors
+from acousim.synth.signal_model import simulate_points
 from benchmarks import corridor_cabinet
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 POSES = [0, 12, 24, 36, 48]
@@ -145,7 +145,7 @@ def test_bad_parameter_is_named(corridor):
 
 def _mismatch(x, gain_db, phase_rad, delay_s, fs):
     """Each channel's analytic signal times g e^{i phi}, real part, then delayed
-    (written here, apart from processing.calibration)."""
+    (written here, apart from processing.sensor.calibration)."""
     T = x.shape[-1]
     a = hilbert(x, N=4 * T, axis=-1)
     y = (10 ** (gain_db / 20))[:, None] * np.real(np.exp(1j * phase_rad)[:, None] * a)

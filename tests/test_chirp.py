@@ -1,4 +1,4 @@
-"""CHIRP files (processing.chirp): written, then read three ways: by a small reader
+"""CHIRP files (processing.formats.chirp.write): written, then read three ways: by a small reader
 written here from the format's documentation (chirppy's README: sensors under
 /sensors, 4x4 `to_origin` transforms, signals (N, samples, channels) float32,
 LiDAR points (N, max_points, 4) NaN-padded, odometry position + [x, y, z, w]
@@ -16,7 +16,7 @@ import processing as P
 from acousim.bundled import resolve
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
-from processing.chirp import ChirpFileError
+from processing.formats.chirp.write import ChirpFileError
 from tests.conftest import echo_recording
 
 
@@ -310,7 +310,7 @@ def test_refusals_name_the_field(tmp_path, exported, damage, key, words):
 
 
 def test_array_calibration_travels(tmp_path):
-    """A calibration carried to be applied on loading (processing.calibration) is
+    """A calibration carried to be applied on loading (processing.sensor.calibration) is
     applied when the CHIRP copy is loaded, as for a recording file."""
     rec = echo_recording(P.urtis_v1(), [(0, 0, 1.0, 1.0)], fs=450e3, n_samples=3000,
                          waveform=P.rtis_call())  # fmt: skip
@@ -337,7 +337,7 @@ def test_fit_sweep(call, tol):
     as another device may store it) is recognised: kind, band, duration, taper."""
     from scipy.signal import hilbert
 
-    from processing.waveforms import fit_sweep
+    from processing.sensor.calls import fit_sweep
 
     z = hilbert(call.sampled(450e3))
     x = np.concatenate([np.zeros(37), np.real(z * np.exp(1j * np.deg2rad(40))), np.zeros(11)])

@@ -243,7 +243,7 @@ def test_arguments_are_checked_when_parsed(capsys, args, pattern):
 
 
 def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch, capsys):
-    import processing.recording as rec_mod
+    import processing.formats.native as rec_mod
 
     def boom(*a, **k):
         raise KeyboardInterrupt
@@ -341,7 +341,7 @@ def test_preset_choices_match_the_library():
     assert set(ARRAY_PRESETS) == set(P.PRESETS)
     for name in CALL_PRESETS:
         assert P.rtis_call(name).duration_s > 0
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     with pytest.raises(InputError, match="call = 'default_10_20': unknown RTIS call preset"):
         P.rtis_call("default_10_20")
@@ -349,7 +349,7 @@ def test_preset_choices_match_the_library():
 
 def test_a_bug_keeps_its_traceback_and_bad_input_is_one_line(tmp_path, monkeypatch, capsys):
     import acousim.dataset.info as info
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     def bug(path):
         raise ValueError("a bug deep inside")

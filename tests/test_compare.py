@@ -8,7 +8,7 @@ import pytest
 
 import processing as P
 from acousim.cli import main
-from acousim.compare import ComparisonError, check_comparable, compare
+from acousim.compare.comparison import ComparisonError, check_comparable, compare
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
 
@@ -62,7 +62,7 @@ def test_the_envelope_does_not_wrap():
     (nearly) zero at the end, where the circular one carries the pulse's tail."""
     from scipy.signal import hilbert
 
-    from acousim.compare import envelope
+    from acousim.compare.comparison import envelope
 
     t = np.arange(4000) / 450e3
     x = np.sin(2 * np.pi * 40e3 * t) * np.exp(-(((t - 2e-5) / 1e-5) ** 2))
@@ -77,7 +77,7 @@ def test_side_lobes_are_told_from_echoes():
     """Peaks within one window of a stronger peak are its side lobes, with the array's
     beam pattern (computed here independently) at their direction; a weaker peak
     further away in range is an echo of its own."""
-    from acousim.compare import Peak, side_lobes
+    from acousim.compare.comparison import Peak, side_lobes
 
     arr = P.urtis_v1()
     f, c = 40e3, 343.0

@@ -254,7 +254,7 @@ def test_second_generator_on_a_folder_is_refused(spec, tmp_path):
     import fcntl
     import os
 
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     out = tmp_path / "d"
     out.mkdir()
@@ -327,7 +327,7 @@ def test_manifest_names_stay_inside_the_folder(spec, tmp_path):
 def test_unreachable_scheduler_fails_at_once(spec, tmp_path):
     import socket
 
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     with socket.socket() as s:  # a port nothing listens on once closed
         s.bind(("127.0.0.1", 0))
@@ -360,7 +360,7 @@ def test_killing_the_main_process_ends_its_workers(spec, tmp_path):
     import sys
     import time
 
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     big = tmp_path / "big.toml"
     big.write_text(spec.read_text().replace("samples = 6", "samples = 40"))

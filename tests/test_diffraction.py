@@ -19,9 +19,9 @@ import processing as P
 from acousim.scene import parse_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
-from acousim.trace.edges import find_edges
+from acousim.trace.diffraction.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
 from acousim.trace.tracer import Tracer
+from acousim.trace.world.edges import find_edges
 from tests import _scenes as scenes
 
 C = 343.0
@@ -378,7 +378,7 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
     range within 1 cm), and with diffraction off the recording is silent."""
     import dataclasses
 
-    from processing import matched_filter
+    from processing.imaging import matched_filter
 
     paths, v, e, r = plate_tracer(tmp_path, 0.5, 10.0, beam_deg=60)
     simulation = {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 60.0}
@@ -418,8 +418,8 @@ def test_scene_keys_for_diffraction(tmp_path):
 def test_diffraction_is_reciprocal():
     """Swapping emitter and receiver leaves the diffracted field unchanged (a
     property of the exact solution): a tilted box and a tilted plate, bistatic."""
-    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-    from acousim.trace.embree import RayCaster
+    from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+    from acousim.trace.world.embree import RayCaster
 
     box, plate = scenes.turned_box_and_plate([0.3, 0.2, 0.25], [1.5, 0.1, 0], 0.05, [1.0, 0, 0])
     s, r = np.array([0, 0.05, 0.02]), np.array([0.1, -0.2, 0.1])
@@ -438,6 +438,6 @@ def test_diffraction_is_reciprocal():
 def test_every_path_kind_is_a_ground_truth_kind():
     """The tracer's kinds (acousim) and the recording's (processing, which imports no
     acousim) are the same names: a diffraction path can be written and read back."""
-    from processing.recording import _KINDS
+    from processing.formats.native import _KINDS
 
     assert {k.name for k in KIND} == set(_KINDS)

@@ -26,10 +26,10 @@ import trimesh
 
 from acousim.scene import parse_scene
 from acousim.trace import KIND
-from acousim.trace.btm import edge_elements
-from acousim.trace.btm_pairs import Wedge, edge_pair_elements
-from acousim.trace.edges import find_edges
-from processing.errors import InputError
+from acousim.trace.diffraction.btm import edge_elements
+from acousim.trace.diffraction.pairs import Wedge, edge_pair_elements
+from acousim.trace.world.edges import find_edges
+from processing.base.errors import InputError
 from tests import _scenes as scenes
 
 C = 343.0
@@ -340,8 +340,8 @@ def test_edge_to_edge_is_reciprocal():
     from each element of edge 1), so the two differ by its error: within 3 % of the
     peak at the default 1 mm step (measured 2.2 and 1.7 %), and converging: within
     1 % at 0.25 mm (0.7 and 0.2 %)."""
-    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-    from acousim.trace.embree import RayCaster
+    from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+    from acousim.trace.world.embree import RayCaster
 
     box, plate = scenes.turned_box_and_plate([0.06, 0.05, 0.04], [0.5, 0.02, 0], 0.03, [0.4, 0, 0])
     s, r = np.array([0, 0.05, 0.02]), np.array([0.1, -0.2, 0.1])
@@ -412,8 +412,8 @@ def test_scene_key_diffraction_order(tmp_path):
 def test_edge_to_edge_runs_over_a_face_not_across_a_gap():
     """Two coplanar plates with a gap between them: edges of different plates share
     the plane but no face, so no path runs between them; each plate keeps its own."""
-    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-    from acousim.trace.embree import RayCaster
+    from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+    from acousim.trace.world.embree import RayCaster
 
     def plate(y0):
         v = np.array([[0.5, y0, -0.02], [0.5, y0 + 0.04, -0.02], [0.5, y0 + 0.04, 0.02]])
@@ -442,8 +442,8 @@ def test_the_stage_finds_the_edge_pairs_of_a_turned_bar():
     edge-to-edge field as the wedges set up by hand in :func:`diamond_orders` (which
     the exact bar checks): the pairs, the angles of each edge about the other (0 or
     the open angle) and the weight are found from the mesh."""
-    from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-    from acousim.trace.embree import RayCaster
+    from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+    from acousim.trace.world.embree import RayCaster
 
     d = 2.0
     bar = trimesh.creation.box([0.02, 0.02, 4.0])

@@ -3,7 +3,7 @@ import pytest
 from conftest import direction, echo_recording, plane_wave_snapshot
 
 import processing as P
-from processing.doa import SubspaceOptions, doa_spectrum
+from processing.imaging.doa import SubspaceOptions, doa_spectrum
 
 F, C = 31250.0, 343.0
 SMOOTHED = ["music-fss", "music-fbss", "capon-fss", "capon-fbss"]
@@ -79,9 +79,9 @@ def test_coarray_fast_path_equals_plain_formula(method, K):
 
 
 def _direct_smoothed(x, arr, grid, method):
-    from processing.doa import method_matrix
-    from processing.smoothing import smoothed_covariance
-    from processing.steering import quadratic_form_direct, steering_matrix
+    from processing.imaging.doa import method_matrix
+    from processing.imaging.smoothing import smoothed_covariance
+    from processing.imaging.steering import quadratic_form_direct, steering_matrix
 
     base, smooth = method.split("-")
     x = x / np.abs(x).max()  # the documented scale: relative to the largest snapshot
@@ -157,7 +157,7 @@ def test_direction_convention_helper():
 @pytest.mark.parametrize("S", [2, 3, 5])  # by FFT (L > 4 S) and by the formed matrix
 def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
     """c0 I + U diag(d) U^H summed along each co-array lag, written out in the test."""
-    from processing.steering import coarray_kernel
+    from processing.imaging.steering import coarray_kernel
 
     nz, ny, R = 4, 3, 2
     rng = np.random.default_rng(3)
@@ -178,7 +178,7 @@ def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
 
 def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
     """Q = T Qr T^H (real symmetric Qr, any unitary T) summed along each co-array lag."""
-    from processing.steering import coarray_kernel
+    from processing.imaging.steering import coarray_kernel
 
     nz, ny, R = 3, 4, 2
     L = nz * ny
@@ -199,7 +199,7 @@ def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
 
 def test_compiled_floor_and_reciprocal_equal_numpy():
     pytest.importorskip("numba")
-    from processing._doakernel import floor_invert
+    from processing.imaging.doa_kernel import floor_invert
 
     x = np.random.default_rng(0).standard_normal((7, 9))
     for floor, invert in ((1e-3, True), (0.0, False)):

@@ -1,4 +1,4 @@
-"""The BTM edge elements (:func:`acousim.trace.btm.edge_elements`) are cut at equal
+"""The BTM edge elements (:func:`acousim.trace.diffraction.btm.edge_elements`) are cut at equal
 steps of excess path from the apex (the first step halved eight times), on both
 sides of it, up to the edge's end or the extent kept: the path of every element
 (its two legs) checked against the least path over the edge found by a bounded
@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq, minimize_scalar
 
-from acousim.trace.btm import ElementLimits, Wedge, edge_elements
+from acousim.trace.diffraction.btm import ElementLimits, Wedge, edge_elements
 
 STEP = 1e-3
 EXTENT = 0.02

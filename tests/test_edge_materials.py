@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from acousim.trace import KIND
-from acousim.trace.btm import edge_elements
+from acousim.trace.diffraction.btm import edge_elements
 from acousim.trace.tracer import Tracer
 from tests._scenes import first_pose, rigid_scene, screen, square_faces, turn_z
 from tests.test_diffraction import cyl, geometric, wedge_series

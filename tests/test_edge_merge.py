@@ -1,11 +1,11 @@
 """A tessellated edge is one edge: the pieces that a subdivided face cuts an edge
-into are joined (acousim.trace.edges.merge_collinear), so the diffraction stage's
+into are joined (acousim.trace.world.edges.merge_collinear), so the diffraction stage's
 cost follows the scene's edges, not its tessellation."""
 
 import numpy as np
 import trimesh
 
-from acousim.trace.edges import find_edges, merge_collinear
+from acousim.trace.world.edges import find_edges, merge_collinear
 
 
 def _merged(mesh):

@@ -1,7 +1,7 @@
 """Which edge pairs the stage integrates edge to edge, checked against the full
 computation (every pair integrated):
 
-* the closed-form bound (:func:`acousim.trace.pair_bound.pair_bound`) is at least
+* the closed-form bound (:func:`acousim.trace.diffraction.pair_bound.pair_bound`) is at least
   every pair's largest path (bin);
 * with a floor like the tracer's (a wall 1 m away, -80 dB), the pairs the stage
   skips have every path below the floor, and the stage's paths above the floor are
@@ -20,14 +20,14 @@ import numpy as np
 import pytest
 import trimesh
 
-from acousim.trace.btm_pairs import pair_elements, pair_elements_in, shortest_paths
-from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-from acousim.trace.diffraction_setup import StageContext
-from acousim.trace.edge_to_edge import candidate_pairs
-from acousim.trace.edges import find_edges
-from acousim.trace.embree import RayCaster
-from acousim.trace.pair_bound import pair_bound
-from processing.kernels import optional_kernel
+from acousim.trace.diffraction.edge_to_edge import candidate_pairs
+from acousim.trace.diffraction.pair_bound import pair_bound
+from acousim.trace.diffraction.pairs import pair_elements, pair_elements_in, shortest_paths
+from acousim.trace.diffraction.setup import StageContext
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+from acousim.trace.world.edges import find_edges
+from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 from tests.test_diffraction_order2 import plane_ids
 
 #: a gain at the receiver 80 dB under a rigid wall 1 m away (1 / (2 m))
@@ -121,7 +121,7 @@ def _kernel_and_numpy(rows):
 
 
 @pytest.mark.skipif(
-    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+    optional_kernel("acousim.trace.diffraction.pair_kernel") is None, reason="numba not installed"
 )
 def test_the_compiled_kernel_and_numpy_agree(stage):
     geometry, caster = stage
@@ -134,7 +134,7 @@ def test_the_compiled_kernel_and_numpy_agree(stage):
 
 
 @pytest.mark.skipif(
-    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+    optional_kernel("acousim.trace.diffraction.pair_kernel") is None, reason="numba not installed"
 )
 @pytest.mark.parametrize(
     "reflection", [(0.6, 0.9), (-1.0, 1.0), (0.0, 0.7), (-0.4, 0.0), (-1.5, -0.5)]
@@ -157,7 +157,7 @@ def test_the_kernel_and_numpy_agree_with_face_reflections(stage, reflection):
 
 
 @pytest.mark.skipif(
-    optional_kernel("acousim.trace._pair_kernel") is None, reason="numba not installed"
+    optional_kernel("acousim.trace.diffraction.pair_kernel") is None, reason="numba not installed"
 )
 def test_the_pairs_shared_among_threads_give_the_same_bytes(stage):
     """The kernel's pairs dealt out to two threads, each filling its own rows of

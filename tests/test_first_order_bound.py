@@ -1,5 +1,5 @@
 """The first-order stage leaves out the edges whose elements cannot reach the floor
-(:func:`acousim.trace.first_order.edge_bound`), checked against the full computation:
+(:func:`acousim.trace.diffraction.first_order.edge_bound`), checked against the full computation:
 
 * the bound is at least every edge's largest element (all its BTM elements computed,
   no edge left out), on random boxes and plates seen from random points, with random
@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 import trimesh
 
-import acousim.trace.first_order as first_order
+import acousim.trace.diffraction.first_order as first_order
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
-from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions
-from acousim.trace.diffraction_setup import StageContext
-from acousim.trace.edges import find_edges
+from acousim.trace.diffraction.setup import StageContext
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
+from acousim.trace.world.edges import find_edges
 
 CORRIDOR = Path(__file__).resolve().parents[1] / "scenes" / "corridor.toml"
 EDGE_BOUND = first_order.edge_bound

@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import processing as P  # noqa: E402
-from processing.errors import InputError  # noqa: E402
+from processing.base.errors import InputError  # noqa: E402
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 FUZZ = settings(  # ACOUSIM_FUZZ_EXAMPLES=400 for a deeper search than the suite's

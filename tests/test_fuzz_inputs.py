@@ -21,7 +21,7 @@ from hypothesis import strategies as st  # noqa: E402
 
 from acousim.dataset.spec import load_spec  # noqa: E402
 from acousim.scene import load_scene  # noqa: E402
-from processing.errors import InputError  # noqa: E402
+from processing.base.errors import InputError  # noqa: E402
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 # derandomize: the same examples on every run (every random choice takes a seed)

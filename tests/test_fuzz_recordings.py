@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import processing as P  # noqa: E402
-from processing.errors import InputError  # noqa: E402
+from processing.base.errors import InputError  # noqa: E402
 
 # ACOUSIM_FUZZ_EXAMPLES=2000 for a deeper search than the suite's
 FUZZ = settings(
@@ -237,7 +237,7 @@ def _mutate_json(doc, data):
 def accepted_everywhere(rec: P.Recording, tmp_path) -> None:
     """What the loader accepts, the rest of the program accepts too."""
     from acousim.dataset.info import describe
-    from acousim.imaging import ImagingOptions, image_recordings
+    from acousim.imaging.run import ImagingOptions, image_recordings
 
     again = P.save_recording(tmp_path / "again.h5", rec)  # never refused by the writer
     back = P.load_recording(again)  # nor by the reader

@@ -34,7 +34,7 @@ from hardware.pdm import (
     unpack_ticks,
 )
 from hardware.protocol import encode_command
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 N_TICKS = 32768  # the smallest measurement keeps the tests fast
 
@@ -358,7 +358,7 @@ def test_device_selection_by_serial_and_missing_device(emulated):
 
 
 def test_real_ertis_sample_has_its_echo_near_3_2_m():
-    from processing.rtisdev import sample_recording
+    from processing.formats.rtisdev import sample_recording
 
     raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
     assert raw.size == 163840
@@ -387,7 +387,7 @@ def test_record_command_with_the_emulator(tmp_path, capsys, monkeypatch):
     from pathlib import Path
 
     from acousim.cli import main
-    from acousim.imaging import ImagingOptions, image_recordings
+    from acousim.imaging.run import ImagingOptions, image_recordings
 
     scene = Path(__file__).resolve().parent.parent / "scenes" / "wall.toml"
     out = tmp_path / "rec.h5"
@@ -474,7 +474,7 @@ def test_files_from_the_rtisdev_wheel_are_checked(tmp_path, monkeypatch):
 
     import scipy.io
 
-    from processing import rtisdev
+    from processing.formats import rtisdev
 
     wheel = rtisdev.wheel_path()  # the real cache (downloads once if empty)
     monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path))
@@ -510,7 +510,7 @@ def test_record_command_interrupted(tmp_path, capsys, monkeypatch, moment):
 
     import acousim.simulator as sim_mod
     import hardware.emulator as emu
-    import processing.recording as rec_mod
+    import processing.formats.native as rec_mod
     from acousim.cli import main
 
     def boom(*a, **k):

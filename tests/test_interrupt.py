@@ -25,8 +25,8 @@ import pytest
 
 import processing as P
 from benchmarks.interrupt_sweep import SPEC  # a small dataset of points.toml
-from processing import interrupt
-from processing.atomic import TEMP_PREFIX, atomic_path, committed_together, write_text
+from processing.base import interrupt
+from processing.base.atomic import TEMP_PREFIX, atomic_path, committed_together, write_text
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"

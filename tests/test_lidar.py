@@ -15,7 +15,7 @@ from acousim.scene.lidar import LIDAR_PRESETS, Lidar, lidar_preset
 from acousim.scene.load import parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 
 def _beams(lidar: Lidar):

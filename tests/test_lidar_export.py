@@ -86,8 +86,8 @@ def test_chirp_lidar_on_the_acoustic_grid(drive, tmp_path):
 
 def test_3d_picture_shows_the_scan(drive, tmp_path):
     pytest.importorskip("pyvista", reason="pyvista not installed (pip install 'acousim[viz]')")
-    from acousim.imaging import lidar_in_world
-    from acousim.trace.geometry import build_world
+    from acousim.imaging.run import lidar_in_world
+    from acousim.trace.world.build import build_world
     from acousim.viz.render3d import LIDAR_COLOR, FrameContent, render_scene
 
     _, recs = drive

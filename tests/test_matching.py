@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import processing as P
-from acousim.matching import image_resolution, match_peaks, on_grid_edge
+from acousim.imaging.matching import image_resolution, match_peaks, on_grid_edge
 
 
 def _recording(points_sensor, amplitudes, kinds):

@@ -12,7 +12,7 @@ import processing as P
 from acousim.scene import load_scene, parse_scene
 from acousim.scene.model import Material
 from acousim.simulator import Simulator
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 FS = 450e3
 CALL = {"kind": "linear", "f_start_hz": 15e3, "f_end_hz": 90e3, "duration_s": 1e-3}

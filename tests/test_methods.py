@@ -1,4 +1,4 @@
-"""Method names parsed once (processing.methods): every name of METHODS against a
+"""Method names parsed once (processing.imaging.methods): every name of METHODS against a
 table written here from the naming rule of the docs, and the refusals."""
 
 import re

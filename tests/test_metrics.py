@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import processing as P
-from processing.metrics import cell_solid_angles
+from processing.imaging.metrics import cell_solid_angles
 
 
 def test_cell_solid_angles_cover_the_hemisphere():

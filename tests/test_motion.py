@@ -23,9 +23,9 @@ from acousim.scene import Pose, load_scene, parse_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from acousim.synth.doppler import render_doppler
-from acousim.synth.model import simulate
 from acousim.synth.options import Capture, Noise, RenderOptions
-from acousim.trace.following import MovingPaths
+from acousim.synth.signal_model import simulate
+from acousim.trace.motion.following import MovingPaths
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 C = 343.0
@@ -416,7 +416,7 @@ def test_motion_settings_are_checked_in_files_and_in_code(tmp_path):
     the same values (InputError naming the key and the value), and a recording of a
     moving scene keeps its truth velocities through its HDF5 file."""
     from processing import load_recordings, save_recordings
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
     for table, key, value in [

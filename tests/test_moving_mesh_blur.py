@@ -54,7 +54,7 @@ def _turning_recording(rate_deg_s):
 
 def test_recording_sweep_follows_its_stored_motion():
     """The sweep drawn for a recording: from its stored motion over its window."""
-    from acousim.imaging import _sweep
+    from acousim.imaging.run import _sweep
 
     rec = _turning_recording(90.0)
     window = rec.samples.shape[1] / rec.sample_rate_hz
@@ -100,7 +100,7 @@ def test_moving_mesh_drawn_where_it_is_in_each_recording():
     import trimesh
 
     import acousim
-    from acousim.imaging import _moving_triangles, _scene_triangles
+    from acousim.imaging.run import _moving_triangles, _scene_triangles
 
     wall = acousim.MeshItem(trimesh.creation.box((0.1, 4, 2)), position_m=(3.0, 0, 0))
     box = acousim.MeshItem(

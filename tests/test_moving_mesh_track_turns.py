@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 import acousim
 from acousim.scene import parse_scene
-from processing.errors import InputError
+from processing.base.errors import InputError
 from tests.test_moving_mesh_turning import check_turning_wall, wall_box
 
 pytest.importorskip("embreex")

@@ -14,7 +14,7 @@ import processing as P
 from acousim.kinematics import SensorKinematics, arrivals
 from acousim.scene import Pose, parse_scene
 from acousim.simulator import Simulator
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 pytest.importorskip("embreex")
 

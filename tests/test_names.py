@@ -7,7 +7,7 @@ import pytest
 
 import processing as P
 from acousim.bundled import bundled_names, resolve
-from processing.errors import InputError, did_you_mean
+from processing.base.errors import InputError, did_you_mean
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,6 @@
-"""The compiled bound and estimate of edge pairs (:mod:`acousim.trace._bound_kernel`)
-against the numpy versions they replace (:func:`acousim.trace.pair_bound.pair_bound`
-and :func:`~acousim.trace.pair_bound.pair_estimate` with ``use_kernel=False``, a
+"""The compiled bound and estimate of edge pairs (:mod:`acousim.trace.diffraction.bound_kernel`)
+against the numpy versions they replace (:func:`acousim.trace.diffraction.pair_bound.pair_bound`
+and :func:`~acousim.trace.diffraction.pair_bound.pair_estimate` with ``use_kernel=False``, a
 second implementation of the same formulas on whole arrays): equal within rounding
 on random pairs (parallel edges, shared corners, zero term weights, thin plates
 among them), at a singular beta term, and on a scene's candidate pairs, where the
@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acousim.trace.btm_pair_geometry import PairGeometry
-from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions
-from acousim.trace.diffraction_setup import StageContext
-from acousim.trace.edge_to_edge import candidate_pairs
-from acousim.trace.edges import find_edges
-from acousim.trace.embree import RayCaster
-from acousim.trace.pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
+from acousim.trace.diffraction.edge_to_edge import candidate_pairs
+from acousim.trace.diffraction.pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
+from acousim.trace.diffraction.pair_geometry import PairGeometry
+from acousim.trace.diffraction.setup import StageContext
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
+from acousim.trace.world.edges import find_edges
+from acousim.trace.world.embree import RayCaster
 from tests.test_diffraction_order2 import plane_ids
 from tests.test_edge_pair_selection import EMITTER, FLOOR, RECEIVER, room_objects
 

@@ -226,7 +226,7 @@ def test_every_picture_has_one_default_dynamic_range_and_prints_it():
     import matplotlib.pyplot as plt
 
     from acousim.export.rosbag import write_rosbag
-    from acousim.imaging import ImagingOptions
+    from acousim.imaging.run import ImagingOptions
     from acousim.viz.fan import DYNAMIC_RANGE_DB, make_elaz_figure, make_fan_figure
 
     assert ImagingOptions().dynamic_range_db == DYNAMIC_RANGE_DB
@@ -273,7 +273,7 @@ def test_slices_are_distinct_echoes_inside_the_grid():
 
 @pytest.mark.parametrize("index,expect", [("2", "recording 2"), (None, "recording 0")])
 def test_titles_name_the_recording_and_no_time_for_a_single_pose(tmp_path, index, expect):
-    from acousim.imaging import _title
+    from acousim.imaging.run import _title
 
     rec = P.Recording(np.zeros((64, 300)), 500e3, P.paper_8x8(), P.paper_chirp())
     pose = {"position_m": [0, 0, 0], "yaw_deg": 0, "pitch_deg": 0, "roll_deg": 0, "time_s": 0.0}
@@ -289,7 +289,7 @@ def test_titles_name_the_recording_and_no_time_for_a_single_pose(tmp_path, index
 
 
 def test_image_index_titles_the_picture_with_its_recording(tmp_path, monkeypatch):
-    import acousim.imaging as imaging
+    import acousim.imaging.run as imaging
 
     seen = []
     real = imaging._title

@@ -9,13 +9,8 @@ import numpy as np
 import trimesh
 
 from acousim.scene import load_scene
-from acousim.trace.embree import RayCaster
-from acousim.trace.geometry import (
-    build_world,
-    face_adjacency,
-    plane_ids,
-    smooth_corner_normals,
-)
+from acousim.trace.world.build import build_world, face_adjacency, plane_ids, smooth_corner_normals
+from acousim.trace.world.embree import RayCaster
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -103,7 +98,7 @@ def test_the_indexed_mesh_casts_the_same_rays():
 
 
 def test_radix_argsort_is_a_stable_sort():
-    from acousim.trace.geometry import radix_argsort
+    from acousim.trace.world.build import radix_argsort
 
     rng = np.random.default_rng(1)
     for top in (1, 300, 70_000, 2**40):
@@ -114,7 +109,7 @@ def test_radix_argsort_is_a_stable_sort():
 def test_row_groups_are_numpys_unique_rows():
     """The first row of every group and the group of every row, numbered as
     np.unique numbers the rows' hashes: distinct rows, and rows with repeats."""
-    from acousim.trace.geometry import row_groups
+    from acousim.trace.world.build import row_groups
 
     rng = np.random.default_rng(8)
     distinct = rng.permutation(3000).reshape(-1, 3).astype(np.int64)
@@ -131,7 +126,7 @@ def test_a_mesh_is_cleaned_as_trimesh_cleans_it():
     """clean_mesh against trimesh's own steps (merge_vertices, nondegenerate_faces,
     unique_faces, remove_unreferenced_vertices): a soup with near-duplicate
     vertices, repeated and degenerate faces and an unused vertex."""
-    from acousim.trace.mesh_index import clean_mesh
+    from acousim.trace.world.mesh_index import clean_mesh
 
     rng = np.random.default_rng(1)
     v = np.round(rng.uniform(0, 1, (300, 3)), 2)

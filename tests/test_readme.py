@@ -40,7 +40,7 @@ def test_readme_processing_example_finds_the_echo(tmp_path, monkeypatch, capsys)
 
 def test_command_line_defaults_are_the_library_defaults():
     from acousim.cli import build_parser
-    from acousim.imaging import ImagingOptions
+    from acousim.imaging.run import ImagingOptions
 
     s = P.ProcessingSettings()
     assert ImagingOptions().energy_fraction == s.energy_fraction

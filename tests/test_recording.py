@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import processing as P
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 
 def make(shape=(64, 100), k=None, truth=None):

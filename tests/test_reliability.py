@@ -19,7 +19,7 @@ import processing as P
 from acousim.cli import main
 from acousim.dataset.spec import load_spec
 from acousim.scene import load_scene
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -44,7 +44,7 @@ def test_grid_indices_outside_the_array_are_refused(grid):
 
 
 def test_a_smoothed_method_on_an_irregular_array_is_an_input_error():
-    from acousim.imaging import ImagingOptions, image_recordings
+    from acousim.imaging.run import ImagingOptions, image_recordings
 
     irregular = P.from_coordinates(np.array([[0, 0], [3e-3, 1e-3], [1e-3, 5e-3], [6e-3, 4e-3]]))
     rec = small_recording(irregular)
@@ -185,7 +185,7 @@ def test_metadata_is_checked_key_by_key(tmp_path, meta, key):
 def test_a_pose_without_its_angles_reads_as_zero_angles(tmp_path, capsys):
     """It ended in KeyError: 'yaw_deg' in the imaging; absent angles are 0, read in
     one place (Recording.provenance)."""
-    from acousim.imaging import _pose
+    from acousim.imaging.run import _pose
 
     meta = {"pose": {"position_m": [1.0, 2.0, 0.5]}}
     path = _with_metadata(P.save_recording(tmp_path / "r.h5", small_recording()), meta)

@@ -6,8 +6,8 @@ import pytest
 from conftest import echo_recording, plane_wave_snapshot
 
 import processing as P
-from processing.doa import doa_spectrum
-from processing.metrics import cell_solid_angles
+from processing.imaging.doa import doa_spectrum
+from processing.imaging.metrics import cell_solid_angles
 
 F = 31250.0
 
@@ -83,8 +83,8 @@ def test_an_empty_recording_images_to_no_range_bins_not_an_error():
 @pytest.mark.parametrize("n_snap", [1, 3, 20])
 def test_eigen_shortcuts_equal_the_plain_eigendecomposition(base, n_snap):
     """Gram-matrix (S < L) and real unitary (FBSS) shortcuts against numpy's eigh."""
-    from processing.doa import method_matrix
-    from processing.smoothing import subarray_snapshots
+    from processing.imaging.doa import method_matrix
+    from processing.imaging.smoothing import subarray_snapshots
 
     rng = np.random.default_rng(n_snap)
     Y = rng.standard_normal((4, 16, n_snap)) + 1j * rng.standard_normal((4, 16, n_snap))

@@ -13,9 +13,9 @@ import numpy as np
 
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
-from acousim.trace.diffraction import DiffractingGeometry, DiffractionOptions, diffract
-from acousim.trace.edges import find_edges
-from acousim.trace.embree import RayCaster
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+from acousim.trace.world.edges import find_edges
+from acousim.trace.world.embree import RayCaster
 from tests.test_diffraction_order2 import plane_ids
 from tests.test_edge_pair_selection import EMITTER, RECEIVER, room_objects
 

@@ -9,7 +9,7 @@ from scipy.integrate import quad
 from acousim.scene import parse_scene
 from acousim.simulator import Simulator
 from acousim.trace import KIND
-from acousim.trace.cluster import DIFFUSE_CELL_DEG
+from acousim.trace.rays.cluster import DIFFUSE_CELL_DEG
 
 
 def _scene(tmp_path, meshes, materials, simulation=None, pose=(0.0, 0.0, 0.0), **sensor):
@@ -128,7 +128,7 @@ def test_closed_cylinder_echoes_as_geometric_optics(tmp_path):
 def test_smooth_normals_stop_at_sharp_edges():
     """Corner normals of a capped cylinder: radial on the side (no axial tilt), the
     cap's own normal on the caps; on a sphere, the radius within the facets' angle."""
-    from acousim.trace.geometry import smooth_corner_normals
+    from acousim.trace.world.build import smooth_corner_normals
 
     def corners(m):
         return smooth_corner_normals(

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from acousim.scene import Pose, SceneError, load_scene, parse_scene, rotation
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 

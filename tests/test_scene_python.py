@@ -12,7 +12,7 @@ import pytest
 
 import acousim
 import processing as P
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -131,7 +131,7 @@ def test_every_declared_setting_is_documented():
     """Adding a setting is one line in its dataclass; its line in the format docs too."""
     from acousim.dataset import spec
     from acousim.scene import lidar, model
-    from processing.settings import settings_of
+    from processing.base.settings import settings_of
 
     docs = {
         "scene-format.md": [

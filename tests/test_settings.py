@@ -1,4 +1,4 @@
-"""processing.settings: each kind accepts exactly what its declaration allows."""
+"""processing.base.settings: each kind accepts exactly what its declaration allows."""
 
 import dataclasses
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from processing.errors import InputError
-from processing.settings import Setting, check, read_table, setting, settings_of, validate
+from processing.base.errors import InputError
+from processing.base.settings import Setting, check, read_table, setting, settings_of, validate
 
 CASES = [
     # (declaration, accepted -> normalised, refused)

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import processing as P
-from processing.doa import doa_spectrum
+from processing.imaging.doa import doa_spectrum
 
 F = 31250.0
 GRID = P.Grid.degrees(step=5.0)
@@ -89,7 +89,7 @@ def test_hypothesis_any_direction_any_scale_is_finite(az, el, log_scale, method)
 
 
 def test_spectra_are_real_nonnegative_and_hermitian_inputs():
-    from processing.smoothing import smoothed_covariance
+    from processing.imaging.smoothing import smoothed_covariance
 
     rng = np.random.default_rng(2)
     xg = rng.standard_normal((8, 8, 4, 1)) + 1j * rng.standard_normal((8, 8, 4, 1))

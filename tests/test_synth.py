@@ -89,7 +89,7 @@ def test_seeded_noise_is_reproducible_and_measurements_independent():
 
 def test_infinite_snr_generates_no_noise_and_far_reflectors_are_skipped(caplog):
     refl = PointReflectors([[1.0, 0, 0], [50.0, 0, 0]], 1.0)
-    with caplog.at_level(logging.DEBUG, logger="acousim.synth.model"):
+    with caplog.at_level(logging.DEBUG, logger="acousim.synth.signal_model"):
         rec = simulate_points(refl, one_mic(), P.paper_chirp(), FS, 4096)
     assert rec.metadata["n_paths"] == 1
     assert "skipped 1 of 2 paths" in caplog.text and "no noise" in caplog.text
@@ -168,7 +168,7 @@ def test_an_echo_within_the_calls_padding_of_sample_zero_keeps_its_delay():
 
 def test_an_unknown_or_unfit_interpolator_is_an_input_error_naming_it():
     from acousim.synth import PathResponse
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     e = point_echoes(PointReflectors([[1.0, 0, 0]], 1.0), one_mic(), C)
     with pytest.raises(InputError, match="interpolator = 'cubic'"):

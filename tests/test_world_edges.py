@@ -1,4 +1,4 @@
-"""The diffracting edges of a prepared world (acousim.trace.edges.world_edges, found
+"""The diffracting edges of a prepared world (acousim.trace.world.edges.world_edges, found
 from the world's own faces, planes and edge table; collinear pieces joined by
 DiffractingGeometry.of), against references written here: the 12 edges of a box of
 known size, the edges of prisms of known interior angles, the rims of open and
@@ -15,10 +15,10 @@ import trimesh
 
 from acousim.scene import load_scene
 from acousim.scene.model import MeshItem
-from acousim.trace.diffraction_setup import DiffractingGeometry
-from acousim.trace.edges import world_edges
-from acousim.trace.geometry import build_world
-from acousim.trace.mesh_index import _sorted_codes
+from acousim.trace.diffraction.setup import DiffractingGeometry
+from acousim.trace.world.build import build_world
+from acousim.trace.world.edges import world_edges
+from acousim.trace.world.mesh_index import _sorted_codes
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 TWO_PI = 2 * np.pi

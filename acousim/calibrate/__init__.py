@@ -9,10 +9,10 @@ paths once), :mod:`.features` (energy per band, direction and range bin, and why
 call and its report), :mod:`.scenefile` (the text-preserving scene writer).
 """
 
-from .features import Directions, FeatureSpace
-from .run import Calibration, FittedParameter, Unexplained, calibrate
-from .scenefile import write_scene
-from .settings import CalibrationSettings
+from acousim.calibrate.features import Directions, FeatureSpace
+from acousim.calibrate.options import CalibrationSettings
+from acousim.calibrate.run import Calibration, FittedParameter, Unexplained, calibrate
+from acousim.calibrate.scenefile import write_scene
 
 __all__ = [
     "calibrate",

@@ -40,7 +40,7 @@ from scipy import fft as sfft
 from scipy.signal import windows
 
 import processing as P
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 __all__ = ["FeatureSpace", "Directions", "DEFAULT_AZIMUTHS_DEG", "DEFAULT_ELEVATIONS_DEG"]
 

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from .features import FeatureSpace
-from .groups import PoseGroups
-from .parameters import ParameterSet
+from acousim.calibrate.features import FeatureSpace
+from acousim.calibrate.groups import PoseGroups
+from acousim.calibrate.parameters import ParameterSet
 
 __all__ = ["Problem", "Solution", "solve", "robust_cost"]
 

@@ -20,14 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 
 import processing as P
+from acousim.calibrate.features import FeatureSpace
+from acousim.calibrate.parameters import MaterialFit
 from acousim.scene.model import Material, Scene
 from acousim.simulator import Simulator
-from acousim.synth.model import in_window
 from acousim.synth.render import render
-from processing.errors import InputError
-
-from .features import FeatureSpace
-from .parameters import MaterialFit
+from acousim.synth.signal_model import in_window
+from processing.base.errors import InputError
 
 __all__ = ["PoseGroups", "GroupModel", "TRACE_MIN_DIFFUSE", "with_materials"]
 

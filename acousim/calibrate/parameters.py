@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acousim.scene.model import Material
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 __all__ = ["MaterialFit", "ParameterSet", "hat_weights", "MIN_DIFFUSE", "MAX_DIFFUSE"]
 

@@ -5,7 +5,7 @@
    each group of paths rendered once and reduced to band envelopes (:mod:`.groups`,
    :mod:`.features`).
 3. Each recording is shifted onto the simulation (its direct path's lag,
-   :func:`acousim.compare.align`; reported) and reduced to energies per band,
+   :func:`acousim.compare.comparison.align`; reported) and reduced to energies per band,
    direction and range bin.
 4. Robust least squares (:mod:`.fit`) from the scene's values.
 5. The result: the fitted materials with their uncertainties, the residual per
@@ -23,14 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 
 import processing as P
+from acousim.calibrate.features import FeatureSpace
+from acousim.calibrate.fit import Problem, Solution, solve
+from acousim.calibrate.groups import GroupModel
+from acousim.calibrate.options import CalibrationSettings
+from acousim.calibrate.parameters import MaterialFit, ParameterSet
 from acousim.scene.model import Material, Scene
-from processing.errors import InputError
-
-from .features import FeatureSpace
-from .fit import Problem, Solution, solve
-from .groups import GroupModel
-from .parameters import MaterialFit, ParameterSet
-from .settings import CalibrationSettings
+from processing.base.errors import InputError
 
 __all__ = ["calibrate", "Calibration", "FittedParameter", "Unexplained", "DB_PER_NEPER"]
 
@@ -176,8 +175,8 @@ def _used_materials(scene: Scene) -> list[str]:
 
 def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.ndarray, float]:
     """A recording's energies (B, D, R) after aligning it on the start model."""
-    from acousim.compare import _shift
-    from acousim.compare import align as align_lag
+    from acousim.compare.comparison import _shift
+    from acousim.compare.comparison import align as align_lag
 
     x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
     lag = 0.0

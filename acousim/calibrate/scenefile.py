@@ -7,7 +7,7 @@ lines, a multi-line table, included) becomes ``key = value  # fitted +- sigma
 (acousim calibrate; was ...)``; a key the material did not give is added after its
 ``name``.  The result is checked before it is written: read back, it must equal the
 input with only the fitted keys changed.  Written atomically
-(:func:`processing.atomic.write_text`).
+(:func:`processing.base.atomic.write_text`).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from processing.atomic import write_text
-from processing.errors import InputError
+from processing.base.atomic import write_text
+from processing.base.errors import InputError
 
 __all__ = ["write_scene", "edit_scene_text"]
 

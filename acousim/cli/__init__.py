@@ -8,7 +8,7 @@ Shared helpers are in :mod:`acousim.cli.common`; options that set a declared set
 are generated from its declaration (:mod:`acousim.cli.options`).
 
 Errors in what the user gave (a file, a key, a value) are
-:class:`processing.errors.InputError`, caught once in :func:`main` and reported on one
+:class:`processing.base.errors.InputError`, caught once in :func:`main` and reported on one
 line with exit code 2; every other exception is a bug and keeps its traceback.
 Files are written under a temporary name and renamed when complete, so an error or
 Ctrl-C leaves no partial output. Process-wide settings (the SIGINT handler) are made
@@ -54,7 +54,7 @@ def __getattr__(name: str) -> object:
 
 def _commands() -> tuple:
     """The command modules, in the order `acousim --help` lists them."""
-    from . import (
+    from acousim.cli import (
         calibrate,
         compare,
         dataset,
@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
     """Parse, run one command; an InputError is one line on stderr and exit code 2,
     Ctrl-C exit code 130 with one line, anything else a bug with its traceback.
 
-    Ctrl-C only sets a flag (:mod:`processing.interrupt`, installed here, the only
+    Ctrl-C only sets a flag (:mod:`processing.base.interrupt`, installed here, the only
     place that changes the process's SIGINT handler, and restored on return unless
     `restore_sigint` is false); the work stops at its next checkpoint and no output
     file is replaced."""
@@ -154,10 +154,9 @@ def run() -> None:
 
 
 def _main(argv: list[str] | None, handled: bool) -> int:
-    from processing import interrupt
-    from processing.errors import InputError
-
-    from .common import announce
+    from acousim.cli.common import announce
+    from processing.base import interrupt
+    from processing.base.errors import InputError
 
     interrupt.reset()
     if handled:

@@ -1,5 +1,5 @@
 """``python -m acousim.cli``: the same as the ``acousim`` command."""
 
-from . import run
+from acousim.cli import run
 
 run()

@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import argparse
 
-from processing.errors import InputError
+from acousim.cli.common import UsageError, add_command, load_scene, output_file, parse_indices
+from acousim.cli.options import add_declared
+from processing.base.errors import InputError
 
-from .common import UsageError, add_command, load_scene, output_file, parse_indices
-from .options import add_declared
-
-SETTINGS = "acousim.calibrate.settings:CalibrationSettings"
+SETTINGS = "acousim.calibrate.options:CalibrationSettings"
 
 
 def register(sub) -> None:
@@ -97,7 +96,7 @@ def _settings(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from acousim.calibrate import calibrate, write_scene
-    from acousim.compare_inputs import load_real_recordings
+    from acousim.compare.inputs import load_real_recordings
 
     out = output_file("--out", args.out)
     report = output_file("--report", args.report) if args.report else None
@@ -113,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")
         write_scene(scene.source, out, cal)
         if report:
-            from processing.atomic import write_text
+            from processing.base.atomic import write_text
 
             write_text(report, cal.to_json())
     except InputError as exc:

@@ -9,7 +9,7 @@ import math
 import sys
 from pathlib import Path
 
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 
 class UsageError(InputError):
@@ -18,11 +18,11 @@ class UsageError(InputError):
 
 def checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None):
     """An argparse type: the text as a number checked by a setting declaration
-    (`declared()` returns a :class:`processing.settings.Setting`, imported lazily so
+    (`declared()` returns a :class:`processing.base.settings.Setting`, imported lazily so
     that building the parser stays light), else a range given here."""
 
     def parse(text: str):
-        from processing.settings import Setting, check
+        from processing.base.settings import Setting, check
 
         decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
         try:
@@ -45,7 +45,7 @@ def declared(module: str, cls: str, name: str):
     def get():
         import importlib
 
-        from processing.settings import settings_of
+        from processing.base.settings import settings_of
 
         return settings_of(getattr(importlib.import_module(module), cls))[name]
 
@@ -111,7 +111,7 @@ def choice(what: str, options: tuple[str, ...]):
     the nearest option ("did you mean 'urtis_v1'?")."""
 
     def parse(text: str) -> str:
-        from processing.errors import unknown_choice
+        from processing.base.errors import unknown_choice
 
         if text not in options:
             raise argparse.ArgumentTypeError(f"{text!r}: {unknown_choice(what, text, options)}")
@@ -126,7 +126,7 @@ def writable_dir(path: str | Path) -> Path:
     file); else a UsageError."""
     import tempfile
 
-    from processing.atomic import TEMP_PREFIX
+    from processing.base.atomic import TEMP_PREFIX
 
     out = Path(path)
     try:
@@ -212,8 +212,8 @@ def announce(command: str) -> None:
 
 
 def stop_if_interrupted() -> None:
-    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came (see processing.interrupt)."""
-    from processing import interrupt
+    """A checkpoint: raise KeyboardInterrupt if Ctrl-C came (see processing.base.interrupt)."""
+    from processing.base import interrupt
 
     interrupt.check()
 
@@ -245,7 +245,7 @@ def progress(desc: str):
 def preload_simulation() -> None:
     """Import what a simulation needs before its work starts and set the process's
     policy (:func:`acousim.process.configure`); Ctrl-C meanwhile is only recorded (see
-    processing.interrupt: an import that catches BaseException, as trimesh's optional
+    processing.base.interrupt: an import that catches BaseException, as trimesh's optional
     ones do, cannot swallow it), then honoured."""
     import trimesh  # noqa: F401
 

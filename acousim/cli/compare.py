@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from processing.errors import InputError
-
-from .common import (
+from acousim.cli.common import (
     INDEX,
     UsageError,
     add_command,
@@ -24,8 +22,9 @@ from .common import (
     progress,
     writable_dir,
 )
-from .image import CHIRP_CALLS
-from .record import add_array
+from acousim.cli.image import CHIRP_CALLS
+from acousim.cli.record import add_array
+from processing.base.errors import InputError
 
 
 def register(sub) -> None:
@@ -69,7 +68,7 @@ def register(sub) -> None:
 def _pairs(args: argparse.Namespace):
     """The (real, simulated) recordings to compare, as the arguments ask."""
     import processing as P
-    from acousim.compare_inputs import load_real_recordings, pair_with_file, pair_with_scene
+    from acousim.compare.inputs import load_real_recordings, pair_with_file, pair_with_scene
 
     if args.scene:
         scene = load_scene(args.scene)
@@ -95,9 +94,9 @@ def _pairs(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare import compare, write_comparison
-    from acousim.compare_summary import summarize, write_summary
-    from processing.atomic import committed_together
+    from acousim.compare.comparison import compare, write_comparison
+    from acousim.compare.summary import summarize, write_summary
+    from processing.base.atomic import committed_together
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")

@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from .common import add_command, preload_simulation, progress, writable_dir
-from .options import add_declared
+from acousim.cli.common import add_command, preload_simulation, progress, writable_dir
+from acousim.cli.options import add_declared
 
 
 def register(sub) -> None:

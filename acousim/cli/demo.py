@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from .common import (
+from acousim.cli.common import (
     add_command,
     add_seed,
     bundled_scenes,
@@ -29,8 +29,8 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import processing as P
-    from acousim.imaging import ImagingOptions, image_recordings, write_pictures
-    from processing.atomic import committed_together
+    from acousim.imaging.run import ImagingOptions, image_recordings, write_pictures
+    from processing.base.atomic import committed_together
 
     t0 = time.perf_counter()
     out = writable_dir(args.out)

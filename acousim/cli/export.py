@@ -16,8 +16,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import UsageError, add_command, writable_dir
-from .image import imaging_arguments, load_and_image
+from acousim.cli.common import UsageError, add_command, writable_dir
+from acousim.cli.image import imaging_arguments, load_and_image
 
 
 def register(sub) -> None:

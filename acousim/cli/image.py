@@ -10,10 +10,18 @@ from __future__ import annotations
 
 import argparse
 
-from .common import UsageError, add_command, choice, methods, parse_indices, progress, writable_dir
-from .options import add_declared
+from acousim.cli.common import (
+    UsageError,
+    add_command,
+    choice,
+    methods,
+    parse_indices,
+    progress,
+    writable_dir,
+)
+from acousim.cli.options import add_declared
 
-IMAGING = "acousim.imaging:ImagingOptions"
+IMAGING = "acousim.imaging.run:ImagingOptions"
 
 
 def imaging_arguments(p: argparse.ArgumentParser) -> None:
@@ -58,7 +66,7 @@ def load_and_image(args: argparse.Namespace):
     """`image` and `export`: the options, the recordings of --index and their indices
     in the file, and a function that images them (called once the command is ready)."""
     import processing as P
-    from acousim.imaging import ImagingOptions, image_recordings
+    from acousim.imaging.run import ImagingOptions, image_recordings
 
     given = {
         "step_deg": args.step,
@@ -109,9 +117,9 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.imaging import prepare_pictures
-    from acousim.outputs import our_files, tidy
-    from processing.atomic import committed_together
+    from acousim.imaging.outputs import our_files, tidy
+    from acousim.imaging.run import prepare_pictures
+    from processing.base.atomic import committed_together
 
     out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
@@ -130,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _write_all(args, out, recs, images, index, options, animation) -> list:
     from acousim.export import write_image_data, write_peaks_csv
-    from acousim.imaging import write_pictures
+    from acousim.imaging.run import write_pictures
 
     files = []
     if not args.no_data:

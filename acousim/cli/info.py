@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_command
+from acousim.cli.common import add_command
 
 
 def register(sub) -> None:

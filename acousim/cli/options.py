@@ -1,7 +1,7 @@
 """Command-line options generated from the settings' declarations.
 
 An option's type, range, unit, default and help come from the dataclass field that
-declares the setting (:mod:`processing.settings`), so the command line, the Python
+declares the setting (:mod:`processing.base.settings`), so the command line, the Python
 constructor and the files accept and refuse the same values. The declaration is
 imported only when an argument is parsed or ``--help`` is printed: building the
 parser stays light (no numpy, no scipy), so Ctrl-C and ``--version`` answer at once.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import DeclaredHelp, checked, declared
+from acousim.cli.common import DeclaredHelp, checked, declared
 
 __all__ = ["DeclaredHelp", "add_declared"]
 

@@ -9,10 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from processing.errors import InputError
-from processing.rtis import RTIS_SAMPLE_RATE_HZ
-
-from .common import (
+from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
@@ -22,7 +19,9 @@ from .common import (
     progress,
     stop_if_interrupted,
 )
-from .options import add_declared
+from acousim.cli.options import add_declared
+from processing.base.errors import InputError
+from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 # hardware.pdm.FILTERS, repeated so that the parser does not import scipy.signal (tested)
 PDM_FILTERS = ("equiripple", "rtis")
@@ -138,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         RecordingInterrupted,
         check_acquisition,
     )
-    from processing import interrupt
+    from processing.base import interrupt
 
     rate = Acquisition().rate_hz if args.rate is None else args.rate  # the declared default
     try:

@@ -10,10 +10,9 @@ import argparse
 import time
 from pathlib import Path
 
-from processing.errors import InputError
-
-from .common import UsageError, add_command, writable_dir
-from .options import add_declared
+from acousim.cli.common import UsageError, add_command, writable_dir
+from acousim.cli.options import add_declared
+from processing.base.errors import InputError
 
 
 def register(sub) -> None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_command, bundled_scenes
+from acousim.cli.common import add_command, bundled_scenes
 
 
 def register(sub) -> None:
@@ -19,7 +19,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import scene_files
     from acousim.scene import SceneError, load_scene
-    from processing.errors import InputError
+    from processing.base.errors import InputError
 
     for f in scene_files():
         try:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from .common import (
+from acousim.cli.common import (
     add_command,
     add_seed,
     load_scene,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Literal, get_args
 
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 __all__ = [
     "FractionalDelay",

@@ -1,8 +1,8 @@
 """Dataset generation: sharded, reproducible, resumable, local or on a Dask cluster."""
 
-from .generation import generate, make_sample, sample_parameters
-from .reader import DatasetError, DatasetReader, TorchAdapter
-from .spec import DatasetSpec, SpecError, load_spec
+from acousim.dataset.generation import generate, make_sample, sample_parameters
+from acousim.dataset.reader import DatasetError, DatasetReader, TorchAdapter
+from acousim.dataset.spec import DatasetSpec, SpecError, load_spec
 
 __all__ = [
     "generate",

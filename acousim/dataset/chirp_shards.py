@@ -16,8 +16,7 @@ import math
 from pathlib import Path
 
 import processing as P
-
-from .spec import DatasetSpec
+from acousim.dataset.spec import DatasetSpec
 
 __all__ = ["write_chirp_shard", "capture_samples"]
 
@@ -35,8 +34,7 @@ def _coldest(spec: DatasetSpec, name: str, default: float) -> float:
 def capture_samples(spec: DatasetSpec) -> int:
     """Samples per capture of every sample of the spec (see the module docstring)."""
     from acousim.core.air import speed_of_sound
-
-    from .samples import _scene
+    from acousim.dataset.samples import _scene
 
     n = 0
     for choice in spec.scenes:
@@ -54,7 +52,7 @@ def capture_samples(spec: DatasetSpec) -> int:
 
 def write_chirp_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Path):
     """Samples lo..hi-1 as the CHIRP file `final`: (records, sha256, bytes)."""
-    from .samples import simulate_sample
+    from acousim.dataset.samples import simulate_sample
 
     n = capture_samples(spec)
     recs, records = [], []

@@ -27,13 +27,9 @@ import h5py
 import numpy as np
 
 import processing as P
-from processing import interrupt
-from processing.atomic import TEMP_PREFIX, atomic_path, write_text
-from processing.errors import InputError
-
-from .runners import run_dask, run_pool
-from .safety import check_scheduler, locked, sha256_file
-from .samples import (  # noqa: F401  (re-exported)
+from acousim.dataset.runners import run_dask, run_pool
+from acousim.dataset.safety import check_scheduler, locked, sha256_file
+from acousim.dataset.samples import (  # noqa: F401  (re-exported)
     _clear,
     _motion,
     _pose,
@@ -45,7 +41,10 @@ from .samples import (  # noqa: F401  (re-exported)
     sample_parameters,
     simulate_sample,
 )
-from .spec import DatasetSpec, load_spec
+from acousim.dataset.spec import DatasetSpec, load_spec
+from processing.base import interrupt
+from processing.base.atomic import TEMP_PREFIX, atomic_path, write_text
+from processing.base.errors import InputError
 
 __all__ = [
     "sample_parameters",
@@ -182,7 +181,7 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
     records = []
     t0 = time.perf_counter()
     if spec.format == "chirp":
-        from .chirp_shards import write_chirp_shard
+        from acousim.dataset.chirp_shards import write_chirp_shard
 
         records, digest, size = write_chirp_shard(spec, k, lo, hi, final)
     else:

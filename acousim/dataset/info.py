@@ -11,10 +11,9 @@ import h5py
 import numpy as np
 
 import processing as P
-from processing.errors import InputError
-from processing.provenance import kind_of
-
-from .generation import SHARD_SCHEMA
+from acousim.dataset.generation import SHARD_SCHEMA
+from processing.base.errors import InputError
+from processing.sensor.provenance import kind_of
 
 IMAGES_FORMAT = "acousim-images"  # acousim.export.images.FORMAT (not imported: light)
 
@@ -185,7 +184,7 @@ def _datasets(g: h5py.Group) -> list[tuple[str, h5py.Dataset]]:
 
 
 def _folder(path: Path) -> list[str]:
-    from .reader import DatasetReader
+    from acousim.dataset.reader import DatasetReader
 
     reader = DatasetReader(path, verify=False)
     m = reader.manifest

@@ -15,10 +15,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from processing.errors import InputError
-
-from .generation import MANIFEST
-from .safety import sha256_file
+from acousim.dataset.generation import MANIFEST
+from acousim.dataset.safety import sha256_file
+from processing.base.errors import InputError
 
 __all__ = ["DatasetReader", "TorchAdapter", "DatasetError"]
 

@@ -3,7 +3,7 @@ stopping cleanly on Ctrl-C.
 
 Local workers ignore SIGINT (a terminal sends it to the whole process group; a worker
 that raised it printed its own traceback and broke the pool) and leave it to the main
-process, which polls :mod:`processing.interrupt` while it waits, then stops the
+process, which polls :mod:`processing.base.interrupt` while it waits, then stops the
 workers and removes the temporary files of the shards they were writing. Finished
 shards stay, whole, for a resumed run.
 """
@@ -15,10 +15,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from processing import interrupt
-from processing.atomic import TEMP_PREFIX
-
-from .safety import watch_parent
+from acousim.dataset.safety import watch_parent
+from processing.base import interrupt
+from processing.base.atomic import TEMP_PREFIX
 
 __all__ = ["run_pool", "run_dask", "POLL_S"]
 

@@ -12,7 +12,7 @@ import threading
 import time
 from pathlib import Path
 
-from processing.errors import InputError
+from processing.base.errors import InputError
 
 __all__ = ["LOCK", "locked", "watch_parent", "check_scheduler", "sha256_file"]
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .spec import DatasetSpec
+from acousim.dataset.spec import DatasetSpec
 
 
 @lru_cache(maxsize=8)
@@ -24,8 +24,8 @@ def _scene(path: str):
 @lru_cache(maxsize=4)
 def _world_caster(path: str):
     """Geometry for collision checks, built once per scene file and process."""
-    from acousim.trace.geometry import build_world
     from acousim.trace.tracer import caster_of
+    from acousim.trace.world.build import build_world
 
     scene = _scene(path)
     if not scene.meshes:
@@ -65,7 +65,7 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
             if _clear(str(choice.file), pos, choice.clearance_m):
                 break
         else:
-            from .spec import SpecError
+            from acousim.dataset.spec import SpecError
 
             raise SpecError(
                 f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "

@@ -1,13 +1,13 @@
 """Dataset spec files (TOML), documented in ``docs/dataset-format.md``.
 
-Every key is declared once (:func:`processing.settings.setting`) on the dataclass of
+Every key is declared once (:func:`processing.base.settings.setting`) on the dataclass of
 its table: ``[dataset]`` :class:`DatasetOptions`, ``[[scenes]]`` :class:`SceneChoice`
 (its ``region`` :class:`Region`), ``[store]`` :class:`StoreOptions`. The
 ``[randomize]`` keys draw values of scene settings and reuse those settings'
 declarations (:data:`RANDOMIZE`): a distribution must lie inside the allowed range,
 and normal draws are clipped to it. Adding a key is one ``setting(...)`` line (one
 entry of :data:`RANDOMIZE` for a randomized condition). Errors are
-:class:`SpecError`, an :class:`processing.errors.InputError` naming file, key, value.
+:class:`SpecError`, an :class:`processing.base.errors.InputError` naming file, key, value.
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 import processing as P
-from processing.errors import InputError
-from processing.settings import (
+from processing.base.errors import InputError
+from processing.base.settings import (
     Setting,
     check,
     read_table,

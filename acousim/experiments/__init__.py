@@ -1,6 +1,6 @@
 """The paper's simulation study (section IV), reproduced."""
 
-from .paper_study import (
+from acousim.experiments.paper_study import (
     Attenuation,
     PulseNumbers,
     Resolution,

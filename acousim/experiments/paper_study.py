@@ -6,7 +6,7 @@ names are the CSV columns); :mod:`acousim.experiments.report` turns them into
 ``docs/REPRODUCTION.md``.  Readings of the paper fixed here (and stated in the
 report): SNR as in :mod:`acousim.synth.noise`; spreading 1/(2 r) as in eq. 1; the
 steering frequency 31.25 kHz the paper states; 5x5 subarrays; Capon loading -0.5
-times the noise floor; resolution metrics as in :mod:`processing.metrics`.
+times the noise floor; resolution metrics as in :mod:`processing.imaging.metrics`.
 """
 
 from __future__ import annotations
@@ -25,10 +25,7 @@ from typing import Any
 import numpy as np
 
 import processing as P
-from processing.atomic import atomic_path, write_text
-from processing.errors import InputError
-
-from .trials import (
+from acousim.experiments.trials import (
     FREQUENCY_HZ,
     FS,
     PAPER_METHODS,
@@ -38,6 +35,8 @@ from .trials import (
     resolution_trial,
     simulate_trial,
 )
+from processing.base.atomic import atomic_path, write_text
+from processing.base.errors import InputError
 
 POSITIONS = ((0.0, 0.0, 1.0), (30.0, 30.0, 1.0), (60.0, 60.0, 1.0))
 

@@ -8,9 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from processing.atomic import write_text
-
-from .paper_study import POSITIONS, StudyResults, Sweep
+from acousim.experiments.paper_study import POSITIONS, StudyResults, Sweep
+from processing.base.atomic import write_text
 
 SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
 SMOOTHED9_NOTE = (

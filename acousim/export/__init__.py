@@ -13,7 +13,7 @@
 The layouts are documented in ``docs/export.md``.
 """
 
-from .images import PEAK_COLUMNS, write_image_data, write_peaks_csv
+from acousim.export.images import PEAK_COLUMNS, write_image_data, write_peaks_csv
 
 __all__ = ["PEAK_COLUMNS", "write_image_data", "write_peaks_csv", "write_rosbag"]
 
@@ -21,6 +21,6 @@ __all__ = ["PEAK_COLUMNS", "write_image_data", "write_peaks_csv", "write_rosbag"
 def write_rosbag(*args, **kwargs):
     """See :func:`acousim.export.rosbag.write_rosbag` (imported on use: rosbags is an
     optional dependency)."""
-    from .rosbag import write_rosbag as _write
+    from acousim.export.rosbag import write_rosbag as _write
 
     return _write(*args, **kwargs)

@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
-from acousim.imaging import PEAK_THRESHOLD_DB
-from processing.atomic import atomic_path, write_text
+from acousim.imaging.run import PEAK_THRESHOLD_DB
+from processing.base.atomic import atomic_path, write_text
 
 __all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
 
@@ -97,7 +97,7 @@ def write_image_data(
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically).
 
-    recordings, images : as from :func:`acousim.imaging.image_recordings`.
+    recordings, images : as from :func:`acousim.imaging.run.image_recordings`.
     indices : each recording's index in its file (default 0, 1, ...).
     """
     import h5py
@@ -182,10 +182,10 @@ def peak_rows(
     window_samples: int = P.ProcessingSettings.window,
 ) -> list[tuple]:
     """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`, each
-    with its grid-edge flag and its traced reflector (:mod:`acousim.matching`;
+    with its grid-edge flag and its traced reflector (:mod:`acousim.imaging.matching`;
     `window_samples`: the STFT window the image was made with)."""
-    from acousim.imaging import peak_positions
-    from acousim.matching import image_resolution, match_peaks, on_grid_edge
+    from acousim.imaging.matching import image_resolution, match_peaks, on_grid_edge
+    from acousim.imaging.run import peak_positions
 
     pk = image.peaks(threshold_db)
     if not pk.range_m.size:

@@ -59,11 +59,11 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
-from acousim.imaging import PEAK_THRESHOLD_DB
+from acousim.imaging.run import PEAK_THRESHOLD_DB
 from acousim.viz.fan import DYNAMIC_RANGE_DB
-from processing import interrupt
-from processing.atomic import TEMP_PREFIX
-from processing.errors import InputError
+from processing.base import interrupt
+from processing.base.atomic import TEMP_PREFIX
+from processing.base.errors import InputError
 
 __all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
 
@@ -169,7 +169,7 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
     """The bag's topics, one message of each per recording, written into `bag`."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from acousim.imaging import _pose, _sharpest, peak_positions
+    from acousim.imaging.run import _pose, _sharpest, peak_positions
     from acousim.viz.fan import fan_raster
 
     store = _typestore()
@@ -208,7 +208,7 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
 
 def _rename_unless_interrupted(bag: Path, path: Path) -> None:
     """The finished bag renamed into place, unless Ctrl-C came (SIGINT held back from
-    the check to the rename, as processing.atomic does for files)."""
+    the check to the rename, as processing.base.atomic does for files)."""
     import signal
 
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
@@ -222,7 +222,7 @@ def _rename_unless_interrupted(bag: Path, path: Path) -> None:
 def _lidar_writer(w, store, recordings):
     """A function writing a recording's LiDAR scan (:mod:`acousim.export.lidar_cloud`)
     to ``/acousim/lidar``; the topic exists only when some recording has a scan."""
-    from .lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
+    from acousim.export.lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
 
     if all(r.lidar is None for r in recordings):
         return lambda rec, header, ns: None
@@ -345,7 +345,7 @@ class _SceneTopics:
     docstring): what a viewer needs to show the scene beside the images."""
 
     def __init__(self, writer, store, recordings: Sequence[P.Recording]) -> None:
-        from acousim.imaging import _scene, _scene_triangles
+        from acousim.imaging.run import _scene, _scene_triangles
 
         self.w, self.store, self.T = writer, store, store.types
         self.scene = _scene(recordings[0]) if recordings else None
@@ -369,7 +369,7 @@ class _SceneTopics:
             if self.first and self.still is not None:
                 markers.append(_mesh_marker(self.T, header, 0, self.still, SCENE_COLOR))
             if self.moving:
-                from acousim.imaging import _moving_triangles
+                from acousim.imaging.run import _moving_triangles
 
                 tri = _moving_triangles(self.scene, rec)
                 markers.append(_mesh_marker(self.T, header, 1, tri, MOVING_COLOR))

@@ -2,7 +2,7 @@
 
 Between the trace (paths at the pose of the start of the emission,
 :mod:`acousim.trace`, with how they follow the motion:
-:class:`acousim.trace.following.MovingPaths`) and the renderer (:mod:`acousim.synth`):
+:class:`acousim.trace.motion.following.MovingPaths`) and the renderer (:mod:`acousim.synth`):
 where the sensor's emitter and microphones are during a measurement
 (:class:`SensorKinematics`), the reception times of the call's samples per path and
 microphone, solved from the retarded-time equation, and the Doppler factors
@@ -10,7 +10,7 @@ microphone, solved from the retarded-time equation, and the Doppler factors
 (:func:`acousim.kinematics.reference.render_doppler_reference`).
 """
 
-from .retarded import Arrivals, arrival_times, arrivals
-from .sensor import TABLE_STEP_S, SensorKinematics
+from acousim.kinematics.retarded import Arrivals, arrival_times, arrivals
+from acousim.kinematics.sensor import TABLE_STEP_S, SensorKinematics
 
 __all__ = ["Arrivals", "arrival_times", "arrivals", "SensorKinematics", "TABLE_STEP_S"]

@@ -12,12 +12,11 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
-from acousim.trace.following import MovingPaths
+from acousim.kinematics.retarded import arrival_times
+from acousim.kinematics.sensor import SensorKinematics
+from acousim.trace.motion.following import MovingPaths
 from processing import Waveform
-from processing.waveforms import ANTI_ALIAS_CUTOFF
-
-from .retarded import arrival_times
-from .sensor import SensorKinematics
+from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = ["render_doppler_reference"]
 

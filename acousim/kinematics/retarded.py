@@ -6,7 +6,7 @@ the emitter at ``e(tau)`` reaches microphone m at the time t that solves
     t = t_r + |m(t) - A(tau, t_r)| / c,      t_r = tau + F(tau, t_r) / c
 
 with A the path's last anchor (image source, scatterer or reflector) and F its first
-leg (:class:`acousim.trace.following.MovingPaths`, whose docstring states how the
+leg (:class:`acousim.trace.motion.following.MovingPaths`, whose docstring states how the
 paths follow the motion).  The microphone records ``g w(tau(t))``: the call
 delayed and time-compressed (Doppler), exactly.  :func:`arrivals` solves it at the
 call's first, middle and last sample for every path and microphone: a typed
@@ -21,10 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from acousim.core.echoes import Echoes
-from acousim.trace.following import FirstLeg, MovingPaths
-from processing.kernels import optional_kernel
-
-from .sensor import SensorKinematics
+from acousim.kinematics.sensor import SensorKinematics
+from acousim.trace.motion.following import FirstLeg, MovingPaths
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Arrivals", "arrivals", "arrival_times", "NEWTON_STOP_S"]
 

@@ -1,9 +1,17 @@
 """Scene files: format, validation, materials and poses."""
 
-from .load import SceneError, load_scene, parse_scene
-from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
-from .pose import Pose, rotation
-from .trajectory import Trajectory
+from acousim.scene.load import SceneError, load_scene, parse_scene
+from acousim.scene.model import (
+    Environment,
+    Material,
+    MeshItem,
+    PointItem,
+    Scene,
+    Sensor,
+    Simulation,
+)
+from acousim.scene.pose import Pose, rotation
+from acousim.scene.trajectory import Trajectory
 
 __all__ = [
     "SceneError",

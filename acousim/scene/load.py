@@ -21,14 +21,21 @@ from typing import Any
 import numpy as np
 
 import processing as P
-from processing.errors import InputError
-from processing.rtis import RTIS_SAMPLE_RATE_HZ
-from processing.settings import Setting, check, read_table, refuse_unknown, settings_of
-
-from .lidar import LIDAR_PRESETS, PRESET, Lidar
-from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
-from .pose import MAX_COORDINATE_M, Pose, rotation
-from .trajectory import CONTINUOUS, RATES, Trajectory
+from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
+from acousim.scene.model import (
+    Environment,
+    Material,
+    MeshItem,
+    PointItem,
+    Scene,
+    Sensor,
+    Simulation,
+)
+from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
+from acousim.scene.trajectory import CONTINUOUS, RATES, Trajectory
+from processing.base.errors import InputError
+from processing.base.settings import Setting, check, read_table, refuse_unknown, settings_of
+from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 __all__ = ["SceneError", "load_scene", "parse_scene"]
 
@@ -148,7 +155,7 @@ class _Reader:
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file (TOML, ``docs/scene-format.md``); a SceneError
-    (an :class:`processing.errors.InputError`) names the file, key and value."""
+    (an :class:`processing.base.errors.InputError`) names the file, key and value."""
     path = Path(path)
     if not path.is_file():
         raise SceneError("no such scene file", file=path)

@@ -1,7 +1,7 @@
 """What a scene describes, as small frozen dataclasses (SI units; degrees only in names
 ending ``_deg``).
 
-Every setting is declared once (:func:`processing.settings.setting`: type, unit,
+Every setting is declared once (:func:`processing.base.settings.setting`: type, unit,
 default, allowed range) and that declaration checks both the TOML loader and the
 Python constructors, so ``Material(reflection=5)`` is refused like
 ``reflection = 5`` in a scene file. To add a setting, add one ``setting(...)`` line
@@ -32,12 +32,7 @@ from typing import Any
 import numpy as np
 
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
-from processing import Array, Waveform
-from processing.errors import InputError
-from processing.rtis import RTIS_SAMPLE_RATE_HZ
-from processing.settings import setting, validate
-
-from .motion import (
+from acousim.scene.motion import (
     MAX_SPEED_M_S,
     MAX_TURN_DEG_S,
     motion_at,
@@ -47,7 +42,11 @@ from .motion import (
     vector3,
     velocity_setting,
 )
-from .pose import MAX_COORDINATE_M, Pose
+from acousim.scene.pose import MAX_COORDINATE_M, Pose
+from processing import Array, Waveform
+from processing.base.errors import InputError
+from processing.base.settings import setting, validate
+from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 __all__ = [
     "Material",
@@ -78,7 +77,7 @@ class Material:
     lobe_deg : width (standard deviation) of the reflection lobe around the mirror
         direction on curved surfaces, for paths with more than one reflection (the
         first-order echo of a curved surface is exact geometric optics, see
-        ``acousim.trace.glints``); a sampling kernel: a wider lobe converges with
+        ``acousim.trace.rays.glints``); a sampling kernel: a wider lobe converges with
         fewer rays but spreads a glint's energy in delay.
     frequencies_khz : table frequencies (kHz, increasing); when given, `reflection`
         and/or `diffuse` may be lists of the same length: their values there,
@@ -182,7 +181,7 @@ class MeshItem:
         (3,), when given, is added to its translation (a convenience for code).
     materials : {group name: Material} for the face groups of a mesh file (OBJ
         groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names; see
-        ``acousim.trace.geometry.face_groups``); faces of other groups take
+        ``acousim.trace.world.build.face_groups``); faces of other groups take
         `material`.  Empty: the whole mesh is `material`.
     """
 
@@ -407,7 +406,7 @@ class Sensor:
 
     def __post_init__(self) -> None:
         validate(self)
-        from .lidar import Lidar
+        from acousim.scene.lidar import Lidar
 
         if self.lidar is not None and not isinstance(self.lidar, Lidar):
             raise InputError("must be None or an acousim.scene.lidar.Lidar", key="Sensor.lidar")
@@ -426,7 +425,7 @@ class Sensor:
                 )
             object.__setattr__(self, "rate_hz", float(self.rate_hz))
         if self.motion is not None:
-            from .trajectory import Trajectory
+            from acousim.scene.trajectory import Trajectory
 
             if not isinstance(self.motion, Trajectory):
                 raise InputError(
@@ -450,7 +449,7 @@ class Simulation:
     max_range_m : echoes are computed up to this range (the window is 2 r / c plus
         the call).
     rays : rays cast from the emitter over its beam per pose; unset (the default):
-        found per pose, the automatic budget of :mod:`acousim.trace.budget` (batches
+        found per pose, the automatic budget of :mod:`acousim.trace.rays.budget` (batches
         of rays until one finds nothing new and the diffuse tail has converged; no
         rays where nothing needs them).  A number gives exactly that many rays, on
         the deterministic spiral.
@@ -460,7 +459,7 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); on by
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction.stage`); on by
         default (false: geometric optics alone).
     diffraction_step_m : edge-element step, in excess path length (m).
     diffraction_reflections : also edge diffraction combined with one specular
@@ -469,7 +468,7 @@ class Simulation:
         edges that share a plane (the rims of a plate, the edges of a box face)
         where a pair can reach the energy floor; 1: each edge alone.
     snr_db : noise level relative to the echoes (the direct path left out, see
-        ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
+        ``acousim.synth.signal_model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
         (:meth:`Scene.memory_bytes`) is above this many gigabytes (10^9 bytes). The
         default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.

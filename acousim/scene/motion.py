@@ -9,10 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from processing.errors import InputError
-from processing.settings import setting
-
-from .pose import MAX_COORDINATE_M, MAX_TIME_S
+from acousim.scene.pose import MAX_COORDINATE_M, MAX_TIME_S
+from processing.base.errors import InputError
+from processing.base.settings import setting
 
 __all__ = ["MAX_SPEED_M_S", "MAX_TURN_DEG_S", "track_rows", "velocity_setting"]
 

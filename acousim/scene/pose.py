@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.chirp_frames import rotation  # the one sensor -> world rotation
-from processing.errors import InputError
+from processing.base.errors import InputError
+from processing.base.frames import rotation  # the one sensor -> world rotation
 
 __all__ = ["Pose", "rotation", "MAX_COORDINATE_M", "MAX_TIME_S"]
 

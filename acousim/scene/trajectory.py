@@ -26,11 +26,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
-from processing.errors import InputError
-from processing.settings import Setting, check
-
-from .motion import MAX_SPEED_M_S, MAX_TURN_DEG_S
-from .pose import Pose
+from acousim.scene.motion import MAX_SPEED_M_S, MAX_TURN_DEG_S
+from acousim.scene.pose import Pose
+from processing.base.errors import InputError
+from processing.base.settings import Setting, check
 
 __all__ = ["Trajectory", "RATES", "CONTINUOUS"]
 

@@ -43,18 +43,22 @@ from scipy import fft as sfft
 
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
-from processing import Waveform
-from processing.waveforms import ANTI_ALIAS_CUTOFF
-
-from .compress import compress
-from .options import COMPRESS_TOLERANCE, DEFAULT_OPTIONS, DOPPLER_TOLERANCE, RenderOptions
-from .render import (
+from acousim.synth.compress import compress
+from acousim.synth.options import (
+    COMPRESS_TOLERANCE,
+    DEFAULT_OPTIONS,
+    DOPPLER_TOLERANCE,
+    RenderOptions,
+)
+from acousim.synth.render import (
     FFT_WORKERS,
     _impulses,
     check_interpolator,
     response_factors,
 )
-from .response import PathResponse
+from acousim.synth.response import PathResponse
+from processing import Waveform
+from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = [
     "doppler_nodes",

@@ -1,5 +1,5 @@
 """What a rendering is made with, declared once: the capture (array, call, sampling,
-window), the renderer's options and the noise (:func:`acousim.synth.model.simulate`,
+window), the renderer's options and the noise (:func:`acousim.synth.signal_model.simulate`,
 :mod:`acousim.synth.doppler`)."""
 
 from __future__ import annotations
@@ -10,9 +10,8 @@ from typing import Literal
 import numpy as np
 
 from acousim.core.delays import DEFAULT_INTERPOLATOR, FractionalDelay
+from acousim.synth.render import DEFAULT_TAPS
 from processing import Array, Waveform
-
-from .render import DEFAULT_TAPS
 
 __all__ = [
     "Capture",
@@ -35,7 +34,7 @@ DOPPLER_TOLERANCE = 1e-3
 COMPRESS_TOLERANCE = 7e-4
 
 SnrReference = Literal["signal", "echoes"]
-"""What `Noise.snr_db` is relative to (see :func:`acousim.synth.model.simulate`)."""
+"""What `Noise.snr_db` is relative to (see :func:`acousim.synth.signal_model.simulate`)."""
 
 
 @dataclass(frozen=True)

@@ -50,11 +50,10 @@ from acousim.core.delays import (
     check_interpolator,
 )
 from acousim.core.echoes import Echoes
+from acousim.synth.response import PathResponse, factorise
 from processing import Waveform
-from processing.kernels import optional_kernel
-from processing.waveforms import ANTI_ALIAS_CUTOFF
-
-from .response import PathResponse, factorise
+from processing.base.kernels import optional_kernel
+from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = [
     "render",
@@ -93,7 +92,7 @@ def render(
     :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).
 
     Echoes that start after the end of the window are expected to have been
-    dropped by the caller (:func:`acousim.synth.model.simulate`); those that start
+    dropped by the caller (:func:`acousim.synth.signal_model.simulate`); those that start
     inside it and run past its end are truncated.
     """
     shaped = response is not None and response.active

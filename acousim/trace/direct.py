@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .embree import RayCaster
-from .paths import KIND, TracedPaths
+from acousim.trace.paths import KIND, TracedPaths
+from acousim.trace.world.embree import RayCaster
 
 __all__ = ["direct_path", "point_paths"]
 

@@ -11,7 +11,7 @@ import logging
 
 import numpy as np
 
-from .paths import KIND, TracedPaths
+from acousim.trace.paths import KIND, TracedPaths
 
 __all__ = ["energy_floor"]
 

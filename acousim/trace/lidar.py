@@ -1,7 +1,7 @@
 """A LiDAR scan of the scene: the beams of :class:`acousim.scene.lidar.Lidar` cast
-with Embree (:class:`acousim.trace.embree.RayCaster`), each hit's distance then made
+with Embree (:class:`acousim.trace.world.embree.RayCaster`), each hit's distance then made
 exact in float64 on the face Embree found (the plane ``n . x = offset`` of
-:class:`acousim.trace.geometry.World`), as the tracer does for its paths.
+:class:`acousim.trace.world.build.World`), as the tracer does for its paths.
 
 The scan starts at the pose (the start of the sonar's emission). A sensor that moves
 (its :class:`~acousim.scene.trajectory.Trajectory`) fires every azimuth from where it
@@ -17,10 +17,9 @@ import numpy as np
 
 from acousim.scene.lidar import Lidar
 from acousim.scene.pose import Pose
+from acousim.trace.world.build import World
+from acousim.trace.world.embree import RayCaster
 from processing import PointCloud
-
-from .embree import RayCaster
-from .geometry import World
 
 __all__ = ["scan", "beam_directions"]
 

@@ -36,21 +36,24 @@ import numpy as np
 from acousim.core.cache import LruCache
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
-from processing.errors import InputError
-
-from .budget import RayWork, in_beam, ray_work
-from .cluster import DIFFUSE_CELL_DEG, cluster
-from .diffraction import DiffractingGeometry, DiffractionOptions, edge_diffraction
-from .direct import direct_path, point_paths
-from .embree import RayCaster
-from .floor import energy_floor
-from .geometry import World, build_world
-from .glints import curved_groups, glints
-from .paths import KIND, TracedPaths
-from .scatter import scatter
-from .settings import TraceSettings, resolution_length
-from .shoot import cone_directions, shoot
-from .specular import as_paths, refine_sequences
+from acousim.trace.diffraction.stage import (
+    DiffractingGeometry,
+    DiffractionOptions,
+    edge_diffraction,
+)
+from acousim.trace.direct import direct_path, point_paths
+from acousim.trace.floor import energy_floor
+from acousim.trace.options import TraceSettings, resolution_length
+from acousim.trace.paths import KIND, TracedPaths
+from acousim.trace.rays.budget import RayWork, in_beam, ray_work
+from acousim.trace.rays.cluster import DIFFUSE_CELL_DEG, cluster
+from acousim.trace.rays.glints import curved_groups, glints
+from acousim.trace.rays.scatter import scatter
+from acousim.trace.rays.shoot import cone_directions, shoot
+from acousim.trace.rays.specular import as_paths, refine_sequences
+from acousim.trace.world.build import World, build_world
+from acousim.trace.world.embree import RayCaster
+from processing.base.errors import InputError
 
 __all__ = [
     "TracedPaths",

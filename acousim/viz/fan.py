@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from processing import Image, to_db
-from processing.atomic import atomic_path
+from processing.base.atomic import atomic_path
 
 __all__ = [
     "DYNAMIC_RANGE_DB",
@@ -336,7 +336,7 @@ def fitted_title(fig, text: str, fontsize: float = 10.0) -> None:
 def _marks(images: Mapping[str, Image], truth, max_range_m: float, dynamic_range_db: float):
     """The traced reflectors' fan marks over the first image's azimuth span (None
     without truth or images)."""
-    from .truth import fan_marks
+    from acousim.viz.truth import fan_marks
 
     if truth is None or not len(truth) or not images:
         return None
@@ -359,7 +359,7 @@ def fan_legend(drawn: set[str], dynamic_range_db: float) -> list:
     """A fan's legend entries: the no-data grey and the marks drawn."""
     from matplotlib.patches import Patch
 
-    from .truth import legend_handles
+    from acousim.viz.truth import legend_handles
 
     grey = Patch(color=NO_DATA_COLOR, label="no data (energy gate)")
     return [grey, *legend_handles(drawn, dynamic_range_db)]
@@ -487,10 +487,10 @@ def make_elaz_figure(
 
     truth : optional traced reflectors (as for :func:`make_fan_figure`); those
         within `truth_tolerance_m` (default: three range bins; the pictures give half
-        the image's range resolution, :mod:`acousim.matching`) of a slice's range
+        the image's range resolution, :mod:`acousim.imaging.matching`) of a slice's range
         are marked on it (:func:`acousim.viz.truth.elaz_marks`).
     """
-    from .truth import elaz_marks, legend_handles
+    from acousim.viz.truth import elaz_marks, legend_handles
 
     plt = _plt()
     if image.power.size == 0:

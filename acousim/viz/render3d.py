@@ -19,9 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from processing.atomic import atomic_path
-
-from .fan import DYNAMIC_RANGE_DB
+from acousim.viz.fan import DYNAMIC_RANGE_DB
+from processing.base.atomic import atomic_path
 
 __all__ = [
     "SceneRenderer",

@@ -1,0 +1,1 @@
+"""Simulated versus real recordings of the same sensor."""

@@ -1,0 +1,1 @@
+"""Imaging recordings and writing the pictures, image files and peak tables of ``acousim image``."""

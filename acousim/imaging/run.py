@@ -1,0 +1,509 @@
+"""Imaging recordings (simulated or real) and writing the pictures people look at:
+fan images, elevation-azimuth maps, 3D renders of the scene, drive animations."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import signal
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import processing as P
+from acousim.viz.fan import DYNAMIC_RANGE_DB
+from processing.base import interrupt
+from processing.base.atomic import atomic_path
+from processing.base.errors import InputError
+from processing.base.settings import setting, validate
+
+#: peaks kept within this many dB of each image's strongest cell: the default of
+#: the pictures, the peak files and the bags (one home)
+PEAK_THRESHOLD_DB = -10.0
+
+__all__ = [
+    "ImagingOptions",
+    "image_recordings",
+    "peak_positions",
+    "peaks_in_world",
+    "prepare_pictures",
+    "write_pictures",
+]
+
+
+@dataclass(frozen=True)
+class ImagingOptions:
+    """How recordings are imaged.
+
+    methods : DOA methods (see ``processing.METHODS``).
+    azimuth_deg, elevation_deg : (min, max) of the grid; step_deg its step.
+    energy_fraction : range bins kept when their energy is at least this fraction of
+        the strongest bin in [min_range_m, max_range_m] (the paper uses 0.5 for one
+        reflector; a room needs a lower gate).
+    min_range_m : bins nearer than this are ignored (the direct path).
+    peak_threshold_db : peaks drawn in the 3D view.
+    dynamic_range_db : of every picture (fan, el-az maps, 3D view's reflectors,
+        animation, the bag's fan image).
+    """
+
+    methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
+    azimuth_deg: tuple[float, float] = (-90.0, 90.0)
+    elevation_deg: tuple[float, float] = (-40.0, 40.0)
+    step_deg: float = setting(2.0, "deg", 0.1, 45, "grid step")
+    energy_fraction: float = setting(
+        P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
+        "",
+        0,
+        1,
+        "keep range bins with at least this fraction of the strongest bin's energy "
+        "(the paper uses 0.5)",
+    )
+    min_range_m: float = setting(
+        P.ProcessingSettings.range_limits_m[0], "m", 0, 1000, "ignore nearer range bins"
+    )
+    max_range_m: float | None = setting(
+        None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
+    )
+    peak_threshold_db: float = setting(
+        PEAK_THRESHOLD_DB,
+        "dB",
+        -200,
+        0,
+        "peaks kept within this many dB of each image's strongest cell",
+    )
+    dynamic_range_db: float = setting(
+        DYNAMIC_RANGE_DB, "dB", 1, 200, "levels shown below each picture's strongest cell"
+    )
+    grid: P.Grid = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        validate(self)
+        for m in self.methods:
+            P.check_method(m)
+        object.__setattr__(
+            self, "grid", P.Grid.degrees(self.azimuth_deg, self.elevation_deg, self.step_deg)
+        )
+
+    def settings(self, recording: P.Recording) -> P.ProcessingSettings:
+        hi = self.max_range_m or recording.speed_of_sound_m_s * recording.n_samples / (
+            2 * recording.sample_rate_hz
+        )
+        hi = max(hi, self.min_range_m)  # a recording shorter than min_range: no bin
+        return P.ProcessingSettings(
+            energy_fraction=self.energy_fraction,
+            grid=self.grid,
+            range_limits_m=(self.min_range_m, hi),
+        )
+
+
+def image_recordings(
+    recordings: Sequence[P.Recording],
+    options: ImagingOptions,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[dict[str, P.Image]]:
+    """Images of every recording by every method."""
+    out = []
+    for i, rec in enumerate(recordings):
+        interrupt.check()  # Ctrl-C (when the command line records it): stop here
+        if rec.array.n_mics and not rec.array.is_ura:
+            smooth = [m for m in options.methods if P.requires_ura(m)]
+            if smooth:
+                raise InputError(
+                    f"recording {i}: array {rec.array.name!r} is not a URA, so "
+                    f"{', '.join(smooth)} cannot be used; choose das, music, capon "
+                    "or a wideband (-wb) or broadband (-bb) method"
+                )
+        out.append(P.acoustic_images(rec, options.methods, options.settings(rec)))
+        if progress:
+            progress(i + 1, len(recordings))
+    return out
+
+
+def _pose(rec: P.Recording):
+    from acousim.scene.pose import Pose
+
+    p = rec.provenance.pose
+    if p is None:
+        return Pose(np.zeros(3))
+    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
+
+
+def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
+    """Peaks (az, el, range from the array centre) as points: (sensor frame (N, 3),
+    world frame (N, 3)), through the recording's pose (identity without one)."""
+    d = np.column_stack(
+        [
+            np.cos(peaks.elevation_rad) * np.cos(peaks.azimuth_rad),
+            np.cos(peaks.elevation_rad) * np.sin(peaks.azimuth_rad),
+            np.sin(peaks.elevation_rad),
+        ]
+    ).reshape(-1, 3)
+    sensor = rec.array.positions_m.mean(axis=0) + peaks.range_m.reshape(-1, 1) * d
+    return sensor, _pose(rec).to_world(sensor)
+
+
+def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:
+    """Image peaks as world points (N, 3): (az, el, range) from the array centre."""
+    return peak_positions(rec, image.peaks(threshold_db))[1]
+
+
+def _scene(rec: P.Recording):
+    """The recording's scene, when its file is still there (None for real data).
+
+    Read only for the 3D view and the animation, and only a scene file (.toml): a
+    recording cannot make us open any other path."""
+    file = rec.provenance.scene_file
+    if not file:
+        return None
+    if Path(file).suffix.lower() != ".toml":
+        raise InputError(
+            "the recording's scene_file is not a scene file (.toml); "
+            "image without the 3D view (--no-3d --no-animation)",
+            key="scene_file",
+            value=file,
+        )
+    if not Path(file).is_file():
+        return None
+    from acousim.scene import load_scene
+
+    return load_scene(file)  # a scene file that no longer loads is an InputError
+
+
+def _scene_triangles(scene) -> np.ndarray | None:
+    """The faces (F, 3, 3) of the scene's meshes that do not move."""
+    if scene is None or not any(not m.moving for m in scene.meshes):
+        return None
+    from acousim.trace.world.build import build_world
+
+    if any(m.moving for m in scene.meshes):
+        scene = dataclasses.replace(scene, meshes=tuple(m for m in scene.meshes if not m.moving))
+    return build_world(scene).triangles
+
+
+def _moving_triangles(scene, rec: P.Recording) -> np.ndarray | None:
+    """The faces (F, 3, 3) of the scene's moving meshes where they are at the start of
+    the recording's emission (None: none moves)."""
+    if scene is None or not any(m.moving for m in scene.meshes):
+        return None
+    from acousim.trace.world.build import build_world
+
+    t = _pose(rec).time_s
+    moving = tuple(m.placed_at(t) for m in scene.meshes if m.moving)
+    return build_world(dataclasses.replace(scene, meshes=moving)).triangles
+
+
+def prepare_pictures(render_3d: bool = True, animation: bool = True) -> None:
+    """Import what the pictures need (matplotlib; pyvista/VTK and imageio for the 3D
+    views) before a command's work starts, so that Ctrl-C never lands in the middle of
+    VTK's import (which could crash the interpreter instead of stopping cleanly).
+    An interrupt during these imports is held back and raised once they are done."""
+    with _interrupt_after():
+        _import_pictures(render_3d, animation)
+
+
+@contextlib.contextmanager
+def _interrupt_after():
+    """Hold SIGINT back during the block, then raise KeyboardInterrupt if it came."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda sig, frame: caught.append(sig))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def _import_pictures(render_3d: bool, animation: bool) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+
+    if render_3d or animation:
+        from acousim.viz.render3d import import_pyvista
+
+        import_pyvista()
+    if animation:
+        import imageio.v2  # noqa: F401
+
+
+def write_pictures(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    render_3d: bool = True,
+    animation: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    indices: Sequence[int] | None = None,
+) -> list[Path]:
+    """Fan images and elevation-azimuth maps of the first recording, its 3D render,
+    and for several recordings (a trajectory) an animated GIF of the drive.
+
+    indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    trajectory = len(recordings) > 1
+    written = []
+    first, imgs = recordings[0], images[0]
+    scene = _scene(first) if render_3d or animation else None
+    limit = _range_limit(first, options)
+    title = _title(first, indices[0], trajectory)
+    written += _stills(first, imgs, out, options, limit, title)
+    triangles = _scene_triangles(scene) if render_3d or animation else None
+    if render_3d:
+        written.append(
+            _render(
+                first,
+                imgs,
+                triangles,
+                out / "scene3d.png",
+                options,
+                _moving_triangles(scene, first),
+            )
+        )
+    if animation and trajectory:
+        written.append(
+            _animate(
+                recordings, images, triangles, out / "drive.gif", options, progress, indices, scene
+            )
+        )
+    return written
+
+
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str):
+    """The fan (every method) and each method's el-az maps of one recording, with
+    its traced reflectors marked: the files written."""
+    from acousim.viz import elaz_figure, fan_figure
+
+    dr = options.dynamic_range_db
+    truth = _truth_sensor(rec, dr)
+    kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
+    written = [fan_figure(imgs, out / "fan.png", max_range_m=limit, **kw)]
+    for m, img in imgs.items():
+        if img.power.size:
+            tol = _half_range_resolution(rec, img, options)
+            written.append(elaz_figure(img, out / f"elaz_{m}.png", truth_tolerance_m=tol, **kw))
+    return written
+
+
+def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:
+    """Half the image's range resolution (m): the reflectors an el-az slice may show."""
+    from acousim.imaging.matching import image_resolution
+
+    return image_resolution(rec, image, options.settings(rec).window).range_m / 2
+
+
+def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
+    """The farthest range a picture may show: the imaged range, within the simulated
+    one (the recording's provenance ``max_range_m``, when it was simulated)."""
+    hi = options.settings(rec).range_limits_m[1]
+    simulated = rec.provenance.max_range_m
+    if simulated is not None:
+        hi = min(hi, simulated)
+    return float(hi)
+
+
+def _sharpest(imgs: dict[str, P.Image]) -> str:
+    """The method drawn in the 3D view and the animation: a smoothed one if imaged."""
+    for m in ("music-fbss", "capon-fbss", "music-fss", "capon-fss"):
+        if m in imgs:
+            return m
+    return next(iter(imgs))
+
+
+def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
+    """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
+    prov = rec.provenance
+    p = prov.pose
+    moving = p is not None and (trajectory or p.time_s or prov.pose_index)
+    where = f", t = {p.time_s:.1f} s" if moving else ""
+    name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
+    return f"{name or prov.kind} — recording {index}{where}"
+
+
+def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
+    """Ray-traced reflectors (:class:`acousim.viz.truth.Reflectors`) within
+    `dynamic_range_db` + :data:`acousim.viz.truth.MARGIN_DB` of the strongest echo
+    (the direct path excluded), or None."""
+    from acousim.viz.truth import MARGIN_DB, echo_points
+
+    centre = rec.array.positions_m.mean(axis=0)
+    found = echo_points(rec.truth, centre, dynamic_range_db + MARGIN_DB)
+    return found if len(found) else None
+
+
+def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None]:
+    truth = rec.truth
+    if truth is None or not len(truth):
+        return None, None
+    from acousim.viz.truth import truth_level_db
+
+    return truth.position_world_m, truth_level_db(truth)
+
+
+#: the sensor's sweep during a measurement is drawn when it turns or moves this much
+SWEEP_MIN_RAD = np.deg2rad(0.5)
+SWEEP_MIN_M = 0.05
+
+
+def _sweep(rec: P.Recording):
+    """The sensor's positions and axes over the recording's window if it moved or
+    turned during it (``provenance.motion``), else None (nothing to smear)."""
+    from acousim.viz.render3d import sensor_sweep
+
+    motion = rec.provenance.motion
+    if motion is None:
+        return None
+    v = np.asarray(motion.velocity_m_s, float)
+    w = np.asarray(motion.angular_velocity_rad_s, float)
+    window = rec.samples.shape[-1] / rec.sample_rate_hz
+    if np.linalg.norm(w) * window < SWEEP_MIN_RAD and np.linalg.norm(v) * window < SWEEP_MIN_M:
+        return None  # too small to be seen
+    pose = _pose(rec)
+    return sensor_sweep(pose.position_m, pose.rotation, v, w, window)
+
+
+def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
+    """The recording's LiDAR points in the world frame (P, 3) through its pose (the
+    scan's own frame at each firing: for a moving sensor, as its unit reports them),
+    None without a scan."""
+    if rec.lidar is None:
+        return None
+    return _pose(rec).to_world(rec.lidar.in_sensor())
+
+
+def _frame_content(rec, img, options, sweep, moving):
+    """What the 3D view of `rec` draws: the sensor at its pose, the traced reflectors,
+    the peaks of `img`, the sweep, the moving meshes' faces and the LiDAR scan."""
+    from acousim.viz.render3d import FrameContent
+
+    pose = _pose(rec)
+    truth_w, level = _truth_world(rec)
+    return FrameContent(
+        sensor_position=pose.position_m,
+        sensor_axis=pose.rotation[:, 0],
+        truth=truth_w,
+        truth_level_db=level,
+        peaks=peaks_in_world(rec, img, options.peak_threshold_db),
+        sweep=sweep,
+        moving_triangles=moving,
+        lidar=lidar_in_world(rec),
+    )
+
+
+def _render(rec, imgs, triangles, path, options, moving=None):
+    from acousim.viz.render3d import render_scene
+
+    content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
+    render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
+    return Path(path)
+
+
+#: the animation's frame delay when the recordings carry no times (ms)
+FRAME_DELAY_MS = 100
+
+
+def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
+    """The GIF's delay between frames (ms): the median time between the recordings'
+    poses (the drive plays in real time), 20 ms to 1 s, else :data:`FRAME_DELAY_MS`.
+    GIF stores hundredths of a second, so the delay is rounded to 10 ms."""
+    times = [r.provenance.pose.time_s for r in recordings if r.provenance.pose is not None]
+    step = np.median(np.diff(times)) if len(times) == len(recordings) > 1 else 0.0
+    ms = step * 1e3 if step > 0 else FRAME_DELAY_MS
+    return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
+
+
+def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
+    import imageio.v3 as iio
+
+    from acousim.viz.fan import common_extent
+    from acousim.viz.render3d import SceneRenderer
+
+    dr = options.dynamic_range_db
+    method = _sharpest(images[0])
+    limit = min(_range_limit(rec, options) for rec in recordings)
+    marks = [_fan_marks(rec, imgs[method], limit, dr) for rec, imgs in zip(recordings, images)]
+    # one fitted extent for the whole drive (the axes do not jump between frames)
+    kept = [(imgs[method], m) for imgs, m in zip(images, marks) if imgs[method].range_m.size]
+    extents = [common_extent([im], limit, dr, m.xy if m else None) for im, m in kept]
+    ext = np.array(extents or [(1.0, -1.0, 0.0, 1.0)])
+    extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
+    frames = []
+    sweeps = [_sweep(rec) for rec in recordings]
+    renderer = SceneRenderer(
+        triangles,
+        window_size=(640, 480),
+        with_truth=any(m is not None for m in marks),
+        with_sweep=any(s is not None for s in sweeps),
+        with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        truth_range_db=dr,
+        with_lidar=any(rec.lidar is not None for rec in recordings),
+    )
+    try:
+        for k, (rec, imgs) in enumerate(zip(recordings, images)):
+            moving = _moving_triangles(scene, rec)
+            view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
+            title = _title(rec, indices[k], True)
+            frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
+            if progress:
+                progress(k + 1, len(recordings))
+    finally:
+        renderer.close()
+    with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
+        iio.imwrite(
+            tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
+        )
+    return Path(path)
+
+
+def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):
+    """The traced reflectors' marks on a recording's fan (None: no ground truth)."""
+    from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
+    from acousim.viz.truth import fan_marks
+
+    truth = _truth_sensor(rec, dynamic_range_db)
+    if truth is None:
+        return None
+    a = image.azimuth_rad
+    span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
+    return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
+
+
+def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
+    """One animation frame (H, W, 3) uint8: the 3D view beside the fan with its marks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, legend_inside
+
+    fig, (a, b) = plt.subplots(
+        1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
+    )
+    a.imshow(view)
+    a.axis("off")
+    a.set_title(title, fontsize=10)
+    im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
+    step = (extent[0] - extent[1]) / 40  # marks closer than ~1/40 of the view are one
+    drawn = marks.draw(b, min_separation=step) if marks is not None else set()
+    b.set_title(f"{image.method}, top view", fontsize=9)
+    fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
+    # the same entries in every frame: the frames keep one size
+    every = {"in", "off", "behind", "weak"}
+    legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
+    fig.canvas.draw()
+    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return frame

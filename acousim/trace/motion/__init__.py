@@ -1,0 +1,1 @@
+"""Meshes that move during a measurement, and how paths follow the motion."""

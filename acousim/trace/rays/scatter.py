@@ -1,0 +1,138 @@
+"""Stage 4 of the tracer: scattering from curved and rough surfaces towards the receiver.
+
+Every hit on a curved face, or on a face whose material has a diffuse part, re-radiates
+the ray's power towards the receiver (the array centre):
+
+1. Select the hits on scattering faces.
+2. Connect each to the receiver: it must face the receiver and the whole path must fit
+   in ``max_path_m``.
+3. A shadow ray from the hit to the receiver checks the view.
+4. Intensity at the receiver: power x pattern / r^2, with the pattern a Gaussian lobe
+   of width ``lobe_deg`` around the mirror direction (curved faces, from the second
+   reflection on: the first-order glints are exact, :mod:`.glints`; weight
+   ``(1 - diffuse) R^2``, normalised over the hemisphere for small lobes) plus a
+   Lambert lobe (weight ``diffuse R^2``).  The Gaussian lobe is a sampling kernel: as
+   rays are added, the energy of a glint converges to geometric optics whatever its
+   width, but the lobe spreads that energy over nearby points, so its delay spread
+   grows with the width (about ``sigma^2 r / 4`` of path along a pipe's axis).
+5. With frequency-dependent materials, the lobe part and the Lambert part of a hit
+   on such a material are separate contributions (a specular and a diffuse
+   interaction: :mod:`acousim.core.materials`), each carrying the ray's earlier
+   interactions plus its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from acousim.trace.rays.shoot import Hits
+from acousim.trace.world.build import World
+from acousim.trace.world.embree import RayCaster
+
+__all__ = ["Contributions", "scatter"]
+
+
+@dataclass(frozen=True, eq=False)
+class Contributions:
+    """Scattered contributions at the receiver.  K contributions."""
+
+    point_m: np.ndarray
+    """(K, 3) where they scatter, m."""
+    intensity: np.ndarray
+    """(K,) at the receiver, 1/m^2 for a unit-power emitter."""
+    first_leg_m: np.ndarray
+    """(K,) path length emitter -> point, m."""
+    last_leg_m: np.ndarray
+    """(K,) path length point -> receiver, m."""
+    departure: np.ndarray
+    """(K, 3) unit direction leaving the emitter."""
+    surface: np.ndarray
+    """(K,) int, :attr:`World.surface` id."""
+    order: np.ndarray
+    """(K,) int, reflections including the scattering one."""
+    lambert: np.ndarray
+    """(K,) bool, a Lambert part only (a planar face, or a curved face at the first
+    reflection, whose glint is :mod:`.glints`'s)."""
+    interactions: np.ndarray | None = None
+    """(K, C) int, frequency-dependent material interactions (C =
+    ``World.n_interactions``)."""
+
+    def __len__(self) -> int:
+        return self.intensity.size
+
+
+def scatter(
+    world: World, caster: RayCaster, hits: Hits, receiver: np.ndarray, max_path_m: float
+) -> Contributions:
+    """What the hits of `hits` scatter to `receiver` (3,)."""
+    diffuse = world.face_values("diffuse")
+    # 1. hits on scattering faces
+    sc = world.curved[hits.face] | (diffuse[hits.face] > 0)
+    x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
+    power, length, f = hits.power[sc], hits.length_m[sc], hits.face[sc]
+    # 2. towards the receiver, facing it, within the path budget
+    v = receiver - x
+    r2 = np.linalg.norm(v, axis=1)
+    u = v / np.maximum(r2, 1e-12)[:, None]
+    cos_s = np.einsum("ij,ij->i", u, normal)
+    ok = (cos_s > 0) & (length + r2 <= max_path_m)
+    # 3. shadow ray towards the receiver
+    idx = np.flatnonzero(ok)
+    eps = caster.offset_m
+    t, hit = caster.first_hit(x[idx] + eps * normal[idx], v[idx])
+    ok[idx[(hit >= 0) & (t < r2[idx] - eps)]] = False
+    # 4. the scattering pattern
+    order = hits.order[sc]
+    lobe_part, lambert_part = _pattern(world, u, mirror, cos_s, f, order)
+    lambert = ~world.curved[f] | (order == 1)
+    history = hits.interactions[sc]
+
+    def at_receiver(pattern):
+        return np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
+
+    if world.spectra is None:
+        parts = [(at_receiver(lobe_part + lambert_part), history)]
+    else:  # 5. the two interactions apart, each with its own count
+        parts = []
+        for mode, part in enumerate((lobe_part, lambert_part)):
+            counts = history.copy()
+            c = world.face_interactions(mode)[f]
+            counts[np.flatnonzero(c >= 0), c[c >= 0]] += 1
+            parts.append((at_receiver(part), counts))
+    out = []
+    for intensity, counts in parts:
+        keep = intensity > 0
+        out.append(
+            Contributions(
+                x[keep],
+                intensity[keep],
+                length[keep],
+                r2[keep],
+                hits.departure[sc][keep],
+                world.surface[f[keep]],
+                order[keep],
+                lambert[keep],
+                counts[keep],
+            )
+        )
+    if len(out) == 1:
+        return out[0]
+    return Contributions(
+        *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
+    )
+
+
+def _pattern(world: World, u, mirror, cos_s, f, order) -> tuple[np.ndarray, np.ndarray]:
+    """The scattering pattern towards the unit directions `u` (N, 3) of hits on faces
+    `f` (N,) of reflection `order` (N,): the specular lobe of a curved face (about
+    the mirror direction (N, 3); first order is the glints' business) and the Lambert
+    part (``cos_s`` (N,) the cosine to the face normal)."""
+    diffuse = world.face_values("diffuse")
+    R2 = world.face_values("reflection")[f] ** 2
+    sig = np.deg2rad(world.face_values("lobe_deg"))[f]
+    psi = np.arccos(np.clip(np.einsum("ij,ij->i", u, mirror), -1, 1))
+    spec = np.where(world.curved[f] & (order > 1), (1 - diffuse[f]) * R2, 0.0)
+    lobe_part = spec * np.exp(-0.5 * (psi / sig) ** 2) / (2 * np.pi * sig**2)
+    return lobe_part, diffuse[f] * R2 * cos_s / np.pi

@@ -1,0 +1,187 @@
+"""Stage 1 of the tracer: shoot rays from the emitter and follow them specularly.
+
+Rays leave the emitter on a deterministic equal-area spiral over its beam (a cone of
+half-angle ``beam_rad`` around the sensor's axis), so the result is a pure function of
+the scene and the pose, and converges as rays are added.
+
+1. Directions: :func:`cone_directions`; each ray carries its solid angle as power.
+2. For each bounce up to ``bounces``: the first face hit by every live ray (within
+   the path budget ``max_path_m``); the hit is recorded (point, normal facing the
+   incoming side, mirror direction, incoming power, path length so far, departure).
+3. The ray's sequence of planes, while it has met planar faces only, is a candidate
+   for the exact specular stage.
+4. The ray continues in the mirror direction with its power times ``R^2 (1 -
+   diffuse)`` of the face.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from acousim.trace.world.build import World
+from acousim.trace.world.embree import RayCaster
+
+__all__ = ["Hits", "Shot", "cone_directions", "follow", "shoot"]
+
+
+@dataclass(frozen=True, eq=False)
+class Hits:
+    """Every hit of every ray on a face, all bounces (world frame).  K hits."""
+
+    point_m: np.ndarray
+    """(K, 3) where the ray hit, m."""
+    normal: np.ndarray
+    """(K, 3) unit face normal, towards the side the ray came from."""
+    mirror: np.ndarray
+    """(K, 3) unit specular direction."""
+    power: np.ndarray
+    """(K,) the ray's solid angle (sr) times the reflection factors before this hit."""
+    length_m: np.ndarray
+    """(K,) path length from the emitter, m."""
+    departure: np.ndarray
+    """(K, 3) unit direction leaving the emitter."""
+    face: np.ndarray
+    """(K,) int, the face hit."""
+    order: np.ndarray
+    """(K,) int, reflections including this one."""
+    interactions: np.ndarray | None = None
+    """(K, C) int, the frequency-dependent material interactions before this hit
+    (C = ``World.n_interactions``, often 0)."""
+
+    def __len__(self) -> int:
+        return self.power.size
+
+
+@dataclass(frozen=True, eq=False)
+class Shot:
+    """What the rays found: their hits and the candidate specular plane sequences."""
+
+    hits: Hits
+    sequences: list[tuple[int, ...]]
+    rays: int
+
+
+@functools.lru_cache(maxsize=8)
+def _spiral(n: int, half_angle_rad: float) -> np.ndarray:
+    """The spiral of :func:`cone_directions` around +x (n, 3), computed once per
+    (n, angle): every pose of a scene shoots the same rays, turned."""
+    i = np.arange(n) + 0.5
+    cos_t = 1 - (1 - np.cos(half_angle_rad)) * i / n
+    sin_t = np.sqrt(np.maximum(0, 1 - cos_t**2))
+    phi = i * np.pi * (3 - np.sqrt(5))
+    local = np.column_stack([cos_t, sin_t * np.cos(phi), sin_t * np.sin(phi)])
+    local.flags.writeable = False
+    return local
+
+
+def cone_directions(n: int, axis: np.ndarray, half_angle_rad: float) -> np.ndarray:
+    """n unit vectors on an equal-area (Fibonacci) spiral over a cone around `axis`."""
+    local = _spiral(int(n), float(half_angle_rad))
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(helper, a)
+    u /= np.linalg.norm(u)
+    v = np.cross(a, u)
+    return local @ np.stack([a, u, v])
+
+
+def shoot(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    axis: np.ndarray,
+    rays: int,
+    bounces: int,
+    beam_rad: float,
+    max_path_m: float,
+) -> Shot:
+    """Shoot `rays` rays over the beam and follow each for up to `bounces` reflections."""
+    # 1. directions and powers
+    dirs = cone_directions(rays, axis, beam_rad)
+    d_omega = 2 * np.pi * (1 - np.cos(beam_rad)) / rays
+    return follow(world, caster, emitter, dirs, d_omega, bounces, max_path_m)
+
+
+def follow(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    d_omega: float,
+    bounces: int,
+    max_path_m: float,
+) -> Shot:
+    """Steps 2 to 4 for rays leaving the emitter in directions `dirs` (R, 3), unit,
+    each carrying the solid angle `d_omega` (sr) as power."""
+    rays = len(dirs)
+    dirs = np.array(dirs, float)
+    origin = np.broadcast_to(emitter, dirs.shape).copy()
+    length = np.zeros(rays)
+    power = np.full(rays, d_omega)
+    departure = dirs.copy()
+    planar = np.ones(rays, bool)
+    seq = np.full((rays, bounces), -1)
+    alive = np.arange(rays)
+    refl = world.face_values("reflection")
+    diffuse = world.face_values("diffuse")
+    column = world.face_interactions(0)  # specular interactions (None: no tables)
+    history = np.zeros((rays, world.n_interactions), int)
+    n_planes = world.n_planes
+    records = []
+    sequences: set[tuple[int, ...]] = set()
+    for b in range(bounces):
+        if alive.size == 0:
+            break
+        # 2. first hits of the live rays
+        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
+        x = origin[alive] + t[:, None] * dirs[alive]
+        length[alive] += t
+        # 3. candidate plane sequences (rays that met planar faces only)
+        seq[alive, b] = world.plane[f]
+        planar[alive] &= ~world.curved[f]
+        rows = seq[alive[planar[alive]], : b + 1]
+        sequences.update(_unique_rows(rows, n_planes))
+        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+        geo = (x, normal, mirror, power[alive], length[alive], departure[alive])
+        records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
+        # 4. continue specularly
+        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        if column is not None:
+            c = column[f]
+            history[alive[c >= 0], c[c >= 0]] += 1
+        origin[alive] = x + caster.offset_m * normal
+        dirs[alive] = mirror
+        alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+    return Shot(_hits(records, history), sorted(sequences), rays)
+
+
+def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
+    """The distinct rows (plane sequences) of `rows` (N, B), via one integer code per
+    row (np.unique(axis=0) is slow)."""
+    if not rows.size:
+        return []
+    code = rows @ (n_planes ** np.arange(rows.shape[1])).astype(np.int64)
+    _, first = np.unique(code, return_index=True)
+    return [tuple(int(v) for v in rows[i]) for i in first]
+
+
+def _reflect(normal: np.ndarray, inc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(normals (N, 3) turned to the side the rays `inc` (N, 3) came from, the
+    mirrored directions (N, 3))."""
+    flip = np.einsum("ij,ij->i", normal, inc) > 0
+    normal[flip] *= -1  # the side the ray came from
+    mirror = inc - 2 * np.einsum("ij,ij->i", inc, normal)[:, None] * normal
+    return normal, mirror
+
+
+def _hits(records: list, history: np.ndarray) -> Hits:
+    """The hits of every bounce, concatenated (none: empty arrays)."""
+    if records:
+        return Hits(*(np.concatenate(v) for v in zip(*records)))
+    z3, z = np.zeros((0, 3)), np.zeros(0)
+    return Hits(z3, z3, z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), history[:0])

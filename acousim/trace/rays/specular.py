@@ -1,0 +1,291 @@
+"""Exact specular paths: image sources over a sequence of planes, checked both ways.
+
+Stage 2 of the tracer. Rays find which sequences of planes can form a specular path;
+for each sequence the emitter is mirrored plane by plane into its image, and the
+reflection points are found backwards from the receiver (the array centre) by
+intersecting the line to each image with its plane. A path is kept only if a ray
+cast from each point towards the next meets exactly that plane first at exactly that
+distance (visibility, and the point lies on a face of the plane), and the last leg
+reaches the emitter unobstructed. The delay at each microphone is then the exact
+distance from the image source, independent of the ray budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acousim.trace.paths import KIND, TracedPaths
+from acousim.trace.world.build import World
+from acousim.trace.world.embree import RayCaster
+
+#: an image source within this times the longest path is within reach
+REACH = 1.01
+
+__all__ = ["SpecularPath", "refine_sequences", "by_length", "mirror", "as_paths"]
+
+
+@dataclass(frozen=True)
+class SpecularPath:
+    planes: tuple[int, ...]  # plane ids, emitter side first
+    image_m: np.ndarray  # (3,) image of the emitter
+    points_m: np.ndarray  # (k, 3) reflection points, emitter side first
+    amplitude: float  # product of the pressure reflection factors
+    departure: np.ndarray  # (3,) unit direction leaving the emitter
+    interactions: np.ndarray | None = None  # (K,) material interaction counts
+
+
+def mirror(point: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """Mirror image of a point across the plane n . x = offset."""
+    return point - 2 * (point @ normal - offset) * normal
+
+
+def refine_sequences(
+    world: World,
+    caster: RayCaster,
+    sequences: list[tuple[int, ...]] | dict[int, np.ndarray],
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    max_path_m: float | None = None,
+) -> list[SpecularPath]:
+    """Valid specular paths among candidate plane sequences (batched by length), given
+    as tuples of plane ids in order, or as arrays (S, k) of them by length k; with
+    `max_path_m`, only those :func:`as_paths` keeps (image within reach), the others
+    refused before any ray."""
+    normal, offset, refl, column = _plane_table(world)
+    K = world.n_interactions
+    eps, tol = caster.offset_m, caster.tolerance_m
+    paths = []
+    by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
+    for _k, ids in sorted(by_len.items()):
+        S = ids.shape[0]
+        images = _images(ids, emitter, normal, offset)
+        ok = np.ones(S, bool)
+        if max_path_m is not None:
+            ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
+        points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
+        # two reflections at one point of an edge: only inside a concave corner
+        edges = [(i, j) for i, j in edges if ok[i]]
+        if edges:
+            i, j = np.array(edges).T
+            before = np.array([_before(points[a], b, emitter, tol) for a, b in edges])
+            pairs = np.column_stack([ids[i, j], ids[i, j + 1]])
+            ok[i[~_concave(world, pairs, points[i, j], before, tol)]] = False
+        # last leg: from the first reflection point to the emitter, unobstructed
+        live = np.flatnonzero(ok)
+        d = emitter - cur[live]
+        L = np.linalg.norm(d, axis=1)
+        t, f = caster.first_hit(cur[live] + eps * d / L[:, None], d)
+        ok[live[(f >= 0) & (t < L - tol)]] = False
+        amp = np.prod(refl[ids], axis=1)
+        counts = _counts(ids, column, K)
+        for i in np.flatnonzero(ok):
+            dep = points[i, 0] - emitter
+            paths.append(
+                SpecularPath(
+                    tuple(int(v) for v in ids[i]),
+                    images[i, -1],
+                    points[i].copy(),
+                    float(amp[i]),
+                    dep / np.linalg.norm(dep),
+                    counts[i] if K else None,
+                )
+            )
+    # two orders of the same reflections that meet at an edge are one path (same image)
+    unique: dict[tuple, SpecularPath] = {}
+    for p in paths:
+        unique.setdefault(tuple(np.round(p.image_m / tol).astype(np.int64)), p)
+    return list(unique.values())
+
+
+def _images(ids: np.ndarray, emitter: np.ndarray, normal, offset) -> np.ndarray:
+    """Image sources (S, k + 1, 3) of sequences `ids` (S, k): the emitter mirrored
+    across each plane in turn."""
+    S, k = ids.shape
+    images = np.empty((S, k + 1, 3))
+    images[:, 0] = emitter
+    for j in range(k):
+        n, off = normal[ids[:, j]], offset[ids[:, j]]
+        prev = images[:, j]
+        images[:, j + 1] = prev - 2 * (np.einsum("si,si->s", prev, n) - off)[:, None] * n
+    return images
+
+
+def _counts(ids: np.ndarray, column, K: int) -> np.ndarray:
+    """(S, K) specular interactions of each sequence per interaction column (zeros
+    without frequency-dependent materials, K = 0)."""
+    S, k = ids.shape
+    counts = np.zeros((S, K), int)
+    if K:  # frequency-dependent materials: count each plane's specular interaction
+        for j in range(k):
+            c = column[ids[:, j]]
+            np.add.at(counts, (np.flatnonzero(c >= 0), c[c >= 0]), 1)
+    return counts
+
+
+def _reflection_points(world, caster, ids, images, receiver, ok):
+    """Backwards from the receiver, the reflection points (S, k, 3) of sequences `ids`
+    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) where
+    reflections j and j + 1 meet at an edge, and the first reflection points (S, 3)
+    (the receiver for k = 0); `ok` (S,) is cleared in place for
+    sequences whose points miss their plane or whose legs are blocked."""
+    normal, offset = _plane_table(world)[:2]
+    eps, tol = caster.offset_m, caster.tolerance_m
+    S, k = ids.shape
+    edges: list[tuple[int, int]] = []
+    cur = np.broadcast_to(receiver, (S, 3)).copy()
+    points = np.empty((S, k, 3))
+    for j in range(k - 1, -1, -1):
+        n, off = normal[ids[:, j]], offset[ids[:, j]]
+        direction = images[:, j + 1] - cur
+        denom = np.einsum("si,si->s", direction, n)
+        safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
+        s_ = (off - np.einsum("si,si->s", cur, n)) / safe
+        length = np.linalg.norm(direction, axis=1)
+        ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
+        x = cur + np.maximum(s_, 0)[:, None] * direction
+        # a reflection point off its plane's box is on none of its faces (every
+        # check below would refuse it): no ray for it
+        box = world.plane_boxes[ids[:, j]]
+        ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
+        # a reflection point on the previous one: the path meets an edge between
+        # two planes (both reflections happen there); no leg to check for it
+        at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
+        unit = direction / np.maximum(length, 1e-300)[:, None]
+        start = cur + (eps if j < k - 1 else 0.0) * unit
+        sel = np.flatnonzero(ok & at_edge)
+        ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
+        edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
+        live = np.flatnonzero(ok & ~at_edge)
+        t, f = caster.first_hit(start[live], (x - start)[live])
+        dist = np.linalg.norm(x[live] - start[live], axis=1)
+        good = (f >= 0) & (np.abs(t - dist) <= tol)
+        other = good.copy()
+        other[good] = world.plane[f[good]] != ids[live[good], j]
+        # a hit at the right distance on another plane: the point is on an edge
+        # (e.g. a corner seen by a co-located emitter and receiver); keep it if it
+        # lies on a face of the expected plane, within the tolerance
+        sel = np.flatnonzero(other)
+        good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
+        ok[live[~good]] = False
+        points[:, j] = x
+        cur = x
+    return points, edges, cur
+
+
+def by_length(sequences: list[tuple[int, ...]]) -> dict[int, np.ndarray]:
+    """Plane sequences as arrays (S, k) of plane ids by length k (their order kept)."""
+    by_len: dict[int, list[tuple[int, ...]]] = {}
+    for seq in sequences:
+        by_len.setdefault(len(seq), []).append(seq)
+    return {k: np.array(seqs, int).reshape(len(seqs), k) for k, seqs in by_len.items()}
+
+
+def as_paths(specular: list[SpecularPath], emitter: np.ndarray, max_path_m: float) -> TracedPaths:
+    """Specular paths as image sources (first leg 0), those within reach."""
+    if not specular:
+        return TracedPaths.empty()
+    image = np.array([p.image_m for p in specular])
+    amp = np.array([p.amplitude for p in specular])
+    pos = np.array([p.points_m[-1] for p in specular])
+    dep = np.array([p.departure for p in specular])
+    order = np.array([len(p.planes) for p in specular])
+    kind = np.full(len(amp), KIND["specular"])
+    counts = None
+    if specular[0].interactions is not None:
+        counts = np.array([p.interactions for p in specular])
+    paths = TracedPaths(image, np.zeros(len(amp)), amp, pos, order, kind, dep, counts)
+    return paths.select(np.linalg.norm(image - emitter, axis=1) <= max_path_m * REACH)
+
+
+def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.ndarray:
+    """(K,) whether each point x (K, 3) lies on (or within `tol` of) one of the faces
+    of its plane `pids` (K,)."""
+    out = np.zeros(len(pids), bool)
+    out[_holding(world, pids, x, tol)[0]] = True
+    return out
+
+
+def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
+    """(row, face) pairs: point x[row] lies on face `face` of its plane pids[row]
+    (within `tol`).  A point whose least barycentric coordinate on a face is -m lies
+    within 2 m times the face's longest edge of the face's bounding box, so only the
+    faces whose box, grown by 2 tol, holds the point are tested (and none of a plane
+    whose whole box does not hold it)."""
+    from trimesh.triangles import points_to_barycentric
+
+    none = np.zeros(0, int), np.zeros(0, int)
+    grow = 2.01 * tol
+    box = world.plane_boxes[pids]
+    inside = np.flatnonzero(np.all((box[:, 0] - grow <= x) & (x <= box[:, 1] + grow), axis=1))
+    if inside.size == 0:
+        return none
+    order, starts, _ = world._plane_index()
+    count = np.diff(starts)[pids[inside]]
+    if count.sum() <= 20000:  # every face of each point's plane, in one pass
+        row = np.repeat(np.arange(inside.size), count)
+        first = np.repeat(starts[pids[inside]] - np.cumsum(count) + count, count)
+        face = order[first + np.arange(count.sum())]
+    else:  # large planes: a strip of faces around each point (World.faces_near)
+        rows, faces = [], []
+        for pid in np.unique(pids[inside]):
+            idx = np.flatnonzero(pids[inside] == pid)
+            r, f = world.faces_near(int(pid), x[inside[idx]], grow)
+            rows.append(idx[r])
+            faces.append(f)
+        row, face = np.concatenate(rows), np.concatenate(faces)
+    if row.size == 0:
+        return none
+    tri = world.triangles[face]
+    bary = points_to_barycentric(tri, x[inside[row]])
+    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+    on = -np.min(bary, axis=1) * edge <= tol
+    return inside[row[on]], face[on]
+
+
+def _before(points: np.ndarray, j: int, emitter: np.ndarray, tol: float) -> np.ndarray:
+    """The last point of a path (its reflection points (k, 3), emitter side first)
+    before reflection j that is not where reflection j is (the emitter if none): in
+    a corner, three reflections can share one point."""
+    for m in range(j - 1, -1, -1):
+        if np.linalg.norm(points[m] - points[j]) > tol:
+            return points[m]
+    return emitter
+
+
+def _concave(world: World, planes: np.ndarray, x: np.ndarray, before: np.ndarray, tol):
+    """(E,) whether planes a and b (planes: (E, 2)), meeting at the edge point x
+    (E, 3), form a corner concave towards the side the path comes from (`before`
+    (E, 3): the point before its reflection on a): a face of each that holds x
+    reaches into the front of the other.  At a convex edge (a door frame's outer
+    corner) the two reflections at one point are no specular path (that echo is the
+    edge's diffraction)."""
+    normal = _plane_table(world)[0]
+    n = len(planes)
+    p, q = (
+        np.concatenate([planes[:, 0], planes[:, 1]]),
+        np.concatenate([planes[:, 1], planes[:, 0]]),
+    )
+    at, come = np.concatenate([x, x]), np.concatenate([before, before])
+    side = np.sign(np.einsum("ij,ij->i", normal[p], come - at))
+    row, face = _holding(world, q, at, tol)
+    centroid = world.triangles[face].mean(axis=1)
+    reach = side[row] * np.einsum("ij,ij->i", centroid - at[row], normal[p[row]]) > tol
+    good = np.zeros(2 * n, bool)
+    good[row[reach]] = True
+    return good[:n] & good[n:] & (side[:n] != 0) & (side[n:] != 0)
+
+
+def _plane_table(world: World):
+    """Per plane: normal, offset, specular pressure factor and interaction column
+    (computed once per world)."""
+
+    def make():
+        first = world.plane_first
+        refl = world.face_values("reflection") * np.sqrt(1 - world.face_values("diffuse"))
+        column = world.face_interactions(0)
+        column = None if column is None else column[first]
+        return world.normals[first], world.offsets[first], refl[first], column
+
+    return world._cached("plane_table", make)

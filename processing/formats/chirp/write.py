@@ -1,0 +1,379 @@
+"""CHIRP files: Cosys-Lab's HDF5 format for in-air sonar datasets, written and read.
+
+CHIRP (Cosys-Lab Hybrid In-air sonar Recording Package, read by their ``chirppy``)
+makes the acoustic array the reference sensor: its captures define the time grid,
+every other sensor sits beside it with a 4x4 transform ``to_origin`` into the
+*origin* frame (the array's centre; x forward, y left, z up: our sensor frame).
+What we write (format version 2.1; ``docs/export.md`` maps every field to its
+source)::
+
+    /  attrs format="chirp", format_version="2.1", n_reference_captures=N,
+             reference_sensor="acoustic_sensor_00"
+    /sensors/acoustic_sensor_00        sensor_type "acoustic_sensor"
+        calibration/to_origin          (4, 4) identity
+        calibration/receiver_relative_translations  (M, 3) m
+        data/signals                   (N, T, M) float32
+        data/timestamps                (N,) s: time of each capture's first sample
+    /sensors/acoustic_transmitter_00   sensor_type "acoustic_transmitter"
+        calibration/to_origin          (4, 4): the emitter's position
+        data/signals                   (L,) float32: the call sampled at the rate
+        data/timestamps                (N,) s: start of each emission
+    /sensors/odometry_00               (every recording posed) base_link = origin
+        data/position, orientation (x, y, z, w), yaw, linear_velocity,
+        angular_velocity, pose_covariance, twist_covariance, timestamps, ros_timestamps
+    /sensors/lidar_00                  (every recording with a LiDAR scan)
+        calibration/to_origin          (4, 4): the LiDAR's mounting
+        data/points (N, P, 4) float32 [x, y, z, intensity], NaN-padded;
+        data/point_counts, data/timestamps
+    /transforms  base_link_to_origin (identity), ground_to_origin (constant height)
+    /acousim     ours: what CHIRP has no place for (ground truth, metadata, the
+                 call's parameters, emission index, speed of sound, array extras)
+
+Every sensor we write is ``sync_mode = "reference_capture"``: one row per capture.
+A recording of K measurements becomes K captures. Reading (:mod:`processing.formats.chirp.read`)
+takes the array, the rate, the call (ours; else fitted to the transmitter's samples,
+:func:`processing.sensor.calls.fit_sweep`; else the `call` given), poses (odometry) and
+scans (LiDAR) of any CHIRP file; what it lacks is a :class:`ChirpFileError` naming
+the file and the field.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from processing.base.atomic import atomic_path
+from processing.base.errors import InputError
+from processing.base.frames import quaternion_of
+from processing.formats.chirp.names import (
+    ACOUSTIC,
+    LIDAR,
+    ODOMETRY,
+    OUR_SCHEMA,
+    OUR_VERSION,
+    OURS,
+    TRANSMITTER,
+    ChirpFileError,
+)
+from processing.sensor.arrays import Array
+from processing.sensor.calls import Waveform
+from processing.sensor.provenance import SensorMotion, SensorPose
+from processing.sensor.recording import MAX_SAMPLE_BYTES, Recording
+
+__all__ = [
+    "write_chirp",
+    "read_chirp",
+    "is_chirp",
+    "count_chirp",
+    "ChirpFileError",
+    "FORMAT_VERSION",
+    "DEFAULT_PERIOD_S",
+]
+
+FORMAT_VERSION = "2.1"
+DEFAULT_PERIOD_S = 0.1
+"""Capture spacing (s) when the recordings' own times do not increase."""
+_TRUTH = (
+    ("position_world_m", "m"),
+    ("position_sensor_m", "m"),
+    ("amplitude", "1"),
+    ("order", "1"),
+    ("kind", None),
+    ("velocity_world_m_s", "m/s"),
+)
+
+
+# ---------------------------------------------------------------- writing
+
+
+def write_chirp(
+    path: str | Path,
+    recordings: Sequence[Recording],
+    *,
+    start_time_s: float = 0.0,
+    period_s: float = DEFAULT_PERIOD_S,
+    checksum: bool = True,
+    compression: str | None = None,
+) -> Path:
+    """Write recordings as one CHIRP file, atomically (:mod:`processing.base.atomic`).
+
+    All must share the array, sample rate, call and length (CHIRP has one receiver
+    array and one signals array). Times: each capture's emission is at its
+    recording's provenance ``timestamp_s`` (a real recording, Unix s) or its pose's
+    ``time_s`` (a trajectory), plus `start_time_s`; measurement k of a recording
+    k x `period_s` later; when those do not increase strictly, capture i is at
+    `start_time_s` + i x `period_s`. Samples: float32 (float64 rounded: 2**-24 at
+    most), a chunk per capture, HDF5's fletcher32 `checksum`, a sha256 per capture,
+    `compression` "gzip", "lzf" or None. The same recordings give the same bytes.
+    """
+    path = Path(path)
+    recs = list(recordings)
+    if not recs:
+        raise ChirpFileError("no recordings to write", file=path)
+    _check_one_sensor(path, recs)
+    if not (np.isfinite(period_s) and period_s > 0):
+        raise InputError("must be a positive number of seconds", key="period_s", value=period_s)
+    owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
+    measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
+    provenance = [r.provenance for r in recs]
+    emission, synthetic = _emission_times(provenance, owner, measure, period_s)
+    emission = emission + float(start_time_s)
+    first = recs[0]
+    fs = first.sample_rate_hz
+    sample0 = emission - np.array([recs[i].emission_index for i in owner]) / fs
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = "chirp"
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["n_reference_captures"] = len(owner)
+        f.attrs["reference_sensor"] = ACOUSTIC
+        sensors = f.create_group("sensors")
+        opts = {"fletcher32": checksum, "compression": compression}
+        sums = _write_acoustic(sensors, recs, owner, measure, sample0, opts)
+        _write_transmitter(sensors, first, emission)
+        if all(p.pose is not None for p in provenance):
+            _write_odometry(sensors, provenance, owner, emission)
+            _write_transforms(f, [provenance[i].pose for i in owner])
+        if all(r.lidar is not None for r in recs):
+            _write_lidar(sensors, f, recs, owner, emission)
+        ours = f.require_group(OURS)
+        ours.attrs.update(schema=OUR_SCHEMA, schema_version=OUR_VERSION)
+        ours.attrs.update(timestamps_synthetic=synthetic, period_s=float(period_s))
+        for name, data in (("recording", owner), ("measurement", measure)):
+            ours.create_dataset(f"capture_{name}", data=data.astype(np.int64))
+        ours.create_dataset("capture_sha256", data=np.array(sums, dtype="S64"))
+        _write_array_extras(ours, first.array)
+        for i, rec in enumerate(recs):
+            _write_recording_extras(ours.create_group(f"recordings/{i:06d}"), rec, checksum)
+    return path
+
+
+def _check_one_sensor(path: Path, recs: list[Recording]) -> None:
+    a = recs[0]
+    for i, r in enumerate(recs[1:], 1):
+        for what, same in (
+            ("array", np.array_equal(r.array.positions_m, a.array.positions_m)
+             and np.array_equal(r.array.emitter_m, a.array.emitter_m)),
+            ("sample rate", r.sample_rate_hz == a.sample_rate_hz),
+            ("call", r.waveform == a.waveform),
+            ("length (samples)", r.n_samples == a.n_samples),
+        ):  # fmt: skip
+            if not same:
+                raise ChirpFileError(
+                    f"CHIRP holds one array, sample rate, call and capture length; "
+                    f"recording {i} has another {what} than recording 0",
+                    file=path,
+                    key="recordings",
+                    value=i,
+                )
+    lidars = [r.lidar for r in recs if r.lidar is not None]
+    if any(not np.allclose(pc.to_sensor, lidars[0].to_sensor) for pc in lidars):
+        raise ChirpFileError(
+            "CHIRP holds one LiDAR mounting; the recordings' scans differ", file=path
+        )
+
+
+def _emission_times(provenance, owner, measure, period_s) -> tuple[np.ndarray, bool]:
+    """Each capture's emission time (s) and whether they are synthetic (see write_chirp);
+    `provenance` the recordings' :class:`~processing.sensor.provenance.Provenance`."""
+    base = []
+    for p in provenance:
+        t = p.timestamp_s
+        if t is None and p.pose is not None:
+            t = p.pose.time_s
+        base.append(float(t) if t is not None and np.isfinite(t) else np.nan)
+    t = np.array(base)[owner] + measure * period_s
+    if np.all(np.isfinite(t)) and np.all(np.diff(t) > 0):
+        return t, False
+    return np.arange(len(owner)) * period_s, True
+
+
+def _sensor(parent: h5py.Group, name: str, kind: str, to_origin=None) -> h5py.Group:
+    g = parent.create_group(name)
+    g.attrs.update(sensor_type=kind, reference_frame="origin", sync_mode="reference_capture")
+    if to_origin is not None:
+        g.create_dataset("calibration/to_origin", data=np.asarray(to_origin, np.float64))
+    return g
+
+
+def _write_acoustic(sensors, recs, owner, measure, sample0, opts) -> list[bytes]:
+    first = recs[0]
+    M, T = first.array.n_mics, first.n_samples
+    g = _sensor(sensors, ACOUSTIC, "acoustic_sensor", np.eye(4))
+    g.attrs.update(sample_rate_hz=first.sample_rate_hz, num_channels=M, name=first.array.name)
+    g.create_dataset(
+        "calibration/receiver_relative_translations", data=first.array.positions_m
+    ).attrs["units"] = "m"
+    d = g.create_dataset("data/signals", (len(owner), T, M), np.float32, chunks=(1, T, M), **opts)
+    sums = []
+    for k, (i, j) in enumerate(zip(owner, measure)):
+        x = recs[i].samples if recs[i].samples.ndim == 2 else recs[i].samples[j]
+        block = np.ascontiguousarray(x.T, "<f4")
+        d[k] = block
+        sums.append(hashlib.sha256(block.data).hexdigest().encode())
+    g.create_dataset("data/timestamps", data=sample0).attrs["units"] = "s"
+    return sums
+
+
+def _write_transmitter(sensors, rec: Recording, emission: np.ndarray) -> None:
+    to_origin = np.eye(4)
+    to_origin[:3, 3] = rec.array.emitter_m
+    g = _sensor(sensors, TRANSMITTER, "acoustic_transmitter", to_origin)
+    g.attrs["sample_rate_hz"] = rec.sample_rate_hz
+    g.create_dataset("data/signals", data=rec.waveform.sampled(rec.sample_rate_hz).astype("f4"))
+    g.create_dataset("data/timestamps", data=emission).attrs["units"] = "s"
+
+
+def _write_odometry(sensors, provenance, owner, emission) -> None:
+    """The sensor's pose per capture: base_link (= origin, the array) in odom (= our
+    world), velocities in base_link; exact, so the covariances are zero."""
+    n = len(owner)
+    g = _sensor(sensors, ODOMETRY, "odometry")
+    rate = 1 / np.median(np.diff(emission)) if n > 1 else 0.0
+    g.attrs.update(source="acousim", rate_hz=float(rate))
+    pos, quat, yaw = np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n)
+    lin, ang = np.zeros((n, 3)), np.zeros((n, 3))
+    for k, i in enumerate(owner):
+        p, motion = provenance[i].pose, provenance[i].motion or SensorMotion()
+        T = p.matrix()
+        pos[k], quat[k], yaw[k] = T[:3, 3], quaternion_of(T[:3, :3]), p.yaw_rad
+        lin[k] = T[:3, :3].T @ np.asarray(motion.velocity_m_s, float)
+        ang[k] = T[:3, :3].T @ np.asarray(motion.angular_velocity_rad_s, float)
+    for name, data, units in (
+        ("position", pos, "m"),
+        ("orientation", quat, None),
+        ("yaw", yaw, "rad"),
+        ("linear_velocity", lin, "m/s"),
+        ("angular_velocity", ang, "rad/s"),
+        ("pose_covariance", np.zeros((n, 6, 6)), None),
+        ("twist_covariance", np.zeros((n, 6, 6)), None),
+        ("timestamps", emission, "s"),
+        ("ros_timestamps", emission, "s"),
+    ):
+        d = g.create_dataset(f"data/{name}", data=data)
+        if units:
+            d.attrs["units"] = units
+
+
+def _write_transforms(f: h5py.File, poses: list[SensorPose]) -> None:
+    """base_link is the origin (the array); the ground frame only when the sensor's
+    height above our world's z = 0 plane is the same at every capture."""
+    g = f.create_group("transforms")
+    g.create_dataset("base_link_to_origin", data=np.eye(4))
+    z = np.array([p.position_m[2] for p in poses])
+    level = np.deg2rad(1e-9)  # pitch and roll under 1e-9 degrees
+    flat = all(abs(a) < level for p in poses for a in (p.pitch_rad, p.roll_rad))
+    if np.ptp(z) < 1e-9 and flat:
+        ground = np.eye(4)
+        ground[2, 3] = -z[0]
+        g.create_dataset("ground_to_origin", data=ground)
+        g.attrs["origin_height_above_ground_m"] = float(z[0])
+        g.attrs["base_link_height_above_ground_m"] = float(z[0])
+
+
+def _write_lidar(sensors, f, recs, owner, emission) -> None:
+    clouds = [recs[i].lidar for i in owner]
+    first = clouds[0]
+    n, top = len(clouds), max(1, max(len(c) for c in clouds))
+    g = _sensor(sensors, LIDAR, "lidar", first.to_sensor)
+    g.attrs.update(max_points=top, rate_hz=first.rate_hz, name=first.name)
+    pts = np.full((n, top, 4), np.nan, np.float32)
+    ring = np.full((n, top), -1, np.int16)
+    when = np.full((n, top), np.nan, np.float32)
+    for k, c in enumerate(clouds):
+        pts[k, : len(c), :3], pts[k, : len(c), 3] = c.points_m, c.intensity
+        if c.ring is not None:
+            ring[k, : len(c)] = c.ring
+        if c.time_s is not None:
+            when[k, : len(c)] = c.time_s
+    g.create_dataset("data/points", data=pts, chunks=(1, top, 4))
+    g.create_dataset("data/point_counts", data=np.array([len(c) for c in clouds], np.int64))
+    g.create_dataset("data/timestamps", data=emission).attrs["units"] = "s"
+    ours = f.require_group(f"{OURS}/lidar")
+    ours.create_dataset("ring", data=ring, chunks=(1, top))
+    ours.create_dataset("time_s", data=when, chunks=(1, top)).attrs["units"] = "s"
+
+
+def _write_array_extras(ours: h5py.Group, array: Array) -> None:
+    a = ours.create_group("array")
+    a.attrs["name"] = array.name
+    a.create_dataset("channels", data=array.channels)
+    if array.grid_index is not None:
+        a.create_dataset("grid_index", data=array.grid_index).attrs["pitch_m"] = array.pitch_m
+
+
+def _write_recording_extras(g: h5py.Group, rec: Recording, checksum: bool) -> None:
+    g.attrs.update(
+        emission_index=rec.emission_index,
+        speed_of_sound_m_s=rec.speed_of_sound_m_s,
+        waveform=json.dumps(rec.waveform.to_dict()),
+    )
+    g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_plain))
+    if rec.truth is None:
+        return
+    t = g.create_group("truth")
+    kw = {"fletcher32": checksum} if len(rec.truth) else {}
+    for name, units in _TRUTH:
+        data = getattr(rec.truth, name)
+        if data is None:
+            continue
+        data = data.astype("S16") if name == "kind" else data
+        data = data.astype(np.int16) if name == "order" else data
+        d = t.create_dataset(name, data=data, **kw)
+        if units:
+            d.attrs["units"] = units
+
+
+def _plain(obj):
+    if isinstance(obj, np.ndarray | np.generic):
+        return obj.tolist()
+    raise TypeError(f"metadata value of type {type(obj).__name__} is not JSON-serialisable")
+
+
+# ---------------------------------------------------------------- reading
+
+
+def is_chirp(path: str | Path) -> bool:
+    """Whether `path` is an HDF5 file whose root says ``format = "chirp"``."""
+    try:
+        with h5py.File(path, "r") as f:
+            v = f.attrs.get("format")
+    except (OSError, ValueError):
+        return False
+    return (v.decode(errors="replace") if isinstance(v, bytes) else v) == "chirp"
+
+
+def count_chirp(path: str | Path) -> int:
+    """How many recordings :func:`read_chirp` returns (ours: as written; else one
+    per capture)."""
+    from processing.formats.chirp.read import Reader
+
+    with Reader(Path(path)) as r:
+        return r.count()
+
+
+def read_chirp(
+    path: str | Path,
+    *,
+    call: Waveform | None = None,
+    index: int | None = None,
+    max_bytes: int = MAX_SAMPLE_BYTES,
+    speed_of_sound_m_s: float | None = None,
+) -> list[Recording]:
+    """The recordings of a CHIRP file (all, or only recording `index`).
+
+    A file we wrote gives back what was written (samples as float32). Any other:
+    one (M, T) recording per capture, array from ``receiver_relative_translations``,
+    emitter from the transmitter's ``to_origin``, call fitted to its ``signals``
+    (when that fails or there is no transmitter signal: `call`, else an error), speed of
+    sound `speed_of_sound_m_s` (default 343 m/s), pose from ``odometry_00``, scan
+    from ``lidar_00``.
+    """
+    from processing.formats.chirp.read import Reader
+
+    with Reader(Path(path), max_bytes) as r:
+        return r.recordings(index, call, speed_of_sound_m_s)

@@ -1,0 +1,1 @@
+"""From a Recording to images: matched filter, snapshots, steering, DOA, broadband energyscapes, images, peaks, metrics."""

@@ -1,0 +1,1 @@
+"""Broadband time-domain imaging: energyscapes by DAS, DAS-CF and DMAS(-CF)."""

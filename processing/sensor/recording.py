@@ -1,0 +1,211 @@
+"""The recording container: :class:`Recording` (samples, array, call, time origin) and
+:class:`GroundTruth` (the simulated paths), with the file format's constants. The
+HDF5 file itself is read in :mod:`processing.formats.native_schema` and written in
+:mod:`processing.formats.native`.
+
+Time origin (the one convention of the whole package): sample ``n`` of a recording
+is at time ``(n - emission_index) / sample_rate_hz`` after the start of the
+emission.  A reflector at range r therefore peaks at ``emission_index + 2 r / c *
+fs`` after the matched filter.  Nothing in :mod:`processing` adds any other delay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from processing.base.errors import InputError
+from processing.sensor.arrays import Array
+from processing.sensor.calls import Waveform
+from processing.sensor.pointcloud import PointCloud
+from processing.sensor.provenance import Provenance
+
+SCHEMA = "acousim.recordings"
+SCHEMA_VERSION = 2
+SUPPORTED_VERSIONS = (1, 2)
+
+MAX_SAMPLE_BYTES = 4 * 2**30
+"""Largest samples dataset (declared shape x item size) the loader reads: 4 GiB
+(an eRTIS recording of 32 mics x 163,840 samples x float32 is 21 MB); pass
+``max_bytes`` to raise it."""
+
+
+class RecordingFileError(InputError):
+    """A recording file that cannot be read; the message names the file and the field."""
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """One measurement (or K measurements of a static scene) of a microphone array.
+
+    Attributes
+    ----------
+    samples : ndarray, shape (M, T) or (K, M, T)
+        Microphone signals, M microphones in the order of `array`, T samples.
+    sample_rate_hz : float
+    array : Array
+    waveform : Waveform
+        The emitted call.
+    speed_of_sound_m_s : float
+    emission_index : int
+        Sample index at which the emission starts (see the module docstring).
+    metadata : dict
+        JSON-serialisable: provenance, pose, scene, seed, device settings...; read
+        where it came from through :attr:`provenance` (typed), not by key.
+    truth : GroundTruth, optional
+        The simulated paths (None for a real recording).
+    lidar : PointCloud, optional
+        A LiDAR scan taken at the recording's pose (None: none).
+    """
+
+    samples: np.ndarray
+    sample_rate_hz: float
+    array: Array
+    waveform: Waveform
+    speed_of_sound_m_s: float = 343.0
+    emission_index: int = 0
+    metadata: dict = field(default_factory=dict)
+    truth: GroundTruth | None = None
+    lidar: PointCloud | None = None
+
+    def __repr__(self) -> str:
+        shape = "x".join(str(n) for n in np.shape(self.samples))
+        kind = self.provenance.kind
+        return (
+            f"Recording({kind}, {self.array.name!r}, samples {shape} at "
+            f"{self.sample_rate_hz / 1e3:g} kHz, call {self.waveform.kind} "
+            f"{self.waveform.f_start_hz / 1e3:g}->{self.waveform.f_end_hz / 1e3:g} kHz)"
+        )
+
+    def __post_init__(self) -> None:
+        x = np.asarray(self.samples)
+        if x.ndim not in (2, 3):
+            raise InputError(f"samples must have shape (M, T) or (K, M, T), got {x.shape}")
+        if not np.issubdtype(x.dtype, np.floating):
+            x = x.astype(np.float64)
+        if x.shape[-2] != self.array.n_mics:
+            raise InputError(
+                f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
+                f"has {self.array.n_mics} microphones"
+            )
+        bad = ~np.isfinite(x)
+        if bad.any():
+            where = np.argwhere(bad)[0]
+            raise InputError(
+                f"{int(bad.sum())} non-finite sample(s); first at channel {int(where[-2])}, "
+                f"sample {int(where[-1])}"
+                + (f", measurement {int(where[0])}" if x.ndim == 3 else ""),
+                key="samples",
+                value=float(x[tuple(where)]),
+            )
+        if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
+            raise InputError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
+        if not (np.isfinite(self.speed_of_sound_m_s) and 200 < self.speed_of_sound_m_s < 500):
+            raise InputError(
+                f"speed_of_sound_m_s must be in (200, 500) m/s, got {self.speed_of_sound_m_s}"
+            )
+        if not 0 <= int(self.emission_index) < x.shape[-1]:
+            raise InputError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
+        object.__setattr__(self, "samples", x)
+        object.__setattr__(self, "emission_index", int(self.emission_index))
+        object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
+        object.__setattr__(self, "speed_of_sound_m_s", float(self.speed_of_sound_m_s))
+
+    @cached_property
+    def provenance(self) -> Provenance:
+        """Where the recording came from: simulated, real or emulated, its scene, pose
+        and motion (:mod:`processing.sensor.provenance`), read from the metadata."""
+        return Provenance.from_metadata(self.metadata)
+
+    @property
+    def n_samples(self) -> int:
+        return self.samples.shape[-1]
+
+    @property
+    def n_measurements(self) -> int:
+        """K: 1 for an (M, T) recording."""
+        return 1 if self.samples.ndim == 2 else self.samples.shape[0]
+
+    def time_s(self) -> np.ndarray:
+        """Time of each sample after the emission, shape (T,)."""
+        return (np.arange(self.n_samples) - self.emission_index) / self.sample_rate_hz
+
+    def with_samples(self, samples: np.ndarray) -> Recording:
+        return replace(self, samples=samples)
+
+
+_KINDS = ("direct", "specular", "scatter", "point", "diffraction")
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruth:
+    """The simulated paths of one recording (N paths), in SI units."""
+
+    position_world_m: np.ndarray
+    """(N, 3) where each path's last reflection is, world frame, m."""
+    position_sensor_m: np.ndarray
+    """(N, 3) the same in the sensor frame, m."""
+    amplitude: np.ndarray
+    """(N,) path strength at the array centre (relative pressure, 1 = the emitter at
+    1 m), a magnitude (edge-diffraction paths are signed in the tracer)."""
+    order: np.ndarray
+    """(N,) int, number of reflections (0: the direct path from the emitter; an edge
+    counts as one)."""
+    kind: np.ndarray
+    """(N,) str, ``"direct"``, ``"specular"``, ``"scatter"``, ``"point"`` or
+    ``"diffraction"``."""
+    velocity_world_m_s: np.ndarray | None = None
+    """(N, 3) velocity of each path's last reflection at the start of the emission,
+    world frame, m/s; None for a scene without motion."""
+
+    def __post_init__(self) -> None:
+        pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
+        ps = np.asarray(self.position_sensor_m, float).reshape(-1, 3)
+        amp = np.asarray(self.amplitude, float).reshape(-1)
+        order = np.asarray(self.order).reshape(-1)
+        kind = np.asarray(self.kind).astype(str).reshape(-1)
+        n = len(pw)
+        for name, a in (("position_sensor_m", ps), ("amplitude", amp), ("order", order)):
+            if len(a) != n:
+                raise InputError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+        if len(kind) != n:
+            raise InputError(f"truth kind has {len(kind)} entries, position_world_m {n}")
+        if not (np.all(np.isfinite(pw)) and np.all(np.isfinite(ps)) and np.all(np.isfinite(amp))):
+            raise InputError("truth positions and amplitudes must be finite")
+        if order.size and (order.dtype.kind not in "iu" or order.min() < 0):
+            raise InputError(f"truth order must be non-negative integers, got {order.dtype}")
+        bad = sorted(set(kind.tolist()) - set(_KINDS))
+        if bad:
+            raise InputError(f"truth kind {bad[0]!r} is not one of {_KINDS}")
+        object.__setattr__(self, "position_world_m", pw)
+        object.__setattr__(self, "position_sensor_m", ps)
+        object.__setattr__(self, "amplitude", amp)
+        object.__setattr__(self, "order", order.astype(np.int64))
+        object.__setattr__(self, "kind", kind)
+        if self.velocity_world_m_s is not None:
+            vel = np.asarray(self.velocity_world_m_s, float).reshape(-1, 3)
+            if len(vel) != n:
+                raise InputError(f"truth velocity_world_m_s has {len(vel)} entries, positions {n}")
+            if not np.all(np.isfinite(vel)):
+                raise InputError("truth velocities must be finite")
+            object.__setattr__(self, "velocity_world_m_s", vel)
+
+    def __len__(self) -> int:
+        return len(self.amplitude)
+
+    def __repr__(self) -> str:
+        return f"GroundTruth({len(self)} paths)"
+
+    def echoes(self) -> GroundTruth:
+        """The paths that are not the direct emitter-to-array path."""
+        keep = self.kind != "direct"
+        return GroundTruth(
+            self.position_world_m[keep],
+            self.position_sensor_m[keep],
+            self.amplitude[keep],
+            self.order[keep],
+            self.kind[keep],
+            None if self.velocity_world_m_s is None else self.velocity_world_m_s[keep],
+        )
