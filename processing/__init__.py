@@ -8,7 +8,7 @@ This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
 from processing.base.errors import InputError
-from processing.formats.chirp.write import count_chirp, is_chirp, read_chirp, write_chirp
+from processing.formats.chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from processing.formats.native import (
     GroundTruth,
     Recording,

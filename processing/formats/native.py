@@ -39,6 +39,7 @@ from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
 from processing.formats import native_schema as recording_schema
 from processing.formats.native_schema import _check_metadata, _check_waveform, _sha256
+from processing.formats.registry import reader_of
 from processing.sensor.calls import Waveform
 from processing.sensor.pointcloud import write_point_cloud
 from processing.sensor.recording import (
@@ -208,8 +209,8 @@ def load_recordings(
 ) -> list[Recording]:
     """Read every recording of a file, validating every field (see :func:`load_recording`)."""
     path = Path(path)
-    if chirp := _chirp(path):
-        return chirp.read_chirp(path, call=call, max_bytes=max_bytes)
+    if reader := reader_of(path):
+        return reader.read(path, call=call, max_bytes=max_bytes)
     return recording_schema.read_all(path, max_bytes)
 
 
@@ -222,7 +223,7 @@ def load_recording(
 ) -> Recording:
     """Read recording `index` of a file (negative: from the end), and only that one.
 
-    A CHIRP file (``processing.formats.chirp.write``) is read as well; `call` is the emitted call
+    A file in another registered format (:mod:`processing.formats.registry`: CHIRP) is read as well; `call` is the emitted call
     for one that does not say it (ignored otherwise: a file of ours, and a CHIRP file
     whose transmitter signal is a sweep :func:`processing.sensor.calls.fit_sweep` fits).
 
@@ -232,20 +233,13 @@ def load_recording(
     truth. A problem raises :class:`RecordingFileError` naming the file and field.
     """
     path = Path(path)
-    if chirp := _chirp(path):
-        return chirp.read_chirp(path, call=call, max_bytes=max_bytes, index=index)[0]
+    if reader := reader_of(path):
+        return reader.read(path, call=call, max_bytes=max_bytes, index=index)[0]
     return recording_schema.read_index(path, index, max_bytes)
 
 
 def count_recordings(path: str | Path) -> int:
     """How many recordings a file holds (without reading them)."""
-    if chirp := _chirp(Path(path)):
-        return chirp.count_chirp(path)
+    if reader := reader_of(path):
+        return reader.count(path)
     return recording_schema.count(Path(path))
-
-
-def _chirp(path: Path):
-    """The module :mod:`processing.formats.chirp.write` if `path` is a CHIRP file, else None."""
-    from processing.formats.chirp import write as chirp
-
-    return chirp if chirp.is_chirp(path) else None

@@ -377,3 +377,44 @@ class Reader:
             name=_text(g.attrs.get("name")) or "lidar",
             rate_hz=float(g.attrs.get("rate_hz", np.nan)),
         )
+
+
+# ---------------------------------------------------------------- the entry points
+
+
+def is_chirp(path: str | Path) -> bool:
+    """Whether `path` is an HDF5 file whose root says ``format = "chirp"``."""
+    try:
+        with h5py.File(path, "r") as f:
+            v = f.attrs.get("format")
+    except (OSError, ValueError):
+        return False
+    return (v.decode(errors="replace") if isinstance(v, bytes) else v) == "chirp"
+
+
+def count_chirp(path: str | Path) -> int:
+    """How many recordings :func:`read_chirp` returns (ours: as written; else one
+    per capture)."""
+    with Reader(Path(path)) as r:
+        return r.count()
+
+
+def read_chirp(
+    path: str | Path,
+    *,
+    call: Waveform | None = None,
+    index: int | None = None,
+    max_bytes: int = MAX_SAMPLE_BYTES,
+    speed_of_sound_m_s: float | None = None,
+) -> list[Recording]:
+    """The recordings of a CHIRP file (all, or only recording `index`).
+
+    A file we wrote gives back what was written (samples as float32). Any other:
+    one (M, T) recording per capture, array from ``receiver_relative_translations``,
+    emitter from the transmitter's ``to_origin``, call fitted to its ``signals``
+    (when that fails or there is no transmitter signal: `call`, else an error), speed of
+    sound `speed_of_sound_m_s` (default 343 m/s), pose from ``odometry_00``, scan
+    from ``lidar_00``.
+    """
+    with Reader(Path(path), max_bytes) as r:
+        return r.recordings(index, call, speed_of_sound_m_s)
