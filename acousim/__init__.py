@@ -18,6 +18,7 @@ command line starts fast).
 from __future__ import annotations
 
 import importlib
+import sys
 
 __all__ = [
     "Simulator",
@@ -40,6 +41,44 @@ _WHERE = {"Simulator": "acousim.simulator"} | {
 }
 
 
+#: the modules' names before the re-layout by concept (CHANGELOG): they keep importing,
+#: with a DeprecationWarning, once `processing` (which every module imports) is loaded
+_MOVED = {
+    "acousim.calibrate.settings": "acousim.calibrate.options",
+    "acousim.compare_inputs": "acousim.compare.inputs",
+    "acousim.compare_summary": "acousim.compare.summary",
+    "acousim.matching": "acousim.imaging.matching",
+    "acousim.outputs": "acousim.imaging.outputs",
+    "acousim.synth.echoes": "acousim.synth.point_echoes",
+    "acousim.synth.model": "acousim.synth.signal_model",
+    "acousim.trace._bound_kernel": "acousim.trace.diffraction.bound_kernel",
+    "acousim.trace._pair_kernel": "acousim.trace.diffraction.pair_kernel",
+    "acousim.trace.btm": "acousim.trace.diffraction.btm",
+    "acousim.trace.btm_pair_geometry": "acousim.trace.diffraction.pair_geometry",
+    "acousim.trace.btm_pairs": "acousim.trace.diffraction.pairs",
+    "acousim.trace.btm_pairs_compiled": "acousim.trace.diffraction.pairs_compiled",
+    "acousim.trace.budget": "acousim.trace.rays.budget",
+    "acousim.trace.cluster": "acousim.trace.rays.cluster",
+    "acousim.trace.diffracted": "acousim.trace.diffraction.paths",
+    "acousim.trace.diffraction_setup": "acousim.trace.diffraction.setup",
+    "acousim.trace.edge_reflected": "acousim.trace.diffraction.edge_reflected",
+    "acousim.trace.edge_to_edge": "acousim.trace.diffraction.edge_to_edge",
+    "acousim.trace.edges": "acousim.trace.world.edges",
+    "acousim.trace.embree": "acousim.trace.world.embree",
+    "acousim.trace.first_order": "acousim.trace.diffraction.first_order",
+    "acousim.trace.following": "acousim.trace.motion.following",
+    "acousim.trace.geometry": "acousim.trace.world.build",
+    "acousim.trace.glints": "acousim.trace.rays.glints",
+    "acousim.trace.mesh_index": "acousim.trace.world.mesh_index",
+    "acousim.trace.moving": "acousim.trace.motion.moving_world",
+    "acousim.trace.pair_bound": "acousim.trace.diffraction.pair_bound",
+    "acousim.trace.scatter": "acousim.trace.rays.scatter",
+    "acousim.trace.settings": "acousim.trace.options",
+    "acousim.trace.shoot": "acousim.trace.rays.shoot",
+    "acousim.trace.specular": "acousim.trace.rays.specular",
+}
+
+
 def __getattr__(name: str) -> object:  # (no typing import: the command line starts fast)
     if name in _WHERE:
         value = getattr(importlib.import_module(_WHERE[name]), name)
@@ -50,3 +89,21 @@ def __getattr__(name: str) -> object:  # (no typing import: the command line sta
 
 def __dir__() -> list[str]:
     return sorted([*globals(), *__all__])
+
+
+class _Moved:
+    """Answers acousim's old module names (:data:`_MOVED`) through
+    :mod:`processing.base.moved`, imported only when an old name is asked for (``import
+    acousim`` stays light)."""
+
+    @staticmethod
+    def find_spec(fullname, path=None, target=None):
+        if fullname not in _MOVED:
+            return None
+        from processing.base.moved import moved_spec
+
+        return moved_spec(fullname, _MOVED)
+
+
+if _Moved not in sys.meta_path:
+    sys.meta_path.append(_Moved)

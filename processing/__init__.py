@@ -160,3 +160,46 @@ __all__ = [
     "find_echo",
     "fit_array_calibration",
 ]
+
+# the modules' names before the re-layout by concept keep importing, with a warning
+# (processing.base.moved; CHANGELOG)
+from processing.base.moved import alias_modules  # noqa: E402
+
+alias_modules(
+    {
+    "processing._bbkernel": "processing.imaging.broadband.kernel",
+    "processing._doakernel": "processing.imaging.doa_kernel",
+    "processing.arrays": "processing.sensor.arrays",
+    "processing.atomic": "processing.base.atomic",
+    "processing.broadband": "processing.imaging.broadband.energyscape",
+    "processing.broadband_engines": "processing.imaging.broadband.engines",
+    "processing.calibration": "processing.sensor.calibration",
+    "processing.chirp": "processing.formats.chirp.write",
+    "processing.chirp_frames": "processing.base.frames",
+    "processing.chirp_names": "processing.formats.chirp.names",
+    "processing.chirp_read": "processing.formats.chirp.read",
+    "processing.doa": "processing.imaging.doa",
+    "processing.errors": "processing.base.errors",
+    "processing.image": "processing.imaging.image",
+    "processing.interrupt": "processing.base.interrupt",
+    "processing.kernels": "processing.base.kernels",
+    "processing.matched_filter": "processing.imaging.matched_filter",
+    "processing.metadata": "processing.sensor.metadata",
+    "processing.methods": "processing.imaging.methods",
+    "processing.metrics": "processing.imaging.metrics",
+    "processing.pipeline": "processing.imaging.pipeline",
+    "processing.pointcloud": "processing.sensor.pointcloud",
+    "processing.provenance": "processing.sensor.provenance",
+    "processing.recording": "processing.formats.native",
+    "processing.recording_schema": "processing.formats.native_schema",
+    "processing.recording_types": "processing.sensor.recording",
+    "processing.rtis": "processing.sensor.rtis",
+    "processing.rtisdev": "processing.formats.rtisdev",
+    "processing.settings": "processing.base.settings",
+    "processing.smoothing": "processing.imaging.smoothing",
+    "processing.snapshot": "processing.imaging.snapshot",
+    "processing.steering": "processing.imaging.steering",
+    "processing.waveforms": "processing.sensor.calls",
+    "processing.wideband": "processing.imaging.wideband",
+    }
+)

@@ -1,1 +1,25 @@
-"""Edge diffraction (BTM): first order, with a reflection, edge to edge; the bounds and the compiled kernels."""
+"""Edge diffraction (Biot-Tolstoy-Medwin): one entry, :func:`edge_diffraction` (:mod:`.stage`).
+
+First order (:mod:`.first_order`, :mod:`.btm`), with a specular reflection before or after
+the edge (:mod:`.edge_reflected`), edge to edge (:mod:`.edge_to_edge`, :mod:`.pairs`,
+:mod:`.pair_geometry`, the compiled :mod:`.pair_kernel` driven by :mod:`.pairs_compiled`),
+the bounds that choose which pairs matter (:mod:`.pair_bound`, compiled in
+:mod:`.bound_kernel`); what the stage works with (:mod:`.setup`) and hands on (:mod:`.paths`)."""
+
+from acousim.trace.diffraction.stage import (
+    DEFAULT_STEP_M,
+    DiffractedPaths,
+    DiffractingGeometry,
+    DiffractionOptions,
+    diffract,
+    edge_diffraction,
+)
+
+__all__ = [
+    "DiffractedPaths",
+    "DiffractingGeometry",
+    "DiffractionOptions",
+    "diffract",
+    "edge_diffraction",
+    "DEFAULT_STEP_M",
+]

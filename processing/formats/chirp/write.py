@@ -61,9 +61,8 @@ from processing.formats.chirp.names import (
     ChirpFileError,
 )
 from processing.sensor.arrays import Array
-from processing.sensor.calls import Waveform
 from processing.sensor.provenance import SensorMotion, SensorPose
-from processing.sensor.recording import MAX_SAMPLE_BYTES, Recording
+from processing.sensor.recording import Recording
 
 __all__ = [
     "write_chirp",
