@@ -271,7 +271,8 @@ class Simulator:
         """The paths of a measurement in motion starting at `pose`:
         :class:`~acousim.trace.motion.following.MovingPaths`, and for the ground truth the
         positions (N, 3) at the start of the emission, the kind names and the velocities
-        (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.motion.moving_world`)."""
+        (N, 3) of the reflecting points (moving meshes:
+        :mod:`acousim.trace.motion.moving_world`)."""
         return self._moving(pose)[:4]
 
     def _moving(self, pose: Pose):

@@ -1,4 +1,6 @@
-"""Simulated versus real recordings of the same sensor: aligned, imaged alike, their echoes matched (:mod:`.comparison`); the real recordings read (:mod:`.inputs`); a trajectory's comparisons summed up (:mod:`.summary`)."""
+"""Simulated versus real recordings of the same sensor: aligned, imaged alike, their echoes
+matched (:mod:`.comparison`); the real recordings read (:mod:`.inputs`); a trajectory's
+comparisons summed up (:mod:`.summary`)."""
 
 from acousim.compare.comparison import (
     Alignment,

@@ -1,4 +1,6 @@
-"""Imaging recordings and writing what ``acousim image`` writes: images, peaks matched to the traced reflectors (:mod:`.matching`), the pictures (:mod:`.run`), the output folder's bookkeeping (:mod:`.outputs`)."""
+"""Imaging recordings and writing what ``acousim image`` writes: images, peaks matched to the
+traced reflectors (:mod:`.matching`), the pictures (:mod:`.run`), the output folder's
+bookkeeping (:mod:`.outputs`)."""
 
 from acousim.imaging.run import (
     ImagingOptions,

@@ -1,1 +1,2 @@
-"""The foundation of every layer: errors, settings declarations, atomic writes, interrupts, frames, the compiled-kernel loader."""
+"""The foundation of every layer: errors, settings declarations, atomic writes, interrupts,
+frames, the compiled-kernel loader."""

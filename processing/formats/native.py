@@ -223,7 +223,8 @@ def load_recording(
 ) -> Recording:
     """Read recording `index` of a file (negative: from the end), and only that one.
 
-    A file in another registered format (:mod:`processing.formats.registry`: CHIRP) is read as well; `call` is the emitted call
+    A file in another registered format (:mod:`processing.formats.registry`: CHIRP) is read as
+    well; `call` is the emitted call
     for one that does not say it (ignored otherwise: a file of ours, and a CHIRP file
     whose transmitter signal is a sweep :func:`processing.sensor.calls.fit_sweep` fits).
 

@@ -1,1 +1,2 @@
-"""From a Recording to images: matched filter, snapshots, steering, DOA, broadband energyscapes, images, peaks, metrics."""
+"""From a Recording to images: matched filter, snapshots, steering, DOA, broadband energyscapes,
+images, peaks, metrics."""

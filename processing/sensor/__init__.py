@@ -1,1 +1,2 @@
-"""What a sensor is and records: arrays, calls, array calibration, the Recording container and its metadata."""
+"""What a sensor is and records: arrays, calls, array calibration, the Recording container and
+its metadata."""

@@ -22,7 +22,8 @@ class DiffractingGeometry:
     """What the stage needs of a world, built once per world (not per pose).
 
     edges: its diffracting edges (:func:`~acousim.trace.world.edges.world_edges`, collinear
-    pieces joined by :func:`~acousim.trace.world.edges.merge_collinear`); face_reflection (F,): pressure
+    pieces joined by :func:`~acousim.trace.world.edges.merge_collinear`); face_reflection (F,):
+    pressure
     reflection factor per face; planes: (normal (P, 3), offset (P,), reflection (P,))
     of every plane, for the reflections before or after an edge (None: none);
     face_plane (F,): the plane id of each face (which edges share a plane, for edge

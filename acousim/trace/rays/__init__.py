@@ -1,1 +1,2 @@
-"""Ray work: shooting, the ray budget, exact specular paths, glints, scattering and its clustering."""
+"""Ray work: shooting, the ray budget, exact specular paths, glints, scattering and its
+clustering."""

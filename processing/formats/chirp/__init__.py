@@ -3,10 +3,22 @@
 (:mod:`.names`).  Registered in :mod:`processing.formats.registry` as ``chirp``: it
 provides ``claims``, ``read`` and ``count``."""
 
+from processing.formats.chirp.names import ChirpFileError
 from processing.formats.chirp.read import count_chirp, is_chirp, read_chirp
-from processing.formats.chirp.write import write_chirp
+from processing.formats.chirp.write import DEFAULT_PERIOD_S, FORMAT_VERSION, write_chirp
 
-__all__ = ["write_chirp", "read_chirp", "is_chirp", "count_chirp", "claims", "read", "count"]
+__all__ = [
+    "ChirpFileError",
+    "DEFAULT_PERIOD_S",
+    "FORMAT_VERSION",
+    "write_chirp",
+    "read_chirp",
+    "is_chirp",
+    "count_chirp",
+    "claims",
+    "read",
+    "count",
+]
 
 claims = is_chirp
 count = count_chirp

@@ -1,5 +1,6 @@
 """The names a CHIRP file's groups and our own schema go by, and its error (shared by
-:mod:`processing.formats.chirp.write`, the writer, and :mod:`processing.formats.chirp.read`, the reader)."""
+:mod:`processing.formats.chirp.write`, the writer, and :mod:`processing.formats.chirp.read`, the
+reader)."""
 
 from __future__ import annotations
 

@@ -66,9 +66,6 @@ from processing.sensor.recording import Recording
 
 __all__ = [
     "write_chirp",
-    "read_chirp",
-    "is_chirp",
-    "count_chirp",
     "ChirpFileError",
     "FORMAT_VERSION",
     "DEFAULT_PERIOD_S",

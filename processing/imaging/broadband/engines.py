@@ -1,4 +1,5 @@
-"""The engines of the broadband energyscape (:mod:`processing.imaging.broadband.energyscape`, steps 3-5):
+"""The engines of the broadband energyscape (:mod:`processing.imaging.broadband.energyscape`,
+steps 3-5):
 the combination of aligned channels (:func:`combine`), the focusing delays, and the
 compiled (numba, :mod:`._bbkernel`) and numpy engines that write the power of every
 direction and output range bin."""
