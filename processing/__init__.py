@@ -49,6 +49,7 @@ from processing.imaging.pipeline import (
     check_memory,
     check_method,
     estimate_memory_bytes,
+    find_echo,
     front_end_bytes,
     recording_snapshot,
     requires_ura,
@@ -72,7 +73,6 @@ from processing.sensor.calibration import (
     ArrayCalibration,
     apply_calibration,
     attach_calibration,
-    find_echo,
     fit_array_calibration,
 )
 from processing.sensor.calls import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call

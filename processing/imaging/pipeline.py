@@ -29,6 +29,7 @@ from processing.imaging.wideband import band_frequencies, band_snapshots, wideba
 from processing.sensor.recording import Recording
 
 __all__ = [
+    "find_echo",
     "Method",
     "METHODS",
     "check_method",
@@ -348,3 +349,18 @@ def acoustic_image(
 ) -> Image:
     """The image of one recording by one method."""
     return acoustic_images(recording, [method], settings)[method]
+
+
+def find_echo(recording: Recording, min_range_m: float, max_range_m: float) -> np.ndarray:
+    """The position (3,) in the sensor frame of the strongest peak of the recording's
+    DAS image between `min_range_m` and `max_range_m`."""
+    img = acoustic_image(
+        recording, "das", ProcessingSettings(range_limits_m=(min_range_m, max_range_m))
+    )
+    peaks = img.peaks(-60.0, max_peaks=1)
+    if len(peaks) == 0:
+        raise InputError(
+            "no echo in the range window", key="range_m", value=[min_range_m, max_range_m]
+        )
+    az, el, r = peaks.azimuth_rad[0], peaks.elevation_rad[0], peaks.range_m[0]
+    return r * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])

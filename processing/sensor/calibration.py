@@ -8,7 +8,8 @@ echo arrives `delay_s` later than its geometry says:
 ``X_m'(f) = g_m e^{i phi_m} e^{-2 pi i f delay} X_m(f)``.
 
 :func:`fit_array_calibration` fits them from one echo whose position is known (a
-wall, a corner reflector; or :func:`find_echo`: the strongest peak of the DAS image):
+wall, a corner reflector; or :func:`processing.imaging.pipeline.find_echo`: the strongest
+peak of the DAS image):
 the echo is gated, each channel's spectrum multiplied by the call's conjugate and
 undone by its geometric delay, and the resulting (channels x frequencies) matrix
 taken as rank one, ``c_m h(f)`` (its leading singular pair): c the channels' complex
@@ -47,7 +48,6 @@ __all__ = [
     "attach_calibration",
     "on_load",
     "fit_array_calibration",
-    "find_echo",
 ]
 
 METADATA_KEY = "array_calibration"
@@ -260,20 +260,3 @@ def fit_array_calibration(
         f"{reflector} echo at {np.round(np.asarray(position_m, float), 4).tolist()} m",
     )
     return CalibrationFit(cal, np.asarray(position_m, float), 20 * np.log10(resid))
-
-
-def find_echo(recording: Recording, min_range_m: float, max_range_m: float) -> np.ndarray:
-    """The position (3,) in the sensor frame of the strongest peak of the recording's
-    DAS image between `min_range_m` and `max_range_m`."""
-    from processing.imaging.pipeline import ProcessingSettings, acoustic_image
-
-    img = acoustic_image(
-        recording, "das", ProcessingSettings(range_limits_m=(min_range_m, max_range_m))
-    )
-    peaks = img.peaks(-60.0, max_peaks=1)
-    if len(peaks) == 0:
-        raise InputError(
-            "no echo in the range window", key="range_m", value=[min_range_m, max_range_m]
-        )
-    az, el, r = peaks.azimuth_rad[0], peaks.elevation_rad[0], peaks.range_m[0]
-    return r * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
