@@ -76,7 +76,7 @@ def _fan_table(rec: P.Recording, limits: tuple[float, float]) -> list[str]:
 def _real_sample() -> P.Recording | None:
     try:
         from hardware import decode_frame
-        from processing.formats.rtisdev import sample_recording
+        from processing.sensor.rtisdev import sample_recording
 
         raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
         return decode_frame(raw, P.ertis_v3d1(), P.rtis_call("default_25_50"))

@@ -52,7 +52,7 @@ def _real_sample_error() -> dict[str, float] | None:
     difference from a reference decode (801-tap equiripple, 0-100 kHz, > 100 dB down
     from 130 kHz) relative to the reference's; None when the sample is unavailable."""
     try:
-        from processing.formats.rtisdev import sample_recording
+        from processing.sensor.rtisdev import sample_recording
 
         ticks = np.frombuffer(sample_recording().read_bytes(), "<u4")
     except Exception:  # offline: the section still runs

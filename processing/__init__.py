@@ -194,7 +194,7 @@ alias_modules(
         "processing.recording_schema": "processing.formats.native_schema",
         "processing.recording_types": "processing.sensor.recording",
         "processing.rtis": "processing.sensor.rtis",
-        "processing.rtisdev": "processing.formats.rtisdev",
+        "processing.rtisdev": "processing.sensor.rtisdev",
         "processing.settings": "processing.base.settings",
         "processing.smoothing": "processing.imaging.smoothing",
         "processing.snapshot": "processing.imaging.snapshot",

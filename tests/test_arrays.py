@@ -77,7 +77,7 @@ def test_matlab_v73_coordinates_file(tmp_path):
 
 
 def test_ertis_preset_offline_is_an_input_error(monkeypatch, capsys):
-    import processing.formats.rtisdev as rtisdev
+    import processing.sensor.rtisdev as rtisdev
     from acousim.cli import main
 
     def offline(sensor):

@@ -232,7 +232,7 @@ def test_real_ertis_sample_echo_stays_where_das_puts_it():
     echo at 3.2 m where narrowband DAS does (same direction within a grid step)."""
     try:
         from hardware import decode_frame
-        from processing.formats.rtisdev import sample_recording
+        from processing.sensor.rtisdev import sample_recording
 
         raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
         rec = decode_frame(raw, P.ertis_v3d1(), P.rtis_call("default_25_50"))

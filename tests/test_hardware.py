@@ -358,7 +358,7 @@ def test_device_selection_by_serial_and_missing_device(emulated):
 
 
 def test_real_ertis_sample_has_its_echo_near_3_2_m():
-    from processing.formats.rtisdev import sample_recording
+    from processing.sensor.rtisdev import sample_recording
 
     raw = np.frombuffer(sample_recording().read_bytes(), "<u4")
     assert raw.size == 163840

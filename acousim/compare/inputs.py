@@ -31,7 +31,7 @@ def load_real_recordings(
     source = str(source)
     if source == "rtisdev-sample" or source.endswith(".bin"):
         from hardware import decode_frame
-        from processing.formats.rtisdev import sample_recording
+        from processing.sensor.rtisdev import sample_recording
 
         path = sample_recording() if source == "rtisdev-sample" else Path(source)
         if not path.is_file():

@@ -380,10 +380,10 @@ def ertis_v3d1(path: str | Path | None = None) -> Array:
 
     The layout is read from CoSys-Lab's layout file: `path`, or the copy inside the
     public rtisdev wheel, fetched once into the user cache (see
-    :mod:`processing.formats.rtisdev`).  Its license forbids bundling it here.
+    :mod:`processing.sensor.rtisdev`).  Its license forbids bundling it here.
     """
     if path is None:
-        from processing.formats.rtisdev import layout_file
+        from processing.sensor.rtisdev import layout_file
 
         try:
             path = layout_file("eRTIS_v3D1")
