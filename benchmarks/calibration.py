@@ -20,8 +20,7 @@ import numpy as np
 
 from acousim.calibrate import CalibrationSettings, calibrate
 from acousim.scene import load_scene
-
-from .corridor_cabinet import folder, simulate_truth
+from tests.oracles.corridor_cabinet import folder, simulate_truth
 
 POSES = [0, 12, 24, 36, 48, 6, 18, 30, 42, 54]
 TRUTH = {"plaster": (0.70, 0.35), "metal": (0.90, 0.05)}

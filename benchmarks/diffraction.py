@@ -11,8 +11,10 @@ import numpy as np
 
 from acousim.trace import KIND
 from acousim.trace.diffraction.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
-from tests._scenes import first_pose, rigid_scene, screen, spectrum, square_faces, turn_z
-from tests.test_diffraction import physical_optics  # the tests' independent reference
+from tests.acousim.trace.diffraction.test_first_order import (
+    physical_optics,  # the tests' independent reference
+)
+from tests.oracles.scenes import first_pose, rigid_scene, screen, spectrum, square_faces, turn_z
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POSES = list(range(10, 30))  # two seconds of the drive, as in the corridor section
@@ -150,9 +152,9 @@ def _objects() -> list[str]:
 def _strip() -> tuple[np.ndarray, np.ndarray]:
     """Error (dB, 20-80 kHz) of geometric + first order, and + second order, of a
     2 cm wide, 4 m long rigid strip 2 m from a monostatic sensor against the exact
-    strip (the tests' reference: tests/test_diffraction_order2.py)."""
+    strip (the tests' reference: tests/acousim/trace/diffraction/test_edge_to_edge.py)."""
     from acousim.trace.diffraction.pairs import Wedge, edge_pair_elements
-    from tests.test_diffraction_order2 import strip_far_field
+    from tests.acousim.trace.diffraction.test_edge_to_edge import strip_far_field
 
     d, w, length = 2.0, 0.02, 4.0
     rims = [
@@ -246,7 +248,7 @@ def _bar() -> list[str]:
     """A 2 cm square bar turned 45° (edge on) at 2 m against the exact 2D bar (the
     tests' boundary-element reference, 8000 panels per metre), 20-80 kHz: error of
     first order alone and with edge to edge."""
-    from tests.test_diffraction_order2 import diamond_orders, rect_far_field
+    from tests.acousim.trace.diffraction.test_edge_to_edge import diamond_orders, rect_far_field
 
     d = 2.0
     freqs = np.arange(20e3, 81e3, 10e3)
@@ -304,7 +306,7 @@ def run() -> str:
             "against the same model converged (20 µm steps); error = worst difference over "
             "the four receivers and 14 frequencies, relative to the incident wave "
             "(against the exact wedge solution the converged model is within 0.03 dB: "
-            "tests/test_diffraction.py). Time: one 20 m edge, best of 5.",
+            "tests/acousim/trace/diffraction/test_first_order.py). Time: one 20 m edge, best of 5.",
             "",
             "| step (mm) | elements per edge | µs per edge | worst error (dB re incident) |",
             "|---|---|---|---|",
@@ -373,7 +375,8 @@ def run() -> str:
             "to edge, the largest change at one frequency (25 frequencies), the edge-to-edge "
             "paths added, and the trace time of the pose (best of 3). "
             f"On a 2 cm x 4 m strip at 2 m, against the exact strip solution "
-            "(tests/test_diffraction_order2.py), 13 frequencies of 20-80 kHz: first order "
+            "(tests/acousim/trace/diffraction/test_edge_to_edge.py), 13 frequencies of 20-80 kHz: "
+            "first order "
             f"{one.min():.2f} to {one.max():.2f} dB, with edge to edge {two.min():.2f} to "
             f"{two.max():.2f} dB.",
             "",
@@ -384,7 +387,8 @@ def run() -> str:
             "",
             "A 2 cm x 4 m square bar turned 45° (its front edge towards the sensor: no "
             "specular echo; three edges in view, two edge-to-edge pairs each way) at 2 m, "
-            "against the exact 2D bar (boundary elements, tests/test_diffraction_order2.py; "
+            "against the exact 2D bar (boundary elements, "
+            "tests/acousim/trace/diffraction/test_edge_to_edge.py; "
             "converged to about 0.1 dB at 60-80 kHz) taken to 3D by stationary phase: error "
             "of ours in dB.",
             "",

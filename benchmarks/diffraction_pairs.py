@@ -21,7 +21,7 @@ from acousim.trace.diffraction.setup import StageContext
 from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
 from acousim.trace.world.edges import find_edges
 from acousim.trace.world.embree import RayCaster
-from tests.test_diffraction_order2 import plane_ids
+from tests.acousim.trace.diffraction.test_edge_to_edge import plane_ids
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 POSES = list(range(10, 30))  # two seconds of the drive, as in the corridor section

@@ -2,7 +2,7 @@
 `dataset` (issue 25): every moment from 0.05 s to the end of the run, in steps.
 
 Not a speed benchmark and not part of the test suite (minutes; it waits on a clock,
-which tests never do: tests/test_interrupt.py interrupts at lines the command
+which tests never do: tests/acousim/cli/test_interrupt.py interrupts at lines the command
 prints). For each moment the command runs in a fresh folder holding an earlier
 output, gets SIGINT (to its process group, as from a terminal) and must: exit 130
 with exactly one line on stderr, or 0 having finished; print no traceback; leave no
@@ -28,22 +28,12 @@ import tempfile
 import time
 from pathlib import Path
 
+from tests.acousim.cli.test_interrupt import SPEC  # a dataset of four samples of a scene
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
 PREFIX = ".acousim-tmp-"
 
-#: a dataset of four samples of a scene (also tests/test_interrupt.py's)
-SPEC = """[dataset]
-samples = 4
-shard_size = 1
-seed = 3
-[[scenes]]
-file = "{scene}"
-[store]
-images = ["das"]
-step_deg = 10.0
-depth_map = false
-"""
 
 COMMANDS = {
     "simulate": (["simulate", "corridor.toml", "--poses", "0:4", "--out", "rec.h5"], "rec.h5"),

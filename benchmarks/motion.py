@@ -212,7 +212,9 @@ def _moving_mesh_table() -> list[str]:
     import trimesh
 
     import acousim
-    from tests.test_moving_mesh import reference_reception  # the tests' reference
+    from tests.acousim.trace.motion.test_moving_mesh import (
+        reference_reception,  # the tests' reference
+    )
 
     arr = P.preset("urtis_v1")
     call = P.rtis_call("default_20_80")

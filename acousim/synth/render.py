@@ -153,7 +153,7 @@ def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.nd
     the echoes, so that its level does not set the accuracy of theirs.  The impulses
     and their FFTs are single precision (faster; BENCHMARKS.md): the error against
     exact per-path filtering stays that of the factorisation, float32 rounding is far
-    below it (tests/test_synth.py pins it under -75 dB; -81.4 dB there).  The order
+    below it (tests/acousim/synth/test_synth.py pins it under -75 dB; -81.4 dB there).  The order
     of the float32 sums is part of the output's bytes: summing the Q spectra in a
     loop instead of einsum, and absorption as exp instead of a power, moved the
     corridor's samples by -138 dB (relative RMS), the same seed giving the same bytes

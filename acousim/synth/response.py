@@ -7,7 +7,7 @@ separately would cost one FFT per path; instead H, sampled over the band where t
 call has energy, is factored by an SVD into a few separable terms
 ``H(f, n) ~ sum_q u_q(f) v_q(n)``, factorised on 64 frequencies across the band and
 interpolated (rank: singular values down to 1e-3 of the largest; -67 dB against exact
-per-path filtering in `tests/test_synth.py`), so rendering costs Q impulse
+per-path filtering in `tests/acousim/synth/test_synth.py`), so rendering costs Q impulse
 accumulations and Q x M FFTs.  Path lengths
 differ between microphones by millimetres: the per-microphone part is applied as a
 gain at the centre of the band.

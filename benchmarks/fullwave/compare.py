@@ -68,7 +68,7 @@ def _complex(r: dict) -> complex:
 def ours(kind: str, angle_deg: float, freqs: np.ndarray, tmp: Path) -> np.ndarray:
     """Our p / p_wall (complex, (F,)) for the 40 mm plate or cube, centre at D, turned by
     angle_deg about z; time factor exp(-i omega t) as in the reference."""
-    from tests._scenes import rigid_scene, spectrum, square_faces, trace_first_pose, turn_z
+    from tests.oracles.scenes import rigid_scene, spectrum, square_faces, trace_first_pose, turn_z
 
     quads = square_faces(kind, SIDE, turn_z(angle_deg), [D, 0, 0])
     simulation = {

@@ -31,7 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import geometry, series, solve
+from tests.oracles import fullwave_meshes as geometry
+from tests.oracles import sphere_series as series
+
+from . import solve
 
 C = 343.0  # m/s (the frequencies; the sensor's c only rescales k)
 D = 0.5  # m, source and receiver to the object's centre

@@ -33,7 +33,8 @@ Definitions that the paper leaves open, fixed here:
   (``EIG_FLOOR``): a wideband echo seen through a finite STFT window is never an
   exact steering vector (the window weights the microphones differently), and
   without such a floor MPDR cancels a noise-free echo into two false peaks 2 degrees
-  either side (``tests/test_doa.py`` pins this).  Then every eigenvalue is loaded by
+  either side (``tests/processing/imaging/test_doa.py`` pins this).  Then every eigenvalue is
+  loaded by
   ``loading * sigma2`` where sigma2 is the smallest floored eigenvalue (the noise
   floor).  The loaded matrix is positive definite for any ``loading > -1``, so the
   paper's small negative load b = -0.5 ("remove half of the noise floor") stays

@@ -198,7 +198,7 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     matched filter (K x M channels on an FFT of T + L points: the input, its
     spectrum and the product, the output) and the STFT snapshot (the frames searched
     for the strongest bin, K x M x P x window, three times, and their spectra);
-    within 1.5 times the peak numpy allocates (tests/test_reliability.py)."""
+    within 1.5 times the peak numpy allocates (tests/system/test_reliability.py)."""
     w = recording.waveform
     K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
     L = float(w.duration_s) * float(recording.sample_rate_hz)  # float: never overflows

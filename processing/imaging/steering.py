@@ -1,6 +1,6 @@
 """Direction grids, steering vectors and fast evaluation of steered quadratic forms.
 
-Sign convention (pinned by ``tests/test_doa.py::test_time_domain_plane_wave``):
+Sign convention (pinned by ``tests/processing/imaging/test_doa.py::test_time_domain_plane_wave``):
 transforms here use the usual ``exp(-j w t)`` kernel (numpy/scipy FFT and STFT), so a
 wave from direction u reaches microphone m *earlier* by ``u . p_m / c`` and its
 narrow-band snapshot is proportional to ``exp(+j k u . p_m)``.  The steering vector

@@ -5,7 +5,8 @@ numpy versions there run).
 
 One pass over the pairs in scalar math: the same formulas as the numpy versions,
 in the same order of operations, so the two agree within rounding
-(``tests/test_pair_bound_kernel.py``).  ``error_model="numpy"``: a division by zero
+(``tests/acousim/trace/diffraction/test_bound_kernel.py``).  ``error_model="numpy"``: a division
+by zero
 gives inf or nan as in numpy (whose warnings the numpy versions silence), not an
 exception; the mins and maxes propagate nan as numpy's do.
 

@@ -21,7 +21,7 @@ with a margin); only the pairs whose bound and estimates reach the stage's floor
 are integrated at the fine step, the others
 keep first order alone (their paths would be dropped by the tracer's energy floor:
 what is skipped is measured in BENCHMARKS.md and
-``tests/test_edge_pair_selection.py``).
+``tests/acousim/trace/diffraction/test_pair_selection.py``).
 
 With frequency-dependent materials (``face_column``), each wedge's response is split
 into the part without the image terms of its table faces and each of those terms

@@ -191,7 +191,8 @@ def edge_bound(
     (the denominator 0) gives an infinite bound.  A 1 % margin covers the rounding
     of the elements computed (the bound reaches 0.9997 of the largest element at
     most, where the element at a clipped apex is short).
-    ``tests/test_first_order_bound.py`` checks it against every edge's largest
+    ``tests/acousim/trace/diffraction/test_first_order_bound.py`` checks it against every edge's
+    largest
     element (random boxes and plates, corridor poses).  known: the rows'
     :class:`EdgeCoordinates` for `source` and the receiver (None: found here)."""
     if known is None:

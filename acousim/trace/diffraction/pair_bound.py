@@ -48,14 +48,15 @@ The bound is rigorous but loose (10 to 10^4 times the largest bin in the corrido
 times the element step, a tenth of the cost); the stage integrates a pair at the
 fine step if the bound, the estimate times :data:`ESTIMATE_MARGIN` and the coarse
 estimate times :data:`COARSE_MARGIN` all reach the floor.  Tested in
-``tests/test_edge_pair_selection.py`` (every pair of a scene integrated in full:
+``tests/acousim/trace/diffraction/test_pair_selection.py`` (every pair of a scene integrated in
+full:
 the bound above each pair's largest bin; the stage's paths above the floor those
 of the full computation).
 
 Both :func:`pair_bound` and :func:`pair_estimate` run compiled, one pass over the
 pairs in scalar math (:mod:`._bound_kernel`, numba, the ``fast`` extra), else on
 whole numpy arrays here; the two agree within rounding
-(``tests/test_pair_bound_kernel.py``).
+(``tests/acousim/trace/diffraction/test_bound_kernel.py``).
 """
 
 from __future__ import annotations
@@ -331,7 +332,8 @@ def pair_estimate(
       along either edge), times :data:`CORNER_MARGIN`.
 
     Not a bound (far bins of long edges can exceed the first one); what it misses
-    is measured (BENCHMARKS.md, diffraction; ``tests/test_edge_pair_selection.py``),
+    is measured (BENCHMARKS.md, diffraction;
+    ``tests/acousim/trace/diffraction/test_pair_selection.py``),
     and the stage keeps a margin of :data:`ESTIMATE_MARGIN` on it.  use_kernel: as
     :func:`pair_bound`.
     """
@@ -451,7 +453,8 @@ COARSE_MARGIN = 4.0
 #: either side of each (half of a coarse element's step); in the 30 poses 0, 2, ...,
 #: 58 of the corridor drive 2 misses none of the 15,794 fine bins above the stage's
 #: floor that 4 keep, in 88 % of the fine pass's time (1: none either, 80 %, but 3
-#: of 525 in tests/test_edge_pair_selection.py's room; 0: 192 missed, up to 3.3 dB
+#: of 525 in tests/acousim/trace/diffraction/test_pair_selection.py's room; 0: 192 missed, up to
+# 3.3 dB
 #: above the floor)
 LIVE_SPREAD = 2
 

@@ -5,7 +5,8 @@ Per pair: the shortest path by bisection on the profile's slope, the cuts of edg
 by Newton's method on the profile, for each element of edge 1 the first-order
 elements of edge 2 (equal excess steps, beta_2 integrated in eta, beta_1 at the
 element), each summed straight into its bin of path length.  The two agree within
-rounding (the order of the sums differs), which ``tests/test_edge_pair_selection.py``
+rounding (the order of the sums differs), which
+``tests/acousim/trace/diffraction/test_pair_selection.py``
 checks.  Compiled with numpy's error model: a division by zero gives inf or NaN, as
 in the numpy path (an element whose amplitude is not finite is dropped), instead
 of a check before every division.

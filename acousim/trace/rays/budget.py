@@ -36,7 +36,7 @@ Why these numbers: the batch and the batches before it are two independent
 estimates of as many rays each; when they agree to 0.4 dB, their mean is about half
 that (0.2 dB) from its limit (two independent errors differ by about 1.4 times
 either, their mean is 0.7 times either), leaving room within the 0.5 dB asked of the
-tail against ten times the old fixed budgets (`tests/test_budget.py`), whose own
+tail against ten times the old fixed budgets (`tests/acousim/trace/rays/test_budget.py`), whose own
 estimate is 0.1 to 0.4 dB off (the corridor's spiral at 20,000 against 50,000
 rays).  Bins 20 dB under the strongest carry a hundredth of its energy: few rays
 reach them, their estimate moves by decibels from one batch to the next, and they

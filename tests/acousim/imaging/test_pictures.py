@@ -1,0 +1,346 @@
+"""The pictures read right: sides, scales, no-data cells, titles, slices, 3D views.
+
+The images drawn here are built in the test (a known reflector direction), so each
+check compares a pixel with geometry worked out by hand, not with our own output.
+"""
+
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.cli import main
+from acousim.viz.fan import (
+    draw_fan,
+    elaz_figure,
+    fan_raster,
+    pick_slices,
+    truth_in_fan,
+)
+from tests import REPO
+
+SCENES = REPO / "scenes"
+
+
+def hot(pic):
+    """Pixels (H, W) of the top of the inferno map (pale yellow: not white, not grey)."""
+    return (pic[..., 0] > 0.9) & (pic[..., 1] > 0.8) & (pic[..., 2] < 0.75)
+
+
+def blob_image(sources, *, step_deg=2.0, ranges=None, method="das"):
+    """A synthetic image: Gaussian blobs at (range_m, azimuth_deg, elevation_deg, dB)."""
+    az = np.deg2rad(np.arange(-90, 90.1, step_deg))
+    el = np.deg2rad(np.arange(-40, 40.1, step_deg))
+    rng = np.arange(0.25, 3.0, 0.01) if ranges is None else ranges
+    power = np.full((rng.size, el.size, az.size), 1e-9)
+    R, E, A = np.meshgrid(rng, el, az, indexing="ij")
+    for r, a, e, db in sources:
+        power += 10 ** (db / 10) * np.exp(
+            -(((R - r) / 0.02) ** 2)
+            - ((A - np.deg2rad(a)) / np.deg2rad(4)) ** 2
+            - ((E - np.deg2rad(e)) / np.deg2rad(4)) ** 2
+        )
+    return P.Image(power, rng, el, az, method, 40e3, bin_range_m=0.01)
+
+
+def test_a_reflector_on_the_left_is_drawn_left_with_positive_y(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    # a reflector at y = +0.5 m (left), x = 1.0 m: azimuth atan2(0.5, 1) = +26.57 deg
+    y, x = 0.5, 1.0
+    img = blob_image([(np.hypot(x, y), np.rad2deg(np.arctan2(y, x)), 0.0, 0.0)])
+    fig, ax = plt.subplots(figsize=(5, 4), dpi=100)
+    draw_fan(ax, img, 2.0, 25.0, pixels=400)
+    fig.canvas.draw()
+    pic = np.asarray(fig.canvas.buffer_rgba())[..., :3].astype(float) / 255
+    # the brightest (yellow-white) pixels of the inferno map
+    bright = hot(pic)
+    rows, cols = np.nonzero(bright)
+    assert cols.size > 3
+    h = pic.shape[0]
+    to_px = ax.transData.transform
+    centre_col = to_px([[0.0, 1.0]])[0, 0]
+    left_col, expected_row = to_px([[y, x]])[0]
+    # left of the centre line, where y = +0.5 m is (display rows grow downwards)
+    assert cols.mean() < centre_col - 20
+    assert abs(cols.mean() - left_col) < 6
+    assert abs((h - rows.mean()) - expected_row) < 6
+    # and the tick labels are true y values: +0.5 is labelled on the left of 0
+    ticks = {t.get_text().replace("−", "-"): t.get_position()[0] for t in ax.get_xticklabels()}
+    left = [float(k) for k in ticks if k and float(k) > 0]
+    assert left, ticks
+    assert to_px([[max(left), 0]])[0, 0] < centre_col
+    plt.close(fig)
+
+
+def test_elevation_azimuth_map_puts_a_left_echo_on_the_left(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    captured = []
+    real_save = plt.Figure.savefig
+    monkeypatch.setattr(
+        plt.Figure, "savefig", lambda fig, *a, **k: captured.append(fig) or real_save(fig, *a, **k)
+    )
+    img = blob_image([(1.0, 40.0, 10.0, 0.0)])
+    elaz_figure(img, tmp_path / "e.png", n_slices=1)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = captured[0]
+    canvas = FigureCanvasAgg(fig)  # the figure was closed after saving
+    canvas.draw()
+    pic = np.asarray(canvas.buffer_rgba())[..., :3].astype(float) / 255
+    ax = fig.axes[0]
+    box = ax.get_window_extent()  # the map only, not its colour bar
+    h = pic.shape[0]
+    inside = np.zeros(pic.shape[:2], bool)
+    inside[int(h - box.y1) : int(h - box.y0), int(box.x0) : int(box.x1)] = True
+    rows, cols = np.nonzero(hot(pic) & inside)
+    assert cols.size
+    (c_left, r_up), (c_centre, r_mid) = ax.transData.transform([[40.0, 10.0], [0.0, 0.0]])
+    # azimuth +40 (left) is drawn left of azimuth 0, elevation +10 above 0
+    assert c_left < c_centre - 20 and abs(cols.mean() - c_left) < 6
+    assert abs((h - rows.mean()) - r_up) < 6 and r_up > r_mid
+
+
+def test_gated_range_bins_are_no_data_not_quiet():
+    # only bins from 0.8 to 1.2 m survived the energy gate
+    rng = np.arange(0.8, 1.2, 0.01)
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=rng)
+    r = fan_raster(img, 2.0, 25.0, pixels=200)
+    y_left, y_right, x_lo, x_hi = r.extent
+    xs = x_lo + (np.arange(r.db.shape[0]) + 0.5) * (x_hi - x_lo) / r.db.shape[0]
+    ys = y_left + (np.arange(r.db.shape[1]) + 0.5) * (y_right - y_left) / r.db.shape[1]
+    Y, X = np.meshgrid(ys, xs)
+    dist = np.hypot(X, Y)
+    fov = np.abs(np.arctan2(Y, X)) < np.deg2rad(85)
+    assert r.no_data[fov & (dist > 1.4) & (dist < 1.9)].all()  # gated: no data
+    assert np.isfinite(r.db[fov & (dist > 0.85) & (dist < 1.15)]).all()  # kept
+    assert not r.no_data[fov & (dist > 0.85) & (dist < 1.15)].any()
+
+
+def _inside(artist, fig) -> bool:
+    """The artist's drawn box lies within the figure's (from the layout, in pixels)."""
+    b, f = artist.get_window_extent(), fig.bbox
+    return b.x0 >= f.x0 - 0.5 and b.x1 <= f.x1 + 0.5 and b.y0 >= f.y0 - 0.5 and b.y1 <= f.y1 + 0.5
+
+
+def test_fan_figure_states_its_scale_and_fits_the_extent():
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import DYNAMIC_RANGE_DB, make_fan_figure
+
+    img = blob_image([(1.5, 20.0, 0.0, 0.0), (1.2, -30.0, 0.0, -6.0)])
+    truth = np.array([[1.5 * np.cos(np.deg2rad(20)), 1.5 * np.sin(np.deg2rad(20)), 0.0]])
+    fig = make_fan_figure({"das": img}, max_range_m=6.0, truth=truth, title="t")
+    fig.canvas.draw()
+    texts = [t.get_text() for t in fig.findobj(matplotlib.text.Text)]
+    assert f"dB re strongest cell ({DYNAMIC_RANGE_DB:g} dB range)" in texts  # colour bar
+    assert any(f"{DYNAMIC_RANGE_DB:g} dB dynamic range" in t for t in texts)
+    assert any("no data" in t for t in texts) and "traced reflector in this slice" in texts
+    ax = fig.axes[0]
+    # echoes within 1.6 m: the view reaches ~2 m, not the 6 m of the scene
+    assert ax.get_ylim()[1] < 2.2
+    assert ax.get_xlim()[0] > ax.get_xlim()[1]  # y grows to the left
+    assert all(_inside(leg, fig) for leg in fig.legends)
+    plt.close(fig)
+
+
+ALL_MARKS = np.array(
+    [
+        [1.0, 0.3, 0.0],  # in front, in the fan's elevation band
+        [0.2, 0.0, -0.45],  # the floor below: 66 deg down, off the fan's slice
+        [-1.0, 0.5, 0.0],  # behind the array: drawn at its mirror (1.0, 0.5, 0)
+    ]
+)
+
+
+@pytest.mark.parametrize("n_methods", [1, 3, 5])
+def test_legends_lie_within_the_figure(n_methods):
+    """The legend of the fan (one to five panels) and of the el-az maps, with every
+    mark in it, and the title lie inside the figure (both were cut at both sides of
+    one panel)."""
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import make_elaz_figure, make_fan_figure
+    from acousim.viz.truth import Reflectors
+
+    img = blob_image([(1.04, 16.7, 0.0, 0.0), (0.49, 0.0, -40.0, -3.0), (1.12, 26.6, 0.0, -3)])
+    methods = ["das", "capon-fbss", "music-fbss", "das-bb", "music"][:n_methods]
+    truth = Reflectors(ALL_MARKS, np.array([0.0, -5.0, -35.0]))  # the last one weak
+    for fig in (
+        make_fan_figure({m: img for m in methods}, max_range_m=3.0, truth=truth),
+        make_elaz_figure(img, truth=truth, truth_tolerance_m=0.1),
+    ):
+        fig.canvas.draw()
+        assert fig.legends, "no legend"
+        for leg in fig.legends:
+            assert _inside(leg, fig), (leg.get_window_extent(), fig.bbox)
+        if fig._suptitle is not None:  # the title too (one panel cut it at both sides)
+            assert _inside(fig._suptitle, fig), (fig._suptitle.get_window_extent(), fig.bbox)
+        labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert any("behind the array" in t for t in labels)
+        plt.close(fig)
+
+
+def test_marks_in_the_fan_off_its_slice_and_behind_the_array():
+    from acousim.viz.truth import fan_marks
+
+    m = fan_marks(ALL_MARKS, 5.0, np.deg2rad(30), (-np.pi / 2, np.pi / 2))
+    assert list(m.mark) == ["in", "off", "behind"]
+    # each at its slant range along its azimuth, as (y, x); the back one mirrored
+    r0 = np.hypot(1.0, 0.3)
+    np.testing.assert_allclose(m.xy[0], [0.3, 1.0], atol=1e-12)
+    np.testing.assert_allclose(m.xy[1], [0.0, np.hypot(0.2, 0.45)], atol=1e-12)
+    np.testing.assert_allclose(m.xy[2], [0.5, 1.0], atol=1e-12)
+    assert np.hypot(*m.xy[0]) == pytest.approx(r0)
+    # beyond the drawn range: not marked
+    assert len(fan_marks(ALL_MARKS, 0.9, np.deg2rad(30), (-np.pi / 2, np.pi / 2))) == 1
+
+
+def test_marks_on_an_elevation_azimuth_slice():
+    from acousim.viz.truth import elaz_marks
+
+    spans = ((-np.pi / 2, np.pi / 2), (np.deg2rad(-40), np.deg2rad(40)))
+    floor = np.array([[0.2, 0.0, -0.45]])  # 0.492 m away, 66 deg down
+    m = elaz_marks(floor, 0.49, 0.02, *spans)
+    assert list(m.mark) == ["off"]  # outside the grid: at its bottom edge, azimuth 0
+    np.testing.assert_allclose(m.xy[0], [0.0, -40.0], atol=1e-9)
+    assert len(elaz_marks(floor, 0.60, 0.02, *spans)) == 0  # another slice's range
+    back = np.array([[-1.0, 0.0, 0.2]])  # heard as its mirror: azimuth 0, el +11.3
+    m = elaz_marks(back, float(np.linalg.norm(back)), 0.02, *spans)
+    assert list(m.mark) == ["behind"]
+    np.testing.assert_allclose(m.xy[0], [0.0, np.rad2deg(np.arctan2(0.2, 1.0))], atol=1e-9)
+
+
+def test_every_picture_has_one_default_dynamic_range_and_prints_it():
+    import inspect
+
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from acousim.export.rosbag import write_rosbag
+    from acousim.imaging.run import ImagingOptions
+    from acousim.viz.fan import DYNAMIC_RANGE_DB, make_elaz_figure, make_fan_figure
+
+    assert ImagingOptions().dynamic_range_db == DYNAMIC_RANGE_DB
+    for fn in (make_fan_figure, make_elaz_figure, write_rosbag, fan_raster, draw_fan):
+        assert inspect.signature(fn).parameters["dynamic_range_db"].default == DYNAMIC_RANGE_DB
+    img = blob_image([(1.5, 20.0, 0.0, 0.0)])
+    for dr in (DYNAMIC_RANGE_DB, 17.0):  # a given one is printed too
+        for fig in (
+            make_fan_figure({"das": img}, dynamic_range_db=dr),
+            make_elaz_figure(img, dynamic_range_db=dr),
+        ):
+            labels = [a.get_ylabel() for a in fig.axes]
+            assert f"dB re strongest cell ({dr:g} dB range)" in labels
+            texts = [t.get_text() for t in fig.findobj(matplotlib.text.Text)]
+            assert any(f"{dr:g} dB dynamic range" in t for t in texts)
+            plt.close(fig)
+
+
+def test_floor_truth_is_drawn_at_its_slant_range():
+    # a floor point 0.45 m straight below and a wall point on the left
+    yx = truth_in_fan(np.array([[0.0, 0.0, -0.45], [0.0, 1.0, 0.0], [1.0, -1.0, 0.5]]))
+    np.testing.assert_allclose(yx[0], [0.0, 0.45], atol=1e-12)
+    np.testing.assert_allclose(yx[1], [1.0, 0.0], atol=1e-12)
+    r = np.sqrt(2.25)
+    np.testing.assert_allclose(yx[2], [-r / np.sqrt(2), r / np.sqrt(2)], atol=1e-12)
+
+
+def test_slices_are_distinct_echoes_inside_the_grid():
+    # a strong source beyond the grid's bottom edge (the floor at -90 deg) leaks onto
+    # the -40 deg row; two echoes inside the grid, one of them doubled 2 cm apart
+    img = blob_image(
+        [
+            (0.5, 0.0, -50.0, 20.0),
+            (1.0, 30.0, 5.0, 0.0),
+            (1.02, 31.0, 5.0, -1.0),
+            (2.0, -20.0, 0.0, -5.0),
+        ]
+    )
+    picks = pick_slices(img, 3)
+    got = sorted(np.round(img.range_m[picks], 2))
+    assert len(got) == 2  # the floor leak and the doubled echo are not slices
+    assert abs(got[0] - 1.0) <= 0.02 and abs(got[1] - 2.0) <= 0.01
+
+
+@pytest.mark.parametrize("index,expect", [("2", "recording 2"), (None, "recording 0")])
+def test_titles_name_the_recording_and_no_time_for_a_single_pose(tmp_path, index, expect):
+    from acousim.imaging.run import _title
+
+    rec = P.Recording(np.zeros((64, 300)), 500e3, P.paper_8x8(), P.paper_chirp())
+    pose = {"position_m": [0, 0, 0], "yaw_deg": 0, "pitch_deg": 0, "roll_deg": 0, "time_s": 0.0}
+    single = P.Recording(
+        rec.samples, 500e3, rec.array, rec.waveform, metadata={"pose": pose, "scene": "s"}
+    )
+    assert "t =" not in _title(single, 0)
+    moving = dict(pose, time_s=3.0)
+    traj = P.Recording(
+        rec.samples, 500e3, rec.array, rec.waveform, metadata={"pose": moving, "scene": "s"}
+    )
+    assert _title(traj, 30, True) == "s — recording 30, t = 3.0 s"
+
+
+def test_image_index_titles_the_picture_with_its_recording(tmp_path, monkeypatch):
+    import acousim.imaging.run as imaging
+
+    seen = []
+    real = imaging._title
+    monkeypatch.setattr(imaging, "_title", lambda rec, i, *a: seen.append(i) or real(rec, i, *a))
+    rec = P.Recording(np.zeros((64, 1500)), 500e3, P.paper_8x8(), P.paper_chirp())
+    P.save_recordings(tmp_path / "r.h5", [rec, rec, rec])
+    args = ["image", str(tmp_path / "r.h5"), "--index", "2", "--no-3d", "--method", "das"]
+    assert main([*args, "--out", str(tmp_path / "o")]) == 0
+    assert seen and set(seen) == {2}
+
+
+def test_3d_render_of_a_real_recording_is_not_empty(tmp_path):
+    from acousim.viz.render3d import PEAK_COLOR, SENSOR_COLOR, FrameContent, render_scene
+
+    peaks = np.array([[2.0, 0.5, 0.2], [3.0, -0.8, 0.0]])
+    pic = render_scene(
+        tmp_path / "r.png",
+        FrameContent(np.zeros(3), np.array([1.0, 0.0, 0.0]), peaks=peaks),
+        triangles=None,
+    )
+    red = np.all(np.abs(pic / 255 - np.array(PEAK_COLOR)) < 0.25, axis=2)
+    yellow = np.all(np.abs(pic / 255 - np.array(SENSOR_COLOR)) < 0.25, axis=2)
+    grey = (np.ptp(pic, axis=2) < 10) & (pic.mean(axis=2) < 200)  # grid lines, labels
+    assert red.sum() > 20  # the peaks are in view
+    assert yellow.sum() > 100  # the sensor too
+    assert grey.sum() > 2000  # and a grid in metres gives the scale
+    assert (tmp_path / "r.png").is_file()
+
+
+def test_3d_truth_below_the_threshold_is_not_drawn_and_stronger_is_larger(tmp_path):
+    from scipy import ndimage
+
+    from acousim.viz.render3d import TRUTH_COLOR, FrameContent, render_scene
+
+    # three reflectors 2 m ahead, side by side: 0 dB, -20 dB, -40 dB (under -30 dB)
+    truth = np.array([[2.0, 0.6, 0.0], [2.0, 0.0, 0.0], [2.0, -0.6, 0.0]])
+    content = FrameContent(
+        np.zeros(3),
+        np.array([1.0, 0.0, 0.0]),
+        truth=truth,
+        truth_level_db=np.array([0.0, -20.0, -40.0]),
+        peaks=np.array([[3.0, 0.0, 0.5]]),
+    )
+    pic = render_scene(None, content, triangles=None)
+    cyan = np.all(np.abs(pic / 255 - np.array(TRUTH_COLOR)) < 0.3, axis=2)
+    cyan[: int(0.2 * pic.shape[0]), : int(0.45 * pic.shape[1])] = False  # the legend
+    labels, n = ndimage.label(cyan)
+    sizes = ndimage.sum(cyan, labels, range(1, n + 1))
+    blobs = sorted(
+        zip(ndimage.center_of_mass(cyan, labels, range(1, n + 1)), sizes), key=lambda b: b[0][1]
+    )
+    blobs = [b for b in blobs if b[1] >= 2]
+    assert len(blobs) == 2  # the -40 dB reflector is not drawn
+    (left, s_left), (right, s_right) = blobs
+    assert s_left > 1.5 * s_right  # 0 dB (y = +0.6, on the left) larger than -20 dB

@@ -1,0 +1,143 @@
+"""Scene files: the bundled scenes load, and bad input is refused with clear errors."""
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from acousim.scene import Pose, SceneError, load_scene, parse_scene, rotation
+from processing.base.errors import InputError
+from tests import REPO
+
+SCENES = REPO / "scenes"
+
+
+@pytest.mark.parametrize("name", ["corridor", "shoebox", "wall", "sphere", "points", "panel_wall"])
+def test_bundled_scenes_load(name):
+    sc = load_scene(SCENES / f"{name}.toml")
+    assert sc.name == name and sc.description and sc.file_sha256
+    assert len(sc.sensor.poses) >= 1
+
+
+def test_corridor_drive_is_at_least_5_s_at_10_hz():
+    sc = load_scene(SCENES / "corridor.toml")
+    assert sc.sensor.rate_hz == 10 and len(sc.sensor.poses) >= 50
+    assert sc.sensor.poses[-1].time_s >= 4.9
+    assert sc.sensor.array.name == "urtis_v1" and sc.sensor.sample_rate_hz == 450e3
+
+
+def base(**over):
+    d = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
+    for k, v in over.items():
+        d[k] = v
+    return d
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        (base(simulaton={}), r"simulaton: unknown key 'simulaton'; did you mean 'simulation'"),
+        (base(simulation={"rays": -5}), r"simulation.rays = -5: outside the allowed range"),
+        (base(simulation={"bounces": 1.5}), r"simulation.bounces = 1.5: must be a whole number"),
+        (base(simulation={"max_rnage_m": 3}), r"did you mean 'max_range_m'"),
+        (base(simulation={"snr_db": math.nan}), r"simulation.snr_db = nan: .*not NaN"),
+        (base(simulation={"absorption": "no"}), r"simulation.absorption = 'no': must be true"),
+        (base(environment={"humidity_percent": 500}), r"environment.humidity_percent = 500"),
+        (base(environment=5), r"environment = 5: must be a table"),
+        (base(sensor={"array": "urtis"}), r"sensor.array = 'urtis': is not one of .*did you mean"),
+        (
+            base(sensor={"array": "urtis_v1", "sample_rate_hz": 80000}),
+            r"sensor.sample_rate_hz = 80000.0: is below twice",
+        ),
+        (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"points\[0\].position_m = .*must be"),
+        (base(points=[{"position_m": [1.0]}]), r"points\[0\].position_m = \[1.0\]: must be"),
+        (
+            base(meshes=[{"file": "nope.stl"}]),
+            r"meshes\[0\].file = 'nope.stl': mesh file not found",
+        ),
+        (base(meshes=[{"file": "wall.toml", "units": "inch"}]), r"meshes\[0\].units = 'inch'"),
+        (base(materials=[{"name": "m", "reflection": 5}]), r"materials\[0\].reflection = 5"),
+        ({"sensor": {"array": "urtis_v1"}}, r"neither meshes nor points"),
+    ],
+)
+def test_validation_errors_name_key_and_value(data, pattern):
+    with pytest.raises(SceneError, match=pattern) as exc:
+        parse_scene(data, base_dir=SCENES, source="bad.toml")
+    assert str(exc.value).startswith("bad.toml: ")
+    assert isinstance(exc.value, InputError)
+
+
+def test_not_toml_and_missing_file(tmp_path):
+    f = tmp_path / "x.toml"
+    f.write_text("this is = = not toml")
+    with pytest.raises(SceneError, match="x.toml: not valid TOML"):
+        load_scene(f)
+    with pytest.raises(SceneError, match="no such scene file"):
+        load_scene(tmp_path / "missing.toml")
+
+
+def test_broken_meshes_are_refused(tmp_path):
+    from acousim.simulator import Simulator
+
+    (tmp_path / "empty.obj").write_text("# no faces\nv 0 0 0\n")
+    (tmp_path / "nan.obj").write_text("v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n")
+    for name, pattern in [("empty.obj", "no faces"), ("nan.obj", "NaN")]:
+        sc = parse_scene(
+            {"sensor": {"array": "urtis_v1"}, "meshes": [{"file": name}]}, base_dir=tmp_path
+        )
+        with pytest.raises(ValueError, match=f"{name}.*{pattern}"):
+            Simulator(sc)
+
+
+def test_pose_inside_a_wall_is_refused(tmp_path):
+    from acousim.simulator import Simulator
+
+    shutil.copy(SCENES / "meshes" / "wall.stl", tmp_path / "wall.stl")
+    sc = parse_scene(
+        {
+            "sensor": {"array": "urtis_v1", "pose": {"position_m": [2.05, 0, 0]}},
+            "meshes": [{"file": "wall.stl"}],
+        },
+        base_dir=tmp_path,
+    )
+    with pytest.raises(ValueError, match="inside a closed mesh"):
+        Simulator(sc).paths(sc.sensor.poses[0])
+
+
+def test_pose_rotation_conventions():
+    np.testing.assert_allclose(rotation(np.pi / 2) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(rotation(0, np.pi / 2) @ [1, 0, 0], [0, 0, -1], atol=1e-15)
+    p = Pose([1.0, 2.0, 3.0], 0.3, 0.2, 0.1)
+    x = np.array([[0.5, -0.2, 0.1]])
+    np.testing.assert_allclose(p.to_sensor(p.to_world(x)), x, atol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "sensor,pattern",
+    [
+        ({"pose": {"pitch_deg": 120}}, r"sensor.pose.pitch_deg = 120"),
+        ({"pose": {"yaw_deg": "left"}}, r"sensor.pose.yaw_deg = 'left'"),
+        ({"trajectory": {"poses": [[0, 0, 0, 0, 95]]}}, r"trajectory row 0 pitch_deg = 95.0"),
+        ({"trajectory": {"poses": [[0, 0, 0, 400]]}}, r"trajectory row 0 yaw_deg = 400.0"),
+    ],
+)
+def test_pose_angles_in_tables_and_trajectories(sensor, pattern):
+    data = base(sensor={"array": "urtis_v1", **sensor})
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene(data, base_dir=SCENES, source="bad.toml")
+
+
+def test_pose_refuses_non_finite_values():
+    with pytest.raises(InputError, match="Pose.yaw_rad = nan"):
+        Pose([0, 0, 0], math.nan)
+    with pytest.raises(InputError, match="Pose.position_m"):
+        Pose([0, 0])
+
+
+def test_fractional_delays_are_the_renderers():
+    from acousim.scene.model import FRACTIONAL_DELAYS
+    from acousim.synth.render import INTERPOLATORS
+
+    assert set(FRACTIONAL_DELAYS) == {"sinc", "lagrange", "nearest"}
+    assert set(FRACTIONAL_DELAYS) <= set(INTERPOLATORS)

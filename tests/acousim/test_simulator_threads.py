@@ -1,0 +1,55 @@
+"""Simulator.run prepares the next pose and traces the one after in threads of their
+own while it renders, and the edge-to-edge kernel shares its pairs among the
+tracer's threads: neither may change a result.  The reference is the same pose
+simulated alone, one stage after the other (``simulate_pose``), and the kernel on
+one thread."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from acousim.scene import load_scene
+from acousim.simulator import Simulator
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
+from acousim.trace.world.edges import find_edges
+from acousim.trace.world.embree import RayCaster
+from tests import REPO
+from tests.acousim.trace.diffraction.test_edge_to_edge import plane_ids
+from tests.acousim.trace.diffraction.test_pair_selection import EMITTER, RECEIVER, room_objects
+
+SCENES = REPO / "scenes"
+
+
+def test_run_gives_the_recordings_of_one_pose_at_a_time():
+    """The corridor drive at its defaults (diffraction, edge to edge), moving and
+    frozen, five poses: every recording's samples byte for byte."""
+    scene = load_scene(SCENES / "corridor.toml")
+    frozen = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, motion=None))
+    poses = [12, 13, 14, 30, 31]
+    for sc in (scene, frozen):
+        together = Simulator(sc).run(poses)
+        alone = Simulator(sc)
+        for i, rec in zip(poses, together):
+            ref = alone.simulate_pose(sc.sensor.poses[i], i)
+            assert np.array_equal(rec.samples, ref.samples)
+            assert np.array_equal(rec.truth.position_world_m, ref.truth.position_world_m)
+
+
+def test_edge_to_edge_is_the_same_on_two_threads():
+    """The stage's paths (first order and edge to edge, floor as the tracer's) with
+    the tracer's two threads and with one: equal bit for bit."""
+    mesh = room_objects()
+    geometry = DiffractingGeometry(
+        find_edges(mesh), np.ones(len(mesh.faces)), face_plane=plane_ids(mesh)
+    )
+    options = DiffractionOptions(max_path_m=8.0, order=2, floor_level=0.5e-4)
+    out = []
+    for threads in (1, 2):
+        d = diffract(geometry, RayCaster(mesh.triangles, threads), EMITTER, RECEIVER, options)
+        out.append(d)
+    one, two = out
+    assert (one.order == 2).sum() > 100
+    for field in ("anchor_m", "first_leg_m", "strength", "edge", "order"):
+        assert np.array_equal(getattr(one, field), getattr(two, field))

@@ -1,0 +1,59 @@
+import numpy as np
+import pytest
+from scipy.signal import ShortTimeFFT, get_window
+
+import processing as P
+from tests.oracles.analytic import echo_recording
+
+
+def test_energy_gate_keeps_bins_around_the_echo():
+    rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0)])
+    mf = P.matched_filter(rec.samples, rec.waveform.sampled(rec.sample_rate_hz))
+    snap = P.stft_snapshot(mf, rec.sample_rate_hz, frequency_hz=31250)
+    assert snap.frequency_hz == 31250
+    assert snap.data.shape == (64, snap.n_bins)
+    assert np.all(np.abs(snap.range_m - 1.0) < 0.06)
+    assert snap.energy.min() >= 0.5 * snap.energy.max()
+    assert snap.bin_range_m == pytest.approx(343 * 16 / 500e3 / 2)
+
+
+def test_same_transform_as_scipy_shorttimefft():
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((3, 2048))
+    snap = P.stft_snapshot(x, 500e3, frequency_hz=31250, gate=P.BinGate(energy_fraction=0))
+    sft = ShortTimeFFT(get_window("hann", 256), 16, 500e3)
+    ref = sft.stft(x)  # (3, F, P), slices centred on p * hop
+    col = ref[:, 16, :]
+    # our bin p is scipy's slice centred at p * hop + 128, i.e. slice index p + 8
+    t_ref = sft.t(2048)
+    j = np.rint((snap.time_s - t_ref[0]) / (16 / 500e3)).astype(int)
+    np.testing.assert_allclose(t_ref[j], snap.time_s)
+    np.testing.assert_allclose(np.abs(snap.data), np.abs(col[:, j]), rtol=1e-10)
+    # relative phase between channels is what DOA uses
+    np.testing.assert_allclose(
+        snap.data[1] * snap.data[0].conj(), col[1, j] * col[0, j].conj(), rtol=1e-9, atol=1e-9
+    )
+
+
+def test_multi_measurement_snapshots_and_band():
+    rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0)], noise=0.01)
+    mf = P.matched_filter(np.stack([rec.samples] * 3), rec.waveform.sampled(500e3))
+    snap = P.stft_snapshot(mf, 500e3, band_hz=(20e3, 34e3))
+    assert snap.data.ndim == 3 and snap.data.shape[2] == 3
+    assert 20e3 <= snap.frequency_hz <= 34e3
+
+
+def test_all_zero_recording_keeps_no_bins_and_range_limits():
+    snap = P.stft_snapshot(np.zeros((4, 1024)), 500e3)
+    assert snap.n_bins == 0 and snap.data.shape == (4, 0)
+    rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0), (0, 0, 0.5, 4.0)])
+    mf = P.matched_filter(rec.samples, rec.waveform.sampled(500e3))
+    snap = P.stft_snapshot(mf, 500e3, frequency_hz=31250, gate=P.BinGate(range_limits_m=(0.8, 2.0)))
+    assert snap.n_bins > 0 and np.all(snap.range_m > 0.9)
+
+
+def test_bad_stft_parameters():
+    with pytest.raises(ValueError, match="overlap"):
+        P.stft_snapshot(np.zeros((2, 1000)), 1e3, stft=P.Stft(window=64, overlap=64))
+    with pytest.raises(ValueError, match="fewer than the window"):
+        P.stft_snapshot(np.zeros((2, 10)), 1e3)
