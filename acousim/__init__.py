@@ -31,6 +31,7 @@ __all__ = [
     "PointItem",
     "Environment",
     "Simulation",
+    "Diffraction",
     "Pose",
     "Trajectory",
     "SceneError",

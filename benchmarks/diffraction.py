@@ -90,7 +90,7 @@ def _object_response(kind, size, distance, rot_deg, tmp, order=1, n_freq=13):
     quads = square_faces(kind, size, rot_y @ turn_z(rot_deg[0]), centre)
     simulation = {"max_range_m": distance + 1.0, "rays": 20000, "bounces": 2, "beam_deg": 60.0}
     if order is not None:
-        simulation.update(diffraction=True, diffraction_order=order, energy_floor_db=-200.0)
+        simulation.update(diffraction={"order": order}, energy_floor_db=-200.0)
     scene = rigid_scene(tmp, quads, simulation)
     pose, e, r = first_pose(scene)
     tracer = Tracer(scene, threads=1)
@@ -234,7 +234,7 @@ def _against_fullwave() -> list[str]:
         "Against the cached full-wave levels (benchmarks/data/fullwave.csv, bempp-cl, "
         "monostatic, 40 mm objects at 0.5 m, every 5 kHz where computed): ours minus "
         "full-wave, band power (dB) / worst single frequency (dB); first order only "
-        "(`diffraction_order = 1`, floor -200 dB) and at the default settings (a scene "
+        "(`diffraction.order = 1`, floor -200 dB) and at the default settings (a scene "
         "that says nothing about diffraction).",
         "",
         "| object | frequencies | full-wave band (dB re wall) | first order | defaults |",
@@ -369,7 +369,7 @@ def run() -> str:
             "|---|---|---|---|---|---|---|",
             *_objects(),
             "",
-            "What second-order (edge-to-edge) diffraction adds (`simulation.diffraction_order "
+            "What second-order (edge-to-edge) diffraction adds (`simulation.diffraction.order "
             "= 2`, floor -200 dB: every pair) on square plates facing the sensor at 0.5 m: "
             "band power at 20-80 kHz (dB re the wall) with first order only and with edge "
             "to edge, the largest change at one frequency (25 frequencies), the edge-to-edge "

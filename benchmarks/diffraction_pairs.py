@@ -13,6 +13,7 @@ import numpy as np
 import trimesh
 
 from acousim.scene import load_scene
+from acousim.scene.model import Diffraction
 from acousim.simulator import Simulator
 from acousim.trace import KIND
 from acousim.trace.diffraction.edge_to_edge import _selected, candidate_pairs
@@ -38,7 +39,11 @@ def _box_case():
         find_edges(box), np.ones(len(box.faces)), face_plane=plane_ids(box)
     )
     ctx = StageContext(
-        geometry, RayCaster(box.triangles, 1), s, r, DiffractionOptions(8.0, order=2)
+        geometry,
+        RayCaster(box.triangles, 1),
+        s,
+        r,
+        DiffractionOptions(8.0, settings=Diffraction(order=2)),
     )
     return candidate_pairs(ctx)[0], s, r
 
@@ -99,10 +104,10 @@ def corridor_table(rounds: int = 5) -> list[str]:
     out = []
     for frozen in (False, True):
         variants = {
-            "off": dict(diffraction=False),
-            "first order only (`diffraction_order = 1`)": dict(diffraction_order=1),
+            "off": dict(diffraction=Diffraction(enabled=False)),
+            "first order only (`diffraction.order = 1`)": dict(diffraction=Diffraction(order=1)),
             "defaults (edge to edge where it matters)": {},
-            "defaults + `diffraction_reflections`": dict(diffraction_reflections=True),
+            "defaults + `diffraction.reflections`": dict(diffraction=Diffraction(reflections=True)),
         }
         sims = {}
         for name, kw in variants.items():

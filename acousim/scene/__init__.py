@@ -2,6 +2,7 @@
 
 from acousim.scene.load import SceneError, load_scene, parse_scene
 from acousim.scene.model import (
+    Diffraction,
     Environment,
     Material,
     MeshItem,
@@ -24,6 +25,7 @@ __all__ = [
     "Scene",
     "Sensor",
     "Simulation",
+    "Diffraction",
     "Pose",
     "Trajectory",
     "rotation",

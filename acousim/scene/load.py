@@ -15,6 +15,7 @@ import dataclasses
 import hashlib
 import math
 import tomllib
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ import numpy as np
 import processing as P
 from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
 from acousim.scene.model import (
+    Diffraction,
     Environment,
     Material,
     MeshItem,
@@ -169,6 +171,41 @@ def load_scene(path: str | Path) -> Scene:
     )
 
 
+#: the diffraction keys of ``[simulation]`` before they became ``[simulation.diffraction]``
+_FLAT_DIFFRACTION = {
+    "diffraction_step_m": "step_m",
+    "diffraction_order": "order",
+    "diffraction_reflections": "reflections",
+}
+
+
+def _simulation(r: _Reader, table: dict) -> Simulation:
+    """``[simulation]`` and its ``[simulation.diffraction]`` table.  The older flat keys
+    (``diffraction = false``, ``diffraction_order = 1``, ...) are read for a version with
+    a DeprecationWarning that names the new key."""
+    extra = {"diffraction", *_FLAT_DIFFRACTION}
+    declared = r.settings(Simulation, table, "simulation", extra=extra)
+    sub = table.get("diffraction", {})
+    flat = {new: table[old] for old, new in _FLAT_DIFFRACTION.items() if old in table}
+    if isinstance(sub, bool):
+        flat = {"enabled": sub, **flat}
+        sub = {}
+    if flat:
+        keys = ", ".join(f"simulation.diffraction.{k}" for k in flat)
+        warnings.warn(
+            f"{r.source}: the flat [simulation] diffraction keys are deprecated: use {keys}",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+    if not isinstance(sub, dict):
+        raise r.fail("simulation.diffraction", "must be a table (or true/false)", sub)
+    diffraction = r.settings(Diffraction, {**flat, **sub}, "simulation.diffraction")
+    try:
+        return Simulation(**declared, diffraction=Diffraction(**diffraction))
+    except InputError as exc:
+        raise SceneError(exc.reason, file=r.source, key=exc.key, value=exc.value) from None
+
+
 def parse_scene(
     data: dict[str, Any],
     *,
@@ -183,7 +220,7 @@ def parse_scene(
     meta = r.table(data, "scene", "")
     r.check_keys(meta, "scene", "scene")
     env = Environment(**r.settings(Environment, r.table(data, "environment", ""), "environment"))
-    sim = Simulation(**r.settings(Simulation, r.table(data, "simulation", ""), "simulation"))
+    sim = _simulation(r, r.table(data, "simulation", ""))
     materials = _materials(r, data)
     meshes = [_mesh(r, m, where, base, materials) for where, m in r.table_list(data, "meshes")]
     points = []

@@ -25,7 +25,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import InitVar, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -443,6 +444,56 @@ class Sensor:
 
 
 @dataclass(frozen=True)
+class Diffraction:
+    """Edge diffraction (Biot-Tolstoy-Medwin, :mod:`acousim.trace.diffraction`): the
+    scene file's ``[simulation.diffraction]`` table, passed whole to the stage.
+
+    enabled : false: geometric optics alone.
+    order : 2 (default): each edge, and edge to edge over the pairs of edges that share
+        a plane (the rims of a plate, the edges of a box face) where a pair can reach
+        the energy floor; 1: each edge alone.
+    step_m : the edge-element step, in excess path length (m); edge to edge takes it
+        scaled to the call's highest frequency (:class:`acousim.trace.options.TraceSettings`).
+    reflections : also edge diffraction combined with one specular reflection before
+        or after the edge (image sources; slow in large scenes).
+    """
+
+    enabled: bool = setting(True, doc="edge diffraction (BTM)")
+    order: int = setting(2, "", 1, 2, "2: also edge to edge where it matters; 1: not")
+    step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
+    reflections: bool = setting(False, doc="also edge + one reflection (slow)")
+
+    def __post_init__(self) -> None:
+        validate(self, prefix="Simulation.diffraction")
+
+
+def _fold_flat_diffraction(diffraction: Any, flat: dict[str, Any]) -> Diffraction:
+    """The Diffraction of a Simulation given the old way: ``diffraction=True/False`` and
+    ``diffraction_step_m`` / ``_order`` / ``_reflections`` keywords (a DeprecationWarning
+    naming the new spelling); a Diffraction as it is."""
+    given = {k: v for k, v in flat.items() if v is not None}
+    if isinstance(diffraction, Diffraction) and not given:
+        return diffraction
+    if isinstance(diffraction, bool | np.bool_):
+        given = {"enabled": bool(diffraction), **given}
+        diffraction = Diffraction()
+    elif not isinstance(diffraction, Diffraction):
+        raise InputError(
+            "must be an acousim.Diffraction (or true/false)",
+            key="Simulation.diffraction",
+            value=diffraction,
+        )
+    new = ", ".join(f"{k}={v!r}" for k, v in given.items())
+    warnings.warn(
+        f"Simulation(diffraction=bool, diffraction_step_m/_order/_reflections=...) is "
+        f"deprecated: use Simulation(diffraction=Diffraction({new}))",
+        DeprecationWarning,
+        stacklevel=4,
+    )
+    return dataclasses.replace(diffraction, **given)
+
+
+@dataclass(frozen=True)
 class Simulation:
     """Simulation settings.
 
@@ -459,14 +510,8 @@ class Simulation:
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction.stage`); on by
-        default (false: geometric optics alone).
-    diffraction_step_m : edge-element step, in excess path length (m).
-    diffraction_reflections : also edge diffraction combined with one specular
-        reflection before or after the edge (image sources; slow in large scenes).
-    diffraction_order : 2 (default): each edge, and edge to edge over the pairs of
-        edges that share a plane (the rims of a plate, the edges of a box face)
-        where a pair can reach the energy floor; 1: each edge alone.
+    diffraction : edge diffraction (:class:`Diffraction`: the scene file's
+        ``[simulation.diffraction]`` table); on by default, edge to edge where it matters.
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.signal_model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -488,17 +533,26 @@ class Simulation:
     )
     absorption: bool = setting(True, doc="air absorption")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
-    diffraction: bool = setting(True, doc="edge diffraction (BTM)")
-    diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
-    diffraction_reflections: bool = setting(False, doc="also edge + one reflection (slow)")
-    diffraction_order: int = setting(2, "", 1, 2, "2: also edge to edge where it matters; 1: not")
+    diffraction: Diffraction = field(default_factory=lambda: Diffraction())
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )
 
-    def __post_init__(self) -> None:
+    #: the flat names of the diffraction settings before they became one table (a
+    #: version's grace, with a DeprecationWarning: :func:`_fold_flat_diffraction`)
+    diffraction_step_m: InitVar[float | None] = None
+    diffraction_reflections: InitVar[bool | None] = None
+    diffraction_order: InitVar[int | None] = None
+
+    def __post_init__(self, diffraction_step_m, diffraction_reflections, diffraction_order) -> None:
         if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
             object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
+        flat = {
+            "step_m": diffraction_step_m,
+            "reflections": diffraction_reflections,
+            "order": diffraction_order,
+        }
+        object.__setattr__(self, "diffraction", _fold_flat_diffraction(self.diffraction, flat))
         validate(self)
 
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acousim.scene.model import Scene
+from acousim.scene.model import Diffraction, Scene
 
 __all__ = ["STEP_FREQUENCY_HZ", "TraceSettings", "resolution_length"]
 
@@ -30,10 +30,8 @@ class TraceSettings:
     beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
     maximum range); resolution_m : the call's range resolution as a path length;
     energy_floor_db : paths this far below the strongest echo are dropped;
-    direct_path : include the emitter -> microphone path; diffraction : edge
-    diffraction (stage 3); diffraction_step_m : its edge-element step (excess path
-    length, m); diffraction_reflections : also edge + one specular reflection;
-    diffraction_order : 1, or 2 to add edge-to-edge diffraction;
+    direct_path : include the emitter -> microphone path; diffraction : the scene's
+    :class:`~acousim.scene.model.Diffraction` settings, whole (stage 3);
     diffraction_pair_step_m : the element step of edge to edge: the edge-element
     step scaled to the call's highest frequency (the default step, 1 mm, is a
     quarter wavelength at :data:`STEP_FREQUENCY_HZ`; a 25-50 kHz call takes 1.7 mm).
@@ -46,10 +44,7 @@ class TraceSettings:
     resolution_m: float
     energy_floor_db: float
     direct_path: bool
-    diffraction: bool
-    diffraction_step_m: float
-    diffraction_reflections: bool
-    diffraction_order: int = 1
+    diffraction: Diffraction
     diffraction_pair_step_m: float | None = None
     rays_max: int = 400_000
 
@@ -65,10 +60,7 @@ class TraceSettings:
             energy_floor_db=sim.energy_floor_db,
             direct_path=scene.sensor.direct_path,
             diffraction=sim.diffraction,
-            diffraction_step_m=sim.diffraction_step_m,
-            diffraction_reflections=sim.diffraction_reflections,
-            diffraction_order=sim.diffraction_order,
-            diffraction_pair_step_m=sim.diffraction_step_m
+            diffraction_pair_step_m=sim.diffraction.step_m
             * max(1.0, STEP_FREQUENCY_HZ / max(scene.sensor.call.band_hz)),
             rays_max=sim.rays_max,
         )

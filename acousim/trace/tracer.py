@@ -10,9 +10,9 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 2. Specular refinement (:mod:`.specular`): every candidate plane sequence made an
    exact image-source path, or rejected; and (:mod:`.glints`) the first-order
    specular points of curved surfaces, found without rays.
-3. Edge diffraction (:mod:`.diffraction`, if ``settings.diffraction``): first-order
+3. Edge diffraction (:mod:`.diffraction`, if ``settings.diffraction.enabled``): first-order
    BTM elements of every edge the emitter and the receiver see, optionally with one
-   specular reflection before or after the edge, and (``diffraction_order`` 2) edge
+   specular reflection before or after the edge, and (``diffraction.order`` 2) edge
    to edge; no rays needed (the edges and the
    plane table of the world are built once, :class:`DiffractingGeometry`).
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
@@ -108,14 +108,12 @@ def trace_pose(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
         )
     # 3. edge diffraction
-    if world is not None and caster is not None and settings.diffraction:
+    if world is not None and caster is not None and settings.diffraction.enabled:
         geometry = edges if edges is not None else DiffractingGeometry.of(world)
         if len(geometry.edges):
             options = DiffractionOptions(
                 max_path_m=settings.max_path_m,
-                step_m=settings.diffraction_step_m,
-                reflections=settings.diffraction_reflections,
-                order=settings.diffraction_order,
+                settings=settings.diffraction,
                 floor_db=settings.energy_floor_db,
                 floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
                 pair_step_m=settings.diffraction_pair_step_m,
@@ -179,7 +177,7 @@ class Tracer:
         #: the world's diffracting edges and planes, found once (if diffraction is on)
         self.edges = (
             DiffractingGeometry.of(self.world)
-            if self.world is not None and self.settings.diffraction
+            if self.world is not None and self.settings.diffraction.enabled
             else None
         )
         if self.world is None:

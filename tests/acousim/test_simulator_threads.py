@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 
 from acousim.scene import load_scene
+from acousim.scene.model import Diffraction
 from acousim.simulator import Simulator
 from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions, diffract
 from acousim.trace.world.edges import find_edges
@@ -44,7 +45,7 @@ def test_edge_to_edge_is_the_same_on_two_threads():
     geometry = DiffractingGeometry(
         find_edges(mesh), np.ones(len(mesh.faces)), face_plane=plane_ids(mesh)
     )
-    options = DiffractionOptions(max_path_m=8.0, order=2, floor_level=0.5e-4)
+    options = DiffractionOptions(max_path_m=8.0, floor_level=0.5e-4, settings=Diffraction(order=2))
     out = []
     for threads in (1, 2):
         d = diffract(geometry, RayCaster(mesh.triangles, threads), EMITTER, RECEIVER, options)

@@ -81,7 +81,7 @@ def plate_paths(tmp: Path, side: float, turn_deg: float, distance: float, **simu
     bounce, no energy floor; `simulation` adds or overrides settings): the paths, the
     plate's corners (4, 3), the emitter and the array centre (m)."""
     quads = square_faces("plate", side, turn_z(turn_deg), [distance, 0, 0])
-    settings = {"rays": 20000, "bounces": 1, "diffraction": True, "energy_floor_db": -200.0}
+    settings = {"rays": 20000, "bounces": 1, "energy_floor_db": -200.0}
     paths, emitter, receiver = trace_first_pose(rigid_scene(tmp, quads, {**settings, **simulation}))
     return paths, quads[0], emitter, receiver
 

@@ -51,6 +51,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acousim.scene.model import Diffraction
+
 __all__ = [
     "EdgeCoordinates",
     "EdgeElements",
@@ -66,7 +68,8 @@ __all__ = [
 ]
 
 #: default excess path length per edge element (m): a quarter wavelength at 85 kHz
-DEFAULT_STEP_M = 1e-3
+#: the element step's default: the scene's declaration (:class:`acousim.scene.model.Diffraction`)
+DEFAULT_STEP_M = Diffraction().step_m
 #: default length of the edge's response kept, in excess path length (m); its last
 #: half is tapered (raised cosine) so that the cut makes no spurious end echo
 DEFAULT_MAX_EXCESS_M = 0.05

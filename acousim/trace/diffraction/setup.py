@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acousim.trace.diffraction.btm import DEFAULT_STEP_M
+from acousim.scene.model import Diffraction
 from acousim.trace.world.build import World
 from acousim.trace.world.edges import Edges, merge_collinear, world_edges
 from acousim.trace.world.embree import DISTANCE_TOLERANCE, RAY_OFFSET
@@ -81,29 +81,41 @@ class DiffractingGeometry:
 class DiffractionOptions:
     """How one pose's stage runs (SI units).
 
-    max_path_m: longest path kept; step_m: edge-element step (excess path length,
-    m); reflections: also the paths with one specular reflection before or after
-    the edge; order: 1 (each edge alone) or 2 (also edge to edge, over the pairs of
-    edges that share a plane whose closed-form bound reaches the floor:
-    :mod:`acousim.trace.diffraction.pair_bound`); floor_db: elements weaker than this (dB,
-    negative) relative to the strongest first-order one are dropped before their
-    visibility is checked (pass the tracer's energy floor: its strongest echo is at
-    least as strong, so nothing it would keep is lost); floor_level: elements (and
-    edge pairs whose bound is) weaker than this gain at the receiver are dropped too
-    (the tracer passes its energy floor under the strongest echo found before this
-    stage); select_pairs: False integrates every edge pair in full (to measure what
-    the selection skips); pair_step_m: the element step of edge to edge (excess
-    path length, m; None: step_m); its bins stay ``step_m / 4`` wide.
+    settings: the scene's :class:`~acousim.scene.model.Diffraction` (order, element
+    step, reflections), passed whole; max_path_m: longest path kept; floor_db:
+    elements weaker than this (dB, negative) relative to the strongest first-order one
+    are dropped before their visibility is checked (pass the tracer's energy floor: its
+    strongest echo is at least as strong, so nothing it would keep is lost);
+    floor_level: elements (and edge pairs whose bound is) weaker than this gain at the
+    receiver are dropped too (the tracer passes its energy floor under the strongest
+    echo found before this stage); select_pairs: False integrates every edge pair in
+    full (to measure what the selection skips); pair_step_m: the element step of edge
+    to edge (excess path length, m; None: the settings' step); its bins stay
+    ``step_m / 4`` wide.  Order 2 adds edge to edge over the pairs of edges that share a
+    plane whose closed-form bound reaches the floor (:mod:`acousim.trace.diffraction.pair_bound`).
     """
 
     max_path_m: float
-    step_m: float = DEFAULT_STEP_M
-    reflections: bool = False
-    order: int = 1
+    settings: Diffraction = Diffraction()
     floor_db: float = -np.inf
     floor_level: float = 0.0
     select_pairs: bool = True
     pair_step_m: float | None = None
+
+    @property
+    def step_m(self) -> float:
+        """The edge-element step (excess path length, m) of the settings."""
+        return self.settings.step_m
+
+    @property
+    def order(self) -> int:
+        """1: each edge alone; 2: also edge to edge."""
+        return self.settings.order
+
+    @property
+    def reflections(self) -> bool:
+        """Also edge + one specular reflection."""
+        return self.settings.reflections
 
 
 @dataclass(frozen=True, eq=False)

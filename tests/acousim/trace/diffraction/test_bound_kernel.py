@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from acousim.scene.model import Diffraction
 from acousim.trace.diffraction.edge_to_edge import candidate_pairs
 from acousim.trace.diffraction.pair_bound import ESTIMATE_MARGIN, pair_bound, pair_estimate
 from acousim.trace.diffraction.pair_geometry import PairGeometry
@@ -125,7 +126,7 @@ def test_the_kernel_keeps_the_same_pairs_of_a_scene():
         RayCaster(mesh.triangles, 1),
         EMITTER,
         RECEIVER,
-        DiffractionOptions(max_path_m=8.0, order=2),
+        DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2)),
     )
     rows, _, _ = candidate_pairs(ctx)
     fast = pair_bound(rows, EMITTER, RECEIVER, **LIMITS)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from acousim.scene.model import Diffraction
 from acousim.trace import KIND
 from tests import REPO
 from tests.acousim.trace.diffraction.test_first_order import physical_optics
@@ -41,7 +42,7 @@ def default_paths(tmp_path: Path, quads: list[np.ndarray], max_range_m: float, b
     `quads`, with every simulation setting at its default but the range and the
     beam (nothing about diffraction)."""
     scene = rigid_scene(tmp_path, quads, {"max_range_m": max_range_m, "beam_deg": beam_deg})
-    assert scene.simulation.diffraction and scene.simulation.diffraction_order == 2
+    assert scene.simulation.diffraction == Diffraction(enabled=True, order=2)
     return trace_first_pose(scene)
 
 

@@ -60,8 +60,7 @@ def _screen_paths(tmp_path: Path, material: dict, order: int = 1):
     simulation = {
         "max_range_m": 2.0,
         "rays": 2000,
-        "diffraction": True,
-        "diffraction_order": order,
+        "diffraction": {"order": order},
         "energy_floor_db": -200.0,
         "beam_deg": 60.0,
     }

@@ -25,6 +25,7 @@ import scipy.special as sp
 import trimesh
 
 from acousim.scene import parse_scene
+from acousim.scene.model import Diffraction
 from acousim.trace import KIND
 from acousim.trace.diffraction.btm import edge_elements
 from acousim.trace.diffraction.pairs import Wedge, edge_pair_elements
@@ -352,7 +353,7 @@ def test_edge_to_edge_is_reciprocal():
         geometry = DiffractingGeometry(edges, refl, face_plane=planes)
         errors = []
         for step in (1e-3, 0.25e-3):
-            options = DiffractionOptions(max_path_m=8.0, step_m=step, order=2)
+            options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(step_m=step, order=2))
             fwd = diffract(geometry, caster, s, r, options)
             bwd = diffract(geometry, caster, r, s, options)
             a = _spectrum(fwd, fwd.order == 2, r, k)
@@ -374,7 +375,7 @@ def plate_paths(tmp_path: Path, side, distance, order, turn_deg=0.0):
         distance,
         max_range_m=distance + 1.0,
         beam_deg=30.0,
-        diffraction_order=order,
+        diffraction={"order": order},
     )
 
 
@@ -403,12 +404,12 @@ def test_plate_facing_the_sensor_with_second_order_matches_physical_optics(tmp_p
 
 def test_scene_key_diffraction_order(tmp_path):
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
-    assert parse_scene(base).simulation.diffraction_order == 2  # edge to edge by default
-    sim = parse_scene({**base, "simulation": {"diffraction_order": 1}}).simulation
-    assert sim.diffraction_order == 1
+    assert parse_scene(base).simulation.diffraction.order == 2  # edge to edge by default
+    sim = parse_scene({**base, "simulation": {"diffraction": {"order": 1}}}).simulation
+    assert sim.diffraction.order == 1
     for bad in (0, 3, 1.5, "two"):
-        with pytest.raises(InputError, match="diffraction_order"):
-            parse_scene({**base, "simulation": {"diffraction_order": bad}})
+        with pytest.raises(InputError, match="simulation.diffraction.order"):
+            parse_scene({**base, "simulation": {"diffraction": {"order": bad}}})
 
 
 def test_edge_to_edge_runs_over_a_face_not_across_a_gap():
@@ -428,7 +429,7 @@ def test_edge_to_edge_runs_over_a_face_not_across_a_gap():
         edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
         refl = np.ones(len(mesh.faces))
         geometry = DiffractingGeometry(edges, refl, face_plane=plane_ids(mesh))
-        options = DiffractionOptions(max_path_m=8.0, order=2)
+        options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
         d = diffract(geometry, caster if check else None, o, o, options)
         return int((d.order == 2).sum())
 
@@ -456,7 +457,9 @@ def test_the_stage_finds_the_edge_pairs_of_a_turned_bar():
     edges, caster = find_edges(bar), RayCaster(bar.triangles, 1)
     refl = np.ones(len(bar.faces))
     geometry = DiffractingGeometry(edges, refl, face_plane=plane_ids(bar))
-    paths = diffract(geometry, caster, o, o, DiffractionOptions(max_path_m=8.0, order=2))
+    paths = diffract(
+        geometry, caster, o, o, DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
+    )
     # the bar's middle (the bar's ends and their short edges echo 1.7 m later)
     length = paths.first_leg_m + np.linalg.norm(paths.anchor_m - o, axis=1)
     ours = _spectrum(paths, (paths.order == 2) & (length < 2 * d + 0.5), o, k)

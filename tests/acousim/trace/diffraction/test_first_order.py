@@ -17,6 +17,7 @@ import trimesh
 
 import processing as P
 from acousim.scene import parse_scene
+from acousim.scene.model import Diffraction, Simulation
 from acousim.simulator import Simulator
 from acousim.trace import KIND
 from acousim.trace.diffraction.btm import DEFAULT_STEP_M, ElementLimits, edge_elements
@@ -155,8 +156,8 @@ def test_wedge_matches_the_exact_solution(wedge, f):
 
 def plate_tracer(tmp_path: Path, side, turn_deg=0.0, distance=2.0, beam_deg=10.0, order=1):
     """Paths of a square rigid plate (side, m) at `distance` facing the sensor, turned
-    by turn_deg about z; order: diffraction_order (None: the scene's default)."""
-    more = {} if order is None else {"diffraction_order": order}
+    by turn_deg about z; order: the diffraction order (None: the scene's default)."""
+    more = {} if order is None else {"diffraction": {"order": order}}
     return scenes.plate_paths(
         tmp_path, side, turn_deg, distance, max_range_m=4.0, beam_deg=beam_deg, **more
     )
@@ -291,8 +292,7 @@ def test_hidden_edges_do_not_diffract_and_truth_lists_diffraction(tmp_path):
                 "max_range_m": 3.0,
                 "rays": 2000,
                 "bounces": 1,
-                "diffraction": True,
-                "diffraction_order": 1,
+                "diffraction": {"order": 1},
             },
             "meshes": [{"file": "box.obj"}],
         },
@@ -336,8 +336,8 @@ def test_edge_seen_through_a_floor_reflection(tmp_path):
     )
     floor.export(tmp_path / "floor.obj")
     screen.export(tmp_path / "screen.obj")
-    sim = {"max_range_m": 4.0, "rays": 2000, "bounces": 1, "diffraction": True}
-    sim["diffraction_reflections"] = True
+    sim = {"max_range_m": 4.0, "rays": 2000, "bounces": 1}
+    sim["diffraction"] = {"reflections": True}
     sim["energy_floor_db"] = -200.0
     scene = parse_scene(
         {
@@ -382,11 +382,11 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
 
     paths, v, e, r = plate_tracer(tmp_path, 0.5, 10.0, beam_deg=60)
     simulation = {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 60.0}
-    scene = scenes.rigid_scene(tmp_path, [v], {**simulation, "diffraction": False})
+    scene = scenes.rigid_scene(tmp_path, [v], {**simulation, "diffraction": {"enabled": False}})
     pose = scene.sensor.poses[0]
     silent = Simulator(scene).simulate_pose(pose, 0)
     assert np.max(np.abs(silent.samples)) == 0
-    on = dataclasses.replace(scene.simulation, diffraction=True)
+    on = dataclasses.replace(scene.simulation, diffraction=Diffraction())
     rec = Simulator(dataclasses.replace(scene, simulation=on)).simulate_pose(pose, 0)
     y = matched_filter(rec.samples, rec.waveform.sampled(rec.sample_rate_hz))
     env = np.abs(y).sum(axis=0)
@@ -400,19 +400,32 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
 
 def test_scene_keys_for_diffraction(tmp_path):
     base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
-    assert parse_scene(base).simulation.diffraction is True  # on by default
-    assert (
-        parse_scene({**base, "simulation": {"diffraction": False}}).simulation.diffraction is False
-    )
-    sim = parse_scene(
-        {**base, "simulation": {"diffraction": True, "diffraction_step_m": 0.002}}
-    ).simulation
-    assert sim.diffraction and sim.diffraction_step_m == 0.002
-    assert not sim.diffraction_reflections
-    with pytest.raises(ValueError, match="diffraction"):
+    assert parse_scene(base).simulation.diffraction == Diffraction(enabled=True)  # on by default
+    off = {"diffraction": {"enabled": False}}
+    assert parse_scene({**base, "simulation": off}).simulation.diffraction.enabled is False
+    sim = parse_scene({**base, "simulation": {"diffraction": {"step_m": 0.002}}}).simulation
+    assert sim.diffraction.enabled and sim.diffraction.step_m == 0.002
+    assert not sim.diffraction.reflections
+    with pytest.raises(ValueError, match="simulation.diffraction"):
         parse_scene({**base, "simulation": {"diffraction": "yes"}})
-    with pytest.raises(ValueError, match="diffraction_step_m"):
-        parse_scene({**base, "simulation": {"diffraction_step_m": 0.0}})
+    with pytest.raises(ValueError, match="simulation.diffraction.step_m"):
+        parse_scene({**base, "simulation": {"diffraction": {"step_m": 0.0}}})
+    with pytest.raises(ValueError, match="did you mean 'step_m'"):
+        parse_scene({**base, "simulation": {"diffraction": {"step": 0.002}}})
+
+
+def test_flat_diffraction_keys_still_read_with_a_warning():
+    """The keys before ``[simulation.diffraction]`` (one version's grace): the file's
+    flat keys and the Python keywords give the same settings, with a warning naming
+    the new spelling."""
+    base = {"sensor": {"array": "urtis_v1"}, "points": [{"position_m": [1.0, 0, 0]}]}
+    flat = {"diffraction": False, "diffraction_step_m": 0.002, "diffraction_order": 1}
+    with pytest.warns(DeprecationWarning, match="simulation.diffraction.step_m"):
+        sim = parse_scene({**base, "simulation": flat}).simulation
+    assert sim.diffraction == Diffraction(enabled=False, step_m=0.002, order=1)
+    with pytest.warns(DeprecationWarning, match=r"Diffraction\(enabled=False"):
+        py = Simulation(diffraction=False, diffraction_order=1, diffraction_step_m=0.002)
+    assert py.diffraction == sim.diffraction
 
 
 def test_diffraction_is_reciprocal():
@@ -427,7 +440,10 @@ def test_diffraction_is_reciprocal():
     for mesh in (box, plate):
         edges, caster = find_edges(mesh), RayCaster(mesh.triangles, 1)
         refl = np.ones(len(mesh.faces))
-        geometry, options = DiffractingGeometry(edges, refl), DiffractionOptions(max_path_m=8.0)
+        geometry, options = (
+            DiffractingGeometry(edges, refl),
+            DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=1)),
+        )
         forward = diffract(geometry, caster, s, r, options)
         backward = diffract(geometry, caster, r, s, options)
         assert len(forward) > 0

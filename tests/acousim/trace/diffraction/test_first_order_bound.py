@@ -16,6 +16,7 @@ import trimesh
 
 import acousim.trace.diffraction.first_order as first_order
 from acousim.scene import load_scene
+from acousim.scene.model import Diffraction
 from acousim.simulator import Simulator
 from acousim.trace.diffraction.setup import StageContext
 from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
@@ -68,7 +69,9 @@ def test_the_bound_is_above_every_edges_largest_element(seed):
             rng.normal(0, 0.01, 3) if rng.random() < 0.5 else rng.uniform(-3, 3, 3)
         )
         step = float(rng.choice([1e-3, 2e-3, 5e-3]))
-        options = DiffractionOptions(max_path_m=float(rng.uniform(4, 20)), step_m=step)
+        options = DiffractionOptions(
+            max_path_m=float(rng.uniform(4, 20)), settings=Diffraction(step_m=step, order=1)
+        )
         largest, bound = _largest_and_bound(
             StageContext(geometry, None, emitter, receiver, options)
         )

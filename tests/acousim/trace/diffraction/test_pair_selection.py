@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from acousim.scene.model import Diffraction
 from acousim.trace.diffraction.edge_to_edge import candidate_pairs
 from acousim.trace.diffraction.pair_bound import pair_bound
 from acousim.trace.diffraction.pairs import pair_elements, pair_elements_in, shortest_paths
@@ -71,7 +72,7 @@ def _largest_bins(rows) -> np.ndarray:
 
 def test_the_bound_is_above_every_pairs_largest_path(stage):
     geometry, caster = stage
-    options = DiffractionOptions(max_path_m=8.0, order=2)
+    options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
     assert len(rows) > 50
     largest = _largest_bins(rows)
@@ -88,7 +89,7 @@ def test_what_the_selection_skips_is_below_the_floor(stage):
 
     def paths(select):
         options = DiffractionOptions(
-            max_path_m=8.0, order=2, floor_level=FLOOR, select_pairs=select
+            max_path_m=8.0, settings=Diffraction(order=2), floor_level=FLOOR, select_pairs=select
         )
         d = diffract(geometry, caster, EMITTER, RECEIVER, options)
         sel = (d.order == 2) & (
@@ -125,7 +126,7 @@ def _kernel_and_numpy(rows):
 )
 def test_the_compiled_kernel_and_numpy_agree(stage):
     geometry, caster = stage
-    options = DiffractionOptions(max_path_m=8.0, order=2)
+    options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
     a, b = _kernel_and_numpy(rows)
     np.testing.assert_allclose(
@@ -145,7 +146,7 @@ def test_the_kernel_and_numpy_agree_with_face_reflections(stage, reflection):
     last case, reflections beyond 1 only to get there) opposite weights, and its
     general sum, against the numpy path's four-term sums."""
     geometry, caster = stage
-    options = DiffractionOptions(max_path_m=8.0, order=2)
+    options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
     r1, r2 = reflection
     terms = np.array([r2, 1.0, 1.0, r1])
@@ -163,7 +164,7 @@ def test_the_pairs_shared_among_threads_give_the_same_bytes(stage):
     """The kernel's pairs dealt out to two threads, each filling its own rows of
     the same bins: every path bit for bit as in one thread."""
     geometry, caster = stage
-    options = DiffractionOptions(max_path_m=8.0, order=2)
+    options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
     live = (np.ones((len(rows), 54), bool), 4 * BIN_M)
     one = pair_elements_in(rows, EMITTER, RECEIVER, live, max_path_m=8.0)
@@ -182,7 +183,7 @@ def test_the_live_bins_are_those_of_the_whole_integral(stage):
     whole integral, and it fills every bin of the whole integral that lies in a
     live 1 mm bin."""
     geometry, caster = stage
-    options = DiffractionOptions(max_path_m=8.0, order=2)
+    options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
     mask = np.random.default_rng(1).random((len(rows), 54)) < 0.5
     part = pair_elements_in(rows, EMITTER, RECEIVER, (mask, 4 * BIN_M), max_path_m=8.0)
