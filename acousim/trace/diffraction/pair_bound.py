@@ -87,14 +87,11 @@ __all__ = [
 
 
 def _cylindrical(p, start, end, face_dir, normal):
-    """(r, theta, z, axis, length) of point(s) p about N edges (theta in [0, 2 pi))."""
+    """(r, theta, z, axis, length) of point(s) p about N edges given by their ends
+    (:func:`~acousim.trace.diffraction.pair_geometry.cylindrical`, theta in [0, 2 pi))."""
     length = np.linalg.norm(end - start, axis=1)
     axis = (end - start) / np.maximum(length, 1e-300)[:, None]
-    d = p - start
-    z = _dot(d, axis)
-    v = d - z[:, None] * axis
-    th = np.mod(np.arctan2(_dot(v, normal), _dot(v, face_dir)), 2 * np.pi)
-    return np.linalg.norm(v, axis=1), th, z, axis, length
+    return (*cylindrical(p, start, axis, face_dir, normal), axis, length)
 
 
 def beta_bound(nu: np.ndarray, th_a: np.ndarray, th_b: np.ndarray, terms: np.ndarray):
