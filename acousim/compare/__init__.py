@@ -2,34 +2,10 @@
 matched (:mod:`.comparison`); the real recordings read (:mod:`.inputs`); a trajectory's
 comparisons summed up (:mod:`.summary`)."""
 
-from acousim.compare.comparison import (
-    Alignment,
-    Comparison,
-    ComparisonArrays,
-    ComparisonError,
-    MatchedEcho,
-    MethodComparison,
-    Peak,
-    SideLobe,
-    align,
-    check_comparable,
-    compare,
-    envelope,
-    write_comparison,
-)
+import importlib
 
-__all__ = [
-    "ComparisonError",
-    "check_comparable",
-    "align",
-    "envelope",
-    "compare",
-    "write_comparison",
-    "Peak",
-    "MatchedEcho",
-    "SideLobe",
-    "MethodComparison",
-    "Alignment",
-    "Comparison",
-    "ComparisonArrays",
-]
+
+def __getattr__(name: str) -> object:
+    """The names of :mod:`acousim.compare.comparison` (this package was that one module before the
+    re-layout by concept: ``from acousim.compare import ...`` keeps working)."""
+    return getattr(importlib.import_module("acousim.compare.comparison"), name)

@@ -2,20 +2,10 @@
 traced reflectors (:mod:`.matching`), the pictures (:mod:`.run`), the output folder's
 bookkeeping (:mod:`.outputs`)."""
 
-from acousim.imaging.run import (
-    ImagingOptions,
-    image_recordings,
-    peak_positions,
-    peaks_in_world,
-    prepare_pictures,
-    write_pictures,
-)
+import importlib
 
-__all__ = [
-    "ImagingOptions",
-    "image_recordings",
-    "peak_positions",
-    "peaks_in_world",
-    "prepare_pictures",
-    "write_pictures",
-]
+
+def __getattr__(name: str) -> object:
+    """The names of :mod:`acousim.imaging.run` (this package was that one module before the
+    re-layout by concept: ``from acousim.imaging import ...`` keeps working)."""
+    return getattr(importlib.import_module("acousim.imaging.run"), name)

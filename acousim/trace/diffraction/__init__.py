@@ -7,19 +7,9 @@ the bounds that choose which pairs matter (:mod:`.pair_bound`, compiled in
 :mod:`.bound_kernel`); what the stage works with (:mod:`.setup`) and hands on (:mod:`.paths`)."""
 
 from acousim.trace.diffraction.stage import (
-    DEFAULT_STEP_M,
-    DiffractedPaths,
     DiffractingGeometry,
     DiffractionOptions,
-    diffract,
     edge_diffraction,
 )
 
-__all__ = [
-    "DiffractedPaths",
-    "DiffractingGeometry",
-    "DiffractionOptions",
-    "diffract",
-    "edge_diffraction",
-    "DEFAULT_STEP_M",
-]
+__all__ = ["edge_diffraction", "DiffractingGeometry", "DiffractionOptions"]
