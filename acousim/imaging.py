@@ -22,13 +22,14 @@ from processing.settings import setting, validate
 from .viz.fan import DYNAMIC_RANGE_DB
 
 #: peaks kept within this many dB of each image's strongest cell: the default of
-#: the pictures, the peak files and the bags (one home)
-PEAK_THRESHOLD_DB = -10.0
+#: the pictures, the peak files, the bags and ``Image.peaks()`` (one home, processing's)
+PEAK_THRESHOLD_DB = P.PEAK_THRESHOLD_DB
 
 __all__ = [
     "ImagingOptions",
     "image_recordings",
     "peak_positions",
+    "peak_table",
     "peaks_in_world",
     "prepare_pictures",
     "write_pictures",
@@ -51,9 +52,9 @@ class ImagingOptions:
     """
 
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
-    azimuth_deg: tuple[float, float] = (-90.0, 90.0)
-    elevation_deg: tuple[float, float] = (-40.0, 40.0)
-    step_deg: float = setting(2.0, "deg", 0.1, 45, "grid step")
+    azimuth_deg: tuple[float, float] = P.GRID_AZIMUTH_DEG  # one default: Grid.degrees()'
+    elevation_deg: tuple[float, float] = P.GRID_ELEVATION_DEG
+    step_deg: float = setting(P.GRID_STEP_DEG, "deg", 0.1, 45, "grid step")
     energy_fraction: float = setting(
         P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
         "",
@@ -144,6 +145,61 @@ def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.nda
     ).reshape(-1, 3)
     sensor = rec.array.positions_m.mean(axis=0) + peaks.range_m.reshape(-1, 1) * d
     return sensor, _pose(rec).to_world(sensor)
+
+
+def peak_table(
+    recording: P.Recording,
+    image: P.Image,
+    *,
+    threshold_db: float = PEAK_THRESHOLD_DB,
+    index: int | None = None,
+    window_samples: int = P.ProcessingSettings.window,
+) -> P.PeakTable:
+    """The peaks of `image` (of `recording`) within `threshold_db` (dB) of its strongest
+    cell as rows (:class:`processing.PeakRow`: the columns of ``peaks.csv``), strongest
+    first: positions in the sensor and world frames (m, through the recording's pose),
+    the grid-edge flag and the traced reflector matched within the image's resolution
+    (:mod:`acousim.matching`; `window_samples`: the STFT window the image was made
+    with). `index`: the recording's index in its file (its rows' ``recording``)."""
+    from acousim.matching import image_resolution, match_peaks, on_grid_edge
+
+    pk = image.peaks(threshold_db)
+    if not len(pk):
+        return P.PeakTable()
+    sensor, world = peak_positions(recording, pk)
+    edge = on_grid_edge(image, pk)
+    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
+    rows = []
+    for k, row in enumerate(pk.table()):
+        truth = {}
+        if m.index[k] >= 0:
+            tx, ty, tz = (float(v) for v in m.position_sensor_m[k])
+            truth = {
+                "truth_kind": str(m.kind[k]),
+                "truth_x_m": tx,
+                "truth_y_m": ty,
+                "truth_z_m": tz,
+                "truth_level_db": float(m.level_db[k]),
+                "truth_offset_deg": float(np.rad2deg(m.offset_rad[k])),
+                "truth_behind": bool(m.behind[k]),
+            }
+        (x, y, z), (wx, wy, wz) = (float(v) for v in sensor[k]), (float(v) for v in world[k])
+        rows.append(
+            dataclasses.replace(
+                row,
+                recording=index,
+                x_m=x,
+                y_m=y,
+                z_m=z,
+                world_x_m=wx,
+                world_y_m=wy,
+                world_z_m=wz,
+                on_grid_edge=bool(edge[k]),
+                provenance=recording.provenance.kind,
+                **truth,
+            )
+        )
+    return P.PeakTable(rows)
 
 
 def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:

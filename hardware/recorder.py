@@ -52,6 +52,9 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class RecordStats:
+    """What a recording session met: frames kept, indices lost, corrupt frames,
+    timeouts, reconnections, counter resets and the events noted (counts; no units)."""
+
     frames: int = 0
     lost_indices: list[int] = field(default_factory=list)
     corrupt: int = 0

@@ -20,6 +20,7 @@ from .arrays import (
 )
 from .broadband import (
     BROADBAND_METHODS,
+    Baseband,
     BroadbandSettings,
     Directions,
     Energyscape,
@@ -29,15 +30,17 @@ from .broadband import (
 )
 from .calibration import (
     ArrayCalibration,
+    CalibrationFit,
     apply_calibration,
     attach_calibration,
     find_echo,
     fit_array_calibration,
 )
 from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
-from .doa import NARROWBAND_METHODS, doa_spectrum
+from .api import KeywordError, check_keywords
+from .doa import NARROWBAND_METHODS, SubspaceOptions, doa_spectrum
 from .errors import InputError
-from .image import Image, Peaks, find_peaks, to_db
+from .image import PEAK_THRESHOLD_DB, Image, Peaks, find_peaks, on_grid_edge, to_db
 from .matched_filter import matched_filter
 from .methods import MethodSpec, parse_method
 from .metrics import (
@@ -61,6 +64,7 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
+from .peak_table import PEAK_COLUMNS, PeakRow, PeakTable
 from .pointcloud import PointCloud
 from .provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 from .recording import (
@@ -75,8 +79,16 @@ from .recording import (
 )
 from .smoothing import covariance, smoothed_covariance
 from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
-from .steering import Grid, steering_matrix
-from .waveforms import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
+from .steering import GRID_AZIMUTH_DEG, GRID_ELEVATION_DEG, GRID_STEP_DEG, Grid, steering_matrix
+from .waveforms import (
+    CALLS,
+    Waveform,
+    hyperbolic_sweep,
+    linear_chirp,
+    named_call,
+    paper_chirp,
+    rtis_call,
+)
 from .wideband import WIDEBAND_METHODS
 
 __all__ = [
@@ -102,16 +114,24 @@ __all__ = [
     "BROADBAND_METHODS",
     "WIDEBAND_METHODS",
     "BroadbandSettings",
+    "Baseband",
     "Directions",
     "Energyscape",
     "energyscape",
     "fan",
     "sphere_partition",
     "doa_spectrum",
+    "SubspaceOptions",
     "InputError",
+    "KeywordError",
     "Image",
     "Peaks",
+    "PeakRow",
+    "PeakTable",
+    "PEAK_COLUMNS",
+    "PEAK_THRESHOLD_DB",
     "find_peaks",
+    "on_grid_edge",
     "to_db",
     "matched_filter",
     "angular_resolution",
@@ -148,15 +168,24 @@ __all__ = [
     "BinGate",
     "stft_snapshot",
     "Grid",
+    "GRID_AZIMUTH_DEG",
+    "GRID_ELEVATION_DEG",
+    "GRID_STEP_DEG",
     "steering_matrix",
     "Waveform",
     "hyperbolic_sweep",
     "linear_chirp",
     "paper_chirp",
     "rtis_call",
+    "CALLS",
+    "named_call",
     "ArrayCalibration",
+    "CalibrationFit",
     "apply_calibration",
     "attach_calibration",
     "find_echo",
     "fit_array_calibration",
 ]
+
+# every public constructor and function answers a misspelled keyword as a scene file does
+check_keywords(globals(), __all__)

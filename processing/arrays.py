@@ -398,6 +398,7 @@ def ertis_v3d1(path: str | Path | None = None) -> Array:
     return from_coordinates_file(path, units="mm", name="ertis_v3d1")
 
 
+#: the array presets by name (the scene file's ``[sensor] array``): their functions
 PRESETS = {
     "paper_8x8": paper_8x8,
     "urtis_v1": urtis_v1,

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .api import folded_keywords
 from .arrays import Array
 from .errors import InputError
 from .methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
@@ -274,6 +275,7 @@ def _low_rank_factors(
     return inv0[:, 0], U, d
 
 
+@folded_keywords("options", SubspaceOptions, ("subarray", "loading", "n_sources"), since="0.1.0")
 def doa_spectrum(
     snapshots: np.ndarray,
     array: Array,

@@ -64,6 +64,8 @@ class ProcessingSettings:
     These defaults are the command line's too (``acousim image`` reads them from
     here): one declaration.
     max_bins : keep at most this many range bins (the strongest).
+    grid : the directions imaged (default :meth:`Grid.degrees`: azimuth -90..90 and
+        elevation -40..40 degrees every 2 degrees, the command line's).
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
     n_sources : MUSIC signal subspace size (None: the mean-eigenvalue rule).
@@ -91,7 +93,7 @@ class ProcessingSettings:
         SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
     )
     n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
-    grid: Grid = field(default_factory=lambda: Grid.degrees(step=2.0))
+    grid: Grid = field(default_factory=Grid.degrees)  # the command line's grid
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)
     max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
     memory_limit_bytes: float = setting(

@@ -25,6 +25,8 @@ __all__ = [
     "hyperbolic_sweep",
     "paper_chirp",
     "rtis_call",
+    "CALLS",
+    "named_call",
     "MAX_FREQUENCY_HZ",
     "MAX_DURATION_S",
     "fit_sweep",
@@ -189,6 +191,18 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
         )
     f_max, f_min = presets[preset]
     return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)
+
+
+#: the calls a scene file (``[sensor] call = "..."``), ``acousim.Sensor(call="...")`` and
+#: the command line's ``--call`` name: the RTIS presets and the paper's chirp
+CALLS = ("default_25_50", "default_20_80", "paper")
+
+
+def named_call(name: str) -> Waveform:
+    """The call of a name of :data:`CALLS` (an InputError with a did-you-mean else)."""
+    if name not in CALLS:
+        raise InputError(unknown_choice("call", name, CALLS), key="call", value=name)
+    return paper_chirp() if name == "paper" else rtis_call(name)
 
 
 def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, float, int]:

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from .api import folded_keywords
 from .arrays import Array
 from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from .errors import InputError
@@ -69,6 +70,7 @@ def band_snapshots(
     return np.moveaxis(col, (3, 0), (0, 3))  # (F, M, R, K)
 
 
+@folded_keywords("options", SubspaceOptions, ("subarray", "loading", "n_sources"), since="0.1.0")
 def wideband_spectrum(
     snapshots: np.ndarray,
     array: Array,

@@ -41,17 +41,16 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-#: calls a CHIRP file may be read with (--call): the RTIS presets and the paper's chirp
+#: calls a CHIRP file may be read with (--call): :data:`processing.CALLS`, spelt out
+#: here so that building the parser imports no numpy (a test holds them equal)
 CHIRP_CALLS = ("default_20_80", "default_25_50", "paper")
 
 
 def call_waveform(name: str | None):
-    """The Waveform of a --call name (None: None)."""
+    """The Waveform of a --call name (None: None), as a scene file's call."""
     import processing as P
 
-    if name is None:
-        return None
-    return P.paper_chirp() if name == "paper" else P.rtis_call(name)
+    return None if name is None else P.named_call(name)
 
 
 def load_and_image(args: argparse.Namespace):

@@ -25,8 +25,9 @@ from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
 from processing.settings import Setting, check, read_table, refuse_unknown, settings_of
 
-from .lidar import LIDAR_PRESETS, PRESET, Lidar
+from .lidar import PRESET, Lidar
 from .model import Environment, Material, MeshItem, PointItem, Scene, Sensor, Simulation
+from .names import array_named, call_named, lidar_named, material_named
 from .pose import MAX_COORDINATE_M, Pose, rotation
 from .trajectory import CONTINUOUS, RATES, Trajectory
 
@@ -139,6 +140,14 @@ class _Reader:
     def boolean(self, d: dict, key: str, where: str, default: bool) -> bool:
         return self._check(Setting("bool"), d.get(key, default), f"{where}.{key}")
 
+    def named(self, resolve, value: Any, key: str, *args: Any):
+        """The object a name stands for (:mod:`acousim.scene.names`, the constructors'
+        own resolution), its error keyed with the file."""
+        try:
+            return resolve(value, *args, key=key)
+        except InputError as exc:
+            raise SceneError(exc.reason, file=self.source, key=exc.key, value=exc.value) from None
+
     def _check(self, decl: Setting, value: Any, key: str):
         try:
             return check(decl, value, key, self.source)
@@ -227,7 +236,7 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     file = base / r.string(m, "file", where)
     if not file.is_file():
         raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
-    mat = r.string(m, "material", where, "default", set(materials))
+    mat = r.named(material_named, r.string(m, "material", where, "default"), f"{where}.material", materials)
     units = r.string(m, "units", where, "m", set(UNITS))
     scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
     rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
@@ -236,7 +245,9 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
     groups = r.table(m, "materials", where)
     by_group = {
-        str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
+        str(g): r.named(
+            material_named, r.string(groups, g, f"{where}.materials"), f"{where}.materials.{g}", materials
+        )
         for g in groups
     }
     # a moving mesh: its velocity read through the declaration, its track as a point's
@@ -248,7 +259,7 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     try:
         return MeshItem(
             file,
-            materials[mat],
+            mat,
             T,
             materials=by_group,
             velocity_m_s=velocity,
@@ -271,20 +282,14 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         except (OSError, ValueError) as exc:
             raise r.fail("sensor.coordinates", str(exc), s["coordinates"]) from None
     else:
-        name = r.string(s, "array", "sensor", "urtis_v1", set(P.PRESETS))
-        try:
-            array = P.preset(name)
-        except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
-            raise r.fail("sensor.array", f"cannot load the preset ({exc})", name) from None
+        array = r.named(array_named, r.string(s, "array", "sensor", "urtis_v1"), "sensor.array")
     emitter = r.vector(s, "emitter_m", "sensor", [0.0, 0.0, 0.0])
     array = P.Array(
         array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
     )
     call = s.get("call", "default_25_50")
     if isinstance(call, str):
-        presets = {"default_25_50", "default_20_80", "paper"}
-        name = r.string(s, "call", "sensor", "default_25_50", choices=presets)
-        wf = P.paper_chirp() if name == "paper" else P.rtis_call(name)
+        wf = r.named(call_named, r.string(s, "call", "sensor", "default_25_50"), "sensor.call")
     elif isinstance(call, dict):
         r.check_keys(call, "sensor.call", "sensor.call")
         try:
@@ -327,7 +332,7 @@ def _lidar(r: _Reader, s: dict) -> Lidar | None:
     t = r.table(s, "lidar", "sensor")
     preset = r._check(PRESET, t.get("preset", PRESET.default), "sensor.lidar.preset")
     changed = r.settings(Lidar, t, "sensor.lidar", extra={"preset"})
-    return dataclasses.replace(LIDAR_PRESETS[preset], **changed)
+    return dataclasses.replace(r.named(lidar_named, preset, "sensor.lidar.preset"), **changed)
 
 
 def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):

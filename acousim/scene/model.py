@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -180,14 +181,16 @@ class MeshItem:
         (copied when the world is built: the caller's mesh is never changed).
     transform : (4, 4) maps the mesh's units to metres in the world; ``position_m``
         (3,), when given, is added to its translation (a convenience for code).
-    materials : {group name: Material} for the face groups of a mesh file (OBJ
-        groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names; see
-        ``acousim.trace.geometry.face_groups``); faces of other groups take
+    material : a Material, or the name of one of the scene's materials (as in a scene
+        file: :class:`Scene` resolves it; ``"default"`` at once).
+    materials : {group name: Material or material name} for the face groups of a mesh
+        file (OBJ groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names;
+        see ``acousim.trace.geometry.face_groups``); faces of other groups take
         `material`.  Empty: the whole mesh is `material`.
     """
 
     mesh: Any
-    material: Material = field(default_factory=Material)
+    material: Material | str = field(default_factory=Material)
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     position_m: tuple[float, float, float] | None = None
     materials: dict[str, Material] = field(default_factory=dict)
@@ -221,13 +224,19 @@ class MeshItem:
             raise InputError(
                 "must be a mesh file or a trimesh.Trimesh", key="MeshItem.mesh", value=mesh
             )
-        if not isinstance(self.material, Material):
-            raise InputError("must be a Material", key="MeshItem.material", value=self.material)
+        if self.material == "default":
+            object.__setattr__(self, "material", Material("default"))
+        if not isinstance(self.material, Material | str):
+            raise InputError(
+                "must be a Material or a material's name",
+                key="MeshItem.material",
+                value=self.material,
+            )
         groups = dict(self.materials)
         for group, mat in groups.items():
-            if not isinstance(group, str) or not isinstance(mat, Material):
+            if not isinstance(group, str) or not isinstance(mat, Material | str):
                 raise InputError(
-                    "must map group names (str) to Materials",
+                    "must map group names (str) to Materials or material names",
                     key=f"MeshItem.materials[{group!r}]",
                     value=mat,
                 )
@@ -384,11 +393,19 @@ def _default_call() -> Waveform:
 class Sensor:
     """The sonar: array, emitter, call and sampling, and where it is.
 
-    poses : one Pose or a sequence (a trajectory sampled at `rate_hz`).
+    array : a processing.Array or a preset's name, as in a scene file
+        (``"urtis_v1"``, the default; :data:`processing.PRESETS`).
+    call : a processing.Waveform or a call's name (``"default_25_50"``, the default;
+        :data:`processing.CALLS`).
+    sample_rate_hz : Hz; emitter_radius_m, mic_radius_m : m (0: omnidirectional).
+    poses : one Pose or a sequence (a trajectory sampled at `rate_hz`, Hz).
+    lidar : None, an :class:`acousim.scene.lidar.Lidar` or a preset's name
+        (``"vlp16"``, ``"hdl32e"``).
+    Names are resolved as the scene loader resolves them (:mod:`acousim.scene.names`).
     """
 
-    array: Array = field(default_factory=_default_array)
-    call: Waveform = field(default_factory=_default_call)
+    array: Array | str = field(default_factory=_default_array)
+    call: Waveform | str = field(default_factory=_default_call)
     sample_rate_hz: float = setting(
         RTIS_SAMPLE_RATE_HZ, "Hz", 1e3, 1e8, "sampling rate of the microphones"
     )
@@ -407,14 +424,11 @@ class Sensor:
 
     def __post_init__(self) -> None:
         validate(self)
-        from .lidar import Lidar
+        from .names import array_named, call_named, lidar_named
 
-        if self.lidar is not None and not isinstance(self.lidar, Lidar):
-            raise InputError("must be None or an acousim.scene.lidar.Lidar", key="Sensor.lidar")
-        if not isinstance(self.array, Array):
-            raise InputError("must be a processing.Array", key="Sensor.array", value=self.array)
-        if not isinstance(self.call, Waveform):
-            raise InputError("must be a processing.Waveform", key="Sensor.call", value=self.call)
+        object.__setattr__(self, "lidar", lidar_named(self.lidar, "Sensor.lidar"))
+        object.__setattr__(self, "array", array_named(self.array, "Sensor.array"))
+        object.__setattr__(self, "call", call_named(self.call, "Sensor.call"))
         poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
         if not poses or not all(isinstance(p, Pose) for p in poses):
             raise InputError("must be a Pose or a non-empty sequence of Poses", key="Sensor.poses")
@@ -503,6 +517,25 @@ class Simulation:
         validate(self)
 
 
+def _named_materials(mesh: MeshItem, materials: dict[str, Material], i: int) -> MeshItem:
+    """The mesh with its materials given by name replaced by the scene's
+    (:func:`acousim.scene.names.material_named`)."""
+    from .names import material_named
+
+    named = [mesh.material, *mesh.materials.values()]
+    if not any(isinstance(m, str) for m in named):
+        return mesh
+    key = f"Scene.meshes[{i}]"
+    return dataclasses.replace(
+        mesh,
+        material=material_named(mesh.material, materials, f"{key}.material"),
+        materials={
+            g: material_named(m, materials, f"{key}.materials[{g!r}]")
+            for g, m in mesh.materials.items()
+        },
+    )
+
+
 def memory_limit_bytes() -> float:
     """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
     text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
@@ -519,14 +552,16 @@ def memory_limit_bytes() -> float:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A whole scene; give at least one mesh or point. `materials` defaults to those of
-    the meshes; `source` and `file_sha256` identify a scene file (None in code)."""
+    """A whole scene; give at least one mesh or point. `materials` ({name: Material}
+    or a list of Materials, as a scene file's ``[[materials]]``) defaults to those of
+    the meshes; a mesh's material given by name is one of them (or ``"default"``).
+    `source` and `file_sha256` identify a scene file (None in code)."""
 
     name: str = "scene"
     description: str = ""
     source: Path | None = None
     file_sha256: str | None = None
-    materials: dict[str, Material] = field(default_factory=dict)
+    materials: dict[str, Material] | list[Material] = field(default_factory=dict)
     meshes: tuple[MeshItem, ...] = ()
     points: tuple[PointItem, ...] = ()
     sensor: Sensor = field(default_factory=Sensor)
@@ -553,10 +588,18 @@ class Scene:
         ):
             if not isinstance(value, kind):
                 raise InputError(f"must be a {kind.__name__}", key=key, value=value)
-        materials = {"default": Material("default"), **dict(self.materials)}
+        given = self.materials
+        if not isinstance(given, Mapping):
+            given = {getattr(m, "name", None): m for m in given}
+        for name, mat in given.items():
+            if not isinstance(mat, Material):
+                raise InputError("must hold Materials", key=f"Scene.materials[{name!r}]", value=mat)
+        materials = {"default": Material("default"), **given}
         for m in meshes:
             for mat in (m.material, *m.materials.values()):
-                materials.setdefault(mat.name, mat)
+                if isinstance(mat, Material):
+                    materials.setdefault(mat.name, mat)
+        meshes = tuple(_named_materials(m, materials, i) for i, m in enumerate(meshes))
         object.__setattr__(self, "meshes", meshes)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "materials", materials)

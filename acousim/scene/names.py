@@ -1,0 +1,85 @@
+"""What a scene file names, resolved to objects in one place: the scene loader and the
+Python constructors (``acousim.Sensor(array="urtis_v1", call="paper", lidar="vlp16")``,
+``acousim.MeshItem(..., material="plaster")``) both call these, so a name means the
+same object, and a wrong name gets the same answer (did-you-mean, the choices), on
+both paths. Each takes the name or the object itself (returned unchanged).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import processing as P
+from processing.errors import InputError
+from processing.settings import Setting, check
+
+__all__ = ["array_named", "call_named", "lidar_named", "material_named"]
+
+
+def array_named(value: Any, key: str = "Sensor.array") -> P.Array:
+    """An array preset by name (:data:`processing.PRESETS`), or a processing.Array."""
+    if isinstance(value, P.Array):
+        return value
+    if not isinstance(value, str):
+        raise InputError(
+            f"must be an array preset ({', '.join(P.PRESETS)}) or a processing.Array",
+            key=key,
+            value=value,
+        )
+    _one_of(value, P.PRESETS, key)
+    try:
+        return P.preset(value)
+    except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
+        raise InputError(f"cannot load the preset ({exc})", key=key, value=value) from None
+
+
+def call_named(value: Any, key: str = "Sensor.call") -> P.Waveform:
+    """A call by name (:data:`processing.waveforms.CALLS`), or a processing.Waveform."""
+    if isinstance(value, P.Waveform):
+        return value
+    if not isinstance(value, str):
+        raise InputError(
+            f"must be a call preset ({', '.join(P.CALLS)}) or a processing.Waveform",
+            key=key,
+            value=value,
+        )
+    _one_of(value, P.CALLS, key)
+    return P.named_call(value)
+
+
+def lidar_named(value: Any, key: str = "Sensor.lidar"):
+    """A LiDAR preset by name (:data:`acousim.scene.lidar.LIDAR_PRESETS`), a Lidar, or
+    None (no LiDAR)."""
+    from .lidar import LIDAR_PRESETS, PRESET, Lidar
+
+    if value is None or isinstance(value, Lidar):
+        return value
+    if not isinstance(value, str):
+        raise InputError(
+            f"must be None, a LiDAR preset ({', '.join(LIDAR_PRESETS)}) or an "
+            "acousim.scene.lidar.Lidar",
+            key=key,
+            value=value,
+        )
+    check(PRESET, value, key)  # the scene file's declaration of the preset
+    return LIDAR_PRESETS[value]
+
+
+def material_named(value: Any, materials: Mapping[str, Any], key: str):
+    """A material by name among `materials` ({name: Material}, ``default`` among
+    them), or a Material."""
+    from .model import Material
+
+    if isinstance(value, Material):
+        return value
+    if not isinstance(value, str):
+        raise InputError("must be a Material or a material's name", key=key, value=value)
+    _one_of(value, materials, key)
+    return materials[value]
+
+
+def _one_of(value: str, choices, key: str) -> None:
+    """The scene loader's answer to a name not among `choices`: "is not one of ...;
+    did you mean ...?" (:func:`processing.settings.check`)."""
+    check(Setting("str", choices=tuple(sorted(choices))), value, key)
