@@ -10,6 +10,7 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -17,6 +18,7 @@ import processing as P
 from processing import interrupt
 from processing.atomic import atomic_path
 from processing.errors import InputError
+from processing.pipeline import RANGE_LIMITS_M
 from processing.settings import setting, validate
 
 from .viz.fan import DYNAMIC_RANGE_DB
@@ -63,9 +65,7 @@ class ImagingOptions:
         "keep range bins with at least this fraction of the strongest bin's energy "
         "(the paper uses 0.5)",
     )
-    min_range_m: float = setting(
-        P.ProcessingSettings.range_limits_m[0], "m", 0, 1000, "ignore nearer range bins"
-    )
+    min_range_m: float = setting(RANGE_LIMITS_M[0], "m", 0, 1000, "ignore nearer range bins")
     max_range_m: float | None = setting(
         None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
     )
@@ -130,7 +130,7 @@ def _pose(rec: P.Recording):
     p = rec.provenance.pose
     if p is None:
         return Pose(np.zeros(3))
-    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
+    return Pose(np.asarray(p.position_m, float), p.yaw_rad, p.pitch_rad, p.roll_rad, p.time_s)
 
 
 def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
@@ -171,7 +171,7 @@ def peak_table(
     m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
     rows = []
     for k, row in enumerate(pk.table()):
-        truth = {}
+        truth: dict[str, Any] = {}
         if m.index[k] >= 0:
             tx, ty, tz = (float(v) for v in m.position_sensor_m[k])
             truth = {
@@ -364,7 +364,9 @@ def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOpt
 def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
     """The farthest range a picture may show: the imaged range, within the simulated
     one (the recording's provenance ``max_range_m``, when it was simulated)."""
-    hi = options.settings(rec).range_limits_m[1]
+    limits = options.settings(rec).range_limits_m
+    assert limits is not None  # ImagingOptions.settings sets both ends
+    hi = limits[1]
     simulated = rec.provenance.max_range_m
     if simulated is not None:
         hi = min(hi, simulated)
@@ -384,7 +386,7 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     prov = rec.provenance
     p = prov.pose
     moving = p is not None and (trajectory or p.time_s or prov.pose_index)
-    where = f", t = {p.time_s:.1f} s" if moving else ""
+    where = f", t = {p.time_s:.1f} s" if moving and p is not None else ""
     name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
     return f"{name or prov.kind} — recording {index}{where}"
 
@@ -561,6 +563,7 @@ def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> 
     every = {"in", "off", "behind", "weak"}
     legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
     fig.canvas.draw()
-    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    # the Agg canvas (matplotlib.use("Agg") above) has buffer_rgba; the base class does not
+    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
     plt.close(fig)
     return frame

@@ -34,7 +34,7 @@ from processing.errors import InputError
 from processing.settings import check, setting, settings_of, validate
 
 from .device import DeviceNotFound, DeviceSettings, RtisDevice
-from .pdm import DECIMATION, PDM_RATE_HZ, decode
+from .pdm import DECIMATION, PDM_RATE_HZ, FilterName, decode
 from .protocol import FrameError
 
 __all__ = [
@@ -74,7 +74,7 @@ def decode_frame(
     array: P.Array,
     call: P.Waveform,
     metadata: dict | None = None,
-    fir: np.ndarray | str = "equiripple",
+    fir: np.ndarray | FilterName = "equiripple",
     speed_of_sound_m_s: float = 343.0,
 ) -> P.Recording:
     """Tick words of one measurement -> a Recording at 450 kHz with the array's channel map.
@@ -144,7 +144,7 @@ class Recorder:
         retries: int = 3,
         reconnect_timeout_s: float = 10.0,
         speed_of_sound_m_s: float = 343.0,
-        fir: np.ndarray | str = "equiripple",
+        fir: np.ndarray | FilterName = "equiripple",
     ) -> None:
         self.open_device = open_device
         self.settings = settings

@@ -7,6 +7,7 @@ through :func:`acoustic_images`.  Units are SI throughout (m, s, Hz, rad).
 This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
+from .api import KeywordError, check_keywords
 from .arrays import (
     PRESETS,
     Array,
@@ -37,7 +38,6 @@ from .calibration import (
     fit_array_calibration,
 )
 from .chirp import count_chirp, is_chirp, read_chirp, write_chirp
-from .api import KeywordError, check_keywords
 from .doa import NARROWBAND_METHODS, SubspaceOptions, doa_spectrum
 from .errors import InputError
 from .image import PEAK_THRESHOLD_DB, Image, Peaks, find_peaks, on_grid_edge, to_db
@@ -51,6 +51,7 @@ from .metrics import (
     range_resolution,
     solid_angle_3db,
 )
+from .peak_table import PEAK_COLUMNS, PeakRow, PeakTable
 from .pipeline import (
     METHODS,
     Method,
@@ -64,7 +65,6 @@ from .pipeline import (
     recording_snapshot,
     requires_ura,
 )
-from .peak_table import PEAK_COLUMNS, PeakRow, PeakTable
 from .pointcloud import PointCloud
 from .provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 from .recording import (

@@ -65,6 +65,9 @@ class Peaks:
     def __len__(self) -> int:
         return self.level_db.size
 
+    def __repr__(self) -> str:
+        return "Peaks" + repr(self.table()).removeprefix("PeakTable")
+
     def table(self) -> PeakTable:
         """The peaks as rows (:class:`processing.PeakTable`), without a recording (see
         the class docstring)."""
@@ -201,10 +204,10 @@ def find_peaks(
         p = p.copy()
         p[:, pole, :] = p[:, pole, :].max(axis=2, keepdims=True)
     local = maximum_filter(p, size=3, mode="nearest")
-    for e in np.flatnonzero(pole) if image.azimuth_rad.size > 1 else ():
+    for e_pole in np.flatnonzero(pole) if image.azimuth_rad.size > 1 else ():
         # the pole is one cell: its neighbours are the whole ring of the next elevation
-        ring = p[:, max(e - 1, 0) : e + 2, :].max(axis=(1, 2))
-        local[:, e, :] = maximum_filter(ring, size=3, mode="nearest")[:, None]
+        ring = p[:, max(e_pole - 1, 0) : e_pole + 2, :].max(axis=(1, 2))
+        local[:, e_pole, :] = maximum_filter(ring, size=3, mode="nearest")[:, None]
     level = to_db(p)
     mask = (p >= local) & (level >= threshold_db)
     idx = np.argwhere(mask)

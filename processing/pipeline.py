@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import cast
 
 import numpy as np
 
@@ -21,7 +22,15 @@ from .doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from .errors import InputError
 from .image import Image
 from .matched_filter import matched_filter
-from .methods import METHODS, Method, check_method, parse_method, requires_ura
+from .methods import (
+    METHODS,
+    BroadbandMethod,
+    Method,
+    WidebandMethod,
+    check_method,
+    parse_method,
+    requires_ura,
+)
 from .recording_types import Recording
 from .settings import setting, validate
 from .snapshot import BinGate, Snapshot, Stft, stft_snapshot
@@ -46,6 +55,8 @@ __all__ = [
 #: Default limit on the memory one imaging call may allocate (bytes); override with
 #: ``ProcessingSettings(memory_limit_bytes=...)``.
 MEMORY_LIMIT_BYTES = 4 * 2**30
+#: the default range considered (m): from beyond the emitter-to-microphone crosstalk
+RANGE_LIMITS_M: tuple[float, float] = (0.25, float("inf"))
 
 
 @dataclass(frozen=True)
@@ -85,7 +96,7 @@ class ProcessingSettings:
         1e-3, "", 0, 1, "keep range bins with at least this fraction of the strongest's energy"
     )
     #: (min, max) m, max may be inf; None: all (checked in __post_init__)
-    range_limits_m: tuple[float, float] | None = (0.25, float("inf"))
+    range_limits_m: tuple[float, float] | None = RANGE_LIMITS_M
     max_bins: int | None = setting(None, "", 1, 1 << 30, "keep the strongest bins", kind="int")
     #: smoothing subarray (rows, columns); None: 5/8 of each dimension
     subarray: tuple[int, int] | None = None
@@ -260,7 +271,8 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
         hi = min(hi, recording.speed_of_sound_m_s * t_end / 2)
         bb = replace(bb, range_limits_m=(lo, hi))
     grid = settings.grid
-    es = energyscape(recording, Directions.from_grid(grid), method, bb)
+    # (a name check_method has checked: one of the broadband methods)
+    es = energyscape(recording, Directions.from_grid(grid), cast(BroadbandMethod, method), bb)
     lo, hi = recording.waveform.band_hz
     return Image(
         power=es.to_grid(),
@@ -319,7 +331,7 @@ def acoustic_images(
                 recording.array,
                 freqs,
                 grid,
-                method,
+                cast(WidebandMethod, method),  # checked: one of the wideband methods
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
                 options=settings.subspace,
             )

@@ -87,9 +87,7 @@ GATE_DEFAULTS = BinGate()
 
 
 @folded_keywords("stft", Stft, ("window", "overlap", "window_type"), since="0.1.0")
-@folded_keywords(
-    "gate", BinGate, ("energy_fraction", "range_limits_m", "max_bins"), since="0.1.0"
-)
+@folded_keywords("gate", BinGate, ("energy_fraction", "range_limits_m", "max_bins"), since="0.1.0")
 def stft_snapshot(
     mf: np.ndarray,
     sample_rate_hz: float,

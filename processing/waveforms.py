@@ -246,12 +246,13 @@ def _fit_from(x: np.ndarray, fs: float) -> tuple[Waveform, float]:
     if strong.sum() < 4:
         raise ValueError("the call is too short or too weak to fit")
     T = x.size / fs
-    best = None
+    best: tuple | None = None
     for kind, g, inv in (("linear", f, lambda v: v), ("hyperbolic", 1 / f, lambda v: 1 / v)):
         coef = np.polyfit(t[strong], g[strong], 1)
         resid = np.std(inv(np.polyval(coef, t[strong])) - f[strong])
         if best is None or resid < best[0]:
             best = (resid, kind, inv(np.polyval(coef, 0.0)), inv(np.polyval(coef, T)))
+    assert best is not None  # the loop ran twice
     _, kind, f0, f1 = best
     if not (f0 > 0 and f1 > 0 and np.isfinite(f0) and np.isfinite(f1)):
         raise ValueError("the call's frequency does not follow a sweep")

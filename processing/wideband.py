@@ -100,6 +100,8 @@ def wideband_spectrum(
         if music:
             p = np.divide(1.0, p, out=np.zeros_like(p), where=p > 0)
         acc = p if acc is None else acc + p
+    if acc is None:
+        raise InputError("no frequencies to sum", key="freqs_hz", value=freqs_hz)
     acc /= len(freqs_hz)
     if music:
         acc = np.divide(1.0, acc, out=np.zeros_like(acc), where=acc > 0)

@@ -148,10 +148,14 @@ def test_every_public_callable_refuses_an_unknown_keyword():
 
 
 def _names_used(text: str) -> set[str]:
-    """`acousim.a.b...` attribute chains in the Python code blocks of a document."""
-    blocks = re.findall(r"```python\n(.*?)```", text, re.S) + re.findall(r"`([^`\n]+)`", text)
-    found = (re.findall(r"(?<![\w\"'.])acousim(?:\.[A-Za-z_]\w*)+", b) for b in blocks)
-    return set().union(*found)  # (not "acousim.chirp": a schema's name in quotes)
+    """`acousim.a.b...` attribute chains in the Python code blocks of a document, and
+    the calls in its inline code (not a file's attribute such as `acousim.chirp`)."""
+    chain = r"(?<![\w\"'./])acousim(?:\.[A-Za-z_]\w*)+"
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    inline = re.findall(r"`([^`\n]+)`", text)
+    found = [set(re.findall(chain, b)) for b in blocks]
+    found += [{m[:-1] for m in re.findall(chain + r"\(", c)} for c in inline]
+    return set().union(*found)
 
 
 def test_import_acousim_is_enough_for_every_name_the_docs_use():
@@ -159,7 +163,7 @@ def test_import_acousim_is_enough_for_every_name_the_docs_use():
     names = sorted(set().union(*(_names_used(p.read_text()) for p in docs)))
     assert "acousim.process.configure" in names
     names = [n for n in names if not n.startswith("acousim.cli")]  # the command line's modules
-    code = "import acousim\nfor n in %r:\n    eval(n)\nprint('ok')" % names
+    code = f"import acousim\nfor n in {names!r}:\n    eval(n)\nprint('ok')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.stdout.strip() == "ok", out.stderr[-2000:]
 
@@ -273,8 +277,13 @@ def test_the_csv_writes_the_rows_of_peak_table(tmp_path):
     p_sensor = np.array([1.0, 0.5, 0.2])
     scene = acousim.Scene(
         points=[acousim.PointItem(position_m=tuple(pos + rot @ p_sensor))],
-        sensor=acousim.Sensor(array="paper_8x8", call="paper", sample_rate_hz=500e3,
-                              direct_path=False, poses=acousim.Pose(pos, yaw)),  # fmt: skip
+        sensor=acousim.Sensor(
+            array="paper_8x8",
+            call="paper",
+            sample_rate_hz=500e3,
+            direct_path=False,
+            poses=acousim.Pose(pos, yaw),
+        ),  # fmt: skip
         simulation=acousim.Simulation(max_range_m=2.0, snr_db=20.0, absorption=False, seed=5),
     )
     (rec,) = acousim.Simulator(scene).run()

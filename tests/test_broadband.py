@@ -192,7 +192,9 @@ def test_memory_estimate_refuses_a_huge_grid():
         P.acoustic_images(rec, ["das"], P.ProcessingSettings(grid=grid))
     with pytest.raises(P.InputError, match=r"GiB.*limit"):
         P.acoustic_images(rec, ["das-bb"], P.ProcessingSettings(grid=grid))
-    small = P.ProcessingSettings(grid=P.Grid.degrees(elevation=(-90, 90), step=10.0), memory_limit_bytes=1e3)
+    small = P.ProcessingSettings(
+        grid=P.Grid.degrees(elevation=(-90, 90), step=10.0), memory_limit_bytes=1e3
+    )
     with pytest.raises(P.InputError, match="limit of 0.0 GiB"):
         P.acoustic_images(rec, ["das"], small)
 

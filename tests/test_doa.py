@@ -110,7 +110,9 @@ def test_urtis_smoothing_and_irregular_array_refusal():
         doa_spectrum(xi, irregular, 27000.0, grid, "music-fbss")
     for method in ["das", "music", "capon"]:
         got = peak_deg(
-            doa_spectrum(xi, irregular, 27000.0, P.Grid.degrees(elevation=(-90, 90), step=2.0), method),
+            doa_spectrum(
+                xi, irregular, 27000.0, P.Grid.degrees(elevation=(-90, 90), step=2.0), method
+            ),
             P.Grid.degrees(elevation=(-90, 90), step=2.0),
         )
         assert got == pytest.approx((10, 5), abs=2.0)
@@ -130,10 +132,14 @@ def test_two_coherent_sources_need_smoothing():
 def test_unknown_method_and_bad_shapes():
     arr = P.paper_8x8()
     with pytest.raises(ValueError, match="method = 'bogus': unknown DOA method.*das"):
-        doa_spectrum(np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), "bogus")
+        doa_spectrum(
+            np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), "bogus"
+        )
     for loose in ("DAS", "capon_fbss", " das"):  # one spelling, checked in one place
         with pytest.raises(P.InputError if hasattr(P, "InputError") else ValueError):
-            doa_spectrum(np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), loose)
+            doa_spectrum(
+                np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), loose
+            )
         with pytest.raises(ValueError, match="unknown method"):
             P.check_method(loose)
     with pytest.raises(ValueError, match="M=64"):
@@ -163,7 +169,9 @@ def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
     rng = np.random.default_rng(3)
     U = rng.standard_normal((R, nz * ny, S)) + 1j * rng.standard_normal((R, nz * ny, S))
     d, c0 = rng.standard_normal((R, S)), rng.standard_normal(R)
-    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C)
+    kern = coarray_kernel(
+        (nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C
+    )
     got = kern.coefficients_low_rank(c0, U, d)
     want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
     for r in range(R):
@@ -186,7 +194,9 @@ def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
     A = rng.standard_normal((R, L, L))
     Qr = A + A.transpose(0, 2, 1)
     T, _ = np.linalg.qr(rng.standard_normal((L, L)) + 1j * rng.standard_normal((L, L)))
-    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C)
+    kern = coarray_kernel(
+        (nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C
+    )
     got = kern.coefficients_unitary(Qr, T)
     want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
     for r in range(R):

@@ -26,7 +26,9 @@ def test_non_finite_samples_name_channel_and_sample():
     snaps[9, 2] = np.nan
     for method in ("das", "music", "capon", "music-fbss", "capon-fbss"):
         with pytest.raises(P.InputError, match="microphone 9, range bin 2"):
-            doa_spectrum(snaps, P.paper_8x8(), F, P.Grid.degrees(elevation=(-90, 90), step=10), method)
+            doa_spectrum(
+                snaps, P.paper_8x8(), F, P.Grid.degrees(elevation=(-90, 90), step=10), method
+            )
 
 
 def test_range_resolution_of_an_image_without_range_bins():
@@ -75,7 +77,9 @@ def test_extreme_magnitudes_give_the_same_spectrum(method):
 
 def test_an_empty_recording_images_to_no_range_bins_not_an_error():
     rec = echo_recording(P.paper_8x8(), [], n_samples=2048)
-    img = P.acoustic_image(rec, "das", P.ProcessingSettings(grid=P.Grid.degrees(elevation=(-90, 90), step=10)))
+    img = P.acoustic_image(
+        rec, "das", P.ProcessingSettings(grid=P.Grid.degrees(elevation=(-90, 90), step=10))
+    )
     assert img.power.shape[0] == 0
 
 

@@ -15,6 +15,7 @@ import dataclasses
 import hashlib
 import math
 import tomllib
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -95,7 +96,7 @@ class _Reader:
         except InputError as exc:
             raise SceneError(exc.reason, file=exc.file, key=exc.key) from None
 
-    def settings(self, cls: type, table: dict, where: str, extra: set[str] = frozenset()):
+    def settings(self, cls: type, table: dict, where: str, extra: Iterable[str] = frozenset()):
         """The declared settings of `cls` in `table` (checked), unknown keys refused."""
         try:
             return read_table(cls, table, where=where, file=self.source, extra=extra)
@@ -236,7 +237,9 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     file = base / r.string(m, "file", where)
     if not file.is_file():
         raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
-    mat = r.named(material_named, r.string(m, "material", where, "default"), f"{where}.material", materials)
+    mat = r.named(
+        material_named, r.string(m, "material", where, "default"), f"{where}.material", materials
+    )
     units = r.string(m, "units", where, "m", set(UNITS))
     scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
     rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
@@ -246,7 +249,10 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     groups = r.table(m, "materials", where)
     by_group = {
         str(g): r.named(
-            material_named, r.string(groups, g, f"{where}.materials"), f"{where}.materials.{g}", materials
+            material_named,
+            r.string(groups, g, f"{where}.materials"),
+            f"{where}.materials.{g}",
+            materials,
         )
         for g in groups
     }
@@ -371,15 +377,15 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
             except ValueError as exc:
                 raise r.fail("sensor.trajectory.file", f"{file}: {exc}") from None
         else:
-            rows = t.get("poses")
-            if not isinstance(rows, list) or not rows:
+            given = t.get("poses")
+            if not isinstance(given, list) or not given:
                 raise r.fail(
                     "sensor.trajectory.poses",
                     "must be a non-empty list of "
                     "[x, y, z, yaw_deg] (optionally pitch_deg, roll_deg)",
                 )
             try:
-                rows = np.array(rows, float)
+                rows = np.array(given, float)
             except (ValueError, TypeError):
                 raise r.fail("sensor.trajectory.poses", "rows must be lists of numbers") from None
         if rows.ndim != 2 or rows.shape[1] not in (4, 5, 6) or not np.all(np.isfinite(rows)):
@@ -393,7 +399,8 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
                 r._check(decl, float(v), f"sensor.trajectory row {i} {name}")
         ang = np.deg2rad(np.pad(rows[:, 3:], ((0, 0), (0, 6 - rows.shape[1]))))
         return tuple(
-            Pose(row[:3], *a, time_s=i / rate) for i, (row, a) in enumerate(zip(rows, ang))
+            Pose(row[:3], a[0], a[1], a[2], time_s=i / rate)
+            for i, (row, a) in enumerate(zip(rows, ang))
         ), rate
     p = r.table(s, "pose", "sensor")
     r.check_keys(p, "sensor.pose", "sensor.pose")

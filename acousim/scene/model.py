@@ -25,10 +25,10 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -147,8 +147,8 @@ class Material:
         """(reflection, diffuse): the single numbers the tracer uses; a table's
         largest reflection and mean diffuse fraction
         (:func:`acousim.core.materials.reference`), the numbers themselves otherwise."""
-        if not self.frequency_dependent:
-            return self.reflection, self.diffuse
+        if not self.frequency_dependent:  # single numbers (checked in __post_init__)
+            return self.reflection, self.diffuse  # type: ignore[return-value]
         from acousim.core.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
@@ -167,10 +167,11 @@ class Material:
         from acousim.core.materials import interpolate
 
         table = np.multiply(self.frequencies_khz, 1e3)
-        return tuple(
+        reflection, diffuse = (
             interpolate(f, table, np.broadcast_to(getattr(self, k), table.shape))
             for k in ("reflection", "diffuse")
         )
+        return reflection, diffuse
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,8 +182,7 @@ class MeshItem:
         (copied when the world is built: the caller's mesh is never changed).
     transform : (4, 4) maps the mesh's units to metres in the world; ``position_m``
         (3,), when given, is added to its translation (a convenience for code).
-    material : a Material, or the name of one of the scene's materials (as in a scene
-        file: :class:`Scene` resolves it; ``"default"`` at once).
+    material : a Material or the name of one of the scene's (:class:`Scene` resolves it).
     materials : {group name: Material or material name} for the face groups of a mesh
         file (OBJ groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names;
         see ``acousim.trace.geometry.face_groups``); faces of other groups take
@@ -224,14 +224,8 @@ class MeshItem:
             raise InputError(
                 "must be a mesh file or a trimesh.Trimesh", key="MeshItem.mesh", value=mesh
             )
-        if self.material == "default":
-            object.__setattr__(self, "material", Material("default"))
-        if not isinstance(self.material, Material | str):
-            raise InputError(
-                "must be a Material or a material's name",
-                key="MeshItem.material",
-                value=self.material,
-            )
+        if not isinstance(mat := self.material, Material | str):
+            raise InputError("must be a Material or a name", key="MeshItem.material", value=mat)
         groups = dict(self.materials)
         for group, mat in groups.items():
             if not isinstance(group, str) or not isinstance(mat, Material | str):
@@ -377,35 +371,18 @@ class Environment:
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
 
-def _default_array() -> Array:
-    from processing import urtis_v1
-
-    return urtis_v1()
-
-
-def _default_call() -> Waveform:
-    from processing import rtis_call
-
-    return rtis_call("default_25_50")
-
-
 @dataclass(frozen=True, eq=False)
 class Sensor:
     """The sonar: array, emitter, call and sampling, and where it is.
 
-    array : a processing.Array or a preset's name, as in a scene file
-        (``"urtis_v1"``, the default; :data:`processing.PRESETS`).
-    call : a processing.Waveform or a call's name (``"default_25_50"``, the default;
-        :data:`processing.CALLS`).
-    sample_rate_hz : Hz; emitter_radius_m, mic_radius_m : m (0: omnidirectional).
+    array, call, lidar : objects, or names as in a scene file (``"urtis_v1"``, the
+        default; ``"default_25_50"``, the default; ``"vlp16"``), resolved by the
+        loader's code (:mod:`acousim.scene.names`).
     poses : one Pose or a sequence (a trajectory sampled at `rate_hz`, Hz).
-    lidar : None, an :class:`acousim.scene.lidar.Lidar` or a preset's name
-        (``"vlp16"``, ``"hdl32e"``).
-    Names are resolved as the scene loader resolves them (:mod:`acousim.scene.names`).
     """
 
-    array: Array | str = field(default_factory=_default_array)
-    call: Waveform | str = field(default_factory=_default_call)
+    array: Array = cast(Any, "urtis_v1")  # a name, resolved when constructed
+    call: Waveform = cast(Any, "default_25_50")
     sample_rate_hz: float = setting(
         RTIS_SAMPLE_RATE_HZ, "Hz", 1e3, 1e8, "sampling rate of the microphones"
     )
@@ -421,6 +398,12 @@ class Sensor:
     #: a LiDAR beside the sonar (:class:`acousim.scene.lidar.Lidar`), scanning at
     #: every pose; None: none
     lidar: Any = None
+
+    if TYPE_CHECKING:  # the constructor takes names too; the fields hold the objects
+
+        def __init__(
+            self, array: Array | str = ..., call: Waveform | str = ..., **k: Any
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         validate(self)
@@ -517,25 +500,6 @@ class Simulation:
         validate(self)
 
 
-def _named_materials(mesh: MeshItem, materials: dict[str, Material], i: int) -> MeshItem:
-    """The mesh with its materials given by name replaced by the scene's
-    (:func:`acousim.scene.names.material_named`)."""
-    from .names import material_named
-
-    named = [mesh.material, *mesh.materials.values()]
-    if not any(isinstance(m, str) for m in named):
-        return mesh
-    key = f"Scene.meshes[{i}]"
-    return dataclasses.replace(
-        mesh,
-        material=material_named(mesh.material, materials, f"{key}.material"),
-        materials={
-            g: material_named(m, materials, f"{key}.materials[{g!r}]")
-            for g, m in mesh.materials.items()
-        },
-    )
-
-
 def memory_limit_bytes() -> float:
     """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
     text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
@@ -552,21 +516,24 @@ def memory_limit_bytes() -> float:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A whole scene; give at least one mesh or point. `materials` ({name: Material}
-    or a list of Materials, as a scene file's ``[[materials]]``) defaults to those of
-    the meshes; a mesh's material given by name is one of them (or ``"default"``).
+    """A whole scene; give at least one mesh or point. `materials` ({name: Material} or
+    a list) defaults to those of the meshes (a mesh's material name is one of them);
     `source` and `file_sha256` identify a scene file (None in code)."""
 
     name: str = "scene"
     description: str = ""
     source: Path | None = None
     file_sha256: str | None = None
-    materials: dict[str, Material] | list[Material] = field(default_factory=dict)
+    materials: dict[str, Material] = field(default_factory=dict)
     meshes: tuple[MeshItem, ...] = ()
     points: tuple[PointItem, ...] = ()
     sensor: Sensor = field(default_factory=Sensor)
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
+
+    if TYPE_CHECKING:  # the constructor takes a list of Materials too
+
+        def __init__(self, *a: Any, materials: Mapping | Sequence = ..., **k: Any) -> None: ...
 
     def __post_init__(self) -> None:
         meshes, points = tuple(self.meshes), tuple(self.points)
@@ -581,25 +548,16 @@ class Scene:
             raise InputError(
                 "the scene has neither meshes nor points: nothing can echo", key="Scene.meshes"
             )
-        for key, value, kind in (
+        for key, value, expected in (
             ("Scene.sensor", self.sensor, Sensor),
             ("Scene.environment", self.environment, Environment),
             ("Scene.simulation", self.simulation, Simulation),
         ):
-            if not isinstance(value, kind):
-                raise InputError(f"must be a {kind.__name__}", key=key, value=value)
-        given = self.materials
-        if not isinstance(given, Mapping):
-            given = {getattr(m, "name", None): m for m in given}
-        for name, mat in given.items():
-            if not isinstance(mat, Material):
-                raise InputError("must hold Materials", key=f"Scene.materials[{name!r}]", value=mat)
-        materials = {"default": Material("default"), **given}
-        for m in meshes:
-            for mat in (m.material, *m.materials.values()):
-                if isinstance(mat, Material):
-                    materials.setdefault(mat.name, mat)
-        meshes = tuple(_named_materials(m, materials, i) for i, m in enumerate(meshes))
+            if not isinstance(value, expected):
+                raise InputError(f"must be a {expected.__name__}", key=key, value=value)
+        from .names import scene_materials
+
+        materials, meshes = scene_materials(self.materials, meshes, Material)
         object.__setattr__(self, "meshes", meshes)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "materials", materials)

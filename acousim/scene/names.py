@@ -7,6 +7,7 @@ both paths. Each takes the name or the object itself (returned unchanged).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -14,7 +15,7 @@ import processing as P
 from processing.errors import InputError
 from processing.settings import Setting, check
 
-__all__ = ["array_named", "call_named", "lidar_named", "material_named"]
+__all__ = ["array_named", "call_named", "lidar_named", "material_named", "scene_materials"]
 
 
 def array_named(value: Any, key: str = "Sensor.array") -> P.Array:
@@ -68,13 +69,9 @@ def lidar_named(value: Any, key: str = "Sensor.lidar"):
 
 def material_named(value: Any, materials: Mapping[str, Any], key: str):
     """A material by name among `materials` ({name: Material}, ``default`` among
-    them), or a Material."""
-    from .model import Material
-
-    if isinstance(value, Material):
-        return value
+    them); anything else as it is (a Material: :class:`MeshItem` checks)."""
     if not isinstance(value, str):
-        raise InputError("must be a Material or a material's name", key=key, value=value)
+        return value
     _one_of(value, materials, key)
     return materials[value]
 
@@ -83,3 +80,38 @@ def _one_of(value: str, choices, key: str) -> None:
     """The scene loader's answer to a name not among `choices`: "is not one of ...;
     did you mean ...?" (:func:`processing.settings.check`)."""
     check(Setting("str", choices=tuple(sorted(choices))), value, key)
+
+
+def scene_materials(given: Any, meshes: tuple, material: Any) -> tuple[dict[str, Any], tuple]:
+    """A scene's materials by name (`given`: {name: Material} or a list, as a scene
+    file's ``[[materials]]``; ``default`` and the meshes' own added) and its `meshes`
+    with every material given by name replaced by the scene's. `material`: the
+    Material class (this module does not import the model)."""
+    by_name = (
+        dict(given) if isinstance(given, Mapping) else {getattr(m, "name", m): m for m in given}
+    )
+    for name, mat in by_name.items():
+        if not isinstance(mat, material):
+            raise InputError("must hold Materials", key=f"Scene.materials[{name!r}]", value=mat)
+    materials: dict[str, Any] = {"default": material("default"), **by_name}
+    for m in meshes:
+        for mat in (m.material, *m.materials.values()):
+            if isinstance(mat, material):
+                materials.setdefault(mat.name, mat)
+    return materials, tuple(
+        _mesh_named(m, materials, f"Scene.meshes[{i}]") for i, m in enumerate(meshes)
+    )
+
+
+def _mesh_named(mesh: Any, materials: Mapping[str, Any], key: str) -> Any:
+    """The mesh (a MeshItem) with its materials given by name replaced by the scene's."""
+    if not any(isinstance(m, str) for m in (mesh.material, *mesh.materials.values())):
+        return mesh
+    return dataclasses.replace(
+        mesh,
+        material=material_named(mesh.material, materials, f"{key}.material"),
+        materials={
+            g: material_named(m, materials, f"{key}.materials[{g!r}]")
+            for g, m in mesh.materials.items()
+        },
+    )
