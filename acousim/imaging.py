@@ -161,45 +161,31 @@ def peak_table(
     the grid-edge flag and the traced reflector matched within the image's resolution
     (:mod:`acousim.matching`; `window_samples`: the STFT window the image was made
     with). `index`: the recording's index in its file (its rows' ``recording``)."""
-    from acousim.matching import image_resolution, match_peaks, on_grid_edge
+    from acousim.matching import image_resolution, match_peaks
 
     pk = image.peaks(threshold_db)
-    if not len(pk):
-        return P.PeakTable()
     sensor, world = peak_positions(recording, pk)
-    edge = on_grid_edge(image, pk)
+    table = pk.table(
+        sensor_m=sensor, world_m=world, recording=index, provenance=recording.provenance.kind
+    )
     m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
-    rows = []
-    for k, row in enumerate(pk.table()):
-        truth: dict[str, Any] = {}
-        if m.index[k] >= 0:
-            tx, ty, tz = (float(v) for v in m.position_sensor_m[k])
-            truth = {
-                "truth_kind": str(m.kind[k]),
-                "truth_x_m": tx,
-                "truth_y_m": ty,
-                "truth_z_m": tz,
-                "truth_level_db": float(m.level_db[k]),
-                "truth_offset_deg": float(np.rad2deg(m.offset_rad[k])),
-                "truth_behind": bool(m.behind[k]),
-            }
-        (x, y, z), (wx, wy, wz) = (float(v) for v in sensor[k]), (float(v) for v in world[k])
-        rows.append(
-            dataclasses.replace(
-                row,
-                recording=index,
-                x_m=x,
-                y_m=y,
-                z_m=z,
-                world_x_m=wx,
-                world_y_m=wy,
-                world_z_m=wz,
-                on_grid_edge=bool(edge[k]),
-                provenance=recording.provenance.kind,
-                **truth,
-            )
-        )
-    return P.PeakTable(rows)
+    return P.PeakTable([dataclasses.replace(row, **_truth(m, k)) for k, row in enumerate(table)])
+
+
+def _truth(match, k: int) -> dict[str, Any]:
+    """The truth columns of peak `k` of a :class:`acousim.matching.Match` ({}: none)."""
+    if match.index[k] < 0:
+        return {}
+    tx, ty, tz = (float(v) for v in match.position_sensor_m[k])
+    return {
+        "truth_kind": str(match.kind[k]),
+        "truth_x_m": tx,
+        "truth_y_m": ty,
+        "truth_z_m": tz,
+        "truth_level_db": float(match.level_db[k]),
+        "truth_offset_deg": float(np.rad2deg(match.offset_rad[k])),
+        "truth_behind": bool(match.behind[k]),
+    }
 
 
 def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:

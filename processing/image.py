@@ -68,16 +68,30 @@ class Peaks:
     def __repr__(self) -> str:
         return "Peaks" + repr(self.table()).removeprefix("PeakTable")
 
-    def table(self) -> PeakTable:
-        """The peaks as rows (:class:`processing.PeakTable`), without a recording (see
-        the class docstring)."""
+    def table(
+        self,
+        *,
+        sensor_m: np.ndarray | None = None,
+        world_m: np.ndarray | None = None,
+        recording: int | None = None,
+        provenance: str = "",
+    ) -> PeakTable:
+        """The peaks as rows (:class:`processing.PeakTable`). `sensor_m`, `world_m`
+        (P, 3): the peaks in the sensor and world frames, m (default: from the origin
+        as the array centre; the world frame the sensor frame); `recording`: the
+        recording's index in its file; `provenance`: its kind (the columns of
+        ``peaks.csv``; :func:`acousim.peak_table` fills them from a recording)."""
         edge = np.zeros(len(self), bool) if self.on_grid_edge is None else self.on_grid_edge
-        d = _unit_vectors(self.azimuth_rad, self.elevation_rad) * self.range_m[:, None]
+        if sensor_m is None:
+            sensor_m = _unit_vectors(self.azimuth_rad, self.elevation_rad) * self.range_m[:, None]
+        world_m = sensor_m if world_m is None else world_m
         rows = []
         for k in range(len(self)):
-            x, y, z = (float(v) for v in d[k])
+            x, y, z = (float(v) for v in sensor_m[k])
+            wx, wy, wz = (float(v) for v in world_m[k])
             rows.append(
                 PeakRow(
+                    recording=recording,
                     method=self.method,
                     range_m=float(self.range_m[k]),
                     azimuth_deg=float(np.rad2deg(self.azimuth_rad[k])),
@@ -86,10 +100,11 @@ class Peaks:
                     x_m=x,
                     y_m=y,
                     z_m=z,
-                    world_x_m=x,
-                    world_y_m=y,
-                    world_z_m=z,
+                    world_x_m=wx,
+                    world_y_m=wy,
+                    world_z_m=wz,
                     on_grid_edge=bool(edge[k]),
+                    provenance=provenance,
                 )
             )
         return PeakTable(rows)

@@ -8,7 +8,7 @@ both paths. Each takes the name or the object itself (returned unchanged).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import processing as P
@@ -20,51 +20,44 @@ __all__ = ["array_named", "call_named", "lidar_named", "material_named", "scene_
 
 def array_named(value: Any, key: str = "Sensor.array") -> P.Array:
     """An array preset by name (:data:`processing.PRESETS`), or a processing.Array."""
-    if isinstance(value, P.Array):
-        return value
-    if not isinstance(value, str):
-        raise InputError(
-            f"must be an array preset ({', '.join(P.PRESETS)}) or a processing.Array",
-            key=key,
-            value=value,
-        )
-    _one_of(value, P.PRESETS, key)
+    return _named(value, P.Array, P.PRESETS, _array, key)
+
+
+def _array(name: str) -> P.Array:
     try:
-        return P.preset(value)
+        return P.preset(name)
     except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
-        raise InputError(f"cannot load the preset ({exc})", key=key, value=value) from None
+        raise InputError(f"cannot load the preset ({exc})", value=name) from None
 
 
 def call_named(value: Any, key: str = "Sensor.call") -> P.Waveform:
-    """A call by name (:data:`processing.waveforms.CALLS`), or a processing.Waveform."""
-    if isinstance(value, P.Waveform):
-        return value
-    if not isinstance(value, str):
-        raise InputError(
-            f"must be a call preset ({', '.join(P.CALLS)}) or a processing.Waveform",
-            key=key,
-            value=value,
-        )
-    _one_of(value, P.CALLS, key)
-    return P.named_call(value)
+    """A call by name (:data:`processing.CALLS`), or a processing.Waveform."""
+    return _named(value, P.Waveform, P.CALLS, P.named_call, key)
 
 
 def lidar_named(value: Any, key: str = "Sensor.lidar"):
-    """A LiDAR preset by name (:data:`acousim.scene.lidar.LIDAR_PRESETS`), a Lidar, or
-    None (no LiDAR)."""
+    """A LiDAR preset by name (:data:`acousim.scene.lidar.LIDAR_PRESETS`, the scene
+    file's ``[sensor.lidar] preset``), a Lidar, or None (no LiDAR)."""
     from .lidar import LIDAR_PRESETS, PRESET, Lidar
 
-    if value is None or isinstance(value, Lidar):
+    if value is None:
+        return None
+    return _named(value, Lidar, PRESET.choices or (), LIDAR_PRESETS.__getitem__, key)
+
+
+def _named(value: Any, kind: type, choices: Iterable[str], make: Callable[[str], Any], key: str):
+    """`value` if it is a `kind`, else the object `make` gives for a name among
+    `choices` (the scene loader's answer to any other name or value)."""
+    if isinstance(value, kind):
         return value
     if not isinstance(value, str):
-        raise InputError(
-            f"must be None, a LiDAR preset ({', '.join(LIDAR_PRESETS)}) or an "
-            "acousim.scene.lidar.Lidar",
-            key=key,
-            value=value,
-        )
-    check(PRESET, value, key)  # the scene file's declaration of the preset
-    return LIDAR_PRESETS[value]
+        what = f"{kind.__module__.split('.')[0]}.{kind.__name__}"
+        raise InputError(f"must be a name ({', '.join(choices)}) or a {what}", key=key, value=value)
+    _one_of(value, choices, key)
+    try:
+        return make(value)
+    except InputError as exc:
+        raise InputError(exc.reason, key=key, value=value) from None
 
 
 def material_named(value: Any, materials: Mapping[str, Any], key: str):
@@ -76,10 +69,10 @@ def material_named(value: Any, materials: Mapping[str, Any], key: str):
     return materials[value]
 
 
-def _one_of(value: str, choices, key: str) -> None:
+def _one_of(value: str, choices: Iterable[str], key: str) -> None:
     """The scene loader's answer to a name not among `choices`: "is not one of ...;
     did you mean ...?" (:func:`processing.settings.check`)."""
-    check(Setting("str", choices=tuple(sorted(choices))), value, key)
+    check(Setting("str", choices=tuple(choices)), value, key)
 
 
 def scene_materials(given: Any, meshes: tuple, material: Any) -> tuple[dict[str, Any], tuple]:
