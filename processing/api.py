@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import inspect
+import sys
 import warnings
 from collections.abc import Callable, Iterable, MutableMapping
 from typing import Any, TypeVar
@@ -83,7 +84,10 @@ def check_keywords(namespace: MutableMapping[str, Any], names: Iterable[str]) ->
             if not issubclass(obj, BaseException):
                 _check_class(obj)
         elif inspect.isfunction(obj):
-            namespace[name] = checked(obj, obj.__name__)
+            namespace[name] = wrapped = checked(obj, obj.__name__)
+            home = sys.modules.get(obj.__module__)
+            if getattr(home, obj.__name__, None) is obj:  # pickled by reference: one object
+                setattr(home, obj.__name__, wrapped)
 
 
 def _check_class(cls: type) -> None:

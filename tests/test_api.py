@@ -192,8 +192,16 @@ def test_the_python_defaults_are_the_command_lines():
     from acousim.cli import build_parser
     from acousim.imaging import ImagingOptions
 
-    args = build_parser().parse_args(["image", "x.h5"])
+    parser = build_parser()
+    args = parser.parse_args(["image", "x.h5"])
     assert args.step is None and args.peak_threshold is None  # the declared defaults apply
+    assert args.method is None
+    image = parser._subparsers._group_actions[0].choices["image"]
+    said = re.search(r"\(default: ([\w,-]+)\)", " ".join(image.format_help().split()))
+    assert tuple(said.group(1).split(",")) == ImagingOptions().methods
+    from acousim.cli.image import CHIRP_CALLS
+
+    assert set(CHIRP_CALLS) == set(P.CALLS)
     cli = ImagingOptions().grid
     for grid in (P.Grid.degrees(), P.ProcessingSettings().grid):
         assert np.array_equal(grid.azimuth_rad, cli.azimuth_rad)
@@ -387,6 +395,14 @@ def test_the_packages_are_marked_typed():
     pyproject = (ROOT / "pyproject.toml").read_text()
     assert all(f'{p} = ["py.typed"]' in pyproject for p in PACKAGES)
     assert "mypy" in (ROOT / "Makefile").read_text()
+
+
+def test_checked_functions_pickle_by_reference():
+    """Worker processes get the same function (the checked one, in its own module)."""
+    import pickle
+
+    for fn in (P.doa_spectrum, P.load_recording, acousim.load_scene, hardware.decode):
+        assert pickle.loads(pickle.dumps(fn)) is fn
 
 
 def test_dataclass_fields_keep_their_signature():
