@@ -17,6 +17,7 @@ import dataclasses
 import functools
 import inspect
 import sys
+import types
 import warnings
 from collections.abc import Callable, Iterable, MutableMapping
 from typing import Any, TypeVar
@@ -84,10 +85,11 @@ def check_keywords(namespace: MutableMapping[str, Any], names: Iterable[str]) ->
             if not issubclass(obj, BaseException):
                 _check_class(obj)
         elif inspect.isfunction(obj):
-            namespace[name] = wrapped = checked(obj, obj.__name__)
-            home = sys.modules.get(obj.__module__)
-            if getattr(home, obj.__name__, None) is obj:  # pickled by reference: one object
-                setattr(home, obj.__name__, wrapped)
+            fn: types.FunctionType = obj
+            namespace[name] = wrapped = checked(fn, fn.__name__)
+            home = sys.modules.get(fn.__module__)
+            if getattr(home, fn.__name__, None) is fn:  # pickled by reference: one object
+                setattr(home, fn.__name__, wrapped)
 
 
 def _check_class(cls: type) -> None:

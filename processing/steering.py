@@ -97,7 +97,7 @@ class Grid:
         The defaults are the command line's (:data:`GRID_AZIMUTH_DEG`,
         :data:`GRID_ELEVATION_DEG`, :data:`GRID_STEP_DEG`): azimuth -90..90, elevation
         -40..40, every 2 degrees."""
-        s_az, s_el = (step, step) if isinstance(step, int | float) else step
+        s_az, s_el = (step, step) if isinstance(step, int | float | np.number) else step
         if not (s_az > 0 and s_el > 0):
             raise InputError(f"grid step must be positive, got {step}")
 
