@@ -134,8 +134,9 @@ def _unit_vectors(azimuth_rad: np.ndarray, elevation_rad: np.ndarray) -> np.ndar
 
 
 def on_grid_edge(image: Image, azimuth_rad, elevation_rad) -> np.ndarray:
-    """Whether each direction (P,) lies on the first or last azimuth or elevation of
-    the image's grid: a maximum there may be the flank of an echo from outside it."""
+    """Whether each direction (azimuth_rad, elevation_rad: (P,), rad) lies on the first
+    or last azimuth or elevation of the image's grid (P,) bool: a maximum there may be
+    the flank of an echo from outside it."""
     az = np.asarray(azimuth_rad, float).reshape(-1)
     out = np.zeros(az.size, bool)
     for axis, values in ((image.azimuth_rad, az), (image.elevation_rad, elevation_rad)):
