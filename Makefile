@@ -55,4 +55,4 @@ format: $(STAMP)
 	$(BIN)/ruff check --fix processing acousim hardware tests benchmarks
 
 clean:
-	rm -rf $(VENV) out .pytest_cache build hardware/*.so
+	rm -rf $(VENV) out .pytest_cache .mypy_cache build hardware/*.so
