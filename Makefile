@@ -34,7 +34,8 @@ system-deps:
 demo: $(STAMP)  ## simulate the corridor drive and write its pictures to out/
 	$(BIN)/acousim demo --out out
 
-test: $(STAMP)  ## run the test suite
+test: $(STAMP)  ## type-check the public API, then run the test suite
+	$(BIN)/mypy
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 tests
 
 bench: $(STAMP)  ## run every benchmark and rewrite BENCHMARKS.md
@@ -44,13 +45,14 @@ fullwave: $(STAMP)  ## install the full-wave reference's extra (bempp-cl, pyopen
 	@$(MAKE) --no-print-directory system-deps DEBS="pocl-opencl-icd"
 	$(BIN)/python -m pip install --quiet -e ".[fullwave]"
 
-lint: $(STAMP)
+lint: $(STAMP)  ## ruff, and mypy on the public API (its files: pyproject.toml [tool.mypy])
 	$(BIN)/ruff check processing acousim hardware tests benchmarks
 	$(BIN)/ruff format --check processing acousim hardware tests benchmarks
+	$(BIN)/mypy
 
 format: $(STAMP)
 	$(BIN)/ruff format processing acousim hardware tests benchmarks
 	$(BIN)/ruff check --fix processing acousim hardware tests benchmarks
 
 clean:
-	rm -rf $(VENV) out .pytest_cache build hardware/*.so
+	rm -rf $(VENV) out .pytest_cache .mypy_cache build hardware/*.so

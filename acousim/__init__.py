@@ -12,12 +12,16 @@ Scenes can be files (``load_scene("scenes/corridor.toml")``) or built in code::
     recordings = acousim.Simulator(scene).run()
 
 The names below are imported on first use, so ``import acousim`` stays light (the
-command line starts fast).
+command line starts fast); so are the subpackages (``acousim.process.configure()``,
+``acousim.calibrate``, ``acousim.imaging`` ...): ``import acousim`` is enough for all.
+Every public constructor and function refuses a misspelled keyword as a scene file
+refuses a misspelled key (:mod:`processing.base.api`).
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import sys
 
 __all__ = [
@@ -35,11 +39,18 @@ __all__ = [
     "Pose",
     "Trajectory",
     "SceneError",
+    "ImagingOptions",
+    "image_recordings",
+    "peak_table",
 ]
 
-_WHERE = {"Simulator": "acousim.simulator"} | {
-    name: "acousim.scene" for name in __all__ if name != "Simulator"
+_ELSEWHERE = {
+    "Simulator": "acousim.simulator",
+    "ImagingOptions": "acousim.imaging",
+    "image_recordings": "acousim.imaging",
+    "peak_table": "acousim.imaging",
 }
+_WHERE = _ELSEWHERE | {name: "acousim.scene" for name in __all__ if name not in _ELSEWHERE}
 
 
 #: the modules' names before the re-layout by concept (CHANGELOG): they keep importing,
@@ -82,9 +93,14 @@ _MOVED = {
 
 def __getattr__(name: str) -> object:  # (no typing import: the command line starts fast)
     if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
+        from processing.base.api import check_keywords
+
+        space = {name: getattr(importlib.import_module(_WHERE[name]), name)}
+        check_keywords(space, [name])  # a misspelled keyword: the scene file's answer
+        globals()[name] = space[name]
+        return space[name]
+    if not name.startswith("_") and importlib.util.find_spec(f"acousim.{name}") is not None:
+        return importlib.import_module(f"acousim.{name}")  # a subpackage, on first use
     raise AttributeError(f"module 'acousim' has no attribute {name!r}")
 
 

@@ -29,7 +29,7 @@ def _snapshots(rng: np.random.Generator, arr: P.Array) -> np.ndarray:
 def run() -> str:
     rng = np.random.default_rng(0)
     arr = P.paper_8x8()
-    grid = P.Grid.degrees(step=1.0)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=1.0)
     x = _snapshots(rng, arr)
     rows = []
     sub = slice(0, 4)  # the plain formula is slow: compare on 4 range bins

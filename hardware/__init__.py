@@ -33,3 +33,8 @@ __all__ = [
     "RecordStats",
     "decode_frame",
 ]
+
+from processing.base.api import check_keywords  # noqa: E402
+
+# a misspelled keyword of a public constructor or function: the scene file's answer
+check_keywords(globals(), __all__)

@@ -89,6 +89,8 @@ def frame_size(n_ticks: int) -> int:
 
 
 def build_frame(index: int, ticks: np.ndarray) -> bytes:
+    """A frame's bytes: header, `index`, the tick words (n_ticks,) as little-endian
+    uint32 and the footer (what the sensor sends; :func:`parse_frame` reads it)."""
     words = np.concatenate(
         [[HEADER, index & 0xFFFFFFFF], np.asarray(ticks, np.uint32), [FOOTER]]
     ).astype("<u4")

@@ -31,7 +31,7 @@ import numpy as np
 
 import processing as P
 from hardware.device import DeviceNotFound, DeviceSettings, RtisDevice
-from hardware.pdm import DECIMATION, PDM_RATE_HZ, decode
+from hardware.pdm import DECIMATION, PDM_RATE_HZ, FilterName, decode
 from hardware.protocol import FrameError
 from processing.base.errors import InputError
 from processing.base.settings import check, setting, settings_of, validate
@@ -51,6 +51,9 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class RecordStats:
+    """What a recording session met: frames kept, indices lost, corrupt frames,
+    timeouts, reconnections, counter resets and the events noted (counts; no units)."""
+
     frames: int = 0
     lost_indices: list[int] = field(default_factory=list)
     corrupt: int = 0
@@ -70,7 +73,7 @@ def decode_frame(
     array: P.Array,
     call: P.Waveform,
     metadata: dict | None = None,
-    fir: np.ndarray | str = "equiripple",
+    fir: np.ndarray | FilterName = "equiripple",
     speed_of_sound_m_s: float = 343.0,
 ) -> P.Recording:
     """Tick words of one measurement -> a Recording at 450 kHz with the array's channel map.
@@ -140,7 +143,7 @@ class Recorder:
         retries: int = 3,
         reconnect_timeout_s: float = 10.0,
         speed_of_sound_m_s: float = 343.0,
-        fir: np.ndarray | str = "equiripple",
+        fir: np.ndarray | FilterName = "equiripple",
     ) -> None:
         self.open_device = open_device
         self.settings = settings

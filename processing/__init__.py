@@ -7,6 +7,7 @@ through :func:`acoustic_images`.  Units are SI throughout (m, s, Hz, rad).
 This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
+from processing.base.api import KeywordError, check_keywords
 from processing.base.errors import InputError
 from processing.formats.chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from processing.formats.native import (
@@ -21,6 +22,7 @@ from processing.formats.native import (
 )
 from processing.imaging.broadband.energyscape import (
     BROADBAND_METHODS,
+    Baseband,
     BroadbandSettings,
     Directions,
     Energyscape,
@@ -28,8 +30,15 @@ from processing.imaging.broadband.energyscape import (
     fan,
     sphere_partition,
 )
-from processing.imaging.doa import NARROWBAND_METHODS, doa_spectrum
-from processing.imaging.image import Image, Peaks, find_peaks, to_db
+from processing.imaging.doa import NARROWBAND_METHODS, SubspaceOptions, doa_spectrum
+from processing.imaging.image import (
+    PEAK_THRESHOLD_DB,
+    Image,
+    Peaks,
+    find_peaks,
+    on_grid_edge,
+    to_db,
+)
 from processing.imaging.matched_filter import matched_filter
 from processing.imaging.methods import MethodSpec, parse_method
 from processing.imaging.metrics import (
@@ -40,6 +49,7 @@ from processing.imaging.metrics import (
     range_resolution,
     solid_angle_3db,
 )
+from processing.imaging.peak_table import PEAK_COLUMNS, PeakRow, PeakTable
 from processing.imaging.pipeline import (
     METHODS,
     Method,
@@ -56,7 +66,13 @@ from processing.imaging.pipeline import (
 )
 from processing.imaging.smoothing import covariance, smoothed_covariance
 from processing.imaging.snapshot import BinGate, Snapshot, Stft, stft_snapshot
-from processing.imaging.steering import Grid, steering_matrix
+from processing.imaging.steering import (
+    GRID_AZIMUTH_DEG,
+    GRID_ELEVATION_DEG,
+    GRID_STEP_DEG,
+    Grid,
+    steering_matrix,
+)
 from processing.imaging.wideband import WIDEBAND_METHODS
 from processing.sensor.arrays import (
     PRESETS,
@@ -71,11 +87,20 @@ from processing.sensor.arrays import (
 )
 from processing.sensor.calibration import (
     ArrayCalibration,
+    CalibrationFit,
     apply_calibration,
     attach_calibration,
     fit_array_calibration,
 )
-from processing.sensor.calls import Waveform, hyperbolic_sweep, linear_chirp, paper_chirp, rtis_call
+from processing.sensor.calls import (
+    CALLS,
+    Waveform,
+    hyperbolic_sweep,
+    linear_chirp,
+    named_call,
+    paper_chirp,
+    rtis_call,
+)
 from processing.sensor.pointcloud import PointCloud
 from processing.sensor.provenance import Provenance, SensorMotion, SensorPose, provenance_metadata
 
@@ -102,16 +127,24 @@ __all__ = [
     "BROADBAND_METHODS",
     "WIDEBAND_METHODS",
     "BroadbandSettings",
+    "Baseband",
     "Directions",
     "Energyscape",
     "energyscape",
     "fan",
     "sphere_partition",
     "doa_spectrum",
+    "SubspaceOptions",
     "InputError",
+    "KeywordError",
     "Image",
     "Peaks",
+    "PeakRow",
+    "PeakTable",
+    "PEAK_COLUMNS",
+    "PEAK_THRESHOLD_DB",
     "find_peaks",
+    "on_grid_edge",
     "to_db",
     "matched_filter",
     "angular_resolution",
@@ -148,13 +181,19 @@ __all__ = [
     "BinGate",
     "stft_snapshot",
     "Grid",
+    "GRID_AZIMUTH_DEG",
+    "GRID_ELEVATION_DEG",
+    "GRID_STEP_DEG",
     "steering_matrix",
     "Waveform",
     "hyperbolic_sweep",
     "linear_chirp",
     "paper_chirp",
     "rtis_call",
+    "CALLS",
+    "named_call",
     "ArrayCalibration",
+    "CalibrationFit",
     "apply_calibration",
     "attach_calibration",
     "find_echo",
@@ -203,3 +242,6 @@ alias_modules(
         "processing.wideband": "processing.imaging.wideband",
     }
 )
+
+# every public constructor and function answers a misspelled keyword as a scene file does
+check_keywords(globals(), __all__)

@@ -55,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     recs, index, options, image_all = load_and_image(args)
     if args.image_method and args.image_method not in options.methods:
         raise UsageError(
-            f"--image-method {args.image_method!r} is not among --method {args.method!r}"
+            f"--image-method {args.image_method!r} is not among --method "
+            f"{','.join(options.methods)!r}"
         )
     images = image_all()
     write_rosbag(

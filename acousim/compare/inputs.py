@@ -52,7 +52,7 @@ def load_real_recordings(
         ]
     try:
         if P.is_chirp(source):
-            wf = None if call is None else P.paper_chirp() if call == "paper" else P.rtis_call(call)
+            wf = None if call is None else P.named_call(call)
             return P.read_chirp(source, call=wf, speed_of_sound_m_s=speed_of_sound_m_s)
         return P.load_recordings(source)
     except P.RecordingFileError as exc:

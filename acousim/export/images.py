@@ -43,29 +43,8 @@ QUANTUM_PER_DB = 128  # levels are stored as multiples of 1/128 dB
 FORMAT = "acousim-images"
 VERSION = 1
 
-PEAK_COLUMNS = (
-    "recording",  # index in the recording file
-    "method",
-    "range_m",  # from the array centre
-    "azimuth_deg",  # positive to the left (+y)
-    "elevation_deg",  # positive up (+z)
-    "level_db",  # re the strongest cell of that image
-    "x_m",  # sensor frame: x forward, y left, z up
-    "y_m",
-    "z_m",
-    "world_x_m",  # world frame, through the recording's pose (= sensor frame without one)
-    "world_y_m",
-    "world_z_m",
-    "on_grid_edge",  # 1: on the grid's first/last azimuth or elevation (may not be a peak)
-    "truth_kind",  # the traced reflector within the image's resolution ("" if none)
-    "truth_x_m",  # where it was traced, sensor frame (m)
-    "truth_y_m",
-    "truth_z_m",
-    "truth_level_db",  # re the strongest traced echo
-    "truth_offset_deg",  # angle between the peak and the (mirrored) reflector
-    "truth_behind",  # 1: behind the array, heard as its mirror (-x, y, z)
-    "provenance",  # the recording's: simulated, real or emulated
-)
+#: the peaks CSV's columns: :class:`processing.PeakRow`'s fields (declared there, once)
+PEAK_COLUMNS = P.PEAK_COLUMNS
 
 
 def _group_name(index: int, width: int) -> str:
@@ -173,57 +152,6 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
         d.dims[dim].attach_scale(g[name])
 
 
-def peak_rows(
-    recording: P.Recording,
-    index: int,
-    image: P.Image,
-    threshold_db: float,
-    *,
-    window_samples: int = P.ProcessingSettings.window,
-) -> list[tuple]:
-    """Rows (see :data:`PEAK_COLUMNS`) of an image's peaks above `threshold_db`, each
-    with its grid-edge flag and its traced reflector (:mod:`acousim.imaging.matching`;
-    `window_samples`: the STFT window the image was made with)."""
-    from acousim.imaging.matching import image_resolution, match_peaks, on_grid_edge
-    from acousim.imaging.run import peak_positions
-
-    pk = image.peaks(threshold_db)
-    if not pk.range_m.size:
-        return []
-    sensor, world = peak_positions(recording, pk)
-    edge = on_grid_edge(image, pk)
-    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
-    rows = []
-    for k, (r, a, e, lv, s, w) in enumerate(
-        zip(pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world)
-    ):
-        hit = m.index[k] >= 0
-        truth = (
-            (
-                str(m.kind[k]),
-                *(float(v) for v in m.position_sensor_m[k]),
-                float(m.level_db[k]),
-                float(np.rad2deg(m.offset_rad[k])),
-                int(m.behind[k]),
-            )
-            if hit
-            else ("",) * 7
-        )
-        rows.append(
-            (
-                index,
-                image.method,
-                *(float(v) for v in (r, np.rad2deg(a), np.rad2deg(e), lv)),
-                *(float(v) for v in s),
-                *(float(v) for v in w),
-                int(edge[k]),
-                *truth,
-                recording.provenance.kind,
-            )
-        )
-    return rows
-
-
 def write_peaks_csv(
     path: str | Path,
     recordings: Sequence[P.Recording],
@@ -232,18 +160,30 @@ def write_peaks_csv(
     *,
     threshold_db: float = PEAK_THRESHOLD_DB,
 ) -> Path:
-    """Write the peaks of every image within `threshold_db` of its strongest cell to
-    a CSV file (atomically), one row per peak, strongest first per image."""
+    """Write the peaks of every image within `threshold_db` (dB) of its strongest cell
+    to a CSV file (atomically), one row per peak (:func:`acousim.peak_table`: the
+    columns of :class:`processing.PeakRow`), strongest first per image."""
+    from acousim.imaging.run import peak_table
+
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(PEAK_COLUMNS)
     for idx, rec, imgs in zip(indices, recordings, images):
         for img in imgs.values():
-            rows = peak_rows(rec, idx, img, threshold_db)  # strongest first
-            w.writerows([_fmt(row) for row in rows])
+            table = peak_table(rec, img, threshold_db=threshold_db, index=idx)
+            w.writerows([_fmt(row.as_dict().values()) for row in table])
     return write_text(path, buf.getvalue())
 
 
-def _fmt(row: tuple) -> list:
-    return [v if isinstance(v, (int, str)) else f"{v:.6g}" for v in row]
+def _fmt(values) -> list:
+    """A row's cells: booleans as 0/1, no value (None, NaN) as empty, numbers to 6 digits."""
+    out = []
+    for v in values:
+        if isinstance(v, bool):
+            out.append(int(v))
+        elif v is None or (isinstance(v, float) and v != v):
+            out.append("")
+        else:
+            out.append(v if isinstance(v, (int, str)) else f"{v:.6g}")
+    return out

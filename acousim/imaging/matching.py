@@ -58,16 +58,9 @@ def _grid_step(image: P.Image) -> float:
 def on_grid_edge(image: P.Image, peaks: P.Peaks) -> np.ndarray:
     """Whether each peak (N,) lies on the first or last azimuth or elevation of the
     grid: a maximum there may be the flank of an echo from outside the grid."""
-    out = np.zeros(len(peaks), bool)
-    for axis, values in (
-        (image.azimuth_rad, peaks.azimuth_rad),
-        (image.elevation_rad, peaks.elevation_rad),
-    ):
-        if axis.size > 1:
-            tol = 1e-9 + 1e-6 * abs(axis[1] - axis[0])
-            v = np.asarray(values).reshape(-1)
-            out |= (np.abs(v - axis.min()) <= tol) | (np.abs(v - axis.max()) <= tol)
-    return out
+    if peaks.on_grid_edge is not None:
+        return np.asarray(peaks.on_grid_edge, bool)
+    return P.on_grid_edge(image, peaks.azimuth_rad, peaks.elevation_rad)
 
 
 @dataclass(frozen=True)

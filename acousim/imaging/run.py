@@ -10,6 +10,7 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -19,15 +20,17 @@ from processing.base import interrupt
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
+from processing.imaging.pipeline import RANGE_LIMITS_M
 
 #: peaks kept within this many dB of each image's strongest cell: the default of
-#: the pictures, the peak files and the bags (one home)
-PEAK_THRESHOLD_DB = -10.0
+#: the pictures, the peak files, the bags and ``Image.peaks()`` (one home, processing's)
+PEAK_THRESHOLD_DB = P.PEAK_THRESHOLD_DB
 
 __all__ = [
     "ImagingOptions",
     "image_recordings",
     "peak_positions",
+    "peak_table",
     "peaks_in_world",
     "prepare_pictures",
     "write_pictures",
@@ -50,9 +53,9 @@ class ImagingOptions:
     """
 
     methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
-    azimuth_deg: tuple[float, float] = (-90.0, 90.0)
-    elevation_deg: tuple[float, float] = (-40.0, 40.0)
-    step_deg: float = setting(2.0, "deg", 0.1, 45, "grid step")
+    azimuth_deg: tuple[float, float] = P.GRID_AZIMUTH_DEG  # one default: Grid.degrees()'
+    elevation_deg: tuple[float, float] = P.GRID_ELEVATION_DEG
+    step_deg: float = setting(P.GRID_STEP_DEG, "deg", 0.1, 45, "grid step")
     energy_fraction: float = setting(
         P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
         "",
@@ -61,9 +64,7 @@ class ImagingOptions:
         "keep range bins with at least this fraction of the strongest bin's energy "
         "(the paper uses 0.5)",
     )
-    min_range_m: float = setting(
-        P.ProcessingSettings.range_limits_m[0], "m", 0, 1000, "ignore nearer range bins"
-    )
+    min_range_m: float = setting(RANGE_LIMITS_M[0], "m", 0, 1000, "ignore nearer range bins")
     max_range_m: float | None = setting(
         None, "m", 0.01, 1000, "ignore farther range bins", kind="float"
     )
@@ -128,7 +129,7 @@ def _pose(rec: P.Recording):
     p = rec.provenance.pose
     if p is None:
         return Pose(np.zeros(3))
-    return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
+    return Pose(np.asarray(p.position_m, float), p.yaw_rad, p.pitch_rad, p.roll_rad, p.time_s)
 
 
 def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.ndarray]:
@@ -143,6 +144,47 @@ def peak_positions(rec: P.Recording, peaks: P.Peaks) -> tuple[np.ndarray, np.nda
     ).reshape(-1, 3)
     sensor = rec.array.positions_m.mean(axis=0) + peaks.range_m.reshape(-1, 1) * d
     return sensor, _pose(rec).to_world(sensor)
+
+
+def peak_table(
+    recording: P.Recording,
+    image: P.Image,
+    *,
+    threshold_db: float = PEAK_THRESHOLD_DB,
+    index: int | None = None,
+    window_samples: int = P.ProcessingSettings.window,
+) -> P.PeakTable:
+    """The peaks of `image` (of `recording`) within `threshold_db` (dB) of its strongest
+    cell as rows (:class:`processing.PeakRow`: the columns of ``peaks.csv``), strongest
+    first: positions in the sensor and world frames (m, through the recording's pose),
+    the grid-edge flag and the traced reflector matched within the image's resolution
+    (:mod:`acousim.imaging.matching`; `window_samples`: the STFT window the image was made
+    with). `index`: the recording's index in its file (its rows' ``recording``)."""
+    from acousim.imaging.matching import image_resolution, match_peaks
+
+    pk = image.peaks(threshold_db)
+    sensor, world = peak_positions(recording, pk)
+    table = pk.table(
+        sensor_m=sensor, world_m=world, recording=index, provenance=recording.provenance.kind
+    )
+    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
+    return P.PeakTable([dataclasses.replace(row, **_truth(m, k)) for k, row in enumerate(table)])
+
+
+def _truth(match, k: int) -> dict[str, Any]:
+    """The truth columns of peak `k` of a :class:`acousim.imaging.matching.Match` ({}: none)."""
+    if match.index[k] < 0:
+        return {}
+    tx, ty, tz = (float(v) for v in match.position_sensor_m[k])
+    return {
+        "truth_kind": str(match.kind[k]),
+        "truth_x_m": tx,
+        "truth_y_m": ty,
+        "truth_z_m": tz,
+        "truth_level_db": float(match.level_db[k]),
+        "truth_offset_deg": float(np.rad2deg(match.offset_rad[k])),
+        "truth_behind": bool(match.behind[k]),
+    }
 
 
 def peaks_in_world(rec: P.Recording, image: P.Image, threshold_db: float) -> np.ndarray:
@@ -307,7 +349,9 @@ def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOpt
 def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
     """The farthest range a picture may show: the imaged range, within the simulated
     one (the recording's provenance ``max_range_m``, when it was simulated)."""
-    hi = options.settings(rec).range_limits_m[1]
+    limits = options.settings(rec).range_limits_m
+    assert limits is not None  # ImagingOptions.settings sets both ends
+    hi = limits[1]
     simulated = rec.provenance.max_range_m
     if simulated is not None:
         hi = min(hi, simulated)
@@ -327,7 +371,7 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     prov = rec.provenance
     p = prov.pose
     moving = p is not None and (trajectory or p.time_s or prov.pose_index)
-    where = f", t = {p.time_s:.1f} s" if moving else ""
+    where = f", t = {p.time_s:.1f} s" if moving and p is not None else ""
     name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
     return f"{name or prov.kind} — recording {index}{where}"
 
@@ -504,6 +548,7 @@ def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> 
     every = {"in", "off", "behind", "weak"}
     legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
     fig.canvas.draw()
-    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    # the Agg canvas (matplotlib.use("Agg") above) has buffer_rgba; the base class does not
+    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
     plt.close(fig)
     return frame

@@ -30,3 +30,8 @@ __all__ = [
     "Trajectory",
     "rotation",
 ]
+
+from processing.base.api import check_keywords  # noqa: E402
+
+# a misspelled keyword of Sensor(...), Material(...), ...: the scene file's answer
+check_keywords(globals(), __all__)

@@ -16,13 +16,14 @@ import hashlib
 import math
 import tomllib
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import processing as P
-from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
+from acousim.scene.lidar import PRESET, Lidar
 from acousim.scene.model import (
     Diffraction,
     Environment,
@@ -33,6 +34,7 @@ from acousim.scene.model import (
     Sensor,
     Simulation,
 )
+from acousim.scene.names import array_named, call_named, lidar_named, material_named
 from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
 from acousim.scene.trajectory import CONTINUOUS, RATES, Trajectory
 from processing.base.errors import InputError
@@ -103,7 +105,7 @@ class _Reader:
         except InputError as exc:
             raise SceneError(exc.reason, file=exc.file, key=exc.key) from None
 
-    def settings(self, cls: type, table: dict, where: str, extra: set[str] = frozenset()):
+    def settings(self, cls: type, table: dict, where: str, extra: Iterable[str] = frozenset()):
         """The declared settings of `cls` in `table` (checked), unknown keys refused."""
         try:
             return read_table(cls, table, where=where, file=self.source, extra=extra)
@@ -147,6 +149,14 @@ class _Reader:
 
     def boolean(self, d: dict, key: str, where: str, default: bool) -> bool:
         return self._check(Setting("bool"), d.get(key, default), f"{where}.{key}")
+
+    def named(self, resolve, value: Any, key: str, *args: Any):
+        """The object a name stands for (:mod:`acousim.scene.names`, the constructors'
+        own resolution), its error keyed with the file."""
+        try:
+            return resolve(value, *args, key=key)
+        except InputError as exc:
+            raise SceneError(exc.reason, file=self.source, key=exc.key, value=exc.value) from None
 
     def _check(self, decl: Setting, value: Any, key: str):
         try:
@@ -271,7 +281,9 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     file = base / r.string(m, "file", where)
     if not file.is_file():
         raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
-    mat = r.string(m, "material", where, "default", set(materials))
+    mat = r.named(
+        material_named, r.string(m, "material", where, "default"), f"{where}.material", materials
+    )
     units = r.string(m, "units", where, "m", set(UNITS))
     scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
     rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
@@ -280,7 +292,12 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
     groups = r.table(m, "materials", where)
     by_group = {
-        str(g): materials[r.string(groups, g, f"{where}.materials", choices=set(materials))]
+        str(g): r.named(
+            material_named,
+            r.string(groups, g, f"{where}.materials"),
+            f"{where}.materials.{g}",
+            materials,
+        )
         for g in groups
     }
     # a moving mesh: its velocity read through the declaration, its track as a point's
@@ -292,7 +309,7 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
     try:
         return MeshItem(
             file,
-            materials[mat],
+            mat,
             T,
             materials=by_group,
             velocity_m_s=velocity,
@@ -315,20 +332,14 @@ def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
         except (OSError, ValueError) as exc:
             raise r.fail("sensor.coordinates", str(exc), s["coordinates"]) from None
     else:
-        name = r.string(s, "array", "sensor", "urtis_v1", set(P.PRESETS))
-        try:
-            array = P.preset(name)
-        except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
-            raise r.fail("sensor.array", f"cannot load the preset ({exc})", name) from None
+        array = r.named(array_named, r.string(s, "array", "sensor", "urtis_v1"), "sensor.array")
     emitter = r.vector(s, "emitter_m", "sensor", [0.0, 0.0, 0.0])
     array = P.Array(
         array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
     )
     call = s.get("call", "default_25_50")
     if isinstance(call, str):
-        presets = {"default_25_50", "default_20_80", "paper"}
-        name = r.string(s, "call", "sensor", "default_25_50", choices=presets)
-        wf = P.paper_chirp() if name == "paper" else P.rtis_call(name)
+        wf = r.named(call_named, r.string(s, "call", "sensor", "default_25_50"), "sensor.call")
     elif isinstance(call, dict):
         r.check_keys(call, "sensor.call", "sensor.call")
         try:
@@ -371,7 +382,7 @@ def _lidar(r: _Reader, s: dict) -> Lidar | None:
     t = r.table(s, "lidar", "sensor")
     preset = r._check(PRESET, t.get("preset", PRESET.default), "sensor.lidar.preset")
     changed = r.settings(Lidar, t, "sensor.lidar", extra={"preset"})
-    return dataclasses.replace(LIDAR_PRESETS[preset], **changed)
+    return dataclasses.replace(r.named(lidar_named, preset, "sensor.lidar.preset"), **changed)
 
 
 def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):
@@ -410,15 +421,15 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
             except ValueError as exc:
                 raise r.fail("sensor.trajectory.file", f"{file}: {exc}") from None
         else:
-            rows = t.get("poses")
-            if not isinstance(rows, list) or not rows:
+            given = t.get("poses")
+            if not isinstance(given, list) or not given:
                 raise r.fail(
                     "sensor.trajectory.poses",
                     "must be a non-empty list of "
                     "[x, y, z, yaw_deg] (optionally pitch_deg, roll_deg)",
                 )
             try:
-                rows = np.array(rows, float)
+                rows = np.array(given, float)
             except (ValueError, TypeError):
                 raise r.fail("sensor.trajectory.poses", "rows must be lists of numbers") from None
         if rows.ndim != 2 or rows.shape[1] not in (4, 5, 6) or not np.all(np.isfinite(rows)):
@@ -432,7 +443,8 @@ def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | N
                 r._check(decl, float(v), f"sensor.trajectory row {i} {name}")
         ang = np.deg2rad(np.pad(rows[:, 3:], ((0, 0), (0, 6 - rows.shape[1]))))
         return tuple(
-            Pose(row[:3], *a, time_s=i / rate) for i, (row, a) in enumerate(zip(rows, ang))
+            Pose(row[:3], a[0], a[1], a[2], time_s=i / rate)
+            for i, (row, a) in enumerate(zip(rows, ang))
         ), rate
     p = r.table(s, "pose", "sensor")
     r.check_keys(p, "sensor.pose", "sensor.pose")

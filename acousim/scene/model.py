@@ -26,9 +26,10 @@ import dataclasses
 import math
 import os
 import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -146,8 +147,8 @@ class Material:
         """(reflection, diffuse): the single numbers the tracer uses; a table's
         largest reflection and mean diffuse fraction
         (:func:`acousim.core.materials.reference`), the numbers themselves otherwise."""
-        if not self.frequency_dependent:
-            return self.reflection, self.diffuse
+        if not self.frequency_dependent:  # single numbers (checked in __post_init__)
+            return self.reflection, self.diffuse  # type: ignore[return-value]
         from acousim.core.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
@@ -166,10 +167,11 @@ class Material:
         from acousim.core.materials import interpolate
 
         table = np.multiply(self.frequencies_khz, 1e3)
-        return tuple(
+        reflection, diffuse = (
             interpolate(f, table, np.broadcast_to(getattr(self, k), table.shape))
             for k in ("reflection", "diffuse")
         )
+        return reflection, diffuse
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,14 +182,15 @@ class MeshItem:
         (copied when the world is built: the caller's mesh is never changed).
     transform : (4, 4) maps the mesh's units to metres in the world; ``position_m``
         (3,), when given, is added to its translation (a convenience for code).
-    materials : {group name: Material} for the face groups of a mesh file (OBJ
-        groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names; see
-        ``acousim.trace.world.build.face_groups``); faces of other groups take
+    material : a Material or the name of one of the scene's (:class:`Scene` resolves it).
+    materials : {group name: Material or material name} for the face groups of a mesh
+        file (OBJ groups, objects or ``usemtl`` names, GLB/GLTF node or mesh names;
+        see ``acousim.trace.world.build.face_groups``); faces of other groups take
         `material`.  Empty: the whole mesh is `material`.
     """
 
     mesh: Any
-    material: Material = field(default_factory=Material)
+    material: Material | str = field(default_factory=Material)
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     position_m: tuple[float, float, float] | None = None
     materials: dict[str, Material] = field(default_factory=dict)
@@ -221,13 +224,13 @@ class MeshItem:
             raise InputError(
                 "must be a mesh file or a trimesh.Trimesh", key="MeshItem.mesh", value=mesh
             )
-        if not isinstance(self.material, Material):
-            raise InputError("must be a Material", key="MeshItem.material", value=self.material)
+        if not isinstance(mat := self.material, Material | str):
+            raise InputError("must be a Material or a name", key="MeshItem.material", value=mat)
         groups = dict(self.materials)
         for group, mat in groups.items():
-            if not isinstance(group, str) or not isinstance(mat, Material):
+            if not isinstance(group, str) or not isinstance(mat, Material | str):
                 raise InputError(
-                    "must map group names (str) to Materials",
+                    "must map group names (str) to Materials or material names",
                     key=f"MeshItem.materials[{group!r}]",
                     value=mat,
                 )
@@ -368,27 +371,18 @@ class Environment:
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
 
-def _default_array() -> Array:
-    from processing import urtis_v1
-
-    return urtis_v1()
-
-
-def _default_call() -> Waveform:
-    from processing import rtis_call
-
-    return rtis_call("default_25_50")
-
-
 @dataclass(frozen=True, eq=False)
 class Sensor:
     """The sonar: array, emitter, call and sampling, and where it is.
 
-    poses : one Pose or a sequence (a trajectory sampled at `rate_hz`).
+    array, call, lidar : objects, or names as in a scene file (``"urtis_v1"``, the
+        default; ``"default_25_50"``, the default; ``"vlp16"``), resolved by the
+        loader's code (:mod:`acousim.scene.names`).
+    poses : one Pose or a sequence (a trajectory sampled at `rate_hz`, Hz).
     """
 
-    array: Array = field(default_factory=_default_array)
-    call: Waveform = field(default_factory=_default_call)
+    array: Array = cast(Any, "urtis_v1")  # a name, resolved when constructed
+    call: Waveform = cast(Any, "default_25_50")
     sample_rate_hz: float = setting(
         RTIS_SAMPLE_RATE_HZ, "Hz", 1e3, 1e8, "sampling rate of the microphones"
     )
@@ -405,16 +399,19 @@ class Sensor:
     #: every pose; None: none
     lidar: Any = None
 
+    if TYPE_CHECKING:  # the constructor takes names too; the fields hold the objects
+
+        def __init__(
+            self, array: Array | str = ..., call: Waveform | str = ..., **k: Any
+        ) -> None: ...
+
     def __post_init__(self) -> None:
         validate(self)
-        from acousim.scene.lidar import Lidar
+        from acousim.scene.names import array_named, call_named, lidar_named
 
-        if self.lidar is not None and not isinstance(self.lidar, Lidar):
-            raise InputError("must be None or an acousim.scene.lidar.Lidar", key="Sensor.lidar")
-        if not isinstance(self.array, Array):
-            raise InputError("must be a processing.Array", key="Sensor.array", value=self.array)
-        if not isinstance(self.call, Waveform):
-            raise InputError("must be a processing.Waveform", key="Sensor.call", value=self.call)
+        object.__setattr__(self, "lidar", lidar_named(self.lidar, "Sensor.lidar"))
+        object.__setattr__(self, "array", array_named(self.array, "Sensor.array"))
+        object.__setattr__(self, "call", call_named(self.call, "Sensor.call"))
         poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
         if not poses or not all(isinstance(p, Pose) for p in poses):
             raise InputError("must be a Pose or a non-empty sequence of Poses", key="Sensor.poses")
@@ -572,8 +569,9 @@ def memory_limit_bytes() -> float:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A whole scene; give at least one mesh or point. `materials` defaults to those of
-    the meshes; `source` and `file_sha256` identify a scene file (None in code)."""
+    """A whole scene; give at least one mesh or point. `materials` ({name: Material} or
+    a list) defaults to those of the meshes (a mesh's material name is one of them);
+    `source` and `file_sha256` identify a scene file (None in code)."""
 
     name: str = "scene"
     description: str = ""
@@ -585,6 +583,10 @@ class Scene:
     sensor: Sensor = field(default_factory=Sensor)
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
+
+    if TYPE_CHECKING:  # the constructor takes a list of Materials too
+
+        def __init__(self, *a: Any, materials: Mapping | Sequence = ..., **k: Any) -> None: ...
 
     def __post_init__(self) -> None:
         meshes, points = tuple(self.meshes), tuple(self.points)
@@ -599,17 +601,16 @@ class Scene:
             raise InputError(
                 "the scene has neither meshes nor points: nothing can echo", key="Scene.meshes"
             )
-        for key, value, kind in (
+        for key, value, expected in (
             ("Scene.sensor", self.sensor, Sensor),
             ("Scene.environment", self.environment, Environment),
             ("Scene.simulation", self.simulation, Simulation),
         ):
-            if not isinstance(value, kind):
-                raise InputError(f"must be a {kind.__name__}", key=key, value=value)
-        materials = {"default": Material("default"), **dict(self.materials)}
-        for m in meshes:
-            for mat in (m.material, *m.materials.values()):
-                materials.setdefault(mat.name, mat)
+            if not isinstance(value, expected):
+                raise InputError(f"must be a {expected.__name__}", key=key, value=value)
+        from acousim.scene.names import scene_materials
+
+        materials, meshes = scene_materials(self.materials, meshes, Material)
         object.__setattr__(self, "meshes", meshes)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "materials", materials)

@@ -54,7 +54,7 @@ class Pose:
                 isinstance(v, bool)
                 or not isinstance(v, int | float | np.number)
                 or not np.isfinite(v)
-                or abs(v) > (MAX_TIME_S if name == "time_s" else 1e6)
+                or abs(float(v)) > (MAX_TIME_S if name == "time_s" else 1e6)
             ):
                 raise InputError("must be a finite number", key=f"Pose.{name}", value=v)
             object.__setattr__(self, name, float(v))

@@ -108,9 +108,8 @@ class Trajectory:
     def is_constant(self) -> bool:
         return self.times_s.size == 1
 
-    def _spline(self) -> CubicSpline | None:
-        if self.is_constant:
-            return None
+    def _spline(self) -> CubicSpline:
+        """The position spline (only for a trajectory through poses: not constant)."""
         spline = self.__dict__.get("_spline_cache")
         if spline is None:
             # natural ends (zero acceleration): a straight line through two poses

@@ -84,7 +84,7 @@ class Setting:
 
     def describe(self) -> str:
         """One line for docs and ``--help``: kind, unit, range, default."""
-        parts = [self.kind]
+        parts: list[str] = [self.kind]
         if self.unit:
             parts.append(self.unit)
         if self.choices:

@@ -55,10 +55,12 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 from processing.imaging.methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from processing.imaging.smoothing import default_subarray, subarray_snapshots
@@ -146,6 +148,7 @@ def _arranged(x: np.ndarray, array: Array, smooth: str, use_grid: bool, subarray
     else:
         Y = np.moveaxis(x[order], 0, 1)
         shape = (nz, ny)
+    assert array.pitch_m is not None  # a URA's
     dz, dy = array.pitch_m
     rows, cols = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
     positions = np.column_stack([np.zeros(rows.size), cols.ravel() * dy, rows.ravel() * dz])
@@ -275,6 +278,7 @@ def _low_rank_factors(
     return inv0[:, 0], U, d
 
 
+@folded_keywords("options", SubspaceOptions, ("subarray", "loading", "n_sources"), since="0.1.0")
 def doa_spectrum(
     snapshots: np.ndarray,
     array: Array,
@@ -318,11 +322,12 @@ def doa_spectrum(
         kernel = coarray_kernel(
             tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
         )
-        coefficients = {
+        forms: dict[str, Callable[..., np.ndarray]] = {
             "low_rank": kernel.coefficients_low_rank,
             "unitary": kernel.coefficients_unitary,
             "full": kernel.coefficients,
-        }[form]
+        }
+        coefficients = forms[form]
         P = kernel.evaluate(coefficients(*parts), floor=floor, invert=inverse)
     else:
         steering = steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)

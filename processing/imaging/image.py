@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import maximum_filter
 
-__all__ = ["Image", "Peaks", "find_peaks", "to_db"]
+from processing.imaging.peak_table import PeakRow, PeakTable
+
+__all__ = ["Image", "Peaks", "find_peaks", "to_db", "PEAK_THRESHOLD_DB", "on_grid_edge"]
+
+#: peaks are kept within this many dB of each image's strongest cell: the default of
+#: :meth:`Image.peaks`, the command line, its pictures and its files
+PEAK_THRESHOLD_DB = -10.0
 
 
 def to_db(
@@ -29,7 +36,15 @@ def to_db(
 
 @dataclass(frozen=True, eq=False)
 class Peaks:
-    """Local maxima of an image, strongest first.  P peaks."""
+    """Local maxima of an image, strongest first.  P peaks.
+
+    The arrays below, and rows: ``len(peaks)``, ``peaks[0]``, ``for row in peaks``
+    give :class:`processing.PeakRow` s, the columns of ``peaks.csv`` (degrees, metres,
+    dB; :meth:`table`); ``peaks.to_records()`` and ``peaks.as_dict()`` feed pandas or
+    polars. An image alone has no recording: the sensor frame's origin is the array
+    centre, the world frame is the sensor frame and there is no truth;
+    :func:`acousim.peak_table` fills those from the recording.
+    """
 
     azimuth_rad: np.ndarray
     """(P,) azimuth of each peak, rad."""
@@ -41,8 +56,95 @@ class Peaks:
     """(P,) level of each peak, dB relative to the image's strongest cell: 0 for the
     strongest peak, at least :func:`find_peaks`' threshold for the others."""
 
+    method: str = ""
+    """The image's method (``""``: not known)."""
+    on_grid_edge: np.ndarray | None = None
+    """(P,) bool: on the first or last azimuth or elevation of the grid (a maximum
+    there may be the flank of an echo from outside it); None: not known."""
+
     def __len__(self) -> int:
         return self.level_db.size
+
+    def __repr__(self) -> str:
+        return "Peaks" + repr(self.table()).removeprefix("PeakTable")
+
+    def table(
+        self,
+        *,
+        sensor_m: np.ndarray | None = None,
+        world_m: np.ndarray | None = None,
+        recording: int | None = None,
+        provenance: str = "",
+    ) -> PeakTable:
+        """The peaks as rows (:class:`processing.PeakTable`). `sensor_m`, `world_m`
+        (P, 3): the peaks in the sensor and world frames, m (default: from the origin
+        as the array centre; the world frame the sensor frame); `recording`: the
+        recording's index in its file; `provenance`: its kind (the columns of
+        ``peaks.csv``; :func:`acousim.peak_table` fills them from a recording)."""
+        edge = np.zeros(len(self), bool) if self.on_grid_edge is None else self.on_grid_edge
+        if sensor_m is None:
+            sensor_m = _unit_vectors(self.azimuth_rad, self.elevation_rad) * self.range_m[:, None]
+        world_m = sensor_m if world_m is None else world_m
+        rows = []
+        for k in range(len(self)):
+            x, y, z = (float(v) for v in sensor_m[k])
+            wx, wy, wz = (float(v) for v in world_m[k])
+            rows.append(
+                PeakRow(
+                    recording=recording,
+                    method=self.method,
+                    range_m=float(self.range_m[k]),
+                    azimuth_deg=float(np.rad2deg(self.azimuth_rad[k])),
+                    elevation_deg=float(np.rad2deg(self.elevation_rad[k])),
+                    level_db=float(self.level_db[k]),
+                    x_m=x,
+                    y_m=y,
+                    z_m=z,
+                    world_x_m=wx,
+                    world_y_m=wy,
+                    world_z_m=wz,
+                    on_grid_edge=bool(edge[k]),
+                    provenance=provenance,
+                )
+            )
+        return PeakTable(rows)
+
+    def __getitem__(self, k: int) -> PeakRow:
+        """Peak `k` as a row (strongest first)."""
+        return self.table()[k]
+
+    def __iter__(self) -> Iterator[PeakRow]:
+        return iter(self.table())
+
+    def to_records(self) -> list[dict]:
+        """One {column: value} dict per peak (:meth:`PeakTable.to_records`)."""
+        return self.table().to_records()
+
+    def as_dict(self) -> dict[str, list]:
+        """{column: values} (:meth:`PeakTable.as_dict`)."""
+        return self.table().as_dict()
+
+
+def _unit_vectors(azimuth_rad: np.ndarray, elevation_rad: np.ndarray) -> np.ndarray:
+    """Unit vectors (P, 3) of directions (sensor frame: x forward, y left, z up)."""
+    ce = np.cos(elevation_rad)
+    return np.column_stack(
+        [ce * np.cos(azimuth_rad), ce * np.sin(azimuth_rad), np.sin(elevation_rad)]
+    ).reshape(-1, 3)
+
+
+def on_grid_edge(image: Image, azimuth_rad, elevation_rad) -> np.ndarray:
+    """Whether each direction (azimuth_rad, elevation_rad: (P,), rad) lies on the first
+    or last azimuth or elevation of the image's grid (P,) bool: a maximum there may be
+    the flank of an echo from outside it."""
+    az = np.asarray(azimuth_rad, float).reshape(-1)
+    out = np.zeros(az.size, bool)
+    for axis, values in ((image.azimuth_rad, az), (image.elevation_rad, elevation_rad)):
+        if axis.size > 1:
+            tol = 1e-9 + 1e-6 * abs(axis[1] - axis[0])
+            v = np.asarray(values, float).reshape(-1)
+            out |= (np.abs(v - axis.min()) <= tol) | (np.abs(v - axis.max()) <= tol)
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,8 +185,11 @@ class Image:
         """Image in dB relative to its maximum, shape (R, E, A)."""
         return to_db(self.power, floor_db=floor_db)
 
-    def peaks(self, threshold_db: float = -20.0, *, max_peaks: int | None = None) -> Peaks:
-        """Local maxima at least `threshold_db` relative to the maximum."""
+    def peaks(
+        self, threshold_db: float = PEAK_THRESHOLD_DB, *, max_peaks: int | None = None
+    ) -> Peaks:
+        """Local maxima at least `threshold_db` (dB, default the command line's
+        :data:`PEAK_THRESHOLD_DB`) relative to the maximum (:func:`find_peaks`)."""
         return find_peaks(self, threshold_db, max_peaks=max_peaks)
 
     def fan(self, elevation_rad: float = 0.0) -> np.ndarray:
@@ -94,23 +199,31 @@ class Image:
         return self.power[:, e, :]
 
 
-def find_peaks(image: Image, threshold_db: float = -20.0, *, max_peaks: int | None = None) -> Peaks:
-    """Local maxima of the 3D image (a 3x3x3 neighbourhood) above a threshold.
+def find_peaks(
+    image: Image, threshold_db: float = PEAK_THRESHOLD_DB, *, max_peaks: int | None = None
+) -> Peaks:
+    """Local maxima of the 3D image (a 3x3x3 neighbourhood) at least `threshold_db`
+    (dB re the strongest cell; default :data:`PEAK_THRESHOLD_DB`), at most `max_peaks`.
 
     Plateaus count once (their first cell in index order).  At elevation +-90
-    degrees every azimuth is the same direction: those cells take their row's
-    maximum first, so a source at the zenith is one peak.
+    degrees every azimuth is the same direction: the pole is one cell, whose value is
+    its row's maximum and whose neighbours are every azimuth of the next elevation,
+    so an echo from the zenith or the nadir is one peak (at the grid's first azimuth).
     """
     p = image.power
     if p.size == 0 or p.max() <= 0:
         e = np.empty(0)
-        return Peaks(e, e, e, e)
+        return Peaks(e, e, e, e, image.method, np.zeros(0, bool))
     pole = np.abs(np.abs(image.elevation_rad) - np.pi / 2) < 1e-9
     if pole.any() and image.azimuth_rad.size > 1:
         # every azimuth at +-90 degrees is one direction: one value, so one peak
         p = p.copy()
         p[:, pole, :] = p[:, pole, :].max(axis=2, keepdims=True)
     local = maximum_filter(p, size=3, mode="nearest")
+    for e_pole in np.flatnonzero(pole) if image.azimuth_rad.size > 1 else ():
+        # the pole is one cell: its neighbours are the whole ring of the next elevation
+        ring = p[:, max(e_pole - 1, 0) : e_pole + 2, :].max(axis=(1, 2))
+        local[:, e_pole, :] = maximum_filter(ring, size=3, mode="nearest")[:, None]
     level = to_db(p)
     mask = (p >= local) & (level >= threshold_db)
     idx = np.argwhere(mask)
@@ -128,9 +241,12 @@ def find_peaks(image: Image, threshold_db: float = -20.0, *, max_peaks: int | No
     if max_peaks is not None:
         order = order[:max_peaks]
     idx, lv = idx[order], lv[order]
+    az, el = image.azimuth_rad[idx[:, 2]], image.elevation_rad[idx[:, 1]]
     return Peaks(
-        azimuth_rad=image.azimuth_rad[idx[:, 2]],
-        elevation_rad=image.elevation_rad[idx[:, 1]],
+        azimuth_rad=az,
+        elevation_rad=el,
         range_m=image.range_m[idx[:, 0]],
         level_db=lv,
+        method=image.method,
+        on_grid_edge=on_grid_edge(image, az, el),
     )

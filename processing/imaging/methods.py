@@ -49,11 +49,14 @@ BroadbandMethod = Literal[
     "dmas4-cf-bb",
     "dmas5-cf-bb",
 ]
+#: every imaging method's name (a ``typing.Literal``): narrowband, wideband, broadband
 Method = Literal[NarrowbandMethod, WidebandMethod, BroadbandMethod]
 #: The narrowband methods, exactly as spelled in :data:`NarrowbandMethod` (no case or
 #: underscore variants: every caller checks names against these tuples).
 NARROWBAND_METHODS: tuple[str, ...] = get_args(NarrowbandMethod)
+#: the wideband methods (``-wb``: incoherent sums over the band's STFT bins)
 WIDEBAND_METHODS: tuple[str, ...] = get_args(WidebandMethod)
+#: the broadband methods (``-bb``: time-domain energyscapes)
 BROADBAND_METHODS: tuple[str, ...] = get_args(BroadbandMethod)
 #: Every imaging method: narrowband (processing.imaging.doa), wideband (``-wb``), broadband
 #: (``-bb``).  Callers (command line, dataset specs) check names against this tuple.

@@ -71,7 +71,8 @@ def solid_angle_3db(
     if p.max() <= 0:
         raise ValueError("the spectrum has no energy: its -3 dB area is undefined")
     if peak is None:
-        peak = np.unravel_index(int(np.argmax(p)), p.shape)
+        e, a = np.unravel_index(int(np.argmax(p)), p.shape)
+        peak = (int(e), int(a))
     labels, _ = label(p >= HALF_POWER * p[peak])
     region = labels == labels[peak]
     return float(cell_solid_angles(elevation_rad, azimuth_rad)[region].sum())
@@ -82,7 +83,7 @@ def angular_resolution(image: Image) -> float:
     if image.power.size == 0:
         raise ValueError("the image has no range bins: angular resolution is undefined")
     r, e, a = np.unravel_index(int(np.argmax(image.power)), image.power.shape)
-    return solid_angle_3db(image.power[r], image.elevation_rad, image.azimuth_rad, (e, a))
+    return solid_angle_3db(image.power[r], image.elevation_rad, image.azimuth_rad, (int(e), int(a)))
 
 
 def range_profile(image: Image) -> np.ndarray:

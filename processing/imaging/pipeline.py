@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import cast
 
 import numpy as np
 
@@ -22,7 +23,15 @@ from processing.imaging.broadband.energyscape import BroadbandSettings, Directio
 from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from processing.imaging.image import Image
 from processing.imaging.matched_filter import matched_filter
-from processing.imaging.methods import METHODS, Method, check_method, parse_method, requires_ura
+from processing.imaging.methods import (
+    METHODS,
+    BroadbandMethod,
+    Method,
+    WidebandMethod,
+    check_method,
+    parse_method,
+    requires_ura,
+)
 from processing.imaging.snapshot import BinGate, Snapshot, Stft, stft_snapshot
 from processing.imaging.steering import Grid
 from processing.imaging.wideband import band_frequencies, band_snapshots, wideband_spectrum
@@ -47,6 +56,8 @@ __all__ = [
 #: Default limit on the memory one imaging call may allocate (bytes); override with
 #: ``ProcessingSettings(memory_limit_bytes=...)``.
 MEMORY_LIMIT_BYTES = 4 * 2**30
+#: the default range considered (m): from beyond the emitter-to-microphone crosstalk
+RANGE_LIMITS_M: tuple[float, float] = (0.25, float("inf"))
 
 
 @dataclass(frozen=True)
@@ -65,6 +76,8 @@ class ProcessingSettings:
     These defaults are the command line's too (``acousim image`` reads them from
     here): one declaration.
     max_bins : keep at most this many range bins (the strongest).
+    grid : the directions imaged (default :meth:`Grid.degrees`: azimuth -90..90 and
+        elevation -40..40 degrees every 2 degrees, the command line's).
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
     n_sources : MUSIC signal subspace size (None: the mean-eigenvalue rule).
@@ -84,7 +97,7 @@ class ProcessingSettings:
         1e-3, "", 0, 1, "keep range bins with at least this fraction of the strongest's energy"
     )
     #: (min, max) m, max may be inf; None: all (checked in __post_init__)
-    range_limits_m: tuple[float, float] | None = (0.25, float("inf"))
+    range_limits_m: tuple[float, float] | None = RANGE_LIMITS_M
     max_bins: int | None = setting(None, "", 1, 1 << 30, "keep the strongest bins", kind="int")
     #: smoothing subarray (rows, columns); None: 5/8 of each dimension
     subarray: tuple[int, int] | None = None
@@ -92,7 +105,7 @@ class ProcessingSettings:
         SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
     )
     n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
-    grid: Grid = field(default_factory=lambda: Grid.degrees(step=2.0))
+    grid: Grid = field(default_factory=Grid.degrees)  # the command line's grid
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)
     max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
     memory_limit_bytes: float = setting(
@@ -259,7 +272,8 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
         hi = min(hi, recording.speed_of_sound_m_s * t_end / 2)
         bb = replace(bb, range_limits_m=(lo, hi))
     grid = settings.grid
-    es = energyscape(recording, Directions.from_grid(grid), method, bb)
+    # (a name check_method has checked: one of the broadband methods)
+    es = energyscape(recording, Directions.from_grid(grid), cast(BroadbandMethod, method), bb)
     lo, hi = recording.waveform.band_hz
     return Image(
         power=es.to_grid(),
@@ -318,7 +332,7 @@ def acoustic_images(
                 recording.array,
                 freqs,
                 grid,
-                method,
+                cast(WidebandMethod, method),  # checked: one of the wideband methods
                 speed_of_sound_m_s=recording.speed_of_sound_m_s,
                 options=settings.subspace,
             )

@@ -28,7 +28,8 @@ def covariance(x: np.ndarray) -> np.ndarray:
 
 def default_subarray(shape: tuple[int, int]) -> tuple[int, int]:
     """The paper's proportion (5 of 8) applied to each dimension, at least 1."""
-    return tuple(max(1, int(round(n * 5 / 8))) for n in shape)
+    nz, ny = (max(1, int(round(n * 5 / 8))) for n in shape)
+    return nz, ny
 
 
 def subarray_snapshots(

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 
 __all__ = ["Snapshot", "Stft", "BinGate", "stft_snapshot"]
@@ -85,6 +86,8 @@ STFT_DEFAULTS = Stft()
 GATE_DEFAULTS = BinGate()
 
 
+@folded_keywords("stft", Stft, ("window", "overlap", "window_type"), since="0.1.0")
+@folded_keywords("gate", BinGate, ("energy_fraction", "range_limits_m", "max_bins"), since="0.1.0")
 def stft_snapshot(
     mf: np.ndarray,
     sample_rate_hz: float,

@@ -33,7 +33,25 @@ from scipy import fft as sfft
 from processing.base.errors import InputError
 from processing.base.kernels import optional_kernel
 
-__all__ = ["Grid", "steering_matrix", "CoarrayKernel", "coarray_kernel", "quadratic_form_direct"]
+__all__ = [
+    "Grid",
+    "GRID_AZIMUTH_DEG",
+    "GRID_ELEVATION_DEG",
+    "GRID_STEP_DEG",
+    "steering_matrix",
+    "CoarrayKernel",
+    "coarray_kernel",
+    "quadratic_form_direct",
+]
+
+#: the default grid's azimuths (min, max) in degrees, of every entry: ``Grid.degrees()``,
+#: :class:`processing.ProcessingSettings`, ``acousim image`` and its pictures
+GRID_AZIMUTH_DEG = (-90.0, 90.0)
+#: the default grid's elevations (min, max) in degrees (the sensors' field of view: a
+#: grid to +-90 degrees adds the poles, where every azimuth is one direction)
+GRID_ELEVATION_DEG = (-40.0, 40.0)
+#: the default grid's step in degrees
+GRID_STEP_DEG = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,12 +88,16 @@ class Grid:
     @classmethod
     def degrees(
         cls,
-        azimuth: tuple[float, float] = (-90.0, 90.0),
-        elevation: tuple[float, float] = (-90.0, 90.0),
-        step: float | tuple[float, float] = 1.0,
+        azimuth: tuple[float, float] = GRID_AZIMUTH_DEG,
+        elevation: tuple[float, float] = GRID_ELEVATION_DEG,
+        step: float | tuple[float, float] = GRID_STEP_DEG,
     ) -> Grid:
-        """A regular grid from (min, max) limits and a step, all in degrees (inclusive)."""
-        s_az, s_el = (step, step) if np.isscalar(step) else step
+        """A regular grid from (min, max) limits and a step, all in degrees (inclusive).
+
+        The defaults are the command line's (:data:`GRID_AZIMUTH_DEG`,
+        :data:`GRID_ELEVATION_DEG`, :data:`GRID_STEP_DEG`): azimuth -90..90, elevation
+        -40..40, every 2 degrees."""
+        s_az, s_el = (step, step) if isinstance(step, int | float | np.number) else step
         if not (s_az > 0 and s_el > 0):
             raise InputError(f"grid step must be positive, got {step}")
 

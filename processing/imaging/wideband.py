@@ -21,6 +21,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from processing.imaging.methods import WIDEBAND_METHODS, WidebandMethod
@@ -69,6 +70,7 @@ def band_snapshots(
     return np.moveaxis(col, (3, 0), (0, 3))  # (F, M, R, K)
 
 
+@folded_keywords("options", SubspaceOptions, ("subarray", "loading", "n_sources"), since="0.1.0")
 def wideband_spectrum(
     snapshots: np.ndarray,
     array: Array,
@@ -98,6 +100,8 @@ def wideband_spectrum(
         if music:
             p = np.divide(1.0, p, out=np.zeros_like(p), where=p > 0)
         acc = p if acc is None else acc + p
+    if acc is None:
+        raise InputError("no frequencies to sum", key="freqs_hz", value=freqs_hz)
     acc /= len(freqs_hz)
     if music:
         acc = np.divide(1.0, acc, out=np.zeros_like(acc), where=acc > 0)

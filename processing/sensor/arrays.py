@@ -120,6 +120,7 @@ class Array:
         its grid.  Raises InputError for an array that is not a full URA.
         """
         self.require_ura("grid ordering")
+        assert self.grid_index is not None  # a URA's
         rows, cols = self.grid_shape
         cells = self.grid_index[:, 0] * cols + self.grid_index[:, 1]
         return np.argsort(cells, kind="stable")
@@ -136,7 +137,7 @@ class Array:
         """Highest frequency without grating lobes over the hemisphere: c / (2 pitch)
         for a URA (the larger pitch).  An irregular (pseudo-random) layout has no
         periodic grating lobes: infinity."""
-        if self.is_ura:
+        if self.is_ura and self.pitch_m is not None:
             return speed_of_sound_m_s / (2 * max(self.pitch_m))
         return float("inf")
 
@@ -224,11 +225,10 @@ def ura(
     """
     if n_rows < 1 or n_cols < 1:
         raise ValueError(f"ura: n_rows and n_cols must be >= 1, got {n_rows}x{n_cols}")
-    dz, dy = (pitch_m, pitch_m) if np.isscalar(pitch_m) else pitch_m
+    dz, dy = (pitch_m, pitch_m) if isinstance(pitch_m, int | float | np.number) else pitch_m
     if not (dz > 0 and dy > 0):
         raise ValueError(f"ura: pitch must be positive, got {pitch_m}")
-    row, col = np.meshgrid(np.arange(n_rows), np.arange(n_cols), indexing="ij")
-    row, col = row.ravel(), col.ravel()
+    row, col = (g.ravel() for g in np.meshgrid(np.arange(n_rows), np.arange(n_cols), indexing="ij"))
     pos = np.column_stack(
         [np.zeros(row.size), (col - (n_cols - 1) / 2) * dy, (row - (n_rows - 1) / 2) * dz]
     )
@@ -398,6 +398,7 @@ def ertis_v3d1(path: str | Path | None = None) -> Array:
     return from_coordinates_file(path, units="mm", name="ertis_v3d1")
 
 
+#: the array presets by name (the scene file's ``[sensor] array``): their functions
 PRESETS = {
     "paper_8x8": paper_8x8,
     "urtis_v1": urtis_v1,

@@ -25,6 +25,8 @@ __all__ = [
     "hyperbolic_sweep",
     "paper_chirp",
     "rtis_call",
+    "CALLS",
+    "named_call",
     "MAX_FREQUENCY_HZ",
     "MAX_DURATION_S",
     "fit_sweep",
@@ -191,6 +193,18 @@ def rtis_call(preset: str = "default_25_50") -> Waveform:
     return hyperbolic_sweep(f_max, f_min, 2.5e-3, 0.1)
 
 
+#: the calls a scene file (``[sensor] call = "..."``), ``acousim.Sensor(call="...")`` and
+#: the command line's ``--call`` name: the RTIS presets and the paper's chirp
+CALLS = ("default_25_50", "default_20_80", "paper")
+
+
+def named_call(name: str) -> Waveform:
+    """The call of a name of :data:`CALLS` (an InputError with a did-you-mean else)."""
+    if name not in CALLS:
+        raise InputError(unknown_choice("call", name, CALLS), key="call", value=name)
+    return paper_chirp() if name == "paper" else rtis_call(name)
+
+
 def fit_sweep(signal: np.ndarray, sample_rate_hz: float) -> tuple[Waveform, float, int]:
     """The :class:`Waveform` that best describes a sampled call, and how well.
 
@@ -232,12 +246,13 @@ def _fit_from(x: np.ndarray, fs: float) -> tuple[Waveform, float]:
     if strong.sum() < 4:
         raise ValueError("the call is too short or too weak to fit")
     T = x.size / fs
-    best = None
+    best: tuple | None = None
     for kind, g, inv in (("linear", f, lambda v: v), ("hyperbolic", 1 / f, lambda v: 1 / v)):
         coef = np.polyfit(t[strong], g[strong], 1)
         resid = np.std(inv(np.polyval(coef, t[strong])) - f[strong])
         if best is None or resid < best[0]:
             best = (resid, kind, inv(np.polyval(coef, 0.0)), inv(np.polyval(coef, T)))
+    assert best is not None  # the loop ran twice
     _, kind, f0, f1 = best
     if not (f0 > 0 and f1 > 0 and np.isfinite(f0) and np.isfinite(f1)):
         raise ValueError("the call's frequency does not follow a sweep")

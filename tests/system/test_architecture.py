@@ -3,7 +3,7 @@ parameter counts, import cycles and the direction of imports (docs/architecture.
 A module's length is not checked: a module holds one concept, whatever its length
 (the long ones are listed when run as a script).
 
-Run as a script for the full report: ``python tests/system/test_architecture.py``.
+Run as a script for the full report: ``python -m tests.system.test_architecture``.
 """
 
 from __future__ import annotations

@@ -91,6 +91,14 @@ def test_the_installed_wheel_carries_its_scenes(installed):
     assert 'file = "../scenes/corridor.toml"' in spec
 
 
+def test_the_wheel_is_marked_typed(installed):
+    """PEP 561: each package carries its py.typed, so type checkers read its hints."""
+    import zipfile
+
+    names = set(zipfile.ZipFile(installed[3]).namelist())
+    assert {f"{p}/py.typed" for p in ("processing", "acousim", "hardware")} <= names
+
+
 def test_a_missing_scene_name_is_still_a_clear_error(tmp_path, capsys):
     assert main(["simulate", "no_such_scene", "--out", str(tmp_path / "x.h5")]) == 2
     assert "no_such_scene: no such file, nor a bundled scene" in capsys.readouterr().err

@@ -26,11 +26,13 @@ def test_non_finite_samples_name_channel_and_sample():
     snaps[9, 2] = np.nan
     for method in ("das", "music", "capon", "music-fbss", "capon-fbss"):
         with pytest.raises(P.InputError, match="microphone 9, range bin 2"):
-            doa_spectrum(snaps, P.paper_8x8(), F, P.Grid.degrees(step=10), method)
+            doa_spectrum(
+                snaps, P.paper_8x8(), F, P.Grid.degrees(elevation=(-90, 90), step=10), method
+            )
 
 
 def test_range_resolution_of_an_image_without_range_bins():
-    g = P.Grid.degrees(step=10)
+    g = P.Grid.degrees(elevation=(-90, 90), step=10)
     img = P.Image(np.zeros((0, *g.shape)), np.zeros(0), g.elevation_rad, g.azimuth_rad, "das", F)
     with pytest.raises(ValueError, match="no range bins"):
         P.range_resolution(img)
@@ -40,7 +42,7 @@ def test_range_resolution_of_an_image_without_range_bins():
 @pytest.mark.parametrize("method", ["capon", "capon-fbss", "das", "music-fbss"])
 def test_one_peak_for_a_source_at_the_zenith(method):
     arr = P.paper_8x8()
-    g = P.Grid.degrees(step=2.0)
+    g = P.Grid.degrees(elevation=(-90, 90), step=2.0)
     x = plane_wave_snapshot(arr, 0, 90, F)[:, None]
     x = x + 0.01 * np.random.default_rng(0).standard_normal(x.shape)
     p = doa_spectrum(x, arr, F, g, method)
@@ -62,7 +64,7 @@ def test_cell_area_at_the_poles_is_the_cap_area():
 @pytest.mark.parametrize("method", P.NARROWBAND_METHODS)
 def test_extreme_magnitudes_give_the_same_spectrum(method):
     arr = P.paper_8x8()
-    g = P.Grid.degrees(step=6.0)
+    g = P.Grid.degrees(elevation=(-90, 90), step=6.0)
     rng = np.random.default_rng(1)
     x = plane_wave_snapshot(arr, 20, -10, F)[:, None, None] * np.ones((1, 2, 3))
     x = x + 0.1 * (rng.standard_normal(x.shape) + 1j * rng.standard_normal(x.shape))
@@ -75,7 +77,9 @@ def test_extreme_magnitudes_give_the_same_spectrum(method):
 
 def test_an_empty_recording_images_to_no_range_bins_not_an_error():
     rec = echo_recording(P.paper_8x8(), [], n_samples=2048)
-    img = P.acoustic_image(rec, "das", P.ProcessingSettings(grid=P.Grid.degrees(step=10)))
+    img = P.acoustic_image(
+        rec, "das", P.ProcessingSettings(grid=P.Grid.degrees(elevation=(-90, 90), step=10))
+    )
     assert img.power.shape[0] == 0
 
 

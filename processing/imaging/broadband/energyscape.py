@@ -210,7 +210,6 @@ def sphere_partition(n: int, *, frontal: bool = True) -> Directions:
             carry += v - m
             counts.append(m)
     counts.append(1)
-    counts = np.array(counts)
     cum = np.cumsum(counts)
     # colatitude of each cap boundary from the cumulative area
     bounds = np.arccos(np.clip(1 - 2 * cum / N, -1, 1))
@@ -225,11 +224,9 @@ def sphere_partition(n: int, *, frontal: bool = True) -> Directions:
         phi = (np.arange(m) + 0.5) * 2 * np.pi / m
         polar += [mid] * m
         around += list(phi)
-    polar, around = np.array(polar), np.array(around)
+    th, ph = np.array(polar), np.array(around)
     # polar axis along +x; around the axis: y = sin(polar) cos(phi), z = sin(polar) sin(phi)
-    u = np.stack(
-        [np.cos(polar), np.sin(polar) * np.cos(around), np.sin(polar) * np.sin(around)], -1
-    )
+    u = np.stack([np.cos(th), np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph)], -1)
     if frontal:
         u = u[u[:, 0] > 1e-12]
     el = np.arcsin(np.clip(u[:, 2], -1, 1))

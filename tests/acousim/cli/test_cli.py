@@ -51,7 +51,9 @@ def test_simulate_then_image_finds_the_point_reflectors(tmp_path, capsys):
         rec,
         "music-fbss",
         P.ProcessingSettings(
-            energy_fraction=0.3, grid=P.Grid.degrees(step=1.0), range_limits_m=(0.25, 2.0)
+            energy_fraction=0.3,
+            grid=P.Grid.degrees(elevation=(-90, 90), step=1.0),
+            range_limits_m=(0.25, 2.0),
         ),
     )
     pk = img.peaks(-20)

@@ -110,7 +110,7 @@ def test_reprs_are_short():
     rec = P.Recording(np.zeros((30, 3000)), 450e3, P.urtis_v1(), P.rtis_call("default_25_50"))
     for obj, words in [
         (P.urtis_v1(), ["urtis_v1", "30 mics", "URA 5x6"]),
-        (P.Grid.degrees(step=1.0), ["-90..90", "181"]),
+        (P.Grid.degrees(elevation=(-90, 90), step=1.0), ["-90..90", "181"]),
         (rec, ["urtis_v1", "30x3000", "450 kHz"]),
     ]:
         text = repr(obj)

@@ -187,12 +187,14 @@ def test_wideband_methods_on_the_irregular_array(method, ertis):
 
 def test_memory_estimate_refuses_a_huge_grid():
     rec = echo_recording(URA, [(0, 0, 1.0, 1.0)], fs=FS, n_samples=4096, waveform=WF)
-    grid = P.Grid.degrees(step=0.01)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=0.01)
     with pytest.raises(P.InputError, match=r"GiB.*limit"):
         P.acoustic_images(rec, ["das"], P.ProcessingSettings(grid=grid))
     with pytest.raises(P.InputError, match=r"GiB.*limit"):
         P.acoustic_images(rec, ["das-bb"], P.ProcessingSettings(grid=grid))
-    small = P.ProcessingSettings(grid=P.Grid.degrees(step=10.0), memory_limit_bytes=1e3)
+    small = P.ProcessingSettings(
+        grid=P.Grid.degrees(elevation=(-90, 90), step=10.0), memory_limit_bytes=1e3
+    )
     with pytest.raises(P.InputError, match="limit of 0.0 GiB"):
         P.acoustic_images(rec, ["das"], small)
 

@@ -18,7 +18,7 @@ def peak_deg(power, grid):
 @pytest.mark.parametrize("az,el", [(0, 0), (23, -11), (-47, 31), (60, 60)])
 def test_plane_wave_peaks_at_its_direction(method, az, el):
     arr = P.paper_8x8()
-    grid = P.Grid.degrees(step=1.0)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=1.0)
     rng = np.random.default_rng(0)
     x = plane_wave_snapshot(arr, az, el, F)[:, None]
     x = x + 0.01 * (rng.standard_normal(x.shape) + 1j * rng.standard_normal(x.shape))
@@ -32,7 +32,7 @@ def test_time_domain_plane_wave_pins_the_sign_convention():
     rec = echo_recording(arr, [(35, 20, 3.0, 1.0)], n_samples=12000)
     settings = P.ProcessingSettings(
         frequency_hz=F,
-        grid=P.Grid.degrees(step=1.0),
+        grid=P.Grid.degrees(elevation=(-90, 90), step=1.0),
         energy_fraction=0.5,  # the paper's gate
     )
     for method in ["das", "music-fbss", "capon-fbss"]:
@@ -64,7 +64,7 @@ def test_das_beamwidth_matches_array_theory():
 @pytest.mark.parametrize("method", P.NARROWBAND_METHODS)
 def test_coarray_fast_path_equals_plain_formula(method, K):
     arr = P.paper_8x8()
-    grid = P.Grid.degrees(step=7.0)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=7.0)
     rng = np.random.default_rng(5)
     x = (
         plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal((1, 3, K))
@@ -99,7 +99,7 @@ def _direct_smoothed(x, arr, grid, method):
 
 def test_urtis_smoothing_and_irregular_array_refusal():
     arr = P.urtis_v1()
-    grid = P.Grid.degrees(step=1.0)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=1.0)
     x = plane_wave_snapshot(arr, -25, 15, 27000.0)[:, None]
     for method in ["music-fbss", "capon-fbss"]:
         got = peak_deg(doa_spectrum(x, arr, 27000.0, grid, method), grid)
@@ -110,8 +110,10 @@ def test_urtis_smoothing_and_irregular_array_refusal():
         doa_spectrum(xi, irregular, 27000.0, grid, "music-fbss")
     for method in ["das", "music", "capon"]:
         got = peak_deg(
-            doa_spectrum(xi, irregular, 27000.0, P.Grid.degrees(step=2.0), method),
-            P.Grid.degrees(step=2.0),
+            doa_spectrum(
+                xi, irregular, 27000.0, P.Grid.degrees(elevation=(-90, 90), step=2.0), method
+            ),
+            P.Grid.degrees(elevation=(-90, 90), step=2.0),
         )
         assert got == pytest.approx((10, 5), abs=2.0)
 
@@ -130,20 +132,24 @@ def test_two_coherent_sources_need_smoothing():
 def test_unknown_method_and_bad_shapes():
     arr = P.paper_8x8()
     with pytest.raises(ValueError, match="method = 'bogus': unknown DOA method.*das"):
-        doa_spectrum(np.ones((64, 1)), arr, F, P.Grid.degrees(step=10), "bogus")
+        doa_spectrum(
+            np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), "bogus"
+        )
     for loose in ("DAS", "capon_fbss", " das"):  # one spelling, checked in one place
         with pytest.raises(P.InputError if hasattr(P, "InputError") else ValueError):
-            doa_spectrum(np.ones((64, 1)), arr, F, P.Grid.degrees(step=10), loose)
+            doa_spectrum(
+                np.ones((64, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), loose
+            )
         with pytest.raises(ValueError, match="unknown method"):
             P.check_method(loose)
     with pytest.raises(ValueError, match="M=64"):
-        doa_spectrum(np.ones((10, 1)), arr, F, P.Grid.degrees(step=10), "das")
+        doa_spectrum(np.ones((10, 1)), arr, F, P.Grid.degrees(elevation=(-90, 90), step=10), "das")
     with pytest.raises(ValueError, match="loading"):
         doa_spectrum(
             np.ones((64, 1)),
             arr,
             F,
-            P.Grid.degrees(step=10),
+            P.Grid.degrees(elevation=(-90, 90), step=10),
             "capon",
             options=SubspaceOptions(loading=-1),
         )
@@ -163,7 +169,9 @@ def test_coarray_coefficients_of_low_rank_factors_equal_the_lag_sums(S):
     rng = np.random.default_rng(3)
     U = rng.standard_normal((R, nz * ny, S)) + 1j * rng.standard_normal((R, nz * ny, S))
     d, c0 = rng.standard_normal((R, S)), rng.standard_normal(R)
-    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(step=30.0), F, C)
+    kern = coarray_kernel(
+        (nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C
+    )
     got = kern.coefficients_low_rank(c0, U, d)
     want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
     for r in range(R):
@@ -186,7 +194,9 @@ def test_coarray_coefficients_of_unitary_transform_equal_the_lag_sums():
     A = rng.standard_normal((R, L, L))
     Qr = A + A.transpose(0, 2, 1)
     T, _ = np.linalg.qr(rng.standard_normal((L, L)) + 1j * rng.standard_normal((L, L)))
-    kern = coarray_kernel((nz, ny), (5e-3, 5e-3), P.Grid.degrees(step=30.0), F, C)
+    kern = coarray_kernel(
+        (nz, ny), (5e-3, 5e-3), P.Grid.degrees(elevation=(-90, 90), step=30.0), F, C
+    )
     got = kern.coefficients_unitary(Qr, T)
     want = np.zeros((R, 2 * nz - 1, 2 * ny - 1), complex)
     for r in range(R):
@@ -215,7 +225,7 @@ def test_real_fbss_coarray_path_equals_the_complex_direct_formula(method, sub):
     """The co-array FBSS path (real covariance, real Q, folded lag map) against the
     direct route: complex covariance, complex eigh, explicit steering vectors."""
     arr = P.paper_8x8()
-    grid = P.Grid.degrees(step=6.0)
+    grid = P.Grid.degrees(elevation=(-90, 90), step=6.0)
     rng = np.random.default_rng(11)
     x = rng.standard_normal((64, 3)) + 1j * rng.standard_normal((64, 3))
     x += np.exp(1j * 2 * np.pi * F / C * arr.positions_m @ direction(25, -10))[:, None]

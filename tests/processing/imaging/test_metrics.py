@@ -6,7 +6,7 @@ from processing.imaging.metrics import cell_solid_angles
 
 
 def test_cell_solid_angles_cover_the_hemisphere():
-    g = P.Grid.degrees(step=0.5)
+    g = P.Grid.degrees(elevation=(-90, 90), step=0.5)
     assert cell_solid_angles(g.elevation_rad, g.azimuth_rad).sum() == pytest.approx(
         2 * np.pi, rel=1e-3
     )
@@ -14,7 +14,7 @@ def test_cell_solid_angles_cover_the_hemisphere():
 
 def test_solid_angle_of_a_spherical_cap():
     # a spectrum that is 1 inside a cap of half-angle 10 deg around (0, 0), small outside
-    g = P.Grid.degrees(step=0.2)
+    g = P.Grid.degrees(elevation=(-90, 90), step=0.2)
     d = g.directions()
     p = np.where(d[..., 0] >= np.cos(np.deg2rad(10)), 1.0, 0.1)
     cap = 2 * np.pi * (1 - np.cos(np.deg2rad(10)))
@@ -22,7 +22,7 @@ def test_solid_angle_of_a_spherical_cap():
 
 
 def test_solid_angle_only_counts_the_region_connected_to_the_peak():
-    g = P.Grid.degrees(step=1.0)
+    g = P.Grid.degrees(elevation=(-90, 90), step=1.0)
     p = np.full(g.shape, 0.01)
     p[90, 90] = 1.0
     p[10, 10] = 0.9  # a separate lobe above -3 dB
@@ -73,7 +73,7 @@ def test_max_attenuation_and_dynamic_range():
 
 
 def test_peaks_of_an_image():
-    g = P.Grid.degrees(step=2.0)
+    g = P.Grid.degrees(elevation=(-90, 90), step=2.0)
     power = np.full((4, *g.shape), 1e-4)
     power[1, 50, 60] = 1.0
     power[3, 20, 30] = 0.5

@@ -10,7 +10,7 @@ from processing.imaging.doa import doa_spectrum
 from tests.oracles.analytic import echo_recording, plane_wave_snapshot
 
 F = 31250.0
-GRID = P.Grid.degrees(step=5.0)
+GRID = P.Grid.degrees(elevation=(-90, 90), step=5.0)
 ALL = list(P.NARROWBAND_METHODS)
 
 
@@ -54,7 +54,7 @@ def test_degenerate_snapshots_give_finite_spectra(method):
         "coincident": 2 * plane_wave_snapshot(arr, 20, 0, F)[:, None],
     }
     for name, x in cases.items():
-        grid = P.Grid.degrees(step=3.0)
+        grid = P.Grid.degrees(elevation=(-90, 90), step=3.0)
         p = doa_spectrum(x, arr, F, grid, method)
         assert _finite_nonneg(p), (method, name)
         if name == "zero":
