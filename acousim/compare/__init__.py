@@ -3,9 +3,12 @@ matched (:mod:`.comparison`); the real recordings read (:mod:`.inputs`); a traje
 comparisons summed up (:mod:`.summary`)."""
 
 import importlib
+import importlib.util
 
 
 def __getattr__(name: str) -> object:
     """The names of :mod:`acousim.compare.comparison` (this package was that one module before the
     re-layout by concept: ``from acousim.compare import ...`` keeps working)."""
+    if importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        return importlib.import_module(f"{__name__}.{name}")  # a module of the package
     return getattr(importlib.import_module("acousim.compare.comparison"), name)
