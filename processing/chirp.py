@@ -61,6 +61,7 @@ from .chirp_names import (  # noqa: F401  (re-exported)
     ChirpFileError,
 )
 from .errors import InputError
+from .h5attrs import attribute_text
 from .provenance import SensorMotion, SensorPose
 from .recording_types import MAX_SAMPLE_BYTES, Recording
 from .waveforms import Waveform
@@ -344,7 +345,7 @@ def is_chirp(path: str | Path) -> bool:
             v = f.attrs.get("format")
     except (OSError, ValueError):
         return False
-    return (v.decode(errors="replace") if isinstance(v, bytes) else v) == "chirp"
+    return attribute_text(v) == "chirp"
 
 
 def count_chirp(path: str | Path) -> int:

@@ -16,6 +16,7 @@ import numpy as np
 from .arrays import Array
 from .chirp_frames import euler_of, matrix_of_quaternion
 from .chirp_names import ACOUSTIC, LIDAR, ODOMETRY, OUR_SCHEMA, OURS, TRANSMITTER, ChirpFileError
+from .h5attrs import attribute_text
 from .pointcloud import PointCloud
 from .recording_types import MAX_SAMPLE_BYTES, GroundTruth, Recording
 from .waveforms import FIT_MIN_CORRELATION, Waveform, fit_sweep
@@ -26,10 +27,7 @@ DEFAULT_SPEED_OF_SOUND_M_S = 343.0
 """Speed of sound of a CHIRP recording that does not say it (dry air at 20 °C)."""
 
 
-def _text(v) -> str | None:
-    if isinstance(v, bytes):
-        return v.decode(errors="replace")
-    return v if isinstance(v, str) else None
+_text = attribute_text  # the one reading of a text attribute
 
 
 class Reader:

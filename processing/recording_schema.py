@@ -15,6 +15,7 @@ import numpy as np
 from .arrays import Array
 from .calibration import on_load
 from .errors import InputError
+from .h5attrs import attribute_text
 from .metadata import metadata_problem
 from .pointcloud import read_point_cloud
 from .provenance import Provenance
@@ -120,10 +121,7 @@ def _plain(value):
     return value
 
 
-def _text(value) -> str | None:
-    if isinstance(value, bytes):
-        return value.decode(errors="replace")
-    return value if isinstance(value, str) else None
+_text = attribute_text  # the one reading of a text attribute
 
 
 def _dataset(

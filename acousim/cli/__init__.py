@@ -157,8 +157,9 @@ def _main(argv: list[str] | None, handled: bool) -> int:
     from processing import interrupt
     from processing.errors import InputError
 
-    from .common import announce
+    from .common import announce, set_quiet, start_clock
 
+    start_clock()  # a command's reported time counts from here
     interrupt.reset()
     if handled:
         signal.signal(signal.SIGINT, interrupt.handler)
@@ -167,6 +168,7 @@ def _main(argv: list[str] | None, handled: bool) -> int:
     _headless_vtk()  # before any command imports VTK
     args = build_parser().parse_args(argv)
     announce(args.command)
+    set_quiet(args.quiet)
     try:
         interrupt.check()
         return args.func(args)

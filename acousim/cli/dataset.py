@@ -7,9 +7,9 @@ Generate a sharded, reproducible, resumable dataset from a spec file
 from __future__ import annotations
 
 import argparse
-import time
+import sys
 
-from .common import add_command, preload_simulation, progress, writable_dir
+from .common import add_command, elapsed, preload_simulation, progress, writable_dir
 from .options import add_declared
 
 
@@ -23,6 +23,24 @@ def register(sub) -> None:
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
 
 
+def _kept(spec, args: argparse.Namespace) -> str:
+    """What an interrupted run leaves: the shards kept and the command that resumes."""
+    import shlex
+
+    from acousim.dataset.generation import kept_shards
+
+    kept, total = kept_shards(spec, args.out)
+    again = ["acousim", "dataset", args.spec, "--out", args.out]
+    if args.workers is not None:
+        again += ["--workers", str(args.workers)]
+    if args.scheduler:
+        again += ["--scheduler", args.scheduler]
+    return (
+        f"{kept} of {total} shards kept in {args.out} (each whole; checked again on "
+        f"resume); resume with: {shlex.join(again)}"
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import resolve
     from acousim.dataset import generate
@@ -34,18 +52,22 @@ def run(args: argparse.Namespace) -> int:
         check_scheduler(args.scheduler)
     writable_dir(args.out)
     preload_simulation()
-    t0 = time.perf_counter()
-    manifest = generate(
-        resolve("datasets", args.spec),  # a file, or a bundled spec's name
-        args.out,
-        workers=Workers().workers if args.workers is None else args.workers,
-        scheduler=args.scheduler,
-        progress=progress("shards"),
-    )
+    spec = resolve("datasets", args.spec)  # a file, or a bundled spec's name
+    try:
+        manifest = generate(
+            spec,
+            args.out,
+            workers=Workers().workers if args.workers is None else args.workers,
+            scheduler=args.scheduler,
+            progress=progress("shards", "shard", start="first"),
+        )
+    except KeyboardInterrupt:
+        print(f"acousim dataset: interrupted; {_kept(spec, args)}", file=sys.stderr)
+        return 130
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "
-        f"({time.perf_counter() - t0:.1f} s; {s['samples_computed']} computed now, "
+        f"({elapsed():.1f} s from the start; {s['samples_computed']} computed now, "
         f"{s['samples_per_second']:.2f} samples/s, {s['bytes_per_sample'] / 1e3:.0f} kB per "
         "sample)"
     )

@@ -150,13 +150,12 @@ def run(args: argparse.Namespace) -> int:
     except RecordingFailed as exc:
         print(f"acousim record: error: {exc.reason}; nothing recorded", file=sys.stderr)
         return 1
-    bar = progress("record")
+    bar = progress("record", "measurement", checkpoint=False)
     kept: list = []
 
     def keep(rec) -> None:
         kept.append(rec)
-        if args.count:
-            bar(len(kept), args.count)
+        bar(len(kept), args.count)  # no count (--duration): count and rate, no time left
 
     interrupted, failure = False, None
     try:
@@ -168,6 +167,7 @@ def run(args: argparse.Namespace) -> int:
         interrupted = True
     except RecordingFailed as exc:
         failure = exc
+    bar.finish()
     if kept:
         P.save_recordings(out, kept)
     print(_summary(out, kept, recorder.stats, interrupted, failure))

@@ -12,6 +12,7 @@ import numpy as np
 
 import processing as P
 from processing.errors import InputError
+from processing.h5attrs import attribute_text
 from processing.provenance import kind_of
 
 from .generation import SHARD_SCHEMA
@@ -40,8 +41,7 @@ def describe(path: str | Path) -> list[str]:
     return _recordings(path)
 
 
-def _text(v) -> str | None:
-    return v.decode(errors="replace") if isinstance(v, bytes) else v
+_text = attribute_text  # the one reading of a text attribute: None for an array
 
 
 def _images(path: Path) -> list[str]:
@@ -165,7 +165,7 @@ def _shard(path: Path) -> list[str]:
         for name in samples:
             g = f[name]
             try:
-                params = json.loads(g.attrs["params"])
+                params = json.loads(_text(g.attrs["params"]) or "")  # an array: malformed
             except (KeyError, ValueError) as exc:
                 raise InputError(f"malformed params ({exc!r})", file=path, key=name) from None
             fields = [f"{k} {d.shape}" for k, d in _datasets(g)]
