@@ -176,9 +176,11 @@ def _main(argv: list[str] | None, handled: bool) -> int:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        # a command may say more (what it kept, how to resume): its `interrupted(args)`
+        said = getattr(args, "interrupted", None)
         print(
-            f"acousim {args.command}: interrupted; no partial file was kept and no "
-            "existing output replaced",
+            f"acousim {args.command}: interrupted; "
+            + (said(args) if said else "no partial file was kept and no existing output replaced"),
             file=sys.stderr,
         )
         return 130

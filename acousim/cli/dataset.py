@@ -7,7 +7,8 @@ Generate a sharded, reproducible, resumable dataset from a spec file
 from __future__ import annotations
 
 import argparse
-import sys
+
+from processing.errors import InputError
 
 from .common import add_command, elapsed, preload_simulation, progress, writable_dir
 from .options import add_declared
@@ -21,15 +22,21 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output folder")
     add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
+    p.set_defaults(interrupted=interrupted)
 
 
-def _kept(spec, args: argparse.Namespace) -> str:
-    """What an interrupted run leaves: the shards kept and the command that resumes."""
+def interrupted(args: argparse.Namespace) -> str:
+    """What an interrupted run leaves (main() prints it after "interrupted; "): the
+    shards kept and the command that resumes."""
     import shlex
 
+    from acousim.bundled import resolve
     from acousim.dataset.generation import kept_shards
 
-    kept, total = kept_shards(spec, args.out)
+    try:
+        kept, total = kept_shards(resolve("datasets", args.spec), args.out)
+    except InputError:  # no readable spec: nothing was generated
+        return "nothing was generated"
     again = ["acousim", "dataset", args.spec, "--out", args.out]
     if args.workers is not None:
         again += ["--workers", str(args.workers)]
@@ -52,18 +59,13 @@ def run(args: argparse.Namespace) -> int:
         check_scheduler(args.scheduler)
     writable_dir(args.out)
     preload_simulation()
-    spec = resolve("datasets", args.spec)  # a file, or a bundled spec's name
-    try:
-        manifest = generate(
-            spec,
-            args.out,
-            workers=Workers().workers if args.workers is None else args.workers,
-            scheduler=args.scheduler,
-            progress=progress("shards", "shard", start="first"),
-        )
-    except KeyboardInterrupt:
-        print(f"acousim dataset: interrupted; {_kept(spec, args)}", file=sys.stderr)
-        return 130
+    manifest = generate(
+        resolve("datasets", args.spec),  # a file, or a bundled spec's name
+        args.out,
+        workers=Workers().workers if args.workers is None else args.workers,
+        scheduler=args.scheduler,
+        progress=progress("shards", "shard", start="first"),
+    )
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "

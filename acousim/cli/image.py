@@ -92,6 +92,7 @@ def load_and_image(args: argparse.Namespace):
         recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
+
     def image_all():  # the bar's time starts with the work
         return image_recordings(recs, options, progress("image", "recording"))
 
