@@ -108,7 +108,7 @@ def _excess(lobes) -> float | None:
     """Median of (side lobe's level re its parent) minus the beam pattern there, dB."""
     if not lobes:
         return None
-    return float(np.median([s.level_db - s.of.level_db - s.array_response_db for s in lobes]))
+    return float(np.median([s.peak.level_db - s.of.level_db - s.array_response_db for s in lobes]))
 
 
 def _method(name: str, r) -> MethodAccount:
