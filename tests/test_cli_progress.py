@@ -113,6 +113,11 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
     assert any(re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", ln) for ln in lines)
+    # export: the imaging, then the bag's recordings
+    assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \(.*\)", lines[0]), lines
+    assert re.fullmatch(r"bag: 3/3 recordings in [\d.]+ s \(.*\)", lines[1]), lines
 
 
 def test_quiet_in_a_log_prints_only_the_result(tmp_path, capsys, monkeypatch):

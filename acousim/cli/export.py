@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import UsageError, add_command, writable_dir
+from .common import UsageError, add_command, progress, writable_dir
 from .image import imaging_arguments, load_and_image
 
 
@@ -66,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
         method=args.image_method,
         threshold_db=options.peak_threshold_db,
         dynamic_range_db=options.dynamic_range_db,
+        progress=progress("bag", "recording"),
     )
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
     return 0
