@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(
             f"--image-method {args.image_method!r} is not among --method {args.method!r}"
         )
-    images = image_all()
+    images = _Counted(image_all(), progress("bag", "recording"))
     write_rosbag(
         out,
         recs,
@@ -66,10 +66,24 @@ def run(args: argparse.Namespace) -> int:
         method=args.image_method,
         threshold_db=options.peak_threshold_db,
         dynamic_range_db=options.dynamic_range_db,
-        progress=progress("bag", "recording"),
     )
+    images.bar(len(images), len(images))
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
     return 0
+
+
+class _Counted(list):
+    """The images, counted as the bag writer takes them one recording after the other
+    (its loop over them is the long part): `bar(k, n)` when image k is taken."""
+
+    def __init__(self, items, bar) -> None:
+        super().__init__(items)
+        self.bar = bar
+
+    def __iter__(self):
+        for k, item in enumerate(super().__iter__()):
+            self.bar(k, len(self))
+            yield item
 
 
 def _chirp(args: argparse.Namespace, out: Path) -> int:

@@ -52,7 +52,7 @@ from __future__ import annotations
 import json
 import shutil
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -119,7 +119,6 @@ def write_rosbag(
     threshold_db: float = PEAK_THRESHOLD_DB,
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     fan_pixels: int = 400,
-    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Write a rosbag2 folder (MCAP storage) at `path`, which must not exist.
 
@@ -130,7 +129,6 @@ def write_rosbag(
         as in the pictures).
     threshold_db : peaks within this of the image's strongest cell.
     dynamic_range_db : of the fan image (levels below -dynamic_range_db are floored).
-    progress : called (done, total) after each recording's messages.
     """
     path = Path(path)
     if path.exists():
@@ -149,7 +147,7 @@ def write_rosbag(
     work = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX, suffix=f"-{path.name}", dir=parent))
     try:
         bag = work / path.name
-        options = _BagOptions(method, threshold_db, dynamic_range_db, fan_pixels, progress)
+        options = _BagOptions(method, threshold_db, dynamic_range_db, fan_pixels)
         _write_bag(bag, recordings, images, indices, options)
         _rename_unless_interrupted(bag, path)
     finally:
@@ -165,7 +163,6 @@ class _BagOptions:
     threshold_db: float
     dynamic_range_db: float
     fan_pixels: int
-    progress: Callable[[int, int], None] | None = None
 
 
 def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions) -> None:
@@ -189,7 +186,7 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
         scene = _SceneTopics(w, store, recordings)
         scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
 
-        for k, (idx, rec, imgs) in enumerate(zip(indices, recordings, images)):
+        for idx, rec, imgs in zip(indices, recordings, images):
             interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
             ns = recording_time_ns(rec, idx)
             header = T["std_msgs/msg/Header"](
@@ -207,8 +204,6 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
             put("tf", _tf_msg(T, header, _pose(rec)), ns)
             scene.write(rec, header, ns)
             scans(rec, header, ns)
-            if o.progress:
-                o.progress(k + 1, len(recordings))
 
 
 def _rename_unless_interrupted(bag: Path, path: Path) -> None:
