@@ -141,10 +141,10 @@ def test_record_counts_its_measurements(tmp_path, capsys, monkeypatch):
 def test_the_reported_time_counts_the_preparation(tmp_path, capsys, monkeypatch):
     """`simulate` reports the wall time since the command started: loading the scene
     (made to take 50 s on a clock of the test's own) is counted, as are the imports."""
-    from acousim.cli import common, simulate
+    from acousim.cli import clock, simulate
 
     now = [1000.0]
-    monkeypatch.setattr(common, "_clock", lambda: now[0])
+    monkeypatch.setattr(clock, "_clock", lambda: now[0])
     real_load = simulate.load_scene
 
     def slow_load(path):
@@ -156,3 +156,16 @@ def test_the_reported_time_counts_the_preparation(tmp_path, capsys, monkeypatch)
     assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5"), "-q"]) == 0
     out = capsys.readouterr().out
     assert out.strip().endswith("(50.0 s from the start)"), out
+
+
+def test_the_clock_starts_before_the_command_imports_anything(monkeypatch):
+    """main() starts the clock before _main() imports the processing package (numpy,
+    scipy: seconds on a busy machine): those imports are in the reported time."""
+    import acousim.cli as cli
+    from acousim.cli import clock
+
+    calls = []
+    monkeypatch.setattr(clock, "start", lambda: calls.append("clock"))
+    monkeypatch.setattr(cli, "_main", lambda argv, handled: calls.append("imports") or 0)
+    assert cli.main(["scenes"]) == 0
+    assert calls == ["clock", "imports"]

@@ -128,6 +128,9 @@ def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
     `restore_sigint` is false); the work stops at its next checkpoint and no output
     file is replaced."""
     global _early_interrupt
+    from . import clock
+
+    clock.start()  # the time a command reports counts from here, its imports included
     _early_interrupt = False
     previous = None
     if threading.current_thread() is threading.main_thread():
@@ -157,9 +160,8 @@ def _main(argv: list[str] | None, handled: bool) -> int:
     from processing import interrupt
     from processing.errors import InputError
 
-    from .common import announce, set_quiet, start_clock
+    from .common import announce, set_quiet
 
-    start_clock()  # a command's reported time counts from here
     interrupt.reset()
     if handled:
         signal.signal(signal.SIGINT, interrupt.handler)

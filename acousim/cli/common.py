@@ -7,11 +7,12 @@ import argparse
 import dataclasses
 import math
 import sys
-import time
 from pathlib import Path
 from typing import Literal
 
 from processing.errors import InputError
+
+from .clock import elapsed, now  # noqa: F401  (elapsed: for the commands)
 
 
 class UsageError(InputError):
@@ -227,22 +228,6 @@ def stop_if_interrupted() -> None:
 
 
 _quiet = False
-_clock = time.perf_counter  # the one clock of start_clock() and elapsed()
-_started: float | None = None
-
-
-def start_clock() -> None:
-    """Note when the command started (main() calls it first): :func:`elapsed` counts
-    from here, imports, scene loading and every other preparation included."""
-    global _started
-    _started = _clock()
-
-
-def elapsed() -> float:
-    """Seconds since the command started (:func:`start_clock`), wall time."""
-    if _started is None:
-        start_clock()
-    return _clock() - _started
 
 
 def set_quiet(quiet: bool) -> None:
@@ -276,7 +261,7 @@ class Progress:
     ) -> None:
         self.desc, self.unit, self.checkpoint = desc, unit, checkpoint
         self._bar = None
-        self._t0: float | None = _clock() if start == "now" else None
+        self._t0: float | None = now() if start == "now" else None
         self._first = 0
         self._done = 0
         self._total: int | None = None
@@ -288,7 +273,7 @@ class Progress:
             stop_if_interrupted()
         self._called = True
         if self._t0 is None:
-            self._t0, self._first = _clock(), done
+            self._t0, self._first = now(), done
         self._done, self._total = done, total
         if _lines():
             of = "" if total is None else f"/{total}"
@@ -313,7 +298,7 @@ class Progress:
                 mininterval=0,  # every step drawn: steps are seconds apart
             )
             # the rate and the time from our start (tqdm's own clock is time.time)
-            self._bar.start_t = self._bar.last_print_t = self._bar._time() - (_clock() - self._t0)
+            self._bar.start_t = self._bar.last_print_t = self._bar._time() - (now() - self._t0)
         if total != self._bar.total:
             self._bar.total = total
         self._bar.update(done - self._bar.n)
@@ -333,7 +318,7 @@ class Progress:
             return
         if _quiet or _lines() or sys.stderr.isatty():
             return
-        print(self.summary(_clock() - self._t0), flush=True)
+        print(self.summary(now() - self._t0), flush=True)
 
     def summary(self, seconds: float) -> str:
         """``DESC: DONE/TOTAL UNITs in S s (RATE UNITs/s)``: the final line."""
