@@ -135,7 +135,8 @@ def test_record_counts_its_measurements(tmp_path, capsys, monkeypatch):
     args = ["record", "--emulate", str(tmp_path / "wall.toml"), "--count", "2"]
     assert main([*args, "--out", str(tmp_path / "r.h5")]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert re.fullmatch(r"record: 2/2 measurements in [\d.]+ s \(.*\)", out[0]), out
+    assert re.fullmatch(r"simulate: 1/1 poses in [\d.]+ s \(.*\)", out[0]), out  # its one pose
+    assert re.fullmatch(r"record: 2/2 measurements in [\d.]+ s \(.*\)", out[1]), out
 
 
 def test_the_reported_time_counts_the_preparation(tmp_path, capsys, monkeypatch):

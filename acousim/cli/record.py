@@ -87,9 +87,11 @@ def emulation_recordings(scene, count: int | None) -> list:
     try:
         sim = Simulator(scene)
         out = []
+        bar = progress("simulate", "pose")
         for i in range(n):
             stop_if_interrupted()
             out.append(sim.simulate_pose(scene.sensor.poses[i], i))
+            bar(i + 1, n)
         return out
     except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
         raise UsageError(f"--emulate {scene.source}: {exc}") from None
