@@ -55,7 +55,7 @@ def test_readme_lists_the_commands_with_bundled_names_only():
     assert not [c for c in commands if "scenes/" in c or "datasets/" in c]
 
 
-def test_every_readme_command_then_every_doc_block_runs_from_an_empty_folder(
+def test_every_readme_command_then_its_python_block_runs_from_an_empty_folder(
     tmp_path, monkeypatch, capsys
 ):
     folder = tmp_path / "first_hour"
