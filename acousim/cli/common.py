@@ -241,7 +241,7 @@ class Progress:
 
     On a terminal (stderr): a tqdm bar with the count, the rate and the time left,
     kept as one line when done. Elsewhere (a log, a pipe): one line on stdout when
-    done, e.g. ``simulate: 60/60 poses in 7.8 s (7.7 poses/s)``. With --quiet:
+    done, e.g. ``simulate: 60/60 poses in 7.8 s (7.69 poses/s)``. With --quiet:
     nothing. With ACOUSIM_PROGRESS_LINES set: a line per step on stderr instead.
     `total` None (an open-ended count): call :meth:`finish` at the end. With
     `checkpoint` false it never raises KeyboardInterrupt (a caller that stops on
