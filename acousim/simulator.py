@@ -25,6 +25,7 @@ calls :func:`acousim.process.configure`.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import functools
@@ -151,7 +152,25 @@ class Simulator:
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
         is frozen).
         """
-        return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+        with self._naming_the_pose(index):
+            return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+
+    @contextlib.contextmanager
+    def _naming_the_pose(self, index: int):
+        """An InputError of one pose's work that names no file gets the scene's file
+        (else its name) and the pose index: "room.toml: pose 12: the sensor ..."."""
+        try:
+            yield
+        except InputError as exc:
+            if exc.file is not None:
+                raise
+            where = "" if self.scene.source else f"scene {self.scene.name!r}: "
+            raise InputError(
+                f"{where}pose {index}: {exc.reason}",
+                file=self.scene.source,
+                key=exc.key,
+                value=exc.value,
+            ) from None
 
     def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
         """Everything of a recording but its samples: the paths traced and turned into
@@ -412,9 +431,10 @@ class Simulator:
         traced: dict[int, object] = {}
 
         def prepare(i: int) -> _Prepared:
-            if i in traced:
-                traced.pop(i).result()  # traced ahead (cached), or its error raised here
-            prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
+            with self._naming_the_pose(i):
+                if i in traced:
+                    traced.pop(i).result()  # traced ahead (cached), or its error raised here
+                prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
             return prep if waiting.is_set() else self._planned(prep)
 
         out = []

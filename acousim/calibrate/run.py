@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -187,12 +187,12 @@ def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.nd
     return space.energies(space.envelopes(x)), lag
 
 
-def _observe(model: GroupModel, params, space, recs, poses, align: bool):
+def _observe(model: GroupModel, params, space, recs, poses, align: bool, progress=None):
     """Per recording: its pose's path groups, its measured energies (aligned on the
-    start model) and the lag applied."""
+    start model) and the lag applied; `progress(done, total)` after each."""
     groups, measured, lags = [], [], []
     logs0 = params.log_gains(params.start())[0] - model.log_reference
-    for rec, pose in zip(recs, poses):
+    for k, (rec, pose) in enumerate(zip(recs, poses)):
         g = model.pose(pose, rec, space, keep_signals=align)
         start = 0.0
         if align:  # the start model at the bands' mean gain
@@ -203,6 +203,8 @@ def _observe(model: GroupModel, params, space, recs, poses, align: bool):
         groups.append(g)
         measured.append(np.maximum(E, 1e-300))
         lags.append(lag)
+        if progress:
+            progress(k + 1, len(recs))
     return groups, measured, lags
 
 
@@ -211,10 +213,14 @@ def calibrate(
     recordings: Sequence[P.Recording],
     poses: Sequence[int] | None = None,
     settings: CalibrationSettings | None = None,
+    *,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Calibration:
     """Fit the materials of `scene` to `recordings` (recording i taken at pose
     ``poses[i]``; default: its ``provenance.pose_index``, else i).  Raises
-    InputError naming what does not fit together."""
+    InputError naming what does not fit together. `progress(done, total)` is called
+    after each recording's pose is traced and rendered (the long part; the fit
+    follows)."""
     t0 = time.perf_counter()
     settings = settings or CalibrationSettings()
     recs = list(recordings)
@@ -249,7 +255,7 @@ def calibrate(
     )
     params = ParameterSet(fits, space.band_hz)
     model = GroupModel(scene, fits)
-    groups, measured, lags = _observe(model, params, space, recs, poses, settings.align)
+    groups, measured, lags = _observe(model, params, space, recs, poses, settings.align, progress)
     problem = Problem(
         params, space, tuple(groups), tuple(measured), model.log_reference, settings.fit_level
     )

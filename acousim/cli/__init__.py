@@ -128,6 +128,9 @@ def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
     `restore_sigint` is false); the work stops at its next checkpoint and no output
     file is replaced."""
     global _early_interrupt
+    from acousim.cli import clock
+
+    clock.start()  # the time a command reports counts from here, its imports included
     _early_interrupt = False
     previous = None
     if threading.current_thread() is threading.main_thread():
@@ -154,7 +157,7 @@ def run() -> None:
 
 
 def _main(argv: list[str] | None, handled: bool) -> int:
-    from acousim.cli.common import announce
+    from acousim.cli.common import announce, set_quiet
     from processing.base import interrupt
     from processing.base.errors import InputError
 
@@ -166,6 +169,7 @@ def _main(argv: list[str] | None, handled: bool) -> int:
     _headless_vtk()  # before any command imports VTK
     args = build_parser().parse_args(argv)
     announce(args.command)
+    set_quiet(args.quiet)
     try:
         interrupt.check()
         return args.func(args)
@@ -173,9 +177,11 @@ def _main(argv: list[str] | None, handled: bool) -> int:
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        # a command may say more (what it kept, how to resume): its `interrupted(args)`
+        said = getattr(args, "interrupted", None)
         print(
-            f"acousim {args.command}: interrupted; no partial file was kept and no "
-            "existing output replaced",
+            f"acousim {args.command}: interrupted; "
+            + (said(args) if said else "no partial file was kept and no existing output replaced"),
             file=sys.stderr,
         )
         return 130

@@ -12,7 +12,14 @@ from __future__ import annotations
 
 import argparse
 
-from acousim.cli.common import UsageError, add_command, load_scene, output_file, parse_indices
+from acousim.cli.common import (
+    UsageError,
+    add_command,
+    load_scene,
+    output_file,
+    parse_indices,
+    progress,
+)
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
 
@@ -107,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
             args.recordings, speed_of_sound_m_s=scene.environment.speed_of_sound_m_s
         )
         poses = parse_indices("--poses", args.poses)
-        cal = calibrate(scene, recs, poses, settings)
+        cal = calibrate(scene, recs, poses, settings, progress=progress("calibrate", "pose"))
         if scene.source is None:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")
         write_scene(scene.source, out, cal)

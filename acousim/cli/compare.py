@@ -62,7 +62,11 @@ def register(sub) -> None:
     p.add_argument(
         "--method", default="das", help="comma-separated methods (as for image; e.g. das,das-bb)"
     )
-    p.add_argument("--out", default="out/compare", help="output folder (default: out/compare)")
+    p.add_argument(
+        "--out",
+        help="folder for comparison.json and comparison.png (summary.json and a folder per "
+        "pose with --all); default: nothing is written, the report is printed",
+    )
 
 
 def _pairs(args: argparse.Namespace):
@@ -88,7 +92,13 @@ def _pairs(args: argparse.Namespace):
             args.pose is None and P.is_chirp(args.real) and all("pose" in r.metadata for r in reals)
         )
         return pair_with_scene(
-            reals, scene, every=args.all, index=args.index, pose=args.pose or 0, recorded=recorded
+            reals,
+            scene,
+            every=args.all,
+            index=args.index,
+            pose=args.pose or 0,
+            recorded=recorded,
+            progress=progress("simulate", "pose"),
         )
     return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
 
@@ -100,13 +110,14 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
-    out = writable_dir(args.out)
+    out = writable_dir(args.out) if args.out else None  # nothing written unasked
     names = methods("--method", args.method)
+    files: list = []
     with committed_together():  # every file or none (Ctrl-C, an error)
         try:
             pairs = _pairs(args)
             reports = []
-            step = progress("compare")
+            step = progress("compare", "pair")
             for n, (real, sim) in enumerate(pairs):
                 step(n, len(pairs))  # a Ctrl-C checkpoint
                 try:
@@ -114,33 +125,35 @@ def run(args: argparse.Namespace) -> int:
                 except InputError as exc:
                     raise UsageError(f"pair {n}: {exc}") from None
                 reports.append(report)
-                folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
-                files = write_comparison(report, arrays, folder)
+                if out is not None:
+                    folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
+                    files = write_comparison(report, arrays, folder)
             step(len(pairs), len(pairs))
         except InputError as exc:
             raise UsageError(str(exc)) from None
         if len(reports) > 1:
             s = summarize(reports)
-            path = write_summary(s, out)
+            files = [write_summary(s, out)] if out is not None else []
     if len(reports) > 1:
         print(
             f"{s.poses} poses: mean envelope correlation {s.mean_envelope_correlation:.2f}, "
             f"{s.matched_echoes} matched echoes (median |d_range| {s.median_abs_d_range_m}, "
-            f"median |d_azimuth| {s.median_abs_d_azimuth_deg}); {path}"
+            f"median |d_azimuth| {s.median_abs_d_azimuth_deg}); the emission time and the "
+            "gain are fitted to each pose"
         )
-        return 0
-    _print_report(reports[0])
+    else:
+        _print_report(reports[0], arrays)
     for f in files:
         print(f"  {f}")
+    if out is None:
+        print("  (nothing written: --out FOLDER writes the JSON report and the picture)")
     return 0
 
 
-def _print_report(report) -> None:
-    al = report.alignment
-    print(
-        f"aligned by {al.emission_shift_samples:.2f} samples, gain {al.gain:.3g}; "
-        f"mean envelope correlation {report.mean_envelope_correlation:.2f}"
-    )
+def _print_report(report, arrays) -> None:
+    from acousim.compare.account import account
+
+    print(f"mean envelope correlation {report.mean_envelope_correlation:.2f}")
     for m, r in report.images.items():
         for k, p in enumerate(r.matched):
             print(
@@ -153,3 +166,5 @@ def _print_report(report) -> None:
             f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
             f"in the real image, {len(r.only_sim)} only in the simulation"
         )
+    for line in account(report, arrays).lines():
+        print(line)

@@ -7,10 +7,10 @@ Generate a sharded, reproducible, resumable dataset from a spec file
 from __future__ import annotations
 
 import argparse
-import time
 
-from acousim.cli.common import add_command, preload_simulation, progress, writable_dir
+from acousim.cli.common import add_command, elapsed, preload_simulation, progress, writable_dir
 from acousim.cli.options import add_declared
+from processing.base.errors import InputError
 
 
 def register(sub) -> None:
@@ -21,6 +21,30 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output folder")
     add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
+    p.set_defaults(interrupted=interrupted)
+
+
+def interrupted(args: argparse.Namespace) -> str:
+    """What an interrupted run leaves (main() prints it after "interrupted; "): the
+    shards kept and the command that resumes."""
+    import shlex
+
+    from acousim.bundled import resolve
+    from acousim.dataset.generation import kept_shards
+
+    try:
+        kept, total = kept_shards(resolve("datasets", args.spec), args.out)
+    except InputError:  # no readable spec: nothing was generated
+        return "nothing was generated"
+    again = ["acousim", "dataset", args.spec, "--out", args.out]
+    if args.workers is not None:
+        again += ["--workers", str(args.workers)]
+    if args.scheduler:
+        again += ["--scheduler", args.scheduler]
+    return (
+        f"{kept} of {total} shards kept in {args.out} (each whole; checked again on "
+        f"resume); resume with: {shlex.join(again)}"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,18 +58,17 @@ def run(args: argparse.Namespace) -> int:
         check_scheduler(args.scheduler)
     writable_dir(args.out)
     preload_simulation()
-    t0 = time.perf_counter()
     manifest = generate(
         resolve("datasets", args.spec),  # a file, or a bundled spec's name
         args.out,
         workers=Workers().workers if args.workers is None else args.workers,
         scheduler=args.scheduler,
-        progress=progress("shards"),
+        progress=progress("shards", "shard", start="first"),
     )
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "
-        f"({time.perf_counter() - t0:.1f} s; {s['samples_computed']} computed now, "
+        f"({elapsed():.1f} s from the start; {s['samples_computed']} computed now, "
         f"{s['samples_per_second']:.2f} samples/s, {s['bytes_per_sample'] / 1e3:.0f} kB per "
         "sample)"
     )

@@ -7,12 +7,12 @@ MUSIC-FBSS, and write fan images, a 3D render and an animation.
 from __future__ import annotations
 
 import argparse
-import time
 
 from acousim.cli.common import (
     add_command,
     add_seed,
     bundled_scenes,
+    elapsed,
     load_scene,
     preload_simulation,
     progress,
@@ -32,23 +32,22 @@ def run(args: argparse.Namespace) -> int:
     from acousim.imaging.run import ImagingOptions, image_recordings, write_pictures
     from processing.base.atomic import committed_together
 
-    t0 = time.perf_counter()
     out = writable_dir(args.out)
     scene = load_scene(bundled_scenes() / "corridor.toml")
     preload_simulation()
     recs = simulate(scene, None, args.seed)
-    t1 = time.perf_counter()
+    t1 = elapsed()
     options = ImagingOptions()
-    images = image_recordings(recs, options, progress("image"))
-    t2 = time.perf_counter()
+    images = image_recordings(recs, options, progress("image", "recording"))
+    t2 = elapsed()
     with committed_together():  # every file or none (Ctrl-C, an error)
         P.save_recordings(out / "corridor.h5", recs)
         files = [out / "corridor.h5"] + write_pictures(
-            recs, images, out, options, progress=progress("animate")
+            recs, images, out, options, progress=progress("animate", "frame", start="first")
         )
     print(
-        f"corridor drive: {len(recs)} poses simulated in {t1 - t0:.1f} s, imaged in "
-        f"{t2 - t1:.1f} s, pictures in {time.perf_counter() - t2:.1f} s:"
+        f"corridor drive: {len(recs)} poses simulated in {t1:.1f} s (from the start), imaged in "
+        f"{t2 - t1:.1f} s, pictures in {elapsed() - t2:.1f} s:"
     )
     for f in files:
         print(f"  {f}")

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, writable_dir
+from acousim.cli.common import UsageError, add_command, progress, writable_dir
 from acousim.cli.image import imaging_arguments, load_and_image
 
 
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
             f"--image-method {args.image_method!r} is not among --method "
             f"{','.join(options.methods)!r}"
         )
-    images = image_all()
+    images = _Counted(image_all(), progress("bag", "recording"))
     write_rosbag(
         out,
         recs,
@@ -68,8 +68,23 @@ def run(args: argparse.Namespace) -> int:
         threshold_db=options.peak_threshold_db,
         dynamic_range_db=options.dynamic_range_db,
     )
+    images.bar(len(images), len(images))
     print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
     return 0
+
+
+class _Counted(list):
+    """The images, counted as the bag writer takes them one recording after the other
+    (its loop over them is the long part): `bar(k, n)` when image k is taken."""
+
+    def __init__(self, items, bar) -> None:
+        super().__init__(items)
+        self.bar = bar
+
+    def __iter__(self):
+        for k, item in enumerate(super().__iter__()):
+            self.bar(k, len(self))
+            yield item
 
 
 def _chirp(args: argparse.Namespace, out: Path) -> int:

@@ -100,7 +100,11 @@ def load_and_image(args: argparse.Namespace):
         recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    return recs, index, options, lambda: image_recordings(recs, options, progress("image"))
+
+    def image_all():  # the bar's time starts with the work
+        return image_recordings(recs, options, progress("image", "recording"))
+
+    return recs, index, options, image_all
 
 
 def register(sub) -> None:
@@ -155,7 +159,7 @@ def _write_all(args, out, recs, images, index, options, animation) -> list:
         options,
         render_3d=not args.no_3d,
         animation=animation,
-        progress=progress("animate"),
+        progress=progress("animate", "frame", start="first"),
         indices=index,
     )
     return files

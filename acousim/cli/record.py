@@ -86,9 +86,11 @@ def emulation_recordings(scene, count: int | None) -> list:
     try:
         sim = Simulator(scene)
         out = []
+        bar = progress("simulate", "pose")
         for i in range(n):
             stop_if_interrupted()
             out.append(sim.simulate_pose(scene.sensor.poses[i], i))
+            bar(i + 1, n)
         return out
     except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
         raise UsageError(f"--emulate {scene.source}: {exc}") from None
@@ -149,13 +151,12 @@ def run(args: argparse.Namespace) -> int:
     except RecordingFailed as exc:
         print(f"acousim record: error: {exc.reason}; nothing recorded", file=sys.stderr)
         return 1
-    bar = progress("record")
+    bar = progress("record", "measurement", checkpoint=False)
     kept: list = []
 
     def keep(rec) -> None:
         kept.append(rec)
-        if args.count:
-            bar(len(kept), args.count)
+        bar(len(kept), args.count)  # no count (--duration): count and rate, no time left
 
     interrupted, failure = False, None
     try:
@@ -167,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
         interrupted = True
     except RecordingFailed as exc:
         failure = exc
+    bar.finish()
     if kept:
         P.save_recordings(out, kept)
     print(_summary(out, kept, recorder.stats, interrupted, failure))

@@ -7,10 +7,9 @@ and regenerate the report that puts the paper's numbers beside ours.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, writable_dir
+from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
 
@@ -67,8 +66,23 @@ def _refuse_to_overwrite_a_full_run(out: Path, report: Path) -> None:
         )
 
 
+def _study(config, out: str):
+    """run_study with a progress bar over its experiments, naming the one running."""
+    from acousim.experiments.paper_study import EXPERIMENTS, run_study
+
+    bar = progress("reproduce", "experiment")
+
+    def say(name: str) -> None:
+        bar(EXPERIMENTS.index(name), len(EXPERIMENTS))
+        bar.note(name)
+
+    results = run_study(config, out, progress=say)
+    bar(len(EXPERIMENTS), len(EXPERIMENTS))
+    return results
+
+
 def run(args: argparse.Namespace) -> int:
-    from acousim.experiments import StudyConfig, run_study
+    from acousim.experiments import StudyConfig
     from acousim.experiments.report import write_report
     from acousim.process import Workers
 
@@ -77,7 +91,6 @@ def run(args: argparse.Namespace) -> int:
     quick = args.quick
     if not args.report_only and quick and not args.overwrite:
         _refuse_to_overwrite_a_full_run(Path(args.out), report_path)
-    t0 = time.perf_counter()
     if args.report_only:
         from acousim.experiments.paper_study import load_results
 
@@ -89,10 +102,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         workers = Workers().workers if args.workers is None else args.workers
         config = StudyConfig.quick(workers) if quick else StudyConfig(workers=workers)
-        results = run_study(
-            config, args.out, progress=lambda s: print(f"running {s} ...", flush=True)
-        )
+        results = _study(config, args.out)
     command = "acousim reproduce" + (" --quick" if quick else "")
     report = write_report(results, report_path, args.out, command)
-    print(f"figures and CSVs in {args.out}, report {report} ({time.perf_counter() - t0:.0f} s)")
+    print(f"figures and CSVs in {args.out}, report {report} ({elapsed():.0f} s)")
     return 0

@@ -7,11 +7,11 @@ its ground truth, to one HDF5 file.
 from __future__ import annotations
 
 import argparse
-import time
 
 from acousim.cli.common import (
     add_command,
     add_seed,
+    elapsed,
     load_scene,
     output_file,
     parse_indices,
@@ -40,12 +40,11 @@ def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     out = output_file("--out", args.out or f"{scene.name}.h5")
     preload_simulation()
-    t0 = time.perf_counter()
     recs = simulate(scene, poses, args.seed)
     stop_if_interrupted()
     P.save_recordings(out, recs)
     print(
         f"{len(recs)} recording(s) of {scene.name!r} written to {out} "
-        f"({time.perf_counter() - t0:.1f} s)"
+        f"({elapsed():.1f} s from the start)"
     )
     return 0

@@ -4,7 +4,7 @@ or a file of simulated recordings)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -73,13 +73,14 @@ def pair_with_scene(
     index: int = 0,
     pose: int = 0,
     recorded: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[tuple[P.Recording, P.Recording]]:
     """(real, simulated) pairs: real recording `index` with the scene simulated at
     `pose`, or with `every`, real recording i with pose i for every i; with
     `recorded`, each at the pose its own metadata holds (a CHIRP file's odometry),
     frozen.  Each simulation has its real partner's length.  Raises InputError naming
     ``--index``, ``--pose`` or the scene file (a scene the simulator refuses: an
-    unreadable mesh)."""
+    unreadable mesh). `progress(done, total)` after each simulated pose."""
     from acousim.simulator import SCENE_MOTION, Simulator
 
     chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
@@ -99,10 +100,11 @@ def pair_with_scene(
         targets = [(scene.sensor.poses[q], SCENE_MOTION, q) for q in poses]
     try:
         simulator = Simulator(scene)
-        sims = [
-            simulator.simulate_pose(p, q, n_samples=r.n_samples, motion=m)
-            for r, (p, m, q) in zip(chosen, targets)
-        ]
+        sims = []
+        for r, (p, m, q) in zip(chosen, targets):
+            sims.append(simulator.simulate_pose(p, q, n_samples=r.n_samples, motion=m))
+            if progress:
+                progress(len(sims), len(targets))
     except ValueError as exc:
         raise InputError(str(exc), file=scene.source) from None
     return list(zip(chosen, sims))

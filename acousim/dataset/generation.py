@@ -53,6 +53,7 @@ __all__ = [
     "write_shard",
     "generate",
     "shard_name",
+    "kept_shards",
     "SHARD_SCHEMA",
 ]
 
@@ -277,6 +278,18 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
     spec_path, k, out = args
     with threadpool_limits(1):
         return write_shard(load_spec(spec_path), k, out)
+
+
+def kept_shards(spec_path: str | Path, out_dir: str | Path) -> tuple[int, int]:
+    """(finished shards in `out_dir`, shards of the spec): a finished shard has its
+    file and its sidecar; a resumed run checks their sha256 and keeps them."""
+    spec = load_spec(spec_path)
+    out = Path(out_dir)
+    kept = sum(
+        (out / shard_name(k)).is_file() and (out / f"shard_{k:05d}.json").is_file()
+        for k in range(spec.n_shards)
+    )
+    return kept, spec.n_shards
 
 
 def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:

@@ -13,6 +13,7 @@ import numpy as np
 import processing as P
 from acousim.dataset.generation import SHARD_SCHEMA
 from processing.base.errors import InputError
+from processing.formats.h5attrs import attribute_text
 from processing.sensor.provenance import kind_of
 
 IMAGES_FORMAT = "acousim-images"  # acousim.export.images.FORMAT (not imported: light)
@@ -39,8 +40,7 @@ def describe(path: str | Path) -> list[str]:
     return _recordings(path)
 
 
-def _text(v) -> str | None:
-    return v.decode(errors="replace") if isinstance(v, bytes) else v
+_text = attribute_text  # the one reading of a text attribute: None for an array
 
 
 def _images(path: Path) -> list[str]:
@@ -164,7 +164,7 @@ def _shard(path: Path) -> list[str]:
         for name in samples:
             g = f[name]
             try:
-                params = json.loads(g.attrs["params"])
+                params = json.loads(_text(g.attrs["params"]) or "")  # an array: malformed
             except (KeyError, ValueError) as exc:
                 raise InputError(f"malformed params ({exc!r})", file=path, key=name) from None
             fields = [f"{k} {d.shape}" for k, d in _datasets(g)]

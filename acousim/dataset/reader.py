@@ -18,6 +18,7 @@ import numpy as np
 from acousim.dataset.generation import MANIFEST
 from acousim.dataset.safety import sha256_file
 from processing.base.errors import InputError
+from processing.formats.h5attrs import attribute_text
 
 __all__ = ["DatasetReader", "TorchAdapter", "DatasetError"]
 
@@ -119,8 +120,13 @@ class DatasetReader:
         if self.manifest.get("shard_format") == "chirp":
             return self._chirp_sample(name, rec["offset"])
         g = self._file(name)[f"{rec['offset']:05d}"]
-        raw = g.attrs["params"]
-        out: dict = {"params": json.loads(raw.decode() if isinstance(raw, bytes) else raw)}
+        try:
+            params = json.loads(attribute_text(g.attrs.get("params")) or "")
+        except ValueError as exc:  # absent, an array, not JSON: a foreign or edited shard
+            raise DatasetError(
+                f"malformed params attribute ({exc})", file=self.folder / name, key=g.name
+            ) from None
+        out: dict = {"params": params}
 
         def visit(key, obj):
             if isinstance(obj, h5py.Dataset):

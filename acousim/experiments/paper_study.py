@@ -458,6 +458,10 @@ def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
     return result
 
 
+#: the experiments run_study runs, in order (the names its `progress` is called with)
+EXPERIMENTS = ("fig3_4", "fig6_7", "fig9_10", "fig11", "fig12")
+
+
 def run_study(
     config: StudyConfig, out_dir: str | Path, progress: Callable[[str], None] | None = None
 ) -> StudyResults:

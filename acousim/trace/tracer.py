@@ -242,7 +242,9 @@ class Tracer:
             facing = np.einsum("ij,ij->i", self.world.normals[f[hit]], dirs[hit]) > 0
             closed = not np.isinf(t).any()
             if facing.mean() > 0.9 and closed:
+                names = sorted({self.world.materials[m].name for m in self.world.material[f[hit]]})
                 raise InputError(
-                    f"scene {self.scene.name!r}: the sensor at {np.round(emitter, 3).tolist()} "
-                    "is inside a closed mesh (a wall or object): move its pose"
+                    f"the sensor at {np.round(emitter, 3).tolist()} m is inside a closed mesh "
+                    f"(a wall or object; its faces are of material {', '.join(names)}): "
+                    "move the pose"
                 )

@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 
 from processing.base.errors import InputError
+from processing.formats.h5attrs import attribute_text
 from processing.sensor.arrays import Array
 from processing.sensor.calibration import on_load
 from processing.sensor.calls import Waveform
@@ -120,10 +121,7 @@ def _plain(value):
     return value
 
 
-def _text(value) -> str | None:
-    if isinstance(value, bytes):
-        return value.decode(errors="replace")
-    return value if isinstance(value, str) else None
+_text = attribute_text  # the one reading of a text attribute
 
 
 def _dataset(

@@ -229,6 +229,16 @@ def _name(mesh) -> str:
     return str(mesh) if isinstance(mesh, str | Path) else f"<{type(mesh).__name__} in memory>"
 
 
+def _no_faces(path) -> InputError:
+    """The error for a mesh without faces: a file read as its format (by its
+    extension) that gave none is not a mesh of that format (a text file named .stl
+    reads as an empty STL)."""
+    if not isinstance(path, str | Path):
+        return InputError("mesh has no faces", file=_name(path))
+    fmt = Path(path).suffix.lstrip(".").upper() or "a mesh"
+    return InputError(f"could not be read as {fmt} (no faces found in it)", file=_name(path))
+
+
 def _load(path, transform) -> object:
     """A mesh file or a ``trimesh.Trimesh`` (copied) placed by `transform` and
     cleaned (:func:`clean_mesh`), as a ``trimesh.Trimesh``."""
@@ -250,7 +260,7 @@ def _load_part(path, transform) -> MeshPart:
     except Exception as exc:  # trimesh raises many kinds
         raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
-        raise InputError("mesh has no faces", file=_name(path))
+        raise _no_faces(path)
     if not np.all(np.isfinite(mesh.vertices)):
         raise InputError("mesh has NaN or inf vertices", file=_name(path))
     from acousim.scene.pose import MAX_COORDINATE_M
@@ -343,6 +353,8 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
     except Exception as exc:  # trimesh raises many kinds
         raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
     if not isinstance(loaded, trimesh.Scene):
+        if not hasattr(loaded, "faces") or len(loaded.faces) == 0:
+            raise _no_faces(path)  # named by its file, not as the mesh in memory it became
         mesh = _load(loaded, transform)
         return mesh, {"": np.ones(len(mesh.faces), bool)}
     parts, names = [], []
@@ -356,7 +368,7 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
         parts.append(part)
         names.append({str(n) for n in (node, geom_name, material) if n})
     if not parts:
-        raise InputError("mesh has no faces", file=_name(path))
+        raise _no_faces(path)
     mesh = trimesh.util.concatenate(parts)
     mesh.merge_vertices()  # the groups of one file stay connected (face order kept)
     sizes = np.cumsum([0] + [len(p.faces) for p in parts])

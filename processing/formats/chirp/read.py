@@ -23,21 +23,19 @@ from processing.formats.chirp.names import (
     TRANSMITTER,
     ChirpFileError,
 )
+from processing.formats.h5attrs import attribute_text
 from processing.sensor.arrays import Array
 from processing.sensor.calls import FIT_MIN_CORRELATION, Waveform, fit_sweep
 from processing.sensor.pointcloud import PointCloud
 from processing.sensor.recording import MAX_SAMPLE_BYTES, GroundTruth, Recording
 
-__all__ = ["Reader", "DEFAULT_SPEED_OF_SOUND_M_S"]
+__all__ = ["Reader", "DEFAULT_SPEED_OF_SOUND_M_S", "is_chirp", "count_chirp", "read_chirp"]
 
 DEFAULT_SPEED_OF_SOUND_M_S = 343.0
 """Speed of sound of a CHIRP recording that does not say it (dry air at 20 °C)."""
 
 
-def _text(v) -> str | None:
-    if isinstance(v, bytes):
-        return v.decode(errors="replace")
-    return v if isinstance(v, str) else None
+_text = attribute_text  # the one reading of a text attribute
 
 
 class Reader:
@@ -389,7 +387,7 @@ def is_chirp(path: str | Path) -> bool:
             v = f.attrs.get("format")
     except (OSError, ValueError):
         return False
-    return (v.decode(errors="replace") if isinstance(v, bytes) else v) == "chirp"
+    return attribute_text(v) == "chirp"
 
 
 def count_chirp(path: str | Path) -> int:

@@ -4,6 +4,7 @@ written here, never read from the code under test."""
 from __future__ import annotations
 
 import dataclasses
+import re
 import tomllib
 from pathlib import Path
 
@@ -232,6 +233,8 @@ def test_command_line(corridor, capsys):
     assert code == 0
     text = capsys.readouterr().out
     assert "plaster.reflection" in text and "metal" not in text.split("range_m")[0]
+    # not a terminal: one line when the two poses are traced and rendered
+    assert re.search(r"^calibrate: 2/2 poses in [\d.]+ s \(", text, re.M), text
     fitted = load_scene(tmp / "cli.toml")
     assert abs(fitted.materials["plaster"].reflection - PLASTER[0]) < 0.05
     assert fitted.materials["metal"].reflection == 0.99  # not fitted: as it was

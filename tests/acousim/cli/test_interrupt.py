@@ -195,16 +195,24 @@ def test_interrupted_record_keeps_what_it_measured(tmp_path, after):
 @pytest.mark.parametrize("after", ["started", "shards 1/4"])
 def test_interrupted_dataset_then_resumed(tmp_path, after):
     """Workers ignore Ctrl-C (no traceback of theirs, no broken pool); the shards
-    written are whole; a second run completes the dataset."""
+    written are whole; the one line says how many were kept and the command that
+    resumes; that command completes the dataset."""
     import h5py
 
     from acousim.dataset import DatasetReader
 
     (tmp_path / "spec.toml").write_text(SPEC.format(scene=SCENES / "points.toml"))
     args = ["dataset", "spec.toml", "--out", "data", "--workers", "2"]
-    code, _ = run_interrupted(args, tmp_path, after)
+    code, lines = run_interrupted(args, tmp_path, after)
     assert code == 130
     assert leftovers(tmp_path) == []
+    kept = sum((tmp_path / "data" / f"shard_{k:05d}.json").is_file() for k in range(4))
+    said = next(ln for ln in lines if ln.startswith("acousim dataset: interrupted"))
+    assert said == (
+        f"acousim dataset: interrupted; {kept} of 4 shards kept in data (each whole; "
+        "checked again on resume); resume with: acousim dataset spec.toml --out data "
+        "--workers 2"
+    )
     for shard in (tmp_path / "data").glob("shard_*.h5"):  # every shard present is whole
         with h5py.File(shard, "r") as f:
             assert [k for k in f if k.isdigit()] == ["00000"]  # its one sample

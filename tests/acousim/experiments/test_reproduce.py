@@ -14,13 +14,31 @@ SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
+    import contextlib
+    import io
+
     out = tmp_path_factory.mktemp("study")
     report = out / "REPRODUCTION.md"
-    assert (
-        main(["reproduce", "--quick", "--out", str(out), "--report", str(report), "--workers", "1"])
-        == 0
-    )
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said):
+        code = main(
+            ["reproduce", "--quick", "--out", str(out), "--report", str(report), "--workers", "1"]
+        )
+    assert code == 0
+    SAID["stdout"] = said.getvalue()
     return out, report
+
+
+SAID: dict[str, str] = {}  # what the study's run printed
+
+
+def test_the_study_says_where_it_is(study):
+    """Not a terminal: one final line for the five experiments, then the result."""
+    import re
+
+    lines = SAID["stdout"].splitlines()
+    assert re.fullmatch(r"reproduce: 5/5 experiments in [\d.]+ s \(.*experiments/s\)", lines[0])
+    assert lines[-1].startswith(f"figures and CSVs in {study[0]}, report ")
 
 
 def read(path):

@@ -1,0 +1,173 @@
+"""Long commands say where they are: a progress bar with the count, the rate and the
+time left on a terminal (run here under a pseudo-terminal), one final line in a log,
+nothing with --quiet; the time a command reports counts from its start.
+
+The pseudo-terminal tests read the command's output until it closes it (no sleeps, no
+clock): what it printed is then complete."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pty
+import re
+import shutil
+import struct
+import subprocess
+import sys
+import termios
+from pathlib import Path
+
+import pytest
+
+from acousim.cli import main
+from tests import REPO
+
+ROOT = REPO
+SCENES = ROOT / "scenes"
+
+
+def three_poses(folder: Path) -> Path:
+    """The bundled points scene (3 point reflectors, paper_8x8) driven through three
+    poses 1 cm apart: three quick recordings."""
+    text = (SCENES / "points.toml").read_text()
+    text = text.replace(
+        "[sensor.pose]\nposition_m = [0.0, 0.0, 0.0]\n",
+        '[sensor.trajectory]\nfile = "drive.csv"\nrate_hz = 10\n',
+    )
+    assert "drive.csv" in text
+    (folder / "drive.csv").write_text("0,0,0,0\n0.01,0,0,0\n0.02,0,0,0\n")
+    path = folder / "three.toml"
+    path.write_text(text)
+    return path
+
+
+def run_on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
+    """Run ``acousim ARGS`` with stdin, stdout and stderr on a pseudo-terminal (120
+    columns); its exit code and everything it wrote, read until it closed the
+    terminal."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
+    env.pop("ACOUSIM_PROGRESS_LINES", None)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "acousim.cli", *args],
+        stdin=slave,
+        stdout=slave,
+        stderr=slave,
+        cwd=cwd,
+        env=env,
+    )
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # EIO: the command closed its end
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    return proc.wait(), b"".join(chunks).decode(errors="replace")
+
+
+def test_a_terminal_shows_a_bar_with_count_rate_and_time_left(tmp_path):
+    scene = three_poses(tmp_path)
+    code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5"], tmp_path)
+    assert code == 0, text
+    states = [s for s in re.split(r"[\r\n]+", text) if s.startswith("simulate:")]
+    # after the first pose: a count, an estimate of the time left (not '?') and a rate
+    first = next(s for s in states if " 1/3 " in s)
+    assert re.search(r"\| 1/3 \[\d\d:\d\d<\d\d:\d\d, +[\d.]+(pose/s|s/pose)\]", first), first
+    # the finished bar stays, then the result
+    assert re.search(r"simulate: 100%\|.*\| 3/3 \[\d\d:\d\d<00:00, +[\d.]+(pose/s|s/pose)\]", text)
+    assert "3 recording(s) of 'points' written to x.h5" in text
+
+
+def test_quiet_on_a_terminal_prints_only_the_result(tmp_path):
+    scene = three_poses(tmp_path)
+    code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "--quiet"], tmp_path)
+    assert code == 0, text
+    lines = [ln for ln in re.split(r"[\r\n]+", text) if ln]
+    assert len(lines) == 1 and lines[0].startswith("3 recording(s) of 'points' written"), lines
+
+
+def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("ACOUSIM_PROGRESS_LINES", raising=False)
+    scene = three_poses(tmp_path)
+    out = tmp_path / "x.h5"
+    assert main(["simulate", str(scene), "--out", str(out)]) == 0
+    said = capsys.readouterr()
+    assert said.err == ""  # no bar drawn into a log
+    lines = said.out.splitlines()
+    assert len(lines) == 2, lines
+    m = re.fullmatch(r"simulate: 3/3 poses in ([\d.]+) s \(([\d.e+]+) poses/s\)", lines[0])
+    assert m, lines[0]
+    seconds, rate = float(m.group(1)), float(m.group(2))
+    if seconds >= 0.5:  # the rate is the count over the time (both as printed, rounded)
+        assert rate == pytest.approx(3 / seconds, rel=0.15)
+    assert lines[1].startswith("3 recording(s) of 'points' written")
+    # image: one line for the imaging; the animation's frames get theirs
+    args = ["image", str(out), "--method", "das", "--out", str(tmp_path / "img"), "--no-3d"]
+    assert main(args) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
+    assert any(re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", ln) for ln in lines)
+    # export: the imaging, then the bag's recordings
+    assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \(.*\)", lines[0]), lines
+    assert re.fullmatch(r"bag: 3/3 recordings in [\d.]+ s \(.*\)", lines[1]), lines
+
+
+def test_quiet_in_a_log_prints_only_the_result(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("ACOUSIM_PROGRESS_LINES", raising=False)
+    scene = three_poses(tmp_path)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5"), "-q"]) == 0
+    said = capsys.readouterr()
+    assert said.err == "" and len(said.out.splitlines()) == 1, said
+
+
+def test_record_counts_its_measurements(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("ACOUSIM_PROGRESS_LINES", raising=False)
+    shutil.copy(SCENES / "wall.toml", tmp_path / "wall.toml")
+    shutil.copytree(SCENES / "meshes", tmp_path / "meshes")
+    args = ["record", "--emulate", str(tmp_path / "wall.toml"), "--count", "2"]
+    assert main([*args, "--out", str(tmp_path / "r.h5")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"simulate: 1/1 poses in [\d.]+ s \(.*\)", out[0]), out  # its one pose
+    assert re.fullmatch(r"record: 2/2 measurements in [\d.]+ s \(.*\)", out[1]), out
+
+
+def test_the_reported_time_counts_the_preparation(tmp_path, capsys, monkeypatch):
+    """`simulate` reports the wall time since the command started: loading the scene
+    (made to take 50 s on a clock of the test's own) is counted, as are the imports."""
+    from acousim.cli import clock, simulate
+
+    now = [1000.0]
+    monkeypatch.setattr(clock, "_clock", lambda: now[0])
+    real_load = simulate.load_scene
+
+    def slow_load(path):
+        now[0] += 50.0
+        return real_load(path)
+
+    monkeypatch.setattr(simulate, "load_scene", slow_load)
+    scene = three_poses(tmp_path)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5"), "-q"]) == 0
+    out = capsys.readouterr().out
+    assert out.strip().endswith("(50.0 s from the start)"), out
+
+
+def test_the_clock_starts_before_the_command_imports_anything(monkeypatch):
+    """main() starts the clock before _main() imports the processing package (numpy,
+    scipy: seconds on a busy machine): those imports are in the reported time."""
+    import acousim.cli as cli
+    from acousim.cli import clock
+
+    calls = []
+    monkeypatch.setattr(clock, "start", lambda: calls.append("clock"))
+    monkeypatch.setattr(cli, "_main", lambda argv, handled: calls.append("imports") or 0)
+    assert cli.main(["scenes"]) == 0
+    assert calls == ["clock", "imports"]
