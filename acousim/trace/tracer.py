@@ -36,6 +36,7 @@ import numpy as np
 from acousim.core.cache import LruCache
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
+from processing import Array
 from processing.errors import InputError
 
 from .budget import RayWork, in_beam, ray_work
@@ -164,6 +165,14 @@ def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: floa
     return top * 10 ** (floor_db / 20) * (1 - 1e-9)
 
 
+def _key(pose: Pose, array: Array | None) -> tuple:
+    """The cache key of a trace: the pose, and the ends of another array than the
+    scene's sensor's."""
+    if array is None:
+        return pose.key()
+    return (pose.key(), tuple(array.emitter_m), tuple(array.positions_m.mean(axis=0)))
+
+
 class Tracer:
     """Paths of a scene for any pose; one Embree scene, built once (only if the scene
     has meshes), and a cache so the same pose is not traced twice."""
@@ -202,12 +211,15 @@ class Tracer:
             self.world.face_values(attr)
         curved_groups(self.world)
 
-    def trace(self, pose: Pose) -> TracedPaths:
-        """The paths of `pose` (traced once; kept for the poses traced last)."""
-        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[0]
+    def trace(self, pose: Pose, array: Array | None = None) -> TracedPaths:
+        """The paths of `pose` (traced once; kept for the poses traced last) from the
+        emitter of `array` to the centre of its microphones (default: the scene's
+        sensor's; a rig's pair of sensors: the emitter of one, the microphones of
+        another, both in the emitting sensor's frame)."""
+        return self._traced.get(_key(pose, array), lambda: self._trace_now(pose, array))[0]
 
-    def _trace_now(self, pose: Pose) -> tuple[TracedPaths, int]:
-        array = self.scene.sensor.array
+    def _trace_now(self, pose: Pose, array: Array | None) -> tuple[TracedPaths, int]:
+        array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
         if self.world is not None and self.settings.rays != 0:
@@ -223,9 +235,10 @@ class Tracer:
             self.edges,
         )
 
-    def rays_used(self, pose: Pose) -> int:
-        """How many rays the trace of `pose` shot (traced now if it was not)."""
-        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[1]
+    def rays_used(self, pose: Pose, array: Array | None = None) -> int:
+        """How many rays the trace of `pose` (and `array`, as :meth:`trace`) shot
+        (traced now if it was not)."""
+        return self._traced.get(_key(pose, array), lambda: self._trace_now(pose, array))[1]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:
