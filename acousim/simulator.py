@@ -43,7 +43,7 @@ from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
 from acousim.synth.model import in_window, simulate
 from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse, mic_directivity
-from acousim.trace.direct import seen
+from acousim.trace.direct import heard_points
 from acousim.trace.following import Endpoints, MovingPaths
 from acousim.trace.paths import TracedPaths, kind_names
 from acousim.trace.tracer import Tracer
@@ -416,15 +416,11 @@ class Simulator:
         pos = np.array([x for x, _ in now], float)
         v = np.array([u for _, u in now], float)
         a = np.array([p.strength for p in pts], float)
-        array = self.array
-        r_e = np.linalg.norm(pos - pose.to_world(array.emitter_m), axis=1)
-        r_r = np.linalg.norm(pos - pose.to_world(array.positions_m.mean(axis=0)), axis=1)
-        keep = (r_e > 0) & (r_e + r_r <= 2 * self.scene.simulation.max_range_m)
+        emitter = pose.to_world(self.array.emitter_m)
+        receiver = pose.to_world(self.array.positions_m.mean(axis=0))
         tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
-        if tracer.caster is not None and keep.any():
-            emitter = pose.to_world(array.emitter_m)
-            receiver = pose.to_world(array.positions_m.mean(axis=0))
-            keep[keep] = seen(pos[keep], (emitter, receiver), tracer.caster)
+        reach = 2 * self.scene.simulation.max_range_m
+        keep, _ = heard_points(pos, emitter, receiver, reach, tracer.caster)
         return pos[keep], a[keep], v[keep]
 
     def run(
