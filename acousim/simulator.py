@@ -50,7 +50,7 @@ from acousim.trace.tracer import Tracer
 from processing import interrupt
 from processing.errors import InputError
 
-__all__ = ["Simulator", "package_version", "MIN_POINT_DISTANCE_M"]
+__all__ = ["Simulator", "Heard", "package_version", "MIN_POINT_DISTANCE_M"]
 
 MIN_POINT_DISTANCE_M = 1e-3
 """Nearest a point reflector may be to the emitter or a microphone (m)."""
@@ -101,6 +101,9 @@ class Heard:
     """(N, 3) velocity of each path's last point (in motion; None: static)."""
     rate: np.ndarray | None = None
     """(M, N) Doppler factors (in motion; None: static)."""
+    rows: np.ndarray | None = None
+    """(N',) int: the path (row of `position_m`, ...) of each echo, in motion where
+    only those that reach the window are kept (None: every path, in order)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -274,6 +277,7 @@ class Simulator:
             self.tracer.rays_used(pose, self._traced_array),
             velocity_m_s=truth_vel,
             rate=arr.rate[:, keep],
+            rows=np.flatnonzero(keep),
         )
 
     def _mic_directivity(self, echoes: Echoes, anchor_m, mics, pose: Pose) -> Echoes:
