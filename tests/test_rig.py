@@ -1,0 +1,244 @@
+"""A rig of sonars on one body: the bistatic paths between them (crosstalk), their
+firing schedule, the scene file's rig tables.  References: the mirror-image formula,
+straight-line delays and the bistatic Doppler formula, written here."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.signal
+import trimesh
+
+from acousim import Simulator
+from acousim.rig import RigSimulator
+from acousim.scene import Pose, Trajectory, parse_scene
+from acousim.scene.rig import Firing, Mount, Rig, RigSonar
+
+WALL_X = 2.0  # the wall's face: the plane x = 2 m
+LEFT, RIGHT = np.array([0.0, 0.25, 0.0]), np.array([0.0, -0.25, 0.0])  # 0.5 m apart
+
+
+def wall_scene(tmp_path, max_range_m=3.0):
+    """A rigid wall (reflection 1, no diffuse part) 2 m ahead of the body, facing it;
+    no air absorption, no diffraction (the wall's far edges are beyond the range)."""
+    wall = trimesh.creation.box(extents=(0.1, 20.0, 20.0))
+    wall.apply_translation([WALL_X + 0.05, 0, 0])
+    wall.export(tmp_path / "wall.obj", digits=12)
+    return parse_scene(
+        {
+            "sensor": {"array": "urtis_v1", "direct_path": True},
+            "simulation": {"max_range_m": max_range_m, "diffraction": False, "absorption": False},
+            "materials": [{"name": "m", "reflection": 1.0, "diffuse": 0.0}],
+            "meshes": [{"file": "wall.obj", "material": "m"}],
+        },
+        base_dir=tmp_path,
+    )
+
+
+def two_sonars(scene, times=((0.0,), (0.005,)), motion=None, crosstalk=True):
+    """`scene` with a rig of two sonars facing +x, 0.5 m apart along y, fired at
+    `times` (s, each a tuple)."""
+    s = scene.sensor
+    rig = Rig(
+        sonars=(
+            RigSonar("left", s, Mount(LEFT), Firing(times_s=times[0])),
+            RigSonar("right", s, Mount(RIGHT), Firing(times_s=times[1])),
+        ),
+        poses=(Pose(np.zeros(3)),) if motion is None else (motion.pose(0.0),),
+        motion=motion,
+        crosstalk=crosstalk,
+    )
+    return dataclasses.replace(scene, rig=rig)
+
+
+def mirror(p):
+    """The image of points (..., 3) in the wall's plane."""
+    q = np.array(p, float)
+    q[..., 0] = 2 * WALL_X - q[..., 0]
+    return q
+
+
+def test_bistatic_wall_echo_and_direct_path_between_two_sonars(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    c = scene.environment.speed_of_sound_m_s
+    array = scene.sensor.array
+    emitter = LEFT + array.emitter_m  # sonar "left" fires; "right" hears (world = body)
+    mics = RIGHT + array.positions_m
+    pose = sim.measurements[0].pose
+    heard = sim.pair(0, 1).heard(pose, None, scene.n_samples())
+    kinds = np.array(heard.kinds)
+    spec = np.flatnonzero(kinds == "specular")
+    assert spec.size == 1
+    d = np.linalg.norm(mirror(emitter) - mics, axis=1)  # the mirror-image formula
+    e = heard.echoes
+    assert np.max(np.abs(e.delay_s[:, spec[0]] - d / c)) < 0.01e-6
+    level_db = 20 * np.log10(np.abs(e.gain[:, spec[0]]) * d)  # expected gain 1 / d
+    assert np.max(np.abs(level_db)) < 0.1
+    direct = np.flatnonzero(kinds == "direct")
+    assert direct.size == 1
+    r = np.linalg.norm(emitter - mics, axis=1)
+    assert np.max(np.abs(e.delay_s[:, direct[0]] - r / c)) < 0.01e-6
+    assert np.max(np.abs(20 * np.log10(np.abs(e.gain[:, direct[0]]) * r))) < 0.1
+
+
+def _arrival(signal, call, fs):
+    """The delay (s) of the strongest copy of `call` in `signal` (matched filter
+    envelope peak, parabolic interpolation)."""
+    mf = scipy.signal.correlate(signal, call, mode="full")[call.size - 1 :]
+    env = np.abs(scipy.signal.hilbert(mf))
+    i = int(np.argmax(env))
+    a, b, c = env[i - 1], env[i], env[i + 1]
+    return (i + 0.5 * (a - c) / (a - 2 * b + c)) / fs
+
+
+def _crosstalk_only(scene):
+    """Per recording, the crosstalk's samples: with it less without it."""
+    on = RigSimulator(scene).run().recordings
+    off_scene = dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, crosstalk=False))
+    off = RigSimulator(off_scene).run().recordings
+    return on, [a.samples - b.samples for a, b in zip(on, off)]
+
+
+def test_two_sonars_fired_5_ms_apart_hear_each_other(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    c = scene.environment.speed_of_sound_m_s
+    recs, cross = _crosstalk_only(scene)
+    array = scene.sensor.array
+    fs = scene.sensor.sample_rate_hz
+    call = scene.sensor.call.sampled(fs)
+    e_left, e_right = LEFT + array.emitter_m, RIGHT + array.emitter_m
+    m_left, m_right = LEFT + array.positions_m[0], RIGHT + array.positions_m[0]
+    # "left" (t = 0) hears "right"'s call (t = 5 ms): its direct path first
+    assert [h["sensor"] for h in recs[0].metadata["crosstalk"]] == ["right"]
+    expected = 0.005 + np.linalg.norm(e_right - m_left) / c
+    assert _arrival(cross[0][0], call, fs) == pytest.approx(expected, abs=2e-6)
+    # "right" (t = 5 ms) hears "left"'s wall echo, 5 ms less than its path
+    assert [h["sensor"] for h in recs[1].metadata["crosstalk"]] == ["left"]
+    expected = np.linalg.norm(mirror(e_left) - m_right) / c - 0.005
+    assert _arrival(cross[1][0], call, fs) == pytest.approx(expected, abs=2e-6)
+    assert set(recs[1].truth.emitter) == {"left", "right"}
+    assert np.all(recs[1].truth.kind[recs[1].truth.emitter == "left"] == "specular")
+
+
+def test_sonars_fired_100_ms_apart_with_a_30_ms_window_do_not_hear_each_other(tmp_path):
+    base = wall_scene(tmp_path)
+    c = base.environment.speed_of_sound_m_s
+    call_s = base.sensor.call.duration_s
+    window = 0.030
+    scene = wall_scene(tmp_path, max_range_m=(window - call_s) * c / 2)
+    assert scene.n_samples() / scene.sensor.sample_rate_hz == pytest.approx(window, abs=1e-5)
+    scene = two_sonars(scene, times=((0.0,), (0.1,)))
+    recs, cross = _crosstalk_only(scene)
+    for rec, x in zip(recs, cross):
+        assert rec.metadata["crosstalk"] == []
+        assert not np.any(x)
+        assert set(rec.truth.emitter) == {rec.metadata["sensor"]}
+
+
+def test_crosstalk_doppler_of_a_moving_rig_is_the_bistatic_formula(tmp_path):
+    v = np.array([1.0, 0.0, 0.0])  # towards the wall
+    body = Trajectory.constant(Pose(np.zeros(3)), v)
+    scene = two_sonars(wall_scene(tmp_path), motion=body)
+    sim = RigSimulator(scene)
+    c = scene.environment.speed_of_sound_m_s
+    f_c = float(np.mean(scene.sensor.call.band_hz))
+    fire = sim.measurements[0]  # "left" at t = 0, heard by "right"
+    heard = sim.pair(0, 1).heard(fire.pose, scene.rig.sonar_motion(0), scene.n_samples())
+    kinds = np.array(heard.kinds)[heard.rows]
+    spec = np.flatnonzero(kinds == "specular")
+    assert spec.size == 1
+    array = scene.sensor.array
+    e = LEFT + array.emitter_m
+    mics = RIGHT + array.positions_m
+    # the sound leaves the emitter towards its image's reflection point; the
+    # microphone has moved by v t on reception (t: the path over c, to first order)
+    t = np.linalg.norm(mirror(e) - mics, axis=1) / c
+    t = np.linalg.norm(mirror(e) - (mics + v * t[:, None]), axis=1) / c
+    m = mics + v * t[:, None]
+    img = mirror(e)
+    hit = img + (m - img) * ((WALL_X - img[0]) / (m[:, 0] - img[0]))[:, None]  # on the wall
+    u_e = (hit - e) / np.linalg.norm(hit - e, axis=1)[:, None]
+    u_r = (m - hit) / np.linalg.norm(m - hit, axis=1)[:, None]
+    factor = (c - u_r @ v) / (c - u_e @ v)  # moving emitter and receiver, still wall
+    got = heard.rate[:, spec[0]]
+    assert np.max(np.abs(got * f_c - factor * f_c)) < 5.0
+    assert np.max(np.abs(factor * f_c - f_c)) > 100  # a Doppler shift that matters
+    # the direct path between two sonars on one rigid body moving straight: none
+    direct = np.flatnonzero(kinds == "direct")
+    assert np.max(np.abs(heard.rate[:, direct[0]] - 1) * f_c) < 5.0
+    # and in the recording: "right" hears "left"'s echo at the delay of its path
+    recs = sim.run().recordings
+    assert [h["sensor"] for h in recs[1].metadata["crosstalk"]] == ["left"]
+    fs = scene.sensor.sample_rate_hz
+    x = (
+        recs[1].samples[0]
+        - sim.pair(1, 1)
+        .simulate_pose(sim.measurements[1].pose, 1, motion=scene.rig.sonar_motion(1))
+        .samples[0]
+    )
+    expected = heard.echoes.delay_s[0, spec[0]] - 0.005
+    compressed = scene.sensor.call.sampled(fs / factor[0])  # w(factor t): the chirp heard
+    assert _arrival(x, compressed, fs) == pytest.approx(expected, abs=2e-6)
+
+
+def test_a_scene_without_a_rig_is_a_rig_of_one(tmp_path):
+    scene = wall_scene(tmp_path)
+    a = Simulator(scene).run()
+    b = RigSimulator(scene).run().recordings
+    assert len(a) == len(b) == 1
+    assert a[0].samples.tobytes() == b[0].samples.tobytes()
+
+
+def test_a_rig_in_the_scene_file(tmp_path):
+    wall_scene(tmp_path)  # writes wall.obj
+    scene = parse_scene(
+        {
+            "body": {"pose": {"position_m": [0, 0, 0], "velocity_m_s": [0.5, 0, 0]}},
+            "rig": {"firing": "round_robin", "rate_hz": 10, "crosstalk": False},
+            "sensors": [
+                {"name": "a", "array": "urtis_v1", "mount": {"position_m": [0.1, 0.2, 0]}},
+                {
+                    "name": "b",
+                    "array": "urtis_v1",
+                    "mount": {"position_m": [0.1, -0.2, 0], "rotation_deg": [0, 0, -30]},
+                    "firing": {"rate_hz": 20, "offset_s": 0.01, "count": 2},
+                },
+            ],
+            "lidars": [{"preset": "vlp16", "position_m": [0, 0, 0.4]}],
+            "materials": [{"name": "m", "reflection": 1.0}],
+            "meshes": [{"file": "wall.obj", "material": "m"}],
+        },
+        base_dir=tmp_path,
+    )
+    rig = scene.rig
+    assert [s.name for s in rig.sonars] == ["a", "b"] and not rig.crosstalk
+    assert rig.sonars[0].firing == Firing(10.0, 0.0)  # round robin: 1 / (2 x 10 Hz) apart
+    ms = rig.measurements()
+    assert [(m.sonar, round(m.time_s, 9)) for m in ms] == [(0, 0.0), (1, 0.01), (1, 0.06)]
+    b = ms[2].pose  # the body moved 3 cm; the mount turned the sonar 30° right
+    np.testing.assert_allclose(b.position_m, [0.1 + 0.5 * 0.06, -0.2, 0], atol=1e-12)
+    np.testing.assert_allclose(np.rad2deg(b.yaw_rad), -30, atol=1e-9)
+    assert rig.lidars[0].position_m == (0.0, 0.0, 0.4)
+    assert scene.sensor.poses[0].position_m.tolist() == [0.1, 0.2, 0.0]
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"sensor": {}}, "sensors"),
+        ({"sensors": [{"pose": {}}]}, "sensors[0].pose"),
+        ({"sensors": [{"mount": {"position": [0, 0, 0]}}]}, "sensors[0].mount"),
+        ({"sensors": [{"firing": {"times_s": [0.1, 0.0]}}]}, "sensors[0].firing"),
+        ({"sensors": [{"name": "x"}, {"name": "x"}]}, "sensors"),
+    ],
+)
+def test_bad_rig_tables_name_their_key(tmp_path, change, key):
+    from acousim.scene import SceneError
+
+    data = {"sensors": [{}], "points": [{"position_m": [1, 0, 0]}], **change}
+    with pytest.raises(SceneError) as err:
+        parse_scene(data, base_dir=tmp_path)
+    assert err.value.key.startswith(key)
