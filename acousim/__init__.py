@@ -21,6 +21,11 @@ import importlib
 
 __all__ = [
     "Simulator",
+    "RigSimulator",
+    "Rig",
+    "RigSonar",
+    "Mount",
+    "Firing",
     "load_scene",
     "parse_scene",
     "Scene",
@@ -35,9 +40,11 @@ __all__ = [
     "SceneError",
 ]
 
-_WHERE = {"Simulator": "acousim.simulator"} | {
-    name: "acousim.scene" for name in __all__ if name != "Simulator"
-}
+_WHERE = (
+    {"Simulator": "acousim.simulator", "RigSimulator": "acousim.rig"}
+    | {name: "acousim.scene.rig" for name in ("Rig", "RigSonar", "Mount", "Firing")}
+    | {name: "acousim.scene" for name in __all__[6:]}
+)
 
 
 def __getattr__(name: str) -> object:  # (no typing import: the command line starts fast)

@@ -265,7 +265,12 @@ def simulate(scene, poses, seed):
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
         )
-    recs = Simulator(scene).run(poses, progress=progress("simulate"))
+    if scene.rig is not None:  # a recording per firing of every sonar, in time order
+        from acousim.rig import RigSimulator
+
+        recs = list(RigSimulator(scene).run(poses, progress=progress("simulate")).recordings)
+    else:
+        recs = Simulator(scene).run(poses, progress=progress("simulate"))
     for r in recs:
         prov = r.provenance
         if not prov.n_paths:
