@@ -242,3 +242,17 @@ def test_bad_rig_tables_name_their_key(tmp_path, change, key):
     with pytest.raises(SceneError) as err:
         parse_scene(data, base_dir=tmp_path)
     assert err.value.key.startswith(key)
+
+
+def test_rig_recordings_keep_their_sonar_and_emitters_in_files(tmp_path):
+    import processing as P
+
+    scene = two_sonars(wall_scene(tmp_path))
+    recs = RigSimulator(scene).run().recordings
+    P.save_recordings(tmp_path / "r.h5", list(recs))
+    back = P.load_recordings(tmp_path / "r.h5")
+    for a, b in zip(recs, back):
+        assert b.metadata["sensor"] == a.metadata["sensor"]
+        assert b.metadata["mount"] == a.metadata["mount"]
+        np.testing.assert_array_equal(b.truth.emitter, a.truth.emitter)
+    assert back[1].metadata["crosstalk"][0]["sensor"] == "left"
