@@ -256,3 +256,44 @@ def test_rig_recordings_keep_their_sonar_and_emitters_in_files(tmp_path):
         assert b.metadata["mount"] == a.metadata["mount"]
         np.testing.assert_array_equal(b.truth.emitter, a.truth.emitter)
     assert back[1].metadata["crosstalk"][0]["sensor"] == "left"
+
+
+def test_simulate_and_image_a_rig_scene_file_by_sensor(tmp_path, capsys):
+    import processing as P
+    from acousim.cli import main
+
+    (tmp_path / "r.toml").write_text(
+        """
+[rig]
+rate_hz = 20
+[[sensors]]
+name = "a"
+array = "paper_8x8"
+call = "paper"
+sample_rate_hz = 500000
+mount = { position_m = [0, 0.1, 0] }
+[[sensors]]
+name = "b"
+array = "paper_8x8"
+call = "paper"
+sample_rate_hz = 500000
+mount = { position_m = [0, -0.1, 0], rotation_deg = [0, 0, -10] }
+[simulation]
+max_range_m = 1.5
+absorption = false
+[[points]]
+position_m = [1.0, 0.0, 0.0]
+"""
+    )
+    out = tmp_path / "r.h5"
+    assert main(["simulate", str(tmp_path / "r.toml"), "--out", str(out)]) == 0
+    recs = P.load_recordings(out)
+    assert [r.metadata["sensor"] for r in recs] == ["a", "b"]  # round robin, 25 ms apart
+    assert recs[1].metadata["mount"]["rotation_deg"] == pytest.approx([0, 0, -10])
+    pics = tmp_path / "pics"
+    args = ["image", str(out), "--method", "das", "--out", str(pics), "--no-3d"]
+    assert main([*args, "--sensor", "b"]) == 0
+    assert main([*args, "--sensor", "c"]) != 0
+    assert "sonar 'c'" in capsys.readouterr().err
+    assert main(["info", str(out)]) == 0
+    assert "sonar 'b' fired at 0.025 s" in capsys.readouterr().out
