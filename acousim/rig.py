@@ -187,6 +187,7 @@ class RigSimulator:
             "sensor": sonar.name,
             "mount": sonar.mount.to_dict(),
             "emission_time_s": m.time_s,
+            "body_pose": self.rig.body_pose(m.time_s).to_dict(),
             "rig": [s.name for s in self.rig.sonars],
             "crosstalk": heard_from,
         }

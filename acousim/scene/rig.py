@@ -18,6 +18,7 @@ sensor's pose in the world at time t is the body's pose then composed with its m
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -236,6 +237,13 @@ class Rig:
         if not sonars or not all(isinstance(s, RigSonar) for s in sonars):
             raise InputError("must hold at least one RigSonar", key="Rig.sonars")
         names = [s.name for s in sonars]
+        bad = [n for n in names if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", str(n))]
+        if bad:  # names become ROS topics and TF frames
+            raise InputError(
+                "sonar names must start with a letter and hold letters, digits and _",
+                key="Rig.sonars",
+                value=bad[0],
+            )
         if len(set(names)) != len(names):
             raise InputError("sonar names must be unique", key="Rig.sonars", value=names)
         if len({s.sensor.direct_path for s in sonars}) > 1:
