@@ -109,7 +109,8 @@ class RigSimulator:
                 poses=poses,
                 rate_hz=None,
                 motion=rig.sonar_motion(j),
-                lidar=None,
+                # a sonar's own recordings carry the rig's first LiDAR's scan
+                lidar=rig.lidar_on(k) if j == k else None,
             )
         except InputError as exc:
             raise InputError(
@@ -152,7 +153,10 @@ class RigSimulator:
             out.append(self.simulate(i))
             if progress:
                 progress(n + 1, len(idx))
-        return RigRun(tuple(out), tuple(self.measurements[i] for i in idx), self.lidar_scans())
+        done = tuple(self.measurements[i] for i in idx)
+        times = [m.time_s for m in done]
+        scans = self.lidar_scans(min(times), max(times)) if done else ()
+        return RigRun(tuple(out), done, scans)
 
     def simulate(self, i: int) -> P.Recording:
         """The recording of measurement `i`: sonar k's own call from its emission, and
@@ -243,15 +247,21 @@ class RigSimulator:
         rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
         return rec.samples[:, pre:], _truth(heard, rows, m.pose)
 
-    def lidar_scans(self) -> tuple[LidarScan, ...]:
-        """Every LiDAR of the rig scanning from each of the body's poses."""
+    def lidar_scans(self, start_s: float = -np.inf, end_s: float = np.inf) -> tuple[LidarScan, ...]:
+        """Every LiDAR of the rig scanning from each of the body's poses (those from
+        `start_s` to `end_s`, s; a body of one pose: that one), in the LiDAR's frame
+        (``to_sensor``: LiDAR -> body).  Each sonar's recordings carry the first
+        LiDAR's scan started at their firing, in the sonar's frame."""
         from acousim.trace.lidar import scan
 
         out = []
         seed = self.scene.simulation.seed
         moving_world = hasattr(self.tracer, "tracer_at")
+        several = len(self.rig.poses) > 1
         for n, lidar in enumerate(self.rig.lidars):
             for i, body in enumerate(self.rig.poses):
+                if several and not start_s - 1e-9 <= body.time_s <= end_s + 1e-9:
+                    continue
                 tracer = self.tracer.tracer_at(body.time_s) if moving_world else self.tracer
                 s = int(np.random.SeedSequence([seed, i, 2 + n]).generate_state(1)[0])
                 cloud = scan(

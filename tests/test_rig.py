@@ -223,6 +223,17 @@ def test_a_rig_in_the_scene_file(tmp_path):
     np.testing.assert_allclose(np.rad2deg(b.yaw_rad), -30, atol=1e-9)
     assert rig.lidars[0].position_m == (0.0, 0.0, 0.4)
     assert scene.sensor.poses[0].position_m.tolist() == [0.1, 0.2, 0.0]
+    # sonar b's recording carries the LiDAR's scan, its mounting in b's frame
+    run = RigSimulator(scene).run([1])
+    rec = run.recordings[0]
+    mount_b = np.eye(4)
+    turn = np.deg2rad(-30)
+    mount_b[:2, :2] = [[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]]
+    mount_b[:3, 3] = [0.1, -0.2, 0]
+    body_from_lidar = mount_b @ rec.lidar.to_sensor
+    np.testing.assert_allclose(body_from_lidar[:3, 3], [0, 0, 0.4], atol=1e-12)
+    np.testing.assert_allclose(body_from_lidar[:3, :3], np.eye(3), atol=1e-12)
+    assert len(rec.lidar) > 0 and [s.name for s in run.scans] == ["VLP-16"]
 
 
 @pytest.mark.parametrize(

@@ -298,6 +298,23 @@ class Rig:
         emitter = self.sonars[j].sensor.array.emitter_m
         return dataclasses.replace(a_k, positions_m=mics, emitter_m=emitter)
 
+    def lidar_on(self, k: int, n: int = 0) -> Lidar | None:
+        """LiDAR `n` (None: the rig has none) mounted in sonar k's frame (its mounting,
+        ``position_m`` and ``rotation_deg``, from the body's to k's): the scan
+        recorded beside k's recordings."""
+        if n >= len(self.lidars):
+            return None
+        lidar = self.lidars[n]
+        mount = self.sonars[k].mount
+        T = lidar.to_sensor()  # LiDAR -> body
+        R = mount.rotation.T @ T[:3, :3]
+        yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
+        return dataclasses.replace(
+            lidar,
+            position_m=tuple(mount.to_sensor(T[:3, 3]).tolist()),
+            rotation_deg=tuple(np.rad2deg([roll, pitch, yaw]).tolist()),
+        )
+
     def pair_axis(self, j: int, k: int) -> np.ndarray:
         """Sonar k's axis (3,) in sonar j's frame (where k's microphones face)."""
         mj, mk = self.sonars[j].mount, self.sonars[k].mount
