@@ -352,3 +352,19 @@ def test_a_rig_bag_has_a_topic_set_per_sonar_and_the_tf_tree(tmp_path):
         )  # fmt: skip
         np.testing.assert_allclose(pa + Ra.apply(pb), expected, atol=1e-9)
         np.testing.assert_allclose((Ra * Rb).as_euler("ZYX")[0], turn, atol=1e-9)
+
+
+def test_chirp_export_takes_one_sonar_of_a_rig_at_a_time(tmp_path, capsys):
+    import processing as P
+    from acousim.cli import main
+
+    scene = two_sonars(wall_scene(tmp_path))
+    P.save_recordings(tmp_path / "r.h5", list(RigSimulator(scene).run().recordings))
+    out = tmp_path / "c.h5"
+    args = ["export", str(tmp_path / "r.h5"), "--format", "chirp", "--out", str(out)]
+    assert main(args) != 0 and not out.exists()
+    assert "--sensor NAME" in capsys.readouterr().err
+    assert main([*args, "--sensor", "right"]) == 0
+    (back,) = P.load_recordings(out)
+    assert back.metadata["sensor"] == "right"
+    np.testing.assert_array_equal(back.truth.emitter, ["right", "right", "left"])
