@@ -129,6 +129,12 @@ class Simulator:
     (the sensors of a rig, :mod:`acousim.rig`)."""
 
     def __init__(self, scene: Scene, threads: int = 2, *, tracer=None) -> None:
+        if scene.rig is not None:
+            raise InputError(
+                f"scene {scene.name!r} is a rig of {len(scene.rig.sonars)} sonar(s): "
+                "simulate it with acousim.RigSimulator (acousim simulate)",
+                key="Scene.rig",
+            )
         self.scene = scene
         #: the sensor's array: its emitter and microphones, sensor frame
         self.array = scene.sensor.array

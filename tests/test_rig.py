@@ -368,3 +368,10 @@ def test_chirp_export_takes_one_sonar_of_a_rig_at_a_time(tmp_path, capsys):
     (back,) = P.load_recordings(out)
     assert back.metadata["sensor"] == "right"
     np.testing.assert_array_equal(back.truth.emitter, ["right", "right", "left"])
+
+
+def test_a_single_sensor_simulator_refuses_a_rig(tmp_path):
+    from processing.errors import InputError
+
+    with pytest.raises(InputError, match="RigSimulator"):
+        Simulator(two_sonars(wall_scene(tmp_path)))
