@@ -256,13 +256,12 @@ class RigSimulator:
 
         out = []
         seed = self.scene.simulation.seed
-        moving_world = hasattr(self.tracer, "tracer_at")
         several = len(self.rig.poses) > 1
         for n, lidar in enumerate(self.rig.lidars):
             for i, body in enumerate(self.rig.poses):
                 if several and not start_s - 1e-9 <= body.time_s <= end_s + 1e-9:
                     continue
-                tracer = self.tracer.tracer_at(body.time_s) if moving_world else self.tracer
+                tracer = self.tracer.tracer_at(body.time_s)
                 s = int(np.random.SeedSequence([seed, i, 2 + n]).generate_state(1)[0])
                 cloud = scan(
                     tracer.world, tracer.caster, lidar, body, motion=self.rig.motion, seed=s

@@ -334,7 +334,7 @@ class Simulator:
             return None
         from acousim.trace.lidar import scan
 
-        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        tracer = self.tracer.tracer_at(pose.time_s)
         seed = int(
             np.random.SeedSequence([self.scene.simulation.seed, index, 1]).generate_state(1)[0]
         )
@@ -428,7 +428,7 @@ class Simulator:
         a = np.array([p.strength for p in pts], float)
         emitter = pose.to_world(self.array.emitter_m)
         receiver = pose.to_world(self.array.positions_m.mean(axis=0))
-        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        tracer = self.tracer.tracer_at(pose.time_s)
         reach = 2 * self.scene.simulation.max_range_m
         keep, _ = heard_points(pos, emitter, receiver, reach, tracer.caster)
         return pos[keep], a[keep], v[keep]

@@ -235,6 +235,11 @@ class Tracer:
             self.edges,
         )
 
+    def tracer_at(self, t_s: float) -> Tracer:
+        """The tracer of the world at time `t_s`: this one (its world does not move;
+        :class:`acousim.trace.moving.MovingWorld` has one per instant)."""
+        return self
+
     def rays_used(self, pose: Pose, array: Array | None = None) -> int:
         """How many rays the trace of `pose` (and `array`, as :meth:`trace`) shot
         (traced now if it was not)."""
