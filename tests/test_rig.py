@@ -375,3 +375,38 @@ def test_a_single_sensor_simulator_refuses_a_rig(tmp_path):
 
     with pytest.raises(InputError, match="RigSimulator"):
         Simulator(two_sonars(wall_scene(tmp_path)))
+
+
+def test_schedules_round_robin_and_simultaneous():
+    from acousim.scene.rig import schedule
+
+    rr = schedule(4, 10.0, "round_robin")
+    assert [f.offset_s for f in rr] == pytest.approx([0.0, 0.025, 0.05, 0.075])
+    assert all(f.rate_hz == 10.0 for f in rr)
+    assert [f.offset_s for f in schedule(3, 20.0, "simultaneous")] == [0.0, 0.0, 0.0]
+    # over a 1 s trajectory: 11 firings from the start, 10 from an offset of 25 ms
+    assert len(rr[0].times(0.0, 1.0)) == 11 and len(rr[1].times(0.0, 1.0)) == 10
+    np.testing.assert_allclose(rr[1].times(2.0, 1.0)[:2], [2.025, 2.125])
+
+
+def test_a_mount_rides_a_turning_body():
+    """A sonar mounted 0.3 m ahead of a body turning at 90 deg/s while it drives:
+    its position is the body's plus the turned lever arm, its velocity that
+    position's derivative (central differences here)."""
+    from acousim.scene.rig import MountedTrajectory
+
+    body = Trajectory.constant(Pose(np.zeros(3)), (0.5, 0, 0), (0, 0, np.pi / 2))
+    mount = Mount.degrees([0.3, 0.1, 0.2], [0, 0, 30])
+    m = MountedTrajectory.of(body, mount)
+    t, h = 0.4, 1e-6
+    turn = np.pi / 2 * t
+    arm = np.array(
+        [0.3 * np.cos(turn) - 0.1 * np.sin(turn), 0.3 * np.sin(turn) + 0.1 * np.cos(turn), 0.2]
+    )
+    np.testing.assert_allclose(m.position(t), [0.5 * t, 0, 0] + arm, atol=1e-12)
+    numeric = (m.position(t + h) - m.position(t - h)) / (2 * h)
+    np.testing.assert_allclose(m.velocity(t), numeric, atol=1e-8)
+    yaw = np.arctan2(m.rotation(t)[1, 0], m.rotation(t)[0, 0])
+    assert yaw == pytest.approx(turn + np.deg2rad(30))
+    p = mount.place(body.pose(t))
+    np.testing.assert_allclose(p.position_m, m.position(t), atol=1e-12)
