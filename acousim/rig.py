@@ -39,7 +39,11 @@ from acousim.synth.options import Capture
 from processing import interrupt
 from processing.errors import InputError
 
-__all__ = ["RigSimulator", "RigRun", "LidarScan"]
+__all__ = ["RigSimulator", "RigRun", "LidarScan", "REACH_MARGIN_M"]
+
+#: a crosstalk call emitted during a window is traced this much beyond the longest
+#: path it can take within it (m; see :meth:`RigSimulator._reach`)
+REACH_MARGIN_M = 0.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -224,7 +228,9 @@ class RigSimulator:
         call = self.rig.sonars[j].sensor.call
         lead = m.time_s - f.time_s  # how long before k's emission j fired (s)
         n_from_f = int(np.ceil((lead + n_samples / fs) * fs))
-        heard = pair.heard(f.pose, self.rig.sonar_motion(j), n_from_f)
+        heard = pair.heard(
+            f.pose, self.rig.sonar_motion(j), n_from_f, max_path_m=self._reach(f, n_from_f / fs)
+        )
         echoes = heard.echoes
         delay = echoes.delay_s - lead
         keep = np.any(
@@ -246,6 +252,25 @@ class RigSimulator:
         )
         rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
         return rec.samples[:, pre:], _truth(heard, rows, m.pose)
+
+    def _reach(self, f: Measurement, window_s: float) -> float | None:
+        """How long a path of firing `f` may be and still reach a window ending
+        `window_s` after its emission (m): c times that, plus what the microphones
+        can move meanwhile (twice the body's speed there, its turn carrying the
+        farthest mount) and :data:`REACH_MARGIN_M`; None (every path the scene
+        traces) when that is not shorter, or when reflectors move."""
+        longest = 2 * self.scene.simulation.max_range_m
+        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+            return None
+        speed = 0.0
+        if self.rig.motion is not None:
+            lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
+            v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
+            w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
+            speed = 2 * (v + w * lever)
+        c = self.scene.environment.speed_of_sound_m_s
+        reach = (c + speed) * window_s + REACH_MARGIN_M
+        return reach if reach < longest else None
 
     def lidar_scans(self, start_s: float = -np.inf, end_s: float = np.inf) -> tuple[LidarScan, ...]:
         """Every LiDAR of the rig scanning from each of the body's poses (those from

@@ -227,7 +227,9 @@ class Simulator:
         lidar = self.lidar_scan(pose, index, motion)
         return _Prepared(heard.echoes, n, meta, truth, rate=heard.rate, lidar=lidar)
 
-    def heard(self, pose: Pose, motion, n_samples: int) -> Heard:
+    def heard(
+        self, pose: Pose, motion, n_samples: int, *, max_path_m: float | None = None
+    ) -> Heard:
         """The paths of a measurement starting at `pose` heard at the microphones
         (along `motion`, a trajectory or None; a recording of `n_samples`), down the
         stages:
@@ -243,9 +245,9 @@ class Simulator:
         Rendering (:meth:`_planned`, :meth:`_record`) follows.
         """
         if self.in_motion(motion):
-            return self._heard_moving(pose, motion, n_samples)
+            return self._heard_moving(pose, motion, n_samples, max_path_m)
         mics = pose.to_world(self.array.positions_m)
-        paths = self.tracer.trace(pose, self._traced_array)
+        paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
         echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
         return Heard(
             self._mic_directivity(echoes, paths.anchor_m, mics, pose),
@@ -253,12 +255,12 @@ class Simulator:
             kind_names(paths.kind),
             paths.order,
             paths.level_at(mics.mean(axis=0)),  # magnitudes: diffraction paths are signed
-            self.tracer.rays_used(pose, self._traced_array),
+            rays,
         )
 
-    def _heard_moving(self, pose: Pose, motion, n_samples: int) -> Heard:
+    def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
         """:meth:`heard` in motion."""
-        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose)
+        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose, max_path_m)
         duration = self.scene.sensor.call.duration_s
         kin = SensorKinematics(
             motion, pose, self.array, n_samples / self.scene.sensor.sample_rate_hz, TABLE_STEP_S
@@ -280,7 +282,7 @@ class Simulator:
             kinds,
             moving.order,
             level,
-            self.tracer.rays_used(pose, self._traced_array),
+            self.tracer.traced(pose, self._traced_array, max_path_m)[1],
             velocity_m_s=truth_vel,
             rate=arr.rate[:, keep],
             rows=np.flatnonzero(keep),
@@ -347,10 +349,10 @@ class Simulator:
         (N, 3) of the reflecting points (moving meshes: :mod:`acousim.trace.moving`)."""
         return self._moving(pose)[:4]
 
-    def _moving(self, pose: Pose):
+    def _moving(self, pose: Pose, max_path_m: float | None = None):
         """:meth:`moving_paths` and the traced paths' material interactions (the traced
         paths come first, moving points after)."""
-        paths = self.tracer.trace(pose, self._traced_array)
+        paths = self.tracer.traced(pose, self._traced_array, max_path_m)[0]
         emitter = pose.to_world(self.array.emitter_m)
         moving = MovingPaths.from_traced(paths, emitter)
         truth_vel = moving.velocity_m_s

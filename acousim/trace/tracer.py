@@ -29,6 +29,7 @@ a / (2 r (r + a))) are exact geometric optics, independent of the ray budget and
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -216,18 +217,32 @@ class Tracer:
         emitter of `array` to the centre of its microphones (default: the scene's
         sensor's; a rig's pair of sensors: the emitter of one, the microphones of
         another, both in the emitting sensor's frame)."""
-        return self._traced.get(_key(pose, array), lambda: self._trace_now(pose, array))[0]
+        return self.traced(pose, array)[0]
 
-    def _trace_now(self, pose: Pose, array: Array | None) -> tuple[TracedPaths, int]:
+    def traced(
+        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+    ) -> tuple[TracedPaths, int]:
+        """:meth:`trace`'s paths and the rays it shot; `max_path_m`: only the paths up
+        to that length (m; None: the scene's, twice its range), for a call heard
+        late in another sonar's window (:mod:`acousim.rig`)."""
+        key = _key(pose, array) if max_path_m is None else (_key(pose, array), max_path_m)
+        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m))
+
+    def _trace_now(
+        self, pose: Pose, array: Array | None, max_path_m: float | None = None
+    ) -> tuple[TracedPaths, int]:
         array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
         if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
+        settings = self.settings
+        if max_path_m is not None and max_path_m < settings.max_path_m:
+            settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
         return trace_pose(
             self.world,
             self.caster,
-            self.settings,
+            settings,
             emitter,
             receiver,
             pose.rotation,
@@ -243,7 +258,7 @@ class Tracer:
     def rays_used(self, pose: Pose, array: Array | None = None) -> int:
         """How many rays the trace of `pose` (and `array`, as :meth:`trace`) shot
         (traced now if it was not)."""
-        return self._traced.get(_key(pose, array), lambda: self._trace_now(pose, array))[1]
+        return self.traced(pose, array)[1]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:
