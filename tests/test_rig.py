@@ -410,3 +410,18 @@ def test_a_mount_rides_a_turning_body():
     assert yaw == pytest.approx(turn + np.deg2rad(30))
     p = mount.place(body.pose(t))
     np.testing.assert_allclose(p.position_m, m.position(t), atol=1e-12)
+
+
+def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    first, later = sim.measurements  # "right" fires 5 ms into "left"'s window
+    n = scene.n_samples()
+    window = n / scene.sensor.sample_rate_hz
+    reach = sim._reach(later, window - 0.005)
+    assert reach is not None and reach < 2 * scene.simulation.max_range_m
+    cut, cut_truth = sim._crosstalk(later, first, n)
+    sim._reach = lambda f, w: None  # every path the scene traces
+    full, full_truth = sim._crosstalk(later, first, n)
+    np.testing.assert_array_equal(cut, full)
+    np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
