@@ -15,7 +15,7 @@ from acousim.simulator import Simulator
 
 #: firings timed: two rounds of the four sonars, mid-drive
 FIRINGS = list(range(40, 48))
-REPEAT = 3
+REPEAT = 5
 
 
 def _firing_times(sim: RigSimulator) -> float:
@@ -66,7 +66,8 @@ def run() -> str:
             "",
             "| what | time |",
             "|---|---|",
-            f"| preparing the rig (its firings' poses, one world, the {n} sonars' simulators) | {prep_rig:.2f} s |",
+            f"| preparing the rig (its firings' poses, one world, the {n} sonars' "
+            f"simulators) | {prep_rig:.2f} s |",
             f"| preparing one sonar's simulator alone (its own world) | {prep_one:.2f} s |",
             f"| a firing, crosstalk off (= one sonar's measurement) | {per_off:.2f} s |",
             f"| a firing, crosstalk on ({np.mean(heard):.1f} other firings heard) "
@@ -74,9 +75,11 @@ def run() -> str:
             f"| crosstalk on / off (median of paired ratios) | {np.median(ratios):.2f}x |",
             "",
             f"Without crosstalk a rig of {n} sonars costs {n} measurements per round and "
-            "one world; each firing heard by another sonar adds a bistatic trace and a "
-            "render (the rays shot from an emitter are not yet shared between its "
-            "receivers).",
+            "one world (the rig's preparation is mostly its firings' poses, 2 ms each); "
+            "each firing heard by another sonar adds a bistatic trace and a render, the "
+            "one emitted during the window traced only as far as it can be heard (the "
+            "rays shot from an emitter are not shared between its receivers: the "
+            "budget and the paths depend on the receiver).",
         ]
     )
 
