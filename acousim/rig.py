@@ -87,6 +87,8 @@ class RigSimulator:
     """Simulates a scene's rig (:attr:`Scene.rig`); the world prepared once."""
 
     def __init__(self, scene: Scene, threads: int = 2) -> None:
+        if scene.rig is not None and not isinstance(scene.rig, Rig):
+            raise InputError("must be None or an acousim.scene.rig.Rig", key="Scene.rig")
         self.scene = scene
         self.rig: Rig | None = scene.rig
         self.single = Simulator(scene, threads) if self.rig is None else None

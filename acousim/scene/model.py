@@ -532,17 +532,9 @@ class Scene:
     sensor: Sensor = field(default_factory=Sensor)
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
-    #: several sonars and LiDARs on one body (:class:`acousim.scene.rig.Rig`, simulated
-    #: by :class:`acousim.rig.RigSimulator`); None: the one `sensor`.  A rig's `sensor`
-    #: is its first sonar, mounted, at its firing poses
-    rig: Any = None
+    rig: Any = None  #: sonars on one body (acousim.scene.rig.Rig, acousim.rig); None: `sensor`
 
     def __post_init__(self) -> None:
-        if self.rig is not None:
-            from .rig import Rig
-
-            if not isinstance(self.rig, Rig):
-                raise InputError("must be None or an acousim.scene.rig.Rig", key="Scene.rig")
         meshes, points = tuple(self.meshes), tuple(self.points)
         for key, items, kind in (
             ("Scene.meshes", meshes, MeshItem),
