@@ -26,6 +26,11 @@ import sys
 
 __all__ = [
     "Simulator",
+    "RigSimulator",
+    "Rig",
+    "RigSonar",
+    "Mount",
+    "Firing",
     "load_scene",
     "parse_scene",
     "Scene",
@@ -46,6 +51,8 @@ __all__ = [
 
 _ELSEWHERE = {
     "Simulator": "acousim.simulator",
+    "RigSimulator": "acousim.rig",
+    **{name: "acousim.scene.rig" for name in ("Rig", "RigSonar", "Mount", "Firing")},
     "ImagingOptions": "acousim.imaging",
     "image_recordings": "acousim.imaging",
     "peak_table": "acousim.imaging",

@@ -42,16 +42,16 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
 from acousim.synth.options import Capture, Noise, RenderOptions
-from acousim.synth.response import PathResponse
+from acousim.synth.response import PathResponse, mic_directivity
 from acousim.synth.signal_model import in_window, simulate
-from acousim.trace.direct import seen
+from acousim.trace.direct import heard_points
 from acousim.trace.motion.following import Endpoints, MovingPaths
 from acousim.trace.paths import TracedPaths, kind_names
 from acousim.trace.tracer import Tracer
 from processing.base import interrupt
 from processing.base.errors import InputError
 
-__all__ = ["Simulator", "package_version", "MIN_POINT_DISTANCE_M"]
+__all__ = ["Simulator", "Heard", "package_version", "MIN_POINT_DISTANCE_M"]
 
 MIN_POINT_DISTANCE_M = 1e-3
 """Nearest a point reflector may be to the emitter or a microphone (m)."""
@@ -79,6 +79,34 @@ def _on(trajectory, pose: Pose) -> bool:
     )
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class Heard:
+    """The paths of one measurement at the microphones: the kinematics stage's result
+    (static: :meth:`TracedPaths.echoes`; in motion: :func:`acousim.kinematics.arrivals`),
+    what the recording and its ground truth are made of.  N paths, M microphones."""
+
+    echoes: Echoes
+    """delays (from the start of the emission) and gains (M, N), the microphones'
+    directivity applied."""
+    position_m: np.ndarray
+    """(N, 3) where each path comes from (world frame, at the start of the emission)."""
+    kinds: list[str]
+    """(N,) the path kinds' names."""
+    order: np.ndarray
+    """(N,) reflections."""
+    level: np.ndarray
+    """(N,) magnitude of each path's gain at the array's centre."""
+    rays: int
+    """rays the trace shot."""
+    velocity_m_s: np.ndarray | None = None
+    """(N, 3) velocity of each path's last point (in motion; None: static)."""
+    rate: np.ndarray | None = None
+    """(M, N) Doppler factors (in motion; None: static)."""
+    rows: np.ndarray | None = None
+    """(N',) int: the path (row of `position_m`, ...) of each echo, in motion where
+    only those that reach the window are kept (None: every path, in order)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class _Prepared:
     """A recording but its samples (:meth:`Simulator._prepare`)."""
@@ -96,27 +124,27 @@ class _Prepared:
 
 
 class Simulator:
-    """Simulates a scene; the ray-tracing scene is built once and reused for every pose."""
+    """Simulates a scene; the ray-tracing scene is built once and reused for every pose.
 
-    def __init__(self, scene: Scene, threads: int = 2) -> None:
+    `tracer`: another simulator's (:attr:`tracer`) to share its world, prepared once
+    (the sensors of a rig, :mod:`acousim.rig`)."""
+
+    def __init__(self, scene: Scene, threads: int = 2, *, tracer=None) -> None:
+        if scene.rig is not None:
+            raise InputError(
+                f"scene {scene.name!r} is a rig of {len(scene.rig.sonars)} sonar(s): "
+                "simulate it with acousim.RigSimulator (acousim simulate)",
+                key="Scene.rig",
+            )
         self.scene = scene
+        #: the sensor's array: its emitter and microphones, sensor frame
+        self.array = scene.sensor.array
         # moving point reflectors are placed per emission instant: see _moving_points
         self.moving_points = tuple(p for p in scene.points if p.moving)
-        if self.moving_points:
-            # the tracer sees the still points only; a copy, not a new Scene, which
-            # would refuse a scene whose only reflectors move ("nothing can echo")
-            scene = copy.copy(scene)
-            object.__setattr__(scene, "points", tuple(p for p in scene.points if not p.moving))
         #: meshes that move: the world is rebuilt per emission instant (a scene
         #: without them keeps its one world)
         self.moving_meshes = any(m.moving for m in scene.meshes)
-        if self.moving_meshes:
-            from acousim.trace.motion.moving_world import MovingWorld
-
-            self.tracer = MovingWorld(scene, threads)
-        else:
-            self.tracer = Tracer(scene, threads)
-        scene = self.scene
+        self.tracer = tracer if tracer is not None else _tracer(scene, threads)
         env = scene.environment
         self.c = env.speed_of_sound_m_s
         self.response = PathResponse(
@@ -133,7 +161,13 @@ class Simulator:
         self.doppler_cache = DopplerCache()
 
     def paths(self, pose: Pose) -> TracedPaths:
-        return self.tracer.trace(pose)
+        return self.tracer.trace(pose, self._traced_array)
+
+    @property
+    def _traced_array(self):
+        """The array the tracer is asked for (None: the scene's sensor's, its cache
+        keyed by the pose alone)."""
+        return None if self.array is self.tracer.scene.sensor.array else self.array
 
     def simulate_pose(
         self,
@@ -172,85 +206,126 @@ class Simulator:
                 value=exc.value,
             ) from None
 
-    def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
-        """Everything of a recording but its samples: the paths traced and turned into
-        echoes (per microphone delays and gains; in motion, their Doppler factors),
-        the metadata and the ground truth.  :meth:`run` prepares the next pose in a
-        thread while the current one renders."""
+    def motion_at(self, pose: Pose, motion=SCENE_MOTION):
+        """The trajectory of a measurement starting at `pose`: `motion`, or by default
+        the scene's if `pose` lies on it (else None: frozen)."""
         if isinstance(motion, str) and motion == SCENE_MOTION:
             motion = self.scene.sensor.motion
             if motion is not None and not _on(motion, pose):
                 log.debug("pose %s is not on the scene's trajectory: frozen", pose.to_dict())
                 motion = None
+        return motion
+
+    def in_motion(self, motion) -> bool:
+        """Whether a measurement along `motion` (None: frozen) takes the kinematics of
+        motion (the sensor, a point reflector or a mesh moves)."""
+        return motion is not None or bool(self.moving_points) or self.moving_meshes
+
+    def _prepare(self, pose: Pose, index: int, n_samples: int | None, motion) -> _Prepared:
+        """Everything of a recording but its samples: the paths traced and heard at the
+        microphones (:meth:`heard`), the metadata, the ground truth and the LiDAR's
+        scan.  :meth:`run` prepares the next pose in a thread while the current one
+        renders."""
+        motion = self.motion_at(pose, motion)
         self._check_points_clear(pose)
-        if motion is not None or self.moving_points or self.moving_meshes:
-            return self._prepare_moving(pose, index, n_samples, motion)
         scene = self.scene
-        sensor = scene.sensor
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
-        paths = self.tracer.trace(pose)
-        mics = pose.to_world(sensor.array.positions_m)
-        echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
-        if sensor.mic_radius_m > 0:
-            echoes = self._mic_directivity(echoes, paths, mics, pose.rotation[:, 0])
-        receiver = mics.mean(axis=0)
-        level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
-        meta = {**_metadata(scene, pose, index), "rays": self.tracer.rays_used(pose)}
+        n = n_samples or scene.n_samples()
+        heard = self.heard(pose, motion, n)
+        meta = {**_metadata(scene, pose, index), "rays": heard.rays}
+        if heard.rate is not None:
+            meta["motion"] = _motion(pose, motion, heard.rate)
         truth = P.GroundTruth(
-            position_world_m=paths.position_m,
-            position_sensor_m=pose.to_sensor(paths.position_m),
-            amplitude=level,
-            order=paths.order,
-            kind=np.array(kind_names(paths.kind), dtype=str),
+            position_world_m=heard.position_m,
+            position_sensor_m=pose.to_sensor(heard.position_m),
+            amplitude=heard.level,
+            order=heard.order,
+            kind=np.array(heard.kinds, dtype=str),
+            velocity_world_m_s=heard.velocity_m_s,
         )
         lidar = self.lidar_scan(pose, index, motion)
-        return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, lidar=lidar)
+        return _Prepared(heard.echoes, n, meta, truth, rate=heard.rate, lidar=lidar)
 
-    def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
-        """A measurement in motion, down the stages:
+    def heard(
+        self, pose: Pose, motion, n_samples: int, *, max_path_m: float | None = None
+    ) -> Heard:
+        """The paths of a measurement starting at `pose` heard at the microphones
+        (along `motion`, a trajectory or None; a recording of `n_samples`), down the
+        stages:
 
-        1. trace: the paths at the pose of the start of the emission, moving meshes
-           and point reflectors placed where they are then (:meth:`moving_paths`);
-        2. kinematics: per path and microphone, the reception times of the call's
-           first, middle and last sample for the moving emitter, reflector and
-           microphone (:func:`acousim.kinematics.retarded`): the echoes and their
-           Doppler factors, those that reach the window kept.
+        1. trace: the paths at the pose of the start of the emission (moving meshes
+           and point reflectors placed where they are then: :meth:`moving_paths`);
+        2. kinematics: static, the delays and gains at the microphones; in motion,
+           per path and microphone the reception times of the call's first, middle
+           and last sample for the moving emitter, reflector and microphone
+           (:func:`acousim.kinematics.arrivals`): the echoes and their Doppler
+           factors, those that reach the window kept;
+        3. the microphones' directivity (:func:`acousim.synth.response.mic_directivity`).
         Rendering (:meth:`_planned`, :meth:`_record`) follows.
         """
-        scene, sensor = self.scene, self.scene.sensor
-        array = sensor.array
-        scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
-        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose)
-        n = n_samples or scene.n_samples()
-        kin = SensorKinematics(motion, pose, array, n / sensor.sample_rate_hz, TABLE_STEP_S)
-        arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
+        if self.in_motion(motion):
+            return self._heard_moving(pose, motion, n_samples, max_path_m)
+        mics = pose.to_world(self.array.positions_m)
+        paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
+        echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
+        return Heard(
+            self._mic_directivity(echoes, paths.anchor_m, mics, pose),
+            paths.position_m,
+            kind_names(paths.kind),
+            paths.order,
+            paths.level_at(mics.mean(axis=0)),  # magnitudes: diffraction paths are signed
+            rays,
+        )
+
+    def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
+        """:meth:`heard` in motion."""
+        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose, max_path_m)
+        duration = self.scene.sensor.call.duration_s
+        kin = SensorKinematics(
+            motion, pose, self.array, n_samples / self.scene.sensor.sample_rate_hz, TABLE_STEP_S
+        )
+        arr = arrivals(moving, kin, duration, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
         if interactions.shape[1]:  # material tables: the traced paths come first
             extra = np.zeros((len(moving) - len(interactions), interactions.shape[1]), int)
             echoes = dataclasses.replace(echoes, interactions=np.concatenate([interactions, extra]))
-        mics = pose.to_world(array.positions_m)
-        if sensor.mic_radius_m > 0:
-            echoes = self._mic_directivity(echoes, moving, mics, pose.rotation[:, 0])
-        receiver = mics.mean(axis=0)
+        mics = pose.to_world(self.array.positions_m)
+        echoes = self._mic_directivity(echoes, moving.anchor_m, mics, pose)
         level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
-            np.linalg.norm(moving.anchor_m - receiver, axis=1), 1e-9
+            np.linalg.norm(moving.anchor_m - mics.mean(axis=0), axis=1), 1e-9
         )
-        meta = {
-            **_metadata(scene, pose, index),
-            "rays": self.tracer.rays_used(pose),
-            "motion": _motion(pose, motion, arr.rate),
-        }
-        truth = P.GroundTruth(
-            position_world_m=truth_pos,
-            position_sensor_m=pose.to_sensor(truth_pos),
-            amplitude=level,
-            order=moving.order,
-            kind=np.array(kinds, dtype=str),
-            velocity_world_m_s=truth_vel,
+        keep = in_window(echoes, n_samples, self.scene.sensor.sample_rate_hz)
+        return Heard(
+            echoes.select(keep),
+            truth_pos,
+            kinds,
+            moving.order,
+            level,
+            self.tracer.traced(pose, self._traced_array, max_path_m)[1],
+            velocity_m_s=truth_vel,
+            rate=arr.rate[:, keep],
+            rows=np.flatnonzero(keep),
         )
-        keep = in_window(echoes, n, sensor.sample_rate_hz)
-        lidar = self.lidar_scan(pose, index, motion)
-        return _Prepared(echoes.select(keep), n, meta, truth, rate=arr.rate[:, keep], lidar=lidar)
+
+    def _mic_directivity(self, echoes: Echoes, anchor_m, mics, pose: Pose) -> Echoes:
+        """`echoes` with the microphones' directivity (the sensor's ``mic_radius_m``;
+        0: omni, as they are), the ports facing the sensor's axis."""
+        sensor = self.scene.sensor
+        if sensor.mic_radius_m <= 0:
+            return echoes
+        return mic_directivity(
+            echoes,
+            anchor_m=anchor_m,
+            mics_m=mics,
+            axis=self.mic_axis(pose),
+            radius_m=sensor.mic_radius_m,
+            frequency_hz=float(np.mean(sensor.call.band_hz)),
+            speed_of_sound_m_s=self.c,
+        )
+
+    def mic_axis(self, pose: Pose) -> np.ndarray:
+        """The direction (3,) the microphones face, world frame: the sensor's axis."""
+        return pose.rotation[:, 0]
 
     def _planned(self, prep: _Prepared) -> _Prepared:
         """`prep` with the render of its echoes in motion planned (time-scaled calls at
@@ -280,7 +355,7 @@ class Simulator:
             return None
         from acousim.trace.lidar import scan
 
-        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        tracer = self.tracer.tracer_at(pose.time_s)
         seed = int(
             np.random.SeedSequence([self.scene.simulation.seed, index, 1]).generate_state(1)[0]
         )
@@ -294,19 +369,19 @@ class Simulator:
         :mod:`acousim.trace.motion.moving_world`)."""
         return self._moving(pose)[:4]
 
-    def _moving(self, pose: Pose):
+    def _moving(self, pose: Pose, max_path_m: float | None = None):
         """:meth:`moving_paths` and the traced paths' material interactions (the traced
         paths come first, moving points after)."""
-        paths = self.tracer.trace(pose)
-        emitter = pose.to_world(self.scene.sensor.array.emitter_m)
+        paths = self.tracer.traced(pose, self._traced_array, max_path_m)[0]
+        emitter = pose.to_world(self.array.emitter_m)
         moving = MovingPaths.from_traced(paths, emitter)
         truth_vel = moving.velocity_m_s
         if self.moving_meshes:
             from acousim.trace.motion.moving_world import follow_chains, ride
 
-            on, normals, glint = self.tracer.riders(paths, pose)
+            on, normals, glint = self.tracer.riders(paths, pose, self.array)
             velocities = self.tracer.velocities(pose)
-            receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
+            receiver = pose.to_world(self.array.positions_m.mean(axis=0))
             still = moving
             ends = Endpoints(emitter, receiver, self.c)
             moving, truth_vel = ride(moving, paths, on, normals, glint, velocities, ends)
@@ -349,7 +424,7 @@ class Simulator:
         if not items:
             return
         pts = np.array([p.at(pose.time_s)[0] if p.moving else p.position_m for p in items])
-        array = self.scene.sensor.array
+        array = self.array
         ends = pose.to_world(np.vstack([array.emitter_m, array.positions_m]))
         gap = np.linalg.norm(pts[:, None, :] - ends[None, :, :], axis=2).min(axis=1)
         near = np.flatnonzero(gap < MIN_POINT_DISTANCE_M)
@@ -373,36 +448,12 @@ class Simulator:
         pos = np.array([x for x, _ in now], float)
         v = np.array([u for _, u in now], float)
         a = np.array([p.strength for p in pts], float)
-        array = self.scene.sensor.array
-        r_e = np.linalg.norm(pos - pose.to_world(array.emitter_m), axis=1)
-        r_r = np.linalg.norm(pos - pose.to_world(array.positions_m.mean(axis=0)), axis=1)
-        keep = (r_e > 0) & (r_e + r_r <= 2 * self.scene.simulation.max_range_m)
-        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
-        if tracer.caster is not None and keep.any():
-            emitter = pose.to_world(array.emitter_m)
-            receiver = pose.to_world(array.positions_m.mean(axis=0))
-            keep[keep] = seen(pos[keep], (emitter, receiver), tracer.caster)
+        emitter = pose.to_world(self.array.emitter_m)
+        receiver = pose.to_world(self.array.positions_m.mean(axis=0))
+        tracer = self.tracer.tracer_at(pose.time_s)
+        reach = 2 * self.scene.simulation.max_range_m
+        keep, _ = heard_points(pos, emitter, receiver, reach, tracer.caster)
         return pos[keep], a[keep], v[keep]
-
-    def _mic_directivity(self, echoes, paths, mics, axis):
-        """Microphone directivity: a baffled piston of radius mic_radius_m facing the
-        sensor's axis, at the centre of the call's band (MEMS ports are small: the
-        pattern barely changes across the band), as a gain per microphone and path."""
-        from acousim.synth.response import piston_directivity
-
-        arrival = paths.anchor_m[None, :, :] - mics[:, None, :]  # towards the source
-        arrival /= np.maximum(np.linalg.norm(arrival, axis=2, keepdims=True), 1e-12)
-        theta = np.arccos(np.clip(arrival @ axis, -1, 1))  # (M, N)
-        f_c = float(np.mean(self.scene.sensor.call.band_hz))
-        d = piston_directivity(f_c, theta, self.scene.sensor.mic_radius_m, self.c)
-        return Echoes(
-            echoes.delay_s,
-            echoes.gain * d,
-            echoes.path_length_m,
-            echoes.order,
-            echoes.emitter_angle_rad,
-            echoes.interactions,
-        )
 
     def run(
         self, poses: Iterable[int] | None = None, progress: Callable[[int, int], None] | None = None
@@ -442,7 +493,9 @@ class Simulator:
 
             def trace_ahead(k: int) -> None:
                 if k < len(idx) and not self.moving_meshes:
-                    traced[idx[k]] = tracing.submit(self.tracer.trace, all_poses[idx[k]])
+                    traced[idx[k]] = tracing.submit(
+                        self.tracer.trace, all_poses[idx[k]], self._traced_array
+                    )
 
             ahead = pool.submit(prepare, idx[0]) if idx else None
             trace_ahead(1)
@@ -458,6 +511,23 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
+
+
+def _tracer(scene: Scene, threads: int):
+    """The tracer of `scene`: its one world, or (meshes that move) a world per emission
+    instant (:class:`acousim.trace.motion.moving_world.MovingWorld`); it sees the still point
+    reflectors only (the moving ones are placed per emission instant:
+    :meth:`Simulator._moving_points`)."""
+    if any(p.moving for p in scene.points):
+        # a copy, not a new Scene, which would refuse a scene whose only reflectors
+        # move ("nothing can echo")
+        scene = copy.copy(scene)
+        object.__setattr__(scene, "points", tuple(p for p in scene.points if not p.moving))
+    if any(m.moving for m in scene.meshes):
+        from acousim.trace.motion.moving_world import MovingWorld
+
+        return MovingWorld(scene, threads)
+    return Tracer(scene, threads)
 
 
 def _motion(pose: Pose, motion, rate: np.ndarray) -> dict:

@@ -25,6 +25,7 @@ from . import (
     peer,
     pictures,
     recording_file,
+    rig,
     scaling,
 )
 from .fullwave import compare as fullwave
@@ -46,6 +47,7 @@ SECTIONS = {
     "fullwave": fullwave,
     "peer": peer,
     "scaling": scaling,
+    "rig": rig,
 }
 
 

@@ -361,7 +361,13 @@ def simulate(scene, poses, seed):
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
         )
-    recs = Simulator(scene).run(poses, progress=progress("simulate", "pose"))
+    if scene.rig is not None:  # a recording per firing of every sonar, in time order
+        from acousim.rig import RigSimulator
+
+        run = RigSimulator(scene).run(poses, progress=progress("simulate", "firing"))
+        recs = list(run.recordings)
+    else:
+        recs = Simulator(scene).run(poses, progress=progress("simulate", "pose"))
     for r in recs:
         prov = r.provenance
         if not prov.n_paths:

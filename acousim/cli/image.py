@@ -35,6 +35,11 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
         "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss)",
     )
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
+    p.add_argument(
+        "--sensor",
+        metavar="NAME",
+        help="a rig's recordings: only those of the sonar NAME (of --index, if given)",
+    )
     add_declared(p, "--step", IMAGING, "step_deg")
     add_declared(p, "--energy-fraction", IMAGING, "energy_fraction")
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
@@ -52,6 +57,22 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
 #: calls a CHIRP file may be read with (--call): :data:`processing.CALLS`, spelt out
 #: here so that building the parser imports no numpy (a test holds them equal)
 CHIRP_CALLS = ("default_20_80", "default_25_50", "paper")
+
+
+def _of_sensor(recs: list, index: list[int], name: str) -> tuple[list, list[int]]:
+    """The recordings (and their indices) of the rig's sonar `name`; a UsageError
+    naming the sonars there are when none is."""
+    names = [r.metadata.get("sensor") for r in recs]
+    keep = [i for i, n in enumerate(names) if n == name]
+    if not keep:
+        there = sorted({n for n in names if n is not None})
+        raise UsageError(
+            f"no recording of sonar {name!r}"
+            + (f"; the file's sonars: {', '.join(there)}" if there else " (not a rig's file)"),
+            key="--sensor",
+            value=name,
+        )
+    return [recs[i] for i in keep], [index[i] for i in keep]
 
 
 def call_waveform(name: str | None):
@@ -100,6 +121,8 @@ def load_and_image(args: argparse.Namespace):
         recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
+    if getattr(args, "sensor", None) is not None:
+        recs, index = _of_sensor(recs, index, args.sensor)
 
     def image_all():  # the bar's time starts with the work
         return image_recordings(recs, options, progress("image", "recording"))

@@ -32,9 +32,14 @@ def run(args: argparse.Namespace) -> int:
         except (OSError, RuntimeError) as exc:  # e.g. a layout that cannot be fetched
             print(f"{f.name:18s} unavailable here ({exc})")
             continue
-        print(
-            f"{f.name:18s} {sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s): {sc.description}"
-        )
+        if sc.rig is not None:
+            what = (
+                f"a rig of {len(sc.rig.sonars)} sonar(s) and {len(sc.rig.lidars)} LiDAR(s), "
+                f"{len(sc.rig.measurements())} firing(s)"
+            )
+        else:
+            what = f"{sc.sensor.array.name}, {len(sc.sensor.poses)} pose(s)"
+        print(f"{f.name:18s} {what}: {sc.description}")
     if args.verbose:
         print(f"(in {bundled_scenes()}; `acousim simulate wall` runs wall.toml)")
     _datasets(args.verbose)

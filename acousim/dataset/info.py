@@ -139,6 +139,11 @@ def _recordings(path: Path) -> list[str]:
             yaw = np.rad2deg(p.yaw_rad)
             where = f", pose {[round(v, 3) for v in p.position_m]} yaw {yaw:.1f}°"
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
+        sensor = r.metadata.get("sensor")
+        if sensor is not None:  # a rig's recording: its sonar and the calls it heard
+            heard = sorted({h["sensor"] for h in r.metadata.get("crosstalk", [])})
+            kind += f", sonar {sensor!r} fired at {r.metadata.get('emission_time_s', 0):.3f} s"
+            truth += f", crosstalk from {', '.join(heard)}" if heard else ", no crosstalk"
         if r.lidar is not None:
             truth += f", LiDAR {r.lidar.name} scan of {len(r.lidar)} points"
         lines.append(

@@ -43,6 +43,11 @@ topic                         type                             content
 ``/acousim/scene`` is written when the recording's scene file can be read,
 ``/acousim/reflectors`` when the recordings carry ground truth.
 
+A rig's recordings (``metadata["sensor"]``, :mod:`acousim.rig`) each go to their
+sonar's own topic set, ``/acousim/<sonar>/raw``, ``info``, ``peaks`` and ``fan``, in
+the frame named as the sonar, and ``/tf`` carries the tree ``world`` ->
+``acousim_body`` (the body's pose at the firing) -> ``<sonar>`` (its mount).
+
 Time stamps: a real recording's ``timestamp`` (Unix time), else the pose's
 ``time_s`` of a simulated trajectory, else the recording's index x 0.1 s.
 """
@@ -65,10 +70,19 @@ from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX
 from processing.base.errors import InputError
 
-__all__ = ["FRAME_SENSOR", "FRAME_WORLD", "TOPICS", "write_rosbag", "recording_time_ns"]
+__all__ = [
+    "FRAME_BODY",
+    "FRAME_SENSOR",
+    "FRAME_WORLD",
+    "TOPICS",
+    "write_rosbag",
+    "recording_time_ns",
+]
 
 FRAME_WORLD = "world"
 FRAME_SENSOR = "acousim_sensor"
+#: a rig's body frame (the TF tree world -> body -> each sonar, named as the sonar)
+FRAME_BODY = "acousim_body"
 TOPICS = {
     "raw": ("/acousim/raw", "std_msgs/msg/Float32MultiArray"),
     "info": ("/acousim/info", "std_msgs/msg/String"),
@@ -180,8 +194,14 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
             for k, (topic, msgtype) in TOPICS.items()
         }
 
-        def put(key: str, msg, stamp: int) -> None:
-            w.write(conns[key], stamp, store.serialize_cdr(msg, TOPICS[key][1]))
+        def put(key: str, msg, stamp: int, sensor: str | None = None) -> None:
+            topic, kind = TOPICS[key]
+            if sensor is not None and key != "tf":  # a rig's sonar: its own topic set
+                topic = f"/acousim/{sensor}/{key}"
+                if topic not in conns:
+                    conns[topic] = w.add_connection(topic, kind, typestore=store)
+                key = topic
+            w.write(conns[key], stamp, store.serialize_cdr(msg, kind))
 
         scene = _SceneTopics(w, store, recordings)
         scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
@@ -189,19 +209,23 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
         for idx, rec, imgs in zip(indices, recordings, images):
             interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
             ns = recording_time_ns(rec, idx)
+            sonar = rec.metadata.get("sensor")  # a rig's recording: its sonar's name
             header = T["std_msgs/msg/Header"](
                 stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
-                frame_id=FRAME_SENSOR,
+                frame_id=FRAME_SENSOR if sonar is None else sonar,
             )
             m = o.method or _sharpest(dict(imgs))
             img = imgs[m]
-            put("raw", _raw_msg(T, rec), ns)
+            put("raw", _raw_msg(T, rec), ns, sonar)
             raster = fan_raster(img, _fan_range(img), o.dynamic_range_db, o.fan_pixels)
-            put("info", _info_msg(T, rec, idx, m, raster, o.dynamic_range_db), ns)
+            put("info", _info_msg(T, rec, idx, m, raster, o.dynamic_range_db), ns, sonar)
             sensor, _ = peak_positions(rec, pk := img.peaks(o.threshold_db))
-            put("peaks", _cloud_msg(T, header, sensor, pk), ns)
-            put("fan", _image_msg(T, header, raster.db), ns)
-            put("tf", _tf_msg(T, header, _pose(rec)), ns)
+            put("peaks", _cloud_msg(T, header, sensor, pk), ns, sonar)
+            put("fan", _image_msg(T, header, raster.db), ns, sonar)
+            if sonar is None:
+                put("tf", _tf_msg(T, header, _pose(rec)), ns)
+            else:
+                put("tf", _rig_tf_msg(T, header, rec.metadata, sonar), ns)
             scene.write(rec, header, ns)
             scans(rec, header, ns)
 
@@ -325,19 +349,43 @@ def _image_msg(T, header, db: np.ndarray):
 
 
 def _tf_msg(T, header, pose):
+    """The sensor's TF at a recording: world -> sensor (its pose)."""
+    tf = _transform(T, header.stamp, FRAME_WORLD, FRAME_SENSOR, pose.rotation, pose.position_m)
+    return T["tf2_msgs/msg/TFMessage"](transforms=[tf])
+
+
+def _transform(T, stamp, parent: str, child: str, rotation: np.ndarray, position):
+    """A geometry_msgs TransformStamped parent -> child (rotation (3, 3) child ->
+    parent, position (3,) m of the child's origin in the parent frame)."""
     from scipy.spatial.transform import Rotation
 
-    x, y, z, w = Rotation.from_matrix(pose.rotation).as_quat()
-    p = np.asarray(pose.position_m, float)
-    stamped = T["geometry_msgs/msg/TransformStamped"](
-        header=T["std_msgs/msg/Header"](stamp=header.stamp, frame_id=FRAME_WORLD),
-        child_frame_id=FRAME_SENSOR,
+    x, y, z, w = Rotation.from_matrix(rotation).as_quat()
+    p = np.asarray(position, float)
+    return T["geometry_msgs/msg/TransformStamped"](
+        header=T["std_msgs/msg/Header"](stamp=stamp, frame_id=parent),
+        child_frame_id=child,
         transform=T["geometry_msgs/msg/Transform"](
             translation=T["geometry_msgs/msg/Vector3"](x=p[0], y=p[1], z=p[2]),
             rotation=T["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w),
         ),
     )
-    return T["tf2_msgs/msg/TFMessage"](transforms=[stamped])
+
+
+def _rig_tf_msg(T, header, meta: dict, sonar: str):
+    """A rig's TF tree at a firing: world -> body (the body's pose) and body -> the
+    sonar (its mount; metadata ``body_pose`` and ``mount``)."""
+    from acousim.scene.pose import Pose
+    from acousim.scene.rig import Mount
+
+    b = meta["body_pose"]
+    body = Pose.degrees(b["position_m"], b["yaw_deg"], b["pitch_deg"], b["roll_deg"])
+    mount = Mount.degrees(meta["mount"]["position_m"], meta["mount"]["rotation_deg"])
+    return T["tf2_msgs/msg/TFMessage"](
+        transforms=[
+            _transform(T, header.stamp, FRAME_WORLD, FRAME_BODY, body.rotation, body.position_m),
+            _transform(T, header.stamp, FRAME_BODY, sonar, mount.rotation, mount.position_m),
+        ]
+    )
 
 
 class _SceneTopics:

@@ -367,12 +367,16 @@ def _sharpest(imgs: dict[str, P.Image]) -> str:
 
 
 def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
-    """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose."""
+    """'corridor — recording 30, t = 3.0 s': the time only for a trajectory's pose (a
+    rig's recording: its sonar's name for the index, the firing time to the ms)."""
     prov = rec.provenance
     p = prov.pose
     moving = p is not None and (trajectory or p.time_s or prov.pose_index)
-    where = f", t = {p.time_s:.1f} s" if moving and p is not None else ""
+    sonar = rec.metadata.get("sensor")  # a rig's recording: its sonar, the firing time
+    where = f", t = {p.time_s:.{3 if sonar else 1}f} s" if moving and p is not None else ""
     name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
+    if sonar:  # 'corridor_rig — front_left, t = 0.200 s'
+        return f"{name or prov.kind} — {sonar}{where}"
     return f"{name or prov.kind} — recording {index}{where}"
 
 
@@ -383,7 +387,9 @@ def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
     from acousim.viz.truth import MARGIN_DB, echo_points
 
     centre = rec.array.positions_m.mean(axis=0)
-    found = echo_points(rec.truth, centre, dynamic_range_db + MARGIN_DB)
+    found = echo_points(
+        rec.truth, centre, dynamic_range_db + MARGIN_DB, own=rec.metadata.get("sensor")
+    )
     return found if len(found) else None
 
 

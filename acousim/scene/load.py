@@ -36,6 +36,7 @@ from acousim.scene.model import (
 )
 from acousim.scene.names import array_named, call_named, lidar_named, material_named
 from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
+from acousim.scene.rig import Firing, Mount, Rig, RigSonar, schedule
 from acousim.scene.trajectory import CONTINUOUS, RATES, Trajectory
 from processing.base.errors import InputError
 from processing.base.settings import Setting, check, read_table, refuse_unknown, settings_of
@@ -51,7 +52,23 @@ class SceneError(InputError):
 NUM = (int, float)
 #: keys read here rather than from a dataclass's declared settings
 EXTRA_KEYS: dict[str, set[str]] = {
-    "": {"scene", "environment", "sensor", "simulation", "materials", "meshes", "points"},
+    "": {
+        "scene",
+        "environment",
+        "sensor",
+        "simulation",
+        "materials",
+        "meshes",
+        "points",
+        "body",
+        "rig",
+        "sensors",
+        "lidars",
+    },
+    "body": {"pose", "trajectory"},
+    "rig": {"firing", "rate_hz", "crosstalk"},
+    "sensors.mount": {"position_m", "rotation_deg"},
+    "sensors.firing": {"rate_hz", "offset_s", "count", "times_s"},
     "scene": {"name", "description"},
     "sensor": {
         "array",
@@ -242,7 +259,12 @@ def parse_scene(
             points.append(PointItem(**declared, track=p.get("track")))
         except InputError as exc:  # the track, checked by the model (the rest read above)
             raise r.fail(f"{where}.track", exc.reason, p.get("track")) from None
-    sensor = _sensor(r, r.table(data, "sensor", ""), base)
+    rig = None
+    if "sensors" in data:
+        rig = _rig(r, data, base)
+        sensor = dataclasses.replace(rig.sonars[0].sensor, poses=_first_poses(rig))
+    else:
+        sensor = _sensor(r, r.table(data, "sensor", ""), base)
     if not meshes and not points:
         raise r.fail("meshes", "the scene has neither meshes nor points: nothing can echo")
     return Scene(
@@ -256,6 +278,93 @@ def parse_scene(
         sensor=sensor,
         environment=env,
         simulation=sim,
+        rig=rig,
+    )
+
+
+def _rig(r: _Reader, data: dict, base: Path) -> Rig:
+    """A rig: ``[body]`` (a pose or a trajectory, as ``[sensor]`` has), ``[rig]``
+    (the firing mode and rate, crosstalk), ``[[sensors]]`` (each a ``[sensor]`` table
+    without pose, trajectory or LiDAR, with a name, a mount and a firing) and
+    ``[[lidars]]`` (each a ``[sensor.lidar]`` table, mounted on the body)."""
+    if "sensor" in data:
+        raise r.fail("sensors", "give either [sensor] or [[sensors]] (a rig), not both")
+    body = r.table(data, "body", "")
+    r.check_keys(body, "body", "body")
+    poses, rate = _poses(r, body, base, "body")
+    motion = _motion(r, body, poses, "body")
+    opts = r.table(data, "rig", "")
+    r.check_keys(opts, "rig", "rig")
+    mode = r.string(opts, "firing", "rig", "round_robin", {"round_robin", "simultaneous"})
+    rate = r.number(opts, "rate_hz", "rig", rate or 10.0, 1e-3, 1e4)
+    tables = list(r.table_list(data, "sensors"))
+    if not tables:
+        raise r.fail("sensors", "must hold at least one sensor")
+    firings = schedule(len(tables), rate, mode)  # type: ignore[arg-type]  # checked above
+    extra = (EXTRA_KEYS["sensor"] - {"pose", "trajectory", "lidar"}) | {"name", "mount", "firing"}
+    sonars = []
+    for i, (where, t) in enumerate(tables):
+        for key in ("pose", "trajectory", "lidar"):
+            if key in t:
+                raise r.fail(f"{where}.{key}", "a rig's sensors move with [body]; "
+                             "LiDARs are [[lidars]]")  # fmt: skip
+        sensor = _sensor(r, t, base, where, extra)
+        name = r.string(t, "name", where, f"sonar{i}")
+        sonars.append(RigSonar(name, sensor, _mount(r, t, where), _firing(r, t, where, firings[i])))
+    lidars = []
+    for where, t in r.table_list(data, "lidars"):
+        preset = r._check(PRESET, t.get("preset", PRESET.default), f"{where}.preset")
+        changed = r.settings(Lidar, t, where, extra={"preset"})
+        lidars.append(
+            dataclasses.replace(r.named(lidar_named, preset, f"{where}.preset"), **changed)
+        )
+    try:
+        return Rig(
+            tuple(sonars),
+            poses,
+            motion,
+            tuple(lidars),
+            crosstalk=r.boolean(opts, "crosstalk", "rig", True),
+        )
+    except InputError as exc:
+        raise r.fail("sensors", exc.reason, exc.value) from None
+
+
+def _mount(r: _Reader, t: dict, where: str) -> Mount:
+    """A rig sensor's ``mount``: position_m and rotation_deg (roll, pitch, yaw) in the
+    body frame."""
+    m = r.table(t, "mount", where)
+    r.check_keys(m, "sensors.mount", f"{where}.mount")
+    angle = Setting("vector", lo=-360, hi=360, length=3)
+    rot = r._check(angle, m.get("rotation_deg", [0.0, 0.0, 0.0]), f"{where}.mount.rotation_deg")
+    return Mount.degrees(r.vector(m, "position_m", f"{where}.mount", [0.0, 0.0, 0.0]), rot)
+
+
+def _firing(r: _Reader, t: dict, where: str, default: Firing) -> Firing:
+    """A rig sensor's ``firing``: rate_hz and offset_s (and count), or times_s; by
+    default the rig's schedule."""
+    if "firing" not in t:
+        return default
+    f = r.table(t, "firing", where)
+    r.check_keys(f, "sensors.firing", f"{where}.firing")
+    key = f"{where}.firing"
+    try:
+        if "times_s" in f:
+            return Firing(times_s=f["times_s"])
+        count = f.get("count")
+        return Firing(
+            r.number(f, "rate_hz", key, default.rate_hz, 1e-3, 1e4),
+            r.number(f, "offset_s", key, default.offset_s, 0, 1e7),
+            None if count is None else r.number(f, "count", key, 1, 1, 10**7, integer=True),
+        )
+    except InputError as exc:
+        raise r.fail(key, exc.reason, exc.value) from None
+
+
+def _first_poses(rig: Rig) -> tuple[Pose, ...]:
+    """A rig scene's ``sensor.poses``: its first sonar's at its firings."""
+    return tuple(m.pose for m in rig.measurements() if m.sonar == 0) or (
+        rig.sonars[0].mount.place(rig.poses[0]),
     )
 
 
@@ -322,82 +431,86 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
         raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
 
 
-def _sensor(r: _Reader, s: dict, base: Path) -> Sensor:
-    declared = r.settings(Sensor, s, "sensor", extra=EXTRA_KEYS["sensor"])
+def _sensor(
+    r: _Reader, s: dict, base: Path, where: str = "sensor", extra: set[str] | None = None
+) -> Sensor:
+    """``[sensor]`` (or a rig's ``[[sensors]]`` table, at `where`, with `extra` keys)."""
+    extra = EXTRA_KEYS["sensor"] if extra is None else extra
+    declared = r.settings(Sensor, s, where, extra=extra)
     if "coordinates" in s:
-        units = r.string(s, "coordinates_units", "sensor", "mm", {"mm", "m"})
-        file = base / r.string(s, "coordinates", "sensor")
+        units = r.string(s, "coordinates_units", where, "mm", {"mm", "m"})
+        file = base / r.string(s, "coordinates", where)
         try:
             array = P.from_coordinates_file(file, units=units)
         except (OSError, ValueError) as exc:
-            raise r.fail("sensor.coordinates", str(exc), s["coordinates"]) from None
+            raise r.fail(f"{where}.coordinates", str(exc), s["coordinates"]) from None
     else:
-        array = r.named(array_named, r.string(s, "array", "sensor", "urtis_v1"), "sensor.array")
-    emitter = r.vector(s, "emitter_m", "sensor", [0.0, 0.0, 0.0])
+        array = r.named(array_named, r.string(s, "array", where, "urtis_v1"), f"{where}.array")
+    emitter = r.vector(s, "emitter_m", where, [0.0, 0.0, 0.0])
     array = P.Array(
         array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
     )
     call = s.get("call", "default_25_50")
     if isinstance(call, str):
-        wf = r.named(call_named, r.string(s, "call", "sensor", "default_25_50"), "sensor.call")
+        wf = r.named(call_named, r.string(s, "call", where, "default_25_50"), f"{where}.call")
     elif isinstance(call, dict):
-        r.check_keys(call, "sensor.call", "sensor.call")
+        r.check_keys(call, "sensor.call", f"{where}.call")
         try:
             wf = P.Waveform(
-                r.string(call, "kind", "sensor.call", "linear", {"linear", "hyperbolic"}),
-                r.number(call, "f_start_hz", "sensor.call", 20e3, 1, 1e7),
-                r.number(call, "f_end_hz", "sensor.call", 85e3, 1, 1e7),
-                r.number(call, "duration_s", "sensor.call", 1e-3, 1e-6, 1),
-                r.number(call, "taper", "sensor.call", 0.0, 0, 0.5),
+                r.string(call, "kind", f"{where}.call", "linear", {"linear", "hyperbolic"}),
+                r.number(call, "f_start_hz", f"{where}.call", 20e3, 1, 1e7),
+                r.number(call, "f_end_hz", f"{where}.call", 85e3, 1, 1e7),
+                r.number(call, "duration_s", f"{where}.call", 1e-3, 1e-6, 1),
+                r.number(call, "taper", f"{where}.call", 0.0, 0, 0.5),
             )
         except InputError:
             raise
         except ValueError as exc:  # the waveform's own consistency checks
-            raise r.fail("sensor.call", str(exc), call) from None
+            raise r.fail(f"{where}.call", str(exc), call) from None
     else:
-        raise r.fail("sensor.call", "must be a preset name or a table", call)
+        raise r.fail(f"{where}.call", "must be a preset name or a table", call)
     fs = declared.get("sample_rate_hz", RTIS_SAMPLE_RATE_HZ)
     if max(wf.band_hz) >= fs / 2:
         raise r.fail(
-            "sensor.sample_rate_hz",
+            f"{where}.sample_rate_hz",
             f"is below twice the call's highest frequency {max(wf.band_hz):g} Hz",
             fs,
         )
-    poses, rate = _poses(r, s, base)
+    poses, rate = _poses(r, s, base, where)
     return Sensor(
         array=array,
         call=wf,
         poses=poses,
         rate_hz=rate,
-        motion=_motion(r, s, poses),
-        lidar=_lidar(r, s),
+        motion=_motion(r, s, poses, where),
+        lidar=_lidar(r, s, where),
         **declared,
     )
 
 
-def _lidar(r: _Reader, s: dict) -> Lidar | None:
+def _lidar(r: _Reader, s: dict, where: str = "sensor") -> Lidar | None:
     """``[sensor.lidar]``: a preset, any of whose declared settings the table overrides."""
     if "lidar" not in s:
         return None
-    t = r.table(s, "lidar", "sensor")
-    preset = r._check(PRESET, t.get("preset", PRESET.default), "sensor.lidar.preset")
-    changed = r.settings(Lidar, t, "sensor.lidar", extra={"preset"})
-    return dataclasses.replace(r.named(lidar_named, preset, "sensor.lidar.preset"), **changed)
+    t = r.table(s, "lidar", where)
+    preset = r._check(PRESET, t.get("preset", PRESET.default), f"{where}.lidar.preset")
+    changed = r.settings(Lidar, t, f"{where}.lidar", extra={"preset"})
+    return dataclasses.replace(r.named(lidar_named, preset, f"{where}.lidar.preset"), **changed)
 
 
-def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):
+def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...], where: str = "sensor"):
     """The sensor's motion during measurements: a trajectory moves through its poses
     (unless ``continuous = false``); a single pose moves if it has a velocity or an
     angular rate.  None: frozen poses."""
     if "trajectory" in s:
         t = s["trajectory"]
-        key = "sensor.trajectory.continuous"
+        key = f"{where}.trajectory.continuous"
         if r._check(CONTINUOUS, t.get("continuous", CONTINUOUS.default), key) and len(poses) >= 2:
             return Trajectory.through(poses)
         return None
     p = s.get("pose", {})
     v, w = (
-        np.array(r._check(decl, p.get(name, decl.default), f"sensor.pose.{name}"))
+        np.array(r._check(decl, p.get(name, decl.default), f"{where}.pose.{name}"))
         for name, decl in RATES.items()
     )
     if not (np.any(v) or np.any(w)):
@@ -405,55 +518,57 @@ def _motion(r: _Reader, s: dict, poses: tuple[Pose, ...]):
     return Trajectory.constant(poses[0], v, np.deg2rad(w))
 
 
-def _poses(r: _Reader, s: dict, base: Path) -> tuple[tuple[Pose, ...], float | None]:
+def _poses(
+    r: _Reader, s: dict, base: Path, where: str = "sensor"
+) -> tuple[tuple[Pose, ...], float | None]:
     if "trajectory" in s and "pose" in s:
-        raise r.fail("sensor", "give either 'pose' or 'trajectory', not both")
+        raise r.fail(where, "give either 'pose' or 'trajectory', not both")
     if "trajectory" in s:
-        t = r.table(s, "trajectory", "sensor")
-        r.check_keys(t, "sensor.trajectory", "sensor.trajectory")
-        rate = r.number(t, "rate_hz", "sensor.trajectory", 10.0, 1e-3, 1e4)
+        t = r.table(s, "trajectory", where)
+        r.check_keys(t, "sensor.trajectory", f"{where}.trajectory")
+        rate = r.number(t, "rate_hz", f"{where}.trajectory", 10.0, 1e-3, 1e4)
         if "file" in t:
-            file = base / r.string(t, "file", "sensor.trajectory")
+            file = base / r.string(t, "file", f"{where}.trajectory")
             if not file.is_file():
-                raise r.fail("sensor.trajectory.file", f"trajectory file not found: {file}")
+                raise r.fail(f"{where}.trajectory.file", f"trajectory file not found: {file}")
             try:
                 rows = np.loadtxt(file, delimiter=",", comments="#", ndmin=2)
             except ValueError as exc:
-                raise r.fail("sensor.trajectory.file", f"{file}: {exc}") from None
+                raise r.fail(f"{where}.trajectory.file", f"{file}: {exc}") from None
         else:
             given = t.get("poses")
             if not isinstance(given, list) or not given:
                 raise r.fail(
-                    "sensor.trajectory.poses",
+                    f"{where}.trajectory.poses",
                     "must be a non-empty list of "
                     "[x, y, z, yaw_deg] (optionally pitch_deg, roll_deg)",
                 )
             try:
                 rows = np.array(given, float)
             except (ValueError, TypeError):
-                raise r.fail("sensor.trajectory.poses", "rows must be lists of numbers") from None
+                raise r.fail(f"{where}.trajectory.poses", "rows must be lists of numbers") from None
         if rows.ndim != 2 or rows.shape[1] not in (4, 5, 6) or not np.all(np.isfinite(rows)):
             raise r.fail(
-                "sensor.trajectory",
+                f"{where}.trajectory",
                 f"rows must be [x, y, z, yaw_deg(, pitch_deg, "
                 f"roll_deg)] of finite numbers, got shape {rows.shape}",
             )
         for i, row in enumerate(rows):
             for (name, decl), v in zip(POSE_ANGLES.items(), row[3:]):
-                r._check(decl, float(v), f"sensor.trajectory row {i} {name}")
+                r._check(decl, float(v), f"{where}.trajectory row {i} {name}")
         ang = np.deg2rad(np.pad(rows[:, 3:], ((0, 0), (0, 6 - rows.shape[1]))))
         return tuple(
             Pose(row[:3], a[0], a[1], a[2], time_s=i / rate)
             for i, (row, a) in enumerate(zip(rows, ang))
         ), rate
-    p = r.table(s, "pose", "sensor")
-    r.check_keys(p, "sensor.pose", "sensor.pose")
+    p = r.table(s, "pose", where)
+    r.check_keys(p, "sensor.pose", f"{where}.pose")
     angles = {
-        name: np.deg2rad(r._check(decl, p.get(name, decl.default), f"sensor.pose.{name}"))
+        name: np.deg2rad(r._check(decl, p.get(name, decl.default), f"{where}.pose.{name}"))
         for name, decl in POSE_ANGLES.items()
     }
     pose = Pose(
-        r.vector(p, "position_m", "sensor.pose", [0.0, 0.0, 0.0]),
+        r.vector(p, "position_m", f"{where}.pose", [0.0, 0.0, 0.0]),
         angles["yaw_deg"],
         angles["pitch_deg"],
         angles["roll_deg"],

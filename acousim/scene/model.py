@@ -583,6 +583,7 @@ class Scene:
     sensor: Sensor = field(default_factory=Sensor)
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
+    rig: Any = None  #: sonars on one body (acousim.scene.rig.Rig, acousim.rig); None: `sensor`
 
     if TYPE_CHECKING:  # the constructor takes a list of Materials too
 

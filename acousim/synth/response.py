@@ -21,9 +21,10 @@ import numpy as np
 from scipy.special import j1
 
 from acousim.core.air import absorption_db_per_m
+from acousim.core.echoes import Echoes
 from acousim.core.materials import MaterialSpectra
 
-__all__ = ["PathResponse", "piston_directivity", "factorise"]
+__all__ = ["PathResponse", "piston_directivity", "mic_directivity", "factorise"]
 
 RANK_TOLERANCE = 1e-3
 
@@ -49,6 +50,35 @@ def piston_directivity(frequency_hz, theta_rad, radius_m: float, speed_of_sound_
     fade = np.clip(2 - 2 * th / np.pi, 0.0, 1.0)  # 1 up to 90°, 0 at 180°
     d *= fade
     return d
+
+
+def mic_directivity(
+    echoes: Echoes,
+    *,
+    anchor_m: np.ndarray,
+    mics_m: np.ndarray,
+    axis: np.ndarray,
+    radius_m: float,
+    frequency_hz: float,
+    speed_of_sound_m_s: float,
+) -> Echoes:
+    """`echoes` with the microphones' directivity applied: each port a baffled piston
+    of radius `radius_m` (m) facing `axis` (3,), at one frequency (the centre of the
+    call's band: MEMS ports are small, the pattern barely changes across it), as a
+    gain per microphone and path.  anchor_m (N, 3): where each path's last leg
+    starts; mics_m (M, 3): the microphones, world frame."""
+    arrival = anchor_m[None, :, :] - mics_m[:, None, :]  # towards the source
+    arrival /= np.maximum(np.linalg.norm(arrival, axis=2, keepdims=True), 1e-12)
+    theta = np.arccos(np.clip(arrival @ axis, -1, 1))  # (M, N)
+    d = piston_directivity(frequency_hz, theta, radius_m, speed_of_sound_m_s)
+    return Echoes(
+        echoes.delay_s,
+        echoes.gain * d,
+        echoes.path_length_m,
+        echoes.order,
+        echoes.emitter_angle_rad,
+        echoes.interactions,
+    )
 
 
 @dataclass(frozen=True)

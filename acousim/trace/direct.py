@@ -7,7 +7,7 @@ import numpy as np
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.world.embree import RayCaster
 
-__all__ = ["direct_path", "point_paths"]
+__all__ = ["direct_path", "point_paths", "heard_points"]
 
 
 def direct_path(emitter: np.ndarray, receiver: np.ndarray, fallback: np.ndarray) -> TracedPaths:
@@ -40,6 +40,25 @@ def seen(points_m: np.ndarray, origins, caster: RayCaster) -> np.ndarray:
     return keep
 
 
+def heard_points(
+    points_m: np.ndarray,
+    emitter: np.ndarray,
+    receiver: np.ndarray,
+    max_path_m: float,
+    caster: RayCaster | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which point reflectors (P, 3) echo (every point reflector, still or moving, is
+    selected here): within reach (the way emitter -> point -> receiver at most
+    `max_path_m`) and visible from the emitter and from the receiver (if there are
+    meshes): (P,) bool, and the distances (P,) from the emitter, m."""
+    r_e = np.linalg.norm(points_m - emitter, axis=1)
+    r_r = np.linalg.norm(points_m - receiver, axis=1)
+    keep = (r_e > 0) & (r_e + r_r <= max_path_m)
+    if caster is not None and keep.any():
+        keep[keep] = seen(points_m[keep], (emitter, receiver), caster)
+    return keep, r_e
+
+
 def point_paths(
     points_m: np.ndarray,
     strength: np.ndarray,
@@ -51,11 +70,7 @@ def point_paths(
     """Point reflectors (P, 3) of strength a_k (P,): 1. within reach, 2. visible from
     the emitter and from the receiver (if there are meshes), 3. gain a_k / r_e / r_r."""
     pts, a = np.asarray(points_m, float).reshape(-1, 3), np.asarray(strength, float)
-    r_e = np.linalg.norm(pts - emitter, axis=1)
-    r_r = np.linalg.norm(pts - receiver, axis=1)
-    keep = (r_e > 0) & (r_e + r_r <= max_path_m)
-    if caster is not None and keep.any():
-        keep[keep] = seen(pts[keep], (emitter, receiver), caster)
+    keep, r_e = heard_points(pts, emitter, receiver, max_path_m, caster)
     pts, a, r_e = pts[keep], a[keep], r_e[keep]
     n = len(a)
     return TracedPaths(

@@ -29,6 +29,7 @@ a / (2 r (r + a))) are exact geometric optics, independent of the ray budget and
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -53,6 +54,7 @@ from acousim.trace.rays.shoot import cone_directions, shoot
 from acousim.trace.rays.specular import as_paths, refine_sequences
 from acousim.trace.world.build import World, build_world
 from acousim.trace.world.embree import RayCaster
+from processing import Array
 from processing.base.errors import InputError
 
 __all__ = [
@@ -165,6 +167,14 @@ def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: floa
     return top * 10 ** (floor_db / 20) * (1 - 1e-9)
 
 
+def _key(pose: Pose, array: Array | None) -> tuple:
+    """The cache key of a trace: the pose, and the ends of another array than the
+    scene's sensor's."""
+    if array is None:
+        return pose.key()
+    return (pose.key(), tuple(array.emitter_m), tuple(array.positions_m.mean(axis=0)))
+
+
 class Tracer:
     """Paths of a scene for any pose; one Embree scene, built once (only if the scene
     has meshes), and a cache so the same pose is not traced twice."""
@@ -203,20 +213,37 @@ class Tracer:
             self.world.face_values(attr)
         curved_groups(self.world)
 
-    def trace(self, pose: Pose) -> TracedPaths:
-        """The paths of `pose` (traced once; kept for the poses traced last)."""
-        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[0]
+    def trace(self, pose: Pose, array: Array | None = None) -> TracedPaths:
+        """The paths of `pose` (traced once; kept for the poses traced last) from the
+        emitter of `array` to the centre of its microphones (default: the scene's
+        sensor's; a rig's pair of sensors: the emitter of one, the microphones of
+        another, both in the emitting sensor's frame)."""
+        return self.traced(pose, array)[0]
 
-    def _trace_now(self, pose: Pose) -> tuple[TracedPaths, int]:
-        array = self.scene.sensor.array
+    def traced(
+        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+    ) -> tuple[TracedPaths, int]:
+        """:meth:`trace`'s paths and the rays it shot; `max_path_m`: only the paths up
+        to that length (m; None: the scene's, twice its range), for a call heard
+        late in another sonar's window (:mod:`acousim.rig`)."""
+        key = _key(pose, array) if max_path_m is None else (_key(pose, array), max_path_m)
+        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m))
+
+    def _trace_now(
+        self, pose: Pose, array: Array | None, max_path_m: float | None = None
+    ) -> tuple[TracedPaths, int]:
+        array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
         if self.world is not None and self.settings.rays != 0:
             self._check_pose(emitter)
+        settings = self.settings
+        if max_path_m is not None and max_path_m < settings.max_path_m:
+            settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
         return trace_pose(
             self.world,
             self.caster,
-            self.settings,
+            settings,
             emitter,
             receiver,
             pose.rotation,
@@ -224,9 +251,15 @@ class Tracer:
             self.edges,
         )
 
-    def rays_used(self, pose: Pose) -> int:
-        """How many rays the trace of `pose` shot (traced now if it was not)."""
-        return self._traced.get(pose.key(), lambda: self._trace_now(pose))[1]
+    def tracer_at(self, t_s: float) -> Tracer:
+        """The tracer of the world at time `t_s`: this one (its world does not move;
+        :class:`acousim.trace.motion.moving_world.MovingWorld` has one per instant)."""
+        return self
+
+    def rays_used(self, pose: Pose, array: Array | None = None) -> int:
+        """How many rays the trace of `pose` (and `array`, as :meth:`trace`) shot
+        (traced now if it was not)."""
+        return self.traced(pose, array)[1]
 
     def forget(self) -> None:
         """Empty the cache of traced poses (the next trace of any pose pays in full:

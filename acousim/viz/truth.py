@@ -138,16 +138,33 @@ def truth_level_db(truth) -> np.ndarray:
     return level
 
 
-def echo_points(truth, array_centre_m: np.ndarray, range_db: float) -> Reflectors:
+def echo_points(
+    truth, array_centre_m: np.ndarray, range_db: float, own: str | None = None
+) -> Reflectors:
     """The traced reflectors (a recording's ground truth) worth drawing: those within
-    `range_db` of the strongest echo, the direct path left out; the strongest first."""
+    `range_db` of the strongest echo, the direct path left out; the strongest first.
+    `own`: a rig's recording's sonar, whose own echoes only are drawn (the other
+    sonars' calls it heard, crosstalk, are not where their reflectors are)."""
     if truth is None or not len(truth):
         return Reflectors(np.zeros((0, 3)), np.zeros(0))
+    if own is not None and getattr(truth, "emitter", None) is not None:
+        truth = _own(truth, truth.emitter == own)
     level = truth_level_db(truth)
     keep = np.nonzero(level >= -range_db)[0]
     keep = keep[np.argsort(-level[keep], kind="stable")]
     pts = np.asarray(truth.position_sensor_m, float)[keep] - np.asarray(array_centre_m, float)
     return Reflectors(pts, level[keep])
+
+
+def _own(truth, keep: np.ndarray):
+    """The paths `keep` (N,) of a ground truth: what drawing reads of it."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(
+        amplitude=np.asarray(truth.amplitude)[keep],
+        kind=np.asarray(truth.kind)[keep],
+        position_sensor_m=np.asarray(truth.position_sensor_m)[keep],
+    )
 
 
 def _mirrored(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

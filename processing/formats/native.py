@@ -19,7 +19,8 @@ The file format (schema version 2; version 1 files still load) is described in
         truth/...          ground truth (simulations): position_world_m (N, 3),
                            position_sensor_m (N, 3), amplitude (N,), order (N,),
                            kind (N,) ASCII, velocity_world_m_s (N, 3) (scenes with
-                           motion only)
+                           motion only), emitter (N,) UTF-8 (a rig's recordings:
+                           the sonar whose call each path carries)
         metadata           scalar string: JSON object (pose, scene, seed, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
                waveform (JSON)
@@ -176,8 +177,9 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
             ("order", rec.truth.order.astype(np.int16), "1"),
             ("kind", rec.truth.kind.astype("S16"), None),
             ("velocity_world_m_s", rec.truth.velocity_world_m_s, "m/s"),
+            ("emitter", _names(rec.truth.emitter), None),
         ):
-            if data is None:  # a scene without motion
+            if data is None:  # a scene without motion, a recording of one sonar
                 continue
             ds = t.create_dataset(name, data=data, **kw)
             if units:
@@ -186,6 +188,13 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
         write_point_cloud(g.create_group("lidar"), rec.lidar, opts["checksum"])
     # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
+
+
+def _names(names: np.ndarray | None) -> np.ndarray | None:
+    """Names (N,) as UTF-8 bytes for HDF5 (None: None)."""
+    if names is None:
+        return None
+    return np.array([n.encode("utf-8") for n in names.tolist()], dtype=bytes)
 
 
 def _json_default(obj):

@@ -336,6 +336,9 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
         name = "velocity_world_m_s"
         ds = _dataset(path, t, name, (2,), "f", "m/s")
         fields[name] = _read(path, ds, f"{key}/{name}")
+    if "emitter" in t:  # a rig's recording: the sonar each path's call came from
+        ds = _dataset(path, t, "emitter", (1,), "S", None)
+        fields["emitter"] = np.char.decode(_read(path, ds, f"{key}/emitter"), "utf-8")
     try:
         return GroundTruth(**fields)
     except ValueError as exc:

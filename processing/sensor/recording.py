@@ -159,6 +159,9 @@ class GroundTruth:
     velocity_world_m_s: np.ndarray | None = None
     """(N, 3) velocity of each path's last reflection at the start of the emission,
     world frame, m/s; None for a scene without motion."""
+    emitter: np.ndarray | None = None
+    """(N,) str, the name of the sonar whose call each path carries (a rig's
+    recording: its own and, crosstalk, the others'); None: the recording's own."""
 
     def __post_init__(self) -> None:
         pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
@@ -191,6 +194,11 @@ class GroundTruth:
             if not np.all(np.isfinite(vel)):
                 raise InputError("truth velocities must be finite")
             object.__setattr__(self, "velocity_world_m_s", vel)
+        if self.emitter is not None:
+            names = np.asarray(self.emitter).astype(str).reshape(-1)
+            if len(names) != n:
+                raise InputError(f"truth emitter has {len(names)} entries, positions {n}")
+            object.__setattr__(self, "emitter", names)
 
     def __len__(self) -> int:
         return len(self.amplitude)
@@ -208,4 +216,5 @@ class GroundTruth:
             self.order[keep],
             self.kind[keep],
             None if self.velocity_world_m_s is None else self.velocity_world_m_s[keep],
+            None if self.emitter is None else self.emitter[keep],
         )

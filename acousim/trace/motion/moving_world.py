@@ -140,13 +140,18 @@ class MovingWorld:
                 self._worlds[t_s] = (t_s, tracer, alone)
             return self._worlds[t_s]
 
-    def trace(self, pose: Pose) -> TracedPaths:
-        """Every path of `pose`, the moving meshes where they are at ``pose.time_s``."""
-        return self.tracer_at(pose.time_s).trace(pose)
+    def trace(self, pose: Pose, array=None) -> TracedPaths:
+        """Every path of `pose` (and `array`: :meth:`Tracer.trace`), the moving meshes
+        where they are at ``pose.time_s``."""
+        return self.tracer_at(pose.time_s).trace(pose, array)
 
-    def rays_used(self, pose: Pose) -> int:
-        """How many rays the trace of `pose` shot."""
-        return self.tracer_at(pose.time_s).rays_used(pose)
+    def traced(self, pose: Pose, array=None, max_path_m: float | None = None):
+        """The paths of `pose` and the rays shot (:meth:`Tracer.traced`)."""
+        return self.tracer_at(pose.time_s).traced(pose, array, max_path_m)
+
+    def rays_used(self, pose: Pose, array=None) -> int:
+        """How many rays the trace of `pose` (and `array`) shot."""
+        return self.tracer_at(pose.time_s).rays_used(pose, array)
 
     def velocities(self, pose: Pose) -> Motions:
         """The moving meshes' motions at the start of the emission."""
@@ -163,14 +168,15 @@ class MovingWorld:
         """Whether a moving mesh turns."""
         return any(self.scene.meshes[i].turning for i in self.moving)
 
-    def riders(self, paths: TracedPaths, pose: Pose):
+    def riders(self, paths: TracedPaths, pose: Pose, array=None):
         """Which moving mesh each path's last point lies on (N,) (an index into
         :meth:`velocities`, -1: none), the normal (N, 3) of the face it lies on, and
         whether that face is curved (N,) (a glint there slides over the surface)."""
         on = np.full(len(paths), -1)
         normals = np.zeros((len(paths), 3))
         ask = np.flatnonzero((paths.kind != KIND["direct"]) & (paths.kind != KIND["point"]))
-        receiver = pose.to_world(self.scene.sensor.array.positions_m.mean(axis=0))
+        array = self.scene.sensor.array if array is None else array
+        receiver = pose.to_world(array.positions_m.mean(axis=0))
         glint = np.zeros(len(paths), bool)
         on[ask], normals[ask], glint[ask] = self.on_moving(pose, receiver, paths.position_m[ask])
         return on, normals, glint

@@ -309,6 +309,8 @@ class Reader:
         fields = {n: self.read(t[n]) for n in t if isinstance(t[n], h5py.Dataset)}
         if "kind" in fields:
             fields["kind"] = np.char.decode(fields["kind"], "ascii", errors="replace")
+        if "emitter" in fields:  # a rig's recording
+            fields["emitter"] = np.char.decode(fields["emitter"], "utf-8")
         try:
             return GroundTruth(**fields)
         except (TypeError, ValueError) as exc:

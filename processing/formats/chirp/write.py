@@ -81,6 +81,7 @@ _TRUTH = (
     ("order", "1"),
     ("kind", None),
     ("velocity_world_m_s", "m/s"),
+    ("emitter", None),
 )
 
 
@@ -149,6 +150,15 @@ def write_chirp(
 
 
 def _check_one_sensor(path: Path, recs: list[Recording]) -> None:
+    sonars = list(dict.fromkeys(r.metadata.get("sensor") for r in recs))
+    if len(sonars) > 1:  # a rig's recordings (acousim.rig): mounted apart, fired apart
+        raise ChirpFileError(
+            f"the recordings come from {len(sonars)} sonars of a rig "
+            f"({', '.join(map(str, sonars))}); write one CHIRP file per sonar "
+            "(acousim export --format chirp --sensor NAME)",
+            file=path,
+            key="recordings",
+        )
     a = recs[0]
     for i, r in enumerate(recs[1:], 1):
         for what, same in (
@@ -318,6 +328,8 @@ def _write_recording_extras(g: h5py.Group, rec: Recording, checksum: bool) -> No
         if data is None:
             continue
         data = data.astype("S16") if name == "kind" else data
+        if name == "emitter":
+            data = np.array([n.encode("utf-8") for n in data.tolist()], dtype=bytes)
         data = data.astype(np.int16) if name == "order" else data
         d = t.create_dataset(name, data=data, **kw)
         if units:

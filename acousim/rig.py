@@ -1,0 +1,325 @@
+"""Simulating a rig: every firing of every sonar, and the crosstalk between them.
+
+``RigSimulator(scene).run()`` gives one recording per firing (:class:`RigRun`, in
+time order).  A measurement of sonar k records from its own emission for its window
+(its own call's maximum range).  The world is prepared once (one tracer shared by
+every pair of sonars); each pair (emitter j, microphones of k) is a
+:class:`~acousim.simulator.Simulator` whose array holds j's emitter and k's
+microphones in j's frame, so a call of j heard by k goes down the same stages as a
+sonar hearing itself (specular, diffuse, diffraction, the body's motion during the
+emission and the reception: a bistatic path from emitter j to the microphones of
+k), with j's call, emitter and air response, k's sample rate and microphone
+directivity.
+
+Crosstalk (``Rig.crosstalk``): every firing f of any sonar (another sonar's, or k's
+own earlier one) that can reach k's window, emitted at t_f with k recording from
+t_k, is traced from its own emission and its echoes are delayed by t_f - t_k in k's
+recording (a call emitted before t_k contributes its part after t_k).  The ground
+truth of each recording names the emitter of every path (``truth.emitter``) and its
+metadata lists the firings heard (``metadata["crosstalk"]``).
+
+A scene without a rig is a rig of one: its recordings are those of
+:class:`~acousim.simulator.Simulator` (byte for byte).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+import processing as P
+from acousim.scene.model import Scene
+from acousim.scene.pose import Pose
+from acousim.scene.rig import Measurement, Rig
+from acousim.simulator import Heard, Simulator
+from acousim.synth.options import Capture
+from acousim.synth.signal_model import simulate
+from processing.base import interrupt
+from processing.base.errors import InputError
+
+__all__ = ["RigSimulator", "RigRun", "LidarScan", "REACH_MARGIN_M"]
+
+#: a crosstalk call emitted during a window is traced this much beyond the longest
+#: path it can take within it (m; see :meth:`RigSimulator._reach`)
+REACH_MARGIN_M = 0.1
+
+
+@dataclasses.dataclass(frozen=True)
+class LidarScan:
+    """One LiDAR scan of a rig: the LiDAR (index into ``Rig.lidars``, its name), the
+    body's pose index it starts at and the point cloud (LiDAR frame)."""
+
+    lidar: int
+    name: str
+    pose_index: int
+    cloud: P.PointCloud
+
+
+@dataclasses.dataclass(frozen=True)
+class RigRun:
+    """A rig's simulation: a recording per firing (time order; ``metadata["sensor"]``
+    names the sonar) and the LiDARs' scans."""
+
+    recordings: tuple[P.Recording, ...]
+    measurements: tuple[Measurement, ...]
+    scans: tuple[LidarScan, ...] = ()
+
+    def of(self, name: str) -> list[P.Recording]:
+        """The recordings of the sonar called `name`."""
+        return [r for r in self.recordings if r.metadata.get("sensor") == name]
+
+
+class _Pair(Simulator):
+    """The emitter of one sonar heard by the microphones of another (j's frame), whose
+    ports face `axis` (k's axis in j's frame, (3,))."""
+
+    def __init__(self, scene: Scene, axis: np.ndarray, *, tracer) -> None:
+        super().__init__(scene, tracer=tracer)
+        self.axis = axis
+
+    def mic_axis(self, pose: Pose) -> np.ndarray:
+        return pose.rotation @ self.axis
+
+
+class RigSimulator:
+    """Simulates a scene's rig (:attr:`Scene.rig`); the world prepared once."""
+
+    def __init__(self, scene: Scene, threads: int = 2) -> None:
+        if scene.rig is not None and not isinstance(scene.rig, Rig):
+            raise InputError("must be None or an acousim.scene.rig.Rig", key="Scene.rig")
+        self.scene = scene
+        self.rig: Rig | None = scene.rig
+        self.single = Simulator(scene, threads) if self.rig is None else None
+        if self.rig is None:
+            return
+        self.measurements = tuple(self.rig.measurements())
+        first = self._pair_scene(0, 0)
+        self.tracer = Simulator(first, threads).tracer
+        self._pairs: dict[tuple[int, int], Simulator] = {}
+
+    def _pair_scene(self, j: int, k: int) -> Scene:
+        """The scene of sonar j's call heard by sonar k (j's poses and motion)."""
+        rig = self.rig
+        emitting, hearing = rig.sonars[j].sensor, rig.sonars[k].sensor
+        poses = tuple(m.pose for m in self.measurements if m.sonar == j) or (
+            rig.sonars[j].mount.place(rig.poses[0]),
+        )
+        try:
+            sensor = dataclasses.replace(
+                emitting,
+                array=rig.pair_array(j, k),
+                sample_rate_hz=hearing.sample_rate_hz,
+                mic_radius_m=hearing.mic_radius_m,
+                poses=poses,
+                rate_hz=None,
+                motion=rig.sonar_motion(j),
+                # a sonar's own recordings carry the rig's first LiDAR's scan
+                lidar=rig.lidar_on(k) if j == k else None,
+            )
+        except InputError as exc:
+            raise InputError(
+                f"sonar {rig.sonars[k].name!r} cannot hear sonar {rig.sonars[j].name!r}: "
+                f"{exc.reason}",
+                key="rig.sonars",
+            ) from None
+        return dataclasses.replace(self.scene, sensor=sensor, rig=None)
+
+    def pair(self, j: int, k: int) -> Simulator:
+        """The simulator of sonar j's call heard by sonar k (made once)."""
+        if (j, k) not in self._pairs:
+            scene = self._pair_scene(j, k)
+            if j == k:
+                self._pairs[j, k] = Simulator(scene, tracer=self.tracer)
+            else:
+                self._pairs[j, k] = _Pair(scene, self.rig.pair_axis(j, k), tracer=self.tracer)
+        return self._pairs[j, k]
+
+    def run(
+        self,
+        indices: Iterable[int] | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> RigRun:
+        """The recordings of the rig's firings (all, or the given indices into
+        :attr:`measurements`) and the LiDARs' scans."""
+        if self.rig is None:
+            recs = self.single.run(indices, progress)
+            return RigRun(tuple(recs), ())
+        idx = list(range(len(self.measurements))) if indices is None else list(indices)
+        for i in idx:
+            if not 0 <= i < len(self.measurements):
+                raise InputError(
+                    f"measurement index {i} out of range: the rig fires "
+                    f"{len(self.measurements)} time(s)"
+                )
+        out = []
+        for n, i in enumerate(idx):
+            interrupt.check()
+            out.append(self.simulate(i))
+            if progress:
+                progress(n + 1, len(idx))
+        done = tuple(self.measurements[i] for i in idx)
+        times = [m.time_s for m in done]
+        scans = self.lidar_scans(min(times), max(times)) if done else ()
+        return RigRun(tuple(out), done, scans)
+
+    def simulate(self, i: int) -> P.Recording:
+        """The recording of measurement `i`: sonar k's own call from its emission, and
+        (crosstalk) every other firing that reaches its window."""
+        m = self.measurements[i]
+        k = m.sonar
+        own = self.pair(k, k)
+        rec = own.simulate_pose(m.pose, index=m.index, motion=self.rig.sonar_motion(k))
+        names = [self.rig.sonars[k].name] * len(rec.truth)
+        truths, heard_from, samples = [rec.truth], [], rec.samples
+        if self.rig.crosstalk:
+            for f in self._reaching(m):
+                part = self._crosstalk(f, m, rec.samples.shape[1])
+                if part is None:
+                    continue
+                signal, truth = part
+                samples = samples + signal
+                truths.append(truth)
+                names += [self.rig.sonars[f.sonar].name] * len(truth)
+                heard_from.append(
+                    {
+                        "sensor": self.rig.sonars[f.sonar].name,
+                        "measurement": f.index,
+                        "emission_time_s": f.time_s,
+                        "delay_s": f.time_s - m.time_s,
+                        "n_paths": len(truth),
+                    }
+                )
+        sonar = self.rig.sonars[k]
+        meta = {
+            **rec.metadata,
+            "sensor": sonar.name,
+            "mount": sonar.mount.to_dict(),
+            "emission_time_s": m.time_s,
+            "body_pose": self.rig.body_pose(m.time_s).to_dict(),
+            "rig": [s.name for s in self.rig.sonars],
+            "crosstalk": heard_from,
+        }
+        truth = _joined(truths, names)
+        return dataclasses.replace(rec, samples=samples, truth=truth, metadata=meta)
+
+    def _reaching(self, m: Measurement) -> list[Measurement]:
+        """The other firings whose call or echoes may reach measurement `m`'s window:
+        emitted before its end and no longer ago than the longest path (twice the
+        range) and the call."""
+        k = m.sonar
+        window = self.pair(k, k).scene.n_samples() / self.rig.sonars[k].sensor.sample_rate_hz
+        c = self.scene.environment.speed_of_sound_m_s
+        longest = 2 * self.scene.simulation.max_range_m / c
+        out = []
+        for f in self.measurements:
+            if f.index == m.index:
+                continue
+            call = self.rig.sonars[f.sonar].sensor.call.duration_s
+            if m.time_s - (longest + call) < f.time_s < m.time_s + window:
+                out.append(f)
+        return out
+
+    def _crosstalk(self, f: Measurement, m: Measurement, n_samples: int):
+        """Firing `f` heard in measurement `m`'s recording of `n_samples` samples: the
+        signal (M, T) and the ground truth of the paths that reach it (None: none)."""
+        k, j = m.sonar, f.sonar
+        pair = self.pair(j, k)
+        fs = self.rig.sonars[k].sensor.sample_rate_hz
+        call = self.rig.sonars[j].sensor.call
+        lead = m.time_s - f.time_s  # how long before k's emission j fired (s)
+        n_from_f = int(np.ceil((lead + n_samples / fs) * fs))
+        heard = pair.heard(
+            f.pose, self.rig.sonar_motion(j), n_from_f, max_path_m=self._reach(f, n_from_f / fs)
+        )
+        echoes = heard.echoes
+        delay = echoes.delay_s - lead
+        keep = np.any(
+            (delay < n_samples / fs) & (delay + call.duration_s > 0) & (echoes.gain != 0), axis=0
+        )
+        if not keep.any():
+            return None
+        # rendered into a window that starts `pre` samples early (a call emitted before
+        # k's emission contributes its tail), the samples before k's emission dropped
+        pre = int(np.ceil(call.duration_s * fs)) + 1
+        echoes = dataclasses.replace(echoes.select(keep), delay_s=delay[:, keep] + pre / fs)
+        rate = None if heard.rate is None else heard.rate[:, keep]
+        rec = simulate(
+            echoes,
+            Capture(pair.array, call, fs, n_samples + pre, pair.c),
+            options=pair.options,
+            response=pair.response,
+            doppler=rate,
+        )
+        rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
+        return rec.samples[:, pre:], _truth(heard, rows, m.pose)
+
+    def _reach(self, f: Measurement, window_s: float) -> float | None:
+        """How long a path of firing `f` may be and still reach a window ending
+        `window_s` after its emission (m): c times that, plus what the microphones
+        can move meanwhile (twice the body's speed there, its turn carrying the
+        farthest mount) and :data:`REACH_MARGIN_M`; None (every path the scene
+        traces) when that is not shorter, or when reflectors move."""
+        longest = 2 * self.scene.simulation.max_range_m
+        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+            return None
+        speed = 0.0
+        if self.rig.motion is not None:
+            lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
+            v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
+            w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
+            speed = 2 * (v + w * lever)
+        c = self.scene.environment.speed_of_sound_m_s
+        reach = (c + speed) * window_s + REACH_MARGIN_M
+        return reach if reach < longest else None
+
+    def lidar_scans(self, start_s: float = -np.inf, end_s: float = np.inf) -> tuple[LidarScan, ...]:
+        """Every LiDAR of the rig scanning from each of the body's poses (those from
+        `start_s` to `end_s`, s; a body of one pose: that one), in the LiDAR's frame
+        (``to_sensor``: LiDAR -> body).  Each sonar's recordings carry the first
+        LiDAR's scan started at their firing, in the sonar's frame."""
+        from acousim.trace.lidar import scan
+
+        out = []
+        seed = self.scene.simulation.seed
+        several = len(self.rig.poses) > 1
+        for n, lidar in enumerate(self.rig.lidars):
+            for i, body in enumerate(self.rig.poses):
+                if several and not start_s - 1e-9 <= body.time_s <= end_s + 1e-9:
+                    continue
+                tracer = self.tracer.tracer_at(body.time_s)
+                s = int(np.random.SeedSequence([seed, i, 2 + n]).generate_state(1)[0])
+                cloud = scan(
+                    tracer.world, tracer.caster, lidar, body, motion=self.rig.motion, seed=s
+                )
+                out.append(LidarScan(n, lidar.name, i, cloud))
+        return tuple(out)
+
+
+def _truth(heard: Heard, rows: np.ndarray, pose: Pose) -> P.GroundTruth:
+    """The ground truth of the paths `rows` of `heard`, in the frame of the sonar at
+    `pose` (the hearing one)."""
+    pos = heard.position_m[rows]
+    return P.GroundTruth(
+        position_world_m=pos,
+        position_sensor_m=pose.to_sensor(pos),
+        amplitude=heard.level[rows],
+        order=heard.order[rows],
+        kind=np.array(heard.kinds, dtype=str)[rows],
+        velocity_world_m_s=None if heard.velocity_m_s is None else heard.velocity_m_s[rows],
+    )
+
+
+def _joined(truths: list[P.GroundTruth], names: list[str]) -> P.GroundTruth:
+    """Ground truths concatenated, each path's emitter named."""
+    vel = [t.velocity_world_m_s for t in truths]
+    return P.GroundTruth(
+        position_world_m=np.concatenate([t.position_world_m for t in truths]),
+        position_sensor_m=np.concatenate([t.position_sensor_m for t in truths]),
+        amplitude=np.concatenate([t.amplitude for t in truths]),
+        order=np.concatenate([t.order for t in truths]),
+        kind=np.concatenate([t.kind for t in truths]),
+        velocity_world_m_s=None if any(v is None for v in vel) else np.concatenate(vel),
+        emitter=np.array(names, dtype=str),
+    )

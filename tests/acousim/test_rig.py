@@ -1,0 +1,427 @@
+"""A rig of sonars on one body: the bistatic paths between them (crosstalk), their
+firing schedule, the scene file's rig tables.  References: the mirror-image formula,
+straight-line delays and the bistatic Doppler formula, written here."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.signal
+import trimesh
+
+from acousim import Simulator
+from acousim.rig import RigSimulator
+from acousim.scene import Pose, Trajectory, parse_scene
+from acousim.scene.rig import Firing, Mount, Rig, RigSonar
+
+WALL_X = 2.0  # the wall's face: the plane x = 2 m
+LEFT, RIGHT = np.array([0.0, 0.25, 0.0]), np.array([0.0, -0.25, 0.0])  # 0.5 m apart
+
+
+def wall_scene(tmp_path, max_range_m=3.0):
+    """A rigid wall (reflection 1, no diffuse part) 2 m ahead of the body, facing it;
+    no air absorption, no diffraction (the wall's far edges are beyond the range)."""
+    wall = trimesh.creation.box(extents=(0.1, 20.0, 20.0))
+    wall.apply_translation([WALL_X + 0.05, 0, 0])
+    wall.export(tmp_path / "wall.obj", digits=12)
+    return parse_scene(
+        {
+            "sensor": {"array": "urtis_v1", "direct_path": True},
+            "simulation": {"max_range_m": max_range_m, "diffraction": False, "absorption": False},
+            "materials": [{"name": "m", "reflection": 1.0, "diffuse": 0.0}],
+            "meshes": [{"file": "wall.obj", "material": "m"}],
+        },
+        base_dir=tmp_path,
+    )
+
+
+def two_sonars(scene, times=((0.0,), (0.005,)), motion=None, crosstalk=True):
+    """`scene` with a rig of two sonars facing +x, 0.5 m apart along y, fired at
+    `times` (s, each a tuple)."""
+    s = scene.sensor
+    rig = Rig(
+        sonars=(
+            RigSonar("left", s, Mount(LEFT), Firing(times_s=times[0])),
+            RigSonar("right", s, Mount(RIGHT), Firing(times_s=times[1])),
+        ),
+        poses=(Pose(np.zeros(3)),) if motion is None else (motion.pose(0.0),),
+        motion=motion,
+        crosstalk=crosstalk,
+    )
+    return dataclasses.replace(scene, rig=rig)
+
+
+def mirror(p):
+    """The image of points (..., 3) in the wall's plane."""
+    q = np.array(p, float)
+    q[..., 0] = 2 * WALL_X - q[..., 0]
+    return q
+
+
+def test_bistatic_wall_echo_and_direct_path_between_two_sonars(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    c = scene.environment.speed_of_sound_m_s
+    array = scene.sensor.array
+    emitter = LEFT + array.emitter_m  # sonar "left" fires; "right" hears (world = body)
+    mics = RIGHT + array.positions_m
+    pose = sim.measurements[0].pose
+    heard = sim.pair(0, 1).heard(pose, None, scene.n_samples())
+    kinds = np.array(heard.kinds)
+    spec = np.flatnonzero(kinds == "specular")
+    assert spec.size == 1
+    d = np.linalg.norm(mirror(emitter) - mics, axis=1)  # the mirror-image formula
+    e = heard.echoes
+    assert np.max(np.abs(e.delay_s[:, spec[0]] - d / c)) < 0.01e-6
+    level_db = 20 * np.log10(np.abs(e.gain[:, spec[0]]) * d)  # expected gain 1 / d
+    assert np.max(np.abs(level_db)) < 0.1
+    direct = np.flatnonzero(kinds == "direct")
+    assert direct.size == 1
+    r = np.linalg.norm(emitter - mics, axis=1)
+    assert np.max(np.abs(e.delay_s[:, direct[0]] - r / c)) < 0.01e-6
+    assert np.max(np.abs(20 * np.log10(np.abs(e.gain[:, direct[0]]) * r))) < 0.1
+
+
+def _arrival(signal, call, fs):
+    """The delay (s) of the strongest copy of `call` in `signal` (matched filter
+    envelope peak, parabolic interpolation)."""
+    mf = scipy.signal.correlate(signal, call, mode="full")[call.size - 1 :]
+    env = np.abs(scipy.signal.hilbert(mf))
+    i = int(np.argmax(env))
+    a, b, c = env[i - 1], env[i], env[i + 1]
+    return (i + 0.5 * (a - c) / (a - 2 * b + c)) / fs
+
+
+def _crosstalk_only(scene):
+    """Per recording, the crosstalk's samples: with it less without it."""
+    on = RigSimulator(scene).run().recordings
+    off_scene = dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, crosstalk=False))
+    off = RigSimulator(off_scene).run().recordings
+    return on, [a.samples - b.samples for a, b in zip(on, off)]
+
+
+def test_two_sonars_fired_5_ms_apart_hear_each_other(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    c = scene.environment.speed_of_sound_m_s
+    recs, cross = _crosstalk_only(scene)
+    array = scene.sensor.array
+    fs = scene.sensor.sample_rate_hz
+    call = scene.sensor.call.sampled(fs)
+    e_left, e_right = LEFT + array.emitter_m, RIGHT + array.emitter_m
+    m_left, m_right = LEFT + array.positions_m[0], RIGHT + array.positions_m[0]
+    # "left" (t = 0) hears "right"'s call (t = 5 ms): its direct path first
+    assert [h["sensor"] for h in recs[0].metadata["crosstalk"]] == ["right"]
+    expected = 0.005 + np.linalg.norm(e_right - m_left) / c
+    assert _arrival(cross[0][0], call, fs) == pytest.approx(expected, abs=2e-6)
+    # "right" (t = 5 ms) hears "left"'s wall echo, 5 ms less than its path
+    assert [h["sensor"] for h in recs[1].metadata["crosstalk"]] == ["left"]
+    expected = np.linalg.norm(mirror(e_left) - m_right) / c - 0.005
+    assert _arrival(cross[1][0], call, fs) == pytest.approx(expected, abs=2e-6)
+    assert set(recs[1].truth.emitter) == {"left", "right"}
+    assert np.all(recs[1].truth.kind[recs[1].truth.emitter == "left"] == "specular")
+
+
+def test_sonars_fired_100_ms_apart_with_a_30_ms_window_do_not_hear_each_other(tmp_path):
+    base = wall_scene(tmp_path)
+    c = base.environment.speed_of_sound_m_s
+    call_s = base.sensor.call.duration_s
+    window = 0.030
+    scene = wall_scene(tmp_path, max_range_m=(window - call_s) * c / 2)
+    assert scene.n_samples() / scene.sensor.sample_rate_hz == pytest.approx(window, abs=1e-5)
+    scene = two_sonars(scene, times=((0.0,), (0.1,)))
+    recs, cross = _crosstalk_only(scene)
+    for rec, x in zip(recs, cross):
+        assert rec.metadata["crosstalk"] == []
+        assert not np.any(x)
+        assert set(rec.truth.emitter) == {rec.metadata["sensor"]}
+
+
+def test_crosstalk_doppler_of_a_moving_rig_is_the_bistatic_formula(tmp_path):
+    v = np.array([1.0, 0.0, 0.0])  # towards the wall
+    body = Trajectory.constant(Pose(np.zeros(3)), v)
+    scene = two_sonars(wall_scene(tmp_path), motion=body)
+    sim = RigSimulator(scene)
+    c = scene.environment.speed_of_sound_m_s
+    f_c = float(np.mean(scene.sensor.call.band_hz))
+    fire = sim.measurements[0]  # "left" at t = 0, heard by "right"
+    heard = sim.pair(0, 1).heard(fire.pose, scene.rig.sonar_motion(0), scene.n_samples())
+    kinds = np.array(heard.kinds)[heard.rows]
+    spec = np.flatnonzero(kinds == "specular")
+    assert spec.size == 1
+    array = scene.sensor.array
+    e = LEFT + array.emitter_m
+    mics = RIGHT + array.positions_m
+    # the sound leaves the emitter towards its image's reflection point; the
+    # microphone has moved by v t on reception (t: the path over c, to first order)
+    t = np.linalg.norm(mirror(e) - mics, axis=1) / c
+    t = np.linalg.norm(mirror(e) - (mics + v * t[:, None]), axis=1) / c
+    m = mics + v * t[:, None]
+    img = mirror(e)
+    hit = img + (m - img) * ((WALL_X - img[0]) / (m[:, 0] - img[0]))[:, None]  # on the wall
+    u_e = (hit - e) / np.linalg.norm(hit - e, axis=1)[:, None]
+    u_r = (m - hit) / np.linalg.norm(m - hit, axis=1)[:, None]
+    factor = (c - u_r @ v) / (c - u_e @ v)  # moving emitter and receiver, still wall
+    got = heard.rate[:, spec[0]]
+    assert np.max(np.abs(got * f_c - factor * f_c)) < 5.0
+    assert np.max(np.abs(factor * f_c - f_c)) > 100  # a Doppler shift that matters
+    # the direct path between two sonars on one rigid body moving straight: none
+    direct = np.flatnonzero(kinds == "direct")
+    assert np.max(np.abs(heard.rate[:, direct[0]] - 1) * f_c) < 5.0
+    # and in the recording: "right" hears "left"'s echo at the delay of its path
+    recs = sim.run().recordings
+    assert [h["sensor"] for h in recs[1].metadata["crosstalk"]] == ["left"]
+    fs = scene.sensor.sample_rate_hz
+    x = (
+        recs[1].samples[0]
+        - sim.pair(1, 1)
+        .simulate_pose(sim.measurements[1].pose, 1, motion=scene.rig.sonar_motion(1))
+        .samples[0]
+    )
+    expected = heard.echoes.delay_s[0, spec[0]] - 0.005
+    compressed = scene.sensor.call.sampled(fs / factor[0])  # w(factor t): the chirp heard
+    assert _arrival(x, compressed, fs) == pytest.approx(expected, abs=2e-6)
+
+
+def test_a_scene_without_a_rig_is_a_rig_of_one(tmp_path):
+    scene = wall_scene(tmp_path)
+    a = Simulator(scene).run()
+    b = RigSimulator(scene).run().recordings
+    assert len(a) == len(b) == 1
+    assert a[0].samples.tobytes() == b[0].samples.tobytes()
+
+
+def test_a_rig_in_the_scene_file(tmp_path):
+    wall_scene(tmp_path)  # writes wall.obj
+    scene = parse_scene(
+        {
+            "body": {"pose": {"position_m": [0, 0, 0], "velocity_m_s": [0.5, 0, 0]}},
+            "rig": {"firing": "round_robin", "rate_hz": 10, "crosstalk": False},
+            "sensors": [
+                {"name": "a", "array": "urtis_v1", "mount": {"position_m": [0.1, 0.2, 0]}},
+                {
+                    "name": "b",
+                    "array": "urtis_v1",
+                    "mount": {"position_m": [0.1, -0.2, 0], "rotation_deg": [0, 0, -30]},
+                    "firing": {"rate_hz": 20, "offset_s": 0.01, "count": 2},
+                },
+            ],
+            "lidars": [{"preset": "vlp16", "position_m": [0, 0, 0.4]}],
+            "materials": [{"name": "m", "reflection": 1.0}],
+            "meshes": [{"file": "wall.obj", "material": "m"}],
+        },
+        base_dir=tmp_path,
+    )
+    rig = scene.rig
+    assert [s.name for s in rig.sonars] == ["a", "b"] and not rig.crosstalk
+    assert rig.sonars[0].firing == Firing(10.0, 0.0)  # round robin: 1 / (2 x 10 Hz) apart
+    ms = rig.measurements()
+    assert [(m.sonar, round(m.time_s, 9)) for m in ms] == [(0, 0.0), (1, 0.01), (1, 0.06)]
+    b = ms[2].pose  # the body moved 3 cm; the mount turned the sonar 30° right
+    np.testing.assert_allclose(b.position_m, [0.1 + 0.5 * 0.06, -0.2, 0], atol=1e-12)
+    np.testing.assert_allclose(np.rad2deg(b.yaw_rad), -30, atol=1e-9)
+    assert rig.lidars[0].position_m == (0.0, 0.0, 0.4)
+    assert scene.sensor.poses[0].position_m.tolist() == [0.1, 0.2, 0.0]
+    # sonar b's recording carries the LiDAR's scan, its mounting in b's frame
+    run = RigSimulator(scene).run([1])
+    rec = run.recordings[0]
+    mount_b = np.eye(4)
+    turn = np.deg2rad(-30)
+    mount_b[:2, :2] = [[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]]
+    mount_b[:3, 3] = [0.1, -0.2, 0]
+    body_from_lidar = mount_b @ rec.lidar.to_sensor
+    np.testing.assert_allclose(body_from_lidar[:3, 3], [0, 0, 0.4], atol=1e-12)
+    np.testing.assert_allclose(body_from_lidar[:3, :3], np.eye(3), atol=1e-12)
+    assert len(rec.lidar) > 0 and [s.name for s in run.scans] == ["VLP-16"]
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"sensor": {}}, "sensors"),
+        ({"sensors": [{"pose": {}}]}, "sensors[0].pose"),
+        ({"sensors": [{"mount": {"position": [0, 0, 0]}}]}, "sensors[0].mount"),
+        ({"sensors": [{"firing": {"times_s": [0.1, 0.0]}}]}, "sensors[0].firing"),
+        ({"sensors": [{"name": "x"}, {"name": "x"}]}, "sensors"),
+    ],
+)
+def test_bad_rig_tables_name_their_key(tmp_path, change, key):
+    from acousim.scene import SceneError
+
+    data = {"sensors": [{}], "points": [{"position_m": [1, 0, 0]}], **change}
+    with pytest.raises(SceneError) as err:
+        parse_scene(data, base_dir=tmp_path)
+    assert err.value.key.startswith(key)
+
+
+def test_rig_recordings_keep_their_sonar_and_emitters_in_files(tmp_path):
+    import processing as P
+
+    scene = two_sonars(wall_scene(tmp_path))
+    recs = RigSimulator(scene).run().recordings
+    P.save_recordings(tmp_path / "r.h5", list(recs))
+    back = P.load_recordings(tmp_path / "r.h5")
+    for a, b in zip(recs, back):
+        assert b.metadata["sensor"] == a.metadata["sensor"]
+        assert b.metadata["mount"] == a.metadata["mount"]
+        np.testing.assert_array_equal(b.truth.emitter, a.truth.emitter)
+    assert back[1].metadata["crosstalk"][0]["sensor"] == "left"
+
+
+def test_simulate_and_image_a_rig_scene_file_by_sensor(tmp_path, capsys):
+    import processing as P
+    from acousim.cli import main
+
+    (tmp_path / "r.toml").write_text(
+        """
+[rig]
+rate_hz = 20
+[[sensors]]
+name = "a"
+array = "paper_8x8"
+call = "paper"
+sample_rate_hz = 500000
+mount = { position_m = [0, 0.1, 0] }
+[[sensors]]
+name = "b"
+array = "paper_8x8"
+call = "paper"
+sample_rate_hz = 500000
+mount = { position_m = [0, -0.1, 0], rotation_deg = [0, 0, -10] }
+[simulation]
+max_range_m = 1.5
+absorption = false
+[[points]]
+position_m = [1.0, 0.0, 0.0]
+"""
+    )
+    out = tmp_path / "r.h5"
+    assert main(["simulate", str(tmp_path / "r.toml"), "--out", str(out)]) == 0
+    recs = P.load_recordings(out)
+    assert [r.metadata["sensor"] for r in recs] == ["a", "b"]  # round robin, 25 ms apart
+    assert recs[1].metadata["mount"]["rotation_deg"] == pytest.approx([0, 0, -10])
+    pics = tmp_path / "pics"
+    args = ["image", str(out), "--method", "das", "--out", str(pics), "--no-3d"]
+    assert main([*args, "--sensor", "b"]) == 0
+    assert main([*args, "--sensor", "c"]) != 0
+    assert "sonar 'c'" in capsys.readouterr().err
+    assert main(["info", str(out)]) == 0
+    assert "sonar 'b' fired at 0.025 s" in capsys.readouterr().out
+
+
+def test_a_rig_bag_has_a_topic_set_per_sonar_and_the_tf_tree(tmp_path):
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+    from scipy.spatial.transform import Rotation
+
+    import processing as P
+    from acousim.cli import main
+
+    scene = two_sonars(wall_scene(tmp_path))
+    body = Pose.degrees([0.5, 0.3, 0.1], 20.0)
+    scene = dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, poses=(body,)))
+    recs = RigSimulator(scene).run().recordings
+    P.save_recordings(tmp_path / "r.h5", list(recs))
+    bag = tmp_path / "bag"
+    assert main(["export", str(tmp_path / "r.h5"), "--out", str(bag), "--method", "das"]) == 0
+    msgs: dict = {}
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        for conn, _, raw in reader.messages():
+            msgs.setdefault(conn.topic, []).append(reader.deserialize(raw, conn.msgtype))
+    for name in ("left", "right"):
+        for kind in ("raw", "info", "peaks", "fan"):
+            assert len(msgs[f"/acousim/{name}/{kind}"]) == 1, (name, kind)
+        assert msgs[f"/acousim/{name}/peaks"][0].header.frame_id == name
+    for tf, mount in zip(msgs["/tf"], (LEFT, RIGHT)):
+        (a, b) = tf.transforms
+        assert (a.header.frame_id, a.child_frame_id) == ("world", "acousim_body")
+        assert b.header.frame_id == "acousim_body" and b.child_frame_id in ("left", "right")
+
+        def pose(t):
+            q = t.transform.rotation
+            v = t.transform.translation
+            return Rotation.from_quat([q.x, q.y, q.z, q.w]), np.array([v.x, v.y, v.z])
+
+        (Ra, pa), (Rb, pb) = pose(a), pose(b)
+        # the sonar in the world: the body's pose applied to the mount
+        turn = np.deg2rad(20.0)
+        expected = body.position_m + np.array(
+            [np.cos(turn) * mount[0] - np.sin(turn) * mount[1],
+             np.sin(turn) * mount[0] + np.cos(turn) * mount[1], mount[2]]
+        )  # fmt: skip
+        np.testing.assert_allclose(pa + Ra.apply(pb), expected, atol=1e-9)
+        np.testing.assert_allclose((Ra * Rb).as_euler("ZYX")[0], turn, atol=1e-9)
+
+
+def test_chirp_export_takes_one_sonar_of_a_rig_at_a_time(tmp_path, capsys):
+    import processing as P
+    from acousim.cli import main
+
+    scene = two_sonars(wall_scene(tmp_path))
+    P.save_recordings(tmp_path / "r.h5", list(RigSimulator(scene).run().recordings))
+    out = tmp_path / "c.h5"
+    args = ["export", str(tmp_path / "r.h5"), "--format", "chirp", "--out", str(out)]
+    assert main(args) != 0 and not out.exists()
+    assert "--sensor NAME" in capsys.readouterr().err
+    assert main([*args, "--sensor", "right"]) == 0
+    (back,) = P.load_recordings(out)
+    assert back.metadata["sensor"] == "right"
+    np.testing.assert_array_equal(back.truth.emitter, ["right", "right", "left"])
+
+
+def test_a_single_sensor_simulator_refuses_a_rig(tmp_path):
+    from processing.base.errors import InputError
+
+    with pytest.raises(InputError, match="RigSimulator"):
+        Simulator(two_sonars(wall_scene(tmp_path)))
+
+
+def test_schedules_round_robin_and_simultaneous():
+    from acousim.scene.rig import schedule
+
+    rr = schedule(4, 10.0, "round_robin")
+    assert [f.offset_s for f in rr] == pytest.approx([0.0, 0.025, 0.05, 0.075])
+    assert all(f.rate_hz == 10.0 for f in rr)
+    assert [f.offset_s for f in schedule(3, 20.0, "simultaneous")] == [0.0, 0.0, 0.0]
+    # over a 1 s trajectory: 11 firings from the start, 10 from an offset of 25 ms
+    assert len(rr[0].times(0.0, 1.0)) == 11 and len(rr[1].times(0.0, 1.0)) == 10
+    np.testing.assert_allclose(rr[1].times(2.0, 1.0)[:2], [2.025, 2.125])
+
+
+def test_a_mount_rides_a_turning_body():
+    """A sonar mounted 0.3 m ahead of a body turning at 90 deg/s while it drives:
+    its position is the body's plus the turned lever arm, its velocity that
+    position's derivative (central differences here)."""
+    from acousim.scene.rig import MountedTrajectory
+
+    body = Trajectory.constant(Pose(np.zeros(3)), (0.5, 0, 0), (0, 0, np.pi / 2))
+    mount = Mount.degrees([0.3, 0.1, 0.2], [0, 0, 30])
+    m = MountedTrajectory.of(body, mount)
+    t, h = 0.4, 1e-6
+    turn = np.pi / 2 * t
+    arm = np.array(
+        [0.3 * np.cos(turn) - 0.1 * np.sin(turn), 0.3 * np.sin(turn) + 0.1 * np.cos(turn), 0.2]
+    )
+    np.testing.assert_allclose(m.position(t), [0.5 * t, 0, 0] + arm, atol=1e-12)
+    numeric = (m.position(t + h) - m.position(t - h)) / (2 * h)
+    np.testing.assert_allclose(m.velocity(t), numeric, atol=1e-8)
+    yaw = np.arctan2(m.rotation(t)[1, 0], m.rotation(t)[0, 0])
+    assert yaw == pytest.approx(turn + np.deg2rad(30))
+    p = mount.place(body.pose(t))
+    np.testing.assert_allclose(p.position_m, m.position(t), atol=1e-12)
+
+
+def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    first, later = sim.measurements  # "right" fires 5 ms into "left"'s window
+    n = scene.n_samples()
+    window = n / scene.sensor.sample_rate_hz
+    reach = sim._reach(later, window - 0.005)
+    assert reach is not None and reach < 2 * scene.simulation.max_range_m
+    cut, cut_truth = sim._crosstalk(later, first, n)
+    sim._reach = lambda f, w: None  # every path the scene traces
+    full, full_truth = sim._crosstalk(later, first, n)
+    np.testing.assert_array_equal(cut, full)
+    np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
