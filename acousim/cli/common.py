@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import math
 import sys
+import time
 from pathlib import Path
 from typing import Literal
 
@@ -296,8 +297,8 @@ class Progress:
                 leave=True,
                 mininterval=0,  # every step drawn: steps are seconds apart
             )
-            # the rate and the time from our start (tqdm's own clock is time.time)
-            self._bar.start_t = self._bar.last_print_t = self._bar._time() - (now() - self._t0)
+            # the rate and the time from our start (tqdm's clock is time.time)
+            self._bar.start_t = self._bar.last_print_t = time.time() - (now() - self._t0)
         if total != self._bar.total:
             self._bar.total = total
         self._bar.update(done - self._bar.n)
