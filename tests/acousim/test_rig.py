@@ -29,7 +29,11 @@ def wall_scene(tmp_path, max_range_m=3.0):
     return parse_scene(
         {
             "sensor": {"array": "urtis_v1", "direct_path": True},
-            "simulation": {"max_range_m": max_range_m, "diffraction": False, "absorption": False},
+            "simulation": {
+                "max_range_m": max_range_m,
+                "diffraction": {"enabled": False},
+                "absorption": False,
+            },
             "materials": [{"name": "m", "reflection": 1.0, "diffuse": 0.0}],
             "meshes": [{"file": "wall.obj", "material": "m"}],
         },
