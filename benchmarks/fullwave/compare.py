@@ -76,7 +76,7 @@ def ours(kind: str, angle_deg: float, freqs: np.ndarray, tmp: Path) -> np.ndarra
         "rays": 20000,
         "bounces": 2,
         "beam_deg": 60.0,
-        "diffraction": True,
+        "diffraction": {"enabled": True},
         "energy_floor_db": -200.0,
     }
     paths, _, r = trace_first_pose(rigid_scene(tmp, quads, simulation))

@@ -49,7 +49,7 @@ def _scene(tmp_path, meshes, materials, beam_deg=90.0, max_range_m=3.5, bounces=
                 "max_range_m": max_range_m,
                 # the specular levels of finite panels: geometric optics alone (their
                 # rims' diffraction, on by default, is checked in test_edge_materials)
-                "diffraction": False,
+                "diffraction": {"enabled": False},
             },
             "materials": materials,
             "meshes": files,
