@@ -68,7 +68,7 @@ _MOVED = {
     "acousim.compare_summary": "acousim.compare.summary",
     "acousim.matching": "acousim.imaging.matching",
     "acousim.outputs": "acousim.imaging.outputs",
-    "acousim.synth.echoes": "acousim.synth.point_echoes",
+    "acousim.synth.echoes": "acousim.synth.point_reflectors",
     "acousim.synth.model": "acousim.synth.signal_model",
     "acousim.trace._bound_kernel": "acousim.trace.diffraction.bound_kernel",
     "acousim.trace._pair_kernel": "acousim.trace.diffraction.pair_kernel",

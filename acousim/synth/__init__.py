@@ -3,7 +3,7 @@
 from acousim.core.air import absorption_db_per_m, speed_of_sound
 from acousim.synth.noise import add_noise, noise_sigma, signal_power
 from acousim.synth.options import Capture, Noise, RenderOptions
-from acousim.synth.point_echoes import (
+from acousim.synth.point_reflectors import (
     SPREADING,
     Echoes,
     PointReflectors,

@@ -14,7 +14,7 @@ import numpy as np
 from acousim.synth.doppler import DopplerPlan, render_doppler, render_planned
 from acousim.synth.noise import NoiseDraw, add_noise, noise_sigma
 from acousim.synth.options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, RenderOptions
-from acousim.synth.point_echoes import Echoes, PointReflectors, point_echoes
+from acousim.synth.point_reflectors import Echoes, PointReflectors, point_echoes
 from acousim.synth.render import render
 from acousim.synth.response import PathResponse
 from processing import Array, Recording, Waveform, provenance_metadata

@@ -43,10 +43,12 @@ from processing.formats.native_schema import _check_metadata, _check_waveform, _
 from processing.formats.registry import reader_of
 from processing.sensor.calls import Waveform
 from processing.sensor.pointcloud import write_point_cloud
-from processing.sensor.recording import (
+from processing.sensor.recording import (  # noqa: F401  (re-exported)
+    _KINDS,
     MAX_SAMPLE_BYTES,
     SCHEMA,
     SCHEMA_VERSION,
+    SUPPORTED_VERSIONS,
     GroundTruth,
     Recording,
     RecordingFileError,

@@ -473,7 +473,7 @@ def test_files_from_the_rtisdev_wheel_are_checked(tmp_path, monkeypatch):
 
     import scipy.io
 
-    from processing.formats import rtisdev
+    from processing.sensor import rtisdev
 
     wheel = rtisdev.wheel_path()  # the real cache (downloads once if empty)
     monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path))

@@ -161,7 +161,7 @@ def test_makefile_checks_the_python_version(tmp_path):
 def test_scenes_lists_the_rest_when_one_cannot_load_here(monkeypatch, capsys, tmp_path):
     """Without network access (and an empty cache) the eRTIS layout cannot be fetched:
     `acousim scenes` says so for that scene and lists the others."""
-    from processing.formats import rtisdev
+    from processing.sensor import rtisdev
 
     def offline():
         raise RuntimeError("could not download rtisdev==2.15.1 with pip (exit 1): offline")

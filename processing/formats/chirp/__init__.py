@@ -3,7 +3,16 @@
 (:mod:`.names`).  Registered in :mod:`processing.formats.registry` as ``chirp``: it
 provides ``claims``, ``read`` and ``count``."""
 
-from processing.formats.chirp.names import ChirpFileError
+from processing.formats.chirp.names import (  # noqa: F401  (the layout's names, re-exported)
+    ACOUSTIC,
+    LIDAR,
+    ODOMETRY,
+    OUR_SCHEMA,
+    OUR_VERSION,
+    OURS,
+    TRANSMITTER,
+    ChirpFileError,
+)
 from processing.formats.chirp.read import count_chirp, is_chirp, read_chirp
 from processing.formats.chirp.write import DEFAULT_PERIOD_S, FORMAT_VERSION, write_chirp
 

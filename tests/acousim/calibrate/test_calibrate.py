@@ -17,7 +17,7 @@ from acousim.calibrate import CalibrationSettings, calibrate, write_scene
 from acousim.calibrate.features import Directions, FeatureSpace
 from acousim.scene.load import load_scene
 from acousim.synth.options import Noise
-from acousim.synth.point_echoes import PointReflectors
+from acousim.synth.point_reflectors import PointReflectors
 from acousim.synth.signal_model import simulate_points
 from processing.base.errors import InputError
 from tests import REPO

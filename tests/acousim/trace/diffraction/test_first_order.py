@@ -378,7 +378,7 @@ def test_a_plate_that_was_silent_now_echoes_at_its_edge(tmp_path):
     range within 1 cm), and with diffraction off the recording is silent."""
     import dataclasses
 
-    from processing.imaging import matched_filter
+    from processing import matched_filter
 
     paths, v, e, r = plate_tracer(tmp_path, 0.5, 10.0, beam_deg=60)
     simulation = {"max_range_m": 4.0, "rays": 20000, "bounces": 1, "beam_deg": 60.0}
