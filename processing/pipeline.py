@@ -41,6 +41,7 @@ __all__ = [
     "estimate_memory_bytes",
     "front_end_bytes",
     "check_memory",
+    "range_axis",
 ]
 
 #: Default limit on the memory one imaging call may allocate (bytes); override with
@@ -64,6 +65,9 @@ class ProcessingSettings:
     These defaults are the command line's too (``acousim image`` reads them from
     here): one declaration.
     max_bins : keep at most this many range bins (the strongest).
+    range_step_m : range bins every this many metres from ``range_limits_m[0]``, the
+        same in any air (None, the default: one bin per STFT hop, c hop / (2 fs), which
+        follows the speed of sound); up to ``range_limits_m[1]`` or the recording's end.
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
     n_sources : MUSIC signal subspace size (None: the mean-eigenvalue rule).
@@ -96,6 +100,9 @@ class ProcessingSettings:
     max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
     memory_limit_bytes: float = setting(
         float(MEMORY_LIMIT_BYTES), "B", 0, float("inf"), "refuse a larger imaging job"
+    )
+    range_step_m: float | None = setting(
+        None, "m", 1e-6, 1e3, "range-bin spacing; None: one per STFT hop", kind="float"
     )
 
     @property
@@ -147,7 +154,23 @@ def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Sn
         frequency_hz=settings.frequency_hz,
         band_hz=_search_band(recording),
         gate=BinGate(settings.energy_fraction, settings.range_limits_m, settings.max_bins),
+        range_axis_m=range_axis(recording, settings),
     )
+
+
+def range_axis(recording: Recording, settings: ProcessingSettings) -> np.ndarray | None:
+    """The ranges (R,), m, of the range bins when ``settings.range_step_m`` is set:
+    ``lo + k * range_step_m`` from the first range limit (0 without limits) up to the
+    second or the range of the recording's last whole STFT frame; None otherwise."""
+    step = settings.range_step_m
+    if step is None:
+        return None
+    lo, hi = settings.range_limits_m or (0.0, float("inf"))
+    if not np.isfinite(hi):
+        last = recording.n_samples - settings.window + settings.window // 2
+        hi = recording.speed_of_sound_m_s * (last - recording.emission_index)
+        hi = max(lo, hi / recording.sample_rate_hz / 2)
+    return lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1)
 
 
 def _search_band(recording: Recording) -> tuple[float, float]:

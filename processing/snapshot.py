@@ -95,6 +95,7 @@ def stft_snapshot(
     frequency_hz: float | None = None,
     band_hz: tuple[float, float] | None = None,
     gate: BinGate = GATE_DEFAULTS,
+    range_axis_m: np.ndarray | None = None,
 ) -> Snapshot:
     """Snapshots of a matched-filtered recording at one STFT frequency.
 
@@ -103,6 +104,13 @@ def stft_snapshot(
     `frequency_hz`: the steering frequency (None: the STFT bin of highest energy,
     searched inside `band_hz` (low, high) when given: the call's band up to the
     array's alias-free limit); `gate`: which range bins are kept.
+
+    `range_axis_m` (R,), m: the ranges of the time bins, instead of one per hop (whose
+    range step, c hop / (2 fs), changes with the air): each frame is centred on the
+    sample nearest to ``emission_index + 2 r fs / c`` (within half a sample, c / (4 fs)
+    in range; 0.2 mm at 450 kHz), and the snapshot reports the given ranges. A frame
+    that does not lie inside the recording is never kept. The same ranges in any air:
+    what a dataset needs for images of one shape.
     """
     window, overlap = stft.window, stft.overlap
     x = _checked(mf, stft, gate)
@@ -110,11 +118,23 @@ def stft_snapshot(
     win = get_window(stft.window_type, window)
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's
     # ShortTimeFFT restricted to whole windows, with bin times at the window centres.
-    frames = sliding_window_view(x, window, axis=-1)[..., ::hop, :]
-    n_frames = frames.shape[-2]
-    times = (np.arange(n_frames) * hop + window // 2 - emission_index) / sample_rate_hz
-    ranges = speed_of_sound_m_s * times / 2
-    candidate = np.ones(n_frames, bool)
+    if range_axis_m is None:
+        frames = sliding_window_view(x, window, axis=-1)[..., ::hop, :]
+        n_frames = frames.shape[-2]
+        times = (np.arange(n_frames) * hop + window // 2 - emission_index) / sample_rate_hz
+        ranges = speed_of_sound_m_s * times / 2
+        candidate = np.ones(n_frames, bool)
+        bin_range_m = speed_of_sound_m_s * hop / sample_rate_hz / 2
+    else:
+        frames, candidate, ranges, bin_range_m = _frames_at(
+            x,
+            window,
+            np.asarray(range_axis_m, float),
+            sample_rate_hz,
+            speed_of_sound_m_s,
+            emission_index,
+        )
+        times = 2 * ranges / speed_of_sound_m_s
     if gate.range_limits_m is not None:
         lo, hi = gate.range_limits_m
         candidate &= (ranges >= lo) & (ranges <= hi)
@@ -137,8 +157,22 @@ def stft_snapshot(
         range_m=ranges[idx],
         time_s=times[idx],
         energy=energy[idx],
-        bin_range_m=speed_of_sound_m_s * hop / sample_rate_hz / 2,
+        bin_range_m=bin_range_m,
     )
+
+
+def _frames_at(x, window, ranges, fs, c, emission_index):
+    """Frames (K, M, R, window) centred at the samples nearest to the given ranges
+    (R,), m; which of them lie inside the recording (R,) bool (the others are the
+    first frame, never kept); the ranges; their step (0 unless regular)."""
+    if ranges.ndim != 1 or not np.all(np.isfinite(ranges)):
+        raise InputError(f"range_axis_m must be a 1-D array of finite ranges, got {ranges!r}")
+    start = np.rint(emission_index + 2 * ranges * fs / c).astype(np.int64) - window // 2
+    inside = (start >= 0) & (start + window <= x.shape[-1])
+    frames = sliding_window_view(x, window, axis=-1)[..., np.where(inside, start, 0), :]
+    steps = np.diff(ranges)
+    regular = steps.size and np.allclose(steps, steps[0], rtol=1e-9, atol=0)
+    return frames, inside, ranges, float(steps[0]) if regular else 0.0
 
 
 def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz) -> int:
