@@ -12,7 +12,9 @@ import pytest
 import torch
 from torch.utils.data import DataLoader
 
+import processing as P
 from acousim.bundled import resolve
+from conftest import echo_recording
 from acousim.dataset import DatasetReader, generate
 
 WALL = """
@@ -78,6 +80,24 @@ def _expected_axes():
     max_range = tomllib.loads(WALL)["simulation"]["max_range_m"]
     n = math.floor((max_range - 0.25) / 0.01 + 1e-9) + 1
     return 0.25 + 0.01 * np.arange(n), np.arange(-24, 25, 6.0), np.arange(-60, 61, 6.0)
+
+
+@pytest.mark.parametrize("c", [331.0, 355.0])
+def test_range_bins_on_a_given_axis_put_an_echo_at_its_range_in_any_air(c):
+    """Exact echoes (conftest, written independently of the simulator) of a point 1.5
+    m ahead, in cold and hot air: on a range axis of 5 mm steps the strongest bin is
+    the one at 1.5 m (within the echo's energy centre: the paper call's matched
+    filter is symmetric), its range reported as the axis value; one STFT hop per bin
+    (the paper's default) would put its bins c * 16 / fs / 2 apart, following c."""
+    rec = echo_recording(P.ura(4, 4, 0.0055), [(0, 0, 1.5, 1.0)], fs=450e3, c=c, n_samples=8192)
+    axis = 0.5 + 0.005 * np.arange(401)  # 0.5 .. 2.5 m
+    s = P.ProcessingSettings(energy_fraction=0.0, range_limits_m=(0.5, 2.5), range_step_m=0.005)
+    snap = P.recording_snapshot(rec, s)
+    np.testing.assert_allclose(snap.range_m, axis, atol=1e-12)
+    assert snap.bin_range_m == pytest.approx(0.005)
+    assert abs(snap.range_m[np.argmax(snap.energy)] - 1.5) <= 0.005
+    default = P.recording_snapshot(rec, P.ProcessingSettings(energy_fraction=0.0))
+    assert default.bin_range_m == pytest.approx(c * 16 / 450e3 / 2)
 
 
 def test_every_sample_has_one_grid_the_floor_and_no_nan(dataset):
