@@ -41,7 +41,6 @@ __all__ = [
     "estimate_memory_bytes",
     "front_end_bytes",
     "check_memory",
-    "range_axis",
 ]
 
 #: Default limit on the memory one imaging call may allocate (bytes); override with
@@ -150,27 +149,11 @@ def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Sn
         recording.sample_rate_hz,
         speed_of_sound_m_s=recording.speed_of_sound_m_s,
         emission_index=recording.emission_index,
-        stft=Stft(settings.window, settings.overlap),
+        stft=Stft(settings.window, settings.overlap, range_step_m=settings.range_step_m),
         frequency_hz=settings.frequency_hz,
         band_hz=_search_band(recording),
         gate=BinGate(settings.energy_fraction, settings.range_limits_m, settings.max_bins),
-        range_axis_m=range_axis(recording, settings),
     )
-
-
-def range_axis(recording: Recording, settings: ProcessingSettings) -> np.ndarray | None:
-    """The ranges (R,), m, of the range bins when ``settings.range_step_m`` is set:
-    ``lo + k * range_step_m`` from the first range limit (0 without limits) up to the
-    second or the range of the recording's last whole STFT frame; None otherwise."""
-    step = settings.range_step_m
-    if step is None:
-        return None
-    lo, hi = settings.range_limits_m or (0.0, float("inf"))
-    if not np.isfinite(hi):
-        last = recording.n_samples - settings.window + settings.window // 2
-        hi = recording.speed_of_sound_m_s * (last - recording.emission_index)
-        hi = max(lo, hi / recording.sample_rate_hz / 2)
-    return lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1)
 
 
 def _search_band(recording: Recording) -> tuple[float, float]:

@@ -31,6 +31,7 @@ import processing as P
 from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
+from processing.snapshot import Stft, range_axis
 
 from .runners import run_dask, run_pool
 from .safety import check_scheduler, locked, sha256_file
@@ -155,9 +156,8 @@ def image_range_m(spec: DatasetSpec) -> np.ndarray:
     hi = st.max_range_m
     if hi is None:
         hi = max(_scene(str(c.file)).simulation.max_range_m for c in spec.scenes)
-    hi = max(hi, st.min_range_m)
-    n = int(np.floor((hi - st.min_range_m) / st.range_step_m + 1e-9)) + 1
-    return st.min_range_m + st.range_step_m * np.arange(n)
+    stft = Stft(range_step_m=st.range_step_m)
+    return range_axis(stft, (st.min_range_m, max(hi, st.min_range_m)), 0, 1.0, 1.0)
 
 
 def recording_samples(spec: DatasetSpec) -> int:

@@ -11,14 +11,28 @@ shapes, dtypes and units are in docs/dataset-format.md ("Training with PyTorch")
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 from processing.errors import InputError
 
-if TYPE_CHECKING:
-    from .reader import DatasetReader
+
+class Samples(Protocol):
+    """What :class:`TorchSamples` reads: a :class:`acousim.dataset.DatasetReader`."""
+
+    folder: Path
+    manifest: dict
+    range_m: np.ndarray
+    elevation_deg: np.ndarray
+    azimuth_deg: np.ndarray
+    max_peaks: int
+
+    def __len__(self) -> int: ...
+    def __getitem__(self, i: int) -> dict: ...
+    def close(self) -> None: ...
+
 
 __all__ = ["TorchSamples", "LABEL_MAP", "pad"]
 
@@ -66,7 +80,7 @@ class TorchSamples:
 
     def __init__(
         self,
-        reader: DatasetReader,
+        reader: Samples,
         *,
         method: str = "das",
         mask: bool = False,
