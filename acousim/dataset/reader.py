@@ -248,7 +248,8 @@ class TorchAdapter:
     making torch a dependency: ``[i]`` is a tuple of the stored arrays named by
     `keys`, as float32 numpy arrays, which torch's default collate turns into
     tensors (batchable when each key has one shape across samples: the images, the
-    depth maps; not the ragged ``labels/...`` of the paths)."""
+    depth maps; not the ragged ``labels/...`` of the paths). `reader`: the
+    :class:`DatasetReader`; `keys`: the names of stored arrays."""
 
     def __init__(self, reader: DatasetReader, keys: tuple[str, ...]) -> None:
         self.reader, self.keys = reader, keys
