@@ -10,12 +10,12 @@ import h5py
 import numpy as np
 import pytest
 import torch
+from conftest import echo_recording
 from torch.utils.data import DataLoader
 
 import processing as P
 from acousim.bundled import resolve
-from conftest import echo_recording
-from acousim.dataset import DatasetReader, generate
+from acousim.dataset import DatasetReader, SpecError, generate, load_spec
 
 WALL = """
 [sensor]
@@ -98,6 +98,24 @@ def test_range_bins_on_a_given_axis_put_an_echo_at_its_range_in_any_air(c):
     assert abs(snap.range_m[np.argmax(snap.energy)] - 1.5) <= 0.005
     default = P.recording_snapshot(rec, P.ProcessingSettings(energy_fraction=0.0))
     assert default.bin_range_m == pytest.approx(c * 16 / 450e3 / 2)
+
+
+@pytest.mark.parametrize(
+    ("store", "pattern"),
+    [
+        ("max_range_m = 0.1", r"store.max_range_m = 0.1: below min_range_m = 0.25"),
+        ("range_step_m = 0", r"store.range_step_m = 0: outside the allowed range"),
+        ("floor_db = 3.0", r"store.floor_db = 3.0: outside the allowed range"),
+        ("max_peaks = -1", r"store.max_peaks = -1: outside the allowed range"),
+    ],
+)
+def test_a_bad_grid_is_refused_naming_file_key_and_value(tmp_path, store, pattern):
+    mesh = resolve("scenes", "wall").parent / "meshes" / "wall.stl"
+    (tmp_path / "wall.toml").write_text(WALL.format(mesh=mesh.as_posix()))
+    (tmp_path / "bad.toml").write_text(f"[[scenes]]\nfile = 'wall.toml'\n[store]\n{store}\n")
+    with pytest.raises(SpecError, match=pattern) as err:
+        load_spec(tmp_path / "bad.toml")
+    assert "bad.toml" in str(err.value)
 
 
 def test_every_sample_has_one_grid_the_floor_and_no_nan(dataset):

@@ -320,9 +320,12 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     rnd = _table(src, data, "randomize")
     refuse_unknown(rnd, RANDOMIZE, where="randomize", file=src)
     randomize = {k: _dist(src, f"randomize.{k}", v, RANDOMIZE[k]) for k, v in rnd.items()}
-    store = StoreOptions(
-        **read_table(StoreOptions, _table(src, data, "store"), where="store", file=src)
-    )
+    try:
+        store = StoreOptions(
+            **read_table(StoreOptions, _table(src, data, "store"), where="store", file=src)
+        )
+    except InputError as exc:  # a check across keys: the file named too
+        raise SpecError(exc.reason, file=src, key=exc.key, value=exc.value) from None
     return DatasetSpec(
         name=opts.name,
         samples=opts.samples,
