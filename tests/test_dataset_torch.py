@@ -118,6 +118,35 @@ def test_a_bad_grid_is_refused_naming_file_key_and_value(tmp_path, store, patter
     assert "bad.toml" in str(err.value)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_stored_peaks_are_the_whole_images_peaks(seed):
+    """The peaks a sample stores (searched near the strong range bins only) are those
+    processing.find_peaks finds on the whole image on the whole range axis, gated
+    bins at power 0: sparse random images with plateaus, random thresholds."""
+    from acousim.dataset.generation import _image_arrays
+    from acousim.dataset.spec import StoreOptions
+
+    rng = np.random.default_rng(seed)
+    axis = 0.25 + 0.01 * np.arange(300)
+    index = np.sort(rng.choice(300, 60, replace=False))
+    kept = rng.random((60, 9, 21)) ** rng.uniform(4, 30)
+    kept[:3] = kept.max()  # plateaus
+    el, az = np.linspace(-0.5, 0.5, 9), np.linspace(-1, 1, 21)
+    st = StoreOptions(peak_threshold_db=float(rng.uniform(-40, -3)), max_peaks=50)
+    got = _image_arrays("das", P.Image(kept, axis[index], el, az, "das", 4e4), axis, index, st)
+    whole = np.zeros((300, 9, 21))
+    whole[index] = kept
+    ref = P.find_peaks(P.Image(whole, axis, el, az, "das", 4e4), st.peak_threshold_db, max_peaks=50)
+    cells = got["peaks/das/index"]
+    assert len(cells) == len(ref) > 0
+    np.testing.assert_array_equal(axis[cells[:, 0]], ref.range_m)
+    np.testing.assert_array_equal(el[cells[:, 1]], ref.elevation_rad)
+    np.testing.assert_array_equal(az[cells[:, 2]], ref.azimuth_rad)
+    np.testing.assert_allclose(got["peaks/das/level_db"], ref.level_db, rtol=1e-6)
+    db = got["image/das"]
+    assert db.dtype == np.float16 and np.all(np.delete(db, index, axis=0) == -60.0)
+
+
 def test_every_sample_has_one_grid_the_floor_and_no_nan(dataset):
     ranges, elevations, azimuths = _expected_axes()
     shape = (ranges.size, elevations.size, azimuths.size)

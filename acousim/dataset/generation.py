@@ -186,9 +186,12 @@ def _image_arrays(method: str, img: P.Image, axis, index, st) -> dict[str, np.nd
     ``st.peak_threshold_db``, found on that whole image."""
     power = np.zeros((axis.size, img.elevation_rad.size, img.azimuth_rad.size))
     power[index] = img.power
-    # the kept bins and their neighbours: the whole image's peaks (gated bins, power
-    # 0, are never peaks), each bin beside its own neighbours; 2-4x fewer bins
-    rows = np.unique(np.clip(np.concatenate([index - 1, index, index + 1]), 0, axis.size - 1))
+    # the range bins holding a cell above the threshold, with their neighbours: the
+    # whole image's peaks (no other cell can be one, and each bin keeps its own
+    # neighbours), searched in a tenth of the image
+    hot = power >= power.max() * 10 ** (st.peak_threshold_db / 10) * (1 - 1e-9)
+    hot = np.flatnonzero(hot.any(axis=(1, 2)))
+    rows = np.unique(np.clip(np.concatenate([hot - 1, hot, hot + 1]), 0, axis.size - 1))
     near = dataclasses.replace(img, power=power[rows], range_m=axis[rows])
     peaks = P.find_peaks(near, st.peak_threshold_db, max_peaks=st.max_peaks)
     cells = np.stack(
