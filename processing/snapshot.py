@@ -139,17 +139,21 @@ def stft_snapshot(
         frames, candidate = _frames_at(
             x, window, ranges, sample_rate_hz, speed_of_sound_m_s, emission_index
         )
+        frames *= win  # gathered, so a copy already: tapered once, in place
         times = 2 * ranges / speed_of_sound_m_s
         bin_range_m = stft.range_step_m
+    tapered = stft.range_step_m is not None
+    taper = 1.0 if tapered else win
     if gate.range_limits_m is not None:
         lo, hi = gate.range_limits_m
         candidate &= (ranges >= lo) & (ranges <= hi)
     freqs = np.fft.rfftfreq(window, 1 / sample_rate_hz)
     if frequency_hz is None:
-        fbin = _strongest_bin(frames[..., candidate, :] * win, freqs, band_hz)
+        chosen = frames if candidate.all() else frames[..., candidate, :]
+        fbin = _strongest_bin(chosen if tapered else chosen * win, freqs, band_hz)
     else:
         fbin = int(np.argmin(np.abs(freqs - frequency_hz)))
-    kernel = win * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
+    kernel = taper * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
     column = frames @ kernel  # (K, M, P): one DFT bin of every frame
     energy = (column.real**2 + column.imag**2).sum(axis=(0, 1))
     energy = np.where(candidate, energy, 0.0)

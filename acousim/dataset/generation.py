@@ -203,10 +203,18 @@ def _image_arrays(method: str, img: P.Image, axis, index, st) -> dict[str, np.nd
         axis=-1,
     ).reshape(-1, 3)
     return {
-        f"image/{method}": P.to_db(power, floor_db=st.floor_db).astype(np.float16),
+        f"image/{method}": _on_floor(img.db(floor_db=st.floor_db), axis.size, index, st),
         f"peaks/{method}/index": cells.astype(np.int32),
         f"peaks/{method}/level_db": peaks.level_db.astype(np.float32),
     }
+
+
+def _on_floor(db: np.ndarray, n: int, index: np.ndarray, st) -> np.ndarray:
+    """The kept bins' image in dB (R_kept, E, A) on the whole range axis (n, E, A),
+    float16; the gated bins hold the floor."""
+    out = np.full((n, *db.shape[1:]), st.floor_db, np.float16)
+    out[index] = db.astype(np.float16)
+    return out
 
 
 def _nearest(axis: np.ndarray, values: np.ndarray) -> np.ndarray:
