@@ -5,6 +5,7 @@ DataLoader that hold the numbers of the files."""
 import json
 import math
 import tomllib
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -15,7 +16,7 @@ from torch.utils.data import DataLoader
 
 import processing as P
 from acousim.bundled import resolve
-from acousim.dataset import DatasetReader, SpecError, generate, load_spec
+from acousim.dataset import DatasetReader, SpecError, TorchSamples, generate, load_spec
 
 WALL = """
 [sensor]
@@ -145,6 +146,38 @@ def test_stored_peaks_are_the_whole_images_peaks(seed):
     np.testing.assert_allclose(got["peaks/das/level_db"], ref.level_db, rtol=1e-6)
     db = got["image/das"]
     assert db.dtype == np.float16 and np.all(np.delete(db, index, axis=0) == -60.0)
+
+
+class _Chirp:
+    """A CHIRP dataset of one sample, as TorchSamples reads it (a DatasetReader's
+    interface), with five paths."""
+
+    folder, manifest = Path("."), {"shard_format": "chirp"}
+
+    def __len__(self):
+        return 1
+
+    def __getitem__(self, i):
+        pose = {"position_m": [1.0, 2.0, 3.0], "yaw_deg": 90.0, "pitch_deg": 0, "roll_deg": 0}
+        return {
+            "params": {"index": 0, "pose": pose, "speed_of_sound_m_s": 343.0},
+            "raw": np.zeros((2, 8), np.float32),
+            "labels/amplitude": np.array([0.1, 0.5, 0.2, 0.9, 0.3], np.float32),
+            "labels/order": np.arange(5, dtype=np.int8),
+            "labels/position_sensor_m": np.arange(15, dtype=np.float32).reshape(5, 3),
+        }
+
+
+def test_more_paths_than_max_paths_keep_the_strongest_in_order():
+    s = TorchSamples(_Chirp(), max_paths=3)[0]
+    assert s["n_paths"] == 3
+    np.testing.assert_array_equal(s["paths"]["order"], [1, 3, 4])  # amplitudes .5 .9 .3
+    np.testing.assert_array_equal(s["paths"]["amplitude"], np.float32([0.5, 0.9, 0.3]))
+    np.testing.assert_array_equal(s["paths"]["position_sensor_m"][1], [9, 10, 11])
+    np.testing.assert_allclose(s["pose"], [1, 2, 3, np.pi / 2, 0, 0], rtol=1e-6)
+    padded = TorchSamples(_Chirp(), max_paths=7)[0]
+    assert padded["n_paths"] == 5
+    np.testing.assert_array_equal(padded["paths"]["order"], [0, 1, 2, 3, 4, -1, -1])
 
 
 def test_every_sample_has_one_grid_the_floor_and_no_nan(dataset):

@@ -72,7 +72,7 @@ class TorchSamples:
         Add the range gate to ``image`` as a second channel: 1.0 at the range bins
         the gate kept, 0.0 at those it left out (which hold the floor).
     max_paths : int
-        Truth paths per sample, padded (or cut) to this count.
+        Truth paths per sample, padded to this count (of more, the strongest).
     max_points : int or None
         LiDAR points per sample of CHIRP shards, padded (or cut) to this count;
         None: no LiDAR.
@@ -128,10 +128,15 @@ class TorchSamples:
     def _paths(self, s: dict) -> dict:
         """The truth paths: every numeric ``labels/<name>`` array with one row per
         path (as many as ``labels/order``), padded to ``max_paths`` rows (0.0, or -1
-        for integers), and the number of real rows."""
+        for integers), and the number of real rows; of more paths than that, the
+        ``max_paths`` strongest (``labels/amplitude``), in their stored order."""
         if "labels/order" not in s:
             return {}
         count = len(s["labels/order"])
+        rows = np.arange(count)
+        if count > self.max_paths and "labels/amplitude" in s:  # the strongest, in order
+            strength = np.abs(s["labels/amplitude"])
+            rows = np.sort(np.argsort(-strength, kind="stable")[: self.max_paths])
         paths = {}
         for key, a in s.items():
             name = key.removeprefix("labels/")
@@ -140,7 +145,8 @@ class TorchSamples:
             if name == "depth_m" or a.shape[0] != count:
                 continue
             wide = np.int64 if np.issubdtype(a.dtype, np.integer) else np.float32
-            paths[name], _ = pad(a.astype(wide), self.max_paths, -1 if wide is np.int64 else 0)
+            fill = -1 if wide is np.int64 else 0
+            paths[name], _ = pad(a[rows].astype(wide), self.max_paths, fill)
         return {"paths": paths, "n_paths": min(count, self.max_paths)}
 
     def _image(self, s: dict, i: int) -> dict:
