@@ -1,7 +1,7 @@
 """Dataset generation: sharded, reproducible, resumable, local or on a Dask cluster."""
 
 from acousim.dataset.generation import generate, make_sample, sample_parameters
-from acousim.dataset.reader import DatasetError, DatasetReader, TorchAdapter
+from acousim.dataset.reader import DatasetError, DatasetReader, TorchAdapter, TorchSamples
 from acousim.dataset.spec import DatasetSpec, SpecError, load_spec
 
 __all__ = [
@@ -11,6 +11,7 @@ __all__ = [
     "DatasetReader",
     "DatasetError",
     "TorchAdapter",
+    "TorchSamples",
     "DatasetSpec",
     "SpecError",
     "load_spec",

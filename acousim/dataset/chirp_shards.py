@@ -31,8 +31,10 @@ def _coldest(spec: DatasetSpec, name: str, default: float) -> float:
     return d.a if d.kind == "constant" else d.lo
 
 
-def capture_samples(spec: DatasetSpec) -> int:
-    """Samples per capture of every sample of the spec (see the module docstring)."""
+def capture_samples(spec: DatasetSpec, *, max_range_m: float | None = None) -> int:
+    """Samples per capture of every sample of the spec (see the module docstring):
+    the round trip to each scene's ``max_range_m`` (or to `max_range_m`, m, when
+    given) in the slowest air the spec can draw, plus the call."""
     from acousim.core.air import speed_of_sound
     from acousim.dataset.samples import _scene
 
@@ -45,7 +47,8 @@ def capture_samples(spec: DatasetSpec) -> int:
             _coldest(spec, "humidity_percent", env.humidity_percent),
             env.pressure_kpa,
         )
-        t = 2 * scene.simulation.max_range_m / c + scene.sensor.call.duration_s
+        reach = scene.simulation.max_range_m if max_range_m is None else max_range_m
+        t = 2 * reach / c + scene.sensor.call.duration_s
         n = max(n, math.ceil(t * scene.sensor.sample_rate_hz))
     return n
 

@@ -17,6 +17,7 @@ number of workers.  The file layout is in ``docs/dataset-format.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import time
@@ -45,6 +46,7 @@ from acousim.dataset.spec import DatasetSpec, load_spec
 from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.base.errors import InputError
+from processing.imaging.snapshot import Stft, range_axis
 
 __all__ = [
     "sample_parameters",
@@ -54,12 +56,14 @@ __all__ = [
     "generate",
     "shard_name",
     "kept_shards",
+    "image_range_m",
+    "recording_samples",
     "SHARD_SCHEMA",
 ]
 
 MANIFEST = "manifest.json"
 SHARD_SCHEMA = "acousim.dataset.shard"
-SHARD_SCHEMA_VERSION = 2
+SHARD_SCHEMA_VERSION = 3
 UNITS = {
     "raw": "1",
     "snapshot": "1",
@@ -83,6 +87,13 @@ DIMS = {
 }
 
 
+def _units_dims(name: str) -> tuple[str, str]:
+    """The ``units`` and ``dims`` attributes of a stored array."""
+    if name.startswith("peaks/"):
+        return ("1", "peak,cell") if name.endswith("/index") else ("dB", "peak")
+    return UNITS.get(name, "dB"), DIMS.get(name, "range,elevation,azimuth")
+
+
 def shard_name(k: int) -> str:
     return f"shard_{k:05d}.h5"
 
@@ -90,10 +101,13 @@ def shard_name(k: int) -> str:
 def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     """(arrays, parameters) of sample i.
 
-    The parameters gain ``frequency_hz`` (the steering frequency of the snapshot and
-    images), ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
+    Images are on the spec's grid (:func:`image_range_m`, the spec's directions): the
+    same shape (R, E, A) for every sample, whatever its air. The parameters gain
+    ``frequency_hz`` (the steering frequency of the snapshot and images),
+    ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
     """
-    rec, params, scene, pose = simulate_sample(spec, i)
+    axis = image_range_m(spec)
+    rec, params, scene, pose = simulate_sample(spec, i, n_samples=recording_samples(spec))
     st = spec.store
     arrays: dict[str, np.ndarray] = {}
     if st.raw:
@@ -103,22 +117,20 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         energy_fraction=st.energy_fraction,
         grid=grid,
         max_bins=st.max_bins,
-        range_limits_m=(st.min_range_m, scene.simulation.max_range_m),
+        range_limits_m=(float(axis[0]), float(axis[-1])),
+        range_step_m=st.range_step_m,
     )
     snap = P.recording_snapshot(rec, settings)
-    axis, index = _range_axis(rec, settings, snap)
+    index = _on_axis(axis, snap.range_m)
     if st.snapshot or st.images:
-        arrays["range_m"] = axis  # float64: exactly regular
+        arrays["range_m"] = axis  # float64: exactly regular, the same in every sample
         arrays["range_index"] = index.astype(np.int32)
     if st.snapshot:
         arrays["snapshot"] = snap.data.astype(np.complex64)
     if st.images:
         images = P.acoustic_images(rec, st.images, settings, snapshot=snap)
         for m, img in images.items():
-            # on the regular range axis; bins the energy gate left out: NaN (no data)
-            dense = np.full((axis.size, *grid.shape), np.nan, np.float16)
-            dense[index] = img.db(floor_db=-60).astype(np.float16)
-            arrays[f"image/{m}"] = dense
+            arrays.update(_image_arrays(m, img, axis, index, st))
     if st.labels:
         truth = rec.truth
         arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
@@ -130,27 +142,84 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         **params,
         "frequency_hz": snap.frequency_hz,
         "speed_of_sound_m_s": rec.speed_of_sound_m_s,
-        "range_step_m": snap.bin_range_m,
+        "range_step_m": st.range_step_m,
         "array": rec.array.name,
     }
     return arrays, params
 
 
-def _range_axis(
-    rec: P.Recording, settings: P.ProcessingSettings, snap
-) -> tuple[np.ndarray, np.ndarray]:
-    """The regular range axis (R,) of every STFT frame within the range limits (m), and
-    the index (R_kept,) of each kept snapshot bin on it."""
-    hop = settings.window - settings.overlap
-    frames = (rec.n_samples - settings.window) // hop + 1
-    t = (np.arange(frames) * hop + settings.window // 2 - rec.emission_index) / rec.sample_rate_hz
-    r = rec.speed_of_sound_m_s * t / 2
-    lo, hi = settings.range_limits_m
-    axis = r[(r >= lo) & (r <= hi)]
-    index = np.searchsorted(axis, snap.range_m - snap.bin_range_m / 4)
-    if index.size and not np.allclose(axis[index], snap.range_m, rtol=0, atol=1e-9):
-        raise AssertionError("snapshot bins off the regular range axis")  # pragma: no cover
-    return axis, index
+def image_range_m(spec: DatasetSpec) -> np.ndarray:
+    """The range axis (R,), m, of every image of the spec: ``min_range_m + k *
+    range_step_m`` up to ``max_range_m`` (unset: the largest ``max_range_m`` of the
+    spec's scenes). It does not depend on the speed of sound."""
+    st = spec.store
+    hi = st.max_range_m
+    if hi is None:
+        hi = max(_scene(str(c.file)).simulation.max_range_m for c in spec.scenes)
+    stft = Stft(range_step_m=st.range_step_m)
+    return range_axis(stft, (st.min_range_m, max(hi, st.min_range_m)), 0, 1.0, 1.0)
+
+
+def recording_samples(spec: DatasetSpec) -> int:
+    """Samples of every recording of the spec: what the last range bin's STFT frame
+    needs in the slowest air the spec can draw (so every range bin has data), the
+    same for every sample (``raw`` is (M, T) with one T)."""
+    from acousim.dataset.chirp_shards import capture_samples
+
+    window = P.ProcessingSettings().window
+    return capture_samples(spec, max_range_m=float(image_range_m(spec)[-1])) + window
+
+
+def _on_axis(axis: np.ndarray, ranges: np.ndarray) -> np.ndarray:
+    """Indices (R_kept,) into `axis` of the snapshot's ranges (exactly its values)."""
+    index = np.searchsorted(axis, ranges - (axis[1] - axis[0] if axis.size > 1 else 1) / 4)
+    if index.size and not np.allclose(axis[index], ranges, rtol=0, atol=1e-9):
+        raise AssertionError("snapshot bins off the range axis")  # pragma: no cover
+    return index
+
+
+def _image_arrays(method: str, img: P.Image, axis, index, st) -> dict[str, np.ndarray]:
+    """An image on the whole range axis in dB (R, E, A) float16: the gated range bins
+    (power 0) hold the floor, ``st.floor_db``, as do cells below it; its peaks
+    (``peaks/<method>/index`` (P, 3) int32: range bin, elevation, azimuth; and
+    ``level_db`` (P,) float32), the strongest ``st.max_peaks`` at least
+    ``st.peak_threshold_db``, found on that whole image."""
+    power = np.zeros((axis.size, img.elevation_rad.size, img.azimuth_rad.size))
+    power[index] = img.power
+    # the range bins holding a cell above the threshold, with their neighbours: the
+    # whole image's peaks (no other cell can be one, and each bin keeps its own
+    # neighbours), searched in a tenth of the image
+    hot = power >= power.max() * 10 ** (st.peak_threshold_db / 10) * (1 - 1e-9)
+    hot = np.flatnonzero(hot.any(axis=(1, 2)))
+    rows = np.unique(np.clip(np.concatenate([hot - 1, hot, hot + 1]), 0, axis.size - 1))
+    near = dataclasses.replace(img, power=power[rows], range_m=axis[rows])
+    peaks = P.find_peaks(near, st.peak_threshold_db, max_peaks=st.max_peaks)
+    cells = np.stack(
+        [
+            _nearest(axis, peaks.range_m),
+            _nearest(img.elevation_rad, peaks.elevation_rad),
+            _nearest(img.azimuth_rad, peaks.azimuth_rad),
+        ],
+        axis=-1,
+    ).reshape(-1, 3)
+    return {
+        f"image/{method}": _on_floor(img.db(floor_db=st.floor_db), axis.size, index, st),
+        f"peaks/{method}/index": cells.astype(np.int32),
+        f"peaks/{method}/level_db": peaks.level_db.astype(np.float32),
+    }
+
+
+def _on_floor(db: np.ndarray, n: int, index: np.ndarray, st) -> np.ndarray:
+    """The kept bins' image in dB (R_kept, E, A) on the whole range axis (n, E, A),
+    float16; the gated bins hold the floor."""
+    out = np.full((n, *db.shape[1:]), st.floor_db, np.float16)
+    out[index] = db.astype(np.float16)
+    return out
+
+
+def _nearest(axis: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Index of the element of `axis` nearest each value (values lie on the axis)."""
+    return np.abs(np.asarray(values)[:, None] - axis[None, :]).argmin(axis=1)
 
 
 def _depth_map(scene_file: str, pose, grid: P.Grid, scene) -> np.ndarray:
@@ -218,8 +287,11 @@ def _write_acousim_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Pat
                     for p in parents:
                         parent = parent[p] if p in parent else _group(parent, p)
                     ds = _dataset(parent, leaf, a, spec.compression)
-                    ds.attrs["units"] = np.bytes_(UNITS.get(name, "dB"))
-                    ds.attrs["dims"] = np.bytes_(DIMS.get(name, "range,elevation,azimuth"))
+                    units, dims = _units_dims(name)
+                    ds.attrs["units"] = np.bytes_(units)
+                    ds.attrs["dims"] = np.bytes_(dims)
+                    if name.startswith("image/"):
+                        ds.attrs["floor_db"] = spec.store.floor_db
                 # fixed-length bytes: no global heap, whose layout varies between processes
                 g.attrs["params"] = np.bytes_(json.dumps(params, sort_keys=True))
                 records.append({**params, "shard": k, "offset": i - lo})
@@ -256,7 +328,8 @@ def _dataset(parent: h5py.Group, name: str, a: np.ndarray, compression) -> h5py.
 
 
 def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
-    """The image grid's axes (degrees, as in the spec) and the range settings."""
+    """The image grid's axes (degrees, as in the spec; the range axis in m) and the
+    range settings."""
     st = spec.store
     grid = P.Grid.degrees(st.azimuth_deg, st.elevation_deg, st.step_deg)
     axes = _group(f, "axes")
@@ -265,7 +338,12 @@ def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
         ("elevation_deg", np.rad2deg(grid.elevation_rad)),
     ):
         _dataset(axes, name, values, None).attrs["units"] = b"deg"
+    _dataset(axes, "range_m", image_range_m(spec), None).attrs["units"] = b"m"
     axes.attrs["min_range_m"] = st.min_range_m
+    axes.attrs["range_step_m"] = st.range_step_m
+    axes.attrs["floor_db"] = st.floor_db
+    axes.attrs["max_peaks"] = st.max_peaks
+    axes.attrs["peak_threshold_db"] = st.peak_threshold_db
     axes.attrs["energy_fraction"] = st.energy_fraction
 
 

@@ -162,9 +162,11 @@ def _shard(path: Path) -> list[str]:
         lines = [f"{path}: dataset shard, {len(samples)} sample(s)"]
         if "axes" in f:
             az, el = f["axes/azimuth_deg"][()], f["axes/elevation_deg"][()]
+            r = f["axes/range_m"][()] if "range_m" in f["axes"] else None
+            span = "" if r is None else f", range {r[0]:g}..{r[-1]:g} m ({r.size})"
             lines.append(
                 f"  image grid: azimuth {az[0]:g}..{az[-1]:g}° ({az.size}), "
-                f"elevation {el[0]:g}..{el[-1]:g}° ({el.size})"
+                f"elevation {el[0]:g}..{el[-1]:g}° ({el.size}){span}"
             )
         for name in samples:
             g = f[name]

@@ -17,10 +17,11 @@ import numpy as np
 
 from acousim.dataset.generation import MANIFEST
 from acousim.dataset.safety import sha256_file
+from acousim.dataset.torch_samples import TorchSamples
 from processing.base.errors import InputError
 from processing.formats.h5attrs import attribute_text
 
-__all__ = ["DatasetReader", "TorchAdapter", "DatasetError"]
+__all__ = ["DatasetReader", "TorchAdapter", "TorchSamples", "DatasetError"]
 
 _SHARD = re.compile(r"shard_\d{5}\.h5")
 
@@ -32,16 +33,32 @@ class DatasetError(InputError):
 class DatasetReader:
     """Random access and iteration over a dataset folder.
 
-    ``reader[i]`` is a dict: every stored array (``snapshot``, ``range_m``,
-    ``range_index``, ``image/<method>`` in dB, ``labels/...``, ``raw``) plus ``params``
-    (the sample's scene, pose, conditions, seed and steering frequency).
-    ``reader.azimuth_deg`` and ``reader.elevation_deg`` are the image axes.
+    ``reader[i]`` is a dict: every stored array under its name in the shard
+    (docs/dataset-format.md: ``range_m`` (R,) m, ``range_index`` (R_kept,),
+    ``snapshot`` (M, R_kept) complex64, ``image/<method>`` (R, E, A) float16 dB with
+    the floor at gated bins, ``peaks/<method>/index`` (P, 3) and ``level_db`` (P,),
+    ``labels/...`` (N paths), ``labels/depth_m`` (E, A) m, ``raw`` (M, T)) plus
+    ``params`` (the sample's scene, pose, conditions, seed, steering frequency and
+    speed of sound). ``azimuth_deg``, ``elevation_deg`` and ``range_m`` are the image
+    axes, the same for every sample; :meth:`torch` gives fixed-shape samples for
+    PyTorch.
 
     Parameters
     ----------
+    folder : str or Path
+        The dataset folder (holding ``manifest.json``).
     verify : bool
         Check each shard's sha256 against the manifest when it is first opened
         (reads each shard once more); default True.
+
+    Attributes
+    ----------
+    folder : Path
+        The dataset folder.
+    manifest : dict
+        ``manifest.json``: the samples' parameters, the shards and their sha256.
+    verify_on_open : bool
+        The `verify` given.
     """
 
     def __init__(self, folder: str | Path, verify: bool = True) -> None:
@@ -89,6 +106,7 @@ class DatasetReader:
             )
 
     def __len__(self) -> int:
+        """Number of samples."""
         return len(self._table)
 
     def _file(self, name: str) -> h5py.File:
@@ -102,17 +120,46 @@ class DatasetReader:
         if self.manifest.get("shard_format") == "chirp":
             raise DatasetError("CHIRP shards hold no images, so no image axes", file=self.folder)
 
+    def _axes(self) -> h5py.Group:
+        self._images()
+        return self._file(next(iter(self._hashes)))["axes"]
+
     @property
     def azimuth_deg(self) -> np.ndarray:
-        self._images()
-        return self._file(next(iter(self._hashes)))["axes/azimuth_deg"][()]
+        """(A,) float64, degrees: the image grid's azimuths (our shards only)."""
+        return self._axes()["azimuth_deg"][()]
 
     @property
     def elevation_deg(self) -> np.ndarray:
-        self._images()
-        return self._file(next(iter(self._hashes)))["axes/elevation_deg"][()]
+        """(E,) float64, degrees: the image grid's elevations (our shards only)."""
+        return self._axes()["elevation_deg"][()]
+
+    @property
+    def range_m(self) -> np.ndarray:
+        """(R,) float64, m: the images' range axis, the same in every sample (schema
+        3; older shards: each sample's ``range_m``)."""
+        axes = self._axes()
+        if "range_m" not in axes:
+            raise DatasetError(
+                "shards of schema < 3 have a range axis per sample", file=self.folder
+            )
+        return axes["range_m"][()]
+
+    @property
+    def floor_db(self) -> float:
+        """The images' floor, dB relative to each image's maximum: the value of the
+        range bins the gate left out and of cells below it."""
+        return float(self._axes().attrs.get("floor_db", -60.0))
+
+    @property
+    def max_peaks(self) -> int:
+        """Peaks stored per image at most (the spec's ``store.max_peaks``): the padded
+        count of :class:`TorchSamples`' peaks."""
+        return int(self._axes().attrs["max_peaks"])
 
     def __getitem__(self, i: int) -> dict:
+        """Sample `i` (negative: from the end) as a dict (see the class docstring);
+        IndexError out of range, DatasetError for a corrupted shard."""
         if not -len(self) <= i < len(self):
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
         rec = self._table[i]
@@ -163,31 +210,62 @@ class DatasetReader:
         return out
 
     def __iter__(self) -> Iterator[dict]:
+        """Every sample in index order."""
         for i in range(len(self)):
             yield self[i]
 
     def close(self) -> None:
+        """Close the shards opened so far (reopened on the next read)."""
         for f in self._files.values():
             if f is not None:
                 f.close()
         self._files.clear()
 
-    def torch(self, keys: tuple[str, ...] = ("image/das", "labels/depth_m")) -> TorchAdapter:
-        return TorchAdapter(self, keys)
+    def torch(
+        self,
+        keys: tuple[str, ...] | None = None,
+        *,
+        method: str = "das",
+        mask: bool = False,
+        max_paths: int = 256,
+        max_points: int | None = None,
+    ) -> TorchSamples | TorchAdapter:
+        """This dataset as a map-style PyTorch dataset (``len`` and ``[i]``), batched
+        by the stock ``torch.utils.data.DataLoader`` with its default collate; torch
+        itself is not needed to make it.
+
+        Without `keys`: a :class:`TorchSamples`, one dict of fixed-shape arrays per
+        sample (the image of `method`, its peaks, pose, truth; `mask` adds the gate
+        as a second image channel; `max_paths` and `max_points`: the padded counts of
+        the truth paths and LiDAR points), see docs/dataset-format.md. With `keys`
+        (stored array names, e.g. ``("image/das", "labels/depth_m")``): a
+        :class:`TorchAdapter` of tuples of those arrays as float32, as before.
+        """
+        if keys is not None:
+            return TorchAdapter(self, tuple(keys))
+        return TorchSamples(
+            self, method=method, mask=mask, max_paths=max_paths, max_points=max_points
+        )
 
 
 class TorchAdapter:
     """Usable as a ``torch.utils.data.Dataset`` (``__len__``/``__getitem__``) without
-    making torch a dependency: returns tuples of float32 numpy arrays, which torch's
-    default collate turns into tensors."""
+    making torch a dependency: ``[i]`` is a tuple of the stored arrays named by
+    `keys`, as float32 numpy arrays, which torch's default collate turns into
+    tensors (batchable when each key has one shape across samples: the images, the
+    depth maps; not the ragged ``labels/...`` of the paths). `reader`: the
+    :class:`DatasetReader`; `keys`: the names of stored arrays."""
 
     def __init__(self, reader: DatasetReader, keys: tuple[str, ...]) -> None:
         self.reader, self.keys = reader, keys
 
     def __len__(self) -> int:
+        """Number of samples."""
         return len(self.reader)
 
     def __getitem__(self, i: int) -> tuple[np.ndarray, ...]:
+        """The arrays of sample `i` named by ``keys``, float32; KeyError if one is not
+        stored."""
         s = self.reader[i]
         missing = [k for k in self.keys if k not in s]
         if missing:

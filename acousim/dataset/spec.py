@@ -157,11 +157,28 @@ class StoreOptions:
     energy_fraction: float = setting(
         P.ProcessingSettings.energy_fraction, "", 0, 1, "range-bin gate"
     )
-    min_range_m: float = setting(0.25, "m", 0, 100, "ignore nearer range bins")
+    min_range_m: float = setting(0.25, "m", 0, 100, "the image's first range bin")
+    max_range_m: float | None = setting(
+        None, "m", 0, 1e4, "the image's last range bin; unset: the scenes' largest", kind="float"
+    )
+    range_step_m: float = setting(
+        0.006, "m", 1e-4, 10, "range-bin spacing, the same in any air (the image's R)"
+    )
     max_bins: int = setting(256, "", 1, 1_000_000, "at most this many range bins")
+    floor_db: float = setting(-60.0, "dB", -300, -1, "image floor; gated range bins hold it")
+    max_peaks: int = setting(32, "", 0, 100_000, "image peaks stored (the strongest)")
+    peak_threshold_db: float = setting(
+        -20.0, "dB", -300, 0, "image peaks at least this level (dB re the maximum)"
+    )
 
     def __post_init__(self) -> None:
         validate(self)
+        if self.max_range_m is not None and self.max_range_m < self.min_range_m:
+            raise InputError(
+                f"below min_range_m = {self.min_range_m:g}",
+                key="store.max_range_m",
+                value=self.max_range_m,
+            )
 
 
 @dataclass(frozen=True)
@@ -303,9 +320,12 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     rnd = _table(src, data, "randomize")
     refuse_unknown(rnd, RANDOMIZE, where="randomize", file=src)
     randomize = {k: _dist(src, f"randomize.{k}", v, RANDOMIZE[k]) for k, v in rnd.items()}
-    store = StoreOptions(
-        **read_table(StoreOptions, _table(src, data, "store"), where="store", file=src)
-    )
+    try:
+        store = StoreOptions(
+            **read_table(StoreOptions, _table(src, data, "store"), where="store", file=src)
+        )
+    except InputError as exc:  # a check across keys: the file named too
+        raise SpecError(exc.reason, file=src, key=exc.key, value=exc.value) from None
     return DatasetSpec(
         name=opts.name,
         samples=opts.samples,

@@ -78,6 +78,9 @@ class ProcessingSettings:
     max_bins : keep at most this many range bins (the strongest).
     grid : the directions imaged (default :meth:`Grid.degrees`: azimuth -90..90 and
         elevation -40..40 degrees every 2 degrees, the command line's).
+    range_step_m : range bins every this many metres from ``range_limits_m[0]``, the
+        same in any air (None, the default: one bin per STFT hop, c hop / (2 fs), which
+        follows the speed of sound); up to ``range_limits_m[1]`` or the recording's end.
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
     n_sources : MUSIC signal subspace size (None: the mean-eigenvalue rule).
@@ -110,6 +113,9 @@ class ProcessingSettings:
     max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
     memory_limit_bytes: float = setting(
         float(MEMORY_LIMIT_BYTES), "B", 0, float("inf"), "refuse a larger imaging job"
+    )
+    range_step_m: float | None = setting(
+        None, "m", 1e-6, 1e3, "range-bin spacing; None: one per STFT hop", kind="float"
     )
 
     @property
@@ -157,7 +163,7 @@ def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Sn
         recording.sample_rate_hz,
         speed_of_sound_m_s=recording.speed_of_sound_m_s,
         emission_index=recording.emission_index,
-        stft=Stft(settings.window, settings.overlap),
+        stft=Stft(settings.window, settings.overlap, range_step_m=settings.range_step_m),
         frequency_hz=settings.frequency_hz,
         band_hz=_search_band(recording),
         gate=BinGate(settings.energy_fraction, settings.range_limits_m, settings.max_bins),

@@ -23,7 +23,7 @@ from scipy.signal import get_window
 from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 
-__all__ = ["Snapshot", "Stft", "BinGate", "stft_snapshot"]
+__all__ = ["Snapshot", "Stft", "BinGate", "stft_snapshot", "range_axis"]
 
 
 @dataclass(frozen=True)
@@ -61,11 +61,14 @@ class Snapshot:
 @dataclass(frozen=True)
 class Stft:
     """The STFT of the snapshots: `window` and `overlap` in samples (paper: 256 and
-    240), the window's `window_type` (scipy.signal.get_window)."""
+    240), the window's `window_type` (scipy.signal.get_window); `range_step_m`, m:
+    frames every this much range, the same in any air, instead of one per hop (None,
+    the paper's; see :func:`stft_snapshot`)."""
 
     window: int = 256
     overlap: int = 240
     window_type: str = "hann"
+    range_step_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,13 @@ def stft_snapshot(
     `frequency_hz`: the steering frequency (None: the STFT bin of highest energy,
     searched inside `band_hz` (low, high) when given: the call's band up to the
     array's alias-free limit); `gate`: which range bins are kept.
+
+    With ``stft.range_step_m`` the time bins lie at the ranges ``lo + k * step`` (lo,
+    hi: the gate's range limits, or 0 and the last whole frame), instead of one per hop
+    (whose range step, c hop / (2 fs), changes with the air): each frame is centred on
+    the sample nearest to ``emission_index + 2 r fs / c`` (within half a sample, c /
+    (4 fs) in range; 0.2 mm at 450 kHz), and the snapshot reports those ranges. The
+    same ranges in any air: what a dataset needs for images of one shape.
     """
     window, overlap = stft.window, stft.overlap
     x = _checked(mf, stft, gate)
@@ -113,20 +123,40 @@ def stft_snapshot(
     win = get_window(stft.window_type, window)
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's
     # ShortTimeFFT restricted to whole windows, with bin times at the window centres.
-    frames = sliding_window_view(x, window, axis=-1)[..., ::hop, :]
-    n_frames = frames.shape[-2]
-    times = (np.arange(n_frames) * hop + window // 2 - emission_index) / sample_rate_hz
-    ranges = speed_of_sound_m_s * times / 2
-    candidate = np.ones(n_frames, bool)
+    if stft.range_step_m is None:
+        frames = sliding_window_view(x, window, axis=-1)[..., ::hop, :]
+        n_frames = frames.shape[-2]
+        times = (np.arange(n_frames) * hop + window // 2 - emission_index) / sample_rate_hz
+        ranges = speed_of_sound_m_s * times / 2
+        candidate = np.ones(n_frames, bool)
+        bin_range_m = speed_of_sound_m_s * hop / sample_rate_hz / 2
+    else:
+        ranges = range_axis(
+            stft,
+            gate.range_limits_m,
+            x.shape[-1],
+            sample_rate_hz,
+            speed_of_sound_m_s,
+            emission_index,
+        )
+        frames, candidate = _frames_at(
+            x, window, ranges, sample_rate_hz, speed_of_sound_m_s, emission_index
+        )
+        frames *= win  # gathered, so a copy already: tapered once, in place
+        times = 2 * ranges / speed_of_sound_m_s
+        bin_range_m = stft.range_step_m
+    tapered = stft.range_step_m is not None
+    taper = 1.0 if tapered else win
     if gate.range_limits_m is not None:
         lo, hi = gate.range_limits_m
         candidate &= (ranges >= lo) & (ranges <= hi)
     freqs = np.fft.rfftfreq(window, 1 / sample_rate_hz)
     if frequency_hz is None:
-        fbin = _strongest_bin(frames[..., candidate, :] * win, freqs, band_hz)
+        chosen = frames if candidate.all() else frames[..., candidate, :]
+        fbin = _strongest_bin(chosen if tapered else chosen * win, freqs, band_hz)
     else:
         fbin = int(np.argmin(np.abs(freqs - frequency_hz)))
-    kernel = win * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
+    kernel = taper * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
     column = frames @ kernel  # (K, M, P): one DFT bin of every frame
     energy = (column.real**2 + column.imag**2).sum(axis=(0, 1))
     energy = np.where(candidate, energy, 0.0)
@@ -140,8 +170,38 @@ def stft_snapshot(
         range_m=ranges[idx],
         time_s=times[idx],
         energy=energy[idx],
-        bin_range_m=speed_of_sound_m_s * hop / sample_rate_hz / 2,
+        bin_range_m=bin_range_m,
     )
+
+
+def range_axis(
+    stft: Stft,
+    range_limits_m: tuple[float, float] | None,
+    n_samples: int,
+    sample_rate_hz: float,
+    speed_of_sound_m_s: float,
+    emission_index: int = 0,
+) -> np.ndarray:
+    """The ranges (R,), m, of the time bins with ``stft.range_step_m``: ``lo + k *
+    step`` from the first range limit (0 without limits) up to the second, or up to
+    the range of the last whole frame of a recording of `n_samples` when that limit
+    is infinite or absent."""
+    step = stft.range_step_m
+    lo, hi = range_limits_m or (0.0, float("inf"))
+    if not np.isfinite(hi):
+        last = n_samples - stft.window + stft.window // 2 - emission_index
+        hi = max(lo, speed_of_sound_m_s * last / sample_rate_hz / 2)
+    return lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1)
+
+
+def _frames_at(x, window, ranges, fs, c, emission_index):
+    """Frames (K, M, R, window) centred at the samples nearest to the delays of the
+    ranges (R,), m, and which of them lie inside the recording (R,) bool (the others
+    are the first frame, never kept)."""
+    start = np.rint(emission_index + 2 * ranges * fs / c).astype(np.int64) - window // 2
+    inside = (start >= 0) & (start + window <= x.shape[-1])
+    frames = sliding_window_view(x, window, axis=-1)[..., np.where(inside, start, 0), :]
+    return frames, inside
 
 
 def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz) -> int:
@@ -167,6 +227,8 @@ def _checked(mf, stft: Stft, gate: BinGate) -> np.ndarray:
     window, overlap = stft.window, stft.overlap
     if not 0 <= overlap < window:
         raise InputError(f"overlap must be in [0, window={window}), got {overlap}")
+    if stft.range_step_m is not None and not stft.range_step_m > 0:
+        raise InputError(f"range_step_m must be positive, got {stft.range_step_m}")
     if not 0 <= gate.energy_fraction <= 1:
         raise InputError(f"energy_fraction must be in [0, 1], got {gate.energy_fraction}")
     if x.shape[-1] < window:
