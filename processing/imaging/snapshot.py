@@ -187,6 +187,8 @@ def range_axis(
     the range of the last whole frame of a recording of `n_samples` when that limit
     is infinite or absent."""
     step = stft.range_step_m
+    if step is None:
+        raise ValueError("range bins need stft.range_step_m (m)")
     lo, hi = range_limits_m or (0.0, float("inf"))
     if not np.isfinite(hi):
         last = n_samples - stft.window + stft.window // 2 - emission_index
