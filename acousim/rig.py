@@ -36,6 +36,7 @@ from acousim.scene.rig import Measurement, Rig
 from acousim.simulator import Heard, Simulator
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
+from acousim.trace.lidar import scan
 from processing.base import interrupt
 from processing.base.errors import InputError
 
@@ -279,7 +280,6 @@ class RigSimulator:
         `start_s` to `end_s`, s; a body of one pose: that one), in the LiDAR's frame
         (``to_sensor``: LiDAR -> body).  Each sonar's recordings carry the first
         LiDAR's scan started at their firing, in the sonar's frame."""
-        from acousim.trace.lidar import scan
 
         out = []
         seed = self.scene.simulation.seed

@@ -30,6 +30,8 @@ import numpy as np
 import usb.backend
 import usb.core
 
+from hardware.device import RtisDevice
+from hardware.pdm import PDM_RATE_HZ, encode
 from hardware.protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
 from processing.base.errors import InputError
 from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
@@ -59,7 +61,6 @@ def recording_source(
 
     Raises InputError when the channels do not fit the 32 bits of a tick word.
     """
-    from hardware.pdm import PDM_RATE_HZ, encode
 
     channels = np.asarray(channels)
     if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
@@ -95,7 +96,6 @@ def emulated_device(
     (open_device, sensor), where ``open_device()`` opens an RtisDevice on the emulated
     sensor through the real driver (what :class:`hardware.Recorder` takes).  Raises
     InputError for an array the link cannot carry (more than 32 microphones)."""
-    from hardware.device import RtisDevice
 
     sensor = EmulatedSensor(recording_source(recordings, channels), n_ticks=n_ticks)
     backend = EmulatorBackend(sensor)

@@ -28,6 +28,8 @@ from acousim.calibrate.fit import Problem, Solution, solve
 from acousim.calibrate.groups import GroupModel
 from acousim.calibrate.options import CalibrationSettings
 from acousim.calibrate.parameters import MaterialFit, ParameterSet
+from acousim.compare.comparison import _shift
+from acousim.compare.comparison import align as align_lag
 from acousim.scene.model import Material, Scene
 from processing.base.errors import InputError
 
@@ -175,8 +177,6 @@ def _used_materials(scene: Scene) -> list[str]:
 
 def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.ndarray, float]:
     """A recording's energies (B, D, R) after aligning it on the start model."""
-    from acousim.compare.comparison import _shift
-    from acousim.compare.comparison import align as align_lag
 
     x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
     lag = 0.0

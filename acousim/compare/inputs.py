@@ -10,7 +10,11 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.scene.pose import Pose
+from acousim.simulator import SCENE_MOTION, Simulator
+from hardware import decode_frame
 from processing.base.errors import InputError
+from processing.sensor.rtisdev import sample_recording
 
 __all__ = ["load_real_recordings", "pair_with_scene", "pair_with_file"]
 
@@ -30,9 +34,6 @@ def load_real_recordings(
     Raises InputError naming the file or option."""
     source = str(source)
     if source == "rtisdev-sample" or source.endswith(".bin"):
-        from hardware import decode_frame
-        from processing.sensor.rtisdev import sample_recording
-
         path = sample_recording() if source == "rtisdev-sample" else Path(source)
         if not path.is_file():
             raise InputError("no such file", file=path)
@@ -81,7 +82,6 @@ def pair_with_scene(
     frozen.  Each simulation has its real partner's length.  Raises InputError naming
     ``--index``, ``--pose`` or the scene file (a scene the simulator refuses: an
     unreadable mesh). `progress(done, total)` after each simulated pose."""
-    from acousim.simulator import SCENE_MOTION, Simulator
 
     chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
     if recorded:
@@ -112,7 +112,6 @@ def pair_with_scene(
 
 def _recorded_pose(p: P.SensorPose):
     """A recording's pose (its provenance) as a :class:`~acousim.scene.pose.Pose`."""
-    from acousim.scene.pose import Pose
 
     return Pose(p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, time_s=p.time_s)
 

@@ -16,6 +16,8 @@ import math
 from pathlib import Path
 
 import processing as P
+from acousim.core.air import speed_of_sound
+from acousim.dataset.samples import _scene, simulate_sample
 from acousim.dataset.spec import DatasetSpec
 
 __all__ = ["write_chirp_shard", "capture_samples"]
@@ -35,8 +37,6 @@ def capture_samples(spec: DatasetSpec, *, max_range_m: float | None = None) -> i
     """Samples per capture of every sample of the spec (see the module docstring):
     the round trip to each scene's ``max_range_m`` (or to `max_range_m`, m, when
     given) in the slowest air the spec can draw, plus the call."""
-    from acousim.core.air import speed_of_sound
-    from acousim.dataset.samples import _scene
 
     n = 0
     for choice in spec.scenes:
@@ -55,7 +55,6 @@ def capture_samples(spec: DatasetSpec, *, max_range_m: float | None = None) -> i
 
 def write_chirp_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Path):
     """Samples lo..hi-1 as the CHIRP file `final`: (records, sha256, bytes)."""
-    from acousim.dataset.samples import simulate_sample
 
     n = capture_samples(spec)
     recs, records = [], []

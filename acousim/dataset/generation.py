@@ -28,6 +28,7 @@ import h5py
 import numpy as np
 
 import processing as P
+from acousim.dataset.chirp_shards import capture_samples, write_chirp_shard
 from acousim.dataset.runners import run_dask, run_pool
 from acousim.dataset.safety import check_scheduler, locked, sha256_file
 from acousim.dataset.samples import (  # noqa: F401  (re-exported)
@@ -164,7 +165,6 @@ def recording_samples(spec: DatasetSpec) -> int:
     """Samples of every recording of the spec: what the last range bin's STFT frame
     needs in the slowest air the spec can draw (so every range bin has data), the
     same for every sample (``raw`` is (M, T) with one T)."""
-    from acousim.dataset.chirp_shards import capture_samples
 
     window = P.ProcessingSettings().window
     return capture_samples(spec, max_range_m=float(image_range_m(spec)[-1])) + window
@@ -251,8 +251,6 @@ def write_shard(spec: DatasetSpec, k: int, out_dir: str | Path) -> dict:
     records = []
     t0 = time.perf_counter()
     if spec.format == "chirp":
-        from acousim.dataset.chirp_shards import write_chirp_shard
-
         records, digest, size = write_chirp_shard(spec, k, lo, hi, final)
     else:
         records, digest, size = _write_acousim_shard(spec, k, lo, hi, final)

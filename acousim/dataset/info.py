@@ -12,6 +12,7 @@ import numpy as np
 
 import processing as P
 from acousim.dataset.generation import SHARD_SCHEMA
+from acousim.dataset.reader import DatasetReader
 from processing.base.errors import InputError
 from processing.formats.h5attrs import attribute_text
 from processing.sensor.provenance import kind_of
@@ -191,7 +192,6 @@ def _datasets(g: h5py.Group) -> list[tuple[str, h5py.Dataset]]:
 
 
 def _folder(path: Path) -> list[str]:
-    from acousim.dataset.reader import DatasetReader
 
     reader = DatasetReader(path, verify=False)
     m = reader.manifest

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from acousim.dataset.safety import watch_parent
+from acousim.process import configure
 from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX
 
@@ -28,7 +29,6 @@ POLL_S = 0.1
 def _worker_init(parent_pid: int) -> None:
     """Pool worker initializer: Ctrl-C is the main process's, exit when the main
     process is gone, the process's policy (:func:`acousim.process.configure`)."""
-    from acousim.process import configure
 
     interrupt.ignore_in_worker()
     watch_parent(parent_pid)

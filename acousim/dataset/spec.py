@@ -21,6 +21,9 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 import processing as P
+from acousim.scene import load_scene
+from acousim.scene.model import Environment, Simulation
+from acousim.scene.trajectory import RATES
 from processing.base.errors import InputError
 from processing.base.settings import (
     Setting,
@@ -74,13 +77,11 @@ class Distribution:
 
 
 def _env(name: str) -> Setting:
-    from acousim.scene.model import Environment
 
     return settings_of(Environment)[name]
 
 
 def _sim(name: str) -> Setting:
-    from acousim.scene.model import Simulation
 
     return settings_of(Simulation)[name]
 
@@ -88,7 +89,6 @@ def _sim(name: str) -> Setting:
 def _rate(name: str, unit: str, doc: str) -> Setting:
     """The sensor's speed or turn rate, within the scene's declaration of that rate
     (``acousim.scene.trajectory.RATES``), as one number."""
-    from acousim.scene.trajectory import RATES
 
     decl = RATES[name]
     return dataclasses.replace(decl, kind="float", default=0.0, unit=unit, doc=doc, length=None)
@@ -302,7 +302,6 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         f = path.parent / name
         if not f.is_file():
             raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
-        from acousim.scene import load_scene
 
         try:  # checked now, not in a worker halfway through the dataset
             load_scene(f)

@@ -20,7 +20,8 @@ from typing import Literal, get_args
 
 import numpy as np
 
-from processing.base.settings import Setting, setting, validate
+from acousim.scene.pose import rotation
+from processing.base.settings import Setting, check, setting, validate
 
 __all__ = ["Lidar", "LidarPreset", "LIDAR_PRESETS", "PRESET", "lidar_preset"]
 
@@ -87,7 +88,6 @@ class Lidar:
 
     def to_sensor(self) -> np.ndarray:
         """The mounting: 4x4 LiDAR frame -> sonar frame."""
-        from acousim.scene.pose import rotation
 
         roll, pitch, yaw = np.deg2rad(self.rotation_deg)
         T = np.eye(4)
@@ -110,6 +110,5 @@ LIDAR_PRESETS: dict[str, Lidar] = {
 
 def lidar_preset(name: str = "vlp16", **overrides) -> Lidar:
     """A preset (:data:`LIDAR_PRESETS`) with some settings changed."""
-    from processing.base.settings import check
 
     return dataclasses.replace(LIDAR_PRESETS[check(PRESET, name, "lidar preset")], **overrides)

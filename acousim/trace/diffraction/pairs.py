@@ -63,6 +63,7 @@ from acousim.trace.diffraction.pair_geometry import (
     cylindrical,
     shortest_paths,
 )
+from acousim.trace.diffraction.pairs_compiled import compiled_elements, fine_live
 from processing.base.kernels import optional_kernel
 
 #: bins per element step (each bin is BIN * step_m of path length)
@@ -164,8 +165,6 @@ def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=No
         return EdgePairElements.empty()
     kernel = optional_kernel("acousim.trace.diffraction.pair_kernel") if use_kernel else None
     if kernel is not None and np.isfinite(max_excess_m):
-        from acousim.trace.diffraction.pairs_compiled import compiled_elements
-
         return compiled_elements(kernel, pairs, source, receiver, (limits, live), workers)
     z_apex, p_min = shortest_paths(pairs, source, receiver)
     limit = np.minimum(p_min + max_excess_m, max_path_m)
@@ -185,7 +184,6 @@ def _elements(pairs: PairGeometry, source, receiver, limits, use_kernel, live=No
     good = np.isfinite(amp) & (amp != 0)
     if live is not None:
         b = np.floor((path - p_min[kg]) / bin_m).astype(np.int64)
-        from acousim.trace.diffraction.pairs_compiled import fine_live
 
         mask = fine_live(live, int(b.max(initial=0)) + 1, bin_m)
         good &= mask[kg, np.maximum(b, 0)] > 0

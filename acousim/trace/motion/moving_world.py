@@ -67,6 +67,7 @@ from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.tracer import Tracer
 from acousim.trace.world.build import _load
 from acousim.trace.world.embree import RayCaster
+from processing.base.errors import InputError
 
 __all__ = ["MovingWorld", "ride", "bounces", "ride_chain", "follow_chains"]
 
@@ -470,8 +471,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _read(path):
     import trimesh
-
-    from processing.base.errors import InputError
 
     try:
         return trimesh.load(path, force="mesh", process=False)

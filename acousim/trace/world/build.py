@@ -15,6 +15,7 @@ import numpy as np
 
 from acousim.core.materials import MaterialSpectra
 from acousim.scene.model import Material, MeshItem, Scene
+from acousim.scene.pose import MAX_COORDINATE_M
 from acousim.trace.world.mesh_index import (
     EdgeTable,
     MeshPart,
@@ -263,7 +264,6 @@ def _load_part(path, transform) -> MeshPart:
         raise _no_faces(path)
     if not np.all(np.isfinite(mesh.vertices)):
         raise InputError("mesh has NaN or inf vertices", file=_name(path))
-    from acousim.scene.pose import MAX_COORDINATE_M
 
     # checked before transforming: a product of huge numbers would overflow first
     T = np.asarray(transform, float)

@@ -25,6 +25,7 @@ from processing.formats.chirp.names import (
 )
 from processing.formats.h5attrs import attribute_text
 from processing.sensor.arrays import Array
+from processing.sensor.calibration import on_load
 from processing.sensor.calls import FIT_MIN_CORRELATION, Waveform, fit_sweep
 from processing.sensor.pointcloud import PointCloud
 from processing.sensor.recording import MAX_SAMPLE_BYTES, GroundTruth, Recording
@@ -275,9 +276,6 @@ class Reader:
         )
 
     def _ours(self, i: int, captures: np.ndarray, x: np.ndarray, array: Array) -> Recording:
-        from processing.sensor.calibration import (
-            on_load,  # a stored array calibration, as recording files
-        )
 
         g = self.group(f"{self.ours.name}/recordings/{i:06d}")
         order = np.argsort(self.read(self.ours["capture_measurement"])[captures])
