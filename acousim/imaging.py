@@ -245,34 +245,32 @@ def write_pictures(
     animation: bool = True,
     progress: Callable[[int, int], None] | None = None,
     indices: Sequence[int] | None = None,
+    shown: Sequence[int] | None = None,
 ) -> list[Path]:
-    """Fan images and elevation-azimuth maps of the first recording, its 3D render,
-    and for several recordings (a trajectory) an animated GIF of the drive.
+    """Fan images, elevation-azimuth maps and the 3D render of the recordings at
+    positions `shown` (default: the first), and for several recordings (a trajectory)
+    an animated GIF of the drive.
 
-    indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
+    indices : the recordings' indices in their file (for the titles and, when several
+        are shown, the file names: ``fan_N.png``; default 0, 1, ...).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
+    shown = list(shown) if shown is not None else [0]
     trajectory = len(recordings) > 1
-    written = []
-    first, imgs = recordings[0], images[0]
-    scene = _scene(first) if render_3d or animation else None
-    limit = _range_limit(first, options)
-    title = _title(first, indices[0], trajectory)
-    written += _stills(first, imgs, out, options, limit, title)
+    scene = _scene(recordings[shown[0]]) if render_3d or animation else None
     triangles = _scene_triangles(scene) if render_3d or animation else None
-    if render_3d:
-        written.append(
-            _render(
-                first,
-                imgs,
-                triangles,
-                out / "scene3d.png",
-                options,
-                _moving_triangles(scene, first),
-            )
-        )
+    written = []
+    for k in shown:
+        rec, imgs = recordings[k], images[k]
+        tag = f"_{indices[k]}" if len(shown) > 1 else ""
+        title = _title(rec, indices[k], trajectory)
+        written += _stills(rec, imgs, out, options, _range_limit(rec, options), title, tag)
+        if render_3d:
+            moving = _moving_triangles(scene, rec)
+            path = out / f"scene3d{tag}.png"
+            written.append(_render(rec, imgs, triangles, path, options, moving, title))
     if animation and trajectory:
         written.append(
             _animate(
@@ -282,19 +280,20 @@ def write_pictures(
     return written
 
 
-def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str):
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag=""):
     """The fan (every method) and each method's el-az maps of one recording, with
-    its traced reflectors marked: the files written."""
+    its traced reflectors marked: the files written (``fan{tag}.png``, ...)."""
     from acousim.viz import elaz_figure, fan_figure
 
     dr = options.dynamic_range_db
     truth = _truth_sensor(rec, dr)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
-    written = [fan_figure(imgs, out / "fan.png", max_range_m=limit, **kw)]
+    written = [fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)]
     for m, img in imgs.items():
         if img.power.size:
             tol = _half_range_resolution(rec, img, options)
-            written.append(elaz_figure(img, out / f"elaz_{m}.png", truth_tolerance_m=tol, **kw))
+            path = out / f"elaz_{m}{tag}.png"
+            written.append(elaz_figure(img, path, truth_tolerance_m=tol, **kw))
     return written
 
 

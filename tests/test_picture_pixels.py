@@ -1,0 +1,136 @@
+"""The pictures read without asking, checked on their pixels: the energy gate's bins in
+the colour map's floor colour, no stray white in a panel, the comparison's scales and
+noise floors, the recording the stills show.
+
+The images are built in the test (known blobs), and each expected colour or number is
+worked out here (matplotlib's own colour map, numpy's median), not read from our code.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import processing as P
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+
+
+def blob_image(sources, *, ranges, step_deg=2.0, method="das"):
+    """A synthetic image: Gaussian blobs at (range_m, azimuth_deg, elevation_deg, dB)."""
+    az = np.deg2rad(np.arange(-90, 90.1, step_deg))
+    el = np.deg2rad(np.arange(-40, 40.1, step_deg))
+    power = np.full((ranges.size, el.size, az.size), 1e-9)
+    R, E, A = np.meshgrid(ranges, el, az, indexing="ij")
+    for r, a, e, db in sources:
+        power += 10 ** (db / 10) * np.exp(
+            -(((R - r) / 0.02) ** 2)
+            - ((A - np.deg2rad(a)) / np.deg2rad(4)) ** 2
+            - ((E - np.deg2rad(e)) / np.deg2rad(4)) ** 2
+        )
+    return P.Image(power, ranges, el, az, method, 40e3, bin_range_m=0.01)
+
+
+def _canvas(fig) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+
+
+def _box(ax, pic, inset=3):
+    """The pixels (rows, cols slices) inside an axis' drawn box, `inset` px in."""
+    b = ax.get_window_extent()
+    h = pic.shape[0]
+    rows = slice(int(np.ceil(h - b.y1)) + inset, int(h - b.y0) - inset)
+    cols = slice(int(np.ceil(b.x0)) + inset, int(b.x1) - inset)
+    return rows, cols
+
+
+def test_gated_range_bins_are_drawn_in_the_floor_colour():
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import draw_fan
+
+    # only the bins from 0.8 to 1.2 m survived the energy gate; the fan reaches 2 m
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.8, 1.2, 0.01))
+    fig, ax = plt.subplots(figsize=(5, 4), dpi=100)
+    draw_fan(ax, img, 2.0, 25.0, pixels=300, extent=(2.0, -2.0, 0.0, 2.0))
+    pic = _canvas(fig)
+    floor = np.round(np.array(matplotlib.colormaps["inferno"](0.0)[:3]) * 255)
+    # pixels of the gated ring from 1.4 to 1.9 m, within 60 degrees of the axis
+    to_px = ax.transData.transform
+    y, x = np.meshgrid(np.linspace(-1.5, 1.5, 41), np.linspace(0.1, 1.9, 41))
+    ring = (np.hypot(x, y) > 1.4) & (np.hypot(x, y) < 1.9) & (np.abs(np.arctan2(y, x)) < 1.0)
+    px = to_px(np.column_stack([y[ring], x[ring]]))
+    h = pic.shape[0]
+    colours = pic[(h - px[:, 1]).astype(int), px[:, 0].astype(int)]
+    assert len(colours) > 50
+    assert np.abs(colours - floor).max() <= 1  # the floor colour: no grey ring
+    # the ring between the gate's edge and the echo (quiet kept bins) is the same colour
+    quiet = to_px([[0.0, 0.85]])[0]
+    assert np.abs(pic[int(h - quiet[1]), int(quiet[0])] - floor).max() <= 1
+    plt.close(fig)
+
+
+def test_a_fan_panel_has_no_white_corner_past_the_imaged_range():
+    """A view wider than the imaged range (its corners lie past the last range bin, as
+    a corridor's fan fitted to its echoes) is not cut by a white triangle: within the
+    azimuth span, past the range axis is no echo, the floor colour."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import draw_fan
+
+    img = blob_image([(1.5, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.0, 0.01))
+    fig, ax = plt.subplots(figsize=(5, 4), dpi=100)
+    draw_fan(ax, img, 2.0, 25.0, pixels=300, extent=(2.0, -2.0, 0.0, 2.0))
+    pic = _canvas(fig).astype(int)
+    rows, cols = _box(ax, pic)
+    panel = pic[rows, cols]
+    h, w = panel.shape[:2]
+    floor = np.round(np.array(matplotlib.colormaps["inferno"](0.0)[:3]) * 255)
+    for corner in (panel[: h // 6, -w // 6 :], panel[: h // 6, : w // 6]):  # 2.5 m and more
+        assert not (corner > 245).all(axis=2).any()  # no white
+        assert np.abs(corner - floor).max() <= 1
+    plt.close(fig)
+
+
+def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
+    import matplotlib.pyplot as plt
+
+    from acousim.compare import Alignment, Comparison, ComparisonArrays, MethodComparison
+    from acousim.compare import comparison_figure
+
+    rng = np.arange(0.3, 2.5, 0.01)
+    real = blob_image([(1.5, 10.0, 0.0, 0.0)], ranges=rng)
+    sim = blob_image([(1.5, 10.0, 0.0, -6.0)], ranges=rng)  # 6 dB weaker
+    edges = np.arange(0.0, 2.55, 0.05)
+    gen = np.random.default_rng(1)
+    prof_r = 1e-6 * (1 + 0.1 * gen.random(edges.size - 1))
+    prof_s = 1e-8 * (1 + 0.1 * gen.random(edges.size - 1))
+    prof_r[30] = prof_s[30] = 1.0
+    empty = MethodComparison("das", (), (), (), (), (), 0.01)
+    report = Comparison(Alignment(0.0, 0.0, 1.0), (1.0,), 0.05, (0.0,), {"das": empty})
+    fig = comparison_figure(report, ComparisonArrays(edges, prof_r, prof_s, {"das": real}, {"das": sim}))
+    fig.canvas.draw()
+    fans = [ax for ax in fig.axes if ax.get_title().startswith(("real", "simulated"))]
+    assert len(fans) == 2
+    # a colour bar beside every fan, both over the same levels
+    bars = [ax for ax in fig.axes if "dB re strongest cell of both" in ax.get_ylabel()]
+    assert len(bars) == 2
+    assert bars[0].get_ylim() == bars[1].get_ylim()
+    # one scale: the simulated echo (6 dB weaker) is drawn darker than the real one
+    pic = _canvas(fig).astype(float)
+    peaks = []
+    for ax in fans:
+        rows, cols = _box(ax, pic)
+        peaks.append(pic[rows, cols].sum(axis=2).max())
+    assert peaks[1] < peaks[0] - 30
+    # the profiles in dB re the real strongest bin, and both noise floors named with
+    # their level: the median bin, 10 log10(median / max)
+    texts = [t.get_text() for t in fig.findobj(plt.Text)]
+    assert any("dB re real strongest bin" in t for t in texts)
+    for name, prof in (("real", prof_r), ("simulated", prof_s)):
+        expect = 10 * np.log10(np.median(prof) / prof_r.max())
+        assert any(t.startswith(name) and f"noise floor: {expect:.1f} dB" in t for t in texts)
+    plt.close(fig)
