@@ -402,11 +402,13 @@ def _frame_content(rec, img, options, sweep, moving):
     )
 
 
-def _render(rec, imgs, triangles, path, options, moving=None):
+def _render(rec, imgs, triangles, path, options, moving=None, title=None):
     from acousim.viz.render3d import render_scene
 
     content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
-    render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
+    render_scene(
+        path, content, triangles=triangles, truth_range_db=options.dynamic_range_db, title=title
+    )
     return Path(path)
 
 
@@ -427,6 +429,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
     import imageio.v3 as iio
 
+    from acousim.viz.drive import DriveFigure
     from acousim.viz.fan import common_extent
     from acousim.viz.render3d import SceneRenderer
 
@@ -449,17 +452,34 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
         truth_range_db=dr,
         with_lidar=any(rec.lidar is not None for rec in recordings),
+        legend=False,  # below the frame, with the fan's
     )
+    figure = None
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
             moving = _moving_triangles(scene, rec)
             view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
+            if figure is None:  # laid out once, on the first frame
+                figure = DriveFigure(
+                    view_shape=view.shape[:2],
+                    first=imgs[method],
+                    extent=extent,
+                    max_range_m=limit,
+                    dynamic_range_db=dr,
+                    entries=renderer.entries,
+                    # the same entries in every frame: the frames keep one size
+                    marks={"in", "off", "behind", "weak"}
+                    if any(m is not None for m in marks)
+                    else set(),
+                )
             title = _title(rec, indices[k], True)
-            frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
+            frames.append(figure.frame(view, imgs[method], marks[k], title))
             if progress:
                 progress(k + 1, len(recordings))
     finally:
         renderer.close()
+        if figure is not None:
+            figure.close()
     with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
         iio.imwrite(
             tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
@@ -478,32 +498,3 @@ def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db:
     a = image.azimuth_rad
     span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
     return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
-
-
-def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
-    """One animation frame (H, W, 3) uint8: the 3D view beside the fan with its marks."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, legend_inside
-
-    fig, (a, b) = plt.subplots(
-        1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
-    )
-    a.imshow(view)
-    a.axis("off")
-    a.set_title(title, fontsize=10)
-    im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
-    step = (extent[0] - extent[1]) / 40  # marks closer than ~1/40 of the view are one
-    drawn = marks.draw(b, min_separation=step) if marks is not None else set()
-    b.set_title(f"{image.method}, top view", fontsize=9)
-    fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
-    # the same entries in every frame: the frames keep one size
-    every = {"in", "off", "behind", "weak"}
-    legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
-    fig.canvas.draw()
-    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
-    plt.close(fig)
-    return frame

@@ -9,7 +9,6 @@ worked out here (matplotlib's own colour map, numpy's median), not read from our
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 import processing as P
 
@@ -98,8 +97,13 @@ def test_a_fan_panel_has_no_white_corner_past_the_imaged_range():
 def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
     import matplotlib.pyplot as plt
 
-    from acousim.compare import Alignment, Comparison, ComparisonArrays, MethodComparison
-    from acousim.compare import comparison_figure
+    from acousim.compare import (
+        Alignment,
+        Comparison,
+        ComparisonArrays,
+        MethodComparison,
+        comparison_figure,
+    )
 
     rng = np.arange(0.3, 2.5, 0.01)
     real = blob_image([(1.5, 10.0, 0.0, 0.0)], ranges=rng)
@@ -111,7 +115,9 @@ def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
     prof_r[30] = prof_s[30] = 1.0
     empty = MethodComparison("das", (), (), (), (), (), 0.01)
     report = Comparison(Alignment(0.0, 0.0, 1.0), (1.0,), 0.05, (0.0,), {"das": empty})
-    fig = comparison_figure(report, ComparisonArrays(edges, prof_r, prof_s, {"das": real}, {"das": sim}))
+    fig = comparison_figure(
+        report, ComparisonArrays(edges, prof_r, prof_s, {"das": real}, {"das": sim})
+    )
     fig.canvas.draw()
     fans = [ax for ax in fig.axes if ax.get_title().startswith(("real", "simulated"))]
     assert len(fans) == 2
@@ -134,3 +140,68 @@ def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
         expect = 10 * np.log10(np.median(prof) / prof_r.max())
         assert any(t.startswith(name) and f"noise floor: {expect:.1f} dB" in t for t in texts)
     plt.close(fig)
+
+
+def test_scene3d_is_wide_and_its_legend_lies_outside_the_view_in_dark_text(tmp_path):
+    import matplotlib.image as mpimg
+
+    from acousim.viz.render3d import FrameContent, legend_entries, render_scene, view_figure
+
+    content = FrameContent(np.zeros(3), np.array([1.0, 0.0, 0.0]), peaks=np.array([[2.0, 0, 0]]))
+    view = render_scene(tmp_path / "s.png", content, triangles=None, title="s — recording 2")
+    pic = mpimg.imread(tmp_path / "s.png")
+    assert pic.shape[1] >= 1600
+    # the legend: below the view (no pixel of the view under it), its text black
+    fig = view_figure(view, legend_entries(with_truth=True), "t")
+    fig.canvas.draw()
+    (leg,) = fig.legends
+    box, view_box = leg.get_window_extent(), fig.axes[0].get_window_extent()
+    assert box.y1 <= view_box.y0 + 0.5
+    assert all(t.get_color() in ("black", "k", (0, 0, 0, 1)) for t in leg.get_texts())
+    import matplotlib.colors as mc
+
+    for t in leg.get_texts():
+        r, g, b = mc.to_rgb(t.get_color())
+        assert 0.2126 * r + 0.7152 * g + 0.0722 * b < 0.3  # dark on the white ground
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_image_recording_chooses_the_recording_the_stills_show(tmp_path):
+    import h5py  # noqa: F401
+
+    from acousim.cli import main
+
+    rec = P.Recording(np.zeros((64, 1500)), 500e3, P.paper_8x8(), P.paper_chirp())
+    recs = []
+    for k in range(4):
+        pose = {"position_m": [k, 0, 0], "yaw_deg": 0, "pitch_deg": 0, "roll_deg": 0}
+        meta = {"pose": {**pose, "time_s": 0.5 * k}, "scene": "s"}
+        recs.append(P.Recording(rec.samples, 500e3, rec.array, rec.waveform, metadata=meta))
+    P.save_recordings(tmp_path / "r.h5", recs)
+    base = ["image", str(tmp_path / "r.h5"), "--no-3d", "--no-animation", "--no-data"]
+    base += ["--method", "das"]
+    seen = []
+    import matplotlib.figure
+
+    real = matplotlib.figure.Figure.savefig
+
+    def spy(fig, *a, **k):
+        seen.append(fig._suptitle.get_text() if fig._suptitle else "")
+        return real(fig, *a, **k)
+
+    import unittest.mock
+
+    with unittest.mock.patch.object(matplotlib.figure.Figure, "savefig", spy):
+        assert main([*base, "--recording", "2", "--out", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "a" / "fan.png").is_file()
+    assert seen and all("recording 2, t = 1.0 s" in t for t in seen)
+    # a range: one set of pictures per recording, named by its index
+    assert main([*base, "--recording", "1:3", "--out", str(tmp_path / "b")]) == 0
+    names = {p.name for p in (tmp_path / "b").iterdir()}
+    assert {"fan_1.png", "fan_2.png"} <= names  # (silent recordings: no el-az slice)
+    assert "fan.png" not in names
+    # a recording not imaged: one line naming the option and the index
+    args = [*base, "--index", "0:2", "--recording", "3", "--out", str(tmp_path / "c")]
+    assert main(args) == 2

@@ -295,7 +295,9 @@ def draw_fan(
     import matplotlib as mpl
 
     r = fan_raster(image, max_range_m, dynamic_range_db, pixels, extent, reference=reference)
-    ax.imshow(fan_rgb(r, dynamic_range_db), origin="lower", extent=r.extent, interpolation="nearest")
+    ax.imshow(
+        fan_rgb(r, dynamic_range_db), origin="lower", extent=r.extent, interpolation="nearest"
+    )
     norm = mpl.colors.Normalize(-dynamic_range_db, 0.0)
     im = mpl.cm.ScalarMappable(norm=norm, cmap=mpl.colormaps[CMAP])  # for a colour bar
     ax.set_xlim(r.extent[0], r.extent[1])
