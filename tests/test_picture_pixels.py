@@ -205,3 +205,26 @@ def test_image_recording_chooses_the_recording_the_stills_show(tmp_path):
     # a recording not imaged: one line naming the option and the index
     args = [*base, "--index", "0:2", "--recording", "3", "--out", str(tmp_path / "c")]
     assert main(args) == 2
+
+
+def test_a_drive_frame_keeps_nothing_of_the_frame_before():
+    """The animation draws each frame over the figure's kept background: a frame drawn
+    after another is pixel for pixel the frame drawn first in a new figure."""
+    from acousim.viz.drive import DriveFigure
+
+    rng = np.arange(0.3, 2.5, 0.01)
+    one = blob_image([(1.0, 30.0, 0.0, 0.0)], ranges=rng)
+    two = blob_image([(2.0, -40.0, 0.0, 0.0)], ranges=rng)
+    gen = np.random.default_rng(0)
+    views = gen.integers(0, 255, (2, 120, 160, 3), dtype=np.uint8)
+    kw = {"view_shape": (120, 160), "extent": (2.5, -2.5, 0.0, 2.5), "max_range_m": 2.5}
+    kw["dynamic_range_db"] = 30.0
+    drive = DriveFigure(first=one, **kw)
+    drive.frame(views[0], one, None, "recording 0, t = 0.0 s")
+    after = drive.frame(views[1], two, None, "recording 1, t = 0.1 s")
+    drive.close()
+    fresh = DriveFigure(first=one, **kw)
+    alone = fresh.frame(views[1], two, None, "recording 1, t = 0.1 s")
+    fresh.close()
+    assert after.shape == alone.shape and after.std() > 10
+    np.testing.assert_array_equal(after, alone)
