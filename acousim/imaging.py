@@ -31,7 +31,9 @@ __all__ = [
     "peak_positions",
     "peaks_in_world",
     "prepare_pictures",
+    "write_drive",
     "write_pictures",
+    "write_stills",
 ]
 
 
@@ -245,22 +247,46 @@ def write_pictures(
     animation: bool = True,
     progress: Callable[[int, int], None] | None = None,
     indices: Sequence[int] | None = None,
-    shown: Sequence[int] | None = None,
 ) -> list[Path]:
-    """Fan images, elevation-azimuth maps and the 3D render of the recordings at
-    positions `shown` (default: the first), and for several recordings (a trajectory)
-    an animated GIF of the drive.
+    """Fan images, elevation-azimuth maps and the 3D render of the first recording
+    (:func:`write_stills`), and for several recordings (a trajectory) an animated GIF
+    of the drive (:func:`write_drive`).
+
+    indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
+    """
+    written = write_stills(
+        recordings, images, out_dir, options, render_3d=render_3d, indices=indices
+    )
+    if animation and len(recordings) > 1:
+        written += write_drive(
+            recordings, images, out_dir, options, progress=progress, indices=indices
+        )
+    return written
+
+
+def write_stills(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    shown: Sequence[int] = (0,),
+    indices: Sequence[int] | None = None,
+    render_3d: bool = True,
+) -> list[Path]:
+    """Fan images, elevation-azimuth maps and (`render_3d`) the 3D render of the
+    recordings at positions `shown` of `recordings`: the files written.
 
     indices : the recordings' indices in their file (for the titles and, when several
-        are shown, the file names: ``fan_N.png``; default 0, 1, ...).
+        are shown, the file names: ``fan_N.png``, ``elaz_METHOD_N.png``,
+        ``scene3d_N.png``; default 0, 1, ...).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
-    shown = list(shown) if shown is not None else [0]
     trajectory = len(recordings) > 1
-    scene = _scene(recordings[shown[0]]) if render_3d or animation else None
-    triangles = _scene_triangles(scene) if render_3d or animation else None
+    scene = _scene(recordings[shown[0]]) if render_3d else None
+    triangles = _scene_triangles(scene) if render_3d else None
     written = []
     for k in shown:
         rec, imgs = recordings[k], images[k]
@@ -271,13 +297,27 @@ def write_pictures(
             moving = _moving_triangles(scene, rec)
             path = out / f"scene3d{tag}.png"
             written.append(_render(rec, imgs, triangles, path, options, moving, title))
-    if animation and trajectory:
-        written.append(
-            _animate(
-                recordings, images, triangles, out / "drive.gif", options, progress, indices, scene
-            )
-        )
     return written
+
+
+def write_drive(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    progress: Callable[[int, int], None] | None = None,
+    indices: Sequence[int] | None = None,
+) -> list[Path]:
+    """The animated GIF of a drive (``drive.gif``): per recording, the 3D view beside
+    the fan of the sharpest method imaged.  Returns the file written (a list)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    scene = _scene(recordings[0])
+    triangles = _scene_triangles(scene)
+    path = out / "drive.gif"
+    return [_animate(recordings, images, triangles, path, options, progress, indices, scene)]
 
 
 def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag=""):

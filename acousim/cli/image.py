@@ -160,7 +160,7 @@ def _span(index: list[int]) -> str:
 
 def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
     from acousim.export import write_image_data, write_peaks_csv
-    from acousim.imaging import write_pictures
+    from acousim.imaging import write_drive, write_stills
 
     files = []
     if not args.no_data:
@@ -170,15 +170,11 @@ def _write_all(args, out, recs, images, index, options, animation, shown=None) -
                 out / "peaks.csv", recs, images, index, threshold_db=options.peak_threshold_db
             ),
         ]
-    files += write_pictures(
-        recs,
-        images,
-        out,
-        options,
-        render_3d=not args.no_3d,
-        animation=animation,
-        progress=progress("animate"),
-        indices=index,
-        shown=shown,
+    files += write_stills(
+        recs, images, out, options, shown=shown or [0], indices=index, render_3d=not args.no_3d
     )
+    if animation:
+        files += write_drive(
+            recs, images, out, options, progress=progress("animate"), indices=index
+        )
     return files
