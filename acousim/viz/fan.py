@@ -326,8 +326,8 @@ def make_fan_figure(
     truth=None,
 ):
     """One fan panel per method, side by side (x forward, y to the left), each with a
-    colour bar in dB; one legend, inside the figure, for the no-data grey and the
-    traced reflectors' marks.  Returns the matplotlib Figure.
+    colour bar in dB; one legend, inside the figure, for the traced reflectors'
+    marks.  Returns the matplotlib Figure.
 
     max_range_m : the farthest range that may be drawn (the scene's range); the view
         is fitted to the echoes within the dynamic range and the marks inside it.

@@ -1,7 +1,8 @@
 """3D views (pyvista, offscreen): the scene's meshes, the sensor at its pose, the
 reflectors the ray tracer found and the acoustic image's peaks placed in the scene.
 
-Every view has a legend and a 1 m scale bar.  Ray-traced reflectors are drawn only
+Every view has a legend (inside the view, or for ``scene3d.png`` and the animation
+below it in black text: :func:`view_figure`) and a 1 m scale bar.  Ray-traced reflectors are drawn only
 within `truth_range_db` of the strongest echo, the stronger ones larger, so that a
 few strong reflectors are not hidden among hundreds of weak scatterers.  Without a
 scene mesh (a real recording) the camera is fitted to the sensor and the peaks, and
