@@ -134,6 +134,12 @@ def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     imaging_arguments(p)
     p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--recording",
+        help="the recording(s) the fan, el-az and 3D pictures show, by index in the file: "
+        "'2', '0,5' or a range '2:5' (end excluded); among those imaged (default: the "
+        "first imaged); several write fan_N.png, elaz_METHOD_N.png, scene3d_N.png",
+    )
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
     p.add_argument(
@@ -151,11 +157,12 @@ def run(args: argparse.Namespace) -> int:
     out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
+    shown = _shown(args.recording, index)
     animation = not args.no_animation and len(recs) > 1
     prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
     images = image_all()
     with committed_together():  # every file or none (Ctrl-C, an error)
-        files = _write_all(args, out, recs, images, index, options, animation)
+        files = _write_all(args, out, recs, images, index, options, animation, shown)
     for f in files:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
@@ -163,9 +170,32 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_all(args, out, recs, images, index, options, animation) -> list:
+def _shown(text: str | None, index: list[int]) -> list[int] | None:
+    """Positions in the imaged recordings of --recording's file indices (None: not
+    given); an index not imaged is a usage error naming it."""
+    wanted = parse_indices("--recording", text)
+    if wanted is None:
+        return None
+    missing = [i for i in wanted if i not in index]
+    if missing:
+        raise UsageError(
+            f"not among the recordings imaged ({_span(index)}; --index chooses them)",
+            key="--recording",
+            value=missing,
+        )
+    return [index.index(i) for i in dict.fromkeys(wanted)]
+
+
+def _span(index: list[int]) -> str:
+    """'0 to 59' for a contiguous run, else the indices."""
+    if index == list(range(index[0], index[-1] + 1)):
+        return f"{index[0]} to {index[-1]}" if len(index) > 1 else str(index[0])
+    return ",".join(map(str, index))
+
+
+def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
     from acousim.export import write_image_data, write_peaks_csv
-    from acousim.imaging.run import write_pictures
+    from acousim.imaging.run import write_drive, write_stills
 
     files = []
     if not args.no_data:
@@ -175,14 +205,16 @@ def _write_all(args, out, recs, images, index, options, animation) -> list:
                 out / "peaks.csv", recs, images, index, threshold_db=options.peak_threshold_db
             ),
         ]
-    files += write_pictures(
-        recs,
-        images,
-        out,
-        options,
-        render_3d=not args.no_3d,
-        animation=animation,
-        progress=progress("animate", "frame", start="first"),
-        indices=index,
+    files += write_stills(
+        recs, images, out, options, shown=shown or [0], indices=index, render_3d=not args.no_3d
     )
+    if animation:
+        files += write_drive(
+            recs,
+            images,
+            out,
+            options,
+            progress=progress("animate", "frame", start="first"),
+            indices=index,
+        )
     return files

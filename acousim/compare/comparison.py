@@ -50,6 +50,8 @@ __all__ = [
     "envelope",
     "compare",
     "write_comparison",
+    "comparison_figure",
+    "noise_floor",
     "Peak",
     "MatchedEcho",
     "SideLobe",
@@ -459,44 +461,93 @@ def compare(
 def write_comparison(
     report: Comparison, arrays: ComparisonArrays, out_dir: str | Path
 ) -> list[Path]:
-    """The JSON report and a side-by-side picture, written atomically."""
+    """The JSON report and a side-by-side picture (:func:`comparison_figure`), written
+    atomically."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acousim.viz.fan import draw_fan
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     js = write_text(out / "comparison.json", json.dumps(report.to_dict(), indent=1))
+    fig = comparison_figure(report, arrays)
+    png = out / "comparison.png"
+    with atomic_path(png) as tmp:
+        fig.savefig(tmp, dpi=100, format="png")
+    plt.close(fig)
+    return [js, png]
+
+
+#: the dynamic range of the comparison's fans (dB)
+COMPARISON_RANGE_DB = 30.0
+
+
+def noise_floor(profile: np.ndarray) -> float:
+    """A range profile's noise floor: the median of its range bins (echoes fill few
+    bins), in the profile's units."""
+    return float(np.median(profile)) if profile.size else 0.0
+
+
+def comparison_figure(report: Comparison, arrays: ComparisonArrays):
+    """Per method, the real and the simulated fan on one scale (dB re the strongest
+    cell of the two, each with its colour bar; the matched echoes numbered) and the
+    two range profiles in dB re the real profile's strongest bin, with each profile's
+    noise floor (:func:`noise_floor`) drawn and named.  Returns the matplotlib Figure."""
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.fan import colorbar_label, common_extent, draw_fan
+
     methods = list(arrays.images_real)
-    fig, axes = plt.subplots(len(methods), 3, figsize=(14, 4 * len(methods)), squeeze=False)
-    centres = (arrays.edges_m[1:] + arrays.edges_m[:-1]) / 2
+    fig, axes = plt.subplots(
+        len(methods), 3, figsize=(16, 4.6 * len(methods)), squeeze=False, layout="constrained"
+    )
     for row, m in zip(axes, methods):
-        ir, is_ = arrays.images_real[m], arrays.images_sim[m]
-        top = max([float(im.range_m.max()) for im in (ir, is_) if im.range_m.size] or [1.0])
-        for ax, img, name in ((row[0], ir, "real"), (row[1], is_, "simulated")):
-            draw_fan(ax, img, top * 1.05, 30.0)
+        pair = (arrays.images_real[m], arrays.images_sim[m])
+        top = 1.05 * max([float(im.range_m.max()) for im in pair if im.range_m.size] or [1.0])
+        extent = common_extent(pair, top, COMPARISON_RANGE_DB)
+        ref = max([float(im.power.max()) for im in pair if im.power.size] or [1.0])
+        for ax, img, name in ((row[0], pair[0], "real"), (row[1], pair[1], "simulated")):
+            im = draw_fan(ax, img, top, COMPARISON_RANGE_DB, extent=extent, reference=ref)
+            fig.colorbar(im, ax=ax, shrink=0.85, label=colorbar_label(COMPARISON_RANGE_DB, True))
             ax.set_title(f"{name}, {m}")
-        for k, pair in enumerate(report.images[m].matched):
-            for ax, p in ((row[0], pair.real), (row[1], pair.sim)):
+        for k, echo in enumerate(report.images[m].matched):
+            for ax, p in ((row[0], echo.real), (row[1], echo.sim)):
                 a = np.deg2rad(p.azimuth_deg)
                 xy = (p.range_m * np.sin(a), p.range_m * np.cos(a))
                 ax.plot(*xy, "o", mfc="none", mec="cyan", ms=10)
                 ax.annotate(str(k), xy, color="cyan", fontsize=8)
-        ax = row[2]
-        ax.plot(centres, 10 * np.log10(arrays.profile_real + 1e-30), label="real")
-        ax.plot(centres, 10 * np.log10(arrays.profile_sim + 1e-30), label="simulated (aligned)")
-        ax.set_xlabel("range (m)")
-        ax.set_ylabel("mean envelope power (dB)")
-        ax.legend()
-        al = report.alignment
-        ax.set_title(
-            f"range profiles; gain {al.gain:.3g}, shift {al.emission_shift_samples:.2f} samples"
-        )
-    png = out / "comparison.png"
-    with atomic_path(png) as tmp:
-        fig.savefig(tmp, dpi=100, bbox_inches="tight", format="png")
-    plt.close(fig)
-    return [js, png]
+        _profiles(row[2], report, arrays)
+    fig.suptitle(
+        "real and simulated (aligned, gain fitted): fans on one scale, cyan circles: "
+        "matched echoes",
+        fontsize=10,
+    )
+    return fig
+
+
+def _profiles(ax, report: Comparison, arrays: ComparisonArrays) -> None:
+    """The two range profiles in dB re the real one's strongest bin, and their floors."""
+    centres = (arrays.edges_m[1:] + arrays.edges_m[:-1]) / 2
+    ref = float(arrays.profile_real.max()) if arrays.profile_real.size else 0.0
+    ref = ref if ref > 0 else 1.0
+
+    def db(x):
+        return 10 * np.log10(np.maximum(np.asarray(x, float) / ref, 1e-30))
+
+    for prof, name, colour in (
+        (arrays.profile_real, "real", "C0"),
+        (arrays.profile_sim, "simulated (aligned)", "C1"),
+    ):
+        floor = float(db(noise_floor(prof)))
+        ax.plot(centres, db(prof), color=colour, lw=1, label=name)
+        ax.axhline(floor, color=colour, ls="--", lw=1, label=f"{name} noise floor: {floor:.1f} dB")
+    ax.set_xlabel("range (m)")
+    ax.set_ylabel("mean envelope power (dB re real strongest bin)")
+    ax.legend(fontsize=8)
+    al = report.alignment
+    ax.set_title(
+        f"range profiles ({report.range_bin_m * 100:g} cm bins); gain {al.gain:.3g}, "
+        f"shift {al.emission_shift_samples:.2f} samples\nnoise floor: each profile's median bin",
+        fontsize=9,
+    )

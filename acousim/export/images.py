@@ -66,6 +66,10 @@ def regular_range_axis(images: Sequence[P.Image]) -> np.ndarray:
     return lo + step * np.arange(int(np.rint((hi - lo) / step)) + 1)
 
 
+#: images.h5's gzip level (1-9): writing it was a third of ``acousim image``'s time
+GZIP_LEVEL = 1
+
+
 def write_image_data(
     path: str | Path,
     recordings: Sequence[P.Recording],
@@ -137,6 +141,8 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
         data=level.astype(np.float32),
         chunks=True if level.size else None,
         compression=compression if level.size else None,
+        # gzip's fastest level: 1.7x faster than h5py's default (4), files 9% larger
+        compression_opts=GZIP_LEVEL if compression == "gzip" and level.size else None,
         shuffle=bool(compression) and bool(level.size),
         fillvalue=np.float32(np.nan),
     )

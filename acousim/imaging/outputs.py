@@ -3,7 +3,9 @@ no stale file of ours from an earlier run; the user's own files stay untouched.
 
 Our files are known by name (:func:`is_ours`): ``fan.png``, ``elaz_<method>.png``
 for a method of :data:`processing.METHODS`, ``scene3d.png``, ``drive.gif``,
-``images.h5`` and ``peaks.csv``.  Anything else in the folder is the user's.
+``images.h5`` and ``peaks.csv``; with several recordings shown (``--recording``),
+``fan_<N>.png``, ``elaz_<method>_<N>.png`` and ``scene3d_<N>.png`` for a recording
+index N.  Anything else in the folder is the user's.
 """
 
 from __future__ import annotations
@@ -23,7 +25,17 @@ def is_ours(name: str) -> bool:
     """Whether a file name is one ``acousim image`` writes."""
     if name in OUR_FILES:
         return True
-    return name.startswith("elaz_") and name.endswith(".png") and name[5:-4] in P.METHODS
+    if not name.endswith(".png"):
+        return False
+    stem, _, n = name[:-4].rpartition("_")
+    if n.isdigit() and n.isascii() and _still(stem):
+        return True  # a recording's own picture: fan_3.png, elaz_das_3.png
+    return _still(name[:-4])
+
+
+def _still(stem: str) -> bool:
+    """Whether `stem` names one of a recording's pictures: fan, scene3d, elaz_METHOD."""
+    return stem in ("fan", "scene3d") or (stem.startswith("elaz_") and stem[5:] in P.METHODS)
 
 
 def our_files(folder: str | Path) -> set[Path]:

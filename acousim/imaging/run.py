@@ -33,7 +33,9 @@ __all__ = [
     "peak_table",
     "peaks_in_world",
     "prepare_pictures",
+    "write_drive",
     "write_pictures",
+    "write_stills",
 ]
 
 
@@ -287,55 +289,92 @@ def write_pictures(
     progress: Callable[[int, int], None] | None = None,
     indices: Sequence[int] | None = None,
 ) -> list[Path]:
-    """Fan images and elevation-azimuth maps of the first recording, its 3D render,
-    and for several recordings (a trajectory) an animated GIF of the drive.
+    """Fan images, elevation-azimuth maps and the 3D render of the first recording
+    (:func:`write_stills`), and for several recordings (a trajectory) an animated GIF
+    of the drive (:func:`write_drive`).
 
     indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
+    """
+    written = write_stills(
+        recordings, images, out_dir, options, render_3d=render_3d, indices=indices
+    )
+    if animation and len(recordings) > 1:
+        written += write_drive(
+            recordings, images, out_dir, options, progress=progress, indices=indices
+        )
+    return written
+
+
+def write_stills(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    shown: Sequence[int] = (0,),
+    indices: Sequence[int] | None = None,
+    render_3d: bool = True,
+) -> list[Path]:
+    """Fan images, elevation-azimuth maps and (`render_3d`) the 3D render of the
+    recordings at positions `shown` of `recordings`: the files written.
+
+    indices : the recordings' indices in their file (for the titles and, when several
+        are shown, the file names: ``fan_N.png``, ``elaz_METHOD_N.png``,
+        ``scene3d_N.png``; default 0, 1, ...).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     trajectory = len(recordings) > 1
+    scene = _scene(recordings[shown[0]]) if render_3d else None
+    triangles = _scene_triangles(scene) if render_3d else None
     written = []
-    first, imgs = recordings[0], images[0]
-    scene = _scene(first) if render_3d or animation else None
-    limit = _range_limit(first, options)
-    title = _title(first, indices[0], trajectory)
-    written += _stills(first, imgs, out, options, limit, title)
-    triangles = _scene_triangles(scene) if render_3d or animation else None
-    if render_3d:
-        written.append(
-            _render(
-                first,
-                imgs,
-                triangles,
-                out / "scene3d.png",
-                options,
-                _moving_triangles(scene, first),
-            )
-        )
-    if animation and trajectory:
-        written.append(
-            _animate(
-                recordings, images, triangles, out / "drive.gif", options, progress, indices, scene
-            )
-        )
+    for k in shown:
+        rec, imgs = recordings[k], images[k]
+        tag = f"_{indices[k]}" if len(shown) > 1 else ""
+        title = _title(rec, indices[k], trajectory)
+        written += _stills(rec, imgs, out, options, _range_limit(rec, options), title, tag)
+        if render_3d:
+            moving = _moving_triangles(scene, rec)
+            path = out / f"scene3d{tag}.png"
+            written.append(_render(rec, imgs, triangles, path, options, moving, title))
     return written
 
 
-def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str):
+def write_drive(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    progress: Callable[[int, int], None] | None = None,
+    indices: Sequence[int] | None = None,
+) -> list[Path]:
+    """The animated GIF of a drive (``drive.gif``): per recording, the 3D view beside
+    the fan of the sharpest method imaged.  Returns the file written (a list)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    scene = _scene(recordings[0])
+    triangles = _scene_triangles(scene)
+    path = out / "drive.gif"
+    return [_animate(recordings, images, triangles, path, options, progress, indices, scene)]
+
+
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag=""):
     """The fan (every method) and each method's el-az maps of one recording, with
-    its traced reflectors marked: the files written."""
+    its traced reflectors marked: the files written (``fan{tag}.png``, ...)."""
     from acousim.viz import elaz_figure, fan_figure
 
     dr = options.dynamic_range_db
     truth = _truth_sensor(rec, dr)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
-    written = [fan_figure(imgs, out / "fan.png", max_range_m=limit, **kw)]
+    written = [fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)]
     for m, img in imgs.items():
         if img.power.size:
             tol = _half_range_resolution(rec, img, options)
-            written.append(elaz_figure(img, out / f"elaz_{m}.png", truth_tolerance_m=tol, **kw))
+            path = out / f"elaz_{m}{tag}.png"
+            written.append(elaz_figure(img, path, truth_tolerance_m=tol, **kw))
     return written
 
 
@@ -452,11 +491,13 @@ def _frame_content(rec, img, options, sweep, moving):
     )
 
 
-def _render(rec, imgs, triangles, path, options, moving=None):
+def _render(rec, imgs, triangles, path, options, moving=None, title=None):
     from acousim.viz.render3d import render_scene
 
     content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
-    render_scene(path, content, triangles=triangles, truth_range_db=options.dynamic_range_db)
+    render_scene(
+        path, content, triangles=triangles, truth_range_db=options.dynamic_range_db, title=title
+    )
     return Path(path)
 
 
@@ -477,6 +518,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
     import imageio.v3 as iio
 
+    from acousim.viz.drive import DriveFigure
     from acousim.viz.fan import common_extent
     from acousim.viz.render3d import SceneRenderer
 
@@ -499,17 +541,34 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         with_moving=scene is not None and any(m.moving for m in scene.meshes),
         truth_range_db=dr,
         with_lidar=any(rec.lidar is not None for rec in recordings),
+        legend=False,  # below the frame, with the fan's
     )
+    figure = None
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
             moving = _moving_triangles(scene, rec)
             view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
+            if figure is None:  # laid out once, on the first frame
+                figure = DriveFigure(
+                    view_shape=view.shape[:2],
+                    first=imgs[method],
+                    extent=extent,
+                    max_range_m=limit,
+                    dynamic_range_db=dr,
+                    entries=renderer.entries,
+                    # the same entries in every frame: the frames keep one size
+                    marks={"in", "off", "behind", "weak"}
+                    if any(m is not None for m in marks)
+                    else set(),
+                )
             title = _title(rec, indices[k], True)
-            frames.append(_drive_frame(view, imgs[method], marks[k], limit, dr, extent, title))
+            frames.append(figure.frame(view, imgs[method], marks[k], title))
             if progress:
                 progress(k + 1, len(recordings))
     finally:
         renderer.close()
+        if figure is not None:
+            figure.close()
     with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
         iio.imwrite(
             tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
@@ -528,33 +587,3 @@ def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db:
     a = image.azimuth_rad
     span = (float(a.min()), float(a.max())) if a.size else (-np.pi / 2, np.pi / 2)
     return fan_marks(truth, limit, FAN_ELEVATION_BAND_RAD, span, dynamic_range_db)
-
-
-def _drive_frame(view, image, marks, limit, dynamic_range_db, extent, title) -> np.ndarray:
-    """One animation frame (H, W, 3) uint8: the 3D view beside the fan with its marks."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, legend_inside
-
-    fig, (a, b) = plt.subplots(
-        1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
-    )
-    a.imshow(view)
-    a.axis("off")
-    a.set_title(title, fontsize=10)
-    im = draw_fan(b, image, limit, dynamic_range_db, pixels=600, extent=extent)
-    step = (extent[0] - extent[1]) / 40  # marks closer than ~1/40 of the view are one
-    drawn = marks.draw(b, min_separation=step) if marks is not None else set()
-    b.set_title(f"{image.method}, top view", fontsize=9)
-    fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
-    # the same entries in every frame: the frames keep one size
-    every = {"in", "off", "behind", "weak"}
-    legend_inside(fig, fan_legend(every if marks is not None else drawn, dynamic_range_db))
-    fig.canvas.draw()
-    # the Agg canvas (matplotlib.use("Agg") above) has buffer_rgba; the base class does not
-    frame = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]
-    plt.close(fig)
-    return frame

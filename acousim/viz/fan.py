@@ -11,8 +11,10 @@ azimuth positive towards +y, elevation positive towards +z):
   left, elevation upwards;
 - levels are dB relative to the strongest cell of each panel, shown over one
   dynamic range (:data:`DYNAMIC_RANGE_DB` unless given; every colour bar says how
-  many dB); range bins the energy gate removed are drawn grey ("no data"), not black
-  like a quiet bin;
+  many dB); range bins the energy gate removed are drawn in the colour map's floor
+  colour, like a quiet bin (the gate is a speed-up: it drops bins far below the
+  strongest, so no rings of "no data" cross the picture); only what lies outside the
+  field of view is white;
 - ray-traced reflectors are marked in every picture, those off the picture's slice
   and those behind the array (at their mirror) with their own markers
   (:mod:`acousim.viz.truth`), and every legend lies inside the figure.
@@ -20,6 +22,7 @@ azimuth positive towards +y, elevation positive towards +z):
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +42,7 @@ __all__ = [
     "fan_extent",
     "fan_figure",
     "fan_raster",
+    "floor_color",
     "full_range_fan",
     "make_elaz_figure",
     "make_fan_figure",
@@ -51,9 +55,21 @@ __all__ = [
 DYNAMIC_RANGE_DB = 30.0
 #: the fan collapses elevation over this band around the horizontal plane
 FAN_ELEVATION_BAND_RAD = float(np.deg2rad(30.0))
-NO_DATA_COLOR = (0.62, 0.62, 0.62)  # range bins removed by the energy gate: grey
-TRUTH_COLOR = "white"  # ray-traced reflectors: white circles
 CMAP = "inferno"
+#: range bins removed by the energy gate: the colour map's floor (its value at 0,
+#: black for inferno), as a quiet bin; :func:`floor_color` gives it for any map
+NO_DATA_COLOR = (0.001462, 0.000466, 0.013866)
+TRUTH_COLOR = "white"  # ray-traced reflectors: white circles
+#: outside the field of view
+OUTSIDE_COLOR = (1.0, 1.0, 1.0)
+
+
+def floor_color(cmap: str = CMAP) -> tuple[float, float, float]:
+    """The RGB (0-1) a colour map gives its lowest value: the colour of a level at or
+    below the picture's dynamic range, and of range bins the energy gate removed."""
+    import matplotlib as mpl
+
+    return tuple(float(c) for c in mpl.colormaps[cmap](0.0)[:3])
 
 
 def _plt():
@@ -179,11 +195,14 @@ def fan_raster(
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     pixels: int = 800,
     extent: tuple[float, float, float, float] | None = None,
+    *,
+    reference: float | None = None,
 ) -> FanRaster:
     """Rasterise the top view of `image` on `pixels` columns (nearest polar cell per
     pixel) after max-pooling range bins to the raster's resolution, so that no echo
     thinner than a pixel disappears.  `extent` as in :class:`FanRaster` (default: the
-    whole field of view out to `max_range_m`)."""
+    whole field of view out to `max_range_m`); `reference` the power 0 dB stands for
+    (default: the strongest cell drawn; two fans on one scale share one)."""
     rng, fan = full_range_fan(image, max_range_m)
     r_edges, a_edges = _edges(rng), _edges(image.azimuth_rad)
     if extent is None:
@@ -210,17 +229,53 @@ def fan_raster(
         r_edges = _edges(rng)
     finite = np.isfinite(fan)
     ref = float(fan[finite].max()) if finite.any() else 0.0
+    ref = ref if reference is None else float(reference)
     db = np.where(finite, to_db(np.nan_to_num(fan), ref or None, -dynamic_range_db), np.nan)
-    ys = _centres(y_left, y_right, pixels)  # y decreases from left to right
-    xs = _centres(x_lo, x_hi, height)
-    PY, PX = np.meshgrid(ys, xs)
-    i = np.searchsorted(r_edges, np.hypot(PX, PY)) - 1
-    j = np.searchsorted(a_edges, np.arctan2(PY, PX)) - 1
-    inside = (i >= 0) & (i < db.shape[0]) & (j >= 0) & (j < db.shape[1])
-    raster = np.full(PX.shape, np.nan)
-    raster[inside] = db[i[inside], j[inside]]
-    no_data = inside & np.isnan(raster)
-    return FanRaster(raster, no_data, (float(y_left), float(y_right), float(x_lo), float(x_hi)))
+    box = (float(y_left), float(y_right), float(x_lo), float(x_hi))
+    cell, in_azimuth = _pixel_cells(r_edges.tobytes(), a_edges.tobytes(), box, pixels, height)
+    raster = np.full(cell.shape, np.nan)
+    hit = cell >= 0
+    raster[hit] = db.ravel()[cell[hit]]
+    # in the field of view without a level: bins the gate removed, or beyond the
+    # range axis (the view's corners past the imaged range)
+    no_data = in_azimuth & np.isnan(raster)
+    return FanRaster(raster, no_data, box)
+
+
+@functools.lru_cache(maxsize=8)
+def _pixel_cells(
+    r_edges: bytes, a_edges: bytes, box: tuple[float, float, float, float], pixels: int, height: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The polar cell under each pixel's centre of a (height, pixels) raster over `box`
+    (as :class:`FanRaster`'s extent) for cell edges in range (R + 1,) and azimuth
+    (A + 1,) given as float64 bytes: (flat index into (R, A), -1 where none (H, W);
+    the pixel lies within the azimuth span (H, W) bool).  Cached: an animation's
+    frames share one mapping."""
+    r, a = np.frombuffer(r_edges), np.frombuffer(a_edges)
+    y_left, y_right, x_lo, x_hi = box
+    PY, PX = np.meshgrid(_centres(y_left, y_right, pixels), _centres(x_lo, x_hi, height))
+    i = np.searchsorted(r, np.hypot(PX, PY)) - 1
+    j = np.searchsorted(a, np.arctan2(PY, PX)) - 1
+    in_azimuth = (j >= 0) & (j < a.size - 1)
+    inside = in_azimuth & (i >= 0) & (i < r.size - 1)
+    cell = np.where(inside, i * (a.size - 1) + j, -1)
+    cell.flags.writeable = in_azimuth.flags.writeable = False
+    return cell, in_azimuth
+
+
+def fan_rgb(raster: FanRaster, dynamic_range_db: float, cmap: str = CMAP) -> np.ndarray:
+    """The colours of a :class:`FanRaster`: (H, W, 3) uint8, row 0 the bottom.
+
+    Levels map linearly onto `cmap` from -`dynamic_range_db` (its floor) to 0 dB;
+    range bins the energy gate removed take the floor colour (a quiet bin), pixels
+    outside the field of view are white (:data:`OUTSIDE_COLOR`)."""
+    import matplotlib as mpl
+
+    lut = (mpl.colormaps[cmap].resampled(256)(np.arange(256))[:, :3] * 255).round()
+    level = np.nan_to_num(raster.db, nan=-dynamic_range_db) / dynamic_range_db + 1.0
+    rgb = lut.astype(np.uint8)[np.clip((level * 256).astype(int), 0, 255)]
+    rgb[np.isnan(raster.db) & ~raster.no_data] = np.round(np.multiply(OUTSIDE_COLOR, 255))
+    return rgb
 
 
 def draw_fan(
@@ -230,21 +285,21 @@ def draw_fan(
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     pixels: int = 800,
     extent: tuple[float, float, float, float] | None = None,
+    *,
+    reference: float | None = None,
 ):
     """Draw the top view of an image on a matplotlib axis (x forward up, y to the left:
     the horizontal axis is y in metres and increases leftwards).  Returns a
-    ScalarMappable of the colours (for a colour bar).  See :func:`fan_raster` for `extent`."""
+    ScalarMappable of the colours (for a colour bar).  See :func:`fan_raster` for
+    `extent` and `reference`."""
     import matplotlib as mpl
 
-    r = fan_raster(image, max_range_m, dynamic_range_db, pixels, extent)
-    # one RGBA picture: colours for the data, grey for no data, white outside the fan
+    r = fan_raster(image, max_range_m, dynamic_range_db, pixels, extent, reference=reference)
+    ax.imshow(
+        fan_rgb(r, dynamic_range_db), origin="lower", extent=r.extent, interpolation="nearest"
+    )
     norm = mpl.colors.Normalize(-dynamic_range_db, 0.0)
-    cmap = mpl.colormaps[CMAP]
-    rgba = cmap(norm(np.nan_to_num(r.db, nan=-dynamic_range_db)))
-    rgba[np.isnan(r.db)] = (1.0, 1.0, 1.0, 1.0)
-    rgba[r.no_data] = (*NO_DATA_COLOR, 1.0)
-    ax.imshow(rgba, origin="lower", extent=r.extent, interpolation="nearest")
-    im = mpl.cm.ScalarMappable(norm=norm, cmap=cmap)  # for a colour bar
+    im = mpl.cm.ScalarMappable(norm=norm, cmap=mpl.colormaps[CMAP])  # for a colour bar
     ax.set_xlim(r.extent[0], r.extent[1])
     ax.set_ylim(r.extent[2], r.extent[3])
     ax.set_aspect("equal")
@@ -271,8 +326,8 @@ def make_fan_figure(
     truth=None,
 ):
     """One fan panel per method, side by side (x forward, y to the left), each with a
-    colour bar in dB; one legend, inside the figure, for the no-data grey and the
-    traced reflectors' marks.  Returns the matplotlib Figure.
+    colour bar in dB; one legend, inside the figure, for the traced reflectors'
+    marks.  Returns the matplotlib Figure.
 
     max_range_m : the farthest range that may be drawn (the scene's range); the view
         is fitted to the echoes within the dynamic range and the marks inside it.
@@ -356,23 +411,25 @@ def common_extent(images, max_range_m: float, dynamic_range_db: float, points_yx
 
 
 def fan_legend(drawn: set[str], dynamic_range_db: float) -> list:
-    """A fan's legend entries: the no-data grey and the marks drawn."""
-    from matplotlib.patches import Patch
-
+    """A fan's legend entries: the marks drawn (the energy gate's removed bins are
+    the floor colour: nothing to explain)."""
     from acousim.viz.truth import legend_handles
 
-    grey = Patch(color=NO_DATA_COLOR, label="no data (energy gate)")
-    return [grey, *legend_handles(drawn, dynamic_range_db)]
+    return list(legend_handles(drawn, dynamic_range_db))
 
 
-def colorbar_label(dynamic_range_db: float) -> str:
-    """Every colour bar's label: the unit and the dynamic range shown."""
-    return f"dB re strongest cell ({dynamic_range_db:g} dB range)"
+def colorbar_label(dynamic_range_db: float, joint: bool = False) -> str:
+    """Every colour bar's label: the unit and the dynamic range shown (`joint`: the
+    reference is the strongest cell of the panels drawn on one scale)."""
+    of = " of both" if joint else ""
+    return f"dB re strongest cell{of} ({dynamic_range_db:g} dB range)"
 
 
 def legend_inside(fig, handles, fontsize: float = 8):
     """A legend below the panels that fits the figure's width: as many columns as fit
     (down to one), and a wider figure only when one column is still too wide."""
+    if not handles:
+        return None
     renderer = fig.canvas.get_renderer()
     for ncols in range(min(len(handles), 3), 0, -1):
         leg = fig.legend(

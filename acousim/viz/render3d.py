@@ -1,7 +1,9 @@
 """3D views (pyvista, offscreen): the scene's meshes, the sensor at its pose, the
 reflectors the ray tracer found and the acoustic image's peaks placed in the scene.
 
-Every view has a legend and a 1 m scale bar.  Ray-traced reflectors are drawn only
+Every view has a legend (inside the view, or for ``scene3d.png`` and the animation
+below it in black text: :func:`view_figure`) and a 1 m scale bar.  Ray-traced reflectors are
+drawn only
 within `truth_range_db` of the strongest echo, the stronger ones larger, so that a
 few strong reflectors are not hidden among hundreds of weak scatterers.  Without a
 scene mesh (a real recording) the camera is fitted to the sensor and the peaks, and
@@ -26,6 +28,10 @@ __all__ = [
     "SceneRenderer",
     "FrameContent",
     "render_scene",
+    "legend_entries",
+    "legend_handles",
+    "view_figure",
+    "SCENE_WINDOW",
     "import_pyvista",
     "PEAK_COLOR",
     "TRUTH_COLOR",
@@ -136,6 +142,29 @@ def import_pyvista():
 _pv = import_pyvista
 
 
+def legend_entries(
+    *,
+    with_truth: bool,
+    with_sweep: bool = False,
+    with_moving: bool = False,
+    truth_range_db: float = DYNAMIC_RANGE_DB,
+    with_lidar: bool = False,
+) -> list[tuple[str, tuple[float, float, float]]]:
+    """The 3D view's legend: (label, RGB colour) of each kind of thing drawn."""
+    entries = [("sensor, arrow: its axis", SENSOR_COLOR), ("image peaks", PEAK_COLOR)]
+    if with_sweep:
+        entries.append(("its sweep during the measurement", SWEEP_COLOR))
+    if with_moving:
+        entries.append(("moving meshes, at the emission", MOVING_COLOR))
+    if with_truth:
+        entries.append(
+            (f"traced reflectors within {truth_range_db:g} dB, size: level", TRUTH_COLOR)
+        )
+    if with_lidar:
+        entries.append(("LiDAR points", LIDAR_COLOR))
+    return entries
+
+
 class SceneRenderer:
     """One offscreen plotter for many frames of the same scene: the meshes, legend
     and scale are added once, the sensor, reflectors and peaks are replaced per frame
@@ -147,6 +176,7 @@ class SceneRenderer:
     with_moving : list the moving meshes (drawn per frame) in the legend.
     truth_range_db : reflectors within this of the strongest echo are drawn (dB).
     with_lidar : list the LiDAR's points in the legend.
+    legend : draw the legend inside the view (its entries are ``entries`` either way).
     """
 
     def __init__(
@@ -158,6 +188,7 @@ class SceneRenderer:
         with_moving: bool = False,
         truth_range_db: float = DYNAMIC_RANGE_DB,
         with_lidar: bool = False,
+        legend: bool = True,
     ) -> None:
         self.pv = pv = _pv()
         self.truth_range_db = truth_range_db
@@ -171,26 +202,24 @@ class SceneRenderer:
             self.floor_z = float(tri[..., 2].min())
         else:
             self.floor_z = None
-        entries = [["sensor, arrow: its axis", SENSOR_COLOR], ["image peaks", PEAK_COLOR]]
-        if with_sweep:
-            entries.append(["its sweep during the measurement", SWEEP_COLOR])
-        if with_moving:
-            entries.append(["moving meshes, at the emission", MOVING_COLOR])
-        if with_truth:
-            entries.append(
-                [f"traced reflectors within {truth_range_db:g} dB, size: level", TRUTH_COLOR]
-            )
-        if with_lidar:
-            entries.append(["LiDAR points", LIDAR_COLOR])
-        self.plotter.add_legend(
-            entries,
-            bcolor="white",
-            border=True,
-            size=(0.36, max(0.12, 0.03 * len(entries))),
-            loc="upper left",
-            face="circle",
+        self.entries = legend_entries(
+            with_truth=with_truth,
+            with_sweep=with_sweep,
+            with_moving=with_moving,
+            truth_range_db=truth_range_db,
+            with_lidar=with_lidar,
         )
+        if legend:  # inside the view; a picture may draw it outside instead
+            self.plotter.add_legend(
+                [list(e) for e in self.entries],
+                bcolor=(0.2, 0.2, 0.22),  # the light colours read on a dark ground
+                border=True,
+                size=(0.36, max(0.12, 0.03 * len(self.entries))),
+                loc="upper left",
+                face="circle",
+            )
         self._actors: list = []
+        self._ruler = None
 
     def frame(self, content: FrameContent, *, camera: str = "chase") -> np.ndarray:
         """Render one frame of `content` (:class:`FrameContent`): (H, W, 3) uint8.
@@ -230,7 +259,7 @@ class SceneRenderer:
                     render=False,  # one render per frame: the screenshot's
                 )
             )
-        self._actors.append(self._scale_bar(pos, axis))
+        self._scale_bar(pos, axis)
         self._place_camera(c, pos, axis, camera, drawn_truth)
         plotter.render()  # the actors were added without rendering: once, here
         return plotter.screenshot(return_img=True)
@@ -311,16 +340,21 @@ class SceneRenderer:
             )
         return actors
 
-    def _scale_bar(self, pos: np.ndarray, axis: np.ndarray):
+    def _scale_bar(self, pos: np.ndarray, axis: np.ndarray) -> None:
         """A 1 m ruler across the view, 0.8 m in front of the sensor and 0.2 m below
-        it (above the floor, if the scene has one)."""
+        it (above the floor, if the scene has one): made once, moved per frame (adding
+        one resets the camera with a render of its own)."""
         side = np.cross([0.0, 0.0, 1.0], axis)
         side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([0, 1, 0])
         z = pos[2] - 0.2
         if self.floor_z is not None:
             z = max(z, self.floor_z + 0.01)
         a = np.array([*(pos[:2] + 0.8 * axis[:2]), z]) - 0.5 * side
-        return self.plotter.add_ruler(
+        if self._ruler is not None:
+            self._ruler.GetPositionCoordinate().SetValue(*a)
+            self._ruler.GetPosition2Coordinate().SetValue(*(a + side))
+            return
+        self._ruler = self.plotter.add_ruler(
             a,
             a + side,
             title="1 m",
@@ -363,18 +397,25 @@ class SceneRenderer:
         self.plotter.close()
 
 
+#: scene3d.png: the 3D view's size in pixels (width, height); its legend lies below it
+SCENE_WINDOW = (1600, 1000)
+
+
 def render_scene(
     path: str | Path | None,
     content: FrameContent,
     *,
     triangles: np.ndarray | None,
-    window_size: tuple[int, int] = (900, 600),
+    window_size: tuple[int, int] = SCENE_WINDOW,
     camera: str = "chase",
     truth_range_db: float = DYNAMIC_RANGE_DB,
+    title: str | None = None,
 ) -> np.ndarray:
     """Render a single frame of `content` (see :meth:`SceneRenderer.frame`) among the
-    scene's `triangles` (F, 3, 3) (None: no mesh); write it to `path` (PNG,
-    atomically) when given.  Returns the image as an (H, W, 3) uint8 array."""
+    scene's `triangles` (F, 3, 3) (None: no mesh); when `path` is given, write it
+    as a PNG (atomically) as wide as the view, with `title` above it and the legend
+    below it, outside the view (:func:`view_figure`).  Returns the view alone as an
+    (H, W, 3) uint8 array."""
     renderer = SceneRenderer(
         triangles,
         window_size,
@@ -383,14 +424,60 @@ def render_scene(
         with_moving=content.moving_triangles is not None,
         truth_range_db=truth_range_db,
         with_lidar=content.lidar is not None,
+        legend=False,
     )
     try:
         image = renderer.frame(content, camera=camera)
     finally:
         renderer.close()
     if path is not None:
-        from matplotlib.image import imsave
+        import matplotlib.pyplot as plt
 
+        fig = view_figure(image, renderer.entries, title)
         with atomic_path(path) as tmp:
-            imsave(tmp, image, format="png")
+            fig.savefig(tmp, dpi=fig.dpi, format="png")
+        plt.close(fig)
     return image
+
+
+def legend_handles(entries, markersize: float = 11.0) -> list:
+    """Matplotlib legend entries of :func:`legend_entries`: a filled circle of each
+    colour with a black edge (a light colour still shows on white), black text."""
+    from matplotlib.lines import Line2D
+
+    return [
+        Line2D([], [], ls="none", marker="o", ms=markersize, mfc=c, mec="black", label=label)
+        for label, c in entries
+    ]
+
+
+def view_figure(image: np.ndarray, entries, title: str | None = None, fontsize: float = 14.0):
+    """A 3D view (H, W, 3) drawn one pixel per pixel, `title` above it and the legend
+    (:func:`legend_entries`) below it in black text: nothing covers the view and the
+    legend reads at the picture's size.  Returns the matplotlib Figure (Agg)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h, w = image.shape[:2]
+    dpi = 100.0
+    rows = -(-len(entries) // 3)
+    below = (0.35 + 0.32 * rows) * fontsize / 14  # inches
+    above = 0.5 * fontsize / 14 if title else 0.0
+    fig = plt.figure(figsize=(w / dpi, h / dpi + below + above), dpi=dpi)
+    total = h / dpi + below + above
+    ax = fig.add_axes((0.0, below / total, 1.0, h / dpi / total))
+    ax.imshow(image, interpolation="nearest")
+    ax.axis("off")
+    fig.legend(
+        handles=legend_handles(entries),
+        loc="lower center",
+        ncols=min(3, len(entries)),
+        fontsize=fontsize,
+        frameon=False,
+        bbox_to_anchor=(0.5, 0.0),
+    )
+    if title:
+        fig.text(0.5, 1 - 0.5 * above / total, title, ha="center", va="center", fontsize=fontsize)
+    return fig

@@ -199,6 +199,46 @@ class Image:
         return self.power[:, e, :]
 
 
+#: :func:`to_db`'s floor in :func:`find_peaks` (dB)
+_PEAK_FLOOR_DB = -120.0
+
+
+def _local_maxima(p: np.ndarray, threshold_db: float) -> tuple[np.ndarray, np.ndarray]:
+    """Cells of `p` (R, E, A) at least as large as every cell of their 3x3x3
+    neighbourhood (clamped at the borders, as ``maximum_filter(mode="nearest")``)
+    and within `threshold_db` of the maximum: indices (N, 3) in index order and their
+    levels (N,) in dB (:func:`to_db`).  Only the cells above the threshold are
+    compared with their neighbours (a few of the image's)."""
+    ref = float(p.max())
+    if threshold_db - 1.0 <= _PEAK_FLOOR_DB:  # the floor passes: every cell is a candidate
+        cand = np.argwhere(p == p)
+    else:  # a margin of 1 dB: the exact test below decides
+        cand = np.argwhere(p >= ref * 10 ** ((threshold_db - 1.0) / 10))
+    level = to_db(p[tuple(cand.T)], ref, _PEAK_FLOOR_DB)
+    cand, level = cand[level >= threshold_db], level[level >= threshold_db]
+    value = p[tuple(cand.T)]
+    top = np.array(p.shape) - 1
+    local = np.full(value.shape, -np.inf)
+    for step in np.ndindex(3, 3, 3):
+        n = np.clip(cand + (np.array(step) - 1), 0, top)
+        local = np.maximum(local, p[tuple(n.T)])
+    peak = value >= local
+    return cand[peak], level[peak]
+
+
+def _pole_maxima(p: np.ndarray, pole: np.ndarray, threshold_db: float):
+    """:func:`_local_maxima` of an image whose elevations (E,) `pole` are +-90 degrees:
+    a pole is one cell, whose neighbours are the whole ring of the next elevation
+    (the whole image filtered: such grids are the rare wide ones)."""
+    local = maximum_filter(p, size=3, mode="nearest")
+    for e_pole in np.flatnonzero(pole):
+        ring = p[:, max(e_pole - 1, 0) : e_pole + 2, :].max(axis=(1, 2))
+        local[:, e_pole, :] = maximum_filter(ring, size=3, mode="nearest")[:, None]
+    level = to_db(p, float(p.max()), _PEAK_FLOOR_DB)
+    idx = np.argwhere((p >= local) & (level >= threshold_db))
+    return idx, level[tuple(idx.T)]
+
+
 def find_peaks(
     image: Image, threshold_db: float = PEAK_THRESHOLD_DB, *, max_peaks: int | None = None
 ) -> Peaks:
@@ -219,24 +259,18 @@ def find_peaks(
         # every azimuth at +-90 degrees is one direction: one value, so one peak
         p = p.copy()
         p[:, pole, :] = p[:, pole, :].max(axis=2, keepdims=True)
-    local = maximum_filter(p, size=3, mode="nearest")
-    for e_pole in np.flatnonzero(pole) if image.azimuth_rad.size > 1 else ():
-        # the pole is one cell: its neighbours are the whole ring of the next elevation
-        ring = p[:, max(e_pole - 1, 0) : e_pole + 2, :].max(axis=(1, 2))
-        local[:, e_pole, :] = maximum_filter(ring, size=3, mode="nearest")[:, None]
-    level = to_db(p)
-    mask = (p >= local) & (level >= threshold_db)
-    idx = np.argwhere(mask)
+        idx, level = _pole_maxima(p, pole, threshold_db)
+    else:
+        idx, level = _local_maxima(p, threshold_db)
     # drop later cells of a plateau: a neighbour earlier in index order with equal value
     keep = []
     seen = np.zeros(p.shape, bool)
-    for r, e, a in idx:
+    for n, (r, e, a) in enumerate(idx):
         sl = tuple(slice(max(i - 1, 0), i + 2) for i in (r, e, a))
         if not seen[sl].any():
-            keep.append((r, e, a))
+            keep.append(n)
         seen[r, e, a] = True
-    idx = np.array(keep, dtype=int).reshape(-1, 3)
-    lv = level[idx[:, 0], idx[:, 1], idx[:, 2]]
+    idx, lv = idx[keep].reshape(-1, 3), level[keep]
     order = np.argsort(-lv, kind="stable")
     if max_peaks is not None:
         order = order[:max_peaks]

@@ -1,0 +1,154 @@
+"""The drive animation's frames: the 3D view beside the top view (fan), one figure laid
+out once and reused for every frame.
+
+Laying out and drawing a matplotlib figure (ticks, colour bar, legend, constrained
+layout) costs most of a frame; only the two pictures, the fan's marks and the title
+change between frames.  So the figure is drawn once without them (its background
+kept), and each frame restores that background, writes the two pictures straight
+into the canvas' pixels (nearest pixel, through maps computed once; the fan's
+colours from its colour map and a polar-to-pixel mapping also computed once,
+:func:`acousim.viz.fan.fan_raster`) and draws only the marks and the title
+(matplotlib's blitting).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, fan_raster, fan_rgb, legend_inside
+from processing import Image
+
+__all__ = ["DriveFigure"]
+
+
+class DriveFigure:
+    """One figure for every frame of a drive: the 3D view (left, titled with the
+    recording) and the fan of one method (right) with its colour bar, one legend
+    below both (the 3D view's entries and the fan's marks).
+
+    view_shape : (H, W) of the 3D views.
+    extent : the fan's view (:class:`acousim.viz.fan.FanRaster`), the same in every
+        frame; max_range_m, dynamic_range_db as for :func:`acousim.viz.fan.draw_fan`.
+    first : the first frame's image (lays the figure out).
+    entries : the 3D view's legend entries (label, RGB).
+    marks : the fan's mark kinds listed in the legend (every frame the same).
+    """
+
+    def __init__(
+        self,
+        *,
+        view_shape: tuple[int, int],
+        first: Image,
+        extent: tuple[float, float, float, float],
+        max_range_m: float,
+        dynamic_range_db: float,
+        entries=(),
+        marks: set[str] = frozenset(),
+        pixels: int = 600,
+    ) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from acousim.viz.render3d import legend_handles
+
+        self.extent, self.limit, self.dr, self.pixels = (
+            extent,
+            max_range_m,
+            dynamic_range_db,
+            pixels,
+        )
+        fig, (a, b) = plt.subplots(
+            1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
+        )
+        self.fig, self.ax_view, self.ax_fan = fig, a, b
+        self.view = a.imshow(np.zeros((*view_shape, 3), np.uint8))
+        a.axis("off")
+        self.title = a.set_title(" ", fontsize=10)
+        im = draw_fan(b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=extent)
+        self.fan = b.images[-1]
+        b.set_title(f"{first.method}, top view", fontsize=9)
+        fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
+        handles = legend_handles(entries, markersize=7) + fan_legend(set(marks), dynamic_range_db)
+        legend_inside(fig, handles)
+        fig.canvas.draw()  # the layout, once
+        fig.set_layout_engine("none")
+        self.title.set_animated(True)
+        height = fig.canvas.get_width_height()[1]
+        # where each picture's pixels go on the canvas: drawn straight from the arrays
+        self.view_paste = _paste_map(a, view_shape, height, top_down=True)
+        self.fan_paste = _paste_map(b, first_raster_shape(self.fan), height, top_down=False)
+        self.view.set_visible(False)  # the background holds neither picture
+        self.fan.set_visible(False)
+        fig.canvas.draw()
+        self.background = fig.canvas.copy_from_bbox(fig.bbox)
+
+    def frame(self, view: np.ndarray, image: Image, marks, title: str) -> np.ndarray:
+        """One frame (H, W, 3) uint8: `view` (the 3D view), the fan of `image` with
+        `marks` (:class:`acousim.viz.truth.TruthMarks` or None), `title` above the view."""
+        canvas, a, b = self.fig.canvas, self.ax_view, self.ax_fan
+        canvas.restore_region(self.background)
+        pixels = np.asarray(canvas.buffer_rgba())
+        self.view_paste.paste(pixels, np.asarray(view)[..., :3])
+        raster = fan_raster(image, self.limit, self.dr, self.pixels, self.extent)
+        self.fan_paste.paste(pixels, fan_rgb(raster, self.dr))
+        self.title.set_text(title)
+        a.draw_artist(self.title)
+        if marks is not None:
+            before = set(b.get_children())
+            step = (self.extent[0] - self.extent[1]) / 40  # marks closer are one
+            marks.draw(b, min_separation=step)
+            for artist in [c for c in b.get_children() if c not in before]:
+                b.draw_artist(artist)
+                artist.remove()
+        for spine in b.spines.values():  # the image covers the frame's inner half
+            b.draw_artist(spine)
+        return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+    def close(self) -> None:
+        import matplotlib.pyplot as plt
+
+        plt.close(self.fig)
+
+
+def first_raster_shape(image_artist) -> tuple[int, int]:
+    """(rows, columns) of an AxesImage's array."""
+    return tuple(image_artist.get_array().shape[:2])
+
+
+class _Paste:
+    """Nearest-pixel placement of a picture (h, w, 3) in a canvas box: the canvas
+    rows `rows` (slice) and columns `cols` (slice) take the picture's rows `src_rows`
+    (R,) and columns `src_cols` (C,)."""
+
+    def __init__(self, rows: slice, cols: slice, src_rows: np.ndarray, src_cols: np.ndarray):
+        self.rows, self.cols, self.src_rows, self.src_cols = rows, cols, src_rows, src_cols
+
+    def paste(self, canvas: np.ndarray, picture: np.ndarray) -> None:
+        """Write `picture` (h, w, 3) uint8 into `canvas` (H, W, 4), opaque."""
+        box = canvas[self.rows, self.cols]
+        box[..., :3] = picture[self.src_rows[:, None], self.src_cols[None, :]]
+        box[..., 3] = 255
+
+
+def _paste_map(ax, shape: tuple[int, int], height: int, *, top_down: bool) -> _Paste:
+    """Where the AxesImage of `ax` (its array `shape` (h, w), drawn with nearest
+    interpolation over its extent) lies on a canvas `height` pixels tall, and which of
+    its pixels each canvas pixel shows (the pixel under its centre).  `top_down`:
+    row 0 of the array is the top (origin "upper")."""
+    h, w = shape
+    image = ax.images[-1]
+    left, right, bottom, top = image.get_extent()
+    (x0, y0), (x1, y1) = ax.transData.transform([[left, bottom], [right, top]])
+    box = ax.get_window_extent()  # the axes clip what lies outside them
+    x0, x1 = sorted((x0, x1))
+    y0, y1 = sorted((y0, y1))
+    c0, c1 = int(round(max(x0, box.x0))), int(round(min(x1, box.x1)))
+    r0, r1 = int(round(height - min(y1, box.y1))), int(round(height - max(y0, box.y0)))
+    cols = np.arange(c0, c1) + 0.5
+    ys = height - (np.arange(r0, r1) + 0.5)  # display y of each canvas row's centre
+    src_cols = np.clip(((cols - x0) / (x1 - x0) * w).astype(int), 0, w - 1)
+    up = (y1 - ys) if top_down else (ys - y0)
+    src_rows = np.clip((up / (y1 - y0) * h).astype(int), 0, h - 1)
+    return _Paste(slice(r0, r1), slice(c0, c1), src_rows, src_cols)
