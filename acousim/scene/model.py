@@ -27,11 +27,12 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
+from acousim.synth.options import COMPRESS_TOLERANCE, RenderRate
 from processing import Array, Waveform
 from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
@@ -468,6 +469,14 @@ class Simulation:
     diffraction_order : 2 (default): each edge, and edge to edge over the pairs of
         edges that share a plane (the rims of a plate, the edges of a box face)
         where a pair can reach the energy floor; 1: each edge alone.
+    render_rate : the Doppler renderer (a scene in motion) at the sample rate
+        ("full", the default) or at complex baseband ("baseband": the call's band
+        only, converted up once per microphone; faster, within -60 dB at the
+        default band, :mod:`acousim.synth.baseband`).
+    render_band_db : the baseband render's band: the bins whose power is within
+        this of the strongest.
+    render_tolerance : the Doppler renderer's gain-set compression, the relative
+        amplitude left out (default 7e-4, -63 dB; larger: fewer sets, faster).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -488,6 +497,15 @@ class Simulation:
         "sinc", choices=FRACTIONAL_DELAYS, doc="fractional-delay interpolator"
     )
     absorption: bool = setting(True, doc="air absorption")
+    render_rate: RenderRate = setting(
+        "full", choices=get_args(RenderRate), doc="Doppler render: sample rate or baseband"
+    )
+    render_band_db: float = setting(
+        -60.0, "dB", -200, -10, "baseband render: bins within this of the strongest"
+    )
+    render_tolerance: float = setting(
+        COMPRESS_TOLERANCE, "", 1e-6, 0.3, "Doppler render: gain-set compression error"
+    )
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
     diffraction: bool = setting(True, doc="edge diffraction (BTM)")
     diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")

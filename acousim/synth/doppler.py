@@ -46,6 +46,7 @@ from acousim.core.echoes import Echoes
 from processing import Waveform
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
+from . import baseband
 from .compress import compress
 from .options import COMPRESS_TOLERANCE, DEFAULT_OPTIONS, DOPPLER_TOLERANCE, RenderOptions
 from .render import (
@@ -374,6 +375,8 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.direct_terms,
         plan.options.compress_tolerance,
     )
+    if plan.options.rate == "baseband":
+        return _render_baseband(plan, gains, filt_band, out)
     # the filters over the bins from the band's first to its last (zero elsewhere)
     band = plan.band
     b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
@@ -399,6 +402,27 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
             inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
         y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
         out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
+    """Step 5 at complex baseband (:mod:`.baseband`): the sets' spectra over the bins
+    within ``options.band_floor_db`` of the strongest, one inverse FFT per
+    microphone."""
+    n, lo, hi = plan.n_fft, plan.lo, plan.hi
+    F = n // 2 + 1
+    filters = np.zeros((gains.shape[2], F), complex)
+    filters[:, plan.band] = filt_band.T
+    energy = np.einsum("mnr,mnr->r", gains, gains)
+    c, half = baseband.centre(filters, energy, plan.options.band_floor_db)
+    grid = baseband.grid(n, c, half, baseband.TAPS, baseband.OVERSAMPLING)
+    pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
+    cdtype = np.complex64 if plan.single else complex
+    spec = np.zeros((plan.n_mics, F), cdtype)
+    bins = slice(c - half, c + half + 1)
+    spec[:, bins] = baseband.render_band(plan.positions, gains, filters[:, bins], grid, pad, cdtype)
+    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "DOPPLER_TOLERANCE",
     "COMPRESS_TOLERANCE",
     "SnrReference",
+    "RenderRate",
     "DEFAULT_OPTIONS",
     "NO_NOISE",
 ]
@@ -33,6 +34,11 @@ DOPPLER_TOLERANCE = 1e-3
 #: 2 m/s and 180 deg/s (BENCHMARKS.md, motion: its time against error, 3e-4 -> -71 dB
 #: with 8 sets instead of 6 on the corridor)
 COMPRESS_TOLERANCE = 7e-4
+
+RenderRate = Literal["full", "baseband"]
+"""How the Doppler renderer makes the samples: 'full', fractional-delay impulses and
+FFTs at the sample rate; 'baseband', the band the call occupies at complex baseband,
+converted up once per microphone (:mod:`acousim.synth.baseband`)."""
 
 SnrReference = Literal["signal", "echoes"]
 """What `Noise.snr_db` is relative to (see :func:`acousim.synth.model.simulate`)."""
@@ -57,13 +63,17 @@ class RenderOptions:
     emission_index: the sample of the start of the emission; interpolator, taps:
     the fractional delays (:mod:`acousim.synth.render`); doppler_tolerance,
     compress_tolerance: the Doppler renderer's node interpolation and gain-set
-    compression (:mod:`acousim.synth.doppler`)."""
+    compression (:mod:`acousim.synth.doppler`); rate: the Doppler renderer at the
+    sample rate ('full') or at complex baseband ('baseband', :mod:`acousim.synth.baseband`:
+    the bins within band_floor_db (dB, power) of the strongest)."""
 
     emission_index: int = 0
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR
     taps: int = DEFAULT_TAPS
     doppler_tolerance: float = DOPPLER_TOLERANCE
     compress_tolerance: float = COMPRESS_TOLERANCE
+    rate: RenderRate = "full"
+    band_floor_db: float = -60.0
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,155 @@
+"""The Doppler renderer's last step at complex baseband (``render_rate = "baseband"``).
+
+The full-rate renderer (:func:`acousim.synth.doppler.render_planned`) writes each
+gain set's impulses at the sample rate (fractional-delay kernels), transforms them
+(R sets x M microphones real FFTs of n points), multiplies by the sets' filters and
+transforms back.  The call spans 25-50 kHz of a 450 kHz sampling: most of those
+bins are empty.  Here the sets' spectra are computed only over the band where the
+filters carry energy (the bins within ``floor_db`` of the strongest, centred on bin
+c, half-width B), as a type-1 non-uniform FFT: each impulse at q samples, gain g,
+becomes the complex gain ``g exp(-2 pi i c q / n)`` spread over W points of a coarse
+grid of nb = sigma 2 B points (nb points over the same n samples) by the
+"exponential of semicircle" kernel phi; the coarse grid's FFT divided by phi's
+Fourier transform is ``sum g exp(-2 pi i (c + k) q / n)`` at bins c + k, |k| <= B,
+to the kernel's aliasing error (about exp(-beta (1 - 1 / sigma)...): below -100 dB
+at W = 8, sigma = 2).  The filtered band goes into an n-point spectrum per
+microphone and one real inverse FFT per microphone gives the samples: the same
+signals as the full-rate renderer, less the energy outside the band (the bins
+below ``floor_db``) and the kernels' errors (measured in BENCHMARKS.md and
+``tests/test_baseband.py``).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy import fft as sfft
+
+from processing.kernels import optional_kernel
+
+__all__ = ["render_band", "BasebandGrid", "grid", "centre", "TAPS", "OVERSAMPLING"]
+
+#: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
+#: (BENCHMARKS.md: with the band at -60 dB, the corridor's samples within -62 dB of
+#: the full-rate renderer's)
+TAPS = 4
+OVERSAMPLING = 1.5
+
+#: fractions of a coarse sample at which the kernel is tabulated (the nearest is
+#: taken: a position error of 1 / (2 TABLE_PHASES) coarse sample)
+TABLE_PHASES = 8192
+
+
+class BasebandGrid:
+    """The coarse grid of a render: centre bin c, half-width B (bins of the n-point
+    grid), nb coarse points, kernel width W, its table and Fourier transform psi
+    (2 B + 1,) at bins -B .. B."""
+
+    def __init__(self, n: int, c: int, half: int, width: int, sigma: float) -> None:
+        self.n, self.c, self.half, self.width = n, c, half, width
+        self.nb = sfft.next_fast_len(max(int(np.ceil(sigma * (2 * half + 1))), 2 * width))
+        self.beta = _beta(width, self.nb / (2 * half + 1))
+        self.table = _table(width, self.beta)
+        k = np.arange(-half, half + 1)
+        self.psi = _transform(width, self.beta, k / self.nb)
+
+
+def grid(n: int, c: int, half: int, width: int, sigma: float) -> BasebandGrid:
+    """The :class:`BasebandGrid` of these sizes (cached: a drive reuses it)."""
+    return _grid(int(n), int(c), int(half), int(width), float(sigma))
+
+
+@lru_cache(maxsize=16)
+def _grid(n: int, c: int, half: int, width: int, sigma: float) -> BasebandGrid:
+    return BasebandGrid(n, c, half, width, sigma)
+
+
+def _beta(width: int, sigma: float) -> float:
+    """The kernel's shape parameter for `width` taps at oversampling `sigma` (the
+    exponential-of-semicircle kernel's rule: its cut-off at the edge of the aliases)."""
+    return float(np.pi * width * (1 - 0.5 / sigma) * 0.98)
+
+
+def _phi(x: np.ndarray, width: int, beta: float) -> np.ndarray:
+    z = 2 * np.asarray(x, float) / width
+    inside = np.abs(z) < 1
+    out = np.zeros(z.shape)
+    out[inside] = np.exp(beta * (np.sqrt(1 - z[inside] ** 2) - 1))
+    return out
+
+
+@lru_cache(maxsize=16)
+def _table(width: int, beta: float) -> np.ndarray:
+    """Tap weights (TABLE_PHASES + 1, W): tap j of an impulse at fraction f of a
+    coarse sample after the tap ``first + W // 2 - 1`` lies at ``j - (W // 2 - 1) - f``."""
+    f = np.linspace(0.0, 1.0, TABLE_PHASES + 1)
+    offsets = np.arange(width) - (width // 2 - 1)
+    return _phi(offsets[None, :] - f[:, None], width, beta)
+
+
+def _transform(width: int, beta: float, nu: np.ndarray) -> np.ndarray:
+    """phi's Fourier transform at `nu` (cycles per coarse sample): Gauss-Legendre
+    quadrature over its support (phi is even: a cosine transform)."""
+    x, w = np.polynomial.legendre.leggauss(max(64, 8 * width))
+    x, w = x * width / 2, w * width / 2
+    return (np.cos(2 * np.pi * np.outer(nu, x)) * _phi(x, width, beta)) @ w
+
+
+def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tuple[int, int]:
+    """The band's centre bin c and half-width B (bins) of the sets' `filters` (R, F)
+    weighted by the energy of their gains (R,): every bin within `floor_db` of the
+    strongest, inside the n-point real FFT's bins 0 .. F - 1."""
+    power = gains_energy @ (np.abs(filters) ** 2)
+    on = np.flatnonzero(power >= power.max() * 10 ** (floor_db / 10))
+    k0, k1 = int(on[0]), int(on[-1])
+    c = (k0 + k1) // 2
+    half = max(c - k0, k1 - c, 1)
+    return min(max(c, half), filters.shape[1] - 1 - half), half
+
+
+def render_band(
+    positions: np.ndarray,
+    gains: np.ndarray,
+    filters: np.ndarray,
+    g: BasebandGrid,
+    pad: int,
+    dtype,
+) -> np.ndarray:
+    """The filtered spectra (M, 2 B + 1) at bins c - B .. c + B of the n-point grid.
+
+    positions (M, N): impulses in samples from the span's start (buffer index pad +
+    position); gains (M, N, R): the sets' gains; filters (R, 2 B + 1): the sets'
+    filters over those bins; dtype: complex64 or complex128 for the coarse FFT."""
+    M, N, R = gains.shape
+    W = g.width
+    q = np.ascontiguousarray(positions + pad, float)  # samples from the buffer's start
+    turn, scale = 2 * np.pi * g.c / g.n, g.nb / g.n
+    # the coarse buffer has W points either side, folded back afterwards (circular)
+    buf = np.zeros((R, M, g.nb + 2 * W), complex)
+    kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
+    args = (q, np.ascontiguousarray(gains, float), turn, scale, g.table, W - (W // 2 - 1))
+    (kernel or _accumulate_numpy)(*args, buf)
+    coarse = buf[:, :, W : W + g.nb].astype(dtype)
+    coarse[:, :, :W] += buf[:, :, W + g.nb :]
+    coarse[:, :, -W:] += buf[:, :, :W]
+    spectra = sfft.fft(coarse, axis=-1, workers=2)  # (R, M, nb)
+    k = np.arange(-g.half, g.half + 1) % g.nb
+    out = np.zeros((M, k.size), spectra.dtype)
+    for r in range(R):
+        out += spectra[r][:, k] * filters[r]
+    out /= g.psi
+    return out
+
+
+def _accumulate_numpy(q, gains, turn, scale, table, offset, out) -> None:
+    """:func:`._baseband_kernel.accumulate` without numba (the same sums)."""
+    M, N, R = gains.shape
+    P, W = table.shape[0] - 1, table.shape[1]
+    u = q * scale
+    i0 = np.floor(u)
+    w = table[np.rint((u - i0) * P).astype(np.intp)] * np.exp(-1j * turn * q)[..., None]
+    idx = i0.astype(np.int64)[..., None] + offset + np.arange(W)  # (M, N, W)
+    for r in range(R):
+        for m in range(M):
+            np.add.at(out[r, m], idx[m].ravel(), (w[m] * gains[m, :, r, None]).ravel())
