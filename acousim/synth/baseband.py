@@ -28,7 +28,7 @@ from scipy import fft as sfft
 
 from processing.kernels import optional_kernel
 
-__all__ = ["render_band", "BasebandGrid", "grid", "centre", "TAPS", "OVERSAMPLING"]
+__all__ = ["render_band", "BasebandGrid", "grid", "centre", "quantized", "TAPS", "OVERSAMPLING"]
 
 #: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
 #: (BENCHMARKS.md: with the band at -60 dB, the corridor's samples within -62 dB of
@@ -53,11 +53,30 @@ class BasebandGrid:
         self.table = _table(width, self.beta)
         k = np.arange(-half, half + 1)
         self.psi = _transform(width, self.beta, k / self.nb)
+        #: cos and -sin of the centre's turn at every whole sample of the n-point span
+        turn = 2 * np.pi * c / n * np.arange(n + 1)
+        self.spin = np.stack([np.cos(turn), -np.sin(turn)], axis=1)
 
 
 def grid(n: int, c: int, half: int, width: int, sigma: float) -> BasebandGrid:
     """The :class:`BasebandGrid` of these sizes (cached: a drive reuses it)."""
     return _grid(int(n), int(c), int(half), int(width), float(sigma))
+
+
+#: the band's half-width is rounded up to a multiple of this many bins and its
+#: centre to a multiple of half of it, so that a drive's poses share their grids
+BAND_QUANTUM = 32
+
+
+def quantized(c: int, half: int, n_bins: int) -> tuple[int, int]:
+    """The band (centre bin c, half-width B) widened to the grid of
+    :data:`BAND_QUANTUM`, inside bins 0 .. n_bins - 1."""
+    q = BAND_QUANTUM
+    lo, hi = c - half, c + half
+    c = int(np.round(c / (q // 2))) * (q // 2)
+    half = int(np.ceil((max(c - lo, hi - c) + 1) / q)) * q
+    half = min(half, (n_bins - 1) // 2)
+    return min(max(c, half), n_bins - 1 - half), half
 
 
 @lru_cache(maxsize=16)
@@ -104,8 +123,7 @@ def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tu
     on = np.flatnonzero(power >= power.max() * 10 ** (floor_db / 10))
     k0, k1 = int(on[0]), int(on[-1])
     c = (k0 + k1) // 2
-    half = max(c - k0, k1 - c, 1)
-    return min(max(c, half), filters.shape[1] - 1 - half), half
+    return quantized(c, max(c - k0, k1 - c, 1), filters.shape[1])
 
 
 def render_band(
@@ -126,10 +144,11 @@ def render_band(
     q = np.ascontiguousarray(positions + pad, float)  # samples from the buffer's start
     turn, scale = 2 * np.pi * g.c / g.n, g.nb / g.n
     # the coarse buffer has W points either side, folded back afterwards (circular)
-    buf = np.zeros((R, M, g.nb + 2 * W), complex)
+    buf = np.zeros((M, g.nb + 2 * W, R, 2))  # the sets' real and imaginary parts innermost
     kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
-    args = (q, np.ascontiguousarray(gains, float), turn, scale, g.table, W - (W // 2 - 1))
+    args = (q, np.ascontiguousarray(gains, float), turn, scale, g.table, W - (W // 2 - 1), g.spin)
     (kernel or _accumulate_numpy)(*args, buf)
+    buf = np.moveaxis(buf.view(complex)[..., 0], 2, 0)  # (R, M, nb + 2 W)
     coarse = buf[:, :, W : W + g.nb].astype(dtype)
     coarse[:, :, :W] += buf[:, :, W + g.nb :]
     coarse[:, :, -W:] += buf[:, :, :W]
@@ -142,7 +161,7 @@ def render_band(
     return out
 
 
-def _accumulate_numpy(q, gains, turn, scale, table, offset, out) -> None:
+def _accumulate_numpy(q, gains, turn, scale, table, offset, spin, out) -> None:
     """:func:`._baseband_kernel.accumulate` without numba (the same sums)."""
     M, N, R = gains.shape
     P, W = table.shape[0] - 1, table.shape[1]
@@ -150,6 +169,7 @@ def _accumulate_numpy(q, gains, turn, scale, table, offset, out) -> None:
     i0 = np.floor(u)
     w = table[np.rint((u - i0) * P).astype(np.intp)] * np.exp(-1j * turn * q)[..., None]
     idx = i0.astype(np.int64)[..., None] + offset + np.arange(W)  # (M, N, W)
+    view = out.view(complex)[..., 0]  # (M, B, R)
     for r in range(R):
         for m in range(M):
-            np.add.at(out[r, m], idx[m].ravel(), (w[m] * gains[m, :, r, None]).ravel())
+            np.add.at(view[m, :, r], idx[m].ravel(), (w[m] * gains[m, :, r, None]).ravel())
