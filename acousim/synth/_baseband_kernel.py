@@ -8,21 +8,23 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def accumulate(q, gains, turn, scale, table, offset, spin, out):  # pragma: no cover
+def accumulate(q, gains, sets, turn, scale, table, offset, spin, out):  # pragma: no cover
     """Sum of complex weighted kernels into `out` (M, B, R, 2) float64 (the real and
     imaginary parts, the sets innermost: one impulse's writes are adjacent), zero.
 
-    q (M, N): impulse positions (samples of the full rate); gains (M, N, R) float64;
+    q (M, N): impulse positions (samples of the full rate); gains (M, N, S) float64,
+    of which the R sets `sets` (R,) int64 are summed;
     turn: the centre frequency in radians per sample (each impulse is turned by
     ``exp(-i turn q)``); scale: coarse points per sample; table (P + 1, W): the
     kernel's tap weights at P + 1 fractions of a coarse point; offset: buffer index of
     coarse point 0 less (W // 2 - 1).  Impulse (m, n) adds
     ``table[p, j] exp(-i turn q) gains[m, n, r]`` to row r of microphone m at
-    ``floor(u) + offset + j`` (its real and imaginary parts); spin (K, 2): cos and
-    -sin of ``turn k`` for the whole samples k (K above every position), u = q scale, p the nearest tabulated fraction of u.
+    ``floor(u) + offset + j`` (its real and imaginary parts), u = q scale, p the
+    nearest tabulated fraction of u; spin (K, 2): cos and -sin of ``turn k`` for
+    the whole samples k (K above every position).
     """
     M, N = q.shape
-    R = gains.shape[2]
+    R = sets.size
     P = table.shape[0] - 1
     W = table.shape[1]
     for m in range(M):
@@ -42,7 +44,7 @@ def accumulate(q, gains, turn, scale, table, offset, spin, out):  # pragma: no c
             zr = spin[k, 0] * c + spin[k, 1] * sn
             zi = spin[k, 1] * c - spin[k, 0] * sn
             for r in range(R):
-                g = gains[m, n, r]
+                g = gains[m, n, sets[r]]
                 if g == 0.0:
                     continue
                 ar, ai = zr * g, zi * g

@@ -28,7 +28,16 @@ from scipy import fft as sfft
 
 from processing.kernels import optional_kernel
 
-__all__ = ["render_band", "BasebandGrid", "grid", "centre", "quantized", "TAPS", "OVERSAMPLING"]
+__all__ = [
+    "render_band",
+    "direct_spectra",
+    "BasebandGrid",
+    "grid",
+    "centre",
+    "quantized",
+    "TAPS",
+    "OVERSAMPLING",
+]
 
 #: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
 #: (BENCHMARKS.md: with the band at -60 dB, the corridor's samples within -62 dB of
@@ -126,6 +135,24 @@ def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tu
     return quantized(c, max(c - k0, k1 - c, 1), filters.shape[1])
 
 
+def direct_spectra(q: np.ndarray, gains: np.ndarray, filters: np.ndarray, b0: int, n: int):
+    """The exact spectra (M, F') of a few impulses (the direct path) at bins b0 ..
+    b0 + F' - 1 of the n-point grid: ``sum_nr gains[m, n, r] filters[r, f]
+    exp(-2 pi i f q[m, n] / n)``; q (M, N) samples from the buffer's start, gains
+    (M, N, R), filters (R, F').  The exponentials as products of two short tables
+    (bins b0 + S a + b)."""
+    M, N = q.shape
+    F = filters.shape[1]
+    S = int(np.ceil(np.sqrt(F)))
+    a, b = np.arange(S) * S, np.arange(S)
+    out = np.zeros((M, F), complex)
+    for k in range(N):
+        w = (-2j * np.pi / n) * q[:, k]
+        e = np.exp(w[:, None, None] * (b0 + a[None, :, None])) * np.exp(w[:, None, None] * b)
+        out += e.reshape(M, S * S)[:, :F] * (gains[:, k, :] @ filters)
+    return out
+
+
 def render_band(
     positions: np.ndarray,
     gains: np.ndarray,
@@ -133,20 +160,23 @@ def render_band(
     g: BasebandGrid,
     pad: int,
     dtype,
+    sets: np.ndarray,
 ) -> np.ndarray:
     """The filtered spectra (M, 2 B + 1) at bins c - B .. c + B of the n-point grid.
 
     positions (M, N): impulses in samples from the span's start (buffer index pad +
-    position); gains (M, N, R): the sets' gains; filters (R, 2 B + 1): the sets'
-    filters over those bins; dtype: complex64 or complex128 for the coarse FFT."""
-    M, N, R = gains.shape
-    W = g.width
+    position); gains (M, N, S): the sets' gains, of which the sets `sets` (R,) are
+    rendered; filters (R, 2 B + 1): their filters over those bins; dtype: complex64
+    or complex128 for the coarse FFT."""
+    M, N = positions.shape
+    R, W = sets.size, g.width
     q = np.ascontiguousarray(positions + pad, float)  # samples from the buffer's start
     turn, scale = 2 * np.pi * g.c / g.n, g.nb / g.n
     # the coarse buffer has W points either side, folded back afterwards (circular)
     buf = np.zeros((M, g.nb + 2 * W, R, 2))  # the sets' real and imaginary parts innermost
     kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
-    args = (q, np.ascontiguousarray(gains, float), turn, scale, g.table, W - (W // 2 - 1), g.spin)
+    gains = np.ascontiguousarray(gains, float)
+    args = (q, gains, sets, turn, scale, g.table, W - (W // 2 - 1), g.spin)
     (kernel or _accumulate_numpy)(*args, buf)
     buf = np.moveaxis(buf.view(complex)[..., 0], 2, 0)  # (R, M, nb + 2 W)
     coarse = buf[:, :, W : W + g.nb].astype(dtype)
@@ -161,8 +191,9 @@ def render_band(
     return out
 
 
-def _accumulate_numpy(q, gains, turn, scale, table, offset, spin, out) -> None:
+def _accumulate_numpy(q, gains, sets, turn, scale, table, offset, spin, out) -> None:
     """:func:`._baseband_kernel.accumulate` without numba (the same sums)."""
+    gains = gains[:, :, sets]
     M, N, R = gains.shape
     P, W = table.shape[0] - 1, table.shape[1]
     u = q * scale
