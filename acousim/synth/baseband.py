@@ -135,6 +135,43 @@ def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tu
     return quantized(c, max(c - k0, k1 - c, 1), filters.shape[1])
 
 
+def spectra(
+    q: np.ndarray,
+    gains: np.ndarray,
+    filters: np.ndarray,
+    direct: np.ndarray,
+    band: np.ndarray,
+    floor_db: float,
+    dtype,
+) -> np.ndarray:
+    """The filtered spectra (M, F) of the n-point real FFT (F = n // 2 + 1) of impulses
+    at q (M, N) samples with the gain sets (M, N, S) and their filters (S, F), zero
+    outside `band` (F,): the echoes' sets over the bins within `floor_db` of their
+    strongest (:func:`render_band`), the direct path's (`direct` (N,): its paths;
+    tens of dB above the echoes, a band cut at the echoes' floor would leave its error
+    above theirs) exactly over every bin of `band` (:func:`direct_spectra`)."""
+    M = q.shape[0]
+    F = filters.shape[1]
+    n = 2 * (F - 1)
+    spec = np.zeros((M, F), dtype)
+    energy = np.einsum("mnr,mnr->r", gains, gains)
+    echo_sets = np.ones(energy.size, bool)
+    if direct.any():
+        d = np.flatnonzero(direct)
+        # each set is of one group (the compression's, the factorisation's)
+        echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
+        b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
+        g = gains[:, d][:, :, ~echo_sets]
+        spec[:, b0:b1] += direct_spectra(q[:, d], g, filters[~echo_sets, b0:b1], b0, n)
+    if echo_sets.any():
+        sets = np.flatnonzero(echo_sets)
+        c, half = centre(filters[sets], energy[sets], floor_db)
+        g = grid(n, c, half, TAPS, OVERSAMPLING)
+        bins = slice(c - half, c + half + 1)
+        spec[:, bins] += render_band(q, gains, filters[sets, bins], g, 0, dtype, sets)
+    return spec
+
+
 def direct_spectra(q: np.ndarray, gains: np.ndarray, filters: np.ndarray, b0: int, n: int):
     """The exact spectra (M, F') of a few impulses (the direct path) at bins b0 ..
     b0 + F' - 1 of the n-point grid: ``sum_nr gains[m, n, r] filters[r, f]

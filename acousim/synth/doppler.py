@@ -406,37 +406,22 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
 
 
 def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
-    """Step 5 at complex baseband (:mod:`.baseband`): the echoes' sets over the bins
-    within ``options.band_floor_db`` of their strongest, the direct path (tens of dB
-    above the echoes: a band cut at its level would leave its error above theirs)
-    exactly over every bin of the filters (:func:`baseband.direct_spectra`); one
-    inverse FFT per microphone."""
+    """Step 5 at complex baseband (:func:`.baseband.spectra`), one inverse FFT per
+    microphone."""
     n, lo, hi = plan.n_fft, plan.lo, plan.hi
-    F = n // 2 + 1
-    filters = np.zeros((gains.shape[2], F), complex)
+    filters = np.zeros((gains.shape[2], n // 2 + 1), complex)
     filters[:, plan.band] = filt_band.T
     pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
     cdtype = np.complex64 if plan.single else complex
-    spec = np.zeros((plan.n_mics, F), cdtype)
-    direct = plan.direct_paths
-    # the direct path's sets: those of no echo (compress: each set is of one group)
-    energy = np.einsum("mnr,mnr->r", gains, gains)
-    echo_sets = np.ones(energy.size, bool)
-    if direct.any():
-        d = np.flatnonzero(direct)
-        echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
-        b0, b1 = np.flatnonzero(plan.band)[[0, -1]] + [0, 1]
-        g = gains[:, d][:, :, ~echo_sets]
-        q = plan.positions[:, d] + pad
-        spec[:, b0:b1] += baseband.direct_spectra(q, g, filters[~echo_sets, b0:b1], b0, n)
-    if echo_sets.any():
-        sets = np.flatnonzero(echo_sets)
-        c, half = baseband.centre(filters[sets], energy[sets], plan.options.band_floor_db)
-        grid = baseband.grid(n, c, half, baseband.TAPS, baseband.OVERSAMPLING)
-        bins = slice(c - half, c + half + 1)
-        spec[:, bins] += baseband.render_band(
-            plan.positions, gains, filters[sets, bins], grid, pad, cdtype, sets
-        )
+    spec = baseband.spectra(
+        plan.positions + pad,
+        gains,
+        filters,
+        plan.direct_paths,
+        plan.band,
+        plan.options.band_floor_db,
+        cdtype,
+    )
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out

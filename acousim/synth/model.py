@@ -102,6 +102,8 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
         interpolator=options.interpolator,
         taps=options.taps,
         response=response,
+        rate=options.rate,
+        band_floor_db=options.band_floor_db,
     )
 
 

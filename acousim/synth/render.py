@@ -34,6 +34,7 @@ filter, at ``d * fs`` samples after the emission.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -55,6 +56,9 @@ from processing.kernels import optional_kernel
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .response import PathResponse, factorise
+
+if TYPE_CHECKING:
+    from .options import RenderRate
 
 __all__ = [
     "render",
@@ -85,8 +89,14 @@ def render(
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
+    rate: RenderRate = "full",
+    band_floor_db: float = -60.0,
 ) -> np.ndarray:
     """Microphone signals of `echoes`, shape (M, T), float64.
+
+    `rate`: with a path response, "baseband" renders the call's band at complex
+    baseband (:mod:`acousim.synth.baseband`; the bins within `band_floor_db` of the
+    strongest), "full" (the default) at the sample rate.
 
     `response` adds air absorption and emitter directivity per path (see
     :mod:`acousim.synth.response`); it needs a
@@ -127,7 +137,9 @@ def render(
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, call, fs, n_span, interpolator, taps, response)
+        y = _render_shaped(
+            echoes, d - lo, call, fs, n_span, interpolator, taps, response, rate, band_floor_db
+        )
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
@@ -147,7 +159,9 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.ndarray:
+def _render_shaped(
+    echoes, d, call, fs, n_span, method, taps, response, rate="full", floor_db=-60.0
+) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain.
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
@@ -163,6 +177,8 @@ def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.nd
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
     g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
+    if rate == "baseband":
+        return _shaped_baseband(echoes, d, g, U, V, W, band, n, taps, n_span, floor_db)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -174,6 +190,19 @@ def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.nd
     term = np.empty_like(spec)
     for q in range(1, filt.shape[0]):
         spec += np.multiply(spectra[q], filt[q], out=term)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+
+
+def _shaped_baseband(echoes, d, g, U, V, W, band, n, taps, n_span, floor_db) -> np.ndarray:
+    """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): the
+    sets g V (M, N, Q) with the filters W U, one inverse FFT per microphone."""
+    from .baseband import spectra
+
+    pad = taps + 1  # the same layout as the impulses' buffers
+    filters = np.zeros((V.shape[1], W.size), complex)
+    filters[:, band] = (W[band, None] * U).T
+    gains = g[:, :, None] * V[None]
+    spec = spectra(d + pad, gains, filters, echoes.order == 0, band, floor_db, np.complex64)
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
