@@ -130,3 +130,13 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
     ]
     assert errors[1] <= -58
     assert errors[0] > errors[1]
+
+
+def test_fast_settings_are_simulation_settings():
+    """The fast point's table names settings a scene accepts, with valid values."""
+    from acousim.scene.model import FAST_SETTINGS, Simulation
+
+    sim = Simulation(**FAST_SETTINGS)
+    assert sim.render_rate == "baseband"
+    with pytest.raises(Exception, match="render_rate"):
+        Simulation(render_rate="quarter")
