@@ -1,22 +1,28 @@
-"""The Doppler renderer's last step at complex baseband (``render_rate = "baseband"``).
+"""The renderer's last step at complex baseband (``render_rate = "baseband"``).
 
-The full-rate renderer (:func:`acousim.synth.doppler.render_planned`) writes each
-gain set's impulses at the sample rate (fractional-delay kernels), transforms them
-(R sets x M microphones real FFTs of n points), multiplies by the sets' filters and
-transforms back.  The call spans 25-50 kHz of a 450 kHz sampling: most of those
-bins are empty.  Here the sets' spectra are computed only over the band where the
-filters carry energy (the bins within ``floor_db`` of the strongest, centred on bin
-c, half-width B), as a type-1 non-uniform FFT: each impulse at q samples, gain g,
-becomes the complex gain ``g exp(-2 pi i c q / n)`` spread over W points of a coarse
-grid of nb = sigma 2 B points (nb points over the same n samples) by the
-"exponential of semicircle" kernel phi; the coarse grid's FFT divided by phi's
-Fourier transform is ``sum g exp(-2 pi i (c + k) q / n)`` at bins c + k, |k| <= B,
-to the kernel's aliasing error (about exp(-beta (1 - 1 / sigma)...): below -100 dB
-at W = 8, sigma = 2).  The filtered band goes into an n-point spectrum per
-microphone and one real inverse FFT per microphone gives the samples: the same
-signals as the full-rate renderer, less the energy outside the band (the bins
-below ``floor_db``) and the kernels' errors (measured in BENCHMARKS.md and
-``tests/test_baseband.py``).
+The full-rate renderer (:func:`acousim.synth.doppler.render_planned`, the static
+``render``) writes each gain set's impulses at the sample rate (fractional-delay
+kernels), transforms them (R sets x M microphones real FFTs of n points),
+multiplies by the sets' filters and transforms back.  The call spans 25-50 kHz of
+a 450 kHz sampling: most of those bins are empty.  Here the echoes' sets' spectra
+are computed only over the band where their filters carry energy (the bins within
+``floor_db`` of the strongest, centred on bin c, half-width B), as a type-1
+non-uniform FFT: each impulse at q samples, gain g, becomes the complex gain
+``g exp(-2 pi i c q / n)`` spread over W points of a coarse grid of nb = sigma 2 B
+points (nb points over the same n samples) by the "exponential of semicircle"
+kernel phi; the coarse grid's FFT divided by phi's Fourier transform is
+``sum g exp(-2 pi i (c + k) q / n)`` at bins c + k, |k| <= B, to the kernel's
+aliasing error.  The filtered band goes into an n-point spectrum per microphone
+and one real inverse FFT per microphone gives the samples.  The direct path (tens
+of dB above the echoes: its band cut at their floor would leave its error above
+theirs) is the full-rate renderer's: its impulses convolved with its filters'
+impulse responses, in time (it lasts one call).
+
+Error against the full-rate renderer, the corridor's echoes (a pose of 3 937
+paths, the direct path left out), W = 4 and sigma = 1.5 (:data:`TAPS`,
+:data:`OVERSAMPLING`): -63 dB at a -60 dB band, -65 dB at -80 dB (the kernel's
+limit; W = 6: -84 dB at -80 dB, the full-rate kernel's own error is -81 dB).
+``tests/test_baseband.py`` checks it against exact references.
 """
 
 from __future__ import annotations
@@ -29,8 +35,9 @@ from scipy import fft as sfft
 from processing.kernels import optional_kernel
 
 __all__ = [
+    "spectra",
     "render_band",
-    "direct_spectra",
+    "direct_samples",
     "BasebandGrid",
     "grid",
     "centre",
@@ -40,8 +47,8 @@ __all__ = [
 ]
 
 #: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
-#: (BENCHMARKS.md: with the band at -60 dB, the corridor's samples within -62 dB of
-#: the full-rate renderer's)
+#: (docs/physics.md, speed: with the band at -60 dB, the corridor's echoes within
+#: -63 to -66 dB of the full-rate renderer's)
 TAPS = 4
 OVERSAMPLING = 1.5
 
@@ -140,54 +147,82 @@ def spectra(
     gains: np.ndarray,
     filters: np.ndarray,
     direct: np.ndarray,
-    band: np.ndarray,
     floor_db: float,
     dtype,
-) -> np.ndarray:
-    """The filtered spectra (M, F) of the n-point real FFT (F = n // 2 + 1) of impulses
-    at q (M, N) samples with the gain sets (M, N, S) and their filters (S, F), zero
-    outside `band` (F,): the echoes' sets over the bins within `floor_db` of their
-    strongest (:func:`render_band`), the direct path's (`direct` (N,): its paths;
-    tens of dB above the echoes, a band cut at the echoes' floor would leave its error
-    above theirs) exactly over every bin of `band` (:func:`direct_spectra`)."""
-    M = q.shape[0]
-    F = filters.shape[1]
-    n = 2 * (F - 1)
+    kernel: tuple[str, int],
+    n: int,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Impulses at q (M, N) samples with the gain sets (M, N, S) and their filters
+    (S, F) of an `n`-point real FFT (F = n // 2 + 1): the echoes' sets as spectra (M, F)
+    over the bins within `floor_db` of their strongest (:func:`render_band`); the
+    direct path's (`direct` (N,): its paths, tens of dB above the echoes: a band cut
+    at the echoes' floor would leave its error above theirs) as samples (M, n) of the
+    buffer, the full-rate renderer's impulses (`kernel`: its interpolator and taps)
+    convolved with its filters' impulse responses (:func:`direct_samples`; None
+    without a direct path)."""
+    M, F = q.shape[0], filters.shape[1]
     spec = np.zeros((M, F), dtype)
     energy = np.einsum("mnr,mnr->r", gains, gains)
     echo_sets = np.ones(energy.size, bool)
+    samples = None
     if direct.any():
         d = np.flatnonzero(direct)
         # each set is of one group (the compression's, the factorisation's)
         echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
-        b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
         g = gains[:, d][:, :, ~echo_sets]
-        spec[:, b0:b1] += direct_spectra(q[:, d], g, filters[~echo_sets, b0:b1], b0, n)
+        samples = direct_samples(q[:, d], g, filters[~echo_sets], n, *kernel)
     if echo_sets.any():
         sets = np.flatnonzero(echo_sets)
         c, half = centre(filters[sets], energy[sets], floor_db)
         g = grid(n, c, half, TAPS, OVERSAMPLING)
         bins = slice(c - half, c + half + 1)
         spec[:, bins] += render_band(q, gains, filters[sets, bins], g, 0, dtype, sets)
-    return spec
+    return spec, samples
 
 
-def direct_spectra(q: np.ndarray, gains: np.ndarray, filters: np.ndarray, b0: int, n: int):
-    """The exact spectra (M, F') of a few impulses (the direct path) at bins b0 ..
-    b0 + F' - 1 of the n-point grid: ``sum_nr gains[m, n, r] filters[r, f]
-    exp(-2 pi i f q[m, n] / n)``; q (M, N) samples from the buffer's start, gains
-    (M, N, R), filters (R, F').  The exponentials as products of two short tables
-    (bins b0 + S a + b)."""
-    M, N = q.shape
-    F = filters.shape[1]
-    S = int(np.ceil(np.sqrt(F)))
-    a, b = np.arange(S) * S, np.arange(S)
-    out = np.zeros((M, F), complex)
-    for k in range(N):
-        w = (-2j * np.pi / n) * q[:, k]
-        e = np.exp(w[:, None, None] * (b0 + a[None, :, None])) * np.exp(w[:, None, None] * b)
-        out += e.reshape(M, S * S)[:, :F] * (gains[:, k, :] @ filters)
+#: the direct path's filters' impulse responses are cut where they fall below this
+#: of their peak (the rest of the n-point circle holds rounding)
+SUPPORT_FLOOR = 1e-12
+
+
+def direct_samples(
+    q: np.ndarray, gains: np.ndarray, filters: np.ndarray, n: int, method: str, taps: int
+) -> np.ndarray:
+    """Samples (M, n) of a few impulses (the direct path) at q (M, N) samples, gains
+    (M, N, R), through the filters (R, F): each impulse the full-rate renderer's
+    fractional-delay kernel (`method`, `taps`: :func:`acousim.synth.render._kernel_table`)
+    circularly convolved with the filters' impulse responses (where above
+    :data:`SUPPORT_FLOOR` of their peak): the full-rate renderer's signal without
+    its FFTs of every sample."""
+    from .render import TABLE_PHASES as PHASES
+    from .render import _kernel_table
+
+    response = sfft.irfft(filters, n, axis=-1)  # (R, n)
+    start, length = _support(np.abs(response).max(axis=0))
+    seg = response[:, (start + np.arange(length)) % n]  # (R, L)
+    table = _kernel_table(method, taps)
+    out = np.zeros((q.shape[0], n))
+    for m in range(q.shape[0]):
+        for k in range(q.shape[1]):
+            n0 = np.floor(q[m, k])
+            w = table[int(np.rint((q[m, k] - n0) * PHASES))]  # taps at n0 - taps + 1 ..
+            y = np.convolve(gains[m, k] @ seg, w)
+            where = (int(n0) - taps + 1 + start + np.arange(y.size)) % n
+            out[m, where] += y
     return out
+
+
+def _support(mag: np.ndarray) -> tuple[int, int]:
+    """The shortest arc (start, length) of the circle of `mag` (n,) holding every
+    value above SUPPORT_FLOOR of its peak."""
+    n = mag.size
+    on = np.flatnonzero(mag > SUPPORT_FLOOR * mag.max())
+    if on.size == 0:
+        return 0, 1
+    gaps = np.diff(np.r_[on, on[0] + n])  # from each on-sample to the next
+    widest = int(np.argmax(gaps))
+    start = int(on[(widest + 1) % on.size])
+    return start, n - int(gaps[widest]) + 1
 
 
 def render_band(

@@ -413,16 +413,21 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     filters[:, plan.band] = filt_band.T
     pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
     cdtype = np.complex64 if plan.single else complex
-    spec = baseband.spectra(
+    opts = plan.options
+    spec, direct = baseband.spectra(
         plan.positions + pad,
         gains,
         filters,
         plan.direct_paths,
-        plan.band,
-        plan.options.band_floor_db,
+        opts.band_floor_db,
         cdtype,
+        (opts.interpolator, opts.taps),
+        n,
     )
-    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
+    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)
+    if direct is not None:
+        y += direct
+    y = y[:, pad : pad + hi - lo]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 

@@ -178,7 +178,7 @@ def _render_shaped(
     W = sfft.rfft(call, n)
     g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
     if rate == "baseband":
-        return _shaped_baseband(echoes, d, g, U, V, W, band, n, taps, n_span, floor_db)
+        return _shaped_baseband(echoes, d, g, U, V, W, band, n, (method, taps), n_span, floor_db)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -193,17 +193,22 @@ def _render_shaped(
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
-def _shaped_baseband(echoes, d, g, U, V, W, band, n, taps, n_span, floor_db) -> np.ndarray:
+def _shaped_baseband(echoes, d, g, U, V, W, band, n, kernel, n_span, floor_db) -> np.ndarray:
     """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): the
-    sets g V (M, N, Q) with the filters W U, one inverse FFT per microphone."""
+    sets g V (M, N, Q) with the filters W U, one inverse FFT per microphone;
+    `kernel`: the fractional delays' (method, taps)."""
     from .baseband import spectra
 
-    pad = taps + 1  # the same layout as the impulses' buffers
+    pad = kernel[1] + 1  # the same layout as the impulses' buffers
     filters = np.zeros((V.shape[1], W.size), complex)
     filters[:, band] = (W[band, None] * U).T
     gains = g[:, :, None] * V[None]
-    spec = spectra(d + pad, gains, filters, echoes.order == 0, band, floor_db, np.complex64)
-    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+    direct = echoes.order == 0
+    spec, y_direct = spectra(d + pad, gains, filters, direct, floor_db, np.complex64, kernel, n)
+    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)
+    if y_direct is not None:
+        y += y_direct
+    return y[:, pad : pad + n_span]
 
 
 def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response):
