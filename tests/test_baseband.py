@@ -104,7 +104,8 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
     from scipy import fft as sfft
 
     from acousim.synth.echoes import PointReflectors, point_echoes
-    from acousim.synth.render import render
+    from acousim.synth.options import Capture
+    from acousim.synth.render import render_baseband
 
     rng = np.random.default_rng(4)
     arr = P.ura(2, 2, 3.85e-3)
@@ -124,9 +125,9 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
         delay = e.delay_s[:, k][:, None] + start / FS
         spec += W * H * e.gain[:, k][:, None] * np.exp(-2j * np.pi * f * delay)
     ref = sfft.irfft(spec, n)[:, :16384]
+    capture = Capture(arr, wf, FS, 16384, C)
     errors = [
-        _db(render(e, wf, FS, 16384, response=resp, rate="baseband", band_floor_db=floor), ref)
-        for floor in (-40.0, -60.0)
+        _db(render_baseband(e, capture, BASEBAND, resp, floor), ref) for floor in (-40.0, -60.0)
     ]
     assert errors[1] <= -58
     assert errors[0] > errors[1]
@@ -134,7 +135,8 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
 
 def test_fast_settings_are_simulation_settings():
     """The fast point's table names settings a scene accepts, with valid values."""
-    from acousim.scene.model import FAST_SETTINGS, Simulation
+    from acousim.scene.fast import FAST_SETTINGS
+    from acousim.scene.model import Simulation
 
     sim = Simulation(**FAST_SETTINGS)
     assert sim.render_rate == "baseband"

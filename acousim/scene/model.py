@@ -25,16 +25,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any, get_args
 
 import numpy as np
 
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
-from acousim.synth.options import COMPRESS_TOLERANCE, RenderRate
+from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
 from processing import Array, Waveform
 from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
@@ -65,7 +63,6 @@ __all__ = [
     "MAX_TURN_DEG_S",
     "track_rows",
     "memory_limit_bytes",
-    "FAST_SETTINGS",
 ]
 
 FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
@@ -451,35 +448,24 @@ class Sensor:
 class Simulation:
     """Simulation settings.
 
-    max_range_m : echoes are computed up to this range (the window is 2 r / c plus
-        the call).
+    max_range_m : echoes are computed up to this range (window: 2 r / c plus the call).
     rays : rays cast from the emitter over its beam per pose; unset (the default):
         found per pose, the automatic budget of :mod:`acousim.trace.budget` (batches
         of rays until one finds nothing new and the diffuse tail has converged; no
         rays where nothing needs them).  A number gives exactly that many rays, on
         the deterministic spiral.
     rays_max : cap of the automatic budget (rays per pose).
-    bounces : maximum number of reflections of a path (3: a corner reflector's
-        triple bounce).
+    bounces : maximum reflections of a path (3: a corner reflector's triple bounce).
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
-    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); on by
-        default (false: geometric optics alone).
+    diffraction : edge diffraction (BTM, :mod:`acousim.trace.diffraction`); false: none.
     diffraction_step_m : edge-element step, in excess path length (m).
     diffraction_reflections : also edge diffraction combined with one specular
         reflection before or after the edge (image sources; slow in large scenes).
     diffraction_order : 2 (default): each edge, and edge to edge over the pairs of
         edges that share a plane (the rims of a plate, the edges of a box face)
         where a pair can reach the energy floor; 1: each edge alone.
-    render_rate : the Doppler renderer (a scene in motion) at the sample rate
-        ("full", the default) or at complex baseband ("baseband": the call's band
-        only, converted up once per microphone; faster, within -60 dB at the
-        default band, :mod:`acousim.synth.baseband`).
-    render_band_db : the baseband render's band: the bins whose power is within
-        this of the strongest.
-    render_tolerance : the Doppler renderer's gain-set compression, the relative
-        amplitude left out (default 7e-4, -63 dB; larger: fewer sets, faster).
     snr_db : noise level relative to the echoes (the direct path left out, see
         ``acousim.synth.model.simulate``, ``snr_reference="echoes"``); inf: no noise.
     max_memory_gb : refuse a simulation whose estimated memory
@@ -500,15 +486,9 @@ class Simulation:
         "sinc", choices=FRACTIONAL_DELAYS, doc="fractional-delay interpolator"
     )
     absorption: bool = setting(True, doc="air absorption")
-    render_rate: RenderRate = setting(
-        "full", choices=get_args(RenderRate), doc="Doppler render: sample rate or baseband"
-    )
-    render_band_db: float = setting(
-        -60.0, "dB", -200, -10, "baseband render: bins within this of the strongest"
-    )
-    render_tolerance: float = setting(
-        COMPRESS_TOLERANCE, "", 1e-6, 0.3, "Doppler render: gain-set compression error"
-    )
+    render_rate: RenderRate = setting("full", choices=get_args(RenderRate), doc="full, baseband")
+    render_band_db: float = setting(-60.0, "dB", -200, -10, "baseband: bins within this of the top")
+    render_tolerance: float = setting(COMPRESS_TOLERANCE, "", 1e-6, 0.3, "gain-set compression")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
     diffraction: bool = setting(True, doc="edge diffraction (BTM)")
     diffraction_step_m: float = setting(1e-3, "m", 1e-5, 0.1, "edge-element step (excess path)")
@@ -522,22 +502,6 @@ class Simulation:
         if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
             object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
         validate(self)
-
-
-#: The settings of a fast point (issue 39), each a :class:`Simulation` setting: the
-#: Doppler render at complex baseband with a looser gain-set compression, paths 50 dB
-#: under the strongest echo dropped (not 80), edges alone (no edge to edge).
-#: Measured on the corridor drive against the defaults (docs/physics.md, speed):
-#: 1.66x the defaults' measurements/s in CPU time (1.41x wall, a loaded machine;
-#: paired runs), waveform -65 dB re the recording's energy, -27 dB re the echoes'.
-FAST_SETTINGS: Mapping[str, Any] = MappingProxyType(
-    {
-        "render_rate": "baseband",
-        "render_tolerance": 0.01,
-        "energy_floor_db": -50.0,
-        "diffraction_order": 1,
-    }
-)
 
 
 def memory_limit_bytes() -> float:

@@ -8,13 +8,13 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def accumulate(q, gains, sets, turn, scale, table, offset, spin, out):  # pragma: no cover
+def accumulate(q, gains, sets, table, spin, grid, out):  # pragma: no cover - compiled
     """Sum of complex weighted kernels into `out` (M, B, R, 2) float64 (the real and
     imaginary parts, the sets innermost: one impulse's writes are adjacent), zero.
 
     q (M, N): impulse positions (samples of the full rate); gains (M, N, S) float64,
-    of which the R sets `sets` (R,) int64 are summed;
-    turn: the centre frequency in radians per sample (each impulse is turned by
+    of which the R sets `sets` (R,) int64 are summed; grid (3,): turn, scale and
+    offset, turn: the centre frequency in radians per sample (each impulse is turned by
     ``exp(-i turn q)``); scale: coarse points per sample; table (P + 1, W): the
     kernel's tap weights at P + 1 fractions of a coarse point; offset: buffer index of
     coarse point 0 less (W // 2 - 1).  Impulse (m, n) adds
@@ -23,6 +23,7 @@ def accumulate(q, gains, sets, turn, scale, table, offset, spin, out):  # pragma
     nearest tabulated fraction of u; spin (K, 2): cos and -sin of ``turn k`` for
     the whole samples k (K above every position).
     """
+    turn, scale, offset = grid[0], grid[1], int(grid[2])
     M, N = q.shape
     R = sets.size
     P = table.shape[0] - 1

@@ -149,7 +149,7 @@ def spectra(
     direct: np.ndarray,
     floor_db: float,
     dtype,
-    kernel: tuple[str, int],
+    kernel: tuple[np.ndarray, int],
     n: int,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Impulses at q (M, N) samples with the gain sets (M, N, S) and their filters
@@ -157,7 +157,7 @@ def spectra(
     over the bins within `floor_db` of their strongest (:func:`render_band`); the
     direct path's (`direct` (N,): its paths, tens of dB above the echoes: a band cut
     at the echoes' floor would leave its error above theirs) as samples (M, n) of the
-    buffer, the full-rate renderer's impulses (`kernel`: its interpolator and taps)
+    buffer, the full-rate renderer's impulses (`kernel`: its table and taps)
     convolved with its filters' impulse responses (:func:`direct_samples`; None
     without a direct path)."""
     M, F = q.shape[0], filters.shape[1]
@@ -186,26 +186,23 @@ SUPPORT_FLOOR = 1e-12
 
 
 def direct_samples(
-    q: np.ndarray, gains: np.ndarray, filters: np.ndarray, n: int, method: str, taps: int
+    q: np.ndarray, gains: np.ndarray, filters: np.ndarray, n: int, table: np.ndarray, taps: int
 ) -> np.ndarray:
     """Samples (M, n) of a few impulses (the direct path) at q (M, N) samples, gains
     (M, N, R), through the filters (R, F): each impulse the full-rate renderer's
-    fractional-delay kernel (`method`, `taps`: :func:`acousim.synth.render._kernel_table`)
-    circularly convolved with the filters' impulse responses (where above
-    :data:`SUPPORT_FLOOR` of their peak): the full-rate renderer's signal without
-    its FFTs of every sample."""
-    from .render import TABLE_PHASES as PHASES
-    from .render import _kernel_table
-
+    fractional-delay kernel (`table` (P + 1, 2 taps): its weights at P + 1 fractions,
+    :func:`acousim.synth.render._kernel_table`) circularly convolved with the
+    filters' impulse responses (where above :data:`SUPPORT_FLOOR` of their peak): the
+    full-rate renderer's signal without its FFTs of every sample."""
+    phases = table.shape[0] - 1
     response = sfft.irfft(filters, n, axis=-1)  # (R, n)
     start, length = _support(np.abs(response).max(axis=0))
     seg = response[:, (start + np.arange(length)) % n]  # (R, L)
-    table = _kernel_table(method, taps)
     out = np.zeros((q.shape[0], n))
     for m in range(q.shape[0]):
         for k in range(q.shape[1]):
             n0 = np.floor(q[m, k])
-            w = table[int(np.rint((q[m, k] - n0) * PHASES))]  # taps at n0 - taps + 1 ..
+            w = table[int(np.rint((q[m, k] - n0) * phases))]  # taps at n0 - taps + 1 ..
             y = np.convolve(gains[m, k] @ seg, w)
             where = (int(n0) - taps + 1 + start + np.arange(y.size)) % n
             out[m, where] += y
@@ -248,7 +245,7 @@ def render_band(
     buf = np.zeros((M, g.nb + 2 * W, R, 2))  # the sets' real and imaginary parts innermost
     kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
     gains = np.ascontiguousarray(gains, float)
-    args = (q, gains, sets, turn, scale, g.table, W - (W // 2 - 1), g.spin)
+    args = (q, gains, sets, g.table, g.spin, np.array([turn, scale, W - (W // 2 - 1)], float))
     (kernel or _accumulate_numpy)(*args, buf)
     buf = np.moveaxis(buf.view(complex)[..., 0], 2, 0)  # (R, M, nb + 2 W)
     coarse = buf[:, :, W : W + g.nb].astype(dtype)
@@ -263,8 +260,9 @@ def render_band(
     return out
 
 
-def _accumulate_numpy(q, gains, sets, turn, scale, table, offset, spin, out) -> None:
+def _accumulate_numpy(q, gains, sets, table, spin, grid, out) -> None:
     """:func:`._baseband_kernel.accumulate` without numba (the same sums)."""
+    turn, scale, offset = grid[0], grid[1], int(grid[2])
     gains = gains[:, :, sets]
     M, N, R = gains.shape
     P, W = table.shape[0] - 1, table.shape[1]

@@ -52,6 +52,7 @@ from .options import COMPRESS_TOLERANCE, DEFAULT_OPTIONS, DOPPLER_TOLERANCE, Ren
 from .render import (
     FFT_WORKERS,
     _impulses,
+    _kernel_table,
     check_interpolator,
     response_factors,
 )
@@ -421,7 +422,7 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
         plan.direct_paths,
         opts.band_floor_db,
         cdtype,
-        (opts.interpolator, opts.taps),
+        (_kernel_table(opts.interpolator, opts.taps), opts.taps),
         n,
     )
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)

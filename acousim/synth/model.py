@@ -18,7 +18,7 @@ from .doppler import DopplerPlan, render_doppler, render_planned
 from .echoes import Echoes, PointReflectors, point_echoes
 from .noise import NoiseDraw, add_noise, noise_sigma
 from .options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, RenderOptions
-from .render import render
+from .render import render, render_baseband
 from .response import PathResponse
 
 __all__ = ["simulate", "simulate_points", "in_window", "Capture", "Noise", "RenderOptions"]
@@ -95,6 +95,8 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
     args = (cap.waveform, cap.sample_rate_hz, cap.n_samples)
     if doppler is not None:
         return render_doppler(echoes, doppler, *args, options=options, response=response)
+    if options.rate == "baseband" and response is not None and response.active:
+        return render_baseband(echoes, cap, options, response, options.band_floor_db)
     return render(
         echoes,
         *args,
@@ -102,8 +104,6 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
         interpolator=options.interpolator,
         taps=options.taps,
         response=response,
-        rate=options.rate,
-        band_floor_db=options.band_floor_db,
     )
 
 

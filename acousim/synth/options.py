@@ -10,6 +10,7 @@ from typing import Literal
 import numpy as np
 
 from acousim.core.delays import DEFAULT_INTERPOLATOR, FractionalDelay
+from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
 from processing import Array, Waveform
 
 from .render import DEFAULT_TAPS
@@ -29,17 +30,6 @@ __all__ = [
 #: relative error of interpolating the time-scaled call between Doppler nodes (a
 #: bound at the call's top frequency: the renderer's error stays far below it)
 DOPPLER_TOLERANCE = 1e-3
-#: the gain sets are compressed to this relative amplitude of what is left out
-#: (-63 dB): the renderer's error against the exact reference stays below -65 dB at
-#: 2 m/s and 180 deg/s (BENCHMARKS.md, motion: its time against error, 3e-4 -> -71 dB
-#: with 8 sets instead of 6 on the corridor)
-COMPRESS_TOLERANCE = 7e-4
-
-RenderRate = Literal["full", "baseband"]
-"""How the Doppler renderer makes the samples: 'full', fractional-delay impulses and
-FFTs at the sample rate; 'baseband', the band the call occupies at complex baseband,
-converted up once per microphone (:mod:`acousim.synth.baseband`)."""
-
 SnrReference = Literal["signal", "echoes"]
 """What `Noise.snr_db` is relative to (see :func:`acousim.synth.model.simulate`)."""
 

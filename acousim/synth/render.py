@@ -34,7 +34,6 @@ filter, at ``d * fs`` samples after the emission.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -56,9 +55,6 @@ from processing.kernels import optional_kernel
 from processing.waveforms import ANTI_ALIAS_CUTOFF
 
 from .response import PathResponse, factorise
-
-if TYPE_CHECKING:
-    from .options import RenderRate
 
 __all__ = [
     "render",
@@ -89,14 +85,8 @@ def render(
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
-    rate: RenderRate = "full",
-    band_floor_db: float = -60.0,
 ) -> np.ndarray:
     """Microphone signals of `echoes`, shape (M, T), float64.
-
-    `rate`: with a path response, "baseband" renders the call's band at complex
-    baseband (:mod:`acousim.synth.baseband`; the bins within `band_floor_db` of the
-    strongest), "full" (the default) at the sample rate.
 
     `response` adds air absorption and emitter directivity per path (see
     :mod:`acousim.synth.response`); it needs a
@@ -128,21 +118,47 @@ def render(
     if interpolator == "fft":
         return _render_fft(d, g, call, n_samples)
     # span of the output that echoes reach: only that part is computed
-    half = 0 if interpolator == "nearest" else taps
-    # the span may start before sample 0: the band-limited call starts `pad` samples
-    # before its echo's delay, and the direct path arrives within a few samples
-    lo = int(np.floor(d.min())) - half
-    hi = min(int(np.ceil(d.max())) + half + call.size + 1, n_samples)
+    lo, hi = _span(d, 0 if interpolator == "nearest" else taps, call.size, n_samples)
     if hi <= max(lo, 0):
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(
-            echoes, d - lo, call, fs, n_span, interpolator, taps, response, rate, band_floor_db
-        )
+        y = _render_shaped(echoes, d - lo, call, fs, n_span, (interpolator, taps), response)
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _span(d: np.ndarray, half: int, call_size: int, n_samples: int) -> tuple[int, int]:
+    """The output samples [lo, hi) that impulses at `d` (samples) of calls of
+    `call_size` samples reach; it may start before sample 0: the band-limited call
+    starts before its echo's delay, and the direct path arrives within a few samples."""
+    lo = int(np.floor(d.min())) - half
+    return lo, min(int(np.ceil(d.max())) + half + call_size + 1, n_samples)
+
+
+def render_baseband(
+    echoes: Echoes, capture, options, response: PathResponse, band_db: float
+) -> np.ndarray:
+    """:func:`render` with a path `response` at complex baseband
+    (:mod:`acousim.synth.baseband`: the echoes' band, the bins within `band_db` of
+    the strongest): microphone signals (M, T) of the
+    :class:`~acousim.synth.options.Capture` `capture`, with the fractional delays
+    and emission sample of the :class:`~acousim.synth.options.RenderOptions` `options`."""
+    check_interpolator(options.interpolator, SHAPED_INTERPOLATORS, need="a path response")
+    fs, n_samples = capture.sample_rate_hz, capture.n_samples
+    out = np.zeros((echoes.delay_s.shape[0], n_samples))
+    if echoes.n_paths == 0:
+        return out
+    call, start = capture.waveform.band_limited(fs)
+    d = echoes.delay_s * fs + options.emission_index + start
+    lo, hi = _span(d, options.taps, call.size, n_samples)
+    if hi <= max(lo, 0):
+        return out
+    kernel = (options.interpolator, options.taps)
+    y = _render_shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -159,9 +175,7 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _render_shaped(
-    echoes, d, call, fs, n_span, method, taps, response, rate="full", floor_db=-60.0
-) -> np.ndarray:
+def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain.
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
@@ -174,11 +188,12 @@ def _render_shaped(
     corridor's samples by -138 dB (relative RMS), the same seed giving the same bytes
     before and after.
     """
+    method, taps = kernel
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
     g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
-    if rate == "baseband":
-        return _shaped_baseband(echoes, d, g, U, V, W, band, n, (method, taps), n_span, floor_db)
+    if band_db is not None:  # at baseband
+        return _shaped_baseband(echoes, d, (g, U, V, W, band), n, kernel, n_span, band_db)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -193,13 +208,16 @@ def _render_shaped(
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
-def _shaped_baseband(echoes, d, g, U, V, W, band, n, kernel, n_span, floor_db) -> np.ndarray:
-    """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): the
-    sets g V (M, N, Q) with the filters W U, one inverse FFT per microphone;
-    `kernel`: the fractional delays' (method, taps)."""
+def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
+    """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): of
+    `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
+    band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
+    microphone; `kernel`: the fractional delays' (method, taps)."""
     from .baseband import spectra
 
+    g, U, V, W, band = factors
     pad = kernel[1] + 1  # the same layout as the impulses' buffers
+    kernel = (_kernel_table(*kernel), kernel[1])
     filters = np.zeros((V.shape[1], W.size), complex)
     filters[:, band] = (W[band, None] * U).T
     gains = g[:, :, None] * V[None]
