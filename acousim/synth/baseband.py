@@ -15,8 +15,8 @@ kernel phi; the coarse grid's FFT divided by phi's Fourier transform is
 aliasing error.  The filtered band goes into an n-point spectrum per microphone
 and one real inverse FFT per microphone gives the samples.  The direct path (tens
 of dB above the echoes: its band cut at their floor would leave its error above
-theirs) is the full-rate renderer's: its impulses convolved with its filters'
-impulse responses, in time (it lasts one call).
+theirs) is the full-rate renderer's: its impulses at the sample rate, one real FFT
+per microphone (one path: a set or two).
 
 Error against the full-rate renderer, the corridor's echoes (a pose of 3 937
 paths, the direct path left out), W = 4 and sigma = 1.5 (:data:`TAPS`,
@@ -37,7 +37,7 @@ from processing.kernels import optional_kernel
 __all__ = [
     "spectra",
     "render_band",
-    "direct_samples",
+    "direct_spectra",
     "BasebandGrid",
     "grid",
     "centre",
@@ -151,75 +151,52 @@ def spectra(
     dtype,
     kernel: tuple[np.ndarray, int],
     n: int,
-) -> tuple[np.ndarray, np.ndarray | None]:
+) -> np.ndarray:
     """Impulses at q (M, N) samples with the gain sets (M, N, S) and their filters
-    (S, F) of an `n`-point real FFT (F = n // 2 + 1): the echoes' sets as spectra (M, F)
-    over the bins within `floor_db` of their strongest (:func:`render_band`); the
-    direct path's (`direct` (N,): its paths, tens of dB above the echoes: a band cut
-    at the echoes' floor would leave its error above theirs) as samples (M, n) of the
-    buffer, the full-rate renderer's impulses (`kernel`: its table and taps)
-    convolved with its filters' impulse responses (:func:`direct_samples`; None
-    without a direct path)."""
+    (S, F) of an `n`-point real FFT (F = n // 2 + 1), their spectra (M, F): the
+    echoes' sets over the bins within `floor_db` of their strongest
+    (:func:`render_band`); the direct path's (`direct` (N,): its paths, tens of dB
+    above the echoes: a band cut at the echoes' floor would leave its error above
+    theirs) as the full-rate renderer makes it (`kernel`: its table and taps,
+    :func:`direct_spectra`)."""
     M, F = q.shape[0], filters.shape[1]
     spec = np.zeros((M, F), dtype)
     energy = np.einsum("mnr,mnr->r", gains, gains)
     echo_sets = np.ones(energy.size, bool)
-    samples = None
     if direct.any():
         d = np.flatnonzero(direct)
         # each set is of one group (the compression's, the factorisation's)
         echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
         g = gains[:, d][:, :, ~echo_sets]
-        samples = direct_samples(q[:, d], g, filters[~echo_sets], n, *kernel)
+        spec += direct_spectra(q[:, d], g, filters[~echo_sets], n, *kernel)
     if echo_sets.any():
         sets = np.flatnonzero(echo_sets)
         c, half = centre(filters[sets], energy[sets], floor_db)
         g = grid(n, c, half, TAPS, OVERSAMPLING)
         bins = slice(c - half, c + half + 1)
         spec[:, bins] += render_band(q, gains, filters[sets, bins], g, 0, dtype, sets)
-    return spec, samples
+    return spec
 
 
-#: the direct path's filters' impulse responses are cut where they fall below this
-#: of their peak (the rest of the n-point circle holds rounding)
-SUPPORT_FLOOR = 1e-12
-
-
-def direct_samples(
+def direct_spectra(
     q: np.ndarray, gains: np.ndarray, filters: np.ndarray, n: int, table: np.ndarray, taps: int
 ) -> np.ndarray:
-    """Samples (M, n) of a few impulses (the direct path) at q (M, N) samples, gains
-    (M, N, R), through the filters (R, F): each impulse the full-rate renderer's
-    fractional-delay kernel (`table` (P + 1, 2 taps): its weights at P + 1 fractions,
-    :func:`acousim.synth.render._kernel_table`) circularly convolved with the
-    filters' impulse responses (where above :data:`SUPPORT_FLOOR` of their peak): the
-    full-rate renderer's signal without its FFTs of every sample."""
-    phases = table.shape[0] - 1
-    response = sfft.irfft(filters, n, axis=-1)  # (R, n)
-    start, length = _support(np.abs(response).max(axis=0))
-    seg = response[:, (start + np.arange(length)) % n]  # (R, L)
-    out = np.zeros((q.shape[0], n))
-    for m in range(q.shape[0]):
-        for k in range(q.shape[1]):
-            n0 = np.floor(q[m, k])
-            w = table[int(np.rint((q[m, k] - n0) * phases))]  # taps at n0 - taps + 1 ..
-            y = np.convolve(gains[m, k] @ seg, w)
-            where = (int(n0) - taps + 1 + start + np.arange(y.size)) % n
-            out[m, where] += y
-    return out
-
-
-def _support(mag: np.ndarray) -> tuple[int, int]:
-    """The shortest arc (start, length) of the circle of `mag` (n,) holding every
-    value above SUPPORT_FLOOR of its peak."""
-    n = mag.size
-    on = np.flatnonzero(mag > SUPPORT_FLOOR * mag.max())
-    if on.size == 0:
-        return 0, 1
-    gaps = np.diff(np.r_[on, on[0] + n])  # from each on-sample to the next
-    widest = int(np.argmax(gaps))
-    start = int(on[(widest + 1) % on.size])
-    return start, n - int(gaps[widest]) + 1
+    """Spectra (M, F) of a few impulses (the direct path) at q (M, N) samples, gains
+    (M, N, R), through the filters (R, F) of the n-point real FFT, as the full-rate
+    renderer makes them: each impulse its fractional-delay kernel (`table` (P + 1,
+    2 taps): the weights at P + 1 fractions, :func:`acousim.synth.render._kernel_table`)
+    at the sample rate, one real FFT per set and microphone (a handful: the direct
+    path's sets), times the filters."""
+    M, N = q.shape
+    n0 = np.floor(q)
+    w = table[np.rint((q - n0) * (table.shape[0] - 1)).astype(np.intp)]  # (M, N, 2 taps)
+    at = (n0.astype(np.int64)[..., None] - taps + 1 + np.arange(2 * taps)) % n
+    h = np.zeros((gains.shape[2], M, n))
+    rows = np.broadcast_to(np.arange(M)[:, None, None], at.shape)
+    for r in range(gains.shape[2]):
+        np.add.at(h[r], (rows, at), w * gains[:, :, r, None])
+    spectra = sfft.rfft(h, axis=-1, workers=2)  # (R, M, F)
+    return np.einsum("rmf,rf->mf", spectra, filters)
 
 
 def render_band(

@@ -415,7 +415,7 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
     cdtype = np.complex64 if plan.single else complex
     opts = plan.options
-    spec, direct = baseband.spectra(
+    spec = baseband.spectra(
         plan.positions + pad,
         gains,
         filters,
@@ -425,10 +425,7 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
         (_kernel_table(opts.interpolator, opts.taps), opts.taps),
         n,
     )
-    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)
-    if direct is not None:
-        y += direct
-    y = y[:, pad : pad + hi - lo]
+    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 

@@ -222,11 +222,8 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndar
     filters[:, band] = (W[band, None] * U).T
     gains = g[:, :, None] * V[None]
     direct = echoes.order == 0
-    spec, y_direct = spectra(d + pad, gains, filters, direct, floor_db, np.complex64, kernel, n)
-    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)
-    if y_direct is not None:
-        y += y_direct
-    return y[:, pad : pad + n_span]
+    spec = spectra(d + pad, gains, filters, direct, floor_db, np.complex64, kernel, n)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
 def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response):
