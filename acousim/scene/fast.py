@@ -13,8 +13,8 @@ __all__ = ["FAST_SETTINGS"]
 #: The Doppler render at complex baseband with a looser gain-set compression (1 %
 #: instead of 0.07 %), paths 50 dB under the strongest echo dropped (not 80), edges
 #: alone (no edge to edge).  Against the defaults on the corridor drive (paired,
-#: alternating runs of `Simulator.run` over 40 poses on a loaded machine): 1.58x
-#: as fast in CPU time, 1.61x in wall time; the waveform -65 dB of the recordings'
+#: alternating runs of `Simulator.run` over 40 poses on a loaded machine): 1.60x
+#: as fast in CPU time, 1.62x in wall time; the waveform -65 dB of the recordings'
 #: energy, -27 dB of the echoes'; of 737 DAS peaks above -30 dB, 716 in place.
 FAST_SETTINGS: Mapping[str, Any] = MappingProxyType(
     {
