@@ -156,7 +156,13 @@ class Simulator:
             emitter_radius_m=scene.sensor.emitter_radius_m,
             materials=self.tracer.world.spectra if self.tracer.world is not None else None,
         )
-        self.options = RenderOptions(interpolator=scene.simulation.fractional_delay)
+        sim = scene.simulation
+        self.options = RenderOptions(
+            interpolator=sim.fractional_delay,
+            rate=sim.render_rate,
+            band_floor_db=sim.render_band_db,
+            compress_tolerance=sim.render_tolerance,
+        )
         #: the Doppler renderer's templates and spectra, reused from pose to pose
         self.doppler_cache = DopplerCache()
 

@@ -29,11 +29,12 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, cast, get_args
 
 import numpy as np
 
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
+from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
 from acousim.scene.motion import (
     MAX_SPEED_M_S,
     MAX_TURN_DEG_S,
@@ -494,16 +495,14 @@ def _fold_flat_diffraction(diffraction: Any, flat: dict[str, Any]) -> Diffractio
 class Simulation:
     """Simulation settings.
 
-    max_range_m : echoes are computed up to this range (the window is 2 r / c plus
-        the call).
+    max_range_m : echoes are computed up to this range (window: 2 r / c plus the call).
     rays : rays cast from the emitter over its beam per pose; unset (the default):
         found per pose, the automatic budget of :mod:`acousim.trace.rays.budget` (batches
         of rays until one finds nothing new and the diffuse tail has converged; no
         rays where nothing needs them).  A number gives exactly that many rays, on
         the deterministic spiral.
     rays_max : cap of the automatic budget (rays per pose).
-    bounces : maximum number of reflections of a path (3: a corner reflector's
-        triple bounce).
+    bounces : maximum reflections of a path (3: a corner reflector's triple bounce).
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
         pose, are dropped.
@@ -529,6 +528,9 @@ class Simulation:
         "sinc", choices=FRACTIONAL_DELAYS, doc="fractional-delay interpolator"
     )
     absorption: bool = setting(True, doc="air absorption")
+    render_rate: RenderRate = setting("full", choices=get_args(RenderRate), doc="full, baseband")
+    render_band_db: float = setting(-60.0, "dB", -200, -10, "baseband: bins within this of the top")
+    render_tolerance: float = setting(COMPRESS_TOLERANCE, "", 1e-6, 0.3, "gain-set compression")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
     diffraction: Diffraction = field(default_factory=lambda: Diffraction())
     max_memory_gb: float = setting(

@@ -43,6 +43,7 @@ from scipy import fft as sfft
 
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
+from acousim.synth import baseband
 from acousim.synth.compress import compress
 from acousim.synth.options import (
     COMPRESS_TOLERANCE,
@@ -53,6 +54,7 @@ from acousim.synth.options import (
 from acousim.synth.render import (
     FFT_WORKERS,
     _impulses,
+    _kernel_table,
     check_interpolator,
     response_factors,
 )
@@ -378,6 +380,8 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.direct_terms,
         plan.options.compress_tolerance,
     )
+    if plan.options.rate == "baseband":
+        return _render_baseband(plan, gains, filt_band, out)
     # the filters over the bins from the band's first to its last (zero elsewhere)
     band = plan.band
     b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
@@ -403,6 +407,30 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
             inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
         y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
         out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
+    """Step 5 at complex baseband (:func:`.baseband.spectra`), one inverse FFT per
+    microphone."""
+    n, lo, hi = plan.n_fft, plan.lo, plan.hi
+    filters = np.zeros((gains.shape[2], n // 2 + 1), complex)
+    filters[:, plan.band] = filt_band.T
+    pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
+    cdtype = np.complex64 if plan.single else complex
+    opts = plan.options
+    spec = baseband.spectra(
+        plan.positions + pad,
+        gains,
+        filters,
+        plan.direct_paths,
+        opts.band_floor_db,
+        cdtype,
+        (_kernel_table(opts.interpolator, opts.taps), opts.taps),
+        n,
+    )
+    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
 

@@ -10,6 +10,7 @@ from typing import Literal
 import numpy as np
 
 from acousim.core.delays import DEFAULT_INTERPOLATOR, FractionalDelay
+from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
 from acousim.synth.render import DEFAULT_TAPS
 from processing import Array, Waveform
 
@@ -20,6 +21,7 @@ __all__ = [
     "DOPPLER_TOLERANCE",
     "COMPRESS_TOLERANCE",
     "SnrReference",
+    "RenderRate",
     "DEFAULT_OPTIONS",
     "NO_NOISE",
 ]
@@ -27,12 +29,6 @@ __all__ = [
 #: relative error of interpolating the time-scaled call between Doppler nodes (a
 #: bound at the call's top frequency: the renderer's error stays far below it)
 DOPPLER_TOLERANCE = 1e-3
-#: the gain sets are compressed to this relative amplitude of what is left out
-#: (-63 dB): the renderer's error against the exact reference stays below -65 dB at
-#: 2 m/s and 180 deg/s (BENCHMARKS.md, motion: its time against error, 3e-4 -> -71 dB
-#: with 8 sets instead of 6 on the corridor)
-COMPRESS_TOLERANCE = 7e-4
-
 SnrReference = Literal["signal", "echoes"]
 """What `Noise.snr_db` is relative to (see :func:`acousim.synth.signal_model.simulate`)."""
 
@@ -56,13 +52,17 @@ class RenderOptions:
     emission_index: the sample of the start of the emission; interpolator, taps:
     the fractional delays (:mod:`acousim.synth.render`); doppler_tolerance,
     compress_tolerance: the Doppler renderer's node interpolation and gain-set
-    compression (:mod:`acousim.synth.doppler`)."""
+    compression (:mod:`acousim.synth.doppler`); rate: the Doppler renderer at the
+    sample rate ('full') or at complex baseband ('baseband', :mod:`acousim.synth.baseband`:
+    the bins within band_floor_db (dB, power) of the strongest)."""
 
     emission_index: int = 0
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR
     taps: int = DEFAULT_TAPS
     doppler_tolerance: float = DOPPLER_TOLERANCE
     compress_tolerance: float = COMPRESS_TOLERANCE
+    rate: RenderRate = "full"
+    band_floor_db: float = -60.0
 
 
 @dataclass(frozen=True)

@@ -117,19 +117,47 @@ def render(
     if interpolator == "fft":
         return _render_fft(d, g, call, n_samples)
     # span of the output that echoes reach: only that part is computed
-    half = 0 if interpolator == "nearest" else taps
-    # the span may start before sample 0: the band-limited call starts `pad` samples
-    # before its echo's delay, and the direct path arrives within a few samples
-    lo = int(np.floor(d.min())) - half
-    hi = min(int(np.ceil(d.max())) + half + call.size + 1, n_samples)
+    lo, hi = _span(d, 0 if interpolator == "nearest" else taps, call.size, n_samples)
     if hi <= max(lo, 0):
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, call, fs, n_span, interpolator, taps, response)
+        y = _render_shaped(echoes, d - lo, call, fs, n_span, (interpolator, taps), response)
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
         y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _span(d: np.ndarray, half: int, call_size: int, n_samples: int) -> tuple[int, int]:
+    """The output samples [lo, hi) that impulses at `d` (samples) of calls of
+    `call_size` samples reach; it may start before sample 0: the band-limited call
+    starts before its echo's delay, and the direct path arrives within a few samples."""
+    lo = int(np.floor(d.min())) - half
+    return lo, min(int(np.ceil(d.max())) + half + call_size + 1, n_samples)
+
+
+def render_baseband(
+    echoes: Echoes, capture, options, response: PathResponse, band_db: float
+) -> np.ndarray:
+    """:func:`render` with a path `response` at complex baseband
+    (:mod:`acousim.synth.baseband`: the echoes' band, the bins within `band_db` of
+    the strongest): microphone signals (M, T) of the
+    :class:`~acousim.synth.options.Capture` `capture`, with the fractional delays
+    and emission sample of the :class:`~acousim.synth.options.RenderOptions` `options`."""
+    check_interpolator(options.interpolator, SHAPED_INTERPOLATORS, need="a path response")
+    fs, n_samples = capture.sample_rate_hz, capture.n_samples
+    out = np.zeros((echoes.delay_s.shape[0], n_samples))
+    if echoes.n_paths == 0:
+        return out
+    call, start = capture.waveform.band_limited(fs)
+    d = echoes.delay_s * fs + options.emission_index + start
+    lo, hi = _span(d, options.taps, call.size, n_samples)
+    if hi <= max(lo, 0):
+        return out
+    kernel = (options.interpolator, options.taps)
+    y = _render_shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -146,7 +174,7 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.ndarray:
+def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain.
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
@@ -159,9 +187,12 @@ def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.nd
     corridor's samples by -138 dB (relative RMS), the same seed giving the same bytes
     before and after.
     """
+    method, taps = kernel
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
     W = sfft.rfft(call, n)
     g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
+    if band_db is not None:  # at baseband
+        return _shaped_baseband(echoes, d, (g, U, V, W, band), n, kernel, n_span, band_db)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -173,6 +204,24 @@ def _render_shaped(echoes, d, call, fs, n_span, method, taps, response) -> np.nd
     term = np.empty_like(spec)
     for q in range(1, filt.shape[0]):
         spec += np.multiply(spectra[q], filt[q], out=term)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+
+
+def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
+    """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): of
+    `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
+    band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
+    microphone; `kernel`: the fractional delays' (method, taps)."""
+    from acousim.synth.baseband import spectra
+
+    g, U, V, W, band = factors
+    pad = kernel[1] + 1  # the same layout as the impulses' buffers
+    kernel = (_kernel_table(*kernel), kernel[1])
+    filters = np.zeros((V.shape[1], W.size), complex)
+    filters[:, band] = (W[band, None] * U).T
+    gains = g[:, :, None] * V[None]
+    direct = echoes.order == 0
+    spec = spectra(d + pad, gains, filters, direct, floor_db, np.complex64, kernel, n)
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 

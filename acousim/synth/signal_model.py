@@ -15,7 +15,7 @@ from acousim.synth.doppler import DopplerPlan, render_doppler, render_planned
 from acousim.synth.noise import NoiseDraw, add_noise, noise_sigma
 from acousim.synth.options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, RenderOptions
 from acousim.synth.point_reflectors import Echoes, PointReflectors, point_echoes
-from acousim.synth.render import render
+from acousim.synth.render import render, render_baseband
 from acousim.synth.response import PathResponse
 from processing import Array, Recording, Waveform, provenance_metadata
 from processing.base.errors import InputError
@@ -94,6 +94,8 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
     args = (cap.waveform, cap.sample_rate_hz, cap.n_samples)
     if doppler is not None:
         return render_doppler(echoes, doppler, *args, options=options, response=response)
+    if options.rate == "baseband" and response is not None and response.active:
+        return render_baseband(echoes, cap, options, response, options.band_floor_db)
     return render(
         echoes,
         *args,

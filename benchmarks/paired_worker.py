@@ -1,0 +1,55 @@
+"""A worker of :mod:`benchmarks.paired`: one checkout's `Simulator` kept in one process.
+
+Run as a script with the checkout to time first on PYTHONPATH; reads commands from
+stdin, one a line, answers one JSON line each:
+``run``: `Simulator.run` over the poses (every trace paid): wall and CPU seconds;
+``save PATH``: the recordings' samples of the poses (noise-free if asked) to PATH (.npy).
+Arguments: scene file, first pose, number of poses, JSON of simulation overrides.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    from acousim.scene import load_scene
+    from acousim.simulator import Simulator
+
+    path, first, count, overrides = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+    scene = load_scene(path)
+    extra = json.loads(overrides)
+    if extra:
+        scene = dataclasses.replace(
+            scene, simulation=dataclasses.replace(scene.simulation, **extra)
+        )
+    sim = Simulator(scene)
+    poses = list(range(first, min(first + count, len(scene.sensor.poses))))
+    sim.run(poses[:2])  # warm-up: compiled kernels, caches
+    print(json.dumps({"ready": True}), flush=True)
+    for line in sys.stdin:
+        cmd = line.split()
+        if not cmd:
+            continue
+        if cmd[0] == "run":
+            sim.tracer.forget()
+            t, c = time.perf_counter(), time.process_time()
+            sim.run(poses)
+            out = {"wall": time.perf_counter() - t, "cpu": time.process_time() - c}
+        elif cmd[0] == "save":
+            sim.tracer.forget()
+            recs = sim.run(poses)
+            np.save(cmd[1], np.stack([r.samples for r in recs]))
+            out = {"saved": cmd[1]}
+        else:
+            out = {"error": line}
+        print(json.dumps(out), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,76 @@
+"""CPU time per stage of a corridor pose (docs/physics.md, speed): trace, kinematics
+(the paths turned into echoes and Doppler factors), the render's plan, the render,
+noise and record; the stages one after the other in one thread (the tracer's
+Embree threads counted: process time), the median over 20 poses of the drive.
+
+    python -m benchmarks.stages ['{"render_rate": "baseband"}']
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import acousim.synth.signal_model as model
+from acousim.scene import load_scene
+from acousim.simulator import SCENE_MOTION, Simulator
+
+SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
+POSES = list(range(10, 50, 2))
+STAGES = ("trace", "kinematics", "plan", "render", "noise+record", "total")
+
+
+def stage_times(overrides: dict) -> dict[str, float]:
+    """Median CPU seconds per stage over POSES."""
+    scene = load_scene(SCENE)
+    scene = dataclasses.replace(
+        scene, simulation=dataclasses.replace(scene.simulation, **overrides)
+    )
+    sim = Simulator(scene)
+    sim.run([0, 1])  # compiled kernels, caches
+    sim.tracer.forget()
+    times = {k: [] for k in STAGES}
+    render = model.render_planned
+    spent = {}
+
+    def timed(plan):
+        t = time.process_time()
+        y = render(plan)
+        spent["render"] = time.process_time() - t
+        return y
+
+    model.render_planned = timed
+    try:
+        for i in POSES:
+            pose = sim.scene.sensor.poses[i]
+            t0 = time.process_time()
+            sim.tracer.trace(pose)
+            t1 = time.process_time()
+            prep = sim._prepare(pose, i, None, SCENE_MOTION)
+            t2 = time.process_time()
+            prep = sim._planned(prep)
+            t3 = time.process_time()
+            sim._record(prep, i, None)
+            t4 = time.process_time()
+            for k, v in zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, spent["render"])):
+                times[k].append(v)
+            times["noise+record"].append(t4 - t3 - spent["render"])
+            times["total"].append(t4 - t0)
+    finally:
+        model.render_planned = render
+    return {k: float(np.median(v)) for k, v in times.items()}
+
+
+def main() -> None:
+    overrides = json.loads(sys.argv[1]) if len(sys.argv) > 1 else {}
+    t = stage_times(overrides)
+    print(" | ".join(f"{k} {v * 1e3:.1f}" for k, v in t.items()), "ms CPU (median of 20 poses)")
+
+
+if __name__ == "__main__":
+    main()
