@@ -45,7 +45,14 @@ from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
 from acousim.trace.following import Endpoints, MovingPaths
-from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.paths import KIND, TracedPaths, kind_names
+from acousim.trace.seen import (
+    chain_points,
+    object_table,
+    point_objects,
+    seen_moving,
+    seen_static,
+)
 from acousim.trace.tracer import Tracer
 from processing import interrupt
 from processing.errors import InputError
@@ -177,15 +184,48 @@ class Simulator:
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         meta = {**_metadata(scene, pose, index), "rays": self.tracer.rays_used(pose)}
+        centre = sensor.array.positions_m.mean(axis=0)
         truth = P.GroundTruth(
             position_world_m=paths.position_m,
             position_sensor_m=pose.to_sensor(paths.position_m),
             amplitude=level,
             order=paths.order,
             kind=np.array(kind_names(paths.kind), dtype=str),
+            **seen_static(paths, pose, centre, self.c).fields(),
+            **self._chains(paths, pose, receiver),
         )
         lidar = self.lidar_scan(pose, index, motion)
         return _Prepared(echoes, n_samples or scene.n_samples(), meta, truth, lidar=lidar)
+
+    def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, extra=None) -> dict:
+        """The ground truth's chain fields of the traced `paths` (first and last
+        points, objects, :func:`acousim.trace.seen.chain_points`) and, `extra`, of
+        the moving point reflectors' paths after them (positions (K, 3))."""
+        tracer = self.tracer.tracer_at(pose.time_s) if self.moving_meshes else self.tracer
+        world = tracer.world
+        names, faces = (
+            object_table(self.scene, None)
+            if world is None
+            else world._cached("objects", lambda: object_table(self.scene, world))
+        )
+        emitter = pose.to_world(self.scene.sensor.array.emitter_m)
+        first, last, obj = chain_points(paths, emitter, receiver, tracer.caster, faces)
+        n_mesh = len(names) - len(self.scene.points)
+        still = np.flatnonzero(paths.kind == KIND["point"])
+        if still.size:
+            where = np.array([p.position_m for p in self.scene.points], float)
+            obj[still] = point_objects(paths.position_m[still], where, n_mesh)
+        if extra is not None and len(extra):
+            index = [i for i, p in enumerate(self.scene.points) if p.moving]
+            first = np.concatenate([first, extra])
+            last = np.concatenate([last, extra])
+            obj = np.concatenate([obj, n_mesh + np.asarray(index, int)])
+        return {
+            "first_point_m": first,
+            "last_point_m": last,
+            "object_index": obj,
+            "object_names": names,
+        }
 
     def _prepare_moving(self, pose, index, n_samples, motion) -> _Prepared:
         """A measurement in motion, down the stages:
@@ -201,7 +241,7 @@ class Simulator:
         scene, sensor = self.scene, self.scene.sensor
         array = sensor.array
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
-        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose)
+        moving, truth_pos, kinds, truth_vel, interactions, paths = self._moving(pose)
         n = n_samples or scene.n_samples()
         kin = SensorKinematics(motion, pose, array, n / sensor.sample_rate_hz, TABLE_STEP_S)
         arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
@@ -221,6 +261,7 @@ class Simulator:
             "rays": self.tracer.rays_used(pose),
             "motion": _motion(pose, motion, arr.rate),
         }
+        centre = array.positions_m.mean(axis=0)
         truth = P.GroundTruth(
             position_world_m=truth_pos,
             position_sensor_m=pose.to_sensor(truth_pos),
@@ -228,6 +269,8 @@ class Simulator:
             order=moving.order,
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=truth_vel,
+            **seen_moving(moving, kin, motion, pose, centre, self.c).fields(),
+            **self._chains(paths, pose, receiver, truth_pos[len(paths) :]),
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)
         lidar = self.lidar_scan(pose, index, motion)
@@ -275,8 +318,8 @@ class Simulator:
         return self._moving(pose)[:4]
 
     def _moving(self, pose: Pose):
-        """:meth:`moving_paths` and the traced paths' material interactions (the traced
-        paths come first, moving points after)."""
+        """:meth:`moving_paths`, the traced paths' material interactions (the traced
+        paths come first, moving points after) and the traced paths."""
         paths = self.tracer.trace(pose)
         emitter = pose.to_world(self.scene.sensor.array.emitter_m)
         moving = MovingPaths.from_traced(paths, emitter)
@@ -300,7 +343,7 @@ class Simulator:
             truth_pos = np.concatenate([truth_pos, pos])
             kinds = kinds + ["point"] * len(a)
             truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
-        return moving, truth_pos, kinds, truth_vel, paths.interactions
+        return moving, truth_pos, kinds, truth_vel, paths.interactions, paths
 
     def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
         """Render the prepared echoes with the scene's noise (seeded per pose index)

@@ -301,6 +301,11 @@ class Reader:
         fields = {n: self.read(t[n]) for n in t if isinstance(t[n], h5py.Dataset)}
         if "kind" in fields:
             fields["kind"] = np.char.decode(fields["kind"], "ascii", errors="replace")
+        if "object_names" in fields:
+            fields["object_names"] = tuple(
+                x.decode(errors="replace") if isinstance(x, bytes) else str(x)
+                for x in np.asarray(fields["object_names"]).reshape(-1)
+            )
         try:
             return GroundTruth(**fields)
         except (TypeError, ValueError) as exc:

@@ -19,7 +19,12 @@ The file format (schema version 2; version 1 files still load) is described in
         truth/...          ground truth (simulations): position_world_m (N, 3),
                            position_sensor_m (N, 3), amplitude (N,), order (N,),
                            kind (N,) ASCII, velocity_world_m_s (N, 3) (scenes with
-                           motion only)
+                           motion only); what the sensor sees (absent in files
+                           written before it existed: read as None): delay_s (N,),
+                           arrival_sensor (N, 3), apparent_position_sensor_m and
+                           apparent_position_world_m (N, 3), first_point_m and
+                           last_point_m (N, 3), object_index (N,) int32,
+                           object_names (O,) UTF-8 (see docs/recording-format.md)
         metadata           scalar string: JSON object (pose, scene, seed, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
                waveform (JSON)
@@ -45,6 +50,7 @@ from .recording_types import (  # noqa: F401  (re-exported)
     MAX_SAMPLE_BYTES,
     SCHEMA,
     SCHEMA_VERSION,
+    SEEN_UNITS,
     SUPPORTED_VERSIONS,
     GroundTruth,
     Recording,
@@ -177,16 +183,27 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
             ("order", rec.truth.order.astype(np.int16), "1"),
             ("kind", rec.truth.kind.astype("S16"), None),
             ("velocity_world_m_s", rec.truth.velocity_world_m_s, "m/s"),
+            *((name, getattr(rec.truth, name), units) for name, units in SEEN_UNITS),
         ):
-            if data is None:  # a scene without motion
+            if data is None:  # a scene without motion, a truth without the seen fields
                 continue
-            ds = t.create_dataset(name, data=data, **kw)
+            ds = t.create_dataset(name, data=_narrow(name, data), **kw)
             if units:
                 ds.attrs["units"] = units
+        if rec.truth.object_index is not None:
+            t.create_dataset("object_names", data=list(rec.truth.object_names), dtype=_STR)
     if rec.lidar is not None:
         write_point_cloud(g.create_group("lidar"), rec.lidar, opts["checksum"])
     # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
+
+
+_STR = h5py.string_dtype("utf-8")
+
+
+def _narrow(name: str, data: np.ndarray) -> np.ndarray:
+    """A truth field as stored: object indices as int32, the rest as given."""
+    return data.astype(np.int32) if name == "object_index" else data
 
 
 def _json_default(obj):

@@ -20,6 +20,7 @@ from .pointcloud import read_point_cloud
 from .provenance import Provenance
 from .recording_types import (
     SCHEMA,
+    SEEN_UNITS,
     SUPPORTED_VERSIONS,
     GroundTruth,
     Recording,
@@ -338,10 +339,26 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
         name = "velocity_world_m_s"
         ds = _dataset(path, t, name, (2,), "f", "m/s")
         fields[name] = _read(path, ds, f"{key}/{name}")
+    fields.update(_seen(path, t, key))
     try:
         return GroundTruth(**fields)
     except ValueError as exc:
         raise RecordingFileError(str(exc), file=path, key=key) from None
+
+
+def _seen(path: Path, t: h5py.Group, key: str) -> dict:
+    """The fields of what the sensor sees, those the file has (a file written before
+    they existed has none: the truth reads as it did)."""
+    out = {}
+    for name, units in SEEN_UNITS:
+        if name in t:
+            ndim, kind = ((1,), "iu") if name in ("delay_s", "object_index") else ((2,), "f")
+            kind = "f" if name == "delay_s" else kind
+            out[name] = _read(path, _dataset(path, t, name, ndim, kind, units), f"{key}/{name}")
+    if "object_names" in t:
+        ds = _dataset(path, t, "object_names", (1,), "SO")
+        out["object_names"] = tuple(_text(x) or "" for x in _read(path, ds, f"{key}/object_names"))
+    return out
 
 
 def _truth_v1(path: Path, g: h5py.Group, meta: dict) -> GroundTruth | None:

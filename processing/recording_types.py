@@ -11,7 +11,7 @@ fs`` after the matched filter.  Nothing in :mod:`processing` adds any other dela
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -159,6 +159,34 @@ class GroundTruth:
     velocity_world_m_s: np.ndarray | None = None
     """(N, 3) velocity of each path's last reflection at the start of the emission,
     world frame, m/s; None for a scene without motion."""
+    # what the sensor sees of each path (None: a file written before they existed)
+    delay_s: np.ndarray | None = None
+    """(N,) two-way delay at the array centre, s: from the start of the emission to
+    the arrival of the call's start there, motion included (the delay the renderer
+    used)."""
+    arrival_sensor: np.ndarray | None = None
+    """(N, 3) unit direction the path arrives from at the array centre, sensor frame
+    (x: the array's axis), dimensionless."""
+    apparent_position_sensor_m: np.ndarray | None = None
+    """(N, 3) where an imaging sonar puts the echo: the array centre plus
+    `arrival_sensor` times ``speed_of_sound * delay_s / 2``, sensor frame, m.  The
+    reflection point for a first-order echo; for every other path where the image
+    shows it (a two-bounce echo beyond its last reflection)."""
+    apparent_position_world_m: np.ndarray | None = None
+    """(N, 3) the same in the world frame (through the pose at the start of the
+    emission), m."""
+    first_point_m: np.ndarray | None = None
+    """(N, 3) the path's first interaction (reflection, scatter, edge or point),
+    world frame, m; NaN for the direct path."""
+    last_point_m: np.ndarray | None = None
+    """(N, 3) the path's last interaction, world frame, m (equal to
+    `position_world_m`); NaN for the direct path."""
+    object_index: np.ndarray | None = None
+    """(N,) int, index into `object_names` of what the path's last interaction
+    touched (-1: nothing, the direct path, or not known)."""
+    object_names: tuple[str, ...] = ()
+    """The objects of the scene, ``"<mesh>/<material>"`` for a mesh's faces of one
+    material, the point reflector's name for a point (``"point 0"``, ...)."""
 
     def __post_init__(self) -> None:
         pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
@@ -191,6 +219,52 @@ class GroundTruth:
             if not np.all(np.isfinite(vel)):
                 raise InputError("truth velocities must be finite")
             object.__setattr__(self, "velocity_world_m_s", vel)
+        self._check_seen(n)
+
+    def _check_seen(self, n: int) -> None:
+        """The fields of what the sensor sees: each absent or one row per path."""
+        for name, width, finite in _SEEN:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            a = np.asarray(value, np.int64 if name == "object_index" else float)
+            a = a.reshape(-1, width) if width else a.reshape(-1)
+            if len(a) != n:
+                raise InputError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+            if finite and not np.all(np.isfinite(a)):
+                raise InputError(f"truth {name} must be finite")
+            object.__setattr__(self, name, a)
+        names = tuple(str(x) for x in np.asarray(self.object_names, dtype=object).reshape(-1))
+        object.__setattr__(self, "object_names", names)
+        if self.object_index is not None and self.object_index.size:
+            bad = (self.object_index < -1) | (self.object_index >= len(names))
+            if bad.any():
+                raise InputError(
+                    f"truth object_index {int(self.object_index[bad][0])} is not -1 or an "
+                    f"index into its {len(names)} object_names"
+                )
+
+    @property
+    def has_apparent(self) -> bool:
+        """Whether the paths carry what the sensor sees (delay, arrival direction,
+        apparent position): False for a file written before they existed."""
+        return self.apparent_position_sensor_m is not None
+
+    def object_name(self) -> np.ndarray:
+        """(N,) str, the name of each path's object ("" where none or unknown)."""
+        if self.object_index is None:
+            return np.full(len(self), "", dtype=object)
+        names = np.array([*self.object_names, ""], dtype=object)
+        return names[self.object_index]
+
+    def select(self, keep) -> GroundTruth:
+        """The paths where `keep` (a mask or indices, N) selects."""
+        per_path = {
+            f.name: None if getattr(self, f.name) is None else getattr(self, f.name)[keep]
+            for f in fields(self)
+            if f.name != "object_names"
+        }
+        return GroundTruth(**per_path, object_names=self.object_names)
 
     def __len__(self) -> int:
         return len(self.amplitude)
@@ -200,12 +274,26 @@ class GroundTruth:
 
     def echoes(self) -> GroundTruth:
         """The paths that are not the direct emitter-to-array path."""
-        keep = self.kind != "direct"
-        return GroundTruth(
-            self.position_world_m[keep],
-            self.position_sensor_m[keep],
-            self.amplitude[keep],
-            self.order[keep],
-            self.kind[keep],
-            None if self.velocity_world_m_s is None else self.velocity_world_m_s[keep],
-        )
+        return self.select(self.kind != "direct")
+
+
+#: the per-path fields of what the sensor sees, as files store them: (name, units)
+SEEN_UNITS = (
+    ("delay_s", "s"),
+    ("arrival_sensor", "1"),
+    ("apparent_position_sensor_m", "m"),
+    ("apparent_position_world_m", "m"),
+    ("first_point_m", "m"),
+    ("last_point_m", "m"),
+    ("object_index", "1"),
+)
+#: the same: (name, columns (0: a vector), finite)
+_SEEN = (
+    ("delay_s", 0, True),
+    ("arrival_sensor", 3, True),
+    ("apparent_position_sensor_m", 3, True),
+    ("apparent_position_world_m", 3, True),
+    ("first_point_m", 3, False),
+    ("last_point_m", 3, False),
+    ("object_index", 0, True),
+)

@@ -20,6 +20,11 @@ Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
                        removed by the energy gate (no data).  attrs: units "dB",
                        method, frequency_hz, reference_power (linear power of 0 dB),
                        resolution_db.
+        <method>_object (R, E, A) int16  truth label (simulations): per cell the
+                       object (index into object_names) carrying most of its
+                       simulated energy; -1 none or below the dynamic range
+        <method>_order  (R, E, A) int8   the same cell's path order (reflections)
+        object_names   (O,) UTF-8 strings: "<mesh>/<material>", "point <i>"
 
 Peaks CSV columns: see :data:`PEAK_COLUMNS`.
 """
@@ -35,6 +40,7 @@ import numpy as np
 
 import processing as P
 from acousim.imaging import PEAK_THRESHOLD_DB
+from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.atomic import atomic_path, write_text
 
 __all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
@@ -57,13 +63,17 @@ PEAK_COLUMNS = (
     "world_y_m",
     "world_z_m",
     "on_grid_edge",  # 1: on the grid's first/last azimuth or elevation (may not be a peak)
-    "truth_kind",  # the traced reflector within the image's resolution ("" if none)
-    "truth_x_m",  # where it was traced, sensor frame (m)
+    "truth_kind",  # the traced path shown in the peak's resolution cell ("" if none)
+    "truth_order",  # its reflections (an edge counts as one)
+    "truth_object",  # what it last touched: "<mesh>/<material>" or "point <i>"
+    "truth_x_m",  # its apparent position (where the image shows it), sensor frame (m)
     "truth_y_m",
     "truth_z_m",
     "truth_level_db",  # re the strongest traced echo
-    "truth_offset_deg",  # angle between the peak and the (mirrored) reflector
+    "truth_offset_deg",  # angle between the peak and the (mirrored) apparent position
+    "truth_range_offset_m",  # the apparent position's range less the peak's
     "truth_behind",  # 1: behind the array, heard as its mirror (-x, y, z)
+    "truth_note",  # why the peak has no truth ("" when it has one)
     "provenance",  # the recording's: simulated, real or emulated
 )
 
@@ -94,11 +104,15 @@ def write_image_data(
     indices: Sequence[int] | None = None,
     *,
     compression: str | None = "gzip",
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
 ) -> Path:
-    """Write every image of every recording to one HDF5 file (atomically).
+    """Write every image of every recording to one HDF5 file (atomically), with the
+    truth labels of each image of a simulated recording (:mod:`acousim.labels`).
 
     recordings, images : as from :func:`acousim.imaging.image_recordings`.
     indices : each recording's index in its file (default 0, 1, ...).
+    dynamic_range_db : cells of the label maps this far below the strongest cell's
+        simulated energy are labelled -1 (none).
     """
     import h5py
 
@@ -129,7 +143,45 @@ def write_image_data(
                 d.make_scale(name)
             for method, img in imgs.items():
                 _write_image(g, method, img, axis, list(scales), compression)
+                labels = (dynamic_range_db, compression)
+                _write_labels(g, rec, (method, img), axis, list(scales), *labels)
+            if rec.truth is not None and rec.truth.object_index is not None:
+                names = list(rec.truth.object_names)
+                g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
     return path
+
+
+def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression):
+    """The image's truth labels (:mod:`acousim.labels`) beside it: ``<method>_object``
+    (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
+    (int8 reflections, -1 none), of the image's shape."""
+    from acousim.labels import recording_label_map
+    from acousim.matching import image_resolution
+
+    method, img = image
+    if rec.truth is None or not axis.size:
+        return
+    res = image_resolution(rec, img, P.ProcessingSettings.window)
+    labels = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+    for suffix, data, dtype, what in (
+        ("object", labels.object_index, np.int16, "index into object_names"),
+        ("order", labels.order, np.int8, "reflections"),
+    ):
+        d = g.create_dataset(
+            f"{method}_{suffix}",
+            data=data.astype(dtype),
+            chunks=True,
+            compression=compression,
+            shuffle=bool(compression),
+        )
+        d.attrs["long_name"] = (
+            f"{method}: per cell, the {what} of the paths carrying most of its simulated "
+            "energy (-1: none, or below the dynamic range)"
+        )
+        d.attrs["dynamic_range_db"] = float(dynamic_range_db)
+        for dim, name in enumerate(scales):
+            d.dims[dim].label = name
+            d.dims[dim].attach_scale(g[name])
 
 
 def _write_provenance(g, prov) -> None:
@@ -192,7 +244,7 @@ def peak_rows(
         return []
     sensor, world = peak_positions(recording, pk)
     edge = on_grid_edge(image, pk)
-    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples))
+    m = match_peaks(recording, pk, image_resolution(recording, image, window_samples), edge)
     rows = []
     for k, (r, a, e, lv, s, w) in enumerate(
         zip(pk.range_m, pk.azimuth_rad, pk.elevation_rad, pk.level_db, sensor, world)
@@ -201,13 +253,17 @@ def peak_rows(
         truth = (
             (
                 str(m.kind[k]),
+                int(m.order[k]),
+                str(m.object[k]),
                 *(float(v) for v in m.position_sensor_m[k]),
                 float(m.level_db[k]),
                 float(np.rad2deg(m.offset_rad[k])),
+                float(m.range_offset_m[k]),
                 int(m.behind[k]),
+                "",
             )
             if hit
-            else ("",) * 7
+            else (*("",) * 10, str(m.note[k]))
         )
         rows.append(
             (

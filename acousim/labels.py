@@ -1,0 +1,161 @@
+"""Truth images: a label map of the same shape as an acoustic image, per cell the
+object and the path order that carry most of the cell's simulated energy.
+
+Each traced path (the direct path left out) puts its energy at the array (its
+amplitude squared) where the sensor sees it: at its apparent position
+(:attr:`processing.GroundTruth.apparent_position_sensor_m`; a path behind a planar
+array at its mirror, as it is heard), spread over its resolution cell by a Gaussian
+taper whose full width at half maximum is the cell (range and angle,
+:class:`acousim.matching.Resolution`), cut at one full cell.  The energy of every
+(object, order) class is summed per cell; the class with the most labels the cell.
+A cell whose summed energy lies more than the dynamic range below the strongest
+cell's is labelled -1 (none), as are cells no path reaches.
+
+This is what a segmentation model trains on: the image's cell (r, e, a) holds the
+object ``object_names[object_index[r, e, a]]`` seen through a path of ``order[r, e,
+a]`` reflections.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["LabelMap", "label_map", "recording_label_map"]
+
+_LN16 = 4 * np.log(2)  # exp(-4 ln 2 (x / w)^2): 1/2 at x = w / 2
+
+
+@dataclass(frozen=True, eq=False)
+class LabelMap:
+    """Per cell (R, G) of an image (G directions; (R, E, A) after
+    :meth:`reshaped`): `object_index` int32, the index into the ground truth's
+    ``object_names`` (-1: none), and `order` int16, the reflections of the paths
+    that carry most of the cell's energy (-1: none)."""
+
+    object_index: np.ndarray
+    order: np.ndarray
+
+    def reshaped(self, shape: tuple[int, ...]) -> LabelMap:
+        """Both maps reshaped (to the image's (R, E, A))."""
+        return LabelMap(self.object_index.reshape(shape), self.order.reshape(shape))
+
+
+def label_map(
+    *,
+    range_m: np.ndarray,
+    directions: np.ndarray,
+    positions_m: np.ndarray,
+    energy: np.ndarray,
+    object_index: np.ndarray,
+    order: np.ndarray,
+    range_cell_m: float,
+    angle_cell_rad: float,
+    dynamic_range_db: float,
+) -> LabelMap:
+    """The label map of an image grid (see the module docstring).
+
+    range_m : (R,) the image's range bins from the array centre, m.
+    directions : (G, 3) the image's unit directions, sensor frame.
+    positions_m : (P, 3) where each path shows (its apparent position from the array
+        centre, sensor frame, m; mirror those behind a planar array first).
+    energy : (P,) each path's energy at the array (amplitude squared).
+    object_index, order : (P,) int, each path's object (-1: none) and reflections.
+    range_cell_m, angle_cell_rad : the image's resolution (full widths), m and rad.
+    dynamic_range_db : cells this far below the strongest cell's energy are -1.
+    """
+    rng = np.asarray(range_m, float).reshape(-1)
+    u = np.asarray(directions, float).reshape(-1, 3)
+    R, G = rng.size, len(u)
+    none = LabelMap(np.full((R, G), -1, np.int32), np.full((R, G), -1, np.int16))
+    pos = np.asarray(positions_m, float).reshape(-1, 3)
+    e = np.asarray(energy, float).reshape(-1)
+    ok = np.isfinite(e) & (e > 0) & np.all(np.isfinite(pos), axis=1)
+    if not (R and G and ok.any()):
+        return none
+    pos, e = pos[ok], e[ok]
+    obj = np.asarray(object_index).reshape(-1)[ok].astype(np.int64)
+    odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
+    classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
+    cls = cls.reshape(-1)
+    cells, weights, kinds = _contributions(rng, u, pos, e, cls, range_cell_m, angle_cell_rad)
+    if not cells.size:
+        return none
+    # energy per (cell, class), then per cell the class with the most
+    key = cells * len(classes) + kinds
+    uniq, inv = np.unique(key, return_inverse=True)
+    per = np.bincount(inv.reshape(-1), weights=weights)
+    cell, kind = np.divmod(uniq, len(classes))
+    total = np.bincount(cell, weights=per, minlength=R * G)
+    # the strongest class of each cell: sort by (cell, energy), take each cell's last
+    best = np.lexsort((per, cell))
+    last = np.r_[cell[best][1:] != cell[best][:-1], True]
+    top_cell, top_kind = cell[best][last], kind[best][last]
+    floor = total.max() * 10 ** (-dynamic_range_db / 10)
+    shown = total[top_cell] >= floor
+    out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
+    out_obj[top_cell[shown]] = classes[top_kind[shown], 0]
+    out_order[top_cell[shown]] = classes[top_kind[shown], 1]
+    return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+
+
+def _contributions(rng, u, pos, e, cls, range_cell_m, angle_cell_rad):
+    """Every (cell, weight, class) a path reaches within one cell: flat cell indices
+    (r * G + g), energies, class indices."""
+    G = len(u)
+    r = np.linalg.norm(pos, axis=1)
+    d = pos / np.maximum(r, 1e-12)[:, None]
+    wr, wa = max(float(range_cell_m), 1e-9), max(float(angle_cell_rad), 1e-9)
+    lo = np.searchsorted(rng, r - wr)
+    hi = np.searchsorted(rng, r + wr, side="right")
+    cos_cut = np.cos(min(wa, np.pi))
+    cells, weights, kinds = [], [], []
+    dots = d @ u.T  # (P, G)
+    for p in np.flatnonzero(hi > lo):
+        g = np.flatnonzero(dots[p] >= cos_cut)
+        if not g.size:
+            continue
+        ang = np.arccos(np.clip(dots[p, g], -1.0, 1.0))
+        b = np.arange(lo[p], hi[p])
+        w = (
+            np.exp(-_LN16 * ((rng[b] - r[p]) / wr) ** 2)[:, None]
+            * np.exp(-_LN16 * (ang / wa) ** 2)[None]
+        )
+        cells.append((b[:, None] * G + g[None]).ravel())
+        weights.append((e[p] * w).ravel())
+        kinds.append(np.full(w.size, cls[p]))
+    if not cells:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)
+    return np.concatenate(cells), np.concatenate(weights), np.concatenate(kinds)
+
+
+def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m=None):
+    """The :class:`LabelMap` (R, E, A) of `image` (a :class:`processing.Image` of
+    the :class:`processing.Recording` `rec`) on its range bins (or `range_m` (R,),
+    a regular axis it is written on), with the image's `resolution`
+    (:func:`acousim.matching.image_resolution`); None without a ground truth."""
+    from acousim.matching import seen_positions
+
+    t = rec.truth
+    if t is None:
+        return None
+    rng = np.asarray(image.range_m if range_m is None else range_m, float)
+    el, az = np.meshgrid(image.elevation_rad, image.azimuth_rad, indexing="ij")
+    u = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    pos = seen_positions(t, rec.array.positions_m.mean(axis=0))
+    pos[:, 0] = np.abs(pos[:, 0])  # behind a planar array: heard at its mirror
+    echo = np.asarray(t.kind) != "direct"
+    obj = t.object_index if t.object_index is not None else np.full(len(t), -1)
+    labels = label_map(
+        range_m=rng,
+        directions=u.reshape(-1, 3),
+        positions_m=pos[echo],
+        energy=np.square(t.amplitude[echo]),
+        object_index=obj[echo],
+        order=t.order[echo],
+        range_cell_m=resolution.range_m,
+        angle_cell_rad=resolution.angle_rad,
+        dynamic_range_db=dynamic_range_db,
+    )
+    return labels.reshaped((rng.size, *el.shape))
