@@ -12,8 +12,10 @@ Resolution of an image (:class:`Resolution`):
 A traced path matches a peak when it shows in the peak's resolution cell: its
 apparent position (where the sensor sees it: along its arrival direction at half
 its path length, :attr:`processing.GroundTruth.apparent_position_sensor_m`) lies
-within half the range resolution of the peak's range and within the angular
-resolution of its direction.  A two-bounce echo is thus matched where the image
+within half the range resolution of the peak's range and within half the angular
+resolution of its direction (the cell of one resolution's width centred on the
+peak: a path farther off belongs to the next cell, or for a peak on the grid's
+edge, outside the grid).  A two-bounce echo is thus matched where the image
 shows it, not at its last reflection.  One behind the array (x < 0 in the sensor
 frame) is heard as its mirror (-x, y, z) and matched as such.  Of several, the
 strongest is the match; a peak with none is unmatched and says why
@@ -182,7 +184,8 @@ def match_peaks(
     u_t = m / np.maximum(r_t, 1e-12)[:, None]
     offset = np.arccos(np.clip(peak_directions(peaks) @ u_t.T, -1.0, 1.0))  # (N, paths)
     dr = r_t[None] - np.asarray(peaks.range_m)[:, None]
-    ok = echo[None] & (np.abs(dr) <= resolution.range_m / 2) & (offset <= resolution.angle_rad)
+    in_cell = (np.abs(dr) <= resolution.range_m / 2) & (offset <= resolution.angle_rad / 2)
+    ok = echo[None] & in_cell
     idx = np.where(ok.any(axis=1), np.argmax(np.where(ok, level[None], -np.inf), axis=1), -1)
     hit = idx >= 0
     edge = np.zeros(n, bool) if edge is None else np.asarray(edge, bool)
