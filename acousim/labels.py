@@ -159,3 +159,42 @@ def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m
         dynamic_range_db=dynamic_range_db,
     )
     return labels.reshaped((rng.size, *el.shape))
+
+
+#: the per-path truth a dataset sample stores beside position, amplitude and order:
+#: (key, GroundTruth field, dtype, units, dimensions)
+SAMPLE_FIELDS = (
+    ("labels/delay_s", "delay_s", np.float32, "s", "path"),
+    ("labels/arrival_sensor", "arrival_sensor", np.float32, "1", "path,xyz"),
+    (
+        "labels/apparent_position_sensor_m",
+        "apparent_position_sensor_m",
+        np.float32,
+        "m",
+        "path,xyz",
+    ),
+    ("labels/object_index", "object_index", np.int16, "1", "path"),
+)
+
+
+def sample_labels(rec, images, range_m, window_samples: int, dynamic_range_db: float) -> dict:
+    """A dataset sample's truth beyond position, amplitude and order: the per-path
+    fields of :data:`SAMPLE_FIELDS` (those the recording has) and each image's label
+    maps ``label_map/<method>/object`` (int16) and ``label_map/<method>/order``
+    (int8), (R, E, A) on the sample's range axis `range_m` (R,).  `images`:
+    {method: :class:`processing.Image`}."""
+    from acousim.matching import image_resolution
+
+    t = rec.truth
+    out: dict[str, np.ndarray] = {}
+    if t is None:
+        return out
+    for key, name, dtype, _units, _dims in SAMPLE_FIELDS:
+        if getattr(t, name) is not None:
+            out[key] = getattr(t, name).astype(dtype)
+    for m, img in images.items():
+        res = image_resolution(rec, img, window_samples)
+        lab = recording_label_map(rec, img, res, dynamic_range_db, range_m=range_m)
+        out[f"label_map/{m}/object"] = lab.object_index.astype(np.int16)
+        out[f"label_map/{m}/order"] = lab.order.astype(np.int8)
+    return out

@@ -27,6 +27,8 @@ import h5py
 import numpy as np
 
 import processing as P
+from acousim.labels import SAMPLE_FIELDS, sample_labels
+from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing import interrupt
 from processing.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.errors import InputError
@@ -69,6 +71,7 @@ UNITS = {
     "labels/amplitude": "1",
     "labels/order": "1",
     "labels/depth_m": "m",
+    **{key: units for key, _, _, units, _ in SAMPLE_FIELDS},
 }
 """Units of every stored array (``image/<method>``: dB relative to the image's maximum)."""
 DIMS = {
@@ -80,7 +83,13 @@ DIMS = {
     "labels/amplitude": "path",
     "labels/order": "path",
     "labels/depth_m": "elevation,azimuth",
+    **{key: dims for key, _, _, _, dims in SAMPLE_FIELDS},
 }
+
+
+def _default_units(name: str) -> str:
+    """The units of an array not in UNITS: an image's dB, a label map's "1"."""
+    return "1" if name.startswith("label_map/") else "dB"
 
 
 def shard_name(k: int) -> str:
@@ -124,8 +133,13 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
         arrays["labels/amplitude"] = truth.amplitude.astype(np.float32)
         arrays["labels/order"] = truth.order.astype(np.int8)
+        # what the sensor sees, and the images' label maps (acousim.labels)
+        dr = DYNAMIC_RANGE_DB
+        arrays.update(sample_labels(rec, images if st.images else {}, axis, settings.window, dr))
     if st.depth_map:
         arrays["labels/depth_m"] = _depth_map(_scene_path(params, spec), pose, grid, scene)
+    if st.labels and rec.truth is not None and rec.truth.object_index is not None:
+        params = {**params, "object_names": list(rec.truth.object_names)}
     params = {
         **params,
         "frequency_hz": snap.frequency_hz,
@@ -218,7 +232,7 @@ def _write_acousim_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Pat
                     for p in parents:
                         parent = parent[p] if p in parent else _group(parent, p)
                     ds = _dataset(parent, leaf, a, spec.compression)
-                    ds.attrs["units"] = np.bytes_(UNITS.get(name, "dB"))
+                    ds.attrs["units"] = np.bytes_(UNITS.get(name, _default_units(name)))
                     ds.attrs["dims"] = np.bytes_(DIMS.get(name, "range,elevation,azimuth"))
                 # fixed-length bytes: no global heap, whose layout varies between processes
                 g.attrs["params"] = np.bytes_(json.dumps(params, sort_keys=True))
