@@ -1,0 +1,87 @@
+"""What the ground truth of what the sensor sees costs (issue 35): the corridor drive
+at its defaults, this code against an older checkout, in alternating subprocesses.
+
+    python -m benchmarks.truth_cost /path/to/old/checkout [pairs]
+
+Each worker imports acousim from its checkout, builds the corridor's simulator, runs
+pose 0 (caches, compilation), then ``Simulator.run`` over 20 poses of the drive with
+every trace paid (``tracer.forget()``), three times, and reports the best time per
+measurement; then writes those 20 recordings (the default float32 + fletcher32
+file) and reports the file's size.  The parent alternates old and new `pairs`
+times and prints the medians of the per-pair ratios.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+POSES = list(range(10, 30))  # as benchmarks/corridor.py: two seconds of the drive
+HERE = Path(__file__).resolve().parent.parent
+
+
+def worker(code: str) -> dict:
+    """Measurements/s and file bytes of the code at `code` (run in a subprocess)."""
+    sys.path.insert(0, code)
+    import processing as P
+    from acousim.scene import load_scene
+    from acousim.simulator import Simulator
+
+    assert Path(P.__file__).resolve().is_relative_to(Path(code).resolve()), P.__file__
+    scene = load_scene(Path(code) / "scenes" / "corridor.toml")
+    sim = Simulator(scene)
+    sim.run([0])
+    best = np.inf
+    for _ in range(3):
+        sim.tracer.forget()
+        t = time.perf_counter()
+        recs = sim.run(POSES)
+        best = min(best, time.perf_counter() - t)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "drive.h5"
+        P.save_recordings(path, recs)
+        size = path.stat().st_size
+    paths = int(np.mean([len(r.truth) for r in recs]))
+    return {"per_s": len(POSES) / best, "bytes": size, "paths": paths}
+
+
+def _run(code: str) -> dict:
+    out = subprocess.run(
+        [sys.executable, "-m", "benchmarks.truth_cost", "--worker", code],
+        cwd=HERE,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "OPENBLAS_NUM_THREADS": "1"},
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(old: str, pairs: int = 3) -> str:
+    speed, size, rows = [], [], []
+    for _ in range(pairs):
+        a, b = _run(old), _run(str(HERE))
+        speed.append(b["per_s"] / a["per_s"])
+        size.append(b["bytes"] / a["bytes"])
+        rows.append((a, b))
+    lines = [f"old {a} new {b}" for a, b in rows]
+    lines.append(
+        f"{pairs} alternating pairs, corridor drive (20 poses, defaults): new/old "
+        f"measurements/s median {np.median(speed):.3f} (pairs {np.round(speed, 3).tolist()}), "
+        f"file size median {np.median(size):.3f} (pairs {np.round(size, 3).tolist()})"
+    )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "--worker":
+        print(json.dumps(worker(sys.argv[2])))
+    else:
+        print(main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 3))
