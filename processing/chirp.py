@@ -62,7 +62,7 @@ from .chirp_names import (  # noqa: F401  (re-exported)
 )
 from .errors import InputError
 from .provenance import SensorMotion, SensorPose
-from .recording_types import MAX_SAMPLE_BYTES, SEEN_UNITS, Recording
+from .recording_types import MAX_SAMPLE_BYTES, STORED_SEEN, Recording
 from .waveforms import Waveform
 
 __all__ = [
@@ -85,7 +85,7 @@ _TRUTH = (
     ("order", "1"),
     ("kind", None),
     ("velocity_world_m_s", "m/s"),
-    *SEEN_UNITS,
+    *STORED_SEEN.items(),
 )
 
 
@@ -325,6 +325,7 @@ def _write_recording_extras(g: h5py.Group, rec: Recording, checksum: bool) -> No
         data = data.astype("S16") if name == "kind" else data
         data = data.astype(np.int16) if name == "order" else data
         data = data.astype(np.int32) if name == "object_index" else data
+        data = data.astype(np.float32) if name in STORED_SEEN and name != "object_index" else data
         d = t.create_dataset(name, data=data, **kw)
         if units:
             d.attrs["units"] = units

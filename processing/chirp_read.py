@@ -17,7 +17,7 @@ from .arrays import Array
 from .chirp_frames import euler_of, matrix_of_quaternion
 from .chirp_names import ACOUSTIC, LIDAR, ODOMETRY, OUR_SCHEMA, OURS, TRANSMITTER, ChirpFileError
 from .pointcloud import PointCloud
-from .recording_types import MAX_SAMPLE_BYTES, GroundTruth, Recording
+from .recording_types import MAX_SAMPLE_BYTES, GroundTruth, Recording, with_last_points
 from .waveforms import FIT_MIN_CORRELATION, Waveform, fit_sweep
 
 __all__ = ["Reader", "DEFAULT_SPEED_OF_SOUND_M_S"]
@@ -307,8 +307,8 @@ class Reader:
                 for x in np.asarray(fields["object_names"]).reshape(-1)
             )
         try:
-            return GroundTruth(**fields)
-        except (TypeError, ValueError) as exc:
+            return GroundTruth(**with_last_points(fields))
+        except (TypeError, ValueError, KeyError) as exc:
             raise self.fail(f"not a ground truth ({exc})", key=t.name) from None
 
     # -- the other sensors, at capture k

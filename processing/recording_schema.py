@@ -20,11 +20,12 @@ from .pointcloud import read_point_cloud
 from .provenance import Provenance
 from .recording_types import (
     SCHEMA,
-    SEEN_UNITS,
+    STORED_SEEN,
     SUPPORTED_VERSIONS,
     GroundTruth,
     Recording,
     RecordingFileError,
+    with_last_points,
 )
 from .waveforms import Waveform
 
@@ -339,7 +340,7 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
         name = "velocity_world_m_s"
         ds = _dataset(path, t, name, (2,), "f", "m/s")
         fields[name] = _read(path, ds, f"{key}/{name}")
-    fields.update(_seen(path, t, key))
+    fields = with_last_points({**fields, **_seen(path, t, key)})
     try:
         return GroundTruth(**fields)
     except ValueError as exc:
@@ -350,7 +351,7 @@ def _seen(path: Path, t: h5py.Group, key: str) -> dict:
     """The fields of what the sensor sees, those the file has (a file written before
     they existed has none: the truth reads as it did)."""
     out = {}
-    for name, units in SEEN_UNITS:
+    for name, units in STORED_SEEN.items():
         if name in t:
             ndim, kind = ((1,), "iu") if name in ("delay_s", "object_index") else ((2,), "f")
             kind = "f" if name == "delay_s" else kind

@@ -287,6 +287,21 @@ SEEN_UNITS = (
     ("last_point_m", "m"),
     ("object_index", "1"),
 )
+#: what files store of them: the last point is the last reflection
+#: (``position_world_m``; NaN for the direct path), rebuilt on reading
+STORED_SEEN = {k: u for k, u in SEEN_UNITS if k != "last_point_m"}
+
+
+def with_last_points(fields: dict) -> dict:
+    """Truth fields read from a file with ``last_point_m`` rebuilt (when the file has
+    the first points): ``position_world_m``, NaN for the direct path."""
+    if "first_point_m" not in fields or "last_point_m" in fields:
+        return fields
+    last = np.array(fields["position_world_m"], float).reshape(-1, 3)
+    last[np.asarray(fields["kind"]).astype(str).reshape(-1) == "direct"] = np.nan
+    return {**fields, "last_point_m": last}
+
+
 #: the same: (name, columns (0: a vector), finite)
 _SEEN = (
     ("delay_s", 0, True),
