@@ -5,7 +5,7 @@ at its defaults, this code against an older checkout, in alternating subprocesse
 
 Each worker imports acousim from its checkout, builds the corridor's simulator, runs
 pose 0 (caches, compilation), then ``Simulator.run`` over 20 poses of the drive with
-every trace paid (``tracer.forget()``), three times, and reports the best time per
+every trace paid (``tracer.forget()``), twice, and reports the best time per
 measurement; then writes those 20 recordings (the default float32 + fletcher32
 file) and reports the file's size.  The parent alternates old and new `pairs`
 times and prints the medians of the per-pair ratios.
@@ -39,7 +39,7 @@ def worker(code: str) -> dict:
     sim = Simulator(scene)
     sim.run([0])
     best = np.inf
-    for _ in range(3):
+    for _ in range(2):
         sim.tracer.forget()
         t = time.perf_counter()
         recs = sim.run(POSES)

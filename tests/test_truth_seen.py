@@ -305,3 +305,42 @@ def test_label_map_gives_each_cell_the_class_with_the_most_energy():
     assert cell(1.5, 0) == (-1, -1)  # no path reaches it
     assert cell(1.0, -30) == (-1, -1)  # beyond one cell (10 degrees) of every path
     assert lab.object_index.dtype == np.int32 and lab.order.dtype == np.int16
+
+
+def test_a_moving_sensor_sees_a_point_at_its_retarded_time(tmp_path):
+    """A sensor driving at 2 m/s past a still point: the delay at the array centre is
+    the retarded time at the moving centre (solved here by fixed point: emitted at
+    the start of the emission from where the emitter is then, received where the
+    centre has got to), and the apparent position lies along the arrival direction
+    then, at half the path length."""
+    v, point = np.array([2.0, 0.0, 0.0]), np.array([2.0, 0.5, 0.1])
+    scene = parse_scene(
+        {
+            "sensor": {
+                "array": "urtis_v1",
+                "direct_path": False,
+                "pose": {"position_m": [0, 0, 0], "velocity_m_s": v.tolist()},
+            },
+            "simulation": {"max_range_m": 3.0},
+            "points": [{"position_m": point.tolist(), "strength": 1.0}],
+        },
+        base_dir=tmp_path,
+    )
+    pose = scene.sensor.poses[0]
+    t = Simulator(scene).simulate_pose(pose).truth
+    c = scene.environment.speed_of_sound_m_s
+    array = scene.sensor.array
+    e0, c0 = array.emitter_m, array.positions_m.mean(axis=0)  # the pose is the identity
+    out = np.linalg.norm(point - e0) / c
+    ts = out
+    for _ in range(50):
+        ts = out + np.linalg.norm(c0 + v * ts - point) / c
+    u = (point - (c0 + v * ts)) / np.linalg.norm(point - (c0 + v * ts))
+    (j,) = np.flatnonzero(t.kind == "point")
+    assert abs(t.delay_s[j] - ts) <= 1e-10
+    np.testing.assert_allclose(t.arrival_sensor[j], u, atol=1e-9)
+    np.testing.assert_allclose(t.apparent_position_sensor_m[j], c0 + u * c * ts / 2, atol=1e-7)
+    # the motion matters: more than 10 us from the frozen pose's delay
+    frozen = (np.linalg.norm(point - e0) + np.linalg.norm(point - c0)) / c
+    assert abs(ts - frozen) > 1e-5
+    assert t.object_names[t.object_index[j]] == "point 0"
