@@ -186,9 +186,7 @@ class SceneRenderer:
         if with_moving:
             entries.append(["moving meshes, at the emission", MOVING_COLOR])
         if with_truth:
-            entries.append(
-                [f"traced echoes where seen, within {truth_range_db:g} dB", TRUTH_COLOR]
-            )
+            entries.append([f"traced echoes where seen, within {truth_range_db:g} dB", TRUTH_COLOR])
             entries.append(["paths of the strongest echoes", CHAIN_COLOR])
         if with_lidar:
             entries.append(["LiDAR points", LIDAR_COLOR])
