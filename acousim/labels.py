@@ -9,7 +9,9 @@ taper whose full width at half maximum is the cell (range and angle,
 :class:`acousim.matching.Resolution`), cut at one full cell.  The energy of every
 (object, order) class is summed per cell; the class with the most labels the cell.
 A cell whose summed energy lies more than the dynamic range below the strongest
-cell's is labelled -1 (none), as are cells no path reaches.
+cell's is labelled -1 (none), as are cells no path reaches.  Paths more than
+:data:`NEGLIGIBLE_DB` below that floor (re the strongest path) are left out: a
+thousand of them in one cell would be needed to reach it.
 
 This is what a segmentation model trains on: the image's cell (r, e, a) holds the
 object ``object_names[object_index[r, e, a]]`` seen through a path of ``order[r, e,
@@ -22,9 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LabelMap", "label_map", "recording_label_map"]
+__all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
 
 _LN16 = 4 * np.log(2)  # exp(-4 ln 2 (x / w)^2): 1/2 at x = w / 2
+#: paths this far below the dynamic range's floor (re the strongest path's energy)
+#: are left out of a label map (dB)
+NEGLIGIBLE_DB = 30.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,60 +79,60 @@ def label_map(
     ok = np.isfinite(e) & (e > 0) & np.all(np.isfinite(pos), axis=1)
     if not (R and G and ok.any()):
         return none
+    # paths far below the floor cannot reach it: a thousand of them in one cell would
+    # be needed (the strongest path's cell has at least its energy)
+    ok &= e >= e[ok].max() * 10 ** (-(dynamic_range_db + NEGLIGIBLE_DB) / 10)
     pos, e = pos[ok], e[ok]
     obj = np.asarray(object_index).reshape(-1)[ok].astype(np.int64)
     odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
-    cells, weights, kinds = _contributions(rng, u, pos, e, cls, range_cell_m, angle_cell_rad)
-    if not cells.size:
+    k_range, k_angle = _factors(rng, u, pos, e, range_cell_m, angle_cell_rad)
+    # per class, its energy map: a sum of separable kernels, one sparse product
+    best = np.zeros(R * G)
+    total = np.zeros(R * G)
+    top = np.full(R * G, -1)
+    for k in range(len(classes)):
+        rows = np.flatnonzero(cls == k)
+        energy_map = (k_range[rows].T @ k_angle[rows]).toarray().reshape(-1)
+        total += energy_map
+        more = energy_map > best
+        best[more] = energy_map[more]
+        top[more] = k
+    if not total.any():
         return none
-    # energy per (cell, class), then per cell the class with the most
-    key = cells * len(classes) + kinds
-    uniq, inv = np.unique(key, return_inverse=True)
-    per = np.bincount(inv.reshape(-1), weights=weights)
-    cell, kind = np.divmod(uniq, len(classes))
-    total = np.bincount(cell, weights=per, minlength=R * G)
-    # the strongest class of each cell: sort by (cell, energy), take each cell's last
-    best = np.lexsort((per, cell))
-    last = np.r_[cell[best][1:] != cell[best][:-1], True]
-    top_cell, top_kind = cell[best][last], kind[best][last]
-    floor = total.max() * 10 ** (-dynamic_range_db / 10)
-    shown = total[top_cell] >= floor
+    shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
     out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
-    out_obj[top_cell[shown]] = classes[top_kind[shown], 0]
-    out_order[top_cell[shown]] = classes[top_kind[shown], 1]
+    out_obj[shown] = classes[top[shown], 0]
+    out_order[shown] = classes[top[shown], 1]
     return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
 
 
-def _contributions(rng, u, pos, e, cls, range_cell_m, angle_cell_rad):
-    """Every (cell, weight, class) a path reaches within one cell: flat cell indices
-    (r * G + g), energies, class indices."""
-    G = len(u)
+def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
+    """The separable kernels of P paths as sparse matrices: range (P, R), each path's
+    energy times its taper over the bins within one cell of its range, and angle
+    (P, G), its taper over the directions within one cell of its own."""
+    from scipy import sparse
+
     r = np.linalg.norm(pos, axis=1)
     d = pos / np.maximum(r, 1e-12)[:, None]
     wr, wa = max(float(range_cell_m), 1e-9), max(float(angle_cell_rad), 1e-9)
     lo = np.searchsorted(rng, r - wr)
-    hi = np.searchsorted(rng, r + wr, side="right")
+    n = np.searchsorted(rng, r + wr, side="right") - lo
+    rows = np.repeat(np.arange(len(r)), n)
+    cols = lo[rows] + np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n)
+    vals = e[rows] * np.exp(-_LN16 * ((rng[cols] - r[rows]) / wr) ** 2)
+    k_range = sparse.csr_matrix((vals, (rows, cols)), shape=(len(r), rng.size))
     cos_cut = np.cos(min(wa, np.pi))
-    cells, weights, kinds = [], [], []
-    dots = d @ u.T  # (P, G)
-    for p in np.flatnonzero(hi > lo):
-        g = np.flatnonzero(dots[p] >= cos_cut)
-        if not g.size:
-            continue
-        ang = np.arccos(np.clip(dots[p, g], -1.0, 1.0))
-        b = np.arange(lo[p], hi[p])
-        w = (
-            np.exp(-_LN16 * ((rng[b] - r[p]) / wr) ** 2)[:, None]
-            * np.exp(-_LN16 * (ang / wa) ** 2)[None]
-        )
-        cells.append((b[:, None] * G + g[None]).ravel())
-        weights.append((e[p] * w).ravel())
-        kinds.append(np.full(w.size, cls[p]))
-    if not cells:
-        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)
-    return np.concatenate(cells), np.concatenate(weights), np.concatenate(kinds)
+    parts = []
+    for start in range(0, len(d), chunk):  # (chunk, G) at a time
+        dots = d[start : start + chunk] @ u.T
+        i, g = np.nonzero(dots >= cos_cut)
+        ang = np.arccos(np.clip(dots[i, g], -1.0, 1.0))
+        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), start + i, g))
+    w, i, g = (np.concatenate(x) for x in zip(*parts))
+    k_angle = sparse.csr_matrix((w, (i, g)), shape=(len(d), len(u)))
+    return k_range, k_angle
 
 
 def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m=None):

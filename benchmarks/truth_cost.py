@@ -2,6 +2,7 @@
 at its defaults, this code against an older checkout, in alternating subprocesses.
 
     python -m benchmarks.truth_cost /path/to/old/checkout [pairs]
+    python -m benchmarks.truth_cost --in-process [pairs]
 
 Each worker imports acousim from its checkout, builds the corridor's simulator, runs
 pose 0 (caches, compilation), then ``Simulator.run`` over 20 poses of the drive with
@@ -80,8 +81,49 @@ def main(old: str, pairs: int = 3) -> str:
     return "\n".join(lines)
 
 
+def in_process(pairs: int = 7) -> str:
+    """This code with and without what the sensor sees (the simulator's calls that
+    make it replaced by ones that return nothing: the old ground truth), alternating
+    in one process: `Simulator.run` over POSES, every trace paid; the median of the
+    per-pair ratios of measurements/s."""
+    import acousim.simulator as S
+    from acousim.scene import load_scene
+
+    class _Nothing:
+        def fields(self):
+            return {}
+
+    sim = S.Simulator(load_scene(HERE / "scenes" / "corridor.toml"))
+    sim.run([0])
+    real = (S.seen_moving, S.seen_static, S.Simulator._chains)
+    off = (lambda *a, **k: _Nothing(), lambda *a, **k: _Nothing(), lambda *a, **k: {})
+
+    def timed(funcs) -> float:
+        S.seen_moving, S.seen_static, S.Simulator._chains = funcs
+        sim.tracer.forget()
+        t = time.perf_counter()
+        sim.run(POSES)
+        return len(POSES) / (time.perf_counter() - t)
+
+    ratios, rates = [], []
+    try:
+        for _ in range(pairs):
+            old, new = timed(off), timed(real)
+            ratios.append(new / old)
+            rates.append((old, new))
+    finally:
+        S.seen_moving, S.seen_static, S.Simulator._chains = real
+    return (
+        f"in one process, {pairs} alternating pairs (without, with): measurements/s "
+        f"{[(round(a, 2), round(b, 2)) for a, b in rates]}; with/without median "
+        f"{np.median(ratios):.3f} (pairs {np.round(ratios, 3).tolist()})"
+    )
+
+
 if __name__ == "__main__":
     if sys.argv[1] == "--worker":
         print(json.dumps(worker(sys.argv[2])))
+    elif sys.argv[1] == "--in-process":
+        print(in_process(int(sys.argv[2]) if len(sys.argv) > 2 else 7))
     else:
         print(main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 3))

@@ -141,9 +141,10 @@ def write_image_data(
                 d = g.create_dataset(name, data=values)
                 d.attrs["units"] = units
                 d.make_scale(name)
+            made: dict = {}  # label maps by resolution: methods of one frequency share
             for method, img in imgs.items():
                 _write_image(g, method, img, axis, list(scales), compression)
-                labels = (dynamic_range_db, compression)
+                labels = (dynamic_range_db, compression, made)
                 _write_labels(g, rec, (method, img), axis, list(scales), *labels)
             if rec.truth is not None and rec.truth.object_index is not None:
                 names = list(rec.truth.object_names)
@@ -151,10 +152,11 @@ def write_image_data(
     return path
 
 
-def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression):
+def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression, made):
     """The image's truth labels (:mod:`acousim.labels`) beside it: ``<method>_object``
     (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
-    (int8 reflections, -1 none), of the image's shape."""
+    (int8 reflections, -1 none), of the image's shape; `made` holds those made for
+    the recording's other images, by resolution."""
     from acousim.labels import recording_label_map
     from acousim.matching import image_resolution
 
@@ -162,7 +164,9 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
     if rec.truth is None or not axis.size:
         return
     res = image_resolution(rec, img, P.ProcessingSettings.window)
-    labels = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+    if res not in made:
+        made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+    labels = made[res]
     for suffix, data, dtype, what in (
         ("object", labels.object_index, np.int16, "index into object_names"),
         ("order", labels.order, np.int8, "reflections"),
