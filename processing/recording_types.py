@@ -141,7 +141,11 @@ _KINDS = ("direct", "specular", "scatter", "point", "diffraction")
 
 @dataclass(frozen=True, eq=False)
 class GroundTruth:
-    """The simulated paths of one recording (N paths), in SI units."""
+    """The simulated paths of one recording (N paths), in SI units: where the sound
+    went (the last reflection, the chain's first and last points, the object touched)
+    and what the sensor sees of it (delay and arrival direction at the array centre,
+    the apparent position: docs/recording-format.md, "Ground truth").  The fields
+    after `velocity_world_m_s` are None in a file written before they existed."""
 
     position_world_m: np.ndarray
     """(N, 3) where each path's last reflection is, world frame, m."""
