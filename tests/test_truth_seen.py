@@ -178,6 +178,8 @@ def test_pole_peak_is_one_echo_and_an_edge_peak_beyond_its_cell_is_unmatched(tmp
     near_floor = np.abs(peaks.range_m - 1.0) < 0.05
     pole = np.abs(peaks.elevation_rad + np.pi / 2) < 1e-9
     assert (near_floor & pole).sum() == 1, "the floor below is one peak at the pole"
+    down = near_floor & (peaks.elevation_rad < np.deg2rad(-60))
+    assert down.sum() == 1, "and no other peak near the pole"
     res = image_resolution(rec, image, settings.window)
     edge = on_grid_edge(image, peaks)
     m = match_peaks(rec, peaks, res, edge)
