@@ -262,6 +262,7 @@ class Simulator:
             "motion": _motion(pose, motion, arr.rate),
         }
         centre = array.positions_m.mean(axis=0)
+        guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
         truth = P.GroundTruth(
             position_world_m=truth_pos,
             position_sensor_m=pose.to_sensor(truth_pos),
@@ -269,7 +270,7 @@ class Simulator:
             order=moving.order,
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=truth_vel,
-            **seen_moving(moving, kin, motion, pose, centre, self.c).fields(),
+            **seen_moving(moving, kin, motion, pose, centre, self.c, guess).fields(),
             **self._chains(paths, pose, receiver, truth_pos[len(paths) :]),
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)

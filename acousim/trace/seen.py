@@ -173,14 +173,16 @@ def point_objects(positions_m: np.ndarray, scene_points_m: np.ndarray, start: in
     )
 
 
-def seen_moving(moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: float) -> Seen:
+def seen_moving(
+    moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: float, guess=None
+) -> Seen:
     """What the sensor sees of paths in motion (:class:`~acousim.trace.following.
     MovingPaths` `moving`, :class:`~acousim.kinematics.SensorKinematics` `kin`):
     the reception time of the call's first sample at the array centre
     (`centre_sensor_m` (3,)) moving with `trajectory` (None: still at `pose`), and
     the direction of the anchor then, in the sensor frame then (the module
     docstring); apparent positions in the sensor frame and, through `pose`, the
-    world."""
+    world.  `guess` (N,): reception times to start from (the microphones' mean)."""
     from acousim.kinematics.retarded import _retarded
 
     t_r, anchor, _ = _retarded(moving, kin, np.asarray(0.0), c, None)
@@ -188,6 +190,8 @@ def seen_moving(moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: f
     local = np.asarray(centre_sensor_m, float)
 
     t = t_r + np.linalg.norm(pose.to_world(local[None]) - anchor, axis=1) / c
+    if guess is not None:
+        t = np.asarray(guess, float).reshape(-1)
     table = None if trajectory is None or not t.size else _Table(trajectory, pose.time_s, t)
 
     def centre(t):  # (N, 3) world, and the rotations (N, 3, 3) (None: the pose's)
