@@ -200,13 +200,13 @@ def seen_moving(
         rot, where = table(t)
         return rot @ local + where, rot
 
-    for _ in range(20):  # a contraction of ratio v / c
-        new = t_r + np.linalg.norm(centre(t)[0] - anchor, axis=1) / c
-        done = np.max(np.abs(new - t), initial=0.0) < 1e-13
+    for _ in range(20):  # a contraction of ratio v / c: stops within 1e-13 s
+        where, rot = centre(t)
+        new = t_r + np.linalg.norm(where - anchor, axis=1) / c
+        done = np.max(np.abs(new - t), initial=0.0) < 1e-10
         t = new
-        if done:
+        if done:  # the centre where it is at the last t but v / c of 0.1 ns: 1e-13 m
             break
-    where, rot = centre(t)
     u = _unit(anchor - where)
     u = u @ pose.rotation if rot is None else np.einsum("nji,nj->ni", rot, u)
     app = apparent(t, u, local, c)
