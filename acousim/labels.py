@@ -55,8 +55,7 @@ def label_map(
     energy: np.ndarray,
     object_index: np.ndarray,
     order: np.ndarray,
-    range_cell_m: float,
-    angle_cell_rad: float,
+    cell: tuple[float, float],
     dynamic_range_db: float,
 ) -> LabelMap:
     """The label map of an image grid (see the module docstring).
@@ -67,7 +66,8 @@ def label_map(
         centre, sensor frame, m; mirror those behind a planar array first).
     energy : (P,) each path's energy at the array (amplitude squared).
     object_index, order : (P,) int, each path's object (-1: none) and reflections.
-    range_cell_m, angle_cell_rad : the image's resolution (full widths), m and rad.
+    cell : the image's resolution (full widths): (range m, angle rad)
+        (:class:`acousim.matching.Resolution`'s two numbers).
     dynamic_range_db : cells this far below the strongest cell's energy are -1.
     """
     rng = np.asarray(range_m, float).reshape(-1)
@@ -87,7 +87,7 @@ def label_map(
     odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
-    k_range, k_angle = _factors(rng, u, pos, e, range_cell_m, angle_cell_rad)
+    k_range, k_angle = _factors(rng, u, pos, e, *cell)
     # per class, its energy map: a sum of separable kernels, one sparse product
     best = np.zeros(R * G)
     total = np.zeros(R * G)
@@ -140,7 +140,7 @@ def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m
     the :class:`processing.Recording` `rec`) on its range bins (or `range_m` (R,),
     a regular axis it is written on), with the image's `resolution`
     (:func:`acousim.matching.image_resolution`); None without a ground truth."""
-    from acousim.matching import seen_positions
+    from acousim.viz.truth import seen_positions
 
     t = rec.truth
     if t is None:
@@ -159,8 +159,7 @@ def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m
         energy=np.square(t.amplitude[echo]),
         object_index=obj[echo],
         order=t.order[echo],
-        range_cell_m=resolution.range_m,
-        angle_cell_rad=resolution.angle_rad,
+        cell=(resolution.range_m, resolution.angle_rad),
         dynamic_range_db=dynamic_range_db,
     )
     return labels.reshaped((rng.size, *el.shape))

@@ -32,7 +32,7 @@ import numpy as np
 
 import processing as P
 
-from .viz.truth import truth_level_db
+from .viz.truth import seen_positions, truth_level_db
 
 __all__ = [
     "Match",
@@ -136,14 +136,6 @@ def _empty(n: int, note: str) -> Match:
         np.full(n, np.nan),
         np.full(n, note, dtype=object),
     )
-
-
-def seen_positions(truth: P.GroundTruth, centre_sensor_m: np.ndarray) -> np.ndarray:
-    """Where each path (N,) shows in an image, from the array centre (N, 3), sensor
-    frame, m: its apparent position, or for a file written before apparent
-    positions existed, its last reflection (as such files were matched)."""
-    p = truth.apparent_position_sensor_m if truth.has_apparent else truth.position_sensor_m
-    return np.asarray(p, float) - np.asarray(centre_sensor_m, float)
 
 
 def peak_directions(peaks: P.Peaks) -> np.ndarray:

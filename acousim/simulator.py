@@ -37,6 +37,7 @@ import numpy as np
 import processing as P
 from acousim.core.echoes import Echoes
 from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
+from acousim.kinematics.seen import seen_moving
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
@@ -46,13 +47,7 @@ from acousim.synth.response import PathResponse
 from acousim.trace.direct import seen
 from acousim.trace.following import Endpoints, MovingPaths
 from acousim.trace.paths import KIND, TracedPaths, kind_names
-from acousim.trace.seen import (
-    chain_points,
-    object_table,
-    point_objects,
-    seen_moving,
-    seen_static,
-)
+from acousim.trace.seen import chain_points, object_table, point_objects, seen_static
 from acousim.trace.tracer import Tracer
 from processing import interrupt
 from processing.errors import InputError

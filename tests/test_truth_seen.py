@@ -290,8 +290,7 @@ def test_label_map_gives_each_cell_the_class_with_the_most_energy():
         energy=energy,
         object_index=obj,
         order=order,
-        range_cell_m=0.1,
-        angle_cell_rad=np.deg2rad(10),
+        cell=(0.1, np.deg2rad(10)),
         dynamic_range_db=30.0,
     ).reshaped((rng.size, el.size, az.size))
 

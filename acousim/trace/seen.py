@@ -11,8 +11,9 @@ shown beyond its last reflection, where no surface is.
 
 A static path's delay at the centre r is ``(first_leg + |anchor - r|) / c`` and it
 arrives from its anchor (the image source, scatterer, point or edge element): the
-renderer's law (:mod:`acousim.trace.paths`) at r.  In motion, the reception time of
-the call's first sample at the moving centre solves the retarded-time equation of
+renderer's law (:mod:`acousim.trace.paths`) at r.  In motion
+(:mod:`acousim.kinematics.seen`), the reception time of the call's first sample at
+the moving centre solves the retarded-time equation of
 :mod:`acousim.kinematics.retarded` there; its direction is the anchor's from the
 centre then, in the sensor's frame then.
 
@@ -35,7 +36,7 @@ import numpy as np
 
 from .paths import KIND, TracedPaths
 
-__all__ = ["Seen", "apparent", "chain_points", "object_table", "seen_static"]
+__all__ = ["Seen", "apparent", "chain_points", "object_table", "point_objects", "seen_static"]
 
 #: a ray to a path's last point may meet its face this far before or after it (m,
 #: plus the same fraction of the distance): a cluster of scattered hits on a curved
@@ -171,68 +172,3 @@ def point_objects(positions_m: np.ndarray, scene_points_m: np.ndarray, start: in
     return np.where(
         d[np.arange(len(pos)), k] <= 1e-9 * (1 + np.abs(pts[k]).max(axis=1)), start + k, -1
     )
-
-
-def seen_moving(
-    moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: float, guess=None
-) -> Seen:
-    """What the sensor sees of paths in motion (:class:`~acousim.trace.following.
-    MovingPaths` `moving`, :class:`~acousim.kinematics.SensorKinematics` `kin`):
-    the reception time of the call's first sample at the array centre
-    (`centre_sensor_m` (3,)) moving with `trajectory` (None: still at `pose`), and
-    the direction of the anchor then, in the sensor frame then (the module
-    docstring); apparent positions in the sensor frame and, through `pose`, the
-    world.  `guess` (N,): reception times to start from (the microphones' mean)."""
-    from acousim.kinematics.retarded import _retarded
-
-    t_r, anchor, _ = _retarded(moving, kin, np.asarray(0.0), c, None)
-    t_r, anchor = np.asarray(t_r)[0], np.asarray(anchor)[0]
-    local = np.asarray(centre_sensor_m, float)
-
-    t = t_r + np.linalg.norm(pose.to_world(local[None]) - anchor, axis=1) / c
-    if guess is not None:
-        t = np.asarray(guess, float).reshape(-1)
-    table = None if trajectory is None or not t.size else _Table(trajectory, pose.time_s, t)
-
-    def centre(t):  # (N, 3) world, and the rotations (N, 3, 3) (None: the pose's)
-        if table is None:
-            return pose.to_world(local[None]), None
-        rot, where = table(t)
-        return rot @ local + where, rot
-
-    for _ in range(20):  # a contraction of ratio v / c: stops within 1e-13 s
-        where, rot = centre(t)
-        new = t_r + np.linalg.norm(where - anchor, axis=1) / c
-        done = np.max(np.abs(new - t), initial=0.0) < 1e-10
-        t = new
-        if done:  # the centre where it is at the last t but v / c of 0.1 ns: 1e-13 m
-            break
-    u = _unit(anchor - where)
-    u = u @ pose.rotation if rot is None else np.einsum("nji,nj->ni", rot, u)
-    app = apparent(t, u, local, c)
-    return Seen(t, u, app, pose.to_world(app))
-
-
-#: the sensor's motion is tabulated at this step over the echoes' reception times and
-#: interpolated linearly (error a h^2 / 8: below 1 um for a robot's accelerations)
-TABLE_STEP_S = 5e-4
-
-
-class _Table:
-    """The trajectory's rotation and position at times ``t0 + t`` for t spanning the
-    reception times `t` (N,) (and 10 ms either side): tabulated once, interpolated."""
-
-    def __init__(self, trajectory, t0: float, t: np.ndarray) -> None:
-        lo, hi = float(t.min()) - 1e-2, float(t.max()) + 1e-2
-        self.times = np.linspace(lo, hi, int(np.ceil((hi - lo) / TABLE_STEP_S)) + 2)
-        rot = trajectory.rotation(t0 + self.times).reshape(-1, 9)
-        pos = np.asarray(trajectory.position(t0 + self.times), float).reshape(-1, 3)
-        self.rows = np.hstack([rot, pos])  # (K, 12)
-
-    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rotations (N, 3, 3) and positions (N, 3) at times `t` (N,)."""
-        x = (t - self.times[0]) / (self.times[1] - self.times[0])
-        i = np.clip(np.floor(x).astype(np.intp), 0, self.times.size - 2)
-        w = (x - i)[:, None]
-        rows = self.rows[i] * (1 - w) + self.rows[i + 1] * w
-        return rows[:, :9].reshape(-1, 3, 3), rows[:, 9:]

@@ -47,6 +47,7 @@ __all__ = [
     "fan_marks",
     "legend_handles",
     "one_per_cell",
+    "seen_positions",
     "truth_level_db",
 ]
 
@@ -145,6 +146,15 @@ def truth_level_db(truth) -> np.ndarray:
     return level
 
 
+def seen_positions(truth, centre_sensor_m: np.ndarray) -> np.ndarray:
+    """Where each path (N,) of a ground truth shows in an image, from the array
+    centre (N, 3), sensor frame, m: its apparent position, or for a file written
+    before apparent positions existed, its last reflection (as such files were
+    matched and drawn)."""
+    p = truth.apparent_position_sensor_m if truth.has_apparent else truth.position_sensor_m
+    return np.asarray(p, float) - np.asarray(centre_sensor_m, float)
+
+
 def echo_points(
     truth, array_centre_m: np.ndarray, range_db: float, cell: tuple[float, float] | None = None
 ) -> Reflectors:
@@ -152,8 +162,6 @@ def echo_points(
     sees them (apparent positions; a file without them: the last reflections): those
     within `range_db` of the strongest echo, the direct path left out; the strongest
     first.  `cell`: the image's resolution (range m, angle rad), one mark per cell."""
-    from acousim.matching import seen_positions
-
     if truth is None or not len(truth):
         return Reflectors(np.zeros((0, 3)), np.zeros(0), cell)
     level = truth_level_db(truth)
