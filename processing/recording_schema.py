@@ -340,9 +340,9 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
         name = "velocity_world_m_s"
         ds = _dataset(path, t, name, (2,), "f", "m/s")
         fields[name] = _read(path, ds, f"{key}/{name}")
-    fields = with_last_points({**fields, **_seen(path, t, key)})
+    fields.update(_seen(path, t, key))
     try:
-        return GroundTruth(**fields)
+        return GroundTruth(**with_last_points(fields))
     except ValueError as exc:
         raise RecordingFileError(str(exc), file=path, key=key) from None
 
