@@ -89,6 +89,15 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
             assert abs(rng[i] - RANGE) < 0.03
             assert abs(az[k] - AZ) <= 3.0 and abs(el[j] - EL) <= 3.0, (az[k], el[j])
             assert np.diff(rng[()]).std() < 1e-9  # a regular range axis
+            # the truth label map beside it: the point's object where the point shows
+            obj = g[f"{method}_object"][()]
+            assert obj.shape == level.shape and obj[i, j, k] == 0
+            assert [x.decode() for x in g["object_names"][()]] == ["point 0"]
+            assert g[f"{method}_order"][i, j, k] == 1
+            # its peaks, with their truth, as peaks.csv has them
+            p = g["peaks"][method]
+            assert p["level_db"][0] == 0.0 and p["truth_kind"][0].decode() == "point"
+            assert p["truth_object"][0].decode() == "point 0" and p["truth_order"][0] == 1
     with open(out / "peaks.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert rows and rows[0]["recording"] == "0"

@@ -25,6 +25,8 @@ Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
                        simulated energy; -1 none or below the dynamic range
         <method>_order  (R, E, A) int8   the same cell's path order (reflections)
         object_names   (O,) UTF-8 strings: "<mesh>/<material>", "point <i>"
+        peaks/<method>/<column>  (P,) the image's peaks, one dataset per column of
+                       peaks.csv but recording, method and provenance
 
 Peaks CSV columns: see :data:`PEAK_COLUMNS`.
 """
@@ -105,6 +107,7 @@ def write_image_data(
     *,
     compression: str | None = "gzip",
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    peak_threshold_db: float = PEAK_THRESHOLD_DB,
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.labels`).
@@ -113,6 +116,7 @@ def write_image_data(
     indices : each recording's index in its file (default 0, 1, ...).
     dynamic_range_db : cells of the label maps this far below the strongest cell's
         simulated energy are labelled -1 (none).
+    peak_threshold_db : the peaks stored (``peaks/<method>``, as ``peaks.csv``).
     """
     import h5py
 
@@ -146,10 +150,40 @@ def write_image_data(
                 _write_image(g, method, img, axis, list(scales), compression)
                 labels = (dynamic_range_db, compression, made)
                 _write_labels(g, rec, (method, img), axis, list(scales), *labels)
+                peaks = g.require_group("peaks").create_group(method)
+                _write_peaks(peaks, rec, idx, img, peak_threshold_db)
             if rec.truth is not None and rec.truth.object_index is not None:
                 names = list(rec.truth.object_names)
                 g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
     return path
+
+
+#: the peak columns images.h5 stores (per image; the recording and method are its
+#: group's, the provenance its recording's)
+_H5_PEAK_COLUMNS = tuple(c for c in PEAK_COLUMNS if c not in ("recording", "method", "provenance"))
+
+
+def _write_peaks(g, rec, index: int, img: P.Image, threshold_db: float) -> None:
+    """The image's peaks (those of ``peaks.csv``, strongest first, with their truth)
+    as one dataset (P,) per column: numbers float64 (NaN: none), integers and
+    flags int32 (-1: none), text UTF-8 ("": none)."""
+    import h5py
+
+    rows = peak_rows(rec, index, img, threshold_db)
+    for k, name in enumerate(PEAK_COLUMNS):
+        if name not in _H5_PEAK_COLUMNS:
+            continue
+        values = [row[k] for row in rows]
+        if name in _TEXT_COLUMNS:
+            g.create_dataset(name, data=values, dtype=h5py.string_dtype("utf-8"))
+        elif name in _INT_COLUMNS:
+            g.create_dataset(name, data=[-1 if v == "" else v for v in values], dtype=np.int32)
+        else:
+            g.create_dataset(name, data=[np.nan if v == "" else v for v in values], dtype=float)
+
+
+_TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_note")
+_INT_COLUMNS = ("on_grid_edge", "truth_order", "truth_behind")
 
 
 def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression, made):
