@@ -3,6 +3,7 @@ at its defaults, this code against an older checkout, in alternating subprocesse
 
     python -m benchmarks.truth_cost /path/to/old/checkout [pairs]
     python -m benchmarks.truth_cost --in-process [pairs]
+    python -m benchmarks.truth_cost --per-pose
 
 Each worker imports acousim from its checkout, builds the corridor's simulator, runs
 pose 0 (caches, compilation), then ``Simulator.run`` over 20 poses of the drive with
@@ -138,9 +139,51 @@ def in_process(pairs: int = 7) -> str:
     )
 
 
+def per_pose(rounds: int = 2) -> str:
+    """CPU time of `Simulator.simulate_pose` (one thread: no preparation ahead) per
+    pose of POSES, without and with what the sensor sees, the order alternating
+    from pose to pose; the median of the per-pose ratios."""
+    import acousim.simulator as S
+    from acousim.scene import load_scene
+
+    class _Nothing:
+        def fields(self):
+            return {}
+
+    sim = S.Simulator(load_scene(HERE / "scenes" / "corridor.toml"))
+    sim.run([0])
+    real = (S.seen_moving, S.seen_static, S.Simulator._chains)
+    off = (lambda *a, **k: _Nothing(), lambda *a, **k: _Nothing(), lambda *a, **k: {})
+    poses = sim.scene.sensor.poses
+    ratios, cpu = [], {False: [], True: []}
+    try:
+        for r in range(rounds):
+            for i in POSES:
+                took = {}
+                for funcs in (off, real) if (i + r) % 2 == 0 else (real, off):
+                    S.seen_moving, S.seen_static, S.Simulator._chains = funcs
+                    sim.tracer.forget()
+                    c = time.process_time()
+                    sim.simulate_pose(poses[i], i)
+                    took[funcs is real] = time.process_time() - c
+                ratios.append(took[True] / took[False])
+                for k in took:
+                    cpu[k].append(took[k])
+    finally:
+        S.seen_moving, S.seen_static, S.Simulator._chains = real
+    q = np.percentile(ratios, [25, 50, 75])
+    return (
+        f"simulate_pose CPU per pose, median: {np.median(cpu[False]) * 1e3:.0f} ms without, "
+        f"{np.median(cpu[True]) * 1e3:.0f} ms with; with / without over {len(ratios)} "
+        f"paired poses: median {q[1]:.3f} (quartiles {q[0]:.3f}-{q[2]:.3f})"
+    )
+
+
 if __name__ == "__main__":
     if sys.argv[1] == "--worker":
         print(json.dumps(worker(sys.argv[2])))
+    elif sys.argv[1] == "--per-pose":
+        print(per_pose())
     elif sys.argv[1] == "--in-process":
         print(in_process(int(sys.argv[2]) if len(sys.argv) > 2 else 7))
     else:
