@@ -265,7 +265,7 @@ class Simulator:
             order=moving.order,
             kind=np.array(kinds, dtype=str),
             velocity_world_m_s=truth_vel,
-            **seen_moving(moving, kin, motion, pose, centre, self.c, guess).fields(),
+            **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
             **self._chains(paths, pose, receiver, truth_pos[len(paths) :]),
         )
         keep = in_window(echoes, n, sensor.sample_rate_hz)

@@ -15,7 +15,7 @@ __all__ = ["seen_moving", "MOTION_TABLE_STEP_S"]
 
 
 def seen_moving(
-    moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: float, guess=None
+    moving, kin, trajectory, pose, centre_sensor_m: np.ndarray, c: float, guess=None, arr=None
 ) -> Seen:
     """What the sensor sees of paths in motion (:class:`~acousim.trace.following.
     MovingPaths` `moving`, :class:`~acousim.kinematics.SensorKinematics` `kin`):
@@ -23,9 +23,14 @@ def seen_moving(
     (`centre_sensor_m` (3,)) moving with `trajectory` (None: still at `pose`), and
     the direction of the anchor then, in the sensor frame then (the module
     docstring); apparent positions in the sensor frame and, through `pose`, the
-    world.  `guess` (N,): reception times to start from (the microphones' mean)."""
-    t_r, anchor, _ = _retarded(moving, kin, np.asarray(0.0), c, None)
-    t_r, anchor = np.asarray(t_r)[0], np.asarray(anchor)[0]
+    world.  `guess` (N,): reception times to start from (the microphones' mean);
+    `arr`: the paths' :class:`~acousim.kinematics.Arrivals` (their last legs'
+    start, solved already; None: solved here)."""
+    if arr is not None and arr.anchor_m is not None:
+        t_r, anchor = arr.leave_s, arr.anchor_m
+    else:
+        t_r, anchor, _ = _retarded(moving, kin, np.asarray(0.0), c, None)
+        t_r, anchor = np.asarray(t_r)[0], np.asarray(anchor)[0]
     local = np.asarray(centre_sensor_m, float)
 
     t = t_r + np.linalg.norm(pose.to_world(local[None]) - anchor, axis=1) / c
