@@ -38,6 +38,7 @@ import numpy as np
 import processing as P
 from acousim.core.echoes import Echoes
 from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
+from acousim.kinematics.seen import seen_moving
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
@@ -46,7 +47,8 @@ from acousim.synth.response import PathResponse, mic_directivity
 from acousim.synth.signal_model import in_window, simulate
 from acousim.trace.direct import heard_points
 from acousim.trace.motion.following import Endpoints, MovingPaths
-from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.paths import KIND, TracedPaths, kind_names
+from acousim.trace.seen import chain_points, object_table, point_objects, seen_static
 from acousim.trace.tracer import Tracer
 from processing.base import interrupt
 from processing.base.errors import InputError
@@ -105,6 +107,10 @@ class Heard:
     rows: np.ndarray | None = None
     """(N',) int: the path (row of `position_m`, ...) of each echo, in motion where
     only those that reach the window are kept (None: every path, in order)."""
+    seen: dict = dataclasses.field(default_factory=dict)
+    """what the sensor sees of each path and its chain, as :class:`processing.GroundTruth`
+    keywords (delay and arrival at the array centre, apparent positions, first and
+    last points, objects: :mod:`acousim.trace.seen`, :mod:`acousim.kinematics.seen`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -248,6 +254,7 @@ class Simulator:
             order=heard.order,
             kind=np.array(heard.kinds, dtype=str),
             velocity_world_m_s=heard.velocity_m_s,
+            **heard.seen,
         )
         lidar = self.lidar_scan(pose, index, motion)
         return _Prepared(heard.echoes, n, meta, truth, rate=heard.rate, lidar=lidar)
@@ -274,18 +281,25 @@ class Simulator:
         mics = pose.to_world(self.array.positions_m)
         paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
         echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
+        receiver = mics.mean(axis=0)
+        centre = self.array.positions_m.mean(axis=0)
+        seen = {
+            **seen_static(paths, pose, centre, self.c).fields(),
+            **self._chains(paths, pose, receiver),
+        }
         return Heard(
             self._mic_directivity(echoes, paths.anchor_m, mics, pose),
             paths.position_m,
             kind_names(paths.kind),
             paths.order,
-            paths.level_at(mics.mean(axis=0)),  # magnitudes: diffraction paths are signed
+            paths.level_at(receiver),  # magnitudes: diffraction paths are signed
             rays,
+            seen=seen,
         )
 
     def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
         """:meth:`heard` in motion."""
-        moving, truth_pos, kinds, truth_vel, interactions = self._moving(pose, max_path_m)
+        moving, truth_pos, kinds, truth_vel, interactions, paths = self._moving(pose, max_path_m)
         duration = self.scene.sensor.call.duration_s
         kin = SensorKinematics(
             motion, pose, self.array, n_samples / self.scene.sensor.sample_rate_hz, TABLE_STEP_S
@@ -300,6 +314,12 @@ class Simulator:
         level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
             np.linalg.norm(moving.anchor_m - mics.mean(axis=0), axis=1), 1e-9
         )
+        centre = self.array.positions_m.mean(axis=0)
+        guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
+        seen = {
+            **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
+            **self._chains(paths, pose, mics.mean(axis=0), truth_pos[len(paths) :]),
+        }
         keep = in_window(echoes, n_samples, self.scene.sensor.sample_rate_hz)
         return Heard(
             echoes.select(keep),
@@ -311,7 +331,38 @@ class Simulator:
             velocity_m_s=truth_vel,
             rate=arr.rate[:, keep],
             rows=np.flatnonzero(keep),
+            seen=seen,
         )
+
+    def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, extra=None) -> dict:
+        """The ground truth's chain fields of the traced `paths` (first and last
+        points, objects, :func:`acousim.trace.seen.chain_points`) and, `extra`, of
+        the moving point reflectors' paths after them (positions (K, 3))."""
+        tracer = self.tracer.tracer_at(pose.time_s)
+        world = tracer.world
+        names, faces = (
+            object_table(self.scene, None)
+            if world is None
+            else world._cached("objects", lambda: object_table(self.scene, world))
+        )
+        emitter = pose.to_world(self.array.emitter_m)
+        first, last, obj = chain_points(paths, emitter, receiver, tracer.caster, faces)
+        n_mesh = len(names) - len(self.scene.points)
+        still = np.flatnonzero(paths.kind == KIND["point"])
+        if still.size:
+            where = np.array([p.position_m for p in self.scene.points], float)
+            obj[still] = point_objects(paths.position_m[still], where, n_mesh)
+        if extra is not None and len(extra):
+            index = [i for i, p in enumerate(self.scene.points) if p.moving]
+            first = np.concatenate([first, extra])
+            last = np.concatenate([last, extra])
+            obj = np.concatenate([obj, n_mesh + np.asarray(index, int)])
+        return {
+            "first_point_m": first,
+            "last_point_m": last,
+            "object_index": obj,
+            "object_names": names,
+        }
 
     def _mic_directivity(self, echoes: Echoes, anchor_m, mics, pose: Pose) -> Echoes:
         """`echoes` with the microphones' directivity (the sensor's ``mic_radius_m``;
@@ -401,7 +452,7 @@ class Simulator:
             truth_pos = np.concatenate([truth_pos, pos])
             kinds = kinds + ["point"] * len(a)
             truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
-        return moving, truth_pos, kinds, truth_vel, paths.interactions
+        return moving, truth_pos, kinds, truth_vel, paths.interactions, paths
 
     def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
         """Render the prepared echoes with the scene's noise (seeded per pose index)

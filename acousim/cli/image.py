@@ -200,7 +200,14 @@ def _write_all(args, out, recs, images, index, options, animation, shown=None) -
     files = []
     if not args.no_data:
         files += [
-            write_image_data(out / "images.h5", recs, images, index),
+            write_image_data(
+                out / "images.h5",
+                recs,
+                images,
+                index,
+                dynamic_range_db=options.dynamic_range_db,
+                peak_threshold_db=options.peak_threshold_db,
+            ),
             write_peaks_csv(
                 out / "peaks.csv", recs, images, index, threshold_db=options.peak_threshold_db
             ),

@@ -44,6 +44,8 @@ from acousim.dataset.samples import (  # noqa: F401  (re-exported)
     simulate_sample,
 )
 from acousim.dataset.spec import DatasetSpec, load_spec
+from acousim.imaging.labels import SAMPLE_FIELDS, sample_labels
+from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX, atomic_path, write_text
 from processing.base.errors import InputError
@@ -74,6 +76,7 @@ UNITS = {
     "labels/amplitude": "1",
     "labels/order": "1",
     "labels/depth_m": "m",
+    **{key: units for key, _, _, units, _ in SAMPLE_FIELDS},
 }
 """Units of every stored array (``image/<method>``: dB relative to the image's maximum)."""
 DIMS = {
@@ -85,6 +88,7 @@ DIMS = {
     "labels/amplitude": "path",
     "labels/order": "path",
     "labels/depth_m": "elevation,azimuth",
+    **{key: dims for key, _, _, _, dims in SAMPLE_FIELDS},
 }
 
 
@@ -92,7 +96,8 @@ def _units_dims(name: str) -> tuple[str, str]:
     """The ``units`` and ``dims`` attributes of a stored array."""
     if name.startswith("peaks/"):
         return ("1", "peak,cell") if name.endswith("/index") else ("dB", "peak")
-    return UNITS.get(name, "dB"), DIMS.get(name, "range,elevation,azimuth")
+    default = "1" if name.startswith("label_map/") else "dB"  # an image's dB, a label map's 1
+    return UNITS.get(name, default), DIMS.get(name, "range,elevation,azimuth")
 
 
 def shard_name(k: int) -> str:
@@ -137,8 +142,13 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
         arrays["labels/amplitude"] = truth.amplitude.astype(np.float32)
         arrays["labels/order"] = truth.order.astype(np.int8)
+        # what the sensor sees, and the images' label maps (acousim.imaging.labels)
+        dr = DYNAMIC_RANGE_DB
+        arrays.update(sample_labels(rec, images if st.images else {}, axis, settings.window, dr))
     if st.depth_map:
         arrays["labels/depth_m"] = _depth_map(_scene_path(params, spec), pose, grid, scene)
+    if st.labels and rec.truth is not None and rec.truth.object_index is not None:
+        params = {**params, "object_names": list(rec.truth.object_names)}
     params = {
         **params,
         "frequency_hz": snap.frequency_hz,

@@ -204,6 +204,11 @@ class DatasetReader:
             out["labels/position_sensor_m"] = r.truth.position_sensor_m.astype(np.float32)
             out["labels/amplitude"] = r.truth.amplitude.astype(np.float32)
             out["labels/order"] = r.truth.order.astype(np.int8)
+            from acousim.imaging.labels import SAMPLE_FIELDS
+
+            for key, name, dtype, _units, _dims in SAMPLE_FIELDS:  # what the sensor sees
+                if getattr(r.truth, name) is not None:
+                    out[key] = getattr(r.truth, name).astype(dtype)
         if r.lidar is not None:
             out["lidar/points_m"] = r.lidar.points_m.astype(np.float32)
             out["lidar/intensity"] = r.lidar.intensity.astype(np.float32)

@@ -38,7 +38,7 @@ __all__ = ["TorchSamples", "LABEL_MAP", "pad"]
 
 #: the label map of an image, stored beside it: ``label_map/<method>/<name>``, int
 #: arrays (R, E, A) of the image's shape (issue 35 item 4)
-LABEL_MAP = ("object_index", "order")
+LABEL_MAP = ("object", "order")
 
 
 def pad(a: np.ndarray, n: int, fill: float) -> tuple[np.ndarray, int]:

@@ -20,6 +20,13 @@ Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
                        removed by the energy gate (no data).  attrs: units "dB",
                        method, frequency_hz, reference_power (linear power of 0 dB),
                        resolution_db.
+        <method>_object (R, E, A) int16  truth label (simulations): per cell the
+                       object (index into object_names) carrying most of its
+                       simulated energy; -1 none or below the dynamic range
+        <method>_order  (R, E, A) int8   the same cell's path order (reflections)
+        object_names   (O,) UTF-8 strings: "<mesh>/<material>", "point <i>"
+        peaks/<method>/<column>  (P,) the image's peaks, one dataset per column of
+                       peaks.csv but recording, method and provenance
 
 Peaks CSV columns: see :data:`PEAK_COLUMNS`.
 """
@@ -35,6 +42,7 @@ import numpy as np
 
 import processing as P
 from acousim.imaging.run import PEAK_THRESHOLD_DB
+from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.base.atomic import atomic_path, write_text
 
 __all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
@@ -77,11 +85,17 @@ def write_image_data(
     indices: Sequence[int] | None = None,
     *,
     compression: str | None = "gzip",
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    peak_threshold_db: float = PEAK_THRESHOLD_DB,
 ) -> Path:
-    """Write every image of every recording to one HDF5 file (atomically).
+    """Write every image of every recording to one HDF5 file (atomically), with the
+    truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
 
     recordings, images : as from :func:`acousim.imaging.run.image_recordings`.
     indices : each recording's index in its file (default 0, 1, ...).
+    dynamic_range_db : cells of the label maps this far below the strongest cell's
+        simulated energy are labelled -1 (none).
+    peak_threshold_db : the peaks stored (``peaks/<method>``, as ``peaks.csv``).
     """
     import h5py
 
@@ -110,9 +124,82 @@ def write_image_data(
                 d = g.create_dataset(name, data=values)
                 d.attrs["units"] = units
                 d.make_scale(name)
+            made: dict = {}  # label maps by resolution: methods of one frequency share
             for method, img in imgs.items():
                 _write_image(g, method, img, axis, list(scales), compression)
+                labels = (dynamic_range_db, compression, made)
+                _write_labels(g, rec, (method, img), axis, list(scales), *labels)
+                peaks = g.require_group("peaks").create_group(method)
+                _write_peaks(peaks, rec, idx, img, peak_threshold_db)
+            if rec.truth is not None and rec.truth.object_index is not None:
+                names = list(rec.truth.object_names)
+                g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
     return path
+
+
+#: the peak columns images.h5 stores (per image; the recording and method are its
+#: group's, the provenance its recording's)
+_H5_PEAK_COLUMNS = tuple(c for c in PEAK_COLUMNS if c not in ("recording", "method", "provenance"))
+
+
+def _write_peaks(g, rec, index: int, img: P.Image, threshold_db: float) -> None:
+    """The image's peaks (those of ``peaks.csv``, strongest first, with their truth)
+    as one dataset (P,) per column: numbers float64 (NaN: none), integers and
+    flags int32 (-1: none), text UTF-8 ("": none)."""
+    import h5py
+
+    from acousim.imaging.run import peak_table
+
+    rows = peak_table(rec, img, threshold_db, index=index)
+    for name in _H5_PEAK_COLUMNS:
+        values = [getattr(row, name) for row in rows]
+        if name in _TEXT_COLUMNS:
+            g.create_dataset(name, data=values, dtype=h5py.string_dtype("utf-8"))
+        elif name in _INT_COLUMNS:
+            ints = [-1 if v is None or v == "" else int(v) for v in values]
+            g.create_dataset(name, data=ints, dtype=np.int32)
+        else:
+            g.create_dataset(name, data=[np.nan if v is None else v for v in values], dtype=float)
+
+
+_TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_note")
+_INT_COLUMNS = ("on_grid_edge", "truth_order", "truth_behind")
+
+
+def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression, made):
+    """The image's truth labels (:mod:`acousim.imaging.labels`) beside it: ``<method>_object``
+    (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
+    (int8 reflections, -1 none), of the image's shape; `made` holds those made for
+    the recording's other images, by resolution."""
+    from acousim.imaging.labels import recording_label_map
+    from acousim.imaging.matching import image_resolution
+
+    method, img = image
+    if rec.truth is None or not axis.size:
+        return
+    res = image_resolution(rec, img, P.ProcessingSettings.window)
+    if res not in made:
+        made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+    labels = made[res]
+    for suffix, data, dtype, what in (
+        ("object", labels.object_index, np.int16, "index into object_names"),
+        ("order", labels.order, np.int8, "reflections"),
+    ):
+        d = g.create_dataset(
+            f"{method}_{suffix}",
+            data=data.astype(dtype),
+            chunks=True,
+            compression=compression,
+            shuffle=bool(compression),
+        )
+        d.attrs["long_name"] = (
+            f"{method}: per cell, the {what} of the paths carrying most of its simulated "
+            "energy (-1: none, or below the dynamic range)"
+        )
+        d.attrs["dynamic_range_db"] = float(dynamic_range_db)
+        for dim, name in enumerate(scales):
+            d.dims[dim].label = name
+            d.dims[dim].attach_scale(g[name])
 
 
 def _write_provenance(g, prov) -> None:

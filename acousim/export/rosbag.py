@@ -97,7 +97,18 @@ SCENE_TOPICS = {
     "scene": ("/acousim/scene", "visualization_msgs/msg/MarkerArray"),
     "reflectors": ("/acousim/reflectors", "sensor_msgs/msg/PointCloud2"),
 }
-REFLECTOR_FIELDS = ("x", "y", "z", "level_db", "order")
+REFLECTOR_FIELDS = (
+    "x",
+    "y",
+    "z",
+    "level_db",
+    "order",
+    "apparent_x",
+    "apparent_y",
+    "apparent_z",
+    "delay_s",
+    "object",
+)
 SCENE_COLOR = (0.7, 0.7, 0.75, 0.5)  # RGBA of the still meshes; moving ones are orange
 MOVING_COLOR = (1.0, 0.55, 0.1, 0.7)
 
@@ -465,9 +476,12 @@ def _mesh_marker(T, header, marker_id: int, triangles: np.ndarray, rgba):
 
 
 def _reflector_msg(T, header, rec: P.Recording):
-    """The traced echo paths' reflection points (the direct path left out) as a
-    PointCloud2 in the sensor frame: x, y, z (m), level_db (re the strongest echo),
-    order (number of reflections)."""
+    """The traced echo paths (the direct path left out) as a PointCloud2 in the
+    sensor frame: x, y, z their last reflection (m), level_db (re the strongest
+    echo), order (number of reflections), apparent_x/y/z where the sensor sees them
+    (m), delay_s their two-way delay at the array centre (s) and object (the index
+    into the recording's ``truth.object_names``, -1 none); NaN where a recording
+    carries no apparent positions (a file written before they existed)."""
     from acousim.viz.truth import truth_level_db
 
     t = rec.truth
@@ -476,7 +490,14 @@ def _reflector_msg(T, header, rec: P.Recording):
     else:
         lvl = truth_level_db(t)
         keep = np.isfinite(lvl)
+        n = int(keep.sum())
+        seen = (
+            [t.apparent_position_sensor_m[keep], t.delay_s[keep, None]]
+            if t.has_apparent
+            else [np.full((n, 4), np.nan)]
+        )
+        obj = t.object_index[keep] if t.object_index is not None else np.full(n, -1)
         table = np.column_stack(
-            [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None]]
+            [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None], *seen, obj]
         ).astype("<f4")
     return _point_cloud(T, header, table, REFLECTOR_FIELDS)

@@ -9,10 +9,19 @@ Resolution of an image (:class:`Resolution`):
 - angle: the array's Rayleigh limit at the steering frequency, ``c / (f D)`` rad with
   D the largest distance between two microphones, and at least the grid step.
 
-A traced reflector matches a peak when its range from the array centre is within
-half the range resolution of the peak's and its direction within the angular
-resolution; one behind the array (x < 0 in the sensor frame) is heard as its mirror
-(-x, y, z) and matched as such.  Of several, the strongest is the match.
+A traced path matches a peak when it shows in the peak's resolution cell: its
+apparent position (where the sensor sees it: along its arrival direction at half
+its path length, :attr:`processing.GroundTruth.apparent_position_sensor_m`) lies
+within half the range resolution of the peak's range and within half the angular
+resolution of its direction (the cell of one resolution's width centred on the
+peak: a path farther off belongs to the next cell, or for a peak on the grid's
+edge, outside the grid).  A two-bounce echo is thus matched where the image
+shows it, not at its last reflection.  One behind the array (x < 0 in the sensor
+frame) is heard as its mirror (-x, y, z) and matched as such.  Of several, the
+strongest is the match; a peak with none is unmatched and says why
+(:attr:`Match.note`), a peak on the grid's edge too (its echo may lie outside the
+grid: it is not matched to a path beyond its cell).  A file written before the
+apparent positions existed is matched at its paths' last reflections.
 """
 
 from __future__ import annotations
@@ -22,9 +31,17 @@ from dataclasses import dataclass
 import numpy as np
 
 import processing as P
-from acousim.viz.truth import truth_level_db
+from acousim.viz.truth import seen_positions, truth_level_db
 
-__all__ = ["Match", "Resolution", "image_resolution", "match_peaks", "on_grid_edge"]
+__all__ = [
+    "Match",
+    "Resolution",
+    "image_resolution",
+    "match_peaks",
+    "on_grid_edge",
+    "peak_directions",
+    "seen_positions",
+]
 
 
 @dataclass(frozen=True)
@@ -57,20 +74,31 @@ def _grid_step(image: P.Image) -> float:
 
 def on_grid_edge(image: P.Image, peaks: P.Peaks) -> np.ndarray:
     """Whether each peak (N,) lies on the first or last azimuth or elevation of the
-    grid: a maximum there may be the flank of an echo from outside the grid."""
+    grid: a maximum there may be the flank of an echo from outside the grid.  A peak
+    at a pole (elevation +-90 degrees, one direction whatever the azimuth) is not."""
     if peaks.on_grid_edge is not None:
         return np.asarray(peaks.on_grid_edge, bool)
     return P.on_grid_edge(image, peaks.azimuth_rad, peaks.elevation_rad)
 
 
+#: why a peak has no match (:attr:`Match.note`)
+NO_TRUTH = "no ground truth"
+NOT_IN_CELL = "no traced path within the resolution cell"
+EDGE_NOT_IN_CELL = "on the grid's edge; no traced path within the resolution cell"
+
+
 @dataclass(frozen=True)
 class Match:
-    """The traced reflector matched to each of N peaks; index -1 where none.
+    """The traced path matched to each of N peaks; index -1 where none.
 
-    index (N,) into the recording's ground truth; position_sensor_m (N, 3) the
-    reflector as traced (sensor frame, m; NaN where none); behind (N,) heard as its
-    mirror; offset_rad (N,) angle between the peak and the (mirrored) reflector;
-    level_db (N,) the reflector's level re the strongest traced echo; kind (N,).
+    index (N,) into the recording's ground truth; position_sensor_m (N, 3) where the
+    path shows in the image (its apparent position, sensor frame, m; for a file
+    without apparent positions, its last reflection; NaN where none); behind (N,)
+    heard as its mirror; offset_rad (N,) angle between the peak and the
+    (mirrored) path; range_offset_m (N,) the path's apparent range less the peak's;
+    level_db (N,) the path's level re the strongest traced echo; kind (N,), order
+    (N,) (-1 where none), object (N,) its object's name ("" where none or not known);
+    note (N,) why a peak has no match ("" where it has one).
     """
 
     index: np.ndarray
@@ -79,59 +107,80 @@ class Match:
     offset_rad: np.ndarray
     level_db: np.ndarray
     kind: np.ndarray
+    order: np.ndarray | None = None
+    object: np.ndarray | None = None
+    range_offset_m: np.ndarray | None = None
+    note: np.ndarray | None = None
 
 
-def match_peaks(rec: P.Recording, peaks: P.Peaks, resolution: Resolution) -> Match:
-    """Each peak's traced reflector within `resolution` (see the module docstring)."""
-    n = len(peaks)
-    empty = Match(
+def _empty(n: int, note: str) -> Match:
+    return Match(
         np.full(n, -1),
         np.full((n, 3), np.nan),
         np.zeros(n, bool),
         np.full(n, np.nan),
         np.full(n, np.nan),
         np.full(n, "", dtype=object),
+        np.full(n, -1),
+        np.full(n, "", dtype=object),
+        np.full(n, np.nan),
+        np.full(n, note, dtype=object),
     )
-    t = rec.truth
-    if t is None or not len(t) or not n:
-        return empty
-    level = truth_level_db(t)  # -inf: the direct path
-    echo = np.isfinite(level)
-    if not echo.any():
-        return empty
-    p = np.asarray(t.position_sensor_m, float) - rec.array.positions_m.mean(axis=0)
-    behind = p[:, 0] < 0
-    m = p.copy()
-    m[behind, 0] *= -1
-    r_t = np.linalg.norm(m, axis=1)
-    u_t = m / np.maximum(r_t, 1e-12)[:, None]
+
+
+def peak_directions(peaks: P.Peaks) -> np.ndarray:
+    """Unit directions (N, 3) of peaks, sensor frame (a pole is one direction)."""
     ce = np.cos(peaks.elevation_rad)
-    u_p = np.column_stack(
+    return np.column_stack(
         [
             ce * np.cos(peaks.azimuth_rad),
             ce * np.sin(peaks.azimuth_rad),
             np.sin(peaks.elevation_rad),
         ]
-    )
-    offset = np.arccos(np.clip(u_p @ u_t.T, -1.0, 1.0))  # (N, paths)
-    ok = (
-        echo[None]
-        & (np.abs(r_t[None] - np.asarray(peaks.range_m)[:, None]) <= resolution.range_m / 2)
-        & (offset <= resolution.angle_rad)
-    )
+    ).reshape(-1, 3)
+
+
+def match_peaks(
+    rec: P.Recording,
+    peaks: P.Peaks,
+    resolution: Resolution,
+    edge: np.ndarray | None = None,
+) -> Match:
+    """Each peak's traced path within `resolution` (see the module docstring): the
+    strongest whose apparent position lies in the peak's resolution cell.  `edge`
+    (N,): the peaks on the grid's edge (:func:`on_grid_edge`), for the note of
+    those left unmatched."""
+    n = len(peaks)
+    t = rec.truth
+    if t is None or not len(t) or not n:
+        return _empty(n, NO_TRUTH if t is None or not len(t) else "")
+    level = truth_level_db(t)  # -inf: the direct path
+    echo = np.isfinite(level)
+    if not echo.any():
+        return _empty(n, NO_TRUTH)
+    p = seen_positions(t, rec.array.positions_m.mean(axis=0))
+    behind = p[:, 0] < 0
+    m = p.copy()
+    m[behind, 0] *= -1
+    r_t = np.linalg.norm(m, axis=1)
+    u_t = m / np.maximum(r_t, 1e-12)[:, None]
+    offset = np.arccos(np.clip(peak_directions(peaks) @ u_t.T, -1.0, 1.0))  # (N, paths)
+    dr = r_t[None] - np.asarray(peaks.range_m)[:, None]
+    in_cell = (np.abs(dr) <= resolution.range_m / 2) & (offset <= resolution.angle_rad / 2)
+    ok = echo[None] & in_cell
     idx = np.where(ok.any(axis=1), np.argmax(np.where(ok, level[None], -np.inf), axis=1), -1)
     hit = idx >= 0
-    j = idx[hit]
-    pos, off, lvl, kind = (
-        empty.position_sensor_m.copy(),
-        empty.offset_rad.copy(),
-        empty.level_db.copy(),
-        empty.kind.copy(),
-    )
-    pos[hit] = np.asarray(t.position_sensor_m, float)[j]
-    off[hit] = offset[np.nonzero(hit)[0], j]
-    lvl[hit] = level[j]
-    kind[hit] = np.asarray(t.kind)[j]
-    bh = np.zeros(n, bool)
-    bh[hit] = behind[j]
-    return Match(idx, pos, bh, off, lvl, kind)
+    edge = np.zeros(n, bool) if edge is None else np.asarray(edge, bool)
+    out = _empty(n, "")
+    out.note[~hit] = np.where(edge[~hit], EDGE_NOT_IN_CELL, NOT_IN_CELL)
+    j, rows = idx[hit], np.nonzero(hit)[0]
+    out.index[hit] = j
+    out.position_sensor_m[hit] = p[j] + rec.array.positions_m.mean(axis=0)
+    out.offset_rad[hit] = offset[rows, j]
+    out.range_offset_m[hit] = dr[rows, j]
+    out.level_db[hit] = level[j]
+    out.kind[hit] = np.asarray(t.kind)[j]
+    out.order[hit] = t.order[j]
+    out.object[hit] = t.object_name()[j]
+    out.behind[hit] = behind[j]
+    return out

@@ -176,15 +176,20 @@ def peak_table(
 def _truth(match, k: int) -> dict[str, Any]:
     """The truth columns of peak `k` of a :class:`acousim.imaging.matching.Match` ({}: none)."""
     if match.index[k] < 0:
-        return {}
+        return {"truth_note": "" if match.note is None else str(match.note[k])}
     tx, ty, tz = (float(v) for v in match.position_sensor_m[k])
     return {
         "truth_kind": str(match.kind[k]),
+        "truth_order": -1 if match.order is None else int(match.order[k]),
+        "truth_object": "" if match.object is None else str(match.object[k]),
         "truth_x_m": tx,
         "truth_y_m": ty,
         "truth_z_m": tz,
         "truth_level_db": float(match.level_db[k]),
         "truth_offset_deg": float(np.rad2deg(match.offset_rad[k])),
+        "truth_range_offset_m": (
+            np.nan if match.range_offset_m is None else float(match.range_offset_m[k])
+        ),
         "truth_behind": bool(match.behind[k]),
     }
 
@@ -367,7 +372,7 @@ def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: 
     from acousim.viz import elaz_figure, fan_figure
 
     dr = options.dynamic_range_db
-    truth = _truth_sensor(rec, dr)
+    truth = _truth_sensor(rec, dr, imgs[_sharpest(imgs)], options)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
     written = [fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)]
     for m, img in imgs.items():
@@ -419,26 +424,72 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     return f"{name or prov.kind} — recording {index}{where}"
 
 
-def _truth_sensor(rec: P.Recording, dynamic_range_db: float = DYNAMIC_RANGE_DB):
-    """Ray-traced reflectors (:class:`acousim.viz.truth.Reflectors`) within
-    `dynamic_range_db` + :data:`acousim.viz.truth.MARGIN_DB` of the strongest echo
-    (the direct path excluded), or None."""
-    from acousim.viz.truth import MARGIN_DB, echo_points
+def _truth_sensor(
+    rec: P.Recording,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    image: P.Image | None = None,
+    options: ImagingOptions | None = None,
+):
+    """Ray-traced echoes (:class:`acousim.viz.truth.Reflectors`) where the sensor sees
+    them, within `dynamic_range_db` of the strongest echo (the direct path
+    excluded), one mark per resolved cell of `image` (made with `options`), or None."""
+    from acousim.imaging.matching import image_resolution
+    from acousim.viz.truth import echo_points
 
+    cell = None
+    if image is not None and image.range_m.size:
+        window = (options or ImagingOptions()).settings(rec).window
+        res = image_resolution(rec, image, window)
+        cell = (res.range_m, res.angle_rad)
     centre = rec.array.positions_m.mean(axis=0)
-    found = echo_points(
-        rec.truth, centre, dynamic_range_db + MARGIN_DB, own=rec.metadata.get("sensor")
-    )
+    found = echo_points(rec.truth, centre, dynamic_range_db, cell, own=rec.metadata.get("sensor"))
     return found if len(found) else None
 
 
+#: the 3D view draws the chains of this many of the strongest echoes
+CHAINS_DRAWN = 6
+
+
 def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Where the sensor sees each traced path (its apparent position; a file without
+    them: its last reflection), world frame (N, 3), and its level (N,) in dB re the
+    strongest echo."""
     truth = rec.truth
     if truth is None or not len(truth):
         return None, None
     from acousim.viz.truth import truth_level_db
 
-    return truth.position_world_m, truth_level_db(truth)
+    where = truth.apparent_position_world_m if truth.has_apparent else truth.position_world_m
+    return where, truth_level_db(truth)
+
+
+def _chains(rec: P.Recording, n: int = CHAINS_DRAWN) -> list[np.ndarray]:
+    """The chains (each (K, 3), world frame) of the `n` strongest echoes: from the
+    array centre through the first and last interaction back to the centre, then on
+    to where the sensor sees it (its apparent position); none for a file without
+    them."""
+    truth = rec.truth
+    if truth is None or not len(truth) or not truth.has_apparent:
+        return []
+    first_m, last_m, seen_m = (
+        truth.first_point_m,
+        truth.last_point_m,
+        truth.apparent_position_world_m,
+    )
+    if first_m is None or last_m is None or seen_m is None:
+        return []
+    from acousim.viz.truth import truth_level_db
+
+    level = truth_level_db(truth)
+    top = np.argsort(-level, kind="stable")[:n]
+    top = top[np.isfinite(level[top])]
+    centre = _pose(rec).to_world(rec.array.positions_m.mean(axis=0)[None])[0]
+    out = []
+    for j in top:
+        first, last = first_m[j], last_m[j]
+        pts = [centre, first] + ([last] if np.linalg.norm(last - first) > 1e-6 else [])
+        out.append(np.array([*pts, centre, seen_m[j]]))
+    return out
 
 
 #: the sensor's sweep during a measurement is drawn when it turns or moves this much
@@ -484,6 +535,7 @@ def _frame_content(rec, img, options, sweep, moving):
         sensor_axis=pose.rotation[:, 0],
         truth=truth_w,
         truth_level_db=level,
+        chains=_chains(rec),
         peaks=peaks_in_world(rec, img, options.peak_threshold_db),
         sweep=sweep,
         moving_triangles=moving,
@@ -581,7 +633,7 @@ def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db:
     from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
     from acousim.viz.truth import fan_marks
 
-    truth = _truth_sensor(rec, dynamic_range_db)
+    truth = _truth_sensor(rec, dynamic_range_db, image)
     if truth is None:
         return None
     a = image.azimuth_rad

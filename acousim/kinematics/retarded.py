@@ -184,6 +184,10 @@ class Arrivals:
     echoes: Echoes
     rate: np.ndarray
     curvature_s: np.ndarray
+    #: (N,) when the call's first sample leaves each path's last anchor (s), and
+    #: (N, 3) where that anchor is then (m): the start of the last leg
+    leave_s: np.ndarray | None = None
+    anchor_m: np.ndarray | None = None
 
 
 def arrivals(
@@ -214,4 +218,6 @@ def arrivals(
     # (parabolic) deviation: two thirds of the deviation at the middle
     curvature = tm - 0.5 * (t0 + t1)
     echoes = Echoes(t0 + curvature * (2 / 3), gain, length, paths.order.copy(), np.arccos(cos))
-    return Arrivals(echoes, duration_s / (t1 - t0), curvature)
+    leave = np.broadcast_to(first, t0.shape)[0] / c
+    start = np.broadcast_to(anchor, (*t0.shape, 3))[0]
+    return Arrivals(echoes, duration_s / (t1 - t0), curvature, leave, start)

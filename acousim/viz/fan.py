@@ -582,6 +582,6 @@ def make_elaz_figure(
         legend_inside(fig, legend_handles(drawn, dynamic_range_db))
     head = f"{image.method}: strongest distinct echoes, {dynamic_range_db:g} dB dynamic range"
     if truth is not None:
-        head += f"; marks: reflectors within {tol * 100:.0f} cm of the slice's range"
+        head += f"; marks: traced echoes within {tol * 100:.0f} cm of the slice's range"
     fitted_title(fig, f"{title}\n{head}" if title else head)
     return fig

@@ -1,11 +1,14 @@
 """3D views (pyvista, offscreen): the scene's meshes, the sensor at its pose, the
-reflectors the ray tracer found and the acoustic image's peaks placed in the scene.
+traced echoes where the sensor sees them (their apparent positions), the paths of
+the strongest ones and the acoustic image's peaks placed in the scene.
 
 Every view has a legend (inside the view, or for ``scene3d.png`` and the animation
-below it in black text: :func:`view_figure`) and a 1 m scale bar.  Ray-traced reflectors are
-drawn only
+below it in black text: :func:`view_figure`) and a 1 m scale bar.  Ray-traced echoes
+are drawn only
 within `truth_range_db` of the strongest echo, the stronger ones larger, so that a
-few strong reflectors are not hidden among hundreds of weak scatterers.  Without a
+few strong echoes are not hidden among hundreds of weak scatterers; a peak of the
+image then sits on the echo it shows, even one beyond every surface (a two-bounce
+echo), whose path (a thin line through its reflections) says where it came from.  Without a
 scene mesh (a real recording) the camera is fitted to the sensor and the peaks, and
 a labelled grid in metres gives the scale.
 
@@ -42,7 +45,8 @@ __all__ = [
 ]
 
 PEAK_COLOR = (1.0, 0.1, 0.1)  # image peaks: red
-TRUTH_COLOR = (0.1, 0.8, 1.0)  # ray-traced reflectors: cyan
+TRUTH_COLOR = (0.1, 0.8, 1.0)  # ray-traced echoes where the sensor sees them: cyan
+CHAIN_COLOR = (0.0, 0.45, 0.6)  # the chains of the strongest echoes: dark cyan
 SENSOR_COLOR = (1.0, 0.85, 0.0)  # the sensor: yellow
 SWEEP_COLOR = (1.0, 0.45, 0.0)  # the sensor's sweep during a measurement: orange
 #: length of the drawn axis and of the swept wedge (m)
@@ -69,6 +73,9 @@ class FrameContent:
     moving_triangles : (F, 3, 3) faces of the scene's moving meshes where they are
         in this frame.
     lidar : (P, 3) points of the LiDAR's scan (small dots).
+    chains : polylines (each (K, 3)) of the strongest echoes' paths: from the sensor
+        through their interactions and back, then on to where the sensor sees them
+        (thin lines).
     """
 
     sensor_position: np.ndarray
@@ -80,6 +87,7 @@ class FrameContent:
     sweep: tuple[np.ndarray, np.ndarray] | None = None
     moving_triangles: np.ndarray | None = None
     lidar: np.ndarray | None = None
+    chains: tuple | list = ()
 
 
 def _polydata(pv, triangles: np.ndarray):
@@ -157,9 +165,8 @@ def legend_entries(
     if with_moving:
         entries.append(("moving meshes, at the emission", MOVING_COLOR))
     if with_truth:
-        entries.append(
-            (f"traced reflectors within {truth_range_db:g} dB, size: level", TRUTH_COLOR)
-        )
+        entries.append((f"traced echoes where seen, within {truth_range_db:g} dB", TRUTH_COLOR))
+        entries.append(("paths of the strongest echoes", CHAIN_COLOR))
     if with_lidar:
         entries.append(("LiDAR points", LIDAR_COLOR))
     return entries
@@ -240,6 +247,11 @@ class SceneRenderer:
             mesh = _polydata(self.pv, c.moving_triangles)
             self._actors.append(plotter.add_mesh(mesh, color=MOVING_COLOR, render=False))
         drawn_truth = self._truth(c)
+        for chain in c.chains:
+            line = self.pv.lines_from_points(np.asarray(chain, float))
+            self._actors.append(
+                plotter.add_mesh(line, color=CHAIN_COLOR, line_width=1.5, render=False)
+            )
         if c.lidar is not None and len(c.lidar):
             self._actors.append(
                 plotter.add_mesh(

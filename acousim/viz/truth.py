@@ -1,10 +1,17 @@
-"""Ray-traced reflectors placed in the pictures, so that every bright spot can be told
-apart: an echo from a reflector in the picture's slice, one from outside the slice
-that leaks in, or one from behind the array.
+"""Ray-traced echoes marked in the pictures where the sensor sees them, so that
+every bright spot can be told apart: an echo shown in the picture's slice, one from
+outside the slice that leaks in, or one from behind the array.
 
-A planar array (microphones in the y-z plane) cannot tell front from back: a
-reflector at sensor-frame (x, y, z) with x < 0 is heard exactly as its mirror
-(-x, y, z).  Such reflectors are drawn at their mirror, with their own marker.
+Each echo is marked at its apparent position (:attr:`processing.GroundTruth.
+apparent_position_sensor_m`): along the direction it arrives from, at half its path
+length, where an imaging sonar puts it.  A first-order echo is so marked at its
+reflection point; a two-bounce echo (across a hallway and back) beyond its last
+reflection, where the image shows it.  A recording written before apparent positions
+existed is marked at its paths' last reflections.
+
+A planar array (microphones in the y-z plane) cannot tell front from back: an echo
+arriving from sensor-frame (x, y, z) with x < 0 is heard exactly as from its mirror
+(-x, y, z).  Such echoes are drawn at their mirror, with their own marker.
 
 Three marks (:data:`MARKS`), in every picture's legend:
 
@@ -15,13 +22,12 @@ Three marks (:data:`MARKS`), in every picture's legend:
   nearest its direction);
 - ``behind``: behind the array, drawn at its mirror (then placed as above).
 
-Only reflectors within the picture's dynamic range plus :data:`MARGIN_DB` of the
-strongest traced echo are drawn: a much weaker one cannot show, but many weak ones
-can add up (a floor's scatter points, each 34 dB below the strongest echo, make a
-bright arc in the corridor); those below the dynamic range are drawn small.  Of each
-mark, one is drawn per square of a picture's spacing (:meth:`TruthMarks.thinned`):
-the strongest.  The direct path is not a reflector.  Positions are
-relative to the array's centre (where the images' ranges start), sensor frame, m.
+Marks never hide the image: only echoes within the picture's dynamic range of the
+strongest traced echo are drawn, at most one per resolved cell of the image (the
+strongest; :attr:`Reflectors.cell`, the image's range and angular resolution) and
+one per square of a picture's spacing (:meth:`TruthMarks.thinned`), hollow and thin.
+The direct path is not an echo.  Positions are relative to the array's centre (where
+the images' ranges start), sensor frame, m.
 """
 
 from __future__ import annotations
@@ -40,28 +46,35 @@ __all__ = [
     "elaz_marks",
     "fan_marks",
     "legend_handles",
+    "one_per_cell",
+    "seen_positions",
     "truth_level_db",
 ]
 
 #: matplotlib marker style of each mark (drawn over the inferno colour map)
 MARKS = {
-    "in": {"marker": "o", "label": "traced reflector in this slice"},
-    "off": {"marker": "^", "label": "traced reflector off the slice"},
-    "behind": {"marker": "D", "label": "traced reflector behind the array (at its mirror)"},
+    "in": {"marker": "o", "label": "traced echo, where it shows, in this slice"},
+    "off": {"marker": "^", "label": "traced echo off the slice"},
+    "behind": {"marker": "D", "label": "traced echo from behind the array (at its mirror)"},
 }
 EDGE_COLOR = "white"
-#: reflectors this much below a picture's dynamic range are still marked (dB)
+#: the imaging commands once marked echoes this much below a picture's dynamic range
+#: small (dB); they mark none below it now (kept for scripts that pass it)
 MARGIN_DB = 10.0
 WEAK_SCALE = 0.3  # area of a weak reflector's mark re a strong one's
 
 
 @dataclass(frozen=True)
 class Reflectors:
-    """Traced reflectors to mark: points_m (N, 3) in the sensor frame from the array
-    centre (m), level_db (N,) re the strongest traced echo; the strongest first."""
+    """Traced echoes to mark: points_m (N, 3) where the sensor sees them (their
+    apparent positions) in the sensor frame from the array centre (m), level_db (N,)
+    re the strongest traced echo; the strongest first.  cell: the image's
+    resolution (range m, angle rad): at most one mark per resolved cell (None: no
+    such limit)."""
 
     points_m: np.ndarray
     level_db: np.ndarray
+    cell: tuple[float, float] | None = None
 
     def __len__(self) -> int:
         return len(self.level_db)
@@ -89,26 +102,21 @@ class TruthMarks:
         return len(self.mark)
 
     def thinned(self, min_separation: float) -> TruthMarks:
-        """At most one mark of each kind in each square cell of `min_separation` (the
-        axes' units): the first kept (:func:`echo_points` puts the strongest first),
+        """At most one mark in each square cell of `min_separation` (the axes'
+        units): the first kept (:func:`echo_points` puts the strongest first),
         so that a floor's hundreds of scatter points do not hide the picture."""
         if not len(self) or min_separation <= 0:
             return self
-        cell = np.floor(self.xy / min_separation).astype(np.int64)
-        order = {name: k for k, name in enumerate(MARKS)}
-        kind = np.array([order[m] for m in self.mark])
-        key = np.column_stack([kind, cell])
-        _, first = np.unique(key, axis=0, return_index=True)  # the first of each cell
-        keep = np.sort(first)
+        keep = one_per_cell(np.floor(self.xy / min_separation).astype(np.int64))
         return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
 
-    def draw(self, ax, size: float = 45.0, min_separation: float = 0.0) -> set[str]:
-        """Scatter the marks on a matplotlib axis (hollow, white), thinned to
+    def draw(self, ax, size: float = 30.0, min_separation: float = 0.0) -> set[str]:
+        """Scatter the marks on a matplotlib axis (hollow, thin, white), thinned to
         `min_separation`; returns the marks drawn (for the legend)."""
         marks = self.thinned(min_separation) if min_separation > 0 else self
         drawn = set()
         for name, style in MARKS.items():
-            for weak, scale, width in ((False, 1.0, 0.9), (True, WEAK_SCALE, 0.6)):
+            for weak, scale, width in ((False, 1.0, 0.6), (True, WEAK_SCALE, 0.5)):
                 k = (marks.mark == name) & (marks.weak == weak)
                 if k.any():
                     ax.scatter(
@@ -138,33 +146,46 @@ def truth_level_db(truth) -> np.ndarray:
     return level
 
 
+def seen_positions(truth, centre_sensor_m: np.ndarray) -> np.ndarray:
+    """Where each path (N,) of a ground truth shows in an image, from the array
+    centre (N, 3), sensor frame, m: its apparent position, or for a file written
+    before apparent positions existed, its last reflection (as such files were
+    matched and drawn)."""
+    p = truth.apparent_position_sensor_m if truth.has_apparent else truth.position_sensor_m
+    return np.asarray(p, float) - np.asarray(centre_sensor_m, float)
+
+
 def echo_points(
-    truth, array_centre_m: np.ndarray, range_db: float, own: str | None = None
+    truth,
+    array_centre_m: np.ndarray,
+    range_db: float,
+    cell: tuple[float, float] | None = None,
+    own: str | None = None,
 ) -> Reflectors:
-    """The traced reflectors (a recording's ground truth) worth drawing: those within
-    `range_db` of the strongest echo, the direct path left out; the strongest first.
+    """The traced echoes (a recording's ground truth) worth drawing, where the sensor
+    sees them (apparent positions; a file without them: the last reflections): those
+    within `range_db` of the strongest echo, the direct path left out; the strongest
+    first.  `cell`: the image's resolution (range m, angle rad), one mark per cell.
     `own`: a rig's recording's sonar, whose own echoes only are drawn (the other
-    sonars' calls it heard, crosstalk, are not where their reflectors are)."""
+    sonars' calls it heard, crosstalk, show where they are heard, not drawn)."""
     if truth is None or not len(truth):
-        return Reflectors(np.zeros((0, 3)), np.zeros(0))
+        return Reflectors(np.zeros((0, 3)), np.zeros(0), cell)
     if own is not None and getattr(truth, "emitter", None) is not None:
-        truth = _own(truth, truth.emitter == own)
+        truth = truth.select(truth.emitter == own)
     level = truth_level_db(truth)
     keep = np.nonzero(level >= -range_db)[0]
     keep = keep[np.argsort(-level[keep], kind="stable")]
-    pts = np.asarray(truth.position_sensor_m, float)[keep] - np.asarray(array_centre_m, float)
-    return Reflectors(pts, level[keep])
+    pts = seen_positions(truth, array_centre_m)[keep]
+    return Reflectors(pts, level[keep], cell)
 
 
-def _own(truth, keep: np.ndarray):
-    """The paths `keep` (N,) of a ground truth: what drawing reads of it."""
-    from types import SimpleNamespace
-
-    return SimpleNamespace(
-        amplitude=np.asarray(truth.amplitude)[keep],
-        kind=np.asarray(truth.kind)[keep],
-        position_sensor_m=np.asarray(truth.position_sensor_m)[keep],
-    )
+def one_per_cell(keys: np.ndarray) -> np.ndarray:
+    """Indices (K,) of the first row of each distinct row of integer `keys` (N, D), in
+    their order (the strongest of each cell when the rows are strongest first)."""
+    if not len(keys):
+        return np.zeros(0, int)
+    _, first = np.unique(np.asarray(keys), axis=0, return_index=True)
+    return np.sort(first)
 
 
 def _mirrored(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -203,10 +224,15 @@ def fan_marks(
     p, behind = _mirrored(t.points_m)
     r, az, el = _angles(p)
     shown = (r <= max_range_m) & (az >= azimuth_span_rad[0]) & (az <= azimuth_span_rad[1])
+    shown &= t.level_db >= -dynamic_range_db
     inside = np.abs(el) <= elevation_band_rad
     xy = np.column_stack([r * np.sin(az), r * np.cos(az)])
     weak = t.level_db < -dynamic_range_db
-    return TruthMarks(xy[shown], _marks(inside, behind)[shown], weak[shown])
+    keep = np.flatnonzero(shown)
+    if t.cell is not None:  # one per resolved (range, azimuth) cell: the strongest
+        dr, da = (max(v, 1e-9) for v in t.cell)
+        keep = keep[one_per_cell(np.floor(np.column_stack([r / dr, az / da])[keep]))]
+    return TruthMarks(xy[keep], _marks(inside, behind)[keep], weak[keep])
 
 
 def elaz_marks(
@@ -224,13 +250,17 @@ def elaz_marks(
     t = as_reflectors(truth)
     p, behind = _mirrored(t.points_m)
     r, az, el = _angles(p)
-    near = np.abs(r - range_m) <= tolerance_m
+    near = (np.abs(r - range_m) <= tolerance_m) & (t.level_db >= -dynamic_range_db)
     a = np.clip(az, *azimuth_span_rad)
     e = np.clip(el, *elevation_span_rad)
     inside = (a == az) & (e == el)
     xy = np.rad2deg(np.column_stack([a, e]))
     weak = t.level_db < -dynamic_range_db
-    return TruthMarks(xy[near], _marks(inside, behind)[near], weak[near])
+    keep = np.flatnonzero(near)
+    if t.cell is not None:  # one per resolved direction: the strongest
+        da = max(t.cell[1], 1e-9)
+        keep = keep[one_per_cell(np.floor(np.column_stack([a, e])[keep] / da))]
+    return TruthMarks(xy[keep], _marks(inside, behind)[keep], weak[keep])
 
 
 def legend_handles(drawn: set[str], dynamic_range_db: float | None = None) -> list:

@@ -22,10 +22,12 @@ from processing.sensor.pointcloud import read_point_cloud
 from processing.sensor.provenance import Provenance
 from processing.sensor.recording import (
     SCHEMA,
+    STORED_SEEN,
     SUPPORTED_VERSIONS,
     GroundTruth,
     Recording,
     RecordingFileError,
+    with_last_points,
 )
 
 
@@ -339,10 +341,26 @@ def _truth(path: Path, g: h5py.Group) -> GroundTruth | None:
     if "emitter" in t:  # a rig's recording: the sonar each path's call came from
         ds = _dataset(path, t, "emitter", (1,), "S", None)
         fields["emitter"] = np.char.decode(_read(path, ds, f"{key}/emitter"), "utf-8")
+    fields.update(_seen(path, t, key))
     try:
-        return GroundTruth(**fields)
+        return GroundTruth(**with_last_points(fields))
     except ValueError as exc:
         raise RecordingFileError(str(exc), file=path, key=key) from None
+
+
+def _seen(path: Path, t: h5py.Group, key: str) -> dict:
+    """The fields of what the sensor sees, those the file has (a file written before
+    they existed has none: the truth reads as it did)."""
+    out = {}
+    for name, units in STORED_SEEN.items():
+        if name in t:
+            ndim, kind = ((1,), "iu") if name in ("delay_s", "object_index") else ((2,), "f")
+            kind = "f" if name == "delay_s" else kind
+            out[name] = _read(path, _dataset(path, t, name, ndim, kind, units), f"{key}/{name}")
+    if "object_names" in t:
+        ds = _dataset(path, t, "object_names", (1,), "SO")
+        out["object_names"] = tuple(_text(x) or "" for x in _read(path, ds, f"{key}/object_names"))
+    return out
 
 
 def _truth_v1(path: Path, g: h5py.Group, meta: dict) -> GroundTruth | None:

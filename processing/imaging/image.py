@@ -136,15 +136,16 @@ def _unit_vectors(azimuth_rad: np.ndarray, elevation_rad: np.ndarray) -> np.ndar
 def on_grid_edge(image: Image, azimuth_rad, elevation_rad) -> np.ndarray:
     """Whether each direction (azimuth_rad, elevation_rad: (P,), rad) lies on the first
     or last azimuth or elevation of the image's grid (P,) bool: a maximum there may be
-    the flank of an echo from outside it."""
+    the flank of an echo from outside it.  A direction at a pole (elevation +-90
+    degrees: one direction whatever the azimuth, the grid all round it) is not."""
     az = np.asarray(azimuth_rad, float).reshape(-1)
+    el = np.asarray(elevation_rad, float).reshape(-1)
     out = np.zeros(az.size, bool)
-    for axis, values in ((image.azimuth_rad, az), (image.elevation_rad, elevation_rad)):
+    for axis, values in ((image.azimuth_rad, az), (image.elevation_rad, el)):
         if axis.size > 1:
             tol = 1e-9 + 1e-6 * abs(axis[1] - axis[0])
-            v = np.asarray(values, float).reshape(-1)
-            out |= (np.abs(v - axis.min()) <= tol) | (np.abs(v - axis.max()) <= tol)
-    return out
+            out |= (np.abs(values - axis.min()) <= tol) | (np.abs(values - axis.max()) <= tol)
+    return out & ~(np.abs(np.abs(el) - np.pi / 2) < 1e-9)
 
 
 @dataclass(frozen=True, eq=False)

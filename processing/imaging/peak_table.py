@@ -60,15 +60,23 @@ class PeakRow:
     on_grid_edge: bool = column(
         "", "on the grid's first/last azimuth or elevation (may not be a peak)", False
     )
-    truth_kind: str = column("", "the traced reflector within the resolution ('' if none)", "")
-    truth_x_m: float = column("m", "where it was traced, sensor frame", NAN)
-    truth_y_m: float = column("m", "where it was traced, sensor frame", NAN)
-    truth_z_m: float = column("m", "where it was traced, sensor frame", NAN)
+    truth_kind: str = column(
+        "", "the traced path shown in the peak's resolution cell ('' if none)", ""
+    )
+    truth_order: int = column("", "its reflections (an edge counts as one; -1: no truth)", -1)
+    truth_object: str = column("", "what it last touched: '<mesh>/<material>' or 'point <i>'", "")
+    truth_x_m: float = column(
+        "m", "its apparent position (where the image shows it), sensor frame", NAN
+    )
+    truth_y_m: float = column("m", "its apparent position, sensor frame", NAN)
+    truth_z_m: float = column("m", "its apparent position, sensor frame", NAN)
     truth_level_db: float = column("dB", "its level re the strongest traced echo", NAN)
-    truth_offset_deg: float = column("deg", "angle between the peak and the reflector", NAN)
+    truth_offset_deg: float = column("deg", "angle between the peak and the apparent position", NAN)
+    truth_range_offset_m: float = column("m", "the apparent position's range less the peak's", NAN)
     truth_behind: bool | None = column(
         "", "behind the array, heard as its mirror (-x, y, z); None: no truth", None
     )
+    truth_note: str = column("", "why the peak has no truth ('' when it has one)", "")
     provenance: str = column("", "the recording's: simulated, real or emulated", "")
 
     def as_dict(self) -> dict[str, Any]:

@@ -11,7 +11,7 @@ fs`` after the matched filter.  Nothing in :mod:`processing` adds any other dela
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -141,7 +141,11 @@ _KINDS = ("direct", "specular", "scatter", "point", "diffraction")
 
 @dataclass(frozen=True, eq=False)
 class GroundTruth:
-    """The simulated paths of one recording (N paths), in SI units."""
+    """The simulated paths of one recording (N paths), in SI units: where the sound
+    went (the last reflection, the chain's first and last points, the object touched)
+    and what the sensor sees of it (delay and arrival direction at the array centre,
+    the apparent position: docs/recording-format.md, "Ground truth").  The fields
+    after `velocity_world_m_s` are None in a file written before they existed."""
 
     position_world_m: np.ndarray
     """(N, 3) where each path's last reflection is, world frame, m."""
@@ -162,6 +166,34 @@ class GroundTruth:
     emitter: np.ndarray | None = None
     """(N,) str, the name of the sonar whose call each path carries (a rig's
     recording: its own and, crosstalk, the others'); None: the recording's own."""
+    # what the sensor sees of each path (None: a file written before they existed)
+    delay_s: np.ndarray | None = None
+    """(N,) two-way delay at the array centre, s: from the start of the emission to
+    the arrival of the call's start there, motion included (the delay the renderer
+    used)."""
+    arrival_sensor: np.ndarray | None = None
+    """(N, 3) unit direction the path arrives from at the array centre, sensor frame
+    (x: the array's axis), dimensionless."""
+    apparent_position_sensor_m: np.ndarray | None = None
+    """(N, 3) where an imaging sonar puts the echo: the array centre plus
+    `arrival_sensor` times ``speed_of_sound * delay_s / 2``, sensor frame, m.  The
+    reflection point for a first-order echo; for every other path where the image
+    shows it (a two-bounce echo beyond its last reflection)."""
+    apparent_position_world_m: np.ndarray | None = None
+    """(N, 3) the same in the world frame (through the pose at the start of the
+    emission), m."""
+    first_point_m: np.ndarray | None = None
+    """(N, 3) the path's first interaction (reflection, scatter, edge or point),
+    world frame, m; NaN for the direct path."""
+    last_point_m: np.ndarray | None = None
+    """(N, 3) the path's last interaction, world frame, m (equal to
+    `position_world_m`); NaN for the direct path."""
+    object_index: np.ndarray | None = None
+    """(N,) int, index into `object_names` of what the path's last interaction
+    touched (-1: nothing, the direct path, or not known)."""
+    object_names: tuple[str, ...] = ()
+    """The objects of the scene, ``"<mesh>/<material>"`` for a mesh's faces of one
+    material, the point reflector's name for a point (``"point 0"``, ...)."""
 
     def __post_init__(self) -> None:
         pw = np.asarray(self.position_world_m, float).reshape(-1, 3)
@@ -199,6 +231,52 @@ class GroundTruth:
             if len(names) != n:
                 raise InputError(f"truth emitter has {len(names)} entries, positions {n}")
             object.__setattr__(self, "emitter", names)
+        self._check_seen(n)
+
+    def _check_seen(self, n: int) -> None:
+        """The fields of what the sensor sees: each absent or one row per path."""
+        for name, width, finite in _SEEN:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            a = np.asarray(value, np.int64 if name == "object_index" else float)
+            a = a.reshape(-1, width) if width else a.reshape(-1)
+            if len(a) != n:
+                raise InputError(f"truth {name} has {len(a)} entries, position_world_m {n}")
+            if finite and not np.all(np.isfinite(a)):
+                raise InputError(f"truth {name} must be finite")
+            object.__setattr__(self, name, a)
+        names = tuple(str(x) for x in np.asarray(self.object_names, dtype=object).reshape(-1))
+        object.__setattr__(self, "object_names", names)
+        if self.object_index is not None and self.object_index.size:
+            bad = (self.object_index < -1) | (self.object_index >= len(names))
+            if bad.any():
+                raise InputError(
+                    f"truth object_index {int(self.object_index[bad][0])} is not -1 or an "
+                    f"index into its {len(names)} object_names"
+                )
+
+    @property
+    def has_apparent(self) -> bool:
+        """Whether the paths carry what the sensor sees (delay, arrival direction,
+        apparent position): False for a file written before they existed."""
+        return self.apparent_position_sensor_m is not None
+
+    def object_name(self) -> np.ndarray:
+        """(N,) str, the name of each path's object ("" where none or unknown)."""
+        if self.object_index is None:
+            return np.full(len(self), "", dtype=object)
+        names = np.array([*self.object_names, ""], dtype=object)
+        return names[self.object_index]
+
+    def select(self, keep) -> GroundTruth:
+        """The paths where `keep` (a mask or indices, N) selects."""
+        per_path = {
+            f.name: None if getattr(self, f.name) is None else getattr(self, f.name)[keep]
+            for f in fields(self)
+            if f.name != "object_names"
+        }
+        return GroundTruth(**per_path, object_names=self.object_names)
 
     def __len__(self) -> int:
         return len(self.amplitude)
@@ -208,13 +286,41 @@ class GroundTruth:
 
     def echoes(self) -> GroundTruth:
         """The paths that are not the direct emitter-to-array path."""
-        keep = self.kind != "direct"
-        return GroundTruth(
-            self.position_world_m[keep],
-            self.position_sensor_m[keep],
-            self.amplitude[keep],
-            self.order[keep],
-            self.kind[keep],
-            None if self.velocity_world_m_s is None else self.velocity_world_m_s[keep],
-            None if self.emitter is None else self.emitter[keep],
-        )
+        return self.select(self.kind != "direct")
+
+
+#: the per-path fields of what the sensor sees, as files store them: (name, units)
+SEEN_UNITS = (
+    ("delay_s", "s"),
+    ("arrival_sensor", "1"),
+    ("apparent_position_sensor_m", "m"),
+    ("apparent_position_world_m", "m"),
+    ("first_point_m", "m"),
+    ("last_point_m", "m"),
+    ("object_index", "1"),
+)
+#: what files store of them: the last point is the last reflection
+#: (``position_world_m``; NaN for the direct path), rebuilt on reading
+STORED_SEEN = {k: u for k, u in SEEN_UNITS if k != "last_point_m"}
+
+
+def with_last_points(fields: dict) -> dict:
+    """Truth fields read from a file with ``last_point_m`` rebuilt (when the file has
+    the first points): ``position_world_m``, NaN for the direct path."""
+    if "first_point_m" not in fields or "last_point_m" in fields:
+        return fields
+    last = np.array(fields["position_world_m"], float).reshape(-1, 3)
+    last[np.asarray(fields["kind"]).astype(str).reshape(-1) == "direct"] = np.nan
+    return {**fields, "last_point_m": last}
+
+
+#: the same: (name, columns (0: a vector), finite)
+_SEEN = (
+    ("delay_s", 0, True),
+    ("arrival_sensor", 3, True),
+    ("apparent_position_sensor_m", 3, True),
+    ("apparent_position_world_m", 3, True),
+    ("first_point_m", 3, False),
+    ("last_point_m", 3, False),
+    ("object_index", 0, True),
+)

@@ -61,6 +61,8 @@ class World:
     the paths' ``interactions`` counts (-1: a material of single numbers).
     vertices (V, 3) and faces (F, 3) (vertex indices): the same triangles, indexed,
     every vertex a corner of a face (for the ray caster; None: use `triangles`).
+    owner : (F,) int, the index of the scene's mesh each face belongs to (None:
+    not known); with `material`, what a path touched (the ground truth's objects).
     """
 
     triangles: np.ndarray
@@ -77,6 +79,7 @@ class World:
     interaction: np.ndarray | None = None
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
+    owner: np.ndarray | None = None
 
     @property
     def n_faces(self) -> int:
@@ -460,6 +463,7 @@ def build_world(scene: Scene) -> World:
         *_spectra(materials),
         vertices=vertices,
         faces=faces,
+        owner=np.repeat(np.arange(len(mat_index)), [len(m) for m in mat_index]),
     )
     world._cached("edge_table", lambda: table)  # sorted once, kept for the edges
     if len(parts) == 1 and parts[0].distinct:  # no vertex to merge with another

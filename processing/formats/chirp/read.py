@@ -28,7 +28,7 @@ from processing.sensor.arrays import Array
 from processing.sensor.calibration import on_load
 from processing.sensor.calls import FIT_MIN_CORRELATION, Waveform, fit_sweep
 from processing.sensor.pointcloud import PointCloud
-from processing.sensor.recording import MAX_SAMPLE_BYTES, GroundTruth, Recording
+from processing.sensor.recording import MAX_SAMPLE_BYTES, GroundTruth, Recording, with_last_points
 
 __all__ = ["Reader", "DEFAULT_SPEED_OF_SOUND_M_S", "is_chirp", "count_chirp", "read_chirp"]
 
@@ -309,9 +309,14 @@ class Reader:
             fields["kind"] = np.char.decode(fields["kind"], "ascii", errors="replace")
         if "emitter" in fields:  # a rig's recording
             fields["emitter"] = np.char.decode(fields["emitter"], "utf-8")
+        if "object_names" in fields:
+            fields["object_names"] = tuple(
+                x.decode(errors="replace") if isinstance(x, bytes) else str(x)
+                for x in np.asarray(fields["object_names"]).reshape(-1)
+            )
         try:
-            return GroundTruth(**fields)
-        except (TypeError, ValueError) as exc:
+            return GroundTruth(**with_last_points(fields))
+        except (TypeError, ValueError, KeyError) as exc:
             raise self.fail(f"not a ground truth ({exc})", key=t.name) from None
 
     # -- the other sensors, at capture k

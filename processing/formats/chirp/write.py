@@ -62,7 +62,7 @@ from processing.formats.chirp.names import (
 )
 from processing.sensor.arrays import Array
 from processing.sensor.provenance import SensorMotion, SensorPose
-from processing.sensor.recording import Recording
+from processing.sensor.recording import STORED_SEEN, Recording
 
 __all__ = [
     "write_chirp",
@@ -82,6 +82,7 @@ _TRUTH = (
     ("kind", None),
     ("velocity_world_m_s", "m/s"),
     ("emitter", None),
+    *STORED_SEEN.items(),
 )
 
 
@@ -331,9 +332,14 @@ def _write_recording_extras(g: h5py.Group, rec: Recording, checksum: bool) -> No
         if name == "emitter":
             data = np.array([n.encode("utf-8") for n in data.tolist()], dtype=bytes)
         data = data.astype(np.int16) if name == "order" else data
+        data = data.astype(np.int32) if name == "object_index" else data
+        data = data.astype(np.float32) if name in STORED_SEEN and name != "object_index" else data
         d = t.create_dataset(name, data=data, **kw)
         if units:
             d.attrs["units"] = units
+    if rec.truth.object_index is not None:
+        names = list(rec.truth.object_names)
+        t.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
 
 
 def _plain(obj):

@@ -227,6 +227,14 @@ def test_shard_metadata_axes_units_and_a_regular_range_axis(spec, tmp_path):
         assert np.isfinite(img).all()
         assert np.all(np.delete(img, kept, axis=0) == -60.0)  # the floor, never NaN
         assert s["snapshot"].shape[1] == kept.size
+        # the truth image beside it: per cell an object of the sample and a path order
+        obj, order = s["label_map/das/object"], s["label_map/das/order"]
+        assert obj.shape == order.shape == img.shape and obj.dtype == np.int16
+        assert (obj >= 0).any() and obj.max() < len(p["object_names"])
+        assert np.all(order[obj >= 0] >= 0) and order.max() >= 1
+        n = s["labels/order"].size
+        assert s["labels/apparent_position_sensor_m"].shape == (n, 3)
+        assert s["labels/delay_s"].shape == s["labels/object_index"].shape == (n,)
         assert 20e3 <= p["frequency_hz"] <= 80e3  # inside the call's band
         assert set(p["pose"]) >= {"position_m", "yaw_deg", "pitch_deg", "roll_deg"}
         scene = (spec.parent / p["scene"]).resolve()
@@ -236,6 +244,8 @@ def test_shard_metadata_axes_units_and_a_regular_range_axis(spec, tmp_path):
         g = f["00000"]
         assert g["range_m"].attrs["units"] == b"m" and g["image/das"].attrs["units"] == b"dB"
         assert g["labels/depth_m"].attrs["units"] == b"m"
+        assert g["label_map/das/object"].attrs["units"] == b"1"
+        assert g["labels/delay_s"].attrs["units"] == b"s"
         assert all(d.fletcher32 for d in _datasets(f) if d.size)
         assert f["arrays"][r[0]["params"]["array"]]["positions_m"].shape[1] == 3
 

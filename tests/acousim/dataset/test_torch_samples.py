@@ -290,16 +290,16 @@ def test_a_label_map_beside_the_image_is_batched_as_labels(dataset, tmp_path):
             shape = f[name]["image/das"].shape
             obj = rng.integers(-1, 3, shape).astype(np.int16)
             order = rng.integers(-1, 4, shape).astype(np.int8)
-            f[name].create_dataset("label_map/das/object_index", data=obj)
+            f[name].create_dataset("label_map/das/object", data=obj)
             f[name].create_dataset("label_map/das/order", data=order)
             written[index] = obj, order
     ds = DatasetReader(copy, verify=False)  # the shards' bytes changed
     batch = next(iter(DataLoader(ds.torch(), batch_size=8)))
-    assert batch["labels"]["object_index"].dtype == torch.int64
+    assert batch["labels"]["object"].dtype == torch.int64
     assert batch["labels"]["order"].shape == (8, *batch["image"].shape[2:])
     for b in range(8):
         obj, order = written[int(batch["index"][b])]
-        np.testing.assert_array_equal(batch["labels"]["object_index"][b].numpy(), obj)
+        np.testing.assert_array_equal(batch["labels"]["object"][b].numpy(), obj)
         np.testing.assert_array_equal(batch["labels"]["order"][b].numpy(), order)
 
 

@@ -89,6 +89,15 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
             assert abs(rng[i] - RANGE) < 0.03
             assert abs(az[k] - AZ) <= 3.0 and abs(el[j] - EL) <= 3.0, (az[k], el[j])
             assert np.diff(rng[()]).std() < 1e-9  # a regular range axis
+            # the truth label map beside it: the point's object where the point shows
+            obj = g[f"{method}_object"][()]
+            assert obj.shape == level.shape and obj[i, j, k] == 0
+            assert [x.decode() for x in g["object_names"][()]] == ["point 0"]
+            assert g[f"{method}_order"][i, j, k] == 1
+            # its peaks, with their truth, as peaks.csv has them
+            p = g["peaks"][method]
+            assert p["level_db"][0] == 0.0 and p["truth_kind"][0].decode() == "point"
+            assert p["truth_object"][0].decode() == "point 0" and p["truth_order"][0] == 1
     with open(out / "peaks.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert rows and rows[0]["recording"] == "0"
@@ -213,15 +222,21 @@ def test_rosbag_carries_clock_scene_meshes_and_traced_reflectors(tmp_path):
     assert ours == sorted(map(tuple, np.round(mesh.triangles.reshape(-1, 3), 6)))
     # the reflectors: the specular point is the wall's point nearest the sensor
     ((_, cloud),) = msgs["/acousim/reflectors"]
-    assert [f.name for f in cloud.fields] == ["x", "y", "z", "level_db", "order"]
+    names = ["x", "y", "z", "level_db", "order", "apparent_x", "apparent_y", "apparent_z"]
+    assert [f.name for f in cloud.fields] == [*names, "delay_s", "object"]
     assert cloud.header.frame_id == "acousim_sensor"
-    table = np.frombuffer(bytes(cloud.data), "<f4").reshape(cloud.width, 5)
+    table = np.frombuffer(bytes(cloud.data), "<f4").reshape(cloud.width, 10)
     best = table[np.argmax(table[:, 3])]
     foot, _, _ = trimesh.proximity.closest_point(mesh, [[0.0, 0.0, 0.0]])
     yaw = np.deg2rad(15.0)  # wall.toml's sensor pose: at the origin, yaw 15 deg
     to_sensor = np.array([[np.cos(yaw), np.sin(yaw), 0], [-np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
     np.testing.assert_allclose(best[:3], to_sensor @ foot[0], atol=0.02)
     assert best[3] == 0.0 and best[4] == 1
+    # a first-order echo is seen about where it reflected (the emitter sits 1-2 cm
+    # off the array centre), half its delay's path away
+    np.testing.assert_allclose(best[5:8], best[:3], atol=0.02)
+    assert 343.0 * best[8] / 2 == pytest.approx(np.linalg.norm(best[5:8]), abs=0.02)
+    assert best[9] == 0  # the only object, the wall
     from acousim.dataset.info import describe
 
     lines = describe(bag)

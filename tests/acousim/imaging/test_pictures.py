@@ -142,7 +142,8 @@ def test_fan_figure_states_its_scale_and_fits_the_extent():
     texts = [t.get_text() for t in fig.findobj(matplotlib.text.Text)]
     assert f"dB re strongest cell ({DYNAMIC_RANGE_DB:g} dB range)" in texts  # colour bar
     assert any(f"{DYNAMIC_RANGE_DB:g} dB dynamic range" in t for t in texts)
-    assert "traced reflector in this slice" in texts  # gated bins: the floor, no entry
+    # gated bins: the floor colour, no legend entry; the marks: traced echoes where seen
+    assert not any("no data" in t for t in texts) and any("traced echo" in t for t in texts)
     ax = fig.axes[0]
     # echoes within 1.6 m: the view reaches ~2 m, not the 6 m of the scene
     assert ax.get_ylim()[1] < 2.2
@@ -172,7 +173,7 @@ def test_legends_lie_within_the_figure(n_methods):
 
     img = blob_image([(1.04, 16.7, 0.0, 0.0), (0.49, 0.0, -40.0, -3.0), (1.12, 26.6, 0.0, -3)])
     methods = ["das", "capon-fbss", "music-fbss", "das-bb", "music"][:n_methods]
-    truth = Reflectors(ALL_MARKS, np.array([0.0, -5.0, -35.0]))  # the last one weak
+    truth = Reflectors(ALL_MARKS, np.array([0.0, -5.0, -25.0]))
     for fig in (
         make_fan_figure({m: img for m in methods}, max_range_m=3.0, truth=truth),
         make_elaz_figure(img, truth=truth, truth_tolerance_m=0.1),
@@ -201,6 +202,46 @@ def test_marks_in_the_fan_off_its_slice_and_behind_the_array():
     assert np.hypot(*m.xy[0]) == pytest.approx(r0)
     # beyond the drawn range: not marked
     assert len(fan_marks(ALL_MARKS, 0.9, np.deg2rad(30), (-np.pi / 2, np.pi / 2))) == 1
+
+
+def test_hundreds_of_echoes_leave_one_hollow_thin_mark_per_resolved_cell():
+    """500 traced echoes (a corridor's scatter) in front of the array: a mark only
+    for those within the dynamic range, at most one per resolved (range, azimuth)
+    cell, the strongest of its cell; hollow and thin."""
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.truth import Reflectors, fan_marks
+
+    rng = np.random.default_rng(5)
+    r = rng.uniform(0.5, 3.0, 500)
+    az = rng.uniform(-1.2, 1.2, 500)
+    pts = np.column_stack([r * np.cos(az), r * np.sin(az), np.zeros(500)])
+    level = np.sort(rng.uniform(-60, 0, 500))[::-1]  # the strongest first
+    cell = (0.1, np.deg2rad(10))
+    m = fan_marks(Reflectors(pts, level, cell), 5.0, np.deg2rad(30), (-1.6, 1.6), 30.0)
+    # worked out here: the cells of the echoes within 30 dB
+    shown = level >= -30
+    cells = {
+        (int(np.floor(a / cell[0])), int(np.floor(b / cell[1])))
+        for a, b in zip(r[shown], az[shown])
+    }
+    assert len(m) == len(cells) < shown.sum()
+    got = np.hypot(*m.xy.T), np.arctan2(m.xy[:, 0], m.xy[:, 1])
+    keys = list(zip(np.floor(got[0] / cell[0]).astype(int), np.floor(got[1] / cell[1]).astype(int)))
+    assert len(set(keys)) == len(keys)  # one per cell
+    # each the strongest of its cell
+    for k, key in enumerate(keys):
+        j = [
+            i
+            for i in range(500)
+            if shown[i] and (int(np.floor(r[i] / cell[0])), int(np.floor(az[i] / cell[1]))) == key
+        ][0]
+        np.testing.assert_allclose(m.xy[k], [pts[j, 1], pts[j, 0]], atol=1e-9)
+    fig, ax = plt.subplots()
+    m.draw(ax)
+    for coll in ax.collections:
+        assert len(coll.get_facecolors()) == 0 and np.all(coll.get_linewidths() <= 0.6)
+    plt.close(fig)
 
 
 def test_marks_on_an_elevation_azimuth_slice():

@@ -1,0 +1,204 @@
+"""Truth images: a label map of the same shape as an acoustic image, per cell the
+object and the path order that carry most of the cell's simulated energy.
+
+Each traced path (the direct path left out) puts its energy at the array (its
+amplitude squared) where the sensor sees it: at its apparent position
+(:attr:`processing.GroundTruth.apparent_position_sensor_m`; a path behind a planar
+array at its mirror, as it is heard), spread over its resolution cell by a Gaussian
+taper whose full width at half maximum is the cell (range and angle,
+:class:`acousim.imaging.matching.Resolution`), cut at one full cell.  The energy of every
+(object, order) class is summed per cell; the class with the most labels the cell.
+A cell whose summed energy lies more than the dynamic range below the strongest
+cell's is labelled -1 (none), as are cells no path reaches.  Paths more than
+:data:`NEGLIGIBLE_DB` below that floor (re the strongest path) are left out: a
+thousand of them in one cell would be needed to reach it.
+
+This is what a segmentation model trains on: the image's cell (r, e, a) holds the
+object ``object_names[object_index[r, e, a]]`` seen through a path of ``order[r, e,
+a]`` reflections.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
+
+_LN16 = 4 * np.log(2)  # exp(-4 ln 2 (x / w)^2): 1/2 at x = w / 2
+#: paths this far below the dynamic range's floor (re the strongest path's energy)
+#: are left out of a label map (dB)
+NEGLIGIBLE_DB = 30.0
+
+
+@dataclass(frozen=True, eq=False)
+class LabelMap:
+    """Per cell (R, G) of an image (G directions; (R, E, A) after
+    :meth:`reshaped`): `object_index` int32, the index into the ground truth's
+    ``object_names`` (-1: none), and `order` int16, the reflections of the paths
+    that carry most of the cell's energy (-1: none)."""
+
+    object_index: np.ndarray
+    order: np.ndarray
+
+    def reshaped(self, shape: tuple[int, ...]) -> LabelMap:
+        """Both maps reshaped (to the image's (R, E, A))."""
+        return LabelMap(self.object_index.reshape(shape), self.order.reshape(shape))
+
+
+def label_map(
+    *,
+    range_m: np.ndarray,
+    directions: np.ndarray,
+    positions_m: np.ndarray,
+    energy: np.ndarray,
+    object_index: np.ndarray,
+    order: np.ndarray,
+    cell: tuple[float, float],
+    dynamic_range_db: float,
+) -> LabelMap:
+    """The label map of an image grid (see the module docstring).
+
+    range_m : (R,) the image's range bins from the array centre, m.
+    directions : (G, 3) the image's unit directions, sensor frame.
+    positions_m : (P, 3) where each path shows (its apparent position from the array
+        centre, sensor frame, m; mirror those behind a planar array first).
+    energy : (P,) each path's energy at the array (amplitude squared).
+    object_index, order : (P,) int, each path's object (-1: none) and reflections.
+    cell : the image's resolution (full widths): (range m, angle rad)
+        (:class:`acousim.imaging.matching.Resolution`'s two numbers).
+    dynamic_range_db : cells this far below the strongest cell's energy are -1.
+    """
+    rng = np.asarray(range_m, float).reshape(-1)
+    u = np.asarray(directions, float).reshape(-1, 3)
+    R, G = rng.size, len(u)
+    none = LabelMap(np.full((R, G), -1, np.int32), np.full((R, G), -1, np.int16))
+    pos = np.asarray(positions_m, float).reshape(-1, 3)
+    e = np.asarray(energy, float).reshape(-1)
+    ok = np.isfinite(e) & (e > 0) & np.all(np.isfinite(pos), axis=1)
+    if not (R and G and ok.any()):
+        return none
+    # paths far below the floor cannot reach it: a thousand of them in one cell would
+    # be needed (the strongest path's cell has at least its energy)
+    ok &= e >= e[ok].max() * 10 ** (-(dynamic_range_db + NEGLIGIBLE_DB) / 10)
+    pos, e = pos[ok], e[ok]
+    obj = np.asarray(object_index).reshape(-1)[ok].astype(np.int64)
+    odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
+    classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
+    cls = cls.reshape(-1)
+    k_range, k_angle = _factors(rng, u, pos, e, *cell)
+    # per class, its energy map: a sum of separable kernels, one sparse product
+    best = np.zeros(R * G)
+    total = np.zeros(R * G)
+    top = np.full(R * G, -1)
+    for k in range(len(classes)):
+        rows = np.flatnonzero(cls == k)
+        energy_map = (k_range[rows].T @ k_angle[rows]).toarray().reshape(-1)
+        total += energy_map
+        more = energy_map > best
+        best[more] = energy_map[more]
+        top[more] = k
+    if not total.any():
+        return none
+    shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
+    out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
+    out_obj[shown] = classes[top[shown], 0]
+    out_order[shown] = classes[top[shown], 1]
+    return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+
+
+def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
+    """The separable kernels of P paths as sparse matrices: range (P, R), each path's
+    energy times its taper over the bins within one cell of its range, and angle
+    (P, G), its taper over the directions within one cell of its own."""
+    from scipy import sparse
+
+    r = np.linalg.norm(pos, axis=1)
+    d = pos / np.maximum(r, 1e-12)[:, None]
+    wr, wa = max(float(range_cell_m), 1e-9), max(float(angle_cell_rad), 1e-9)
+    lo = np.searchsorted(rng, r - wr)
+    n = np.searchsorted(rng, r + wr, side="right") - lo
+    rows = np.repeat(np.arange(len(r)), n)
+    cols = lo[rows] + np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n)
+    vals = e[rows] * np.exp(-_LN16 * ((rng[cols] - r[rows]) / wr) ** 2)
+    k_range = sparse.csr_matrix((vals, (rows, cols)), shape=(len(r), rng.size))
+    cos_cut = np.cos(min(wa, np.pi))
+    parts = []
+    for start in range(0, len(d), chunk):  # (chunk, G) at a time
+        dots = d[start : start + chunk] @ u.T
+        i, g = np.nonzero(dots >= cos_cut)
+        ang = np.arccos(np.clip(dots[i, g], -1.0, 1.0))
+        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), start + i, g))
+    w, i, g = (np.concatenate(x) for x in zip(*parts))
+    k_angle = sparse.csr_matrix((w, (i, g)), shape=(len(d), len(u)))
+    return k_range, k_angle
+
+
+def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m=None):
+    """The :class:`LabelMap` (R, E, A) of `image` (a :class:`processing.Image` of
+    the :class:`processing.Recording` `rec`) on its range bins (or `range_m` (R,),
+    a regular axis it is written on), with the image's `resolution`
+    (:func:`acousim.imaging.matching.image_resolution`); None without a ground truth."""
+    from acousim.viz.truth import seen_positions
+
+    t = rec.truth
+    if t is None:
+        return None
+    rng = np.asarray(image.range_m if range_m is None else range_m, float)
+    el, az = np.meshgrid(image.elevation_rad, image.azimuth_rad, indexing="ij")
+    u = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    pos = seen_positions(t, rec.array.positions_m.mean(axis=0))
+    pos[:, 0] = np.abs(pos[:, 0])  # behind a planar array: heard at its mirror
+    echo = np.asarray(t.kind) != "direct"
+    obj = t.object_index if t.object_index is not None else np.full(len(t), -1)
+    labels = label_map(
+        range_m=rng,
+        directions=u.reshape(-1, 3),
+        positions_m=pos[echo],
+        energy=np.square(t.amplitude[echo]),
+        object_index=obj[echo],
+        order=t.order[echo],
+        cell=(resolution.range_m, resolution.angle_rad),
+        dynamic_range_db=dynamic_range_db,
+    )
+    return labels.reshaped((rng.size, *el.shape))
+
+
+#: the per-path truth a dataset sample stores beside position, amplitude and order:
+#: (key, GroundTruth field, dtype, units, dimensions)
+SAMPLE_FIELDS = (
+    ("labels/delay_s", "delay_s", np.float32, "s", "path"),
+    ("labels/arrival_sensor", "arrival_sensor", np.float32, "1", "path,xyz"),
+    (
+        "labels/apparent_position_sensor_m",
+        "apparent_position_sensor_m",
+        np.float32,
+        "m",
+        "path,xyz",
+    ),
+    ("labels/object_index", "object_index", np.int16, "1", "path"),
+)
+
+
+def sample_labels(rec, images, range_m, window_samples: int, dynamic_range_db: float) -> dict:
+    """A dataset sample's truth beyond position, amplitude and order: the per-path
+    fields of :data:`SAMPLE_FIELDS` (those the recording has) and each image's label
+    maps ``label_map/<method>/object`` (int16) and ``label_map/<method>/order``
+    (int8), (R, E, A) on the sample's range axis `range_m` (R,).  `images`:
+    {method: :class:`processing.Image`}."""
+    from acousim.imaging.matching import image_resolution
+
+    t = rec.truth
+    out: dict[str, np.ndarray] = {}
+    if t is None:
+        return out
+    for key, name, dtype, _units, _dims in SAMPLE_FIELDS:
+        if getattr(t, name) is not None:
+            out[key] = getattr(t, name).astype(dtype)
+    for m, img in images.items():
+        res = image_resolution(rec, img, window_samples)
+        lab = recording_label_map(rec, img, res, dynamic_range_db, range_m=range_m)
+        out[f"label_map/{m}/object"] = lab.object_index.astype(np.int16)
+        out[f"label_map/{m}/order"] = lab.order.astype(np.int8)
+    return out
