@@ -11,6 +11,7 @@ import time
 
 from .common import (
     add_command,
+    add_quality,
     add_seed,
     bundled_scenes,
     load_scene,
@@ -25,6 +26,7 @@ def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     p.add_argument("--out", default="out", help="output folder (default: out)")
     add_seed(p)
+    add_quality(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     out = writable_dir(args.out)
     scene = load_scene(bundled_scenes() / "corridor.toml")
     preload_simulation()
-    recs = simulate(scene, None, args.seed)
+    recs = simulate(scene, None, args.seed, args.quality)
     t1 = time.perf_counter()
     options = ImagingOptions()
     images = image_recordings(recs, options, progress("image"))

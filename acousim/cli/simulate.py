@@ -11,6 +11,7 @@ import time
 
 from .common import (
     add_command,
+    add_quality,
     add_seed,
     load_scene,
     output_file,
@@ -31,6 +32,7 @@ def register(sub) -> None:
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
     add_seed(p)
+    add_quality(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -41,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     out = output_file("--out", args.out or f"{scene.name}.h5")
     preload_simulation()
     t0 = time.perf_counter()
-    recs = simulate(scene, poses, args.seed)
+    recs = simulate(scene, poses, args.seed, args.quality)
     stop_if_interrupted()
     P.save_recordings(out, recs)
     print(

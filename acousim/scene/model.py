@@ -23,11 +23,13 @@ Building a scene in code (every argument has a default except what echoes)::
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -35,7 +37,7 @@ from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from processing import Array, Waveform
 from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
-from processing.settings import setting, validate
+from processing.settings import check, setting, settings_of, validate
 
 from .motion import (
     MAX_SPEED_M_S,
@@ -58,6 +60,9 @@ __all__ = [
     "Simulation",
     "Scene",
     "FRACTIONAL_DELAYS",
+    "Quality",
+    "QUALITIES",
+    "QUALITY_PRESETS",
     "MAX_SPEED_M_S",
     "MAX_TURN_DEG_S",
     "track_rows",
@@ -443,6 +448,37 @@ class Sensor:
             )
 
 
+Quality = Literal["fast", "default", "reference"]
+"""A simulation's quality preset (``[simulation] quality``, ``Simulation(quality=...)``,
+``--quality``): a point on the run time against error front (BENCHMARKS.md, "Run time
+against error"; docs/front.png)."""
+QUALITIES: tuple[str, ...] = get_args(Quality)
+
+#: Each quality preset: the ``[simulation]`` settings it sets (a table of overrides
+#: of :class:`Simulation`'s declared settings, each checked against its declaration
+#: when this module is imported); a setting given explicitly (in the scene file, to
+#: the constructor) overrides its preset's value.  "default": the declared defaults;
+#: "reference": every knob at its most accurate (the front's reference; the ray
+#: budget stays automatic: it stops once the diffuse tail's energy has converged, and
+#: more rays draw another diffuse tail rather than a more accurate one); "fast": the
+#: cheapest point whose image peaks stay those of the reference (BENCHMARKS.md).
+#: Adding a knob to a preset is one line here.
+QUALITY_PRESETS: Mapping[str, Mapping[str, Any]] = {
+    "fast": {
+        "diffraction_order": 1,
+        "diffraction_step_m": 2e-3,
+        "fractional_delay": "lagrange",
+        "energy_floor_db": -60.0,
+    },
+    "default": {},
+    "reference": {
+        "diffraction_step_m": 2.5e-4,
+        "diffraction_reflections": True,
+        "energy_floor_db": -120.0,
+    },
+}
+
+
 @dataclass(frozen=True)
 class Simulation:
     """Simulation settings.
@@ -473,6 +509,11 @@ class Simulation:
     max_memory_gb : refuse a simulation whose estimated memory
         (:meth:`Scene.memory_bytes`) is above this many gigabytes (10^9 bytes). The
         default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.
+    quality : a preset of the settings above (:data:`QUALITY_PRESETS`): "fast",
+        "default" or "reference"; the settings given explicitly keep their values.
+        The preset is applied when the object is made: ``dataclasses.replace`` keeps
+        every value as it is (each then counts as given); change the quality with
+        :meth:`with_quality`, which keeps only the explicitly given settings.
     """
 
     max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
@@ -496,11 +537,65 @@ class Simulation:
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )
+    quality: Quality = setting(
+        "default", choices=QUALITIES, doc="preset of the settings not given (QUALITY_PRESETS)"
+    )
 
     def __post_init__(self) -> None:
         if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
             object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
-        validate(self)
+        validate(self)  # the quality among the others: a known preset below
+        preset = QUALITY_PRESETS[self.quality]
+        for name in preset.keys() - self.given:
+            object.__setattr__(self, name, preset[name])
+        if preset:
+            validate(self)  # the preset's values normalised as given ones are
+
+    @property
+    def given(self) -> frozenset[str]:
+        """The names of the settings given explicitly (the others: the preset's or
+        the declared defaults)."""
+        return self.__dict__.get("_given", frozenset(settings_of(self)))
+
+    def with_quality(self, quality: Quality) -> Simulation:
+        """These settings under another quality preset: the explicitly given ones kept,
+        the others the preset's (``--quality`` on the command line)."""
+        kept = {name: getattr(self, name) for name in self.given if name != "quality"}
+        return Simulation(**kept, quality=quality)
+
+
+def _record_given(cls: type) -> type:
+    """Wrap the dataclass's ``__init__`` to record which settings the caller gave
+    (positionally or by name), so that a quality preset fills only the others."""
+    init = cls.__init__
+    names = [f.name for f in dataclasses.fields(cls) if f.init]
+
+    @functools.wraps(init)
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        object.__setattr__(self, "_given", frozenset(names[: len(args)]) | kwargs.keys())
+        init(self, *args, **kwargs)
+
+    cls.__init__ = __init__
+    return cls
+
+
+_record_given(Simulation)
+
+
+def _check_presets() -> None:
+    """Every preset's value checked against its setting's declaration (at import: a
+    misspelt or out-of-range line in :data:`QUALITY_PRESETS` fails at once)."""
+    decls = settings_of(Simulation)
+    assert set(QUALITY_PRESETS) == set(QUALITIES), "a preset per quality"
+    for quality, table in QUALITY_PRESETS.items():
+        for name, value in table.items():
+            key = f"QUALITY_PRESETS[{quality!r}].{name}"
+            if name not in decls or name == "quality":
+                raise InputError("is not a setting of Simulation", key=key)
+            check(decls[name], value, key)
+
+
+_check_presets()
 
 
 def memory_limit_bytes() -> float:
