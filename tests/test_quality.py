@@ -76,8 +76,23 @@ def test_with_quality_keeps_the_given_settings_and_takes_the_new_preset():
     back = ref.with_quality("default")
     assert back.diffraction_step_m == DECLARED["diffraction_step_m"]
     assert back.energy_floor_db == -70.0
-    # a replace() keeps every value as it is
-    assert dataclasses.replace(sim, seed=5).diffraction_order == sim.diffraction_order
+
+
+
+def test_a_replace_keeps_the_preset_and_what_it_changes_counts_as_given():
+    fast = Simulation(quality="fast")
+    again = dataclasses.replace(fast, seed=5)
+    assert again.seed == 5 and again.given == {"quality", "seed"}
+    for name, value in QUALITY_PRESETS["fast"].items():
+        assert getattr(again, name) == value, name
+    ref = dataclasses.replace(again, quality="reference")  # the new preset applies
+    for name, value in QUALITY_PRESETS["reference"].items():
+        assert getattr(ref, name) == value, name
+    assert ref.seed == 5
+    # the declared default set by a replace is a change from fast's -60 dB: kept
+    floor = DECLARED["energy_floor_db"]
+    kept = dataclasses.replace(fast, energy_floor_db=floor).with_quality("reference")
+    assert kept.energy_floor_db == floor
 
 
 def test_an_unknown_quality_names_the_key_the_value_and_the_allowed_ones():

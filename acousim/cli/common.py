@@ -282,7 +282,7 @@ def simulate(scene, poses, seed, quality: str | None = None):
     preset if given; a UsageError when no echo reaches the sensor."""
     from acousim.simulator import Simulator
 
-    scene = with_quality(scene, quality)  # first: a replace() makes every setting given
+    scene = with_quality(scene, quality)
     if seed is not None:
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)

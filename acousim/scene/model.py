@@ -511,9 +511,9 @@ class Simulation:
         default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.
     quality : a preset of the settings above (:data:`QUALITY_PRESETS`): "fast",
         "default" or "reference"; the settings given explicitly keep their values.
-        The preset is applied when the object is made: ``dataclasses.replace`` keeps
-        every value as it is (each then counts as given); change the quality with
-        :meth:`with_quality`, which keeps only the explicitly given settings.
+        ``dataclasses.replace(sim, quality=...)`` (or :meth:`with_quality`) applies
+        another preset to the settings that were not given, and a setting a replace
+        changes counts as given from then on.
     """
 
     max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
@@ -540,16 +540,22 @@ class Simulation:
     quality: Quality = setting(
         "default", choices=QUALITIES, doc="preset of the settings not given (QUALITY_PRESETS)"
     )
+    #: (quality, names given) of the object a ``dataclasses.replace`` copies: set by
+    #: ``__post_init__``, read by the constructor (:func:`_record_given`)
+    _origin: tuple | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
             object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
         validate(self)  # the quality among the others: a known preset below
-        preset = QUALITY_PRESETS[self.quality]
-        for name in preset.keys() - self.given:
-            object.__setattr__(self, name, preset[name])
-        if preset:
+        if self.quality != "default" or self._origin is not None:
+            # what was not given: the preset's or the declared default (a replace may
+            # carry another preset's values)
+            unset = _unset_values(self.quality)
+            for name in unset.keys() - self.given:
+                object.__setattr__(self, name, unset[name])
             validate(self)  # the preset's values normalised as given ones are
+        object.__setattr__(self, "_origin", (self.quality, self.given))
 
     @property
     def given(self) -> frozenset[str]:
@@ -560,19 +566,42 @@ class Simulation:
     def with_quality(self, quality: Quality) -> Simulation:
         """These settings under another quality preset: the explicitly given ones kept,
         the others the preset's (``--quality`` on the command line)."""
-        kept = {name: getattr(self, name) for name in self.given if name != "quality"}
-        return Simulation(**kept, quality=quality)
+        return dataclasses.replace(self, quality=quality)
+
+
+def _unset_values(quality: str) -> dict[str, Any]:
+    """What each setting of :class:`Simulation` is when not given, under `quality`."""
+    out = {name: decl.default for name, decl in settings_of(Simulation).items()}
+    out["max_memory_gb"] = memory_limit_bytes() / 1e9
+    return {**out, **QUALITY_PRESETS[quality], "quality": quality}
+
+
+def _same(a: Any, b: Any) -> bool:
+    return a == b or (isinstance(a, float) and isinstance(b, float) and a != a and b != b)
 
 
 def _record_given(cls: type) -> type:
     """Wrap the dataclass's ``__init__`` to record which settings the caller gave
-    (positionally or by name), so that a quality preset fills only the others."""
+    (positionally or by name), so that a quality preset fills only the others.  A
+    call with ``_origin`` (``dataclasses.replace``, which passes every field) keeps
+    the names the copied object was given and adds those whose value it changes."""
     init = cls.__init__
     names = [f.name for f in dataclasses.fields(cls) if f.init]
+    declared = frozenset(settings_of(cls))
 
     @functools.wraps(init)
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        object.__setattr__(self, "_given", frozenset(names[: len(args)]) | kwargs.keys())
+        origin = kwargs.get("_origin")
+        if origin is None:
+            given = frozenset(names[: len(args)]) | (kwargs.keys() & declared)
+        else:
+            quality, before = origin
+            unset = _unset_values(quality)
+            changed = {
+                n for n in kwargs.keys() & declared - before if not _same(kwargs[n], unset[n])
+            }
+            given = frozenset(before | changed)
+        object.__setattr__(self, "_given", given)
         init(self, *args, **kwargs)
 
     cls.__init__ = __init__
