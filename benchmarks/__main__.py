@@ -19,6 +19,7 @@ from . import (
     diffraction,
     doa_speed,
     fractional_delay,
+    front,
     materials,
     motion,
     pdm_decode,
@@ -46,6 +47,7 @@ SECTIONS = {
     "fullwave": fullwave,
     "peer": peer,
     "scaling": scaling,
+    "front": front,
 }
 
 

@@ -458,22 +458,21 @@ QUALITIES: tuple[str, ...] = get_args(Quality)
 #: of :class:`Simulation`'s declared settings, each checked against its declaration
 #: when this module is imported); a setting given explicitly (in the scene file, to
 #: the constructor) overrides its preset's value.  "default": the declared defaults;
-#: "reference": every knob at its most accurate (the front's reference; the ray
-#: budget stays automatic: it stops once the diffuse tail's energy has converged, and
-#: more rays draw another diffuse tail rather than a more accurate one); "fast": the
+#: "reference": every numerical knob at its most accurate (the front's reference; the
+#: ray budget stays automatic: it stops once the diffuse tail's energy has converged,
+#: and more rays draw another diffuse tail rather than a more accurate one; what the
+#: model includes, the bounces and the orders of diffraction, stays as set); "fast": the
 #: cheapest point whose image peaks stay those of the reference (BENCHMARKS.md).
 #: Adding a knob to a preset is one line here.
 QUALITY_PRESETS: Mapping[str, Mapping[str, Any]] = {
     "fast": {
-        "diffraction_order": 1,
         "diffraction_step_m": 2e-3,
         "fractional_delay": "lagrange",
-        "energy_floor_db": -60.0,
+        "energy_floor_db": -70.0,
     },
     "default": {},
     "reference": {
         "diffraction_step_m": 2.5e-4,
-        "diffraction_reflections": True,
         "energy_floor_db": -120.0,
     },
 }
