@@ -2,7 +2,7 @@
 
 For the corridor drive (moving: the Doppler renderer) and the shoebox (four poses in
 the room), one point per setting of each knob, every other knob at the scene's
-defaults, and one per quality preset (`acousim.scene.model.QUALITY_PRESETS`); all
+defaults, and one per quality preset (`acousim.scene.defaults.QUALITY_PRESETS`); all
 against a reference run with every knob at its most accurate (the scene under the
 "reference" preset, and the knobs that are not scene settings at their finest).
 Noise off (``snr_db = inf``) and the direct path left out (the same in every run,

@@ -1,5 +1,5 @@
 """Quality presets: ``simulation.quality`` in a scene file, ``Simulation(quality=...)``
-and ``--quality`` on the command line (acousim.scene.model.QUALITY_PRESETS)."""
+and ``--quality`` on the command line (acousim.scene.defaults.QUALITY_PRESETS)."""
 
 import dataclasses
 import shutil
@@ -9,7 +9,7 @@ import pytest
 
 from acousim.cli import main
 from acousim.scene import Simulation, parse_scene
-from acousim.scene.model import QUALITIES, QUALITY_PRESETS
+from acousim.scene.defaults import QUALITIES, QUALITY_PRESETS, given
 from processing.errors import InputError
 from processing.settings import settings_of
 
@@ -78,11 +78,10 @@ def test_with_quality_keeps_the_given_settings_and_takes_the_new_preset():
     assert back.energy_floor_db == -70.0
 
 
-
 def test_a_replace_keeps_the_preset_and_what_it_changes_counts_as_given():
     fast = Simulation(quality="fast")
     again = dataclasses.replace(fast, seed=5)
-    assert again.seed == 5 and again.given == {"quality", "seed"}
+    assert again.seed == 5 and given(again) == {"quality", "seed"}
     for name, value in QUALITY_PRESETS["fast"].items():
         assert getattr(again, name) == value, name
     ref = dataclasses.replace(again, quality="reference")  # the new preset applies

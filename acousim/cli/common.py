@@ -93,20 +93,6 @@ def add_seed(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
 
 
-def add_quality(parser: argparse.ArgumentParser) -> None:
-    """The --quality option of a command that simulates: the scene's
-    ``simulation.quality`` replaced (its explicitly given settings still apply)."""
-    from .options import add_declared
-
-    add_declared(
-        parser,
-        "--quality",
-        "acousim.scene.model:Simulation",
-        "quality",
-        note="default: the scene file's; its explicit [simulation] settings still apply",
-    )
-
-
 def with_quality(scene, quality: str | None):
     """`scene` under the `quality` preset (None: as it is)."""
     if quality is None:

@@ -11,7 +11,6 @@ import time
 
 from .common import (
     add_command,
-    add_quality,
     add_seed,
     bundled_scenes,
     load_scene,
@@ -20,6 +19,7 @@ from .common import (
     simulate,
     writable_dir,
 )
+from .options import add_quality
 
 
 def register(sub) -> None:

@@ -11,7 +11,6 @@ import time
 
 from .common import (
     add_command,
-    add_quality,
     add_seed,
     load_scene,
     output_file,
@@ -20,6 +19,7 @@ from .common import (
     simulate,
     stop_if_interrupted,
 )
+from .options import add_quality
 
 
 def register(sub) -> None:

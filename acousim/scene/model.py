@@ -23,13 +23,11 @@ Building a scene in code (every argument has a default except what echoes)::
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
@@ -37,8 +35,9 @@ from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from processing import Array, Waveform
 from processing.errors import InputError
 from processing.rtis import RTIS_SAMPLE_RATE_HZ
-from processing.settings import check, setting, settings_of, validate
+from processing.settings import setting, validate
 
+from .defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
 from .motion import (
     MAX_SPEED_M_S,
     MAX_TURN_DEG_S,
@@ -60,9 +59,6 @@ __all__ = [
     "Simulation",
     "Scene",
     "FRACTIONAL_DELAYS",
-    "Quality",
-    "QUALITIES",
-    "QUALITY_PRESETS",
     "MAX_SPEED_M_S",
     "MAX_TURN_DEG_S",
     "track_rows",
@@ -448,36 +444,6 @@ class Sensor:
             )
 
 
-Quality = Literal["fast", "default", "reference"]
-"""A simulation's quality preset (``[simulation] quality``, ``Simulation(quality=...)``,
-``--quality``): a point on the run time against error front (BENCHMARKS.md, "Run time
-against error"; docs/front.png)."""
-QUALITIES: tuple[str, ...] = get_args(Quality)
-
-#: Each quality preset: the ``[simulation]`` settings it sets (a table of overrides
-#: of :class:`Simulation`'s declared settings, each checked against its declaration
-#: when this module is imported); a setting given explicitly (in the scene file, to
-#: the constructor) overrides its preset's value.  "default": the declared defaults;
-#: "reference": every numerical knob at its most accurate (the front's reference; the
-#: ray budget stays automatic: it stops once the diffuse tail's energy has converged,
-#: and more rays draw another diffuse tail rather than a more accurate one; what the
-#: model includes, the bounces and the orders of diffraction, stays as set); "fast": the
-#: cheapest point whose image peaks stay those of the reference (BENCHMARKS.md).
-#: Adding a knob to a preset is one line here.
-QUALITY_PRESETS: Mapping[str, Mapping[str, Any]] = {
-    "fast": {
-        "diffraction_step_m": 2e-3,
-        "fractional_delay": "lagrange",
-        "energy_floor_db": -70.0,
-    },
-    "default": {},
-    "reference": {
-        "diffraction_step_m": 2.5e-4,
-        "energy_floor_db": -120.0,
-    },
-}
-
-
 @dataclass(frozen=True)
 class Simulation:
     """Simulation settings.
@@ -508,11 +474,8 @@ class Simulation:
     max_memory_gb : refuse a simulation whose estimated memory
         (:meth:`Scene.memory_bytes`) is above this many gigabytes (10^9 bytes). The
         default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.
-    quality : a preset of the settings above (:data:`QUALITY_PRESETS`): "fast",
-        "default" or "reference"; the settings given explicitly keep their values.
-        ``dataclasses.replace(sim, quality=...)`` (or :meth:`with_quality`) applies
-        another preset to the settings that were not given, and a setting a replace
-        changes counts as given from then on.
+    quality : a preset of the settings not given (:mod:`acousim.scene.defaults`):
+        "fast", "default" or "reference"; ``dataclasses.replace`` keeps the given ones.
     """
 
     max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
@@ -539,105 +502,20 @@ class Simulation:
     quality: Quality = setting(
         "default", choices=QUALITIES, doc="preset of the settings not given (QUALITY_PRESETS)"
     )
-    #: (quality, names given) of the object a ``dataclasses.replace`` copies: set by
-    #: ``__post_init__``, read by the constructor (:func:`_record_given`)
-    _origin: tuple | None = field(default=None, repr=False, compare=False)
+    _origin: tuple | None = field(default=None, repr=False, compare=False)  # see fill_unset
 
     def __post_init__(self) -> None:
         if isinstance(self.max_memory_gb, float) and math.isnan(self.max_memory_gb):
             object.__setattr__(self, "max_memory_gb", memory_limit_bytes() / 1e9)
         validate(self)  # the quality among the others: a known preset below
-        if self.quality != "default" or self._origin is not None:
-            # what was not given: the preset's or the declared default (a replace may
-            # carry another preset's values)
-            unset = _unset_values(self.quality)
-            for name in unset.keys() - self.given:
-                object.__setattr__(self, name, unset[name])
-            validate(self)  # the preset's values normalised as given ones are
-        object.__setattr__(self, "_origin", (self.quality, self.given))
-
-    @property
-    def given(self) -> frozenset[str]:
-        """The names of the settings given explicitly (the others: the preset's or
-        the declared defaults)."""
-        return self.__dict__.get("_given", frozenset(settings_of(self)))
+        fill_unset(self)
 
     def with_quality(self, quality: Quality) -> Simulation:
-        """These settings under another quality preset: the explicitly given ones kept,
-        the others the preset's (``--quality`` on the command line)."""
+        """These settings under another preset, the explicitly given ones kept."""
         return dataclasses.replace(self, quality=quality)
 
 
-def _unset_values(quality: str) -> dict[str, Any]:
-    """What each setting of :class:`Simulation` is when not given, under `quality`."""
-    out = {name: decl.default for name, decl in settings_of(Simulation).items()}
-    out["max_memory_gb"] = memory_limit_bytes() / 1e9
-    return {**out, **QUALITY_PRESETS[quality], "quality": quality}
-
-
-def _same(a: Any, b: Any) -> bool:
-    return a == b or (isinstance(a, float) and isinstance(b, float) and a != a and b != b)
-
-
-def _record_given(cls: type) -> type:
-    """Wrap the dataclass's ``__init__`` to record which settings the caller gave
-    (positionally or by name), so that a quality preset fills only the others.  A
-    call with ``_origin`` (``dataclasses.replace``, which passes every field) keeps
-    the names the copied object was given and adds those whose value it changes."""
-    init = cls.__init__
-    names = [f.name for f in dataclasses.fields(cls) if f.init]
-    declared = frozenset(settings_of(cls))
-
-    @functools.wraps(init)
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        origin = kwargs.get("_origin")
-        if origin is None:
-            given = frozenset(names[: len(args)]) | (kwargs.keys() & declared)
-        else:
-            quality, before = origin
-            unset = _unset_values(quality)
-            changed = {
-                n for n in kwargs.keys() & declared - before if not _same(kwargs[n], unset[n])
-            }
-            given = frozenset(before | changed)
-        object.__setattr__(self, "_given", given)
-        init(self, *args, **kwargs)
-
-    cls.__init__ = __init__
-    return cls
-
-
-_record_given(Simulation)
-
-
-def _check_presets() -> None:
-    """Every preset's value checked against its setting's declaration (at import: a
-    misspelt or out-of-range line in :data:`QUALITY_PRESETS` fails at once)."""
-    decls = settings_of(Simulation)
-    assert set(QUALITY_PRESETS) == set(QUALITIES), "a preset per quality"
-    for quality, table in QUALITY_PRESETS.items():
-        for name, value in table.items():
-            key = f"QUALITY_PRESETS[{quality!r}].{name}"
-            if name not in decls or name == "quality":
-                raise InputError("is not a setting of Simulation", key=key)
-            check(decls[name], value, key)
-
-
-_check_presets()
-
-
-def memory_limit_bytes() -> float:
-    """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
-    text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
-    try:
-        gb = float(text)
-    except ValueError:
-        gb = math.nan
-    if not (gb > 0 and math.isfinite(gb)):
-        raise InputError(
-            "must be a positive number of gigabytes", key="ACOUSIM_MAX_MEMORY_GB", value=text
-        )
-    return gb * 1e9
+record_given(Simulation)
 
 
 @dataclass(frozen=True, eq=False)
