@@ -453,7 +453,11 @@ def run(quick: bool = False, picture: Path = PICTURE) -> str:
             "cell and 1 dB) and those the run adds, over all poses.  The corridor's "
             "waveform residual at any ray budget is that of its diffuse tail: a random "
             "sum of Lambert contributions that each ray set draws anew (its energy per "
-            "range bin converges, not its waveform: see the corridor section).",
+            "range bin converges, not its waveform: see the corridor section).  "
+            "On this shared machine (2 cores, loaded by other jobs) the time of a "
+            "setting that changes nothing scatters by tens of percent (the shoebox's "
+            "diffraction and live-bin knobs, 0.9x to 1.8x): the times are rough, the "
+            "errors exact.",
             "",
             *tables,
         ]
