@@ -38,5 +38,6 @@ def add_quality(parser: argparse.ArgumentParser) -> None:
         "--quality",
         "acousim.scene.model:Simulation",
         "quality",
-        note="default: the scene file's; its explicit [simulation] settings still apply",
+        note="not given: the scene file's; the file's explicit [simulation] settings apply "
+        "whatever the preset",
     )
