@@ -517,6 +517,8 @@ def smooth_patches(
     from scipy.sparse.csgraph import connected_components
 
     flat = angles <= _FLAT_ANGLE
+    if not np.any(~flat & (angles < np.deg2rad(CURVED_MAX_ANGLE_DEG))):
+        return np.zeros(n, bool)  # no smooth rim anywhere (a room, a box): none curved
     pairs = adjacency[flat]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, patch = connected_components(graph, directed=False)
