@@ -456,7 +456,8 @@ def run(quick: bool = False, picture: Path = PICTURE) -> str:
             "range bin converges, not its waveform: see the corridor section).  "
             "On this shared machine (2 cores, loaded by other jobs) the time of a "
             "setting that changes nothing scatters by tens of percent (the shoebox's "
-            "diffraction and live-bin knobs, 0.9x to 1.8x): the times are rough, the "
+            "diffraction and live-bin knobs, which change nothing there): the times are "
+            "rough, the "
             "errors exact.",
             "",
             *tables,
