@@ -19,6 +19,7 @@ from . import (
     diffraction,
     doa_speed,
     fractional_delay,
+    front,
     materials,
     motion,
     pdm_decode,
@@ -48,6 +49,7 @@ SECTIONS = {
     "peer": peer,
     "scaling": scaling,
     "rig": rig,
+    "front": front,
 }
 
 

@@ -58,10 +58,11 @@ def _faces() -> list[str]:
         fine = dataclasses.replace(scene, meshes=(item,))
         prep, own = [], []
         for _ in range(3 if k < 5 else 2):  # alternating: ours, then embreex's own
-            tracer = None  # the last world let go first: one world held, as in use
+            sim = tracer = None  # the last world let go first: one world held, as in use
             t = time.perf_counter()
-            tracer = Tracer(fine)
+            sim = Simulator(fine)  # what a user builds
             prep.append(time.perf_counter() - t)
+            tracer = sim.tracer
             own.append(_embree_build(tracer.world.triangles))
         ratio_prep = np.median(np.array(prep) / np.array(own))
         pairs = [(_trace_ms(tracer, poses), _trace_ms(base, poses)) for _ in range(3)]
@@ -78,9 +79,10 @@ def _faces() -> list[str]:
     return [
         "### Faces: the corridor's mesh subdivided 0 to 5 times (the same geometry)",
         "",
-        "Preparation: `Tracer(scene)` (read and merge the mesh, group its faces into "
-        "planes and curved patches, corner normals, the diffracting edges, Embree's "
-        "indexed mesh and tree, the tables every pose uses) against embreex's own scene "
+        "Preparation: `Simulator(scene)`, what a user builds (merge the mesh, group its "
+        "faces into planes and curved patches, corner normals, the diffracting edges, "
+        "Embree's indexed mesh and tree, the tables every pose uses, the path "
+        "response) against embreex's own scene "
         "build on the same triangles to its first ray, alternating, median of the "
         "ratios (3 pairs, 2 at 725k faces; the previous world let go before each "
         "build).  Per pose: a trace (automatic budget) of 8 poses of the drive, "

@@ -29,7 +29,7 @@ def checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=
 
         decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
         try:
-            value = int(text) if decl.kind == "int" else float(text)
+            value = text if decl.kind == "str" else int(text) if decl.kind == "int" else float(text)
         except ValueError:
             what = "a whole number" if decl.kind == "int" else "a number"
             raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
@@ -100,6 +100,13 @@ INDEX = checked("int", 0, 2**31 - 1)
 def add_seed(parser: argparse.ArgumentParser) -> None:
     """The --seed option of a command that simulates (the scene's seed by default)."""
     parser.add_argument("--seed", type=SEED, default=None, help="noise seed (default: the scene's)")
+
+
+def with_quality(scene, quality: str | None):
+    """`scene` under the `quality` preset (None: as it is)."""
+    if quality is None:
+        return scene
+    return dataclasses.replace(scene, simulation=scene.simulation.with_quality(quality))
 
 
 def methods(option: str, text: str) -> tuple[str, ...]:
@@ -353,11 +360,12 @@ def preload_simulation() -> None:
     stop_if_interrupted()
 
 
-def simulate(scene, poses, seed):
-    """The recordings of `scene` at `poses` (None: all), with `seed` if given; a
-    UsageError when no echo reaches the sensor."""
+def simulate(scene, poses, seed, quality: str | None = None):
+    """The recordings of `scene` at `poses` (None: all), with `seed` and the `quality`
+    preset if given; a UsageError when no echo reaches the sensor."""
     from acousim.simulator import Simulator
 
+    scene = with_quality(scene, quality)
     if seed is not None:
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, seed=seed)

@@ -19,12 +19,14 @@ from acousim.cli.common import (
     simulate,
     writable_dir,
 )
+from acousim.cli.options import add_quality
 
 
 def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     p.add_argument("--out", default="out", help="output folder (default: out)")
     add_seed(p)
+    add_quality(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -35,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     out = writable_dir(args.out)
     scene = load_scene(bundled_scenes() / "corridor.toml")
     preload_simulation()
-    recs = simulate(scene, None, args.seed)
+    recs = simulate(scene, None, args.seed, args.quality)
     t1 = elapsed()
     options = ImagingOptions()
     images = image_recordings(recs, options, progress("image", "recording"))

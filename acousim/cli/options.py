@@ -13,7 +13,7 @@ import argparse
 
 from acousim.cli.common import DeclaredHelp, checked, declared
 
-__all__ = ["DeclaredHelp", "add_declared"]
+__all__ = ["DeclaredHelp", "add_declared", "add_quality"]
 
 
 def add_declared(
@@ -28,3 +28,16 @@ def add_declared(
     action = parser.add_argument(flag, type=checked("number", declared=get), help="-")
     action.declaration, action.note = get, note
     return action
+
+
+def add_quality(parser: argparse.ArgumentParser) -> None:
+    """The --quality option of a command that simulates: the scene's
+    ``simulation.quality`` replaced (its explicitly given settings still apply)."""
+    add_declared(
+        parser,
+        "--quality",
+        "acousim.scene.model:Simulation",
+        "quality",
+        note="not given: the scene file's; the file's explicit [simulation] settings apply "
+        "whatever the preset",
+    )

@@ -19,6 +19,7 @@ from acousim.cli.common import (
     simulate,
     stop_if_interrupted,
 )
+from acousim.cli.options import add_quality
 
 
 def register(sub) -> None:
@@ -31,6 +32,7 @@ def register(sub) -> None:
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
     p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
     add_seed(p)
+    add_quality(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -40,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     out = output_file("--out", args.out or f"{scene.name}.h5")
     preload_simulation()
-    recs = simulate(scene, poses, args.seed)
+    recs = simulate(scene, poses, args.seed, args.quality)
     stop_if_interrupted()
     P.save_recordings(out, recs)
     print(

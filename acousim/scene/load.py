@@ -228,7 +228,9 @@ def _simulation(r: _Reader, table: dict) -> Simulation:
         raise r.fail("simulation.diffraction", "must be a table (or true/false)", sub)
     diffraction = r.settings(Diffraction, {**flat, **sub}, "simulation.diffraction")
     try:
-        return Simulation(**declared, diffraction=Diffraction(**diffraction))
+        # a table the file gives is given whole (a quality preset fills the others)
+        table = {"diffraction": Diffraction(**diffraction)} if diffraction else {}
+        return Simulation(**declared, **table)
     except InputError as exc:
         raise SceneError(exc.reason, file=r.source, key=exc.key, value=exc.value) from None
 

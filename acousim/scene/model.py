@@ -35,6 +35,7 @@ import numpy as np
 
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
+from acousim.scene.defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
 from acousim.scene.motion import (
     MAX_SPEED_M_S,
     MAX_TURN_DEG_S,
@@ -513,6 +514,8 @@ class Simulation:
     max_memory_gb : refuse a simulation whose estimated memory
         (:meth:`Scene.memory_bytes`) is above this many gigabytes (10^9 bytes). The
         default is :func:`memory_limit_bytes`: ``$ACOUSIM_MAX_MEMORY_GB`` or 8.
+    quality : a preset of the settings not given (:mod:`acousim.scene.defaults`):
+        "fast", "default" or "reference"; ``dataclasses.replace`` keeps the given ones.
     """
 
     max_range_m: float = setting(6.0, "m", 0.05, 100, "echoes computed up to this range")
@@ -536,6 +539,10 @@ class Simulation:
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )
+    quality: Quality = setting(
+        "default", choices=QUALITIES, doc="preset of the settings not given (QUALITY_PRESETS)"
+    )
+    _origin: tuple | None = field(default=None, repr=False, compare=False)  # see fill_unset
 
     #: the flat names of the diffraction settings before they became one table (a
     #: version's grace, with a DeprecationWarning: :func:`_fold_flat_diffraction`)
@@ -552,21 +559,15 @@ class Simulation:
             "order": diffraction_order,
         }
         object.__setattr__(self, "diffraction", _fold_flat_diffraction(self.diffraction, flat))
-        validate(self)
+        validate(self)  # the quality among the others: a known preset below
+        fill_unset(self)
+
+    def with_quality(self, quality: Quality) -> Simulation:
+        """These settings under another preset, the explicitly given ones kept."""
+        return dataclasses.replace(self, quality=quality)
 
 
-def memory_limit_bytes() -> float:
-    """Default memory limit of a simulation: ``$ACOUSIM_MAX_MEMORY_GB`` (gigabytes) or 8 GB."""
-    text = os.environ.get("ACOUSIM_MAX_MEMORY_GB") or "8"  # unset or empty: 8
-    try:
-        gb = float(text)
-    except ValueError:
-        gb = math.nan
-    if not (gb > 0 and math.isfinite(gb)):
-        raise InputError(
-            "must be a positive number of gigabytes", key="ACOUSIM_MAX_MEMORY_GB", value=text
-        )
-    return gb * 1e9
+record_given(Simulation)
 
 
 @dataclass(frozen=True, eq=False)

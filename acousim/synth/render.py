@@ -38,7 +38,6 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 from scipy import fft as sfft
-from scipy.signal import fftconvolve
 from scipy.special import i0
 
 from acousim.core.delays import (
@@ -125,7 +124,7 @@ def render(
         y = _render_shaped(echoes, d - lo, call, fs, n_span, (interpolator, taps), response)
     else:
         h = _impulses(d - lo, g, n_span, interpolator, taps)  # (M, n_span)
-        y = fftconvolve(h, call[None, :], axes=-1)[:, :n_span]
+        y = _convolve(h, call)[:, :n_span]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -160,6 +159,16 @@ def render_baseband(
     y = _render_shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
+
+
+def _convolve(h: np.ndarray, call: np.ndarray) -> np.ndarray:
+    """The full convolution of every row of `h` (M, N) with `call` (L,), (M, N + L - 1):
+    the same numbers as ``scipy.signal.fftconvolve`` (its FFT length and order of
+    operations), its rows' transforms shared among :data:`FFT_WORKERS` threads."""
+    n = sfft.next_fast_len(h.shape[-1] + call.size - 1, real=True)
+    spec = sfft.rfft(h, n, axis=-1, workers=FFT_WORKERS)
+    spec *= sfft.rfft(call, n)
+    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, : h.shape[-1] + call.size - 1]
 
 
 def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np.ndarray:

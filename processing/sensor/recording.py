@@ -90,8 +90,9 @@ class Recording:
                 f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
                 f"has {self.array.n_mics} microphones"
             )
-        bad = ~np.isfinite(x)
-        if bad.any():
+        # one pass without a copy; a sum that overflows is checked sample by sample
+        bad = None if np.isfinite(x.sum()) else ~np.isfinite(x)
+        if bad is not None and bad.any():
             where = np.argwhere(bad)[0]
             raise InputError(
                 f"{int(bad.sum())} non-finite sample(s); first at channel {int(where[-2])}, "

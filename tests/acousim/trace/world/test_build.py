@@ -166,3 +166,23 @@ def test_a_mesh_in_memory_is_never_changed():
             )
         np.testing.assert_array_equal(mesh.vertices, before[0])
         np.testing.assert_array_equal(mesh.faces, before[1])
+
+
+def test_a_binary_stl_is_read_as_trimesh_reads_it(tmp_path):
+    """The direct binary STL reader against trimesh's (unprocessed): the same vertices
+    (float64 of the file's float32) and faces; an ASCII STL is left to trimesh."""
+    from acousim.trace.world.build import _binary_stl
+
+    for path in sorted((SCENES / "meshes").glob("*.stl")):
+        ours = _binary_stl(path)
+        theirs = trimesh.load(path, force="mesh", process=False)
+        assert ours is not None, path
+        assert ours.vertices.dtype == theirs.vertices.dtype
+        np.testing.assert_array_equal(ours.vertices, theirs.vertices)
+        np.testing.assert_array_equal(ours.faces, theirs.faces)
+    box = trimesh.creation.box((1.0, 2.0, 3.0))
+    box.export(tmp_path / "box.stl", file_type="stl_ascii")
+    assert _binary_stl(tmp_path / "box.stl") is None
+    box.export(tmp_path / "box_binary.stl")
+    read = _binary_stl(tmp_path / "box_binary.stl")
+    np.testing.assert_allclose(read.vertices[read.faces], box.vertices[box.faces], atol=1e-6)

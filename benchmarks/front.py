@@ -1,0 +1,475 @@
+"""Run time against error: what each knob costs and what it buys, in one picture.
+
+For the corridor drive (moving: the Doppler renderer) and the shoebox (four poses in
+the room), one point per setting of each knob, every other knob at the scene's
+defaults, and one per quality preset (`acousim.scene.defaults.QUALITY_PRESETS`); all
+against a reference run with every knob at its most accurate (the scene under the
+"reference" preset, and the knobs that are not scene settings at their finest).
+Noise off (``snr_db = inf``) and the direct path left out (the same in every run,
+tens of dB above the echoes) so that the errors are the simulation's.
+
+Time: per measurement, `Simulator.run` over the poses after a warm-up pose, every
+trace paid (the tracer's cache emptied), the world's preparation apart; each variant
+in alternating pairs with the defaults, its time the defaults' median times the
+median of the pairs' ratios (this shared machine's speed drifts within minutes).
+Error, over all poses:
+
+* waveform: the residual over all microphones and samples, dB re the reference's
+  energy, ``10 log10(sum (x - x_ref)^2 / sum x_ref^2)``;
+* image: the DAS image (2 degree grid, every range bin from 0.3 m on), its residual
+  ``10 log10(sum (P - P_ref)^2 / sum P_ref^2)`` over the power images;
+* peaks: the image's local maxima within 30 dB of its strongest cell; a peak of the
+  reference is lost unless the run has one within one cell in range, elevation and
+  azimuth whose level is within 1 dB; a run's peak is added unless the reference has
+  one within a cell (both searched down to 31 dB, so that a peak at the threshold is
+  not lost by a tenth of a dB).
+
+Adding a knob: one line in :data:`KNOBS` (a scene setting, a field of
+:class:`acousim.synth.options.RenderOptions`, or a module constant).
+``python -m benchmarks front`` runs this section and redraws docs/front.png (``make
+bench`` too); ``python -m benchmarks.front --quick`` prints a quick look (2 poses, a
+setting or two per knob) and draws front-quick.png in the current folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import importlib
+import sys
+import time
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import processing as P
+from acousim.scene import Pose, load_scene
+from acousim.scene.model import Diffraction, Scene
+from acousim.simulator import Simulator
+from processing.base.errors import InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = ROOT / "scenes"
+PICTURE = ROOT / "docs" / "front.png"
+PEAK_DB = -30.0  # peaks compared down to this level
+PEAK_SLACK_DB = 1.0  # levels within this; searched this far below PEAK_DB
+IMAGE_MIN_RANGE_M = 0.3
+#: an error of exactly zero is drawn here (dB)
+FLOOR_DB = -140.0
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One point: `knob` at `label`: scene settings, render options and module
+    constants (``"module:NAME"``) changed from the scene's own; or a `quality` preset."""
+
+    knob: str
+    label: str
+    simulation: Mapping[str, Any] = field(default_factory=dict)
+    render: Mapping[str, Any] = field(default_factory=dict)
+    constants: Mapping[str, Any] = field(default_factory=dict)
+    quality: str | None = None
+    #: the scenes it applies to (None: every one)
+    only: tuple[str, ...] | None = None
+
+
+LIVE = "acousim.trace.diffraction.pair_bound:LIVE_SPREAD"
+MOVING = ("corridor",)  # the Doppler renderer's knobs: scenes in motion
+
+#: the knobs and their settings (each line a point); the defaults are the scene's own
+KNOBS: tuple[Variant, ...] = (
+    Variant("ray budget", "500 rays", {"rays": 500}),
+    Variant("ray budget", "1000 rays", {"rays": 1000}),
+    Variant("ray budget", "4000 rays", {"rays": 4000}),
+    Variant("ray budget", "16000 rays", {"rays": 16000}),
+    Variant("bounces", "1 bounce", {"bounces": 1}),
+    Variant("bounces", "file's + 1", {"bounces": "+1"}),
+    Variant("energy floor", "-50 dB", {"energy_floor_db": -50.0}),
+    Variant("energy floor", "-60 dB", {"energy_floor_db": -60.0}),
+    Variant("energy floor", "-70 dB", {"energy_floor_db": -70.0}),
+    Variant("energy floor", "-100 dB", {"energy_floor_db": -100.0}),
+    Variant("diffraction", "off", {"diffraction": Diffraction(enabled=False)}),
+    Variant("diffraction", "order 1", {"diffraction": Diffraction(order=1)}),
+    Variant("diffraction", "+ reflections", {"diffraction": Diffraction(reflections=True)}),
+    Variant("element step", "0.25 mm", {"diffraction": Diffraction(step_m=2.5e-4)}),
+    Variant("element step", "0.5 mm", {"diffraction": Diffraction(step_m=5e-4)}),
+    Variant("element step", "2 mm", {"diffraction": Diffraction(step_m=2e-3)}),
+    Variant("element step", "4 mm", {"diffraction": Diffraction(step_m=4e-3)}),
+    Variant("live-bin margin", "0 bins", constants={LIVE: 0}),
+    Variant("live-bin margin", "1 bin", constants={LIVE: 1}),
+    Variant("live-bin margin", "4 bins", constants={LIVE: 4}),
+    # the Doppler renderer takes sinc or lagrange: nearest only where nothing moves
+    Variant("interpolator", "nearest", {"fractional_delay": "nearest"}, only=("shoebox",)),
+    Variant("interpolator", "lagrange", {"fractional_delay": "lagrange"}),
+    Variant("Doppler nodes", "tol 1e-4", render={"doppler_tolerance": 1e-4}, only=MOVING),
+    Variant("Doppler nodes", "tol 1e-2", render={"doppler_tolerance": 1e-2}, only=MOVING),
+    Variant("gain sets", "tol 3e-4", render={"compress_tolerance": 3e-4}, only=MOVING),
+    Variant("gain sets", "tol 3e-3", render={"compress_tolerance": 3e-3}, only=MOVING),
+)
+#: the knob settings of a --quick run
+QUICK = {"500 rays", "1 bounce", "-60 dB", "order 1", "2 mm", "1 bin", "lagrange", "tol 1e-2"}
+PRESETS = tuple(Variant("preset", q, quality=q) for q in ("fast", "default", "reference"))
+#: the reference: the "reference" preset and the other knobs at their finest
+REFERENCE = Variant(
+    "reference",
+    "reference",
+    quality="reference",
+    render={"doppler_tolerance": 1e-4, "compress_tolerance": 3e-4},
+    constants={LIVE: 4},
+)
+
+
+@dataclass(frozen=True)
+class Case:
+    """A scene of the front and the poses it is measured at."""
+
+    name: str
+    scene: Scene
+    poses: tuple[int, ...]
+
+
+def cases(quick: bool) -> list[Case]:
+    corridor = _quiet(load_scene(SCENES / "corridor.toml"))
+    shoebox = _quiet(load_scene(SCENES / "shoebox.toml"))
+    room = (
+        Pose(np.array([0.0, 0.0, 0.0])),
+        Pose(np.array([1.2, 0.5, 0.2]), yaw_rad=np.deg2rad(40)),
+        Pose(np.array([-0.3, -0.8, 0.0]), yaw_rad=np.deg2rad(200)),
+        Pose(np.array([2.0, 1.0, -0.3]), yaw_rad=np.deg2rad(-60), pitch_rad=0.2),
+    )
+    shoebox = dataclasses.replace(shoebox, sensor=dataclasses.replace(shoebox.sensor, poses=room))
+    return [
+        Case("corridor", corridor, (10, 40) if quick else (5, 20, 35, 50)),
+        Case("shoebox", shoebox, (0, 1) if quick else (0, 1, 2, 3)),
+    ]
+
+
+def _quiet(scene: Scene) -> Scene:
+    """No noise and no direct path: the simulation's error alone."""
+    sim = dataclasses.replace(scene.simulation, snr_db=np.inf)
+    sensor = dataclasses.replace(scene.sensor, direct_path=False)
+    return dataclasses.replace(scene, simulation=sim, sensor=sensor)
+
+
+def _scene(scene: Scene, v: Variant) -> Scene:
+    sim = scene.simulation
+    if v.quality is not None:
+        sim = sim.with_quality(v.quality)
+    changes = dict(v.simulation)
+    if changes.get("bounces") == "+1":
+        changes["bounces"] = sim.bounces + 1
+    return dataclasses.replace(scene, simulation=dataclasses.replace(sim, **changes))
+
+
+@contextlib.contextmanager
+def _constants(values: Mapping[str, Any]) -> Iterator[None]:
+    """Module constants set for the duration (restored after)."""
+    old = {}
+    try:
+        for where, value in values.items():
+            module, name = where.split(":")
+            mod = importlib.import_module(module)
+            old[where] = (mod, name, getattr(mod, name))
+            setattr(mod, name, value)
+        yield
+    finally:
+        for mod, name, value in old.values():
+            setattr(mod, name, value)
+
+
+@dataclass(frozen=True)
+class Run:
+    """A variant's recordings and its time per measurement (s)."""
+
+    variant: Variant
+    recordings: list[P.Recording]
+    seconds: float
+
+
+class Timed:
+    """A variant's simulator, ready to run its case's poses (warmed up)."""
+
+    def __init__(self, case: Case, v: Variant) -> None:
+        self.case, self.variant = case, v
+        self.times: list[float] = []  # of run(), when it is the defaults' timer
+        with _constants(v.constants):
+            self.sim = Simulator(_scene(case.scene, v))
+            self.sim.options = dataclasses.replace(self.sim.options, **v.render)
+            self.sim.run(case.poses[:1])  # warm-up: compiled kernels, caches
+
+    def run(self) -> tuple[list[P.Recording], float]:
+        """The recordings of every pose and the time per measurement (s), every
+        trace paid."""
+        with _constants(self.variant.constants):
+            self.sim.tracer.forget()
+            t = time.perf_counter()
+            recs = self.sim.run(self.case.poses)
+            return recs, (time.perf_counter() - t) / len(self.case.poses)
+
+
+def measure(case: Case, v: Variant, rounds: int, default: Timed | None = None) -> Run:
+    """`v` on `case`; with `default`, in `rounds` alternating pairs with it: the
+    time is the default's median times the median of the pairs' ratios."""
+    timed = Timed(case, v)
+    times, ratios = [], []
+    for _ in range(rounds):
+        recs, t = timed.run()
+        times.append(t)
+        if default is not None:
+            _, t0 = default.run()
+            default.times.append(t0)
+            ratios.append(t / t0)
+    if default is None:
+        return Run(v, recs, float(np.median(times)))
+    return Run(v, recs, float(np.median(default.times) * np.median(ratios)))
+
+
+def _db(num: float, den: float) -> float:
+    return FLOOR_DB if num <= 0 else max(10 * np.log10(num / den), FLOOR_DB)
+
+
+def das_images(recs: Sequence[P.Recording]) -> list[P.Image]:
+    from acousim.imaging.run import ImagingOptions
+
+    options = ImagingOptions(methods=("das",), energy_fraction=0.0, min_range_m=IMAGE_MIN_RANGE_M)
+    return [P.acoustic_image(r, "das", options.settings(r)) for r in recs]
+
+
+def _cells(img: P.Image, peaks: P.Peaks) -> np.ndarray:
+    """(P, 3) cell indices (range, elevation, azimuth) of `peaks`."""
+    axes = (img.range_m, img.elevation_rad, img.azimuth_rad)
+    values = (peaks.range_m, peaks.elevation_rad, peaks.azimuth_rad)
+    return np.stack(
+        [np.argmin(np.abs(a[None, :] - v[:, None]), axis=1) for a, v in zip(axes, values)], axis=1
+    ).reshape(-1, 3)
+
+
+def peak_changes(ref: P.Image, img: P.Image) -> tuple[int, int]:
+    """(lost, added): the reference's peaks within PEAK_DB of its strongest cell that
+    `img` has not within one cell and 1 dB, and `img`'s that the reference has not
+    within one cell."""
+    low = PEAK_DB - PEAK_SLACK_DB
+    pr, pi = ref.peaks(low), img.peaks(low)
+    cr, ci = _cells(ref, pr), _cells(img, pi)
+    near = np.all(np.abs(cr[:, None, :] - ci[None, :, :]) <= 1, axis=2)  # (R, I)
+    close = near & (np.abs(pr.level_db[:, None] - pi.level_db[None, :]) <= PEAK_SLACK_DB)
+    lost = int(np.sum((pr.level_db >= PEAK_DB) & ~close.any(axis=1)))
+    added = int(np.sum((pi.level_db >= PEAK_DB) & ~near.any(axis=0)))
+    return lost, added
+
+
+@dataclass(frozen=True)
+class Point:
+    """A variant's place on the front."""
+
+    variant: Variant
+    ms: float
+    waveform_db: float
+    image_db: float
+    lost: int
+    added: int
+    peaks: int  # the reference's peaks compared
+
+
+def compare(ref: Run, ref_images: list[P.Image], run: Run) -> Point:
+    num = sum(
+        float(np.sum((a.samples - b.samples) ** 2)) for a, b in zip(run.recordings, ref.recordings)
+    )
+    den = sum(float(np.sum(b.samples**2)) for b in ref.recordings)
+    images = das_images(run.recordings)
+    inum = sum(float(np.sum((a.power - b.power) ** 2)) for a, b in zip(images, ref_images))
+    iden = sum(float(np.sum(b.power**2)) for b in ref_images)
+    changes = [peak_changes(r, i) for r, i in zip(ref_images, images)]
+    n_peaks = sum(int(np.sum(r.peaks(PEAK_DB).level_db >= PEAK_DB)) for r in ref_images)
+    return Point(
+        run.variant,
+        run.seconds * 1e3,
+        _db(num, den),
+        _db(inum, iden),
+        sum(c[0] for c in changes),
+        sum(c[1] for c in changes),
+        n_peaks,
+    )
+
+
+def front(case: Case, quick: bool, log=print) -> tuple[Point, list[Point]]:
+    """The reference's point and every variant's on `case`."""
+    rounds = 1 if quick else 3
+    ref = measure(case, REFERENCE, 1)
+    log(f"  {case.name} reference: {ref.seconds * 1e3:.0f} ms")
+    ref_images = das_images(ref.recordings)
+    default = Timed(case, PRESETS[1])
+    points = []
+    for v in (*PRESETS, *KNOBS):
+        if v.only is not None and case.name not in v.only:
+            continue
+        if quick and v.quality is None and v.label not in QUICK:
+            continue
+        try:
+            p = compare(ref, ref_images, measure(case, v, rounds, default))
+        except InputError as exc:  # a setting this scene refuses: said, not drawn
+            log(f"  {case.name} {v.knob} {v.label}: refused ({exc})")
+            continue
+        log(
+            f"  {case.name} {v.knob} {v.label}: {p.ms:.0f} ms, waveform {p.waveform_db:.1f} dB, "
+            f"image {p.image_db:.1f} dB, peaks lost {p.lost} added {p.added} of {p.peaks}"
+        )
+        points.append(p)
+    return compare(ref, ref_images, ref), points
+
+
+def draw(results: Mapping[str, tuple[Point, list[Point]]], path: Path) -> None:
+    """Time per measurement against the waveform and the image residual, log-log
+    (errors in dB), a panel per scene and error; filled: peaks unchanged."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    knobs = list(dict.fromkeys(v.knob for v in KNOBS))
+    colours = dict(zip(knobs, plt.get_cmap("tab10").colors))
+    fig, axes = plt.subplots(len(results), 2, figsize=(13, 5.2 * len(results)), squeeze=False)
+    for row, (name, (ref, points)) in zip(axes, results.items()):
+        for ax, attr, what in zip(row, ("waveform_db", "image_db"), ("waveform", "DAS image")):
+            for p in points:
+                x = getattr(p, attr)
+                same = p.lost == 0 and p.added == 0
+                if p.variant.quality is not None:
+                    ax.plot(x, p.ms, "*", ms=17, mfc="k" if same else "w", mec="k", zorder=5)
+                    ax.annotate(
+                        p.variant.label,
+                        (x, p.ms),
+                        xytext=(7, 6),
+                        textcoords="offset points",
+                        fontsize=10,
+                        weight="bold",
+                    )
+                    continue
+                c = colours[p.variant.knob]
+                ax.plot(x, p.ms, "o", ms=7, mfc=c if same else "w", mec=c, mew=1.6)
+                ax.annotate(
+                    p.variant.label,
+                    (x, p.ms),
+                    xytext=(4, -9),
+                    textcoords="offset points",
+                    fontsize=7,
+                    color=c,
+                )
+            ax.axhline(ref.ms, color="0.5", ls="--", lw=1)
+            ax.annotate(
+                f"reference {ref.ms:.0f} ms",
+                (0.01, ref.ms),
+                xycoords=("axes fraction", "data"),
+                xytext=(0, 3),
+                textcoords="offset points",
+                fontsize=8,
+                color="0.4",
+            )
+            ax.set_yscale("log")
+            ax.set_xlabel(f"{what} residual re the reference (dB; {FLOOR_DB:.0f}: none)")
+            ax.set_ylabel("ms per measurement")
+            ax.set_title(f"{name}: time against {what} error", fontsize=11)
+            ax.grid(True, which="both", alpha=0.3)
+        handles = [
+            plt.Line2D([], [], marker="o", ls="", mfc=colours[k], mec=colours[k], label=k)
+            for k in knobs
+            if any(p.variant.knob == k for p in points)
+        ]
+        handles += [
+            plt.Line2D([], [], marker="*", ls="", ms=12, mfc="k", mec="k", label="quality preset"),
+            plt.Line2D([], [], marker="o", ls="", mfc="w", mec="k", label="peaks changed"),
+        ]
+        row[1].legend(handles=handles, fontsize=8, loc="best")
+    fig.suptitle(
+        "Run time against error, one knob at a time from the scene's defaults "
+        "(filled: image peaks within 30 dB unchanged)",
+        fontsize=12,
+    )
+    fig.tight_layout()
+    from processing.base.atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    plt.close(fig)
+
+
+def _row(p: Point, default_ms: float) -> str:
+    v = p.variant
+    fmt = lambda x: "exact" if x <= FLOOR_DB else f"{x:.1f}"  # noqa: E731
+    label = f"**{v.label}**" if v.quality else v.label
+    return (
+        f"| {v.knob} | {label} | {p.ms:.0f} | {default_ms / p.ms:.2f}x | {fmt(p.waveform_db)} | "
+        f"{fmt(p.image_db)} | {p.lost} / {p.added} of {p.peaks} |"
+    )
+
+
+def _table(name: str, case: Case, ref: Point, points: list[Point]) -> list[str]:
+    default = next(p for p in points if p.variant.quality == "default")
+    return [
+        f"### {name}: poses {', '.join(map(str, case.poses))}",
+        "",
+        f"The reference: {ref.ms:.0f} ms per measurement.",
+        "",
+        "| knob | setting | ms per measurement | speed re default | waveform residual (dB) | "
+        "DAS image residual (dB) | peaks lost / added |",
+        "|---|---|---|---|---|---|---|",
+        *[_row(p, default.ms) for p in points],
+        "",
+    ]
+
+
+def run(quick: bool = False, picture: Path = PICTURE) -> str:
+    results, tables = {}, []
+    for case in cases(quick):
+        ref, points = front(case, quick)
+        results[case.name] = (ref, points)
+        tables += _table(case.name, case, ref, points)
+    draw(results, picture)
+    return "\n".join(
+        [
+            "## Run time against error: every knob, the quality presets",
+            "",
+            "![run time against error](docs/front.png)",
+            "",
+            "Each knob set in turn from the scene's defaults, every other knob at the "
+            "scene's own settings, and the three quality presets (`simulation.quality`); "
+            "against a reference with every knob at its most accurate (the `reference` "
+            "preset: 0.25 mm element step, the energy floor at -120 dB; the ray budget "
+            "automatic; the Doppler renderer's tolerances 1e-4 and 3e-4; the live-bin "
+            "margin 4; what the model includes, the bounces and the orders of "
+            'diffraction, as the scene sets it: "file\'s + 1" and "+ reflections" '
+            "show what more would add).  Noise off, the direct "
+            "path left out.  Time: `Simulator.run` over the poses after a warm-up pose, "
+            "every trace paid, per measurement (preparation apart), each point in 3 "
+            "alternating pairs with the defaults: the defaults' median time times the "
+            "median of the pairs' ratios.  "
+            "Waveform residual: over all microphones and samples, dB re the "
+            "reference's energy.  DAS image residual: the 2 degree power images from "
+            "0.3 m, dB re the reference image.  Peaks: the reference's local maxima "
+            "within 30 dB of its strongest cell that the run loses (none within one "
+            "cell and 1 dB) and those the run adds, over all poses.  The corridor's "
+            "waveform residual at any ray budget is that of its diffuse tail: a random "
+            "sum of Lambert contributions that each ray set draws anew (its energy per "
+            "range bin converges, not its waveform: see the corridor section).  "
+            "On this shared machine (2 cores, loaded by other jobs) the time of a "
+            "setting that changes nothing scatters by tens of percent (the shoebox's "
+            "diffraction and live-bin knobs, which change nothing there): the times are "
+            "rough, the "
+            "errors exact.",
+            "",
+            *tables,
+        ]
+    )
+
+
+if __name__ == "__main__":
+    # python -m benchmarks.front [--quick]: this section alone, printed; a quick run
+    # (2 poses, a setting or two per knob, no pairs) draws front-quick.png here
+    quick = "--quick" in sys.argv[1:]
+    from acousim.process import configure
+
+    configure()
+    print(run(quick, Path("front-quick.png") if quick else PICTURE))
