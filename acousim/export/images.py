@@ -150,7 +150,7 @@ def _write_peaks(g, rec, index: int, img: P.Image, threshold_db: float) -> None:
 
     from acousim.imaging.run import peak_table
 
-    rows = peak_table(rec, img, threshold_db, index=index)
+    rows = peak_table(rec, img, threshold_db=threshold_db, index=index)
     for name in _H5_PEAK_COLUMNS:
         values = [getattr(row, name) for row in rows]
         if name in _TEXT_COLUMNS:
