@@ -118,8 +118,8 @@ def test_hallway_across_and_back_is_matched_to_the_far_wall(tmp_path):
     hallway and comes back (1 + 2 + 1 m) is imaged at 2 m straight ahead, where no
     surface is; its peak is matched to a specular path of order 2 whose last
     reflection is on the far wall (behind the sensor), within one resolution cell."""
-    from acousim.export.images import peak_rows
     from acousim.imaging.matching import image_resolution, match_peaks
+    from acousim.imaging.run import peak_table
 
     scene = _hallway(tmp_path)
     rec = Simulator(scene).simulate_pose(scene.sensor.poses[0])
@@ -143,8 +143,8 @@ def test_hallway_across_and_back_is_matched_to_the_far_wall(tmp_path):
     # within one resolution cell of the peak, and its last reflection is not
     assert abs(m.range_offset_m[k]) <= res.range_m / 2 and m.offset_rad[k] <= res.angle_rad
     assert np.linalg.norm(t.position_sensor_m[j]) == pytest.approx(1.0, abs=0.05)
-    row = peak_rows(rec, 0, image, -40.0)[k]
-    assert row[13:15] == ("specular", 2) and row[15] == "right/plaster"
+    row = peak_table(rec, image, threshold_db=-40.0, index=0)[k]  # peaks.csv's row
+    assert (row.truth_kind, row.truth_order, row.truth_object) == ("specular", 2, "right/plaster")
 
 
 def test_pole_peak_is_one_echo_and_an_edge_peak_beyond_its_cell_is_unmatched(tmp_path):

@@ -235,7 +235,9 @@ def test_the_stock_dataloader_batches_eight_samples_of_the_files_numbers(dataset
     assert batch["depth_m"].shape == (8, E, A)
     assert batch["paths"]["position_sensor_m"].shape == (8, 256, 3)
     assert batch["paths"]["order"].dtype == torch.int64
-    assert "labels" not in batch  # no label map stored
+    # the truth's label maps (acousim.imaging.labels), one per image, of its shape
+    assert batch["labels"]["object"].shape == (8, R, E, A)
+    assert batch["labels"]["order"].dtype == torch.int64
     assert not torch.isnan(batch["image"]).any()
     groups = _groups(dataset)
     for b in range(8):
@@ -290,8 +292,10 @@ def test_a_label_map_beside_the_image_is_batched_as_labels(dataset, tmp_path):
             shape = f[name]["image/das"].shape
             obj = rng.integers(-1, 3, shape).astype(np.int16)
             order = rng.integers(-1, 4, shape).astype(np.int8)
-            f[name].create_dataset("label_map/das/object", data=obj)
-            f[name].create_dataset("label_map/das/order", data=order)
+            for key, data in (("label_map/das/object", obj), ("label_map/das/order", order)):
+                if key in f[name]:  # the simulation's own label maps: replaced by these
+                    del f[name][key]
+                f[name].create_dataset(key, data=data)
             written[index] = obj, order
     ds = DatasetReader(copy, verify=False)  # the shards' bytes changed
     batch = next(iter(DataLoader(ds.torch(), batch_size=8)))
