@@ -4,7 +4,9 @@ Why HDF5 with dimension scales (and not NetCDF through xarray/h5netcdf): the
 recordings are already HDF5 and h5py is already a dependency, so nothing new is
 installed; dimension scales attach the axes (with units) to every image, which
 h5py, MATLAB's ``h5read``/``h5info`` and HDFView show, and xarray opens each group
-as a netCDF-4 dataset through h5netcdf (tested).
+as a netCDF-4 dataset through h5netcdf (tested). The images are compressed with
+h5py's LZF filter (fast; any h5py, h5netcdf and xarray read it; MATLAB and HDFView
+need the LZF plugin, or a file written with ``compression="gzip"``).
 
 Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
 
