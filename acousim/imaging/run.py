@@ -568,9 +568,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 
 
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
-    import imageio.v3 as iio
-
-    from acousim.viz.drive import DriveFigure
+    from acousim.viz.drive import DriveFigure, write_gif
     from acousim.viz.fan import common_extent
     from acousim.viz.render3d import SceneRenderer
 
@@ -621,10 +619,8 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         renderer.close()
         if figure is not None:
             figure.close()
-    with atomic_path(path) as tmp:  # duration: ms per frame (imageio's current API)
-        iio.imwrite(
-            tmp, np.stack(frames), extension=".gif", duration=frame_delay_ms(recordings), loop=0
-        )
+    with atomic_path(path) as tmp:
+        write_gif(tmp, np.stack(frames), frame_delay_ms(recordings))
     return Path(path)
 
 

@@ -9,6 +9,9 @@ into the canvas' pixels (nearest pixel, through maps computed once; the fan's
 colours from its colour map and a polar-to-pixel mapping also computed once,
 :func:`acousim.viz.fan.fan_raster`) and draws only the marks and the title
 (matplotlib's blitting).
+
+The GIF's frames share one palette (:func:`gif_palette`), made once, instead of one
+per frame (Pillow's default for RGB frames, most of the encoding's time).
 """
 
 from __future__ import annotations
@@ -18,7 +21,11 @@ import numpy as np
 from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, fan_raster, fan_rgb, legend_inside
 from processing import Image
 
-__all__ = ["DriveFigure"]
+__all__ = ["DriveFigure", "gif_palette", "write_gif"]
+
+#: colours of the GIF's palette taken as they are (the most frequent: background,
+#: text, legend, flat faces); the rest of its 256 from an octree of the other pixels
+EXACT_COLOURS = 64
 
 
 class DriveFigure:
@@ -152,3 +159,40 @@ def _paste_map(ax, shape: tuple[int, int], height: int, *, top_down: bool) -> _P
     up = (y1 - ys) if top_down else (ys - y0)
     src_rows = np.clip((up / (y1 - y0) * h).astype(int), 0, h - 1)
     return _Paste(slice(r0, r1), slice(c0, c1), src_rows, src_cols)
+
+
+def gif_palette(frames: np.ndarray, exact: int = EXACT_COLOURS, stride: int = 4):
+    """One palette (a Pillow "P" image) for all `frames` (N, H, W, 3) uint8, from
+    every `stride`-th pixel of each: their `exact` most frequent colours as they
+    are, and 256 - `exact` more from Pillow's fast octree of the other pixels."""
+    from PIL import Image as PILImage
+
+    pixels = np.ascontiguousarray(frames[:, ::stride, ::stride]).reshape(-1, 3)
+    key = pixels.astype(np.int64) @ np.array([1 << 16, 1 << 8, 1])
+    values, counts = np.unique(key, return_counts=True)
+    top = values[np.argsort(counts, kind="stable")[::-1][:exact]]
+    colours = [np.stack([top >> 16, (top >> 8) & 255, top & 255], axis=-1)]
+    rest = pixels[~np.isin(key, top)]
+    if rest.size:
+        octree = PILImage.fromarray(rest[None]).quantize(
+            256 - top.size, method=PILImage.Quantize.FASTOCTREE
+        )
+        colours.append(np.reshape(octree.getpalette()[: 3 * (256 - top.size)], (-1, 3)))
+    palette = PILImage.new("P", (1, 1))
+    palette.putpalette(np.concatenate(colours).astype(np.uint8).ravel().tolist())
+    return palette
+
+
+def write_gif(path, frames: np.ndarray, duration_ms: int) -> None:
+    """`frames` (N, H, W, 3) uint8 as a looping GIF at `path`, `duration_ms` (ms) per
+    frame, every frame in one palette (:func:`gif_palette`; each pixel its nearest
+    colour in it, no dithering)."""
+    from PIL import Image as PILImage
+
+    palette = gif_palette(frames)
+    shown = [
+        PILImage.fromarray(f).quantize(palette=palette, dither=PILImage.Dither.NONE) for f in frames
+    ]
+    shown[0].save(
+        path, format="GIF", save_all=True, append_images=shown[1:], duration=duration_ms, loop=0
+    )

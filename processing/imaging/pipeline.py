@@ -215,9 +215,10 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     """Bytes of the stages every method shares, at their peak: the sampled call
     (L = duration x rate samples, a few float64 temporaries of its length), the
     matched filter (K x M channels on an FFT of T + L points: the input, its
-    spectrum and the product, the output) and the STFT snapshot (the frames searched
-    for the strongest bin, K x M x P x window, three times, and their spectra);
-    within 1.5 times the peak numpy allocates (tests/system/test_reliability.py)."""
+    spectrum and the product, the output) and the STFT snapshot (the B bins of the
+    band searched for the strongest, real and imaginary parts of K x M x P frames,
+    then the kept bin's real and imaginary parts and their complex sum); within 1.5
+    times the peak numpy allocates (tests/system/test_reliability.py)."""
     w = recording.waveform
     K, M, T = recording.n_measurements, recording.array.n_mics, recording.n_samples
     L = float(w.duration_s) * float(recording.sample_rate_hz)  # float: never overflows
@@ -226,9 +227,11 @@ def front_end_bytes(recording: Recording, settings: ProcessingSettings) -> int:
     mf = float(K * M) * (8 * T + 2 * 16 * (n / 2 + 1) + 8 * n)
     hop = max(1, settings.window - settings.overlap)
     P = max(0, (T - settings.window) // hop + 1)
-    # the candidate frames copied, windowed (and copied once more by the FFT), then
-    # their spectra
-    frames = K * M * P * (24 * settings.window + 16 * (settings.window // 2 + 1))
+    freqs = np.fft.rfftfreq(settings.window, 1 / recording.sample_rate_hz)
+    lo, hi = _search_band(recording)
+    B = 0 if settings.frequency_hz is not None else int(((freqs >= lo) & (freqs <= hi)).sum())
+    # the band's bins of every candidate frame (real, imaginary), then the kept bin's
+    frames = K * M * P * (16 * max(B, 1) + 32)
     snapshot = K * M * T * 8 + frames
     return int(min(template + max(mf, snapshot), 2.0**62))
 

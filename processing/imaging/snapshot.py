@@ -152,12 +152,13 @@ def stft_snapshot(
         candidate &= (ranges >= lo) & (ranges <= hi)
     freqs = np.fft.rfftfreq(window, 1 / sample_rate_hz)
     if frequency_hz is None:
-        chosen = frames if candidate.all() else frames[..., candidate, :]
-        fbin = _strongest_bin(chosen if tapered else chosen * win, freqs, band_hz)
+        fbin = _strongest_bin(_candidates(frames, candidate), freqs, band_hz, taper)
     else:
         fbin = int(np.argmin(np.abs(freqs - frequency_hz)))
     kernel = taper * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
-    column = frames @ kernel  # (K, M, P): one DFT bin of every frame
+    # (K, M, P): one DFT bin of every frame, as two real products (the real frames
+    # are not copied to complex)
+    column = frames @ kernel.real + 1j * (frames @ kernel.imag)
     energy = (column.real**2 + column.imag**2).sum(axis=(0, 1))
     energy = np.where(candidate, energy, 0.0)
     idx = _kept(energy, gate)
@@ -206,17 +207,34 @@ def _frames_at(x, window, ranges, fs, c, emission_index):
     return frames, inside
 
 
-def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz) -> int:
-    """The STFT bin of highest energy over the windowed `frames` (..., window),
-    inside `band_hz` when given."""
-    spec = np.fft.rfft(frames, axis=-1)  # (K, M, P', F)
-    power = (spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2))
-    if band_hz is not None:
-        inband = (freqs >= band_hz[0]) & (freqs <= band_hz[1])
-        if not inband.any():  # bins wider than the band: the one nearest its centre
-            inband = np.arange(freqs.size) == np.argmin(np.abs(freqs - np.mean(band_hz)))
-        power = np.where(inband, power, -1.0)
-    return int(np.argmax(power))
+def _candidates(frames: np.ndarray, candidate: np.ndarray) -> np.ndarray:
+    """The frames (..., P, window) where `candidate` (P,) is True: a view when they
+    are consecutive (the usual case: the range limits' frames), else a copy."""
+    idx = np.flatnonzero(candidate)
+    if idx.size and idx[-1] - idx[0] + 1 == idx.size:
+        return frames[..., idx[0] : idx[-1] + 1, :]
+    return frames[..., idx, :]
+
+
+def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz, taper=1.0) -> int:
+    """The STFT bin of highest energy, summed over the `frames` (..., window) tapered
+    by `taper` (window,) (or 1.0: already tapered), inside `band_hz` when given.
+
+    Only the band's bins are computed (a real product with their cosines and sines,
+    the taper folded in: no copy of the frames), the same sums as the full
+    ``rfft``'s for those bins; without a band, every bin by ``rfft``."""
+    n = frames.shape[-1]
+    if band_hz is None:
+        spec = np.fft.rfft(frames * taper, axis=-1)  # (K, M, P', F)
+        return int(np.argmax((spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2))))
+    bins = np.flatnonzero((freqs >= band_hz[0]) & (freqs <= band_hz[1]))
+    if bins.size == 0:  # bins wider than the band: the one nearest its centre
+        return int(np.argmin(np.abs(freqs - np.mean(band_hz))))
+    phase = (2 * np.pi / n) * np.outer(np.arange(n), bins)  # (window, B)
+    basis = np.asarray(taper)[..., None] * np.hstack([np.cos(phase), np.sin(phase)])
+    proj = frames @ basis  # (K, M, P', 2B): real and imaginary parts of the bins
+    power = np.einsum("kmpb,kmpb->b", proj, proj)
+    return int(bins[np.argmax(power[: bins.size] + power[bins.size :])])
 
 
 def _checked(mf, stft: Stft, gate: BinGate) -> np.ndarray:

@@ -309,3 +309,37 @@ def test_images_open_as_netcdf_in_xarray(recording_file, tmp_path):
         assert abs(float(top.azimuth_deg[0]) - AZ) <= 3.0
         assert abs(float(top.elevation_deg[0]) - EL) <= 3.0
         assert ds.attrs["index"] == 0
+
+
+@pytest.mark.parametrize("compression", ["lzf", "gzip", None])
+def test_images_h5_holds_the_levels_and_nan_at_gated_bins(recording_file, tmp_path, compression):
+    """Plain h5py reads back, at every kept bin, 10 log10(p / max) in steps of
+    1/128 dB (computed here), and NaN at the bins the gate removed (runs of kept
+    bins with gaps, a chunk's worth of gated bins among them)."""
+    from acousim.export import write_image_data
+
+    rec = P.load_recording(recording_file, 0)
+    rng = np.random.default_rng(3)
+    step = 0.01
+    kept = np.array([0, 1, 2, 5, 6, 13, 14, 15, 16, 17, 30])
+    power = rng.uniform(1e-9, 2.0, (kept.size, 3, 4)) ** 3
+    power[1, 0, 0] = 0.0  # no power: the floor, -300 dB
+    image = P.Image(
+        power=power,
+        range_m=0.5 + step * kept,
+        elevation_rad=np.deg2rad([-2.0, 0.0, 2.0]),
+        azimuth_rad=np.deg2rad([-3.0, -1.0, 1.0, 3.0]),
+        method="das",
+        frequency_hz=40e3,
+        bin_range_m=step,
+    )
+    path = write_image_data(tmp_path / "i.h5", [rec], [{"das": image}], compression=compression)
+    want = np.full((31, 3, 4), np.nan, np.float32)
+    with np.errstate(divide="ignore"):
+        db = np.maximum(10 * np.log10(power / power.max()), -300.0)
+    want[kept] = np.round(db * 128) / 128
+    with h5py.File(path, "r") as f:
+        d = f["recording_000000/das"]
+        assert d.dtype == np.float32 and d.compression == compression
+        np.testing.assert_array_equal(d[()], want)  # NaN where NaN
+        np.testing.assert_allclose(f["recording_000000/range_m"][()], 0.5 + step * np.arange(31))

@@ -260,3 +260,33 @@ def test_a_drive_frame_is_what_matplotlib_draws_of_the_same_figure():
     diff = np.abs(fast - full).max(axis=2)
     assert (diff <= 2).mean() >= 0.99
     assert hot(fast / 255).sum() > 20  # the echoes are drawn
+
+
+def test_the_drive_gif_keeps_flat_colours_exactly_and_colour_maps_close(tmp_path):
+    """The drive's GIF (one palette for every frame) read back with Pillow: the flat
+    colours (background, text, legend) exactly as drawn, a colour map's smooth ramp
+    (matplotlib's inferno, 1000 levels: more colours than a GIF holds) within a few
+    levels of each pixel, every frame, the delay as asked."""
+    import matplotlib
+    from PIL import Image as PILImage
+
+    from acousim.viz.drive import write_gif
+
+    ramp = (matplotlib.colormaps["inferno"](np.linspace(0, 1, 1000))[:, :3] * 255).round()
+    flat = np.array([[0, 0, 0], [200, 30, 30], [30, 160, 200], [90, 90, 90], [250, 210, 0]])
+    frames = np.full((6, 90, 120, 3), 255, np.uint8)
+    for k, f in enumerate(frames):
+        for j, c in enumerate(flat):  # flat blocks moving from frame to frame
+            f[5 + 12 * j : 15 + 12 * j, 4 + 3 * k : 30 + 3 * k] = c
+        # the ramp over the right half, shifted by a frame-dependent offset
+        idx = (np.add.outer(np.arange(90) * 5, np.arange(60) * 7) + 37 * k) % 1000
+        f[:, 60:] = ramp[idx]
+    write_gif(tmp_path / "d.gif", frames, 120)
+    with PILImage.open(tmp_path / "d.gif") as gif:
+        assert gif.n_frames == len(frames) and gif.info["duration"] == 120
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            got = np.asarray(gif.convert("RGB")).astype(int)
+            np.testing.assert_array_equal(got[:, :60], frames[k, :, :60])
+            err = np.abs(got[:, 60:] - frames[k, :, 60:])
+            assert err.max() <= 16 and err.mean() < 2.5, (err.max(), err.mean())
