@@ -94,11 +94,13 @@ def label_map(
     top = np.full(R * G, -1)
     for k in range(len(classes)):
         rows = np.flatnonzero(cls == k)
-        energy_map = (k_range[rows].T @ k_angle[rows]).toarray().reshape(-1)
-        total += energy_map
-        more = energy_map > best
-        best[more] = energy_map[more]
-        top[more] = k
+        # the class's energy on the cells it reaches (its paths' cells: sparse)
+        part = (k_range[rows].T @ k_angle[rows]).tocoo()
+        cells = part.row.astype(np.int64) * G + part.col
+        total[cells] += part.data
+        more = part.data > best[cells]
+        best[cells[more]] = part.data[more]
+        top[cells[more]] = k
     if not total.any():
         return none
     shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
