@@ -195,10 +195,13 @@ def _span(index: list[int]) -> str:
 
 def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
     from acousim.export import write_image_data, write_peaks_csv
+    from acousim.export.images import peak_tables
     from acousim.imaging.run import write_drive, write_stills
 
     files = []
     if not args.no_data:
+        threshold = options.peak_threshold_db
+        tables = peak_tables(recs, images, index, threshold)  # once for both files
         files += [
             write_image_data(
                 out / "images.h5",
@@ -206,10 +209,11 @@ def _write_all(args, out, recs, images, index, options, animation, shown=None) -
                 images,
                 index,
                 dynamic_range_db=options.dynamic_range_db,
-                peak_threshold_db=options.peak_threshold_db,
+                peak_threshold_db=threshold,
+                tables=tables,
             ),
             write_peaks_csv(
-                out / "peaks.csv", recs, images, index, threshold_db=options.peak_threshold_db
+                out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables
             ),
         ]
     files += write_stills(

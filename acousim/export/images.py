@@ -92,6 +92,7 @@ def write_image_data(
     compression: str | None = "gzip",
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     peak_threshold_db: float = PEAK_THRESHOLD_DB,
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
@@ -101,6 +102,8 @@ def write_image_data(
     dynamic_range_db : cells of the label maps this far below the strongest cell's
         simulated energy are labelled -1 (none).
     peak_threshold_db : the peaks stored (``peaks/<method>``, as ``peaks.csv``).
+    tables : the images' peak tables when made already (:func:`peak_tables`, with the
+        same threshold; None: made here).
     compression : HDF5's filter, with shuffle: "gzip" (default, :data:`GZIP_LEVEL`: read by
         every HDF5 tool, MATLAB and HDFView included), "lzf" (h5py's own: 1.3x faster
         to write than gzip at level 1, the file a quarter larger, read by h5py,
@@ -109,6 +112,8 @@ def write_image_data(
     import h5py
 
     indices = list(indices) if indices is not None else list(range(len(recordings)))
+    if tables is None:
+        tables = peak_tables(recordings, images, indices, peak_threshold_db)
     width = max(6, len(str(max(indices, default=0))))
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
@@ -118,7 +123,7 @@ def write_image_data(
             "acoustic images: level in dB re the strongest cell of each image, "
             "dimensions (range_m, elevation_deg, azimuth_deg); NaN = no data"
         )
-        for idx, rec, imgs in zip(indices, recordings, images):
+        for idx, rec, imgs, table in zip(indices, recordings, images, tables):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
             _write_provenance(g, rec.provenance)
@@ -139,7 +144,7 @@ def write_image_data(
                 labels = (dynamic_range_db, compression, made)
                 _write_labels(g, rec, (method, img), axis, list(scales), *labels)
                 peaks = g.require_group("peaks").create_group(method)
-                _write_peaks(peaks, rec, idx, img, peak_threshold_db)
+                _write_peaks(peaks, table[method])
             if rec.truth is not None and rec.truth.object_index is not None:
                 names = list(rec.truth.object_names)
                 g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
@@ -151,15 +156,30 @@ def write_image_data(
 _H5_PEAK_COLUMNS = tuple(c for c in PEAK_COLUMNS if c not in ("recording", "method", "provenance"))
 
 
-def _write_peaks(g, rec, index: int, img: P.Image, threshold_db: float) -> None:
-    """The image's peaks (those of ``peaks.csv``, strongest first, with their truth)
+def peak_tables(
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    threshold_db: float = PEAK_THRESHOLD_DB,
+) -> list[dict[str, P.PeakTable]]:
+    """Each image's peaks within `threshold_db` (dB) as rows (:func:`acousim.peak_table`,
+    matched to the traced paths), per recording {method: table}: made once for
+    ``images.h5`` and ``peaks.csv`` alike."""
+    from acousim.imaging.run import peak_table
+
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    return [
+        {m: peak_table(rec, img, threshold_db=threshold_db, index=idx) for m, img in imgs.items()}
+        for idx, rec, imgs in zip(indices, recordings, images)
+    ]
+
+
+def _write_peaks(g, rows: P.PeakTable) -> None:
+    """An image's peak rows (those of ``peaks.csv``, strongest first, with their truth)
     as one dataset (P,) per column: numbers float64 (NaN: none), integers and
     flags int32 (-1: none), text UTF-8 ("": none)."""
     import h5py
 
-    from acousim.imaging.run import peak_table
-
-    rows = peak_table(rec, img, threshold_db=threshold_db, index=index)
     for name in _H5_PEAK_COLUMNS:
         values = [getattr(row, name) for row in rows]
         if name in _TEXT_COLUMNS:
@@ -270,20 +290,21 @@ def write_peaks_csv(
     indices: Sequence[int] | None = None,
     *,
     threshold_db: float = PEAK_THRESHOLD_DB,
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
 ) -> Path:
     """Write the peaks of every image within `threshold_db` (dB) of its strongest cell
     to a CSV file (atomically), one row per peak (:func:`acousim.peak_table`: the
-    columns of :class:`processing.PeakRow`), strongest first per image."""
-    from acousim.imaging.run import peak_table
-
+    columns of :class:`processing.PeakRow`), strongest first per image; `tables`: as
+    :func:`write_image_data` takes them."""
     indices = list(indices) if indices is not None else list(range(len(recordings)))
+    if tables is None:
+        tables = peak_tables(recordings, images, indices, threshold_db)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(PEAK_COLUMNS)
-    for idx, rec, imgs in zip(indices, recordings, images):
-        for img in imgs.values():
-            table = peak_table(rec, img, threshold_db=threshold_db, index=idx)
-            w.writerows([_fmt(row.as_dict().values()) for row in table])
+    for table in tables:
+        for rows in table.values():
+            w.writerows([_fmt(row.as_dict().values()) for row in rows])
     return write_text(path, buf.getvalue())
 
 
