@@ -79,8 +79,13 @@ def memory_limit_bytes() -> float:
 #: settings that are tables of their own (a dataclass of declared settings, one
 #: field of the simulation; a preset gives some of its keys): ``diffraction``
 TABLES = ("diffraction",)
-#: the keywords before a table existed, which give it too (``Simulation``'s InitVars)
-_TABLE_KEYWORDS = {"diffraction_step_m", "diffraction_order", "diffraction_reflections"}
+#: the flat names the diffraction table's keys had before it existed (scene files'
+#: ``[simulation]`` keys and ``Simulation``'s keywords, read for a version): old -> key
+FLAT_DIFFRACTION = {
+    "diffraction_step_m": "step_m",
+    "diffraction_order": "order",
+    "diffraction_reflections": "reflections",
+}
 
 
 def _settings(cls: Any) -> frozenset[str]:
@@ -143,7 +148,7 @@ def record_given(cls: type) -> type:
         origin = kwargs.get("_origin")
         if origin is None:
             names_given = frozenset(names[: len(args)]) | (kwargs.keys() & declared)
-            if kwargs.keys() & _TABLE_KEYWORDS:
+            if kwargs.keys() & FLAT_DIFFRACTION.keys():
                 names_given |= {"diffraction"}
         else:
             quality, before = origin

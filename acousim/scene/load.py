@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 import processing as P
+from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
 from acousim.scene.model import (
     Diffraction,
@@ -198,22 +199,14 @@ def load_scene(path: str | Path) -> Scene:
     )
 
 
-#: the diffraction keys of ``[simulation]`` before they became ``[simulation.diffraction]``
-_FLAT_DIFFRACTION = {
-    "diffraction_step_m": "step_m",
-    "diffraction_order": "order",
-    "diffraction_reflections": "reflections",
-}
-
-
 def _simulation(r: _Reader, table: dict) -> Simulation:
     """``[simulation]`` and its ``[simulation.diffraction]`` table.  The older flat keys
     (``diffraction = false``, ``diffraction_order = 1``, ...) are read for a version with
     a DeprecationWarning that names the new key."""
-    extra = {"diffraction", *_FLAT_DIFFRACTION}
+    extra = {"diffraction", *FLAT_DIFFRACTION}
     declared = r.settings(Simulation, table, "simulation", extra=extra)
     sub = table.get("diffraction", {})
-    flat = {new: table[old] for old, new in _FLAT_DIFFRACTION.items() if old in table}
+    flat = {new: table[old] for old, new in FLAT_DIFFRACTION.items() if old in table}
     if isinstance(sub, bool):
         flat = {"enabled": sub, **flat}
         sub = {}
