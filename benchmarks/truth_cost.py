@@ -82,22 +82,33 @@ def main(old: str, pairs: int = 3) -> str:
     return "\n".join(lines)
 
 
+class _Nothing:
+    def fields(self):
+        return {}
+
+
+def _switch():
+    """The corridor's simulator (pose 0 run: caches, compilation) and the simulator's
+    calls that make what the sensor sees: as they are, and replaced by ones that
+    return nothing (the old ground truth)."""
+    import acousim.simulator as S
+    from acousim.scene import load_scene
+
+    sim = S.Simulator(load_scene(HERE / "scenes" / "corridor.toml"))
+    sim.run([0])
+    real = (S.seen_moving, S.seen_static, S.Simulator._chains)
+    off = (lambda *a, **k: _Nothing(), lambda *a, **k: _Nothing(), lambda *a, **k: {})
+    return sim, real, off
+
+
 def in_process(pairs: int = 7) -> str:
     """This code with and without what the sensor sees (the simulator's calls that
     make it replaced by ones that return nothing: the old ground truth), alternating
     in one process: `Simulator.run` over POSES, every trace paid; the median of the
     per-pair ratios of measurements/s."""
     import acousim.simulator as S
-    from acousim.scene import load_scene
 
-    class _Nothing:
-        def fields(self):
-            return {}
-
-    sim = S.Simulator(load_scene(HERE / "scenes" / "corridor.toml"))
-    sim.run([0])
-    real = (S.seen_moving, S.seen_static, S.Simulator._chains)
-    off = (lambda *a, **k: _Nothing(), lambda *a, **k: _Nothing(), lambda *a, **k: {})
+    sim, real, off = _switch()
     spent = [0.0]
 
     def clocked(f):  # the time spent in f (any thread), summed
@@ -144,16 +155,8 @@ def per_pose(rounds: int = 2) -> str:
     pose of POSES, without and with what the sensor sees, the order alternating
     from pose to pose; the median of the per-pose ratios."""
     import acousim.simulator as S
-    from acousim.scene import load_scene
 
-    class _Nothing:
-        def fields(self):
-            return {}
-
-    sim = S.Simulator(load_scene(HERE / "scenes" / "corridor.toml"))
-    sim.run([0])
-    real = (S.seen_moving, S.seen_static, S.Simulator._chains)
-    off = (lambda *a, **k: _Nothing(), lambda *a, **k: _Nothing(), lambda *a, **k: {})
+    sim, real, off = _switch()
     poses = sim.scene.sensor.poses
     ratios, cpu = [], {False: [], True: []}
     try:

@@ -28,18 +28,11 @@ def hallway(tmp: Path):
     """Walls at y = +1 m (left) and y = -1 m (right), the sensor between them facing
     along the hallway (+x)."""
     for y, name in ((1.0, "left"), (-1.0, "right")):
-        q = np.array([[-15, y, -1.5], [15, y, -1.5], [15, y, 1.5], [-15, y, 1.5]], float)
-        tris = np.array([q[[0, 1, 2]], q[[0, 2, 3]]])
-        trimesh.Trimesh(tris.reshape(-1, 3), np.arange(6).reshape(-1, 3)).export(
-            tmp / f"{name}.obj"
-        )
+        wall = [[-15, y, -1.5], [15, y, -1.5], [15, y, 1.5], [-15, y, 1.5]]  # m
+        trimesh.Trimesh(wall, [[0, 1, 2], [0, 2, 3]]).export(tmp / f"{name}.obj")
     return parse_scene(
         {
-            "sensor": {
-                "array": "urtis_v1",
-                "direct_path": False,
-                "pose": {"position_m": [0, 0, 0]},
-            },
+            "sensor": {"array": "urtis_v1", "direct_path": False},  # at the origin, facing +x
             "simulation": {"max_range_m": 3.0, "bounces": 2, "snr_db": 60.0, "beam_deg": 180.0},
             "materials": [{"name": "plaster", "reflection": 0.9}],
             "meshes": [

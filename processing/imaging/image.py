@@ -85,10 +85,10 @@ class Peaks:
         if sensor_m is None:
             sensor_m = _unit_vectors(self.azimuth_rad, self.elevation_rad) * self.range_m[:, None]
         world_m = sensor_m if world_m is None else world_m
+        sensor_m, world_m = np.asarray(sensor_m, float), np.asarray(world_m, float)
         rows = []
         for k in range(len(self)):
-            x, y, z = (float(v) for v in sensor_m[k])
-            wx, wy, wz = (float(v) for v in world_m[k])
+            s, w = sensor_m[k].tolist(), world_m[k].tolist()
             rows.append(
                 PeakRow(
                     recording=recording,
@@ -97,12 +97,12 @@ class Peaks:
                     azimuth_deg=float(np.rad2deg(self.azimuth_rad[k])),
                     elevation_deg=float(np.rad2deg(self.elevation_rad[k])),
                     level_db=float(self.level_db[k]),
-                    x_m=x,
-                    y_m=y,
-                    z_m=z,
-                    world_x_m=wx,
-                    world_y_m=wy,
-                    world_z_m=wz,
+                    x_m=s[0],
+                    y_m=s[1],
+                    z_m=s[2],
+                    world_x_m=w[0],
+                    world_y_m=w[1],
+                    world_z_m=w[2],
                     on_grid_edge=bool(edge[k]),
                     provenance=provenance,
                 )

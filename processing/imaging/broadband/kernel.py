@@ -63,8 +63,12 @@ def _combine(S, E, P, M, order, cf, binom):
 def _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, add):
     """The interpolated, phase-rotated channel m of direction g: written to (or, with
     `add`, added to) xr, xi (Nw,).  The 4-tap (cubic) case sums its taps in one pass,
-    so the accumulators are loaded and stored once instead of once per tap."""
+    so the accumulators are loaded and stored once instead of once per tap (twice
+    when written: zeroed first)."""
     T = q.shape[2]
+    if not add:  # written: start from zero, then every tap is added
+        xr[:] = 0
+        xi[:] = 0
     if T == 4:
         p0, p1, p2, p3 = ph[g, m, 0], ph[g, m, 1], ph[g, m, 2], ph[g, m, 3]
         s0, s1, s2, s3 = q[g, m, 0], q[g, m, 1], q[g, m, 2], q[g, m, 3]
@@ -76,54 +80,28 @@ def _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, add):
         w1r, w1i = np.float32(w[g, m, 1].real), np.float32(w[g, m, 1].imag)
         w2r, w2i = np.float32(w[g, m, 2].real), np.float32(w[g, m, 2].imag)
         w3r, w3i = np.float32(w[g, m, 3].real), np.float32(w[g, m, 3].imag)
-        if add:
-            for j in range(Nw):
-                xr[j] += (
-                    a0r[j] * w0r
-                    - a0i[j] * w0i
-                    + a1r[j] * w1r
-                    - a1i[j] * w1i
-                    + a2r[j] * w2r
-                    - a2i[j] * w2i
-                    + a3r[j] * w3r
-                    - a3i[j] * w3i
-                )
-                xi[j] += (
-                    a0r[j] * w0i
-                    + a0i[j] * w0r
-                    + a1r[j] * w1i
-                    + a1i[j] * w1r
-                    + a2r[j] * w2i
-                    + a2i[j] * w2r
-                    + a3r[j] * w3i
-                    + a3i[j] * w3r
-                )
-        else:
-            for j in range(Nw):
-                xr[j] = (
-                    a0r[j] * w0r
-                    - a0i[j] * w0i
-                    + a1r[j] * w1r
-                    - a1i[j] * w1i
-                    + a2r[j] * w2r
-                    - a2i[j] * w2i
-                    + a3r[j] * w3r
-                    - a3i[j] * w3i
-                )
-                xi[j] = (
-                    a0r[j] * w0i
-                    + a0i[j] * w0r
-                    + a1r[j] * w1i
-                    + a1i[j] * w1r
-                    + a2r[j] * w2i
-                    + a2i[j] * w2r
-                    + a3r[j] * w3i
-                    + a3i[j] * w3r
-                )
+        for j in range(Nw):
+            xr[j] += (
+                a0r[j] * w0r
+                - a0i[j] * w0i
+                + a1r[j] * w1r
+                - a1i[j] * w1i
+                + a2r[j] * w2r
+                - a2i[j] * w2i
+                + a3r[j] * w3r
+                - a3i[j] * w3i
+            )
+            xi[j] += (
+                a0r[j] * w0i
+                + a0i[j] * w0r
+                + a1r[j] * w1i
+                + a1i[j] * w1r
+                + a2r[j] * w2i
+                + a2i[j] * w2r
+                + a3r[j] * w3i
+                + a3i[j] * w3r
+            )
         return
-    if not add:
-        xr[:] = 0
-        xi[:] = 0
     for t in range(T):
         wr, wi = np.float32(w[g, m, t].real), np.float32(w[g, m, t].imag)
         ar = zr[k, m, ph[g, m, t], q[g, m, t] : q[g, m, t] + Nw]

@@ -10,28 +10,9 @@ import numpy as np
 
 import processing as P
 from tests import REPO
+from tests.acousim.imaging.synthetic import blob_image, hot
 
 SCENES = REPO / "scenes"
-
-
-def blob_image(sources, *, ranges, step_deg=2.0, method="das"):
-    """A synthetic image: Gaussian blobs at (range_m, azimuth_deg, elevation_deg, dB)."""
-    az = np.deg2rad(np.arange(-90, 90.1, step_deg))
-    el = np.deg2rad(np.arange(-40, 40.1, step_deg))
-    power = np.full((ranges.size, el.size, az.size), 1e-9)
-    R, E, A = np.meshgrid(ranges, el, az, indexing="ij")
-    for r, a, e, db in sources:
-        power += 10 ** (db / 10) * np.exp(
-            -(((R - r) / 0.02) ** 2)
-            - ((A - np.deg2rad(a)) / np.deg2rad(4)) ** 2
-            - ((E - np.deg2rad(e)) / np.deg2rad(4)) ** 2
-        )
-    return P.Image(power, ranges, el, az, method, 40e3, bin_range_m=0.01)
-
-
-def hot(pic):
-    """Pixels (H, W) of the top of the inferno map (pale yellow: not white, not grey)."""
-    return (pic[..., 0] > 0.9) & (pic[..., 1] > 0.8) & (pic[..., 2] < 0.75)
 
 
 def _canvas(fig) -> np.ndarray:

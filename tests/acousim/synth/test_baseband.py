@@ -19,6 +19,7 @@ from acousim.synth.doppler import render_doppler
 from acousim.synth.options import RenderOptions
 from acousim.synth.response import PathResponse
 from acousim.trace.motion.following import MovingPaths
+from tests.acousim.synth.references import echoes_ahead, filtered_per_path
 
 C = 343.0
 FS = 450e3
@@ -101,30 +102,14 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
     """A static scene's echoes (40 point reflectors, absorption and directivity) at
     complex baseband against each path filtered by its own response and delayed
     exactly in the frequency domain (written here): the band floor sets the error."""
-    from scipy import fft as sfft
-
     from acousim.synth.options import Capture
-    from acousim.synth.point_reflectors import PointReflectors, point_echoes
     from acousim.synth.render import render_baseband
 
-    rng = np.random.default_rng(4)
     arr = P.ura(2, 2, 3.85e-3)
     wf = P.rtis_call("default_25_50")
-    refl = PointReflectors(rng.uniform([0.5, -2, -1], [5, 2, 1], (40, 3)), 1.0)
-    e0 = point_echoes(refl, arr, C)
-    theta = np.arccos(refl.positions_m[:, 0] / np.linalg.norm(refl.positions_m, axis=1))
-    e = Echoes(e0.delay_s, e0.gain, e0.path_length_m, e0.order, theta)
+    e = echoes_ahead(arr)
     resp = PathResponse(emitter_radius_m=0.004)
-    call, start = wf.band_limited(FS)
-    n = sfft.next_fast_len(16384 + call.size + 512)
-    W = sfft.rfft(call, n)
-    f = np.arange(W.size) * FS / n
-    spec = np.zeros((arr.n_mics, W.size), complex)
-    for k in range(e.n_paths):
-        H = resp.matrix(f, e.path_length_m[:, k], np.full(arr.n_mics, theta[k])).T
-        delay = e.delay_s[:, k][:, None] + start / FS
-        spec += W * H * e.gain[:, k][:, None] * np.exp(-2j * np.pi * f * delay)
-    ref = sfft.irfft(spec, n)[:, :16384]
+    ref = filtered_per_path(e, wf, resp, FS, 16384)
     capture = Capture(arr, wf, FS, 16384, C)
     errors = [
         _db(render_baseband(e, capture, BASEBAND, resp, floor), ref) for floor in (-40.0, -60.0)

@@ -15,6 +15,7 @@ from acousim.synth import (
     simulate,
     simulate_points,
 )
+from tests.acousim.synth.references import echoes_ahead, filtered_per_path
 
 FS, C = 500e3, 343.0
 
@@ -118,30 +119,15 @@ def test_path_responses_match_exact_per_path_filtering():
     """Absorption and piston directivity through the low-rank factorisation against
     filtering each path and microphone separately: -81 dB here, in float32 as in
     float64 (the factorisation sets it, not the single-precision FFTs)."""
-    from scipy import fft as sfft
+    from acousim.synth import PathResponse
 
-    from acousim.synth import Echoes, PathResponse
-
-    rng = np.random.default_rng(4)
     arr = P.ura(2, 2, 3.85e-3)
     wf = P.rtis_call()
     fs = 450e3
-    refl = PointReflectors(rng.uniform([0.5, -2, -1], [5, 2, 1], (40, 3)), 1.0)
-    e0 = point_echoes(refl, arr, C)
-    theta = np.arccos(refl.positions_m[:, 0] / np.linalg.norm(refl.positions_m, axis=1))
-    e = Echoes(e0.delay_s, e0.gain, e0.path_length_m, e0.order, theta)
+    e = echoes_ahead(arr)
     resp = PathResponse(emitter_radius_m=0.004)
     y = render(e, wf, fs, 16384, response=resp)
-    call, start = wf.band_limited(fs)
-    n = sfft.next_fast_len(16384 + call.size + 512)
-    W = sfft.rfft(call, n)
-    f = np.arange(W.size) * fs / n
-    spec = np.zeros((arr.n_mics, W.size), complex)
-    for k in range(e.n_paths):
-        H = resp.matrix(f, e.path_length_m[:, k], np.full(arr.n_mics, theta[k])).T
-        delay = e.delay_s[:, k][:, None] + start / fs
-        spec += W * H * e.gain[:, k][:, None] * np.exp(-2j * np.pi * f * delay)
-    ref = sfft.irfft(spec, n)[:, :16384]
+    ref = filtered_per_path(e, wf, resp, fs, 16384)
     assert 10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)) < -75
     # and the response does something: about 5 dB of absorption and directivity here
     y0 = render(e, wf, fs, 16384)
@@ -184,15 +170,11 @@ def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monke
     pytest.importorskip("numba")
     import importlib
 
-    from acousim.synth import Echoes, PathResponse
+    from acousim.synth import PathResponse
 
     render_mod = importlib.import_module("acousim.synth.render")  # the module
-    rng = np.random.default_rng(5)
     arr = P.ura(2, 3, 3.85e-3)
-    refl = PointReflectors(rng.uniform([0.3, -2, -1], [5, 2, 1], (60, 3)), 1.0)
-    e0 = point_echoes(refl, arr, C)
-    theta = np.arccos(refl.positions_m[:, 0] / np.linalg.norm(refl.positions_m, axis=1))
-    e = Echoes(e0.delay_s, e0.gain, e0.path_length_m, e0.order, theta)
+    e = echoes_ahead(arr, n=60, seed=5, near_m=0.3)
     wf, fs = P.rtis_call(), 450e3
     resp = PathResponse(emitter_radius_m=0.004)
     compiled = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
