@@ -26,7 +26,6 @@ calls :func:`acousim.process.configure`.
 from __future__ import annotations
 
 import contextlib
-import copy
 import dataclasses
 import functools
 import logging
@@ -45,18 +44,16 @@ from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
 from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.response import PathResponse, mic_directivity
 from acousim.synth.signal_model import in_window, simulate
-from acousim.trace.direct import heard_points
-from acousim.trace.motion.following import Endpoints, MovingPaths
-from acousim.trace.paths import KIND, TracedPaths, kind_names
-from acousim.trace.seen import chain_points, object_table, point_objects, seen_static
-from acousim.trace.tracer import Tracer
+from acousim.trace.direct import MIN_POINT_DISTANCE_M, check_points_clear
+from acousim.trace.lidar import scan
+from acousim.trace.motion.measurement import InMotion, paths_in_motion, tracer_for
+from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.seen import chain_fields, seen_static
 from processing.base import interrupt
 from processing.base.errors import InputError
 
 __all__ = ["Simulator", "Heard", "package_version", "MIN_POINT_DISTANCE_M"]
 
-MIN_POINT_DISTANCE_M = 1e-3
-"""Nearest a point reflector may be to the emitter or a microphone (m)."""
 
 log = logging.getLogger(__name__)
 
@@ -145,12 +142,12 @@ class Simulator:
         self.scene = scene
         #: the sensor's array: its emitter and microphones, sensor frame
         self.array = scene.sensor.array
-        # moving point reflectors are placed per emission instant: see _moving_points
+        # moving point reflectors are placed per emission instant (paths_in_motion)
         self.moving_points = tuple(p for p in scene.points if p.moving)
         #: meshes that move: the world is rebuilt per emission instant (a scene
         #: without them keeps its one world)
         self.moving_meshes = any(m.moving for m in scene.meshes)
-        self.tracer = tracer if tracer is not None else _tracer(scene, threads)
+        self.tracer = tracer if tracer is not None else tracer_for(scene, threads)
         env = scene.environment
         self.c = env.speed_of_sound_m_s
         self.response = PathResponse(
@@ -239,7 +236,9 @@ class Simulator:
         scan.  :meth:`run` prepares the next pose in a thread while the current one
         renders."""
         motion = self.motion_at(pose, motion)
-        self._check_points_clear(pose)
+        array = self.array
+        ends = pose.to_world(np.vstack([array.emitter_m, array.positions_m]))
+        check_points_clear(self.scene.points, pose.time_s, ends, str(pose.to_dict()))
         scene = self.scene
         scene.check_memory(1, n_samples)  # an InputError with the estimate, before allocating
         n = n_samples or scene.n_samples()
@@ -299,70 +298,45 @@ class Simulator:
 
     def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
         """:meth:`heard` in motion."""
-        moving, truth_pos, kinds, truth_vel, interactions, paths = self._moving(pose, max_path_m)
-        duration = self.scene.sensor.call.duration_s
+        m = self._in_motion(pose, max_path_m)
+        sensor = self.scene.sensor
         kin = SensorKinematics(
-            motion, pose, self.array, n_samples / self.scene.sensor.sample_rate_hz, TABLE_STEP_S
+            motion, pose, self.array, n_samples / sensor.sample_rate_hz, TABLE_STEP_S
         )
-        arr = arrivals(moving, kin, duration, self.c, pose.rotation[:, 0])
+        arr = arrivals(m.moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
-        if interactions.shape[1]:  # material tables: the traced paths come first
-            extra = np.zeros((len(moving) - len(interactions), interactions.shape[1]), int)
-            echoes = dataclasses.replace(echoes, interactions=np.concatenate([interactions, extra]))
+        if m.traced.interactions.shape[1]:  # material tables
+            echoes = dataclasses.replace(echoes, interactions=m.interactions)
         mics = pose.to_world(self.array.positions_m)
-        echoes = self._mic_directivity(echoes, moving.anchor_m, mics, pose)
-        level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
-            np.linalg.norm(moving.anchor_m - mics.mean(axis=0), axis=1), 1e-9
-        )
+        receiver = mics.mean(axis=0)
+        echoes = self._mic_directivity(echoes, m.moving.anchor_m, mics, pose)
         centre = self.array.positions_m.mean(axis=0)
         guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
+        points = (m.position_m[len(m.traced) :], m.points)
         seen = {
-            **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
-            **self._chains(paths, pose, mics.mean(axis=0), truth_pos[len(paths) :]),
+            **seen_moving(m.moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
+            **self._chains(m.traced, pose, receiver, points),
         }
-        keep = in_window(echoes, n_samples, self.scene.sensor.sample_rate_hz)
+        keep = in_window(echoes, n_samples, sensor.sample_rate_hz)
         return Heard(
             echoes.select(keep),
-            truth_pos,
-            kinds,
-            moving.order,
-            level,
-            self.tracer.traced(pose, self._traced_array, max_path_m)[1],
-            velocity_m_s=truth_vel,
+            m.position_m,
+            m.kinds,
+            m.moving.order,
+            m.moving.level_at(receiver),  # magnitudes, as TracedPaths.level_at
+            m.rays,
+            velocity_m_s=m.velocity_m_s,
             rate=arr.rate[:, keep],
             rows=np.flatnonzero(keep),
             seen=seen,
         )
 
-    def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, extra=None) -> dict:
-        """The ground truth's chain fields of the traced `paths` (first and last
-        points, objects, :func:`acousim.trace.seen.chain_points`) and, `extra`, of
-        the moving point reflectors' paths after them (positions (K, 3))."""
-        tracer = self.tracer.tracer_at(pose.time_s)
-        world = tracer.world
-        names, faces = (
-            object_table(self.scene, None)
-            if world is None
-            else world._cached("objects", lambda: object_table(self.scene, world))
-        )
+    def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, points=None) -> dict:
+        """The ground truth's chain fields (:func:`acousim.trace.seen.chain_fields`) in
+        the world of the emission instant."""
         emitter = pose.to_world(self.array.emitter_m)
-        first, last, obj = chain_points(paths, emitter, receiver, tracer.caster, faces)
-        n_mesh = len(names) - len(self.scene.points)
-        still = np.flatnonzero(paths.kind == KIND["point"])
-        if still.size:
-            where = np.array([p.position_m for p in self.scene.points], float)
-            obj[still] = point_objects(paths.position_m[still], where, n_mesh)
-        if extra is not None and len(extra):
-            index = [i for i, p in enumerate(self.scene.points) if p.moving]
-            first = np.concatenate([first, extra])
-            last = np.concatenate([last, extra])
-            obj = np.concatenate([obj, n_mesh + np.asarray(index, int)])
-        return {
-            "first_point_m": first,
-            "last_point_m": last,
-            "object_index": obj,
-            "object_names": names,
-        }
+        tracer = self.tracer.tracer_at(pose.time_s)
+        return chain_fields(tracer, self.scene, paths, emitter, receiver, points)
 
     def _mic_directivity(self, echoes: Echoes, anchor_m, mics, pose: Pose) -> Echoes:
         """`echoes` with the microphones' directivity (the sensor's ``mic_radius_m``;
@@ -410,7 +384,6 @@ class Simulator:
         lidar = self.scene.sensor.lidar
         if lidar is None:
             return None
-        from acousim.trace.lidar import scan
 
         tracer = self.tracer.tracer_at(pose.time_s)
         seed = int(
@@ -422,37 +395,21 @@ class Simulator:
         """The paths of a measurement in motion starting at `pose`:
         :class:`~acousim.trace.motion.following.MovingPaths`, and for the ground truth the
         positions (N, 3) at the start of the emission, the kind names and the velocities
-        (N, 3) of the reflecting points (moving meshes:
-        :mod:`acousim.trace.motion.moving_world`)."""
-        return self._moving(pose)[:4]
+        (N, 3) of the reflecting points
+        (:func:`acousim.trace.motion.measurement.paths_in_motion`)."""
+        m = self._in_motion(pose)
+        return m.moving, m.position_m, m.kinds, m.velocity_m_s
 
-    def _moving(self, pose: Pose, max_path_m: float | None = None):
-        """:meth:`moving_paths` and the traced paths' material interactions (the traced
-        paths come first, moving points after)."""
-        paths = self.tracer.traced(pose, self._traced_array, max_path_m)[0]
-        emitter = pose.to_world(self.array.emitter_m)
-        moving = MovingPaths.from_traced(paths, emitter)
-        truth_vel = moving.velocity_m_s
-        if self.moving_meshes:
-            from acousim.trace.motion.moving_world import follow_chains, ride
-
-            on, normals, glint = self.tracer.riders(paths, pose, self.array)
-            velocities = self.tracer.velocities(pose)
-            receiver = pose.to_world(self.array.positions_m.mean(axis=0))
-            still = moving
-            ends = Endpoints(emitter, receiver, self.c)
-            moving, truth_vel = ride(moving, paths, on, normals, glint, velocities, ends)
-            # reflections of second order and up: every moving plane of the chain
-            moving = follow_chains(self.tracer, moving, still, paths, pose, ends)
-        truth_pos, kinds = paths.position_m, kind_names(paths.kind)
-        if self.moving_points:
-            pos, a, v = self._moving_points(pose)
-            extra = MovingPaths.points(pos, a, v, emitter)
-            moving = MovingPaths.concatenate([moving, extra])
-            truth_pos = np.concatenate([truth_pos, pos])
-            kinds = kinds + ["point"] * len(a)
-            truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
-        return moving, truth_pos, kinds, truth_vel, paths.interactions, paths
+    def _in_motion(self, pose: Pose, max_path_m: float | None = None) -> InMotion:
+        return paths_in_motion(
+            self.tracer,
+            pose,
+            self._traced_array,
+            points=self.scene.points,
+            speed_of_sound_m_s=self.c,
+            reach_m=2 * self.scene.simulation.max_range_m,
+            max_path_m=max_path_m,
+        )
 
     def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
         """Render the prepared echoes with the scene's noise (seeded per pose index)
@@ -472,45 +429,6 @@ class Simulator:
             doppler=prep.plan,
         )
         return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
-
-    def _check_points_clear(self, pose: Pose) -> None:
-        """An InputError when a point reflector (where it is at the pose's time) lies
-        within MIN_POINT_DISTANCE_M of the emitter or a microphone: the point model's
-        1/r spreading would overflow the samples (checked before any computation)."""
-        items = self.scene.points + self.moving_points
-        if not items:
-            return
-        pts = np.array([p.at(pose.time_s)[0] if p.moving else p.position_m for p in items])
-        array = self.array
-        ends = pose.to_world(np.vstack([array.emitter_m, array.positions_m]))
-        gap = np.linalg.norm(pts[:, None, :] - ends[None, :, :], axis=2).min(axis=1)
-        near = np.flatnonzero(gap < MIN_POINT_DISTANCE_M)
-        if near.size:
-            k = int(near[0])
-            raise InputError(
-                f"point reflector at {pts[k].tolist()} m is {gap[k]:.3g} m from the emitter "
-                f"or a microphone at pose {pose.to_dict()}; keep it at least "
-                f"{MIN_POINT_DISTANCE_M:g} m away",
-                key="points.position_m",
-            )
-
-    def _moving_points(self, pose):
-        """Moving point reflectors at the start of the emission within the range and
-        seen from the emitter and the array's centre (through the world of that
-        instant, moving meshes placed there): positions (P, 3), strengths (P,),
-        velocities (P, 3) (a point on a track moves at its velocity then during the
-        measurement)."""
-        pts = self.moving_points
-        now = [p.at(pose.time_s) for p in pts]
-        pos = np.array([x for x, _ in now], float)
-        v = np.array([u for _, u in now], float)
-        a = np.array([p.strength for p in pts], float)
-        emitter = pose.to_world(self.array.emitter_m)
-        receiver = pose.to_world(self.array.positions_m.mean(axis=0))
-        tracer = self.tracer.tracer_at(pose.time_s)
-        reach = 2 * self.scene.simulation.max_range_m
-        keep, _ = heard_points(pos, emitter, receiver, reach, tracer.caster)
-        return pos[keep], a[keep], v[keep]
 
     def run(
         self, poses: Iterable[int] | None = None, progress: Callable[[int, int], None] | None = None
@@ -568,23 +486,6 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
-
-
-def _tracer(scene: Scene, threads: int):
-    """The tracer of `scene`: its one world, or (meshes that move) a world per emission
-    instant (:class:`acousim.trace.motion.moving_world.MovingWorld`); it sees the still point
-    reflectors only (the moving ones are placed per emission instant:
-    :meth:`Simulator._moving_points`)."""
-    if any(p.moving for p in scene.points):
-        # a copy, not a new Scene, which would refuse a scene whose only reflectors
-        # move ("nothing can echo")
-        scene = copy.copy(scene)
-        object.__setattr__(scene, "points", tuple(p for p in scene.points if not p.moving))
-    if any(m.moving for m in scene.meshes):
-        from acousim.trace.motion.moving_world import MovingWorld
-
-        return MovingWorld(scene, threads)
-    return Tracer(scene, threads)
 
 
 def _motion(pose: Pose, motion, rate: np.ndarray) -> dict:

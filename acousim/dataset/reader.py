@@ -15,9 +15,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+import processing as P
 from acousim.dataset.generation import MANIFEST
 from acousim.dataset.safety import sha256_file
 from acousim.dataset.torch_samples import TorchSamples
+from acousim.imaging.labels import SAMPLE_FIELDS
 from processing.base.errors import InputError
 from processing.formats.h5attrs import attribute_text
 
@@ -193,7 +195,6 @@ class DatasetReader:
         """A sample of a CHIRP shard (``[dataset] format = "chirp"``): its parameters,
         ``raw`` (M, T), the ``labels/...`` of the ground truth and, with a LiDAR,
         ``lidar/points_m`` (P, 3, LiDAR frame) and ``lidar/intensity`` (P,)."""
-        import processing as P
 
         if self.verify_on_open and name not in self._files:
             self._check(name)
@@ -204,7 +205,6 @@ class DatasetReader:
             out["labels/position_sensor_m"] = r.truth.position_sensor_m.astype(np.float32)
             out["labels/amplitude"] = r.truth.amplitude.astype(np.float32)
             out["labels/order"] = r.truth.order.astype(np.int8)
-            from acousim.imaging.labels import SAMPLE_FIELDS
 
             for key, name, dtype, _units, _dims in SAMPLE_FIELDS:  # what the sensor sees
                 if getattr(r.truth, name) is not None:

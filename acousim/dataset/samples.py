@@ -11,12 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
-from acousim.dataset.spec import DatasetSpec
+from acousim.dataset.spec import DatasetSpec, SpecError
+from acousim.scene import Pose, load_scene
+from acousim.scene.model import Environment
+from acousim.scene.trajectory import Trajectory
+from acousim.simulator import Simulator
+from acousim.trace.tracer import caster_of
+from acousim.trace.world.build import build_world
 
 
 @lru_cache(maxsize=8)
 def _scene(path: str):
-    from acousim.scene import load_scene
 
     return load_scene(path)
 
@@ -24,8 +29,6 @@ def _scene(path: str):
 @lru_cache(maxsize=4)
 def _world_caster(path: str):
     """Geometry for collision checks, built once per scene file and process."""
-    from acousim.trace.tracer import caster_of
-    from acousim.trace.world.build import build_world
 
     scene = _scene(path)
     if not scene.meshes:
@@ -46,7 +49,6 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     """The random choices of sample i: scene (relative to the spec's folder), pose
     (``Pose.to_dict`` form: position_m, yaw_deg, pitch_deg, roll_deg), conditions,
     noise seed."""
-    from acousim.scene import Pose
 
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, i]))
     w = np.array([s.weight for s in spec.scenes])
@@ -65,8 +67,6 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
             if _clear(str(choice.file), pos, choice.clearance_m):
                 break
         else:
-            from acousim.dataset.spec import SpecError
-
             raise SpecError(
                 f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
                 f"in 100 draws in the region of {choice.file}; widen the region or lower "
@@ -114,14 +114,12 @@ def _scene_path(params: dict, spec: DatasetSpec) -> str:
 
 
 def _pose(p: dict):
-    from acousim.scene import Pose
 
     yaw, pitch, roll = np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]])
     return Pose(p["position_m"], float(yaw), float(pitch), float(roll))
 
 
 def _varied_scene(params: dict, spec: DatasetSpec):
-    from acousim.scene.model import Environment
 
     scene = _scene(_scene_path(params, spec))
     c = params["conditions"]
@@ -157,7 +155,6 @@ def _varied_scene(params: dict, spec: DatasetSpec):
 def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
     """(recording, parameters, varied scene, pose) of sample i; `n_samples`: the
     recording's length (default: the scene's maximum range in the sample's air)."""
-    from acousim.simulator import Simulator
 
     params = sample_parameters(spec, i)
     scene = _varied_scene(params, spec)
@@ -171,7 +168,6 @@ def _motion(pose, conditions: dict):
     """The sensor driving forward (along its axis) at ``speed_m_s`` and turning about
     the vertical at ``turn_rate_deg_s`` during the measurement, when the spec
     randomises them; None (a frozen pose) otherwise."""
-    from acousim.scene.trajectory import Trajectory
 
     speed = conditions.get("speed_m_s", 0.0)
     turn = conditions.get("turn_rate_deg_s", 0.0)

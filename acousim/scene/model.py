@@ -33,7 +33,9 @@ from typing import TYPE_CHECKING, Any, cast, get_args
 
 import numpy as np
 
+from acousim.core.air import speed_of_sound
 from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
+from acousim.core.materials import interpolate, reference
 from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
 from acousim.scene.defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
 from acousim.scene.motion import (
@@ -46,7 +48,9 @@ from acousim.scene.motion import (
     vector3,
     velocity_setting,
 )
+from acousim.scene.names import array_named, call_named, lidar_named, scene_materials
 from acousim.scene.pose import MAX_COORDINATE_M, Pose
+from acousim.scene.trajectory import Trajectory
 from processing import Array, Waveform
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
@@ -151,7 +155,6 @@ class Material:
         (:func:`acousim.core.materials.reference`), the numbers themselves otherwise."""
         if not self.frequency_dependent:  # single numbers (checked in __post_init__)
             return self.reflection, self.diffuse  # type: ignore[return-value]
-        from acousim.core.materials import reference
 
         return reference(np.multiply(self.frequencies_khz, 1e3), self.reflection, self.diffuse)
 
@@ -166,7 +169,6 @@ class Material:
         f = np.asarray(frequency_hz, float)
         if not self.frequency_dependent:
             return np.full(f.shape, self.reflection), np.full(f.shape, self.diffuse)
-        from acousim.core.materials import interpolate
 
         table = np.multiply(self.frequencies_khz, 1e3)
         reflection, diffuse = (
@@ -368,7 +370,6 @@ class Environment:
 
     @property
     def speed_of_sound_m_s(self) -> float:
-        from acousim.core.air import speed_of_sound
 
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
@@ -409,7 +410,6 @@ class Sensor:
 
     def __post_init__(self) -> None:
         validate(self)
-        from acousim.scene.names import array_named, call_named, lidar_named
 
         object.__setattr__(self, "lidar", lidar_named(self.lidar, "Sensor.lidar"))
         object.__setattr__(self, "array", array_named(self.array, "Sensor.array"))
@@ -425,8 +425,6 @@ class Sensor:
                 )
             object.__setattr__(self, "rate_hz", float(self.rate_hz))
         if self.motion is not None:
-            from acousim.scene.trajectory import Trajectory
-
             if not isinstance(self.motion, Trajectory):
                 raise InputError(
                     "must be None or an acousim.scene.trajectory.Trajectory",
@@ -612,7 +610,6 @@ class Scene:
         ):
             if not isinstance(value, expected):
                 raise InputError(f"must be a {expected.__name__}", key=key, value=value)
-        from acousim.scene.names import scene_materials
 
         materials, meshes = scene_materials(self.materials, meshes, Material)
         object.__setattr__(self, "meshes", meshes)

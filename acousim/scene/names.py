@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import processing as P
+from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
 from processing.base.errors import InputError
 from processing.base.settings import Setting, check
 
@@ -38,7 +39,6 @@ def call_named(value: Any, key: str = "Sensor.call") -> P.Waveform:
 def lidar_named(value: Any, key: str = "Sensor.lidar"):
     """A LiDAR preset by name (:data:`acousim.scene.lidar.LIDAR_PRESETS`, the scene
     file's ``[sensor.lidar] preset``), a Lidar, or None (no LiDAR)."""
-    from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
 
     if value is None:
         return None

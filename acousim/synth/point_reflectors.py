@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acousim.core.echoes import Echoes
+from acousim.core.echoes import Echoes, spread
 from processing import Array
 from processing.base.errors import InputError
 
@@ -56,25 +56,25 @@ def point_echoes(
     speed_of_sound_m_s: float,
     spreading: str = "spherical",
 ) -> Echoes:
-    """Echoes of point reflectors: emitter -> reflector -> microphone (eq. 1)."""
+    """Echoes of point reflectors: emitter -> reflector -> microphone (eq. 1); each
+    reflector is the anchor of its path, its last leg spread as every path's
+    (:func:`acousim.core.echoes.spread`), with the strength `spreading` gives it."""
     if spreading not in SPREADING:
         raise ValueError(f"spreading must be one of {SPREADING}, got {spreading!r}")
-    p = reflectors.positions_m
+    p, a = reflectors.positions_m, reflectors.strength
     r_e = np.linalg.norm(p - array.emitter_m, axis=1)  # (N,)
-    r_m = np.linalg.norm(p[None, :, :] - array.positions_m[:, None, :], axis=2)  # (M, N)
-    if np.any(r_e == 0) or np.any(r_m == 0):
+    at_anchor = {"spherical": a / np.maximum(r_e, 1e-300), "paper": a / 2, "none": a}
+    delay, gain, length = spread(
+        p, r_e, at_anchor[spreading], array.positions_m, speed_of_sound_m_s
+    )
+    if np.any(r_e == 0) or np.any(length - r_e[None, :] <= 1e-6):
         raise InputError(
             "a point reflector coincides with the emitter or a microphone",
             key="positions_m",
         )
-    length = r_e[None, :] + r_m
-    if spreading == "paper":
-        gain = reflectors.strength / (2 * r_m)
-    elif spreading == "spherical":
-        gain = reflectors.strength / (r_e[None, :] * r_m)
-    else:
-        gain = np.broadcast_to(reflectors.strength, r_m.shape).copy()
-    return Echoes(length / speed_of_sound_m_s, gain, length, np.ones(len(reflectors), int))
+    if spreading == "none":  # the strengths as given: no spreading at all
+        gain = np.broadcast_to(a, gain.shape).copy()
+    return Echoes(delay, gain, length, np.ones(len(reflectors), int))
 
 
 def direct_path_echoes(array: Array, speed_of_sound_m_s: float, gain: float = 1.0) -> Echoes:

@@ -49,6 +49,7 @@ from acousim.core.delays import (
     check_interpolator,
 )
 from acousim.core.echoes import Echoes
+from acousim.synth.baseband import spectra
 from acousim.synth.response import PathResponse, factorise
 from processing import Waveform
 from processing.base.kernels import optional_kernel
@@ -221,7 +222,6 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndar
     `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
     band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
     microphone; `kernel`: the fractional delays' (method, taps)."""
-    from acousim.synth.baseband import spectra
 
     g, U, V, W, band = factors
     pad = kernel[1] + 1  # the same layout as the impulses' buffers

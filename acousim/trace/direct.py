@@ -6,8 +6,18 @@ import numpy as np
 
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.world.embree import RayCaster
+from processing.base.errors import InputError
 
-__all__ = ["direct_path", "point_paths", "heard_points"]
+__all__ = [
+    "direct_path",
+    "point_paths",
+    "heard_points",
+    "check_points_clear",
+    "MIN_POINT_DISTANCE_M",
+]
+
+MIN_POINT_DISTANCE_M = 1e-3
+"""Nearest a point reflector may be to the emitter or a microphone (m)."""
 
 
 def direct_path(emitter: np.ndarray, receiver: np.ndarray, fallback: np.ndarray) -> TracedPaths:
@@ -82,3 +92,23 @@ def point_paths(
         np.full(n, KIND["point"]),
         (pts - emitter) / r_e[:, None],
     )
+
+
+def check_points_clear(points, t_s: float, ends_m: np.ndarray, where: str) -> None:
+    """An InputError when a point reflector of `points` (scene items, where they are at
+    time `t_s`) lies within :data:`MIN_POINT_DISTANCE_M` of an emitter or microphone
+    `ends_m` (K, 3): the point model's 1/r spreading would overflow the samples
+    (checked before any computation).  `where`: the pose, for the message."""
+    if not points:
+        return
+    pts = np.array([p.at(t_s)[0] if p.moving else p.position_m for p in points])
+    gap = np.linalg.norm(pts[:, None, :] - ends_m[None, :, :], axis=2).min(axis=1)
+    near = np.flatnonzero(gap < MIN_POINT_DISTANCE_M)
+    if near.size:
+        k = int(near[0])
+        raise InputError(
+            f"point reflector at {pts[k].tolist()} m is {gap[k]:.3g} m from the emitter "
+            f"or a microphone at pose {where}; keep it at least "
+            f"{MIN_POINT_DISTANCE_M:g} m away",
+            key="points.position_m",
+        )

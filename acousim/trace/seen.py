@@ -36,7 +36,15 @@ import numpy as np
 
 from acousim.trace.paths import KIND, TracedPaths
 
-__all__ = ["Seen", "apparent", "chain_points", "object_table", "point_objects", "seen_static"]
+__all__ = [
+    "Seen",
+    "apparent",
+    "chain_fields",
+    "chain_points",
+    "object_table",
+    "point_objects",
+    "seen_static",
+]
 
 #: a ray to a path's last point may meet its face this far before or after it (m,
 #: plus the same fraction of the distance): a cluster of scattered hits on a curved
@@ -154,6 +162,44 @@ def chain_points(
         hit = np.isfinite(t)
         first[deep[hit]] = emitter_m + t[hit, None] * _unit(paths.departure[deep[hit]])
     return first, last, obj
+
+
+def chain_fields(
+    tracer,
+    scene,
+    paths: TracedPaths,
+    emitter_m: np.ndarray,
+    receiver_m: np.ndarray,
+    moving_points: tuple[np.ndarray, np.ndarray] | None = None,
+) -> dict:
+    """The ground truth's chain fields (``first_point_m``, ``last_point_m``,
+    ``object_index``, ``object_names``: :class:`processing.GroundTruth`) of the traced
+    `paths`, found in `tracer`'s world (that of the emission instant), and after them
+    of the moving point reflectors' paths: `moving_points` (their positions (K, 3), m,
+    and indices (K,) into ``scene.points``)."""
+    world = tracer.world
+    names, faces = (
+        object_table(scene, None)
+        if world is None
+        else world._cached("objects", lambda: object_table(scene, world))
+    )
+    first, last, obj = chain_points(paths, emitter_m, receiver_m, tracer.caster, faces)
+    n_mesh = len(names) - len(scene.points)
+    still = np.flatnonzero(paths.kind == KIND["point"])
+    if still.size:
+        where = np.array([p.position_m for p in scene.points], float)
+        obj[still] = point_objects(paths.position_m[still], where, n_mesh)
+    if moving_points is not None and len(moving_points[1]):
+        at, index = moving_points
+        first = np.concatenate([first, at])
+        last = np.concatenate([last, at])
+        obj = np.concatenate([obj, n_mesh + np.asarray(index, int)])
+    return {
+        "first_point_m": first,
+        "last_point_m": last,
+        "object_index": obj,
+        "object_names": names,
+    }
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from typing import Protocol
 
 import numpy as np
 
@@ -60,6 +61,7 @@ from processing.base.errors import InputError
 __all__ = [
     "TracedPaths",
     "Tracer",
+    "PathTracer",
     "TraceSettings",
     "cone_directions",
     "trace_pose",
@@ -175,6 +177,29 @@ def _key(pose: Pose, array: Array | None) -> tuple:
     return (pose.key(), tuple(array.emitter_m), tuple(array.positions_m.mean(axis=0)))
 
 
+class PathTracer(Protocol):
+    """What the simulator asks of a tracer: a scene's one world (:class:`Tracer`) or a
+    world per emission instant where meshes move
+    (:class:`~acousim.trace.motion.moving_world.MovingWorld`)."""
+
+    scene: Scene
+
+    @property
+    def world(self) -> World | None: ...
+
+    def trace(self, pose: Pose, array: Array | None = None) -> TracedPaths: ...
+
+    def traced(
+        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+    ) -> tuple[TracedPaths, int]: ...
+
+    def tracer_at(self, t_s: float) -> Tracer: ...
+
+    def rays_used(self, pose: Pose, array: Array | None = None) -> int: ...
+
+    def forget(self) -> None: ...
+
+
 class Tracer:
     """Paths of a scene for any pose; one Embree scene, built once (only if the scene
     has meshes), and a cache so the same pose is not traced twice."""
@@ -195,10 +220,11 @@ class Tracer:
         else:
             self._build_tables()
         self._points = None
-        if scene.points:
+        still = [p for p in scene.points if not p.moving]  # the moving: per instant
+        if still:
             self._points = (
-                np.array([p.position_m for p in scene.points], float),
-                np.array([p.strength for p in scene.points], float),
+                np.array([p.position_m for p in still], float),
+                np.array([p.strength for p in still], float),
             )
         # the traced poses (paths, rays shot), the least recently used dropped first
         self._traced = LruCache(256)

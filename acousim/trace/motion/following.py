@@ -166,6 +166,13 @@ class MovingPaths:
             *(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(MovingPaths))
         )
 
+    def level_at(self, point: np.ndarray) -> np.ndarray:
+        """Magnitude of the pressure gain (N,) of every path at one point (the array
+        centre), its anchor where it is at the start of the emission."""
+        return np.abs(self.strength) / np.maximum(
+            np.linalg.norm(self.anchor_m - point, axis=1), 1e-9
+        )
+
     def select(self, keep) -> MovingPaths:
         """The paths where `keep` (a mask, indices or a slice) selects."""
         return MovingPaths(*(getattr(self, f.name)[keep] for f in fields(MovingPaths)))

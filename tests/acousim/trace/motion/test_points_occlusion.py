@@ -87,3 +87,21 @@ def test_moving_point_echo_delay_when_in_view():
     assert list(kinds).count("point") == 1
     delay = a.echoes.delay_s[0, list(kinds).index("point")]
     assert delay == pytest.approx(2 * r / (sim.c + v), abs=1e-9)
+
+
+def test_truth_names_the_moving_point_heard_not_the_hidden_one():
+    # two moving points: "point 0" behind the screen (hidden), "point 1" in view at
+    # 1.2 m; the recording's truth holds one point path, named "point 1", whose last
+    # point is where that point is at the emission, and every field has its row
+    hidden = acousim.PointItem(position_m=(3.0, 0.0, 0.0), velocity_m_s=(0.0, 1e-3, 0.0))
+    seen = acousim.PointItem(position_m=(1.2, -0.8, 0.0), velocity_m_s=(0.0, 0.0, 1e-3))
+    sim = Simulator(_scene([_screen()], [hidden, seen], (0.0,)))
+    rec = sim.simulate_pose(sim.scene.sensor.poses[0])
+    t = rec.truth
+    point = np.flatnonzero(t.kind == "point")
+    assert len(point) == 1
+    assert len(t.object_index) == len(t.position_world_m) == len(t.last_point_m)
+    assert t.object_names[t.object_index[point[0]]] == "point 1"
+    assert t.last_point_m[point[0]] == pytest.approx([1.2, -0.8, 0.0])
+    # its delay at the array centre: out and back over the distance to the point
+    assert t.delay_s[point[0]] == pytest.approx(2 * np.hypot(1.2, 0.8) / C, abs=2e-9)
