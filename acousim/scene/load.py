@@ -442,9 +442,12 @@ def _sensor(
     else:
         array = r.named(array_named, r.string(s, "array", where, "urtis_v1"), f"{where}.array")
     emitter = r.vector(s, "emitter_m", where, [0.0, 0.0, 0.0])
-    array = P.Array(
-        array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
-    )
+    try:
+        array = P.Array(
+            array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
+        )
+    except InputError as exc:  # the array's own checks of its emitter
+        raise r.fail(f"{where}.emitter_m", exc.reason, s.get("emitter_m")) from None
     call = s.get("call", "default_25_50")
     if isinstance(call, str):
         wf = r.named(call_named, r.string(s, "call", where, "default_25_50"), f"{where}.call")

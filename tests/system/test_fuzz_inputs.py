@@ -199,6 +199,33 @@ def _loaded(scene, table, key):
     return list(v) if isinstance(v, tuple) else v
 
 
+def fuzzed(oracle):
+    """A test run for every (table, key) of `oracle`, with hypothesis drawing `data`."""
+
+    def wrap(test):
+        return pytest.mark.parametrize("table,key", sorted(oracle))(
+            FUZZ(given(data=st.data())(test))
+        )
+
+    return wrap
+
+
+def _loads_or_names_the_file(load, path, text) -> None:
+    """`text` written to `path` loads, or is refused with an InputError naming the file."""
+    path.write_text(text)
+    try:
+        load(path)
+    except InputError as exc:
+        assert str(exc).startswith(str(path)), str(exc)
+
+
+def _drawn(data, strategy, load, path):
+    """A case drawn from `strategy`, written to `path` and loaded (:func:`_accepted`):
+    its value and the loaded result (None if refused)."""
+    case = data.draw(strategy)
+    return case[2], _accepted(load, path, case)
+
+
 def _accepted(load, path, case):
     """`case` (table, key, value, allowed, text) written to `path` and loaded: the
     result if accepted (it must be allowed), None if refused (it must not be, with
@@ -215,13 +242,9 @@ def _accepted(load, path, case):
     return loaded
 
 
-@pytest.mark.parametrize("table,key", sorted(SCENE_ORACLE))
-@FUZZ
-@given(data=st.data())
+@fuzzed(SCENE_ORACLE)
 def test_fuzzed_scene_files(tmp_path, table, key, data):
-    case = data.draw(scene_case(table, key))
-    table, key, value, _, _ = case
-    scene = _accepted(load_scene, tmp_path / "fuzz.toml", case)
+    value, scene = _drawn(data, scene_case(table, key), load_scene, tmp_path / "fuzz.toml")
     if scene is None:
         return
     got = _loaded(scene, table, key)
@@ -290,13 +313,9 @@ def spec_case(draw, table, key):
     return table, key, value, ok(value), toml(doc)
 
 
-@pytest.mark.parametrize("table,key", sorted(SPEC_ORACLE))
-@FUZZ
-@given(data=st.data())
+@fuzzed(SPEC_ORACLE)
 def test_fuzzed_dataset_specs(tmp_path, table, key, data):
-    case = data.draw(spec_case(table, key))
-    table, key, value, _, _ = case
-    spec = _accepted(load_spec, tmp_path / "spec.toml", case)
+    value, spec = _drawn(data, spec_case(table, key), load_spec, tmp_path / "spec.toml")
     if spec is None:
         return
     if table == "randomize":
@@ -387,12 +406,7 @@ def test_fuzzed_scene_structure(tmp_path, table, key, data):
     for k, v in tables.items():
         if isinstance(v, list) and not all(isinstance(x, dict) for x in v):
             text = f"{k} = {toml_value(v)}\n" + text
-    path = tmp_path / "fuzz.toml"
-    path.write_text(text)
-    try:
-        load_scene(path)
-    except InputError as exc:
-        assert str(exc).startswith(str(path)), str(exc)
+    _loads_or_names_the_file(load_scene, tmp_path / "fuzz.toml", text)
 
 
 SPEC_STRUCTURE = [
@@ -437,9 +451,4 @@ def test_fuzzed_spec_structure(tmp_path, table, key, data):
             text += toml({k: v})
         else:
             text = f"{k} = {toml_value(v)}\n" + text
-    path = tmp_path / "spec.toml"
-    path.write_text(text)
-    try:
-        load_spec(path)
-    except InputError as exc:
-        assert str(exc).startswith(str(path)), str(exc)
+    _loads_or_names_the_file(load_spec, tmp_path / "spec.toml", text)
