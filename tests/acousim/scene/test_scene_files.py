@@ -50,6 +50,10 @@ def base(**over):
             base(sensor={"array": "urtis_v1", "sample_rate_hz": 80000}),
             r"sensor.sample_rate_hz = 80000.0: is below twice",
         ),
+        (
+            base(sensor={"array": "urtis_v1", "emitter_m": [0.0, 0.0, 11.0]}),
+            r"sensor.emitter_m = \[0.0, 0.0, 11.0\]: .*within",
+        ),
         (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"points\[0\].position_m = .*must be"),
         (base(points=[{"position_m": [1.0]}]), r"points\[0\].position_m = \[1.0\]: must be"),
         (
