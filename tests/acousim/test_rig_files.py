@@ -1,0 +1,164 @@
+"""A rig's recordings in files and tools: one CHIRP file with an acoustic group per
+sonar (read back with h5py alone, by ours and, when installed, by chirppy).
+References: the mounts, firing times and sample rates the test declares, the
+rotation written out in tests.oracles.analytic."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+import trimesh
+
+import processing as P
+from acousim.rig import RigSimulator
+from acousim.scene import parse_scene
+from tests.oracles.analytic import rotation_zyx
+
+#: the sonars: name, mount position (m), rotation (roll, pitch, yaw; degrees),
+#: sample rate (Hz) and first firing (s); each fires twice at 20 Hz
+SONARS = (
+    ("front", [0.2, 0.1, 0.05], [0.0, 0.0, 0.0], 450e3, 0.0),
+    ("side", [0.0, -0.15, 0.1], [0.0, 5.0, -40.0], 500e3, 0.02),
+)
+BODY_Z, SPEED, TURN_DEG_S = 0.3, 0.5, 10.0
+
+
+def mount(position, rotation_deg) -> np.ndarray:
+    """A mount (sensor -> body, 4x4) from its declared numbers."""
+    T = np.eye(4)
+    roll, pitch, yaw = np.deg2rad(rotation_deg)
+    T[:3, :3] = rotation_zyx(yaw, pitch, roll)
+    T[:3, 3] = position
+    return T
+
+
+@pytest.fixture(scope="module")
+def rig_recordings(tmp_path_factory):
+    """Two sonars on a driving, turning body, a wall 2 m ahead, a VLP-16: their
+    four firings as a recording file holds them (float32)."""
+    tmp = tmp_path_factory.mktemp("rigfiles")
+    wall = trimesh.creation.box(extents=(0.1, 6.0, 3.0))
+    wall.apply_translation([2.05, 0, 1.0])
+    wall.export(tmp / "wall.obj")
+    sensors = [
+        {
+            "name": name,
+            "array": "urtis_v1",
+            "sample_rate_hz": fs,
+            "mount": {"position_m": pos, "rotation_deg": rot},
+            "firing": {"rate_hz": 20, "offset_s": t0, "count": 2},
+        }
+        for name, pos, rot, fs, t0 in SONARS
+    ]
+    scene = parse_scene(
+        {
+            "body": {
+                "pose": {
+                    "position_m": [0, 0, BODY_Z],
+                    "velocity_m_s": [SPEED, 0, 0],
+                    "angular_rate_deg_s": [0, 0, TURN_DEG_S],
+                }
+            },
+            "sensors": sensors,
+            "lidars": [{"preset": "vlp16", "position_m": [0, 0, 0.4]}],
+            "simulation": {"max_range_m": 2.5, "diffraction": {"enabled": False}},
+            "materials": [{"name": "m", "reflection": 1.0, "diffuse": 0.0}],
+            "meshes": [{"file": "wall.obj", "material": "m"}],
+        },
+        base_dir=tmp,
+    )
+    recs = RigSimulator(scene).run().recordings
+    P.save_recordings(tmp / "rig.h5", list(recs))
+    return tmp, P.load_recordings(tmp / "rig.h5")
+
+
+@pytest.fixture(scope="module")
+def rig_chirp(rig_recordings):
+    tmp, recs = rig_recordings
+    return P.write_chirp(tmp / "rig_chirp.h5", recs), recs
+
+
+def test_a_rig_in_one_chirp_file_has_a_group_per_sonar(rig_chirp):
+    """Read with h5py alone: each sonar's group, its mount (through base_link), its
+    firings' samples and times."""
+    path, recs = rig_chirp
+    assert [r.metadata["sensor"] for r in recs] == ["front", "side", "front", "side"]
+    with h5py.File(path, "r") as f:
+        assert f.attrs["reference_sensor"] == "acoustic_sensor_00"
+        assert f.attrs["n_reference_captures"] == 2  # the reference sonar's firings
+        body_to_origin = f["transforms/base_link_to_origin"][()]
+        for n, (name, pos, rot, fs, t0) in enumerate(SONARS):
+            g = f[f"sensors/acoustic_sensor_{n:02d}"]
+            assert g.attrs["name"] == name and g.attrs["sample_rate_hz"] == fs
+            assert g.attrs["sync_mode"] == ("reference_capture" if n == 0 else "full_capture")
+            to_origin = g["calibration/to_origin"][()]
+            np.testing.assert_allclose(
+                np.linalg.inv(body_to_origin) @ to_origin, mount(pos, rot), atol=1e-12
+            )
+            mine = [r for r in recs if r.metadata["sensor"] == name]
+            sig = g["data/signals"]
+            assert sig.shape == (2, mine[0].n_samples, 30)
+            for k, rec in enumerate(mine):
+                np.testing.assert_array_equal(sig[k].T, rec.samples)
+            fired = t0 + np.array([0.0, 0.05])  # the declared schedule
+            tx = f[f"sensors/acoustic_transmitter_{n:02d}"]
+            np.testing.assert_allclose(tx["data/timestamps"][()], fired, atol=1e-12)
+            lead = np.array([r.emission_index for r in mine]) / fs
+            np.testing.assert_allclose(g["data/timestamps"][()], fired - lead, atol=1e-12)
+            emitter = np.linalg.inv(to_origin) @ tx["calibration/to_origin"][()]
+            np.testing.assert_allclose(emitter[:3, 3], mine[0].array.emitter_m, atol=1e-12)
+            if n:  # the reference captures at 0 and 50 ms: its firing nearest each (20, 70 ms)
+                np.testing.assert_array_equal(g["data/sync_to_reference_index"][()], [0, 1])
+        # the body's odometry, one row per firing: driving 0.5 m/s, turning 10 deg/s
+        odo = f["sensors/odometry_00/data"]
+        t = np.array([0.0, 0.02, 0.05, 0.07])
+        np.testing.assert_allclose(odo["timestamps"][()], t, atol=1e-12)
+        np.testing.assert_allclose(odo["yaw"][()], np.deg2rad(TURN_DEG_S) * t, atol=1e-12)
+        np.testing.assert_allclose(odo["position"][:, 0], SPEED * t, atol=1e-12)
+        np.testing.assert_allclose(odo["position"][:, 2], BODY_Z, atol=1e-12)
+        yaw = np.deg2rad(TURN_DEG_S) * t  # the world's velocity (+x) in the turned body
+        v = np.stack([SPEED * np.cos(yaw), -SPEED * np.sin(yaw), 0 * t], axis=1)
+        np.testing.assert_allclose(odo["linear_velocity"][()], v, atol=1e-12)
+        w = np.deg2rad(TURN_DEG_S)
+        np.testing.assert_allclose(odo["angular_velocity"][()], [[0, 0, w]] * 4, atol=1e-12)
+        # the LiDAR beside them: 0.4 m above the body's origin
+        lidar = np.linalg.inv(body_to_origin) @ f["sensors/lidar_00/calibration/to_origin"][()]
+        np.testing.assert_allclose(lidar[:3, 3], [0, 0, 0.4], atol=1e-12)
+        assert f["sensors/lidar_00/data/points"].shape[0] == 4
+
+
+def test_our_reader_gives_back_each_sonars_recordings(rig_chirp):
+    path, recs = rig_chirp
+    back = P.load_recordings(path)
+    assert P.count_recordings(path) == 4
+    for a, b in zip(recs, back, strict=True):
+        assert b.metadata == a.metadata and b.sample_rate_hz == a.sample_rate_hz
+        np.testing.assert_array_equal(b.samples, a.samples)
+        np.testing.assert_array_equal(b.array.positions_m, a.array.positions_m)
+        np.testing.assert_allclose(b.array.emitter_m, a.array.emitter_m, atol=1e-12)
+        np.testing.assert_allclose(b.lidar.to_sensor, a.lidar.to_sensor, atol=1e-12)
+        np.testing.assert_array_equal(b.lidar.points_m, a.lidar.points_m)
+        np.testing.assert_array_equal(b.truth.emitter, a.truth.emitter)
+    one = P.load_recording(path, 3)
+    assert one.metadata["sensor"] == "side" and one.sample_rate_hz == 500e3
+
+
+def test_chirppy_reads_the_rig(rig_chirp):
+    chirppy = pytest.importorskip(
+        "chirppy", reason="cosys-chirppy not installed (pip install cosys-chirppy)"
+    )
+    path, recs = rig_chirp
+    with chirppy.CHIRPDataset(path) as ds:
+        assert len(ds) == 2
+        for n, (_, pos, rot, _, _) in enumerate(SONARS):
+            T = ds.get_transform(f"acoustic_sensor_{n:02d}", "base_link")
+            np.testing.assert_allclose(T, mount(pos, rot), atol=1e-12)
+            up = ds.get_transform(f"acoustic_sensor_{n:02d}", "ground")
+            assert up[2, 3] == pytest.approx(BODY_Z + pos[2], abs=1e-12)
+        side = ds.get_acoustic_sensor(1)
+        assert len(side) == 2 and side.num_reference_captures == 2
+        capture = side.at_reference_capture(1)  # at 50 ms: side's firing at 70 ms
+        mine = [r for r in recs if r.metadata["sensor"] == "side"]
+        np.testing.assert_array_equal(capture["signals"].T, mine[1].samples)
+        assert capture["timestamp"] == pytest.approx(0.07 - mine[1].emission_index / 500e3)
