@@ -162,3 +162,19 @@ def test_chirppy_reads_the_rig(rig_chirp):
         mine = [r for r in recs if r.metadata["sensor"] == "side"]
         np.testing.assert_array_equal(capture["signals"].T, mine[1].samples)
         assert capture["timestamp"] == pytest.approx(0.07 - mine[1].emission_index / 500e3)
+
+
+def test_info_lists_the_sonars_of_a_rig_file(rig_chirp, capsys):
+    from acousim.cli import main
+
+    path, _ = rig_chirp
+    for f in (path, path.with_name("rig.h5")):  # CHIRP, and our recording file
+        assert main(["info", str(f)]) == 0
+        out = capsys.readouterr().out
+        assert (
+            "a rig of 2 sonar(s): 'front' 2 firing(s), mount [0.2, 0.1, 0.05] m, "
+            "roll/pitch/yaw [0.0, 0.0, 0.0]°; 'side' 2 firing(s), mount [0.0, -0.15, 0.1] m, "
+            "roll/pitch/yaw [0.0, 5.0, -40.0]°"
+        ) in out
+        chirp_header = "2 capture(s) of the reference sonar 'front'"
+        assert (chirp_header in out) == (f == path)
