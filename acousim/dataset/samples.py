@@ -53,9 +53,10 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
     choice = spec.scenes[k]
     scene = _scene(str(choice.file))
-    if choice.poses == "trajectory":
-        j = int(rng.integers(len(scene.sensor.poses)))
-        p = scene.sensor.poses[j]
+    if choice.poses == "trajectory":  # a rig: the body's poses
+        trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
+        j = int(rng.integers(len(trajectory)))
+        p = trajectory[j]
         position, yaw, pitch = p.position_m, p.yaw_rad, p.pitch_rad
         roll, extra = p.roll_rad, {"trajectory_index": j}
     else:
@@ -92,15 +93,40 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
         cond["mount_shift_m"] = shift
         position = np.asarray(position) + shift
     # one pose representation in every file (recordings too): Pose.to_dict, degrees
-    pose = {**Pose(position, float(yaw), float(pitch), float(roll)).to_dict(), **extra}
+    drawn = Pose(position, float(yaw), float(pitch), float(roll))
+    pose = {**drawn.to_dict(), **extra}
     del pose["time_s"]
-    return {
+    params = {
         "index": i,
         "scene": _relative(choice.file, spec),
         "pose": pose,
         "conditions": cond,
         "noise_seed": int(rng.integers(2**62)),
     }
+    if scene.rig is not None:  # the pose drawn is the body's; the sonar's from its mount
+        mount = _mount(scene, choice, rng)
+        sonar = {**mount.place(drawn).to_dict(), **extra}
+        del sonar["time_s"]
+        params.update(sensor=choice.sensor, mount=mount.to_dict(), body_pose=pose, pose=sonar)
+    return params
+
+
+def _mount(scene, choice, rng):
+    """The mount of the rig's sonar `choice.sensor`: each key of `choice.mount` drawn
+    uniformly in its [low, high], the others as the rig declares them."""
+    from acousim.scene.rig import Mount
+
+    sonar = next(s for s in scene.rig.sonars if s.name == choice.sensor)
+    declared = sonar.mount.to_dict()
+    position = list(declared["position_m"])
+    rotation = list(declared["rotation_deg"])  # roll, pitch, yaw
+    for n, key in enumerate(("x", "y", "z")):
+        if key in choice.mount:
+            position[n] = float(rng.uniform(*choice.mount[key]))
+    for n, key in enumerate(("roll_deg", "pitch_deg", "yaw_deg")):
+        if key in choice.mount:
+            rotation[n] = float(rng.uniform(*choice.mount[key]))
+    return Mount.degrees(position, rotation)
 
 
 def _relative(file: str | Path, spec: DatasetSpec) -> str:
@@ -160,11 +186,30 @@ def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
     from acousim.simulator import Simulator
 
     params = sample_parameters(spec, i)
-    scene = _varied_scene(params, spec)
+    scene = _sonar_alone(_varied_scene(params, spec), params)
     pose = _pose(params["pose"])
     sim = Simulator(scene, threads=1)
     motion = _motion(pose, params["conditions"])
     return sim.simulate_pose(pose, 0, n_samples=n_samples, motion=motion), params, scene, pose
+
+
+def _sonar_alone(scene, params: dict):
+    """A rig's scene as the sample's sonar alone on its drawn mount (no crosstalk);
+    any other scene as it is."""
+    if scene.rig is None:
+        return scene
+    from acousim.scene.rig import Mount, sonar_scene
+
+    m = params["mount"]
+    return sonar_scene(scene, params["sensor"], Mount.degrees(m["position_m"], m["rotation_deg"]))
+
+
+def sample_array(params: dict, spec: DatasetSpec):
+    """The array of sample `params` (a rig's: its sonar's)."""
+    scene = _scene(_scene_path(params, spec))
+    if scene.rig is None:
+        return scene.sensor.array
+    return next(s.sensor.array for s in scene.rig.sonars if s.name == params["sensor"])
 
 
 def _motion(pose, conditions: dict):

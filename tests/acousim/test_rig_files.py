@@ -190,10 +190,12 @@ crosstalk = false
 [[sensors]]
 name = "a"
 array = "urtis_v1"
+direct_path = {direct}
 mount = {{ position_m = [0.1, 0.2, 0.0] }}
 [[sensors]]
 name = "b"
 array = "urtis_v1"
+direct_path = {direct}
 mount = {{ position_m = [{bx}, -0.2, 0.0], rotation_deg = [0, 0, -20] }}
 firing = {{ rate_hz = 20, offset_s = 0.025, count = 2 }}
 [simulation]
@@ -210,17 +212,20 @@ material = "wall"
 """
 
 
-def rig_files(tmp, *, reflection=0.7, diffuse=0.0, bx=0.3):
+def rig_files(tmp, *, reflection=0.7, diffuse=0.0, bx=0.3, direct="true", simulate=True):
     """A rig scene file (sonar b `bx` m ahead of the body's origin, turned 20° right,
     2 firings; a wall at x = 2 m) and its recordings (crosstalk off); start.toml: the
     same with a wall of reflection 0.4."""
     wall = trimesh.creation.box(extents=(0.1, 8.0, 4.0))
     wall.apply_translation([WALL_X + 0.05, 0, 0.5])
     wall.export(tmp / "wall.obj")
-    (tmp / "rig.toml").write_text(RIG_TOML.format(reflection=reflection, diffuse=diffuse, bx=bx))
-    (tmp / "start.toml").write_text(RIG_TOML.format(reflection=0.4, diffuse=diffuse, bx=bx))
+    kw = {"diffuse": diffuse, "bx": bx, "direct": direct}
+    (tmp / "rig.toml").write_text(RIG_TOML.format(reflection=reflection, **kw))
+    (tmp / "start.toml").write_text(RIG_TOML.format(reflection=0.4, **kw))
     from acousim.scene import load_scene
 
+    if not simulate:
+        return None
     recs = RigSimulator(load_scene(tmp / "rig.toml")).run().recordings
     P.save_recordings(tmp / "rig_recs.h5", list(recs))
     return tmp / "rig_recs.h5"
@@ -266,3 +271,102 @@ def test_calibrate_fits_a_rigs_sonar_with_its_mount_fixed(tmp_path, capsys):
     b = fitted.rig.sonars[1].mount
     np.testing.assert_allclose(b.position_m, [0.3, -0.2, 0.0], atol=1e-12)
     assert np.rad2deg(b.yaw_rad) == pytest.approx(-20, abs=1e-12)
+
+
+SPEC = """
+[dataset]
+samples = 4
+shard_size = 4
+seed = 5
+[[scenes]]
+file = "rig.toml"
+sensor = "b"
+mount = { x = [0.0, 0.6], yaw_deg = [-10.0, 10.0] }
+[store]
+raw = true
+snapshot = false
+images = []
+depth_map = false
+"""
+
+
+def _arrival(signal, call, fs, after):
+    """The delay (s) of the strongest copy of `call` in `signal` arriving `after` s or
+    later (matched filter envelope peak, parabolic interpolation)."""
+    import scipy.signal
+
+    mf = scipy.signal.correlate(signal, call, mode="full")[call.size - 1 :]
+    env = np.abs(scipy.signal.hilbert(mf, 2 * mf.size))[: mf.size]  # padded: not circular
+    skip = int(after * fs)
+    i = skip + int(np.argmax(env[skip:]))
+    a, b, c = env[i - 1], env[i], env[i + 1]
+    return (i + 0.5 * (a - c) / (a - 2 * b + c)) / fs
+
+
+def test_a_dataset_samples_a_rigs_mount(tmp_path):
+    """Sonar b's mount drawn per sample (x in [0, 0.6] m, yaw in [-10, 10]°): in the
+    sample's parameters, and its wall echo where that mount puts it (the
+    mirror-image path from b's emitter to each microphone, the wall at x = 2 m)."""
+    from acousim.dataset import DatasetReader, generate
+
+    rig_files(tmp_path, reflection=1.0, direct="false")  # the wall's echo alone
+    (tmp_path / "spec.toml").write_text(SPEC)
+    generate(tmp_path / "spec.toml", tmp_path / "data")
+    data = DatasetReader(tmp_path / "data")
+    from acousim.scene import load_scene
+
+    sensor = load_scene(tmp_path / "rig.toml").rig.sonars[1].sensor
+    array, call = P.preset("urtis_v1"), sensor.call
+    xs = []
+    for i in range(4):
+        sample = data[i]
+        assert sample["raw"].shape[0] == 30
+        p = sample["params"]
+        x, y, z = p["mount"]["position_m"]
+        roll, pitch, yaw = p["mount"]["rotation_deg"]
+        assert p["sensor"] == "b" and 0 <= x <= 0.6 and -10 <= yaw <= 10
+        assert (y, z, roll, pitch) == (-0.2, 0.0, 0.0, 0.0)  # as the rig declares them
+        xs.append(x)
+        body = np.array([0.0, 0.0, 0.5])
+        np.testing.assert_allclose(p["pose"]["position_m"], body + [x, y, z], atol=1e-12)
+        assert p["pose"]["yaw_deg"] == pytest.approx(yaw, abs=1e-9)
+        R = rotation_zyx(np.deg2rad(yaw))
+        emitter = body + [x, y, z] + R @ array.emitter_m
+        image = emitter * [-1, 1, 1] + [2 * WALL_X, 0, 0]  # mirrored in the wall
+        fs, c = 450e3, p["speed_of_sound_m_s"]
+        for m in range(0, 30, 3):
+            mic = body + [x, y, z] + R @ array.positions_m[m]
+            expected = np.linalg.norm(image - mic) / c
+            got = _arrival(sample["raw"][m], call.sampled(fs), fs, after=0.0)
+            assert got == pytest.approx(expected, abs=0.01e-6), (i, m)
+    assert np.ptp(xs) > 0.1  # the mount moved between samples
+
+
+@pytest.mark.parametrize(
+    "scene_keys, key, words",
+    [
+        ("", "scenes[0].sensor", "rig of 2 sonar(s) (a, b)"),
+        ('sensor = "c"', "scenes[0].sensor", "rig of 2 sonar(s) (a, b)"),
+        ('sensor = "b"\nmount = { x = [0.5, 0.1] }', "scenes[0].mount.x", "low is above high"),
+        ('sensor = "b"\nmount = { heading = [0, 1] }', "scenes[0].mount", "heading"),
+    ],
+)
+def test_a_dataset_spec_of_a_rig_names_its_key(tmp_path, scene_keys, key, words):
+    from acousim.dataset import load_spec
+    from acousim.dataset.spec import SpecError
+
+    rig_files(tmp_path, simulate=False)
+    (tmp_path / "spec.toml").write_text(f'[[scenes]]\nfile = "rig.toml"\n{scene_keys}\n')
+    with pytest.raises(SpecError) as err:
+        load_spec(tmp_path / "spec.toml")
+    assert err.value.key.startswith(key) and words in str(err.value)
+
+
+def test_sensor_and_mount_are_only_for_a_rigs_scene(tmp_path):
+    from acousim.dataset import load_spec
+    from acousim.dataset.spec import SpecError
+
+    (tmp_path / "one.toml").write_text("[sensor]\n[[points]]\nposition_m = [1, 0, 0]\n")
+    (tmp_path / "spec.toml").write_text('[[scenes]]\nfile = "one.toml"\nsensor = "b"\n')
+    with pytest.raises(SpecError, match=r"scenes\[0\].sensor: only for a rig's scene"):
+        load_spec(tmp_path / "spec.toml")
