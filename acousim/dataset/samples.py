@@ -53,31 +53,7 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
     choice = spec.scenes[k]
     scene = _scene(str(choice.file))
-    if choice.poses == "trajectory":  # a rig: the body's poses
-        trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
-        j = int(rng.integers(len(trajectory)))
-        p = trajectory[j]
-        position, yaw, pitch = p.position_m, p.yaw_rad, p.pitch_rad
-        roll, extra = p.roll_rad, {"trajectory_index": j}
-    else:
-        reg = choice.region
-        for _attempt in range(100):
-            pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
-            if _clear(str(choice.file), pos, choice.clearance_m):
-                break
-        else:
-            from acousim.dataset.spec import SpecError
-
-            raise SpecError(
-                f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
-                f"in 100 draws in the region of {choice.file}; widen the region or lower "
-                "clearance_m",
-                file=spec.source,
-                key=f"scenes[{k}].region",
-                value=reg,
-            )
-        yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
-        position, pitch, roll, extra = pos, 0.0, 0.0, {}
+    position, yaw, pitch, roll, extra = _drawn_pose(spec, i, k, scene, rng)
     cond = {
         name: d.draw(rng)
         for name, d in sorted(spec.randomize.items())
@@ -109,6 +85,35 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
         del sonar["time_s"]
         params.update(sensor=choice.sensor, mount=mount.to_dict(), body_pose=pose, pose=sonar)
     return params
+
+
+def _drawn_pose(spec: DatasetSpec, i: int, k: int, scene, rng) -> tuple:
+    """Sample i's pose in scene choice k (a rig's: the body's): position (3,) m, yaw,
+    pitch, roll (rad) and what to add to the stored pose (its trajectory index)."""
+    choice = spec.scenes[k]
+    if choice.poses == "trajectory":  # a rig: the body's poses
+        trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
+        j = int(rng.integers(len(trajectory)))
+        p = trajectory[j]
+        return p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, {"trajectory_index": j}
+    reg = choice.region
+    for _attempt in range(100):
+        pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
+        if _clear(str(choice.file), pos, choice.clearance_m):
+            break
+    else:
+        from acousim.dataset.spec import SpecError
+
+        raise SpecError(
+            f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
+            f"in 100 draws in the region of {choice.file}; widen the region or lower "
+            "clearance_m",
+            file=spec.source,
+            key=f"scenes[{k}].region",
+            value=reg,
+        )
+    yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
+    return pos, yaw, 0.0, 0.0, {}
 
 
 def _mount(scene, choice, rng):

@@ -44,6 +44,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
@@ -122,43 +123,82 @@ def write_chirp(
     sonar_of = _check_sonars(path, recs)
     if not (np.isfinite(period_s) and period_s > 0):
         raise InputError("must be a positive number of seconds", key="period_s", value=period_s)
-    owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
-    measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
-    provenance = [r.provenance for r in recs]
-    sonar = None if sonar_of is None else sonar_of[owner]
-    emission, synthetic = _emission_times(provenance, owner, measure, period_s, sonar)
-    emission = emission + float(start_time_s)
-    first = recs[0]
-    sample0 = emission - np.array([recs[i].emission_index / recs[i].sample_rate_hz for i in owner])
+    caps, synthetic = _captures(recs, sonar_of, period_s, start_time_s)
+    mounts = None if sonar_of is None else rig.mounts(path, recs, sonar_of)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["format"] = "chirp"
         f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["n_reference_captures"] = len(owner) if sonar is None else int(np.sum(sonar == 0))
+        f.attrs["n_reference_captures"] = caps.n_reference
         f.attrs["reference_sensor"] = ACOUSTIC
-        sensors = f.create_group("sensors")
+        f.create_group("sensors")
         opts = {"fletcher32": checksum, "compression": compression}
-        if sonar is not None:  # a rig: one acoustic group per sonar (chirp.rig)
-            sums = _write_rig(f, path, recs, owner, measure, sonar, emission, sample0, opts)
+        if mounts is not None:  # a rig: one acoustic group per sonar (chirp.rig)
+            sums = _write_rig(f, path, recs, caps, mounts, opts)
         else:
-            sums = _write_acoustic(sensors, recs, owner, measure, sample0, opts)
-            _write_transmitter(sensors, first, emission)
-            if all(p.pose is not None for p in provenance):
-                _write_odometry(sensors, provenance, owner, emission)
-                _write_transforms(f, [provenance[i].pose for i in owner])
-            if all(r.lidar is not None for r in recs):
-                _write_lidar(sensors, f, recs, owner, emission)
+            sums = _write_one(f, recs, caps, opts)
         ours = f.require_group(OURS)
         ours.attrs.update(schema=OUR_SCHEMA, schema_version=OUR_VERSION)
         ours.attrs.update(timestamps_synthetic=synthetic, period_s=float(period_s))
-        for name, data in (("recording", owner), ("measurement", measure)):
+        for name, data in (("recording", caps.owner), ("measurement", caps.measure)):
             ours.create_dataset(f"capture_{name}", data=data.astype(np.int64))
         ours.create_dataset("capture_sha256", data=np.array(sums, dtype="S64"))
-        _write_array_extras(ours, first.array)
-        if sonar is not None:
-            _write_rig_extras(ours, recs, owner, sonar)
+        _write_array_extras(ours, recs[0].array)
+        if caps.sonar is not None:
+            _write_rig_extras(ours, recs, caps)
         for i, rec in enumerate(recs):
             _write_recording_extras(ours.create_group(f"recordings/{i:06d}"), rec, checksum)
     return path
+
+
+@dataclass(frozen=True)
+class _Captures:
+    """The file's captures (C,): capture k is measurement ``measure[k]`` of recording
+    ``owner[k]``, emitted at ``emission[k]`` (s), its first sample at ``sample0[k]``
+    (s); a rig's: ``sonar[k]``, its sonar (None: one sensor)."""
+
+    owner: np.ndarray
+    measure: np.ndarray
+    emission: np.ndarray
+    sample0: np.ndarray
+    sonar: np.ndarray | None = None
+
+    @property
+    def n_reference(self) -> int:
+        """The reference sensor's captures (all, or a rig's sonar 0's)."""
+        return len(self.owner) if self.sonar is None else int(np.sum(self.sonar == 0))
+
+    def of(self, n: int) -> _Captures:
+        """Sonar `n`'s captures."""
+        k = np.flatnonzero(self.sonar == n)
+        return _Captures(self.owner[k], self.measure[k], self.emission[k], self.sample0[k])
+
+
+def _captures(recs, sonar_of, period_s, start_time_s) -> tuple[_Captures, bool]:
+    """The captures of `recs` (`sonar_of`: a rig's recordings' sonars) and whether
+    their times are synthetic (see :func:`write_chirp`)."""
+    owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
+    measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
+    sonar = None if sonar_of is None else sonar_of[owner]
+    provenance = [r.provenance for r in recs]
+    emission, synthetic = _emission_times(provenance, owner, measure, period_s, sonar)
+    emission = emission + float(start_time_s)
+    sample0 = emission - np.array([recs[i].emission_index / recs[i].sample_rate_hz for i in owner])
+    return _Captures(owner, measure, emission, sample0, sonar), synthetic
+
+
+def _write_one(f: h5py.File, recs: list[Recording], caps: _Captures, opts: dict) -> list[bytes]:
+    """One sensor's captures: acoustic sensor, transmitter, odometry, LiDAR."""
+    sensors = f["sensors"]
+    owner, emission = caps.owner, caps.emission
+    sums = _write_acoustic(sensors, recs, caps, opts)
+    _write_transmitter(sensors, recs[0], emission)
+    provenance = [r.provenance for r in recs]
+    if all(p.pose is not None for p in provenance):
+        _write_odometry(sensors, provenance, owner, emission)
+        _write_transforms(f, [provenance[i].pose for i in owner])
+    if all(r.lidar is not None for r in recs):
+        _write_lidar(sensors, f, recs, owner, emission)
+    return sums
 
 
 def _check_sonars(path: Path, recs: list[Recording]) -> np.ndarray | None:
@@ -242,27 +282,26 @@ def _sensor(parent: h5py.Group, name: str, kind: str, to_origin=None) -> h5py.Gr
     return g
 
 
-def _write_acoustic(
-    sensors, recs, owner, measure, sample0, opts, *, name=ACOUSTIC, to_origin=None, label=None
-) -> list[bytes]:
-    """The captures `owner`/`measure` as acoustic sensor `name` (placed by `to_origin`,
-    4x4; identity) called `label` (the array's name): their sha256s."""
-    first = recs[int(owner[0])]
+def _write_acoustic(sensors, recs, caps: _Captures, opts, *, name=ACOUSTIC, to_origin=None):
+    """The captures `caps` as acoustic sensor `name` (placed by `to_origin`, 4x4;
+    identity): their sha256s."""
+    first = recs[int(caps.owner[0])]
     M, T = first.array.n_mics, first.n_samples
     g = _sensor(sensors, name, "acoustic_sensor", np.eye(4) if to_origin is None else to_origin)
-    label = first.array.name if label is None else label
-    g.attrs.update(sample_rate_hz=first.sample_rate_hz, num_channels=M, name=label)
+    g.attrs.update(sample_rate_hz=first.sample_rate_hz, num_channels=M, name=first.array.name)
     g.create_dataset(
         "calibration/receiver_relative_translations", data=first.array.positions_m
     ).attrs["units"] = "m"
-    d = g.create_dataset("data/signals", (len(owner), T, M), np.float32, chunks=(1, T, M), **opts)
+    d = g.create_dataset(
+        "data/signals", (len(caps.owner), T, M), np.float32, chunks=(1, T, M), **opts
+    )
     sums = []
-    for k, (i, j) in enumerate(zip(owner, measure)):
+    for k, (i, j) in enumerate(zip(caps.owner, caps.measure)):
         x = recs[i].samples if recs[i].samples.ndim == 2 else recs[i].samples[j]
         block = np.ascontiguousarray(x.T, "<f4")
         d[k] = block
         sums.append(hashlib.sha256(block.data).hexdigest().encode())
-    g.create_dataset("data/timestamps", data=sample0).attrs["units"] = "s"
+    g.create_dataset("data/timestamps", data=caps.sample0).attrs["units"] = "s"
     return sums
 
 
@@ -280,30 +319,28 @@ def _write_transmitter(
     return g
 
 
-def _write_rig(f, path, recs, owner, measure, sonar, emission, sample0, opts) -> list[bytes]:
-    """A rig's captures (`sonar`: each one's sonar) as one acoustic sensor and
-    transmitter per sonar, placed by their mounts in sonar 0's frame; the body's
-    odometry and the LiDAR one row per capture (layout: :mod:`.rig`)."""
-    sensors = f["sensors"]
-    mounts = rig.mounts(path, recs, np.array([sonar[owner == i][0] for i in range(len(recs))]))
+def _write_rig(f, path, recs, caps: _Captures, mounts, opts) -> list[bytes]:
+    """A rig's captures (``caps.sonar``) as one acoustic sensor and transmitter per
+    sonar, placed by their `mounts` (4x4, sensor -> body) in sonar 0's frame; the
+    body's odometry and the LiDAR one row per capture (layout: :mod:`.rig`)."""
+    sensors, sonar, emission = f["sensors"], caps.sonar, caps.emission
     to_origin = [np.linalg.inv(mounts[0]) @ m for m in mounts]
-    names = rig.sonars_of(recs)
     ref = np.flatnonzero(sonar == 0)
-    sums: list[bytes] = [b""] * len(owner)
-    for n, name in enumerate(names):
-        caps = np.flatnonzero(sonar == n)
+    sums: list[bytes] = [b""] * len(caps.owner)
+    for n, label in enumerate(rig.sonars_of(recs)):
+        mine = caps.of(n)
         got = _write_acoustic(
-            sensors, recs, owner[caps], measure[caps], sample0[caps], opts,
-            name=rig.acoustic_name(n), to_origin=to_origin[n], label=name,
-        )  # fmt: skip
-        for k, h in zip(caps, got):
+            sensors, recs, mine, opts, name=rig.acoustic_name(n), to_origin=to_origin[n]
+        )
+        sensors[rig.acoustic_name(n)].attrs["name"] = label  # the sonar's name
+        for k, h in zip(np.flatnonzero(sonar == n), got):
             sums[k] = h
         tx = _write_transmitter(
-            sensors, recs[int(owner[caps[0]])], emission[caps],
+            sensors, recs[int(mine.owner[0])], mine.emission,
             name=rig.transmitter_name(n), to_origin=to_origin[n],
         )  # fmt: skip
         if n:  # its own firings; the one nearest each reference capture
-            sync = rig.nearest(emission[caps], emission[ref])
+            sync = rig.nearest(mine.emission, emission[ref])
             for g in (sensors[rig.acoustic_name(n)], tx):
                 g.attrs["sync_mode"] = "full_capture"
                 g.create_dataset("data/sync_to_reference_index", data=sync)
@@ -311,20 +348,21 @@ def _write_rig(f, path, recs, owner, measure, sonar, emission, sample0, opts) ->
     provenance = [r.provenance for r in recs]
     if all(p.pose is not None for p in provenance):
         mount_of = [mounts[n] for n in sonar]
-        rig.write_odometry(sensors, _sensor, provenance, owner, mount_of, emission, every)
-        bodies = [rig.body_pose(provenance[i].pose, m) for i, m in zip(owner, mount_of)]
+        rig.write_odometry(sensors, _sensor, provenance, caps.owner, mount_of, emission, every)
+        bodies = [rig.body_pose(provenance[i].pose, m) for i, m in zip(caps.owner, mount_of)]
         rig.write_transforms(f, bodies, mounts[0])
     if all(r.lidar is not None for r in recs):
-        at = rig.lidar_to_origin(path, recs, owner, [to_origin[n] for n in sonar])
-        g = _write_lidar(sensors, f, recs, owner, emission, at)
+        at = rig.lidar_to_origin(path, recs, caps.owner, [to_origin[n] for n in sonar])
+        g = _write_lidar(sensors, f, recs, caps.owner, emission, at)
         g.attrs["sync_mode"] = "full_capture"
         g.create_dataset("data/sync_to_reference_index", data=every)
     return sums
 
 
-def _write_rig_extras(ours: h5py.Group, recs, owner, sonar) -> None:
+def _write_rig_extras(ours: h5py.Group, recs, caps: _Captures) -> None:
     """Each capture's acoustic sensor (index NN) and row in it; the sonars' names;
     the arrays' extras of sonars 1.. (``array_NN``)."""
+    sonar = caps.sonar
     rows = np.zeros(len(sonar), np.int64)
     for n in np.unique(sonar):
         rows[sonar == n] = np.arange(np.sum(sonar == n))
@@ -333,8 +371,7 @@ def _write_rig_extras(ours: h5py.Group, recs, owner, sonar) -> None:
     names = rig.sonars_of(recs)
     ours.attrs["sensors"] = json.dumps(names)
     for n in range(1, len(names)):
-        first = recs[int(owner[np.flatnonzero(sonar == n)[0]])]
-        _write_array_extras(ours, first.array, f"array_{n:02d}")
+        _write_array_extras(ours, recs[int(caps.of(n).owner[0])].array, f"array_{n:02d}")
 
 
 def _write_odometry(sensors, provenance, owner, emission) -> None:
