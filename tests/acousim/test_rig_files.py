@@ -251,6 +251,11 @@ def test_compare_takes_a_rigs_sonar(tmp_path, capsys):
     assert echo["sim"]["range_m"] == pytest.approx(WALL_X - 0.3, abs=bin_m)
     assert echo["sim"]["azimuth_deg"] == pytest.approx(20, abs=2)  # the imaging step
     assert abs(echo["d_range_m"]) < 1e-9 and abs(echo["d_level_db"]) < 0.01  # b's own
+    # a rig's file against a rig's file: b's firings paired with b's
+    sim = ["compare", str(recs), "--sim", str(recs), "--all", "--method", "das"]
+    assert main([*sim, "--sensor", "b"]) == 0
+    assert "2 poses: mean envelope correlation 1.00" in capsys.readouterr().out
+    assert main([*sim, "--sensor", "c"]) != 0 and "(a, b)" in capsys.readouterr().err
 
 
 def test_calibrate_fits_a_rigs_sonar_with_its_mount_fixed(tmp_path, capsys):
