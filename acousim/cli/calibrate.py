@@ -39,6 +39,13 @@ def register(sub) -> None:
         "pose_index, else its position in the file)",
     )
     p.add_argument(
+        "--sensor",
+        metavar="NAME",
+        help="a rig's scene: fit to the recordings of its sonar NAME, simulated alone at "
+        "its firings (its mount fixed; --poses index its firings; default: each "
+        "recording's firing)",
+    )
+    p.add_argument(
         "--param",
         help="free parameters, comma-separated: MATERIAL, MATERIAL.reflection or "
         "MATERIAL.diffuse (default: every material a mesh uses, both)",
@@ -101,19 +108,37 @@ def _settings(args: argparse.Namespace):
     )
 
 
+def _firings(rig, name: str, recs: list) -> list[int]:
+    """Each recording's pose in the scene of the rig's sonar `name` alone: its firing
+    among the sonar's (a rig's recording's ``pose_index`` is its firing among all
+    the rig's), else its place in the file."""
+    k = [s.name for s in rig.sonars].index(name)
+    own = [m.index for m in rig.measurements() if m.sonar == k]
+    out = []
+    for i, r in enumerate(recs):
+        q = r.provenance.pose_index
+        out.append(own.index(q) if q in own else i)
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from acousim.calibrate import calibrate, write_scene
-    from acousim.compare.inputs import load_real_recordings
+    from acousim.compare.inputs import load_real_recordings, of_sensor
+    from acousim.scene.rig import sonar_scene
 
     out = output_file("--out", args.out)
     report = output_file("--report", args.report) if args.report else None
     try:
         settings = _settings(args)
-        scene = load_scene(args.scene)
+        rig_scene = load_scene(args.scene)
+        scene = sonar_scene(rig_scene, args.sensor)  # a rig: the sonar alone, mount fixed
         recs = load_real_recordings(
             args.recordings, speed_of_sound_m_s=scene.environment.speed_of_sound_m_s
         )
+        recs = of_sensor(recs, args.sensor, args.recordings)
         poses = parse_indices("--poses", args.poses)
+        if poses is None and rig_scene.rig is not None:
+            poses = _firings(rig_scene.rig, args.sensor, recs)
         cal = calibrate(scene, recs, poses, settings, progress=progress("calibrate", "pose"))
         if scene.source is None:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")

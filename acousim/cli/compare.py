@@ -43,6 +43,12 @@ def register(sub) -> None:
         help="pose index in the scene (default: 0; for a CHIRP file with odometry, each "
         "recording's own pose)",
     )
+    p.add_argument(
+        "--sensor",
+        metavar="NAME",
+        help="a rig: its sonar NAME (the scene simulates it alone, at its firings: --pose "
+        "i is its i-th; of a rig's real or --sim file, only its recordings)",
+    )
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
     p.add_argument(
@@ -72,20 +78,27 @@ def register(sub) -> None:
 def _pairs(args: argparse.Namespace):
     """The (real, simulated) recordings to compare, as the arguments ask."""
     import processing as P
-    from acousim.compare.inputs import load_real_recordings, pair_with_file, pair_with_scene
+    from acousim.compare.inputs import (
+        load_real_recordings,
+        of_sensor,
+        pair_with_file,
+        pair_with_scene,
+    )
+    from acousim.scene.rig import sonar_scene
 
     if args.scene:
-        scene = load_scene(args.scene)
+        scene = sonar_scene(load_scene(args.scene), args.sensor)  # a rig: one sonar alone
         c = scene.environment.speed_of_sound_m_s
     else:
         try:
-            sims = P.load_recordings(args.sim)
+            sims = of_sensor(P.load_recordings(args.sim), args.sensor, "--sim")
         except P.RecordingFileError as exc:
             raise UsageError(f"--sim {args.sim}: {exc}") from None
         if not sims:
             raise UsageError(f"--sim {args.sim}: the file holds no recording")
         c = sims[0].speed_of_sound_m_s
     reals = load_real_recordings(args.real, array=args.array, call=args.call, speed_of_sound_m_s=c)
+    reals = of_sensor(reals, args.sensor, "the real file")
     if args.scene:
         preload_simulation()  # it simulates: the process's policy set
         recorded = (

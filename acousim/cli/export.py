@@ -8,7 +8,8 @@ sensor's description (std_msgs/String, JSON), /clock, the scene's meshes
 needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --format
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
 their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
-the imaging options do not apply. Layout: docs/export.md.
+a rig's recordings: one acoustic sensor per sonar, placed by its mount (--sensor NAME:
+one sonar's); the imaging options do not apply. Layout: docs/export.md.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from hardware import decode_frame
 from processing.base.errors import InputError
 from processing.sensor.rtisdev import sample_recording
 
-__all__ = ["load_real_recordings", "pair_with_scene", "pair_with_file"]
+__all__ = ["load_real_recordings", "pair_with_scene", "pair_with_file", "of_sensor"]
 
 
 def load_real_recordings(
@@ -58,6 +58,25 @@ def load_real_recordings(
         return P.load_recordings(source)
     except P.RecordingFileError as exc:
         raise InputError(str(exc)) from None
+
+
+def of_sensor(recs: Sequence[P.Recording], name: str | None, what: str) -> list[P.Recording]:
+    """The recordings of a rig's sonar `name` (``metadata["sensor"]``) among `recs`
+    (`what`: the file, for the error); all of them when `name` is None or none of
+    them names a sonar (one sensor's file).  A rig's file without `name`, or with a
+    name none of its recordings has: InputError naming ``--sensor`` and the sonars."""
+    names = [r.metadata.get("sensor") for r in recs]
+    there = list(dict.fromkeys(n for n in names if n is not None))
+    if not there:
+        return list(recs)
+    if name not in there:
+        raise InputError(
+            f"{what} holds the recordings of a rig's sonars ({', '.join(there)}): "
+            "name the one to take",
+            key="--sensor",
+            value=name,
+        )
+    return [r for r, n in zip(recs, names) if n == name]
 
 
 def _pick(recs: Sequence[P.Recording], i: int, key: str, what: str) -> P.Recording:

@@ -48,8 +48,11 @@ def capture_samples(spec: DatasetSpec, *, max_range_m: float | None = None) -> i
             env.pressure_kpa,
         )
         reach = scene.simulation.max_range_m if max_range_m is None else max_range_m
-        t = 2 * reach / c + scene.sensor.call.duration_s
-        n = max(n, math.ceil(t * scene.sensor.sample_rate_hz))
+        sensor = scene.sensor  # a rig's scene: the sonar the samples are of
+        if scene.rig is not None:
+            sensor = next(s.sensor for s in scene.rig.sonars if s.name == choice.sensor)
+        t = 2 * reach / c + sensor.call.duration_s
+        n = max(n, math.ceil(t * sensor.sample_rate_hz))
     return n
 
 

@@ -40,6 +40,7 @@ from acousim.dataset.samples import (  # noqa: F401  (re-exported)
     _scene_path,
     _varied_scene,
     _world_caster,
+    sample_array,
     sample_parameters,
     simulate_sample,
 )
@@ -305,7 +306,7 @@ def _write_acousim_shard(spec: DatasetSpec, k: int, lo: int, hi: int, final: Pat
                 records.append({**params, "shard": k, "offset": i - lo})
                 name = params["array"]
                 if name not in arrays_seen:
-                    arrays_seen[name] = _scene(_scene_path(params, spec)).sensor.array
+                    arrays_seen[name] = sample_array(params, spec)
             geometry = _group(f, "arrays")
             for name, array in sorted(arrays_seen.items()):
                 a = _group(geometry, name)

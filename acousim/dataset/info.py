@@ -113,9 +113,11 @@ def _chirp(path: Path) -> list[str]:
     with h5py.File(path, "r") as f:
         sensors = f.get("sensors", {})
         kinds = [f"{k} ({sensors[k].attrs.get('sensor_type', '?')})" for k in sensors]
+        rig = f["acousim"].attrs.get("sensors") if "acousim" in f else None
+        whose = "" if rig is None else f" of the reference sonar {json.loads(_text(rig))[0]!r}"
         return [
             f"{path}: CHIRP file, format {f.attrs.get('format_version', '?')}, "
-            f"{f.attrs.get('n_reference_captures', '?')} capture(s); sensors: "
+            f"{f.attrs.get('n_reference_captures', '?')} capture(s){whose}; sensors: "
             + (", ".join(kinds) or "none")
             + ("; acousim group (ground truth, metadata)" if "acousim" in f else "")
         ]
@@ -125,6 +127,7 @@ def _recordings(path: Path) -> list[str]:
     n = P.count_recordings(path)
     lines = _chirp(path) if P.is_chirp(path) else []
     lines.append(f"{path}: {n} recording(s)")
+    sonars: dict[str, list] = {}  # a rig's file: each sonar's firings and mount
     for i in range(n):
         try:
             r = P.load_recording(path, i)
@@ -145,6 +148,7 @@ def _recordings(path: Path) -> list[str]:
             heard = sorted({h["sensor"] for h in r.metadata.get("crosstalk", [])})
             kind += f", sonar {sensor!r} fired at {r.metadata.get('emission_time_s', 0):.3f} s"
             truth += f", crosstalk from {', '.join(heard)}" if heard else ", no crosstalk"
+            sonars.setdefault(str(sensor), [0, r.metadata.get("mount")])[0] += 1
         if r.lidar is not None:
             truth += f", LiDAR {r.lidar.name} scan of {len(r.lidar)} points"
         lines.append(
@@ -154,7 +158,22 @@ def _recordings(path: Path) -> list[str]:
             f"{r.waveform.f_start_hz / 1e3:g}->{r.waveform.f_end_hz / 1e3:g} kHz, "
             f"c = {r.speed_of_sound_m_s:.1f} m/s{where}{truth}"
         )
+    if sonars:
+        lines.append(f"  a rig of {len(sonars)} sonar(s): " + "; ".join(_sonar(sonars)))
     return lines
+
+
+def _sonar(sonars: dict[str, list]) -> list[str]:
+    """Each sonar of a rig's file: its firings and its mount (m; roll, pitch, yaw °)."""
+    out = []
+    for name, (count, mount) in sonars.items():
+        text = f"{name!r} {count} firing(s)"
+        if isinstance(mount, dict):
+            pos = [round(float(v), 4) for v in mount.get("position_m", [])]
+            rot = [round(float(v), 2) for v in mount.get("rotation_deg", [])]
+            text += f", mount {pos} m, roll/pitch/yaw {rot}°"
+        out.append(text)
+    return out
 
 
 def _shard(path: Path) -> list[str]:

@@ -14,6 +14,7 @@ import numpy as np
 from acousim.dataset.spec import DatasetSpec, SpecError
 from acousim.scene import Pose, load_scene
 from acousim.scene.model import Environment
+from acousim.scene.rig import Mount, sonar_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from acousim.trace.tracer import caster_of
@@ -22,7 +23,6 @@ from acousim.trace.world.build import build_world
 
 @lru_cache(maxsize=8)
 def _scene(path: str):
-
     return load_scene(path)
 
 
@@ -55,28 +55,7 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
     choice = spec.scenes[k]
     scene = _scene(str(choice.file))
-    if choice.poses == "trajectory":
-        j = int(rng.integers(len(scene.sensor.poses)))
-        p = scene.sensor.poses[j]
-        position, yaw, pitch = p.position_m, p.yaw_rad, p.pitch_rad
-        roll, extra = p.roll_rad, {"trajectory_index": j}
-    else:
-        reg = choice.region
-        for _attempt in range(100):
-            pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
-            if _clear(str(choice.file), pos, choice.clearance_m):
-                break
-        else:
-            raise SpecError(
-                f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
-                f"in 100 draws in the region of {choice.file}; widen the region or lower "
-                "clearance_m",
-                file=spec.source,
-                key=f"scenes[{k}].region",
-                value=reg,
-            )
-        yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
-        position, pitch, roll, extra = pos, 0.0, 0.0, {}
+    position, yaw, pitch, roll, extra = _drawn_pose(spec, i, k, scene, rng)
     cond = {
         name: d.draw(rng)
         for name, d in sorted(spec.randomize.items())
@@ -92,15 +71,66 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
         cond["mount_shift_m"] = shift
         position = np.asarray(position) + shift
     # one pose representation in every file (recordings too): Pose.to_dict, degrees
-    pose = {**Pose(position, float(yaw), float(pitch), float(roll)).to_dict(), **extra}
+    drawn = Pose(position, float(yaw), float(pitch), float(roll))
+    pose = {**drawn.to_dict(), **extra}
     del pose["time_s"]
-    return {
+    params = {
         "index": i,
         "scene": _relative(choice.file, spec),
         "pose": pose,
         "conditions": cond,
         "noise_seed": int(rng.integers(2**62)),
     }
+    if scene.rig is not None:  # the pose drawn is the body's; the sonar's from its mount
+        mount = _mount(scene, choice, rng)
+        sonar = {**mount.place(drawn).to_dict(), **extra}
+        del sonar["time_s"]
+        params.update(sensor=choice.sensor, mount=mount.to_dict(), body_pose=pose, pose=sonar)
+    return params
+
+
+def _drawn_pose(spec: DatasetSpec, i: int, k: int, scene, rng) -> tuple:
+    """Sample i's pose in scene choice k (a rig's: the body's): position (3,) m, yaw,
+    pitch, roll (rad) and what to add to the stored pose (its trajectory index)."""
+    choice = spec.scenes[k]
+    if choice.poses == "trajectory":  # a rig: the body's poses
+        trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
+        j = int(rng.integers(len(trajectory)))
+        p = trajectory[j]
+        return p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, {"trajectory_index": j}
+    reg = choice.region
+    for _attempt in range(100):
+        pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
+        if _clear(str(choice.file), pos, choice.clearance_m):
+            break
+    else:
+        raise SpecError(
+            f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
+            f"in 100 draws in the region of {choice.file}; widen the region or lower "
+            "clearance_m",
+            file=spec.source,
+            key=f"scenes[{k}].region",
+            value=reg,
+        )
+    yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
+    return pos, yaw, 0.0, 0.0, {}
+
+
+def _mount(scene, choice, rng):
+    """The mount of the rig's sonar `choice.sensor`: each key of `choice.mount` drawn
+    uniformly in its [low, high], the others as the rig declares them."""
+
+    sonar = next(s for s in scene.rig.sonars if s.name == choice.sensor)
+    declared = sonar.mount.to_dict()
+    position = list(declared["position_m"])
+    rotation = list(declared["rotation_deg"])  # roll, pitch, yaw
+    for n, key in enumerate(("x", "y", "z")):
+        if key in choice.mount:
+            position[n] = float(rng.uniform(*choice.mount[key]))
+    for n, key in enumerate(("roll_deg", "pitch_deg", "yaw_deg")):
+        if key in choice.mount:
+            rotation[n] = float(rng.uniform(*choice.mount[key]))
+    return Mount.degrees(position, rotation)
 
 
 def _relative(file: str | Path, spec: DatasetSpec) -> str:
@@ -114,13 +144,11 @@ def _scene_path(params: dict, spec: DatasetSpec) -> str:
 
 
 def _pose(p: dict):
-
     yaw, pitch, roll = np.deg2rad([p["yaw_deg"], p["pitch_deg"], p["roll_deg"]])
     return Pose(p["position_m"], float(yaw), float(pitch), float(roll))
 
 
 def _varied_scene(params: dict, spec: DatasetSpec):
-
     scene = _scene(_scene_path(params, spec))
     c = params["conditions"]
     env = Environment(
@@ -157,11 +185,29 @@ def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
     recording's length (default: the scene's maximum range in the sample's air)."""
 
     params = sample_parameters(spec, i)
-    scene = _varied_scene(params, spec)
+    scene = _sonar_alone(_varied_scene(params, spec), params)
     pose = _pose(params["pose"])
     sim = Simulator(scene, threads=1)
     motion = _motion(pose, params["conditions"])
     return sim.simulate_pose(pose, 0, n_samples=n_samples, motion=motion), params, scene, pose
+
+
+def _sonar_alone(scene, params: dict):
+    """A rig's scene as the sample's sonar alone on its drawn mount (no crosstalk);
+    any other scene as it is."""
+    if scene.rig is None:
+        return scene
+
+    m = params["mount"]
+    return sonar_scene(scene, params["sensor"], Mount.degrees(m["position_m"], m["rotation_deg"]))
+
+
+def sample_array(params: dict, spec: DatasetSpec):
+    """The array of sample `params` (a rig's: its sonar's)."""
+    scene = _scene(_scene_path(params, spec))
+    if scene.rig is None:
+        return scene.sensor.array
+    return next(s.sensor.array for s in scene.rig.sonars if s.name == params["sensor"])
 
 
 def _motion(pose, conditions: dict):

@@ -38,6 +38,7 @@ from processing.base.settings import (
 __all__ = [
     "Distribution",
     "Region",
+    "MountRange",
     "SceneChoice",
     "StoreOptions",
     "DatasetOptions",
@@ -123,14 +124,40 @@ class Region:
 
 
 @dataclass(frozen=True)
+class MountRange:
+    """A rig's sonar's mount drawn per sample (body frame): [low, high] per key; a key
+    not given keeps the rig's declared value."""
+
+    x: tuple[float, float] = setting((0.0, 0.0), "m", -100, 100, "x range", kind="interval")
+    y: tuple[float, float] = setting((0.0, 0.0), "m", -100, 100, "y range", kind="interval")
+    z: tuple[float, float] = setting((0.0, 0.0), "m", -100, 100, "z range", kind="interval")
+    roll_deg: tuple[float, float] = setting(
+        (0.0, 0.0), "deg", -180, 180, "roll range", kind="interval"
+    )
+    pitch_deg: tuple[float, float] = setting(
+        (0.0, 0.0), "deg", -90, 90, "pitch range", kind="interval"
+    )
+    yaw_deg: tuple[float, float] = setting(
+        (0.0, 0.0), "deg", -180, 180, "yaw range", kind="interval"
+    )
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+@dataclass(frozen=True)
 class SceneChoice:
-    """A scene a sample may use; `region` (x, y, z, yaw_deg: [low, high]) for random poses."""
+    """A scene a sample may use; `region` (x, y, z, yaw_deg: [low, high]) for random
+    poses; a rig's scene: its `sensor` whose recordings the samples are, and `mount`
+    (:class:`MountRange` keys: [low, high]) its mount drawn per sample."""
 
     file: Path
     weight: float = setting(1.0, "", 0, 1e6, "relative probability of this scene")
     poses: str = setting("trajectory", choices=("trajectory", "random"), doc="pose source")
     region: dict = field(default_factory=dict)
     clearance_m: float = setting(0.2, "m", 0, 10, "random poses: distance to every surface")
+    sensor: str | None = setting(None, kind="str", doc="a rig's scene: the sonar sampled")
+    mount: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -285,6 +312,24 @@ def load_spec(path: str | Path) -> DatasetSpec:
         raise _fail(exc) from None
 
 
+def _check_rig(scene, sensor: str | None, mount: dict, src: str, where: str) -> None:
+    """A rig's scene names its sonar (`sensor`); `sensor` and `mount` only for one."""
+    if scene.rig is None:
+        for key, given in (("sensor", sensor is not None), ("mount", bool(mount))):
+            if given:
+                raise SpecError("only for a rig's scene", file=src, key=f"{where}.{key}")
+        return
+    names = [x.name for x in scene.rig.sonars]
+    if sensor not in names:
+        raise SpecError(
+            f"the scene is a rig of {len(names)} sonar(s) ({', '.join(names)}): name the "
+            "one whose recordings are the samples",
+            file=src,
+            key=f"{where}.sensor",
+            value=sensor,
+        )
+
+
 def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     refuse_unknown(data, ("dataset", "scenes", "randomize", "store"), where="", file=src)
     ds = read_table(DatasetOptions, _table(src, data, "dataset"), where="dataset", file=src)
@@ -295,7 +340,8 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     scenes = []
     for i, s in enumerate(items):
         where = f"scenes[{i}]"
-        choice = read_table(SceneChoice, s, where=where, file=src, extra=("file", "region"))
+        extra = ("file", "region", "mount")
+        choice = read_table(SceneChoice, s, where=where, file=src, extra=extra)
         if "file" not in s:
             raise SpecError("missing", file=src, key=f"{where}.file")
         name = check(Setting("str"), s["file"], f"{where}.file", src)
@@ -304,16 +350,18 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
             raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
 
         try:  # checked now, not in a worker halfway through the dataset
-            load_scene(f)
+            scene = load_scene(f)
         except InputError as exc:
             raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
+        mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
+        _check_rig(scene, choice.get("sensor"), mount, src, where)
         region_t = s.get("region", {})
         region = read_table(Region, region_t, where=f"{where}.region", file=src)
         if choice.get("poses", "trajectory") == "random":
             for k in ("x", "y", "z"):
                 if k not in region:
                     raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
-        scenes.append(SceneChoice(f, region=region, **choice))
+        scenes.append(SceneChoice(f, region=region, mount=mount, **choice))
     if sum(s.weight for s in scenes) <= 0:
         raise SpecError("at least one scene needs a positive weight", file=src, key="scenes")
     rnd = _table(src, data, "randomize")

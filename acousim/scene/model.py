@@ -370,7 +370,6 @@ class Environment:
 
     @property
     def speed_of_sound_m_s(self) -> float:
-
         return speed_of_sound(self.temperature_c, self.humidity_percent, self.pressure_kpa)
 
 

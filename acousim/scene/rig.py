@@ -40,6 +40,7 @@ __all__ = [
     "MountedTrajectory",
     "Measurement",
     "schedule",
+    "sonar_scene",
 ]
 
 #: how the sonars of a rig share their rate: one after another, evenly spaced over
@@ -319,3 +320,43 @@ class Rig:
         """Sonar k's axis (3,) in sonar j's frame (where k's microphones face)."""
         mj, mk = self.sonars[j].mount, self.sonars[k].mount
         return mj.rotation.T @ mk.rotation[:, 0]
+
+
+def sonar_scene(scene, name: str | None, mount: Mount | None = None):
+    """The scene of a rig's sonar `name` alone (:class:`~acousim.scene.model.Scene`,
+    no rig, no crosstalk): its sensor at the poses of its firings (pose i: its i-th
+    firing, in time order), carried by the body's motion, with the rig's first LiDAR
+    on it; `mount` replaces its declared one.  A scene without a rig is returned as
+    it is (`name` must then be None).  Raises InputError naming ``--sensor`` and the
+    rig's sonars when `name` is None or not one of them (what ``compare``,
+    ``calibrate`` and ``dataset`` take)."""
+    rig = scene.rig
+    if rig is None:
+        if name is not None:
+            raise InputError(
+                f"scene {scene.name!r} has one sensor, not a rig", key="--sensor", value=name
+            )
+        return scene
+    names = [s.name for s in rig.sonars]
+    if name not in names:
+        raise InputError(
+            f"scene {scene.name!r} is a rig of {len(names)} sonar(s) ({', '.join(names)}): "
+            "name the one to take",
+            key="--sensor",
+            value=name,
+        )
+    k = names.index(name)
+    sonar = rig.sonars[k]
+    if mount is not None:
+        sonars = list(rig.sonars)
+        sonars[k] = dataclasses.replace(sonar, mount=mount)
+        rig = dataclasses.replace(rig, sonars=tuple(sonars))
+    poses = tuple(m.pose for m in rig.measurements() if m.sonar == k)
+    sensor = dataclasses.replace(
+        sonar.sensor,
+        poses=poses,
+        rate_hz=None,
+        motion=rig.sonar_motion(k),
+        lidar=rig.lidar_on(k),
+    )
+    return dataclasses.replace(scene, sensor=sensor, rig=None)

@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 
 from processing.base.frames import euler_of, matrix_of_quaternion
+from processing.formats.chirp import rig
 from processing.formats.chirp.names import (
     ACOUSTIC,
     LIDAR,
@@ -79,6 +80,21 @@ class Reader:
         ours = f.get(OURS)
         ok = isinstance(ours, h5py.Group) and _text(ours.attrs.get("schema")) == OUR_SCHEMA
         self.ours = ours if ok else None
+        #: a rig's file (ours, :mod:`.rig`): each capture's acoustic sensor and row
+        self.rig = None
+        if self.ours is not None and "capture_sensor" in self.ours:
+            self.rig = (
+                np.asarray(self.read(self.ours["capture_sensor"]), int),
+                np.asarray(self.read(self.ours["capture_row"]), int),
+            )
+
+    def place(self, k: int) -> tuple[h5py.Group, int]:
+        """Capture `k`'s acoustic sensor group and its row there (a rig's file: the
+        sonar that fired; else the reference sensor, row k)."""
+        if self.rig is None:
+            return self.ac, int(k)
+        n, row = int(self.rig[0][k]), int(self.rig[1][k])
+        return self.group(f"/sensors/{rig.acoustic_name(n)}"), row
 
     # -- fields
 
@@ -149,7 +165,7 @@ class Reader:
             groups = [np.flatnonzero(owner == i) for i in wanted]
         else:
             groups = [np.array([i]) for i in wanted]
-        need = sum(len(g) for g in groups) * self.T * self.M * self.signals.dtype.itemsize
+        need = sum(self.capture_bytes(k) for g in groups for k in g)
         if need > self.max_bytes:
             raise self.fail(
                 f"{need / 2**30:.3g} GiB of samples, more than the limit max_bytes = "
@@ -161,10 +177,23 @@ class Reader:
         wf = None if self.ours is not None else self.call(call)  # (call, its start)
         return [self.recording(i, g, array, wf, c, emitter_note) for i, g in zip(wanted, groups)]
 
+    def capture_bytes(self, k: int) -> int:
+        """The bytes of capture `k`'s samples."""
+        if self.rig is None:
+            return self.T * self.M * self.signals.dtype.itemsize
+        ac, _ = self.place(k)
+        d = self.dataset(ac, "data/signals", 3, "f")
+        return int(np.prod(d.shape[1:])) * d.dtype.itemsize
+
     def samples(self, captures: np.ndarray) -> np.ndarray:
-        x = np.stack([np.asarray(self.read(self.signals, int(k)), np.float32).T for k in captures])
+        rows = []
+        for k in captures:
+            ac, row = self.place(int(k))
+            d = self.signals if ac == self.ac else self.dataset(ac, "data/signals", 3, "f")
+            rows.append(np.asarray(self.read(d, row), np.float32).T)
+        x = np.stack(rows)
         if not np.all(np.isfinite(x)):
-            raise self.fail("samples are NaN or infinite", key=self.signals.name)
+            raise self.fail("samples are NaN or infinite", key=d.name)
         if self.ours is not None and "capture_sha256" in self.ours:
             sums = self.read(self.ours["capture_sha256"])
             for k, block in zip(captures, x):
@@ -172,30 +201,37 @@ class Reader:
                 if hashlib.sha256(data).hexdigest() != _text(sums[k]):
                     raise self.fail(
                         f"capture {k} differs from the checksum written with it (corrupted)",
-                        key=self.signals.name,
+                        key=self.place(int(k))[0].name + "/data/signals",
                     )
         return x
 
-    def array(self) -> tuple[Array, bool]:
+    def array(self, n: int = 0) -> tuple[Array, bool]:
         """The receiver array in the acoustic sensor's frame, the emitter from the
-        transmitter's to_origin (and whether that was missing: emitter at 0)."""
-        key = f"{self.ac.name}/calibration/receiver_relative_translations"
-        cal = self.ac.get("calibration")
+        transmitter's to_origin (and whether that was missing: emitter at 0); `n`: a
+        rig's sonar (its acoustic sensor and transmitter NN)."""
+        ac, tx_group, extras = self.ac, self.tx, "array"
+        if n:
+            ac = self.group(f"/sensors/{rig.acoustic_name(n)}")
+            tx_group = self.group(f"/sensors/{rig.transmitter_name(n)}")
+            extras = f"array_{n:02d}"
+        key = f"{ac.name}/calibration/receiver_relative_translations"
+        cal = ac.get("calibration")
         if not isinstance(cal, h5py.Group):
             raise self.fail("missing: the microphone positions", key=key)
         pos = np.asarray(self.read(self.dataset(cal, "receiver_relative_translations", 2, "f")))
-        if pos.shape != (self.M, 3) or not np.all(np.isfinite(pos)):
-            raise self.fail(f"must be finite ({self.M}, 3) metres", key=key, value=pos.shape)
+        M = self.dataset(ac, "data/signals", 3, "f").shape[2]
+        if pos.shape != (M, 3) or not np.all(np.isfinite(pos)):
+            raise self.fail(f"must be finite ({M}, 3) metres", key=key, value=pos.shape)
         if len(np.unique(pos, axis=0)) < len(pos):
             raise self.fail("two microphones at the same position", key=key)
         to_origin = self.matrix(cal, "to_origin")
-        tx_cal = self.tx.get("calibration") if self.tx is not None else None
+        tx_cal = tx_group.get("calibration") if tx_group is not None else None
         missing = tx_cal is None or "to_origin" not in tx_cal
         tx = np.linalg.inv(to_origin) @ self.matrix(tx_cal, "to_origin")
-        name = _text(self.ac.attrs.get("name")) or f"chirp {self.ac.name.rsplit('/', 1)[-1]}"
+        name = _text(ac.attrs.get("name")) or f"chirp {ac.name.rsplit('/', 1)[-1]}"
         channels = grid = pitch = None
-        if self.ours is not None and "array" in self.ours:
-            a = self.ours["array"]
+        if self.ours is not None and extras in self.ours:
+            a = self.ours[extras]
             name = _text(a.attrs.get("name")) or name
             channels = self.read(a["channels"]) if "channels" in a else None
             if "grid_index" in a:
@@ -280,19 +316,24 @@ class Reader:
         g = self.group(f"{self.ours.name}/recordings/{i:06d}")
         order = np.argsort(self.read(self.ours["capture_measurement"])[captures])
         x = x[order]
+        fs, first = self.fs, int(captures[order[0]])
+        if self.rig is not None:  # the sonar that fired: its array, rate, LiDAR mounting
+            ac, _ = self.place(first)
+            array, _ = self.array(int(self.rig[0][first]))
+            fs = self.number(ac, "sample_rate_hz")
         try:
             wf = Waveform.from_dict(json.loads(_text(g.attrs["waveform"])))
             meta = json.loads(_text(self.read(g["metadata"])) or "{}")
             rec = Recording(
                 samples=x[0] if len(x) == 1 else x,
-                sample_rate_hz=self.fs,
+                sample_rate_hz=fs,
                 array=array,
                 waveform=wf,
                 speed_of_sound_m_s=float(g.attrs["speed_of_sound_m_s"]),
                 emission_index=int(g.attrs["emission_index"]),
                 metadata=meta,
                 truth=self.truth(g),
-                lidar=self.scan(int(captures[order[0]])),
+                lidar=self.scan(first),
             )
         except (KeyError, ValueError, TypeError) as exc:
             if isinstance(exc, ChirpFileError):
@@ -358,8 +399,12 @@ class Reader:
         g = self.f.get(f"/sensors/{LIDAR}")
         if not isinstance(g, h5py.Group):
             return None
-        ts = self.timestamps(self.ac)
-        r = self._row(g, k, None if ts is None else float(ts[k]))
+        ac, _ = self.place(k)
+        if self.rig is not None:  # a rig's file: one scan per capture, beside its sonar
+            r = k
+        else:
+            ts = self.timestamps(self.ac)
+            r = self._row(g, k, None if ts is None else float(ts[k]))
         pts = np.asarray(self.read(self.dataset(g, "data/points", 3, "f"), r), float)
         n = int(self.read(g["data/point_counts"], r)) if "data/point_counts" in g else len(pts)
         keep = np.arange(len(pts)) < n
@@ -369,7 +414,7 @@ class Reader:
             ring = np.asarray(self.read(self.ours["lidar/ring"], r))[keep]
             when = np.asarray(self.read(self.ours["lidar/time_s"], r))[keep]
         intensity = pts[keep, 3] if pts.shape[1] > 3 else np.zeros(int(keep.sum()))
-        acoustic = self.matrix(self.ac.get("calibration"), "to_origin")
+        acoustic = self.matrix(ac.get("calibration"), "to_origin")
         to_sensor = np.linalg.inv(acoustic) @ self.matrix(g.get("calibration"), "to_origin")
         return PointCloud(
             pts[keep, :3],

@@ -30,6 +30,8 @@ source)::
                  call's parameters, emission index, speed of sound, array extras)
 
 Every sensor we write is ``sync_mode = "reference_capture"``: one row per capture.
+A rig's recordings (several sonars) have one acoustic sensor and transmitter per
+sonar, the body as base_link (layout: :mod:`processing.formats.chirp.rig`).
 A recording of K measurements becomes K captures. Reading (:mod:`processing.formats.chirp.read`)
 takes the array, the rate, the call (ours; else fitted to the transmitter's samples,
 :func:`processing.sensor.calls.fit_sweep`; else the `call` given), poses (odometry) and
@@ -42,6 +44,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
@@ -50,6 +53,7 @@ import numpy as np
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
 from processing.base.frames import quaternion_of
+from processing.formats.chirp import rig
 from processing.formats.chirp.names import (
     ACOUSTIC,
     LIDAR,
@@ -101,10 +105,13 @@ def write_chirp(
     """Write recordings as one CHIRP file, atomically (:mod:`processing.base.atomic`).
 
     All must share the array, sample rate, call and length (CHIRP has one receiver
-    array and one signals array). Times: each capture's emission is at its
-    recording's provenance ``timestamp_s`` (a real recording, Unix s) or its pose's
-    ``time_s`` (a trajectory), plus `start_time_s`; measurement k of a recording
-    k x `period_s` later; when those do not increase strictly, capture i is at
+    array and one signals array per acoustic sensor); a rig's recordings (several
+    ``metadata["sensor"]``, each with its ``metadata["mount"]``) per sonar, each
+    sonar its own acoustic sensor (:mod:`processing.formats.chirp.rig`). Times: each
+    capture's emission is at its recording's provenance ``timestamp_s`` (a real
+    recording, Unix s) or its pose's ``time_s`` (a trajectory), plus `start_time_s`;
+    measurement k of a recording k x `period_s` later; when those do not increase
+    strictly (a rig: per sonar, never falling over the file), capture i is at
     `start_time_s` + i x `period_s`. Samples: float32 (float64 rounded: 2**-24 at
     most), a chunk per capture, HDF5's fletcher32 `checksum`, a sha256 per capture,
     `compression` "gzip", "lzf" or None. The same recordings give the same bytes.
@@ -113,55 +120,116 @@ def write_chirp(
     recs = list(recordings)
     if not recs:
         raise ChirpFileError("no recordings to write", file=path)
-    _check_one_sensor(path, recs)
+    sonar_of = _check_sonars(path, recs)
     if not (np.isfinite(period_s) and period_s > 0):
         raise InputError("must be a positive number of seconds", key="period_s", value=period_s)
-    owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
-    measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
-    provenance = [r.provenance for r in recs]
-    emission, synthetic = _emission_times(provenance, owner, measure, period_s)
-    emission = emission + float(start_time_s)
-    first = recs[0]
-    fs = first.sample_rate_hz
-    sample0 = emission - np.array([recs[i].emission_index for i in owner]) / fs
+    caps, synthetic = _captures(recs, sonar_of, period_s, start_time_s)
+    mounts = None if sonar_of is None else rig.mounts(path, recs, sonar_of)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["format"] = "chirp"
         f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["n_reference_captures"] = len(owner)
+        f.attrs["n_reference_captures"] = caps.n_reference
         f.attrs["reference_sensor"] = ACOUSTIC
-        sensors = f.create_group("sensors")
+        f.create_group("sensors")
         opts = {"fletcher32": checksum, "compression": compression}
-        sums = _write_acoustic(sensors, recs, owner, measure, sample0, opts)
-        _write_transmitter(sensors, first, emission)
-        if all(p.pose is not None for p in provenance):
-            _write_odometry(sensors, provenance, owner, emission)
-            _write_transforms(f, [provenance[i].pose for i in owner])
-        if all(r.lidar is not None for r in recs):
-            _write_lidar(sensors, f, recs, owner, emission)
+        if mounts is not None:  # a rig: one acoustic group per sonar (chirp.rig)
+            sums = _write_rig(f, path, recs, caps, mounts, opts)
+        else:
+            sums = _write_one(f, recs, caps, opts)
         ours = f.require_group(OURS)
         ours.attrs.update(schema=OUR_SCHEMA, schema_version=OUR_VERSION)
         ours.attrs.update(timestamps_synthetic=synthetic, period_s=float(period_s))
-        for name, data in (("recording", owner), ("measurement", measure)):
+        for name, data in (("recording", caps.owner), ("measurement", caps.measure)):
             ours.create_dataset(f"capture_{name}", data=data.astype(np.int64))
         ours.create_dataset("capture_sha256", data=np.array(sums, dtype="S64"))
-        _write_array_extras(ours, first.array)
+        _write_array_extras(ours, recs[0].array)
+        if caps.sonar is not None:
+            _write_rig_extras(ours, recs, caps)
         for i, rec in enumerate(recs):
             _write_recording_extras(ours.create_group(f"recordings/{i:06d}"), rec, checksum)
     return path
 
 
-def _check_one_sensor(path: Path, recs: list[Recording]) -> None:
-    sonars = list(dict.fromkeys(r.metadata.get("sensor") for r in recs))
-    if len(sonars) > 1:  # a rig's recordings (acousim.rig): mounted apart, fired apart
+@dataclass(frozen=True)
+class _Captures:
+    """The file's captures (C,): capture k is measurement ``measure[k]`` of recording
+    ``owner[k]``, emitted at ``emission[k]`` (s), its first sample at ``sample0[k]``
+    (s); a rig's: ``sonar[k]``, its sonar (None: one sensor)."""
+
+    owner: np.ndarray
+    measure: np.ndarray
+    emission: np.ndarray
+    sample0: np.ndarray
+    sonar: np.ndarray | None = None
+
+    @property
+    def n_reference(self) -> int:
+        """The reference sensor's captures (all, or a rig's sonar 0's)."""
+        return len(self.owner) if self.sonar is None else int(np.sum(self.sonar == 0))
+
+    def of(self, n: int) -> _Captures:
+        """Sonar `n`'s captures."""
+        k = np.flatnonzero(self.sonar == n)
+        return _Captures(self.owner[k], self.measure[k], self.emission[k], self.sample0[k])
+
+
+def _captures(recs, sonar_of, period_s, start_time_s) -> tuple[_Captures, bool]:
+    """The captures of `recs` (`sonar_of`: a rig's recordings' sonars) and whether
+    their times are synthetic (see :func:`write_chirp`)."""
+    owner = np.concatenate([np.full(r.n_measurements, i) for i, r in enumerate(recs)])
+    measure = np.concatenate([np.arange(r.n_measurements) for r in recs])
+    sonar = None if sonar_of is None else sonar_of[owner]
+    provenance = [r.provenance for r in recs]
+    emission, synthetic = _emission_times(provenance, owner, measure, period_s, sonar)
+    emission = emission + float(start_time_s)
+    sample0 = emission - np.array([recs[i].emission_index / recs[i].sample_rate_hz for i in owner])
+    return _Captures(owner, measure, emission, sample0, sonar), synthetic
+
+
+def _write_one(f: h5py.File, recs: list[Recording], caps: _Captures, opts: dict) -> list[bytes]:
+    """One sensor's captures: acoustic sensor, transmitter, odometry, LiDAR."""
+    sensors = f["sensors"]
+    owner, emission = caps.owner, caps.emission
+    sums = _write_acoustic(sensors, recs, caps, opts)
+    _write_transmitter(sensors, recs[0], emission)
+    provenance = [r.provenance for r in recs]
+    if all(p.pose is not None for p in provenance):
+        _write_odometry(sensors, provenance, owner, emission)
+        _write_transforms(f, [provenance[i].pose for i in owner])
+    if all(r.lidar is not None for r in recs):
+        _write_lidar(sensors, f, recs, owner, emission)
+    return sums
+
+
+def _check_sonars(path: Path, recs: list[Recording]) -> np.ndarray | None:
+    """Each recording's sonar (index into :func:`.rig.sonars_of`) for a rig's
+    recordings of several sonars (None: one sensor); each sonar's recordings share
+    array, rate, call and length (:func:`_check_one_sensor`)."""
+    sonars = rig.sonars_of(recs)
+    if len(sonars) == 1:
+        _check_one_sensor(path, recs)
+        return None
+    if None in sonars:
+        i = next(i for i, r in enumerate(recs) if r.metadata.get("sensor") is None)
         raise ChirpFileError(
-            f"the recordings come from {len(sonars)} sonars of a rig "
-            f"({', '.join(map(str, sonars))}); write one CHIRP file per sonar "
-            "(acousim export --format chirp --sensor NAME)",
+            f"recordings of a rig's sonars ({', '.join(str(n) for n in sonars if n)}) and "
+            "of a sensor without a name (metadata 'sensor') cannot share a file",
             file=path,
-            key="recordings",
+            key=f"recordings[{i}].metadata.sensor",
         )
-    a = recs[0]
-    for i, r in enumerate(recs[1:], 1):
+    sonar_of = np.array([sonars.index(r.metadata.get("sensor")) for r in recs])
+    for n in range(len(sonars)):
+        _check_one_sensor(path, recs, np.flatnonzero(sonar_of == n).tolist())
+    return sonar_of
+
+
+def _check_one_sensor(path: Path, recs: list[Recording], which: list[int] | None = None) -> None:
+    """Recordings `which` (all) share array, sample rate, call and length; their
+    LiDAR scans one mounting."""
+    which = list(range(len(recs))) if which is None else which
+    a = recs[which[0]]
+    for i in which[1:]:
+        r = recs[i]
         for what, same in (
             ("array", np.array_equal(r.array.positions_m, a.array.positions_m)
              and np.array_equal(r.array.emitter_m, a.array.emitter_m)),
@@ -171,22 +239,25 @@ def _check_one_sensor(path: Path, recs: list[Recording]) -> None:
         ):  # fmt: skip
             if not same:
                 raise ChirpFileError(
-                    f"CHIRP holds one array, sample rate, call and capture length; "
-                    f"recording {i} has another {what} than recording 0",
+                    f"CHIRP holds one array, sample rate, call and capture length per "
+                    f"sensor; recording {i} has another {what} than recording {which[0]}"
+                    + (f" (sonar {a.metadata['sensor']!r})" if len(which) < len(recs) else ""),
                     file=path,
                     key="recordings",
                     value=i,
                 )
-    lidars = [r.lidar for r in recs if r.lidar is not None]
+    lidars = [recs[i].lidar for i in which if recs[i].lidar is not None]
     if any(not np.allclose(pc.to_sensor, lidars[0].to_sensor) for pc in lidars):
         raise ChirpFileError(
             "CHIRP holds one LiDAR mounting; the recordings' scans differ", file=path
         )
 
 
-def _emission_times(provenance, owner, measure, period_s) -> tuple[np.ndarray, bool]:
+def _emission_times(provenance, owner, measure, period_s, sonar=None) -> tuple[np.ndarray, bool]:
     """Each capture's emission time (s) and whether they are synthetic (see write_chirp);
-    `provenance` the recordings' :class:`~processing.sensor.provenance.Provenance`."""
+    `provenance` the recordings' :class:`~processing.sensor.provenance.Provenance`;
+    `sonar` (a rig's, each capture's): the times increase per sonar and never
+    decrease over the file (sonars firing together)."""
     base = []
     for p in provenance:
         t = p.timestamp_s
@@ -194,7 +265,11 @@ def _emission_times(provenance, owner, measure, period_s) -> tuple[np.ndarray, b
             t = p.pose.time_s
         base.append(float(t) if t is not None and np.isfinite(t) else np.nan)
     t = np.array(base)[owner] + measure * period_s
-    if np.all(np.isfinite(t)) and np.all(np.diff(t) > 0):
+    if sonar is not None:
+        rising = all(np.all(np.diff(t[sonar == n]) > 0) for n in np.unique(sonar))
+        if np.all(np.isfinite(t)) and np.all(np.diff(t) >= 0) and rising:
+            return t, False
+    elif np.all(np.isfinite(t)) and np.all(np.diff(t) > 0):
         return t, False
     return np.arange(len(owner)) * period_s, True
 
@@ -207,32 +282,96 @@ def _sensor(parent: h5py.Group, name: str, kind: str, to_origin=None) -> h5py.Gr
     return g
 
 
-def _write_acoustic(sensors, recs, owner, measure, sample0, opts) -> list[bytes]:
-    first = recs[0]
+def _write_acoustic(sensors, recs, caps: _Captures, opts, *, name=ACOUSTIC, to_origin=None):
+    """The captures `caps` as acoustic sensor `name` (placed by `to_origin`, 4x4;
+    identity): their sha256s."""
+    first = recs[int(caps.owner[0])]
     M, T = first.array.n_mics, first.n_samples
-    g = _sensor(sensors, ACOUSTIC, "acoustic_sensor", np.eye(4))
+    g = _sensor(sensors, name, "acoustic_sensor", np.eye(4) if to_origin is None else to_origin)
     g.attrs.update(sample_rate_hz=first.sample_rate_hz, num_channels=M, name=first.array.name)
     g.create_dataset(
         "calibration/receiver_relative_translations", data=first.array.positions_m
     ).attrs["units"] = "m"
-    d = g.create_dataset("data/signals", (len(owner), T, M), np.float32, chunks=(1, T, M), **opts)
+    d = g.create_dataset(
+        "data/signals", (len(caps.owner), T, M), np.float32, chunks=(1, T, M), **opts
+    )
     sums = []
-    for k, (i, j) in enumerate(zip(owner, measure)):
+    for k, (i, j) in enumerate(zip(caps.owner, caps.measure)):
         x = recs[i].samples if recs[i].samples.ndim == 2 else recs[i].samples[j]
         block = np.ascontiguousarray(x.T, "<f4")
         d[k] = block
         sums.append(hashlib.sha256(block.data).hexdigest().encode())
-    g.create_dataset("data/timestamps", data=sample0).attrs["units"] = "s"
+    g.create_dataset("data/timestamps", data=caps.sample0).attrs["units"] = "s"
     return sums
 
 
-def _write_transmitter(sensors, rec: Recording, emission: np.ndarray) -> None:
-    to_origin = np.eye(4)
-    to_origin[:3, 3] = rec.array.emitter_m
-    g = _sensor(sensors, TRANSMITTER, "acoustic_transmitter", to_origin)
+def _write_transmitter(
+    sensors, rec: Recording, emission: np.ndarray, *, name=TRANSMITTER, to_origin=None
+) -> h5py.Group:
+    """`rec`'s emitter as transmitter `name`: its call, emitted at `emission` (s), its
+    position in its sensor's frame, placed by the sensor's `to_origin` (4x4)."""
+    at = np.eye(4)
+    at[:3, 3] = rec.array.emitter_m
+    g = _sensor(sensors, name, "acoustic_transmitter", at if to_origin is None else to_origin @ at)
     g.attrs["sample_rate_hz"] = rec.sample_rate_hz
     g.create_dataset("data/signals", data=rec.waveform.sampled(rec.sample_rate_hz).astype("f4"))
     g.create_dataset("data/timestamps", data=emission).attrs["units"] = "s"
+    return g
+
+
+def _write_rig(f, path, recs, caps: _Captures, mounts, opts) -> list[bytes]:
+    """A rig's captures (``caps.sonar``) as one acoustic sensor and transmitter per
+    sonar, placed by their `mounts` (4x4, sensor -> body) in sonar 0's frame; the
+    body's odometry and the LiDAR one row per capture (layout: :mod:`.rig`)."""
+    sensors, sonar, emission = f["sensors"], caps.sonar, caps.emission
+    to_origin = [np.linalg.inv(mounts[0]) @ m for m in mounts]
+    ref = np.flatnonzero(sonar == 0)
+    sums: list[bytes] = [b""] * len(caps.owner)
+    for n, label in enumerate(rig.sonars_of(recs)):
+        mine = caps.of(n)
+        got = _write_acoustic(
+            sensors, recs, mine, opts, name=rig.acoustic_name(n), to_origin=to_origin[n]
+        )
+        sensors[rig.acoustic_name(n)].attrs["name"] = label  # the sonar's name
+        for k, h in zip(np.flatnonzero(sonar == n), got):
+            sums[k] = h
+        tx = _write_transmitter(
+            sensors, recs[int(mine.owner[0])], mine.emission,
+            name=rig.transmitter_name(n), to_origin=to_origin[n],
+        )  # fmt: skip
+        if n:  # its own firings; the one nearest each reference capture
+            sync = rig.nearest(mine.emission, emission[ref])
+            for g in (sensors[rig.acoustic_name(n)], tx):
+                g.attrs["sync_mode"] = "full_capture"
+                g.create_dataset("data/sync_to_reference_index", data=sync)
+    every = ref.astype(np.int64)  # odometry and LiDAR: one row per capture
+    provenance = [r.provenance for r in recs]
+    if all(p.pose is not None for p in provenance):
+        mount_of = [mounts[n] for n in sonar]
+        rig.write_odometry(sensors, _sensor, provenance, caps.owner, mount_of, emission, every)
+        bodies = [rig.body_pose(provenance[i].pose, m) for i, m in zip(caps.owner, mount_of)]
+        rig.write_transforms(f, bodies, mounts[0])
+    if all(r.lidar is not None for r in recs):
+        at = rig.lidar_to_origin(path, recs, caps.owner, [to_origin[n] for n in sonar])
+        g = _write_lidar(sensors, f, recs, caps.owner, emission, at)
+        g.attrs["sync_mode"] = "full_capture"
+        g.create_dataset("data/sync_to_reference_index", data=every)
+    return sums
+
+
+def _write_rig_extras(ours: h5py.Group, recs, caps: _Captures) -> None:
+    """Each capture's acoustic sensor (index NN) and row in it; the sonars' names;
+    the arrays' extras of sonars 1.. (``array_NN``)."""
+    sonar = caps.sonar
+    rows = np.zeros(len(sonar), np.int64)
+    for n in np.unique(sonar):
+        rows[sonar == n] = np.arange(np.sum(sonar == n))
+    ours.create_dataset("capture_sensor", data=sonar.astype(np.int64))
+    ours.create_dataset("capture_row", data=rows)
+    names = rig.sonars_of(recs)
+    ours.attrs["sensors"] = json.dumps(names)
+    for n in range(1, len(names)):
+        _write_array_extras(ours, recs[int(caps.of(n).owner[0])].array, f"array_{n:02d}")
 
 
 def _write_odometry(sensors, provenance, owner, emission) -> None:
@@ -282,11 +421,12 @@ def _write_transforms(f: h5py.File, poses: list[SensorPose]) -> None:
         g.attrs["base_link_height_above_ground_m"] = float(z[0])
 
 
-def _write_lidar(sensors, f, recs, owner, emission) -> None:
+def _write_lidar(sensors, f, recs, owner, emission, to_origin=None) -> h5py.Group:
+    """The captures' scans: their mounting `to_origin` (4x4; the first scan's)."""
     clouds = [recs[i].lidar for i in owner]
     first = clouds[0]
     n, top = len(clouds), max(1, max(len(c) for c in clouds))
-    g = _sensor(sensors, LIDAR, "lidar", first.to_sensor)
+    g = _sensor(sensors, LIDAR, "lidar", first.to_sensor if to_origin is None else to_origin)
     g.attrs.update(max_points=top, rate_hz=first.rate_hz, name=first.name)
     pts = np.full((n, top, 4), np.nan, np.float32)
     ring = np.full((n, top), -1, np.int16)
@@ -303,10 +443,11 @@ def _write_lidar(sensors, f, recs, owner, emission) -> None:
     ours = f.require_group(f"{OURS}/lidar")
     ours.create_dataset("ring", data=ring, chunks=(1, top))
     ours.create_dataset("time_s", data=when, chunks=(1, top)).attrs["units"] = "s"
+    return g
 
 
-def _write_array_extras(ours: h5py.Group, array: Array) -> None:
-    a = ours.create_group("array")
+def _write_array_extras(ours: h5py.Group, array: Array, name: str = "array") -> None:
+    a = ours.create_group(name)
     a.attrs["name"] = array.name
     a.create_dataset("channels", data=array.channels)
     if array.grid_index is not None:
