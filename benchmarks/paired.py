@@ -27,12 +27,13 @@ SCENE = ROOT / "scenes" / "corridor.toml"
 
 
 class Worker:
-    """One checkout's simulator in a process of its own."""
+    """A script run in a process of its own with one checkout first on its path,
+    answering one JSON line per command line (and one when ready)."""
 
-    def __init__(self, checkout: Path, scene: Path, first: int, count: int, overrides: str):
+    def __init__(self, checkout: Path, script: Path, *args: str):
         env = {**os.environ, "PYTHONPATH": str(checkout), "OPENBLAS_NUM_THREADS": "1"}
         self.proc = subprocess.Popen(
-            [sys.executable, str(WORKER), str(scene), str(first), str(count), overrides],
+            [sys.executable, str(script), *args],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             text=True,
@@ -70,8 +71,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--save", type=Path, default=None, help="save both sides' samples here")
     a = ap.parse_args(argv)
     scene = a.scene.resolve()
-    base = Worker(a.base, scene, a.first, a.poses, a.base_overrides)
-    new = Worker(a.new, scene, a.first, a.poses, a.overrides)
+    args = (str(scene), str(a.first), str(a.poses))
+    base = Worker(a.base, WORKER, *args, a.base_overrides)
+    new = Worker(a.new, WORKER, *args, a.overrides)
     if a.save is not None:
         a.save.mkdir(parents=True, exist_ok=True)
         base.ask(f"save {a.save / 'base.npy'}")

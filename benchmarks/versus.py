@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -105,38 +104,11 @@ def worker() -> None:
             print(json.dumps(out), flush=True)
 
 
-class _Side:
-    def __init__(self, checkout: Path) -> None:
-        # this file run as a script: the checkout's packages first on the path
-        env = {**os.environ, "PYTHONPATH": str(checkout), "OPENBLAS_NUM_THREADS": "1"}
-        self.proc = subprocess.Popen(
-            [sys.executable, str(Path(__file__).resolve()), "--worker"],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
-            env=env,
-            cwd=str(checkout),
-        )
-        self.answer()
-
-    def answer(self) -> dict:
-        line = self.proc.stdout.readline()
-        if not line:
-            raise RuntimeError("a worker ended before answering")
-        return json.loads(line)
-
-    def time(self, name: str) -> dict:
-        self.proc.stdin.write(name + "\n")
-        self.proc.stdin.flush()
-        return self.answer()
-
-    def close(self) -> None:
-        self.proc.stdin.close()
-        self.proc.wait()
-
-
 def main(base: Path, pairs: int, only: tuple[str, ...]) -> str:
-    new, old = _Side(ROOT), _Side(base)
+    # here, not at the head: a worker runs this file as a script, without the package
+    from benchmarks.paired import Worker
+
+    new, old = (Worker(c, Path(__file__).resolve(), "--worker") for c in (ROOT, base))
     lines = [
         f"new: this checkout; old: {base}; {pairs} alternating pairs per workload; "
         "new/old medians of the pairs' ratios",
@@ -149,7 +121,7 @@ def main(base: Path, pairs: int, only: tuple[str, ...]) -> str:
             wall, cpu, base_ms = [], [], []
             for k in range(pairs):
                 first, second = (new, old) if k % 2 == 0 else (old, new)
-                a, b = first.time(name), second.time(name)
+                a, b = first.ask(name), second.ask(name)
                 n, o = (a, b) if first is new else (b, a)
                 wall.append(n["wall"] / o["wall"])
                 cpu.append(n["cpu"] / max(o["cpu"], 1e-9))

@@ -31,9 +31,8 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from processing.base.frames import pose_matrix, quaternion_of
-from processing.formats.chirp.names import LIDAR, ODOMETRY, ChirpFileError
-from processing.sensor.provenance import SensorMotion
+from processing.base.frames import pose_matrix
+from processing.formats.chirp.names import LIDAR, ChirpFileError
 
 __all__ = ["acoustic_name", "transmitter_name", "mount_matrix", "sonars_of", "nearest"]
 
@@ -103,43 +102,6 @@ def body_pose(pose, mount: np.ndarray) -> np.ndarray:
     """The body's pose (4x4, body -> world) from a sonar's `pose`
     (:class:`~processing.sensor.provenance.SensorPose`) and its `mount` (4x4)."""
     return pose.matrix() @ np.linalg.inv(mount)
-
-
-def write_odometry(sensors, group_fn, provenance, owner, mounts_of, emission, sync) -> None:
-    """The body's pose at every firing (base_link = the body, in odom = our world),
-    velocities in base_link (the sonar's, less its lever arm's turn); exact, so zero
-    covariances. `mounts_of` (C, 4, 4): each capture's sonar mount."""
-    n = len(owner)
-    g = group_fn(sensors, ODOMETRY, "odometry")
-    g.attrs["sync_mode"] = "full_capture"
-    rate = 1 / np.median(np.diff(emission)) if n > 1 and np.ptp(emission) > 0 else 0.0
-    g.attrs.update(source="acousim", rate_hz=float(rate))
-    pos, quat, yaw = np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n)
-    lin, ang = np.zeros((n, 3)), np.zeros((n, 3))
-    for k, i in enumerate(owner):
-        p, motion = provenance[i].pose, provenance[i].motion or SensorMotion()
-        B = body_pose(p, mounts_of[k])
-        w = np.asarray(motion.angular_velocity_rad_s, float)
-        arm = p.matrix()[:3, 3] - B[:3, 3]  # the mount's lever arm, world frame
-        v = np.asarray(motion.velocity_m_s, float) - np.cross(w, arm)
-        pos[k], quat[k] = B[:3, 3], quaternion_of(B[:3, :3])
-        yaw[k] = np.arctan2(B[1, 0], B[0, 0])
-        lin[k], ang[k] = B[:3, :3].T @ v, B[:3, :3].T @ w
-    for name, data, units in (
-        ("position", pos, "m"),
-        ("orientation", quat, None),
-        ("yaw", yaw, "rad"),
-        ("linear_velocity", lin, "m/s"),
-        ("angular_velocity", ang, "rad/s"),
-        ("pose_covariance", np.zeros((n, 6, 6)), None),
-        ("twist_covariance", np.zeros((n, 6, 6)), None),
-        ("timestamps", emission, "s"),
-        ("ros_timestamps", emission, "s"),
-        ("sync_to_reference_index", sync, None),
-    ):
-        d = g.create_dataset(f"data/{name}", data=data)
-        if units:
-            d.attrs["units"] = units
 
 
 def write_transforms(f: h5py.File, bodies: list[np.ndarray], mount0: np.ndarray) -> None:

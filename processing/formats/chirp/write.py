@@ -348,7 +348,7 @@ def _write_rig(f, path, recs, caps: _Captures, mounts, opts) -> list[bytes]:
     provenance = [r.provenance for r in recs]
     if all(p.pose is not None for p in provenance):
         mount_of = [mounts[n] for n in sonar]
-        rig.write_odometry(sensors, _sensor, provenance, caps.owner, mount_of, emission, every)
+        _write_odometry(sensors, provenance, caps.owner, emission, mount_of, every)
         bodies = [rig.body_pose(provenance[i].pose, m) for i, m in zip(caps.owner, mount_of)]
         rig.write_transforms(f, bodies, mounts[0])
     if all(r.lidar is not None for r in recs):
@@ -374,22 +374,34 @@ def _write_rig_extras(ours: h5py.Group, recs, caps: _Captures) -> None:
         _write_array_extras(ours, recs[int(caps.of(n).owner[0])].array, f"array_{n:02d}")
 
 
-def _write_odometry(sensors, provenance, owner, emission) -> None:
-    """The sensor's pose per capture: base_link (= origin, the array) in odom (= our
-    world), velocities in base_link; exact, so the covariances are zero."""
+def _write_odometry(sensors, provenance, owner, emission, mounts_of=None, sync=None) -> None:
+    """The pose per capture of base_link in odom (= our world), velocities in
+    base_link; exact, so the covariances are zero.  base_link is the array (one
+    sensor), or a rig's body: `mounts_of` (C, 4, 4) each capture's sonar mount, the
+    body's velocity the sonar's less its lever arm's turn, `sync` (C,) each row's
+    reference capture."""
     n = len(owner)
     g = _sensor(sensors, ODOMETRY, "odometry")
-    rate = 1 / np.median(np.diff(emission)) if n > 1 else 0.0
+    if mounts_of is not None:
+        g.attrs["sync_mode"] = "full_capture"
+    spread = n > 1 and (mounts_of is None or np.ptp(emission) > 0)
+    rate = 1 / np.median(np.diff(emission)) if spread else 0.0
     g.attrs.update(source="acousim", rate_hz=float(rate))
     pos, quat, yaw = np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n)
     lin, ang = np.zeros((n, 3)), np.zeros((n, 3))
     for k, i in enumerate(owner):
         p, motion = provenance[i].pose, provenance[i].motion or SensorMotion()
-        T = p.matrix()
-        pos[k], quat[k], yaw[k] = T[:3, 3], quaternion_of(T[:3, :3]), p.yaw_rad
-        lin[k] = T[:3, :3].T @ np.asarray(motion.velocity_m_s, float)
-        ang[k] = T[:3, :3].T @ np.asarray(motion.angular_velocity_rad_s, float)
-    for name, data, units in (
+        v = np.asarray(motion.velocity_m_s, float)
+        w = np.asarray(motion.angular_velocity_rad_s, float)
+        if mounts_of is None:
+            T, yaw[k] = p.matrix(), p.yaw_rad
+        else:
+            T = rig.body_pose(p, mounts_of[k])
+            v = v - np.cross(w, p.matrix()[:3, 3] - T[:3, 3])  # the mount's lever arm
+            yaw[k] = np.arctan2(T[1, 0], T[0, 0])
+        pos[k], quat[k] = T[:3, 3], quaternion_of(T[:3, :3])
+        lin[k], ang[k] = T[:3, :3].T @ v, T[:3, :3].T @ w
+    columns = [
         ("position", pos, "m"),
         ("orientation", quat, None),
         ("yaw", yaw, "rad"),
@@ -399,7 +411,10 @@ def _write_odometry(sensors, provenance, owner, emission) -> None:
         ("twist_covariance", np.zeros((n, 6, 6)), None),
         ("timestamps", emission, "s"),
         ("ros_timestamps", emission, "s"),
-    ):
+    ]
+    if sync is not None:
+        columns.append(("sync_to_reference_index", sync, None))
+    for name, data, units in columns:
         d = g.create_dataset(f"data/{name}", data=data)
         if units:
             d.attrs["units"] = units
