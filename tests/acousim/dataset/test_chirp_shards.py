@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import processing as P
-from acousim.bundled import resolve
 from acousim.dataset import DatasetReader, generate, load_spec
 from acousim.dataset.chirp_shards import capture_samples
+from tests.acousim.dataset.wall import wall_spec
 
 SCENE = """
 [sensor]
@@ -44,10 +44,7 @@ temperature_c = { dist = "uniform", range = [10.0, 30.0] }
 @pytest.fixture(scope="module")
 def spec_path(tmp_path_factory):
     d = tmp_path_factory.mktemp("spec")
-    mesh = resolve("scenes", "wall").parent / "meshes" / "wall.stl"
-    (d / "wall.toml").write_text(SCENE.format(mesh=mesh.as_posix()))
-    (d / "spec.toml").write_text(SPEC)
-    return d / "spec.toml"
+    return wall_spec(d, SCENE, SPEC)
 
 
 def test_chirp_shards(spec_path, tmp_path):

@@ -14,8 +14,10 @@ import torch
 from torch.utils.data import DataLoader
 
 import processing as P
-from acousim.bundled import resolve
 from acousim.dataset import DatasetReader, SpecError, TorchSamples, generate, load_spec
+from tests.acousim.dataset.test_chirp_shards import SCENE as CHIRP_SCENE
+from tests.acousim.dataset.test_chirp_shards import SPEC as CHIRP_SPEC
+from tests.acousim.dataset.wall import wall_spec
 from tests.oracles.analytic import echo_recording
 
 WALL = """
@@ -59,10 +61,7 @@ max_peaks = 5
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     d = tmp_path_factory.mktemp("torchds")
-    mesh = resolve("scenes", "wall").parent / "meshes" / "wall.stl"
-    (d / "wall.toml").write_text(WALL.format(mesh=mesh.as_posix()))
-    (d / "spec.toml").write_text(SPEC)
-    generate(d / "spec.toml", d / "out")
+    generate(wall_spec(d, WALL, SPEC), d / "out")
     return d / "out"
 
 
@@ -111,8 +110,7 @@ def test_range_bins_on_a_given_axis_put_an_echo_at_its_range_in_any_air(c):
     ],
 )
 def test_a_bad_grid_is_refused_naming_file_key_and_value(tmp_path, store, pattern):
-    mesh = resolve("scenes", "wall").parent / "meshes" / "wall.stl"
-    (tmp_path / "wall.toml").write_text(WALL.format(mesh=mesh.as_posix()))
+    wall_spec(tmp_path, WALL)
     (tmp_path / "bad.toml").write_text(f"[[scenes]]\nfile = 'wall.toml'\n[store]\n{store}\n")
     with pytest.raises(SpecError, match=pattern) as err:
         load_spec(tmp_path / "bad.toml")
@@ -307,38 +305,8 @@ def test_a_label_map_beside_the_image_is_batched_as_labels(dataset, tmp_path):
         np.testing.assert_array_equal(batch["labels"]["order"][b].numpy(), order)
 
 
-CHIRP_SCENE = """
-[sensor]
-array = "urtis_v1"
-direct_path = false
-[sensor.lidar]
-preset = "vlp16"
-azimuth_step_deg = 4.0
-[simulation]
-max_range_m = 3.0
-rays = 1000
-bounces = 1
-[[meshes]]
-file = "{mesh}"
-"""
-
-CHIRP_SPEC = """
-[dataset]
-samples = 3
-shard_size = 2
-format = "chirp"
-[[scenes]]
-file = "wall.toml"
-[randomize]
-temperature_c = { dist = "uniform", range = [0.0, 40.0] }
-"""
-
-
 def test_chirp_shards_batch_too(tmp_path):
-    mesh = resolve("scenes", "wall").parent / "meshes" / "wall.stl"
-    (tmp_path / "wall.toml").write_text(CHIRP_SCENE.format(mesh=mesh.as_posix()))
-    (tmp_path / "spec.toml").write_text(CHIRP_SPEC)
-    generate(tmp_path / "spec.toml", tmp_path / "d")
+    generate(wall_spec(tmp_path, CHIRP_SCENE, CHIRP_SPEC), tmp_path / "d")
     ds = DatasetReader(tmp_path / "d")
     batch = next(iter(DataLoader(ds.torch(max_paths=4, max_points=5000), batch_size=3)))
     raws = [ds[i]["raw"] for i in range(3)]
