@@ -232,7 +232,12 @@ class RigSimulator:
         lead = m.time_s - f.time_s  # how long before k's emission j fired (s)
         n_from_f = int(np.ceil((lead + n_samples / fs) * fs))
         heard = pair.heard(
-            f.pose, self.rig.sonar_motion(j), n_from_f, max_path_m=self._reach(f, n_from_f / fs)
+            f.pose,
+            self.rig.sonar_motion(j),
+            n_from_f,
+            max_path_m=self._reach(f, n_from_f / fs),
+            min_path_m=self._short_of(f, lead - call.duration_s),
+            seen=False,
         )
         echoes = heard.echoes
         delay = echoes.delay_s - lead
@@ -256,6 +261,32 @@ class RigSimulator:
         rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
         return rec.samples[:, pre:], _truth(heard, rows, m.pose)
 
+    def _speed(self, f: Measurement) -> float | None:
+        """How fast a path's length may change during firing `f`'s measurement (m/s):
+        twice what the microphones can move (the body's speed, its turn carrying
+        the farthest mount); None when reflectors move (no bound)."""
+        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+            return None
+        if self.rig.motion is None:
+            return 0.0
+        lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
+        v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
+        w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
+        return float(2 * (v + w * lever))
+
+    def _short_of(self, f: Measurement, gone_s: float) -> float | None:
+        """How long a path of firing `f` must be (m) for its call to end later than
+        `gone_s` after the emission (m's window starts then, less the call): c less
+        :meth:`_speed` times that, less :data:`REACH_MARGIN_M`; shorter paths are
+        heard wholly before the window (and left out before the kinematics).  None:
+        no bound (the call is emitted during the window, or reflectors move)."""
+        speed = self._speed(f)
+        if speed is None or gone_s <= 0:
+            return None
+        c = self.scene.environment.speed_of_sound_m_s
+        short = (c - speed) * gone_s - REACH_MARGIN_M
+        return short if short > 0 else None
+
     def _reach(self, f: Measurement, window_s: float) -> float | None:
         """How long a path of firing `f` may be and still reach a window ending
         `window_s` after its emission (m): c times that, plus what the microphones
@@ -263,14 +294,9 @@ class RigSimulator:
         farthest mount) and :data:`REACH_MARGIN_M`; None (every path the scene
         traces) when that is not shorter, or when reflectors move."""
         longest = 2 * self.scene.simulation.max_range_m
-        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+        speed = self._speed(f)
+        if speed is None:
             return None
-        speed = 0.0
-        if self.rig.motion is not None:
-            lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
-            v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
-            w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
-            speed = 2 * (v + w * lever)
         c = self.scene.environment.speed_of_sound_m_s
         reach = (c + speed) * window_s + REACH_MARGIN_M
         return reach if reach < longest else None

@@ -260,7 +260,14 @@ class Simulator:
         return _Prepared(heard.echoes, n, meta, truth, rate=heard.rate, lidar=lidar)
 
     def heard(
-        self, pose: Pose, motion, n_samples: int, *, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        motion,
+        n_samples: int,
+        *,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
+        seen: bool = True,
     ) -> Heard:
         """The paths of a measurement starting at `pose` heard at the microphones
         (along `motion`, a trajectory or None; a recording of `n_samples`), down the
@@ -275,63 +282,90 @@ class Simulator:
            factors, those that reach the window kept;
         3. the microphones' directivity (:func:`acousim.synth.response.mic_directivity`).
         Rendering (:meth:`_planned`, :meth:`_record`) follows.
+
+        `max_path_m`: only the paths up to that length are traced (m; None: the
+        scene's).  `min_path_m`: the paths shorter than that at every microphone
+        at the start of the emission are left out before the kinematics (m; a call
+        heard late in another sonar's window, :mod:`acousim.rig`: the echoes then
+        are those of the other paths, ``rows`` naming them).  `seen`: False leaves
+        out what the sensor sees of each path (``seen`` empty; required with
+        `min_path_m`).
         """
+        if min_path_m is not None and seen:
+            raise ValueError("heard(min_path_m=...) leaves paths out: pass seen=False")
         if self.in_motion(motion):
-            return self._heard_moving(pose, motion, n_samples, max_path_m)
+            return self._heard_moving(pose, motion, n_samples, max_path_m, min_path_m, seen)
         mics = pose.to_world(self.array.positions_m)
         paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
-        echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
         receiver = mics.mean(axis=0)
-        centre = self.array.positions_m.mean(axis=0)
-        seen = {
-            **seen_static(paths, pose, centre, self.c).fields(),
-            **self._chains(paths, pose, receiver),
-        }
+        level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
+        rows = None if min_path_m is None else _reaching(paths, mics, min_path_m)
+        heard = paths if rows is None else paths.select(rows)
+        echoes = heard.echoes(mics, pose.rotation[:, 0], self.c)
+        what = {}
+        if seen:
+            centre = self.array.positions_m.mean(axis=0)
+            what = {
+                **seen_static(paths, pose, centre, self.c).fields(),
+                **self._chains(paths, pose, receiver),
+            }
         return Heard(
-            self._mic_directivity(echoes, paths.anchor_m, mics, pose),
+            self._mic_directivity(echoes, heard.anchor_m, mics, pose),
             paths.position_m,
             kind_names(paths.kind),
             paths.order,
-            paths.level_at(receiver),  # magnitudes: diffraction paths are signed
+            level,
             rays,
-            seen=seen,
+            rows=rows,
+            seen=what,
         )
 
-    def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
+    def _heard_moving(
+        self, pose: Pose, motion, n_samples: int, max_path_m, min_path_m=None, seen=True
+    ) -> Heard:
         """:meth:`heard` in motion."""
         moving, truth_pos, kinds, truth_vel, interactions, paths = self._moving(pose, max_path_m)
+        mics = pose.to_world(self.array.positions_m)
+        level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
+            np.linalg.norm(moving.anchor_m - mics.mean(axis=0), axis=1), 1e-9
+        )
+        order = moving.order
+        if interactions.shape[1]:  # material tables: the traced paths come first
+            extra = np.zeros((len(moving) - len(interactions), interactions.shape[1]), int)
+            interactions = np.concatenate([interactions, extra])
+        rows = np.arange(len(moving))
+        if min_path_m is not None:
+            rows = _reaching(moving, mics, min_path_m)
+            moving, interactions = moving.select(rows), interactions[rows]
         duration = self.scene.sensor.call.duration_s
         kin = SensorKinematics(
             motion, pose, self.array, n_samples / self.scene.sensor.sample_rate_hz, TABLE_STEP_S
         )
         arr = arrivals(moving, kin, duration, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
-        if interactions.shape[1]:  # material tables: the traced paths come first
-            extra = np.zeros((len(moving) - len(interactions), interactions.shape[1]), int)
-            echoes = dataclasses.replace(echoes, interactions=np.concatenate([interactions, extra]))
-        mics = pose.to_world(self.array.positions_m)
+        if interactions.shape[1]:
+            echoes = dataclasses.replace(echoes, interactions=interactions)
         echoes = self._mic_directivity(echoes, moving.anchor_m, mics, pose)
-        level = np.abs(moving.strength) / np.maximum(  # magnitudes, as level_at
-            np.linalg.norm(moving.anchor_m - mics.mean(axis=0), axis=1), 1e-9
-        )
-        centre = self.array.positions_m.mean(axis=0)
-        guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
-        seen = {
-            **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
-            **self._chains(paths, pose, mics.mean(axis=0), truth_pos[len(paths) :]),
-        }
+        what = {}
+        if seen:
+            centre = self.array.positions_m.mean(axis=0)
+            guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
+            what = {
+                **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
+                **self._chains(paths, pose, mics.mean(axis=0), truth_pos[len(paths) :]),
+            }
         keep = in_window(echoes, n_samples, self.scene.sensor.sample_rate_hz)
         return Heard(
             echoes.select(keep),
             truth_pos,
             kinds,
-            moving.order,
+            order,
             level,
             self.tracer.traced(pose, self._traced_array, max_path_m)[1],
             velocity_m_s=truth_vel,
             rate=arr.rate[:, keep],
-            rows=np.flatnonzero(keep),
-            seen=seen,
+            rows=rows[keep],
+            seen=what,
         )
 
     def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, extra=None) -> dict:
@@ -568,6 +602,15 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
+
+
+def _reaching(paths, mics: np.ndarray, min_path_m: float) -> np.ndarray:
+    """The paths (indices) at least `min_path_m` long (m) to some microphone (M, 3),
+    their length ``first_leg + |anchor - mic|`` (:class:`TracedPaths`,
+    :class:`MovingPaths`)."""
+    a, p = paths.anchor_m.T, mics[:, :, None]
+    last = np.sqrt(sum(np.square(a[i] - p[:, i]) for i in range(3)))  # (M, N)
+    return np.flatnonzero(paths.first_leg_m + last.max(axis=0) >= min_path_m)
 
 
 def _tracer(scene: Scene, threads: int):

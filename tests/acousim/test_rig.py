@@ -429,3 +429,21 @@ def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_p
     full, full_truth = sim._crosstalk(later, first, n)
     np.testing.assert_array_equal(cut, full)
     np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
+
+
+def test_a_call_heard_after_its_shorter_paths_ends_gives_the_same_crosstalk(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    first, later = sim.measurements  # "right" (5 ms) hears "left"'s wall echo
+    call_s = scene.sensor.call.duration_s
+    short = sim._short_of(first, 0.005 - call_s)
+    c = scene.environment.speed_of_sound_m_s
+    direct = np.linalg.norm(LEFT - RIGHT)  # gone before "right" records: left out
+    assert direct < short < c * (0.005 - call_s) < 2 * (WALL_X - 0.1)
+    n = scene.n_samples()
+    cut, cut_truth = sim._crosstalk(first, later, n)
+    sim._short_of = lambda f, gone_s: None  # every path to the kinematics
+    full, full_truth = sim._crosstalk(first, later, n)
+    np.testing.assert_array_equal(cut, full)
+    np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
+    assert list(full_truth.kind) == ["specular"]
