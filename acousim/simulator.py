@@ -188,6 +188,8 @@ class Simulator:
         seed: int | None = None,
         n_samples: int | None = None,
         motion=SCENE_MOTION,
+        *,
+        joined: tuple[tuple[Echoes, np.ndarray], ...] = (),
     ) -> P.Recording:
         """One recording at `pose`; the noise seed is derived from (scene seed, index).
 
@@ -196,10 +198,15 @@ class Simulator:
         :class:`~acousim.scene.trajectory.Trajectory` during the measurement (`pose`
         is where it is at the start of the emission, at ``pose.time_s``), None for a
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
-        is frozen).
+        is frozen).  `joined`: the echoes of other calls (each: echoes (M, N'),
+        delays from this recording's start, and their Doppler factors (M, N')) in
+        its window, rendered in the same pass as its own with its call, response and
+        options (a rig's crosstalk, :mod:`acousim.rig`; a measurement in motion
+        only); the noise's level refers to its own echoes alone.
         """
         with self._naming_the_pose(index):
-            return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+            prep = self._prepare(pose, index, n_samples, motion)
+            return self._record(prep, index, seed, joined)
 
     @contextlib.contextmanager
     def _naming_the_pose(self, index: int):
@@ -488,22 +495,35 @@ class Simulator:
             truth_vel = np.concatenate([truth_vel, extra.velocity_m_s])
         return moving, truth_pos, kinds, truth_vel, paths.interactions, paths
 
-    def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
+    def _record(self, prep: _Prepared, index: int, seed: int | None, joined=()) -> P.Recording:
         """Render the prepared echoes with the scene's noise (seeded per pose index)
-        into a Recording carrying its metadata and ground truth."""
+        into a Recording carrying its metadata and ground truth; `joined`: other
+        calls' echoes and Doppler factors rendered with them (:meth:`simulate_pose`)."""
         scene = self.scene
+        sensor = scene.sensor
+        own, meta = prep.echoes, prep.metadata
+        if joined:
+            if prep.rate is None or any(r is None for _, r in joined):
+                raise ValueError("joined echoes are rendered with a measurement in motion only")
+            prep = dataclasses.replace(
+                prep,
+                echoes=Echoes.concatenate([own, *(e for e, _ in joined)]),
+                rate=np.concatenate([prep.rate, *(r for _, r in joined)], axis=1),
+                plan=None,
+            )
+            meta = {**meta, "n_paths": own.n_paths}
         prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
-        sensor = scene.sensor
         rec = simulate(
             prep.echoes,
             Capture(sensor.array, sensor.call, sensor.sample_rate_hz, prep.n_samples, self.c),
             noise=Noise(scene.simulation.snr_db, noise_seed, "echoes"),
             options=self.options,
             response=self.response,
-            metadata=prep.metadata,
+            metadata=meta,
             doppler=prep.plan,
+            noise_echoes=own,
         )
         return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 
