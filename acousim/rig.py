@@ -35,6 +35,7 @@ from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.scene.rig import Measurement, Rig
 from acousim.simulator import Heard, Simulator
+from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
 from acousim.trace.lidar import scan
@@ -317,6 +318,17 @@ class RigSimulator:
         # k's emission contributes its tail), the samples before k's emission dropped
         pre = int(np.ceil(call.duration_s * fs)) + 1
         echoes = dataclasses.replace(echoes, delay_s=echoes.delay_s + pre / fs)
+        if rate is not None:  # planned with the pair's templates, kept from call to call
+            rate = plan_doppler(
+                echoes,
+                rate,
+                call,
+                fs,
+                n_samples + pre,
+                options=pair.options,
+                response=pair.response,
+                cache=pair.doppler_cache,
+            )
         rec = simulate(
             echoes,
             Capture(pair.array, call, fs, n_samples + pre, pair.c),
