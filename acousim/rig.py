@@ -30,10 +30,12 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 import processing as P
+from acousim.core.echoes import Echoes
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.scene.rig import Measurement, Rig
 from acousim.simulator import Heard, Simulator
+from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
 from acousim.trace.lidar import scan
@@ -70,6 +72,23 @@ class RigRun:
     def of(self, name: str) -> list[P.Recording]:
         """The recordings of the sonar called `name`."""
         return [r for r in self.recordings if r.metadata.get("sensor") == name]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Heard:
+    """A firing's paths heard in another's recording: the pair that hears them, the
+    echoes (delays from the recording's start), their Doppler factors (M, N; None:
+    static) and their ground truth."""
+
+    pair: Simulator
+    echoes: Echoes
+    rate: np.ndarray | None
+    truth: P.GroundTruth
+
+    @property
+    def echo(self) -> np.ndarray:
+        """(N,) which paths are echoes (not the direct path)."""
+        return self.echoes.order > 0
 
 
 class _Pair(Simulator):
@@ -167,31 +186,45 @@ class RigSimulator:
 
     def simulate(self, i: int) -> P.Recording:
         """The recording of measurement `i`: sonar k's own call from its emission, and
-        (crosstalk) every other firing that reaches its window."""
+        (crosstalk) every other firing that reaches its window.  In motion, the
+        crosstalk of a sonar with k's call, response and render options is rendered
+        in the same pass as k's own echoes (:meth:`Simulator.simulate_pose`
+        ``joined``); any other separately, and added."""
         m = self.measurements[i]
         k = m.sonar
         own = self.pair(k, k)
-        rec = own.simulate_pose(m.pose, index=m.index, motion=self.rig.sonar_motion(k))
+        motion = self.rig.sonar_motion(k)
+        parts = []
+        if self.rig.crosstalk:
+            n = own.scene.n_samples()
+            parts = [(f, self._heard_from(f, m, n)) for f in self._reaching(m)]
+            parts = [(f, part) for f, part in parts if part is not None]
+        moving = own.in_motion(motion)
+        joins = [moving and self._joins(own, p) for _, p in parts]
+        # a call's echoes join k's; its direct path, far stronger, is rendered apart
+        # (the renderer's sets are compressed per group, direct path and echoes, to a
+        # tolerance of the group's energy: k's own direct path would set it)
+        joined = tuple(
+            (p.echoes.select(p.echo), p.rate[:, p.echo]) for (_, p), j in zip(parts, joins) if j
+        )
+        rec = own.simulate_pose(m.pose, index=m.index, motion=motion, joined=joined)
         names = [self.rig.sonars[k].name] * len(rec.truth)
         truths, heard_from, samples = [rec.truth], [], rec.samples
-        if self.rig.crosstalk:
-            for f in self._reaching(m):
-                part = self._crosstalk(f, m, rec.samples.shape[1])
-                if part is None:
-                    continue
-                signal, truth = part
-                samples = samples + signal
-                truths.append(truth)
-                names += [self.rig.sonars[f.sonar].name] * len(truth)
-                heard_from.append(
-                    {
-                        "sensor": self.rig.sonars[f.sonar].name,
-                        "measurement": f.index,
-                        "emission_time_s": f.time_s,
-                        "delay_s": f.time_s - m.time_s,
-                        "n_paths": len(truth),
-                    }
-                )
+        for (f, part), j in zip(parts, joins):
+            alone = ~part.echo if j else np.ones(part.echo.size, bool)
+            if alone.any():
+                samples = samples + self._rendered(part, samples.shape[1], alone)
+            truths.append(part.truth)
+            names += [self.rig.sonars[f.sonar].name] * len(part.truth)
+            heard_from.append(
+                {
+                    "sensor": self.rig.sonars[f.sonar].name,
+                    "measurement": f.index,
+                    "emission_time_s": f.time_s,
+                    "delay_s": f.time_s - m.time_s,
+                    "n_paths": len(part.truth),
+                }
+            )
         sonar = self.rig.sonars[k]
         meta = {
             **rec.metadata,
@@ -224,7 +257,14 @@ class RigSimulator:
 
     def _crosstalk(self, f: Measurement, m: Measurement, n_samples: int):
         """Firing `f` heard in measurement `m`'s recording of `n_samples` samples: the
-        signal (M, T) and the ground truth of the paths that reach it (None: none)."""
+        signal (M, T) rendered alone and the ground truth of the paths that reach it
+        (None: none)."""
+        part = self._heard_from(f, m, n_samples)
+        return None if part is None else (self._rendered(part, n_samples), part.truth)
+
+    def _heard_from(self, f: Measurement, m: Measurement, n_samples: int) -> _Heard | None:
+        """Firing `f`'s paths that reach measurement `m`'s recording of `n_samples`
+        samples (None: none)."""
         k, j = m.sonar, f.sonar
         pair = self.pair(j, k)
         fs = self.rig.sonars[k].sensor.sample_rate_hz
@@ -232,7 +272,12 @@ class RigSimulator:
         lead = m.time_s - f.time_s  # how long before k's emission j fired (s)
         n_from_f = int(np.ceil((lead + n_samples / fs) * fs))
         heard = pair.heard(
-            f.pose, self.rig.sonar_motion(j), n_from_f, max_path_m=self._reach(f, n_from_f / fs)
+            f.pose,
+            self.rig.sonar_motion(j),
+            n_from_f,
+            max_path_m=self._reach(f, n_from_f / fs),
+            min_path_m=self._short_of(f, lead - call.duration_s),
+            seen=False,
         )
         echoes = heard.echoes
         delay = echoes.delay_s - lead
@@ -241,11 +286,49 @@ class RigSimulator:
         )
         if not keep.any():
             return None
+        echoes = dataclasses.replace(echoes.select(keep), delay_s=delay[:, keep])
+        rate = None if heard.rate is None else heard.rate[:, keep]
+        rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
+        return _Heard(pair, echoes, rate, _truth(heard, rows, m.pose))
+
+    @staticmethod
+    def _joins(own: Simulator, part: _Heard) -> bool:
+        """Whether `part` renders as `own`'s echoes do (the same call, sample rate,
+        response and options; in motion)."""
+        a, b = own.scene.sensor, part.pair.scene.sensor
+        return (
+            part.rate is not None
+            and a.call == b.call
+            and a.sample_rate_hz == b.sample_rate_hz
+            and own.response == part.pair.response
+            and own.options == part.pair.options
+        )
+
+    @staticmethod
+    def _rendered(part: _Heard, n_samples: int, paths: np.ndarray | None = None) -> np.ndarray:
+        """`part`'s signal (M, `n_samples`) rendered alone, noise-free (its `paths`,
+        a mask (N,); None: all)."""
+        pair = part.pair
+        sensor = pair.scene.sensor
+        fs, call = sensor.sample_rate_hz, sensor.call
+        echoes, rate = part.echoes, part.rate
+        if paths is not None:
+            echoes, rate = echoes.select(paths), None if rate is None else rate[:, paths]
         # rendered into a window that starts `pre` samples early (a call emitted before
         # k's emission contributes its tail), the samples before k's emission dropped
         pre = int(np.ceil(call.duration_s * fs)) + 1
-        echoes = dataclasses.replace(echoes.select(keep), delay_s=delay[:, keep] + pre / fs)
-        rate = None if heard.rate is None else heard.rate[:, keep]
+        echoes = dataclasses.replace(echoes, delay_s=echoes.delay_s + pre / fs)
+        if rate is not None:  # planned with the pair's templates, kept from call to call
+            rate = plan_doppler(
+                echoes,
+                rate,
+                call,
+                fs,
+                n_samples + pre,
+                options=pair.options,
+                response=pair.response,
+                cache=pair.doppler_cache,
+            )
         rec = simulate(
             echoes,
             Capture(pair.array, call, fs, n_samples + pre, pair.c),
@@ -253,8 +336,33 @@ class RigSimulator:
             response=pair.response,
             doppler=rate,
         )
-        rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
-        return rec.samples[:, pre:], _truth(heard, rows, m.pose)
+        return rec.samples[:, pre:]
+
+    def _speed(self, f: Measurement) -> float | None:
+        """How fast a path's length may change during firing `f`'s measurement (m/s):
+        twice what the microphones can move (the body's speed, its turn carrying
+        the farthest mount); None when reflectors move (no bound)."""
+        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+            return None
+        if self.rig.motion is None:
+            return 0.0
+        lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
+        v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
+        w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
+        return float(2 * (v + w * lever))
+
+    def _short_of(self, f: Measurement, gone_s: float) -> float | None:
+        """How long a path of firing `f` must be (m) for its call to end later than
+        `gone_s` after the emission (m's window starts then, less the call): c less
+        :meth:`_speed` times that, less :data:`REACH_MARGIN_M`; shorter paths are
+        heard wholly before the window (and left out before the kinematics).  None:
+        no bound (the call is emitted during the window, or reflectors move)."""
+        speed = self._speed(f)
+        if speed is None or gone_s <= 0:
+            return None
+        c = self.scene.environment.speed_of_sound_m_s
+        short = (c - speed) * gone_s - REACH_MARGIN_M
+        return short if short > 0 else None
 
     def _reach(self, f: Measurement, window_s: float) -> float | None:
         """How long a path of firing `f` may be and still reach a window ending
@@ -263,14 +371,9 @@ class RigSimulator:
         farthest mount) and :data:`REACH_MARGIN_M`; None (every path the scene
         traces) when that is not shorter, or when reflectors move."""
         longest = 2 * self.scene.simulation.max_range_m
-        if any(p.moving for p in self.scene.points) or any(m.moving for m in self.scene.meshes):
+        speed = self._speed(f)
+        if speed is None:
             return None
-        speed = 0.0
-        if self.rig.motion is not None:
-            lever = max(np.linalg.norm(s.mount.position_m) for s in self.rig.sonars) + 0.5
-            v = np.linalg.norm(self.rig.motion.velocity(f.time_s))
-            w = np.linalg.norm(self.rig.motion.angular_velocity(f.time_s))
-            speed = 2 * (v + w * lever)
         c = self.scene.environment.speed_of_sound_m_s
         reach = (c + speed) * window_s + REACH_MARGIN_M
         return reach if reach < longest else None

@@ -47,7 +47,7 @@ from acousim.synth.signal_model import in_window, simulate
 from acousim.trace.direct import MIN_POINT_DISTANCE_M, check_points_clear
 from acousim.trace.lidar import scan
 from acousim.trace.motion.measurement import InMotion, paths_in_motion, tracer_for
-from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.paths import TracedPaths, kind_names, reaching
 from acousim.trace.seen import chain_fields, seen_static
 from processing.base import interrupt
 from processing.base.errors import InputError
@@ -185,6 +185,8 @@ class Simulator:
         seed: int | None = None,
         n_samples: int | None = None,
         motion=SCENE_MOTION,
+        *,
+        joined: tuple[tuple[Echoes, np.ndarray], ...] = (),
     ) -> P.Recording:
         """One recording at `pose`; the noise seed is derived from (scene seed, index).
 
@@ -193,10 +195,15 @@ class Simulator:
         :class:`~acousim.scene.trajectory.Trajectory` during the measurement (`pose`
         is where it is at the start of the emission, at ``pose.time_s``), None for a
         frozen pose; by default the scene's (if `pose` lies on it: a pose elsewhere
-        is frozen).
+        is frozen).  `joined`: the echoes of other calls (each: echoes (M, N'),
+        delays from this recording's start, and their Doppler factors (M, N')) in
+        its window, rendered in the same pass as its own with its call, response and
+        options (a rig's crosstalk, :mod:`acousim.rig`; a measurement in motion
+        only); the noise's level refers to its own echoes alone.
         """
         with self._naming_the_pose(index):
-            return self._record(self._prepare(pose, index, n_samples, motion), index, seed)
+            prep = self._prepare(pose, index, n_samples, motion)
+            return self._record(prep, index, seed, joined)
 
     @contextlib.contextmanager
     def _naming_the_pose(self, index: int):
@@ -259,7 +266,14 @@ class Simulator:
         return _Prepared(heard.echoes, n, meta, truth, rate=heard.rate, lidar=lidar)
 
     def heard(
-        self, pose: Pose, motion, n_samples: int, *, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        motion,
+        n_samples: int,
+        *,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
+        seen: bool = True,
     ) -> Heard:
         """The paths of a measurement starting at `pose` heard at the microphones
         (along `motion`, a trajectory or None; a recording of `n_samples`), down the
@@ -274,61 +288,87 @@ class Simulator:
            factors, those that reach the window kept;
         3. the microphones' directivity (:func:`acousim.synth.response.mic_directivity`).
         Rendering (:meth:`_planned`, :meth:`_record`) follows.
+
+        `max_path_m`: only the paths up to that length are traced (m; None: the
+        scene's).  `min_path_m`: the paths shorter than that at every microphone
+        at the start of the emission are left out before the kinematics (m; a call
+        heard late in another sonar's window, :mod:`acousim.rig`: the echoes then
+        are those of the other paths, ``rows`` naming them).  `seen`: False leaves
+        out what the sensor sees of each path (``seen`` empty; required with
+        `min_path_m`).
         """
+        if min_path_m is not None and seen:
+            raise ValueError("heard(min_path_m=...) leaves paths out: pass seen=False")
         if self.in_motion(motion):
-            return self._heard_moving(pose, motion, n_samples, max_path_m)
+            return self._heard_moving(pose, motion, n_samples, max_path_m, min_path_m, seen)
         mics = pose.to_world(self.array.positions_m)
         paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
-        echoes = paths.echoes(mics, pose.rotation[:, 0], self.c)
         receiver = mics.mean(axis=0)
-        centre = self.array.positions_m.mean(axis=0)
-        seen = {
-            **seen_static(paths, pose, centre, self.c).fields(),
-            **self._chains(paths, pose, receiver),
-        }
+        level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
+        rows = None if min_path_m is None else reaching(paths, mics, min_path_m)
+        heard = paths if rows is None else paths.select(rows)
+        echoes = heard.echoes(mics, pose.rotation[:, 0], self.c)
+        what = {}
+        if seen:
+            centre = self.array.positions_m.mean(axis=0)
+            what = {
+                **seen_static(paths, pose, centre, self.c).fields(),
+                **self._chains(paths, pose, receiver),
+            }
         return Heard(
-            self._mic_directivity(echoes, paths.anchor_m, mics, pose),
+            self._mic_directivity(echoes, heard.anchor_m, mics, pose),
             paths.position_m,
             kind_names(paths.kind),
             paths.order,
-            paths.level_at(receiver),  # magnitudes: diffraction paths are signed
+            level,
             rays,
-            seen=seen,
+            rows=rows,
+            seen=what,
         )
 
-    def _heard_moving(self, pose: Pose, motion, n_samples: int, max_path_m) -> Heard:
+    def _heard_moving(
+        self, pose: Pose, motion, n_samples: int, max_path_m, min_path_m=None, seen=True
+    ) -> Heard:
         """:meth:`heard` in motion."""
         m = self._in_motion(pose, max_path_m)
         sensor = self.scene.sensor
+        mics = pose.to_world(self.array.positions_m)
+        receiver = mics.mean(axis=0)
+        level = m.moving.level_at(receiver)  # magnitudes, as TracedPaths.level_at
+        moving, interactions = m.moving, m.interactions
+        rows = np.arange(len(moving))
+        if min_path_m is not None:
+            rows = reaching(moving, mics, min_path_m)
+            moving, interactions = moving.select(rows), interactions[rows]
         kin = SensorKinematics(
             motion, pose, self.array, n_samples / sensor.sample_rate_hz, TABLE_STEP_S
         )
-        arr = arrivals(m.moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
+        arr = arrivals(moving, kin, sensor.call.duration_s, self.c, pose.rotation[:, 0])
         echoes = arr.echoes
-        if m.traced.interactions.shape[1]:  # material tables
-            echoes = dataclasses.replace(echoes, interactions=m.interactions)
-        mics = pose.to_world(self.array.positions_m)
-        receiver = mics.mean(axis=0)
-        echoes = self._mic_directivity(echoes, m.moving.anchor_m, mics, pose)
-        centre = self.array.positions_m.mean(axis=0)
-        guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
-        points = (m.position_m[len(m.traced) :], m.points)
-        seen = {
-            **seen_moving(m.moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
-            **self._chains(m.traced, pose, receiver, points),
-        }
+        if interactions.shape[1]:  # material tables
+            echoes = dataclasses.replace(echoes, interactions=interactions)
+        echoes = self._mic_directivity(echoes, moving.anchor_m, mics, pose)
+        what = {}
+        if seen:
+            centre = self.array.positions_m.mean(axis=0)
+            guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
+            points = (m.position_m[len(m.traced) :], m.points)
+            what = {
+                **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
+                **self._chains(m.traced, pose, receiver, points),
+            }
         keep = in_window(echoes, n_samples, sensor.sample_rate_hz)
         return Heard(
             echoes.select(keep),
             m.position_m,
             m.kinds,
             m.moving.order,
-            m.moving.level_at(receiver),  # magnitudes, as TracedPaths.level_at
+            level,
             m.rays,
             velocity_m_s=m.velocity_m_s,
             rate=arr.rate[:, keep],
-            rows=np.flatnonzero(keep),
-            seen=seen,
+            rows=rows[keep],
+            seen=what,
         )
 
     def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, points=None) -> dict:
@@ -411,22 +451,35 @@ class Simulator:
             max_path_m=max_path_m,
         )
 
-    def _record(self, prep: _Prepared, index: int, seed: int | None) -> P.Recording:
+    def _record(self, prep: _Prepared, index: int, seed: int | None, joined=()) -> P.Recording:
         """Render the prepared echoes with the scene's noise (seeded per pose index)
-        into a Recording carrying its metadata and ground truth."""
+        into a Recording carrying its metadata and ground truth; `joined`: other
+        calls' echoes and Doppler factors rendered with them (:meth:`simulate_pose`)."""
         scene = self.scene
+        sensor = scene.sensor
+        own, meta = prep.echoes, prep.metadata
+        if joined:
+            if prep.rate is None or any(r is None for _, r in joined):
+                raise ValueError("joined echoes are rendered with a measurement in motion only")
+            prep = dataclasses.replace(
+                prep,
+                echoes=Echoes.concatenate([own, *(e for e, _ in joined)]),
+                rate=np.concatenate([prep.rate, *(r for _, r in joined)], axis=1),
+                plan=None,
+            )
+            meta = {**meta, "n_paths": own.n_paths}
         prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
-        sensor = scene.sensor
         rec = simulate(
             prep.echoes,
             Capture(sensor.array, sensor.call, sensor.sample_rate_hz, prep.n_samples, self.c),
             noise=Noise(scene.simulation.snr_db, noise_seed, "echoes"),
             options=self.options,
             response=self.response,
-            metadata=prep.metadata,
+            metadata=meta,
             doppler=prep.plan,
+            noise_echoes=own,
         )
         return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 

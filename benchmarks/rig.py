@@ -1,5 +1,6 @@
 """A rig of four uRTIS on one body (``scenes/corridor_rig.toml``): what preparing the
-world once saves, and what the crosstalk costs per firing."""
+world once saves, and what a rig of N sonars costs against N times one sonar's
+measurement (the crosstalk's share)."""
 
 from __future__ import annotations
 
@@ -15,16 +16,40 @@ from acousim.simulator import Simulator
 
 #: firings timed: two rounds of the four sonars, mid-drive
 FIRINGS = list(range(40, 48))
-REPEAT = 5
+REPEAT = 7
 
 
-def _firing_times(sim: RigSimulator) -> float:
-    """Seconds for :data:`FIRINGS`, every trace paid (the tracer's cache emptied)."""
+def _firings(sim: RigSimulator) -> float:
+    """CPU seconds for :data:`FIRINGS` one by one, every trace paid (the tracer's
+    cache emptied)."""
     sim.tracer.forget()
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     for i in FIRINGS:
         sim.simulate(i)
-    return time.perf_counter() - t0
+    return time.process_time() - t0
+
+
+def _run(sim: RigSimulator) -> float:
+    """CPU seconds for the rig's run of :data:`FIRINGS` (their recordings and the
+    LiDARs' scans), every trace paid."""
+    sim.tracer.forget()
+    t0 = time.process_time()
+    sim.run(FIRINGS)
+    return time.process_time() - t0
+
+
+def _paired(a, b) -> tuple[list[float], list[float]]:
+    """:data:`REPEAT` paired runs of the callables `a` and `b`, alternating which goes
+    first: their times."""
+    ta, tb = [], []
+    for r in range(REPEAT):
+        if r % 2 == 0:
+            ta.append(a())
+            tb.append(b())
+        else:
+            tb.append(b())
+            ta.append(a())
+    return ta, tb
 
 
 def run() -> str:
@@ -41,45 +66,49 @@ def run() -> str:
     Simulator(on.pair(0, 0).scene, threads=1)
     prep_one = time.perf_counter() - t0
     off = RigSimulator(quiet, threads=1)
-    _firing_times(on), _firing_times(off)  # warm: every pair made, kernels compiled
-    ratios, t_on, t_off = [], [], []
-    for r in range(REPEAT):  # paired, alternating
-        if r % 2 == 0:
-            a = _firing_times(on)
-            b = _firing_times(off)
-        else:
-            b = _firing_times(off)
-            a = _firing_times(on)
-        t_on.append(a)
-        t_off.append(b)
-        ratios.append(a / b)
+    _firings(on), _firings(off)  # warm: every pair made, kernels compiled
+    t_on, t_off = _paired(lambda: _firings(on), lambda: _firings(off))
+    r_on, r_off = _paired(lambda: _run(on), lambda: _run(off))
+    firing = np.median(np.divide(t_on, t_off))
+    whole = np.median(np.divide(r_on, t_off))
     heard = [len(on.simulate(i).metadata["crosstalk"]) for i in FIRINGS]
-    per_off = np.median(t_off) / len(FIRINGS)
-    per_on = np.median(t_on) / len(FIRINGS)
+    per = len(FIRINGS) / 1e3  # ms per firing
     return "\n".join(
         [
             "## Rig: four uRTIS on one body, the corridor drive, round robin at 10 Hz each",
             "",
             f"`scenes/corridor_rig.toml` ({len(on.measurements)} firings), firings "
             f"{FIRINGS[0]}-{FIRINGS[-1]} (two rounds of the {n} sonars), one thread, every "
-            f"trace paid; {REPEAT} paired, alternating runs, medians.",
+            f"trace paid; CPU time, {REPEAT} paired, alternating runs in one process, "
+            "medians.  One sonar's measurement is a firing of the rig with crosstalk off "
+            "(its own call, its LiDAR scan).",
             "",
             "| what | time |",
             "|---|---|",
             f"| preparing the rig (its firings' poses, one world, the {n} sonars' "
             f"simulators) | {prep_rig:.2f} s |",
             f"| preparing one sonar's simulator alone (its own world) | {prep_one:.2f} s |",
-            f"| a firing, crosstalk off (= one sonar's measurement) | {per_off:.2f} s |",
+            f"| a firing, crosstalk off (= one sonar's measurement) "
+            f"| {np.median(t_off) / per:.0f} ms |",
             f"| a firing, crosstalk on ({np.mean(heard):.1f} other firings heard) "
-            f"| {per_on:.2f} s |",
-            f"| crosstalk on / off (median of paired ratios) | {np.median(ratios):.2f}x |",
+            f"| {np.median(t_on) / per:.0f} ms |",
+            f"| the rig's run, per firing (crosstalk on, the LiDAR's scans) "
+            f"| {np.median(r_on) / per:.0f} ms |",
+            f"| the rig's run, per firing, crosstalk off | {np.median(r_off) / per:.0f} ms |",
+            f"| a firing with crosstalk / one sonar's measurement (paired) | {firing:.2f}x |",
+            f"| the rig's run / (N x one sonar's measurement) (paired) | {whole:.2f}x |",
             "",
             f"Without crosstalk a rig of {n} sonars costs {n} measurements per round and "
-            "one world (the rig's preparation is mostly its firings' poses, 2 ms each); "
-            "each firing heard by another sonar adds a bistatic trace and a render, the "
-            "one emitted during the window traced only as far as it can be heard (the "
-            "rays shot from an emitter are not shared between its receivers: the "
-            "budget and the paths depend on the receiver).",
+            "one world (the rig's preparation is mostly its firings' poses, 2 ms each).  "
+            "Each firing heard by another sonar adds a bistatic trace (the emitter's "
+            "paths to that sonar's microphones): a call emitted during the window traced "
+            "only as far as it can be heard, and of a call emitted before it only the "
+            "paths long enough to reach the window go on to the kinematics; in motion "
+            "its echoes are rendered in the same pass as the sonar's own (its direct "
+            "path apart).  What is left is the traces: the rays shot from an emitter "
+            "are not shared between its receivers (the ray budget, the specular "
+            "points, the diffraction and the scattered paths all depend on the "
+            "receiver), so the crosstalk costs about one trace per firing heard.",
         ]
     )
 

@@ -34,6 +34,7 @@ def simulate(
     response: PathResponse | None = None,
     metadata: dict | None = None,
     doppler: np.ndarray | DopplerPlan | None = None,
+    noise_echoes: Echoes | None = None,
 ) -> Recording:
     """Render echoes into a Recording of `capture` (array, call, sampling, window),
     with `noise` (eq. 2, :class:`~acousim.synth.options.Noise` states its options).
@@ -45,7 +46,9 @@ def simulate(
     :func:`acousim.synth.doppler.render_doppler`; or the
     :class:`~acousim.synth.doppler.DopplerPlan` of `echoes` (made in advance by
     :func:`~acousim.synth.doppler.plan_doppler` from the echoes :func:`in_window`
-    keeps, with the same options).
+    keeps, with the same options).  `noise_echoes`: the echoes the noise's level
+    refers to (reference "echoes"; None: `echoes`), when `echoes` hold other calls
+    too (a rig's crosstalk, :mod:`acousim.rig`).
     """
     cap = capture
     if cap.n_samples < 1:
@@ -68,7 +71,8 @@ def simulate(
     shape = (M, cap.n_samples) if n is None else (n, M, cap.n_samples)
     drawn = NoiseDraw(rng, shape) if np.isfinite(noise.snr_db) else None
     clean = _render(echoes, cap, options, response, doppler)
-    samples = _noisy(clean, echoes, cap, noise, options, response, rng, drawn)
+    reference = echoes if noise_echoes is None else noise_echoes
+    samples = _noisy(clean, reference, cap, noise, options, response, rng, drawn)
     meta = {
         **provenance_metadata("simulated"),
         "seed": noise.seed,

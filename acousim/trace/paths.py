@@ -16,7 +16,7 @@ import numpy as np
 
 from acousim.core.echoes import Echoes, spread
 
-__all__ = ["KIND", "PathKind", "TracedPaths", "kind_names"]
+__all__ = ["KIND", "PathKind", "TracedPaths", "kind_names", "reaching"]
 
 
 class PathKind(IntEnum):
@@ -111,3 +111,13 @@ class TracedPaths:
     def empty() -> TracedPaths:
         z3, z = np.zeros((0, 3)), np.zeros(0)
         return TracedPaths(z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), z3)
+
+
+def reaching(paths, mics_m: np.ndarray, min_path_m: float) -> np.ndarray:
+    """The paths (indices) at least `min_path_m` long (m) to some microphone (M, 3):
+    their length ``first_leg + |anchor - mic|`` (:class:`TracedPaths`, or
+    :class:`~acousim.trace.motion.following.MovingPaths` where they are at the start
+    of the emission)."""
+    a, p = paths.anchor_m.T, mics_m[:, :, None]
+    last = np.sqrt(sum(np.square(a[i] - p[:, i]) for i in range(3)))  # (M, N)
+    return np.flatnonzero(paths.first_leg_m + last.max(axis=0) >= min_path_m)

@@ -435,3 +435,50 @@ def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_p
     full, full_truth = sim._crosstalk(later, first, n)
     np.testing.assert_array_equal(cut, full)
     np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
+
+
+def test_a_call_heard_after_its_shorter_paths_ends_gives_the_same_crosstalk(tmp_path):
+    scene = two_sonars(wall_scene(tmp_path))
+    sim = RigSimulator(scene)
+    first, later = sim.measurements  # "right" (5 ms) hears "left"'s wall echo
+    call_s = scene.sensor.call.duration_s
+    short = sim._short_of(first, 0.005 - call_s)
+    c = scene.environment.speed_of_sound_m_s
+    direct = np.linalg.norm(LEFT - RIGHT)  # gone before "right" records: left out
+    assert direct < short < c * (0.005 - call_s) < 2 * (WALL_X - 0.1)
+    n = scene.n_samples()
+    cut, cut_truth = sim._crosstalk(first, later, n)
+    sim._short_of = lambda f, gone_s: None  # every path to the kinematics
+    full, full_truth = sim._crosstalk(first, later, n)
+    np.testing.assert_array_equal(cut, full)
+    np.testing.assert_array_equal(cut_truth.kind, full_truth.kind)
+    assert list(full_truth.kind) == ["specular"]
+
+
+def test_crosstalk_rendered_with_the_hearing_sonars_echoes_in_motion(tmp_path):
+    # in motion a sonar's crosstalk is rendered in one pass with its own echoes:
+    # "right" (fired 5 ms after "left", both riding a body at 1 m/s towards the
+    # wall) hears "left"'s wall echo at the mirror image's delay and 1 / path level
+    v = np.array([1.0, 0.0, 0.0])
+    body = Trajectory.constant(Pose(np.zeros(3)), v)
+    scene = two_sonars(wall_scene(tmp_path), motion=body)
+    c = scene.environment.speed_of_sound_m_s
+    fs = scene.sensor.sample_rate_hz
+    array = scene.sensor.array
+    recs, cross = _crosstalk_only(scene)
+    assert [h["sensor"] for h in recs[1].metadata["crosstalk"]] == ["left"]
+    image = mirror(LEFT + array.emitter_m)  # of the emitter when the call starts (t = 0)
+    for m in (0, 7, 29):
+        mic = RIGHT + array.positions_m[m]  # at t = 0; at t: + v t
+        t = 0.0
+        for _ in range(50):  # c t = |mic + v t - image|: the start of the call arrives
+            t = np.linalg.norm(mic + v * t - image) / c
+        # heard time-compressed by the bistatic Doppler factor of the receiver and
+        # the emitter's image (its velocity mirrored in the wall)
+        u = (mic + v * t - image) / np.linalg.norm(mic + v * t - image)
+        factor = (c - u @ v) / (c - u @ (v * np.array([-1.0, 1.0, 1.0])))
+        heard = scene.sensor.call.sampled(fs / factor)  # w(factor s)
+        x = cross[1][m]  # the echo alone (the direct path ended before the window)
+        assert _arrival(x, heard, fs) == pytest.approx(t - 0.005, abs=0.1e-6)
+        level = np.sqrt(np.sum(x**2) / np.sum(heard**2))  # its energy over the call's
+        assert 20 * np.log10(level * c * t) == pytest.approx(0.0, abs=0.1)
