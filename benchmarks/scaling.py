@@ -21,6 +21,7 @@ from acousim.trace.tracer import Tracer
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 CORRIDOR = SCENES / "corridor.toml"
 POSES = list(range(5, 60, 7))  # 8 poses along the drive
+PREP_PAIRS = 5  # alternating pairs of builds, ours and embreex's, at every size
 
 
 def _embree_build(triangles: np.ndarray) -> float:
@@ -53,11 +54,11 @@ def _faces() -> list[str]:
     base = Tracer(scene)
     base_ms = _trace_ms(base, poses)
     rows = []
-    for k in range(6):
+    for _ in range(6):
         item = dataclasses.replace(scene.meshes[0], mesh=mesh)
         fine = dataclasses.replace(scene, meshes=(item,))
         prep, own = [], []
-        for _ in range(3 if k < 5 else 2):  # alternating: ours, then embreex's own
+        for _ in range(PREP_PAIRS):  # alternating: ours, then embreex's own
             sim = tracer = None  # the last world let go first: one world held, as in use
             t = time.perf_counter()
             sim = Simulator(fine)  # what a user builds
@@ -84,8 +85,8 @@ def _faces() -> list[str]:
         "Embree's indexed mesh and tree, the tables every pose uses, the path "
         "response) against embreex's own scene "
         "build on the same triangles to its first ray, alternating, median of the "
-        "ratios (3 pairs, 2 at 725k faces; the previous world let go before each "
-        "build).  Per pose: a trace (automatic budget) of 8 poses of the drive, "
+        f"ratios ({PREP_PAIRS} pairs at every size; the previous world let go before "
+        "each build).  Per pose: a trace (automatic budget) of 8 poses of the drive, "
         f"against the original mesh ({base_ms:.1f} ms), 3 alternating pairs.  Targets: "
         "preparation at most 2x embreex's build, a pose at most 2x one in the original.",
         "",

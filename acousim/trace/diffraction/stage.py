@@ -82,6 +82,11 @@ def diffract(
     ctx = StageContext(geometry, caster, emitter, receiver, options)
     # 1-2. direct legs
     pose = pose_edges(ctx)
+    if not (pose.convex_e.any() or options.reflections):
+        # no edge is a convex wedge on the emitter's side (inside a box room, every
+        # edge is a 90-degree corner): neither an edge alone nor edge to edge (its
+        # first edge is one of these) diffracts; nothing asked of the caster
+        return empty_paths()
     near = pose.dist_e + pose.dist_r
     el, owner, counts = edges_in_view(ctx, np.flatnonzero(near <= options.max_path_m))
     # 3. visibility both ways (of the elements above the floor)

@@ -56,7 +56,8 @@ def refine_sequences(
     normal, offset, refl, column = _plane_table(world)
     K = world.n_interactions
     eps, tol = caster.offset_m, caster.tolerance_m
-    paths = []
+    paths: list[SpecularPath] = []
+    found: set[tuple] = set()  # the image sources kept, in units of tol
     by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
     for _k, ids in sorted(by_len.items()):
         S = ids.shape[0]
@@ -66,10 +67,10 @@ def refine_sequences(
             ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
         points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
-        edges = [(i, j) for i, j in edges if ok[i]]
-        if edges:
-            i, j = np.array(edges).T
-            before = np.array([_before(points[a], b, emitter, tol) for a, b in edges])
+        i, j = np.array(edges, int).reshape(-1, 2).T
+        i, j = i[ok[i]], j[ok[i]]
+        if i.size:
+            before = _before(points[i], j, emitter, tol)
             pairs = np.column_stack([ids[i, j], ids[i, j + 1]])
             ok[i[~_concave(world, pairs, points[i, j], before, tol)]] = False
         # last leg: from the first reflection point to the emitter, unobstructed
@@ -80,23 +81,26 @@ def refine_sequences(
         ok[live[(f >= 0) & (t < L - tol)]] = False
         amp = np.prod(refl[ids], axis=1)
         counts = _counts(ids, column, K)
-        for i in np.flatnonzero(ok):
+        rows = np.flatnonzero(ok)
+        # two orders of the same reflections that meet at an edge are one path (the
+        # same image): the first kept
+        keys = np.round(images[rows, -1] / tol).astype(np.int64).tolist()
+        for i, key in zip(rows.tolist(), map(tuple, keys)):
+            if key in found:
+                continue
+            found.add(key)
             dep = points[i, 0] - emitter
             paths.append(
                 SpecularPath(
-                    tuple(int(v) for v in ids[i]),
+                    tuple(ids[i].tolist()),
                     images[i, -1],
                     points[i].copy(),
                     float(amp[i]),
-                    dep / np.linalg.norm(dep),
+                    dep / np.sqrt(dep.dot(dep)),  # np.linalg.norm's sum, without its checks
                     counts[i] if K else None,
                 )
             )
-    # two orders of the same reflections that meet at an edge are one path (same image)
-    unique: dict[tuple, SpecularPath] = {}
-    for p in paths:
-        unique.setdefault(tuple(np.round(p.image_m / tol).astype(np.int64)), p)
-    return list(unique.values())
+    return paths
 
 
 def _images(ids: np.ndarray, emitter: np.ndarray, normal, offset) -> np.ndarray:
@@ -203,6 +207,8 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
     """(K,) whether each point x (K, 3) lies on (or within `tol` of) one of the faces
     of its plane `pids` (K,)."""
     out = np.zeros(len(pids), bool)
+    if len(pids) == 0:
+        return out
     out[_holding(world, pids, x, tol)[0]] = True
     return out
 
@@ -244,14 +250,16 @@ def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
     return inside[row[on]], face[on]
 
 
-def _before(points: np.ndarray, j: int, emitter: np.ndarray, tol: float) -> np.ndarray:
-    """The last point of a path (its reflection points (k, 3), emitter side first)
-    before reflection j that is not where reflection j is (the emitter if none): in
-    a corner, three reflections can share one point."""
-    for m in range(j - 1, -1, -1):
-        if np.linalg.norm(points[m] - points[j]) > tol:
-            return points[m]
-    return emitter
+def _before(points: np.ndarray, j: np.ndarray, emitter: np.ndarray, tol: float) -> np.ndarray:
+    """The last point (E, 3) of each path (its reflection points (E, k, 3), emitter
+    side first) before its reflection j (E,) that is not where reflection j is (the
+    emitter if none): in a corner, three reflections can share one point."""
+    E, k = points.shape[:2]
+    rows = np.arange(E)
+    gap = np.linalg.norm(points - points[rows, j][:, None], axis=2)  # (E, k)
+    apart = (gap > tol) & (np.arange(k)[None, :] < j[:, None])
+    last = k - 1 - np.argmax(apart[:, ::-1], axis=1)  # the last point apart, if any
+    return np.where(apart.any(axis=1)[:, None], points[rows, last], emitter)
 
 
 def _concave(world: World, planes: np.ndarray, x: np.ndarray, before: np.ndarray, tol):

@@ -434,7 +434,8 @@ def build_world(scene: Scene) -> World:
     :attr:`World.edge_table`, for the diffracting edges too), the smooth corner
     normals are found for curved faces only, and the merged vertices and faces are
     kept for the ray caster (Embree's indexed mesh: no per-corner copies)."""
-    import trimesh
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
     materials = list(
         {
@@ -469,7 +470,9 @@ def build_world(scene: Scene) -> World:
     vn[:] = normals[:, None, :]
     if curved.any():
         vn[curved] = _curved_corner_normals(tri, faces, normals, curved, (adj, ang, shared))
-    component = trimesh.graph.connected_component_labels(adj, node_count=len(tri))
+    # the connected parts (trimesh.graph.connected_component_labels' own call)
+    links = coo_matrix((np.ones(len(adj), bool), adj.T), shape=(len(tri), len(tri)))
+    component = connected_components(links, directed=False)[1]
     world = World(
         tri,
         normals,
