@@ -199,7 +199,8 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
     """The image's truth labels (:mod:`acousim.imaging.labels`) beside it: ``<method>_object``
     (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
     (int8 reflections, -1 none), of the image's shape; `made` holds those made for
-    the recording's other images, by resolution."""
+    the recording's other images, by resolution, with the datasets written of them
+    (whose compressed chunks the other methods' take)."""
     from acousim.imaging.labels import recording_label_map
     from acousim.imaging.matching import image_resolution
 
@@ -208,27 +209,53 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
         return
     res = image_resolution(rec, img, P.ProcessingSettings.window)
     if res not in made:
-        made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
-    labels = made[res]
+        made[res] = (recording_label_map(rec, img, res, dynamic_range_db, range_m=axis), {})
+    labels, written = made[res]
     for suffix, data, dtype, what in (
         ("object", labels.object_index, np.int16, "index into object_names"),
         ("order", labels.order, np.int8, "reflections"),
     ):
-        d = g.create_dataset(
-            f"{method}_{suffix}",
-            data=data.astype(dtype),
-            chunks=True,
-            compression=compression,
-            shuffle=bool(compression),
-        )
+        name = f"{method}_{suffix}"
+        if suffix in written:  # the same map as another method's: its compressed chunks
+            d = _copy_dataset(g, written[suffix], name)
+        else:
+            d = g.create_dataset(
+                name,
+                data=data.astype(dtype),
+                chunks=True,
+                compression=compression,
+                shuffle=bool(compression),
+            )
+            written[suffix] = d
         d.attrs["long_name"] = (
             f"{method}: per cell, the {what} of the paths carrying most of its simulated "
             "energy (-1: none, or below the dynamic range)"
         )
         d.attrs["dynamic_range_db"] = float(dynamic_range_db)
-        for dim, name in enumerate(scales):
-            d.dims[dim].label = name
-            d.dims[dim].attach_scale(g[name])
+        for dim, scale in enumerate(scales):
+            d.dims[dim].label = scale
+            d.dims[dim].attach_scale(g[scale])
+
+
+def _copy_dataset(g, source, name: str):
+    """A new dataset `name` in `g` with the data of the chunked dataset `source` (its
+    shape, type, chunks and filters), its stored chunks copied as they are (not
+    compressed again); no attributes."""
+    d = g.create_dataset(
+        name,
+        shape=source.shape,
+        dtype=source.dtype,
+        chunks=source.chunks,
+        compression=source.compression,
+        compression_opts=source.compression_opts,
+        shuffle=source.shuffle,
+        fillvalue=source.fillvalue,
+    )
+    for i in range(source.id.get_num_chunks()):
+        offset = source.id.get_chunk_info(i).chunk_offset
+        mask, raw = source.id.read_direct_chunk(offset)
+        d.id.write_direct_chunk(offset, raw, mask)
+    return d
 
 
 def _write_provenance(g, prov) -> None:
