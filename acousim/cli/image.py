@@ -201,6 +201,7 @@ def _write_all(args, out, recs, images, index, options, animation, shown=None) -
     files = []
     if not args.no_data:
         threshold = options.peak_threshold_db
+        bar = progress("images.h5", "recording")  # its time counts the peak tables
         tables = peak_tables(recs, images, index, threshold)  # once for both files
         files += [
             write_image_data(
@@ -211,13 +212,21 @@ def _write_all(args, out, recs, images, index, options, animation, shown=None) -
                 dynamic_range_db=options.dynamic_range_db,
                 peak_threshold_db=threshold,
                 tables=tables,
+                progress=bar,
             ),
             write_peaks_csv(
                 out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables
             ),
         ]
     files += write_stills(
-        recs, images, out, options, shown=shown or [0], indices=index, render_3d=not args.no_3d
+        recs,
+        images,
+        out,
+        options,
+        shown=shown or [0],
+        indices=index,
+        render_3d=not args.no_3d,
+        progress=progress("stills", "picture"),
     )
     if animation:
         files += write_drive(

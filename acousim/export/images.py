@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -93,6 +93,7 @@ def write_image_data(
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     peak_threshold_db: float = PEAK_THRESHOLD_DB,
     tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
@@ -108,6 +109,7 @@ def write_image_data(
         every HDF5 tool, MATLAB and HDFView included), "lzf" (h5py's own: 1.3x faster
         to write than gzip at level 1, the file a quarter larger, read by h5py,
         h5netcdf and xarray, not by MATLAB without its plugin) or None.
+    progress : called ``(done, total)`` after each recording's group is written.
     """
     import h5py
 
@@ -123,7 +125,7 @@ def write_image_data(
             "acoustic images: level in dB re the strongest cell of each image, "
             "dimensions (range_m, elevation_deg, azimuth_deg); NaN = no data"
         )
-        for idx, rec, imgs, table in zip(indices, recordings, images, tables):
+        for done, (idx, rec, imgs, table) in enumerate(zip(indices, recordings, images, tables)):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
             _write_provenance(g, rec.provenance)
@@ -148,6 +150,8 @@ def write_image_data(
             if rec.truth is not None and rec.truth.object_index is not None:
                 names = list(rec.truth.object_names)
                 g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
+            if progress is not None:
+                progress(done + 1, len(recordings))
     return path
 
 
