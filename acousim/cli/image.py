@@ -9,6 +9,7 @@ animated GIF. File layouts: docs/export.md.
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 from acousim.cli.common import (
     UsageError,
@@ -199,31 +200,68 @@ def _span(index: list[int]) -> str:
 
 
 def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
+    """The pictures, then the data files: the label maps images.h5 holds are made
+    meanwhile in a second process (:mod:`acousim.cli.ahead`)."""
+    from acousim.cli.ahead import ahead_in_a_process
+    from acousim.export.images import label_maps
+
+    with contextlib.ExitStack() as stack:
+        labels = None
+        if not args.no_data:
+            dr = options.dynamic_range_db
+            made = ahead_in_a_process(lambda: _narrow(label_maps(recs, images, dr)))
+            labels = stack.enter_context(made)
+        pictures = _write_pictures(args, out, recs, images, index, options, animation, shown)
+        data = [] if labels is None else _write_data(out, recs, images, index, options, labels)
+    return data + pictures
+
+
+def _narrow(maps):
+    """Label maps in the types images.h5 stores (int16 objects, int8 orders): half
+    the bytes sent between the processes."""
+    import numpy as np
+
+    from acousim.imaging.labels import LabelMap
+
+    for made in maps:
+        yield {
+            res: LabelMap(m.object_index.astype(np.int16), m.order.astype(np.int8))
+            for res, m in made.items()
+        }
+
+
+def _write_data(out, recs, images, index, options, labels) -> list:
+    """images.h5 (with the label maps `labels`, one recording's after another) and
+    peaks.csv."""
     from acousim.export import write_image_data, write_peaks_csv
     from acousim.export.images import peak_tables
+
+    threshold = options.peak_threshold_db
+    bar = progress("images.h5", "recording")  # its time counts the peak tables
+    tables = peak_tables(recs, images, index, threshold)  # once for both files
+    return [
+        write_image_data(
+            out / "images.h5",
+            recs,
+            images,
+            index,
+            dynamic_range_db=options.dynamic_range_db,
+            peak_threshold_db=threshold,
+            tables=tables,
+            progress=bar,
+            labels=labels,
+        ),
+        write_peaks_csv(
+            out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables
+        ),
+    ]
+
+
+def _write_pictures(args, out, recs, images, index, options, animation, shown) -> list:
+    """The stills of the recordings `shown` and the drive's animation."""
     from acousim.imaging.run import write_drive, write_stills
 
-    files = []
-    if not args.no_data:
-        threshold = options.peak_threshold_db
-        bar = progress("images.h5", "recording")  # its time counts the peak tables
-        tables = peak_tables(recs, images, index, threshold)  # once for both files
-        files += [
-            write_image_data(
-                out / "images.h5",
-                recs,
-                images,
-                index,
-                dynamic_range_db=options.dynamic_range_db,
-                peak_threshold_db=threshold,
-                tables=tables,
-                progress=bar,
-            ),
-            write_peaks_csv(
-                out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables
-            ),
-        ]
-    files += write_stills(
+    files = write_stills(
         recs,
         images,
         out,

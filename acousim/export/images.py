@@ -37,8 +37,9 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,7 +48,18 @@ from acousim.imaging.run import PEAK_THRESHOLD_DB
 from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.base.atomic import atomic_path, write_text
 
-__all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
+if TYPE_CHECKING:
+    from acousim.imaging.labels import LabelMap
+    from acousim.imaging.matching import Resolution
+
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "PEAK_COLUMNS",
+    "label_maps",
+    "write_image_data",
+    "write_peaks_csv",
+]
 
 QUANTUM_PER_DB = 128  # levels are stored as multiples of 1/128 dB
 FORMAT = "acousim-images"
@@ -94,6 +106,7 @@ def write_image_data(
     peak_threshold_db: float = PEAK_THRESHOLD_DB,
     tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    labels: Iterable[Mapping[Resolution, LabelMap]] | None = None,
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
@@ -110,12 +123,16 @@ def write_image_data(
         to write than gzip at level 1, the file a quarter larger, read by h5py,
         h5netcdf and xarray, not by MATLAB without its plugin) or None.
     progress : called ``(done, total)`` after each recording's group is written.
+    labels : each recording's label maps when made already (:func:`label_maps`, with
+        the same dynamic range; taken one recording at a time, as written; None:
+        made here).
     """
     import h5py
 
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     if tables is None:
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
+    premade = iter(labels) if labels is not None else None
     width = max(6, len(str(max(indices, default=0))))
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
@@ -140,7 +157,8 @@ def write_image_data(
                 d = g.create_dataset(name, data=values)
                 d.attrs["units"] = units
                 d.make_scale(name)
-            made: dict = {}  # label maps by resolution: methods of one frequency share
+            # label maps by resolution (methods of one frequency share one)
+            made = {r: (m, {}) for r, m in next(premade).items()} if premade else {}
             for method, img in imgs.items():
                 _write_image(g, method, img, axis, list(scales), compression)
                 labels = (dynamic_range_db, compression, made)
@@ -197,6 +215,30 @@ def _write_peaks(g, rows: P.PeakTable) -> None:
 
 _TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_note")
 _INT_COLUMNS = ("on_grid_edge", "truth_order", "truth_behind")
+
+
+def label_maps(
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+) -> Iterator[dict[Resolution, LabelMap]]:
+    """Each recording's label maps as :func:`write_image_data` writes them, in order:
+    {resolution: :class:`acousim.imaging.labels.LabelMap` (R, E, A) on the regular
+    range axis}, one per resolution of its images (methods of one frequency share
+    one); {} for a recording without a ground truth or range bins.  Made one
+    recording at a time, when asked."""
+    from acousim.imaging.labels import recording_label_map
+    from acousim.imaging.matching import image_resolution
+
+    for rec, imgs in zip(recordings, images):
+        axis = regular_range_axis(list(imgs.values()))
+        made: dict = {}
+        if rec.truth is not None and axis.size:
+            for img in imgs.values():
+                res = image_resolution(rec, img, P.ProcessingSettings.window)
+                if res not in made:
+                    made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+        yield made
 
 
 def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression, made):

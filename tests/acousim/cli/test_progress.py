@@ -86,8 +86,8 @@ def test_a_terminal_shows_a_bar_with_count_rate_and_time_left(tmp_path):
 
 
 def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
-    """`image` under a terminal: a bar for the imaging, then for images.h5 (by
-    recording) and the stills (by picture), each kept when done; with --quiet, only
+    """`image` under a terminal: a bar for the imaging, then for the stills (by
+    picture) and images.h5 (by recording), each kept when done; with --quiet, only
     the files written."""
     scene = three_poses(tmp_path)
     code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "-q"], tmp_path)
@@ -99,7 +99,7 @@ def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
         rate = r"[\d.]+(recording/s|s/recording|picture/s|s/picture)"
         bar = rf"{re.escape(desc)}: 100%\|.*\| {done} \[\d\d:\d\d<00:00, +{rate}\]"
         assert re.search(bar, text), (desc, text)
-    assert text.index("images.h5: 100%") < text.index("stills: 100%")
+    assert text.index("stills: 100%") < text.index("images.h5: 100%")
     code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
     assert code == 0, text
     lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
@@ -134,10 +134,11 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     assert main(args) == 0
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
-    # the write phase: images.h5 by recording, the stills (fan, el-az of das) by picture
-    assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[1]), lines
-    assert re.fullmatch(r"stills: 2/2 pictures in [\d.]+ s \(.*\)", lines[2]), lines
-    assert any(re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", ln) for ln in lines)
+    # the write phase: the stills (fan, el-az of das) by picture, the animation's
+    # frames, then images.h5 by recording (its label maps made meanwhile)
+    assert re.fullmatch(r"stills: 2/2 pictures in [\d.]+ s \(.*\)", lines[1]), lines
+    assert re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", lines[2]), lines
+    assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[3]), lines
     # export: the imaging, then the bag's recordings
     assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
     lines = capsys.readouterr().out.splitlines()
