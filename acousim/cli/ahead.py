@@ -63,7 +63,8 @@ def _send_all(make: Callable[[], Iterator[Any]], send) -> None:
             send.send(("item", item))
         send.send(("end", None))
     except BaseException:  # noqa: BLE001 (reported to the command, which raises it)
-        send.send(("error", traceback.format_exc()))
+        with contextlib.suppress(OSError):  # the command gone: nobody to tell
+            send.send(("error", traceback.format_exc()))
     finally:
         send.close()
 

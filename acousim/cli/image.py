@@ -234,7 +234,7 @@ def _write_data(out, recs, images, index, options, labels) -> list:
     """images.h5 (with the label maps `labels`, one recording's after another) and
     peaks.csv."""
     from acousim.export import write_image_data, write_peaks_csv
-    from acousim.export.images import peak_tables
+    from acousim.export.images import Given, peak_tables
 
     threshold = options.peak_threshold_db
     bar = progress("images.h5", "recording")  # its time counts the peak tables
@@ -247,9 +247,7 @@ def _write_data(out, recs, images, index, options, labels) -> list:
             index,
             dynamic_range_db=options.dynamic_range_db,
             peak_threshold_db=threshold,
-            tables=tables,
-            progress=bar,
-            labels=labels,
+            given=Given(tables=tables, labels=labels, progress=bar),
         ),
         write_peaks_csv(
             out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables

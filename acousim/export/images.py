@@ -38,6 +38,7 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -54,6 +55,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FORMAT",
+    "Given",
     "VERSION",
     "PEAK_COLUMNS",
     "label_maps",
@@ -95,6 +97,23 @@ GZIP_LEVEL = 1
 CHUNK_BINS = 4
 
 
+@dataclass(frozen=True)
+class Given:
+    """What a caller of :func:`write_image_data` may hand it besides the images (each
+    None: made there, or no progress reported).
+
+    tables : the images' peak tables (:func:`peak_tables`, with the same threshold).
+    labels : each recording's label maps (:func:`label_maps`, with the same dynamic
+        range), taken one recording at a time as its group is written (an iterator
+        fed by another process may still be making the later ones).
+    progress : called ``(done, total)`` after each recording's group is written.
+    """
+
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None
+    labels: Iterable[Mapping[Resolution, LabelMap]] | None = None
+    progress: Callable[[int, int], None] | None = None
+
+
 def write_image_data(
     path: str | Path,
     recordings: Sequence[P.Recording],
@@ -104,9 +123,7 @@ def write_image_data(
     compression: str | None = "gzip",
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     peak_threshold_db: float = PEAK_THRESHOLD_DB,
-    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    labels: Iterable[Mapping[Resolution, LabelMap]] | None = None,
+    given: Given = Given(),
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
@@ -116,23 +133,19 @@ def write_image_data(
     dynamic_range_db : cells of the label maps this far below the strongest cell's
         simulated energy are labelled -1 (none).
     peak_threshold_db : the peaks stored (``peaks/<method>``, as ``peaks.csv``).
-    tables : the images' peak tables when made already (:func:`peak_tables`, with the
-        same threshold; None: made here).
     compression : HDF5's filter, with shuffle: "gzip" (default, :data:`GZIP_LEVEL`: read by
         every HDF5 tool, MATLAB and HDFView included), "lzf" (h5py's own: 1.3x faster
         to write than gzip at level 1, the file a quarter larger, read by h5py,
         h5netcdf and xarray, not by MATLAB without its plugin) or None.
-    progress : called ``(done, total)`` after each recording's group is written.
-    labels : each recording's label maps when made already (:func:`label_maps`, with
-        the same dynamic range; taken one recording at a time, as written; None:
-        made here).
+    given : the peak tables and label maps made already, a progress callback (:class:`Given`).
     """
     import h5py
 
     indices = list(indices) if indices is not None else list(range(len(recordings)))
+    tables = given.tables
     if tables is None:
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
-    premade = iter(labels) if labels is not None else None
+    labels = iter(given.labels) if given.labels is not None else None
     width = max(6, len(str(max(indices, default=0))))
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
@@ -145,32 +158,39 @@ def write_image_data(
         for done, (idx, rec, imgs, table) in enumerate(zip(indices, recordings, images, tables)):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
-            _write_provenance(g, rec.provenance)
-            first = next(iter(imgs.values()))
-            axis = regular_range_axis(list(imgs.values()))
-            scales = {
-                "range_m": (axis, "m"),
-                "elevation_deg": (np.rad2deg(first.elevation_rad), "degree"),
-                "azimuth_deg": (np.rad2deg(first.azimuth_rad), "degree"),
-            }
-            for name, (values, units) in scales.items():
-                d = g.create_dataset(name, data=values)
-                d.attrs["units"] = units
-                d.make_scale(name)
             # label maps by resolution (methods of one frequency share one)
-            made = {r: (m, {}) for r, m in next(premade).items()} if premade else {}
-            for method, img in imgs.items():
-                _write_image(g, method, img, axis, list(scales), compression)
-                labels = (dynamic_range_db, compression, made)
-                _write_labels(g, rec, (method, img), axis, list(scales), *labels)
-                peaks = g.require_group("peaks").create_group(method)
-                _write_peaks(peaks, table[method])
-            if rec.truth is not None and rec.truth.object_index is not None:
-                names = list(rec.truth.object_names)
-                g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
-            if progress is not None:
-                progress(done + 1, len(recordings))
+            made = {r: (m, {}) for r, m in next(labels).items()} if labels else {}
+            _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
+            if given.progress is not None:
+                given.progress(done + 1, len(recordings))
     return path
+
+
+def _write_recording(g, rec: P.Recording, imgs, table, labels: tuple) -> None:
+    """One recording's group `g`: its provenance, axes, images, label maps (`labels`:
+    as :func:`_write_labels` takes them), peaks and object names."""
+    import h5py
+
+    _write_provenance(g, rec.provenance)
+    first = next(iter(imgs.values()))
+    axis = regular_range_axis(list(imgs.values()))
+    scales = {
+        "range_m": (axis, "m"),
+        "elevation_deg": (np.rad2deg(first.elevation_rad), "degree"),
+        "azimuth_deg": (np.rad2deg(first.azimuth_rad), "degree"),
+    }
+    for name, (values, units) in scales.items():
+        d = g.create_dataset(name, data=values)
+        d.attrs["units"] = units
+        d.make_scale(name)
+    for method, img in imgs.items():
+        _write_image(g, method, img, axis, list(scales), labels[1])
+        _write_labels(g, rec, (method, img), axis, list(scales), *labels)
+        peaks = g.require_group("peaks").create_group(method)
+        _write_peaks(peaks, table[method])
+    if rec.truth is not None and rec.truth.object_index is not None:
+        names = list(rec.truth.object_names)
+        g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
 
 
 #: the peak columns images.h5 stores (per image; the recording and method are its
