@@ -1,10 +1,10 @@
 """Work made ahead in a second process while the command does other work.
 
-``acousim image`` makes its label maps (pure numpy, a fifth of a second per corridor
-recording) in a forked process while it draws the stills and the animation, then
-writes images.h5 with them: on the 2 cores of a laptop the two overlap.  The items
-come back through a pipe, drained by a thread of this process as they come (so the
-worker never waits for the reader), and are handed out in order.
+``acousim image`` writes images.h5 and peaks.csv (the label maps, the compression:
+numpy, scipy, zlib) in a forked process while it draws the stills and the
+animation: on the 2 cores of a laptop the two overlap.  The worker's items (there:
+its progress) come back through a pipe, drained by a thread of this process as they
+come (so the worker never waits for the reader), and are handed out in order.
 
 The worker ignores Ctrl-C (the command's to handle, see
 :func:`processing.base.interrupt.ignore_in_worker`) and is terminated when the block
@@ -31,7 +31,8 @@ __all__ = ["ahead_in_a_process"]
 def ahead_in_a_process(make: Callable[[], Iterator[Any]]) -> Iterator[Iterator[Any]]:
     """Start making the items of ``make()`` (an iterator of picklable items) in a
     forked process; yields an iterator over them, in order, each as soon as it is
-    made (a RuntimeError with the worker's traceback if it failed)."""
+    made; what the worker raised is raised when its item is asked for (the same
+    exception, its traceback there as a note; a RuntimeError if it does not pickle)."""
     import multiprocessing as mp
 
     if "fork" not in mp.get_all_start_methods() or (os.cpu_count() or 1) < 2:
@@ -62,9 +63,13 @@ def _send_all(make: Callable[[], Iterator[Any]], send) -> None:
         for item in make():
             send.send(("item", item))
         send.send(("end", None))
-    except BaseException:  # noqa: BLE001 (reported to the command, which raises it)
+    except BaseException as exc:  # noqa: BLE001 (sent to the command, which raises it)
+        text = traceback.format_exc()
         with contextlib.suppress(OSError):  # the command gone: nobody to tell
-            send.send(("error", traceback.format_exc()))
+            try:
+                send.send(("error", (exc, text)))
+            except Exception:  # noqa: BLE001 (an exception that does not pickle)
+                send.send(("error", (None, text)))
     finally:
         send.close()
 
@@ -75,7 +80,7 @@ def _receive_all(receive, items: queue.Queue) -> None:
         try:
             message = receive.recv()
         except (EOFError, OSError):
-            items.put(("error", "the worker process ended before its last item"))
+            items.put(("error", (None, "the worker process ended before its last item")))
             return
         items.put(message)
         if message[0] != "item":
@@ -93,5 +98,9 @@ def _handed_out(items: queue.Queue) -> Iterator[Any]:
         if kind == "end":
             return
         if kind == "error":
-            raise RuntimeError(f"work made in a second process failed:\n{value}")
+            exc, text = value
+            if exc is None:
+                raise RuntimeError(f"work made in a second process failed:\n{text}")
+            exc.add_note(f"(raised in a second process:)\n{text}")
+            raise exc
         yield value

@@ -9,7 +9,7 @@ animated GIF. File layouts: docs/export.md.
 from __future__ import annotations
 
 import argparse
-import contextlib
+import functools
 
 from acousim.cli.common import (
     UsageError,
@@ -200,59 +200,37 @@ def _span(index: list[int]) -> str:
 
 
 def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
-    """The pictures, then the data files: the label maps images.h5 holds are made
-    meanwhile in a second process (:mod:`acousim.cli.ahead`)."""
+    """The pictures, and meanwhile, in a second process (:mod:`acousim.cli.ahead`),
+    images.h5 and peaks.csv (written to temporary files renamed here with the rest)."""
     from acousim.cli.ahead import ahead_in_a_process
-    from acousim.export.images import label_maps
+    from processing.base.atomic import atomic_path
 
-    with contextlib.ExitStack() as stack:
-        labels = None
-        if not args.no_data:
-            dr = options.dynamic_range_db
-            made = ahead_in_a_process(lambda: _narrow(label_maps(recs, images, dr)))
-            labels = stack.enter_context(made)
-        pictures = _write_pictures(args, out, recs, images, index, options, animation, shown)
-        data = [] if labels is None else _write_data(out, recs, images, index, options, labels)
+    if args.no_data:
+        return _write_pictures(args, out, recs, images, index, options, animation, shown)
+    data = [out / "images.h5", out / "peaks.csv"]
+    with atomic_path(data[0]) as h5, atomic_path(data[1]) as csv:
+        bar = progress("images.h5", "recording")  # from the start of its work
+        made = functools.partial(_data_steps, h5, csv, recs, images, index, options)
+        with ahead_in_a_process(made) as steps:
+            pictures = _write_pictures(args, out, recs, images, index, options, animation, shown)
+            for done, total in steps:
+                bar(done, total)
     return data + pictures
 
 
-def _narrow(maps):
-    """Label maps in the types images.h5 stores (int16 objects, int8 orders): half
-    the bytes sent between the processes."""
-    import numpy as np
+def _data_steps(h5, csv, recs, images, index, options):
+    """Write images.h5 to `h5` and peaks.csv to `csv` (paths), the peak tables made
+    once for both; yields ``(done, total)`` as images.h5's recordings are written."""
+    from pathlib import Path
 
-    from acousim.imaging.labels import LabelMap
-
-    for made in maps:
-        yield {
-            res: LabelMap(m.object_index.astype(np.int16), m.order.astype(np.int8))
-            for res, m in made.items()
-        }
-
-
-def _write_data(out, recs, images, index, options, labels) -> list:
-    """images.h5 (with the label maps `labels`, one recording's after another) and
-    peaks.csv."""
-    from acousim.export import write_image_data, write_peaks_csv
-    from acousim.export.images import Given, peak_tables
+    from acousim.export.images import Given, image_data_steps, peak_tables, peaks_csv_text
 
     threshold = options.peak_threshold_db
-    bar = progress("images.h5", "recording")  # its time counts the peak tables
-    tables = peak_tables(recs, images, index, threshold)  # once for both files
-    return [
-        write_image_data(
-            out / "images.h5",
-            recs,
-            images,
-            index,
-            dynamic_range_db=options.dynamic_range_db,
-            peak_threshold_db=threshold,
-            given=Given(tables=tables, labels=labels, progress=bar),
-        ),
-        write_peaks_csv(
-            out / "peaks.csv", recs, images, index, threshold_db=threshold, tables=tables
-        ),
-    ]
+    tables = peak_tables(recs, images, index, threshold)
+    given = Given(tables=tables)
+    kw = {"dynamic_range_db": options.dynamic_range_db, "peak_threshold_db": threshold}
+    yield from image_data_steps(h5, recs, images, index, given=given, **kw)
+    Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")
 
 
 def _write_pictures(args, out, recs, images, index, options, animation, shown) -> list:

@@ -58,7 +58,9 @@ __all__ = [
     "Given",
     "VERSION",
     "PEAK_COLUMNS",
+    "image_data_steps",
     "label_maps",
+    "peaks_csv_text",
     "write_image_data",
     "write_peaks_csv",
 ]
@@ -139,6 +141,33 @@ def write_image_data(
         h5netcdf and xarray, not by MATLAB without its plugin) or None.
     given : the peak tables and label maps made already, a progress callback (:class:`Given`).
     """
+    path = Path(path)
+    kw = {"compression": compression, "dynamic_range_db": dynamic_range_db}
+    with atomic_path(path) as tmp:
+        steps = image_data_steps(
+            tmp, recordings, images, indices, peak_threshold_db=peak_threshold_db, given=given, **kw
+        )
+        for done, total in steps:
+            if given.progress is not None:
+                given.progress(done, total)
+    return path
+
+
+def image_data_steps(
+    path: str | Path,
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    *,
+    compression: str | None = "gzip",
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    peak_threshold_db: float = PEAK_THRESHOLD_DB,
+    given: Given = Given(),
+) -> Iterator[tuple[int, int]]:
+    """:func:`write_image_data`'s work, written straight to `path` (not atomically:
+    for a caller that renames it into place itself, or another process writing to
+    a caller's temporary file): yields ``(done, total)`` after each recording's
+    group (`given.progress` is not called)."""
     import h5py
 
     indices = list(indices) if indices is not None else list(range(len(recordings)))
@@ -147,8 +176,7 @@ def write_image_data(
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
     labels = iter(given.labels) if given.labels is not None else None
     width = max(6, len(str(max(indices, default=0))))
-    path = Path(path)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with h5py.File(path, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["version"] = VERSION
         f.attrs["description"] = (
@@ -161,9 +189,7 @@ def write_image_data(
             # label maps by resolution (methods of one frequency share one)
             made = {r: (m, {}) for r, m in next(labels).items()} if labels else {}
             _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
-            if given.progress is not None:
-                given.progress(done + 1, len(recordings))
-    return path
+            yield done + 1, len(recordings)
 
 
 def _write_recording(g, rec: P.Recording, imgs, table, labels: tuple) -> None:
@@ -392,13 +418,18 @@ def write_peaks_csv(
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     if tables is None:
         tables = peak_tables(recordings, images, indices, threshold_db)
+    return write_text(path, peaks_csv_text(tables))
+
+
+def peaks_csv_text(tables: Sequence[Mapping[str, P.PeakTable]]) -> str:
+    """The text of ``peaks.csv`` for the images' peak tables (:func:`peak_tables`)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(PEAK_COLUMNS)
     for table in tables:
         for rows in table.values():
             w.writerows([_fmt(row.as_dict().values()) for row in rows])
-    return write_text(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def _fmt(values) -> list:
