@@ -174,7 +174,10 @@ def image_data_steps(
     tables = given.tables
     if tables is None:
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
-    labels = iter(given.labels) if given.labels is not None else None
+    if given.labels is not None:
+        labels = iter(given.labels)
+    else:  # the next recording's made meanwhile (numpy, scipy and zlib free the GIL)
+        labels = _one_ahead(label_maps(recordings, images, dynamic_range_db))
     width = max(6, len(str(max(indices, default=0))))
     with h5py.File(path, "w") as f:
         f.attrs["format"] = FORMAT
@@ -187,9 +190,22 @@ def image_data_steps(
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
             # label maps by resolution (methods of one frequency share one)
-            made = {r: (m, {}) for r, m in next(labels).items()} if labels else {}
+            made = {r: (m, {}) for r, m in next(labels).items()}
             _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
             yield done + 1, len(recordings)
+
+
+def _one_ahead(items: Iterator) -> Iterator:
+    """The items of `items`, the next one made in a thread while the caller works
+    on the last one handed out."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    end = object()
+    with ThreadPoolExecutor(1) as pool:
+        coming = pool.submit(next, items, end)
+        while (item := coming.result()) is not end:
+            coming = pool.submit(next, items, end)
+            yield item
 
 
 def _write_recording(g, rec: P.Recording, imgs, table, labels: tuple) -> None:
@@ -343,8 +359,11 @@ def _copy_dataset(g, source, name: str):
         shuffle=source.shuffle,
         fillvalue=source.fillvalue,
     )
-    for i in range(source.id.get_num_chunks()):
-        offset = source.id.get_chunk_info(i).chunk_offset
+    every = [tuple(s.start for s in chunk) for chunk in source.iter_chunks()]
+    if len(every) != source.id.get_num_chunks():  # some never stored: ask for those stored
+        n = source.id.get_num_chunks()
+        every = [source.id.get_chunk_info(i).chunk_offset for i in range(n)]  # O(n) each
+    for offset in every:
         mask, raw = source.id.read_direct_chunk(offset)
         d.id.write_direct_chunk(offset, raw, mask)
     return d
