@@ -37,8 +37,10 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,7 +49,21 @@ from acousim.imaging.run import PEAK_THRESHOLD_DB
 from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.base.atomic import atomic_path, write_text
 
-__all__ = ["FORMAT", "VERSION", "PEAK_COLUMNS", "write_image_data", "write_peaks_csv"]
+if TYPE_CHECKING:
+    from acousim.imaging.labels import LabelMap
+    from acousim.imaging.matching import Resolution
+
+__all__ = [
+    "FORMAT",
+    "Given",
+    "VERSION",
+    "PEAK_COLUMNS",
+    "image_data_steps",
+    "label_maps",
+    "peaks_csv_text",
+    "write_image_data",
+    "write_peaks_csv",
+]
 
 QUANTUM_PER_DB = 128  # levels are stored as multiples of 1/128 dB
 FORMAT = "acousim-images"
@@ -83,6 +99,23 @@ GZIP_LEVEL = 1
 CHUNK_BINS = 4
 
 
+@dataclass(frozen=True)
+class Given:
+    """What a caller of :func:`write_image_data` may hand it besides the images (each
+    None: made there, or no progress reported).
+
+    tables : the images' peak tables (:func:`peak_tables`, with the same threshold).
+    labels : each recording's label maps (:func:`label_maps`, with the same dynamic
+        range), taken one recording at a time as its group is written (an iterator
+        fed by another process may still be making the later ones).
+    progress : called ``(done, total)`` after each recording's group is written.
+    """
+
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None
+    labels: Iterable[Mapping[Resolution, LabelMap]] | None = None
+    progress: Callable[[int, int], None] | None = None
+
+
 def write_image_data(
     path: str | Path,
     recordings: Sequence[P.Recording],
@@ -92,7 +125,7 @@ def write_image_data(
     compression: str | None = "gzip",
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
     peak_threshold_db: float = PEAK_THRESHOLD_DB,
-    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
+    given: Given = Given(),
 ) -> Path:
     """Write every image of every recording to one HDF5 file (atomically), with the
     truth labels of each image of a simulated recording (:mod:`acousim.imaging.labels`).
@@ -102,53 +135,104 @@ def write_image_data(
     dynamic_range_db : cells of the label maps this far below the strongest cell's
         simulated energy are labelled -1 (none).
     peak_threshold_db : the peaks stored (``peaks/<method>``, as ``peaks.csv``).
-    tables : the images' peak tables when made already (:func:`peak_tables`, with the
-        same threshold; None: made here).
     compression : HDF5's filter, with shuffle: "gzip" (default, :data:`GZIP_LEVEL`: read by
         every HDF5 tool, MATLAB and HDFView included), "lzf" (h5py's own: 1.3x faster
         to write than gzip at level 1, the file a quarter larger, read by h5py,
         h5netcdf and xarray, not by MATLAB without its plugin) or None.
+    given : the peak tables and label maps made already, a progress callback (:class:`Given`).
     """
+    path = Path(path)
+    kw = {"compression": compression, "dynamic_range_db": dynamic_range_db}
+    with atomic_path(path) as tmp:
+        steps = image_data_steps(
+            tmp, recordings, images, indices, peak_threshold_db=peak_threshold_db, given=given, **kw
+        )
+        for done, total in steps:
+            if given.progress is not None:
+                given.progress(done, total)
+    return path
+
+
+def image_data_steps(
+    path: str | Path,
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    indices: Sequence[int] | None = None,
+    *,
+    compression: str | None = "gzip",
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    peak_threshold_db: float = PEAK_THRESHOLD_DB,
+    given: Given = Given(),
+) -> Iterator[tuple[int, int]]:
+    """:func:`write_image_data`'s work, written straight to `path` (not atomically:
+    for a caller that renames it into place itself, or another process writing to
+    a caller's temporary file): yields ``(done, total)`` after each recording's
+    group (`given.progress` is not called)."""
     import h5py
 
     indices = list(indices) if indices is not None else list(range(len(recordings)))
+    tables = given.tables
     if tables is None:
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
+    if given.labels is not None:
+        labels = iter(given.labels)
+    else:  # the next recording's made meanwhile (numpy, scipy and zlib free the GIL)
+        labels = _one_ahead(label_maps(recordings, images, dynamic_range_db))
     width = max(6, len(str(max(indices, default=0))))
-    path = Path(path)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with h5py.File(path, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["version"] = VERSION
         f.attrs["description"] = (
             "acoustic images: level in dB re the strongest cell of each image, "
             "dimensions (range_m, elevation_deg, azimuth_deg); NaN = no data"
         )
-        for idx, rec, imgs, table in zip(indices, recordings, images, tables):
+        for done, (idx, rec, imgs, table) in enumerate(zip(indices, recordings, images, tables)):
             g = f.create_group(_group_name(idx, width))
             g.attrs["index"] = idx
-            _write_provenance(g, rec.provenance)
-            first = next(iter(imgs.values()))
-            axis = regular_range_axis(list(imgs.values()))
-            scales = {
-                "range_m": (axis, "m"),
-                "elevation_deg": (np.rad2deg(first.elevation_rad), "degree"),
-                "azimuth_deg": (np.rad2deg(first.azimuth_rad), "degree"),
-            }
-            for name, (values, units) in scales.items():
-                d = g.create_dataset(name, data=values)
-                d.attrs["units"] = units
-                d.make_scale(name)
-            made: dict = {}  # label maps by resolution: methods of one frequency share
-            for method, img in imgs.items():
-                _write_image(g, method, img, axis, list(scales), compression)
-                labels = (dynamic_range_db, compression, made)
-                _write_labels(g, rec, (method, img), axis, list(scales), *labels)
-                peaks = g.require_group("peaks").create_group(method)
-                _write_peaks(peaks, table[method])
-            if rec.truth is not None and rec.truth.object_index is not None:
-                names = list(rec.truth.object_names)
-                g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
-    return path
+            # label maps by resolution (methods of one frequency share one)
+            made = {r: (m, {}) for r, m in next(labels).items()}
+            _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
+            yield done + 1, len(recordings)
+
+
+def _one_ahead(items: Iterator) -> Iterator:
+    """The items of `items`, the next one made in a thread while the caller works
+    on the last one handed out."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    end = object()
+    with ThreadPoolExecutor(1) as pool:
+        coming = pool.submit(next, items, end)
+        while (item := coming.result()) is not end:
+            coming = pool.submit(next, items, end)
+            yield item
+
+
+def _write_recording(g, rec: P.Recording, imgs, table, labels: tuple) -> None:
+    """One recording's group `g`: its provenance, axes, images, label maps (`labels`:
+    as :func:`_write_labels` takes them), peaks and object names."""
+    import h5py
+
+    _write_provenance(g, rec.provenance)
+    first = next(iter(imgs.values()))
+    axis = regular_range_axis(list(imgs.values()))
+    scales = {
+        "range_m": (axis, "m"),
+        "elevation_deg": (np.rad2deg(first.elevation_rad), "degree"),
+        "azimuth_deg": (np.rad2deg(first.azimuth_rad), "degree"),
+    }
+    for name, (values, units) in scales.items():
+        d = g.create_dataset(name, data=values)
+        d.attrs["units"] = units
+        d.make_scale(name)
+    for method, img in imgs.items():
+        _write_image(g, method, img, axis, list(scales), labels[1])
+        _write_labels(g, rec, (method, img), axis, list(scales), *labels)
+        peaks = g.require_group("peaks").create_group(method)
+        _write_peaks(peaks, table[method])
+    if rec.truth is not None and rec.truth.object_index is not None:
+        names = list(rec.truth.object_names)
+        g.create_dataset("object_names", data=names, dtype=h5py.string_dtype("utf-8"))
 
 
 #: the peak columns images.h5 stores (per image; the recording and method are its
@@ -195,11 +279,36 @@ _TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_note")
 _INT_COLUMNS = ("on_grid_edge", "truth_order", "truth_behind")
 
 
+def label_maps(
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+) -> Iterator[dict[Resolution, LabelMap]]:
+    """Each recording's label maps as :func:`write_image_data` writes them, in order:
+    {resolution: :class:`acousim.imaging.labels.LabelMap` (R, E, A) on the regular
+    range axis}, one per resolution of its images (methods of one frequency share
+    one); {} for a recording without a ground truth or range bins.  Made one
+    recording at a time, when asked."""
+    from acousim.imaging.labels import recording_label_map
+    from acousim.imaging.matching import image_resolution
+
+    for rec, imgs in zip(recordings, images):
+        axis = regular_range_axis(list(imgs.values()))
+        made: dict = {}
+        if rec.truth is not None and axis.size:
+            for img in imgs.values():
+                res = image_resolution(rec, img, P.ProcessingSettings.window)
+                if res not in made:
+                    made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
+        yield made
+
+
 def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compression, made):
     """The image's truth labels (:mod:`acousim.imaging.labels`) beside it: ``<method>_object``
     (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
     (int8 reflections, -1 none), of the image's shape; `made` holds those made for
-    the recording's other images, by resolution."""
+    the recording's other images, by resolution, with the datasets written of them
+    (whose compressed chunks the other methods' take)."""
     from acousim.imaging.labels import recording_label_map
     from acousim.imaging.matching import image_resolution
 
@@ -208,27 +317,56 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
         return
     res = image_resolution(rec, img, P.ProcessingSettings.window)
     if res not in made:
-        made[res] = recording_label_map(rec, img, res, dynamic_range_db, range_m=axis)
-    labels = made[res]
+        made[res] = (recording_label_map(rec, img, res, dynamic_range_db, range_m=axis), {})
+    labels, written = made[res]
     for suffix, data, dtype, what in (
         ("object", labels.object_index, np.int16, "index into object_names"),
         ("order", labels.order, np.int8, "reflections"),
     ):
-        d = g.create_dataset(
-            f"{method}_{suffix}",
-            data=data.astype(dtype),
-            chunks=True,
-            compression=compression,
-            shuffle=bool(compression),
-        )
+        name = f"{method}_{suffix}"
+        if suffix in written:  # the same map as another method's: its compressed chunks
+            d = _copy_dataset(g, written[suffix], name)
+        else:
+            d = g.create_dataset(
+                name,
+                data=data.astype(dtype),
+                chunks=True,
+                compression=compression,
+                shuffle=bool(compression),
+            )
+            written[suffix] = d
         d.attrs["long_name"] = (
             f"{method}: per cell, the {what} of the paths carrying most of its simulated "
             "energy (-1: none, or below the dynamic range)"
         )
         d.attrs["dynamic_range_db"] = float(dynamic_range_db)
-        for dim, name in enumerate(scales):
-            d.dims[dim].label = name
-            d.dims[dim].attach_scale(g[name])
+        for dim, scale in enumerate(scales):
+            d.dims[dim].label = scale
+            d.dims[dim].attach_scale(g[scale])
+
+
+def _copy_dataset(g, source, name: str):
+    """A new dataset `name` in `g` with the data of the chunked dataset `source` (its
+    shape, type, chunks and filters), its stored chunks copied as they are (not
+    compressed again); no attributes."""
+    d = g.create_dataset(
+        name,
+        shape=source.shape,
+        dtype=source.dtype,
+        chunks=source.chunks,
+        compression=source.compression,
+        compression_opts=source.compression_opts,
+        shuffle=source.shuffle,
+        fillvalue=source.fillvalue,
+    )
+    every = [tuple(s.start for s in chunk) for chunk in source.iter_chunks()]
+    if len(every) != source.id.get_num_chunks():  # some never stored: ask for those stored
+        n = source.id.get_num_chunks()
+        every = [source.id.get_chunk_info(i).chunk_offset for i in range(n)]  # O(n) each
+    for offset in every:
+        mask, raw = source.id.read_direct_chunk(offset)
+        d.id.write_direct_chunk(offset, raw, mask)
+    return d
 
 
 def _write_provenance(g, prov) -> None:
@@ -299,13 +437,18 @@ def write_peaks_csv(
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     if tables is None:
         tables = peak_tables(recordings, images, indices, threshold_db)
+    return write_text(path, peaks_csv_text(tables))
+
+
+def peaks_csv_text(tables: Sequence[Mapping[str, P.PeakTable]]) -> str:
+    """The text of ``peaks.csv`` for the images' peak tables (:func:`peak_tables`)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(PEAK_COLUMNS)
     for table in tables:
         for rows in table.values():
             w.writerows([_fmt(row.as_dict().values()) for row in rows])
-    return write_text(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def _fmt(values) -> list:

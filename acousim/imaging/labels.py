@@ -88,26 +88,52 @@ def label_map(
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
     k_range, k_angle = _factors(rng, u, pos, e, *cell)
-    # per class, its energy map: a sum of separable kernels, one sparse product
-    best = np.zeros(R * G)
-    total = np.zeros(R * G)
-    top = np.full(R * G, -1)
-    for k in range(len(classes)):
-        rows = np.flatnonzero(cls == k)
-        # the class's energy on the cells it reaches (its paths' cells: sparse)
-        part = (k_range[rows].T @ k_angle[rows]).tocoo()
-        cells = part.row.astype(np.int64) * G + part.col
-        total[cells] += part.data
-        more = part.data > best[cells]
-        best[cells[more]] = part.data[more]
-        top[cells[more]] = k
-    if not total.any():
+    cells, k, part = _class_energy(k_range, k_angle, cls, len(classes))
+    if not part.any():
         return none
+    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
+    top = _strongest_class(cells, k, part, R * G)
     shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
     out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
     out_obj[shown] = classes[top[shown], 0]
     out_order[shown] = classes[top[shown], 1]
     return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+
+
+def _class_energy(k_range, k_angle, cls: np.ndarray, n_classes: int):
+    """Every class's energy on the cells its paths reach, from one sparse product:
+    the range kernels (P, R) transposed times the angle kernels (P, G) with each
+    path's row moved to its class's block of columns (P, C G).  Returns, per nonzero
+    (N,), the flat cell r G + g, the class and the energy, ordered by class (so that
+    summing them in order adds the classes in order)."""
+    from scipy import sparse
+
+    G = k_angle.shape[1]
+    k_angle = k_angle.tocsr()
+    shifted = sparse.csr_matrix(
+        (
+            k_angle.data,
+            k_angle.indices + np.repeat(cls * G, np.diff(k_angle.indptr)),
+            k_angle.indptr,
+        ),
+        shape=(k_angle.shape[0], n_classes * G),
+    )
+    part = sparse.csc_matrix(k_range.T @ shifted)  # (R, C G), by column: class-major
+    column = np.repeat(np.arange(n_classes * G), np.diff(part.indptr))
+    k, g = np.divmod(column, G)
+    return part.indices.astype(np.int64) * G + g, k, part.data
+
+
+def _strongest_class(cells: np.ndarray, k: np.ndarray, part: np.ndarray, n_cells: int):
+    """Per cell (n_cells,), the class with the most energy there (the first of equals;
+    -1 where none has any), from the nonzeros of :func:`_class_energy`."""
+    best = np.zeros(n_cells)
+    np.maximum.at(best, cells, part)
+    win = (part > 0) & (part == best[cells])
+    top = np.full(n_cells, np.iinfo(np.int64).max)
+    np.minimum.at(top, cells[win], k[win])
+    top[top == np.iinfo(np.int64).max] = -1
+    return top
 
 
 def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
@@ -124,16 +150,19 @@ def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
     rows = np.repeat(np.arange(len(r)), n)
     cols = lo[rows] + np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n)
     vals = e[rows] * np.exp(-_LN16 * ((rng[cols] - r[rows]) / wr) ** 2)
-    k_range = sparse.csr_matrix((vals, (rows, cols)), shape=(len(r), rng.size))
+    # the entries come row by row, each row's columns in order: CSR as they are
+    indptr = np.r_[0, np.cumsum(n)]
+    k_range = sparse.csr_matrix((vals, cols, indptr), shape=(len(r), rng.size))
     cos_cut = np.cos(min(wa, np.pi))
     parts = []
     for start in range(0, len(d), chunk):  # (chunk, G) at a time
         dots = d[start : start + chunk] @ u.T
-        i, g = np.nonzero(dots >= cos_cut)
+        near = dots >= cos_cut
+        i, g = np.nonzero(near)  # row by row, each row's columns in order
         ang = np.arccos(np.clip(dots[i, g], -1.0, 1.0))
-        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), start + i, g))
-    w, i, g = (np.concatenate(x) for x in zip(*parts))
-    k_angle = sparse.csr_matrix((w, (i, g)), shape=(len(d), len(u)))
+        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), g, near.sum(axis=1)))
+    w, g, count = (np.concatenate(x) for x in zip(*parts))
+    k_angle = sparse.csr_matrix((w, g, np.r_[0, np.cumsum(count)]), shape=(len(d), len(u)))
     return k_range, k_angle
 
 

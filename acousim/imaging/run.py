@@ -319,6 +319,7 @@ def write_stills(
     shown: Sequence[int] = (0,),
     indices: Sequence[int] | None = None,
     render_3d: bool = True,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
     """Fan images, elevation-azimuth maps and (`render_3d`) the 3D render of the
     recordings at positions `shown` of `recordings`: the files written.
@@ -326,6 +327,7 @@ def write_stills(
     indices : the recordings' indices in their file (for the titles and, when several
         are shown, the file names: ``fan_N.png``, ``elaz_METHOD_N.png``,
         ``scene3d_N.png``; default 0, 1, ...).
+    progress : called ``(done, total)`` after each picture written.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -333,17 +335,29 @@ def write_stills(
     trajectory = len(recordings) > 1
     scene = _scene(recordings[shown[0]]) if render_3d else None
     triangles = _scene_triangles(scene) if render_3d else None
-    written = []
+    written: list[Path] = []
+    total = sum(1 + _elaz_count(images[k]) + render_3d for k in shown)
+
+    def count(files: list[Path]) -> None:
+        written.extend(files)
+        if progress is not None:
+            progress(len(written), total)
+
     for k in shown:
         rec, imgs = recordings[k], images[k]
         tag = f"_{indices[k]}" if len(shown) > 1 else ""
         title = _title(rec, indices[k], trajectory)
-        written += _stills(rec, imgs, out, options, _range_limit(rec, options), title, tag)
+        _stills(rec, imgs, out, options, _range_limit(rec, options), title, tag, count)
         if render_3d:
             moving = _moving_triangles(scene, rec)
             path = out / f"scene3d{tag}.png"
-            written.append(_render(rec, imgs, triangles, path, options, moving, title))
+            count([_render(rec, imgs, triangles, path, options, moving, title)])
     return written
+
+
+def _elaz_count(imgs: dict[str, P.Image]) -> int:
+    """The el-az pictures of a recording's images (those with range bins)."""
+    return sum(1 for img in imgs.values() if img.power.size)
 
 
 def write_drive(
@@ -366,21 +380,21 @@ def write_drive(
     return [_animate(recordings, images, triangles, path, options, progress, indices, scene)]
 
 
-def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag=""):
+def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag, done):
     """The fan (every method) and each method's el-az maps of one recording, with
-    its traced reflectors marked: the files written (``fan{tag}.png``, ...)."""
+    its traced reflectors marked, each file given to `done` (a list of one) once
+    written (``fan{tag}.png``, ...)."""
     from acousim.viz import elaz_figure, fan_figure
 
     dr = options.dynamic_range_db
     truth = _truth_sensor(rec, dr, imgs[_sharpest(imgs)], options)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
-    written = [fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)]
+    done([fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)])
     for m, img in imgs.items():
         if img.power.size:
             tol = _half_range_resolution(rec, img, options)
             path = out / f"elaz_{m}{tag}.png"
-            written.append(elaz_figure(img, path, truth_tolerance_m=tol, **kw))
-    return written
+            done([elaz_figure(img, path, truth_tolerance_m=tol, **kw)])
 
 
 def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:

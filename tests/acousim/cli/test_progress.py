@@ -85,6 +85,27 @@ def test_a_terminal_shows_a_bar_with_count_rate_and_time_left(tmp_path):
     assert "3 recording(s) of 'points' written to x.h5" in text
 
 
+def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
+    """`image` under a terminal: a bar for the imaging, then for the stills (by
+    picture) and images.h5 (by recording), each kept when done; with --quiet, only
+    the files written."""
+    scene = three_poses(tmp_path)
+    code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "-q"], tmp_path)
+    assert code == 0, text
+    args = ["image", "x.h5", "--method", "das", "--no-3d", "--no-animation", "--out", "img"]
+    code, text = run_on_a_terminal(args, tmp_path)
+    assert code == 0, text
+    for desc, done in (("image", "3/3"), ("images.h5", "3/3"), ("stills", "2/2")):
+        rate = r"[\d.]+(recording/s|s/recording|picture/s|s/picture)"
+        bar = rf"{re.escape(desc)}: 100%\|.*\| {done} \[\d\d:\d\d<00:00, +{rate}\]"
+        assert re.search(bar, text), (desc, text)
+    assert text.index("stills: 100%") < text.index("images.h5: 100%")
+    code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
+    assert code == 0, text
+    lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
+    assert lines and all(ln.startswith("img/") or ln.startswith("(") for ln in lines), lines
+
+
 def test_quiet_on_a_terminal_prints_only_the_result(tmp_path):
     scene = three_poses(tmp_path)
     code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "--quiet"], tmp_path)
@@ -113,7 +134,11 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     assert main(args) == 0
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
-    assert any(re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", ln) for ln in lines)
+    # the write phase: the stills (fan, el-az of das) by picture, the animation's
+    # frames, then images.h5 by recording (its label maps made meanwhile)
+    assert re.fullmatch(r"stills: 2/2 pictures in [\d.]+ s \(.*\)", lines[1]), lines
+    assert re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", lines[2]), lines
+    assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[3]), lines
     # export: the imaging, then the bag's recordings
     assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
     lines = capsys.readouterr().out.splitlines()

@@ -343,3 +343,26 @@ def test_images_h5_holds_the_levels_and_nan_at_gated_bins(recording_file, tmp_pa
         assert d.dtype == np.float32 and d.compression == compression
         np.testing.assert_array_equal(d[()], want)  # NaN where NaN
         np.testing.assert_allclose(f["recording_000000/range_m"][()], 0.5 + step * np.arange(31))
+
+
+def test_label_maps_made_elsewhere_are_written_as_those_made_there(recording_file, tmp_path):
+    """write_image_data with the label maps handed to it (as `acousim image` makes
+    them, in a second process) writes the same label datasets as making them itself,
+    and reports its progress by recording."""
+    from acousim.export import write_image_data
+    from acousim.export.images import Given, label_maps
+    from acousim.imaging.run import ImagingOptions, image_recordings
+
+    recs = [P.load_recording(recording_file, 0)]
+    images = image_recordings(recs, ImagingOptions(methods=("das", "music-fbss"), step_deg=4.0))
+    calls = []
+    given = Given(labels=label_maps(recs, images), progress=lambda *a: calls.append(a))
+    handed = write_image_data(tmp_path / "a.h5", recs, images, given=given)
+    made = write_image_data(tmp_path / "b.h5", recs, images)
+    assert calls == [(1, 1)]
+    with h5py.File(handed, "r") as a, h5py.File(made, "r") as b:
+        g, h = a["recording_000000"], b["recording_000000"]
+        for name in ("das_object", "das_order", "music-fbss_object", "music-fbss_order"):
+            np.testing.assert_array_equal(g[name][()], h[name][()])
+            assert g[name].attrs["long_name"] == h[name].attrs["long_name"]
+        assert (g["das_object"][()] >= 0).any()  # a labelled cell: the maps were written
