@@ -64,8 +64,20 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
-from acousim.imaging.run import PEAK_THRESHOLD_DB
-from acousim.viz.fan import DYNAMIC_RANGE_DB
+from acousim.export.lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
+from acousim.imaging.run import (
+    PEAK_THRESHOLD_DB,
+    _moving_triangles,
+    _pose,
+    _scene,
+    _scene_triangles,
+    _sharpest,
+    peak_positions,
+)
+from acousim.scene.pose import Pose
+from acousim.scene.rig import Mount
+from acousim.viz.fan import DYNAMIC_RANGE_DB, fan_raster
+from acousim.viz.truth import truth_level_db
 from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX
 from processing.base.errors import InputError
@@ -194,9 +206,6 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
     """The bag's topics, one message of each per recording, written into `bag`."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from acousim.imaging.run import _pose, _sharpest, peak_positions
-    from acousim.viz.fan import fan_raster
-
     store = _typestore()
     T = store.types
     with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
@@ -257,7 +266,6 @@ def _rename_unless_interrupted(bag: Path, path: Path) -> None:
 def _lidar_writer(w, store, recordings):
     """A function writing a recording's LiDAR scan (:mod:`acousim.export.lidar_cloud`)
     to ``/acousim/lidar``; the topic exists only when some recording has a scan."""
-    from acousim.export.lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
 
     if all(r.lidar is None for r in recordings):
         return lambda rec, header, ns: None
@@ -385,8 +393,6 @@ def _transform(T, stamp, parent: str, child: str, rotation: np.ndarray, position
 def _rig_tf_msg(T, header, meta: dict, sonar: str):
     """A rig's TF tree at a firing: world -> body (the body's pose) and body -> the
     sonar (its mount; metadata ``body_pose`` and ``mount``)."""
-    from acousim.scene.pose import Pose
-    from acousim.scene.rig import Mount
 
     b = meta["body_pose"]
     body = Pose.degrees(b["position_m"], b["yaw_deg"], b["pitch_deg"], b["roll_deg"])
@@ -404,8 +410,6 @@ class _SceneTopics:
     docstring): what a viewer needs to show the scene beside the images."""
 
     def __init__(self, writer, store, recordings: Sequence[P.Recording]) -> None:
-        from acousim.imaging.run import _scene, _scene_triangles
-
         self.w, self.store, self.T = writer, store, store.types
         self.scene = _scene(recordings[0]) if recordings else None
         self.still = _scene_triangles(self.scene)
@@ -428,8 +432,6 @@ class _SceneTopics:
             if self.first and self.still is not None:
                 markers.append(_mesh_marker(self.T, header, 0, self.still, SCENE_COLOR))
             if self.moving:
-                from acousim.imaging.run import _moving_triangles
-
                 tri = _moving_triangles(self.scene, rec)
                 markers.append(_mesh_marker(self.T, header, 1, tri, MOVING_COLOR))
             if markers:
@@ -482,7 +484,6 @@ def _reflector_msg(T, header, rec: P.Recording):
     (m), delay_s their two-way delay at the array centre (s) and object (the index
     into the recording's ``truth.object_names``, -1 none); NaN where a recording
     carries no apparent positions (a file written before they existed)."""
-    from acousim.viz.truth import truth_level_db
 
     t = rec.truth
     if t is None or not len(t):
