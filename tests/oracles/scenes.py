@@ -8,6 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
+#: the paper's sensor in a scene file (the 8x8 URA, the 20-85 kHz chirp at 500 kHz, no
+#: direct path): a scene file's ``[sensor]`` table, its pose and the rest to follow
+PAPER_SENSOR_TOML = """[sensor]
+array = "paper_8x8"
+call = "paper"
+sample_rate_hz = 500000
+direct_path = false
+"""
+
 
 def turn_z(deg: float) -> np.ndarray:
     """(3, 3) rotation by `deg` degrees about z."""

@@ -21,6 +21,7 @@ from acousim.dataset.spec import load_spec
 from acousim.scene import load_scene
 from processing.base.errors import InputError
 from tests import REPO
+from tests.oracles.scenes import PAPER_SENSOR_TOML
 
 SCENES = REPO / "scenes"
 
@@ -72,14 +73,10 @@ region = {{ x = [100.0, 101.0], y = [0.0, 0.1], z = [0.3, 0.4] }}
         sample_parameters(load_spec(spec), 0)
 
 
-POINTS = """[scene]
-name = "silent"
-[sensor]
-array = "paper_8x8"
-call = "paper"
-sample_rate_hz = 500000
-direct_path = false
-[sensor.pose]
+POINTS = (
+    '[scene]\nname = "silent"\n'
+    + PAPER_SENSOR_TOML
+    + """[sensor.pose]
 position_m = [0.0, 0.0, 0.0]
 [simulation]
 max_range_m = 1.5
@@ -88,6 +85,7 @@ absorption = false
 position_m = [1.0, 0.2, 0.0]
 velocity_m_s = [0.5, 0.0, 0.0]
 """
+)
 SILENT = """[[points]]
 position_m = [0.8, -0.3, 0.1]
 velocity_m_s = [0.0, 0.4, 0.0]

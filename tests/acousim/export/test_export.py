@@ -17,6 +17,7 @@ import pytest
 import processing as P
 from acousim.cli import main
 from tests import REPO
+from tests.oracles.scenes import PAPER_SENSOR_TOML
 
 ROOT = REPO
 
@@ -37,14 +38,9 @@ def recording_file(tmp_path_factory):
     d = tmp_path_factory.mktemp("export")
     scene = d / "left.toml"
     scene.write_text(
-        f"""[scene]
-name = "left"
-[sensor]
-array = "paper_8x8"
-call = "paper"
-sample_rate_hz = 500000
-direct_path = false
-[sensor.pose]
+        '[scene]\nname = "left"\n'
+        + PAPER_SENSOR_TOML
+        + f"""[sensor.pose]
 position_m = [{POS[0]}, {POS[1]}, {POS[2]}]
 yaw_deg = 30.0
 [simulation]
