@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.base.kernels import optional_kernel
+
 __all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
 
 _LN16 = 4 * np.log(2)  # exp(-4 ln 2 (x / w)^2): 1/2 at x = w / 2
@@ -57,6 +59,7 @@ def label_map(
     order: np.ndarray,
     cell: tuple[float, float],
     dynamic_range_db: float,
+    use_kernel: bool = True,
 ) -> LabelMap:
     """The label map of an image grid (see the module docstring).
 
@@ -69,6 +72,8 @@ def label_map(
     cell : the image's resolution (full widths): (range m, angle rad)
         (:class:`acousim.imaging.matching.Resolution`'s two numbers).
     dynamic_range_db : cells this far below the strongest cell's energy are -1.
+    use_kernel : the compiled kernel (:mod:`acousim.imaging.labels_kernel`) when numba
+        is installed; False: the numpy and scipy form (the same bits, slower).
     """
     rng = np.asarray(range_m, float).reshape(-1)
     u = np.asarray(directions, float).reshape(-1, 3)
@@ -88,16 +93,33 @@ def label_map(
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
     k_range, k_angle = _factors(rng, u, pos, e, *cell)
-    cells, k, part = _class_energy(k_range, k_angle, cls, len(classes))
-    if not part.any():
+    total, top = _total_and_top(k_range, k_angle, cls, len(classes), use_kernel)
+    if not total.any():
         return none
-    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
-    top = _strongest_class(cells, k, part, R * G)
     shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
     out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
     out_obj[shown] = classes[top[shown], 0]
     out_order[shown] = classes[top[shown], 1]
     return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+
+
+def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int, use_kernel: bool):
+    """Per cell (R G,), the energy of all classes summed in class order and the
+    strongest class (-1: none), from the compiled kernel or the sparse product."""
+    R, G = k_range.shape[1], k_angle.shape[1]
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "cell_classes")
+    if use_kernel and kernel is not None:
+        by_bin = k_range.tocsc()  # per bin, its paths in order
+        by_bin.sort_indices()
+        total, top = np.zeros((R, G)), np.full((R, G), -1, np.int64)
+        kernel(
+            by_bin.indptr, by_bin.indices, by_bin.data, k_angle.indptr, k_angle.indices,
+            k_angle.data, cls.astype(np.int64), n_classes, total, top,
+        )  # fmt: skip
+        return total.reshape(-1), top.reshape(-1)
+    cells, k, part = _class_energy(k_range, k_angle, cls, n_classes)
+    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
+    return total, _strongest_class(cells, k, part, R * G)
 
 
 def _class_energy(k_range, k_angle, cls: np.ndarray, n_classes: int):
