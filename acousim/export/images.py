@@ -60,6 +60,7 @@ __all__ = [
     "PEAK_COLUMNS",
     "image_data_steps",
     "label_maps",
+    "label_maps_ahead",
     "peaks_csv_text",
     "write_image_data",
     "write_peaks_csv",
@@ -176,8 +177,8 @@ def image_data_steps(
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
     if given.labels is not None:
         labels = iter(given.labels)
-    else:  # the next recording's made meanwhile (numpy, scipy and zlib free the GIL)
-        labels = _one_ahead(label_maps(recordings, images, dynamic_range_db))
+    else:
+        labels = label_maps_ahead(recordings, images, dynamic_range_db)
     width = max(6, len(str(max(indices, default=0))))
     with h5py.File(path, "w") as f:
         f.attrs["format"] = FORMAT
@@ -193,6 +194,21 @@ def image_data_steps(
             made = {r: (m, {}) for r, m in next(labels).items()}
             _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
             yield done + 1, len(recordings)
+
+
+def label_maps_ahead(
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    made: Sequence[Mapping[Resolution, LabelMap]] = (),
+) -> Iterator[Mapping[Resolution, LabelMap]]:
+    """Each recording's label maps (:func:`label_maps`), in order: those of the first
+    ``len(made)`` recordings as `made` holds them, then the others, the next one made
+    in a thread while the caller works on the last one handed out (numpy, scipy, the
+    compiled kernel and zlib free the GIL)."""
+    k = len(made)
+    yield from made
+    yield from _one_ahead(label_maps(recordings[k:], images[k:], dynamic_range_db))
 
 
 def _one_ahead(items: Iterator) -> Iterator:
