@@ -72,8 +72,8 @@ def label_map(
     cell : the image's resolution (full widths): (range m, angle rad)
         (:class:`acousim.imaging.matching.Resolution`'s two numbers).
     dynamic_range_db : cells this far below the strongest cell's energy are -1.
-    use_kernel : the compiled kernel (:mod:`acousim.imaging.labels_kernel`) when numba
-        is installed; False: the numpy and scipy form (the same bits, slower).
+    use_kernel : the compiled kernels (:mod:`acousim.imaging.labels_kernel`) when numba
+        is installed; False: the numpy and scipy forms (the same bits, slower).
     """
     rng = np.asarray(range_m, float).reshape(-1)
     u = np.asarray(directions, float).reshape(-1, 3)
@@ -92,7 +92,7 @@ def label_map(
     odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
-    k_range, k_angle = _factors(rng, u, pos, e, *cell)
+    k_range, k_angle = _factors(rng, u, pos, e, *cell, use_kernel=use_kernel)
     total, top = _total_and_top(k_range, k_angle, cls, len(classes), use_kernel)
     if not total.any():
         return none
@@ -158,7 +158,7 @@ def _strongest_class(cells: np.ndarray, k: np.ndarray, part: np.ndarray, n_cells
     return top
 
 
-def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
+def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk=256, use_kernel=True):
     """The separable kernels of P paths as sparse matrices: range (P, R), each path's
     energy times its taper over the bins within one cell of its range, and angle
     (P, G), its taper over the directions within one cell of its own."""
@@ -176,16 +176,37 @@ def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
     indptr = np.r_[0, np.cumsum(n)]
     k_range = sparse.csr_matrix((vals, cols, indptr), shape=(len(r), rng.size))
     cos_cut = np.cos(min(wa, np.pi))
+    near = _near_directions(cos_cut, min(chunk, len(d)) * len(u), use_kernel)
     parts = []
     for start in range(0, len(d), chunk):  # (chunk, G) at a time
-        dots = d[start : start + chunk] @ u.T
-        near = dots >= cos_cut
-        i, g = np.nonzero(near)  # row by row, each row's columns in order
-        ang = np.arccos(np.clip(dots[i, g], -1.0, 1.0))
-        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), g, near.sum(axis=1)))
+        g, dots, count = near(d[start : start + chunk] @ u.T)
+        ang = np.arccos(np.clip(dots, -1.0, 1.0))
+        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), g, count))
     w, g, count = (np.concatenate(x) for x in zip(*parts))
     k_angle = sparse.csr_matrix((w, g, np.r_[0, np.cumsum(count)]), shape=(len(d), len(u)))
     return k_range, k_angle
+
+
+def _near_directions(cos_cut: float, size: int, use_kernel: bool):
+    """A function of dots (n, G) giving the columns (N,) and values (N,) of the entries
+    at or above `cos_cut`, row by row, and each row's count (n,): the compiled kernel's
+    (one pass; buffers of `size` >= n G reused) or numpy's."""
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "near_directions")
+    if kernel is None or not use_kernel:
+
+        def near(dots):
+            i, g = np.nonzero(dots >= cos_cut)  # row by row, each row's columns in order
+            return g, dots[i, g], np.bincount(i, minlength=len(dots))
+
+        return near
+    cols, values = np.empty(size, np.int64), np.empty(size)
+
+    def compiled(dots):
+        counts = np.empty(len(dots), np.int64)
+        m = kernel(dots, cos_cut, cols, values, counts)
+        return cols[:m].copy(), values[:m].copy(), counts
+
+    return compiled
 
 
 def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m=None):

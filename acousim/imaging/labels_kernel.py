@@ -71,3 +71,22 @@ def cell_classes(
                 acc[c, g] = 0.0
             total[r, g] = s
             top[r, g] = win
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def near_directions(dots, cos_cut, cols, values, counts):  # pragma: no cover - compiled
+    """The entries of `dots` (n, G) at or above `cos_cut`, row by row, each row's in
+    column order (as ``np.nonzero(dots >= cos_cut)``): their columns and values
+    written to the starts of `cols` and `values` (n G,), each row's count to `counts`
+    (n,); returns their number."""
+    m = 0
+    for i in range(dots.shape[0]):
+        start = m
+        for g in range(dots.shape[1]):
+            x = dots[i, g]
+            if x >= cos_cut:
+                cols[m] = g
+                values[m] = x
+                m += 1
+        counts[i] = m - start
+    return m

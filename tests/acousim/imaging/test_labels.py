@@ -102,9 +102,11 @@ def test_equal_classes_give_the_cell_to_the_first(use_kernel):
 
 @pytest.mark.parametrize("seed", [3, 4])
 def test_the_kernel_gives_the_numpy_forms_bits(seed):
-    """The compiled per-cell sums (acousim.imaging.labels_kernel) against the sparse
-    product they replace, on 300 paths of 12 classes crowding a 41 x 7 x 11 grid:
-    every cell's summed energy the same float, every cell's class the same."""
+    """The compiled kernels (acousim.imaging.labels_kernel) against the numpy forms
+    they replace (the directions within a cell of each path; the sparse product of
+    the per-cell sums), on 300 paths of 12 classes crowding a 41 x 7 x 11 grid:
+    the same kernels' entries, every cell's summed energy the same float, every
+    cell's class the same."""
     pytest.importorskip("numba")
     from acousim.imaging.labels import _factors, _total_and_top
 
@@ -115,7 +117,12 @@ def test_the_kernel_gives_the_numpy_forms_bits(seed):
     r = rnd.uniform(0.8, 1.2, n)
     el, az = np.deg2rad(rnd.uniform(-35, 35, n)), np.deg2rad(rnd.uniform(-55, 55, n))
     pos = r[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
-    k_range, k_angle = _factors(rng, dirs, pos, 10 ** (-rnd.uniform(0, 4, n)), 0.05, 0.3)
+    energy = 10 ** (-rnd.uniform(0, 4, n))
+    k_range, k_angle = _factors(rng, dirs, pos, energy, 0.05, 0.3, chunk=64)
+    want_range, want_angle = _factors(rng, dirs, pos, energy, 0.05, 0.3, 64, use_kernel=False)
+    for got, want in ((k_range, want_range), (k_angle, want_angle)):
+        for name in ("data", "indices", "indptr"):
+            assert np.array_equal(getattr(got, name), getattr(want, name))
     cls = rnd.integers(0, 12, n)
     total, top = _total_and_top(k_range, k_angle, cls, 12, use_kernel=True)
     want_total, want_top = _total_and_top(k_range, k_angle, cls, 12, use_kernel=False)
