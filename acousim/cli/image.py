@@ -165,12 +165,11 @@ def run(args: argparse.Namespace) -> int:
     before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     shown = _shown(args.recording, index)
-    animation = not args.no_animation and len(recs) > 1
-    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
+    prepare_pictures(render_3d=not args.no_3d, animation=_animated(args, recs))  # before work
     with _beside_imaging(recs, index, options, not args.no_data) as (add, made):
         images = image_all(each=add)
     with committed_together():  # every file or none (Ctrl-C, an error)
-        files = _write_all(args, out, recs, images, index, options, animation, shown, made)
+        files = _write_all(args, out, recs, images, index, options, shown, made)
     for f in files:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
@@ -234,20 +233,25 @@ def _beside_imaging(recs, index, options, wanted: bool):
         made.append(f.result())
 
 
-def _write_all(args, out, recs, images, index, options, animation, shown=None, made=()) -> list:
+def _animated(args, recs: list) -> bool:
+    """Whether the command draws the drive's animation."""
+    return not args.no_animation and len(recs) > 1
+
+
+def _write_all(args, out, recs, images, index, options, shown=None, made=()) -> list:
     """The pictures, and meanwhile, in a second process (:mod:`acousim.cli.ahead`),
     images.h5 and peaks.csv (written to temporary files renamed here with the rest)."""
     from acousim.cli.ahead import ahead_in_a_process
     from processing.base.atomic import atomic_path
 
     if args.no_data:
-        return _write_pictures(args, out, recs, images, index, options, animation, shown)
+        return _write_pictures(args, out, recs, images, index, options, shown)
     data = [out / "images.h5", out / "peaks.csv"]
     with atomic_path(data[0]) as h5, atomic_path(data[1]) as csv:
         bar = progress("images.h5", "recording")  # from the start of its work
         work = functools.partial(_data_steps, h5, csv, recs, images, index, options, made)
         with ahead_in_a_process(work) as steps:
-            pictures = _write_pictures(args, out, recs, images, index, options, animation, shown)
+            pictures = _write_pictures(args, out, recs, images, index, options, shown)
             for done, total in steps:
                 bar(done, total)
     return data + pictures
@@ -277,7 +281,7 @@ def _data_steps(h5, csv, recs, images, index, options, made=()):
     Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")
 
 
-def _write_pictures(args, out, recs, images, index, options, animation, shown) -> list:
+def _write_pictures(args, out, recs, images, index, options, shown) -> list:
     """The stills of the recordings `shown` and the drive's animation."""
     from acousim.imaging.run import write_drive, write_stills
 
@@ -291,7 +295,7 @@ def _write_pictures(args, out, recs, images, index, options, animation, shown) -
         render_3d=not args.no_3d,
         progress=progress("stills", "picture"),
     )
-    if animation:
+    if _animated(args, recs):
         files += write_drive(
             recs,
             images,

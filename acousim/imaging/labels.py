@@ -59,7 +59,6 @@ def label_map(
     order: np.ndarray,
     cell: tuple[float, float],
     dynamic_range_db: float,
-    use_kernel: bool = True,
 ) -> LabelMap:
     """The label map of an image grid (see the module docstring).
 
@@ -72,8 +71,9 @@ def label_map(
     cell : the image's resolution (full widths): (range m, angle rad)
         (:class:`acousim.imaging.matching.Resolution`'s two numbers).
     dynamic_range_db : cells this far below the strongest cell's energy are -1.
-    use_kernel : the compiled kernels (:mod:`acousim.imaging.labels_kernel`) when numba
-        is installed; False: the numpy and scipy forms (the same bits, slower).
+
+    With numba, the steps of :mod:`acousim.imaging.labels_kernel` run compiled; without
+    it their numpy and scipy forms give the same bits, more slowly.
     """
     rng = np.asarray(range_m, float).reshape(-1)
     u = np.asarray(directions, float).reshape(-1, 3)
@@ -92,8 +92,8 @@ def label_map(
     odr = np.asarray(order).reshape(-1)[ok].astype(np.int64)
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
-    k_range, k_angle = _factors(rng, u, pos, e, *cell, use_kernel=use_kernel)
-    total, top = _total_and_top(k_range, k_angle, cls, len(classes), use_kernel)
+    k_range, k_angle = _factors(rng, u, pos, e, *cell)
+    total, top = _total_and_top(k_range, k_angle, cls, len(classes))
     if not total.any():
         return none
     shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
@@ -103,12 +103,12 @@ def label_map(
     return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
 
 
-def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int, use_kernel: bool):
+def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int):
     """Per cell (R G,), the energy of all classes summed in class order and the
     strongest class (-1: none), from the compiled kernel or the sparse product."""
     R, G = k_range.shape[1], k_angle.shape[1]
     kernel = optional_kernel("acousim.imaging.labels_kernel", "cell_classes")
-    if use_kernel and kernel is not None:
+    if kernel is not None:
         by_bin = k_range.tocsc()  # per bin, its paths in order
         by_bin.sort_indices()
         total, top = np.zeros((R, G)), np.full((R, G), -1, np.int64)
@@ -158,7 +158,7 @@ def _strongest_class(cells: np.ndarray, k: np.ndarray, part: np.ndarray, n_cells
     return top
 
 
-def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk=256, use_kernel=True):
+def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
     """The separable kernels of P paths as sparse matrices: range (P, R), each path's
     energy times its taper over the bins within one cell of its range, and angle
     (P, G), its taper over the directions within one cell of its own."""
@@ -176,7 +176,7 @@ def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk=256, use_kernel
     indptr = np.r_[0, np.cumsum(n)]
     k_range = sparse.csr_matrix((vals, cols, indptr), shape=(len(r), rng.size))
     cos_cut = np.cos(min(wa, np.pi))
-    near = _near_directions(cos_cut, min(chunk, len(d)) * len(u), use_kernel)
+    near = _near_directions(cos_cut, min(chunk, len(d)) * len(u))
     parts = []
     for start in range(0, len(d), chunk):  # (chunk, G) at a time
         g, dots, count = near(d[start : start + chunk] @ u.T)
@@ -187,12 +187,12 @@ def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk=256, use_kernel
     return k_range, k_angle
 
 
-def _near_directions(cos_cut: float, size: int, use_kernel: bool):
+def _near_directions(cos_cut: float, size: int):
     """A function of dots (n, G) giving the columns (N,) and values (N,) of the entries
     at or above `cos_cut`, row by row, and each row's count (n,): the compiled kernel's
     (one pass; buffers of `size` >= n G reused) or numpy's."""
     kernel = optional_kernel("acousim.imaging.labels_kernel", "near_directions")
-    if kernel is None or not use_kernel:
+    if kernel is None:
 
         def near(dots):
             i, g = np.nonzero(dots >= cos_cut)  # row by row, each row's columns in order
