@@ -9,6 +9,7 @@ animated GIF. File layouts: docs/export.md.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 
 from acousim.cli.common import (
@@ -130,8 +131,8 @@ def load_and_image(args: argparse.Namespace):
     if getattr(args, "sensor", None) is not None:
         recs, index = _of_sensor(recs, index, args.sensor)
 
-    def image_all():  # the bar's time starts with the work
-        return image_recordings(recs, options, progress("image", "recording"))
+    def image_all(each=None):  # the bar's time starts with the work
+        return image_recordings(recs, options, progress("image", "recording"), each=each)
 
     return recs, index, options, image_all
 
@@ -164,11 +165,11 @@ def run(args: argparse.Namespace) -> int:
     before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     shown = _shown(args.recording, index)
-    animation = not args.no_animation and len(recs) > 1
-    prepare_pictures(render_3d=not args.no_3d, animation=animation)  # before the work
-    images = image_all()
+    prepare_pictures(render_3d=not args.no_3d, animation=_animated(args, recs))  # before work
+    with _beside_imaging(recs, index, options, not args.no_data) as (add, made):
+        images = image_all(each=add)
     with committed_together():  # every file or none (Ctrl-C, an error)
-        files = _write_all(args, out, recs, images, index, options, animation, shown)
+        files = _write_all(args, out, recs, images, index, options, shown, made)
     for f in files:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
@@ -199,41 +200,88 @@ def _span(index: list[int]) -> str:
     return ",".join(map(str, index))
 
 
-def _write_all(args, out, recs, images, index, options, animation, shown=None) -> list:
+@contextlib.contextmanager
+def _beside_imaging(recs, index, options, wanted: bool):
+    """While the recordings are imaged (one core), each imaged recording's label maps
+    and peak tables for images.h5 and peaks.csv made in a thread (the other core).
+    Yields the callback for :func:`acousim.imaging.run.image_recordings`'s `each`
+    (None: not `wanted`) and a list that holds, once the block ends, the (label maps,
+    peak tables) made, in order: those of the first recordings (those not begun are
+    cancelled, made later by images.h5's process; the thread has ended: nothing runs
+    beside a fork)."""
+    made: list = []
+    if not wanted:
+        yield None, made
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    from acousim.export.images import label_maps, peak_tables
+
+    def make(i: int, imgs: dict) -> tuple:
+        labels = next(label_maps([recs[i]], [imgs], options.dynamic_range_db))
+        return labels, peak_tables([recs[i]], [imgs], [index[i]], options.peak_threshold_db)[0]
+
+    futures: list = []
+    pool = ThreadPoolExecutor(1)
+    try:
+        yield (lambda i, imgs: futures.append(pool.submit(make, i, imgs))), made
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    for f in futures:
+        if f.cancelled():
+            break
+        made.append(f.result())
+
+
+def _animated(args, recs: list) -> bool:
+    """Whether the command draws the drive's animation."""
+    return not args.no_animation and len(recs) > 1
+
+
+def _write_all(args, out, recs, images, index, options, shown=None, made=()) -> list:
     """The pictures, and meanwhile, in a second process (:mod:`acousim.cli.ahead`),
     images.h5 and peaks.csv (written to temporary files renamed here with the rest)."""
     from acousim.cli.ahead import ahead_in_a_process
     from processing.base.atomic import atomic_path
 
     if args.no_data:
-        return _write_pictures(args, out, recs, images, index, options, animation, shown)
+        return _write_pictures(args, out, recs, images, index, options, shown)
     data = [out / "images.h5", out / "peaks.csv"]
     with atomic_path(data[0]) as h5, atomic_path(data[1]) as csv:
         bar = progress("images.h5", "recording")  # from the start of its work
-        made = functools.partial(_data_steps, h5, csv, recs, images, index, options)
-        with ahead_in_a_process(made) as steps:
-            pictures = _write_pictures(args, out, recs, images, index, options, animation, shown)
+        work = functools.partial(_data_steps, h5, csv, recs, images, index, options, made)
+        with ahead_in_a_process(work) as steps:
+            pictures = _write_pictures(args, out, recs, images, index, options, shown)
             for done, total in steps:
                 bar(done, total)
     return data + pictures
 
 
-def _data_steps(h5, csv, recs, images, index, options):
+def _data_steps(h5, csv, recs, images, index, options, made=()):
     """Write images.h5 to `h5` and peaks.csv to `csv` (paths), the peak tables made
-    once for both; yields ``(done, total)`` as images.h5's recordings are written."""
+    once for both; `made`: the (label maps, peak tables) of the first recordings,
+    made while imaging (:func:`_beside_imaging`); yields ``(done, total)`` as
+    images.h5's recordings are written."""
     from pathlib import Path
 
-    from acousim.export.images import Given, image_data_steps, peak_tables, peaks_csv_text
+    from acousim.export.images import (
+        Given,
+        image_data_steps,
+        label_maps_ahead,
+        peak_tables,
+        peaks_csv_text,
+    )
 
-    threshold = options.peak_threshold_db
-    tables = peak_tables(recs, images, index, threshold)
-    given = Given(tables=tables)
+    threshold, k = options.peak_threshold_db, len(made)
+    tables = [t for _, t in made] + peak_tables(recs[k:], images[k:], index[k:], threshold)
+    labels = label_maps_ahead(recs, images, options.dynamic_range_db, [m for m, _ in made])
+    given = Given(tables=tables, labels=labels)
     kw = {"dynamic_range_db": options.dynamic_range_db, "peak_threshold_db": threshold}
     yield from image_data_steps(h5, recs, images, index, given=given, **kw)
     Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")
 
 
-def _write_pictures(args, out, recs, images, index, options, animation, shown) -> list:
+def _write_pictures(args, out, recs, images, index, options, shown) -> list:
     """The stills of the recordings `shown` and the drive's animation."""
     from acousim.imaging.run import write_drive, write_stills
 
@@ -247,7 +295,7 @@ def _write_pictures(args, out, recs, images, index, options, animation, shown) -
         render_3d=not args.no_3d,
         progress=progress("stills", "picture"),
     )
-    if animation:
+    if _animated(args, recs):
         files += write_drive(
             recs,
             images,

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import io
+import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,6 +61,7 @@ __all__ = [
     "PEAK_COLUMNS",
     "image_data_steps",
     "label_maps",
+    "label_maps_ahead",
     "peaks_csv_text",
     "write_image_data",
     "write_peaks_csv",
@@ -176,8 +178,8 @@ def image_data_steps(
         tables = peak_tables(recordings, images, indices, peak_threshold_db)
     if given.labels is not None:
         labels = iter(given.labels)
-    else:  # the next recording's made meanwhile (numpy, scipy and zlib free the GIL)
-        labels = _one_ahead(label_maps(recordings, images, dynamic_range_db))
+    else:
+        labels = label_maps_ahead(recordings, images, dynamic_range_db)
     width = max(6, len(str(max(indices, default=0))))
     with h5py.File(path, "w") as f:
         f.attrs["format"] = FORMAT
@@ -193,6 +195,21 @@ def image_data_steps(
             made = {r: (m, {}) for r, m in next(labels).items()}
             _write_recording(g, rec, imgs, table, (dynamic_range_db, compression, made))
             yield done + 1, len(recordings)
+
+
+def label_maps_ahead(
+    recordings: Sequence[P.Recording],
+    images: Sequence[Mapping[str, P.Image]],
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    made: Sequence[Mapping[Resolution, LabelMap]] = (),
+) -> Iterator[Mapping[Resolution, LabelMap]]:
+    """Each recording's label maps (:func:`label_maps`), in order: those of the first
+    ``len(made)`` recordings as `made` holds them, then the others, the next one made
+    in a thread while the caller works on the last one handed out (numpy, scipy, the
+    compiled kernel and zlib free the GIL)."""
+    k = len(made)
+    yield from made
+    yield from _one_ahead(label_maps(recordings[k:], images[k:], dynamic_range_db))
 
 
 def _one_ahead(items: Iterator) -> Iterator:
@@ -406,9 +423,12 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
         np.round(level, out=level)
         level /= QUANTUM_PER_DB
         level = level.astype(np.float32)
-        cut = np.flatnonzero(np.diff(k) != 1) + 1
-        for a, b in zip(np.r_[0, cut], np.r_[cut, k.size]):
-            d[k[a] : k[b - 1] + 1] = level[a:b]
+        if compression == "gzip" and chunked and sys.byteorder == "little":
+            _write_gzip_chunks(d, k, level)
+        else:
+            cut = np.flatnonzero(np.diff(k) != 1) + 1
+            for a, b in zip(np.r_[0, cut], np.r_[cut, k.size]):
+                d[k[a] : k[b - 1] + 1] = level[a:b]
     d.attrs["units"] = "dB"
     d.attrs["long_name"] = f"{method} image level re its strongest cell"
     d.attrs["method"] = method
@@ -419,6 +439,42 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
     for dim, name in enumerate(scales):
         d.dims[dim].label = name
         d.dims[dim].attach_scale(g[name])
+
+
+#: threads compressing an image's chunks (zlib frees the GIL): the second core's
+#: share once the command's pictures are drawn
+GZIP_THREADS = 2
+
+
+def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
+    """Write `level` (K, E, A) float32 to the bins `k` (K,) of `d` (R, E, A), chunked
+    by whole range bins with shuffle and gzip at :data:`GZIP_LEVEL`: each chunk that
+    holds a kept bin made here as HDF5's filters make it (the bytes of its elements
+    grouped by significance, then zlib's stream), compressed in :data:`GZIP_THREADS`
+    threads and written as it is; the bins not kept hold NaN (the fill value), the
+    chunks without a kept bin are not stored (read back as NaN).  The values read
+    back are those of writing `level` by slices."""
+    import zlib
+    from concurrent.futures import ThreadPoolExecutor
+
+    bins = d.chunks[0]
+
+    def packed(c: int) -> bytes:
+        block = np.full(d.chunks, np.nan, np.float32)  # the edge chunk's rows too
+        here = (k >= c * bins) & (k < (c + 1) * bins)
+        block[k[here] - c * bins] = level[here]
+        # HDF5's shuffle: the elements' first bytes, then their second bytes, ...
+        word = block.reshape(-1).view(np.uint32)  # little-endian: byte j = bits 8j..8j+7
+        shuffled = np.empty((4, word.size), np.uint8)
+        for j in range(4):
+            np.copyto(shuffled[j], word, casting="unsafe")  # the low byte (mod 256)
+            word >>= 8  # (faster than a strided byte transpose)
+        return zlib.compress(shuffled, GZIP_LEVEL)
+
+    chunks = np.unique(k // bins)
+    with ThreadPoolExecutor(GZIP_THREADS) as pool:
+        for c, raw in zip(chunks, pool.map(packed, chunks)):
+            d.id.write_direct_chunk((int(c) * bins, 0, 0), raw, 0)
 
 
 def write_peaks_csv(

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.base.kernels import optional_kernel
+
 __all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
 
 _LN16 = 4 * np.log(2)  # exp(-4 ln 2 (x / w)^2): 1/2 at x = w / 2
@@ -69,6 +71,9 @@ def label_map(
     cell : the image's resolution (full widths): (range m, angle rad)
         (:class:`acousim.imaging.matching.Resolution`'s two numbers).
     dynamic_range_db : cells this far below the strongest cell's energy are -1.
+
+    With numba, the steps of :mod:`acousim.imaging.labels_kernel` run compiled; without
+    it their numpy and scipy forms give the same bits, more slowly.
     """
     rng = np.asarray(range_m, float).reshape(-1)
     u = np.asarray(directions, float).reshape(-1, 3)
@@ -88,16 +93,33 @@ def label_map(
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
     k_range, k_angle = _factors(rng, u, pos, e, *cell)
-    cells, k, part = _class_energy(k_range, k_angle, cls, len(classes))
-    if not part.any():
+    total, top = _total_and_top(k_range, k_angle, cls, len(classes))
+    if not total.any():
         return none
-    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
-    top = _strongest_class(cells, k, part, R * G)
     shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
     out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
     out_obj[shown] = classes[top[shown], 0]
     out_order[shown] = classes[top[shown], 1]
     return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+
+
+def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int):
+    """Per cell (R G,), the energy of all classes summed in class order and the
+    strongest class (-1: none), from the compiled kernel or the sparse product."""
+    R, G = k_range.shape[1], k_angle.shape[1]
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "cell_classes")
+    if kernel is not None:
+        by_bin = k_range.tocsc()  # per bin, its paths in order
+        by_bin.sort_indices()
+        total, top = np.zeros((R, G)), np.full((R, G), -1, np.int64)
+        kernel(
+            by_bin.indptr, by_bin.indices, by_bin.data, k_angle.indptr, k_angle.indices,
+            k_angle.data, cls.astype(np.int64), n_classes, total, top,
+        )  # fmt: skip
+        return total.reshape(-1), top.reshape(-1)
+    cells, k, part = _class_energy(k_range, k_angle, cls, n_classes)
+    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
+    return total, _strongest_class(cells, k, part, R * G)
 
 
 def _class_energy(k_range, k_angle, cls: np.ndarray, n_classes: int):
@@ -154,16 +176,37 @@ def _factors(rng, u, pos, e, range_cell_m, angle_cell_rad, chunk: int = 256):
     indptr = np.r_[0, np.cumsum(n)]
     k_range = sparse.csr_matrix((vals, cols, indptr), shape=(len(r), rng.size))
     cos_cut = np.cos(min(wa, np.pi))
+    near = _near_directions(cos_cut, min(chunk, len(d)) * len(u))
     parts = []
     for start in range(0, len(d), chunk):  # (chunk, G) at a time
-        dots = d[start : start + chunk] @ u.T
-        near = dots >= cos_cut
-        i, g = np.nonzero(near)  # row by row, each row's columns in order
-        ang = np.arccos(np.clip(dots[i, g], -1.0, 1.0))
-        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), g, near.sum(axis=1)))
+        g, dots, count = near(d[start : start + chunk] @ u.T)
+        ang = np.arccos(np.clip(dots, -1.0, 1.0))
+        parts.append((np.exp(-_LN16 * (ang / wa) ** 2), g, count))
     w, g, count = (np.concatenate(x) for x in zip(*parts))
     k_angle = sparse.csr_matrix((w, g, np.r_[0, np.cumsum(count)]), shape=(len(d), len(u)))
     return k_range, k_angle
+
+
+def _near_directions(cos_cut: float, size: int):
+    """A function of dots (n, G) giving the columns (N,) and values (N,) of the entries
+    at or above `cos_cut`, row by row, and each row's count (n,): the compiled kernel's
+    (one pass; buffers of `size` >= n G reused) or numpy's."""
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "near_directions")
+    if kernel is None:
+
+        def near(dots):
+            i, g = np.nonzero(dots >= cos_cut)  # row by row, each row's columns in order
+            return g, dots[i, g], np.bincount(i, minlength=len(dots))
+
+        return near
+    cols, values = np.empty(size, np.int64), np.empty(size)
+
+    def compiled(dots):
+        counts = np.empty(len(dots), np.int64)
+        m = kernel(dots, cos_cut, cols, values, counts)
+        return cols[:m].copy(), values[:m].copy(), counts
+
+    return compiled
 
 
 def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m=None):

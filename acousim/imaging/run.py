@@ -106,8 +106,10 @@ def image_recordings(
     recordings: Sequence[P.Recording],
     options: ImagingOptions,
     progress: Callable[[int, int], None] | None = None,
+    each: Callable[[int, dict[str, P.Image]], None] | None = None,
 ) -> list[dict[str, P.Image]]:
-    """Images of every recording by every method."""
+    """Images of every recording by every method; `each` (if given) is called with
+    each recording's position in `recordings` and its images as soon as they are made."""
     out = []
     for i, rec in enumerate(recordings):
         interrupt.check()  # Ctrl-C (when the command line records it): stop here
@@ -120,6 +122,8 @@ def image_recordings(
                     "or a wideband (-wb) or broadband (-bb) method"
                 )
         out.append(P.acoustic_images(rec, options.methods, options.settings(rec)))
+        if each:
+            each(i, out[-1])
         if progress:
             progress(i + 1, len(recordings))
     return out

@@ -362,3 +362,23 @@ def test_label_maps_made_elsewhere_are_written_as_those_made_there(recording_fil
             np.testing.assert_array_equal(g[name][()], h[name][()])
             assert g[name].attrs["long_name"] == h[name].attrs["long_name"]
         assert (g["das_object"][()] >= 0).any()  # a labelled cell: the maps were written
+
+
+def test_label_maps_ahead_hand_out_those_made_then_the_rest(recording_file):
+    """label_maps_ahead (as `acousim image` hands its second process the maps made
+    while imaging): the maps given first, then the others made, in order; the ones
+    it makes equal those label_maps makes."""
+    from acousim.export.images import label_maps, label_maps_ahead
+    from acousim.imaging.run import ImagingOptions, image_recordings
+
+    recs = [P.load_recording(recording_file, 0)] * 3
+    images = image_recordings(recs, ImagingOptions(methods=("das",), step_deg=4.0))
+    made = [{"a mark": None}]  # what the caller made: handed out as it is
+    out = list(label_maps_ahead(recs, images, made=made))
+    want = list(label_maps(recs, images))
+    assert len(out) == 3 and out[0] is made[0]
+    for got, ref in zip(out[1:], want[1:]):
+        assert list(got) == list(ref) and len(ref) == 1
+        for res in ref:
+            np.testing.assert_array_equal(got[res].object_index, ref[res].object_index)
+            np.testing.assert_array_equal(got[res].order, ref[res].order)

@@ -9,6 +9,7 @@ reaches it; paths 30 dB below that floor (re the strongest path) left out."""
 import numpy as np
 import pytest
 
+from acousim.imaging import labels
 from acousim.imaging.labels import NEGLIGIBLE_DB, label_map
 
 
@@ -16,6 +17,11 @@ def _directions(el_deg, az_deg) -> np.ndarray:
     el, az = np.meshgrid(np.deg2rad(el_deg), np.deg2rad(az_deg), indexing="ij")
     u = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
     return u.reshape(-1, 3)
+
+
+def _without_numba(monkeypatch) -> None:
+    """The label maps' numpy forms from here on (as without numba installed)."""
+    monkeypatch.setattr(labels, "optional_kernel", lambda *a: None)
 
 
 def _reference(rng, dirs, pos, energy, obj, order, cell, dr_db):
@@ -46,8 +52,11 @@ def _reference(rng, dirs, pos, energy, obj, order, cell, dr_db):
     return out_obj, out_order
 
 
+@pytest.mark.parametrize("use_kernel", [True, False])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_label_map_matches_a_cell_by_cell_reference(seed):
+def test_label_map_matches_a_cell_by_cell_reference(seed, use_kernel, monkeypatch):
+    if not use_kernel:
+        _without_numba(monkeypatch)
     """Twenty paths of five objects and orders 1-3, some 50 dB down, on 21 range bins
     x 5 x 9 directions: every cell labelled as the reference labels it."""
     rnd = np.random.default_rng(seed)
@@ -77,7 +86,10 @@ def test_label_map_matches_a_cell_by_cell_reference(seed):
     np.testing.assert_array_equal(lab.order, want_order)
 
 
-def test_equal_classes_give_the_cell_to_the_first():
+@pytest.mark.parametrize("use_kernel", [True, False])
+def test_equal_classes_give_the_cell_to_the_first(use_kernel, monkeypatch):
+    if not use_kernel:
+        _without_numba(monkeypatch)
     """Two paths at the same place with the same energy, of objects 3 and 1: every
     cell they reach goes to object 1 (the first in (object, order) order)."""
     rng = np.arange(0.9, 1.11, 0.02)
@@ -94,3 +106,35 @@ def test_equal_classes_give_the_cell_to_the_first():
     )
     assert (lab.object_index >= 0).sum() > 20
     assert set(np.unique(lab.object_index)) - {-1} == {1}
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_the_kernel_gives_the_numpy_forms_bits(seed, monkeypatch):
+    """The compiled kernels (acousim.imaging.labels_kernel) against the numpy forms
+    they replace (the directions within a cell of each path; the sparse product of
+    the per-cell sums), on 300 paths of 12 classes crowding a 41 x 7 x 11 grid:
+    the same kernels' entries, every cell's summed energy the same float, every
+    cell's class the same."""
+    pytest.importorskip("numba")
+    from acousim.imaging.labels import _factors, _total_and_top
+
+    rnd = np.random.default_rng(seed)
+    rng = np.arange(0.8, 1.21, 0.01)
+    dirs = _directions(np.arange(-30, 31, 10.0), np.arange(-50, 51, 10.0))
+    n = 300
+    r = rnd.uniform(0.8, 1.2, n)
+    el, az = np.deg2rad(rnd.uniform(-35, 35, n)), np.deg2rad(rnd.uniform(-55, 55, n))
+    pos = r[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    energy = 10 ** (-rnd.uniform(0, 4, n))
+    k_range, k_angle = _factors(rng, dirs, pos, energy, 0.05, 0.3, chunk=64)
+    cls = rnd.integers(0, 12, n)
+    total, top = _total_and_top(k_range, k_angle, cls, 12)
+    _without_numba(monkeypatch)
+    want_range, want_angle = _factors(rng, dirs, pos, energy, 0.05, 0.3, chunk=64)
+    for got, want in ((k_range, want_range), (k_angle, want_angle)):
+        for name in ("data", "indices", "indptr"):
+            assert np.array_equal(getattr(got, name), getattr(want, name))
+    want_total, want_top = _total_and_top(k_range, k_angle, cls, 12)
+    assert (want_top >= 0).sum() > 1000 and len(np.unique(want_top)) == 13
+    np.testing.assert_array_equal(top, want_top)
+    assert np.array_equal(total, want_total)  # bit for bit
