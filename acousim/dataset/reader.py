@@ -195,7 +195,6 @@ class DatasetReader:
         """A sample of a CHIRP shard (``[dataset] format = "chirp"``): its parameters,
         ``raw`` (M, T), the ``labels/...`` of the ground truth and, with a LiDAR,
         ``lidar/points_m`` (P, 3, LiDAR frame) and ``lidar/intensity`` (P,)."""
-
         if self.verify_on_open and name not in self._files:
             self._check(name)
             self._files[name] = None  # checked once; read through processing

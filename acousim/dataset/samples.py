@@ -29,7 +29,6 @@ def _scene(path: str):
 @lru_cache(maxsize=4)
 def _world_caster(path: str):
     """Geometry for collision checks, built once per scene file and process."""
-
     scene = _scene(path)
     if not scene.meshes:
         return None
@@ -49,7 +48,6 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     """The random choices of sample i: scene (relative to the spec's folder), pose
     (``Pose.to_dict`` form: position_m, yaw_deg, pitch_deg, roll_deg), conditions,
     noise seed."""
-
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, i]))
     w = np.array([s.weight for s in spec.scenes])
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
@@ -183,7 +181,6 @@ def _varied_scene(params: dict, spec: DatasetSpec):
 def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
     """(recording, parameters, varied scene, pose) of sample i; `n_samples`: the
     recording's length (default: the scene's maximum range in the sample's air)."""
-
     params = sample_parameters(spec, i)
     scene = _sonar_alone(_varied_scene(params, spec), params)
     pose = _pose(params["pose"])
@@ -214,7 +211,6 @@ def _motion(pose, conditions: dict):
     """The sensor driving forward (along its axis) at ``speed_m_s`` and turning about
     the vertical at ``turn_rate_deg_s`` during the measurement, when the spec
     randomises them; None (a frozen pose) otherwise."""
-
     speed = conditions.get("speed_m_s", 0.0)
     turn = conditions.get("turn_rate_deg_s", 0.0)
     if speed == 0 and turn == 0:

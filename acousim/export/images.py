@@ -46,7 +46,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import processing as P
-from acousim.imaging.run import PEAK_THRESHOLD_DB
+from acousim.imaging.labels import recording_label_map
+from acousim.imaging.matching import image_resolution
+from acousim.imaging.run import PEAK_THRESHOLD_DB, peak_table
 from acousim.viz.fan import DYNAMIC_RANGE_DB
 from processing.base.atomic import atomic_path, write_text
 
@@ -266,8 +268,6 @@ def peak_tables(
     """Each image's peaks within `threshold_db` (dB) as rows (:func:`acousim.peak_table`,
     matched to the traced paths), per recording {method: table}: made once for
     ``images.h5`` and ``peaks.csv`` alike."""
-    from acousim.imaging.run import peak_table
-
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     return [
         {m: peak_table(rec, img, threshold_db=threshold_db, index=idx) for m, img in imgs.items()}
@@ -306,8 +306,6 @@ def label_maps(
     range axis}, one per resolution of its images (methods of one frequency share
     one); {} for a recording without a ground truth or range bins.  Made one
     recording at a time, when asked."""
-    from acousim.imaging.labels import recording_label_map
-    from acousim.imaging.matching import image_resolution
 
     for rec, imgs in zip(recordings, images):
         axis = regular_range_axis(list(imgs.values()))
@@ -326,8 +324,6 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
     (int8 reflections, -1 none), of the image's shape; `made` holds those made for
     the recording's other images, by resolution, with the datasets written of them
     (whose compressed chunks the other methods' take)."""
-    from acousim.imaging.labels import recording_label_map
-    from acousim.imaging.matching import image_resolution
 
     method, img = image
     if rec.truth is None or not axis.size:

@@ -266,7 +266,6 @@ def _rename_unless_interrupted(bag: Path, path: Path) -> None:
 def _lidar_writer(w, store, recordings):
     """A function writing a recording's LiDAR scan (:mod:`acousim.export.lidar_cloud`)
     to ``/acousim/lidar``; the topic exists only when some recording has a scan."""
-
     if all(r.lidar is None for r in recordings):
         return lambda rec, header, ns: None
     conn = w.add_connection(*LIDAR_TOPIC, typestore=store)
@@ -393,7 +392,6 @@ def _transform(T, stamp, parent: str, child: str, rotation: np.ndarray, position
 def _rig_tf_msg(T, header, meta: dict, sonar: str):
     """A rig's TF tree at a firing: world -> body (the body's pose) and body -> the
     sonar (its mount; metadata ``body_pose`` and ``mount``)."""
-
     b = meta["body_pose"]
     body = Pose.degrees(b["position_m"], b["yaw_deg"], b["pitch_deg"], b["roll_deg"])
     mount = Mount.degrees(meta["mount"]["position_m"], meta["mount"]["rotation_deg"])
@@ -484,7 +482,6 @@ def _reflector_msg(T, header, rec: P.Recording):
     (m), delay_s their two-way delay at the array centre (s) and object (the index
     into the recording's ``truth.object_names``, -1 none); NaN where a recording
     carries no apparent positions (a file written before they existed)."""
-
     t = rec.truth
     if t is None or not len(t):
         table = np.zeros((0, len(REFLECTOR_FIELDS)), "<f4")

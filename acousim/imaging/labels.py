@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acousim.imaging.matching import image_resolution
+from acousim.viz.truth import seen_positions
 from processing.base.kernels import optional_kernel
 
 __all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
@@ -214,8 +216,6 @@ def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m
     the :class:`processing.Recording` `rec`) on its range bins (or `range_m` (R,),
     a regular axis it is written on), with the image's `resolution`
     (:func:`acousim.imaging.matching.image_resolution`); None without a ground truth."""
-    from acousim.viz.truth import seen_positions
-
     t = rec.truth
     if t is None:
         return None
@@ -261,8 +261,6 @@ def sample_labels(rec, images, range_m, window_samples: int, dynamic_range_db: f
     maps ``label_map/<method>/object`` (int16) and ``label_map/<method>/order``
     (int8), (R, E, A) on the sample's range axis `range_m` (R,).  `images`:
     {method: :class:`processing.Image`}."""
-    from acousim.imaging.matching import image_resolution
-
     t = rec.truth
     out: dict[str, np.ndarray] = {}
     if t is None:

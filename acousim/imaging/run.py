@@ -15,7 +15,21 @@ from typing import Any
 import numpy as np
 
 import processing as P
-from acousim.viz.fan import DYNAMIC_RANGE_DB
+from acousim.imaging.matching import image_resolution, match_peaks
+from acousim.scene import load_scene
+from acousim.scene.pose import Pose
+from acousim.trace.world.build import build_world
+from acousim.viz import elaz_figure, fan_figure
+from acousim.viz.drive import DriveFigure, write_gif
+from acousim.viz.fan import DYNAMIC_RANGE_DB, FAN_ELEVATION_BAND_RAD, common_extent
+from acousim.viz.render3d import (
+    FrameContent,
+    SceneRenderer,
+    import_pyvista,
+    render_scene,
+    sensor_sweep,
+)
+from acousim.viz.truth import echo_points, fan_marks, truth_level_db
 from processing.base import interrupt
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
@@ -130,8 +144,6 @@ def image_recordings(
 
 
 def _pose(rec: P.Recording):
-    from acousim.scene.pose import Pose
-
     p = rec.provenance.pose
     if p is None:
         return Pose(np.zeros(3))
@@ -166,8 +178,6 @@ def peak_table(
     the grid-edge flag and the traced reflector matched within the image's resolution
     (:mod:`acousim.imaging.matching`; `window_samples`: the STFT window the image was made
     with). `index`: the recording's index in its file (its rows' ``recording``)."""
-    from acousim.imaging.matching import image_resolution, match_peaks
-
     pk = image.peaks(threshold_db)
     sensor, world = peak_positions(recording, pk)
     table = pk.table(
@@ -220,7 +230,6 @@ def _scene(rec: P.Recording):
         )
     if not Path(file).is_file():
         return None
-    from acousim.scene import load_scene
 
     return load_scene(file)  # a scene file that no longer loads is an InputError
 
@@ -229,7 +238,6 @@ def _scene_triangles(scene) -> np.ndarray | None:
     """The faces (F, 3, 3) of the scene's meshes that do not move."""
     if scene is None or not any(not m.moving for m in scene.meshes):
         return None
-    from acousim.trace.world.build import build_world
 
     if any(m.moving for m in scene.meshes):
         scene = dataclasses.replace(scene, meshes=tuple(m for m in scene.meshes if not m.moving))
@@ -241,7 +249,6 @@ def _moving_triangles(scene, rec: P.Recording) -> np.ndarray | None:
     the recording's emission (None: none moves)."""
     if scene is None or not any(m.moving for m in scene.meshes):
         return None
-    from acousim.trace.world.build import build_world
 
     t = _pose(rec).time_s
     moving = tuple(m.placed_at(t) for m in scene.meshes if m.moving)
@@ -280,8 +287,6 @@ def _import_pictures(render_3d: bool, animation: bool) -> None:
     import matplotlib.pyplot  # noqa: F401
 
     if render_3d or animation:
-        from acousim.viz.render3d import import_pyvista
-
         import_pyvista()
     if animation:
         import imageio.v2  # noqa: F401
@@ -388,7 +393,6 @@ def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: 
     """The fan (every method) and each method's el-az maps of one recording, with
     its traced reflectors marked, each file given to `done` (a list of one) once
     written (``fan{tag}.png``, ...)."""
-    from acousim.viz import elaz_figure, fan_figure
 
     dr = options.dynamic_range_db
     truth = _truth_sensor(rec, dr, imgs[_sharpest(imgs)], options)
@@ -403,8 +407,6 @@ def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: 
 
 def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:
     """Half the image's range resolution (m): the reflectors an el-az slice may show."""
-    from acousim.imaging.matching import image_resolution
-
     return image_resolution(rec, image, options.settings(rec).window).range_m / 2
 
 
@@ -451,9 +453,6 @@ def _truth_sensor(
     """Ray-traced echoes (:class:`acousim.viz.truth.Reflectors`) where the sensor sees
     them, within `dynamic_range_db` of the strongest echo (the direct path
     excluded), one mark per resolved cell of `image` (made with `options`), or None."""
-    from acousim.imaging.matching import image_resolution
-    from acousim.viz.truth import echo_points
-
     cell = None
     if image is not None and image.range_m.size:
         window = (options or ImagingOptions()).settings(rec).window
@@ -475,7 +474,6 @@ def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None
     truth = rec.truth
     if truth is None or not len(truth):
         return None, None
-    from acousim.viz.truth import truth_level_db
 
     where = truth.apparent_position_world_m if truth.has_apparent else truth.position_world_m
     return where, truth_level_db(truth)
@@ -496,7 +494,6 @@ def _chains(rec: P.Recording, n: int = CHAINS_DRAWN) -> list[np.ndarray]:
     )
     if first_m is None or last_m is None or seen_m is None:
         return []
-    from acousim.viz.truth import truth_level_db
 
     level = truth_level_db(truth)
     top = np.argsort(-level, kind="stable")[:n]
@@ -518,8 +515,6 @@ SWEEP_MIN_M = 0.05
 def _sweep(rec: P.Recording):
     """The sensor's positions and axes over the recording's window if it moved or
     turned during it (``provenance.motion``), else None (nothing to smear)."""
-    from acousim.viz.render3d import sensor_sweep
-
     motion = rec.provenance.motion
     if motion is None:
         return None
@@ -544,8 +539,6 @@ def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
 def _frame_content(rec, img, options, sweep, moving):
     """What the 3D view of `rec` draws: the sensor at its pose, the traced reflectors,
     the peaks of `img`, the sweep, the moving meshes' faces and the LiDAR scan."""
-    from acousim.viz.render3d import FrameContent
-
     pose = _pose(rec)
     truth_w, level = _truth_world(rec)
     return FrameContent(
@@ -562,8 +555,6 @@ def _frame_content(rec, img, options, sweep, moving):
 
 
 def _render(rec, imgs, triangles, path, options, moving=None, title=None):
-    from acousim.viz.render3d import render_scene
-
     content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
     render_scene(
         path, content, triangles=triangles, truth_range_db=options.dynamic_range_db, title=title
@@ -586,10 +577,6 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 
 
 def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
-    from acousim.viz.drive import DriveFigure, write_gif
-    from acousim.viz.fan import common_extent
-    from acousim.viz.render3d import SceneRenderer
-
     dr = options.dynamic_range_db
     method = _sharpest(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
@@ -644,9 +631,6 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
 
 def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):
     """The traced reflectors' marks on a recording's fan (None: no ground truth)."""
-    from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
-    from acousim.viz.truth import fan_marks
-
     truth = _truth_sensor(rec, dynamic_range_db, image)
     if truth is None:
         return None

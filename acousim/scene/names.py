@@ -39,7 +39,6 @@ def call_named(value: Any, key: str = "Sensor.call") -> P.Waveform:
 def lidar_named(value: Any, key: str = "Sensor.lidar"):
     """A LiDAR preset by name (:data:`acousim.scene.lidar.LIDAR_PRESETS`, the scene
     file's ``[sensor.lidar] preset``), a Lidar, or None (no LiDAR)."""
-
     if value is None:
         return None
     return _named(value, Lidar, PRESET.choices or (), LIDAR_PRESETS.__getitem__, key)

@@ -230,7 +230,6 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndar
     `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
     band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
     microphone; `kernel`: the fractional delays' (method, taps)."""
-
     g, U, V, W, band = factors
     pad = kernel[1] + 1  # the same layout as the impulses' buffers
     kernel = (_kernel_table(*kernel), kernel[1])
