@@ -52,20 +52,27 @@ def _reference(rng, dirs, pos, energy, obj, order, cell, dr_db):
     return out_obj, out_order
 
 
+def _scattered(rnd, n: int, el_deg: float, az_deg: float) -> np.ndarray:
+    """`n` points (n, 3) at 0.8-1.2 m, elevation within +-`el_deg`, azimuth within
+    +-`az_deg` (uniform, from `rnd`)."""
+    r = rnd.uniform(0.8, 1.2, n)
+    el = np.deg2rad(rnd.uniform(-el_deg, el_deg, n))
+    az = np.deg2rad(rnd.uniform(-az_deg, az_deg, n))
+    return r[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+
+
 @pytest.mark.parametrize("use_kernel", [True, False])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_label_map_matches_a_cell_by_cell_reference(seed, use_kernel, monkeypatch):
-    if not use_kernel:
-        _without_numba(monkeypatch)
     """Twenty paths of five objects and orders 1-3, some 50 dB down, on 21 range bins
     x 5 x 9 directions: every cell labelled as the reference labels it."""
+    if not use_kernel:
+        _without_numba(monkeypatch)
     rnd = np.random.default_rng(seed)
     rng = np.arange(0.8, 1.21, 0.02)
     dirs = _directions(np.arange(-20, 21, 10.0), np.arange(-40, 41, 10.0))
     n = 20
-    r = rnd.uniform(0.8, 1.2, n)
-    el, az = np.deg2rad(rnd.uniform(-25, 25, n)), np.deg2rad(rnd.uniform(-45, 45, n))
-    pos = r[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    pos = _scattered(rnd, n, 25.0, 45.0)
     energy = 10 ** (-rnd.uniform(0, 6, n))  # 0 to 60 dB down
     obj, order = rnd.integers(0, 5, n), rnd.integers(1, 4, n)
     cell, dr = (0.06, np.deg2rad(15)), 20.0
@@ -88,10 +95,10 @@ def test_label_map_matches_a_cell_by_cell_reference(seed, use_kernel, monkeypatc
 
 @pytest.mark.parametrize("use_kernel", [True, False])
 def test_equal_classes_give_the_cell_to_the_first(use_kernel, monkeypatch):
-    if not use_kernel:
-        _without_numba(monkeypatch)
     """Two paths at the same place with the same energy, of objects 3 and 1: every
     cell they reach goes to object 1 (the first in (object, order) order)."""
+    if not use_kernel:
+        _without_numba(monkeypatch)
     rng = np.arange(0.9, 1.11, 0.02)
     dirs = _directions(np.array([0.0]), np.arange(-20, 21, 5.0))
     lab = label_map(
@@ -122,9 +129,7 @@ def test_the_kernel_gives_the_numpy_forms_bits(seed, monkeypatch):
     rng = np.arange(0.8, 1.21, 0.01)
     dirs = _directions(np.arange(-30, 31, 10.0), np.arange(-50, 51, 10.0))
     n = 300
-    r = rnd.uniform(0.8, 1.2, n)
-    el, az = np.deg2rad(rnd.uniform(-35, 35, n)), np.deg2rad(rnd.uniform(-55, 55, n))
-    pos = r[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    pos = _scattered(rnd, n, 35.0, 55.0)
     energy = 10 ** (-rnd.uniform(0, 4, n))
     k_range, k_angle = _factors(rng, dirs, pos, energy, 0.05, 0.3, chunk=64)
     cls = rnd.integers(0, 12, n)
