@@ -65,6 +65,7 @@ _WHERE = _ELSEWHERE | {name: "acousim.scene" for name in __all__ if name not in 
 _MOVED = {
     "acousim.calibrate.settings": "acousim.calibrate.options",
     "acousim.compare_inputs": "acousim.compare.inputs",
+    "acousim.core.delays": "acousim.core.rendering",
     "acousim.compare_summary": "acousim.compare.summary",
     "acousim.matching": "acousim.imaging.matching",
     "acousim.outputs": "acousim.imaging.outputs",

@@ -1,11 +1,25 @@
 """What the scene's settings say about the render, declared where both the scene
-(:mod:`acousim.scene.model`) and the renderer (:mod:`acousim.synth`) may read it."""
+(:mod:`acousim.scene.model`, which checks a scene's choices) and the renderer
+(:mod:`acousim.synth`, which implements them; :mod:`acousim.synth.render`'s docstring
+describes each interpolator) may read it: the fractional-delay interpolators' names,
+the render's rate and its gain sets' compression."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, get_args
 
-__all__ = ["COMPRESS_TOLERANCE", "RenderRate"]
+from processing.base.errors import InputError
+
+__all__ = [
+    "COMPRESS_TOLERANCE",
+    "RenderRate",
+    "FractionalDelay",
+    "ShapedDelay",
+    "INTERPOLATORS",
+    "SHAPED_INTERPOLATORS",
+    "DEFAULT_INTERPOLATOR",
+    "check_interpolator",
+]
 
 #: the gain sets are compressed to this relative amplitude of what is left out
 #: (-63 dB): the renderer's error against the exact reference stays below -65 dB at
@@ -17,3 +31,28 @@ RenderRate = Literal["full", "baseband"]
 """How the renderer makes the samples: 'full', fractional-delay impulses and FFTs at
 the sample rate; 'baseband', the band the call occupies at complex baseband,
 converted up once per microphone (:mod:`acousim.synth.baseband`)."""
+
+ShapedDelay = Literal["sinc", "lagrange", "nearest"]
+"""Interpolators that take a path response (absorption, directivity): the choices
+of a scene's ``simulation.fractional_delay``."""
+FractionalDelay = Literal["reference", "exact", "sinc", "lagrange", "fft", "nearest"]
+"""Every fractional-delay interpolator of :func:`acousim.synth.render.render`."""
+INTERPOLATORS: tuple[str, ...] = get_args(FractionalDelay)
+SHAPED_INTERPOLATORS: tuple[str, ...] = get_args(ShapedDelay)
+DEFAULT_INTERPOLATOR: ShapedDelay = "sinc"
+
+
+def check_interpolator(
+    interpolator: object,
+    allowed: tuple[str, ...] = INTERPOLATORS,
+    *,
+    need: str = "",
+    key: str = "interpolator",
+) -> FractionalDelay:
+    """`interpolator` if it is one of `allowed`, else :class:`InputError` naming `key`
+    (`need`: why only `allowed`, e.g. "a path response"): the one check of the
+    fractional-delay option."""
+    if not isinstance(interpolator, str) or interpolator not in allowed:
+        why = f"{need} needs" if need else "unknown fractional-delay interpolator; choose"
+        raise InputError(f"{why} one of {', '.join(allowed)}", key=key, value=interpolator)
+    return interpolator  # type: ignore[return-value]

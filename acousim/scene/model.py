@@ -34,9 +34,8 @@ from typing import TYPE_CHECKING, Any, cast, get_args
 import numpy as np
 
 from acousim.core.air import speed_of_sound
-from acousim.core.delays import SHAPED_INTERPOLATORS, ShapedDelay
 from acousim.core.materials import interpolate, reference
-from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
+from acousim.core.rendering import COMPRESS_TOLERANCE, SHAPED_INTERPOLATORS, RenderRate, ShapedDelay
 from acousim.scene.defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
 from acousim.scene.motion import (
     MAX_SPEED_M_S,

@@ -9,8 +9,12 @@ from typing import Literal
 
 import numpy as np
 
-from acousim.core.delays import DEFAULT_INTERPOLATOR, FractionalDelay
-from acousim.core.rendering import COMPRESS_TOLERANCE, RenderRate
+from acousim.core.rendering import (
+    COMPRESS_TOLERANCE,
+    DEFAULT_INTERPOLATOR,
+    FractionalDelay,
+    RenderRate,
+)
 from acousim.synth.render import DEFAULT_TAPS
 from processing import Array, Waveform
 

@@ -40,7 +40,8 @@ import scipy.sparse as sp
 from scipy import fft as sfft
 from scipy.special import i0
 
-from acousim.core.delays import (
+from acousim.core.echoes import Echoes
+from acousim.core.rendering import (
     DEFAULT_INTERPOLATOR,
     INTERPOLATORS,
     SHAPED_INTERPOLATORS,
@@ -48,7 +49,6 @@ from acousim.core.delays import (
     ShapedDelay,
     check_interpolator,
 )
-from acousim.core.echoes import Echoes
 from acousim.synth.baseband import spectra
 from acousim.synth.response import PathResponse, factorise
 from processing import Waveform
