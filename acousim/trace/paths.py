@@ -14,7 +14,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from acousim.core.echoes import Echoes, spread
+from acousim.core.echoes import Echoes, last_legs, spread
 
 __all__ = ["KIND", "PathKind", "TracedPaths", "kind_names", "reaching"]
 
@@ -118,6 +118,5 @@ def reaching(paths, mics_m: np.ndarray, min_path_m: float) -> np.ndarray:
     their length ``first_leg + |anchor - mic|`` (:class:`TracedPaths`, or
     :class:`~acousim.trace.motion.following.MovingPaths` where they are at the start
     of the emission)."""
-    a, p = paths.anchor_m.T, mics_m[:, :, None]
-    last = np.sqrt(sum(np.square(a[i] - p[:, i]) for i in range(3)))  # (M, N)
+    last = last_legs(paths.anchor_m, mics_m)  # (M, N)
     return np.flatnonzero(paths.first_leg_m + last.max(axis=0) >= min_path_m)
