@@ -23,18 +23,9 @@ from typing import Any
 import numpy as np
 
 import processing as P
+from acousim.scene import model
 from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
-from acousim.scene.model import (
-    Diffraction,
-    Environment,
-    Material,
-    MeshItem,
-    PointItem,
-    Scene,
-    Sensor,
-    Simulation,
-)
 from acousim.scene.names import array_named, call_named, lidar_named, material_named
 from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
 from acousim.scene.rig import Firing, Mount, Rig, RigSonar, schedule
@@ -183,7 +174,7 @@ class _Reader:
             raise SceneError(exc.reason, file=exc.file, key=exc.key, value=exc.value) from None
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | Path) -> model.Scene:
     """Read and validate a scene file (TOML, ``docs/scene-format.md``); a SceneError
     (an :class:`processing.base.errors.InputError`) names the file, key and value."""
     path = Path(path)
@@ -199,12 +190,12 @@ def load_scene(path: str | Path) -> Scene:
     )
 
 
-def _simulation(r: _Reader, table: dict) -> Simulation:
+def _simulation(r: _Reader, table: dict) -> model.Simulation:
     """``[simulation]`` and its ``[simulation.diffraction]`` table.  The older flat keys
     (``diffraction = false``, ``diffraction_order = 1``, ...) are read for a version with
     a DeprecationWarning that names the new key."""
     extra = {"diffraction", *FLAT_DIFFRACTION}
-    declared = r.settings(Simulation, table, "simulation", extra=extra)
+    declared = r.settings(model.Simulation, table, "simulation", extra=extra)
     sub = table.get("diffraction", {})
     flat = {new: table[old] for old, new in FLAT_DIFFRACTION.items() if old in table}
     if isinstance(sub, bool):
@@ -219,11 +210,11 @@ def _simulation(r: _Reader, table: dict) -> Simulation:
         )
     if not isinstance(sub, dict):
         raise r.fail("simulation.diffraction", "must be a table (or true/false)", sub)
-    diffraction = r.settings(Diffraction, {**flat, **sub}, "simulation.diffraction")
+    diffraction = r.settings(model.Diffraction, {**flat, **sub}, "simulation.diffraction")
     try:
         # a table the file gives is given whole (a quality preset fills the others)
-        table = {"diffraction": Diffraction(**diffraction)} if diffraction else {}
-        return Simulation(**declared, **table)
+        table = {"diffraction": model.Diffraction(**diffraction)} if diffraction else {}
+        return model.Simulation(**declared, **table)
     except InputError as exc:
         raise SceneError(exc.reason, file=r.source, key=exc.key, value=exc.value) from None
 
@@ -234,14 +225,16 @@ def parse_scene(
     base_dir: str | Path = ".",
     source: str = "<scene>",
     sha256: str | None = None,
-) -> Scene:
+) -> model.Scene:
     """Validate a scene given as a dict (the parsed TOML)."""
     r = _Reader(source)
     base = Path(base_dir)
     r.check_keys(data, "", "")
     meta = r.table(data, "scene", "")
     r.check_keys(meta, "scene", "scene")
-    env = Environment(**r.settings(Environment, r.table(data, "environment", ""), "environment"))
+    env = model.Environment(
+        **r.settings(model.Environment, r.table(data, "environment", ""), "environment")
+    )
     sim = _simulation(r, r.table(data, "simulation", ""))
     materials = _materials(r, data)
     meshes = [_mesh(r, m, where, base, materials) for where, m in r.table_list(data, "meshes")]
@@ -249,9 +242,9 @@ def parse_scene(
     for where, p in r.table_list(data, "points"):
         if "position_m" not in p and "track" not in p:
             raise r.fail(f"{where}.position_m", "missing (a list of 3 numbers)")
-        declared = r.settings(PointItem, p, where, extra=EXTRA_KEYS["points"])
+        declared = r.settings(model.PointItem, p, where, extra=EXTRA_KEYS["points"])
         try:
-            points.append(PointItem(**declared, track=p.get("track")))
+            points.append(model.PointItem(**declared, track=p.get("track")))
         except InputError as exc:  # the track, checked by the model (the rest read above)
             raise r.fail(f"{where}.track", exc.reason, p.get("track")) from None
     rig = None
@@ -262,7 +255,7 @@ def parse_scene(
         sensor = _sensor(r, r.table(data, "sensor", ""), base)
     if not meshes and not points:
         raise r.fail("meshes", "the scene has neither meshes nor points: nothing can echo")
-    return Scene(
+    return model.Scene(
         name=r.string(meta, "name", "scene", Path(source).stem),
         description=r.string(meta, "description", "scene", ""),
         source=Path(source) if source != "<scene>" else None,
@@ -363,14 +356,14 @@ def _first_poses(rig: Rig) -> tuple[Pose, ...]:
     )
 
 
-def _materials(r: _Reader, data: dict) -> dict[str, Material]:
+def _materials(r: _Reader, data: dict) -> dict[str, model.Material]:
     """The scene's materials by name, ``default`` among them."""
-    materials = {"default": Material("default")}
+    materials = {"default": model.Material("default")}
     for where, m in r.table_list(data, "materials"):
         if "name" not in m:
             raise r.fail(f"{where}.name", "missing")
         try:
-            mat = Material(**r.settings(Material, m, where))
+            mat = model.Material(**r.settings(model.Material, m, where))
         except InputError as exc:  # a table's consistency, checked by the model
             key = f"{where}.{exc.key.split('.')[-1]}" if exc.key else where
             raise r.fail(key, exc.reason, exc.value) from None
@@ -378,7 +371,7 @@ def _materials(r: _Reader, data: dict) -> dict[str, Material]:
     return materials
 
 
-def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshItem:
+def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model.MeshItem:
     """One ``[[meshes]]`` table: its file (relative to `base`), materials (by name
     from `materials`), placement and motion."""
     r.check_keys(m, "meshes", where)
@@ -405,13 +398,13 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
         for g in groups
     }
     # a moving mesh: its velocity read through the declaration, its track as a point's
-    v = settings_of(MeshItem)["velocity_m_s"]
+    v = settings_of(model.MeshItem)["velocity_m_s"]
     velocity = r._check(v, m.get("velocity_m_s", v.default), f"{where}.velocity_m_s")
     turn = r._check(
         MESH_TURN, m.get("angular_rate_deg_s", MESH_TURN.default), f"{where}.angular_rate_deg_s"
     )
     try:
-        return MeshItem(
+        return model.MeshItem(
             file,
             mat,
             T,
@@ -428,10 +421,10 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> MeshI
 
 def _sensor(
     r: _Reader, s: dict, base: Path, where: str = "sensor", extra: set[str] | None = None
-) -> Sensor:
+) -> model.Sensor:
     """``[sensor]`` (or a rig's ``[[sensors]]`` table, at `where`, with `extra` keys)."""
     extra = EXTRA_KEYS["sensor"] if extra is None else extra
-    declared = r.settings(Sensor, s, where, extra=extra)
+    declared = r.settings(model.Sensor, s, where, extra=extra)
     if "coordinates" in s:
         units = r.string(s, "coordinates_units", where, "mm", {"mm", "m"})
         file = base / r.string(s, "coordinates", where)
@@ -475,7 +468,7 @@ def _sensor(
             fs,
         )
     poses, rate = _poses(r, s, base, where)
-    return Sensor(
+    return model.Sensor(
         array=array,
         call=wf,
         poses=poses,
