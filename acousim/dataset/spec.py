@@ -200,12 +200,9 @@ class StoreOptions:
 
     def __post_init__(self) -> None:
         validate(self)
-        if self.max_range_m is not None and self.max_range_m < self.min_range_m:
-            raise InputError(
-                f"below min_range_m = {self.min_range_m:g}",
-                key="store.max_range_m",
-                value=self.max_range_m,
-            )
+        lo, hi = self.min_range_m, self.max_range_m
+        if hi is not None and hi < lo:
+            raise InputError(f"below min_range_m = {lo:g}", key="store.max_range_m", value=hi)
 
 
 @dataclass(frozen=True)

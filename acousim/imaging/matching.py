@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 import processing as P
 from acousim.viz.truth import seen_positions, truth_level_db
@@ -101,16 +102,16 @@ class Match:
     note (N,) why a peak has no match ("" where it has one).
     """
 
-    index: np.ndarray
-    position_sensor_m: np.ndarray
-    behind: np.ndarray
-    offset_rad: np.ndarray
-    level_db: np.ndarray
-    kind: np.ndarray
-    order: np.ndarray | None = None
-    object: np.ndarray | None = None
-    range_offset_m: np.ndarray | None = None
-    note: np.ndarray | None = None
+    index: NDArray[np.int_]
+    position_sensor_m: NDArray[np.float64]
+    behind: NDArray[np.bool_]
+    offset_rad: NDArray[np.float64]
+    level_db: NDArray[np.float64]
+    kind: NDArray[np.object_]
+    order: NDArray[np.int_] | None = None
+    object: NDArray[np.object_] | None = None
+    range_offset_m: NDArray[np.float64] | None = None
+    note: NDArray[np.object_] | None = None
 
 
 def _empty(n: int, note: str) -> Match:

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from numpy.typing import NDArray
 
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
@@ -156,11 +157,11 @@ class _Captures:
     ``owner[k]``, emitted at ``emission[k]`` (s), its first sample at ``sample0[k]``
     (s); a rig's: ``sonar[k]``, its sonar (None: one sensor)."""
 
-    owner: np.ndarray
-    measure: np.ndarray
-    emission: np.ndarray
-    sample0: np.ndarray
-    sonar: np.ndarray | None = None
+    owner: NDArray[np.int_]
+    measure: NDArray[np.int_]
+    emission: NDArray[np.float64]
+    sample0: NDArray[np.float64]
+    sonar: NDArray[np.int_] | None = None
 
     @property
     def n_reference(self) -> int:
