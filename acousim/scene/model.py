@@ -536,7 +536,9 @@ class Simulation:
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"
     )
     quality: Quality = setting(
-        "default", choices=QUALITIES, doc="preset of the settings not given (QUALITY_PRESETS)"
+        "default",
+        choices=QUALITIES,
+        doc="measured preset of the settings not given (docs/physics.md: run time against error)",
     )
     _origin: tuple | None = field(default=None, repr=False, compare=False)  # see fill_unset
 
