@@ -236,7 +236,13 @@ class RigSimulator:
             "crosstalk": heard_from,
         }
         truth = _joined(truths, names)
-        return dataclasses.replace(rec, samples=samples, truth=truth, metadata=meta)
+        others = tuple(  # the rig's other LiDARs' scans started at this firing
+            own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
+            for n in range(1, len(self.rig.lidars))
+        )
+        return dataclasses.replace(
+            rec, samples=samples, truth=truth, metadata=meta, other_lidars=others
+        )
 
     def _reaching(self, m: Measurement) -> list[Measurement]:
         """The other firings whose call or echoes may reach measurement `m`'s window:

@@ -38,6 +38,7 @@ import processing as P
 from acousim.core.echoes import Echoes
 from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
 from acousim.kinematics.seen import seen_moving
+from acousim.scene.lidar import Lidar
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
@@ -417,18 +418,20 @@ class Simulator:
         )
         return dataclasses.replace(prep, plan=plan)
 
-    def lidar_scan(self, pose: Pose, index: int = 0, motion=None) -> P.PointCloud | None:
-        """The scene's LiDAR (``sensor.lidar``) scanning from `pose` (None: the scene
-        has none); `motion`: the sensor's trajectory during the scan (None: still);
-        range noise seeded by (scene seed, `index`)."""
-        lidar = self.scene.sensor.lidar
+    def lidar_scan(
+        self, pose: Pose, index: int = 0, motion=None, *, lidar: Lidar | None = None, n: int = 0
+    ) -> P.PointCloud | None:
+        """The scene's LiDAR (``sensor.lidar``; or `lidar`, a rig's LiDAR `n` mounted
+        on the sensor) scanning from `pose` (None: the scene has none); `motion`: the
+        sensor's trajectory during the scan (None: still); range noise seeded by
+        (scene seed, `index`, and `n` for a rig's LiDARs after the first)."""
+        lidar = self.scene.sensor.lidar if lidar is None else lidar
         if lidar is None:
             return None
 
         tracer = self.tracer.tracer_at(pose.time_s)
-        seed = int(
-            np.random.SeedSequence([self.scene.simulation.seed, index, 1]).generate_state(1)[0]
-        )
+        entropy = [self.scene.simulation.seed, index, 1] + ([n] if n else [])
+        seed = int(np.random.SeedSequence(entropy).generate_state(1)[0])
         return scan(tracer.world, tracer.caster, lidar, pose, motion=motion, seed=seed)
 
     def moving_paths(self, pose: Pose):

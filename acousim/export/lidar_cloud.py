@@ -13,9 +13,17 @@ import numpy as np
 
 import processing as P
 
-__all__ = ["LIDAR_TOPIC", "LIDAR_FIELDS", "lidar_cloud_msg"]
+__all__ = ["LIDAR_TOPIC", "LIDAR_FIELDS", "lidar_cloud_msg", "lidar_topic"]
 
 LIDAR_TOPIC = ("/acousim/lidar", "sensor_msgs/msg/PointCloud2")
+
+
+def lidar_topic(n: int) -> str:
+    """LiDAR n's topic: ``/acousim/lidar`` (the first), then a rig's others'
+    ``/acousim/lidar_01``, ``/acousim/lidar_02``, ..."""
+    return LIDAR_TOPIC[0] if n == 0 else f"{LIDAR_TOPIC[0]}_{n:02d}"
+
+
 #: (name, offset, PointField datatype, numpy type): 7 = FLOAT32, 4 = UINT16
 LIDAR_FIELDS = (
     ("x", 0, 7, "<f4"),

@@ -37,7 +37,9 @@ topic                         type                             content
                                                                re strongest, order
 ``/acousim/lidar``            ``sensor_msgs/msg/PointCloud2``  the LiDAR scan (only
                                                                recordings with one;
-                                                               ``lidar_cloud``)
+                                                               ``lidar_cloud``); a
+                                                               rig's other LiDARs:
+                                                               ``/acousim/lidar_01``...
 ============================  ===============================  =====================
 
 ``/acousim/scene`` is written when the recording's scene file can be read,
@@ -64,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
-from acousim.export.lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg
+from acousim.export.lidar_cloud import LIDAR_TOPIC, lidar_cloud_msg, lidar_topic
 from acousim.imaging.run import (
     PEAK_THRESHOLD_DB,
     _moving_triangles,
@@ -264,15 +266,17 @@ def _rename_unless_interrupted(bag: Path, path: Path) -> None:
 
 
 def _lidar_writer(w, store, recordings):
-    """A function writing a recording's LiDAR scan (:mod:`acousim.export.lidar_cloud`)
-    to ``/acousim/lidar``; the topic exists only when some recording has a scan."""
-    if all(r.lidar is None for r in recordings):
-        return lambda rec, header, ns: None
-    conn = w.add_connection(*LIDAR_TOPIC, typestore=store)
+    """A function writing a recording's LiDAR scans (:mod:`acousim.export.lidar_cloud`)
+    to ``/acousim/lidar`` (a rig's other LiDARs: ``/acousim/lidar_01``, ...); a topic
+    exists only when some recording has its scan."""
+    n_lidars = max(len(r.lidars) for r in recordings)
+    conns = [
+        w.add_connection(lidar_topic(n), LIDAR_TOPIC[1], typestore=store) for n in range(n_lidars)
+    ]
 
     def write(rec: P.Recording, header, ns: int) -> None:
-        if rec.lidar is not None:
-            msg = lidar_cloud_msg(store.types, header, rec.lidar)
+        for conn, scan in zip(conns, rec.lidars):
+            msg = lidar_cloud_msg(store.types, header, scan)
             w.write(conn, ns, store.serialize_cdr(msg, LIDAR_TOPIC[1]))
 
     return write

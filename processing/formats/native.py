@@ -20,14 +20,16 @@ The file format (schema version 2; version 1 files still load) is described in
                            position_sensor_m (N, 3), amplitude (N,), order (N,),
                            kind (N,) ASCII, velocity_world_m_s (N, 3) (scenes with
                            motion only), emitter (N,) UTF-8 (a rig's recordings:
-                           the sonar whose call each path carries)
-                           motion only); what the sensor sees (absent in files
+                           the sonar whose call each path carries); what the
+                           sensor sees (absent in files
                            written before it existed: read as None): delay_s (N,),
                            arrival_sensor (N, 3), apparent_position_sensor_m and
                            apparent_position_world_m (N, 3), first_point_m (N, 3)
                            (float32; last_point_m is position_world_m, NaN for the
                            direct path: not stored), object_index (N,) int32,
                            object_names (O,) UTF-8 (see docs/recording-format.md)
+        lidar/             a LiDAR scan (processing.sensor.pointcloud); a rig's other
+        lidar_01/, ...     LiDARs' scans after it
         metadata           scalar string: JSON object (pose, scene, seed, ...)
         attrs: sample_rate_hz, speed_of_sound_m_s, emission_index, array_name,
                waveform (JSON)
@@ -46,7 +48,7 @@ from numpy.typing import DTypeLike
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
 from processing.formats import native_schema as recording_schema
-from processing.formats.native_schema import _check_metadata, _check_waveform, _sha256
+from processing.formats.native_schema import _check_metadata, _check_waveform, _sha256, lidar_group
 from processing.formats.registry import reader_of
 from processing.sensor.calls import Waveform
 from processing.sensor.pointcloud import write_point_cloud
@@ -197,8 +199,8 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
                 ds.attrs["units"] = units
         if rec.truth.object_index is not None:
             t.create_dataset("object_names", data=list(rec.truth.object_names), dtype=_STR)
-    if rec.lidar is not None:
-        write_point_cloud(g.create_group("lidar"), rec.lidar, opts["checksum"])
+    for n, scan in enumerate(rec.lidars):  # a rig's other LiDARs: lidar_01, lidar_02, ...
+        write_point_cloud(g.create_group(lidar_group(n)), scan, opts["checksum"])
     # a dataset, not an attribute: it can exceed HDF5's 64 kB attribute limit
     g.create_dataset("metadata", data=json.dumps(rec.metadata, default=_json_default))
 

@@ -31,6 +31,21 @@ from processing.sensor.recording import (
 )
 
 
+def lidar_group(n: int) -> str:
+    """The group of a recording's LiDAR scan n: ``lidar`` (the first), then a rig's
+    other LiDARs' ``lidar_01``, ``lidar_02``, ..."""
+    return "lidar" if n == 0 else f"lidar_{n:02d}"
+
+
+def lidar_groups(g: h5py.Group) -> list[str]:
+    """The LiDAR scan groups of recording group `g`, in order (they run on without a
+    gap from ``lidar``)."""
+    out = []
+    while lidar_group(len(out)) in g:
+        out.append(lidar_group(len(out)))
+    return out
+
+
 def read_all(path: Path, max_bytes: int) -> list[Recording]:
     """Every recording of an HDF5 recording file, in order."""
     with _open(path) as (f, version, names):
@@ -391,7 +406,7 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
     waveform = _waveform(path, g, fs)
     meta = _metadata(path, g)
     truth = _truth(path, g) if version >= 2 else _truth_v1(path, g, meta)
-    lidar = read_point_cloud(path, g["lidar"], RecordingFileError) if "lidar" in g else None
+    scans = [read_point_cloud(path, g[name], RecordingFileError) for name in lidar_groups(g)]
     try:
         rec = Recording(
             samples=samples,
@@ -402,7 +417,8 @@ def _read_one(path: Path, g: h5py.Group, version: int, max_bytes: int) -> Record
             emission_index=_attr(path, g, "emission_index", int),
             metadata=meta,
             truth=truth,
-            lidar=lidar,
+            lidar=scans[0] if scans else None,
+            other_lidars=tuple(scans[1:]),
         )
     except (ValueError, TypeError) as exc:
         if isinstance(exc, RecordingFileError):

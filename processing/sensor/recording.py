@@ -58,6 +58,10 @@ class Recording:
         The simulated paths (None for a real recording).
     lidar : PointCloud, optional
         A LiDAR scan taken at the recording's pose (None: none).
+    other_lidars : tuple of PointCloud
+        The scans of a rig's other LiDARs (its second, third, ...) started at the
+        recording, in the rig's order (empty: one LiDAR or none); :attr:`lidars`
+        gives them all.
     """
 
     samples: np.ndarray
@@ -69,6 +73,7 @@ class Recording:
     metadata: dict = field(default_factory=dict)
     truth: GroundTruth | None = None
     lidar: PointCloud | None = None
+    other_lidars: tuple[PointCloud, ...] = ()
 
     def __repr__(self) -> str:
         shape = "x".join(str(n) for n in np.shape(self.samples))
@@ -109,10 +114,31 @@ class Recording:
             )
         if not 0 <= int(self.emission_index) < x.shape[-1]:
             raise InputError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
+        self._check_lidars()
         object.__setattr__(self, "samples", x)
         object.__setattr__(self, "emission_index", int(self.emission_index))
         object.__setattr__(self, "sample_rate_hz", float(self.sample_rate_hz))
         object.__setattr__(self, "speed_of_sound_m_s", float(self.speed_of_sound_m_s))
+
+    def _check_lidars(self) -> None:
+        """`lidar` None or a PointCloud; `other_lidars` PointClouds, only beside it."""
+        others = tuple(self.other_lidars)
+        scans = [("lidar", self.lidar)] if self.lidar is not None else []
+        scans += [(f"other_lidars[{n}]", scan) for n, scan in enumerate(others)]
+        for key, scan in scans:
+            if not isinstance(scan, PointCloud):
+                raise InputError(
+                    "must be a processing.PointCloud", key=key, value=type(scan).__name__
+                )
+        if others and self.lidar is None:
+            raise InputError("needs the first LiDAR's scan (lidar)", key="other_lidars")
+        object.__setattr__(self, "other_lidars", others)
+
+    @property
+    def lidars(self) -> tuple[PointCloud, ...]:
+        """Every LiDAR scan of the recording: :attr:`lidar` and :attr:`other_lidars`
+        (empty: none)."""
+        return () if self.lidar is None else (self.lidar, *self.other_lidars)
 
     @cached_property
     def provenance(self) -> Provenance:

@@ -22,6 +22,8 @@ SONARS = (
     ("side", [0.0, -0.15, 0.1], [0.0, 5.0, -40.0], 500e3, 0.02),
 )
 BODY_Z, SPEED, TURN_DEG_S = 0.3, 0.5, 10.0
+#: the LiDARs: mount position (m) and rotation (roll, pitch, yaw; degrees)
+LIDARS = (([0.0, 0.0, 0.4], [0.0, 0.0, 0.0]), ([0.3, 0.0, 0.2], [0.0, 0.0, 90.0]))
 
 
 def mount(position, rotation_deg) -> np.ndarray:
@@ -35,7 +37,7 @@ def mount(position, rotation_deg) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def rig_recordings(tmp_path_factory):
-    """Two sonars on a driving, turning body, a wall 2 m ahead, a VLP-16: their
+    """Two sonars on a driving, turning body, a wall 2 m ahead, two VLP-16: their
     four firings as a recording file holds them (float32)."""
     tmp = tmp_path_factory.mktemp("rigfiles")
     wall = trimesh.creation.box(extents=(0.1, 6.0, 3.0))
@@ -61,7 +63,9 @@ def rig_recordings(tmp_path_factory):
                 }
             },
             "sensors": sensors,
-            "lidars": [{"preset": "vlp16", "position_m": [0, 0, 0.4]}],
+            "lidars": [
+                {"preset": "vlp16", "position_m": pos, "rotation_deg": rot} for pos, rot in LIDARS
+            ],
             "simulation": {"max_range_m": 2.5, "diffraction": {"enabled": False}},
             "materials": [{"name": "m", "reflection": 1.0, "diffuse": 0.0}],
             "meshes": [{"file": "wall.obj", "material": "m"}],
@@ -122,10 +126,14 @@ def test_a_rig_in_one_chirp_file_has_a_group_per_sonar(rig_chirp):
         np.testing.assert_allclose(odo["linear_velocity"][()], v, atol=1e-12)
         w = np.deg2rad(TURN_DEG_S)
         np.testing.assert_allclose(odo["angular_velocity"][()], [[0, 0, w]] * 4, atol=1e-12)
-        # the LiDAR beside them: 0.4 m above the body's origin
-        lidar = np.linalg.inv(body_to_origin) @ f["sensors/lidar_00/calibration/to_origin"][()]
-        np.testing.assert_allclose(lidar[:3, 3], [0, 0, 0.4], atol=1e-12)
-        assert f["sensors/lidar_00/data/points"].shape[0] == 4
+        # the LiDARs beside them, at their mounts on the body, a scan per firing
+        for n, (pos, rot) in enumerate(LIDARS):
+            g = f[f"sensors/lidar_{n:02d}"]
+            lidar = np.linalg.inv(body_to_origin) @ g["calibration/to_origin"][()]
+            np.testing.assert_allclose(lidar, mount(pos, rot), atol=1e-12)
+            assert g["data/points"].shape[0] == 4
+            # the reference sonar's captures are rows 0 and 2 (one row per firing)
+            np.testing.assert_array_equal(g["data/sync_to_reference_index"][()], [0, 2])
 
 
 def test_our_reader_gives_back_each_sonars_recordings(rig_chirp):
@@ -137,8 +145,11 @@ def test_our_reader_gives_back_each_sonars_recordings(rig_chirp):
         np.testing.assert_array_equal(b.samples, a.samples)
         np.testing.assert_array_equal(b.array.positions_m, a.array.positions_m)
         np.testing.assert_allclose(b.array.emitter_m, a.array.emitter_m, atol=1e-12)
-        np.testing.assert_allclose(b.lidar.to_sensor, a.lidar.to_sensor, atol=1e-12)
-        np.testing.assert_array_equal(b.lidar.points_m, a.lidar.points_m)
+        assert len(a.lidars) == len(b.lidars) == 2
+        for sa, sb in zip(a.lidars, b.lidars):
+            np.testing.assert_allclose(sb.to_sensor, sa.to_sensor, atol=1e-12)
+            np.testing.assert_array_equal(sb.points_m, sa.points_m)
+            np.testing.assert_array_equal(sb.ring, sa.ring)
         np.testing.assert_array_equal(b.truth.emitter, a.truth.emitter)
     one = P.load_recording(path, 3)
     assert one.metadata["sensor"] == "side" and one.sample_rate_hz == 500e3
@@ -375,3 +386,53 @@ def test_sensor_and_mount_are_only_for_a_rigs_scene(tmp_path):
     (tmp_path / "spec.toml").write_text('[[scenes]]\nfile = "one.toml"\nsensor = "b"\n')
     with pytest.raises(SpecError, match=r"scenes\[0\].sensor: only for a rig's scene"):
         load_spec(tmp_path / "spec.toml")
+
+
+def test_every_lidar_of_the_rig_scans_from_its_mount(rig_recordings):
+    """Each firing carries both LiDARs' scans (through the recording file), each
+    mounted where the rig declares it, and each sees the wall at its own distance:
+    the nearest return of the LiDAR 0.3 m further forward is 0.3 m closer (the
+    wall's face at x = 2 m, the body driving 0.5 m/s: the nearest points of a scan
+    lie within the 0.05 m it drives in one 0.1 s rotation)."""
+    _, recs = rig_recordings
+    for rec, (name, pos, rot, _, _) in zip(recs, SONARS * 2):
+        assert rec.metadata["sensor"] == name and len(rec.lidars) == 2
+        for scan, (lpos, lrot) in zip(rec.lidars, LIDARS):
+            # LiDAR -> sonar, carried to the body by the sonar's mount
+            np.testing.assert_allclose(
+                mount(pos, rot) @ scan.to_sensor, mount(lpos, lrot), atol=1e-9
+            )
+        nearest = [np.linalg.norm(s.points_m, axis=1).min() for s in rec.lidars]
+        assert nearest[0] - nearest[1] == pytest.approx(0.3, abs=0.06)
+        x_body = SPEED * rec.metadata["emission_time_s"]
+        assert 2.0 - x_body - 0.06 < nearest[0] < 2.0 - x_body + 0.01
+    # the two LiDARs' range noise is drawn apart (their own seeds)
+    assert not np.array_equal(recs[0].lidars[0].points_m[:50], recs[0].lidars[1].points_m[:50])
+
+
+def test_the_bag_has_a_topic_per_lidar(rig_recordings, tmp_path):
+    """The ROS 2 bag of the rig's file: each LiDAR's scan on its own topic, in the
+    frame of the sonar whose firing it started at, its points moved by the mounts."""
+    pytest.importorskip("rosbags", reason="rosbags not installed (pip install 'acousim[ros]')")
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    from acousim.cli import main
+
+    tmp, recs = rig_recordings
+    bag = tmp_path / "bag"
+    assert main(["export", str(tmp / "rig.h5"), "--out", str(bag), "--method", "das"]) == 0
+    seen: dict[str, list] = {"/acousim/lidar": [], "/acousim/lidar_01": []}
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        for conn, _, raw in reader.messages():
+            if conn.topic in seen:
+                seen[conn.topic].append(reader.deserialize(raw, conn.msgtype))
+    for n, msgs in enumerate(seen.values()):
+        assert len(msgs) == len(recs)
+        for msg, rec in zip(msgs, recs):
+            assert msg.header.frame_id == rec.metadata["sensor"]
+            raw = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.width, msg.point_step)
+            xyz = raw[:, :12].copy().view("<f4").reshape(-1, 3)
+            scan = rec.lidars[n]  # LiDAR frame -> the sonar's, by hand
+            want = scan.points_m @ scan.to_sensor[:3, :3].T + scan.to_sensor[:3, 3]
+            np.testing.assert_allclose(xyz, want, atol=1e-5)

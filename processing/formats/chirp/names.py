@@ -11,5 +11,16 @@ ODOMETRY, LIDAR = "odometry_00", "lidar_00"
 OURS, OUR_SCHEMA, OUR_VERSION = "acousim", "acousim.chirp", 1
 
 
+def lidar_name(n: int) -> str:
+    """LiDAR n's sensor group (``lidar_00``: the first, :data:`LIDAR`)."""
+    return f"lidar_{n:02d}"
+
+
+def our_lidar(n: int) -> str:
+    """Our own group beside LiDAR n's (the rings and point times): ``acousim/lidar``
+    for the first, ``acousim/lidar_01``, ... for a rig's others."""
+    return f"{OURS}/lidar" if n == 0 else f"{OURS}/{lidar_name(n)}"
+
+
 class ChirpFileError(RecordingFileError):
     """A CHIRP file that cannot be read or written as asked; names file and field."""

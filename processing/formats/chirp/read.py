@@ -17,12 +17,13 @@ from processing.base.frames import euler_of, matrix_of_quaternion
 from processing.formats.chirp import rig
 from processing.formats.chirp.names import (
     ACOUSTIC,
-    LIDAR,
     ODOMETRY,
     OUR_SCHEMA,
     OURS,
     TRANSMITTER,
     ChirpFileError,
+    lidar_name,
+    our_lidar,
 )
 from processing.formats.h5attrs import attribute_text
 from processing.sensor.arrays import Array
@@ -300,6 +301,7 @@ class Reader:
         pose = self.pose(k, meta.get("timestamp"))
         if pose is not None:
             meta["pose"] = pose
+        scans = self.scans(k)
         return Recording(
             samples=x[0],
             sample_rate_hz=self.fs,
@@ -308,7 +310,8 @@ class Reader:
             speed_of_sound_m_s=DEFAULT_SPEED_OF_SOUND_M_S if c is None else c,
             emission_index=e,
             metadata=meta,
-            lidar=self.scan(k),
+            lidar=scans[0] if scans else None,
+            other_lidars=scans[1:],
         )
 
     def _ours(self, i: int, captures: np.ndarray, x: np.ndarray, array: Array) -> Recording:
@@ -324,6 +327,7 @@ class Reader:
         try:
             wf = Waveform.from_dict(json.loads(_text(g.attrs["waveform"])))
             meta = json.loads(_text(self.read(g["metadata"])) or "{}")
+            scans = self.scans(first)
             rec = Recording(
                 samples=x[0] if len(x) == 1 else x,
                 sample_rate_hz=fs,
@@ -333,7 +337,8 @@ class Reader:
                 emission_index=int(g.attrs["emission_index"]),
                 metadata=meta,
                 truth=self.truth(g),
-                lidar=self.scan(first),
+                lidar=scans[0] if scans else None,
+                other_lidars=scans[1:],
             )
         except (KeyError, ValueError, TypeError) as exc:
             if isinstance(exc, ChirpFileError):
@@ -395,10 +400,15 @@ class Reader:
             "time_s": float(t) if t is not None else 0.0,
         }
 
-    def scan(self, k: int) -> PointCloud | None:
-        g = self.f.get(f"/sensors/{LIDAR}")
-        if not isinstance(g, h5py.Group):
-            return None
+    def scans(self, k: int) -> tuple[PointCloud, ...]:
+        """The LiDARs' scans at capture k: ``lidar_00``, ``lidar_01``, ... (a rig's)."""
+        out: list[PointCloud] = []
+        while isinstance(g := self.f.get(f"/sensors/{lidar_name(len(out))}"), h5py.Group):
+            out.append(self.scan(k, g, our_lidar(len(out))))
+        return tuple(out)
+
+    def scan(self, k: int, g: h5py.Group, ours: str) -> PointCloud:
+        """The scan of LiDAR group `g` at capture k (`ours`: our group beside it)."""
         ac, _ = self.place(k)
         if self.rig is not None:  # a rig's file: one scan per capture, beside its sonar
             r = k
@@ -410,9 +420,9 @@ class Reader:
         keep = np.arange(len(pts)) < n
         keep &= np.all(np.isfinite(pts[:, :3]), axis=1)
         ring = when = None
-        if self.ours is not None and "lidar" in self.ours:
-            ring = np.asarray(self.read(self.ours["lidar/ring"], r))[keep]
-            when = np.asarray(self.read(self.ours["lidar/time_s"], r))[keep]
+        if self.ours is not None and ours in self.f:
+            ring = np.asarray(self.read(self.f[f"{ours}/ring"], r))[keep]
+            when = np.asarray(self.read(self.f[f"{ours}/time_s"], r))[keep]
         intensity = pts[keep, 3] if pts.shape[1] > 3 else np.zeros(int(keep.sum()))
         acoustic = self.matrix(ac.get("calibration"), "to_origin")
         to_sensor = np.linalg.inv(acoustic) @ self.matrix(g.get("calibration"), "to_origin")
@@ -461,8 +471,8 @@ def read_chirp(
     one (M, T) recording per capture, array from ``receiver_relative_translations``,
     emitter from the transmitter's ``to_origin``, call fitted to its ``signals``
     (when that fails or there is no transmitter signal: `call`, else an error), speed of
-    sound `speed_of_sound_m_s` (default 343 m/s), pose from ``odometry_00``, scan
-    from ``lidar_00``.
+    sound `speed_of_sound_m_s` (default 343 m/s), pose from ``odometry_00``, scans
+    from ``lidar_00`` (and ``lidar_01``, ...: ``Recording.other_lidars``).
     """
     with Reader(Path(path), max_bytes) as r:
         return r.recordings(index, call, speed_of_sound_m_s)

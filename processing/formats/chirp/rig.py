@@ -18,7 +18,8 @@ The layout (``docs/export.md``, "A rig in one CHIRP file")::
     /sensors/acoustic_transmitter_NN   its emitter (to_origin), call, emission times
     /sensors/odometry_00               one row per firing of any sonar (time order):
                                        base_link = the body
-    /sensors/lidar_00                  one row per firing: the scan started at it
+    /sensors/lidar_NN                  one per LiDAR, one row per firing: the scan
+                                       started at it
     /transforms  base_link_to_origin = inv(mount_00) (the body frame is base_link)
     /acousim     capture_sensor, capture_row: each firing's group and row
 
@@ -32,7 +33,7 @@ import h5py
 import numpy as np
 
 from processing.base.frames import pose_matrix
-from processing.formats.chirp.names import LIDAR, ChirpFileError
+from processing.formats.chirp.names import ChirpFileError, lidar_name
 
 __all__ = ["acoustic_name", "transmitter_name", "mount_matrix", "sonars_of", "nearest"]
 
@@ -121,13 +122,13 @@ def write_transforms(f: h5py.File, bodies: list[np.ndarray], mount0: np.ndarray)
         g.attrs["base_link_height_above_ground_m"] = float(z[0])
 
 
-def lidar_to_origin(path, recs, owner, to_origin_of) -> np.ndarray:
-    """The LiDAR's mounting in the origin frame: each recording's scan mounting
-    (LiDAR -> its sonar) carried into sonar 00's frame; one LiDAR, so every
-    recording must agree."""
+def lidar_to_origin(path, recs, owner, to_origin_of, n: int = 0) -> np.ndarray:
+    """LiDAR `n`'s mounting in the origin frame: each recording's scan mounting
+    (LiDAR -> its sonar) carried into sonar 00's frame; one LiDAR on one body, so
+    every recording must agree."""
     out = None
     for k, i in enumerate(owner):
-        T = to_origin_of[k] @ recs[i].lidar.to_sensor
+        T = to_origin_of[k] @ recs[i].lidars[n].to_sensor
         if out is None:
             out = T
         elif not np.allclose(out, T, atol=1e-9):
@@ -135,6 +136,6 @@ def lidar_to_origin(path, recs, owner, to_origin_of) -> np.ndarray:
                 "CHIRP holds one LiDAR mounting; the scans of the rig's sonars place it "
                 "at different points of the body",
                 file=path,
-                key=LIDAR,
+                key=lidar_name(n),
             )
     return out

@@ -21,7 +21,8 @@ source)::
     /sensors/odometry_00               (every recording posed) base_link = origin
         data/position, orientation (x, y, z, w), yaw, linear_velocity,
         angular_velocity, pose_covariance, twist_covariance, timestamps, ros_timestamps
-    /sensors/lidar_00                  (every recording with a LiDAR scan)
+    /sensors/lidar_00                  (every recording with a LiDAR scan; a rig's
+                                       other LiDARs: lidar_01, ...)
         calibration/to_origin          (4, 4): the LiDAR's mounting
         data/points (N, P, 4) float32 [x, y, z, intensity], NaN-padded;
         data/point_counts, data/timestamps
@@ -57,13 +58,14 @@ from processing.base.frames import quaternion_of
 from processing.formats.chirp import rig
 from processing.formats.chirp.names import (
     ACOUSTIC,
-    LIDAR,
     ODOMETRY,
     OUR_SCHEMA,
     OUR_VERSION,
     OURS,
     TRANSMITTER,
     ChirpFileError,
+    lidar_name,
+    our_lidar,
 )
 from processing.sensor.arrays import Array
 from processing.sensor.provenance import SensorMotion, SensorPose
@@ -197,8 +199,8 @@ def _write_one(f: h5py.File, recs: list[Recording], caps: _Captures, opts: dict)
     if all(p.pose is not None for p in provenance):
         _write_odometry(sensors, provenance, owner, emission)
         _write_transforms(f, [provenance[i].pose for i in owner])
-    if all(r.lidar is not None for r in recs):
-        _write_lidar(sensors, f, recs, owner, emission)
+    for n in range(_n_lidars(recs)):
+        _write_lidar(sensors, f, recs, owner, emission, n=n)
     return sums
 
 
@@ -247,11 +249,19 @@ def _check_one_sensor(path: Path, recs: list[Recording], which: list[int] | None
                     key="recordings",
                     value=i,
                 )
-    lidars = [recs[i].lidar for i in which if recs[i].lidar is not None]
-    if any(not np.allclose(pc.to_sensor, lidars[0].to_sensor) for pc in lidars):
-        raise ChirpFileError(
-            "CHIRP holds one LiDAR mounting; the recordings' scans differ", file=path
-        )
+    for n in range(max(len(recs[i].lidars) for i in which)):
+        lidars = [recs[i].lidars[n] for i in which if len(recs[i].lidars) > n]
+        if any(not np.allclose(pc.to_sensor, lidars[0].to_sensor) for pc in lidars):
+            raise ChirpFileError(
+                f"CHIRP holds one mounting per LiDAR; the recordings' scans of LiDAR {n} differ",
+                file=path,
+                key=lidar_name(n),
+            )
+
+
+def _n_lidars(recs: list[Recording]) -> int:
+    """The LiDARs every recording has a scan of (a LiDAR group has a row per capture)."""
+    return min(len(r.lidars) for r in recs)
 
 
 def _emission_times(provenance, owner, measure, period_s, sonar=None) -> tuple[np.ndarray, bool]:
@@ -352,9 +362,9 @@ def _write_rig(f, path, recs, caps: _Captures, mounts, opts) -> list[bytes]:
         _write_odometry(sensors, provenance, caps.owner, emission, mount_of, every)
         bodies = [rig.body_pose(provenance[i].pose, m) for i, m in zip(caps.owner, mount_of)]
         rig.write_transforms(f, bodies, mounts[0])
-    if all(r.lidar is not None for r in recs):
-        at = rig.lidar_to_origin(path, recs, caps.owner, [to_origin[n] for n in sonar])
-        g = _write_lidar(sensors, f, recs, caps.owner, emission, at)
+    for n in range(_n_lidars(recs)):
+        at = rig.lidar_to_origin(path, recs, caps.owner, [to_origin[s] for s in sonar], n)
+        g = _write_lidar(sensors, f, recs, caps.owner, emission, at, n=n)
         g.attrs["sync_mode"] = "full_capture"
         g.create_dataset("data/sync_to_reference_index", data=every)
     return sums
@@ -437,16 +447,18 @@ def _write_transforms(f: h5py.File, poses: list[SensorPose]) -> None:
         g.attrs["base_link_height_above_ground_m"] = float(z[0])
 
 
-def _write_lidar(sensors, f, recs, owner, emission, to_origin=None) -> h5py.Group:
-    """The captures' scans: their mounting `to_origin` (4x4; the first scan's)."""
-    clouds = [recs[i].lidar for i in owner]
+def _write_lidar(sensors, f, recs, owner, emission, to_origin=None, *, n=0) -> h5py.Group:
+    """The captures' scans of LiDAR `n` (``lidar_NN``): their mounting `to_origin`
+    (4x4; the first scan's)."""
+    clouds = [recs[i].lidars[n] for i in owner]
     first = clouds[0]
-    n, top = len(clouds), max(1, max(len(c) for c in clouds))
-    g = _sensor(sensors, LIDAR, "lidar", first.to_sensor if to_origin is None else to_origin)
+    top = max(1, max(len(c) for c in clouds))
+    at = first.to_sensor if to_origin is None else to_origin
+    g = _sensor(sensors, lidar_name(n), "lidar", at)
     g.attrs.update(max_points=top, rate_hz=first.rate_hz, name=first.name)
-    pts = np.full((n, top, 4), np.nan, np.float32)
-    ring = np.full((n, top), -1, np.int16)
-    when = np.full((n, top), np.nan, np.float32)
+    pts = np.full((len(clouds), top, 4), np.nan, np.float32)
+    ring = np.full((len(clouds), top), -1, np.int16)
+    when = np.full((len(clouds), top), np.nan, np.float32)
     for k, c in enumerate(clouds):
         pts[k, : len(c), :3], pts[k, : len(c), 3] = c.points_m, c.intensity
         if c.ring is not None:
@@ -456,7 +468,7 @@ def _write_lidar(sensors, f, recs, owner, emission, to_origin=None) -> h5py.Grou
     g.create_dataset("data/points", data=pts, chunks=(1, top, 4))
     g.create_dataset("data/point_counts", data=np.array([len(c) for c in clouds], np.int64))
     g.create_dataset("data/timestamps", data=emission).attrs["units"] = "s"
-    ours = f.require_group(f"{OURS}/lidar")
+    ours = f.require_group(our_lidar(n))
     ours.create_dataset("ring", data=ring, chunks=(1, top))
     ours.create_dataset("time_s", data=when, chunks=(1, top)).attrs["units"] = "s"
     return g

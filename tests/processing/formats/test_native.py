@@ -1,6 +1,7 @@
 """The recording file: round trips, float32 error bound, ground truth as datasets,
 order past 9,999, lazy reading, schema 1 files, and a corrupted-file test per field."""
 
+import dataclasses
 import json
 import re
 
@@ -318,6 +319,36 @@ def test_recording_refuses_inconsistent_input():
         P.Recording(np.zeros((3, 10)), 1e3, P.paper_8x8(), P.paper_chirp())
     with pytest.raises(ValueError, match="speed_of_sound"):
         P.Recording(np.zeros((64, 10)), 1e3, P.paper_8x8(), P.paper_chirp(), 3430.0)
+
+
+def test_a_rigs_lidar_scans_round_trip_in_order(tmp_path):
+    """Three LiDAR scans (a rig's): lidar, lidar_01, lidar_02, read back in order;
+    other scans without the first, or not a point cloud, are refused by name."""
+    rng = np.random.default_rng(5)
+
+    def cloud(n: int, dz: float) -> P.PointCloud:
+        T = np.eye(4)
+        T[2, 3] = dz
+        return P.PointCloud(rng.normal(size=(n, 3)), rng.uniform(0, 1, n), T, name=f"L{n}")
+
+    scans = (cloud(7, 0.1), cloud(9, 0.2), cloud(4, 0.3))
+    rec = dataclasses.replace(make(), lidar=scans[0], other_lidars=scans[1:])
+    assert rec.lidars == scans
+    P.save_recordings(tmp_path / "r.h5", [rec, make()])
+    with h5py.File(tmp_path / "r.h5") as f:
+        assert sorted(k for k in f["recordings/000000"] if k.startswith("lidar")) == [
+            "lidar", "lidar_01", "lidar_02"
+        ]  # fmt: skip
+    back, plain = P.load_recordings(tmp_path / "r.h5")
+    assert plain.lidars == () and plain.other_lidars == ()
+    for a, b in zip(scans, back.lidars, strict=True):
+        assert b.name == a.name
+        np.testing.assert_array_equal(b.to_sensor, a.to_sensor)
+        np.testing.assert_allclose(b.points_m, a.points_m, rtol=1e-6)  # float32
+    with pytest.raises(InputError, match="other_lidars.*needs the first"):
+        dataclasses.replace(make(), other_lidars=scans[1:])
+    with pytest.raises(InputError, match=r"other_lidars\[1\].*PointCloud"):
+        dataclasses.replace(make(), lidar=scans[0], other_lidars=(scans[1], "scan"))
 
 
 @pytest.mark.parametrize("case", ["nan samples", "deleted pitch", "pose", "truth kind"])
