@@ -184,9 +184,10 @@ class RigSimulator:
         scans = self.lidar_scans(min(times), max(times)) if done else ()
         return RigRun(tuple(out), done, scans)
 
-    def simulate(self, i: int) -> P.Recording:
-        """The recording of measurement `i`: sonar k's own call from its emission, and
-        (crosstalk) every other firing that reaches its window.  In motion, the
+    def simulate(self, i: int, *, n_samples: int | None = None) -> P.Recording:
+        """The recording of measurement `i` (`n_samples` long; None: its scene's
+        length): sonar k's own call from its emission, and (crosstalk) every other
+        firing that reaches its window.  In motion, the
         crosstalk of a sonar with k's call, response and render options is rendered
         in the same pass as k's own echoes (:meth:`Simulator.simulate_pose`
         ``joined``); any other separately, and added."""
@@ -195,9 +196,9 @@ class RigSimulator:
         own = self.pair(k, k)
         motion = self.rig.sonar_motion(k)
         parts = []
+        n = own.scene.n_samples() if n_samples is None else int(n_samples)
         if self.rig.crosstalk:
-            n = own.scene.n_samples()
-            parts = [(f, self._heard_from(f, m, n)) for f in self._reaching(m)]
+            parts = [(f, self._heard_from(f, m, n)) for f in self._reaching(m, n)]
             parts = [(f, part) for f, part in parts if part is not None]
         moving = own.in_motion(motion)
         joins = [moving and self._joins(own, p) for _, p in parts]
@@ -207,7 +208,7 @@ class RigSimulator:
         joined = tuple(
             (p.echoes.select(p.echo), p.rate[:, p.echo]) for (_, p), j in zip(parts, joins) if j
         )
-        rec = own.simulate_pose(m.pose, index=m.index, motion=motion, joined=joined)
+        rec = own.simulate_pose(m.pose, index=m.index, motion=motion, joined=joined, n_samples=n)
         names = [self.rig.sonars[k].name] * len(rec.truth)
         truths, heard_from, samples = [rec.truth], [], rec.samples
         for (f, part), j in zip(parts, joins):
@@ -244,12 +245,11 @@ class RigSimulator:
             rec, samples=samples, truth=truth, metadata=meta, other_lidars=others
         )
 
-    def _reaching(self, m: Measurement) -> list[Measurement]:
-        """The other firings whose call or echoes may reach measurement `m`'s window:
-        emitted before its end and no longer ago than the longest path (twice the
-        range) and the call."""
-        k = m.sonar
-        window = self.pair(k, k).scene.n_samples() / self.rig.sonars[k].sensor.sample_rate_hz
+    def _reaching(self, m: Measurement, n_samples: int) -> list[Measurement]:
+        """The other firings whose call or echoes may reach measurement `m`'s window
+        of `n_samples`: emitted before its end and no longer ago than the longest path
+        (twice the range) and the call."""
+        window = n_samples / self.rig.sonars[m.sonar].sensor.sample_rate_hz
         c = self.scene.environment.speed_of_sound_m_s
         longest = 2 * self.scene.simulation.max_range_m / c
         out = []

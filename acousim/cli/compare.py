@@ -46,8 +46,9 @@ def register(sub) -> None:
     p.add_argument(
         "--sensor",
         metavar="NAME",
-        help="a rig: its sonar NAME (the scene simulates it alone, at its firings: --pose "
-        "i is its i-th; of a rig's real or --sim file, only its recordings)",
+        help="a rig: its sonar NAME (the scene simulates its firings, --pose i its i-th, "
+        "with the other sonars' calls that reach it when the rig's crosstalk is on; of "
+        "a rig's real or --sim file, only its recordings)",
     )
     p.add_argument("--sim", help="an existing simulated recording file (.h5)")
     p.add_argument("--sim-index", type=INDEX, default=0, help="recording in the --sim file")
@@ -82,12 +83,14 @@ def _pairs(args: argparse.Namespace):
         load_real_recordings,
         of_sensor,
         pair_with_file,
+        pair_with_rig,
         pair_with_scene,
     )
     from acousim.scene.rig import sonar_scene
 
     if args.scene:
-        scene = sonar_scene(load_scene(args.scene), args.sensor)  # a rig: one sonar alone
+        whole = load_scene(args.scene)
+        scene = sonar_scene(whole, args.sensor)  # a rig: its sonar's poses
         c = scene.environment.speed_of_sound_m_s
     else:
         try:
@@ -104,6 +107,16 @@ def _pairs(args: argparse.Namespace):
         recorded = (
             args.pose is None and P.is_chirp(args.real) and all("pose" in r.metadata for r in reals)
         )
+        if whole.rig is not None and whole.rig.crosstalk and not recorded:
+            return pair_with_rig(  # the other sonars' calls heard, as the rig fires
+                reals,
+                whole,
+                args.sensor,
+                every=args.all,
+                index=args.index,
+                pose=args.pose or 0,
+                progress=progress("simulate", "pose"),
+            )
         return pair_with_scene(
             reals,
             scene,

@@ -10,13 +10,20 @@ from pathlib import Path
 import numpy as np
 
 import processing as P
+from acousim.rig import RigSimulator
 from acousim.scene.pose import Pose
 from acousim.simulator import SCENE_MOTION, Simulator
 from hardware import decode_frame
 from processing.base.errors import InputError
 from processing.sensor.rtisdev import sample_recording
 
-__all__ = ["load_real_recordings", "pair_with_scene", "pair_with_file", "of_sensor"]
+__all__ = [
+    "load_real_recordings",
+    "pair_with_scene",
+    "pair_with_rig",
+    "pair_with_file",
+    "of_sensor",
+]
 
 
 def load_real_recordings(
@@ -124,6 +131,43 @@ def pair_with_scene(
             sims.append(simulator.simulate_pose(p, q, n_samples=r.n_samples, motion=m))
             if progress:
                 progress(len(sims), len(targets))
+    except ValueError as exc:
+        raise InputError(str(exc), file=scene.source) from None
+    return list(zip(chosen, sims))
+
+
+def pair_with_rig(
+    reals: Sequence[P.Recording],
+    scene,
+    sensor: str,
+    *,
+    every: bool = False,
+    index: int = 0,
+    pose: int = 0,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[tuple[P.Recording, P.Recording]]:
+    """(real, simulated) pairs of a rig's sonar `sensor` with the rig's crosstalk: its
+    firing `pose` (its i-th, in time order; with `every`, firing i for real recording
+    i) simulated by the whole rig (:class:`~acousim.rig.RigSimulator`: the other
+    sonars' calls that reach its window are in it), each the length of its real
+    partner.  Otherwise as :func:`pair_with_scene`."""
+    chosen = list(reals) if every else [_pick(reals, index, "--index", "the real file")]
+    try:
+        rig = RigSimulator(scene)
+        firings = [m.index for m in rig.measurements if rig.rig.sonars[m.sonar].name == sensor]
+        wanted = list(range(len(chosen))) if every else [pose]
+        bad = [q for q in wanted if not 0 <= q < len(firings)]
+        if bad:
+            raise InputError(
+                f"sonar {sensor!r} fires {len(firings)} time(s)", key="--pose", value=bad[0]
+            )
+        sims = []
+        for r, q in zip(chosen, wanted):
+            sims.append(rig.simulate(firings[q], n_samples=r.n_samples))
+            if progress:
+                progress(len(sims), len(chosen))
+    except InputError:
+        raise
     except ValueError as exc:
         raise InputError(str(exc), file=scene.source) from None
     return list(zip(chosen, sims))
