@@ -209,6 +209,9 @@ array = "urtis_v1"
 direct_path = {direct}
 mount = {{ position_m = [{bx}, -0.2, 0.0], rotation_deg = [0, 0, -20] }}
 firing = {{ rate_hz = 20, offset_s = 0.025, count = 2 }}
+"""
+#: the wall before the rig (reflection and diffuse: its material's)
+WALL_TOML = """
 [simulation]
 max_range_m = 3.0
 absorption = false
@@ -231,8 +234,8 @@ def rig_files(tmp, *, reflection=0.7, diffuse=0.0, bx=0.3, direct="true", simula
     wall.apply_translation([WALL_X + 0.05, 0, 0.5])
     wall.export(tmp / "wall.obj")
     kw = {"diffuse": diffuse, "bx": bx, "direct": direct}
-    (tmp / "rig.toml").write_text(RIG_TOML.format(reflection=reflection, **kw))
-    (tmp / "start.toml").write_text(RIG_TOML.format(reflection=0.4, **kw))
+    (tmp / "rig.toml").write_text((RIG_TOML + WALL_TOML).format(reflection=reflection, **kw))
+    (tmp / "start.toml").write_text((RIG_TOML + WALL_TOML).format(reflection=0.4, **kw))
     from acousim.scene import load_scene
 
     if not simulate:
@@ -453,17 +456,6 @@ name = "b"
 array = "urtis_v1"
 mount = {{ position_m = [0.3, -0.2, 0.0], rotation_deg = [0, 0, -20] }}
 firing = {{ rate_hz = 20, offset_s = 0.0, count = 2 }}
-[simulation]
-max_range_m = 3.0
-absorption = false
-diffraction = {{ enabled = false }}
-[[materials]]
-name = "wall"
-reflection = 0.7
-diffuse = 0.0
-[[meshes]]
-file = "wall.obj"
-material = "wall"
 """
 
 
@@ -479,7 +471,8 @@ def test_compare_simulates_a_rigs_sonar_with_the_others_calls(tmp_path, capsys):
 
     rig_files(tmp_path, simulate=False)  # the wall
     for on in ("true", "false"):
-        (tmp_path / f"xt_{on}.toml").write_text(XT_TOML.format(crosstalk=on))
+        toml = (XT_TOML + WALL_TOML).format(crosstalk=on, reflection=0.7, diffuse=0.0)
+        (tmp_path / f"xt_{on}.toml").write_text(toml)
     scene = load_scene(tmp_path / "xt_true.toml")
     reals = RigSimulator(scene).run().of("b")
     P.save_recordings(tmp_path / "b.h5", reals)
