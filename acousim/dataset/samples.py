@@ -10,11 +10,13 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from acousim.dataset.spec import DatasetSpec, SpecError
+from acousim.rig import RigSimulator
 from acousim.scene import Pose, load_scene
 from acousim.scene.model import Environment
-from acousim.scene.rig import Mount, sonar_scene
+from acousim.scene.rig import Firing, Mount, sonar_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from acousim.trace.tracer import caster_of
@@ -180,12 +182,17 @@ def _varied_scene(params: dict, spec: DatasetSpec):
 
 def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):
     """(recording, parameters, varied scene, pose) of sample i; `n_samples`: the
-    recording's length (default: the scene's maximum range in the sample's air)."""
+    recording's length (default: the scene's maximum range in the sample's air).
+    A rig's sample is its sonar's firing on the mount drawn (the scene returned: that
+    sonar's); with the rig's crosstalk on, as the whole rig fires (:func:`_rig_firing`)."""
     params = sample_parameters(spec, i)
-    scene = _sonar_alone(_varied_scene(params, spec), params)
+    varied = _varied_scene(params, spec)
+    scene = _sonar_alone(varied, params)
     pose = _pose(params["pose"])
-    sim = Simulator(scene, threads=1)
     motion = _motion(pose, params["conditions"])
+    if varied.rig is not None and varied.rig.crosstalk:
+        return _rig_firing(varied, params, pose, motion, n_samples), params, scene, pose
+    sim = Simulator(scene, threads=1)
     return sim.simulate_pose(pose, 0, n_samples=n_samples, motion=motion), params, scene, pose
 
 
@@ -197,6 +204,61 @@ def _sonar_alone(scene, params: dict):
 
     m = params["mount"]
     return sonar_scene(scene, params["sensor"], Mount.degrees(m["position_m"], m["rotation_deg"]))
+
+
+def _rig_firing(scene, params: dict, pose: Pose, motion, n_samples: int | None):
+    """The sample's sonar k firing from `pose` (moving as `motion`, its own trajectory;
+    None: still) as the whole rig fires, every call of the others that reaches its
+    window in the recording (:class:`acousim.rig.RigSimulator`):
+
+    1. sonar k on the mount drawn; the body placed so that k is at `pose` at k's
+       first firing t_k (in motion: the body's velocity the sonar's less its turn
+       times the lever arm, so that k moves at t_k as `motion` says);
+    2. each other sonar's firings of its schedule from the longest path's time (and
+       the call's) before t_k to the end of k's window; k's at t_k only;
+    3. firing t_k simulated, `n_samples` long.
+    """
+    rig = scene.rig
+    names = [s.name for s in rig.sonars]
+    k = names.index(params["sensor"])
+    m = params["mount"]
+    mount = Mount.degrees(m["position_m"], m["rotation_deg"])
+    t_k = float(rig.sonars[k].firing.times(0.0, 0.0)[0])
+    R = pose.rotation @ mount.rotation.T  # the body's rotation: the sonar's less its mount's
+    yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
+    body = Pose(pose.position_m - R @ mount.position_m, yaw, pitch, roll, time_s=t_k)
+    trajectory = None
+    if motion is not None:
+        w = motion.angular_velocity(pose.time_s)
+        lever = body.rotation @ np.asarray(mount.position_m)
+        v = motion.velocity(pose.time_s) - np.cross(w, lever)
+        trajectory = Trajectory.constant(body, v, w)
+    sensor = rig.sonars[k].sensor
+    n = scene.n_samples() if n_samples is None else n_samples
+    window = n / sensor.sample_rate_hz
+    reach = 2 * scene.simulation.max_range_m / scene.environment.speed_of_sound_m_s
+    sonars = []
+    for j, s in enumerate(rig.sonars):
+        lead = reach + s.sensor.call.duration_s
+        times = [t_k] if j == k else _firings_within(s.firing, t_k - lead, t_k + window)
+        if times:  # a sonar silent near t_k is left out
+            firing = Firing(times_s=tuple(times))
+            sonars.append(dataclasses.replace(s, mount=mount if j == k else s.mount, firing=firing))
+    placed = dataclasses.replace(rig, sonars=tuple(sonars), poses=(body,), motion=trajectory)
+    firing_sim = RigSimulator(dataclasses.replace(scene, rig=placed), threads=1)
+    (i,) = [x.index for x in firing_sim.measurements if sonars[x.sonar].name == names[k]]
+    return firing_sim.simulate(i, n_samples=n)
+
+
+def _firings_within(firing: Firing, start_s: float, end_s: float) -> list[float]:
+    """The times (s) of `firing`'s schedule (its rate from its offset, both ways; or
+    its explicit times) strictly between `start_s` and `end_s`."""
+    if firing.times_s is not None:
+        return [t for t in firing.times_s if start_s < t < end_s]
+    period = 1.0 / firing.rate_hz
+    first = int(np.ceil((start_s - firing.offset_s) / period))
+    times = firing.offset_s + period * np.arange(first, first + int((end_s - start_s) / period) + 2)
+    return [float(t) for t in times if start_s < t < end_s]
 
 
 def sample_array(params: dict, spec: DatasetSpec):

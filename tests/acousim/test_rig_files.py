@@ -500,3 +500,34 @@ def test_compare_simulates_a_rigs_sonar_with_the_others_calls(tmp_path, capsys):
     assert [r["gain"] for r in rows["true"]] == pytest.approx([1.0, 1.0], abs=1e-6)
     assert [r["das_matched"] for r in rows["true"]] == [1, 1]
     assert all(r["gain"] > 1.2 and r["das_only_real"] == 1 for r in rows["false"])
+
+
+def test_a_dataset_sample_of_a_rig_hears_the_other_sonars(tmp_path):
+    """A rig with crosstalk (XT_TOML: a fires 5 ms after b), sonar b's mount drawn
+    per sample: each sample holds a's call, its direct path at 5 ms + |e_a - m_b| / c
+    at b's microphones on the mount drawn (written out here)."""
+    from acousim.dataset import DatasetReader, generate
+
+    rig_files(tmp_path, simulate=False)  # the wall
+    toml = (XT_TOML + WALL_TOML).format(crosstalk="true", reflection=0.7, diffuse=0.0)
+    (tmp_path / "rig.toml").write_text(toml)
+    (tmp_path / "spec.toml").write_text(SPEC.replace("samples = 4", "samples = 2"))
+    generate(tmp_path / "spec.toml", tmp_path / "data")
+    data = DatasetReader(tmp_path / "data")
+    array, call = P.preset("urtis_v1"), P.rtis_call("default_25_50")
+    body = np.array([0.0, 0.0, 0.5])
+    emitter_a = body + [0.1, 0.2, 0.0] + array.emitter_m
+    for i in range(2):
+        sample = data[i]
+        p = sample["params"]
+        (x, y, z), yaw = p["mount"]["position_m"], p["mount"]["rotation_deg"][2]
+        R = rotation_zyx(np.deg2rad(yaw))
+        fs, c = 450e3, p["speed_of_sound_m_s"]
+        for m in range(0, 30, 5):
+            mic = body + [x, y, z] + R @ array.positions_m[m]
+            expected = 0.005 + np.linalg.norm(emitter_a - mic) / c
+            got = _arrival(sample["raw"][m], call.sampled(fs), fs, after=0.004)
+            # b's own direct path (its emitter millimetres from its microphones, 5
+            # orders stronger) leaves a floor 13 dB under a's call at -72 dB of
+            # itself: the envelope peak within 1.5 samples
+            assert got == pytest.approx(expected, abs=1.5 / fs), (i, m)
