@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
@@ -51,6 +50,7 @@ from acousim.scene.names import array_named, call_named, lidar_named, scene_mate
 from acousim.scene.pose import MAX_COORDINATE_M, Pose
 from acousim.scene.trajectory import Trajectory
 from processing import Array, Waveform
+from processing.base.api import warn_deprecated
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
 from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
@@ -479,11 +479,9 @@ def _fold_flat_diffraction(diffraction: Any, flat: dict[str, Any]) -> Diffractio
             value=diffraction,
         )
     new = ", ".join(f"{k}={v!r}" for k, v in given.items())
-    warnings.warn(
+    warn_deprecated(
         f"Simulation(diffraction=bool, diffraction_step_m/_order/_reflections=...) is "
-        f"deprecated: use Simulation(diffraction=Diffraction({new}))",
-        DeprecationWarning,
-        stacklevel=4,
+        f"deprecated: use Simulation(diffraction=Diffraction({new}))"
     )
     return dataclasses.replace(diffraction, **given)
 

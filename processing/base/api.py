@@ -25,7 +25,7 @@ from typing import Any, TypeVar
 from processing.base.errors import InputError
 from processing.base.settings import refuse_unknown
 
-__all__ = ["KeywordError", "check_keywords", "checked", "folded_keywords"]
+__all__ = ["KeywordError", "check_keywords", "checked", "folded_keywords", "warn_deprecated"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -106,6 +106,33 @@ def _check_class(cls: type) -> None:
             setattr(cls, attr, kind(checked(value.__func__, where)))
 
 
+#: the packages whose frames are not the user's (their code, and the functions they
+#: generate: a dataclass's ``__init__``)
+_OURS = ("processing", "acousim", "hardware")
+
+
+def _internal(frame: types.FrameType) -> bool:
+    """Whether `frame` runs our packages' code or the import system's."""
+    module = str(frame.f_globals.get("__name__", ""))
+    return module.split(".")[0] in _OURS or frame.f_code.co_filename.startswith(
+        "<frozen importlib"
+    )
+
+
+def warn_deprecated(message: str) -> None:
+    """A ``DeprecationWarning`` attributed to the user's own line: the first frame
+    outside the packages (their wrappers, checks and module aliases) and the import
+    system.  Python's default filters show a DeprecationWarning raised in
+    ``__main__`` (a script, a notebook cell), which a fixed stack level would miss
+    behind a wrapper."""
+    frame, level = sys._getframe(1), 2
+    while frame is not None and _internal(frame):
+        # warnings.warn's own count passes over the import system's frames
+        level += not frame.f_code.co_filename.startswith("<frozen importlib")
+        frame = frame.f_back
+    warnings.warn(message, DeprecationWarning, stacklevel=level)
+
+
 def folded_keywords(
     into: str, options: type, names: Iterable[str], *, since: str
 ) -> Callable[[F], F]:
@@ -127,11 +154,15 @@ def folded_keywords(
             given = {k: kwargs.pop(k) for k in old if k in kwargs}
             if given:
                 keys = ", ".join(f"{k}=" for k in given)
-                warnings.warn(
+                if kwargs.get(into) is not None:  # which one was meant?
+                    raise KeywordError(
+                        f"{keys.rstrip('=')} and {into}= both given: pass it in "
+                        f"{into}={options.__name__}({keys}...) only",
+                        key=f"{fn.__name__}.{next(iter(given))}",
+                    )
+                warn_deprecated(
                     f"{fn.__name__}({keys}...) is deprecated since {since}: pass "
-                    f"{into}={options.__name__}({keys}...) (CHANGELOG.md)",
-                    DeprecationWarning,
-                    stacklevel=2,
+                    f"{into}={options.__name__}({keys}...) (CHANGELOG.md)"
                 )
                 base = kwargs.get(into, default)
                 if base is inspect.Parameter.empty or base is None:

@@ -14,8 +14,9 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
-import warnings
 from collections.abc import Mapping
+
+from processing.base.api import warn_deprecated
 
 
 class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -31,10 +32,8 @@ class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def create_module(self, spec):
         new = self.moved[spec.name]
-        warnings.warn(
-            f"module {spec.name!r} moved to {new!r}; the old name goes in the next version",
-            DeprecationWarning,
-            stacklevel=4,
+        warn_deprecated(
+            f"module {spec.name!r} moved to {new!r}; the old name goes in the next version"
         )
         return importlib.import_module(new)
 

@@ -389,6 +389,41 @@ def test_stft_snapshots_old_keywords_still_work_with_a_warning():
     assert np.array_equal(old.data, new.data) and np.array_equal(old.range_m, new.range_m)
 
 
+def test_a_scripts_old_keywords_warn_at_its_own_lines(tmp_path):
+    """Run as a user runs a script (Python's default warning filters: a
+    DeprecationWarning shows only when raised in ``__main__``): each old spelling's
+    warning is printed, pointing at the script's own line, whatever wrappers lie
+    between (the keyword check, the options folding, the module alias)."""
+    script = tmp_path / "old.py"
+    script.write_text(
+        "import numpy as np\n"
+        "import processing as P\n"
+        "import acousim\n"
+        "x = np.ones((64, 2, 3), complex)\n"
+        "grid = P.Grid.degrees(step=10.0)\n"
+        "P.doa_spectrum(x, P.paper_8x8(), 3e4, grid, 'music-fbss', subarray=(4, 4))\n"
+        "acousim.Simulation(diffraction_order=1)\n"
+        "import acousim.core.delays\n"
+    )
+    run = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
+    assert run.returncode == 0, run.stderr
+    for line, words in ((6, "doa_spectrum(subarray="), (7, "Simulation(diffraction="),
+                        (8, "acousim.core.delays")):  # fmt: skip
+        assert f"old.py:{line}: DeprecationWarning" in run.stderr, (line, run.stderr)
+        assert words in run.stderr
+
+
+def test_an_old_keyword_beside_its_new_home_is_refused():
+    """``subarray=`` and ``options=SubspaceOptions(...)`` both given: which is meant?
+    The call is refused, naming both (it used to take the old keyword silently)."""
+    x, grid = np.ones((64, 2, 3), complex), P.Grid.degrees(step=10.0)
+    opts = P.SubspaceOptions(subarray=(3, 3))
+    with pytest.raises(TypeError, match=r"subarray and options= both given"):
+        P.doa_spectrum(x, P.paper_8x8(), 3e4, grid, "music-fbss", subarray=(4, 4), options=opts)
+
+
 def test_the_changelog_names_the_change():
     text = (ROOT / "CHANGELOG.md").read_text()
     assert "## Unreleased" in text and "doa_spectrum(subarray=" in text
