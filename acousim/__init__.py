@@ -41,6 +41,7 @@ __all__ = [
     "Environment",
     "Simulation",
     "Diffraction",
+    "Lidar",
     "Pose",
     "Trajectory",
     "SceneError",
@@ -53,11 +54,37 @@ _ELSEWHERE = {
     "Simulator": "acousim.simulator",
     "RigSimulator": "acousim.rig",
     **{name: "acousim.scene.rig" for name in ("Rig", "RigSonar", "Mount", "Firing")},
+    "Lidar": "acousim.scene.lidar",
     "ImagingOptions": "acousim.imaging",
     "image_recordings": "acousim.imaging",
     "peak_table": "acousim.imaging",
 }
 _WHERE = _ELSEWHERE | {name: "acousim.scene" for name in __all__ if name not in _ELSEWHERE}
+
+#: a type checker reads the names from their modules (mypy and pyright take the
+#: name itself as the flag; at run time the names load on first use, below)
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from acousim.imaging import ImagingOptions, image_recordings, peak_table
+    from acousim.rig import RigSimulator
+    from acousim.scene import (
+        Diffraction,
+        Environment,
+        Material,
+        MeshItem,
+        PointItem,
+        Pose,
+        Scene,
+        SceneError,
+        Sensor,
+        Simulation,
+        Trajectory,
+        load_scene,
+        parse_scene,
+    )
+    from acousim.scene.lidar import Lidar
+    from acousim.scene.rig import Firing, Mount, Rig, RigSonar
+    from acousim.simulator import Simulator
 
 
 #: the modules' names before the re-layout by concept (CHANGELOG): they keep importing,

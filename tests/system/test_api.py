@@ -440,6 +440,30 @@ def test_the_packages_are_marked_typed():
     assert "mypy" in (ROOT / "Makefile").read_text()
 
 
+def test_a_users_script_type_checks_against_the_lazy_names(tmp_path):
+    """``import acousim`` loads its names on first use; a type checker still sees each
+    one's real type (mypy on a user's script: ``acousim.Sensor(...)`` is callable
+    and returns a Sensor, an attribute it lacks is caught before running)."""
+    mypy = pytest.importorskip("mypy.api", reason="mypy not installed (make lint installs it)")
+    script = tmp_path / "user.py"
+    script.write_text(
+        "import acousim\n"
+        "import processing as P\n"
+        "s = acousim.Sensor(array='urtis_v1')\n"
+        "sim: acousim.Simulator = acousim.Simulator(acousim.Scene(sensor=s))\n"
+        "lidar: acousim.Lidar = acousim.Lidar()\n"
+        "grid: P.Grid = P.Grid.degrees(step=2.0)\n"
+        "reveal_type(s)\n"
+        "s.arrray\n"
+    )
+    out, _, status = mypy.run(
+        [str(script), "--follow-imports=silent", "--cache-dir", str(tmp_path / "cache")]
+    )
+    assert status == 1 and "Found 1 error" in out, out
+    assert 'Revealed type is "acousim.scene.model.Sensor"' in out
+    assert 'user.py:8: error: "Sensor" has no attribute "arrray"' in out
+
+
 def test_checked_functions_pickle_by_reference():
     """Worker processes get the same function (the checked one, in its own module)."""
     import pickle
