@@ -125,7 +125,8 @@ def warn_deprecated(message: str) -> None:
     system.  Python's default filters show a DeprecationWarning raised in
     ``__main__`` (a script, a notebook cell), which a fixed stack level would miss
     behind a wrapper."""
-    frame, level = sys._getframe(1), 2
+    frame: types.FrameType | None = sys._getframe(1)
+    level = 2
     while frame is not None and _internal(frame):
         # warnings.warn's own count passes over the import system's frames
         level += not frame.f_code.co_filename.startswith("<frozen importlib")
