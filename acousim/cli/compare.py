@@ -16,6 +16,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
+    elapsed,
     load_scene,
     methods,
     preload_simulation,
@@ -173,6 +174,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {f}")
     if out is None:
         print("  (nothing written: --out FOLDER writes the JSON report and the picture)")
+    print(f"({elapsed():.1f} s from the start)")
     return 0
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, progress, writable_dir
+from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
 from acousim.cli.image import imaging_arguments, load_and_image
 
 
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         dynamic_range_db=options.dynamic_range_db,
     )
     images.bar(len(images), len(images))
-    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP)")
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP; {elapsed():.1f} s)")
     return 0
 
 
@@ -96,8 +96,8 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
     writable_dir(out.parent if str(out.parent) else Path("."))
     recs, _, _, _ = load_and_image(args)  # the images are not made
     try:
-        P.write_chirp(out, recs)
+        P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    print(f"{len(recs)} recording(s) written to the CHIRP file {out}")
+    print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
     return 0

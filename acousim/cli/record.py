@@ -13,6 +13,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
+    elapsed,
     load_scene,
     output_file,
     preload_simulation,
@@ -171,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     bar.finish()
     if kept:
         P.save_recordings(out, kept)
-    print(_summary(out, kept, recorder.stats, interrupted, failure))
+    print(_summary(out, kept, recorder.stats, interrupted, failure) + f" ({elapsed():.1f} s)")
     if interrupted:
         print(
             f"acousim record: interrupted; {len(kept)} complete measurement(s) kept",

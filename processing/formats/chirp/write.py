@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -104,6 +104,7 @@ def write_chirp(
     period_s: float = DEFAULT_PERIOD_S,
     checksum: bool = True,
     compression: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Write recordings as one CHIRP file, atomically (:mod:`processing.base.atomic`).
 
@@ -118,6 +119,8 @@ def write_chirp(
     `start_time_s` + i x `period_s`. Samples: float32 (float64 rounded: 2**-24 at
     most), a chunk per capture, HDF5's fletcher32 `checksum`, a sha256 per capture,
     `compression` "gzip", "lzf" or None. The same recordings give the same bytes.
+    `progress(done, total)`: after each capture's samples and each recording's own
+    data (ground truth, metadata) are written.
     """
     path = Path(path)
     recs = list(recordings)
@@ -134,7 +137,8 @@ def write_chirp(
         f.attrs["n_reference_captures"] = caps.n_reference
         f.attrs["reference_sensor"] = ACOUSTIC
         f.create_group("sensors")
-        opts = {"fletcher32": checksum, "compression": compression}
+        step = _Steps(progress, len(caps.owner) + len(recs))
+        opts = {"fletcher32": checksum, "compression": compression, "step": step}
         if mounts is not None:  # a rig: one acoustic group per sonar (chirp.rig)
             sums = _write_rig(f, path, recs, caps, mounts, opts)
         else:
@@ -150,7 +154,20 @@ def write_chirp(
             _write_rig_extras(ours, recs, caps)
         for i, rec in enumerate(recs):
             _write_recording_extras(ours.create_group(f"recordings/{i:06d}"), rec, checksum)
+            step()
     return path
+
+
+class _Steps:
+    """Counts the writer's steps for a `progress(done, total)` callback (None: none)."""
+
+    def __init__(self, progress: Callable[[int, int], None] | None, total: int) -> None:
+        self.progress, self.total, self.done = progress, total, 0
+
+    def __call__(self) -> None:
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.total)
 
 
 @dataclass(frozen=True)
@@ -303,8 +320,9 @@ def _write_acoustic(sensors, recs, caps: _Captures, opts, *, name=ACOUSTIC, to_o
     g.create_dataset(
         "calibration/receiver_relative_translations", data=first.array.positions_m
     ).attrs["units"] = "m"
+    h5 = {k: opts[k] for k in ("fletcher32", "compression")}
     d = g.create_dataset(
-        "data/signals", (len(caps.owner), T, M), np.float32, chunks=(1, T, M), **opts
+        "data/signals", (len(caps.owner), T, M), np.float32, chunks=(1, T, M), **h5
     )
     sums = []
     for k, (i, j) in enumerate(zip(caps.owner, caps.measure)):
@@ -312,6 +330,7 @@ def _write_acoustic(sensors, recs, caps: _Captures, opts, *, name=ACOUSTIC, to_o
         block = np.ascontiguousarray(x.T, "<f4")
         d[k] = block
         sums.append(hashlib.sha256(block.data).hexdigest().encode())
+        opts["step"]()
     g.create_dataset("data/timestamps", data=caps.sample0).attrs["units"] = "s"
     return sums
 

@@ -144,6 +144,15 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \(.*\)", lines[0]), lines
     assert re.fullmatch(r"bag: 3/3 recordings in [\d.]+ s \(.*\)", lines[1]), lines
+    assert re.fullmatch(
+        r"3 recording\(s\) written to the ROS 2 bag .* \(MCAP; [\d.]+ s\)", lines[2]
+    )
+    # a CHIRP file: its 3 captures' samples and 3 recordings' own data, then the result
+    args = ["export", str(out), "--format", "chirp", "--out", str(tmp_path / "c.h5")]
+    assert main(args) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"CHIRP: 6/6 steps in [\d.]+ s \(.*\)", lines[-2]), lines
+    assert re.fullmatch(r"3 recording\(s\) written to the CHIRP file .* \([\d.]+ s\)", lines[-1])
 
 
 def test_quiet_in_a_log_prints_only_the_result(tmp_path, capsys, monkeypatch):
