@@ -127,6 +127,10 @@ _MOVED = {
 
 
 def __getattr__(name: str) -> object:  # (no typing import: the command line starts fast)
+    if name == "__version__":  # the installed distribution's, as `acousim --version`
+        from acousim.bundled import version
+
+        return version()
     if name in _WHERE:
         from processing.base.api import check_keywords
 

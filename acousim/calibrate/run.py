@@ -217,7 +217,8 @@ def calibrate(
     progress: Callable[[int, int], None] | None = None,
 ) -> Calibration:
     """Fit the materials of `scene` to `recordings` (recording i taken at pose
-    ``poses[i]``; default: its ``provenance.pose_index``, else i).  Raises
+    ``poses[i]``; default: its ``provenance.pose_index``, else i, or 0 for every
+    recording of a scene of one pose: repeated measurements of it).  Raises
     InputError naming what does not fit together. `progress(done, total)` is called
     after each recording's pose is traced and rendered (the long part; the fit
     follows)."""
@@ -226,7 +227,8 @@ def calibrate(
     recs = list(recordings)
     if poses is None:
         indices = [r.provenance.pose_index for r in recs]
-        poses = [i if q is None else q for i, q in enumerate(indices)]
+        one = len(scene.sensor.poses) == 1
+        poses = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
     _check(scene, recs, list(poses))
     free = settings.free(_used_materials(scene))
     for name in settings.tables:

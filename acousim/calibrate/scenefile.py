@@ -12,6 +12,7 @@ input with only the fitted keys changed.  Written atomically
 
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from pathlib import Path
@@ -67,8 +68,13 @@ def _comment(lines: list[str], a: int, b: int) -> str:
 
 def edit_scene_text(text: str, values: dict[str, dict[str, tuple]]) -> str:
     """`text` with `values` = {material: {key: (value, sigma or None)}} written into
-    its ``[[materials]]`` blocks.  Raises InputError naming a material the text does
-    not define."""
+    its ``[[materials]]`` blocks (the implicit ``default`` material, of the meshes
+    that name none, gets a block of its own at the end).  Raises InputError naming a
+    material the text does not define."""
+    defined = [m.get("name") for m in tomllib.loads(text).get("materials", [])]
+    if "default" in values and "default" not in defined:
+        note = "meshes that name no material (block added by acousim calibrate)"
+        text = text.rstrip("\n") + f'\n\n[[materials]]\nname = "default"  # {note}\n'
     lines = text.splitlines()
     parsed = tomllib.loads(text).get("materials", [])
     blocks = _blocks(lines)
@@ -137,24 +143,33 @@ def _relative_files(data, out_dir: Path, src_dir: Path) -> list[str]:
     return bad
 
 
+def _repointed(text: str, source: Path, out: Path) -> str:
+    """`text` with each relative ``file = "..."`` that `out`'s folder does not hold
+    pointed from there to the file beside `source` (a relative path; absolute where
+    there is none), so that the fitted scene loads wherever it is written."""
+    src_dir, out_dir = source.resolve().parent, out.resolve().parent
+    for name in dict.fromkeys(_relative_files(tomllib.loads(text), out_dir, src_dir)):
+        target = src_dir / name
+        try:
+            new = Path(os.path.relpath(target, out_dir)).as_posix()
+        except ValueError:  # another drive
+            new = target.as_posix()
+        literal = '"' + new.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        pattern = r"(\bfile\s*=\s*)([\"'])" + re.escape(name) + r"\2"
+        text = re.sub(pattern, lambda m, lit=literal: m.group(1) + lit, text)
+    return text
+
+
 def write_scene(source: str | Path, out: str | Path, calibration) -> Path:
     """Write the scene file `source` to `out` with the fitted materials of
-    `calibration` (:class:`~.run.Calibration`).  Raises InputError when the scene
-    names files relative to its folder that `out`'s folder does not hold (the
-    fitted scene would not load: write it next to the input)."""
+    `calibration` (:class:`~.run.Calibration`); the files it names relative to its
+    folder are pointed to from `out`'s folder (:func:`_repointed`)."""
     source, out = Path(source), Path(out)
     try:
         text = source.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot read the scene: {exc.strerror}", file=source) from None
-    bad = _relative_files(tomllib.loads(text), out.resolve().parent, source.resolve().parent)
-    if bad:
-        raise InputError(
-            "the scene names files relative to its folder; write the fitted scene in the "
-            f"same folder as {source.name}",
-            file=out,
-            value=bad[0],
-        )
+    text = _repointed(text, source, out)
     values = {}
     fitted = [p.name for p in calibration.parameters]
     for name, m in calibration.materials.items():

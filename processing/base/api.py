@@ -58,7 +58,8 @@ def checked(fn: F, where: str) -> F:
     allowed = _allowed(fn)
     if allowed is None or getattr(fn, _MARK, False):
         return fn
-    shown = sorted(allowed - set(getattr(fn, _DEPRECATED, ())))
+    # (a private field, such as one dataclasses.replace passes on, is taken, not shown)
+    shown = sorted(k for k in allowed - set(getattr(fn, _DEPRECATED, ())) if k[0] != "_")
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:

@@ -296,8 +296,9 @@ def refuse_unknown(
         if k not in allowed:
             close = did_you_mean(str(k), allowed)
             hint = f"; did you mean {close!r}?" if close else ""
+            listed = f"allowed: {', '.join(allowed)}" if allowed else "it takes none"
             raise InputError(
-                f"unknown key {k!r}{hint} (allowed: {', '.join(allowed)})",
+                f"unknown key {k!r}{hint} ({listed})",
                 file=file,
                 key=f"{where}.{k}" if where else str(k),
             )

@@ -298,3 +298,37 @@ def test_time_offset_is_found_and_removed(corridor):
     assert cal.lag_samples == pytest.approx([7.3] * 3, abs=0.1)
     assert abs(cal.materials["plaster"].reflection - PLASTER[0]) < 0.05
     assert abs(cal.materials["plaster"].diffuse - PLASTER[1]) < 0.10
+
+
+def test_a_bundled_scenes_repeated_measurements_fit_into_a_file_anywhere(tmp_path, capsys):
+    """Three recordings of the bundled wall scene's one pose, saying no pose (as the
+    sensor or its emulator records them): fitted from the bundled scene as it is
+    (every recording at its one pose, no --poses needed), the fitted scene written
+    to another folder loads there (its mesh found through a path from that folder)
+    and holds the fitted reflection of the material the file left implicit (a
+    ``default`` block added)."""
+    from acousim.bundled import find_scene
+    from acousim.cli import main
+    from acousim.simulator import Simulator
+
+    wall = load_scene(find_scene("wall"))
+    (mesh,) = wall.meshes
+    truth = dataclasses.replace(mesh, material=dataclasses.replace(mesh.material, reflection=0.6))
+    recs = []
+    for seed in (1, 2, 3):  # with noise, as measured
+        sim = dataclasses.replace(wall.simulation, snr_db=30.0, seed=seed)
+        (rec,) = Simulator(dataclasses.replace(wall, meshes=(truth,), simulation=sim)).run()
+        meta = {k: v for k, v in rec.metadata.items() if k != "pose_index"}
+        recs.append(dataclasses.replace(rec, metadata=meta))
+    P.save_recordings(tmp_path / "r.h5", recs)
+    out = tmp_path / "elsewhere" / "fitted.toml"
+    out.parent.mkdir()
+    args = ["calibrate", str(tmp_path / "r.h5"), "--scene", "wall", "--out", str(out)]
+    assert main(args) == 0, capsys.readouterr().err
+    said = capsys.readouterr().out
+    (line,) = [x for x in said.splitlines() if x.startswith("default.reflection")]
+    fitted_value = float(line.split()[2])
+    fitted = load_scene(out)
+    assert fitted.meshes[0].material.reflection == pytest.approx(fitted_value, abs=1e-3)
+    assert Path(fitted.meshes[0].mesh).samefile(mesh.mesh)  # the bundled mesh file
+    assert not (out.parent / "meshes").exists()  # pointed to, not copied
