@@ -18,6 +18,9 @@ import numpy as np
 
 
 def main() -> None:
+    from acousim.process import configure
+
+    configure()  # the process's policy, as the command line sets it (both sides alike)
     from acousim.scene import load_scene
     from acousim.simulator import Simulator
 
