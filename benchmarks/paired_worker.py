@@ -4,7 +4,8 @@ Run as a script with the checkout to time first on PYTHONPATH; reads commands fr
 stdin, one a line, answers one JSON line each:
 ``run``: `Simulator.run` over the poses (every trace paid): wall and CPU seconds;
 ``save PATH``: the recordings' samples of the poses (noise-free if asked) to PATH (.npy).
-Arguments: scene file, first pose, number of poses, JSON of simulation overrides.
+Arguments: scene file, first pose, number of poses, JSON of simulation overrides
+(``diffraction`` a table of :class:`acousim.Diffraction`'s fields).
 """
 
 from __future__ import annotations
@@ -18,12 +19,19 @@ import numpy as np
 
 
 def main() -> None:
+    from acousim.process import configure
+
+    configure()  # the process's policy, as the command line sets it (both sides alike)
     from acousim.scene import load_scene
     from acousim.simulator import Simulator
 
     path, first, count, overrides = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     scene = load_scene(path)
     extra = json.loads(overrides)
+    if isinstance(extra.get("diffraction"), dict):  # a table: acousim.Diffraction's fields
+        from acousim.scene.model import Diffraction
+
+        extra["diffraction"] = Diffraction(**extra["diffraction"])
     if extra:
         scene = dataclasses.replace(
             scene, simulation=dataclasses.replace(scene.simulation, **extra)

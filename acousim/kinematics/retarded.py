@@ -211,8 +211,10 @@ def arrivals(
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
     exact = paths.first_leg == FirstLeg.exact
-    spread = np.where(exact[None, :], paths.first_leg_m[None, :] / np.maximum(first, 1e-9), 1.0)
-    gain = paths.strength[None, :] * spread / last
+    # the first leg is one per path at tau = 0 (a broadcast row): the factor per path
+    one = first[0] if first.ndim == 2 and first.strides[0] == 0 else first
+    spread = np.where(exact, paths.first_leg_m / np.maximum(one, 1e-9), 1.0)
+    gain = (paths.strength * spread) / last
     cos = np.clip(paths.departure @ emitter_axis, -1, 1)
     # the linear law through the first and last sample, shifted by the mean of the
     # (parabolic) deviation: two thirds of the deviation at the middle

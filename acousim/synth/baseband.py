@@ -168,7 +168,7 @@ def spectra(
         # each set is of one group (the compression's, the factorisation's)
         echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
         g = gains[:, d][:, :, ~echo_sets]
-        spec += direct_spectra(q[:, d], g, filters[~echo_sets], n, *kernel)
+        spec += direct_spectra(q[:, d], g, filters[~echo_sets], n, *kernel, dtype)
     if echo_sets.any():
         sets = np.flatnonzero(echo_sets)
         c, half = centre(filters[sets], energy[sets], floor_db)
@@ -179,24 +179,38 @@ def spectra(
 
 
 def direct_spectra(
-    q: np.ndarray, gains: np.ndarray, filters: np.ndarray, n: int, table: np.ndarray, taps: int
+    q: np.ndarray,
+    gains: np.ndarray,
+    filters: np.ndarray,
+    n: int,
+    table: np.ndarray,
+    taps: int,
+    dtype=complex,
 ) -> np.ndarray:
     """Spectra (M, F) of a few impulses (the direct path) at q (M, N) samples, gains
     (M, N, R), through the filters (R, F) of the n-point real FFT, as the full-rate
     renderer makes them: each impulse its fractional-delay kernel (`table` (P + 1,
     2 taps): the weights at P + 1 fractions, :func:`acousim.synth.render._kernel_table`)
-    at the sample rate, one real FFT per set and microphone (a handful: the direct
-    path's sets), times the filters."""
+    at the sample rate, one real FFT per path and microphone (in the precision of
+    `dtype`, complex64 or complex128, as the full-rate renderer's), times the sum of
+    the filters weighted by the path's gains (a path's sets share its impulses)."""
     M, N = q.shape
     n0 = np.floor(q)
     w = table[np.rint((q - n0) * (table.shape[0] - 1)).astype(np.intp)]  # (M, N, 2 taps)
     at = (n0.astype(np.int64)[..., None] - taps + 1 + np.arange(2 * taps)) % n
-    h = np.zeros((gains.shape[2], M, n))
-    rows = np.broadcast_to(np.arange(M)[:, None, None], at.shape)
-    for r in range(gains.shape[2]):
-        np.add.at(h[r], (rows, at), w * gains[:, :, r, None])
-    spectra = sfft.rfft(h, axis=-1, workers=2)  # (R, M, F)
-    return np.einsum("rmf,rf->mf", spectra, filters)
+    real = np.float32 if np.dtype(dtype) == np.complex64 else np.float64
+    rows = np.broadcast_to(np.arange(M)[:, None], at.shape[::2])
+    out = np.zeros((M, filters.shape[1]), dtype)
+    on = np.flatnonzero(np.any(filters != 0, axis=0))
+    if not on.size:
+        return out
+    band = slice(on[0], on[-1] + 1)  # the bins the filters reach
+    for k in range(N):
+        h = np.zeros((M, n), real)
+        h[rows, at[:, k]] = w[:, k]  # a kernel's taps fall on distinct samples
+        spectrum = sfft.rfft(h, axis=-1, workers=2)[:, band]  # (M, F')
+        out[:, band] += spectrum * (gains[:, k] @ filters[:, band])
+    return out
 
 
 def render_band(
