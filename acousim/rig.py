@@ -39,6 +39,7 @@ from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
 from acousim.trace.lidar import scan
+from acousim.trace.tracer import Tracer
 from processing.base import interrupt
 from processing.base.errors import InputError
 
@@ -117,6 +118,9 @@ class RigSimulator:
         self.measurements = tuple(self.rig.measurements())
         first = self._pair_scene(0, 0)
         self.tracer = Simulator(first, threads).tracer
+        if self.rig.crosstalk and isinstance(self.tracer, Tracer):
+            # a call is traced for each sonar that hears it: its rays shot once
+            self.tracer.share_emissions()
         self._pairs: dict[tuple[int, int], Simulator] = {}
 
     def _pair_scene(self, j: int, k: int) -> Scene:

@@ -49,6 +49,7 @@ from acousim.trace.options import TraceSettings, resolution_length
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.rays.budget import RayWork, in_beam, ray_work
 from acousim.trace.rays.cluster import DIFFUSE_CELL_DEG, cluster
+from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.glints import curved_groups, glints
 from acousim.trace.rays.scatter import scatter
 from acousim.trace.rays.shoot import cone_directions, shoot
@@ -77,7 +78,7 @@ def trace_pose(
     world: World | None,
     caster: RayCaster | None,
     settings: TraceSettings,
-    emitter: np.ndarray,
+    emitter: np.ndarray | Emission,
     receiver: np.ndarray,
     rotation: np.ndarray,
     points: tuple[np.ndarray, np.ndarray] | None = None,
@@ -86,12 +87,14 @@ def trace_pose(
     """Every path of one pose (world frame), the stages 0 to 6 of the module docstring,
     and the number of rays it shot.
 
-    emitter, receiver (array centre): (3,) each; rotation (3, 3): the sensor's axes as
-    columns (x: its axis); points: positions (P, 3) and strengths (P,) of explicit
-    point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
-    this pose only, when diffraction is on and none is given).
-    """
+    emitter, receiver (array centre): (3,) each (or the emitter's rays shared with
+    other receivers: an :class:`~.rays.emission.Emission`, the same paths);
+    rotation (3, 3): the sensor's axes as columns (x: its axis); points: positions
+    (P, 3) and strengths (P,) of explicit point reflectors; edges: the world's
+    :class:`DiffractingGeometry` (built here, for this pose only, when diffraction
+    is on and none is given)."""
     axis = rotation[:, 0]
+    emission, emitter = _emitter(emitter)
     parts = []
     # 0. no rays needed
     if settings.direct_path:
@@ -101,7 +104,7 @@ def trace_pose(
     work = None
     if world is not None and caster is not None and settings.rays != 0:
         # 1. shoot (and 4. scatter: the automatic budget watches the tail converge)
-        work = _ray_work(world, caster, settings, emitter, receiver, axis)
+        work = _ray_work(world, caster, settings, emitter, receiver, axis, emission)
         # 2. specular refinement
         specular = refine_sequences(
             world, caster, work.sequences, emitter, receiver, settings.max_path_m
@@ -132,21 +135,40 @@ def trace_pose(
     return paths, 0 if work is None else work.rays
 
 
-def _ray_work(world, caster, settings, emitter, receiver, axis) -> RayWork:
+def _emitter(emitter) -> tuple[Emission | None, np.ndarray]:
+    """(the shared rays or None, the emitter's position (3,)) of trace_pose's
+    `emitter`."""
+    if isinstance(emitter, Emission):
+        return emitter, emitter.emitter
+    return None, emitter
+
+
+def _ray_work(world, caster, settings, emitter, receiver, axis, emission=None) -> RayWork:
     """Stages 1 and 4: the automatic budget (:mod:`.budget`) when ``settings.rays`` is
-    None, else exactly ``settings.rays`` rays on the deterministic spiral."""
+    None, else exactly ``settings.rays`` rays on the deterministic spiral (shot for
+    this trace, or taken from `emission`)."""
     if settings.rays is None:
-        return ray_work(world, caster, settings, emitter, receiver, axis)
-    shot = shoot(
-        world,
-        caster,
-        emitter,
-        axis,
-        settings.rays,
-        settings.bounces,
-        settings.beam_rad,
-        settings.max_path_m,
-    )
+        return ray_work(world, caster, settings, emitter, receiver, axis, emission=emission)
+    if emission is None:
+        shot = shoot(
+            world,
+            caster,
+            emitter,
+            axis,
+            settings.rays,
+            settings.bounces,
+            settings.beam_rad,
+            settings.max_path_m,
+        )
+    else:  # shoot's rays: the spiral over the beam, each of an equal share of it
+        dirs = cone_directions(settings.rays, axis, settings.beam_rad)
+        d_omega = 2 * np.pi * (1 - np.cos(settings.beam_rad)) / settings.rays
+        shot = emission.shot(
+            dirs,
+            d_omega,
+            bounces=settings.bounces,
+            max_path_m=settings.max_path_m,
+        )
     contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
     return RayWork(shot.sequences, contributions, shot.rays)
 
@@ -228,6 +250,33 @@ class Tracer:
             )
         # the traced poses (paths, rays shot), the least recently used dropped first
         self._traced = LruCache(256)
+        #: the rays of the emissions traced last (None: each trace shoots its own;
+        #: :meth:`share_emissions`)
+        self._emissions: LruCache | None = None
+
+    def share_emissions(self, size: int = 8) -> None:
+        """Shoot the rays of an emission once for every receiver traced from it (the
+        same emitter position and axis: a rig's call heard by several sonars), the
+        `size` emissions traced last kept (:mod:`.rays.emission`; the paths are
+        those of separate traces, byte for byte)."""
+        self._emissions = LruCache(size)
+
+    def _emission(self, emitter: np.ndarray, axis: np.ndarray) -> Emission | None:
+        """The shared rays of `emitter` (3,) along `axis` (3,), world frame (None: not
+        shared)."""
+        if self._emissions is None or self.world is None:
+            return None
+        key = (tuple(emitter.tolist()), tuple(axis.tolist()))
+        return self._emissions.get(
+            key,
+            lambda: Emission(
+                self.world,
+                self.caster,
+                emitter,
+                bounces=self.settings.bounces,
+                max_path_m=self.settings.max_path_m,
+            ),
+        )
 
     def _build_tables(self) -> None:
         """What every pose uses, built once here rather than by the first pose:
@@ -266,11 +315,12 @@ class Tracer:
         settings = self.settings
         if max_path_m is not None and max_path_m < settings.max_path_m:
             settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
+        shared = self._emission(emitter, pose.rotation[:, 0])
         return trace_pose(
             self.world,
             self.caster,
             settings,
-            emitter,
+            emitter if shared is None else shared,
             receiver,
             pose.rotation,
             self._points,
@@ -288,9 +338,11 @@ class Tracer:
         return self.traced(pose, array)[1]
 
     def forget(self) -> None:
-        """Empty the cache of traced poses (the next trace of any pose pays in full:
-        for timing)."""
+        """Empty the cache of traced poses and shared emissions (the next trace of any
+        pose pays in full: for timing)."""
         self._traced.clear()
+        if self._emissions is not None:
+            self._emissions.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
