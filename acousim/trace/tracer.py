@@ -124,6 +124,7 @@ def trace_pose(
                 floor_db=settings.energy_floor_db,
                 floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
                 pair_step_m=settings.diffraction_pair_step_m,
+                min_path_m=settings.min_path_m,
             )
             parts.append(edge_diffraction(geometry, caster, emitter, receiver, options))
     if work is not None and work.contributions is not None:
@@ -212,7 +213,11 @@ class PathTracer(Protocol):
     def trace(self, pose: Pose, array: Array | None = None) -> TracedPaths: ...
 
     def traced(
-        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None = None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]: ...
 
     def tracer_at(self, t_s: float) -> Tracer: ...
@@ -296,16 +301,32 @@ class Tracer:
         return self.traced(pose, array)[0]
 
     def traced(
-        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None = None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]:
         """:meth:`trace`'s paths and the rays it shot; `max_path_m`: only the paths up
         to that length (m; None: the scene's, twice its range), for a call heard
-        late in another sonar's window (:mod:`acousim.rig`)."""
-        key = _key(pose, array) if max_path_m is None else (_key(pose, array), max_path_m)
-        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m))
+        late in another sonar's window (:mod:`acousim.rig`); `min_path_m`: only the
+        paths at least that long to some microphone are asked for (m; a call
+        emitted before another sonar's window, which keeps those alone:
+        :func:`acousim.trace.paths.reaching`); the diffraction stage leaves out
+        edges and pairs of edges whose every path is shorter and that cannot be
+        the strongest echo (:meth:`DiffractionOptions.needed`): the paths that
+        reach are those of the full trace."""
+        key = _key(pose, array)
+        if max_path_m is not None or min_path_m is not None:
+            key = (key, max_path_m, min_path_m)
+        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m, min_path_m))
 
     def _trace_now(
-        self, pose: Pose, array: Array | None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]:
         array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
@@ -315,6 +336,9 @@ class Tracer:
         settings = self.settings
         if max_path_m is not None and max_path_m < settings.max_path_m:
             settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
+        if min_path_m is not None:  # to the centre: the microphones lie this near it
+            spread = np.linalg.norm(array.positions_m - array.positions_m.mean(axis=0), axis=1)
+            settings = dataclasses.replace(settings, min_path_m=float(min_path_m - spread.max()))
         shared = self._emission(emitter, pose.rotation[:, 0])
         return trace_pose(
             self.world,
