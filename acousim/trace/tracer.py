@@ -263,8 +263,8 @@ class Tracer:
         """Shoot the rays of an emission once for every receiver traced from it (the
         same emitter position and axis: a rig's call heard by several sonars), the
         `size` emissions traced last kept (:mod:`.rays.emission`; the paths are
-        those of separate traces, byte for byte)."""
-        self._emissions = LruCache(size)
+        those of separate traces, byte for byte); 0: each trace shoots its own."""
+        self._emissions = LruCache(size) if size > 0 else None
 
     def _emission(self, emitter: np.ndarray, axis: np.ndarray) -> Emission | None:
         """The shared rays of `emitter` (3,) along `axis` (3,), world frame (None: not
