@@ -3,7 +3,8 @@
 ``RigSimulator(scene).run()`` gives one recording per firing (:class:`RigRun`, in
 time order).  A measurement of sonar k records from its own emission for its window
 (its own call's maximum range).  The world is prepared once (one tracer shared by
-every pair of sonars); each pair (emitter j, microphones of k) is a
+every pair of sonars, which shoots a call's rays once for every sonar that traces
+it: :mod:`acousim.trace.rays.emission`); each pair (emitter j, microphones of k) is a
 :class:`~acousim.simulator.Simulator` whose array holds j's emitter and k's
 microphones in j's frame, so a call of j heard by k goes down the same stages as a
 sonar hearing itself (specular, diffuse, diffraction, the body's motion during the
