@@ -61,11 +61,14 @@ def _traced(tracer, pose, array, max_path_m=None):
     return paths, rays
 
 
-def test_shared_rays_give_each_sonar_the_paths_of_its_own_trace(monkeypatch):
+@pytest.mark.parametrize("rays", [None, 2500])
+def test_shared_rays_give_each_sonar_the_paths_of_its_own_trace(monkeypatch, rays):
     """A firing of the corridor rig heard by its own sonar and by two others (one
     within its window's budget, one in full): the traces with the rays shared are
-    those of separate tracers, path for path."""
+    those of separate tracers, path for path (the automatic budget, and a fixed
+    number of rays)."""
     scene = load_scene(find_scene("corridor_rig"))
+    scene = dataclasses.replace(scene, simulation=dataclasses.replace(scene.simulation, rays=rays))
     rig = RigSimulator(scene, threads=1)
     f = rig.measurements[41]
     j = f.sonar
@@ -84,7 +87,8 @@ def test_shared_rays_give_each_sonar_the_paths_of_its_own_trace(monkeypatch):
         a, rays_a = _traced(alone, f.pose, array, max_path)
         b, rays_b = _traced(shared, f.pose, array, max_path)
         assert rays_a == rays_b and len(a) == len(b) > 0
-        batches.append((rays_b // 1000).bit_length())  # 1000, 1000, 2000, 4000, ... rays
+        # the automatic budget: 1000, 1000, 2000, 4000, ... rays; a fixed one: one batch
+        batches.append(1 if rays else (rays_b // 1000).bit_length())
         for field in dataclasses.fields(a):
             assert np.array_equal(getattr(a, field.name), getattr(b, field.name)), field.name
     shared_one = [e for e in emissions if e.followed]
