@@ -3,7 +3,8 @@
 ``RigSimulator(scene).run()`` gives one recording per firing (:class:`RigRun`, in
 time order).  A measurement of sonar k records from its own emission for its window
 (its own call's maximum range).  The world is prepared once (one tracer shared by
-every pair of sonars); each pair (emitter j, microphones of k) is a
+every pair of sonars, which shoots a call's rays once for every sonar that traces
+it: :mod:`acousim.trace.rays.emission`); each pair (emitter j, microphones of k) is a
 :class:`~acousim.simulator.Simulator` whose array holds j's emitter and k's
 microphones in j's frame, so a call of j heard by k goes down the same stages as a
 sonar hearing itself (specular, diffuse, diffraction, the body's motion during the
@@ -39,6 +40,7 @@ from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
 from acousim.trace.lidar import scan
+from acousim.trace.tracer import Tracer
 from processing.base import interrupt
 from processing.base.errors import InputError
 
@@ -117,6 +119,9 @@ class RigSimulator:
         self.measurements = tuple(self.rig.measurements())
         first = self._pair_scene(0, 0)
         self.tracer = Simulator(first, threads).tracer
+        if self.rig.crosstalk and isinstance(self.tracer, Tracer):
+            # a call is traced for each sonar that hears it: its rays shot once
+            self.tracer.share_emissions()
         self._pairs: dict[tuple[int, int], Simulator] = {}
 
     def _pair_scene(self, j: int, k: int) -> Scene:

@@ -303,7 +303,7 @@ class Simulator:
         if self.in_motion(motion):
             return self._heard_moving(pose, motion, n_samples, max_path_m, min_path_m, seen)
         mics = pose.to_world(self.array.positions_m)
-        paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m)
+        paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m, min_path_m)
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         rows = None if min_path_m is None else reaching(paths, mics, min_path_m)
@@ -331,7 +331,7 @@ class Simulator:
         self, pose: Pose, motion, n_samples: int, max_path_m, min_path_m=None, seen=True
     ) -> Heard:
         """:meth:`heard` in motion."""
-        m = self._in_motion(pose, max_path_m)
+        m = self._in_motion(pose, max_path_m, min_path_m)
         sensor = self.scene.sensor
         mics = pose.to_world(self.array.positions_m)
         receiver = mics.mean(axis=0)
@@ -443,7 +443,7 @@ class Simulator:
         m = self._in_motion(pose)
         return m.moving, m.position_m, m.kinds, m.velocity_m_s
 
-    def _in_motion(self, pose: Pose, max_path_m: float | None = None) -> InMotion:
+    def _in_motion(self, pose: Pose, max_path_m=None, min_path_m=None) -> InMotion:
         return paths_in_motion(
             self.tracer,
             pose,
@@ -452,6 +452,7 @@ class Simulator:
             speed_of_sound_m_s=self.c,
             reach_m=2 * self.scene.simulation.max_range_m,
             max_path_m=max_path_m,
+            min_path_m=min_path_m,
         )
 
     def _record(self, prep: _Prepared, index: int, seed: int | None, joined=()) -> P.Recording:

@@ -34,7 +34,11 @@ class TraceSettings:
     :class:`~acousim.scene.model.Diffraction` settings, whole (stage 3);
     diffraction_pair_step_m : the element step of edge to edge: the edge-element
     step scaled to the call's highest frequency (the default step, 1 mm, is a
-    quarter wavelength at :data:`STEP_FREQUENCY_HZ`; a 25-50 kHz call takes 1.7 mm).
+    quarter wavelength at :data:`STEP_FREQUENCY_HZ`; a 25-50 kHz call takes 1.7 mm);
+    min_path_m : the paths shorter than this (m, at the array centre) are not asked
+    for (0: every path; a call heard late in another sonar's window,
+    :meth:`~acousim.trace.tracer.Tracer.traced`): the diffraction stage may leave
+    them out.
     """
 
     rays: int | None
@@ -47,6 +51,7 @@ class TraceSettings:
     diffraction: Diffraction
     diffraction_pair_step_m: float | None = None
     rays_max: int = 400_000
+    min_path_m: float = 0.0
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:

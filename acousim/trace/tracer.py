@@ -49,6 +49,7 @@ from acousim.trace.options import TraceSettings, resolution_length
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.rays.budget import RayWork, in_beam, ray_work
 from acousim.trace.rays.cluster import DIFFUSE_CELL_DEG, cluster
+from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.glints import curved_groups, glints
 from acousim.trace.rays.scatter import scatter
 from acousim.trace.rays.shoot import cone_directions, shoot
@@ -77,7 +78,7 @@ def trace_pose(
     world: World | None,
     caster: RayCaster | None,
     settings: TraceSettings,
-    emitter: np.ndarray,
+    emitter: np.ndarray | Emission,
     receiver: np.ndarray,
     rotation: np.ndarray,
     points: tuple[np.ndarray, np.ndarray] | None = None,
@@ -86,12 +87,14 @@ def trace_pose(
     """Every path of one pose (world frame), the stages 0 to 6 of the module docstring,
     and the number of rays it shot.
 
-    emitter, receiver (array centre): (3,) each; rotation (3, 3): the sensor's axes as
-    columns (x: its axis); points: positions (P, 3) and strengths (P,) of explicit
-    point reflectors; edges: the world's :class:`DiffractingGeometry` (built here, for
-    this pose only, when diffraction is on and none is given).
-    """
+    emitter, receiver (array centre): (3,) each (or the emitter's rays shared with
+    other receivers: an :class:`~.rays.emission.Emission`, the same paths);
+    rotation (3, 3): the sensor's axes as columns (x: its axis); points: positions
+    (P, 3) and strengths (P,) of explicit point reflectors; edges: the world's
+    :class:`DiffractingGeometry` (built here, for this pose only, when diffraction
+    is on and none is given)."""
     axis = rotation[:, 0]
+    emission, emitter = _emitter(emitter)
     parts = []
     # 0. no rays needed
     if settings.direct_path:
@@ -101,7 +104,7 @@ def trace_pose(
     work = None
     if world is not None and caster is not None and settings.rays != 0:
         # 1. shoot (and 4. scatter: the automatic budget watches the tail converge)
-        work = _ray_work(world, caster, settings, emitter, receiver, axis)
+        work = _ray_work(world, caster, settings, emitter, receiver, axis, emission)
         # 2. specular refinement
         specular = refine_sequences(
             world, caster, work.sequences, emitter, receiver, settings.max_path_m
@@ -121,6 +124,7 @@ def trace_pose(
                 floor_db=settings.energy_floor_db,
                 floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
                 pair_step_m=settings.diffraction_pair_step_m,
+                min_path_m=settings.min_path_m,
             )
             parts.append(edge_diffraction(geometry, caster, emitter, receiver, options))
     if work is not None and work.contributions is not None:
@@ -132,21 +136,40 @@ def trace_pose(
     return paths, 0 if work is None else work.rays
 
 
-def _ray_work(world, caster, settings, emitter, receiver, axis) -> RayWork:
+def _emitter(emitter) -> tuple[Emission | None, np.ndarray]:
+    """(the shared rays or None, the emitter's position (3,)) of trace_pose's
+    `emitter`."""
+    if isinstance(emitter, Emission):
+        return emitter, emitter.emitter
+    return None, emitter
+
+
+def _ray_work(world, caster, settings, emitter, receiver, axis, emission=None) -> RayWork:
     """Stages 1 and 4: the automatic budget (:mod:`.budget`) when ``settings.rays`` is
-    None, else exactly ``settings.rays`` rays on the deterministic spiral."""
+    None, else exactly ``settings.rays`` rays on the deterministic spiral (shot for
+    this trace, or taken from `emission`)."""
     if settings.rays is None:
-        return ray_work(world, caster, settings, emitter, receiver, axis)
-    shot = shoot(
-        world,
-        caster,
-        emitter,
-        axis,
-        settings.rays,
-        settings.bounces,
-        settings.beam_rad,
-        settings.max_path_m,
-    )
+        return ray_work(world, caster, settings, emitter, receiver, axis, emission=emission)
+    if emission is None:
+        shot = shoot(
+            world,
+            caster,
+            emitter,
+            axis,
+            settings.rays,
+            settings.bounces,
+            settings.beam_rad,
+            settings.max_path_m,
+        )
+    else:  # shoot's rays: the spiral over the beam, each of an equal share of it
+        dirs = cone_directions(settings.rays, axis, settings.beam_rad)
+        d_omega = 2 * np.pi * (1 - np.cos(settings.beam_rad)) / settings.rays
+        shot = emission.shot(
+            dirs,
+            d_omega,
+            bounces=settings.bounces,
+            max_path_m=settings.max_path_m,
+        )
     contributions = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
     return RayWork(shot.sequences, contributions, shot.rays)
 
@@ -190,7 +213,11 @@ class PathTracer(Protocol):
     def trace(self, pose: Pose, array: Array | None = None) -> TracedPaths: ...
 
     def traced(
-        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None = None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]: ...
 
     def tracer_at(self, t_s: float) -> Tracer: ...
@@ -228,6 +255,33 @@ class Tracer:
             )
         # the traced poses (paths, rays shot), the least recently used dropped first
         self._traced = LruCache(256)
+        #: the rays of the emissions traced last (None: each trace shoots its own;
+        #: :meth:`share_emissions`)
+        self._emissions: LruCache | None = None
+
+    def share_emissions(self, size: int = 8) -> None:
+        """Shoot the rays of an emission once for every receiver traced from it (the
+        same emitter position and axis: a rig's call heard by several sonars), the
+        `size` emissions traced last kept (:mod:`.rays.emission`; the paths are
+        those of separate traces, byte for byte); 0: each trace shoots its own."""
+        self._emissions = LruCache(size) if size > 0 else None
+
+    def _emission(self, emitter: np.ndarray, axis: np.ndarray) -> Emission | None:
+        """The shared rays of `emitter` (3,) along `axis` (3,), world frame (None: not
+        shared)."""
+        if self._emissions is None or self.world is None:
+            return None
+        key = (tuple(emitter.tolist()), tuple(axis.tolist()))
+        return self._emissions.get(
+            key,
+            lambda: Emission(
+                self.world,
+                self.caster,
+                emitter,
+                bounces=self.settings.bounces,
+                max_path_m=self.settings.max_path_m,
+            ),
+        )
 
     def _build_tables(self) -> None:
         """What every pose uses, built once here rather than by the first pose:
@@ -247,16 +301,32 @@ class Tracer:
         return self.traced(pose, array)[0]
 
     def traced(
-        self, pose: Pose, array: Array | None = None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None = None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]:
         """:meth:`trace`'s paths and the rays it shot; `max_path_m`: only the paths up
         to that length (m; None: the scene's, twice its range), for a call heard
-        late in another sonar's window (:mod:`acousim.rig`)."""
-        key = _key(pose, array) if max_path_m is None else (_key(pose, array), max_path_m)
-        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m))
+        late in another sonar's window (:mod:`acousim.rig`); `min_path_m`: only the
+        paths at least that long to some microphone are asked for (m; a call
+        emitted before another sonar's window, which keeps those alone:
+        :func:`acousim.trace.paths.reaching`); the diffraction stage leaves out
+        edges and pairs of edges whose every path is shorter and that cannot be
+        the strongest echo (:meth:`DiffractionOptions.needed`): the paths that
+        reach are those of the full trace."""
+        key = _key(pose, array)
+        if max_path_m is not None or min_path_m is not None:
+            key = (key, max_path_m, min_path_m)
+        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m, min_path_m))
 
     def _trace_now(
-        self, pose: Pose, array: Array | None, max_path_m: float | None = None
+        self,
+        pose: Pose,
+        array: Array | None,
+        max_path_m: float | None = None,
+        min_path_m: float | None = None,
     ) -> tuple[TracedPaths, int]:
         array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
@@ -266,11 +336,15 @@ class Tracer:
         settings = self.settings
         if max_path_m is not None and max_path_m < settings.max_path_m:
             settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
+        if min_path_m is not None:  # to the centre: the microphones lie this near it
+            spread = np.linalg.norm(array.positions_m - array.positions_m.mean(axis=0), axis=1)
+            settings = dataclasses.replace(settings, min_path_m=float(min_path_m - spread.max()))
+        shared = self._emission(emitter, pose.rotation[:, 0])
         return trace_pose(
             self.world,
             self.caster,
             settings,
-            emitter,
+            emitter if shared is None else shared,
             receiver,
             pose.rotation,
             self._points,
@@ -288,9 +362,11 @@ class Tracer:
         return self.traced(pose, array)[1]
 
     def forget(self) -> None:
-        """Empty the cache of traced poses (the next trace of any pose pays in full:
-        for timing)."""
+        """Empty the cache of traced poses and shared emissions (the next trace of any
+        pose pays in full: for timing)."""
         self._traced.clear()
+        if self._emissions is not None:
+            self._emissions.clear()
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""

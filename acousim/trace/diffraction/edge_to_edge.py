@@ -44,6 +44,7 @@ from acousim.trace.diffraction.pair_bound import (
     pair_bound,
     pair_estimate,
 )
+from acousim.trace.diffraction.pair_geometry import _farthest
 from acousim.trace.diffraction.pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from acousim.trace.diffraction.paths import DiffractedPaths, empty_paths
 from acousim.trace.diffraction.setup import StageContext
@@ -108,7 +109,10 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         max_path_m=opt.max_path_m,
         bin_m=opt.step_m * BIN,
     )
-    keep = np.flatnonzero(bound >= floor)
+    need = floor
+    if opt.min_path_m > 0:  # pairs whose paths are all too short: only if one could lead
+        need = opt.needed(floor, _farthest(rows, ctx.emitter, ctx.receiver))
+    keep = np.flatnonzero(bound >= need)
     if keep.size:
         # one set of rows from here on: their shortest paths found once (the
         # estimate, the coarse and the fine pass ask for them)

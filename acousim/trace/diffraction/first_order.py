@@ -157,7 +157,10 @@ def edges_in_view(
     if idx.size and ctx.options.floor_level > 0:
         # no element of these edges can reach the floor (which lies at or above
         # floor_level): they are left out before their rays and their elements
-        reach = edge_bound(ctx, wedge, idx, ctx.emitter, known) >= ctx.options.floor_level
+        need = ctx.options.floor_level
+        if ctx.options.min_path_m > 0:
+            need = ctx.options.needed(need, _longest(wedge, idx, ctx.emitter, ctx.receiver))
+        reach = edge_bound(ctx, wedge, idx, ctx.emitter, known) >= need
         idx, known = idx[reach], known.take(reach)
     if idx.size and ctx.caster is not None:
         from_e, from_r = probe_seen(ctx, (0, idx), (1, idx))
@@ -165,6 +168,16 @@ def edges_in_view(
         idx, known = idx[seen], known.take(seen)
     el, local, counts = wedge_elements(ctx, wedge, idx, ctx.emitter, known)
     return el, idx[local], counts
+
+
+def _longest(wedge: Edges, rows: np.ndarray, emitter: np.ndarray, receiver: np.ndarray):
+    """The longest path (R,) from `emitter` over a point of each edge `rows` of
+    `wedge` to `receiver` (m): at one of its ends (the length is convex along it)."""
+    out = np.zeros(rows.size)
+    for end in (wedge.start_m[rows], wedge.end_m[rows]):
+        way = np.linalg.norm(end - emitter, axis=1) + np.linalg.norm(end - receiver, axis=1)
+        out = np.maximum(out, way)
+    return out
 
 
 def edge_bound(

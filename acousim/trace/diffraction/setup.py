@@ -93,6 +93,11 @@ class DiffractionOptions:
     to edge (excess path length, m; None: the settings' step); its bins stay
     ``step_m / 4`` wide.  Order 2 adds edge to edge over the pairs of edges that share a
     plane whose closed-form bound reaches the floor (:mod:`acousim.trace.diffraction.pair_bound`).
+    min_path_m: the paths shorter than this (m, at the receiver) are not asked for
+    (the tracer drops them after the stage: a call heard late in another sonar's
+    window, :func:`acousim.trace.paths.reaching`); an edge or a pair of edges whose
+    every path is shorter is integrated only if its bound reaches the strongest
+    echo found before the stage (:meth:`needed`).
     """
 
     max_path_m: float
@@ -101,6 +106,20 @@ class DiffractionOptions:
     floor_level: float = 0.0
     select_pairs: bool = True
     pair_step_m: float | None = None
+    min_path_m: float = 0.0
+
+    def needed(self, floor: float, longest_m: np.ndarray) -> np.ndarray | float:
+        """The gain at the receiver (per item) that the bound of an edge or of a pair
+        of edges whose paths are at most `longest_m` long (m, (N,)) must reach for
+        it to be integrated: `floor`; where every path is shorter than
+        ``min_path_m``, also the strongest echo found before the stage (the
+        reference of ``floor_level``): its paths are dropped after the trace, and
+        one weaker than that echo changes neither the floors nor the strongest
+        echo (the trace's other paths are those of the stage run in full)."""
+        if self.min_path_m <= 0 or self.floor_level <= 0 or not np.isfinite(self.floor_db):
+            return floor
+        top = max(floor, self.floor_level / 10 ** (self.floor_db / 20))
+        return np.where(np.asarray(longest_m) < self.min_path_m, top, floor)
 
     @property
     def step_m(self) -> float:

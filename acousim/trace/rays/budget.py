@@ -54,8 +54,9 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from acousim.trace.options import TraceSettings
+from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.scatter import Contributions, scatter
-from acousim.trace.rays.shoot import follow
+from acousim.trace.rays.shoot import Shot, follow
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
@@ -241,12 +242,16 @@ def ray_work(
     emitter: np.ndarray,
     receiver: np.ndarray,
     axis: np.ndarray,
+    *,
+    emission: Emission | None = None,
 ) -> RayWork:
-    """The automatic budget of one pose (module docstring)."""
+    """The automatic budget of one pose (module docstring); `emission`: the rays of
+    this emitter and axis shot for other receivers (:mod:`.emission`; None: shot
+    here), the same batches whichever receiver asks first."""
     enumerate_all, tail = plan(world, settings)
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
-        return _probe(world, caster, settings, emitter, axis, every)
+        return _probe(world, caster, settings, emitter, axis, every, emission)
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     tried, sequences, glints, parts, met = set(), set(), set(), [], set()
     total, before = 0, None
@@ -255,9 +260,7 @@ def ray_work(
         if total + n > settings.rays_max:
             break
         dirs = batch_directions(n, axis, settings.beam_rad, batch)
-        shot = follow(
-            world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m
-        )
+        shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
         found = set()
         if enumerate_all:
             met |= set(shot.sequences)
@@ -291,7 +294,15 @@ def ray_work(
     return RayWork(sorted(sequences), contributions, total)
 
 
-def _probe(world, caster, settings, emitter, axis, every) -> RayWork:
+def _shot(world, caster, settings, emitter, dirs, d_omega, emission) -> Shot:
+    """The rays `dirs` followed (:func:`.shoot.follow`), or taken from `emission`
+    (shot once for every receiver, cut to this trace's budget)."""
+    if emission is None:
+        return follow(world, caster, emitter, dirs, d_omega, settings.bounces, settings.max_path_m)
+    return emission.shot(dirs, d_omega, bounces=settings.bounces, max_path_m=settings.max_path_m)
+
+
+def _probe(world, caster, settings, emitter, axis, every, emission=None) -> RayWork:
     """Enumerated sequences and nothing that scatters: no rays, unless the beam is
     narrower than the whole sphere; then one batch of :data:`START_RAYS` finds the
     sequences a ray in the beam meets (a wall along the axis, whose path leaves the
@@ -301,7 +312,7 @@ def _probe(world, caster, settings, emitter, axis, every) -> RayWork:
     n = min(START_RAYS, settings.rays_max)
     dirs = batch_directions(n, axis, settings.beam_rad, 0)
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
-    shot = follow(world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m)
+    shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
     return RayWork(every, None, n, frozenset(shot.sequences))
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 
-__all__ = ["Hits", "Shot", "cone_directions", "follow", "shoot"]
+__all__ = ["Hits", "Legs", "Shot", "cone_directions", "follow", "shoot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,12 +56,32 @@ class Hits:
 
 
 @dataclass(frozen=True, eq=False)
+class Legs:
+    """How each hit of a :class:`Shot` was reached, to cut the shot to a shorter path
+    budget exactly as if its rays had been followed with it
+    (:func:`acousim.trace.rays.emission.cut`).  K hits, R rays, B bounces."""
+
+    ray: np.ndarray
+    """(K,) int, the ray of each hit."""
+    before_m: np.ndarray
+    """(K,) path length from the emitter to the start of the hit's leg, m."""
+    leg_m: np.ndarray
+    """(K,) the leg's length as the caster returned it, m."""
+    planar: np.ndarray
+    """(K,) bool, the ray met planar faces only, this hit included."""
+    sequence: np.ndarray
+    """(R, B) int, the plane met by each ray at each bounce (-1: none)."""
+
+
+@dataclass(frozen=True, eq=False)
 class Shot:
-    """What the rays found: their hits and the candidate specular plane sequences."""
+    """What the rays found: their hits and the candidate specular plane sequences
+    (and, when asked of :func:`follow`, how each hit was reached)."""
 
     hits: Hits
     sequences: list[tuple[int, ...]]
     rays: int
+    legs: Legs | None = None
 
 
 @functools.lru_cache(maxsize=8)
@@ -113,9 +133,12 @@ def follow(
     d_omega: float,
     bounces: int,
     max_path_m: float,
+    *,
+    legs: bool = False,
 ) -> Shot:
     """Steps 2 to 4 for rays leaving the emitter in directions `dirs` (R, 3), unit,
-    each carrying the solid angle `d_omega` (sr) as power."""
+    each carrying the solid angle `d_omega` (sr) as power; `legs`: also how each
+    hit was reached (:class:`Legs`)."""
     rays = len(dirs)
     dirs = np.array(dirs, float)
     origin = np.broadcast_to(emitter, dirs.shape).copy()
@@ -131,6 +154,7 @@ def follow(
     history = np.zeros((rays, world.n_interactions), int)
     n_planes = world.n_planes
     records = []
+    reached = []  # (ray, length before the leg, leg, planar) per bounce, for Legs
     sequences: set[tuple[int, ...]] = set()
     for b in range(bounces):
         if alive.size == 0:
@@ -140,12 +164,14 @@ def follow(
         hit = f >= 0
         alive, t, f = alive[hit], t[hit], f[hit]
         x = origin[alive] + t[:, None] * dirs[alive]
+        before = length[alive]  # a copy: the lengths before this leg
         length[alive] += t
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
         rows = seq[alive[planar[alive]], : b + 1]
         sequences.update(_unique_rows(rows, n_planes))
+        reached.append((alive, before, t, planar[alive]))
         normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
         geo = (x, normal, mirror, power[alive], length[alive], departure[alive])
         records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
@@ -157,7 +183,17 @@ def follow(
         origin[alive] = x + caster.offset_m * normal
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
-    return Shot(_hits(records, history), sorted(sequences), rays)
+    return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _legs(reached: list, sequence: np.ndarray, wanted: bool) -> Legs | None:
+    """The :class:`Legs` of the hits `reached` (per bounce: rays, lengths before the
+    leg, legs, planar so far) and the rays' plane `sequence` (None: not `wanted`)."""
+    if not wanted:
+        return None
+    if not reached:
+        return Legs(np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, bool), sequence)
+    return Legs(*(np.concatenate(v) for v in zip(*reached)), sequence)
 
 
 def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:

@@ -65,6 +65,8 @@ def refine_sequences(
         ok = np.ones(S, bool)
         if max_path_m is not None:
             ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
+            if not ok.all():  # those out of reach take no further work (order kept)
+                ids, images, ok = ids[ok], images[ok], ok[ok]
         points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
         i, j = np.array(edges, int).reshape(-1, 2).T
