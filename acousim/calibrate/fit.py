@@ -77,6 +77,11 @@ def group_factor_derivatives(counts: np.ndarray, q: np.ndarray, dq: np.ndarray) 
     return out
 
 
+#: how far (natural log of energy: 100 dB) a fitted noise variance may go under
+#: the quietest bin's
+NOISE_BELOW_QUIETEST = np.log(1e10)
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """Everything a fit evaluates: the parameters, the feature space, and per pose
@@ -108,9 +113,19 @@ class Problem:
         return np.concatenate([theta, noise, [0.0] if self.fit_level else []])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of x: the materials' (:meth:`.ParameterSet.bounds`); each log noise
+        variance between :data:`NOISE_BELOW_QUIETEST` under the quietest bin's (there
+        noise changes no bin: a noise-free recording) and the loudest bin's (the
+        exponential stays finite however the solver steps); the level free."""
         lo, hi = self.parameters.bounds()
-        k = len(self.groups) + int(self.fit_level)
-        return np.concatenate([lo, np.full(k, -np.inf)]), np.concatenate([hi, np.full(k, np.inf)])
+        ratios = [m / self.space.noise_unit[:, None, :] for m in self.measured]
+        n_lo = [np.log(r.min()) - NOISE_BELOW_QUIETEST for r in ratios]
+        n_hi = [np.log(r.max()) for r in ratios]
+        level = [-np.inf] if self.fit_level else []
+        return (
+            np.concatenate([lo, n_lo, level]),
+            np.concatenate([hi, n_hi, np.negative(level)]),
+        )
 
     def model(self, x: np.ndarray, jacobian: bool = False):
         """Model energies per pose (B, D, R) and, with `jacobian`, d log E / dx per
