@@ -11,7 +11,9 @@ N_br the noise energy a unit variance leaves in that bin, :class:`.FeatureSpace`
 The residual is ``log E - log E_measured``: a bin 3 dB off counts the same at every
 range, whether the echo is loud or the tail is faint.  Its derivatives:
 
-``dE/dw_Gb = 2 L Re sum_t conj(y_bd(t)) z_Gbd(t)``, ``dw_Gb/dtheta = w_Gb dlog w_Gb/dtheta``
+``dE/dw_Gb = 2 L Re sum_t conj(y_bd(t)) z_Gbd(t)``, ``dw_Gb/dtheta`` from the gains'
+derivatives (:func:`group_factor_derivatives`: products, not logs, since a perfectly
+specular material's diffuse gain is 0)
 
 and ``dlog E / dlog s_p = s_p N / E``, ``dlog E / dlog L = 1 - s_p N / E``.  Every
 evaluation costs one weighted sum of the stored envelopes per pose (and one
@@ -29,7 +31,14 @@ from acousim.calibrate.features import FeatureSpace
 from acousim.calibrate.groups import PoseGroups
 from acousim.calibrate.parameters import ParameterSet
 
-__all__ = ["Problem", "Solution", "solve", "robust_cost"]
+__all__ = [
+    "Problem",
+    "Solution",
+    "solve",
+    "robust_cost",
+    "group_factors",
+    "group_factor_derivatives",
+]
 
 
 def robust_cost(r: np.ndarray, loss: str, scale: float) -> float:
@@ -44,6 +53,33 @@ def robust_cost(r: np.ndarray, loss: str, scale: float) -> float:
         "arctan": lambda: np.arctan(z),
     }[loss]()
     return float(0.5 * scale**2 * np.sum(rho))
+
+
+def group_factors(counts: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``w_Gb = prod_c q_bc^n_Gc``: (G, B) from counts n (G, C) and gain ratios q
+    (B, C) (a ratio of 0 raised to a count of 0 is 1: a perfectly specular material
+    silences only the groups that met it diffusely)."""
+    return np.prod(q[None] ** counts[:, None, :], axis=-1)
+
+
+def group_factor_derivatives(counts: np.ndarray, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+    """``dw_Gb / dtheta_p`` (G, B, P) from counts (G, C), ratios q (B, C) and their
+    derivatives dq (B, C, P): ``sum_c n_c q_c^(n_c - 1) dq_c prod_(c' != c) q_c'^n_c'``
+    (finite where a ratio is 0)."""
+    n = counts[:, None, :]  # (G, 1, C)
+    powers = q[None] ** n  # (G, B, C)
+    out = np.zeros((counts.shape[0], q.shape[0], dq.shape[-1]))
+    for c in range(q.shape[1]):
+        nc = n[..., c]
+        lead = np.where(nc > 0, nc * q[None, :, c] ** np.maximum(nc - 1, 0), 0.0)
+        rest = np.prod(np.delete(powers, c, axis=-1), axis=-1)
+        out += (lead * rest)[..., None] * dq[None, :, c, :]
+    return out
+
+
+#: how far (natural log of energy: 100 dB) a fitted noise variance may go under
+#: the quietest bin's
+NOISE_BELOW_QUIETEST = np.log(1e10)
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,23 +113,34 @@ class Problem:
         return np.concatenate([theta, noise, [0.0] if self.fit_level else []])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of x: the materials' (:meth:`.ParameterSet.bounds`); each log noise
+        variance between :data:`NOISE_BELOW_QUIETEST` under the quietest bin's (there
+        noise changes no bin: a noise-free recording) and the loudest bin's (the
+        exponential stays finite however the solver steps); the level free."""
         lo, hi = self.parameters.bounds()
-        k = len(self.groups) + int(self.fit_level)
-        return np.concatenate([lo, np.full(k, -np.inf)]), np.concatenate([hi, np.full(k, np.inf)])
+        ratios = [m / self.space.noise_unit[:, None, :] for m in self.measured]
+        n_lo = [np.log(r.min()) - NOISE_BELOW_QUIETEST for r in ratios]
+        n_hi = [np.log(r.max()) for r in ratios]
+        level = [-np.inf] if self.fit_level else []
+        return (
+            np.concatenate([lo, n_lo, level]),
+            np.concatenate([hi, n_hi, np.negative(level)]),
+        )
 
     def model(self, x: np.ndarray, jacobian: bool = False):
         """Model energies per pose (B, D, R) and, with `jacobian`, d log E / dx per
         pose (B, D, R, len(x))."""
         theta, log_noise, log_level = self.unpack(x)
-        logs, grad = self.parameters.log_gains(theta)  # (B, C), (B, C, P)
-        logs = logs - self.log_reference
+        gains, grad = self.parameters.gains(theta)  # (B, C), (B, C, P)
+        ref = np.exp(self.log_reference)
+        q, dq = gains / ref, grad / ref[:, None]
         level = np.exp(log_level)
         energies, jacs = [], []
         unit = self.space.noise_unit
         for p, g in enumerate(self.groups):
-            logw = np.einsum("gc,bc->gb", g.counts, logs)  # (G, B)
-            w = np.exp(logw).astype(np.complex64)
-            y = np.einsum("gb,gbdt->bdt", w, g.envelopes) + g.direct_envelopes
+            w = group_factors(g.counts, q)  # (G, B)
+            y = np.einsum("gb,gbdt->bdt", w.astype(np.complex64), g.envelopes)
+            y += g.direct_envelopes
             echo = self.space.energies(y)
             noise = np.exp(log_noise[p]) * unit[:, None, :]
             E = level * echo + noise
@@ -103,8 +150,7 @@ class Problem:
             J = np.zeros((*E.shape, x.size))
             # dE/dw (G, B, D, R), then through w to the material parameters
             dEdw = 2 * self.space.bin_sums(np.real(np.conj(y)[None] * g.envelopes))
-            dlogw = np.einsum("gc,bcp->gbp", g.counts, grad)  # (G, B, P)
-            dw = np.exp(logw)[..., None] * dlogw
+            dw = group_factor_derivatives(g.counts, q, dq)  # (G, B, P)
             J[..., : theta.size] = level * np.einsum("gbdr,gbp->bdrp", dEdw, dw) / E[..., None]
             J[..., theta.size + p] = noise / E
             if self.fit_level:
@@ -124,9 +170,11 @@ class Problem:
 
 @dataclass(frozen=True, eq=False)
 class Solution:
-    """x : the fitted vector; sigma : its one-sigma uncertainties (from the robust
-    Gauss-Newton Hessian at the solution, scaled by the residuals' spread; bins are
-    treated as independent, which beams that overlap are not: a lower bound);
+    """x : the fitted vector (diffuse fractions as amplitudes ``sqrt(d)``,
+    :meth:`.ParameterSet.public` turns them into fractions); sigma : its one-sigma
+    uncertainties of x (from the robust Gauss-Newton Hessian at the solution, scaled
+    by the residuals' spread; bins are treated as independent, which beams that
+    overlap are not: a lower bound);
     start : the start; evaluations; cost_start, cost : the robust costs; status :
     the solver's message."""
 

@@ -24,7 +24,7 @@ import numpy as np
 
 import processing as P
 from acousim.calibrate.features import FeatureSpace
-from acousim.calibrate.fit import Problem, Solution, solve
+from acousim.calibrate.fit import Problem, Solution, group_factors, solve
 from acousim.calibrate.groups import GroupModel
 from acousim.calibrate.options import CalibrationSettings
 from acousim.calibrate.parameters import MaterialFit, ParameterSet
@@ -191,12 +191,13 @@ def _observe(model: GroupModel, params, space, recs, poses, align: bool, progres
     """Per recording: its pose's path groups, its measured energies (aligned on the
     start model) and the lag applied; `progress(done, total)` after each."""
     groups, measured, lags = [], [], []
-    logs0 = params.log_gains(params.start())[0] - model.log_reference
+    q0 = params.gains(params.start())[0] / np.exp(model.log_reference)  # (B, C)
     for k, (rec, pose) in enumerate(zip(recs, poses)):
         g = model.pose(pose, rec, space, keep_signals=align)
         start = 0.0
-        if align:  # the start model at the bands' mean gain
-            w0 = np.exp(g.counts @ logs0.mean(axis=0))
+        if align:  # the start model at the bands' (geometric) mean gain
+            with np.errstate(divide="ignore"):
+                w0 = np.exp(np.log(group_factors(g.counts, q0)).mean(axis=1))
             start = np.einsum("g,gmt->mt", w0, g.signals)
             g = dataclasses.replace(g, signals=None)
         E, lag = _measured(rec, g.direct, start, space, align)
@@ -284,14 +285,16 @@ def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float)
     params = problem.parameters
     P_ = problem.n_materials
     names = params.names
+    start, _ = params.public(sol.start[:P_], np.zeros(P_))
+    value, sigma = params.public(sol.x[:P_], sol.sigma[:P_])
     fitted = tuple(
         FittedParameter(n, float(a), float(b), float(s))
-        for n, a, b, s in zip(names, sol.start[:P_], sol.x[:P_], sol.sigma[:P_])
+        for n, a, b, s in zip(names, start, value, sigma)
     )
     materials, sigmas = {}, {}
     values = params.values(sol.x[:P_])
     sig = [[np.zeros(m.n_points), np.zeros(m.n_points)] for m in params.materials]
-    for s, (j, k, i) in zip(sol.sigma[:P_], params.layout()):
+    for s, (j, k, i) in zip(sigma, params.layout()):
         sig[j][0 if k == "reflection" else 1][i] = s
     for m, (R, d), (sR, sd) in zip(params.materials, values, sig):
         base = scene.materials[m.name]
