@@ -305,8 +305,8 @@ def test_a_bundled_scenes_repeated_measurements_fit_into_a_file_anywhere(tmp_pat
     sensor or its emulator records them): fitted from the bundled scene as it is
     (every recording at its one pose, no --poses needed), the fitted scene written
     to another folder loads there (its mesh found through a path from that folder)
-    and holds the fitted reflection of the material the file left implicit (a
-    ``default`` block added)."""
+    and holds the fitted reflection, 0.6 as simulated, of the material the file left
+    implicit (a ``default`` block added)."""
     from acousim.bundled import find_scene
     from acousim.cli import main
     from acousim.simulator import Simulator
@@ -328,6 +328,7 @@ def test_a_bundled_scenes_repeated_measurements_fit_into_a_file_anywhere(tmp_pat
     said = capsys.readouterr().out
     (line,) = [x for x in said.splitlines() if x.startswith("default.reflection")]
     fitted_value = float(line.split()[2])
+    assert fitted_value == pytest.approx(0.6, abs=0.03)  # the wall's, as simulated
     fitted = load_scene(out)
     assert fitted.meshes[0].material.reflection == pytest.approx(fitted_value, abs=1e-3)
     assert Path(fitted.meshes[0].mesh).samefile(mesh.mesh)  # the bundled mesh file
