@@ -137,7 +137,9 @@ def test_every_public_callable_refuses_an_unknown_keyword():
         try:
             fn(zzz_no_such_keyword=1)
         except P.KeywordError as exc:
-            assert "unknown key 'zzz_no_such_keyword'" in str(exc) and "(allowed: " in str(exc)
+            said = str(exc)  # the allowed keys, or that there are none
+            assert "unknown key 'zzz_no_such_keyword'" in said
+            assert "(allowed: " in said or "(it takes none)" in said
         except Exception:
             missed.append(where)
         else:
