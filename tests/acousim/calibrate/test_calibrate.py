@@ -47,14 +47,21 @@ def corridor(tmp_path_factory):
 
 
 def test_materials_recovered_from_five_noisy_poses(corridor):
+    """The plaster (every echo) is pinned; the cabinet is not: from these poses it
+    returns no specular echo (only its diffuse tail, 30-41 dB under each pose's echo
+    energy, and its edges' diffraction), so its reflection is known to its sigma and
+    its diffuse fraction (0.05, under the 30 dB noise) not at all.  Measured over
+    truth seeds 1-4, diffraction on and off: plaster within 0.009 / 0.007, metal
+    reflection within 0.083 (0.046 here), metal diffuse 0 or 0.045."""
     tmp, recs = corridor
     start = load_scene(tmp / "start.toml")
     cal = calibrate(start, recs, POSES)
     got = cal.materials
-    assert abs(got["plaster"].reflection - PLASTER[0]) < 0.05
-    assert abs(got["plaster"].diffuse - PLASTER[1]) < 0.10
+    assert abs(got["plaster"].reflection - PLASTER[0]) < 0.015
+    assert abs(got["plaster"].diffuse - PLASTER[1]) < 0.015
     assert abs(got["metal"].reflection - METAL[0]) < 0.05
-    assert abs(got["metal"].diffuse - METAL[1]) < 0.10
+    assert abs(got["metal"].reflection - METAL[0]) < 3 * cal.material_sigma["metal"][0]
+    assert 0.0 <= got["metal"].diffuse < 0.10  # not identifiable from these poses
     assert cal.rms_db_after < cal.rms_db_before
     # the report: every parameter, the residual per range bin
     assert [p.name for p in cal.parameters] == [
