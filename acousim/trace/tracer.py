@@ -215,9 +215,9 @@ class PathTracer(Protocol):
     def traced(
         self,
         pose: Pose,
-        array: Array | None = None,
-        max_path_m: float | None = None,
-        min_path_m: float | None = None,
+        array: Array | None = ...,
+        max_path_m: float | None = ...,
+        min_path_m: float | None = ...,
     ) -> tuple[TracedPaths, int]: ...
 
     def tracer_at(self, t_s: float) -> Tracer: ...
