@@ -21,7 +21,8 @@ def cell_classes(
     range_ptr, range_path, range_val, angle_ptr, angle_dir, angle_val, cls, n_classes, total, top
 ):  # pragma: no cover - compiled
     """Fill `total` (R, G) with each cell's energy summed over classes in class order
-    and `top` (R, G) int64 with its strongest class (-1: none with energy).
+    and `top` (R, G) integers with its strongest class (-1: none with energy), every
+    cell written (they may come uninitialised).
 
     range_ptr (R + 1,), range_path, range_val : the range kernel by bin (CSC of the
     paths' (P, R) kernel, paths in order within a bin); angle_ptr (P + 1,),
@@ -34,6 +35,8 @@ def cell_classes(
     class_hit = np.zeros(n_classes, np.bool_)
     classes = np.empty(n_classes, np.int64)
     for r in range(R):
+        total[r, :] = 0.0  # the cells no path reaches (each row first touched here)
+        top[r, :] = -1
         n_touched = 0
         n_classes_hit = 0
         for j in range(range_ptr[r], range_ptr[r + 1]):
@@ -71,6 +74,33 @@ def cell_classes(
                 acc[c, g] = 0.0
             total[r, g] = s
             top[r, g] = win
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def pick_labels(
+    total, top, class_object, class_order, floor_ratio, out_object, out_order
+):  # pragma: no cover - compiled
+    """The labels of :func:`cell_classes`' cells: where a class wins (`top` >= 0) and
+    the cell's `total` is at least `floor_ratio` times the largest total, that
+    class's object and order (`class_object`, `class_order` (C,)), else -1; written
+    to every cell of `out_object` and `out_order` (R, G).  As numpy's ``top >= 0 &
+    total >= total.max() * floor_ratio``."""
+    R, G = total.shape
+    most = 0.0
+    for r in range(R):
+        for g in range(G):
+            if total[r, g] > most:
+                most = total[r, g]
+    floor = most * floor_ratio
+    for r in range(R):
+        for g in range(G):
+            c = top[r, g]
+            if c >= 0 and total[r, g] >= floor:
+                out_object[r, g] = class_object[c]
+                out_order[r, g] = class_order[c]
+            else:
+                out_object[r, g] = -1
+                out_order[r, g] = -1
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
