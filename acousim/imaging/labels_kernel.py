@@ -30,15 +30,13 @@ def cell_classes(
     path's class in 0..n_classes-1."""
     R, G = total.shape
     acc = np.zeros((n_classes, G))
-    hit = np.zeros(G, np.bool_)
-    touched = np.empty(G, np.int64)
     class_hit = np.zeros(n_classes, np.bool_)
     classes = np.empty(n_classes, np.int64)
     for r in range(R):
         total[r, :] = 0.0  # the cells no path reaches (each row first touched here)
         top[r, :] = -1
-        n_touched = 0
         n_classes_hit = 0
+        lo, hi = G, -1  # the directions the bin's paths reach lie within lo..hi
         for j in range(range_ptr[r], range_ptr[r + 1]):
             p = range_path[j]
             v = range_val[j]
@@ -47,20 +45,18 @@ def cell_classes(
                 class_hit[c] = True
                 classes[n_classes_hit] = c
                 n_classes_hit += 1
-            for k in range(angle_ptr[p], angle_ptr[p + 1]):
-                g = angle_dir[k]
-                acc[c, g] += v * angle_val[k]
-                if not hit[g]:
-                    hit[g] = True
-                    touched[n_touched] = g
-                    n_touched += 1
-        # the classes of this bin in class order (the others add zeros)
+            start, end = angle_ptr[p], angle_ptr[p + 1]
+            if end > start:  # a path's directions come in order
+                lo = min(lo, angle_dir[start])
+                hi = max(hi, angle_dir[end - 1])
+            for k in range(start, end):
+                acc[c, angle_dir[k]] += v * angle_val[k]
+        # the classes of this bin in class order (the others add zeros); a direction
+        # no path reached sums to 0 with no class: as the row was filled
         order = np.sort(classes[:n_classes_hit])
         for i in range(n_classes_hit):
             class_hit[order[i]] = False
-        for i in range(n_touched):
-            g = touched[i]
-            hit[g] = False
+        for g in range(lo, hi + 1):
             s = 0.0
             best = 0.0
             win = -1
