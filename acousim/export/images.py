@@ -373,7 +373,6 @@ def _packed_chunks(values: np.ndarray, bins: int) -> list[tuple[tuple[int, ...],
     shuffle and gzip filters store it (:func:`_shuffle_deflate`; the last chunk's rows
     past R hold zeros, never read): (chunk offset, bytes) in order, compressed in
     :data:`GZIP_THREADS` threads."""
-    from concurrent.futures import ThreadPoolExecutor
 
     def packed(start: int) -> bytes:
         block = np.zeros((bins, *values.shape[1:]), values.dtype)
@@ -381,9 +380,8 @@ def _packed_chunks(values: np.ndarray, bins: int) -> list[tuple[tuple[int, ...],
         block[: len(part)] = part
         return _shuffle_deflate(block)
 
-    starts = range(0, values.shape[0], bins)
-    with ThreadPoolExecutor(GZIP_THREADS) as pool:
-        return [((s, 0, 0), raw) for s, raw in zip(starts, pool.map(packed, starts))]
+    starts = list(range(0, values.shape[0], bins))
+    return [((s, 0, 0), raw) for s, raw in zip(starts, _in_threads(packed, starts))]
 
 
 def _write_provenance(g, prov) -> None:
@@ -453,7 +451,6 @@ def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
     :data:`GZIP_THREADS` threads and written as it is; the bins not kept hold NaN
     (the fill value), the chunks without a kept bin are not stored (read back as
     NaN).  The values read back are those of writing `level` by slices."""
-    from concurrent.futures import ThreadPoolExecutor
 
     bins = d.chunks[0]
 
@@ -463,10 +460,22 @@ def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
         block[k[here] - c * bins] = level[here]
         return _shuffle_deflate(block)
 
-    chunks = np.unique(k // bins)
-    with ThreadPoolExecutor(GZIP_THREADS) as pool:
-        for c, raw in zip(chunks, pool.map(packed, chunks)):
-            d.id.write_direct_chunk((int(c) * bins, 0, 0), raw, 0)
+    chunks = list(np.unique(k // bins))
+    for c, raw in zip(chunks, _in_threads(packed, chunks)):
+        d.id.write_direct_chunk((int(c) * bins, 0, 0), raw, 0)
+
+
+def _in_threads(work: Callable, items: list) -> list:
+    """``[work(x) for x in items]``, the items split into :data:`GZIP_THREADS` runs
+    made in as many threads (one task each: a task per chunk costs more in the
+    pool's bookkeeping than compressing it)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    n = max(1, min(GZIP_THREADS, len(items)))
+    cut = np.linspace(0, len(items), n + 1).astype(int)
+    runs = [items[a:b] for a, b in zip(cut[:-1], cut[1:])]
+    with ThreadPoolExecutor(n) as pool:
+        return [out for run in pool.map(lambda r: [work(x) for x in r], runs) for out in run]
 
 
 def _shuffle_deflate(block: np.ndarray) -> bytes:
