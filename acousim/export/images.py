@@ -114,14 +114,16 @@ class Given:
     """What a caller of :func:`write_image_data` may hand it besides the images (each
     None: made there, or no progress reported).
 
-    tables : the images' peak tables (:func:`peak_tables`, with the same threshold).
+    tables : the images' peak tables (:func:`peak_tables`, with the same threshold),
+        taken one recording at a time as its group is written (an iterator may make
+        each when asked).
     labels : each recording's label maps (:func:`label_maps`, with the same dynamic
         range), taken one recording at a time as its group is written (an iterator
         fed by another process may still be making the later ones).
     progress : called ``(done, total)`` after each recording's group is written.
     """
 
-    tables: Sequence[Mapping[str, P.PeakTable]] | None = None
+    tables: Iterable[Mapping[str, P.PeakTable]] | None = None
     labels: Iterable[Mapping[Resolution, LabelMap]] | None = None
     progress: Callable[[int, int], None] | None = None
 
