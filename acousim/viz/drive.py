@@ -5,9 +5,9 @@ Laying out and drawing a matplotlib figure (ticks, colour bar, legend, constrain
 layout) costs most of a frame; only the two pictures, the fan's marks and the title
 change between frames.  So the figure is drawn once without them (its background
 kept), and each frame restores that background, writes the two pictures straight
-into the canvas' pixels (nearest pixel, through maps computed once; the fan's
-colours from its colour map and a polar-to-pixel mapping also computed once,
-:func:`acousim.viz.fan.fan_raster`) and draws only the marks and the title
+into the canvas' pixels (nearest pixel, through maps computed once: for the fan,
+each canvas pixel's polar cell, and per frame only each cell's colour from the colour
+map, :func:`acousim.viz.fan.fan_levels`) and draws only the marks and the title
 (matplotlib's blitting).
 
 The GIF's frames share one palette (:func:`gif_palette`), made once, instead of one
@@ -28,7 +28,7 @@ from acousim.viz.fan import (
 )
 from processing import Image
 
-__all__ = ["DriveFigure", "fan_canvas_index", "gif_palette", "write_gif"]
+__all__ = ["DriveFigure", "gif_palette", "write_gif"]
 
 #: colours of the GIF's palette taken as they are (the most frequent: background,
 #: text, legend, flat faces); the rest of its 256 from an octree of the other pixels
@@ -124,12 +124,12 @@ class DriveFigure:
 
     def _fan_index(self, levels: FanLevels) -> np.ndarray:
         """Per canvas pixel of the fan's box, its index into ``levels.colours()``
-        (:func:`fan_canvas_index`), made once for the drive's cells (every frame's,
+        (:func:`_fan_canvas_index`), made once for the drive's cells (every frame's,
         unless the range axis changes)."""
         key = (levels.r_edges.tobytes(), levels.a_edges.tobytes(), levels.db.size)
         if self._fan_key != key:
             self._fan_key = key
-            self._fan_table_index = fan_canvas_index(levels, self.fan_paste)
+            self._fan_table_index = _fan_canvas_index(levels, self.fan_paste)
         return self._fan_table_index
 
     def close(self) -> None:
@@ -171,7 +171,7 @@ class _Paste:
         box[..., 3] = 255
 
 
-def fan_canvas_index(levels: FanLevels, paste: _Paste) -> np.ndarray:
+def _fan_canvas_index(levels: FanLevels, paste: _Paste) -> np.ndarray:
     """Per canvas pixel of the fan's box (`paste`), the index into
     :meth:`acousim.viz.fan.FanLevels.colours` of what it shows: the polar cell under
     the centre of the raster pixel it takes (:func:`acousim.viz.fan.fan_raster`'s
