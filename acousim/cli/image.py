@@ -259,9 +259,11 @@ def _write_all(args, out, recs, images, index, options, shown=None, made=()) -> 
 
 def _data_steps(h5, csv, recs, images, index, options, made=()):
     """Write images.h5 to `h5` and peaks.csv to `csv` (paths), the peak tables made
-    once for both; `made`: the (label maps, peak tables) of the first recordings,
-    made while imaging (:func:`_beside_imaging`); yields ``(done, total)`` as
-    images.h5's recordings are written."""
+    once for both, each when its recording's turn comes (the label maps made one
+    ahead, in a thread); `made`: the (label maps, peak tables) of the first
+    recordings, made while imaging (:func:`_beside_imaging`); yields ``(done,
+    total)`` as images.h5's recordings are written."""
+    import itertools
     from pathlib import Path
 
     from acousim.export.images import (
@@ -273,9 +275,16 @@ def _data_steps(h5, csv, recs, images, index, options, made=()):
     )
 
     threshold, k = options.peak_threshold_db, len(made)
-    tables = [t for _, t in made] + peak_tables(recs[k:], images[k:], index[k:], threshold)
+    tables: list = []  # each recording's, kept for peaks.csv as its group is written
+
+    def each_table():  # those made while imaging, then each made when its turn comes
+        for rec, imgs, i in zip(recs[k:], images[k:], index[k:]):
+            tables.append(peak_tables([rec], [imgs], [i], threshold)[0])
+            yield tables[-1]
+
+    tables += [t for _, t in made]
     labels = label_maps_ahead(recs, images, options.dynamic_range_db, [m for m, _ in made])
-    given = Given(tables=tables, labels=labels)
+    given = Given(tables=itertools.chain(list(tables), each_table()), labels=labels)
     kw = {"dynamic_range_db": options.dynamic_range_db, "peak_threshold_db": threshold}
     yield from image_data_steps(h5, recs, images, index, given=given, **kw)
     Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")

@@ -5,8 +5,9 @@ recordings are already HDF5 and h5py is already a dependency, so nothing new is
 installed; dimension scales attach the axes (with units) to every image, which
 h5py, MATLAB's ``h5read``/``h5info`` and HDFView show, and xarray opens each group
 as a netCDF-4 dataset through h5netcdf (tested). The images are compressed with
-gzip (level 1: every HDF5 tool reads it; ``compression="lzf"`` writes faster, for
-h5py, h5netcdf and xarray alone).
+gzip (shuffle and deflate at level 1: every HDF5 tool reads it; the deflate streams
+made by ISA-L when the ``isal`` package is installed, :func:`deflate`;
+``compression="lzf"``, for h5py, h5netcdf and xarray alone).
 
 Layout of ``images.h5`` (one group per imaged recording; see docs/export.md)::
 
@@ -96,11 +97,16 @@ def regular_range_axis(images: Sequence[P.Image]) -> np.ndarray:
     return lo + step * np.arange(int(np.rint((hi - lo) / step)) + 1)
 
 
-#: images.h5's gzip level (1-9) when ``compression="gzip"`` is asked
+#: images.h5's gzip level (1-9) when ``compression="gzip"`` is asked: the level its
+#: datasets' filter records, and zlib's when ISA-L is not installed (:func:`deflate`)
 GZIP_LEVEL = 1
 #: range bins per chunk of an image (each chunk: this many whole elevation-azimuth
 #: planes); the gated bins' chunks are never written (read back as NaN, the fill value)
 CHUNK_BINS = 4
+#: range bins per chunk of a label map (gzip: every chunk stored, each of whole planes)
+LABEL_CHUNK_BINS = 16
+#: ISA-L's deflate level (0-3) when the ``isal`` package is there (:func:`deflate`)
+ISAL_LEVEL = 1
 
 
 @dataclass(frozen=True)
@@ -108,14 +114,16 @@ class Given:
     """What a caller of :func:`write_image_data` may hand it besides the images (each
     None: made there, or no progress reported).
 
-    tables : the images' peak tables (:func:`peak_tables`, with the same threshold).
+    tables : the images' peak tables (:func:`peak_tables`, with the same threshold),
+        taken one recording at a time as its group is written (an iterator may make
+        each when asked).
     labels : each recording's label maps (:func:`label_maps`, with the same dynamic
         range), taken one recording at a time as its group is written (an iterator
         fed by another process may still be making the later ones).
     progress : called ``(done, total)`` after each recording's group is written.
     """
 
-    tables: Sequence[Mapping[str, P.PeakTable]] | None = None
+    tables: Iterable[Mapping[str, P.PeakTable]] | None = None
     labels: Iterable[Mapping[Resolution, LabelMap]] | None = None
     progress: Callable[[int, int], None] | None = None
 
@@ -322,8 +330,8 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
     """The image's truth labels (:mod:`acousim.imaging.labels`) beside it: ``<method>_object``
     (int16 index into the group's ``object_names``, -1 none) and ``<method>_order``
     (int8 reflections, -1 none), of the image's shape; `made` holds those made for
-    the recording's other images, by resolution, with the datasets written of them
-    (whose compressed chunks the other methods' take)."""
+    the recording's other images, by resolution, with their compressed chunks (with
+    gzip: made once, written as they are for every method of that resolution)."""
 
     method, img = image
     if rec.truth is None or not axis.size:
@@ -331,23 +339,27 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
     res = image_resolution(rec, img, P.ProcessingSettings.window)
     if res not in made:
         made[res] = (recording_label_map(rec, img, res, dynamic_range_db, range_m=axis), {})
-    labels, written = made[res]
+    labels, packed = made[res]
     for suffix, data, dtype, what in (
         ("object", labels.object_index, np.int16, "index into object_names"),
         ("order", labels.order, np.int8, "reflections"),
     ):
         name = f"{method}_{suffix}"
-        if suffix in written:  # the same map as another method's: its compressed chunks
-            d = _copy_dataset(g, written[suffix], name)
+        values = data.astype(dtype)
+        if compression == "gzip" and values.size and sys.byteorder == "little":
+            chunks = (min(LABEL_CHUNK_BINS, values.shape[0]), *values.shape[1:])
+            d = g.create_dataset(
+                name, shape=values.shape, dtype=dtype, chunks=chunks, compression="gzip",
+                compression_opts=GZIP_LEVEL, shuffle=True,
+            )  # fmt: skip
+            if suffix not in packed:  # the same map as another method's: its chunks
+                packed[suffix] = _packed_chunks(values, chunks[0])
+            for offset, raw in packed[suffix]:
+                d.id.write_direct_chunk(offset, raw, 0)
         else:
             d = g.create_dataset(
-                name,
-                data=data.astype(dtype),
-                chunks=True,
-                compression=compression,
-                shuffle=bool(compression),
+                name, data=values, chunks=True, compression=compression, shuffle=bool(compression)
             )
-            written[suffix] = d
         d.attrs["long_name"] = (
             f"{method}: per cell, the {what} of the paths carrying most of its simulated "
             "energy (-1: none, or below the dynamic range)"
@@ -358,28 +370,20 @@ def _write_labels(g, rec, image, axis, scales: list, dynamic_range_db, compressi
             d.dims[dim].attach_scale(g[scale])
 
 
-def _copy_dataset(g, source, name: str):
-    """A new dataset `name` in `g` with the data of the chunked dataset `source` (its
-    shape, type, chunks and filters), its stored chunks copied as they are (not
-    compressed again); no attributes."""
-    d = g.create_dataset(
-        name,
-        shape=source.shape,
-        dtype=source.dtype,
-        chunks=source.chunks,
-        compression=source.compression,
-        compression_opts=source.compression_opts,
-        shuffle=source.shuffle,
-        fillvalue=source.fillvalue,
-    )
-    every = [tuple(s.start for s in chunk) for chunk in source.iter_chunks()]
-    if len(every) != source.id.get_num_chunks():  # some never stored: ask for those stored
-        n = source.id.get_num_chunks()
-        every = [source.id.get_chunk_info(i).chunk_offset for i in range(n)]  # O(n) each
-    for offset in every:
-        mask, raw = source.id.read_direct_chunk(offset)
-        d.id.write_direct_chunk(offset, raw, mask)
-    return d
+def _packed_chunks(values: np.ndarray, bins: int) -> list[tuple[tuple[int, ...], bytes]]:
+    """`values` (R, E, A) cut into chunks of `bins` whole range bins, each as HDF5's
+    shuffle and gzip filters store it (:func:`_shuffle_deflate`; the last chunk's rows
+    past R hold zeros, never read): (chunk offset, bytes) in order, compressed in
+    :data:`GZIP_THREADS` threads."""
+
+    def packed(start: int) -> bytes:
+        block = np.zeros((bins, *values.shape[1:]), values.dtype)
+        part = values[start : start + bins]
+        block[: len(part)] = part
+        return _shuffle_deflate(block)
+
+    starts = list(range(0, values.shape[0], bins))
+    return [((s, 0, 0), raw) for s, raw in zip(starts, _in_threads(packed, starts))]
 
 
 def _write_provenance(g, prov) -> None:
@@ -444,14 +448,11 @@ GZIP_THREADS = 2
 
 def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
     """Write `level` (K, E, A) float32 to the bins `k` (K,) of `d` (R, E, A), chunked
-    by whole range bins with shuffle and gzip at :data:`GZIP_LEVEL`: each chunk that
-    holds a kept bin made here as HDF5's filters make it (the bytes of its elements
-    grouped by significance, then zlib's stream), compressed in :data:`GZIP_THREADS`
-    threads and written as it is; the bins not kept hold NaN (the fill value), the
-    chunks without a kept bin are not stored (read back as NaN).  The values read
-    back are those of writing `level` by slices."""
-    import zlib
-    from concurrent.futures import ThreadPoolExecutor
+    by whole range bins with shuffle and gzip: each chunk that holds a kept bin made
+    here as HDF5's filters store it (:func:`_shuffle_deflate`), compressed in
+    :data:`GZIP_THREADS` threads and written as it is; the bins not kept hold NaN
+    (the fill value), the chunks without a kept bin are not stored (read back as
+    NaN).  The values read back are those of writing `level` by slices."""
 
     bins = d.chunks[0]
 
@@ -459,18 +460,59 @@ def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
         block = np.full(d.chunks, np.nan, np.float32)  # the edge chunk's rows too
         here = (k >= c * bins) & (k < (c + 1) * bins)
         block[k[here] - c * bins] = level[here]
-        # HDF5's shuffle: the elements' first bytes, then their second bytes, ...
-        word = block.reshape(-1).view(np.uint32)  # little-endian: byte j = bits 8j..8j+7
-        shuffled = np.empty((4, word.size), np.uint8)
-        for j in range(4):
-            np.copyto(shuffled[j], word, casting="unsafe")  # the low byte (mod 256)
-            word >>= 8  # (faster than a strided byte transpose)
-        return zlib.compress(shuffled, GZIP_LEVEL)
+        return _shuffle_deflate(block)
 
-    chunks = np.unique(k // bins)
-    with ThreadPoolExecutor(GZIP_THREADS) as pool:
-        for c, raw in zip(chunks, pool.map(packed, chunks)):
-            d.id.write_direct_chunk((int(c) * bins, 0, 0), raw, 0)
+    chunks = list(np.unique(k // bins))
+    for c, raw in zip(chunks, _in_threads(packed, chunks)):
+        d.id.write_direct_chunk((int(c) * bins, 0, 0), raw, 0)
+
+
+def _in_threads(work: Callable, items: list) -> list:
+    """``[work(x) for x in items]``, the items split into :data:`GZIP_THREADS` runs
+    made in as many threads (one task each: a task per chunk costs more in the
+    pool's bookkeeping than compressing it)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    n = max(1, min(GZIP_THREADS, len(items)))
+    cut = np.linspace(0, len(items), n + 1).astype(int)
+    runs = [items[a:b] for a, b in zip(cut[:-1], cut[1:])]
+    with ThreadPoolExecutor(n) as pool:
+        return [out for run in pool.map(lambda r: [work(x) for x in r], runs) for out in run]
+
+
+def _shuffle_deflate(block: np.ndarray) -> bytes:
+    """A chunk `block` (little-endian numbers of 1, 2, 4 or 8 bytes) as HDF5's shuffle
+    and gzip (deflate) filters store it: the bytes of its elements grouped by
+    significance (the first bytes of all, then the second bytes, ...), then one zlib
+    stream (:func:`deflate`).  `block` is overwritten (a scratch copy)."""
+    size = block.dtype.itemsize
+    if size == 1:
+        return deflate(block.tobytes())
+    word = block.reshape(-1).view(f"u{size}")  # little-endian: byte j = bits 8j..8j+7
+    shuffled = np.empty((size, word.size), np.uint8)
+    for j in range(size):
+        np.copyto(shuffled[j], word, casting="unsafe")  # the low byte (mod 256)
+        word >>= 8  # (faster than a strided byte transpose)
+    return deflate(shuffled)
+
+
+def deflate(data) -> bytes:
+    """`data` (bytes or a contiguous array) as one zlib stream, as HDF5's gzip
+    (deflate) filter reads it: with ISA-L (the ``isal`` package, ``acousim[fast]``)
+    at :data:`ISAL_LEVEL`, about five times faster than zlib at level 1, the
+    images' chunks 2 % larger, else zlib at :data:`GZIP_LEVEL`.  Any inflater (HDF5's, MATLAB's,
+    HDFView's) reads either stream."""
+    if _isal_zlib is not None:
+        return _isal_zlib.compress(data, ISAL_LEVEL)
+    import zlib
+
+    return zlib.compress(data, GZIP_LEVEL)
+
+
+try:  # optional: a faster deflate, the same stream format
+    from isal import isal_zlib as _isal_zlib
+except ImportError:  # pragma: no cover - depends on the install
+    _isal_zlib = None
 
 
 def write_peaks_csv(

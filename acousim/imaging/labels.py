@@ -80,12 +80,11 @@ def label_map(
     rng = np.asarray(range_m, float).reshape(-1)
     u = np.asarray(directions, float).reshape(-1, 3)
     R, G = rng.size, len(u)
-    none = LabelMap(np.full((R, G), -1, np.int32), np.full((R, G), -1, np.int16))
     pos = np.asarray(positions_m, float).reshape(-1, 3)
     e = np.asarray(energy, float).reshape(-1)
     ok = np.isfinite(e) & (e > 0) & np.all(np.isfinite(pos), axis=1)
     if not (R and G and ok.any()):
-        return none
+        return _none(R, G)
     # paths far below the floor cannot reach it: a thousand of them in one cell would
     # be needed (the strongest path's cell has at least its energy)
     ok &= e >= e[ok].max() * 10 ** (-(dynamic_range_db + NEGLIGIBLE_DB) / 10)
@@ -96,32 +95,52 @@ def label_map(
     cls = cls.reshape(-1)
     k_range, k_angle = _factors(rng, u, pos, e, *cell)
     total, top = _total_and_top(k_range, k_angle, cls, len(classes))
+    floor_ratio = 10 ** (-dynamic_range_db / 10)
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "pick_labels")
+    if kernel is not None:  # one pass, every cell written
+        out = LabelMap(np.empty((R, G), np.int32), np.empty((R, G), np.int16))
+        kernel(
+            total,
+            top,
+            classes[:, 0].copy(),
+            classes[:, 1].copy(),
+            floor_ratio,
+            out.object_index,
+            out.order,
+        )
+        return out
+    total, top = total.reshape(-1), top.reshape(-1)
     if not total.any():
-        return none
-    shown = (top >= 0) & (total >= total.max() * 10 ** (-dynamic_range_db / 10))
-    out_obj, out_order = none.object_index.reshape(-1), none.order.reshape(-1)
-    out_obj[shown] = classes[top[shown], 0]
-    out_order[shown] = classes[top[shown], 1]
-    return LabelMap(out_obj.reshape(R, G), out_order.reshape(R, G))
+        return _none(R, G)
+    shown = (top >= 0) & (total >= total.max() * floor_ratio)
+    out = _none(R * G, 1)
+    out.object_index[shown, 0] = classes[top[shown], 0]
+    out.order[shown, 0] = classes[top[shown], 1]
+    return out.reshaped((R, G))
+
+
+def _none(R: int, G: int) -> LabelMap:
+    """A label map (R, G) of no labels (-1)."""
+    return LabelMap(np.full((R, G), -1, np.int32), np.full((R, G), -1, np.int16))
 
 
 def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int):
-    """Per cell (R G,), the energy of all classes summed in class order and the
+    """Per cell (R, G), the energy of all classes summed in class order and the
     strongest class (-1: none), from the compiled kernel or the sparse product."""
     R, G = k_range.shape[1], k_angle.shape[1]
     kernel = optional_kernel("acousim.imaging.labels_kernel", "cell_classes")
     if kernel is not None:
         by_bin = k_range.tocsc()  # per bin, its paths in order
         by_bin.sort_indices()
-        total, top = np.zeros((R, G)), np.full((R, G), -1, np.int64)
+        total, top = np.empty((R, G)), np.empty((R, G), np.int32)  # every cell written
         kernel(
             by_bin.indptr, by_bin.indices, by_bin.data, k_angle.indptr, k_angle.indices,
             k_angle.data, cls.astype(np.int64), n_classes, total, top,
         )  # fmt: skip
-        return total.reshape(-1), top.reshape(-1)
+        return total, top
     cells, k, part = _class_energy(k_range, k_angle, cls, n_classes)
     total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
-    return total, _strongest_class(cells, k, part, R * G)
+    return total.reshape(R, G), _strongest_class(cells, k, part, R * G).reshape(R, G)
 
 
 def _class_energy(k_range, k_angle, cls: np.ndarray, n_classes: int):

@@ -21,7 +21,8 @@ def cell_classes(
     range_ptr, range_path, range_val, angle_ptr, angle_dir, angle_val, cls, n_classes, total, top
 ):  # pragma: no cover - compiled
     """Fill `total` (R, G) with each cell's energy summed over classes in class order
-    and `top` (R, G) int64 with its strongest class (-1: none with energy).
+    and `top` (R, G) integers with its strongest class (-1: none with energy), every
+    cell written (they may come uninitialised).
 
     range_ptr (R + 1,), range_path, range_val : the range kernel by bin (CSC of the
     paths' (P, R) kernel, paths in order within a bin); angle_ptr (P + 1,),
@@ -29,13 +30,13 @@ def cell_classes(
     path's class in 0..n_classes-1."""
     R, G = total.shape
     acc = np.zeros((n_classes, G))
-    hit = np.zeros(G, np.bool_)
-    touched = np.empty(G, np.int64)
     class_hit = np.zeros(n_classes, np.bool_)
     classes = np.empty(n_classes, np.int64)
     for r in range(R):
-        n_touched = 0
+        total[r, :] = 0.0  # the cells no path reaches (each row first touched here)
+        top[r, :] = -1
         n_classes_hit = 0
+        lo, hi = G, -1  # the directions the bin's paths reach lie within lo..hi
         for j in range(range_ptr[r], range_ptr[r + 1]):
             p = range_path[j]
             v = range_val[j]
@@ -44,20 +45,18 @@ def cell_classes(
                 class_hit[c] = True
                 classes[n_classes_hit] = c
                 n_classes_hit += 1
-            for k in range(angle_ptr[p], angle_ptr[p + 1]):
-                g = angle_dir[k]
-                acc[c, g] += v * angle_val[k]
-                if not hit[g]:
-                    hit[g] = True
-                    touched[n_touched] = g
-                    n_touched += 1
-        # the classes of this bin in class order (the others add zeros)
+            start, end = angle_ptr[p], angle_ptr[p + 1]
+            if end > start:  # a path's directions come in order
+                lo = min(lo, angle_dir[start])
+                hi = max(hi, angle_dir[end - 1])
+            for k in range(start, end):
+                acc[c, angle_dir[k]] += v * angle_val[k]
+        # the classes of this bin in class order (the others add zeros); a direction
+        # no path reached sums to 0 with no class: as the row was filled
         order = np.sort(classes[:n_classes_hit])
         for i in range(n_classes_hit):
             class_hit[order[i]] = False
-        for i in range(n_touched):
-            g = touched[i]
-            hit[g] = False
+        for g in range(lo, hi + 1):
             s = 0.0
             best = 0.0
             win = -1
@@ -71,6 +70,33 @@ def cell_classes(
                 acc[c, g] = 0.0
             total[r, g] = s
             top[r, g] = win
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def pick_labels(
+    total, top, class_object, class_order, floor_ratio, out_object, out_order
+):  # pragma: no cover - compiled
+    """The labels of :func:`cell_classes`' cells: where a class wins (`top` >= 0) and
+    the cell's `total` is at least `floor_ratio` times the largest total, that
+    class's object and order (`class_object`, `class_order` (C,)), else -1; written
+    to every cell of `out_object` and `out_order` (R, G).  As numpy's ``top >= 0 &
+    total >= total.max() * floor_ratio``."""
+    R, G = total.shape
+    most = 0.0
+    for r in range(R):
+        for g in range(G):
+            if total[r, g] > most:
+                most = total[r, g]
+    floor = most * floor_ratio
+    for r in range(R):
+        for g in range(G):
+            c = top[r, g]
+            if c >= 0 and total[r, g] >= floor:
+                out_object[r, g] = class_object[c]
+                out_order[r, g] = class_order[c]
+            else:
+                out_object[r, g] = -1
+                out_order[r, g] = -1
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

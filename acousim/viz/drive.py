@@ -5,9 +5,9 @@ Laying out and drawing a matplotlib figure (ticks, colour bar, legend, constrain
 layout) costs most of a frame; only the two pictures, the fan's marks and the title
 change between frames.  So the figure is drawn once without them (its background
 kept), and each frame restores that background, writes the two pictures straight
-into the canvas' pixels (nearest pixel, through maps computed once; the fan's
-colours from its colour map and a polar-to-pixel mapping also computed once,
-:func:`acousim.viz.fan.fan_raster`) and draws only the marks and the title
+into the canvas' pixels (nearest pixel, through maps computed once: for the fan,
+each canvas pixel's polar cell, and per frame only each cell's colour from the colour
+map, :func:`acousim.viz.fan.fan_levels`) and draws only the marks and the title
 (matplotlib's blitting).
 
 The GIF's frames share one palette (:func:`gif_palette`), made once, instead of one
@@ -18,7 +18,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from acousim.viz.fan import colorbar_label, draw_fan, fan_legend, fan_raster, fan_rgb, legend_inside
+from acousim.viz.fan import (
+    FanLevels,
+    colorbar_label,
+    draw_fan,
+    fan_legend,
+    fan_levels,
+    legend_inside,
+)
 from processing import Image
 
 __all__ = ["DriveFigure", "gif_palette", "write_gif"]
@@ -90,6 +97,8 @@ class DriveFigure:
         self.fan.set_visible(False)
         fig.canvas.draw()
         self.background = fig.canvas.copy_from_bbox(fig.bbox)
+        self._fan_key: tuple | None = None
+        self._fan_table_index = np.empty((0, 0), np.intp)
 
     def frame(self, view: np.ndarray, image: Image, marks, title: str) -> np.ndarray:
         """One frame (H, W, 3) uint8: `view` (the 3D view), the fan of `image` with
@@ -98,8 +107,8 @@ class DriveFigure:
         canvas.restore_region(self.background)
         pixels = np.asarray(canvas.buffer_rgba())
         self.view_paste.paste(pixels, np.asarray(view)[..., :3])
-        raster = fan_raster(image, self.limit, self.dr, self.pixels, self.extent)
-        self.fan_paste.paste(pixels, fan_rgb(raster, self.dr))
+        levels = fan_levels(image, self.limit, self.dr, self.pixels, self.extent)
+        self.fan_paste.paste_colours(pixels, levels.colours(self.dr), self._fan_index(levels))
         self.title.set_text(title)
         a.draw_artist(self.title)
         if marks is not None:
@@ -112,6 +121,16 @@ class DriveFigure:
         for spine in b.spines.values():  # the image covers the frame's inner half
             b.draw_artist(spine)
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+    def _fan_index(self, levels: FanLevels) -> np.ndarray:
+        """Per canvas pixel of the fan's box, its index into ``levels.colours()``
+        (:func:`_fan_canvas_index`), made once for the drive's cells (every frame's,
+        unless the range axis changes)."""
+        key = (levels.r_edges.tobytes(), levels.a_edges.tobytes(), levels.db.size)
+        if self._fan_key != key:
+            self._fan_key = key
+            self._fan_table_index = _fan_canvas_index(levels, self.fan_paste)
+        return self._fan_table_index
 
     def close(self) -> None:
         import matplotlib.pyplot as plt
@@ -131,12 +150,37 @@ class _Paste:
 
     def __init__(self, rows: slice, cols: slice, src_rows: np.ndarray, src_cols: np.ndarray):
         self.rows, self.cols, self.src_rows, self.src_cols = rows, cols, src_rows, src_cols
+        self._picked: dict[tuple[int, int], np.ndarray] = {}
 
     def paste(self, canvas: np.ndarray, picture: np.ndarray) -> None:
         """Write `picture` (h, w, 3) uint8 into `canvas` (H, W, 4), opaque."""
+        self.paste_colours(canvas, picture.reshape(-1, 3), self.pick(picture.shape[:2]))
+
+    def pick(self, shape: tuple[int, int]) -> np.ndarray:
+        """Per canvas pixel of the box, the flat index of the picture's pixel (of a
+        picture of `shape` (h, w)) it shows: (rows, columns) of the box (kept)."""
+        if shape not in self._picked:
+            self._picked[shape] = self.src_rows[:, None] * shape[1] + self.src_cols[None, :]
+        return self._picked[shape]
+
+    def paste_colours(self, canvas: np.ndarray, colours: np.ndarray, index: np.ndarray) -> None:
+        """Write into the box of `canvas` (H, W, 4) the `colours` (N, 3) uint8 of
+        `index` (the box's rows, columns) ints, opaque."""
         box = canvas[self.rows, self.cols]
-        box[..., :3] = picture[self.src_rows[:, None], self.src_cols[None, :]]
+        box[..., :3] = colours[index]
         box[..., 3] = 255
+
+
+def _fan_canvas_index(levels: FanLevels, paste: _Paste) -> np.ndarray:
+    """Per canvas pixel of the fan's box (`paste`), the index into
+    :meth:`acousim.viz.fan.FanLevels.colours` of what it shows: the polar cell under
+    the centre of the raster pixel it takes (:func:`acousim.viz.fan.fan_raster`'s
+    nearest cell), else the floor (within the azimuth span) or white (outside it).
+    The same picture as :func:`acousim.viz.fan.fan_rgb` of the raster, pasted."""
+    cell, in_azimuth = levels.pixel_cells()
+    n = levels.db.size
+    index = np.where(cell >= 0, cell, np.where(in_azimuth, n, n + 1))
+    return index.reshape(-1)[paste.pick(cell.shape)]
 
 
 def _paste_map(ax, shape: tuple[int, int], height: int, *, top_down: bool) -> _Paste:

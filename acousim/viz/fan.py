@@ -34,6 +34,7 @@ from processing.base.atomic import atomic_path
 
 __all__ = [
     "DYNAMIC_RANGE_DB",
+    "FanLevels",
     "FanRaster",
     "NO_DATA_COLOR",
     "TRUTH_COLOR",
@@ -41,6 +42,7 @@ __all__ = [
     "elaz_figure",
     "fan_extent",
     "fan_figure",
+    "fan_levels",
     "fan_raster",
     "floor_color",
     "full_range_fan",
@@ -203,6 +205,62 @@ def fan_raster(
     thinner than a pixel disappears.  `extent` as in :class:`FanRaster` (default: the
     whole field of view out to `max_range_m`); `reference` the power 0 dB stands for
     (default: the strongest cell drawn; two fans on one scale share one)."""
+    levels = fan_levels(image, max_range_m, dynamic_range_db, pixels, extent, reference=reference)
+    cell, in_azimuth = levels.pixel_cells()
+    raster = np.full(cell.shape, np.nan)
+    hit = cell >= 0
+    raster[hit] = levels.db.ravel()[cell[hit]]
+    # in the field of view without a level: bins the gate removed, or beyond the
+    # range axis (the view's corners past the imaged range)
+    no_data = in_azimuth & np.isnan(raster)
+    return FanRaster(raster, no_data, levels.box)
+
+
+@dataclass(frozen=True, eq=False)
+class FanLevels:
+    """The top view's levels on its polar cells, before rasterising: `db` (R', A) dB
+    re the reference, floored at -dynamic range, NaN without data; the cells' edges
+    in range `r_edges` (R' + 1,) m and azimuth `a_edges` (A + 1,) rad; the raster's
+    `box` (as :class:`FanRaster`'s extent) and size (`height`, `pixels`)."""
+
+    db: np.ndarray
+    r_edges: np.ndarray
+    a_edges: np.ndarray
+    box: tuple[float, float, float, float]
+    pixels: int
+    height: int
+
+    def pixel_cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`_pixel_cells` of these cells and raster (cached)."""
+        key = (self.r_edges.tobytes(), self.a_edges.tobytes())
+        return _pixel_cells(*key, self.box, self.pixels, self.height)
+
+    def colours(self, dynamic_range_db: float, cmap: str = CMAP) -> np.ndarray:
+        """Each cell's colour as :func:`fan_rgb` gives it, then the colours of a pixel
+        in the azimuth span on no cell (the floor) and of one outside it (white):
+        (R' A + 2, 3) uint8, indexed as :meth:`pixel_cells`' flat cells."""
+        level = np.nan_to_num(self.db.ravel(), nan=-dynamic_range_db) / dynamic_range_db + 1.0
+        lut = _lut(cmap)
+        return np.concatenate(
+            [
+                lut[np.clip((level * 256).astype(int), 0, 255)],
+                lut[:1],  # the floor: no data within the azimuth span
+                np.round(np.multiply(OUTSIDE_COLOR, 255)).astype(np.uint8)[None],
+            ]
+        )
+
+
+def fan_levels(
+    image: Image,
+    max_range_m: float,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    pixels: int = 800,
+    extent: tuple[float, float, float, float] | None = None,
+    *,
+    reference: float | None = None,
+) -> FanLevels:
+    """The levels :func:`fan_raster` rasterises (the same arguments): the top view
+    max-pooled to about one range bin per pixel, in dB."""
     rng, fan = full_range_fan(image, max_range_m)
     r_edges, a_edges = _edges(rng), _edges(image.azimuth_rad)
     if extent is None:
@@ -232,14 +290,18 @@ def fan_raster(
     ref = ref if reference is None else float(reference)
     db = np.where(finite, to_db(np.nan_to_num(fan), ref or None, -dynamic_range_db), np.nan)
     box = (float(y_left), float(y_right), float(x_lo), float(x_hi))
-    cell, in_azimuth = _pixel_cells(r_edges.tobytes(), a_edges.tobytes(), box, pixels, height)
-    raster = np.full(cell.shape, np.nan)
-    hit = cell >= 0
-    raster[hit] = db.ravel()[cell[hit]]
-    # in the field of view without a level: bins the gate removed, or beyond the
-    # range axis (the view's corners past the imaged range)
-    no_data = in_azimuth & np.isnan(raster)
-    return FanRaster(raster, no_data, box)
+    return FanLevels(db, r_edges, a_edges, box, pixels, height)
+
+
+@functools.lru_cache(maxsize=4)
+def _lut(cmap: str) -> np.ndarray:
+    """The colour map's 256 colours (256, 3) uint8, as :func:`fan_rgb` takes them."""
+    import matplotlib as mpl
+
+    lut = (mpl.colormaps[cmap].resampled(256)(np.arange(256))[:, :3] * 255).round()
+    lut = lut.astype(np.uint8)
+    lut.flags.writeable = False
+    return lut
 
 
 @functools.lru_cache(maxsize=8)
@@ -269,11 +331,8 @@ def fan_rgb(raster: FanRaster, dynamic_range_db: float, cmap: str = CMAP) -> np.
     Levels map linearly onto `cmap` from -`dynamic_range_db` (its floor) to 0 dB;
     range bins the energy gate removed take the floor colour (a quiet bin), pixels
     outside the field of view are white (:data:`OUTSIDE_COLOR`)."""
-    import matplotlib as mpl
-
-    lut = (mpl.colormaps[cmap].resampled(256)(np.arange(256))[:, :3] * 255).round()
     level = np.nan_to_num(raster.db, nan=-dynamic_range_db) / dynamic_range_db + 1.0
-    rgb = lut.astype(np.uint8)[np.clip((level * 256).astype(int), 0, 255)]
+    rgb = _lut(cmap)[np.clip((level * 256).astype(int), 0, 255)]
     rgb[np.isnan(raster.db) & ~raster.no_data] = np.round(np.multiply(OUTSIDE_COLOR, 255))
     return rgb
 

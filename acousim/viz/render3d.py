@@ -184,6 +184,8 @@ class SceneRenderer:
     truth_range_db : reflectors within this of the strongest echo are drawn (dB).
     with_lidar : list the LiDAR's points in the legend.
     legend : draw the legend inside the view (its entries are ``entries`` either way).
+    multi_samples : the samples per pixel of its antialiasing (None: pyvista's theme,
+        8; 1: none, a software renderer's frame in a third of the time).
     """
 
     def __init__(
@@ -196,10 +198,13 @@ class SceneRenderer:
         truth_range_db: float = DYNAMIC_RANGE_DB,
         with_lidar: bool = False,
         legend: bool = True,
+        multi_samples: int | None = None,
     ) -> None:
         self.pv = pv = _pv()
         self.truth_range_db = truth_range_db
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        if multi_samples is not None:  # before the window's first render
+            self.plotter.ren_win.SetMultiSamples(int(multi_samples))
         self.plotter.set_background("white")
         self.has_mesh = triangles is not None and len(triangles) > 0
         if self.has_mesh:
@@ -225,7 +230,8 @@ class SceneRenderer:
                 loc="upper left",
                 face="circle",
             )
-        self._actors: list = []
+        self._actors: list = []  # drawn for one frame, removed before the next
+        self._kept: dict = {}  # by kind: an actor made once, its data replaced per frame
         self._ruler = None
 
     def frame(self, content: FrameContent, *, camera: str = "chase") -> np.ndarray:
@@ -238,55 +244,51 @@ class SceneRenderer:
         plotter = self.plotter
         for actor in self._actors:
             plotter.remove_actor(actor, render=False)
+        self._actors = []
+        for actor in self._kept.values():  # shown again if this frame draws its kind
+            actor.SetVisibility(False)
         pos = np.asarray(c.sensor_position, float)
         axis = np.asarray(c.sensor_axis, float) / np.linalg.norm(c.sensor_axis)
-        self._actors = self._sensor(pos, axis)
+        self._sensor(pos, axis)
         if c.sweep is not None:
-            self._actors += self._sweep(*c.sweep)
+            self._sweep(*c.sweep)
         if c.moving_triangles is not None and len(c.moving_triangles):
-            mesh = _polydata(self.pv, c.moving_triangles)
-            self._actors.append(plotter.add_mesh(mesh, color=MOVING_COLOR, render=False))
+            self._put("moving", _polydata(self.pv, c.moving_triangles), color=MOVING_COLOR)
         drawn_truth = self._truth(c)
-        for chain in c.chains:
+        for i, chain in enumerate(c.chains):
             line = self.pv.lines_from_points(np.asarray(chain, float))
-            self._actors.append(
-                plotter.add_mesh(line, color=CHAIN_COLOR, line_width=1.5, render=False)
-            )
+            self._put(f"chain {i}", line, color=CHAIN_COLOR, line_width=1.5)
         if c.lidar is not None and len(c.lidar):
-            self._actors.append(
-                plotter.add_mesh(
-                    self.pv.PolyData(np.asarray(c.lidar, float).reshape(-1, 3)),
-                    color=LIDAR_COLOR,
-                    point_size=3,
-                    render=False,
-                )
-            )
+            cloud = self.pv.PolyData(np.asarray(c.lidar, float).reshape(-1, 3))
+            self._put("lidar", cloud, color=LIDAR_COLOR, point_size=3)
         if c.peaks is not None and len(c.peaks):
-            self._actors.append(
-                plotter.add_mesh(
-                    self.pv.PolyData(np.asarray(c.peaks, float)),
-                    color=PEAK_COLOR,
-                    point_size=14,
-                    render_points_as_spheres=True,
-                    render=False,  # one render per frame: the screenshot's
-                )
+            cloud = self.pv.PolyData(np.asarray(c.peaks, float))
+            self._put(
+                "peaks", cloud, color=PEAK_COLOR, point_size=14, render_points_as_spheres=True
             )
         self._scale_bar(pos, axis)
         self._place_camera(c, pos, axis, camera, drawn_truth)
         plotter.render()  # the actors were added without rendering: once, here
         return plotter.screenshot(return_img=True)
 
-    def _sensor(self, pos: np.ndarray, axis: np.ndarray) -> list:
+    def _put(self, kind: str, mesh, **style) -> None:
+        """Show `mesh` as this frame's `kind` of thing, drawn with `style` (add_mesh's
+        keywords, the same for a kind in every frame): the kind's actor made on its
+        first frame, its data replaced in the later ones (adding an actor costs more
+        than a software render's share of the frame)."""
+        actor = self._kept.get(kind)
+        if actor is None:  # one render per frame: the screenshot's
+            self._kept[kind] = self.plotter.add_mesh(mesh, render=False, **style)
+        else:
+            actor.mapper.SetInputData(mesh)
+            actor.SetVisibility(True)
+
+    def _sensor(self, pos: np.ndarray, axis: np.ndarray) -> None:
         """The sensor: a sphere at `pos` and an arrow along its unit `axis`."""
-        pv, plotter = self.pv, self.plotter
-        return [
-            plotter.add_mesh(pv.Sphere(radius=0.06, center=pos), color=SENSOR_COLOR, render=False),
-            plotter.add_mesh(
-                pv.Arrow(start=pos, direction=axis, scale=AXIS_LENGTH_M),
-                color=SENSOR_COLOR,
-                render=False,
-            ),
-        ]
+        pv = self.pv
+        self._put("sensor", pv.Sphere(radius=0.06, center=pos), color=SENSOR_COLOR)
+        arrow = pv.Arrow(start=pos, direction=axis, scale=AXIS_LENGTH_M)
+        self._put("sensor axis", arrow, color=SENSOR_COLOR)
 
     def _truth(self, c: FrameContent) -> np.ndarray | None:
         """Draw the reflectors within the dynamic range (spheres sized by level);
@@ -304,7 +306,7 @@ class SceneRenderer:
             glyphs = cloud.glyph(
                 scale="diameter", orient=False, geom=pv.Sphere(radius=0.5, theta_resolution=10)
             )
-            self._actors.append(self.plotter.add_mesh(glyphs, color=TRUTH_COLOR, render=False))
+            self._put("truth", glyphs, color=TRUTH_COLOR)
         return t[keep]
 
     def _place_camera(self, c: FrameContent, pos, axis, camera: str, truth) -> None:
@@ -324,33 +326,18 @@ class SceneRenderer:
             eye = pos - 2.8 * axis + np.array([0, 0, 1.5])
             plotter.camera_position = [tuple(eye), tuple(pos + 2.0 * axis), (0, 0, 1)]
 
-    def _sweep(self, positions: np.ndarray, axes: np.ndarray) -> list:
+    def _sweep(self, positions: np.ndarray, axes: np.ndarray) -> None:
         """Motion blur: the wedge the axis sweeps (translucent) and the axis at each
         instant after the first, fading towards the end of the window."""
-        pv, plotter = self.pv, self.plotter
+        pv = self.pv
         vertices, quads = sweep_wedge(positions, axes)
         faces = np.column_stack([np.full(len(quads), 4), quads]).ravel()
-        actors = [
-            plotter.add_mesh(
-                pv.PolyData(vertices, faces),
-                color=SWEEP_COLOR,
-                opacity=0.45,
-                render=False,
-            )
-        ]
+        self._put("sweep", pv.PolyData(vertices, faces), color=SWEEP_COLOR, opacity=0.45)
         k = len(positions)
         for i in range(1, k):
             line = pv.Line(positions[i], positions[i] + WEDGE_LENGTH_M * axes[i])
-            actors.append(
-                plotter.add_mesh(
-                    line,
-                    color=SWEEP_COLOR,
-                    line_width=3,
-                    opacity=0.9 - 0.6 * (i - 1) / max(k - 2, 1),
-                    render=False,
-                )
-            )
-        return actors
+            fade = 0.9 - 0.6 * (i - 1) / max(k - 2, 1)
+            self._put(f"sweep {i} of {k}", line, color=SWEEP_COLOR, line_width=3, opacity=fade)
 
     def _scale_bar(self, pos: np.ndarray, axis: np.ndarray) -> None:
         """A 1 m ruler across the view, 0.8 m in front of the sensor and 0.2 m below

@@ -385,3 +385,58 @@ def test_label_maps_ahead_hand_out_those_made_then_the_rest(recording_file):
         for res in ref:
             np.testing.assert_array_equal(got[res].object_index, ref[res].object_index)
             np.testing.assert_array_equal(got[res].order, ref[res].order)
+
+
+@pytest.mark.parametrize("isal", [True, False])
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.float32])
+def test_chunks_packed_by_hand_read_back_through_hdf5s_own_filters(tmp_path, dtype, isal):
+    """images.h5's chunks are shuffled and deflated here (ISA-L or zlib) and written
+    as they are: plain h5py, undoing them with HDF5's own shuffle and gzip filters,
+    reads back the values given (an edge chunk past the last range bin included)."""
+    from acousim.export import images
+
+    if isal and images._isal_zlib is None:
+        pytest.skip("the isal package is not installed")
+    values = np.random.default_rng(1).integers(-1, 90, (37, 5, 7)).astype(dtype)
+    values[:9] = -1  # runs of one value, as a label map's empty bins
+    bins = 16
+    with pytest.MonkeyPatch.context() as mp:
+        if not isal:
+            mp.setattr(images, "_isal_zlib", None)
+        packed = images._packed_chunks(values, bins)
+    with h5py.File(tmp_path / "c.h5", "w") as f:
+        d = f.create_dataset(
+            "x", shape=values.shape, dtype=dtype, chunks=(bins, 5, 7), compression="gzip",
+            shuffle=True,
+        )  # fmt: skip
+        for offset, raw in packed:
+            d.id.write_direct_chunk(offset, raw, 0)
+    with h5py.File(tmp_path / "c.h5", "r") as f:
+        np.testing.assert_array_equal(f["x"][()], values)
+        assert f["x"].compression == "gzip" and f["x"].shuffle
+
+
+def test_label_maps_read_back_as_made_whatever_the_compression(recording_file, tmp_path):
+    """The label maps, written as packed chunks (gzip, shared by the methods of one
+    resolution) or by h5py itself (no compression), read back as the label maps made
+    (int16 objects, int8 orders) for every method."""
+    from acousim.export import write_image_data
+    from acousim.export.images import label_maps
+    from acousim.imaging.run import ImagingOptions, image_recordings
+
+    recs = [P.load_recording(recording_file, 0)]
+    images = image_recordings(recs, ImagingOptions(methods=("das", "music-fbss"), step_deg=2.0))
+    (made,) = list(label_maps(recs, images))
+    (labels,) = made.values()  # one frequency: one resolution, one map for both
+    assert labels.object_index.shape[0] > 16  # more than one chunk
+    for compression in ("gzip", None):
+        path = tmp_path / f"{compression}.h5"
+        write_image_data(path, recs, images, compression=compression)
+        with h5py.File(path, "r") as f:
+            g = f["recording_000000"]
+            for method in ("das", "music-fbss"):
+                obj, order = g[f"{method}_object"], g[f"{method}_order"]
+                assert obj.dtype == np.int16 and order.dtype == np.int8
+                np.testing.assert_array_equal(obj[()], labels.object_index)
+                np.testing.assert_array_equal(order[()], labels.order)
+                assert obj.compression == compression

@@ -271,3 +271,59 @@ def test_the_drive_gif_keeps_flat_colours_exactly_and_colour_maps_close(tmp_path
             np.testing.assert_array_equal(got[:, :60], frames[k, :, :60])
             err = np.abs(got[:, 60:] - frames[k, :, 60:])
             assert err.max() <= 16 and err.mean() < 2.5, (err.max(), err.mean())
+
+
+def test_a_drive_frames_fan_pixels_are_their_polar_cells_colours_worked_out_one_by_one():
+    """The drive's fan, drawn through one precomputed mapping of canvas pixels to
+    polar cells and a colour table: every canvas pixel of the fan's box, worked out
+    here one at a time (the raster pixel it takes, that pixel's centre in metres, its
+    range and azimuth, the cell found by scanning the edges, the level's colour on
+    matplotlib's inferno over 30 dB), is the frame's pixel."""
+    import matplotlib
+
+    from acousim.viz.drive import DriveFigure
+    from acousim.viz.fan import fan_levels
+
+    ranges = np.arange(0.3, 2.0, 0.01)
+    img = blob_image([(1.5, -30.0, 0.0, 0.0), (0.8, 25.0, 0, -5)], ranges=ranges)
+    gated = ranges[(ranges < 1.1) | (ranges > 1.3)]  # a gap the gate made: no data
+    keep = np.isin(img.range_m, gated)
+    img = P.Image(
+        power=img.power[keep], range_m=img.range_m[keep], elevation_rad=img.elevation_rad,
+        azimuth_rad=img.azimuth_rad, method=img.method, frequency_hz=img.frequency_hz,
+        bin_range_m=img.bin_range_m,
+    )  # fmt: skip
+    extent, dr = (2.5, -2.5, -0.4, 2.6), 30.0  # behind the array: outside the view
+    view = np.zeros((60, 80, 3), np.uint8)
+    drive = DriveFigure(
+        first=img, view_shape=(60, 80), extent=extent, max_range_m=2.3, dynamic_range_db=dr,
+        pixels=150,
+    )  # fmt: skip
+    frame = drive.frame(view, img, None, "recording 0")
+    paste = drive.fan_paste
+    drive.close()
+    levels = fan_levels(img, 2.3, dr, 150, extent)  # the levels on their polar cells
+    H, W = levels.height, levels.pixels
+    lut = (matplotlib.colormaps["inferno"].resampled(256)(np.arange(256))[:, :3] * 255).round()
+    y_left, y_right, x_lo, x_hi = extent
+    r_edges, a_edges = levels.r_edges, levels.a_edges
+    box = frame[paste.rows, paste.cols]
+    checked = {"cell": 0, "floor": 0, "white": 0}
+    for i in range(2, box.shape[0] - 2, 3):  # (the axes' frame drawn over the edges)
+        for j in range(2, box.shape[1] - 2, 3):
+            row, col = paste.src_rows[i], paste.src_cols[j]  # the raster pixel shown
+            y = y_left + (col + 0.5) * (y_right - y_left) / W
+            x = x_lo + (row + 0.5) * (x_hi - x_lo) / H
+            r, az = np.hypot(x, y), np.arctan2(y, x)
+            ri = [k for k in range(len(r_edges) - 1) if r_edges[k] < r <= r_edges[k + 1]]
+            ai = [k for k in range(len(a_edges) - 1) if a_edges[k] < az <= a_edges[k + 1]]
+            if not ai:
+                want, kind = np.array([255, 255, 255]), "white"  # outside the field of view
+            elif not ri or not np.isfinite(levels.db[ri[0], ai[0]]):
+                want, kind = lut[0], "floor"  # no data: the floor colour
+            else:
+                level = levels.db[ri[0], ai[0]] / dr + 1.0
+                want, kind = lut[min(max(int(level * 256), 0), 255)], "cell"
+            assert np.array_equal(box[i, j], want), (i, j, kind, box[i, j], want)
+            checked[kind] += 1
+    assert min(checked.values()) > 50, checked
