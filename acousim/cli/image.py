@@ -268,6 +268,7 @@ def _data_steps(h5, csv, recs, images, index, options, made=()):
 
     from acousim.export.images import (
         Given,
+        Stored,
         image_data_steps,
         label_maps_ahead,
         peak_tables,
@@ -285,8 +286,8 @@ def _data_steps(h5, csv, recs, images, index, options, made=()):
     tables += [t for _, t in made]
     labels = label_maps_ahead(recs, images, options.dynamic_range_db, [m for m, _ in made])
     given = Given(tables=itertools.chain(list(tables), each_table()), labels=labels)
-    kw = {"dynamic_range_db": options.dynamic_range_db, "peak_threshold_db": threshold}
-    yield from image_data_steps(h5, recs, images, index, given=given, **kw)
+    stored = Stored(dynamic_range_db=options.dynamic_range_db, peak_threshold_db=threshold)
+    yield from image_data_steps(h5, recs, images, index, stored=stored, given=given)
     Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")
 
 

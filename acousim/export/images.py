@@ -60,6 +60,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FORMAT",
     "Given",
+    "Stored",
     "VERSION",
     "PEAK_COLUMNS",
     "image_data_steps",
@@ -110,6 +111,17 @@ ISAL_LEVEL = 1
 
 
 @dataclass(frozen=True)
+class Stored:
+    """What images.h5 stores besides the images, and how (:func:`write_image_data`'s
+    keywords of the same names): the label maps' `dynamic_range_db` (dB), the peaks
+    at least `peak_threshold_db` (dB re the strongest cell), the `compression`."""
+
+    compression: str | None = "gzip"
+    dynamic_range_db: float = DYNAMIC_RANGE_DB
+    peak_threshold_db: float = PEAK_THRESHOLD_DB
+
+
+@dataclass(frozen=True)
 class Given:
     """What a caller of :func:`write_image_data` may hand it besides the images (each
     None: made there, or no progress reported).
@@ -154,11 +166,9 @@ def write_image_data(
     given : the peak tables and label maps made already, a progress callback (:class:`Given`).
     """
     path = Path(path)
-    kw = {"compression": compression, "dynamic_range_db": dynamic_range_db}
+    stored = Stored(compression, dynamic_range_db, peak_threshold_db)
     with atomic_path(path) as tmp:
-        steps = image_data_steps(
-            tmp, recordings, images, indices, peak_threshold_db=peak_threshold_db, given=given, **kw
-        )
+        steps = image_data_steps(tmp, recordings, images, indices, stored=stored, given=given)
         for done, total in steps:
             if given.progress is not None:
                 given.progress(done, total)
@@ -171,17 +181,17 @@ def image_data_steps(
     images: Sequence[Mapping[str, P.Image]],
     indices: Sequence[int] | None = None,
     *,
-    compression: str | None = "gzip",
-    dynamic_range_db: float = DYNAMIC_RANGE_DB,
-    peak_threshold_db: float = PEAK_THRESHOLD_DB,
+    stored: Stored = Stored(),
     given: Given = Given(),
 ) -> Iterator[tuple[int, int]]:
-    """:func:`write_image_data`'s work, written straight to `path` (not atomically:
-    for a caller that renames it into place itself, or another process writing to
-    a caller's temporary file): yields ``(done, total)`` after each recording's
-    group (`given.progress` is not called)."""
+    """:func:`write_image_data`'s work (its keywords in `stored`), written straight
+    to `path` (not atomically: for a caller that renames it into place itself, or
+    another process writing to a caller's temporary file): yields ``(done, total)``
+    after each recording's group (`given.progress` is not called)."""
     import h5py
 
+    compression, dynamic_range_db = stored.compression, stored.dynamic_range_db
+    peak_threshold_db = stored.peak_threshold_db
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     tables = given.tables
     if tables is None:

@@ -45,39 +45,31 @@ def _bempp():
 
 
 @functools.cache
-def _callables():
-    """The incident-field callables, compiled once (numba) per process: p_inc + eta
-    dp_inc/dn and dp_inc/dn for a unit point source; parameters (k, source x, y, z,
-    eta) as a complex array."""
+def _incident_callable():
+    """The incident-field callable, compiled once (numba) per process: w p_inc + eta
+    dp_inc/dn for a unit point source; parameters (k, source x, y, z, eta, w) as a
+    complex array (w = 1: the combined field of a closed surface; w = 0, eta = 1:
+    dp_inc/dn alone, a screen's)."""
     from bempp_cl.api.assembly.grid_function import callable as bempp_callable
 
     @bempp_callable(complex=True, jit=True, parameterized=True)
-    def combined(x, n, domain_index, result, p):  # noqa: ARG001
+    def incident(x, n, domain_index, result, p):  # noqa: ARG001
         kk = p[0].real
         d0, d1, d2 = x[0] - p[1].real, x[1] - p[2].real, x[2] - p[3].real
         r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         g = np.exp(1j * kk * r) / (4 * np.pi * r)
         dgdr = g * (1j * kk - 1 / r)
-        result[0] = g + p[4] * dgdr * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
+        result[0] = p[5] * g + p[4] * dgdr * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
 
-    @bempp_callable(complex=True, jit=True, parameterized=True)
-    def derivative(x, n, domain_index, result, p):  # noqa: ARG001
-        kk = p[0].real
-        d0, d1, d2 = x[0] - p[1].real, x[1] - p[2].real, x[2] - p[3].real
-        r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        g = np.exp(1j * kk * r) / (4 * np.pi * r)
-        result[0] = g * (1j * kk - 1 / r) * (d0 * n[0] + d1 * n[1] + d2 * n[2]) / r
-
-    return combined, derivative
+    return incident
 
 
 def _incident(bempp, space, k: float, source: np.ndarray, eta: complex, closed: bool):
     """Projection on the space of p_inc + eta dp_inc/dn (closed) or of dp_inc/dn
     (screen), for a unit point source."""
-    combined, derivative = _callables()
-    params = np.array([k, source[0], source[1], source[2], eta], complex)
-    fun = combined if closed else derivative
-    return bempp.GridFunction(space, fun=fun, function_parameters=params)
+    eta, weight = (eta, 1.0) if closed else (1.0, 0.0)
+    params = np.array([k, source[0], source[1], source[2], eta, weight], complex)
+    return bempp.GridFunction(space, fun=_incident_callable(), function_parameters=params)
 
 
 def _gmres(matrix: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, int]:
