@@ -16,6 +16,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
+    elapsed,
     methods,
     parse_indices,
     progress,
@@ -174,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
         print(f"  ({line})")
+    print(f"{len(files)} file(s) written to {out} ({elapsed():.1f} s from the start)")
     return 0
 
 

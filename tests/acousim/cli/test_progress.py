@@ -103,7 +103,9 @@ def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
     code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
     assert code == 0, text
     lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
-    assert lines and all(ln.startswith("img/") or ln.startswith("(") for ln in lines), lines
+    *files, total = lines  # the files written, then how many and the wall time
+    assert files and all(ln.startswith("img/") or ln.startswith("(") for ln in files), lines
+    assert re.fullmatch(r"\d+ file\(s\) written to img \([\d.]+ s from the start\)", total)
 
 
 def test_quiet_on_a_terminal_prints_only_the_result(tmp_path):
