@@ -597,9 +597,8 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
         truth_range_db=dr,
         with_lidar=any(rec.lidar is not None for rec in recordings),
         legend=False,  # below the frame, with the fan's
-        multi_samples=1,  # no antialiasing: a third of the render's time; the GIF's
-        # palette and the view shrunk to its box (nearest pixel) cost it most of its effect
-    )
+    ).antialiasing(1)  # none: a third of the render's time; the GIF's palette and the
+    # view shrunk to its box (nearest pixel) cost it most of its effect
     figure = None
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):

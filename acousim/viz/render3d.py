@@ -184,8 +184,7 @@ class SceneRenderer:
     truth_range_db : reflectors within this of the strongest echo are drawn (dB).
     with_lidar : list the LiDAR's points in the legend.
     legend : draw the legend inside the view (its entries are ``entries`` either way).
-    multi_samples : the samples per pixel of its antialiasing (None: pyvista's theme,
-        8; 1: none, a software renderer's frame in a third of the time).
+    (Its antialiasing: :meth:`antialiasing`, before the first frame.)
     """
 
     def __init__(
@@ -198,13 +197,10 @@ class SceneRenderer:
         truth_range_db: float = DYNAMIC_RANGE_DB,
         with_lidar: bool = False,
         legend: bool = True,
-        multi_samples: int | None = None,
     ) -> None:
         self.pv = pv = _pv()
         self.truth_range_db = truth_range_db
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
-        if multi_samples is not None:  # before the window's first render
-            self.plotter.ren_win.SetMultiSamples(int(multi_samples))
         self.plotter.set_background("white")
         self.has_mesh = triangles is not None and len(triangles) > 0
         if self.has_mesh:
@@ -233,6 +229,13 @@ class SceneRenderer:
         self._actors: list = []  # drawn for one frame, removed before the next
         self._kept: dict = {}  # by kind: an actor made once, its data replaced per frame
         self._ruler = None
+
+    def antialiasing(self, samples: int) -> SceneRenderer:
+        """Render with `samples` per pixel of antialiasing (pyvista's theme: 8; 1:
+        none, a software renderer's frame in a third of the time); before the first
+        frame (the window's first render fixes it). Returns the renderer."""
+        self.plotter.ren_win.SetMultiSamples(int(samples))
+        return self
 
     def frame(self, content: FrameContent, *, camera: str = "chase") -> np.ndarray:
         """Render one frame of `content` (:class:`FrameContent`): (H, W, 3) uint8.
