@@ -487,6 +487,16 @@ class Simulator:
         )
         return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
 
+    def _one(self, i: int, progress: Callable[[int, int], None] | None) -> P.Recording:
+        """:meth:`run` of pose `i` alone, in this thread (what its threads would do)."""
+        interrupt.check()
+        with self._naming_the_pose(i):
+            prep = self._prepare(self.scene.sensor.poses[i], i, None, SCENE_MOTION)
+        rec = self._record(self._planned(prep), i, None)
+        if progress:
+            progress(1, 1)
+        return rec
+
     def run(
         self, poses: Iterable[int] | None = None, progress: Callable[[int, int], None] | None = None
     ) -> list[P.Recording]:
@@ -499,6 +509,8 @@ class Simulator:
                     f"pose index {i} out of range: the scene has {len(all_poses)} pose(s)"
                 )
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
+        if len(idx) == 1:  # nothing to overlap: no threads started (a scene's one pose)
+            return [self._one(idx[0], progress)]
         # prepare the next pose (trace, echoes, in motion the arrival times) while the
         # current one is rendered (Embree, numpy's large operations, the FFTs and the
         # compiled impulse sums release the GIL); in motion the preparing thread

@@ -25,7 +25,8 @@ SCENES = REPO / "scenes"
 
 def test_run_gives_the_recordings_of_one_pose_at_a_time():
     """The corridor drive at its defaults (diffraction, edge to edge), moving and
-    frozen, five poses: every recording's samples byte for byte."""
+    frozen, five poses: every recording's samples byte for byte (and a run of one
+    pose, which starts no thread)."""
     scene = load_scene(SCENES / "corridor.toml")
     frozen = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, motion=None))
     poses = [12, 13, 14, 30, 31]
@@ -36,6 +37,9 @@ def test_run_gives_the_recordings_of_one_pose_at_a_time():
             ref = alone.simulate_pose(sc.sensor.poses[i], i)
             assert np.array_equal(rec.samples, ref.samples)
             assert np.array_equal(rec.truth.position_world_m, ref.truth.position_world_m)
+        # one pose asked: run in this thread alone, the same bytes
+        (one,) = Simulator(sc).run([poses[3]])
+        assert np.array_equal(one.samples, together[3].samples)
 
 
 def test_edge_to_edge_is_the_same_on_two_threads():
