@@ -25,7 +25,8 @@ Three marks (:data:`MARKS`), in every picture's legend:
 Marks never hide the image: only echoes within the picture's dynamic range of the
 strongest traced echo are drawn, at most one per resolved cell of the image (the
 strongest; :attr:`Reflectors.cell`, the image's range and angular resolution) and
-one per square of a picture's spacing (:meth:`TruthMarks.thinned`), hollow and thin.
+none nearer another than a picture's spacing (:meth:`TruthMarks.thinned`), hollow and
+thin.
 The direct path is not an echo.  Positions are relative to the array's centre (where
 the images' ranges start), sensor frame, m.
 """
@@ -47,6 +48,7 @@ __all__ = [
     "fan_marks",
     "legend_handles",
     "one_per_cell",
+    "spaced",
     "seen_positions",
     "truth_level_db",
 ]
@@ -102,12 +104,13 @@ class TruthMarks:
         return len(self.mark)
 
     def thinned(self, min_separation: float) -> TruthMarks:
-        """At most one mark in each square cell of `min_separation` (the axes'
-        units): the first kept (:func:`echo_points` puts the strongest first),
-        so that a floor's hundreds of scatter points do not hide the picture."""
+        """No two marks nearer than `min_separation` (the axes' units): each kept
+        in order (:func:`echo_points` puts the strongest first) unless a mark kept
+        before it is that near (:func:`spaced`), so that a floor's hundreds of
+        scatter points neither hide the picture nor overlap."""
         if not len(self) or min_separation <= 0:
             return self
-        keep = one_per_cell(np.floor(self.xy / min_separation).astype(np.int64))
+        keep = spaced(self.xy, min_separation)
         return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
 
     def draw(self, ax, size: float = 30.0, min_separation: float = 0.0) -> set[str]:
@@ -177,6 +180,21 @@ def echo_points(
     keep = keep[np.argsort(-level[keep], kind="stable")]
     pts = seen_positions(truth, array_centre_m)[keep]
     return Reflectors(pts, level[keep], cell)
+
+
+def spaced(points: np.ndarray, distance: float) -> np.ndarray:
+    """Indices (K,), in order, of the points (N, D) kept by taking them in order and
+    dropping each one within `distance` of a point kept before it (greedy; a k-d
+    tree finds the neighbours)."""
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, float)
+    near = cKDTree(points).query_ball_point(points, distance * (1 - 1e-12))
+    dropped = np.zeros(len(points), bool)
+    for i, others in enumerate(near):
+        if not dropped[i]:
+            dropped[[j for j in others if j > i]] = True
+    return np.flatnonzero(~dropped)
 
 
 def one_per_cell(keys: np.ndarray) -> np.ndarray:

@@ -224,6 +224,25 @@ def test_hundreds_of_echoes_leave_one_hollow_thin_mark_per_resolved_cell():
     plt.close(fig)
 
 
+def test_thinned_marks_never_overlap_and_keep_the_strongest():
+    """400 marks (strongest first) thinned to 0.1: no two kept nearer than that;
+    each dropped one has a stronger kept one that near; the same marks as a greedy
+    pass written out here, pair by pair."""
+    from acousim.viz.truth import TruthMarks
+
+    rng = np.random.default_rng(8)
+    xy = rng.uniform(-1, 1, (400, 2)) * [1.0, 0.5]
+    marks = TruthMarks(xy, np.full(400, "in"), np.zeros(400, bool)).thinned(0.1)
+    d = np.hypot(*(marks.xy[:, None] - marks.xy[None]).transpose(2, 0, 1))
+    assert np.all(d[np.triu_indices(len(marks), 1)] >= 0.1)
+    kept: list[int] = []
+    for i in range(400):  # the reference: each point against every one kept before it
+        if all(np.hypot(*(xy[i] - xy[j])) >= 0.1 for j in kept):
+            kept.append(i)
+    np.testing.assert_array_equal(marks.xy, xy[kept])
+    assert 30 < len(kept) < 400
+
+
 def test_marks_on_an_elevation_azimuth_slice():
     from acousim.viz.truth import elaz_marks
 
