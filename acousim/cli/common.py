@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -294,13 +295,16 @@ class Progress:
         from tqdm import tqdm
 
         if self._bar is None:
+            sized = _terminal_columns() > 0  # a terminal that says no size: 80 x 24
             self._bar = tqdm(
                 total=total,
                 initial=self._first,
                 desc=self.desc,
                 unit=self.unit,
                 file=sys.stderr,
-                dynamic_ncols=True,
+                dynamic_ncols=sized,
+                ncols=None if sized else 80,
+                nrows=None if sized else 24,  # (0 rows: tqdm draws no bar at all)
                 leave=True,
                 mininterval=0,  # every step drawn: steps are seconds apart
             )
@@ -333,6 +337,14 @@ class Progress:
         of = "" if self._total is None else f"/{self._total}"
         rate = f"{made / seconds:.3g} {self.unit}s/s" if seconds > 0 and made else "-"
         return f"{self.desc}: {self._done}{of} {self.unit}s in {seconds:.1f} s ({rate})"
+
+
+def _terminal_columns() -> int:
+    """The columns of the terminal on stderr (0: it says none, or it is not one)."""
+    try:
+        return os.get_terminal_size(sys.stderr.fileno()).columns
+    except (OSError, ValueError):
+        return 0
 
 
 def progress(

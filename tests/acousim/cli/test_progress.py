@@ -42,12 +42,13 @@ def three_poses(folder: Path) -> Path:
     return path
 
 
-def run_on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
-    """Run ``acousim ARGS`` with stdin, stdout and stderr on a pseudo-terminal (120
-    columns); its exit code and everything it wrote, read until it closed the
-    terminal."""
+def run_on_a_terminal(args: list[str], cwd: Path, columns: int = 120) -> tuple[int, str]:
+    """Run ``acousim ARGS`` with stdin, stdout and stderr on a pseudo-terminal
+    (`columns` wide; 0: one that says no size); its exit code and everything it
+    wrote, read until it closed the terminal."""
     master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))
+    rows = 24 if columns else 0
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, columns, 0, 0))
     env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
     env.pop("ACOUSIM_PROGRESS_LINES", None)
     proc = subprocess.Popen(
@@ -83,6 +84,18 @@ def test_a_terminal_shows_a_bar_with_count_rate_and_time_left(tmp_path):
     # the finished bar stays, then the result
     assert re.search(r"simulate: 100%\|.*\| 3/3 \[\d\d:\d\d<00:00, +[\d.]+(pose/s|s/pose)\]", text)
     assert "3 recording(s) of 'points' written to x.h5" in text
+
+
+def test_a_terminal_that_says_no_size_still_shows_the_bar(tmp_path):
+    """A pseudo-terminal of 0 x 0 (as some CI runners and `script` give): the bar is
+    drawn 80 columns wide, not as nothing."""
+    scene = three_poses(tmp_path)
+    args = ["simulate", scene.name, "--out", "x.h5"]
+    code, text = run_on_a_terminal(args, tmp_path, columns=0)
+    assert code == 0, text
+    bar = r"simulate: 100%\|.*\| 3/3 \[\d\d:\d\d<00:00, +[\d.]+(pose/s|s/pose)\]"
+    drawn = [ln for ln in re.split(r"[\r\n]+", text) if re.search(bar, ln)]
+    assert drawn and all(len(ln.strip()) <= 80 for ln in drawn), text
 
 
 def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
