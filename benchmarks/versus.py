@@ -92,6 +92,9 @@ def _run(name: str, x: dict, tmp: Path) -> None:
 def worker() -> None:
     """A worker: prepare, warm up, then answer ``NAME`` lines with JSON times."""
     root = Path(os.getcwd())
+    from acousim.process import configure
+
+    configure()  # the process's policy, as the command line sets it (both sides alike)
     x = _inputs(root)
     with tempfile.TemporaryDirectory() as tmp:
         for name in WORKLOADS:  # warm-up: compiled kernels, caches, imports

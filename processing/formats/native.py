@@ -194,7 +194,11 @@ def _write_one(g: h5py.Group, rec: Recording, opts: dict) -> None:
         ):
             if data is None:  # no motion, one sonar, a truth without the seen fields
                 continue
-            ds = t.create_dataset(name, data=_narrow(name, data), **kw)
+            data = _narrow(name, data)
+            # one chunk per field (h5py's guess splits a (N, 3) field into columns
+            # and rows: eight checksummed chunks of a few kB, each written and read)
+            chunks = {"chunks": _one_chunk(data)} if kw else {}
+            ds = t.create_dataset(name, data=data, **kw, **chunks)
             if units:
                 ds.attrs["units"] = units
         if rec.truth.object_index is not None:
@@ -213,6 +217,17 @@ def _names(names: np.ndarray | None) -> np.ndarray | None:
 
 
 _STR = h5py.string_dtype("utf-8")
+
+
+#: the largest chunk of a ground-truth field (bytes): a whole field up to it
+TRUTH_CHUNK_BYTES = 1 << 22
+
+
+def _one_chunk(data: np.ndarray) -> tuple[int, ...]:
+    """A truth field's chunk shape: the whole field (every column), of at most
+    :data:`TRUTH_CHUNK_BYTES`."""
+    row = max(1, data[:1].nbytes)
+    return (max(1, min(len(data), TRUTH_CHUNK_BYTES // row)), *data.shape[1:])
 
 
 def _narrow(name: str, data: np.ndarray) -> np.ndarray:

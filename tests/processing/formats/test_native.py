@@ -190,6 +190,10 @@ CASES = {
         lambda f, g: g["truth/kind"].__setitem__(0, b"ghost"),
         r"truth: truth kind 'ghost'",
     ),
+    "truth kind not ASCII": (
+        lambda f, g: g["truth/kind"].__setitem__(0, b"sp\xffcular"),
+        "truth: truth kind 'sp\ufffdcular'",
+    ),
     "truth length": (
         lambda f, g: _replace(g["truth"], "amplitude", np.ones(2), units="1"),
         r"truth: truth amplitude has 2 entries",
