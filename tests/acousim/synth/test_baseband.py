@@ -118,12 +118,15 @@ def test_static_baseband_render_matches_exact_per_path_filtering():
     assert errors[0] > errors[1]
 
 
-def test_fast_settings_are_simulation_settings():
-    """The fast point's table names settings a scene accepts, with valid values."""
-    from acousim.scene.fast import FAST_SETTINGS
+def test_the_old_fast_point_still_imports_with_a_warning():
+    """The deprecated fast point (one "fast" now: the quality preset) still names
+    settings a scene accepts, with valid values, for one version."""
+    from acousim.scene import fast
     from acousim.scene.model import Simulation
 
-    sim = Simulation(**FAST_SETTINGS)
+    with pytest.warns(DeprecationWarning, match='quality = "fast"'):
+        settings = fast.FAST_SETTINGS
+    sim = Simulation(**settings)
     assert sim.render_rate == "baseband"
     with pytest.raises(Exception, match="render_rate"):
         Simulation(render_rate="quarter")
