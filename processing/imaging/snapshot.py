@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.signal import get_window
 
 from processing.base.api import folded_keywords
 from processing.base.errors import InputError
@@ -120,6 +119,8 @@ def stft_snapshot(
     window, overlap = stft.window, stft.overlap
     x = _checked(mf, stft, gate)
     hop = window - overlap
+    from scipy.signal import get_window  # imported here: about a second, for imaging alone
+
     win = get_window(stft.window_type, window)
     # frames[k, m, p, :] = x[k, m, p*hop : p*hop + window]: the STFT of scipy's
     # ShortTimeFFT restricted to whole windows, with bin times at the window centres.

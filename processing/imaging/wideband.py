@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.signal import get_window
 
 from processing.base.api import folded_keywords
 from processing.base.errors import InputError
@@ -62,6 +61,8 @@ def band_snapshots(
     start = np.round(np.asarray(time_s) * sample_rate_hz + emission_index - window // 2)
     start = np.clip(start.astype(int), 0, x.shape[-1] - window)
     frames = sliding_window_view(x, window, axis=-1)[..., start, :]  # (K, M, R, W)
+    from scipy.signal import get_window  # imported here: about a second, for imaging alone
+
     n = np.arange(window)
     kernel = get_window("hann", window)[:, None] * np.exp(
         -2j * np.pi * np.outer(n, np.asarray(freqs_hz)) / sample_rate_hz

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import fft as sfft
-from scipy.signal import windows
 
 from processing.base.errors import InputError
 from processing.sensor.recording import Recording
@@ -195,6 +194,8 @@ def _echo_matrix(recording: Recording, tau, gate_margin_s, band_hz, position_m):
         raise InputError(
             "the echo's gate lies outside the recording", key="position_m", value=list(position_m)
         )
+    from scipy.signal import windows  # imported here: about a second, for a calibration alone
+
     seg = x[:, a:b] * windows.tukey(b - a, 0.2)
     n = sfft.next_fast_len(2 * (b - a), real=True)
     k = np.arange(n // 2 + 1)

@@ -65,7 +65,6 @@ from typing import Literal, get_args
 
 import numpy as np
 from scipy import fft as sfft
-from scipy.signal.windows import tukey
 
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
@@ -244,6 +243,8 @@ def _template_bins(
     k0 = (k_lo + k_hi) // 2
     k = k0 + kb
     inside = (k >= k_lo) & (k <= k_hi)
+    from scipy.signal.windows import tukey  # imported here: about a second, for imaging alone
+
     taper = np.zeros(nb)
     taper[inside] = tukey(k_hi - k_lo + 1, 0.2)[k[inside] - k_lo]
     kc = np.clip(k, 0, n // 2)

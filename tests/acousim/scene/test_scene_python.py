@@ -169,3 +169,20 @@ def test_a_pose_in_degrees_is_the_pose_in_radians():
     np.testing.assert_allclose(q.rotation[:, 0], [math.cos(math.pi / 6), 0, -0.5], atol=1e-12)
     with pytest.raises(InputError, match="Pose.yaw_deg"):
         acousim.Pose.degrees((0, 0, 0), yaw_deg="90")
+
+
+def test_a_simulation_does_not_import_scipy_signal():
+    """scipy.signal takes about a second to import: a scene simulated (and its file
+    written and read) without it; imaging imports it when it runs."""
+    code = (
+        "import sys, tempfile, pathlib, processing as P\n"
+        "from acousim import Simulator, load_scene\n"
+        "from acousim.bundled import find_scene\n"
+        "recs = Simulator(load_scene(find_scene('shoebox'))).run()\n"
+        "path = pathlib.Path(tempfile.mkdtemp()) / 'r.h5'\n"
+        "P.load_recordings(P.save_recordings(path, recs))\n"
+        "assert 'scipy.signal' not in sys.modules, 'scipy.signal imported'\n"
+        "P.acoustic_image(recs[0], 'das')\n"
+        "assert 'scipy.signal' in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)

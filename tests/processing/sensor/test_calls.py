@@ -48,3 +48,17 @@ def test_bad_waveforms_are_refused():
         P.Waveform("square", 1, 2, 1)
     with pytest.raises(ValueError, match="duration"):
         P.linear_chirp(duration_s=0)
+
+
+@pytest.mark.parametrize("kind", ["linear", "hyperbolic"])
+@pytest.mark.parametrize("f0, f1, T", [(20e3, 85e3, 1e-3), (85e3, 20e3, 2e-3), (40e3, 40e3, 1e-3)])
+def test_a_sweep_is_scipys_chirp_to_the_bit(kind, f0, f1, T):
+    """The calls' phase is written out (scipy.signal takes a second to import): the
+    samples are scipy.signal.chirp's, sine-phased, bit for bit."""
+    from scipy.signal import chirp
+
+    fs = 450e3
+    t = np.arange(int(np.ceil(T * fs))) / fs
+    w = P.Waveform(kind, f0, f1, T, taper=0.0)
+    assert np.array_equal(w.at(t), chirp(t, f0, T, f1, method=kind, phi=-90))
+    assert np.array_equal(w.sampled(fs), chirp(t, f0, T, f1, method=kind, phi=-90))
