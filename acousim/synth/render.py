@@ -46,11 +46,13 @@ from acousim.core.rendering import (
     INTERPOLATORS,
     SHAPED_INTERPOLATORS,
     FractionalDelay,
+    RenderDomain,
     ShapedDelay,
     check_interpolator,
 )
 from acousim.synth.baseband import spectra
 from acousim.synth.response import PathResponse, factorise
+from acousim.synth.timedomain import filtered_calls, prefer_time, render_time, trimmed
 from processing import Waveform
 from processing.base.kernels import optional_kernel
 from processing.sensor.calls import ANTI_ALIAS_CUTOFF
@@ -72,6 +74,7 @@ TABLE_PHASES = 4096
 FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
+FILTER_TAILS = 256  # samples a set's filter adds on each side of the call (an estimate)
 
 
 def render(
@@ -84,12 +87,16 @@ def render(
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR,
     taps: int = DEFAULT_TAPS,
     response: PathResponse | None = None,
+    domain: RenderDomain = "auto",
 ) -> np.ndarray:
     """Microphone signals of `echoes`, shape (M, T), float64.
 
     `response` adds air absorption and emitter directivity per path (see
     :mod:`acousim.synth.response`); it needs a
-    :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).
+    :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).  `domain`: where
+    the sinc, lagrange and nearest interpolators sum the echoes
+    (:data:`~acousim.core.rendering.RenderDomain`: 'frequency', impulses and FFTs;
+    'time', :mod:`acousim.synth.timedomain`; 'auto', the cheaper by estimate).
 
     Echoes that start after the end of the window are expected to have been
     dropped by the caller (:func:`acousim.synth.signal_model.simulate`); those that start
@@ -121,10 +128,17 @@ def render(
     if hi <= max(lo, 0):
         return out
     n_span = hi - lo
+    kernel = (interpolator, taps)
     if shaped:
-        y = _render_shaped(echoes, d - lo, call, fs, n_span, (interpolator, taps), response)
+        y = _render_shaped(echoes, d - lo, call, fs, n_span, kernel, response, domain=domain)
+    elif _in_time(domain, g.shape, 1, kernel, call.size, n_span + call.size):
+        calls, lead = trimmed(call[None], 0)
+        row = np.zeros(g.shape[1], np.intp)  # every path: the call
+        y = render_time(
+            d - lo, g, calls, lead=lead, kernel=_taps(d - lo, *kernel), row=row, n_samples=n_span
+        )
     else:
-        y = _convolved(d - lo, g, call, n_span, (interpolator, taps))
+        y = _convolved(d - lo, g, call, n_span, kernel)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -192,8 +206,22 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) -> np.ndarray:
-    """Impulses times separable path responses, summed in the frequency domain.
+def _in_time(domain: str, shape: tuple[int, int], sets: int, kernel, call: int, n: int) -> bool:
+    """Whether to sum in time (:mod:`.timedomain`): `domain` says so, or it is 'auto'
+    and the time domain is estimated cheaper for echoes of `shape` (M, N), `sets`
+    gain sets, `kernel` (method, taps), a call of `call` samples and FFTs of `n`."""
+    if domain == "auto":
+        taps = 0 if kernel[0] == "nearest" else kernel[1]
+        M, N = shape
+        return prefer_time(mics=M, paths=N, taps=taps, call=call, sets=sets, n_fft=n)
+    return domain == "time"
+
+
+def _render_shaped(
+    echoes, d, call, fs, n_span, kernel, response, band_db=None, domain: RenderDomain = "frequency"
+) -> np.ndarray:
+    """Impulses times separable path responses, summed in the frequency domain
+    (or, as `domain` says, in time: :mod:`.timedomain`, the same sets' filters).
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
     the echoes, so that its level does not set the accuracy of theirs.  The impulses
@@ -211,6 +239,12 @@ def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) 
     g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
     if band_db is not None:  # at baseband
         return _shaped_baseband(echoes, d, (g, U, V, W, band), n, kernel, n_span, band_db)
+    if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
+        spec = np.zeros((V.shape[1], W.size), complex)
+        spec[:, band] = (W[band, None] * U).T
+        calls, lead = filtered_calls(spec, n)
+        paths = V @ calls  # (N, L): each path's response, its sets' filtered calls
+        return render_time(d, g, paths, lead=lead, kernel=_taps(d, *kernel), n_samples=n_span)
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -338,6 +372,19 @@ def _kernel_table(method: str, taps: int) -> np.ndarray:
     return _kernel(np.linspace(0.0, 1.0, TABLE_PHASES + 1), method, taps)[1]
 
 
+def _taps(d: np.ndarray, method: str, taps: int):
+    """The fractional delays `d` (M, N; samples) as tabulated taps:
+    ``(n0 (M, N), phase (M, N) intp, table (P, K), offsets (K,))``: impulse (m, n)
+    puts ``table[phase[m, n], j]`` at sample ``n0[m, n] + offsets[j]`` (for
+    ``nearest``, one tap at the rounded delay; else the nearest of TABLE_PHASES
+    tabulated fractions, :func:`_kernel_table`)."""
+    if method == "nearest":
+        return np.rint(d), np.zeros(d.shape, np.intp), np.ones((1, 1)), np.zeros(1, np.int64)
+    n0 = np.floor(d)
+    phase = np.rint((d - n0) * TABLE_PHASES).astype(np.intp)
+    return n0, phase, _kernel_table(method, taps), np.arange(-taps + 1, taps + 1)
+
+
 def _impulses(
     d: np.ndarray,
     g: np.ndarray,
@@ -366,16 +413,11 @@ def _impulses(
     buf = n_span + 2 * pad if width is None else width
     if buf < n_span + 2 * pad:
         raise ValueError(f"buffer width {buf} shorter than the span {n_span} and its margins")
+    n0, phase, table, _ = _taps(d, method, taps)
     if method == "nearest":
-        first = np.clip(np.rint(d).astype(np.int64), -pad, n_span + pad - 1) + pad
-        phase = np.zeros((M, N), np.intp)
-        table = np.ones((1, 1))
+        first = np.clip(n0.astype(np.int64), -pad, n_span + pad - 1) + pad
     else:
-        n0 = np.floor(d)
-        # kernel weights: the nearest of TABLE_PHASES tabulated fractions
-        phase = np.rint((d - n0) * TABLE_PHASES).astype(np.intp)
         first = np.clip(n0.astype(np.int64), -1, n_span) + pad + 1 - taps
-        table = _kernel_table(method, taps)
     # first (M, N): index of each impulse's first tap in its microphone's buffer
     kernel = _compiled()
     if kernel is not None:

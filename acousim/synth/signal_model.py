@@ -107,6 +107,7 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
         interpolator=options.interpolator,
         taps=options.taps,
         response=response,
+        domain=options.domain,
     )
 
 

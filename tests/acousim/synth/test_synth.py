@@ -177,9 +177,10 @@ def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monke
     e = echoes_ahead(arr, n=60, seed=5, near_m=0.3)
     wf, fs = P.rtis_call(), 450e3
     resp = PathResponse(emitter_radius_m=0.004)
-    compiled = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    opts = {"interpolator": interpolator, "response": resp, "domain": "frequency"}
+    compiled = render(e, wf, fs, 16384, **opts)
     monkeypatch.setattr(render_mod, "_compiled", lambda: None)
-    sparse = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    sparse = render(e, wf, fs, 16384, **opts)
     assert np.any(compiled)
     assert compiled.tobytes() == sparse.tobytes()
 

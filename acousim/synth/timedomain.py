@@ -1,0 +1,135 @@
+"""The full-rate render summed in time (``render_domain = "time"``): for scenes with
+few paths.
+
+The frequency-domain render (:mod:`acousim.synth.render`) places every path's
+fractional-delay impulses in one buffer per gain set and microphone, transforms the
+buffers (an FFT whose length is set by the span the echoes reach: the recording's
+range) and multiplies by the sets' filters.  The same sum, term for term, in time:
+each gain set's filter applied to the call once (:func:`filtered_calls`: the
+filtered call, trimmed to where it has energy), each path's response as its
+combination of the sets' filtered calls, and every path's copy at every microphone
+passed through the same tabulated fractional-delay weights and added at its delay
+(:func:`render_time`).  Cost ``M N 2 taps L`` (L the filtered call's length)
+against the frequency domain's ``M (Q + 1)`` FFTs of the span: the time domain wins
+for a few paths (the wall, the shoebox: tens), the FFTs for thousands (the
+corridor); :func:`prefer_time` estimates both.  The two differ by rounding and by
+the filtered calls' tails left out (below :data:`TAIL_ENERGY` of their energy).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import fft as sfft
+
+from processing.base.kernels import optional_kernel
+
+__all__ = ["filtered_calls", "trimmed", "render_time", "prefer_time", "TAIL_ENERGY"]
+
+#: the filtered calls' tails left out hold at most this fraction of their energy
+#: (-130 dB: the band-limited call's own padding holds -130 dB beyond 256 samples)
+TAIL_ENERGY = 1e-11
+#: CPU seconds per multiply-add of the time-domain sum, per ``n log2 n`` of a real
+#: FFT of length n (float32), and per bin, set and microphone of the frequency
+#: domain's buffers and products, fitted to renders of 1-80 paths at 30 microphones
+#: (docs/physics.md, "Where a measurement's time goes"): only their ratios matter
+SECONDS_PER_TAP = 2.5e-10
+SECONDS_PER_FFT_OP = 1.6e-10
+SECONDS_PER_BIN = 2e-9
+
+
+def filtered_calls(spectra: np.ndarray, n: int) -> tuple[np.ndarray, int]:
+    """The sets' filtered calls in time: ``(calls (Q, L), lead)``.
+
+    `spectra` (Q, n // 2 + 1) complex: each set's filter times the call's spectrum
+    on an n-point real FFT, the call's first sample at time 0; the inverse transform
+    is circular, so the response's part before time 0 sits at the end.  The calls
+    are cut to the shortest stretch, from `lead` samples before the call's first
+    sample, outside which their summed energy is below :data:`TAIL_ENERGY` of the
+    total (at most n samples).
+    """
+    x = sfft.irfft(spectra, n, axis=-1)
+    return trimmed(np.roll(x, n // 2, axis=-1), n // 2)  # the tails on both sides
+
+
+def trimmed(x: np.ndarray, zero: int) -> tuple[np.ndarray, int]:
+    """Calls `x` (Q, L0) whose first sample is at index `zero`, cut to the shortest
+    stretch outside which their summed energy is below :data:`TAIL_ENERGY` of the
+    total: ``(calls (Q, L), lead)``, the first sample now at index `lead`."""
+    cum = np.cumsum(np.sum(x * x, axis=0))
+    total = cum[-1]
+    if total <= 0:
+        return np.zeros((x.shape[0], 1)), 0
+    cut = 0.5 * TAIL_ENERGY * total
+    lo = int(np.searchsorted(cum, cut, side="right"))
+    hi = int(np.searchsorted(cum, total - cut, side="left")) + 1
+    return np.ascontiguousarray(x[:, lo:hi]), zero - lo
+
+
+def render_time(
+    d: np.ndarray,
+    gain: np.ndarray,
+    calls: np.ndarray,
+    *,
+    lead: int,
+    kernel: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    n_samples: int,
+    row: np.ndarray | None = None,
+) -> np.ndarray:
+    """Microphone signals (M, n_samples): at every microphone m and path n, the
+    path's filtered call ``calls[row[n]]`` (C, L; sample `lead` is the call's first)
+    delayed by ``d[m, n]`` samples (M, N; from the output's sample 0) and scaled by
+    ``gain[m, n]`` (M, N).
+
+    `kernel`: ``(n0, phase, table, offsets)`` of :func:`acousim.synth.render._taps`:
+    each delay's integer part n0 (M, N), its row of the tabulated weights `table`
+    (P, K) and the taps' offsets (K,) from n0: the frequency-domain render's own
+    fractional delays.  `row` (N,): each path's call (None: path n has row n).
+    Samples beyond the output are dropped.
+    """
+    n0, phase, table, offsets = kernel
+    M, N = d.shape
+    out = np.zeros((M, n_samples))
+    if N == 0:
+        return out
+    row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
+    first = n0.astype(np.int64) + int(offsets[0]) - lead
+    calls = np.ascontiguousarray(calls, dtype=np.float64)
+    gain = np.ascontiguousarray(gain, dtype=np.float64)
+    compiled = optional_kernel("acousim.synth._timedomain_kernel", "add_delayed")
+    if compiled is not None:
+        compiled(first, np.ascontiguousarray(phase, np.intp), gain, table, calls, row, out)
+    else:
+        _add_numpy(first, phase, gain, table, calls, row, out)
+    return out
+
+
+def _add_numpy(first, phase, gain, table, calls, row, out) -> None:
+    """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path, the
+    microphones' tap weights (M, K) times the call's shifted copies (K, L + K - 1)
+    as one product, each microphone's row added at its first tap."""
+    M, N = first.shape
+    K, L = table.shape[1], calls.shape[1]
+    T = out.shape[1]
+    for n in range(N):
+        f = np.zeros(L + 2 * (K - 1))
+        f[K - 1 : K - 1 + L] = calls[row[n]]
+        # shifted[j, i] = call[i - j]
+        shifted = np.lib.stride_tricks.sliding_window_view(f, L + K - 1)[K - 1 :: -1]
+        y = (gain[:, n, None] * table[phase[:, n]]) @ shifted  # (M, L + K - 1)
+        for m in range(M):
+            s = int(first[m, n])
+            i0, i1 = max(0, -s), min(L + K - 1, T - s)
+            if i1 > i0:
+                out[m, s + i0 : s + i1] += y[m, i0:i1]
+
+
+def prefer_time(*, mics: int, paths: int, taps: int, call: int, sets: int, n_fft: int) -> bool:
+    """Whether the time-domain sum is estimated to cost less than the frequency
+    domain's: ``M N K L`` multiply-adds (K = 2 `taps` fractional-delay weights, L
+    the filtered `call`'s samples) against ``M (Q + 1)`` real FFTs of `n_fft` points
+    (Q `sets`: the forward ones, one inverse) and the buffers and products of the
+    ``M Q`` spectra."""
+    t_time = SECONDS_PER_TAP * mics * paths * max(2 * taps, 1) * call
+    t_fft = SECONDS_PER_FFT_OP * (sets + 1) * n_fft * np.log2(max(n_fft, 2))
+    t_freq = mics * (t_fft + SECONDS_PER_BIN * sets * n_fft / 2)
+    return bool(t_time < t_freq)

@@ -1,0 +1,122 @@
+"""The full-rate render summed in time (``render_domain = "time"``,
+acousim/synth/timedomain.py) against independent references: the echoes delayed
+exactly in the frequency domain, each path filtered by its own response
+(tests/acousim/synth/references.py, written apart from the renderers); and against
+the render summed by FFTs, the same sum term for term (within -100 dB of its energy,
+all microphones)."""
+
+import dataclasses
+import importlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.core.echoes import Echoes
+from acousim.scene import load_scene
+from acousim.simulator import Simulator
+from acousim.synth import PathResponse, render
+from acousim.synth.timedomain import prefer_time
+from processing.base.errors import InputError
+from tests.acousim.synth.references import echoes_ahead, filtered_per_path
+
+FS = 450e3
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
+FLAT = PathResponse(absorption=False)  # H = 1: exact delays only
+
+
+def residual_db(y: np.ndarray, ref: np.ndarray) -> float:
+    """Energy of the difference over the reference's, all microphones, dB."""
+    return float(10 * np.log10(np.sum((y - ref) ** 2) / np.sum(ref**2)))
+
+
+@pytest.mark.parametrize("interpolator,bound_db", [("sinc", -80), ("lagrange", -80)])
+def test_few_paths_summed_in_time_are_the_calls_delayed_exactly(interpolator, bound_db):
+    """Flat responses: the exact sum of band-limited calls at fractional delays (the
+    interpolators' own error sets the bound: -87 and -90 dB here, as the FFT sum),
+    and the FFT sum
+    within -100 dB."""
+    arr = P.ura(2, 3, 3.85e-3)
+    e = echoes_ahead(arr, n=7, seed=2)
+    wf = P.rtis_call()
+    exact = filtered_per_path(e, wf, FLAT, FS, 16384)
+    y = render(e, wf, FS, 16384, interpolator=interpolator, domain="time")
+    assert residual_db(y, exact) < bound_db
+    fft = render(e, wf, FS, 16384, interpolator=interpolator, domain="frequency")
+    assert residual_db(y, fft) < -100
+
+
+def test_path_responses_summed_in_time_match_exact_per_path_filtering():
+    """Absorption and a piston emitter: each path filtered by its own response
+    (-75 dB: the factorisation's error, as for the FFT sum) and the FFT sum of the
+    same factorised sets within -100 dB."""
+    arr = P.ura(2, 2, 3.85e-3)
+    e = echoes_ahead(arr, n=12, seed=6)
+    wf = P.rtis_call()
+    resp = PathResponse(emitter_radius_m=0.004)
+    y = render(e, wf, FS, 16384, response=resp, domain="time")
+    assert residual_db(y, filtered_per_path(e, wf, resp, FS, 16384)) < -75
+    assert residual_db(y, render(e, wf, FS, 16384, response=resp, domain="frequency")) < -100
+
+
+@pytest.mark.parametrize("interpolator", ["sinc", "lagrange", "nearest"])
+def test_echoes_at_the_windows_edges_are_cut_as_the_fft_sum_cuts_them(interpolator):
+    """A call starting before sample 0 (the direct path, 3 samples after the
+    emission) and one running past the window's end: the same samples kept."""
+    wf = P.rtis_call()
+    delays = np.array([[3.0, 700.2, 7800.6], [3.4, 700.9, 7801.1]]) / FS
+    e = Echoes(delays, np.ones((2, 3)), delays * 343.0, np.array([0, 1, 1]))
+    for resp in (None, PathResponse()):
+        kw = {"interpolator": interpolator, "response": resp}
+        y = render(e, wf, FS, 8000, domain="time", **kw)
+        ref = render(e, wf, FS, 8000, domain="frequency", **kw)
+        assert np.any(y[:, -1])  # the last echo reaches the end
+        assert residual_db(y, ref) < -100
+    empty = Echoes.empty(2)
+    assert not np.any(render(empty, wf, FS, 8000, domain="time"))
+
+
+@pytest.mark.parametrize("name", ["shoebox", "wall", "points"])
+def test_bundled_scenes_summed_in_time_are_their_fft_sums(name):
+    """The shoebox (18 paths), the wall (one) and the points (three, no response):
+    noise-free recordings within -100 dB of the FFT sum's, all microphones; 'auto'
+    sums these few paths in time."""
+    scene = load_scene(SCENES / f"{name}.toml")
+    records = {}
+    for domain in ("time", "frequency", "auto"):
+        sim = dataclasses.replace(scene.simulation, render_domain=domain, snr_db=np.inf)
+        sc = dataclasses.replace(scene, simulation=sim)
+        records[domain] = Simulator(sc).simulate_pose(sc.sensor.poses[0]).samples
+    assert np.any(records["time"])
+    assert residual_db(records["time"], records["frequency"]) < -100
+    assert records["auto"].tobytes() == records["time"].tobytes()
+
+
+def test_the_numpy_sum_without_numba_gives_the_compiled_numbers(monkeypatch):
+    pytest.importorskip("numba")
+    td = importlib.import_module("acousim.synth.timedomain")
+    arr = P.ura(2, 3, 3.85e-3)
+    e = echoes_ahead(arr, n=9, seed=3, near_m=0.3)
+    wf, resp = P.rtis_call(), PathResponse(emitter_radius_m=0.004)
+    compiled = render(e, wf, FS, 16384, response=resp, domain="time")
+    monkeypatch.setattr(td, "optional_kernel", lambda *a: None)
+    plain = render(e, wf, FS, 16384, response=resp, domain="time")
+    assert np.any(compiled)
+    assert residual_db(plain, compiled) < -250
+
+
+def test_auto_sums_few_paths_in_time_and_thousands_by_fft():
+    """The estimate's choice at the bundled scenes' sizes (30 microphones): the
+    shoebox's 18 paths and 3 sets over a 12 000-point FFT in time; the corridor's
+    4 000 paths by FFT."""
+    shoebox = {"mics": 30, "taps": 6, "call": 2149, "sets": 3, "n_fft": 12000}
+    assert prefer_time(paths=18, **shoebox)
+    assert not prefer_time(paths=4000, **{**shoebox, "n_fft": 19200})
+
+
+def test_an_unknown_render_domain_is_an_input_error_naming_it():
+    from acousim.scene.model import Simulation
+
+    with pytest.raises(InputError, match="render_domain"):
+        Simulation(render_domain="fourier")
