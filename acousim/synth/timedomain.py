@@ -84,7 +84,8 @@ def render_time(
     each delay's integer part n0 (M, N), its row of the tabulated weights `table`
     (P, K) and the taps' offsets (K,) from n0: the frequency-domain render's own
     fractional delays.  `row` (N,): each path's call (None: path n has row n).
-    Samples beyond the output are dropped.
+    Samples beyond the output are dropped.  Each copy is summed over its taps in
+    single precision (the calls stored so), the copies added in double.
     """
     n0, phase, table, offsets = kernel
     M, N = d.shape
@@ -93,7 +94,7 @@ def render_time(
         return out
     row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
     first = n0.astype(np.int64) + int(offsets[0]) - lead
-    calls = np.ascontiguousarray(calls, dtype=np.float64)
+    calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain, dtype=np.float64)
     compiled = optional_kernel("acousim.synth._timedomain_kernel", "add_delayed")
     if compiled is not None:
@@ -106,16 +107,18 @@ def render_time(
 def _add_numpy(first, phase, gain, table, calls, row, out) -> None:
     """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path, the
     microphones' tap weights (M, K) times the call's shifted copies (K, L + K - 1)
-    as one product, each microphone's row added at its first tap."""
+    as one product in single precision, each microphone's row added at its first
+    tap."""
     M, N = first.shape
     K, L = table.shape[1], calls.shape[1]
     T = out.shape[1]
     for n in range(N):
-        f = np.zeros(L + 2 * (K - 1))
+        f = np.zeros(L + 2 * (K - 1), np.float32)
         f[K - 1 : K - 1 + L] = calls[row[n]]
         # shifted[j, i] = call[i - j]
         shifted = np.lib.stride_tricks.sliding_window_view(f, L + K - 1)[K - 1 :: -1]
-        y = (gain[:, n, None] * table[phase[:, n]]) @ shifted  # (M, L + K - 1)
+        weights = (gain[:, n, None] * table[phase[:, n]]).astype(np.float32)
+        y = weights @ shifted  # (M, L + K - 1)
         for m in range(M):
             s = int(first[m, n])
             i0, i1 = max(0, -s), min(L + K - 1, T - s)

@@ -35,8 +35,7 @@ def residual_db(y: np.ndarray, ref: np.ndarray) -> float:
 def test_few_paths_summed_in_time_are_the_calls_delayed_exactly(interpolator, bound_db):
     """Flat responses: the exact sum of band-limited calls at fractional delays (the
     interpolators' own error sets the bound: -87 and -90 dB here, as the FFT sum),
-    and the FFT sum
-    within -100 dB."""
+    and the FFT sum within -100 dB."""
     arr = P.ura(2, 3, 3.85e-3)
     e = echoes_ahead(arr, n=7, seed=2)
     wf = P.rtis_call()
@@ -103,7 +102,7 @@ def test_the_numpy_sum_without_numba_gives_the_compiled_numbers(monkeypatch):
     monkeypatch.setattr(td, "optional_kernel", lambda *a: None)
     plain = render(e, wf, FS, 16384, response=resp, domain="time")
     assert np.any(compiled)
-    assert residual_db(plain, compiled) < -250
+    assert residual_db(plain, compiled) < -130  # single-precision sums in another order
 
 
 def test_auto_sums_few_paths_in_time_and_thousands_by_fft():
