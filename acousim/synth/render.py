@@ -131,14 +131,8 @@ def render(
     kernel = (interpolator, taps)
     if shaped:
         y = _render_shaped(echoes, d - lo, call, fs, n_span, kernel, response, domain=domain)
-    elif _in_time(domain, g.shape, 1, kernel, call.size, n_span + call.size):
-        calls, lead = trimmed(call[None], 0)
-        row = np.zeros(g.shape[1], np.intp)  # every path: the call
-        y = render_time(
-            d - lo, g, calls, lead=lead, kernel=_taps(d - lo, *kernel), row=row, n_samples=n_span
-        )
     else:
-        y = _convolved(d - lo, g, call, n_span, kernel)
+        y = _unshaped(d - lo, g, call, n_span, kernel, domain)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -173,6 +167,18 @@ def render_baseband(
     y = _render_shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
+
+
+def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain) -> np.ndarray:
+    """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
+    convolved with `call` (L,), no path response: the span's samples (M, n_span),
+    summed in time (:mod:`.timedomain`) or by FFT (:func:`_convolved`) as `domain`
+    says; `kernel`: the fractional delays' (method, taps)."""
+    calls, lead = trimmed(call[None], 0)  # the call without its silent padding
+    if not _in_time(domain, g.shape, 1, kernel, calls.shape[1], n_span + call.size):
+        return _convolved(d, g, call, n_span, kernel)
+    row = np.zeros(g.shape[1], np.intp)  # every path: the call
+    return render_time(d, g, calls, lead=lead, kernel=_taps(d, *kernel), row=row, n_samples=n_span)
 
 
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:

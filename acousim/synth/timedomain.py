@@ -28,13 +28,13 @@ __all__ = ["filtered_calls", "trimmed", "render_time", "prefer_time", "TAIL_ENER
 #: the filtered calls' tails left out hold at most this fraction of their energy
 #: (-130 dB: the band-limited call's own padding holds -130 dB beyond 256 samples)
 TAIL_ENERGY = 1e-11
-#: CPU seconds per multiply-add of the time-domain sum, per ``n log2 n`` of a real
-#: FFT of length n (float32), and per bin, set and microphone of the frequency
-#: domain's buffers and products, fitted to renders of 1-80 paths at 30 microphones
-#: (docs/physics.md, "Where a measurement's time goes"): only their ratios matter
-SECONDS_PER_TAP = 2.5e-10
-SECONDS_PER_FFT_OP = 1.6e-10
-SECONDS_PER_BIN = 2e-9
+#: CPU seconds per multiply-add of the time-domain sum and per ``n log2 n`` of a
+#: real FFT of length n (float32) with its share of the impulses and the products,
+#: fitted to renders of 2-96 paths at 30 microphones, 8 000 and 22 000 samples,
+#: with and without path responses (docs/physics.md, "Where a measurement's time
+#: goes"): only their ratio matters
+SECONDS_PER_TAP = 1.2e-10
+SECONDS_PER_FFT_OP = 3e-10
 
 
 def filtered_calls(spectra: np.ndarray, n: int) -> tuple[np.ndarray, int]:
@@ -130,9 +130,7 @@ def prefer_time(*, mics: int, paths: int, taps: int, call: int, sets: int, n_fft
     """Whether the time-domain sum is estimated to cost less than the frequency
     domain's: ``M N K L`` multiply-adds (K = 2 `taps` fractional-delay weights, L
     the filtered `call`'s samples) against ``M (Q + 1)`` real FFTs of `n_fft` points
-    (Q `sets`: the forward ones, one inverse) and the buffers and products of the
-    ``M Q`` spectra."""
+    (Q `sets`: the forward ones, one inverse)."""
     t_time = SECONDS_PER_TAP * mics * paths * max(2 * taps, 1) * call
-    t_fft = SECONDS_PER_FFT_OP * (sets + 1) * n_fft * np.log2(max(n_fft, 2))
-    t_freq = mics * (t_fft + SECONDS_PER_BIN * sets * n_fft / 2)
+    t_freq = SECONDS_PER_FFT_OP * mics * (sets + 1) * n_fft * np.log2(max(n_fft, 2))
     return bool(t_time < t_freq)
