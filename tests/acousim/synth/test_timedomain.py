@@ -16,7 +16,8 @@ import processing as P
 from acousim.core.echoes import Echoes
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
-from acousim.synth import PathResponse, render
+from acousim.synth import Capture, PathResponse, RenderOptions, render
+from acousim.synth.render import render_with
 from acousim.synth.timedomain import prefer_time
 from processing.base.errors import InputError
 from tests.acousim.synth.references import echoes_ahead, filtered_per_path
@@ -24,6 +25,14 @@ from tests.acousim.synth.references import echoes_ahead, filtered_per_path
 FS = 450e3
 SCENES = Path(__file__).resolve().parents[3] / "scenes"
 FLAT = PathResponse(absorption=False)  # H = 1: exact delays only
+
+
+def summed(e: Echoes, wf: P.Waveform, n: int, domain: str, **options) -> np.ndarray:
+    """The render of `e` (M, N) at FS, `n` samples, summed in `domain`; `options`:
+    the interpolator and the path response."""
+    response = options.pop("response", None)
+    capture = Capture(P.ura(1, e.delay_s.shape[0], 1e-3), wf, FS, n)
+    return render_with(e, capture, RenderOptions(domain=domain, **options), response)
 
 
 def residual_db(y: np.ndarray, ref: np.ndarray) -> float:
@@ -40,9 +49,9 @@ def test_few_paths_summed_in_time_are_the_calls_delayed_exactly(interpolator, bo
     e = echoes_ahead(arr, n=7, seed=2)
     wf = P.rtis_call()
     exact = filtered_per_path(e, wf, FLAT, FS, 16384)
-    y = render(e, wf, FS, 16384, interpolator=interpolator, domain="time")
+    y = summed(e, wf, 16384, "time", interpolator=interpolator)
     assert residual_db(y, exact) < bound_db
-    fft = render(e, wf, FS, 16384, interpolator=interpolator, domain="frequency")
+    fft = summed(e, wf, 16384, "frequency", interpolator=interpolator)
     assert residual_db(y, fft) < -100
 
 
@@ -54,9 +63,9 @@ def test_path_responses_summed_in_time_match_exact_per_path_filtering():
     e = echoes_ahead(arr, n=12, seed=6)
     wf = P.rtis_call()
     resp = PathResponse(emitter_radius_m=0.004)
-    y = render(e, wf, FS, 16384, response=resp, domain="time")
+    y = summed(e, wf, 16384, "time", response=resp)
     assert residual_db(y, filtered_per_path(e, wf, resp, FS, 16384)) < -75
-    assert residual_db(y, render(e, wf, FS, 16384, response=resp, domain="frequency")) < -100
+    assert residual_db(y, summed(e, wf, 16384, "frequency", response=resp)) < -100
 
 
 @pytest.mark.parametrize("interpolator", ["sinc", "lagrange", "nearest"])
@@ -68,12 +77,12 @@ def test_echoes_at_the_windows_edges_are_cut_as_the_fft_sum_cuts_them(interpolat
     e = Echoes(delays, np.ones((2, 3)), delays * 343.0, np.array([0, 1, 1]))
     for resp in (None, PathResponse()):
         kw = {"interpolator": interpolator, "response": resp}
-        y = render(e, wf, FS, 8000, domain="time", **kw)
-        ref = render(e, wf, FS, 8000, domain="frequency", **kw)
+        y = summed(e, wf, 8000, "time", **kw)
+        ref = summed(e, wf, 8000, "frequency", **kw)
         assert np.any(y[:, -1])  # the last echo reaches the end
         assert residual_db(y, ref) < -100
     empty = Echoes.empty(2)
-    assert not np.any(render(empty, wf, FS, 8000, domain="time"))
+    assert not np.any(summed(empty, wf, 8000, "time"))
 
 
 @pytest.mark.parametrize("name", ["shoebox", "wall", "points"])
@@ -98,11 +107,23 @@ def test_the_numpy_sum_without_numba_gives_the_compiled_numbers(monkeypatch):
     arr = P.ura(2, 3, 3.85e-3)
     e = echoes_ahead(arr, n=9, seed=3, near_m=0.3)
     wf, resp = P.rtis_call(), PathResponse(emitter_radius_m=0.004)
-    compiled = render(e, wf, FS, 16384, response=resp, domain="time")
+    compiled = summed(e, wf, 16384, "time", response=resp)
     monkeypatch.setattr(td, "optional_kernel", lambda *a: None)
-    plain = render(e, wf, FS, 16384, response=resp, domain="time")
+    plain = summed(e, wf, 16384, "time", response=resp)
     assert np.any(compiled)
     assert residual_db(plain, compiled) < -130  # single-precision sums in another order
+
+
+def test_render_sums_few_paths_in_time_and_thousands_by_fft():
+    """`render` (no domain to give) takes the cheaper: the time domain's bytes for
+    few paths."""
+    e = echoes_ahead(P.ura(2, 3, 3.85e-3), n=5, seed=7)
+    wf, resp = P.rtis_call(), PathResponse()
+    assert render(e, wf, FS, 16384, response=resp).tobytes() == (
+        summed(e, wf, 16384, "time", response=resp).tobytes()
+    )
+    fft = summed(e, wf, 16384, "frequency", response=resp)
+    assert fft.tobytes() != summed(e, wf, 16384, "time", response=resp).tobytes()
 
 
 def test_auto_sums_few_paths_in_time_and_thousands_by_fft():
