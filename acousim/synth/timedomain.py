@@ -18,6 +18,9 @@ the filtered calls' tails left out (below :data:`TAIL_ENERGY` of their energy).
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+from functools import cache
+
 import numpy as np
 from scipy import fft as sfft
 
@@ -35,6 +38,11 @@ TAIL_ENERGY = 1e-11
 #: goes"): only their ratio matters
 SECONDS_PER_TAP = 1.2e-10
 SECONDS_PER_FFT_OP = 3e-10
+#: threads that sum the microphones' blocks (the compiled sum releases the GIL), as
+#: the frequency domain's FFTs run on two; only for sums of at least THREADED_TAPS
+#: multiply-adds (the threads' hand-over costs tens of microseconds)
+WORKERS = 2
+THREADED_TAPS = 2_000_000
 
 
 def filtered_calls(spectra: np.ndarray, n: int) -> tuple[np.ndarray, int]:
@@ -96,12 +104,35 @@ def render_time(
     first = n0.astype(np.int64) + int(offsets[0]) - lead
     calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain, dtype=np.float64)
+    phase = np.ascontiguousarray(phase, np.intp)
     compiled = optional_kernel("acousim.synth._timedomain_kernel", "add_delayed")
-    if compiled is not None:
-        compiled(first, np.ascontiguousarray(phase, np.intp), gain, table, calls, row, out)
-    else:
+    if compiled is None:
         _add_numpy(first, phase, gain, table, calls, row, out)
+        return out
+    args = (first, phase, gain)
+    n_blocks = WORKERS if M * N * table.shape[1] * calls.shape[1] >= THREADED_TAPS else 1
+    edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
+    if edges.size <= 2:
+        compiled(*args, table, calls, row, out)
+        return out
+    # each block of microphones its own rows of `out`: the same bits as one block;
+    # the last block summed in this thread
+    blocks = list(zip(edges[:-1], edges[1:]))
+    done = [
+        _pool().submit(compiled, *(a[i:j] for a in args), table, calls, row, out[i:j])
+        for i, j in blocks[:-1]
+    ]
+    i, j = blocks[-1]
+    compiled(*(a[i:j] for a in args), table, calls, row, out[i:j])
+    for job in done:
+        job.result()
     return out
+
+
+@cache
+def _pool() -> ThreadPoolExecutor:
+    """The threads of the blocked sums (started on first use, shared)."""
+    return ThreadPoolExecutor(WORKERS, thread_name_prefix="acousim-timedomain")
 
 
 def _add_numpy(first, phase, gain, table, calls, row, out) -> None:

@@ -114,6 +114,17 @@ def test_the_numpy_sum_without_numba_gives_the_compiled_numbers(monkeypatch):
     assert residual_db(plain, compiled) < -130  # single-precision sums in another order
 
 
+def test_microphones_summed_in_threads_give_the_same_bits(monkeypatch):
+    td = importlib.import_module("acousim.synth.timedomain")
+    e = echoes_ahead(P.ura(3, 3, 3.85e-3), n=9, seed=8)
+    wf, resp = P.rtis_call(), PathResponse()
+    monkeypatch.setattr(td, "THREADED_TAPS", 0)  # every sum in blocks
+    blocks = summed(e, wf, 16384, "time", response=resp)
+    monkeypatch.setattr(td, "THREADED_TAPS", 10**18)  # none
+    assert np.any(blocks)
+    assert blocks.tobytes() == summed(e, wf, 16384, "time", response=resp).tobytes()
+
+
 def test_render_sums_few_paths_in_time_and_thousands_by_fft():
     """`render` (no domain to give) takes the cheaper: the time domain's bytes for
     few paths."""
