@@ -2,11 +2,12 @@
 the same sums run as numpy products, :func:`acousim.synth.timedomain._add_numpy`).
 
 Per microphone m and path n, the path's filtered call (a row of `calls`) is passed
-through the path's 2 * taps fractional-delay weights into a short buffer (each tap a
-scaled copy of the call, contiguous and vectorised), and the buffer is added to the
-microphone's signal at the path's first tap.  The copies are summed in single
-precision (the calls are stored so; 1.4x faster than double, the rounding about
--140 dB of the signal, as the FFT sum's float32 spectra) and added in double.
+through the path's 2 * taps fractional-delay weights into a short buffer, four taps
+at a time (each pass reads four shifted copies of the call and writes the buffer
+once: 1.2x faster than a pass per tap, whose writes bound it), and the buffer is
+added to the microphone's signal at the path's first tap.  The copies are summed in
+single precision (the calls are stored so; 1.4x faster than double, the rounding
+about -140 dB of the signal, as the FFT sum's float32 spectra) and added in double.
 The GIL is released.
 """
 
@@ -15,6 +16,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+#: zeros stored before and after each call (the shifts of a pass of four taps)
+PAD = 3
+
 
 @njit(cache=True, nogil=True)
 def add_delayed(first, phase, gain, table, calls, row, out):  # pragma: no cover - compiled
@@ -22,16 +26,18 @@ def add_delayed(first, phase, gain, table, calls, row, out):  # pragma: no cover
 
     first (M, N) int64: the output sample of each copy's first sample (may lie
     outside [0, T): the samples outside are dropped); phase (M, N) intp: its row of
-    `table` (P, K), the K tap weights; gain (M, N) float64; calls (C, L) float32,
-    the filtered calls; row (N,) intp: each path's row of `calls`.  Microphone m
-    receives ``gain[m, n] * table[phase[m, n], j] * calls[row[n], i]`` at sample
-    ``first[m, n] + j + i``.
+    `table` (P, K), the K tap weights; gain (M, N) float64; calls (C, PAD + L +
+    PAD) float32, the filtered calls between PAD zeros; row (N,) intp: each path's
+    row of `calls`.  Microphone m receives ``gain[m, n] * table[phase[m, n], j] *
+    call[i]`` at sample ``first[m, n] + j + i`` (call: the row without its zeros).
     """
     M, N = first.shape
-    L = calls.shape[1]
     K = table.shape[1]
+    L = calls.shape[1] - 2 * PAD
     T = out.shape[1]
-    buf = np.empty(L + K - 1, np.float32)
+    K4 = (K + 3) // 4 * 4
+    c = np.zeros(K4, np.float32)
+    buf = np.empty(L + K4 - 1, np.float32)
     for m in range(M):
         o = out[m]
         for n in range(N):
@@ -42,12 +48,19 @@ def add_delayed(first, phase, gain, table, calls, row, out):  # pragma: no cover
             if g == 0.0 or i1 <= i0:
                 continue
             w = table[phase[m, n]]
+            for j in range(K):
+                c[j] = np.float32(g * w[j])
             f = calls[row[n]]
             buf[:] = 0.0
-            for j in range(K):  # one scaled copy per tap: contiguous, vectorised
-                c = np.float32(g * w[j])
-                b = buf[j : j + L]
-                for i in range(L):
-                    b[i] += c * f[i]
+            # taps 4q .. 4q + 3: b[i] += sum_r c[4q + r] call[i - r], call[x] = f[x + PAD]
+            for q in range(0, K4, 4):
+                c0, c1, c2, c3 = c[q], c[q + 1], c[q + 2], c[q + 3]
+                b = buf[q : q + L + 3]
+                f0 = f[PAD : PAD + L + 3]
+                f1 = f[PAD - 1 : PAD - 1 + L + 3]
+                f2 = f[PAD - 2 : PAD - 2 + L + 3]
+                f3 = f[PAD - 3 : PAD - 3 + L + 3]
+                for i in range(L + 3):
+                    b[i] += c0 * f0[i] + c1 * f1[i] + c2 * f2[i] + c3 * f3[i]
             for i in range(i0, i1):
                 o[s + i] += buf[i]

@@ -105,10 +105,13 @@ def render_time(
     calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain, dtype=np.float64)
     phase = np.ascontiguousarray(phase, np.intp)
-    compiled = optional_kernel("acousim.synth._timedomain_kernel", "add_delayed")
-    if compiled is None:
+    module = optional_kernel("acousim.synth._timedomain_kernel")
+    if module is None:
         _add_numpy(first, phase, gain, table, calls, row, out)
         return out
+    compiled = module.add_delayed
+    pad = module.PAD
+    calls = np.pad(calls, ((0, 0), (pad, pad)))  # the compiled sum's zeros around each
     args = (first, phase, gain)
     n_blocks = WORKERS if M * N * table.shape[1] * calls.shape[1] >= THREADED_TAPS else 1
     edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
