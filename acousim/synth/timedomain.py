@@ -18,6 +18,7 @@ the filtered calls' tails left out (below :data:`TAIL_ENERGY` of their energy).
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import cache
 
@@ -135,9 +136,14 @@ def render_time(
     return out
 
 
-@cache
 def _pool() -> ThreadPoolExecutor:
-    """The threads of the blocked sums (started on first use, shared)."""
+    """The threads of the blocked sums (started on first use, shared), this
+    process's: a forked child has none of its parent's threads, so it gets its own."""
+    return _pool_of(os.getpid())
+
+
+@cache
+def _pool_of(pid: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(WORKERS, thread_name_prefix="acousim-timedomain")
 
 

@@ -125,6 +125,33 @@ def test_microphones_summed_in_threads_give_the_same_bits(monkeypatch):
     assert blocks.tobytes() == summed(e, wf, 16384, "time", response=resp).tobytes()
 
 
+def _sum_in_child(e, reply) -> None:
+    reply.put(summed(e, P.rtis_call(), 16384, "time", response=PathResponse()).tobytes())
+
+
+def test_a_forked_child_sums_in_its_own_threads(monkeypatch):
+    """The parent's threads are not in a forked child: it starts its own (a pool
+    inherited without its threads would never run the blocks)."""
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods():
+        pytest.skip("no fork here")
+    td = importlib.import_module("acousim.synth.timedomain")
+    monkeypatch.setattr(td, "THREADED_TAPS", 0)
+    e = echoes_ahead(P.ura(3, 3, 3.85e-3), n=9, seed=8)
+    parent = summed(e, P.rtis_call(), 16384, "time", response=PathResponse())  # threads on
+    ctx = mp.get_context("fork")
+    reply = ctx.Queue()
+    child = ctx.Process(target=_sum_in_child, args=(e, reply))
+    child.start()
+    try:
+        assert reply.get(timeout=120) == parent.tobytes()
+    finally:
+        child.join(timeout=10)
+        if child.is_alive():
+            child.kill()
+
+
 def test_render_sums_few_paths_in_time_and_thousands_by_fft():
     """`render` (no domain to give) takes the cheaper: the time domain's bytes for
     few paths."""
