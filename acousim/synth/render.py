@@ -247,14 +247,15 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _in_time(domain: str, shape: tuple[int, int], sets: int, kernel, call: int, n: int) -> bool:
+def _in_time(domain: str, shape, sets: int, kernel, call: int, n: int, mixed: int = 1) -> bool:
     """Whether to sum in time (:mod:`.timedomain`): `domain` says so, or it is 'auto'
     and the time domain is estimated cheaper for echoes of `shape` (M, N), `sets`
-    gain sets, `kernel` (method, taps), a call of `call` samples and FFTs of `n`."""
+    gain sets, `kernel` (method, taps), a call of `call` samples and FFTs of `n`;
+    `mixed`: each copy's call mixed from that many sets' calls (moving poses)."""
     if domain == "auto":
         taps = 0 if kernel[0] == "nearest" else kernel[1]
         M, N = shape
-        return prefer_time(mics=M, paths=N, taps=taps, call=call, sets=sets, n_fft=n)
+        return prefer_time(mics=M, paths=N, taps=taps, call=call, sets=sets, n_fft=n, mixed=mixed)
     return domain == "time"
 
 

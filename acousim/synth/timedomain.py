@@ -90,7 +90,8 @@ def render_time(
     """Microphone signals (M, n_samples): at every microphone m and path n, the
     path's filtered call ``calls[row[n]]`` (C, L; sample `lead` is the call's first)
     delayed by ``d[m, n]`` samples (M, N; from the output's sample 0) and scaled by
-    ``gain[m, n]`` (M, N).
+    ``gain[m, n]`` (M, N); or, `gain` (M, N, R), R gain sets (a moving pose's), the
+    copy's call ``sum_r gain[m, n, r] calls[row[n] + r]``.
 
     `kernel`: ``(n0, phase, table, offsets)`` of :func:`acousim.synth.render._taps`:
     each delay's integer part n0 (M, N), its row of the tabulated weights `table`
@@ -107,7 +108,7 @@ def render_time(
     row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
     first = n0.astype(np.int64) + int(offsets[0]) - lead
     calls = np.ascontiguousarray(calls, dtype=np.float32)
-    gain = np.ascontiguousarray(gain, dtype=np.float64)
+    gain = np.ascontiguousarray(gain if gain.ndim == 3 else gain[..., None], dtype=np.float64)
     phase = np.ascontiguousarray(phase, np.intp)
     module = optional_kernel("acousim.synth._timedomain_kernel")
     if module is None:
@@ -117,7 +118,8 @@ def render_time(
     pad = module.PAD
     calls = np.pad(calls, ((0, 0), (pad, pad)))  # the compiled sum's zeros around each
     args = (first, phase, gain)
-    n_blocks = WORKERS if M * N * table.shape[1] * calls.shape[1] >= THREADED_TAPS else 1
+    work = M * N * (table.shape[1] + gain.shape[2] - 1) * calls.shape[1]
+    n_blocks = WORKERS if work >= THREADED_TAPS else 1
     edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
     if edges.size <= 2:
         compiled(*args, table, calls, row, out)
@@ -148,32 +150,31 @@ def _pool_of(pid: int) -> ThreadPoolExecutor:
 
 
 def _add_numpy(first, phase, gain, table, calls, row, out) -> None:
-    """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path, the
-    microphones' tap weights (M, K) times the call's shifted copies (K, L + K - 1)
-    as one product in single precision, each microphone's row added at its first
-    tap."""
-    M, N = first.shape
+    """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path and
+    microphone, the copy's call (its gains times its rows of `calls`) convolved with
+    its tap weights in single precision and added at its first tap."""
+    M, N, R = gain.shape
     K, L = table.shape[1], calls.shape[1]
     T = out.shape[1]
     for n in range(N):
-        f = np.zeros(L + 2 * (K - 1), np.float32)
-        f[K - 1 : K - 1 + L] = calls[row[n]]
-        # shifted[j, i] = call[i - j]
-        shifted = np.lib.stride_tricks.sliding_window_view(f, L + K - 1)[K - 1 :: -1]
-        weights = (gain[:, n, None] * table[phase[:, n]]).astype(np.float32)
-        y = weights @ shifted  # (M, L + K - 1)
+        rows = calls[row[n] : row[n] + R]  # (R, L)
         for m in range(M):
+            mix = gain[m, n].astype(np.float32) @ rows  # (L,)
+            y = np.convolve(mix, table[phase[m, n]].astype(np.float32))  # (L + K - 1,)
             s = int(first[m, n])
             i0, i1 = max(0, -s), min(L + K - 1, T - s)
             if i1 > i0:
-                out[m, s + i0 : s + i1] += y[m, i0:i1]
+                out[m, s + i0 : s + i1] += y[i0:i1]
 
 
-def prefer_time(*, mics: int, paths: int, taps: int, call: int, sets: int, n_fft: int) -> bool:
+def prefer_time(
+    *, mics: int, paths: int, taps: int, call: int, sets: int, n_fft: int, mixed: int = 1
+) -> bool:
     """Whether the time-domain sum is estimated to cost less than the frequency
     domain's: ``M N K L`` multiply-adds (K = 2 `taps` fractional-delay weights, L
     the filtered `call`'s samples) against ``M (Q + 1)`` real FFTs of `n_fft` points
-    (Q `sets`: the forward ones, one inverse)."""
-    t_time = SECONDS_PER_TAP * mics * paths * max(2 * taps, 1) * call
+    (Q `sets`: the forward ones, one inverse); each copy's call `mixed` from that many
+    calls (a moving pose's gain sets: ``mixed - 1`` more multiply-adds a sample)."""
+    t_time = SECONDS_PER_TAP * mics * paths * (max(2 * taps, 1) + mixed - 1) * call
     t_freq = SECONDS_PER_FFT_OP * mics * (sets + 1) * n_fft * np.log2(max(n_fft, 2))
     return bool(t_time < t_freq)
