@@ -61,8 +61,8 @@ class RenderOptions:
     compression (:mod:`acousim.synth.doppler`); rate: the Doppler renderer at the
     sample rate ('full') or at complex baseband ('baseband', :mod:`acousim.synth.baseband`:
     the bins within band_floor_db (dB, power) of the strongest); domain: where a
-    static full-rate render sums the echoes ('frequency', 'time' or 'auto', the
-    cheaper by estimate: :mod:`acousim.synth.timedomain`)."""
+    full-rate render, still or moving, sums the echoes ('frequency', 'time' or
+    'auto', the cheaper by estimate: :mod:`acousim.synth.timedomain`)."""
 
     emission_index: int = 0
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR

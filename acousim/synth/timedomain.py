@@ -14,6 +14,9 @@ against the frequency domain's ``M (Q + 1)`` FFTs of the span: the time domain w
 for a few paths (the wall, the shoebox: tens), the FFTs for thousands (the
 corridor); :func:`prefer_time` estimates both.  The two differ by rounding and by
 the filtered calls' tails left out (below :data:`TAIL_ENERGY` of their energy).
+A moving pose's Doppler renderer (:mod:`acousim.synth.doppler`) hands over its
+compressed gain sets: each copy's call is then its own mix of the sets' filtered
+calls.
 """
 
 from __future__ import annotations
