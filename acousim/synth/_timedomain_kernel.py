@@ -33,13 +33,11 @@ def add_delayed(first, phase, gain, table, calls, row, out):  # pragma: no cover
     sum_r gain[m, n, r] * call_(row[n] + r)[i]`` at sample ``first[m, n] + j + i``
     (call: a row without its zeros).
     """
-    M, N = first.shape
-    R = gain.shape[2]
-    K = table.shape[1]
-    L = calls.shape[1] - 2 * PAD
-    T = out.shape[1]
-    c = np.zeros((K + 3) // 4 * 4, np.float32)
-    buf = np.empty(L + c.size - 1, np.float32)
+    (M, N), R = first.shape, gain.shape[2]
+    K, L, T = table.shape[1], calls.shape[1] - 2 * PAD, out.shape[1]
+    K4 = (K + 3) // 4 * 4
+    c = np.zeros(K4, np.float32)
+    buf = np.empty(L + K4 - 1, np.float32)
     mix = np.zeros(calls.shape[1], np.float32)  # zero in its pads
     for m in range(M):
         o = out[m]
@@ -47,49 +45,36 @@ def add_delayed(first, phase, gain, table, calls, row, out):  # pragma: no cover
             s = first[m, n]
             i0 = max(0, -s)
             i1 = min(L + K - 1, T - s)
-            if i1 <= i0 or (R == 1 and gain[m, n, 0] == 0.0):
+            if i1 <= i0:
                 continue
             w = table[phase[m, n]]
             if R == 1:  # one call, its gain in the weights
+                g = gain[m, n, 0]
+                if g == 0.0:
+                    continue
                 f = calls[row[n]]
                 for j in range(K):
-                    c[j] = np.float32(gain[m, n, 0] * w[j])
+                    c[j] = np.float32(g * w[j])
             else:  # the copy's own mix of R calls
-                f = _mixed(gain[m, n], calls, row[n], mix)
+                f = mix
+                first_row = calls[row[n]]
+                g0 = np.float32(gain[m, n, 0])
+                for i in range(PAD, PAD + L):
+                    f[i] = g0 * first_row[i]
+                for r in range(1, R):
+                    gr = np.float32(gain[m, n, r])
+                    other = calls[row[n] + r]
+                    for i in range(PAD, PAD + L):
+                        f[i] += gr * other[i]
                 for j in range(K):
                     c[j] = np.float32(w[j])
-            _four_taps_a_pass(c, f, buf)
+            buf[:] = 0.0
+            # taps 4q .. 4q + 3: b[i] += sum_u c[4q + u] call[i - u], call[x] = f[x + PAD]
+            for q in range(0, K4, 4):
+                c0, c1, c2, c3 = c[q], c[q + 1], c[q + 2], c[q + 3]
+                b, f0, f1 = buf[q : q + L + 3], f[PAD : PAD + L + 3], f[PAD - 1 : PAD + L + 2]
+                f2, f3 = f[PAD - 2 : PAD + L + 1], f[PAD - 3 : PAD + L]
+                for i in range(L + 3):
+                    b[i] += c0 * f0[i] + c1 * f1[i] + c2 * f2[i] + c3 * f3[i]
             for i in range(i0, i1):
                 o[s + i] += buf[i]
-
-
-@njit(cache=True, nogil=True)
-def _mixed(gains, calls, first_row, mix):  # pragma: no cover - compiled
-    """`mix` (PAD + L + PAD) = sum_r gains[r] calls[first_row + r], float32."""
-    g0 = np.float32(gains[0])
-    row = calls[first_row]
-    for i in range(PAD, mix.size - PAD):
-        mix[i] = g0 * row[i]
-    for r in range(1, gains.size):
-        gr = np.float32(gains[r])
-        row = calls[first_row + r]
-        for i in range(PAD, mix.size - PAD):
-            mix[i] += gr * row[i]
-    return mix
-
-
-@njit(cache=True, nogil=True)
-def _four_taps_a_pass(c, f, buf):  # pragma: no cover - compiled
-    """``buf[i] = sum_j c[j] call[i - j]`` (call: `f` without its PAD zeros; c's
-    length a multiple of 4), four taps a pass: b[i] += sum_u c[4q + u] f[i + PAD - u]."""
-    L = f.size - 2 * PAD
-    buf[:] = 0.0
-    for q in range(0, c.size, 4):
-        c0, c1, c2, c3 = c[q], c[q + 1], c[q + 2], c[q + 3]
-        b = buf[q : q + L + 3]
-        f0 = f[PAD : PAD + L + 3]
-        f1 = f[PAD - 1 : PAD - 1 + L + 3]
-        f2 = f[PAD - 2 : PAD - 2 + L + 3]
-        f3 = f[PAD - 3 : PAD - 3 + L + 3]
-        for i in range(L + 3):
-            b[i] += c0 * f0[i] + c1 * f1[i] + c2 * f2[i] + c3 * f3[i]
