@@ -164,6 +164,7 @@ class Simulator:
         self.options = RenderOptions(
             interpolator=sim.fractional_delay,
             rate=sim.render_rate,
+            domain=sim.render_domain,
             band_floor_db=sim.render_band_db,
             compress_tolerance=sim.render_tolerance,
         )

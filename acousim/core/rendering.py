@@ -2,7 +2,7 @@
 (:mod:`acousim.scene.model`, which checks a scene's choices) and the renderer
 (:mod:`acousim.synth`, which implements them; :mod:`acousim.synth.render`'s docstring
 describes each interpolator) may read it: the fractional-delay interpolators' names,
-the render's rate and its gain sets' compression."""
+the render's rate and domain and its gain sets' compression."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from processing.base.errors import InputError
 __all__ = [
     "COMPRESS_TOLERANCE",
     "RenderRate",
+    "RenderDomain",
     "FractionalDelay",
     "ShapedDelay",
     "INTERPOLATORS",
@@ -31,6 +32,13 @@ RenderRate = Literal["full", "baseband"]
 """How the renderer makes the samples: 'full', fractional-delay impulses and FFTs at
 the sample rate; 'baseband', the band the call occupies at complex baseband,
 converted up once per microphone (:mod:`acousim.synth.baseband`)."""
+
+RenderDomain = Literal["auto", "frequency", "time"]
+"""Where the full-rate render sums the echoes: 'frequency', impulses per gain set
+and microphone and FFTs over the span the echoes reach; 'time', each path's
+filtered call added at its fractional delay (cost per path, microphone and call
+sample: for few paths, :mod:`acousim.synth.timedomain`); 'auto', whichever is
+estimated to cost less (the same signals either way, within -100 dB)."""
 
 ShapedDelay = Literal["sinc", "lagrange", "nearest"]
 """Interpolators that take a path response (absorption, directivity): the choices

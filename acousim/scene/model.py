@@ -34,7 +34,13 @@ import numpy as np
 
 from acousim.core.air import speed_of_sound
 from acousim.core.materials import interpolate, reference
-from acousim.core.rendering import COMPRESS_TOLERANCE, SHAPED_INTERPOLATORS, RenderRate, ShapedDelay
+from acousim.core.rendering import (
+    COMPRESS_TOLERANCE,
+    SHAPED_INTERPOLATORS,
+    RenderDomain,
+    RenderRate,
+    ShapedDelay,
+)
 from acousim.scene.defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
 from acousim.scene.motion import (
     MAX_SPEED_M_S,
@@ -526,6 +532,9 @@ class Simulation:
     )
     absorption: bool = setting(True, doc="air absorption")
     render_rate: RenderRate = setting("full", choices=get_args(RenderRate), doc="full, baseband")
+    render_domain: RenderDomain = setting(
+        "auto", choices=get_args(RenderDomain), doc="full rate: sum in time or by FFT; auto"
+    )
     render_band_db: float = setting(-60.0, "dB", -200, -10, "baseband: bins within this of the top")
     render_tolerance: float = setting(COMPRESS_TOLERANCE, "", 1e-6, 0.3, "gain-set compression")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")

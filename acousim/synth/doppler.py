@@ -54,11 +54,14 @@ from acousim.synth.options import (
 from acousim.synth.render import (
     FFT_WORKERS,
     _impulses,
+    _in_time,
     _kernel_table,
+    _taps,
     check_interpolator,
     response_factors,
 )
 from acousim.synth.response import PathResponse
+from acousim.synth.timedomain import filtered_calls, render_time
 from processing import Waveform
 from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
@@ -382,6 +385,14 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     )
     if plan.options.rate == "baseband":
         return _render_baseband(plan, gains, filt_band, out)
+    R, opts = filt_band.shape[1], plan.options
+    call = plan.n_fft - (hi - lo) + 256  # the filtered calls' length, about
+    kernel = (opts.interpolator, opts.taps)
+    # the sum in time is single precision: a double-precision render (no path
+    # response) stays in the frequency domain unless asked
+    domain = opts.domain if plan.single or opts.domain != "auto" else "frequency"
+    if _in_time(domain, gains.shape[:2], R, kernel, call, n, mixed=R):
+        return _planned_in_time(plan, gains, filt_band, out)
     # the filters over the bins from the band's first to its last (zero elsewhere)
     band = plan.band
     b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
@@ -407,6 +418,22 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
             inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
         y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
         out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    return out
+
+
+def _planned_in_time(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
+    """Step 5 summed in time (:mod:`.timedomain`, few paths): each set's filter
+    applied to the time-scaled calls once, each copy its gains' mix of the sets'
+    filtered calls through the same fractional-delay weights; `gains` (M, N, R),
+    `filt_band` (B, R) the sets' filters over the band: `out` (M, T) filled."""
+    spec = np.zeros((filt_band.shape[1], plan.n_fft // 2 + 1), complex)
+    spec[:, plan.band] = filt_band.T
+    calls, lead = filtered_calls(spec, plan.n_fft)
+    d, opts, lo, hi = plan.positions, plan.options, plan.lo, plan.hi
+    kernel = _taps(d, opts.interpolator, opts.taps)
+    row = np.zeros(d.shape[1], np.intp)  # every path: the R sets' calls
+    y = render_time(d, gains, calls, lead=lead, kernel=kernel, n_samples=hi - lo, row=row)
+    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
 

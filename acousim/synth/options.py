@@ -13,6 +13,7 @@ from acousim.core.rendering import (
     COMPRESS_TOLERANCE,
     DEFAULT_INTERPOLATOR,
     FractionalDelay,
+    RenderDomain,
     RenderRate,
 )
 from acousim.synth.render import DEFAULT_TAPS
@@ -26,6 +27,7 @@ __all__ = [
     "COMPRESS_TOLERANCE",
     "SnrReference",
     "RenderRate",
+    "RenderDomain",
     "DEFAULT_OPTIONS",
     "NO_NOISE",
 ]
@@ -58,7 +60,9 @@ class RenderOptions:
     compress_tolerance: the Doppler renderer's node interpolation and gain-set
     compression (:mod:`acousim.synth.doppler`); rate: the Doppler renderer at the
     sample rate ('full') or at complex baseband ('baseband', :mod:`acousim.synth.baseband`:
-    the bins within band_floor_db (dB, power) of the strongest)."""
+    the bins within band_floor_db (dB, power) of the strongest); domain: where a
+    full-rate render, still or moving, sums the echoes ('frequency', 'time' or
+    'auto', the cheaper by estimate: :mod:`acousim.synth.timedomain`)."""
 
     emission_index: int = 0
     interpolator: FractionalDelay = DEFAULT_INTERPOLATOR
@@ -67,6 +71,7 @@ class RenderOptions:
     compress_tolerance: float = COMPRESS_TOLERANCE
     rate: RenderRate = "full"
     band_floor_db: float = -60.0
+    domain: RenderDomain = "auto"
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,13 @@ Interpolators (``interpolator=``, :data:`FractionalDelay`), measured against
 
 No interpolator adds a global delay: an echo with delay d peaks, after the matched
 filter, at ``d * fs`` samples after the emission.
+
+Where ``sinc``, ``lagrange`` and ``nearest`` sum the echoes (``domain=``,
+:data:`~acousim.core.rendering.RenderDomain`): by FFT over the span the echoes
+reach (cost set by the span: the recording's range), or in time, each path's
+filtered call added at its delay through the same weights (:mod:`.timedomain`:
+cost per path, microphone and call sample); by default whichever is estimated
+cheaper.
 """
 
 from __future__ import annotations
@@ -46,17 +53,20 @@ from acousim.core.rendering import (
     INTERPOLATORS,
     SHAPED_INTERPOLATORS,
     FractionalDelay,
+    RenderDomain,
     ShapedDelay,
     check_interpolator,
 )
 from acousim.synth.baseband import spectra
 from acousim.synth.response import PathResponse, factorise
+from acousim.synth.timedomain import filtered_calls, prefer_time, render_time, trimmed
 from processing import Waveform
 from processing.base.kernels import optional_kernel
 from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = [
     "render",
+    "render_with",
     "FractionalDelay",
     "ShapedDelay",
     "INTERPOLATORS",
@@ -72,6 +82,7 @@ TABLE_PHASES = 4096
 FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
+FILTER_TAILS = 256  # samples a set's filter adds on each side of the call (an estimate)
 
 
 def render(
@@ -89,12 +100,44 @@ def render(
 
     `response` adds air absorption and emitter directivity per path (see
     :mod:`acousim.synth.response`); it needs a
-    :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).
+    :data:`ShapedDelay` interpolator (sinc, lagrange or nearest).  The sinc,
+    lagrange and nearest interpolators sum the echoes in time or by FFT, whichever
+    is estimated cheaper (:func:`render_with` takes the choice).
 
     Echoes that start after the end of the window are expected to have been
     dropped by the caller (:func:`acousim.synth.signal_model.simulate`); those that start
     inside it and run past its end are truncated.
     """
+    kernel = (interpolator, taps)
+    return _render(echoes, waveform, sample_rate_hz, n_samples, emission_index, kernel, response)
+
+
+def render_with(
+    echoes: Echoes, capture, options, response: PathResponse | None = None
+) -> np.ndarray:
+    """:func:`render` of the :class:`~acousim.synth.options.Capture` `capture` (call,
+    sample rate, samples) with the emission sample, fractional delays and render
+    domain of the :class:`~acousim.synth.options.RenderOptions` `options`
+    (``options.domain``, :data:`~acousim.core.rendering.RenderDomain`: 'frequency',
+    impulses and FFTs; 'time', :mod:`acousim.synth.timedomain`; 'auto', the cheaper
+    by estimate): microphone signals (M, T)."""
+    return _render(
+        echoes,
+        capture.waveform,
+        capture.sample_rate_hz,
+        capture.n_samples,
+        options.emission_index,
+        (options.interpolator, options.taps),
+        response,
+        options.domain,
+    )
+
+
+def _render(
+    echoes, waveform, fs, n_samples, emission_index, kernel, response, domain="auto"
+) -> np.ndarray:
+    """:func:`render`, the fractional delays' `kernel` (method, taps) and `domain`."""
+    interpolator, taps = kernel
     shaped = response is not None and response.active
     check_interpolator(
         interpolator,
@@ -105,7 +148,6 @@ def render(
     out = np.zeros((M, n_samples))
     if echoes.n_paths == 0:
         return out
-    fs = sample_rate_hz
     d = echoes.delay_s * fs + emission_index  # (M, N) in samples
     g = echoes.gain
     if interpolator == "exact":
@@ -122,9 +164,9 @@ def render(
         return out
     n_span = hi - lo
     if shaped:
-        y = _render_shaped(echoes, d - lo, call, fs, n_span, (interpolator, taps), response)
+        y = _shaped(echoes, d - lo, call, fs, n_span, kernel, response, domain)
     else:
-        y = _convolved(d - lo, g, call, n_span, (interpolator, taps))
+        y = _unshaped(d - lo, g, call, n_span, kernel, domain)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -156,16 +198,29 @@ def render_baseband(
     if hi <= max(lo, 0):
         return out
     kernel = (options.interpolator, options.taps)
-    y = _render_shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, band_db)
+    n, W, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
+    y = _shaped_baseband(echoes, d - lo, (g, U, V, W, band), n, kernel, hi - lo, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
+
+
+def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain) -> np.ndarray:
+    """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
+    convolved with `call` (L,), no path response: the span's samples (M, n_span),
+    summed in time (:mod:`.timedomain`) or by FFT (:func:`_convolved`) as `domain`
+    says; `kernel`: the fractional delays' (method, taps)."""
+    calls, lead = trimmed(call[None], 0)  # the call without its silent padding
+    if not _in_time(domain, g.shape, 1, kernel, calls.shape[1], n_span + call.size):
+        return _convolved(d, g, call, n_span, kernel)
+    row = np.zeros(g.shape[1], np.intp)  # every path: the call
+    return render_time(d, g, calls, lead=lead, kernel=_taps(d, *kernel), row=row, n_samples=n_span)
 
 
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:
     """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
     convolved with `call` (L,): the span's samples (M, n_span).  The impulses are
     summed in float64 and stored, with their FFTs, in single precision, in buffers of
-    the FFT's length (no copy), as :func:`_render_shaped` does (float32 rounding:
+    the FFT's length (no copy), as :func:`_shaped_by_fft` does (float32 rounding:
     -134 dB relative, the shoebox at 30 microphones; float64 FFTs cost twice as
     much); the transforms shared among :data:`FFT_WORKERS` threads.  `kernel`: the
     fractional delays' (method, taps)."""
@@ -192,8 +247,53 @@ def _render_reference(d, g, waveform: Waveform, fs: float, n_samples: int) -> np
     return sfft.irfft(spec, n_samples * U, axis=-1)[:, ::U]
 
 
-def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) -> np.ndarray:
-    """Impulses times separable path responses, summed in the frequency domain.
+def _in_time(domain: str, shape, sets: int, kernel, call: int, n: int, mixed: int = 1) -> bool:
+    """Whether to sum in time (:mod:`.timedomain`): `domain` says so, or it is 'auto'
+    and the time domain is estimated cheaper for echoes of `shape` (M, N), `sets`
+    gain sets, `kernel` (method, taps), a call of `call` samples and FFTs of `n`;
+    `mixed`: each copy's call mixed from that many sets' calls (moving poses)."""
+    if domain == "auto":
+        taps = 0 if kernel[0] == "nearest" else kernel[1]
+        M, N = shape
+        return prefer_time(mics=M, paths=N, taps=taps, call=call, sets=sets, n_fft=n, mixed=mixed)
+    return domain == "time"
+
+
+def _factors(echoes, call, fs: float, n_span: int, taps: int, response):
+    """The FFT length n of a span of `n_span` samples, the `call`'s spectrum W on it
+    and :func:`response_factors`' (g, U, V, band) of `echoes`."""
+    n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
+    W = sfft.rfft(call, n)
+    g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
+    return n, W, (g, U, V, band)
+
+
+def _shaped(echoes, d, call, fs, n_span, kernel, response, domain: RenderDomain) -> np.ndarray:
+    """The echoes at `d` (M, N; samples from the span's start) with their path
+    `response`: the span's samples (M, n_span), summed by FFT
+    (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says."""
+    n, W, factors = _factors(echoes, call, fs, n_span, kernel[1], response)
+    g, V = factors[0], factors[2]
+    if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
+        return _shaped_in_time(d, factors, W, n, kernel, n_span)
+    return _shaped_by_fft(d, factors, W, n, kernel, n_span)
+
+
+def _shaped_in_time(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
+    """:func:`_shaped_by_fft`'s sum in time (:mod:`.timedomain`): each set's filter
+    applied to the call once, each path's response its sets' filtered calls."""
+    g, U, V, band = factors
+    spec = np.zeros((V.shape[1], W.size), complex)
+    spec[:, band] = (W[band, None] * U).T
+    calls, lead = filtered_calls(spec, n)
+    paths = V @ calls  # (N, L): each path's response, its sets' filtered calls
+    return render_time(d, g, paths, lead=lead, kernel=_taps(d, *kernel), n_samples=n_span)
+
+
+def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
+    """Impulses times separable path responses, summed in the frequency domain:
+    `factors` (g, U, V, band) of :func:`response_factors`, W the call's spectrum
+    on an n-point real FFT; the span's samples (M, n_span).
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
     the echoes, so that its level does not set the accuracy of theirs.  The impulses
@@ -206,11 +306,7 @@ def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) 
     before and after.
     """
     method, taps = kernel
-    n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
-    W = sfft.rfft(call, n)
-    g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
-    if band_db is not None:  # at baseband
-        return _shaped_baseband(echoes, d, (g, U, V, W, band), n, kernel, n_span, band_db)
+    g, U, V, band = factors
     # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
     h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
     filt = np.zeros((W.size, V.shape[1]), np.complex64)
@@ -226,7 +322,7 @@ def _render_shaped(echoes, d, call, fs, n_span, kernel, response, band_db=None) 
 
 
 def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
-    """:func:`_render_shaped` at complex baseband (:func:`.baseband.spectra`): of
+    """:func:`_shaped_by_fft` at complex baseband (:func:`.baseband.spectra`): of
     `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
     band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
     microphone; `kernel`: the fractional delays' (method, taps)."""
@@ -338,6 +434,19 @@ def _kernel_table(method: str, taps: int) -> np.ndarray:
     return _kernel(np.linspace(0.0, 1.0, TABLE_PHASES + 1), method, taps)[1]
 
 
+def _taps(d: np.ndarray, method: str, taps: int):
+    """The fractional delays `d` (M, N; samples) as tabulated taps:
+    ``(n0 (M, N), phase (M, N) intp, table (P, K), offsets (K,))``: impulse (m, n)
+    puts ``table[phase[m, n], j]`` at sample ``n0[m, n] + offsets[j]`` (for
+    ``nearest``, one tap at the rounded delay; else the nearest of TABLE_PHASES
+    tabulated fractions, :func:`_kernel_table`)."""
+    if method == "nearest":
+        return np.rint(d), np.zeros(d.shape, np.intp), np.ones((1, 1)), np.zeros(1, np.int64)
+    n0 = np.floor(d)
+    phase = np.rint((d - n0) * TABLE_PHASES).astype(np.intp)
+    return n0, phase, _kernel_table(method, taps), np.arange(-taps + 1, taps + 1)
+
+
 def _impulses(
     d: np.ndarray,
     g: np.ndarray,
@@ -366,16 +475,11 @@ def _impulses(
     buf = n_span + 2 * pad if width is None else width
     if buf < n_span + 2 * pad:
         raise ValueError(f"buffer width {buf} shorter than the span {n_span} and its margins")
+    n0, phase, table, _ = _taps(d, method, taps)
     if method == "nearest":
-        first = np.clip(np.rint(d).astype(np.int64), -pad, n_span + pad - 1) + pad
-        phase = np.zeros((M, N), np.intp)
-        table = np.ones((1, 1))
+        first = np.clip(n0.astype(np.int64), -pad, n_span + pad - 1) + pad
     else:
-        n0 = np.floor(d)
-        # kernel weights: the nearest of TABLE_PHASES tabulated fractions
-        phase = np.rint((d - n0) * TABLE_PHASES).astype(np.intp)
         first = np.clip(n0.astype(np.int64), -1, n_span) + pad + 1 - taps
-        table = _kernel_table(method, taps)
     # first (M, N): index of each impulse's first tap in its microphone's buffer
     kernel = _compiled()
     if kernel is not None:

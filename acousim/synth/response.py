@@ -144,11 +144,16 @@ def factorise(H: np.ndarray, tolerance: float = RANK_TOLERANCE) -> tuple[np.ndar
     V (N, Q) orthonormal columns).
 
     Q keeps the singular values above `tolerance` times the largest.  Computed from
-    the eigenvectors of the F x F Gram matrix ``H H^T`` (N is the number of paths,
-    often thousands: a full SVD would cost far more).
+    the eigenvectors of the smaller Gram matrix: F x F, ``H H^T`` (N is the number
+    of paths, often thousands: a full SVD would cost far more), or N x N, ``H^T H``,
+    when there are fewer paths than frequencies (the wall's one, the shoebox's 18).
     """
     if H.size == 0:
         return np.zeros((H.shape[0], 0)), np.zeros((H.shape[1], 0))
+    if H.shape[1] < H.shape[0]:
+        V, U = factorise(H.T, tolerance)  # H^T = V' U'^T: U' orthonormal, H = U' V'^T
+        s = np.linalg.norm(V, axis=0)  # the singular values, folded into V'
+        return U * s, V / s
     w, E = np.linalg.eigh(H @ H.T)  # ascending; w = singular values squared
     w = np.maximum(w[::-1], 0.0)
     E = E[:, ::-1]

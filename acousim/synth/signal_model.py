@@ -15,7 +15,7 @@ from acousim.synth.doppler import DopplerPlan, render_doppler, render_planned
 from acousim.synth.noise import NoiseDraw, add_noise, noise_sigma
 from acousim.synth.options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, RenderOptions
 from acousim.synth.point_reflectors import Echoes, PointReflectors, point_echoes
-from acousim.synth.render import render, render_baseband
+from acousim.synth.render import render_baseband, render_with
 from acousim.synth.response import PathResponse
 from processing import Array, Recording, Waveform, provenance_metadata
 from processing.base.errors import InputError
@@ -100,14 +100,7 @@ def _render(echoes, cap: Capture, options: RenderOptions, response, doppler) -> 
         return render_doppler(echoes, doppler, *args, options=options, response=response)
     if options.rate == "baseband" and response is not None and response.active:
         return render_baseband(echoes, cap, options, response, options.band_floor_db)
-    return render(
-        echoes,
-        *args,
-        emission_index=options.emission_index,
-        interpolator=options.interpolator,
-        taps=options.taps,
-        response=response,
-    )
+    return render_with(echoes, cap, options, response)
 
 
 def _noisy(clean, echoes, cap: Capture, noise: Noise, options, response, rng, drawn):

@@ -90,6 +90,7 @@ SCENE_ORACLE = {
     ("simulation", "absorption"): (boolean, None),
     ("simulation", "energy_floor_db"): (real(-300, 0), (-300, 0)),
     ("simulation", "render_rate"): (one_of("full", "baseband"), None),
+    ("simulation", "render_domain"): (one_of("auto", "frequency", "time"), None),
     ("simulation", "render_band_db"): (real(-200, -10), (-200, -10)),
     ("simulation", "render_tolerance"): (real(1e-6, 0.3), (1e-6, 0.3)),
     ("materials", "reflection"): (real(0, 1), (0, 1)),

@@ -8,6 +8,7 @@ from acousim.synth import (
     Capture,
     Noise,
     PointReflectors,
+    RenderOptions,
     direct_path_echoes,
     point_echoes,
     render,
@@ -177,9 +178,11 @@ def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monke
     e = echoes_ahead(arr, n=60, seed=5, near_m=0.3)
     wf, fs = P.rtis_call(), 450e3
     resp = PathResponse(emitter_radius_m=0.004)
-    compiled = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    capture = Capture(arr, wf, fs, 16384)
+    opts = RenderOptions(interpolator=interpolator, domain="frequency")  # the impulses
+    compiled = render_mod.render_with(e, capture, opts, resp)
     monkeypatch.setattr(render_mod, "_compiled", lambda: None)
-    sparse = render(e, wf, fs, 16384, interpolator=interpolator, response=resp)
+    sparse = render_mod.render_with(e, capture, opts, resp)
     assert np.any(compiled)
     assert compiled.tobytes() == sparse.tobytes()
 
