@@ -19,8 +19,20 @@ from numba import njit
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cell_classes(
-    range_ptr, range_bin, range_val, angle_ptr, angle_dir, angle_val, cls, n_classes,
-    shape, block_bins, floor_ratio, cells, total, top,
+    range_ptr,
+    range_bin,
+    range_val,
+    angle_ptr,
+    angle_dir,
+    angle_val,
+    cls,
+    n_classes,
+    shape,
+    block_bins,
+    floor_ratio,
+    cells,
+    total,
+    top,
 ):  # pragma: no cover - compiled
     """The cells of a (R, G) grid (`shape`) that may be labelled: each cell's energy
     summed over classes in class order and its strongest class (the first of
