@@ -14,12 +14,12 @@ elsewhere, or with the environment variable ``ACOUSIM_KEEP_FREED_MEMORY=0``, it
 does nothing).  :func:`acousim.process.configure` calls it, at the entry point.
 
 :func:`small_pages` puts numpy's large arrays on ordinary 4 KiB pages: numpy asks
-the kernel for transparent huge pages on every array of 4 MiB or more, and where
-the kernel compacts memory to find one on the first touch (``defrag`` set to
-``madvise``, as on the 2-core machine of ``BENCHMARKS.md``) that costs more system
-time than it saves: ``acousim image`` of a 60-pose corridor (its arrays of tens of
-MB) spent 3.0 s of system time instead of 4.6 s without them (3 paired runs).  The
-imaging commands call it at their entry.
+the kernel for transparent huge pages on every array of 4 MiB or more, and on the
+2-core machine of ``BENCHMARKS.md`` (huge pages and their defragmentation on
+``madvise``) they cost more system time than they save: ``acousim image
+--no-3d --no-animation`` of a 60-pose corridor (its arrays of tens of MB) spent
+3.0 s of system time instead of 4.6 s without them (3 paired runs).  The imaging
+commands call it at their entry.
 """
 
 from __future__ import annotations
