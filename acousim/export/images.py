@@ -426,11 +426,16 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
     if img.range_m.size:
         k = np.rint((img.range_m - axis[0]) / (axis[1] - axis[0] if axis.size > 1 else 1))
         k = k.astype(int)
-        reference = float(img.power.max())
+        # multiples of 1/128 dB (error <= 0.004 dB): the low mantissa bits are
+        # zero and the shuffled, compressed file about half the size
+        level = P.to_db(img.power, floor_db=-300.0)
+        level *= QUANTUM_PER_DB
+        np.round(level, out=level)
+        level /= QUANTUM_PER_DB
+        level = level.astype(np.float32)
         if compression == "gzip" and chunked and sys.byteorder == "little":
-            _write_gzip_chunks(d, k, img.power, reference)
+            _write_gzip_chunks(d, k, level)
         else:
-            level = _quantised_db(img.power, reference)
             cut = np.flatnonzero(np.diff(k) != 1) + 1
             for a, b in zip(np.r_[0, cut], np.r_[cut, k.size]):
                 d[k[a] : k[b - 1] + 1] = level[a:b]
@@ -451,35 +456,20 @@ def _write_image(g, method: str, img: P.Image, axis: np.ndarray, scales: list, c
 GZIP_THREADS = 2
 
 
-def _quantised_db(power: np.ndarray, reference: float) -> np.ndarray:
-    """An image's `power` (..., any shape) as images.h5 stores it: float32 dB re
-    `reference` (its strongest cell's power), floored at -300 dB, in multiples of
-    1/128 dB (error <= 0.004 dB: the low mantissa bits are zero and the shuffled,
-    compressed file about half the size).  Cell by cell: a part of an image gives
-    the same values as the whole."""
-    level = P.to_db(power, reference=reference, floor_db=-300.0)
-    level *= QUANTUM_PER_DB
-    np.round(level, out=level)
-    level /= QUANTUM_PER_DB
-    return level.astype(np.float32)
-
-
-def _write_gzip_chunks(d, k: np.ndarray, power: np.ndarray, reference: float) -> None:
-    """Write the image `power` (K, E, A) as :func:`_quantised_db` levels re
-    `reference` to the bins `k` (K,) of `d` (R, E, A), chunked by whole range bins
-    with shuffle and gzip: each chunk that holds a kept bin made here (its levels
-    too, chunk by chunk: no image-sized temporaries) as HDF5's filters store it
-    (:func:`_shuffle_deflate`), in :data:`GZIP_THREADS` threads, and written as it
-    is; the bins not kept hold NaN (the fill value), the chunks without a kept bin
-    are not stored (read back as NaN).  The values read back are those of writing
-    the levels by slices."""
+def _write_gzip_chunks(d, k: np.ndarray, level: np.ndarray) -> None:
+    """Write `level` (K, E, A) float32 to the bins `k` (K,) of `d` (R, E, A), chunked
+    by whole range bins with shuffle and gzip: each chunk that holds a kept bin made
+    here as HDF5's filters store it (:func:`_shuffle_deflate`), compressed in
+    :data:`GZIP_THREADS` threads and written as it is; the bins not kept hold NaN
+    (the fill value), the chunks without a kept bin are not stored (read back as
+    NaN).  The values read back are those of writing `level` by slices."""
 
     bins = d.chunks[0]
 
     def packed(c: int) -> bytes:
         block = np.full(d.chunks, np.nan, np.float32)  # the edge chunk's rows too
         here = (k >= c * bins) & (k < (c + 1) * bins)
-        block[k[here] - c * bins] = _quantised_db(power[here], reference)
+        block[k[here] - c * bins] = level[here]
         return _shuffle_deflate(block)
 
     chunks = list(np.unique(k // bins))
