@@ -94,15 +94,29 @@ def label_map(
     classes, cls = np.unique(np.column_stack([obj, odr]), axis=0, return_inverse=True)
     cls = cls.reshape(-1)
     k_range, k_angle = _factors(rng, u, pos, e, *cell)
+    total, top = _total_and_top(k_range, k_angle, cls, len(classes))
     floor_ratio = 10 ** (-dynamic_range_db / 10)
-    cells, total, top = _candidate_cells(k_range, k_angle, cls, len(classes), floor_ratio)
-    out = _none(R, G)
-    if not total.any():
+    kernel = optional_kernel("acousim.imaging.labels_kernel", "pick_labels")
+    if kernel is not None:  # one pass, every cell written
+        out = LabelMap(np.empty((R, G), np.int32), np.empty((R, G), np.int16))
+        kernel(
+            total,
+            top,
+            classes[:, 0].copy(),
+            classes[:, 1].copy(),
+            floor_ratio,
+            out.object_index,
+            out.order,
+        )
         return out
+    total, top = total.reshape(-1), top.reshape(-1)
+    if not total.any():
+        return _none(R, G)
     shown = (top >= 0) & (total >= total.max() * floor_ratio)
-    out.object_index.flat[cells[shown]] = classes[top[shown], 0]
-    out.order.flat[cells[shown]] = classes[top[shown], 1]
-    return out
+    out = _none(R * G, 1)
+    out.object_index[shown, 0] = classes[top[shown], 0]
+    out.order[shown, 0] = classes[top[shown], 1]
+    return out.reshaped((R, G))
 
 
 def _none(R: int, G: int) -> LabelMap:
@@ -110,33 +124,23 @@ def _none(R: int, G: int) -> LabelMap:
     return LabelMap(np.full((R, G), -1, np.int32), np.full((R, G), -1, np.int16))
 
 
-#: bytes of the compiled kernel's table of class energies (a block of range bins)
-_BLOCK_BYTES = 2**22
-
-
-def _candidate_cells(k_range, k_angle, cls: np.ndarray, n_classes: int, floor_ratio: float):
-    """Cells (N,) of the (R, G) grid (flat, r G + g) with each one's energy of all
-    classes summed in class order and its strongest class (-1: none with energy):
-    at least every cell where a class has energy and the sum is at least
-    `floor_ratio` times the largest sum (the cells not listed are not labelled).
-    From the compiled kernel (not those far below the largest met before them) or
-    the sparse product (every cell the paths reach)."""
+def _total_and_top(k_range, k_angle, cls: np.ndarray, n_classes: int):
+    """Per cell (R, G), the energy of all classes summed in class order and the
+    strongest class (-1: none), from the compiled kernel or the sparse product."""
     R, G = k_range.shape[1], k_angle.shape[1]
     kernel = optional_kernel("acousim.imaging.labels_kernel", "cell_classes")
     if kernel is not None:
-        k_range.sort_indices()  # each path's bins in order
-        block = max(1, min(R, _BLOCK_BYTES // (8 * n_classes * G)))
-        cells, total, top = np.empty(R * G, np.int64), np.empty(R * G), np.empty(R * G, np.int64)
-        m = kernel(
-            k_range.indptr, k_range.indices, k_range.data, k_angle.indptr, k_angle.indices,
-            k_angle.data, cls.astype(np.int64), n_classes, (R, G), block, floor_ratio,
-            cells, total, top,
+        by_bin = k_range.tocsc()  # per bin, its paths in order
+        by_bin.sort_indices()
+        total, top = np.empty((R, G)), np.empty((R, G), np.int32)  # every cell written
+        kernel(
+            by_bin.indptr, by_bin.indices, by_bin.data, k_angle.indptr, k_angle.indices,
+            k_angle.data, cls.astype(np.int64), n_classes, total, top,
         )  # fmt: skip
-        return cells[:m], total[:m], top[:m]
-    flat, k, part = _class_energy(k_range, k_angle, cls, n_classes)
-    cells = np.unique(flat)
-    total = np.bincount(flat, weights=part, minlength=R * G)  # classes summed in order
-    return cells, total[cells], _strongest_class(flat, k, part, R * G)[cells]
+        return total, top
+    cells, k, part = _class_energy(k_range, k_angle, cls, n_classes)
+    total = np.bincount(cells, weights=part, minlength=R * G)  # classes summed in order
+    return total.reshape(R, G), _strongest_class(cells, k, part, R * G).reshape(R, G)
 
 
 def _class_energy(k_range, k_angle, cls: np.ndarray, n_classes: int):

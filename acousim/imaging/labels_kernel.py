@@ -2,13 +2,12 @@
 (:func:`acousim.imaging.labels.label_map`; numba, optional: without numba the sparse
 product there runs).
 
-A block of range bins at a time (its (bins, C, G) table in cache): the paths reaching
-the block, in path order, read their angle taper once and add it, times their range
-taper, to their class's row of each of their bins in the block; then per cell the
-classes' energies are summed in class order and the strongest class taken (the
-first of equals); only the cells that can be labelled are listed.  The same
-products summed in the same order as the sparse product (scipy sums each output
-over the paths in order), so the two give the same bits (``tests/acousim/imaging/test_labels.py``).
+One range bin at a time: the paths reaching the bin, in path order, add their range
+taper times their angle taper to their class's row of a (C, G) table; then per
+direction the classes' energies are summed in class order and the strongest class
+taken (the first of equals).  The same products summed in the same order as the
+sparse product (scipy sums each output over the paths in order), so the two give
+the same bits (``tests/acousim/imaging/test_labels.py``).
 """
 
 from __future__ import annotations
@@ -19,75 +18,85 @@ from numba import njit
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cell_classes(
-    range_ptr,
-    range_bin,
-    range_val,
-    angle_ptr,
-    angle_dir,
-    angle_val,
-    cls,
-    n_classes,
-    shape,
-    block_bins,
-    floor_ratio,
-    cells,
-    total,
-    top,
+    range_ptr, range_path, range_val, angle_ptr, angle_dir, angle_val, cls, n_classes, total, top
 ):  # pragma: no cover - compiled
-    """The cells of a (R, G) grid (`shape`) that may be labelled: each cell's energy
-    summed over classes in class order and its strongest class (the first of
-    equals), listed where a class has energy there and the sum is at least
-    `floor_ratio` times the largest sum met so far (so every cell at least
-    `floor_ratio` times the largest sum of all, and that one, is listed): written to
-    the starts of `cells` (flat, r G + g), `total` and `top` (each R G long at most
-    needed); returns their number.
+    """Fill `total` (R, G) with each cell's energy summed over classes in class order
+    and `top` (R, G) integers with its strongest class (-1: none with energy), every
+    cell written (they may come uninitialised).
 
-    range_ptr (P + 1,), range_bin, range_val : the range kernel by path (CSR of the
-    paths' (P, R) kernel, each path's bins in order); angle_ptr (P + 1,),
+    range_ptr (R + 1,), range_path, range_val : the range kernel by bin (CSC of the
+    paths' (P, R) kernel, paths in order within a bin); angle_ptr (P + 1,),
     angle_dir, angle_val : the angle kernel by path (CSR of (P, G)); cls (P,) each
-    path's class in 0..n_classes-1.  `block_bins` range bins at a time, their
-    (bins, classes, G) energies summed path by path in path order."""
-    R, G = shape
-    acc = np.zeros((block_bins, n_classes, G))
-    m = 0
-    most = 0.0
-    for b0 in range(0, R, block_bins):
-        b1 = min(b0 + block_bins, R)
-        for p in range(range_ptr.size - 1):
-            j0, j1 = range_ptr[p], range_ptr[p + 1]
-            if j1 == j0 or range_bin[j0] >= b1 or range_bin[j1 - 1] < b0:
-                continue  # none of the path's bins in this block
+    path's class in 0..n_classes-1."""
+    R, G = total.shape
+    acc = np.zeros((n_classes, G))
+    class_hit = np.zeros(n_classes, np.bool_)
+    classes = np.empty(n_classes, np.int64)
+    for r in range(R):
+        total[r, :] = 0.0  # the cells no path reaches (each row first touched here)
+        top[r, :] = -1
+        n_classes_hit = 0
+        lo, hi = G, -1  # the directions the bin's paths reach lie within lo..hi
+        for j in range(range_ptr[r], range_ptr[r + 1]):
+            p = range_path[j]
+            v = range_val[j]
             c = cls[p]
-            for j in range(j0, j1):
-                r = range_bin[j]
-                if r < b0 or r >= b1:
-                    continue
-                v = range_val[j]
-                row = acc[r - b0, c]
-                for k in range(angle_ptr[p], angle_ptr[p + 1]):
-                    row[angle_dir[k]] += v * angle_val[k]
-        for r in range(b0, b1):
-            for g in range(G):
-                s = 0.0
-                best = 0.0
-                win = -1
-                for c in range(n_classes):  # class order; a class not there adds 0
-                    x = acc[r - b0, c, g]
-                    if x != 0.0:
-                        s += x
-                        if x > best:
-                            best = x
-                            win = c
-                        acc[r - b0, c, g] = 0.0
-                if win >= 0:
-                    if s > most:
-                        most = s
-                    if s >= most * floor_ratio:
-                        cells[m] = r * G + g
-                        total[m] = s
-                        top[m] = win
-                        m += 1
-    return m
+            if not class_hit[c]:
+                class_hit[c] = True
+                classes[n_classes_hit] = c
+                n_classes_hit += 1
+            start, end = angle_ptr[p], angle_ptr[p + 1]
+            if end > start:  # a path's directions come in order
+                lo = min(lo, angle_dir[start])
+                hi = max(hi, angle_dir[end - 1])
+            for k in range(start, end):
+                acc[c, angle_dir[k]] += v * angle_val[k]
+        # the classes of this bin in class order (the others add zeros); a direction
+        # no path reached sums to 0 with no class: as the row was filled
+        order = np.sort(classes[:n_classes_hit])
+        for i in range(n_classes_hit):
+            class_hit[order[i]] = False
+        for g in range(lo, hi + 1):
+            s = 0.0
+            best = 0.0
+            win = -1
+            for ci in range(n_classes_hit):
+                c = order[ci]
+                x = acc[c, g]
+                s += x
+                if x > best:
+                    best = x
+                    win = c
+                acc[c, g] = 0.0
+            total[r, g] = s
+            top[r, g] = win
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def pick_labels(
+    total, top, class_object, class_order, floor_ratio, out_object, out_order
+):  # pragma: no cover - compiled
+    """The labels of :func:`cell_classes`' cells: where a class wins (`top` >= 0) and
+    the cell's `total` is at least `floor_ratio` times the largest total, that
+    class's object and order (`class_object`, `class_order` (C,)), else -1; written
+    to every cell of `out_object` and `out_order` (R, G).  As numpy's ``top >= 0 &
+    total >= total.max() * floor_ratio``."""
+    R, G = total.shape
+    most = 0.0
+    for r in range(R):
+        for g in range(G):
+            if total[r, g] > most:
+                most = total[r, g]
+    floor = most * floor_ratio
+    for r in range(R):
+        for g in range(G):
+            c = top[r, g]
+            if c >= 0 and total[r, g] >= floor:
+                out_object[r, g] = class_object[c]
+                out_order[r, g] = class_order[c]
+            else:
+                out_object[r, g] = -1
+                out_order[r, g] = -1
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
