@@ -12,6 +12,14 @@ memory until it exits.
 :func:`keep_freed_memory` sets that policy once per process (glibc's ``mallopt``;
 elsewhere, or with the environment variable ``ACOUSIM_KEEP_FREED_MEMORY=0``, it
 does nothing).  :func:`acousim.process.configure` calls it, at the entry point.
+
+:func:`small_pages` puts numpy's large arrays on ordinary 4 KiB pages: numpy asks
+the kernel for transparent huge pages on every array of 4 MiB or more, and on the
+2-core machine of ``BENCHMARKS.md`` (huge pages and their defragmentation on
+``madvise``) they cost more system time than they save: ``acousim image
+--no-3d --no-animation`` of a 60-pose corridor (its arrays of tens of MB) spent
+3.0 s of system time instead of 4.6 s without them (3 paired runs).  The imaging
+commands call it at their entry.
 """
 
 from __future__ import annotations
@@ -22,7 +30,7 @@ import logging
 import os
 import sys
 
-__all__ = ["keep_freed_memory", "MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES"]
+__all__ = ["keep_freed_memory", "small_pages", "MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES"]
 
 log = logging.getLogger(__name__)
 
@@ -51,3 +59,20 @@ def keep_freed_memory() -> bool:
     ok &= mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES) == 1
     log.debug("freed memory kept for reuse (glibc mallopt): %s", ok)
     return bool(ok)
+
+
+@functools.lru_cache(maxsize=1)
+def small_pages() -> bool:
+    """Stop numpy from asking for transparent huge pages for its large arrays (the
+    module docstring), once per process; whether it is in force.  Left as it is when
+    the environment sets ``NUMPY_MADVISE_HUGEPAGE`` (numpy's own switch, read when
+    numpy is imported) or numpy lacks the switch."""
+    if "NUMPY_MADVISE_HUGEPAGE" in os.environ:
+        return os.environ["NUMPY_MADVISE_HUGEPAGE"] == "0"
+    try:
+        from numpy._core.multiarray import _set_madvise_hugepage
+    except ImportError:  # pragma: no cover - a numpy without the switch
+        return False
+    _set_madvise_hugepage(False)
+    log.debug("numpy's arrays on 4 KiB pages (no transparent huge pages)")
+    return True

@@ -89,13 +89,16 @@ def load_and_image(args: argparse.Namespace):
     """`image` and `export`: the options, the recordings of --index and their indices
     in the file, and a function that images them (called once the command is ready)."""
     import processing as P
+    from acousim.allocator import small_pages
     from acousim.imaging.run import ImagingOptions, image_recordings
     from acousim.process import configure
 
     # the process's policy, as a simulating command's: BLAS on one thread (the same
     # bytes on every host), freed memory kept for reuse (the label maps' and the
-    # pictures' arrays of tens of MB: half the page faults' time)
+    # pictures' arrays of tens of MB: half the page faults' time); and those arrays
+    # on small pages (a huge page's fault cost more system time than it saved)
     configure()
+    small_pages()
     given = {
         "step_deg": args.step,
         "energy_fraction": args.energy_fraction,

@@ -117,8 +117,20 @@ def full_range_fan(
         band = np.abs(image.elevation_rad) <= elevation_limit_rad
         if not band.any():
             band = np.abs(image.elevation_rad) == np.abs(image.elevation_rad).min()
-        fan[idx[ok]] = np.fmax(fan[idx[ok]], image.power[ok][:, band].max(axis=1))
+        power = image.power[:, _as_slice(band)]  # a view when the band is one run
+        if not ok.all():
+            power = power[ok]
+        fan[idx[ok]] = np.fmax(fan[idx[ok]], power.max(axis=1))
     return axis, fan
+
+
+def _as_slice(mask: np.ndarray) -> slice | np.ndarray:
+    """A boolean mask (N,) as the slice it selects when its True entries are one run
+    (indexing by it then gives a view, not a copy), else the mask."""
+    (on,) = np.nonzero(mask)
+    if on.size and on[-1] - on[0] + 1 == on.size:
+        return slice(int(on[0]), int(on[-1]) + 1)
+    return mask
 
 
 def truth_in_fan(points_sensor_m: np.ndarray) -> np.ndarray:

@@ -56,6 +56,29 @@ def test_the_policy_can_be_declined():
     assert on == "False"
 
 
+SMALL_PAGES = """
+from acousim.allocator import small_pages
+from numpy._core.multiarray import _set_madvise_hugepage
+print(small_pages(), _set_madvise_hugepage(True))  # the latter: the setting before
+"""
+
+
+def test_small_pages_turn_numpys_huge_page_advice_off():
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    out = subprocess.run(
+        [sys.executable, "-c", SMALL_PAGES], capture_output=True, text=True, env=env, check=True
+    )
+    assert out.stdout.split() == ["True", "False"]
+
+
+def test_small_pages_leave_numpys_own_switch_alone():
+    env = {**os.environ, "NUMPY_MADVISE_HUGEPAGE": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", SMALL_PAGES], capture_output=True, text=True, env=env, check=True
+    )
+    assert out.stdout.split() == ["False", "True"]
+
+
 LIBRARY = """
 import functools
 from threadpoolctl import threadpool_info

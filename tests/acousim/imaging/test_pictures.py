@@ -13,6 +13,7 @@ from acousim.viz.fan import (
     draw_fan,
     elaz_figure,
     fan_raster,
+    full_range_fan,
     pick_slices,
     truth_in_fan,
 )
@@ -101,6 +102,35 @@ def test_gated_range_bins_are_no_data_not_quiet():
     assert r.no_data[fov & (dist > 1.4) & (dist < 1.9)].all()  # gated: no data
     assert np.isfinite(r.db[fov & (dist > 0.85) & (dist < 1.15)]).all()  # kept
     assert not r.no_data[fov & (dist > 0.85) & (dist < 1.15)].any()
+
+
+@pytest.mark.parametrize("elevations", ["sorted", "shuffled"])
+def test_top_view_is_each_kept_bins_maximum_over_the_horizontal_band(elevations):
+    """full_range_fan against a loop written here: on the regular axis 0, 1 cm, ...,
+    each kept bin (gated ones skipped) holds per azimuth the largest power over the
+    elevations within the band (+-10 degrees); every other bin is NaN; whether the
+    band's elevations lie side by side in the grid or not."""
+    rnd = np.random.default_rng(5)
+    el_deg = np.arange(-40.0, 41.0, 5.0)
+    if elevations == "shuffled":
+        el_deg = rnd.permutation(el_deg)
+    kept = np.r_[20:35, 40:52]  # bins 0.20-0.34 m and 0.40-0.51 m
+    img = P.Image(
+        power=rnd.random((kept.size, el_deg.size, 7)),
+        range_m=kept * 0.01,
+        elevation_rad=np.deg2rad(el_deg),
+        azimuth_rad=np.deg2rad(np.linspace(-60, 60, 7)),
+        method="das",
+        frequency_hz=40e3,
+        bin_range_m=0.01,
+    )
+    axis, fan = full_range_fan(img, 0.6, np.deg2rad(10.0))
+    np.testing.assert_allclose(axis, np.arange(61) * 0.01, atol=1e-12)
+    want = np.full((61, 7), np.nan)
+    for i, b in enumerate(kept):
+        for a in range(7):
+            want[b, a] = max(img.power[i, e, a] for e in range(el_deg.size) if abs(el_deg[e]) <= 10)
+    np.testing.assert_array_equal(fan, want)
 
 
 def _inside(artist, fig) -> bool:
