@@ -25,6 +25,7 @@ from acousim.synth.options import Capture, Noise, RenderOptions
 from acousim.synth.signal_model import simulate
 from acousim.trace.motion.following import MovingPaths
 from tests import REPO
+from tests.oracles.doppler import turning_past_four_points
 
 SCENES = REPO / "scenes"
 C = 343.0
@@ -493,38 +494,9 @@ def test_fast_renderer_with_absorption_and_directivity_against_exact_filtering()
     """Doppler, air absorption and emitter directivity together (the sets compressed
     across Doppler terms and response terms) against the exact echo of each path
     filtered by its own response (per path, by FFT, here): within -60 dB."""
-    from acousim.synth.response import PathResponse
-
-    arr = P.preset("urtis_v1")
-    arr = P.Array("two", arr.positions_m[[3, 25]], np.array([0.0, 0, -0.012]))
-    pose = Pose([0.0, 0, 0])
-    traj = Trajectory.constant(pose, [1.0, 0.2, 0], [0, 0, np.deg2rad(90)])
-    wf = P.rtis_call("default_20_80")
-    pts = np.array([[2.0, 0.3, 0.1], [1.5, -1.0, 0.0], [3.0, 1.2, 0.2], [-1.0, 0.5, 0.0]])
-    paths = MovingPaths.points(pts, np.ones(4), np.zeros((4, 3)), pose.to_world(arr.emitter_m))
-    n = int(0.024 * FS)
-    kin = SensorKinematics(traj, pose, arr, n / FS, 2.5e-4)
-    a = arrivals(paths, kin, wf.duration_s, C, np.array([1.0, 0, 0]))
-    # one length per path (the per-microphone part is the static renderer's business)
-    length = np.broadcast_to(a.echoes.path_length_m.mean(axis=0), a.echoes.gain.shape)
-    echoes = Echoes(a.echoes.delay_s, a.echoes.gain, length, a.echoes.order, a.echoes.angles())
-    response = PathResponse(speed_of_sound_m_s=C, emitter_radius_m=0.005)
-    fast = render_doppler(echoes, a.rate, wf, FS, n, response=response)
-    nfft = 2 * n
-    f = np.fft.rfftfreq(nfft, 1 / FS)
-    exact = np.zeros_like(fast)
-    for k in range(len(paths)):
-        one = render_doppler_reference(
-            paths.select([k]),
-            SensorKinematics.exact(traj, pose, arr),
-            wf,
-            FS,
-            n,
-            C,
-            a.echoes.gain[:, [k]],
-        )
-        H = response.matrix(f, length[0, [k]], echoes.angles()[[k]])[:, 0]
-        exact += np.fft.irfft(np.fft.rfft(one, nfft) * H, nfft)[:, :n]
+    case = turning_past_four_points(FS, C)
+    fast = render_doppler(case.echoes, case.rate, case.wf, FS, case.n, response=case.response)
+    exact = case.exact
     err = 20 * np.log10(np.linalg.norm(fast - exact) / np.linalg.norm(exact))
     assert err <= -60
 

@@ -15,18 +15,15 @@ import pytest
 
 import processing as P
 from acousim.core.echoes import Echoes
-from acousim.kinematics import SensorKinematics, arrivals
-from acousim.kinematics.reference import render_doppler_reference
-from acousim.scene import Pose, load_scene, parse_scene
-from acousim.scene.trajectory import Trajectory
+from acousim.scene import load_scene, parse_scene
 from acousim.simulator import Simulator
 from acousim.synth import Capture, PathResponse, RenderOptions, render
 from acousim.synth.doppler import render_doppler
 from acousim.synth.render import render_with
 from acousim.synth.timedomain import prefer_time
-from acousim.trace.motion.following import MovingPaths
 from processing.base.errors import InputError
 from tests.acousim.synth.references import echoes_ahead, filtered_per_path
+from tests.oracles.doppler import turning_past_four_points
 
 FS = 450e3
 SCENES = Path(__file__).resolve().parents[3] / "scenes"
@@ -113,40 +110,20 @@ def test_a_moving_pose_summed_in_time_is_the_exact_doppler_echo():
     in time against each path's exact time-scaled echo, filtered by its own
     response (computed here; -60 dB, the Doppler renderer's bound), and against the
     same sets summed by FFT (-100 dB)."""
-    arr = P.preset("urtis_v1")
-    arr = P.Array("two", arr.positions_m[[3, 25]], np.array([0.0, 0, -0.012]))
-    pose = Pose([0.0, 0, 0])
-    traj = Trajectory.constant(pose, [1.0, 0.2, 0], [0, 0, np.deg2rad(90)])
-    wf, c = P.rtis_call("default_20_80"), 343.0
-    pts = np.array([[2.0, 0.3, 0.1], [1.5, -1.0, 0.0], [3.0, 1.2, 0.2], [-1.0, 0.5, 0.0]])
-    paths = MovingPaths.points(pts, np.ones(4), np.zeros((4, 3)), pose.to_world(arr.emitter_m))
-    n = int(0.024 * FS)
-    kin = SensorKinematics(traj, pose, arr, n / FS, 2.5e-4)
-    a = arrivals(paths, kin, wf.duration_s, c, np.array([1.0, 0, 0]))
-    length = np.broadcast_to(a.echoes.path_length_m.mean(axis=0), a.echoes.gain.shape)
-    e = Echoes(a.echoes.delay_s, a.echoes.gain, length, a.echoes.order, a.echoes.angles())
-    resp = PathResponse(speed_of_sound_m_s=c, emitter_radius_m=0.005)
+    case = turning_past_four_points(FS)
     y = {
         domain: render_doppler(
-            e, a.rate, wf, FS, n, options=RenderOptions(domain=domain), response=resp
+            case.echoes,
+            case.rate,
+            case.wf,
+            FS,
+            case.n,
+            options=RenderOptions(domain=domain),
+            response=case.response,
         )
         for domain in ("time", "frequency")
     }
-    nfft = 2 * n
-    f = np.fft.rfftfreq(nfft, 1 / FS)
-    exact = np.zeros_like(y["time"])
-    for k in range(len(paths)):
-        one = render_doppler_reference(
-            paths.select([k]),
-            SensorKinematics.exact(traj, pose, arr),
-            wf,
-            FS,
-            n,
-            c,
-            a.echoes.gain[:, [k]],
-        )
-        H = resp.matrix(f, length[0, [k]], e.angles()[[k]])[:, 0]
-        exact += np.fft.irfft(np.fft.rfft(one, nfft) * H, nfft)[:, :n]
+    exact = case.exact
     assert residual_db(y["time"], exact) < -60
     assert residual_db(y["time"], y["frequency"]) < -100
 
