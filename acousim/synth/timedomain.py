@@ -177,7 +177,11 @@ def prefer_time(
     domain's: ``M N K L`` multiply-adds (K = 2 `taps` fractional-delay weights, L
     the filtered `call`'s samples) against ``M (Q + 1)`` real FFTs of `n_fft` points
     (Q `sets`: the forward ones, one inverse); each copy's call `mixed` from that many
-    calls (a moving pose's gain sets: ``mixed - 1`` more multiply-adds a sample)."""
+    calls (a moving pose's gain sets: ``mixed - 1`` more multiply-adds a sample).
+    Never without the compiled sum (numba missing): its numpy twin loops over the
+    paths in Python, three times the FFTs' time on the shoebox."""
+    if optional_kernel("acousim.synth._timedomain_kernel") is None:
+        return False
     t_time = SECONDS_PER_TAP * mics * paths * (max(2 * taps, 1) + mixed - 1) * call
     t_freq = SECONDS_PER_FFT_OP * mics * (sets + 1) * n_fft * np.log2(max(n_fft, 2))
     return bool(t_time < t_freq)
