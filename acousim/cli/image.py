@@ -90,7 +90,8 @@ def load_and_image(args: argparse.Namespace):
     in the file, and a function that images them (called once the command is ready)."""
     import processing as P
     from acousim.allocator import small_pages
-    from acousim.imaging.run import ImagingOptions, image_recordings
+    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.imaging.run import ImagingOptions, image_recordings, recording_images
     from acousim.process import configure
 
     # the process's policy, as a simulating command's: BLAS on one thread (the same
@@ -136,7 +137,13 @@ def load_and_image(args: argparse.Namespace):
         recs, index = _of_sensor(recs, index, args.sensor)
 
     def image_all(each=None):  # the bar's time starts with the work
-        return image_recordings(recs, options, progress("image", "recording"), each=each)
+        bar = progress("image", "recording")
+        # the odd recordings imaged in a forked process, the even ones here
+        made = shared_by_two_processes(
+            lambda k: recording_images(recs[k], options, k), len(recs)
+        )
+        with contextlib.closing(made):
+            return image_recordings(recs, options, bar, each=each, made=made)
 
     return recs, index, options, image_all
 
@@ -297,26 +304,34 @@ def _data_steps(h5, csv, recs, images, index, options, made=()):
 
 
 def _write_pictures(args, out, recs, images, index, options, shown) -> list:
-    """The stills of the recordings `shown` and the drive's animation."""
-    from acousim.imaging.run import write_drive, write_stills
+    """The stills of the recordings `shown` and, meanwhile in a second process
+    (:mod:`acousim.cli.ahead`), the drive's animation (written to a temporary file
+    renamed here with the rest)."""
+    from acousim.cli.ahead import ahead_in_a_process
+    from acousim.imaging.run import drive_steps, write_stills
+    from processing.base.atomic import atomic_path
 
-    files = write_stills(
-        recs,
-        images,
-        out,
-        options,
-        shown=shown or [0],
-        indices=index,
-        render_3d=not args.no_3d,
-        progress=progress("stills", "picture"),
-    )
-    if _animated(args, recs):
-        files += write_drive(
+    def stills() -> list:
+        return write_stills(
             recs,
             images,
             out,
             options,
-            progress=progress("animate", "frame", start="first"),
+            shown=shown or [0],
             indices=index,
+            render_3d=not args.no_3d,
+            progress=progress("stills", "picture"),
         )
-    return files
+
+    if not _animated(args, recs):
+        return stills()
+    gif = out / "drive.gif"
+    with atomic_path(gif) as tmp:
+        # forked before the stills' 3D view: the worker's VTK starts afresh
+        work = functools.partial(drive_steps, recs, images, tmp, options, indices=index)
+        bar = progress("animate", "frame")  # from the worker's start
+        with ahead_in_a_process(work) as frames:
+            files = stills()
+            for done, total in frames:
+                bar(done, total)
+    return [*files, gif]

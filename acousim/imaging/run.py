@@ -7,7 +7,7 @@ import contextlib
 import dataclasses
 import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,11 +43,13 @@ PEAK_THRESHOLD_DB = P.PEAK_THRESHOLD_DB
 __all__ = [
     "ImagingOptions",
     "image_recordings",
+    "recording_images",
     "peak_positions",
     "peak_table",
     "peaks_in_world",
     "prepare_pictures",
     "write_drive",
+    "drive_steps",
     "write_pictures",
     "write_stills",
 ]
@@ -121,26 +123,50 @@ def image_recordings(
     options: ImagingOptions,
     progress: Callable[[int, int], None] | None = None,
     each: Callable[[int, dict[str, P.Image]], None] | None = None,
+    *,
+    made: Iterable[dict[str, P.Image]] | None = None,
 ) -> list[dict[str, P.Image]]:
     """Images of every recording by every method; `each` (if given) is called with
-    each recording's position in `recordings` and its images as soon as they are made."""
+    each recording's position in `recordings` and its images as soon as they are made.
+
+    made : the images, in order, made elsewhere (the command line's two processes:
+        :func:`recording_images` of each); None: made here, one after the other.
+    """
     out = []
-    for i, rec in enumerate(recordings):
+    if made is None:
+        made = _one_by_one(recordings, options)
+    for i, imgs in enumerate(made):
         interrupt.check()  # Ctrl-C (when the command line records it): stop here
-        if rec.array.n_mics and not rec.array.is_ura:
-            smooth = [m for m in options.methods if P.requires_ura(m)]
-            if smooth:
-                raise InputError(
-                    f"recording {i}: array {rec.array.name!r} is not a URA, so "
-                    f"{', '.join(smooth)} cannot be used; choose das, music, capon "
-                    "or a wideband (-wb) or broadband (-bb) method"
-                )
-        out.append(P.acoustic_images(rec, options.methods, options.settings(rec)))
+        out.append(imgs)
         if each:
             each(i, out[-1])
         if progress:
             progress(i + 1, len(recordings))
     return out
+
+
+def _one_by_one(recordings: Sequence[P.Recording], options: ImagingOptions) -> Iterator[dict]:
+    for i, rec in enumerate(recordings):
+        interrupt.check()  # Ctrl-C (when the command line records it): stop here
+        yield recording_images(rec, options, i)
+
+
+def recording_images(
+    recording: P.Recording, options: ImagingOptions, position: int = 0
+) -> dict[str, P.Image]:
+    """The images of one recording by every method of `options`, by method; an
+    InputError naming the recording (its `position`) when a method needs a uniform
+    rectangular array it does not have."""
+    rec = recording
+    if rec.array.n_mics and not rec.array.is_ura:
+        smooth = [m for m in options.methods if P.requires_ura(m)]
+        if smooth:
+            raise InputError(
+                f"recording {position}: array {rec.array.name!r} is not a URA, so "
+                f"{', '.join(smooth)} cannot be used; choose das, music, capon "
+                "or a wideband (-wb) or broadband (-bb) method"
+            )
+    return P.acoustic_images(rec, options.methods, options.settings(rec))
 
 
 def _pose(rec: P.Recording):
@@ -382,11 +408,29 @@ def write_drive(
     the fan of the sharpest method imaged.  Returns the file written (a list)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    path = out / "drive.gif"
+    with atomic_path(path) as tmp:
+        for done, total in drive_steps(recordings, images, tmp, options, indices=indices):
+            if progress:
+                progress(done, total)
+    return [path]
+
+
+def drive_steps(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    path: str | Path,
+    options: ImagingOptions,
+    *,
+    indices: Sequence[int] | None = None,
+) -> Iterator[tuple[int, int]]:
+    """Draw the drive's animation (:func:`write_drive`) into the GIF `path` (written
+    as it is: the caller's temporary), yielding ``(frames drawn, frames)`` after
+    each frame."""
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     scene = _scene(recordings[0])
     triangles = _scene_triangles(scene)
-    path = out / "drive.gif"
-    return [_animate(recordings, images, triangles, path, options, progress, indices, scene)]
+    return _animate(recordings, images, triangles, Path(path), options, indices, scene)
 
 
 def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag, done):
@@ -576,7 +620,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
     return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
 
 
-def _animate(recordings, images, triangles, path, options, progress, indices, scene=None):
+def _animate(recordings, images, triangles, path, options, indices, scene=None):
     dr = options.dynamic_range_db
     method = _sharpest(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
@@ -619,15 +663,12 @@ def _animate(recordings, images, triangles, path, options, progress, indices, sc
                 )
             title = _title(rec, indices[k], True)
             frames.append(figure.frame(view, imgs[method], marks[k], title))
-            if progress:
-                progress(k + 1, len(recordings))
+            yield k + 1, len(recordings)
     finally:
         renderer.close()
         if figure is not None:
             figure.close()
-    with atomic_path(path) as tmp:
-        write_gif(tmp, np.stack(frames), frame_delay_ms(recordings))
-    return Path(path)
+    write_gif(path, np.stack(frames), frame_delay_ms(recordings))
 
 
 def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):

@@ -52,3 +52,24 @@ def test_leaving_the_block_early_ends_the_worker():
     with ahead_in_a_process(_forever) as items:
         assert next(items) == 0
     assert not [p for p in mp.active_children() if p.is_alive()]
+
+
+def _block(k):
+    """Item k: a large array (out of band), a strided view (in band) and the pid."""
+    big = np.arange(3_000_000, dtype=np.float64) * (k + 1)  # 24 MB
+    return {"k": k, "pid": os.getpid(), "big": big, "strided": big[::7][:1000]}
+
+
+def test_two_processes_share_the_items_and_hand_them_out_in_order():
+    from acousim.cli.ahead import shared_by_two_processes
+
+    got = list(shared_by_two_processes(_block, 5))
+    assert [g["k"] for g in got] == list(range(5))
+    for g in got:  # every byte arrives: the values are those made
+        k = g["k"]
+        np.testing.assert_array_equal(g["big"], np.arange(3_000_000.0) * (k + 1))
+        np.testing.assert_array_equal(g["strided"], (np.arange(1000) * 7.0) * (k + 1))
+        assert g["big"].flags.writeable
+    if (os.cpu_count() or 1) > 1:  # the odd items made in the worker, the even here
+        assert {g["pid"] for g in got[0::2]} == {os.getpid()}
+        assert os.getpid() not in {g["pid"] for g in got[1::2]}
