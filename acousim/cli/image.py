@@ -139,9 +139,7 @@ def load_and_image(args: argparse.Namespace):
     def image_all(each=None):  # the bar's time starts with the work
         bar = progress("image", "recording")
         # the odd recordings imaged in a forked process, the even ones here
-        made = shared_by_two_processes(
-            lambda k: recording_images(recs[k], options, k), len(recs)
-        )
+        made = shared_by_two_processes(lambda k: recording_images(recs[k], options, k), len(recs))
         with contextlib.closing(made):
             return image_recordings(recs, options, bar, each=each, made=made)
 
