@@ -1,9 +1,10 @@
 """``acousim image``: image recordings and write pictures and data files.
 
-Run the processing pipeline on simulated or real recordings and write the images as data
-(images.h5: range x elevation x azimuth in dB with its axes; peaks.csv), fan images
-(azimuth x range), elevation-azimuth maps, a 3D render and, for a trajectory, an
-animated GIF. File layouts: docs/export.md.
+Run the processing pipeline on simulated or real recordings and write fan images
+(azimuth x range), elevation-azimuth maps, a 3D render, for a trajectory an animated
+GIF, the image peaks (peaks.csv) and, with --images-h5, the images as data (images.h5:
+range x elevation x azimuth in dB with its axes and truth labels). File layouts:
+docs/export.md.
 """
 
 from __future__ import annotations
@@ -136,12 +137,27 @@ def load_and_image(args: argparse.Namespace):
     if getattr(args, "sensor", None) is not None:
         recs, index = _of_sensor(recs, index, args.sensor)
 
-    def image_all(each=None):  # the bar's time starts with the work
-        bar = progress("image", "recording")
-        # the odd recordings imaged in a forked process, the even ones here
-        made = shared_by_two_processes(lambda k: recording_images(recs[k], options, k), len(recs))
+    def image_all(each=None, beside=None):
+        """The images (and with `beside`, also ``beside(k, images)`` of each recording
+        k, made in the process that imaged it): the odd recordings imaged in a
+        forked process, the even ones here."""
+        bar = progress("image", "recording")  # the bar's time starts with the work
+
+        def make(k: int) -> tuple:
+            imgs = recording_images(recs[k], options, k)
+            return imgs, None if beside is None else beside(k, imgs)
+
+        extras: list = []
+
+        def images_of(made):
+            for imgs, extra in made:
+                extras.append(extra)
+                yield imgs
+
+        made = shared_by_two_processes(make, len(recs))
         with contextlib.closing(made):
-            return image_recordings(recs, options, bar, each=each, made=made)
+            images = image_recordings(recs, options, bar, each=each, made=images_of(made))
+        return images if beside is None else (images, extras)
 
     return recs, index, options, image_all
 
@@ -159,10 +175,12 @@ def register(sub) -> None:
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
     p.add_argument(
-        "--no-data",
+        "--images-h5",
         action="store_true",
-        help="skip images.h5 and peaks.csv (about 2 MB per image of a corridor pose)",
+        help="also write images.h5: every image as data, with its truth labels (about "
+        "5 MB per corridor pose, and the command's longest part)",
     )
+    p.add_argument("--no-data", action="store_true", help="skip peaks.csv (and images.h5)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -170,15 +188,20 @@ def run(args: argparse.Namespace) -> int:
     from acousim.imaging.run import prepare_pictures
     from processing.base.atomic import committed_together
 
+    if args.images_h5 and args.no_data:
+        raise UsageError("--no-data skips every data file", key="--images-h5", value=True)
     out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
     recs, index, options, image_all = load_and_image(args)
     shown = _shown(args.recording, index)
     prepare_pictures(render_3d=not args.no_3d, animation=_animated(args, recs))  # before work
-    with _beside_imaging(recs, index, options, not args.no_data) as (add, made):
-        images = image_all(each=add)
+    tables = None
+    if args.no_data:
+        images = image_all()
+    else:  # each recording's peak tables made where it was imaged
+        images, tables = image_all(beside=_peak_tables(recs, index, options))
     with committed_together():  # every file or none (Ctrl-C, an error)
-        files = _write_all(args, out, recs, images, index, options, shown, made)
+        files = _write_all(args, out, recs, images, index, options, shown, tables)
     for f in files:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
@@ -210,37 +233,16 @@ def _span(index: list[int]) -> str:
     return ",".join(map(str, index))
 
 
-@contextlib.contextmanager
-def _beside_imaging(recs, index, options, wanted: bool):
-    """While the recordings are imaged (one core), each imaged recording's label maps
-    and peak tables for images.h5 and peaks.csv made in a thread (the other core).
-    Yields the callback for :func:`acousim.imaging.run.image_recordings`'s `each`
-    (None: not `wanted`) and a list that holds, once the block ends, the (label maps,
-    peak tables) made, in order: those of the first recordings (those not begun are
-    cancelled, made later by images.h5's process; the thread has ended: nothing runs
-    beside a fork)."""
-    made: list = []
-    if not wanted:
-        yield None, made
-        return
-    from concurrent.futures import ThreadPoolExecutor
+def _peak_tables(recs: list, index: list[int], options):
+    """``make(k, images)``: recording k's peak tables (:func:`acousim.export.images.peak_tables`:
+    {method: rows}, matched to the traced paths), for peaks.csv, images.h5 and the
+    drive's peaks."""
+    from acousim.export.images import peak_tables
 
-    from acousim.export.images import label_maps, peak_tables
+    def make(k: int, imgs: dict) -> dict:
+        return peak_tables([recs[k]], [imgs], [index[k]], options.peak_threshold_db)[0]
 
-    def make(i: int, imgs: dict) -> tuple:
-        labels = next(label_maps([recs[i]], [imgs], options.dynamic_range_db))
-        return labels, peak_tables([recs[i]], [imgs], [index[i]], options.peak_threshold_db)[0]
-
-    futures: list = []
-    pool = ThreadPoolExecutor(1)
-    try:
-        yield (lambda i, imgs: futures.append(pool.submit(make, i, imgs))), made
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-    for f in futures:
-        if f.cancelled():
-            break
-        made.append(f.result())
+    return make
 
 
 def _animated(args, recs: list) -> bool:
@@ -248,63 +250,49 @@ def _animated(args, recs: list) -> bool:
     return not args.no_animation and len(recs) > 1
 
 
-def _write_all(args, out, recs, images, index, options, shown=None, made=()) -> list:
-    """The pictures, and meanwhile, in a second process (:mod:`acousim.cli.ahead`),
-    images.h5 and peaks.csv (written to temporary files renamed here with the rest)."""
+def _write_all(args, out, recs, images, index, options, shown=None, tables=None) -> list:
+    """peaks.csv (from the peak `tables`; None: not asked), the pictures and, with
+    --images-h5, meanwhile in a second process (:mod:`acousim.cli.ahead`), images.h5
+    (written to a temporary file renamed here with the rest)."""
     from acousim.cli.ahead import ahead_in_a_process
+    from acousim.export.images import peaks_csv_text
     from processing.base.atomic import atomic_path
 
-    if args.no_data:
-        return _write_pictures(args, out, recs, images, index, options, shown)
-    data = [out / "images.h5", out / "peaks.csv"]
-    with atomic_path(data[0]) as h5, atomic_path(data[1]) as csv:
+    files = []
+    if tables is not None:
+        files.append(out / "peaks.csv")
+        with atomic_path(files[-1]) as csv:
+            csv.write_text(peaks_csv_text(tables), encoding="utf-8")
+    if not args.images_h5:
+        return files + _write_pictures(args, out, recs, images, index, options, shown, tables)
+    with atomic_path(out / "images.h5") as h5:
         bar = progress("images.h5", "recording")  # from the start of its work
-        work = functools.partial(_data_steps, h5, csv, recs, images, index, options, made)
+        work = functools.partial(_data_steps, h5, recs, images, index, options, tables)
         with ahead_in_a_process(work) as steps:
-            pictures = _write_pictures(args, out, recs, images, index, options, shown)
+            pictures = _write_pictures(args, out, recs, images, index, options, shown, tables)
             for done, total in steps:
                 bar(done, total)
-    return data + pictures
+    return [out / "images.h5", *files, *pictures]
 
 
-def _data_steps(h5, csv, recs, images, index, options, made=()):
-    """Write images.h5 to `h5` and peaks.csv to `csv` (paths), the peak tables made
-    once for both, each when its recording's turn comes (the label maps made one
-    ahead, in a thread); `made`: the (label maps, peak tables) of the first
-    recordings, made while imaging (:func:`_beside_imaging`); yields ``(done,
-    total)`` as images.h5's recordings are written."""
-    import itertools
-    from pathlib import Path
+def _data_steps(h5, recs, images, index, options, tables):
+    """Write images.h5 to `h5` (a path) with the recordings' peak `tables` (the label
+    maps made one ahead, in a thread); yields ``(done, total)`` as its recordings are
+    written."""
+    from acousim.export.images import Given, Stored, image_data_steps, label_maps_ahead
 
-    from acousim.export.images import (
-        Given,
-        Stored,
-        image_data_steps,
-        label_maps_ahead,
-        peak_tables,
-        peaks_csv_text,
+    labels = label_maps_ahead(recs, images, options.dynamic_range_db)
+    given = Given(tables=iter(tables), labels=labels)
+    stored = Stored(
+        dynamic_range_db=options.dynamic_range_db, peak_threshold_db=options.peak_threshold_db
     )
-
-    threshold, k = options.peak_threshold_db, len(made)
-    tables: list = []  # each recording's, kept for peaks.csv as its group is written
-
-    def each_table():  # those made while imaging, then each made when its turn comes
-        for rec, imgs, i in zip(recs[k:], images[k:], index[k:]):
-            tables.append(peak_tables([rec], [imgs], [i], threshold)[0])
-            yield tables[-1]
-
-    tables += [t for _, t in made]
-    labels = label_maps_ahead(recs, images, options.dynamic_range_db, [m for m, _ in made])
-    given = Given(tables=itertools.chain(list(tables), each_table()), labels=labels)
-    stored = Stored(dynamic_range_db=options.dynamic_range_db, peak_threshold_db=threshold)
     yield from image_data_steps(h5, recs, images, index, stored=stored, given=given)
-    Path(csv).write_text(peaks_csv_text(tables), encoding="utf-8")
 
 
-def _write_pictures(args, out, recs, images, index, options, shown) -> list:
+def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:
     """The stills of the recordings `shown` and, meanwhile in a second process
     (:mod:`acousim.cli.ahead`), the drive's animation (written to a temporary file
-    renamed here with the rest)."""
+    renamed here with the rest; its peaks from the peak `tables`, if made)."""
     from acousim.cli.ahead import ahead_in_a_process
     from acousim.imaging.run import drive_steps, write_stills
     from processing.base.atomic import atomic_path
@@ -326,7 +314,9 @@ def _write_pictures(args, out, recs, images, index, options, shown) -> list:
     gif = out / "drive.gif"
     with atomic_path(gif) as tmp:
         # forked before the stills' 3D view: the worker's VTK starts afresh
-        work = functools.partial(drive_steps, recs, images, tmp, options, indices=index)
+        work = functools.partial(
+            drive_steps, recs, images, tmp, options, indices=index, tables=tables
+        )
         bar = progress("animate", "frame")  # from the worker's start
         with ahead_in_a_process(work) as frames:
             files = stills()

@@ -7,7 +7,7 @@ import contextlib
 import dataclasses
 import signal
 import threading
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -313,7 +313,10 @@ def _import_pictures(render_3d: bool, animation: bool) -> None:
     import matplotlib.pyplot  # noqa: F401
 
     if render_3d or animation:
-        import_pyvista()
+        # VTK's rendering modules (pyvista loads them on first use) and trimesh (the
+        # scene's meshes): imported once, before the command's workers are forked
+        import_pyvista().Plotter  # noqa: B018
+        import trimesh  # noqa: F401
     if animation:
         import imageio.v2  # noqa: F401
 
@@ -423,14 +426,20 @@ def drive_steps(
     options: ImagingOptions,
     *,
     indices: Sequence[int] | None = None,
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
 ) -> Iterator[tuple[int, int]]:
     """Draw the drive's animation (:func:`write_drive`) into the GIF `path` (written
     as it is: the caller's temporary), yielding ``(frames drawn, frames)`` after
-    each frame."""
+    each frame.
+
+    tables : each recording's peak tables by method, made with the options' peak
+        threshold (``acousim.export.images.peak_tables``): the peaks drawn are
+        theirs (None: found again here).
+    """
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     scene = _scene(recordings[0])
     triangles = _scene_triangles(scene)
-    return _animate(recordings, images, triangles, Path(path), options, indices, scene)
+    return _animate(recordings, images, triangles, Path(path), options, indices, scene, tables)
 
 
 def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag, done):
@@ -580,9 +589,15 @@ def lidar_in_world(rec: P.Recording) -> np.ndarray | None:
     return _pose(rec).to_world(rec.lidar.in_sensor())
 
 
-def _frame_content(rec, img, options, sweep, moving):
+def _world_points(rows: P.PeakTable) -> np.ndarray:
+    """The peak rows' positions in the world frame (N, 3), m."""
+    return np.array([[r.world_x_m, r.world_y_m, r.world_z_m] for r in rows], float).reshape(-1, 3)
+
+
+def _frame_content(rec, img, options, sweep, moving, peaks=None):
     """What the 3D view of `rec` draws: the sensor at its pose, the traced reflectors,
-    the peaks of `img`, the sweep, the moving meshes' faces and the LiDAR scan."""
+    the peaks of `img` (`peaks`, world frame (N, 3), if found already), the sweep,
+    the moving meshes' faces and the LiDAR scan."""
     pose = _pose(rec)
     truth_w, level = _truth_world(rec)
     return FrameContent(
@@ -591,7 +606,7 @@ def _frame_content(rec, img, options, sweep, moving):
         truth=truth_w,
         truth_level_db=level,
         chains=_chains(rec),
-        peaks=peaks_in_world(rec, img, options.peak_threshold_db),
+        peaks=peaks_in_world(rec, img, options.peak_threshold_db) if peaks is None else peaks,
         sweep=sweep,
         moving_triangles=moving,
         lidar=lidar_in_world(rec),
@@ -620,7 +635,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
     return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
 
 
-def _animate(recordings, images, triangles, path, options, indices, scene=None):
+def _animate(recordings, images, triangles, path, options, indices, scene=None, tables=None):
     dr = options.dynamic_range_db
     method = _sharpest(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
@@ -647,7 +662,9 @@ def _animate(recordings, images, triangles, path, options, indices, scene=None):
     try:
         for k, (rec, imgs) in enumerate(zip(recordings, images)):
             moving = _moving_triangles(scene, rec)
-            view = renderer.frame(_frame_content(rec, imgs[method], options, sweeps[k], moving))
+            peaks = None if tables is None else _world_points(tables[k][method])
+            content = _frame_content(rec, imgs[method], options, sweeps[k], moving, peaks)
+            view = renderer.frame(content)
             if figure is None:  # laid out once, on the first frame
                 figure = DriveFigure(
                     view_shape=view.shape[:2],

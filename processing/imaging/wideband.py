@@ -24,6 +24,7 @@ from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
 from processing.imaging.methods import WIDEBAND_METHODS, WidebandMethod
+from processing.imaging.snapshot import stft_window
 from processing.imaging.steering import Grid
 from processing.sensor.arrays import Array
 
@@ -61,10 +62,8 @@ def band_snapshots(
     start = np.round(np.asarray(time_s) * sample_rate_hz + emission_index - window // 2)
     start = np.clip(start.astype(int), 0, x.shape[-1] - window)
     frames = sliding_window_view(x, window, axis=-1)[..., start, :]  # (K, M, R, W)
-    from scipy.signal import get_window  # imported here: about a second, for imaging alone
-
     n = np.arange(window)
-    kernel = get_window("hann", window)[:, None] * np.exp(
+    kernel = stft_window("hann", window)[:, None] * np.exp(
         -2j * np.pi * np.outer(n, np.asarray(freqs_hz)) / sample_rate_hz
     )  # (W, F)
     col = frames @ kernel  # (K, M, R, F)

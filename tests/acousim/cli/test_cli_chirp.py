@@ -18,7 +18,7 @@ def test_export_then_image_gives_the_same_image(tmp_path, capsys):
     assert "CHIRP file, format 2.1, 1 capture(s)" in capsys.readouterr().out
     for f, out in ((rec, "a"), (chirp, "b")):
         args = ["image", str(f), "--out", str(tmp_path / out), "--method", "das,das-bb"]
-        assert main([*args, "--no-3d", "--no-animation"]) == 0
+        assert main([*args, "--no-3d", "--no-animation", "--images-h5"]) == 0
     with h5py.File(tmp_path / "a/images.h5") as a, h5py.File(tmp_path / "b/images.h5") as b:
         for name in ("das", "das-bb", "range_m"):
             key = f"recording_000000/{name}"

@@ -106,6 +106,7 @@ def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
     code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "-q"], tmp_path)
     assert code == 0, text
     args = ["image", "x.h5", "--method", "das", "--no-3d", "--no-animation", "--out", "img"]
+    args.append("--images-h5")
     code, text = run_on_a_terminal(args, tmp_path)
     assert code == 0, text
     for desc, done in (("image", "3/3"), ("images.h5", "3/3"), ("stills", "2/2")):
@@ -146,7 +147,7 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     assert lines[1].startswith("3 recording(s) of 'points' written")
     # image: one line for the imaging; the animation's frames get theirs
     args = ["image", str(out), "--method", "das", "--out", str(tmp_path / "img"), "--no-3d"]
-    assert main(args) == 0
+    assert main([*args, "--images-h5"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
     # the write phase: the stills (fan, el-az of das) by picture, the animation's

@@ -62,7 +62,10 @@ ARGS = ["--method", "das,music-fbss", "--step", "1", "--energy-fraction", "0.3"]
 
 def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_path):
     out = tmp_path / "img"
-    assert main(["image", str(recording_file), "--out", str(out), "--no-3d", *ARGS]) == 0
+    assert (
+        main(["image", str(recording_file), "--out", str(out), "--no-3d", "--images-h5", *ARGS])
+        == 0
+    )
     with h5py.File(out / "images.h5", "r") as f:
         assert f.attrs["format"] == "acousim-images"
         (name,) = list(f)
@@ -296,7 +299,10 @@ def test_images_open_as_netcdf_in_xarray(recording_file, tmp_path):
     import xarray as xr  # with h5netcdf: the dev extra, installed by `make`
 
     out = tmp_path / "img"
-    assert main(["image", str(recording_file), "--out", str(out), "--no-3d", *ARGS]) == 0
+    assert (
+        main(["image", str(recording_file), "--out", str(out), "--no-3d", "--images-h5", *ARGS])
+        == 0
+    )
     group = "recording_000000"
     with xr.open_dataset(
         out / "images.h5", engine="h5netcdf", group=group, phony_dims="sort"

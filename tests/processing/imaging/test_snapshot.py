@@ -98,3 +98,36 @@ def test_strongest_bin_is_the_full_ffts(seed):
         x, fs, band_hz=band, gate=gate, stft=P.Stft(range_step_m=343 * 16 / fs / 2)
     )
     assert snap.frequency_hz == f_ref
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 64, 240, 241, 1000])
+def test_the_hann_window_is_scipys_to_the_bit(n):
+    """The STFT's Hann window, made without importing scipy.signal, is the one
+    scipy.signal.get_window gives (periodic), bit for bit; other names are scipy's."""
+    from scipy.signal import get_window
+
+    from processing.imaging.snapshot import stft_window
+
+    np.testing.assert_array_equal(stft_window("hann", n), get_window("hann", n))
+    np.testing.assert_array_equal(stft_window("hamming", n), get_window("hamming", n))
+
+
+def test_imaging_does_not_import_scipy_signal():
+    """An image made with the default window leaves scipy.signal unimported (its
+    import is about half a second of every imaging process)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = (
+        "import sys, processing as P\n"
+        "from tests.oracles.analytic import echo_recording\n"
+        "rec = echo_recording(P.paper_8x8(), [(10, 0, 1.0, 1.0)])\n"
+        "P.acoustic_images(rec, ['das', 'music-fbss', 'music-wb'], P.ProcessingSettings())\n"
+        "print('scipy.signal' in sys.modules)\n"
+    )
+    root = Path(__file__).resolve().parents[3]  # the tests' package is importable there
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=root
+    )
+    assert out.stdout.strip() == "False"
