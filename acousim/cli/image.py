@@ -137,15 +137,17 @@ def load_and_image(args: argparse.Namespace):
     if getattr(args, "sensor", None) is not None:
         recs, index = _of_sensor(recs, index, args.sensor)
 
-    def image_all(each=None, beside=None):
+    def image_all(each=None, beside=None, keep=None):
         """The images (and with `beside`, also ``beside(k, images)`` of each recording
-        k, made in the process that imaged it): the odd recordings imaged in a
+        k, made in the process that imaged it; with `keep`, only the images
+        ``keep(k, images)`` of each are handed on): the odd recordings imaged in a
         forked process, the even ones here."""
         bar = progress("image", "recording")  # the bar's time starts with the work
 
         def make(k: int) -> tuple:
             imgs = recording_images(recs[k], options, k)
-            return imgs, None if beside is None else beside(k, imgs)
+            extra = None if beside is None else beside(k, imgs)
+            return imgs if keep is None else keep(k, imgs), extra
 
         extras: list = []
 
@@ -199,7 +201,10 @@ def run(args: argparse.Namespace) -> int:
     if args.no_data:
         images = image_all()
     else:  # each recording's peak tables made where it was imaged
-        images, tables = image_all(beside=_peak_tables(recs, index, options))
+        images, tables = image_all(
+            beside=_peak_tables(recs, index, options),
+            keep=None if args.images_h5 else _drawn(shown or [0]),
+        )
     with committed_together():  # every file or none (Ctrl-C, an error)
         files = _write_all(args, out, recs, images, index, options, shown, tables)
     for f in files:
@@ -231,6 +236,21 @@ def _span(index: list[int]) -> str:
     if index == list(range(index[0], index[-1] + 1)):
         return f"{index[0]} to {index[-1]}" if len(index) > 1 else str(index[0])
     return ",".join(map(str, index))
+
+
+def _drawn(shown: list[int]):
+    """``keep(k, images)``: the images the pictures draw of recording k, every
+    method's for a recording `shown` (by position), else the animation's method's
+    alone (the others travel from the imaging worker for nothing)."""
+    from acousim.imaging.run import drive_method
+
+    def keep(k: int, imgs: dict) -> dict:
+        if k in shown:
+            return imgs
+        method = drive_method(imgs)
+        return {method: imgs[method]}
+
+    return keep
 
 
 def _peak_tables(recs: list, index: list[int], options):

@@ -73,7 +73,7 @@ from acousim.imaging.run import (
     _pose,
     _scene,
     _scene_triangles,
-    _sharpest,
+    drive_method,
     peak_positions,
 )
 from acousim.scene.pose import Pose
@@ -236,7 +236,7 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
                 stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
                 frame_id=FRAME_SENSOR if sonar is None else sonar,
             )
-            m = o.method or _sharpest(dict(imgs))
+            m = o.method or drive_method(dict(imgs))
             img = imgs[m]
             put("raw", _raw_msg(T, rec), ns, sonar)
             raster = fan_raster(img, _fan_range(img), o.dynamic_range_db, o.fan_pixels)

@@ -50,6 +50,7 @@ __all__ = [
     "prepare_pictures",
     "write_drive",
     "drive_steps",
+    "drive_method",
     "write_pictures",
     "write_stills",
 ]
@@ -448,7 +449,7 @@ def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: 
     written (``fan{tag}.png``, ...)."""
 
     dr = options.dynamic_range_db
-    truth = _truth_sensor(rec, dr, imgs[_sharpest(imgs)], options)
+    truth = _truth_sensor(rec, dr, imgs[drive_method(imgs)], options)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
     done([fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)])
     for m, img in imgs.items():
@@ -475,8 +476,9 @@ def _range_limit(rec: P.Recording, options: ImagingOptions) -> float:
     return float(hi)
 
 
-def _sharpest(imgs: dict[str, P.Image]) -> str:
-    """The method drawn in the 3D view and the animation: a smoothed one if imaged."""
+def drive_method(imgs: dict[str, P.Image]) -> str:
+    """The method drawn in the 3D view and the animation (of a recording's images by
+    method): a smoothed one if imaged."""
     for m in ("music-fbss", "capon-fbss", "music-fss", "capon-fss"):
         if m in imgs:
             return m
@@ -614,7 +616,7 @@ def _frame_content(rec, img, options, sweep, moving, peaks=None):
 
 
 def _render(rec, imgs, triangles, path, options, moving=None, title=None):
-    content = _frame_content(rec, imgs[_sharpest(imgs)], options, _sweep(rec), moving)
+    content = _frame_content(rec, imgs[drive_method(imgs)], options, _sweep(rec), moving)
     render_scene(
         path, content, triangles=triangles, truth_range_db=options.dynamic_range_db, title=title
     )
@@ -637,7 +639,7 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
 
 def _animate(recordings, images, triangles, path, options, indices, scene=None, tables=None):
     dr = options.dynamic_range_db
-    method = _sharpest(images[0])
+    method = drive_method(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
     marks = [_fan_marks(rec, imgs[method], limit, dr) for rec, imgs in zip(recordings, images)]
     # one fitted extent for the whole drive (the axes do not jump between frames)
