@@ -39,21 +39,36 @@ def ahead_in_a_process(make: Callable[[], Iterator[Any]]) -> Iterator[Iterator[A
     forked process; yields an iterator over them, in order, each as soon as it is
     made; what the worker raised is raised when its item is asked for (the same
     exception, its traceback there as a note; a RuntimeError if it does not pickle)."""
-    import multiprocessing as mp
-
-    if "fork" not in mp.get_all_start_methods() or (os.cpu_count() or 1) < 2:
+    if not _can_fork():
         yield make()
         return
-    ctx = mp.get_context("fork")
+    with _worker(make) as items:
+        yield _handed_out(items)
+
+
+def _can_fork() -> bool:
+    import multiprocessing as mp
+
+    return "fork" in mp.get_all_start_methods() and (os.cpu_count() or 1) >= 2
+
+
+@contextlib.contextmanager
+def _worker(make: Callable[[], Iterator[Any]]) -> Iterator[queue.Queue]:
+    """A forked worker sending the items of ``make()``; yields the queue its messages
+    arrive in (drained from the socket by a thread); the worker ends with the block."""
+    import multiprocessing as mp
+
     receive, send = socket.socketpair()
-    worker = ctx.Process(target=_send_all, args=(make, send, receive), daemon=True)
+    worker = mp.get_context("fork").Process(
+        target=_send_all, args=(make, send, receive), daemon=True
+    )
     worker.start()
     send.close()  # the worker's end: the socket closes when the worker ends
     items: queue.Queue = queue.Queue()
     reader = threading.Thread(target=_receive_all, args=(receive, items), daemon=True)
     reader.start()
     try:
-        yield _handed_out(items)
+        yield items
     finally:
         if worker.is_alive():
             worker.terminate()
@@ -62,22 +77,75 @@ def ahead_in_a_process(make: Callable[[], Iterator[Any]]) -> Iterator[Iterator[A
         receive.close()
 
 
-def shared_by_two_processes(make: Callable[[int], Any], n: int) -> Iterator[Any]:
-    """``make(0), ..., make(n - 1)`` in order, the odd ones made in a forked process
-    (:func:`ahead_in_a_process`) while this one makes the even ones: the work of a
-    command's two cores, for items that cost alike and hold no state between them.
-    Each item is handed out once it and every item before it are made; Ctrl-C is
-    honoured between items (:func:`processing.base.interrupt.check`).  Without
-    ``fork``, or on one CPU, every item is made here."""
+def shared_by_two_processes(
+    make: Callable[[int], Any],
+    n: int,
+    *,
+    first: Callable[[], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Any]:
+    """``[make(0), ..., make(n - 1)]``, made by this process and a forked worker
+    together, each taking the next item not yet taken (a counter in shared memory):
+    the work of a command's two cores, for items that hold no state between them.
 
-    def odd() -> Iterator[Any]:
-        for k in range(1, n, 2):
-            yield make(k)
+    first : called here once the worker has started, before this process takes its
+        first item (what only this process needs, e.g. imports: the worker takes more
+        items meanwhile).
+    progress : called here ``(items made, n)`` as items are made, here or there.
 
-    with ahead_in_a_process(odd) as others:
+    Ctrl-C is honoured between items (:func:`processing.base.interrupt.check`); what
+    the worker raised is raised here.  Without ``fork``, or on one CPU, every item is
+    made here."""
+    out: list[Any] = [None] * n
+    count = _Count(n, progress)
+    if not _can_fork():
+        if first is not None:
+            first()
         for k in range(n):
             interrupt.check()
-            yield make(k) if k % 2 == 0 else next(others)
+            out[k] = make(k)
+            count()
+        return out
+    import multiprocessing as mp
+
+    taken = mp.get_context("fork").Value("q", 0)  # the next item nobody has taken
+
+    def take() -> int:
+        with taken.get_lock():
+            k = taken.value
+            taken.value = k + 1
+        return k
+
+    def theirs() -> Iterator[tuple[int, Any]]:
+        while (k := take()) < n:
+            yield k, make(k)
+
+    with _worker(theirs) as items:
+        if first is not None:
+            first()
+        while (k := take()) < n:
+            interrupt.check()
+            out[k] = make(k)
+            count()
+            for j, item in _arrived(items):
+                out[j] = item
+                count()
+        for j, item in _handed_out(items):
+            out[j] = item
+            count()
+    return out
+
+
+class _Count:
+    """Items made so far, reported to a progress callback."""
+
+    def __init__(self, n: int, progress: Callable[[int, int], None] | None) -> None:
+        self.n, self.done, self.progress = n, 0, progress
+
+    def __call__(self) -> None:
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.n)
 
 
 def _send_all(make: Callable[[], Iterator[Any]], send, theirs) -> None:
@@ -152,16 +220,37 @@ def _handed_out(items: queue.Queue) -> Iterator[Any]:
     """The items in order; Ctrl-C honoured while waiting for the next."""
     while True:
         try:
-            kind, value = items.get(timeout=0.2)
+            message = items.get(timeout=0.2)
         except queue.Empty:
             interrupt.check()
             continue
-        if kind == "end":
+        if not _is_item(message):
             return
-        if kind == "error":
-            exc, text = value
-            if exc is None:
-                raise RuntimeError(f"work made in a second process failed:\n{text}")
-            exc.add_note(f"(raised in a second process:)\n{text}")
-            raise exc
-        yield value
+        yield message[1]
+
+
+def _arrived(items: queue.Queue) -> Iterator[Any]:
+    """The items that have arrived, without waiting (the end, if it came, is put
+    back for :func:`_handed_out`)."""
+    while True:
+        try:
+            message = items.get_nowait()
+        except queue.Empty:
+            return
+        if not _is_item(message):
+            items.put(message)
+            return
+        yield message[1]
+
+
+def _is_item(message: tuple) -> bool:
+    """Whether a worker's message is an item (False: the end); its error raised here
+    (the same exception, the worker's traceback as a note)."""
+    kind, value = message
+    if kind == "error":
+        exc, text = value
+        if exc is None:
+            raise RuntimeError(f"work made in a second process failed:\n{text}")
+        exc.add_note(f"(raised in a second process:)\n{text}")
+        raise exc
+    return kind == "item"

@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
             f"--image-method {args.image_method!r} is not among --method "
             f"{','.join(options.methods)!r}"
         )
-    images = _Counted(image_all(), progress("bag", "recording"))
+    images = _Counted(image_all().images, progress("bag", "recording"))
     write_rosbag(
         out,
         recs,

@@ -10,7 +10,7 @@ docs/export.md.
 from __future__ import annotations
 
 import argparse
-import contextlib
+import dataclasses
 import functools
 
 from acousim.cli.common import (
@@ -86,13 +86,26 @@ def call_waveform(name: str | None):
     return None if name is None else P.named_call(name)
 
 
-def load_and_image(args: argparse.Namespace):
-    """`image` and `export`: the options, the recordings of --index and their indices
-    in the file, and a function that images them (called once the command is ready)."""
+@dataclasses.dataclass
+class Imaged:
+    """What :func:`load_and_image`'s imaging made: per recording (in the order of the
+    indices), the recording, its images by method (those kept) and what `beside`
+    made of it (None without one)."""
+
+    recordings: list
+    images: list
+    extras: list
+
+
+def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
+    """`image` and `export`: the options, the recordings of --index (None when `lazy`:
+    each is then read by the process that images it), their indices in the file, and
+    a function that images them (called once the command is ready: an
+    :class:`Imaged`)."""
     import processing as P
     from acousim.allocator import small_pages
     from acousim.cli.ahead import shared_by_two_processes
-    from acousim.imaging.run import ImagingOptions, image_recordings, recording_images
+    from acousim.imaging.run import recording_images
     from acousim.process import configure
 
     # the process's policy, as a simulating command's: BLAS on one thread (the same
@@ -101,6 +114,58 @@ def load_and_image(args: argparse.Namespace):
     # on small pages (a huge page's fault cost more system time than it saved)
     configure()
     small_pages()
+    options = _imaging_options(args)
+    index = parse_indices("--index", args.index)
+    call = call_waveform(args.call)
+
+    def read(i: int):
+        try:
+            return P.load_recording(args.file, i, call=call)
+        except P.RecordingFileError as exc:
+            raise UsageError(str(exc)) from None
+
+    try:
+        n = P.count_recordings(args.file)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    if n == 0:
+        raise UsageError(f"{args.file}: the file holds no recordings")
+    if index is not None:
+        bad = [i for i in index if not 0 <= i < n]
+        if bad:
+            raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
+    index = list(range(n)) if index is None else index
+    sensor = getattr(args, "sensor", None)
+    recs = None if lazy and sensor is None else [read(i) for i in index]  # only those asked
+    if sensor is not None:
+        recs, index = _of_sensor(recs, index, sensor)
+
+    def image_all(first=None, beside=None, keep=None) -> Imaged:
+        """Image the recordings, each read (when lazy) and imaged by this process or a
+        forked worker, whichever takes it first (:func:`shared_by_two_processes`);
+        `first` is called here meanwhile, before this process takes a recording;
+        `beside(k, recording, images)` is made of each where it was imaged; with
+        `keep`, only the images ``keep(k, images)`` of each are handed on."""
+        bar = progress("image", "recording")  # the bar's time starts with the work
+
+        def make(k: int) -> tuple:
+            rec = read(index[k]) if recs is None else recs[k]
+            imgs = recording_images(rec, options, k)
+            extra = None if beside is None else beside(k, rec, imgs)
+            return rec if recs is None else None, imgs if keep is None else keep(k, imgs), extra
+
+        made = shared_by_two_processes(make, len(index), first=first, progress=bar)
+        got = recs if recs is not None else [rec for rec, _, _ in made]
+        return Imaged(got, [imgs for _, imgs, _ in made], [extra for _, _, extra in made])
+
+    return recs, index, options, image_all
+
+
+def _imaging_options(args: argparse.Namespace):
+    """The ImagingOptions of the command's arguments (unset ones keep their declared
+    defaults); a UsageError for a range window that is empty."""
+    from acousim.imaging.run import ImagingOptions
+
     given = {
         "step_deg": args.step,
         "energy_fraction": args.energy_fraction,
@@ -111,57 +176,14 @@ def load_and_image(args: argparse.Namespace):
     }
     if args.method is not None:
         given["methods"] = methods("--method", args.method)
-    options = ImagingOptions(  # unset options keep their declared defaults
-        **{k: v for k, v in given.items() if v is not None},
-    )
+    options = ImagingOptions(**{k: v for k, v in given.items() if v is not None})
     if options.max_range_m is not None and options.max_range_m <= options.min_range_m:
         raise UsageError(
             f"must be above --min-range {options.min_range_m:g}",
             key="--max-range",
             value=args.max_range,
         )
-    index = parse_indices("--index", args.index)
-    try:
-        n = P.count_recordings(args.file)
-        if n == 0:
-            raise UsageError(f"{args.file}: the file holds no recordings")
-        if index is not None:
-            bad = [i for i in index if not 0 <= i < n]
-            if bad:
-                raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
-        index = list(range(n)) if index is None else index
-        call = call_waveform(args.call)
-        recs = [P.load_recording(args.file, i, call=call) for i in index]  # only those asked
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
-    if getattr(args, "sensor", None) is not None:
-        recs, index = _of_sensor(recs, index, args.sensor)
-
-    def image_all(each=None, beside=None, keep=None):
-        """The images (and with `beside`, also ``beside(k, images)`` of each recording
-        k, made in the process that imaged it; with `keep`, only the images
-        ``keep(k, images)`` of each are handed on): the odd recordings imaged in a
-        forked process, the even ones here."""
-        bar = progress("image", "recording")  # the bar's time starts with the work
-
-        def make(k: int) -> tuple:
-            imgs = recording_images(recs[k], options, k)
-            extra = None if beside is None else beside(k, imgs)
-            return imgs if keep is None else keep(k, imgs), extra
-
-        extras: list = []
-
-        def images_of(made):
-            for imgs, extra in made:
-                extras.append(extra)
-                yield imgs
-
-        made = shared_by_two_processes(make, len(recs))
-        with contextlib.closing(made):
-            images = image_recordings(recs, options, bar, each=each, made=images_of(made))
-        return images if beside is None else (images, extras)
-
-    return recs, index, options, image_all
+    return options
 
 
 def register(sub) -> None:
@@ -194,17 +216,19 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--no-data skips every data file", key="--images-h5", value=True)
     out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
-    recs, index, options, image_all = load_and_image(args)
+    recs, index, options, image_all = load_and_image(args, lazy=True)
     shown = _shown(args.recording, index)
-    prepare_pictures(render_3d=not args.no_3d, animation=_animated(args, recs))  # before work
-    tables = None
-    if args.no_data:
-        images = image_all()
-    else:  # each recording's peak tables made where it was imaged
-        images, tables = image_all(
-            beside=_peak_tables(recs, index, options),
-            keep=None if args.images_h5 else _drawn(shown or [0]),
-        )
+    animated = _animated(args, index)
+
+    def first() -> None:  # while the worker images: the pictures' imports (before the
+        # drive's worker is forked: it inherits them)
+        prepare_pictures(render_3d=not args.no_3d, animation=animated)
+
+    keep = None if args.images_h5 else _drawn(shown or [0])
+    beside = None if args.no_data else _peak_tables(index, options)
+    imaged = image_all(first=first, beside=beside, keep=keep)
+    recs, images = imaged.recordings, imaged.images
+    tables = None if args.no_data else imaged.extras
     with committed_together():  # every file or none (Ctrl-C, an error)
         files = _write_all(args, out, recs, images, index, options, shown, tables)
     for f in files:
@@ -253,21 +277,21 @@ def _drawn(shown: list[int]):
     return keep
 
 
-def _peak_tables(recs: list, index: list[int], options):
-    """``make(k, images)``: recording k's peak tables (:func:`acousim.export.images.peak_tables`:
-    {method: rows}, matched to the traced paths), for peaks.csv, images.h5 and the
-    drive's peaks."""
+def _peak_tables(index: list[int], options):
+    """``make(k, recording, images)``: recording k's peak tables ({method: rows},
+    matched to the traced paths: :func:`acousim.export.images.peak_tables`), for
+    peaks.csv, images.h5 and the drive's peaks."""
     from acousim.export.images import peak_tables
 
-    def make(k: int, imgs: dict) -> dict:
-        return peak_tables([recs[k]], [imgs], [index[k]], options.peak_threshold_db)[0]
+    def make(k: int, rec, imgs: dict) -> dict:
+        return peak_tables([rec], [imgs], [index[k]], options.peak_threshold_db)[0]
 
     return make
 
 
-def _animated(args, recs: list) -> bool:
-    """Whether the command draws the drive's animation."""
-    return not args.no_animation and len(recs) > 1
+def _animated(args, index: list) -> bool:
+    """Whether the command draws the drive's animation (of the recordings `index`)."""
+    return not args.no_animation and len(index) > 1
 
 
 def _write_all(args, out, recs, images, index, options, shown=None, tables=None) -> list:
@@ -329,7 +353,7 @@ def _write_pictures(args, out, recs, images, index, options, shown, tables=None)
             progress=progress("stills", "picture"),
         )
 
-    if not _animated(args, recs):
+    if not _animated(args, index):
         return stills()
     gif = out / "drive.gif"
     with atomic_path(gif) as tmp:

@@ -7,7 +7,7 @@ import contextlib
 import dataclasses
 import signal
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -124,32 +124,18 @@ def image_recordings(
     options: ImagingOptions,
     progress: Callable[[int, int], None] | None = None,
     each: Callable[[int, dict[str, P.Image]], None] | None = None,
-    *,
-    made: Iterable[dict[str, P.Image]] | None = None,
 ) -> list[dict[str, P.Image]]:
     """Images of every recording by every method; `each` (if given) is called with
-    each recording's position in `recordings` and its images as soon as they are made.
-
-    made : the images, in order, made elsewhere (the command line's two processes:
-        :func:`recording_images` of each); None: made here, one after the other.
-    """
+    each recording's position in `recordings` and its images as soon as they are made."""
     out = []
-    if made is None:
-        made = _one_by_one(recordings, options)
-    for i, imgs in enumerate(made):
+    for i, rec in enumerate(recordings):
         interrupt.check()  # Ctrl-C (when the command line records it): stop here
-        out.append(imgs)
+        out.append(recording_images(rec, options, i))
         if each:
             each(i, out[-1])
         if progress:
             progress(i + 1, len(recordings))
     return out
-
-
-def _one_by_one(recordings: Sequence[P.Recording], options: ImagingOptions) -> Iterator[dict]:
-    for i, rec in enumerate(recordings):
-        interrupt.check()  # Ctrl-C (when the command line records it): stop here
-        yield recording_images(rec, options, i)
 
 
 def recording_images(

@@ -61,15 +61,57 @@ def _block(k):
 
 
 def test_two_processes_share_the_items_and_hand_them_out_in_order():
+    """Each item is made once, by this process or the worker, and every byte of its
+    arrays arrives; `first` runs here while the worker takes items (here it waits
+    for the worker's word that it made one), and the progress counts every item."""
     from acousim.cli.ahead import shared_by_two_processes
 
-    got = list(shared_by_two_processes(_block, 5))
-    assert [g["k"] for g in got] == list(range(5))
+    said_r, said_w = os.pipe()  # the worker says when it has made an item
+    here = os.getpid()
+
+    def make(k):
+        item = _block(k)
+        if os.getpid() != here:
+            os.write(said_w, b"k")
+        return item
+
+    counted = []
+    forked = (os.cpu_count() or 1) > 1  # on one CPU every item is made here
+    got = shared_by_two_processes(
+        make,
+        7,
+        first=(lambda: os.read(said_r, 1)) if forked else None,
+        progress=lambda d, n: counted.append((d, n)),
+    )
+    os.close(said_r)
+    os.close(said_w)
+    assert [g["k"] for g in got] == list(range(7))
     for g in got:  # every byte arrives: the values are those made
         k = g["k"]
         np.testing.assert_array_equal(g["big"], np.arange(3_000_000.0) * (k + 1))
         np.testing.assert_array_equal(g["strided"], (np.arange(1000) * 7.0) * (k + 1))
         assert g["big"].flags.writeable
-    if (os.cpu_count() or 1) > 1:  # the odd items made in the worker, the even here
-        assert {g["pid"] for g in got[0::2]} == {os.getpid()}
-        assert os.getpid() not in {g["pid"] for g in got[1::2]}
+    assert counted == [(d, 7) for d in range(1, 8)]
+    if forked:  # the worker made some (first waited for one)
+        assert any(g["pid"] != here for g in got)
+
+
+def test_an_item_that_fails_in_the_worker_fails_the_whole():
+    from acousim.cli.ahead import shared_by_two_processes
+
+    if (os.cpu_count() or 1) < 2:
+        pytest.skip("one CPU: no worker")
+    said_r, said_w = os.pipe()
+    here = os.getpid()
+
+    def make(k):
+        if os.getpid() != here:
+            os.write(said_w, b"k")
+            raise ValueError(f"the worker's item {k}")
+        return k
+
+    with pytest.raises(ValueError, match="the worker's item") as raised:
+        shared_by_two_processes(make, 50, first=lambda: os.read(said_r, 1))
+    os.close(said_r)
+    os.close(said_w)
+    assert any("make" in note for note in raised.value.__notes__)
