@@ -31,7 +31,9 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import processing as P
-    from acousim.imaging.run import ImagingOptions, image_recordings, write_pictures
+    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.cli.image import drawn_images, write_pictures_beside
+    from acousim.imaging.run import ImagingOptions, prepare_pictures, recording_images
     from processing.base.atomic import committed_together
 
     out = writable_dir(args.out)
@@ -40,12 +42,26 @@ def run(args: argparse.Namespace) -> int:
     recs = simulate(scene, None, args.seed, args.quality)
     t1 = elapsed()
     options = ImagingOptions()
-    images = image_recordings(recs, options, progress("image", "recording"))
+    keep = drawn_images([0])  # the pictures draw the first pose's images, and one a pose
+
+    def image(k: int) -> dict:
+        return keep(k, recording_images(recs[k], options, k))
+
+    images = shared_by_two_processes(  # two processes, the pictures' imports meanwhile
+        image, len(recs), first=prepare_pictures, progress=progress("image", "recording")
+    )
     t2 = elapsed()
     with committed_together():  # every file or none (Ctrl-C, an error)
         P.save_recordings(out / "corridor.h5", recs)
-        files = [out / "corridor.h5"] + write_pictures(
-            recs, images, out, options, progress=progress("animate", "frame", start="first")
+        files = [out / "corridor.h5"] + write_pictures_beside(
+            out,
+            recs,
+            images,
+            list(range(len(recs))),
+            options,
+            shown=[0],
+            render_3d=True,
+            animated=len(recs) > 1,
         )
     print(
         f"corridor drive: {len(recs)} poses simulated in {t1:.1f} s (from the start), imaged in "

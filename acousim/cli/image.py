@@ -224,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
         # drive's worker is forked: it inherits them)
         prepare_pictures(render_3d=not args.no_3d, animation=animated)
 
-    keep = None if args.images_h5 else _drawn(shown or [0])
+    keep = None if args.images_h5 else drawn_images(shown or [0])
     beside = None if args.no_data else _peak_tables(index, options)
     imaged = image_all(first=first, beside=beside, keep=keep)
     recs, images = imaged.recordings, imaged.images
@@ -262,7 +262,7 @@ def _span(index: list[int]) -> str:
     return ",".join(map(str, index))
 
 
-def _drawn(shown: list[int]):
+def drawn_images(shown: list[int]):
     """``keep(k, images)``: the images the pictures draw of recording k, every
     method's for a recording `shown` (by position), else the animation's method's
     alone (the others travel from the imaging worker for nothing)."""
@@ -333,10 +333,13 @@ def _data_steps(h5, recs, images, index, options, tables):
     yield from image_data_steps(h5, recs, images, index, stored=stored, given=given)
 
 
-def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:
-    """The stills of the recordings `shown` and, meanwhile in a second process
-    (:mod:`acousim.cli.ahead`), the drive's animation (written to a temporary file
-    renamed here with the rest; its peaks from the peak `tables`, if made)."""
+def write_pictures_beside(
+    out, recs, images, index, options, *, shown, render_3d: bool, animated: bool, tables=None
+) -> list:
+    """The stills of the recordings `shown` (positions; None: the first) and,
+    meanwhile in a second process (:mod:`acousim.cli.ahead`), the drive's animation
+    (if `animated`; written to a temporary file renamed here with the rest, its
+    peaks from the peak `tables`, if made): the files written."""
     from acousim.cli.ahead import ahead_in_a_process
     from acousim.imaging.run import drive_steps, write_stills
     from processing.base.atomic import atomic_path
@@ -349,11 +352,11 @@ def _write_pictures(args, out, recs, images, index, options, shown, tables=None)
             options,
             shown=shown or [0],
             indices=index,
-            render_3d=not args.no_3d,
+            render_3d=render_3d,
             progress=progress("stills", "picture"),
         )
 
-    if not _animated(args, index):
+    if not animated:
         return stills()
     gif = out / "drive.gif"
     with atomic_path(gif) as tmp:
@@ -367,3 +370,18 @@ def _write_pictures(args, out, recs, images, index, options, shown, tables=None)
             for done, total in frames:
                 bar(done, total)
     return [*files, gif]
+
+
+def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:
+    """The command's pictures (:func:`write_pictures_beside`)."""
+    return write_pictures_beside(
+        out,
+        recs,
+        images,
+        index,
+        options,
+        shown=shown,
+        render_3d=not args.no_3d,
+        animated=_animated(args, index),
+        tables=tables,
+    )
