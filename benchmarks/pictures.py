@@ -1,10 +1,18 @@
 """Pictures and export files of the corridor drive: time per picture and per file,
-and the size of each file per pose (``ACOUSIM_BENCH_PICTURE_POSES`` poses, default 10)."""
+and the size of each file per pose (``ACOUSIM_BENCH_PICTURE_POSES`` poses, default 10);
+then the commands as a user runs them: ``acousim image`` of the 60-pose drive against
+``acousim simulate corridor`` (``ACOUSIM_BENCH_COMMAND_PAIRS`` alternating pairs,
+default 3; 0 leaves them out)."""
 
 from __future__ import annotations
 
 import os
+import resource
+import statistics
+import subprocess
+import sys
 import tempfile
+import time
 from pathlib import Path
 
 from acousim.export import write_image_data, write_peaks_csv
@@ -51,7 +59,7 @@ def run() -> str:
         timed("scene3d.png", lambda: _render(first, imgs, tri, out / "s.png", options))
         timed(
             "drive.gif, per frame",
-            lambda: _animate(recs, images, tri, out / "d.gif", options, None, range(n)),
+            lambda: list(_animate(recs, images, tri, out / "d.gif", options, range(n))),
             per=n,
         )
         timed(
@@ -89,5 +97,54 @@ def run() -> str:
             "|---|---|---|",
             *rows,
             "",
+            *_commands(int(os.environ.get("ACOUSIM_BENCH_COMMAND_PAIRS", "3"))),
         ]
     )
+
+
+def _commands(pairs: int) -> list[str]:
+    """``acousim simulate corridor`` and ``acousim image`` of its file, each as a
+    process, alternating `pairs` times: wall and CPU (the process and its workers)
+    medians, and the median of the pairs' wall ratios."""
+    if pairs <= 0:
+        return []
+    acousim = [sys.executable, "-m", "acousim.cli"]
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = str(Path(tmp) / "corridor.h5")
+        simulate = [*acousim, "simulate", "corridor", "--out", rec, "-q"]
+        image = [*acousim, "image", rec, "--out", str(Path(tmp) / "img"), "-q"]
+        _timed(simulate)  # the recording file, and a warm-up of both
+        _timed(image)
+        runs = [(_timed(simulate), _timed(image)) for _ in range(pairs)]
+    sim, img = zip(*runs)
+    ratio = statistics.median(i[0] / s[0] for s, i in runs)
+
+    def row(name: str, times) -> str:
+        wall, cpu = (statistics.median(t[k] for t in times) for k in (0, 1))
+        return f"| {name} | {wall:.1f} | {cpu:.1f} |"
+
+    return [
+        "The commands as a user runs them (60 poses, the defaults: DAS, Capon-FBSS and "
+        f"MUSIC-FBSS; the stills, the animation and peaks.csv), {pairs} alternating pairs "
+        "of processes after a warm-up, medians; CPU counts the workers. Target: `image` "
+        "no slower than `simulate`.",
+        "",
+        "| command | wall (s) | CPU (s) |",
+        "|---|---|---|",
+        row("`acousim simulate corridor`", sim),
+        row("`acousim image` of its file", img),
+        f"| image / simulate (wall, median of the pairs) | {ratio:.2f}x | |",
+        "",
+    ]
+
+
+def _timed(argv: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds (user + system, the process and every child it waited
+    for) of one run of `argv`."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(argv, check=True, stdout=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
