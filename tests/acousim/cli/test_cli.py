@@ -178,6 +178,10 @@ def test_the_animation_plays_at_the_drive_rate_and_a_second_run_leaves_no_stale_
         ),
         (["image", "{tmp}/r.h5", "--out", "{tmp}/afile/sub"], "cannot be written"),
         (["image", "{tmp}/garbage.h5"], "not an HDF5 file"),
+        (
+            ["image", "{tmp}/r.h5", "--images-h5", "--no-data"],
+            r"--images-h5 = True: --no-data skips every data file",
+        ),
         (["image", "{tmp}/r.h5", "--index", "7"], r"--index = \[7\]: the file holds 1"),
         (["simulate", "{tmp}/empty.toml"], "no echo reaches the sensor"),
         (
