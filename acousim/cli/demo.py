@@ -32,7 +32,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import processing as P
     from acousim.cli.ahead import shared_by_two_processes
-    from acousim.cli.image import drawn_images, write_pictures_beside
+    from acousim.cli.image import Asked, drawn_images, write_pictures_beside
     from acousim.imaging.run import ImagingOptions, prepare_pictures, recording_images
     from processing.base.atomic import committed_together
 
@@ -53,16 +53,10 @@ def run(args: argparse.Namespace) -> int:
     t2 = elapsed()
     with committed_together():  # every file or none (Ctrl-C, an error)
         P.save_recordings(out / "corridor.h5", recs)
-        files = [out / "corridor.h5"] + write_pictures_beside(
-            out,
-            recs,
-            images,
-            list(range(len(recs))),
-            options,
-            shown=[0],
-            render_3d=True,
-            animated=len(recs) > 1,
-        )
+        asked = Asked(shown=[0], animated=len(recs) > 1)
+        every = list(range(len(recs)))
+        files = [out / "corridor.h5"]
+        files += write_pictures_beside(out, recs, images, every, options, asked)
     print(
         f"corridor drive: {len(recs)} poses simulated in {t1:.1f} s (from the start), imaged in "
         f"{t2 - t1:.1f} s, pictures in {elapsed() - t2:.1f} s:"

@@ -124,17 +124,7 @@ def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
         except P.RecordingFileError as exc:
             raise UsageError(str(exc)) from None
 
-    try:
-        n = P.count_recordings(args.file)
-    except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
-    if n == 0:
-        raise UsageError(f"{args.file}: the file holds no recordings")
-    if index is not None:
-        bad = [i for i in index if not 0 <= i < n]
-        if bad:
-            raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
-    index = list(range(n)) if index is None else index
+    index = _indices(args.file, index)
     sensor = getattr(args, "sensor", None)
     recs = None if lazy and sensor is None else [read(i) for i in index]  # only those asked
     if sensor is not None:
@@ -159,6 +149,24 @@ def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
         return Imaged(got, [imgs for _, imgs, _ in made], [extra for _, _, extra in made])
 
     return recs, index, options, image_all
+
+
+def _indices(file: str, index: list[int] | None) -> list[int]:
+    """The recordings of `file` to image (`index`, None: all); a UsageError for an
+    index the file does not hold, or a file that holds none."""
+    import processing as P
+
+    try:
+        n = P.count_recordings(file)
+    except P.RecordingFileError as exc:
+        raise UsageError(str(exc)) from None
+    if n == 0:
+        raise UsageError(f"{file}: the file holds no recordings")
+    if index is not None:
+        bad = [i for i in index if not 0 <= i < n]
+        if bad:
+            raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
+    return list(range(n)) if index is None else index
 
 
 def _imaging_options(args: argparse.Namespace):
@@ -333,13 +341,22 @@ def _data_steps(h5, recs, images, index, options, tables):
     yield from image_data_steps(h5, recs, images, index, stored=stored, given=given)
 
 
-def write_pictures_beside(
-    out, recs, images, index, options, *, shown, render_3d: bool, animated: bool, tables=None
-) -> list:
-    """The stills of the recordings `shown` (positions; None: the first) and,
-    meanwhile in a second process (:mod:`acousim.cli.ahead`), the drive's animation
-    (if `animated`; written to a temporary file renamed here with the rest, its
-    peaks from the peak `tables`, if made): the files written."""
+@dataclasses.dataclass(frozen=True)
+class Asked:
+    """The pictures a command asked for: the stills of the recordings `shown`
+    (positions among those imaged), with the 3D view (`render_3d`), and the drive's
+    animation (`animated`)."""
+
+    shown: list[int]
+    render_3d: bool = True
+    animated: bool = True
+
+
+def write_pictures_beside(out, recs, images, index, options, asked: Asked, tables=None) -> list:
+    """The stills :class:`Asked` for and, meanwhile in a second process
+    (:mod:`acousim.cli.ahead`), the drive's animation (written to a temporary file
+    renamed here with the rest, its peaks from the peak `tables`, if made): the
+    files written."""
     from acousim.cli.ahead import ahead_in_a_process
     from acousim.imaging.run import drive_steps, write_stills
     from processing.base.atomic import atomic_path
@@ -350,13 +367,13 @@ def write_pictures_beside(
             images,
             out,
             options,
-            shown=shown or [0],
+            shown=asked.shown,
             indices=index,
-            render_3d=render_3d,
+            render_3d=asked.render_3d,
             progress=progress("stills", "picture"),
         )
 
-    if not animated:
+    if not asked.animated:
         return stills()
     gif = out / "drive.gif"
     with atomic_path(gif) as tmp:
@@ -374,14 +391,5 @@ def write_pictures_beside(
 
 def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:
     """The command's pictures (:func:`write_pictures_beside`)."""
-    return write_pictures_beside(
-        out,
-        recs,
-        images,
-        index,
-        options,
-        shown=shown,
-        render_3d=not args.no_3d,
-        animated=_animated(args, index),
-        tables=tables,
-    )
+    asked = Asked(shown or [0], not args.no_3d, _animated(args, index))
+    return write_pictures_beside(out, recs, images, index, options, asked, tables)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter
 
+from processing.base.kernels import optional_kernel
 from processing.imaging.peak_table import PeakRow, PeakTable
 
 __all__ = ["Image", "Peaks", "find_peaks", "to_db", "PEAK_THRESHOLD_DB", "on_grid_edge"]
@@ -211,10 +212,15 @@ def _local_maxima(p: np.ndarray, threshold_db: float) -> tuple[np.ndarray, np.nd
     levels (N,) in dB (:func:`to_db`).  Only the cells above the threshold are
     compared with their neighbours (a few of the image's)."""
     ref = float(p.max())
-    if threshold_db - 1.0 <= _PEAK_FLOOR_DB:  # the floor passes: every cell is a candidate
-        cand = np.argwhere(p == p)
-    else:  # a margin of 1 dB: the exact test below decides
-        cand = np.argwhere(p >= ref * 10 ** ((threshold_db - 1.0) / 10))
+    # a margin of 1 dB (the exact test below decides); at the floor every cell passes
+    low = threshold_db - 1.0 <= _PEAK_FLOOR_DB
+    lim = -np.inf if low else ref * 10 ** ((threshold_db - 1.0) / 10)
+    kernel = optional_kernel("processing.imaging.peaks_kernel", "local_maxima")
+    if kernel is not None and p.dtype == np.float64:  # the same cells, in one pass
+        cand = kernel(np.ascontiguousarray(p), lim)
+        level = to_db(p[tuple(cand.T)], ref, _PEAK_FLOOR_DB)
+        return cand[level >= threshold_db], level[level >= threshold_db]
+    cand = np.argwhere(p == p) if low else np.argwhere(p >= lim)
     level = to_db(p[tuple(cand.T)], ref, _PEAK_FLOOR_DB)
     cand, level = cand[level >= threshold_db], level[level >= threshold_db]
     value = p[tuple(cand.T)]

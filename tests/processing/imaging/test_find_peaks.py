@@ -25,9 +25,22 @@ def reference_peaks(power: np.ndarray, threshold_db: float):
     return np.array(out).reshape(-1, 3)[order], lv[order]
 
 
+@pytest.fixture(params=["compiled", "numpy"])
+def kernel(request, monkeypatch):
+    """find_peaks with its compiled scan (numba, when installed) and with its numpy
+    twin: both must find the reference's peaks."""
+    import processing.imaging.image as image_mod
+
+    if request.param == "numpy":
+        monkeypatch.setattr(image_mod, "optional_kernel", lambda *a: None)
+    elif image_mod.optional_kernel("processing.imaging.peaks_kernel") is None:
+        pytest.skip("numba is not installed")
+    return request.param
+
+
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("threshold_db", [-3.0, -10.0, -25.0, -200.0])
-def test_find_peaks_matches_a_whole_image_maximum_filter(seed, threshold_db):
+def test_find_peaks_matches_a_whole_image_maximum_filter(seed, threshold_db, kernel):
     gen = np.random.default_rng(seed)
     shape = (30, 9, 13)
     power = gen.random(shape) ** 8  # a few strong cells among many weak ones
