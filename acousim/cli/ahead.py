@@ -23,6 +23,7 @@ import pickle
 import queue
 import socket
 import struct
+import sys
 import threading
 import traceback
 from collections.abc import Callable, Iterator
@@ -94,11 +95,13 @@ def shared_by_two_processes(
     progress : called here ``(items made, n)`` as items are made, here or there.
 
     Ctrl-C is honoured between items (:func:`processing.base.interrupt.check`); what
-    the worker raised is raised here.  Without ``fork``, or on one CPU, every item is
-    made here."""
+    the worker raised is raised here.  Without ``fork``, on one CPU, or once numba's
+    OpenMP layer has run in this process (GNU OpenMP is not fork-safe: numba
+    terminates a forked child that runs a parallel kernel, such as a broadband
+    image's), every item is made here."""
     out: list[Any] = [None] * n
     count = _Count(n, progress)
-    if not _can_fork():
+    if not _can_fork() or _gnu_openmp_started():
         if first is not None:
             first()
         for k in range(n):
@@ -134,6 +137,18 @@ def shared_by_two_processes(
             out[j] = item
             count()
     return out
+
+
+def _gnu_openmp_started() -> bool:
+    """Whether numba's OpenMP threading layer has started in this process (numba
+    is only looked at, not imported)."""
+    numba = sys.modules.get("numba")
+    if numba is None:
+        return False
+    try:
+        return numba.threading_layer() == "omp"
+    except ValueError:  # no parallel kernel has run: no layer chosen yet
+        return False
 
 
 class _Count:

@@ -115,3 +115,37 @@ def test_an_item_that_fails_in_the_worker_fails_the_whole():
     os.close(said_r)
     os.close(said_w)
     assert any("make" in note for note in raised.value.__notes__)
+
+
+def test_after_a_parallel_kernel_ran_here_every_item_is_made_here():
+    """numba terminates a child forked from a process whose GNU OpenMP pool has run
+    when the child runs a parallel kernel: once that pool has run here, the items
+    (each running one) are all made here, and right."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = (
+        "import os, numpy as np, numba\n"
+        "from numba import njit, prange\n"
+        "from acousim.cli.ahead import shared_by_two_processes\n"
+        "@njit(parallel=True)\n"
+        "def total(x):\n"
+        "    s = 0.0\n"
+        "    for i in prange(x.size):\n"
+        "        s += x[i]\n"
+        "    return s\n"
+        "total(np.ones(1000))\n"
+        "here = os.getpid()\n"
+        "got = shared_by_two_processes(lambda k: (total(np.full(100, k)), os.getpid()), 6)\n"
+        "assert [v for v, _ in got] == [100.0 * k for k in range(6)], got\n"
+        "print(numba.threading_layer(), {p == here for _, p in got})\n"
+    )
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=root, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    layer, made_here = done.stdout.split(maxsplit=1)
+    if layer == "omp":  # GNU OpenMP: no worker
+        assert made_here.strip() == "{True}"
