@@ -432,9 +432,9 @@ def _planned_in_time(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     d, opts, lo, hi = plan.positions, plan.options, plan.lo, plan.hi
     kernel = _taps(d, opts.interpolator, opts.taps)
     row = np.zeros(d.shape[1], np.intp)  # every path: the R sets' calls
-    y = render_time(d, gains, calls, lead=lead, kernel=kernel, n_samples=hi - lo, row=row)
-    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
-    return out
+    return render_time(
+        d, gains, calls, lead=lead, kernel=kernel, n_samples=hi - lo, row=row, into=(out, lo)
+    )
 
 
 def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:

@@ -162,11 +162,18 @@ def _render(
     lo, hi = _span(d, 0 if interpolator == "nearest" else taps, call.size, n_samples)
     if hi <= max(lo, 0):
         return out
-    n_span = hi - lo
+    into = (out, lo)  # the span's sample i is the output's lo + i
     if shaped:
-        y = _shaped(echoes, d - lo, call, fs, n_span, kernel, response, domain)
-    else:
-        y = _unshaped(d - lo, g, call, n_span, kernel, domain)
+        return _shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, domain, into)
+    return _unshaped(d - lo, g, call, hi - lo, kernel, domain, into)
+
+
+def _placed(y: np.ndarray, into: tuple[np.ndarray, int]) -> np.ndarray:
+    """The span's samples `y` (M, n_span) copied into the output `into` = (out (M,
+    T), lo: the output sample of the span's first), those before sample 0 dropped:
+    the output."""
+    out, lo = into
+    hi = lo + y.shape[1]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -204,16 +211,18 @@ def render_baseband(
     return out
 
 
-def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain) -> np.ndarray:
+def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np.ndarray:
     """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
     convolved with `call` (L,), no path response: the span's samples (M, n_span),
     summed in time (:mod:`.timedomain`) or by FFT (:func:`_convolved`) as `domain`
-    says; `kernel`: the fractional delays' (method, taps)."""
+    says, placed in the output `into` (:func:`_placed`; returned); `kernel`: the
+    fractional delays' (method, taps)."""
     calls, lead = trimmed(call[None], 0)  # the call without its silent padding
     if not _in_time(domain, g.shape, 1, kernel, calls.shape[1], n_span + call.size):
-        return _convolved(d, g, call, n_span, kernel)
+        return _placed(_convolved(d, g, call, n_span, kernel), into)
     row = np.zeros(g.shape[1], np.intp)  # every path: the call
-    return render_time(d, g, calls, lead=lead, kernel=_taps(d, *kernel), row=row, n_samples=n_span)
+    taps = _taps(d, *kernel)
+    return render_time(d, g, calls, lead=lead, kernel=taps, row=row, n_samples=n_span, into=into)
 
 
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:
@@ -268,26 +277,29 @@ def _factors(echoes, call, fs: float, n_span: int, taps: int, response):
     return n, W, (g, U, V, band)
 
 
-def _shaped(echoes, d, call, fs, n_span, kernel, response, domain: RenderDomain) -> np.ndarray:
+def _shaped(echoes, d, call, fs, n_span, kernel, response, domain: RenderDomain, into):
     """The echoes at `d` (M, N; samples from the span's start) with their path
     `response`: the span's samples (M, n_span), summed by FFT
-    (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says."""
+    (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says,
+    placed in the output `into` (:func:`_placed`; returned)."""
     n, W, factors = _factors(echoes, call, fs, n_span, kernel[1], response)
     g, V = factors[0], factors[2]
     if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
-        return _shaped_in_time(d, factors, W, n, kernel, n_span)
-    return _shaped_by_fft(d, factors, W, n, kernel, n_span)
+        return _shaped_in_time(d, factors, W, n, kernel, n_span, into)
+    return _placed(_shaped_by_fft(d, factors, W, n, kernel, n_span), into)
 
 
-def _shaped_in_time(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
+def _shaped_in_time(d, factors, W, n: int, kernel, n_span: int, into=None) -> np.ndarray:
     """:func:`_shaped_by_fft`'s sum in time (:mod:`.timedomain`): each set's filter
-    applied to the call once, each path's response its sets' filtered calls."""
+    applied to the call once, each path's response its sets' filtered calls (added
+    into `into`, :func:`.timedomain.render_time`)."""
     g, U, V, band = factors
     spec = np.zeros((V.shape[1], W.size), complex)
     spec[:, band] = (W[band, None] * U).T
     calls, lead = filtered_calls(spec, n)
     paths = V @ calls  # (N, L): each path's response, its sets' filtered calls
-    return render_time(d, g, paths, lead=lead, kernel=_taps(d, *kernel), n_samples=n_span)
+    taps = _taps(d, *kernel)
+    return render_time(d, g, paths, lead=lead, kernel=taps, n_samples=n_span, into=into)
 
 
 def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:

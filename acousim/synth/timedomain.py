@@ -89,6 +89,7 @@ def render_time(
     kernel: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     n_samples: int,
     row: np.ndarray | None = None,
+    into: tuple[np.ndarray, int] | None = None,
 ) -> np.ndarray:
     """Microphone signals (M, n_samples): at every microphone m and path n, the
     path's filtered call ``calls[row[n]]`` (C, L; sample `lead` is the call's first)
@@ -102,31 +103,51 @@ def render_time(
     fractional delays.  `row` (N,): each path's call (None: path n has row n).
     Samples beyond the output are dropped.  Each copy is summed over its taps in
     single precision (the calls stored so), the copies added in double.
+
+    `into`: ``(out, lo)``, the sum added into `out` (M, T) instead of a new array
+    (its sample i at ``out[:, lo + i]``, those outside ``[max(lo, 0), lo +
+    n_samples)`` and `out` dropped): into zeros, the bits of copying the returned
+    samples there, without the copy; returns `out`.
     """
     n0, phase, table, offsets = kernel
     M, N = d.shape
-    out = np.zeros((M, n_samples))
+    if into is None:
+        out, shift = np.zeros((M, n_samples)), 0
+    else:  # the output's columns of the sum's samples 0 .. n_samples - 1
+        whole, lo = into
+        start = max(lo, 0)
+        out, shift = whole[:, start : max(lo + n_samples, start)], lo - start
     if N == 0:
-        return out
+        return out if into is None else whole
     row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
-    first = n0.astype(np.int64) + int(offsets[0]) - lead
+    first = n0.astype(np.int64) + (int(offsets[0]) - lead + shift)
     calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain if gain.ndim == 3 else gain[..., None], dtype=np.float64)
     phase = np.ascontiguousarray(phase, np.intp)
     module = optional_kernel("acousim.synth._timedomain_kernel")
     if module is None:
         _add_numpy(first, phase, gain, table, calls, row, out)
-        return out
+        return out if into is None else whole
+    _sum_compiled(module, first, phase, gain, table, calls, row, out)
+    return out if into is None else whole
+
+
+def _sum_compiled(module, first, phase, gain, table, calls, row, out) -> None:
+    """:func:`render_time`'s sum by the compiled kernel, the microphones in blocks
+    on :data:`WORKERS` threads for large sums."""
     compiled = module.add_delayed
     pad = module.PAD
-    calls = np.pad(calls, ((0, 0), (pad, pad)))  # the compiled sum's zeros around each
+    padded = np.zeros((calls.shape[0], calls.shape[1] + 2 * pad), np.float32)
+    padded[:, pad:-pad] = calls  # the compiled sum's zeros around each
+    calls = padded
+    M, N = first.shape
     args = (first, phase, gain)
     work = M * N * (table.shape[1] + gain.shape[2] - 1) * calls.shape[1]
     n_blocks = WORKERS if work >= THREADED_TAPS else 1
     edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
     if edges.size <= 2:
         compiled(*args, table, calls, row, out)
-        return out
+        return
     # each block of microphones its own rows of `out`: the same bits as one block;
     # the last block summed in this thread
     blocks = list(zip(edges[:-1], edges[1:]))
@@ -138,7 +159,6 @@ def render_time(
     compiled(*(a[i:j] for a in args), table, calls, row, out[i:j])
     for job in done:
         job.result()
-    return out
 
 
 def _pool() -> ThreadPoolExecutor:
