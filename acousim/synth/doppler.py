@@ -53,6 +53,7 @@ from acousim.synth.options import (
 )
 from acousim.synth.render import (
     FFT_WORKERS,
+    CallGrid,
     _impulses,
     _in_time,
     _kernel_table,
@@ -174,7 +175,7 @@ class DopplerCache:
     coefficients and products.  Owned by its user (a :class:`acousim.Simulator`
     has one), bounded, safe across threads (:class:`acousim.core.cache.LruCache`)."""
 
-    def __init__(self, templates: int = 256, spectra: int = 12) -> None:
+    def __init__(self, templates: int = 256, spectra: int = 16) -> None:
         self.templates = LruCache(templates)
         self.spectra = LruCache(spectra)
 
@@ -271,13 +272,14 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
     )
 
 
-def _response_terms(echoes: Echoes, spectrum: np.ndarray, fs: float, n: int, response):
+def _response_terms(echoes: Echoes, grid: CallGrid, fs: float, n: int, response):
     """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
-    v_q(n) (as the static renderer): gains (M, N), U (F, Q), V (N, Q), the band (F,)
+    v_q(n) (as the static renderer), over the :class:`~.render.CallGrid` of the
+    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,)
     and which terms are the direct path's (Q,); whether a response shapes them."""
     if response is not None and response.active:
-        return (*response_factors(echoes, echoes.gain, spectrum, fs, n, response), True)
-    band = np.ones(spectrum.size, bool)
+        return (*response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
+    band = np.ones(grid.W.size, bool)
     U = np.ones((band.size, 1))
     V = np.ones((echoes.n_paths, 1))
     return echoes.gain, U, V, band, np.zeros(1, bool), False
@@ -319,7 +321,8 @@ def plan_doppler(
         ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
-    g, U, V, band, direct, shaped = _response_terms(echoes, spectra[K // 2], fs, n, response)
+    grid = cache.spectra.get(("grid", *key), lambda: CallGrid.of(spectra[K // 2], fs, n))
+    g, U, V, band, direct, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
     # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
     W = cache.spectra.get(

@@ -62,7 +62,14 @@ def filtered_calls(spectra: np.ndarray, n: int) -> tuple[np.ndarray, int]:
     before the call's first sample (at most n samples).
     """
     x = sfft.irfft(spectra, n, axis=-1)
-    return trimmed(np.roll(x, n // 2, axis=-1), n // 2)  # the tails on both sides
+    # :func:`trimmed` of x rolled by n // 2 (the tails on both sides), without the
+    # rolled copy: the energies rolled, the kept columns gathered
+    shift = n // 2
+    cut = _cut(np.roll(np.sum(x * x, axis=0), shift))
+    if cut is None:
+        return np.zeros((x.shape[0], 1)), 0
+    lo, hi = cut
+    return x[:, (np.arange(lo, hi) - shift) % n], shift - lo
 
 
 def trimmed(x: np.ndarray, zero: int) -> tuple[np.ndarray, int]:
@@ -70,14 +77,24 @@ def trimmed(x: np.ndarray, zero: int) -> tuple[np.ndarray, int]:
     where their summed energy beyond the cut falls below half of
     :data:`TAIL_ENERGY` of the total: ``(calls (Q, L), lead)``, the first sample
     now at index `lead`."""
-    cum = np.cumsum(np.sum(x * x, axis=0))
+    cut = _cut(np.sum(x * x, axis=0))
+    if cut is None:
+        return np.zeros((x.shape[0], 1)), 0
+    lo, hi = cut
+    return np.ascontiguousarray(x[:, lo:hi]), zero - lo
+
+
+def _cut(energy: np.ndarray) -> tuple[int, int] | None:
+    """The columns [lo, hi) of :func:`trimmed`'s cut of calls whose summed energy
+    per sample is `energy` (L0,); None: no energy."""
+    cum = np.cumsum(energy)
     total = cum[-1]
     if total <= 0:
-        return np.zeros((x.shape[0], 1)), 0
+        return None
     cut = 0.5 * TAIL_ENERGY * total
     lo = int(np.searchsorted(cum, cut, side="right"))
     hi = int(np.searchsorted(cum, total - cut, side="left")) + 1
-    return np.ascontiguousarray(x[:, lo:hi]), zero - lo
+    return lo, hi
 
 
 def render_time(
