@@ -129,51 +129,52 @@ def render_time(
     n0, phase, table, offsets = kernel
     M, N = d.shape
     if into is None:
-        out, shift = np.zeros((M, n_samples)), 0
-    else:  # the output's columns of the sum's samples 0 .. n_samples - 1
-        whole, lo = into
-        start = max(lo, 0)
-        out, shift = whole[:, start : max(lo + n_samples, start)], lo - start
+        out, lo = np.zeros((M, n_samples)), 0
+    else:
+        out, lo = into
+    # the output's columns of the sum's samples 0 .. n_samples - 1
+    window = (max(lo, 0), max(min(lo + n_samples, out.shape[1]), 0))
     if N == 0:
-        return out if into is None else whole
+        return out
     row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
-    first = n0.astype(np.int64) + (int(offsets[0]) - lead + shift)
+    first = n0.astype(np.int64) + (int(offsets[0]) - lead + lo)
     calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain if gain.ndim == 3 else gain[..., None], dtype=np.float64)
     phase = np.ascontiguousarray(phase, np.intp)
     module = optional_kernel("acousim.synth._timedomain_kernel")
     if module is None:
-        _add_numpy(first, phase, gain, table, calls, row, out)
-        return out if into is None else whole
-    _sum_compiled(module, first, phase, gain, table, calls, row, out)
-    return out if into is None else whole
+        _add_numpy(first, phase, gain, table, calls, row, out, window)
+        return out
+    _sum_compiled(module, first, phase, gain, table, calls, row, out, window)
+    return out
 
 
-def _sum_compiled(module, first, phase, gain, table, calls, row, out) -> None:
+def _sum_compiled(module, first, phase, gain, table, calls, row, out, window) -> None:
     """:func:`render_time`'s sum by the compiled kernel, the microphones in blocks
     on :data:`WORKERS` threads for large sums."""
     compiled = module.add_delayed
-    pad = module.PAD
+    M, N = first.shape
+    work = M * N * (table.shape[1] + gain.shape[2] - 1) * calls.shape[1]
+    pad = module.pad_for(table.shape[1])
     padded = np.zeros((calls.shape[0], calls.shape[1] + 2 * pad), np.float32)
     padded[:, pad:-pad] = calls  # the compiled sum's zeros around each
     calls = padded
-    M, N = first.shape
     args = (first, phase, gain)
-    work = M * N * (table.shape[1] + gain.shape[2] - 1) * calls.shape[1]
+    lo, hi = window
     n_blocks = WORKERS if work >= THREADED_TAPS else 1
     edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
     if edges.size <= 2:
-        compiled(*args, table, calls, row, out)
+        compiled(*args, table, calls, row, out, lo, hi)
         return
     # each block of microphones its own rows of `out`: the same bits as one block;
     # the last block summed in this thread
     blocks = list(zip(edges[:-1], edges[1:]))
     done = [
-        _pool().submit(compiled, *(a[i:j] for a in args), table, calls, row, out[i:j])
+        _pool().submit(compiled, *(a[i:j] for a in args), table, calls, row, out[i:j], lo, hi)
         for i, j in blocks[:-1]
     ]
     i, j = blocks[-1]
-    compiled(*(a[i:j] for a in args), table, calls, row, out[i:j])
+    compiled(*(a[i:j] for a in args), table, calls, row, out[i:j], lo, hi)
     for job in done:
         job.result()
 
@@ -189,20 +190,21 @@ def _pool_of(pid: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(WORKERS, thread_name_prefix="acousim-timedomain")
 
 
-def _add_numpy(first, phase, gain, table, calls, row, out) -> None:
+def _add_numpy(first, phase, gain, table, calls, row, out, window) -> None:
     """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path and
     microphone, the copy's call (its gains times its rows of `calls`) convolved with
-    its tap weights in single precision and added at its first tap."""
+    its tap weights in single precision and added at its first tap, in the output's
+    columns ``window`` = (lo, hi) only."""
     M, N, R = gain.shape
     K, L = table.shape[1], calls.shape[1]
-    T = out.shape[1]
+    lo, T = window
     for n in range(N):
         rows = calls[row[n] : row[n] + R]  # (R, L)
         for m in range(M):
             mix = gain[m, n].astype(np.float32) @ rows  # (L,)
             y = np.convolve(mix, table[phase[m, n]].astype(np.float32))  # (L + K - 1,)
             s = int(first[m, n])
-            i0, i1 = max(0, -s), min(L + K - 1, T - s)
+            i0, i1 = max(0, lo - s), min(L + K - 1, T - s)
             if i1 > i0:
                 out[m, s + i0 : s + i1] += y[i0:i1]
 
