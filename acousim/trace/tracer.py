@@ -74,6 +74,11 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+#: the pose check's 64 rays over the whole sphere (:meth:`Tracer._check_pose`)
+_ALL_AROUND = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
+_ALL_AROUND.flags.writeable = False
+
+
 def trace_pose(
     world: World | None,
     caster: RayCaster | None,
@@ -370,7 +375,7 @@ class Tracer:
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
-        dirs = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
+        dirs = _ALL_AROUND
         t, f = self.caster.first_hit(np.broadcast_to(emitter, dirs.shape), dirs)
         hit = f >= 0
         if hit.sum() >= 48:

@@ -204,14 +204,22 @@ def _batch_spiral(n: int, half_angle_rad: float, batch: int) -> np.ndarray:
 
 
 def batch_directions(n: int, axis: np.ndarray, half_angle_rad: float, batch: int) -> np.ndarray:
-    """Batch `batch` (n, 3) of the automatic budget's rays, turned onto `axis`."""
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    """Batch `batch` (n, 3) of the automatic budget's rays, turned onto `axis`
+    (read-only: the last few kept, by the axis's exact value, for the poses of a
+    still sensor)."""
+    axis = tuple(np.asarray(axis, float).tolist())
+    return _turned_batch(int(n), float(half_angle_rad), int(batch), axis)
+
+
+@functools.lru_cache(maxsize=16)
+def _turned_batch(n: int, half_angle_rad: float, batch: int, axis: tuple) -> np.ndarray:
+    a = np.array(axis) / np.linalg.norm(axis)
     helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(helper, a)
     u /= np.linalg.norm(u)
-    return _batch_spiral(int(n), float(half_angle_rad), int(batch)) @ np.stack(
-        [a, u, np.cross(a, u)]
-    )
+    out = _batch_spiral(n, half_angle_rad, batch) @ np.stack([a, u, np.cross(a, u)])
+    out.flags.writeable = False
+    return out
 
 
 def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray:

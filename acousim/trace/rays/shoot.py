@@ -201,9 +201,12 @@ def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
     row (np.unique(axis=0) is slow)."""
     if not rows.size:
         return []
-    code = rows @ (n_planes ** np.arange(rows.shape[1])).astype(np.int64)
-    _, first = np.unique(code, return_index=True)
-    return [tuple(int(v) for v in rows[i]) for i in first]
+    k = rows.shape[1]
+    code = rows @ (n_planes ** np.arange(k)).astype(np.int64)
+    # the distinct codes, read back digit by digit (the rows' values are in [0, P))
+    distinct = np.unique(code)
+    digits = distinct[:, None] // (n_planes ** np.arange(k))[None, :] % n_planes
+    return list(map(tuple, digits.tolist()))
 
 
 def _reflect(normal: np.ndarray, inc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
