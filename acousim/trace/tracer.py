@@ -138,7 +138,7 @@ def trace_pose(
         log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
     paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
-    return paths, 0 if work is None else work.rays
+    return paths, 0 if work is None else work.rays_shot
 
 
 def _emitter(emitter) -> tuple[Emission | None, np.ndarray]:

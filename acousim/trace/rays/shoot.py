@@ -24,7 +24,7 @@ import numpy as np
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 
-__all__ = ["Hits", "Legs", "Shot", "cone_directions", "follow", "shoot"]
+__all__ = ["Hits", "Legs", "Shot", "cone_directions", "follow", "sequences_met", "shoot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,6 +184,60 @@ def follow(
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def sequences_met(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    d_omega: float,
+    bounces: int,
+    max_path_m: float,
+    wanted: set[tuple[int, ...]],
+) -> set[tuple[int, ...]]:
+    """The sequences among `wanted` that :func:`follow`'s rays (the same arguments)
+    meet: ``set(follow(...).sequences) & wanted``, each ray followed as there (its
+    hits, reflections, length and power) but only while its planes so far begin
+    some wanted sequence (the rays are independent: the others change nothing)."""
+    if not wanted:
+        return set()
+    P = world.n_planes
+    longest = min(bounces, max(len(w) for w in wanted))
+    weights = P ** np.arange(longest)
+    refl, diffuse = world.face_values("reflection"), world.face_values("diffuse")
+    dirs = np.array(dirs, float)
+    origin = np.broadcast_to(emitter, dirs.shape).copy()
+    length = np.zeros(len(dirs))
+    power = np.full(len(dirs), d_omega)
+    seq = np.full((len(dirs), longest), -1)
+    alive = np.arange(len(dirs))
+    met: set[tuple[int, ...]] = set()
+    for b in range(longest):
+        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
+        x = origin[alive] + t[:, None] * dirs[alive]
+        length[alive] += t
+        seq[alive, b] = world.plane[f]
+        planar = ~world.curved[f]  # a ray that met a curved face adds no sequence
+        alive, t, f, x = alive[planar], t[planar], f[planar], x[planar]
+        met |= set(_unique_rows(seq[alive, : b + 1], P)) & wanted
+        # on: the rays whose planes so far begin a longer wanted sequence
+        on = {w[: b + 1] for w in wanted if len(w) > b + 1}
+        if not on or b + 1 == longest:
+            break
+        code = seq[alive, : b + 1] @ weights[: b + 1]
+        keep = np.isin(code, [np.dot(w, weights[: b + 1]) for w in on])
+        alive, f, x = alive[keep], f[keep], x[keep]
+        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        origin[alive] = x + caster.offset_m * normal
+        dirs[alive] = mirror
+        alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+        if alive.size == 0:
+            break
+    return met
 
 
 def _legs(reached: list, sequence: np.ndarray, wanted: bool) -> Legs | None:
