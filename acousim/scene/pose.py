@@ -7,6 +7,7 @@ turns left), pitch (about y, positive points the sensor down) and roll (about x)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,10 +78,13 @@ class Pose:
         yaw, pitch, roll = np.deg2rad([yaw_deg, pitch_deg, roll_deg])
         return cls(position_m, float(yaw), float(pitch), float(roll), time_s)
 
-    @property
+    @functools.cached_property
     def rotation(self) -> np.ndarray:
-        """Sensor -> world rotation (3, 3)."""
-        return rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
+        """Sensor -> world rotation (3, 3), read-only (made once: the pose's angles
+        do not change)."""
+        r = rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
+        r.flags.writeable = False
+        return r
 
     def to_world(self, points_sensor: np.ndarray) -> np.ndarray:
         """Sensor-frame points (..., 3) to world coordinates."""
