@@ -24,7 +24,7 @@ import numpy as np
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 
-__all__ = ["Hits", "Legs", "Shot", "cone_directions", "follow", "sequences_met", "shoot"]
+__all__ = ["Hits", "Legs", "Shot", "aimed", "cone_directions", "follow", "sequences_met", "shoot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,11 +195,15 @@ def sequences_met(
     bounces: int,
     max_path_m: float,
     wanted: set[tuple[int, ...]],
+    *,
+    aim: bool = True,
 ) -> set[tuple[int, ...]]:
     """The sequences among `wanted` that :func:`follow`'s rays (the same arguments)
     meet: ``set(follow(...).sequences) & wanted``, each ray followed as there (its
     hits, reflections, length and power) but only while its planes so far begin
-    some wanted sequence (the rays are independent: the others change nothing)."""
+    some wanted sequence (the rays are independent: the others change nothing);
+    `aim`: only the rays :func:`aimed` at a wanted sequence are cast (False: all,
+    the same answer)."""
     if not wanted:
         return set()
     P = world.n_planes
@@ -212,8 +216,12 @@ def sequences_met(
     power = np.full(len(dirs), d_omega)
     seq = np.full((len(dirs), longest), -1)
     alive = np.arange(len(dirs))
+    if aim:
+        alive = np.flatnonzero(aimed(world, caster, emitter, dirs, wanted))
     met: set[tuple[int, ...]] = set()
     for b in range(longest):
+        if alive.size == 0:
+            break
         t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
         hit = f >= 0
         alive, t, f = alive[hit], t[hit], f[hit]
@@ -235,9 +243,75 @@ def sequences_met(
         origin[alive] = x + caster.offset_m * normal
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
-        if alive.size == 0:
-            break
     return met
+
+
+def aimed(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    wanted: set[tuple[int, ...]],
+) -> np.ndarray:
+    """(R,) bool: the rays from `emitter` in directions `dirs` (R, 3), unit, that may
+    meet a sequence of `wanted` (planar planes), by geometry alone: the ray passes
+    through the box of the sequence's first plane, its mirror image in that
+    (infinite) plane through the box of the next, and so on, each box grown by ten
+    times the caster's distance tolerance (Embree's float32 hits, the planes' own
+    grouping to 1e-6 in the normal and 10 um in the offset, are far within it).  A
+    ray refused here cannot meet any of them; one kept may not (it is cast)."""
+    grow = 10 * caster.tolerance_m
+    first = world.plane_first
+    normal, offset = world.normals[first], world.offsets[first]
+    lo, hi = world.plane_boxes[:, 0] - grow, world.plane_boxes[:, 1] + grow
+    dirs = np.asarray(dirs, float)
+    out = np.zeros(len(dirs), bool)
+    # level by level: the (ray, prefix) pairs that passed the prefix's boxes, each
+    # ray from its mirror image in the prefix's last plane
+    prefixes: list[tuple[int, ...]] = [()]
+    rays, pre = np.arange(len(dirs)), np.zeros(len(dirs), int)
+    o, d = np.broadcast_to(np.asarray(emitter, float), dirs.shape), dirs
+    for k in range(max(len(w) for w in wanted)):
+        nxt = sorted({w[k] for w in wanted if len(w) > k})
+        if rays.size == 0 or not nxt:
+            break
+        through = _through(o, d, lo[nxt], hi[nxt], grow)  # (K, B)
+        # (prefix, next plane) -> whether wanted, whether some wanted goes on
+        ends = np.array([[(*q, p) in wanted for p in nxt] for q in prefixes])
+        going = {w[: k + 1] for w in wanted if len(w) > k + 1}
+        on = np.array([[(*q, p) in going for p in nxt] for q in prefixes])
+        pair, b = np.nonzero(through & (ends | on)[pre])
+        out[rays[pair[ends[pre[pair], b]]]] = True
+        keep = on[pre[pair], b]
+        pair, b = pair[keep], b[keep]
+        plane = np.asarray(nxt)[b]
+        n, oa, da = normal[plane], o[pair], d[pair]
+        dn = np.einsum("ij,ij->i", da, n)
+        flat = np.abs(dn) < 1e-9  # along the plane: no mirror image to follow, kept
+        out[rays[pair[flat]]] = True
+        pair, b, n, oa, da, dn = pair[~flat], b[~flat], n[~flat], oa[~flat], da[~flat], dn[~flat]
+        t = (offset[np.asarray(nxt)[b]] - np.einsum("ij,ij->i", oa, n)) / dn
+        names = {q: i for i, q in enumerate(sorted(going))}
+        table = np.array([[names.get((*q, p), -1) for p in nxt] for q in prefixes], int)
+        prefixes, pre = sorted(going), table[pre[pair], b]
+        rays, o, d = rays[pair], oa + t[:, None] * da, da - 2 * dn[:, None] * n
+    return out
+
+
+def _through(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray, slack: float):
+    """(R, B) bool: the rays o + t d (R, 3), t >= -slack, that pass through each of
+    the boxes [lo, hi] (B, 3) (slab test; along an axis on which a ray does not move,
+    the box holds it if its origin is inside)."""
+    inv = np.ascontiguousarray((1.0 / np.where(d == 0.0, 1e-300, d)).T)  # (3, R); no 0 / 0
+    o = np.ascontiguousarray(np.broadcast_to(o, d.shape).T)  # per axis: (B, R) arrays,
+    enter = leave = None  # numpy being slow on a last axis of three
+    for i in range(3):
+        t1 = (lo[:, i, None] - o[i]) * inv[i]
+        t2 = (hi[:, i, None] - o[i]) * inv[i]
+        near, far = np.minimum(t1, t2), np.maximum(t1, t2)
+        enter = near if enter is None else np.maximum(enter, near)
+        leave = far if leave is None else np.minimum(leave, far)
+    return ((leave >= enter) & (leave >= -slack)).T
 
 
 def _legs(reached: list, sequence: np.ndarray, wanted: bool) -> Legs | None:

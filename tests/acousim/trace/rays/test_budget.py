@@ -274,3 +274,35 @@ def test_shoebox_third_order_matches_pyroomacoustics():
     for img, order in zip(images, src.orders[src.orders >= 1]):
         j = np.flatnonzero(np.linalg.norm(spec.anchor_m - img, axis=1) < 1e-6)
         assert j.size == 1 and spec.order[j[0]] == order
+
+
+@pytest.mark.parametrize("name", ["shoebox", "wall", "ertis_sample"])
+def test_the_probe_meets_the_sequences_the_followed_rays_meet(name):
+    """The probe's answer (:func:`sequences_met`, its rays aimed by geometry first or
+    all cast) is that of the rays followed in full (:func:`follow`, every hit
+    recorded), for every enumerated plane sequence, at poses around the room and
+    in two beams."""
+    from acousim.scene.pose import Pose
+    from acousim.trace.rays.budget import all_sequences, batch_directions
+    from acousim.trace.rays.shoot import follow, sequences_met
+
+    scene = load_scene(SCENES / f"{name}.toml")
+    tracer = Tracer(scene)
+    s, world, caster = tracer.settings, tracer.world, tracer.caster
+    every = all_sequences(world, s.bounces)
+    wanted = {tuple(r) for k in every for r in every[k].tolist()}
+    rng = np.random.default_rng(11)
+    found = 0
+    for _ in range(4):
+        p0 = scene.sensor.poses[0].position_m
+        pose = Pose(p0 + rng.uniform(-0.3, 0.3, 3), rng.uniform(-np.pi, np.pi), rng.normal(0, 0.3))
+        emitter = pose.to_world(scene.sensor.array.emitter_m)
+        for beam in (s.beam_rad, np.deg2rad(50.0)):
+            dirs = batch_directions(1000, pose.rotation[:, 0], beam, 0)
+            d_omega = 2 * np.pi * (1 - np.cos(beam)) / 1000
+            args = (world, caster, emitter, dirs, d_omega, s.bounces, s.max_path_m)
+            full = set(follow(*args).sequences) & wanted
+            found += len(full)
+            assert sequences_met(*args, wanted, aim=True) == full
+            assert sequences_met(*args, wanted, aim=False) == full
+    assert found  # the rays met some
