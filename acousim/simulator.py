@@ -476,7 +476,7 @@ class Simulator:
         prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
-        return simulate(
+        rec = simulate(
             prep.echoes,
             Capture(sensor.array, sensor.call, sensor.sample_rate_hz, prep.n_samples, self.c),
             noise=Noise(scene.simulation.snr_db, noise_seed, "echoes"),
@@ -485,9 +485,8 @@ class Simulator:
             metadata=meta,
             doppler=prep.plan,
             noise_echoes=own,
-            truth=prep.truth,
-            lidar=prep.lidar,
         )
+        return rec.with_truth(prep.truth, prep.lidar)  # its samples not checked again
 
     def _one(self, i: int, progress: Callable[[int, int], None] | None) -> P.Recording:
         """:meth:`run` of pose `i` alone, in this thread (what its threads would do)."""

@@ -62,16 +62,7 @@ def add_delayed(first, phase, gain, table, calls, row, out, lo, hi):  # pragma: 
                 for j in range(K):
                     c[j] = np.float32(g * w[j])
             else:  # the copy's own mix of R calls
-                f = mix
-                first_row = calls[row[n]]
-                g0 = np.float32(gain[m, n, 0])
-                for i in range(K4, K4 + L):
-                    f[i] = g0 * first_row[i]
-                for r in range(1, R):
-                    gr = np.float32(gain[m, n, r])
-                    other = calls[row[n] + r]
-                    for i in range(K4, K4 + L):
-                        f[i] += gr * other[i]
+                f = _mixed(mix, calls, row[n], gain[m, n], K4)
                 for j in range(K):
                     c[j] = np.float32(w[j])
             # o[s + i] += sum over groups q of (c[4q] call[i - 4q] + ... + c[4q + 3]
@@ -90,6 +81,23 @@ def add_delayed(first, phase, gain, table, calls, row, out, lo, hi):  # pragma: 
                             + c[q + 3] * f[x - q - 3]
                         )
                     o[s + i] += acc
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mixed(mix, calls, first_row, gains, pad):  # pragma: no cover - compiled
+    """`mix` (its pads zero) holding ``sum_r gains[r] calls[first_row + r]``, summed
+    in single precision in the order of r: a copy's call mixed from R sets."""
+    L = calls.shape[1] - 2 * pad
+    g0 = np.float32(gains[0])
+    row0 = calls[first_row]
+    for i in range(pad, pad + L):
+        mix[i] = g0 * row0[i]
+    for r in range(1, gains.size):
+        gr = np.float32(gains[r])
+        other = calls[first_row + r]
+        for i in range(pad, pad + L):
+            mix[i] += gr * other[i]
+    return mix
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -175,7 +175,7 @@ class DopplerCache:
     coefficients and products.  Owned by its user (a :class:`acousim.Simulator`
     has one), bounded, safe across threads (:class:`acousim.core.cache.LruCache`)."""
 
-    def __init__(self, templates: int = 256, spectra: int = 16) -> None:
+    def __init__(self, templates: int = 256, spectra: int = 12) -> None:
         self.templates = LruCache(templates)
         self.spectra = LruCache(spectra)
 
@@ -307,7 +307,7 @@ def plan_doppler(
     tol = options.doppler_tolerance
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
     calls, start = _templates(waveform, fs, nodes, cache)
-    K, L = calls.shape
+    L = calls.shape[1]
     # 2. the span of the output the echoes reach
     d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
     d = d + options.emission_index + start  # the order of the sums of before: same bits
@@ -317,11 +317,10 @@ def plan_doppler(
         return _empty_plan(M, n_samples, options)
     n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = cache.spectra.get(
-        ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
+    spectra, grid = cache.spectra.get(
+        ("spectra", *key), lambda: _spectra_and_grid(calls, advance * fs, n, fs)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
-    grid = cache.spectra.get(("grid", *key), lambda: CallGrid.of(spectra[K // 2], fs, n))
     g, U, V, band, direct, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
     # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
@@ -349,6 +348,13 @@ def plan_doppler(
 
 
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
+    """The templates' spectra (:func:`_template_spectra`) and the middle one's
+    :class:`~.render.CallGrid` (the path responses' frequencies), kept together."""
+    spectra = _template_spectra(calls, shifts, n)
+    return spectra, CallGrid.of(spectra[len(spectra) // 2], fs, n)
 
 
 def _placement(delay_s, rate, nodes, duration_s: float, fs: float):

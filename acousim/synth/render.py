@@ -165,7 +165,7 @@ def _render(
         return out
     into = (out, lo)  # the span's sample i is the output's lo + i
     if shaped:
-        return _shaped(echoes, d - lo, call, fs, hi - lo, kernel, response, domain, into)
+        return _shaped(echoes, d - lo, call, fs, hi - lo, (kernel, domain), response, into)
     return _unshaped(d - lo, g, call, hi - lo, kernel, domain, into)
 
 
@@ -326,11 +326,13 @@ def _call_grid(call: bytes, fs: float, n: int) -> CallGrid:
     return grid
 
 
-def _shaped(echoes, d, call, fs, n_span, kernel, response, domain: RenderDomain, into):
+def _shaped(echoes, d, call, fs, n_span, how, response, into):
     """The echoes at `d` (M, N; samples from the span's start) with their path
     `response`: the span's samples (M, n_span), summed by FFT
     (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says,
-    placed in the output `into` (:func:`_placed`; returned)."""
+    placed in the output `into` (:func:`_placed`; returned); `how`: (kernel, the
+    fractional delays' (method, taps); domain, a :data:`RenderDomain`)."""
+    kernel, domain = how
     n, grid, factors = _factors(echoes, call, fs, n_span, kernel[1], response)
     g, V = factors[0], factors[2]
     if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
@@ -401,9 +403,7 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndar
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
-def response_factors(
-    echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response, grid=None
-):
+def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response, grid=None):
     """The per-microphone absorption gain and the separable path-response terms.
 
     Returns ``(g (M, N), U (F_band, Q), V (N, Q), band (F,) bool, direct (Q,) bool)``:

@@ -17,7 +17,7 @@ from acousim.synth.options import DEFAULT_OPTIONS, NO_NOISE, Capture, Noise, Ren
 from acousim.synth.point_reflectors import Echoes, PointReflectors, point_echoes
 from acousim.synth.render import render_baseband, render_with
 from acousim.synth.response import PathResponse
-from processing import Array, GroundTruth, PointCloud, Recording, Waveform, provenance_metadata
+from processing import Array, Recording, Waveform, provenance_metadata
 from processing.base.errors import InputError
 
 __all__ = ["simulate", "simulate_points", "in_window", "Capture", "Noise", "RenderOptions"]
@@ -35,8 +35,6 @@ def simulate(
     metadata: dict | None = None,
     doppler: np.ndarray | DopplerPlan | None = None,
     noise_echoes: Echoes | None = None,
-    truth: GroundTruth | None = None,
-    lidar: PointCloud | None = None,
 ) -> Recording:
     """Render echoes into a Recording of `capture` (array, call, sampling, window),
     with `noise` (eq. 2, :class:`~acousim.synth.options.Noise` states its options).
@@ -50,9 +48,7 @@ def simulate(
     :func:`~acousim.synth.doppler.plan_doppler` from the echoes :func:`in_window`
     keeps, with the same options).  `noise_echoes`: the echoes the noise's level
     refers to (reference "echoes"; None: `echoes`), when `echoes` hold other calls
-    too (a rig's crosstalk, :mod:`acousim.rig`).  `truth`, `lidar`: the Recording's
-    ground truth and LiDAR scan (its samples checked once, not again by a
-    ``dataclasses.replace`` that adds them).
+    too (a rig's crosstalk, :mod:`acousim.rig`).
     """
     cap = capture
     if cap.n_samples < 1:
@@ -92,8 +88,6 @@ def simulate(
         cap.speed_of_sound_m_s,
         options.emission_index,
         meta,
-        truth=truth,
-        lidar=lidar,
     )
 
 

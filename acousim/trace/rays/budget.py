@@ -15,7 +15,9 @@ diffraction and explicit points need no rays.  So, per pose (:func:`ray_work`):
    reflection on.  A scene that needs neither (the shoebox, the plate, the wall)
    shoots no ray if its beam is the whole sphere, else one batch that tells which
    sequences a ray in the beam meets (a wall along the axis, whose path leaves at
-   the beam's edge, is then kept on either side of it); the sphere (no planes) none.
+   the beam's edge, is then kept on either side of it): a :class:`Probe`, asked
+   only about the paths that leave outside the beam (none: no ray), its rays aimed
+   by geometry before any is cast; the sphere (no planes) none.
 2. Otherwise the rays go out in batches: the deterministic spiral of
    :func:`.shoot.cone_directions` of :data:`START_RAYS` rays, then the same spiral
    shifted in both of its lattice coordinates by golden-ratio steps (no random

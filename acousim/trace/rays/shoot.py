@@ -195,15 +195,12 @@ def sequences_met(
     bounces: int,
     max_path_m: float,
     wanted: set[tuple[int, ...]],
-    *,
-    aim: bool = True,
 ) -> set[tuple[int, ...]]:
     """The sequences among `wanted` that :func:`follow`'s rays (the same arguments)
     meet: ``set(follow(...).sequences) & wanted``, each ray followed as there (its
     hits, reflections, length and power) but only while its planes so far begin
-    some wanted sequence (the rays are independent: the others change nothing);
-    `aim`: only the rays :func:`aimed` at a wanted sequence are cast (False: all,
-    the same answer)."""
+    some wanted sequence, and only the rays :func:`aimed` at one cast (the rays are
+    independent: the others change nothing)."""
     if not wanted:
         return set()
     P = world.n_planes
@@ -215,9 +212,7 @@ def sequences_met(
     length = np.zeros(len(dirs))
     power = np.full(len(dirs), d_omega)
     seq = np.full((len(dirs), longest), -1)
-    alive = np.arange(len(dirs))
-    if aim:
-        alive = np.flatnonzero(aimed(world, caster, emitter, dirs, wanted))
+    alive = np.flatnonzero(aimed(world, caster, emitter, dirs, wanted))
     met: set[tuple[int, ...]] = set()
     for b in range(longest):
         if alive.size == 0:
