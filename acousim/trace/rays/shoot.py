@@ -23,6 +23,7 @@ import numpy as np
 
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Hits", "Legs", "Shot", "aimed", "cone_directions", "follow", "sequences_met", "shoot"]
 
@@ -254,13 +255,32 @@ def aimed(
     (infinite) plane through the box of the next, and so on, each box grown by ten
     times the caster's distance tolerance (Embree's float32 hits, the planes' own
     grouping to 1e-6 in the normal and 10 um in the offset, are far within it).  A
-    ray refused here cannot meet any of them; one kept may not (it is cast)."""
+    ray refused here cannot meet any of them; one kept may not (it is cast).  Compiled
+    (:mod:`.aim_kernel`) or, without numba, in numpy: the same arithmetic, the same
+    rays."""
     grow = 10 * caster.tolerance_m
     first = world.plane_first
     normal, offset = world.normals[first], world.offsets[first]
     lo, hi = world.plane_boxes[:, 0] - grow, world.plane_boxes[:, 1] + grow
-    dirs = np.asarray(dirs, float)
+    dirs = np.ascontiguousarray(dirs, float)
     out = np.zeros(len(dirs), bool)
+    kernel = optional_kernel("acousim.trace.rays.aim_kernel", "aimed")
+    if kernel is None:
+        return _aimed_numpy((normal, offset, lo, hi), emitter, dirs, wanted, grow, out)
+    seqs = sorted(wanted)
+    lens = np.array([len(w) for w in seqs], np.int64)
+    table = np.full((len(seqs), int(lens.max())), -1, np.int64)
+    for i, w in enumerate(seqs):
+        table[i, : len(w)] = w
+    e = np.ascontiguousarray(emitter, float)
+    kernel(e, dirs, table, lens, normal, offset, lo, hi, float(grow), out)
+    return out
+
+
+def _aimed_numpy(planes, emitter, dirs, wanted, grow, out) -> np.ndarray:
+    """:func:`aimed` in numpy (the compiled kernel's twin): `planes` (normal, offset,
+    lo, hi) of every plane, the boxes grown by `grow`; `out` (R,) set and returned."""
+    normal, offset, lo, hi = planes
     # level by level: the (ray, prefix) pairs that passed the prefix's boxes, each
     # ray from its mirror image in the prefix's last plane
     prefixes: list[tuple[int, ...]] = [()]
@@ -281,16 +301,22 @@ def aimed(
         pair, b = pair[keep], b[keep]
         plane = np.asarray(nxt)[b]
         n, oa, da = normal[plane], o[pair], d[pair]
-        dn = np.einsum("ij,ij->i", da, n)
+        dn = _dot(da, n)
         flat = np.abs(dn) < 1e-9  # along the plane: no mirror image to follow, kept
         out[rays[pair[flat]]] = True
         pair, b, n, oa, da, dn = pair[~flat], b[~flat], n[~flat], oa[~flat], da[~flat], dn[~flat]
-        t = (offset[np.asarray(nxt)[b]] - np.einsum("ij,ij->i", oa, n)) / dn
+        t = (offset[np.asarray(nxt)[b]] - _dot(oa, n)) / dn
         names = {q: i for i, q in enumerate(sorted(going))}
         table = np.array([[names.get((*q, p), -1) for p in nxt] for q in prefixes], int)
         prefixes, pre = sorted(going), table[pre[pair], b]
         rays, o, d = rays[pair], oa + t[:, None] * da, da - 2 * dn[:, None] * n
     return out
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row by row a . b (N,) of (N, 3) arrays, summed in the order x, y, z (as the
+    compiled kernel sums them)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def _through(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray, slack: float):

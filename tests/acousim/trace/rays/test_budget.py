@@ -304,3 +304,32 @@ def test_the_probe_meets_the_sequences_the_followed_rays_meet(name):
             found += len(full)
             assert sequences_met(*args, wanted) == full
     assert found  # the rays met some
+
+
+def test_the_compiled_aim_marks_the_rays_its_numpy_twin_marks(monkeypatch):
+    """:func:`aimed` compiled and in numpy (numba missing): the same rays, every
+    enumerated sequence and a third of them wanted, poses around the shoebox."""
+    pytest.importorskip("numba")
+    from acousim.scene.pose import Pose
+    from acousim.trace.rays import shoot
+    from acousim.trace.rays.budget import all_sequences, batch_directions
+
+    scene = load_scene(SCENES / "shoebox.toml")
+    tracer = Tracer(scene)
+    s = tracer.settings
+    every = all_sequences(tracer.world, s.bounces)
+    wanted = [tuple(r) for k in every for r in every[k].tolist()]
+    rng = np.random.default_rng(2)
+    marks = []
+    for _ in range(6):
+        pose = Pose(rng.uniform(-0.5, 0.5, 3), rng.uniform(-np.pi, np.pi), rng.normal(0, 0.3))
+        emitter = pose.to_world(scene.sensor.array.emitter_m)
+        dirs = batch_directions(1000, pose.rotation[:, 0], s.beam_rad, 0)
+        for some in (set(wanted), set(wanted[::3])):
+            marks.append((emitter, dirs, some))
+    compiled = [shoot.aimed(tracer.world, tracer.caster, *m) for m in marks]
+    monkeypatch.setattr(shoot, "optional_kernel", lambda *a: None)
+    plain = [shoot.aimed(tracer.world, tracer.caster, *m) for m in marks]
+    assert sum(c.sum() for c in compiled) > 0
+    for c, p in zip(compiled, plain):
+        np.testing.assert_array_equal(c, p)
