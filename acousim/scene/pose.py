@@ -78,13 +78,15 @@ class Pose:
         yaw, pitch, roll = np.deg2rad([yaw_deg, pitch_deg, roll_deg])
         return cls(position_m, float(yaw), float(pitch), float(roll), time_s)
 
-    @functools.cached_property
+    @property
     def rotation(self) -> np.ndarray:
-        """Sensor -> world rotation (3, 3), read-only (made once: the pose's angles
-        do not change)."""
-        r = rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
-        r.flags.writeable = False
-        return r
+        """Sensor -> world rotation (3, 3) (a copy of the one made once: the pose's
+        angles do not change)."""
+        return self._rotation.copy()
+
+    @functools.cached_property
+    def _rotation(self) -> np.ndarray:
+        return rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
 
     def to_world(self, points_sensor: np.ndarray) -> np.ndarray:
         """Sensor-frame points (..., 3) to world coordinates."""
