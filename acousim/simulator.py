@@ -486,7 +486,7 @@ class Simulator:
             doppler=prep.plan,
             noise_echoes=own,
         )
-        return dataclasses.replace(rec, truth=prep.truth, lidar=prep.lidar)
+        return rec.with_truth(prep.truth, prep.lidar)  # its samples not checked again
 
     def _one(self, i: int, progress: Callable[[int, int], None] | None) -> P.Recording:
         """:meth:`run` of pose `i` alone, in this thread (what its threads would do)."""

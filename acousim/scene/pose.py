@@ -7,6 +7,7 @@ turns left), pitch (about y, positive points the sensor down) and roll (about x)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,7 +80,12 @@ class Pose:
 
     @property
     def rotation(self) -> np.ndarray:
-        """Sensor -> world rotation (3, 3)."""
+        """Sensor -> world rotation (3, 3) (a copy of the one made once: the pose's
+        angles do not change)."""
+        return self._rotation.copy()
+
+    @functools.cached_property
+    def _rotation(self) -> np.ndarray:
         return rotation(self.yaw_rad, self.pitch_rad, self.roll_rad)
 
     def to_world(self, points_sensor: np.ndarray) -> np.ndarray:

@@ -53,6 +53,7 @@ from acousim.synth.options import (
 )
 from acousim.synth.render import (
     FFT_WORKERS,
+    CallGrid,
     _impulses,
     _in_time,
     _kernel_table,
@@ -271,13 +272,14 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
     )
 
 
-def _response_terms(echoes: Echoes, spectrum: np.ndarray, fs: float, n: int, response):
+def _response_terms(echoes: Echoes, grid: CallGrid, fs: float, n: int, response):
     """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
-    v_q(n) (as the static renderer): gains (M, N), U (F, Q), V (N, Q), the band (F,)
+    v_q(n) (as the static renderer), over the :class:`~.render.CallGrid` of the
+    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,)
     and which terms are the direct path's (Q,); whether a response shapes them."""
     if response is not None and response.active:
-        return (*response_factors(echoes, echoes.gain, spectrum, fs, n, response), True)
-    band = np.ones(spectrum.size, bool)
+        return (*response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
+    band = np.ones(grid.W.size, bool)
     U = np.ones((band.size, 1))
     V = np.ones((echoes.n_paths, 1))
     return echoes.gain, U, V, band, np.zeros(1, bool), False
@@ -305,7 +307,7 @@ def plan_doppler(
     tol = options.doppler_tolerance
     nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
     calls, start = _templates(waveform, fs, nodes, cache)
-    K, L = calls.shape
+    L = calls.shape[1]
     # 2. the span of the output the echoes reach
     d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
     d = d + options.emission_index + start  # the order of the sums of before: same bits
@@ -315,11 +317,11 @@ def plan_doppler(
         return _empty_plan(M, n_samples, options)
     n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
-    spectra = cache.spectra.get(
-        ("spectra", *key), lambda: _template_spectra(calls, advance * fs, n)
+    spectra, grid = cache.spectra.get(
+        ("spectra", *key), lambda: _spectra_and_grid(calls, advance * fs, n, fs)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
-    g, U, V, band, direct, shaped = _response_terms(echoes, spectra[K // 2], fs, n, response)
+    g, U, V, band, direct, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
     # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
     W = cache.spectra.get(
@@ -346,6 +348,13 @@ def plan_doppler(
 
 
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
+    """The templates' spectra (:func:`_template_spectra`) and the middle one's
+    :class:`~.render.CallGrid` (the path responses' frequencies), kept together."""
+    spectra = _template_spectra(calls, shifts, n)
+    return spectra, CallGrid.of(spectra[len(spectra) // 2], fs, n)
 
 
 def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
@@ -432,9 +441,9 @@ def _planned_in_time(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     d, opts, lo, hi = plan.positions, plan.options, plan.lo, plan.hi
     kernel = _taps(d, opts.interpolator, opts.taps)
     row = np.zeros(d.shape[1], np.intp)  # every path: the R sets' calls
-    y = render_time(d, gains, calls, lead=lead, kernel=kernel, n_samples=hi - lo, row=row)
-    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
-    return out
+    return render_time(
+        d, gains, calls, lead=lead, kernel=kernel, n_samples=hi - lo, row=row, into=(out, lo)
+    )
 
 
 def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:

@@ -40,6 +40,7 @@ cheaper.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -162,11 +163,18 @@ def _render(
     lo, hi = _span(d, 0 if interpolator == "nearest" else taps, call.size, n_samples)
     if hi <= max(lo, 0):
         return out
-    n_span = hi - lo
+    into = (out, lo)  # the span's sample i is the output's lo + i
     if shaped:
-        y = _shaped(echoes, d - lo, call, fs, n_span, kernel, response, domain)
-    else:
-        y = _unshaped(d - lo, g, call, n_span, kernel, domain)
+        return _shaped(echoes, d - lo, call, fs, hi - lo, (kernel, domain), response, into)
+    return _unshaped(d - lo, g, call, hi - lo, kernel, domain, into)
+
+
+def _placed(y: np.ndarray, into: tuple[np.ndarray, int]) -> np.ndarray:
+    """The span's samples `y` (M, n_span) copied into the output `into` = (out (M,
+    T), lo: the output sample of the span's first), those before sample 0 dropped:
+    the output."""
+    out, lo = into
+    hi = lo + y.shape[1]
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
@@ -198,22 +206,24 @@ def render_baseband(
     if hi <= max(lo, 0):
         return out
     kernel = (options.interpolator, options.taps)
-    n, W, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
-    y = _shaped_baseband(echoes, d - lo, (g, U, V, W, band), n, kernel, hi - lo, band_db)
+    n, grid, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
+    y = _shaped_baseband(echoes, d - lo, (g, U, V, grid.W, band), n, kernel, hi - lo, band_db)
     out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
     return out
 
 
-def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain) -> np.ndarray:
+def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np.ndarray:
     """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
     convolved with `call` (L,), no path response: the span's samples (M, n_span),
     summed in time (:mod:`.timedomain`) or by FFT (:func:`_convolved`) as `domain`
-    says; `kernel`: the fractional delays' (method, taps)."""
+    says, placed in the output `into` (:func:`_placed`; returned); `kernel`: the
+    fractional delays' (method, taps)."""
     calls, lead = trimmed(call[None], 0)  # the call without its silent padding
     if not _in_time(domain, g.shape, 1, kernel, calls.shape[1], n_span + call.size):
-        return _convolved(d, g, call, n_span, kernel)
+        return _placed(_convolved(d, g, call, n_span, kernel), into)
     row = np.zeros(g.shape[1], np.intp)  # every path: the call
-    return render_time(d, g, calls, lead=lead, kernel=_taps(d, *kernel), row=row, n_samples=n_span)
+    taps = _taps(d, *kernel)
+    return render_time(d, g, calls, lead=lead, kernel=taps, row=row, n_samples=n_span, into=into)
 
 
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:
@@ -263,31 +273,87 @@ def _factors(echoes, call, fs: float, n_span: int, taps: int, response):
     """The FFT length n of a span of `n_span` samples, the `call`'s spectrum W on it
     and :func:`response_factors`' (g, U, V, band) of `echoes`."""
     n = sfft.next_fast_len(n_span + call.size + 2 * taps + 258, real=True)
-    W = sfft.rfft(call, n)
-    g, U, V, band, _ = response_factors(echoes, echoes.gain, W, fs, n, response)
-    return n, W, (g, U, V, band)
+    grid = call_grid(call, fs, n)
+    g, U, V, band, _ = response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid)
+    return n, grid, (g, U, V, band)
 
 
-def _shaped(echoes, d, call, fs, n_span, kernel, response, domain: RenderDomain) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class CallGrid:
+    """A call's spectrum on an n-point real FFT at fs and the frequencies the path
+    responses are factorised over (:func:`response_factors`): W (F,) complex, F = n
+    // 2 + 1; band (F,) bool, the bins where W is above 1e-6 of its peak; fb the
+    band's frequencies (Hz); coarse (F',) the factorisation's grid over where W is
+    within 60 dB of its peak (Hz); f_c the band's centre, weighted by |W|^2 (Hz).
+    The arrays are read-only (shared by the renders of a call)."""
+
+    W: np.ndarray
+    band: np.ndarray
+    fb: np.ndarray
+    coarse: np.ndarray
+    f_c: float
+    #: the band's bins (F_band,) and W there
+    bins: np.ndarray
+    W_band: np.ndarray
+
+    @classmethod
+    def of(cls, W: np.ndarray, fs: float, n: int) -> CallGrid:
+        """The grid of the spectrum `W` of an n-point real FFT at `fs` (Hz)."""
+        freqs = np.arange(W.size) * fs / n
+        band = np.abs(W) > 1e-6 * np.abs(W).max()
+        fb = freqs[band]
+        # the coarse grid covers where the call has its energy (within 60 dB of its
+        # peak); beyond, the interpolation holds the end values
+        main = freqs[np.abs(W) > 1e-3 * np.abs(W).max()]
+        coarse = np.linspace(main[0], main[-1], min(RESPONSE_POINTS, main.size))
+        f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
+        return cls(W, band, fb, coarse, float(f_c), np.flatnonzero(band), W[band])
+
+
+def call_grid(call: np.ndarray, fs: float, n: int) -> CallGrid:
+    """The :class:`CallGrid` of `call` (L,) real, on an n-point real FFT at `fs`
+    (Hz): computed once per call (by its bytes), rate and length, the last few kept
+    (every pose of a scene renders the same call, mostly on the same FFT length)."""
+    call = np.ascontiguousarray(call, np.float64)
+    return _call_grid(call.tobytes(), float(fs), int(n))
+
+
+@lru_cache(maxsize=8)
+def _call_grid(call: bytes, fs: float, n: int) -> CallGrid:
+    grid = CallGrid.of(sfft.rfft(np.frombuffer(call, np.float64), n), fs, n)
+    for a in (grid.W, grid.band, grid.fb, grid.coarse, grid.bins, grid.W_band):
+        a.flags.writeable = False
+    return grid
+
+
+def _shaped(echoes, d, call, fs, n_span, how, response, into):
     """The echoes at `d` (M, N; samples from the span's start) with their path
     `response`: the span's samples (M, n_span), summed by FFT
-    (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says."""
-    n, W, factors = _factors(echoes, call, fs, n_span, kernel[1], response)
+    (:func:`_shaped_by_fft`) or in time (:func:`_shaped_in_time`) as `domain` says,
+    placed in the output `into` (:func:`_placed`; returned); `how`: (kernel, the
+    fractional delays' (method, taps); domain, a :data:`RenderDomain`)."""
+    kernel, domain = how
+    n, grid, factors = _factors(echoes, call, fs, n_span, kernel[1], response)
     g, V = factors[0], factors[2]
     if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
-        return _shaped_in_time(d, factors, W, n, kernel, n_span)
-    return _shaped_by_fft(d, factors, W, n, kernel, n_span)
+        return _shaped_in_time(d, factors, grid, n, kernel, n_span, into)
+    return _placed(_shaped_by_fft(d, factors, grid.W, n, kernel, n_span), into)
 
 
-def _shaped_in_time(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
+def _shaped_in_time(d, factors, grid, n: int, kernel, n_span: int, into=None) -> np.ndarray:
     """:func:`_shaped_by_fft`'s sum in time (:mod:`.timedomain`): each set's filter
-    applied to the call once, each path's response its sets' filtered calls."""
+    applied to the call once, each path's response its sets' filtered calls (added
+    into `into`, :func:`.timedomain.render_time`); `grid`: the call's
+    :class:`CallGrid`."""
     g, U, V, band = factors
-    spec = np.zeros((V.shape[1], W.size), complex)
-    spec[:, band] = (W[band, None] * U).T
+    spec = np.zeros((V.shape[1], grid.W.size), complex)
+    filters = np.multiply(grid.W_band[None, :], U.T)  # (Q, F_band): W U over the band
+    for q in range(spec.shape[0]):
+        spec[q, grid.bins] = filters[q]
     calls, lead = filtered_calls(spec, n)
     paths = V @ calls  # (N, L): each path's response, its sets' filtered calls
-    return render_time(d, g, paths, lead=lead, kernel=_taps(d, *kernel), n_samples=n_span)
+    taps = _taps(d, *kernel)
+    return render_time(d, g, paths, lead=lead, kernel=taps, n_samples=n_span, into=into)
 
 
 def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
@@ -337,7 +403,7 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndar
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
 
 
-def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response):
+def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response, grid=None):
     """The per-microphone absorption gain and the separable path-response terms.
 
     Returns ``(g (M, N), U (F_band, Q), V (N, Q), band (F,) bool, direct (Q,) bool)``:
@@ -345,19 +411,14 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     (it is smooth in f) with each path weighted by its gain, so that the rank is set by
     the error of the rendered signal; the direct path (order 0) is factorised apart from
     the echoes (``direct`` marks its terms), so its level does not set their accuracy.
-    `W` is the call's spectrum on an n-point real FFT at `fs`.
+    `W` is the call's spectrum on an n-point real FFT at `fs`; `grid`: its
+    :class:`CallGrid` if known (None: found here).
     """
-    freqs = np.arange(W.size) * fs / n
-    band = np.abs(W) > 1e-6 * np.abs(W).max()
-    fb = freqs[band]
-    # the coarse grid covers where the call has its energy (within 60 dB of its peak);
-    # beyond, the interpolation holds the end values
-    main = freqs[np.abs(W) > 1e-3 * np.abs(W).max()]
-    coarse = np.linspace(main[0], main[-1], min(RESPONSE_POINTS, main.size))
+    grid = CallGrid.of(W, fs, n) if grid is None else grid
+    band, fb, coarse = grid.band, grid.fb, grid.coarse
     length = echoes.path_length_m.mean(axis=0)
     # the per-microphone part of the path length: a gain at the band's centre
-    f_c = np.average(freqs[band], weights=np.abs(W[band]) ** 2)
-    alpha = response.alpha_db_per_m(f_c)
+    alpha = response.alpha_db_per_m(grid.f_c)
     g = g * np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :]))
     H = response.matrix(coarse, length, echoes.angles(), echoes.interactions)  # (F', N)
     # factor H on a coarse grid over the band (H is smooth in f), interpolate U; each

@@ -42,7 +42,10 @@ TAIL_ENERGY = 1e-11
 #: real FFT of length n (float32) with its share of the impulses and the products,
 #: fitted to renders of 2-96 paths at 30 microphones, 8 000 and 22 000 samples,
 #: with and without path responses (docs/physics.md, "Where a measurement's time
-#: goes"): only their ratio matters
+#: goes"): only their ratio matters.  Fitted with the sum of before its per-sample
+#: registers (:mod:`._timedomain_kernel`: 1.9x faster on the shoebox since), so
+#: the choice now leans to the FFTs near the crossing; kept so that no scene changed
+#: domain (and bytes) with the faster sum
 SECONDS_PER_TAP = 1.2e-10
 SECONDS_PER_FFT_OP = 3e-10
 #: threads that sum the microphones' blocks (the compiled sum releases the GIL), as
@@ -62,7 +65,14 @@ def filtered_calls(spectra: np.ndarray, n: int) -> tuple[np.ndarray, int]:
     before the call's first sample (at most n samples).
     """
     x = sfft.irfft(spectra, n, axis=-1)
-    return trimmed(np.roll(x, n // 2, axis=-1), n // 2)  # the tails on both sides
+    # :func:`trimmed` of x rolled by n // 2 (the tails on both sides), without the
+    # rolled copy: the energies rolled, the kept columns gathered
+    shift = n // 2
+    cut = _cut(np.roll(np.sum(x * x, axis=0), shift))
+    if cut is None:
+        return np.zeros((x.shape[0], 1)), 0
+    lo, hi = cut
+    return x[:, (np.arange(lo, hi) - shift) % n], shift - lo
 
 
 def trimmed(x: np.ndarray, zero: int) -> tuple[np.ndarray, int]:
@@ -70,14 +80,24 @@ def trimmed(x: np.ndarray, zero: int) -> tuple[np.ndarray, int]:
     where their summed energy beyond the cut falls below half of
     :data:`TAIL_ENERGY` of the total: ``(calls (Q, L), lead)``, the first sample
     now at index `lead`."""
-    cum = np.cumsum(np.sum(x * x, axis=0))
+    cut = _cut(np.sum(x * x, axis=0))
+    if cut is None:
+        return np.zeros((x.shape[0], 1)), 0
+    lo, hi = cut
+    return np.ascontiguousarray(x[:, lo:hi]), zero - lo
+
+
+def _cut(energy: np.ndarray) -> tuple[int, int] | None:
+    """The columns [lo, hi) of :func:`trimmed`'s cut of calls whose summed energy
+    per sample is `energy` (L0,); None: no energy."""
+    cum = np.cumsum(energy)
     total = cum[-1]
     if total <= 0:
-        return np.zeros((x.shape[0], 1)), 0
+        return None
     cut = 0.5 * TAIL_ENERGY * total
     lo = int(np.searchsorted(cum, cut, side="right"))
     hi = int(np.searchsorted(cum, total - cut, side="left")) + 1
-    return np.ascontiguousarray(x[:, lo:hi]), zero - lo
+    return lo, hi
 
 
 def render_time(
@@ -89,6 +109,7 @@ def render_time(
     kernel: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     n_samples: int,
     row: np.ndarray | None = None,
+    into: tuple[np.ndarray, int] | None = None,
 ) -> np.ndarray:
     """Microphone signals (M, n_samples): at every microphone m and path n, the
     path's filtered call ``calls[row[n]]`` (C, L; sample `lead` is the call's first)
@@ -102,43 +123,64 @@ def render_time(
     fractional delays.  `row` (N,): each path's call (None: path n has row n).
     Samples beyond the output are dropped.  Each copy is summed over its taps in
     single precision (the calls stored so), the copies added in double.
+
+    `into`: ``(out, lo)``, the sum added into `out` (M, T) instead of a new array
+    (its sample i at ``out[:, lo + i]``, those outside ``[max(lo, 0), lo +
+    n_samples)`` and `out` dropped): into zeros, the bits of copying the returned
+    samples there, without the copy; returns `out`.
     """
     n0, phase, table, offsets = kernel
     M, N = d.shape
-    out = np.zeros((M, n_samples))
+    if into is None:
+        out, lo = np.zeros((M, n_samples)), 0
+    else:
+        out, lo = into
+    # the output's columns of the sum's samples 0 .. n_samples - 1
+    window = (max(lo, 0), max(min(lo + n_samples, out.shape[1]), 0))
     if N == 0:
         return out
     row = np.arange(N, dtype=np.intp) if row is None else np.asarray(row, np.intp)
-    first = n0.astype(np.int64) + int(offsets[0]) - lead
+    first = n0.astype(np.int64) + (int(offsets[0]) - lead + lo)
     calls = np.ascontiguousarray(calls, dtype=np.float32)
     gain = np.ascontiguousarray(gain if gain.ndim == 3 else gain[..., None], dtype=np.float64)
     phase = np.ascontiguousarray(phase, np.intp)
     module = optional_kernel("acousim.synth._timedomain_kernel")
     if module is None:
-        _add_numpy(first, phase, gain, table, calls, row, out)
+        _add_numpy(first, phase, gain, table, calls, row, out, window)
         return out
+    _sum_compiled(module, (first, phase, gain), table, calls, row, out, window)
+    return out
+
+
+def _sum_compiled(module, copies, table, calls, row, out, window) -> None:
+    """:func:`render_time`'s sum by the compiled kernel, the microphones in blocks
+    on :data:`WORKERS` threads for large sums; `copies`: (first, phase, gain)."""
     compiled = module.add_delayed
-    pad = module.PAD
-    calls = np.pad(calls, ((0, 0), (pad, pad)))  # the compiled sum's zeros around each
-    args = (first, phase, gain)
+    first, phase, gain = copies
+    M, N = first.shape
     work = M * N * (table.shape[1] + gain.shape[2] - 1) * calls.shape[1]
+    pad = module.pad_for(table.shape[1])
+    padded = np.zeros((calls.shape[0], calls.shape[1] + 2 * pad), np.float32)
+    padded[:, pad:-pad] = calls  # the compiled sum's zeros around each
+    calls = padded
+    args = (first, phase, gain)
+    lo, hi = window
     n_blocks = WORKERS if work >= THREADED_TAPS else 1
     edges = np.linspace(0, M, min(n_blocks, M) + 1).astype(int)
     if edges.size <= 2:
-        compiled(*args, table, calls, row, out)
-        return out
+        compiled(*args, table, calls, row, out, lo, hi)
+        return
     # each block of microphones its own rows of `out`: the same bits as one block;
     # the last block summed in this thread
     blocks = list(zip(edges[:-1], edges[1:]))
     done = [
-        _pool().submit(compiled, *(a[i:j] for a in args), table, calls, row, out[i:j])
+        _pool().submit(compiled, *(a[i:j] for a in args), table, calls, row, out[i:j], lo, hi)
         for i, j in blocks[:-1]
     ]
     i, j = blocks[-1]
-    compiled(*(a[i:j] for a in args), table, calls, row, out[i:j])
+    compiled(*(a[i:j] for a in args), table, calls, row, out[i:j], lo, hi)
     for job in done:
         job.result()
-    return out
 
 
 def _pool() -> ThreadPoolExecutor:
@@ -152,20 +194,21 @@ def _pool_of(pid: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(WORKERS, thread_name_prefix="acousim-timedomain")
 
 
-def _add_numpy(first, phase, gain, table, calls, row, out) -> None:
+def _add_numpy(first, phase, gain, table, calls, row, out, window) -> None:
     """:func:`acousim.synth._timedomain_kernel.add_delayed` in numpy: per path and
     microphone, the copy's call (its gains times its rows of `calls`) convolved with
-    its tap weights in single precision and added at its first tap."""
+    its tap weights in single precision and added at its first tap, in the output's
+    columns ``window`` = (lo, hi) only."""
     M, N, R = gain.shape
     K, L = table.shape[1], calls.shape[1]
-    T = out.shape[1]
+    lo, T = window
     for n in range(N):
         rows = calls[row[n] : row[n] + R]  # (R, L)
         for m in range(M):
             mix = gain[m, n].astype(np.float32) @ rows  # (L,)
             y = np.convolve(mix, table[phase[m, n]].astype(np.float32))  # (L + K - 1,)
             s = int(first[m, n])
-            i0, i1 = max(0, -s), min(L + K - 1, T - s)
+            i0, i1 = max(0, lo - s), min(L + K - 1, T - s)
             if i1 > i0:
                 out[m, s + i0 : s + i1] += y[i0:i1]
 

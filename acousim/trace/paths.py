@@ -101,7 +101,7 @@ class TracedPaths:
             return TracedPaths.empty()
         names = [f.name for f in fields(TracedPaths) if f.name != "interactions"]
         k = max(p.interactions.shape[1] for p in parts)
-        counts = [np.pad(p.interactions, ((0, 0), (0, k - p.interactions.shape[1]))) for p in parts]
+        counts = [_widened(p.interactions, k) for p in parts]
         return TracedPaths(
             *(np.concatenate([getattr(p, f) for p in parts]) for f in names),
             np.concatenate(counts),
@@ -111,6 +111,16 @@ class TracedPaths:
     def empty() -> TracedPaths:
         z3, z = np.zeros((0, 3)), np.zeros(0)
         return TracedPaths(z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), z3)
+
+
+def _widened(counts: np.ndarray, k: int) -> np.ndarray:
+    """Interaction counts (N, K') with zero columns up to K = `k` (as they are when
+    K' = K)."""
+    if counts.shape[1] == k:
+        return counts
+    out = np.zeros((counts.shape[0], k), counts.dtype)
+    out[:, : counts.shape[1]] = counts
+    return out
 
 
 def reaching(paths, mics_m: np.ndarray, min_path_m: float) -> np.ndarray:

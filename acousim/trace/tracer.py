@@ -74,6 +74,11 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+#: the pose check's 64 rays over the whole sphere (:meth:`Tracer._check_pose`)
+_ALL_AROUND = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
+_ALL_AROUND.flags.writeable = False
+
+
 def trace_pose(
     world: World | None,
     caster: RayCaster | None,
@@ -133,7 +138,7 @@ def trace_pose(
         log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
     paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
-    return paths, 0 if work is None else work.rays
+    return paths, 0 if work is None else work.rays_shot
 
 
 def _emitter(emitter) -> tuple[Emission | None, np.ndarray]:
@@ -370,7 +375,7 @@ class Tracer:
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
-        dirs = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
+        dirs = _ALL_AROUND
         t, f = self.caster.first_hit(np.broadcast_to(emitter, dirs.shape), dirs)
         hit = f >= 0
         if hit.sum() >= 48:

@@ -11,6 +11,7 @@ fs`` after the matched filter.  Nothing in :mod:`processing` adds any other dela
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 
@@ -161,6 +162,16 @@ class Recording:
 
     def with_samples(self, samples: np.ndarray) -> Recording:
         return replace(self, samples=samples)
+
+    def with_truth(self, truth: GroundTruth | None, lidar: PointCloud | None = None) -> Recording:
+        """This recording with the ground truth `truth` and the LiDAR scan `lidar`
+        (None: none), its samples as they are (checked when it was made: a
+        ``dataclasses.replace`` would read every sample again)."""
+        out = copy.copy(self)
+        object.__setattr__(out, "truth", truth)
+        object.__setattr__(out, "lidar", lidar)
+        out._check_lidars()
+        return out
 
 
 _KINDS = ("direct", "specular", "scatter", "point", "diffraction")

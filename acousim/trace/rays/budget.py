@@ -15,7 +15,9 @@ diffraction and explicit points need no rays.  So, per pose (:func:`ray_work`):
    reflection on.  A scene that needs neither (the shoebox, the plate, the wall)
    shoots no ray if its beam is the whole sphere, else one batch that tells which
    sequences a ray in the beam meets (a wall along the axis, whose path leaves at
-   the beam's edge, is then kept on either side of it); the sphere (no planes) none.
+   the beam's edge, is then kept on either side of it): a :class:`Probe`, asked
+   only about the paths that leave outside the beam (none: no ray), its rays aimed
+   by geometry before any is cast; the sphere (no planes) none.
 2. Otherwise the rays go out in batches: the deterministic spiral of
    :func:`.shoot.cone_directions` of :data:`START_RAYS` rays, then the same spiral
    shifted in both of its lattice coordinates by golden-ratio steps (no random
@@ -56,13 +58,14 @@ import numpy as np
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.scatter import Contributions, scatter
-from acousim.trace.rays.shoot import Shot, follow
+from acousim.trace.rays.shoot import Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 
 __all__ = [
     "ENUMERATE_MAX",
+    "Probe",
     "START_RAYS",
     "TAIL_BIN_M",
     "TAIL_SPAN_DB",
@@ -104,6 +107,41 @@ class RayWork:
     rays: int
     #: enumerated sequences: those the rays met (None: the sequences are the rays')
     met: frozenset[tuple[int, ...]] | None = None
+    #: enumerated sequences and nothing that scatters: the probe that tells which of
+    #: them a ray in the beam meets, shot only if some path leaves outside the beam
+    #: (:func:`in_beam`; None: none)
+    probe: Probe | None = None
+
+    @property
+    def rays_shot(self) -> int:
+        """The rays shot: :attr:`rays` and the probe's, if it was shot."""
+        return self.rays + (0 if self.probe is None else self.probe.rays)
+
+
+class Probe:
+    """One batch of :data:`START_RAYS` rays over the beam (:func:`_probe`), shot when
+    first asked which plane sequences it meets (:meth:`met`); :attr:`rays`: how many
+    it shot (0: not asked, or asked of none)."""
+
+    def __init__(self, world, caster, settings, emitter, axis, emission=None) -> None:
+        self._args = (world, caster, settings, emitter, axis, emission)
+        self.rays = 0
+
+    def met(self, wanted: set[tuple[int, ...]]) -> set[tuple[int, ...]]:
+        """The sequences among `wanted` that a ray of the batch meets (its rays
+        followed only as far as those need: :func:`.shoot.sequences_met`)."""
+        if not wanted:
+            return set()
+        world, caster, settings, emitter, axis, emission = self._args
+        n = min(START_RAYS, settings.rays_max)
+        dirs = batch_directions(n, axis, settings.beam_rad, 0)
+        d_omega = 2 * np.pi * (1 - np.cos(settings.beam_rad)) / n
+        self.rays = n
+        if emission is not None:  # the emission's rays, shot once for every receiver
+            shot = _shot(world, caster, settings, emitter, dirs, d_omega, emission)
+            return set(shot.sequences) & wanted
+        bounces, reach = settings.bounces, settings.max_path_m
+        return sequences_met(world, caster, emitter, dirs, d_omega, bounces, reach, wanted)
 
 
 def _planar_planes(world: World) -> np.ndarray:
@@ -204,14 +242,22 @@ def _batch_spiral(n: int, half_angle_rad: float, batch: int) -> np.ndarray:
 
 
 def batch_directions(n: int, axis: np.ndarray, half_angle_rad: float, batch: int) -> np.ndarray:
-    """Batch `batch` (n, 3) of the automatic budget's rays, turned onto `axis`."""
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    """Batch `batch` (n, 3) of the automatic budget's rays, turned onto `axis`
+    (read-only: the last few kept, by the axis's exact value, for the poses of a
+    still sensor)."""
+    axis = tuple(np.asarray(axis, float).tolist())
+    return _turned_batch(int(n), float(half_angle_rad), int(batch), axis)
+
+
+@functools.lru_cache(maxsize=16)
+def _turned_batch(n: int, half_angle_rad: float, batch: int, axis: tuple) -> np.ndarray:
+    a = np.array(axis) / np.linalg.norm(axis)
     helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(helper, a)
     u /= np.linalg.norm(u)
-    return _batch_spiral(int(n), float(half_angle_rad), int(batch)) @ np.stack(
-        [a, u, np.cross(a, u)]
-    )
+    out = _batch_spiral(n, half_angle_rad, batch) @ np.stack([a, u, np.cross(a, u)])
+    out.flags.writeable = False
+    return out
 
 
 def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray:
@@ -306,22 +352,24 @@ def _probe(world, caster, settings, emitter, axis, every, emission=None) -> RayW
     """Enumerated sequences and nothing that scatters: no rays, unless the beam is
     narrower than the whole sphere; then one batch of :data:`START_RAYS` finds the
     sequences a ray in the beam meets (a wall along the axis, whose path leaves the
-    emitter at the beam's edge, is kept whichever side of it the path leaves)."""
+    emitter at the beam's edge, is kept whichever side of it the path leaves): a
+    :class:`Probe`, shot by :func:`in_beam` if some path leaves outside the beam."""
     if settings.beam_rad >= np.pi or not every:
         return RayWork(every, None, 0, frozenset())
-    n = min(START_RAYS, settings.rays_max)
-    dirs = batch_directions(n, axis, settings.beam_rad, 0)
-    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
-    shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
-    return RayWork(every, None, n, frozenset(shot.sequences))
+    return RayWork(every, None, 0, probe=Probe(world, caster, settings, emitter, axis, emission))
 
 
 def in_beam(specular: list, work: RayWork, axis: np.ndarray, beam_rad: float) -> list:
     """The specular paths of enumerated sequences that leave the emitter within the
     beam (``beam_deg``: the emitter's cone, as for the rays), or whose sequence the
-    rays met (a ray in the beam found it, as a fixed budget would); all paths when
-    the sequences are the rays' own."""
-    if work.met is None:
+    rays met (a ray in the beam found it, as a fixed budget would; the probe's rays,
+    :class:`Probe`, asked about those that leave outside it); all paths when the
+    sequences are the rays' own."""
+    if work.met is None and work.probe is None:
         return specular
     low = np.cos(beam_rad) - 1e-9
-    return [p for p in specular if p.planes in work.met or p.departure @ axis >= low]
+    within = [bool(p.departure @ axis >= low) for p in specular]
+    met = work.met
+    if work.probe is not None:
+        met = work.probe.met({p.planes for p, w in zip(specular, within) if not w})
+    return [p for p, w in zip(specular, within) if w or p.planes in met]

@@ -23,8 +23,9 @@ import numpy as np
 
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 
-__all__ = ["Hits", "Legs", "Shot", "cone_directions", "follow", "shoot"]
+__all__ = ["Hits", "Legs", "Shot", "aimed", "cone_directions", "follow", "sequences_met", "shoot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -186,6 +187,154 @@ def follow(
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
 
 
+def sequences_met(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    d_omega: float,
+    bounces: int,
+    max_path_m: float,
+    wanted: set[tuple[int, ...]],
+) -> set[tuple[int, ...]]:
+    """The sequences among `wanted` that :func:`follow`'s rays (the same arguments)
+    meet: ``set(follow(...).sequences) & wanted``, each ray followed as there (its
+    hits, reflections, length and power) but only while its planes so far begin
+    some wanted sequence, and only the rays :func:`aimed` at one cast (the rays are
+    independent: the others change nothing)."""
+    if not wanted:
+        return set()
+    P = world.n_planes
+    longest = min(bounces, max(len(w) for w in wanted))
+    weights = P ** np.arange(longest)
+    refl, diffuse = world.face_values("reflection"), world.face_values("diffuse")
+    dirs = np.array(dirs, float)
+    origin = np.broadcast_to(emitter, dirs.shape).copy()
+    length = np.zeros(len(dirs))
+    power = np.full(len(dirs), d_omega)
+    seq = np.full((len(dirs), longest), -1)
+    alive = np.flatnonzero(aimed(world, caster, emitter, dirs, wanted))
+    met: set[tuple[int, ...]] = set()
+    for b in range(longest):
+        if alive.size == 0:
+            break
+        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
+        x = origin[alive] + t[:, None] * dirs[alive]
+        length[alive] += t
+        seq[alive, b] = world.plane[f]
+        planar = ~world.curved[f]  # a ray that met a curved face adds no sequence
+        alive, t, f, x = alive[planar], t[planar], f[planar], x[planar]
+        met |= set(_unique_rows(seq[alive, : b + 1], P)) & wanted
+        # on: the rays whose planes so far begin a longer wanted sequence
+        on = {w[: b + 1] for w in wanted if len(w) > b + 1}
+        if not on or b + 1 == longest:
+            break
+        code = seq[alive, : b + 1] @ weights[: b + 1]
+        keep = np.isin(code, [np.dot(w, weights[: b + 1]) for w in on])
+        alive, f, x = alive[keep], f[keep], x[keep]
+        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        origin[alive] = x + caster.offset_m * normal
+        dirs[alive] = mirror
+        alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+    return met
+
+
+def aimed(
+    world: World,
+    caster: RayCaster,
+    emitter: np.ndarray,
+    dirs: np.ndarray,
+    wanted: set[tuple[int, ...]],
+) -> np.ndarray:
+    """(R,) bool: the rays from `emitter` in directions `dirs` (R, 3), unit, that may
+    meet a sequence of `wanted` (planar planes), by geometry alone: the ray passes
+    through the box of the sequence's first plane, its mirror image in that
+    (infinite) plane through the box of the next, and so on, each box grown by ten
+    times the caster's distance tolerance (Embree's float32 hits, the planes' own
+    grouping to 1e-6 in the normal and 10 um in the offset, are far within it).  A
+    ray refused here cannot meet any of them; one kept may not (it is cast).  Compiled
+    (:mod:`.aim_kernel`) or, without numba, in numpy: the same arithmetic, the same
+    rays."""
+    grow = 10 * caster.tolerance_m
+    first = world.plane_first
+    normal, offset = world.normals[first], world.offsets[first]
+    lo, hi = world.plane_boxes[:, 0] - grow, world.plane_boxes[:, 1] + grow
+    dirs = np.ascontiguousarray(dirs, float)
+    out = np.zeros(len(dirs), bool)
+    kernel = optional_kernel("acousim.trace.rays.aim_kernel", "aimed")
+    if kernel is None:
+        return _aimed_numpy((normal, offset, lo, hi), emitter, dirs, wanted, grow, out)
+    seqs = sorted(wanted)
+    lens = np.array([len(w) for w in seqs], np.int64)
+    table = np.full((len(seqs), int(lens.max())), -1, np.int64)
+    for i, w in enumerate(seqs):
+        table[i, : len(w)] = w
+    e = np.ascontiguousarray(emitter, float)
+    kernel(e, dirs, table, lens, normal, offset, lo, hi, float(grow), out)
+    return out
+
+
+def _aimed_numpy(planes, emitter, dirs, wanted, grow, out) -> np.ndarray:
+    """:func:`aimed` in numpy (the compiled kernel's twin): `planes` (normal, offset,
+    lo, hi) of every plane, the boxes grown by `grow`; `out` (R,) set and returned."""
+    normal, offset, lo, hi = planes
+    # level by level: the (ray, prefix) pairs that passed the prefix's boxes, each
+    # ray from its mirror image in the prefix's last plane
+    prefixes: list[tuple[int, ...]] = [()]
+    rays, pre = np.arange(len(dirs)), np.zeros(len(dirs), int)
+    o, d = np.broadcast_to(np.asarray(emitter, float), dirs.shape), dirs
+    for k in range(max(len(w) for w in wanted)):
+        nxt = sorted({w[k] for w in wanted if len(w) > k})
+        if rays.size == 0 or not nxt:
+            break
+        through = _through(o, d, lo[nxt], hi[nxt], grow)  # (K, B)
+        # (prefix, next plane) -> whether wanted, whether some wanted goes on
+        ends = np.array([[(*q, p) in wanted for p in nxt] for q in prefixes])
+        going = {w[: k + 1] for w in wanted if len(w) > k + 1}
+        on = np.array([[(*q, p) in going for p in nxt] for q in prefixes])
+        pair, b = np.nonzero(through & (ends | on)[pre])
+        out[rays[pair[ends[pre[pair], b]]]] = True
+        keep = on[pre[pair], b]
+        pair, b = pair[keep], b[keep]
+        plane = np.asarray(nxt)[b]
+        n, oa, da = normal[plane], o[pair], d[pair]
+        dn = _dot(da, n)
+        flat = np.abs(dn) < 1e-9  # along the plane: no mirror image to follow, kept
+        out[rays[pair[flat]]] = True
+        pair, b, n, oa, da, dn = pair[~flat], b[~flat], n[~flat], oa[~flat], da[~flat], dn[~flat]
+        t = (offset[np.asarray(nxt)[b]] - _dot(oa, n)) / dn
+        names = {q: i for i, q in enumerate(sorted(going))}
+        table = np.array([[names.get((*q, p), -1) for p in nxt] for q in prefixes], int)
+        prefixes, pre = sorted(going), table[pre[pair], b]
+        rays, o, d = rays[pair], oa + t[:, None] * da, da - 2 * dn[:, None] * n
+    return out
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row by row a . b (N,) of (N, 3) arrays, summed in the order x, y, z (as the
+    compiled kernel sums them)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _through(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray, slack: float):
+    """(R, B) bool: the rays o + t d (R, 3), t >= -slack, that pass through each of
+    the boxes [lo, hi] (B, 3) (slab test; along an axis on which a ray does not move,
+    the box holds it if its origin is inside)."""
+    inv = np.ascontiguousarray((1.0 / np.where(d == 0.0, 1e-300, d)).T)  # (3, R); no 0 / 0
+    o = np.ascontiguousarray(np.broadcast_to(o, d.shape).T)  # per axis: (B, R) arrays,
+    enter = leave = None  # numpy being slow on a last axis of three
+    for i in range(3):
+        t1 = (lo[:, i, None] - o[i]) * inv[i]
+        t2 = (hi[:, i, None] - o[i]) * inv[i]
+        near, far = np.minimum(t1, t2), np.maximum(t1, t2)
+        enter = near if enter is None else np.maximum(enter, near)
+        leave = far if leave is None else np.minimum(leave, far)
+    return ((leave >= enter) & (leave >= -slack)).T
+
+
 def _legs(reached: list, sequence: np.ndarray, wanted: bool) -> Legs | None:
     """The :class:`Legs` of the hits `reached` (per bounce: rays, lengths before the
     leg, legs, planar so far) and the rays' plane `sequence` (None: not `wanted`)."""
@@ -201,9 +350,12 @@ def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
     row (np.unique(axis=0) is slow)."""
     if not rows.size:
         return []
-    code = rows @ (n_planes ** np.arange(rows.shape[1])).astype(np.int64)
-    _, first = np.unique(code, return_index=True)
-    return [tuple(int(v) for v in rows[i]) for i in first]
+    k = rows.shape[1]
+    code = rows @ (n_planes ** np.arange(k)).astype(np.int64)
+    # the distinct codes, read back digit by digit (the rows' values are in [0, P))
+    distinct = np.unique(code)
+    digits = distinct[:, None] // (n_planes ** np.arange(k))[None, :] % n_planes
+    return list(map(tuple, digits.tolist()))
 
 
 def _reflect(normal: np.ndarray, inc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

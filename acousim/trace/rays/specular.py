@@ -230,7 +230,7 @@ def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
     if inside.size == 0:
         return none
     order, starts, _ = world._plane_index()
-    count = np.diff(starts)[pids[inside]]
+    count = world._cached("plane_faces", lambda: np.diff(starts))[pids[inside]]
     if count.sum() <= 20000:  # every face of each point's plane, in one pass
         row = np.repeat(np.arange(inside.size), count)
         first = np.repeat(starts[pids[inside]] - np.cumsum(count) + count, count)
@@ -247,9 +247,19 @@ def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
         return none
     tri = world.triangles[face]
     bary = points_to_barycentric(tri, x[inside[row]])
-    edge = np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+    edge = _longest_edges(world)[face]
     on = -np.min(bary, axis=1) * edge <= tol
     return inside[row[on]], face[on]
+
+
+def _longest_edges(world: World) -> np.ndarray:
+    """(F,) the longest edge of every face (m), found once per world."""
+
+    def make():
+        tri = world.triangles
+        return np.linalg.norm(tri[:, 1:] - tri[:, :1], axis=2).max(axis=1)
+
+    return world._cached("longest_edges", make)
 
 
 def _before(points: np.ndarray, j: np.ndarray, emitter: np.ndarray, tol: float) -> np.ndarray:

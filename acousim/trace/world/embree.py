@@ -92,7 +92,7 @@ class RayCaster:
         """
         o = np.asarray(origins, float) - self.origin
         d = np.asarray(directions, float)
-        norm = np.linalg.norm(d, axis=1, keepdims=True)
+        norm = np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's
         d = d / np.where(norm > 0, norm, 1)
         n = o.shape[0]
         self.rays_cast += n
@@ -118,8 +118,11 @@ class RayCaster:
             parts = list(
                 self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])])
             )
-        t = np.concatenate([p[0] for p in parts]).astype(float)
-        face = np.concatenate([p[1] for p in parts]).astype(int)
+        if len(parts) == 1:
+            t, face = parts[0][0].astype(float), parts[0][1].astype(int)
+        else:
+            t = np.concatenate([p[0] for p in parts]).astype(float)
+            face = np.concatenate([p[1] for p in parts]).astype(int)
         miss = face < 0
         t[miss] = np.inf
         face[miss] = -1

@@ -231,3 +231,55 @@ def test_an_unknown_render_domain_is_an_input_error_naming_it():
 
     with pytest.raises(InputError, match="render_domain"):
         Simulation(render_domain="fourier")
+
+
+@pytest.mark.parametrize("taps", [2, 5, 6, 8])
+@pytest.mark.parametrize("sets", [1, 3])
+def test_each_copy_is_its_call_convolved_with_its_weights(taps, sets):
+    """The compiled sum (or its numpy twin) against each copy's mix of calls
+    convolved with its tap weights in double precision and placed at its first tap
+    (np.convolve, written here): within float32 rounding, for tap counts on and off
+    a multiple of four, one call or three sets' mixed."""
+    from acousim.synth.render import _taps
+    from acousim.synth.timedomain import render_time
+
+    rng = np.random.default_rng(taps * 10 + sets)
+    M, N, L, T, lead = 3, 4, 300, 500, 7
+    d = rng.uniform(-20.0, 480.0, (M, N))  # some copies cut at either end
+    gain = rng.normal(size=(M, N, sets))
+    calls = rng.normal(size=(N + sets - 1, L))
+    row = np.arange(N)
+    kernel = _taps(d, "lagrange", taps)
+    y = render_time(d, gain, calls, lead=lead, kernel=kernel, n_samples=T, row=row)
+    n0, phase, table, offsets = kernel
+    want = np.zeros((M, T + 2 * L + 4 * taps))
+    at = L + 2 * taps  # sample 0 of the output
+    for m in range(M):
+        for n in range(N):
+            mix = gain[m, n] @ calls[row[n] : row[n] + sets]
+            copy = np.convolve(mix, table[phase[m, n]])
+            s = at + int(n0[m, n]) + int(offsets[0]) - lead
+            want[m, s : s + copy.size] += copy
+    want = want[:, at : at + T]
+    assert np.any(want)
+    assert residual_db(y, want) < -120
+
+
+def test_a_sum_added_into_an_output_is_the_sum_placed_there():
+    """``into=(out, lo)``: the same bits as the returned sum copied to columns lo..,
+    the columns before 0 and from lo + n_samples on left as they were."""
+    from acousim.synth.render import _taps
+    from acousim.synth.timedomain import render_time
+
+    rng = np.random.default_rng(4)
+    d = rng.uniform(-30.0, 260.0, (2, 5))
+    gain, calls = rng.normal(size=(2, 5)), rng.normal(size=(5, 120))
+    args = dict(lead=40, kernel=_taps(d, "sinc", 6), n_samples=250)
+    y = render_time(d, gain, calls, **args)
+    for lo in (-60, 0, 75):
+        out = np.zeros((2, 400))
+        placed = out.copy()
+        placed[:, max(lo, 0) : lo + 250] = y[:, max(lo, 0) - lo :]
+        got = render_time(d, gain, calls, **args, into=(out, lo))
+        assert got is out
+        assert got.tobytes() == placed.tobytes()

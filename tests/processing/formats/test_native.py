@@ -477,3 +477,19 @@ def test_provenance_reads_the_simulation_facts_typed(tmp_path):
     assert bare.kind == "real"
     assert (bare.scene_file, bare.max_range_m, bare.n_paths, bare.sample) == (None,) * 4
     assert P.Provenance.from_metadata({"simulated": True}).kind == "simulated"
+
+
+def test_a_recording_with_its_truth_is_the_replaced_one():
+    """``with_truth`` (its samples not checked again) gives what
+    ``dataclasses.replace`` gives, field for field, and refuses a LiDAR scan that
+    is not a point cloud, by name."""
+    rec = make()
+    T = np.eye(4)
+    scan = P.PointCloud(np.zeros((3, 3)), np.ones(3), T, name="L")
+    want = dataclasses.replace(rec, truth=truth(), lidar=scan)
+    got = rec.with_truth(want.truth, scan)
+    for f in dataclasses.fields(P.Recording):
+        assert getattr(got, f.name) is getattr(want, f.name) or f.name in ("samples", "metadata")
+    assert got.samples is rec.samples and rec.truth is None
+    with pytest.raises(InputError, match="lidar"):
+        rec.with_truth(None, "a scan")

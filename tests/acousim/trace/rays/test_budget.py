@@ -114,17 +114,65 @@ def test_automatic_budget_finds_what_ten_times_the_old_rays_find(name):
 def test_scenes_without_scattering_shoot_at_most_a_probe():
     """The shoebox, the plate, the wall and the sphere (rigid, smooth, one bounce on the
     curved one): image sources and glints; over the whole sphere no ray at all, in a
-    narrower beam one batch that tells which plane sequences the beam meets; the
-    sphere (no planes) none."""
-    for name in ("shoebox", "ertis_sample", "wall", "sphere"):
+    narrower beam one batch that tells which plane sequences the beam meets, shot
+    only when some image source's path leaves the emitter outside the beam (the
+    shoebox: the wall behind the sensor; the plate and the wall: none); the sphere
+    (no planes) none."""
+    for name, probed in (("shoebox", True), ("ertis_sample", False), ("wall", False)):
         scene = load_scene(SCENES / f"{name}.toml")
         pose = scene.sensor.poses[0]
+        whole = Tracer(_with(scene, beam_deg=180.0))
+        every = whole.trace(pose)
+        assert whole.rays_used(pose) == 0, name
+        spec = every.select(every.kind == KIND["specular"])
+        cos = spec.departure @ pose.rotation[:, 0]
+        assert np.any(cos < np.cos(np.deg2rad(scene.simulation.beam_deg))) == probed, name
         tracer = Tracer(scene)
         tracer.trace(pose)
-        assert tracer.rays_used(pose) == (0 if name == "sphere" else 1000), name
-        whole = Tracer(_with(scene, beam_deg=180.0))
-        whole.trace(pose)
-        assert whole.rays_used(pose) == 0, name
+        assert tracer.rays_used(pose) == (1000 if probed else 0), name
+    sphere = load_scene(SCENES / "sphere.toml")
+    tracer = Tracer(sphere)
+    tracer.trace(sphere.sensor.poses[0])
+    assert tracer.rays_used(sphere.sensor.poses[0]) == 0
+
+
+@pytest.mark.parametrize("behind", [False, True])
+def test_a_path_leaving_just_outside_the_beam_is_kept_if_a_ray_meets_its_wall(
+    tmp_path, behind
+):
+    """A wall beside the sensor, its axis turned 0.5 degrees away from it: the one
+    image-source path leaves at 90.5 degrees, outside the 90 degree beam.  Where
+    the wall runs ahead, rays in the beam graze it and the path is kept; where it
+    ends 5 mm past the reflection point, no ray of the beam meets it and the path
+    is not: as a fixed budget of 20 000 rays (whose paths are the plane sequences
+    its rays met) decides."""
+    import trimesh
+
+    from acousim.scene import parse_scene
+
+    wall = trimesh.creation.box(extents=(20.0, 0.1, 4.0))
+    wall.apply_translation([-9.995 if behind else 9.8, 1.05, 0.0])  # inner face y = 1
+    wall.export(tmp_path / "side.obj", digits=12)
+    found, used = {}, {}
+    for rays, beam_deg in ((None, 180.0), (None, 90.0), (20000, 90.0)):
+        simulation = {"max_range_m": 4.0, "bounces": 1, "beam_deg": beam_deg}
+        simulation.update({} if rays is None else {"rays": rays})
+        spec = {
+            "sensor": {"array": "urtis_v1", "direct_path": False},
+            "simulation": simulation,
+            "meshes": [{"file": "side.obj"}],
+        }
+        scene = parse_scene(spec, base_dir=tmp_path)
+        pose = dataclasses.replace(scene.sensor.poses[0], yaw_rad=float(np.deg2rad(-0.5)))
+        tracer = Tracer(scene)
+        paths = tracer.trace(pose)
+        found[rays, beam_deg] = paths.select(paths.kind == KIND["specular"])
+        used[rays, beam_deg] = tracer.rays_used(pose)
+    every = found[None, 180.0]
+    assert len(every) == 1 and used[None, 180.0] == 0
+    assert every.departure[0] @ pose.rotation[:, 0] < np.cos(np.deg2rad(90.0))
+    assert used[None, 90.0] == 1000  # the probe, shot for the path outside the beam
+    assert len(found[None, 90.0]) == len(found[20000, 90.0]) == (0 if behind else 1)
 
 
 def test_same_seed_same_bytes_and_the_rays_in_the_metadata():
@@ -226,3 +274,62 @@ def test_shoebox_third_order_matches_pyroomacoustics():
     for img, order in zip(images, src.orders[src.orders >= 1]):
         j = np.flatnonzero(np.linalg.norm(spec.anchor_m - img, axis=1) < 1e-6)
         assert j.size == 1 and spec.order[j[0]] == order
+
+
+@pytest.mark.parametrize("name", ["shoebox", "wall", "ertis_sample"])
+def test_the_probe_meets_the_sequences_the_followed_rays_meet(name):
+    """The probe's answer (:func:`sequences_met`, its rays aimed by geometry first)
+    is that of the rays followed in full (:func:`follow`, every hit recorded), for
+    every enumerated plane sequence, at poses around the room and in two beams."""
+    from acousim.scene.pose import Pose
+    from acousim.trace.rays.budget import all_sequences, batch_directions
+    from acousim.trace.rays.shoot import follow, sequences_met
+
+    scene = load_scene(SCENES / f"{name}.toml")
+    tracer = Tracer(scene)
+    s, world, caster = tracer.settings, tracer.world, tracer.caster
+    every = all_sequences(world, s.bounces)
+    wanted = {tuple(r) for k in every for r in every[k].tolist()}
+    rng = np.random.default_rng(11)
+    found = 0
+    for _ in range(4):
+        p0 = scene.sensor.poses[0].position_m
+        pose = Pose(p0 + rng.uniform(-0.3, 0.3, 3), rng.uniform(-np.pi, np.pi), rng.normal(0, 0.3))
+        emitter = pose.to_world(scene.sensor.array.emitter_m)
+        for beam in (s.beam_rad, np.deg2rad(50.0)):
+            dirs = batch_directions(1000, pose.rotation[:, 0], beam, 0)
+            d_omega = 2 * np.pi * (1 - np.cos(beam)) / 1000
+            args = (world, caster, emitter, dirs, d_omega, s.bounces, s.max_path_m)
+            full = set(follow(*args).sequences) & wanted
+            found += len(full)
+            assert sequences_met(*args, wanted) == full
+    assert found  # the rays met some
+
+
+def test_the_compiled_aim_marks_the_rays_its_numpy_twin_marks(monkeypatch):
+    """:func:`aimed` compiled and in numpy (numba missing): the same rays, every
+    enumerated sequence and a third of them wanted, poses around the shoebox."""
+    pytest.importorskip("numba")
+    from acousim.scene.pose import Pose
+    from acousim.trace.rays import shoot
+    from acousim.trace.rays.budget import all_sequences, batch_directions
+
+    scene = load_scene(SCENES / "shoebox.toml")
+    tracer = Tracer(scene)
+    s = tracer.settings
+    every = all_sequences(tracer.world, s.bounces)
+    wanted = [tuple(r) for k in every for r in every[k].tolist()]
+    rng = np.random.default_rng(2)
+    marks = []
+    for _ in range(6):
+        pose = Pose(rng.uniform(-0.5, 0.5, 3), rng.uniform(-np.pi, np.pi), rng.normal(0, 0.3))
+        emitter = pose.to_world(scene.sensor.array.emitter_m)
+        dirs = batch_directions(1000, pose.rotation[:, 0], s.beam_rad, 0)
+        for some in (set(wanted), set(wanted[::3])):
+            marks.append((emitter, dirs, some))
+    compiled = [shoot.aimed(tracer.world, tracer.caster, *m) for m in marks]
+    monkeypatch.setattr(shoot, "optional_kernel", lambda *a: None)
+    plain = [shoot.aimed(tracer.world, tracer.caster, *m) for m in marks]
+    assert sum(c.sum() for c in compiled) > 0
+    for c, p in zip(compiled, plain):
+        np.testing.assert_array_equal(c, p)
