@@ -161,10 +161,7 @@ def follow(
         if alive.size == 0:
             break
         # 2. first hits of the live rays
-        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
-        hit = f >= 0
-        alive, t, f = alive[hit], t[hit], f[hit]
-        x = origin[alive] + t[:, None] * dirs[alive]
+        alive, t, f, x = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
         before = length[alive]  # a copy: the lengths before this leg
         length[alive] += t
         # 3. candidate plane sequences (rays that met planar faces only)
@@ -185,6 +182,16 @@ def follow(
         dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _first_hits(caster: RayCaster, origin, dirs, alive: np.ndarray, reach_m: np.ndarray):
+    """The first hits of the rays `alive` (indices into `origin`, `dirs` (R, 3)), each
+    within its `reach_m`: those that hit (indices), their distances (m), faces and
+    points (N, 3)."""
+    t, f = caster.first_hit(origin[alive], dirs[alive], reach_m)
+    hit = f >= 0
+    alive, t, f = alive[hit], t[hit], f[hit]
+    return alive, t, f, origin[alive] + t[:, None] * dirs[alive]
 
 
 def sequences_met(
@@ -218,10 +225,7 @@ def sequences_met(
     for b in range(longest):
         if alive.size == 0:
             break
-        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
-        hit = f >= 0
-        alive, t, f = alive[hit], t[hit], f[hit]
-        x = origin[alive] + t[:, None] * dirs[alive]
+        alive, t, f, x = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
         length[alive] += t
         seq[alive, b] = world.plane[f]
         planar = ~world.curved[f]  # a ray that met a curved face adds no sequence
