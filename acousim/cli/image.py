@@ -115,7 +115,7 @@ def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
     configure()
     small_pages()
     options = _imaging_options(args)
-    index = parse_indices("--index", args.index)
+    index = _indices(args.file, parse_indices("--index", args.index))
     call = call_waveform(args.call)
 
     def read(i: int):
@@ -124,7 +124,6 @@ def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
         except P.RecordingFileError as exc:
             raise UsageError(str(exc)) from None
 
-    index = _indices(args.file, index)
     sensor = getattr(args, "sensor", None)
     recs = None if lazy and sensor is None else [read(i) for i in index]  # only those asked
     if sensor is not None:
