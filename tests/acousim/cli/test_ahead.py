@@ -54,6 +54,15 @@ def test_leaving_the_block_early_ends_the_worker():
     assert not [p for p in mp.active_children() if p.is_alive()]
 
 
+def _with_a_worker() -> bool:
+    """Whether shared_by_two_processes forks a worker in this process now: not on
+    one CPU, nor once numba's GNU OpenMP pool has run here (an earlier test's
+    broadband image)."""
+    from acousim.cli import ahead
+
+    return ahead._can_fork() and not ahead._gnu_openmp_started()
+
+
 def _block(k):
     """Item k: a large array (out of band), a strided view (in band) and the pid."""
     big = np.arange(3_000_000, dtype=np.float64) * (k + 1)  # 24 MB
@@ -76,7 +85,7 @@ def test_two_processes_share_the_items_and_hand_them_out_in_order():
         return item
 
     counted = []
-    forked = (os.cpu_count() or 1) > 1  # on one CPU every item is made here
+    forked = _with_a_worker()
     got = shared_by_two_processes(
         make,
         7,
@@ -99,8 +108,8 @@ def test_two_processes_share_the_items_and_hand_them_out_in_order():
 def test_an_item_that_fails_in_the_worker_fails_the_whole():
     from acousim.cli.ahead import shared_by_two_processes
 
-    if (os.cpu_count() or 1) < 2:
-        pytest.skip("one CPU: no worker")
+    if not _with_a_worker():
+        pytest.skip("no worker here (one CPU, or numba's GNU OpenMP pool ran)")
     said_r, said_w = os.pipe()
     here = os.getpid()
 
