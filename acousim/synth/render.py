@@ -208,8 +208,7 @@ def render_baseband(
     kernel = (options.interpolator, options.taps)
     n, grid, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
     y = _shaped_baseband(echoes, d - lo, (g, U, V, grid.W, band), n, kernel, hi - lo, band_db)
-    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
-    return out
+    return _placed(y, (out, lo))
 
 
 def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np.ndarray:
