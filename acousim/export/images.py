@@ -221,15 +221,11 @@ def label_maps_ahead(
     recordings: Sequence[P.Recording],
     images: Sequence[Mapping[str, P.Image]],
     dynamic_range_db: float = DYNAMIC_RANGE_DB,
-    made: Sequence[Mapping[Resolution, LabelMap]] = (),
 ) -> Iterator[Mapping[Resolution, LabelMap]]:
-    """Each recording's label maps (:func:`label_maps`), in order: those of the first
-    ``len(made)`` recordings as `made` holds them, then the others, the next one made
+    """Each recording's label maps (:func:`label_maps`), in order, the next one made
     in a thread while the caller works on the last one handed out (numpy, scipy, the
     compiled kernel and zlib free the GIL)."""
-    k = len(made)
-    yield from made
-    yield from _one_ahead(label_maps(recordings[k:], images[k:], dynamic_range_db))
+    return _one_ahead(label_maps(recordings, images, dynamic_range_db))
 
 
 def _one_ahead(items: Iterator) -> Iterator:

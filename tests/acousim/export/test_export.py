@@ -373,20 +373,18 @@ def test_label_maps_made_elsewhere_are_written_as_those_made_there(recording_fil
         assert (g["das_object"][()] >= 0).any()  # a labelled cell: the maps were written
 
 
-def test_label_maps_ahead_hand_out_those_made_then_the_rest(recording_file):
-    """label_maps_ahead (as `acousim image` hands its second process the maps made
-    while imaging): the maps given first, then the others made, in order; the ones
-    it makes equal those label_maps makes."""
+def test_label_maps_ahead_hand_out_what_label_maps_makes(recording_file):
+    """label_maps_ahead (images.h5's maps, the next made in a thread): every
+    recording's maps, in order, equal to those label_maps makes."""
     from acousim.export.images import label_maps, label_maps_ahead
     from acousim.imaging.run import ImagingOptions, image_recordings
 
     recs = [P.load_recording(recording_file, 0)] * 3
     images = image_recordings(recs, ImagingOptions(methods=("das",), step_deg=4.0))
-    made = [{"a mark": None}]  # what the caller made: handed out as it is
-    out = list(label_maps_ahead(recs, images, made=made))
+    out = list(label_maps_ahead(recs, images))
     want = list(label_maps(recs, images))
-    assert len(out) == 3 and out[0] is made[0]
-    for got, ref in zip(out[1:], want[1:]):
+    assert len(out) == 3
+    for got, ref in zip(out, want):
         assert list(got) == list(ref) and len(ref) == 1
         for res in ref:
             np.testing.assert_array_equal(got[res].object_index, ref[res].object_index)
