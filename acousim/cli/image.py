@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
+from typing import TYPE_CHECKING
 
 from acousim.cli.common import (
     UsageError,
@@ -24,6 +25,9 @@ from acousim.cli.common import (
     writable_dir,
 )
 from acousim.cli.options import add_declared
+
+if TYPE_CHECKING:
+    from acousim.viz.drive import DriveView
 
 IMAGING = "acousim.imaging.run:ImagingOptions"
 
@@ -61,6 +65,9 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
 #: calls a CHIRP file may be read with (--call): :data:`processing.CALLS`, spelt out
 #: here so that building the parser imports no numpy (a test holds them equal)
 CHIRP_CALLS = ("default_20_80", "default_25_50", "paper")
+#: acousim.viz.drive.DRIVE_VIEWS, written out: the command line starts without the
+#: pictures' imports (tests/system/test_api.py keeps the two equal)
+DRIVE_VIEWS = ("plan", "3d")
 
 
 def _of_sensor(recs: list, index: list[int], name: str) -> tuple[list, list[int]]:
@@ -206,6 +213,15 @@ def register(sub) -> None:
     p.add_argument("--no-3d", action="store_true", help="skip the 3D render")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
     p.add_argument(
+        "--drive-view",
+        type=choice("drive view", DRIVE_VIEWS),
+        default="plan",
+        metavar="{plan,3d}",
+        help="the animation's left panel: 'plan' (the scene cut at the sensor's height, "
+        "from above in the sensor's frame; default) or '3d' (a 3D view behind the "
+        "sensor, rendered per frame: about 60 ms of CPU more a frame)",
+    )
+    p.add_argument(
         "--images-h5",
         action="store_true",
         help="also write images.h5: every image as data, with its truth labels (about "
@@ -229,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
 
     def first() -> None:  # while the worker images: the pictures' imports (before the
         # drive's worker is forked: it inherits them)
-        prepare_pictures(render_3d=not args.no_3d, animation=animated)
+        prepare_pictures(render_3d=not args.no_3d, animation=animated, drive_view=args.drive_view)
 
     keep = None if args.images_h5 else drawn_images(shown or [0])
     beside = None if args.no_data else _peak_tables(index, options)
@@ -344,11 +360,13 @@ def _data_steps(h5, recs, images, index, options, tables):
 class Asked:
     """The pictures a command asked for: the stills of the recordings `shown`
     (positions among those imaged), with the 3D view (`render_3d`), and the drive's
-    animation (`animated`)."""
+    animation (`animated`) with its left panel `drive_view`
+    (:data:`acousim.viz.drive.DriveView`)."""
 
     shown: list[int]
     render_3d: bool = True
     animated: bool = True
+    drive_view: DriveView = "plan"
 
 
 def write_pictures_beside(out, recs, images, index, options, asked: Asked, tables=None) -> list:
@@ -376,9 +394,16 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
         return stills()
     gif = out / "drive.gif"
     with atomic_path(gif) as tmp:
-        # forked before the stills' 3D view: the worker's VTK starts afresh
+        # forked before the stills' 3D view: a worker's VTK starts afresh
         work = functools.partial(
-            drive_steps, recs, images, tmp, options, indices=index, tables=tables
+            drive_steps,
+            recs,
+            images,
+            tmp,
+            options,
+            indices=index,
+            tables=tables,
+            view=asked.drive_view,
         )
         bar = progress("animate", "frame")  # from the worker's start
         with ahead_in_a_process(work) as frames:
@@ -390,5 +415,5 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
 
 def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:
     """The command's pictures (:func:`write_pictures_beside`)."""
-    asked = Asked(shown or [0], not args.no_3d, _animated(args, index))
+    asked = Asked(shown or [0], not args.no_3d, _animated(args, index), args.drive_view)
     return write_pictures_beside(out, recs, images, index, options, asked, tables)

@@ -20,12 +20,14 @@ from acousim.scene import load_scene
 from acousim.scene.pose import Pose
 from acousim.trace.world.build import build_world
 from acousim.viz import elaz_figure, fan_figure
-from acousim.viz.drive import DriveFigure, write_gif
+from acousim.viz.drive import DriveFigure, DriveView, check_drive_view, write_gif
 from acousim.viz.fan import DYNAMIC_RANGE_DB, FAN_ELEVATION_BAND_RAD, common_extent
+from acousim.viz.plan import PlanScene
 from acousim.viz.render3d import (
     FrameContent,
     SceneRenderer,
     import_pyvista,
+    legend_entries,
     render_scene,
     sensor_sweep,
 )
@@ -268,13 +270,16 @@ def _moving_triangles(scene, rec: P.Recording) -> np.ndarray | None:
     return build_world(dataclasses.replace(scene, meshes=moving)).triangles
 
 
-def prepare_pictures(render_3d: bool = True, animation: bool = True) -> None:
-    """Import what the pictures need (matplotlib; pyvista/VTK and imageio for the 3D
-    views) before a command's work starts, so that Ctrl-C never lands in the middle of
-    VTK's import (which could crash the interpreter instead of stopping cleanly).
-    An interrupt during these imports is held back and raised once they are done."""
+def prepare_pictures(
+    render_3d: bool = True, animation: bool = True, drive_view: DriveView = "plan"
+) -> None:
+    """Import what the pictures need (matplotlib; pyvista/VTK for the 3D views, the
+    animation's with `drive_view` "3d") before a command's work starts, so that Ctrl-C
+    never lands in the middle of VTK's import (which could crash the interpreter
+    instead of stopping cleanly).  An interrupt during these imports is held back and
+    raised once they are done."""
     with _interrupt_after():
-        _import_pictures(render_3d, animation)
+        _import_pictures(render_3d, animation and drive_view == "3d")
 
 
 @contextlib.contextmanager
@@ -293,19 +298,17 @@ def _interrupt_after():
         raise KeyboardInterrupt
 
 
-def _import_pictures(render_3d: bool, animation: bool) -> None:
+def _import_pictures(render_3d: bool, animation_3d: bool) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot  # noqa: F401
+    import trimesh  # noqa: F401  (the scene's meshes, for the 3D views and the plan)
 
-    if render_3d or animation:
-        # VTK's rendering modules (pyvista loads them on first use) and trimesh (the
-        # scene's meshes): imported once, before the command's workers are forked
+    if render_3d or animation_3d:
+        # VTK's rendering modules (pyvista loads them on first use): imported once,
+        # before the command's workers are forked
         import_pyvista().Plotter  # noqa: B018
-        import trimesh  # noqa: F401
-    if animation:
-        import imageio.v2  # noqa: F401
 
 
 def write_pictures(
@@ -321,7 +324,8 @@ def write_pictures(
 ) -> list[Path]:
     """Fan images, elevation-azimuth maps and the 3D render of the first recording
     (:func:`write_stills`), and for several recordings (a trajectory) an animated GIF
-    of the drive (:func:`write_drive`).
+    of the drive (:func:`write_drive`: the plan beside the fan; its 3D view:
+    ``write_drive(..., view="3d")``).
 
     indices : the recordings' indices in their file (for the titles; default 0, 1, ...).
     """
@@ -330,7 +334,12 @@ def write_pictures(
     )
     if animation and len(recordings) > 1:
         written += write_drive(
-            recordings, images, out_dir, options, progress=progress, indices=indices
+            recordings,
+            images,
+            out_dir,
+            options,
+            progress=progress,
+            indices=indices,
         )
     return written
 
@@ -393,14 +402,19 @@ def write_drive(
     *,
     progress: Callable[[int, int], None] | None = None,
     indices: Sequence[int] | None = None,
+    view: DriveView = "plan",
 ) -> list[Path]:
-    """The animated GIF of a drive (``drive.gif``): per recording, the 3D view beside
-    the fan of the sharpest method imaged.  Returns the file written (a list)."""
+    """The animated GIF of a drive (``drive.gif``): per recording, the plan view
+    (`view` "plan": the scene cut at the sensor's height, in the sensor's frame) or
+    the 3D view ("3d") beside the fan of the sharpest method imaged.  Returns the
+    file written (a list)."""
+    check_drive_view(view)  # before any work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "drive.gif"
     with atomic_path(path) as tmp:
-        for done, total in drive_steps(recordings, images, tmp, options, indices=indices):
+        steps = drive_steps(recordings, images, tmp, options, indices=indices, view=view)
+        for done, total in steps:
             if progress:
                 progress(done, total)
     return [path]
@@ -414,19 +428,20 @@ def drive_steps(
     *,
     indices: Sequence[int] | None = None,
     tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
+    view: DriveView = "plan",
 ) -> Iterator[tuple[int, int]]:
-    """Draw the drive's animation (:func:`write_drive`) into the GIF `path` (written
-    as it is: the caller's temporary), yielding ``(frames drawn, frames)`` after
-    each frame.
+    """Draw the drive's animation (:func:`write_drive`, its `view`) into the GIF
+    `path` (written as it is: the caller's temporary), yielding ``(frames drawn,
+    frames)`` after each frame.
 
     tables : each recording's peak tables by method, made with the options' peak
         threshold (``acousim.export.images.peak_tables``): the peaks drawn are
         theirs (None: found again here).
     """
+    check_drive_view(view)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     scene = _scene(recordings[0])
-    triangles = _scene_triangles(scene)
-    return _animate(recordings, images, triangles, Path(path), options, indices, scene, tables)
+    return _animate(recordings, images, Path(path), options, indices, scene, tables, view)
 
 
 def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag, done):
@@ -598,6 +613,7 @@ def _frame_content(rec, img, options, sweep, moving, peaks=None):
         sweep=sweep,
         moving_triangles=moving,
         lidar=lidar_in_world(rec),
+        sensor_rotation=pose.rotation,
     )
 
 
@@ -623,7 +639,9 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
     return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
 
 
-def _animate(recordings, images, triangles, path, options, indices, scene=None, tables=None):
+def _animate(recordings, images, path, options, indices, scene, tables, view: DriveView):
+    """The frames of :func:`drive_steps` (`scene`: the recordings' scene, or None),
+    yielding ``(frames drawn, frames)``; the GIF written at the end."""
     dr = options.dynamic_range_db
     method = drive_method(images[0])
     limit = min(_range_limit(rec, options) for rec in recordings)
@@ -635,6 +653,48 @@ def _animate(recordings, images, triangles, path, options, indices, scene=None, 
     extent = (ext[:, 0].max(), ext[:, 1].min(), ext[:, 2].min(), ext[:, 3].max())
     frames = []
     sweeps = [_sweep(rec) for rec in recordings]
+    left = _left_panel(view, recordings, _scene_triangles(scene), scene, sweeps, marks, dr)
+    figure = None
+    try:
+        for k, (rec, imgs) in enumerate(zip(recordings, images)):
+            moving = _moving_triangles(scene, rec)
+            peaks = None if tables is None else _world_points(tables[k][method])
+            content = _frame_content(rec, imgs[method], options, sweeps[k], moving, peaks)
+            drawn = left.frame(content)
+            if figure is None:  # laid out once, on the first frame
+                figure = DriveFigure(
+                    first=imgs[method],
+                    extent=extent,
+                    max_range_m=limit,
+                    dynamic_range_db=dr,
+                    **left.figure_keywords(drawn),
+                    # the same entries in every frame: the frames keep one size
+                    marks={"in", "off", "behind", "weak"}
+                    if any(m is not None for m in marks)
+                    else set(),
+                )
+            title = _title(rec, indices[k], True)
+            frames.append(figure.frame(drawn, imgs[method], marks[k], title))
+            yield k + 1, len(recordings)
+    finally:
+        left.close()
+        if figure is not None:
+            figure.close()
+    write_gif(path, frames, frame_delay_ms(recordings))
+
+
+def _left_panel(view: DriveView, recordings, triangles, scene, sweeps, marks, dr):
+    """The animation's left panel: :class:`_Plan` or :class:`_View3D`."""
+    entries = legend_entries(
+        with_truth=any(m is not None for m in marks),
+        with_sweep=any(s is not None for s in sweeps),
+        with_moving=scene is not None and any(m.moving for m in scene.meshes),
+        truth_range_db=dr,
+        with_lidar=any(rec.lidar is not None for rec in recordings),
+    )
+    if view == "plan":
+        track = np.array([_pose(rec).position_m for rec in recordings], float).reshape(-1, 3)
+        return _Plan(PlanScene(triangles=triangles, track=track), entries)
     renderer = SceneRenderer(
         triangles,
         window_size=(640, 480),
@@ -646,34 +706,41 @@ def _animate(recordings, images, triangles, path, options, indices, scene=None, 
         legend=False,  # below the frame, with the fan's
     ).antialiasing(1)  # none: a third of the render's time; the GIF's palette and the
     # view shrunk to its box (nearest pixel) cost it most of its effect
-    figure = None
-    try:
-        for k, (rec, imgs) in enumerate(zip(recordings, images)):
-            moving = _moving_triangles(scene, rec)
-            peaks = None if tables is None else _world_points(tables[k][method])
-            content = _frame_content(rec, imgs[method], options, sweeps[k], moving, peaks)
-            view = renderer.frame(content)
-            if figure is None:  # laid out once, on the first frame
-                figure = DriveFigure(
-                    view_shape=view.shape[:2],
-                    first=imgs[method],
-                    extent=extent,
-                    max_range_m=limit,
-                    dynamic_range_db=dr,
-                    entries=renderer.entries,
-                    # the same entries in every frame: the frames keep one size
-                    marks={"in", "off", "behind", "weak"}
-                    if any(m is not None for m in marks)
-                    else set(),
-                )
-            title = _title(rec, indices[k], True)
-            frames.append(figure.frame(view, imgs[method], marks[k], title))
-            yield k + 1, len(recordings)
-    finally:
-        renderer.close()
-        if figure is not None:
-            figure.close()
-    write_gif(path, np.stack(frames), frame_delay_ms(recordings))
+    return _View3D(renderer)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Plan:
+    """The plan view (:mod:`acousim.viz.plan`): each frame's content drawn by the
+    figure itself."""
+
+    scene: PlanScene
+    entries: list
+
+    def frame(self, content: FrameContent) -> FrameContent:
+        return content
+
+    def figure_keywords(self, drawn) -> dict:
+        return {"left": self.scene, "entries": self.entries}
+
+    def close(self) -> None:
+        pass
+
+
+@dataclasses.dataclass(frozen=True)
+class _View3D:
+    """The 3D chase view: each frame rendered offscreen (VTK), its pixels pasted."""
+
+    renderer: SceneRenderer
+
+    def frame(self, content: FrameContent) -> np.ndarray:
+        return self.renderer.frame(content)
+
+    def figure_keywords(self, drawn) -> dict:
+        return {"left": drawn.shape[:2], "entries": self.renderer.entries}
+
+    def close(self) -> None:
+        self.renderer.close()
 
 
 def _fan_marks(rec: P.Recording, image: P.Image, limit: float, dynamic_range_db: float):

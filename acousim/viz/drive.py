@@ -1,10 +1,11 @@
-"""The drive animation's frames: the 3D view beside the top view (fan), one figure laid
-out once and reused for every frame.
+"""The drive animation's frames: the plan view (or a 3D view) beside the top view
+(fan), one figure laid out once and reused for every frame.
 
 Laying out and drawing a matplotlib figure (ticks, colour bar, legend, constrained
 layout) costs most of a frame; only the two pictures, the fan's marks and the title
 change between frames.  So the figure is drawn once without them (its background
-kept), and each frame restores that background, writes the two pictures straight
+kept), and each frame restores that background, draws the plan's artists
+(:class:`acousim.viz.plan.PlanPanel`) or writes the 3D view, writes the fan straight
 into the canvas' pixels (nearest pixel, through maps computed once: for the fan,
 each canvas pixel's polar cell, and per frame only each cell's colour from the colour
 map, :func:`acousim.viz.fan.fan_levels`) and draws only the marks and the title
@@ -16,6 +17,8 @@ per frame (Pillow's default for RGB frames, most of the encoding's time).
 
 from __future__ import annotations
 
+from typing import Literal, get_args
+
 import numpy as np
 
 from acousim.viz.fan import (
@@ -26,9 +29,34 @@ from acousim.viz.fan import (
     fan_levels,
     legend_inside,
 )
+from acousim.viz.plan import PlanPanel, PlanScene
 from processing import Image
 
-__all__ = ["DriveFigure", "gif_palette", "write_gif"]
+__all__ = [
+    "DriveFigure",
+    "DriveView",
+    "DRIVE_VIEWS",
+    "check_drive_view",
+    "gif_palette",
+    "write_gif",
+]
+
+DriveView = Literal["plan", "3d"]
+"""The drive animation's left panel: "plan" (the scene cut at the sensor's height,
+from above in the sensor's frame, drawn from arrays: :mod:`acousim.viz.plan`) or "3d"
+(a 3D view behind and above the sensor, rendered per frame by VTK: about 60 ms of
+CPU a frame more on a software renderer)."""
+DRIVE_VIEWS: tuple[str, ...] = get_args(DriveView)
+
+
+def check_drive_view(value: str, key: str = "view") -> DriveView:
+    """`value` if it is one of :data:`DRIVE_VIEWS`, else an InputError naming `key`
+    ("did you mean ...")."""
+    from processing.base.settings import Setting, check
+
+    check(Setting("str", choices=DRIVE_VIEWS), value, key)
+    return value  # type: ignore[return-value]
+
 
 #: colours of the GIF's palette taken as they are (the most frequent: background,
 #: text, legend, flat faces); the rest of its 256 from an octree of the other pixels
@@ -36,26 +64,29 @@ EXACT_COLOURS = 64
 
 
 class DriveFigure:
-    """One figure for every frame of a drive: the 3D view (left, titled with the
+    """One figure for every frame of a drive: the left panel (titled with the
     recording) and the fan of one method (right) with its colour bar, one legend
-    below both (the 3D view's entries and the fan's marks).
+    below both (the left panel's entries and the fan's marks).  The left panel is
+    the plan view (:class:`acousim.viz.plan.PlanPanel`, drawn from arrays) or a 3D
+    view rendered per frame (`left`).
 
-    view_shape : (H, W) of the 3D views.
+    left : the left panel: a :class:`acousim.viz.plan.PlanScene` (the plan view on
+        the fan's axes) or (H, W), the shape of the 3D views pasted into it.
     extent : the fan's view (:class:`acousim.viz.fan.FanRaster`), the same in every
         frame; max_range_m, dynamic_range_db as for :func:`acousim.viz.fan.draw_fan`.
     first : the first frame's image (lays the figure out).
-    entries : the 3D view's legend entries (label, RGB).
+    entries : the left panel's legend entries (label, RGB).
     marks : the fan's mark kinds listed in the legend (every frame the same).
     """
 
     def __init__(
         self,
         *,
-        view_shape: tuple[int, int],
         first: Image,
         extent: tuple[float, float, float, float],
         max_range_m: float,
         dynamic_range_db: float,
+        left: PlanScene | tuple[int, int],
         entries=(),
         marks: set[str] = frozenset(),
         pixels: int = 600,
@@ -65,50 +96,70 @@ class DriveFigure:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from acousim.viz.render3d import legend_handles
-
         self.extent, self.limit, self.dr, self.pixels = (
             extent,
             max_range_m,
             dynamic_range_db,
             pixels,
         )
+        ratios = [1, 1] if isinstance(left, PlanScene) else [1.2, 1]
         fig, (a, b) = plt.subplots(
-            1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": [1.2, 1]}, layout="constrained"
+            1, 2, figsize=(12, 5.8), gridspec_kw={"width_ratios": ratios}, layout="constrained"
         )
         self.fig, self.ax_view, self.ax_fan = fig, a, b
-        self.view = a.imshow(np.zeros((*view_shape, 3), np.uint8))
-        a.axis("off")
+        handles = self._left(left, entries)
         self.title = a.set_title(" ", fontsize=10)
         im = draw_fan(b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=extent)
         self.fan = b.images[-1]
         b.set_title(f"{first.method}, top view", fontsize=9)
         fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
-        handles = legend_handles(entries, markersize=7) + fan_legend(set(marks), dynamic_range_db)
-        legend_inside(fig, handles)
+        legend_inside(fig, handles + fan_legend(set(marks), dynamic_range_db))
         fig.canvas.draw()  # the layout, once
         fig.set_layout_engine("none")
         self.title.set_animated(True)
         height = fig.canvas.get_width_height()[1]
         # where each picture's pixels go on the canvas: drawn straight from the arrays
-        self.view_paste = _paste_map(a, view_shape, height, top_down=True)
+        if self.plan is None:
+            self.view_paste = _paste_map(a, self.view_shape, height, top_down=True)
+            self.view.set_visible(False)  # the background holds neither picture
         self.fan_paste = _paste_map(b, first_raster_shape(self.fan), height, top_down=False)
-        self.view.set_visible(False)  # the background holds neither picture
         self.fan.set_visible(False)
         fig.canvas.draw()
         self.background = fig.canvas.copy_from_bbox(fig.bbox)
         self._fan_key: tuple | None = None
         self._fan_table_index = np.empty((0, 0), np.intp)
 
-    def frame(self, view: np.ndarray, image: Image, marks, title: str) -> np.ndarray:
-        """One frame (H, W, 3) uint8: `view` (the 3D view), the fan of `image` with
-        `marks` (:class:`acousim.viz.truth.TruthMarks` or None), `title` above the view."""
+    def _left(self, left: PlanScene | tuple[int, int], entries) -> list:
+        """Set the left panel up (the plan, or the 3D view's image of shape `left`);
+        returns its legend handles."""
+        from acousim.viz.render3d import legend_handles
+
+        a = self.ax_view
+        self.plan: PlanPanel | None = None
+        if isinstance(left, PlanScene):
+            self.plan = PlanPanel(a, extent=self.extent, scene=left, truth_range_db=self.dr)
+            return self.plan.legend_entries(entries)
+        self.view_shape = tuple(left)
+        self.view = a.imshow(np.zeros((*self.view_shape, 3), np.uint8))
+        a.axis("off")
+        return legend_handles(entries, markersize=7)
+
+    def frame(self, left, image: Image, marks, title: str) -> np.ndarray:
+        """One frame (H, W, 3) uint8: `left` (the plan's
+        :class:`acousim.viz.render3d.FrameContent`, or the 3D view (h, w, 3) uint8),
+        the fan of `image` with `marks` (:class:`acousim.viz.truth.TruthMarks` or
+        None), `title` above the left panel."""
         canvas, a, b = self.fig.canvas, self.ax_view, self.ax_fan
         canvas.restore_region(self.background)
         pixels = np.asarray(canvas.buffer_rgba())
-        self.view_paste.paste(pixels, np.asarray(view)[..., :3])
+        if self.plan is None:
+            self.view_paste.paste(pixels, np.asarray(left)[..., :3])
         levels = fan_levels(image, self.limit, self.dr, self.pixels, self.extent)
         self.fan_paste.paste_colours(pixels, levels.colours(self.dr), self._fan_index(levels))
+        if self.plan is not None:  # after the pixels written into the canvas
+            self.plan.draw(left)
+            for spine in a.spines.values():
+                a.draw_artist(spine)
         self.title.set_text(title)
         a.draw_artist(self.title)
         if marks is not None:
@@ -205,13 +256,14 @@ def _paste_map(ax, shape: tuple[int, int], height: int, *, top_down: bool) -> _P
     return _Paste(slice(r0, r1), slice(c0, c1), src_rows, src_cols)
 
 
-def gif_palette(frames: np.ndarray, exact: int = EXACT_COLOURS, stride: int = 4):
-    """One palette (a Pillow "P" image) for all `frames` (N, H, W, 3) uint8, from
-    every `stride`-th pixel of each: their `exact` most frequent colours as they
-    are, and 256 - `exact` more from Pillow's fast octree of the other pixels."""
+def gif_palette(frames, exact: int = EXACT_COLOURS, stride: int = 4):
+    """One palette (a Pillow "P" image) for all `frames` ((N, H, W, 3) uint8, or a
+    sequence of N (H, W, 3)), from every `stride`-th pixel of each: their `exact`
+    most frequent colours as they are, and 256 - `exact` more from Pillow's fast
+    octree of the other pixels."""
     from PIL import Image as PILImage
 
-    pixels = np.ascontiguousarray(frames[:, ::stride, ::stride]).reshape(-1, 3)
+    pixels = np.concatenate([f[::stride, ::stride].reshape(-1, 3) for f in frames])
     key = pixels.astype(np.int64) @ np.array([1 << 16, 1 << 8, 1])
     values, counts = np.unique(key, return_counts=True)
     top = values[np.argsort(counts, kind="stable")[::-1][:exact]]
@@ -227,10 +279,10 @@ def gif_palette(frames: np.ndarray, exact: int = EXACT_COLOURS, stride: int = 4)
     return palette
 
 
-def write_gif(path, frames: np.ndarray, duration_ms: int) -> None:
-    """`frames` (N, H, W, 3) uint8 as a looping GIF at `path`, `duration_ms` (ms) per
-    frame, every frame in one palette (:func:`gif_palette`; each pixel its nearest
-    colour in it, no dithering)."""
+def write_gif(path, frames, duration_ms: int) -> None:
+    """`frames` ((N, H, W, 3) uint8, or a sequence of N (H, W, 3)) as a looping GIF
+    at `path`, `duration_ms` (ms) per frame, every frame in one palette
+    (:func:`gif_palette`; each pixel its nearest colour in it, no dithering)."""
     from PIL import Image as PILImage
 
     palette = gif_palette(frames)

@@ -76,6 +76,9 @@ class FrameContent:
     chains : polylines (each (K, 3)) of the strongest echoes' paths: from the sensor
         through their interactions and back, then on to where the sensor sees them
         (thin lines).
+    sensor_rotation : (3, 3) sensor -> world (its columns the sensor's x forward, y
+        left, z up), for the plan view (:mod:`acousim.viz.plan`); None: made from the
+        axis with the world's z up.
     """
 
     sensor_position: np.ndarray
@@ -88,6 +91,7 @@ class FrameContent:
     moving_triangles: np.ndarray | None = None
     lidar: np.ndarray | None = None
     chains: tuple | list = ()
+    sensor_rotation: np.ndarray | None = None
 
 
 def _polydata(pv, triangles: np.ndarray):

@@ -202,7 +202,10 @@ def test_the_python_defaults_are_the_command_lines():
     image = parser._subparsers._group_actions[0].choices["image"]
     said = re.search(r"\(default: ([\w,-]+)\)", " ".join(image.format_help().split()))
     assert tuple(said.group(1).split(",")) == ImagingOptions().methods
-    from acousim.cli.image import CHIRP_CALLS
+    from acousim.cli.image import CHIRP_CALLS, DRIVE_VIEWS
+    from acousim.viz.drive import DRIVE_VIEWS as VIEWS
+
+    assert DRIVE_VIEWS == VIEWS
 
     assert set(CHIRP_CALLS) == set(P.CALLS)
     cli = ImagingOptions().grid

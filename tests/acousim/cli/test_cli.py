@@ -112,10 +112,17 @@ def test_trajectory_gives_an_animation(tmp_path):
     )
     frames = imageio.mimread(tmp_path / "img" / "drive.gif")
     assert len(frames) == 3 and np.asarray(frames[0]).std() > 10
-    # the 3D view (left panel, below the title) follows the sensor: frames differ there
-    # by far more than a title's change (a stale render differed by about 0.05)
+    # the plan (left panel, below the title) is drawn in the sensor's frame: the
+    # corridor moves past it, so frames differ there by far more than a title's change
     view = [np.asarray(f, float)[40:, 100:500] for f in frames]
     assert np.abs(view[2] - view[0]).mean() > 0.5
+    # the 3D view instead, asked for: other pixels on the left, frames of one size
+    three = ["image", str(out), "--out", str(tmp_path / "img3"), "--method", "das", "--no-3d"]
+    assert main([*three, "--drive-view", "3d"]) == 0
+    frames3 = imageio.mimread(tmp_path / "img3" / "drive.gif")
+    assert len(frames3) == 3 and frames3[0].shape == frames[0].shape
+    left3 = np.asarray(frames3[0], float)[40:, 100:500]
+    assert np.abs(left3 - view[0]).mean() > 5
 
 
 def test_the_animation_plays_at_the_drive_rate_and_a_second_run_leaves_no_stale_file(

@@ -202,7 +202,7 @@ def test_a_drive_frame_keeps_nothing_of_the_frame_before():
     two = blob_image([(2.0, -40.0, 0.0, 0.0)], ranges=rng)
     gen = np.random.default_rng(0)
     views = gen.integers(0, 255, (2, 120, 160, 3), dtype=np.uint8)
-    kw = {"view_shape": (120, 160), "extent": (2.5, -2.5, 0.0, 2.5), "max_range_m": 2.5}
+    kw = {"left": (120, 160), "extent": (2.5, -2.5, 0.0, 2.5), "max_range_m": 2.5}
     kw["dynamic_range_db"] = 30.0
     drive = DriveFigure(first=one, **kw)
     drive.frame(views[0], one, None, "recording 0, t = 0.0 s")
@@ -227,7 +227,7 @@ def test_a_drive_frame_is_what_matplotlib_draws_of_the_same_figure():
     view = np.stack([xx * 255 // 320, yy * 255 // 240, np.full_like(xx, 128)], -1).astype(np.uint8)
     extent = (2.5, -2.5, 0.0, 2.5)
     drive = DriveFigure(
-        first=img, view_shape=(240, 320), extent=extent, max_range_m=2.5, dynamic_range_db=30.0
+        first=img, left=(240, 320), extent=extent, max_range_m=2.5, dynamic_range_db=30.0
     )
     fast = drive.frame(view, img, None, "recording 1").astype(int)
     drive.view.set_visible(True)
@@ -296,7 +296,7 @@ def test_a_drive_frames_fan_pixels_are_their_polar_cells_colours_worked_out_one_
     extent, dr = (2.5, -2.5, -0.4, 2.6), 30.0  # behind the array: outside the view
     view = np.zeros((60, 80, 3), np.uint8)
     drive = DriveFigure(
-        first=img, view_shape=(60, 80), extent=extent, max_range_m=2.3, dynamic_range_db=dr,
+        first=img, left=(60, 80), extent=extent, max_range_m=2.3, dynamic_range_db=dr,
         pixels=150,
     )  # fmt: skip
     frame = drive.frame(view, img, None, "recording 0")

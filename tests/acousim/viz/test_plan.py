@@ -1,0 +1,123 @@
+"""The drive's plan view: the scene cut at the sensor's height, in the sensor's frame.
+
+The section is checked against trimesh's own mesh-plane intersection (a second
+implementation) and against a cube's square worked out here; a drawn frame is read
+back on its pixels: a wall placed in the world shows where the sensor sees it.
+"""
+
+import numpy as np
+import pytest
+
+from tests.acousim.imaging.synthetic import blob_image
+
+
+def _segments_key(seg: np.ndarray) -> np.ndarray:
+    """Segments (S, 2, 2) as sorted rows (each segment's ends in order), rounded."""
+    s = np.round(np.asarray(seg, float), 9)
+    ends = np.sort(s.reshape(-1, 2, 2).view([("x", float), ("y", float)]), axis=1)
+    flat = ends.view(float).reshape(-1, 4)
+    return flat[np.lexsort(flat.T[::-1])]
+
+
+def test_a_cube_cut_through_its_middle_is_its_square():
+    import trimesh
+
+    from acousim.viz.plan import plane_section
+
+    cube = trimesh.creation.box(extents=(2.0, 1.0, 3.0))  # centred on the origin
+    seg = plane_section(cube.triangles)
+    assert seg.shape[1:] == (2, 2) and len(seg) == 8  # two faces per side
+    length = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1).sum()
+    assert length == pytest.approx(2 * (2.0 + 1.0))
+    on_side = np.isclose(np.abs(seg[..., 0]), 1.0) | np.isclose(np.abs(seg[..., 1]), 0.5)
+    assert on_side.all()
+
+
+def test_the_section_is_trimeshs_mesh_plane_intersection():
+    import trimesh
+
+    from acousim.viz.plan import plane_section
+
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=1.3)
+    mesh.apply_translation([0.2, -0.1, 0.37])  # the plane z = 0 cuts it off-centre
+    want = trimesh.intersections.mesh_plane(mesh, [0, 0, 1], [0, 0, 0])
+    got = plane_section(mesh.triangles)
+    assert len(got) == len(want) > 20
+    np.testing.assert_allclose(_segments_key(got), _segments_key(want[..., :2]), atol=1e-9)
+    # every end point lies on the sphere's circle of the cut
+    r = np.sqrt(1.3**2 - 0.37**2)
+    radius = np.linalg.norm(got.reshape(-1, 2) - [0.2, -0.1], axis=1)
+    assert radius.max() <= r + 1e-12 and radius.min() > r * np.cos(np.pi / 40)
+
+
+def test_faces_above_below_or_touching_the_plane_give_no_segment():
+    from acousim.viz.plan import plane_section
+
+    above = [[0, 0, 0.1], [1, 0, 0.2], [0, 1, 0.3]]
+    below = [[0, 0, -0.1], [1, 0, -0.2], [0, 1, -0.3]]
+    touching = [[0, 0, 0.0], [1, 0, 0.2], [0, 1, 0.3]]  # a vertex on the plane
+    lying = [[0, 0, 0.0], [1, 0, 0.0], [0, 1, 0.0]]  # in the plane
+    assert plane_section(np.array([above, below, touching, lying], float)).shape == (0, 2, 2)
+
+
+def test_a_point_ahead_of_a_turned_sensor_is_ahead_in_its_frame():
+    from scipy.spatial.transform import Rotation
+
+    from acousim.viz.plan import to_sensor_frame
+
+    rot = Rotation.from_euler("ZYX", [120.0, 10.0, 5.0], degrees=True).as_matrix()
+    pos = np.array([1.0, -2.0, 0.5])
+    ahead = pos + 3.0 * rot[:, 0] + 0.5 * rot[:, 1]  # 3 m ahead, 0.5 m to its left
+    np.testing.assert_allclose(to_sensor_frame(ahead, pos, rot), [3.0, 0.5, 0.0], atol=1e-12)
+
+
+def _dark_grey(frame: np.ndarray) -> np.ndarray:
+    """Pixels of the section's colour (dark grey, 64-71 of 255), as a mask."""
+    from acousim.viz.plan import SECTION_COLOR
+
+    want = np.array(SECTION_COLOR) * 255
+    return (np.abs(frame.astype(float) - want) <= 12).all(axis=-1)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 90.0, -35.0])
+def test_a_wall_ahead_of_the_sensor_is_drawn_at_its_distance_in_the_plan(yaw_deg):
+    """A wall 2 m ahead of the sensor, across its axis, whatever way the sensor
+    faces in the world: the plan's dark-grey pixels, mapped back through the axes,
+    lie 2 m forward (within two pixels) and span the wall's width."""
+    from scipy.spatial.transform import Rotation
+
+    from acousim.viz.drive import DriveFigure
+    from acousim.viz.plan import PlanScene
+    from acousim.viz.render3d import FrameContent
+
+    rot = Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix()
+    pos = np.array([3.0, 1.0, 0.4])
+    fwd, left, up = rot[:, 0], rot[:, 1], rot[:, 2]
+    centre = pos + 2.0 * fwd
+    corners = [centre + a * left + b * up for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    wall = np.array([[corners[0], corners[1], corners[2]], [corners[0], corners[2], corners[3]]])
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
+    track = np.array([pos - 0.5 * fwd, pos])
+    drive = DriveFigure(
+        first=img,
+        extent=(2.5, -2.5, 0.0, 2.6),
+        max_range_m=2.5,
+        dynamic_range_db=30.0,
+        left=PlanScene(triangles=wall, track=track),
+    )
+    content = FrameContent(sensor_position=pos, sensor_axis=fwd, sensor_rotation=rot)
+    frame = drive.frame(content, img, None, "recording 0")
+    ax, height = drive.ax_view, frame.shape[0]
+    box = ax.get_window_extent()
+    rows, cols = np.nonzero(_dark_grey(frame))
+    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
+    inside &= height - rows < box.y1 - 2
+    xy = ax.transData.inverted().transform(np.column_stack([cols[inside], height - rows[inside]]))
+    drive.close()
+    metres_per_px = 5.0 / box.width
+    xy = xy[np.hypot(*xy.T) > 0.8]  # not the sensor's arrow (black, its edges greyed)
+    lateral, forward = xy[:, 0], xy[:, 1]
+    assert len(forward) > 50
+    assert np.abs(forward - 2.0).max() <= 2 * metres_per_px
+    assert lateral.min() == pytest.approx(-1.0, abs=2 * metres_per_px)
+    assert lateral.max() == pytest.approx(1.0, abs=2 * metres_per_px)
