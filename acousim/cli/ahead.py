@@ -1,9 +1,9 @@
 """Work made in a second process while the command does other work.
 
 ``acousim image`` reads and images its recordings in two processes, each taking the
-next one not yet taken (:func:`shared_by_two_processes`), then draws the animation
-(and with ``--images-h5`` writes images.h5: the label maps, the compression) in
-forked workers while it draws the stills (:func:`ahead_in_a_process`): on the 2
+next one not yet taken (:func:`shared_by_two_processes`), then draws its pictures
+the same way, and with ``--images-h5`` writes images.h5 (the label maps, the
+compression) in a forked worker meanwhile (:func:`ahead_in_a_process`): on the 2
 cores of a laptop the work overlaps.  A worker's items come back
 through a socket pair, drained by a thread of this process as they come, and are
 handed out in order.  An item's numpy arrays travel out of band (pickle protocol 5),

@@ -370,47 +370,57 @@ class Asked:
 
 
 def write_pictures_beside(out, recs, images, index, options, asked: Asked, tables=None) -> list:
-    """The stills :class:`Asked` for and, meanwhile in a second process
-    (:mod:`acousim.cli.ahead`), the drive's animation (written to a temporary file
-    renamed here with the rest, its peaks from the peak `tables`, if made): the
-    files written."""
-    from acousim.cli.ahead import ahead_in_a_process
-    from acousim.imaging.run import drive_steps, write_stills
-    from processing.base.atomic import atomic_path
+    """The pictures :class:`Asked` for (the stills and the drive's animation, its
+    peaks from the peak `tables`, if made), drawn by this process and a forked worker
+    together, each taking the next picture not yet taken, the longest first (the
+    animation, the 3D views, the fans, the maps): the files written, in the stills'
+    order then the animation.  They are written whole into a stage in `out`
+    (:func:`processing.base.atomic.staged`) and renamed into place with the
+    command's other files."""
+    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.imaging.run import PictureJob, still_jobs, write_drive
+    from processing.base.atomic import staged
 
-    def stills() -> list:
-        return write_stills(
+    with staged(out) as stage:
+        jobs = still_jobs(
             recs,
             images,
-            out,
+            stage.folder,
             options,
             shown=asked.shown,
             indices=index,
             render_3d=asked.render_3d,
-            progress=progress("stills", "picture"),
         )
+        if asked.animated:
+            drive = functools.partial(
+                write_drive,
+                recs,
+                images,
+                stage.folder,
+                options,
+                indices=index,
+                view=asked.drive_view,
+                tables=tables,
+            )
+            jobs.append(PictureJob(stage.folder / "drive.gif", lambda: drive()[0]))
+        order = sorted(range(len(jobs)), key=lambda k: _cost_rank(jobs[k].path.name))
+        made = shared_by_two_processes(
+            lambda k: jobs[order[k]](), len(jobs), progress=progress("pictures", "picture")
+        )
+        files = [None] * len(jobs)
+        for k, path in zip(order, made):
+            files[k] = stage.adopt(path, out / path.name)
+    return files
 
-    if not asked.animated:
-        return stills()
-    gif = out / "drive.gif"
-    with atomic_path(gif) as tmp:
-        # forked before the stills' 3D view: a worker's VTK starts afresh
-        work = functools.partial(
-            drive_steps,
-            recs,
-            images,
-            tmp,
-            options,
-            indices=index,
-            tables=tables,
-            view=asked.drive_view,
-        )
-        bar = progress("animate", "frame")  # from the worker's start
-        with ahead_in_a_process(work) as frames:
-            files = stills()
-            for done, total in frames:
-                bar(done, total)
-    return [*files, gif]
+
+#: the pictures by what each costs, the longest first (drawn in this order by two
+#: processes, the longest is not left for last): file name's stem -> rank
+_COST_RANK = {"drive": 0, "scene3d": 1, "fan": 2, "elaz": 3}
+
+
+def _cost_rank(name: str) -> int:
+    """A picture's place in :data:`_COST_RANK` by its file `name` (``fan_3.png``)."""
+    return _COST_RANK.get(name.split(".")[0].split("_")[0], len(_COST_RANK))
 
 
 def _write_pictures(args, out, recs, images, index, options, shown, tables=None) -> list:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import signal
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -55,6 +56,8 @@ __all__ = [
     "drive_method",
     "write_pictures",
     "write_stills",
+    "still_jobs",
+    "PictureJob",
 ]
 
 
@@ -363,35 +366,67 @@ def write_stills(
         ``scene3d_N.png``; default 0, 1, ...).
     progress : called ``(done, total)`` after each picture written.
     """
+    jobs = still_jobs(
+        recordings, images, out_dir, options, shown=shown, indices=indices, render_3d=render_3d
+    )
+    written: list[Path] = []
+    for job in jobs:
+        written.append(job())
+        if progress is not None:
+            progress(len(written), len(jobs))
+    return written
+
+
+def still_jobs(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    shown: Sequence[int] = (0,),
+    indices: Sequence[int] | None = None,
+    render_3d: bool = True,
+) -> list[PictureJob]:
+    """The pictures of :func:`write_stills`, each a job of its own that writes one
+    file (for two processes to share: each needs only its recording), in
+    :func:`write_stills`' order: per recording shown, the fan, each method's el-az
+    maps, the 3D view."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     trajectory = len(recordings) > 1
     scene = _scene(recordings[shown[0]]) if render_3d else None
-    triangles = _scene_triangles(scene) if render_3d else None
-    written: list[Path] = []
-    total = sum(1 + _elaz_count(images[k]) + render_3d for k in shown)
-
-    def count(files: list[Path]) -> None:
-        written.extend(files)
-        if progress is not None:
-            progress(len(written), total)
-
+    jobs: list[PictureJob] = []
     for k in shown:
         rec, imgs = recordings[k], images[k]
         tag = f"_{indices[k]}" if len(shown) > 1 else ""
         title = _title(rec, indices[k], trajectory)
-        _stills(rec, imgs, out, options, _range_limit(rec, options), title, tag, count)
+        limit = _range_limit(rec, options)
+        path = out / f"fan{tag}.png"
+        draw = functools.partial(_fan_still, rec, imgs, path, options, limit, title)
+        jobs.append(PictureJob(path, draw))
+        for m, img in imgs.items():
+            if img.power.size:
+                path = out / f"elaz_{m}{tag}.png"
+                draw = functools.partial(_elaz_still, rec, imgs, m, path, options, title)
+                jobs.append(PictureJob(path, draw))
         if render_3d:
-            moving = _moving_triangles(scene, rec)
             path = out / f"scene3d{tag}.png"
-            count([_render(rec, imgs, triangles, path, options, moving, title)])
-    return written
+            draw = functools.partial(_scene_still, rec, imgs, scene, path, options, title)
+            jobs.append(PictureJob(path, draw))
+    return jobs
 
 
-def _elaz_count(imgs: dict[str, P.Image]) -> int:
-    """The el-az pictures of a recording's images (those with range bins)."""
-    return sum(1 for img in imgs.values() if img.power.size)
+@dataclass(frozen=True)
+class PictureJob:
+    """One picture to draw: the file it writes (`path`) and `draw`, which writes it
+    and returns its path (called as the job is)."""
+
+    path: Path
+    draw: Callable[[], Path]
+
+    def __call__(self) -> Path:
+        return self.draw()
 
 
 def write_drive(
@@ -403,17 +438,20 @@ def write_drive(
     progress: Callable[[int, int], None] | None = None,
     indices: Sequence[int] | None = None,
     view: DriveView = "plan",
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
 ) -> list[Path]:
     """The animated GIF of a drive (``drive.gif``): per recording, the plan view
     (`view` "plan": the scene cut at the sensor's height, in the sensor's frame) or
-    the 3D view ("3d") beside the fan of the sharpest method imaged.  Returns the
-    file written (a list)."""
+    the 3D view ("3d") beside the fan of the sharpest method imaged, its peaks those
+    of `tables` if given (:func:`drive_steps`).  Returns the file written (a list)."""
     check_drive_view(view)  # before any work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "drive.gif"
     with atomic_path(path) as tmp:
-        steps = drive_steps(recordings, images, tmp, options, indices=indices, view=view)
+        steps = drive_steps(
+            recordings, images, tmp, options, indices=indices, tables=tables, view=view
+        )
         for done, total in steps:
             if progress:
                 progress(done, total)
@@ -444,20 +482,28 @@ def drive_steps(
     return _animate(recordings, images, Path(path), options, indices, scene, tables, view)
 
 
-def _stills(rec, imgs, out: Path, options: ImagingOptions, limit: float, title: str, tag, done):
-    """The fan (every method) and each method's el-az maps of one recording, with
-    its traced reflectors marked, each file given to `done` (a list of one) once
-    written (``fan{tag}.png``, ...)."""
-
+def _fan_still(rec, imgs, path: Path, options: ImagingOptions, limit: float, title: str):
+    """The fan of every method of one recording, its traced reflectors marked."""
     dr = options.dynamic_range_db
     truth = _truth_sensor(rec, dr, imgs[drive_method(imgs)], options)
     kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
-    done([fan_figure(imgs, out / f"fan{tag}.png", max_range_m=limit, **kw)])
-    for m, img in imgs.items():
-        if img.power.size:
-            tol = _half_range_resolution(rec, img, options)
-            path = out / f"elaz_{m}{tag}.png"
-            done([elaz_figure(img, path, truth_tolerance_m=tol, **kw)])
+    return fan_figure(imgs, path, max_range_m=limit, **kw)
+
+
+def _elaz_still(rec, imgs, method: str, path: Path, options: ImagingOptions, title: str):
+    """The el-az maps of one recording's `method`, its traced reflectors marked."""
+    dr = options.dynamic_range_db
+    truth = _truth_sensor(rec, dr, imgs[drive_method(imgs)], options)
+    kw = {"title": title, "truth": truth, "dynamic_range_db": dr}
+    tol = _half_range_resolution(rec, imgs[method], options)
+    return elaz_figure(imgs[method], path, truth_tolerance_m=tol, **kw)
+
+
+def _scene_still(rec, imgs, scene, path: Path, options: ImagingOptions, title: str):
+    """The 3D view of one recording (the scene's meshes where they are at its
+    emission)."""
+    moving = _moving_triangles(scene, rec)
+    return _render(rec, imgs, _scene_triangles(scene), path, options, moving, title)
 
 
 def _half_range_resolution(rec: P.Recording, image: P.Image, options: ImagingOptions) -> float:

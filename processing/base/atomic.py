@@ -25,7 +25,15 @@ from pathlib import Path
 
 from processing.base import interrupt
 
-__all__ = ["atomic_path", "committed_together", "write_bytes", "write_text", "TEMP_PREFIX"]
+__all__ = [
+    "atomic_path",
+    "committed_together",
+    "staged",
+    "Stage",
+    "write_bytes",
+    "write_text",
+    "TEMP_PREFIX",
+]
 
 TEMP_PREFIX = ".acousim-tmp-"
 """Prefix of every temporary file (``.acousim-tmp-<random>-<name>``)."""
@@ -87,6 +95,57 @@ def committed_together() -> Iterator[None]:
     finally:
         if token is not None:
             _GROUP.reset(token)
+
+
+class Stage:
+    """A temporary folder (:attr:`folder`) where files are written whole, by this
+    process or by forked workers, before :meth:`adopt` moves them to their targets as
+    :func:`atomic_path` would have (with the enclosing :func:`committed_together`'s
+    files, or at once)."""
+
+    def __init__(self, folder: Path, group: list | None) -> None:
+        self.folder, self._group = folder, group
+
+    def adopt(self, staged: str | Path, path: str | Path) -> Path:
+        """Move the complete file `staged` (in :attr:`folder`) to `path`: first to a
+        temporary name beside `path`, then renamed when the enclosing group commits
+        (or now, outside one). Returns `path`."""
+        path = Path(path)
+        folder = path.parent if str(path.parent) else Path(".")
+        fd, name = tempfile.mkstemp(prefix=TEMP_PREFIX, suffix=f"-{path.name}", dir=folder)
+        os.close(fd)
+        tmp = Path(name)
+        try:
+            os.replace(staged, tmp)
+            if self._group is not None:
+                self._group.append((tmp, path))
+            else:
+                _commit([(tmp, path)])
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise
+        return path
+
+
+@contextlib.contextmanager
+def staged(folder: str | Path) -> Iterator[Stage]:
+    """A :class:`Stage`: a fresh temporary folder in `folder` (named with
+    :data:`TEMP_PREFIX`), removed with whatever is left in it when the block ends
+    (an error, Ctrl-C, a worker terminated mid-file). Inside the block a file written
+    with :func:`atomic_path` is renamed as soon as it is complete, in this process and
+    in a worker forked in the block (their files lie in the stage until adopted);
+    :meth:`Stage.adopt` hands each to the enclosing :func:`committed_together`."""
+    import shutil
+
+    group = _GROUP.get()
+    stage = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX, dir=folder))
+    token = _GROUP.set(None)
+    try:
+        yield Stage(stage, group)
+    finally:
+        _GROUP.reset(token)
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def _commit(moves: list[tuple[Path, Path]]) -> None:

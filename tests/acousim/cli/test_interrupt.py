@@ -152,7 +152,7 @@ def test_interrupted_simulate_keeps_the_old_output(corridor, tmp_path, after):
         assert code == 130
 
 
-@pytest.mark.parametrize("after", ["started", "image 1/2", "animate 1/2"])
+@pytest.mark.parametrize("after", ["started", "image 1/2", "pictures 1/3"])
 def test_interrupted_image_keeps_the_old_pictures(corridor, tmp_path, after):
     shutil.copy(corridor / "rec.h5", tmp_path / "rec.h5")
     out = tmp_path / "out"

@@ -99,7 +99,7 @@ def test_a_terminal_that_says_no_size_still_shows_the_bar(tmp_path):
 
 
 def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
-    """`image` under a terminal: a bar for the imaging, then for the stills (by
+    """`image` under a terminal: a bar for the imaging, then for the pictures (by
     picture) and images.h5 (by recording), each kept when done; with --quiet, only
     the files written."""
     scene = three_poses(tmp_path)
@@ -109,11 +109,11 @@ def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
     args.append("--images-h5")
     code, text = run_on_a_terminal(args, tmp_path)
     assert code == 0, text
-    for desc, done in (("image", "3/3"), ("images.h5", "3/3"), ("stills", "2/2")):
+    for desc, done in (("image", "3/3"), ("images.h5", "3/3"), ("pictures", "2/2")):
         rate = r"[\d.]+(recording/s|s/recording|picture/s|s/picture)"
         bar = rf"{re.escape(desc)}: 100%\|.*\| {done} \[\d\d:\d\d<00:00, +{rate}\]"
         assert re.search(bar, text), (desc, text)
-    assert text.index("stills: 100%") < text.index("images.h5: 100%")
+    assert text.index("pictures: 100%") < text.index("images.h5: 100%")
     code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
     assert code == 0, text
     lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
@@ -150,11 +150,10 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     assert main([*args, "--images-h5"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
-    # the write phase: the stills (fan, el-az of das) by picture, the animation's
-    # frames, then images.h5 by recording (its label maps made meanwhile)
-    assert re.fullmatch(r"stills: 2/2 pictures in [\d.]+ s \(.*\)", lines[1]), lines
-    assert re.fullmatch(r"animate: 3/3 frames in [\d.]+ s \(.*\)", lines[2]), lines
-    assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[3]), lines
+    # the write phase: the pictures (fan, el-az of das, the animation) by picture,
+    # then images.h5 by recording (its label maps made meanwhile)
+    assert re.fullmatch(r"pictures: 3/3 pictures in [\d.]+ s \(.*\)", lines[1]), lines
+    assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[2]), lines
     # export: the imaging, then the bag's recordings
     assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
     lines = capsys.readouterr().out.splitlines()

@@ -178,8 +178,10 @@ def test_image_recording_chooses_the_recording_the_stills_show(tmp_path):
 
     import unittest.mock
 
+    # every picture drawn in this process (no forked worker), where the spy sees it
     with unittest.mock.patch.object(matplotlib.figure.Figure, "savefig", spy):
-        assert main([*base, "--recording", "2", "--out", str(tmp_path / "a")]) == 0
+        with unittest.mock.patch("acousim.cli.ahead._can_fork", lambda: False):
+            assert main([*base, "--recording", "2", "--out", str(tmp_path / "a")]) == 0
     assert (tmp_path / "a" / "fan.png").is_file()
     assert seen and all("recording 2, t = 1.0 s" in t for t in seen)
     # a range: one set of pictures per recording, named by its index
