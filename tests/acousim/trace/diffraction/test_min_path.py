@@ -51,9 +51,7 @@ def test_the_short_bins_of_weak_pairs_are_not_integrated(rig, monkeypatch):
     array = rig.rig.pair_array(j, k)
     mics = f.pose.to_world(array.positions_m)
     min_path_m = 7.6
-    asked, _ = Tracer(rig.pair(j, j).scene, threads=1).traced(
-        f.pose, array, min_path_m=min_path_m
-    )
+    asked, _ = Tracer(rig.pair(j, j).scene, threads=1).traced(f.pose, array, min_path_m=min_path_m)
     monkeypatch.setattr(edge_to_edge, "_reaching_bins", lambda ctx, floor, sel, bound, w: sel)
     every_bin, _ = Tracer(rig.pair(j, j).scene, threads=1).traced(
         f.pose, array, min_path_m=min_path_m
