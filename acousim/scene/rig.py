@@ -129,6 +129,14 @@ class MountedTrajectory(Trajectory):
         """Rotation sensor -> world (..., 3, 3) at times `t_s` (...)."""
         return self.body.rotation(t_s) @ self.mount.rotation
 
+    def to_world(self, points_sensor: np.ndarray, t_s) -> np.ndarray:
+        """Sensor-frame points (P, 3) at times (...): world positions (..., P, 3) (as
+        :meth:`Trajectory.to_world`, the body's rotation evaluated once)."""
+        body = self.body.rotation(t_s)
+        R = body @ self.mount.rotation
+        p = self.body.position(t_s) + body @ self.mount.position_m
+        return np.einsum("...ij,pj->...pi", R, np.asarray(points_sensor, float)) + p[..., None, :]
+
     def velocity(self, t_s: float) -> np.ndarray:
         """Velocity (3,) m/s of the sensor's origin at `t_s` (world frame): the body's
         plus its turn carrying the lever arm."""
