@@ -420,6 +420,11 @@ def test_a_mount_rides_a_turning_body():
     assert yaw == pytest.approx(turn + np.deg2rad(30))
     p = mount.place(body.pose(t))
     np.testing.assert_allclose(p.position_m, m.position(t), atol=1e-12)
+    # a point 0.2 m along the sonar's axis, at two times at once
+    c, s = np.cos(turn + np.deg2rad(30)), np.sin(turn + np.deg2rad(30))
+    ahead = m.to_world(np.array([[0.2, 0, 0]]), np.array([t, t]))
+    expected = [0.5 * t, 0, 0] + arm + [0.2 * c, 0.2 * s, 0]
+    np.testing.assert_allclose(ahead[1, 0], expected, atol=1e-12)
 
 
 def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_path):
