@@ -233,6 +233,12 @@ class Rig:
     crosstalk : every call of every sonar in the recordings of all the others (and
         its own later ones) that it reaches; false: each recording hears its own call
         only.
+    earlier_calls : with crosstalk, the calls emitted before a recording's own
+        emission are heard too (the late paths of a call that reach its window); false
+        leaves them out, and hears only the calls emitted during the window: an
+        approximation, cheaper (on the corridor rig the earlier call is about half
+        of the crosstalk's cost and lies 71 to 83 dB under the recording; in a small
+        reverberant room its later echoes can be much stronger: BENCHMARKS.md "Rig").
     """
 
     sonars: tuple[RigSonar, ...]
@@ -240,6 +246,7 @@ class Rig:
     motion: Trajectory | None = None
     lidars: tuple[Lidar, ...] = ()
     crosstalk: bool = True
+    earlier_calls: bool = True
 
     def __post_init__(self) -> None:
         sonars = tuple(self.sonars)
