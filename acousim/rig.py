@@ -242,6 +242,8 @@ class RigSimulator:
             "rig": [s.name for s in self.rig.sonars],
             "crosstalk": heard_from,
         }
+        if self.rig.crosstalk and not self.rig.earlier_calls:  # the approximation, named
+            meta["earlier_calls"] = False
         truth = _joined(truths, names)
         others = tuple(  # the rig's other LiDARs' scans started at this firing
             own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)

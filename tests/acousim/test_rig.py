@@ -154,6 +154,8 @@ def test_earlier_calls_left_out_on_request(tmp_path):
     alone = RigSimulator(dataclasses.replace(scene, rig=quiet)).run().recordings
     assert [h["sensor"] for h in every[1].metadata["crosstalk"]] == ["left"]
     assert later_only[1].metadata["crosstalk"] == []
+    assert later_only[1].metadata["earlier_calls"] is False
+    assert "earlier_calls" not in every[1].metadata
     assert set(later_only[1].truth.emitter) == {"right"}
     assert np.array_equal(later_only[1].samples, alone[1].samples)
     assert [h["sensor"] for h in later_only[0].metadata["crosstalk"]] == ["right"]
