@@ -21,7 +21,10 @@ with a margin); only the pairs whose bound and estimates reach the stage's floor
 are integrated at the fine step, the others
 keep first order alone (their paths would be dropped by the tracer's energy floor:
 what is skipped is measured in BENCHMARKS.md and
-``tests/acousim/trace/diffraction/test_pair_selection.py``).
+``tests/acousim/trace/diffraction/test_pair_selection.py``).  A trace asked only for
+the paths at least ``min_path_m`` long (a call heard late in another sonar's window)
+also skips the pairs whose every path is shorter and the bins of paths shorter in
+the others, where they cannot be the strongest echo (the same paths that long).
 
 With frequency-dependent materials (``face_column``), each wedge's response is split
 into the part without the image terms of its table faces and each of those terms
