@@ -87,7 +87,10 @@ class _Split:
         self.spent: dict[tuple[str, str], float] = collections.defaultdict(float)
         self.paths: dict[str, int] = collections.defaultdict(int)
 
-    def _timed(self, fn, part: str, call: str | None = None):
+    def _timed(self, fn, part: str, call=None):
+        """`fn` timed as `part` of the current call (or of the call that `call`, a
+        function of fn's arguments, names)."""
+
         def wrapper(*args, **kwargs):
             before = self.call
             if call is not None:
