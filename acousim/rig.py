@@ -17,7 +17,8 @@ own earlier one) that can reach k's window, emitted at t_f with k recording from
 t_k, is traced from its own emission and its echoes are delayed by t_f - t_k in k's
 recording (a call emitted before t_k contributes its part after t_k).  The ground
 truth of each recording names the emitter of every path (``truth.emitter``) and its
-metadata lists the firings heard (``metadata["crosstalk"]``).
+metadata lists the firings heard (``metadata["crosstalk"]``).  ``Rig.earlier_calls``
+false leaves out the calls emitted before t_k (an approximation: cheaper).
 
 A scene without a rig is a rig of one: its recordings are those of
 :class:`~acousim.simulator.Simulator` (byte for byte).
@@ -241,6 +242,8 @@ class RigSimulator:
             "rig": [s.name for s in self.rig.sonars],
             "crosstalk": heard_from,
         }
+        if self.rig.crosstalk and not self.rig.earlier_calls:  # the approximation, named
+            meta["earlier_calls"] = False
         truth = _joined(truths, names)
         others = tuple(  # the rig's other LiDARs' scans started at this firing
             own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
@@ -253,7 +256,8 @@ class RigSimulator:
     def _reaching(self, m: Measurement, n_samples: int) -> list[Measurement]:
         """The other firings whose call or echoes may reach measurement `m`'s window
         of `n_samples`: emitted before its end and no longer ago than the longest path
-        (twice the range) and the call."""
+        (twice the range) and the call (``Rig.earlier_calls`` false: not before `m`'s
+        emission)."""
         window = n_samples / self.rig.sonars[m.sonar].sensor.sample_rate_hz
         c = self.scene.environment.speed_of_sound_m_s
         longest = 2 * self.scene.simulation.max_range_m / c
@@ -262,6 +266,8 @@ class RigSimulator:
             if f.index == m.index:
                 continue
             call = self.rig.sonars[f.sonar].sensor.call.duration_s
+            if not self.rig.earlier_calls and f.time_s < m.time_s:
+                continue
             if m.time_s - (longest + call) < f.time_s < m.time_s + window:
                 out.append(f)
         return out

@@ -18,6 +18,28 @@ POLY_DEGREE = 6
 POLY_FIT_M = 1e-10
 
 
+def _spans_a_knot(trajectory, t0: float, span_s: float) -> bool:
+    """Whether a knot of `trajectory` (its ``times_s``, if it has some) lies within
+    ``(t0, t0 + span_s)`` (s): its motion's derivatives may jump there."""
+    knots = getattr(trajectory, "times_s", None)
+    if knots is None or np.size(knots) < 2:
+        return False
+    return bool(np.any((knots > t0) & (knots < t0 + span_s)))
+
+
+def _none_fits(x: np.ndarray, flat: np.ndarray) -> bool:
+    """Whether no polynomial of degree up to POLY_DEGREE fits the table `flat` (G, C)
+    at the normalised times `x` (G,) within POLY_FIT_M: the least-squares fit of that
+    degree leaves in some column a root mean square residual above twice it (every
+    polynomial of that degree or lower leaves at least that root mean square, so a
+    largest residual at least that, in the column: the rounding of the fit, about
+    1e-13 m for tables of metres, is far within the factor 2)."""
+    coef = np.polynomial.polynomial.polyfit(x, flat, POLY_DEGREE)
+    fit = np.polynomial.polynomial.polyval(x, coef).T
+    rms = np.sqrt(np.mean((fit - flat) ** 2, axis=0))
+    return bool(rms.max() > 2 * POLY_FIT_M)
+
+
 class SensorKinematics:
     """Emitter and microphone positions over a measurement, times from the start of
     the emission.
@@ -53,13 +75,18 @@ class SensorKinematics:
             flat = table.reshape(table.shape[0], -1)
             self.poly = None
             # the lowest degree that fits (a sensor on a trajectory: 3, the cubic
-            # of its segment; every Newton step evaluates it per path and microphone)
-            for degree in range(1, POLY_DEGREE + 1):
+            # of its segment; every Newton step evaluates it per path and microphone);
+            # over a knot of the trajectory none may (then found with one fit)
+            degrees = range(1, POLY_DEGREE + 1)
+            if _spans_a_knot(trajectory, self.t0, self.grid[-1]) and _none_fits(x, flat):
+                degrees = range(0)
+            fit = None
+            for degree in degrees:
                 coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
                 fit = np.polynomial.polynomial.polyval(x, coef).T
                 if np.max(np.abs(fit - flat)) < POLY_FIT_M:
                     break
-            if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+            if fit is not None and np.max(np.abs(fit - flat)) < POLY_FIT_M:
                 self.degree = degree
                 self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
                 deriv = np.polynomial.polynomial.polyder(coef) / self.half

@@ -58,7 +58,7 @@ EXTRA_KEYS: dict[str, set[str]] = {
         "lidars",
     },
     "body": {"pose", "trajectory"},
-    "rig": {"firing", "rate_hz", "crosstalk"},
+    "rig": {"firing", "rate_hz", "crosstalk", "earlier_calls"},
     "sensors.mount": {"position_m", "rotation_deg"},
     "sensors.firing": {"rate_hz", "offset_s", "count", "times_s"},
     "scene": {"name", "description"},
@@ -313,6 +313,7 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
             motion,
             tuple(lidars),
             crosstalk=r.boolean(opts, "crosstalk", "rig", True),
+            earlier_calls=r.boolean(opts, "earlier_calls", "rig", True),
         )
     except InputError as exc:
         raise r.fail("sensors", exc.reason, exc.value) from None

@@ -129,6 +129,14 @@ class MountedTrajectory(Trajectory):
         """Rotation sensor -> world (..., 3, 3) at times `t_s` (...)."""
         return self.body.rotation(t_s) @ self.mount.rotation
 
+    def to_world(self, points_sensor: np.ndarray, t_s) -> np.ndarray:
+        """Sensor-frame points (P, 3) at times (...): world positions (..., P, 3) (as
+        :meth:`Trajectory.to_world`, the body's rotation evaluated once)."""
+        body = self.body.rotation(t_s)
+        R = body @ self.mount.rotation
+        p = self.body.position(t_s) + body @ self.mount.position_m
+        return np.einsum("...ij,pj->...pi", R, np.asarray(points_sensor, float)) + p[..., None, :]
+
     def velocity(self, t_s: float) -> np.ndarray:
         """Velocity (3,) m/s of the sensor's origin at `t_s` (world frame): the body's
         plus its turn carrying the lever arm."""
@@ -225,6 +233,12 @@ class Rig:
     crosstalk : every call of every sonar in the recordings of all the others (and
         its own later ones) that it reaches; false: each recording hears its own call
         only.
+    earlier_calls : with crosstalk, the calls emitted before a recording's own
+        emission are heard too (the late paths of a call that reach its window); false
+        leaves them out, and hears only the calls emitted during the window: an
+        approximation, cheaper (on the corridor rig the earlier call is about half
+        of the crosstalk's cost and lies 71 to 83 dB under the recording; in a small
+        reverberant room its later echoes can be much stronger: BENCHMARKS.md "Rig").
     """
 
     sonars: tuple[RigSonar, ...]
@@ -232,6 +246,7 @@ class Rig:
     motion: Trajectory | None = None
     lidars: tuple[Lidar, ...] = ()
     crosstalk: bool = True
+    earlier_calls: bool = True
 
     def __post_init__(self) -> None:
         sonars = tuple(self.sonars)

@@ -142,6 +142,27 @@ def test_sonars_fired_100_ms_apart_with_a_30_ms_window_do_not_hear_each_other(tm
         assert set(rec.truth.emitter) == {rec.metadata["sensor"]}
 
 
+def test_earlier_calls_left_out_on_request(tmp_path):
+    """``earlier_calls = false``: "right"'s recording (fired 5 ms after "left") leaves
+    out "left"'s wall echo and is the recording without crosstalk; "left"'s keeps
+    "right"'s call, emitted during its window, byte for byte."""
+    scene = two_sonars(wall_scene(tmp_path))
+    every = RigSimulator(scene).run().recordings
+    rig = dataclasses.replace(scene.rig, earlier_calls=False)
+    later_only = RigSimulator(dataclasses.replace(scene, rig=rig)).run().recordings
+    quiet = dataclasses.replace(scene.rig, crosstalk=False)
+    alone = RigSimulator(dataclasses.replace(scene, rig=quiet)).run().recordings
+    assert [h["sensor"] for h in every[1].metadata["crosstalk"]] == ["left"]
+    assert later_only[1].metadata["crosstalk"] == []
+    assert later_only[1].metadata["earlier_calls"] is False
+    assert "earlier_calls" not in every[1].metadata
+    assert set(later_only[1].truth.emitter) == {"right"}
+    assert np.array_equal(later_only[1].samples, alone[1].samples)
+    assert [h["sensor"] for h in later_only[0].metadata["crosstalk"]] == ["right"]
+    assert np.array_equal(later_only[0].samples, every[0].samples)
+    assert not np.array_equal(later_only[0].samples, alone[0].samples)
+
+
 def test_crosstalk_doppler_of_a_moving_rig_is_the_bistatic_formula(tmp_path):
     v = np.array([1.0, 0.0, 0.0])  # towards the wall
     body = Trajectory.constant(Pose(np.zeros(3)), v)
@@ -201,7 +222,12 @@ def test_a_rig_in_the_scene_file(tmp_path):
     scene = parse_scene(
         {
             "body": {"pose": {"position_m": [0, 0, 0], "velocity_m_s": [0.5, 0, 0]}},
-            "rig": {"firing": "round_robin", "rate_hz": 10, "crosstalk": False},
+            "rig": {
+                "firing": "round_robin",
+                "rate_hz": 10,
+                "crosstalk": False,
+                "earlier_calls": False,
+            },
             "sensors": [
                 {"name": "a", "array": "urtis_v1", "mount": {"position_m": [0.1, 0.2, 0]}},
                 {
@@ -219,6 +245,7 @@ def test_a_rig_in_the_scene_file(tmp_path):
     )
     rig = scene.rig
     assert [s.name for s in rig.sonars] == ["a", "b"] and not rig.crosstalk
+    assert not rig.earlier_calls
     assert rig.sonars[0].firing == Firing(10.0, 0.0)  # round robin: 1 / (2 x 10 Hz) apart
     ms = rig.measurements()
     assert [(m.sonar, round(m.time_s, 9)) for m in ms] == [(0, 0.0), (1, 0.01), (1, 0.06)]
@@ -420,6 +447,11 @@ def test_a_mount_rides_a_turning_body():
     assert yaw == pytest.approx(turn + np.deg2rad(30))
     p = mount.place(body.pose(t))
     np.testing.assert_allclose(p.position_m, m.position(t), atol=1e-12)
+    # a point 0.2 m along the sonar's axis, at two times at once
+    c, s = np.cos(turn + np.deg2rad(30)), np.sin(turn + np.deg2rad(30))
+    ahead = m.to_world(np.array([[0.2, 0, 0]]), np.array([t, t]))
+    expected = [0.5 * t, 0, 0] + arm + [0.2 * c, 0.2 * s, 0]
+    np.testing.assert_allclose(ahead[1, 0], expected, atol=1e-12)
 
 
 def test_a_call_traced_only_as_far_as_it_is_heard_gives_the_same_crosstalk(tmp_path):

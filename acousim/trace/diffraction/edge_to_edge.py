@@ -21,7 +21,10 @@ with a margin); only the pairs whose bound and estimates reach the stage's floor
 are integrated at the fine step, the others
 keep first order alone (their paths would be dropped by the tracer's energy floor:
 what is skipped is measured in BENCHMARKS.md and
-``tests/acousim/trace/diffraction/test_pair_selection.py``).
+``tests/acousim/trace/diffraction/test_pair_selection.py``).  A trace asked only for
+the paths at least ``min_path_m`` long (a call heard late in another sonar's window)
+also skips the pairs whose every path is shorter and the bins of paths shorter in
+the others, where they cannot be the strongest echo (the same paths that long).
 
 With frequency-dependent materials (``face_column``), each wedge's response is split
 into the part without the image terms of its table faces and each of those terms
@@ -44,7 +47,7 @@ from acousim.trace.diffraction.pair_bound import (
     pair_bound,
     pair_estimate,
 )
-from acousim.trace.diffraction.pair_geometry import _farthest
+from acousim.trace.diffraction.pair_geometry import _farthest, shortest_paths
 from acousim.trace.diffraction.pairs import BIN, PairGeometry, pair_elements, pair_elements_in
 from acousim.trace.diffraction.paths import DiffractedPaths, empty_paths
 from acousim.trace.diffraction.setup import StageContext
@@ -133,7 +136,33 @@ def _selected(ctx: StageContext, rows: PairGeometry, floor: float):
         workers=ctx.caster,
     )
     ok = COARSE_MARGIN * est >= floor
-    return keep[ok], (live[ok], width), sub.take(ok)
+    keep, live, sub = keep[ok], live[ok], sub.take(ok)
+    if opt.min_path_m > 0:
+        keep, live, sub = _reaching_bins(ctx, floor, (keep, live, sub), bound[keep], width)
+    return keep, (live, width), sub
+
+
+def _reaching_bins(ctx: StageContext, floor: float, selected, bound: np.ndarray, width: float):
+    """`selected` (the pairs kept, their live bins (K, B) of `width` (m), their rows)
+    without the bins whose every path is shorter than ``min_path_m`` in the pairs
+    whose `bound` (K,) is under the strongest echo found before the stage (their
+    paths are dropped after the trace, and none of them can change the floors or
+    the strongest echo: :meth:`DiffractionOptions.needed`), and without the pairs
+    left with no live bin.  The other bins are integrated as they would be (each
+    bin's elements are its own: :func:`pair_elements_in`)."""
+    keep, live, sub = selected
+    top = ctx.options.lead(floor)
+    if top is None or keep.size == 0:
+        return selected
+    _, p_min = shortest_paths(sub, ctx.emitter, ctx.receiver)
+    # bin b holds the excess [b w, (b + 1) w) beyond the shortest path (the fine
+    # bins over it likewise: its elements' paths, and their mean, lie there)
+    top_of_bin = p_min[:, None] + width * np.arange(1, live.shape[1] + 1)
+    short = top_of_bin < ctx.options.min_path_m * (1 - 1e-12)
+    short[:, -1] = False  # the last bin also stands for any excess beyond (fine_live)
+    live = live & ~(short & (bound < top)[:, None])
+    some = live.any(axis=1)
+    return keep[some], live[some], sub.take(some)
 
 
 def _pair_step(opt) -> float:

@@ -116,10 +116,19 @@ class DiffractionOptions:
         reference of ``floor_level``): its paths are dropped after the trace, and
         one weaker than that echo changes neither the floors nor the strongest
         echo (the trace's other paths are those of the stage run in full)."""
-        if self.min_path_m <= 0 or self.floor_level <= 0 or not np.isfinite(self.floor_db):
+        top = self.lead(floor)
+        if top is None:
             return floor
-        top = max(floor, self.floor_level / 10 ** (self.floor_db / 20))
         return np.where(np.asarray(longest_m) < self.min_path_m, top, floor)
+
+    def lead(self, floor: float) -> float | None:
+        """With ``min_path_m``: the gain at the receiver under which a path shorter
+        than ``min_path_m`` may be left out (:meth:`needed`): the strongest echo
+        found before the stage, at least `floor`; None: no path may be (no
+        ``min_path_m``, no floor)."""
+        if self.min_path_m <= 0 or self.floor_level <= 0 or not np.isfinite(self.floor_db):
+            return None
+        return max(floor, self.floor_level / 10 ** (self.floor_db / 20))
 
     @property
     def step_m(self) -> float:

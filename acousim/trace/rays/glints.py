@@ -72,6 +72,42 @@ def _residual(world, f, b, emitter, receiver) -> np.ndarray:
     return _normal(world, f, b) - _bisector(_point(world, f, b), emitter, receiver)
 
 
+def _norm(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(v, axis=1, keepdims=True)`` of rows (K, 3): the same sums,
+    without its checks."""
+    return np.sqrt(np.add.reduce(v * v, axis=1, keepdims=True))
+
+
+class _Faces:
+    """Faces as the search reads them, gathered once: the corner normals and the
+    corners, each as (corner 0, corner 1 - corner 0, corner 2 - corner 0) (K, 3):
+    :meth:`residual` is :func:`_residual`, the same operations on the same values."""
+
+    def __init__(self, normals: tuple, points: tuple) -> None:
+        self.normals, self.points = normals, points
+
+    @classmethod
+    def of(cls, world: World, f: np.ndarray) -> _Faces:
+        vn, p = world.vertex_normals[f], world.triangles[f]
+        return cls(
+            (vn[:, 0], vn[:, 1] - vn[:, 0], vn[:, 2] - vn[:, 0]),
+            (p[:, 0], p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]),
+        )
+
+    def take(self, rows: np.ndarray) -> _Faces:
+        return _Faces(tuple(a[rows] for a in self.normals), tuple(a[rows] for a in self.points))
+
+    def residual(self, b: np.ndarray, emitter: np.ndarray, receiver: np.ndarray) -> np.ndarray:
+        """(K, 3) the normal at barycentric `b` (K, 2) less the bisector there."""
+        (n0, n1, n2), (p0, p1, p2) = self.normals, self.points
+        b1, b2 = b[:, :1], b[:, 1:]
+        n = n0 + b1 * n1 + b2 * n2
+        x = p0 + b1 * p1 + b2 * p2
+        ue, ur = emitter - x, receiver - x
+        h = ue / _norm(ue) + ur / _norm(ur)
+        return n / _norm(n) - h / _norm(h)
+
+
 #: curved faces are grouped for the cone test by connected surface, cell of this size
 #: (m) and normal (rounded to quarters of its components)
 _GROUP_CELL_M = 0.05
@@ -247,8 +283,9 @@ def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver:
     # 2. Gauss-Newton for the specular point on each face, steps halved until the
     #    residual drops (long faces, such as a pipe's, overshoot with full steps);
     #    a face leaves the search once converged, stuck, or far outside its edges
+    faces = _Faces.of(world, f)
     b = np.full((f.size, 2), 1 / 3)
-    r = _residual(world, f, b, emitter, receiver)
+    r = faces.residual(b, emitter, receiver)
     live = np.arange(f.size)
     for it in range(_ITERATIONS):
         size = np.linalg.norm(r[live], axis=1)
@@ -257,11 +294,11 @@ def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver:
         live = live[(size >= _CONVERGED) & ~outside]
         if live.size == 0:
             break
-        fl, bl, rl = f[live], b[live], r[live]
+        fl, bl, rl = faces.take(live), b[live], r[live]
         J = np.stack(
             [
-                (_residual(world, fl, bl + [_STEP, 0], emitter, receiver) - rl) / _STEP,
-                (_residual(world, fl, bl + [0, _STEP], emitter, receiver) - rl) / _STEP,
+                (fl.residual(bl + [_STEP, 0], emitter, receiver) - rl) / _STEP,
+                (fl.residual(bl + [0, _STEP], emitter, receiver) - rl) / _STEP,
             ],
             axis=2,
         )  # (K, 3, 2)
@@ -272,7 +309,9 @@ def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver:
         scale = 1.0
         for _ in range(_HALVINGS):
             trial = np.clip(bl[todo] - scale * delta[todo], -0.5, 1.5)
-            r1 = _residual(world, fl[todo], trial, emitter, receiver)
+            r1 = (fl if todo.size == live.size else fl.take(todo)).residual(
+                trial, emitter, receiver
+            )
             better = np.linalg.norm(r1, axis=1) <= size[todo]
             b[live[todo[better]]], r[live[todo[better]]] = trial[better], r1[better]
             todo = todo[~better]
@@ -282,7 +321,7 @@ def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver:
         stuck = np.zeros(f.size, bool)
         stuck[live[todo]] = True
         live = live[~stuck[live]]
-    res = np.linalg.norm(_residual(world, f, b, emitter, receiver), axis=1)
+    res = np.linalg.norm(faces.residual(b, emitter, receiver), axis=1)
     bary = np.column_stack([1 - b.sum(axis=1), b])
     ok = (res < _CONVERGED) & (bary.min(axis=1) >= -_INSIDE)
     return f[ok], b[ok]

@@ -1,0 +1,62 @@
+"""The sensor's tabulated kinematics over a knot of its trajectory, where its turn
+rate jumps: no polynomial of degree up to POLY_DEGREE fits the table (found with one
+fit, the same as trying every degree: the reference, written here), and the table's
+positions are the trajectory's (evaluated directly) within the linear
+interpolation's error; within one segment a polynomial fits, as before."""
+
+import numpy as np
+import pytest
+
+from acousim.kinematics.sensor import POLY_DEGREE, POLY_FIT_M, SensorKinematics, _none_fits
+from acousim.scene import Pose
+from acousim.scene.trajectory import Trajectory
+from processing import Array
+
+ARRAY = Array("two", np.array([[0.02, 0.0, 0.0], [0.0, 0.03, 0.0]]))
+STEP = 2.5e-4
+
+
+def turning_then_straight() -> Trajectory:
+    """Poses 0.1 s apart: turning left at 50 deg/s, then straight on from 0.1 s (the
+    turn rate jumps at that knot), driving at about 1 m/s."""
+    yaw = np.deg2rad([0.0, 5.0, 5.0, 5.0])
+    return Trajectory.through(
+        [Pose([0.1 * i, 0.01 * min(i, 1), 0.0], yaw[i], time_s=0.1 * i) for i in range(4)]
+    )
+
+
+def fits_at_some_degree(kin: SensorKinematics) -> bool:
+    """The reference: every degree from 1 to POLY_DEGREE tried on the table."""
+    table = np.concatenate([kin.emitter_table[:, None], kin.mic_table], axis=1)
+    flat = table.reshape(table.shape[0], -1)
+    x = (kin.grid - kin.mid) / kin.half
+    for degree in range(1, POLY_DEGREE + 1):
+        coef = np.polynomial.polynomial.polyfit(x, flat, degree)
+        if np.max(np.abs(np.polynomial.polynomial.polyval(x, coef).T - flat)) < POLY_FIT_M:
+            return True
+    return False
+
+
+@pytest.mark.parametrize("start_s", [0.06, 0.08, 0.099])
+def test_over_a_knot_no_polynomial_fits_and_the_table_is_the_trajectory(start_s):
+    tr = turning_then_straight()
+    kin = SensorKinematics(tr, tr.pose(start_s), ARRAY, 0.06, STEP)
+    assert kin.poly is None and not fits_at_some_degree(kin)
+    table = np.concatenate([kin.emitter_table[:, None], kin.mic_table], axis=1)
+    x = (kin.grid - kin.mid) / kin.half
+    assert _none_fits(x, table.reshape(table.shape[0], -1))
+    t = np.linspace(0.0, 0.06, 241)
+    exact = tr.to_world(ARRAY.positions_m, start_s + t)  # (T, M, 3)
+    got = kin.mics(np.broadcast_to(t, (2, t.size)))  # (M, T, 3)
+    # linear interpolation of a turn at 50 deg/s carrying 3 cm: below 1e-9 m
+    assert np.max(np.abs(got - exact.transpose(1, 0, 2))) < 1e-8
+
+
+def test_within_one_segment_a_polynomial_fits():
+    tr = turning_then_straight()
+    kin = SensorKinematics(tr, tr.pose(0.02), ARRAY, 0.06, STEP)
+    assert kin.poly is not None and fits_at_some_degree(kin)
+    t = np.linspace(0.0, 0.06, 241)
+    exact = tr.to_world(ARRAY.positions_m, 0.02 + t)
+    got = kin.mics(np.broadcast_to(t, (2, t.size)))
+    assert np.max(np.abs(got - exact.transpose(1, 0, 2))) < 1e-9
