@@ -232,9 +232,23 @@ class RigSimulator:
                     "n_paths": len(part.truth),
                 }
             )
-        sonar = self.rig.sonars[k]
+        meta = self._metadata(rec.metadata, m, heard_from)
+        truth = _joined(truths, names)
+        others = tuple(  # the rig's other LiDARs' scans started at this firing
+            own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
+            for n in range(1, len(self.rig.lidars))
+        )
+        return dataclasses.replace(
+            rec, samples=samples, truth=truth, metadata=meta, other_lidars=others
+        )
+
+    def _metadata(self, own: dict, m: Measurement, heard_from: list[dict]) -> dict:
+        """A firing's recording's metadata: its sonar's (`own`), the sonar's name and
+        mount, the emission time, the body's pose, the rig's sonars and the calls
+        heard (`heard_from`)."""
+        sonar = self.rig.sonars[m.sonar]
         meta = {
-            **rec.metadata,
+            **own,
             "sensor": sonar.name,
             "mount": sonar.mount.to_dict(),
             "emission_time_s": m.time_s,
@@ -244,14 +258,7 @@ class RigSimulator:
         }
         if self.rig.crosstalk and not self.rig.earlier_calls:  # the approximation, named
             meta["earlier_calls"] = False
-        truth = _joined(truths, names)
-        others = tuple(  # the rig's other LiDARs' scans started at this firing
-            own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
-            for n in range(1, len(self.rig.lidars))
-        )
-        return dataclasses.replace(
-            rec, samples=samples, truth=truth, metadata=meta, other_lidars=others
-        )
+        return meta
 
     def _reaching(self, m: Measurement, n_samples: int) -> list[Measurement]:
         """The other firings whose call or echoes may reach measurement `m`'s window
