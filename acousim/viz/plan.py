@@ -50,9 +50,9 @@ def to_sensor_frame(points_world: np.ndarray, position_m: np.ndarray, rotation: 
     """Points (..., 3) in the world frame (m) in the sensor's frame at `position_m`
     (3,) with `rotation` (3, 3) (sensor -> world: its columns are the sensor's x
     forward, y left, z up in the world): ``R^T (p - position)``, (..., 3)."""
-    return (np.asarray(points_world, float) - np.asarray(position_m, float)) @ np.asarray(
-        rotation, float
-    )
+    p = np.asarray(points_world, float)
+    flat = (p.reshape(-1, 3) - np.asarray(position_m, float)) @ np.asarray(rotation, float)
+    return flat.reshape(p.shape)  # one (N, 3) x (3, 3) product, not N small ones
 
 
 def sensor_rotation(content: FrameContent) -> np.ndarray:
@@ -222,9 +222,17 @@ class PlanPanel:
 
     @staticmethod
     def _section(triangles, local) -> np.ndarray:
+        """The plan's segments (S, 2, 2) of world `triangles` (F, 3, 3): only those
+        that cross the sensor's plane turned into its frame (a subdivided mesh of
+        725k faces: a height per vertex, then a few thousand faces)."""
         if triangles is None or not len(triangles):
             return np.empty((0, 2, 2))
-        return _yx(plane_section(local(triangles)))
+        tri = np.asarray(triangles, float)
+        origin, up = local(np.zeros(3)), local(np.eye(3)) - local(np.zeros(3))
+        z = tri.reshape(-1, 3) @ up[:, 2] + origin[2]  # each vertex's height over the plane
+        above = (z >= 0.0).reshape(-1, 3)
+        crossing = above.any(axis=1) & ~above.all(axis=1)
+        return _yx(plane_section(local(tri[crossing])))
 
     @staticmethod
     def _points(points, local) -> np.ndarray:
