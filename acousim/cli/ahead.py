@@ -62,6 +62,10 @@ def _worker(make: Callable[[], Iterator[Any]]) -> Iterator[queue.Queue]:
     import multiprocessing as mp
 
     receive, send = socket.socketpair()
+    for sock, option in ((send, socket.SO_SNDBUF), (receive, socket.SO_RCVBUF)):
+        # room for an image or two in the kernel: the worker goes on while this
+        # process's reader thread waits for the interpreter (the system caps it)
+        sock.setsockopt(socket.SOL_SOCKET, option, SOCKET_BUFFER_BYTES)
     worker = mp.get_context("fork").Process(
         target=_send_all, args=(make, send, receive), daemon=True
     )
@@ -185,6 +189,9 @@ def _send_all(make: Callable[[], Iterator[Any]], send, theirs) -> None:
 
 
 _LENGTH = struct.Struct("<Q")
+#: the socket pair's buffers asked for (Linux caps them at net.core.wmem_max and
+#: rmem_max, 4 MB here, and doubles them)
+SOCKET_BUFFER_BYTES = 4 << 20
 
 
 def _send(sock: socket.socket, message: Any) -> None:
