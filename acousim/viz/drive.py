@@ -131,9 +131,7 @@ class DriveFigure:
         self.fig, self.ax_view, self.ax_fan = fig, a, b
         handles = self._left(left, entries)
         self.title = a.set_title(" ", fontsize=10)
-        im = draw_fan(
-            b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=self.extent
-        )
+        im = draw_fan(b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=self.extent)
         self.fan = b.images[-1]
         b.set_title(f"{first.method}, top view", fontsize=9)
         fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
