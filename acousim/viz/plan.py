@@ -33,6 +33,7 @@ from acousim.viz.render3d import (
 __all__ = [
     "PlanPanel",
     "PlanScene",
+    "drive_track",
     "plane_section",
     "sensor_rotation",
     "to_sensor_frame",
@@ -100,11 +101,25 @@ def _yx(points: np.ndarray) -> np.ndarray:
     return np.asarray(points)[..., [1, 0]]
 
 
+def drive_track(positions_m: np.ndarray, sensors=None) -> np.ndarray:
+    """The drive's track for :class:`PlanScene`: the sensor's positions (K, 3)
+    (world, m) in the order of the recordings; with `sensors` (K,) (a rig's: each
+    recording's sonar) one track per sonar, in order of first firing, a row of NaN
+    between two (no line from one sonar's corner to the next's)."""
+    pos = np.asarray(positions_m, float).reshape(-1, 3)
+    if sensors is None:
+        return pos
+    names = list(dict.fromkeys(sensors))
+    gap = np.full((1, 3), np.nan)
+    parts = [[pos[[s == n for s in sensors]], gap] for n in names]
+    return np.concatenate([a for part in parts for a in part][:-1])
+
+
 @dataclass(frozen=True)
 class PlanScene:
     """What the plan draws in every frame: the scene's still faces (F, 3, 3) (world,
     m; None: no mesh) and the drive's track, the sensor's positions (K, 3) (world,
-    m)."""
+    m; a row of NaN between two tracks: :func:`drive_track`)."""
 
     triangles: np.ndarray | None
     track: np.ndarray
@@ -175,7 +190,8 @@ class PlanPanel:
         )[0]
 
     def legend_entries(self, entries) -> list:
-        """Legend handles: the plan's lines (the section, the track) and `entries`
+        """Legend handles: the plan's lines (the section if the scene has still faces,
+        the track if the sensor moved) and `entries`
         ((label, RGB): :func:`acousim.viz.render3d.legend_entries`), lines for the
         paths, the sweep and the moving meshes, dots for the rest."""
         from matplotlib.lines import Line2D
@@ -189,10 +205,12 @@ class PlanPanel:
             )
 
         kind = {CHAIN_COLOR: line, SWEEP_COLOR: line, MOVING_COLOR: line}
-        handles = [
-            line("scene cut at the sensor's height", SECTION_COLOR),
-            line("the drive's track", TRACK_COLOR, ":"),
-        ]
+        handles = []
+        if self.scene.triangles is not None and len(self.scene.triangles):
+            handles.append(line("scene cut at the sensor's height", SECTION_COLOR))
+        track = self.scene.track[np.isfinite(self.scene.track).all(axis=1)]
+        if len(track) and np.ptp(track, axis=0).max() > 0:  # the sensor moved
+            handles.append(line("the drive's track", TRACK_COLOR, ":"))
         return handles + [kind.get(tuple(c), dot)(label, c) for label, c in entries]
 
     def draw(self, content: FrameContent) -> None:

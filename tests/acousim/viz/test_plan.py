@@ -168,3 +168,87 @@ def test_the_drive_of_a_wall_straight_ahead_shows_its_section_a_metre_each_side(
     metres_per_px = 2.4 / box.width
     assert xy[:, 0].max() >= 1.2 - 3 * metres_per_px
     assert xy[:, 0].min() <= -1.2 + 3 * metres_per_px
+
+
+def test_a_rigs_track_is_one_per_sonar_with_a_gap_between():
+    from acousim.viz.plan import drive_track
+
+    pos = np.array([[0.0, 0.5, 0], [0.05, -0.5, 0], [0.1, 0.5, 0], [0.15, -0.5, 0]])
+    got = drive_track(pos, ["left", "right", "left", "right"])
+    np.testing.assert_array_equal(got[:2], pos[[0, 2]])
+    assert np.isnan(got[2]).all()
+    np.testing.assert_array_equal(got[3:], pos[[1, 3]])
+    np.testing.assert_array_equal(drive_track(pos), pos)  # one sensor: as it is
+
+
+def _track_grey(frame: np.ndarray) -> np.ndarray:
+    from acousim.viz.plan import TRACK_COLOR
+
+    want = np.array(TRACK_COLOR) * 255
+    return (np.abs(frame.astype(float) - want) <= 10).all(axis=-1)
+
+
+def test_the_plan_of_a_rig_draws_each_sonars_track_and_nothing_between_them():
+    """Two sonars 1 m apart across a robot driving 1 m forward, firing in turn: in
+    the left one's plan the track-grey pixels lie on its own line (y = 0) or its
+    neighbour's (y = -1 m), none between (the zigzag from one to the other)."""
+    from acousim.viz.drive import DriveFigure
+    from acousim.viz.plan import PlanScene, drive_track
+    from acousim.viz.render3d import FrameContent
+
+    x = np.linspace(-1.0, 0.0, 20)
+    pos = np.column_stack([x, np.where(np.arange(20) % 2, -0.5, 0.5), np.zeros(20)])
+    names = ["left" if k % 2 == 0 else "right" for k in range(20)]
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
+    drive = DriveFigure(
+        first=img,
+        extent=(2.0, -2.0, -1.5, 2.5),
+        max_range_m=2.5,
+        dynamic_range_db=30.0,
+        left=PlanScene(triangles=None, track=drive_track(pos, names)),
+    )
+    here = pos[18]  # the left sonar's last firing
+    content = FrameContent(sensor_position=here, sensor_axis=np.array([1.0, 0, 0]))
+    frame = drive.frame(content, img, None, "left")
+    ax, height = drive.ax_view, frame.shape[0]
+    rows, cols = np.nonzero(_track_grey(frame))
+    box = ax.get_window_extent()
+    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
+    inside &= height - rows < box.y1 - 2
+    xy = ax.transData.inverted().transform(np.column_stack([cols, height - rows])[inside])
+    labels = [h.get_label() for h in drive.plan.legend_entries([])]
+    drive.close()
+    xy = xy[(xy[:, 1] < -0.2) & (xy[:, 1] > -0.9)]  # behind the sensor, clear of it
+    metres_per_px = 4.0 / ax.get_window_extent().width
+    own = np.abs(xy[:, 0]) <= 2 * metres_per_px
+    other = np.abs(xy[:, 0] + 1.0) <= 2 * metres_per_px
+    assert own.sum() > 10 and other.sum() > 10
+    assert (own | other).all()
+    assert "the drive's track" in labels
+    assert "scene cut at the sensor's height" not in labels  # no mesh: no section
+
+
+def test_the_plans_legend_lists_no_section_without_faces_nor_a_track_for_a_still_sensor():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.plan import PlanPanel, PlanScene
+
+    def labels(scene):
+        fig, ax = plt.subplots()
+        panel = PlanPanel(ax, extent=(1, -1, 0, 2), scene=scene, truth_range_db=30.0)
+        out = [h.get_label() for h in panel.legend_entries([("image peaks", (1, 0, 0))])]
+        plt.close(fig)
+        return out
+
+    still = np.zeros((5, 3))
+    assert labels(PlanScene(triangles=None, track=still)) == ["image peaks"]
+    wall = np.array([[[2.0, -1, -1], [2.0, 1, -1], [2.0, 0, 1]]])
+    moved = np.array([[0.0, 0, 0], [0.1, 0, 0]])
+    assert labels(PlanScene(triangles=wall, track=moved)) == [
+        "scene cut at the sensor's height",
+        "the drive's track",
+        "image peaks",
+    ]
