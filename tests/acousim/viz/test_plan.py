@@ -244,11 +244,63 @@ def test_the_plans_legend_lists_no_section_without_faces_nor_a_track_for_a_still
         return out
 
     still = np.zeros((5, 3))
-    assert labels(PlanScene(triangles=None, track=still)) == ["image peaks"]
+    ring = "echo or peak hollow: over 30° above or below its plane"
+    assert labels(PlanScene(triangles=None, track=still)) == ["image peaks", ring]
     wall = np.array([[[2.0, -1, -1], [2.0, 1, -1], [2.0, 0, 1]]])
     moved = np.array([[0.0, 0, 0], [0.1, 0, 0]])
     assert labels(PlanScene(triangles=wall, track=moved)) == [
         "scene cut at the sensor's height",
         "the drive's track",
         "image peaks",
+        ring,
     ]
+
+
+def test_echoes_and_peaks_off_the_sensors_plane_are_hollow_in_the_plan():
+    """An echo and a peak in the sensor's plane are filled discs where they lie; a
+    floor echo and a peak 36 deg below it are rings (their centre pixel the
+    background's), so a floor under the sensor does not look like an obstacle."""
+    from acousim.viz.drive import DriveFigure
+    from acousim.viz.plan import PlanScene
+    from acousim.viz.render3d import PEAK_COLOR, TRUTH_COLOR, FrameContent
+
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
+    drive = DriveFigure(
+        first=img,
+        extent=(2.0, -2.0, 0.0, 2.5),
+        max_range_m=2.5,
+        dynamic_range_db=30.0,
+        left=PlanScene(triangles=None, track=np.zeros((1, 3))),
+    )
+    # the sensor at the world's origin facing +x: world = sensor frame
+    truth = np.array([[1.5, 1.0, 0.0], [1.0, -1.0, -1.0]])  # in plane; 35 deg below
+    peaks = np.array([[1.8, 0.5, 0.3], [0.6, -0.3, -0.5]])  # 9 deg above; 37 deg below
+    content = FrameContent(
+        sensor_position=np.zeros(3),
+        sensor_axis=np.array([1.0, 0, 0]),
+        truth=truth,
+        truth_level_db=np.zeros(2),
+        peaks=peaks,
+    )
+    frame = drive.frame(content, img, None, "recording 0").astype(float)
+    ax, height = drive.ax_view, frame.shape[0]
+    drive.close()
+
+    def at(point, colour, radius):
+        """Pixels of `colour` within `radius` px of the sensor-frame `point`,
+        and whether its centre pixel has that colour."""
+        col, row = ax.transData.transform([point[1], point[0]])
+        r, c = int(round(height - row)), int(round(col))
+        near = np.abs(frame[r - radius : r + radius + 1, c - radius : c + radius + 1] - colour)
+        match = (near <= 40).all(axis=-1)
+        return match.sum(), match[radius - 1 : radius + 2, radius - 1 : radius + 2].all()
+
+    cyan, red = np.array(TRUTH_COLOR) * 255, np.array(PEAK_COLOR) * 255
+    n, centre = at(truth[0], cyan, 4)
+    assert n > 40 and centre  # a filled disc
+    n, centre = at(truth[1], cyan, 7)
+    assert n > 8 and not centre  # a ring
+    n, centre = at(peaks[0], red, 3)
+    assert n > 20 and centre
+    n, centre = at(peaks[1], red, 8)
+    assert n > 8 and not centre
