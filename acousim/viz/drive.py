@@ -59,8 +59,10 @@ def check_drive_view(value: str, key: str = "view") -> DriveView:
     return value  # type: ignore[return-value]
 
 
-#: the drive's panels are never narrower than this many times their depth
-MIN_WIDTH_RATIO = 1.0
+#: the drive's panels are never narrower than this many times their depth (wider
+#: than 0.8, a fan as wide as deep beside the 3D view outgrows the figure's height:
+#: its title cut off, its axis label under the legend)
+MIN_WIDTH_RATIO = 0.75
 
 
 def drive_extent(
@@ -94,7 +96,7 @@ class DriveFigure:
     left : the left panel: a :class:`acousim.viz.plan.PlanScene` (the plan view on
         the fan's axes) or (H, W), the shape of the 3D views pasted into it.
     extent : the fan's view (:class:`acousim.viz.fan.FanRaster`), the same in every
-        frame (widened to be no narrower than deep: :func:`drive_extent`);
+        frame (widened to at least 3/4 of its depth: :func:`drive_extent`);
         max_range_m, dynamic_range_db as for :func:`acousim.viz.fan.draw_fan`.
     first : the first frame's image (lays the figure out).
     entries : the left panel's legend entries (label, RGB).

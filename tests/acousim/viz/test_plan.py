@@ -123,21 +123,23 @@ def test_a_wall_ahead_of_the_sensor_is_drawn_at_its_distance_in_the_plan(yaw_deg
     assert lateral.max() == pytest.approx(1.0, abs=2 * metres_per_px)
 
 
-def test_a_narrow_drive_view_is_widened_about_its_centre_to_its_depth():
+def test_a_narrow_drive_view_is_widened_about_its_centre_to_a_ratio_of_its_depth():
     from acousim.viz.drive import drive_extent
 
     # a wall 2 m straight ahead: the fan fits it in half a metre across
-    left, right, bottom, top = drive_extent((0.3, -0.2, 0.0, 2.35))
-    assert (left - right, (left + right) / 2) == pytest.approx((2.35, 0.05))
-    assert (bottom, top) == (0.0, 2.35)
+    left, right, bottom, top = drive_extent((0.3, -0.2, 0.0, 2.4), min_width_ratio=0.75)
+    assert (left - right, (left + right) / 2) == pytest.approx((1.8, 0.05))
+    assert (bottom, top) == (0.0, 2.4)
     wide = (2.8, -3.2, 0.0, 4.6)  # the corridor's: wider than deep, as it is
     assert drive_extent(wide) == wide
 
 
-def test_the_drive_of_a_wall_straight_ahead_shows_its_section_a_metre_each_side():
+@pytest.mark.parametrize("left", ["plan", (480, 640)])
+def test_the_drive_of_a_wall_straight_ahead_shows_its_section_0_9_m_each_side(left):
     """A 4 m wide wall 2 m ahead whose fan (a blob straight ahead) would fit in half
-    a metre: the plan's dark-grey pixels reach +-1 m (the view as wide as deep),
-    and both panels share the widened axes."""
+    a metre: the plan's dark-grey pixels reach +-0.9 m (the view 3/4 as wide as
+    deep), both panels share the widened axes, and the fan's title and axis label
+    stay in the figure, clear of the legend (beside the plan or the 3D view)."""
     from acousim.viz.drive import DriveFigure
     from acousim.viz.plan import PlanScene
     from acousim.viz.render3d import FrameContent
@@ -151,13 +153,23 @@ def test_the_drive_of_a_wall_straight_ahead_shows_its_section_a_metre_each_side(
         extent=(0.25, -0.25, 0.0, 2.4),
         max_range_m=2.5,
         dynamic_range_db=30.0,
-        left=PlanScene(triangles=wall, track=np.zeros((1, 3))),
+        left=PlanScene(triangles=wall, track=np.zeros((1, 3))) if left == "plan" else left,
+        entries=[("image peaks", (1.0, 0.1, 0.1))] * 9,  # as tall a legend as a drive's
+        marks={"in", "off", "behind", "weak"},
     )
+    renderer = drive.fig.canvas.get_renderer()
+    title = drive.ax_fan.title.get_window_extent(renderer)
+    label = drive.ax_fan.xaxis.label.get_window_extent(renderer)
+    assert title.y1 <= drive.fig.bbox.height
+    assert label.y0 >= drive.fig.legends[0].get_window_extent(renderer).y1
+    assert drive.ax_fan.get_xlim() == pytest.approx((0.9, -0.9))
+    if left != "plan":
+        drive.close()
+        return
     content = FrameContent(sensor_position=np.zeros(3), sensor_axis=np.array([1.0, 0, 0]))
     frame = drive.frame(content, img, None, "recording 0")
     ax, height = drive.ax_view, frame.shape[0]
-    assert ax.get_xlim() == pytest.approx((1.2, -1.2))
-    assert drive.ax_fan.get_xlim() == pytest.approx((1.2, -1.2))
+    assert ax.get_xlim() == pytest.approx((0.9, -0.9))
     rows, cols = np.nonzero(_dark_grey(frame))
     box = ax.get_window_extent()
     inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
@@ -165,9 +177,9 @@ def test_the_drive_of_a_wall_straight_ahead_shows_its_section_a_metre_each_side(
     xy = ax.transData.inverted().transform(np.column_stack([cols[inside], height - rows[inside]]))
     drive.close()
     xy = xy[np.abs(xy[:, 1] - 2.0) < 0.05]  # the wall's line
-    metres_per_px = 2.4 / box.width
-    assert xy[:, 0].max() >= 1.2 - 3 * metres_per_px
-    assert xy[:, 0].min() <= -1.2 + 3 * metres_per_px
+    metres_per_px = 1.8 / box.width
+    assert xy[:, 0].max() >= 0.9 - 3 * metres_per_px
+    assert xy[:, 0].min() <= -0.9 + 3 * metres_per_px
 
 
 def test_a_rigs_track_is_one_per_sonar_with_a_gap_between():
