@@ -46,6 +46,10 @@ SECTION_COLOR = (0.25, 0.25, 0.28)  # the scene cut at the sensor's height: dark
 TRACK_COLOR = (0.55, 0.55, 0.58)  # the drive's track: grey, dotted
 #: the plan shows at least this much behind the sensor (m)
 BEHIND_M = 0.6
+#: the LiDAR's points drawn: those within this of the sensor's plane (m), a slice
+#: of the scan as the section is of the meshes (its floor and ceiling rings, seen
+#: from above, would be arcs across the plan where nothing stands)
+LIDAR_SLICE_M = 0.25
 
 
 def to_sensor_frame(points_world: np.ndarray, position_m: np.ndarray, rotation: np.ndarray):
@@ -145,7 +149,7 @@ class PlanPanel:
         elevation band (:data:`acousim.viz.fan.FAN_ELEVATION_BAND_RAD` about the
         sensor's plane), hollow rings beyond it (a floor echo below the sensor is
         not an obstacle beside it; the fan marks it "off the slice"); the image's
-        peaks the same.
+        peaks the same.  The LiDAR's points within :data:`LIDAR_SLICE_M` of the plane.
     entries : the legend's (label, RGB) entries of what the frames draw
         (:func:`acousim.viz.render3d.legend_entries`); the plan's own (the section,
         the track) are added by :meth:`legend_entries`.
@@ -242,6 +246,8 @@ class PlanPanel:
         track = self.scene.track[np.isfinite(self.scene.track).all(axis=1)]
         if len(track) and np.ptp(track, axis=0).max() > 0:  # the sensor moved
             handles.append(line("the drive's track", TRACK_COLOR, ":"))
+        lidar = f"LiDAR points within {LIDAR_SLICE_M:g} m of its plane"
+        entries = [(lidar if tuple(c) == LIDAR_COLOR else label, c) for label, c in entries]
         handles += [kind.get(tuple(c), dot)(label, c) for label, c in entries]
         band = f"{np.rad2deg(FAN_ELEVATION_BAND_RAD):g}"
         ring = Line2D([], [], ls="", marker="o", ms=6, mfc="none", mec="black", mew=0.8)
@@ -264,7 +270,8 @@ class PlanPanel:
         a["track"].set_data(track[:, 0], track[:, 1])
         a["sweep"].set_segments(self._sweep(content, local))
         a["chains"].set_segments([_yx(local(c)) for c in content.chains])
-        a["lidar"].set_offsets(self._points(content.lidar, local))
+        lidar = self._local(content.lidar, local)
+        a["lidar"].set_offsets(_yx(lidar[np.abs(lidar[:, 2]) <= LIDAR_SLICE_M]))
         sizes = self._truth_sizes(content)
         truth, peaks = self._local(content.truth, local), self._local(content.peaks, local)
         off, peak_off = _off_plane(truth), _off_plane(peaks)
@@ -296,10 +303,6 @@ class PlanPanel:
         if points is None or not len(points):
             return np.empty((0, 3))
         return local(np.asarray(points, float).reshape(-1, 3))
-
-    @classmethod
-    def _points(cls, points, local) -> np.ndarray:
-        return _yx(cls._local(points, local))
 
     def _truth_sizes(self, c: FrameContent) -> np.ndarray:
         """Marker areas (points^2) of the traced echoes: 3 to 8 points across from

@@ -316,3 +316,46 @@ def test_echoes_and_peaks_off_the_sensors_plane_are_hollow_in_the_plan():
     assert n > 20 and centre
     n, centre = at(peaks[1], red, 8)
     assert n > 8 and not centre
+
+
+def test_the_plan_draws_the_lidars_points_near_the_sensors_plane_only():
+    """A scan of a wall 2 m ahead (points from 0.5 m below to 0.5 m above the
+    sensor) and of the floor 0.45 m below (a ring 1.5 m around): the green pixels
+    lie on the wall's line, none on the floor's ring (the legend says the slice)."""
+    from acousim.viz.drive import DriveFigure
+    from acousim.viz.plan import PlanScene
+    from acousim.viz.render3d import LIDAR_COLOR, FrameContent
+
+    y, z = np.meshgrid(np.linspace(-1.0, 1.0, 201), np.linspace(-0.5, 0.5, 21))
+    wall = np.column_stack([np.full(y.size, 2.0), y.ravel(), z.ravel()])
+    a = np.linspace(-np.pi / 3, np.pi / 3, 400)
+    floor = np.column_stack([1.5 * np.cos(a), 1.5 * np.sin(a), np.full(a.size, -0.45)])
+    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
+    drive = DriveFigure(
+        first=img,
+        extent=(2.0, -2.0, 0.0, 2.5),
+        max_range_m=2.5,
+        dynamic_range_db=30.0,
+        left=PlanScene(triangles=None, track=np.zeros((1, 3))),
+        entries=[("LiDAR points", LIDAR_COLOR)],
+    )
+    content = FrameContent(
+        sensor_position=np.zeros(3),
+        sensor_axis=np.array([1.0, 0, 0]),
+        lidar=np.concatenate([wall, floor]),
+    )
+    frame = drive.frame(content, img, None, "recording 0").astype(float)
+    ax, height = drive.ax_view, frame.shape[0]
+    labels = [h.get_label() for h in drive.plan.legend_entries([("LiDAR points", LIDAR_COLOR)])]
+    drive.close()
+    green = (np.abs(frame - np.array(LIDAR_COLOR) * 255) <= 40).all(axis=-1)
+    rows, cols = np.nonzero(green)
+    box = ax.get_window_extent()
+    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
+    inside &= height - rows < box.y1 - 2  # the plan's (not the legend's dot)
+    xy = ax.transData.inverted().transform(np.column_stack([cols, height - rows])[inside])
+    box = 4.0 / box.width  # metres a pixel
+    on_wall = np.abs(xy[:, 1] - 2.0) <= 3 * box
+    assert on_wall.sum() > 50 and on_wall.all()  # nothing on the floor's ring
+    assert np.abs(xy[:, 0]).max() >= 1.0 - 3 * box
+    assert "LiDAR points within 0.25 m of its plane" in labels
