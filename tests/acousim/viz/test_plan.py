@@ -79,6 +79,17 @@ def _dark_grey(frame: np.ndarray) -> np.ndarray:
     return (np.abs(frame.astype(float) - want) <= 12).all(axis=-1)
 
 
+def _plan_points(ax, mask: np.ndarray) -> np.ndarray:
+    """The pixels of `mask` (H, W) inside the plan's axes (two pixels clear of its
+    frame) as points (N, 2) in its data coordinates: (y, x) in metres."""
+    height = mask.shape[0]
+    rows, cols = np.nonzero(mask)
+    box = ax.get_window_extent()
+    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
+    inside &= height - rows < box.y1 - 2
+    return ax.transData.inverted().transform(np.column_stack([cols, height - rows])[inside])
+
+
 @pytest.mark.parametrize("yaw_deg", [0.0, 90.0, -35.0])
 def test_a_wall_ahead_of_the_sensor_is_drawn_at_its_distance_in_the_plan(yaw_deg):
     """A wall 2 m ahead of the sensor, across its axis, whatever way the sensor
@@ -107,14 +118,10 @@ def test_a_wall_ahead_of_the_sensor_is_drawn_at_its_distance_in_the_plan(yaw_deg
     )
     content = FrameContent(sensor_position=pos, sensor_axis=fwd, sensor_rotation=rot)
     frame = drive.frame(content, img, None, "recording 0")
-    ax, height = drive.ax_view, frame.shape[0]
-    box = ax.get_window_extent()
-    rows, cols = np.nonzero(_dark_grey(frame))
-    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
-    inside &= height - rows < box.y1 - 2
-    xy = ax.transData.inverted().transform(np.column_stack([cols[inside], height - rows[inside]]))
+    ax = drive.ax_view
+    xy = _plan_points(ax, _dark_grey(frame))
     drive.close()
-    metres_per_px = 5.0 / box.width
+    metres_per_px = 5.0 / ax.get_window_extent().width
     xy = xy[np.hypot(*xy.T) > 0.8]  # not the sensor's arrow (black, its edges greyed)
     lateral, forward = xy[:, 0], xy[:, 1]
     assert len(forward) > 50
@@ -168,16 +175,12 @@ def test_the_drive_of_a_wall_straight_ahead_shows_its_section_0_9_m_each_side(le
         return
     content = FrameContent(sensor_position=np.zeros(3), sensor_axis=np.array([1.0, 0, 0]))
     frame = drive.frame(content, img, None, "recording 0")
-    ax, height = drive.ax_view, frame.shape[0]
+    ax = drive.ax_view
     assert ax.get_xlim() == pytest.approx((0.9, -0.9))
-    rows, cols = np.nonzero(_dark_grey(frame))
-    box = ax.get_window_extent()
-    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
-    inside &= height - rows < box.y1 - 2
-    xy = ax.transData.inverted().transform(np.column_stack([cols[inside], height - rows[inside]]))
+    xy = _plan_points(ax, _dark_grey(frame))
     drive.close()
     xy = xy[np.abs(xy[:, 1] - 2.0) < 0.05]  # the wall's line
-    metres_per_px = 1.8 / box.width
+    metres_per_px = 1.8 / ax.get_window_extent().width
     assert xy[:, 0].max() >= 0.9 - 3 * metres_per_px
     assert xy[:, 0].min() <= -0.9 + 3 * metres_per_px
 
@@ -222,12 +225,8 @@ def test_the_plan_of_a_rig_draws_each_sonars_track_and_nothing_between_them():
     here = pos[18]  # the left sonar's last firing
     content = FrameContent(sensor_position=here, sensor_axis=np.array([1.0, 0, 0]))
     frame = drive.frame(content, img, None, "left")
-    ax, height = drive.ax_view, frame.shape[0]
-    rows, cols = np.nonzero(_track_grey(frame))
-    box = ax.get_window_extent()
-    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
-    inside &= height - rows < box.y1 - 2
-    xy = ax.transData.inverted().transform(np.column_stack([cols, height - rows])[inside])
+    ax = drive.ax_view
+    xy = _plan_points(ax, _track_grey(frame))
     labels = [h.get_label() for h in drive.plan.legend_entries([])]
     drive.close()
     xy = xy[(xy[:, 1] < -0.2) & (xy[:, 1] > -0.9)]  # behind the sensor, clear of it
@@ -345,16 +344,12 @@ def test_the_plan_draws_the_lidars_points_near_the_sensors_plane_only():
         lidar=np.concatenate([wall, floor]),
     )
     frame = drive.frame(content, img, None, "recording 0").astype(float)
-    ax, height = drive.ax_view, frame.shape[0]
+    ax = drive.ax_view
     labels = [h.get_label() for h in drive.plan.legend_entries([("LiDAR points", LIDAR_COLOR)])]
     drive.close()
     green = (np.abs(frame - np.array(LIDAR_COLOR) * 255) <= 40).all(axis=-1)
-    rows, cols = np.nonzero(green)
-    box = ax.get_window_extent()
-    inside = (cols > box.x0 + 2) & (cols < box.x1 - 2) & (height - rows > box.y0 + 2)
-    inside &= height - rows < box.y1 - 2  # the plan's (not the legend's dot)
-    xy = ax.transData.inverted().transform(np.column_stack([cols, height - rows])[inside])
-    box = 4.0 / box.width  # metres a pixel
+    xy = _plan_points(ax, green)  # the plan's (not the legend's dot)
+    box = 4.0 / ax.get_window_extent().width  # metres a pixel
     on_wall = np.abs(xy[:, 1] - 2.0) <= 3 * box
     assert on_wall.sum() > 50 and on_wall.all()  # nothing on the floor's ring
     assert np.abs(xy[:, 0]).max() >= 1.0 - 3 * box
