@@ -23,7 +23,7 @@ from acousim.trace.world.build import build_world
 from acousim.viz import elaz_figure, fan_figure
 from acousim.viz.drive import DriveFigure, DriveView, check_drive_view, write_gif
 from acousim.viz.fan import DYNAMIC_RANGE_DB, FAN_ELEVATION_BAND_RAD, common_extent
-from acousim.viz.plan import PlanScene
+from acousim.viz.plan import PlanScene, drive_track
 from acousim.viz.render3d import (
     FrameContent,
     SceneRenderer,
@@ -540,7 +540,7 @@ def _title(rec: P.Recording, index: int, trajectory: bool = False) -> str:
     moving = p is not None and (trajectory or p.time_s or prov.pose_index)
     sonar = rec.metadata.get("sensor")  # a rig's recording: its sonar, the firing time
     where = f", t = {p.time_s:.{3 if sonar else 1}f} s" if moving and p is not None else ""
-    name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" else prov.scene
+    name = f"{prov.scene} ({prov.kind})" if prov.kind == "emulated" and prov.scene else prov.scene
     if sonar:  # 'corridor_rig — front_left, t = 0.200 s'
         return f"{name or prov.kind} — {sonar}{where}"
     return f"{name or prov.kind} — recording {index}{where}"
@@ -739,7 +739,9 @@ def _left_panel(view: DriveView, recordings, triangles, scene, sweeps, marks, dr
         with_lidar=any(rec.lidar is not None for rec in recordings),
     )
     if view == "plan":
-        track = np.array([_pose(rec).position_m for rec in recordings], float).reshape(-1, 3)
+        positions = [_pose(rec).position_m for rec in recordings]
+        sensors = [rec.metadata.get("sensor") for rec in recordings]  # a rig's sonars
+        track = drive_track(positions, sensors if any(sensors) else None)
         return _Plan(PlanScene(triangles=triangles, track=track), entries)
     renderer = SceneRenderer(
         triangles,

@@ -37,6 +37,7 @@ __all__ = [
     "DriveView",
     "DRIVE_VIEWS",
     "check_drive_view",
+    "drive_extent",
     "gif_palette",
     "write_gif",
 ]
@@ -58,6 +59,28 @@ def check_drive_view(value: str, key: str = "view") -> DriveView:
     return value  # type: ignore[return-value]
 
 
+#: the drive's panels are never narrower than this many times their depth (wider
+#: than 0.8, a fan as wide as deep beside the 3D view outgrows the figure's height:
+#: its title cut off, its axis label under the legend)
+MIN_WIDTH_RATIO = 0.75
+
+
+def drive_extent(
+    extent: tuple[float, float, float, float], min_width_ratio: float = MIN_WIDTH_RATIO
+) -> tuple[float, float, float, float]:
+    """The drive's view (left, right, bottom, top) in metres of the sensor frame (y
+    left +, so left > right): `extent` (the fan's, :func:`acousim.viz.fan.common_extent`)
+    widened about its centre to at least `min_width_ratio` times its depth
+    (top - bottom).  The fan of a wall straight ahead fits in half a metre; the plan
+    on those axes would show a sliver of the scene and crowd its ticks."""
+    left, right, bottom, top = (float(v) for v in extent)
+    need = min_width_ratio * (top - bottom)
+    if left - right >= need:
+        return (left, right, bottom, top)
+    centre = (left + right) / 2
+    return (centre + need / 2, centre - need / 2, bottom, top)
+
+
 #: colours of the GIF's palette taken as they are (the most frequent: background,
 #: text, legend, flat faces); the rest of its 256 from an octree of the other pixels
 EXACT_COLOURS = 64
@@ -73,7 +96,8 @@ class DriveFigure:
     left : the left panel: a :class:`acousim.viz.plan.PlanScene` (the plan view on
         the fan's axes) or (H, W), the shape of the 3D views pasted into it.
     extent : the fan's view (:class:`acousim.viz.fan.FanRaster`), the same in every
-        frame; max_range_m, dynamic_range_db as for :func:`acousim.viz.fan.draw_fan`.
+        frame (widened to at least 3/4 of its depth: :func:`drive_extent`);
+        max_range_m, dynamic_range_db as for :func:`acousim.viz.fan.draw_fan`.
     first : the first frame's image (lays the figure out).
     entries : the left panel's legend entries (label, RGB).
     marks : the fan's mark kinds listed in the legend (every frame the same).
@@ -97,7 +121,7 @@ class DriveFigure:
         import matplotlib.pyplot as plt
 
         self.extent, self.limit, self.dr, self.pixels = (
-            extent,
+            drive_extent(extent),
             max_range_m,
             dynamic_range_db,
             pixels,
@@ -109,7 +133,7 @@ class DriveFigure:
         self.fig, self.ax_view, self.ax_fan = fig, a, b
         handles = self._left(left, entries)
         self.title = a.set_title(" ", fontsize=10)
-        im = draw_fan(b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=extent)
+        im = draw_fan(b, first, max_range_m, dynamic_range_db, pixels=pixels, extent=self.extent)
         self.fan = b.images[-1]
         b.set_title(f"{first.method}, top view", fontsize=9)
         fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acousim.viz.fan import FAN_ELEVATION_BAND_RAD
 from acousim.viz.render3d import (
     AXIS_LENGTH_M,
     CHAIN_COLOR,
@@ -33,6 +34,7 @@ from acousim.viz.render3d import (
 __all__ = [
     "PlanPanel",
     "PlanScene",
+    "drive_track",
     "plane_section",
     "sensor_rotation",
     "to_sensor_frame",
@@ -44,6 +46,10 @@ SECTION_COLOR = (0.25, 0.25, 0.28)  # the scene cut at the sensor's height: dark
 TRACK_COLOR = (0.55, 0.55, 0.58)  # the drive's track: grey, dotted
 #: the plan shows at least this much behind the sensor (m)
 BEHIND_M = 0.6
+#: the LiDAR's points drawn: those within this of the sensor's plane (m), a slice
+#: of the scan as the section is of the meshes (its floor and ceiling rings, seen
+#: from above, would be arcs across the plan where nothing stands)
+LIDAR_SLICE_M = 0.25
 
 
 def to_sensor_frame(points_world: np.ndarray, position_m: np.ndarray, rotation: np.ndarray):
@@ -100,11 +106,32 @@ def _yx(points: np.ndarray) -> np.ndarray:
     return np.asarray(points)[..., [1, 0]]
 
 
+def drive_track(positions_m: np.ndarray, sensors=None) -> np.ndarray:
+    """The drive's track for :class:`PlanScene`: the sensor's positions (K, 3)
+    (world, m) in the order of the recordings; with `sensors` (K,) (a rig's: each
+    recording's sonar) one track per sonar, in order of first firing, a row of NaN
+    between two (no line from one sonar's corner to the next's)."""
+    pos = np.asarray(positions_m, float).reshape(-1, 3)
+    if sensors is None:
+        return pos
+    names = list(dict.fromkeys(sensors))
+    gap = np.full((1, 3), np.nan)
+    parts = [[pos[[s == n for s in sensors]], gap] for n in names]
+    return np.concatenate([a for part in parts for a in part][:-1])
+
+
+def _off_plane(points: np.ndarray) -> np.ndarray:
+    """(N,) bool: sensor-frame points (N, 3) more than the fan's elevation band
+    (:data:`acousim.viz.fan.FAN_ELEVATION_BAND_RAD`) above or below its plane."""
+    elevation = np.arctan2(points[:, 2], np.hypot(points[:, 0], points[:, 1]))
+    return np.abs(elevation) > FAN_ELEVATION_BAND_RAD
+
+
 @dataclass(frozen=True)
 class PlanScene:
     """What the plan draws in every frame: the scene's still faces (F, 3, 3) (world,
     m; None: no mesh) and the drive's track, the sensor's positions (K, 3) (world,
-    m)."""
+    m; a row of NaN between two tracks: :func:`drive_track`)."""
 
     triangles: np.ndarray | None
     track: np.ndarray
@@ -118,7 +145,11 @@ class PlanPanel:
         gives the fan's (y left +, so left > right; x forward up); the plan also shows
         :data:`BEHIND_M` behind the sensor.
     scene : :class:`PlanScene`; truth_range_db : the traced echoes within this of the
-        strongest are drawn (dB), the stronger larger.
+        strongest are drawn (dB), the stronger larger; filled within the fan's
+        elevation band (:data:`acousim.viz.fan.FAN_ELEVATION_BAND_RAD` about the
+        sensor's plane), hollow rings beyond it (a floor echo below the sensor is
+        not an obstacle beside it; the fan marks it "off the slice"); the image's
+        peaks the same.  The LiDAR's points within :data:`LIDAR_SLICE_M` of the plane.
     entries : the legend's (label, RGB) entries of what the frames draw
         (:func:`acousim.viz.render3d.legend_entries`); the plan's own (the section,
         the track) are added by :meth:`legend_entries`.
@@ -155,7 +186,25 @@ class PlanPanel:
             "lidar": dots(LIDAR_COLOR, 1.5, linewidths=0),
             "chains": lines(CHAIN_COLOR, 0.8),
             "truth": dots(TRUTH_COLOR, 8.0, edgecolors="none"),
+            "truth off": ax.scatter(
+                [],
+                [],
+                s=8.0,
+                facecolors="none",
+                edgecolors=[TRUTH_COLOR],
+                linewidths=0.9,
+                animated=True,
+            ),
             "peaks": dots(PEAK_COLOR, 22.0, marker="o", edgecolors="black", linewidths=0.4),
+            "peaks off": ax.scatter(
+                [],
+                [],
+                s=22.0,
+                facecolors="none",
+                edgecolors=[PEAK_COLOR],
+                linewidths=1.0,
+                animated=True,
+            ),
         }
         self._sensor()
 
@@ -175,9 +224,11 @@ class PlanPanel:
         )[0]
 
     def legend_entries(self, entries) -> list:
-        """Legend handles: the plan's lines (the section, the track) and `entries`
-        ((label, RGB): :func:`acousim.viz.render3d.legend_entries`), lines for the
-        paths, the sweep and the moving meshes, dots for the rest."""
+        """Legend handles: the plan's lines (the section if the scene has still faces,
+        the track if the sensor moved), then `entries` ((label, RGB):
+        :func:`acousim.viz.render3d.legend_entries`), lines for the paths, the sweep
+        and the moving meshes, dots for the rest, and the hollow ring of the echoes
+        and peaks off the sensor's plane."""
         from matplotlib.lines import Line2D
 
         def line(label, color, style="-"):
@@ -189,11 +240,19 @@ class PlanPanel:
             )
 
         kind = {CHAIN_COLOR: line, SWEEP_COLOR: line, MOVING_COLOR: line}
-        handles = [
-            line("scene cut at the sensor's height", SECTION_COLOR),
-            line("the drive's track", TRACK_COLOR, ":"),
-        ]
-        return handles + [kind.get(tuple(c), dot)(label, c) for label, c in entries]
+        handles = []
+        if self.scene.triangles is not None and len(self.scene.triangles):
+            handles.append(line("scene cut at the sensor's height", SECTION_COLOR))
+        track = self.scene.track[np.isfinite(self.scene.track).all(axis=1)]
+        if len(track) and np.ptp(track, axis=0).max() > 0:  # the sensor moved
+            handles.append(line("the drive's track", TRACK_COLOR, ":"))
+        lidar = f"LiDAR points within {LIDAR_SLICE_M:g} m of its plane"
+        entries = [(lidar if tuple(c) == LIDAR_COLOR else label, c) for label, c in entries]
+        handles += [kind.get(tuple(c), dot)(label, c) for label, c in entries]
+        band = f"{np.rad2deg(FAN_ELEVATION_BAND_RAD):g}"
+        ring = Line2D([], [], ls="", marker="o", ms=6, mfc="none", mec="black", mew=0.8)
+        ring.set_label(f"echo or peak hollow: over {band}° above or below its plane")
+        return handles + [ring]
 
     def draw(self, content: FrameContent) -> None:
         """Draw one frame of `content` (world frame) in the sensor's frame (at
@@ -211,12 +270,16 @@ class PlanPanel:
         a["track"].set_data(track[:, 0], track[:, 1])
         a["sweep"].set_segments(self._sweep(content, local))
         a["chains"].set_segments([_yx(local(c)) for c in content.chains])
-        a["lidar"].set_offsets(self._points(content.lidar, local))
+        lidar = self._local(content.lidar, local)
+        a["lidar"].set_offsets(_yx(lidar[np.abs(lidar[:, 2]) <= LIDAR_SLICE_M]))
         sizes = self._truth_sizes(content)
-        drawn = sizes > 0
-        a["truth"].set_offsets(self._points(content.truth, local)[drawn])
-        a["truth"].set_sizes(sizes[drawn])
-        a["peaks"].set_offsets(self._points(content.peaks, local))
+        truth, peaks = self._local(content.truth, local), self._local(content.peaks, local)
+        off, peak_off = _off_plane(truth), _off_plane(peaks)
+        for key, shown in (("truth", (sizes > 0) & ~off), ("truth off", (sizes > 0) & off)):
+            a[key].set_offsets(_yx(truth[shown]))
+            a[key].set_sizes(sizes[shown])
+        a["peaks"].set_offsets(_yx(peaks[~peak_off]))
+        a["peaks off"].set_offsets(_yx(peaks[peak_off]))
         for artist in a.values():
             self.ax.draw_artist(artist)
 
@@ -235,10 +298,11 @@ class PlanPanel:
         return _yx(plane_section(local(tri[crossing])))
 
     @staticmethod
-    def _points(points, local) -> np.ndarray:
+    def _local(points, local) -> np.ndarray:
+        """World `points` (N, 3) (or None) in the sensor's frame (N, 3)."""
         if points is None or not len(points):
-            return np.empty((0, 2))
-        return _yx(local(np.asarray(points, float).reshape(-1, 3)))
+            return np.empty((0, 3))
+        return local(np.asarray(points, float).reshape(-1, 3))
 
     def _truth_sizes(self, c: FrameContent) -> np.ndarray:
         """Marker areas (points^2) of the traced echoes: 3 to 8 points across from

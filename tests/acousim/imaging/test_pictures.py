@@ -357,6 +357,19 @@ def test_titles_name_the_recording_and_no_time_for_a_single_pose(tmp_path, index
     assert _title(traj, 30, True) == "s — recording 30, t = 3.0 s"
 
 
+def test_an_emulated_recording_without_a_scene_name_is_titled_emulated():
+    from acousim.imaging.run import _title
+
+    rec = P.Recording(np.zeros((64, 300)), 500e3, P.paper_8x8(), P.paper_chirp())
+    meta = P.provenance_metadata("emulated")
+    emulated = P.Recording(rec.samples, 500e3, rec.array, rec.waveform, metadata=meta)
+    assert emulated.provenance.kind == "emulated" and emulated.provenance.scene is None
+    assert _title(emulated, 4) == "emulated — recording 4"  # not "None (emulated)"
+    named = {**meta, "scene": "wall"}
+    wall = P.Recording(rec.samples, 500e3, rec.array, rec.waveform, metadata=named)
+    assert _title(wall, 4) == "wall (emulated) — recording 4"
+
+
 def test_image_index_titles_the_picture_with_its_recording(tmp_path, monkeypatch):
     import acousim.imaging.run as imaging
 
