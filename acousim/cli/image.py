@@ -40,7 +40,8 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
         default=None,  # ImagingOptions.methods (spelt out in the help; a test holds it)
         help="comma-separated methods: narrowband das, music[-fss|-fbss], "
         "capon[-fss|-fbss]; wideband capon[-fbss]-wb, music[-fbss]-wb; broadband das-bb, "
-        "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss)",
+        "das-cf-bb, dmas2..5-bb, dmas2..5-cf-bb (default: das,capon-fbss,music-fbss), "
+        "for an array that is not a uniform rectangular one (the eRTIS) das,capon,music",
     )
     p.add_argument("--index", help="recordings to image: '0,3' or '0:10' (default: all)")
     p.add_argument(

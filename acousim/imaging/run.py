@@ -61,11 +61,18 @@ __all__ = [
 ]
 
 
+#: the methods an array that is not a uniform rectangular one (eRTIS) is imaged by
+#: when the default methods were kept (their smoothing needs a URA): the same
+#: methods without it
+NON_URA_METHODS = ("das", "capon", "music")
+
+
 @dataclass(frozen=True)
 class ImagingOptions:
     """How recordings are imaged.
 
-    methods : DOA methods (see ``processing.METHODS``).
+    methods : DOA methods (see ``processing.METHODS``); the defaults image an array
+        that is not a URA (eRTIS) by :data:`NON_URA_METHODS`.
     azimuth_deg, elevation_deg : (min, max) of the grid; step_deg its step.
     energy_fraction : range bins kept when their energy is at least this fraction of
         the strongest bin in [min_range_m, max_range_m] (the paper uses 0.5 for one
@@ -76,7 +83,7 @@ class ImagingOptions:
         animation, the bag's fan image).
     """
 
-    methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
+    methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")  # DEFAULT_METHODS
     azimuth_deg: tuple[float, float] = P.GRID_AZIMUTH_DEG  # one default: Grid.degrees()'
     elevation_deg: tuple[float, float] = P.GRID_ELEVATION_DEG
     step_deg: float = setting(P.GRID_STEP_DEG, "deg", 0.1, 45, "grid step")
@@ -124,6 +131,10 @@ class ImagingOptions:
         )
 
 
+#: ImagingOptions' methods when not given
+DEFAULT_METHODS: tuple[str, ...] = ImagingOptions.__dataclass_fields__["methods"].default
+
+
 def image_recordings(
     recordings: Sequence[P.Recording],
     options: ImagingOptions,
@@ -150,15 +161,18 @@ def recording_images(
     InputError naming the recording (its `position`) when a method needs a uniform
     rectangular array it does not have."""
     rec = recording
+    methods = options.methods
     if rec.array.n_mics and not rec.array.is_ura:
-        smooth = [m for m in options.methods if P.requires_ura(m)]
-        if smooth:
+        smooth = [m for m in methods if P.requires_ura(m)]
+        if smooth and methods == DEFAULT_METHODS:  # not asked for: the array's own
+            methods = NON_URA_METHODS
+        elif smooth:
             raise InputError(
                 f"recording {position}: array {rec.array.name!r} is not a URA, so "
                 f"{', '.join(smooth)} cannot be used; choose das, music, capon "
                 "or a wideband (-wb) or broadband (-bb) method"
             )
-    return P.acoustic_images(rec, options.methods, options.settings(rec))
+    return P.acoustic_images(rec, methods, options.settings(rec))
 
 
 def _pose(rec: P.Recording):

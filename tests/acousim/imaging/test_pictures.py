@@ -427,3 +427,28 @@ def test_3d_truth_below_the_threshold_is_not_drawn_and_stronger_is_larger(tmp_pa
     assert len(blobs) == 2  # the -40 dB reflector is not drawn
     (left, s_left), (right, s_right) = blobs
     assert s_left > 1.5 * s_right  # 0 dB (y = +0.6, on the left) larger than -20 dB
+
+
+def test_an_ertis_recording_is_imaged_by_default_by_the_methods_its_array_takes():
+    """The default methods smooth over subarrays of a uniform rectangular array; an
+    eRTIS (pseudo-random layout) is imaged by the same methods without smoothing
+    when the defaults were kept: each image's strongest cell at the plate's echo
+    (the scene's numbers: 3.218 m, 8 deg to the right, 2 deg up), within the
+    grid's 2 deg and a range bin; asked for by name, a smoothed method is refused."""
+    from acousim.bundled import find_scene
+    from acousim.imaging.run import ImagingOptions, recording_images
+    from acousim.scene import load_scene
+    from acousim.simulator import Simulator
+    from processing.base.errors import InputError
+
+    rec = Simulator(load_scene(find_scene("ertis_sample"))).run()[0]
+    options = ImagingOptions(min_range_m=1.0)
+    images = recording_images(rec, options)
+    assert sorted(images) == ["capon", "das", "music"]
+    for method, img in images.items():
+        r, e, a = np.unravel_index(np.argmax(img.power), img.power.shape)
+        assert img.range_m[r] == pytest.approx(3.218, abs=0.05), method
+        assert np.rad2deg(img.azimuth_rad[a]) == pytest.approx(-8.0, abs=2.0), method
+        assert np.rad2deg(img.elevation_rad[e]) == pytest.approx(2.0, abs=2.0), method
+    with pytest.raises(InputError, match="music-fbss cannot be used"):
+        recording_images(rec, ImagingOptions(methods=("das", "music-fbss")))
