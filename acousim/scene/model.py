@@ -223,6 +223,20 @@ class MeshItem:
         length=3,
     )
 
+    if TYPE_CHECKING:  # `materials` takes names too; the Scene makes them Materials
+
+        def __init__(
+            self,
+            mesh: Any,
+            material: Material | str = ...,
+            transform: np.ndarray = ...,
+            position_m: Sequence[float] | None = ...,
+            materials: Mapping[str, Material | str] = ...,
+            velocity_m_s: Sequence[float] = ...,
+            track: Sequence[Sequence[float]] | None = ...,
+            angular_velocity_rad_s: Sequence[float] = ...,
+        ) -> None: ...
+
     def __post_init__(self) -> None:
         mesh = self.mesh
         if isinstance(mesh, str | os.PathLike):

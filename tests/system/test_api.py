@@ -457,6 +457,11 @@ def test_a_users_script_type_checks_against_the_lazy_names(tmp_path):
         "grid: P.Grid = P.Grid.degrees(step=2.0)\n"
         "reveal_type(s)\n"
         "s.arrray\n"
+        "m = acousim.MeshItem('w.stl', material='plaster', materials={'seat': 'felt'})\n"
+        "rec = P.load_recording('x.h5')\n"
+        "rows: P.PeakTable = acousim.peak_table(rec, P.acoustic_image(rec))\n"
+        "opts: acousim.ImagingOptions = acousim.ImagingOptions(step_deg=1.0)\n"
+        "reveal_type(acousim.image_recordings)\n"
     )
     out, _, status = mypy.run(
         [str(script), "--follow-imports=silent", "--cache-dir", str(tmp_path / "cache")]
@@ -464,6 +469,7 @@ def test_a_users_script_type_checks_against_the_lazy_names(tmp_path):
     assert status == 1 and "Found 1 error" in out, out
     assert 'Revealed type is "acousim.scene.model.Sensor"' in out
     assert 'user.py:8: error: "Sensor" has no attribute "arrray"' in out
+    assert 'user.py:13: note: Revealed type is "def (recordings:' in out, out
 
 
 def test_checked_functions_pickle_by_reference():
