@@ -378,7 +378,10 @@ class PointItem:
 
 @dataclass(frozen=True)
 class Environment:
-    """The air: sets the speed of sound and the absorption."""
+    """The air: `temperature_c` (degrees Celsius), `humidity_percent` (relative
+    humidity, %) and `pressure_kpa` (kPa) set the speed of sound
+    (:attr:`speed_of_sound_m_s`, m/s) and the air absorption of every path (ISO
+    9613-1, :mod:`acousim.core.air`)."""
 
     temperature_c: float = setting(20.0, "degC", -20, 50, "air temperature")
     humidity_percent: float = setting(50.0, "%", 0, 100, "relative humidity")

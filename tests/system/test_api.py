@@ -147,6 +147,32 @@ def test_every_public_callable_refuses_an_unknown_keyword():
     assert not missed, missed
 
 
+def test_the_dataset_api_the_readme_names_refuses_an_unknown_keyword_too():
+    """`DatasetReader("data/cs").torch()` (README) and the rest of acousim.dataset's
+    names: a misspelled keyword gets the scene file's answer (it was a plain
+    TypeError)."""
+    import acousim.dataset as D
+
+    with pytest.raises(P.KeywordError, match=r"torch\.kyes: .*did you mean 'keys'"):
+        D.DatasetReader.torch(None, kyes=["image"])  # checked before the body runs
+    missed = []
+    for name in D.__all__:
+        obj = getattr(D, name)
+        if inspect.isclass(obj) and issubclass(obj, BaseException):
+            continue
+        if not (inspect.isfunction(obj) or "__init__" in vars(obj)):
+            continue
+        try:
+            obj(zzz_no_such_keyword=1)
+        except P.KeywordError as exc:
+            assert "unknown key 'zzz_no_such_keyword'" in str(exc)
+        except Exception:
+            missed.append(name)
+        else:
+            missed.append(name)
+    assert not missed, missed
+
+
 # --- one import; every options type exported ----------------------------------------
 
 
