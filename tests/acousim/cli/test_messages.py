@@ -144,6 +144,20 @@ def test_a_file_that_is_not_a_mesh_says_its_format(tmp_path, capsys, suffix, fmt
     )
 
 
+def test_a_file_its_reader_refuses_says_its_format_and_why(tmp_path, capsys):
+    """A GLB that is not one (its reader raises, rather than finding no faces): the
+    same words, with the reader's reason (it said "cannot read mesh")."""
+    (tmp_path / "notes.glb").write_bytes(b"shopping list: eggs, milk\n" * 8)
+    scene = tmp_path / "s.toml"
+    scene.write_text((SCENES / "wall.toml").read_text().replace("meshes/wall.stl", "notes.glb"))
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(
+        f"acousim simulate: error: {tmp_path / 'notes.glb'}: could not be read as GLB ("
+    )
+    assert len(err.splitlines()) == 1, err
+
+
 # --- a malformed attribute ------------------------------------------------------------------
 
 
