@@ -139,6 +139,14 @@ max_bins = 32
 """
 
 
+def _remove_outputs(folder: Path) -> None:
+    """What the commands below wrote (each refuses or keeps an existing output)."""
+    for made in ("ds", "bag", "c.h5", "r.h5", "fitted.toml"):
+        if (folder / made).is_file():
+            (folder / made).unlink()
+        shutil.rmtree(folder / made, ignore_errors=True)
+
+
 def test_every_long_command_shows_its_bar_on_a_terminal(tmp_path):
     """export (a bag, a CHIRP file), record, compare, calibrate and dataset under a
     pseudo-terminal: each a bar with its count, rate and time left, kept when done,
@@ -183,19 +191,11 @@ def test_every_long_command_shows_its_bar_on_a_terminal(tmp_path):
             assert re.search(bar, text), (args, desc, text)
         lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
         assert any(ln.startswith(result) for ln in lines), (args, lines)
-        shutil.rmtree(tmp_path / "ds", ignore_errors=True)
-        for made in ("bag", "c.h5", "r.h5", "fitted.toml"):
-            if (tmp_path / made).is_file():
-                (tmp_path / made).unlink()
-            shutil.rmtree(tmp_path / made, ignore_errors=True)
+        _remove_outputs(tmp_path)
         code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
         assert code == 0, (args, text)
         assert "100%|" not in text and "it/s" not in text, (args, text)
-        shutil.rmtree(tmp_path / "ds", ignore_errors=True)
-        for made in ("bag", "c.h5", "r.h5", "fitted.toml"):
-            if (tmp_path / made).is_file():
-                (tmp_path / made).unlink()
-            shutil.rmtree(tmp_path / made, ignore_errors=True)
+        _remove_outputs(tmp_path)
 
 
 def test_quiet_on_a_terminal_prints_only_the_result(tmp_path):
