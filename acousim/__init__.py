@@ -65,7 +65,7 @@ _WHERE = _ELSEWHERE | {name: "acousim.scene" for name in __all__ if name not in 
 #: name itself as the flag; at run time the names load on first use, below)
 TYPE_CHECKING = False
 if TYPE_CHECKING:
-    from acousim.imaging import ImagingOptions, image_recordings, peak_table
+    from acousim.imaging.run import ImagingOptions, image_recordings, peak_table
     from acousim.rig import RigSimulator
     from acousim.scene import (
         Diffraction,

@@ -231,6 +231,13 @@ def calibrate(
         one = len(scene.sensor.poses) == 1
         poses = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
     _check(scene, recs, list(poses))
+    if not _used_materials(scene):  # point reflectors alone: strengths, no material
+        raise InputError(
+            "has no material to fit: no mesh (a point reflector has a strength, not a material)",
+            file=scene.source,
+            key="scene",
+            value=scene.name,
+        )
     free = settings.free(_used_materials(scene))
     for name in settings.tables:
         if name not in free:

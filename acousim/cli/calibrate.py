@@ -15,6 +15,7 @@ import argparse
 from acousim.cli.common import (
     UsageError,
     add_command,
+    elapsed,
     load_scene,
     output_file,
     parse_indices,
@@ -150,5 +151,9 @@ def run(args: argparse.Namespace) -> int:
     except InputError as exc:
         raise UsageError(str(exc)) from None
     print(cal.summary())
-    print(f"fitted scene written to {out}" + (f", report to {report}" if report else ""))
+    print(
+        f"fitted scene written to {out}"
+        + (f", report to {report}" if report else "")
+        + f" ({elapsed():.1f} s from the start)"
+    )
     return 0

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FitAccount", "MethodAccount", "account", "noise_floor_db"]
+__all__ = ["FitAccount", "MethodAccount", "account", "floor_start", "noise_floor", "noise_floor_db"]
 
 #: the noise floor is read over this last fraction of the range profile's bins
 FLOOR_FRACTION = 0.25
@@ -97,11 +97,24 @@ def _lobes(m: MethodAccount) -> str:
     )
 
 
+def floor_start(n_bins: int) -> int:
+    """The first of a range profile's bins (of `n_bins`) its noise floor is read over:
+    its last FLOOR_FRACTION (at least one bin)."""
+    return min(int(n_bins * (1 - FLOOR_FRACTION)), max(n_bins - 1, 0))
+
+
+def noise_floor(profile: np.ndarray) -> float:
+    """A range profile's (B,) noise floor, in its own units (linear power): the median
+    of its last FLOOR_FRACTION of bins, beyond the echoes of a scene placed ahead (the
+    one definition: the command's account and the picture's lines); 0 when empty."""
+    profile = np.asarray(profile, float)
+    return float(np.median(profile[floor_start(len(profile)) :])) if profile.size else 0.0
+
+
 def noise_floor_db(profile: np.ndarray, reference: float) -> float:
-    """The median of a range profile (B,) (linear power) over its last FLOOR_FRACTION
-    of bins, in dB re `reference` (linear power)."""
-    start = int(len(profile) * (1 - FLOOR_FRACTION))
-    return float(10 * np.log10(np.median(profile[start:]) / reference + 1e-30))
+    """:func:`noise_floor` of a range profile (B,) (linear power) in dB re `reference`
+    (linear power)."""
+    return float(10 * np.log10(noise_floor(profile) / reference + 1e-30))
 
 
 def _excess(lobes) -> float | None:
@@ -138,7 +151,7 @@ def account(report, arrays) -> FitAccount:
     :func:`acousim.compare.comparison.compare` returned)."""
     edges, real, sim = arrays.edges_m, arrays.profile_real, arrays.profile_sim
     reference = float(np.max(real)) or 1.0
-    start = int(len(real) * (1 - FLOOR_FRACTION))
+    start = floor_start(len(real))
     return FitAccount(
         shift_samples=report.alignment.emission_shift_samples,
         gain=report.alignment.gain,

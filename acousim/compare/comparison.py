@@ -40,6 +40,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.signal import hilbert
 
 import processing as P
+from acousim.compare.account import floor_start, noise_floor
 from processing.base.atomic import atomic_path, write_text
 from processing.base.errors import InputError
 
@@ -483,17 +484,12 @@ def write_comparison(
 COMPARISON_RANGE_DB = 30.0
 
 
-def noise_floor(profile: np.ndarray) -> float:
-    """A range profile's noise floor: the median of its range bins (echoes fill few
-    bins), in the profile's units."""
-    return float(np.median(profile)) if profile.size else 0.0
-
-
 def comparison_figure(report: Comparison, arrays: ComparisonArrays):
     """Per method, the real and the simulated fan on one scale (dB re the strongest
     cell of the two, each with its colour bar; the matched echoes numbered) and the
     two range profiles in dB re the real profile's strongest bin, with each profile's
-    noise floor (:func:`noise_floor`) drawn and named.  Returns the matplotlib Figure."""
+    noise floor (:func:`acousim.compare.account.noise_floor`, the number the command
+    prints) drawn and named.  Returns the matplotlib Figure."""
     import matplotlib.pyplot as plt
 
     from acousim.viz.fan import colorbar_label, common_extent, draw_fan
@@ -539,7 +535,7 @@ def _profiles(ax, report: Comparison, arrays: ComparisonArrays) -> None:
         (arrays.profile_real, "real", "C0"),
         (arrays.profile_sim, "simulated (aligned)", "C1"),
     ):
-        floor = float(db(noise_floor(prof)))
+        floor = float(db(noise_floor(prof)))  # the account's, as the command prints it
         ax.plot(centres, db(prof), color=colour, lw=1, label=name)
         ax.axhline(floor, color=colour, ls="--", lw=1, label=f"{name} noise floor: {floor:.1f} dB")
     ax.set_xlabel("range (m)")
@@ -548,6 +544,7 @@ def _profiles(ax, report: Comparison, arrays: ComparisonArrays) -> None:
     al = report.alignment
     ax.set_title(
         f"range profiles ({report.range_bin_m * 100:g} cm bins); gain {al.gain:.3g}, "
-        f"shift {al.emission_shift_samples:.2f} samples\nnoise floor: each profile's median bin",
+        f"shift {al.emission_shift_samples:.2f} samples\nnoise floor: each profile's median "
+        f"over {arrays.edges_m[floor_start(len(centres))]:.2f}-{arrays.edges_m[-1]:.2f} m",
         fontsize=9,
     )

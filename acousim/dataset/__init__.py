@@ -16,3 +16,7 @@ __all__ = [
     "SpecError",
     "load_spec",
 ]
+
+from processing.base.api import check_keywords  # noqa: E402
+
+check_keywords(globals(), __all__)  # a misspelled keyword: the scene file's answer

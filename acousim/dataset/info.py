@@ -51,7 +51,7 @@ def _images(path: Path) -> list[str]:
         lines = [f"{path}: images of {len(groups)} recording(s) (format {IMAGES_FORMAT})"]
         for name in groups:
             g = f[name]
-            methods = [k for k in g if g[k].attrs.get("units") == "dB"]  # the images
+            methods = [k for k in g if _text(g[k].attrs.get("units")) == "dB"]  # the images
             shape = g[methods[0]].shape if methods else ()
             r = g["range_m"][()] if "range_m" in g else np.empty(0)
             span = f", range {r[0]:.2f}..{r[-1]:.2f} m" if r.size else ""

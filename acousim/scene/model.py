@@ -223,6 +223,20 @@ class MeshItem:
         length=3,
     )
 
+    if TYPE_CHECKING:  # `materials` takes names too; the Scene makes them Materials
+
+        def __init__(
+            self,
+            mesh: Any,
+            material: Material | str = ...,
+            transform: np.ndarray = ...,
+            position_m: Sequence[float] | None = ...,
+            materials: Mapping[str, Material | str] = ...,
+            velocity_m_s: Sequence[float] = ...,
+            track: Sequence[Sequence[float]] | None = ...,
+            angular_velocity_rad_s: Sequence[float] = ...,
+        ) -> None: ...
+
     def __post_init__(self) -> None:
         mesh = self.mesh
         if isinstance(mesh, str | os.PathLike):
@@ -364,7 +378,10 @@ class PointItem:
 
 @dataclass(frozen=True)
 class Environment:
-    """The air: sets the speed of sound and the absorption."""
+    """The air: `temperature_c` (degrees Celsius), `humidity_percent` (relative
+    humidity, %) and `pressure_kpa` (kPa) set the speed of sound
+    (:attr:`speed_of_sound_m_s`, m/s) and the air absorption of every path (ISO
+    9613-1, :mod:`acousim.core.air`)."""
 
     temperature_c: float = setting(20.0, "degC", -20, 50, "air temperature")
     humidity_percent: float = setting(50.0, "%", 0, 100, "relative humidity")

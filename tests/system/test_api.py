@@ -147,6 +147,32 @@ def test_every_public_callable_refuses_an_unknown_keyword():
     assert not missed, missed
 
 
+def test_the_dataset_api_the_readme_names_refuses_an_unknown_keyword_too():
+    """`DatasetReader("data/cs").torch()` (README) and the rest of acousim.dataset's
+    names: a misspelled keyword gets the scene file's answer (it was a plain
+    TypeError)."""
+    import acousim.dataset as D
+
+    with pytest.raises(P.KeywordError, match=r"torch\.kyes: .*did you mean 'keys'"):
+        D.DatasetReader.torch(None, kyes=["image"])  # checked before the body runs
+    missed = []
+    for name in D.__all__:
+        obj = getattr(D, name)
+        if inspect.isclass(obj) and issubclass(obj, BaseException):
+            continue
+        if not (inspect.isfunction(obj) or "__init__" in vars(obj)):
+            continue
+        try:
+            obj(zzz_no_such_keyword=1)
+        except P.KeywordError as exc:
+            assert "unknown key 'zzz_no_such_keyword'" in str(exc)
+        except Exception:
+            missed.append(name)
+        else:
+            missed.append(name)
+    assert not missed, missed
+
+
 # --- one import; every options type exported ----------------------------------------
 
 
@@ -460,6 +486,11 @@ def test_a_users_script_type_checks_against_the_lazy_names(tmp_path):
         "grid: P.Grid = P.Grid.degrees(step=2.0)\n"
         "reveal_type(s)\n"
         "s.arrray\n"
+        "m = acousim.MeshItem('w.stl', material='plaster', materials={'seat': 'felt'})\n"
+        "rec = P.load_recording('x.h5')\n"
+        "rows: P.PeakTable = acousim.peak_table(rec, P.acoustic_image(rec))\n"
+        "opts: acousim.ImagingOptions = acousim.ImagingOptions(step_deg=1.0)\n"
+        "reveal_type(acousim.image_recordings)\n"
     )
     out, _, status = mypy.run(
         [str(script), "--follow-imports=silent", "--cache-dir", str(tmp_path / "cache")]
@@ -467,6 +498,7 @@ def test_a_users_script_type_checks_against_the_lazy_names(tmp_path):
     assert status == 1 and "Found 1 error" in out, out
     assert 'Revealed type is "acousim.scene.model.Sensor"' in out
     assert 'user.py:8: error: "Sensor" has no attribute "arrray"' in out
+    assert 'user.py:13: note: Revealed type is "def (recordings:' in out, out
 
 
 def test_checked_functions_pickle_by_reference():

@@ -65,9 +65,8 @@ from acousim.trace.motion.following import Endpoints, FirstLeg
 from acousim.trace.options import TraceSettings
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.tracer import Tracer
-from acousim.trace.world.build import _load
+from acousim.trace.world.build import _load, _unreadable
 from acousim.trace.world.embree import RayCaster
-from processing.base.errors import InputError
 
 __all__ = ["MovingWorld", "ride", "bounces", "ride_chain", "follow_chains"]
 
@@ -475,7 +474,7 @@ def _read(path):
     try:
         return trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds
-        raise InputError(f"cannot read mesh ({exc})", file=str(path)) from None
+        raise _unreadable(path, exc) from None
 
 
 def _with_meshes(scene: Scene, meshes) -> Scene:

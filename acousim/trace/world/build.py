@@ -233,6 +233,13 @@ def _name(mesh) -> str:
     return str(mesh) if isinstance(mesh, str | Path) else f"<{type(mesh).__name__} in memory>"
 
 
+def _unreadable(path, exc: Exception) -> InputError:
+    """The error for a mesh file its reader refused: "could not be read as" its
+    format (by its extension), with the reader's reason."""
+    fmt = Path(path).suffix.lstrip(".").upper() if isinstance(path, str | Path) else ""
+    return InputError(f"could not be read as {fmt or 'a mesh'} ({exc})", file=_name(path))
+
+
 def _no_faces(path) -> InputError:
     """The error for a mesh without faces: a file read as its format (by its
     extension) that gave none is not a mesh of that format (a text file named .stl
@@ -260,7 +267,7 @@ def _load_part(path, transform) -> MeshPart:
         if mesh is None:
             mesh = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds
-        raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
+        raise _unreadable(path, exc) from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
         raise _no_faces(path)
     if not np.all(np.isfinite(mesh.vertices)):
@@ -375,7 +382,7 @@ def face_groups(path, transform) -> tuple[object, dict[str, np.ndarray]]:
     except TypeError:  # a loader without OBJ's split_groups
         loaded = trimesh.load(path, process=False)
     except Exception as exc:  # trimesh raises many kinds
-        raise InputError(f"cannot read mesh ({exc})", file=_name(path)) from None
+        raise _unreadable(path, exc) from None
     if not isinstance(loaded, trimesh.Scene):
         if not hasattr(loaded, "faces") or len(loaded.faces) == 0:
             raise _no_faces(path)  # named by its file, not as the mesh in memory it became

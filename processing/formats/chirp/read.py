@@ -237,11 +237,23 @@ class Reader:
             channels = self.read(a["channels"]) if "channels" in a else None
             if "grid_index" in a:
                 grid = self.read(a["grid_index"])
-                pitch = tuple(float(v) for v in a["grid_index"].attrs["pitch_m"])
+                pitch = self.pitch(a["grid_index"])
         try:
             return Array(name, pos, tx[:3, 3], grid, pitch, channels), missing
         except ValueError as exc:
             raise self.fail(str(exc), key=key) from None
+
+    def pitch(self, grid_index: h5py.Dataset) -> tuple[float, ...]:
+        """A URA's pitch (dz, dy), m, from our `grid_index`'s attribute; whatever a
+        hand-edited file holds there (absent, text, an array of strings) is the
+        one-line error naming it."""
+        raw = grid_index.attrs.get("pitch_m")
+        try:
+            return tuple(float(v) for v in np.ravel(np.asarray(raw)))
+        except (TypeError, ValueError):
+            key = f"{grid_index.name}.pitch_m"
+            shown = raw.tolist() if isinstance(raw, np.ndarray) else raw  # one line
+            raise self.fail("must be the pitch (dz, dy) in metres", key=key, value=shown) from None
 
     def call(self, given: Waveform | None) -> tuple[Waveform, int]:
         """The sweep fitted to the transmitter's signal when it fits, else `given`; and

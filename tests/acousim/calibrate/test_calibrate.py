@@ -340,3 +340,19 @@ def test_a_bundled_scenes_repeated_measurements_fit_into_a_file_anywhere(tmp_pat
     assert fitted.meshes[0].material.reflection == pytest.approx(fitted_value, abs=1e-3)
     assert Path(fitted.meshes[0].mesh).samefile(mesh.mesh)  # the bundled mesh file
     assert not (out.parent / "meshes").exists()  # pointed to, not copied
+
+
+def test_a_scene_without_a_mesh_is_refused_in_one_line(tmp_path, capsys):
+    """The bundled points scene (point reflectors alone) has no material to fit:
+    one line naming the scene file, exit code 2 (it was a traceback)."""
+    from acousim.bundled import find_scene
+    from acousim.cli import main
+    from acousim.simulator import Simulator
+
+    (rec,) = Simulator(load_scene(find_scene("points"))).run()
+    P.save_recordings(tmp_path / "p.h5", [rec])
+    args = ["calibrate", str(tmp_path / "p.h5"), "--scene", "points"]
+    assert main([*args, "--out", str(tmp_path / "f.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "points.toml" in err, err
+    assert "no material to fit" in err and not (tmp_path / "f.toml").exists()

@@ -144,6 +144,20 @@ def test_a_file_that_is_not_a_mesh_says_its_format(tmp_path, capsys, suffix, fmt
     )
 
 
+def test_a_file_its_reader_refuses_says_its_format_and_why(tmp_path, capsys):
+    """A GLB that is not one (its reader raises, rather than finding no faces): the
+    same words, with the reader's reason (it said "cannot read mesh")."""
+    (tmp_path / "notes.glb").write_bytes(b"shopping list: eggs, milk\n" * 8)
+    scene = tmp_path / "s.toml"
+    scene.write_text((SCENES / "wall.toml").read_text().replace("meshes/wall.stl", "notes.glb"))
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(
+        f"acousim simulate: error: {tmp_path / 'notes.glb'}: could not be read as GLB ("
+    )
+    assert len(err.splitlines()) == 1, err
+
+
 # --- a malformed attribute ------------------------------------------------------------------
 
 
@@ -192,3 +206,29 @@ def test_a_format_attribute_that_is_an_array_is_no_chirp_file(malformed, capsys)
     assert not P.is_chirp(f)
     assert main(["info", str(f)]) == 0  # a recording file, with a stray attribute
     assert "paper_8x8" in capsys.readouterr().out
+
+
+def test_a_malformed_attribute_of_our_chirp_or_images_file_is_one_line(tmp_path, capsys):
+    """The fuzzed attributes that still met a traceback: a CHIRP file's URA pitch as an
+    array of strings (info and image read it), an images.h5's `units` as an array."""
+    rec = P.Recording(np.zeros((64, 3000)), 500e3, P.paper_8x8(), P.paper_chirp())
+    chirp = P.write_chirp(tmp_path / "c.h5", [rec])
+    with h5py.File(chirp, "a") as f:
+        bad = np.array([["a", "b"], ["c", "d"]], dtype=h5py.string_dtype())
+        f["acousim/array/grid_index"].attrs["pitch_m"] = bad
+    assert main(["image", str(chirp), "--out", str(tmp_path / "i"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"{chirp}: /acousim/array/grid_index.pitch_m = " in err and "metres" in err
+    assert main(["info", str(chirp)]) == 0  # info describes the file, and says so
+    said = capsys.readouterr().out
+    assert "its recordings cannot be read: must be the pitch (dz, dy) in metres" in said
+    images = tmp_path / "images.h5"
+    with h5py.File(images, "w") as f:
+        f.attrs["format"] = "acousim-images"
+        g = f.create_group("recording_000000")
+        g.create_dataset("das", data=np.zeros((2, 3, 4), np.float32)).attrs["units"] = "dB"
+        g.create_dataset("azimuth_deg", data=np.zeros(4)).attrs["units"] = np.array([1, 2])
+    assert main(["info", str(images)]) == 0  # the stray attribute is not an image's
+    out = capsys.readouterr().out
+    assert "images of 1 recording(s)" in out and "das (range x elevation x azimuth (2, 3, 4)" in out

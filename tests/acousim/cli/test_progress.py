@@ -122,6 +122,82 @@ def test_image_shows_its_write_phase_on_a_terminal(tmp_path):
     assert re.fullmatch(r"\d+ file\(s\) written to img \([\d.]+ s from the start\)", total)
 
 
+TINY_SPEC = """
+[dataset]
+name = "tiny"
+samples = 2
+shard_size = 1
+seed = 3
+
+[[scenes]]
+file = "{scene}"
+
+[store]
+images = ["das"]
+step_deg = 6.0
+max_bins = 32
+"""
+
+
+def _remove_outputs(folder: Path) -> None:
+    """What the commands below wrote (each refuses or keeps an existing output)."""
+    for made in ("ds", "bag", "c.h5", "r.h5", "fitted.toml"):
+        if (folder / made).is_file():
+            (folder / made).unlink()
+        shutil.rmtree(folder / made, ignore_errors=True)
+
+
+def test_every_long_command_shows_its_bar_on_a_terminal(tmp_path):
+    """export (a bag, a CHIRP file), record, compare, calibrate and dataset under a
+    pseudo-terminal: each a bar with its count, rate and time left, kept when done,
+    then its result; with --quiet the result alone (simulate and image: above)."""
+    scene = three_poses(tmp_path)
+    for made, name in (("x.h5", scene.name), ("w.h5", "wall")):
+        code, text = run_on_a_terminal(["simulate", name, "--out", made, "-q"], tmp_path)
+        assert code == 0, text
+    (tmp_path / "tiny.toml").write_text(TINY_SPEC.format(scene=scene))
+    runs = {  # command: (its bars: desc, count, unit), the start of its result line
+        ("export", "x.h5", "--method", "das", "--out", "bag"): (
+            [("image", "3/3", "recording"), ("bag", "3/3", "recording")],
+            "3 recording(s) written to the ROS 2 bag",
+        ),
+        ("export", "x.h5", "--format", "chirp", "--out", "c.h5"): (
+            [("CHIRP", "6/6", "step")],
+            "3 recording(s) written to the CHIRP file",
+        ),
+        ("record", "--emulate", "wall", "--count", "2", "--out", "r.h5"): (
+            [("record", "2/2", "measurement")],
+            "2 measurement(s) written to r.h5",
+        ),
+        ("compare", "x.h5", "--sim", "x.h5", "--method", "das", "--all"): (
+            [("compare", "3/3", "pair")],
+            "(",
+        ),
+        ("calibrate", "w.h5", "--scene", "wall", "--out", "fitted.toml"): (
+            [("calibrate", "1/1", "pose")],
+            "fitted scene written to fitted.toml",
+        ),
+        ("dataset", "tiny.toml", "--out", "ds", "--workers", "1"): (
+            [("shards", "2/2", "shard")],
+            "2 samples in 2 shards in ds",
+        ),
+    }
+    for args, (bars, result) in runs.items():
+        code, text = run_on_a_terminal(list(args), tmp_path)
+        assert code == 0, (args, text)
+        for desc, done, unit in bars:
+            rate = rf"[\d.]+({unit}/s|s/{unit})"
+            bar = rf"{re.escape(desc)}: 100%\|.*\| {done} \[\d\d:\d\d<00:00, +{rate}\]"
+            assert re.search(bar, text), (args, desc, text)
+        lines = [ln.strip() for ln in re.split(r"[\r\n]+", text) if ln.strip()]
+        assert any(ln.startswith(result) for ln in lines), (args, lines)
+        _remove_outputs(tmp_path)
+        code, text = run_on_a_terminal([*args, "--quiet"], tmp_path)
+        assert code == 0, (args, text)
+        assert "100%|" not in text and "it/s" not in text, (args, text)
+        _remove_outputs(tmp_path)
+
+
 def test_quiet_on_a_terminal_prints_only_the_result(tmp_path):
     scene = three_poses(tmp_path)
     code, text = run_on_a_terminal(["simulate", scene.name, "--out", "x.h5", "--quiet"], tmp_path)
@@ -207,6 +283,32 @@ def test_the_reported_time_counts_the_preparation(tmp_path, capsys, monkeypatch)
     assert main(["simulate", str(scene), "--out", str(tmp_path / "x.h5"), "-q"]) == 0
     out = capsys.readouterr().out
     assert out.strip().endswith("(50.0 s from the start)"), out
+
+
+def test_calibrate_reports_its_time_from_the_start(tmp_path, capsys, monkeypatch):
+    """`calibrate` ends with its wall time from the start as `simulate` does: loading
+    the scene (50 s on the test's clock) counted, not only the fit's evaluations."""
+    from acousim.cli import calibrate, clock
+
+    monkeypatch.delenv("ACOUSIM_PROGRESS_LINES", raising=False)
+    shutil.copy(SCENES / "wall.toml", tmp_path / "wall.toml")
+    shutil.copytree(SCENES / "meshes", tmp_path / "meshes")
+    wall = str(tmp_path / "wall.toml")
+    assert main(["simulate", wall, "--out", str(tmp_path / "w.h5"), "-q"]) == 0
+    capsys.readouterr()
+    now = [1000.0]
+    monkeypatch.setattr(clock, "_clock", lambda: now[0])
+    real_load = calibrate.load_scene
+
+    def slow_load(path):
+        now[0] += 50.0
+        return real_load(path)
+
+    monkeypatch.setattr(calibrate, "load_scene", slow_load)
+    args = ["calibrate", str(tmp_path / "w.h5"), "--scene", wall, "--out"]
+    assert main([*args, str(tmp_path / "fitted.toml"), "-q"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert re.fullmatch(r"fitted scene written to .*fitted\.toml \(50\.0 s from the start\)", last)
 
 
 def test_the_clock_starts_before_the_command_imports_anything(monkeypatch):

@@ -7,6 +7,7 @@ worked out here (matplotlib's own colour map, numpy's median), not read from our
 """
 
 import numpy as np
+import pytest
 
 import processing as P
 from tests import REPO
@@ -82,6 +83,7 @@ def test_a_fan_panel_has_no_white_corner_past_the_imaged_range():
 def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
     import matplotlib.pyplot as plt
 
+    from acousim.compare.account import account
     from acousim.compare.comparison import (
         Alignment,
         Comparison,
@@ -98,6 +100,10 @@ def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
     prof_r = 1e-6 * (1 + 0.1 * gen.random(edges.size - 1))
     prof_s = 1e-8 * (1 + 0.1 * gen.random(edges.size - 1))
     prof_r[30] = prof_s[30] = 1.0
+    # the last quarter (bins 37..49, 1.85-2.5 m) is 10 dB quieter than the clutter
+    # before it: the median of every bin would read the clutter, not the floor
+    prof_r[37:] /= 10.0
+    prof_s[37:] /= 10.0
     empty = MethodComparison("das", (), (), (), (), (), 0.01)
     report = Comparison(Alignment(0.0, 0.0, 1.0), (1.0,), 0.05, (0.0,), {"das": empty})
     fig = comparison_figure(
@@ -118,12 +124,21 @@ def test_comparison_fans_share_one_scale_and_name_the_noise_floors():
         peaks.append(pic[rows, cols].sum(axis=2).max())
     assert peaks[1] < peaks[0] - 30
     # the profiles in dB re the real strongest bin, and both noise floors named with
-    # their level: the median bin, 10 log10(median / max)
+    # their level: the median of the last quarter's bins, 10 log10(median / max), the
+    # numbers the command prints (its account) and the span they are read over
     texts = [t.get_text() for t in fig.findobj(plt.Text)]
     assert any("dB re real strongest bin" in t for t in texts)
-    for name, prof in (("real", prof_r), ("simulated", prof_s)):
-        expect = 10 * np.log10(np.median(prof) / prof_r.max())
+    said = account(report, ComparisonArrays(edges, prof_r, prof_s, {"das": real}, {"das": sim}))
+    for name, prof, printed in (
+        ("real", prof_r, said.floor_real_db),
+        ("simulated", prof_s, said.floor_sim_db),
+    ):
+        expect = 10 * np.log10(np.median(prof[37:]) / prof_r.max())
+        assert printed == pytest.approx(expect, abs=1e-9)
+        assert expect < 10 * np.log10(np.median(prof) / prof_r.max()) - 5  # not the clutter
         assert any(t.startswith(name) and f"noise floor: {expect:.1f} dB" in t for t in texts)
+    assert any("median over 1.85-2.50 m" in t for t in texts)
+    assert (said.floor_from_m, said.floor_to_m) == pytest.approx((1.85, 2.5))
     plt.close(fig)
 
 
