@@ -61,6 +61,8 @@ __all__ = [
 ]
 
 
+#: ImagingOptions' methods when not given
+DEFAULT_METHODS: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
 #: the methods an array that is not a uniform rectangular one (eRTIS) is imaged by
 #: when the default methods were kept (their smoothing needs a URA): the same
 #: methods without it
@@ -83,7 +85,7 @@ class ImagingOptions:
         animation, the bag's fan image).
     """
 
-    methods: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")  # DEFAULT_METHODS
+    methods: tuple[str, ...] = DEFAULT_METHODS
     azimuth_deg: tuple[float, float] = P.GRID_AZIMUTH_DEG  # one default: Grid.degrees()'
     elevation_deg: tuple[float, float] = P.GRID_ELEVATION_DEG
     step_deg: float = setting(P.GRID_STEP_DEG, "deg", 0.1, 45, "grid step")
@@ -129,10 +131,6 @@ class ImagingOptions:
             grid=self.grid,
             range_limits_m=(self.min_range_m, hi),
         )
-
-
-#: ImagingOptions' methods when not given
-DEFAULT_METHODS: tuple[str, ...] = ImagingOptions.__dataclass_fields__["methods"].default
 
 
 def image_recordings(

@@ -13,6 +13,7 @@ the axes and their ticks are in the figure's background; the world moves.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,7 +107,7 @@ def _yx(points: np.ndarray) -> np.ndarray:
     return np.asarray(points)[..., [1, 0]]
 
 
-def drive_track(positions_m: np.ndarray, sensors=None) -> np.ndarray:
+def drive_track(positions_m: np.ndarray | Sequence, sensors=None) -> np.ndarray:
     """The drive's track for :class:`PlanScene`: the sensor's positions (K, 3)
     (world, m) in the order of the recordings; with `sensors` (K,) (a rig's: each
     recording's sonar) one track per sonar, in order of first firing, a row of NaN
