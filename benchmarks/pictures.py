@@ -19,11 +19,11 @@ from acousim.export import write_image_data, write_peaks_csv
 from acousim.export.rosbag import write_rosbag
 from acousim.imaging.run import (
     ImagingOptions,
-    _animate,
     _render,
     _scene,
     _scene_triangles,
     _truth_sensor,
+    drive_steps,
     image_recordings,
     prepare_pictures,
 )
@@ -57,11 +57,12 @@ def run() -> str:
         timed("fan.png (3 methods)", lambda: fan_figure(imgs, out / "f.png", truth=truth))
         timed("elaz_music-fbss.png", lambda: elaz_figure(imgs["music-fbss"], out / "e.png"))
         timed("scene3d.png", lambda: _render(first, imgs, tri, out / "s.png", options))
-        timed(
-            "drive.gif, per frame",
-            lambda: list(_animate(recs, images, tri, out / "d.gif", options, range(n))),
-            per=n,
-        )
+        for view in ("plan", "3d"):
+            timed(
+                f"drive.gif, per frame (`--drive-view {view}`)",
+                lambda v=view: list(drive_steps(recs, images, out / "d.gif", options, view=v)),
+                per=n,
+            )
         timed(
             "images.h5, per pose (3 methods)",
             lambda: write_image_data(out / "images.h5", recs, images),
@@ -90,8 +91,10 @@ def run() -> str:
             f"## Pictures and export files: corridor drive, {n} poses, uRTIS",
             "",
             "Best of 3 runs of each writer on images already computed (DAS, Capon-FBSS, "
-            "MUSIC-FBSS, 2 degree grid); the drive animation includes its fan figures, the "
-            "bag the fan raster and peaks of MUSIC-FBSS and the raw samples as float32.",
+            "MUSIC-FBSS, 2 degree grid); the drive animation includes its figure, the plan "
+            "(the default) or the 3D view, and the GIF's encoding (the peaks found again: "
+            "the command hands its peak tables on), the bag the fan raster and peaks of "
+            "MUSIC-FBSS and the raw samples as float32.",
             "",
             "| output | ms | MB |",
             "|---|---|---|",
@@ -125,7 +128,8 @@ def _commands(pairs: int) -> list[str]:
 
     return [
         "The commands as a user runs them (60 poses, the defaults: DAS, Capon-FBSS and "
-        f"MUSIC-FBSS; the stills, the animation and peaks.csv), {pairs} alternating pairs "
+        f"MUSIC-FBSS; the stills, the animation with its plan and peaks.csv), {pairs} "
+        "alternating pairs "
         "of processes after a warm-up, medians; CPU counts the workers. Target: `image` "
         "no slower than `simulate`.",
         "",
