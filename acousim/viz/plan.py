@@ -178,6 +178,12 @@ class PlanPanel:
         def dots(color, size, **kw):
             return ax.scatter([], [], s=size, c=[color], animated=True, **kw)
 
+        def rings(color, size, width):  # hollow: off the sensor's plane
+            return ax.scatter(
+                [], [], s=size, facecolors="none", edgecolors=[color], linewidths=width,
+                animated=True,
+            )  # fmt: skip
+
         # drawn in this order, the last on top
         self.artists = {
             "section": lines(SECTION_COLOR, 1.4),
@@ -187,25 +193,9 @@ class PlanPanel:
             "lidar": dots(LIDAR_COLOR, 1.5, linewidths=0),
             "chains": lines(CHAIN_COLOR, 0.8),
             "truth": dots(TRUTH_COLOR, 8.0, edgecolors="none"),
-            "truth off": ax.scatter(
-                [],
-                [],
-                s=8.0,
-                facecolors="none",
-                edgecolors=[TRUTH_COLOR],
-                linewidths=0.9,
-                animated=True,
-            ),
+            "truth off": rings(TRUTH_COLOR, 8.0, 0.9),
             "peaks": dots(PEAK_COLOR, 22.0, marker="o", edgecolors="black", linewidths=0.4),
-            "peaks off": ax.scatter(
-                [],
-                [],
-                s=22.0,
-                facecolors="none",
-                edgecolors=[PEAK_COLOR],
-                linewidths=1.0,
-                animated=True,
-            ),
+            "peaks off": rings(PEAK_COLOR, 22.0, 1.0),
         }
         self._sensor()
 
