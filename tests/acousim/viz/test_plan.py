@@ -267,13 +267,11 @@ def test_the_plans_legend_lists_no_section_without_faces_nor_a_track_for_a_still
     ]
 
 
-def test_echoes_and_peaks_off_the_sensors_plane_are_hollow_in_the_plan():
-    """An echo and a peak in the sensor's plane are filled discs where they lie; a
-    floor echo and a peak 36 deg below it are rings (their centre pixel the
-    background's), so a floor under the sensor does not look like an obstacle."""
+def _plan_without_a_mesh(entries=()):
+    """A blob image and a drive figure whose plan has no mesh (the sensor still at
+    the origin), 4 m wide and 2.5 m deep."""
     from acousim.viz.drive import DriveFigure
     from acousim.viz.plan import PlanScene
-    from acousim.viz.render3d import PEAK_COLOR, TRUTH_COLOR, FrameContent
 
     img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
     drive = DriveFigure(
@@ -282,7 +280,18 @@ def test_echoes_and_peaks_off_the_sensors_plane_are_hollow_in_the_plan():
         max_range_m=2.5,
         dynamic_range_db=30.0,
         left=PlanScene(triangles=None, track=np.zeros((1, 3))),
+        entries=entries,
     )
+    return img, drive
+
+
+def test_echoes_and_peaks_off_the_sensors_plane_are_hollow_in_the_plan():
+    """An echo and a peak in the sensor's plane are filled discs where they lie; a
+    floor echo and a peak 36 deg below it are rings (their centre pixel the
+    background's), so a floor under the sensor does not look like an obstacle."""
+    from acousim.viz.render3d import PEAK_COLOR, TRUTH_COLOR, FrameContent
+
+    img, drive = _plan_without_a_mesh()
     # the sensor at the world's origin facing +x: world = sensor frame
     truth = np.array([[1.5, 1.0, 0.0], [1.0, -1.0, -1.0]])  # in plane; 35 deg below
     peaks = np.array([[1.8, 0.5, 0.3], [0.6, -0.3, -0.5]])  # 9 deg above; 37 deg below
@@ -321,23 +330,13 @@ def test_the_plan_draws_the_lidars_points_near_the_sensors_plane_only():
     """A scan of a wall 2 m ahead (points from 0.5 m below to 0.5 m above the
     sensor) and of the floor 0.45 m below (a ring 1.5 m around): the green pixels
     lie on the wall's line, none on the floor's ring (the legend says the slice)."""
-    from acousim.viz.drive import DriveFigure
-    from acousim.viz.plan import PlanScene
     from acousim.viz.render3d import LIDAR_COLOR, FrameContent
 
     y, z = np.meshgrid(np.linspace(-1.0, 1.0, 201), np.linspace(-0.5, 0.5, 21))
     wall = np.column_stack([np.full(y.size, 2.0), y.ravel(), z.ravel()])
     a = np.linspace(-np.pi / 3, np.pi / 3, 400)
     floor = np.column_stack([1.5 * np.cos(a), 1.5 * np.sin(a), np.full(a.size, -0.45)])
-    img = blob_image([(1.0, 0.0, 0.0, 0.0)], ranges=np.arange(0.3, 2.5, 0.01))
-    drive = DriveFigure(
-        first=img,
-        extent=(2.0, -2.0, 0.0, 2.5),
-        max_range_m=2.5,
-        dynamic_range_db=30.0,
-        left=PlanScene(triangles=None, track=np.zeros((1, 3))),
-        entries=[("LiDAR points", LIDAR_COLOR)],
-    )
+    img, drive = _plan_without_a_mesh(entries=[("LiDAR points", LIDAR_COLOR)])
     content = FrameContent(
         sensor_position=np.zeros(3),
         sensor_axis=np.array([1.0, 0, 0]),
