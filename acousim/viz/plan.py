@@ -102,6 +102,20 @@ def plane_section(triangles: np.ndarray) -> np.ndarray:
     return np.take_along_axis(points, order[..., None], axis=1)
 
 
+def _section(triangles, position_m: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """The plan's segments (S, 2, 2) of world `triangles` (F, 3, 3) cut by the plane
+    of the sensor at `position_m` turned by `rotation`: each vertex's height over
+    that plane first, then only the faces that cross it turned into the sensor's
+    frame (a subdivided mesh of 725k faces: a few thousand)."""
+    if triangles is None or not len(triangles):
+        return np.empty((0, 2, 2))
+    tri = np.asarray(triangles, float)
+    up = np.asarray(rotation, float)[:, 2]  # the sensor's z in the world
+    above = (tri.reshape(-1, 3) @ up >= np.dot(position_m, up)).reshape(-1, 3)
+    crossing = above.any(axis=1) & ~above.all(axis=1)
+    return _yx(plane_section(to_sensor_frame(tri[crossing], position_m, rotation)))
+
+
 def _yx(points: np.ndarray) -> np.ndarray:
     """Sensor-frame points (..., >= 2) as the plan's axes take them: (y, x)."""
     return np.asarray(points)[..., [1, 0]]
@@ -255,8 +269,8 @@ class PlanPanel:
             return to_sensor_frame(points, pos, rotation)
 
         a = self.artists
-        a["section"].set_segments(self._section(self.scene.triangles, local))
-        a["moving"].set_segments(self._section(content.moving_triangles, local))
+        a["section"].set_segments(_section(self.scene.triangles, pos, rotation))
+        a["moving"].set_segments(_section(content.moving_triangles, pos, rotation))
         track = _yx(local(self.scene.track))
         a["track"].set_data(track[:, 0], track[:, 1])
         a["sweep"].set_segments(self._sweep(content, local))
@@ -273,20 +287,6 @@ class PlanPanel:
         a["peaks off"].set_offsets(_yx(peaks[peak_off]))
         for artist in a.values():
             self.ax.draw_artist(artist)
-
-    @staticmethod
-    def _section(triangles, local) -> np.ndarray:
-        """The plan's segments (S, 2, 2) of world `triangles` (F, 3, 3): only those
-        that cross the sensor's plane turned into its frame (a subdivided mesh of
-        725k faces: a height per vertex, then a few thousand faces)."""
-        if triangles is None or not len(triangles):
-            return np.empty((0, 2, 2))
-        tri = np.asarray(triangles, float)
-        origin, up = local(np.zeros(3)), local(np.eye(3)) - local(np.zeros(3))
-        z = tri.reshape(-1, 3) @ up[:, 2] + origin[2]  # each vertex's height over the plane
-        above = (z >= 0.0).reshape(-1, 3)
-        crossing = above.any(axis=1) & ~above.all(axis=1)
-        return _yx(plane_section(local(tri[crossing])))
 
     @staticmethod
     def _local(points, local) -> np.ndarray:
