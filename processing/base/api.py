@@ -115,9 +115,7 @@ _OURS = ("processing", "acousim", "hardware")
 def _internal(frame: types.FrameType) -> bool:
     """Whether `frame` runs our packages' code or the import system's."""
     module = str(frame.f_globals.get("__name__", ""))
-    return module.split(".")[0] in _OURS or frame.f_code.co_filename.startswith(
-        "<frozen importlib"
-    )
+    return module.split(".")[0] in _OURS or frame.f_code.co_filename.startswith("<frozen importlib")
 
 
 def warn_deprecated(message: str) -> None:

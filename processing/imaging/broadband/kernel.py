@@ -20,6 +20,13 @@ and over the K measurements.
   transformed by the caller), no upsampling or interpolation.
 * :func:`near_field`: delays computed per (direction, microphone, range) from the
   geometry inside the kernel (no G x M x N delay table in memory).
+
+No kernel here uses ``fastmath``: with ``parallel=True`` numba's freshly compiled
+code and the code it loads from its cache contract (fuse) different multiply-adds,
+so the first run after an install gave images about 1e-6 off every later run's
+(numba 0.68; plain IEEE arithmetic is the same both ways, and costs about 10 % of
+:func:`far_field` alone).  ``tests/processing/imaging/test_kernel_cache.py``
+compares the two.
 """
 
 from __future__ import annotations
@@ -59,7 +66,7 @@ def _combine(S, E, P, M, order, cf, binom):
     return out
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, inline="always")
 def _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, add):
     """The interpolated, phase-rotated channel m of direction g: written to (or, with
     `add`, added to) xr, xi (Nw,).  The 4-tap (cubic) case sums its taps in one pass,
@@ -111,7 +118,7 @@ def _interpolate(zr, zi, k, m, g, q, ph, w, Nw, xr, xi, add):
             xi[j] += ar[j] * wi + ai[j] * wr
 
 
-@njit(parallel=True, cache=True, fastmath=True)
+@njit(parallel=True, cache=True)
 def far_field(zr, zi, rr, ri, q, ph, w, order, cf, binom, D, out):
     """zr, zi (and rooted rr, ri): (K, M, U, Nq) float32 real and imaginary parts;
     q, ph (G, M, T) int: polyphase row and start of each of the T interpolation taps;
@@ -263,7 +270,7 @@ def near_field(
             out[r, g] = v / (D * K)
 
 
-@njit(parallel=True, cache=True, fastmath=True)
+@njit(parallel=True, cache=True)
 def far_das_spectrum(Xr, Xi, d, f_start, df, beams):
     """Plain far-field DAS summed in the frequency domain, exactly (no interpolation).
 

@@ -137,9 +137,7 @@ def test_scenes_without_scattering_shoot_at_most_a_probe():
 
 
 @pytest.mark.parametrize("behind", [False, True])
-def test_a_path_leaving_just_outside_the_beam_is_kept_if_a_ray_meets_its_wall(
-    tmp_path, behind
-):
+def test_a_path_leaving_just_outside_the_beam_is_kept_if_a_ray_meets_its_wall(tmp_path, behind):
     """A wall beside the sensor, its axis turned 0.5 degrees away from it: the one
     image-source path leaves at 90.5 degrees, outside the 90 degree beam.  Where
     the wall runs ahead, rays in the beam graze it and the path is kept; where it
