@@ -205,19 +205,18 @@ class Image:
 _PEAK_FLOOR_DB = -120.0
 
 
-def _local_maxima(p: np.ndarray, threshold_db: float) -> tuple[np.ndarray, np.ndarray]:
+def _local_maxima(p: np.ndarray, threshold_db: float, ref: float) -> tuple[np.ndarray, np.ndarray]:
     """Cells of `p` (R, E, A) at least as large as every cell of their 3x3x3
     neighbourhood (clamped at the borders, as ``maximum_filter(mode="nearest")``)
-    and within `threshold_db` of the maximum: indices (N, 3) in index order and their
-    levels (N,) in dB (:func:`to_db`).  Only the cells above the threshold are
-    compared with their neighbours (a few of the image's)."""
-    ref = float(p.max())
+    and within `threshold_db` of the maximum `ref` (``p.max()``): indices (N, 3) in
+    index order and their levels (N,) in dB (:func:`to_db`).  Only the cells above
+    the threshold are compared with their neighbours (a few of the image's)."""
     # a margin of 1 dB (the exact test below decides); at the floor every cell passes
     low = threshold_db - 1.0 <= _PEAK_FLOOR_DB
     lim = -np.inf if low else ref * 10 ** ((threshold_db - 1.0) / 10)
     kernel = optional_kernel("processing.imaging.peaks_kernel", "local_maxima")
     if kernel is not None and p.dtype == np.float64:  # the same cells, in one pass
-        cand = kernel(np.ascontiguousarray(p), lim)
+        cand = kernel(p, lim)  # read in place: an image is a transposed view
         level = to_db(p[tuple(cand.T)], ref, _PEAK_FLOOR_DB)
         return cand[level >= threshold_db], level[level >= threshold_db]
     cand = np.argwhere(p == p) if low else np.argwhere(p >= lim)
@@ -258,7 +257,8 @@ def find_peaks(
     so an echo from the zenith or the nadir is one peak (at the grid's first azimuth).
     """
     p = image.power
-    if p.size == 0 or p.max() <= 0:
+    ref = float(p.max()) if p.size else 0.0
+    if p.size == 0 or ref <= 0:
         e = np.empty(0)
         return Peaks(e, e, e, e, image.method, np.zeros(0, bool))
     pole = np.abs(np.abs(image.elevation_rad) - np.pi / 2) < 1e-9
@@ -268,7 +268,7 @@ def find_peaks(
         p[:, pole, :] = p[:, pole, :].max(axis=2, keepdims=True)
         idx, level = _pole_maxima(p, pole, threshold_db)
     else:
-        idx, level = _local_maxima(p, threshold_db)
+        idx, level = _local_maxima(p, threshold_db, ref)
     # drop later cells of a plateau: a neighbour earlier in index order with equal value
     keep = []
     seen = np.zeros(p.shape, bool)

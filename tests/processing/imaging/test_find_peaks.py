@@ -40,12 +40,15 @@ def kernel(request, monkeypatch):
 
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("threshold_db", [-3.0, -10.0, -25.0, -200.0])
-def test_find_peaks_matches_a_whole_image_maximum_filter(seed, threshold_db, kernel):
+@pytest.mark.parametrize("layout", ["C", "elevation-major"])
+def test_find_peaks_matches_a_whole_image_maximum_filter(seed, threshold_db, layout, kernel):
     gen = np.random.default_rng(seed)
     shape = (30, 9, 13)
     power = gen.random(shape) ** 8  # a few strong cells among many weak ones
     power[gen.random(shape) < 0.05] = 0.5  # plateaus of equal cells
     power[0, 0, :3] = power.max()  # a plateau of the strongest at a corner
+    if layout == "elevation-major":  # as the co-array images are: a transposed view
+        power = np.ascontiguousarray(power.transpose(1, 0, 2)).transpose(1, 0, 2)
     az, el = np.linspace(-1.5, 1.5, shape[2]), np.linspace(-0.7, 0.7, shape[1])
     img = P.Image(power, np.linspace(0.3, 3.0, shape[0]), el, az, "das", 40e3)
     got = P.find_peaks(img, threshold_db)
