@@ -248,8 +248,8 @@ def run(args: argparse.Namespace) -> int:
         # drive's worker is forked: it inherits them)
         prepare_pictures(render_3d=not args.no_3d, animation=animated, drive_view=args.drive_view)
 
-    keep = None if args.images_h5 else drawn_images(shown or [0])
     beside = None if args.no_data else _peak_tables(index, options)
+    keep = None if args.images_h5 else drawn_images(shown or [0], fan=beside is not None)
     imaged = image_all(first=first, beside=beside, keep=keep)
     recs, images = imaged.recordings, imaged.images
     tables = None if args.no_data else imaged.extras
@@ -286,17 +286,20 @@ def _span(index: list[int]) -> str:
     return ",".join(map(str, index))
 
 
-def drawn_images(shown: list[int]):
+def drawn_images(shown: list[int], *, fan: bool = False):
     """``keep(k, images)``: the images the pictures draw of recording k, every
     method's for a recording `shown` (by position), else the animation's method's
-    alone (the others travel from the imaging worker for nothing)."""
+    alone (the others travel from the imaging worker for nothing); with `fan` (the
+    animation's peaks are in the peak tables), only its fan
+    (:func:`acousim.viz.fan.fan_only`: a twentieth of the cells, the same frame)."""
     from acousim.imaging.run import drive_method
+    from acousim.viz.fan import fan_only
 
     def keep(k: int, imgs: dict) -> dict:
         if k in shown:
             return imgs
         method = drive_method(imgs)
-        return {method: imgs[method]}
+        return {method: fan_only(imgs[method]) if fan else imgs[method]}
 
     return keep
 

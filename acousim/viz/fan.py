@@ -42,6 +42,7 @@ __all__ = [
     "elaz_figure",
     "fan_extent",
     "fan_figure",
+    "fan_only",
     "fan_levels",
     "fan_raster",
     "floor_color",
@@ -122,6 +123,38 @@ def full_range_fan(
             power = power[ok]
         fan[idx[ok]] = np.fmax(fan[idx[ok]], power.max(axis=1))
     return axis, fan
+
+
+def fan_only(image: Image, elevation_limit_rad: float = FAN_ELEVATION_BAND_RAD) -> Image:
+    """`image` reduced to what its fan reads: (R, 2, A) cells instead of (R, E, A).
+
+    Two adjacent elevations of the band (:func:`full_range_fan`'s), each holding the
+    maximum over the band's elevations: the fan, its extent, levels and raster are
+    those of `image`, and so is the grid's step (the cell the fan's marks are grouped
+    by, :func:`acousim.imaging.matching.image_resolution`).  What an animation needs
+    of a recording it does not draw as a still (its peaks found beforehand); `image`
+    itself when no two adjacent elevations of the band are at the grid's smallest
+    step (a band of one elevation, an uneven grid).
+    """
+    el = image.elevation_rad
+    band = np.abs(el) <= elevation_limit_rad
+    if el.size < 2 or not band.any():
+        return image
+    step = np.diff(el)
+    pair = np.flatnonzero(band[:-1] & band[1:] & (step == step.min()))
+    if pair.size == 0:
+        return image
+    j = int(pair[np.argmin(np.abs(el[pair]))])  # the pair nearest the horizontal plane
+    top = image.power[:, _as_slice(band)].max(axis=1)  # (R, A)
+    return Image(
+        power=np.repeat(top[:, None, :], 2, axis=1),
+        range_m=image.range_m,
+        elevation_rad=el[j : j + 2].copy(),
+        azimuth_rad=image.azimuth_rad,
+        method=image.method,
+        frequency_hz=image.frequency_hz,
+        bin_range_m=image.bin_range_m,
+    )
 
 
 def _as_slice(mask: np.ndarray) -> slice | np.ndarray:
