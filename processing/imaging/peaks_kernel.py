@@ -2,9 +2,9 @@
 
 :func:`local_maxima` finds, in one pass over an image, the cells at or above a level
 that are at least as large as every cell of their 3x3x3 neighbourhood (clamped at
-the borders), stopping at the first larger neighbour: numpy needs a boolean image, its indices and 27 gathers of the
-candidates' neighbours.  The same cells, in the same order, as the numpy twin in
-:func:`processing.imaging.image._local_maxima`.
+the borders), stopping at the first larger neighbour: numpy needs a boolean image,
+its indices and 27 gathers of the candidates' neighbours.  The same cells, in the
+same order, as the numpy twin in :func:`processing.imaging.image._local_maxima`.
 """
 
 from __future__ import annotations

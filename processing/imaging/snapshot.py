@@ -150,18 +150,25 @@ def stft_snapshot(
         lo, hi = gate.range_limits_m
         candidate &= (ranges >= lo) & (ranges <= hi)
     freqs = np.fft.rfftfreq(window, 1 / sample_rate_hz)
+    found = None
     if frequency_hz is None:
-        fbin = _strongest_bin(_candidates(frames, candidate), freqs, band_hz, taper)
+        found = _strongest_bin(_candidates(frames, candidate), freqs, band_hz, taper)
+        fbin = found.bin
     else:
         fbin = int(np.argmin(np.abs(freqs - frequency_hz)))
-    kernel = taper * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
-    # (K, M, P): one DFT bin of every frame, as two real products (the real frames
-    # are not copied to complex)
-    column = frames @ kernel.real + 1j * (frames @ kernel.imag)
-    energy = (column.real**2 + column.imag**2).sum(axis=(0, 1))
-    energy = np.where(candidate, energy, 0.0)
+    at = np.flatnonzero(candidate)  # only these frames can be kept (the others: energy 0)
+    if found is not None and found.column is not None:
+        column = found.column  # the search's products of the candidates at that bin
+    else:
+        kernel = taper * np.exp(-2j * np.pi * fbin * np.arange(window) / window)
+        # (K, M, P'): one DFT bin of each candidate frame, as two real products (the
+        # real frames are not copied to complex)
+        cand = _candidates(frames, candidate)
+        column = cand @ kernel.real + 1j * (cand @ kernel.imag)
+    energy = np.zeros(candidate.size)
+    energy[at] = (column.real**2 + column.imag**2).sum(axis=(0, 1))
     idx = _kept(energy, gate)
-    data = np.moveaxis(column[:, :, idx], 0, -1)  # (M, R, K)
+    data = np.moveaxis(column[:, :, np.searchsorted(at, idx)], 0, -1)  # (M, R, K)
     if data.shape[-1] == 1 and np.asarray(mf).ndim == 2:
         data = data[..., 0]
     return Snapshot(
@@ -215,25 +222,36 @@ def _candidates(frames: np.ndarray, candidate: np.ndarray) -> np.ndarray:
     return frames[..., idx, :]
 
 
-def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz, taper=1.0) -> int:
+@dataclass(frozen=True)
+class _Strongest:
+    """:func:`_strongest_bin`'s answer: the STFT `bin`, and the frames' DFT at that bin
+    (..., P') complex when the search computed it (None: the full rfft's search)."""
+
+    bin: int
+    column: np.ndarray | None = None
+
+
+def _strongest_bin(frames: np.ndarray, freqs: np.ndarray, band_hz, taper=1.0) -> _Strongest:
     """The STFT bin of highest energy, summed over the `frames` (..., window) tapered
     by `taper` (window,) (or 1.0: already tapered), inside `band_hz` when given.
 
     Only the band's bins are computed (a real product with their cosines and sines,
     the taper folded in: no copy of the frames), the same sums as the full
-    ``rfft``'s for those bins; without a band, every bin by ``rfft``."""
+    ``rfft``'s for those bins; the winner's products are the frames' DFT at that bin
+    (the snapshots: not computed twice).  Without a band, every bin by ``rfft``."""
     n = frames.shape[-1]
     if band_hz is None:
         spec = np.fft.rfft(frames * taper, axis=-1)  # (K, M, P', F)
-        return int(np.argmax((spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2))))
+        return _Strongest(int(np.argmax((spec.real**2 + spec.imag**2).sum(axis=(0, 1, 2)))))
     bins = np.flatnonzero((freqs >= band_hz[0]) & (freqs <= band_hz[1]))
     if bins.size == 0:  # bins wider than the band: the one nearest its centre
-        return int(np.argmin(np.abs(freqs - np.mean(band_hz))))
+        return _Strongest(int(np.argmin(np.abs(freqs - np.mean(band_hz)))))
     phase = (2 * np.pi / n) * np.outer(np.arange(n), bins)  # (window, B)
     basis = np.asarray(taper)[..., None] * np.hstack([np.cos(phase), np.sin(phase)])
     proj = frames @ basis  # (K, M, P', 2B): real and imaginary parts of the bins
     power = np.einsum("kmpb,kmpb->b", proj, proj)
-    return int(bins[np.argmax(power[: bins.size] + power[bins.size :])])
+    b = int(np.argmax(power[: bins.size] + power[bins.size :]))
+    return _Strongest(int(bins[b]), proj[..., b] - 1j * proj[..., bins.size + b])
 
 
 def _checked(mf, stft: Stft, gate: BinGate) -> np.ndarray:

@@ -17,10 +17,19 @@ def test_energy_gate_keeps_bins_around_the_echo():
     assert snap.bin_range_m == pytest.approx(343 * 16 / 500e3 / 2)
 
 
-def test_same_transform_as_scipy_shorttimefft():
+@pytest.mark.parametrize("searched", [False, True])
+def test_same_transform_as_scipy_shorttimefft(searched):
+    """The snapshots are scipy's STFT at the bin: given, or found by the band's search
+    (whose products are then the snapshots), with range limits keeping some frames."""
     rng = np.random.default_rng(1)
     x = rng.standard_normal((3, 2048))
-    snap = P.stft_snapshot(x, 500e3, frequency_hz=31250, gate=P.BinGate(energy_fraction=0))
+    x += np.sin(2 * np.pi * 31250 * np.arange(2048) / 500e3)  # the strongest bin: 16
+    if searched:
+        gate = P.BinGate(energy_fraction=0, range_limits_m=(0.1, 0.6))
+        snap = P.stft_snapshot(x, 500e3, band_hz=(20e3, 45e3), gate=gate)
+        assert snap.frequency_hz == 31250 and np.all((snap.range_m >= 0.1) & (snap.range_m <= 0.6))
+    else:
+        snap = P.stft_snapshot(x, 500e3, frequency_hz=31250, gate=P.BinGate(energy_fraction=0))
     sft = ShortTimeFFT(get_window("hann", 256), 16, 500e3)
     ref = sft.stft(x)  # (3, F, P), slices centred on p * hop
     col = ref[:, 16, :]
