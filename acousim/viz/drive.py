@@ -138,18 +138,21 @@ class DriveFigure:
         b.set_title(f"{first.method}, top view", fontsize=9)
         fig.colorbar(im, ax=b, shrink=0.8, label=colorbar_label(dynamic_range_db))
         legend_inside(fig, handles + fan_legend(set(marks), dynamic_range_db))
+        # the background holds neither picture nor the title: hidden before the one
+        # draw that lays the figure out (they are not part of its layout) and whose
+        # pixels are kept
+        self.title.set_animated(True)
+        if self.plan is None:
+            self.view.set_visible(False)
+        self.fan.set_visible(False)
         fig.canvas.draw()  # the layout, once
         fig.set_layout_engine("none")
-        self.title.set_animated(True)
+        self.background = fig.canvas.copy_from_bbox(fig.bbox)
         height = fig.canvas.get_width_height()[1]
         # where each picture's pixels go on the canvas: drawn straight from the arrays
         if self.plan is None:
             self.view_paste = _paste_map(a, self.view_shape, height, top_down=True)
-            self.view.set_visible(False)  # the background holds neither picture
         self.fan_paste = _paste_map(b, first_raster_shape(self.fan), height, top_down=False)
-        self.fan.set_visible(False)
-        fig.canvas.draw()
-        self.background = fig.canvas.copy_from_bbox(fig.bbox)
         self._fan_key: tuple | None = None
         self._fan_table_index = np.empty((0, 0), np.intp)
 
