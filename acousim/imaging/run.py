@@ -288,11 +288,11 @@ def _moving_triangles(scene, rec: P.Recording) -> np.ndarray | None:
 def prepare_pictures(
     render_3d: bool = True, animation: bool = True, drive_view: DriveView = "plan"
 ) -> None:
-    """Import what the pictures need (matplotlib; pyvista/VTK for the 3D views, the
-    animation's with `drive_view` "3d") before a command's work starts, so that Ctrl-C
-    never lands in the middle of VTK's import (which could crash the interpreter
-    instead of stopping cleanly).  An interrupt during these imports is held back and
-    raised once they are done."""
+    """Import what the pictures need (matplotlib, its first figure drawn; pyvista/VTK
+    for the 3D views, the animation's with `drive_view` "3d") before a command's work
+    starts, so that Ctrl-C never lands in the middle of VTK's import (which could
+    crash the interpreter instead of stopping cleanly).  An interrupt during these
+    imports is held back and raised once they are done."""
     with _interrupt_after():
         _import_pictures(render_3d, animation and drive_view == "3d")
 
@@ -324,6 +324,33 @@ def _import_pictures(render_3d: bool, animation_3d: bool) -> None:
         # VTK's rendering modules (pyvista loads them on first use): imported once,
         # before the command's workers are forked
         import_pyvista().Plotter  # noqa: B018
+    _first_figure()
+
+
+def _first_figure() -> None:
+    """Draw a small figure with what the pictures use (an image, a colour bar, marks,
+    a legend, titles, constrained layout) into memory: the first figure a process
+    draws pays matplotlib's one-time costs (its fonts loaded, its artists' and
+    renderer's first use: about 0.3 s), paid here once, before the processes that
+    draw the pictures are forked (they inherit it), not by each one's first picture."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from acousim.viz.render3d import legend_handles
+
+    fig, ax = plt.subplots(figsize=(2, 2), layout="constrained")
+    try:
+        shown = ax.imshow(np.zeros((4, 4)), interpolation="nearest")
+        ax.scatter([0.0], [0.0], s=4)
+        ax.set_title("title")
+        ax.set_xlabel("x (m)")
+        fig.colorbar(shown, ax=ax, label="dB")
+        fig.legend(handles=legend_handles([("echo", (1.0, 0.0, 0.0))]))
+        fig.suptitle("suptitle")
+        fig.canvas.print_figure(io.BytesIO(), format="png", dpi=50)  # written nowhere
+    finally:
+        plt.close(fig)
 
 
 def write_pictures(
