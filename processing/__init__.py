@@ -30,7 +30,7 @@ from processing.imaging.broadband.energyscape import (
     fan,
     sphere_partition,
 )
-from processing.imaging.doa import NARROWBAND_METHODS, SubspaceOptions, doa_spectrum
+from processing.imaging.doa import NARROWBAND_METHODS, SubspaceOptions, doa_spectra, doa_spectrum
 from processing.imaging.image import (
     PEAK_THRESHOLD_DB,
     Image,
@@ -134,6 +134,7 @@ __all__ = [
     "fan",
     "sphere_partition",
     "doa_spectrum",
+    "doa_spectra",
     "SubspaceOptions",
     "InputError",
     "KeywordError",

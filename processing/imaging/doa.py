@@ -55,7 +55,7 @@ Definitions that the paper leaves open, fixed here:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,6 +73,7 @@ __all__ = [
     "METHODS",
     "SubspaceOptions",
     "doa_spectrum",
+    "doa_spectra",
     "method_matrix",
 ]
 
@@ -96,6 +97,26 @@ SUBSPACE_DEFAULTS = SubspaceOptions()
 
 EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
+
+
+class _Shared:
+    """What the methods of one set of snapshots share (:func:`doa_spectra`): the
+    arranged snapshots of each smoothing and the eigendecompositions made of them,
+    by key.  Capon and MUSIC of one smoothing decompose the same matrix."""
+
+    def __init__(self) -> None:
+        self._made: dict = {}
+
+    def get(self, key, make: Callable):
+        """``make()``, made once for `key`."""
+        if key not in self._made:
+            self._made[key] = make()
+        return self._made[key]
+
+
+def _made(shared: _Shared | None, key, make: Callable):
+    """``make()``, shared under `key` when `shared` is given."""
+    return make() if shared is None else shared.get(key, make)
 
 
 def _parse(method: str) -> tuple[str, str]:
@@ -174,19 +195,19 @@ def method_matrix(
     is 0).  `centro`: C is centro-Hermitian (FBSS), so a unitary change of basis
     makes it real symmetric and a real eigendecomposition suffices.
     """
+    return _method_matrix(C, base, loading=loading, n_sources=n_sources, data=data, centro=centro)
+
+
+def _method_matrix(C, base, *, loading, n_sources, data=None, centro=False, shared=None, key=None):
+    """:func:`method_matrix`, its decompositions shared under `key` (the smoothing:
+    the same C for every method) when `shared` is given."""
     L = C.shape[-1]
     if base == "das":
         return C, False
     _check(base, L, loading, n_sources)
     if data is not None and data.shape[-1] < L and (n_sources or 0) <= data.shape[-1]:
-        return _low_rank(data, base, loading, n_sources), True
-    if centro:
-        T = _unitary(L)
-        Cr = (T.conj().T @ C @ T).real
-        w, V = np.linalg.eigh(0.5 * (Cr + Cr.transpose(0, 2, 1)))
-        U = T @ V
-    else:
-        w, U = np.linalg.eigh(C)  # ascending, real
+        return _low_rank(data, base, loading, n_sources, shared, key), True
+    w, U = _made(shared, ("eigh", key, centro), lambda: _eigh(C, centro))
     w = np.maximum(w, 0.0)
     if base == "music":
         if n_sources is None:
@@ -201,6 +222,17 @@ def method_matrix(
     mu = wf + loading * wf.min(axis=-1, keepdims=True)
     inv = np.divide(1.0, mu, out=np.zeros_like(mu), where=mu > 0)
     return (U * inv[:, None, :]) @ U.conj().transpose(0, 2, 1), True
+
+
+def _eigh(C: np.ndarray, centro: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (R, L) ascending and eigenvectors (R, L, L) of the Hermitian C;
+    `centro`: C centro-Hermitian, decomposed in the real basis of :func:`_unitary`."""
+    if not centro:
+        return np.linalg.eigh(C)
+    T = _unitary(C.shape[-1])
+    Cr = (T.conj().T @ C @ T).real
+    w, V = np.linalg.eigh(0.5 * (Cr + Cr.transpose(0, 2, 1)))
+    return w, T @ V
 
 
 def _check(base: str, L: int, loading: float, n_sources: int | None) -> None:
@@ -225,43 +257,56 @@ def _unitary(L: int) -> np.ndarray:
 
 
 def _centro_matrix(
-    Y: np.ndarray, T: np.ndarray, base: str, loading: float, n_sources: int | None
+    Y: np.ndarray,
+    T: np.ndarray,
+    base: str,
+    loading: float,
+    n_sources: int | None,
+    shared: _Shared | None = None,
+    key=None,
 ) -> tuple[np.ndarray, bool, np.ndarray]:
     """Real Qr (R, L, L) with ``Q = T Qr T^H`` from FBSS snapshots Y = [Yf, J Yf*]
     (R, L, 2S), plus (inverse, empty bins).  With Z = T^H Yf and ``J T* = T``, the
     real form of the FBSS covariance is ``T^H C T = Re(Z Z^H) / S = W W^T / S`` for
     the real W = [Re Z, Im Z] (L, 2S): no complex covariance, no complex basis change."""
-    S = Y.shape[-1] // 2
-    Z = T.conj().T @ Y[:, :, :S]
-    W = np.concatenate([Z.real, Z.imag], axis=-1)
-    Cr = (W @ W.transpose(0, 2, 1)) / S
-    Qr, inverse = method_matrix(Cr, base, loading=loading, n_sources=n_sources)
+
+    def real_covariance() -> np.ndarray:
+        S = Y.shape[-1] // 2
+        Z = T.conj().T @ Y[:, :, :S]
+        W = np.concatenate([Z.real, Z.imag], axis=-1)
+        return (W @ W.transpose(0, 2, 1)) / S
+
+    Cr = _made(shared, ("real covariance", key), real_covariance)
+    Qr, inverse = _method_matrix(
+        Cr, base, loading=loading, n_sources=n_sources, shared=shared, key=("real", key)
+    )
     return Qr, inverse, np.flatnonzero(np.einsum("rii->r", Cr) <= 0)
 
 
-def _low_rank(Y: np.ndarray, base: str, loading: float, n_sources: int | None) -> np.ndarray:
+def _low_rank(
+    Y: np.ndarray, base: str, loading: float, n_sources: int | None, shared=None, key=None
+) -> np.ndarray:
     """Q of MUSIC or Capon from snapshots Y (R, L, S), S < L, without an L x L
     eigendecomposition (see :func:`_low_rank_factors`)."""
-    c0, U, d = _low_rank_factors(Y, base, loading, n_sources)
+    c0, U, d = _low_rank_factors(Y, base, loading, n_sources, shared, key)
     L = Y.shape[1]
     return c0[:, None, None] * np.eye(L) + (U * d[:, None, :]) @ U.conj().transpose(0, 2, 1)
 
 
 def _low_rank_factors(
-    Y: np.ndarray, base: str, loading: float, n_sources: int | None
+    Y: np.ndarray,
+    base: str,
+    loading: float,
+    n_sources: int | None,
+    shared: _Shared | None = None,
+    key=None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``Q = c0 I + U diag(d) U^H`` of MUSIC or Capon from snapshots Y (R, L, S), S < L:
     returns c0 (R,), U (R, L, S), d (R, S).  C = Y Y^H / S has S eigenpairs from the
     Gram matrix ``Y^H Y / S = V diag(lam) V^H`` (``u = Y v / sqrt(S lam)``) and L - S
     zeros."""
     R, L, S = Y.shape
-    lam, V = np.linalg.eigh(Y.conj().transpose(0, 2, 1) @ Y / S)  # (R, S), ascending
-    lam = np.maximum(lam, 0.0)
-    tiny = 1e-13 * lam.max(axis=-1, keepdims=True)
-    ok = lam > tiny
-    scale = np.divide(1.0, np.sqrt(S * lam), out=np.zeros_like(lam), where=ok)
-    U = (Y @ V) * scale[:, None, :]  # (R, L, S) orthonormal columns where ok
-    lam = np.where(ok, lam, 0.0)
+    lam, U, ok = _made(shared, ("gram", key), lambda: _gram_factors(Y))
     if base == "music":
         if n_sources is None:  # signal: above the mean of all L eigenvalues
             signal = lam > lam.sum(axis=-1, keepdims=True) / L * (1 + 1e-12)
@@ -276,6 +321,20 @@ def _low_rank_factors(
     d = 1.0 / np.where(mu > 0, mu, np.inf) - inv0
     d = np.where(ok, d, 0.0)
     return inv0[:, 0], U, d
+
+
+def _gram_factors(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The S eigenpairs of ``C = Y Y^H / S`` from the Gram matrix of Y (R, L, S):
+    eigenvalues lam (R, S) ascending (zero where negligible), orthonormal U (R, L, S)
+    (zero columns there) and which are kept, ok (R, S)."""
+    S = Y.shape[-1]
+    lam, V = np.linalg.eigh(Y.conj().transpose(0, 2, 1) @ Y / S)  # (R, S), ascending
+    lam = np.maximum(lam, 0.0)
+    tiny = 1e-13 * lam.max(axis=-1, keepdims=True)
+    ok = lam > tiny
+    scale = np.divide(1.0, np.sqrt(S * lam), out=np.zeros_like(lam), where=ok)
+    U = (Y @ V) * scale[:, None, :]  # (R, L, S) orthonormal columns where ok
+    return np.where(ok, lam, 0.0), U, ok
 
 
 @folded_keywords("options", SubspaceOptions, ("subarray", "loading", "n_sources"), since="0.1.0")
@@ -302,26 +361,68 @@ def doa_spectrum(
     `backend`: 'coarray' is the fast URA path, 'direct' evaluates the plain formula
     with explicit steering vectors (any array, slow), 'auto' picks 'coarray' for URAs.
     """
-    base, smooth = _parse(method)
+    return doa_spectra(
+        snapshots,
+        array,
+        frequency_hz,
+        grid,
+        (method,),
+        speed_of_sound_m_s=speed_of_sound_m_s,
+        options=options,
+        backend=backend,
+    )[method]
+
+
+def doa_spectra(
+    snapshots: np.ndarray,
+    array: Array,
+    frequency_hz: float,
+    grid: Grid,
+    methods: Sequence[str],
+    *,
+    speed_of_sound_m_s: float = 343.0,
+    options: SubspaceOptions = SUBSPACE_DEFAULTS,
+    backend: str = "auto",
+) -> dict[str, np.ndarray]:
+    """:func:`doa_spectrum` of each of `methods` (arguments as there): {method:
+    spectrum (R, E, A)}, the same arrays.  The methods share what they have in common:
+    the snapshots checked and scaled once, arranged once per smoothing, and one
+    eigendecomposition per smoothing for Capon and MUSIC (the default
+    ``capon-fbss,music-fbss`` pair decomposes one matrix)."""
+    for m in methods:
+        _parse(m)
     if backend not in ("auto", "coarray", "direct"):
         raise InputError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
     x = _normalised(snapshots, array)
+    shared = _Shared()
+    steer = (frequency_hz, grid, float(speed_of_sound_m_s))
+    return {m: _spectrum(x, array, steer, m, options, backend, shared) for m in methods}
+
+
+def _spectrum(x, array, steer, method, options, backend, shared):
+    """One method's spectrum of the scaled snapshots x (M, R, K), steered by `steer`
+    (frequency_hz, grid, speed_of_sound_m_s) (:func:`doa_spectra`)."""
+    frequency_hz, grid, c = steer
+    base, smooth = _parse(method)
     if smooth:
         array.require_ura(f"method {method!r}")
     use_grid = array.is_ura and backend != "direct"
     if backend == "coarray" and not array.is_ura:
         array.require_ura("the 'coarray' backend")
 
-    Y, shape, positions = _arranged(x, array, smooth, use_grid, options.subarray)
-    form, parts, inverse, empty = _method_form(Y, base, smooth, use_grid, options)
+    Y, shape, positions = shared.get(
+        ("arranged", smooth, use_grid),
+        lambda: _arranged(x, array, smooth, use_grid, options.subarray),
+    )
+    form, parts, inverse, empty = _method_form(
+        Y, base, smooth, use_grid, options, shared, (smooth, use_grid)
+    )
     if inverse:
         floor = MUSIC_FLOOR * Y.shape[1] if base == "music" else np.finfo(float).tiny
     else:
         floor = 0.0
     if use_grid:
-        kernel = coarray_kernel(
-            tuple(shape), array.pitch_m, grid, float(frequency_hz), float(speed_of_sound_m_s)
-        )
+        kernel = coarray_kernel(tuple(shape), array.pitch_m, grid, float(frequency_hz), c)
         forms: dict[str, Callable[..., np.ndarray]] = {
             "low_rank": kernel.coefficients_low_rank,
             "unitary": kernel.coefficients_unitary,
@@ -330,7 +431,7 @@ def doa_spectrum(
         coefficients = forms[form]
         P = kernel.evaluate(coefficients(*parts), floor=floor, invert=inverse)
     else:
-        steering = steering_matrix(positions, grid, frequency_hz, speed_of_sound_m_s)
+        steering = steering_matrix(positions, grid, frequency_hz, c)
         quadratic = quadratic_form_direct(parts[0], steering)
         P = np.maximum(quadratic, floor, out=quadratic)
         if inverse:
@@ -340,12 +441,15 @@ def doa_spectrum(
     return P
 
 
-def _method_form(Y: np.ndarray, base: str, smooth: str, use_grid: bool, options):
+def _method_form(
+    Y: np.ndarray, base: str, smooth: str, use_grid: bool, options, shared=None, key=None
+):
     """The method's matrix of the arranged snapshots Y (R, L, K), in the form its
     evaluation takes: 'low_rank' (co-array coefficients straight from the factors,
     no L x L matrix), 'unitary' (forward-backward on the grid: real from the start,
     Q never formed complex) or 'full' (Q (R, L, L)); its parts, whether the spectrum
-    is its inverse, and the range bins without energy."""
+    is its inverse, and the range bins without energy.  What does not depend on the
+    method is made once per `key` (the arrangement of Y) when `shared` is given."""
     loading, n_sources = options.loading, options.n_sources
     L = Y.shape[1]
     if use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]:
@@ -354,17 +458,29 @@ def _method_form(Y: np.ndarray, base: str, smooth: str, use_grid: bool, options)
             factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
         else:
             _check(base, L, loading, n_sources)
-            factors = _low_rank_factors(Y, base, loading, n_sources)
+            factors = _low_rank_factors(Y, base, loading, n_sources, shared, key)
         power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
         return "low_rank", factors, base != "das", np.flatnonzero(power <= 0)
     if smooth == "fbss" and use_grid:
         T = _unitary(L)
-        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources, shared, key)
         return "unitary", (Qr, T), inverse, empty
-    C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
-    if smooth == "fbss":  # exactly centro-Hermitian despite rounding
-        C = 0.5 * (C + C[:, ::-1, ::-1].conj())
-    Q, inverse = method_matrix(
-        C, base, loading=loading, n_sources=n_sources, data=Y, centro=smooth == "fbss"
+
+    def covariance() -> np.ndarray:
+        C = (Y @ Y.conj().transpose(0, 2, 1)) / Y.shape[-1]
+        if smooth == "fbss":  # exactly centro-Hermitian despite rounding
+            C = 0.5 * (C + C[:, ::-1, ::-1].conj())
+        return C
+
+    C = _made(shared, ("covariance", key), covariance)
+    Q, inverse = _method_matrix(
+        C,
+        base,
+        loading=loading,
+        n_sources=n_sources,
+        data=Y,
+        centro=smooth == "fbss",
+        shared=shared,
+        key=key,
     )
     return "full", (Q,), inverse, np.flatnonzero(np.einsum("rii->r", C).real <= 0)

@@ -20,7 +20,7 @@ import numpy as np
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
 from processing.imaging.broadband.energyscape import BroadbandSettings, Directions, energyscape
-from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectrum
+from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectra
 from processing.imaging.image import Image
 from processing.imaging.matched_filter import matched_filter
 from processing.imaging.methods import (
@@ -330,6 +330,7 @@ def acoustic_images(
     _check_memory(recording, rest, settings, snap.n_bins)
     grid = settings.grid
     freqs = None
+    spectra = _narrowband(recording, snap, settings, [m for m in rest if family[m] == "narrowband"])
     for method in rest:
         if snap.n_bins == 0:
             power = np.zeros((0, *grid.shape))
@@ -346,15 +347,7 @@ def acoustic_images(
                 options=settings.subspace,
             )
         else:
-            power = doa_spectrum(
-                snap.data,
-                recording.array,
-                snap.frequency_hz,
-                grid,
-                method,
-                speed_of_sound_m_s=recording.speed_of_sound_m_s,
-                options=settings.subspace,
-            )
+            power = spectra[method]
         out[method] = Image(
             power=power,
             range_m=snap.range_m,
@@ -365,6 +358,22 @@ def acoustic_images(
             bin_range_m=snap.bin_range_m,
         )
     return {m: out[m] for m in methods}
+
+
+def _narrowband(recording: Recording, snap: Snapshot, settings, methods: list[str]) -> dict:
+    """The narrowband `methods`' spectra of the snapshots, together (what they share
+    is made once: :func:`processing.imaging.doa.doa_spectra`); none without bins."""
+    if not methods or not snap.n_bins:
+        return {}
+    return doa_spectra(
+        snap.data,
+        recording.array,
+        snap.frequency_hz,
+        settings.grid,
+        methods,
+        speed_of_sound_m_s=recording.speed_of_sound_m_s,
+        options=settings.subspace,
+    )
 
 
 def acoustic_image(

@@ -78,6 +78,31 @@ def test_coarray_fast_path_equals_plain_formula(method, K):
     np.testing.assert_allclose(fast, plain, rtol=1e-7, atol=1e-12 * plain.max())
 
 
+@pytest.mark.parametrize("K", [1, 3])  # 1: the low-rank paths; 3: the eigendecompositions
+@pytest.mark.parametrize("array", ["ura", "ertis"])
+@pytest.mark.parametrize("backend", ["auto", "direct"])
+def test_spectra_together_are_each_methods_own(K, array, backend):
+    """doa_spectra shares the arrangement and the eigendecompositions between the
+    methods: every spectrum is the one doa_spectrum gives alone, to the bit, in any
+    order of the methods."""
+    arr = P.paper_8x8() if array == "ura" else P.ertis_v3d1()
+    methods = [m for m in P.NARROWBAND_METHODS if array == "ura" or "-" not in m]
+    if backend == "direct":
+        methods = [m for m in methods if "-" not in m]
+    grid = P.Grid.degrees(elevation=(-60, 60), step=9.0)
+    rng = np.random.default_rng(11)
+    M = arr.n_mics
+    x = plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal(
+        (1, 4, K)
+    ) + 0.1 * (rng.standard_normal((M, 4, K)) + 1j * rng.standard_normal((M, 4, K)))
+    for order in (methods, methods[::-1]):
+        together = P.doa_spectra(x, arr, F, grid, order, backend=backend)
+        assert list(together) == order
+        for m in order:
+            alone = doa_spectrum(x, arr, F, grid, m, backend=backend)
+            np.testing.assert_array_equal(together[m], alone, err_msg=m)
+
+
 def _direct_smoothed(x, arr, grid, method):
     from processing.imaging.doa import method_matrix
     from processing.imaging.smoothing import smoothed_covariance
