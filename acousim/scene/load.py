@@ -27,7 +27,7 @@ from acousim.scene import model
 from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
 from acousim.scene.names import array_named, call_named, lidar_named, material_named
-from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
+from acousim.scene.pose import MAX_COORDINATE_M, Pose
 from acousim.scene.rig import Firing, Mount, Rig, RigSonar, schedule
 from acousim.scene.trajectory import CONTINUOUS, RATES, Trajectory
 from processing.base.errors import InputError
@@ -89,7 +89,7 @@ EXTRA_KEYS: dict[str, set[str]] = {
     },
     "points": {"track"},
 }
-UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+UNITS = model.MESH_UNITS
 #: ``[[meshes]] angular_rate_deg_s``: a mesh turning about its origin (read in degrees,
 #: kept in rad/s: MeshItem.angular_velocity_rad_s); the sensor's rates, for a mesh
 MESH_TURN = RATES["angular_rate_deg_s"]
@@ -382,12 +382,12 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
     mat = r.named(
         material_named, r.string(m, "material", where, "default"), f"{where}.material", materials
     )
-    units = r.string(m, "units", where, "m", set(UNITS))
-    scale = r.number(m, "scale", where, 1.0, 1e-9, 1e9) * UNITS[units]
-    rot = np.deg2rad(r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]))
-    T = np.eye(4)
-    T[:3, :3] = rotation(rot[2], rot[1], rot[0]) * scale  # (roll, pitch, yaw) given x,y,z
-    T[:3, 3] = r.vector(m, "position_m", where, [0.0, 0.0, 0.0])
+    T = model.placement(
+        r.string(m, "units", where, "m", set(UNITS)),
+        r.number(m, "scale", where, 1.0, 1e-9, 1e9),
+        r.vector(m, "position_m", where, [0.0, 0.0, 0.0]),
+        r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]),
+    )
     groups = r.table(m, "materials", where)
     by_group = {
         str(g): r.named(

@@ -53,7 +53,7 @@ from acousim.scene.motion import (
     velocity_setting,
 )
 from acousim.scene.names import array_named, call_named, lidar_named, scene_materials
-from acousim.scene.pose import MAX_COORDINATE_M, Pose
+from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
 from acousim.scene.trajectory import Trajectory
 from processing import Array, Waveform
 from processing.base.api import warn_deprecated
@@ -183,6 +183,33 @@ class Material:
         return reflection, diffuse
 
 
+#: a mesh file's length unit (a ``[[meshes]]`` table's ``units``) in metres
+MESH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+
+
+def placement(
+    units: str = "m",
+    scale: float = 1.0,
+    position_m: Sequence[float] = (0.0, 0.0, 0.0),
+    rotation_deg: Sequence[float] = (0.0, 0.0, 0.0),
+) -> np.ndarray:
+    """The (4, 4) transform of a mesh placed as a scene file places it: its `units`
+    (:data:`MESH_UNITS`) and `scale` to metres, turned by `rotation_deg` (roll, pitch,
+    yaw about x, y, z, degrees, as a pose's), moved to `position_m` (m)."""
+    if units not in MESH_UNITS:
+        raise InputError(f"must be one of {sorted(MESH_UNITS)}", key="units", value=units)
+    if isinstance(scale, bool) or not (np.isfinite(scale) and 1e-9 <= scale <= 1e9):
+        raise InputError("must be a number in [1e-09, 1e9]", key="scale", value=scale)
+    angles = np.asarray(rotation_deg, dtype=float)
+    if angles.shape != (3,) or not np.all(np.isfinite(angles)):
+        raise InputError("must be 3 finite angles (deg)", key="rotation_deg", value=rotation_deg)
+    roll, pitch, yaw = np.deg2rad(angles)
+    T = np.eye(4)
+    T[:3, :3] = rotation(yaw, pitch, roll) * (scale * MESH_UNITS[units])
+    T[:3, 3] = vector3(position_m, "position_m")
+    return T
+
+
 @dataclass(frozen=True, eq=False)
 class MeshItem:
     """A mesh placed in the world.
@@ -279,6 +306,23 @@ class MeshItem:
                 key="MeshItem.angular_velocity_rad_s",
                 value=self.angular_velocity_rad_s,
             )
+
+    @classmethod
+    def placed(
+        cls,
+        mesh: Any,
+        *,
+        units: str = "m",
+        scale: float = 1.0,
+        position_m: Sequence[float] = (0.0, 0.0, 0.0),
+        rotation_deg: Sequence[float] = (0.0, 0.0, 0.0),
+        **keywords: Any,
+    ) -> MeshItem:
+        """A mesh placed by a scene file's keys (a ``[[meshes]]`` table's `units` of the
+        mesh file, `scale`, `position_m` in metres, `rotation_deg` roll, pitch, yaw
+        about x, y, z in degrees): :func:`placement`'s transform; the other keywords
+        are MeshItem's (`material`, `materials`, the motion)."""
+        return cls(mesh, transform=placement(units, scale, position_m, rotation_deg), **keywords)
 
     @property
     def moving(self) -> bool:

@@ -186,3 +186,33 @@ def test_a_simulation_does_not_import_scipy_signal():
         "assert 'scipy.signal' not in sys.modules, 'imaging imported scipy.signal'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+
+
+def test_a_mesh_placed_by_the_scene_files_keys(tmp_path):
+    """MeshItem.placed takes a [[meshes]] table's keys (units, scale, position_m,
+    rotation_deg in degrees) and places the mesh as the file does; the rotation is
+    roll, pitch, yaw about x, y, z (scipy's intrinsic ZYX), the scale in metres."""
+    import trimesh
+    from scipy.spatial.transform import Rotation
+
+    trimesh.creation.box((1.0, 2.0, 3.0)).export(tmp_path / "box.stl")
+    (tmp_path / "s.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "box.stl"\nunits = "cm"\n'
+        "scale = 2.0\nposition_m = [1.0, 2.0, 0.5]\nrotation_deg = [10.0, 20.0, 30.0]\n"
+    )
+    from_file = acousim.load_scene(tmp_path / "s.toml").meshes[0].transform
+    placed = acousim.MeshItem.placed(
+        tmp_path / "box.stl",
+        units="cm",
+        scale=2.0,
+        position_m=(1, 2, 0.5),
+        rotation_deg=(10, 20, 30),
+    )
+    np.testing.assert_array_equal(placed.transform, from_file)
+    expected = Rotation.from_euler("ZYX", [30, 20, 10], degrees=True).as_matrix() * 0.02
+    np.testing.assert_allclose(placed.transform[:3, :3], expected, atol=1e-15)
+    np.testing.assert_array_equal(placed.transform[:3, 3], [1.0, 2.0, 0.5])
+    with pytest.raises(InputError, match="units"):
+        acousim.MeshItem.placed(tmp_path / "box.stl", units="inch")
+    with pytest.raises(InputError, match="rotation_deg"):
+        acousim.MeshItem.placed(tmp_path / "box.stl", rotation_deg=(1, 2))
