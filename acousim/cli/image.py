@@ -382,7 +382,7 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
     (:func:`processing.base.atomic.staged`) and renamed into place with the
     command's other files."""
     from acousim.cli.ahead import shared_by_two_processes
-    from acousim.imaging.run import PictureJob, still_jobs, write_drive
+    from acousim.imaging.run import PictureJob, drive_jobs, still_jobs
     from processing.base.atomic import staged
 
     with staged(out) as stage:
@@ -395,9 +395,8 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
             indices=index,
             render_3d=asked.render_3d,
         )
-        if asked.animated:
-            drive = functools.partial(
-                write_drive,
+        if asked.animated:  # one animation per sonar of a rig (drive_parts)
+            drives = drive_jobs(
                 recs,
                 images,
                 stage.folder,
@@ -406,7 +405,7 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
                 view=asked.drive_view,
                 tables=tables,
             )
-            jobs.append(PictureJob(stage.folder / "drive.gif", lambda: drive()[0]))
+            jobs += [PictureJob(drive.path, drive) for drive in drives]
         order = sorted(range(len(jobs)), key=lambda k: _cost_rank(jobs[k].path.name))
         made = shared_by_two_processes(
             lambda k: jobs[order[k]](), len(jobs), progress=progress("pictures", "picture")

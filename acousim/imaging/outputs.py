@@ -2,8 +2,9 @@
 no stale file of ours from an earlier run; the user's own files stay untouched.
 
 Our files are known by name (:func:`is_ours`): ``fan.png``, ``elaz_<method>.png``
-for a method of :data:`processing.METHODS`, ``scene3d.png``, ``drive.gif``,
-``images.h5`` and ``peaks.csv``; with several recordings shown (``--recording``),
+for a method of :data:`processing.METHODS`, ``scene3d.png``, ``drive.gif`` (a rig's:
+``drive_<sonar>.gif``, letters, digits, '-' and '_'), ``images.h5`` and
+``peaks.csv``; with several recordings shown (``--recording``),
 ``fan_<N>.png``, ``elaz_<method>_<N>.png`` and ``scene3d_<N>.png`` for a recording
 index N.  Anything else in the folder is the user's.
 """
@@ -25,6 +26,9 @@ def is_ours(name: str) -> bool:
     """Whether a file name is one ``acousim image`` writes."""
     if name in OUR_FILES:
         return True
+    if name.startswith("drive_") and name.endswith(".gif"):  # a rig's sonar's
+        sonar = name[6:-4]
+        return bool(sonar) and all(c.isascii() and (c.isalnum() or c in "-_") for c in sonar)
     if not name.endswith(".png"):
         return False
     stem, _, n = name[:-4].rpartition("_")

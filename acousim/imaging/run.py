@@ -479,22 +479,86 @@ def write_drive(
     view: DriveView = "plan",
     tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
 ) -> list[Path]:
-    """The animated GIF of a drive (``drive.gif``): per recording, the plan view
-    (`view` "plan": the scene cut at the sensor's height, in the sensor's frame) or
-    the 3D view ("3d") beside the fan of the sharpest method imaged, its peaks those
-    of `tables` if given (:func:`drive_steps`).  Returns the file written (a list)."""
+    """The animated GIF of a drive (``drive.gif``; a rig's recordings: one per sonar,
+    ``drive_<sonar>.gif``, :func:`drive_parts`): per recording, the plan view (`view`
+    "plan": the scene cut at the sensor's height, in the sensor's frame) or the 3D
+    view ("3d") beside the fan of the sharpest method imaged, its peaks those of
+    `tables` if given (:func:`drive_steps`).  Returns the files written."""
     check_drive_view(view)  # before any work
+    jobs = drive_jobs(
+        recordings, images, out_dir, options, indices=indices, view=view, tables=tables
+    )
+    return [job(progress) for job in jobs]
+
+
+@dataclasses.dataclass(frozen=True)
+class DriveJob:
+    """One animation of :func:`drive_jobs`: the GIF `path` of the recordings at
+    `part` (positions); called (with an optional ``progress(done, total)``), it
+    draws and writes it and returns its path."""
+
+    path: Path
+    part: list[int]
+    draw: Callable[..., None]
+
+    def __call__(self, progress: Callable[[int, int], None] | None = None) -> Path:
+        with atomic_path(self.path) as tmp:
+            for done, total in self.draw(tmp):
+                if progress:
+                    progress(done, total)
+        return self.path
+
+
+def drive_jobs(
+    recordings: Sequence[P.Recording],
+    images: Sequence[dict[str, P.Image]],
+    out_dir: str | Path,
+    options: ImagingOptions,
+    *,
+    indices: Sequence[int] | None = None,
+    view: DriveView = "plan",
+    tables: Sequence[Mapping[str, P.PeakTable]] | None = None,
+) -> list[DriveJob]:
+    """The animations of :func:`write_drive` (the same arguments), one job each
+    (:func:`drive_parts`: a rig's sonars each their own), not yet drawn."""
+    check_drive_view(view)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "drive.gif"
-    with atomic_path(path) as tmp:
-        steps = drive_steps(
-            recordings, images, tmp, options, indices=indices, tables=tables, view=view
-        )
-        for done, total in steps:
-            if progress:
-                progress(done, total)
-    return [path]
+    indices = list(indices) if indices is not None else list(range(len(recordings)))
+    jobs = []
+    for name, part in drive_parts(recordings):
+        draw = functools.partial(
+            _drive_part, [recordings[k] for k in part], [images[k] for k in part],
+            options=options, indices=[indices[k] for k in part], view=view,
+            tables=None if tables is None else [tables[k] for k in part],
+        )  # fmt: skip
+        jobs.append(DriveJob(out / name, part, draw))
+    return jobs
+
+
+def _drive_part(recordings, images, path, *, options, indices, view, tables):
+    """:func:`drive_steps` of one animation into `path` (a DriveJob's temporary)."""
+    return drive_steps(recordings, images, path, options, indices=indices, tables=tables, view=view)
+
+
+def drive_parts(recordings: Sequence[P.Recording]) -> list[tuple[str, list[int]]]:
+    """The animations of a drive's recordings: (file name, their positions).  One
+    sensor's: ``drive.gif`` of them all.  A rig's (several sonars, the metadata's
+    ``sensor``): one per sonar, ``drive_<sonar>.gif`` of its recordings (each frame
+    in one sensor's frame; interleaved, the plan turned with every firing), in the
+    order of each sonar's first recording."""
+    names = [rec.metadata.get("sensor") for rec in recordings]
+    if len(set(names)) <= 1:
+        return [("drive.gif", list(range(len(recordings))))]
+    parts: dict[str, list[int]] = {}
+    for k, name in enumerate(names):
+        parts.setdefault(str(name), []).append(k)
+    return [(f"drive_{_file_safe(name)}.gif", ks) for name, ks in parts.items()]
+
+
+def _file_safe(name: str) -> str:
+    """`name` with every character but ASCII letters, digits, '-' and '_' as '_'."""
+    return "".join(c if c.isascii() and (c.isalnum() or c in "-_") else "_" for c in name)
 
 
 def drive_steps(

@@ -191,6 +191,30 @@ def test_info_lists_the_sonars_of_a_rig_file(rig_chirp, capsys):
         assert (chirp_header in out) == (f == path)
 
 
+def test_image_draws_one_animation_per_sonar(rig_recordings, tmp_path):
+    """A rig's file: drive_<sonar>.gif for each sonar, of its own firings only (20 Hz:
+    50 ms a frame), no drive.gif; one sonar's (--sensor): drive.gif.  An earlier
+    run's per-sonar GIFs are ours (removed when not written again); a user's file
+    that only looks like one stays."""
+    from PIL import Image
+
+    from acousim.cli import main
+
+    folder, recs = rig_recordings
+    base = ["image", str(folder / "rig.h5"), "--no-3d", "--method", "das", "--out"]
+    assert main([*base, str(tmp_path / "all")]) == 0
+    gifs = sorted(p.name for p in (tmp_path / "all").glob("*.gif"))
+    assert gifs == ["drive_front.gif", "drive_side.gif"]
+    for name in ("front", "side"):
+        with Image.open(tmp_path / "all" / f"drive_{name}.gif") as gif:
+            assert gif.n_frames == sum(r.metadata["sensor"] == name for r in recs) == 2
+            assert gif.info["duration"] == 50
+    (tmp_path / "all" / "drive_my notes.gif").write_bytes(b"GIF89a")  # the user's
+    assert main([*base, str(tmp_path / "all"), "--sensor", "front"]) == 0
+    gifs = sorted(p.name for p in (tmp_path / "all").glob("*.gif"))
+    assert gifs == ["drive.gif", "drive_my notes.gif"]
+
+
 WALL_X = 2.0
 RIG_TOML = """
 [body]
