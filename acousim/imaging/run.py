@@ -499,7 +499,7 @@ class DriveJob:
 
     path: Path
     part: list[int]
-    draw: Callable[..., None]
+    draw: Callable[[Path], Iterator[tuple[int, int]]]
 
     def __call__(self, progress: Callable[[int, int], None] | None = None) -> Path:
         with atomic_path(self.path) as tmp:

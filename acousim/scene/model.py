@@ -190,8 +190,8 @@ MESH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 def placement(
     units: str = "m",
     scale: float = 1.0,
-    position_m: Sequence[float] = (0.0, 0.0, 0.0),
-    rotation_deg: Sequence[float] = (0.0, 0.0, 0.0),
+    position_m: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    rotation_deg: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
 ) -> np.ndarray:
     """The (4, 4) transform of a mesh placed as a scene file places it: its `units`
     (:data:`MESH_UNITS`) and `scale` to metres, turned by `rotation_deg` (roll, pitch,
