@@ -65,7 +65,7 @@ from processing.imaging.pipeline import (
     requires_ura,
 )
 from processing.imaging.smoothing import covariance, smoothed_covariance
-from processing.imaging.snapshot import BinGate, Snapshot, Stft, stft_snapshot
+from processing.imaging.snapshot import PAPER_GATE, BinGate, Snapshot, Stft, stft_snapshot
 from processing.imaging.steering import (
     GRID_AZIMUTH_DEG,
     GRID_ELEVATION_DEG,
@@ -180,6 +180,7 @@ __all__ = [
     "Snapshot",
     "Stft",
     "BinGate",
+    "PAPER_GATE",
     "stft_snapshot",
     "Grid",
     "GRID_AZIMUTH_DEG",

@@ -32,7 +32,14 @@ from processing.imaging.methods import (
     parse_method,
     requires_ura,
 )
-from processing.imaging.snapshot import BinGate, Snapshot, Stft, stft_snapshot
+from processing.imaging.snapshot import (
+    ENERGY_FRACTION,
+    RANGE_LIMITS_M,
+    BinGate,
+    Snapshot,
+    Stft,
+    stft_snapshot,
+)
 from processing.imaging.steering import Grid
 from processing.imaging.wideband import band_frequencies, band_snapshots, wideband_spectrum
 from processing.sensor.recording import Recording
@@ -57,7 +64,6 @@ __all__ = [
 #: ``ProcessingSettings(memory_limit_bytes=...)``.
 MEMORY_LIMIT_BYTES = 4 * 2**30
 #: the default range considered (m): from beyond the emitter-to-microphone crosstalk
-RANGE_LIMITS_M: tuple[float, float] = (0.25, float("inf"))
 
 
 @dataclass(frozen=True)
@@ -97,7 +103,11 @@ class ProcessingSettings:
         None, "Hz", 0, 1e9, "steering frequency; None: the strongest bin", kind="float"
     )
     energy_fraction: float = setting(
-        1e-3, "", 0, 1, "keep range bins with at least this fraction of the strongest's energy"
+        ENERGY_FRACTION,
+        "",
+        0,
+        1,
+        "keep range bins with at least this fraction of the strongest's energy",
     )
     #: (min, max) m, max may be inf; None: all (checked in __post_init__)
     range_limits_m: tuple[float, float] | None = RANGE_LIMITS_M

@@ -70,22 +70,35 @@ class Stft:
     range_step_m: float | None = None
 
 
+#: the gate's default energy fraction: a room has echoes far weaker than the
+#: strongest (the paper's single reflector used 0.5: :data:`PAPER_GATE`)
+ENERGY_FRACTION = 1e-3
+#: the default (min, max) range, m: from 0.25 m, beyond the emitter-to-microphone
+#: crosstalk
+RANGE_LIMITS_M: tuple[float, float] = (0.25, float("inf"))
+
+
 @dataclass(frozen=True)
 class BinGate:
     """Which range bins are kept: those whose energy is at least `energy_fraction`
-    of the strongest's (paper: 0.5; 0 keeps every bin; bins with zero energy never:
-    an all-zero recording yields none), inside `range_limits_m` (min, max) (before
-    the gate, e.g. to leave out the direct path), at most `max_bins` of them (the
-    most energetic, in range order)."""
+    of the strongest's (default :data:`ENERGY_FRACTION`; the paper's 0.5 is
+    :data:`PAPER_GATE`; 0 keeps every bin; bins with zero energy never: an all-zero
+    recording yields none), inside `range_limits_m` (min, max) m (before the gate,
+    e.g. to leave out the direct path; default :data:`RANGE_LIMITS_M`, None: every
+    range), at most `max_bins` of them (the most energetic, in range order).  The
+    defaults are the pipeline's and the command line's
+    (:class:`processing.ProcessingSettings` reads them from here)."""
 
-    energy_fraction: float = 0.5
-    range_limits_m: tuple[float, float] | None = None
+    energy_fraction: float = ENERGY_FRACTION
+    range_limits_m: tuple[float, float] | None = RANGE_LIMITS_M
     max_bins: int | None = None
 
 
-#: the paper's STFT and gate (the defaults of :func:`stft_snapshot`)
+#: the defaults of :func:`stft_snapshot`: the paper's STFT, the pipeline's gate
 STFT_DEFAULTS = Stft()
 GATE_DEFAULTS = BinGate()
+#: the paper's gate: half the strongest bin's energy, every range
+PAPER_GATE = BinGate(energy_fraction=0.5, range_limits_m=None)
 
 
 @folded_keywords("stft", Stft, ("window", "overlap", "window_type"), since="0.1.0")

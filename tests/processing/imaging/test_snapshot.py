@@ -9,7 +9,7 @@ from tests.oracles.analytic import echo_recording
 def test_energy_gate_keeps_bins_around_the_echo():
     rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0)])
     mf = P.matched_filter(rec.samples, rec.waveform.sampled(rec.sample_rate_hz))
-    snap = P.stft_snapshot(mf, rec.sample_rate_hz, frequency_hz=31250)
+    snap = P.stft_snapshot(mf, rec.sample_rate_hz, frequency_hz=31250, gate=P.PAPER_GATE)
     assert snap.frequency_hz == 31250
     assert snap.data.shape == (64, snap.n_bins)
     assert np.all(np.abs(snap.range_m - 1.0) < 0.06)
@@ -44,6 +44,23 @@ def test_same_transform_as_scipy_shorttimefft(searched):
     )
 
 
+def test_the_gates_defaults_are_the_pipelines():
+    """One declaration: stft_snapshot's gate is the one ProcessingSettings (and so the
+    command line) uses by default; the paper's is PAPER_GATE."""
+    s = P.ProcessingSettings()
+    assert P.BinGate() == P.BinGate(s.energy_fraction, s.range_limits_m, s.max_bins)
+    assert P.BinGate().energy_fraction == 1e-3 and P.BinGate().range_limits_m == (0.25, np.inf)
+    assert P.PAPER_GATE == P.BinGate(energy_fraction=0.5, range_limits_m=None)
+    # the default gate keeps a weak echo (-20 dB) beside a strong one; the paper's not
+    rec = echo_recording(P.paper_8x8(), [(0, 0, 0.6, 1.0), (0, 0, 1.1, 0.1)])
+    mf = P.matched_filter(rec.samples, rec.waveform.sampled(rec.sample_rate_hz))
+    kept = P.stft_snapshot(mf, rec.sample_rate_hz, frequency_hz=31250).range_m
+    assert np.any(np.abs(kept - 1.1) < 0.03) and kept.min() >= 0.25
+    paper = P.stft_snapshot(mf, rec.sample_rate_hz, frequency_hz=31250, gate=P.PAPER_GATE)
+    assert np.any(np.abs(paper.range_m - 0.6) < 0.03)
+    assert not np.any(np.abs(paper.range_m - 1.1) < 0.03)
+
+
 def test_multi_measurement_snapshots_and_band():
     rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0)], noise=0.01)
     mf = P.matched_filter(np.stack([rec.samples] * 3), rec.waveform.sampled(500e3))
@@ -57,7 +74,9 @@ def test_all_zero_recording_keeps_no_bins_and_range_limits():
     assert snap.n_bins == 0 and snap.data.shape == (4, 0)
     rec = echo_recording(P.paper_8x8(), [(0, 0, 1.0, 1.0), (0, 0, 0.5, 4.0)])
     mf = P.matched_filter(rec.samples, rec.waveform.sampled(500e3))
-    snap = P.stft_snapshot(mf, 500e3, frequency_hz=31250, gate=P.BinGate(range_limits_m=(0.8, 2.0)))
+    snap = P.stft_snapshot(
+        mf, 500e3, frequency_hz=31250, gate=P.BinGate(0.5, range_limits_m=(0.8, 2.0))
+    )
     assert snap.n_bins > 0 and np.all(snap.range_m > 0.9)
 
 
