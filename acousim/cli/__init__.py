@@ -147,6 +147,8 @@ def run() -> None:
     and its exit code; a Ctrl-C after the command has finished changes nothing."""
     try:
         code = main(restore_sigint=False)
+    except BrokenPipeError:  # our output's reader has gone (`acousim ... | head -1`)
+        code = _closed_output()
     finally:
         # done (or argparse's exit): a Ctrl-C now changes nothing. Ignored rather than
         # left to the flag handler, which the interpreter's finalisation resets to the
@@ -154,6 +156,22 @@ def run() -> None:
         # signal, without a word)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     _exit(code)
+
+
+#: the exit code of a command whose standard output was closed: 128 + SIGPIPE, what a
+#: shell reports for a program ended by it (as `cat` or `find` are)
+CLOSED_OUTPUT = 141
+
+
+def _closed_output() -> int:
+    """Stop as a Unix tool whose reader has gone: quietly (no traceback; stdout to
+    /dev/null, so that the flush at exit writes nowhere), with
+    :data:`CLOSED_OUTPUT`.  Files of ours being written are not renamed into place:
+    the work stopped where it printed."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+    return CLOSED_OUTPUT
 
 
 def _exit(code: int) -> None:

@@ -232,3 +232,28 @@ def test_a_malformed_attribute_of_our_chirp_or_images_file_is_one_line(tmp_path,
     assert main(["info", str(images)]) == 0  # the stray attribute is not an image's
     out = capsys.readouterr().out
     assert "images of 1 recording(s)" in out and "das (range x elevation x azimuth (2, 3, 4)" in out
+
+
+def test_a_closed_output_ends_the_command_quietly():
+    """`acousim scenes | head -0`: the reader has gone before the command prints; it
+    stops as a Unix tool does, without a traceback, with 128 + SIGPIPE."""
+    import os
+    import subprocess
+    import sys
+
+    from acousim.cli import CLOSED_OUTPUT
+
+    read, write = os.pipe()
+    os.close(read)  # nobody reads: the first write fails, whatever the timing
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "acousim.cli", "scenes"],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=REPO,
+        )
+    finally:
+        os.close(write)
+    assert done.returncode == CLOSED_OUTPUT == 141
+    assert done.stderr == ""
