@@ -1,7 +1,9 @@
 """Direction-of-arrival spectra: Delay-And-Sum, MUSIC (plain, FSS, FBSS), Capon/MPDR.
 
 One face for every method: :func:`doa_spectrum` takes the snapshots of the kept
-range bins and returns a spectrum over an azimuth-elevation grid for each bin.  All
+range bins and returns a spectrum over an azimuth-elevation grid for each bin
+(:func:`doa_spectra`: several methods of the same snapshots, sharing their
+arrangement and eigendecompositions).  All
 methods are quadratic forms ``a^H Q a`` of a per-bin Hermitian matrix Q:
 
 =============  =========================================  =====================
