@@ -17,7 +17,7 @@ from pathlib import Path
 
 import processing as P
 
-__all__ = ["OUR_FILES", "FolderChanges", "is_ours", "our_files", "tidy"]
+__all__ = ["OUR_FILES", "FolderChanges", "file_safe", "is_ours", "our_files", "tidy"]
 
 OUR_FILES = ("fan.png", "scene3d.png", "drive.gif", "images.h5", "peaks.csv")
 
@@ -28,7 +28,7 @@ def is_ours(name: str) -> bool:
         return True
     if name.startswith("drive_") and name.endswith(".gif"):  # a rig's sonar's
         sonar = name[6:-4]
-        return bool(sonar) and all(c.isascii() and (c.isalnum() or c in "-_") for c in sonar)
+        return bool(sonar) and file_safe(sonar) == sonar
     if not name.endswith(".png"):
         return False
     stem, _, n = name[:-4].rpartition("_")
@@ -40,6 +40,12 @@ def is_ours(name: str) -> bool:
 def _still(stem: str) -> bool:
     """Whether `stem` names one of a recording's pictures: fan, scene3d, elaz_METHOD."""
     return stem in ("fan", "scene3d") or (stem.startswith("elaz_") and stem[5:] in P.METHODS)
+
+
+def file_safe(name: str) -> str:
+    """`name` as part of a file name of ours: every character but ASCII letters,
+    digits, '-' and '_' as '_' (a rig's sonar in ``drive_<sonar>.gif``)."""
+    return "".join(c if c.isascii() and (c.isalnum() or c in "-_") else "_" for c in name)
 
 
 def our_files(folder: str | Path) -> set[Path]:

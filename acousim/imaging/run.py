@@ -17,6 +17,7 @@ import numpy as np
 
 import processing as P
 from acousim.imaging.matching import image_resolution, match_peaks
+from acousim.imaging.outputs import file_safe
 from acousim.scene import load_scene
 from acousim.scene.pose import Pose
 from acousim.trace.world.build import build_world
@@ -493,12 +494,11 @@ def write_drive(
 
 @dataclasses.dataclass(frozen=True)
 class DriveJob:
-    """One animation of :func:`drive_jobs`: the GIF `path` of the recordings at
-    `part` (positions); called (with an optional ``progress(done, total)``), it
-    draws and writes it and returns its path."""
+    """One animation of :func:`drive_jobs`: the GIF `path` and `draw`, which draws it
+    into a given file, yielding ``(frames drawn, frames)``; called (with an optional
+    ``progress(done, total)``), it draws and writes it and returns its path."""
 
     path: Path
-    part: list[int]
     draw: Callable[[Path], Iterator[tuple[int, int]]]
 
     def __call__(self, progress: Callable[[int, int], None] | None = None) -> Path:
@@ -527,18 +527,13 @@ def drive_jobs(
     indices = list(indices) if indices is not None else list(range(len(recordings)))
     jobs = []
     for name, part in drive_parts(recordings):
-        draw = functools.partial(
-            _drive_part, [recordings[k] for k in part], [images[k] for k in part],
+        draw = functools.partial(  # drive_steps(..., path) of these recordings
+            drive_steps, [recordings[k] for k in part], [images[k] for k in part],
             options=options, indices=[indices[k] for k in part], view=view,
             tables=None if tables is None else [tables[k] for k in part],
         )  # fmt: skip
-        jobs.append(DriveJob(out / name, part, draw))
+        jobs.append(DriveJob(out / name, draw))
     return jobs
-
-
-def _drive_part(recordings, images, path, *, options, indices, view, tables):
-    """:func:`drive_steps` of one animation into `path` (a DriveJob's temporary)."""
-    return drive_steps(recordings, images, path, options, indices=indices, tables=tables, view=view)
 
 
 def drive_parts(recordings: Sequence[P.Recording]) -> list[tuple[str, list[int]]]:
@@ -553,12 +548,7 @@ def drive_parts(recordings: Sequence[P.Recording]) -> list[tuple[str, list[int]]
     parts: dict[str, list[int]] = {}
     for k, name in enumerate(names):
         parts.setdefault(str(name), []).append(k)
-    return [(f"drive_{_file_safe(name)}.gif", ks) for name, ks in parts.items()]
-
-
-def _file_safe(name: str) -> str:
-    """`name` with every character but ASCII letters, digits, '-' and '_' as '_'."""
-    return "".join(c if c.isascii() and (c.isalnum() or c in "-_") else "_" for c in name)
+    return [(f"drive_{file_safe(name)}.gif", ks) for name, ks in parts.items()]
 
 
 def drive_steps(
