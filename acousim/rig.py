@@ -51,6 +51,9 @@ __all__ = ["RigSimulator", "RigRun", "LidarScan", "REACH_MARGIN_M"]
 #: path it can take within it (m; see :meth:`RigSimulator._reach`)
 REACH_MARGIN_M = 0.1
 
+#: firings prepared ahead of the one rendering (:meth:`RigSimulator.run`)
+AHEAD = 2
+
 
 @dataclasses.dataclass(frozen=True)
 class LidarScan:
@@ -92,6 +95,21 @@ class _Heard:
     def echo(self) -> np.ndarray:
         """(N,) which paths are echoes (not the direct path)."""
         return self.echoes.order > 0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Firing:
+    """A firing's recording but its render (:meth:`RigSimulator._prepare`): the
+    measurement, its sonar's own simulator, the calls heard (each with the firing
+    that emitted it) and whether each renders in the own pass, the own call
+    prepared and the rig's other LiDARs' scans."""
+
+    measurement: Measurement
+    own: Simulator
+    parts: tuple[tuple[Measurement, _Heard], ...]
+    joins: tuple[bool, ...]
+    prepared: object  # acousim.simulator._Prepared
+    other_lidars: tuple
 
 
 class _Pair(Simulator):
@@ -180,11 +198,26 @@ class RigSimulator:
                     f"{len(self.measurements)} time(s)"
                 )
         out = []
-        for n, i in enumerate(idx):
-            interrupt.check()
-            out.append(self.simulate(i))
+        if len(idx) == 1:  # nothing to overlap: no thread started
+            out.append(self.simulate(idx[0]))
             if progress:
-                progress(n + 1, len(idx))
+                progress(1, 1)
+        else:
+            # the next firing prepared (its traces, kinematics and scans: Embree and
+            # the compiled kernels release the GIL) while this one renders; the
+            # same bytes as one firing after the other (the traces in the same order)
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(2) as pool:
+                ahead = [self._prepare(i, pool=pool) for i in idx[:AHEAD]]
+                for n in range(len(idx)):
+                    interrupt.check()  # Ctrl-C (when the command line records it)
+                    firing = ahead.pop(0)()
+                    if n + AHEAD < len(idx):
+                        ahead.append(self._prepare(idx[n + AHEAD], pool=pool))
+                    out.append(self._record(firing))
+                    if progress:
+                        progress(n + 1, len(idx))
         done = tuple(self.measurements[i] for i in idx)
         times = [m.time_s for m in done]
         scans = self.lidar_scans(min(times), max(times)) if done else ()
@@ -197,25 +230,58 @@ class RigSimulator:
         crosstalk of a sonar with k's call, response and render options is rendered
         in the same pass as k's own echoes (:meth:`Simulator.simulate_pose`
         ``joined``); any other separately, and added."""
+        return self._record(self._prepare(i, n_samples)())
+
+    def _prepare(self, i: int, n_samples: int | None = None, pool=None) -> Callable[[], _Firing]:
+        """Everything of measurement `i`'s recording but its render (the traces, the
+        kinematics, the ground truth, the LiDARs' scans), as a call that returns it:
+        with a `pool` (a ``concurrent.futures`` executor) its parts are worked out
+        there meanwhile (:meth:`run`: the next firing prepared while this one
+        renders), without one here and now."""
         m = self.measurements[i]
         k = m.sonar
         own = self.pair(k, k)
         motion = self.rig.sonar_motion(k)
-        parts = []
         n = own.scene.n_samples() if n_samples is None else int(n_samples)
-        if self.rig.crosstalk:
-            parts = [(f, self._heard_from(f, m, n)) for f in self._reaching(m, n)]
+        reaching = self._reaching(m, n) if self.rig.crosstalk else []
+        submit = pool.submit if pool is not None else _Done.of
+        own_part = submit(self._own, m, own, motion, n)
+        heard = [(f, submit(self._heard_from, f, m, n)) for f in reaching]
+
+        def firing() -> _Firing:
+            prep, others = own_part.result()
+            parts = [(f, part.result()) for f, part in heard]
             parts = [(f, part) for f, part in parts if part is not None]
-        moving = own.in_motion(motion)
-        joins = [moving and self._joins(own, p) for _, p in parts]
+            moving = own.in_motion(motion)
+            joins = tuple(moving and self._joins(own, p) for _, p in parts)
+            return _Firing(m, own, tuple(parts), joins, prep, others)
+
+        return firing
+
+    def _own(self, m: Measurement, own: Simulator, motion, n_samples: int):
+        """Measurement `m`'s own call prepared (:meth:`Simulator._prepare`) and the
+        rig's other LiDARs' scans started at this firing."""
+        k = m.sonar
+        with own._naming_the_pose(m.index):
+            prep = own._prepare(m.pose, m.index, n_samples, motion)
+        others = tuple(
+            own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
+            for n in range(1, len(self.rig.lidars))
+        )
+        return prep, others
+
+    def _record(self, fp: _Firing) -> P.Recording:
+        """The recording of a prepared firing: rendered, its crosstalk added."""
+        m, own, parts, joins = fp.measurement, fp.own, fp.parts, fp.joins
         # a call's echoes join k's; its direct path, far stronger, is rendered apart
         # (the renderer's sets are compressed per group, direct path and echoes, to a
         # tolerance of the group's energy: k's own direct path would set it)
         joined = tuple(
             (p.echoes.select(p.echo), p.rate[:, p.echo]) for (_, p), j in zip(parts, joins) if j
         )
-        rec = own.simulate_pose(m.pose, index=m.index, motion=motion, joined=joined, n_samples=n)
-        names = [self.rig.sonars[k].name] * len(rec.truth)
+        with own._naming_the_pose(m.index):
+            rec = own._record(fp.prepared, m.index, None, joined)
+        names = [self.rig.sonars[m.sonar].name] * len(rec.truth)
         truths, heard_from, samples = [rec.truth], [], rec.samples
         for (f, part), j in zip(parts, joins):
             alone = ~part.echo if j else np.ones(part.echo.size, bool)
@@ -234,12 +300,8 @@ class RigSimulator:
             )
         meta = self._metadata(rec.metadata, m, heard_from)
         truth = _joined(truths, names)
-        others = tuple(  # the rig's other LiDARs' scans started at this firing
-            own.lidar_scan(m.pose, m.index, motion, lidar=self.rig.lidar_on(k, n), n=n)
-            for n in range(1, len(self.rig.lidars))
-        )
         return dataclasses.replace(
-            rec, samples=samples, truth=truth, metadata=meta, other_lidars=others
+            rec, samples=samples, truth=truth, metadata=meta, other_lidars=fp.other_lidars
         )
 
     def _metadata(self, own: dict, m: Measurement, heard_from: list[dict]) -> dict:
@@ -422,6 +484,20 @@ class RigSimulator:
                 )
                 out.append(LidarScan(n, lidar.name, i, cloud))
         return tuple(out)
+
+
+class _Done:
+    """A value already computed, as a ``Future`` of it."""
+
+    def __init__(self, value) -> None:
+        self.value = value
+
+    def result(self):
+        return self.value
+
+    @classmethod
+    def of(cls, fn, *args) -> _Done:
+        return cls(fn(*args))
 
 
 def _truth(heard: Heard, rows: np.ndarray, pose: Pose) -> P.GroundTruth:

@@ -13,8 +13,9 @@ import trimesh
 
 from acousim import Simulator
 from acousim.rig import RigSimulator
-from acousim.scene import Pose, Trajectory, parse_scene
+from acousim.scene import Pose, Trajectory, load_scene, parse_scene
 from acousim.scene.rig import Firing, Mount, Rig, RigSonar
+from tests import REPO
 
 WALL_X = 2.0  # the wall's face: the plane x = 2 m
 LEFT, RIGHT = np.array([0.0, 0.25, 0.0]), np.array([0.0, -0.25, 0.0])  # 0.5 m apart
@@ -207,6 +208,25 @@ def test_crosstalk_doppler_of_a_moving_rig_is_the_bistatic_formula(tmp_path):
     expected = heard.echoes.delay_s[0, spec[0]] - 0.005
     compressed = scene.sensor.call.sampled(fs / factor[0])  # w(factor t): the chirp heard
     assert _arrival(x, compressed, fs) == pytest.approx(expected, abs=2e-6)
+
+
+def test_a_rigs_run_gives_the_recordings_of_one_firing_at_a_time():
+    """`run` prepares the next firings in threads while one renders: the bundled
+    rig (four sonars, crosstalk heard before and during the window, in motion, the
+    LiDAR) gives every firing's samples and ground truth byte for byte as
+    :meth:`RigSimulator.simulate` one firing after the other."""
+    scene = load_scene(REPO / "scenes" / "corridor_rig.toml")
+    firings = [40, 41, 42, 43, 44]
+    run = RigSimulator(scene).run(firings).recordings
+    alone = RigSimulator(scene)
+    for i, rec in zip(firings, run):
+        ref = alone.simulate(i)
+        assert np.array_equal(rec.samples, ref.samples)
+        assert np.array_equal(rec.truth.position_world_m, ref.truth.position_world_m)
+        assert list(rec.truth.emitter) == list(ref.truth.emitter)
+        assert rec.metadata["crosstalk"] == ref.metadata["crosstalk"]
+        assert np.array_equal(rec.lidar.points_m, ref.lidar.points_m)
+    assert {len(r.metadata["crosstalk"]) for r in run} == {2}  # heard before and during
 
 
 def test_a_scene_without_a_rig_is_a_rig_of_one(tmp_path):
