@@ -67,6 +67,78 @@ def newton(t_r, A, guess, poly, poly_v, mid, half, c, stop, out):  # pragma: no 
             out[m, n] = t[n]
 
 
+@njit(cache=True, nogil=True)
+def newton_pieces(t_r, A, guess, bounds, mid, half, poly, poly_v, c, stop, out):  # pragma: no cover
+    """:func:`newton` for motion in pieces (:class:`acousim.kinematics.sensor.Pieces`):
+    each iterate evaluates the polynomials of the piece its time falls in.
+
+    bounds (P - 1,), mid (P,), half (P,) (s); poly (P, M, D + 1, 3) and poly_v
+    (P, M, D, 3); the rest as :func:`newton`.
+    """
+    M, N = out.shape
+    P = mid.size
+    D = poly.shape[2] - 1
+    t = np.empty(N)
+    x = np.empty(N)
+    j = np.empty(N, np.int64)
+    p = np.empty((3, N))
+    v = np.empty((3, N))
+    for m in range(M):
+        a = 0 if A.shape[0] == 1 else m
+        for n in range(N):
+            t[n] = guess[m, n]
+        for _ in range(20):
+            for n in range(N):
+                k = 0
+                while k < P - 1 and t[n] >= bounds[k]:
+                    k += 1
+                j[n] = k
+                x[n] = (t[n] - mid[k]) / half[k]
+            for i in range(3):
+                for n in range(N):
+                    p[i, n] = poly[j[n], m, D, i]
+                    v[i, n] = poly_v[j[n], m, D - 1, i]
+                for k in range(D - 1, -1, -1):
+                    for n in range(N):
+                        p[i, n] = p[i, n] * x[n] + poly[j[n], m, k, i]
+                for k in range(D - 2, -1, -1):
+                    for n in range(N):
+                        v[i, n] = v[i, n] * x[n] + poly_v[j[n], m, k, i]
+            largest = 0.0
+            for n in range(N):
+                dx = p[0, n] - A[a, 0, n]
+                dy = p[1, n] - A[a, 1, n]
+                dz = p[2, n] - A[a, 2, n]
+                dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+                slope = 1.0 - (v[0, n] * dx + v[1, n] * dy + v[2, n] * dz) / (max(dist, 1e-12) * c)
+                step = (t[n] - t_r[m, n] - dist / c) / slope
+                t[n] -= step
+                largest = max(largest, abs(step))
+            if largest < stop:
+                break
+        for n in range(N):
+            out[m, n] = t[n]
+
+
+def solve_pieces(t_r, A, guess, pieces, c, stop) -> np.ndarray:
+    """:func:`newton_pieces` into a new array (M, N)."""
+    out = np.empty(np.shape(guess))
+    newton_pieces(
+        t_r,
+        A,
+        guess,
+        pieces.bounds,
+        pieces.mid,
+        pieces.half,
+        pieces.mic_poly,
+        pieces.mic_poly_v,
+        float(c),
+        float(stop),
+        out,
+    )
+    return out
+
+
 def solve(t_r, A, guess, poly, poly_v, mid, half, c, stop) -> np.ndarray:
     """:func:`newton` into a new array (M, N)."""
     out = np.empty(np.shape(guess))

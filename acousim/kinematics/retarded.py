@@ -45,6 +45,8 @@ def arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=
     t_r, anchor, first = _retarded(paths, kin, tau, c, mic)
     if mic is None and getattr(kin, "poly", None) is not None and t_r.ndim == 2:
         return _newton_by_axis(kin, t_r, anchor, c, guess), anchor, first
+    if mic is None and getattr(kin, "pieces", None) is not None and t_r.ndim == 2:
+        return _newton_pieces(kin, t_r, anchor, c, guess), anchor, first
     if mic is None and not kin.static and kin.step is not None:
         return _newton_tabulated(kin, t_r, anchor, c, guess), anchor, first
     t = t_r + np.linalg.norm(kin.mics(t_r, mic) - anchor, axis=-1) / c
@@ -127,6 +129,45 @@ def _newton_tabulated(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np
         # quadratic convergence: after a step s the error is about s^2 |f''| / 2
         # with |f''| below 1e-2 / s for a robot: s < 1e-7 s leaves < 1e-16 s
         if np.max(np.abs(step)) < 1e-7:
+            break
+    return t
+
+
+#: Newton over pieces of motion stops after a step below this (s): a step may cross
+#: a knot, where the microphones' velocity (the slope) jumps, so the quadratic
+#: error bound of :data:`NEWTON_STOP_S` does not hold; as the table's, this one
+#: leaves below 1e-10 s whatever the slope's jump
+PIECES_STOP_S = 1e-7
+
+
+def _newton_pieces(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.ndarray:
+    """Reception times (M, N) for kinematics in pieces (:class:`~acousim.kinematics.
+    sensor.Pieces`): Newton as :func:`_newton_by_axis`, each iterate on the
+    polynomials of its piece."""
+    pieces = kin.pieces
+    A = np.ascontiguousarray(np.moveaxis(anchor, -1, -2))  # (M or 1, 3, N)
+    t = np.array(np.broadcast_to(t_r, t_r.shape) if guess is None else guess, float)
+    t_r = np.broadcast_to(t_r, t.shape)
+    compiled = optional_kernel("acousim.kinematics._arrival_kernel", "solve_pieces")
+    if compiled is not None:
+        return compiled(t_r, A, t, pieces, c, PIECES_STOP_S)
+    rows = np.arange(t.shape[0])[:, None]
+    for _ in range(20):
+        j = np.searchsorted(pieces.bounds, t, side="right")  # (M, N): each time's piece
+        x = ((t - pieces.mid[j]) / pieces.half[j])[..., None]
+        poly, poly_v = pieces.mic_poly[j, rows], pieces.mic_poly_v[j, rows]  # (M, N, D+1, 3)
+        pos = poly[:, :, -1]
+        for k in range(poly.shape[2] - 2, -1, -1):
+            pos = pos * x + poly[:, :, k]
+        vel = poly_v[:, :, -1]
+        for k in range(poly_v.shape[2] - 2, -1, -1):
+            vel = vel * x + poly_v[:, :, k]
+        diff = pos - np.moveaxis(A, -2, -1)
+        dist = np.sqrt(np.sum(diff * diff, axis=-1))
+        slope = 1 - np.sum(vel * diff, axis=-1) / (np.maximum(dist, 1e-12) * c)
+        step = (t - t_r - dist / c) / slope
+        t = t - step
+        if np.max(np.abs(step)) < PIECES_STOP_S:
             break
     return t
 

@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from processing import Array
 
-__all__ = ["SensorKinematics", "TABLE_STEP_S"]
+__all__ = ["SensorKinematics", "Pieces", "TABLE_STEP_S"]
 
 #: the trajectory is tabulated at this step for the fast method (linear interpolation
 #: between: error a h^2 / 8, below 1e-8 m for a robot)
@@ -16,6 +18,9 @@ TABLE_STEP_S = 2.5e-4
 #: that fits it within POLY_FIT_M
 POLY_DEGREE = 6
 POLY_FIT_M = 1e-10
+#: over a knot, each piece between knots is fitted at this many Chebyshev nodes (and
+#: checked at the midpoints between them)
+PIECE_NODES = 25
 
 
 def _spans_a_knot(trajectory, t0: float, span_s: float) -> bool:
@@ -40,6 +45,70 @@ def _none_fits(x: np.ndarray, flat: np.ndarray) -> bool:
     return bool(rms.max() > 2 * POLY_FIT_M)
 
 
+@dataclass(frozen=True, eq=False)
+class Pieces:
+    """The microphones' motion over a measurement that spans knots of its trajectory
+    (where the turn rate, or the acceleration, may jump): a polynomial in time per
+    piece between knots.  P pieces, M microphones, degree D (the highest any piece
+    needs; the others' higher coefficients zero)."""
+
+    bounds: np.ndarray
+    """(P - 1,) the knots, s from the start of the emission: piece j holds the times
+    from ``bounds[j - 1]`` up to ``bounds[j]``."""
+    mid: np.ndarray
+    """(P,) each piece's middle, s from the start of the emission."""
+    half: np.ndarray
+    """(P,) each piece's half length (s): its polynomials take ``(t - mid) / half``."""
+    mic_poly: np.ndarray
+    """(P, M, D + 1, 3) positions (m), coefficients of x^0 first."""
+    mic_poly_v: np.ndarray
+    """(P, M, D, 3) velocities (m/s), the positions' derivatives in t."""
+
+
+def fit_pieces(trajectory, t0: float, points: np.ndarray, end_s: float) -> Pieces | None:
+    """The motion of sensor-frame `points` (M, 3) on `trajectory` from `t0` (s) for
+    `end_s` (s) as :class:`Pieces` (None: a piece no polynomial of degree up to
+    POLY_DEGREE fits within POLY_FIT_M):
+
+    1. cut ``[0, end_s]`` at the trajectory's knots inside it;
+    2. per piece, evaluate the trajectory at PIECE_NODES Chebyshev nodes and at the
+       midpoints between them;
+    3. fit the nodes with the lowest degree whose polynomial is within POLY_FIT_M of
+       the trajectory at every node and midpoint;
+    4. pad every piece to the highest degree, and differentiate."""
+    knots = np.asarray(getattr(trajectory, "times_s", ()), float).reshape(-1) - t0
+    inner = np.sort(knots[(knots > 0) & (knots < end_s)])
+    edges = np.concatenate([[0.0], inner, [end_s]])
+    nodes = -np.cos(np.pi * np.arange(PIECE_NODES) / (PIECE_NODES - 1))
+    x = np.concatenate([nodes, 0.5 * (nodes[1:] + nodes[:-1])])
+    fits = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        mid, half = 0.5 * (a + b), 0.5 * (b - a)
+        flat = trajectory.to_world(points, t0 + mid + half * x).reshape(x.size, -1)
+        for degree in range(1, POLY_DEGREE + 1):
+            coef = np.polynomial.polynomial.polyfit(nodes, flat[: nodes.size], degree)
+            if np.max(np.abs(np.polynomial.polynomial.polyval(x, coef).T - flat)) < POLY_FIT_M:
+                fits.append((mid, half, coef))
+                break
+        else:
+            return None
+    D = max(coef.shape[0] for _, _, coef in fits) - 1
+    M = len(points)
+    poly = np.zeros((len(fits), D + 1, M * 3))
+    poly_v = np.zeros((len(fits), D, M * 3))
+    for j, (_, half, coef) in enumerate(fits):
+        poly[j, : coef.shape[0]] = coef
+        deriv = np.polynomial.polynomial.polyder(coef) / half
+        poly_v[j, : deriv.shape[0]] = deriv
+    return Pieces(
+        bounds=inner,
+        mid=np.array([f[0] for f in fits]),
+        half=np.array([f[1] for f in fits]),
+        mic_poly=np.ascontiguousarray(poly.reshape(len(fits), D + 1, M, 3).transpose(0, 2, 1, 3)),
+        mic_poly_v=np.ascontiguousarray(poly_v.reshape(len(fits), D, M, 3).transpose(0, 2, 1, 3)),
+    )
+
+
 class SensorKinematics:
     """Emitter and microphone positions over a measurement, times from the start of
     the emission.
@@ -58,6 +127,9 @@ class SensorKinematics:
         self.mics0 = pose.to_world(array.positions_m)
         self.static = trajectory is None
         self.step = step_s
+        #: over knots where no one polynomial fits: a polynomial per piece (the
+        #: reception times' Newton solve takes them; the rest the table)
+        self.pieces: Pieces | None = None
         if not self.static and step_s is not None:
             # from the start of the emission (no earlier time is ever asked for: the
             # pose may be a knot of the trajectory, where its derivatives jump)
@@ -94,6 +166,8 @@ class SensorKinematics:
                 # per microphone (M, D + 1, 3) for batched products with the powers
                 self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
                 self.mic_poly_v = np.ascontiguousarray(self.poly_v[:, 1:].transpose(1, 0, 2))
+            else:
+                self.pieces = fit_pieces(trajectory, self.t0, array.positions_m, self.grid[-1])
 
     @classmethod
     def exact(cls, trajectory, pose, array: Array) -> SensorKinematics:

@@ -60,3 +60,32 @@ def test_within_one_segment_a_polynomial_fits():
     exact = tr.to_world(ARRAY.positions_m, 0.02 + t)
     got = kin.mics(np.broadcast_to(t, (2, t.size)))
     assert np.max(np.abs(got - exact.transpose(1, 0, 2))) < 1e-9
+
+
+@pytest.mark.parametrize("start_s", [0.06, 0.08, 0.099])
+def test_over_a_knot_a_polynomial_per_piece_is_the_trajectory(start_s):
+    # the window cut at the knot (0.1 s): each piece's polynomial within 1e-10 m of
+    # the trajectory evaluated directly, on either side of the knot; its velocity
+    # (only Newton's slope: it moves no root) within 1e-5 m/s of the trajectory's
+    # central differences, also over a piece of 1 ms
+    tr = turning_then_straight()
+    kin = SensorKinematics(tr, tr.pose(start_s), ARRAY, 0.06, STEP)
+    pieces = kin.pieces
+    assert pieces is not None and np.allclose(pieces.bounds, [0.1 - start_s])
+    t = np.linspace(0.0, kin.grid[-1], 1001)
+    j = np.searchsorted(pieces.bounds, t, side="right")
+    x = (t - pieces.mid[j]) / pieces.half[j]
+    D = pieces.mic_poly.shape[2] - 1
+    got = np.einsum("tk,tmki->tmi", x[:, None] ** np.arange(D + 1), pieces.mic_poly[j])
+    exact = tr.to_world(ARRAY.positions_m, start_s + t)
+    assert np.max(np.abs(got - exact)) < POLY_FIT_M
+    h = 1e-6
+    ahead = tr.to_world(ARRAY.positions_m, start_s + t + h)
+    behind = tr.to_world(ARRAY.positions_m, start_s + t - h)
+    vel = np.einsum("tk,tmki->tmi", x[:, None] ** np.arange(D), pieces.mic_poly_v[j])
+    away = np.abs(t - pieces.bounds[0]) > 2 * h
+    assert np.max(np.abs(vel - (ahead - behind) / (2 * h))[away]) < 1e-5
+    # the turn rate jumps at the knot: the two pieces' velocities there differ
+    end = np.einsum("k,mki->mi", np.ones(D), pieces.mic_poly_v[0])  # x = 1
+    start = np.einsum("k,mki->mi", (-1.0) ** np.arange(D), pieces.mic_poly_v[1])  # x = -1
+    assert np.max(np.abs(end - start)) > 1e-4
