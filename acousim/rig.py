@@ -41,6 +41,7 @@ from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
 from acousim.trace.lidar import scan
+from acousim.trace.seen import apparent
 from acousim.trace.tracer import Tracer
 from processing.base import interrupt
 from processing.base.errors import InputError
@@ -159,6 +160,9 @@ class RigSimulator:
                 poses=poses,
                 rate_hz=None,
                 motion=rig.sonar_motion(j),
+                # another sonar's call reaching k straight is crosstalk (``Rig.crosstalk``),
+                # not k's own emitter-to-microphone leakage (``direct_path``)
+                direct_path=True if j != k else emitting.direct_path,
                 # a sonar's own recordings carry the rig's first LiDAR's scan
                 lidar=rig.lidar_on(k) if j == k else None,
             )
@@ -363,7 +367,6 @@ class RigSimulator:
             n_from_f,
             max_path_m=self._reach(f, n_from_f / fs),
             min_path_m=self._short_of(f, lead - call.duration_s),
-            seen=False,
         )
         echoes = heard.echoes
         delay = echoes.delay_s - lead
@@ -375,7 +378,32 @@ class RigSimulator:
         echoes = dataclasses.replace(echoes.select(keep), delay_s=delay[:, keep])
         rate = None if heard.rate is None else heard.rate[:, keep]
         rows = np.flatnonzero(keep) if heard.rows is None else heard.rows[keep]
-        return _Heard(pair, echoes, rate, _truth(heard, rows, m.pose))
+        seen = self._seen_by(heard.seen, rows, j, k, lead, m.pose)
+        return _Heard(pair, echoes, rate, _truth(heard, rows, m.pose, seen))
+
+    def _seen_by(self, seen: dict, rows: np.ndarray, j: int, k: int, lead: float, pose: Pose):
+        """What sonar k sees of the paths `rows` of a call of sonar j emitted `lead`
+        seconds before k's (``seen``: the pair's ground truth fields, in j's frame and
+        from j's emission): the delays from k's emission, the arrival directions in
+        k's frame (both sonars ride one body: j's frame turned by the mounts), the
+        apparent positions where k's image puts them (k's array centre plus the
+        direction times ``c delay / 2``, through k's `pose` in the world) and the
+        chain fields as they are."""
+        out = {k_: v[rows] for k_, v in seen.items() if isinstance(v, np.ndarray)}
+        out["object_names"] = seen["object_names"]
+        sonars = self.rig.sonars
+        turn = sonars[k].mount.rotation.T @ sonars[j].mount.rotation  # j's frame -> k's
+        delay = out["delay_s"] - lead
+        arrival = out["arrival_sensor"] @ turn.T
+        centre = sonars[k].sensor.array.positions_m.mean(axis=0)
+        app = apparent(delay, arrival, centre, self.scene.environment.speed_of_sound_m_s)
+        out.update(
+            delay_s=delay,
+            arrival_sensor=arrival,
+            apparent_position_sensor_m=app,
+            apparent_position_world_m=pose.to_world(app),
+        )
+        return out
 
     @staticmethod
     def _joins(own: Simulator, part: _Heard) -> bool:
@@ -500,9 +528,10 @@ class _Done:
         return cls(fn(*args))
 
 
-def _truth(heard: Heard, rows: np.ndarray, pose: Pose) -> P.GroundTruth:
+def _truth(heard: Heard, rows: np.ndarray, pose: Pose, seen: dict) -> P.GroundTruth:
     """The ground truth of the paths `rows` of `heard`, in the frame of the sonar at
-    `pose` (the hearing one)."""
+    `pose` (the hearing one), with what it sees of them (`seen`: the GroundTruth
+    fields of those rows)."""
     pos = heard.position_m[rows]
     return P.GroundTruth(
         position_world_m=pos,
@@ -511,18 +540,38 @@ def _truth(heard: Heard, rows: np.ndarray, pose: Pose) -> P.GroundTruth:
         order=heard.order[rows],
         kind=np.array(heard.kinds, dtype=str)[rows],
         velocity_world_m_s=None if heard.velocity_m_s is None else heard.velocity_m_s[rows],
+        **seen,
     )
 
 
+#: the ground truth's per-path fields after the first five (None in some truths)
+_OPTIONAL = (
+    "velocity_world_m_s",
+    "delay_s",
+    "arrival_sensor",
+    "apparent_position_sensor_m",
+    "apparent_position_world_m",
+    "first_point_m",
+    "last_point_m",
+    "object_index",
+)
+
+
 def _joined(truths: list[P.GroundTruth], names: list[str]) -> P.GroundTruth:
-    """Ground truths concatenated, each path's emitter named."""
-    vel = [t.velocity_world_m_s for t in truths]
+    """Ground truths concatenated, each path's emitter named (a field missing from
+    one of them: None; the objects are the scene's, the same in each)."""
+
+    def joined(field):
+        parts = [getattr(t, field) for t in truths]
+        return None if any(p is None for p in parts) else np.concatenate(parts)
+
     return P.GroundTruth(
-        position_world_m=np.concatenate([t.position_world_m for t in truths]),
-        position_sensor_m=np.concatenate([t.position_sensor_m for t in truths]),
-        amplitude=np.concatenate([t.amplitude for t in truths]),
-        order=np.concatenate([t.order for t in truths]),
-        kind=np.concatenate([t.kind for t in truths]),
-        velocity_world_m_s=None if any(v is None for v in vel) else np.concatenate(vel),
+        position_world_m=joined("position_world_m"),
+        position_sensor_m=joined("position_sensor_m"),
+        amplitude=joined("amplitude"),
+        order=joined("order"),
+        kind=joined("kind"),
         emitter=np.array(names, dtype=str),
+        object_names=truths[0].object_names,
+        **{field: joined(field) for field in _OPTIONAL},
     )

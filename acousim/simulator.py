@@ -296,15 +296,15 @@ class Simulator:
         at the start of the emission are left out before the kinematics (m; a call
         heard late in another sonar's window, :mod:`acousim.rig`: the echoes then
         are those of the other paths, ``rows`` naming them).  `seen`: False leaves
-        out what the sensor sees of each path (``seen`` empty; required with
-        `min_path_m`).
+        out what the sensor sees of each path (``seen`` empty); with `min_path_m`
+        in motion, NaN for the paths left out.
         """
-        if min_path_m is not None and seen:
-            raise ValueError("heard(min_path_m=...) leaves paths out: pass seen=False")
         if self.in_motion(motion):
             return self._heard_moving(pose, motion, n_samples, max_path_m, min_path_m, seen)
         mics = pose.to_world(self.array.positions_m)
-        paths, rays = self.tracer.traced(pose, self._traced_array, max_path_m, min_path_m)
+        paths, rays = self.tracer.traced(
+            pose, self._traced_array, max_path_m, min_path_m, self.scene.sensor.direct_path
+        )
         receiver = mics.mean(axis=0)
         level = paths.level_at(receiver)  # magnitudes: diffraction paths are signed
         rows = None if min_path_m is None else reaching(paths, mics, min_path_m)
@@ -355,10 +355,10 @@ class Simulator:
             centre = self.array.positions_m.mean(axis=0)
             guess = arr.echoes.delay_s.mean(axis=0)  # the centre's, within a microsecond
             points = (m.position_m[len(m.traced) :], m.points)
-            what = {
-                **seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields(),
-                **self._chains(m.traced, pose, receiver, points),
-            }
+            sees = seen_moving(moving, kin, motion, pose, centre, self.c, guess, arr).fields()
+            if rows.size != len(m.moving):  # of the paths left out: NaN
+                sees = {k: _scattered(v, rows, len(m.moving)) for k, v in sees.items()}
+            what = {**sees, **self._chains(m.traced, pose, receiver, points)}
         keep = in_window(echoes, n_samples, sensor.sample_rate_hz)
         return Heard(
             echoes.select(keep),
@@ -454,6 +454,7 @@ class Simulator:
             reach_m=2 * self.scene.simulation.max_range_m,
             max_path_m=max_path_m,
             min_path_m=min_path_m,
+            direct=self.scene.sensor.direct_path,
         )
 
     def _record(self, prep: _Prepared, index: int, seed: int | None, joined=()) -> P.Recording:
@@ -556,6 +557,13 @@ class Simulator:
                 if progress:
                     progress(k + 1, len(idx))
         return out
+
+
+def _scattered(values: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:
+    """`values` (R, ...) of the rows `rows` (R,) of n, the other rows NaN: (n, ...)."""
+    out = np.full((n, *values.shape[1:]), np.nan)
+    out[rows] = values
+    return out
 
 
 def _motion(pose: Pose, motion, rate: np.ndarray) -> dict:

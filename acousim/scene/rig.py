@@ -262,10 +262,6 @@ class Rig:
             )
         if len(set(names)) != len(names):
             raise InputError("sonar names must be unique", key="Rig.sonars", value=names)
-        if len({s.sensor.direct_path for s in sonars}) > 1:
-            raise InputError(
-                "direct_path must be the same for every sonar of a rig", key="Rig.sonars"
-            )
         poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
         if not poses:
             raise InputError("must hold at least one Pose", key="Rig.poses")

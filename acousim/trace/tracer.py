@@ -223,6 +223,7 @@ class PathTracer(Protocol):
         array: Array | None = ...,
         max_path_m: float | None = ...,
         min_path_m: float | None = ...,
+        direct: bool | None = ...,
     ) -> tuple[TracedPaths, int]: ...
 
     def tracer_at(self, t_s: float) -> Tracer: ...
@@ -311,6 +312,7 @@ class Tracer:
         array: Array | None = None,
         max_path_m: float | None = None,
         min_path_m: float | None = None,
+        direct: bool | None = None,
     ) -> tuple[TracedPaths, int]:
         """:meth:`trace`'s paths and the rays it shot; `max_path_m`: only the paths up
         to that length (m; None: the scene's, twice its range), for a call heard
@@ -320,11 +322,17 @@ class Tracer:
         :func:`acousim.trace.paths.reaching`); the diffraction stage leaves out
         edges and pairs of edges whose every path is shorter and that cannot be
         the strongest echo (:meth:`DiffractionOptions.needed`): the paths that
-        reach are those of the full trace."""
+        reach are those of the full trace.  `direct`: whether the direct path from
+        the emitter is traced (None: as the scene's sensor says; a rig's call heard
+        straight by another sonar is crosstalk, whatever its ``direct_path``)."""
         key = _key(pose, array)
-        if max_path_m is not None or min_path_m is not None:
-            key = (key, max_path_m, min_path_m)
-        return self._traced.get(key, lambda: self._trace_now(pose, array, max_path_m, min_path_m))
+        if direct is not None and direct == self.settings.direct_path:
+            direct = None
+        if max_path_m is not None or min_path_m is not None or direct is not None:
+            key = (key, max_path_m, min_path_m, direct)
+        return self._traced.get(
+            key, lambda: self._trace_now(pose, array, max_path_m, min_path_m, direct)
+        )
 
     def _trace_now(
         self,
@@ -332,6 +340,7 @@ class Tracer:
         array: Array | None,
         max_path_m: float | None = None,
         min_path_m: float | None = None,
+        direct: bool | None = None,
     ) -> tuple[TracedPaths, int]:
         array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
@@ -344,6 +353,8 @@ class Tracer:
         if min_path_m is not None:  # to the centre: the microphones lie this near it
             spread = np.linalg.norm(array.positions_m - array.positions_m.mean(axis=0), axis=1)
             settings = dataclasses.replace(settings, min_path_m=float(min_path_m - spread.max()))
+        if direct is not None:
+            settings = dataclasses.replace(settings, direct_path=bool(direct))
         shared = self._emission(emitter, pose.rotation[:, 0])
         return trace_pose(
             self.world,

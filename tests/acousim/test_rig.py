@@ -128,6 +128,76 @@ def test_two_sonars_fired_5_ms_apart_hear_each_other(tmp_path):
     assert np.all(recs[1].truth.kind[recs[1].truth.emitter == "left"] == "specular")
 
 
+def test_the_ground_truth_says_where_each_sonar_sees_the_others_calls(tmp_path):
+    # "right" turned 20 degrees away from "left", fired 5 ms after it, both facing
+    # the wall: each recording's truth places every path, the other's included,
+    # where the hearing sonar's image shows it: along its arrival direction at the
+    # hearer's array centre, at c/2 times its delay from the hearer's emission
+    # (the mirror-image and straight-line formulas, in the hearer's frame, here)
+    base = two_sonars(wall_scene(tmp_path))
+    left, right = base.rig.sonars
+    right = dataclasses.replace(right, mount=Mount(RIGHT, yaw_rad=np.deg2rad(-20.0)))
+    scene = dataclasses.replace(base, rig=dataclasses.replace(base.rig, sonars=(left, right)))
+    c = scene.environment.speed_of_sound_m_s
+    array = scene.sensor.array
+    (rec_l, rec_r) = RigSimulator(scene).run().recordings
+
+    def frame(sonar):  # sensor -> world rotation and where its emitter and centre are
+        R = sonar.mount.rotation
+        centre = array.positions_m.mean(axis=0)
+        return R, sonar.mount.position_m + R @ array.emitter_m, sonar.mount.position_m + R @ centre
+
+    def expected(hearer, source, delay_s):
+        R, _, centre = frame(hearer)
+        u = (source - centre) / np.linalg.norm(source - centre)
+        local = R.T @ u
+        return delay_s, local, array.positions_m.mean(axis=0) + local * c * delay_s / 2
+
+    R_l, e_l, c_l = frame(left)
+    R_r, e_r, c_r = frame(right)
+    cases = [  # (recording, emitter, kind, where the sound comes from, delay from the hearer's)
+        (rec_l, "right", "direct", e_r, 0.005 + np.linalg.norm(e_r - c_l) / c),
+        (rec_r, "left", "specular", mirror(e_l), np.linalg.norm(mirror(e_l) - c_r) / c - 0.005),
+        (rec_r, "right", "specular", mirror(e_r), np.linalg.norm(mirror(e_r) - c_r) / c),
+    ]
+    for rec, emitter, kind, source, delay in cases:
+        t = rec.truth
+        (n,) = np.flatnonzero((t.emitter == emitter) & (t.kind == kind))
+        hearer = left if rec is rec_l else right
+        d, u, app = expected(hearer, source, delay)
+        assert t.delay_s[n] == pytest.approx(d, abs=0.01e-6)
+        np.testing.assert_allclose(t.arrival_sensor[n], u, atol=1e-7)
+        np.testing.assert_allclose(t.apparent_position_sensor_m[n], app, atol=1e-5)
+        pose = rec.metadata["body_pose"]
+        assert pose["position_m"] == [0.0, 0.0, 0.0]  # the body at the origin: world = body
+        R = R_l if rec is rec_l else R_r
+        world = (c_l if rec is rec_l else c_r) - R @ array.positions_m.mean(axis=0) + R @ app
+        np.testing.assert_allclose(t.apparent_position_world_m[n], world, atol=1e-5)
+        if kind == "specular":  # the wall touched
+            assert t.object_names[t.object_index[n]].endswith("/m")
+            assert t.last_point_m[n][0] == pytest.approx(WALL_X, abs=1e-6)
+
+
+def test_direct_path_off_leaves_out_a_sonars_own_leakage_not_the_others_call(tmp_path):
+    # direct_path is a sonar's own emitter-to-microphone leakage; another sonar's call
+    # reaching it straight is crosstalk: "left" still hears "right"'s call fired 5 ms
+    # into its window at |e_right - m_left| / c after it, at 1 / distance
+    base = wall_scene(tmp_path)
+    quiet = dataclasses.replace(base.sensor, direct_path=False)
+    scene = two_sonars(dataclasses.replace(base, sensor=quiet))
+    c = scene.environment.speed_of_sound_m_s
+    recs = RigSimulator(scene).run().recordings
+    for rec in recs:
+        own = rec.truth.emitter == rec.metadata["sensor"]
+        assert "direct" not in set(rec.truth.kind[own])
+    t = recs[0].truth
+    (n,) = np.flatnonzero((t.emitter == "right") & (t.kind == "direct"))
+    array = scene.sensor.array
+    r = np.linalg.norm(RIGHT + array.emitter_m - (LEFT + array.positions_m.mean(axis=0)))
+    assert t.delay_s[n] == pytest.approx(0.005 + r / c, abs=0.01e-6)
+    assert 20 * np.log10(t.amplitude[n] * r) == pytest.approx(0.0, abs=0.1)
+
+
 def test_sonars_fired_100_ms_apart_with_a_30_ms_window_do_not_hear_each_other(tmp_path):
     base = wall_scene(tmp_path)
     c = base.environment.speed_of_sound_m_s

@@ -145,9 +145,11 @@ class MovingWorld:
         where they are at ``pose.time_s``."""
         return self.tracer_at(pose.time_s).trace(pose, array)
 
-    def traced(self, pose: Pose, array=None, max_path_m: float | None = None, min_path_m=None):
+    def traced(
+        self, pose: Pose, array=None, max_path_m: float | None = None, min_path_m=None, direct=None
+    ):
         """The paths of `pose` and the rays shot (:meth:`Tracer.traced`)."""
-        return self.tracer_at(pose.time_s).traced(pose, array, max_path_m, min_path_m)
+        return self.tracer_at(pose.time_s).traced(pose, array, max_path_m, min_path_m, direct)
 
     def rays_used(self, pose: Pose, array=None) -> int:
         """How many rays the trace of `pose` (and `array`) shot."""
