@@ -306,7 +306,7 @@ def _write_peaks(g, rows: P.PeakTable) -> None:
             g.create_dataset(name, data=[np.nan if v is None else v for v in values], dtype=float)
 
 
-_TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_note")
+_TEXT_COLUMNS = ("truth_kind", "truth_object", "truth_emitter", "truth_note")
 _INT_COLUMNS = ("on_grid_edge", "truth_order", "truth_behind")
 
 

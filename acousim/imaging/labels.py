@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acousim.imaging.matching import image_resolution
-from acousim.viz.truth import seen_positions
+from acousim.viz.truth import own_sonar, seen_positions, shown_paths
 from processing.base.kernels import optional_kernel
 
 __all__ = ["LabelMap", "NEGLIGIBLE_DB", "label_map", "recording_label_map", "sample_labels"]
@@ -243,7 +243,7 @@ def recording_label_map(rec, image, resolution, dynamic_range_db: float, range_m
     u = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
     pos = seen_positions(t, rec.array.positions_m.mean(axis=0))
     pos[:, 0] = np.abs(pos[:, 0])  # behind a planar array: heard at its mirror
-    echo = np.asarray(t.kind) != "direct"
+    echo = shown_paths(t, own_sonar(rec))
     obj = t.object_index if t.object_index is not None else np.full(len(t), -1)
     labels = label_map(
         range_m=rng,

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import processing as P
-from acousim.viz.truth import seen_positions, truth_level_db
+from acousim.viz.truth import own_sonar, seen_positions, truth_level_db
 
 __all__ = [
     "Match",
@@ -99,7 +99,8 @@ class Match:
     (mirrored) path; range_offset_m (N,) the path's apparent range less the peak's;
     level_db (N,) the path's level re the strongest traced echo; kind (N,), order
     (N,) (-1 where none), object (N,) its object's name ("" where none or not known);
-    note (N,) why a peak has no match ("" where it has one).
+    note (N,) why a peak has no match ("" where it has one); emitter (N,) the sonar
+    whose call the path carries (a rig's recording; "" otherwise or where none).
     """
 
     index: NDArray[np.int_]
@@ -112,6 +113,7 @@ class Match:
     object: NDArray[np.object_] | None = None
     range_offset_m: NDArray[np.float64] | None = None
     note: NDArray[np.object_] | None = None
+    emitter: NDArray[np.object_] | None = None
 
 
 def _empty(n: int, note: str) -> Match:
@@ -126,6 +128,7 @@ def _empty(n: int, note: str) -> Match:
         np.full(n, "", dtype=object),
         np.full(n, np.nan),
         np.full(n, note, dtype=object),
+        np.full(n, "", dtype=object),
     )
 
 
@@ -155,7 +158,8 @@ def match_peaks(
     t = rec.truth
     if t is None or not len(t) or not n:
         return _empty(n, NO_TRUTH if t is None or not len(t) else "")
-    level = truth_level_db(t)  # -inf: the direct path
+    # -inf: the direct path (a rig's: its own sonar's; another's call is crosstalk)
+    level = truth_level_db(t, own_sonar(rec))
     echo = np.isfinite(level)
     if not echo.any():
         return _empty(n, NO_TRUTH)
@@ -184,4 +188,6 @@ def match_peaks(
     out.order[hit] = t.order[j]
     out.object[hit] = t.object_name()[j]
     out.behind[hit] = behind[j]
+    if t.emitter is not None:
+        out.emitter[hit] = np.asarray(t.emitter)[j]
     return out

@@ -227,6 +227,7 @@ def _truth(match, k: int) -> dict[str, Any]:
         "truth_kind": str(match.kind[k]),
         "truth_order": -1 if match.order is None else int(match.order[k]),
         "truth_object": "" if match.object is None else str(match.object[k]),
+        "truth_emitter": "" if match.emitter is None else str(match.emitter[k]),
         "truth_x_m": tx,
         "truth_y_m": ty,
         "truth_z_m": tz,

@@ -48,8 +48,10 @@ __all__ = [
     "fan_marks",
     "legend_handles",
     "one_per_cell",
+    "own_sonar",
     "spaced",
     "seen_positions",
+    "shown_paths",
     "truth_level_db",
 ]
 
@@ -138,14 +140,40 @@ class TruthMarks:
         return drawn
 
 
-def truth_level_db(truth) -> np.ndarray:
+def own_sonar(rec) -> str | None:
+    """The sonar whose recording `rec` is, when its ground truth names the emitter of
+    every path (a rig's: :attr:`processing.GroundTruth.emitter`); else None."""
+    t = rec.truth
+    if t is None or getattr(t, "emitter", None) is None:
+        return None
+    return rec.metadata.get("sensor")
+
+
+def shown_paths(truth, own: str | None = None) -> np.ndarray:
+    """Which paths (N,) of a ground truth an image shows: every one but the direct
+    path (of a rig's recording, its sonar `own`'s: another sonar's call heard
+    straight is crosstalk, shown where it is heard)."""
+    shown = np.asarray(truth.kind) != "direct"
+    emitter = getattr(truth, "emitter", None)
+    if own is not None and emitter is not None:
+        shown |= np.asarray(emitter) != own
+    return shown
+
+
+def truth_level_db(truth, own: str | None = None) -> np.ndarray:
     """Level (N,) of each ray-traced path of a ground truth in dB re the strongest
-    echo; -inf for the direct path (not a reflector) and for a path of no strength."""
+    echo; -inf for the direct path (not a reflector) and for a path of no strength.
+    `own`: a rig's recording's sonar (:attr:`processing.GroundTruth.emitter`): only
+    its own direct path is left out; another sonar's call heard straight is
+    crosstalk the image shows, levelled re the same echo (often above it)."""
     amp = np.abs(np.asarray(truth.amplitude, float))
-    echo = (np.asarray(truth.kind) != "direct") & (amp > 0)
+    direct = np.asarray(truth.kind) == "direct"
+    shown = shown_paths(truth, own) & (amp > 0)
     level = np.full(amp.shape, -np.inf)
-    if echo.any():
-        level[echo] = 20 * np.log10(amp[echo] / amp[echo].max())
+    if shown.any():
+        echoes = amp[shown & ~direct]
+        ref = echoes.max() if echoes.size else amp[shown].max()
+        level[shown] = 20 * np.log10(amp[shown] / ref)
     return level
 
 

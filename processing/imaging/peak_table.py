@@ -65,6 +65,9 @@ class PeakRow:
     )
     truth_order: int = column("", "its reflections (an edge counts as one; -1: no truth)", -1)
     truth_object: str = column("", "what it last touched: '<mesh>/<material>' or 'point <i>'", "")
+    truth_emitter: str = column(
+        "", "the sonar whose call it carries (a rig's recording: crosstalk when not its own)", ""
+    )
     truth_x_m: float = column(
         "m", "its apparent position (where the image shows it), sensor frame", NAN
     )

@@ -198,6 +198,31 @@ def test_direct_path_off_leaves_out_a_sonars_own_leakage_not_the_others_call(tmp
     assert 20 * np.log10(t.amplitude[n] * r) == pytest.approx(0.0, abs=0.1)
 
 
+def test_a_rig_recordings_peaks_name_the_sonar_whose_call_they_carry(tmp_path):
+    # "left"'s DAS image holds "right"'s call, fired 5 ms into its window
+    # and heard straight, as its strongest peak: c/2 times (5 ms + the straight
+    # path), towards "right"'s emitter 0.5 m to the side (azimuth -90 degrees);
+    # peaks.csv's row names "right" and the direct path; the wall's echo of "left"'s
+    # own call names "left"
+    from acousim.imaging.run import ImagingOptions, peak_table, recording_images
+
+    scene = two_sonars(wall_scene(tmp_path))  # noise-free: its SNR infinite
+    rec = RigSimulator(scene).run().recordings[0]
+    c = scene.environment.speed_of_sound_m_s
+    options = ImagingOptions(methods=("das",))
+    image = recording_images(rec, options)["das"]
+    rows = peak_table(rec, image, threshold_db=-30, window_samples=256)
+    array = scene.sensor.array
+    centre = LEFT + array.positions_m.mean(axis=0)
+    straight = np.linalg.norm(RIGHT + array.emitter_m - centre)
+    cross = [r for r in rows if r.truth_emitter == "right" and r.truth_kind == "direct"]
+    assert cross and cross[0].range_m == pytest.approx(c * (0.005 + straight / c) / 2, abs=0.02)
+    assert cross[0].azimuth_deg == pytest.approx(-90.0, abs=2.0)
+    own = [r for r in rows if r.truth_emitter == "left" and r.truth_kind == "specular"]
+    assert own and own[0].range_m == pytest.approx(WALL_X, abs=0.02)
+    assert {r.truth_emitter for r in rows if r.truth_kind} <= {"left", "right"}
+
+
 def test_sonars_fired_100_ms_apart_with_a_30_ms_window_do_not_hear_each_other(tmp_path):
     base = wall_scene(tmp_path)
     c = base.environment.speed_of_sound_m_s
