@@ -33,7 +33,7 @@ from acousim.viz.render3d import (
     render_scene,
     sensor_sweep,
 )
-from acousim.viz.truth import echo_points, fan_marks, truth_level_db
+from acousim.viz.truth import echo_points, fan_marks, own_sonar, truth_level_db
 from processing.base import interrupt
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
@@ -655,7 +655,7 @@ def _truth_sensor(
         res = image_resolution(rec, image, window)
         cell = (res.range_m, res.angle_rad)
     centre = rec.array.positions_m.mean(axis=0)
-    found = echo_points(rec.truth, centre, dynamic_range_db, cell, own=rec.metadata.get("sensor"))
+    found = echo_points(rec.truth, centre, dynamic_range_db, cell, own=own_sonar(rec))
     return found if len(found) else None
 
 
@@ -672,7 +672,7 @@ def _truth_world(rec: P.Recording) -> tuple[np.ndarray | None, np.ndarray | None
         return None, None
 
     where = truth.apparent_position_world_m if truth.has_apparent else truth.position_world_m
-    return where, truth_level_db(truth)
+    return where, truth_level_db(truth, own_sonar(rec))
 
 
 def _chains(rec: P.Recording, n: int = CHAINS_DRAWN) -> list[np.ndarray]:
@@ -779,6 +779,15 @@ def frame_delay_ms(recordings: Sequence[P.Recording]) -> int:
     return int(10 * round(min(max(ms, 20.0), 1000.0) / 10))
 
 
+def _drive_marks(marks) -> set[str]:
+    """The mark kinds a drive's legend lists (the same in every frame, so that the
+    frames keep one size): the echoes' and, when a frame holds some, crosstalk."""
+    if all(m is None for m in marks):
+        return set()
+    crosstalk = any(m is not None and np.any(m.mark == "crosstalk") for m in marks)
+    return {"in", "off", "behind", "weak"} | ({"crosstalk"} if crosstalk else set())
+
+
 def _animate(recordings, images, path, options, indices, scene, tables, view: DriveView):
     """The frames of :func:`drive_steps` (`scene`: the recordings' scene, or None),
     yielding ``(frames drawn, frames)``; the GIF written at the end."""
@@ -809,9 +818,7 @@ def _animate(recordings, images, path, options, indices, scene, tables, view: Dr
                     dynamic_range_db=dr,
                     **left.figure_keywords(drawn),
                     # the same entries in every frame: the frames keep one size
-                    marks={"in", "off", "behind", "weak"}
-                    if any(m is not None for m in marks)
-                    else set(),
+                    marks=_drive_marks(marks),
                 )
             title = _title(rec, indices[k], True)
             frames.append(figure.frame(drawn, imgs[method], marks[k], title))

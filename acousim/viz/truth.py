@@ -60,6 +60,11 @@ MARKS = {
     "in": {"marker": "o", "label": "traced echo, where it shows, in this slice"},
     "off": {"marker": "^", "label": "traced echo off the slice"},
     "behind": {"marker": "D", "label": "traced echo from behind the array (at its mirror)"},
+    "crosstalk": {
+        "marker": "s",
+        "label": "another sonar's call (crosstalk), where it shows",
+        "color": "#33ddff",
+    },
 }
 EDGE_COLOR = "white"
 #: the imaging commands once marked echoes this much below a picture's dynamic range
@@ -79,9 +84,19 @@ class Reflectors:
     points_m: np.ndarray
     level_db: np.ndarray
     cell: tuple[float, float] | None = None
+    crosstalk: np.ndarray | None = None
+    """(N,) bool: another sonar's call (a rig's recording); None: none is."""
 
     def __len__(self) -> int:
         return len(self.level_db)
+
+    def names(self, inside: np.ndarray, behind: np.ndarray) -> np.ndarray:
+        """The mark of each (N,): ``"crosstalk"``, else ``"behind"``, ``"in"`` the
+        slice (`inside` (N,)) or ``"off"``."""
+        out = np.where(behind, "behind", np.where(inside, "in", "off"))
+        if self.crosstalk is not None:
+            out = np.where(self.crosstalk, "crosstalk", out)
+        return out
 
 
 def as_reflectors(truth) -> Reflectors:
@@ -116,8 +131,8 @@ class TruthMarks:
         return TruthMarks(self.xy[keep], self.mark[keep], self.weak[keep])
 
     def draw(self, ax, size: float = 30.0, min_separation: float = 0.0) -> set[str]:
-        """Scatter the marks on a matplotlib axis (hollow, thin, white), thinned to
-        `min_separation`; returns the marks drawn (for the legend)."""
+        """Scatter the marks on a matplotlib axis (hollow, thin, white; crosstalk
+        cyan), thinned to `min_separation`; returns the marks drawn (for the legend)."""
         marks = self.thinned(min_separation) if min_separation > 0 else self
         drawn = set()
         for name, style in MARKS.items():
@@ -130,7 +145,7 @@ class TruthMarks:
                         s=size * scale,
                         marker=style["marker"],
                         facecolors="none",
-                        edgecolors=EDGE_COLOR,
+                        edgecolors=style.get("color", EDGE_COLOR),
                         linewidths=width,
                         clip_on=True,
                     )
@@ -197,17 +212,18 @@ def echo_points(
     sees them (apparent positions; a file without them: the last reflections): those
     within `range_db` of the strongest echo, the direct path left out; the strongest
     first.  `cell`: the image's resolution (range m, angle rad), one mark per cell.
-    `own`: a rig's recording's sonar, whose own echoes only are drawn (the other
-    sonars' calls it heard, crosstalk, show where they are heard, not drawn)."""
+    `own`: a rig's recording's sonar: the other sonars' calls it heard (their echoes
+    and their calls heard straight) are crosstalk (:attr:`Reflectors.crosstalk`),
+    where its image shows them; the levels re the strongest echo of any call."""
     if truth is None or not len(truth):
         return Reflectors(np.zeros((0, 3)), np.zeros(0), cell)
-    if own is not None and getattr(truth, "emitter", None) is not None:
-        truth = truth.select(truth.emitter == own)
-    level = truth_level_db(truth)
+    rig = own is not None and getattr(truth, "emitter", None) is not None
+    level = truth_level_db(truth, own if rig else None)
     keep = np.nonzero(level >= -range_db)[0]
     keep = keep[np.argsort(-level[keep], kind="stable")]
     pts = seen_positions(truth, array_centre_m)[keep]
-    return Reflectors(pts, level[keep], cell)
+    crosstalk = (np.asarray(truth.emitter) != own)[keep] if rig else None
+    return Reflectors(pts, level[keep], cell, crosstalk)
 
 
 def spaced(points: np.ndarray, distance: float) -> np.ndarray:
@@ -250,10 +266,6 @@ def _angles(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return r, az, el
 
 
-def _marks(inside: np.ndarray, behind: np.ndarray) -> np.ndarray:
-    return np.where(behind, "behind", np.where(inside, "in", "off"))
-
-
 def fan_marks(
     truth,
     max_range_m: float,
@@ -278,7 +290,7 @@ def fan_marks(
     if t.cell is not None:  # one per resolved (range, azimuth) cell: the strongest
         dr, da = (max(v, 1e-9) for v in t.cell)
         keep = keep[one_per_cell(np.floor(np.column_stack([r / dr, az / da])[keep]))]
-    return TruthMarks(xy[keep], _marks(inside, behind)[keep], weak[keep])
+    return TruthMarks(xy[keep], t.names(inside, behind)[keep], weak[keep])
 
 
 def elaz_marks(
@@ -306,7 +318,7 @@ def elaz_marks(
     if t.cell is not None:  # one per resolved direction: the strongest
         da = max(t.cell[1], 1e-9)
         keep = keep[one_per_cell(np.floor(np.column_stack([a, e])[keep] / da))]
-    return TruthMarks(xy[keep], _marks(inside, behind)[keep], weak[keep])
+    return TruthMarks(xy[keep], t.names(inside, behind)[keep], weak[keep])
 
 
 def legend_handles(drawn: set[str], dynamic_range_db: float | None = None) -> list:
@@ -315,7 +327,15 @@ def legend_handles(drawn: set[str], dynamic_range_db: float | None = None) -> li
     from matplotlib.lines import Line2D
 
     out = [
-        Line2D([], [], ls="none", mfc="none", mec="black", label=s["label"], marker=s["marker"])
+        Line2D(
+            [],
+            [],
+            ls="none",
+            mfc="none",
+            mec=s.get("color", "black"),
+            label=s["label"],
+            marker=s["marker"],
+        )
         for name, s in MARKS.items()
         if name in drawn
     ]

@@ -452,3 +452,44 @@ def test_an_ertis_recording_is_imaged_by_default_by_the_methods_its_array_takes(
         assert np.rad2deg(img.elevation_rad[e]) == pytest.approx(2.0, abs=2.0), method
     with pytest.raises(InputError, match="music-fbss cannot be used"):
         recording_images(rec, ImagingOptions(methods=("das", "music-fbss")))
+
+
+def test_a_rigs_crosstalk_is_marked_where_it_shows_and_its_own_direct_path_not():
+    # a rig's recording of sonar "a": its own direct path (not drawn), its wall echo
+    # at 2 m ahead, sonar "b"'s call heard straight (0.8 m at azimuth -60 degrees)
+    # and b's echo (3 m, +20 degrees): both of b's drawn as crosstalk, where seen,
+    # levelled re the strongest echo (a's, amplitude 0.5: b's straight call +6 dB)
+    from acousim.viz.truth import echo_points, fan_marks
+
+    deg = np.deg2rad
+    seen = np.array(
+        [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.8 * np.cos(deg(-60)), 0.8 * np.sin(deg(-60)), 0.0],
+            [3 * np.cos(deg(20)), 3 * np.sin(deg(20)), 0.0],
+        ]
+    )
+    amp = np.array([5.0, 0.5, 1.0, 0.1])
+    truth = P.GroundTruth(
+        seen,
+        seen,
+        amp,
+        np.array([0, 1, 0, 1]),
+        ["direct", "specular", "direct", "specular"],
+        emitter=np.array(["a", "a", "b", "b"]),
+        delay_s=np.zeros(4),
+        arrival_sensor=np.zeros((4, 3)),
+        apparent_position_sensor_m=seen,
+        apparent_position_world_m=seen,
+    )
+    found = echo_points(truth, np.zeros(3), 30.0, own="a")
+    np.testing.assert_allclose(found.level_db, 20 * np.log10([1.0 / 0.5, 1.0, 0.1 / 0.5]))
+    assert list(found.crosstalk) == [True, False, True]
+    m = fan_marks(found, 5.0, deg(30), (-np.pi / 2, np.pi / 2))
+    assert list(m.mark) == ["crosstalk", "in", "crosstalk"]
+    np.testing.assert_allclose(m.xy[0], [0.8 * np.sin(deg(-60)), 0.8 * np.cos(deg(-60))])
+    # a single sensor's truth (no emitters): no crosstalk, the direct path not drawn
+    plain = P.GroundTruth(seen[:2], seen[:2], amp[:2], np.array([0, 1]), ["direct", "specular"])
+    assert echo_points(plain, np.zeros(3), 30.0).crosstalk is None
+    assert len(echo_points(plain, np.zeros(3), 30.0)) == 1
