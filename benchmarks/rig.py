@@ -14,6 +14,7 @@ import numpy as np
 from acousim.bundled import find_scene
 from acousim.rig import RigSimulator
 from acousim.scene import load_scene
+from acousim.scene.rig import sonar_scene
 from acousim.simulator import Simulator
 from acousim.trace import tracer as tracer_module
 from acousim.trace.rays.emission import Emission
@@ -41,6 +42,24 @@ def _run(sim: RigSimulator) -> float:
     t0 = time.process_time()
     sim.run(FIRINGS)
     return time.process_time() - t0
+
+
+def _wall_rig(sim: RigSimulator) -> float:
+    """Wall seconds for the rig's run of :data:`FIRINGS` as a user runs it (its
+    threads: the next firing prepared while one renders), every trace paid."""
+    sim.tracer.forget()
+    t0 = time.perf_counter()
+    sim.run(FIRINGS)
+    return time.perf_counter() - t0
+
+
+def _wall_alone(sim: Simulator, poses: list[int]) -> float:
+    """Wall seconds for one sonar alone (no rig: its own scene) simulating as many
+    poses of its drive as :data:`FIRINGS` with `Simulator.run` (its threads)."""
+    sim.tracer.forget()
+    t0 = time.perf_counter()
+    sim.run(poses)
+    return time.perf_counter() - t0
 
 
 def _unshared(sim: RigSimulator) -> float:
@@ -246,6 +265,13 @@ def run() -> str:
     t_on, t_off = _paired(lambda: _firings(on), lambda: _firings(off))
     r_on, r_off = _paired(lambda: _run(on), lambda: _run(off))
     t_shared, t_own = _paired(lambda: _firings(on), lambda: _unshared(on))
+    # as a user runs them: the rig's run against one sonar alone, wall time
+    user = RigSimulator(scene)
+    alone = Simulator(sonar_scene(scene, scene.rig.sonars[0].name))
+    poses = list(range(FIRINGS[0] // n, FIRINGS[0] // n + len(FIRINGS)))
+    _wall_rig(user), _wall_alone(alone, poses)  # warm
+    w_rig, w_alone = _paired(lambda: _wall_rig(user), lambda: _wall_alone(alone, poses))
+    w_ratio = np.median(np.divide(w_rig, w_alone))
     # the approximation: the calls emitted before a recording's emission left out
     later = RigSimulator(
         dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, earlier_calls=False)),
@@ -297,6 +323,13 @@ def run() -> str:
             f"| rays cast per firing (every stage's and the LiDAR's), each trace's own "
             f"rays -> shared | {cast_own:,.0f} -> {cast_shared:,.0f} |",
             f"| the rig's run / (N x one sonar's measurement) (paired) | {whole:.2f}x |",
+            "| as a user runs them, wall time: the rig's run (`RigSimulator.run`, the "
+            "next firing prepared while one renders), per firing "
+            f"| {np.median(w_rig) / per:.0f} ms |",
+            "| as a user runs them, wall time: one sonar alone on its drive (its scene "
+            "without the rig, `Simulator.run`, the next pose prepared while one "
+            f"renders), per measurement | {np.median(w_alone) / per:.0f} ms |",
+            f"| the rig's run / (N x one sonar alone), wall time (paired) | {w_ratio:.2f}x |",
             "| a firing with crosstalk, the earlier calls left out (`earlier_calls = "
             f"false`, an approximation) / one sonar's measurement (paired) "
             f"| {later_ratio:.2f}x |",
