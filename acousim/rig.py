@@ -207,9 +207,10 @@ class RigSimulator:
             if progress:
                 progress(1, 1)
         else:
-            # the next firing prepared (its traces, kinematics and scans: Embree and
-            # the compiled kernels release the GIL) while this one renders; the
-            # same bytes as one firing after the other (the traces in the same order)
+            # the next AHEAD firings prepared in two threads (their own calls and the
+            # calls they hear: traces, kinematics, scans; Embree and the compiled
+            # kernels release the GIL) while this one renders: the same bytes as one
+            # firing after the other (every trace as it would be alone)
             from concurrent.futures import ThreadPoolExecutor
 
             with ThreadPoolExecutor(2) as pool:
@@ -389,7 +390,7 @@ class RigSimulator:
         apparent positions where k's image puts them (k's array centre plus the
         direction times ``c delay / 2``, through k's `pose` in the world) and the
         chain fields as they are."""
-        out = {k_: v[rows] for k_, v in seen.items() if isinstance(v, np.ndarray)}
+        out = {name: v[rows] for name, v in seen.items() if isinstance(v, np.ndarray)}
         out["object_names"] = seen["object_names"]
         sonars = self.rig.sonars
         turn = sonars[k].mount.rotation.T @ sonars[j].mount.rotation  # j's frame -> k's
