@@ -35,15 +35,6 @@ def _firings(sim: RigSimulator) -> float:
     return time.process_time() - t0
 
 
-def _run(sim: RigSimulator) -> float:
-    """CPU seconds for the rig's run of :data:`FIRINGS` (their recordings and the
-    LiDARs' scans), every trace paid."""
-    sim.tracer.forget()
-    t0 = time.process_time()
-    sim.run(FIRINGS)
-    return time.process_time() - t0
-
-
 def _wall_rig(sim: RigSimulator) -> float:
     """Wall seconds for the rig's run of :data:`FIRINGS` as a user runs it (its
     threads: the next firing prepared while one renders), every trace paid."""
@@ -263,15 +254,17 @@ def run() -> str:
     off = RigSimulator(quiet, threads=1)
     _firings(on), _firings(off)  # warm: every pair made, kernels compiled
     t_on, t_off = _paired(lambda: _firings(on), lambda: _firings(off))
-    r_on, r_off = _paired(lambda: _run(on), lambda: _run(off))
     t_shared, t_own = _paired(lambda: _firings(on), lambda: _unshared(on))
-    # as a user runs them: the rig's run against one sonar alone, wall time
-    user = RigSimulator(scene)
+    # as a user runs them (their threads, wall time): the rig's run (the LiDAR's scans
+    # of the body's poses too), crosstalk on and off, against one sonar alone
+    user, user_off = RigSimulator(scene), RigSimulator(quiet)
     alone = Simulator(sonar_scene(scene, scene.rig.sonars[0].name))
     poses = list(range(FIRINGS[0] // n, FIRINGS[0] // n + len(FIRINGS)))
-    _wall_rig(user), _wall_alone(alone, poses)  # warm
+    _wall_rig(user), _wall_rig(user_off), _wall_alone(alone, poses)  # warm
     w_rig, w_alone = _paired(lambda: _wall_rig(user), lambda: _wall_alone(alone, poses))
+    w_off, w_alone2 = _paired(lambda: _wall_rig(user_off), lambda: _wall_alone(alone, poses))
     w_ratio = np.median(np.divide(w_rig, w_alone))
+    w_ratio_off = np.median(np.divide(w_off, w_alone2))
     # the approximation: the calls emitted before a recording's emission left out
     later = RigSimulator(
         dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, earlier_calls=False)),
@@ -283,7 +276,6 @@ def run() -> str:
     error = _earlier_calls_error(on, later, off)
     firing = np.median(np.divide(t_on, t_off))
     sharing = np.median(np.divide(t_shared, t_own))
-    whole = np.median(np.divide(r_on, t_off))
     heard = [len(on.simulate(i).metadata["crosstalk"]) for i in FIRINGS]
     cast_own, cast_shared = _rays_cast(on, 0), _rays_cast(on, 8)
     split_on, split_off, paths = _split(on, off)
@@ -299,10 +291,13 @@ def run() -> str:
             "## Rig: four uRTIS on one body, the corridor drive, round robin at 10 Hz each",
             "",
             f"`scenes/corridor_rig.toml` ({len(on.measurements)} firings), firings "
-            f"{FIRINGS[0]}-{FIRINGS[-1]} (two rounds of the {n} sonars), one thread, every "
-            f"trace paid; CPU time, {REPEAT} paired, alternating runs in one process, "
-            "medians.  One sonar's measurement is a firing of the rig with crosstalk off "
-            "(its own call, its LiDAR scan).",
+            f"{FIRINGS[0]}-{FIRINGS[-1]} (two rounds of the {n} sonars), every trace "
+            f"paid, {REPEAT} paired, alternating runs in one process, medians.  The "
+            "firings one by one on one thread, CPU time: one sonar's measurement is a "
+            "firing of the rig with crosstalk off (its own call, its LiDAR scan).  As a "
+            "user runs them, with their threads, wall time: the rig's run of those "
+            "firings against one sonar alone (its scene without the rig) simulating as "
+            "many poses of its drive.",
             "",
             "| what | time |",
             "|---|---|",
@@ -312,9 +307,6 @@ def run() -> str:
             f"| a firing, crosstalk off (= one sonar's measurement) | {ms_off:.0f} ms |",
             f"| a firing, crosstalk on ({np.mean(heard):.1f} other firings heard) "
             f"| {ms_on:.0f} ms |",
-            f"| the rig's run, per firing (crosstalk on, the LiDAR's scans) "
-            f"| {np.median(r_on) / per:.0f} ms |",
-            f"| the rig's run, per firing, crosstalk off | {np.median(r_off) / per:.0f} ms |",
             f"| a firing with crosstalk, each trace shooting its own rays "
             f"| {np.median(t_own) / per:.0f} ms |",
             f"| a firing with crosstalk / one sonar's measurement (paired) | {firing:.2f}x |",
@@ -322,14 +314,15 @@ def run() -> str:
             f"| {sharing:.2f}x |",
             f"| rays cast per firing (every stage's and the LiDAR's), each trace's own "
             f"rays -> shared | {cast_own:,.0f} -> {cast_shared:,.0f} |",
-            f"| the rig's run / (N x one sonar's measurement) (paired) | {whole:.2f}x |",
-            "| as a user runs them, wall time: the rig's run (`RigSimulator.run`, the "
-            "next firing prepared while one renders), per firing "
-            f"| {np.median(w_rig) / per:.0f} ms |",
             "| as a user runs them, wall time: one sonar alone on its drive (its scene "
-            "without the rig, `Simulator.run`, the next pose prepared while one "
+            "without the rig, `Simulator.run`: the next pose prepared while one "
             f"renders), per measurement | {np.median(w_alone) / per:.0f} ms |",
-            f"| the rig's run / (N x one sonar alone), wall time (paired) | {w_ratio:.2f}x |",
+            "| as a user runs them, wall time: the rig's run (`RigSimulator.run`: the "
+            "next firings prepared while one renders; the LiDAR's scans of the body's "
+            f"poses), per firing | {np.median(w_rig) / per:.0f} ms |",
+            f"| the same, crosstalk off | {np.median(w_off) / per:.0f} ms |",
+            "| the rig's run / (N x one sonar alone), wall time (paired): crosstalk on "
+            f"/ off | {w_ratio:.2f}x / {w_ratio_off:.2f}x |",
             "| a firing with crosstalk, the earlier calls left out (`earlier_calls = "
             f"false`, an approximation) / one sonar's measurement (paired) "
             f"| {later_ratio:.2f}x |",
