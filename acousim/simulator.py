@@ -445,16 +445,15 @@ class Simulator:
         return m.moving, m.position_m, m.kinds, m.velocity_m_s
 
     def _in_motion(self, pose: Pose, max_path_m=None, min_path_m=None) -> InMotion:
+        array, direct = self._traced_array, self.scene.sensor.direct_path
         return paths_in_motion(
             self.tracer,
             pose,
-            self._traced_array,
+            array,
+            traced=self.tracer.traced(pose, array, max_path_m, min_path_m, direct),
             points=self.scene.points,
             speed_of_sound_m_s=self.c,
             reach_m=2 * self.scene.simulation.max_range_m,
-            max_path_m=max_path_m,
-            min_path_m=min_path_m,
-            direct=self.scene.sensor.direct_path,
         )
 
     def _record(self, prep: _Prepared, index: int, seed: int | None, joined=()) -> P.Recording:

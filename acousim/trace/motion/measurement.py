@@ -81,20 +81,18 @@ def paths_in_motion(
     pose: Pose,
     array: Array | None,
     *,
+    traced: tuple[TracedPaths, int],
     points: tuple[PointItem, ...],
     speed_of_sound_m_s: float,
     reach_m: float,
-    max_path_m: float | None = None,
-    min_path_m: float | None = None,
-    direct: bool | None = None,
 ) -> InMotion:
     """The paths of a measurement in motion starting at `pose` (see the module's
-    steps): `array` the sensor's (None: the tracer's scene's), `points` the scene's
-    point reflectors (the moving ones are placed here), `reach_m` the longest way
-    emitter -> point -> receiver heard (m), `max_path_m` the traced paths' (None:
-    the scene's), `min_path_m` and `direct`: as :meth:`Tracer.traced`'s."""
+    steps): `traced` the paths at the pose and the rays shot (:meth:`Tracer.traced`
+    of `pose` and `array`), `array` the sensor's (None: the tracer's scene's),
+    `points` the scene's point reflectors (the moving ones are placed here),
+    `reach_m` the longest way emitter -> point -> receiver heard (m)."""
     arr = tracer.scene.sensor.array if array is None else array
-    paths, rays = tracer.traced(pose, array, max_path_m, min_path_m, direct)
+    paths, rays = traced
     emitter = pose.to_world(arr.emitter_m)
     receiver = pose.to_world(arr.positions_m.mean(axis=0))
     moving = MovingPaths.from_traced(paths, emitter)
