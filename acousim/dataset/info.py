@@ -146,8 +146,11 @@ def _recordings(path: Path) -> list[str]:
         where = ""
         if prov.pose is not None:
             p = prov.pose
-            yaw = np.rad2deg(p.yaw_rad)
-            where = f", pose {[round(v, 3) for v in p.position_m]} yaw {yaw:.1f}°"
+            yaw, pitch, roll = np.rad2deg([p.yaw_rad, p.pitch_rad, p.roll_rad])
+            where = (
+                f", pose {[round(v, 3) for v in p.position_m]} "
+                f"yaw {yaw:.1f}° pitch {pitch:.1f}° roll {roll:.1f}°"
+            )
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
         sensor = r.metadata.get("sensor")
         if sensor is not None:  # a rig's recording: its sonar and the calls it heard

@@ -177,3 +177,13 @@ def test_info_counts_a_rig_bags_recordings_from_its_sonars_info_topics(bag):
     lines = describe(bag[2])
     assert lines[1] == "  recordings: 2 simulated"
     assert "  /tf_static: tf2_msgs/msg/TFMessage, 1 message(s)" in lines
+
+
+def test_info_prints_each_firings_yaw_pitch_and_roll(bag):
+    """Sonar right in the world: the body's 20 deg yaw after its mount's yaw -10,
+    pitch -6, roll 4 (the same axis for both yaws): yaw 10, pitch -6, roll 4."""
+    from acousim.dataset.info import describe
+
+    lines = describe(bag[2].parent / "r.h5")
+    (right,) = [line for line in lines if "sonar 'right' fired at 0.005 s" in line]
+    assert "yaw 10.0° pitch -6.0° roll 4.0°" in right
