@@ -301,8 +301,8 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
         for key in FIRING_KEYS.intersection(t):  # a sonar's rate is its firing's
             raise r.fail(
                 f"{where}.{key}",
-                f"unknown key {key!r}: a sonar's firing is its 'firing' table, "
-                f"firing = {{ {key} = ... }} (every sonar's rate: [rig] rate_hz)",
+                f"unknown key {key!r}; did you mean 'firing.{key}'? (a sonar's own: "
+                f"firing = {{ {key} = ... }}; every sonar's rate: [rig] rate_hz)",
             )
         sensor = _sensor(r, t, base, where, extra)
         name = r.string(t, "name", where, f"sonar{i}")

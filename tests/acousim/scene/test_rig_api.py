@@ -160,8 +160,12 @@ RIG = {
             "times_s and rate_hz both given",
         ),
         ([{"firing": {"times_s": [0.0, 5.0]}}], "sensors[0].firing.times_s", OUTSIDE),
-        ([{"rate_hz": 10}], "sensors[0].rate_hz", "firing = { rate_hz = ... }"),
-        ([{"offset_s": 0.01}], "sensors[0].offset_s", "firing = { offset_s = ... }"),
+        (
+            [{"rate_hz": 10}],
+            "sensors[0].rate_hz",
+            "did you mean 'firing.rate_hz'? (a sonar's own: firing = { rate_hz = ... }",
+        ),
+        ([{"offset_s": 0.01}], "sensors[0].offset_s", "did you mean 'firing.offset_s'?"),
         ([{"name": "a"}, {"name": "front-left"}], "sensors[1].name", "must start with a letter"),
         (
             [
