@@ -77,7 +77,20 @@ class RigRun:
     scans: tuple[LidarScan, ...] = ()
 
     def of(self, name: str) -> list[P.Recording]:
-        """The recordings of the sonar called `name`."""
+        """The recordings of the sonar called `name` (none: it never fired); an
+        InputError listing the rig's sonars when the rig has none of that name."""
+        listed = [
+            n
+            for r in self.recordings
+            for n in (*r.metadata.get("rig", ()), r.metadata.get("sensor"))
+        ]
+        names = [n for n in dict.fromkeys(listed) if n is not None]
+        if name not in names:
+            raise InputError(
+                f"is not a sonar of the rig ({', '.join(map(str, names)) or 'no recordings'})",
+                key="RigRun.of.name",
+                value=name,
+            )
         return [r for r in self.recordings if r.metadata.get("sensor") == name]
 
 

@@ -2,8 +2,9 @@
 
 --format rosbag (default): image recordings and write a rosbag2 folder (MCAP storage)
 with the raw samples (std_msgs/Float32MultiArray), the image peaks and LiDAR scans
-(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor pose (/tf), the
-sensor's description (std_msgs/String, JSON), /clock, the scene's meshes
+(sensor_msgs/PointCloud2), the fan image (sensor_msgs/Image), the sensor pose (/tf; a
+rig: the body on /tf, the mounts on /tf_static), the sensor's description
+(std_msgs/String, JSON), /clock, the scene's meshes
 (visualization_msgs/MarkerArray) and the traced reflectors (sensor_msgs/PointCloud2);
 needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --format
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by

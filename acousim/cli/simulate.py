@@ -30,7 +30,11 @@ def register(sub) -> None:
         "(acousim scenes)",
     )
     p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
-    p.add_argument("--poses", help="pose indices: '0,3,5' or a range '0:10' (default: all)")
+    p.add_argument(
+        "--poses",
+        help="pose indices: '0,3,5' or a range '0:10' (default: all); a rig's scene: "
+        "firing indices, every sonar's firings in time order",
+    )
     add_seed(p)
     add_quality(p)
 

@@ -83,9 +83,9 @@ def _bag(path: Path) -> list[str]:
             f"{path}: ROS 2 bag ({', '.join(sorted(p.name for p in path.glob('*.mcap')))}), "
             f"{reader.message_count} message(s) over {span:.2f} s"
         ]
-        info = [c for c in reader.connections if c.topic == "/acousim/info"]
+        info = [c for c in reader.connections if _is_info_topic(c.topic)]  # a rig: per sonar
         kinds: dict[str, int] = {}
-        for _, _, raw in reader.messages(connections=info):
+        for _, _, raw in reader.messages(connections=info) if info else ():  # [] reads all
             kind = _bag_provenance(raw)
             kinds[kind] = kinds.get(kind, 0) + 1
         if kinds:
@@ -95,6 +95,12 @@ def _bag(path: Path) -> list[str]:
     finally:
         reader.close()
     return lines
+
+
+def _is_info_topic(topic: str) -> bool:
+    """``/acousim/info`` or a rig's sonar's ``/acousim/<sonar>/info``."""
+    parts = topic.split("/")
+    return parts[:2] == ["", "acousim"] and parts[-1] == "info" and len(parts) in (3, 4)
 
 
 def _bag_provenance(raw: bytes) -> str:
@@ -140,8 +146,11 @@ def _recordings(path: Path) -> list[str]:
         where = ""
         if prov.pose is not None:
             p = prov.pose
-            yaw = np.rad2deg(p.yaw_rad)
-            where = f", pose {[round(v, 3) for v in p.position_m]} yaw {yaw:.1f}°"
+            yaw, pitch, roll = np.rad2deg([p.yaw_rad, p.pitch_rad, p.roll_rad])
+            where = (
+                f", pose {[round(v, 3) for v in p.position_m]} "
+                f"yaw {yaw:.1f}° pitch {pitch:.1f}° roll {roll:.1f}°"
+            )
         truth = "" if r.truth is None else f", {len(r.truth)} true paths"
         sensor = r.metadata.get("sensor")
         if sensor is not None:  # a rig's recording: its sonar and the calls it heard

@@ -14,7 +14,10 @@ topic                         type                             content
 ``/acousim/info``             ``std_msgs/msg/String``          JSON: sample rate,
                                                                speed of sound, array
                                                                geometry, call, fan
-                                                               extent, recording index
+                                                               extent, recording index,
+                                                               sensor, mount, emission
+                                                               time, crosstalk,
+                                                               emitters
 ``/acousim/peaks``            ``sensor_msgs/msg/PointCloud2``  image peaks in the
                                                                sensor frame: float32
                                                                x, y, z (m), level_db,
@@ -34,7 +37,8 @@ topic                         type                             content
                                                                (simulations) in the
                                                                sensor frame: float32
                                                                x, y, z (m), level_db
-                                                               re strongest, order
+                                                               re strongest, order,
+                                                               ..., emitter
 ``/acousim/lidar``            ``sensor_msgs/msg/PointCloud2``  the LiDAR scan (only
                                                                recordings with one;
                                                                ``lidar_cloud``); a
@@ -47,8 +51,13 @@ topic                         type                             content
 
 A rig's recordings (``metadata["sensor"]``, :mod:`acousim.rig`) each go to their
 sonar's own topic set, ``/acousim/<sonar>/raw``, ``info``, ``peaks`` and ``fan``, in
-the frame named as the sonar, and ``/tf`` carries the tree ``world`` ->
-``acousim_body`` (the body's pose at the firing) -> ``<sonar>`` (its mount).
+the frame named as the sonar (no ``/acousim/raw``...: a topic is declared only with
+messages); ``/tf`` carries ``world`` -> ``acousim_body`` (the body's pose at each
+firing) and ``/tf_static`` the fixed mounts ``acousim_body`` -> ``<sonar>``, once at
+the bag's first stamp, offered latched (durability transient local, as ROS 2's
+static broadcaster).  A reflector's ``emitter`` is the index into the info's
+``emitters`` (the rig's sonars; one sensor: ``acousim_sensor``) of the sonar whose
+call the path carries.
 
 Time stamps: a real recording's ``timestamp`` (Unix time), else the pose's
 ``time_s`` of a simulated trajectory, else the recording's index x 0.1 s.
@@ -88,6 +97,7 @@ __all__ = [
     "FRAME_BODY",
     "FRAME_SENSOR",
     "FRAME_WORLD",
+    "TF_STATIC",
     "TOPICS",
     "write_rosbag",
     "recording_time_ns",
@@ -104,6 +114,8 @@ TOPICS = {
     "fan": ("/acousim/fan", "sensor_msgs/msg/Image"),
     "tf": ("/tf", "tf2_msgs/msg/TFMessage"),
 }
+#: a rig's mounts (body -> sonar), once, latched (durability transient local)
+TF_STATIC = ("/tf_static", "tf2_msgs/msg/TFMessage")
 PEAK_FIELDS = ("x", "y", "z", "level_db", "range_m")
 #: optional topics: written when the recordings have them (see the module docstring)
 SCENE_TOPICS = {
@@ -122,6 +134,7 @@ REFLECTOR_FIELDS = (
     "apparent_z",
     "delay_s",
     "object",
+    "emitter",
 )
 SCENE_COLOR = (0.7, 0.7, 0.75, 0.5)  # RGBA of the still meshes; moving ones are orange
 MOVING_COLOR = (1.0, 0.55, 0.1, 0.7)
@@ -205,32 +218,23 @@ class _BagOptions:
 
 
 def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions) -> None:
-    """The bag's topics, one message of each per recording, written into `bag`."""
+    """The bag's topics, one message of each per recording, written into `bag`; a
+    topic is declared with its first message (none without messages)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     store = _typestore()
     T = store.types
     with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-        conns = {
-            k: w.add_connection(topic, msgtype, typestore=store)
-            for k, (topic, msgtype) in TOPICS.items()
-        }
-
-        def put(key: str, msg, stamp: int, sensor: str | None = None) -> None:
-            topic, kind = TOPICS[key]
-            if sensor is not None and key != "tf":  # a rig's sonar: its own topic set
-                topic = f"/acousim/{sensor}/{key}"
-                if topic not in conns:
-                    conns[topic] = w.add_connection(topic, kind, typestore=store)
-                key = topic
-            w.write(conns[key], stamp, store.serialize_cdr(msg, kind))
-
+        put = _Topics(w, store).put
+        stamps = [recording_time_ns(r, i) for i, r in zip(indices, recordings)]
+        mounts = _static_tf_msg(T, recordings, min(stamps, default=0))
+        if mounts is not None:  # a rig: its mounts, once, latched
+            put(TF_STATIC, mounts, min(stamps), latched=True)
         scene = _SceneTopics(w, store, recordings)
         scans = _lidar_writer(w, store, recordings)  # /acousim/lidar, with scans only
 
-        for idx, rec, imgs in zip(indices, recordings, images):
+        for idx, ns, rec, imgs in zip(indices, stamps, recordings, images):
             interrupt.check()  # Ctrl-C: stop here (the temporary folder is removed)
-            ns = recording_time_ns(rec, idx)
             sonar = rec.metadata.get("sensor")  # a rig's recording: its sonar's name
             header = T["std_msgs/msg/Header"](
                 stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
@@ -238,18 +242,85 @@ def _write_bag(bag: Path, recordings, images, indices: list[int], o: _BagOptions
             )
             m = o.method or drive_method(dict(imgs))
             img = imgs[m]
-            put("raw", _raw_msg(T, rec), ns, sonar)
             raster = fan_raster(img, _fan_range(img), o.dynamic_range_db, o.fan_pixels)
-            put("info", _info_msg(T, rec, idx, m, raster, o.dynamic_range_db), ns, sonar)
             sensor, _ = peak_positions(rec, pk := img.peaks(o.threshold_db))
-            put("peaks", _cloud_msg(T, header, sensor, pk), ns, sonar)
-            put("fan", _image_msg(T, header, raster.db), ns, sonar)
+            info = _info_msg(T, rec, idx, m, raster, o.dynamic_range_db)
+            for key, msg in (
+                ("raw", _raw_msg(T, rec)),
+                ("info", info),
+                ("peaks", _cloud_msg(T, header, sensor, pk)),
+                ("fan", _image_msg(T, header, raster.db)),
+            ):
+                put(sonar_topic(key, sonar), msg, ns)
             if sonar is None:
-                put("tf", _tf_msg(T, header, _pose(rec)), ns)
-            else:
-                put("tf", _rig_tf_msg(T, header, rec.metadata, sonar), ns)
+                put(TOPICS["tf"], _tf_msg(T, header, _pose(rec)), ns)
+            else:  # the moving body only: its mounts are on /tf_static
+                put(TOPICS["tf"], _body_tf_msg(T, header, rec.metadata), ns)
             scene.write(rec, header, ns)
             scans(rec, header, ns)
+
+
+def sonar_topic(key: str, sonar: str | None) -> tuple[str, str]:
+    """The topic and type of `key` (``raw``, ``info``, ``peaks``, ``fan``) for a
+    recording of sonar `sonar` (``/acousim/<sonar>/<key>``; None: a single sensor's,
+    ``/acousim/<key>``)."""
+    topic, kind = TOPICS[key]
+    return (topic if sonar is None else f"/acousim/{sonar}/{key}"), kind
+
+
+class _Topics:
+    """The bag's connections, each added with its topic's first message."""
+
+    def __init__(self, writer, store) -> None:
+        self.w, self.store, self.conns = writer, store, {}
+
+    def put(self, topic: tuple[str, str], msg, stamp: int, latched: bool = False) -> None:
+        """Write `msg` on `topic` (name, type) at `stamp` (ns); `latched`: offered as
+        ROS 2 latches (durability transient local, :func:`latched_qos`)."""
+        name, kind = topic
+        if name not in self.conns:
+            qos = latched_qos() if latched else None
+            extra = {} if qos is None else {"offered_qos_profiles": qos}
+            self.conns[name] = self.w.add_connection(name, kind, typestore=self.store, **extra)
+        self.w.write(self.conns[name], stamp, self.store.serialize_cdr(msg, kind))
+
+
+def latched_qos() -> list | None:
+    """The QoS ROS 2 offers a latched topic such as ``/tf_static`` (reliable,
+    durability transient local, keep last 1), as rosbags declares it; None when the
+    installed rosbags does not take QoS profiles."""
+    import inspect
+
+    from rosbags.rosbag2 import Writer
+
+    try:
+        from rosbags.interfaces import (
+            Qos,
+            QosDurability,
+            QosHistory,
+            QosLiveliness,
+            QosReliability,
+            QosTime,
+        )
+    except ImportError:  # pragma: no cover - an older rosbags
+        return None
+    param = inspect.signature(Writer.add_connection).parameters.get("offered_qos_profiles")
+    if param is None or isinstance(param.default, str):  # pragma: no cover - older rosbags
+        return None
+    never = QosTime(0, 0)  # rosbag2's "infinite" (the default)
+    return [
+        Qos(
+            history=QosHistory.KEEP_LAST,
+            depth=1,
+            reliability=QosReliability.RELIABLE,
+            durability=QosDurability.TRANSIENT_LOCAL,
+            deadline=never,
+            lifespan=never,
+            liveliness=QosLiveliness.AUTOMATIC,
+            liveliness_lease_duration=never,
+            avoid_ros_namespace_conventions=False,
+        )
+    ]
 
 
 def _rename_unless_interrupted(bag: Path, path: Path) -> None:
@@ -316,6 +387,8 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
             "duration_s": wf.duration_s,
         },
         "raw": "std_msgs/Float32MultiArray (microphone, sample), row major, float32",
+        "emission_index": int(rec.emission_index),
+        **_sonar_info(rec),
         "image_method": method,
         "fan": {
             "encoding": "32FC1 level in dB re the strongest cell; NaN = no data",
@@ -328,6 +401,29 @@ def _info_msg(T, rec: P.Recording, index: int, method: str, raster, dynamic_rang
         },
     }
     return T["std_msgs/msg/String"](data=json.dumps(info))
+
+
+def _sonar_info(rec: P.Recording) -> dict:
+    """Which sensor recorded, where it sits and what it heard: ``sensor`` (a rig's
+    sonar, else None), ``frame_id``, ``emission_time_s`` (its call's start, s, the
+    body's clock; None unknown), ``mount`` (a rig's sonar in the body frame:
+    ``position_m``, ``rotation_deg`` roll, pitch, yaw), ``crosstalk`` (the other
+    calls in the recording: sonar, measurement, emission time and delay after this
+    call, s, and their number of paths), ``emitters`` (what the reflectors'
+    ``emitter`` indexes) and ``object_names`` (what their ``object`` indexes)."""
+    meta = rec.metadata
+    sonar = meta.get("sensor")
+    pose = rec.provenance.pose
+    t = meta.get("emission_time_s", None if pose is None else pose.time_s)
+    return {
+        "sensor": sonar,
+        "frame_id": FRAME_SENSOR if sonar is None else sonar,
+        "emission_time_s": t,
+        "mount": meta.get("mount"),
+        "crosstalk": list(meta.get("crosstalk", [])),
+        "emitters": emitter_names(rec),
+        "object_names": list(rec.truth.object_names) if rec.truth is not None else [],
+    }
 
 
 def _cloud_msg(T, header, points_sensor: np.ndarray, pk: P.Peaks):
@@ -393,16 +489,31 @@ def _transform(T, stamp, parent: str, child: str, rotation: np.ndarray, position
     )
 
 
-def _rig_tf_msg(T, header, meta: dict, sonar: str):
-    """A rig's TF tree at a firing: world -> body (the body's pose) and body -> the
-    sonar (its mount; metadata ``body_pose`` and ``mount``)."""
+def _body_tf_msg(T, header, meta: dict):
+    """A rig's moving frame at a firing: world -> body (metadata ``body_pose``)."""
     b = meta["body_pose"]
     body = Pose.degrees(b["position_m"], b["yaw_deg"], b["pitch_deg"], b["roll_deg"])
-    mount = Mount.degrees(meta["mount"]["position_m"], meta["mount"]["rotation_deg"])
+    tf = _transform(T, header.stamp, FRAME_WORLD, FRAME_BODY, body.rotation, body.position_m)
+    return T["tf2_msgs/msg/TFMessage"](transforms=[tf])
+
+
+def _static_tf_msg(T, recordings: Sequence[P.Recording], stamp_ns: int):
+    """A rig's fixed extrinsics: body -> each sonar (its mount, metadata ``mount``;
+    the first recording of each sonar), one TFMessage stamped `stamp_ns`; None for
+    recordings of no rig."""
+    mounts: dict[str, Mount] = {}
+    for rec in recordings:
+        sonar = rec.metadata.get("sensor")
+        if sonar is not None and sonar not in mounts:
+            m = rec.metadata["mount"]
+            mounts[sonar] = Mount.degrees(m["position_m"], m["rotation_deg"])
+    if not mounts:
+        return None
+    stamp = T["builtin_interfaces/msg/Time"](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
     return T["tf2_msgs/msg/TFMessage"](
         transforms=[
-            _transform(T, header.stamp, FRAME_WORLD, FRAME_BODY, body.rotation, body.position_m),
-            _transform(T, header.stamp, FRAME_BODY, sonar, mount.rotation, mount.position_m),
+            _transform(T, stamp, FRAME_BODY, sonar, m.rotation, m.position_m)
+            for sonar, m in mounts.items()
         ]
     )
 
@@ -484,8 +595,10 @@ def _reflector_msg(T, header, rec: P.Recording):
     sensor frame: x, y, z their last reflection (m), level_db (re the strongest
     echo), order (number of reflections), apparent_x/y/z where the sensor sees them
     (m), delay_s their two-way delay at the array centre (s) and object (the index
-    into the recording's ``truth.object_names``, -1 none); NaN where a recording
-    carries no apparent positions (a file written before they existed)."""
+    into the recording's ``truth.object_names``, -1 none) and emitter (whose call
+    the path carries: the index into :func:`emitter_names`, the info's
+    ``emitters``); NaN where a recording carries no apparent positions (a file
+    written before they existed)."""
     t = rec.truth
     if t is None or not len(t):
         table = np.zeros((0, len(REFLECTOR_FIELDS)), "<f4")
@@ -499,7 +612,32 @@ def _reflector_msg(T, header, rec: P.Recording):
             else [np.full((n, 4), np.nan)]
         )
         obj = t.object_index[keep] if t.object_index is not None else np.full(n, -1)
+        emitter = emitter_index(rec)[keep]
         table = np.column_stack(
-            [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None], *seen, obj]
+            [t.position_sensor_m[keep], lvl[keep, None], t.order[keep, None], *seen, obj, emitter]
         ).astype("<f4")
     return _point_cloud(T, header, table, REFLECTOR_FIELDS)
+
+
+def emitter_names(rec: P.Recording) -> list[str]:
+    """The sonars whose calls a recording may hear, the names the reflectors'
+    ``emitter`` field indexes (``/acousim/.../info`` → ``emitters``): a rig's sonars
+    in the rig's order (metadata ``rig``), else the sensor's own frame."""
+    meta = rec.metadata
+    if meta.get("rig"):
+        return [str(n) for n in meta["rig"]]
+    return [str(meta.get("sensor") or FRAME_SENSOR)]
+
+
+def emitter_index(rec: P.Recording) -> np.ndarray:
+    """(N,) int: for each path of the recording's truth, the index into
+    :func:`emitter_names` of the sonar whose call it carries (the recording's own
+    where the truth names none; -1 a name not in the list)."""
+    t = rec.truth
+    names = emitter_names(rec)
+    own = names.index(rec.metadata.get("sensor") or names[0])
+    n = 0 if t is None else len(t.order)
+    if t is None or t.emitter is None:
+        return np.full(n, own)
+    lookup = {name: i for i, name in enumerate(names)}
+    return np.array([lookup.get(str(e), -1) for e in t.emitter], dtype=int).reshape(n)

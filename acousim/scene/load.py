@@ -26,9 +26,15 @@ import processing as P
 from acousim.scene import model
 from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
-from acousim.scene.names import array_named, call_named, lidar_named, material_named
+from acousim.scene.names import (
+    array_named,
+    call_named,
+    lidar_named,
+    material_named,
+    with_emitter,
+)
 from acousim.scene.pose import MAX_COORDINATE_M, Pose
-from acousim.scene.rig import Firing, Mount, Rig, RigSonar, schedule
+from acousim.scene.rig import DEFAULT_RATE_HZ, ROTATION_DEG, Firing, Mount, Rig, RigSonar, schedule
 from acousim.scene.trajectory import CONTINUOUS, RATES, Trajectory
 from processing.base.errors import InputError
 from processing.base.settings import Setting, check, read_table, refuse_unknown, settings_of
@@ -58,15 +64,12 @@ EXTRA_KEYS: dict[str, set[str]] = {
         "lidars",
     },
     "body": {"pose", "trajectory"},
-    "rig": {"firing", "rate_hz", "crosstalk", "earlier_calls"},
     "sensors.mount": {"position_m", "rotation_deg"},
-    "sensors.firing": {"rate_hz", "offset_s", "count", "times_s"},
     "scene": {"name", "description"},
     "sensor": {
         "array",
         "coordinates",
         "coordinates_units",
-        "emitter_m",
         "call",
         "pose",
         "trajectory",
@@ -281,10 +284,9 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
     r.check_keys(body, "body", "body")
     poses, rate = _poses(r, body, base, "body")
     motion = _motion(r, body, poses, "body")
-    opts = r.table(data, "rig", "")
-    r.check_keys(opts, "rig", "rig")
-    mode = r.string(opts, "firing", "rig", "round_robin", {"round_robin", "simultaneous"})
-    rate = r.number(opts, "rate_hz", "rig", rate or 10.0, 1e-3, 1e4)
+    opts = r.settings(Rig, r.table(data, "rig", ""), "rig")  # firing, rate_hz, crosstalk, ...
+    mode = opts.get("firing", "round_robin")
+    rate = opts.get("rate_hz") or rate or DEFAULT_RATE_HZ
     tables = list(r.table_list(data, "sensors"))
     if not tables:
         raise r.fail("sensors", "must hold at least one sensor")
@@ -296,6 +298,12 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
             if key in t:
                 raise r.fail(f"{where}.{key}", "a rig's sensors move with [body]; "
                              "LiDARs are [[lidars]]")  # fmt: skip
+        for key in FIRING_KEYS.intersection(t):  # a sonar's rate is its firing's
+            raise r.fail(
+                f"{where}.{key}",
+                f"unknown key {key!r}; did you mean 'firing.{key}'? (a sonar's own: "
+                f"firing = {{ {key} = ... }}; every sonar's rate: [rig] rate_hz)",
+            )
         sensor = _sensor(r, t, base, where, extra)
         name = r.string(t, "name", where, f"sonar{i}")
         sonars.append(RigSonar(name, sensor, _mount(r, t, where), _firing(r, t, where, firings[i])))
@@ -307,16 +315,15 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
             dataclasses.replace(r.named(lidar_named, preset, f"{where}.preset"), **changed)
         )
     try:
-        return Rig(
-            tuple(sonars),
-            poses,
-            motion,
-            tuple(lidars),
-            crosstalk=r.boolean(opts, "crosstalk", "rig", True),
-            earlier_calls=r.boolean(opts, "earlier_calls", "rig", True),
-        )
-    except InputError as exc:
-        raise r.fail("sensors", exc.reason, exc.value) from None
+        return Rig(tuple(sonars), poses, motion, tuple(lidars), **opts)
+    except InputError as exc:  # keyed as the file: Rig.sonars[0].name -> sensors[0].name
+        key = (exc.key or "").replace("Rig.sonars", "sensors", 1).replace("Rig.", "rig.", 1)
+        key = key.replace("].sensor.", "].", 1)  # a [[sensors]] table is its Sensor's
+        raise r.fail(key or "sensors", exc.reason, exc.value) from None
+
+
+#: a rig sonar's ``firing`` keys (a hint when given in its table itself)
+FIRING_KEYS = frozenset(settings_of(Firing)) | {"times_s"}
 
 
 def _mount(r: _Reader, t: dict, where: str) -> Mount:
@@ -324,30 +331,24 @@ def _mount(r: _Reader, t: dict, where: str) -> Mount:
     body frame."""
     m = r.table(t, "mount", where)
     r.check_keys(m, "sensors.mount", f"{where}.mount")
-    angle = Setting("vector", lo=-360, hi=360, length=3)
-    rot = r._check(angle, m.get("rotation_deg", [0.0, 0.0, 0.0]), f"{where}.mount.rotation_deg")
+    key = f"{where}.mount.rotation_deg"  # checked as Mount.degrees checks it
+    rot = r._check(ROTATION_DEG, m.get("rotation_deg", ROTATION_DEG.default), key)
     return Mount.degrees(r.vector(m, "position_m", f"{where}.mount", [0.0, 0.0, 0.0]), rot)
 
 
 def _firing(r: _Reader, t: dict, where: str, default: Firing) -> Firing:
-    """A rig sensor's ``firing``: rate_hz and offset_s (and count), or times_s; by
-    default the rig's schedule."""
+    """A rig sensor's ``firing``: rate_hz and offset_s (and count), or times_s, not
+    both; by default (and for the keys it leaves out) the rig's schedule."""
     if "firing" not in t:
         return default
-    f = r.table(t, "firing", where)
-    r.check_keys(f, "sensors.firing", f"{where}.firing")
     key = f"{where}.firing"
+    f = r.settings(Firing, r.table(t, "firing", where), key, extra={"times_s"})
+    if "times_s" not in r.table(t, "firing", where):
+        f = {"rate_hz": default.rate_hz, "offset_s": default.offset_s, **f}
     try:
-        if "times_s" in f:
-            return Firing(times_s=f["times_s"])
-        count = f.get("count")
-        return Firing(
-            r.number(f, "rate_hz", key, default.rate_hz, 1e-3, 1e4),
-            r.number(f, "offset_s", key, default.offset_s, 0, 1e7),
-            None if count is None else r.number(f, "count", key, 1, 1, 10**7, integer=True),
-        )
+        return Firing(**f, times_s=t["firing"].get("times_s"))
     except InputError as exc:
-        raise r.fail(key, exc.reason, exc.value) from None
+        raise r.fail((exc.key or "").replace("Firing", key, 1), exc.reason, exc.value) from None
 
 
 def _first_poses(rig: Rig) -> tuple[Pose, ...]:
@@ -435,13 +436,9 @@ def _sensor(
             raise r.fail(f"{where}.coordinates", str(exc), s["coordinates"]) from None
     else:
         array = r.named(array_named, r.string(s, "array", where, "urtis_v1"), f"{where}.array")
-    emitter = r.vector(s, "emitter_m", where, [0.0, 0.0, 0.0])
-    try:
-        array = P.Array(
-            array.name, array.positions_m, emitter, array.grid_index, array.pitch_m, array.channels
-        )
-    except InputError as exc:  # the array's own checks of its emitter
-        raise r.fail(f"{where}.emitter_m", exc.reason, s.get("emitter_m")) from None
+    # the emitter as the Python constructor places it (acousim.scene.names), keyed here
+    emitter = declared.get("emitter_m")
+    array = r.named(with_emitter, array, f"{where}.emitter_m", emitter)
     call = s.get("call", "default_25_50")
     if isinstance(call, str):
         wf = r.named(call_named, r.string(s, "call", where, "default_25_50"), f"{where}.call")

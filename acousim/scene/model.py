@@ -52,13 +52,20 @@ from acousim.scene.motion import (
     vector3,
     velocity_setting,
 )
-from acousim.scene.names import array_named, call_named, lidar_named, scene_materials
+from acousim.scene.names import (
+    array_named,
+    call_named,
+    lidar_named,
+    scene_materials,
+    with_emitter,
+)
 from acousim.scene.pose import MAX_COORDINATE_M, Pose, rotation
 from acousim.scene.trajectory import Trajectory
 from processing import Array, Waveform
 from processing.base.api import warn_deprecated
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
+from processing.sensor.arrays import MAX_EXTENT_M
 from processing.sensor.rtis import RTIS_SAMPLE_RATE_HZ
 
 __all__ = [
@@ -447,6 +454,12 @@ class Sensor:
         default; ``"default_25_50"``, the default; ``"vlp16"``), resolved by the
         loader's code (:mod:`acousim.scene.names`).
     poses : one Pose or a sequence (a trajectory sampled at `rate_hz`, Hz).
+    emitter_m : the emitter's position (3,) m in the sensor frame, as the scene
+        file's ``emitter_m``: it replaces the array's (``array.emitter_m`` holds the
+        result); None (the default): the array's own, the centre (0, 0, 0) for the
+        presets.
+    emitter_radius_m : the emitter as a baffled piston of this radius (m); 0 (the
+        default): omnidirectional.
     """
 
     array: Array = cast(Any, "urtis_v1")  # a name, resolved when constructed
@@ -466,6 +479,15 @@ class Sensor:
     #: a LiDAR beside the sonar (:class:`acousim.scene.lidar.Lidar`), scanning at
     #: every pose; None: none
     lidar: Any = None
+    emitter_m: tuple[float, float, float] | None = setting(
+        None,
+        "m",
+        -MAX_EXTENT_M,
+        MAX_EXTENT_M,
+        "emitter in the sensor frame; unset: the array's own (the centre for the presets)",
+        kind="vector",
+        length=3,
+    )
 
     if TYPE_CHECKING:  # the constructor takes names too; the fields hold the objects
 
@@ -477,7 +499,8 @@ class Sensor:
         validate(self)
 
         object.__setattr__(self, "lidar", lidar_named(self.lidar, "Sensor.lidar"))
-        object.__setattr__(self, "array", array_named(self.array, "Sensor.array"))
+        array = array_named(self.array, "Sensor.array")
+        object.__setattr__(self, "array", with_emitter(array, self.emitter_m, "Sensor.emitter_m"))
         object.__setattr__(self, "call", call_named(self.call, "Sensor.call"))
         poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
         if not poses or not all(isinstance(p, Pose) for p in poses):

@@ -16,7 +16,14 @@ from acousim.scene.lidar import LIDAR_PRESETS, PRESET, Lidar
 from processing.base.errors import InputError
 from processing.base.settings import Setting, check
 
-__all__ = ["array_named", "call_named", "lidar_named", "material_named", "scene_materials"]
+__all__ = [
+    "array_named",
+    "call_named",
+    "lidar_named",
+    "material_named",
+    "scene_materials",
+    "with_emitter",
+]
 
 
 def array_named(value: Any, key: str = "Sensor.array") -> P.Array:
@@ -29,6 +36,18 @@ def _array(name: str) -> P.Array:
         return P.preset(name)
     except (OSError, ValueError) as exc:  # ertis_v3d1 offline, a damaged cached layout
         raise InputError(f"cannot load the preset ({exc})", value=name) from None
+
+
+def with_emitter(array: P.Array, emitter_m: Any, key: str = "Sensor.emitter_m") -> P.Array:
+    """`array` with its emitter at `emitter_m` ((3,) m, sensor frame: the scene file's
+    ``emitter_m``); None: `array` as it is.  The array's own check of the emitter
+    (finite, within ±10 m) raises keyed `key`."""
+    if emitter_m is None:
+        return array
+    try:
+        return dataclasses.replace(array, emitter_m=emitter_m)
+    except InputError as exc:
+        raise InputError(exc.reason, key=key, value=emitter_m) from None
 
 
 def call_named(value: Any, key: str = "Sensor.call") -> P.Waveform:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -30,6 +30,7 @@ from acousim.scene.model import Sensor
 from acousim.scene.pose import Pose, rotation
 from acousim.scene.trajectory import Trajectory
 from processing.base.errors import InputError
+from processing.base.settings import Setting, check, setting, validate
 
 __all__ = [
     "Mount",
@@ -46,6 +47,10 @@ __all__ = [
 #: how the sonars of a rig share their rate: one after another, evenly spaced over
 #: the period ("round_robin"), or all at the same instants ("simultaneous")
 FiringMode = Literal["round_robin", "simultaneous"]
+#: a mount's rotation: roll, pitch, yaw (deg), the scene file's ``rotation_deg``
+ROTATION_DEG = Setting("vector", (0.0, 0.0, 0.0), "deg", -360, 360, "roll, pitch, yaw", length=3)
+#: a sonar's firing rate when neither it nor the rig gives one (Hz)
+DEFAULT_RATE_HZ = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,8 +78,10 @@ class Mount:
 
     @classmethod
     def degrees(cls, position_m=(0.0, 0.0, 0.0), rotation_deg=(0.0, 0.0, 0.0)) -> Mount:
-        """A mount at `position_m` turned by `rotation_deg` (roll, pitch, yaw; degrees)."""
-        roll, pitch, yaw = np.deg2rad(np.asarray(rotation_deg, float).reshape(3))
+        """A mount at `position_m` turned by `rotation_deg` (roll, pitch, yaw; degrees,
+        each within +-360, checked as the scene file's ``mount.rotation_deg``)."""
+        angles = check(ROTATION_DEG, rotation_deg, "Mount.degrees.rotation_deg")
+        roll, pitch, yaw = np.deg2rad(angles)
         return cls(position_m, float(roll), float(pitch), float(yaw))
 
     @property
@@ -146,35 +153,43 @@ class MountedTrajectory(Trajectory):
 
 @dataclass(frozen=True)
 class Firing:
-    """When a sonar fires: every ``1 / rate_hz`` s from ``offset_s`` after the body's
-    first pose (`count` times; None: over the body's trajectory, once for a body
-    with one pose), or at the explicit times `times_s` (s, the body's clock)."""
+    """When a sonar fires: every ``1 / rate_hz`` s (unset: 10 Hz) from ``offset_s``
+    after the body's first pose (`count` times; None: over the body's trajectory,
+    once for a body with one pose), or at the explicit times `times_s` (s, the body's
+    clock), not both: the scene file's ``firing`` table."""
 
-    rate_hz: float | None = 10.0
-    offset_s: float = 0.0
-    count: int | None = None
+    rate_hz: float | None = setting(
+        None, "Hz", 1e-3, 1e4, "firing rate; unset: 10 Hz (none with times_s)", kind="float"
+    )
+    offset_s: float = setting(0.0, "s", 0.0, 1e7, "first firing after the body's first pose")
+    count: int | None = setting(
+        None, "", 1, 10**7, "number of firings; unset: over the body's trajectory", kind="int"
+    )
     times_s: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
-        if self.times_s is not None:
-            t = np.asarray(self.times_s, float).reshape(-1)
-            if not t.size or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-                raise InputError(
-                    "must be a non-empty list of increasing times (s)",
-                    key="Firing.times_s",
-                    value=self.times_s,
-                )
-            object.__setattr__(self, "times_s", tuple(t.tolist()))
+        validate(self, prefix="Firing")
+        if self.times_s is None:
+            if self.rate_hz is None:
+                object.__setattr__(self, "rate_hz", DEFAULT_RATE_HZ)
             return
-        if self.rate_hz is None or not 1e-3 <= float(self.rate_hz) <= 1e4:
+        given = [k for k in ("rate_hz", "count") if getattr(self, k) is not None]
+        given += ["offset_s"] if self.offset_s else []
+        if given:
             raise InputError(
-                "must be in [0.001, 10000] Hz", key="Firing.rate_hz", value=self.rate_hz
+                f"times_s and {' and '.join(given)} both given: a sonar fires at explicit "
+                "times or at a rate, not both",
+                key="Firing.times_s",
+                value=self.times_s,
             )
-        if not np.isfinite(self.offset_s) or self.offset_s < 0:
-            raise InputError("must be a non-negative time (s)", key="Firing.offset_s",
-                             value=self.offset_s)  # fmt: skip
-        if self.count is not None and (isinstance(self.count, bool) or int(self.count) < 1):
-            raise InputError("must be a positive integer", key="Firing.count", value=self.count)
+        t = np.asarray(self.times_s, float).reshape(-1)
+        if not t.size or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise InputError(
+                "must be a non-empty list of increasing times (s)",
+                key="Firing.times_s",
+                value=self.times_s,
+            )
+        object.__setattr__(self, "times_s", tuple(t.tolist()))
 
     def times(self, start_s: float, span_s: float) -> np.ndarray:
         """Firing times (F,) s for a body whose poses run from `start_s` over `span_s`."""
@@ -191,7 +206,9 @@ class Firing:
         return start_s + self.offset_s + period * np.arange(max(n, 0))
 
 
-def schedule(n: int, rate_hz: float = 10.0, mode: FiringMode = "round_robin") -> list[Firing]:
+def schedule(
+    n: int, rate_hz: float = DEFAULT_RATE_HZ, mode: FiringMode = "round_robin"
+) -> list[Firing]:
     """The firings of `n` sonars each at `rate_hz`: round robin (sonar k offset by
     k / (n rate)) or simultaneous (all at the same instants)."""
     if mode not in ("round_robin", "simultaneous"):
@@ -203,12 +220,14 @@ def schedule(n: int, rate_hz: float = 10.0, mode: FiringMode = "round_robin") ->
 @dataclass(frozen=True, eq=False)
 class RigSonar:
     """One sonar of a rig: its `sensor` (array, emitter, call, sample rate, directivity;
-    its poses and motion are the rig's, not read), `name`, `mount` and `firing`."""
+    its poses and motion are the rig's, not read), `name`, `mount` and `firing`
+    (None, the default: the rig's schedule, :class:`Rig` ``firing`` and ``rate_hz``,
+    round robin by default, as a scene file's sonar without ``firing``)."""
 
     name: str
     sensor: Sensor
     mount: Mount = field(default_factory=Mount)
-    firing: Firing = field(default_factory=Firing)
+    firing: Firing | None = None
 
 
 @dataclass(frozen=True)
@@ -230,6 +249,10 @@ class Rig:
     poses : the body's poses (one, or a trajectory sampled at its rate); motion: its
         :class:`Trajectory` (None: every measurement frozen, at the pose last
         reached).
+    firing, rate_hz : the schedule of the sonars without their own ``firing``
+        (:func:`schedule`): "round_robin" (the default) or "simultaneous", each sonar
+        at `rate_hz` (None: the body's trajectory rate, 1 / the poses' spacing, or
+        10 Hz for one pose), as the scene file's ``[rig]``.
     crosstalk : every call of every sonar in the recordings of all the others (and
         its own later ones) that it reaches; false: each recording hears its own call
         only.
@@ -245,21 +268,29 @@ class Rig:
     poses: tuple[Pose, ...] = field(default_factory=lambda: (Pose(np.zeros(3)),))
     motion: Trajectory | None = None
     lidars: tuple[Lidar, ...] = ()
-    crosstalk: bool = True
-    earlier_calls: bool = True
+    crosstalk: bool = setting(True, doc="every call heard by every sonar it reaches")
+    earlier_calls: bool = setting(True, doc="with crosstalk, the calls emitted before a window")
+    firing: FiringMode = setting(
+        "round_robin", choices=get_args(FiringMode), doc="schedule of sonars without their own"
+    )
+    rate_hz: float | None = setting(
+        None, "Hz", 1e-3, 1e4, "each sonar's rate; unset: the body's trajectory rate, or 10 Hz",
+        kind="float",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
+        validate(self, prefix="Rig")
         sonars = tuple(self.sonars)
         if not sonars or not all(isinstance(s, RigSonar) for s in sonars):
             raise InputError("must hold at least one RigSonar", key="Rig.sonars")
         names = [s.name for s in sonars]
-        bad = [n for n in names if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", str(n))]
-        if bad:  # names become ROS topics and TF frames
-            raise InputError(
-                "sonar names must start with a letter and hold letters, digits and _",
-                key="Rig.sonars",
-                value=bad[0],
-            )
+        for k, n in enumerate(names):  # names become ROS topics and TF frames
+            if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", str(n)):
+                raise InputError(
+                    "a sonar's name must start with a letter and hold letters, digits and _",
+                    key=f"Rig.sonars[{k}].name",
+                    value=n,
+                )
         if len(set(names)) != len(names):
             raise InputError("sonar names must be unique", key="Rig.sonars", value=names)
         poses = (self.poses,) if isinstance(self.poses, Pose) else tuple(self.poses)
@@ -269,9 +300,67 @@ class Rig:
             raise InputError("must be None or a Trajectory", key="Rig.motion", value=self.motion)
         if not all(isinstance(x, Lidar) for x in self.lidars):
             raise InputError("must hold Lidar objects", key="Rig.lidars")
-        object.__setattr__(self, "sonars", sonars)
         object.__setattr__(self, "poses", poses)
+        object.__setattr__(self, "sonars", self._scheduled(sonars))
         object.__setattr__(self, "lidars", tuple(self.lidars))
+        self._check_firings()
+        if self.crosstalk:
+            self._check_hearing()
+
+    def _check_hearing(self) -> None:
+        """With crosstalk every sonar records every other's call: its sample rate must
+        be above twice the highest frequency of each (as of its own call)."""
+        for k, hearing in enumerate(self.sonars):
+            fs = hearing.sensor.sample_rate_hz
+            for emitting in self.sonars:
+                top = max(emitting.sensor.call.band_hz)
+                if top >= fs / 2:
+                    raise InputError(
+                        f"is below twice the highest frequency of the call of sonar "
+                        f"{emitting.name!r} ({top:g} Hz), which sonar {hearing.name!r} "
+                        "hears (crosstalk): raise it, or turn crosstalk off",
+                        key=f"Rig.sonars[{k}].sensor.sample_rate_hz",
+                        value=fs,
+                    )
+
+    def _scheduled(self, sonars: tuple[RigSonar, ...]) -> tuple[RigSonar, ...]:
+        """`sonars`, those without a firing given the rig's schedule (sonar k of N
+        its k-th firing of :func:`schedule`)."""
+        if all(s.firing is not None for s in sonars):
+            return sonars
+        rate = self.rate_hz
+        if rate is None:
+            span = self.poses[-1].time_s - self.poses[0].time_s
+            # 12 digits: 3 poses over 0.3 s are 10 Hz, not 9.999999999999998
+            rate = float(f"{(len(self.poses) - 1) / span:.12g}") if span > 0 else DEFAULT_RATE_HZ
+        firings = schedule(len(sonars), rate, self.firing)
+        return tuple(
+            s if s.firing is not None else dataclasses.replace(s, firing=f)
+            for s, f in zip(sonars, firings)
+        )
+
+    def _check_firings(self) -> None:
+        """Every firing within the body's trajectory (its poses' times): beyond it
+        the body would be extrapolated (through a wall); a body of one pose fires
+        at any time (frozen, or moving at its velocity)."""
+        start, end = self.poses[0].time_s, self.poses[-1].time_s
+        if len(self.poses) < 2:
+            return
+        for k, s in enumerate(self.sonars):
+            f = s.firing
+            t = f.times(start, end - start)
+            out = t[(t < start - 1e-9) | (t > end + 1e-9)]
+            if t.size and not out.size:
+                continue
+            field_ = "times_s" if f.times_s is not None else "count" if f.count else "offset_s"
+            value = getattr(f, field_)
+            when = f"fires at {out[0]:g} s" if out.size else "never fires"
+            raise InputError(
+                f"{when}, outside the body's trajectory ({start:g} to {end:g} s): the body's "
+                "pose there is unknown",
+                key=f"Rig.sonars[{k}].firing.{field_}",
+                value=value,
+            )
 
     def body_pose(self, t_s: float) -> Pose:
         """The body's pose at `t_s` (on its trajectory; frozen: the last pose reached)."""

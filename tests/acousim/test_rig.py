@@ -456,50 +456,6 @@ position_m = [1.0, 0.0, 0.0]
     assert "sonar 'b' fired at 0.025 s" in capsys.readouterr().out
 
 
-def test_a_rig_bag_has_a_topic_set_per_sonar_and_the_tf_tree(tmp_path):
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
-    from scipy.spatial.transform import Rotation
-
-    import processing as P
-    from acousim.cli import main
-
-    scene = two_sonars(wall_scene(tmp_path))
-    body = Pose.degrees([0.5, 0.3, 0.1], 20.0)
-    scene = dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, poses=(body,)))
-    recs = RigSimulator(scene).run().recordings
-    P.save_recordings(tmp_path / "r.h5", list(recs))
-    bag = tmp_path / "bag"
-    assert main(["export", str(tmp_path / "r.h5"), "--out", str(bag), "--method", "das"]) == 0
-    msgs: dict = {}
-    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
-        for conn, _, raw in reader.messages():
-            msgs.setdefault(conn.topic, []).append(reader.deserialize(raw, conn.msgtype))
-    for name in ("left", "right"):
-        for kind in ("raw", "info", "peaks", "fan"):
-            assert len(msgs[f"/acousim/{name}/{kind}"]) == 1, (name, kind)
-        assert msgs[f"/acousim/{name}/peaks"][0].header.frame_id == name
-    for tf, mount in zip(msgs["/tf"], (LEFT, RIGHT)):
-        (a, b) = tf.transforms
-        assert (a.header.frame_id, a.child_frame_id) == ("world", "acousim_body")
-        assert b.header.frame_id == "acousim_body" and b.child_frame_id in ("left", "right")
-
-        def pose(t):
-            q = t.transform.rotation
-            v = t.transform.translation
-            return Rotation.from_quat([q.x, q.y, q.z, q.w]), np.array([v.x, v.y, v.z])
-
-        (Ra, pa), (Rb, pb) = pose(a), pose(b)
-        # the sonar in the world: the body's pose applied to the mount
-        turn = np.deg2rad(20.0)
-        expected = body.position_m + np.array(
-            [np.cos(turn) * mount[0] - np.sin(turn) * mount[1],
-             np.sin(turn) * mount[0] + np.cos(turn) * mount[1], mount[2]]
-        )  # fmt: skip
-        np.testing.assert_allclose(pa + Ra.apply(pb), expected, atol=1e-9)
-        np.testing.assert_allclose((Ra * Rb).as_euler("ZYX")[0], turn, atol=1e-9)
-
-
 def test_chirp_export_of_a_rig_whole_or_one_sonar(tmp_path, capsys):
     import h5py
 

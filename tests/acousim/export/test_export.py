@@ -222,9 +222,10 @@ def test_rosbag_carries_clock_scene_meshes_and_traced_reflectors(tmp_path):
     # the reflectors: the specular point is the wall's point nearest the sensor
     ((_, cloud),) = msgs["/acousim/reflectors"]
     names = ["x", "y", "z", "level_db", "order", "apparent_x", "apparent_y", "apparent_z"]
-    assert [f.name for f in cloud.fields] == [*names, "delay_s", "object"]
+    assert [f.name for f in cloud.fields] == [*names, "delay_s", "object", "emitter"]
     assert cloud.header.frame_id == "acousim_sensor"
-    table = np.frombuffer(bytes(cloud.data), "<f4").reshape(cloud.width, 10)
+    table = np.frombuffer(bytes(cloud.data), "<f4").reshape(cloud.width, 11)
+    assert np.all(table[:, 10] == 0)  # one sensor: every path carries its own call
     best = table[np.argmax(table[:, 3])]
     foot, _, _ = trimesh.proximity.closest_point(mesh, [[0.0, 0.0, 0.0]])
     yaw = np.deg2rad(15.0)  # wall.toml's sensor pose: at the origin, yaw 15 deg
@@ -236,6 +237,10 @@ def test_rosbag_carries_clock_scene_meshes_and_traced_reflectors(tmp_path):
     np.testing.assert_allclose(best[5:8], best[:3], atol=0.02)
     assert 343.0 * best[8] / 2 == pytest.approx(np.linalg.norm(best[5:8]), abs=0.02)
     assert best[9] == 0  # the only object, the wall
+    info = json.loads(msgs["/acousim/info"][0][1].data)  # what the indices name
+    assert info["emitters"] == ["acousim_sensor"] and info["sensor"] is None
+    assert info["object_names"][0].startswith("wall")
+    assert info["crosstalk"] == [] and info["mount"] is None
     from acousim.dataset.info import describe
 
     lines = describe(bag)

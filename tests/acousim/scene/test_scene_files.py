@@ -52,7 +52,7 @@ def base(**over):
         ),
         (
             base(sensor={"array": "urtis_v1", "emitter_m": [0.0, 0.0, 11.0]}),
-            r"sensor.emitter_m = \[0.0, 0.0, 11.0\]: .*within",
+            r"sensor.emitter_m = \[0.0, 0.0, 11.0\]: must be .* in \[-10, 10\]",
         ),
         (base(points=[{"position_m": [1.0, math.nan, 0]}]), r"points\[0\].position_m = .*must be"),
         (base(points=[{"position_m": [1.0]}]), r"points\[0\].position_m = \[1.0\]: must be"),

@@ -130,7 +130,7 @@ def test_import_acousim_is_light_and_gives_the_scene_api():
 def test_every_declared_setting_is_documented():
     """Adding a setting is one line in its dataclass; its line in the format docs too."""
     from acousim.dataset import spec
-    from acousim.scene import lidar, model
+    from acousim.scene import lidar, model, rig
     from processing.base.settings import settings_of
 
     docs = {
@@ -141,6 +141,8 @@ def test_every_declared_setting_is_documented():
             model.PointItem,
             model.Sensor,
             lidar.Lidar,
+            rig.Rig,
+            rig.Firing,
         ],
         "dataset-format.md": [
             spec.DatasetOptions,
