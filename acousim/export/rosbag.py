@@ -88,7 +88,7 @@ from acousim.imaging.run import (
 from acousim.scene.pose import Pose
 from acousim.scene.rig import Mount
 from acousim.viz.fan import DYNAMIC_RANGE_DB, fan_raster
-from acousim.viz.truth import truth_level_db
+from acousim.viz.truth import own_sonar, truth_level_db
 from processing.base import interrupt
 from processing.base.atomic import TEMP_PREFIX
 from processing.base.errors import InputError
@@ -591,7 +591,8 @@ def _mesh_marker(T, header, marker_id: int, triangles: np.ndarray, rgba):
 
 
 def _reflector_msg(T, header, rec: P.Recording):
-    """The traced echo paths (the direct path left out) as a PointCloud2 in the
+    """The traced echo paths (the sonar's own direct path left out; a rig's other
+    sonars' calls heard straight kept: crosstalk, shown in its image) as a PointCloud2 in the
     sensor frame: x, y, z their last reflection (m), level_db (re the strongest
     echo), order (number of reflections), apparent_x/y/z where the sensor sees them
     (m), delay_s their two-way delay at the array centre (s) and object (the index
@@ -603,7 +604,7 @@ def _reflector_msg(T, header, rec: P.Recording):
     if t is None or not len(t):
         table = np.zeros((0, len(REFLECTOR_FIELDS)), "<f4")
     else:
-        lvl = truth_level_db(t)
+        lvl = truth_level_db(t, own_sonar(rec))
         keep = np.isfinite(lvl)
         n = int(keep.sum())
         seen = (
