@@ -290,7 +290,7 @@ def _rig(r: _Reader, data: dict, base: Path) -> Rig:
     tables = list(r.table_list(data, "sensors"))
     if not tables:
         raise r.fail("sensors", "must hold at least one sensor")
-    firings = schedule(len(tables), rate, mode)  # type: ignore[arg-type]  # checked above
+    firings = schedule(len(tables), rate, mode)
     extra = (EXTRA_KEYS["sensor"] - {"pose", "trajectory", "lidar"}) | {"name", "mount", "firing"}
     sonars = []
     for i, (where, t) in enumerate(tables):

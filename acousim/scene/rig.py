@@ -346,8 +346,7 @@ class Rig:
         start, end = self.poses[0].time_s, self.poses[-1].time_s
         if len(self.poses) < 2:
             return
-        for k, s in enumerate(self.sonars):
-            f = s.firing
+        for k, f in enumerate(self._firings()):
             t = f.times(start, end - start)
             out = t[(t < start - 1e-9) | (t > end + 1e-9)]
             if t.size and not out.size:
@@ -361,6 +360,13 @@ class Rig:
                 key=f"Rig.sonars[{k}].firing.{field_}",
                 value=value,
             )
+
+    def _firings(self) -> list[Firing]:
+        """Each sonar's firing (the rig's schedule filled in by ``__post_init__``)."""
+        out = [s.firing for s in self.sonars]
+        if any(f is None for f in out):
+            raise ValueError("a sonar without its firing: Rig.__post_init__ fills them in")
+        return [f for f in out if f is not None]
 
     def body_pose(self, t_s: float) -> Pose:
         """The body's pose at `t_s` (on its trajectory; frozen: the last pose reached)."""
@@ -379,9 +385,7 @@ class Rig:
         """Every firing of every sonar, in time order (ties: in the sonars' order)."""
         start = self.poses[0].time_s
         span = self.poses[-1].time_s - start
-        fired = [
-            (float(t), k) for k, s in enumerate(self.sonars) for t in s.firing.times(start, span)
-        ]
+        fired = [(float(t), k) for k, f in enumerate(self._firings()) for t in f.times(start, span)]
         fired.sort()
         return [
             Measurement(i, k, t, self.sonars[k].mount.place(self.body_pose(t)))
