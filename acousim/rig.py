@@ -226,7 +226,8 @@ class RigSimulator:
             # firing after the other (every trace as it would be alone)
             from concurrent.futures import ThreadPoolExecutor
 
-            with ThreadPoolExecutor(2) as pool:
+            pool = ThreadPoolExecutor(2)
+            try:
                 ahead = [self._prepare(i, pool=pool) for i in idx[:AHEAD]]
                 for n in range(len(idx)):
                     interrupt.check()  # Ctrl-C (when the command line records it)
@@ -236,6 +237,8 @@ class RigSimulator:
                     out.append(self._record(firing))
                     if progress:
                         progress(n + 1, len(idx))
+            finally:  # stopped (Ctrl-C, an error): the work not started is dropped
+                pool.shutdown(wait=True, cancel_futures=True)
         done = tuple(self.measurements[i] for i in idx)
         times = [m.time_s for m in done]
         scans = self.lidar_scans(min(times), max(times)) if done else ()

@@ -152,6 +152,18 @@ def test_interrupted_simulate_keeps_the_old_output(corridor, tmp_path, after):
         assert code == 130
 
 
+def test_interrupted_rig_simulate_stops_its_threads_and_keeps_the_old_output(tmp_path):
+    # a rig's run prepares the next firings in threads while one renders: Ctrl-C
+    # after the first firing ends the command with one line, no file replaced
+    (tmp_path / "rig.h5").write_text("an earlier rig.h5")
+    args = ["simulate", "corridor_rig", "--poses", "40:46", "--out", "rig.h5"]
+    code, lines = run_interrupted(args, tmp_path, "simulate 1/6")
+    assert code == 130
+    assert (tmp_path / "rig.h5").read_text() == "an earlier rig.h5"
+    assert leftovers(tmp_path) == []
+    assert not any(ln.endswith("simulate 6/6") for ln in lines)
+
+
 @pytest.mark.parametrize("after", ["started", "image 1/2", "pictures 1/3"])
 def test_interrupted_image_keeps_the_old_pictures(corridor, tmp_path, after):
     shutil.copy(corridor / "rec.h5", tmp_path / "rec.h5")
