@@ -178,11 +178,18 @@ class _Reader:
 
 
 def load_scene(path: str | Path) -> model.Scene:
-    """Read and validate a scene file (TOML, ``docs/scene-format.md``); a SceneError
-    (an :class:`processing.base.errors.InputError`) names the file, key and value."""
+    """Read and validate a scene file (TOML, ``docs/scene-format.md``), or a bundled
+    scene named as the command line takes it (``"wall"``, ``"corridor"``: when no file
+    of that name exists); a SceneError (an :class:`processing.base.errors.InputError`)
+    names the file, key and value."""
+    from acousim.bundled import resolve_scene
+
     path = Path(path)
     if not path.is_file():
-        raise SceneError("no such scene file", file=path)
+        try:
+            path = resolve_scene(path)
+        except InputError as exc:  # no such file, nor a bundled scene: say what to type
+            raise SceneError(exc.reason, file=path) from None
     raw = path.read_bytes()
     try:
         data = tomllib.loads(raw.decode("utf-8"))

@@ -77,8 +77,23 @@ def test_not_toml_and_missing_file(tmp_path):
     f.write_text("this is = = not toml")
     with pytest.raises(SceneError, match="x.toml: not valid TOML"):
         load_scene(f)
-    with pytest.raises(SceneError, match="no such scene file"):
+    with pytest.raises(SceneError, match="missing.toml: no such file, nor a bundled scene"):
         load_scene(tmp_path / "missing.toml")
+
+
+def test_a_bundled_scene_by_its_name_as_the_command_line_takes_it(tmp_path, monkeypatch):
+    # from an empty folder: "wall" is the bundled wall (its file's scene, byte for
+    # byte the same values), a near miss gets the command line's suggestion, and a
+    # file of that name in the folder wins over the bundled scene
+    from acousim.bundled import find_scene
+
+    monkeypatch.chdir(tmp_path)
+    wall = load_scene("wall")
+    assert str(wall.source) == str(find_scene("wall")) and wall.name == "wall"
+    with pytest.raises(SceneError, match="corridr: .*did you mean 'corridor'"):
+        load_scene("corridr")
+    (tmp_path / "wall").write_text('[scene]\nname = "mine"\n[sensor]\narray = "urtis_v1"\n')
+    assert load_scene("wall").name == "mine"
 
 
 def test_broken_meshes_are_refused(tmp_path):
