@@ -92,7 +92,10 @@ def test_a_bundled_scene_by_its_name_as_the_command_line_takes_it(tmp_path, monk
     assert str(wall.source) == str(find_scene("wall")) and wall.name == "wall"
     with pytest.raises(SceneError, match="corridr: .*did you mean 'corridor'"):
         load_scene("corridr")
-    (tmp_path / "wall").write_text('[scene]\nname = "mine"\n[sensor]\narray = "urtis_v1"\n')
+    mine = (
+        '[scene]\nname = "mine"\n[sensor]\narray = "urtis_v1"\n[[points]]\nposition_m = [1, 0, 0]\n'
+    )
+    (tmp_path / "wall").write_text(mine)
     assert load_scene("wall").name == "mine"
 
 
