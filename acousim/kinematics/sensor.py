@@ -115,8 +115,10 @@ class SensorKinematics:
 
     `trajectory` None: the sensor stays at `pose`.  With `step_s`, the motion is
     tabulated over ``[0, window_s + step_s]`` and represented by a polynomial in time
-    where one fits the table within POLY_FIT_M, else interpolated linearly (the fast
-    method); without, every query evaluates the trajectory (the reference).
+    where one fits the table within POLY_FIT_M; over a knot of the trajectory, where
+    none may, by a polynomial per piece between knots (:attr:`pieces`, for the
+    reception times' Newton solve) and the table interpolated linearly (the rest);
+    without `step_s`, every query evaluates the trajectory (the reference).
     """
 
     def __init__(self, trajectory, pose, array: Array, window_s: float, step_s: float | None):
