@@ -104,6 +104,18 @@ def recording_source(
     return source
 
 
+def _speed_of_sound(recordings) -> float:
+    """The one speed of sound (m/s) of the recordings; InputError if they differ."""
+    speeds = sorted({float(r.speed_of_sound_m_s) for r in recordings})
+    if len(speeds) != 1:
+        raise InputError(
+            "the recordings an emulated sensor streams must share one air",
+            key="speed_of_sound_m_s",
+            value=speeds,
+        )
+    return speeds[0]
+
+
 def emulated_device(
     recordings,
     channels: np.ndarray,
@@ -114,13 +126,15 @@ def emulated_device(
 ):
     """The whole emulator stack for a list of recordings at 450 kHz: returns
     (open_device, sensor), where ``open_device()`` opens an RtisDevice on the emulated
-    sensor through the real driver (what :class:`hardware.Recorder` takes; give it
-    the recordings' ``speed_of_sound_m_s``).  `repeat`: the measurements after the
-    first round (:func:`recording_source`).  Raises InputError for an array the link
-    cannot carry (more than 32 microphones)."""
+    sensor through the real driver (what :class:`hardware.Recorder` takes; its
+    recordings then carry the recordings' speed of sound).  `repeat`: the
+    measurements after the first round (:func:`recording_source`).  Raises
+    InputError for an array the link cannot carry (more than 32 microphones) or
+    recordings of different speeds of sound."""
 
+    recordings = list(recordings)
     source = recording_source(recordings, channels, repeat=repeat)
-    sensor = EmulatedSensor(source, n_ticks=n_ticks)
+    sensor = EmulatedSensor(source, n_ticks=n_ticks, speed_of_sound_m_s=_speed_of_sound(recordings))
     backend = EmulatorBackend(sensor)
 
     def open_device() -> RtisDevice:
@@ -139,8 +153,12 @@ class EmulatedSensor:
         serial: str = "EMU0001",
         firmware: int = 0x0002_0F01,
         n_ticks: int = 163840,
+        speed_of_sound_m_s: float | None = None,
     ) -> None:
+        """`speed_of_sound_m_s`: the air of what it streams (m/s), which a
+        :class:`hardware.Recorder` gives its recordings (None: not known)."""
         self.source = source
+        self.speed_of_sound_m_s = speed_of_sound_m_s
         self.serial = serial
         self.firmware = firmware
         self.settings = {

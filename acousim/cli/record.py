@@ -149,12 +149,10 @@ def _recorder(args: argparse.Namespace):
     from hardware.device import RtisDevice, find_ids, parse_usb_id
     from hardware.emulator import emulated_device
 
-    c = 343.0  # a real sensor: nominal (the recorder does not know the air)
     if args.emulate:
         scene = emulated_scene(load_scene(args.emulate), args.array, args.call)
         preload_simulation()
-        array, call = scene.sensor.array, scene.sensor.call
-        c = scene.environment.speed_of_sound_m_s
+        array, call = scene.sensor.array, scene.sensor.call  # the air: the recordings'
         recs, repeat = emulation_recordings(scene, args.count)
         try:
             open_device, _ = emulated_device(
@@ -178,7 +176,6 @@ def _recorder(args: argparse.Namespace):
         array,
         call,
         fir=args.filter,
-        speed_of_sound_m_s=c,
     )
 
 

@@ -92,6 +92,16 @@ def test_repeated_measurements_of_one_pose_have_their_own_noise(tmp_path):
     recs = _record(scene, tmp_path / "a.h5", "--count", "3")
     again = _record(scene, tmp_path / "b.h5", "--count", "3")
     assert all(np.array_equal(a.samples, b.samples) for a, b in zip(recs, again))
+    # the first round is the scene's own simulation (acousim simulate's), the others not
+    from acousim.cli import main
+
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "s.h5")]) == 0
+    sim = P.load_recordings(tmp_path / "s.h5")[0].samples
+    n = sim.shape[1]
+    match = [np.corrcoef(r.samples[:, :n].ravel(), sim.ravel())[0, 1] for r in recs]
+    # (0.94: the PDM's error alone; 0.63 the echo's share of the samples: its noise
+    # independent of the simulation's)
+    assert match[0] > 0.9 and max(match[1:]) < 0.75
     quiet = [r.samples[:, 300:4000].ravel() for r in recs]  # the echo starts at 3900+
     for i in range(3):
         for j in range(i):
@@ -149,3 +159,27 @@ def test_a_raw_file_reads_as_little_endian_words(tmp_path):
     assert np.array_equal(read_ticks(path), words)
     with pytest.raises(InputError, match="no such file"):
         read_ticks(tmp_path / "missing.bin")
+
+
+def test_in_python_the_emulated_sensor_gives_its_recordings_air(tmp_path):
+    """emulated_device + Recorder: the recordings carry the streamed recordings' c
+    (here 331.3 m/s, dry air at 0 °C), not the nominal 343; a sensor that does not
+    know its air (a real one) gives 343; recordings of two airs are refused."""
+    from acousim.synth import PointReflectors, simulate_points
+    from hardware import DeviceSettings, Recorder
+    from hardware.emulator import emulated_device
+
+    arr, call = P.urtis_v1(), P.rtis_call()
+    rec = simulate_points(
+        PointReflectors([[1.2, 0.2, 0.05]], 1.0), arr, call, FS, 3277, speed_of_sound_m_s=331.3
+    )
+    settings = DeviceSettings(n_ticks=32768, call=call.sampled(FS))
+    open_device, sensor = emulated_device([rec], arr.channels, n_ticks=32768)
+    assert (
+        Recorder(open_device, settings, arr, call).acquire(count=1)[0].speed_of_sound_m_s == 331.3
+    )
+    sensor.speed_of_sound_m_s = None  # as a real sensor: it does not know the air
+    assert Recorder(open_device, settings, arr, call).acquire(count=1)[0].speed_of_sound_m_s == 343
+    other = simulate_points(PointReflectors([[1.2, 0.2, 0.05]], 1.0), arr, call, FS, 3277)
+    with pytest.raises(InputError, match=r"speed_of_sound_m_s = \[331.3, 343.0\]"):
+        emulated_device([rec, other], arr.channels)
