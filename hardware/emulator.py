@@ -44,9 +44,24 @@ __all__ = [
     "EMULATOR_PID",
     "recording_source",
     "emulated_device",
+    "check_channels",
 ]
 
 EP_OUT, EP_IN, EP_NOTIFY = 0x01, 0x82, 0x83
+
+
+def check_channels(channels) -> np.ndarray:
+    """The channels (C,) of an array as an int array; InputError when they do not fit
+    the 32 bits of a tick word."""
+    channels = np.asarray(channels)
+    if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
+        raise InputError(
+            "the RTIS link carries at most 32 microphones (channels 0..31, one bit of a "
+            f"32-bit tick word each); this array has {channels.size}",
+            key="channels",
+            value=channels.tolist() if channels.size <= 8 else f"{channels.size} channels",
+        )
+    return channels
 
 
 def recording_source(
@@ -73,14 +88,7 @@ def recording_source(
     Raises InputError when the channels do not fit the 32 bits of a tick word.
     """
 
-    channels = np.asarray(channels)
-    if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
-        raise InputError(
-            "the RTIS link carries at most 32 microphones (channels 0..31, one bit of a "
-            f"32-bit tick word each); this array has {channels.size}",
-            key="channels",
-            value=channels.tolist() if channels.size <= 8 else f"{channels.size} channels",
-        )
+    channels = check_channels(channels)
     recs = list(recordings)
     scale = full_scale or 2 * max(float(np.abs(r.samples).max()) for r in recs) or 1.0
     cache: dict[tuple[int, int], np.ndarray] = {}

@@ -147,21 +147,20 @@ def _recorder(args: argparse.Namespace):
     import processing as P
     from hardware import DeviceSettings, Recorder
     from hardware.device import RtisDevice, find_ids, parse_usb_id
-    from hardware.emulator import emulated_device
+    from hardware.emulator import check_channels, emulated_device
 
     if args.emulate:
         scene = emulated_scene(load_scene(args.emulate), args.array, args.call)
-        preload_simulation()
         array, call = scene.sensor.array, scene.sensor.call  # the air: the recordings'
-        recs, repeat = emulation_recordings(scene, args.count)
-        try:
-            open_device, _ = emulated_device(
-                recs, array.channels, serial=args.serial, repeat=repeat
-            )
+        try:  # before simulating
+            check_channels(array.channels)
         except InputError as exc:
             raise UsageError(
                 f"--emulate {args.emulate}: array {array.name!r}: {exc.reason}"
             ) from None
+        preload_simulation()
+        recs, repeat = emulation_recordings(scene, args.count)
+        open_device, _ = emulated_device(recs, array.channels, serial=args.serial, repeat=repeat)
     else:
         vid, pid = parse_usb_id(args.device) if args.device else find_ids()
         array = P.preset(args.array or "ertis_v3d1")

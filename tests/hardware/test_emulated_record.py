@@ -138,6 +138,18 @@ def test_array_and_call_are_those_of_the_command_line(tmp_path):
     assert _band_fraction(default.samples, 55e3, 80e3) < 0.01
 
 
+def test_an_array_the_link_cannot_carry_is_refused_before_simulating(tmp_path, capsys):
+    from acousim.cli import main
+
+    out = tmp_path / "x.h5"
+    args = ["record", "--emulate", str(_scene(tmp_path)), "--array", "paper_8x8"]
+    assert main([*args, "--count", "1", "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert "array 'paper_8x8': the RTIS link carries at most 32 microphones" in captured.err
+    assert "this array has 64" in captured.err and "simulate" not in captured.out + captured.err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(
     "size, words",
     [(1001, "1001 bytes"), (0, "0 bytes"), (4000, "4000 bytes = 1000 tick words")],
