@@ -13,6 +13,7 @@ from collections.abc import Callable
 from acousim.cli.common import (
     UsageError,
     add_command,
+    add_seed,
     choice,
     elapsed,
     load_scene,
@@ -72,8 +73,9 @@ def register(sub) -> None:
         help="record from an emulated sensor streaming this scene's simulation (a scene "
         "file or a bundled scene's name), with --array and --call (when given) in place "
         "of the scene's, at the scene's speed of sound; a scene's poses are measured in "
-        "turn, each repetition with its own noise",
+        "turn, each round with its own noise (seeded by the scene's seed, or --seed)",
     )
+    add_seed(p)
     p.add_argument(
         "--filter",
         choices=PDM_FILTERS,
@@ -84,10 +86,10 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output file (.h5)")
 
 
-def emulated_scene(scene, array: str | None, call: str | None):
-    """The scene with the sensor's `array` and `call` presets (None: the scene's) in
-    place of its own, as on a real sensor where --array and --call say which sensor
-    is plugged in and what it emits."""
+def emulated_scene(scene, array: str | None, call: str | None, seed: int | None = None):
+    """The scene with the sensor's `array` and `call` presets and the noise `seed` (each
+    None: the scene's) in place of its own, as on a real sensor where --array and
+    --call say which sensor is plugged in and what it emits."""
     import dataclasses
 
     import processing as P
@@ -97,9 +99,13 @@ def emulated_scene(scene, array: str | None, call: str | None):
         changes["array"] = P.preset(array)
     if call is not None:
         changes["call"] = P.rtis_call(call)
-    if not changes:
-        return scene
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, **changes))
+    if changes:
+        scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, **changes))
+    if seed is not None:
+        scene = dataclasses.replace(
+            scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
+        )
+    return scene
 
 
 def repetition_seed(scene_seed: int, repetition: int) -> int:
@@ -150,7 +156,7 @@ def _recorder(args: argparse.Namespace):
     from hardware.emulator import check_channels, emulated_device
 
     if args.emulate:
-        scene = emulated_scene(load_scene(args.emulate), args.array, args.call)
+        scene = emulated_scene(load_scene(args.emulate), args.array, args.call, args.seed)
         array, call = scene.sensor.array, scene.sensor.call  # the air: the recordings'
         try:  # before simulating
             check_channels(array.channels)
@@ -162,6 +168,12 @@ def _recorder(args: argparse.Namespace):
         recs, repeat = emulation_recordings(scene, args.count)
         open_device, _ = emulated_device(recs, array.channels, serial=args.serial, repeat=repeat)
     else:
+        if args.seed is not None:
+            raise UsageError(
+                "a real sensor's noise is not seeded (--seed goes with --emulate)",
+                key="--seed",
+                value=args.seed,
+            )
         vid, pid = parse_usb_id(args.device) if args.device else find_ids()
         array = P.preset(args.array or "ertis_v3d1")
         call = P.rtis_call(args.call or "default_25_50")

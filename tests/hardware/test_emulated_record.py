@@ -84,14 +84,16 @@ def test_an_emulated_recording_carries_the_scenes_speed_of_sound(tmp_path):
     assert np.median(np.abs(measured_m - path_m)) < 1e-3
 
 
-def test_repeated_measurements_of_one_pose_have_their_own_noise(tmp_path):
+def test_repeated_measurements_of_one_pose_have_their_own_noise(tmp_path, capsys):
     """A one-pose scene measured three times: three noises, uncorrelated where there
-    is only noise (before the echo), of one level; the same command again gives the
-    same samples."""
+    is only noise (before the echo), of one level; the same command and seed again
+    give the same samples, another seed others; a real sensor takes no seed."""
     scene = _scene(tmp_path, snr_db="10")
     recs = _record(scene, tmp_path / "a.h5", "--count", "3")
-    again = _record(scene, tmp_path / "b.h5", "--count", "3")
+    again = _record(scene, tmp_path / "b.h5", "--count", "3", "--seed", "5")  # the scene's
     assert all(np.array_equal(a.samples, b.samples) for a, b in zip(recs, again))
+    other = _record(scene, tmp_path / "c.h5", "--count", "3", "--seed", "6")
+    assert not any(np.array_equal(a.samples, b.samples) for a, b in zip(recs, other))
     # the first round is the scene's own simulation (acousim simulate's), the others not
     from acousim.cli import main
 
@@ -102,6 +104,9 @@ def test_repeated_measurements_of_one_pose_have_their_own_noise(tmp_path):
     # (0.94: the PDM's error alone; 0.63 the echo's share of the samples: its noise
     # independent of the simulation's)
     assert match[0] > 0.9 and max(match[1:]) < 0.75
+    bad = ["record", "--seed", "3", "--count", "1", "--out", str(tmp_path / "x.h5")]
+    assert main(bad) == 2
+    assert "--seed = 3: a real sensor's noise is not seeded" in capsys.readouterr().err
     quiet = [r.samples[:, 300:4000].ravel() for r in recs]  # the echo starts at 3900+
     for i in range(3):
         for j in range(i):
