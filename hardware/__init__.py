@@ -3,7 +3,7 @@ emulated sensor that runs the same driver without hardware.  Depends on processi
 
 from hardware.device import DeviceAccessDenied, DeviceNotFound, DeviceSettings, RtisDevice
 from hardware.pdm import decode, encode
-from hardware.protocol import Frame, FrameError, build_frame, parse_frame
+from hardware.protocol import Frame, FrameError, build_frame, parse_frame, read_ticks
 from hardware.recorder import (
     Acquisition,
     Recorder,
@@ -25,6 +25,7 @@ __all__ = [
     "FrameError",
     "build_frame",
     "parse_frame",
+    "read_ticks",
     "Recorder",
     "RecordingInterrupted",
     "RecordingFailed",

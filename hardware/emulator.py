@@ -30,6 +30,7 @@ import numpy as np
 import usb.backend
 import usb.core
 
+import processing as P
 from hardware.device import RtisDevice
 from hardware.pdm import PDM_RATE_HZ, encode
 from hardware.protocol import COMMANDS, EMULATOR_PID, EMULATOR_VID, build_frame
@@ -43,25 +44,15 @@ __all__ = [
     "EMULATOR_PID",
     "recording_source",
     "emulated_device",
+    "check_channels",
 ]
 
 EP_OUT, EP_IN, EP_NOTIFY = 0x01, 0x82, 0x83
 
 
-def recording_source(
-    recordings, channels: np.ndarray, full_scale: float | None = None
-) -> Callable[[int, int], np.ndarray]:
-    """A frame source cycling through recordings: (index, n_ticks) -> tick words.
-
-    The signals are scaled by one full-scale value for all recordings (default: twice
-    the largest absolute sample, keeping the modulator within +-0.5) and PDM-encoded.
-    A recording shorter than the frame is continued with silence *before* modulation,
-    so the rest of the frame is the modulator's zero-signal stream (alternating bits,
-    decoding to 0), as on the real sensor; a longer one is cut to the frame.
-
-    Raises InputError when the channels do not fit the 32 bits of a tick word.
-    """
-
+def check_channels(channels) -> np.ndarray:
+    """The channels (C,) of an array as an int array; InputError when they do not fit
+    the 32 bits of a tick word."""
     channels = np.asarray(channels)
     if channels.size > 32 or channels.size and (channels.min() < 0 or channels.max() > 31):
         raise InputError(
@@ -70,34 +61,88 @@ def recording_source(
             key="channels",
             value=channels.tolist() if channels.size <= 8 else f"{channels.size} channels",
         )
+    return channels
+
+
+def recording_source(
+    recordings,
+    channels: np.ndarray,
+    full_scale: float | None = None,
+    *,
+    repeat: Callable[[int, int], P.Recording] | None = None,
+) -> Callable[[int, int], np.ndarray]:
+    """A frame source cycling through K recordings: (index, n_ticks) -> tick words.
+
+    Measurement `index` is recording ``k = index % K``; its first time round
+    (``index < K``) the recording itself, then ``repeat(k, r)`` for repetition
+    ``r = index // K`` (the same measurement with its own noise; None: the recording
+    again, the same bits: the modulator is deterministic).
+
+    The signals are scaled by one full-scale value for all recordings (default: twice
+    the largest absolute sample of the K recordings, keeping the modulator within
+    +-0.5) and PDM-encoded.
+    A recording shorter than the frame is continued with silence *before* modulation,
+    so the rest of the frame is the modulator's zero-signal stream (alternating bits,
+    decoding to 0), as on the real sensor; a longer one is cut to the frame.
+
+    Raises InputError when the channels do not fit the 32 bits of a tick word.
+    """
+
+    channels = check_channels(channels)
     recs = list(recordings)
     scale = full_scale or 2 * max(float(np.abs(r.samples).max()) for r in recs) or 1.0
     cache: dict[tuple[int, int], np.ndarray] = {}
 
+    def ticks(r: P.Recording, n_ticks: int) -> np.ndarray:
+        up = int(round(PDM_RATE_HZ / r.sample_rate_hz))
+        n = -(-n_ticks // up)  # samples that cover the frame
+        x = r.samples[..., :n]
+        x = np.concatenate([x, np.zeros((*x.shape[:-1], n - x.shape[-1]))], axis=-1)
+        return encode(x, channels, r.sample_rate_hz, scale)[:n_ticks]
+
     def source(index: int, n_ticks: int) -> np.ndarray:
-        k = index % len(recs)
+        k, rep = index % len(recs), index // len(recs)
+        if rep and repeat is not None:  # a new measurement each time: nothing to keep
+            return ticks(repeat(k, rep), n_ticks)
         if (k, n_ticks) not in cache:
-            r = recs[k]
-            up = int(round(PDM_RATE_HZ / r.sample_rate_hz))
-            n = -(-n_ticks // up)  # samples that cover the frame
-            x = r.samples[..., :n]
-            x = np.concatenate([x, np.zeros((*x.shape[:-1], n - x.shape[-1]))], axis=-1)
-            cache[(k, n_ticks)] = encode(x, channels, r.sample_rate_hz, scale)[:n_ticks]
+            cache[(k, n_ticks)] = ticks(recs[k], n_ticks)
         return cache[(k, n_ticks)]
 
     source.full_scale = scale  # type: ignore[attr-defined]
     return source
 
 
+def _speed_of_sound(recordings) -> float:
+    """The one speed of sound (m/s) of the recordings; InputError if they differ."""
+    speeds = sorted({float(r.speed_of_sound_m_s) for r in recordings})
+    if len(speeds) != 1:
+        raise InputError(
+            "the recordings an emulated sensor streams must share one air",
+            key="speed_of_sound_m_s",
+            value=speeds,
+        )
+    return speeds[0]
+
+
 def emulated_device(
-    recordings, channels: np.ndarray, *, serial: str | None = None, n_ticks: int = 163840
+    recordings,
+    channels: np.ndarray,
+    *,
+    serial: str | None = None,
+    n_ticks: int = 163840,
+    repeat: Callable[[int, int], P.Recording] | None = None,
 ):
     """The whole emulator stack for a list of recordings at 450 kHz: returns
     (open_device, sensor), where ``open_device()`` opens an RtisDevice on the emulated
-    sensor through the real driver (what :class:`hardware.Recorder` takes).  Raises
-    InputError for an array the link cannot carry (more than 32 microphones)."""
+    sensor through the real driver (what :class:`hardware.Recorder` takes; its
+    recordings then carry the recordings' speed of sound).  `repeat`: the
+    measurements after the first round (:func:`recording_source`).  Raises
+    InputError for an array the link cannot carry (more than 32 microphones) or
+    recordings of different speeds of sound."""
 
-    sensor = EmulatedSensor(recording_source(recordings, channels), n_ticks=n_ticks)
+    recordings = list(recordings)
+    source = recording_source(recordings, channels, repeat=repeat)
+    sensor = EmulatedSensor(source, n_ticks=n_ticks, speed_of_sound_m_s=_speed_of_sound(recordings))
     backend = EmulatorBackend(sensor)
 
     def open_device() -> RtisDevice:
@@ -116,8 +161,12 @@ class EmulatedSensor:
         serial: str = "EMU0001",
         firmware: int = 0x0002_0F01,
         n_ticks: int = 163840,
+        speed_of_sound_m_s: float | None = None,
     ) -> None:
+        """`speed_of_sound_m_s`: the air of what it streams (m/s), which a
+        :class:`hardware.Recorder` gives its recordings (None: not known)."""
         self.source = source
+        self.speed_of_sound_m_s = speed_of_sound_m_s
         self.serial = serial
         self.firmware = firmware
         self.settings = {

@@ -13,8 +13,11 @@ where bit k of a tick word is the 1-bit PDM sample of microphone channel k.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+
+from processing.base.errors import InputError
 
 __all__ = [
     "HEADER",
@@ -27,6 +30,7 @@ __all__ = [
     "parse_frame",
     "build_frame",
     "TICKS_MULTIPLE",
+    "read_ticks",
 ]
 
 #: pid.codes' test IDs, the emulator's (:mod:`hardware.emulator`) and the default
@@ -111,3 +115,31 @@ def parse_frame(data: bytes, n_ticks: int) -> Frame:
     if words[-1] != FOOTER:
         raise FrameError(f"bad footer 0x{int(words[-1]):08X}, expected 0x{FOOTER:08X}")
     return Frame(int(words[1]), words[2:-1].copy())
+
+
+def read_ticks(path: str | Path) -> np.ndarray:
+    """The tick words (N,) uint32 of a raw measurement file: little-endian uint32
+    words, one per PDM tick, with no header or footer (as the rtisdev wheel's
+    ``simulate.bin``), N a positive multiple of 32768.
+
+    Raises InputError naming the file and what is wrong with it (missing, empty, a
+    size in bytes that is not a whole number of words, or of measurements).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("no such file" if not path.exists() else "not a file", file=path)
+    data = path.read_bytes()
+    if not data or len(data) % 4:
+        raise InputError(
+            f"{len(data)} bytes, not a raw RTIS measurement: its size must be a positive "
+            "multiple of 4 (one little-endian uint32 word per PDM tick)",
+            file=path,
+        )
+    words = np.frombuffer(data, "<u4")
+    if words.size % TICKS_MULTIPLE:
+        raise InputError(
+            f"{len(data)} bytes = {words.size} tick words, not a raw RTIS measurement: "
+            f"the sensor sends a multiple of {TICKS_MULTIPLE} ticks",
+            file=path,
+        )
+    return words.astype(np.uint32)

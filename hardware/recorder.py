@@ -125,10 +125,18 @@ def check_acquisition(count: int | None, duration_s: float | None, rate_hz: floa
             check(declared[name], value, _OPTIONS[name])
 
 
+#: the speed of sound (m/s) a real sensor's recordings carry unless told (the
+#: recorder does not know the air)
+NOMINAL_SPEED_OF_SOUND_M_S = 343.0
+
+
 class Recorder:
     """Acquires measurements from an RtisDevice.
 
-    `open_device` makes (and remakes, after a disconnect) the device.  Raises
+    `open_device` makes (and remakes, after a disconnect) the device.
+    `speed_of_sound_m_s`: what the recordings carry; None (the default): the
+    emulated sensor's air (that of the recordings it streams), else the nominal
+    343 m/s.  Raises
     DeviceNotFound (also DeviceAccessDenied) when it cannot be opened and
     RecordingFailed when it is found but does not answer while being configured.
     """
@@ -142,7 +150,7 @@ class Recorder:
         *,
         retries: int = 3,
         reconnect_timeout_s: float = 10.0,
-        speed_of_sound_m_s: float = 343.0,
+        speed_of_sound_m_s: float | None = None,
         fir: np.ndarray | FilterName = "equiripple",
     ) -> None:
         self.open_device = open_device
@@ -150,7 +158,6 @@ class Recorder:
         self.array, self.call = array, call
         self.retries = retries
         self.reconnect_timeout_s = reconnect_timeout_s
-        self.c = speed_of_sound_m_s
         self.fir = fir
         self.stats = RecordStats()
         self._expected = 0
@@ -162,6 +169,10 @@ class Recorder:
         except (usb.core.USBError, FrameError) as exc:  # found, but not answering
             reason = f"the sensor did not answer while being configured: {exc}"
             raise RecordingFailed([], reason) from exc
+        air = getattr(getattr(self.device.backend, "sensor", None), "speed_of_sound_m_s", None)
+        self.c = next(
+            c for c in (speed_of_sound_m_s, air, NOMINAL_SPEED_OF_SOUND_M_S) if c is not None
+        )
 
     def _connect(self) -> RtisDevice:
         """Open and configure the device; its counter set to the next expected index."""

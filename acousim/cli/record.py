@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
 from acousim.cli.common import (
     UsageError,
     add_command,
+    add_seed,
     choice,
     elapsed,
     load_scene,
@@ -33,13 +35,16 @@ CALL_PRESETS = ("default_20_80", "default_25_50")
 ACQUISITION = "hardware.recorder:Acquisition"
 
 
-def add_array(parser, what: str) -> None:
-    """The --array option: one of ARRAY_PRESETS, described as `what`."""
+def add_array(
+    parser, what: str, *, default: str | None = "ertis_v3d1", default_text: str | None = None
+) -> None:
+    """The --array option: one of ARRAY_PRESETS, described as `what`; `default` when not
+    given, said in the help as `default_text` (default: its name)."""
     parser.add_argument(
         "--array",
-        default="ertis_v3d1",
+        default=default,
         type=choice("array preset", ARRAY_PRESETS),
-        help=f"{what}: {', '.join(ARRAY_PRESETS)} (default: ertis_v3d1)",
+        help=f"{what}: {', '.join(ARRAY_PRESETS)} ({default_text or f'default: {default}'})",
     )
 
 
@@ -50,19 +55,27 @@ def register(sub) -> None:
     add_declared(p, "--count", ACQUISITION, "count")
     add_declared(p, "--duration", ACQUISITION, "duration_s")
     add_declared(p, "--rate", ACQUISITION, "rate_hz")
-    add_array(p, "array preset")
+    add_array(
+        p,
+        "the sensor's microphone array (its channel map and layout)",
+        default=None,
+        default_text="default: ertis_v3d1; with --emulate, the scene's",
+    )
     p.add_argument(
         "--call",
-        default="default_25_50",
         type=choice("RTIS call preset", CALL_PRESETS),
-        help=f"RTIS call preset: {', '.join(CALL_PRESETS)} (default: default_25_50)",
+        help=f"the call the sensor emits: {', '.join(CALL_PRESETS)} (default: "
+        "default_25_50; with --emulate, the scene's)",
     )
     p.add_argument(
         "--emulate",
         metavar="SCENE",
         help="record from an emulated sensor streaming this scene's simulation (a scene "
-        "file or a bundled scene's name)",
+        "file or a bundled scene's name), with --array and --call (when given) in place "
+        "of the scene's, at the scene's speed of sound; a scene's poses are measured in "
+        "turn, each round with its own noise (seeded by the scene's seed, or --seed)",
     )
+    add_seed(p)
     p.add_argument(
         "--filter",
         choices=PDM_FILTERS,
@@ -73,9 +86,42 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output file (.h5)")
 
 
-def emulation_recordings(scene, count: int | None) -> list:
-    """The recordings an emulated sensor streams: the scene's first poses (at most
-    `count`, else 10), simulated at the sensor's 450 kHz."""
+def emulated_scene(scene, array: str | None, call: str | None, seed: int | None = None):
+    """The scene with the sensor's `array` and `call` presets and the noise `seed` (each
+    None: the scene's) in place of its own, as on a real sensor where --array and
+    --call say which sensor is plugged in and what it emits."""
+    import dataclasses
+
+    import processing as P
+
+    changes = {}
+    if array is not None:
+        changes["array"] = P.preset(array)
+    if call is not None:
+        changes["call"] = P.rtis_call(call)
+    if changes:
+        scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, **changes))
+    if seed is not None:
+        scene = dataclasses.replace(
+            scene, simulation=dataclasses.replace(scene.simulation, seed=seed)
+        )
+    return scene
+
+
+def repetition_seed(scene_seed: int, repetition: int) -> int:
+    """The noise seed of the `repetition`-th (1, 2, ...) measurement of a scene's pose
+    by the emulated sensor (the 0th is the scene's own: its seed), drawn from
+    (scene seed, repetition): the same command, the same bytes."""
+    import numpy as np
+
+    return int(np.random.SeedSequence([scene_seed, repetition, 2]).generate_state(1)[0])
+
+
+def emulation_recordings(scene, count: int | None) -> tuple[list, Callable]:
+    """What an emulated sensor streams: the scene's first poses (at most `count`, else
+    10) simulated at the sensor's 450 kHz, as `acousim simulate` gives them, and
+    ``repeat(k, r)``: pose k measured again (repetition r >= 1), with its own noise
+    (:func:`repetition_seed`)."""
     from acousim.simulator import Simulator
 
     if scene.sensor.sample_rate_hz != RTIS_SAMPLE_RATE_HZ:
@@ -92,9 +138,14 @@ def emulation_recordings(scene, count: int | None) -> list:
             stop_if_interrupted()
             out.append(sim.simulate_pose(scene.sensor.poses[i], i))
             bar(i + 1, n)
-        return out
     except InputError as exc:  # an unreadable mesh, a scene the simulator refuses
         raise UsageError(f"--emulate {scene.source}: {exc}") from None
+
+    def repeat(k: int, r: int):
+        seed = repetition_seed(scene.simulation.seed, r)
+        return sim.simulate_pose(scene.sensor.poses[k], k, seed=seed)
+
+    return out, repeat
 
 
 def _recorder(args: argparse.Namespace):
@@ -102,22 +153,30 @@ def _recorder(args: argparse.Namespace):
     import processing as P
     from hardware import DeviceSettings, Recorder
     from hardware.device import RtisDevice, find_ids, parse_usb_id
-    from hardware.emulator import emulated_device
+    from hardware.emulator import check_channels, emulated_device
 
     if args.emulate:
-        scene = load_scene(args.emulate)
-        preload_simulation()
-        array, call = scene.sensor.array, scene.sensor.call
-        recs = emulation_recordings(scene, args.count)
-        try:
-            open_device, _ = emulated_device(recs, array.channels, serial=args.serial)
+        scene = emulated_scene(load_scene(args.emulate), args.array, args.call, args.seed)
+        array, call = scene.sensor.array, scene.sensor.call  # the air: the recordings'
+        try:  # before simulating
+            check_channels(array.channels)
         except InputError as exc:
             raise UsageError(
                 f"--emulate {args.emulate}: array {array.name!r}: {exc.reason}"
             ) from None
+        preload_simulation()
+        recs, repeat = emulation_recordings(scene, args.count)
+        open_device, _ = emulated_device(recs, array.channels, serial=args.serial, repeat=repeat)
     else:
+        if args.seed is not None:
+            raise UsageError(
+                "a real sensor's noise is not seeded (--seed goes with --emulate)",
+                key="--seed",
+                value=args.seed,
+            )
         vid, pid = parse_usb_id(args.device) if args.device else find_ids()
-        array, call = P.preset(args.array), P.rtis_call(args.call)
+        array = P.preset(args.array or "ertis_v3d1")
+        call = P.rtis_call(args.call or "default_25_50")
 
         def open_device():
             return RtisDevice(vid, pid, serial=args.serial)
