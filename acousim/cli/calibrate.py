@@ -11,6 +11,7 @@ a comment, and prints the residual before and after per range bin and per parame
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from acousim.cli.common import (
     UsageError,
@@ -20,6 +21,7 @@ from acousim.cli.common import (
     output_file,
     parse_indices,
     progress,
+    writable_dir,
 )
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
@@ -122,13 +124,33 @@ def _firings(rig, name: str, recs: list) -> list[int]:
     return out
 
 
+def _not_the_scene(scene: str, out: Path, report: Path | None) -> None:
+    """UsageError when --out or --report would overwrite the scene file (or each
+    other): the user's scene would be lost."""
+    from acousim.bundled import resolve_scene
+
+    source = Path(resolve_scene(scene))  # a bundled scene's name: its file
+    if not source.is_file():
+        return  # no such scene: loading it says so
+    for option, path in (("--out", out), ("--report", report)):
+        if path is not None and path.exists() and path.samefile(source):
+            raise UsageError(
+                f"{option} {str(path)!r} is the scene file --scene {scene!r}: writing the "
+                "fitted scene there would lose the one given; name another file"
+            )
+    if report is not None and report.absolute() == out.absolute():
+        raise UsageError(f"--report {str(report)!r} is the --out file; name another file")
+
+
 def run(args: argparse.Namespace) -> int:
     from acousim.calibrate import calibrate, write_scene
     from acousim.compare.inputs import load_real_recordings, of_sensor
     from acousim.scene.rig import sonar_scene
 
-    out = output_file("--out", args.out)
-    report = output_file("--report", args.report) if args.report else None
+    # checked, not created: nothing is made until the inputs are read and fitted
+    out = output_file("--out", args.out, make=False)
+    report = output_file("--report", args.report, make=False) if args.report else None
+    _not_the_scene(args.scene, out, report)
     try:
         settings = _settings(args)
         rig_scene = load_scene(args.scene)
@@ -143,6 +165,9 @@ def run(args: argparse.Namespace) -> int:
         cal = calibrate(scene, recs, poses, settings, progress=progress("calibrate", "pose"))
         if scene.source is None:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")
+        writable_dir(out.parent)
+        if report:
+            writable_dir(report.parent)
         write_scene(scene.source, out, cal)
         if report:
             from processing.base.atomic import write_text
