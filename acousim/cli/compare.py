@@ -15,6 +15,7 @@ from acousim.cli.common import (
     INDEX,
     UsageError,
     add_command,
+    can_make_dir,
     choice,
     elapsed,
     load_scene,
@@ -130,19 +131,38 @@ def _pairs(args: argparse.Namespace):
     return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
 
 
+def _pair_name(args: argparse.Namespace, n: int, count: int) -> str:
+    """Which files pair `n` (of `count`) compares, for an error."""
+    every = args.all and count > 1
+    real = f"{args.real} recording {n if every else args.index}"
+    if args.scene:
+        sim = f"the scene {args.scene} at pose {n if every else (args.pose or 0)}"
+    else:
+        sim = f"--sim {args.sim} recording {n if every else args.sim_index}"
+    return f"pair {n} (real: {real}; simulated: {sim})"
+
+
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare.comparison import compare, write_comparison
+    from acousim.compare.comparison import check_comparable, compare, write_comparison
     from acousim.compare.summary import summarize, write_summary
     from processing.base.atomic import committed_together
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
-    out = writable_dir(args.out) if args.out else None  # nothing written unasked
+    # checked, not made: nothing is created until the inputs are read and checked
+    out = can_make_dir(args.out) if args.out else None  # nothing written unasked
     names = methods("--method", args.method)
     files: list = []
     with committed_together():  # every file or none (Ctrl-C, an error)
         try:
             pairs = _pairs(args)
+            for n, (real, sim) in enumerate(pairs):
+                try:
+                    check_comparable(real, sim)
+                except InputError as exc:
+                    raise UsageError(f"{_pair_name(args, n, len(pairs))}: {exc}") from None
+            if out is not None:
+                writable_dir(out)
             reports = []
             step = progress("compare", "pair")
             for n, (real, sim) in enumerate(pairs):
@@ -150,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
                 try:
                     report, arrays = compare(real, sim, names)
                 except InputError as exc:
-                    raise UsageError(f"pair {n}: {exc}") from None
+                    raise UsageError(f"{_pair_name(args, n, len(pairs))}: {exc}") from None
                 reports.append(report)
                 if out is not None:
                     folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
