@@ -198,21 +198,60 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _echo_lines(m: str, r) -> list[str]:
+    """The matched echoes of method `m` (:class:`MethodComparison` `r`), one line
+    each, and what was paired but is not an echo both have."""
+    from acousim.compare.comparison import MIN_ECHO_ABOVE_FLOOR_DB as need
+
+    def where(p) -> str:
+        return f"{p.range_m:.3f} m az {p.azimuth_deg:+.0f}° el {p.elevation_deg:+.0f}°"
+
+    out = [
+        f"  {m} echo {k}: real {where(p.real)} ({p.real_above_floor_db:+.1f} dB above the "
+        f"real noise floor), sim {where(p.sim)}"
+        + (f" (traced: {p.sim_truth_kind})" if p.sim_truth_kind else "")
+        + f" (d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
+        for k, p in enumerate(r.matched)
+    ]
+    if not r.real_max_above_floor_db >= need:
+        top = r.real_max_above_floor_db
+        most = f"its peaks stand at most {top:+.1f} dB above it" if top == top else "no peak"
+        out.append(
+            f"  {m}: no echo above the noise floor in the real recording ({most}; an echo "
+            f"needs {need:g} dB)"
+        )
+    low = sum(x.reason == "real under the noise floor" for x in r.rejected)
+    parts = [
+        f"{low} with the real peak less than {need:g} dB above the noise floor" if low else "",
+        f"{len(r.rejected) - low} where the simulation traced no path (a side lobe)"
+        if len(r.rejected) > low
+        else "",
+    ]
+    if r.rejected:
+        out.append(
+            f"  {m}: {len(r.rejected)} paired peak(s) not counted as echoes: "
+            + ", ".join(x for x in parts if x)
+        )
+    if not r.sim_has_truth:
+        out.append(
+            f"  {m}: the simulated recording has no ground truth: its peaks are not "
+            "checked against traced paths"
+        )
+    return out
+
+
 def _print_report(report, arrays) -> None:
     from acousim.compare.account import account
 
     print(f"mean envelope correlation {report.mean_envelope_correlation:.2f}")
     for m, r in report.images.items():
-        for k, p in enumerate(r.matched):
-            print(
-                f"  {m} echo {k}: real {p.real.range_m:.3f} m {p.real.azimuth_deg:+.0f}°, "
-                f"sim {p.sim.range_m:.3f} m {p.sim.azimuth_deg:+.0f}° "
-                f"(d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
-            )
+        for line in _echo_lines(m, r):
+            print(line)
         print(
             f"  {m}: {len(r.side_lobes_real)} side lobe(s) in the real image, "
-            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
-            f"in the real image, {len(r.only_sim)} only in the simulation"
+            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} peak(s) only "
+            f"in the real image ({r.only_real_above_floor} above the noise floor), "
+            f"{len(r.only_sim)} only in the simulation"
         )
     for line in account(report, arrays).lines():
         print(line)

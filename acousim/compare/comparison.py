@@ -55,6 +55,8 @@ __all__ = [
     "noise_floor",
     "Peak",
     "MatchedEcho",
+    "RejectedPair",
+    "MIN_ECHO_ABOVE_FLOOR_DB",
     "SideLobe",
     "MethodComparison",
     "Alignment",
@@ -204,12 +206,23 @@ class Peak:
     level_db: float
 
 
+#: a real peak is an echo when the real range profile at its range stands at least
+#: this far above the profile's noise floor (:func:`acousim.compare.account.noise_floor`)
+MIN_ECHO_ABOVE_FLOOR_DB = 10.0
+
+
 @dataclass(frozen=True)
 class MatchedEcho:
-    """A peak of the real image paired with one of the simulated image."""
+    """A peak of the real image paired with one of the simulated image: an echo both
+    have.  `real_above_floor_db`: how far the real range profile at the real peak's
+    range stands above its noise floor (dB); `sim_truth_kind`: the traced path the
+    simulated peak shows (its peak table's ``truth_kind``; "" when the simulation
+    has no ground truth to check it against)."""
 
     real: Peak
     sim: Peak
+    real_above_floor_db: float = float("nan")
+    sim_truth_kind: str = ""
 
     @property
     def d_range_m(self) -> float:
@@ -235,7 +248,24 @@ class MatchedEcho:
             "d_azimuth_deg": self.d_azimuth_deg,
             "d_elevation_deg": self.d_elevation_deg,
             "d_level_db": self.d_level_db,
+            "real_above_noise_floor_db": self.real_above_floor_db,
+            "sim_truth_kind": self.sim_truth_kind,
         }
+
+
+@dataclass(frozen=True)
+class RejectedPair:
+    """Two peaks close enough to pair that are not an echo both have: `reason` is
+    ``"real under the noise floor"`` (the real peak stands less than
+    :data:`MIN_ECHO_ABOVE_FLOOR_DB` above the real recording's noise floor) or
+    ``"simulated peak not traced"`` (no traced path where the simulated peak is: a
+    side lobe of the simulation)."""
+
+    pair: MatchedEcho
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {**self.pair.to_dict(), "reason": self.reason}
 
 
 @dataclass(frozen=True)
@@ -268,10 +298,19 @@ class MethodComparison:
     side_lobes_real: tuple[SideLobe, ...]
     side_lobes_sim: tuple[SideLobe, ...]
     range_bin_m: float
+    rejected: tuple[RejectedPair, ...] = ()
+    sim_has_truth: bool = True
+    real_max_above_floor_db: float = float("nan")
+    only_real_above_floor: int = 0
 
     def to_dict(self) -> dict:
         return {
             "matched": [m.to_dict() for m in self.matched],
+            "rejected_pairs": [r.to_dict() for r in self.rejected],
+            "sim_has_truth": self.sim_has_truth,
+            "min_echo_above_noise_floor_db": MIN_ECHO_ABOVE_FLOOR_DB,
+            "real_max_above_noise_floor_db": self.real_max_above_floor_db,
+            "only_real_above_noise_floor": self.only_real_above_floor,
             "only_real": [asdict(p) for p in self.only_real],
             "only_sim": [asdict(p) for p in self.only_sim],
             "side_lobes_real": [s.to_dict() for s in self.side_lobes_real],
@@ -434,15 +473,25 @@ def compare(
     images_r = P.acoustic_images(real, methods, settings)
     images_s = P.acoustic_images(aligned, methods, settings)
     per_method = {}
+    above = _above_floor(edges, prof_r, extent_m)
     for m in methods:
         a, b = _peaks(images_r[m], threshold_db), _peaks(images_s[m], threshold_db)
         pairs, only_r, only_s = match_peaks(_table(a), _table(b))
         f = images_r[m].frequency_hz
         lobes_r, only_r = side_lobes(a, only_r, extent_m, real.array, f, c)
         lobes_s, only_s = side_lobes(b, only_s, extent_m, real.array, f, c)
+        kinds = _traced(aligned, images_s[m], threshold_db, settings.window)
+        found = [MatchedEcho(a[i], b[j], above(a[i].range_m), kinds[j]) for i, j in pairs]
+        good, rejected = _echoes(found, aligned.truth is not None)
         per_method[m] = MethodComparison(
             method=m,
-            matched=tuple(MatchedEcho(a[i], b[j]) for i, j in pairs),
+            matched=good,
+            rejected=rejected,
+            sim_has_truth=aligned.truth is not None,
+            real_max_above_floor_db=max((above(p.range_m) for p in a), default=float("nan")),
+            only_real_above_floor=sum(
+                above(a[i].range_m) >= MIN_ECHO_ABOVE_FLOOR_DB for i in only_r
+            ),
             only_real=tuple(a[i] for i in only_r),
             only_sim=tuple(b[j] for j in only_s),
             side_lobes_real=tuple(lobes_r),
@@ -457,6 +506,46 @@ def compare(
         images=per_method,
     )
     return report, ComparisonArrays(edges, prof_r, prof_s, images_r, images_s)
+
+
+def _above_floor(edges: np.ndarray, profile: np.ndarray, extent_m: float):
+    """A function of a range (m): how far (dB) the range profile (B,) (bin `edges`
+    (B + 1,), m) stands above its noise floor, at its strongest bin within half of
+    `extent_m` (the STFT window, m) of that range."""
+    floor = noise_floor(profile)
+    centres = (edges[1:] + edges[:-1]) / 2
+
+    def above(range_m: float) -> float:
+        near = np.abs(centres - range_m) <= max(extent_m / 2, edges[1] - edges[0])
+        top = float(np.max(profile[near])) if np.any(near) else 0.0
+        return float(10 * np.log10((top + 1e-300) / (floor + 1e-300)))
+
+    return above
+
+
+def _traced(rec: P.Recording, image: P.Image, threshold_db: float, window: int) -> list[str]:
+    """Per peak of `image` (of `rec`, as :func:`_peaks` lists them) the kind of
+    traced path it shows ("" none, or no ground truth): the peak table's truth
+    (:func:`acousim.imaging.run.peak_table`)."""
+    if rec.truth is None:
+        return [""] * len(image.peaks(threshold_db))
+    from acousim.imaging.run import peak_table
+
+    table = peak_table(rec, image, threshold_db=threshold_db, window_samples=window)
+    return [row.truth_kind for row in table]
+
+
+def _echoes(found, has_truth: bool) -> tuple[tuple, tuple]:
+    """Pairs (MatchedEcho) split into echoes both have and rejected pairs."""
+    good, rejected = [], []
+    for e in found:
+        if not e.real_above_floor_db >= MIN_ECHO_ABOVE_FLOOR_DB:
+            rejected.append(RejectedPair(e, "real under the noise floor"))
+        elif has_truth and not e.sim_truth_kind:
+            rejected.append(RejectedPair(e, "simulated peak not traced"))
+        else:
+            good.append(e)
+    return tuple(good), tuple(rejected)
 
 
 def write_comparison(
