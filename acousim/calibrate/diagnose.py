@@ -15,6 +15,7 @@ read from the fit itself, at its solution:
 * a correlation of two parameters' estimates (``pinv(J^T J)``) beyond
   :data:`CORRELATION_LIMIT` in magnitude: they trade against each other;
 * a sigma larger than the parameter's whole range;
+* the solver stopped at its evaluation cap, not at a minimum;
 * the level: recordings not simulated (``emulated`` or ``real`` provenance) have an
   unknown level (a sensor's gain, ADC units), which a fit without ``fit_level``
   takes as the simulation's and puts into the reflections; with ``fit_level``, the
@@ -44,7 +45,13 @@ __all__ = [
 ]
 
 WarningKind = Literal[
-    "at_bound", "no_effect", "undetermined", "correlated", "level_unknown", "level_confounded"
+    "not_converged",
+    "at_bound",
+    "no_effect",
+    "undetermined",
+    "correlated",
+    "level_unknown",
+    "level_confounded",
 ]
 
 #: a value this fraction of its range from a bound (or nearer) is "at" the bound
@@ -211,6 +218,7 @@ def diagnose(
     all_names: Sequence[str],
     kinds: Sequence[str] = (),
     fit_level: bool = False,
+    evaluations_cap: int | None = None,
 ) -> tuple[FitWarning, ...]:
     """The warnings of a fit.
 
@@ -220,12 +228,24 @@ def diagnose(
     fitted number, whose first P columns are the materials'; all_names : (Q,) the
     names of its columns (``noise[k]`` for recording k's noise, :data:`LEVEL`);
     kinds : each recording's provenance kind; fit_level : whether the level was
-    fitted (then :data:`LEVEL` is among `all_names`)."""
+    fitted (then :data:`LEVEL` is among `all_names`); evaluations_cap : the cap the
+    solver stopped at before converging (None: it converged)."""
     names, all_names = list(names), list(all_names)
     gram, norms = normalised_gram(jacobian)
     corr = correlations(gram)
     checked = list(range(len(names)))
-    out = _at_bounds(names, value, lower, upper)
+    out = []
+    if evaluations_cap is not None:
+        out.append(
+            FitWarning(
+                "not_converged",
+                tuple(names),
+                f"the solver stopped at its cap of {evaluations_cap} evaluations "
+                "(--max-evaluations, max_evaluations) before converging: the values may not "
+                "be the best fit",
+            )
+        )
+    out += _at_bounds(names, value, lower, upper)
     out += _wide(names, sigma, lower, upper)
     out += _singular(all_names, gram, norms, checked)
     out += _correlated(all_names, corr, checked)

@@ -176,7 +176,8 @@ class Solution:
     by the residuals' spread; bins are treated as independent, which beams that
     overlap are not: a lower bound);
     start : the start; evaluations; cost_start, cost : the robust costs; status :
-    the solver's message; jacobian : (N, len(x)) the robust residuals' Jacobian at
+    the solver's message; converged : false when it stopped at its evaluation cap;
+    jacobian : (N, len(x)) the robust residuals' Jacobian at
     the solution (``least_squares``'s ``jac``: ``J^T J`` is the Hessian's
     Gauss-Newton approximation), what :mod:`.diagnose` reads."""
 
@@ -188,6 +189,7 @@ class Solution:
     cost: float
     status: str
     jacobian: np.ndarray | None = None
+    converged: bool = True
 
 
 def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: int) -> Solution:
@@ -217,5 +219,13 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
     except np.linalg.LinAlgError:  # pragma: no cover
         sigma = np.full(x0.size, np.nan)
     return Solution(
-        res.x, sigma, x0, int(res.nfev), float(rho0), float(res.cost), res.message, np.asarray(J)
+        res.x,
+        sigma,
+        x0,
+        int(res.nfev),
+        float(rho0),
+        float(res.cost),
+        res.message,
+        np.asarray(J),
+        bool(res.status != 0),  # 0: max_nfev reached
     )

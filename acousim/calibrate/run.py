@@ -314,10 +314,14 @@ def calibrate(
     t2 = time.perf_counter()
     out = _result(problem, sol, scene, lags, t2 - t0)
     kinds = [r.provenance.kind for r in recs]
-    return dataclasses.replace(out, seconds_fit=t2 - t1, warnings=_warnings(problem, sol, kinds))
+    cap = None if sol.converged else settings.max_evaluations
+    warnings = _warnings(problem, sol, kinds, cap)
+    return dataclasses.replace(out, seconds_fit=t2 - t1, warnings=warnings)
 
 
-def _warnings(problem: Problem, sol: Solution, kinds: Sequence[str]) -> tuple[FitWarning, ...]:
+def _warnings(
+    problem: Problem, sol: Solution, kinds: Sequence[str], cap: int | None
+) -> tuple[FitWarning, ...]:
     """:func:`.diagnose.diagnose` of a solution (the materials in public units)."""
     params, P_ = problem.parameters, problem.n_materials
     value, sigma = params.public(sol.x[:P_], sol.sigma[:P_])
@@ -333,6 +337,7 @@ def _warnings(problem: Problem, sol: Solution, kinds: Sequence[str]) -> tuple[Fi
         all_names=[*params.names, *extra, *([LEVEL] if problem.fit_level else [])],
         kinds=kinds,
         fit_level=problem.fit_level,
+        evaluations_cap=cap,
     )
 
 

@@ -142,3 +142,13 @@ def test_simulated_recordings_do_not_ask_for_the_level():
     cal = calibrate(wall, recs, [0, 0])
     assert cal.materials["default"].reflection == pytest.approx(0.6, abs=0.03)
     assert not [w for w in cal.warnings if w.kind.startswith("level")]
+
+
+def test_a_fit_stopped_at_its_cap_says_so(tmp_path):
+    """One evaluation cannot reach the truth from 0.95: the report says the solver
+    stopped at its cap of 1, naming the setting."""
+    wall, recs = _wall_recordings("simulated")
+    cal = calibrate(wall, recs, [0, 0], CalibrationSettings(max_evaluations=1))
+    (w,) = [w for w in cal.warnings if w.kind == "not_converged"]
+    assert "stopped at its cap of 1 evaluations (--max-evaluations" in w.message
+    assert w.parameters == ("default.reflection", "default.diffuse")
