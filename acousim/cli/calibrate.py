@@ -4,8 +4,11 @@ Fit the reflection and diffuse fraction of a scene's materials (every material a
 uses, or --param) to recordings of the scene: trace once, render each group of paths
 once, and fit the energy per range bin, direction and band by robust least squares.
 Writes the scene file with only the fitted values changed, each with its uncertainty in
-a comment, and prints the residual before and after per range bin and per parameter
-(docs/compare.md).
+a comment, and prints the residual before and after per range bin and per parameter,
+and warnings where the recordings do not determine a value (on a bound, a sigma wider
+than its range, parameters that trade against each other or against the level, an
+emulated or real recording's unknown level): printed, in --report and at the top of
+the fitted scene (docs/compare.md).
 """
 
 from __future__ import annotations
@@ -34,7 +37,10 @@ def register(sub) -> None:
     p.add_argument("recordings", help="recording file (.h5), or 'rtisdev-sample'")
     p.add_argument("--scene", required=True, help="scene file (.toml) the recordings are of")
     p.add_argument(
-        "--out", required=True, help="fitted scene file (in the scene's folder: relative paths)"
+        "--out",
+        required=True,
+        help="fitted scene file, not the --scene file (the files it names are pointed to "
+        "from its folder)",
     )
     p.add_argument(
         "--poses",
@@ -70,7 +76,8 @@ def register(sub) -> None:
     p.add_argument(
         "--fit-level",
         action="store_true",
-        help="also fit one overall level (a real recording's unknown gain)",
+        help="also fit one overall level (a real recording's unknown gain; with one "
+        "bounce it trades against the reflections: the report names them)",
     )
     p.add_argument(
         "--no-align", action="store_true", help="do not shift the recordings onto the simulation"

@@ -3,8 +3,9 @@
 Put a real recording beside its simulation (from a scene and pose, or an existing
 simulated file): align the emission and the gain, compare matched-filter envelopes,
 range profiles and images, match their peaks (a weaker peak within one STFT window of a
-stronger one is reported as its side lobe), and write a JSON report and a picture
-(docs/compare.md).
+stronger one is reported as its side lobe; a matched echo is a real peak 10 dB above
+the real noise floor paired with a traced simulated one), and write a JSON report and
+a picture (docs/compare.md).
 """
 
 from __future__ import annotations
