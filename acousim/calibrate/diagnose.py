@@ -212,25 +212,25 @@ def diagnose(
     names: Sequence[str],
     value: np.ndarray,
     sigma: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    bounds: tuple[np.ndarray, np.ndarray],
     jacobian: np.ndarray,
     all_names: Sequence[str],
     kinds: Sequence[str] = (),
-    fit_level: bool = False,
     evaluations_cap: int | None = None,
 ) -> tuple[FitWarning, ...]:
     """The warnings of a fit.
 
-    names, value, sigma, lower, upper : the P material parameters as the report
-    gives them (public units: diffuse fractions, not amplitudes) and their bounds;
-    jacobian : (N, Q) the robust residuals' Jacobian at the solution over every
-    fitted number, whose first P columns are the materials'; all_names : (Q,) the
-    names of its columns (``noise[k]`` for recording k's noise, :data:`LEVEL`);
-    kinds : each recording's provenance kind; fit_level : whether the level was
-    fitted (then :data:`LEVEL` is among `all_names`); evaluations_cap : the cap the
+    names, value, sigma, bounds (lower, upper) : the P material parameters as the
+    report gives them (public units: diffuse fractions, not amplitudes) and their
+    bounds; jacobian : (N, Q) the robust residuals' Jacobian at the solution over
+    every fitted number, whose first P columns are the materials'; all_names : (Q,)
+    the names of its columns (``noise[k]`` for recording k's noise, :data:`LEVEL`
+    when the level was fitted); kinds : each recording's provenance kind;
+    evaluations_cap : the cap the
     solver stopped at before converging (None: it converged)."""
     names, all_names = list(names), list(all_names)
+    lower, upper = bounds
+    fit_level = LEVEL in all_names
     gram, norms = normalised_gram(jacobian)
     corr = correlations(gram)
     checked = list(range(len(names)))

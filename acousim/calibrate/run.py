@@ -179,6 +179,18 @@ def _check(scene: Scene, recs: Sequence[P.Recording], poses: Sequence[int]) -> N
             )
 
 
+def _poses(scene: Scene, recs, poses) -> tuple[list[int], list[str]]:
+    """Each recording's pose (as :func:`calibrate` says) and where it came from."""
+    if poses is not None:
+        return list(poses), ["given in poses (--poses)"] * len(poses)
+    indices = [r.provenance.pose_index for r in recs]
+    one = len(scene.sensor.poses) == 1
+    out = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
+    return out, [
+        "its place in the file" if q is None else "its pose_index (in the file)" for q in indices
+    ]
+
+
 def _check_poses(scene: Scene, poses: list[int], origins: list[str]) -> None:
     """InputError naming the first recording whose pose the scene lacks, and where
     that pose index came from."""
@@ -254,18 +266,9 @@ def calibrate(
     t0 = time.perf_counter()
     settings = settings or CalibrationSettings()
     recs = list(recordings)
-    if poses is None:
-        indices = [r.provenance.pose_index for r in recs]
-        one = len(scene.sensor.poses) == 1
-        poses = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
-        origins = [
-            "its place in the file" if q is None else "its pose_index (in the file)"
-            for q in indices
-        ]
-    else:
-        origins = ["given in poses (--poses)"] * len(poses)
-    _check(scene, recs, list(poses))
-    _check_poses(scene, list(poses), origins)
+    poses, origins = _poses(scene, recs, poses)
+    _check(scene, recs, poses)
+    _check_poses(scene, poses, origins)
     if not _used_materials(scene):  # point reflectors alone: strengths, no material
         raise InputError(
             "has no material to fit: no mesh (a point reflector has a strength, not a material)",
@@ -331,12 +334,10 @@ def _warnings(
         names=params.names,
         value=value,
         sigma=sigma,
-        lower=lo,
-        upper=hi,
+        bounds=(lo, hi),
         jacobian=sol.jacobian,
         all_names=[*params.names, *extra, *([LEVEL] if problem.fit_level else [])],
         kinds=kinds,
-        fit_level=problem.fit_level,
         evaluations_cap=cap,
     )
 

@@ -41,6 +41,12 @@ from scipy.signal import hilbert
 
 import processing as P
 from acousim.compare.account import floor_start, noise_floor
+from acousim.compare.echoes import (
+    MIN_ECHO_ABOVE_FLOOR_DB,
+    above_floor,
+    reject_reason,
+    traced_kinds,
+)
 from processing.base.atomic import atomic_path, write_text
 from processing.base.errors import InputError
 
@@ -206,11 +212,6 @@ class Peak:
     level_db: float
 
 
-#: a real peak is an echo when the real range profile at its range stands at least
-#: this far above the profile's noise floor (:func:`acousim.compare.account.noise_floor`)
-MIN_ECHO_ABOVE_FLOOR_DB = 10.0
-
-
 @dataclass(frozen=True)
 class MatchedEcho:
     """A peak of the real image paired with one of the simulated image: an echo both
@@ -255,11 +256,8 @@ class MatchedEcho:
 
 @dataclass(frozen=True)
 class RejectedPair:
-    """Two peaks close enough to pair that are not an echo both have: `reason` is
-    ``"real under the noise floor"`` (the real peak stands less than
-    :data:`MIN_ECHO_ABOVE_FLOOR_DB` above the real recording's noise floor) or
-    ``"simulated peak not traced"`` (no traced path where the simulated peak is: a
-    side lobe of the simulation)."""
+    """Two peaks close enough to pair that are not an echo both have: `reason`
+    (:func:`acousim.compare.echoes.reject_reason`)."""
 
     pair: MatchedEcho
     reason: str
@@ -438,6 +436,38 @@ def _range_profiles(rng, env_r, env_s, range_bin_m: float):
     return edges, prof_r, prof_s, 10 * np.log10((prof_r + tiny) / (prof_s + tiny))
 
 
+def _method(
+    m: str, real: tuple, sim: tuple, above, *, threshold_db: float, extent_m: float, window: int
+) -> MethodComparison:
+    """The peaks of method `m`'s images compared: `real`, `sim` (recording, image)
+    (the simulation aligned), `above(range_m)`: the real profile's margin over its
+    noise floor there (dB)."""
+    (rec_r, img_r), (rec_s, img_s) = real, sim
+    c = rec_r.speed_of_sound_m_s
+    a, b = _peaks(img_r, threshold_db), _peaks(img_s, threshold_db)
+    pairs, only_r, only_s = match_peaks(_table(a), _table(b))
+    f = img_r.frequency_hz
+    lobes_r, only_r = side_lobes(a, only_r, extent_m, rec_r.array, f, c)
+    lobes_s, only_s = side_lobes(b, only_s, extent_m, rec_s.array, f, c)
+    kinds = traced_kinds(rec_s, img_s, threshold_db, window)
+    has_truth = rec_s.truth is not None
+    found = [MatchedEcho(a[i], b[j], above(a[i].range_m), kinds[j]) for i, j in pairs]
+    why = [reject_reason(e.real_above_floor_db, e.sim_truth_kind, has_truth) for e in found]
+    return MethodComparison(
+        method=m,
+        matched=tuple(e for e, r in zip(found, why) if not r),
+        rejected=tuple(RejectedPair(e, r) for e, r in zip(found, why) if r),
+        sim_has_truth=has_truth,
+        real_max_above_floor_db=max((above(p.range_m) for p in a), default=float("nan")),
+        only_real_above_floor=sum(above(a[i].range_m) >= MIN_ECHO_ABOVE_FLOOR_DB for i in only_r),
+        only_real=tuple(a[i] for i in only_r),
+        only_sim=tuple(b[j] for j in only_s),
+        side_lobes_real=tuple(lobes_r),
+        side_lobes_sim=tuple(lobes_s),
+        range_bin_m=img_r.bin_range_m,
+    )
+
+
 def compare(
     real: P.Recording,
     sim: P.Recording,
@@ -472,32 +502,19 @@ def compare(
     extent_m = settings.window / fs * c / 2
     images_r = P.acoustic_images(real, methods, settings)
     images_s = P.acoustic_images(aligned, methods, settings)
-    per_method = {}
-    above = _above_floor(edges, prof_r, extent_m)
-    for m in methods:
-        a, b = _peaks(images_r[m], threshold_db), _peaks(images_s[m], threshold_db)
-        pairs, only_r, only_s = match_peaks(_table(a), _table(b))
-        f = images_r[m].frequency_hz
-        lobes_r, only_r = side_lobes(a, only_r, extent_m, real.array, f, c)
-        lobes_s, only_s = side_lobes(b, only_s, extent_m, real.array, f, c)
-        kinds = _traced(aligned, images_s[m], threshold_db, settings.window)
-        found = [MatchedEcho(a[i], b[j], above(a[i].range_m), kinds[j]) for i, j in pairs]
-        good, rejected = _echoes(found, aligned.truth is not None)
-        per_method[m] = MethodComparison(
-            method=m,
-            matched=good,
-            rejected=rejected,
-            sim_has_truth=aligned.truth is not None,
-            real_max_above_floor_db=max((above(p.range_m) for p in a), default=float("nan")),
-            only_real_above_floor=sum(
-                above(a[i].range_m) >= MIN_ECHO_ABOVE_FLOOR_DB for i in only_r
-            ),
-            only_real=tuple(a[i] for i in only_r),
-            only_sim=tuple(b[j] for j in only_s),
-            side_lobes_real=tuple(lobes_r),
-            side_lobes_sim=tuple(lobes_s),
-            range_bin_m=images_r[m].bin_range_m,
+    above = above_floor(edges, prof_r, extent_m)
+    per_method = {
+        m: _method(
+            m,
+            (real, images_r[m]),
+            (aligned, images_s[m]),
+            above,
+            threshold_db=threshold_db,
+            extent_m=extent_m,
+            window=settings.window,
         )
+        for m in methods
+    }
     report = Comparison(
         alignment=Alignment(lag, lag / fs, gain),
         envelope_correlation=corr,
@@ -506,46 +523,6 @@ def compare(
         images=per_method,
     )
     return report, ComparisonArrays(edges, prof_r, prof_s, images_r, images_s)
-
-
-def _above_floor(edges: np.ndarray, profile: np.ndarray, extent_m: float):
-    """A function of a range (m): how far (dB) the range profile (B,) (bin `edges`
-    (B + 1,), m) stands above its noise floor, at its strongest bin within half of
-    `extent_m` (the STFT window, m) of that range."""
-    floor = noise_floor(profile)
-    centres = (edges[1:] + edges[:-1]) / 2
-
-    def above(range_m: float) -> float:
-        near = np.abs(centres - range_m) <= max(extent_m / 2, edges[1] - edges[0])
-        top = float(np.max(profile[near])) if np.any(near) else 0.0
-        return float(10 * np.log10((top + 1e-300) / (floor + 1e-300)))
-
-    return above
-
-
-def _traced(rec: P.Recording, image: P.Image, threshold_db: float, window: int) -> list[str]:
-    """Per peak of `image` (of `rec`, as :func:`_peaks` lists them) the kind of
-    traced path it shows ("" none, or no ground truth): the peak table's truth
-    (:func:`acousim.imaging.run.peak_table`)."""
-    if rec.truth is None:
-        return [""] * len(image.peaks(threshold_db))
-    from acousim.imaging.run import peak_table
-
-    table = peak_table(rec, image, threshold_db=threshold_db, window_samples=window)
-    return [row.truth_kind for row in table]
-
-
-def _echoes(found, has_truth: bool) -> tuple[tuple, tuple]:
-    """Pairs (MatchedEcho) split into echoes both have and rejected pairs."""
-    good, rejected = [], []
-    for e in found:
-        if not e.real_above_floor_db >= MIN_ECHO_ABOVE_FLOOR_DB:
-            rejected.append(RejectedPair(e, "real under the noise floor"))
-        elif has_truth and not e.sim_truth_kind:
-            rejected.append(RejectedPair(e, "simulated peak not traced"))
-        else:
-            good.append(e)
-    return tuple(good), tuple(rejected)
 
 
 def write_comparison(

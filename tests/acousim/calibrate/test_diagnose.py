@@ -24,47 +24,45 @@ NAMES = ["wall.reflection", "wall.diffuse"]
 LO, HI = np.array([1e-3, 0.0]), np.array([1.0, 0.999])
 
 
-def _toy_jacobian(level_too: bool) -> np.ndarray:
-    """d log E / d x of ``E(t) = L (R^2 f(t) + d g(t)) + n`` at R = 0.5, d = 0.1,
-    L = 1, n = 1e-3 (f: a specular echo, g: a diffuse tail; independent shapes),
-    columns R, d, log n[, log L]: written out by hand."""
+def _toy_jacobian() -> np.ndarray:
+    """d log E / d x of ``E(t) = R^2 f(t) + d g(t) + n`` at R = 0.5, d = 0.1,
+    n = 1e-3 (f: a specular echo, g: a diffuse tail; independent shapes), columns
+    R, d, log n: written out by hand."""
     t = np.linspace(0, 1, 400)
     f, g = np.exp(-((t - 0.3) ** 2) / 0.002), np.exp(-3 * t) * (t > 0.3)
     R, d, n = 0.5, 0.1, 1e-3
     E = R**2 * f + d * g + n
-    cols = [2 * R * f / E, g / E, n / E] + ([(R**2 * f + d * g) / E] if level_too else [])
+    cols = [2 * R * f / E, g / E, n / E]
     return np.stack(cols, axis=1)
 
 
 def _diagnose(jac, value=(0.5, 0.1), sigma=(0.01, 0.01), **kw):
-    extra = ["noise[0]"] + (["level"] if kw.get("fit_level") else [])
     return diagnose(
         names=NAMES,
         value=np.array(value),
         sigma=np.array(sigma),
-        lower=LO,
-        upper=HI,
+        bounds=(LO, HI),
         jacobian=jac,
-        all_names=NAMES + extra,
+        all_names=[*NAMES, "noise[0]"],
         **kw,
     )
 
 
 def test_a_determined_fit_warns_of_nothing():
-    assert _diagnose(_toy_jacobian(False), kinds=["simulated"]) == ()
+    assert _diagnose(_toy_jacobian(), kinds=["simulated"]) == ()
 
 
 def test_a_value_on_its_bound_is_named_with_its_value():
-    (w,) = _diagnose(_toy_jacobian(False), value=(1.0, 0.1))
+    (w,) = _diagnose(_toy_jacobian(), value=(1.0, 0.1))
     assert w.kind == "at_bound" and w.parameters == ("wall.reflection",)
     assert "wall.reflection = 1 is at its upper bound 1" in w.message
     assert "sigma is not meaningful" in w.message
-    (w,) = _diagnose(_toy_jacobian(False), value=(0.5, 0.005))  # within 1 % of 0..0.999
+    (w,) = _diagnose(_toy_jacobian(), value=(0.5, 0.005))  # within 1 % of 0..0.999
     assert "wall.diffuse = 0.005 is at its lower bound 0" in w.message
 
 
 def test_a_sigma_wider_than_the_range_is_undetermined():
-    (w,) = _diagnose(_toy_jacobian(False), sigma=(0.01, 1.624))
+    (w,) = _diagnose(_toy_jacobian(), sigma=(0.01, 1.624))
     assert w.kind == "undetermined" and w.parameters == ("wall.diffuse",)
     assert "sigma 1.62 is larger than its whole range 0..0.999" in w.message
 
@@ -80,12 +78,10 @@ def test_a_level_and_a_reflection_of_one_bounce_are_confounded():
         names=["wall.reflection"],
         value=np.array([0.5]),
         sigma=np.array([0.004]),
-        lower=LO[:1],
-        upper=HI[:1],
+        bounds=(LO[:1], HI[:1]),
         jacobian=jac,
         all_names=["wall.reflection", "noise[0]", "level"],
         kinds=["emulated"],
-        fit_level=True,
     )
     (w,) = [w for w in out if w.kind == "level_confounded"]
     assert w.parameters == ("level", "wall.reflection")
@@ -94,7 +90,7 @@ def test_a_level_and_a_reflection_of_one_bounce_are_confounded():
 
 
 def test_recordings_not_simulated_ask_for_the_level():
-    (w,) = _diagnose(_toy_jacobian(False), kinds=["real", "real"])
+    (w,) = _diagnose(_toy_jacobian(), kinds=["real", "real"])
     assert w.kind == "level_unknown"
     assert "the recordings are real, not simulated" in w.message and "--fit-level" in w.message
 
