@@ -176,7 +176,10 @@ class Solution:
     by the residuals' spread; bins are treated as independent, which beams that
     overlap are not: a lower bound);
     start : the start; evaluations; cost_start, cost : the robust costs; status :
-    the solver's message."""
+    the solver's message; converged : false when it stopped at its evaluation cap;
+    jacobian : (N, len(x)) the robust residuals' Jacobian at
+    the solution (``least_squares``'s ``jac``: ``J^T J`` is the Hessian's
+    Gauss-Newton approximation), what :mod:`.diagnose` reads."""
 
     x: np.ndarray
     sigma: np.ndarray
@@ -185,6 +188,8 @@ class Solution:
     cost_start: float
     cost: float
     status: str
+    jacobian: np.ndarray | None = None
+    converged: bool = True
 
 
 def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: int) -> Solution:
@@ -213,4 +218,14 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
         sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
     except np.linalg.LinAlgError:  # pragma: no cover
         sigma = np.full(x0.size, np.nan)
-    return Solution(res.x, sigma, x0, int(res.nfev), float(rho0), float(res.cost), res.message)
+    return Solution(
+        res.x,
+        sigma,
+        x0,
+        int(res.nfev),
+        float(rho0),
+        float(res.cost),
+        res.message,
+        np.asarray(J),
+        bool(res.status != 0),  # 0: max_nfev reached
+    )

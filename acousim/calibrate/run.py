@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import processing as P
+from acousim.calibrate.diagnose import LEVEL, FitWarning, diagnose
 from acousim.calibrate.features import FeatureSpace
 from acousim.calibrate.fit import Problem, Solution, group_factors, solve
 from acousim.calibrate.groups import GroupModel
@@ -33,7 +34,14 @@ from acousim.compare.comparison import align as align_lag
 from acousim.scene.model import Material, Scene
 from processing.base.errors import InputError
 
-__all__ = ["calibrate", "Calibration", "FittedParameter", "Unexplained", "DB_PER_NEPER"]
+__all__ = [
+    "calibrate",
+    "Calibration",
+    "FittedParameter",
+    "FitWarning",
+    "Unexplained",
+    "DB_PER_NEPER",
+]
 
 DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
 UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and 10 dB above noise
@@ -76,7 +84,9 @@ class Calibration:
     the shift applied to the simulation to align it; noise_db (per recording): the
     fitted noise variance (dB re 1); level_db: the fitted overall level (0 unless
     fitted); unexplained: bins the fit leaves under the recording; solution: the
-    solver's numbers; seconds: the whole call's time.
+    solver's numbers; seconds: the whole call's time; warnings: what the fitted
+    numbers cannot be trusted for (:mod:`.diagnose`: values at a bound, parameters
+    the recordings do not determine, an unknown or confounded level).
     """
 
     parameters: tuple[FittedParameter, ...]
@@ -94,6 +104,7 @@ class Calibration:
     solution: Solution
     seconds: float
     seconds_fit: float = 0.0
+    warnings: tuple[FitWarning, ...] = ()
 
     def to_dict(self) -> dict:
         """Every number of the report (JSON-ready)."""
@@ -108,6 +119,7 @@ class Calibration:
             "noise_db": list(self.noise_db),
             "level_db": self.level_db,
             "unexplained": [dataclasses.asdict(u) for u in self.unexplained],
+            "warnings": [dataclasses.asdict(w) for w in self.warnings],
             "evaluations": self.solution.evaluations,
             "status": self.solution.status,
             "seconds": self.seconds,
@@ -142,6 +154,7 @@ class Calibration:
                 f"el {u.elevation_deg:+.0f} deg: +{u.excess_db:.1f} dB"
                 for u in self.unexplained
             ]
+        lines += [f"warning: {w.message}" for w in self.warnings]
         return "\n".join(lines)
 
 
@@ -163,6 +176,33 @@ def _check(scene: Scene, recs: Sequence[P.Recording], poses: Sequence[int]) -> N
         if r.n_samples != recs[0].n_samples or r.emission_index != recs[0].emission_index:
             raise InputError(
                 "recordings of different lengths or emission indices", key="recordings"
+            )
+
+
+def _poses(scene: Scene, recs, poses) -> tuple[list[int], list[str]]:
+    """Each recording's pose (as :func:`calibrate` says) and where it came from."""
+    if poses is not None:
+        return list(poses), ["given in poses (--poses)"] * len(poses)
+    indices = [r.provenance.pose_index for r in recs]
+    one = len(scene.sensor.poses) == 1
+    out = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
+    return out, [
+        "its place in the file" if q is None else "its pose_index (in the file)" for q in indices
+    ]
+
+
+def _check_poses(scene: Scene, poses: list[int], origins: list[str]) -> None:
+    """InputError naming the first recording whose pose the scene lacks, and where
+    that pose index came from."""
+    n = len(scene.sensor.poses)
+    for k, (q, origin) in enumerate(zip(poses, origins)):
+        if not 0 <= q < n:
+            raise InputError(
+                f"recording {k} is at pose {q}, {origin}, but the scene has {n} pose(s) "
+                f"(0..{n - 1}): give each recording's scene pose with --poses (poses)",
+                file=scene.source,
+                key="poses",
+                value=q,
             )
 
 
@@ -226,11 +266,9 @@ def calibrate(
     t0 = time.perf_counter()
     settings = settings or CalibrationSettings()
     recs = list(recordings)
-    if poses is None:
-        indices = [r.provenance.pose_index for r in recs]
-        one = len(scene.sensor.poses) == 1
-        poses = [(0 if one else i) if q is None else q for i, q in enumerate(indices)]
-    _check(scene, recs, list(poses))
+    poses, origins = _poses(scene, recs, poses)
+    _check(scene, recs, poses)
+    _check_poses(scene, poses, origins)
     if not _used_materials(scene):  # point reflectors alone: strengths, no material
         raise InputError(
             "has no material to fit: no mesh (a point reflector has a strength, not a material)",
@@ -278,7 +316,30 @@ def calibrate(
     )
     t2 = time.perf_counter()
     out = _result(problem, sol, scene, lags, t2 - t0)
-    return dataclasses.replace(out, seconds_fit=t2 - t1)
+    kinds = [r.provenance.kind for r in recs]
+    cap = None if sol.converged else settings.max_evaluations
+    warnings = _warnings(problem, sol, kinds, cap)
+    return dataclasses.replace(out, seconds_fit=t2 - t1, warnings=warnings)
+
+
+def _warnings(
+    problem: Problem, sol: Solution, kinds: Sequence[str], cap: int | None
+) -> tuple[FitWarning, ...]:
+    """:func:`.diagnose.diagnose` of a solution (the materials in public units)."""
+    params, P_ = problem.parameters, problem.n_materials
+    value, sigma = params.public(sol.x[:P_], sol.sigma[:P_])
+    lo, hi = (params.public(b, np.zeros(P_))[0] for b in params.bounds())
+    extra = [f"noise[{k}]" for k in range(len(problem.groups))]
+    return diagnose(
+        names=params.names,
+        value=value,
+        sigma=sigma,
+        bounds=(lo, hi),
+        jacobian=sol.jacobian,
+        all_names=[*params.names, *extra, *([LEVEL] if problem.fit_level else [])],
+        kinds=kinds,
+        evaluations_cap=cap,
+    )
 
 
 def _per_bin(problem: Problem, x: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import re
 import tomllib
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +23,7 @@ import numpy as np
 from processing.base.atomic import write_text
 from processing.base.errors import InputError
 
-__all__ = ["write_scene", "edit_scene_text"]
+__all__ = ["write_scene", "edit_scene_text", "with_warnings", "WARNING_PREFIX"]
 
 _HEADER = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_.\"' -]+?)\s*\]\]?\s*(#.*)?$")
 _MATERIALS = re.compile(r"^\s*\[\[\s*materials\s*\]\]\s*(#.*)?$")
@@ -66,11 +67,24 @@ def _comment(lines: list[str], a: int, b: int) -> str:
     return parts[1].strip() if len(parts) > 1 else ""
 
 
-def edit_scene_text(text: str, values: dict[str, dict[str, tuple]]) -> str:
+WARNING_PREFIX = "# acousim calibrate warning: "
+
+
+def with_warnings(text: str, warnings: Sequence[str]) -> str:
+    """`text` with a comment line ``# acousim calibrate warning: ...`` per warning at
+    its top, those of an earlier calibration removed."""
+    lines = [x for x in text.splitlines(keepends=True) if not x.startswith(WARNING_PREFIX)]
+    return "".join([f"{WARNING_PREFIX}{w}\n" for w in warnings] + lines)
+
+
+def edit_scene_text(
+    text: str, values: dict[str, dict[str, tuple]], warned: Collection[str] = ()
+) -> str:
     """`text` with `values` = {material: {key: (value, sigma or None)}} written into
     its ``[[materials]]`` blocks (the implicit ``default`` material, of the meshes
-    that name none, gets a block of its own at the end).  Raises InputError naming a
-    material the text does not define."""
+    that name none, gets a block of its own at the end); a ``material.key`` in
+    `warned` has its comment say so.  Raises InputError naming a material the text
+    does not define."""
     defined = [m.get("name") for m in tomllib.loads(text).get("materials", [])]
     if "default" in values and "default" not in defined:
         note = "meshes that name no material (block added by acousim calibrate)"
@@ -94,6 +108,8 @@ def edit_scene_text(text: str, values: dict[str, dict[str, tuple]]) -> str:
             span = _value_span(lines, start, end, key)
             indent = re.match(r"^\s*", lines[span[0] if span else start]).group(0)
             note = "the fitted table's points" if sigma is None else f"fitted +- {_fmt(sigma)}"
+            if f"{material}.{key}" in warned:
+                note += " (warned: see the top of the file)"
             if span:
                 old = " ".join(line.split("#", 1)[0].strip() for line in lines[slice(*span)])
                 was = old.split("=", 1)[1].strip()
@@ -162,8 +178,10 @@ def _repointed(text: str, source: Path, out: Path) -> str:
 
 def write_scene(source: str | Path, out: str | Path, calibration) -> Path:
     """Write the scene file `source` to `out` with the fitted materials of
-    `calibration` (:class:`~.run.Calibration`); the files it names relative to its
-    folder are pointed to from `out`'s folder (:func:`_repointed`)."""
+    `calibration` (:class:`~.run.Calibration`) and its warnings as comments at the
+    top (:func:`with_warnings`; a value a warning names says so in its comment); the
+    files it names relative to its folder are pointed to from `out`'s folder
+    (:func:`_repointed`)."""
     source, out = Path(source), Path(out)
     try:
         text = source.read_text(encoding="utf-8")
@@ -182,4 +200,7 @@ def write_scene(source: str | Path, out: str | Path, calibration) -> Path:
         if m.frequency_dependent:
             keys = {"frequencies_khz": (m.frequencies_khz, None), **keys}
         values[name] = keys
-    return write_text(out, edit_scene_text(text, values))
+    warnings = calibration.warnings
+    warned = {p.split("@")[0] for w in warnings for p in w.parameters}
+    edited = edit_scene_text(text, values, warned)
+    return write_text(out, with_warnings(edited, [w.message for w in warnings]))

@@ -4,13 +4,17 @@ Fit the reflection and diffuse fraction of a scene's materials (every material a
 uses, or --param) to recordings of the scene: trace once, render each group of paths
 once, and fit the energy per range bin, direction and band by robust least squares.
 Writes the scene file with only the fitted values changed, each with its uncertainty in
-a comment, and prints the residual before and after per range bin and per parameter
-(docs/compare.md).
+a comment, and prints the residual before and after per range bin and per parameter,
+and warnings where the recordings do not determine a value (on a bound, a sigma wider
+than its range, parameters that trade against each other or against the level, an
+emulated or real recording's unknown level): printed, in --report and at the top of
+the fitted scene (docs/compare.md).
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from acousim.cli.common import (
     UsageError,
@@ -20,6 +24,7 @@ from acousim.cli.common import (
     output_file,
     parse_indices,
     progress,
+    writable_dir,
 )
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
@@ -32,7 +37,10 @@ def register(sub) -> None:
     p.add_argument("recordings", help="recording file (.h5), or 'rtisdev-sample'")
     p.add_argument("--scene", required=True, help="scene file (.toml) the recordings are of")
     p.add_argument(
-        "--out", required=True, help="fitted scene file (in the scene's folder: relative paths)"
+        "--out",
+        required=True,
+        help="fitted scene file, not the --scene file (the files it names are pointed to "
+        "from its folder)",
     )
     p.add_argument(
         "--poses",
@@ -68,7 +76,8 @@ def register(sub) -> None:
     p.add_argument(
         "--fit-level",
         action="store_true",
-        help="also fit one overall level (a real recording's unknown gain)",
+        help="also fit one overall level (a real recording's unknown gain; with one "
+        "bounce it trades against the reflections: the report names them)",
     )
     p.add_argument(
         "--no-align", action="store_true", help="do not shift the recordings onto the simulation"
@@ -122,13 +131,33 @@ def _firings(rig, name: str, recs: list) -> list[int]:
     return out
 
 
+def _not_the_scene(scene: str, out: Path, report: Path | None) -> None:
+    """UsageError when --out or --report would overwrite the scene file (or each
+    other): the user's scene would be lost."""
+    from acousim.bundled import resolve_scene
+
+    source = Path(resolve_scene(scene))  # a bundled scene's name: its file
+    if not source.is_file():
+        return  # no such scene: loading it says so
+    for option, path in (("--out", out), ("--report", report)):
+        if path is not None and path.exists() and path.samefile(source):
+            raise UsageError(
+                f"{option} {str(path)!r} is the scene file --scene {scene!r}: writing the "
+                "fitted scene there would lose the one given; name another file"
+            )
+    if report is not None and report.absolute() == out.absolute():
+        raise UsageError(f"--report {str(report)!r} is the --out file; name another file")
+
+
 def run(args: argparse.Namespace) -> int:
     from acousim.calibrate import calibrate, write_scene
     from acousim.compare.inputs import load_real_recordings, of_sensor
     from acousim.scene.rig import sonar_scene
 
-    out = output_file("--out", args.out)
-    report = output_file("--report", args.report) if args.report else None
+    # checked, not created: nothing is made until the inputs are read and fitted
+    out = output_file("--out", args.out, make=False)
+    report = output_file("--report", args.report, make=False) if args.report else None
+    _not_the_scene(args.scene, out, report)
     try:
         settings = _settings(args)
         rig_scene = load_scene(args.scene)
@@ -143,6 +172,9 @@ def run(args: argparse.Namespace) -> int:
         cal = calibrate(scene, recs, poses, settings, progress=progress("calibrate", "pose"))
         if scene.source is None:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")
+        writable_dir(out.parent)
+        if report:
+            writable_dir(report.parent)
         write_scene(scene.source, out, cal)
         if report:
             from processing.base.atomic import write_text

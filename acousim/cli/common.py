@@ -157,12 +157,30 @@ def writable_dir(path: str | Path) -> Path:
     return out
 
 
-def output_file(option: str, path: str | Path) -> Path:
-    """An output file path: not an existing folder, its folder writable."""
+def can_make_dir(path: str | Path) -> Path:
+    """An output folder :func:`writable_dir` will make and write, checked without
+    creating anything (for a command that reads its inputs first): the folder, or
+    its nearest existing parent, is a folder this process may write; else a
+    UsageError."""
+    import os
+
+    out = Path(path)
+    here = out.absolute()
+    while not here.exists() and here != here.parent:
+        here = here.parent
+    if not here.is_dir() or not os.access(here, os.W_OK | os.X_OK):
+        why = "not a folder" if not here.is_dir() else "not writable"
+        raise UsageError(f"output directory {str(out)!r} cannot be written ({here}: {why})")
+    return out
+
+
+def output_file(option: str, path: str | Path, *, make: bool = True) -> Path:
+    """An output file path: not an existing folder, its folder writable (with
+    `make` false, only checked: :func:`can_make_dir`, nothing created)."""
     out = Path(path)
     if out.is_dir():
         raise UsageError("is a folder; give a file name", key=option, value=str(path))
-    writable_dir(out.parent)
+    (writable_dir if make else can_make_dir)(out.parent)
     return out
 
 

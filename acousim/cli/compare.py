@@ -3,8 +3,9 @@
 Put a real recording beside its simulation (from a scene and pose, or an existing
 simulated file): align the emission and the gain, compare matched-filter envelopes,
 range profiles and images, match their peaks (a weaker peak within one STFT window of a
-stronger one is reported as its side lobe), and write a JSON report and a picture
-(docs/compare.md).
+stronger one is reported as its side lobe; a matched echo is a real peak 10 dB above
+the real noise floor paired with a traced simulated one), and write a JSON report and
+a picture (docs/compare.md).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from acousim.cli.common import (
     INDEX,
     UsageError,
     add_command,
+    can_make_dir,
     choice,
     elapsed,
     load_scene,
@@ -130,19 +132,38 @@ def _pairs(args: argparse.Namespace):
     return pair_with_file(reals, sims, every=args.all, index=args.index, sim_index=args.sim_index)
 
 
+def _pair_name(args: argparse.Namespace, n: int, count: int) -> str:
+    """Which files pair `n` (of `count`) compares, for an error."""
+    every = args.all and count > 1
+    real = f"{args.real} recording {n if every else args.index}"
+    if args.scene:
+        sim = f"the scene {args.scene} at pose {n if every else (args.pose or 0)}"
+    else:
+        sim = f"--sim {args.sim} recording {n if every else args.sim_index}"
+    return f"pair {n} (real: {real}; simulated: {sim})"
+
+
 def run(args: argparse.Namespace) -> int:
-    from acousim.compare.comparison import compare, write_comparison
+    from acousim.compare.comparison import check_comparable, compare, write_comparison
     from acousim.compare.summary import summarize, write_summary
     from processing.base.atomic import committed_together
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
-    out = writable_dir(args.out) if args.out else None  # nothing written unasked
+    # checked, not made: nothing is created until the inputs are read and checked
+    out = can_make_dir(args.out) if args.out else None  # nothing written unasked
     names = methods("--method", args.method)
     files: list = []
     with committed_together():  # every file or none (Ctrl-C, an error)
         try:
             pairs = _pairs(args)
+            for n, (real, sim) in enumerate(pairs):
+                try:
+                    check_comparable(real, sim)
+                except InputError as exc:
+                    raise UsageError(f"{_pair_name(args, n, len(pairs))}: {exc}") from None
+            if out is not None:
+                writable_dir(out)
             reports = []
             step = progress("compare", "pair")
             for n, (real, sim) in enumerate(pairs):
@@ -150,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
                 try:
                     report, arrays = compare(real, sim, names)
                 except InputError as exc:
-                    raise UsageError(f"pair {n}: {exc}") from None
+                    raise UsageError(f"{_pair_name(args, n, len(pairs))}: {exc}") from None
                 reports.append(report)
                 if out is not None:
                     folder = out if len(pairs) == 1 else out / f"pose_{n:04d}"
@@ -178,21 +199,60 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _echo_lines(m: str, r) -> list[str]:
+    """The matched echoes of method `m` (:class:`MethodComparison` `r`), one line
+    each, and what was paired but is not an echo both have."""
+    from acousim.compare.comparison import MIN_ECHO_ABOVE_FLOOR_DB as need
+
+    def where(p) -> str:
+        return f"{p.range_m:.3f} m az {p.azimuth_deg:+.0f}° el {p.elevation_deg:+.0f}°"
+
+    out = [
+        f"  {m} echo {k}: real {where(p.real)} ({p.real_above_floor_db:+.1f} dB above the "
+        f"real noise floor), sim {where(p.sim)}"
+        + (f" (traced: {p.sim_truth_kind})" if p.sim_truth_kind else "")
+        + f" (d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
+        for k, p in enumerate(r.matched)
+    ]
+    if not r.real_max_above_floor_db >= need:
+        top = r.real_max_above_floor_db
+        most = f"its peaks stand at most {top:+.1f} dB above it" if top == top else "no peak"
+        out.append(
+            f"  {m}: no echo above the noise floor in the real recording ({most}; an echo "
+            f"needs {need:g} dB)"
+        )
+    low = sum(x.reason == "real under the noise floor" for x in r.rejected)
+    parts = [
+        f"{low} with the real peak less than {need:g} dB above the noise floor" if low else "",
+        f"{len(r.rejected) - low} where the simulation traced no path (a side lobe)"
+        if len(r.rejected) > low
+        else "",
+    ]
+    if r.rejected:
+        out.append(
+            f"  {m}: {len(r.rejected)} paired peak(s) not counted as echoes: "
+            + ", ".join(x for x in parts if x)
+        )
+    if not r.sim_has_truth:
+        out.append(
+            f"  {m}: the simulated recording has no ground truth: its peaks are not "
+            "checked against traced paths"
+        )
+    return out
+
+
 def _print_report(report, arrays) -> None:
     from acousim.compare.account import account
 
     print(f"mean envelope correlation {report.mean_envelope_correlation:.2f}")
     for m, r in report.images.items():
-        for k, p in enumerate(r.matched):
-            print(
-                f"  {m} echo {k}: real {p.real.range_m:.3f} m {p.real.azimuth_deg:+.0f}°, "
-                f"sim {p.sim.range_m:.3f} m {p.sim.azimuth_deg:+.0f}° "
-                f"(d_range {p.d_range_m * 100:+.1f} cm, d_level {p.d_level_db:+.1f} dB)"
-            )
+        for line in _echo_lines(m, r):
+            print(line)
         print(
             f"  {m}: {len(r.side_lobes_real)} side lobe(s) in the real image, "
-            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} echo(es) only "
-            f"in the real image, {len(r.only_sim)} only in the simulation"
+            f"{len(r.side_lobes_sim)} in the simulation; {len(r.only_real)} peak(s) only "
+            f"in the real image ({r.only_real_above_floor} above the noise floor), "
+            f"{len(r.only_sim)} only in the simulation"
         )
     for line in account(report, arrays).lines():
         print(line)

@@ -4,7 +4,9 @@ The alignment fits two numbers to the pair itself: the emission time (a shift of
 simulation) and one gain (least squares on the envelopes after the direct path).
 A scene placed on an echo of the real recording (``ertis_sample``'s plate is put
 where the sample's clear echo is) agrees with it on that echo by construction: that
-echo's range, angle and, with the gain, its level test nothing. What the placement
+echo's range, angle and, with the gain, its level test nothing (said only when the
+comparison has a matched echo: a real peak above the noise floor where the
+simulation traced a path). What the placement
 and the fit did not touch is the test: the other echoes, the noise floor and the
 side lobes. :func:`account` gathers those numbers; :meth:`FitAccount.lines` says them.
 """
@@ -59,8 +61,16 @@ class FitAccount:
             f"fitted to this pair: the emission time (shift {self.shift_samples:.2f} samples) "
             f"and one gain ({self.gain:.3g}, on the envelopes after the direct path); every "
             "simulated level is scaled by that gain",
-            "a scene placed on an echo of this recording agrees on that echo by "
-            "construction (range, angle and, with the gain, level): it tests nothing",
+        ]
+        placed = [m for m in self.methods if m.strongest_range_m is not None]
+        if placed:  # only where the scene has an echo the recording has too
+            out.append(
+                "if the scene was placed on an echo of this recording (as ertis_sample's "
+                "plate is), it agrees on that echo by construction (the strongest matched "
+                f"one, {placed[0].strongest_range_m:.3f} m: range, angle and, with the gain, "
+                "level): that echo tests nothing"
+            )
+        out += [
             "predicted, not fitted:",
             f"  noise floor (median {self.floor_from_m:.2f}-{self.floor_to_m:.2f} m, dB re "
             f"the real profile's strongest bin): real {self.floor_real_db:.1f} dB, simulated "

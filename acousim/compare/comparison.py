@@ -41,6 +41,12 @@ from scipy.signal import hilbert
 
 import processing as P
 from acousim.compare.account import floor_start, noise_floor
+from acousim.compare.echoes import (
+    MIN_ECHO_ABOVE_FLOOR_DB,
+    above_floor,
+    reject_reason,
+    traced_kinds,
+)
 from processing.base.atomic import atomic_path, write_text
 from processing.base.errors import InputError
 
@@ -55,6 +61,8 @@ __all__ = [
     "noise_floor",
     "Peak",
     "MatchedEcho",
+    "RejectedPair",
+    "MIN_ECHO_ABOVE_FLOOR_DB",
     "SideLobe",
     "MethodComparison",
     "Alignment",
@@ -206,10 +214,16 @@ class Peak:
 
 @dataclass(frozen=True)
 class MatchedEcho:
-    """A peak of the real image paired with one of the simulated image."""
+    """A peak of the real image paired with one of the simulated image: an echo both
+    have.  `real_above_floor_db`: how far the real range profile at the real peak's
+    range stands above its noise floor (dB); `sim_truth_kind`: the traced path the
+    simulated peak shows (its peak table's ``truth_kind``; "" when the simulation
+    has no ground truth to check it against)."""
 
     real: Peak
     sim: Peak
+    real_above_floor_db: float = float("nan")
+    sim_truth_kind: str = ""
 
     @property
     def d_range_m(self) -> float:
@@ -235,7 +249,21 @@ class MatchedEcho:
             "d_azimuth_deg": self.d_azimuth_deg,
             "d_elevation_deg": self.d_elevation_deg,
             "d_level_db": self.d_level_db,
+            "real_above_noise_floor_db": self.real_above_floor_db,
+            "sim_truth_kind": self.sim_truth_kind,
         }
+
+
+@dataclass(frozen=True)
+class RejectedPair:
+    """Two peaks close enough to pair that are not an echo both have: `reason`
+    (:func:`acousim.compare.echoes.reject_reason`)."""
+
+    pair: MatchedEcho
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {**self.pair.to_dict(), "reason": self.reason}
 
 
 @dataclass(frozen=True)
@@ -268,10 +296,19 @@ class MethodComparison:
     side_lobes_real: tuple[SideLobe, ...]
     side_lobes_sim: tuple[SideLobe, ...]
     range_bin_m: float
+    rejected: tuple[RejectedPair, ...] = ()
+    sim_has_truth: bool = True
+    real_max_above_floor_db: float = float("nan")
+    only_real_above_floor: int = 0
 
     def to_dict(self) -> dict:
         return {
             "matched": [m.to_dict() for m in self.matched],
+            "rejected_pairs": [r.to_dict() for r in self.rejected],
+            "sim_has_truth": self.sim_has_truth,
+            "min_echo_above_noise_floor_db": MIN_ECHO_ABOVE_FLOOR_DB,
+            "real_max_above_noise_floor_db": self.real_max_above_floor_db,
+            "only_real_above_noise_floor": self.only_real_above_floor,
             "only_real": [asdict(p) for p in self.only_real],
             "only_sim": [asdict(p) for p in self.only_sim],
             "side_lobes_real": [s.to_dict() for s in self.side_lobes_real],
@@ -399,6 +436,38 @@ def _range_profiles(rng, env_r, env_s, range_bin_m: float):
     return edges, prof_r, prof_s, 10 * np.log10((prof_r + tiny) / (prof_s + tiny))
 
 
+def _method(
+    m: str, real: tuple, sim: tuple, above, *, threshold_db: float, extent_m: float, window: int
+) -> MethodComparison:
+    """The peaks of method `m`'s images compared: `real`, `sim` (recording, image)
+    (the simulation aligned), `above(range_m)`: the real profile's margin over its
+    noise floor there (dB)."""
+    (rec_r, img_r), (rec_s, img_s) = real, sim
+    c = rec_r.speed_of_sound_m_s
+    a, b = _peaks(img_r, threshold_db), _peaks(img_s, threshold_db)
+    pairs, only_r, only_s = match_peaks(_table(a), _table(b))
+    f = img_r.frequency_hz
+    lobes_r, only_r = side_lobes(a, only_r, extent_m, rec_r.array, f, c)
+    lobes_s, only_s = side_lobes(b, only_s, extent_m, rec_s.array, f, c)
+    kinds = traced_kinds(rec_s, img_s, threshold_db, window)
+    has_truth = rec_s.truth is not None
+    found = [MatchedEcho(a[i], b[j], above(a[i].range_m), kinds[j]) for i, j in pairs]
+    why = [reject_reason(e.real_above_floor_db, e.sim_truth_kind, has_truth) for e in found]
+    return MethodComparison(
+        method=m,
+        matched=tuple(e for e, r in zip(found, why) if not r),
+        rejected=tuple(RejectedPair(e, r) for e, r in zip(found, why) if r),
+        sim_has_truth=has_truth,
+        real_max_above_floor_db=max((above(p.range_m) for p in a), default=float("nan")),
+        only_real_above_floor=sum(above(a[i].range_m) >= MIN_ECHO_ABOVE_FLOOR_DB for i in only_r),
+        only_real=tuple(a[i] for i in only_r),
+        only_sim=tuple(b[j] for j in only_s),
+        side_lobes_real=tuple(lobes_r),
+        side_lobes_sim=tuple(lobes_s),
+        range_bin_m=img_r.bin_range_m,
+    )
+
+
 def compare(
     real: P.Recording,
     sim: P.Recording,
@@ -433,22 +502,19 @@ def compare(
     extent_m = settings.window / fs * c / 2
     images_r = P.acoustic_images(real, methods, settings)
     images_s = P.acoustic_images(aligned, methods, settings)
-    per_method = {}
-    for m in methods:
-        a, b = _peaks(images_r[m], threshold_db), _peaks(images_s[m], threshold_db)
-        pairs, only_r, only_s = match_peaks(_table(a), _table(b))
-        f = images_r[m].frequency_hz
-        lobes_r, only_r = side_lobes(a, only_r, extent_m, real.array, f, c)
-        lobes_s, only_s = side_lobes(b, only_s, extent_m, real.array, f, c)
-        per_method[m] = MethodComparison(
-            method=m,
-            matched=tuple(MatchedEcho(a[i], b[j]) for i, j in pairs),
-            only_real=tuple(a[i] for i in only_r),
-            only_sim=tuple(b[j] for j in only_s),
-            side_lobes_real=tuple(lobes_r),
-            side_lobes_sim=tuple(lobes_s),
-            range_bin_m=images_r[m].bin_range_m,
+    above = above_floor(edges, prof_r, extent_m)
+    per_method = {
+        m: _method(
+            m,
+            (real, images_r[m]),
+            (aligned, images_s[m]),
+            above,
+            threshold_db=threshold_db,
+            extent_m=extent_m,
+            window=settings.window,
         )
+        for m in methods
+    }
     report = Comparison(
         alignment=Alignment(lag, lag / fs, gain),
         envelope_correlation=corr,

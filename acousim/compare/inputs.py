@@ -44,9 +44,14 @@ def load_real_recordings(
         path = sample_recording() if source == "rtisdev-sample" else Path(source)
         if not path.is_file():
             raise InputError("no such file", file=path)
-        raw = np.frombuffer(path.read_bytes(), "<u4")
-        if raw.size == 0 or raw.size % 32768:
-            raise InputError(f"{raw.size} tick words, not a multiple of 32768", file=path)
+        data = path.read_bytes()
+        if len(data) == 0 or len(data) % (4 * 32768):
+            raise InputError(
+                f"{len(data)} bytes, not a whole number of frames of 32768 tick words "
+                "(4 bytes each)",
+                file=path,
+            )
+        raw = np.frombuffer(data, "<u4")
         try:
             arr = P.preset(array)
         except ValueError as exc:

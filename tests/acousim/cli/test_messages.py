@@ -78,7 +78,9 @@ def test_compare_writes_nothing_unasked_and_says_what_was_fitted(
     want_real, want_sim = _floor_db(arrays.profile_real, ref), _floor_db(arrays.profile_sim, ref)
     assert f"real {want_real:.1f} dB, simulated {want_sim:.1f} dB" in out
     # the other echoes and the side lobes: counted, not fitted
-    assert re.search(r"das: besides the strongest matched echo \(\d\.\d{3} m\) \d+ other", out)
+    # (the peaks of the two points off axis are paired too, but the simulation's peak
+    # table finds no traced path in their cells: not counted as matched echoes)
+    assert re.search(r"das: besides the strongest matched echo \(\d\.\d{3} m\) (no|\d+) other", out)
     assert re.search(r"side lobes: \d+ real", out)
     # with --out: the files, in that folder only
     assert main(["compare", str(real), "--sim", str(sim), "--out", "cmp", "-q"]) == 0

@@ -1,0 +1,69 @@
+"""When two paired peaks are an echo both recordings have
+(:func:`acousim.compare.comparison.compare`).
+
+Two images' peaks are paired by position alone; a pair is a *matched echo* only when
+
+* the real peak is an echo, not noise: the real range profile (mean envelope power
+  over the microphones per range bin) at its range stands at least
+  :data:`MIN_ECHO_ABOVE_FLOOR_DB` above the profile's noise floor
+  (:func:`acousim.compare.account.noise_floor`, the number the command prints);
+* the simulated peak is a traced path, not a side lobe: the simulated recording's
+  ground truth puts one in the peak's resolution cell (the peak table's
+  ``truth_kind``, :func:`acousim.imaging.run.peak_table`, as ``peaks.csv`` has it).
+  A simulation without ground truth is taken as it is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+import processing as P
+from acousim.compare.account import noise_floor
+
+__all__ = ["MIN_ECHO_ABOVE_FLOOR_DB", "above_floor", "traced_kinds", "reject_reason"]
+
+#: a real peak is an echo when the real range profile at its range stands at least
+#: this far above the profile's noise floor (dB)
+MIN_ECHO_ABOVE_FLOOR_DB = 10.0
+
+
+def above_floor(
+    edges: np.ndarray, profile: np.ndarray, extent_m: float
+) -> Callable[[float], float]:
+    """A function of a range (m): how far (dB) the range profile (B,) (linear power;
+    bin `edges` (B + 1,), m) stands above its noise floor there, at its strongest bin
+    within half of `extent_m` (the STFT window, m; at least one bin) of that range."""
+    floor = noise_floor(profile)
+    centres = (edges[1:] + edges[:-1]) / 2
+    reach = max(extent_m / 2, float(edges[1] - edges[0]))
+
+    def above(range_m: float) -> float:
+        near = np.abs(centres - range_m) <= reach
+        top = float(np.max(profile[near])) if np.any(near) else 0.0
+        return float(10 * np.log10((top + 1e-300) / (floor + 1e-300)))
+
+    return above
+
+
+def traced_kinds(rec: P.Recording, image: P.Image, threshold_db: float, window: int) -> list[str]:
+    """Per peak of `image` (of `rec`; ``image.peaks(threshold_db)``'s order) the kind of
+    traced path in its resolution cell ("" none, or no ground truth; `window`: the
+    STFT window the image was made with, samples)."""
+    if rec.truth is None:
+        return [""] * len(image.peaks(threshold_db))
+    from acousim.imaging.run import peak_table
+
+    table = peak_table(rec, image, threshold_db=threshold_db, window_samples=window)
+    return [row.truth_kind for row in table]
+
+
+def reject_reason(real_above_floor_db: float, sim_truth_kind: str, has_truth: bool) -> str:
+    """Why a pair is not a matched echo ("" when it is): ``"real under the noise
+    floor"`` or ``"simulated peak not traced"``."""
+    if not real_above_floor_db >= MIN_ECHO_ABOVE_FLOOR_DB:
+        return "real under the noise floor"
+    if has_truth and not sim_truth_kind:
+        return "simulated peak not traced"
+    return ""
