@@ -7,13 +7,11 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
-
 import processing as P
 from acousim.rig import RigSimulator
 from acousim.scene.pose import Pose
 from acousim.simulator import SCENE_MOTION, Simulator
-from hardware import decode_frame
+from hardware import decode_frame, read_ticks
 from processing.base.errors import InputError
 from processing.sensor.rtisdev import sample_recording
 
@@ -42,16 +40,7 @@ def load_real_recordings(
     source = str(source)
     if source == "rtisdev-sample" or source.endswith(".bin"):
         path = sample_recording() if source == "rtisdev-sample" else Path(source)
-        if not path.is_file():
-            raise InputError("no such file", file=path)
-        data = path.read_bytes()
-        if len(data) == 0 or len(data) % (4 * 32768):
-            raise InputError(
-                f"{len(data)} bytes, not a whole number of frames of 32768 tick words "
-                "(4 bytes each)",
-                file=path,
-            )
-        raw = np.frombuffer(data, "<u4")
+        raw = read_ticks(path)  # an InputError naming the file and its size
         try:
             arr = P.preset(array)
         except ValueError as exc:

@@ -21,8 +21,8 @@ def _err(capsys) -> str:
     [
         ("gone.h5", None, "no such file"),
         ("text.h5", b"a text file", "not an HDF5 file"),
-        ("odd.bin", bytes(1001), "1001 bytes, not a whole number of frames"),
-        ("short.bin", bytes(4000), "4000 bytes, not a whole number of frames"),
+        ("odd.bin", bytes(1001), "1001 bytes, not a raw RTIS measurement"),
+        ("short.bin", bytes(4000), "4000 bytes = 1000 tick words, not a raw RTIS measurement"),
     ],
 )
 def test_a_missing_or_broken_input_makes_no_folder(tmp_path, capsys, name, content, said):
