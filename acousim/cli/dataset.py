@@ -50,8 +50,11 @@ def interrupted(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import resolve
     from acousim.dataset import generate
+    from acousim.dataset.generation import usable_spec
     from acousim.process import Workers
 
+    spec = resolve("datasets", args.spec)  # a file, or a bundled spec's name
+    usable_spec(spec)  # a bad spec fails before the output folder is made
     if args.scheduler:
         from acousim.dataset.safety import check_scheduler
 
@@ -59,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     writable_dir(args.out)
     preload_simulation()
     manifest = generate(
-        resolve("datasets", args.spec),  # a file, or a bundled spec's name
+        spec,
         args.out,
         workers=Workers().workers if args.workers is None else args.workers,
         scheduler=args.scheduler,

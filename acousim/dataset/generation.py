@@ -40,6 +40,7 @@ from acousim.dataset.samples import (  # noqa: F401  (re-exported)
     _scene_path,
     _varied_scene,
     _world_caster,
+    check_regions,
     sample_array,
     sample_parameters,
     simulate_sample,
@@ -60,6 +61,7 @@ __all__ = [
     "generate",
     "shard_name",
     "kept_shards",
+    "usable_spec",
     "image_range_m",
     "recording_samples",
     "SHARD_SCHEMA",
@@ -363,8 +365,12 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
     from threadpoolctl import threadpool_limits
 
     spec_path, k, out = args
+    spec = load_spec(spec_path)
+    changed = _changed(json.loads((Path(out) / INPUTS).read_text()), _record(spec))
+    if changed:  # a file edited while the dataset is generated
+        raise InputError(f"changed during the run: {'; '.join(changed)}", file=spec.source)
     with threadpool_limits(1):
-        return write_shard(load_spec(spec_path), k, out)
+        return write_shard(spec, k, out)
 
 
 def kept_shards(spec_path: str | Path, out_dir: str | Path) -> tuple[int, int]:
@@ -400,6 +406,16 @@ def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     return done, damaged
 
 
+def usable_spec(spec_path: str | Path) -> DatasetSpec:
+    """The spec, read and checked as far as can be before any work (nothing is
+    written): each random-pose scene's region has a usable pose, and the first
+    sample's parameters can be drawn. A :class:`SpecError` otherwise."""
+    spec = load_spec(spec_path)
+    check_regions(spec)
+    sample_parameters(spec, 0)
+    return spec
+
+
 def generate(
     spec_path: str | Path,
     out_dir: str | Path,
@@ -413,7 +429,7 @@ def generate(
     The manifest's ``summary`` adds ``damaged_shards``: finished shards whose bytes no
     longer matched their recorded sha256 and were redone.
     """
-    spec = load_spec(spec_path)
+    spec = usable_spec(spec_path)
     out = Path(out_dir)
     if scheduler:
         check_scheduler(scheduler)
@@ -421,18 +437,9 @@ def generate(
     with locked(out):
         for stale in out.glob(f"{TEMP_PREFIX}*"):
             stale.unlink()  # an interrupted run's incomplete file: redone
-        existing = out / "spec.sha256"
-        if existing.is_file() and existing.read_text().strip() != spec.sha256:
-            raise InputError(
-                f"holds a dataset of another spec (sha256 {existing.read_text().strip()[:12]}"
-                "...); use a new folder",
-                file=out,
-            )
-        write_text(existing, spec.sha256 + "\n")
+        _claim(spec, out)
         done, damaged = _done(spec, out)
         todo = [k for k in range(spec.n_shards) if k not in done]
-        if todo:  # a spec that cannot make its first sample fails here, before any worker
-            sample_parameters(spec, todo[0] * spec.shard_size)
         jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
         done_count = spec.n_shards - len(todo)
         t0 = time.perf_counter()
@@ -460,6 +467,65 @@ def generate(
     return manifest
 
 
+INPUTS = "inputs.json"
+"""The files a folder's shards were made from, with their sha256 (``spec.inputs``)."""
+
+
+def _claim(spec: DatasetSpec, out: Path) -> None:
+    """Make `out` the folder of `spec`'s dataset: a folder without a shard is free (a
+    failed run's leftovers are replaced); one with shards must have been made from the
+    same files (the spec, its scenes and the files they read), byte for byte, else an
+    InputError naming each file that changed."""
+    mine = _record(spec)
+    shards = [*out.glob("shard_*.h5"), *out.glob("shard_*.json")]
+    recorded = out / INPUTS
+    if shards and not recorded.is_file():
+        raise InputError(
+            "holds shards without a record of the scene files they were made from (an "
+            "older acousim, or not a dataset folder): a resumed run cannot check them; "
+            "use a new folder",
+            file=out,
+        )
+    if shards:
+        try:
+            theirs = json.loads(recorded.read_text())
+            changed = _changed(theirs, mine)
+        except (ValueError, KeyError, TypeError, AttributeError):
+            raise InputError("unreadable; use a new folder", file=recorded) from None
+        if changed:
+            raise InputError(
+                "holds shards made from other files: "
+                + "; ".join(changed)
+                + ". Resuming would mix samples of both; use a new folder (or restore "
+                "the files)",
+                file=out,
+            )
+    write_text(recorded, json.dumps(mine, indent=1, sort_keys=True))
+    (out / "spec.sha256").unlink(missing_ok=True)  # an older acousim's record
+
+
+def _record(spec: DatasetSpec) -> dict:
+    """The folder's record of the files its shards are made from (``inputs.json``)."""
+    return {"spec": Path(spec.source).name, "files": spec.inputs}
+
+
+def _changed(theirs: dict, mine: dict) -> list[str]:
+    """What differs between two records of a folder's files: one phrase per file."""
+    old, new = dict(theirs["files"]), dict(mine["files"])
+    out = []
+    old_spec, new_spec = old.pop(theirs["spec"]), new.pop(mine["spec"])
+    if old_spec != new_spec:
+        out.append(f"another spec (sha256 {old_spec[:12]}..., {mine['spec']}: {new_spec[:12]}...)")
+    for name in sorted(set(old) | set(new)):
+        if name not in new:
+            out.append(f"{name} is no longer used")
+        elif name not in old:
+            out.append(f"{name} is new")
+        elif old[name] != new[name]:
+            out.append(f"{name} changed (sha256 {old[name][:12]}... now {new[name][:12]}...)")
+    return out
+
+
 def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int]) -> dict:
     sides = [json.loads((out / f"shard_{k:05d}.json").read_text()) for k in range(spec.n_shards)]
     samples = [s for side in sides for s in side["samples"]]
@@ -470,6 +536,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
         "name": spec.name,
         "spec": Path(spec.source).name,
         "spec_sha256": spec.sha256,
+        "inputs": spec.inputs,
         "samples": len(samples),
         "shard_size": spec.shard_size,
         "shard_format": spec.format,

@@ -15,12 +15,14 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
 import processing as P
+from acousim.dataset.safety import sha256_file
 from acousim.scene import load_scene
 from acousim.scene.model import Environment, Simulation
 from acousim.scene.trajectory import RATES
@@ -238,6 +240,10 @@ class DatasetSpec:
     sha256: str
     compression: str | None = "gzip"
     format: ShardFormat = "acousim"
+    #: every file the samples depend on -> its sha256: the spec (under its file name),
+    #: each scene file and the meshes, coordinate files and trajectories it reads; the
+    #: paths relative to the spec's folder, '/' separated
+    inputs: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         DatasetOptions(
@@ -284,7 +290,11 @@ def _dist(src: str, where: str, v: Any, decl: Setting) -> Distribution:
         allowed = {"dist", "mean", "sigma"}
         mean = check(decl, v.get("mean", 0.0), f"{where}.mean", src)
         span = decl.hi - decl.lo if math.isfinite(decl.hi - decl.lo) else 1e6
-        sigma = check(Setting("float", lo=0, hi=span), v.get("sigma", 1.0), f"{where}.sigma", src)
+        if "sigma" not in v:
+            raise SpecError(
+                "missing (the normal's standard deviation)", file=src, key=f"{where}.sigma"
+            )
+        sigma = check(Setting("float", lo=0, hi=span), v["sigma"], f"{where}.sigma", src)
         out = Distribution("normal", mean, sigma, decl.lo, decl.hi)
     refuse_unknown(v, allowed, where=where, file=src)
     return out
@@ -332,6 +342,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     ds = read_table(DatasetOptions, _table(src, data, "dataset"), where="dataset", file=src)
     opts = DatasetOptions(**{"name": path.stem, **ds})
     items = data.get("scenes", [])
+    inputs = {path.name: sha256}
     if not isinstance(items, list) or not items:
         raise SpecError("needs at least one [[scenes]] table", file=src, key="scenes", value=items)
     scenes = []
@@ -342,9 +353,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         if "file" not in s:
             raise SpecError("missing", file=src, key=f"{where}.file")
         name = check(Setting("str"), s["file"], f"{where}.file", src)
-        f = path.parent / name
-        if not f.is_file():
-            raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
+        f = _scene_file(path.parent, name, src, where)
 
         try:  # checked now, not in a worker halfway through the dataset
             scene = load_scene(f)
@@ -352,12 +361,23 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
             raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
         mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
         _check_rig(scene, choice.get("sensor"), mount, src, where)
+        for dep, digest in ((f, scene.file_sha256), *((g, None) for g in scene.files)):
+            inputs[_relative_to(dep, path.parent)] = digest or sha256_file(dep)
         region_t = s.get("region", {})
         region = read_table(Region, region_t, where=f"{where}.region", file=src)
         if choice.get("poses", "trajectory") == "random":
             for k in ("x", "y", "z"):
                 if k not in region:
                     raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
+        elif region_t:
+            raise SpecError(
+                'a region is for poses = "random"; this scene\'s poses are its '
+                'trajectory\'s (poses = "trajectory", the default): drop the region or '
+                'set poses = "random"',
+                file=src,
+                key=f"{where}.region",
+                value=region_t,
+            )
         scenes.append(SceneChoice(f, region=region, mount=mount, **choice))
     if sum(s.weight for s in scenes) <= 0:
         raise SpecError("at least one scene needs a positive weight", file=src, key="scenes")
@@ -382,4 +402,30 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         sha256=sha256,
         compression=None if opts.compression == "none" else opts.compression,
         format=opts.format,
+        inputs=inputs,
     )
+
+
+def _relative_to(file: Path, folder: Path) -> str:
+    """`file` relative to `folder`, normalised, '/' separated."""
+    return Path(os.path.relpath(os.path.normpath(file), os.path.normpath(folder))).as_posix()
+
+
+def _scene_file(folder: Path, name: str, src: str, where: str) -> Path:
+    """A spec's scene: a file relative to the spec's folder, else a bundled scene of
+    that name (``file = "shoebox"``, as the command line takes it)."""
+    from acousim.bundled import bundled_names, find_scene
+
+    f = folder / name
+    if f.is_file():
+        return f
+    bundled = find_scene(name)
+    if bundled is None:
+        names = ", ".join(bundled_names("scenes"))
+        raise SpecError(
+            f"scene file not found: {f} (nor a bundled scene: {names})",
+            file=src,
+            key=f"{where}.file",
+            value=name,
+        )
+    return bundled
