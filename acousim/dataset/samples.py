@@ -228,23 +228,24 @@ def _varied_scene(params: dict, spec: DatasetSpec):
     )
     meshes = scene.meshes
     if "reflection_scale" in c:
-        s = min(
-            max(c["reflection_scale"], 0.0),
-            1.0
-            / max(
-                [x.reference[0] for m in meshes for x in (m.material, *m.materials.values())]
-                or [1.0]
-            ),
-        )
+        s = max(c["reflection_scale"], 0.0)
         meshes = tuple(
             dataclasses.replace(
                 m,
-                material=m.material.scaled(s),
-                materials={g: x.scaled(s) for g, x in m.materials.items()},
+                material=_scaled(m.material, s),
+                materials={g: _scaled(x, s) for g, x in m.materials.items()},
             )
             for m in meshes
         )
     return dataclasses.replace(scene, environment=env, simulation=sim, meshes=meshes)
+
+
+def _scaled(material, scale: float):
+    """`material` with each reflection coefficient (every value of a frequency table)
+    times `scale`, at most 1: a surface returns at most what reaches it."""
+    r = material.reflection
+    r = tuple(min(v * scale, 1.0) for v in r) if isinstance(r, tuple) else min(r * scale, 1.0)
+    return dataclasses.replace(material, reflection=r)
 
 
 def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):

@@ -248,3 +248,20 @@ def test_a_bundled_scene_by_name(tmp_path):
     assert _sha(SHOEBOX) in s.inputs.values()
     with pytest.raises(SpecError, match=r"scenes\[0\].file = 'shoebx': scene file not found"):
         load_spec(_spec(tmp_path, "shoebx"))
+
+
+def test_reflection_scale_multiplies_each_coefficient_up_to_one(tmp_path):
+    from acousim.dataset.samples import _varied_scene
+
+    spec = load_spec(_spec(tmp_path, "panel_wall", "[randomize]\nreflection_scale = 1.5"))
+    params = sample_parameters(spec, 0)
+    assert params["conditions"]["reflection_scale"] == 1.5
+    scene = _varied_scene(params, spec)
+    got = sorted(
+        str(np.round(x.reflection, 6).tolist())
+        for m in scene.meshes
+        for x in (m.material, *m.materials.values())
+    )
+    # panel_wall.toml: 0.95 and the table [0.8, 0.6, 0.45, 0.35], times 1.5, at most 1
+    want = {"1.0", str([1.0, 0.9, 0.675, 0.525])}
+    assert set(got) == want
