@@ -113,7 +113,9 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     Images are on the spec's grid (:func:`image_range_m`, the spec's directions): the
     same shape (R, E, A) for every sample, whatever its air. The parameters gain
     ``frequency_hz`` (the steering frequency of the snapshot and images),
-    ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
+    ``speed_of_sound_m_s``, ``range_step_m``, ``array`` (its name), and the
+    recording's ``sample_rate_hz`` and ``emission_index`` (the sample of ``raw`` where
+    the call starts).
     """
     axis = image_range_m(spec)
     rec, params, scene, pose = simulate_sample(spec, i, n_samples=recording_samples(spec))
@@ -158,6 +160,8 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         "speed_of_sound_m_s": rec.speed_of_sound_m_s,
         "range_step_m": st.range_step_m,
         "array": rec.array.name,
+        "sample_rate_hz": rec.sample_rate_hz,
+        "emission_index": int(rec.emission_index),
     }
     return arrays, params
 

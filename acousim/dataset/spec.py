@@ -343,6 +343,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     opts = DatasetOptions(**{"name": path.stem, **ds})
     items = data.get("scenes", [])
     inputs = {path.name: sha256}
+    arrays = []  # each scene's array (a rig's: the sonar sampled)
     if not isinstance(items, list) or not items:
         raise SpecError("needs at least one [[scenes]] table", file=src, key="scenes", value=items)
     scenes = []
@@ -361,6 +362,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
             raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
         mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
         _check_rig(scene, choice.get("sensor"), mount, src, where)
+        arrays.append(_array_of(scene, choice.get("sensor")))
         for dep, digest in ((f, scene.file_sha256), *((g, None) for g in scene.files)):
             inputs[_relative_to(dep, path.parent)] = digest or sha256_file(dep)
         region_t = s.get("region", {})
@@ -390,6 +392,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         )
     except InputError as exc:  # a check across keys: the file named too
         raise SpecError(exc.reason, file=src, key=exc.key, value=exc.value) from None
+    _check_microphones(arrays, opts.format, store, src)
     return DatasetSpec(
         name=opts.name,
         samples=opts.samples,
@@ -403,6 +406,34 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         compression=None if opts.compression == "none" else opts.compression,
         format=opts.format,
         inputs=inputs,
+    )
+
+
+def _array_of(scene, sensor: str | None):
+    """The array whose recordings a scene's samples are (a rig's: `sensor`'s)."""
+    if scene.rig is None:
+        return scene.sensor.array
+    return next(s.sensor.array for s in scene.rig.sonars if s.name == sensor)
+
+
+def _check_microphones(arrays: list, shard_format: str, store: StoreOptions, src: str) -> None:
+    """``raw`` (M, T) and ``snapshot`` (M, R_kept) have one M per dataset (a batch
+    stacks them): scenes whose arrays have different microphone counts are refused
+    when the shards store either."""
+    counts = [a.positions_m.shape[0] for a in arrays]
+    stored = [k for k in ("raw", "snapshot") if getattr(store, k)]
+    if len(set(counts)) < 2 or shard_format == "chirp" or not stored:
+        return  # CHIRP shards: one array (acousim.dataset.chirp_shards checks it)
+    listed = ", ".join(
+        f"scenes[{i}]: {a.name} M = {m}" for i, (a, m) in enumerate(zip(arrays, counts))
+    )
+    raise SpecError(
+        f"the scenes' arrays have different microphone counts ({listed}), and "
+        f"{' and '.join(stored)} would have a different shape (M, ...) per sample: a batch "
+        "cannot stack them. Keep one array per dataset, or store images only "
+        "(raw = false, snapshot = false)",
+        file=src,
+        key="scenes",
     )
 
 

@@ -265,3 +265,54 @@ def test_reflection_scale_multiplies_each_coefficient_up_to_one(tmp_path):
     # panel_wall.toml: 0.95 and the table [0.8, 0.6, 0.45, 0.35], times 1.5, at most 1
     want = {"1.0", str([1.0, 0.9, 0.675, 0.525])}
     assert set(got) == want
+
+
+# ----------------------------------------- item 4: raw alone, one M per dataset
+
+
+def test_raw_carries_its_sample_rate_and_emission_index(tmp_path):
+    from scipy.signal import hilbert
+
+    from acousim.dataset import DatasetReader
+
+    spec = _spec(tmp_path, WALL.as_posix()).read_text()
+    spec = spec.replace("snapshot = false", "snapshot = false\nraw = true\nimages = ['das']")
+    spec = spec.replace("images = []\n", "")
+    (tmp_path / "spec.toml").write_text(spec)
+    generate(tmp_path / "spec.toml", tmp_path / "out")
+    ds = DatasetReader(tmp_path / "out")
+    s = ds[0]
+    p = s["params"]
+    assert p["sample_rate_hz"] == 450e3  # wall.toml's [sensor] sample_rate_hz
+    # the wall's echo (its face at x = 2 m, the sensor at the origin: 4 m there and
+    # back) starts 4 / c after the call does, at emission_index
+    power = (np.abs(hilbert(s["raw"].astype(float), axis=1)) ** 2).sum(axis=0)
+    onset = np.flatnonzero(power > 0.3 * power.max())[0]
+    expected = p["emission_index"] + 4.0 / p["speed_of_sound_m_s"] * p["sample_rate_hz"]
+    assert abs(onset - expected) / p["sample_rate_hz"] < 0.2e-3
+    torch_sample = ds.torch(method="das")[0]
+    assert torch_sample["raw"].shape == (30, s["raw"].shape[1])  # uRTIS: 30 microphones
+    assert torch_sample["raw"].dtype == np.float32
+
+
+MIXED = """
+[[scenes]]
+file = "{wall}"
+[[scenes]]
+file = "{ertis}"
+[store]
+images = ["das"]
+"""
+
+
+@pytest.mark.parametrize("store", ["raw = true", "snapshot = true", ""])
+def test_arrays_of_different_microphone_counts_store_images_only(tmp_path, store):
+    text = MIXED.format(wall=WALL.as_posix(), ertis=resolve_scene("ertis_sample").as_posix())
+    p = tmp_path / "mix.toml"
+    p.write_text(text + store + "\n")
+    with pytest.raises(SpecError, match=r"mix.toml: scenes: .*scenes\[0\]: urtis_v1 M = 30, "):
+        load_spec(p)
+    with pytest.raises(SpecError, match=r"scenes\[1\]: ertis_v3d1 M = 32\)"):  # eRTIS: 32
+        load_spec(p)
+    p.write_text(text + "raw = false\nsnapshot = false\n")
+    assert len(load_spec(p).scenes) == 2
