@@ -78,6 +78,7 @@ UNITS = {
     "labels/position_sensor_m": "m",
     "labels/amplitude": "1",
     "labels/order": "1",
+    "labels/emitter": "1",
     "labels/depth_m": "m",
     **{key: units for key, _, _, units, _ in SAMPLE_FIELDS},
 }
@@ -90,6 +91,7 @@ DIMS = {
     "labels/position_sensor_m": "path,xyz",
     "labels/amplitude": "path",
     "labels/order": "path",
+    "labels/emitter": "path",
     "labels/depth_m": "elevation,azimuth",
     **{key: dims for key, _, _, _, dims in SAMPLE_FIELDS},
 }
@@ -147,6 +149,9 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
         arrays["labels/amplitude"] = truth.amplitude.astype(np.float32)
         arrays["labels/order"] = truth.order.astype(np.int8)
+        emitters = _emitters(params, spec)
+        arrays["labels/emitter"] = _emitter_index(truth, emitters, params)
+        params = {**params, "emitters": emitters}
         # what the sensor sees, and the images' label maps (acousim.imaging.labels)
         dr = DYNAMIC_RANGE_DB
         arrays.update(sample_labels(rec, images if st.images else {}, axis, settings.window, dr))
@@ -164,6 +169,23 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         "emission_index": int(rec.emission_index),
     }
     return arrays, params
+
+
+def _emitters(params: dict, spec: DatasetSpec) -> list[str]:
+    """The names of the sonars whose calls a sample's paths may carry: a rig's
+    sonars, in the rig's order; a single sensor's scene: ``["sensor"]``."""
+    rig = _scene(_scene_path(params, spec)).rig
+    return ["sensor"] if rig is None else [s.name for s in rig.sonars]
+
+
+def _emitter_index(truth, emitters: list[str], params: dict) -> np.ndarray:
+    """(N,) int8: each path's emitter as an index into `emitters` (the sample's own
+    sonar for a recording without per-path emitters)."""
+    own = emitters.index(params.get("sensor", emitters[0]))
+    if truth.emitter is None:
+        return np.full(truth.order.shape, own, np.int8)
+    index = {name: k for k, name in enumerate(emitters)}
+    return np.array([index[str(e)] for e in truth.emitter], np.int8).reshape(-1)
 
 
 def image_range_m(spec: DatasetSpec) -> np.ndarray:
