@@ -453,7 +453,8 @@ def generate(
     """Generate (or finish) a dataset; returns the manifest.
 
     The manifest's ``summary`` adds ``damaged_shards``: finished shards whose bytes no
-    longer matched their recorded sha256 and were redone.
+    longer matched their recorded sha256 and were redone (their indices; manifest.json
+    lists their file names).
     """
     spec = usable_spec(spec_path)
     out = Path(out_dir)
@@ -488,7 +489,7 @@ def generate(
                 _shard_job(job)
                 step()
         elapsed = time.perf_counter() - t0
-        manifest = _manifest(spec, out, elapsed, todo)
+        manifest = _manifest(spec, out, elapsed, todo, damaged)
     manifest["summary"]["damaged_shards"] = damaged
     return manifest
 
@@ -552,7 +553,11 @@ def _changed(theirs: dict, mine: dict) -> list[str]:
     return out
 
 
-def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int]) -> dict:
+def _manifest(
+    spec: DatasetSpec, out: Path, elapsed: float, computed: list[int], damaged: list[int]
+) -> dict:
+    """manifest.json, written; ``damaged_shards``: the shards this run found damaged
+    (bytes not matching their sidecar's sha256) and redone."""
     sides = [json.loads((out / f"shard_{k:05d}.json").read_text()) for k in range(spec.n_shards)]
     samples = [s for side in sides for s in side["samples"]]
     total = sum(s["bytes"] for s in sides)
@@ -576,6 +581,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
             for s in sides
         ],
         "sample_table": samples,
+        "damaged_shards": [shard_name(k) for k in damaged],
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True))
     made = sum(len(sides[k]["samples"]) for k in computed)
