@@ -1,7 +1,8 @@
 """``acousim dataset``: generate a dataset of simulated measurements.
 
 Generate a sharded, reproducible, resumable dataset from a spec file
-(docs/dataset-format.md), on local processes or a Dask cluster. Run it again to resume.
+(docs/dataset-format.md), on local processes or a Dask cluster. Run it again to resume
+(refused when the spec or a file it reads, a scene, mesh or trajectory, has changed).
 """
 
 from __future__ import annotations

@@ -4,8 +4,10 @@ Samples are grouped into shards of ``shard_size``; a worker computes a whole sha
 writes it to a temporary name and renames it when complete, with a sidecar JSON
 (its samples' parameters and the shard's sha256).  Generation steps:
 
+0. check the spec (its scenes' regions, the first sample) before writing anything;
 1. lock the output folder (one generator per folder; the lock dies with its process),
-   remove temporary files an interrupted run left, refuse another spec's folder;
+   remove temporary files an interrupted run left, refuse a folder whose shards were
+   made from other files (the spec, its scenes and the files they read: inputs.json);
 2. keep every finished shard whose bytes match its sidecar's sha256, redo the rest;
 3. compute the missing shards here, in a local pool (workers exit when the main
    process dies) or on a Dask cluster (an unreachable scheduler fails at once);
