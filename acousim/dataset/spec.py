@@ -346,41 +346,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     arrays = []  # each scene's array (a rig's: the sonar sampled)
     if not isinstance(items, list) or not items:
         raise SpecError("needs at least one [[scenes]] table", file=src, key="scenes", value=items)
-    scenes = []
-    for i, s in enumerate(items):
-        where = f"scenes[{i}]"
-        extra = ("file", "region", "mount")
-        choice = read_table(SceneChoice, s, where=where, file=src, extra=extra)
-        if "file" not in s:
-            raise SpecError("missing", file=src, key=f"{where}.file")
-        name = check(Setting("str"), s["file"], f"{where}.file", src)
-        f = _scene_file(path.parent, name, src, where)
-
-        try:  # checked now, not in a worker halfway through the dataset
-            scene = load_scene(f)
-        except InputError as exc:
-            raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
-        mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
-        _check_rig(scene, choice.get("sensor"), mount, src, where)
-        arrays.append(_array_of(scene, choice.get("sensor")))
-        for dep, digest in ((f, scene.file_sha256), *((g, None) for g in scene.files)):
-            inputs[_relative_to(dep, path.parent)] = digest or sha256_file(dep)
-        region_t = s.get("region", {})
-        region = read_table(Region, region_t, where=f"{where}.region", file=src)
-        if choice.get("poses", "trajectory") == "random":
-            for k in ("x", "y", "z"):
-                if k not in region:
-                    raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
-        elif region_t:
-            raise SpecError(
-                'a region is for poses = "random"; this scene\'s poses are its '
-                'trajectory\'s (poses = "trajectory", the default): drop the region or '
-                'set poses = "random"',
-                file=src,
-                key=f"{where}.region",
-                value=region_t,
-            )
-        scenes.append(SceneChoice(f, region=region, mount=mount, **choice))
+    scenes = [_scene_choice(s, f"scenes[{i}]", path, inputs, arrays) for i, s in enumerate(items)]
     if sum(s.weight for s in scenes) <= 0:
         raise SpecError("at least one scene needs a positive weight", file=src, key="scenes")
     rnd = _table(src, data, "randomize")
@@ -407,6 +373,42 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         format=opts.format,
         inputs=inputs,
     )
+
+
+def _scene_choice(s: Any, where: str, path: Path, inputs: dict, arrays: list) -> SceneChoice:
+    """One ``[[scenes]]`` table, its scene loaded and checked now (not in a worker
+    halfway through the dataset); the files it reads added to `inputs` (file ->
+    sha256), its array to `arrays`."""
+    src = str(path)
+    choice = read_table(SceneChoice, s, where=where, file=src, extra=("file", "region", "mount"))
+    if "file" not in s:
+        raise SpecError("missing", file=src, key=f"{where}.file")
+    f = _scene_file(path.parent, check(Setting("str"), s["file"], f"{where}.file", src), src, where)
+    try:
+        scene = load_scene(f)
+    except InputError as exc:
+        raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
+    mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
+    _check_rig(scene, choice.get("sensor"), mount, src, where)
+    arrays.append(_array_of(scene, choice.get("sensor")))
+    for dep, digest in ((f, scene.file_sha256), *((g, None) for g in scene.files)):
+        inputs[_relative_to(dep, path.parent)] = digest or sha256_file(dep)
+    region_t = s.get("region", {})
+    region = read_table(Region, region_t, where=f"{where}.region", file=src)
+    if choice.get("poses", "trajectory") == "random":
+        for k in ("x", "y", "z"):
+            if k not in region:
+                raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
+    elif region_t:
+        raise SpecError(
+            'a region is for poses = "random"; this scene\'s poses are its '
+            'trajectory\'s (poses = "trajectory", the default): drop the region or '
+            'set poses = "random"',
+            file=src,
+            key=f"{where}.region",
+            value=region_t,
+        )
+    return SceneChoice(f, region=region, mount=mount, **choice)
 
 
 def _array_of(scene, sensor: str | None):
