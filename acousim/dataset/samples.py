@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from acousim.dataset.spec import DatasetSpec, SpecError
+from acousim.dataset.spec import DatasetSpec, SpecError, _relative_to
 from acousim.rig import RigSimulator
 from acousim.scene import Pose, load_scene
 from acousim.scene.model import Environment
@@ -202,8 +202,7 @@ def _mount(scene, choice, rng):
 
 def _relative(file: str | Path, spec: DatasetSpec) -> str:
     """A scene path as stored: relative to the spec's folder, normalised, '/' separated."""
-    folder = Path(spec.source).parent
-    return Path(os.path.relpath(os.path.normpath(Path(file)), os.path.normpath(folder))).as_posix()
+    return _relative_to(Path(file), Path(spec.source).parent)
 
 
 def _scene_path(params: dict, spec: DatasetSpec) -> str:

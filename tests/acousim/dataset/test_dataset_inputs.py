@@ -316,3 +316,14 @@ def test_arrays_of_different_microphone_counts_store_images_only(tmp_path, store
         load_spec(p)
     p.write_text(text + "raw = false\nsnapshot = false\n")
     assert len(load_spec(p).scenes) == 2
+
+
+def test_a_scene_lists_the_files_it_reads():
+    import tomllib
+
+    from acousim.scene import load_scene
+
+    path = resolve_scene("corridor_rig")
+    toml = tomllib.loads(path.read_text())
+    declared = [m["file"] for m in toml["meshes"]] + [toml["body"]["trajectory"]["file"]]
+    assert load_scene(path).files == tuple(path.parent / f for f in declared)
