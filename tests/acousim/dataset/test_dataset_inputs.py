@@ -327,3 +327,27 @@ def test_a_scene_lists_the_files_it_reads():
     toml = tomllib.loads(path.read_text())
     declared = [m["file"] for m in toml["meshes"]] + [toml["body"]["trajectory"]["file"]]
     assert load_scene(path).files == tuple(path.parent / f for f in declared)
+
+
+def test_a_scene_edited_during_the_run_stops_it(tmp_path):
+    scene, _ = _copy_wall(tmp_path)
+    spec = _spec(tmp_path, "wall.toml")
+
+    def edit_after_the_first_shard(done, total):
+        if done == 1:
+            scene.write_text(scene.read_text() + "\n# edited\n")
+
+    with pytest.raises(InputError, match=r"spec.toml: changed during the run: wall\.toml changed"):
+        generate(spec, tmp_path / "out", progress=edit_after_the_first_shard)
+    assert sorted(_shards(tmp_path / "out")) == ["shard_00000.h5"]
+
+
+def test_shards_of_an_older_acousim_cannot_be_resumed(tmp_path):
+    _copy_wall(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "spec.sha256").write_text("0" * 64 + "\n")
+    (out / "shard_00000.h5").write_bytes(b"old")
+    with pytest.raises(InputError, match=r"out: holds shards without a record of the scene files"):
+        generate(_spec(tmp_path, "wall.toml"), out)
+    assert (out / "shard_00000.h5").read_bytes() == b"old"
