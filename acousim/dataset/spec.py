@@ -157,7 +157,14 @@ class SceneChoice:
     weight: float = setting(1.0, "", 0, 1e6, "relative probability of this scene")
     poses: str = setting("trajectory", choices=("trajectory", "random"), doc="pose source")
     region: dict = field(default_factory=dict)
-    clearance_m: float = setting(0.2, "m", 0, 10, "random poses: distance to every surface")
+    clearance_m: float = setting(
+        0.2,
+        "m",
+        0,
+        10,
+        "random poses: no surface nearer along +-x, +-y, +-z (a closed scene's poses "
+        "must also see a surface along each: inside the room)",
+    )
     sensor: str | None = setting(None, kind="str", doc="a rig's scene: the sonar sampled")
     mount: dict = field(default_factory=dict)
 
