@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         f"{s['samples_per_second']:.2f} samples/s, {s['bytes_per_sample'] / 1e3:.0f} kB per "
         "sample)"
     )
-    if s["damaged_shards"]:
+    if s.get("damaged_shards"):
         names = ", ".join(manifest["damaged_shards"])
         print(
             f"redone: {len(s['damaged_shards'])} damaged shard(s), whose bytes no longer "
