@@ -1,7 +1,8 @@
 """``acousim dataset``: generate a dataset of simulated measurements.
 
 Generate a sharded, reproducible, resumable dataset from a spec file
-(docs/dataset-format.md), on local processes or a Dask cluster. Run it again to resume.
+(docs/dataset-format.md), on local processes or a Dask cluster. Run it again to resume
+(refused when the spec or a file it reads, a scene, mesh or trajectory, has changed).
 """
 
 from __future__ import annotations
@@ -50,8 +51,11 @@ def interrupted(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import resolve
     from acousim.dataset import generate
+    from acousim.dataset.generation import usable_spec
     from acousim.process import Workers
 
+    spec = resolve("datasets", args.spec)  # a file, or a bundled spec's name
+    usable_spec(spec)  # a bad spec fails before the output folder is made
     if args.scheduler:
         from acousim.dataset.safety import check_scheduler
 
@@ -59,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     writable_dir(args.out)
     preload_simulation()
     manifest = generate(
-        resolve("datasets", args.spec),  # a file, or a bundled spec's name
+        spec,
         args.out,
         workers=Workers().workers if args.workers is None else args.workers,
         scheduler=args.scheduler,
@@ -72,4 +76,10 @@ def run(args: argparse.Namespace) -> int:
         f"{s['samples_per_second']:.2f} samples/s, {s['bytes_per_sample'] / 1e3:.0f} kB per "
         "sample)"
     )
+    if s.get("damaged_shards"):
+        names = ", ".join(manifest["damaged_shards"])
+        print(
+            f"redone: {len(s['damaged_shards'])} damaged shard(s), whose bytes no longer "
+            f"matched the sha256 of their sidecar: {names}"
+        )
     return 0

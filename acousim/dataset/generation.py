@@ -4,8 +4,10 @@ Samples are grouped into shards of ``shard_size``; a worker computes a whole sha
 writes it to a temporary name and renames it when complete, with a sidecar JSON
 (its samples' parameters and the shard's sha256).  Generation steps:
 
+0. check the spec (its scenes' regions, the first sample) before writing anything;
 1. lock the output folder (one generator per folder; the lock dies with its process),
-   remove temporary files an interrupted run left, refuse another spec's folder;
+   remove temporary files an interrupted run left, refuse a folder whose shards were
+   made from other files (the spec, its scenes and the files they read: inputs.json);
 2. keep every finished shard whose bytes match its sidecar's sha256, redo the rest;
 3. compute the missing shards here, in a local pool (workers exit when the main
    process dies) or on a Dask cluster (an unreachable scheduler fails at once);
@@ -40,6 +42,7 @@ from acousim.dataset.samples import (  # noqa: F401  (re-exported)
     _scene_path,
     _varied_scene,
     _world_caster,
+    check_regions,
     sample_array,
     sample_parameters,
     simulate_sample,
@@ -60,6 +63,7 @@ __all__ = [
     "generate",
     "shard_name",
     "kept_shards",
+    "usable_spec",
     "image_range_m",
     "recording_samples",
     "SHARD_SCHEMA",
@@ -76,6 +80,7 @@ UNITS = {
     "labels/position_sensor_m": "m",
     "labels/amplitude": "1",
     "labels/order": "1",
+    "labels/emitter": "1",
     "labels/depth_m": "m",
     **{key: units for key, _, _, units, _ in SAMPLE_FIELDS},
 }
@@ -88,6 +93,7 @@ DIMS = {
     "labels/position_sensor_m": "path,xyz",
     "labels/amplitude": "path",
     "labels/order": "path",
+    "labels/emitter": "path",
     "labels/depth_m": "elevation,azimuth",
     **{key: dims for key, _, _, _, dims in SAMPLE_FIELDS},
 }
@@ -111,7 +117,9 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
     Images are on the spec's grid (:func:`image_range_m`, the spec's directions): the
     same shape (R, E, A) for every sample, whatever its air. The parameters gain
     ``frequency_hz`` (the steering frequency of the snapshot and images),
-    ``speed_of_sound_m_s``, ``range_step_m`` and ``array`` (its name).
+    ``speed_of_sound_m_s``, ``range_step_m``, ``array`` (its name), and the
+    recording's ``sample_rate_hz`` and ``emission_index`` (the sample of ``raw`` where
+    the call starts).
     """
     axis = image_range_m(spec)
     rec, params, scene, pose = simulate_sample(spec, i, n_samples=recording_samples(spec))
@@ -143,6 +151,9 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         arrays["labels/position_sensor_m"] = truth.position_sensor_m.astype(np.float32)
         arrays["labels/amplitude"] = truth.amplitude.astype(np.float32)
         arrays["labels/order"] = truth.order.astype(np.int8)
+        emitters = _emitters(params, spec)
+        arrays["labels/emitter"] = _emitter_index(truth, emitters, params)
+        params = {**params, "emitters": emitters}
         # what the sensor sees, and the images' label maps (acousim.imaging.labels)
         dr = DYNAMIC_RANGE_DB
         arrays.update(sample_labels(rec, images if st.images else {}, axis, settings.window, dr))
@@ -156,8 +167,27 @@ def make_sample(spec: DatasetSpec, i: int) -> tuple[dict, dict]:
         "speed_of_sound_m_s": rec.speed_of_sound_m_s,
         "range_step_m": st.range_step_m,
         "array": rec.array.name,
+        "sample_rate_hz": rec.sample_rate_hz,
+        "emission_index": int(rec.emission_index),
     }
     return arrays, params
+
+
+def _emitters(params: dict, spec: DatasetSpec) -> list[str]:
+    """The names of the sonars whose calls a sample's paths may carry: a rig's
+    sonars, in the rig's order; a single sensor's scene: ``["sensor"]``."""
+    rig = _scene(_scene_path(params, spec)).rig
+    return ["sensor"] if rig is None else [s.name for s in rig.sonars]
+
+
+def _emitter_index(truth, emitters: list[str], params: dict) -> np.ndarray:
+    """(N,) int8: each path's emitter as an index into `emitters` (the sample's own
+    sonar for a recording without per-path emitters)."""
+    own = emitters.index(params.get("sensor", emitters[0]))
+    if truth.emitter is None:
+        return np.full(truth.order.shape, own, np.int8)
+    index = {name: k for k, name in enumerate(emitters)}
+    return np.array([index[str(e)] for e in truth.emitter], np.int8).reshape(-1)
 
 
 def image_range_m(spec: DatasetSpec) -> np.ndarray:
@@ -363,8 +393,12 @@ def _shard_job(args: tuple[str, int, str]) -> dict:
     from threadpoolctl import threadpool_limits
 
     spec_path, k, out = args
+    spec = load_spec(spec_path)
+    changed = _changed(json.loads((Path(out) / INPUTS).read_text()), _record(spec))
+    if changed:  # a file edited while the dataset is generated
+        raise InputError(f"changed during the run: {'; '.join(changed)}", file=spec.source)
     with threadpool_limits(1):
-        return write_shard(load_spec(spec_path), k, out)
+        return write_shard(spec, k, out)
 
 
 def kept_shards(spec_path: str | Path, out_dir: str | Path) -> tuple[int, int]:
@@ -400,6 +434,16 @@ def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     return done, damaged
 
 
+def usable_spec(spec_path: str | Path) -> DatasetSpec:
+    """The spec, read and checked as far as can be before any work (nothing is
+    written): each random-pose scene's region has a usable pose, and the first
+    sample's parameters can be drawn. A :class:`SpecError` otherwise."""
+    spec = load_spec(spec_path)
+    check_regions(spec)
+    sample_parameters(spec, 0)
+    return spec
+
+
 def generate(
     spec_path: str | Path,
     out_dir: str | Path,
@@ -411,9 +455,10 @@ def generate(
     """Generate (or finish) a dataset; returns the manifest.
 
     The manifest's ``summary`` adds ``damaged_shards``: finished shards whose bytes no
-    longer matched their recorded sha256 and were redone.
+    longer matched their recorded sha256 and were redone (their indices; manifest.json
+    lists their file names).
     """
-    spec = load_spec(spec_path)
+    spec = usable_spec(spec_path)
     out = Path(out_dir)
     if scheduler:
         check_scheduler(scheduler)
@@ -421,18 +466,9 @@ def generate(
     with locked(out):
         for stale in out.glob(f"{TEMP_PREFIX}*"):
             stale.unlink()  # an interrupted run's incomplete file: redone
-        existing = out / "spec.sha256"
-        if existing.is_file() and existing.read_text().strip() != spec.sha256:
-            raise InputError(
-                f"holds a dataset of another spec (sha256 {existing.read_text().strip()[:12]}"
-                "...); use a new folder",
-                file=out,
-            )
-        write_text(existing, spec.sha256 + "\n")
+        _claim(spec, out)
         done, damaged = _done(spec, out)
         todo = [k for k in range(spec.n_shards) if k not in done]
-        if todo:  # a spec that cannot make its first sample fails here, before any worker
-            sample_parameters(spec, todo[0] * spec.shard_size)
         jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
         done_count = spec.n_shards - len(todo)
         t0 = time.perf_counter()
@@ -455,12 +491,75 @@ def generate(
                 _shard_job(job)
                 step()
         elapsed = time.perf_counter() - t0
-        manifest = _manifest(spec, out, elapsed, todo)
+        manifest = _manifest(spec, out, elapsed, todo, damaged)
     manifest["summary"]["damaged_shards"] = damaged
     return manifest
 
 
-def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int]) -> dict:
+INPUTS = "inputs.json"
+"""The files a folder's shards were made from, with their sha256 (``spec.inputs``)."""
+
+
+def _claim(spec: DatasetSpec, out: Path) -> None:
+    """Make `out` the folder of `spec`'s dataset: a folder without a shard is free (a
+    failed run's leftovers are replaced); one with shards must have been made from the
+    same files (the spec, its scenes and the files they read), byte for byte, else an
+    InputError naming each file that changed."""
+    mine = _record(spec)
+    shards = [*out.glob("shard_*.h5"), *out.glob("shard_*.json")]
+    recorded = out / INPUTS
+    if shards and not recorded.is_file():
+        raise InputError(
+            "holds shards without a record of the scene files they were made from (an "
+            "older acousim, or not a dataset folder): a resumed run cannot check them; "
+            "use a new folder",
+            file=out,
+        )
+    if shards:
+        try:
+            theirs = json.loads(recorded.read_text())
+            changed = _changed(theirs, mine)
+        except (ValueError, KeyError, TypeError, AttributeError):
+            raise InputError("unreadable; use a new folder", file=recorded) from None
+        if changed:
+            raise InputError(
+                "holds shards made from other files: "
+                + "; ".join(changed)
+                + ". Resuming would mix samples of both; use a new folder (or restore "
+                "the files)",
+                file=out,
+            )
+    write_text(recorded, json.dumps(mine, indent=1, sort_keys=True))
+    (out / "spec.sha256").unlink(missing_ok=True)  # an older acousim's record
+
+
+def _record(spec: DatasetSpec) -> dict:
+    """The folder's record of the files its shards are made from (``inputs.json``)."""
+    return {"spec": Path(spec.source).name, "files": spec.inputs}
+
+
+def _changed(theirs: dict, mine: dict) -> list[str]:
+    """What differs between two records of a folder's files: one phrase per file."""
+    old, new = dict(theirs["files"]), dict(mine["files"])
+    out = []
+    old_spec, new_spec = old.pop(theirs["spec"]), new.pop(mine["spec"])
+    if old_spec != new_spec:
+        out.append(f"another spec (sha256 {old_spec[:12]}..., {mine['spec']}: {new_spec[:12]}...)")
+    for name in sorted(set(old) | set(new)):
+        if name not in new:
+            out.append(f"{name} is no longer used")
+        elif name not in old:
+            out.append(f"{name} is new")
+        elif old[name] != new[name]:
+            out.append(f"{name} changed (sha256 {old[name][:12]}... now {new[name][:12]}...)")
+    return out
+
+
+def _manifest(
+    spec: DatasetSpec, out: Path, elapsed: float, computed: list[int], damaged: list[int]
+) -> dict:
+    """manifest.json, written; ``damaged_shards``: the shards this run found damaged
+    (bytes not matching their sidecar's sha256) and redone."""
     sides = [json.loads((out / f"shard_{k:05d}.json").read_text()) for k in range(spec.n_shards)]
     samples = [s for side in sides for s in side["samples"]]
     total = sum(s["bytes"] for s in sides)
@@ -470,6 +569,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
         "name": spec.name,
         "spec": Path(spec.source).name,
         "spec_sha256": spec.sha256,
+        "inputs": spec.inputs,
         "samples": len(samples),
         "shard_size": spec.shard_size,
         "shard_format": spec.format,
@@ -483,6 +583,7 @@ def _manifest(spec: DatasetSpec, out: Path, elapsed: float, computed: list[int])
             for s in sides
         ],
         "sample_table": samples,
+        "damaged_shards": [shard_name(k) for k in damaged],
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True))
     made = sum(len(sides[k]["samples"]) for k in computed)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from acousim.dataset.spec import DatasetSpec, SpecError
+from acousim.dataset.spec import DatasetSpec, SpecError, _relative_to
 from acousim.rig import RigSimulator
 from acousim.scene import Pose, load_scene
 from acousim.scene.model import Environment
@@ -37,13 +37,92 @@ def _world_caster(path: str):
     return caster_of(build_world(scene), threads=1)
 
 
-def _clear(path: str, position: np.ndarray, clearance: float) -> bool:
+#: the test rays of a random pose: +-x, +-y, +-z (world frame)
+_RAYS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+
+
+def _first_hits(path: str, position: np.ndarray) -> np.ndarray | None:
+    """Distance (m) to the first surface along each test ray (6,), inf where a ray
+    meets none; None for a scene without meshes."""
     caster = _world_caster(path)
     if caster is None:
-        return True
-    dirs = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-    t, f = caster.first_hit(np.broadcast_to(position, dirs.shape), dirs)
-    return bool(np.all(t >= clearance)) and bool(np.all(f >= 0))  # inside and clear
+        return None
+    t, f = caster.first_hit(np.broadcast_to(position, _RAYS.shape), _RAYS)
+    return np.where(np.asarray(f) >= 0, t, np.inf)
+
+
+@lru_cache(maxsize=8)
+def _enclosed(path: str) -> bool:
+    """Whether the scene is a closed space: every test ray from its own sensor's first
+    position (a rig's: its first sonar's) meets a surface."""
+    hits = _first_hits(path, _scene(path).sensor.poses[0].position_m)
+    return hits is not None and bool(np.all(np.isfinite(hits)))
+
+
+def _clear(path: str, position: np.ndarray, clearance: float) -> str | None:
+    """Why a random pose at `position` (3,) m is refused, or None (accepted):
+
+    * ``"near"``: a test ray (+-x, +-y, +-z) meets a surface nearer than `clearance`;
+    * ``"outside"``: in a closed scene (:func:`_enclosed`: the scene's own sensor sees
+      a surface along every test ray), a test ray meets no surface: the pose is outside
+      the room (or inside a wall).
+
+    In an open scene (a wall, a corridor's open end) a ray that meets nothing is clear."""
+    hits = _first_hits(path, position)
+    if hits is None:
+        return None
+    if np.any(hits < clearance):
+        return "near"
+    if _enclosed(path) and not np.all(np.isfinite(hits)):
+        return "outside"
+    return None
+
+
+#: draws of a random pose before the region is declared unusable
+DRAWS = 100
+
+
+def _draw_position(spec: DatasetSpec, k: int, rng, what: str) -> np.ndarray:
+    """A position (3,) m in scene choice k's region that :func:`_clear` accepts; else
+    a SpecError saying how many of the draws each rule refused."""
+    choice = spec.scenes[k]
+    reg = choice.region
+    refused = {"near": 0, "outside": 0}
+    for _attempt in range(DRAWS):
+        pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
+        why = _clear(str(choice.file), pos, choice.clearance_m)
+        if why is None:
+            return pos
+        refused[why] += 1
+    reasons = []
+    if refused["near"]:
+        reasons.append(
+            f"{refused['near']} had a surface nearer than clearance_m = "
+            f"{choice.clearance_m:g} m (lower clearance_m or move the region away from it)"
+        )
+    if refused["outside"]:
+        reasons.append(
+            f"{refused['outside']} were outside the closed scene (a test ray along +-x, "
+            "+-y or +-z met no surface, while the scene's own sensor sees one along each): "
+            "move the region inside the room"
+        )
+    raise SpecError(
+        f"{what}: no usable pose in {DRAWS} draws in the region of {choice.file}: "
+        + "; ".join(reasons),
+        file=spec.source,
+        key=f"scenes[{k}].region",
+        value=reg,
+    )
+
+
+def check_regions(spec: DatasetSpec) -> None:
+    """Draw a pose in every random-pose scene's region (seeded by the spec's seed), so
+    that a region without a usable pose fails before any work starts (a SpecError
+    naming the scene's key)."""
+    for k, choice in enumerate(spec.scenes):
+        if choice.poses == "random":
+            rng = np.random.default_rng(np.random.SeedSequence([spec.seed, k, 2**32]))
+            _draw_position(spec, k, rng, "checking the region")
 
 
 def sample_parameters(spec: DatasetSpec, i: int) -> dict:
@@ -99,19 +178,7 @@ def _drawn_pose(spec: DatasetSpec, i: int, k: int, scene, rng) -> tuple:
         p = trajectory[j]
         return p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, {"trajectory_index": j}
     reg = choice.region
-    for _attempt in range(100):
-        pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
-        if _clear(str(choice.file), pos, choice.clearance_m):
-            break
-    else:
-        raise SpecError(
-            f"sample {i}: no collision-free pose (clearance {choice.clearance_m:g} m) "
-            f"in 100 draws in the region of {choice.file}; widen the region or lower "
-            "clearance_m",
-            file=spec.source,
-            key=f"scenes[{k}].region",
-            value=reg,
-        )
+    pos = _draw_position(spec, k, rng, f"sample {i}")
     yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
     return pos, yaw, 0.0, 0.0, {}
 
@@ -135,8 +202,7 @@ def _mount(scene, choice, rng):
 
 def _relative(file: str | Path, spec: DatasetSpec) -> str:
     """A scene path as stored: relative to the spec's folder, normalised, '/' separated."""
-    folder = Path(spec.source).parent
-    return Path(os.path.relpath(os.path.normpath(Path(file)), os.path.normpath(folder))).as_posix()
+    return _relative_to(Path(file), Path(spec.source).parent)
 
 
 def _scene_path(params: dict, spec: DatasetSpec) -> str:
@@ -161,23 +227,24 @@ def _varied_scene(params: dict, spec: DatasetSpec):
     )
     meshes = scene.meshes
     if "reflection_scale" in c:
-        s = min(
-            max(c["reflection_scale"], 0.0),
-            1.0
-            / max(
-                [x.reference[0] for m in meshes for x in (m.material, *m.materials.values())]
-                or [1.0]
-            ),
-        )
+        s = max(c["reflection_scale"], 0.0)
         meshes = tuple(
             dataclasses.replace(
                 m,
-                material=m.material.scaled(s),
-                materials={g: x.scaled(s) for g, x in m.materials.items()},
+                material=_scaled(m.material, s),
+                materials={g: _scaled(x, s) for g, x in m.materials.items()},
             )
             for m in meshes
         )
     return dataclasses.replace(scene, environment=env, simulation=sim, meshes=meshes)
+
+
+def _scaled(material, scale: float):
+    """`material` with each reflection coefficient (every value of a frequency table)
+    times `scale`, at most 1: a surface returns at most what reaches it."""
+    r = material.reflection
+    r = tuple(min(v * scale, 1.0) for v in r) if isinstance(r, tuple) else min(r * scale, 1.0)
+    return dataclasses.replace(material, reflection=r)
 
 
 def simulate_sample(spec: DatasetSpec, i: int, n_samples: int | None = None):

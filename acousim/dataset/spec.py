@@ -15,12 +15,14 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
 import processing as P
+from acousim.dataset.safety import sha256_file
 from acousim.scene import load_scene
 from acousim.scene.model import Environment, Simulation
 from acousim.scene.trajectory import RATES
@@ -155,7 +157,14 @@ class SceneChoice:
     weight: float = setting(1.0, "", 0, 1e6, "relative probability of this scene")
     poses: str = setting("trajectory", choices=("trajectory", "random"), doc="pose source")
     region: dict = field(default_factory=dict)
-    clearance_m: float = setting(0.2, "m", 0, 10, "random poses: distance to every surface")
+    clearance_m: float = setting(
+        0.2,
+        "m",
+        0,
+        10,
+        "random poses: no surface nearer along +-x, +-y, +-z (a closed scene's poses "
+        "must also see a surface along each: inside the room)",
+    )
     sensor: str | None = setting(None, kind="str", doc="a rig's scene: the sonar sampled")
     mount: dict = field(default_factory=dict)
 
@@ -238,6 +247,10 @@ class DatasetSpec:
     sha256: str
     compression: str | None = "gzip"
     format: ShardFormat = "acousim"
+    #: every file the samples depend on -> its sha256: the spec (under its file name),
+    #: each scene file and the meshes, coordinate files and trajectories it reads; the
+    #: paths relative to the spec's folder, '/' separated
+    inputs: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         DatasetOptions(
@@ -284,7 +297,11 @@ def _dist(src: str, where: str, v: Any, decl: Setting) -> Distribution:
         allowed = {"dist", "mean", "sigma"}
         mean = check(decl, v.get("mean", 0.0), f"{where}.mean", src)
         span = decl.hi - decl.lo if math.isfinite(decl.hi - decl.lo) else 1e6
-        sigma = check(Setting("float", lo=0, hi=span), v.get("sigma", 1.0), f"{where}.sigma", src)
+        if "sigma" not in v:
+            raise SpecError(
+                "missing (the normal's standard deviation)", file=src, key=f"{where}.sigma"
+            )
+        sigma = check(Setting("float", lo=0, hi=span), v["sigma"], f"{where}.sigma", src)
         out = Distribution("normal", mean, sigma, decl.lo, decl.hi)
     refuse_unknown(v, allowed, where=where, file=src)
     return out
@@ -332,33 +349,11 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
     ds = read_table(DatasetOptions, _table(src, data, "dataset"), where="dataset", file=src)
     opts = DatasetOptions(**{"name": path.stem, **ds})
     items = data.get("scenes", [])
+    inputs = {path.name: sha256}
+    arrays = []  # each scene's array (a rig's: the sonar sampled)
     if not isinstance(items, list) or not items:
         raise SpecError("needs at least one [[scenes]] table", file=src, key="scenes", value=items)
-    scenes = []
-    for i, s in enumerate(items):
-        where = f"scenes[{i}]"
-        extra = ("file", "region", "mount")
-        choice = read_table(SceneChoice, s, where=where, file=src, extra=extra)
-        if "file" not in s:
-            raise SpecError("missing", file=src, key=f"{where}.file")
-        name = check(Setting("str"), s["file"], f"{where}.file", src)
-        f = path.parent / name
-        if not f.is_file():
-            raise SpecError(f"scene file not found: {f}", file=src, key=f"{where}.file", value=name)
-
-        try:  # checked now, not in a worker halfway through the dataset
-            scene = load_scene(f)
-        except InputError as exc:
-            raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
-        mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
-        _check_rig(scene, choice.get("sensor"), mount, src, where)
-        region_t = s.get("region", {})
-        region = read_table(Region, region_t, where=f"{where}.region", file=src)
-        if choice.get("poses", "trajectory") == "random":
-            for k in ("x", "y", "z"):
-                if k not in region:
-                    raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
-        scenes.append(SceneChoice(f, region=region, mount=mount, **choice))
+    scenes = [_scene_choice(s, f"scenes[{i}]", path, inputs, arrays) for i, s in enumerate(items)]
     if sum(s.weight for s in scenes) <= 0:
         raise SpecError("at least one scene needs a positive weight", file=src, key="scenes")
     rnd = _table(src, data, "randomize")
@@ -370,6 +365,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         )
     except InputError as exc:  # a check across keys: the file named too
         raise SpecError(exc.reason, file=src, key=exc.key, value=exc.value) from None
+    _check_microphones(arrays, opts.format, store, src)
     return DatasetSpec(
         name=opts.name,
         samples=opts.samples,
@@ -382,4 +378,94 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         sha256=sha256,
         compression=None if opts.compression == "none" else opts.compression,
         format=opts.format,
+        inputs=inputs,
     )
+
+
+def _scene_choice(s: Any, where: str, path: Path, inputs: dict, arrays: list) -> SceneChoice:
+    """One ``[[scenes]]`` table, its scene loaded and checked now (not in a worker
+    halfway through the dataset); the files it reads added to `inputs` (file ->
+    sha256), its array to `arrays`."""
+    src = str(path)
+    choice = read_table(SceneChoice, s, where=where, file=src, extra=("file", "region", "mount"))
+    if "file" not in s:
+        raise SpecError("missing", file=src, key=f"{where}.file")
+    f = _scene_file(path.parent, check(Setting("str"), s["file"], f"{where}.file", src), src, where)
+    try:
+        scene = load_scene(f)
+    except InputError as exc:
+        raise SpecError(f"not a usable scene ({exc})", file=src, key=f"{where}.file") from None
+    mount = read_table(MountRange, s.get("mount", {}), where=f"{where}.mount", file=src)
+    _check_rig(scene, choice.get("sensor"), mount, src, where)
+    arrays.append(_array_of(scene, choice.get("sensor")))
+    for dep, digest in ((f, scene.file_sha256), *((g, None) for g in scene.files)):
+        inputs[_relative_to(dep, path.parent)] = digest or sha256_file(dep)
+    region_t = s.get("region", {})
+    region = read_table(Region, region_t, where=f"{where}.region", file=src)
+    if choice.get("poses", "trajectory") == "random":
+        for k in ("x", "y", "z"):
+            if k not in region:
+                raise SpecError("missing for random poses", file=src, key=f"{where}.region.{k}")
+    elif region_t:
+        raise SpecError(
+            'a region is for poses = "random"; this scene\'s poses are its '
+            'trajectory\'s (poses = "trajectory", the default): drop the region or '
+            'set poses = "random"',
+            file=src,
+            key=f"{where}.region",
+            value=region_t,
+        )
+    return SceneChoice(f, region=region, mount=mount, **choice)
+
+
+def _array_of(scene, sensor: str | None):
+    """The array whose recordings a scene's samples are (a rig's: `sensor`'s)."""
+    if scene.rig is None:
+        return scene.sensor.array
+    return next(s.sensor.array for s in scene.rig.sonars if s.name == sensor)
+
+
+def _check_microphones(arrays: list, shard_format: str, store: StoreOptions, src: str) -> None:
+    """``raw`` (M, T) and ``snapshot`` (M, R_kept) have one M per dataset (a batch
+    stacks them): scenes whose arrays have different microphone counts are refused
+    when the shards store either."""
+    counts = [a.positions_m.shape[0] for a in arrays]
+    stored = [k for k in ("raw", "snapshot") if getattr(store, k)]
+    if len(set(counts)) < 2 or shard_format == "chirp" or not stored:
+        return  # CHIRP shards: one array (acousim.dataset.chirp_shards checks it)
+    listed = ", ".join(
+        f"scenes[{i}]: {a.name} M = {m}" for i, (a, m) in enumerate(zip(arrays, counts))
+    )
+    raise SpecError(
+        f"the scenes' arrays have different microphone counts ({listed}), and "
+        f"{' and '.join(stored)} would have a different shape (M, ...) per sample: a batch "
+        "cannot stack them. Keep one array per dataset, or store images only "
+        "(raw = false, snapshot = false)",
+        file=src,
+        key="scenes",
+    )
+
+
+def _relative_to(file: Path, folder: Path) -> str:
+    """`file` relative to `folder`, normalised, '/' separated."""
+    return Path(os.path.relpath(os.path.normpath(file), os.path.normpath(folder))).as_posix()
+
+
+def _scene_file(folder: Path, name: str, src: str, where: str) -> Path:
+    """A spec's scene: a file relative to the spec's folder, else a bundled scene of
+    that name (``file = "shoebox"``, as the command line takes it)."""
+    from acousim.bundled import bundled_names, find_scene
+
+    f = folder / name
+    if f.is_file():
+        return f
+    bundled = find_scene(name)
+    if bundled is None:
+        names = ", ".join(bundled_names("scenes"))
+        raise SpecError(
+            f"scene file not found: {f} (nor a bundled scene: {names})",
+            file=src,
+            key=f"{where}.file",
+            value=name,
+        )
+    return bundled

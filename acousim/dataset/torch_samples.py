@@ -123,6 +123,8 @@ class TorchSamples:
                 out["lidar_points_m"], out["n_lidar_points"] = pad(points, self.max_points, 0)
         else:
             out.update(self._image(s, i))
+            if "raw" in s:  # [store] raw: (M, T), one M and T in a dataset (its spec's check)
+                out["raw"] = np.asarray(s["raw"], np.float32)
         return out
 
     def _paths(self, s: dict) -> dict:

@@ -107,6 +107,7 @@ POSE_ANGLES = {
 class _Reader:
     def __init__(self, source: str) -> None:
         self.source = source
+        self.files: list[Path] = []  # the other files read: meshes, coordinates, trajectories
 
     def fail(self, key: str, msg: str, value: Any = ...) -> SceneError:
         return SceneError(msg, file=self.source, key=key or "<file>", value=value)
@@ -270,6 +271,7 @@ def parse_scene(
         description=r.string(meta, "description", "scene", ""),
         source=Path(source) if source != "<scene>" else None,
         file_sha256=sha256,
+        files=tuple(dict.fromkeys(r.files)),
         materials=materials,
         meshes=tuple(meshes),
         points=tuple(points),
@@ -387,6 +389,7 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
     file = base / r.string(m, "file", where)
     if not file.is_file():
         raise r.fail(f"{where}.file", f"mesh file not found: {file}", m["file"])
+    r.files.append(file)
     mat = r.named(
         material_named, r.string(m, "material", where, "default"), f"{where}.material", materials
     )
@@ -437,6 +440,7 @@ def _sensor(
     if "coordinates" in s:
         units = r.string(s, "coordinates_units", where, "mm", {"mm", "m"})
         file = base / r.string(s, "coordinates", where)
+        r.files.append(file)
         try:
             array = P.from_coordinates_file(file, units=units)
         except (OSError, ValueError) as exc:
@@ -527,6 +531,7 @@ def _poses(
             file = base / r.string(t, "file", f"{where}.trajectory")
             if not file.is_file():
                 raise r.fail(f"{where}.trajectory.file", f"trajectory file not found: {file}")
+            r.files.append(file)
             try:
                 rows = np.loadtxt(file, delimiter=",", comments="#", ndmin=2)
             except ValueError as exc:

@@ -663,7 +663,8 @@ record_given(Simulation)
 class Scene:
     """A whole scene; give at least one mesh or point. `materials` ({name: Material} or
     a list) defaults to those of the meshes (a mesh's material name is one of them);
-    `source` and `file_sha256` identify a scene file (None in code)."""
+    `source` and `file_sha256` identify a scene file (None in code); `files`: the other
+    files it was read from (meshes, coordinate files, trajectories; empty in code)."""
 
     name: str = "scene"
     description: str = ""
@@ -676,6 +677,7 @@ class Scene:
     environment: Environment = field(default_factory=Environment)
     simulation: Simulation = field(default_factory=Simulation)
     rig: Any = None  #: sonars on one body (acousim.scene.rig.Rig, acousim.rig); None: `sensor`
+    files: tuple[Path, ...] = ()
 
     if TYPE_CHECKING:  # the constructor takes a list of Materials too
 

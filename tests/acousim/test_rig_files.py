@@ -369,6 +369,8 @@ def test_a_dataset_samples_a_rigs_mount(tmp_path):
         roll, pitch, yaw = p["mount"]["rotation_deg"]
         assert p["sensor"] == "b" and 0 <= x <= 0.6 and -10 <= yaw <= 10
         assert (y, z, roll, pitch) == (-0.2, 0.0, 0.0, 0.0)  # as the rig declares them
+        # crosstalk off: every path carries b's own call (b: the rig's second sonar)
+        assert p["emitters"] == ["a", "b"] and set(sample["labels/emitter"].tolist()) == {1}
         xs.append(x)
         body = np.array([0.0, 0.0, 0.5])
         np.testing.assert_allclose(p["pose"]["position_m"], body + [x, y, z], atol=1e-12)
@@ -555,3 +557,17 @@ def test_a_dataset_sample_of_a_rig_hears_the_other_sonars(tmp_path):
             # orders stronger) leaves a floor 13 dB under a's call at -72 dB of
             # itself: the envelope peak within 1.5 samples
             assert got == pytest.approx(expected, abs=1.5 / fs), (i, m)
+        # whose call each path carries: an index into the rig's sonars (XT_TOML's
+        # order); the direct paths: b's own at |e_b - centre_b| / c, a's 5 ms later at
+        # |e_a - centre_b| / c (centre: the array's centroid, on b's mount)
+        assert p["emitters"] == ["a", "b"]
+        emitter, order = sample["labels/emitter"], sample["labels/order"]
+        assert set(emitter.tolist()) == {0, 1}
+        centre_b = body + [x, y, z] + R @ array.positions_m.mean(axis=0)
+        emitter_b = body + [x, y, z] + R @ array.emitter_m
+        for k, want in (
+            (0, 0.005 + np.linalg.norm(emitter_a - centre_b) / c),
+            (1, np.linalg.norm(emitter_b - centre_b) / c),
+        ):
+            direct = sample["labels/delay_s"][(emitter == k) & (order == 0)]
+            assert direct == pytest.approx([want], abs=1e-7), (i, k)

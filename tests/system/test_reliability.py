@@ -69,7 +69,8 @@ poses = "random"
 region = {{ x = [100.0, 101.0], y = [0.0, 0.1], z = [0.3, 0.4] }}
 """
     )
-    with pytest.raises(InputError, match=r"scenes\[0\].region.*no collision-free pose"):
+    closed = r"scenes\[0\].region.*no usable pose.*100 were outside the closed scene"
+    with pytest.raises(InputError, match=closed):
         sample_parameters(load_spec(spec), 0)
 
 

@@ -292,16 +292,26 @@ def _chunk_offset(path, dataset):
         return f[dataset].id.get_chunk_info(0).byte_offset
 
 
-def test_resume_redoes_damaged_shards(spec, tmp_path):
+def test_resume_redoes_damaged_shards(spec, tmp_path, capsys):
     clean = tmp_path / "clean"
     generate(spec, clean, workers=1)
     d = tmp_path / "d"
     shutil.copytree(clean, d)
     _flip(d / "shard_00001.h5", _chunk_offset(d / "shard_00001.h5", "00000/range_m") + 3)
     (d / "shard_00002.h5").write_bytes(b"")  # truncated to nothing
+    from acousim.cli import main
+
+    assert main(["dataset", str(spec), "--out", str(d), "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "4 computed now" in out
+    assert "redone: 2 damaged shard(s)" in out and "shard_00001.h5, shard_00002.h5" in out
+    manifest = json.loads((d / "manifest.json").read_text())
+    assert manifest["damaged_shards"] == ["shard_00001.h5", "shard_00002.h5"]
+    assert shard_hashes(d) == shard_hashes(clean)
+    (d / "shard_00000.h5").write_bytes(b"")
     m = generate(spec, d, workers=1)
-    assert m["summary"]["damaged_shards"] == [1, 2]
-    assert m["summary"]["samples_computed"] == 4
+    assert m["summary"]["damaged_shards"] == [0]
+    assert m["summary"]["samples_computed"] == 2
     assert shard_hashes(d) == shard_hashes(clean)
 
 
