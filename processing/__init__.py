@@ -70,6 +70,7 @@ from processing.imaging.steering import (
     GRID_AZIMUTH_DEG,
     GRID_ELEVATION_DEG,
     GRID_STEP_DEG,
+    GratingLobeWarning,
     Grid,
     steering_matrix,
 )
@@ -186,6 +187,7 @@ __all__ = [
     "GRID_AZIMUTH_DEG",
     "GRID_ELEVATION_DEG",
     "GRID_STEP_DEG",
+    "GratingLobeWarning",
     "steering_matrix",
     "Waveform",
     "hyperbolic_sweep",

@@ -66,7 +66,14 @@ from processing.base.api import folded_keywords
 from processing.base.errors import InputError
 from processing.imaging.methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from processing.imaging.smoothing import default_subarray, subarray_snapshots
-from processing.imaging.steering import Grid, coarray_kernel, quadratic_form_direct, steering_matrix
+from processing.imaging.steering import (
+    Grid,
+    check_frequency,
+    coarray_kernel,
+    quadratic_form_direct,
+    steering_matrix,
+    warn_grating_lobes,
+)
 from processing.sensor.arrays import Array
 
 __all__ = [
@@ -390,11 +397,18 @@ def doa_spectra(
     spectrum (R, E, A)}, the same arrays.  The methods share what they have in common:
     the snapshots checked and scaled once, arranged once per smoothing, and one
     eigendecomposition per smoothing for Capon and MUSIC (the default
-    ``capon-fbss,music-fbss`` pair decomposes one matrix)."""
+    ``capon-fbss,music-fbss`` pair decomposes one matrix).  An InputError for a
+    `frequency_hz` that is not a positive number
+    (:data:`processing.imaging.steering.FREQUENCY_HZ`) or an array of fewer than 2
+    microphones; a :class:`processing.GratingLobeWarning` for a URA steered above its
+    alias-free frequency."""
     for m in methods:
         _parse(m)
     if backend not in ("auto", "coarray", "direct"):
         raise InputError(f"backend must be 'auto', 'coarray' or 'direct', got {backend!r}")
+    array.require_mics("imaging")
+    frequency_hz = check_frequency(frequency_hz)
+    warn_grating_lobes(array, frequency_hz, float(speed_of_sound_m_s))
     x = _normalised(snapshots, array)
     shared = _Shared()
     steer = (frequency_hz, grid, float(speed_of_sound_m_s))

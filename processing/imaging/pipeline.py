@@ -40,7 +40,7 @@ from processing.imaging.snapshot import (
     Stft,
     stft_snapshot,
 )
-from processing.imaging.steering import Grid
+from processing.imaging.steering import FREQUENCY_HZ, Grid
 from processing.imaging.wideband import band_frequencies, band_snapshots, wideband_spectrum
 from processing.sensor.recording import Recording
 
@@ -72,7 +72,9 @@ class ProcessingSettings:
 
     window, overlap : STFT window and overlap in samples.
     frequency_hz : steering frequency (None: the STFT bin of highest energy within the
-        call's band and below the array's alias-free limit, see ``Array.alias_free_hz``).
+        call's band and below the array's alias-free limit, see ``Array.alias_free_hz``;
+        one set above that limit on a URA images grating lobes and warns,
+        :class:`processing.GratingLobeWarning`).
     energy_fraction : range-bin energy gate relative to the strongest bin (default
         1e-3: a room has echoes far weaker than the strongest; the paper's single
         reflector used 0.5).
@@ -100,7 +102,12 @@ class ProcessingSettings:
     window: int = setting(256, "samples", 2, 1 << 20, "STFT window")
     overlap: int = setting(240, "samples", 0, 1 << 20, "STFT overlap (below the window)")
     frequency_hz: float | None = setting(
-        None, "Hz", 0, 1e9, "steering frequency; None: the strongest bin", kind="float"
+        None,
+        FREQUENCY_HZ.unit,
+        FREQUENCY_HZ.lo,
+        FREQUENCY_HZ.hi,
+        "steering frequency; None: the strongest bin",
+        kind="float",
     )
     energy_fraction: float = setting(
         ENERGY_FRACTION,
@@ -326,10 +333,11 @@ def acoustic_images(
     snapshot: Snapshot | None = None,
 ) -> dict[str, Image]:
     """Images of one recording by several methods (any of :data:`METHODS`), sharing
-    the matched filter and STFT.  Raises InputError for an unknown method or a job
-    above ``settings.memory_limit_bytes``."""
+    the matched filter and STFT.  Raises InputError for an unknown method, an array
+    of fewer than 2 microphones or a job above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
     family = {m: parse_method(m).family for m in methods}
+    recording.array.require_mics("imaging")
     broadband = [m for m in methods if family[m] == "broadband"]
     _check_memory(recording, broadband, settings)
     out = {m: _broadband_image(recording, m, settings) for m in broadband}

@@ -21,6 +21,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from processing.base.api import folded_keywords
 from processing.base.errors import InputError
+from processing.imaging.steering import check_frequency
 
 __all__ = ["Snapshot", "Stft", "BinGate", "stft_snapshot", "stft_window", "range_axis"]
 
@@ -168,7 +169,7 @@ def stft_snapshot(
         found = _strongest_bin(_candidates(frames, candidate), freqs, band_hz, taper)
         fbin = found.bin
     else:
-        fbin = int(np.argmin(np.abs(freqs - frequency_hz)))
+        fbin = int(np.argmin(np.abs(freqs - _steering(frequency_hz, sample_rate_hz))))
     at = np.flatnonzero(candidate)  # only these frames can be kept (the others: energy 0)
     if found is not None and found.column is not None:
         column = found.column  # the search's products of the candidates at that bin
@@ -314,3 +315,16 @@ def stft_window(name: str, n: int) -> np.ndarray:
     for k, a in enumerate((0.5, 0.5)):
         w += a * np.cos(k * fac)
     return w[:-1]
+
+
+def _steering(frequency_hz: float, sample_rate_hz: float) -> float:
+    """A user's steering frequency checked: positive (:func:`check_frequency`) and not
+    above the Nyquist frequency (where the nearest STFT bin would be the last)."""
+    f = check_frequency(frequency_hz)
+    if f > sample_rate_hz / 2:
+        raise InputError(
+            f"above the Nyquist frequency {sample_rate_hz / 2:g} Hz of the recording",
+            key="frequency_hz",
+            value=frequency_hz,
+        )
+    return f

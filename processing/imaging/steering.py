@@ -23,6 +23,7 @@ autocorrelations of U's columns (zero-padded FFTs), so Q is never formed.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -32,12 +33,18 @@ from scipy import fft as sfft
 
 from processing.base.errors import InputError
 from processing.base.kernels import optional_kernel
+from processing.base.settings import Setting, check
+from processing.sensor.arrays import Array
 
 __all__ = [
     "Grid",
     "GRID_AZIMUTH_DEG",
     "GRID_ELEVATION_DEG",
     "GRID_STEP_DEG",
+    "FREQUENCY_HZ",
+    "GratingLobeWarning",
+    "check_frequency",
+    "warn_grating_lobes",
     "steering_matrix",
     "CoarrayKernel",
     "coarray_kernel",
@@ -52,6 +59,42 @@ GRID_AZIMUTH_DEG = (-90.0, 90.0)
 GRID_ELEVATION_DEG = (-40.0, 40.0)
 #: the default grid's step in degrees
 GRID_STEP_DEG = 2.0
+
+#: the steering frequency, declared once: every entry that takes a ``frequency_hz``
+#: (:func:`steering_matrix`, :func:`processing.doa_spectrum`,
+#: :class:`processing.ProcessingSettings`) checks it against this (NaN, 0 and negative
+#: frequencies refused)
+FREQUENCY_HZ = Setting("float", None, "Hz", 1.0, 1e9, "steering frequency")
+
+
+class GratingLobeWarning(UserWarning):
+    """A uniform array steered above its alias-free frequency
+    (:meth:`processing.Array.alias_free_hz`): every echo also appears, as strong, at
+    grating-lobe directions (docs/processing.md, "Grating lobes")."""
+
+
+def check_frequency(frequency_hz: float, key: str = "frequency_hz") -> float:
+    """`frequency_hz` as a float, or an InputError naming `key` and the value when it is
+    not a number in :data:`FREQUENCY_HZ`'s range (NaN, 0, negative)."""
+    return float(check(FREQUENCY_HZ, frequency_hz, key))
+
+
+def warn_grating_lobes(array: Array, frequency_hz: float, speed_of_sound_m_s: float) -> None:
+    """A :class:`GratingLobeWarning` when `array` (a URA: an irregular layout has no
+    periodic grating lobes) is steered at `frequency_hz` above its alias-free limit
+    ``c / (2 pitch)``."""
+    limit = array.alias_free_hz(speed_of_sound_m_s)
+    if frequency_hz <= limit or array.pitch_m is None:
+        return
+    dz, dy = array.pitch_m
+    warnings.warn(
+        f"steering frequency {frequency_hz:.0f} Hz is above the alias-free limit "
+        f"{limit:.0f} Hz of array {array.name!r} ({dy * 1e3:g} x {dz * 1e3:g} mm pitch, "
+        f"c = {speed_of_sound_m_s:g} m/s): an echo also appears, as strong, at grating-lobe "
+        "directions; frequency_hz=None picks the strongest frequency below the limit",
+        GratingLobeWarning,
+        stacklevel=3,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,8 +168,9 @@ class Grid:
 def steering_matrix(
     positions_m: np.ndarray, grid: Grid, frequency_hz: float, speed_of_sound_m_s: float
 ) -> np.ndarray:
-    """Steering vectors for every grid direction, shape (E, A, M), complex128."""
-    k = 2 * np.pi * frequency_hz / speed_of_sound_m_s
+    """Steering vectors for every grid direction, shape (E, A, M), complex128
+    (`frequency_hz` checked: :func:`check_frequency`)."""
+    k = 2 * np.pi * check_frequency(frequency_hz) / speed_of_sound_m_s
     return np.exp(1j * k * (grid.directions() @ np.asarray(positions_m).T))
 
 

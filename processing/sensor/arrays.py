@@ -133,6 +133,16 @@ class Array:
                 f"({self.n_mics} microphones) is irregular; use 'das', 'music' or 'capon'"
             )
 
+    def require_mics(self, what: str, n: int = 2) -> None:
+        """An InputError naming the array and its count when `what` (imaging: a
+        direction needs phase differences) needs at least `n` microphones."""
+        if self.n_mics < n:
+            raise InputError(
+                f"{what} needs at least {n} microphones; this array has {self.n_mics}",
+                key="array",
+                value=self.name,
+            )
+
     def alias_free_hz(self, speed_of_sound_m_s: float) -> float:
         """Highest frequency without grating lobes over the hemisphere: c / (2 pitch)
         for a URA (the larger pitch).  An irregular (pseudo-random) layout has no

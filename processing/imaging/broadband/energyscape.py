@@ -343,6 +343,7 @@ def energyscape(
         raise InputError(
             f"choose one of {', '.join(BROADBAND_METHODS)}", key="method", value=method
         )
+    recording.array.require_mics("imaging")
     dirs = Directions.from_grid(directions) if isinstance(directions, Grid) else directions
     engine = settings.engine
     if engine == "auto":
