@@ -134,8 +134,9 @@ def save_recordings(
 
 
 def _check_for_writing(path: Path, i: int, rec: Recording) -> None:
-    """The reader's checks of the fields a Recording does not check itself (the
-    waveform below Nyquist, the metadata's known keys, JSON-serialisable metadata)."""
+    """The reader's checks before writing: the waveform below Nyquist (the same check
+    as the Recording's constructor, here naming the file: a Recording changed in place
+    since), the metadata's known keys, JSON-serialisable metadata."""
     where = f"recording {i}"
     if not isinstance(rec, Recording):
         raise InputError("not a Recording", file=path, key=where, value=type(rec).__name__)

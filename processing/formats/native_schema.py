@@ -27,6 +27,7 @@ from processing.sensor.recording import (
     GroundTruth,
     Recording,
     RecordingFileError,
+    check_waveform,
     with_last_points,
 )
 
@@ -295,19 +296,7 @@ def _waveform(path: Path, g: h5py.Group, sample_rate_hz: float) -> Waveform:
 
 
 def _check_waveform(path: Path, key: str, w: Waveform, sample_rate_hz: float) -> None:
-    if w.duration_s * sample_rate_hz < 1:
-        raise RecordingFileError(
-            f"lasts {w.duration_s:g} s, less than one sample at {sample_rate_hz:g} Hz",
-            file=path,
-            key=key,
-        )
-    top = max(w.f_start_hz, w.f_end_hz)
-    if top > sample_rate_hz / 2:
-        raise RecordingFileError(
-            f"reaches {top:g} Hz, above the Nyquist frequency {sample_rate_hz / 2:g} Hz",
-            file=path,
-            key=key,
-        )
+    check_waveform(w, sample_rate_hz, file=path, key=key, error=RecordingFileError)
 
 
 def _metadata(path: Path, g: h5py.Group) -> dict:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 
@@ -48,7 +49,8 @@ class Recording:
     sample_rate_hz : float
     array : Array
     waveform : Waveform
-        The emitted call.
+        The emitted call: at least one sample long and at or below the Nyquist
+        frequency (:func:`check_waveform`, the file's check too).
     speed_of_sound_m_s : float
     emission_index : int
         Sample index at which the emission starts (see the module docstring).
@@ -113,6 +115,7 @@ class Recording:
             raise InputError(
                 f"speed_of_sound_m_s must be in (200, 500) m/s, got {self.speed_of_sound_m_s}"
             )
+        check_waveform(self.waveform, float(self.sample_rate_hz))
         if not 0 <= int(self.emission_index) < x.shape[-1]:
             raise InputError(f"emission_index {self.emission_index} outside [0, {x.shape[-1]})")
         self._check_lidars()
@@ -172,6 +175,33 @@ class Recording:
         object.__setattr__(out, "lidar", lidar)
         out._check_lidars()
         return out
+
+
+def check_waveform(
+    waveform: Waveform,
+    sample_rate_hz: float,
+    *,
+    file: str | Path | None = None,
+    key: str = "waveform",
+    error: type[InputError] = InputError,
+) -> None:
+    """The call sampled at `sample_rate_hz` (Hz) lasts at least one sample and stays
+    at or below the Nyquist frequency, else `error` naming `file` and `key`: the one
+    check of a :class:`Recording` (its constructor) and of its file (reader and
+    writer, :mod:`processing.formats.native_schema`)."""
+    if waveform.duration_s * sample_rate_hz < 1:
+        raise error(
+            f"lasts {waveform.duration_s:g} s, less than one sample at {sample_rate_hz:g} Hz",
+            file=file,
+            key=key,
+        )
+    top = max(waveform.f_start_hz, waveform.f_end_hz)
+    if top > sample_rate_hz / 2:
+        raise error(
+            f"reaches {top:g} Hz, above the Nyquist frequency {sample_rate_hz / 2:g} Hz",
+            file=file,
+            key=key,
+        )
 
 
 _KINDS = ("direct", "specular", "scatter", "point", "diffraction")

@@ -5,6 +5,7 @@ its reader refuses, and the check before any computation (no warning first)."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import tracemalloc
@@ -221,7 +222,11 @@ def test_two_microphones_at_one_place_are_refused_when_the_scene_is_read(tmp_pat
 def test_nothing_is_written_that_the_reader_refuses(tmp_path, change):
     rec = small_recording()
     if change == "call above Nyquist":
-        rec = dataclasses.replace(rec, waveform=dataclasses.replace(rec.waveform, f_end_hz=300e3))
+        high = dataclasses.replace(rec.waveform, f_end_hz=300e3)
+        with pytest.raises(InputError, match="waveform: reaches 300000 Hz, above the Nyquist"):
+            dataclasses.replace(rec, waveform=high)  # the constructor runs the same check
+        rec = copy.copy(rec)
+        object.__setattr__(rec, "waveform", high)  # changed in place after the check
     elif change == "pose without position":
         rec = dataclasses.replace(rec, metadata={"pose": {"yaw_deg": 1.0}})
     elif change == "motion of 2 numbers":

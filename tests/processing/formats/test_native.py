@@ -325,6 +325,22 @@ def test_recording_refuses_inconsistent_input():
         P.Recording(np.zeros((64, 10)), 1e3, P.paper_8x8(), P.paper_chirp(), 3430.0)
 
 
+def test_a_recording_refuses_the_call_its_file_would_refuse(tmp_path):
+    """One check in the constructor and the file: a 20-85 kHz call at 100 kHz (Nyquist
+    50 kHz) and a call shorter than one sample, named as the writer names them."""
+    x = np.zeros((64, 100))
+    with pytest.raises(
+        P.InputError,
+        match=r"^waveform: reaches 85000 Hz, above the Nyquist "
+        r"frequency 50000 Hz$",
+    ):
+        P.Recording(x, 100e3, P.paper_8x8(), P.linear_chirp(20e3, 85e3, 1e-3))
+    with pytest.raises(P.InputError, match=r"^waveform: lasts 1e-06 s, less than one sample"):
+        P.Recording(x, 500e3, P.paper_8x8(), P.linear_chirp(20e3, 85e3, 1e-6))
+    ok = P.Recording(x, 170e3, P.paper_8x8(), P.linear_chirp(20e3, 85e3, 1e-3))  # at Nyquist
+    assert ok.sample_rate_hz == 170e3
+
+
 def test_a_rigs_lidar_scans_round_trip_in_order(tmp_path):
     """Three LiDAR scans (a rig's): lidar, lidar_01, lidar_02, read back in order;
     other scans without the first, or not a point cloud, are refused by name."""
