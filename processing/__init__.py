@@ -72,6 +72,7 @@ from processing.imaging.steering import (
     GRID_STEP_DEG,
     GratingLobeWarning,
     Grid,
+    UnitsWarning,
     steering_matrix,
 )
 from processing.imaging.wideband import WIDEBAND_METHODS
@@ -188,6 +189,7 @@ __all__ = [
     "GRID_ELEVATION_DEG",
     "GRID_STEP_DEG",
     "GratingLobeWarning",
+    "UnitsWarning",
     "steering_matrix",
     "Waveform",
     "hyperbolic_sweep",

@@ -13,7 +13,9 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["InputError", "did_you_mean", "unknown_choice"]
+import numpy as np
+
+__all__ = ["InputError", "did_you_mean", "unknown_choice", "refuse_non_finite"]
 
 
 class InputError(ValueError):
@@ -88,4 +90,29 @@ def unknown_choice(what: str, value: str, choices: Iterable[str], *, listed: int
         return f"unknown {what}; choose one of {', '.join(options)}"
     return (
         f"unknown {what}; none of the {len(options)} is close (e.g. {', '.join(options[:4])}, ...)"
+    )
+
+
+def refuse_non_finite(x: np.ndarray, key: str = "samples") -> None:
+    """An InputError naming `key`, the count and the first non-finite sample of
+    signals `x` (..., M, T) (its channel, sample and, for (K, M, T), measurement);
+    nothing when every sample is finite (one pass without a copy; a sum that
+    overflows is checked sample by sample)."""
+    if x.size == 0 or np.isfinite(x.sum()):
+        return
+    bad = ~np.isfinite(x)
+    if not bad.any():
+        return
+    where = np.argwhere(bad)[0]
+    at = f"sample {int(where[-1])}"
+    if x.ndim >= 2:
+        at = f"channel {int(where[-2])}, {at}"
+    if x.ndim == 3:
+        at += f", measurement {int(where[0])}"
+    elif x.ndim > 3:
+        at += f", index {tuple(int(i) for i in where[:-2])}"
+    raise InputError(
+        f"{int(bad.sum())} non-finite sample(s); first at {at}",
+        key=key,
+        value=x[tuple(where)].item(),
     )

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
+from processing.base.errors import InputError, refuse_non_finite
+
 __all__ = ["matched_filter"]
 
 
@@ -27,11 +29,17 @@ def matched_filter(x: np.ndarray, template: np.ndarray, *, axis: int = -1) -> np
     -------
     ndarray, shape like `x`, float64
         Output at non-negative lags, aligned with the input's time axis.
+
+    A template that is not a non-empty 1-D array, or a non-finite sample of either
+    (one NaN would spread over its whole channel), is an
+    :class:`processing.InputError` naming the argument (and the channel and sample).
     """
     x = np.moveaxis(np.asarray(x, dtype=np.float64), axis, -1)
     h = np.asarray(template, dtype=np.float64)
     if h.ndim != 1 or h.size == 0:
-        raise ValueError(f"template must be a non-empty 1-D array, got shape {h.shape}")
+        raise InputError("must be a non-empty 1-D array", key="template", value=h.shape)
+    refuse_non_finite(x, "x")
+    refuse_non_finite(h, "template")
     T = x.shape[-1]
     n = sfft.next_fast_len(T + h.size - 1, real=True)
     X = sfft.rfft(x, n, axis=-1)

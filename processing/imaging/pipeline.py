@@ -295,8 +295,17 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
     if settings.range_limits_m is not None:
         t_end = (recording.n_samples - recording.emission_index) / recording.sample_rate_hz
         lo, hi = settings.range_limits_m
-        hi = min(hi, recording.speed_of_sound_m_s * t_end / 2)
-        bb = replace(bb, range_limits_m=(lo, hi))
+        end = recording.speed_of_sound_m_s * t_end / 2
+        if end <= lo:
+            raise InputError(
+                f"the recording is too short for the range limits: its "
+                f"{recording.n_samples} samples (emission at sample "
+                f"{recording.emission_index}, {recording.sample_rate_hz:g} Hz) reach "
+                f"{end:.4g} m, not beyond the minimum range {lo:g} m",
+                key="ProcessingSettings.range_limits_m",
+                value=settings.range_limits_m,
+            )
+        bb = replace(bb, range_limits_m=(lo, min(hi, end)))
     grid = settings.grid
     # (a name check_method has checked: one of the broadband methods)
     es = energyscape(recording, Directions.from_grid(grid), cast(BroadbandMethod, method), bb)

@@ -43,6 +43,7 @@ __all__ = [
     "GRID_STEP_DEG",
     "FREQUENCY_HZ",
     "GratingLobeWarning",
+    "UnitsWarning",
     "check_frequency",
     "warn_grating_lobes",
     "steering_matrix",
@@ -143,6 +144,8 @@ class Grid:
         s_az, s_el = (step, step) if isinstance(step, int | float | np.number) else step
         if not (s_az > 0 and s_el > 0):
             raise InputError(f"grid step must be positive, got {step}")
+        for key, limits in (("azimuth", azimuth), ("elevation", elevation)):
+            _warn_radians(f"Grid.degrees: {key}", limits)
 
         def axis(lo: float, hi: float, step: float) -> np.ndarray:
             n = int(np.floor((hi - lo) / step + 1e-9))
@@ -162,6 +165,33 @@ class Grid:
         return np.stack(
             np.broadcast_arrays(np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)),
             axis=-1,
+        )
+
+
+class UnitsWarning(UserWarning):
+    """A value that is legal but more likely in other units than the ones asked for
+    (radians given as degrees)."""
+
+
+def _warn_radians(key: str, limits) -> None:
+    """A :class:`UnitsWarning` when (min, max) limits asked in degrees look like radians:
+    a span under 2 pi degrees (6.3) whose ends include +-pi/2 or +-pi (1.57, 3.14) to
+    within 0.01, e.g. (-1.57, 1.57) for -90..90 degrees.  A narrow grid in degrees
+    (-2..2 every 0.1, a resolution test) never ends there."""
+    try:
+        lo, hi = (float(v) for v in limits)
+    except (TypeError, ValueError):
+        return
+    ends = [abs(v) for v in (lo, hi) if v != 0]
+    if not ends or not hi - lo < 2 * np.pi + 0.02:
+        return
+    if all(min(abs(v - np.pi / 2), abs(v - np.pi)) < 0.01 for v in ends):
+        meant = tuple(round(float(np.rad2deg(v)), 1) for v in (lo, hi))
+        warnings.warn(
+            f"{key} = {tuple(limits)!r} spans only {hi - lo:.3g} degrees and ends at +-pi/2 "
+            f"or +-pi: radians given as degrees? In degrees they are {meant!r}",
+            UnitsWarning,
+            stacklevel=4,  # the caller of Grid.degrees (through its keyword check)
         )
 
 

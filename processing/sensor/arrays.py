@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from processing.base.errors import InputError, unknown_choice
+from processing.base.settings import Setting, check
 
 __all__ = [
     "Array",
@@ -231,13 +232,14 @@ def ura(
     n_rows, n_cols : int
         Number of rows (along z) and columns (along y).
     pitch_m : float or (dz, dy)
-        Element spacing in metres.
+        Element spacing in metres, each in [1e-5, 0.5] (:data:`URA_PITCH_M`: ``ura(4, 4,
+        4)`` is refused as millimetres given as metres).
+
+    Bad input raises :class:`processing.InputError` naming the argument and value.
     """
-    if n_rows < 1 or n_cols < 1:
-        raise ValueError(f"ura: n_rows and n_cols must be >= 1, got {n_rows}x{n_cols}")
-    dz, dy = (pitch_m, pitch_m) if isinstance(pitch_m, int | float | np.number) else pitch_m
-    if not (dz > 0 and dy > 0):
-        raise ValueError(f"ura: pitch must be positive, got {pitch_m}")
+    n_rows = check(URA_SIZE, n_rows, "ura: n_rows")
+    n_cols = check(URA_SIZE, n_cols, "ura: n_cols")
+    dz, dy = _pitch(pitch_m)
     row, col = (g.ravel() for g in np.meshgrid(np.arange(n_rows), np.arange(n_cols), indexing="ij"))
     pos = np.column_stack(
         [np.zeros(row.size), (col - (n_cols - 1) / 2) * dy, (row - (n_rows - 1) / 2) * dz]
@@ -249,6 +251,38 @@ def ura(
         grid_index=np.column_stack([row, col]),
         pitch_m=(dz, dy),
     )
+
+
+#: rows or columns of :func:`ura`
+URA_SIZE = Setting("int", None, "", 1, 1 << 20, "rows or columns of a URA")
+#: the pitch of :func:`ura`, each of (dz, dy): a plausible array, from micromachined
+#: (10 um) to large (0.5 m); a pitch in millimetres given as metres is refused
+URA_PITCH_M = Setting("float", None, "m", 1e-5, 0.5, "URA element spacing")
+
+
+def _pitch(pitch_m) -> tuple[float, float]:
+    """(dz, dy) of a :func:`ura` pitch (one number or two), each checked against
+    :data:`URA_PITCH_M`; one that would be plausible in millimetres says so."""
+    try:
+        both = (pitch_m, pitch_m) if np.ndim(pitch_m) == 0 else tuple(pitch_m)
+    except TypeError:
+        both = ()
+    if len(both) != 2:
+        raise InputError("must be a number or (dz, dy), metres", key="ura: pitch_m", value=pitch_m)
+    out = []
+    for p in both:
+        try:
+            out.append(check(URA_PITCH_M, p, "ura: pitch_m"))
+        except InputError as exc:
+            mm = isinstance(p, int | float | np.number) and 0.5 < p <= 500
+            if not mm:
+                raise
+            raise InputError(
+                f"{exc.reason}; metres expected: did you mean {p:g} mm, pitch_m={p * 1e-3:g}?",
+                key="ura: pitch_m",
+                value=pitch_m,
+            ) from None
+    return out[0], out[1]
 
 
 def paper_8x8() -> Array:

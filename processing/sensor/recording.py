@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from processing.base.errors import InputError
+from processing.base.errors import InputError, refuse_non_finite
 from processing.sensor.arrays import Array
 from processing.sensor.calls import Waveform
 from processing.sensor.pointcloud import PointCloud
@@ -98,17 +98,7 @@ class Recording:
                 f"samples have {x.shape[-2]} channels but array {self.array.name!r} "
                 f"has {self.array.n_mics} microphones"
             )
-        # one pass without a copy; a sum that overflows is checked sample by sample
-        bad = None if np.isfinite(x.sum()) else ~np.isfinite(x)
-        if bad is not None and bad.any():
-            where = np.argwhere(bad)[0]
-            raise InputError(
-                f"{int(bad.sum())} non-finite sample(s); first at channel {int(where[-2])}, "
-                f"sample {int(where[-1])}"
-                + (f", measurement {int(where[0])}" if x.ndim == 3 else ""),
-                key="samples",
-                value=float(x[tuple(where)]),
-            )
+        refuse_non_finite(x, "samples")
         if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
             raise InputError(f"sample_rate_hz must be positive, got {self.sample_rate_hz}")
         if not (np.isfinite(self.speed_of_sound_m_s) and 200 < self.speed_of_sound_m_s < 500):

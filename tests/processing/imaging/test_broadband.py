@@ -287,3 +287,16 @@ def test_polyphase_upsampling_equals_zero_padded_fft():
     want = (spec[..., None, :] * np.exp(2j * np.pi * f * t[:, None] / N)).sum(-1) / N
     got = _polyphase(bb, U)  # (K, M, U, N): [..., p, n] is fine sample n U + p
     np.testing.assert_allclose(got.transpose(0, 1, 3, 2).reshape(1, 2, -1), want, atol=1e-5)
+
+
+def test_a_recording_too_short_for_the_range_limits_says_so():
+    """100 samples after the emission at 450 kHz reach c * 100 / fs / 2 = 0.0381 m at
+    343 m/s, short of the default minimum range 0.25 m: one error naming both."""
+    rec = echo_recording(URA, [], fs=FS, n_samples=110, waveform=WF, emission_index=10)
+    end = 343.0 * 100 / FS / 2
+    want = (
+        rf"^ProcessingSettings.range_limits_m = \(0.25, inf\): the recording is too short "
+        rf"for the range limits: .* reach {end:.4g} m, not beyond the minimum range 0.25 m$"
+    )
+    with pytest.raises(P.InputError, match=want):
+        P.acoustic_image(rec, "das-bb")

@@ -42,3 +42,21 @@ def test_compressed_pulse_width_matches_bandwidth():
     width_m = (above[-1] - above[0]) / fs * c / 2
     assert width_m == pytest.approx(0.886 / B * c / 2, rel=0.15)
     assert 2 / B * c / 2 == pytest.approx(5.3e-3, abs=0.1e-3)
+
+
+def test_non_finite_input_is_refused_naming_channel_and_sample():
+    """One NaN would spread over its whole channel (an FFT): refused, as a Recording
+    refuses it, with the argument, the channel and the sample."""
+    x = np.zeros((2, 3, 50))
+    x[1, 2, 17] = np.nan
+    with pytest.raises(
+        P.InputError,
+        match=r"^x = nan: 1 non-finite sample\(s\); first at channel 2, sample 17, measurement 1$",
+    ):
+        P.matched_filter(x, np.ones(4))
+    with pytest.raises(P.InputError, match=r"^x = inf: .*first at channel 0, sample 1$"):
+        P.matched_filter(np.array([[1.0, np.inf, 2.0]]), np.ones(2))
+    with pytest.raises(P.InputError, match=r"^template = nan: .*first at sample 1$"):
+        P.matched_filter(np.ones((1, 5)), np.array([1.0, np.nan]))
+    with pytest.raises(P.InputError, match=r"^template = \(2, 2\): must be a non-empty 1-D"):
+        P.matched_filter(np.ones((1, 5)), np.ones((2, 2)))

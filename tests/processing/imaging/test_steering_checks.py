@@ -91,3 +91,27 @@ def test_one_microphone_cannot_image():
         P.doa_spectrum(np.ones((1, 3)), one, 30e3, P.Grid.degrees(), "das")
     with pytest.raises(P.InputError, match=want):
         P.energyscape(rec, P.Grid.degrees(step=10.0))
+
+
+@pytest.mark.parametrize(
+    "kw,meant",
+    [
+        ({"azimuth": (-1.57, 1.57)}, "(-90.0, 90.0)"),
+        ({"azimuth": (0, 3.1416), "step": 0.1}, "(0.0, 180.0)"),
+        ({"elevation": (-1.5708, 0.0), "step": 0.5}, "(-90.0, 0.0)"),
+    ],
+)
+def test_radians_given_as_degrees_warn_with_what_was_meant(kw, meant):
+    with pytest.warns(P.UnitsWarning, match=r"radians given as degrees\? In degrees") as got:
+        P.Grid.degrees(**kw)
+    assert meant in str(got[0].message)
+    assert got[0].filename == __file__  # points at the caller's line
+
+
+@pytest.mark.parametrize(
+    "kw", [{}, {"azimuth": (-2, 2), "step": 0.1}, {"azimuth": (-1.5, 1.5), "step": 0.5}]
+)
+def test_grids_in_degrees_do_not_warn(kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", P.UnitsWarning)
+        P.Grid.degrees(**kw)

@@ -110,3 +110,32 @@ def test_ura_pitch_must_be_positive_and_finite(pitch):
     base = P.ura(2, 2, 5e-3)
     with pytest.raises(InputError, match="pitch_m"):
         P.Array("bad", base.positions_m, grid_index=base.grid_index, pitch_m=pitch)
+
+
+@pytest.mark.parametrize(
+    "args,want",
+    [
+        ((0, 4, 4e-3), r"^ura: n_rows = 0: outside the allowed range \[1, 1048576\]$"),
+        ((4, 2.5, 4e-3), r"^ura: n_cols = 2.5: must be a whole number"),
+        ((4, 4, 0.0), r"^ura: pitch_m = 0.0: outside the allowed range \[1e-05, 0.5\] m$"),
+        ((4, 4, np.nan), r"^ura: pitch_m = nan: must be a number .* not NaN$"),
+        ((4, 4, (4e-3, -1e-3)), r"^ura: pitch_m = -0.001: outside the allowed range"),
+        ((4, 4, (1e-3, 2e-3, 3e-3)), r"^ura: pitch_m = \(0.001, 0.002, 0.003\): must be a number"),
+        # millimetres given as metres: refused, saying what was probably meant
+        (
+            (4, 4, 4),
+            r"^ura: pitch_m = 4: .*\[1e-05, 0.5\] m; metres expected: did you mean 4 mm, "
+            r"pitch_m=0.004\?$",
+        ),
+    ],
+)
+def test_ura_arguments_are_input_errors_naming_the_argument(args, want):
+    with pytest.raises(InputError, match=want):
+        P.ura(*args)
+
+
+def test_ura_accepts_large_and_small_plausible_pitches():
+    big = P.ura(2, 3, 0.5)  # a large (audio) array
+    assert big.aperture_m() == pytest.approx((0.5, 1.0))
+    tiny = P.ura(2, 2, (1e-5, 2e-5))
+    assert tiny.pitch_m == (1e-5, 2e-5)
