@@ -162,7 +162,11 @@ class Image:
     azimuth_rad : ndarray, shape (A,)
     method : str
     frequency_hz : float
-        Steering frequency.
+        Steering frequency, Hz, of a narrowband image.  A wideband (``-wb``) image
+        sums several frequencies of the band; its value is the narrowband snapshot's
+        frequency that selected its range bins.  A broadband (``-bb``) image is
+        steered in time; its value is the centre of the call's band
+        (docs/processing.md, "Images").
     bin_range_m : float
         Spacing of the STFT time bins as a range (kept bins may have gaps).
     """
@@ -182,6 +186,25 @@ class Image:
                 f"image power shape {self.power.shape} does not match its axes "
                 f"({self.range_m.size}, {self.elevation_rad.size}, {self.azimuth_rad.size})"
             )
+
+    def __repr__(self) -> str:
+        """One line: method, shape, steering frequency and the axes' spans (not the
+        power: ``image.power`` holds it)."""
+        R, E, A = self.power.shape
+
+        def span(values: np.ndarray, unit: str, scale: float = 1.0) -> str:
+            if values.size == 0:
+                return "none"
+            lo, hi = float(values.min()) * scale, float(values.max()) * scale
+            return f"{lo:.4g}..{hi:.4g} {unit}"
+
+        deg = 180 / np.pi
+        return (
+            f"Image({self.method!r}, {R} x {E} x {A} (range x elevation x azimuth), "
+            f"{self.frequency_hz:.0f} Hz, range {span(self.range_m, 'm')}, "
+            f"elevation {span(self.elevation_rad, 'deg', deg)}, "
+            f"azimuth {span(self.azimuth_rad, 'deg', deg)})"
+        )
 
     def db(self, floor_db: float = -120.0) -> np.ndarray:
         """Image in dB relative to its maximum, shape (R, E, A)."""

@@ -58,3 +58,20 @@ def test_find_peaks_matches_a_whole_image_maximum_filter(seed, threshold_db, lay
     np.testing.assert_array_equal(got.elevation_rad, el[idx[:, 1]])
     np.testing.assert_array_equal(got.azimuth_rad, az[idx[:, 2]])
     np.testing.assert_allclose(got.level_db, lv, rtol=0, atol=1e-12)
+
+
+def test_an_images_repr_is_one_short_line_of_its_shape_and_axes():
+    img = P.Image(
+        power=np.ones((3, 2, 4)),
+        range_m=np.array([0.5, 0.6, 0.7]),
+        elevation_rad=np.deg2rad([-10.0, 10.0]),
+        azimuth_rad=np.deg2rad([-30.0, -10.0, 10.0, 30.0]),
+        method="das",
+        frequency_hz=31250.0,
+    )
+    assert repr(img) == (
+        "Image('das', 3 x 2 x 4 (range x elevation x azimuth), 31250 Hz, range 0.5..0.7 m, "
+        "elevation -10..10 deg, azimuth -30..30 deg)"
+    )
+    big = P.Image(np.zeros((0, 41, 91)), np.zeros(0), np.zeros(41), np.zeros(91), "music", 4e4)
+    assert "0 x 41 x 91" in repr(big) and "range none" in repr(big) and len(repr(big)) < 200
