@@ -26,7 +26,8 @@ forward snapshots alone, the eigendecomposition and Q are real, and the co-array
 coefficients of ``T Qr T^H`` are two real matrix products
 (:meth:`processing.imaging.steering.CoarrayKernel.coefficients_unitary`).
 
-Definitions that the paper leaves open, fixed here:
+Definitions that the paper leaves open, fixed here (docs/processing.md states them
+for users, with the pipeline and the conventions):
 
 * Noise subspace: eigenvectors whose eigenvalue is not above the mean eigenvalue
   (the paper's rule), or all but the `n_sources` largest when that is given.
@@ -364,7 +365,8 @@ def doa_spectrum(
     `snapshots` (M, R) or (M, R, K), complex: narrow-band snapshots
     (:func:`processing.imaging.snapshot.stft_snapshot`) at `frequency_hz` (the steering
     frequency), steered over `grid`; `method`: one of :data:`METHODS`; `options`:
-    the smoothing subarray (Lz, Ly) (default: 5/8 of each dimension, 5x5 for 8x8),
+    the smoothing subarray (Lz, Ly) (default: 5/8 of each dimension, 5x5 for 8x8 but a
+    poor 2x2 for 4x4: docs/processing.md),
     the Capon diagonal load in units of the noise floor (module docstring) and the
     MUSIC signal-subspace dimension (default: the paper's mean-eigenvalue rule);
     `backend`: 'coarray' is the fast URA path, 'direct' evaluates the plain formula
