@@ -8,7 +8,7 @@ This package imports neither :mod:`acousim` nor :mod:`hardware`.
 """
 
 from processing.base.api import KeywordError, check_keywords
-from processing.base.errors import InputError
+from processing.base.errors import InputError, UnitsWarning
 from processing.formats.chirp import count_chirp, is_chirp, read_chirp, write_chirp
 from processing.formats.native import (
     GroundTruth,
@@ -72,7 +72,6 @@ from processing.imaging.steering import (
     GRID_STEP_DEG,
     GratingLobeWarning,
     Grid,
-    UnitsWarning,
     steering_matrix,
 )
 from processing.imaging.wideband import WIDEBAND_METHODS

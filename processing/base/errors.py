@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["InputError", "did_you_mean", "unknown_choice", "refuse_non_finite"]
+__all__ = ["InputError", "UnitsWarning", "did_you_mean", "unknown_choice", "refuse_non_finite"]
 
 
 class InputError(ValueError):
@@ -54,6 +54,12 @@ class InputError(ValueError):
         elif value is not ...:
             parts.append(_short(value))
         super().__init__(": ".join([*parts, message]) if parts else message)
+
+
+class UnitsWarning(UserWarning):
+    """A value that is legal but more likely in other units than the ones asked for
+    (radians given as degrees, millimetres as metres); the message says what was
+    probably meant."""
 
 
 def _short(value: Any, limit: int = 80) -> str:

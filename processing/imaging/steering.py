@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import fft as sfft
 
-from processing.base.errors import InputError
+from processing.base.errors import InputError, UnitsWarning
 from processing.base.kernels import optional_kernel
 from processing.base.settings import Setting, check
 from processing.sensor.arrays import Array
@@ -43,7 +43,6 @@ __all__ = [
     "GRID_STEP_DEG",
     "FREQUENCY_HZ",
     "GratingLobeWarning",
-    "UnitsWarning",
     "check_frequency",
     "warn_grating_lobes",
     "steering_matrix",
@@ -166,11 +165,6 @@ class Grid:
             np.broadcast_arrays(np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)),
             axis=-1,
         )
-
-
-class UnitsWarning(UserWarning):
-    """A value that is legal but more likely in other units than the ones asked for
-    (radians given as degrees)."""
 
 
 def _warn_radians(key: str, limits) -> None:

@@ -12,12 +12,13 @@ unless stated otherwise; the emitter sits at the origin by default.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from processing.base.errors import InputError, unknown_choice
+from processing.base.errors import InputError, UnitsWarning, unknown_choice
 from processing.base.settings import Setting, check
 
 __all__ = [
@@ -320,8 +321,10 @@ def from_coordinates(
     """Build an array from (y, z) coordinates in metres, one row per channel.
 
     Rows that are NaN mark unused channels: they are dropped and the remaining rows
-    keep their channel numbers.  With ``centre`` the positions are shifted so that
-    their centroid is the origin (where the emitter is assumed unless given).
+    keep their channel numbers.  Coordinates beyond 1 m (:data:`PLAUSIBLE_COORDINATE_M`)
+    warn (:class:`processing.UnitsWarning`: millimetres given as metres?).  With
+    ``centre`` the positions are shifted so that their centroid is the origin (where
+    the emitter is assumed unless given).
     """
     yz = np.asarray(yz_m, dtype=float)
     if yz.ndim != 2 or yz.shape[1] != 2:
@@ -337,6 +340,7 @@ def from_coordinates(
             f"{source}: coordinates beyond +-{MAX_EXTENT_M:g} m (wrong units?)",
             value=float(np.abs(yz_used).max()),
         )
+    _warn_millimetres(source, yz_used)
     if centre:
         yz_used = yz_used - yz_used.mean(axis=0)
     pos = np.column_stack([np.zeros(len(yz_used)), yz_used])
@@ -346,6 +350,25 @@ def from_coordinates(
         emitter_m=np.zeros(3) if emitter_m is None else emitter_m,
         channels=np.flatnonzero(used),
     )
+
+
+#: a microphone coordinate (m) beyond which :func:`from_coordinates` suspects
+#: millimetres given as metres: a 4 x 4 URA of the largest plausible pitch
+#: (:data:`URA_PITCH_M`, 0.5 m) reaches 0.75 m from its centre
+PLAUSIBLE_COORDINATE_M = 1.0
+
+
+def _warn_millimetres(source: str, yz_m: np.ndarray) -> None:
+    """A :class:`processing.UnitsWarning` when coordinates (M, 2) reach beyond
+    :data:`PLAUSIBLE_COORDINATE_M`: legal, but more likely millimetres."""
+    far = float(np.abs(yz_m).max())
+    if far > PLAUSIBLE_COORDINATE_M:
+        warnings.warn(
+            f"{source}: coordinates reach {far:g} m from the origin: metres expected; "
+            f"millimetres given as metres? In metres they would reach {far * 1e-3:g} m",
+            UnitsWarning,
+            stacklevel=4,  # the caller of from_coordinates (through its keyword check)
+        )
 
 
 def from_coordinates_file(

@@ -1,3 +1,5 @@
+import warnings
+
 import numpy as np
 import pytest
 
@@ -139,3 +141,13 @@ def test_ura_accepts_large_and_small_plausible_pitches():
     assert big.aperture_m() == pytest.approx((0.5, 1.0))
     tiny = P.ura(2, 2, (1e-5, 2e-5))
     assert tiny.pitch_m == (1e-5, 2e-5)
+
+
+def test_coordinates_in_millimetres_given_as_metres_warn():
+    with pytest.warns(P.UnitsWarning, match=r"coordinates reach 4 m .* would reach 0.004 m") as got:
+        P.from_coordinates(np.array([[0.0, 0.0], [4.0, 0.0]]))
+    assert got[0].filename == __file__  # points at the caller's line
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", P.UnitsWarning)
+        wide = P.from_coordinates(np.array([[-0.75, 0.0], [0.75, 0.0]]))  # a 1.5 m array
+    assert wide.aperture_m()[1] == pytest.approx(1.5)
