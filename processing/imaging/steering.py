@@ -90,8 +90,10 @@ def warn_grating_lobes(array: Array, frequency_hz: float, speed_of_sound_m_s: fl
     warnings.warn(
         f"steering frequency {frequency_hz:.0f} Hz is above the alias-free limit "
         f"{limit:.0f} Hz of array {array.name!r} ({dy * 1e3:g} x {dz * 1e3:g} mm pitch, "
-        f"c = {speed_of_sound_m_s:g} m/s): an echo also appears, as strong, at grating-lobe "
-        "directions; frequency_hz=None picks the strongest frequency below the limit",
+        f"c = {speed_of_sound_m_s:g} m/s): an echo can also appear, as strong, at a grating "
+        f"lobe, where cos(el) sin(az) differs by {speed_of_sound_m_s / (frequency_hz * dy):.3g} "
+        f"or sin(el) by {speed_of_sound_m_s / (frequency_hz * dz):.3g}; frequency_hz=None "
+        "picks the strongest frequency below the limit",
         GratingLobeWarning,
         stacklevel=3,
     )

@@ -32,6 +32,7 @@ def test_a_grating_lobe_above_the_alias_free_limit_warns_and_lies_where_theory_p
         cut = P.doa_spectrum(x, arr, f, grid, "das")[0, 0]
     text = str(caught[0].message)
     assert "80000 Hz" in text and "42875 Hz" in text and "'my4x4'" in text
+    assert f"cos(el) sin(az) differs by {v0 - v1:.3g}" in text  # 1.07: the shift above
     az = np.rad2deg(grid.azimuth_rad)
     # the two largest local maxima of the cut: the echo and its grating lobe
     inner = np.flatnonzero((cut[1:-1] >= cut[:-2]) & (cut[1:-1] >= cut[2:])) + 1
