@@ -293,19 +293,8 @@ def _check_memory(recording, methods, settings, n_bins=None) -> None:
 def _broadband_image(recording: Recording, method: str, settings: ProcessingSettings) -> Image:
     bb = settings.broadband
     if settings.range_limits_m is not None:
-        t_end = (recording.n_samples - recording.emission_index) / recording.sample_rate_hz
         lo, hi = settings.range_limits_m
-        end = recording.speed_of_sound_m_s * t_end / 2
-        if end <= lo:
-            raise InputError(
-                f"the recording is too short for the range limits: its "
-                f"{recording.n_samples} samples (emission at sample "
-                f"{recording.emission_index}, {recording.sample_rate_hz:g} Hz) reach "
-                f"{end:.4g} m, not beyond the minimum range {lo:g} m",
-                key="ProcessingSettings.range_limits_m",
-                value=settings.range_limits_m,
-            )
-        bb = replace(bb, range_limits_m=(lo, min(hi, end)))
+        bb = replace(bb, range_limits_m=(lo, min(hi, _end_range(recording))))
     grid = settings.grid
     # (a name check_method has checked: one of the broadband methods)
     es = energyscape(recording, Directions.from_grid(grid), cast(BroadbandMethod, method), bb)
@@ -319,6 +308,30 @@ def _broadband_image(recording: Recording, method: str, settings: ProcessingSett
         frequency_hz=0.5 * (lo + hi),
         bin_range_m=es.bin_range_m,
     )
+
+
+def _end_range(recording: Recording) -> float:
+    """The range (m) the recording's last sample reaches: ``c (T - emission_index) /
+    (2 fs)``."""
+    t_end = (recording.n_samples - recording.emission_index) / recording.sample_rate_hz
+    return recording.speed_of_sound_m_s * t_end / 2
+
+
+def _check_reaches(recording: Recording, settings: ProcessingSettings) -> None:
+    """An InputError, with both numbers, when the recording ends before the minimum of
+    ``settings.range_limits_m``: no range bin could be imaged, by any method."""
+    if settings.range_limits_m is None:
+        return
+    lo, end = settings.range_limits_m[0], _end_range(recording)
+    if end <= lo:
+        raise InputError(
+            f"the recording is too short for the range limits: its "
+            f"{recording.n_samples} samples (emission at sample "
+            f"{recording.emission_index}, {recording.sample_rate_hz:g} Hz) reach "
+            f"{end:.4g} m, not beyond the minimum range {lo:g} m",
+            key="ProcessingSettings.range_limits_m",
+            value=settings.range_limits_m,
+        )
 
 
 def _band_snapshots(recording: Recording, settings: ProcessingSettings, snap: Snapshot):
@@ -343,12 +356,14 @@ def acoustic_images(
 ) -> dict[str, Image]:
     """Images of one recording by several methods (any of :data:`METHODS`), sharing
     the matched filter and STFT.  Raises InputError for an unknown method, an array
-    of fewer than 2 microphones or a job above ``settings.memory_limit_bytes``."""
+    of fewer than 2 microphones, a recording that ends before the minimum range
+    (``settings.range_limits_m``) or a job above ``settings.memory_limit_bytes``."""
     settings = settings or ProcessingSettings()
     family = {m: parse_method(m).family for m in methods}
     recording.array.require_mics("imaging")
     broadband = [m for m in methods if family[m] == "broadband"]
     _check_memory(recording, broadband, settings)
+    _check_reaches(recording, settings)
     out = {m: _broadband_image(recording, m, settings) for m in broadband}
     rest = [m for m in methods if family[m] != "broadband"]
     if not rest:
