@@ -158,7 +158,7 @@ def _normalised(snapshots, array: Array) -> np.ndarray:
         raise InputError(
             f"non-finite snapshot at microphone {m}, range bin {r}",
             key="snapshots",
-            value=x[m, r, 0],
+            value=complex(x[m, r, 0]),
         )
     peak = np.abs(x).max() if x.size else 0.0
     return x / peak if peak > 0 else x

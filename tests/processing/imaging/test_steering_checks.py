@@ -116,3 +116,11 @@ def test_grids_in_degrees_do_not_warn(kw):
     with warnings.catch_warnings():
         warnings.simplefilter("error", P.UnitsWarning)
         P.Grid.degrees(**kw)
+
+
+def test_a_non_finite_snapshot_is_named_by_microphone_and_range_bin():
+    d = np.ones((16, 3), complex)
+    d[2, 1] = np.nan
+    want = r"^snapshots = \(nan\+0j\): non-finite snapshot at microphone 2, range bin 1$"
+    with pytest.raises(P.InputError, match=want):
+        P.doa_spectrum(d, _ura4(), 30e3, P.Grid.degrees(step=5.0), "das")
