@@ -127,6 +127,29 @@ def test_pose_inside_a_wall_is_refused(tmp_path):
         Simulator(sc).paths(sc.sensor.poses[0])
 
 
+def test_a_room_with_outward_normals_says_to_invert_them(tmp_path):
+    """A closed box exported as modellers make it (normals out) with the sensor in it:
+    the refusal says that a room's faces must face into it, and where the docs say so."""
+    import trimesh
+
+    from acousim.simulator import Simulator
+
+    trimesh.creation.box((4.0, 4.0, 3.0)).export(tmp_path / "room.stl")
+    (tmp_path / "room.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "room.stl"\n'
+    )
+    sc = load_scene(tmp_path / "room.toml")
+    with pytest.raises(InputError) as info:
+        Simulator(sc).simulate_pose(sc.sensor.poses[0], 0)
+    msg = str(info.value)
+    assert msg.startswith(f"{tmp_path / 'room.toml'}: pose 0: the sensor at [0.0, 0.0, 0.0] m")
+    assert "inside a closed mesh" in msg and "normals may be inverted" in msg
+    assert 'docs/scene-format.md, "Meshes"' in msg
+    docs = (REPO / "docs" / "scene-format.md").read_text()
+    section = docs.split("\n## Meshes\n")[1].split("\n## ")[0]
+    assert "normals pointing inwards" in section and "invert" in section
+
+
 def test_pose_rotation_conventions():
     np.testing.assert_allclose(rotation(np.pi / 2) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
     np.testing.assert_allclose(rotation(0, np.pi / 2) @ [1, 0, 0], [0, 0, -1], atol=1e-15)
