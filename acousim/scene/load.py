@@ -26,6 +26,7 @@ import processing as P
 from acousim.scene import model
 from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
+from acousim.scene.mesh_file import MAX_UNITLESS_SPAN_M, placed_extent_m
 from acousim.scene.names import (
     array_named,
     call_named,
@@ -399,6 +400,8 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
         r.vector(m, "position_m", where, [0.0, 0.0, 0.0]),
         r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]),
     )
+    if "units" not in m:
+        _check_units(r, file, T, where)
     groups = r.table(m, "materials", where)
     by_group = {
         str(g): r.named(
@@ -429,6 +432,22 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
         turn = (exc.key or "").endswith("angular_velocity_rad_s")
         key = "angular_rate_deg_s" if turn else "track"
         raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
+
+
+def _check_units(r: _Reader, file: Path, T: np.ndarray, where: str) -> None:
+    """A mesh whose table gives no ``units`` (read as metres) and that spans more than
+    :data:`MAX_UNITLESS_SPAN_M` once placed: most likely drawn in millimetres; refused,
+    saying to set ``units`` (an explicit ``units = "m"`` takes any size)."""
+    extent = placed_extent_m(file, T)
+    if extent is None or extent.max() <= MAX_UNITLESS_SPAN_M:
+        return
+    size = " x ".join(f"{v:.4g}" for v in extent)
+    raise r.fail(
+        f"{where}.units",
+        f"{file.name} spans {size} m read in metres (no 'units' given), more than "
+        f"{MAX_UNITLESS_SPAN_M:g} m: set units = \"mm\" (or \"cm\") for a mesh drawn in "
+        f"those, or units = \"m\" if metres were meant",
+    )
 
 
 def _sensor(

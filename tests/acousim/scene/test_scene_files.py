@@ -186,3 +186,41 @@ def test_fractional_delays_are_the_renderers():
 
     assert set(FRACTIONAL_DELAYS) == {"sinc", "lagrange", "nearest"}
     assert set(FRACTIONAL_DELAYS) <= set(INTERPOLATORS)
+
+
+def _box_scene(tmp_path, extents, **mesh_keys) -> str:
+    """A scene file with one box mesh of `extents` (in the file's numbers) and the
+    keys `mesh_keys` of its [[meshes]] table; returns the file's path."""
+    import trimesh
+
+    trimesh.creation.box(extents).export(tmp_path / "box.stl")
+    keys = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in mesh_keys.items())
+    (tmp_path / "box.toml").write_text(
+        f'[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "box.stl"\n{keys}'
+    )
+    return str(tmp_path / "box.toml")
+
+
+def test_a_mesh_in_millimetres_without_units_is_refused(tmp_path):
+    """A 6 x 6.5 x 5.3 m room drawn in mm, read as metres, spans kilometres."""
+    path = _box_scene(tmp_path, (6000.0, 6500.0, 5300.0))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: meshes[0].units: box.stl spans 6000 x 6500 x 5300 m")
+    assert 'set units = "mm"' in msg and 'units = "m" if metres were meant' in msg
+
+
+@pytest.mark.parametrize(
+    "extents,keys,metres",
+    [
+        ((6000.0, 6500.0, 5300.0), {"units": "mm"}, 6.5),  # its units given
+        ((6000.0, 6500.0, 5300.0), {"units": "m"}, 6500.0),  # metres meant: any size
+        ((6000.0, 6500.0, 5300.0), {"scale": 0.001}, 6.5),  # scaled to metres
+        ((990.0, 20.0, 5.0), {}, 990.0),  # a kilometre at most, in metres
+    ],
+)
+def test_a_mesh_with_units_or_of_plausible_size_is_read(tmp_path, extents, keys, metres):
+    scene = load_scene(_box_scene(tmp_path, extents, **keys))
+    T = scene.meshes[0].transform
+    assert np.abs(T[:3, :3] @ np.array(extents)).max() == pytest.approx(metres)
