@@ -445,8 +445,8 @@ def _check_units(r: _Reader, file: Path, T: np.ndarray, where: str) -> None:
     raise r.fail(
         f"{where}.units",
         f"{file.name} spans {size} m read in metres (no 'units' given), more than "
-        f"{MAX_UNITLESS_SPAN_M:g} m: set units = \"mm\" (or \"cm\") for a mesh drawn in "
-        f"those, or units = \"m\" if metres were meant",
+        f'{MAX_UNITLESS_SPAN_M:g} m: set units = "mm" (or "cm") for a mesh drawn in '
+        f'those, or units = "m" if metres were meant',
     )
 
 
