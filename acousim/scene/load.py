@@ -546,15 +546,17 @@ def _poses(
         t = r.table(s, "trajectory", where)
         r.check_keys(t, "sensor.trajectory", f"{where}.trajectory")
         rate = r.number(t, "rate_hz", f"{where}.trajectory", 10.0, 1e-3, 1e4)
+        if "file" in t and "poses" in t:
+            raise r.fail(
+                f"{where}.trajectory",
+                "give either 'file' or 'poses' (the poses inline), not both",
+            )
         if "file" in t:
             file = base / r.string(t, "file", f"{where}.trajectory")
             if not file.is_file():
                 raise r.fail(f"{where}.trajectory.file", f"trajectory file not found: {file}")
             r.files.append(file)
-            try:
-                rows = np.loadtxt(file, delimiter=",", comments="#", ndmin=2)
-            except ValueError as exc:
-                raise r.fail(f"{where}.trajectory.file", f"{file}: {exc}") from None
+            rows = _trajectory_csv(r, file, f"{where}.trajectory.file")
         else:
             given = t.get("poses")
             if not isinstance(given, list) or not given:
@@ -594,6 +596,55 @@ def _poses(
         angles["roll_deg"],
     )
     return (pose,), None
+
+
+#: the columns of a trajectory: a CSV file's rows, or the inline `poses`
+TRAJECTORY_COLUMNS = "x, y, z, yaw_deg[, pitch_deg, roll_deg] (m, degrees)"
+
+
+def _trajectory_csv(r: _Reader, file: Path, key: str) -> np.ndarray:
+    """A trajectory CSV file's rows (N, 4 to 6): numbers separated by commas, no header
+    row; ``#`` starts a comment, blank lines are skipped.  A header, a field that is not
+    a number or a row of another length is refused naming the file's line."""
+    rows: list[list[float]] = []
+    first = 0  # the line of the first row
+    for line_no, line in enumerate(file.read_text(errors="replace").splitlines(), 1):
+        text = line.split("#", 1)[0].strip()
+        if not text:
+            continue
+        fields = [f.strip() for f in text.split(",")]
+        try:
+            row = [float(f) for f in fields]
+        except ValueError:
+            bad = next(f for f in fields if not _is_float(f))
+            if not rows:
+                raise r.fail(
+                    key,
+                    f"{file}: line {line_no} ({text!r}) is not numbers: a trajectory CSV "
+                    f"has no header row (its columns are {TRAJECTORY_COLUMNS}); "
+                    "remove the line or start it with '#'",
+                ) from None
+            raise r.fail(key, f"{file}: line {line_no}: {bad!r} is not a number") from None
+        if len(row) not in (4, 5, 6) or (rows and len(row) != len(rows[0])):
+            expected = f"{len(rows[0])} (as line {first})" if rows else "4, 5 or 6"
+            raise r.fail(
+                key,
+                f"{file}: line {line_no} has {len(row)} column(s), {expected} expected "
+                f"({TRAJECTORY_COLUMNS})",
+            )
+        first = first or line_no
+        rows.append(row)
+    if not rows:
+        raise r.fail(key, f"{file}: no rows ({TRAJECTORY_COLUMNS})")
+    return np.array(rows, float)
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _mesh_track(value):

@@ -224,3 +224,57 @@ def test_a_mesh_with_units_or_of_plausible_size_is_read(tmp_path, extents, keys,
     scene = load_scene(_box_scene(tmp_path, extents, **keys))
     T = scene.meshes[0].transform
     assert np.abs(T[:3, :3] @ np.array(extents)).max() == pytest.approx(metres)
+
+
+def _trajectory_scene(tmp_path, csv_text: str, **more) -> str:
+    (tmp_path / "drive.csv").write_text(csv_text)
+    extra = "".join(f"{k} = {v}\n" for k, v in more.items())
+    (tmp_path / "t.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[sensor.trajectory]\nfile = "drive.csv"\n'
+        f"rate_hz = 10\n{extra}[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
+    )
+    return str(tmp_path / "t.toml")
+
+
+@pytest.mark.parametrize(
+    "csv_text,pattern",
+    [
+        (
+            "x,y,z,yaw_deg\n0,0,0,0\n",
+            r"t\.toml: sensor\.trajectory\.file: .*drive\.csv: line 1 \('x,y,z,yaw_deg'\) is "
+            r"not numbers: a trajectory CSV has no header row .* start it with '#'",
+        ),
+        (
+            "0,0,0,0\n0.05,0,0\n",
+            r"drive\.csv: line 2 has 3 column\(s\), 4 \(as line 1\) expected",
+        ),
+        (
+            "# x, y, z\n\n0,0,0,0,1,2,3\n",
+            r"drive\.csv: line 3 has 7 column\(s\), 4, 5 or 6 expected",
+        ),
+        ("0,0,0,0\n0.1,0,zero,0\n", r"drive\.csv: line 2: 'zero' is not a number"),
+        ("# only a comment\n", r"drive\.csv: no rows"),
+    ],
+)
+def test_a_bad_trajectory_csv_names_its_line(tmp_path, csv_text, pattern):
+    with pytest.raises(SceneError, match=pattern) as info:
+        load_scene(_trajectory_scene(tmp_path, csv_text))
+    assert "usecols" not in str(info.value) and "float64" not in str(info.value)
+
+
+def test_a_trajectory_csv_with_comments_is_read(tmp_path):
+    text = "# x, y, z, yaw_deg, pitch_deg\n0, 0, 0.3, 0, 0\n\n0.05, 0.01, 0.3, 10, -5  # turning\n"
+    poses = load_scene(_trajectory_scene(tmp_path, text)).sensor.poses
+    assert len(poses) == 2 and poses[1].time_s == pytest.approx(0.1)
+    np.testing.assert_allclose(poses[1].position_m, [0.05, 0.01, 0.3])
+    assert poses[1].yaw_rad == pytest.approx(math.radians(10))
+    assert poses[1].pitch_rad == pytest.approx(math.radians(-5))
+
+
+def test_a_trajectory_with_both_file_and_poses_is_refused(tmp_path):
+    path = _trajectory_scene(tmp_path, "0,0,0,0\n", poses="[[0, 0, 0, 0]]")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value) == (
+        f"{path}: sensor.trajectory: give either 'file' or 'poses' (the poses inline), not both"
+    )
