@@ -16,23 +16,21 @@ from processing.base.errors import InputError
 WALL_X = 2.0  # the wall's front face (m)
 
 
-def _scene(tmp_path, position, yaw_deg=0.0, mesh="wall.stl", rotation_deg=(0, 0, 0)):
+def _scene(tmp_path, position, yaw_deg=0.0, rotation_deg=(0, 0, 0)):
     """A scene file: a 10 cm thick, 4 x 4 m wall whose front face is the plane x = 2 m
-    (rotated about the point (2, 0, 0) by `rotation_deg`) and the uRTIS at `position`."""
-    trimesh.creation.box((0.1, 4.0, 4.0)).export(tmp_path / mesh)
-    rx, ry, rz = rotation_deg
-    T = trimesh.transformations.euler_matrix(*np.deg2rad([rx, ry, rz]), "sxyz")
-    T = T @ trimesh.transformations.translation_matrix([0.05, 0, 0])
-    mesh_tmp = trimesh.load(tmp_path / mesh)
-    mesh_tmp.apply_transform(T)
-    mesh_tmp.apply_translation([WALL_X, 0, 0])
-    mesh_tmp.export(tmp_path / mesh)
+    (turned about the point (2, 0, 0) by `rotation_deg`, about x, y, z) and the uRTIS
+    at `position` (m)."""
+    wall = trimesh.creation.box((0.1, 4.0, 4.0))
+    wall.apply_translation([0.05, 0, 0])  # its front face through the origin
+    wall.apply_transform(trimesh.transformations.euler_matrix(*np.deg2rad(rotation_deg), "sxyz"))
+    wall.apply_translation([WALL_X, 0, 0])
+    wall.export(tmp_path / "wall.stl")
     pos = ", ".join(repr(float(v)) for v in position)
     (tmp_path / "near.toml").write_text(
         f'[sensor]\narray = "urtis_v1"\ndirect_path = false\n'
         f"[sensor.pose]\nposition_m = [{pos}]\nyaw_deg = {yaw_deg}\n"
         f"[simulation]\nmax_range_m = 3.0\nbounces = 1\n"
-        f'[[meshes]]\nfile = "{mesh}"\n'
+        f'[[meshes]]\nfile = "wall.stl"\n'
     )
     return load_scene(tmp_path / "near.toml")
 
