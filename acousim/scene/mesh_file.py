@@ -57,5 +57,6 @@ def placed_extent_m(path, transform: np.ndarray) -> np.ndarray | None:
         return None
     if not len(vertices) or not np.all(np.isfinite(vertices)):
         return None
-    placed = vertices @ np.asarray(transform, float)[:3, :3].T
-    return placed.max(axis=0) - placed.min(axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge scale: inf, refused
+        placed = vertices @ np.asarray(transform, float)[:3, :3].T
+        return placed.max(axis=0) - placed.min(axis=0)
