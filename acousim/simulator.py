@@ -39,7 +39,7 @@ from acousim.core.echoes import Echoes
 from acousim.kinematics import TABLE_STEP_S, SensorKinematics, arrivals
 from acousim.kinematics.seen import seen_moving
 from acousim.scene.lidar import Lidar
-from acousim.scene.model import Scene
+from acousim.scene.model import Diffraction, Scene, Simulation
 from acousim.scene.pose import Pose
 from acousim.synth.doppler import DopplerCache, DopplerPlan, plan_doppler
 from acousim.synth.options import Capture, Noise, RenderOptions
@@ -52,6 +52,7 @@ from acousim.trace.paths import TracedPaths, kind_names, reaching
 from acousim.trace.seen import chain_fields, seen_static
 from processing.base import interrupt
 from processing.base.errors import InputError
+from processing.base.settings import settings_of
 
 __all__ = ["Simulator", "Heard", "package_version", "MIN_POINT_DISTANCE_M"]
 
@@ -475,6 +476,8 @@ class Simulator:
             meta = {**meta, "n_paths": own.n_paths}
         prep = self._planned(prep)
         base = scene.simulation.seed if seed is None else seed
+        if seed is not None and "simulation" in meta:  # the seed given for this recording
+            meta = {**meta, "simulation": {**meta["simulation"], "seed": base}}
         noise_seed = int(np.random.SeedSequence([base, index]).generate_state(1)[0])
         rec = simulate(
             prep.echoes,
@@ -591,4 +594,21 @@ def _metadata(scene: Scene, pose: Pose, index: int) -> dict:
         "acousim_version": package_version(),
         "pose": pose.to_dict(),
         "pose_index": index,
+        "quality": scene.simulation.quality,
+        "simulation": simulation_settings(scene.simulation),
     }
+
+
+#: declared settings of ``[simulation]`` a recording's metadata leaves out of its
+#: ``simulation``: the memory guard (it changes no sample and comes from the
+#: environment) and the quality (its own key)
+_NOT_RECORDED = ("max_memory_gb", "quality")
+
+
+def simulation_settings(sim: Simulation) -> dict:
+    """The ``[simulation]`` settings a recording was made with, as the scene file names
+    them (the quality preset applied; ``diffraction`` as its table): every declared
+    setting but those of :data:`_NOT_RECORDED`."""
+    out = {k: getattr(sim, k) for k in settings_of(Simulation) if k not in _NOT_RECORDED}
+    out["diffraction"] = {k: getattr(sim.diffraction, k) for k in settings_of(Diffraction)}
+    return out

@@ -1,8 +1,9 @@
 """``acousim info``: describe any file or folder acousim writes (recordings, images.h5, a
-ROS 2 bag, a dataset).
+folder of acousim image, a ROS 2 bag, a dataset).
 
 Print what a recording file (HDF5; simulated, real or emulated), an image file
-(images.h5), a ROS 2 bag folder (acousim export), a dataset shard (.h5) or a dataset
+(images.h5), a folder written by acousim image (its pictures, peaks.csv and
+images.h5), a ROS 2 bag folder (acousim export), a dataset shard (.h5) or a dataset
 folder (with its manifest.json) holds.
 """
 
@@ -16,7 +17,9 @@ from acousim.cli.common import add_command
 def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     p.add_argument(
-        "file", help="recording file, images.h5, bag folder, dataset shard or dataset folder"
+        "file",
+        help="recording file, images.h5, acousim image's folder, bag folder, dataset shard "
+        "or dataset folder",
     )
 
 

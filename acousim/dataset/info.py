@@ -1,9 +1,11 @@
 """What a file holds, in a few lines: a recording file, a dataset shard, a dataset
-folder, an image file (``images.h5``) or a ROS 2 bag folder: everything acousim writes
-(used by ``acousim info``)."""
+folder, an image file (``images.h5``), a folder of ``acousim image`` (its pictures,
+peaks.csv and images.h5) or a ROS 2 bag folder: everything acousim writes (used by
+``acousim info``)."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -11,7 +13,7 @@ import h5py
 import numpy as np
 
 import processing as P
-from acousim.dataset.generation import SHARD_SCHEMA
+from acousim.dataset.generation import MANIFEST, SHARD_SCHEMA
 from acousim.dataset.reader import DatasetReader
 from processing.base.errors import InputError
 from processing.formats.h5attrs import attribute_text
@@ -25,8 +27,19 @@ __all__ = ["describe"]
 def describe(path: str | Path) -> list[str]:
     """Lines describing `path`; raises InputError for what acousim does not write."""
     path = Path(path)
-    if path.is_dir():  # a ROS 2 bag, else a dataset (the reader names what is missing)
-        return _bag(path) if (path / "metadata.yaml").is_file() else _folder(path)
+    if path.is_dir():  # a ROS 2 bag, an image folder, else a dataset (the reader
+        if (path / "metadata.yaml").is_file():  # names what is missing)
+            return _bag(path)
+        if not (path / MANIFEST).is_file() and not any(path.glob("shard_*.h5")):
+            if _is_image_folder(path):
+                return _image_folder(path)
+            raise InputError(
+                f"not a folder acousim writes: no {MANIFEST} (a dataset; or its generation "
+                f"is unfinished), no {PEAKS_CSV}, {IMAGES_H5} or fan.png (acousim image's "
+                "pictures), no metadata.yaml (a ROS 2 bag)",
+                file=path,
+            )
+        return _folder(path)
     if not path.is_file():
         raise InputError("no such file or folder", file=path)
     try:
@@ -62,6 +75,49 @@ def _images(path: Path) -> list[str]:
                 f"{', '.join(methods)} (range x elevation x azimuth {shape}{span})"
             )
     return lines
+
+
+#: what ``acousim image`` writes in its folder besides the pictures
+PEAKS_CSV, IMAGES_H5 = "peaks.csv", "images.h5"
+#: the pictures' extensions (fan, elaz_METHOD, scene3d: PNG; the drive: GIF)
+PICTURES = (".png", ".gif")
+
+
+def _is_image_folder(path: Path) -> bool:
+    """Whether `path` (a folder without manifest.json) looks written by ``acousim
+    image``: its peaks.csv or images.h5, or its fan picture."""
+    return any((path / name).is_file() for name in (PEAKS_CSV, IMAGES_H5)) or any(
+        path.glob("fan*.png")
+    )
+
+
+def _image_folder(path: Path) -> list[str]:
+    """A folder written by ``acousim image``: its pictures, peaks.csv (its rows) and
+    images.h5 (described as :func:`_images` does)."""
+    pictures = sorted(p.name for p in path.iterdir() if p.suffix.lower() in PICTURES)
+    lines = [
+        f"{path}: a folder written by acousim image: {len(pictures)} picture(s)"
+        + (f" ({', '.join(pictures)})" if pictures else "")
+    ]
+    if (path / PEAKS_CSV).is_file():
+        lines.append(f"  {PEAKS_CSV}: {_peaks_summary(path / PEAKS_CSV)}")
+    if (path / IMAGES_H5).is_file():
+        lines += ["  " + line for line in _images(path / IMAGES_H5)]
+    else:
+        lines.append(f"  no {IMAGES_H5} (acousim image --images-h5 writes the images as data)")
+    return lines
+
+
+def _peaks_summary(path: Path) -> str:
+    """peaks.csv in a few words: its rows, recordings and methods."""
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    recordings = {r.get("recording") for r in rows}
+    methods = sorted({r.get("method") or "?" for r in rows})
+    return (
+        f"{len(rows)} peak row(s) of {len(recordings)} recording(s), "
+        f"method(s) {', '.join(methods) or 'none'}"
+    )
 
 
 def _bag(path: Path) -> list[str]:

@@ -118,6 +118,13 @@ def _fig6_7_rows(results: StudyResults) -> list:
     return rows
 
 
+def _snr_span(snrs: list[float]) -> str:
+    """SNRs (dB) as a report's words: "-10 dB" for one value, "-20 to -10 dB" for
+    several."""
+    lo, hi = f"{min(snrs):.0f}", f"{max(snrs):.0f}"
+    return f"{lo} dB" if lo == hi else f"{lo} to {hi} dB"
+
+
 def _fig6_7_failing_rows(results: StudyResults) -> list:
     """Figs. 6-7: where MUSIC fails."""
     cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
@@ -132,8 +139,8 @@ def _fig6_7_failing_rows(results: StudyResults) -> list:
     )
     worst_fail = max((_mean(s67, p, v, "music", 1) for p, v in failing), default=0.0)
     lost = (
-        f" Plain MUSIC at {min(v for _, v in failing):.0f} to {max(v for _, v in failing):.0f}"
-        " dB is left out: its −3 dB lobe exceeds 0.1 sr there (it has lost the reflector in "
+        f" Plain MUSIC at {_snr_span([v for _, v in failing])} is left out: its −3 dB lobe "
+        "exceeds 0.1 sr there (it has lost the reflector in "
         "the noise) and its image maximum can fall in a gated noise bin, giving up to "
         f"{worst_fail * 100:.0f} cm."
         if failing

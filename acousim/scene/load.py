@@ -26,6 +26,7 @@ import processing as P
 from acousim.scene import model
 from acousim.scene.defaults import FLAT_DIFFRACTION
 from acousim.scene.lidar import PRESET, Lidar
+from acousim.scene.mesh_file import MAX_UNITLESS_SPAN_M, placed_extent_m
 from acousim.scene.names import (
     array_named,
     call_named,
@@ -399,6 +400,8 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
         r.vector(m, "position_m", where, [0.0, 0.0, 0.0]),
         r.vector(m, "rotation_deg", where, [0.0, 0.0, 0.0]),
     )
+    if "units" not in m:
+        _check_units(r, file, T, where)
     groups = r.table(m, "materials", where)
     by_group = {
         str(g): r.named(
@@ -429,6 +432,22 @@ def _mesh(r: _Reader, m: dict, where: str, base: Path, materials: dict) -> model
         turn = (exc.key or "").endswith("angular_velocity_rad_s")
         key = "angular_rate_deg_s" if turn else "track"
         raise r.fail(f"{where}.{key}", exc.reason, m.get(key)) from None
+
+
+def _check_units(r: _Reader, file: Path, T: np.ndarray, where: str) -> None:
+    """A mesh whose table gives no ``units`` (read as metres) and that spans more than
+    :data:`MAX_UNITLESS_SPAN_M` once placed: most likely drawn in millimetres; refused,
+    saying to set ``units`` (an explicit ``units = "m"`` takes any size)."""
+    extent = placed_extent_m(file, T)
+    if extent is None or extent.max() <= MAX_UNITLESS_SPAN_M:
+        return
+    size = " x ".join(f"{v:.4g}" for v in extent)
+    raise r.fail(
+        f"{where}.units",
+        f"{file.name} spans {size} m read in metres (no 'units' given), more than "
+        f'{MAX_UNITLESS_SPAN_M:g} m: set units = "mm" (or "cm") for a mesh drawn in '
+        f'those, or units = "m" if metres were meant',
+    )
 
 
 def _sensor(
@@ -527,15 +546,17 @@ def _poses(
         t = r.table(s, "trajectory", where)
         r.check_keys(t, "sensor.trajectory", f"{where}.trajectory")
         rate = r.number(t, "rate_hz", f"{where}.trajectory", 10.0, 1e-3, 1e4)
+        if "file" in t and "poses" in t:
+            raise r.fail(
+                f"{where}.trajectory",
+                "give either 'file' or 'poses' (the poses inline), not both",
+            )
         if "file" in t:
             file = base / r.string(t, "file", f"{where}.trajectory")
             if not file.is_file():
                 raise r.fail(f"{where}.trajectory.file", f"trajectory file not found: {file}")
             r.files.append(file)
-            try:
-                rows = np.loadtxt(file, delimiter=",", comments="#", ndmin=2)
-            except ValueError as exc:
-                raise r.fail(f"{where}.trajectory.file", f"{file}: {exc}") from None
+            rows = _trajectory_csv(r, file, f"{where}.trajectory.file")
         else:
             given = t.get("poses")
             if not isinstance(given, list) or not given:
@@ -575,6 +596,55 @@ def _poses(
         angles["roll_deg"],
     )
     return (pose,), None
+
+
+#: the columns of a trajectory: a CSV file's rows, or the inline `poses`
+TRAJECTORY_COLUMNS = "x, y, z, yaw_deg[, pitch_deg, roll_deg] (m, degrees)"
+
+
+def _trajectory_csv(r: _Reader, file: Path, key: str) -> np.ndarray:
+    """A trajectory CSV file's rows (N, 4 to 6): numbers separated by commas, no header
+    row; ``#`` starts a comment, blank lines are skipped.  A header, a field that is not
+    a number or a row of another length is refused naming the file's line."""
+    rows: list[list[float]] = []
+    first = 0  # the line of the first row
+    for line_no, line in enumerate(file.read_text(errors="replace").splitlines(), 1):
+        text = line.split("#", 1)[0].strip()
+        if not text:
+            continue
+        fields = [f.strip() for f in text.split(",")]
+        try:
+            row = [float(f) for f in fields]
+        except ValueError:
+            bad = next(f for f in fields if not _is_float(f))
+            if not rows:
+                raise r.fail(
+                    key,
+                    f"{file}: line {line_no} ({text!r}) is not numbers: a trajectory CSV "
+                    f"has no header row (its columns are {TRAJECTORY_COLUMNS}); "
+                    "remove the line or start it with '#'",
+                ) from None
+            raise r.fail(key, f"{file}: line {line_no}: {bad!r} is not a number") from None
+        if len(row) not in (4, 5, 6) or (rows and len(row) != len(rows[0])):
+            expected = f"{len(rows[0])} (as line {first})" if rows else "4, 5 or 6"
+            raise r.fail(
+                key,
+                f"{file}: line {line_no} has {len(row)} column(s), {expected} expected "
+                f"({TRAJECTORY_COLUMNS})",
+            )
+        first = first or line_no
+        rows.append(row)
+    if not rows:
+        raise r.fail(key, f"{file}: no rows ({TRAJECTORY_COLUMNS})")
+    return np.array(rows, float)
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _mesh_track(value):

@@ -55,6 +55,7 @@ from acousim.trace.rays.scatter import scatter
 from acousim.trace.rays.shoot import cone_directions, shoot
 from acousim.trace.rays.specular import as_paths, refine_sequences
 from acousim.trace.world.build import World, build_world
+from acousim.trace.world.clearance import check_clearance
 from acousim.trace.world.embree import RayCaster
 from processing import Array
 from processing.base.errors import InputError
@@ -345,8 +346,11 @@ class Tracer:
         array = self.scene.sensor.array if array is None else array
         emitter = pose.to_world(array.emitter_m)
         receiver = pose.to_world(array.positions_m.mean(axis=0))
-        if self.world is not None and self.settings.rays != 0:
-            self._check_pose(emitter)
+        if self.world is not None:
+            mics = pose.to_world(array.positions_m)
+            check_clearance(self.caster, self.world, emitter, mics)
+            if self.settings.rays != 0:
+                self._check_pose(emitter)
         settings = self.settings
         if max_path_m is not None and max_path_m < settings.max_path_m:
             settings = dataclasses.replace(settings, max_path_m=float(max_path_m))
@@ -397,5 +401,6 @@ class Tracer:
                 raise InputError(
                     f"the sensor at {np.round(emitter, 3).tolist()} m is inside a closed mesh "
                     f"(a wall or object; its faces are of material {', '.join(names)}): "
-                    "move the pose"
+                    "move the pose; or, if it stands in a room, the room's faces must face "
+                    'into it: its normals may be inverted (docs/scene-format.md, "Meshes")'
                 )

@@ -264,7 +264,9 @@ def test_a_mesh_placed_beyond_the_world_is_refused_without_a_warning(tmp_path):
     from acousim.simulator import Simulator
 
     text = (SCENES / "wall.toml").read_text().replace('"meshes/', f'"{SCENES}/meshes/')
-    (tmp_path / "s.toml").write_text(text.replace("[[meshes]]", "[[meshes]]\nscale = 1e9", 1))
+    # units given: a mesh of no units that large is refused before, as drawn in mm
+    big = '[[meshes]]\nscale = 1e9\nunits = "m"'
+    (tmp_path / "s.toml").write_text(text.replace("[[meshes]]", big, 1))
     scene = load_scene(tmp_path / "s.toml")
     with warnings.catch_warnings():
         warnings.simplefilter("error")

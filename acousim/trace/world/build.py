@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from acousim.core.materials import MaterialSpectra
+from acousim.scene.mesh_file import read_mesh
 from acousim.scene.model import Material, MeshItem, Scene
 from acousim.scene.pose import MAX_COORDINATE_M
 from acousim.trace.world.mesh_index import (
@@ -263,9 +264,7 @@ def _load_part(path, transform) -> MeshPart:
     import trimesh
 
     try:  # a trimesh.Trimesh in memory is never changed (copied to be moved)
-        mesh = path if isinstance(path, trimesh.Trimesh) else _binary_stl(path)
-        if mesh is None:
-            mesh = trimesh.load(path, force="mesh", process=False)
+        mesh = path if isinstance(path, trimesh.Trimesh) else read_mesh(path)
     except Exception as exc:  # trimesh raises many kinds
         raise _unreadable(path, exc) from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
@@ -288,29 +287,6 @@ def _load_part(path, transform) -> MeshPart:
     if len(part.faces) == 0:
         raise InputError("every face of the mesh is degenerate", file=_name(path))
     return part
-
-
-#: a binary STL's facet: normal, three corners, attribute
-_STL_FACET = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
-
-
-def _binary_stl(path):
-    """A binary STL file as trimesh's reader gives it without processing (a corner per
-    vertex, float64; the faces 0, 1, 2, ...), read in one numpy view; None for any
-    other file (an ASCII STL, another format: trimesh reads it).  A third of the
-    shoebox's preparation was trimesh's loader and its normals check."""
-    import trimesh
-
-    if not isinstance(path, str | Path) or Path(path).suffix.lower() != ".stl":
-        return None
-    data = Path(path).read_bytes()
-    n = int.from_bytes(data[80:84], "little") if len(data) >= 84 else -1
-    if n <= 0 or len(data) != 84 + n * _STL_FACET.itemsize:  # trimesh's binary test
-        return None
-    corners = np.frombuffer(data, _STL_FACET, count=n, offset=84)["corners"]
-    vertices = corners.reshape(-1, 3).astype(np.float64)
-    faces = np.arange(3 * n, dtype=np.int64).reshape(-1, 3)
-    return trimesh.Trimesh(vertices, faces, process=False)
 
 
 def smooth_corner_normals(

@@ -131,3 +131,17 @@ def test_report_only_reads_back_the_same_statistics(study, tmp_path, capsys):
     assert main(["reproduce", "--report-only", "--out", str(broken)]) == 2
     err = capsys.readouterr().err
     assert "fig11_attenuation_vs_spacing.csv: malformed study file" in err
+
+
+def test_the_report_names_one_snr_once(study):
+    """Where plain MUSIC fails at one SNR alone (the quick study) the report says "at
+    -10 dB", never "at -10 to -10 dB"; several: "at -16 to -10 dB"."""
+    import re
+
+    from acousim.experiments.report import _snr_span
+
+    assert _snr_span([-10.0]) == "-10 dB" and _snr_span([-10.0, -10.0]) == "-10 dB"
+    assert _snr_span([-10.0, -16.0, -13.0]) == "-16 to -10 dB"
+    text = study[1].read_text()
+    for lo, hi in re.findall(r"Plain MUSIC at (-?\d+)(?: to (-?\d+))? dB", text):
+        assert lo != hi

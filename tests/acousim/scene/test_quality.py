@@ -153,3 +153,29 @@ def test_an_unknown_quality_on_the_command_line_is_a_usage_error(tmp_path, capsy
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "--quality" in err and "'best'" in err and "fast, default, reference" in err
+
+
+def test_a_recording_says_which_preset_and_settings_made_it(tmp_path):
+    """The metadata holds the quality and the [simulation] settings in effect: the fast
+    preset's documented values (a 2 mm element step, Lagrange; docs/scene-format.md,
+    "Quality presets"), the file's own energy floor over the preset's -70 dB, the
+    rest at their declared defaults; read back from the file as written."""
+    import processing as P
+    from acousim.scene import load_scene
+    from acousim.simulator import Simulator
+
+    (tmp_path / "q.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[simulation]\nquality = "fast"\n'
+        "energy_floor_db = -80.0\nmax_range_m = 2.0\nseed = 7\n"
+        "[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
+    )
+    (rec,) = Simulator(load_scene(tmp_path / "q.toml")).run()
+    P.save_recordings(tmp_path / "q.h5", [rec])
+    meta = P.load_recording(tmp_path / "q.h5", 0).metadata
+    assert meta["quality"] == "fast"
+    sim = meta["simulation"]
+    assert sim["fractional_delay"] == "lagrange" and sim["diffraction"]["step_m"] == 0.002
+    assert sim["energy_floor_db"] == -80.0 and sim["max_range_m"] == 2.0 and sim["seed"] == 7
+    assert sim["diffraction"]["enabled"] is True and sim["diffraction"]["order"] == 2
+    assert sim["rays"] is None and sim["snr_db"] == float("inf") and sim["bounces"] == 3
+    assert set(sim) == set(DECLARED) - {"quality", "max_memory_gb"} | {"diffraction"}

@@ -127,6 +127,29 @@ def test_pose_inside_a_wall_is_refused(tmp_path):
         Simulator(sc).paths(sc.sensor.poses[0])
 
 
+def test_a_room_with_outward_normals_says_to_invert_them(tmp_path):
+    """A closed box exported as modellers make it (normals out) with the sensor in it:
+    the refusal says that a room's faces must face into it, and where the docs say so."""
+    import trimesh
+
+    from acousim.simulator import Simulator
+
+    trimesh.creation.box((4.0, 4.0, 3.0)).export(tmp_path / "room.stl")
+    (tmp_path / "room.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "room.stl"\n'
+    )
+    sc = load_scene(tmp_path / "room.toml")
+    with pytest.raises(InputError) as info:
+        Simulator(sc).simulate_pose(sc.sensor.poses[0], 0)
+    msg = str(info.value)
+    assert msg.startswith(f"{tmp_path / 'room.toml'}: pose 0: the sensor at [0.0, 0.0, 0.0] m")
+    assert "inside a closed mesh" in msg and "normals may be inverted" in msg
+    assert 'docs/scene-format.md, "Meshes"' in msg
+    docs = (REPO / "docs" / "scene-format.md").read_text()
+    section = docs.split("\n## Meshes\n")[1].split("\n## ")[0]
+    assert "normals pointing inwards" in section and "invert" in section
+
+
 def test_pose_rotation_conventions():
     np.testing.assert_allclose(rotation(np.pi / 2) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
     np.testing.assert_allclose(rotation(0, np.pi / 2) @ [1, 0, 0], [0, 0, -1], atol=1e-15)
@@ -163,3 +186,95 @@ def test_fractional_delays_are_the_renderers():
 
     assert set(FRACTIONAL_DELAYS) == {"sinc", "lagrange", "nearest"}
     assert set(FRACTIONAL_DELAYS) <= set(INTERPOLATORS)
+
+
+def _box_scene(tmp_path, extents, **mesh_keys) -> str:
+    """A scene file with one box mesh of `extents` (in the file's numbers) and the
+    keys `mesh_keys` of its [[meshes]] table; returns the file's path."""
+    import trimesh
+
+    trimesh.creation.box(extents).export(tmp_path / "box.stl")
+    keys = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in mesh_keys.items())
+    (tmp_path / "box.toml").write_text(
+        f'[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "box.stl"\n{keys}'
+    )
+    return str(tmp_path / "box.toml")
+
+
+def test_a_mesh_in_millimetres_without_units_is_refused(tmp_path):
+    """A 6 x 6.5 x 5.3 m room drawn in mm, read as metres, spans kilometres."""
+    path = _box_scene(tmp_path, (6000.0, 6500.0, 5300.0))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: meshes[0].units: box.stl spans 6000 x 6500 x 5300 m")
+    assert 'set units = "mm"' in msg and 'units = "m" if metres were meant' in msg
+
+
+@pytest.mark.parametrize(
+    "extents,keys,metres",
+    [
+        ((6000.0, 6500.0, 5300.0), {"units": "mm"}, 6.5),  # its units given
+        ((6000.0, 6500.0, 5300.0), {"units": "m"}, 6500.0),  # metres meant: any size
+        ((6000.0, 6500.0, 5300.0), {"scale": 0.001}, 6.5),  # scaled to metres
+        ((990.0, 20.0, 5.0), {}, 990.0),  # a kilometre at most, in metres
+    ],
+)
+def test_a_mesh_with_units_or_of_plausible_size_is_read(tmp_path, extents, keys, metres):
+    scene = load_scene(_box_scene(tmp_path, extents, **keys))
+    T = scene.meshes[0].transform
+    assert np.abs(T[:3, :3] @ np.array(extents)).max() == pytest.approx(metres)
+
+
+def _trajectory_scene(tmp_path, csv_text: str, **more) -> str:
+    (tmp_path / "drive.csv").write_text(csv_text)
+    extra = "".join(f"{k} = {v}\n" for k, v in more.items())
+    (tmp_path / "t.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[sensor.trajectory]\nfile = "drive.csv"\n'
+        f"rate_hz = 10\n{extra}[[points]]\nposition_m = [1.0, 0.0, 0.0]\n"
+    )
+    return str(tmp_path / "t.toml")
+
+
+@pytest.mark.parametrize(
+    "csv_text,pattern",
+    [
+        (
+            "x,y,z,yaw_deg\n0,0,0,0\n",
+            r"t\.toml: sensor\.trajectory\.file: .*drive\.csv: line 1 \('x,y,z,yaw_deg'\) is "
+            r"not numbers: a trajectory CSV has no header row .* start it with '#'",
+        ),
+        (
+            "0,0,0,0\n0.05,0,0\n",
+            r"drive\.csv: line 2 has 3 column\(s\), 4 \(as line 1\) expected",
+        ),
+        (
+            "# x, y, z\n\n0,0,0,0,1,2,3\n",
+            r"drive\.csv: line 3 has 7 column\(s\), 4, 5 or 6 expected",
+        ),
+        ("0,0,0,0\n0.1,0,zero,0\n", r"drive\.csv: line 2: 'zero' is not a number"),
+        ("# only a comment\n", r"drive\.csv: no rows"),
+    ],
+)
+def test_a_bad_trajectory_csv_names_its_line(tmp_path, csv_text, pattern):
+    with pytest.raises(SceneError, match=pattern) as info:
+        load_scene(_trajectory_scene(tmp_path, csv_text))
+    assert "usecols" not in str(info.value) and "float64" not in str(info.value)
+
+
+def test_a_trajectory_csv_with_comments_is_read(tmp_path):
+    text = "# x, y, z, yaw_deg, pitch_deg\n0, 0, 0.3, 0, 0\n\n0.05, 0.01, 0.3, 10, -5  # turning\n"
+    poses = load_scene(_trajectory_scene(tmp_path, text)).sensor.poses
+    assert len(poses) == 2 and poses[1].time_s == pytest.approx(0.1)
+    np.testing.assert_allclose(poses[1].position_m, [0.05, 0.01, 0.3])
+    assert poses[1].yaw_rad == pytest.approx(math.radians(10))
+    assert poses[1].pitch_rad == pytest.approx(math.radians(-5))
+
+
+def test_a_trajectory_with_both_file_and_poses_is_refused(tmp_path):
+    path = _trajectory_scene(tmp_path, "0,0,0,0\n", poses="[[0, 0, 0, 0]]")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value) == (
+        f"{path}: sensor.trajectory: give either 'file' or 'poses' (the poses inline), not both"
+    )

@@ -171,7 +171,7 @@ def test_a_mesh_in_memory_is_never_changed():
 def test_a_binary_stl_is_read_as_trimesh_reads_it(tmp_path):
     """The direct binary STL reader against trimesh's (unprocessed): the same vertices
     (float64 of the file's float32) and faces; an ASCII STL is left to trimesh."""
-    from acousim.trace.world.build import _binary_stl
+    from acousim.scene.mesh_file import binary_stl as _binary_stl
 
     for path in sorted((SCENES / "meshes").glob("*.stl")):
         ours = _binary_stl(path)
