@@ -10,7 +10,8 @@ needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --f
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
 their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
 a rig's recordings: one acoustic sensor per sonar, placed by its mount (--sensor NAME:
-one sonar's); the imaging options do not apply. Layout: docs/export.md.
+one sonar's); the imaging options do not apply. An existing --out is replaced only when
+it is a CHIRP file acousim wrote and not the input. Layout: docs/export.md.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ def register(sub) -> None:
     p.add_argument(
         "--out",
         required=True,
-        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write",
+        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write "
+        "(if it exists: only a CHIRP file acousim wrote, never the input, is replaced)",
     )
     p.add_argument(
         "--image-method",
@@ -94,6 +96,7 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
 
     if out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
+    _replaceable(out, Path(args.file))
     writable_dir(out.parent if str(out.parent) else Path("."))
     recs, _, _, _ = load_and_image(args)  # the images are not made
     try:
@@ -102,3 +105,40 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
         raise UsageError(str(exc)) from None
     print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
     return 0
+
+
+def _replaceable(out: Path, source: Path) -> None:
+    """A UsageError unless `out` may be written: absent, or a CHIRP file acousim wrote
+    (replaced whole, as `simulate` replaces its own) that is not the input `source`.
+    The input, or a file acousim did not write, is never overwritten."""
+    if not out.exists():
+        return
+    if source.exists() and out.samefile(source):
+        raise UsageError(
+            f"--out {str(out)!r} is the input file {str(source)!r}: writing the CHIRP "
+            "file there would lose it; name another file"
+        )
+    if not _ours(out):
+        raise UsageError(
+            f"--out {str(out)!r} exists already and is not a CHIRP file acousim wrote; "
+            "it is never overwritten: name another file or remove it"
+        )
+
+
+def _ours(path: Path) -> bool:
+    """Whether `path` is a CHIRP file acousim wrote: root ``format = "chirp"`` and
+    our group's ``schema`` (:data:`processing.formats.chirp.names.OUR_SCHEMA`)."""
+    import h5py
+
+    from processing.formats.chirp.names import OUR_SCHEMA, OURS
+    from processing.formats.h5attrs import attribute_text
+
+    try:
+        with h5py.File(path, "r") as f:
+            group = f.get(OURS)
+            return attribute_text(f.attrs.get("format")) == "chirp" and (
+                isinstance(group, h5py.Group)
+                and attribute_text(group.attrs.get("schema")) == OUR_SCHEMA
+            )
+    except (OSError, ValueError):
+        return False
