@@ -10,7 +10,9 @@ needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --f
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
 their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
 a rig's recordings: one acoustic sensor per sonar, placed by its mount (--sensor NAME:
-one sonar's); the imaging options do not apply. An existing --out is replaced only when
+one sonar's); the imaging options (--method, --step, --energy-fraction, --min-range,
+--max-range, --peak-threshold, --dynamic-range-db, --image-method) do not apply and are
+refused. An existing --out is replaced only when
 it is a CHIRP file acousim wrote and not the input. Layout: docs/export.md.
 """
 
@@ -94,6 +96,7 @@ class _Counted(list):
 def _chirp(args: argparse.Namespace, out: Path) -> int:
     import processing as P
 
+    _no_imaging(args)
     if out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
     _replaceable(out, Path(args.file))
@@ -105,6 +108,33 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
         raise UsageError(str(exc)) from None
     print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
     return 0
+
+
+#: the options that choose how recordings are imaged (the argument's name, its
+#: option): a CHIRP export writes the recordings, not images
+IMAGING_OPTIONS = (
+    ("method", "--method"),
+    ("step", "--step"),
+    ("energy_fraction", "--energy-fraction"),
+    ("min_range", "--min-range"),
+    ("max_range", "--max-range"),
+    ("peak_threshold", "--peak-threshold"),
+    ("dynamic_range_db", "--dynamic-range-db"),
+    ("image_method", "--image-method"),
+)
+
+
+def _no_imaging(args: argparse.Namespace) -> None:
+    """A UsageError naming the first imaging option given to a CHIRP export."""
+    for name, option in IMAGING_OPTIONS:
+        value = getattr(args, name)
+        if value is not None:
+            raise UsageError(
+                "does not apply to --format chirp (the recordings are written, not "
+                "imaged); leave it out",
+                key=option,
+                value=value,
+            )
 
 
 def _replaceable(out: Path, source: Path) -> None:

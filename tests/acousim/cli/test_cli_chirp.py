@@ -94,3 +94,47 @@ def test_export_never_overwrites_the_input_or_a_file_it_did_not_write(tmp_path, 
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         ["wall.h5", "mine.txt", "foreign.h5", "wall_chirp.h5"]
     )
+
+
+def test_export_to_chirp_refuses_the_imaging_options(tmp_path, capsys):
+    """--help says the imaging options do not apply to a CHIRP export: given, each is
+    refused by name and value (a valid --method too, not only an unknown one)."""
+    from acousim.cli.export import IMAGING_OPTIONS
+
+    rec = tmp_path / "wall.h5"
+    assert main(["simulate", str(resolve("scenes", "wall")), "--out", str(rec), "-q"]) == 0
+    out = tmp_path / "c.h5"
+    given = {
+        "--method": ("foo", "'foo'"),
+        "--step": ("2", "2.0"),
+        "--energy-fraction": ("0.5", "0.5"),
+        "--min-range": ("0.3", "0.3"),
+        "--max-range": ("2", "2.0"),
+        "--peak-threshold": ("-20", "-20.0"),
+        "--dynamic-range-db": ("30", "30.0"),
+        "--image-method": ("das", "'das'"),
+    }
+    assert sorted(given) == sorted(option for _, option in IMAGING_OPTIONS)
+    for option, (text, shown) in given.items():
+        capsys.readouterr()
+        args = ["export", str(rec), "--format", "chirp", "--out", str(out), option, text]
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip()
+        assert f"{option} = {shown}: does not apply to --format chirp" in err, err
+        assert not out.exists()
+    assert (
+        main(["export", str(rec), "--method", "das", "--format", "chirp", "--out", str(out)]) == 2
+    )
+    help_text = " ".join(_help("export").split())
+    assert "the imaging options (--method, --step" in help_text and "are refused" in help_text
+
+
+def _help(command: str) -> str:
+    """`acousim COMMAND --help`'s text."""
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf), contextlib.suppress(SystemExit):
+        main([command, "--help"])
+    return buf.getvalue()
