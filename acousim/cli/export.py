@@ -21,7 +21,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
+from acousim.cli.common import (
+    UsageError,
+    add_command,
+    can_make_dir,
+    elapsed,
+    progress,
+    writable_dir,
+)
 from acousim.cli.image import imaging_arguments, load_and_image
 
 
@@ -53,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         return _chirp(args, out)
     if out.exists():
         raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
-    writable_dir(out.parent)
+    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
     try:
         from acousim.export.rosbag import write_rosbag
     except ImportError as exc:
@@ -64,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
             f"--image-method {args.image_method!r} is not among --method "
             f"{','.join(options.methods)!r}"
         )
+    writable_dir(out.parent)
     images = _Counted(image_all().images, progress("bag", "recording"))
     write_rosbag(
         out,
@@ -100,8 +108,9 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
     if out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
     _replaceable(out, Path(args.file))
-    writable_dir(out.parent if str(out.parent) else Path("."))
+    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
     recs, _, _, _ = load_and_image(args)  # the images are not made
+    writable_dir(out.parent)
     try:
         P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:

@@ -302,7 +302,14 @@ def test_image_refusing_its_input_creates_nothing_and_says_what_it_was_given(tmp
         err = capsys.readouterr().err.strip()
         assert message in err and len(err.splitlines()) == 1, err
         assert not (tmp_path / "new").exists()
-    # export reads the same files: the same words
-    assert main(["export", str(bag), "--format", "chirp", "--out", str(tmp_path / "c.h5")]) == 2
-    assert "this command does not read" in capsys.readouterr().err
+    # export reads the same files: the same words, and no folder made for --out
+    import importlib.util
+
+    outs = [["--format", "chirp", "--out", str(tmp_path / "new/c.h5")]]
+    if importlib.util.find_spec("rosbags"):  # the bag's writer (else: refused for it)
+        outs.append(["--out", str(tmp_path / "new/b")])
+    for out in outs:
+        assert main(["export", str(bag), *out]) == 2
+        assert f"{bag}: a ROS 2 bag" in capsys.readouterr().err
+        assert not (tmp_path / "new").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "images.h5", "plain", "wall.h5"]
