@@ -205,15 +205,17 @@ def not_read_here(file: str) -> str | None:
 
 def _images_h5(path) -> bool:
     """Whether `path` is an HDF5 file whose root says ``format = "acousim-images"``
-    (:data:`acousim.export.images.FORMAT`, spelt out: no numpy imported for a message)."""
+    (:data:`acousim.export.images.FORMAT`, spelt out: that module is not imported for
+    a message)."""
     import h5py
+
+    from processing.formats.h5attrs import attribute_text
 
     try:
         with h5py.File(path, "r") as f:
-            v = f.attrs.get("format")
+            return attribute_text(f.attrs.get("format")) == IMAGES_FORMAT
     except (OSError, ValueError):
         return False
-    return (v.decode() if isinstance(v, bytes) else v) == IMAGES_FORMAT
 
 
 #: :data:`acousim.export.images.FORMAT` (a test holds them equal)
