@@ -10,7 +10,10 @@ needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --f
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
 their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
 a rig's recordings: one acoustic sensor per sonar, placed by its mount (--sensor NAME:
-one sonar's); the imaging options do not apply. Layout: docs/export.md.
+one sonar's); the imaging options (--method, --step, --energy-fraction, --min-range,
+--max-range, --peak-threshold, --dynamic-range-db, --image-method) do not apply and are
+refused. An existing --out is replaced only when
+it is a CHIRP file acousim wrote and not the input. Layout: docs/export.md.
 """
 
 from __future__ import annotations
@@ -18,7 +21,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
+from acousim.cli.common import (
+    UsageError,
+    add_command,
+    can_make_dir,
+    elapsed,
+    progress,
+    writable_dir,
+)
 from acousim.cli.image import imaging_arguments, load_and_image
 
 
@@ -34,7 +44,8 @@ def register(sub) -> None:
     p.add_argument(
         "--out",
         required=True,
-        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write",
+        help="bag folder to create (must not exist), or the CHIRP file (.h5) to write "
+        "(if it exists: only a CHIRP file acousim wrote, never the input, is replaced)",
     )
     p.add_argument(
         "--image-method",
@@ -49,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         return _chirp(args, out)
     if out.exists():
         raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
-    writable_dir(out.parent)
+    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
     try:
         from acousim.export.rosbag import write_rosbag
     except ImportError as exc:
@@ -60,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
             f"--image-method {args.image_method!r} is not among --method "
             f"{','.join(options.methods)!r}"
         )
+    writable_dir(out.parent)
     images = _Counted(image_all().images, progress("bag", "recording"))
     write_rosbag(
         out,
@@ -92,13 +104,80 @@ class _Counted(list):
 def _chirp(args: argparse.Namespace, out: Path) -> int:
     import processing as P
 
+    _no_imaging(args)
     if out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
-    writable_dir(out.parent if str(out.parent) else Path("."))
+    _replaceable(out, Path(args.file))
+    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
     recs, _, _, _ = load_and_image(args)  # the images are not made
+    writable_dir(out.parent)
     try:
         P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
     print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
     return 0
+
+
+#: the options that choose how recordings are imaged (the argument's name, its
+#: option): a CHIRP export writes the recordings, not images
+IMAGING_OPTIONS = (
+    ("method", "--method"),
+    ("step", "--step"),
+    ("energy_fraction", "--energy-fraction"),
+    ("min_range", "--min-range"),
+    ("max_range", "--max-range"),
+    ("peak_threshold", "--peak-threshold"),
+    ("dynamic_range_db", "--dynamic-range-db"),
+    ("image_method", "--image-method"),
+)
+
+
+def _no_imaging(args: argparse.Namespace) -> None:
+    """A UsageError naming the first imaging option given to a CHIRP export."""
+    for name, option in IMAGING_OPTIONS:
+        value = getattr(args, name)
+        if value is not None:
+            raise UsageError(
+                "does not apply to --format chirp (the recordings are written, not "
+                "imaged); leave it out",
+                key=option,
+                value=value,
+            )
+
+
+def _replaceable(out: Path, source: Path) -> None:
+    """A UsageError unless `out` may be written: absent, or a CHIRP file acousim wrote
+    (replaced whole, as `simulate` replaces its own) that is not the input `source`.
+    The input, or a file acousim did not write, is never overwritten."""
+    if not out.exists():
+        return
+    if source.exists() and out.samefile(source):
+        raise UsageError(
+            f"--out {str(out)!r} is the input file {str(source)!r}: writing the CHIRP "
+            "file there would lose it; name another file"
+        )
+    if not _ours(out):
+        raise UsageError(
+            f"--out {str(out)!r} exists already and is not a CHIRP file acousim wrote; "
+            "it is never overwritten: name another file or remove it"
+        )
+
+
+def _ours(path: Path) -> bool:
+    """Whether `path` is a CHIRP file acousim wrote: root ``format = "chirp"`` and
+    our group's ``schema`` (:data:`processing.formats.chirp.names.OUR_SCHEMA`)."""
+    import h5py
+
+    from processing.formats.chirp.names import OUR_SCHEMA, OURS
+    from processing.formats.h5attrs import attribute_text
+
+    try:
+        with h5py.File(path, "r") as f:
+            group = f.get(OURS)
+            return attribute_text(f.attrs.get("format")) == "chirp" and (
+                isinstance(group, h5py.Group)
+                and attribute_text(group.attrs.get("schema")) == OUR_SCHEMA
+            )
+    except (OSError, ValueError):
+        return False

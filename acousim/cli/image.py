@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 from acousim.cli.common import (
     UsageError,
     add_command,
+    can_make_dir,
     choice,
     elapsed,
     methods,
@@ -166,7 +167,7 @@ def _indices(file: str, index: list[int] | None) -> list[int]:
     try:
         n = P.count_recordings(file)
     except P.RecordingFileError as exc:
-        raise UsageError(str(exc)) from None
+        raise UsageError(not_read_here(file) or str(exc)) from None
     if n == 0:
         raise UsageError(f"{file}: the file holds no recordings")
     if index is not None:
@@ -174,6 +175,51 @@ def _indices(file: str, index: list[int] | None) -> list[int]:
         if bad:
             raise UsageError(f"the file holds {n} recording(s)", key="--index", value=bad)
     return list(range(n)) if index is None else index
+
+
+#: what `image` and `export` read, said when they are given something else
+READS = "a recording file (.h5 of `acousim simulate` or `record`) or a CHIRP file"
+
+
+def not_read_here(file: str) -> str | None:
+    """What `file` is when it is one of our outputs these commands do not read (a ROS 2
+    bag, an images.h5, a folder), as one line naming it and what they read; None for
+    anything else (the reader's own message says what is wrong)."""
+    from pathlib import Path
+
+    path = Path(file)
+    if path.is_dir():
+        if (path / "metadata.yaml").is_file():
+            return (
+                f"{file}: a ROS 2 bag (a folder, as `acousim export` writes it), which this "
+                f"command does not read; give {READS}"
+            )
+        return f"{file}: a folder, not a file; give {READS}"
+    if path.is_file() and _images_h5(path):
+        return (
+            f"{file}: an images.h5 (images written by `acousim image --images-h5`), not a "
+            f"recording file; give {READS}"
+        )
+    return None
+
+
+def _images_h5(path) -> bool:
+    """Whether `path` is an HDF5 file whose root says ``format = "acousim-images"``
+    (:data:`acousim.export.images.FORMAT`, spelt out: that module is not imported for
+    a message)."""
+    import h5py
+
+    from processing.formats.h5attrs import attribute_text
+
+    try:
+        with h5py.File(path, "r") as f:
+            return attribute_text(f.attrs.get("format")) == IMAGES_FORMAT
+    except (OSError, ValueError):
+        return False
+
+
+#: :data:`acousim.export.images.FORMAT` (a test holds them equal)
+IMAGES_FORMAT = "acousim-images"
 
 
 def _imaging_options(args: argparse.Namespace):
@@ -238,11 +284,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.images_h5 and args.no_data:
         raise UsageError("--no-data skips every data file", key="--images-h5", value=True)
-    out = writable_dir(args.out)
-    before = our_files(out)  # our files of an earlier run: replaced or removed
+    can_make_dir(args.out)  # checked, not made: nothing is created until the inputs are read
     recs, index, options, image_all = load_and_image(args, lazy=True)
     shown = _shown(args.recording, index)
     animated = _animated(args, index)
+    out = writable_dir(args.out)
+    before = our_files(out)  # our files of an earlier run: replaced or removed
 
     def first() -> None:  # while the worker images: the pictures' imports (before the
         # drive's worker is forked: it inherits them)

@@ -552,13 +552,19 @@ def peaks_csv_text(tables: Sequence[Mapping[str, P.PeakTable]]) -> str:
 
 
 def _fmt(values) -> list:
-    """A row's cells: booleans as 0/1, no value (None, NaN) as empty, numbers to 6 digits."""
+    """A row's cells: booleans as 0/1, no value (None, NaN) as empty, numbers in full
+    (Python's shortest text that reads back as the same float64: the cells equal
+    images.h5's axes and the Python rows exactly)."""
     out = []
     for v in values:
-        if isinstance(v, bool):
+        if isinstance(v, (bool, np.bool_)):
             out.append(int(v))
-        elif v is None or (isinstance(v, float) and v != v):
+        elif v is None or (isinstance(v, (float, np.floating)) and v != v):
             out.append("")
+        elif isinstance(v, str):
+            out.append(v)
+        elif isinstance(v, (int, np.integer)):
+            out.append(int(v))
         else:
-            out.append(v if isinstance(v, (int, str)) else f"{v:.6g}")
+            out.append(repr(float(v)))
     return out

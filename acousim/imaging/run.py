@@ -225,7 +225,7 @@ def _truth(match, k: int) -> dict[str, Any]:
     tx, ty, tz = (float(v) for v in match.position_sensor_m[k])
     return {
         "truth_kind": str(match.kind[k]),
-        "truth_order": -1 if match.order is None else int(match.order[k]),
+        "truth_order": None if match.order is None else int(match.order[k]),
         "truth_object": "" if match.object is None else str(match.object[k]),
         "truth_emitter": "" if match.emitter is None else str(match.emitter[k]),
         "truth_x_m": tx,

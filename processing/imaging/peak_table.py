@@ -42,7 +42,8 @@ class PeakRow:
     Angles in degrees (azimuth positive to the left, +y; elevation positive up, +z),
     lengths in metres, levels in dB. Frames: sensor (x forward, y left, z up) and
     world (through the recording's pose; the sensor frame without one). A column
-    without a value is NaN (numbers), "" (text) or None (the recording index).
+    without a value is NaN (numbers), "" (text) or None (the recording index,
+    truth_order, truth_behind); peaks.csv writes each of them as an empty cell.
     """
 
     recording: int | None = column("", "index of the recording in its file", None)
@@ -63,7 +64,9 @@ class PeakRow:
     truth_kind: str = column(
         "", "the traced path shown in the peak's resolution cell ('' if none)", ""
     )
-    truth_order: int = column("", "its reflections (an edge counts as one; -1: no truth)", -1)
+    truth_order: int | None = column(
+        "", "its reflections (an edge counts as one); None: no truth", None
+    )
     truth_object: str = column("", "what it last touched: '<mesh>/<material>' or 'point <i>'", "")
     truth_emitter: str = column(
         "", "the sonar whose call it carries (a rig's recording: crosstalk when not its own)", ""

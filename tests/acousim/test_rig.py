@@ -478,6 +478,65 @@ def test_chirp_export_of_a_rig_whole_or_one_sonar(tmp_path, capsys):
     np.testing.assert_array_equal(back.truth.emitter, ["right", "right", "left"])
 
 
+def test_chirp_export_of_one_sonar_keeps_its_mount(tmp_path, capsys):
+    """`export --sensor right --format chirp`: the sonar's acoustic sensor is named
+    "right", base_link is the body (its pose in the odometry) and the sonar's mount
+    (turned 20 degrees, 0.25 m to the right; the recording's metadata 'mount') is
+    inv(base_link_to_origin), as the whole rig's file places each sonar; chirppy,
+    where installed, reads the same transform."""
+    import h5py
+
+    import processing as P
+    from acousim.cli import main
+
+    base = two_sonars(wall_scene(tmp_path))
+    left, right = base.rig.sonars
+    body = Pose(np.array([0.4, -0.3, 0.45]), yaw_rad=np.deg2rad(30.0))
+    right = dataclasses.replace(right, mount=Mount(RIGHT, yaw_rad=np.deg2rad(-20.0)))
+    rig = dataclasses.replace(base.rig, sonars=(left, right), poses=(body,))
+    recs = list(RigSimulator(dataclasses.replace(base, rig=rig)).run().recordings)
+    P.save_recordings(tmp_path / "r.h5", recs)
+    out = tmp_path / "c.h5"
+    args = ["export", str(tmp_path / "r.h5"), "--sensor", "right", "--format", "chirp"]
+    assert main([*args, "--out", str(out)]) == 0
+    mount = recs[1].metadata["mount"]
+    assert mount == {"position_m": [0.0, -0.25, 0.0], "rotation_deg": [0.0, 0.0, -20.0]}
+
+    def turned(yaw_deg: float, at) -> np.ndarray:  # 4x4 of a turn about z and a shift
+        c, s = np.cos(np.deg2rad(yaw_deg)), np.sin(np.deg2rad(yaw_deg))
+        T = np.eye(4)
+        T[:2, :2], T[:3, 3] = [[c, -s], [s, c]], at
+        return T
+
+    want_mount = turned(-20.0, [0.0, -0.25, 0.0])
+    with h5py.File(out) as f:
+        assert list(f["sensors"]) == [
+            "acoustic_sensor_00", "acoustic_transmitter_00", "odometry_00"
+        ]  # fmt: skip
+        assert f["sensors/acoustic_sensor_00"].attrs["name"] == "right"
+        np.testing.assert_allclose(
+            f["sensors/acoustic_sensor_00/calibration/to_origin"], np.eye(4), atol=1e-15
+        )
+        to_origin = f["transforms/base_link_to_origin"][()]
+        np.testing.assert_allclose(np.linalg.inv(to_origin), want_mount, atol=1e-12)
+        odo = f["sensors/odometry_00/data"]
+        np.testing.assert_allclose(odo["position"][0], [0.4, -0.3, 0.45], atol=1e-12)
+        np.testing.assert_allclose(odo["yaw"][0], np.deg2rad(30.0), atol=1e-12)
+    (back,) = P.load_recordings(out)
+    assert back.metadata["sensor"] == "right" and back.metadata["mount"] == mount
+    np.testing.assert_allclose(back.provenance.pose.yaw_rad, np.deg2rad(10.0), atol=1e-12)
+    try:
+        import chirppy
+    except ImportError:
+        return
+    with chirppy.CHIRPDataset(out) as ds:
+        T = ds.get_transform("acoustic_sensor_00", "base_link")
+        np.testing.assert_allclose(T, want_mount, atol=1e-12)
+        np.testing.assert_allclose(
+            ds.get_odometry(0).get_pose_matrix(0), turned(30.0, [0.4, -0.3, 0.45]), atol=1e-12
+        )
+
+
 def test_a_single_sensor_simulator_refuses_a_rig(tmp_path):
     from processing.base.errors import InputError
 

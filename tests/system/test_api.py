@@ -347,10 +347,14 @@ def test_the_csv_writes_the_rows_of_peak_table(tmp_path):
     with open(path, newline="") as fh:
         rows = list(csv.reader(fh))
     assert tuple(rows[0]) == P.PEAK_COLUMNS and len(rows) == len(table) + 1
-    for got, row in zip(rows[1:], table):
+    for got, row in zip(rows[1:], table):  # every number in full, no value empty
         for text, value in zip(got, row.as_dict().values()):
-            if isinstance(value, float) and not np.isnan(value):
-                assert float(text) == pytest.approx(value, rel=1e-5, abs=1e-9)
+            if value is None or (isinstance(value, float) and np.isnan(value)):
+                assert text == ""
+            elif isinstance(value, float):
+                assert float(text) == value  # the same float64, not a rounding of it
+            else:
+                assert text == str(int(value) if isinstance(value, bool) else value)
 
 
 # --- documented public names ---------------------------------------------------------

@@ -223,10 +223,11 @@ def _write_one(f: h5py.File, recs: list[Recording], caps: _Captures, opts: dict)
 
 def _check_sonars(path: Path, recs: list[Recording]) -> np.ndarray | None:
     """Each recording's sonar (index into :func:`.rig.sonars_of`) for a rig's
-    recordings of several sonars (None: one sensor); each sonar's recordings share
-    array, rate, call and length (:func:`_check_one_sensor`)."""
+    recordings, of several sonars or of one named sonar with its mount (one rig's
+    sonar alone: its body stays base_link), else None (one sensor); each sonar's
+    recordings share array, rate, call and length (:func:`_check_one_sensor`)."""
     sonars = rig.sonars_of(recs)
-    if len(sonars) == 1:
+    if len(sonars) == 1 and (sonars[0] is None or not all("mount" in r.metadata for r in recs)):
         _check_one_sensor(path, recs)
         return None
     if None in sonars:

@@ -259,3 +259,57 @@ def test_a_closed_output_ends_the_command_quietly():
         os.close(write)
     assert done.returncode == CLOSED_OUTPUT == 141
     assert done.stderr == ""
+
+
+def test_image_refusing_its_input_creates_nothing_and_says_what_it_was_given(tmp_path, capsys):
+    """`image` given a bag folder, an images.h5, a folder or a sonar the file lacks:
+    exit 2, one line naming the input and what it is, and no --out folder made."""
+    from acousim.bundled import resolve
+    from acousim.cli.image import IMAGES_FORMAT
+    from acousim.export.images import FORMAT
+
+    assert IMAGES_FORMAT == FORMAT  # spelt out in the command line's module
+    rec = tmp_path / "wall.h5"
+    assert main(["simulate", str(resolve("scenes", "wall")), "--out", str(rec), "-q"]) == 0
+    bag = tmp_path / "bag"  # a rosbag2 folder's layout (its files' content is not read)
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (bag / "bag.mcap").write_bytes(b"")
+    images = tmp_path / "images.h5"
+    with h5py.File(images, "w") as f:
+        f.attrs["format"] = FORMAT
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    reads = "give a recording file (.h5 of `acousim simulate` or `record`) or a CHIRP file"
+    cases = (
+        ([str(rec), "--sensor", "front_left"], "--sensor = 'front_left': no recording of sonar"),
+        (
+            [str(bag)],
+            f"{bag}: a ROS 2 bag (a folder, as `acousim export` writes it), which "
+            f"this command does not read; {reads}",
+        ),
+        (
+            [str(images)],
+            f"{images}: an images.h5 (images written by `acousim image "
+            f"--images-h5`), not a recording file; {reads}",
+        ),
+        ([str(plain)], f"{plain}: a folder, not a file; {reads}"),
+    )
+    for n, (args, message) in enumerate(cases):
+        out = tmp_path / "new" / f"img{n}"
+        capsys.readouterr()
+        assert main(["image", *args, "--out", str(out), "--no-3d", "-q"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1, err
+        assert not (tmp_path / "new").exists()
+    # export reads the same files: the same words, and no folder made for --out
+    import importlib.util
+
+    outs = [["--format", "chirp", "--out", str(tmp_path / "new/c.h5")]]
+    if importlib.util.find_spec("rosbags"):  # the bag's writer (else: refused for it)
+        outs.append(["--out", str(tmp_path / "new/b")])
+    for out in outs:
+        assert main(["export", str(bag), *out]) == 2
+        assert f"{bag}: a ROS 2 bag" in capsys.readouterr().err
+        assert not (tmp_path / "new").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "images.h5", "plain", "wall.h5"]

@@ -3,6 +3,7 @@ the images with their axes, the peaks, and the ROS 2 bag.  One point reflector a
 direction worked out by hand, seen from a sensor at a known pose."""
 
 import csv
+import io
 import json
 import os
 import signal
@@ -100,6 +101,12 @@ def test_images_and_peaks_read_back_with_plain_h5py_and_csv(recording_file, tmp_
     with open(out / "peaks.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert rows and rows[0]["recording"] == "0"
+    with h5py.File(out / "images.h5", "r") as f:  # a peak's cell: exactly on the axes
+        g = f["recording_000000"]
+        axes = {k: set(g[k][()].tolist()) for k in ("range_m", "azimuth_deg", "elevation_deg")}
+    for r in rows:
+        for k, values in axes.items():
+            assert float(r[k]) in values, (k, r[k])
     for method in ("das", "music-fbss"):
         top = [r for r in rows if r["method"] == method][0]  # strongest first
         assert float(top["level_db"]) == 0.0
@@ -449,3 +456,24 @@ def test_label_maps_read_back_as_made_whatever_the_compression(recording_file, t
                 np.testing.assert_array_equal(obj[()], labels.object_index)
                 np.testing.assert_array_equal(order[()], labels.order)
                 assert obj.compression == compression
+
+
+def test_peaks_csv_writes_numbers_in_full_and_no_value_as_an_empty_cell():
+    """A peak without truth: truth_order and truth_behind (None) are empty cells, as
+    NaN is; a number is the float64 itself (0.44641854 is not rounded to 0.446419)."""
+    from acousim.export.images import peaks_csv_text
+
+    matched = P.PeakRow(
+        recording=3, method="das", range_m=0.44641854, azimuth_deg=-12.5, level_db=-4.70148312,
+        x_m=1e-19, on_grid_edge=True, truth_kind="specular", truth_order=2, truth_behind=False,
+    )  # fmt: skip
+    unmatched = P.PeakRow(recording=3, method="das", range_m=1.0 / 3.0, truth_note="none")
+    assert unmatched.truth_order is None and unmatched.truth_behind is None
+    text = peaks_csv_text([{"das": P.PeakTable([matched, unmatched])}])
+    a, b = csv.DictReader(io.StringIO(text))
+    assert a["range_m"] == "0.44641854" and a["level_db"] == "-4.70148312"
+    assert a["x_m"] == "1e-19" and a["azimuth_deg"] == "-12.5"
+    assert (a["on_grid_edge"], a["truth_order"], a["truth_behind"]) == ("1", "2", "0")
+    assert float(b["range_m"]) == 1.0 / 3.0 and b["range_m"] == "0.3333333333333333"
+    assert (b["truth_order"], b["truth_behind"], b["elevation_deg"]) == ("", "", "")
+    assert (b["recording"], b["truth_note"]) == ("3", "none")
