@@ -89,7 +89,8 @@ def add_command(sub, doc: str, run) -> argparse.ArgumentParser:
         "-q",
         "--quiet",
         action="store_true",
-        help="no progress bar or progress line (results and errors are still printed)",
+        help="no progress bar or progress line on stderr (results, on stdout, and errors are "
+        "still printed)",
     )
     return parser
 
@@ -266,9 +267,10 @@ class Progress:
     """A progress callback ``(done, total)`` and a Ctrl-C checkpoint.
 
     On a terminal (stderr): a tqdm bar with the count, the rate and the time left,
-    kept as one line when done. Elsewhere (a log, a pipe): one line on stdout when
-    done, e.g. ``simulate: 60/60 poses in 7.8 s (7.69 poses/s)``. With --quiet:
-    nothing. With ACOUSIM_PROGRESS_LINES set: a line per step on stderr instead.
+    kept as one line when done. Elsewhere (a log, a pipe): one line on stderr when
+    done (stdout keeps the results a script reads), e.g. ``simulate: 60/60 poses in
+    7.8 s (7.69 poses/s)``. With --quiet: nothing. With ACOUSIM_PROGRESS_LINES set:
+    a line per step on stderr instead.
     `total` None (an open-ended count): call :meth:`finish` at the end. With
     `checkpoint` false it never raises KeyboardInterrupt (a caller that stops on
     Ctrl-C in its own way).
@@ -347,7 +349,7 @@ class Progress:
             return
         if _quiet or _lines() or sys.stderr.isatty():
             return
-        print(self.summary(now() - self._t0), flush=True)
+        print(self.summary(now() - self._t0), file=sys.stderr, flush=True)
 
     def summary(self, seconds: float) -> str:
         """``DESC: DONE/TOTAL UNITs in S s (RATE UNITs/s)``: the final line."""
