@@ -139,16 +139,25 @@ def choice(what: str, options: tuple[str, ...]):
     return parse
 
 
+#: the folders this command made (:func:`writable_dir`), the deepest first: removed,
+#: when empty, if the command ends without its output (:func:`remove_made_dirs`)
+_made_dirs: list[Path] = []
+
+
 def writable_dir(path: str | Path) -> Path:
-    """An output folder, made if needed, that can be written (tried with a temporary
-    file); else a UsageError."""
+    """An output folder, made if needed with its missing parents (as ``mkdir -p``),
+    that can be written (tried with a temporary file); else a UsageError.  The
+    folders it made are removed again, if empty, when the command fails or is
+    interrupted (:func:`remove_made_dirs`)."""
     import tempfile
 
     from processing.base.atomic import TEMP_PREFIX
 
     out = Path(path)
+    missing = [p for p in (out, *out.parents) if not p.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
+        _made_dirs.extend(p for p in missing if p not in _made_dirs)
         with tempfile.NamedTemporaryFile(dir=out, prefix=TEMP_PREFIX):  # exclusive, removed
             pass
     except OSError as exc:
@@ -156,6 +165,23 @@ def writable_dir(path: str | Path) -> Path:
             f"output directory {str(out)!r} cannot be written ({exc.strerror})"
         ) from None
     return out
+
+
+def remove_made_dirs(*, failed: bool = True) -> list[Path]:
+    """At a command's end: if it `failed` (an error or Ctrl-C: no output), remove the
+    folders :func:`writable_dir` made that are still empty, the deepest first (a
+    folder holding anything, kept shards or measurements, stays, and so do its
+    parents); either way forget them.  Returns the folders removed."""
+    removed = []
+    deepest_first = sorted(_made_dirs, key=lambda p: len(p.absolute().parts), reverse=True)
+    _made_dirs.clear()
+    for folder in deepest_first if failed else ():
+        try:
+            folder.rmdir()  # only an empty folder
+        except OSError:
+            continue
+        removed.append(folder)
+    return removed
 
 
 def can_make_dir(path: str | Path) -> Path:
