@@ -121,6 +121,8 @@ def test_memory_counts_the_ray_tracing(monkeypatch):
     T = scene.n_samples()
     assert scene.memory_bytes(1) == 8 * 30 * T * 7 + 85 * 3_000_000 * 16
     assert 4.2e9 < scene.memory_bytes(1) < 4.4e9  # the 4.27 GB measured
+    # from two poses on, the next pose is traced while one is prepared: two traces
+    assert scene.memory_bytes(4) == 8 * 30 * T * 10 + 2 * 85 * 3_000_000 * 16
     pattern = (
         r"^ACOUSIM_MAX_MEMORY_GB = '1': the simulation would need about 4.3 GB "
         r"\(30 mics x \d+ samples x 1 pose\(s\), and 4.08 GB to trace 3000000 rays x 3 "
@@ -128,6 +130,8 @@ def test_memory_counts_the_ray_tracing(monkeypatch):
     )
     with pytest.raises(InputError, match=pattern):
         acousim.Simulator(scene).run([0])
+    with pytest.raises(InputError, match=r"x 4 pose\(s\), and 8.16 GB .* \(two poses at once\)"):
+        scene.check_memory(4)  # what Simulator.run checks for 4 poses
     auto = _wall(acousim.Simulation(rays_max=1_000_000, bounces=2, max_memory_gb=0.5))
     assert auto.trace_bytes() == 85 * 1_000_000 * 9  # the automatic budget's cap
     with pytest.raises(
