@@ -197,7 +197,7 @@ def _exit(code: int) -> None:
 
 
 def _main(argv: list[str] | None, handled: bool) -> int:
-    from acousim.cli.common import announce, set_quiet
+    from acousim.cli.common import announce, remove_made_dirs, set_quiet
     from processing.base import interrupt
     from processing.base.errors import InputError
 
@@ -210,13 +210,17 @@ def _main(argv: list[str] | None, handled: bool) -> int:
     args = build_parser().parse_args(argv)
     announce(args.command)
     set_quiet(args.quiet)
+    code = None
     try:
         interrupt.check()
-        return args.func(args)
+        code = args.func(args)
+        return code
     except InputError as exc:
+        code = 2
         print(f"acousim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        code = 130
         # a command may say more (what it kept, how to resume): its `interrupted(args)`
         said = getattr(args, "interrupted", None)
         print(
@@ -225,3 +229,5 @@ def _main(argv: list[str] | None, handled: bool) -> int:
             file=sys.stderr,
         )
         return 130
+    finally:  # ended without its output: the empty folders it made go too
+        remove_made_dirs(failed=code != 0)

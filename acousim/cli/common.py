@@ -89,7 +89,8 @@ def add_command(sub, doc: str, run) -> argparse.ArgumentParser:
         "-q",
         "--quiet",
         action="store_true",
-        help="no progress bar or progress line (results and errors are still printed)",
+        help="no progress bar or progress line on stderr (results, on stdout, and errors are "
+        "still printed)",
     )
     return parser
 
@@ -138,16 +139,25 @@ def choice(what: str, options: tuple[str, ...]):
     return parse
 
 
+#: the folders this command made (:func:`writable_dir`), the deepest first: removed,
+#: when empty, if the command ends without its output (:func:`remove_made_dirs`)
+_made_dirs: list[Path] = []
+
+
 def writable_dir(path: str | Path) -> Path:
-    """An output folder, made if needed, that can be written (tried with a temporary
-    file); else a UsageError."""
+    """An output folder, made if needed with its missing parents (as ``mkdir -p``),
+    that can be written (tried with a temporary file); else a UsageError.  The
+    folders it made are removed again, if empty, when the command fails or is
+    interrupted (:func:`remove_made_dirs`)."""
     import tempfile
 
     from processing.base.atomic import TEMP_PREFIX
 
     out = Path(path)
+    missing = [p for p in (out, *out.parents) if not p.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
+        _made_dirs.extend(p for p in missing if p not in _made_dirs)
         with tempfile.NamedTemporaryFile(dir=out, prefix=TEMP_PREFIX):  # exclusive, removed
             pass
     except OSError as exc:
@@ -155,6 +165,23 @@ def writable_dir(path: str | Path) -> Path:
             f"output directory {str(out)!r} cannot be written ({exc.strerror})"
         ) from None
     return out
+
+
+def remove_made_dirs(*, failed: bool = True) -> list[Path]:
+    """At a command's end: if it `failed` (an error or Ctrl-C: no output), remove the
+    folders :func:`writable_dir` made that are still empty, the deepest first (a
+    folder holding anything, kept shards or measurements, stays, and so do its
+    parents); either way forget them.  Returns the folders removed."""
+    removed = []
+    deepest_first = sorted(_made_dirs, key=lambda p: len(p.absolute().parts), reverse=True)
+    _made_dirs.clear()
+    for folder in deepest_first if failed else ():
+        try:
+            folder.rmdir()  # only an empty folder
+        except OSError:
+            continue
+        removed.append(folder)
+    return removed
 
 
 def can_make_dir(path: str | Path) -> Path:
@@ -266,9 +293,10 @@ class Progress:
     """A progress callback ``(done, total)`` and a Ctrl-C checkpoint.
 
     On a terminal (stderr): a tqdm bar with the count, the rate and the time left,
-    kept as one line when done. Elsewhere (a log, a pipe): one line on stdout when
-    done, e.g. ``simulate: 60/60 poses in 7.8 s (7.69 poses/s)``. With --quiet:
-    nothing. With ACOUSIM_PROGRESS_LINES set: a line per step on stderr instead.
+    kept as one line when done. Elsewhere (a log, a pipe): one line on stderr when
+    done (stdout keeps the results a script reads), e.g. ``simulate: 60/60 poses in
+    7.8 s (7.69 poses/s)``. With --quiet: nothing. With ACOUSIM_PROGRESS_LINES set:
+    a line per step on stderr instead.
     `total` None (an open-ended count): call :meth:`finish` at the end. With
     `checkpoint` false it never raises KeyboardInterrupt (a caller that stops on
     Ctrl-C in its own way).
@@ -347,7 +375,7 @@ class Progress:
             return
         if _quiet or _lines() or sys.stderr.isatty():
             return
-        print(self.summary(now() - self._t0), flush=True)
+        print(self.summary(now() - self._t0), file=sys.stderr, flush=True)
 
     def summary(self, seconds: float) -> str:
         """``DESC: DONE/TOTAL UNITs in S s (RATE UNITs/s)``: the final line."""

@@ -19,7 +19,12 @@ def register(sub) -> None:
     p.add_argument(
         "spec", help="dataset spec (.toml) or a bundled spec's name (e.g. corridor_small)"
     )
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument(
+        "--out",
+        required=True,
+        help="output folder (made with its parents if missing; removed again if still "
+        "empty when the run fails or is interrupted)",
+    )
     add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
     p.set_defaults(interrupted=interrupted)

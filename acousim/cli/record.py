@@ -83,7 +83,12 @@ def register(sub) -> None:
         help="PDM decimation filter: equiripple (default, 157 taps, >80 dB alias "
         "rejection) or rtis (the vendor host's 512-tap FIR, 2-3x slower)",
     )
-    p.add_argument("--out", required=True, help="output file (.h5)")
+    p.add_argument(
+        "--out",
+        required=True,
+        help="output file (.h5); its missing folders are made, and removed again if "
+        "still empty when the run fails or is interrupted",
+    )
 
 
 def emulated_scene(scene, array: str | None, call: str | None, seed: int | None = None):

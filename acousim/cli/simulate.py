@@ -29,7 +29,11 @@ def register(sub) -> None:
         help="scene file (.toml, see docs/scene-format.md) or a bundled scene's name "
         "(acousim scenes)",
     )
-    p.add_argument("--out", help="output file (default: SCENE_NAME.h5)")
+    p.add_argument(
+        "--out",
+        help="output file (default: SCENE_NAME.h5); its missing folders are made, and "
+        "removed again if the run fails or is interrupted",
+    )
     p.add_argument(
         "--poses",
         help="pose indices: '0,3,5' or a range '0:10' (default: all); a rig's scene: "

@@ -41,7 +41,14 @@ from acousim.core.rendering import (
     RenderRate,
     ShapedDelay,
 )
-from acousim.scene.defaults import QUALITIES, Quality, fill_unset, memory_limit_bytes, record_given
+from acousim.scene.defaults import (
+    QUALITIES,
+    Quality,
+    fill_unset,
+    memory_limit_bytes,
+    record_given,
+)
+from acousim.scene.defaults import given as given_settings
 from acousim.scene.motion import (
     MAX_SPEED_M_S,
     MAX_TURN_DEG_S,
@@ -84,6 +91,13 @@ __all__ = [
 ]
 
 FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
+#: peak memory of the ray tracer, bytes per ray and per (bounces + 1)**2: the slope
+#: of the peak RSS of the corridor's first pose against its rays
+#: (benchmarks/trace_memory.py) is 1315 B per ray at 3 bounces (0.4, 0.8, 1.6
+#: million rays) and 293 B at 1 bounce (0.8, 1.6 million): 82 and 73 B x (bounces +
+#: 1)**2 (the hits of every bounce kept, the later bounces' rays the longer),
+#: rounded up so that both are covered
+TRACE_BYTES_PER_RAY = 85
 """Fractional-delay interpolators a scene may choose: those of the renderer that take
 a path response (:data:`acousim.synth.render.ShapedDelay`)."""
 
@@ -722,26 +736,51 @@ class Scene:
 
         Every recording is kept (M microphones x T samples, float64) and one pose at
         a time needs about six more such arrays of working memory (the render's
-        oversampled and FFT buffers): ``8 M T (n_poses + 6)``.
+        oversampled and FFT buffers): ``8 M T (n_poses + 6)``; and the ray tracer
+        holds its rays' hits, :meth:`trace_bytes`.
         """
         n = len(self.sensor.poses) if n_poses is None else n_poses
         T = self.n_samples() if n_samples is None else n_samples
-        return 8 * self.sensor.array.n_mics * T * (n + 6)
+        return 8 * self.sensor.array.n_mics * T * (n + 6) + self.trace_bytes(n)
+
+    def trace_bytes(self, n_poses: int = 1) -> int:
+        """Peak memory of the ray tracing of `n_poses` poses, bytes: ``TRACE_BYTES_PER_RAY
+        x N (bounces + 1)**2`` a pose, N the rays (``simulation.rays``, else
+        ``rays_max``), twice from two poses on (:meth:`Simulator.run` traces the next
+        pose while one is prepared: 4.66 GB measured for 4 poses against 2.46 GB for
+        one, 1.6 million rays, 3 bounces); 0 without meshes (points are not traced)."""
+        sim = self.simulation
+        if not self.meshes:
+            return 0
+        rays = sim.rays_max if sim.rays is None else sim.rays
+        return TRACE_BYTES_PER_RAY * rays * (sim.bounces + 1) ** 2 * min(max(n_poses, 1), 2)
 
     def check_memory(self, n_poses: int | None = None, n_samples: int | None = None) -> None:
         """Refuse (InputError) a simulation whose :meth:`memory_bytes` exceeds
-        ``simulation.max_memory_gb``."""
+        ``simulation.max_memory_gb`` (named ``ACOUSIM_MAX_MEMORY_GB`` when that
+        environment variable set it)."""
         need = self.memory_bytes(n_poses, n_samples)
-        limit = self.simulation.max_memory_gb * 1e9
-        if need > limit:
-            raise InputError(
-                f"the simulation would need about {need / 1e9:.3g} GB "
-                f"({self.sensor.array.n_mics} mics x {n_samples or self.n_samples()} samples "
-                f"x {len(self.sensor.poses) if n_poses is None else n_poses} pose(s)), above "
-                f"the limit of {self.simulation.max_memory_gb:g} GB; lower sample_rate_hz or "
-                "max_range_m, simulate fewer poses, or raise simulation.max_memory_gb "
-                "(or $ACOUSIM_MAX_MEMORY_GB)",
-                file=self.source,
-                key="simulation.max_memory_gb",
-                value=self.simulation.max_memory_gb,
+        sim = self.simulation
+        if need <= sim.max_memory_gb * 1e9:
+            return
+        n = len(self.sensor.poses) if n_poses is None else n_poses
+        trace = ""
+        if self.trace_bytes(n):
+            rays = f"{sim.rays_max} rays (rays_max)" if sim.rays is None else f"{sim.rays} rays"
+            both = " (two poses at once)" if n > 1 else ""
+            trace = (
+                f", and {self.trace_bytes(n) / 1e9:.3g} GB to trace {rays} x {sim.bounces} "
+                f"bounces{both}"
             )
+        env = "max_memory_gb" not in given_settings(sim) and os.environ.get("ACOUSIM_MAX_MEMORY_GB")
+        raise InputError(
+            f"the simulation would need about {need / 1e9:.3g} GB "
+            f"({self.sensor.array.n_mics} mics x {n_samples or self.n_samples()} samples "
+            f"x {n} pose(s){trace}), "
+            f"above the limit of {sim.max_memory_gb:g} GB; lower sample_rate_hz, "
+            "max_range_m, rays or bounces, simulate fewer poses, or raise "
+            "simulation.max_memory_gb (or $ACOUSIM_MAX_MEMORY_GB)",
+            file=None if env else self.source,
+            key="ACOUSIM_MAX_MEMORY_GB" if env else "simulation.max_memory_gb",
+            value=env or sim.max_memory_gb,
+        )

@@ -244,10 +244,11 @@ def test_command_line(corridor, capsys):
         ]
     )
     assert code == 0
-    text = capsys.readouterr().out
+    said = capsys.readouterr()
+    text = said.out
     assert "plaster.reflection" in text and "metal" not in text.split("range_m")[0]
-    # not a terminal: one line when the two poses are traced and rendered
-    assert re.search(r"^calibrate: 2/2 poses in [\d.]+ s \(", text, re.M), text
+    # not a terminal: one line on stderr when the two poses are traced and rendered
+    assert re.fullmatch(r"calibrate: 2/2 poses in [\d.]+ s \(.*\)\n", said.err), said.err
     fitted = load_scene(tmp / "cli.toml")
     assert abs(fitted.materials["plaster"].reflection - PLASTER[0]) < 0.05
     assert fitted.materials["metal"].reflection == 0.99  # not fitted: as it was

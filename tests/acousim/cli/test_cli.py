@@ -223,9 +223,11 @@ def test_errors_are_one_line_with_exit_code_2(tmp_path, capsys, args, pattern):
     )
     before = set(tmp_path.rglob("*"))
     code = main([a.format(tmp=tmp_path) for a in args])
-    err = capsys.readouterr().err.strip()
+    lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert len(err.splitlines()) == 1 and re.search(pattern, err), err
+    # one line besides a finished stage's progress line ("simulate: 1/1 poses in ...")
+    said = [ln for ln in lines if not re.fullmatch(r"\w+: \d+/\d+ \w+ in [\d.]+ s \(.*\)", ln)]
+    assert len(said) == 1 and len(lines) <= 2 and re.search(pattern, said[0]), lines
     assert set(tmp_path.rglob("*")) - before <= {tmp_path / "out"}  # no partial files
 
 
@@ -254,6 +256,20 @@ def test_arguments_are_checked_when_parsed(capsys, args, pattern):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert re.search(pattern, err[-1]), err
+
+
+def test_out_makes_its_folders_and_a_failed_run_removes_the_empty_ones(tmp_path, capsys):
+    """`--out` makes the missing folders (as mkdir -p); a run that fails after making
+    them (a pose index out of range) removes those it made, not the existing one."""
+    copy_scene(tmp_path, "points")
+    (tmp_path / "kept").mkdir()
+    out = tmp_path / "kept" / "new" / "sub" / "x.h5"
+    code = main(["simulate", str(tmp_path / "points.toml"), "--poses", "99", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "pose index 99 out of range: the scene has 1 pose(s)" in err, err
+    assert (tmp_path / "kept").is_dir() and not (tmp_path / "kept" / "new").exists()
+    assert main(["simulate", str(tmp_path / "points.toml"), "--out", str(out), "-q"]) == 0
+    assert len(P.load_recordings(out)) == 1  # its one pose, in the folders made
 
 
 def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch, capsys):

@@ -152,6 +152,17 @@ def test_interrupted_simulate_keeps_the_old_output(corridor, tmp_path, after):
         assert code == 130
 
 
+def test_interrupted_simulate_removes_the_folders_it_made(corridor, tmp_path):
+    """`--out new/sub/x.h5` makes new/sub (as mkdir -p); Ctrl-C after the first pose:
+    nothing was kept, so neither are the two empty folders it made."""
+    for p in corridor.iterdir():
+        (shutil.copytree if p.is_dir() else shutil.copy)(p, tmp_path / p.name)
+    args = ["simulate", "corridor.toml", "--poses", "2:5", "--out", "new/sub/x.h5"]
+    code, _ = run_interrupted(args, tmp_path, "simulate 1/3")
+    assert code == 130
+    assert not (tmp_path / "new").exists() and leftovers(tmp_path) == []
+
+
 def test_interrupted_rig_simulate_stops_its_threads_and_keeps_the_old_output(tmp_path):
     # a rig's run prepares the next firings in threads while one renders: Ctrl-C
     # after the first firing ends the command with one line, no file replaced

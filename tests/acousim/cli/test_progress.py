@@ -211,20 +211,24 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     scene = three_poses(tmp_path)
     out = tmp_path / "x.h5"
     assert main(["simulate", str(scene), "--out", str(out)]) == 0
-    said = capsys.readouterr()
-    assert said.err == ""  # no bar drawn into a log
-    lines = said.out.splitlines()
-    assert len(lines) == 2, lines
+    said = capsys.readouterr()  # progress on stderr (no bar drawn into a log), results on stdout
+    lines = said.err.splitlines()
+    assert len(lines) == 1 and len(said.out.splitlines()) == 1, said
     m = re.fullmatch(r"simulate: 3/3 poses in ([\d.]+) s \(([\d.e+]+) poses/s\)", lines[0])
     assert m, lines[0]
     seconds, rate = float(m.group(1)), float(m.group(2))
     if seconds >= 0.5:  # the rate is the count over the time (both as printed, rounded)
         assert rate == pytest.approx(3 / seconds, rel=0.15)
-    assert lines[1].startswith("3 recording(s) of 'points' written")
+    assert said.out.startswith("3 recording(s) of 'points' written")
     # image: one line for the imaging; the animation's frames get theirs
     args = ["image", str(out), "--method", "das", "--out", str(tmp_path / "img"), "--no-3d"]
     assert main([*args, "--images-h5"]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    said = capsys.readouterr()
+    lines = said.err.splitlines()
+    assert len(lines) == 3, said  # the files written, on stdout
+    assert re.fullmatch(
+        r"5 file\(s\) written to .*img \([\d.]+ s from the start\)", said.out.splitlines()[-1]
+    )
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \([\d.e+]+ recordings/s\)", lines[0])
     # the write phase: the pictures (fan, el-az of das, the animation) by picture,
     # then images.h5 by recording (its label maps made meanwhile)
@@ -232,18 +236,21 @@ def test_a_log_gets_one_final_line_per_stage(tmp_path, capsys, monkeypatch):
     assert re.fullmatch(r"images.h5: 3/3 recordings in [\d.]+ s \(.*\)", lines[2]), lines
     # export: the imaging, then the bag's recordings
     assert main(["export", str(out), "--method", "das", "--out", str(tmp_path / "bag")]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    said = capsys.readouterr()
+    lines = said.err.splitlines()
     assert re.fullmatch(r"image: 3/3 recordings in [\d.]+ s \(.*\)", lines[0]), lines
     assert re.fullmatch(r"bag: 3/3 recordings in [\d.]+ s \(.*\)", lines[1]), lines
     assert re.fullmatch(
-        r"3 recording\(s\) written to the ROS 2 bag .* \(MCAP; [\d.]+ s\)", lines[2]
+        r"3 recording\(s\) written to the ROS 2 bag .* \(MCAP; [\d.]+ s\)", said.out.strip()
     )
     # a CHIRP file: its 3 captures' samples and 3 recordings' own data, then the result
     args = ["export", str(out), "--format", "chirp", "--out", str(tmp_path / "c.h5")]
     assert main(args) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert re.fullmatch(r"CHIRP: 6/6 steps in [\d.]+ s \(.*\)", lines[-2]), lines
-    assert re.fullmatch(r"3 recording\(s\) written to the CHIRP file .* \([\d.]+ s\)", lines[-1])
+    said = capsys.readouterr()
+    assert re.fullmatch(r"CHIRP: 6/6 steps in [\d.]+ s \(.*\)", said.err.strip()), said
+    assert re.fullmatch(
+        r"3 recording\(s\) written to the CHIRP file .* \([\d.]+ s\)", said.out.strip()
+    )
 
 
 def test_quiet_in_a_log_prints_only_the_result(tmp_path, capsys, monkeypatch):
@@ -260,7 +267,7 @@ def test_record_counts_its_measurements(tmp_path, capsys, monkeypatch):
     shutil.copytree(SCENES / "meshes", tmp_path / "meshes")
     args = ["record", "--emulate", str(tmp_path / "wall.toml"), "--count", "2"]
     assert main([*args, "--out", str(tmp_path / "r.h5")]) == 0
-    out = capsys.readouterr().out.splitlines()
+    out = capsys.readouterr().err.splitlines()
     assert re.fullmatch(r"simulate: 1/1 poses in [\d.]+ s \(.*\)", out[0]), out  # its one pose
     assert re.fullmatch(r"record: 2/2 measurements in [\d.]+ s \(.*\)", out[1]), out
 

@@ -19,13 +19,13 @@ def study(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("study")
     report = out / "REPRODUCTION.md"
-    said = io.StringIO()
-    with contextlib.redirect_stdout(said):
+    said, progress = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(said), contextlib.redirect_stderr(progress):
         code = main(
             ["reproduce", "--quick", "--out", str(out), "--report", str(report), "--workers", "1"]
         )
     assert code == 0
-    SAID["stdout"] = said.getvalue()
+    SAID["stdout"], SAID["stderr"] = said.getvalue(), progress.getvalue()
     return out, report
 
 
@@ -33,11 +33,13 @@ SAID: dict[str, str] = {}  # what the study's run printed
 
 
 def test_the_study_says_where_it_is(study):
-    """Not a terminal: one final line for the five experiments, then the result."""
+    """Not a terminal: one final line on stderr for the five experiments; the result
+    on stdout."""
     import re
 
     lines = SAID["stdout"].splitlines()
-    assert re.fullmatch(r"reproduce: 5/5 experiments in [\d.]+ s \(.*experiments/s\)", lines[0])
+    pattern = r"reproduce: 5/5 experiments in [\d.]+ s \(.*experiments/s\)\n"
+    assert re.fullmatch(pattern, SAID["stderr"]), SAID["stderr"]
     assert lines[-1].startswith(f"figures and CSVs in {study[0]}, report ")
 
 

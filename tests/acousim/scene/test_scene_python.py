@@ -106,6 +106,56 @@ def test_memory_is_estimated_and_refused_before_allocating(monkeypatch):
         acousim.Simulator(small).simulate_pose(small.sensor.poses[0])
 
 
+def _wall(simulation):
+    trimesh = pytest.importorskip("trimesh")
+    box = acousim.MeshItem(trimesh.creation.box((0.1, 4.0, 3.0)), position_m=(2, 0, 0))
+    return acousim.Scene(meshes=[box], simulation=simulation)
+
+
+def test_memory_counts_the_ray_tracing(monkeypatch):
+    """The corridor of a new user's trial with rays = 3e6, bounces = 3, max_range_m =
+    50 peaked at 4.27 GB (RSS) while its recordings' term is 0.22 GB: the tracer's
+    85 N (bounces + 1)**2 bytes are counted, and the scene refused under 1 GB."""
+    monkeypatch.setenv("ACOUSIM_MAX_MEMORY_GB", "1")
+    scene = _wall(acousim.Simulation(rays=3_000_000, bounces=3, max_range_m=50.0))
+    T = scene.n_samples()
+    assert scene.memory_bytes(1) == 8 * 30 * T * 7 + 85 * 3_000_000 * 16
+    assert 4.2e9 < scene.memory_bytes(1) < 4.4e9  # the 4.27 GB measured
+    # from two poses on, the next pose is traced while one is prepared: two traces
+    assert scene.memory_bytes(4) == 8 * 30 * T * 10 + 2 * 85 * 3_000_000 * 16
+    pattern = (
+        r"^ACOUSIM_MAX_MEMORY_GB = '1': the simulation would need about 4.3 GB "
+        r"\(30 mics x \d+ samples x 1 pose\(s\), and 4.08 GB to trace 3000000 rays x 3 "
+        r"bounces\), above the limit of 1 GB"
+    )
+    with pytest.raises(InputError, match=pattern):
+        acousim.Simulator(scene).run([0])
+    with pytest.raises(InputError, match=r"x 4 pose\(s\), and 8.16 GB .* \(two poses at once\)"):
+        scene.check_memory(4)  # what Simulator.run checks for 4 poses
+    auto = _wall(acousim.Simulation(rays_max=1_000_000, bounces=2, max_memory_gb=0.5))
+    assert auto.trace_bytes() == 85 * 1_000_000 * 9  # the automatic budget's cap
+    with pytest.raises(
+        InputError,
+        match=r"^simulation.max_memory_gb = 0.5: .* 0.765 GB to trace 1000000 rays \(rays_max\)",
+    ):
+        acousim.Simulator(auto).run([0])
+
+
+def test_memory_refusal_names_where_the_limit_came_from(monkeypatch, tmp_path):
+    """The limit from $ACOUSIM_MAX_MEMORY_GB names the variable; from the scene file,
+    the file and its key (the variable then not consulted)."""
+    monkeypatch.setenv("ACOUSIM_MAX_MEMORY_GB", "0.001")
+    text = '[sensor]\narray = "urtis_v1"\n[[points]]\nposition_m = [1.0, 0.0, 0.0]\n'
+    (tmp_path / "env.toml").write_text(text)
+    (tmp_path / "file.toml").write_text(text + "[simulation]\nmax_memory_gb = 0.002\n")
+    with pytest.raises(InputError, match=r"^ACOUSIM_MAX_MEMORY_GB = '0.001': .*limit of 0.001 GB"):
+        acousim.Simulator(acousim.load_scene(tmp_path / "env.toml")).run()
+    with pytest.raises(
+        InputError, match=r"^.*file.toml: simulation.max_memory_gb = 0.002: .*limit of 0.002 GB"
+    ):
+        acousim.Simulator(acousim.load_scene(tmp_path / "file.toml")).run()
+
+
 def test_reprs_are_short():
     rec = P.Recording(np.zeros((30, 3000)), 450e3, P.urtis_v1(), P.rtis_call("default_25_50"))
     for obj, words in [
