@@ -308,7 +308,7 @@ def test_calibrate_fits_a_rigs_sonar_with_its_mount_fixed(tmp_path, capsys):
     args += ["--out", str(tmp_path / "fitted.toml"), "--param", "wall.reflection"]
     assert main(args) != 0 and "--sensor" in capsys.readouterr().err
     assert main([*args, "--sensor", "b"]) == 0
-    assert "2/2 poses" in capsys.readouterr().out  # b's two firings, not the rig's four
+    assert "2/2 poses" in capsys.readouterr().err  # b's two firings, not the rig's four
     fitted = load_scene(tmp_path / "fitted.toml")
     assert fitted.materials["wall"].reflection == pytest.approx(0.7, abs=0.02)
     b = fitted.rig.sonars[1].mount
