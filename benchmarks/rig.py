@@ -14,7 +14,7 @@ import numpy as np
 from acousim.bundled import find_scene
 from acousim.rig import RigSimulator
 from acousim.scene import load_scene
-from acousim.scene.rig import sonar_scene
+from acousim.scene.rig import Mount, RigSonar, sonar_scene
 from acousim.simulator import Simulator
 from acousim.trace import tracer as tracer_module
 from acousim.trace.rays.emission import Emission
@@ -51,6 +51,61 @@ def _wall_alone(sim: Simulator, poses: list[int]) -> float:
     t0 = time.perf_counter()
     sim.run(poses)
     return time.perf_counter() - t0
+
+
+def _alone(scene) -> tuple[float, float]:
+    """Each of :data:`FIRINGS` computed on its own: a :class:`RigSimulator` of its
+    own (its own world; its calls' rays shot for it alone) simulating that firing
+    only.  CPU seconds for the firings, and wall seconds preparing their simulators."""
+    spent = prepared = 0.0
+    for i in FIRINGS:
+        t0 = time.perf_counter()
+        sim = RigSimulator(scene, threads=1)
+        prepared += time.perf_counter() - t0
+        t0 = time.process_time()
+        sim.simulate(i)
+        spent += time.process_time() - t0
+    return spent, prepared
+
+
+#: the rigs of the scaling rows: the bundled rig's sonar on the first N of these
+#: mounts of its body ((x, y) m, yaw degrees): its four corners, then the middles of
+#: its sides
+_MOUNTS = (
+    ((0.3, 0.2), 45), ((0.3, -0.2), -45), ((-0.3, -0.2), -135), ((-0.3, 0.2), 135),
+    ((0.3, 0.0), 0), ((0.0, -0.2), -90), ((-0.3, 0.0), 180), ((0.0, 0.2), 90),
+)  # fmt: skip
+SCALING = (1, 2, 4, 8)
+#: the scaling rigs fire round robin this far apart (s): each sonar at 1 / (N x it)
+INTERVAL_S = 0.025
+
+
+def _rig_of(scene, n: int):
+    """The bundled rig with its sonar on the first `n` of :data:`_MOUNTS`, firing
+    round robin :data:`INTERVAL_S` apart (the calls in the air the same for any n)."""
+    sensor = scene.rig.sonars[0].sensor
+    sonars = tuple(
+        RigSonar(f"s{k}", sensor, Mount(np.array([*xy, 0.0]), yaw_rad=np.deg2rad(yaw)))
+        for k, (xy, yaw) in enumerate(_MOUNTS[:n])
+    )
+    rig = dataclasses.replace(scene.rig, sonars=sonars, rate_hz=1 / (INTERVAL_S * n))
+    return dataclasses.replace(scene, rig=rig)
+
+
+def _scaling(scene, on: RigSimulator) -> list[str]:
+    """The rows of the scaling table: per firing, rigs of :data:`SCALING` sonars
+    against the bundled rig (paired CPU times of :data:`FIRINGS`)."""
+    rows = []
+    for n in SCALING:
+        sim = RigSimulator(_rig_of(scene, n), threads=1)
+        heard = np.mean([len(sim.simulate(i).metadata["crosstalk"]) for i in FIRINGS])
+        t_n, t_on = _paired(lambda sim=sim: _firings(sim), lambda: _firings(on))
+        ratio = np.median(np.divide(t_n, t_on))
+        rows.append(
+            f"| {n} | {1 / (INTERVAL_S * n):g} Hz | {heard:.1f} | "
+            f"{np.median(t_n) / len(FIRINGS) * 1e3:.0f} ms | {ratio:.2f}x |"
+        )
+    return rows
 
 
 def _unshared(sim: RigSimulator) -> float:
@@ -255,6 +310,13 @@ def run() -> str:
     _firings(on), _firings(off)  # warm: every pair made, kernels compiled
     t_on, t_off = _paired(lambda: _firings(on), lambda: _firings(off))
     t_shared, t_own = _paired(lambda: _firings(on), lambda: _unshared(on))
+    # each sensor's measurement (its recording: its own call and the calls it hears)
+    # computed on its own, against the rig's
+    t_rig, own_runs = _paired(lambda: _firings(on), lambda: _alone(scene))
+    t_apart = [a for a, _ in own_runs]
+    prep_apart = np.median([p for _, p in own_runs]) / len(FIRINGS)
+    apart = np.median(np.divide(t_rig, t_apart))
+    scaling = _scaling(scene, on)
     # as a user runs them (their threads, wall time): the rig's run (the LiDAR's scans
     # of the body's poses too), crosstalk on and off, against one sonar alone
     user, user_off = RigSimulator(scene), RigSimulator(quiet)
@@ -314,6 +376,11 @@ def run() -> str:
             f"| {sharing:.2f}x |",
             f"| rays cast per firing (every stage's and the LiDAR's), each trace's own "
             f"rays -> shared | {cast_own:,.0f} -> {cast_shared:,.0f} |",
+            "| one sensor's measurement computed on its own: a firing's recording (its "
+            "own call and the calls it hears) from a simulator of its own (its world "
+            f"prepared apart, {prep_apart:.2f} s each) | {np.median(t_apart) / per:.0f} ms |",
+            "| **a firing of the rig / one sensor's measurement computed on its own "
+            f"(paired)** | **{apart:.2f}x** |",
             "| as a user runs them, wall time: one sonar alone on its drive (its scene "
             "without the rig, `Simulator.run`: the next pose prepared while one "
             f"renders), per measurement | {np.median(w_alone) / per:.0f} ms |",
@@ -329,6 +396,19 @@ def run() -> str:
             "| its error: the recordings less those with every call heard, re the "
             f"recording / re the crosstalk alone (the worst firing) | {error[0]:.0f} dB / "
             f"{error[1]:.0f} dB |",
+            "",
+            "A rig of N sonars, per firing: the bundled rig's sonar on N mounts of its "
+            "body (its corners, then the middles of its sides), firing round robin "
+            f"{INTERVAL_S * 1e3:.0f} ms apart (each sonar at 1 / (N x "
+            f"{INTERVAL_S * 1e3:.0f} ms)), crosstalk on; CPU time of firings "
+            f"{FIRINGS[0]}-{FIRINGS[-1]} on one thread, {REPEAT} runs paired with the "
+            "bundled rig's (4 sonars at 10 Hz).  A rig of one hears its own earlier "
+            "and later calls.",
+            "",
+            "| sonars | each fires at | calls heard per firing | a firing "
+            "| re the bundled rig (paired) |",
+            "|---|---|---|---|---|",
+            *scaling,
             "",
             "Where a firing's time goes: CPU ms per firing, each part timed as the "
             "firings run (its methods and the tracer's stages wrapped; the median of 5 "
@@ -378,9 +458,16 @@ def run() -> str:
             f"({paths.get('previous', 0) + paths.get('next', 0):,.0f} a firing against "
             f"the sonar's own {paths.get('own', 0):,.0f}: their kinematics, and their "
             "render, which joins the sonar's own pass: one set of FFTs per microphone, "
-            "its cost growing with the paths).  So a firing heard costs most of a "
-            f"measurement and the rig of {n} sonars stays above {n} measurements per "
-            "round.  Leaving out the calls emitted before each recording's emission "
+            "its cost growing with the paths).  So a call heard costs most of a "
+            f"measurement: a recording with crosstalk costs {firing:.2f}x one without.  "
+            "A sensor's measurement in a rig is its recording, its own call and the "
+            "calls it hears: the rig computes each for "
+            f"{apart:.2f}x what it costs computed on its own (the world prepared once, "
+            "each call's rays shot once for every sonar that hears it), and a firing "
+            "costs the same whatever the number of sonars (the table of N above: what "
+            "a firing costs follows the calls heard in its window, not the sonars on "
+            f"the body), so a rig of N sonars costs at most N of them per round.  "
+            "Leaving out the calls emitted before each recording's emission "
             "(`[rig] earlier_calls = false`, an approximation: the previous call's "
             f"column) a firing costs {later_ratio:.2f}x one sonar's measurement, the "
             f"recordings' change at most {error[0]:.0f} dB re the recording "

@@ -15,6 +15,7 @@ from acousim import Simulator
 from acousim.rig import RigSimulator
 from acousim.scene import Pose, Trajectory, load_scene, parse_scene
 from acousim.scene.rig import Firing, Mount, Rig, RigSonar
+from acousim.trace.tracer import Tracer
 from tests import REPO
 
 WALL_X = 2.0  # the wall's face: the plane x = 2 m
@@ -644,3 +645,43 @@ def test_crosstalk_rendered_with_the_hearing_sonars_echoes_in_motion(tmp_path):
         assert _arrival(x, heard, fs) == pytest.approx(t - 0.005, abs=0.1e-6)
         level = np.sqrt(np.sum(x**2) / np.sum(heard**2))  # its energy over the call's
         assert 20 * np.log10(level * c * t) == pytest.approx(0.0, abs=0.1)
+
+
+@pytest.mark.parametrize("n", [2, 6])
+def test_a_firing_traces_its_own_call_and_the_calls_it_hears_whatever_the_sonars(
+    tmp_path, monkeypatch, n
+):
+    """A rig of N sonars costs N sensors' measurements: its world is made once, and a
+    firing traces its own call and each call that reaches its window, nothing more,
+    whatever N.  N sonars facing the wall fire round robin 5 ms apart (24 firings);
+    firing 12's window (under 20 ms: 3 m of range and the call) is reached by the
+    calls fired within its longest path and call before it (17.5 ms and the call:
+    three) and within its window after it (three)."""
+    made, traced = [], []
+    init, trace = Tracer.__init__, Tracer.traced
+    monkeypatch.setattr(Tracer, "__init__", lambda s, *a, **k: made.append(1) or init(s, *a, **k))
+    monkeypatch.setattr(Tracer, "traced", lambda s, *a, **k: traced.append(1) or trace(s, *a, **k))
+    scene = wall_scene(tmp_path)
+    step = 0.005
+    sonars = tuple(
+        RigSonar(
+            f"s{k}",
+            scene.sensor,
+            Mount(np.array([0.0, 0.1 * k, 0.0])),
+            Firing(rate_hz=1 / (n * step), offset_s=k * step, count=24 // n),
+        )
+        for k in range(n)
+    )
+    sim = RigSimulator(dataclasses.replace(scene, rig=Rig(sonars=sonars)))
+    fs = scene.sensor.sample_rate_hz
+    window = scene.n_samples() / fs
+    longest = 2 * scene.simulation.max_range_m / scene.environment.speed_of_sound_m_s
+    m = sim.measurements[12]
+    times = np.array([f.time_s for f in sim.measurements])
+    call = scene.sensor.call.duration_s
+    reach = (times > m.time_s - longest - call) & (times < m.time_s + window)
+    reach[12] = False
+    assert reach.sum() == 6
+    sim.simulate(12)
+    assert len(made) == 1  # one world for the rig
+    assert len(traced) == 1 + reach.sum()  # its own call, and each call reaching it
