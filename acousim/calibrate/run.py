@@ -5,7 +5,7 @@
    each group of paths rendered once and reduced to band envelopes (:mod:`.groups`,
    :mod:`.features`).
 3. Each recording is shifted onto the simulation (its direct path's lag,
-   :func:`acousim.compare.comparison.align`; reported) and reduced to energies per band,
+   :func:`acousim.compare.alignment.align`; reported) and reduced to energies per band,
    direction and range bin.
 4. Robust least squares (:mod:`.fit`) from the scene's values.
 5. The result: the fitted materials with their uncertainties, the residual per
@@ -29,8 +29,8 @@ from acousim.calibrate.fit import Problem, Solution, group_factors, solve
 from acousim.calibrate.groups import GroupModel
 from acousim.calibrate.options import CalibrationSettings
 from acousim.calibrate.parameters import MaterialFit, ParameterSet
-from acousim.compare.comparison import _shift
-from acousim.compare.comparison import align as align_lag
+from acousim.compare.alignment import align as align_lag
+from acousim.compare.alignment import fractional_shift
 from acousim.scene.model import Material, Scene
 from processing.base.errors import InputError
 
@@ -223,7 +223,7 @@ def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.nd
     if align:
         sim = rec.with_samples(groups_signal + sim_direct)
         lag = align_lag(rec, sim)[0]
-        x = _shift(x, -lag)
+        x = fractional_shift(x, -lag)
     return space.energies(space.envelopes(x)), lag
 
 
