@@ -72,12 +72,13 @@ def method_comparison(
     `extent_m`: one STFT window in range (m), `window` in samples."""
     (rec_r, img_r), (rec_s, img_s) = real, sim
     c = rec_r.speed_of_sound_m_s
-    a, b = image_peaks(img_r.peaks(threshold_db)), image_peaks(img_s.peaks(threshold_db))
+    found_s = img_s.peaks(threshold_db)  # once: the peaks and their traced kinds
+    a, b = image_peaks(img_r.peaks(threshold_db)), image_peaks(found_s)
     pairs, only_r, only_s = match_peaks(peak_array(a), peak_array(b))
     f = img_r.frequency_hz
     lobes_r, only_r = side_lobes(a, only_r, extent_m, rec_r.array, f, c)
     lobes_s, only_s = side_lobes(b, only_s, extent_m, rec_s.array, f, c)
-    kinds = traced_kinds(rec_s, img_s, threshold_db, window)
+    kinds = traced_kinds(rec_s, img_s, found_s, window)
     has_truth = rec_s.truth is not None
     found = [MatchedEcho(a[i], b[j], above(a[i].range_m), kinds[j]) for i, j in pairs]
     why = [reject_reason(e.real_above_floor_db, e.sim_truth_kind, has_truth) for e in found]

@@ -57,16 +57,17 @@ def above_floor(
     return above
 
 
-def traced_kinds(rec: P.Recording, image: P.Image, threshold_db: float, window: int) -> list[str]:
-    """Per peak of `image` (of `rec`; ``image.peaks(threshold_db)``'s order) the kind of
-    traced path in its resolution cell ("" none, or no ground truth; `window`: the
-    STFT window the image was made with, samples)."""
+def traced_kinds(rec: P.Recording, image: P.Image, peaks: P.Peaks, window: int) -> tuple[str, ...]:
+    """Per peak of `peaks` (``image.peaks(...)`` of `rec`, found once by the caller) the
+    kind of traced path in its resolution cell ("" none, or no ground truth; `window`:
+    the STFT window the image was made with, samples): the peak table's
+    ``truth_kind`` (:func:`acousim.imaging.run.peak_table`), without the rest of it."""
     if rec.truth is None:
-        return [""] * len(image.peaks(threshold_db))
-    from acousim.imaging.run import peak_table
+        return ("",) * len(peaks)
+    from acousim.imaging.matching import image_resolution, match_peaks
 
-    table = peak_table(rec, image, threshold_db=threshold_db, window_samples=window)
-    return [row.truth_kind for row in table]
+    match = match_peaks(rec, peaks, image_resolution(rec, image, window))
+    return tuple(str(kind) for kind in match.kind)
 
 
 def reject_reason(real_above_floor_db: float, sim_truth_kind: str, has_truth: bool) -> str:
