@@ -35,7 +35,7 @@ class CalibrationSettings:
     loss, loss_scale : the robust loss and its scale (natural log of energy: 0.5 is
         2.2 dB); a bin off by much more counts about linearly, not squared.
     align : shift the recording to the simulation (the direct path's lag,
-        :func:`acousim.compare.comparison.align`).
+        :func:`acousim.compare.alignment.align`).
     fit_level : also fit one overall level (a real recording's unknown gain); it
         trades against the reflections: leave it off for simulated recordings.
     max_evaluations : of the solver.

@@ -5,7 +5,7 @@
    each group of paths rendered once and reduced to band envelopes (:mod:`.groups`,
    :mod:`.features`).
 3. Each recording is shifted onto the simulation (its direct path's lag,
-   :func:`acousim.compare.comparison.align`; reported) and reduced to energies per band,
+   :func:`acousim.compare.alignment.align`; reported) and reduced to energies per band,
    direction and range bin.
 4. Robust least squares (:mod:`.fit`) from the scene's values.
 5. The result: the fitted materials with their uncertainties, the residual per
@@ -29,8 +29,8 @@ from acousim.calibrate.fit import Problem, Solution, group_factors, solve
 from acousim.calibrate.groups import GroupModel
 from acousim.calibrate.options import CalibrationSettings
 from acousim.calibrate.parameters import MaterialFit, ParameterSet
-from acousim.compare.comparison import _shift
-from acousim.compare.comparison import align as align_lag
+from acousim.compare.alignment import align as align_lag
+from acousim.compare.alignment import fractional_shift, mean_samples
 from acousim.scene.model import Material, Scene
 from processing.base.errors import InputError
 
@@ -218,12 +218,12 @@ def _used_materials(scene: Scene) -> list[str]:
 def _measured(rec, sim_direct, groups_signal, space, align: bool) -> tuple[np.ndarray, float]:
     """A recording's energies (B, D, R) after aligning it on the start model."""
 
-    x = rec.samples if rec.samples.ndim == 2 else rec.samples.mean(axis=0)
+    x = mean_samples(rec)
     lag = 0.0
     if align:
         sim = rec.with_samples(groups_signal + sim_direct)
         lag = align_lag(rec, sim)[0]
-        x = _shift(x, -lag)
+        x = fractional_shift(x, -lag)
     return space.energies(space.envelopes(x)), lag
 
 
@@ -269,38 +269,8 @@ def calibrate(
     poses, origins = _poses(scene, recs, poses)
     _check(scene, recs, poses)
     _check_poses(scene, poses, origins)
-    if not _used_materials(scene):  # point reflectors alone: strengths, no material
-        raise InputError(
-            "has no material to fit: no mesh (a point reflector has a strength, not a material)",
-            file=scene.source,
-            key="scene",
-            value=scene.name,
-        )
-    free = settings.free(_used_materials(scene))
-    for name in settings.tables:
-        if name not in free:
-            raise InputError(
-                f"is not a fitted material ({', '.join(free)})", key="tables", value=name
-            )
-    fits = tuple(
-        MaterialFit.start(
-            scene.materials[name],
-            settings.tables.get(name),
-            fit_reflection=a,
-            fit_diffuse=b,
-        )
-        for name, (a, b) in free.items()
-    )
-    points = max(f.n_points for f in fits)
-    bands = settings.bands or (1 if points == 1 else min(2 * points, 16))
-    space = FeatureSpace(
-        recs[0],
-        bands=bands,
-        directions=settings.directions,
-        min_range_m=settings.min_range_m,
-        max_range_m=settings.max_range_m or scene.simulation.max_range_m - settings.bin_m,
-        bin_m=settings.bin_m,
-    )
+    fits = _material_fits(scene, settings)
+    space = _feature_space(scene, recs[0], fits, settings)
     params = ParameterSet(fits, space.band_hz)
     model = GroupModel(scene, fits)
     groups, measured, lags = _observe(model, params, space, recs, poses, settings.align, progress)
@@ -320,6 +290,53 @@ def calibrate(
     cap = None if sol.converged else settings.max_evaluations
     warnings = _warnings(problem, sol, kinds, cap)
     return dataclasses.replace(out, seconds_fit=t2 - t1, warnings=warnings)
+
+
+def _material_fits(scene: Scene, settings: CalibrationSettings) -> tuple[MaterialFit, ...]:
+    """The materials `settings` frees (of those the scene's meshes use), each at the
+    scene's values.  InputError for a scene of point reflectors alone (nothing to fit)
+    or a table (``settings.tables``) of a material not fitted."""
+    used = _used_materials(scene)
+    if not used:  # point reflectors alone: strengths, no material
+        raise InputError(
+            "has no material to fit: no mesh (a point reflector has a strength, not a material)",
+            file=scene.source,
+            key="scene",
+            value=scene.name,
+        )
+    free = settings.free(used)
+    for name in settings.tables:
+        if name not in free:
+            raise InputError(
+                f"is not a fitted material ({', '.join(free)})", key="tables", value=name
+            )
+    return tuple(
+        MaterialFit.start(
+            scene.materials[name],
+            settings.tables.get(name),
+            fit_reflection=a,
+            fit_diffuse=b,
+        )
+        for name, (a, b) in free.items()
+    )
+
+
+def _feature_space(
+    scene: Scene, rec: P.Recording, fits: Sequence[MaterialFit], settings: CalibrationSettings
+) -> FeatureSpace:
+    """The feature space of recordings sampled as `rec`: ``settings.bands`` bands (by
+    default one for materials of one value, else two per table point, at most 16) and
+    its range bins up to the scene's reach."""
+    points = max(f.n_points for f in fits)
+    bands = settings.bands or (1 if points == 1 else min(2 * points, 16))
+    return FeatureSpace(
+        rec,
+        bands=bands,
+        directions=settings.directions,
+        min_range_m=settings.min_range_m,
+        max_range_m=settings.max_range_m or scene.simulation.max_range_m - settings.bin_m,
+        bin_m=settings.bin_m,
+    )
 
 
 def _warnings(
@@ -359,25 +376,7 @@ def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float)
         FittedParameter(n, float(a), float(b), float(s))
         for n, a, b, s in zip(names, start, value, sigma)
     )
-    materials, sigmas = {}, {}
-    values = params.values(sol.x[:P_])
-    sig = [[np.zeros(m.n_points), np.zeros(m.n_points)] for m in params.materials]
-    for s, (j, k, i) in zip(sigma, params.layout()):
-        sig[j][0 if k == "reflection" else 1][i] = s
-    for m, (R, d), (sR, sd) in zip(params.materials, values, sig):
-        base = scene.materials[m.name]
-        if m.is_table:
-            materials[m.name] = Material(
-                m.name,
-                tuple(float(v) for v in R),
-                tuple(float(v) for v in d),
-                base.lobe_deg,
-                tuple(f / 1e3 for f in m.frequencies_hz),
-            )
-            sigmas[m.name] = (sR, sd)
-        else:
-            materials[m.name] = Material(m.name, float(R[0]), float(d[0]), base.lobe_deg)
-            sigmas[m.name] = (float(sR[0]), float(sd[0]))
+    materials, sigmas = _fitted_materials(params, sol.x[:P_], sigma, scene)
     before, after = _per_bin(problem, sol.start), _per_bin(problem, sol.x)
     _, log_noise, log_level = problem.unpack(sol.x)
     return Calibration(
@@ -396,6 +395,35 @@ def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float)
         sol,
         seconds,
     )
+
+
+def _fitted_materials(
+    params: ParameterSet, theta: np.ndarray, sigma: np.ndarray, scene: Scene
+) -> tuple[dict[str, Material], dict[str, tuple]]:
+    """The fitted materials at `theta` (the fitted vector's material part) with their
+    one-sigma uncertainties `sigma` (public units, :meth:`.ParameterSet.public`):
+    {name: Material} (each keeps the scene's lobe) and {name: (sigma of reflection,
+    sigma of diffuse)}, numbers for a material of one value, arrays for a table."""
+    materials, sigmas = {}, {}
+    values = params.values(theta)
+    sig = [[np.zeros(m.n_points), np.zeros(m.n_points)] for m in params.materials]
+    for s, (j, k, i) in zip(sigma, params.layout()):
+        sig[j][0 if k == "reflection" else 1][i] = s
+    for m, (R, d), (sR, sd) in zip(params.materials, values, sig):
+        base = scene.materials[m.name]
+        if m.is_table:
+            materials[m.name] = Material(
+                m.name,
+                tuple(float(v) for v in R),
+                tuple(float(v) for v in d),
+                base.lobe_deg,
+                tuple(f / 1e3 for f in m.frequencies_hz),
+            )
+            sigmas[m.name] = (sR, sd)
+        else:
+            materials[m.name] = Material(m.name, float(R[0]), float(d[0]), base.lobe_deg)
+            sigmas[m.name] = (float(sR[0]), float(sd[0]))
+    return materials, sigmas
 
 
 def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tuple:

@@ -1,6 +1,8 @@
 """Simulated versus real recordings of the same sensor: aligned, imaged alike, their echoes
-matched (:mod:`.comparison`); the real recordings read (:mod:`.inputs`); a trajectory's
-comparisons summed up (:mod:`.summary`)."""
+matched (:mod:`.comparison`, a module a step: :mod:`.comparable`, :mod:`.alignment`,
+:mod:`.levels`, :mod:`.peaks`, :mod:`.lobes`, :mod:`.echoes`, :mod:`.echo_table`,
+:mod:`.report`, :mod:`.figure`; what was fitted and predicted, :mod:`.account`); the real
+recordings read (:mod:`.inputs`); a trajectory's comparisons summed up (:mod:`.summary`)."""
 
 import importlib
 import importlib.util

@@ -1,5 +1,6 @@
 """When two paired peaks are an echo both recordings have
-(:func:`acousim.compare.comparison.compare`).
+(:func:`acousim.compare.comparison.compare`): a :class:`MatchedEcho`, or a
+:class:`RejectedPair` that says why not.
 
 Two images' peaks are paired by position alone; a pair is a *matched echo* only when
 
@@ -16,13 +17,22 @@ Two images' peaks are paired by position alone; a pair is a *matched echo* only 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 import processing as P
 from acousim.compare.account import noise_floor
+from acousim.compare.peaks import Peak
 
-__all__ = ["MIN_ECHO_ABOVE_FLOOR_DB", "above_floor", "traced_kinds", "reject_reason"]
+__all__ = [
+    "MIN_ECHO_ABOVE_FLOOR_DB",
+    "MatchedEcho",
+    "RejectedPair",
+    "above_floor",
+    "traced_kinds",
+    "reject_reason",
+]
 
 #: a real peak is an echo when the real range profile at its range stands at least
 #: this far above the profile's noise floor (dB)
@@ -47,16 +57,17 @@ def above_floor(
     return above
 
 
-def traced_kinds(rec: P.Recording, image: P.Image, threshold_db: float, window: int) -> list[str]:
-    """Per peak of `image` (of `rec`; ``image.peaks(threshold_db)``'s order) the kind of
-    traced path in its resolution cell ("" none, or no ground truth; `window`: the
-    STFT window the image was made with, samples)."""
+def traced_kinds(rec: P.Recording, image: P.Image, peaks: P.Peaks, window: int) -> tuple[str, ...]:
+    """Per peak of `peaks` (``image.peaks(...)`` of `rec`, found once by the caller) the
+    kind of traced path in its resolution cell ("" none, or no ground truth; `window`:
+    the STFT window the image was made with, samples): the peak table's
+    ``truth_kind`` (:func:`acousim.imaging.run.peak_table`), without the rest of it."""
     if rec.truth is None:
-        return [""] * len(image.peaks(threshold_db))
-    from acousim.imaging.run import peak_table
+        return ("",) * len(peaks)
+    from acousim.imaging.matching import image_resolution, match_peaks
 
-    table = peak_table(rec, image, threshold_db=threshold_db, window_samples=window)
-    return [row.truth_kind for row in table]
+    match = match_peaks(rec, peaks, image_resolution(rec, image, window))
+    return tuple(str(kind) for kind in match.kind)
 
 
 def reject_reason(real_above_floor_db: float, sim_truth_kind: str, has_truth: bool) -> str:
@@ -67,3 +78,57 @@ def reject_reason(real_above_floor_db: float, sim_truth_kind: str, has_truth: bo
     if has_truth and not sim_truth_kind:
         return "simulated peak not traced"
     return ""
+
+
+@dataclass(frozen=True)
+class MatchedEcho:
+    """A peak of the real image paired with one of the simulated image: an echo both
+    have.  `real_above_floor_db`: how far the real range profile at the real peak's
+    range stands above its noise floor (dB); `sim_truth_kind`: the traced path the
+    simulated peak shows (its peak table's ``truth_kind``; "" when the simulation
+    has no ground truth to check it against)."""
+
+    real: Peak
+    sim: Peak
+    real_above_floor_db: float = float("nan")
+    sim_truth_kind: str = ""
+
+    @property
+    def d_range_m(self) -> float:
+        return self.sim.range_m - self.real.range_m
+
+    @property
+    def d_azimuth_deg(self) -> float:
+        return self.sim.azimuth_deg - self.real.azimuth_deg
+
+    @property
+    def d_elevation_deg(self) -> float:
+        return self.sim.elevation_deg - self.real.elevation_deg
+
+    @property
+    def d_level_db(self) -> float:
+        return self.sim.level_db - self.real.level_db
+
+    def to_dict(self) -> dict:
+        return {
+            "real": asdict(self.real),
+            "sim": asdict(self.sim),
+            "d_range_m": self.d_range_m,
+            "d_azimuth_deg": self.d_azimuth_deg,
+            "d_elevation_deg": self.d_elevation_deg,
+            "d_level_db": self.d_level_db,
+            "real_above_noise_floor_db": self.real_above_floor_db,
+            "sim_truth_kind": self.sim_truth_kind,
+        }
+
+
+@dataclass(frozen=True)
+class RejectedPair:
+    """Two peaks close enough to pair that are not an echo both have: `reason`
+    (:func:`reject_reason`)."""
+
+    pair: MatchedEcho
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {**self.pair.to_dict(), "reason": self.reason}

@@ -236,3 +236,30 @@ def test_an_unreadable_mesh_is_a_one_line_error(tmp_path, capsys):
         main(["record", "--emulate", str(scene), "--count", "1", "--out", str(out / "r.h5")]) == 2
     )
     assert "'paper_8x8': the RTIS link carries at most 32 microphones" in capsys.readouterr().err
+
+
+def test_the_names_comparison_held_still_import_from_it():
+    """comparison.py was split into a module a step: every public name it held imports
+    from it (and from the package) as the one object of its new module."""
+    import importlib
+
+    moved = {
+        "alignment": ("Alignment", "DIRECT_WINDOW_S", "align", "envelope"),
+        "comparable": ("CALL_RTOL", "ComparisonError", "check_comparable", "same_call"),
+        "echoes": ("MIN_ECHO_ABOVE_FLOOR_DB", "MatchedEcho", "RejectedPair", "above_floor"),
+        "echo_table": ("MethodComparison",),
+        "figure": ("COMPARISON_RANGE_DB", "comparison_figure"),
+        "lobes": ("SideLobe", "array_response_db", "side_lobes"),
+        "peaks": ("MatchTolerance", "Peak", "match_peaks"),
+        "report": ("Comparison", "ComparisonArrays"),
+        "account": ("floor_start", "noise_floor"),
+    }
+    old = importlib.import_module("acousim.compare.comparison")
+    package = importlib.import_module("acousim.compare")
+    for module, names in moved.items():
+        new = importlib.import_module(f"acousim.compare.{module}")
+        for name in names:
+            assert getattr(old, name) is getattr(new, name), name
+            assert getattr(package, name) is getattr(new, name), name
+    for name in old.__all__:
+        assert getattr(package, name) is getattr(old, name)
