@@ -1,0 +1,212 @@
+"""Random dataset poses keep the simulation's clearance: every pose the sampler
+accepts is one the tracer accepts (its emitter and every microphone at least 1 cm from
+every surface), a refused draw is drawn again from the seeded generator, and
+``clearance_m`` is a true distance to the mesh.  Distances are checked here by a
+point-to-triangle distance written in the test, on the scene's own STL."""
+
+import hashlib
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+import processing as P
+from acousim.dataset import SpecError, generate, load_spec, sample_parameters
+
+#: the simulation's clearance (docs/scene-format.md, "Checked before anything is computed")
+SIMULATION_CLEARANCE_M = 0.01
+
+SCENE = """
+[scene]
+name = "box"
+
+[sensor]
+array = "urtis_v1"
+sample_rate_hz = 450000
+direct_path = false
+
+[sensor.pose]
+position_m = [0.0, 0.0, 0.0]
+
+[simulation]
+max_range_m = 1.0
+bounces = 1
+quality = "fast"
+
+[[materials]]
+name = "wall"
+reflection = 0.9
+
+[[meshes]]
+file = "box.stl"
+material = "wall"
+"""
+
+SPEC = """
+[dataset]
+samples = {samples}
+shard_size = 3
+seed = {seed}
+
+[[scenes]]
+file = "box.toml"
+poses = "random"
+region = {region}
+clearance_m = {clearance}
+
+{randomize}
+[store]
+images = []
+snapshot = false
+depth_map = false
+"""
+
+#: within 3 cm of the box's edge at x = z = 0.5: the urtis_v1 array (2 x 1.5 cm,
+#: emitter at its centre) often reaches within 1 cm of a wall there
+TIGHT = "{ x = [0.47, 0.4999], y = [-0.2, 0.2], z = [0.47, 0.4999], yaw_deg = [-90.0, 90.0] }"
+
+
+def _room(folder, obstacle=False):
+    """A 1 m cube room (faces inward) centred at 0, and a 0.2 m cube inside it at
+    (0.2, 0.2, 0) (faces outward) if `obstacle`, as box.stl and box.toml in `folder`."""
+    room = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    room.invert()
+    if obstacle:
+        block = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
+        block.apply_translation((0.2, 0.2, 0.0))
+        room = trimesh.util.concatenate([room, block])
+    room.export(folder / "box.stl")
+    (folder / "box.toml").write_text(SCENE)
+    return folder / "box.stl"
+
+
+JITTER = """[randomize]
+mount_jitter_deg = { dist = "normal", mean = 0.0, sigma = 5.0 }
+mount_jitter_m = { dist = "normal", mean = 0.0, sigma = 0.002 }
+"""
+
+
+def _spec(folder, region, clearance, samples=6, seed=3, randomize=JITTER):
+    path = folder / "spec.toml"
+    text = SPEC.format(
+        samples=samples, seed=seed, region=region, clearance=clearance, randomize=randomize
+    )
+    path.write_text(text)
+    return path
+
+
+def _triangle_distance(p, tri):
+    """Distance from point p (3,) to each triangle of tri (F, 3, 3): to its plane
+    where p's foot lies inside it, else to the nearest of its three sides."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    height = np.einsum("ij,ij->i", p - a, n)
+    foot = p - height[:, None] * n
+    inside = np.ones(len(tri), bool)
+    for u, v in ((a, b), (b, c), (c, a)):  # the foot on the inner side of every side
+        inside &= np.einsum("ij,ij->i", np.cross(v - u, foot - u), n) >= 0
+    side = np.full(len(tri), np.inf)
+    for u, v in ((a, b), (b, c), (c, a)):
+        t = np.clip(np.einsum("ij,ij->i", p - u, v - u) / np.einsum("ij,ij->i", v - u, v - u), 0, 1)
+        side = np.minimum(side, np.linalg.norm(p - (u + t[:, None] * (v - u)), axis=1))
+    return np.where(inside, np.abs(height), side)
+
+
+def _mesh_distance(points, stl):
+    """Nearest distance (K,) from each point (K, 3) to the STL's triangles."""
+    tri = np.asarray(trimesh.load(stl, process=False).triangles)
+    return np.array([_triangle_distance(p, tri).min() for p in points])
+
+
+def _ends(pose):
+    """The urtis_v1 emitter and microphones (31, 3) m in the world at a stored pose
+    (position, yaw/pitch/roll in degrees: rotations about z, then y, then x)."""
+    a = P.urtis_v1()
+    R = Rotation.from_euler(
+        "ZYX", [pose["yaw_deg"], pose["pitch_deg"], pose["roll_deg"]], degrees=True
+    ).as_matrix()
+    local = np.vstack([a.emitter_m[None], a.positions_m])
+    return local @ R.T + np.asarray(pose["position_m"])
+
+
+def _sha(folder):
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in folder.glob("shard_*.h5")}
+
+
+def test_the_tight_region_often_puts_the_sensor_on_a_wall(tmp_path):
+    """The premise of the next tests: a plain uniform draw in TIGHT (no redraw) puts
+    the emitter or a microphone within 1 cm of a wall most of the time."""
+    stl = _room(tmp_path)
+    rng = np.random.default_rng(0)
+    near = 0
+    for _ in range(60):
+        pose = {
+            "position_m": [
+                rng.uniform(0.47, 0.4999),
+                rng.uniform(-0.2, 0.2),
+                rng.uniform(0.47, 0.4999),
+            ],
+            "yaw_deg": rng.uniform(-90, 90),
+            "pitch_deg": 0.0,
+            "roll_deg": 0.0,
+        }
+        near += _mesh_distance(_ends(pose), stl).min() < SIMULATION_CLEARANCE_M
+    assert near > 30, near
+
+
+def test_a_tiny_clearance_in_a_tight_region_generates_every_sample(tmp_path):
+    stl = _room(tmp_path)
+    spec = _spec(tmp_path, TIGHT, 0.001)
+    manifest = generate(spec, tmp_path / "out")
+    table = manifest["sample_table"]
+    assert sorted(s["index"] for s in table) == list(range(6))
+    assert len(_sha(tmp_path / "out")) == 2
+    for s in table:
+        gap = _mesh_distance(_ends(s["pose"]), stl).min()
+        assert gap >= SIMULATION_CLEARANCE_M, (s["index"], gap)
+        assert np.all(np.abs(s["pose"]["position_m"]) < 0.5)  # inside the room
+    # the same seed gives the same bytes
+    generate(spec, tmp_path / "again")
+    assert _sha(tmp_path / "again") == _sha(tmp_path / "out")
+
+
+def test_clearance_m_is_a_true_distance_also_off_the_axes(tmp_path):
+    """Around the corner of a block in the room, where a surface may be near along
+    no axis (its edge diagonally): every drawn sensor end keeps clearance_m."""
+    stl = _room(tmp_path, obstacle=True)
+    region = "{ x = [0.28, 0.42], y = [0.28, 0.42], z = [-0.05, 0.05], yaw_deg = [-180.0, 180.0] }"
+    spec = load_spec(_spec(tmp_path, region, 0.08, samples=25))
+    gaps = [_mesh_distance(_ends(sample_parameters(spec, i)["pose"]), stl).min() for i in range(25)]
+    assert min(gaps) >= 0.08, min(gaps)
+    # the premise: the block's edge (0.3, 0.3, z) is nearer than 0.08 m to part of
+    # the region, diagonally: from (0.35, 0.35, 0) the six axis probes miss the
+    # block (x and y beyond its faces) and meet the walls 0.15 m or more away
+    corner = np.array([[0.35, 0.35, 0.0]])
+    assert _mesh_distance(corner, stl)[0] < 0.08
+
+
+@pytest.mark.parametrize(
+    "region,clearance,why",
+    [
+        (  # the emitter within 5 mm of the wall x = 0.5, whatever the draw
+            "{ x = [0.495, 0.4999], y = [-0.1, 0.1], z = [-0.1, 0.1] }",
+            0.0,
+            r"100 put the emitter or a microphone within the simulation's 0.01 m of a surface",
+        ),
+        (  # the position 5 to 5.5 cm under the ceiling, the microphones 7.7 mm higher
+            "{ x = [-0.1, 0.1], y = [-0.1, 0.1], z = [0.445, 0.449] }",
+            0.05,
+            r"100 put the emitter or a microphone nearer than clearance_m = 0.05 m",
+        ),
+    ],
+)
+def test_a_region_where_no_pose_fits_is_refused_before_any_work(tmp_path, region, clearance, why):
+    _room(tmp_path)
+    spec = _spec(tmp_path, region, clearance, randomize="")
+    with pytest.raises(
+        SpecError, match=r"spec.toml: scenes\[0\].region = .*no usable pose in 100 draws.*" + why
+    ):
+        generate(spec, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
