@@ -47,14 +47,20 @@ class _Geometry:
     mesh: trimesh.Trimesh
 
 
+def _geometry(path: str, t_s: float = 0.0) -> _Geometry | None:
+    """The scene's meshes where they are at time `t_s` (s; a sample's pose is at time
+    0, a rig's sonar fires at its firing's offset), built once per scene file, time
+    (for moving meshes) and process; None without meshes."""
+    moving = any(m.moving for m in _scene(path).meshes)
+    return _geometry_at(path, t_s if moving else 0.0)
+
+
 @lru_cache(maxsize=4)
-def _geometry(path: str) -> _Geometry | None:
-    """The scene's meshes where they are at time 0 (a moving mesh too: a random pose
-    is at time 0), built once per scene file and process; None without meshes."""
+def _geometry_at(path: str, t_s: float) -> _Geometry | None:
     scene = _scene(path)
     if not scene.meshes:
         return None
-    world = build_world(_with_meshes(scene, [m.placed_at(0.0) for m in scene.meshes]))
+    world = build_world(_with_meshes(scene, [m.placed_at(t_s) for m in scene.meshes]))
     return _Geometry(world, caster_of(world, threads=1), surface_mesh(world))
 
 
@@ -106,12 +112,14 @@ def _clear(path: str, position: np.ndarray, clearance: float) -> str | None:
     return None
 
 
-def _refused_ends(path: str, ends_m: np.ndarray, clearance: float) -> str | None:
-    """Why the emitter and microphones `ends_m` (K, 3) m of a drawn pose are refused,
-    or None: ``"tracer"``, one is refused by the tracer's own rule
+def _refused_ends(path: str, ends: tuple[float, np.ndarray], clearance: float) -> str | None:
+    """Why the emitter and microphones of a drawn pose (`ends`: the time, s, and
+    their places (K, 3) m, :func:`_ends`) are refused, or None: ``"tracer"``, one is
+    refused by the tracer's own rule
     (:func:`acousim.trace.world.clearance.too_near`, 1 cm: the simulation would stop);
     ``"ends"``, one is nearer than `clearance` (m, true distance) to a surface."""
-    geometry = _geometry(path)
+    t_s, ends_m = ends
+    geometry = _geometry(path, t_s)
     if geometry is None:
         return None
     if np.any(too_near(geometry.caster, geometry.world, ends_m)):
@@ -122,8 +130,13 @@ def _refused_ends(path: str, ends_m: np.ndarray, clearance: float) -> str | None
 
 
 #: draws of a random pose (a position refused, or a whole pose) before the region is
-#: declared unusable
+#: declared unusable, when it is checked before any work (:func:`check_regions`)
 DRAWS = 100
+
+#: draws of a random pose for one sample: more than the region's check, so that a
+#: region whose check found a pose does not stop the run at a sample (a region where
+#: 1 draw in 100 fits: one sample in 23000 runs out)
+SAMPLE_DRAWS = 1000
 
 #: what each refusal of a draw says (:func:`_no_pose`)
 _WHY = {
@@ -142,24 +155,22 @@ _WHY = {
 def _no_pose(spec: DatasetSpec, k: int, what: str, refused: dict) -> SpecError:
     """The error of scene choice k's region where no draw was accepted."""
     choice = spec.scenes[k]
-    reasons = [
-        f"{n} " + _WHY[why].format(c=choice.clearance_m) for why, n in refused.items() if n
-    ]
+    reasons = [f"{n} " + _WHY[why].format(c=choice.clearance_m) for why, n in refused.items() if n]
     return SpecError(
-        f"{what}: no usable pose in {DRAWS} draws in the region of {choice.file}: "
-        + "; ".join(reasons),
+        f"{what}: no usable pose in {sum(refused.values())} draws in the region of "
+        f"{choice.file}: " + "; ".join(reasons),
         file=spec.source,
         key=f"scenes[{k}].region",
         value=choice.region,
     )
 
 
-def _draw_position(spec: DatasetSpec, k: int, rng, refused: dict) -> np.ndarray | None:
+def _draw_position(spec: DatasetSpec, k: int, rng, refused: dict, draws: int) -> np.ndarray | None:
     """A position (3,) m in scene choice k's region that :func:`_clear` accepts,
-    counting the refused draws in `refused`; None once it holds :data:`DRAWS`."""
+    counting the refused draws in `refused`; None once it holds `draws`."""
     choice = spec.scenes[k]
     reg = choice.region
-    while sum(refused.values()) < DRAWS:
+    while sum(refused.values()) < draws:
         pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
         why = _clear(str(choice.file), pos, choice.clearance_m)
         if why is None:
@@ -175,7 +186,7 @@ def check_regions(spec: DatasetSpec) -> None:
     for k, choice in enumerate(spec.scenes):
         if choice.poses == "random":
             rng = np.random.default_rng(np.random.SeedSequence([spec.seed, k, 2**32]))
-            _parameters(spec, 0, k, rng, "checking the region")
+            _parameters(spec, 0, k, rng, "checking the region", DRAWS)
 
 
 def sample_parameters(spec: DatasetSpec, i: int) -> dict:
@@ -187,20 +198,20 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, i]))
     w = np.array([s.weight for s in spec.scenes])
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
-    return _parameters(spec, i, k, rng, f"sample {i}")
+    return _parameters(spec, i, k, rng, f"sample {i}", SAMPLE_DRAWS)
 
 
-def _parameters(spec: DatasetSpec, i: int, k: int, rng, what: str) -> dict:
+def _parameters(spec: DatasetSpec, i: int, k: int, rng, what: str, draws: int) -> dict:
     """Sample i's choices in scene choice k, drawn from `rng`.  A random pose: a
     position that :func:`_clear` accepts, then the rest of the choices; the whole
     drawn again while :func:`_refused_ends` refuses the emitter or a microphone
-    where the sample puts them (:func:`_ends`), at most :data:`DRAWS` draws in all
-    (then a SpecError naming the region and how many draws each rule refused)."""
+    where the sample puts them (:func:`_ends`), at most `draws` draws in all (then
+    a SpecError naming the region and how many draws each rule refused)."""
     choice = spec.scenes[k]
     if choice.poses != "random":
         return _drawn(spec, i, k, rng, None)
     refused = dict.fromkeys(_WHY, 0)
-    while (position := _draw_position(spec, k, rng, refused)) is not None:
+    while (position := _draw_position(spec, k, rng, refused, draws)) is not None:
         params = _drawn(spec, i, k, rng, position)
         why = _refused_ends(str(choice.file), _ends(params, spec), choice.clearance_m)
         if why is None:
@@ -262,25 +273,29 @@ def _drawn_pose(spec: DatasetSpec, k: int, scene, rng, position: np.ndarray | No
     return position, yaw, 0.0, 0.0, {}
 
 
-def _ends(params: dict, spec: DatasetSpec) -> np.ndarray:
-    """The emitter and microphones (K, 3) m, world frame, that the simulation of
-    sample `params` checks (:func:`acousim.trace.world.clearance.check_clearance`):
-    the sensor's at its pose; a rig's sonar's on the mount drawn, and with the rig's
-    crosstalk every other sonar's emitter, the body placed as :func:`_rig_firing`
-    places it (still: the sonars' other firings in motion are not tested)."""
+def _ends(params: dict, spec: DatasetSpec) -> tuple[float, np.ndarray]:
+    """Where the simulation of sample `params` checks the clearance
+    (:func:`acousim.trace.world.clearance.check_clearance`): the time (s; moving
+    meshes are placed there) and the emitter and microphones (K, 3) m, world frame:
+    the sensor's at its pose (time 0); a rig's sonar's on the mount drawn, and with
+    the rig's crosstalk every other sonar's emitter, the body placed as
+    :func:`_rig_firing` places it at the sonar's firing (still: in motion, another
+    sonar's firing before or after it is tested where the body is at it)."""
     scene = _scene(_scene_path(params, spec))
     pose = _pose(params["pose"])
     array = sample_array(params, spec)
     ends = [pose.to_world(array.emitter_m)[None], pose.to_world(array.positions_m)]
-    if scene.rig is not None and scene.rig.crosstalk:
-        m = params["mount"]
-        body = _body(pose, Mount.degrees(m["position_m"], m["rotation_deg"]))
-        ends += [
-            s.mount.place(body).to_world(s.sensor.array.emitter_m)[None]
-            for s in scene.rig.sonars
-            if s.name != params["sensor"]
-        ]
-    return np.vstack(ends)
+    if scene.rig is None or not scene.rig.crosstalk:
+        return 0.0, np.vstack(ends)
+    sonar = next(s for s in scene.rig.sonars if s.name == params["sensor"])
+    m = params["mount"]
+    body = _body(pose, Mount.degrees(m["position_m"], m["rotation_deg"]))
+    ends += [
+        s.mount.place(body).to_world(s.sensor.array.emitter_m)[None]
+        for s in scene.rig.sonars
+        if s is not sonar
+    ]
+    return float(sonar.firing.times(0.0, 0.0)[0]), np.vstack(ends)
 
 
 def _mount(scene, choice, rng):
