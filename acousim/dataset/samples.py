@@ -21,7 +21,7 @@ from acousim.scene.rig import Firing, Mount, sonar_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
 from acousim.trace.motion.moving_world import _with_meshes
-from acousim.trace.tracer import caster_of
+from acousim.trace.tracer import caster_of, enclosing_materials
 from acousim.trace.world.build import World, build_world
 from acousim.trace.world.clearance import (
     SENSOR_CLEARANCE_M,
@@ -112,19 +112,35 @@ def _clear(path: str, position: np.ndarray, clearance: float) -> str | None:
     return None
 
 
-def _refused_ends(path: str, ends: tuple[float, np.ndarray], clearance: float) -> str | None:
-    """Why the emitter and microphones of a drawn pose (`ends`: the time, s, and
-    their places (K, 3) m, :func:`_ends`) are refused, or None: ``"tracer"``, one is
-    refused by the tracer's own rule
-    (:func:`acousim.trace.world.clearance.too_near`, 1 cm: the simulation would stop);
-    ``"ends"``, one is nearer than `clearance` (m, true distance) to a surface."""
-    t_s, ends_m = ends
-    geometry = _geometry(path, t_s)
+@dataclasses.dataclass(frozen=True)
+class _Ends:
+    """Where the simulation of a sample checks its sensor (:func:`_ends`): at time
+    `t_s` (s; moving meshes placed then) its emitters (E, 3) and microphones (M, 3),
+    m, world frame."""
+
+    t_s: float
+    emitters_m: np.ndarray
+    mics_m: np.ndarray
+
+
+def _refused_ends(path: str, ends: _Ends, clearance: float) -> str | None:
+    """Why the emitters and microphones of a drawn pose are refused, or None: by the
+    tracer's own rules (the simulation would stop), ``"tracer"``, one nearer than 1 cm
+    to a surface (:func:`acousim.trace.world.clearance.too_near`), ``"enclosed"``, an
+    emitter inside a closed mesh (:func:`acousim.trace.tracer.enclosing_materials`,
+    when the scene shoots rays); ``"ends"``, one nearer than `clearance` (m, true
+    distance) to a surface."""
+    geometry = _geometry(path, ends.t_s)
     if geometry is None:
         return None
-    if np.any(too_near(geometry.caster, geometry.world, ends_m)):
+    every = np.vstack([ends.emitters_m, ends.mics_m])
+    if np.any(too_near(geometry.caster, geometry.world, every)):
         return "tracer"
-    if clearance > 0 and np.any(surface_distance(geometry.mesh, ends_m) < clearance):
+    if _scene(path).simulation.rays != 0 and any(
+        enclosing_materials(geometry.caster, geometry.world, e) for e in ends.emitters_m
+    ):
+        return "enclosed"
+    if clearance > 0 and np.any(surface_distance(geometry.mesh, every) < clearance):
         return "ends"
     return None
 
@@ -149,6 +165,8 @@ _WHY = {
     "(lower clearance_m or move the region away from it)",
     "tracer": "put the emitter or a microphone within the simulation's "
     f"{SENSOR_CLEARANCE_M:g} m of a surface (move the region away from it)",
+    "enclosed": "put an emitter inside a closed mesh (a wall's or an object's solid, which "
+    "the simulation refuses): move the region out of it",
 }
 
 
@@ -273,29 +291,29 @@ def _drawn_pose(spec: DatasetSpec, k: int, scene, rng, position: np.ndarray | No
     return position, yaw, 0.0, 0.0, {}
 
 
-def _ends(params: dict, spec: DatasetSpec) -> tuple[float, np.ndarray]:
-    """Where the simulation of sample `params` checks the clearance
-    (:func:`acousim.trace.world.clearance.check_clearance`): the time (s; moving
-    meshes are placed there) and the emitter and microphones (K, 3) m, world frame:
-    the sensor's at its pose (time 0); a rig's sonar's on the mount drawn, and with
-    the rig's crosstalk every other sonar's emitter, the body placed as
-    :func:`_rig_firing` places it at the sonar's firing (still: in motion, another
-    sonar's firing before or after it is tested where the body is at it)."""
+def _ends(params: dict, spec: DatasetSpec) -> _Ends:
+    """Where the simulation of sample `params` checks its sensor (the clearance,
+    :func:`acousim.trace.world.clearance.check_clearance`; an emitter inside a closed
+    mesh): the sensor's emitter and microphones at its pose (time 0); a rig's
+    sonar's on the mount drawn, and with the rig's crosstalk every other sonar's
+    emitter, the body placed as :func:`_rig_firing` places it at the sonar's firing
+    (still: in motion, another sonar's firing before or after it is tested where the
+    body is at the sonar's)."""
     scene = _scene(_scene_path(params, spec))
     pose = _pose(params["pose"])
     array = sample_array(params, spec)
-    ends = [pose.to_world(array.emitter_m)[None], pose.to_world(array.positions_m)]
+    emitters, mics = [pose.to_world(array.emitter_m)], pose.to_world(array.positions_m)
     if scene.rig is None or not scene.rig.crosstalk:
-        return 0.0, np.vstack(ends)
+        return _Ends(0.0, np.array(emitters), mics)
     sonar = next(s for s in scene.rig.sonars if s.name == params["sensor"])
     m = params["mount"]
     body = _body(pose, Mount.degrees(m["position_m"], m["rotation_deg"]))
-    ends += [
-        s.mount.place(body).to_world(s.sensor.array.emitter_m)[None]
+    emitters += [
+        s.mount.place(body).to_world(s.sensor.array.emitter_m)
         for s in scene.rig.sonars
         if s is not sonar
     ]
-    return float(sonar.firing.times(0.0, 0.0)[0]), np.vstack(ends)
+    return _Ends(float(sonar.firing.times(0.0, 0.0)[0]), np.array(emitters), mics)
 
 
 def _mount(scene, choice, rng):
