@@ -12,6 +12,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 import processing as P
+from acousim.bundled import resolve_scene
 from acousim.dataset import SpecError, generate, load_spec, sample_parameters
 
 #: the simulation's clearance (docs/scene-format.md, "Checked before anything is computed")
@@ -210,3 +211,102 @@ def test_a_region_where_no_pose_fits_is_refused_before_any_work(tmp_path, region
     ):
         generate(spec, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------ the bundled wall: a 0.1 m solid slab
+
+WALL = resolve_scene("wall")  # its slab: 2 <= x <= 2.1 m, 10 x 10 m
+
+
+def _wall_spec(folder, region, extra="", samples=20):
+    path = folder / "spec.toml"
+    path.write_text(
+        f"[dataset]\nsamples = {samples}\nseed = 11\n[[scenes]]\nfile = '{WALL.as_posix()}'\n"
+        f"poses = 'random'\nregion = {region}\nclearance_m = 0.001\n{extra}"
+    )
+    return path
+
+
+def test_no_emitter_inside_a_solid_wall(tmp_path):
+    """Draws straddling the slab: none inside it (the simulation refuses an emitter
+    inside a closed mesh), none within 1 cm of it (the premise: 1 draw in 3 lies in
+    x in (2, 2.1))."""
+    stl = WALL.parent / "meshes" / "wall.stl"
+    region = "{ x = [1.9, 2.2], y = [-0.5, 0.5], z = [-0.5, 0.5], yaw_deg = [-180.0, 180.0] }"
+    spec = load_spec(_wall_spec(tmp_path, region))
+    for i in range(20):
+        ends = _ends(sample_parameters(spec, i)["pose"])
+        assert not np.any((ends[:, 0] > 2.0) & (ends[:, 0] < 2.1)), i
+        assert _mesh_distance(ends, stl).min() >= SIMULATION_CLEARANCE_M, i
+
+
+def test_a_region_inside_a_solid_is_refused_before_any_work(tmp_path):
+    spec = _wall_spec(tmp_path, "{ x = [2.03, 2.07], y = [-0.5, 0.5], z = [-0.5, 0.5] }")
+    why = r"100 put an emitter inside a closed mesh .*move the region out of it"
+    with pytest.raises(
+        SpecError, match=r"scenes\[0\].region = .*no usable pose in 100 draws.*" + why
+    ):
+        generate(spec, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
+RIG = """
+[body]
+pose = {{ position_m = [0, 0, 0] }}
+[rig]
+crosstalk = {crosstalk}
+[[sensors]]
+name = "a"
+array = "urtis_v1"
+mount = {{ position_m = [0.5, 0.0, 0.0] }}
+firing = {{ rate_hz = 20, offset_s = 0.005, count = 2 }}
+[[sensors]]
+name = "b"
+array = "urtis_v1"
+firing = {{ rate_hz = 20, offset_s = 0.0, count = 2 }}
+[[meshes]]
+file = "{stl}"
+"""
+
+
+@pytest.mark.parametrize("crosstalk", [True, False])
+def test_a_rigs_other_emitter_keeps_the_clearance_with_crosstalk(tmp_path, crosstalk):
+    """Sonar b sampled, sonar a 0.5 m ahead of it on the body, the body 1.35 to
+    1.55 m before the wall: a's emitter 1.85 to 2.05 m, within 1 cm of the wall or
+    inside it in 3 draws out of 10.  With crosstalk a's call is simulated, from its
+    emitter, which must keep clear; without, a is not simulated and may stand anywhere."""
+    stl = (WALL.parent / "meshes" / "wall.stl").as_posix()
+    (tmp_path / "rig.toml").write_text(RIG.format(crosstalk=str(crosstalk).lower(), stl=stl))
+    region = "{ x = [1.35, 1.55], y = [-0.2, 0.2], z = [-0.2, 0.2] }"
+    (tmp_path / "spec.toml").write_text(
+        "[dataset]\nsamples = 30\nseed = 2\n[[scenes]]\nfile = 'rig.toml'\nsensor = 'b'\n"
+        f"poses = 'random'\nregion = {region}\nclearance_m = 0.001\n"
+    )
+    spec = load_spec(tmp_path / "spec.toml")
+    xa = []
+    for i in range(30):
+        body = sample_parameters(spec, i)["body_pose"]
+        assert body["yaw_deg"] == 0 and body["pitch_deg"] == 0
+        xa.append(body["position_m"][0] + 0.5)  # a's emitter: its array's centre
+    if crosstalk:
+        assert max(xa) <= 2.0 - SIMULATION_CLEARANCE_M, max(xa)
+    else:
+        assert max(xa) > 2.0 - SIMULATION_CLEARANCE_M  # drawn as before: a is not simulated
+
+
+def test_a_rig_with_crosstalk_near_a_wall_generates_every_sample(tmp_path):
+    """The body 1.47 to 1.52 m before the wall: sonar a's emitter within 1 cm of it
+    or inside it in 6 draws out of 10; every sample is simulated (the tracer, which
+    checks a's emitter for its call, refuses none)."""
+    stl = (WALL.parent / "meshes" / "wall.stl").as_posix()
+    scene = RIG.format(crosstalk="true", stl=stl) + "[simulation]\nmax_range_m = 3.0\n"
+    (tmp_path / "rig.toml").write_text(scene + "quality = 'fast'\n")
+    region = "{ x = [1.47, 1.52], y = [-0.2, 0.2], z = [-0.2, 0.2] }"
+    (tmp_path / "spec.toml").write_text(
+        "[dataset]\nsamples = 4\nseed = 2\n[[scenes]]\nfile = 'rig.toml'\nsensor = 'b'\n"
+        f"poses = 'random'\nregion = {region}\nclearance_m = 0.001\n"
+        "[store]\nimages = []\nsnapshot = false\ndepth_map = false\n"
+    )
+    table = generate(tmp_path / "spec.toml", tmp_path / "out")["sample_table"]
+    assert sorted(s["index"] for s in table) == [0, 1, 2, 3]
+    assert all(s["body_pose"]["position_m"][0] + 0.5 <= 1.99 for s in table)
