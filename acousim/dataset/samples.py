@@ -20,6 +20,7 @@ from acousim.scene.model import Environment
 from acousim.scene.rig import Firing, Mount, sonar_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
+from acousim.trace.direct import MIN_POINT_DISTANCE_M, point_gaps
 from acousim.trace.motion.moving_world import _with_meshes
 from acousim.trace.tracer import caster_of, enclosing_materials
 from acousim.trace.world.build import World, build_world
@@ -124,19 +125,23 @@ class _Ends:
 
 
 def _refused_ends(path: str, ends: _Ends, clearance: float) -> str | None:
-    """Why the emitters and microphones of a drawn pose are refused, or None: by the
-    tracer's own rules (the simulation would stop), ``"tracer"``, one nearer than 1 cm
-    to a surface (:func:`acousim.trace.world.clearance.too_near`), ``"enclosed"``, an
-    emitter inside a closed mesh (:func:`acousim.trace.tracer.enclosing_materials`,
-    when the scene shoots rays); ``"ends"``, one nearer than `clearance` (m, true
-    distance) to a surface."""
+    """Why the emitters and microphones of a drawn pose are refused, or None.  By
+    the tracer's own rules (the simulation would stop): ``"point"``, a point
+    reflector within 1 mm of one (:func:`acousim.trace.direct.point_gaps`);
+    ``"tracer"``, one nearer than 1 cm to a surface
+    (:func:`acousim.trace.world.clearance.too_near`); ``"enclosed"``, an emitter
+    inside a closed mesh (:func:`acousim.trace.tracer.enclosing_materials`, when the
+    scene shoots rays).  By the spec: ``"ends"``, one nearer than `clearance` (m,
+    true distance) to a surface."""
+    scene, every = _scene(path), np.vstack([ends.emitters_m, ends.mics_m])
+    if scene.points and np.any(point_gaps(scene.points, ends.t_s, every)[1] < MIN_POINT_DISTANCE_M):
+        return "point"
     geometry = _geometry(path, ends.t_s)
     if geometry is None:
         return None
-    every = np.vstack([ends.emitters_m, ends.mics_m])
     if np.any(too_near(geometry.caster, geometry.world, every)):
         return "tracer"
-    if _scene(path).simulation.rays != 0 and any(
+    if scene.simulation.rays != 0 and any(
         enclosing_materials(geometry.caster, geometry.world, e) for e in ends.emitters_m
     ):
         return "enclosed"
@@ -165,6 +170,8 @@ _WHY = {
     "(lower clearance_m or move the region away from it)",
     "tracer": "put the emitter or a microphone within the simulation's "
     f"{SENSOR_CLEARANCE_M:g} m of a surface (move the region away from it)",
+    "point": "put the emitter or a microphone within the simulation's "
+    f"{MIN_POINT_DISTANCE_M:g} m of a point reflector (move the region away from it)",
     "enclosed": "put an emitter inside a closed mesh (a wall's or an object's solid, which "
     "the simulation refuses): move the region out of it",
 }
