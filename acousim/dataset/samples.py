@@ -289,7 +289,7 @@ def _drawn_pose(spec: DatasetSpec, k: int, scene, rng, position: np.ndarray | No
     pitch, roll (rad) and what to add to the stored pose (its trajectory index);
     a random pose at `position`, a trajectory's pose (drawn) when None."""
     choice = spec.scenes[k]
-    if position is None:  # a rig: the body's poses
+    if position is None:  # a pose of the trajectory (a rig: the body's)
         trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
         j = int(rng.integers(len(trajectory)))
         p = trajectory[j]
