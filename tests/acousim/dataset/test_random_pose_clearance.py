@@ -1,8 +1,9 @@
-"""Random dataset poses keep the simulation's clearance: every pose the sampler
-accepts is one the tracer accepts (its emitter and every microphone at least 1 cm from
-every surface), a refused draw is drawn again from the seeded generator, and
-``clearance_m`` is a true distance to the mesh.  Distances are checked here by a
-point-to-triangle distance written in the test, on the scene's own STL."""
+"""Random dataset poses the simulation accepts: every pose the sampler accepts is
+one the tracer accepts (the emitter and every microphone at least 1 cm from every
+surface and 1 mm from every point reflector, no emitter inside a solid; a rig's other
+sonars' emitters too, with crosstalk), a refused draw is drawn again from the seeded
+generator, and ``clearance_m`` is a true distance to the mesh.  Distances are checked
+here by a point-to-triangle distance written in the test, on the scene's own STL."""
 
 import hashlib
 
