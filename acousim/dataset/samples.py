@@ -10,6 +10,7 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+import trimesh
 from scipy.spatial.transform import Rotation
 
 from acousim.dataset.spec import DatasetSpec, SpecError, _relative_to
@@ -19,8 +20,17 @@ from acousim.scene.model import Environment
 from acousim.scene.rig import Firing, Mount, sonar_scene
 from acousim.scene.trajectory import Trajectory
 from acousim.simulator import Simulator
-from acousim.trace.tracer import caster_of
-from acousim.trace.world.build import build_world
+from acousim.trace.direct import MIN_POINT_DISTANCE_M, point_gaps
+from acousim.trace.motion.moving_world import _with_meshes
+from acousim.trace.tracer import caster_of, enclosing_materials
+from acousim.trace.world.build import World, build_world
+from acousim.trace.world.clearance import (
+    SENSOR_CLEARANCE_M,
+    surface_distance,
+    surface_mesh,
+    too_near,
+)
+from acousim.trace.world.embree import RayCaster
 
 
 @lru_cache(maxsize=8)
@@ -28,16 +38,40 @@ def _scene(path: str):
     return load_scene(path)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Geometry:
+    """A scene's meshes for testing random poses: the world, its ray caster and its
+    faces as a trimesh mesh (true distances)."""
+
+    world: World
+    caster: RayCaster
+    mesh: trimesh.Trimesh
+
+
+def _geometry(path: str, t_s: float = 0.0) -> _Geometry | None:
+    """The scene's meshes where they are at time `t_s` (s; a sample's pose is at time
+    0, a rig's sonar fires at its firing's offset), built once per scene file, time
+    (for moving meshes) and process; None without meshes."""
+    moving = any(m.moving for m in _scene(path).meshes)
+    return _geometry_at(path, t_s if moving else 0.0)
+
+
 @lru_cache(maxsize=4)
-def _world_caster(path: str):
-    """Geometry for collision checks, built once per scene file and process."""
+def _geometry_at(path: str, t_s: float) -> _Geometry | None:
     scene = _scene(path)
     if not scene.meshes:
         return None
-    return caster_of(build_world(scene), threads=1)
+    world = build_world(_with_meshes(scene, [m.placed_at(t_s) for m in scene.meshes]))
+    return _Geometry(world, caster_of(world, threads=1), surface_mesh(world))
 
 
-#: the test rays of a random pose: +-x, +-y, +-z (world frame)
+def _world_caster(path: str) -> RayCaster | None:
+    """The ray caster of the scene's meshes at time 0 (:func:`_geometry`)."""
+    geometry = _geometry(path)
+    return None if geometry is None else geometry.caster
+
+
+#: the test rays of the inside rule: +-x, +-y, +-z (world frame)
 _RAYS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 
 
@@ -60,59 +94,114 @@ def _enclosed(path: str) -> bool:
 
 
 def _clear(path: str, position: np.ndarray, clearance: float) -> str | None:
-    """Why a random pose at `position` (3,) m is refused, or None (accepted):
+    """Why a random position (3,) m (the sensor's, a rig's body's) is refused, or
+    None (accepted):
 
-    * ``"near"``: a test ray (+-x, +-y, +-z) meets a surface nearer than `clearance`;
+    * ``"near"``: a surface nearer than `clearance` (m, true distance);
     * ``"outside"``: in a closed scene (:func:`_enclosed`: the scene's own sensor sees
-      a surface along every test ray), a test ray meets no surface: the pose is outside
-      the room (or inside a wall).
+      a surface along every test ray, +-x, +-y, +-z), a test ray meets no surface:
+      the pose is outside the room (or inside a wall).
 
     In an open scene (a wall, a corridor's open end) a ray that meets nothing is clear."""
     hits = _first_hits(path, position)
     if hits is None:
         return None
-    if np.any(hits < clearance):
+    if clearance > 0 and surface_distance(_geometry(path).mesh, position)[0] < clearance:
         return "near"
     if _enclosed(path) and not np.all(np.isfinite(hits)):
         return "outside"
     return None
 
 
-#: draws of a random pose before the region is declared unusable
+@dataclasses.dataclass(frozen=True)
+class _Ends:
+    """Where the simulation of a sample checks its sensor (:func:`_ends`): at time
+    `t_s` (s; moving meshes placed then) its emitters (E, 3) and microphones (M, 3),
+    m, world frame."""
+
+    t_s: float
+    emitters_m: np.ndarray
+    mics_m: np.ndarray
+
+
+def _refused_ends(path: str, ends: _Ends, clearance: float) -> str | None:
+    """Why the emitters and microphones of a drawn pose are refused, or None.  By
+    the tracer's own rules (the simulation would stop): ``"point"``, a point
+    reflector within 1 mm of one (:func:`acousim.trace.direct.point_gaps`);
+    ``"tracer"``, one nearer than 1 cm to a surface
+    (:func:`acousim.trace.world.clearance.too_near`); ``"enclosed"``, an emitter
+    inside a closed mesh (:func:`acousim.trace.tracer.enclosing_materials`, when the
+    scene shoots rays).  By the spec: ``"ends"``, one nearer than `clearance` (m,
+    true distance) to a surface."""
+    scene, every = _scene(path), np.vstack([ends.emitters_m, ends.mics_m])
+    if scene.points and np.any(point_gaps(scene.points, ends.t_s, every)[1] < MIN_POINT_DISTANCE_M):
+        return "point"
+    geometry = _geometry(path, ends.t_s)
+    if geometry is None:
+        return None
+    if np.any(too_near(geometry.caster, geometry.world, every)):
+        return "tracer"
+    if scene.simulation.rays != 0 and any(
+        enclosing_materials(geometry.caster, geometry.world, e) for e in ends.emitters_m
+    ):
+        return "enclosed"
+    if clearance > 0 and np.any(surface_distance(geometry.mesh, every) < clearance):
+        return "ends"
+    return None
+
+
+#: draws of a random pose (a position refused, or a whole pose) before the region is
+#: declared unusable, when it is checked before any work (:func:`check_regions`)
 DRAWS = 100
 
+#: draws of a random pose for one sample: more than the region's check, so that a
+#: region whose check found a pose does not stop the run at a sample (a region where
+#: 1 draw in 100 fits: one sample in 23000 runs out)
+SAMPLE_DRAWS = 1000
 
-def _draw_position(spec: DatasetSpec, k: int, rng, what: str) -> np.ndarray:
-    """A position (3,) m in scene choice k's region that :func:`_clear` accepts; else
-    a SpecError saying how many of the draws each rule refused."""
+#: what each refusal of a draw says (:func:`_no_pose`)
+_WHY = {
+    "near": "had a surface nearer than clearance_m = {c:g} m (lower clearance_m or move "
+    "the region away from it)",
+    "outside": "were outside the closed scene (a test ray along +-x, +-y or +-z met no "
+    "surface, while the scene's own sensor sees one along each): move the region inside "
+    "the room",
+    "ends": "put the emitter or a microphone nearer than clearance_m = {c:g} m to a surface "
+    "(lower clearance_m or move the region away from it)",
+    "tracer": "put the emitter or a microphone within the simulation's "
+    f"{SENSOR_CLEARANCE_M:g} m of a surface (move the region away from it)",
+    "point": "put the emitter or a microphone within the simulation's "
+    f"{MIN_POINT_DISTANCE_M:g} m of a point reflector (move the region away from it)",
+    "enclosed": "put an emitter inside a closed mesh (a wall's or an object's solid, which "
+    "the simulation refuses): move the region out of it",
+}
+
+
+def _no_pose(spec: DatasetSpec, k: int, what: str, refused: dict) -> SpecError:
+    """The error of scene choice k's region where no draw was accepted."""
+    choice = spec.scenes[k]
+    reasons = [f"{n} " + _WHY[why].format(c=choice.clearance_m) for why, n in refused.items() if n]
+    return SpecError(
+        f"{what}: no usable pose in {sum(refused.values())} draws in the region of "
+        f"{choice.file}: " + "; ".join(reasons),
+        file=spec.source,
+        key=f"scenes[{k}].region",
+        value=choice.region,
+    )
+
+
+def _draw_position(spec: DatasetSpec, k: int, rng, refused: dict, draws: int) -> np.ndarray | None:
+    """A position (3,) m in scene choice k's region that :func:`_clear` accepts,
+    counting the refused draws in `refused`; None once it holds `draws`."""
     choice = spec.scenes[k]
     reg = choice.region
-    refused = {"near": 0, "outside": 0}
-    for _attempt in range(DRAWS):
+    while sum(refused.values()) < draws:
         pos = np.array([rng.uniform(*reg[a]) for a in ("x", "y", "z")])
         why = _clear(str(choice.file), pos, choice.clearance_m)
         if why is None:
             return pos
         refused[why] += 1
-    reasons = []
-    if refused["near"]:
-        reasons.append(
-            f"{refused['near']} had a surface nearer than clearance_m = "
-            f"{choice.clearance_m:g} m (lower clearance_m or move the region away from it)"
-        )
-    if refused["outside"]:
-        reasons.append(
-            f"{refused['outside']} were outside the closed scene (a test ray along +-x, "
-            "+-y or +-z met no surface, while the scene's own sensor sees one along each): "
-            "move the region inside the room"
-        )
-    raise SpecError(
-        f"{what}: no usable pose in {DRAWS} draws in the region of {choice.file}: "
-        + "; ".join(reasons),
-        file=spec.source,
-        key=f"scenes[{k}].region",
-        value=reg,
-    )
+    return None
 
 
 def check_regions(spec: DatasetSpec) -> None:
@@ -122,19 +211,46 @@ def check_regions(spec: DatasetSpec) -> None:
     for k, choice in enumerate(spec.scenes):
         if choice.poses == "random":
             rng = np.random.default_rng(np.random.SeedSequence([spec.seed, k, 2**32]))
-            _draw_position(spec, k, rng, "checking the region")
+            _parameters(spec, 0, k, rng, "checking the region", DRAWS)
 
 
 def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     """The random choices of sample i: scene (relative to the spec's folder), pose
     (``Pose.to_dict`` form: position_m, yaw_deg, pitch_deg, roll_deg), conditions,
-    noise seed."""
+    noise seed.  A random pose is drawn again, from the same generator, while the
+    simulation would refuse it or it breaks the scene's clearance_m
+    (:func:`_parameters`)."""
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, i]))
     w = np.array([s.weight for s in spec.scenes])
     k = int(rng.choice(len(spec.scenes), p=w / w.sum()))
+    return _parameters(spec, i, k, rng, f"sample {i}", SAMPLE_DRAWS)
+
+
+def _parameters(spec: DatasetSpec, i: int, k: int, rng, what: str, draws: int) -> dict:
+    """Sample i's choices in scene choice k, drawn from `rng`.  A random pose: a
+    position that :func:`_clear` accepts, then the rest of the choices; the whole
+    drawn again while :func:`_refused_ends` refuses the emitter or a microphone
+    where the sample puts them (:func:`_ends`), at most `draws` draws in all (then
+    a SpecError naming the region and how many draws each rule refused)."""
+    choice = spec.scenes[k]
+    if choice.poses != "random":
+        return _drawn(spec, i, k, rng, None)
+    refused = dict.fromkeys(_WHY, 0)
+    while (position := _draw_position(spec, k, rng, refused, draws)) is not None:
+        params = _drawn(spec, i, k, rng, position)
+        why = _refused_ends(str(choice.file), _ends(params, spec), choice.clearance_m)
+        if why is None:
+            return params
+        refused[why] += 1
+    raise _no_pose(spec, k, what, refused)
+
+
+def _drawn(spec: DatasetSpec, i: int, k: int, rng, position: np.ndarray | None) -> dict:
+    """Sample i's choices in scene choice k (a random pose at `position`, its yaw
+    drawn here; None: a pose of the trajectory), drawn from `rng`."""
     choice = spec.scenes[k]
     scene = _scene(str(choice.file))
-    position, yaw, pitch, roll, extra = _drawn_pose(spec, i, k, scene, rng)
+    position, yaw, pitch, roll, extra = _drawn_pose(spec, k, scene, rng, position)
     cond = {
         name: d.draw(rng)
         for name, d in sorted(spec.randomize.items())
@@ -168,19 +284,43 @@ def sample_parameters(spec: DatasetSpec, i: int) -> dict:
     return params
 
 
-def _drawn_pose(spec: DatasetSpec, i: int, k: int, scene, rng) -> tuple:
-    """Sample i's pose in scene choice k (a rig's: the body's): position (3,) m, yaw,
-    pitch, roll (rad) and what to add to the stored pose (its trajectory index)."""
+def _drawn_pose(spec: DatasetSpec, k: int, scene, rng, position: np.ndarray | None) -> tuple:
+    """The pose in scene choice k (a rig's: the body's): position (3,) m, yaw,
+    pitch, roll (rad) and what to add to the stored pose (its trajectory index);
+    a random pose at `position`, a trajectory's pose (drawn) when None."""
     choice = spec.scenes[k]
-    if choice.poses == "trajectory":  # a rig: the body's poses
+    if position is None:  # a pose of the trajectory (a rig: the body's)
         trajectory = scene.sensor.poses if scene.rig is None else scene.rig.poses
         j = int(rng.integers(len(trajectory)))
         p = trajectory[j]
         return p.position_m, p.yaw_rad, p.pitch_rad, p.roll_rad, {"trajectory_index": j}
-    reg = choice.region
-    pos = _draw_position(spec, k, rng, f"sample {i}")
-    yaw = np.deg2rad(rng.uniform(*reg.get("yaw_deg", (0.0, 0.0))))
-    return pos, yaw, 0.0, 0.0, {}
+    yaw = np.deg2rad(rng.uniform(*choice.region.get("yaw_deg", (0.0, 0.0))))
+    return position, yaw, 0.0, 0.0, {}
+
+
+def _ends(params: dict, spec: DatasetSpec) -> _Ends:
+    """Where the simulation of sample `params` checks its sensor (the clearance,
+    :func:`acousim.trace.world.clearance.check_clearance`; an emitter inside a closed
+    mesh): the sensor's emitter and microphones at its pose (time 0); a rig's
+    sonar's on the mount drawn, and with the rig's crosstalk every other sonar's
+    emitter, the body placed as :func:`_rig_firing` places it at the sonar's firing
+    (still: in motion, another sonar's firing before or after it is tested where the
+    body is at the sonar's)."""
+    scene = _scene(_scene_path(params, spec))
+    pose = _pose(params["pose"])
+    array = sample_array(params, spec)
+    emitters, mics = [pose.to_world(array.emitter_m)], pose.to_world(array.positions_m)
+    if scene.rig is None or not scene.rig.crosstalk:
+        return _Ends(0.0, np.array(emitters), mics)
+    sonar = next(s for s in scene.rig.sonars if s.name == params["sensor"])
+    m = params["mount"]
+    body = _body(pose, Mount.degrees(m["position_m"], m["rotation_deg"]))
+    emitters += [
+        s.mount.place(body).to_world(s.sensor.array.emitter_m)
+        for s in scene.rig.sonars
+        if s is not sonar
+    ]
+    return _Ends(float(sonar.firing.times(0.0, 0.0)[0]), np.array(emitters), mics)
 
 
 def _mount(scene, choice, rng):
@@ -291,9 +431,7 @@ def _rig_firing(scene, params: dict, pose: Pose, motion, n_samples: int | None):
     m = params["mount"]
     mount = Mount.degrees(m["position_m"], m["rotation_deg"])
     t_k = float(rig.sonars[k].firing.times(0.0, 0.0)[0])
-    R = pose.rotation @ mount.rotation.T  # the body's rotation: the sonar's less its mount's
-    yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
-    body = Pose(pose.position_m - R @ mount.position_m, yaw, pitch, roll, time_s=t_k)
+    body = _body(pose, mount, t_k)
     trajectory = None
     if motion is not None:
         w = motion.angular_velocity(pose.time_s)
@@ -315,6 +453,13 @@ def _rig_firing(scene, params: dict, pose: Pose, motion, n_samples: int | None):
     firing_sim = RigSimulator(dataclasses.replace(scene, rig=placed), threads=1)
     (i,) = [x.index for x in firing_sim.measurements if sonars[x.sonar].name == names[k]]
     return firing_sim.simulate(i, n_samples=n)
+
+
+def _body(pose: Pose, mount: Mount, t_s: float = 0.0) -> Pose:
+    """The body's pose (at time `t_s`) that puts a sonar on `mount` at `pose`."""
+    R = pose.rotation @ mount.rotation.T  # the body's rotation: the sonar's less its mount's
+    yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
+    return Pose(pose.position_m - R @ mount.position_m, yaw, pitch, roll, time_s=t_s)
 
 
 def _firings_within(firing: Firing, start_s: float, end_s: float) -> list[float]:

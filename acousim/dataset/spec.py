@@ -162,8 +162,9 @@ class SceneChoice:
         "m",
         0,
         10,
-        "random poses: no surface nearer along +-x, +-y, +-z (a closed scene's poses "
-        "must also see a surface along each: inside the room)",
+        "random poses: no surface nearer to the position drawn, to the emitter or to "
+        "any microphone (a true distance; a closed scene's poses must also see a surface "
+        "along +-x, +-y, +-z: inside the room)",
     )
     sensor: str | None = setting(None, kind="str", doc="a rig's scene: the sonar sampled")
     mount: dict = field(default_factory=dict)

@@ -13,6 +13,7 @@ __all__ = [
     "point_paths",
     "heard_points",
     "check_points_clear",
+    "point_gaps",
     "MIN_POINT_DISTANCE_M",
 ]
 
@@ -94,6 +95,16 @@ def point_paths(
     )
 
 
+def point_gaps(points, t_s: float, ends_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The point reflectors of `points` (scene items; at least one) where they are at
+    time `t_s` (P, 3) m, and each one's distance (P,) m to the nearest of the emitters
+    and microphones `ends_m` (K, 3); :func:`check_points_clear` refuses one nearer
+    than :data:`MIN_POINT_DISTANCE_M`."""
+    pts = np.array([p.at(t_s)[0] if p.moving else p.position_m for p in points])
+    gap = np.linalg.norm(pts[:, None, :] - ends_m[None, :, :], axis=2).min(axis=1)
+    return pts, gap
+
+
 def check_points_clear(points, t_s: float, ends_m: np.ndarray, where: str) -> None:
     """An InputError when a point reflector of `points` (scene items, where they are at
     time `t_s`) lies within :data:`MIN_POINT_DISTANCE_M` of an emitter or microphone
@@ -101,8 +112,7 @@ def check_points_clear(points, t_s: float, ends_m: np.ndarray, where: str) -> No
     (checked before any computation).  `where`: the pose, for the message."""
     if not points:
         return
-    pts = np.array([p.at(t_s)[0] if p.moving else p.position_m for p in points])
-    gap = np.linalg.norm(pts[:, None, :] - ends_m[None, :, :], axis=2).min(axis=1)
+    pts, gap = point_gaps(points, t_s, ends_m)
     near = np.flatnonzero(gap < MIN_POINT_DISTANCE_M)
     if near.size:
         k = int(near[0])

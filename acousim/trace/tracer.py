@@ -66,6 +66,7 @@ __all__ = [
     "PathTracer",
     "TraceSettings",
     "cone_directions",
+    "enclosing_materials",
     "trace_pose",
     "KIND",
     "DIFFUSE_CELL_DEG",
@@ -75,9 +76,27 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-#: the pose check's 64 rays over the whole sphere (:meth:`Tracer._check_pose`)
+#: the pose check's 64 rays over the whole sphere (:func:`enclosing_materials`)
 _ALL_AROUND = cone_directions(64, np.array([1.0, 0, 0]), np.pi)
 _ALL_AROUND.flags.writeable = False
+
+
+def enclosing_materials(caster: RayCaster, world: World, emitter_m: np.ndarray) -> list[str]:
+    """The materials (sorted names) of the closed mesh an emitter at `emitter_m` (3,)
+    m stands inside, which the tracer refuses (:meth:`Tracer._check_pose`): of 64
+    rays all around, 48 or more meet a face, every one meets a face, and 90 % of
+    those meet it from behind (its normal along the ray); [] when it is not inside
+    one."""
+    dirs = _ALL_AROUND
+    t, f = caster.first_hit(np.broadcast_to(emitter_m, dirs.shape), dirs)
+    hit = f >= 0
+    if hit.sum() < 48:
+        return []
+    facing = np.einsum("ij,ij->i", world.normals[f[hit]], dirs[hit]) > 0
+    closed = not np.isinf(t).any()
+    if facing.mean() > 0.9 and closed:
+        return sorted({world.materials[m].name for m in world.material[f[hit]]})
+    return []
 
 
 def trace_pose(
@@ -390,17 +409,11 @@ class Tracer:
 
     def _check_pose(self, emitter: np.ndarray) -> None:
         """A sensor inside a closed wall sees the inside of faces: refuse the pose."""
-        dirs = _ALL_AROUND
-        t, f = self.caster.first_hit(np.broadcast_to(emitter, dirs.shape), dirs)
-        hit = f >= 0
-        if hit.sum() >= 48:
-            facing = np.einsum("ij,ij->i", self.world.normals[f[hit]], dirs[hit]) > 0
-            closed = not np.isinf(t).any()
-            if facing.mean() > 0.9 and closed:
-                names = sorted({self.world.materials[m].name for m in self.world.material[f[hit]]})
-                raise InputError(
-                    f"the sensor at {np.round(emitter, 3).tolist()} m is inside a closed mesh "
-                    f"(a wall or object; its faces are of material {', '.join(names)}): "
-                    "move the pose; or, if it stands in a room, the room's faces must face "
-                    'into it: its normals may be inverted (docs/scene-format.md, "Meshes")'
-                )
+        names = enclosing_materials(self.caster, self.world, emitter)
+        if names:
+            raise InputError(
+                f"the sensor at {np.round(emitter, 3).tolist()} m is inside a closed mesh "
+                f"(a wall or object; its faces are of material {', '.join(names)}): "
+                "move the pose; or, if it stands in a room, the room's faces must face "
+                'into it: its normals may be inverted (docs/scene-format.md, "Meshes")'
+            )

@@ -70,7 +70,7 @@ poses = "random"
 region = {{ x = [100.0, 101.0], y = [0.0, 0.1], z = [0.3, 0.4] }}
 """
     )
-    closed = r"scenes\[0\].region.*no usable pose.*100 were outside the closed scene"
+    closed = r"scenes\[0\].region.*sample 0: no usable pose in 1000 draws.*1000 were outside"
     with pytest.raises(InputError, match=closed):
         sample_parameters(load_spec(spec), 0)
 

@@ -19,12 +19,22 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import trimesh
 
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 from processing.base.errors import InputError
 
-__all__ = ["SENSOR_CLEARANCE_M", "DIRECTIONS", "COVER_RAD", "nearest_surface", "check_clearance"]
+__all__ = [
+    "SENSOR_CLEARANCE_M",
+    "DIRECTIONS",
+    "COVER_RAD",
+    "nearest_surface",
+    "too_near",
+    "check_clearance",
+    "surface_mesh",
+    "surface_distance",
+]
 
 SENSOR_CLEARANCE_M = 0.01
 """Nearest an emitter or a microphone may be to a mesh surface (m).  1 cm: a choice,
@@ -72,6 +82,35 @@ def nearest_surface(
     return gap[rows, best], np.where(np.isfinite(gap[rows, best]), f.reshape(k, n)[rows, best], -1)
 
 
+def too_near(
+    caster: RayCaster, world: World, points_m: np.ndarray, clearance_m: float = SENSOR_CLEARANCE_M
+) -> np.ndarray:
+    """Which points (K, 3) the tracer refuses (K,) bool: a face nearer than
+    `clearance_m` (m) met by one of their 26 rays (:func:`nearest_surface`).  The
+    rule of :func:`check_clearance`, for a caller that redraws a refused point (a
+    dataset's random poses) instead of stopping."""
+    return nearest_surface(caster, world, points_m, clearance_m)[0] < clearance_m
+
+
+def surface_mesh(world: World) -> trimesh.Trimesh:
+    """The world's faces as a trimesh mesh, unprocessed (the same triangles), for
+    :func:`surface_distance` (keep it: its search tree is built on first use)."""
+    if world.vertices is not None:
+        return trimesh.Trimesh(world.vertices, world.faces, process=False)
+    corners = world.triangles.reshape(-1, 3)
+    return trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)
+
+
+def surface_distance(mesh: trimesh.Trimesh, points_m: np.ndarray) -> np.ndarray:
+    """The true distance (K,) m from each point (K, 3) to the nearest point of any
+    face of `mesh` (:func:`surface_mesh`; trimesh's closest-point queries): unlike
+    :func:`nearest_surface`, exact at an edge, a corner or a face smaller than the
+    distance."""
+    pts = np.asarray(points_m, float).reshape(-1, 3)
+    _, distance, _ = trimesh.proximity.closest_point(mesh, pts)
+    return np.asarray(distance, float)
+
+
 def check_clearance(
     caster: RayCaster,
     world: World,
@@ -84,7 +123,7 @@ def check_clearance(
     far, the face's material and the clearance."""
     ends = np.vstack([np.reshape(emitter_m, (1, 3)), np.reshape(mics_m, (-1, 3))])
     gap, face = nearest_surface(caster, world, ends, clearance_m)
-    near = np.flatnonzero(gap < clearance_m)
+    near = np.flatnonzero(gap < clearance_m)  # as too_near
     if not near.size:
         return
     i = int(near[np.argmin(gap[near])])
