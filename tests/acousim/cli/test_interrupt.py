@@ -46,9 +46,12 @@ SCENES = ROOT / "scenes"
 TIMEOUT_S = 300  # a generous bound on one command's run, only against a hang
 
 
-def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int, list[str]]:
-    """Run the command line; send Ctrl-C right after it prints the stderr line that
-    ends with `after` (None: never). Returns the exit code and the stderr lines."""
+def run_interrupted(
+    args: list[str], cwd: Path, after: str | None, *, launcher: list[str] | None = None
+) -> tuple[int, list[str]]:
+    """Run the command line (by `launcher`, default ``python -m acousim.cli``); send
+    Ctrl-C right after it prints the stderr line that ends with `after` (None: never).
+    Returns the exit code and the stderr lines."""
     env = {
         **os.environ,
         "PYTHONPATH": str(ROOT),
@@ -56,7 +59,7 @@ def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int,
         "ACOUSIM_PROGRESS_LINES": "1",
     }
     proc = subprocess.Popen(
-        [sys.executable, "-m", "acousim.cli", *args],
+        [*(launcher or [sys.executable, "-m", "acousim.cli"]), *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.DEVNULL,
@@ -85,7 +88,7 @@ def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int,
 
 def _is_progress(line: str) -> bool:
     tail = line.rsplit(" ", 1)[-1]
-    return line.endswith(": started") or (tail.count("/") == 1 and tail.replace("/", "").isdigit())
+    return line.endswith((": started", "acousim: loading")) or (tail.count("/") == 1 and tail.replace("/", "").isdigit())
 
 
 def _read_until(proc: subprocess.Popen, lines: list[str], after: str) -> None:
@@ -129,6 +132,31 @@ def corridor(tmp_path_factory) -> Path:
     )
     assert code == 0
     return folder
+
+
+CONSOLE_SCRIPT = Path(sys.executable).with_name("acousim")  # pip's `acousim`, if installed
+
+
+@pytest.mark.parametrize(
+    "launcher",
+    [
+        [sys.executable, "-m", "acousim.cli"],
+        pytest.param(
+            [str(CONSOLE_SCRIPT)],
+            marks=pytest.mark.skipif(not CONSOLE_SCRIPT.is_file(), reason="not installed"),
+        ),
+    ],
+    ids=["python -m acousim.cli", "acousim"],
+)
+def test_an_interrupt_while_the_command_imports_is_quiet(tmp_path, launcher):
+    """Ctrl-C as soon as the command's first line of code has run (its handler
+    installed, then "acousim: loading"), while it imports its package, builds its
+    parser and loads the scene: exit 130 with the one line, no traceback (checked by
+    run_interrupted), nothing written."""
+    args = ["simulate", "wall", "--out", "x.h5"]
+    code, lines = run_interrupted(args, tmp_path, "acousim: loading", launcher=launcher)
+    assert code == 130 and lines[0] == "acousim: loading"
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("after", ["started", "simulate 1/3", "simulate 3/3"])
