@@ -88,7 +88,9 @@ def run_interrupted(
 
 def _is_progress(line: str) -> bool:
     tail = line.rsplit(" ", 1)[-1]
-    return line.endswith((": started", "acousim: loading")) or (tail.count("/") == 1 and tail.replace("/", "").isdigit())
+    return line.endswith((": started", "acousim: loading")) or (
+        tail.count("/") == 1 and tail.replace("/", "").isdigit()
+    )
 
 
 def _read_until(proc: subprocess.Popen, lines: list[str], after: str) -> None:
@@ -110,6 +112,26 @@ def _read_until(proc: subprocess.Popen, lines: list[str], after: str) -> None:
                 if buf:
                     lines.append(buf.decode(errors="replace"))  # a partial line, kept
                 return
+
+
+def earlier_recordings(path: Path) -> None:
+    """A recording file of ours at `path` (as an earlier run leaves: replaceable)."""
+    import numpy as np
+
+    P.save_recordings(path, [P.Recording(np.zeros((30, 64)), 450e3, P.urtis_v1(), P.paper_chirp())])
+
+
+def earlier_image_files(out: Path) -> None:
+    """images.h5, peaks.csv, fan.png and drive.gif in `out` as an earlier run of
+    `acousim image` leaves them, as far as their content says who wrote them (their
+    format and header; replaceable), each with bytes of its own."""
+    import h5py
+
+    with h5py.File(out / "images.h5", "w") as f:
+        f.attrs["format"] = "acousim-images"
+    (out / "peaks.csv").write_text(",".join(P.PEAK_COLUMNS) + "\n")
+    (out / "fan.png").write_bytes(b"\x89PNG\r\n\x1a\n an earlier fan.png")
+    (out / "drive.gif").write_bytes(b"GIF89a an earlier drive.gif")
 
 
 def leftovers(folder: Path) -> list[Path]:
@@ -194,11 +216,12 @@ def test_interrupted_simulate_removes_the_folders_it_made(corridor, tmp_path):
 def test_interrupted_rig_simulate_stops_its_threads_and_keeps_the_old_output(tmp_path):
     # a rig's run prepares the next firings in threads while one renders: Ctrl-C
     # after the first firing ends the command with one line, no file replaced
-    (tmp_path / "rig.h5").write_text("an earlier rig.h5")
+    earlier_recordings(tmp_path / "rig.h5")  # an earlier run's: ours, replaceable
+    old = (tmp_path / "rig.h5").read_bytes()
     args = ["simulate", "corridor_rig", "--poses", "40:46", "--out", "rig.h5"]
     code, lines = run_interrupted(args, tmp_path, "simulate 1/6")
     assert code == 130
-    assert (tmp_path / "rig.h5").read_text() == "an earlier rig.h5"
+    assert (tmp_path / "rig.h5").read_bytes() == old
     assert leftovers(tmp_path) == []
     assert not any(ln.endswith("simulate 6/6") for ln in lines)
 
@@ -208,8 +231,7 @@ def test_interrupted_image_keeps_the_old_pictures(corridor, tmp_path, after):
     shutil.copy(corridor / "rec.h5", tmp_path / "rec.h5")
     out = tmp_path / "out"
     out.mkdir()
-    for name in ("images.h5", "peaks.csv", "fan.png", "drive.gif"):
-        (out / name).write_text(f"an earlier {name}")
+    earlier_image_files(out)
     before = snapshot(out)
     args = ["image", "rec.h5", "--out", "out", "--method", "das", "--no-3d"]
     code, _ = run_interrupted(args, tmp_path, after)
