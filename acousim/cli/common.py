@@ -184,7 +184,9 @@ def remove_made_dirs(*, failed: bool = True) -> list[Path]:
     return removed
 
 
-def replaceable(option: str, path: str | Path, kind: str, *, folder=None) -> Path:
+def replaceable(
+    option: str, path: str | Path, kind: str, *, folder: str | Path | None = None
+) -> Path:
     """The one rule for an output that exists already: it is replaced only when it
     is an output of `kind` acousim wrote (known by its content:
     :data:`acousim.cli.ours.KINDS`), as a rerun replaces its own; anything else (a

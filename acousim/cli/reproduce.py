@@ -107,12 +107,12 @@ def run(args: argparse.Namespace) -> int:
 
     out = writable_dir(args.out)
     report_path = Path(args.report) if args.report else out / "REPRODUCTION.md"
+    quick = args.quick
+    if not args.report_only and quick and not args.overwrite:
+        _refuse_to_overwrite_a_full_run(out, report_path)
     replaceable("--report", report_path, "reproduction")
     if not args.report_only:  # the study's files: those of an earlier run are replaced
         replaceable_in("--out", out, _replaced(out))
-    quick = args.quick
-    if not args.report_only and quick and not args.overwrite:
-        _refuse_to_overwrite_a_full_run(Path(args.out), report_path)
     if args.report_only:
         from acousim.experiments.paper_study import load_results
 

@@ -192,3 +192,34 @@ def test_every_kind_knows_our_output_from_a_foreign_file(tmp_path, wall):
     shutil.copy(wall, tmp_path / "copy.h5")
     assert is_ours("recordings", tmp_path / "copy.h5")
     assert not is_ours("recordings", tmp_path)  # a folder is no file of ours
+
+
+def test_a_dataset_run_again_replaces_its_own_manifest(tmp_path, capsys):
+    from tests import REPO
+
+    spec = tmp_path / "spec.toml"
+    spec.write_text(
+        "[dataset]\nsamples = 1\nshard_size = 1\nseed = 3\n[[scenes]]\n"
+        f'file = "{REPO / "scenes" / "points.toml"}"\n[store]\nimages = ["das"]\n'
+        "step_deg = 10.0\ndepth_map = false\n"
+    )
+    args = ["dataset", str(spec), "--out", str(tmp_path / "data"), "--workers", "1", "-q"]
+    assert main(args) == 0
+    first = (tmp_path / "data" / "manifest.json").stat().st_ino
+    assert main(args) == 0  # resumed, nothing to do: the manifest written again
+    assert (tmp_path / "data" / "manifest.json").stat().st_ino != first
+
+
+def test_the_committed_study_files_are_ours():
+    """docs/reproduction and docs/REPRODUCTION.md, written by `acousim reproduce`,
+    are known as its outputs (a rerun with --out docs/reproduction replaces them)."""
+    from acousim.cli.ours import is_ours
+    from acousim.cli.reproduce import _replaced
+    from tests import REPO
+
+    folder = REPO / "docs" / "reproduction"
+    kinds = _replaced(folder)
+    assert len(kinds) == len(list(folder.iterdir()))
+    assert all(is_ours(kind, folder / name) for name, kind in kinds.items())
+    assert is_ours("reproduction", REPO / "docs" / "REPRODUCTION.md")
+    assert not is_ours("reproduction", REPO / "README.md")
