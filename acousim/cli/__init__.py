@@ -45,11 +45,15 @@ def _is_the_command() -> bool:
 
     if os.path.splitext(os.path.basename(sys.argv[0] if sys.argv else ""))[0] == "acousim":
         return True
-    args = list(getattr(sys, "orig_argv", ()))
-    return any(
-        a == "-macousim.cli" or (a == "-m" and args[k + 1 : k + 2] == ["acousim.cli"])
-        for k, a in enumerate(args)
-    )
+    args = iter(getattr(sys, "orig_argv", ())[1:])  # the interpreter's options first
+    for a in args:
+        if a in ("-m", "-macousim.cli"):
+            return a == "-macousim.cli" or next(args, None) == "acousim.cli"
+        if a in ("-X", "-W", "--check-hash-based-pycs"):
+            next(args, None)  # its value
+        elif not a.startswith("-") or a == "-c":
+            return False  # a script or a command: the program's arguments follow
+    return False
 
 
 #: the SIGINT handler before the command's own (None: not installed at import)

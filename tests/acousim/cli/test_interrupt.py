@@ -348,3 +348,24 @@ def test_files_committed_together_all_or_none(tmp_path):
     assert (tmp_path / "a.txt").read_text() == "new a"
     assert (tmp_path / "b.txt").read_text() == "new b"
     assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "argv,orig,ours",
+    [
+        (["/venv/bin/acousim", "simulate"], ["/venv/bin/python", "/venv/bin/acousim"], True),
+        (["-m", "simulate"], ["python", "-X", "importtime", "-m", "acousim.cli"], True),
+        (["-m"], ["python", "-macousim.cli"], True),
+        (["-m"], ["python", "-m", "pytest"], False),
+        (["tool.py", "-m", "acousim.cli"], ["python", "tool.py", "-m", "acousim.cli"], False),
+        (["-c"], ["python", "-c", "import acousim.cli", "-m", "acousim.cli"], False),
+    ],
+)
+def test_the_handler_at_import_is_the_commands_alone(monkeypatch, argv, orig, ours):
+    """acousim.cli installs its handler when imported only in the acousim command's
+    process (a program importing it keeps its Ctrl-C)."""
+    from acousim import cli
+
+    monkeypatch.setattr(sys, "argv", argv)
+    monkeypatch.setattr(sys, "orig_argv", orig)
+    assert cli._is_the_command() is ours
