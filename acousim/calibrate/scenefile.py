@@ -68,6 +68,10 @@ def _comment(lines: list[str], a: int, b: int) -> str:
 
 
 WARNING_PREFIX = "# acousim calibrate warning: "
+#: in the comment of every value written (a fitted scene is known by it)
+FITTED_MARK = "(acousim calibrate; "
+#: what only a scene file acousim calibrate wrote holds (acousim.cli.ours)
+FITTED_NOTES = (FITTED_MARK, WARNING_PREFIX)
 
 
 def with_warnings(text: str, warnings: Sequence[str]) -> str:
@@ -114,11 +118,11 @@ def edit_scene_text(
                 old = " ".join(line.split("#", 1)[0].strip() for line in lines[slice(*span)])
                 was = old.split("=", 1)[1].strip()
                 extra = _comment(lines, *span)
-                note += f" (acousim calibrate; was {was})" + (f"; {extra}" if extra else "")
+                note += f" {FITTED_MARK}was {was})" + (f"; {extra}" if extra else "")
                 edits.append((*span, [f"{indent}{key} = {_fmt(value)}  # {note}"]))
             else:
                 at = name_line[1] if name_line else start + 1
-                note += " (acousim calibrate; not given before)"
+                note += f" {FITTED_MARK}not given before)"
                 edits.append((at, at, [f"{indent}{key} = {_fmt(value)}  # {note}"]))
     for a, b, new in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
         lines[a:b] = new

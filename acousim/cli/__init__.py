@@ -17,13 +17,61 @@ here, at the entry point, never by a library object.
 
 from __future__ import annotations
 
-# Light on purpose: nothing here imports numpy, scipy or h5py at import time, so that
-# main() installs its Ctrl-C handler a few milliseconds after the process starts
-# rather than after a second of imports (during which Ctrl-C printed a traceback).
-import os
-import signal
+# Light on purpose: nothing here imports numpy, scipy or h5py at import time. When
+# this process is the acousim command, its Ctrl-C handler is installed first thing
+# (below), before this package's other imports and main()'s: a Ctrl-C from then on
+# is only recorded, then honoured as a later one (exit 130, one line), never a
+# traceback of an import.  (Before it, the interpreter is still starting: its own.)
 import sys
-import threading
+
+try:  # the C module signal wraps: imported at once (signal's own import takes ms)
+    import _signal as _early_signal
+except ImportError:  # pragma: no cover - an interpreter without it
+    import signal as _early_signal
+
+_early_interrupt = False
+
+
+def _record_early(signum, frame) -> None:
+    """SIGINT while the command imports what it needs: only remembered (never raised)."""
+    global _early_interrupt
+    _early_interrupt = True
+
+
+def _is_the_command() -> bool:
+    """Whether this process runs the ``acousim`` command (its console script, or
+    ``python -m acousim.cli``): not a program that imports this package."""
+    import os.path
+
+    if os.path.splitext(os.path.basename(sys.argv[0] if sys.argv else ""))[0] == "acousim":
+        return True
+    args = iter(getattr(sys, "orig_argv", ())[1:])  # the interpreter's options first
+    for a in args:
+        if a in ("-m", "-macousim.cli"):
+            return a == "-macousim.cli" or next(args, None) == "acousim.cli"
+        if a in ("-X", "-W", "--check-hash-based-pycs"):
+            next(args, None)  # its value
+        elif not a.startswith("-") or a == "-c":
+            return False  # a script or a command: the program's arguments follow
+    return False
+
+
+#: the SIGINT handler before the command's own (None: not installed at import)
+_sigint_before = None
+if _is_the_command():
+    try:
+        _sigint_before = _early_signal.signal(_early_signal.SIGINT, _record_early)
+    except ValueError:  # not the main thread: main() decides
+        pass
+    else:
+        import os
+
+        if os.environ.get("ACOUSIM_PROGRESS_LINES", "") not in ("", "0"):
+            print("acousim: loading", file=sys.stderr, flush=True)  # see common.PROGRESS_LINES
+
+import os  # noqa: E402  (after the handler: the imports above are the command's first)
+import signal  # noqa: E402
+import threading  # noqa: E402
 
 __all__ = [
     "main",
@@ -110,35 +158,28 @@ def build_parser():
     return parser
 
 
-_early_interrupt = False
-
-
-def _record_early(signum, frame) -> None:
-    """SIGINT while main() imports what it needs: only remembered (never raised)."""
-    global _early_interrupt
-    _early_interrupt = True
-
-
 def main(argv: list[str] | None = None, *, restore_sigint: bool = True) -> int:
     """Parse, run one command; an InputError is one line on stderr and exit code 2,
     Ctrl-C exit code 130 with one line, anything else a bug with its traceback.
 
     Ctrl-C only sets a flag (:mod:`processing.base.interrupt`, installed here, the only
-    place that changes the process's SIGINT handler, and restored on return unless
-    `restore_sigint` is false); the work stops at its next checkpoint and no output
-    file is replaced."""
+    place that changes the process's SIGINT handler but for the acousim command's own
+    start, see :func:`_is_the_command`; restored on return unless `restore_sigint` is
+    false); the work stops at its next checkpoint and no output file is replaced."""
     global _early_interrupt
+    handled = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, _record_early) if handled else None  # first
+    if previous is _record_early:  # installed as the command's process started
+        previous = _sigint_before  # (a Ctrl-C since then stays recorded)
+    else:
+        _early_interrupt = False
     from acousim.cli import clock
 
     clock.start()  # the time a command reports counts from here, its imports included
-    _early_interrupt = False
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, _record_early)  # first, before any import
     try:
-        return _main(argv, previous is not None)
+        return _main(argv, handled)
     finally:
-        if previous is not None and restore_sigint:
+        if handled and previous is not None and restore_sigint:
             signal.signal(signal.SIGINT, previous)
 
 

@@ -24,7 +24,6 @@ from acousim.cli.common import (
     output_file,
     parse_indices,
     progress,
-    writable_dir,
 )
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
@@ -40,7 +39,7 @@ def register(sub) -> None:
         "--out",
         required=True,
         help="fitted scene file, not the --scene file (the files it names are pointed to "
-        "from its folder)",
+        "from its folder); an existing file is replaced only if acousim calibrate wrote it",
     )
     p.add_argument(
         "--poses",
@@ -82,7 +81,11 @@ def register(sub) -> None:
     p.add_argument(
         "--no-align", action="store_true", help="do not shift the recordings onto the simulation"
     )
-    p.add_argument("--report", help="also write the report as JSON to this file")
+    p.add_argument(
+        "--report",
+        help="also write the report as JSON to this file (an existing file: only a "
+        "report acousim calibrate wrote is replaced)",
+    )
 
 
 def _tables(items: list[str]) -> dict:
@@ -154,10 +157,10 @@ def run(args: argparse.Namespace) -> int:
     from acousim.compare.inputs import load_real_recordings, of_sensor
     from acousim.scene.rig import sonar_scene
 
-    # checked, not created: nothing is made until the inputs are read and fitted
-    out = output_file("--out", args.out, make=False)
-    report = output_file("--report", args.report, make=False) if args.report else None
+    out, report = Path(args.out), Path(args.report) if args.report else None
     _not_the_scene(args.scene, out, report)
+    out = output_file("--out", out, "scene")  # the folders made are removed on failure
+    report = output_file("--report", report, "calibration") if report else None
     try:
         settings = _settings(args)
         rig_scene = load_scene(args.scene)
@@ -172,9 +175,6 @@ def run(args: argparse.Namespace) -> int:
         cal = calibrate(scene, recs, poses, settings, progress=progress("calibrate", "pose"))
         if scene.source is None:
             raise UsageError("needs a scene file to write the fitted one from", key="--scene")
-        writable_dir(out.parent)
-        if report:
-            writable_dir(report.parent)
         write_scene(scene.source, out, cal)
         if report:
             from processing.base.atomic import write_text

@@ -184,30 +184,45 @@ def remove_made_dirs(*, failed: bool = True) -> list[Path]:
     return removed
 
 
-def can_make_dir(path: str | Path) -> Path:
-    """An output folder :func:`writable_dir` will make and write, checked without
-    creating anything (for a command that reads its inputs first): the folder, or
-    its nearest existing parent, is a folder this process may write; else a
-    UsageError."""
-    import os
+def replaceable(
+    option: str, path: str | Path, kind: str, *, folder: str | Path | None = None
+) -> Path:
+    """The one rule for an output that exists already: it is replaced only when it
+    is an output of `kind` acousim wrote (known by its content:
+    :data:`acousim.cli.ours.KINDS`), as a rerun replaces its own; anything else (a
+    user's file, a folder) is refused with a UsageError naming `option` (given the
+    output `folder`, when `path` is a file in it) and the path, and nothing is
+    touched.  Returns the path."""
+    from acousim.cli.ours import KINDS, is_ours
 
     out = Path(path)
-    here = out.absolute()
-    while not here.exists() and here != here.parent:
-        here = here.parent
-    if not here.is_dir() or not os.access(here, os.W_OK | os.X_OK):
-        why = "not a folder" if not here.is_dir() else "not writable"
-        raise UsageError(f"output directory {str(out)!r} cannot be written ({here}: {why})")
+    if not out.exists() and not out.is_symlink():
+        return out
+    where = f"{option} {str(folder)!r}: {str(out)!r}" if folder else f"{option} {str(out)!r}"
+    if out.is_dir() and folder is None:
+        raise UsageError("is a folder; give a file name", key=option, value=str(path))
+    if out.is_dir() or not is_ours(kind, out):
+        raise UsageError(
+            f"{where} exists already and is not {KINDS[kind].what} acousim wrote; it is "
+            f"never overwritten: name another {'folder' if folder else 'file'} or remove it"
+        )
     return out
 
 
-def output_file(option: str, path: str | Path, *, make: bool = True) -> Path:
-    """An output file path: not an existing folder, its folder writable (with
-    `make` false, only checked: :func:`can_make_dir`, nothing created)."""
-    out = Path(path)
-    if out.is_dir():
-        raise UsageError("is a folder; give a file name", key=option, value=str(path))
-    (writable_dir if make else can_make_dir)(out.parent)
+def replaceable_in(option: str, folder: str | Path, files: dict[str, str]) -> None:
+    """:func:`replaceable` for each file an output `folder` may hold: `files` maps
+    each name (relative to the folder) to its kind.  The folder's other files are
+    left as they are."""
+    for name, kind in files.items():
+        replaceable(option, Path(folder) / name, kind, folder=folder)
+
+
+def output_file(option: str, path: str | Path, kind: str) -> Path:
+    """An output file path: absent, or one of ours of `kind` (:func:`replaceable`);
+    its folder made and writable (:func:`writable_dir`: made now, so that a bad
+    folder is said before the work, and removed again if the command fails)."""
+    out = replaceable(option, path, kind)
+    writable_dir(out.parent)
     return out
 
 
@@ -251,7 +266,8 @@ def parse_indices(option: str, text: str | None) -> list[int] | None:
 
 PROGRESS_LINES = "ACOUSIM_PROGRESS_LINES"
 """Environment variable: set to 1, every command says on stderr (one flushed line
-each) when it has started (its Ctrl-C handler installed) and each step of its
+each) when its Ctrl-C handler is installed (``acousim: loading``, by the command's
+first line of code: :mod:`acousim.cli`), when it has started and each step of its
 progress, e.g. ``acousim simulate: simulate 3/16``; for logs and for tests that
 must act at a known point of a run."""
 

@@ -16,13 +16,13 @@ from acousim.cli.common import (
     INDEX,
     UsageError,
     add_command,
-    can_make_dir,
     choice,
     elapsed,
     load_scene,
     methods,
     preload_simulation,
     progress,
+    replaceable_in,
     writable_dir,
 )
 from acousim.cli.image import CHIRP_CALLS
@@ -75,7 +75,8 @@ def register(sub) -> None:
     p.add_argument(
         "--out",
         help="folder for comparison.json and comparison.png (summary.json and a folder per "
-        "pose with --all); default: nothing is written, the report is printed",
+        "pose with --all); default: nothing is written, the report is printed; a file "
+        "there by those names that acousim did not write is never overwritten",
     )
 
 
@@ -143,6 +144,21 @@ def _pair_name(args: argparse.Namespace, n: int, count: int) -> str:
     return f"pair {n} (real: {real}; simulated: {sim})"
 
 
+#: the files compare writes in its folder (and in each pose's, pose_NNNN, with --all)
+WRITTEN = {
+    "comparison.json": "comparison",
+    "comparison.png": "picture",
+    "summary.json": "summary",
+}
+
+
+def _replaced(out) -> dict[str, str]:
+    """The files of ours a run may replace in `out` (:data:`WRITTEN`), with each
+    pose folder's (their kinds: :data:`acousim.cli.ours.KINDS`)."""
+    poses = sorted(p.name for p in out.glob("pose_*") if p.is_dir())
+    return {**WRITTEN, **{f"{d}/{n}": k for d in poses for n, k in WRITTEN.items()}}
+
+
 def run(args: argparse.Namespace) -> int:
     from acousim.compare.comparison import check_comparable, compare, write_comparison
     from acousim.compare.summary import summarize, write_summary
@@ -150,8 +166,9 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.scene is None) == (args.sim is None):
         raise UsageError("give exactly one of --scene SCENE or --sim SIM")
-    # checked, not made: nothing is created until the inputs are read and checked
-    out = can_make_dir(args.out) if args.out else None  # nothing written unasked
+    out = writable_dir(args.out) if args.out else None  # nothing written unasked
+    if out is not None:  # made now, removed again if the run fails
+        replaceable_in("--out", out, _replaced(out))
     names = methods("--method", args.method)
     files: list = []
     with committed_together():  # every file or none (Ctrl-C, an error)
@@ -162,8 +179,6 @@ def run(args: argparse.Namespace) -> int:
                     check_comparable(real, sim)
                 except InputError as exc:
                     raise UsageError(f"{_pair_name(args, n, len(pairs))}: {exc}") from None
-            if out is not None:
-                writable_dir(out)
             reports = []
             step = progress("compare", "pair")
             for n, (real, sim) in enumerate(pairs):

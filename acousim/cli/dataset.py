@@ -9,7 +9,14 @@ from __future__ import annotations
 
 import argparse
 
-from acousim.cli.common import add_command, elapsed, preload_simulation, progress, writable_dir
+from acousim.cli.common import (
+    add_command,
+    elapsed,
+    preload_simulation,
+    progress,
+    replaceable_in,
+    writable_dir,
+)
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
 
@@ -23,7 +30,8 @@ def register(sub) -> None:
         "--out",
         required=True,
         help="output folder (made with its parents if missing; removed again if still "
-        "empty when the run fails or is interrupted)",
+        "empty when the run fails or is interrupted); a folder of another dataset or "
+        "with a manifest.json or inputs.json acousim did not write is refused",
     )
     add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
@@ -56,7 +64,7 @@ def interrupted(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from acousim.bundled import resolve
     from acousim.dataset import generate
-    from acousim.dataset.generation import usable_spec
+    from acousim.dataset.generation import INPUTS, MANIFEST, usable_spec
     from acousim.process import Workers
 
     spec = resolve("datasets", args.spec)  # a file, or a bundled spec's name
@@ -66,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
         check_scheduler(args.scheduler)
     writable_dir(args.out)
+    replaceable_in("--out", args.out, {MANIFEST: "manifest", INPUTS: "inputs"})
     preload_simulation()
     manifest = generate(
         spec,

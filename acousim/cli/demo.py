@@ -16,6 +16,7 @@ from acousim.cli.common import (
     load_scene,
     preload_simulation,
     progress,
+    replaceable_in,
     simulate,
     writable_dir,
 )
@@ -24,7 +25,12 @@ from acousim.cli.options import add_quality
 
 def register(sub) -> None:
     p = add_command(sub, __doc__, run)
-    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--out",
+        default="out",
+        help="output folder (default: out); a file there by one of our names "
+        "(corridor.h5, the pictures') that acousim did not write is never overwritten",
+    )
     add_seed(p)
     add_quality(p)
 
@@ -33,10 +39,12 @@ def run(args: argparse.Namespace) -> int:
     import processing as P
     from acousim.cli.ahead import shared_by_two_processes
     from acousim.cli.image import Asked, drawn_images, write_pictures_beside
+    from acousim.imaging.outputs import replaced_kinds
     from acousim.imaging.run import ImagingOptions, prepare_pictures, recording_images
     from processing.base.atomic import committed_together
 
     out = writable_dir(args.out)
+    replaceable_in("--out", out, {"corridor.h5": "recordings", **replaced_kinds(out)})
     scene = load_scene(bundled_scenes() / "corridor.toml")
     preload_simulation()
     recs = simulate(scene, None, args.seed, args.quality)

@@ -24,8 +24,8 @@ from pathlib import Path
 from acousim.cli.common import (
     UsageError,
     add_command,
-    can_make_dir,
     elapsed,
+    output_file,
     progress,
     writable_dir,
 )
@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         return _chirp(args, out)
     if out.exists():
         raise UsageError(f"--out {str(out)!r} exists already; a bag is never overwritten")
-    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
+    writable_dir(out.parent)  # made now (a bad folder said first), removed if the run fails
     try:
         from acousim.export.rosbag import write_rosbag
     except ImportError as exc:
@@ -71,7 +71,6 @@ def run(args: argparse.Namespace) -> int:
             f"--image-method {args.image_method!r} is not among --method "
             f"{','.join(options.methods)!r}"
         )
-    writable_dir(out.parent)
     images = _Counted(image_all().images, progress("bag", "recording"))
     write_rosbag(
         out,
@@ -107,10 +106,9 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
     _no_imaging(args)
     if out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a folder; give the CHIRP file to write")
-    _replaceable(out, Path(args.file))
-    can_make_dir(out.parent)  # checked, not made: nothing is created until the inputs are read
+    _not_the_input(out, Path(args.file))
+    output_file("--out", out, "chirp")  # its folder made now, removed if the run fails
     recs, _, _, _ = load_and_image(args)  # the images are not made
-    writable_dir(out.parent)
     try:
         P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:
@@ -146,38 +144,12 @@ def _no_imaging(args: argparse.Namespace) -> None:
             )
 
 
-def _replaceable(out: Path, source: Path) -> None:
-    """A UsageError unless `out` may be written: absent, or a CHIRP file acousim wrote
-    (replaced whole, as `simulate` replaces its own) that is not the input `source`.
-    The input, or a file acousim did not write, is never overwritten."""
-    if not out.exists():
-        return
-    if source.exists() and out.samefile(source):
+def _not_the_input(out: Path, source: Path) -> None:
+    """A UsageError when `out` is the input `source`: even a CHIRP file acousim wrote
+    (which --out may replace, :func:`acousim.cli.common.replaceable`) is not
+    overwritten by its own export."""
+    if out.exists() and source.exists() and out.samefile(source):
         raise UsageError(
             f"--out {str(out)!r} is the input file {str(source)!r}: writing the CHIRP "
             "file there would lose it; name another file"
         )
-    if not _ours(out):
-        raise UsageError(
-            f"--out {str(out)!r} exists already and is not a CHIRP file acousim wrote; "
-            "it is never overwritten: name another file or remove it"
-        )
-
-
-def _ours(path: Path) -> bool:
-    """Whether `path` is a CHIRP file acousim wrote: root ``format = "chirp"`` and
-    our group's ``schema`` (:data:`processing.formats.chirp.names.OUR_SCHEMA`)."""
-    import h5py
-
-    from processing.formats.chirp.names import OUR_SCHEMA, OURS
-    from processing.formats.h5attrs import attribute_text
-
-    try:
-        with h5py.File(path, "r") as f:
-            group = f.get(OURS)
-            return attribute_text(f.attrs.get("format")) == "chirp" and (
-                isinstance(group, h5py.Group)
-                and attribute_text(group.attrs.get("schema")) == OUR_SCHEMA
-            )
-    except (OSError, ValueError):
-        return False

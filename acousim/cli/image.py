@@ -17,15 +17,16 @@ from typing import TYPE_CHECKING
 from acousim.cli.common import (
     UsageError,
     add_command,
-    can_make_dir,
     choice,
     elapsed,
     methods,
     parse_indices,
     progress,
+    replaceable_in,
     writable_dir,
 )
 from acousim.cli.options import add_declared
+from acousim.cli.ours import IMAGES_FORMAT, is_ours  # noqa: F401  (IMAGES_FORMAT: tests)
 
 if TYPE_CHECKING:
     from acousim.viz.drive import DriveView
@@ -195,31 +196,12 @@ def not_read_here(file: str) -> str | None:
                 f"command does not read; give {READS}"
             )
         return f"{file}: a folder, not a file; give {READS}"
-    if path.is_file() and _images_h5(path):
+    if is_ours("images", path):
         return (
             f"{file}: an images.h5 (images written by `acousim image --images-h5`), not a "
             f"recording file; give {READS}"
         )
     return None
-
-
-def _images_h5(path) -> bool:
-    """Whether `path` is an HDF5 file whose root says ``format = "acousim-images"``
-    (:data:`acousim.export.images.FORMAT`, spelt out: that module is not imported for
-    a message)."""
-    import h5py
-
-    from processing.formats.h5attrs import attribute_text
-
-    try:
-        with h5py.File(path, "r") as f:
-            return attribute_text(f.attrs.get("format")) == IMAGES_FORMAT
-    except (OSError, ValueError):
-        return False
-
-
-#: :data:`acousim.export.images.FORMAT` (a test holds them equal)
-IMAGES_FORMAT = "acousim-images"
 
 
 def _imaging_options(args: argparse.Namespace):
@@ -250,7 +232,13 @@ def _imaging_options(args: argparse.Namespace):
 def register(sub) -> None:
     p = add_command(sub, __doc__, run)
     imaging_arguments(p)
-    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--out",
+        default="out",
+        help="output folder (default: out); its files of an earlier run are replaced or "
+        "removed, the others kept; a file there by one of our names that acousim did "
+        "not write is never overwritten (the run is refused)",
+    )
     p.add_argument(
         "--recording",
         help="the recording(s) the fan, el-az and 3D pictures show, by index in the file: "
@@ -278,17 +266,17 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acousim.imaging.outputs import our_files, tidy
+    from acousim.imaging.outputs import our_files, replaced_kinds, tidy
     from acousim.imaging.run import prepare_pictures
     from processing.base.atomic import committed_together
 
     if args.images_h5 and args.no_data:
         raise UsageError("--no-data skips every data file", key="--images-h5", value=True)
-    can_make_dir(args.out)  # checked, not made: nothing is created until the inputs are read
+    out = writable_dir(args.out)  # made now, removed again if the run fails
+    replaceable_in("--out", out, replaced_kinds(out))  # what it would replace: ours
     recs, index, options, image_all = load_and_image(args, lazy=True)
     shown = _shown(args.recording, index)
     animated = _animated(args, index)
-    out = writable_dir(args.out)
     before = our_files(out)  # our files of an earlier run: replaced or removed
 
     def first() -> None:  # while the worker images: the pictures' imports (before the

@@ -87,7 +87,8 @@ def register(sub) -> None:
         "--out",
         required=True,
         help="output file (.h5); its missing folders are made, and removed again if "
-        "still empty when the run fails or is interrupted",
+        "still empty when the run fails or is interrupted; an existing file is replaced "
+        "only if it is a recording file acousim wrote",
     )
 
 
@@ -209,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
     rate = Acquisition().rate_hz if args.rate is None else args.rate  # the declared default
     try:
         check_acquisition(args.count, args.duration, rate)
-        out = output_file("--out", args.out)
+        out = output_file("--out", args.out, "recordings")
         recorder = _recorder(args)
     except (InputError, DeviceNotFound) as exc:
         raise UsageError(str(exc)) from None

@@ -9,7 +9,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
+from acousim.cli.common import (
+    UsageError,
+    add_command,
+    elapsed,
+    progress,
+    replaceable,
+    replaceable_in,
+    writable_dir,
+)
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
 
@@ -26,12 +34,14 @@ def register(sub) -> None:
         "--out",
         default="reproduction",
         help="folder for figures and CSVs (default: %(default)s, in the current folder; "
-        "the committed ones are docs/reproduction)",
+        "the committed ones are docs/reproduction); files there by their names that "
+        "acousim did not write are never overwritten",
     )
     p.add_argument(
         "--report",
         help="report to (re)write (default: OUT/REPRODUCTION.md; the committed one is "
-        "docs/REPRODUCTION.md, written with --out docs/reproduction)",
+        "docs/REPRODUCTION.md, written with --out docs/reproduction); an existing file "
+        "is replaced only if acousim reproduce wrote it",
     )
     p.add_argument(
         "--overwrite",
@@ -67,6 +77,14 @@ def _refuse_to_overwrite_a_full_run(out: Path, report: Path) -> None:
         )
 
 
+def _replaced(out: Path) -> dict[str, str]:
+    """The files of `out` a study may replace, with their kinds
+    (:data:`acousim.cli.ours.KINDS`): study.json and the figures' PNGs and CSVs."""
+    kinds = {".png": "picture", ".csv": "table"}
+    figures = {p.name: kinds[p.suffix] for p in out.glob("fig*") if p.suffix in kinds}
+    return {"study.json": "study", **figures}
+
+
 def _study(config, out: str):
     """run_study with a progress bar over its experiments, naming the one running."""
     from acousim.experiments.paper_study import EXPERIMENTS, run_study
@@ -87,11 +105,14 @@ def run(args: argparse.Namespace) -> int:
     from acousim.experiments.report import write_report
     from acousim.process import Workers
 
-    writable_dir(args.out)
-    report_path = Path(args.report) if args.report else Path(args.out) / "REPRODUCTION.md"
+    out = writable_dir(args.out)
+    report_path = Path(args.report) if args.report else out / "REPRODUCTION.md"
     quick = args.quick
     if not args.report_only and quick and not args.overwrite:
-        _refuse_to_overwrite_a_full_run(Path(args.out), report_path)
+        _refuse_to_overwrite_a_full_run(out, report_path)
+    replaceable("--report", report_path, "reproduction")
+    if not args.report_only:  # the study's files: those of an earlier run are replaced
+        replaceable_in("--out", out, _replaced(out))
     if args.report_only:
         from acousim.experiments.paper_study import load_results
 

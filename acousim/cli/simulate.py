@@ -32,7 +32,8 @@ def register(sub) -> None:
     p.add_argument(
         "--out",
         help="output file (default: SCENE_NAME.h5); its missing folders are made, and "
-        "removed again if the run fails or is interrupted",
+        "removed again if the run fails or is interrupted; an existing file is replaced "
+        "only if it is a recording file acousim wrote",
     )
     p.add_argument(
         "--poses",
@@ -48,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     poses = parse_indices("--poses", args.poses)
     scene = load_scene(args.scene)
-    out = output_file("--out", args.out or f"{scene.name}.h5")
+    out = output_file("--out", args.out or f"{scene.name}.h5", "recordings")
     preload_simulation()
     recs = simulate(scene, poses, args.seed, args.quality)
     stop_if_interrupted()

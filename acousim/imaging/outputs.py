@@ -17,7 +17,15 @@ from pathlib import Path
 
 import processing as P
 
-__all__ = ["OUR_FILES", "FolderChanges", "file_safe", "is_ours", "our_files", "tidy"]
+__all__ = [
+    "OUR_FILES",
+    "FolderChanges",
+    "file_safe",
+    "is_ours",
+    "our_files",
+    "replaced_kinds",
+    "tidy",
+]
 
 OUR_FILES = ("fan.png", "scene3d.png", "drive.gif", "images.h5", "peaks.csv")
 
@@ -54,6 +62,14 @@ def our_files(folder: str | Path) -> set[Path]:
     if not folder.is_dir():
         return set()
     return {p for p in folder.iterdir() if p.is_file() and is_ours(p.name)}
+
+
+def replaced_kinds(folder: str | Path) -> dict[str, str]:
+    """The files of `folder` a run may replace or remove (:func:`our_files`), each
+    with the kind of output its content must be (:data:`acousim.cli.ours.KINDS`)
+    for that: {name: "images", "peaks" or "picture"}."""
+    kinds = {"images.h5": "images", "peaks.csv": "peaks"}
+    return {p.name: kinds.get(p.name, "picture") for p in sorted(our_files(folder))}
 
 
 @dataclass(frozen=True)

@@ -46,9 +46,12 @@ SCENES = ROOT / "scenes"
 TIMEOUT_S = 300  # a generous bound on one command's run, only against a hang
 
 
-def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int, list[str]]:
-    """Run the command line; send Ctrl-C right after it prints the stderr line that
-    ends with `after` (None: never). Returns the exit code and the stderr lines."""
+def run_interrupted(
+    args: list[str], cwd: Path, after: str | None, *, launcher: list[str] | None = None
+) -> tuple[int, list[str]]:
+    """Run the command line (by `launcher`, default ``python -m acousim.cli``); send
+    Ctrl-C right after it prints the stderr line that ends with `after` (None: never).
+    Returns the exit code and the stderr lines."""
     env = {
         **os.environ,
         "PYTHONPATH": str(ROOT),
@@ -56,7 +59,7 @@ def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int,
         "ACOUSIM_PROGRESS_LINES": "1",
     }
     proc = subprocess.Popen(
-        [sys.executable, "-m", "acousim.cli", *args],
+        [*(launcher or [sys.executable, "-m", "acousim.cli"]), *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.DEVNULL,
@@ -85,7 +88,9 @@ def run_interrupted(args: list[str], cwd: Path, after: str | None) -> tuple[int,
 
 def _is_progress(line: str) -> bool:
     tail = line.rsplit(" ", 1)[-1]
-    return line.endswith(": started") or (tail.count("/") == 1 and tail.replace("/", "").isdigit())
+    return line.endswith((": started", "acousim: loading")) or (
+        tail.count("/") == 1 and tail.replace("/", "").isdigit()
+    )
 
 
 def _read_until(proc: subprocess.Popen, lines: list[str], after: str) -> None:
@@ -109,6 +114,26 @@ def _read_until(proc: subprocess.Popen, lines: list[str], after: str) -> None:
                 return
 
 
+def earlier_recordings(path: Path) -> None:
+    """A recording file of ours at `path` (as an earlier run leaves: replaceable)."""
+    import numpy as np
+
+    P.save_recordings(path, [P.Recording(np.zeros((30, 64)), 450e3, P.urtis_v1(), P.paper_chirp())])
+
+
+def earlier_image_files(out: Path) -> None:
+    """images.h5, peaks.csv, fan.png and drive.gif in `out` as an earlier run of
+    `acousim image` leaves them, as far as their content says who wrote them (their
+    format and header; replaceable), each with bytes of its own."""
+    import h5py
+
+    with h5py.File(out / "images.h5", "w") as f:
+        f.attrs["format"] = "acousim-images"
+    (out / "peaks.csv").write_text(",".join(P.PEAK_COLUMNS) + "\n")
+    (out / "fan.png").write_bytes(b"\x89PNG\r\n\x1a\n an earlier fan.png")
+    (out / "drive.gif").write_bytes(b"GIF89a an earlier drive.gif")
+
+
 def leftovers(folder: Path) -> list[Path]:
     return [p for p in folder.rglob("*") if p.name.startswith(TEMP_PREFIX)]
 
@@ -129,6 +154,31 @@ def corridor(tmp_path_factory) -> Path:
     )
     assert code == 0
     return folder
+
+
+CONSOLE_SCRIPT = Path(sys.executable).with_name("acousim")  # pip's `acousim`, if installed
+
+
+@pytest.mark.parametrize(
+    "launcher",
+    [
+        [sys.executable, "-m", "acousim.cli"],
+        pytest.param(
+            [str(CONSOLE_SCRIPT)],
+            marks=pytest.mark.skipif(not CONSOLE_SCRIPT.is_file(), reason="not installed"),
+        ),
+    ],
+    ids=["python -m acousim.cli", "acousim"],
+)
+def test_an_interrupt_while_the_command_imports_is_quiet(tmp_path, launcher):
+    """Ctrl-C as soon as the command's first line of code has run (its handler
+    installed, then "acousim: loading"), while it imports its package, builds its
+    parser and loads the scene: exit 130 with the one line, no traceback (checked by
+    run_interrupted), nothing written."""
+    args = ["simulate", "wall", "--out", "x.h5"]
+    code, lines = run_interrupted(args, tmp_path, "acousim: loading", launcher=launcher)
+    assert code == 130 and lines[0] == "acousim: loading"
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("after", ["started", "simulate 1/3", "simulate 3/3"])
@@ -166,11 +216,12 @@ def test_interrupted_simulate_removes_the_folders_it_made(corridor, tmp_path):
 def test_interrupted_rig_simulate_stops_its_threads_and_keeps_the_old_output(tmp_path):
     # a rig's run prepares the next firings in threads while one renders: Ctrl-C
     # after the first firing ends the command with one line, no file replaced
-    (tmp_path / "rig.h5").write_text("an earlier rig.h5")
+    earlier_recordings(tmp_path / "rig.h5")  # an earlier run's: ours, replaceable
+    old = (tmp_path / "rig.h5").read_bytes()
     args = ["simulate", "corridor_rig", "--poses", "40:46", "--out", "rig.h5"]
     code, lines = run_interrupted(args, tmp_path, "simulate 1/6")
     assert code == 130
-    assert (tmp_path / "rig.h5").read_text() == "an earlier rig.h5"
+    assert (tmp_path / "rig.h5").read_bytes() == old
     assert leftovers(tmp_path) == []
     assert not any(ln.endswith("simulate 6/6") for ln in lines)
 
@@ -180,8 +231,7 @@ def test_interrupted_image_keeps_the_old_pictures(corridor, tmp_path, after):
     shutil.copy(corridor / "rec.h5", tmp_path / "rec.h5")
     out = tmp_path / "out"
     out.mkdir()
-    for name in ("images.h5", "peaks.csv", "fan.png", "drive.gif"):
-        (out / name).write_text(f"an earlier {name}")
+    earlier_image_files(out)
     before = snapshot(out)
     args = ["image", "rec.h5", "--out", "out", "--method", "das", "--no-3d"]
     code, _ = run_interrupted(args, tmp_path, after)
@@ -298,3 +348,24 @@ def test_files_committed_together_all_or_none(tmp_path):
     assert (tmp_path / "a.txt").read_text() == "new a"
     assert (tmp_path / "b.txt").read_text() == "new b"
     assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "argv,orig,ours",
+    [
+        (["/venv/bin/acousim", "simulate"], ["/venv/bin/python", "/venv/bin/acousim"], True),
+        (["-m", "simulate"], ["python", "-X", "importtime", "-m", "acousim.cli"], True),
+        (["-m"], ["python", "-macousim.cli"], True),
+        (["-m"], ["python", "-m", "pytest"], False),
+        (["tool.py", "-m", "acousim.cli"], ["python", "tool.py", "-m", "acousim.cli"], False),
+        (["-c"], ["python", "-c", "import acousim.cli", "-m", "acousim.cli"], False),
+    ],
+)
+def test_the_handler_at_import_is_the_commands_alone(monkeypatch, argv, orig, ours):
+    """acousim.cli installs its handler when imported only in the acousim command's
+    process (a program importing it keeps its Ctrl-C)."""
+    from acousim import cli
+
+    monkeypatch.setattr(sys, "argv", argv)
+    monkeypatch.setattr(sys, "orig_argv", orig)
+    assert cli._is_the_command() is ours

@@ -278,3 +278,48 @@ def test_a_trajectory_with_both_file_and_poses_is_refused(tmp_path):
     assert str(info.value) == (
         f"{path}: sensor.trajectory: give either 'file' or 'poses' (the poses inline), not both"
     )
+
+
+def test_a_mesh_without_units_is_read_once_for_the_check_and_the_world(tmp_path, monkeypatch):
+    """The unitless check measures the mesh the world is then built from: the file is
+    read from the disk once, and the world holds the box where the file puts it."""
+    import trimesh
+
+    from acousim.trace.world.build import build_world
+
+    trimesh.creation.box((2.0, 3.0, 4.0)).export(tmp_path / "box.obj")
+    (tmp_path / "box.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "box.obj"\nposition_m = [5, 0, 0]\n'
+    )
+    reads = []
+    load = trimesh.load
+
+    def counted(path, *args, **kwargs):
+        reads.append(str(path))
+        return load(path, *args, **kwargs)
+
+    monkeypatch.setattr(trimesh, "load", counted)
+    world = build_world(load_scene(tmp_path / "box.toml"))
+    assert reads == [str(tmp_path / "box.obj")]
+    corners = world.triangles.reshape(-1, 3)
+    np.testing.assert_allclose(corners.min(axis=0), [4.0, -1.5, -2.0], atol=1e-12)
+    np.testing.assert_allclose(corners.max(axis=0), [6.0, 1.5, 2.0], atol=1e-12)
+
+
+def test_a_mesh_changed_after_loading_is_read_again(tmp_path):
+    """The mesh kept from the check is used only while the file is unchanged."""
+    import os
+
+    import trimesh
+
+    from acousim.trace.world.build import build_world
+
+    trimesh.creation.box((2.0, 2.0, 2.0)).export(tmp_path / "box.obj")
+    (tmp_path / "box.toml").write_text(
+        '[sensor]\narray = "urtis_v1"\n[[meshes]]\nfile = "box.obj"\n'
+    )
+    scene = load_scene(tmp_path / "box.toml")
+    trimesh.creation.box((1.0, 1.0, 1.0)).export(tmp_path / "box.obj")
+    os.utime(tmp_path / "box.obj", ns=(1, 1))  # another time, whatever the clock's grain
+    corners = build_world(scene).triangles.reshape(-1, 3)
+    np.testing.assert_allclose(corners.max(axis=0) - corners.min(axis=0), [1.0, 1.0, 1.0])
