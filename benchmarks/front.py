@@ -26,9 +26,11 @@ Error, over all poses:
 
 Adding a knob: one line in :data:`KNOBS` (a scene setting, a field of
 :class:`acousim.synth.options.RenderOptions`, or a module constant).
-``python -m benchmarks front`` runs this section and redraws docs/front.png (``make
-bench`` too); ``python -m benchmarks.front --quick`` prints a quick look (2 poses, a
-setting or two per knob) and draws front-quick.png in the current folder.
+``python -m benchmarks front`` runs this section, keeps its points in
+benchmarks/data/front.json and redraws docs/front.png from them (``make bench`` too);
+``python -m benchmarks.front --redraw`` redraws docs/front.png from that file without
+measuring (:func:`redraw`); ``python -m benchmarks.front --quick`` prints a quick look
+(2 poses, a setting or two per knob) and draws front-quick.png in the current folder.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib
+import json
 import sys
 import time
 from collections.abc import Iterator, Mapping, Sequence
@@ -54,6 +57,7 @@ from processing.base.errors import InputError
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
 PICTURE = ROOT / "docs" / "front.png"
+DATA = ROOT / "benchmarks" / "data" / "front.json"
 PEAK_DB = -30.0  # peaks compared down to this level
 PEAK_SLACK_DB = 1.0  # levels within this; searched this far below PEAK_DB
 IMAGE_MIN_RANGE_M = 0.3
@@ -295,6 +299,67 @@ def compare(ref: Run, ref_images: list[P.Image], run: Run) -> Point:
     )
 
 
+#: a scene's reference point and its variants' points (what the picture draws)
+Results = Mapping[str, tuple[Point, list[Point]]]
+_NUMBERS = ("ms", "waveform_db", "image_db", "lost", "added", "peaks")
+
+
+def _point_dict(p: Point) -> dict[str, Any]:
+    v = p.variant
+    return {"knob": v.knob, "label": v.label, "quality": v.quality} | {
+        k: getattr(p, k) for k in _NUMBERS
+    }
+
+
+def _point(d: Mapping[str, Any], where: str) -> Point:
+    try:
+        v = Variant(str(d["knob"]), str(d["label"]), quality=d.get("quality"))
+        return Point(v, *(float(d[k]) if k.endswith(("ms", "db")) else int(d[k]) for k in _NUMBERS))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(
+            f"{where}: a point needs knob, label, {', '.join(_NUMBERS)}: {exc!r}"
+        ) from exc
+
+
+def save(
+    results: Results, path: Path = DATA, *, poses: Mapping[str, Sequence[int]], header: str
+) -> None:
+    """Write the front's points to `path` (JSON, atomically): per scene its poses, the
+    reference's point and every variant's; times in ms, errors in dB (FLOOR_DB: none)."""
+    from processing.base.atomic import write_text
+
+    scenes = {
+        name: {
+            "poses": list(poses[name]),
+            "reference": _point_dict(ref),
+            "points": [_point_dict(p) for p in points],
+        }
+        for name, (ref, points) in results.items()
+    }
+    text = json.dumps({"header": header, "floor_db": FLOOR_DB, "scenes": scenes}, indent=1)
+    write_text(path, text + "\n")
+
+
+def load(path: Path = DATA) -> dict[str, tuple[Point, list[Point]]]:
+    """The points :func:`save` wrote, by scene."""
+    try:
+        scenes = json.loads(Path(path).read_text())["scenes"]
+        return {
+            name: (
+                _point(s["reference"], f"{path}: {name} reference"),
+                [_point(d, f"{path}: {name} point {i}") for i, d in enumerate(s["points"])],
+            )
+            for name, s in scenes.items()
+        }
+    except (OSError, json.JSONDecodeError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"{path}: not a front file ({exc!r})") from exc
+
+
+def redraw(data: Path = DATA, picture: Path = PICTURE) -> None:
+    """Redraw the picture from the points a run kept, without measuring."""
+    draw(load(data), picture)
+
+
 def front(case: Case, quick: bool, log=print) -> tuple[Point, list[Point]]:
     """The reference's point and every variant's on `case`."""
     rounds = 1 if quick else 3
@@ -321,79 +386,12 @@ def front(case: Case, quick: bool, log=print) -> tuple[Point, list[Point]]:
     return compare(ref, ref_images, ref), points
 
 
-def draw(results: Mapping[str, tuple[Point, list[Point]]], path: Path) -> None:
-    """Time per measurement against the waveform and the image residual, log-log
-    (errors in dB), a panel per scene and error; filled: peaks unchanged."""
-    import matplotlib
+def draw(results: Results, path: Path) -> None:
+    """Draw the front (:mod:`benchmarks.front_picture`): time per measurement against
+    the waveform and the image residual, a panel per scene and error."""
+    from benchmarks.front_picture import draw as draw_front
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    knobs = list(dict.fromkeys(v.knob for v in KNOBS))
-    colours = dict(zip(knobs, plt.get_cmap("tab10").colors))
-    fig, axes = plt.subplots(len(results), 2, figsize=(13, 5.2 * len(results)), squeeze=False)
-    for row, (name, (ref, points)) in zip(axes, results.items()):
-        for ax, attr, what in zip(row, ("waveform_db", "image_db"), ("waveform", "DAS image")):
-            for p in points:
-                x = getattr(p, attr)
-                same = p.lost == 0 and p.added == 0
-                if p.variant.quality is not None:
-                    ax.plot(x, p.ms, "*", ms=17, mfc="k" if same else "w", mec="k", zorder=5)
-                    ax.annotate(
-                        p.variant.label,
-                        (x, p.ms),
-                        xytext=(7, 6),
-                        textcoords="offset points",
-                        fontsize=10,
-                        weight="bold",
-                    )
-                    continue
-                c = colours[p.variant.knob]
-                ax.plot(x, p.ms, "o", ms=7, mfc=c if same else "w", mec=c, mew=1.6)
-                ax.annotate(
-                    p.variant.label,
-                    (x, p.ms),
-                    xytext=(4, -9),
-                    textcoords="offset points",
-                    fontsize=7,
-                    color=c,
-                )
-            ax.axhline(ref.ms, color="0.5", ls="--", lw=1)
-            ax.annotate(
-                f"reference {ref.ms:.0f} ms",
-                (0.01, ref.ms),
-                xycoords=("axes fraction", "data"),
-                xytext=(0, 3),
-                textcoords="offset points",
-                fontsize=8,
-                color="0.4",
-            )
-            ax.set_yscale("log")
-            ax.set_xlabel(f"{what} residual re the reference (dB; {FLOOR_DB:.0f}: none)")
-            ax.set_ylabel("ms per measurement")
-            ax.set_title(f"{name}: time against {what} error", fontsize=11)
-            ax.grid(True, which="both", alpha=0.3)
-        handles = [
-            plt.Line2D([], [], marker="o", ls="", mfc=colours[k], mec=colours[k], label=k)
-            for k in knobs
-            if any(p.variant.knob == k for p in points)
-        ]
-        handles += [
-            plt.Line2D([], [], marker="*", ls="", ms=12, mfc="k", mec="k", label="quality preset"),
-            plt.Line2D([], [], marker="o", ls="", mfc="w", mec="k", label="peaks changed"),
-        ]
-        row[1].legend(handles=handles, fontsize=8, loc="best")
-    fig.suptitle(
-        "Run time against error, one knob at a time from the scene's defaults "
-        "(filled: image peaks within 30 dB unchanged)",
-        fontsize=12,
-    )
-    fig.tight_layout()
-    from processing.base.atomic import atomic_path
-
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
-    plt.close(fig)
+    draw_front(results, path)
 
 
 def _row(p: Point, default_ms: float) -> str:
@@ -421,12 +419,21 @@ def _table(name: str, case: Case, ref: Point, points: list[Point]) -> list[str]:
     ]
 
 
-def run(quick: bool = False, picture: Path = PICTURE) -> str:
-    results, tables = {}, []
+def run(quick: bool = False, picture: Path = PICTURE, data: Path = DATA) -> str:
+    """Measure the front (a full run keeps its points in `data`), draw `picture`, and
+    return the section's text."""
+    results, tables, poses = {}, [], {}
     for case in cases(quick):
         ref, points = front(case, quick)
         results[case.name] = (ref, points)
+        poses[case.name] = case.poses
         tables += _table(case.name, case, ref, points)
+    if not quick:
+        import datetime
+
+        when = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
+        header = f"Measured by benchmarks/front.py (python -m benchmarks front) on {when}."
+        save(results, data, poses=poses, header=header)
     draw(results, picture)
     return "\n".join(
         [
@@ -466,8 +473,13 @@ def run(quick: bool = False, picture: Path = PICTURE) -> str:
 
 
 if __name__ == "__main__":
-    # python -m benchmarks.front [--quick]: this section alone, printed; a quick run
-    # (2 poses, a setting or two per knob, no pairs) draws front-quick.png here
+    # python -m benchmarks.front [--quick | --redraw]: this section alone, printed; a
+    # quick run (2 poses, a setting or two per knob, no pairs) draws front-quick.png
+    # here; --redraw redraws docs/front.png from benchmarks/data/front.json
+    if "--redraw" in sys.argv[1:]:
+        redraw()
+        print(f"redrew {PICTURE} from {DATA}")
+        sys.exit(0)
     quick = "--quick" in sys.argv[1:]
     from acousim.process import configure
 
