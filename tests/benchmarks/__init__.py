@@ -1,0 +1,1 @@
+"""Tests of the benchmarks' own machinery (files and pictures; never their timings)."""
