@@ -107,7 +107,10 @@ def _panel(
     )
     place = _Placer(ax)
     knobs = [p for p in points if p.variant.quality is None]
-    groups = [g for g in _crowds(ax, knobs, xs) if len(g) >= 3]
+    groups = sorted(
+        (g for g in _crowds(ax, knobs, xs) if len(g) >= 3),
+        key=lambda g: min(xs[id(p)] for p in g),  # lettered left to right
+    )
     grouped = {id(p) for g in groups for p in g}
     boxes = [_group_box(ax, g, xs, place) for g in groups]
     for p in points:
@@ -116,7 +119,7 @@ def _panel(
         if id(p) in grouped:
             continue
         preset = p.variant.quality is not None
-        c = "k" if preset else colours[p.variant.knob]
+        c = "k" if preset else _ink(colours[p.variant.knob])
         style = dict(fontsize=10.5, weight="bold") if preset else dict(fontsize=8)
         place.label(xs[id(p)], p.ms, p.variant.label, colour=c, gap=_radius(p), **style)
     for g, box in zip(groups, boxes):
@@ -124,7 +127,7 @@ def _panel(
         place.label(
             box.x1, box.y1, letter, colour="0.2", gap=2, px=True, fontsize=10, weight="bold"
         )
-        _group_list(ax, letter, g, xs, colours, place)
+        _group_list(ax, letter, g, xs, colours, place, box)
 
 
 def _marker(ax, x: float, p: Point, colours) -> None:
@@ -316,40 +319,46 @@ def _group_box(ax, group: Sequence[Point], xs, place: _Placer):
     return box
 
 
-def _group_list(ax, letter: str, group: Sequence[Point], xs, colours, place: _Placer) -> None:
-    """The crowd's settings, one a line with their time and error, where they cover
-    nothing (the least covering place when none is free)."""
-    from matplotlib.offsetbox import AnchoredOffsetbox, TextArea, VPacker
+def _group_list(ax, letter: str, group: Sequence[Point], xs, colours, place: _Placer, near):
+    """The crowd's settings, one a line with their time and error, in the axes' corner
+    or side that covers nothing (the least) and lies nearest the crowd's box `near`."""
+    from matplotlib.offsetbox import AnchoredOffsetbox
 
-    lines = [
-        TextArea(
-            f"{letter}: the {len(group)} settings in box {letter}",
-            textprops=dict(fontsize=8, weight="bold"),
+    tried = []
+    for loc in range(1, 11):
+        box = AnchoredOffsetbox(
+            loc, child=_list(letter, group, xs, colours), frameon=True, pad=0.3, borderpad=0.4
         )
-    ]
-    order = list(colours)
-    for p in sorted(group, key=lambda p: (order.index(p.variant.knob), -xs[id(p)])):
-        mark = "\u25cf" if p.lost == 0 and p.added == 0 else "\u25cb"
-        text = f"{mark} {p.variant.knob} {p.variant.label}: {p.ms:.0f} ms, {_db(xs[id(p)])}"
-        lines.append(TextArea(text, textprops=dict(fontsize=7.5, color=colours[p.variant.knob])))
-    pack = VPacker(children=lines, align="left", pad=0, sep=1.5)
-    best = None
-    for loc in (2, 1, 9, 3, 4, 8, 6, 7, 10, 5):
-        box = AnchoredOffsetbox(loc, child=pack, frameon=True, pad=0.3, borderpad=0.4)
         box.patch.set(fc="white", ec="0.6", alpha=0.92, lw=0.6)
         box.set_gid(GROUP_GID)
         ax.add_artist(box)
         extent = box.get_window_extent(place.renderer)
         cost = sum(extent.overlaps(t) for t in place.taken)
-        if best is None or cost < best[0]:
-            if best is not None:
-                best[1].remove()
-            best = (cost, box, extent)
-        else:
-            box.remove()
-        if cost == 0:
-            break
-    place.block(best[2])
+        far = np.hypot(*(np.mean(extent.get_points(), 0) - np.mean(near.get_points(), 0)))
+        tried.append((cost, far, loc, box, extent))
+    tried.sort(key=lambda t: t[:3])
+    for *_, box, _ in tried[1:]:
+        box.remove()
+    place.block(tried[0][-1])
+
+
+def _list(letter: str, group: Sequence[Point], xs, colours):
+    from matplotlib.offsetbox import TextArea, VPacker
+
+    bold = dict(fontsize=8, weight="bold")
+    lines = [TextArea(f"{letter}: the {len(group)} settings in box {letter}", textprops=bold)]
+    order = list(colours)
+    for p in sorted(group, key=lambda p: (order.index(p.variant.knob), -xs[id(p)])):
+        mark = "\u25cf" if p.lost == 0 and p.added == 0 else "\u25cb"
+        text = f"{mark} {p.variant.knob} {p.variant.label}: {p.ms:.0f} ms, {_db(xs[id(p)])}"
+        ink = dict(fontsize=8, color=_ink(colours[p.variant.knob]))
+        lines.append(TextArea(text, textprops=ink))
+    return VPacker(children=lines, align="left", pad=0, sep=1.5)
+
+
+def _ink(colour) -> tuple[float, float, float]:
+    """A knob's colour darkened for text (the light ones, olive and grey, read on white)."""
+    return tuple(0.75 * v for v in colour[:3])
 
 
 def _db(x: float) -> str:
