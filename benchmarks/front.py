@@ -465,7 +465,10 @@ def run(quick: bool = False, picture: Path = PICTURE, data: Path = DATA) -> str:
             "setting that changes nothing scatters by tens of percent (the shoebox's "
             "diffraction and live-bin knobs, which change nothing there): the times are "
             "rough, the "
-            "errors exact.",
+            "errors exact.  The points are kept in benchmarks/data/front.json and the "
+            "picture is drawn from them (`python -m benchmarks.front --redraw` redraws it "
+            "without measuring); its grey band is the spread of the times of the settings "
+            "whose errors equal the default's, this run's noise on time.",
             "",
             *tables,
         ]
