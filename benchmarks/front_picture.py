@@ -115,19 +115,30 @@ def _panel(
     boxes = [_group_box(ax, g, xs, place) for g in groups]
     for p in points:
         place.block(_marker_box(ax, xs[id(p)], p))
-    for p in sorted(points, key=lambda p: p.variant.quality is None):
-        if id(p) in grouped:
-            continue
-        preset = p.variant.quality is not None
-        c = "k" if preset else _ink(colours[p.variant.knob])
-        style = dict(fontsize=10.5, weight="bold") if preset else dict(fontsize=8)
-        place.label(xs[id(p)], p.ms, p.variant.label, colour=c, gap=_radius(p), **style)
+    alone = [p for p in points if id(p) not in grouped]
+    unplaced = [p for p in sorted(alone, key=_is_knob) if not _label(place, xs, p, colours)]
     for g, box in zip(groups, boxes):
         letter = next(letters)
         place.label(
             box.x1, box.y1, letter, colour="0.2", gap=2, px=True, fontsize=10, weight="bold"
         )
-        _group_list(ax, letter, g, xs, colours, place, box)
+        header = f"{letter}: the {len(g)} settings in box {letter}"
+        _group_list(ax, header, g, xs, colours, place, box)
+    if unplaced:  # no free place near them (not seen yet): listed rather than lost
+        near = _marker_box(ax, xs[id(unplaced[0])], unplaced[0])
+        _group_list(ax, "no room for their labels:", unplaced, xs, colours, place, near)
+
+
+def _is_knob(p: Point) -> bool:
+    return p.variant.quality is None
+
+
+def _label(place: _Placer, xs, p: Point, colours):
+    """Label `p` (a preset's label bold, a knob setting's in its knob's ink)."""
+    preset = p.variant.quality is not None
+    c = "k" if preset else _ink(colours[p.variant.knob])
+    style = dict(fontsize=10.5, weight="bold") if preset else dict(fontsize=8)
+    return place.label(xs[id(p)], p.ms, p.variant.label, colour=c, gap=_radius(p), **style)
 
 
 def _marker(ax, x: float, p: Point, colours) -> None:
@@ -319,7 +330,7 @@ def _group_box(ax, group: Sequence[Point], xs, place: _Placer):
     return box
 
 
-def _group_list(ax, letter: str, group: Sequence[Point], xs, colours, place: _Placer, near):
+def _group_list(ax, header: str, group: Sequence[Point], xs, colours, place: _Placer, near):
     """The crowd's settings, one a line with their time and error, in the axes' corner
     or side that covers nothing (the least) and lies nearest the crowd's box `near`."""
     from matplotlib.offsetbox import AnchoredOffsetbox
@@ -327,7 +338,7 @@ def _group_list(ax, letter: str, group: Sequence[Point], xs, colours, place: _Pl
     tried = []
     for loc in range(1, 11):
         box = AnchoredOffsetbox(
-            loc, child=_list(letter, group, xs, colours), frameon=True, pad=0.3, borderpad=0.4
+            loc, child=_list(header, group, xs, colours), frameon=True, pad=0.3, borderpad=0.4
         )
         box.patch.set(fc="white", ec="0.6", alpha=0.92, lw=0.6)
         box.set_gid(GROUP_GID)
@@ -342,16 +353,16 @@ def _group_list(ax, letter: str, group: Sequence[Point], xs, colours, place: _Pl
     place.block(tried[0][-1])
 
 
-def _list(letter: str, group: Sequence[Point], xs, colours):
+def _list(header: str, group: Sequence[Point], xs, colours):
     from matplotlib.offsetbox import TextArea, VPacker
 
     bold = dict(fontsize=8, weight="bold")
-    lines = [TextArea(f"{letter}: the {len(group)} settings in box {letter}", textprops=bold)]
-    order = list(colours)
+    lines = [TextArea(header, textprops=bold)]
+    order = ["preset", *colours]
     for p in sorted(group, key=lambda p: (order.index(p.variant.knob), -xs[id(p)])):
         mark = "\u25cf" if p.lost == 0 and p.added == 0 else "\u25cb"
         text = f"{mark} {p.variant.knob} {p.variant.label}: {p.ms:.0f} ms, {_db(xs[id(p)])}"
-        ink = dict(fontsize=8, color=_ink(colours[p.variant.knob]))
+        ink = dict(fontsize=8, color=_ink(colours.get(p.variant.knob, (0, 0, 0))))
         lines.append(TextArea(text, textprops=ink))
     return VPacker(children=lines, align="left", pad=0, sep=1.5)
 

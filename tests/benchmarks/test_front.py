@@ -108,3 +108,23 @@ def test_save_then_load_gives_the_points_back(tmp_path):
     front.save(results, again, poses={"room": (0, 1)}, header="test")
     assert front.load(again) == results
     assert json.loads(again.read_text())["header"] == "test"
+
+
+def _listed(ax) -> set[str]:
+    """The settings the panel's lists name ("knob label")."""
+    boxes = [a for a in ax.artists if a.get_gid() == GROUP_GID]
+    lines = [t.get_text() for b in boxes for t in b.get_child().get_children()[1:]]
+    return {line[2 : line.index(":")] for line in lines}
+
+
+@pytest.mark.parametrize("room", [True, False])
+def test_every_point_is_labelled_or_listed(tmp_path, monkeypatch, room):
+    if not room:  # no place tried: every label falls back to a list
+        monkeypatch.setattr("benchmarks.front_picture.RADII", ())
+    fig = figure(front.load(_file(tmp_path)))
+    every = {f"{p['knob']} {p['label']}" for p in POINTS}
+    for ax in fig.axes[:2]:
+        labels = {t.get_text() for t in ax.texts if t.get_gid() == LABEL_GID}
+        labelled = {name for name in every if name.split(" ", 1)[1] in labels}
+        assert labelled | _listed(ax) == every
+        assert len(labelled) == (len(every) - 4 if room else 0)
