@@ -39,6 +39,7 @@ import contextlib
 import dataclasses
 import importlib
 import json
+import re
 import sys
 import time
 from collections.abc import Iterator, Mapping, Sequence
@@ -302,6 +303,12 @@ def compare(ref: Run, ref_images: list[P.Image], run: Run) -> Point:
 #: a scene's reference point and its variants' points (what the picture draws)
 Results = Mapping[str, tuple[Point, list[Point]]]
 _NUMBERS = ("ms", "waveform_db", "image_db", "lost", "added", "peaks")
+#: what a point's numbers are, said in the file
+FIELDS = (
+    "ms: time per measurement (ms); waveform_db, image_db: residual re the reference (dB; "
+    "floor_db: none, identical output); lost, added: the reference's image peaks the run "
+    "loses and the run's it adds, of peaks (over all poses); quality: the preset, or null"
+)
 
 
 def _point_dict(p: Point) -> dict[str, Any]:
@@ -336,7 +343,10 @@ def save(
         }
         for name, (ref, points) in results.items()
     }
-    text = json.dumps({"header": header, "floor_db": FLOOR_DB, "scenes": scenes}, indent=1)
+    top = {"header": header, "fields": FIELDS, "floor_db": FLOOR_DB, "scenes": scenes}
+    text = json.dumps(top, indent=1)
+    # a point (and the poses) on one line: JSON strings hold no raw newline
+    text = re.sub(r"\{[^{}\[\]]*\}|\[[^{}\[\]]*\]", lambda m: re.sub(r"\n\s*", " ", m[0]), text)
     write_text(path, text + "\n")
 
 
