@@ -6,10 +6,17 @@ its knob; filled when the image's peaks are unchanged). Labels are placed here, 
 overlap: each tries positions around its point, nearest first (a leader line when it
 lands away from it), and keeps the first that covers no marker, no other label and stays
 inside the axes. Knob settings crowded together (three or more within a label's size of
-each other) are boxed, lettered and listed in the panel with their numbers instead.
-The grey band is the spread of the times of the settings whose errors equal the
-default's (within 0.1 dB): this run's noise on time. A panel where every preset's time
-lies inside it says so. The legend is outside the axes.
+each other, or stacked in one column) are boxed, lettered and listed in the panel with
+their numbers instead, the list beside its box where it covers nothing; a label that
+finds no free place is listed likewise rather than lost. The grey band is the spread of
+the times of the settings whose errors equal the default's (within 0.1 dB): this run's
+noise on time. A panel where every preset's time lies inside it says so. The legend is
+outside the axes. The reference run is the errors' zero; its time is drawn once, as the
+"reference" preset's star (the section's table gives the reference run's own timing,
+taken once and unpaired, apart).
+
+Drawn from the points :func:`benchmarks.front.load` reads (benchmarks/data/front.json):
+``python -m benchmarks.front --redraw``.
 """
 
 from __future__ import annotations

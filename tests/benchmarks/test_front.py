@@ -128,3 +128,19 @@ def test_every_point_is_labelled_or_listed(tmp_path, monkeypatch, room):
         labelled = {name for name in every if name.split(" ", 1)[1] in labels}
         assert labelled | _listed(ax) == every
         assert len(labelled) == (len(every) - 4 if room else 0)
+
+
+def test_a_full_run_keeps_its_points_and_draws_from_them(tmp_path, monkeypatch):
+    """run() (measurement replaced by the hand-written points) writes the file and
+    the picture."""
+    from types import SimpleNamespace
+
+    results = front.load(_file(tmp_path))
+    monkeypatch.setattr(front, "cases", lambda quick: [SimpleNamespace(name="room", poses=(0, 1))])
+    monkeypatch.setattr(front, "front", lambda case, quick: results["room"])
+    kept, picture = tmp_path / "kept.json", tmp_path / "kept.png"
+    text = front.run(picture=picture, data=kept)
+    assert front.load(kept) == results
+    assert json.loads(kept.read_text())["scenes"]["room"]["poses"] == [0, 1]
+    assert picture.read_bytes()[:4] == b"\x89PNG"
+    assert "| margin | 0 bins | 9 |" in text
