@@ -11,9 +11,10 @@ their numbers instead, the list beside its box where it covers nothing; a label 
 finds no free place is listed likewise rather than lost. The grey band is the spread of
 the times of the settings whose errors equal the default's (within 0.1 dB): this run's
 noise on time. A panel where every preset's time lies inside it says so. The legend is
-outside the axes. The reference run is the errors' zero; its time is drawn once, as the
-"reference" preset's star (the section's table gives the reference run's own timing,
-taken once and unpaired, apart).
+outside the axes. The reference run is the errors' zero and its time is not drawn: the
+one time near it is the "reference" preset's star (paired with the defaults; the
+reference run, that preset with the renderer's knobs at their finest, is timed once,
+unpaired, and its time is in the section's text).
 
 Drawn from the points :func:`benchmarks.front.load` reads (benchmarks/data/front.json):
 ``python -m benchmarks.front --redraw``.
