@@ -244,6 +244,8 @@ def _echo_lines(m: str, r) -> list[str]:
 def _print_report(report, arrays) -> None:
     from acousim.compare.account import account
 
+    if report.span is not None:
+        print(report.span.describe())
     print(f"mean envelope correlation {report.mean_envelope_correlation:.2f}")
     for m, r in report.images.items():
         for line in _echo_lines(m, r):
