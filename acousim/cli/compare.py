@@ -18,7 +18,7 @@ from acousim.cli.common import (
     add_command,
     can_make_dir,
     choice,
-    elapsed,
+    from_start,
     load_scene,
     methods,
     preload_simulation,
@@ -195,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {f}")
     if out is None:
         print("  (nothing written: --out FOLDER writes the JSON report and the picture)")
-    print(f"({elapsed():.1f} s from the start)")
+    print(from_start())
     return 0
 
 

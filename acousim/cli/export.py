@@ -25,7 +25,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     can_make_dir,
-    elapsed,
+    from_start,
     progress,
     writable_dir,
 )
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         dynamic_range_db=options.dynamic_range_db,
     )
     images.bar(len(images), len(images))
-    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP; {elapsed():.1f} s)")
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP) {from_start()}")
     return 0
 
 
@@ -115,7 +115,7 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
         P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
+    print(f"{len(recs)} recording(s) written to the CHIRP file {out} {from_start()}")
     return 0
 
 

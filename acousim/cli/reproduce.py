@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acousim.cli.common import UsageError, add_command, elapsed, progress, writable_dir
+from acousim.cli.common import UsageError, add_command, from_start, progress, writable_dir
 from acousim.cli.options import add_declared
 from processing.base.errors import InputError
 
@@ -106,5 +106,5 @@ def run(args: argparse.Namespace) -> int:
         results = _study(config, args.out)
     command = "acousim reproduce" + (" --quick" if quick else "")
     report = write_report(results, report_path, args.out, command)
-    print(f"figures and CSVs in {args.out}, report {report} ({elapsed():.0f} s)")
+    print(f"figures and CSVs in {args.out}, report {report} {from_start()}")
     return 0
