@@ -6,12 +6,30 @@ STAMP  := $(VENV)/.installed
 # Debian packages: VTK (pyvista) offscreen rendering, libusb for pyusb, gcc for the PDM kernel.
 DEBS   := libgl1 libegl1 libxrender1 libxext6 libusb-1.0-0 gcc
 
-.PHONY: demo test bench lint format clean system-deps python-check fullwave
+.PHONY: demo test bench lint format clean system-deps python-check fullwave FORCE
 
-$(STAMP): pyproject.toml setup.py hardware/_pdm_kernel.c Makefile
+# PYTHON given (`make PYTHON=python3.12 demo`, or in the environment) naming another
+# interpreter than the one .venv was made from: .venv is made again (emptied first,
+# after python-check has accepted the new one; a PYTHON not found fails that check).
+# Compared: the interpreters' real paths (the venv's base interpreter).
+VENV_REMAKE :=
+ifneq ($(filter command line environment,$(origin PYTHON)),)
+ifneq ($(wildcard $(BIN)/python),)
+WANT_PY := $(shell $(PYTHON) -c 'import os, sys; print(os.path.realpath(sys.executable))' 2>/dev/null)
+HAVE_PY := $(shell $(BIN)/python -c 'import os, sys; print(os.path.realpath(sys._base_executable))' 2>/dev/null)
+ifneq ($(WANT_PY),$(HAVE_PY))
+VENV_REMAKE := --clear
+ifeq ($(MAKELEVEL)$(if $(WANT_PY),,missing),0)
+$(info .venv was made from $(or $(HAVE_PY),an unknown Python); PYTHON=$(PYTHON) is $(WANT_PY): making .venv again)
+endif
+endif
+endif
+endif
+
+$(STAMP): pyproject.toml setup.py hardware/_pdm_kernel.c Makefile $(if $(VENV_REMAKE),FORCE)
 	@$(MAKE) --no-print-directory python-check
 	@$(MAKE) --no-print-directory system-deps
-	$(PYTHON) -m venv $(VENV)
+	$(PYTHON) -m venv $(VENV_REMAKE) $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[all,dev]"
 	@touch $(STAMP)
@@ -56,3 +74,5 @@ format: $(STAMP)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .mypy_cache build hardware/*.so
+
+FORCE:

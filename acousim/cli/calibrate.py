@@ -19,7 +19,7 @@ from pathlib import Path
 from acousim.cli.common import (
     UsageError,
     add_command,
-    elapsed,
+    from_start,
     load_scene,
     output_file,
     parse_indices,
@@ -186,6 +186,6 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"fitted scene written to {out}"
         + (f", report to {report}" if report else "")
-        + f" ({elapsed():.1f} s from the start)"
+        + f" {from_start()}"
     )
     return 0

@@ -26,3 +26,15 @@ def elapsed() -> float:
     if _started is None:
         start()
     return _clock() - _started
+
+
+def since_start() -> str:
+    """The command's wall time since :func:`start` as its result line says it:
+    "9.5 s from the start"."""
+    return f"{elapsed():.1f} s from the start"
+
+
+def from_start() -> str:
+    """What a command's result line ends with: "(9.5 s from the start)", the one
+    wording of every command (:func:`since_start`)."""
+    return f"({since_start()})"

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Literal
 
-from acousim.cli.clock import elapsed, now  # noqa: F401  (elapsed: for the commands)
+from acousim.cli.clock import elapsed, from_start, now, since_start  # noqa: F401  (for the commands)
 from processing.base.errors import InputError
 
 

@@ -17,7 +17,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
-    elapsed,
+    from_start,
     load_scene,
     methods,
     preload_simulation,
@@ -210,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {f}")
     if out is None:
         print("  (nothing written: --out FOLDER writes the JSON report and the picture)")
-    print(f"({elapsed():.1f} s from the start)")
+    print(from_start())
     return 0
 
 
@@ -259,6 +259,8 @@ def _echo_lines(m: str, r) -> list[str]:
 def _print_report(report, arrays) -> None:
     from acousim.compare.account import account
 
+    if report.span is not None:
+        print(report.span.describe())
     print(f"mean envelope correlation {report.mean_envelope_correlation:.2f}")
     for m, r in report.images.items():
         for line in _echo_lines(m, r):

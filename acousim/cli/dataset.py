@@ -11,10 +11,10 @@ import argparse
 
 from acousim.cli.common import (
     add_command,
-    elapsed,
     preload_simulation,
     progress,
     replaceable_in,
+    since_start,
     writable_dir,
 )
 from acousim.cli.options import add_declared
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     s = manifest["summary"]
     print(
         f"{manifest['samples']} samples in {len(manifest['shards'])} shards in {args.out} "
-        f"({elapsed():.1f} s from the start; {s['samples_computed']} computed now, "
+        f"({since_start()}; {s['samples_computed']} computed now, "
         f"{s['samples_per_second']:.2f} samples/s, {s['bytes_per_sample'] / 1e3:.0f} kB per "
         "sample)"
     )

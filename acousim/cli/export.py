@@ -24,7 +24,7 @@ from pathlib import Path
 from acousim.cli.common import (
     UsageError,
     add_command,
-    elapsed,
+    from_start,
     output_file,
     progress,
     writable_dir,
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         dynamic_range_db=options.dynamic_range_db,
     )
     images.bar(len(images), len(images))
-    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP; {elapsed():.1f} s)")
+    print(f"{len(recs)} recording(s) written to the ROS 2 bag {out} (MCAP) {from_start()}")
     return 0
 
 
@@ -113,7 +113,7 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
         P.write_chirp(out, recs, progress=progress("CHIRP", "step"))
     except P.RecordingFileError as exc:
         raise UsageError(str(exc)) from None
-    print(f"{len(recs)} recording(s) written to the CHIRP file {out} ({elapsed():.1f} s)")
+    print(f"{len(recs)} recording(s) written to the CHIRP file {out} {from_start()}")
     return 0
 
 

@@ -18,7 +18,7 @@ from acousim.cli.common import (
     UsageError,
     add_command,
     choice,
-    elapsed,
+    from_start,
     methods,
     parse_indices,
     progress,
@@ -294,7 +294,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {f}")
     for line in tidy(out, before, files).lines():  # the user's own files stay
         print(f"  ({line})")
-    print(f"{len(files)} file(s) written to {out} ({elapsed():.1f} s from the start)")
+    print(f"{len(files)} file(s) written to {out} {from_start()}")
     return 0
 
 

@@ -15,7 +15,7 @@ from acousim.cli.common import (
     add_command,
     add_seed,
     choice,
-    elapsed,
+    from_start,
     load_scene,
     output_file,
     preload_simulation,
@@ -237,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
     bar.finish()
     if kept:
         P.save_recordings(out, kept)
-    print(_summary(out, kept, recorder.stats, interrupted, failure) + f" ({elapsed():.1f} s)")
+    print(_summary(out, kept, recorder.stats, interrupted, failure) + f" {from_start()}")
     if interrupted:
         print(
             f"acousim record: interrupted; {len(kept)} complete measurement(s) kept",

@@ -12,7 +12,7 @@ from pathlib import Path
 from acousim.cli.common import (
     UsageError,
     add_command,
-    elapsed,
+    from_start,
     progress,
     replaceable,
     replaceable_in,
@@ -127,5 +127,5 @@ def run(args: argparse.Namespace) -> int:
         results = _study(config, args.out)
     command = "acousim reproduce" + (" --quick" if quick else "")
     report = write_report(results, report_path, args.out, command)
-    print(f"figures and CSVs in {args.out}, report {report} ({elapsed():.0f} s)")
+    print(f"figures and CSVs in {args.out}, report {report} {from_start()}")
     return 0

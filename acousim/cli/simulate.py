@@ -11,7 +11,7 @@ import argparse
 from acousim.cli.common import (
     add_command,
     add_seed,
-    elapsed,
+    from_start,
     load_scene,
     output_file,
     parse_indices,
@@ -54,8 +54,5 @@ def run(args: argparse.Namespace) -> int:
     recs = simulate(scene, poses, args.seed, args.quality)
     stop_if_interrupted()
     P.save_recordings(out, recs)
-    print(
-        f"{len(recs)} recording(s) of {scene.name!r} written to {out} "
-        f"({elapsed():.1f} s from the start)"
-    )
+    print(f"{len(recs)} recording(s) of {scene.name!r} written to {out} {from_start()}")
     return 0

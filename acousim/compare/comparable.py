@@ -1,14 +1,25 @@
 """Whether two recordings can be compared (:func:`acousim.compare.comparison.compare`):
-the same array, sample rate, length and call; the message names what differs."""
+the same array, sample rate and call; the message names what differs.  Recordings of
+different lengths (a real sensor's frame and a simulation's) are compared over their
+common span, the first samples of the shorter (:func:`common_span`)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 import processing as P
 from processing.base.errors import InputError
 
-__all__ = ["CALL_RTOL", "ComparisonError", "check_comparable", "same_call"]
+__all__ = [
+    "CALL_RTOL",
+    "ComparisonError",
+    "Span",
+    "check_comparable",
+    "common_span",
+    "same_call",
+]
 
 
 class ComparisonError(InputError):
@@ -34,7 +45,7 @@ def same_call(a: P.Waveform, b: P.Waveform) -> bool:
 
 def check_comparable(real: P.Recording, sim: P.Recording) -> None:
     """Raise :class:`ComparisonError` naming every way `real` and `sim` differ: their
-    arrays, sample rates, lengths or calls."""
+    arrays, sample rates or calls.  Their lengths may differ (:func:`common_span`)."""
     diffs = []
     if real.array.n_mics != sim.array.n_mics or not np.allclose(
         real.array.positions_m, sim.array.positions_m, atol=1e-6
@@ -45,9 +56,70 @@ def check_comparable(real: P.Recording, sim: P.Recording) -> None:
         )
     if real.sample_rate_hz != sim.sample_rate_hz:
         diffs.append(f"sample rates ({real.sample_rate_hz:g} vs {sim.sample_rate_hz:g} Hz)")
-    if real.n_samples != sim.n_samples:
-        diffs.append(f"lengths ({real.n_samples} vs {sim.n_samples} samples)")
+    n = min(real.n_samples, sim.n_samples)
+    late = [
+        f"{k} at sample {r.emission_index}"
+        for k, r in (("real", real), ("sim", sim))
+        if r.emission_index >= n
+    ]
+    if late:
+        diffs.append(f"emissions ({', '.join(late)}, after the common span's {n} samples)")
     if not same_call(real.waveform, sim.waveform):
         diffs.append(f"calls ({real.waveform.to_dict()} vs {sim.waveform.to_dict()})")
     if diffs:
         raise ComparisonError("the recordings differ in " + "; ".join(diffs))
+
+
+@dataclass(frozen=True)
+class Span:
+    """What was compared: the first `samples` samples of both recordings (the shorter's
+    length), of `real_samples` and `sim_samples`; `range_m` (m) is the range of the
+    last compared sample after the real recording's emission."""
+
+    samples: int
+    real_samples: int
+    sim_samples: int
+    range_m: float
+
+    @property
+    def trimmed(self) -> bool:
+        """Whether the recordings differ in length (one was cut to the other's)."""
+        return self.real_samples != self.sim_samples
+
+    def describe(self) -> str:
+        """One line for the report: the common span, and the two lengths if they differ."""
+        line = f"compared over the first {self.samples} samples ({self.range_m:.2f} m)"
+        if self.trimmed:
+            line += (
+                f": the real recording has {self.real_samples}, the simulated one "
+                f"{self.sim_samples}"
+            )
+        return line
+
+    def to_dict(self) -> dict:
+        return {
+            "samples": self.samples,
+            "range_m": self.range_m,
+            "real_samples": self.real_samples,
+            "sim_samples": self.sim_samples,
+            "note": "both recordings are compared over their first `samples` samples "
+            "(the shorter's length); range_m is the last one's range",
+        }
+
+
+def common_span(real: P.Recording, sim: P.Recording) -> tuple[P.Recording, P.Recording, Span]:
+    """`real` and `sim` cut to the shorter's length (T samples each) and the
+    :class:`Span` that says so; a recording already that long is returned as it is.
+    Raises :class:`ComparisonError` when an emission falls outside the common span."""
+    n = min(real.n_samples, sim.n_samples)
+    for name, rec in (("real", real), ("simulated", sim)):
+        if rec.emission_index >= n:
+            raise ComparisonError(
+                f"the {name} recording's emission (sample {rec.emission_index}) is after "
+                f"the other's last sample ({n - 1}): there is no common span to compare"
+            )
+    cut = [
+        rec if rec.n_samples == n else rec.with_samples(rec.samples[..., :n]) for rec in (real, sim)
+    ]
+    rng = (n - 1 - real.emission_index) / real.sample_rate_hz * real.speed_of_sound_m_s / 2
+    return cut[0], cut[1], Span(n, real.n_samples, sim.n_samples, float(rng))

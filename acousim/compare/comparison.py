@@ -6,7 +6,8 @@ apart they are, at every stage of the pipeline (:func:`compare`, one module a st
    matched-filter outputs, refined to a fraction of a sample), then one overall gain
    by least squares on the matched-filter envelopes after the direct path (the
    echoes).  Without a direct path in the simulation, the whole recording sets the
-   lag.  Both are reported, never hidden.
+   lag.  Both are reported, never hidden.  Recordings of different lengths are
+   compared over the first samples of the shorter (the report's ``span``).
 2. Per channel (:mod:`.levels`): matched-filter envelopes (zero-padded Hilbert
    transform), their correlation and their level difference in dB along range.
 3. Range profiles (mean envelope power over channels, :mod:`.levels`).
@@ -49,7 +50,7 @@ from acousim.compare.alignment import (
     matched_filter_output,
 )
 from acousim.compare.comparable import CALL_RTOL as CALL_RTOL
-from acousim.compare.comparable import ComparisonError, check_comparable
+from acousim.compare.comparable import ComparisonError, check_comparable, common_span
 from acousim.compare.comparable import same_call as same_call
 from acousim.compare.echo_table import MethodComparison, method_comparison
 from acousim.compare.echoes import (
@@ -101,9 +102,12 @@ def compare(
     threshold_db: float = -12.0,
     range_bin_m: float = 0.05,
 ) -> tuple[Comparison, ComparisonArrays]:
-    """Compare two recordings (the steps of the module docstring).  Returns what was
-    measured and what the picture draws."""
+    """Compare two recordings (the steps of the module docstring) over their common
+    span (:func:`~acousim.compare.comparable.common_span`: the first samples of the
+    shorter, said in the report's ``span``).  Returns what was measured and what the
+    picture draws."""
     check_comparable(real, sim)
+    real, sim, span = common_span(real, sim)
     for rec in (real, sim):  # before the matched filters: an InputError, not a MemoryError
         P.check_memory(rec, methods, settings)
     env = align_envelopes(real, matched_filter_output(real), matched_filter_output(sim))
@@ -139,6 +143,7 @@ def compare(
         range_bin_m=range_bin_m,
         level_difference_db=tuple(profiles.level_difference_db.tolist()),
         images=per_method,
+        span=span,
     )
     arrays = ComparisonArrays(profiles.edges_m, profiles.real, profiles.sim, images_r, images_s)
     return report, arrays

@@ -9,6 +9,7 @@ import numpy as np
 
 import processing as P
 from acousim.compare.alignment import Alignment
+from acousim.compare.comparable import Span
 from acousim.compare.echo_table import MethodComparison
 
 __all__ = ["Comparison", "ComparisonArrays"]
@@ -18,13 +19,15 @@ __all__ = ["Comparison", "ComparisonArrays"]
 class Comparison:
     """Everything :func:`acousim.compare.comparison.compare` measured.
     `level_difference_db` (B,) is 10 log10(real / simulated) per `range_bin_m` range
-    bin after alignment and gain."""
+    bin after alignment and gain.  `span` is what was compared (the common span of
+    recordings of different lengths; None: not said)."""
 
     alignment: Alignment
     envelope_correlation: tuple[float, ...]
     range_bin_m: float
     level_difference_db: tuple[float, ...]
     images: dict[str, MethodComparison]
+    span: Span | None = None
 
     @property
     def mean_envelope_correlation(self) -> float:
@@ -43,6 +46,7 @@ class Comparison:
                 "note": "10 log10(real / simulated) per range bin, after alignment and gain",
             },
             "images": {m: r.to_dict() for m, r in self.images.items()},
+            "span": None if self.span is None else self.span.to_dict(),
         }
 
 

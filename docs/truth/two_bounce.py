@@ -83,7 +83,10 @@ def main() -> Path:
         mec="white",
         ms=12,
         mew=1.5,
-        label=f"apparent position: c·delay/2 = {np.linalg.norm(app - centre):.2f} m, arrival",
+        label=(
+            f"apparent position: c·delay/2 = {np.linalg.norm(app - centre):.2f} m\n"
+            "along the arrival direction"
+        ),
     )
     ax.plot(0, 0, "o", color="gold", ms=8, label="sensor (facing +x)")
     ax.set_xlabel("y (m), left +")

@@ -566,3 +566,22 @@ def test_acquisition_ranges_are_the_declared_ones():
         Acquisition(rate_hz=0.0)
     with pytest.raises(SystemExit):
         build_parser().parse_args(["record", "--rate", "2e4", "--out", "x.h5"])
+
+
+def test_import_hardware_gives_its_modules():
+    """docs/hardware.md's `import hardware` then `hardware.emulator.emulated_device`:
+    the emulator module is an attribute, imported on first use (not by the import)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, hardware\n"
+        "assert 'hardware.emulator' not in sys.modules\n"
+        "assert callable(hardware.emulator.emulated_device)\n"
+        "assert callable(hardware.recorder.Recorder) and callable(hardware.pdm.decode)\n"
+        "try:\n    hardware.no_such_module\nexcept AttributeError:\n    print('ok')\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=False
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr

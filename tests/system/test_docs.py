@@ -28,7 +28,6 @@ DOCS = sorted((ROOT / "docs").glob("*.md"))
 
 #: (page, the start of a line) that is not run here, and why
 SKIP = {
-    ("compare.md", "acousim compare run.h5"): "run.h5 and sim.h5 stand for the reader's files",
     ("compare.md", "acousim calibrate run.h5"): "run.h5 and room.toml stand for the reader's",
     ("dataset-format.md", "acousim dataset my_spec.toml"): "a Dask scheduler at tcp://host",
     ("hardware.md", "acousim record --count"): "needs a real sensor on USB",
