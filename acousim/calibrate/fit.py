@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import digamma
 
 from acousim.calibrate.features import FeatureSpace
 from acousim.calibrate.groups import PoseGroups
@@ -36,6 +37,8 @@ __all__ = [
     "Solution",
     "solve",
     "robust_cost",
+    "robust_weights",
+    "cluster_sigma",
     "group_factors",
     "group_factor_derivatives",
 ]
@@ -53,6 +56,41 @@ def robust_cost(r: np.ndarray, loss: str, scale: float) -> float:
         "arctan": lambda: np.arctan(z),
     }[loss]()
     return float(0.5 * scale**2 * np.sum(rho))
+
+
+def robust_weights(r: np.ndarray, loss: str, scale: float) -> np.ndarray:
+    """``rho'((r / C)^2)`` (N,): each residual's weight in the robust cost's gradient
+    (:func:`robust_cost`)."""
+    z = (np.asarray(r) / scale) ** 2
+    return {
+        "linear": lambda: np.ones_like(z),
+        "soft_l1": lambda: 1 / np.sqrt(1 + z),
+        "huber": lambda: np.where(z <= 1, 1.0, 1 / np.sqrt(np.maximum(z, 1.0))),
+        "cauchy": lambda: 1 / (1 + z),
+        "arctan": lambda: 1 / (1 + z**2),
+    }[loss]()
+
+
+def cluster_sigma(
+    r: np.ndarray, J: np.ndarray, clusters: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
+    """One-sigma uncertainties (P,) of a robust least-squares fit from its residuals
+    r (N,), their Jacobian J (N, P), the cluster of each (N,) ints and the robust
+    weights (N,): the sandwich ``H^-1 M H^-1`` with ``H = sum w J J^T`` and M the
+    spread of the clusters' gradients ``sum_(i in g) w_i r_i J_i`` (G clusters,
+    scaled by ``G / (G - P)``).  Residuals within a cluster may be correlated in any
+    way (overlapping beams, one draw of a diffuse tail); clusters are taken as
+    independent."""
+    H = (J * weights[:, None]).T @ J
+    ids, g = np.unique(clusters, return_inverse=True)
+    scores = np.zeros((ids.size, J.shape[1]))
+    np.add.at(scores, g, (weights * r)[:, None] * J)
+    M = scores.T @ scores * ids.size / max(ids.size - J.shape[1], 1)
+    try:
+        Hi = np.linalg.pinv(H)
+    except np.linalg.LinAlgError:  # pragma: no cover
+        return np.full(J.shape[1], np.nan)
+    return np.sqrt(np.maximum(np.diag(Hi @ M @ Hi), 0.0))
 
 
 def group_factors(counts: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -158,13 +196,62 @@ class Problem:
             jacs.append(J)
         return (energies, jacs) if jacobian else energies
 
+    def clusters(self) -> np.ndarray:
+        """(N,) the cluster of each residual (:meth:`residuals`' order): one per
+        recording and range bin (its bands and directions share one stretch of one
+        recording: the same echoes, the same noise, overlapping beams)."""
+        out, first = [], 0
+        for m in self.measured:
+            R = m.shape[-1]
+            out.append(first + np.broadcast_to(np.arange(R), m.shape).ravel())
+            first += R
+        return np.concatenate(out)
+
+    def log_bias(self, x: np.ndarray, energies: list[np.ndarray]) -> list[np.ndarray]:
+        """Per pose, ``log E - E[log E_measured]`` (B, D, R): how far under the log
+        of its mean E the log energy of a noisy bin lies on average (the log of a
+        chi-square of 2 n degrees of freedom, n = ``noise_dof``, lies
+        ``beta(n) = log n - digamma(n)`` under the log of its mean: 1 dB for n = 2.4;
+        an echo S in the bin shrinks that, to leading order as ``1 - (S / E)^2``:
+        ``beta(n) (2 q - q^2)`` with q = N / E the noise's share)."""
+        _, log_noise, _ = self.unpack(x)
+        n = self.space.noise_dof
+        beta = (np.log(n) - digamma(n))[:, None, :]
+        unit = self.space.noise_unit[:, None, :]
+        out = []
+        for p, E in enumerate(energies):
+            q = np.minimum(np.exp(log_noise[p]) * unit / E, 1.0)
+            out.append(beta * q * (2 - q))
+        return out
+
+    def log_residuals(self, x: np.ndarray, jacobian: bool = False):
+        """Per pose ``E[log E_measured] - log E_measured`` (B, D, R) at x (the model's
+        mean log energy, :meth:`log_bias`) and, with `jacobian`, its derivatives (B, D,
+        R, len(x))."""
+        out = self.model(x, jacobian)
+        energies, jacs = out if jacobian else (out, None)
+        bias = self.log_bias(x, energies)
+        res = [np.log(E) - c - np.log(m) for E, c, m in zip(energies, bias, self.measured)]
+        if not jacobian:
+            return res
+        _, log_noise, _ = self.unpack(x)
+        n = self.space.noise_dof
+        beta = (np.log(n) - digamma(n))[:, None, :]
+        unit = self.space.noise_unit[:, None, :]
+        P = self.n_materials
+        for p, (E, J) in enumerate(zip(energies, jacs)):
+            q = np.exp(log_noise[p]) * unit / E
+            # dc = 2 beta (1 - q) q (dlog N - dlog E), zero where q is clipped at 1
+            g = np.where(q < 1, 2 * beta * (1 - q) * q, 0.0)
+            J *= (1 + g)[..., None]
+            J[..., P + p] -= g
+        return res, jacs
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
-        return np.concatenate(
-            [np.log(E).ravel() - np.log(m).ravel() for E, m in zip(self.model(x), self.measured)]
-        )
+        return np.concatenate([r.ravel() for r in self.log_residuals(x)])
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        _, jacs = self.model(x, jacobian=True)
+        _, jacs = self.log_residuals(x, jacobian=True)
         return np.concatenate([J.reshape(-1, x.size) for J in jacs])
 
 
@@ -210,14 +297,12 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
         method="trf",
     )
     rho0 = robust_cost(problem.residuals(x0), loss, loss_scale)
-    J = res.jac
-    dof = max(res.fun.size - x0.size, 1)
-    s2 = 2 * res.cost / dof
-    try:
-        cov = np.linalg.pinv(J.T @ J) * s2
-        sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    except np.linalg.LinAlgError:  # pragma: no cover
-        sigma = np.full(x0.size, np.nan)
+    sigma = cluster_sigma(
+        res.fun,
+        problem.jacobian(res.x),
+        problem.clusters(),
+        robust_weights(res.fun, loss, loss_scale),
+    )
     return Solution(
         res.x,
         sigma,
@@ -226,6 +311,6 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
         float(rho0),
         float(res.cost),
         res.message,
-        np.asarray(J),
+        np.asarray(res.jac),
         bool(res.status != 0),  # 0: max_nfev reached
     )

@@ -21,6 +21,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import ncx2
 
 import processing as P
 from acousim.calibrate.diagnose import LEVEL, FitWarning, diagnose
@@ -44,7 +45,8 @@ __all__ = [
 ]
 
 DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
-UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and 10 dB above noise
+UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and beyond its noise:
+UNEXPLAINED_FALSE_RATE = 0.01  # the chance that the noise alone lists a bin
 MAX_UNEXPLAINED = 20
 
 
@@ -361,9 +363,7 @@ def _warnings(
 
 def _per_bin(problem: Problem, x: np.ndarray) -> np.ndarray:
     """(recordings, B, D, R) residuals in dB at x."""
-    return np.stack(
-        [DB_PER_NEPER * np.log(E / m) for E, m in zip(problem.model(x), problem.measured)]
-    )
+    return DB_PER_NEPER * np.stack(problem.log_residuals(x))
 
 
 def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float) -> Calibration:
@@ -427,14 +427,15 @@ def _fitted_materials(
 
 
 def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tuple:
-    """Bins at least UNEXPLAINED_DB above the fitted model and 10 dB above the
-    fitted noise: per recording and range bin the direction of the largest excess."""
-    _, log_noise, _ = problem.unpack(x)
+    """Bins at least UNEXPLAINED_DB above the fitted model that its noise cannot
+    explain (:func:`_beyond_noise`): per recording and range bin the direction of
+    the largest excess."""
     angles = problem.space.directions.angles_deg()
+    model = problem.model(x)
+    n_bins = sum(m.size for m in problem.measured)
     out = []
-    for k, (m, ex) in enumerate(zip(problem.measured, excess_db)):
-        noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
-        loud = (ex > UNEXPLAINED_DB) & (m > 10 * noise)
+    for k, (m, E, ex) in enumerate(zip(problem.measured, model, excess_db)):
+        loud = (ex > UNEXPLAINED_DB) & _beyond_noise(problem, x, k, m, E, n_bins)
         score = np.where(loud, ex, -np.inf).max(axis=0)  # over bands: (D, R)
         for r in np.flatnonzero(np.isfinite(score.max(axis=0))):
             d = int(np.argmax(score[:, r]))
@@ -445,3 +446,20 @@ def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tupl
             )
     out.sort(key=lambda u: -u.excess_db)
     return tuple(out[:MAX_UNEXPLAINED])
+
+
+def _beyond_noise(
+    problem: Problem, x: np.ndarray, k: int, measured: np.ndarray, model: np.ndarray, n_bins: int
+) -> np.ndarray:
+    """(B, D, R) mask of recording k's bins whose measured energy the fitted model
+    (echo S plus noise N, `model` = S + N) reaches less than once in
+    ``1 / UNEXPLAINED_FALSE_RATE`` calibrations of `n_bins` bins: the noise's
+    n = ``noise_dof`` complex samples per bin make ``2 n E / N`` a non-central
+    chi-square of 2 n degrees of freedom and non-centrality ``2 n S / N``."""
+    _, log_noise, _ = problem.unpack(x)
+    noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
+    n = np.broadcast_to(problem.space.noise_dof[:, None, :], model.shape)
+    echo = np.maximum(model - noise, 0.0)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        p = ncx2.sf(2 * n * measured / noise, 2 * n, np.minimum(2 * n * echo / noise, 1e12))
+    return np.nan_to_num(p, nan=0.0) < UNEXPLAINED_FALSE_RATE / n_bins
