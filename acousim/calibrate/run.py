@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import ncx2
+from scipy.stats import ncx2, norm
 
 import processing as P
 from acousim.calibrate.diagnose import LEVEL, FitWarning, diagnose
@@ -47,6 +47,7 @@ __all__ = [
 DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
 UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and beyond its noise:
 UNEXPLAINED_FALSE_RATE = 0.01  # the chance that the noise alone lists a bin
+NONCENTRAL_LIMIT = 1e4  # above, a bin's non-central chi-square taken as normal
 MAX_UNEXPLAINED = 20
 
 
@@ -459,7 +460,12 @@ def _beyond_noise(
     _, log_noise, _ = problem.unpack(x)
     noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
     n = np.broadcast_to(problem.space.noise_dof[:, None, :], model.shape)
-    echo = np.maximum(model - noise, 0.0)
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        p = ncx2.sf(2 * n * measured / noise, 2 * n, np.minimum(2 * n * echo / noise, 1e12))
-    return np.nan_to_num(p, nan=0.0) < UNEXPLAINED_FALSE_RATE / n_bins
+    x, df = 2 * n * measured / noise, 2 * n
+    nc = 2 * n * np.maximum(model - noise, 0.0) / noise
+    # far above the noise (its series no longer converges) the normal limit
+    exact = nc < NONCENTRAL_LIMIT
+    p = np.empty(model.shape)
+    p[exact] = ncx2.sf(x[exact], df[exact], nc[exact])
+    far = ~exact
+    p[far] = norm.sf((x[far] - df[far] - nc[far]) / np.sqrt(2 * (df[far] + 2 * nc[far])))
+    return p < UNEXPLAINED_FALSE_RATE / n_bins
