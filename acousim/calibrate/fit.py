@@ -196,6 +196,20 @@ class Problem:
             jacs.append(J)
         return (energies, jacs) if jacobian else energies
 
+    def coherent(self, x: np.ndarray) -> list[np.ndarray]:
+        """Per pose the echo energy (B, D, R) of the paths that met no fitted material
+        diffusely (and the direct path), at x: the model's deterministic part; the
+        rest of its echo is a Lambert tail, one draw of a random field (another
+        draw, a real wall's, puts other energies in its bins)."""
+        theta, _, log_level = self.unpack(x)
+        q = self.parameters.gains(theta)[0] / np.exp(self.log_reference)
+        out = []
+        for g in self.groups:
+            w = group_factors(g.counts, q) * (g.counts[:, 1::2].sum(axis=1) == 0)[:, None]
+            y = np.einsum("gb,gbdt->bdt", w.astype(np.complex64), g.envelopes)
+            out.append(np.exp(log_level) * self.space.energies(y + g.direct_envelopes))
+        return out
+
     def clusters(self) -> np.ndarray:
         """(N,) the cluster of each residual (:meth:`residuals`' order): one per
         recording and range bin (its bands and directions share one stretch of one

@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
-UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and beyond its noise:
+UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and beyond chance:
 UNEXPLAINED_FALSE_RATE = 0.01  # the chance that the noise alone lists a bin
 NONCENTRAL_LIMIT = 1e4  # above, a bin's non-central chi-square taken as normal
 MAX_UNEXPLAINED = 20
@@ -428,15 +428,15 @@ def _fitted_materials(
 
 
 def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tuple:
-    """Bins at least UNEXPLAINED_DB above the fitted model that its noise cannot
-    explain (:func:`_beyond_noise`): per recording and range bin the direction of
-    the largest excess."""
+    """Bins at least UNEXPLAINED_DB above the fitted model that neither its noise
+    nor another draw of its diffuse tail reach (:func:`_beyond_chance`): per
+    recording and range bin the direction of the largest excess."""
     angles = problem.space.directions.angles_deg()
-    model = problem.model(x)
+    model, coherent = problem.model(x), problem.coherent(x)
     n_bins = sum(m.size for m in problem.measured)
     out = []
-    for k, (m, E, ex) in enumerate(zip(problem.measured, model, excess_db)):
-        loud = (ex > UNEXPLAINED_DB) & _beyond_noise(problem, x, k, m, E, n_bins)
+    for k, (m, E, S, ex) in enumerate(zip(problem.measured, model, coherent, excess_db)):
+        loud = (ex > UNEXPLAINED_DB) & _beyond_chance(problem.space.noise_dof, m, E, S, n_bins)
         score = np.where(loud, ex, -np.inf).max(axis=0)  # over bands: (D, R)
         for r in np.flatnonzero(np.isfinite(score.max(axis=0))):
             d = int(np.argmax(score[:, r]))
@@ -449,20 +449,21 @@ def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tupl
     return tuple(out[:MAX_UNEXPLAINED])
 
 
-def _beyond_noise(
-    problem: Problem, x: np.ndarray, k: int, measured: np.ndarray, model: np.ndarray, n_bins: int
+def _beyond_chance(
+    dof: np.ndarray, measured: np.ndarray, model: np.ndarray, coherent: np.ndarray, n_bins: int
 ) -> np.ndarray:
-    """(B, D, R) mask of recording k's bins whose measured energy the fitted model
-    (echo S plus noise N, `model` = S + N) reaches less than once in
-    ``1 / UNEXPLAINED_FALSE_RATE`` calibrations of `n_bins` bins: the noise's
-    n = ``noise_dof`` complex samples per bin make ``2 n E / N`` a non-central
-    chi-square of 2 n degrees of freedom and non-centrality ``2 n S / N``."""
-    _, log_noise, _ = problem.unpack(x)
-    noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
-    n = np.broadcast_to(problem.space.noise_dof[:, None, :], model.shape)
-    x, df = 2 * n * measured / noise, 2 * n
-    nc = 2 * n * np.maximum(model - noise, 0.0) / noise
-    # far above the noise (its series no longer converges) the normal limit
+    """(B, D, R) mask of the bins whose measured energy the fitted model reaches
+    less than once in ``1 / UNEXPLAINED_FALSE_RATE`` calibrations of `n_bins` bins.
+    Of the model's energy E per bin, S (`coherent`: its specular echoes) is fixed;
+    the rest, the noise and the diffuse tail, is random with the noise's n = `dof`
+    (B, R) independent complex samples per bin (a tail's wavelets pass the same
+    band filter): ``2 n E_measured / (E - S)`` is a non-central chi-square of 2 n
+    degrees of freedom and non-centrality ``2 n S / (E - S)``."""
+    n = np.broadcast_to(dof[:, None, :], model.shape)
+    rest = np.maximum(model - np.minimum(coherent, model), 1e-300)
+    x, df = 2 * n * measured / rest, 2 * n
+    nc = 2 * n * np.minimum(coherent, model) / rest
+    # far above the random part (its series no longer converges) the normal limit
     exact = nc < NONCENTRAL_LIMIT
     p = np.empty(model.shape)
     p[exact] = ncx2.sf(x[exact], df[exact], nc[exact])

@@ -30,6 +30,7 @@ direct_path = true
 [sensor.trajectory]
 file = "corridor_drive.csv"
 rate_hz = 10
+continuous = false   # each pose frozen for its measurement (the fit models it so)
 
 [simulation]
 max_range_m = 4.0
@@ -75,9 +76,8 @@ def folder(tmp: Path) -> Path:
 
 def simulate_truth(path: Path, poses: list[int], *, plaster: str, metal: str, extra: str = ""):
     """Write the scene with these materials' TOML lines (and `extra` at its end) to
-    `path` and simulate it at the drive's `poses` (along the drive, as `acousim
-    simulate` records them: the sensor moving during each measurement): the
-    "recordings"."""
+    `path` and simulate it at the drive's `poses` (each frozen, as the scene says):
+    the "recordings"."""
     from acousim.scene import load_scene
     from acousim.simulator import Simulator
 
