@@ -8,8 +8,11 @@ For pose p, band b, direction d and range bin r the model's energy is
 z0 the direct path's (fixed: what of it leaks past the gate),
 L an overall level (1 unless fitted), s_p the noise variance of recording p and
 N_br the noise energy a unit variance leaves in that bin, :class:`.FeatureSpace`).
-The residual is ``log E - log E_measured``: a bin 3 dB off counts the same at every
-range, whether the echo is loud or the tail is faint.  Its derivatives:
+The residual is ``log E - c - log E_measured``: a bin 3 dB off counts the same at
+every range, whether the echo is loud or the tail is faint; c (:meth:`Problem.log_bias`)
+is how far a noisy bin's log energy lies under the log of its mean on average (the
+log of a chi-square of few degrees of freedom), so that the fit compares like with
+like.  Its derivatives:
 
 ``dE/dw_Gb = 2 L Re sum_t conj(y_bd(t)) z_Gbd(t)``, ``dw_Gb/dtheta`` from the gains'
 derivatives (:func:`group_factor_derivatives`: products, not logs, since a perfectly
@@ -221,22 +224,24 @@ class Problem:
             first += R
         return np.concatenate(out)
 
+    def _noise_share(self, x: np.ndarray, energies: list[np.ndarray]):
+        """``beta(n) = log n - digamma(n)`` (B, 1, R), n = ``noise_dof``, and per pose
+        the noise's share q = N / E of each bin's energy (B, D, R), at most 1."""
+        _, log_noise, _ = self.unpack(x)
+        n = self.space.noise_dof
+        unit = self.space.noise_unit[:, None, :]
+        q = [np.minimum(np.exp(v) * unit / E, 1.0) for v, E in zip(log_noise, energies)]
+        return (np.log(n) - digamma(n))[:, None, :], q
+
     def log_bias(self, x: np.ndarray, energies: list[np.ndarray]) -> list[np.ndarray]:
         """Per pose, ``log E - E[log E_measured]`` (B, D, R): how far under the log
         of its mean E the log energy of a noisy bin lies on average (the log of a
         chi-square of 2 n degrees of freedom, n = ``noise_dof``, lies
-        ``beta(n) = log n - digamma(n)`` under the log of its mean: 1 dB for n = 2.4;
-        an echo S in the bin shrinks that, to leading order as ``1 - (S / E)^2``:
+        ``beta(n) = log n - digamma(n)`` under the log of its mean: 1.2 dB for n =
+        2; an echo S in the bin shrinks that, to leading order as ``1 - (S / E)^2``:
         ``beta(n) (2 q - q^2)`` with q = N / E the noise's share)."""
-        _, log_noise, _ = self.unpack(x)
-        n = self.space.noise_dof
-        beta = (np.log(n) - digamma(n))[:, None, :]
-        unit = self.space.noise_unit[:, None, :]
-        out = []
-        for p, E in enumerate(energies):
-            q = np.minimum(np.exp(log_noise[p]) * unit / E, 1.0)
-            out.append(beta * q * (2 - q))
-        return out
+        beta, shares = self._noise_share(x, energies)
+        return [beta * q * (2 - q) for q in shares]
 
     def log_residuals(self, x: np.ndarray, jacobian: bool = False):
         """Per pose ``E[log E_measured] - log E_measured`` (B, D, R) at x (the model's
@@ -244,19 +249,17 @@ class Problem:
         R, len(x))."""
         out = self.model(x, jacobian)
         energies, jacs = out if jacobian else (out, None)
-        bias = self.log_bias(x, energies)
-        res = [np.log(E) - c - np.log(m) for E, c, m in zip(energies, bias, self.measured)]
+        beta, shares = self._noise_share(x, energies)
+        res = [
+            np.log(E) - beta * q * (2 - q) - np.log(m)
+            for E, q, m in zip(energies, shares, self.measured)
+        ]
         if not jacobian:
             return res
-        _, log_noise, _ = self.unpack(x)
-        n = self.space.noise_dof
-        beta = (np.log(n) - digamma(n))[:, None, :]
-        unit = self.space.noise_unit[:, None, :]
         P = self.n_materials
-        for p, (E, J) in enumerate(zip(energies, jacs)):
-            q = np.exp(log_noise[p]) * unit / E
-            # dc = 2 beta (1 - q) q (dlog N - dlog E), zero where q is clipped at 1
-            g = np.where(q < 1, 2 * beta * (1 - q) * q, 0.0)
+        for p, (q, J) in enumerate(zip(shares, jacs)):
+            # dc = 2 beta (1 - q) q (dlog N - dlog E); zero where q is clipped at 1
+            g = 2 * beta * (1 - q) * q
             J *= (1 + g)[..., None]
             J[..., P + p] -= g
         return res, jacs
@@ -273,9 +276,9 @@ class Problem:
 class Solution:
     """x : the fitted vector (diffuse fractions as amplitudes ``sqrt(d)``,
     :meth:`.ParameterSet.public` turns them into fractions); sigma : its one-sigma
-    uncertainties of x (from the robust Gauss-Newton Hessian at the solution, scaled
-    by the residuals' spread; bins are treated as independent, which beams that
-    overlap are not: a lower bound);
+    uncertainties of x (:func:`cluster_sigma`: the robust Gauss-Newton Hessian and
+    the spread of the cost's gradient over clusters of one recording's range bin,
+    whose bands and overlapping beams are correlated);
     start : the start; evaluations; cost_start, cost : the robust costs; status :
     the solver's message; converged : false when it stopped at its evaluation cap;
     jacobian : (N, len(x)) the robust residuals' Jacobian at

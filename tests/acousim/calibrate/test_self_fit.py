@@ -121,3 +121,30 @@ def test_noise_statistics_per_bin_match_white_noise():
     assert np.median(mean**2 / var / n) == pytest.approx(1.0, abs=0.12)
     bias = (np.log(E).mean(axis=0) - np.log(E.mean(axis=0)))[:, body]
     assert np.median(bias) == pytest.approx(-np.median(np.log(n) - digamma(n)), abs=0.04)
+
+
+def test_cluster_sigma_is_the_spread_of_the_estimates():
+    """A straight line fitted to points whose errors share one draw per cluster of
+    ten (as a range bin's bands and beams share its echoes and noise): over 400 data
+    sets, the median sigma of :func:`cluster_sigma` is the estimates' spread
+    (measured here), where bins taken as independent give a third of it."""
+    from acousim.calibrate.fit import cluster_sigma
+
+    rng = np.random.default_rng(3)
+    G, m = 100, 10
+    t = rng.uniform(-1, 1, (G, 1)) + 0.1 * rng.standard_normal((G, m))
+    J = np.column_stack([np.ones(G * m), t.ravel()])
+    clusters = np.repeat(np.arange(G), m)
+    slopes, sigmas, naive = [], [], []
+    for _ in range(400):
+        e = (rng.standard_normal((G, 1)) + 0.3 * rng.standard_normal((G, m))).ravel()
+        y = 1.0 + 2.0 * t.ravel() + e
+        coef, *_ = np.linalg.lstsq(J, y, rcond=None)
+        r = J @ coef - y
+        slopes.append(coef[1])
+        sigmas.append(cluster_sigma(r, J, clusters, np.ones(r.size))[1])
+        s2 = r @ r / (r.size - 2)
+        naive.append(np.sqrt(s2 * np.linalg.inv(J.T @ J)[1, 1]))
+    spread = np.std(slopes)
+    assert np.median(sigmas) == pytest.approx(spread, rel=0.15)
+    assert np.median(naive) < 0.5 * spread
