@@ -6,9 +6,12 @@ reference (their start values, the diffuse fraction raised to at least
 the fit can move), so that every path counts its interactions with each of them
 (:attr:`acousim.trace.paths.TracedPaths.interactions`).  Paths with the same counts
 (a *signature*) share one gain factor (:mod:`.parameters`); each group is rendered
-once with the scene's renderer (fractional delays, air absorption, emitter and
-microphone directivity, the tables of materials that are not fitted) and reduced to
-its band envelopes (:class:`~.features.FeatureSpace`).  The direct path is a group
+once as the simulator renders a recording (its render options, fractional delays,
+air absorption, emitter and microphone directivity, the tables of materials that
+are not fitted) and reduced to its band envelopes (:class:`~.features.FeatureSpace`).
+A pose is measured as a recording of it is: along the scene's trajectory if it has
+one (the sensor moving during the window, each echo's Doppler factors), since the
+millimetres it moves redraw the speckle of every diffuse bin.  The direct path is a group
 of its own: used to align the recording in time, never fitted.
 """
 
@@ -125,8 +128,9 @@ class GroupModel:
         *,
         keep_signals: bool = False,
     ) -> PoseGroups:
-        """Trace pose `pose_index` (frozen), render its groups at the recording's
-        length and reduce them to band envelopes."""
+        """Trace pose `pose_index` (in motion along the scene's trajectory, as a
+        recording of it is simulated), render its groups at the recording's length and
+        emission sample and reduce them to band envelopes."""
         sim, scene = self.simulator, self.scene
         poses = scene.sensor.poses
         if not 0 <= pose_index < len(poses):

@@ -8,9 +8,11 @@
    :func:`acousim.compare.alignment.align`; reported) and reduced to energies per band,
    direction and range bin.
 4. Robust least squares (:mod:`.fit`) from the scene's values.
-5. The result: the fitted materials with their uncertainties, the residual per
-   range bin before and after, and the bins the fitted scene still cannot explain
-   (echoes the scene lacks: reported, their weight kept small by the robust loss).
+5. The result: the fitted materials with their uncertainties (clustered per
+   recording and range bin, :func:`.fit.cluster_sigma`), the residual per range bin
+   before and after, and the bins the fitted scene still cannot explain: 6 dB above
+   it and beyond what its noise and another draw of its diffuse tail reach (echoes
+   the scene lacks: reported, their weight kept small by the robust loss).
 """
 
 from __future__ import annotations
@@ -64,8 +66,9 @@ class FittedParameter:
 
 @dataclass(frozen=True)
 class Unexplained:
-    """A bin the fitted scene leaves well below the recording: an echo the scene
-    lacks (or a model error).  pose (the recording's index), range_m, azimuth_deg,
+    """A bin the fitted scene leaves well below the recording, beyond what its noise
+    and its diffuse tail's randomness explain: an echo the scene lacks (or a model
+    error).  pose (the recording's index), range_m, azimuth_deg,
     elevation_deg, excess_db (recording over model)."""
 
     recording: int
