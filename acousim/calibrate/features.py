@@ -79,6 +79,10 @@ class FeatureSpace:
     Built from a recording's sampling (rate, length, emission index, call, array,
     speed of sound); `bands` B equal bands over the call's band; range bins `bin_m`
     wide between `min_range_m` and `max_range_m`.
+
+    noise_unit (B, R): the mean energy per bin of white noise of unit variance per
+    sample; noise_dof (B, R): the independent complex samples that noise has in a bin
+    (its energy is a chi-square of ``2 noise_dof`` degrees of freedom).
     """
 
     def __init__(
@@ -128,13 +132,12 @@ class FeatureSpace:
         self.range_m = min_range_m + (which[self.bin_starts] + 0.5) * bin_m
         self.bin_samples = counts
         # noise energy per range bin for white noise of unit variance per sample
-        power = np.array(
-            [
-                np.sum(np.abs(self.call_spectrum[b] * w) ** 2)
-                for b, w in zip(self.band_bins, self._taper)
-            ]
-        )
+        spectra = [
+            np.abs(self.call_spectrum[b] * w) ** 2 for b, w in zip(self.band_bins, self._taper)
+        ]
+        power = np.array([np.sum(p) for p in spectra])
         self.noise_unit = np.outer(power * n / (self.n_mics * self.n2**2), counts)  # (B, R)
+        self.noise_dof = np.array([_independent_samples(p, self.n2, counts) for p in spectra])
 
     def _range_bins(self, r: np.ndarray, lo: float, hi: float, bin_m: float):
         """Sets the gate and the bins' first samples from the envelope samples'
@@ -186,3 +189,21 @@ class FeatureSpace:
     def bin_sums(self, v: np.ndarray) -> np.ndarray:
         """Sums of (..., T') over the range bins: (..., R)."""
         return np.add.reduceat(v, self.bin_starts, axis=-1)
+
+
+def _independent_samples(power: np.ndarray, n2: int, lengths: np.ndarray) -> np.ndarray:
+    """The independent complex samples (R,) that Gaussian noise of power spectrum
+    `power` (its band's bins, at baseband on `n2` points) has in bins of `lengths`
+    envelope samples: ``mean(E)^2 / var(E)`` of the bin's energy E, which for
+    circular Gaussian noise is ``L^2 / sum_(|k| < L) (L - |k|) |rho_k|^2`` (rho
+    the envelope's correlation from one sample to the next k, the inverse transform
+    of the power spectrum)."""
+    buf = np.zeros(n2)
+    buf[: power.size] = power
+    rho = np.abs(sfft.ifft(buf)) ** 2
+    rho /= rho[0]
+    out = []
+    for L in lengths:
+        k = np.arange(1, min(int(L), n2))
+        out.append(L**2 / (L + 2 * np.sum((L - k) * rho[k])))
+    return np.array(out)

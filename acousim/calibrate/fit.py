@@ -8,8 +8,11 @@ For pose p, band b, direction d and range bin r the model's energy is
 z0 the direct path's (fixed: what of it leaks past the gate),
 L an overall level (1 unless fitted), s_p the noise variance of recording p and
 N_br the noise energy a unit variance leaves in that bin, :class:`.FeatureSpace`).
-The residual is ``log E - log E_measured``: a bin 3 dB off counts the same at every
-range, whether the echo is loud or the tail is faint.  Its derivatives:
+The residual is ``log E - c - log E_measured``: a bin 3 dB off counts the same at
+every range, whether the echo is loud or the tail is faint; c (:meth:`Problem.log_bias`)
+is how far a noisy bin's log energy lies under the log of its mean on average (the
+log of a chi-square of few degrees of freedom), so that the fit compares like with
+like.  Its derivatives:
 
 ``dE/dw_Gb = 2 L Re sum_t conj(y_bd(t)) z_Gbd(t)``, ``dw_Gb/dtheta`` from the gains'
 derivatives (:func:`group_factor_derivatives`: products, not logs, since a perfectly
@@ -26,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import digamma
 
 from acousim.calibrate.features import FeatureSpace
 from acousim.calibrate.groups import PoseGroups
@@ -36,6 +40,8 @@ __all__ = [
     "Solution",
     "solve",
     "robust_cost",
+    "robust_weights",
+    "cluster_sigma",
     "group_factors",
     "group_factor_derivatives",
 ]
@@ -53,6 +59,41 @@ def robust_cost(r: np.ndarray, loss: str, scale: float) -> float:
         "arctan": lambda: np.arctan(z),
     }[loss]()
     return float(0.5 * scale**2 * np.sum(rho))
+
+
+def robust_weights(r: np.ndarray, loss: str, scale: float) -> np.ndarray:
+    """``rho'((r / C)^2)`` (N,): each residual's weight in the robust cost's gradient
+    (:func:`robust_cost`)."""
+    z = (np.asarray(r) / scale) ** 2
+    return {
+        "linear": lambda: np.ones_like(z),
+        "soft_l1": lambda: 1 / np.sqrt(1 + z),
+        "huber": lambda: np.where(z <= 1, 1.0, 1 / np.sqrt(np.maximum(z, 1.0))),
+        "cauchy": lambda: 1 / (1 + z),
+        "arctan": lambda: 1 / (1 + z**2),
+    }[loss]()
+
+
+def cluster_sigma(
+    r: np.ndarray, J: np.ndarray, clusters: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
+    """One-sigma uncertainties (P,) of a robust least-squares fit from its residuals
+    r (N,), their Jacobian J (N, P), the cluster of each (N,) ints and the robust
+    weights (N,): the sandwich ``H^-1 M H^-1`` with ``H = sum w J J^T`` and M the
+    spread of the clusters' gradients ``sum_(i in g) w_i r_i J_i`` (G clusters,
+    scaled by ``G / (G - P)``).  Residuals within a cluster may be correlated in any
+    way (overlapping beams, one draw of a diffuse tail); clusters are taken as
+    independent."""
+    H = (J * weights[:, None]).T @ J
+    ids, g = np.unique(clusters, return_inverse=True)
+    scores = np.zeros((ids.size, J.shape[1]))
+    np.add.at(scores, g, (weights * r)[:, None] * J)
+    M = scores.T @ scores * ids.size / max(ids.size - J.shape[1], 1)
+    try:
+        Hi = np.linalg.pinv(H)
+    except np.linalg.LinAlgError:  # pragma: no cover
+        return np.full(J.shape[1], np.nan)
+    return np.sqrt(np.maximum(np.diag(Hi @ M @ Hi), 0.0))
 
 
 def group_factors(counts: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -158,13 +199,76 @@ class Problem:
             jacs.append(J)
         return (energies, jacs) if jacobian else energies
 
+    def coherent(self, x: np.ndarray) -> list[np.ndarray]:
+        """Per pose the echo energy (B, D, R) of the paths that met no fitted material
+        diffusely (and the direct path), at x: the model's deterministic part; the
+        rest of its echo is a Lambert tail, one draw of a random field (another
+        draw, a real wall's, puts other energies in its bins)."""
+        theta, _, log_level = self.unpack(x)
+        q = self.parameters.gains(theta)[0] / np.exp(self.log_reference)
+        out = []
+        for g in self.groups:
+            w = group_factors(g.counts, q) * (g.counts[:, 1::2].sum(axis=1) == 0)[:, None]
+            y = np.einsum("gb,gbdt->bdt", w.astype(np.complex64), g.envelopes)
+            out.append(np.exp(log_level) * self.space.energies(y + g.direct_envelopes))
+        return out
+
+    def clusters(self) -> np.ndarray:
+        """(N,) the cluster of each residual (:meth:`residuals`' order): one per
+        recording and range bin (its bands and directions share one stretch of one
+        recording: the same echoes, the same noise, overlapping beams)."""
+        out, first = [], 0
+        for m in self.measured:
+            R = m.shape[-1]
+            out.append(first + np.broadcast_to(np.arange(R), m.shape).ravel())
+            first += R
+        return np.concatenate(out)
+
+    def _noise_share(self, x: np.ndarray, energies: list[np.ndarray]):
+        """``beta(n) = log n - digamma(n)`` (B, 1, R), n = ``noise_dof``, and per pose
+        the noise's share q = N / E of each bin's energy (B, D, R), at most 1."""
+        _, log_noise, _ = self.unpack(x)
+        n = self.space.noise_dof
+        unit = self.space.noise_unit[:, None, :]
+        q = [np.minimum(np.exp(v) * unit / E, 1.0) for v, E in zip(log_noise, energies)]
+        return (np.log(n) - digamma(n))[:, None, :], q
+
+    def log_bias(self, x: np.ndarray, energies: list[np.ndarray]) -> list[np.ndarray]:
+        """Per pose, ``log E - E[log E_measured]`` (B, D, R): how far under the log
+        of its mean E the log energy of a noisy bin lies on average (the log of a
+        chi-square of 2 n degrees of freedom, n = ``noise_dof``, lies
+        ``beta(n) = log n - digamma(n)`` under the log of its mean: 1.2 dB for n =
+        2; an echo S in the bin shrinks that, to leading order as ``1 - (S / E)^2``:
+        ``beta(n) (2 q - q^2)`` with q = N / E the noise's share)."""
+        beta, shares = self._noise_share(x, energies)
+        return [beta * q * (2 - q) for q in shares]
+
+    def log_residuals(self, x: np.ndarray, jacobian: bool = False):
+        """Per pose ``E[log E_measured] - log E_measured`` (B, D, R) at x (the model's
+        mean log energy, :meth:`log_bias`) and, with `jacobian`, its derivatives (B, D,
+        R, len(x))."""
+        out = self.model(x, jacobian)
+        energies, jacs = out if jacobian else (out, None)
+        beta, shares = self._noise_share(x, energies)
+        res = [
+            np.log(E) - beta * q * (2 - q) - np.log(m)
+            for E, q, m in zip(energies, shares, self.measured)
+        ]
+        if not jacobian:
+            return res
+        P = self.n_materials
+        for p, (q, J) in enumerate(zip(shares, jacs)):
+            # dc = 2 beta (1 - q) q (dlog N - dlog E); zero where q is clipped at 1
+            g = 2 * beta * (1 - q) * q
+            J *= (1 + g)[..., None]
+            J[..., P + p] -= g
+        return res, jacs
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
-        return np.concatenate(
-            [np.log(E).ravel() - np.log(m).ravel() for E, m in zip(self.model(x), self.measured)]
-        )
+        return np.concatenate([r.ravel() for r in self.log_residuals(x)])
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        _, jacs = self.model(x, jacobian=True)
+        _, jacs = self.log_residuals(x, jacobian=True)
         return np.concatenate([J.reshape(-1, x.size) for J in jacs])
 
 
@@ -172,9 +276,9 @@ class Problem:
 class Solution:
     """x : the fitted vector (diffuse fractions as amplitudes ``sqrt(d)``,
     :meth:`.ParameterSet.public` turns them into fractions); sigma : its one-sigma
-    uncertainties of x (from the robust Gauss-Newton Hessian at the solution, scaled
-    by the residuals' spread; bins are treated as independent, which beams that
-    overlap are not: a lower bound);
+    uncertainties of x (:func:`cluster_sigma`: the robust Gauss-Newton Hessian and
+    the spread of the cost's gradient over clusters of one recording's range bin,
+    whose bands and overlapping beams are correlated);
     start : the start; evaluations; cost_start, cost : the robust costs; status :
     the solver's message; converged : false when it stopped at its evaluation cap;
     jacobian : (N, len(x)) the robust residuals' Jacobian at
@@ -210,14 +314,12 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
         method="trf",
     )
     rho0 = robust_cost(problem.residuals(x0), loss, loss_scale)
-    J = res.jac
-    dof = max(res.fun.size - x0.size, 1)
-    s2 = 2 * res.cost / dof
-    try:
-        cov = np.linalg.pinv(J.T @ J) * s2
-        sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    except np.linalg.LinAlgError:  # pragma: no cover
-        sigma = np.full(x0.size, np.nan)
+    sigma = cluster_sigma(
+        res.fun,
+        problem.jacobian(res.x),
+        problem.clusters(),
+        robust_weights(res.fun, loss, loss_scale),
+    )
     return Solution(
         res.x,
         sigma,
@@ -226,6 +328,6 @@ def solve(problem: Problem, *, loss: str, loss_scale: float, max_evaluations: in
         float(rho0),
         float(res.cost),
         res.message,
-        np.asarray(J),
+        np.asarray(res.jac),
         bool(res.status != 0),  # 0: max_nfev reached
     )

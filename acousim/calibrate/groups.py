@@ -6,9 +6,12 @@ reference (their start values, the diffuse fraction raised to at least
 the fit can move), so that every path counts its interactions with each of them
 (:attr:`acousim.trace.paths.TracedPaths.interactions`).  Paths with the same counts
 (a *signature*) share one gain factor (:mod:`.parameters`); each group is rendered
-once with the scene's renderer (fractional delays, air absorption, emitter and
-microphone directivity, the tables of materials that are not fitted) and reduced to
-its band envelopes (:class:`~.features.FeatureSpace`).  The direct path is a group
+once as the simulator renders a recording (its render options, fractional delays,
+air absorption, emitter and microphone directivity, the tables of materials that
+are not fitted) and reduced to its band envelopes (:class:`~.features.FeatureSpace`).
+A pose is measured as a recording of it is: along the scene's trajectory if it has
+one (the sensor moving during the window, each echo's Doppler factors), since the
+millimetres it moves redraw the speckle of every diffuse bin.  The direct path is a group
 of its own: used to align the recording in time, never fitted.
 """
 
@@ -22,10 +25,11 @@ import numpy as np
 import processing as P
 from acousim.calibrate.features import FeatureSpace
 from acousim.calibrate.parameters import MaterialFit
+from acousim.core.echoes import Echoes
 from acousim.scene.model import Material, Scene
-from acousim.simulator import Simulator
-from acousim.synth.render import render
-from acousim.synth.signal_model import in_window
+from acousim.simulator import SCENE_MOTION, Simulator
+from acousim.synth.options import Capture
+from acousim.synth.signal_model import in_window, simulate
 from processing.base.errors import InputError
 
 __all__ = ["PoseGroups", "GroupModel", "TRACE_MIN_DIFFUSE", "with_materials"]
@@ -124,34 +128,50 @@ class GroupModel:
         *,
         keep_signals: bool = False,
     ) -> PoseGroups:
-        """Trace pose `pose_index` (frozen), render its groups at the recording's
-        length and reduce them to band envelopes."""
+        """Trace pose `pose_index` (in motion along the scene's trajectory, as a
+        recording of it is simulated), render its groups at the recording's length and
+        emission sample and reduce them to band envelopes."""
         sim, scene = self.simulator, self.scene
         poses = scene.sensor.poses
         if not 0 <= pose_index < len(poses):
             raise InputError(f"the scene has {len(poses)} pose(s)", key="poses", value=pose_index)
         n = recording.n_samples
-        prep = sim._prepare(poses[pose_index], pose_index, n, None)
-        echoes = prep.echoes
-        echoes = echoes.select(in_window(echoes, n, recording.sample_rate_hz))
+        # the pose measured as a recording of it is: along the scene's trajectory
+        # (Doppler, the sensor moving during the window), not frozen
+        prep = sim._prepare(poses[pose_index], pose_index, n, SCENE_MOTION)
+        echoes, rate = prep.echoes, prep.rate
+        inside = in_window(echoes, n, recording.sample_rate_hz, recording.emission_index)
+        echoes = echoes.select(inside)
+        rate = None if rate is None else rate[:, inside]
         counts = echoes.interactions
         if counts is None:
             counts = np.zeros((echoes.n_paths, 0), int)
         sig = counts[:, self.columns] if counts.shape[1] else np.zeros((echoes.n_paths, 0))
         direct = echoes.order == 0
         keys, inv = np.unique(sig[~direct], axis=0, return_inverse=True)
-        opts = dict(
-            interpolator=scene.simulation.fractional_delay,
-            response=sim.response,
-            emission_index=recording.emission_index,
-        )
-        call, fs = scene.sensor.call, scene.sensor.sample_rate_hz
         idx = np.flatnonzero(~direct)
         signals = np.zeros((keys.shape[0], echoes.delay_s.shape[0], n))
         for g in range(keys.shape[0]):
-            signals[g] = render(echoes.select(idx[inv.ravel() == g]), call, fs, n, **opts)
-        d = render(echoes.select(np.flatnonzero(direct)), call, fs, n, **opts)
+            signals[g] = self._render(echoes, rate, idx[inv.ravel() == g], recording)
+        d = self._render(echoes, rate, np.flatnonzero(direct), recording)
         env = space.envelopes(signals)
         return PoseGroups(
             env, keys.astype(int), d, space.envelopes(d), signals if keep_signals else None
         )
+
+    def _render(
+        self, echoes: Echoes, rate: np.ndarray | None, rows: np.ndarray, recording: P.Recording
+    ) -> np.ndarray:
+        """The noise-free signals (M, T) of the paths `rows` of `echoes` (their Doppler
+        factors `rate`, None: static), rendered as the simulator renders a recording
+        (its options and path response) at `recording`'s length and emission sample."""
+        sim, sensor = self.simulator, self.scene.sensor
+        capture = Capture(
+            sensor.array, sensor.call, sensor.sample_rate_hz, recording.n_samples, sim.c
+        )
+        options = dataclasses.replace(sim.options, emission_index=recording.emission_index)
+        doppler = None if rate is None else rate[:, rows]
+        rec = simulate(
+            echoes.select(rows), capture, options=options, response=sim.response, doppler=doppler
+        )
+        return np.asarray(rec.samples, float)

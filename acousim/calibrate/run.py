@@ -8,9 +8,11 @@
    :func:`acousim.compare.alignment.align`; reported) and reduced to energies per band,
    direction and range bin.
 4. Robust least squares (:mod:`.fit`) from the scene's values.
-5. The result: the fitted materials with their uncertainties, the residual per
-   range bin before and after, and the bins the fitted scene still cannot explain
-   (echoes the scene lacks: reported, their weight kept small by the robust loss).
+5. The result: the fitted materials with their uncertainties (clustered per
+   recording and range bin, :func:`.fit.cluster_sigma`), the residual per range bin
+   before and after, and the bins the fitted scene still cannot explain: 6 dB above
+   it and beyond what its noise and another draw of its diffuse tail reach (echoes
+   the scene lacks: reported, their weight kept small by the robust loss).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import ncx2, norm
 
 import processing as P
 from acousim.calibrate.diagnose import LEVEL, FitWarning, diagnose
@@ -44,7 +47,9 @@ __all__ = [
 ]
 
 DB_PER_NEPER = 10 / np.log(10)  # a natural log of energy in dB
-UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and 10 dB above noise
+UNEXPLAINED_DB = 6.0  # a bin this far above the fitted model, and beyond chance:
+UNEXPLAINED_FALSE_RATE = 0.01  # the chance that the noise alone lists a bin
+NONCENTRAL_LIMIT = 1e4  # above, a bin's non-central chi-square taken as normal
 MAX_UNEXPLAINED = 20
 
 
@@ -61,8 +66,9 @@ class FittedParameter:
 
 @dataclass(frozen=True)
 class Unexplained:
-    """A bin the fitted scene leaves well below the recording: an echo the scene
-    lacks (or a model error).  pose (the recording's index), range_m, azimuth_deg,
+    """A bin the fitted scene leaves well below the recording, beyond what its noise
+    and its diffuse tail's randomness explain: an echo the scene lacks (or a model
+    error).  pose (the recording's index), range_m, azimuth_deg,
     elevation_deg, excess_db (recording over model)."""
 
     recording: int
@@ -361,9 +367,7 @@ def _warnings(
 
 def _per_bin(problem: Problem, x: np.ndarray) -> np.ndarray:
     """(recordings, B, D, R) residuals in dB at x."""
-    return np.stack(
-        [DB_PER_NEPER * np.log(E / m) for E, m in zip(problem.model(x), problem.measured)]
-    )
+    return DB_PER_NEPER * np.stack(problem.log_residuals(x))
 
 
 def _result(problem: Problem, sol: Solution, scene: Scene, lags, seconds: float) -> Calibration:
@@ -427,14 +431,15 @@ def _fitted_materials(
 
 
 def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tuple:
-    """Bins at least UNEXPLAINED_DB above the fitted model and 10 dB above the
-    fitted noise: per recording and range bin the direction of the largest excess."""
-    _, log_noise, _ = problem.unpack(x)
+    """Bins at least UNEXPLAINED_DB above the fitted model that neither its noise
+    nor another draw of its diffuse tail reach (:func:`_beyond_chance`): per
+    recording and range bin the direction of the largest excess."""
     angles = problem.space.directions.angles_deg()
+    model, coherent = problem.model(x), problem.coherent(x)
+    n_bins = sum(m.size for m in problem.measured)
     out = []
-    for k, (m, ex) in enumerate(zip(problem.measured, excess_db)):
-        noise = np.exp(log_noise[k]) * problem.space.noise_unit[:, None, :]
-        loud = (ex > UNEXPLAINED_DB) & (m > 10 * noise)
+    for k, (m, E, S, ex) in enumerate(zip(problem.measured, model, coherent, excess_db)):
+        loud = (ex > UNEXPLAINED_DB) & _beyond_chance(problem.space.noise_dof, m, E, S, n_bins)
         score = np.where(loud, ex, -np.inf).max(axis=0)  # over bands: (D, R)
         for r in np.flatnonzero(np.isfinite(score.max(axis=0))):
             d = int(np.argmax(score[:, r]))
@@ -445,3 +450,26 @@ def _unexplained(problem: Problem, x: np.ndarray, excess_db: np.ndarray) -> tupl
             )
     out.sort(key=lambda u: -u.excess_db)
     return tuple(out[:MAX_UNEXPLAINED])
+
+
+def _beyond_chance(
+    dof: np.ndarray, measured: np.ndarray, model: np.ndarray, coherent: np.ndarray, n_bins: int
+) -> np.ndarray:
+    """(B, D, R) mask of the bins whose measured energy the fitted model reaches
+    less than once in ``1 / UNEXPLAINED_FALSE_RATE`` calibrations of `n_bins` bins.
+    Of the model's energy E per bin, S (`coherent`: its specular echoes) is fixed;
+    the rest, the noise and the diffuse tail, is random with the noise's n = `dof`
+    (B, R) independent complex samples per bin (a tail's wavelets pass the same
+    band filter): ``2 n E_measured / (E - S)`` is a non-central chi-square of 2 n
+    degrees of freedom and non-centrality ``2 n S / (E - S)``."""
+    n = np.broadcast_to(dof[:, None, :], model.shape)
+    rest = np.maximum(model - np.minimum(coherent, model), 1e-300)
+    x, df = 2 * n * measured / rest, 2 * n
+    nc = 2 * n * np.minimum(coherent, model) / rest
+    # far above the random part (its series no longer converges) the normal limit
+    exact = nc < NONCENTRAL_LIMIT
+    p = np.empty(model.shape)
+    p[exact] = ncx2.sf(x[exact], df[exact], nc[exact])
+    far = ~exact
+    p[far] = norm.sf((x[far] - df[far] - nc[far]) / np.sqrt(2 * (df[far] + 2 * nc[far])))
+    return p < UNEXPLAINED_FALSE_RATE / n_bins

@@ -30,6 +30,7 @@ direct_path = true
 [sensor.trajectory]
 file = "corridor_drive.csv"
 rate_hz = 10
+continuous = false   # each pose frozen for its measurement (the fit models it so)
 
 [simulation]
 max_range_m = 4.0
@@ -75,11 +76,12 @@ def folder(tmp: Path) -> Path:
 
 def simulate_truth(path: Path, poses: list[int], *, plaster: str, metal: str, extra: str = ""):
     """Write the scene with these materials' TOML lines (and `extra` at its end) to
-    `path` and simulate it at the drive's `poses` (static): the "recordings"."""
+    `path` and simulate it at the drive's `poses` (each frozen, as the scene says):
+    the "recordings"."""
     from acousim.scene import load_scene
     from acousim.simulator import Simulator
 
     path.write_text(SCENE.format(rays=TRUTH_RAYS, plaster=plaster, metal=metal, extra=extra))
     scene = load_scene(path)
     sim = Simulator(scene)
-    return [sim.simulate_pose(scene.sensor.poses[i], i, motion=None) for i in poses]
+    return [sim.simulate_pose(scene.sensor.poses[i], i) for i in poses]
