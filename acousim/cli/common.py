@@ -26,12 +26,16 @@ def checked(
     """An argparse type: the text as a number checked by a setting declaration
     (`declared()` returns a :class:`processing.base.settings.Setting`, imported lazily so
     that building the parser stays light), else a range given here; a number given in
-    a unit `scale` times the declaration's (1e3: kHz for Hz) is converted first."""
+    a unit `scale` times the declaration's (1e3: kHz for Hz) is converted first. For a
+    pair or list setting (an ``interval``, a ``vector``: an option of several values)
+    each value is one number checked against the declared range."""
 
     def parse(text: str):
         from processing.base.settings import Setting, check
 
         decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
+        if decl.kind in ("interval", "vector"):
+            decl = Setting("float", lo=decl.lo, hi=decl.hi, unit=decl.unit)
         try:
             value = text if decl.kind == "str" else int(text) if decl.kind == "int" else float(text)
         except ValueError:
