@@ -173,3 +173,20 @@ def test_the_report_names_one_snr_once(study):
     text = study[1].read_text()
     for lo, hi in re.findall(r"Plain MUSIC at (-?\d+)(?: to (-?\d+))? dB", text):
         assert lo != hi
+
+
+def test_stage_lines_keep_quiet_with_quiet(capsys, monkeypatch):
+    """--quiet: no stage line; else one line on stderr (not a terminal), nothing on
+    stdout."""
+    from acousim.cli import common
+
+    monkeypatch.delenv(common.PROGRESS_LINES, raising=False)
+    bar = common.progress("reproduce", "experiment")
+    try:
+        common.set_quiet(True)
+        bar.say("hidden")
+    finally:
+        common.set_quiet(False)
+    bar.say("Fig. 11 done")
+    said = capsys.readouterr()
+    assert said.err == "reproduce: Fig. 11 done\n" and said.out == ""
