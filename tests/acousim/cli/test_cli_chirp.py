@@ -131,7 +131,7 @@ def test_export_to_chirp_refuses_the_imaging_options(tmp_path, capsys):
         main(["export", str(rec), "--method", "das", "--format", "chirp", "--out", str(out)]) == 2
     )
     help_text = " ".join(_help("export").split())
-    assert "the imaging options (--method, --step" in help_text and "are refused" in help_text
+    assert "the imaging options (--method, --azimuth" in help_text and "are refused" in help_text
 
 
 def _help(command: str) -> str:
