@@ -20,20 +20,29 @@ class UsageError(InputError):
     """Bad input on the command line: printed on one line by main(), exit code 2."""
 
 
-def checked(kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None):
+def checked(
+    kind: str, lo: float = -math.inf, hi: float = math.inf, *, declared=None, scale: float = 1
+):
     """An argparse type: the text as a number checked by a setting declaration
     (`declared()` returns a :class:`processing.base.settings.Setting`, imported lazily so
-    that building the parser stays light), else a range given here."""
+    that building the parser stays light), else a range given here; a number given in
+    a unit `scale` times the declaration's (1e3: kHz for Hz) is converted first. For a
+    pair or list setting (an ``interval``, a ``vector``: an option of several values)
+    each value is one number checked against the declared range."""
 
     def parse(text: str):
         from processing.base.settings import Setting, check
 
         decl = declared() if declared else Setting(kind, lo=lo, hi=hi)
+        if decl.kind in ("interval", "vector"):
+            decl = Setting("float", lo=decl.lo, hi=decl.hi, unit=decl.unit)
         try:
             value = text if decl.kind == "str" else int(text) if decl.kind == "int" else float(text)
         except ValueError:
             what = "a whole number" if decl.kind == "int" else "a number"
             raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if scale != 1:
+            value = value * scale
         try:
             return check(decl, value, "")
         except InputError as exc:
@@ -375,6 +384,19 @@ class Progress:
         if total != self._bar.total:
             self._bar.total = total
         self._bar.update(done - self._bar.n)
+
+    def say(self, text: str) -> None:
+        """A stage line on stderr, ``DESC: TEXT`` (a part of a long run done): above
+        the bar on a terminal, else a line of its own (with ACOUSIM_PROGRESS_LINES
+        too, after the command's name); nothing with --quiet."""
+        if _lines():
+            print(f"{_command}: {self.desc}: {text}", file=sys.stderr, flush=True)
+        elif _quiet:
+            return
+        elif self._bar is not None:
+            self._bar.write(f"{self.desc}: {text}", file=sys.stderr)
+        else:
+            print(f"{self.desc}: {text}", file=sys.stderr, flush=True)
 
     def note(self, text: str) -> None:
         """What is running now, shown after the bar on a terminal."""

@@ -10,10 +10,11 @@ needs the rosbags package (pip install 'acousim[ros]'), no ROS installation. --f
 chirp: write the recordings as one CHIRP file (Cosys-Lab's HDF5 dataset format, read by
 their chirppy): signals, array, call, times, poses, LiDAR scans and our ground truth;
 a rig's recordings: one acoustic sensor per sonar, placed by its mount (--sensor NAME:
-one sonar's); the imaging options (--method, --step, --energy-fraction, --min-range,
---max-range, --peak-threshold, --dynamic-range-db, --image-method) do not apply and are
-refused. An existing --out is replaced only when
-it is a CHIRP file acousim wrote and not the input. Layout: docs/export.md.
+one sonar's); the imaging options (--method, --azimuth, --elevation, --step,
+--frequency-khz, --n-sources, --subarray, --energy-fraction, --min-range, --max-range,
+--peak-threshold, --dynamic-range-db, --image-method) do not apply and are refused.
+An existing --out is replaced only when it is a CHIRP file acousim wrote and not the
+input. Layout: docs/export.md.
 """
 
 from __future__ import annotations
@@ -121,7 +122,12 @@ def _chirp(args: argparse.Namespace, out: Path) -> int:
 #: option): a CHIRP export writes the recordings, not images
 IMAGING_OPTIONS = (
     ("method", "--method"),
+    ("azimuth", "--azimuth"),
+    ("elevation", "--elevation"),
     ("step", "--step"),
+    ("frequency_khz", "--frequency-khz"),
+    ("n_sources", "--n-sources"),
+    ("subarray", "--subarray"),
     ("energy_fraction", "--energy-fraction"),
     ("min_range", "--min-range"),
     ("max_range", "--max-range"),

@@ -51,7 +51,50 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="a rig's recordings: only those of the sonar NAME (of --index, if given)",
     )
+    add_declared(
+        p,
+        "--azimuth",
+        IMAGING,
+        "azimuth_deg",
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        note="e.g. --azimuth -60 60",
+    )
+    add_declared(
+        p,
+        "--elevation",
+        IMAGING,
+        "elevation_deg",
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        note="e.g. --elevation -60 60; a reflector outside the span is seen at its edge",
+    )
     add_declared(p, "--step", IMAGING, "step_deg")
+    add_declared(
+        p,
+        "--frequency-khz",
+        IMAGING,
+        "frequency_hz",
+        scale=1e3,
+        note="given in kHz, e.g. 31.25; not given: the strongest STFT bin of the call's "
+        "band below the array's alias-free limit",
+    )
+    add_declared(
+        p,
+        "--n-sources",
+        IMAGING,
+        "n_sources",
+        note="the music methods; not given: the mean-eigenvalue rule",
+    )
+    add_declared(
+        p,
+        "--subarray",
+        IMAGING,
+        "subarray",
+        nargs=2,
+        metavar=("ROWS", "COLUMNS"),
+        note="the -fss/-fbss methods, e.g. --subarray 5 5",
+    )
     add_declared(p, "--energy-fraction", IMAGING, "energy_fraction")
     add_declared(p, "--min-range", IMAGING, "min_range_m", note="the direct path lies nearer")
     add_declared(p, "--max-range", IMAGING, "max_range_m", note="default: all")
@@ -210,6 +253,11 @@ def _imaging_options(args: argparse.Namespace):
     from acousim.imaging.run import ImagingOptions
 
     given = {
+        "azimuth_deg": _grid_span("--azimuth", args.azimuth),
+        "elevation_deg": _grid_span("--elevation", args.elevation),
+        "frequency_hz": args.frequency_khz,
+        "n_sources": args.n_sources,
+        "subarray": _whole("--subarray", args.subarray),
         "step_deg": args.step,
         "energy_fraction": args.energy_fraction,
         "min_range_m": args.min_range,
@@ -227,6 +275,26 @@ def _imaging_options(args: argparse.Namespace):
             value=args.max_range,
         )
     return options
+
+
+def _grid_span(option: str, values: list[float] | None) -> tuple[float, float] | None:
+    """An --azimuth/--elevation pair (None: not given); a UsageError when MIN > MAX."""
+    if values is None:
+        return None
+    lo, hi = values
+    if lo > hi:
+        raise UsageError("MIN is above MAX", key=option, value=f"{lo:g} {hi:g}")
+    return lo, hi
+
+
+def _whole(option: str, values: list[float] | None) -> tuple[int, int] | None:
+    """The --subarray pair as whole numbers (None: not given)."""
+    if values is None:
+        return None
+    if not all(float(v).is_integer() for v in values):
+        raise UsageError("must be two whole numbers", key=option, value=values)
+    rows, cols = (int(v) for v in values)
+    return rows, cols
 
 
 def register(sub) -> None:

@@ -17,15 +17,26 @@ __all__ = ["DeclaredHelp", "add_declared", "add_quality"]
 
 
 def add_declared(
-    parser: argparse.ArgumentParser, flag: str, where: str, name: str, *, note: str = ""
+    parser: argparse.ArgumentParser,
+    flag: str,
+    where: str,
+    name: str,
+    *,
+    note: str = "",
+    scale: float = 1,
+    **more: object,
 ) -> argparse.Action:
     """Add `flag` for the setting `name` of the dataclass `where` ("module:Class"):
     parsed and checked by its declaration. It defaults to None (not given), so the
-    declared default applies where the value is used: one home for each default."""
+    declared default applies where the value is used: one home for each default.
+    `scale`: the option's unit in the declaration's (1e3: kHz for a setting in Hz; say
+    so in the `note`); `more`: add_argument's other keywords (``nargs=2`` and a
+    ``metavar`` for an interval: each value checked against the declared range)."""
     module, cls = where.split(":")
     get = declared(module, cls, name)
     # the help text is made by DeclaredHelp from the declaration, when asked for
-    action = parser.add_argument(flag, type=checked("number", declared=get), help="-")
+    parse = checked("number", declared=get, scale=scale)
+    action = parser.add_argument(flag, type=parse, help="-", **more)
     action.declaration, action.note = get, note
     return action
 

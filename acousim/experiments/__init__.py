@@ -21,3 +21,7 @@ __all__ = [
     "load_results",
     "run_study",
 ]
+
+from processing.base.api import check_keywords  # noqa: E402
+
+check_keywords(globals(), __all__)  # a misspelled keyword: the scene file's answer

@@ -28,6 +28,7 @@ import processing as P
 from acousim.experiments.trials import (
     FREQUENCY_HZ,
     FS,
+    PAPER_ARRAY,
     PAPER_METHODS,
     C,
     Trial,
@@ -35,15 +36,26 @@ from acousim.experiments.trials import (
     resolution_trial,
     simulate_trial,
 )
+from processing.base import interrupt
 from processing.base.atomic import atomic_path, write_text
 from processing.base.errors import InputError
+from processing.base.settings import setting, validate
+from processing.imaging.steering import FREQUENCY_HZ as STEERING
 
 POSITIONS = ((0.0, 0.0, 1.0), (30.0, 30.0, 1.0), (60.0, 60.0, 1.0))
 
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """Parameters of the study; the defaults are the paper's."""
+    """Parameters of the study; the defaults are the paper's.
+
+    array : the simulated array, a name of ``processing.PRESETS`` (the paper's 8x8
+        URA; ``urtis_v1`` is the μRTIS).
+    methods : the DOA methods compared (names of ``processing.METHODS``); the report
+        (:mod:`acousim.experiments.report`) needs the paper's five.
+    sample_rate_hz : of the simulated recordings (Hz; 8.2 ms of samples each).
+    frequency_hz : the steering frequency of every image (Hz).
+    """
 
     repetitions: int = 20
     snrs_db: tuple[float, ...] = tuple(range(-16, 21, 2))
@@ -53,10 +65,24 @@ class StudyConfig:
     cut_step_deg: float = 0.25
     seed: int = 2021
     workers: int = field(default_factory=lambda: os.cpu_count() or 1)
+    array: str = setting(PAPER_ARRAY, "", doc="the simulated array", choices=tuple(P.PRESETS))
+    methods: tuple[str, ...] = setting(
+        PAPER_METHODS, "", doc="the DOA methods compared", kind="strings", choices=P.METHODS
+    )
+    sample_rate_hz: float = setting(FS, "Hz", 50e3, 10e6, "sample rate of the recordings")
+    frequency_hz: float = setting(
+        FREQUENCY_HZ, "Hz", STEERING.lo, STEERING.hi, "steering frequency of the images"
+    )
+
+    def __post_init__(self) -> None:
+        validate(self)
+        if not self.methods:
+            raise InputError("give at least one method", key="StudyConfig.methods", value=())
 
     @classmethod
-    def quick(cls, workers: int = 1) -> StudyConfig:
-        """A few repetitions on a coarser grid: for tests and a first look."""
+    def quick(cls, workers: int = 1, **setup: Any) -> StudyConfig:
+        """A few repetitions on a coarser grid: for tests and a first look; `setup`:
+        the array, methods, sample rate or steering frequency, as for the constructor."""
         return cls(
             repetitions=3,
             snrs_db=(-10.0, 0.0, 10.0, 20.0),
@@ -65,6 +91,7 @@ class StudyConfig:
             grid_step_deg=0.5,
             cut_step_deg=0.5,
             workers=workers,
+            **setup,
         )
 
 
@@ -143,10 +170,27 @@ def _seed(config: StudyConfig, *key: int) -> int:
 
 
 def _map(config: StudyConfig, fn: Callable, items: list) -> list:
+    """``[fn(i) for i in items]``, in `config.workers` processes; Ctrl-C (as the
+    command line records it, :mod:`processing.base.interrupt`) is honoured between
+    items, in this process (the workers ignore it)."""
     if config.workers > 1 and len(items) > 1:
-        with ProcessPoolExecutor(config.workers) as pool:
-            return list(pool.map(fn, items, chunksize=max(1, len(items) // (4 * config.workers))))
-    return [fn(i) for i in items]
+        chunk = max(1, len(items) // (4 * config.workers))
+        pool = ProcessPoolExecutor(config.workers, initializer=interrupt.ignore_in_worker)
+        done = False
+        try:
+            out = []
+            for result in pool.map(fn, items, chunksize=chunk):
+                interrupt.check()
+                out.append(result)
+            done = True
+            return out
+        finally:  # stopped: the queued trials are dropped, not waited for
+            pool.shutdown(wait=done, cancel_futures=True)
+    out = []
+    for i in items:
+        interrupt.check()
+        out.append(fn(i))
+    return out
 
 
 def _write_csv(path: Path, header: list[str], rows: Iterable[list]) -> None:
@@ -175,18 +219,19 @@ def _plt():
 
 def fig3_4(config: StudyConfig, out: Path) -> PulseNumbers:
     """Spectrogram of the received signal and the matched-filter output, (30, 30, 1 m)."""
-    rec = simulate_trial(Trial(((30.0, 30.0, 1.0),), 20.0, _seed(config, 3)))
+    fs = config.sample_rate_hz
+    rec = simulate_trial(Trial(((30.0, 30.0, 1.0),), 20.0, _seed(config, 3)), config)
     x = rec.samples[0]
-    mf = P.matched_filter(rec.samples, rec.waveform.sampled(FS))[0]
+    mf = P.matched_filter(rec.samples, rec.waveform.sampled(fs))[0]
     rng_axis = rec.time_s() * C / 2
     i = int(np.argmax(np.abs(mf)))
     # widths are properties of the call: measured on the noise-free echo
-    clean = simulate_trial(Trial(((30.0, 30.0, 1.0),), np.inf, 0))
-    widths = _pulse_widths(P.matched_filter(clean.samples, rec.waveform.sampled(FS))[0])
+    clean = simulate_trial(Trial(((30.0, 30.0, 1.0),), np.inf, 0), config)
+    widths = _pulse_widths(P.matched_filter(clean.samples, rec.waveform.sampled(fs))[0], fs)
     raw_extent = rec.waveform.duration_s * C / 2
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.specgram(x, NFFT=256, Fs=FS, noverlap=240, cmap="viridis")
+    ax.specgram(x, NFFT=256, Fs=fs, noverlap=240, cmap="viridis")
     ax.set_ylim(0, 100e3)
     ax.set_xlim(0.9 * 2 / C, 1.25 * 2 / C)
     ax.set_xlabel("time after emission (s)")
@@ -211,9 +256,10 @@ def fig3_4(config: StudyConfig, out: Path) -> PulseNumbers:
     return PulseNumbers(float(rng_axis[i]), float(raw_extent), *widths)
 
 
-def _pulse_widths(mf: np.ndarray) -> tuple[float, float]:
+def _pulse_widths(mf: np.ndarray, fs: float = FS) -> tuple[float, float]:
     """-3 dB width and Rayleigh (first-null to first-null) width of the compressed
-    echo's envelope, in metres of range, from an 8x band-limited interpolation."""
+    echo's envelope (sampled at `fs` Hz), in metres of range, from an 8x band-limited
+    interpolation."""
     from scipy.signal import hilbert, resample
 
     up = 8
@@ -225,7 +271,7 @@ def _pulse_widths(mf: np.ndarray) -> tuple[float, float]:
     d_env = np.diff(env)
     right = j + int(np.argmax(d_env[j:] > 0))
     left = j - int(np.argmax(d_env[:j][::-1] < 0))
-    to_m = C / 2 / (FS * up)
+    to_m = C / 2 / (fs * up)
     return float((above[-1] - above[0]) * to_m), float((right - left) * to_m)
 
 
@@ -239,13 +285,14 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Swee
         for iv, v in enumerate(values)
         for rep in range(config.repetitions)
     ]
-    results = _map(config, partial(resolution_trial, step=config.grid_step_deg), trials)
+    trial = partial(resolution_trial, step=config.grid_step_deg, setup=config)
+    results = _map(config, trial, trials)
     stats = {}
     it = iter(results)
     for p in POSITIONS:
         for v in values:
             reps = [next(it) for _ in range(config.repetitions)]
-            for m in PAPER_METHODS:
+            for m in config.methods:
                 arr = np.array([r[m] for r in reps])  # (reps, 2): angular sr, range m
                 (sr_mean, rng_mean), (sr_std, rng_std) = np.nanmean(arr, 0), np.nanstd(arr, 0)
                 stats[p, v, m] = Resolution(
@@ -254,12 +301,17 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Swee
     return stats
 
 
+def _methods(stats: dict) -> list[str]:
+    """The methods of a statistics table keyed (..., method), in their first order."""
+    return list(dict.fromkeys(key[-1] for key in stats))
+
+
 def _plot_sweep(stats: Sweep, values, xlabel, what, ylabel, title, path, log=True):
     """`what`: 'angular_sr' or 'range_m'."""
     plt = _plt()
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
     for ax, p in zip(axes, POSITIONS):
-        for m in PAPER_METHODS:
+        for m in _methods(stats):
             mean = np.array([getattr(stats[p, v, m], f"{what}_mean") for v in values])
             std = np.array([getattr(stats[p, v, m], f"{what}_std") for v in values])
             ax.errorbar(values, mean, yerr=std, label=m, capsize=2, marker="o", ms=3)
@@ -280,7 +332,7 @@ def _sweep_csv(stats: Sweep, values, name, path):
         [p[0], p[1], v, m, *dataclasses.astuple(stats[p, v, m])]
         for p in POSITIONS
         for v in values
-        for m in PAPER_METHODS
+        for m in _methods(stats)
     ]
     _write_csv(path, ["azimuth_deg", "elevation_deg", name, "method", *_columns(Resolution)], rows)
 
@@ -349,13 +401,13 @@ def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation
         for i, s in enumerate(config.spacings_deg)
         for rep in range(config.repetitions)
     ]
-    cuts = _map(config, partial(azimuth_cut_trial, step=config.cut_step_deg), trials)
+    cuts = _map(config, _cut(config), trials)
     az = np.deg2rad(np.arange(-90, 90 + config.cut_step_deg / 2, config.cut_step_deg))
     stats = {}
     it = iter(cuts)
     for s in config.spacings_deg:
         reps = [next(it) for _ in range(config.repetitions)]
-        for m in PAPER_METHODS:
+        for m in config.methods:
             att = [P.max_attenuation(r[m], az, np.deg2rad(-s / 2), np.deg2rad(s / 2)) for r in reps]
             stats[s, m] = Attenuation(float(np.mean(att)), float(np.std(att)))
     _write_csv(
@@ -364,12 +416,12 @@ def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation
         [
             [s, m, *dataclasses.astuple(stats[s, m])]
             for s in config.spacings_deg
-            for m in PAPER_METHODS
+            for m in config.methods
         ],
     )
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    for m in PAPER_METHODS:
+    for m in config.methods:
         ax.errorbar(
             config.spacings_deg,
             [stats[s, m].attenuation_db_mean for s in config.spacings_deg],
@@ -388,6 +440,11 @@ def fig11(config: StudyConfig, out: Path) -> dict[tuple[float, str], Attenuation
     _savefig(fig, out / "fig11_attenuation_vs_spacing.png")
     plt.close(fig)
     return stats
+
+
+def _cut(config: StudyConfig) -> Callable[[Trial], dict[str, np.ndarray]]:
+    """:func:`azimuth_cut_trial` with the study's step and setup (picklable)."""
+    return partial(azimuth_cut_trial, step=config.cut_step_deg, setup=config)
 
 
 def resolved_count(cut: np.ndarray, az_rad: np.ndarray, sources_deg: list[float]) -> int:
@@ -417,12 +474,12 @@ def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
         for n in layouts
         for rep in range(config.repetitions)
     ]
-    cuts = _map(config, partial(azimuth_cut_trial, step=config.cut_step_deg), trials)
+    cuts = _map(config, _cut(config), trials)
     result = {}
     it = iter(cuts)
     for n in layouts:
         reps = [next(it) for _ in range(config.repetitions)]
-        for m in PAPER_METHODS:
+        for m in config.methods:
             mean = np.mean([r[m] / r[m].max() for r in reps], axis=0)
             counts = [resolved_count(r[m], az, layouts[n]) for r in reps]
             result[n, m] = SourceCount(
@@ -434,13 +491,16 @@ def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
         [
             [n, m, result[n, m].resolved_mean, result[n, m].dynamic_range_db]
             for n in layouts
-            for m in PAPER_METHODS
+            for m in config.methods
         ],
     )
     plt = _plt()
-    fig, axes = plt.subplots(5, 5, figsize=(15, 11), sharex=True, sharey=True)
+    cols = len(config.methods)
+    fig, axes = plt.subplots(
+        5, cols, figsize=(3 * cols, 11), sharex=True, sharey=True, squeeze=False
+    )
     for i, n in enumerate(layouts):
-        for j, m in enumerate(PAPER_METHODS):
+        for j, m in enumerate(config.methods):
             ax = axes[i, j]
             ax.plot(np.rad2deg(az), P.to_db(result[n, m].mean_spectrum, floor_db=-80), lw=0.9)
             for a in layouts[n]:
@@ -476,7 +536,7 @@ def run_study(
 
     results = StudyResults(
         config=config,
-        frequency_hz=FREQUENCY_HZ,
+        frequency_hz=config.frequency_hz,
         fig3_4=run("fig3_4", fig3_4),
         fig6_7=run("fig6_7", fig6_7),
         fig9_10=run("fig9_10", fig9_10),
@@ -525,7 +585,7 @@ def load_results(out_dir: str | Path) -> StudyResults:
 
         results = StudyResults(
             config=config,
-            frequency_hz=FREQUENCY_HZ,
+            frequency_hz=config.frequency_hz,
             fig3_4=pulse,
             fig6_7=sweep("fig06_07_resolution_vs_snr.csv", "snr_db", float),
             fig9_10=sweep("fig09_10_resolution_vs_snapshots.csv", "snapshots", int),

@@ -38,7 +38,7 @@ from processing.base import interrupt
 from processing.base.atomic import atomic_path
 from processing.base.errors import InputError
 from processing.base.settings import setting, validate
-from processing.imaging.pipeline import RANGE_LIMITS_M
+from processing.imaging.pipeline import RANGE_LIMITS_M, whole_subarray
 
 #: peaks kept within this many dB of each image's strongest cell: the default of
 #: the pictures, the peak files, the bags and ``Image.peaks()`` (one home, processing's)
@@ -70,13 +70,23 @@ DEFAULT_METHODS: tuple[str, ...] = ("das", "capon-fbss", "music-fbss")
 NON_URA_METHODS = ("das", "capon", "music")
 
 
+def _as_processing(name: str) -> Any:
+    """A field declared as :class:`processing.ProcessingSettings` declares `name` (one
+    declaration: its type, unit, range and default)."""
+    (decl,) = (f for f in dataclasses.fields(P.ProcessingSettings) if f.name == name)
+    return field(default=decl.default, metadata=decl.metadata)
+
+
 @dataclass(frozen=True)
 class ImagingOptions:
     """How recordings are imaged.
 
     methods : DOA methods (see ``processing.METHODS``); the defaults image an array
         that is not a URA (eRTIS) by :data:`NON_URA_METHODS`.
-    azimuth_deg, elevation_deg : (min, max) of the grid; step_deg its step.
+    azimuth_deg, elevation_deg : (min, max) of the grid, degrees; step_deg its step.
+    frequency_hz, n_sources, subarray : the steering frequency (Hz), the MUSIC
+        subspace size and the smoothing subarray (rows, columns), as
+        :class:`processing.ProcessingSettings` declares them (None: its defaults).
     energy_fraction : range bins kept when their energy is at least this fraction of
         the strongest bin in [min_range_m, max_range_m] (the paper uses 0.5 for one
         reflector; a room needs a lower gate).
@@ -87,8 +97,12 @@ class ImagingOptions:
     """
 
     methods: tuple[str, ...] = DEFAULT_METHODS
-    azimuth_deg: tuple[float, float] = P.GRID_AZIMUTH_DEG  # one default: Grid.degrees()'
-    elevation_deg: tuple[float, float] = P.GRID_ELEVATION_DEG
+    azimuth_deg: tuple[float, float] = setting(  # one default: Grid.degrees()'
+        P.GRID_AZIMUTH_DEG, "deg", -90, 90, "azimuth span of the grid", kind="interval"
+    )
+    elevation_deg: tuple[float, float] = setting(
+        P.GRID_ELEVATION_DEG, "deg", -90, 90, "elevation span of the grid", kind="interval"
+    )
     step_deg: float = setting(P.GRID_STEP_DEG, "deg", 0.1, 45, "grid step")
     energy_fraction: float = setting(
         P.ProcessingSettings.energy_fraction,  # one default, ProcessingSettings'
@@ -112,10 +126,15 @@ class ImagingOptions:
     dynamic_range_db: float = setting(
         DYNAMIC_RANGE_DB, "dB", 1, 200, "levels shown below each picture's strongest cell"
     )
+    frequency_hz: float | None = _as_processing("frequency_hz")
+    n_sources: int | None = _as_processing("n_sources")
+    subarray: tuple[int, int] | None = _as_processing("subarray")
     grid: P.Grid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         validate(self)
+        subarray = whole_subarray(self.subarray, "ImagingOptions.subarray")
+        object.__setattr__(self, "subarray", subarray)
         for m in self.methods:
             P.check_method(m)
         object.__setattr__(
@@ -131,6 +150,9 @@ class ImagingOptions:
             energy_fraction=self.energy_fraction,
             grid=self.grid,
             range_limits_m=(self.min_range_m, hi),
+            frequency_hz=self.frequency_hz,
+            n_sources=self.n_sources,
+            subarray=self.subarray,
         )
 
 

@@ -119,8 +119,15 @@ class ProcessingSettings:
     #: (min, max) m, max may be inf; None: all (checked in __post_init__)
     range_limits_m: tuple[float, float] | None = RANGE_LIMITS_M
     max_bins: int | None = setting(None, "", 1, 1 << 30, "keep the strongest bins", kind="int")
-    #: smoothing subarray (rows, columns); None: 5/8 of each dimension
-    subarray: tuple[int, int] | None = None
+    subarray: tuple[int, int] | None = setting(
+        None,
+        "",
+        1,
+        1 << 10,
+        "smoothing subarray (rows, columns); None: 5/8 of each dimension",
+        kind="vector",
+        length=2,
+    )
     loading: float = setting(
         SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
     )
@@ -142,6 +149,8 @@ class ProcessingSettings:
 
     def __post_init__(self) -> None:
         validate(self)
+        subarray = whole_subarray(self.subarray, "ProcessingSettings.subarray")
+        object.__setattr__(self, "subarray", subarray)
         if self.overlap >= self.window:
             raise InputError(
                 "must be below the window", key="ProcessingSettings.overlap", value=self.overlap
@@ -166,6 +175,17 @@ class ProcessingSettings:
                 key="ProcessingSettings.broadband",
                 value=self.broadband,
             )
+
+
+def whole_subarray(value: tuple[float, float] | None, key: str) -> tuple[int, int] | None:
+    """A subarray (rows, columns) checked by its declaration as whole numbers: ints (an
+    InputError naming `key` and the value for a fraction); None stays None."""
+    if value is None:
+        return None
+    if not all(float(v).is_integer() for v in value):
+        raise InputError("must be two whole numbers (rows, columns)", key=key, value=value)
+    rows, cols = (int(v) for v in value)
+    return rows, cols
 
 
 def recording_snapshot(recording: Recording, settings: ProcessingSettings) -> Snapshot:

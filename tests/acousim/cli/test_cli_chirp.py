@@ -113,11 +113,16 @@ def test_export_to_chirp_refuses_the_imaging_options(tmp_path, capsys):
         "--peak-threshold": ("-20", "-20.0"),
         "--dynamic-range-db": ("30", "30.0"),
         "--image-method": ("das", "'das'"),
+        "--azimuth": ("-60 60", "[-60.0, 60.0]"),
+        "--elevation": ("-60 60", "[-60.0, 60.0]"),
+        "--frequency-khz": ("31.25", "31250.0"),
+        "--n-sources": ("2", "2"),
+        "--subarray": ("4 4", "[4.0, 4.0]"),
     }
     assert sorted(given) == sorted(option for _, option in IMAGING_OPTIONS)
     for option, (text, shown) in given.items():
         capsys.readouterr()
-        args = ["export", str(rec), "--format", "chirp", "--out", str(out), option, text]
+        args = ["export", str(rec), "--format", "chirp", "--out", str(out), option, *text.split()]
         assert main(args) == 2
         err = capsys.readouterr().err.strip()
         assert f"{option} = {shown}: does not apply to --format chirp" in err, err
@@ -126,7 +131,7 @@ def test_export_to_chirp_refuses_the_imaging_options(tmp_path, capsys):
         main(["export", str(rec), "--method", "das", "--format", "chirp", "--out", str(out)]) == 2
     )
     help_text = " ".join(_help("export").split())
-    assert "the imaging options (--method, --step" in help_text and "are refused" in help_text
+    assert "the imaging options (--method, --azimuth" in help_text and "are refused" in help_text
 
 
 def _help(command: str) -> str:

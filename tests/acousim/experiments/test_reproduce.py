@@ -33,14 +33,40 @@ SAID: dict[str, str] = {}  # what the study's run printed
 
 
 def test_the_study_says_where_it_is(study):
-    """Not a terminal: one final line on stderr for the five experiments; the result
-    on stdout."""
+    """Not a terminal: a line on stderr as each figure is done, in order, and one
+    final line for the five experiments; the result on stdout."""
     import re
 
     lines = SAID["stdout"].splitlines()
-    pattern = r"reproduce: 5/5 experiments in [\d.]+ s \(.*experiments/s\)\n"
-    assert re.fullmatch(pattern, SAID["stderr"]), SAID["stderr"]
+    said = SAID["stderr"].splitlines()
+    figures = ["Figs. 3-4", "Figs. 6-7", "Figs. 9-10", "Fig. 11", "Fig. 12"]
+    assert len(said) == 6, said
+    for i, (line, fig) in enumerate(zip(said, figures)):
+        stage = rf"reproduce: {fig} \(.*\) done in [\d.]+ s \([\d.]+ s from the start\), "
+        assert re.fullmatch(stage + rf"experiments {i + 1}/5", line), line
+    pattern = r"reproduce: 5/5 experiments in [\d.]+ s \(.*experiments/s\)"
+    assert re.fullmatch(pattern, said[-1]), said[-1]
     assert lines[-1].startswith(f"figures and CSVs in {study[0]}, report ")
+
+
+def test_ctrl_c_leaves_no_file_of_the_run(tmp_path):
+    """Ctrl-C once the first figures are done (synchronised on the line that says
+    so): no figure, CSV, report or temporary file is left, a folder the run made is
+    removed, and a folder that was there keeps its own files alone."""
+    from tests.acousim.cli.test_interrupt import leftovers, run_interrupted
+
+    new = tmp_path / "new"
+    there = tmp_path / "there"
+    there.mkdir()
+    (there / "notes.txt").write_text("mine")
+    for out in (new, there):
+        args = ["reproduce", "--quick", "--workers", "1", "--out", str(out)]
+        code, lines = run_interrupted(args, tmp_path, after="experiments 1/5")
+        assert code == 130, lines
+        assert "no partial file was kept" in lines[-1]
+        assert leftovers(tmp_path) == []
+    assert not new.exists()
+    assert [p.name for p in there.iterdir()] == ["notes.txt"]
 
 
 def read(path):
@@ -147,3 +173,20 @@ def test_the_report_names_one_snr_once(study):
     text = study[1].read_text()
     for lo, hi in re.findall(r"Plain MUSIC at (-?\d+)(?: to (-?\d+))? dB", text):
         assert lo != hi
+
+
+def test_stage_lines_keep_quiet_with_quiet(capsys, monkeypatch):
+    """--quiet: no stage line; else one line on stderr (not a terminal), nothing on
+    stdout."""
+    from acousim.cli import common
+
+    monkeypatch.delenv(common.PROGRESS_LINES, raising=False)
+    bar = common.progress("reproduce", "experiment")
+    try:
+        common.set_quiet(True)
+        bar.say("hidden")
+    finally:
+        common.set_quiet(False)
+    bar.say("Fig. 11 done")
+    said = capsys.readouterr()
+    assert said.err == "reproduce: Fig. 11 done\n" and said.out == ""
