@@ -8,7 +8,9 @@ checksum, so a corrupted chunk fails to read even with ``verify=False``.
 from __future__ import annotations
 
 import json
+import os
 import re
+from collections import OrderedDict
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,6 +28,11 @@ from processing.formats.h5attrs import attribute_text
 __all__ = ["DatasetReader", "TorchAdapter", "TorchSamples", "DatasetError"]
 
 _SHARD = re.compile(r"shard_\d{5}\.h5")
+
+OPEN_SHARDS = 16
+"""Shards a :class:`DatasetReader` keeps open at most (least recently read closed
+first): a shuffled epoch over thousands of shards stays far below the usual limit of
+1024 open files per process, per DataLoader worker."""
 
 
 class DatasetError(InputError):
@@ -52,6 +59,15 @@ class DatasetReader:
     verify : bool
         Check each shard's sha256 against the manifest when it is first opened
         (reads each shard once more); default True.
+    open_shards : int
+        Shards kept open at most (default :data:`OPEN_SHARDS`, 16): the least
+        recently read one is closed when another is opened (each shard is verified
+        once, not at every reopening).
+
+    A reader can be handed to the worker processes of a ``torch.utils.data.DataLoader``
+    (forked or spawned): a process never uses the open files of another one (a
+    pickled reader carries none; a forked one drops those it inherited, unused), so
+    each worker opens its own, at most `open_shards`.
 
     Attributes
     ----------
@@ -63,7 +79,11 @@ class DatasetReader:
         The `verify` given.
     """
 
-    def __init__(self, folder: str | Path, verify: bool = True) -> None:
+    def __init__(
+        self, folder: str | Path, verify: bool = True, *, open_shards: int = OPEN_SHARDS
+    ) -> None:
+        if not (isinstance(open_shards, int) and open_shards >= 1):
+            raise InputError("must be an integer >= 1", key="open_shards", value=open_shards)
         self.folder = Path(folder)
         path = self.folder / MANIFEST
         if not path.is_file():
@@ -77,7 +97,20 @@ class DatasetReader:
         for name in self._hashes:
             self._shard_path(name)  # confined to the folder, or an error
         self.verify_on_open = verify
-        self._files: dict[str, h5py.File] = {}
+        self.open_shards = open_shards
+        self._files: OrderedDict[str, h5py.File] = OrderedDict()  # least recent first
+        self._verified: set[str] = set()
+        self._pid = os.getpid()
+
+    def __getstate__(self) -> dict:
+        """Pickled (a spawned DataLoader worker) without open files."""
+        state = self.__dict__.copy()
+        state["_files"] = OrderedDict()
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._pid = os.getpid()
 
     def _shard_path(self, name) -> Path:
         """A manifest's file name: only ``shard_NNNNN.h5`` inside the dataset folder."""
@@ -111,12 +144,25 @@ class DatasetReader:
         """Number of samples."""
         return len(self._table)
 
+    def _verify_once(self, name: str) -> None:
+        if self.verify_on_open and name not in self._verified:
+            self._check(name)
+            self._verified.add(name)
+
     def _file(self, name: str) -> h5py.File:
-        if name not in self._files:
-            if self.verify_on_open:
-                self._check(name)
-            self._files[name] = h5py.File(self._shard_path(name), "r")
-        return self._files[name]
+        """Shard `name`, open; the least recently read shard closed beyond
+        ``open_shards``. In a forked process, the parent's files are dropped unused
+        (HDF5 files must not be shared across a fork)."""
+        if self._pid != os.getpid():
+            self._files, self._pid = OrderedDict(), os.getpid()
+        if name in self._files:
+            self._files.move_to_end(name)
+            return self._files[name]
+        self._verify_once(name)
+        while len(self._files) >= self.open_shards:
+            self._files.popitem(last=False)[1].close()
+        f = self._files[name] = h5py.File(self._shard_path(name), "r")
+        return f
 
     def _images(self) -> None:
         if self.manifest.get("shard_format") == "chirp":
@@ -195,9 +241,7 @@ class DatasetReader:
         """A sample of a CHIRP shard (``[dataset] format = "chirp"``): its parameters,
         ``raw`` (M, T), the ``labels/...`` of the ground truth and, with a LiDAR,
         ``lidar/points_m`` (P, 3, LiDAR frame) and ``lidar/intensity`` (P,)."""
-        if self.verify_on_open and name not in self._files:
-            self._check(name)
-            self._files[name] = None  # checked once; read through processing
+        self._verify_once(name)  # read through processing, which closes the file
         r = P.load_recording(self._shard_path(name), offset)
         out = {"params": r.provenance.sample or {}, "raw": r.samples}
         if r.truth is not None:
@@ -220,8 +264,8 @@ class DatasetReader:
 
     def close(self) -> None:
         """Close the shards opened so far (reopened on the next read)."""
-        for f in self._files.values():
-            if f is not None:
+        if self._pid == os.getpid():  # a forked process leaves its parent's files alone
+            for f in self._files.values():
                 f.close()
         self._files.clear()
 
