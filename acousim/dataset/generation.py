@@ -580,7 +580,11 @@ def _manifest(
     spec: DatasetSpec, out: Path, elapsed: float, computed: list[int], damaged: list[int]
 ) -> dict:
     """manifest.json, written; ``damaged_shards``: the shards this run found damaged
-    (bytes not matching their sidecar's sha256) and redone."""
+    (bytes not matching their sidecar's sha256) and redone. The file holds what a
+    reader needs at open (the shards, their sha256 and sample counts: sample i is
+    in shard i // shard_size), not the samples' parameters, which are in the
+    sidecars and the shards (about 1 kB a sample: a million samples' manifest was
+    1 GB to parse); the dict returned adds them (``sample_table``) and ``summary``."""
     sides = [json.loads((out / f"shard_{k:05d}.json").read_text()) for k in range(spec.n_shards)]
     samples = [s for side in sides for s in side["samples"]]
     total = sum(s["bytes"] for s in sides)
@@ -604,10 +608,10 @@ def _manifest(
             }
             for s in sides
         ],
-        "sample_table": samples,
         "damaged_shards": [shard_name(k) for k in damaged],
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True))
+    manifest["sample_table"] = samples
     made = sum(len(sides[k]["samples"]) for k in computed)
     manifest["summary"] = {
         "bytes_per_sample": total / max(len(samples), 1),

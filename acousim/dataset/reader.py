@@ -11,7 +11,8 @@ import json
 import os
 import re
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
@@ -74,7 +75,10 @@ class DatasetReader:
     folder : Path
         The dataset folder.
     manifest : dict
-        ``manifest.json``: the samples' parameters, the shards and their sha256.
+        ``manifest.json``: the dataset's spec, inputs and shards with their sha256
+        (the samples' parameters: ``reader[i]["params"]``, and each shard's sidecar
+        ``shard_NNNNN.json``; a manifest of an earlier acousim also lists them, as
+        ``sample_table``).
     verify_on_open : bool
         The `verify` given.
     """
@@ -90,8 +94,8 @@ class DatasetReader:
             raise DatasetError(f"no {MANIFEST} (generation unfinished?)", file=self.folder)
         try:
             self.manifest = json.loads(path.read_text())
-            self._table = sorted(self.manifest["sample_table"], key=lambda s: s["index"])
             self._hashes = {sh["file"]: sh["sha256"] for sh in self.manifest["shards"]}
+            self._table = _sample_table(self.manifest)
         except (ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"malformed manifest ({exc!r})", file=path) from None
         for name in self._hashes:
@@ -210,11 +214,11 @@ class DatasetReader:
         IndexError out of range, DatasetError for a corrupted shard."""
         if not -len(self) <= i < len(self):
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
-        rec = self._table[i]
-        name = f"shard_{rec['shard']:05d}.h5"
+        shard, offset = self._table[i]
+        name = f"shard_{shard:05d}.h5"
         if self.manifest.get("shard_format") == "chirp":
-            return self._chirp_sample(name, rec["offset"])
-        g = self._file(name)[f"{rec['offset']:05d}"]
+            return self._chirp_sample(name, offset)
+        g = self._file(name)[f"{offset:05d}"]
         try:
             params = json.loads(attribute_text(g.attrs.get("params")) or "")
         except ValueError as exc:  # absent, an array, not JSON: a foreign or edited shard
@@ -294,6 +298,34 @@ class DatasetReader:
         return TorchSamples(
             self, method=method, mask=mask, max_paths=max_paths, max_points=max_points
         )
+
+
+def _sample_table(manifest: dict) -> Sequence[tuple[int, int]]:
+    """(shard, offset) of each sample, by index: sample i is sample i % shard_size of
+    shard i // shard_size (how generation groups them), checked against the shards'
+    sample counts; a manifest of an earlier acousim lists them (``sample_table``)."""
+    if "sample_table" in manifest:
+        rows = sorted(manifest["sample_table"], key=lambda s: s["index"])
+        return [(int(s["shard"]), int(s["offset"])) for s in rows]
+    n, size = int(manifest["samples"]), int(manifest["shard_size"])
+    counts = [int(sh["samples"]) for sh in manifest["shards"]]
+    if size < 1 or counts != [min(size, n - k * size) for k in range(-(-n // size))]:
+        raise ValueError(f"shards of {counts} samples, not {n} in shards of {size}")
+    return _Locations(n, size)
+
+
+@dataclass(frozen=True)
+class _Locations(Sequence):
+    """(shard, offset) of sample i of `n` in shards of `size`, computed."""
+
+    n: int
+    size: int
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, i):  # an int: negative from the end, IndexError out of range
+        return divmod(range(self.n)[i], self.size)
 
 
 class TorchAdapter:

@@ -117,3 +117,30 @@ def test_a_pickled_or_forked_reader_opens_its_own_files(many):
 def test_open_shards_must_be_positive(many):
     with pytest.raises(ValueError, match="open_shards"):
         DatasetReader(many, open_shards=0)
+
+
+def test_the_manifest_holds_no_sample_parameters_and_an_older_one_still_reads(many, tmp_path):
+    """The samples' parameters live in the sidecars and shards; the manifest lists
+    the shards. A manifest of an earlier acousim (its ``sample_table``) reads the
+    same samples."""
+    manifest = json.loads((many / "manifest.json").read_text())
+    assert "sample_table" not in manifest
+    sides = [json.loads(p.read_text()) for p in sorted(many.glob("shard_*.json"))]
+    table = [s for side in sides for s in side["samples"]]
+    r = DatasetReader(many)
+    for s in table:  # the sidecar's record names the sample's shard and place in it
+        assert r[s["index"]]["params"]["pose"] == s["pose"]
+    old = tmp_path / "old"
+    old.mkdir()
+    for p in many.glob("shard_*.h5"):
+        (old / p.name).symlink_to(p)
+    shuffled = [table[i] for i in np.random.default_rng(0).permutation(len(table))]
+    (old / "manifest.json").write_text(json.dumps({**manifest, "sample_table": shuffled}))
+    o = DatasetReader(old)
+    assert len(o) == len(r) and digest(o[-1]) == digest(r[-1]) and digest(o[5]) == digest(r[5])
+    # shards whose counts do not make the samples: a clear error at open
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "manifest.json").write_text(json.dumps({**manifest, "samples": 25}))
+    with pytest.raises(ValueError, match="malformed manifest.*not 25 in shards of 1"):
+        DatasetReader(bad)
