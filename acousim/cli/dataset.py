@@ -17,7 +17,7 @@ from acousim.cli.common import (
     since_start,
     writable_dir,
 )
-from acousim.cli.options import add_declared
+from acousim.cli.options import add_declared, add_quality
 from processing.base.errors import InputError
 
 
@@ -35,6 +35,12 @@ def register(sub) -> None:
     )
     add_declared(p, "--workers", "acousim.process:Workers", "workers")
     p.add_argument("--scheduler", help="address of a Dask scheduler (instead of --workers)")
+    add_quality(
+        p,
+        note="not given: the spec's [dataset] quality, unset there: each scene "
+        "file's; the scenes' explicit [simulation] settings apply whatever the "
+        "preset. A folder made under another quality is not resumed",
+    )
     p.set_defaults(interrupted=interrupted)
 
 
@@ -55,6 +61,8 @@ def interrupted(args: argparse.Namespace) -> str:
         again += ["--workers", str(args.workers)]
     if args.scheduler:
         again += ["--scheduler", args.scheduler]
+    if args.quality is not None:
+        again += ["--quality", args.quality]
     return (
         f"{kept} of {total} shards kept in {args.out} (each whole; checked again on "
         f"resume); resume with: {shlex.join(again)}"
@@ -82,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
         workers=Workers().workers if args.workers is None else args.workers,
         scheduler=args.scheduler,
         progress=progress("shards", "shard", start="first"),
+        quality=args.quality,
     )
     s = manifest["summary"]
     print(

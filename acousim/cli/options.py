@@ -41,14 +41,16 @@ def add_declared(
     return action
 
 
-def add_quality(parser: argparse.ArgumentParser) -> None:
+def add_quality(parser: argparse.ArgumentParser, *, note: str = "") -> None:
     """The --quality option of a command that simulates: the scene's
-    ``simulation.quality`` replaced (its explicitly given settings still apply)."""
+    ``simulation.quality`` replaced (its explicitly given settings still apply);
+    `note`: what not giving it means, when not the scene file's preset."""
     add_declared(
         parser,
         "--quality",
         "acousim.scene.model:Simulation",
         "quality",
-        note="not given: the scene file's; the file's explicit [simulation] settings apply "
+        note=note
+        or "not given: the scene file's; the file's explicit [simulation] settings apply "
         "whatever the preset",
     )

@@ -386,14 +386,15 @@ def _write_axes(f: h5py.File, spec: DatasetSpec) -> None:
     axes.attrs["energy_fraction"] = st.energy_fraction
 
 
-def _shard_job(args: tuple[str, int, str]) -> dict:
+def _shard_job(args: tuple[str, int, str, str | None]) -> dict:
     """One shard, with BLAS on one thread: the summation order (and so every bit of
     the result) must not depend on the worker's thread settings (Dask's workers run
-    single-threaded BLAS, a local process may not)."""
+    single-threaded BLAS, a local process may not). `args`: the spec's path, the
+    shard, the output folder, the quality preset given (None: the spec's)."""
     from threadpoolctl import threadpool_limits
 
-    spec_path, k, out = args
-    spec = load_spec(spec_path)
+    spec_path, k, out, quality = args
+    spec = with_quality(load_spec(spec_path), quality)
     changed = _changed(json.loads((Path(out) / INPUTS).read_text()), _record(spec))
     if changed:  # a file edited while the dataset is generated
         raise InputError(f"changed during the run: {'; '.join(changed)}", file=spec.source)
@@ -434,6 +435,11 @@ def _done(spec: DatasetSpec, out: Path) -> tuple[set[int], list[int]]:
     return done, damaged
 
 
+def with_quality(spec: DatasetSpec, quality: str | None) -> DatasetSpec:
+    """`spec` with every scene under the `quality` preset (None: as the spec says)."""
+    return spec if quality is None else dataclasses.replace(spec, quality=quality)
+
+
 def usable_spec(spec_path: str | Path) -> DatasetSpec:
     """The spec, read and checked as far as can be before any work (nothing is
     written): each random-pose scene's region has a usable pose, and the first
@@ -451,14 +457,20 @@ def generate(
     workers: int = 1,
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    quality: str | None = None,
 ) -> dict:
     """Generate (or finish) a dataset; returns the manifest.
+
+    `quality`: every scene's ``simulation.quality`` preset ("fast", "default",
+    "reference"; None: the spec's ``[dataset] quality``, unset there: each scene
+    file's), recorded in inputs.json and the manifest: a folder made under another
+    quality is not resumed.
 
     The manifest's ``summary`` adds ``damaged_shards``: finished shards whose bytes no
     longer matched their recorded sha256 and were redone (their indices; manifest.json
     lists their file names).
     """
-    spec = usable_spec(spec_path)
+    spec = with_quality(usable_spec(spec_path), quality)
     out = Path(out_dir)
     if scheduler:
         check_scheduler(scheduler)
@@ -469,7 +481,7 @@ def generate(
         _claim(spec, out)
         done, damaged = _done(spec, out)
         todo = [k for k in range(spec.n_shards) if k not in done]
-        jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve())) for k in todo]
+        jobs = [(str(Path(spec_path).resolve()), k, str(out.resolve()), quality) for k in todo]
         done_count = spec.n_shards - len(todo)
         t0 = time.perf_counter()
         if progress:
@@ -535,13 +547,18 @@ def _claim(spec: DatasetSpec, out: Path) -> None:
 
 def _record(spec: DatasetSpec) -> dict:
     """The folder's record of the files its shards are made from (``inputs.json``)."""
-    return {"spec": Path(spec.source).name, "files": spec.inputs}
+    return {"spec": Path(spec.source).name, "files": spec.inputs, "quality": spec.quality}
 
 
 def _changed(theirs: dict, mine: dict) -> list[str]:
     """What differs between two records of a folder's files: one phrase per file."""
     old, new = dict(theirs["files"]), dict(mine["files"])
     out = []
+    if theirs.get("quality") != mine["quality"]:  # an older record: the scenes' own
+        out.append(
+            f"another quality (the shards: {_quality(theirs.get('quality'))}; this run: "
+            f"{_quality(mine['quality'])})"
+        )
     old_spec, new_spec = old.pop(theirs["spec"]), new.pop(mine["spec"])
     if old_spec != new_spec:
         out.append(f"another spec (sha256 {old_spec[:12]}..., {mine['spec']}: {new_spec[:12]}...)")
@@ -555,11 +572,19 @@ def _changed(theirs: dict, mine: dict) -> list[str]:
     return out
 
 
+def _quality(q: str | None) -> str:
+    return "each scene's own" if q is None else repr(q)
+
+
 def _manifest(
     spec: DatasetSpec, out: Path, elapsed: float, computed: list[int], damaged: list[int]
 ) -> dict:
     """manifest.json, written; ``damaged_shards``: the shards this run found damaged
-    (bytes not matching their sidecar's sha256) and redone."""
+    (bytes not matching their sidecar's sha256) and redone. The file holds what a
+    reader needs at open (the shards, their sha256 and sample counts: sample i is
+    in shard i // shard_size), not the samples' parameters, which are in the
+    sidecars and the shards (about 1 kB a sample: a million samples' manifest was
+    1 GB to parse); the dict returned adds them (``sample_table``) and ``summary``."""
     sides = [json.loads((out / f"shard_{k:05d}.json").read_text()) for k in range(spec.n_shards)]
     samples = [s for side in sides for s in side["samples"]]
     total = sum(s["bytes"] for s in sides)
@@ -573,6 +598,7 @@ def _manifest(
         "samples": len(samples),
         "shard_size": spec.shard_size,
         "shard_format": spec.format,
+        "quality": spec.quality,
         "shards": [
             {
                 "file": s["file"],
@@ -582,10 +608,10 @@ def _manifest(
             }
             for s in sides
         ],
-        "sample_table": samples,
         "damaged_shards": [shard_name(k) for k in damaged],
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True))
+    manifest["sample_table"] = samples
     made = sum(len(sides[k]["samples"]) for k in computed)
     manifest["summary"] = {
         "bytes_per_sample": total / max(len(samples), 1),

@@ -8,8 +8,11 @@ checksum, so a corrupted chunk fails to read even with ``verify=False``.
 from __future__ import annotations
 
 import json
+import os
 import re
-from collections.abc import Iterator
+from collections import OrderedDict
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
@@ -26,6 +29,11 @@ from processing.formats.h5attrs import attribute_text
 __all__ = ["DatasetReader", "TorchAdapter", "TorchSamples", "DatasetError"]
 
 _SHARD = re.compile(r"shard_\d{5}\.h5")
+
+OPEN_SHARDS = 16
+"""Shards a :class:`DatasetReader` keeps open at most (least recently read closed
+first): a shuffled epoch over thousands of shards stays far below the usual limit of
+1024 open files per process, per DataLoader worker."""
 
 
 class DatasetError(InputError):
@@ -52,32 +60,61 @@ class DatasetReader:
     verify : bool
         Check each shard's sha256 against the manifest when it is first opened
         (reads each shard once more); default True.
+    open_shards : int
+        Shards kept open at most (default :data:`OPEN_SHARDS`, 16): the least
+        recently read one is closed when another is opened (each shard is verified
+        once, not at every reopening).
+
+    A reader can be handed to the worker processes of a ``torch.utils.data.DataLoader``
+    (forked or spawned): a process never uses the open files of another one (a
+    pickled reader carries none; a forked one drops those it inherited, unused), so
+    each worker opens its own, at most `open_shards`.
 
     Attributes
     ----------
     folder : Path
         The dataset folder.
     manifest : dict
-        ``manifest.json``: the samples' parameters, the shards and their sha256.
+        ``manifest.json``: the dataset's spec, inputs and shards with their sha256
+        (the samples' parameters: ``reader[i]["params"]``, and each shard's sidecar
+        ``shard_NNNNN.json``; a manifest of an earlier acousim also lists them, as
+        ``sample_table``).
     verify_on_open : bool
         The `verify` given.
     """
 
-    def __init__(self, folder: str | Path, verify: bool = True) -> None:
+    def __init__(
+        self, folder: str | Path, verify: bool = True, *, open_shards: int = OPEN_SHARDS
+    ) -> None:
+        if not (isinstance(open_shards, int) and open_shards >= 1):
+            raise InputError("must be an integer >= 1", key="open_shards", value=open_shards)
         self.folder = Path(folder)
         path = self.folder / MANIFEST
         if not path.is_file():
             raise DatasetError(f"no {MANIFEST} (generation unfinished?)", file=self.folder)
         try:
             self.manifest = json.loads(path.read_text())
-            self._table = sorted(self.manifest["sample_table"], key=lambda s: s["index"])
             self._hashes = {sh["file"]: sh["sha256"] for sh in self.manifest["shards"]}
+            self._table = _sample_table(self.manifest)
         except (ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"malformed manifest ({exc!r})", file=path) from None
         for name in self._hashes:
             self._shard_path(name)  # confined to the folder, or an error
         self.verify_on_open = verify
-        self._files: dict[str, h5py.File] = {}
+        self.open_shards = open_shards
+        self._files: OrderedDict[str, h5py.File] = OrderedDict()  # least recent first
+        self._verified: set[str] = set()
+        self._pid = os.getpid()
+
+    def __getstate__(self) -> dict:
+        """Pickled (a spawned DataLoader worker) without open files."""
+        state = self.__dict__.copy()
+        state["_files"] = OrderedDict()
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._pid = os.getpid()
 
     def _shard_path(self, name) -> Path:
         """A manifest's file name: only ``shard_NNNNN.h5`` inside the dataset folder."""
@@ -111,12 +148,25 @@ class DatasetReader:
         """Number of samples."""
         return len(self._table)
 
+    def _verify_once(self, name: str) -> None:
+        if self.verify_on_open and name not in self._verified:
+            self._check(name)
+            self._verified.add(name)
+
     def _file(self, name: str) -> h5py.File:
-        if name not in self._files:
-            if self.verify_on_open:
-                self._check(name)
-            self._files[name] = h5py.File(self._shard_path(name), "r")
-        return self._files[name]
+        """Shard `name`, open; the least recently read shard closed beyond
+        ``open_shards``. In a forked process, the parent's files are dropped unused
+        (HDF5 files must not be shared across a fork)."""
+        if self._pid != os.getpid():
+            self._files, self._pid = OrderedDict(), os.getpid()
+        if name in self._files:
+            self._files.move_to_end(name)
+            return self._files[name]
+        self._verify_once(name)
+        while len(self._files) >= self.open_shards:
+            self._files.popitem(last=False)[1].close()
+        f = self._files[name] = h5py.File(self._shard_path(name), "r")
+        return f
 
     def _images(self) -> None:
         if self.manifest.get("shard_format") == "chirp":
@@ -164,11 +214,11 @@ class DatasetReader:
         IndexError out of range, DatasetError for a corrupted shard."""
         if not -len(self) <= i < len(self):
             raise IndexError(f"sample {i} out of range ({len(self)} samples)")
-        rec = self._table[i]
-        name = f"shard_{rec['shard']:05d}.h5"
+        shard, offset = self._table[i]
+        name = f"shard_{shard:05d}.h5"
         if self.manifest.get("shard_format") == "chirp":
-            return self._chirp_sample(name, rec["offset"])
-        g = self._file(name)[f"{rec['offset']:05d}"]
+            return self._chirp_sample(name, offset)
+        g = self._file(name)[f"{offset:05d}"]
         try:
             params = json.loads(attribute_text(g.attrs.get("params")) or "")
         except ValueError as exc:  # absent, an array, not JSON: a foreign or edited shard
@@ -195,9 +245,7 @@ class DatasetReader:
         """A sample of a CHIRP shard (``[dataset] format = "chirp"``): its parameters,
         ``raw`` (M, T), the ``labels/...`` of the ground truth and, with a LiDAR,
         ``lidar/points_m`` (P, 3, LiDAR frame) and ``lidar/intensity`` (P,)."""
-        if self.verify_on_open and name not in self._files:
-            self._check(name)
-            self._files[name] = None  # checked once; read through processing
+        self._verify_once(name)  # read through processing, which closes the file
         r = P.load_recording(self._shard_path(name), offset)
         out = {"params": r.provenance.sample or {}, "raw": r.samples}
         if r.truth is not None:
@@ -220,8 +268,8 @@ class DatasetReader:
 
     def close(self) -> None:
         """Close the shards opened so far (reopened on the next read)."""
-        for f in self._files.values():
-            if f is not None:
+        if self._pid == os.getpid():  # a forked process leaves its parent's files alone
+            for f in self._files.values():
                 f.close()
         self._files.clear()
 
@@ -250,6 +298,34 @@ class DatasetReader:
         return TorchSamples(
             self, method=method, mask=mask, max_paths=max_paths, max_points=max_points
         )
+
+
+def _sample_table(manifest: dict) -> Sequence[tuple[int, int]]:
+    """(shard, offset) of each sample, by index: sample i is sample i % shard_size of
+    shard i // shard_size (how generation groups them), checked against the shards'
+    sample counts; a manifest of an earlier acousim lists them (``sample_table``)."""
+    if "sample_table" in manifest:
+        rows = sorted(manifest["sample_table"], key=lambda s: s["index"])
+        return [(int(s["shard"]), int(s["offset"])) for s in rows]
+    n, size = int(manifest["samples"]), int(manifest["shard_size"])
+    counts = [int(sh["samples"]) for sh in manifest["shards"]]
+    if size < 1 or counts != [min(size, n - k * size) for k in range(-(-n // size))]:
+        raise ValueError(f"shards of {counts} samples, not {n} in shards of {size}")
+    return _Locations(n, size)
+
+
+@dataclass(frozen=True)
+class _Locations(Sequence):
+    """(shard, offset) of sample i of `n` in shards of `size`, computed."""
+
+    n: int
+    size: int
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, i):  # an int: negative from the end, IndexError out of range
+        return divmod(range(self.n)[i], self.size)
 
 
 class TorchAdapter:

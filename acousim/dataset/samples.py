@@ -362,8 +362,11 @@ def _varied_scene(params: dict, spec: DatasetSpec):
         c.get("humidity_percent", scene.environment.humidity_percent),
         scene.environment.pressure_kpa,
     )
+    sim = scene.simulation
+    if spec.quality is not None:  # the spec's (or --quality's) preset for every scene
+        sim = sim.with_quality(spec.quality)
     sim = dataclasses.replace(
-        scene.simulation, seed=params["noise_seed"], snr_db=c.get("snr_db", scene.simulation.snr_db)
+        sim, seed=params["noise_seed"], snr_db=c.get("snr_db", scene.simulation.snr_db)
     )
     meshes = scene.meshes
     if "reflection_scale" in c:

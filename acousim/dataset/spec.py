@@ -24,6 +24,7 @@ from typing import Any, Literal, get_args
 import processing as P
 from acousim.dataset.safety import sha256_file
 from acousim.scene import load_scene
+from acousim.scene.defaults import Quality
 from acousim.scene.model import Environment, Simulation
 from acousim.scene.trajectory import RATES
 from processing.base.errors import InputError
@@ -87,6 +88,13 @@ def _env(name: str) -> Setting:
 def _sim(name: str) -> Setting:
 
     return settings_of(Simulation)[name]
+
+
+def _unset_by_default(decl: Setting, doc: str) -> Any:
+    """A dataclass field declared as `decl` (its kind, choices and range) but optional,
+    None by default (not given: the scene's own value), with `doc`."""
+    d = dataclasses.replace(decl, default=None, optional=True, doc=doc)
+    return field(default=None, metadata={"setting": d})
 
 
 def _rate(name: str, unit: str, doc: str) -> Setting:
@@ -230,6 +238,11 @@ class DatasetOptions:
         doc="shards: acousim (images, snapshots, labels) or chirp (CHIRP files: the "
         "recordings, ground truth and LiDAR scans; [store] does not apply)",
     )
+    #: every scene's ``simulation.quality`` (the scene's declaration); its explicitly
+    #: given [simulation] settings still apply
+    quality: Quality | None = _unset_by_default(
+        _sim("quality"), "every scene's simulation.quality; unset: each scene file's"
+    )
 
     def __post_init__(self) -> None:
         validate(self)
@@ -248,6 +261,9 @@ class DatasetSpec:
     sha256: str
     compression: str | None = "gzip"
     format: ShardFormat = "acousim"
+    #: every scene's quality preset (``[dataset] quality``, ``--quality``); None: each
+    #: scene file's own
+    quality: Quality | None = None
     #: every file the samples depend on -> its sha256: the spec (under its file name),
     #: each scene file and the meshes, coordinate files and trajectories it reads; the
     #: paths relative to the spec's folder, '/' separated
@@ -261,6 +277,7 @@ class DatasetSpec:
             self.seed,
             self.compression or "none",
             self.format,
+            self.quality,
         )
         if not self.scenes:
             raise SpecError("needs at least one [[scenes]] table", file=self.source, key="scenes")
@@ -379,6 +396,7 @@ def _parse(data: dict, path: Path, src: str, sha256: str) -> DatasetSpec:
         sha256=sha256,
         compression=None if opts.compression == "none" else opts.compression,
         format=opts.format,
+        quality=opts.quality,
         inputs=inputs,
     )
 
