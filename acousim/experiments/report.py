@@ -262,7 +262,9 @@ def _fig6_rows(results: StudyResults) -> list[Row]:
             + f" (stable: within × {STABLE_FACTOR:g})",
             "Ours widens with SNR. Part of it is the white-noise floor put under the "
             "eigenvalues before the −0.5 load (`eig_floor`, default 1e−3·tr(R)/L, see "
-            "Readings): at high SNR that floor, not the noise, sets the load.",
+            "Readings): at high SNR that floor, not the noise, sets the load; a 100 times "
+            "lower floor narrows the high-SNR lobe only partly, so the floor is not the "
+            "whole cause.",
         ),
         Row(
             "Fig. 6: plain MUSIC at (60°, 60°), lowest SNR",
@@ -649,7 +651,8 @@ def _provenance(results: StudyResults) -> list[str]:
     return [
         "## Provenance",
         "",
-        "The angular resolutions (Figs. 6 and 9, and the rows below that read them) come "
+        "The angular resolutions (the Fig. 6 and Fig. 9 plots and CSV columns, and the "
+        "rows below that read them) come "
         "from CSVs written before the angular metric resolved below one grid cell: they "
         "summed whole cells within 3 dB, so no value could go under one cell "
         f"({results.config.grid_step_deg}° × {results.config.grid_step_deg}°, "
