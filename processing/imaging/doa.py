@@ -213,31 +213,17 @@ def method_matrix(
     makes it real symmetric and a real eigendecomposition suffices.  `eig_floor`:
     Capon's eigenvalue floor, a fraction of the mean eigenvalue (module docstring).
     """
-    return _method_matrix(
-        C,
-        base,
-        loading=loading,
-        n_sources=n_sources,
-        data=data,
-        centro=centro,
-        eig_floor=eig_floor,
-    )
+    options = SubspaceOptions(loading=loading, n_sources=n_sources, eig_floor=eig_floor)
+    return _method_matrix(C, base, options, data=data, centro=centro)
 
 
 def _method_matrix(
-    C,
-    base,
-    *,
-    loading,
-    n_sources,
-    data=None,
-    centro=False,
-    shared=None,
-    key=None,
-    eig_floor=EIG_FLOOR,
+    C, base, options: SubspaceOptions, *, data=None, centro=False, shared=None, key=None
 ):
-    """:func:`method_matrix`, its decompositions shared under `key` (the smoothing:
-    the same C for every method) when `shared` is given."""
+    """:func:`method_matrix` with the `options` (loading, n_sources, eig_floor), its
+    decompositions shared under `key` (the smoothing: the same C for every method)
+    when `shared` is given."""
+    loading, n_sources, eig_floor = options.loading, options.n_sources, options.eig_floor
     L = C.shape[-1]
     if base == "das":
         return C, False
@@ -297,11 +283,9 @@ def _centro_matrix(
     Y: np.ndarray,
     T: np.ndarray,
     base: str,
-    loading: float,
-    n_sources: int | None,
+    options: SubspaceOptions,
     shared: _Shared | None = None,
     key=None,
-    eig_floor: float = EIG_FLOOR,
 ) -> tuple[np.ndarray, bool, np.ndarray]:
     """Real Qr (R, L, L) with ``Q = T Qr T^H`` from FBSS snapshots Y = [Yf, J Yf*]
     (R, L, 2S), plus (inverse, empty bins).  With Z = T^H Yf and ``J T* = T``, the
@@ -315,15 +299,7 @@ def _centro_matrix(
         return (W @ W.transpose(0, 2, 1)) / S
 
     Cr = _made(shared, ("real covariance", key), real_covariance)
-    Qr, inverse = _method_matrix(
-        Cr,
-        base,
-        loading=loading,
-        n_sources=n_sources,
-        shared=shared,
-        key=("real", key),
-        eig_floor=eig_floor,
-    )
+    Qr, inverse = _method_matrix(Cr, base, options, shared=shared, key=("real", key))
     return Qr, inverse, np.flatnonzero(np.einsum("rii->r", Cr) <= 0)
 
 
@@ -528,7 +504,7 @@ def _method_form(
         return "low_rank", factors, base != "das", np.flatnonzero(power <= 0)
     if smooth == "fbss" and use_grid:
         T = _unitary(L)
-        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources, shared, key, eig_floor)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, options, shared, key)
         return "unitary", (Qr, T), inverse, empty
 
     def covariance() -> np.ndarray:
@@ -539,14 +515,6 @@ def _method_form(
 
     C = _made(shared, ("covariance", key), covariance)
     Q, inverse = _method_matrix(
-        C,
-        base,
-        loading=loading,
-        n_sources=n_sources,
-        data=Y,
-        centro=smooth == "fbss",
-        shared=shared,
-        key=key,
-        eig_floor=eig_floor,
+        C, base, options, data=Y, centro=smooth == "fbss", shared=shared, key=key
     )
     return "full", (Q,), inverse, np.flatnonzero(np.einsum("rii->r", C).real <= 0)
