@@ -454,7 +454,7 @@ def _fig11_rows(results: StudyResults) -> list[Row]:
     """Fig. 11: two reflectors, attenuation and spacing."""
     cfg, f34, s67, s910, f11, f12, p0, p30, p60, snrs, snaps, hi_snr = _context(results)
     spac = cfg.spacings_deg
-    step = float(np.max(np.abs(np.diff(sorted(spac))))) if len(spac) > 1 else 0.0
+    step = float(np.min(np.diff(sorted(spac)))) if len(spac) > 1 else 0.0  # finest step
 
     def last_above(m, level):
         # the smallest spacing such that every larger spacing also stays above `level`

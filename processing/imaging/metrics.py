@@ -89,6 +89,10 @@ class SolidAngle3dB:
 
 #: points per axis of the fine grid the -3 dB region is measured on
 FINE_POINTS = 256
+#: a fine region spanning fewer points than this along an axis is measured again on
+#: a window zoomed around it, at most ZOOMS times
+ZOOM_BELOW = 64
+ZOOMS = 3
 #: levels (dB under the peak) below this are clamped before interpolation
 _DB_FLOOR = -3000.0
 
@@ -127,7 +131,9 @@ def solid_angle_detail(
     the units of `power`) when given, else by a piecewise biquadratic interpolation
     of the level in dB through the samples.  The fine points within 3 dB of the fine
     maximum that are connected to it are weighted by their area on the unit sphere
-    (cos(elevation) d_el d_az).  Grids of one row or column give the whole cells.
+    (cos(elevation) d_el d_az); a region spanning fewer than :data:`ZOOM_BELOW`
+    fine points along an axis is measured again on a window zoomed around it.  Grids
+    of one row or column give the whole cells.
     """
     p = np.asarray(power, dtype=float)
     el = np.asarray(elevation_rad, float)
@@ -148,10 +154,14 @@ def solid_angle_detail(
         return SolidAngle3dB(cells, True, truncated, cells)
     pad = 1
     while True:  # widen the window until the fine region does not touch its sides
-        el_f, az_f, fine, edge = _fine_region(p, el, az, rows, cols, pad, spectrum)
+        el_f, az_f, fine, edge, level_db = _fine_region(p, el, az, rows, cols, pad, spectrum)
         if not edge or pad > max(el.size, az.size):
             break
         pad *= 2
+    for _ in range(ZOOMS):  # a region of few fine points: measured again, zoomed in
+        el_f, az_f, fine, done = _zoomed(el_f, az_f, fine, level_db)
+        if done:
+            break
     area = float(cell_solid_angles(el_f, az_f)[fine].sum())
     width_el = np.ptp(el_f[fine.any(1)]) + (el_f[1] - el_f[0])
     width_az = np.ptp(az_f[fine.any(0)]) + (az_f[1] - az_f[0])
@@ -161,28 +171,56 @@ def solid_angle_detail(
     return SolidAngle3dB(area, sub_cell, truncated, cells)
 
 
+def _within_3db(level_db: np.ndarray) -> np.ndarray:
+    """The points of `level_db` (F, F) within 3 dB of its maximum, connected to it."""
+    inside, _ = label(level_db >= level_db.max() - 10 * np.log10(1 / HALF_POWER))
+    top = np.unravel_index(int(np.argmax(level_db)), level_db.shape)
+    return inside == inside[top]
+
+
+def _zoomed(el_f, az_f, fine, level_db):
+    """(el_f, az_f, fine, done): when `fine` spans fewer than :data:`ZOOM_BELOW` points
+    along an axis, the region measured again on a window around it (its extent plus
+    half of it and three fine steps each side, inside the current window); `done`
+    when it spans enough or the zoomed region reaches the new window's side."""
+    ie, ia = np.flatnonzero(fine.any(1)), np.flatnonzero(fine.any(0))
+    if min(ie.size, ia.size) >= ZOOM_BELOW:
+        return el_f, az_f, fine, True
+
+    def axis(x, idx):
+        lo, hi, step = x[idx[0]], x[idx[-1]], x[1] - x[0]
+        margin = 0.5 * (hi - lo) + 3 * step
+        return np.linspace(max(lo - margin, x[0]), min(hi + margin, x[-1]), FINE_POINTS)
+
+    el_z, az_z = axis(el_f, ie), axis(az_f, ia)
+    zoom = _within_3db(level_db(el_z, az_z))
+    if zoom[0].any() or zoom[-1].any() or zoom[:, 0].any() or zoom[:, -1].any():
+        return el_f, az_f, fine, True
+    return el_z, az_z, zoom, False
+
+
 def _fine_region(p, el, az, rows, cols, pad, spectrum):
     """(el_f (F,), az_f (F,), fine (F, F) bool, whether `fine` reaches a side of the
-    window that is not the grid's edge): the fine points within 3 dB of the fine
-    maximum, connected to it, over the bounding box of `rows` x `cols` widened by
-    `pad` cells."""
+    window that is not the grid's edge, the level function used): the fine points
+    within 3 dB of the fine maximum, connected to it, over the bounding box of
+    `rows` x `cols` widened by `pad` cells."""
     (e0, e1), (a0, a1) = _padded(rows, el.size, pad), _padded(cols, az.size, pad)
     el_f = np.linspace(el[e0], el[e1], FINE_POINTS)
     az_f = np.linspace(az[a0], az[a1], FINE_POINTS)
     if spectrum is not None:
-        level = _db(np.asarray(spectrum(el_f, az_f), float))
+
+        def level_db(e: np.ndarray, a: np.ndarray) -> np.ndarray:
+            return _db(np.asarray(spectrum(e, a), float))
     else:
-        level = _interpolated_db(p, el, az, rows, cols, pad + 2)(el_f, az_f)
-    inside, _ = label(level >= level.max() - 10 * np.log10(1 / HALF_POWER))
-    top = np.unravel_index(int(np.argmax(level)), level.shape)
-    fine = inside == inside[top]
+        level_db = _interpolated_db(p, el, az, rows, cols, pad + 2)
+    fine = _within_3db(level_db(el_f, az_f))
     edge = (
         (e0 > 0 and fine[0].any())
         or (e1 < el.size - 1 and fine[-1].any())
         or (a0 > 0 and fine[:, 0].any())
         or (a1 < az.size - 1 and fine[:, -1].any())
     )
-    return el_f, az_f, fine, bool(edge)
+    return el_f, az_f, fine, bool(edge), level_db
 
 
 def _padded(index: np.ndarray, n: int, pad: int) -> tuple[int, int]:
