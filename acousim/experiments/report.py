@@ -74,7 +74,7 @@ TOLERANCES = (
     f"ours does not exceed it; a curve the paper calls stable agrees when it varies by at "
     f"most a factor {STABLE_FACTOR:g} (max/min) over the stated range; a trend agrees when "
     f"ours goes the same way; counts agree only when equal; dynamic ranges within "
-    f"±{DB_TOL:g} dB; spacings within one step of the sweep; Fig. 4's range within "
+    f"±{DB_TOL:g} dB; spacings within the finest step of the sweep; Fig. 4's range within "
     f"{RANGE_TOL_M * 1e3:g} mm."
 )
 
