@@ -17,30 +17,6 @@ from processing.sensor.calls import paper_chirp
 SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
 
 
-def _mean(stats: Sweep, p, v, m, index):
-    """Mean angular (index 0, sr) or range (index 1, m) resolution."""
-    r = stats[p, v, m]
-    return r.angular_sr_mean if index == 0 else r.range_m_mean
-
-
-def _context(results: StudyResults):
-    """The study's results and settings the headline rows read."""
-    cfg = results.config
-    snrs, snaps = cfg.snrs_db, cfg.snapshots
-    return (
-        cfg,
-        results.fig3_4,
-        results.fig6_7,
-        results.fig9_10,
-        results.fig11,
-        results.fig12,
-        *POSITIONS,
-        snrs,
-        snaps,
-        [v for v in snrs if v >= 0],
-    )
-
-
 @dataclass(frozen=True)
 class Row:
     """One line of the headline table: the paper's claim, its number, ours, the
