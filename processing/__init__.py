@@ -42,12 +42,15 @@ from processing.imaging.image import (
 from processing.imaging.matched_filter import matched_filter
 from processing.imaging.methods import MethodSpec, parse_method
 from processing.imaging.metrics import (
+    SolidAngle3dB,
     angular_resolution,
+    angular_resolution_detail,
     dynamic_range_db,
     max_attenuation,
     range_profile,
     range_resolution,
     solid_angle_3db,
+    solid_angle_detail,
 )
 from processing.imaging.peak_table import PEAK_COLUMNS, PeakRow, PeakTable
 from processing.imaging.pipeline import (
@@ -149,12 +152,15 @@ __all__ = [
     "on_grid_edge",
     "to_db",
     "matched_filter",
+    "SolidAngle3dB",
     "angular_resolution",
+    "angular_resolution_detail",
     "dynamic_range_db",
     "max_attenuation",
     "range_profile",
     "range_resolution",
     "solid_angle_3db",
+    "solid_angle_detail",
     "ProcessingSettings",
     "acoustic_image",
     "acoustic_images",

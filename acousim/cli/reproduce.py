@@ -50,7 +50,7 @@ def register(sub) -> None:
     p.add_argument(
         "--quick",
         action="store_true",
-        help="3 repetitions, few SNRs/snapshots, 0.5 degree grid (seconds: 10 s measured "
+        help="3 repetitions, few SNRs/snapshots, 0.5 degree grid (seconds: 14 s measured "
         "on 2 loaded cores)",
     )
     p.add_argument(

@@ -108,12 +108,19 @@ class PulseNumbers:
 @dataclass(frozen=True)
 class Resolution:
     """Figs. 6/7 and 9/10, one position, swept value and method: mean and standard
-    deviation over the repetitions of the angular (sr) and range (m) resolution."""
+    deviation over the repetitions of the angular (sr) and range (m) resolution.
+
+    `failed`: repetitions that gave no number (an empty image), left out of the
+    means.  `sub_cell`: repetitions whose -3 dB lobe was narrower than one grid step,
+    measured again on a fine local grid.  Both NaN when read from a CSV written
+    before they were counted."""
 
     angular_sr_mean: float
     range_m_mean: float
     angular_sr_std: float
     range_m_std: float
+    failed: float = float("nan")
+    sub_cell: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -161,8 +168,16 @@ def _columns(cls: type) -> list[str]:
 
 
 def _read_row(cls: type, row: dict[str, str]):
-    """A statistics dataclass from a CSV row (its columns named by its fields)."""
-    return cls(**{name: float(row[name]) for name in _columns(cls)})
+    """A statistics dataclass from a CSV row (its columns named by its fields; a
+    column with a default may be missing, from a CSV written before it existed)."""
+    defaults = {f.name for f in fields(cls) if f.default is not dataclasses.MISSING}
+    return cls(
+        **{
+            name: float(row[name])
+            for name in _columns(cls)
+            if name not in defaults or row.get(name) not in (None, "")
+        }
+    )
 
 
 def _seed(config: StudyConfig, *key: int) -> int:
@@ -293,10 +308,20 @@ def _resolution_sweep(config: StudyConfig, values, make_trial, key: int) -> Swee
         for v in values:
             reps = [next(it) for _ in range(config.repetitions)]
             for m in config.methods:
-                arr = np.array([r[m] for r in reps])  # (reps, 2): angular sr, range m
-                (sr_mean, rng_mean), (sr_std, rng_std) = np.nanmean(arr, 0), np.nanstd(arr, 0)
+                arr = np.array([r[m] for r in reps])  # (reps, 3): sr, m, sub-cell
+                failed = np.isnan(arr[:, 0])
+                if failed.all():
+                    stats[p, v, m] = Resolution(*[np.nan] * 4, float(failed.sum()), 0.0)
+                    continue
+                ok = arr[~failed]
+                (sr_mean, rng_mean), (sr_std, rng_std) = ok[:, :2].mean(0), ok[:, :2].std(0)
                 stats[p, v, m] = Resolution(
-                    float(sr_mean), float(rng_mean), float(sr_std), float(rng_std)
+                    float(sr_mean),
+                    float(rng_mean),
+                    float(sr_std),
+                    float(rng_std),
+                    float(failed.sum()),
+                    float(ok[:, 2].sum()),
                 )
     return stats
 

@@ -110,17 +110,44 @@ def images(
 
 def resolution_trial(
     trial: Trial, step: float, setup: Setup = PAPER
-) -> dict[str, tuple[float, float]]:
-    """(angular resolution in sr, range resolution in m) per method of `setup`, on a
-    grid of `step` degrees around the first source."""
+) -> dict[str, tuple[float, float, float]]:
+    """(angular resolution in sr, range resolution in m, 1.0 when the -3 dB lobe was
+    narrower than a grid step else 0.0) per method of `setup`, on a grid of `step`
+    degrees around the first source; NaNs when the image is empty.
+
+    A lobe narrower than one step of the grid is measured again on a fine grid
+    around it (:func:`processing.imaging.metrics.solid_angle_detail` with the
+    trial's spectrum by the same setup and method on that range slice), so the
+    value does not rest on the grid."""
     az, el, _ = trial.sources[0]
     out = {}
     for method, img in images(trial, local_grid(az, el, step), setup).items():
         if img.power.size == 0 or img.power.max() <= 0:
-            out[method] = (np.nan, np.nan)
+            out[method] = (np.nan, np.nan, np.nan)
             continue
-        out[method] = (P.angular_resolution(img), P.range_resolution(img))
+        angular = P.angular_resolution_detail(img)
+        if angular.sub_cell:
+            r = int(np.unravel_index(int(np.argmax(img.power)), img.power.shape)[0])
+            spectrum = _slice_spectrum(trial, method, float(img.range_m[r]), setup)
+            angular = P.angular_resolution_detail(img, spectrum=spectrum)
+            sub_cell = 1.0
+        else:
+            sub_cell = 0.0
+        out[method] = (angular.solid_angle_sr, P.range_resolution(img), sub_cell)
     return out
+
+
+def _slice_spectrum(trial: Trial, method: str, range_m: float, setup: Setup):
+    """``spectrum(elevation_rad (E,), azimuth_rad (A,)) -> power (E, A)``: the
+    trial's `method` image by `setup` on those directions, at its range bin nearest
+    `range_m`."""
+
+    def spectrum(elevation_rad: np.ndarray, azimuth_rad: np.ndarray) -> np.ndarray:
+        grid = P.Grid(azimuth_rad, elevation_rad)
+        img = images(trial, grid, setup, (method,))[method]
+        return img.power[int(np.argmin(np.abs(img.range_m - range_m)))]
+
+    return spectrum
 
 
 def azimuth_cut_trial(
@@ -131,3 +158,51 @@ def azimuth_cut_trial(
     grid = P.Grid(np.deg2rad(np.arange(-90, 90 + step / 2, step)), np.array([0.0]))
     made = images(trial, grid, setup, methods)
     return {m: img.power[:, 0, :].sum(axis=0) for m, img in made.items()}
+
+
+def strongest_bin_frequency_hz(setup: Setup = PAPER) -> float:
+    """The frequency (Hz) the imaging pipeline's own rule (``frequency_hz=None``: the
+    strongest STFT bin of the call's band below the array's alias-free limit) picks
+    for the study's chirp, noise-free echo from (0, 0, 1 m), by `setup`'s array at
+    its sample rate."""
+    rec = simulate_trial(Trial(((0.0, 0.0, 1.0),), np.inf, 0), setup)
+    settings = P.ProcessingSettings(
+        frequency_hz=None,
+        grid=P.Grid(np.zeros(1), np.zeros(1)),
+        subarray=None,
+        energy_fraction=0.5,
+        range_limits_m=None,
+    )
+    return float(P.acoustic_images(rec, ("das",), settings)["das"].frequency_hz)
+
+
+def das_beamwidth_deg(
+    frequency_hz: float = FREQUENCY_HZ, step_deg: float = 0.01, setup: Setup = PAPER
+) -> float:
+    """-3 dB width (degrees) in azimuth at elevation 0 of the study's DAS image of a
+    noise-free reflector at (0, 0, 1 m) by `setup`'s array at its sample rate, steered
+    at `frequency_hz`, on the kept range bin of its maximum (linear interpolation
+    between the cut's samples)."""
+    grid = P.Grid(np.deg2rad(np.arange(-30, 30 + step_deg / 2, step_deg)), np.zeros(1))
+    settings = P.ProcessingSettings(
+        frequency_hz=frequency_hz,
+        grid=grid,
+        subarray=None,
+        energy_fraction=0.5,
+        range_limits_m=None,
+    )
+    img = P.acoustic_images(
+        simulate_trial(Trial(((0.0, 0.0, 1.0),), np.inf, 0), setup), ("das",), settings
+    )
+    power = img["das"].power
+    cut = power[int(np.argmax(power.max(axis=(1, 2)))), 0]
+    az = np.rad2deg(grid.azimuth_rad)
+    i = int(np.argmax(cut))
+    half = cut[i] * 10 ** (-0.3)
+    right = i + int(np.argmax(cut[i:] < half))
+    left = i - int(np.argmax(cut[: i + 1][::-1] < half))
+
+    def cross(j, k):  # between samples j (inside) and k (outside)
+        return az[j] + (cut[j] - half) / (cut[j] - cut[k]) * (az[k] - az[j])
+
+    return float(cross(right - 1, right) - cross(left + 1, left))

@@ -33,10 +33,11 @@ for users, with the pipeline and the conventions):
   (the paper's rule), or all but the `n_sources` largest when that is given.
 * Diagonal loading is scale-free.  Eigenvalues of R are first floored at
   ``1e-3 * trace(R) / L``, a white-noise floor 30 dB under the mean element power
-  (``EIG_FLOOR``): a wideband echo seen through a finite STFT window is never an
-  exact steering vector (the window weights the microphones differently), and
-  without such a floor MPDR cancels a noise-free echo into two false peaks 2 degrees
-  either side (``tests/processing/imaging/test_doa.py`` pins this).  Then every eigenvalue is
+  (``EIG_FLOOR``, the default of the ``eig_floor`` option): a wideband echo seen
+  through a finite STFT window is never an exact steering vector (the window
+  weights the microphones differently), and without such a floor MPDR cancels a
+  noise-free echo into two false peaks 2 degrees either side
+  (``tests/processing/imaging/test_doa.py`` pins this).  Then every eigenvalue is
   loaded by
   ``loading * sigma2`` where sigma2 is the smallest floored eigenvalue (the noise
   floor).  The loaded matrix is positive definite for any ``loading > -1``, so the
@@ -90,22 +91,27 @@ __all__ = [
 METHODS = NARROWBAND_METHODS
 
 
+#: Capon's white-noise floor under the eigenvalues, a fraction of the mean eigenvalue
+#: (module docstring); the default of :attr:`SubspaceOptions.eig_floor`
+EIG_FLOOR = 1e-3
+
+
 @dataclass(frozen=True)
 class SubspaceOptions:
     """How the covariance methods use the snapshots: the smoothing `subarray`
     (Lz, Ly) (None: 5/8 of each dimension), the Capon `loading` (in units of the
-    noise floor, see :func:`method_matrix`) and the MUSIC signal subspace size
-    `n_sources` (None: the mean-eigenvalue rule)."""
+    noise floor, see :func:`method_matrix`), the MUSIC signal subspace size
+    `n_sources` (None: the mean-eigenvalue rule) and Capon's `eig_floor` (the
+    eigenvalues are first floored at ``eig_floor * trace(R) / L``, >= 0)."""
 
     subarray: tuple[int, int] | None = None
     loading: float = -0.5
     n_sources: int | None = None
+    eig_floor: float = EIG_FLOOR
 
 
 #: the defaults (:class:`processing.ProcessingSettings` declares the same)
 SUBSPACE_DEFAULTS = SubspaceOptions()
-
-EIG_FLOOR = 1e-3
 MUSIC_FLOOR = 1e-12
 
 
@@ -194,6 +200,7 @@ def method_matrix(
     n_sources: int | None = None,
     data: np.ndarray | None = None,
     centro: bool = False,
+    eig_floor: float = EIG_FLOOR,
 ) -> tuple[np.ndarray, bool]:
     """The Hermitian matrix Q of a method from covariances C (R, L, L).
 
@@ -203,20 +210,26 @@ def method_matrix(
     `data` (R, L, S) with ``C = Y Y^H / S`` and S < L: the nonzero eigenpairs come
     from the S x S Gram matrix (the signal-subspace shortcut; every other eigenvalue
     is 0).  `centro`: C is centro-Hermitian (FBSS), so a unitary change of basis
-    makes it real symmetric and a real eigendecomposition suffices.
+    makes it real symmetric and a real eigendecomposition suffices.  `eig_floor`:
+    Capon's eigenvalue floor, a fraction of the mean eigenvalue (module docstring).
     """
-    return _method_matrix(C, base, loading=loading, n_sources=n_sources, data=data, centro=centro)
+    options = SubspaceOptions(loading=loading, n_sources=n_sources, eig_floor=eig_floor)
+    return _method_matrix(C, base, options, data=data, centro=centro)
 
 
-def _method_matrix(C, base, *, loading, n_sources, data=None, centro=False, shared=None, key=None):
-    """:func:`method_matrix`, its decompositions shared under `key` (the smoothing:
-    the same C for every method) when `shared` is given."""
+def _method_matrix(
+    C, base, options: SubspaceOptions, *, data=None, centro=False, shared=None, key=None
+):
+    """:func:`method_matrix` with the `options` (loading, n_sources, eig_floor), its
+    decompositions shared under `key` (the smoothing: the same C for every method)
+    when `shared` is given."""
+    loading, n_sources, eig_floor = options.loading, options.n_sources, options.eig_floor
     L = C.shape[-1]
     if base == "das":
         return C, False
     _check(base, L, loading, n_sources)
     if data is not None and data.shape[-1] < L and (n_sources or 0) <= data.shape[-1]:
-        return _low_rank(data, base, loading, n_sources, shared, key), True
+        return _low_rank(data, base, loading, n_sources, shared, key, eig_floor), True
     w, U = _made(shared, ("eigh", key, centro), lambda: _eigh(C, centro))
     w = np.maximum(w, 0.0)
     if base == "music":
@@ -227,7 +240,7 @@ def _method_matrix(C, base, *, loading, n_sources, data=None, centro=False, shar
             noise[:, : L - n_sources] = True
         return (U * noise[:, None, :]) @ U.conj().transpose(0, 2, 1), True
     trace = w.sum(axis=-1, keepdims=True)
-    floor = EIG_FLOOR * trace / L
+    floor = eig_floor * trace / L
     wf = np.maximum(w, floor)
     mu = wf + loading * wf.min(axis=-1, keepdims=True)
     inv = np.divide(1.0, mu, out=np.zeros_like(mu), where=mu > 0)
@@ -270,8 +283,7 @@ def _centro_matrix(
     Y: np.ndarray,
     T: np.ndarray,
     base: str,
-    loading: float,
-    n_sources: int | None,
+    options: SubspaceOptions,
     shared: _Shared | None = None,
     key=None,
 ) -> tuple[np.ndarray, bool, np.ndarray]:
@@ -287,18 +299,22 @@ def _centro_matrix(
         return (W @ W.transpose(0, 2, 1)) / S
 
     Cr = _made(shared, ("real covariance", key), real_covariance)
-    Qr, inverse = _method_matrix(
-        Cr, base, loading=loading, n_sources=n_sources, shared=shared, key=("real", key)
-    )
+    Qr, inverse = _method_matrix(Cr, base, options, shared=shared, key=("real", key))
     return Qr, inverse, np.flatnonzero(np.einsum("rii->r", Cr) <= 0)
 
 
 def _low_rank(
-    Y: np.ndarray, base: str, loading: float, n_sources: int | None, shared=None, key=None
+    Y: np.ndarray,
+    base: str,
+    loading: float,
+    n_sources: int | None,
+    shared=None,
+    key=None,
+    eig_floor: float = EIG_FLOOR,
 ) -> np.ndarray:
     """Q of MUSIC or Capon from snapshots Y (R, L, S), S < L, without an L x L
     eigendecomposition (see :func:`_low_rank_factors`)."""
-    c0, U, d = _low_rank_factors(Y, base, loading, n_sources, shared, key)
+    c0, U, d = _low_rank_factors(Y, base, loading, n_sources, shared, key, eig_floor)
     L = Y.shape[1]
     return c0[:, None, None] * np.eye(L) + (U * d[:, None, :]) @ U.conj().transpose(0, 2, 1)
 
@@ -310,6 +326,7 @@ def _low_rank_factors(
     n_sources: int | None,
     shared: _Shared | None = None,
     key=None,
+    eig_floor: float = EIG_FLOOR,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``Q = c0 I + U diag(d) U^H`` of MUSIC or Capon from snapshots Y (R, L, S), S < L:
     returns c0 (R,), U (R, L, S), d (R, S).  C = Y Y^H / S has S eigenpairs from the
@@ -324,7 +341,7 @@ def _low_rank_factors(
             signal = np.zeros(lam.shape, bool)
             signal[:, S - n_sources :] = True
         return np.ones(R), U, -signal.astype(float)
-    floor = EIG_FLOOR * lam.sum(axis=-1, keepdims=True) / L  # the zeros floor to this
+    floor = eig_floor * lam.sum(axis=-1, keepdims=True) / L  # the zeros floor to this
     mu = np.maximum(lam, floor) + loading * floor
     mu0 = floor * (1 + loading)
     inv0 = np.divide(1.0, mu0, out=np.zeros_like(mu0), where=mu0 > 0)
@@ -468,7 +485,13 @@ def _method_form(
     Q never formed complex) or 'full' (Q (R, L, L)); its parts, whether the spectrum
     is its inverse, and the range bins without energy.  What does not depend on the
     method is made once per `key` (the arrangement of Y) when `shared` is given."""
-    loading, n_sources = options.loading, options.n_sources
+    loading, n_sources, eig_floor = options.loading, options.n_sources, options.eig_floor
+    if not eig_floor >= 0:
+        raise InputError(
+            "eig_floor must be >= 0 (a fraction of the mean eigenvalue)",
+            key="eig_floor",
+            value=eig_floor,
+        )
     L = Y.shape[1]
     if use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]:
         if base == "das":
@@ -476,12 +499,12 @@ def _method_form(
             factors = (np.zeros(Y.shape[0]), Y, np.full(Y.shape[::2], 1.0 / S))
         else:
             _check(base, L, loading, n_sources)
-            factors = _low_rank_factors(Y, base, loading, n_sources, shared, key)
+            factors = _low_rank_factors(Y, base, loading, n_sources, shared, key, eig_floor)
         power = np.einsum("rls,rls->r", Y.real, Y.real) + np.einsum("rls,rls->r", Y.imag, Y.imag)
         return "low_rank", factors, base != "das", np.flatnonzero(power <= 0)
     if smooth == "fbss" and use_grid:
         T = _unitary(L)
-        Qr, inverse, empty = _centro_matrix(Y, T, base, loading, n_sources, shared, key)
+        Qr, inverse, empty = _centro_matrix(Y, T, base, options, shared, key)
         return "unitary", (Qr, T), inverse, empty
 
     def covariance() -> np.ndarray:
@@ -492,13 +515,6 @@ def _method_form(
 
     C = _made(shared, ("covariance", key), covariance)
     Q, inverse = _method_matrix(
-        C,
-        base,
-        loading=loading,
-        n_sources=n_sources,
-        data=Y,
-        centro=smooth == "fbss",
-        shared=shared,
-        key=key,
+        C, base, options, data=Y, centro=smooth == "fbss", shared=shared, key=key
     )
     return "full", (Q,), inverse, np.flatnonzero(np.einsum("rii->r", C).real <= 0)

@@ -91,6 +91,8 @@ class ProcessingSettings:
         follows the speed of sound); up to ``range_limits_m[1]`` or the recording's end.
     subarray : smoothing subarray (None: 5/8 of each dimension).
     loading : Capon load in units of the noise floor.
+    eig_floor : Capon's white-noise floor under the eigenvalues, a fraction of the
+        mean eigenvalue (default 1e-3, ``processing.imaging.doa.EIG_FLOOR``).
     n_sources : MUSIC signal subspace size (None: the mean-eigenvalue rule).
     broadband : settings of the ``-bb`` methods (their range limits default to
         `range_limits_m` when that is given).
@@ -132,6 +134,13 @@ class ProcessingSettings:
         SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
     )
     n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
+    eig_floor: float = setting(
+        SUBSPACE_DEFAULTS.eig_floor,
+        "",
+        0,
+        1,
+        "Capon eigenvalue floor (fraction of the mean eigenvalue)",
+    )
     grid: Grid = field(default_factory=Grid.degrees)  # the command line's grid
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)
     max_freqs: int = setting(12, "", 1, 1 << 16, "frequencies of the -wb methods")
@@ -145,7 +154,7 @@ class ProcessingSettings:
     @property
     def subspace(self) -> SubspaceOptions:
         """The covariance methods' options of these settings."""
-        return SubspaceOptions(self.subarray, self.loading, self.n_sources)
+        return SubspaceOptions(self.subarray, self.loading, self.n_sources, self.eig_floor)
 
     def __post_init__(self) -> None:
         validate(self)

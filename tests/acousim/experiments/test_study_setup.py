@@ -115,3 +115,28 @@ def test_the_azimuth_cut_takes_its_methods():
     assert list(cuts) == ["das"]
     az = np.arange(-90, 90.5, 1.0)
     assert az[np.argmax(cuts["das"])] == pytest.approx(20.0, abs=1.0)
+
+
+def test_the_fine_grid_remeasure_images_by_the_trials_setup_and_method(monkeypatch):
+    """A lobe narrower than the grid step is measured again on a fine grid: every
+    image of the trial, the re-measure's included, is by the trial's array, steering
+    frequency and method (not the paper's), and the lobe it finds is below one cell."""
+    from acousim.experiments import trials
+
+    config = StudyConfig(array="urtis_v1", methods=("music-fbss",), frequency_hz=25e3)
+    calls = []
+    real = trials.images
+
+    def spy(trial, grid, setup=trials.PAPER, methods=None):
+        calls.append((setup, methods, grid.azimuth_rad.size * grid.elevation_rad.size))
+        return real(trial, grid, setup, methods)
+
+    monkeypatch.setattr(trials, "images", spy)
+    step = 5.0  # MUSIC-FBSS of the μRTIS at 30 dB: a lobe well inside one 5° cell
+    out = trials.resolution_trial(trials.Trial(((0.0, 0.0, 1.0),), 30.0, 1), step, config)
+    sr, range_m, sub_cell = out["music-fbss"]
+    assert list(out) == ["music-fbss"] and sub_cell == 1.0
+    assert len(calls) > 1  # the coarse image, then the fine grid's
+    assert all(setup is config for setup, _, _ in calls)
+    assert all(methods in (None, ("music-fbss",)) for _, methods, _ in calls)
+    assert 0 < sr < np.deg2rad(step) ** 2 and 0 < range_m < 0.2

@@ -258,3 +258,41 @@ def test_real_fbss_coarray_path_equals_the_complex_direct_formula(method, sub):
     fast = doa_spectrum(x, arr, F, grid, method, options=opts)
     plain = doa_spectrum(x, arr, F, grid, method, options=opts, backend="direct")
     np.testing.assert_allclose(fast, plain, rtol=1e-9)
+
+
+@pytest.mark.parametrize("K", [1, 3])  # 1: the low-rank paths; 3: the eigendecompositions
+@pytest.mark.parametrize("method", ["capon", "capon-fbss"])
+def test_capon_eig_floor_option_reaches_every_path(method, K):
+    """``eig_floor`` (default 1e-3, the former fixed EIG_FLOOR): the eigenvalues are
+    floored at eig_floor * trace / L, loaded by -0.5 times the smallest, inverted;
+    against that formula written here with numpy's eigh."""
+    from processing.imaging.smoothing import smoothed_covariance
+    from processing.imaging.steering import quadratic_form_direct, steering_matrix
+
+    assert P.ProcessingSettings().eig_floor == SubspaceOptions().eig_floor == 1e-3
+    arr = P.paper_8x8()
+    grid = P.Grid.degrees(elevation=(-60, 60), step=9.0)
+    rng = np.random.default_rng(7)
+    x = plane_wave_snapshot(arr, 20, 10, F)[:, None, None] * rng.standard_normal(
+        (1, 2, K)
+    ) + 0.01 * (rng.standard_normal((64, 2, K)) + 1j * rng.standard_normal((64, 2, K)))
+    default = doa_spectrum(x, arr, F, grid, method)
+    same = doa_spectrum(x, arr, F, grid, method, options=SubspaceOptions(eig_floor=1e-3))
+    np.testing.assert_array_equal(default, same)
+    got = doa_spectrum(x, arr, F, grid, method, options=SubspaceOptions(eig_floor=0.05))
+    assert not np.allclose(got, default, rtol=1e-3)
+
+    xs = x / np.abs(x).max()
+    if method == "capon":
+        R = np.einsum("mrk,nrk->rmn", xs, xs.conj()) / K
+        positions = arr.positions_m
+    else:
+        xg = xs[arr.grid_order()].reshape(8, 8, *xs.shape[1:])
+        R = smoothed_covariance(xg, (5, 5), forward_backward=True)
+        positions = P.ura(5, 5, 5e-3).positions_m
+    w, U = np.linalg.eigh(R)
+    w = np.maximum(w, 0.05 * w.sum(-1, keepdims=True) / R.shape[-1])
+    mu = w - 0.5 * w.min(-1, keepdims=True)
+    Q = (U / mu[:, None, :]) @ U.conj().transpose(0, 2, 1)
+    ref = 1 / quadratic_form_direct(Q, steering_matrix(positions, grid, F, C))
+    np.testing.assert_allclose(got, ref, rtol=1e-6)
