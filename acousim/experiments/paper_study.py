@@ -335,11 +335,17 @@ def _plot_sweep(stats: Sweep, values, xlabel, what, ylabel, title, path, log=Tru
     """`what`: 'angular_sr' or 'range_m'."""
     plt = _plt()
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
+    any_clipped = False
     for ax, p in zip(axes, POSITIONS):
         for m in _methods(stats):
             mean = np.array([getattr(stats[p, v, m], f"{what}_mean") for v in values])
             std = np.array([getattr(stats[p, v, m], f"{what}_std") for v in values])
-            ax.errorbar(values, mean, yerr=std, label=m, capsize=2, marker="o", ms=3)
+            low, clipped = _lower_bars(mean, std, log)
+            line = ax.errorbar(values, mean, yerr=[low, std], label=m, capsize=2, marker="o", ms=3)
+            if clipped.any():  # mean - std <= 0 has no place on a log axis: say so
+                colour = line.lines[0].get_color()
+                ax.plot(np.asarray(values)[clipped], (mean - low)[clipped], "v", color=colour, ms=4)
+                any_clipped = True
         ax.set_title(f"({p[0]:.0f}°, {p[1]:.0f}°, {p[2]:.0f} m)")
         ax.set_xlabel(xlabel)
         if log:
@@ -348,8 +354,21 @@ def _plot_sweep(stats: Sweep, values, xlabel, what, ylabel, title, path, log=Tru
     axes[0].set_ylabel(ylabel)
     axes[-1].legend(fontsize=7)
     fig.suptitle(title)
+    if any_clipped:
+        fig.text(
+            0.5, -0.04, "bars: mean ± std over the repetitions; ▾ where mean − std ≤ 0 "
+            "(no place on a log axis): the lower bar stops at a tenth of the mean",
+            ha="center", va="top", fontsize=8,
+        )  # fmt: skip
     _savefig(fig, path)
     plt.close(fig)
+
+
+def _lower_bars(mean: np.ndarray, std: np.ndarray, log: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Lower error bars (V,) of `mean` ± `std` and where they are clipped (V,) bool: on
+    a log axis a bar reaching zero or below stops at a tenth of the mean."""
+    clipped = log & (mean - std <= 0) & (mean > 0)
+    return np.where(clipped, 0.9 * mean, std), clipped
 
 
 def _sweep_csv(stats: Sweep, values, name, path):
