@@ -267,10 +267,10 @@ def _stencil(x: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     idx = np.stack([c - 1, c, c + 1], 1)
     xs = x[idx]
     w = np.ones_like(xs)
-    for i in range(3):
-        for j in range(3):
-            if i != j:
-                w[:, i] *= (t - xs[:, j]) / (xs[:, i] - xs[:, j])
+    for a in range(3):
+        for b in range(3):
+            if a != b:
+                w[:, a] *= (t - xs[:, b]) / (xs[:, a] - xs[:, b])
     return idx, w
 
 
