@@ -72,9 +72,30 @@ class DeclaredHelp(argparse.HelpFormatter):
         get = getattr(action, "declaration", None)
         if get is None:
             return action.help
-        decl = get()
+        decl = _in_option_units(get(), getattr(action, "scale", 1))
         note = getattr(action, "note", "")
         return f"{decl.doc} ({decl.describe()}{'; ' + note if note else ''})".replace("%", "%%")
+
+
+#: the unit prefix of an option whose value is its declaration's times this scale
+_PREFIXES = {1e3: "k", 1e6: "M", 1e-3: "m"}
+
+
+def _in_option_units(decl, scale: float):
+    """The declaration `decl` as an option given in `scale` times its unit sees it
+    (range, default and unit: a setting in Hz given in kHz shows [0.001, 1e+06] kHz,
+    default 31.25)."""
+    if scale == 1:
+        return decl
+    import dataclasses
+
+    def scaled(x):
+        return x / scale if isinstance(x, (int, float)) and not isinstance(x, bool) else x
+
+    unit = _PREFIXES.get(scale, f"{scale:g} ") + decl.unit if decl.unit else decl.unit
+    return dataclasses.replace(
+        decl, lo=scaled(decl.lo), hi=scaled(decl.hi), default=scaled(decl.default), unit=unit
+    )
 
 
 def add_command(sub, doc: str, run) -> argparse.ArgumentParser:

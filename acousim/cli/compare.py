@@ -76,7 +76,8 @@ def register(sub) -> None:
         "--out",
         help="folder for comparison.json and comparison.png (summary.json and a folder per "
         "pose with --all); default: nothing is written, the report is printed; a file "
-        "there by those names that acousim did not write is never overwritten",
+        "there by those names that is not of its kind (a report of ours; the picture: any "
+        "PNG) is never overwritten",
     )
 
 

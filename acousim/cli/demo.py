@@ -29,7 +29,8 @@ def register(sub) -> None:
         "--out",
         default="out",
         help="output folder (default: out); a file there by one of our names "
-        "(corridor.h5, the pictures') that acousim did not write is never overwritten",
+        "(corridor.h5, the pictures') that is not of its kind (a recording of ours; a "
+        "picture: any PNG or GIF) is never overwritten",
     )
     add_seed(p)
     add_quality(p)

@@ -76,7 +76,7 @@ def imaging_arguments(p: argparse.ArgumentParser) -> None:
         IMAGING,
         "frequency_hz",
         scale=1e3,
-        note="given in kHz, e.g. 31.25; not given: the strongest STFT bin of the call's "
+        note="e.g. 31.25; not given: the strongest STFT bin of the call's "
         "band below the array's alias-free limit",
     )
     add_declared(
@@ -304,8 +304,9 @@ def register(sub) -> None:
         "--out",
         default="out",
         help="output folder (default: out); its files of an earlier run are replaced or "
-        "removed, the others kept; a file there by one of our names that acousim did "
-        "not write is never overwritten (the run is refused)",
+        "removed, the others kept; a file there by one of our names that is not of its "
+        "kind (our tables and images.h5; a picture: any PNG or GIF) is never overwritten "
+        "(the run is refused)",
     )
     p.add_argument(
         "--recording",

@@ -37,7 +37,7 @@ def add_declared(
     # the help text is made by DeclaredHelp from the declaration, when asked for
     parse = checked("number", declared=get, scale=scale)
     action = parser.add_argument(flag, type=parse, help="-", **more)
-    action.declaration, action.note = get, note
+    action.declaration, action.note, action.scale = get, note, scale
     return action
 
 

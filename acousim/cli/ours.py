@@ -75,7 +75,9 @@ def _head(path: Path, n: int = 4096) -> bytes:
 
 
 def _picture(path: Path) -> bool:
-    """A picture of ours by its format: PNG, or GIF for an animation."""
+    """A picture of ours by its format: PNG, or GIF for an animation (any such file:
+    our pictures carry no mark of their own, so a user's PNG by one of our names
+    counts as ours and is replaced, as ``--help`` says)."""
     head = _head(path, 8)
     return head == b"\x89PNG\r\n\x1a\n" or head[:6] in (b"GIF87a", b"GIF89a")
 

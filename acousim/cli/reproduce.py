@@ -2,12 +2,13 @@
 
 Run the paper's section IV experiments (Figs. 3-12), write a CSV and a PNG per figure
 and regenerate the report that puts the paper's numbers beside ours. The full run
-(20 repetitions, 0.25 degree grids) takes about 6 min of CPU (6.3 min measured with
---workers 1: 19 min of wall time on 2 cores busy with other work); --quick takes
-seconds. A line on stderr says when each figure is done. The files are written into
-place together when the run completes: Ctrl-C or an error leaves none of them (and
-the earlier run's files as they were). --array, --method and --frequency-khz extend the study beyond
-the paper's setup (figures and CSVs only: the report compares the paper's setup).
+(20 repetitions, 0.25 degree grids) took 6.1 min of wall time and 9.5 min of CPU on
+2 otherwise idle cores with the default workers; --quick takes seconds. A line on
+stderr says when each figure is done. The files are written into place together
+when the run completes: Ctrl-C or an error leaves none of them (and the earlier
+run's files as they were). --array and --method extend the study beyond the paper's
+setup (figures and CSVs only: the report compares the paper's setup);
+--frequency-khz steers the images elsewhere (the report says at which frequency).
 """
 
 from __future__ import annotations
@@ -58,7 +59,8 @@ def register(sub) -> None:
         default="reproduction",
         help="folder for figures and CSVs (default: %(default)s, in the current folder; "
         "the committed ones are docs/reproduction); files there by their names that "
-        "acousim did not write are never overwritten",
+        "are not of their kind (our report and tables, by their first line; a picture: "
+        "any PNG) are never overwritten",
     )
     p.add_argument(
         "--report",
@@ -78,7 +80,7 @@ def register(sub) -> None:
         help="comma-separated DOA methods compared (as for `acousim image`; default: the "
         f"paper's {','.join(PAPER_METHODS)})",
     )
-    add_declared(p, "--frequency-khz", STUDY, "frequency_hz", scale=1e3, note="given in kHz: 31.25")
+    add_declared(p, "--frequency-khz", STUDY, "frequency_hz", scale=1e3)
     p.add_argument(
         "--report-only",
         action="store_true",

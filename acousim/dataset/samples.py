@@ -56,7 +56,7 @@ def _geometry(path: str, t_s: float = 0.0) -> _Geometry | None:
     return _geometry_at(path, t_s if moving else 0.0)
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=8)  # as many as _scene keeps: a rig's moving meshes at each firing
 def _geometry_at(path: str, t_s: float) -> _Geometry | None:
     scene = _scene(path)
     if not scene.meshes:
