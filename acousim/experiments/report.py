@@ -11,8 +11,13 @@ import numpy as np
 
 from acousim.experiments.paper_study import POSITIONS, StudyResults, Sweep
 from acousim.experiments.trials import FS, C, das_beamwidth_deg, strongest_bin_frequency_hz
+from processing import ProcessingSettings
 from processing.base.atomic import write_text
 from processing.sensor.calls import paper_chirp
+
+#: the study's STFT (its window and overlap, samples: the imaging pipeline's declared
+#: defaults, which the trials use)
+_STFT = ProcessingSettings()
 
 SMOOTHED = ("capon-fbss", "music-fss", "music-fbss")
 
@@ -126,7 +131,7 @@ def _fig3_4_rows(results: StudyResults) -> list[Row]:
     call = paper_chirp()
     f_lo, f_hi = call.f_start_hz, call.f_end_hz
     strongest = strongest_bin_frequency_hz()
-    bin_hz = FS / 256
+    bin_hz = FS / _STFT.window
     raw_ratio = f34.raw_extent_m / 0.20
     ray_ratio = f34.rayleigh_width_m / 0.006
     widths_ok = abs(raw_ratio - 1) <= REL_TOL and abs(ray_ratio - 1) <= REL_TOL
@@ -219,7 +224,7 @@ def _fig6_rows(results: StudyResults) -> list[Row]:
             + f" (stable: max/min ≤ {STABLE_FACTOR:g})",
             f"{mw} at ({pw[0]:.0f}°, {pw[1]:.0f}°) "
             f"{_trend([_mean(s67, pw, v, mw, 0) for v in from_m10])} as the SNR rises"
-            + (f"; {_floor_note(results, s67)}" if _floor_note(results, s67) else "")
+            + (f"; {floor}" if (floor := _floor_note(results, s67)) else "")
             + ".",
         ),
     ]
@@ -426,7 +431,7 @@ def _fig10_rows(results: StudyResults) -> list[Row]:
     rng910 = max(
         _mean(s910, p, k, m, 1) for p in POSITIONS for k in snaps for m in s67_methods(s910)
     )
-    hop_m = C * 16 / FS / 2  # one STFT hop (256 - 240 samples) as a range
+    hop_m = C * (_STFT.window - _STFT.overlap) / FS / 2  # one STFT hop as a range
     pinned = [  # methods whose largest mean range resolution is exactly 5 hops
         m
         for m in s67_methods(s910)

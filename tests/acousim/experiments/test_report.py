@@ -114,10 +114,32 @@ def test_dynamic_range_and_spacing_verdicts(study):
     assert _verdict(study, claim).startswith("Differs (by +6°")
 
 
+def _as_before_the_sub_cell_metric(path: Path) -> None:
+    """CSV `path` as the study wrote it before it counted failed and sub-cell trials
+    (those columns left out)."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    keep = [c for c in rows[0] if c not in ("failed", "sub_cell")]
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keep, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+
+
 def test_old_csvs_are_reported_as_predating_the_sub_cell_metric(study, tmp_path):
+    """CSVs written before the sub-cell metric (no failed / sub_cell columns), three of
+    whose means sit on one 0.25° cell at (0°, 0°): h², h in radians, every repetition
+    alike (std 0), as the whole-cell metric gave."""
+    for name in ("fig06_07_resolution_vs_snr.csv", "fig09_10_resolution_vs_snapshots.csv"):
+        _as_before_the_sub_cell_metric(study / name)
+    cell = float(np.deg2rad(0.25)) ** 2
+    for snr in (14, 16, 18):
+        where = {"azimuth_deg": 0, "elevation_deg": 0, "snr_db": snr, "method": "music-fbss"}
+        _edit(study / "fig06_07_resolution_vs_snr.csv", where, "angular_sr_mean", cell)
+        _edit(study / "fig06_07_resolution_vs_snr.csv", where, "angular_sr_std", 0.0)
     results = load_results(study)
     text = report.write_report(results, tmp_path / "R.md", study, "acousim reproduce").read_text()
-    assert "## Provenance" in text and "8 of their means sit exactly at one cell" in text
+    assert "## Provenance" in text and "3 of their means sit exactly at one cell" in text
     assert "not counted; these CSVs predate the count" in text
     assert "## Not reproduced" in text and "Fig. 5" in text and "Figs. 13-14" in text
     assert "| verdict |" in text and "Agrees." not in text
