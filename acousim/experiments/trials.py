@@ -9,7 +9,7 @@ any order and in any process and give the same numbers.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -97,15 +97,19 @@ def images(
     """The images of `trial` by `methods` (None: the setup's), steered at the setup's
     frequency, with the paper's gate (half the strongest bin's energy, all ranges) and
     subarrays of 5/8 of each dimension (5x5 on the paper's 8x8)."""
-    settings = P.ProcessingSettings(
+    chosen = setup.methods if methods is None else tuple(methods)
+    return P.acoustic_images(simulate_trial(trial, setup), chosen, _settings(grid, setup))
+
+
+def _settings(grid: P.Grid, setup: Setup) -> P.ProcessingSettings:
+    """The trials' imaging settings on `grid` (:func:`images`)."""
+    return P.ProcessingSettings(
         frequency_hz=setup.frequency_hz,
         grid=grid,
         subarray=None,
         energy_fraction=0.5,
         range_limits_m=None,
     )
-    chosen = setup.methods if methods is None else tuple(methods)
-    return P.acoustic_images(simulate_trial(trial, setup), chosen, settings)
 
 
 def resolution_trial(
@@ -140,12 +144,24 @@ def resolution_trial(
 def _slice_spectrum(trial: Trial, method: str, range_m: float, setup: Setup):
     """``spectrum(elevation_rad (E,), azimuth_rad (A,)) -> power (E, A)``: the
     trial's `method` image by `setup` on those directions, at its range bin nearest
-    `range_m`."""
+    `range_m`.  The trial is simulated and its snapshot made (gated over all its
+    bins, as by :func:`images`) once; each call images that one bin."""
+    rec = simulate_trial(trial, setup)
+    settings = _settings(P.Grid(np.zeros(1), np.zeros(1)), setup)
+    snap = P.recording_snapshot(rec, settings)
+    r = int(np.argmin(np.abs(snap.range_m - range_m)))
+    one_bin = replace(
+        snap,
+        data=snap.data[:, r : r + 1],
+        range_m=snap.range_m[r : r + 1],
+        time_s=snap.time_s[r : r + 1],
+        energy=snap.energy[r : r + 1],
+    )
 
     def spectrum(elevation_rad: np.ndarray, azimuth_rad: np.ndarray) -> np.ndarray:
         grid = P.Grid(azimuth_rad, elevation_rad)
-        img = images(trial, grid, setup, (method,))[method]
-        return img.power[int(np.argmin(np.abs(img.range_m - range_m)))]
+        made = P.acoustic_images(rec, (method,), replace(settings, grid=grid), snapshot=one_bin)
+        return made[method].power[0]
 
     return spectrum
 
