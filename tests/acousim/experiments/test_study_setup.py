@@ -124,19 +124,27 @@ def test_the_fine_grid_remeasure_images_by_the_trials_setup_and_method(monkeypat
     from acousim.experiments import trials
 
     config = StudyConfig(array="urtis_v1", methods=("music-fbss",), frequency_hz=25e3)
-    calls = []
-    real = trials.images
+    simulated, calls = [], []
+    real_simulate, real_images = trials.simulate_trial, trials.P.acoustic_images
 
-    def spy(trial, grid, setup=trials.PAPER, methods=None):
-        calls.append((setup, methods, grid.azimuth_rad.size * grid.elevation_rad.size))
-        return real(trial, grid, setup, methods)
+    def simulate(trial, setup=trials.PAPER):
+        simulated.append(setup)
+        return real_simulate(trial, setup)
 
-    monkeypatch.setattr(trials, "images", spy)
+    def spy(recording, methods, settings, **kw):
+        size = settings.grid.azimuth_rad.size * settings.grid.elevation_rad.size
+        calls.append((recording.array.n_mics, tuple(methods), settings.frequency_hz, size))
+        return real_images(recording, methods, settings, **kw)
+
+    monkeypatch.setattr(trials, "simulate_trial", simulate)
+    monkeypatch.setattr(trials.P, "acoustic_images", spy)
     step = 5.0  # MUSIC-FBSS of the μRTIS at 30 dB: a lobe well inside one 5° cell
     out = trials.resolution_trial(trials.Trial(((0.0, 0.0, 1.0),), 30.0, 1), step, config)
     sr, range_m, sub_cell = out["music-fbss"]
     assert list(out) == ["music-fbss"] and sub_cell == 1.0
     assert len(calls) > 1  # the coarse image, then the fine grid's
-    assert all(setup is config for setup, _, _ in calls)
-    assert all(methods in (None, ("music-fbss",)) for _, methods, _ in calls)
+    assert all(setup is config for setup in simulated)
+    assert len(simulated) == 2  # the coarse image's, then once for every fine grid
+    n_mics = trials.P.preset("urtis_v1").n_mics
+    assert all(c[:3] == (n_mics, ("music-fbss",), 25e3) for c in calls)
     assert 0 < sr < np.deg2rad(step) ** 2 and 0 < range_m < 0.2
