@@ -27,6 +27,7 @@ from acousim.cli.common import (
 )
 from acousim.cli.options import add_declared
 from acousim.cli.ours import IMAGES_FORMAT, is_ours  # noqa: F401  (IMAGES_FORMAT: tests)
+from processing.base.errors import InputError
 
 if TYPE_CHECKING:
     from acousim.viz.drive import DriveView
@@ -247,17 +248,34 @@ def not_read_here(file: str) -> str | None:
     return None
 
 
+#: the flag of each ImagingOptions field given unscaled on the command line: an
+#: InputError of the options names the flag (its value as typed)
+FLAGS = {
+    "azimuth_deg": "--azimuth",
+    "elevation_deg": "--elevation",
+    "subarray": "--subarray",
+    "step_deg": "--step",
+    "n_sources": "--n-sources",
+    "energy_fraction": "--energy-fraction",
+    "min_range_m": "--min-range",
+    "max_range_m": "--max-range",
+    "peak_threshold_db": "--peak-threshold",
+    "dynamic_range_db": "--dynamic-range-db",
+}
+
+
 def _imaging_options(args: argparse.Namespace):
     """The ImagingOptions of the command's arguments (unset ones keep their declared
-    defaults); a UsageError for a range window that is empty."""
+    defaults); a UsageError naming the option for a value the options refuse (a span
+    whose MIN is above its MAX, a fractional subarray) or a range window that is empty."""
     from acousim.imaging.run import ImagingOptions
 
     given = {
-        "azimuth_deg": _grid_span("--azimuth", args.azimuth),
-        "elevation_deg": _grid_span("--elevation", args.elevation),
+        "azimuth_deg": args.azimuth,
+        "elevation_deg": args.elevation,
         "frequency_hz": args.frequency_khz,
         "n_sources": args.n_sources,
-        "subarray": _whole("--subarray", args.subarray),
+        "subarray": args.subarray,
         "step_deg": args.step,
         "energy_fraction": args.energy_fraction,
         "min_range_m": args.min_range,
@@ -267,7 +285,15 @@ def _imaging_options(args: argparse.Namespace):
     }
     if args.method is not None:
         given["methods"] = methods("--method", args.method)
-    options = ImagingOptions(**{k: v for k, v in given.items() if v is not None})
+    try:
+        options = ImagingOptions(**{k: v for k, v in given.items() if v is not None})
+    except InputError as exc:
+        name = (exc.key or "").removeprefix("ImagingOptions.")
+        if name not in FLAGS:
+            raise
+        value = given[name]
+        typed = " ".join(f"{v:g}" for v in value) if isinstance(value, list) else value
+        raise UsageError(exc.reason, key=FLAGS[name], value=typed) from None
     if options.max_range_m is not None and options.max_range_m <= options.min_range_m:
         raise UsageError(
             f"must be above --min-range {options.min_range_m:g}",
@@ -275,26 +301,6 @@ def _imaging_options(args: argparse.Namespace):
             value=args.max_range,
         )
     return options
-
-
-def _grid_span(option: str, values: list[float] | None) -> tuple[float, float] | None:
-    """An --azimuth/--elevation pair (None: not given); a UsageError when MIN > MAX."""
-    if values is None:
-        return None
-    lo, hi = values
-    if lo > hi:
-        raise UsageError("MIN is above MAX", key=option, value=f"{lo:g} {hi:g}")
-    return lo, hi
-
-
-def _whole(option: str, values: list[float] | None) -> tuple[int, int] | None:
-    """The --subarray pair as whole numbers (None: not given)."""
-    if values is None:
-        return None
-    if not all(float(v).is_integer() for v in values):
-        raise UsageError("must be two whole numbers", key=option, value=values)
-    rows, cols = (int(v) for v in values)
-    return rows, cols
 
 
 def register(sub) -> None:
