@@ -66,6 +66,7 @@ import numpy as np
 
 from processing.base.api import folded_keywords
 from processing.base.errors import InputError
+from processing.base.settings import check, setting, settings_of, validate
 from processing.imaging.methods import NARROWBAND_METHODS, NarrowbandMethod, parse_method
 from processing.imaging.smoothing import default_subarray, subarray_snapshots
 from processing.imaging.steering import (
@@ -102,12 +103,19 @@ class SubspaceOptions:
     (Lz, Ly) (None: 5/8 of each dimension), the Capon `loading` (in units of the
     noise floor, see :func:`method_matrix`), the MUSIC signal subspace size
     `n_sources` (None: the mean-eigenvalue rule) and Capon's `eig_floor` (the
-    eigenvalues are first floored at ``eig_floor * trace(R) / L``, >= 0)."""
+    eigenvalues are first floored at ``eig_floor * trace(R) / L``, in [0, 1]: an
+    InputError otherwise; :class:`processing.ProcessingSettings` takes this
+    declaration)."""
 
     subarray: tuple[int, int] | None = None
     loading: float = -0.5
     n_sources: int | None = None
-    eig_floor: float = EIG_FLOOR
+    eig_floor: float = setting(
+        EIG_FLOOR, "", 0, 1, "Capon eigenvalue floor (fraction of the mean eigenvalue)"
+    )
+
+    def __post_init__(self) -> None:
+        validate(self)
 
 
 #: the defaults (:class:`processing.ProcessingSettings` declares the same)
@@ -213,6 +221,7 @@ def method_matrix(
     makes it real symmetric and a real eigendecomposition suffices.  `eig_floor`:
     Capon's eigenvalue floor, a fraction of the mean eigenvalue (module docstring).
     """
+    eig_floor = check(settings_of(SubspaceOptions)["eig_floor"], eig_floor, "eig_floor")
     options = SubspaceOptions(loading=loading, n_sources=n_sources, eig_floor=eig_floor)
     return _method_matrix(C, base, options, data=data, centro=centro)
 
@@ -486,12 +495,6 @@ def _method_form(
     is its inverse, and the range bins without energy.  What does not depend on the
     method is made once per `key` (the arrangement of Y) when `shared` is given."""
     loading, n_sources, eig_floor = options.loading, options.n_sources, options.eig_floor
-    if not eig_floor >= 0:
-        raise InputError(
-            "eig_floor must be >= 0 (a fraction of the mean eigenvalue)",
-            key="eig_floor",
-            value=eig_floor,
-        )
     L = Y.shape[1]
     if use_grid and Y.shape[-1] < L and (n_sources or 0) <= Y.shape[-1]:
         if base == "das":

@@ -18,7 +18,7 @@ from typing import cast
 import numpy as np
 
 from processing.base.errors import InputError
-from processing.base.settings import setting, validate
+from processing.base.settings import setting, settings_of, validate
 from processing.imaging.broadband.energyscape import BroadbandSettings, Directions, energyscape
 from processing.imaging.doa import SUBSPACE_DEFAULTS, SubspaceOptions, doa_spectra
 from processing.imaging.image import Image
@@ -134,12 +134,9 @@ class ProcessingSettings:
         SUBSPACE_DEFAULTS.loading, "", -1e6, 1e6, "Capon load (noise floor units)"
     )
     n_sources: int | None = setting(None, "", 1, 1 << 20, "MUSIC subspace size", kind="int")
-    eig_floor: float = setting(
-        SUBSPACE_DEFAULTS.eig_floor,
-        "",
-        0,
-        1,
-        "Capon eigenvalue floor (fraction of the mean eigenvalue)",
+    eig_floor: float = field(  # SubspaceOptions' declaration: one home
+        default=SUBSPACE_DEFAULTS.eig_floor,
+        metadata={"setting": settings_of(SubspaceOptions)["eig_floor"]},
     )
     grid: Grid = field(default_factory=Grid.degrees)  # the command line's grid
     broadband: BroadbandSettings = field(default_factory=BroadbandSettings)

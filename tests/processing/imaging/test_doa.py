@@ -260,6 +260,26 @@ def test_real_fbss_coarray_path_equals_the_complex_direct_formula(method, sub):
     np.testing.assert_allclose(fast, plain, rtol=1e-9)
 
 
+@pytest.mark.parametrize("bad", [-1e-3, 1.5, float("nan")])
+def test_an_eig_floor_outside_0_1_is_refused_by_every_entry(bad):
+    """The declared range [0, 1] holds for the options, the settings and the public
+    method_matrix, each naming its key and the value."""
+    from processing.imaging.doa import method_matrix
+
+    C = np.eye(4, dtype=complex)[None]
+    entries = {
+        "SubspaceOptions.eig_floor": lambda: SubspaceOptions(eig_floor=bad),
+        "ProcessingSettings.eig_floor": lambda: P.ProcessingSettings(eig_floor=bad),
+        "eig_floor": lambda: method_matrix(C, "capon", eig_floor=bad),
+    }
+    for key, make in entries.items():
+        with pytest.raises(P.InputError) as err:
+            make()
+        assert err.value.key == key and str(bad) in str(err.value)
+    assert method_matrix(C, "capon", eig_floor=1.0)[1]  # the ends are allowed
+    assert SubspaceOptions(eig_floor=0.0).eig_floor == 0.0
+
+
 @pytest.mark.parametrize("K", [1, 3])  # 1: the low-rank paths; 3: the eigendecompositions
 @pytest.mark.parametrize("method", ["capon", "capon-fbss"])
 def test_capon_eig_floor_option_reaches_every_path(method, K):
