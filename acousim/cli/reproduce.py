@@ -36,14 +36,6 @@ STUDY = "acousim.experiments.paper_study:StudyConfig"
 #: the paper's methods (acousim.experiments.trials.PAPER_METHODS, spelt out: the parser
 #: imports no numpy; a test holds the two equal)
 PAPER_METHODS = ("das", "capon-fbss", "music", "music-fss", "music-fbss")
-#: what each experiment of acousim.experiments.paper_study.EXPERIMENTS makes
-FIGURES = {
-    "fig3_4": "Figs. 3-4 (signal and matched filter)",
-    "fig6_7": "Figs. 6-7 (resolution against SNR)",
-    "fig9_10": "Figs. 9-10 (resolution against snapshots)",
-    "fig11": "Fig. 11 (two sources)",
-    "fig12": "Fig. 12 (up to five sources)",
-}
 
 
 def register(sub) -> None:
@@ -120,7 +112,7 @@ def _replaced(out: Path) -> dict[str, str]:
 def _study(config, out: str):
     """run_study with a progress bar over its experiments, naming the one running, and
     a line on stderr as each is done (:meth:`Progress.say`)."""
-    from acousim.experiments.paper_study import EXPERIMENTS, run_study
+    from acousim.experiments.paper_study import EXPERIMENTS, TITLES, run_study
 
     bar = progress("reproduce", "experiment")
     n = len(EXPERIMENTS)
@@ -131,7 +123,7 @@ def _study(config, out: str):
             name, t0 = running.pop()
             i = EXPERIMENTS.index(name) + 1
             bar.say(
-                f"{FIGURES[name]} done in {_span(now() - t0)} "
+                f"{TITLES[name]} done in {_span(now() - t0)} "
                 f"({_span(elapsed())} from the start), experiments {i}/{n}"
             )
 

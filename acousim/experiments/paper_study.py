@@ -562,8 +562,16 @@ def fig12(config: StudyConfig, out: Path) -> dict[tuple[int, str], SourceCount]:
     return result
 
 
+#: what each experiment of :data:`EXPERIMENTS` makes (the progress lines say it)
+TITLES = {
+    "fig3_4": "Figs. 3-4 (signal and matched filter)",
+    "fig6_7": "Figs. 6-7 (resolution against SNR)",
+    "fig9_10": "Figs. 9-10 (resolution against snapshots)",
+    "fig11": "Fig. 11 (two sources)",
+    "fig12": "Fig. 12 (up to five sources)",
+}
 #: the experiments run_study runs, in order (the names its `progress` is called with)
-EXPERIMENTS = ("fig3_4", "fig6_7", "fig9_10", "fig11", "fig12")
+EXPERIMENTS = tuple(TITLES)
 
 
 def run_study(
