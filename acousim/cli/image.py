@@ -26,7 +26,7 @@ from acousim.cli.common import (
     writable_dir,
 )
 from acousim.cli.options import add_declared
-from acousim.cli.ours import IMAGES_FORMAT, is_ours  # noqa: F401  (IMAGES_FORMAT: tests)
+from acousim.cli.ours import is_ours
 from processing.base.errors import InputError
 
 if TYPE_CHECKING:

@@ -56,18 +56,27 @@ def check_comparable(real: P.Recording, sim: P.Recording) -> None:
         )
     if real.sample_rate_hz != sim.sample_rate_hz:
         diffs.append(f"sample rates ({real.sample_rate_hz:g} vs {sim.sample_rate_hz:g} Hz)")
+    late = _late_emissions(real, sim)
+    if late:
+        diffs.append(f"emissions ({late})")
+    if not same_call(real.waveform, sim.waveform):
+        diffs.append(f"calls ({real.waveform.to_dict()} vs {sim.waveform.to_dict()})")
+    if diffs:
+        raise ComparisonError("the recordings differ in " + "; ".join(diffs))
+
+
+def _late_emissions(real: P.Recording, sim: P.Recording) -> str:
+    """Which emissions fall at or after the end of the common span (the shorter
+    recording's length), with their samples, as the refusal says it; "" for none."""
     n = min(real.n_samples, sim.n_samples)
     late = [
         f"{k} at sample {r.emission_index}"
         for k, r in (("real", real), ("sim", sim))
         if r.emission_index >= n
     ]
-    if late:
-        diffs.append(f"emissions ({', '.join(late)}, after the common span's {n} samples)")
-    if not same_call(real.waveform, sim.waveform):
-        diffs.append(f"calls ({real.waveform.to_dict()} vs {sim.waveform.to_dict()})")
-    if diffs:
-        raise ComparisonError("the recordings differ in " + "; ".join(diffs))
+    if not late:
+        return ""
+    return f"{', '.join(late)}, after the common span's {n} samples: nothing to compare"
 
 
 @dataclass(frozen=True)
@@ -112,12 +121,9 @@ def common_span(real: P.Recording, sim: P.Recording) -> tuple[P.Recording, P.Rec
     :class:`Span` that says so; a recording already that long is returned as it is.
     Raises :class:`ComparisonError` when an emission falls outside the common span."""
     n = min(real.n_samples, sim.n_samples)
-    for name, rec in (("real", real), ("simulated", sim)):
-        if rec.emission_index >= n:
-            raise ComparisonError(
-                f"the {name} recording's emission (sample {rec.emission_index}) is after "
-                f"the other's last sample ({n - 1}): there is no common span to compare"
-            )
+    late = _late_emissions(real, sim)
+    if late:
+        raise ComparisonError(f"the recordings differ in emissions ({late})")
     cut = [
         rec if rec.n_samples == n else rec.with_samples(rec.samples[..., :n]) for rec in (real, sim)
     ]

@@ -265,10 +265,10 @@ def test_image_refusing_its_input_creates_nothing_and_says_what_it_was_given(tmp
     """`image` given a bag folder, an images.h5, a folder or a sonar the file lacks:
     exit 2, one line naming the input and what it is, and no --out folder made."""
     from acousim.bundled import resolve
-    from acousim.cli.image import IMAGES_FORMAT
+    from acousim.cli.ours import IMAGES_FORMAT
     from acousim.export.images import FORMAT
 
-    assert IMAGES_FORMAT == FORMAT  # spelt out in the command line's module
+    assert IMAGES_FORMAT == FORMAT  # spelt out in the command line's module (acousim.cli.ours)
     rec = tmp_path / "wall.h5"
     assert main(["simulate", str(resolve("scenes", "wall")), "--out", str(rec), "-q"]) == 0
     bag = tmp_path / "bag"  # a rosbag2 folder's layout (its files' content is not read)

@@ -10,6 +10,7 @@ import pytest
 
 import processing as P
 from acousim.cli import main
+from acousim.compare.comparable import common_span
 from acousim.compare.comparison import ComparisonError, check_comparable, compare
 
 FS = 450e3
@@ -68,5 +69,9 @@ def test_real_mismatches_are_still_refused():
     with pytest.raises(ComparisonError, match="sample rates"):
         check_comparable(a, b)
     late = P.Recording(np.zeros((30, 3000)), FS, a.array, a.waveform, emission_index=2500)
-    with pytest.raises(ComparisonError, match="emissions"):
+    with pytest.raises(ComparisonError, match="emissions") as checked:
         check_comparable(a, late)
+    with pytest.raises(ComparisonError) as cut:  # the same refusal, however reached
+        common_span(a, late)
+    assert str(cut.value) == str(checked.value)
+    assert "sim at sample 2500, after the common span's 2000 samples" in str(cut.value)
