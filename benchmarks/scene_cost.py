@@ -18,10 +18,6 @@ the pairs' ratios (DIR over this tree).
 from __future__ import annotations
 
 import argparse
-import os
-import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -34,7 +30,6 @@ from acousim.scene import load_scene
 from acousim.simulator import SCENE_MOTION, Simulator
 
 STAGES = ("trace", "echoes+truth", "render", "noise+record", "total")
-HERE = Path(__file__).resolve().parent.parent
 
 
 def stage_times(name: str, n: int = 60) -> dict[str, float]:
@@ -73,36 +68,24 @@ def stage_times(name: str, n: int = 60) -> dict[str, float]:
     return {k: float(np.median(v)) for k, v in times.items()}
 
 
-def _one_process(root: Path, scenes: list[str], n: int) -> dict[str, dict[str, float]]:
-    """The stage medians (ms) of `scenes` measured by this script in a process
-    importing the checkout `root`'s code (first on the path)."""
-    env = {**os.environ, "PYTHONPATH": str(root), "OPENBLAS_NUM_THREADS": "1"}
-    cmd = [sys.executable, str(Path(__file__).resolve()), *scenes, "--n", str(n)]
-    text = subprocess.run(cmd, cwd=root, env=env, check=True, capture_output=True, text=True)
-    out = {}
-    for line in text.stdout.splitlines():
-        name, rest = line.split(" ", 1)
-        out[name] = {k: float(v) for k, v in re.findall(r"([a-z+]+) ([0-9.]+)", rest)}
-    return out
-
-
 def paired(base: Path, scenes: list[str], n: int, rounds: int) -> None:
     """This tree against the checkout `base` in alternating processes (module
     docstring)."""
-    runs = {"base": [], "now": []}
-    for r in range(rounds):
-        order = (("base", base), ("now", HERE)) if r % 2 == 0 else (("now", HERE), ("base", base))
-        for label, root in order:
-            runs[label].append(_one_process(root, scenes, n))
+    # imported here: the processes it starts import another checkout's code
+    from benchmarks.alternating import alternate, stage_fields, summary
+
+    runs = alternate(Path(__file__).resolve(), [*scenes, "--n", str(n)], base, rounds)
     for name in scenes:
-        for label in ("base", "now"):
-            med = {k: np.median([r[name][k] for r in runs[label]]) for k in STAGES}
-            least = min(r[name]["total"] for r in runs[label])
-            print(name, label, " | ".join(f"{k} {v:.2f}" for k, v in med.items()), end=" ")
-            print(f"ms CPU (medians of {rounds} rounds; least total {least:.2f})")
-        ratio = [b[name]["total"] / a[name]["total"] for b, a in zip(runs["base"], runs["now"])]
-        q1, q2, q3 = np.percentile(ratio, [25, 50, 75])
-        print(f"{name} base / now, total: median {q2:.2f}x (quartiles {q1:.2f}x-{q3:.2f}x)")
+        fields = {
+            label: [
+                stage_fields(line.split(" ", 1)[1])
+                for out in outs
+                for line in out.splitlines()
+                if line.split(" ", 1)[0] == name
+            ]
+            for label, outs in runs.items()
+        }
+        print(summary(fields, STAGES, name))
 
 
 def main() -> None:

@@ -4,21 +4,31 @@ noise and record; the stages one after the other in one thread (the tracer's
 Embree threads counted: process time), the median over 20 poses of the drive.
 
     python -m benchmarks.stages ['{"render_rate": "baseband"}']
+    python -m benchmarks.stages --base ../old --rounds 8   # against a checkout
+
+With ``--base DIR`` (another checkout's root, which needs not have this script) it
+runs itself in alternating processes importing this tree's code and DIR's
+(:mod:`benchmarks.alternating`) and prints the medians of the rounds' medians per
+stage and of the rounds' ratios of the totals (DIR over this tree).
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-import acousim.synth.signal_model as model
 from acousim.scene import load_scene
 from acousim.simulator import SCENE_MOTION, Simulator
+
+try:
+    import acousim.synth.signal_model as model
+except ModuleNotFoundError:  # a checkout before the layout by concept (fae701f)
+    import acousim.synth.model as model  # type: ignore[no-redef]
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POSES = list(range(10, 50, 2))
@@ -67,9 +77,23 @@ def stage_times(overrides: dict) -> dict[str, float]:
 
 
 def main() -> None:
-    overrides = json.loads(sys.argv[1]) if len(sys.argv) > 1 else {}
-    t = stage_times(overrides)
-    print(" | ".join(f"{k} {v * 1e3:.1f}" for k, v in t.items()), "ms CPU (median of 20 poses)")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("overrides", nargs="?", default="{}", help="simulation settings (JSON)")
+    ap.add_argument("--base", type=Path, help="another checkout's root, run alternately")
+    ap.add_argument("--rounds", type=int, default=8, help="alternating rounds (--base)")
+    args = ap.parse_args()
+    if args.base is not None:
+        # imported here: the processes it starts import another checkout's code
+        from benchmarks.alternating import alternate, stage_fields, summary
+
+        runs = alternate(
+            Path(__file__).resolve(), [args.overrides], args.base.resolve(), args.rounds
+        )
+        fields = {k: [stage_fields(out) for out in outs] for k, outs in runs.items()}
+        print(summary(fields, STAGES, "corridor"))
+        return
+    t = stage_times(json.loads(args.overrides))
+    print(" | ".join(f"{k} {v * 1e3:.2f}" for k, v in t.items()), "ms CPU (median of 20 poses)")
 
 
 if __name__ == "__main__":
