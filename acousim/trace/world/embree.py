@@ -9,7 +9,7 @@ face a ray meets first and roughly where.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -74,18 +74,11 @@ class RayCaster:
         self.tolerance_m = DISTANCE_TOLERANCE[0] + DISTANCE_TOLERANCE[1] * self.scale
 
     def map(self, fn, items: list) -> list:
-        """``[fn(x) for x in items]``, the first item in this thread and the others at
-        once on the caster's worker threads (all in this thread when it has one):
-        for work that releases the GIL, as Embree does (this thread works rather
-        than waits: one hand-over fewer)."""
+        """``[fn(x) for x in items]`` on the caster's worker threads (in this thread
+        when it has one): for work that releases the GIL, as Embree does."""
         if self._pool is None or len(items) < 2:
             return [fn(x) for x in items]
-        rest = [self._pool.submit(fn, x) for x in items[1:]]
-        try:
-            first = fn(items[0])
-        finally:  # the others end before this returns (or raises)
-            wait(rest)
-        return [first, *(f.result() for f in rest)]
+        return list(self._pool.map(fn, items))
 
     def occluded(
         self, origins: np.ndarray, directions: np.ndarray, max_distance: np.ndarray | float
