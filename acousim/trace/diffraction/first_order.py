@@ -53,14 +53,16 @@ def probe_points(start: np.ndarray, end: np.ndarray) -> np.ndarray:
 
 
 def visible(caster, origin: np.ndarray, points: np.ndarray, tol: float) -> np.ndarray:
-    """(K,) True where the segment from origin (3,) or (K, 3) to points (K, 3) is free."""
+    """(K,) True where the segment from origin (3,) or (K, 3) to points (K, 3) is free:
+    no face nearer to the origin than the point by more than `tol` (m; a point on
+    a face does not block itself).  Embree's occlusion query (any hit, not the
+    first: :meth:`~acousim.trace.world.embree.RayCaster.occluded`)."""
     if caster is None or points.shape[0] == 0:
         return np.ones(points.shape[0], bool)
     o = np.broadcast_to(origin, points.shape)
     d = points - o
     dist = np.linalg.norm(d, axis=1)
-    t, f = caster.first_hit(o, d, dist + tol)
-    return ~((f >= 0) & (t < dist - tol))
+    return ~caster.occluded(o, d, dist - tol)
 
 
 @dataclass(frozen=True, eq=False)

@@ -108,7 +108,8 @@ class PairGeometry:
 
     def take(self, keep: np.ndarray) -> PairGeometry:
         """The pairs at `keep` (indices or a mask), with the shortest paths found for
-        these (:func:`shortest_paths`) and the edges' axes, if any."""
+        these (:func:`shortest_paths`), the edges' axes and the compiled integral's
+        tables (:mod:`.pairs_compiled`), if any."""
         keep = np.asarray(keep)
         if keep.dtype == bool:  # indices: each field is gathered faster
             keep = np.flatnonzero(keep)
@@ -117,6 +118,10 @@ class PairGeometry:
         memo = self.__dict__.get("_shortest")
         if memo is not None:
             object.__setattr__(out, "_shortest", (memo[0], memo[1][keep], memo[2][keep]))
+        memo = self.__dict__.get("_tables")  # the compiled integral's tables
+        if memo is not None:
+            rows = tuple(np.take(x, keep, axis=0) for x in memo[1])
+            object.__setattr__(out, "_tables", (memo[0], rows))
         for key in ("_edge1", "_edge2"):
             axis = self.__dict__.get(key)
             if axis is not None:

@@ -347,7 +347,7 @@ def pair_bins(src, rcv, geo, consts, cfg, out, live, rows):  # pragma: no cover 
         _merge(ck[0:3])
         _merge(ck[3:6])
         c = (ck,) + _forms(ck)
-        work = (acc[k], count[k], live[k], buf, bins, levels)
+        work = (acc[k], count[k], live[k], buf, bins, levels, last)
         for side in range(2):
             z_end = 0.0 if side == 0 else len1
             real_end = _profile(z_end, pair)[0] - p_min
@@ -429,6 +429,7 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
         lev[n] = levels[n]
         n += 1
     lev[n] = e_end
+    n = _before_last_bin(n, lev, m + l_apex - g[22], cfg, out[6])
     zb[0] = z_apex
     for j in range(1, n + 1):
         zb[j] = _clip(_on_spheroid(form, l_apex + lev[j], upper), lo, hi)
@@ -448,6 +449,26 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
             prim[j] = _prim(prim[j], vv[j], c[2], c[0])
     _amplitudes(n, (x, m, z1, outer), g, c, cfg, out)
     _sums(n, (x, m), g, out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _before_last_bin(n, lev, base, cfg, last):  # pragma: no cover - compiled
+    """How many of a side's n elements (excess levels lev (n + 1,), their excess
+    beyond the pair's shortest path base + the level (m)) come before the first
+    one past the pair's last live bin `last` (one bin beyond its mid excess, the
+    test of :func:`_live_bins`, with a margin): the elements after it are not live
+    (their excess grows with the level), and each element's numbers are its own,
+    so leaving them out changes none of the others.  n if the last bin (open:
+    it holds every larger excess) is live."""
+    top = int(cfg[7]) - 1
+    if last >= top:
+        return n
+    inv_w = 1.0 / cfg[6]
+    past = last + 1 + PATH_SLACK * inv_w + 1e-6 + 1e-9  # q - slack > last + 1 - rounding
+    for j in range(n):
+        if (base + 0.5 * (lev[j] + lev[j + 1])) * inv_w >= past:
+            return j
+    return n
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

@@ -40,6 +40,57 @@ def compiled_elements(
     (step_m, max_path_m, max_excess_m, width, refine), wanted = limits
     p = pairs
     n = len(p)
+    geo, consts, live = _tables(p, source, receiver, (max_path_m, max_excess_m))
+    nb = int(np.ceil(max_excess_m / width)) + 2
+    longest = float(np.max(max_path_m))  # the kernel reads geo's column 24
+    cfg = np.array([step_m, step_m, *refine, max_excess_m, longest, width, nb], float)
+    idx = np.flatnonzero(live)
+    acc = np.zeros((idx.size, nb, 9))
+    count = np.zeros((idx.size, nb), np.int64)
+    mask = np.ones((n, nb), np.uint8) if wanted is None else fine_live(wanted, nb, width)
+    tables = (np.ascontiguousarray(x[idx]) for x in (geo, consts, mask))
+    g, c, m = tables
+    _run(kernel, (source, receiver, g, c, cfg, acc, count, m), workers)
+    k, b = np.nonzero(count)
+    if k.size == 0:
+        return EdgePairElements.empty()
+    a = acc[k, b]
+    wsum = np.where(a[:, 1] > 0, a[:, 1], 1.0)
+    length = a[:, 2] / wsum
+    q1, q2 = a[:, 3:6] / wsum[:, None], a[:, 6:9] / wsum[:, None]
+    second = np.linalg.norm(q2 - receiver, axis=1)
+    return EdgePairElements(q1, q2, length - second, second, a[:, 0], idx[k])
+
+
+def _tables(pairs: PairGeometry, source, receiver, reach) -> tuple:
+    """(geo (N, 25), consts (N, 6, 4), live (N,)) of :func:`pair_bins` for every pair
+    (reach: the longest path kept and the excess kept, m).  Kept on `pairs` for
+    this source, receiver and reach when the longest path is one number (the
+    stage's coarse and fine passes ask for the same rows: :meth:`PairGeometry.take`
+    keeps those of the rows taken); the arrays returned are not to be changed."""
+    max_path_m, max_excess_m = reach
+    key = None
+    if np.ndim(max_path_m) == 0:
+        key = (
+            np.asarray(source, float).tobytes(),
+            np.asarray(receiver, float).tobytes(),
+            float(max_path_m),
+            float(max_excess_m),
+        )
+        memo = pairs.__dict__.get("_tables")
+        if memo is not None and memo[0] == key:
+            return memo[1]
+    got = _new_tables(pairs, source, receiver, reach)
+    if key is not None:
+        object.__setattr__(pairs, "_tables", (key, got))
+    return got
+
+
+def _new_tables(pairs: PairGeometry, source, receiver, reach) -> tuple:
+    """:func:`_tables` (see there), computed."""
+    max_path_m, max_excess_m = reach
+    p = pairs
+    n = len(p)
     ax1, len1 = p.edge1()
     ax2, len2 = p.edge2()
     z_apex, p_min = shortest_paths(p, source, receiver)
@@ -69,25 +120,7 @@ def compiled_elements(
         p.terms2,
     )
     live = (rs > 0) & (rr > 0) & (tr <= p.angle2) & (ts <= p.angle1)
-    nb = int(np.ceil(max_excess_m / width)) + 2
-    longest = float(np.max(max_path_m))  # the kernel reads geo's column 24
-    cfg = np.array([step_m, step_m, *refine, max_excess_m, longest, width, nb], float)
-    idx = np.flatnonzero(live)
-    acc = np.zeros((idx.size, nb, 9))
-    count = np.zeros((idx.size, nb), np.int64)
-    mask = np.ones((n, nb), np.uint8) if wanted is None else fine_live(wanted, nb, width)
-    tables = (np.ascontiguousarray(x[idx]) for x in (geo, consts, mask))
-    g, c, m = tables
-    _run(kernel, (source, receiver, g, c, cfg, acc, count, m), workers)
-    k, b = np.nonzero(count)
-    if k.size == 0:
-        return EdgePairElements.empty()
-    a = acc[k, b]
-    wsum = np.where(a[:, 1] > 0, a[:, 1], 1.0)
-    length = a[:, 2] / wsum
-    q1, q2 = a[:, 3:6] / wsum[:, None], a[:, 6:9] / wsum[:, None]
-    second = np.linalg.norm(q2 - receiver, axis=1)
-    return EdgePairElements(q1, q2, length - second, second, a[:, 0], idx[k])
+    return geo, consts, live
 
 
 def _run(kernel, args, workers) -> None:

@@ -80,6 +80,46 @@ class RayCaster:
             return [fn(x) for x in items]
         return list(self._pool.map(fn, items))
 
+    def occluded(
+        self, origins: np.ndarray, directions: np.ndarray, max_distance: np.ndarray | float
+    ) -> np.ndarray:
+        """(N,) True where a ray meets a face at a distance of at most `max_distance`
+        (m, one or (N,); none where it is not positive) along its unit direction:
+        Embree's occlusion query, which stops at any hit (about half the time of
+        :meth:`first_hit` on the stage's visibility rays); the same answer as
+        ``first_hit(origins, directions, d)[0] <= d`` but at hits within Embree's
+        float32 rounding of `max_distance`.  `directions` need not be normalised."""
+        o = np.asarray(origins, float) - self.origin
+        d = np.asarray(directions, float)
+        norm = np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's
+        d = d / np.where(norm > 0, norm, 1)
+        n = o.shape[0]
+        self.rays_cast += n
+        reach = np.broadcast_to(np.asarray(max_distance, float), (n,))
+        ask = np.flatnonzero(reach > 0)  # Embree reads a negative reach as a hit
+        out = np.zeros(n, bool)
+        if ask.size == 0:
+            return out
+
+        def run(sl: slice) -> np.ndarray:
+            at = ask[sl]
+            ids = self._scene.run(
+                np.ascontiguousarray(o[at], np.float32),
+                np.ascontiguousarray(d[at], np.float32),
+                dists=np.ascontiguousarray(reach[at], np.float32),
+                query="OCCLUDED",
+            )
+            return np.asarray(ids) >= 0
+
+        m = ask.size
+        if self._pool is None or m < 2 * _MIN_CHUNK:
+            out[ask] = run(slice(0, m))
+        else:
+            bounds = np.linspace(0, m, self.threads + 1).astype(int)
+            parts = self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])])
+            out[ask] = np.concatenate(list(parts))
+        return out
+
     def first_hit(
         self,
         origins: np.ndarray,

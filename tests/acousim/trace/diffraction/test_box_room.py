@@ -29,6 +29,10 @@ class CountingCaster:
         self.rays += len(origins)
         return self.caster.first_hit(origins, directions, *args, **kwargs)
 
+    def occluded(self, origins, directions, *args, **kwargs):
+        self.rays += len(origins)
+        return self.caster.occluded(origins, directions, *args, **kwargs)
+
     def __getattr__(self, name):
         return getattr(self.caster, name)
 

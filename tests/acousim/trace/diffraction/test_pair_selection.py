@@ -177,15 +177,22 @@ def test_the_pairs_shared_among_threads_give_the_same_bytes(stage):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
 
 
-def test_the_live_bins_are_those_of_the_whole_integral(stage):
-    """pair_elements_in with half the 1 mm bins of excess path (chosen at random,
-    seeded) live: every bin it fills is equal, bit for bit, to the same bin of the
-    whole integral, and it fills every bin of the whole integral that lies in a
-    live 1 mm bin."""
+@pytest.mark.parametrize("live", ["random", "prefix"])
+def test_the_live_bins_are_those_of_the_whole_integral(stage, live):
+    """pair_elements_in with half the 1 mm bins of excess path live (chosen at
+    random, seeded; or the first ones of each pair, as the stage's coarse pass
+    mostly leaves them, up to a bin drawn per pair: the kernel stops a side of
+    edge 2 at the pair's last live bin): every bin it fills is equal, bit for bit,
+    to the same bin of the whole integral, and it fills every bin of the whole
+    integral that lies in a live 1 mm bin."""
     geometry, caster = stage
     options = DiffractionOptions(max_path_m=8.0, settings=Diffraction(order=2))
     rows, _, _ = candidate_pairs(StageContext(geometry, caster, EMITTER, RECEIVER, options))
-    mask = np.random.default_rng(1).random((len(rows), 54)) < 0.5
+    rng = np.random.default_rng(1)
+    if live == "random":
+        mask = rng.random((len(rows), 54)) < 0.5
+    else:
+        mask = np.arange(54) <= rng.integers(0, 54, len(rows))[:, None]
     part = pair_elements_in(rows, EMITTER, RECEIVER, (mask, 4 * BIN_M), max_path_m=8.0)
     full = pair_elements(rows, EMITTER, RECEIVER, max_path_m=8.0)
     _, p_min = shortest_paths(rows, EMITTER, RECEIVER)
