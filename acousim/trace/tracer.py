@@ -44,7 +44,7 @@ from acousim.trace.diffraction.stage import (
     edge_diffraction,
 )
 from acousim.trace.direct import direct_path, point_paths
-from acousim.trace.floor import energy_floor
+from acousim.trace.floor import EarlyFloor, diffraction_candidates, early_floor, energy_floor
 from acousim.trace.options import TraceSettings, resolution_length
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.rays.budget import RayWork, in_beam, ray_work
@@ -140,14 +140,21 @@ def trace_pose(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
         )
     # 3. edge diffraction
+    spent = 0.0  # the energy the early floor may have left out (rule "sum")
     if world is not None and caster is not None and settings.diffraction.enabled:
         geometry = edges if edges is not None else DiffractingGeometry.of(world)
         if len(geometry.edges):
+            early = _floor_so_far(
+                parts, receiver, settings, diffraction_candidates(geometry, settings.diffraction)
+            )
+            spent = early.spent
             options = DiffractionOptions(
                 max_path_m=settings.max_path_m,
                 settings=settings.diffraction,
-                floor_db=settings.energy_floor_db,
-                floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
+                # rule "sum": only the level, whose reference is an echo found (the
+                # stage's strongest element may be hidden)
+                floor_db=early.floor_db if settings.energy_floor_rule == "path" else -np.inf,
+                floor_level=early.level,
                 pair_step_m=settings.diffraction_pair_step_m,
                 min_path_m=settings.min_path_m,
             )
@@ -157,7 +164,13 @@ def trace_pose(
         parts.append(cluster(work.contributions, receiver, settings.resolution_m))
         log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
-    paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    paths = energy_floor(
+        TracedPaths.concatenate(parts),
+        receiver,
+        settings.energy_floor_db,
+        settings.energy_floor_rule,
+        spent,
+    )
     return paths, 0 if work is None else work.rays_shot
 
 
@@ -205,16 +218,19 @@ def caster_of(world: World, threads: int = 2) -> RayCaster:
     return RayCaster(world.triangles, threads, indexed=indexed)
 
 
-def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
-    """The energy floor (a gain at the receiver) under the strongest echo of `parts`:
-    the final floor (step 6) lies at or above it, so a later stage may drop what is
-    below it (less 1e-9 relative, for rounding) without changing the result."""
+def _floor_so_far(
+    parts: list[TracedPaths], receiver: np.ndarray, settings: TraceSettings, candidates: int
+) -> EarlyFloor:
+    """The early floor (:func:`~acousim.trace.floor.early_floor`) under the strongest
+    echo of `parts` of a stage that can leave out at most `candidates` paths: the
+    final floor (step 6) keeps every path above its level, and (rule "sum") the
+    paths it leaves out are within its budget."""
     top = 0.0
     for p in parts:
         echo = p.kind != KIND["direct"]
         if echo.any():
             top = max(top, float(p.select(echo).level_at(receiver).max()))
-    return top * 10 ** (floor_db / 20) * (1 - 1e-9)
+    return early_floor(top, settings.energy_floor_db, settings.energy_floor_rule, candidates)
 
 
 def _key(pose: Pose, array: Array | None) -> tuple:
