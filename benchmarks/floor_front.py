@@ -3,8 +3,10 @@ the paths per pose, the CPU time per measurement, the waveform residual (noise o
 the direct path left out of both: dB re the reference's echoes) against the same
 settings with the floor at the ``reference`` preset's (the floor's own error) and
 against the ``reference`` preset (every knob at its most accurate), and the DAS
-image peaks against the former's (:func:`benchmarks.peaks_check.compare_peaks`: the
-scene's noise and direct path; lost and added: those whose energy is gone or new).
+image peaks against both (:func:`benchmarks.peaks_check.compare_peaks`: the scene's
+noise and direct path; lost and added: those whose energy is gone or new;
+``preset_peaks``: [peaks, lost, added, largest level change in dB] against the
+``reference`` preset).
 
     python -m benchmarks.floor_front [--base '{"quality": "fast"}'] [--poses 5,10,...]
         [--points path,-80 sum,-60 ...] [--rounds 3]
@@ -76,8 +78,9 @@ def measure(point: str, base: dict, poses: list[int], rounds: int, ref) -> dict:
         noisy = _simulator(settings).run(poses)
     finally:
         tracer_module.diffraction_candidates = bound
-    ref_echoes, ref_noisy, preset_echoes = ref
+    ref_echoes, ref_noisy, preset_echoes, preset_noisy = ref
     peaks = [compare_peaks(r, n) for r, n in zip(ref_noisy, noisy)]
+    preset = [compare_peaks(r, n) for r, n in zip(preset_noisy, noisy)]
     return {
         "point": point,
         "paths": [min(paths), max(paths)],
@@ -88,7 +91,18 @@ def measure(point: str, base: dict, poses: list[int], rounds: int, ref) -> dict:
         "lost": sum(p["lost_energy"] for p in peaks),
         "added": sum(p["added_energy"] for p in peaks),
         "level_max_db": round(max(p["level_max_db"] for p in peaks), 2),
+        "preset_peaks": _peak_counts(preset),
     }
+
+
+def _peak_counts(peaks: list[dict]) -> list:
+    """[peaks, lost, added, largest level change (dB)] summed over the poses."""
+    return [
+        sum(p["peaks"] for p in peaks),
+        sum(p["lost_energy"] for p in peaks),
+        sum(p["added_energy"] for p in peaks),
+        round(max(p["level_max_db"] for p in peaks), 2),
+    ]
 
 
 def _residual_db(recs, refs) -> float:
@@ -112,6 +126,7 @@ def main(argv: list[str] | None = None) -> None:
         _simulator({**floor, "snr_db": np.inf}, direct_path=False).run(poses),
         _simulator(floor).run(poses),
         _simulator({"quality": "reference", "snr_db": np.inf}, direct_path=False).run(poses),
+        _simulator({"quality": "reference"}).run(poses),
     )
     for point in a.points:
         print(json.dumps(measure(point, base, poses, a.rounds, ref)), flush=True)
