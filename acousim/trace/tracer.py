@@ -18,7 +18,9 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
    receiver.
 5. Clustering (:mod:`.cluster`): scattered contributions into point reflectors.
-6. Energy floor (:mod:`.floor`): paths far below the strongest echo dropped.
+6. Energy floor (:mod:`.floor`): paths far below the strongest echo dropped (each
+   under the floor, or the weakest while their summed energy stays under it:
+   ``energy_floor_rule``); stage 3 prunes early within what the floor allows.
 
 Every stage returns :class:`TracedPaths` (or a typed intermediate); paths are stored in
 one form (see :mod:`.paths`).  First-order echoes of planes (image sources) and of

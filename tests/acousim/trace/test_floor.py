@@ -10,7 +10,8 @@ import pytest
 import acousim.trace.tracer as tracer_module
 from acousim.scene import parse_scene
 from acousim.trace import KIND
-from acousim.trace.floor import dropped_by_sum
+from acousim.trace.floor import diffraction_candidates, dropped_by_sum
+from acousim.trace.tracer import Tracer
 from tests.oracles.scenes import first_pose, rigid_scene, square_faces, trace_first_pose, turn_z
 
 NO_FLOOR = -300.0
@@ -114,6 +115,10 @@ def test_the_sum_rule_with_early_pruning_drops_at_most_the_floor_of_energy(
     assert _dropped_db(full, per_path, receiver) > floor_db
     ((level, elements),) = found
     assert level > 0
+    # the count the early pruning's budget is shared by bounds the stage's paths
+    tracer = Tracer(rigid_scene(tmp_path, quads, sim))
+    bound = diffraction_candidates(tracer.edges, tracer.settings.diffraction)
+    assert (full.kind == KIND["diffraction"]).sum() <= bound
     if floor_db == -30.0:  # the stage left candidates out before finding them
         assert elements < (full.kind == KIND["diffraction"]).sum() / 2
 
