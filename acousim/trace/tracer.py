@@ -146,16 +146,16 @@ def trace_pose(
     if world is not None and caster is not None and settings.diffraction.enabled:
         geometry = edges if edges is not None else DiffractingGeometry.of(world)
         if len(geometry.edges):
-            early = _floor_so_far(
-                parts, receiver, settings, diffraction_candidates(geometry, settings.diffraction)
-            )
+            summed = settings.energy_floor_rule == "sum"
+            count = diffraction_candidates(geometry, settings.diffraction) if summed else 1
+            early = _floor_so_far(parts, receiver, settings, count)
             spent = early.spent
             options = DiffractionOptions(
                 max_path_m=settings.max_path_m,
                 settings=settings.diffraction,
                 # rule "sum": only the level, whose reference is an echo found (the
                 # stage's strongest element may be hidden)
-                floor_db=early.floor_db if settings.energy_floor_rule == "path" else -np.inf,
+                floor_db=-np.inf if summed else early.floor_db,
                 floor_level=early.level,
                 pair_step_m=settings.diffraction_pair_step_m,
                 min_path_m=settings.min_path_m,
