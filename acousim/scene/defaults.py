@@ -52,7 +52,7 @@ QUALITY_PRESETS: Mapping[str, Mapping[str, Any]] = {
     "fast": {
         "diffraction": {"step_m": 2e-3},
         "fractional_delay": "lagrange",
-        "energy_floor_db": -70.0,
+        "energy_floor_db": -75.0,
     },
     "default": {},
     "reference": {

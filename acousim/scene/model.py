@@ -28,7 +28,7 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast, get_args
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 import numpy as np
 
@@ -91,6 +91,9 @@ __all__ = [
 ]
 
 FRACTIONAL_DELAYS = SHAPED_INTERPOLATORS
+FloorRule = Literal["path", "sum"]
+"""What ``energy_floor_db`` bounds (:mod:`acousim.trace.floor`): "path", each dropped
+path's level; "sum", the summed energy of all the dropped paths."""
 #: peak memory of the ray tracer, bytes per ray and per (bounces + 1)**2: the slope
 #: of the peak RSS of the corridor's first pose against its rays
 #: (benchmarks/trace_memory.py) is 1315 B per ray at 3 bounces (0.4, 0.8, 1.6
@@ -604,7 +607,11 @@ class Simulation:
     bounces : maximum reflections of a path (3: a corner reflector's triple bounce).
     beam_deg : half-angle of the cone of rays around the emitter axis.
     energy_floor_db : paths weaker than this, relative to the strongest echo of the
-        pose, are dropped.
+        pose, are dropped (``energy_floor_rule`` "path"), or the weakest paths whose
+        summed energy stays this far below that echo's ("sum").
+    energy_floor_rule : what the floor bounds: "path" (each dropped path's level)
+        or "sum" (the summed energy of every dropped path: many weak paths that add
+        up to a strong echo are kept); :mod:`acousim.trace.floor`.
     diffraction : edge diffraction (:class:`Diffraction`: the scene file's
         ``[simulation.diffraction]`` table); on by default, edge to edge where it matters.
     snr_db : noise level relative to the echoes (the direct path left out, see
@@ -636,6 +643,9 @@ class Simulation:
     render_band_db: float = setting(-60.0, "dB", -200, -10, "baseband: bins within this of the top")
     render_tolerance: float = setting(COMPRESS_TOLERANCE, "", 1e-6, 0.3, "gain-set compression")
     energy_floor_db: float = setting(-80.0, "dB", -300, 0, "drop weaker paths")
+    energy_floor_rule: FloorRule = setting(
+        "path", choices=get_args(FloorRule), doc="the floor bounds each dropped path, or their sum"
+    )
     diffraction: Diffraction = field(default_factory=lambda: Diffraction())
     max_memory_gb: float = setting(
         math.nan, "GB", 1e-3, 1e6, "refuse larger simulations", kind="float"

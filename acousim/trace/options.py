@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acousim.scene.model import Diffraction, Scene
+from acousim.scene.model import Diffraction, FloorRule, Scene
 
 __all__ = ["STEP_FREQUENCY_HZ", "TraceSettings", "resolution_length"]
 
@@ -30,6 +30,8 @@ class TraceSettings:
     beam_rad : half-angle of the cone of rays; max_path_m : longest path (twice the
     maximum range); resolution_m : the call's range resolution as a path length;
     energy_floor_db : paths this far below the strongest echo are dropped;
+    energy_floor_rule : what that floor bounds, each dropped path ("path") or their
+    summed energy ("sum") (:mod:`.floor`);
     direct_path : include the emitter -> microphone path; diffraction : the scene's
     :class:`~acousim.scene.model.Diffraction` settings, whole (stage 3);
     diffraction_pair_step_m : the element step of edge to edge: the edge-element
@@ -52,6 +54,7 @@ class TraceSettings:
     diffraction_pair_step_m: float | None = None
     rays_max: int = 400_000
     min_path_m: float = 0.0
+    energy_floor_rule: FloorRule = "path"
 
     @classmethod
     def from_scene(cls, scene: Scene) -> TraceSettings:
@@ -68,4 +71,5 @@ class TraceSettings:
             diffraction_pair_step_m=sim.diffraction.step_m
             * max(1.0, STEP_FREQUENCY_HZ / max(scene.sensor.call.band_hz)),
             rays_max=sim.rays_max,
+            energy_floor_rule=sim.energy_floor_rule,
         )

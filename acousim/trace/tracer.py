@@ -18,7 +18,9 @@ For one pose (emitter, receiver = array centre, axis), with :class:`TraceSetting
 4. Scattering (:mod:`.scatter`): hits on curved or rough faces connected to the
    receiver.
 5. Clustering (:mod:`.cluster`): scattered contributions into point reflectors.
-6. Energy floor (:mod:`.floor`): paths far below the strongest echo dropped.
+6. Energy floor (:mod:`.floor`): paths far below the strongest echo dropped (each
+   under the floor, or the weakest while their summed energy stays under it:
+   ``energy_floor_rule``); stage 3 prunes early within what the floor allows.
 
 Every stage returns :class:`TracedPaths` (or a typed intermediate); paths are stored in
 one form (see :mod:`.paths`).  First-order echoes of planes (image sources) and of
@@ -44,7 +46,7 @@ from acousim.trace.diffraction.stage import (
     edge_diffraction,
 )
 from acousim.trace.direct import direct_path, point_paths
-from acousim.trace.floor import energy_floor
+from acousim.trace.floor import EarlyFloor, diffraction_candidates, early_floor, energy_floor
 from acousim.trace.options import TraceSettings, resolution_length
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.rays.budget import RayWork, in_beam, ray_work
@@ -140,14 +142,21 @@ def trace_pose(
             glints(world, caster, emitter, receiver, axis, settings.beam_rad, settings.max_path_m)
         )
     # 3. edge diffraction
+    spent = 0.0  # the energy the early floor may have left out (rule "sum")
     if world is not None and caster is not None and settings.diffraction.enabled:
         geometry = edges if edges is not None else DiffractingGeometry.of(world)
         if len(geometry.edges):
+            summed = settings.energy_floor_rule == "sum"
+            count = diffraction_candidates(geometry, settings.diffraction) if summed else 1
+            early = _floor_so_far(parts, receiver, settings, count)
+            spent = early.spent
             options = DiffractionOptions(
                 max_path_m=settings.max_path_m,
                 settings=settings.diffraction,
-                floor_db=settings.energy_floor_db,
-                floor_level=_floor_so_far(parts, receiver, settings.energy_floor_db),
+                # rule "sum": only the level, whose reference is an echo found (the
+                # stage's strongest element may be hidden)
+                floor_db=-np.inf if summed else early.floor_db,
+                floor_level=early.level,
                 pair_step_m=settings.diffraction_pair_step_m,
                 min_path_m=settings.min_path_m,
             )
@@ -157,7 +166,13 @@ def trace_pose(
         parts.append(cluster(work.contributions, receiver, settings.resolution_m))
         log.debug("traced %d rays: %d specular paths", work.rays, len(specular))
     # 6. energy floor
-    paths = energy_floor(TracedPaths.concatenate(parts), receiver, settings.energy_floor_db)
+    paths = energy_floor(
+        TracedPaths.concatenate(parts),
+        receiver,
+        settings.energy_floor_db,
+        settings.energy_floor_rule,
+        spent,
+    )
     return paths, 0 if work is None else work.rays_shot
 
 
@@ -205,16 +220,19 @@ def caster_of(world: World, threads: int = 2) -> RayCaster:
     return RayCaster(world.triangles, threads, indexed=indexed)
 
 
-def _floor_so_far(parts: list[TracedPaths], receiver: np.ndarray, floor_db: float) -> float:
-    """The energy floor (a gain at the receiver) under the strongest echo of `parts`:
-    the final floor (step 6) lies at or above it, so a later stage may drop what is
-    below it (less 1e-9 relative, for rounding) without changing the result."""
+def _floor_so_far(
+    parts: list[TracedPaths], receiver: np.ndarray, settings: TraceSettings, candidates: int
+) -> EarlyFloor:
+    """The early floor (:func:`~acousim.trace.floor.early_floor`) under the strongest
+    echo of `parts` of a stage that can leave out at most `candidates` paths: the
+    final floor (step 6) keeps every path above its level, and (rule "sum") the
+    paths it leaves out are within its budget."""
     top = 0.0
     for p in parts:
         echo = p.kind != KIND["direct"]
         if echo.any():
             top = max(top, float(p.select(echo).level_at(receiver).max()))
-    return top * 10 ** (floor_db / 20) * (1 - 1e-9)
+    return early_floor(top, settings.energy_floor_db, settings.energy_floor_rule, candidates)
 
 
 def _key(pose: Pose, array: Array | None) -> tuple:
