@@ -56,9 +56,22 @@ class Cells:
 
 
 def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
-    _, inv = np.unique(v, return_inverse=True)
-    inv = inv.ravel()
-    return inv, int(inv.max()) + 1 if inv.size else 0
+    """Each integer of `v` (K,) as its rank among the distinct values (ascending:
+    ``np.unique``'s inverse), and how many distinct values there are; by a table
+    of the values' span when it is at most a few times K (no sort)."""
+    if v.size == 0:
+        return np.zeros(0, np.intp), 0
+    lo = v.min()
+    span = int(v.max() - lo) + 1
+    if span > 4 * v.size + 4096:
+        _, inv = np.unique(v, return_inverse=True)
+        inv = inv.ravel()
+        return inv, int(inv.max()) + 1
+    present = np.zeros(span, bool)
+    shifted = v - lo
+    present[shifted] = True
+    rank = np.cumsum(present) - 1
+    return rank[shifted], int(rank[-1]) + 1
 
 
 def members(

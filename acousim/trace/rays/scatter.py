@@ -30,6 +30,7 @@ import numpy as np
 from acousim.trace.rays.shoot import Hits
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Contributions", "scatter"]
 
@@ -73,15 +74,11 @@ def scatter(
     x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
     power, length, f = hits.power[sc], hits.length_m[sc], hits.face[sc]
     # 2. towards the receiver, facing it, within the path budget
-    v = receiver - x
-    r2 = np.linalg.norm(v, axis=1)
-    u = v / np.maximum(r2, 1e-12)[:, None]
-    cos_s = np.einsum("ij,ij->i", u, normal)
-    ok = (cos_s > 0) & (length + r2 <= max_path_m)
+    eps = caster.offset_m
+    v, r2, u, cos_s, ok, start = _towards(x, normal, length, receiver, max_path_m, eps)
     # 3. shadow ray towards the receiver
     idx = np.flatnonzero(ok)
-    eps = caster.offset_m
-    t, hit = caster.first_hit(x[idx] + eps * normal[idx], v[idx])
+    t, hit = caster.first_hit(start[idx], v[idx])
     ok[idx[(hit >= 0) & (t < r2[idx] - eps)]] = False
     # 4. the scattering pattern
     order = hits.order[sc]
@@ -122,6 +119,29 @@ def scatter(
     return Contributions(
         *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
     )
+
+
+def _towards(x, normal, length, receiver, max_path_m, eps) -> tuple:
+    """Steps 2 and 3 before the shadow rays, for hits x (K, 3) with `normal` (K, 3)
+    at path `length` (K,): the vectors to the receiver (K, 3), their lengths (K,),
+    unit directions (K, 3), the cosines to the normal (K,), whether facing the
+    receiver within `max_path_m` (K,), and the shadow rays' starts (K, 3), x moved
+    `eps` along the normal (compiled, :func:`.bounce_kernel.towards`, or in numpy:
+    the same numbers)."""
+    kernel = optional_kernel("acousim.trace.rays.bounce_kernel", "towards")
+    if kernel is None:
+        v = receiver - x
+        r2 = np.linalg.norm(v, axis=1)
+        u = v / np.maximum(r2, 1e-12)[:, None]
+        cos_s = np.einsum("ij,ij->i", u, normal)
+        ok = (cos_s > 0) & (length + r2 <= max_path_m)
+        return v, r2, u, cos_s, ok, x + eps * normal
+    K = len(x)
+    v, u, start = np.empty((3, K, 3))
+    r2, cos_s, ok = np.empty(K), np.empty(K), np.empty(K, bool)
+    receiver = np.asarray(receiver, float)
+    kernel(x, normal, length, receiver, float(max_path_m), eps, v, r2, u, cos_s, ok, start)
+    return v, r2, u, cos_s, ok, start
 
 
 def _pattern(world: World, u, mirror, cos_s, f, order) -> tuple[np.ndarray, np.ndarray]:

@@ -157,31 +157,59 @@ def follow(
     records = []
     reached = []  # (ray, length before the leg, leg, planar) per bounce, for Legs
     sequences: set[tuple[int, ...]] = set()
+    kernel = optional_kernel("acousim.trace.rays.bounce_kernel", "bounce")
     for b in range(bounces):
         if alive.size == 0:
             break
         # 2. first hits of the live rays
-        alive, t, f, x = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
+        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
         before = length[alive]  # a copy: the lengths before this leg
-        length[alive] += t
+        if kernel is None:
+            x = origin[alive] + t[:, None] * dirs[alive]
+            length[alive] += t
+            normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+            power_in = power[alive]
+            # 4. continue specularly (the power, the next leg: below)
+            power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+            origin[alive] = x + caster.offset_m * normal
+            dirs[alive] = mirror
+        else:  # the same in one pass (steps 2 to 4 but the sequences)
+            x, normal, mirror = np.empty((3, f.size, 3))
+            power_in = np.empty(f.size)
+            tables = _bounce_tables(world)
+            lift = caster.offset_m
+            kernel(alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in)
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
         rows = seq[alive[planar[alive]], : b + 1]
         sequences.update(_unique_rows(rows, n_planes))
         reached.append((alive, before, t, planar[alive]))
-        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
-        geo = (x, normal, mirror, power[alive], length[alive], departure[alive])
+        geo = (x, normal, mirror, power_in, length[alive], departure[alive])
         records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
-        # 4. continue specularly
-        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
         if column is not None:
             c = column[f]
             history[alive[c >= 0], c[c >= 0]] += 1
-        origin[alive] = x + caster.offset_m * normal
-        dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _bounce_tables(world: World) -> tuple:
+    """What :func:`.bounce_kernel.bounce` reads of a world (once per world): face
+    normals, curved, corners, corner normals, reflection and diffuse per face."""
+    return world._cached(
+        "bounce_tables",
+        lambda: (
+            world.normals,
+            world.curved,
+            world.triangles,
+            world.vertex_normals,
+            np.asarray(world.face_values("reflection"), float),
+            np.asarray(world.face_values("diffuse"), float),
+        ),
+    )
 
 
 def _first_hits(caster: RayCaster, origin, dirs, alive: np.ndarray, reach_m: np.ndarray):
@@ -355,7 +383,9 @@ def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
     if not rows.size:
         return []
     k = rows.shape[1]
-    code = rows @ (n_planes ** np.arange(k)).astype(np.int64)
+    code = rows[:, 0].astype(np.int64)  # sum of rows[:, i] P^i (an integer matmul is slow)
+    for i in range(1, k):
+        code = code + rows[:, i] * np.int64(n_planes**i)
     # the distinct codes, read back digit by digit (the rows' values are in [0, P))
     distinct = np.unique(code)
     digits = distinct[:, None] // (n_planes ** np.arange(k))[None, :] % n_planes
