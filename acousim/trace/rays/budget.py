@@ -57,7 +57,7 @@ import numpy as np
 
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
-from acousim.trace.rays.scatter import Contributions, scatter
+from acousim.trace.rays.scatter import Contributions, scatter, scatter_rows, take
 from acousim.trace.rays.shoot import Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
@@ -301,21 +301,32 @@ def ray_work(
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     tried, sequences, glints, parts, met = set(), set(), set(), [], set()
     total, before = 0, None
+    first = max(1, min(START_RAYS, settings.rays_max))
+    # the first two batches are always shot: where each batch's sequences are not
+    # needed apart, both followed and scattered at once (the same hits, in order)
+    early = None
+    if enumerate_all and emission is None and 2 * first <= settings.rays_max:
+        early = _first_two(world, caster, settings, (emitter, receiver, axis), first, omega)
     for batch in range(64):
-        n = max(1, min(START_RAYS, settings.rays_max)) if batch < 2 else total
+        n = first if batch < 2 else total
         if total + n > settings.rays_max:
             break
-        dirs = batch_directions(n, axis, settings.beam_rad, batch)
-        shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
+        if early is not None and batch < 2:
+            met_now, part = early[batch]
+        else:
+            dirs = batch_directions(n, axis, settings.beam_rad, batch)
+            shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
+            met_now, part = shot.sequences, None
         found = set()
         if enumerate_all:
-            met |= set(shot.sequences)
+            met |= set(met_now)
         else:  # the rays find the plane sequences: keep the paths
             new = set(shot.sequences) - tried
             found = _valid(world, caster, new, (emitter, receiver), settings.max_path_m)
             tried |= set(shot.sequences)
             sequences |= found
-        part = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+        if part is None:
+            part = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
         new_lobes = lobes(part) - glints
         glints |= new_lobes
         energy = tail_energy(part) if tail else np.zeros(0)
@@ -338,6 +349,21 @@ def ray_work(
     if enumerate_all:
         return RayWork(every, contributions, total, frozenset(met))
     return RayWork(sorted(sequences), contributions, total)
+
+
+def _first_two(world, caster, settings, ends, n: int, omega: float) -> list:
+    """Batches 0 and 1 of `n` rays each (beam solid angle `omega`, sr), followed and
+    scattered in one pass: per batch, (the plane sequences met, all of them given
+    to batch 0, the contributions); the contributions of each batch are those it
+    makes alone, in the same order.  ends: (emitter, receiver, axis)."""
+    emitter, receiver, axis = ends
+    dirs = np.concatenate([batch_directions(n, axis, settings.beam_rad, b) for b in (0, 1)])
+    shot = follow(
+        world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m, legs=True
+    )
+    both, rows = scatter_rows(world, caster, shot.hits, receiver, settings.max_path_m)
+    second = shot.legs.ray[rows] >= n
+    return [(shot.sequences, take(both, ~second)), ((), take(both, second))]
 
 
 def _shot(world, caster, settings, emitter, dirs, d_omega, emission) -> Shot:

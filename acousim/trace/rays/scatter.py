@@ -32,7 +32,7 @@ from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
 from processing.base.kernels import optional_kernel
 
-__all__ = ["Contributions", "scatter"]
+__all__ = ["Contributions", "scatter", "scatter_rows", "take"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,9 +68,19 @@ def scatter(
     world: World, caster: RayCaster, hits: Hits, receiver: np.ndarray, max_path_m: float
 ) -> Contributions:
     """What the hits of `hits` scatter to `receiver` (3,)."""
+    return scatter_rows(world, caster, hits, receiver, max_path_m)[0]
+
+
+def scatter_rows(
+    world: World, caster: RayCaster, hits: Hits, receiver: np.ndarray, max_path_m: float
+) -> tuple[Contributions, np.ndarray]:
+    """:func:`scatter`'s contributions and the hit (an index into `hits`) of each
+    (K,): its order, the order of the hits that make them (so the contributions
+    of some of the hits are those of these hits alone, in order: :func:`take`)."""
     diffuse = world.face_values("diffuse")
     # 1. hits on scattering faces
     sc = world.curved[hits.face] | (diffuse[hits.face] > 0)
+    source = np.flatnonzero(sc)
     x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
     power, length, f = hits.power[sc], hits.length_m[sc], hits.face[sc]
     # 2. towards the receiver, facing it, within the path budget
@@ -98,9 +108,10 @@ def scatter(
             c = world.face_interactions(mode)[f]
             counts[np.flatnonzero(c >= 0), c[c >= 0]] += 1
             parts.append((at_receiver(part), counts))
-    out = []
+    out, rows = [], []
     for intensity, counts in parts:
         keep = intensity > 0
+        rows.append(source[keep])
         out.append(
             Contributions(
                 x[keep],
@@ -115,9 +126,17 @@ def scatter(
             )
         )
     if len(out) == 1:
-        return out[0]
-    return Contributions(
+        return out[0], rows[0]
+    both = Contributions(
         *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
+    )
+    return both, np.concatenate(rows)
+
+
+def take(c: Contributions, mask: np.ndarray) -> Contributions:
+    """The contributions `c` where `mask` (K,) holds, in their order."""
+    return Contributions(
+        *(None if (v := getattr(c, k.name)) is None else v[mask] for k in fields(Contributions))
     )
 
 
