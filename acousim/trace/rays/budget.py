@@ -58,7 +58,7 @@ import numpy as np
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.scatter import Contributions, scatter, scatter_rows, take
-from acousim.trace.rays.shoot import Shot, follow, sequences_met
+from acousim.trace.rays.shoot import Hits, Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
@@ -361,9 +361,26 @@ def _first_two(world, caster, settings, ends, n: int, omega: float) -> list:
     shot = follow(
         world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m, legs=True
     )
-    both, rows = scatter_rows(world, caster, shot.hits, receiver, settings.max_path_m)
-    second = shot.legs.ray[rows] >= n
-    return [(shot.sequences, take(both, ~second)), ((), take(both, second))]
+    second = shot.legs.ray >= n
+    if world.spectra is not None:  # two parts per hit: the contributions taken apart
+        both, rows = scatter_rows(world, caster, shot.hits, receiver, settings.max_path_m)
+        return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
+    # the hits batch by batch (each in its order), so that the contributions are too
+    order = np.argsort(second, kind="stable")
+    hits = Hits(*(None if v is None else v[order] for v in _values(shot.hits)))
+    both, rows = scatter_rows(world, caster, hits, receiver, settings.max_path_m)
+    k = int(np.searchsorted(rows, np.count_nonzero(~second)))
+    return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]
+
+
+def _values(obj) -> list:
+    """The fields of a dataclass instance, in order."""
+    return [getattr(obj, f.name) for f in fields(obj)]
+
+
+def _part(c: Contributions, rows: slice) -> Contributions:
+    """The contributions `rows` of `c` (views)."""
+    return Contributions(*(None if v is None else v[rows] for v in _values(c)))
 
 
 def _shot(world, caster, settings, emitter, dirs, d_omega, emission) -> Shot:
