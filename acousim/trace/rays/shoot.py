@@ -180,7 +180,9 @@ def follow(
             power_in = np.empty(f.size)
             tables = _bounce_tables(world)
             lift = caster.offset_m
-            kernel(alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in)
+            kernel(
+                alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in
+            )
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]

@@ -164,12 +164,16 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
     kernel = _kernels()
     for j in range(k - 1, -1, -1):
         if kernel is None:
-            x, start, at_edge = _step(world, ids[:, j], images[:, j + 1], cur, ok, eps, tol, j < k - 1)
+            x, start, at_edge = _step(
+                world, ids[:, j], images[:, j + 1], cur, ok, eps, tol, j < k - 1
+            )
         else:
             x, start, at_edge = np.empty((S, 3)), np.empty((S, 3)), np.empty(S, bool)
             planes, image = np.ascontiguousarray(ids[:, j], np.int64), images[:, j + 1].copy()
             box = world.plane_boxes
-            kernel.step(planes, image, cur, ok, normal, offset, box, tol, eps, j < k - 1, x, start, at_edge)
+            kernel.step(
+                planes, image, cur, ok, normal, offset, box, tol, eps, j < k - 1, x, start, at_edge
+            )
         sel = np.flatnonzero(ok & at_edge)
         ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
         edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))

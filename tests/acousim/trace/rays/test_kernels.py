@@ -155,7 +155,9 @@ def test_a_bounce_reflects_about_the_normal_on_the_rays_side():
     x, normal, mirror = np.empty((3, 40, 3))
     power_in = np.empty(40)
     world = (normals, curved, tri, vn, refl, diffuse)
-    bounce_kernel.bounce(alive, t, f, origin, dirs, length, power, world, 1e-6, x, normal, mirror, power_in)
+    bounce_kernel.bounce(
+        alive, t, f, origin, dirs, length, power, world, 1e-6, x, normal, mirror, power_in
+    )
     for i, (r, k) in enumerate(zip(alive, f)):
         point = o0[r] + t[i] * d0[r]
         n = _unit(_bary(tri[k], point) @ vn[k]) if curved[k] else normals[k]
@@ -268,9 +270,7 @@ def test_glints_solve_the_smooth_normal_against_the_bisector():
 
     faces = np.arange(len(tri))
     b = np.empty((len(faces), 2))
-    ok = glint_kernel.specular_points(
-        vn, tri, faces, emitter, receiver, 20, 8, 1e-6, 1e-7, 1e-4, b
-    )
+    ok = glint_kernel.specular_points(vn, tri, faces, emitter, receiver, 20, 8, 1e-6, 1e-7, 1e-4, b)
     assert 1 <= ok.sum() <= 3  # one point, on one face or on the edges of a few
     for k in faces:
         sol = least_squares(residual, np.full(2, 1 / 3), args=(k,), xtol=1e-15, ftol=1e-15)
