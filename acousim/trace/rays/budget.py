@@ -367,7 +367,7 @@ def _first_two(world, caster, settings, ends, n: int, omega: float) -> list:
         return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
     # the hits batch by batch (each in its order), so that the contributions are too
     order = np.argsort(second, kind="stable")
-    hits = Hits(*(None if v is None else v[order] for v in _values(shot.hits)))
+    hits = Hits(*(None if v is None else np.take(v, order, axis=0) for v in _values(shot.hits)))
     both, rows = scatter_rows(world, caster, hits, receiver, settings.max_path_m)
     k = int(np.searchsorted(rows, np.count_nonzero(~second)))
     return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]

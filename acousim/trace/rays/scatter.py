@@ -81,20 +81,23 @@ def scatter_rows(
     # 1. hits on scattering faces
     sc = world.curved[hits.face] | (diffuse[hits.face] > 0)
     source = np.flatnonzero(sc)
-    x, normal, mirror = hits.point_m[sc], hits.normal[sc], hits.mirror[sc]
+    # (np.take: rows of (K, 3) arrays several times faster than a[sc])
+    x, normal, mirror = (
+        np.take(a, source, axis=0) for a in (hits.point_m, hits.normal, hits.mirror)
+    )
     power, length, f = hits.power[sc], hits.length_m[sc], hits.face[sc]
     # 2. towards the receiver, facing it, within the path budget
     eps = caster.offset_m
     v, r2, u, cos_s, ok, start = _towards(x, normal, length, receiver, max_path_m, eps)
     # 3. shadow ray towards the receiver
     idx = np.flatnonzero(ok)
-    t, hit = caster.first_hit(start[idx], v[idx])
+    t, hit = caster.first_hit(np.take(start, idx, axis=0), np.take(v, idx, axis=0))
     ok[idx[(hit >= 0) & (t < r2[idx] - eps)]] = False
     # 4. the scattering pattern
     order = hits.order[sc]
     lobe_part, lambert_part = _pattern(world, u, mirror, cos_s, f, order)
     lambert = ~world.curved[f] | (order == 1)
-    history = hits.interactions[sc]
+    history = np.take(hits.interactions, source, axis=0)
 
     def at_receiver(pattern):
         return np.where(ok, power * pattern / np.maximum(r2, 1e-12) ** 2, 0.0)
@@ -110,19 +113,19 @@ def scatter_rows(
             parts.append((at_receiver(part), counts))
     out, rows = [], []
     for intensity, counts in parts:
-        keep = intensity > 0
+        keep = np.flatnonzero(intensity > 0)
         rows.append(source[keep])
         out.append(
             Contributions(
-                x[keep],
+                np.take(x, keep, axis=0),
                 intensity[keep],
                 length[keep],
                 r2[keep],
-                hits.departure[sc][keep],
+                np.take(hits.departure, source[keep], axis=0),
                 world.surface[f[keep]],
                 order[keep],
                 lambert[keep],
-                counts[keep],
+                np.take(counts, keep, axis=0),
             )
         )
     if len(out) == 1:

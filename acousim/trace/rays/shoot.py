@@ -162,7 +162,10 @@ def follow(
         if alive.size == 0:
             break
         # 2. first hits of the live rays
-        t, f = caster.first_hit(origin[alive], dirs[alive], max_path_m - length[alive])
+        # (np.take: rows of (R, 3) arrays several times faster than a[alive])
+        t, f = caster.first_hit(
+            _rows(origin, alive), _rows(dirs, alive), max_path_m - length[alive]
+        )
         hit = f >= 0
         alive, t, f = alive[hit], t[hit], f[hit]
         before = length[alive]  # a copy: the lengths before this leg
@@ -186,16 +189,21 @@ def follow(
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
-        rows = seq[alive[planar[alive]], : b + 1]
+        rows = _rows(seq, alive[planar[alive]])[:, : b + 1]
         sequences.update(_unique_rows(rows, n_planes))
         reached.append((alive, before, t, planar[alive]))
-        geo = (x, normal, mirror, power_in, length[alive], departure[alive])
-        records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
+        geo = (x, normal, mirror, power_in, length[alive], _rows(departure, alive))
+        records.append((*geo, f, np.full(f.size, b + 1), _rows(history, alive)))
         if column is not None:
             c = column[f]
             history[alive[c >= 0], c[c >= 0]] += 1
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _rows(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``a[rows]`` of an array (N, ...) by integer rows: the same values, faster."""
+    return np.take(a, rows, axis=0)
 
 
 def _bounce_tables(world: World) -> tuple:

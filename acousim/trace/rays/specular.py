@@ -63,7 +63,9 @@ def refine_sequences(
     for _k, ids in sorted(by_len.items()):
         images, ok = _images_within(ids, emitter, normal, offset, max_path_m)
         if not ok.all():  # those out of reach take no further work (order kept)
-            ids, images, ok = ids[ok], images[ok], ok[ok]
+            within = np.flatnonzero(ok)
+            ids, images = np.take(ids, within, axis=0), np.take(images, within, axis=0)
+            ok = ok[within]
         points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
         i, j = np.array(edges, int).reshape(-1, 2).T
@@ -178,8 +180,9 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
         ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
         edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
         live = np.flatnonzero(ok & ~at_edge)
-        leg = x[live] - start[live]
-        t, f = caster.first_hit(start[live], leg)
+        begin = np.take(start, live, axis=0)
+        leg = np.take(x, live, axis=0) - begin
+        t, f = caster.first_hit(begin, leg)
         dist = np.linalg.norm(leg, axis=1)
         good = (f >= 0) & (np.abs(t - dist) <= tol)
         other = good.copy()
