@@ -58,7 +58,7 @@ import numpy as np
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.scatter import Contributions, scatter, scatter_rows, take
-from acousim.trace.rays.shoot import Hits, Shot, follow, sequences_met
+from acousim.trace.rays.shoot import Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
@@ -215,7 +215,7 @@ def tail_agrees(energy: np.ndarray, before: np.ndarray) -> bool:
     :data:`TAIL_TOLERANCE_DB` in every bin holding at least ``10^(-TAIL_SPAN_DB/10)``
     of the strongest bin's energy in either (module docstring)."""
     width = max(len(energy), len(before))
-    a, b = np.pad(energy, (0, width - len(energy))), np.pad(before, (0, width - len(before)))
+    a, b = _padded(energy, width), _padded(before, width)
     top = max(a.max(initial=0.0), b.max(initial=0.0))
     if top == 0:
         return True
@@ -265,9 +265,14 @@ def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray
     if a is None:
         return b
     width = max(len(a), len(b))
-    return (np.pad(a, (0, width - len(a))) * n_a + np.pad(b, (0, width - len(b))) * n_b) / (
-        n_a + n_b
-    )
+    return (_padded(a, width) * n_a + _padded(b, width) * n_b) / (n_a + n_b)
+
+
+def _padded(a: np.ndarray, width: int) -> np.ndarray:
+    """`a` (n,) followed by zeros up to `width` (``np.pad``'s result, without its cost)."""
+    out = np.zeros(width, a.dtype)
+    out[: len(a)] = a
+    return out
 
 
 def _merge(parts: list[tuple[Contributions, float]]) -> Contributions:
@@ -358,17 +363,15 @@ def _first_two(world, caster, settings, ends, n: int, omega: float) -> list:
     makes alone, in the same order.  ends: (emitter, receiver, axis)."""
     emitter, receiver, axis = ends
     dirs = np.concatenate([batch_directions(n, axis, settings.beam_rad, b) for b in (0, 1)])
+    # the hits batch by batch (each in its order), so that the contributions are too
+    reach = settings.max_path_m
     shot = follow(
-        world, caster, emitter, dirs, omega / n, settings.bounces, settings.max_path_m, legs=True
+        world, caster, emitter, dirs, omega / n, settings.bounces, reach, legs=True, split=n
     )
     second = shot.legs.ray >= n
+    both, rows = scatter_rows(world, caster, shot.hits, receiver, reach)
     if world.spectra is not None:  # two parts per hit: the contributions taken apart
-        both, rows = scatter_rows(world, caster, shot.hits, receiver, settings.max_path_m)
         return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
-    # the hits batch by batch (each in its order), so that the contributions are too
-    order = np.argsort(second, kind="stable")
-    hits = Hits(*(None if v is None else np.take(v, order, axis=0) for v in _values(shot.hits)))
-    both, rows = scatter_rows(world, caster, hits, receiver, settings.max_path_m)
     k = int(np.searchsorted(rows, np.count_nonzero(~second)))
     return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]
 

@@ -136,10 +136,13 @@ def follow(
     max_path_m: float,
     *,
     legs: bool = False,
+    split: int | None = None,
 ) -> Shot:
     """Steps 2 to 4 for rays leaving the emitter in directions `dirs` (R, 3), unit,
     each carrying the solid angle `d_omega` (sr) as power; `legs`: also how each
-    hit was reached (:class:`Legs`)."""
+    hit was reached (:class:`Legs`); `split`: the hits (and legs) of the rays before
+    ray `split` first, then the others' (each part bounce by bounce, as the hits of
+    those rays followed alone; None: all bounce by bounce)."""
     rays = len(dirs)
     dirs = np.array(dirs, float)
     origin = np.broadcast_to(emitter, dirs.shape).copy()
@@ -198,7 +201,17 @@ def follow(
             c = column[f]
             history[alive[c >= 0], c[c >= 0]] += 1
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
+    if split is not None:  # per bounce, the rows of the rays before `split`, then the rest
+        cut = [int(np.searchsorted(r[0], split)) for r in reached]
+        records, reached = _batch_major(records, cut), _batch_major(reached, cut)
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _batch_major(per_bounce: list[tuple], cut: list[int]) -> list[tuple]:
+    """Per-bounce rows (tuples of arrays, rays ascending) reordered: every bounce's
+    first ``cut[b]`` rows, then every bounce's others."""
+    first = [tuple(v[:c] for v in rec) for rec, c in zip(per_bounce, cut)]
+    return first + [tuple(v[c:] for v in rec) for rec, c in zip(per_bounce, cut)]
 
 
 def _rows(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
