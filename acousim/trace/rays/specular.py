@@ -68,7 +68,7 @@ def refine_sequences(
             ok = ok[within]
         points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
-        i, j = np.array(edges, int).reshape(-1, 2).T
+        i, j = edges.T
         i, j = i[ok[i]], j[ok[i]]
         if i.size:
             before = _before(points[i], j, emitter, tol)
@@ -153,14 +153,14 @@ def _counts(ids: np.ndarray, column, K: int) -> np.ndarray:
 
 def _reflection_points(world, caster, ids, images, receiver, ok):
     """Backwards from the receiver, the reflection points (S, k, 3) of sequences `ids`
-    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) where
+    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) (E, 2) where
     reflections j and j + 1 meet at an edge, and the first reflection points (S, 3)
     (the receiver for k = 0); `ok` (S,) is cleared in place for
     sequences whose points miss their plane or whose legs are blocked."""
     normal, offset = _plane_table(world)[:2]
     eps, tol = caster.offset_m, caster.tolerance_m
     S, k = ids.shape
-    edges: list[tuple[int, int]] = []
+    edges: list[np.ndarray] = []
     cur = np.broadcast_to(receiver, (S, 3)).copy()
     points = np.empty((S, k, 3))
     kernel = _kernels()
@@ -178,7 +178,8 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
             )
         sel = np.flatnonzero(ok & at_edge)
         ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
-        edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
+        met = np.flatnonzero(ok & at_edge)
+        edges.append(np.column_stack([met, np.full(met.size, j)]))
         live = np.flatnonzero(ok & ~at_edge)
         begin = np.take(start, live, axis=0)
         leg = np.take(x, live, axis=0) - begin
@@ -195,7 +196,7 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
         ok[live[~good]] = False
         points[:, j] = x
         cur = x
-    return points, edges, cur
+    return points, np.concatenate([np.zeros((0, 2), int), *edges]).astype(int), cur
 
 
 def _step(world, planes, image, cur, ok, eps, tol, inner):
