@@ -3,11 +3,13 @@ loops of the geometry (mirror images, line-plane intersections, reflections,
 barycentric coordinates by least squares, a Gauss-Newton search by scipy), and,
 for the whole tracer, its numpy twins (numba missing): the same paths."""
 
+import tomllib
+
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from acousim.scene import load_scene
+from acousim.scene import load_scene, parse_scene
 from acousim.trace import KIND
 from acousim.trace.tracer import Tracer
 from tests import REPO
@@ -290,12 +292,26 @@ def _all_kernels_off(monkeypatch):
     monkeypatch.setattr(specular, "_kernels", lambda: None)
 
 
-def test_the_compiled_tracer_traces_the_paths_of_its_numpy_twin(monkeypatch):
-    """The corridor's poses traced with every kernel and with none (numba missing):
-    the same rays and paths, bit for bit but the glints (their search stops within
-    1e-7 of its root; the kernel solves its 2 x 2 steps in closed form, LAPACK
-    otherwise), whose points agree within a nanometre."""
-    scene = load_scene(CORRIDOR)
+def _corridor(spectra: bool):
+    """The corridor scene; `spectra`: its plaster frequency-dependent (a table)."""
+    if not spectra:
+        return load_scene(CORRIDOR)
+    with open(CORRIDOR, "rb") as fh:
+        doc = tomllib.load(fh)
+    for m in doc["materials"]:
+        if m["name"] == "plaster":
+            m.update(frequencies_khz=[20.0, 80.0], reflection=[0.97, 0.9])
+    return parse_scene(doc, base_dir=CORRIDOR.parent)
+
+
+@pytest.mark.parametrize("spectra", [False, True])
+def test_the_compiled_tracer_traces_the_paths_of_its_numpy_twin(monkeypatch, spectra):
+    """The corridor's poses (and with a frequency-dependent plaster) traced with
+    every kernel and with none (numba missing): the same rays and paths, bit for bit
+    but the glints (their search stops within 1e-7 of its root; the kernel solves
+    its 2 x 2 steps in closed form, LAPACK otherwise), whose points agree within a
+    nanometre."""
+    scene = _corridor(spectra)
     poses = [scene.sensor.poses[i] for i in (10, 31, 52)]
 
     def traced(tracer):
@@ -313,14 +329,17 @@ def test_the_compiled_tracer_traces_the_paths_of_its_numpy_twin(monkeypatch):
             np.testing.assert_allclose(x[glint], y[glint], rtol=0, atol=1e-9)
         np.testing.assert_array_equal(a.kind, b.kind)
         np.testing.assert_array_equal(a.order, b.order)
+        np.testing.assert_array_equal(a.interactions, b.interactions)
+        assert a.interactions.shape[1] == (2 if spectra else 0)
 
 
-def test_the_first_two_batches_at_once_make_the_contributions_of_each(monkeypatch):
+@pytest.mark.parametrize("spectra", [False, True])
+def test_the_first_two_batches_at_once_make_the_contributions_of_each(monkeypatch, spectra):
     """Batches 0 and 1 followed and scattered in one pass: the same contributions,
     in the same order, as each batch followed and scattered alone."""
     from acousim.trace.rays import budget
 
-    scene = load_scene(CORRIDOR)
+    scene = _corridor(spectra)
     tracer = Tracer(scene)
     pose = scene.sensor.poses[40]
     args = (tracer.world, tracer.caster, tracer.settings)
@@ -331,7 +350,8 @@ def test_the_first_two_batches_at_once_make_the_contributions_of_each(monkeypatc
     apart = budget.ray_work(*args, *ends, pose.rotation[:, 0])
     assert together.rays == apart.rays >= 2000
     assert together.met == apart.met
-    for name in ("point_m", "intensity", "first_leg_m", "last_leg_m", "surface", "order"):
+    names = ("point_m", "intensity", "first_leg_m", "last_leg_m", "surface", "order")
+    for name in (*names, "lambert", "interactions"):
         np.testing.assert_array_equal(
             getattr(together.contributions, name), getattr(apart.contributions, name)
         )
