@@ -58,7 +58,7 @@ import numpy as np
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
 from acousim.trace.rays.scatter import Contributions, scatter, scatter_rows, take
-from acousim.trace.rays.shoot import Shot, follow, sequences_met
+from acousim.trace.rays.shoot import Hits, Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
@@ -303,35 +303,26 @@ def ray_work(
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
         return _probe(world, caster, settings, emitter, axis, every, emission)
-    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     tried, sequences, glints, parts, met = set(), set(), set(), [], set()
-    total, before = 0, None
+    total, before, ends = 0, None, (emitter, receiver, axis)
     first = max(1, min(START_RAYS, settings.rays_max))
     # the first two batches are always shot: where each batch's sequences are not
     # needed apart, both followed and scattered at once (the same hits, in order)
-    early = None
-    if enumerate_all and emission is None and 2 * first <= settings.rays_max:
-        early = _first_two(world, caster, settings, (emitter, receiver, axis), first, omega)
+    at_once = enumerate_all and emission is None and 2 * first <= settings.rays_max
+    early = _first_two(world, caster, settings, ends, first) if at_once else None
     for batch in range(64):
         n = first if batch < 2 else total
         if total + n > settings.rays_max:
             break
-        if early is not None and batch < 2:
-            met_now, part = early[batch]
-        else:
-            dirs = batch_directions(n, axis, settings.beam_rad, batch)
-            shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
-            met_now, part = shot.sequences, None
+        met_now, part = _batch(world, caster, settings, ends, (batch, n), emission, early)
         found = set()
         if enumerate_all:
             met |= set(met_now)
         else:  # the rays find the plane sequences: keep the paths
-            new = set(shot.sequences) - tried
+            new = set(met_now) - tried
             found = _valid(world, caster, new, (emitter, receiver), settings.max_path_m)
-            tried |= set(shot.sequences)
+            tried |= set(met_now)
             sequences |= found
-        if part is None:
-            part = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
         new_lobes = lobes(part) - glints
         glints |= new_lobes
         energy = tail_energy(part) if tail else np.zeros(0)
@@ -356,24 +347,52 @@ def ray_work(
     return RayWork(sorted(sequences), contributions, total)
 
 
-def _first_two(world, caster, settings, ends, n: int, omega: float) -> list:
-    """Batches 0 and 1 of `n` rays each (beam solid angle `omega`, sr), followed and
-    scattered in one pass: per batch, (the plane sequences met, all of them given
-    to batch 0, the contributions); the contributions of each batch are those it
-    makes alone, in the same order.  ends: (emitter, receiver, axis)."""
+def _batch(world, caster, settings, ends, batch: tuple[int, int], emission, early) -> tuple:
+    """Batch `batch` (its number, its rays n) of the automatic budget: (the plane
+    sequences its rays met, their contributions); taken from `early` (batches 0 and
+    1 at once: :func:`_first_two`; None: none) or shot (or taken from `emission`)
+    and scattered.  ends: (emitter, receiver, axis)."""
+    (number, n), (emitter, receiver, axis) = batch, ends
+    if early is not None and number < 2:
+        return early[number]
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
+    dirs = batch_directions(n, axis, settings.beam_rad, number)
+    shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
+    return shot.sequences, scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+
+
+def _first_two(world, caster, settings, ends, n: int) -> list:
+    """Batches 0 and 1 of `n` rays each, followed and scattered in one pass: per
+    batch, (the plane sequences met, all of them given to batch 0, the
+    contributions); the contributions of each batch are those it makes alone, in
+    the same order.  ends: (emitter, receiver, axis)."""
     emitter, receiver, axis = ends
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     dirs = np.concatenate([batch_directions(n, axis, settings.beam_rad, b) for b in (0, 1)])
-    # the hits batch by batch (each in its order), so that the contributions are too
     reach = settings.max_path_m
-    shot = follow(
-        world, caster, emitter, dirs, omega / n, settings.bounces, reach, legs=True, split=n
-    )
-    second = shot.legs.ray >= n
-    both, rows = scatter_rows(world, caster, shot.hits, receiver, reach)
+    shot = follow(world, caster, emitter, dirs, omega / n, settings.bounces, reach, legs=True)
+    # the hits batch by batch (each in its order), so that the contributions are too
+    hits, second = _batch_major(shot, n)
+    both, rows = scatter_rows(world, caster, hits, receiver, reach)
     if world.spectra is not None:  # two parts per hit: the contributions taken apart
         return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
     k = int(np.searchsorted(rows, np.count_nonzero(~second)))
     return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]
+
+
+def _batch_major(shot: Shot, n: int) -> tuple[Hits, np.ndarray]:
+    """The hits of `shot` (bounce by bounce, each bounce's rays ascending) reordered:
+    those of the rays before ray n bounce by bounce, then the others' (slices, no
+    sort); and (K,) whether each is of a ray from n on."""
+    ray, bounce = shot.legs.ray, shot.hits.order
+    ends = [0, *(np.flatnonzero(np.diff(bounce)) + 1).tolist(), len(ray)]
+    cut = [a + int(np.searchsorted(ray[a:b], n)) for a, b in zip(ends[:-1], ends[1:])]
+    parts = [slice(a, c) for a, c in zip(ends[:-1], cut)]
+    parts += [slice(c, b) for c, b in zip(cut, ends[1:])]
+    hits = Hits(
+        *(None if v is None else np.concatenate([v[p] for p in parts]) for v in _values(shot.hits))
+    )
+    return hits, np.concatenate([ray[p] for p in parts]) >= n
 
 
 def _values(obj) -> list:

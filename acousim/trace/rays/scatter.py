@@ -111,29 +111,35 @@ def scatter_rows(
             c = world.face_interactions(mode)[f]
             counts[np.flatnonzero(c >= 0), c[c >= 0]] += 1
             parts.append((at_receiver(part), counts))
-    out, rows = [], []
-    for intensity, counts in parts:
-        keep = np.flatnonzero(intensity > 0)
-        rows.append(source[keep])
-        out.append(
-            Contributions(
-                np.take(x, keep, axis=0),
-                intensity[keep],
-                length[keep],
-                r2[keep],
-                np.take(hits.departure, source[keep], axis=0),
-                world.surface[f[keep]],
-                order[keep],
-                lambert[keep],
-                np.take(counts, keep, axis=0),
-            )
-        )
+    rows = [source[intensity > 0] for intensity, _ in parts]
+    geometry = (x, length, r2, order, lambert, world.surface[f])
+    out = [_kept(geometry, hits.departure, source, *part) for part in parts]
     if len(out) == 1:
         return out[0], rows[0]
     both = Contributions(
         *(np.concatenate([getattr(c, k.name) for c in out]) for k in fields(Contributions))
     )
     return both, np.concatenate(rows)
+
+
+def _kept(geometry: tuple, departure, source, intensity, counts) -> Contributions:
+    """The contributions of the scattering hits `source` (K,) (indices of the hits;
+    their departures among all (H, 3)) whose `intensity` (K,) is positive; geometry:
+    their points (K, 3), path lengths, last legs, orders, Lambert flags and surfaces
+    (K,); counts: their interactions (K, C)."""
+    x, length, r2, order, lambert, surface = geometry
+    keep = np.flatnonzero(intensity > 0)
+    return Contributions(
+        np.take(x, keep, axis=0),
+        intensity[keep],
+        length[keep],
+        r2[keep],
+        np.take(departure, source[keep], axis=0),
+        surface[keep],
+        order[keep],
+        lambert[keep],
+        np.take(counts, keep, axis=0),
+    )
 
 
 def take(c: Contributions, mask: np.ndarray) -> Contributions:

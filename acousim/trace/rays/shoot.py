@@ -136,13 +136,10 @@ def follow(
     max_path_m: float,
     *,
     legs: bool = False,
-    split: int | None = None,
 ) -> Shot:
     """Steps 2 to 4 for rays leaving the emitter in directions `dirs` (R, 3), unit,
     each carrying the solid angle `d_omega` (sr) as power; `legs`: also how each
-    hit was reached (:class:`Legs`); `split`: the hits (and legs) of the rays before
-    ray `split` first, then the others' (each part bounce by bounce, as the hits of
-    those rays followed alone; None: all bounce by bounce)."""
+    hit was reached (:class:`Legs`)."""
     rays = len(dirs)
     dirs = np.array(dirs, float)
     origin = np.broadcast_to(emitter, dirs.shape).copy()
@@ -152,15 +149,12 @@ def follow(
     planar = np.ones(rays, bool)
     seq = np.full((rays, bounces), -1)
     alive = np.arange(rays)
-    refl = world.face_values("reflection")
-    diffuse = world.face_values("diffuse")
     column = world.face_interactions(0)  # specular interactions (None: no tables)
     history = np.zeros((rays, world.n_interactions), int)
     n_planes = world.n_planes
     records = []
     reached = []  # (ray, length before the leg, leg, planar) per bounce, for Legs
     sequences: set[tuple[int, ...]] = set()
-    kernel = optional_kernel("acousim.trace.rays.bounce_kernel", "bounce")
     for b in range(bounces):
         if alive.size == 0:
             break
@@ -172,23 +166,10 @@ def follow(
         hit = f >= 0
         alive, t, f = alive[hit], t[hit], f[hit]
         before = length[alive]  # a copy: the lengths before this leg
-        if kernel is None:
-            x = origin[alive] + t[:, None] * dirs[alive]
-            length[alive] += t
-            normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
-            power_in = power[alive]
-            # 4. continue specularly (the power, the next leg: below)
-            power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
-            origin[alive] = x + caster.offset_m * normal
-            dirs[alive] = mirror
-        else:  # the same in one pass (steps 2 to 4 but the sequences)
-            x, normal, mirror = np.empty((3, f.size, 3))
-            power_in = np.empty(f.size)
-            tables = _bounce_tables(world)
-            lift = caster.offset_m
-            kernel(
-                alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in
-            )
+        # 4. continue specularly (step 3 below: the sequences)
+        x, normal, mirror, power_in = _bounce(
+            world, caster, (alive, t, f), (origin, dirs, length, power)
+        )
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
@@ -201,17 +182,33 @@ def follow(
             c = column[f]
             history[alive[c >= 0], c[c >= 0]] += 1
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
-    if split is not None:  # per bounce, the rows of the rays before `split`, then the rest
-        cut = [int(np.searchsorted(r[0], split)) for r in reached]
-        records, reached = _batch_major(records, cut), _batch_major(reached, cut)
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
 
 
-def _batch_major(per_bounce: list[tuple], cut: list[int]) -> list[tuple]:
-    """Per-bounce rows (tuples of arrays, rays ascending) reordered: every bounce's
-    first ``cut[b]`` rows, then every bounce's others."""
-    first = [tuple(v[:c] for v in rec) for rec, c in zip(per_bounce, cut)]
-    return first + [tuple(v[c:] for v in rec) for rec, c in zip(per_bounce, cut)]
+def _bounce(world: World, caster: RayCaster, met: tuple, state: tuple) -> tuple:
+    """Steps 2 and 4 of :func:`follow` for the rays that `met` faces (rays, distances
+    (m), faces (N,)): their hits (N, 3), the normals there on their side (N, 3), the
+    mirrored directions (N, 3) and their power before the hit (N,); the rays'
+    `state` (origins (R, 3), directions (R, 3), lengths (R,), powers (R,)) moved on
+    in place: compiled (:func:`.bounce_kernel.bounce`) or in numpy, the same."""
+    alive, t, f = met
+    origin, dirs, length, power = state
+    kernel = optional_kernel("acousim.trace.rays.bounce_kernel", "bounce")
+    if kernel is not None:  # in one pass
+        x, normal, mirror = np.empty((3, f.size, 3))
+        power_in = np.empty(f.size)
+        tables, lift = _bounce_tables(world), caster.offset_m
+        kernel(alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in)
+        return x, normal, mirror, power_in
+    refl, diffuse = world.face_values("reflection"), world.face_values("diffuse")
+    x = origin[alive] + t[:, None] * dirs[alive]
+    length[alive] += t
+    normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+    power_in = power[alive]
+    power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+    origin[alive] = x + caster.offset_m * normal
+    dirs[alive] = mirror
+    return x, normal, mirror, power_in
 
 
 def _rows(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
