@@ -161,7 +161,8 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
     eps, tol = caster.offset_m, caster.tolerance_m
     S, k = ids.shape
     edges: list[np.ndarray] = []
-    cur = np.broadcast_to(receiver, (S, 3)).copy()
+    cur = np.empty((S, 3))
+    cur[:] = receiver
     points = np.empty((S, k, 3))
     kernel = _kernels()
     for j in range(k - 1, -1, -1):
@@ -169,10 +170,9 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
             x, start, at_edge = _step(
                 world, ids[:, j], images[:, j + 1], cur, ok, eps, tol, j < k - 1
             )
-        else:
-            x, start, at_edge = np.empty((S, 3)), np.empty((S, 3)), np.empty(S, bool)
-            planes, image = np.ascontiguousarray(ids[:, j], np.int64), images[:, j + 1].copy()
-            box = world.plane_boxes
+        else:  # x written into points (a view), as the numpy form copies it there
+            x, start, at_edge = points[:, j], np.empty((S, 3)), np.empty(S, bool)
+            planes, image, box = ids[:, j], images[:, j + 1], world.plane_boxes
             kernel.step(
                 planes, image, cur, ok, normal, offset, box, tol, eps, j < k - 1, x, start, at_edge
             )
@@ -194,7 +194,8 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
         sel = np.flatnonzero(other)
         good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
         ok[live[~good]] = False
-        points[:, j] = x
+        if kernel is None:
+            points[:, j] = x
         cur = x
     return points, np.concatenate([np.zeros((0, 2), int), *edges]).astype(int), cur
 

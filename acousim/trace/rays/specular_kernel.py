@@ -48,13 +48,19 @@ def step(
     towards x when `inner`: cur is a reflection point) and ``at_edge`` (S,) (x on
     cur, within `tol`, and `inner`); `ok` (S,) cleared for the rows whose line
     misses the plane (parallel, behind cur, past the image) or whose point lies off
-    the plane's box (P, 2, 3) grown by 2.01 `tol`."""
+    the plane's box (P, 2, 3) grown by 2.01 `tol` (the rows refused already: x and
+    start at cur, not at an edge)."""
     grow = 2.01 * tol
     lift = eps if inner else 0.0
     for s in range(planes.shape[0]):
+        cx, cy, cz = cur[s, 0], cur[s, 1], cur[s, 2]
+        if not ok[s]:  # refused already: nothing to find (x and start left at cur)
+            x[s, 0], x[s, 1], x[s, 2] = cx, cy, cz
+            start[s, 0], start[s, 1], start[s, 2] = cx, cy, cz
+            at_edge[s] = False
+            continue
         p = planes[s]
         nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
-        cx, cy, cz = cur[s, 0], cur[s, 1], cur[s, 2]
         dx, dy, dz = image[s, 0] - cx, image[s, 1] - cy, image[s, 2] - cz
         denom = dx * nx + dy * ny + dz * nz
         safe = 1.0 if abs(denom) < 1e-12 else denom
@@ -64,14 +70,13 @@ def step(
         tp = max(t, 0.0)
         px, py, pz = cx + tp * dx, cy + tp * dy, cz + tp * dz
         x[s, 0], x[s, 1], x[s, 2] = px, py, pz
-        lo, hi = boxes[p, 0], boxes[p, 1]
         good = (
             good
-            and lo[0] - grow <= px <= hi[0] + grow
-            and lo[1] - grow <= py <= hi[1] + grow
-            and lo[2] - grow <= pz <= hi[2] + grow
+            and boxes[p, 0, 0] - grow <= px <= boxes[p, 1, 0] + grow
+            and boxes[p, 0, 1] - grow <= py <= boxes[p, 1, 1] + grow
+            and boxes[p, 0, 2] - grow <= pz <= boxes[p, 1, 2] + grow
         )
-        ok[s] = ok[s] and good
+        ok[s] = good
         at_edge[s] = tp * length <= tol and inner
         m = max(length, 1e-300)
         start[s, 0] = cx + lift * (dx / m)
