@@ -3,6 +3,7 @@ loops of the geometry (mirror images, line-plane intersections, reflections,
 barycentric coordinates by least squares, a Gauss-Newton search by scipy), and,
 for the whole tracer, its numpy twins (numba missing): the same paths."""
 
+import dataclasses
 import tomllib
 
 import numpy as np
@@ -297,8 +298,13 @@ def _all_kernels_off(monkeypatch):
     monkeypatch.setattr(specular, "_kernels", lambda: None)
 
 
-def _corridor(spectra: bool):
-    """The corridor scene; `spectra`: its plaster frequency-dependent (a table)."""
+def _corridor(spectra: bool, bounces: int = 2):
+    """The corridor scene; `spectra`: its plaster frequency-dependent (a table);
+    `bounces`: 3, too many plane sequences to enumerate (the rays find them)."""
+    if bounces != 2:
+        scene = load_scene(CORRIDOR)
+        simulation = dataclasses.replace(scene.simulation, bounces=bounces)
+        return dataclasses.replace(scene, simulation=simulation)
     if not spectra:
         return load_scene(CORRIDOR)
     with open(CORRIDOR, "rb") as fh:
@@ -309,14 +315,14 @@ def _corridor(spectra: bool):
     return parse_scene(doc, base_dir=CORRIDOR.parent)
 
 
-@pytest.mark.parametrize("spectra", [False, True])
-def test_the_compiled_tracer_traces_the_paths_of_its_numpy_twin(monkeypatch, spectra):
-    """The corridor's poses (and with a frequency-dependent plaster) traced with
-    every kernel and with none (numba missing): the same rays and paths, bit for bit
-    but the glints (their search stops within 1e-7 of its root; the kernel solves
-    its 2 x 2 steps in closed form, LAPACK otherwise), whose points agree within a
-    nanometre."""
-    scene = _corridor(spectra)
+@pytest.mark.parametrize(("spectra", "bounces"), [(False, 2), (True, 2), (False, 3)])
+def test_the_compiled_tracer_traces_the_paths_of_its_numpy_twin(monkeypatch, spectra, bounces):
+    """The corridor's poses (and with a frequency-dependent plaster, and with three
+    bounces) traced with every kernel and with none (numba missing): the same rays
+    and paths, bit for bit but the glints (their search stops within 1e-7 of its
+    root; the kernel solves its 2 x 2 steps in closed form, LAPACK otherwise), whose
+    points agree within a nanometre."""
+    scene = _corridor(spectra, bounces)
     poses = [scene.sensor.poses[i] for i in (10, 31, 52)]
 
     def traced(tracer):
