@@ -57,8 +57,8 @@ import numpy as np
 
 from acousim.trace.options import TraceSettings
 from acousim.trace.rays.emission import Emission
-from acousim.trace.rays.scatter import Contributions, scatter
-from acousim.trace.rays.shoot import Shot, follow, sequences_met
+from acousim.trace.rays.scatter import Contributions, scatter, scatter_rows, take
+from acousim.trace.rays.shoot import Hits, Shot, follow, sequences_met
 from acousim.trace.rays.specular import refine_sequences
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
@@ -215,7 +215,7 @@ def tail_agrees(energy: np.ndarray, before: np.ndarray) -> bool:
     :data:`TAIL_TOLERANCE_DB` in every bin holding at least ``10^(-TAIL_SPAN_DB/10)``
     of the strongest bin's energy in either (module docstring)."""
     width = max(len(energy), len(before))
-    a, b = np.pad(energy, (0, width - len(energy))), np.pad(before, (0, width - len(before)))
+    a, b = _padded(energy, width), _padded(before, width)
     top = max(a.max(initial=0.0), b.max(initial=0.0))
     if top == 0:
         return True
@@ -265,9 +265,14 @@ def _mean(a: np.ndarray | None, n_a: int, b: np.ndarray, n_b: int) -> np.ndarray
     if a is None:
         return b
     width = max(len(a), len(b))
-    return (np.pad(a, (0, width - len(a))) * n_a + np.pad(b, (0, width - len(b))) * n_b) / (
-        n_a + n_b
-    )
+    return (_padded(a, width) * n_a + _padded(b, width) * n_b) / (n_a + n_b)
+
+
+def _padded(a: np.ndarray, width: int) -> np.ndarray:
+    """`a` (n,) followed by zeros up to `width` (``np.pad``'s result, without its cost)."""
+    out = np.zeros(width, a.dtype)
+    out[: len(a)] = a
+    return out
 
 
 def _merge(parts: list[tuple[Contributions, float]]) -> Contributions:
@@ -298,24 +303,26 @@ def ray_work(
     every = all_sequences(world, settings.bounces) if enumerate_all else None
     if enumerate_all and not tail:
         return _probe(world, caster, settings, emitter, axis, every, emission)
-    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     tried, sequences, glints, parts, met = set(), set(), set(), [], set()
-    total, before = 0, None
+    total, before, ends = 0, None, (emitter, receiver, axis)
+    first = max(1, min(START_RAYS, settings.rays_max))
+    # the first two batches are always shot: where each batch's sequences are not
+    # needed apart, both followed and scattered at once (the same hits, in order)
+    at_once = enumerate_all and emission is None and 2 * first <= settings.rays_max
+    early = _first_two(world, caster, settings, ends, first) if at_once else None
     for batch in range(64):
-        n = max(1, min(START_RAYS, settings.rays_max)) if batch < 2 else total
+        n = first if batch < 2 else total
         if total + n > settings.rays_max:
             break
-        dirs = batch_directions(n, axis, settings.beam_rad, batch)
-        shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
+        met_now, part = _batch(world, caster, settings, ends, (batch, n), emission, early)
         found = set()
         if enumerate_all:
-            met |= set(shot.sequences)
+            met |= set(met_now)
         else:  # the rays find the plane sequences: keep the paths
-            new = set(shot.sequences) - tried
+            new = set(met_now) - tried
             found = _valid(world, caster, new, (emitter, receiver), settings.max_path_m)
-            tried |= set(shot.sequences)
+            tried |= set(met_now)
             sequences |= found
-        part = scatter(world, caster, shot.hits, receiver, settings.max_path_m)
         new_lobes = lobes(part) - glints
         glints |= new_lobes
         energy = tail_energy(part) if tail else np.zeros(0)
@@ -338,6 +345,64 @@ def ray_work(
     if enumerate_all:
         return RayWork(every, contributions, total, frozenset(met))
     return RayWork(sorted(sequences), contributions, total)
+
+
+def _batch(world, caster, settings, ends, batch: tuple[int, int], emission, early) -> tuple:
+    """Batch `batch` (its number, its rays n) of the automatic budget: (the plane
+    sequences its rays met, their contributions); taken from `early` (batches 0 and
+    1 at once: :func:`_first_two`; None: none) or shot (or taken from `emission`)
+    and scattered.  ends: (emitter, receiver, axis)."""
+    (number, n), (emitter, receiver, axis) = batch, ends
+    if early is not None and number < 2:
+        return early[number]
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
+    dirs = batch_directions(n, axis, settings.beam_rad, number)
+    shot = _shot(world, caster, settings, emitter, dirs, omega / n, emission)
+    return shot.sequences, scatter(world, caster, shot.hits, receiver, settings.max_path_m)
+
+
+def _first_two(world, caster, settings, ends, n: int) -> list:
+    """Batches 0 and 1 of `n` rays each, followed and scattered in one pass: per
+    batch, (the plane sequences met, all of them given to batch 0, the
+    contributions); the contributions of each batch are those it makes alone, in
+    the same order.  ends: (emitter, receiver, axis)."""
+    emitter, receiver, axis = ends
+    omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
+    dirs = np.concatenate([batch_directions(n, axis, settings.beam_rad, b) for b in (0, 1)])
+    reach = settings.max_path_m
+    shot = follow(world, caster, emitter, dirs, omega / n, settings.bounces, reach, legs=True)
+    # the hits batch by batch (each in its order), so that the contributions are too
+    hits, second = _batch_major(shot, n)
+    both, rows = scatter_rows(world, caster, hits, receiver, reach)
+    if world.spectra is not None:  # two parts per hit: the contributions taken apart
+        return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
+    k = int(np.searchsorted(rows, np.count_nonzero(~second)))
+    return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]
+
+
+def _batch_major(shot: Shot, n: int) -> tuple[Hits, np.ndarray]:
+    """The hits of `shot` (bounce by bounce, each bounce's rays ascending) reordered:
+    those of the rays before ray n bounce by bounce, then the others' (slices, no
+    sort); and (K,) whether each is of a ray from n on."""
+    ray, bounce = shot.legs.ray, shot.hits.order
+    ends = [0, *(np.flatnonzero(np.diff(bounce)) + 1).tolist(), len(ray)]
+    cut = [a + int(np.searchsorted(ray[a:b], n)) for a, b in zip(ends[:-1], ends[1:])]
+    parts = [slice(a, c) for a, c in zip(ends[:-1], cut)]
+    parts += [slice(c, b) for c, b in zip(cut, ends[1:])]
+    hits = Hits(
+        *(None if v is None else np.concatenate([v[p] for p in parts]) for v in _values(shot.hits))
+    )
+    return hits, np.concatenate([ray[p] for p in parts]) >= n
+
+
+def _values(obj) -> list:
+    """The fields of a dataclass instance, in order."""
+    return [getattr(obj, f.name) for f in fields(obj)]
+
+
+def _part(c: Contributions, rows: slice) -> Contributions:
+    """The contributions `rows` of `c` (views)."""
+    return Contributions(*(None if v is None else v[rows] for v in _values(c)))
 
 
 def _shot(world, caster, settings, emitter, dirs, d_omega, emission) -> Shot:

@@ -36,6 +36,7 @@ import numpy as np
 
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.rays.scatter import Contributions
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Cells", "cluster", "members", "DIFFUSE_CELL_DEG", "DIFFUSE_BIN_FACTOR"]
 
@@ -56,16 +57,49 @@ class Cells:
 
 
 def _dense(v: np.ndarray) -> tuple[np.ndarray, int]:
-    _, inv = np.unique(v, return_inverse=True)
-    inv = inv.ravel()
-    return inv, int(inv.max()) + 1 if inv.size else 0
+    """Each integer of `v` (K,) as its rank among the distinct values (ascending:
+    ``np.unique``'s inverse), and how many distinct values there are; by a table
+    of the values' span when it is at most a few times K (no sort)."""
+    if v.size == 0:
+        return np.zeros(0, np.intp), 0
+    lo = v.min()
+    span = int(v.max() - lo) + 1
+    if span > 4 * v.size + 4096:
+        _, inv = np.unique(v, return_inverse=True)
+        inv = inv.ravel()
+        return inv, int(inv.max()) + 1
+    present = np.zeros(span, bool)
+    shifted = v - lo
+    present[shifted] = True
+    rank = np.cumsum(present) - 1
+    return rank[shifted], int(rank[-1]) + 1
 
 
 def members(
     c: Contributions, receiver: np.ndarray, resolution_m: float, cells: Cells = Cells()
 ) -> tuple[np.ndarray, int]:
     """Steps 1 and 2: the cluster (K,) of every contribution, and the number of
-    clusters; the receiver (3,) in metres, the range resolution as a path length (m)."""
+    clusters; the receiver (3,) in metres, the range resolution as a path length (m).
+    Compiled (:mod:`.cluster_kernel`) or, without numba, in numpy: the same."""
+    kernel = optional_kernel("acousim.trace.rays.cluster_kernel", "members")
+    if kernel is not None:
+        signature = None
+        if c.interactions is not None and c.interactions.shape[1]:
+            _, signature = np.unique(c.interactions, axis=0, return_inverse=True)
+            signature = signature.ravel().astype(np.int64)
+        return kernel(
+            c.first_leg_m,
+            c.last_leg_m,
+            c.point_m,
+            np.asarray(receiver, float),
+            c.lambert,
+            c.surface,
+            c.order,
+            signature,
+            float(np.deg2rad(cells.cell_deg)),
+            float(cells.bin_factor),
+            float(resolution_m),
+        )
     total = c.first_leg_m + c.last_leg_m
     u = (c.point_m - receiver) / c.last_leg_m[:, None]  # direction from the receiver
     # 1. groups: surface and order, and a direction cell for the Lambert tail
@@ -89,18 +123,17 @@ def members(
     return _dense(group.astype(np.int64) * (int(bins.max()) + 1) + bins)
 
 
-def cluster(
-    c: Contributions, receiver: np.ndarray, resolution_m: float, cells: Cells = Cells()
-) -> TracedPaths:
-    """Point reflectors (paths of kind "scatter") for contributions `c`; the receiver
-    (3,) in metres, the range resolution as a path length (m)."""
-    if len(c) == 0:
-        return TracedPaths.empty()
+def _reflectors(c: Contributions, inv: np.ndarray, n: int, receiver: np.ndarray) -> tuple:
+    """Step 3 for the contributions `c` in clusters `inv` (K,) of `n`: per cluster the
+    summed intensity, the intensity-weighted mean path length and last leg (m),
+    direction from the receiver and departure (unit, (n, 3)) and order (compiled,
+    :func:`.cluster_kernel.reflectors`, or in numpy: the same sums)."""
+    kernel = optional_kernel("acousim.trace.rays.cluster_kernel", "reflectors")
+    if kernel is not None:
+        args = (c.intensity, c.first_leg_m, c.last_leg_m, c.point_m)
+        return kernel(inv, n, *args, np.asarray(receiver, float), c.departure, c.order)
     inten = c.intensity
-    total = c.first_leg_m + c.last_leg_m
     u = (c.point_m - receiver) / c.last_leg_m[:, None]
-    inv, n = members(c, receiver, resolution_m, cells)
-    # 3. one reflector per bin: summed intensity at the mean path length and direction
     w = np.bincount(inv, inten, n)
 
     def mean(v: np.ndarray) -> np.ndarray:
@@ -108,14 +141,27 @@ def cluster(
             return np.bincount(inv, inten * v, n) / w
         return np.stack([mean(v[:, k]) for k in range(v.shape[1])], axis=1)
 
-    length = mean(total)
+    length = mean(c.first_leg_m + c.last_leg_m)
     last = mean(c.last_leg_m)
     direction = mean(u)
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    anchor = receiver + last[:, None] * direction
     dep = mean(c.departure)
     dep /= np.linalg.norm(dep, axis=1, keepdims=True)
     order = np.rint(mean(c.order.astype(float))).astype(int)
+    return w, length, last, direction, dep, order
+
+
+def cluster(
+    c: Contributions, receiver: np.ndarray, resolution_m: float, cells: Cells = Cells()
+) -> TracedPaths:
+    """Point reflectors (paths of kind "scatter") for contributions `c`; the receiver
+    (3,) in metres, the range resolution as a path length (m)."""
+    if len(c) == 0:
+        return TracedPaths.empty()
+    inv, n = members(c, receiver, resolution_m, cells)
+    # 3. one reflector per bin: summed intensity at the mean path length and direction
+    w, length, last, direction, dep, order = _reflectors(c, inv, n, receiver)
+    anchor = receiver + last[:, None] * direction
     counts = None
     if c.interactions is not None and c.interactions.shape[1]:
         counts = np.zeros((n, c.interactions.shape[1]), int)

@@ -36,6 +36,7 @@ import numpy as np
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.world.build import World, radix_argsort, row_groups
 from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 
 __all__ = ["glints", "curved_groups", "CAUSTIC_CAP"]
 
@@ -279,7 +280,32 @@ def _candidates(world: World, emitter: np.ndarray, receiver: np.ndarray) -> np.n
 
 def _specular_points(world: World, f: np.ndarray, emitter: np.ndarray, receiver: np.ndarray):
     """Step 2 of :func:`glints`: the faces `f` that hold a specular point and its
-    barycentric coordinates (K, 2)."""
+    barycentric coordinates (K, 2); compiled (:mod:`.glint_kernel`: face by face, the
+    same iteration) or, without numba, in numpy (:func:`_specular_points_numpy`)."""
+    kernel = optional_kernel("acousim.trace.rays.glint_kernel", "specular_points")
+    if kernel is None:
+        return _specular_points_numpy(world, f, emitter, receiver)
+    b = np.empty((f.size, 2))
+    ok = kernel(
+        world.vertex_normals,
+        world.triangles,
+        np.ascontiguousarray(f, np.int64),
+        np.ascontiguousarray(emitter, float),
+        np.ascontiguousarray(receiver, float),
+        _ITERATIONS,
+        _HALVINGS,
+        _STEP,
+        _CONVERGED,
+        _INSIDE,
+        b,
+    )
+    return f[ok], b[ok]
+
+
+def _specular_points_numpy(
+    world: World, f: np.ndarray, emitter: np.ndarray, receiver: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_specular_points` in numpy, all faces at once."""
     # 2. Gauss-Newton for the specular point on each face, steps halved until the
     #    residual drops (long faces, such as a pipe's, overshoot with full steps);
     #    a face leaves the search once converged, stuck, or far outside its edges

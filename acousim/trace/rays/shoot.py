@@ -149,8 +149,6 @@ def follow(
     planar = np.ones(rays, bool)
     seq = np.full((rays, bounces), -1)
     alive = np.arange(rays)
-    refl = world.face_values("reflection")
-    diffuse = world.face_values("diffuse")
     column = world.face_interactions(0)  # specular interactions (None: no tables)
     history = np.zeros((rays, world.n_interactions), int)
     n_planes = world.n_planes
@@ -161,27 +159,77 @@ def follow(
         if alive.size == 0:
             break
         # 2. first hits of the live rays
-        alive, t, f, x = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
+        # (np.take: rows of (R, 3) arrays several times faster than a[alive])
+        t, f = caster.first_hit(
+            _rows(origin, alive), _rows(dirs, alive), max_path_m - length[alive]
+        )
+        hit = f >= 0
+        alive, t, f = alive[hit], t[hit], f[hit]
         before = length[alive]  # a copy: the lengths before this leg
-        length[alive] += t
+        # 4. continue specularly (step 3 below: the sequences)
+        x, normal, mirror, power_in = _bounce(
+            world, caster, (alive, t, f), (origin, dirs, length, power)
+        )
         # 3. candidate plane sequences (rays that met planar faces only)
         seq[alive, b] = world.plane[f]
         planar[alive] &= ~world.curved[f]
-        rows = seq[alive[planar[alive]], : b + 1]
+        rows = _rows(seq, alive[planar[alive]])[:, : b + 1]
         sequences.update(_unique_rows(rows, n_planes))
         reached.append((alive, before, t, planar[alive]))
-        normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
-        geo = (x, normal, mirror, power[alive], length[alive], departure[alive])
-        records.append((*geo, f, np.full(f.size, b + 1), history[alive]))
-        # 4. continue specularly
-        power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+        geo = (x, normal, mirror, power_in, length[alive], _rows(departure, alive))
+        records.append((*geo, f, np.full(f.size, b + 1), _rows(history, alive)))
         if column is not None:
             c = column[f]
             history[alive[c >= 0], c[c >= 0]] += 1
-        origin[alive] = x + caster.offset_m * normal
-        dirs[alive] = mirror
         alive = alive[(length[alive] < max_path_m) & (power[alive] > 0)]
     return Shot(_hits(records, history), sorted(sequences), rays, _legs(reached, seq, legs))
+
+
+def _bounce(world: World, caster: RayCaster, met: tuple, state: tuple) -> tuple:
+    """Steps 2 and 4 of :func:`follow` for the rays that `met` faces (rays, distances
+    (m), faces (N,)): their hits (N, 3), the normals there on their side (N, 3), the
+    mirrored directions (N, 3) and their power before the hit (N,); the rays'
+    `state` (origins (R, 3), directions (R, 3), lengths (R,), powers (R,)) moved on
+    in place: compiled (:func:`.bounce_kernel.bounce`) or in numpy, the same."""
+    alive, t, f = met
+    origin, dirs, length, power = state
+    kernel = optional_kernel("acousim.trace.rays.bounce_kernel", "bounce")
+    if kernel is not None:  # in one pass
+        x, normal, mirror = np.empty((3, f.size, 3))
+        power_in = np.empty(f.size)
+        tables, lift = _bounce_tables(world), caster.offset_m
+        kernel(alive, t, f, origin, dirs, length, power, tables, lift, x, normal, mirror, power_in)
+        return x, normal, mirror, power_in
+    refl, diffuse = world.face_values("reflection"), world.face_values("diffuse")
+    x = origin[alive] + t[:, None] * dirs[alive]
+    length[alive] += t
+    normal, mirror = _reflect(world.normals_at(x, f), dirs[alive])
+    power_in = power[alive]
+    power[alive] *= refl[f] ** 2 * (1 - diffuse[f])
+    origin[alive] = x + caster.offset_m * normal
+    dirs[alive] = mirror
+    return x, normal, mirror, power_in
+
+
+def _rows(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``a[rows]`` of an array (N, ...) by integer rows: the same values, faster."""
+    return np.take(a, rows, axis=0)
+
+
+def _bounce_tables(world: World) -> tuple:
+    """What :func:`.bounce_kernel.bounce` reads of a world (once per world): face
+    normals, curved, corners, corner normals, reflection and diffuse per face."""
+    return world._cached(
+        "bounce_tables",
+        lambda: (
+            world.normals,
+            world.curved,
+            world.triangles,
+            world.vertex_normals,
+            np.asarray(world.face_values("reflection"), float),
+            np.asarray(world.face_values("diffuse"), float),
+        ),
+    )
 
 
 def _first_hits(caster: RayCaster, origin, dirs, alive: np.ndarray, reach_m: np.ndarray):
@@ -355,7 +403,9 @@ def _unique_rows(rows: np.ndarray, n_planes: int) -> list[tuple[int, ...]]:
     if not rows.size:
         return []
     k = rows.shape[1]
-    code = rows @ (n_planes ** np.arange(k)).astype(np.int64)
+    code = rows[:, 0].astype(np.int64)  # sum of rows[:, i] P^i (an integer matmul is slow)
+    for i in range(1, k):
+        code = code + rows[:, i] * np.int64(n_planes**i)
     # the distinct codes, read back digit by digit (the rows' values are in [0, P))
     distinct = np.unique(code)
     digits = distinct[:, None] // (n_planes ** np.arange(k))[None, :] % n_planes

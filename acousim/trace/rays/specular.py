@@ -19,6 +19,7 @@ import numpy as np
 from acousim.trace.paths import KIND, TracedPaths
 from acousim.trace.world.build import World
 from acousim.trace.world.embree import RayCaster
+from processing.base.kernels import optional_kernel
 
 #: an image source within this times the longest path is within reach
 REACH = 1.01
@@ -60,16 +61,14 @@ def refine_sequences(
     found: set[tuple] = set()  # the image sources kept, in units of tol
     by_len = sequences if isinstance(sequences, dict) else by_length(sequences)
     for _k, ids in sorted(by_len.items()):
-        S = ids.shape[0]
-        images = _images(ids, emitter, normal, offset)
-        ok = np.ones(S, bool)
-        if max_path_m is not None:
-            ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
-            if not ok.all():  # those out of reach take no further work (order kept)
-                ids, images, ok = ids[ok], images[ok], ok[ok]
+        images, ok = _images_within(ids, emitter, normal, offset, max_path_m)
+        if not ok.all():  # those out of reach take no further work (order kept)
+            within = np.flatnonzero(ok)
+            ids, images = np.take(ids, within, axis=0), np.take(images, within, axis=0)
+            ok = ok[within]
         points, edges, cur = _reflection_points(world, caster, ids, images, receiver, ok)
         # two reflections at one point of an edge: only inside a concave corner
-        i, j = np.array(edges, int).reshape(-1, 2).T
+        i, j = edges.T
         i, j = i[ok[i]], j[ok[i]]
         if i.size:
             before = _before(points[i], j, emitter, tol)
@@ -105,6 +104,28 @@ def refine_sequences(
     return paths
 
 
+def _kernels():
+    """The compiled steps (:mod:`.specular_kernel`), or None without numba."""
+    return optional_kernel("acousim.trace.rays.specular_kernel")
+
+
+def _images_within(ids: np.ndarray, emitter: np.ndarray, normal, offset, max_path_m):
+    """Image sources (S, k + 1, 3) of sequences `ids` (S, k) and (S,) whether the last
+    lies within reach of the emitter (``max_path_m`` times :data:`REACH`; None: all)."""
+    kernel = _kernels()
+    if kernel is None:
+        images = _images(ids, emitter, normal, offset)
+        ok = np.ones(ids.shape[0], bool)
+        if max_path_m is not None:
+            ok &= np.linalg.norm(images[:, -1] - emitter, axis=1) <= max_path_m * REACH
+        return images, ok
+    images = np.empty((ids.shape[0], ids.shape[1] + 1, 3))
+    reach = np.inf if max_path_m is None else max_path_m * REACH
+    ids = np.ascontiguousarray(ids, np.int64)
+    ok = kernel.images(ids, np.asarray(emitter, float), normal, offset, reach, images)
+    return images, ok
+
+
 def _images(ids: np.ndarray, emitter: np.ndarray, normal, offset) -> np.ndarray:
     """Image sources (S, k + 1, 3) of sequences `ids` (S, k): the emitter mirrored
     across each plane in turn."""
@@ -132,40 +153,38 @@ def _counts(ids: np.ndarray, column, K: int) -> np.ndarray:
 
 def _reflection_points(world, caster, ids, images, receiver, ok):
     """Backwards from the receiver, the reflection points (S, k, 3) of sequences `ids`
-    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) where
+    (S, k) with image sources `images` (S, k + 1, 3), the (sequence, j) (E, 2) where
     reflections j and j + 1 meet at an edge, and the first reflection points (S, 3)
     (the receiver for k = 0); `ok` (S,) is cleared in place for
     sequences whose points miss their plane or whose legs are blocked."""
     normal, offset = _plane_table(world)[:2]
     eps, tol = caster.offset_m, caster.tolerance_m
     S, k = ids.shape
-    edges: list[tuple[int, int]] = []
-    cur = np.broadcast_to(receiver, (S, 3)).copy()
+    edges: list[np.ndarray] = []
+    cur = np.empty((S, 3))
+    cur[:] = receiver
     points = np.empty((S, k, 3))
+    kernel = _kernels()
     for j in range(k - 1, -1, -1):
-        n, off = normal[ids[:, j]], offset[ids[:, j]]
-        direction = images[:, j + 1] - cur
-        denom = np.einsum("si,si->s", direction, n)
-        safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
-        s_ = (off - np.einsum("si,si->s", cur, n)) / safe
-        length = np.linalg.norm(direction, axis=1)
-        ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
-        x = cur + np.maximum(s_, 0)[:, None] * direction
-        # a reflection point off its plane's box is on none of its faces (every
-        # check below would refuse it): no ray for it
-        box = world.plane_boxes[ids[:, j]]
-        ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
-        # a reflection point on the previous one: the path meets an edge between
-        # two planes (both reflections happen there); no leg to check for it
-        at_edge = (np.maximum(s_, 0) * length <= tol) & (j < k - 1)
-        unit = direction / np.maximum(length, 1e-300)[:, None]
-        start = cur + (eps if j < k - 1 else 0.0) * unit
+        if kernel is None:
+            x, start, at_edge = _step(
+                world, ids[:, j], images[:, j + 1], cur, ok, eps, tol, j < k - 1
+            )
+        else:  # x written into points (a view), as the numpy form copies it there
+            x, start, at_edge = points[:, j], np.empty((S, 3)), np.empty(S, bool)
+            planes, image, box = ids[:, j], images[:, j + 1], world.plane_boxes
+            kernel.step(
+                planes, image, cur, ok, normal, offset, box, tol, eps, j < k - 1, x, start, at_edge
+            )
         sel = np.flatnonzero(ok & at_edge)
         ok[sel] = _on_planes(world, ids[sel, j], x[sel], tol)
-        edges.extend((i, j) for i in np.flatnonzero(ok & at_edge))
+        met = np.flatnonzero(ok & at_edge)
+        edges.append(np.column_stack([met, np.full(met.size, j)]))
         live = np.flatnonzero(ok & ~at_edge)
-        t, f = caster.first_hit(start[live], (x - start)[live])
-        dist = np.linalg.norm(x[live] - start[live], axis=1)
+        begin = np.take(start, live, axis=0)
+        leg = np.take(x, live, axis=0) - begin
+        t, f = caster.first_hit(begin, leg)
+        dist = np.linalg.norm(leg, axis=1)
         good = (f >= 0) & (np.abs(t - dist) <= tol)
         other = good.copy()
         other[good] = world.plane[f[good]] != ids[live[good], j]
@@ -175,9 +194,37 @@ def _reflection_points(world, caster, ids, images, receiver, ok):
         sel = np.flatnonzero(other)
         good[sel] = _on_planes(world, ids[live[sel], j], x[live[sel]], tol)
         ok[live[~good]] = False
-        points[:, j] = x
+        if kernel is None:
+            points[:, j] = x
         cur = x
-    return points, edges, cur
+    return points, np.concatenate([np.zeros((0, 2), int), *edges]).astype(int), cur
+
+
+def _step(world, planes, image, cur, ok, eps, tol, inner):
+    """One backward step of :func:`_reflection_points` in numpy (the compiled
+    :func:`.specular_kernel.step`'s twin): the points x (S, 3) where the lines from
+    `cur` to `image` (S, 3) meet the `planes` (S,), the starts (S, 3) of the legs to
+    check, and (S,) whether x is at an edge (on cur, `inner`: cur a reflection
+    point); `ok` cleared in place."""
+    normal, offset = _plane_table(world)[:2]
+    n, off = normal[planes], offset[planes]
+    direction = image - cur
+    denom = np.einsum("si,si->s", direction, n)
+    safe = np.where(np.abs(denom) < 1e-12, 1.0, denom)
+    s_ = (off - np.einsum("si,si->s", cur, n)) / safe
+    length = np.linalg.norm(direction, axis=1)
+    ok &= (np.abs(denom) >= 1e-12) & (s_ * length > -tol) & (s_ < 1)
+    x = cur + np.maximum(s_, 0)[:, None] * direction
+    # a reflection point off its plane's box is on none of its faces (every check
+    # after would refuse it): no ray for it
+    box = world.plane_boxes[planes]
+    ok &= np.all((box[:, 0] - 2.01 * tol <= x) & (x <= box[:, 1] + 2.01 * tol), axis=1)
+    # a reflection point on the previous one: the path meets an edge between two
+    # planes (both reflections happen there); no leg to check for it
+    at_edge = (np.maximum(s_, 0) * length <= tol) & inner
+    unit = direction / np.maximum(length, 1e-300)[:, None]
+    start = cur + (eps if inner else 0.0) * unit
+    return x, start, at_edge
 
 
 def by_length(sequences: list[tuple[int, ...]]) -> dict[int, np.ndarray]:
@@ -211,8 +258,33 @@ def _on_planes(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> np.
     out = np.zeros(len(pids), bool)
     if len(pids) == 0:
         return out
+    kernel = _kernels()
+    if kernel is not None and _few_faces(world, pids):
+        return kernel.on_planes(*_holding_args(world, pids, x, tol))
     out[_holding(world, pids, x, tol)[0]] = True
     return out
+
+
+def _few_faces(world: World, pids: np.ndarray) -> bool:
+    """Whether the planes `pids` have at most 20000 faces in all (every face of each
+    tested: the compiled test, as :func:`_holding`'s one pass)."""
+    order, starts, _ = world._plane_index()
+    return int(world._cached("plane_faces", lambda: np.diff(starts))[pids].sum()) <= 20000
+
+
+def _holding_args(world: World, pids: np.ndarray, x: np.ndarray, tol: float) -> tuple:
+    """The arguments of :func:`.specular_kernel.on_planes` and ``holding``."""
+    order, starts, _ = world._plane_index()
+    return (
+        np.ascontiguousarray(pids, np.int64),
+        np.ascontiguousarray(x, float),
+        float(tol),
+        world.plane_boxes,
+        order,
+        starts,
+        world.triangles,
+        _longest_edges(world),
+    )
 
 
 def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
@@ -223,6 +295,9 @@ def _holding(world: World, pids: np.ndarray, x: np.ndarray, tol: float):
     whose whole box does not hold it)."""
     from trimesh.triangles import points_to_barycentric
 
+    kernel = _kernels()
+    if kernel is not None and len(pids) and _few_faces(world, pids):
+        return kernel.holding(*_holding_args(world, pids, x, tol))
     none = np.zeros(0, int), np.zeros(0, int)
     grow = 2.01 * tol
     box = world.plane_boxes[pids]

@@ -13,6 +13,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from processing.base.kernels import optional_kernel
+
 __all__ = ["RayCaster", "RAY_OFFSET", "DISTANCE_TOLERANCE"]
 
 _MIN_CHUNK = 20000
@@ -119,6 +121,21 @@ class RayCaster:
             parts = self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])])
             out[ask] = np.concatenate(list(parts))
         return out
+    def _rays(self, origins, directions) -> tuple[np.ndarray, np.ndarray]:
+        """The rays as Embree takes them: origins (N, 3) relative to :attr:`origin`
+        and unit directions (N, 3), float32 (compiled, :mod:`.embree_kernel`, or in
+        numpy: the same numbers)."""
+        o = np.asarray(origins, float)
+        d = np.asarray(directions, float)
+        kernel = optional_kernel("acousim.trace.world.embree_kernel", "prepare")
+        if kernel is None or o.ndim != 2 or d.shape != o.shape or o.shape[-1] != 3:
+            o = o - self.origin
+            norm = np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's
+            d = d / np.where(norm > 0, norm, 1)
+            return o.astype(np.float32), d.astype(np.float32)
+        o32, d32 = np.empty(o.shape, np.float32), np.empty(o.shape, np.float32)
+        kernel(o, d, self.origin, o32, d32)
+        return o32, d32
 
     def first_hit(
         self,
@@ -130,10 +147,7 @@ class RayCaster:
 
         `directions` need not be normalised; distances are along unit directions.
         """
-        o = np.asarray(origins, float) - self.origin
-        d = np.asarray(directions, float)
-        norm = np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's
-        d = d / np.where(norm > 0, norm, 1)
+        o, d = self._rays(origins, directions)
         n = o.shape[0]
         self.rays_cast += n
         if n == 0:
