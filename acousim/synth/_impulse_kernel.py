@@ -5,9 +5,10 @@ For every microphone m and path n the kernel adds the 2 * taps tabulated
 fractional-delay weights of the path, times each of its Q gains, into the rows of a
 float64 accumulator, in the order the sparse product adds them (each row receives
 its terms path by path), so both engines give the same bits; each microphone's rows are then
-stored in the output's precision.  Nothing per tap is kept in memory (the sparse
-product needs the M N 2 taps weights and row indices), and the GIL is released, so
-the tracer's thread runs meanwhile.
+stored in the output's precision, and the rest of its rows zeroed (the output need
+not be: a buffer can be reused without clearing it).  Nothing per tap is kept in
+memory (the sparse product needs the M N 2 taps weights and row indices), and the
+GIL is released, so the tracer's thread runs meanwhile.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from numba import njit
 
 @njit(cache=True, nogil=True)
 def accumulate(start, phase, scale, gains, table, out):  # pragma: no cover - compiled
-    """Sum of weighted impulses into `out` (Q, M, B), which must be zero.
+    """Sum of weighted impulses written into `out` (Q, M, B) (its contents before
+    are not read: every element is written).
 
     start (M, N) int64: buffer index of each impulse's first tap; phase (M, N)
     intp: its row of `table` (P, K), the K tap weights; scale (M, N) times gains
@@ -45,7 +47,9 @@ def accumulate(start, phase, scale, gains, table, out):  # pragma: no cover - co
                     a[j] += row[j] * g
             lo = min(lo, s)
             hi = max(hi, s + K)
-        for q in range(Q):
-            for i in range(lo, hi):
-                out[q, m, i] = acc[q, i]
-                acc[q, i] = 0.0
+        hi = max(hi, lo)
+        for q in range(Q):  # slices: a vectorised copy (a loop of elements is not)
+            out[q, m, :lo] = 0.0
+            out[q, m, lo:hi] = acc[q, lo:hi]
+            out[q, m, hi:] = 0.0
+            acc[q, lo:hi] = 0.0

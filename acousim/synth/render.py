@@ -516,6 +516,7 @@ def _impulses(
     width: int | None = None,
     dtype: type = np.float64,
     V: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ):
     """Sum of interpolated impulses; d in samples from the span start.
 
@@ -527,7 +528,10 @@ def _impulses(
     (M, n_span) or (Q, M, n_span).  With `width` (a buffer length, for an FFT):
     returns ``(h, pad)`` with h of shape (Q, M, width) and span sample i at buffer
     index ``pad + i``.  Taps beyond the span's margin of `taps` samples are dropped.
-    `dtype` is the output's (the sums run in float64).
+    `dtype` is the output's (the sums run in float64).  `out` (Q, M, width) of
+    `dtype`, C-contiguous: a buffer the sums are written into (every element: it
+    need not be zero; a buffer reused for several blocks of microphones touches its
+    memory once), returned as h.
     """
     M, N = d.shape
     many = g.ndim == 3
@@ -547,12 +551,15 @@ def _impulses(
             scale, gains = g, np.broadcast_to(V[None], (M, *V.shape))
         else:
             scale, gains = np.broadcast_to(1.0, (M, N)), g if many else g[..., None]
-        h = np.zeros((gains.shape[2], M, buf), dtype)
+        h = np.empty((gains.shape[2], M, buf), dtype) if out is None else out
         kernel(first, phase, scale, gains, table, h)
     else:
         G = g[:, :, None] * V[None] if V is not None else g if many else g[..., None]
         first = first + (np.arange(M) * buf)[:, None]
         h = _impulses_sparse(first, phase, G, table, M * buf, dtype).reshape(-1, M, buf)
+        if out is not None:
+            out[...] = h
+            h = out
     many = many or V is not None
     if width is not None:
         return h, pad
