@@ -4,7 +4,8 @@
 ``dump PATH``: the :class:`~acousim.synth.doppler.DopplerPlan` of 20 corridor poses
 (``benchmarks.stages``' poses) pickled to PATH.  ``compare BASE PATH [pairs]``: a
 worker process per checkout (this one and BASE) loads the plans and, told in turn,
-renders them all; reported: the median over the pairs of the ratio of their CPU
+renders them all (each process configured as the command line configures it:
+:func:`acousim.process.configure`); reported: the median over the pairs of the ratio of their CPU
 times (base / this), each side's median CPU ms per render, and the residual of this
 checkout's signals against the base's (dB re the base's energy; noise-free, all
 microphones).
@@ -46,6 +47,9 @@ def serve(path: str) -> None:
     ``save OUT`` (the signals stacked to OUT, .npy)."""
     import json
 
+    from acousim.process import configure
+
+    configure()  # the process's policy, as the command line and benchmarks.paired set it
     from acousim.synth.doppler import render_planned
 
     plans = pickle.loads(Path(path).read_bytes())

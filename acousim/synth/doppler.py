@@ -54,9 +54,9 @@ from acousim.synth.options import (
 from acousim.synth.render import (
     FFT_WORKERS,
     CallGrid,
-    _impulses,
     _in_time,
     _kernel_table,
+    _sets_by_fft,
     _taps,
     check_interpolator,
     response_factors,
@@ -81,8 +81,6 @@ __all__ = [
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
 NODE_QUANTUM = 2e-3
-#: microphones rendered together (their impulses' buffer reused from block to block)
-MICS_PER_BLOCK = 5
 
 
 def scaled_call(waveform: Waveform, rate: float) -> Waveform:
@@ -404,45 +402,9 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     cdtype = np.complex64 if plan.single else complex
     filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
     filt[:, band[b0:b1]] = filt_band.T
-    return _planned_by_fft(plan, gains, filt, (b0, b1), out)
-
-
-def _planned_by_fft(plan: DopplerPlan, gains, filt, bins: tuple[int, int], out) -> np.ndarray:
-    """Step 5 by FFT: impulses per set, FFT, the sum of the products with the sets'
-    filters `filt` (R, b1 - b0) over the `bins` b0 .. b1, back; `gains` (M, N, R):
-    `out` (M, T) filled.  Blocks of microphones (the rows are independent: the same
-    bits), each block's impulses written into one buffer (every element: no
-    clearing) and its sum of products into one spectrum (zero outside the band),
-    both reused, so their memory is touched once per render, not once per block;
-    the transforms in this thread (FFT_WORKERS threads cost CPU time for their
-    synchronisation, and a simulator renders while it traces the next pose)."""
-    (b0, b1), n, opts = bins, plan.n_fft, plan.options
-    lo, hi, M = plan.lo, plan.hi, plan.n_mics
-    dtype, cdtype = (np.float32, np.complex64) if plan.single else (np.float64, complex)
-    size = min(MICS_PER_BLOCK, M)
-    buffer = np.empty((filt.shape[0], size, n), dtype)
-    spec = np.zeros((size, n // 2 + 1), cdtype)
-    term = np.empty((size, b1 - b0), cdtype)
-    for m0 in range(0, M, size):
-        mics = slice(m0, min(m0 + size, M))
-        c = mics.stop - m0  # gains (M, N, R): the sets contiguous, as the sums take them
-        h, pad = _impulses(
-            plan.positions[mics],
-            gains[mics],
-            hi - lo,
-            opts.interpolator,
-            opts.taps,
-            n,
-            dtype,
-            out=buffer if c == size else None,
-        )
-        spectra = sfft.rfft(h, axis=-1, workers=1)  # (sets, mics, F)
-        inband = spec[:c, b0:b1]
-        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
-        for q in range(1, filt.shape[0]):
-            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
-        y = sfft.irfft(spec[:c], n, axis=-1, workers=1)[:, pad : pad + hi - lo]
-        out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    # 5. impulses per set, FFT, sum of products over the band, back
+    into, d = (out[:, : plan.hi], lo), plan.positions
+    _sets_by_fft(d, (gains, None), filt, (b0, b1, n), kernel, plan.single, into)
     return out
 
 
