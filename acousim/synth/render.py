@@ -85,10 +85,12 @@ RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
 FILTER_TAILS = 256  # samples a set's filter adds on each side of the call (an estimate)
 #: microphones whose impulses are summed and transformed together by
-#: :func:`_sets_by_fft` (one buffer reused from block to block; the corridor's moving
-#: render, CPU time, in-process alternation over 20 poses x 3, medians of ratios:
-#: blocks of 15 1.12x that, of 15 with FFT_WORKERS threads 1.21x, of 3 1.10x, of 10
-#: 1.03x, all 30 1.08x)
+#: :func:`_sets_by_fft` (one buffer reused from block to block).  The corridor's
+#: moving render, CPU time, in-process alternation over 20 poses x 3, medians of
+#: ratios to blocks of 5: in a process configured as the command line does
+#: (:func:`acousim.process.configure`: freed memory kept) blocks of 3 1.07, 10 0.97,
+#: 15 1.00, all 30 1.01; in one that is not (a script's), 15 1.12, 15 with
+#: FFT_WORKERS threads 1.21, 3 1.10, 10 1.03, 30 1.08
 MICS_PER_BLOCK = 5
 
 
