@@ -236,11 +236,11 @@ def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:
     """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
     convolved with `call` (L,): the span's samples (M, n_span).  The impulses are
-    summed in float64 and stored, with their FFTs, in single precision, in buffers of
-    the FFT's length (no copy), as :func:`_shaped_by_fft` does (float32 rounding:
-    -134 dB relative, the shoebox at 30 microphones; float64 FFTs cost twice as
-    much); the transforms shared among :data:`FFT_WORKERS` threads.  `kernel`: the
-    fractional delays' (method, taps)."""
+    summed and stored, with their FFTs, in single precision, in buffers of the FFT's
+    length (no copy), as :func:`_shaped_by_fft` does (float32 rounding: -135.2 dB
+    relative to float64 sums and FFTs, the shoebox's first pose at 30 microphones;
+    float64 FFTs cost twice as much); the transforms shared among
+    :data:`FFT_WORKERS` threads.  `kernel`: the fractional delays' (method, taps)."""
     method, taps = kernel
     pad = taps + 1  # the layout of the impulses' buffers: span sample i at pad + i
     # no wrap-around into the span: the last tap (at most pad + n_span + pad) plus
