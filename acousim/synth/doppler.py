@@ -54,9 +54,9 @@ from acousim.synth.options import (
 from acousim.synth.render import (
     FFT_WORKERS,
     CallGrid,
-    _impulses,
     _in_time,
     _kernel_table,
+    _sets_by_fft,
     _taps,
     check_interpolator,
     response_factors,
@@ -81,10 +81,6 @@ __all__ = [
 #: Doppler ranges are widened to multiples of this, so consecutive poses of a drive
 #: share their nodes and templates
 NODE_QUANTUM = 2e-3
-#: microphones rendered together: the corridor's 30 in two blocks renders in 0.95 of
-#: the time of one block (paired runs; its buffers are smaller), in 1.01 with three
-#: blocks and 1.08 with six (more, smaller FFT calls)
-MICS_PER_BLOCK = 15
 
 
 def scaled_call(waveform: Waveform, rate: float) -> Waveform:
@@ -377,8 +373,6 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     if plan.empty:
         return out
     lo, hi, n = plan.lo, plan.hi, plan.n_fft
-    n_span = hi - lo
-    dtype = np.float32 if plan.single else np.float64
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
@@ -408,25 +402,9 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     cdtype = np.complex64 if plan.single else complex
     filt = np.zeros((filt_band.shape[1], b1 - b0), cdtype)  # (sets, bins), contiguous
     filt[:, band[b0:b1]] = filt_band.T
-    # 5. impulses per set, FFT, sum of products over the band, back: blocks of
-    # microphones (the rows are independent: the same bits)
-    M = plan.n_mics
-    for m0 in range(0, M, MICS_PER_BLOCK):
-        mics = slice(m0, min(m0 + MICS_PER_BLOCK, M))
-        # gains (M, N, R): the sets contiguous, as the impulse sums take them
-        opts = plan.options
-        h, pad = _impulses(
-            plan.positions[mics], gains[mics], n_span, opts.interpolator, opts.taps, n, dtype
-        )
-        spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (sets, mics, F)
-        spec = np.zeros(spectra.shape[1:], spectra.dtype)
-        inband = spec[:, b0:b1]
-        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
-        term = np.empty_like(inband)
-        for q in range(1, spectra.shape[0]):
-            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
-        y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
-        out[mics, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
+    # 5. impulses per set, FFT, sum of products over the band, back
+    into, d = (out[:, : plan.hi], lo), plan.positions
+    _sets_by_fft(d, (gains, None), filt, (b0, b1, n), kernel, plan.single, into)
     return out
 
 

@@ -84,6 +84,14 @@ FFT_WORKERS = 2  # scipy.fft threads
 RESPONSE_POINTS = 64  # frequencies at which path responses are factorised
 LN10_20 = np.log(10) / 20  # 10^(x / 20) = exp(x LN10_20): exp is the faster
 FILTER_TAILS = 256  # samples a set's filter adds on each side of the call (an estimate)
+#: microphones whose impulses are summed and transformed together by
+#: :func:`_sets_by_fft` (one buffer reused from block to block).  The corridor's
+#: moving render, CPU time, in-process alternation over 20 poses x 3, medians of
+#: ratios to blocks of 5: in a process configured as the command line does
+#: (:func:`acousim.process.configure`: freed memory kept) blocks of 3 1.07, 10 0.97,
+#: 15 1.00, all 30 1.01; in one that is not (a script's), 15 1.12, 15 with
+#: FFT_WORKERS threads 1.21, 3 1.10, 10 1.03, 30 1.08
+MICS_PER_BLOCK = 5
 
 
 def render(
@@ -228,11 +236,11 @@ def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np
 def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kernel) -> np.ndarray:
     """The impulses at `d` (M, N; samples from the span's start) of gains `g` (M, N)
     convolved with `call` (L,): the span's samples (M, n_span).  The impulses are
-    summed in float64 and stored, with their FFTs, in single precision, in buffers of
-    the FFT's length (no copy), as :func:`_shaped_by_fft` does (float32 rounding:
-    -134 dB relative, the shoebox at 30 microphones; float64 FFTs cost twice as
-    much); the transforms shared among :data:`FFT_WORKERS` threads.  `kernel`: the
-    fractional delays' (method, taps)."""
+    summed and stored, with their FFTs, in single precision, in buffers of the FFT's
+    length (no copy), as :func:`_shaped_by_fft` does (float32 rounding: -135.2 dB
+    relative to float64 sums and FFTs, the shoebox's first pose at 30 microphones;
+    float64 FFTs cost twice as much); the transforms shared among
+    :data:`FFT_WORKERS` threads.  `kernel`: the fractional delays' (method, taps)."""
     method, taps = kernel
     pad = taps + 1  # the layout of the impulses' buffers: span sample i at pad + i
     # no wrap-around into the span: the last tap (at most pad + n_span + pad) plus
@@ -336,7 +344,7 @@ def _shaped(echoes, d, call, fs, n_span, how, response, into):
     g, V = factors[0], factors[2]
     if _in_time(domain, g.shape, V.shape[1], kernel, call.size + 2 * FILTER_TAILS, n):
         return _shaped_in_time(d, factors, grid, n, kernel, n_span, into)
-    return _placed(_shaped_by_fft(d, factors, grid.W, n, kernel, n_span), into)
+    return _shaped_by_fft(d, factors, grid.W, n, kernel, n_span, into)
 
 
 def _shaped_in_time(d, factors, grid, n: int, kernel, n_span: int, into=None) -> np.ndarray:
@@ -355,10 +363,11 @@ def _shaped_in_time(d, factors, grid, n: int, kernel, n_span: int, into=None) ->
     return render_time(d, g, paths, lead=lead, kernel=taps, n_samples=n_span, into=into)
 
 
-def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
+def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int, into) -> np.ndarray:
     """Impulses times separable path responses, summed in the frequency domain:
     `factors` (g, U, V, band) of :func:`response_factors`, W the call's spectrum
-    on an n-point real FFT; the span's samples (M, n_span).
+    on an n-point real FFT; the span's samples (n_span of them) placed in the output
+    `into` (:func:`_placed`; returned).
 
     The direct path (order 0, tens of dB above every echo) is factorised apart from
     the echoes, so that its level does not set the accuracy of theirs.  The impulses
@@ -370,20 +379,55 @@ def _shaped_by_fft(d, factors, W, n: int, kernel, n_span: int) -> np.ndarray:
     corridor's samples by -138 dB (relative RMS), the same seed giving the same bytes
     before and after.
     """
-    method, taps = kernel
     g, U, V, band = factors
-    # impulses in FFT-length buffers (Q, M, n), span starting at `pad`: no copies
-    h, pad = _impulses(d, g, n_span, method, taps, n, np.float32, V=V)
-    filt = np.zeros((W.size, V.shape[1]), np.complex64)
-    filt[band] = W[band, None] * U
-    spectra = sfft.rfft(h, axis=-1, workers=FFT_WORKERS)  # (Q, M, F)
-    # sum over q of spectra[q] * filt[:, q] (2.4x faster than einsum)
-    filt = np.ascontiguousarray(filt.T)
-    spec = np.multiply(spectra[0], filt[0])
-    term = np.empty_like(spec)
-    for q in range(1, filt.shape[0]):
-        spec += np.multiply(spectra[q], filt[q], out=term)
-    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+    b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]
+    filt = np.zeros((V.shape[1], b1 - b0), np.complex64)  # (sets, bins), contiguous
+    filt[:, band[b0:b1]] = (W[band, None] * U).T
+    out, lo = into
+    into = (out[:, : lo + n_span], lo)
+    _sets_by_fft(d, (g, V), filt, (b0, b1, n), kernel, True, into)
+    return out
+
+
+def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
+    """Sets of impulses at `d` (M, N; samples from the span's start), their FFTs,
+    the sum of their products with the sets' filters, back: the span written into
+    `into` = (out (M, lo + n_span), lo: the output sample of the span's first; those
+    before sample 0 dropped), out returned.  `gains`: (G (M, N, R), None) the sets'
+    gains, or (g (M, N), V (N, R)) their factors (:func:`_impulses`); `filt` (R, b1
+    - b0) the sets' filters over the bins b0 .. b1 of `fft` = (b0, b1, n), an n-point
+    real FFT (zero elsewhere); `kernel`: the fractional delays' (method, taps);
+    `single`: impulses and spectra in float32.
+
+    Blocks of :data:`MICS_PER_BLOCK` microphones (the rows are independent: the same
+    bits), each block's impulses written into one buffer (every element: no
+    clearing) and its sum of products into one spectrum (zero outside the band),
+    both reused, so their memory is touched once per render, not once per block;
+    the transforms in this thread (a simulator renders while it prepares the next
+    pose; :data:`FFT_WORKERS` threads measured 1.05x the CPU time at blocks of 5,
+    corridor, in-process alternation)."""
+    (b0, b1, n), (G, V), (method, taps) = fft, gains, kernel
+    out, lo = into
+    M, n_span = d.shape[0], out.shape[1] - lo
+    dtype, cdtype = (np.float32, np.complex64) if single else (np.float64, complex)
+    size = min(MICS_PER_BLOCK, M)
+    buffer = np.empty((filt.shape[0], size, n), dtype)
+    spec = np.zeros((size, n // 2 + 1), cdtype)
+    term = np.empty((size, b1 - b0), cdtype)
+    for m0 in range(0, M, size):
+        mics = slice(m0, min(m0 + size, M))
+        c = mics.stop - m0
+        h, pad = _impulses(
+            d[mics], G[mics], n_span, method, taps, n, dtype, V, buffer if c == size else None
+        )
+        spectra = sfft.rfft(h, axis=-1, workers=1)  # (sets, mics, F)
+        inband = spec[:c, b0:b1]
+        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
+        for q in range(1, filt.shape[0]):
+            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
+        y = sfft.irfft(spec[:c], n, axis=-1, workers=1)[:, pad : pad + n_span]
+        out[mics, max(lo, 0) :] = y[:, max(lo, 0) - lo :]
+    return out
 
 
 def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
@@ -494,6 +538,15 @@ def _kernel_table(method: str, taps: int) -> np.ndarray:
     return _kernel(np.linspace(0.0, 1.0, TABLE_PHASES + 1), method, taps)[1]
 
 
+@lru_cache(maxsize=8)
+def _table(method: str, taps: int, dtype: np.dtype) -> np.ndarray:
+    """The weights' table of :func:`_taps` in `dtype` (read-only)."""
+    table = np.ones((1, 1)) if method == "nearest" else _kernel_table(method, taps)
+    table = table.astype(dtype)
+    table.flags.writeable = False
+    return table
+
+
 def _taps(d: np.ndarray, method: str, taps: int):
     """The fractional delays `d` (M, N; samples) as tabulated taps:
     ``(n0 (M, N), phase (M, N) intp, table (P, K), offsets (K,))``: impulse (m, n)
@@ -516,6 +569,7 @@ def _impulses(
     width: int | None = None,
     dtype: type = np.float64,
     V: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ):
     """Sum of interpolated impulses; d in samples from the span start.
 
@@ -527,7 +581,13 @@ def _impulses(
     (M, n_span) or (Q, M, n_span).  With `width` (a buffer length, for an FFT):
     returns ``(h, pad)`` with h of shape (Q, M, width) and span sample i at buffer
     index ``pad + i``.  Taps beyond the span's margin of `taps` samples are dropped.
-    `dtype` is the output's (the sums run in float64).
+    `dtype` is the output's and the sums' (float32: the precision the impulses are
+    stored and transformed in; -140 dB relative to summing in float64 and rounding,
+    the corridor's 30 microphones, below the rounding of the float32 FFTs that
+    follow; 1.7x faster: no float64 accumulator to clear and copy).  `out` (Q, M,
+    width) of `dtype`, C-contiguous: a buffer the sums are written into (every element: it
+    need not be zero; a buffer reused for several blocks of microphones touches its
+    memory once), returned as h.
     """
     M, N = d.shape
     many = g.ndim == 3
@@ -535,24 +595,26 @@ def _impulses(
     buf = n_span + 2 * pad if width is None else width
     if buf < n_span + 2 * pad:
         raise ValueError(f"buffer width {buf} shorter than the span {n_span} and its margins")
-    n0, phase, table, _ = _taps(d, method, taps)
-    if method == "nearest":
-        first = np.clip(n0.astype(np.int64), -pad, n_span + pad - 1) + pad
-    else:
-        first = np.clip(n0.astype(np.int64), -1, n_span) + pad + 1 - taps
-    # first (M, N): index of each impulse's first tap in its microphone's buffer
     kernel = _compiled()
+    if kernel is not None:
+        start, phase = kernel.placed(d, TABLE_PHASES, taps, n_span, method == "nearest")
+    else:
+        start, phase = _placed_taps(d, method, taps, n_span)
+    table = _table(method, taps, np.dtype(dtype))
     if kernel is not None:
         if V is not None:  # g (M, N) times V (N, Q), formed in the kernel
             scale, gains = g, np.broadcast_to(V[None], (M, *V.shape))
         else:
             scale, gains = np.broadcast_to(1.0, (M, N)), g if many else g[..., None]
-        h = np.zeros((gains.shape[2], M, buf), dtype)
-        kernel(first, phase, scale, gains, table, h)
+        h = np.empty((gains.shape[2], M, buf), dtype) if out is None else out
+        kernel.accumulate(start, phase, scale, gains, table, h)
     else:
         G = g[:, :, None] * V[None] if V is not None else g if many else g[..., None]
-        first = first + (np.arange(M) * buf)[:, None]
-        h = _impulses_sparse(first, phase, G, table, M * buf, dtype).reshape(-1, M, buf)
+        start = start + (np.arange(M) * buf)[:, None]
+        h = _impulses_sparse(start, phase, G, table, M * buf, dtype).reshape(-1, M, buf)
+        if out is not None:
+            out[...] = h
+            h = out
     many = many or V is not None
     if width is not None:
         return h, pad
@@ -560,17 +622,28 @@ def _impulses(
     return h if many else h[0]
 
 
+def _placed_taps(d: np.ndarray, method: str, taps: int, n_span: int):
+    """Each impulse's first tap in its microphone's buffer of ``_impulses``
+    (M, N) int64 and its row of the weights' table (M, N) intp, for impulses at `d`
+    (M, N; samples from the span's start): :func:`._impulse_kernel.placed` in numpy."""
+    n0, phase, _, _ = _taps(d, method, taps)
+    pad = taps + 1
+    if method == "nearest":
+        return np.clip(n0.astype(np.int64), -pad, n_span + pad - 1) + pad, phase
+    return np.clip(n0.astype(np.int64), -1, n_span) + pad + 1 - taps, phase
+
+
 def _impulses_sparse(start, phase, G, table, rows_out, dtype) -> np.ndarray:
     """The sums of :func:`._impulse_kernel.accumulate` as one sparse product per set
     of gains, each into its own contiguous row (2.7x faster than one product for all
-    sets followed by a transpose, corridor, Q = 5): (Q, rows_out); `start` indexes
-    the flattened (M * buffer) rows."""
+    sets followed by a transpose, corridor, Q = 5), in `dtype` (`table`'s): (Q,
+    rows_out); `start` indexes the flattened (M * buffer) rows."""
     M, N, Q = G.shape
     k = table.shape[1]
     rows = (start[..., None] + np.arange(k)).ravel()
     weights = table[phase].ravel()
     S = sp.csc_matrix((weights, rows, np.arange(0, M * N * k + 1, k)), shape=(rows_out, M * N))
-    Gt = np.ascontiguousarray(G.reshape(M * N, Q).T)
+    Gt = np.ascontiguousarray(G.reshape(M * N, Q).T, dtype)
     h = np.empty((Q, rows_out), dtype)
     for q, gains in enumerate(Gt):
         h[q] = S @ gains
@@ -578,5 +651,6 @@ def _impulses_sparse(start, phase, G, table, rows_out, dtype) -> np.ndarray:
 
 
 def _compiled():
-    """The compiled accumulation, or None when numba is not installed."""
-    return optional_kernel("acousim.synth._impulse_kernel", "accumulate")
+    """The compiled impulse kernels (:mod:`._impulse_kernel`), or None when numba is
+    not installed."""
+    return optional_kernel("acousim.synth._impulse_kernel")

@@ -187,6 +187,53 @@ def test_compiled_and_sparse_impulse_sums_give_the_same_bits(interpolator, monke
     assert compiled.tobytes() == sparse.tobytes()
 
 
+@pytest.mark.parametrize("method", ["sinc", "nearest"])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_impulse_sums_are_a_plain_loops_sums_in_their_precision(method, dtype):
+    """The impulses' sums, compiled or sparse, into a reused buffer full of garbage:
+    the bytes of a plain loop that puts each path's tabulated taps at its delay and
+    adds them, path by path, in the output's precision (a zero gain adds nothing)."""
+    import importlib
+
+    render_mod = importlib.import_module("acousim.synth.render")
+    rng = np.random.default_rng(3)
+    M, N, Q, taps, n_span, width = 3, 40, 4, 6, 300, 330
+    d = rng.uniform(-10, n_span + 10, (M, N))  # some taps beyond the span's margins
+    g = rng.standard_normal((M, N, Q))
+    g[:, ::5, 1:] = 0.0  # a set without some paths (the direct path's group)
+    pad = taps + 1
+    # the reference: where each path's first tap goes and which weights it takes
+    if method == "nearest":
+        first = np.clip(np.rint(d).astype(int), -pad, n_span + pad - 1) + pad
+        weights = np.ones((M, N, 1))
+    else:
+        n0 = np.floor(d)
+        first = np.clip(n0.astype(int), -1, n_span) + pad + 1 - taps
+        rows = np.rint((d - n0) * render_mod.TABLE_PHASES).astype(int)
+        weights = render_mod._kernel_table(method, taps)[rows]
+    want = np.zeros((Q, M, width), dtype)
+    for m in range(M):
+        for n in range(N):
+            for q in range(Q):
+                if g[m, n, q] != 0.0:
+                    taps_mn = weights[m, n].astype(dtype) * dtype(g[m, n, q])
+                    for j, w in enumerate(taps_mn):  # one add per tap, in path order
+                        want[q, m, first[m, n] + j] += w
+    for compiled in (True, False):
+        if compiled and render_mod._compiled() is None:
+            continue
+        kernel = render_mod._compiled
+        try:
+            if not compiled:
+                render_mod._compiled = lambda: None
+            out = np.full((Q, M, width), np.nan, dtype)
+            h, at = render_mod._impulses(d, g, n_span, method, taps, width, dtype, out=out)
+        finally:
+            render_mod._compiled = kernel
+        assert h is out and at == pad
+        assert h.tobytes() == want.tobytes(), f"compiled={compiled}"
+
+
 def test_noise_drawn_in_advance_is_the_noise_drawn_after():
     from acousim.synth.noise import NoiseDraw, add_noise
 
