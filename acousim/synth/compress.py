@@ -4,18 +4,90 @@ to the few sets their sum needs (a real SVD from Gram matrices)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["compress"]
+from processing.base.kernels import optional_kernel
+
+__all__ = ["compress", "ChebyshevGains", "chebyshev_terms"]
+
+
+def chebyshev_terms(s: np.ndarray, gain: np.ndarray, K: int) -> np.ndarray:
+    """``gain T_p(s)`` (K, ...) for p < K (a three-term recurrence); s and gain
+    (...) broadcast together (s, in [-1, 1], unused when K = 1)."""
+    out = np.empty((K, *np.broadcast_shapes(np.shape(s), np.shape(gain))))
+    out[0] = gain
+    if K > 1:
+        np.multiply(gain, s, out=out[1])
+        s = s * 2
+        for p in range(2, K):
+            np.multiply(s, out[p - 1], out=out[p])
+            out[p] -= out[p - 2]
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ChebyshevGains:
+    """The path gains times the Chebyshev terms of their Doppler factors, held as
+    their factors: ``t_p[m, n] = gain[m, n] T_p(s[m, n])``, p < K.
+
+    gain (M, N) the path gains at the microphones; s (M, N) their Doppler factors
+    mapped onto [-1, 1] (:func:`acousim.synth.doppler.plan_doppler`; None when K =
+    1).  The compression needs two sums of them (:meth:`gram`, :meth:`times`): they
+    run compiled (:mod:`._compress_kernel`) without storing the K x N x M terms, or
+    without numba as matrix products of :meth:`dense`.
+    """
+
+    gain: np.ndarray
+    s: np.ndarray | None
+    K: int
+
+    @property
+    def n_paths(self) -> int:
+        return self.gain.shape[1]
+
+    def dense(self) -> np.ndarray:
+        """The terms (K, N, M)."""
+        s = None if self.s is None else self.s.T
+        return chebyshev_terms(s, self.gain.T, self.K)
+
+    def _args(self):
+        gain = np.ascontiguousarray(self.gain, float)
+        return gain, gain if self.s is None else np.ascontiguousarray(self.s, float)
+
+    def gram(self) -> np.ndarray:
+        """``X[j, k, n] = sum_m t_j[m, n] t_k[m, n]`` (K, K, N)."""
+        kernel = _kernel("term_gram")
+        if kernel is None:
+            return _Dense(self.dense()).gram()
+        out = np.empty((self.K, self.K, self.n_paths))
+        kernel(*self._args(), out)
+        return out
+
+    def times(self, P: np.ndarray) -> np.ndarray:
+        """``g[m, n, r] = sum_p t_p[m, n] P[p, r, n]`` (M, N, R) from P (K, R, N)."""
+        kernel = _kernel("set_gains")
+        if kernel is None:
+            return _Dense(self.dense()).times(P)
+        out = np.empty((*self.gain.shape, P.shape[1]))
+        kernel(*self._args(), np.ascontiguousarray(P), out)
+        return out
+
+
+def _kernel(name: str):
+    """The compiled sum `name` of :mod:`._compress_kernel`, or None without numba."""
+    return optional_kernel("acousim.synth._compress_kernel", name)
 
 
 def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
-    gl (K, N, M) path gains times the Doppler terms (term j, path n, microphone m:
-    the Chebyshev polynomials of :func:`acousim.synth.doppler._chebyshev_terms`),
-    V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
+    gl (:class:`ChebyshevGains`, K terms, N paths, M microphones) path gains times
+    the Doppler terms (term j, path n, microphone m: the Chebyshev polynomials of
+    :func:`acousim.synth.doppler._chebyshev_terms`; or those terms as an array (K,
+    N, M)), V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
     template spectra W (K, F), their products WW (:func:`acousim.synth.doppler._products`)
     and the response terms U (F, Q); path_direct (N,) and set_direct (Q,) which paths
     and response terms belong to the direct path.  Per group of paths (the direct
@@ -27,10 +99,11 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
     (gains (M, N, R), filters (F, R)).
     """
-    K, N, M = gl.shape
-    A = gl.transpose(1, 0, 2)  # (N, K, M)
-    # per path, sum over microphones of g^2 l_j l_k: (N, K, K), for every group
-    X = np.matmul(A, A.transpose(0, 2, 1))
+    if isinstance(gl, np.ndarray):  # the terms themselves (K, N, M)
+        gl = _Dense(gl)
+    K, N = gl.K, gl.n_paths
+    # per path, sum over microphones of g^2 l_j l_k: (K K, N), for every group
+    X = gl.gram().reshape(K * K, N)
     out_p, out_f = [], []
     for group in (True, False):
         paths = path_direct == group
@@ -41,7 +114,7 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         Q = Vp.shape[1]
         # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
         VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
-        gram = (X.reshape(-1, K * K).T @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
+        gram = (X @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
         gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
         lam, E = np.linalg.eigh(gram)
         keep = lam > 1e-13 * max(lam.max(), 1e-300)
@@ -56,16 +129,39 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
+        out_p.append((T.transpose(0, 2, 1).reshape(K * r, Q) @ Vp.T).reshape(K, r, N))
         Tf = (Y[:, :r].T @ S).T  # (K Q, r): filters sum_jq W_j U_q Tf[(j, q)]
         WU = (W.T[:, :, None] * Uq[:, None, :]).reshape(-1, K * Q)  # (F, K Q)
         out_f.append(WU @ Tf)
-    # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[n], stored
-    # (M, N, R), the sets innermost as the impulse sums take them
-    P = np.concatenate(out_p, axis=2)  # (N, K, R)
-    g_new = np.empty((M, N, P.shape[2]))
-    np.matmul(gl.transpose(1, 2, 0), P, out=g_new.transpose(1, 0, 2))
-    return g_new, np.concatenate(out_f, axis=1)
+    # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[:, :, n],
+    # stored (M, N, R), the sets innermost as the impulse sums take them
+    P = np.concatenate(out_p, axis=1)  # (K, R, N)
+    return gl.times(P), np.concatenate(out_f, axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class _Dense:
+    """Terms given as an array (K, N, M): :class:`ChebyshevGains`' sums in numpy."""
+
+    terms: np.ndarray
+
+    @property
+    def K(self) -> int:
+        return self.terms.shape[0]
+
+    @property
+    def n_paths(self) -> int:
+        return self.terms.shape[1]
+
+    def gram(self) -> np.ndarray:
+        A = self.terms.transpose(1, 0, 2)  # (N, K, M)
+        return np.matmul(A, A.transpose(0, 2, 1)).transpose(1, 2, 0)
+
+    def times(self, P: np.ndarray) -> np.ndarray:
+        K, N, M = self.terms.shape
+        out = np.empty((M, N, P.shape[1]))
+        np.matmul(self.terms.transpose(1, 2, 0), P.transpose(2, 0, 1), out=out.transpose(1, 0, 2))
+        return out
 
 
 def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:

@@ -44,7 +44,7 @@ from scipy import fft as sfft
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
 from acousim.synth import baseband
-from acousim.synth.compress import compress
+from acousim.synth.compress import ChebyshevGains, chebyshev_terms, compress
 from acousim.synth.options import (
     COMPRESS_TOLERANCE,
     DEFAULT_OPTIONS,
@@ -213,9 +213,10 @@ class DopplerPlan:
     renders.
 
     positions (M, N): impulse positions, samples from the span's start (the span is
-    output samples ``lo .. hi``); terms (K, N, M): path gains times the Chebyshev
-    terms of their Doppler factors; responses (N, Q) and response_spectra (B, Q):
-    the path responses' separable terms; templates (K, B): the Chebyshev
+    output samples ``lo .. hi``); terms: path gains times the Chebyshev
+    terms of their Doppler factors (K, N, M, held as their factors:
+    :class:`~.compress.ChebyshevGains`); responses (N, Q) and response_spectra (B,
+    Q): the path responses' separable terms; templates (K, B): the Chebyshev
     coefficients of the time-scaled calls' spectra and products their products
     (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
     direct_paths (N,) and direct_terms (Q,): the direct path's group; options: the
@@ -224,7 +225,7 @@ class DopplerPlan:
     """
 
     positions: np.ndarray
-    terms: np.ndarray
+    terms: ChebyshevGains
     responses: np.ndarray
     response_spectra: np.ndarray
     templates: np.ndarray
@@ -242,7 +243,7 @@ class DopplerPlan:
 
     @property
     def empty(self) -> bool:
-        return self.terms.shape[1] == 0
+        return self.terms.n_paths == 0
 
 
 def render_doppler(*args, **kwargs) -> np.ndarray:
@@ -261,7 +262,7 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
     none = dict.fromkeys(("responses", "response_spectra", "templates", "products"))
     return DopplerPlan(
         positions=np.zeros((n_mics, 0)),
-        terms=np.zeros((1, 0, n_mics)),
+        terms=ChebyshevGains(np.zeros((n_mics, 0)), None, 1),
         **{k: np.zeros((0, 0)) for k in none},
         **{k: np.zeros(0, bool) for k in ("direct_paths", "direct_terms", "band")},
         **dict.fromkeys(("lo", "hi", "n_fft"), 0),
@@ -329,7 +330,7 @@ def plan_doppler(
     )
     return DopplerPlan(
         positions=d - lo,
-        terms=_chebyshev_terms(nodes, rate.T, g.T),
+        terms=ChebyshevGains(g, _chebyshev_argument(nodes, rate), nodes.size),
         responses=V,
         response_spectra=U,
         templates=W,
@@ -472,23 +473,26 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
 
 def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
     """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
-    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]: the interpolant of
-    the time-scaled call in the Doppler factor as a Chebyshev series, the path gains
-    times T_p(s) (a three-term recurrence) and the templates' Chebyshev coefficients
-    (the same polynomial as the Lagrange form, without barycentric weights)."""
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]
+    (:func:`_chebyshev_argument`): the interpolant of the time-scaled call in the
+    Doppler factor as a Chebyshev series, the path gains times T_p(s) (a three-term
+    recurrence, :func:`~.compress.chebyshev_terms`) and the templates' Chebyshev
+    coefficients (the same polynomial as the Lagrange form, without barycentric
+    weights)."""
+    return chebyshev_terms(_chebyshev_argument(nodes, rate), gain, nodes.size)
+
+
+def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:
+    """The Doppler factors `rate` (...) mapped from the interval of the Chebyshev
+    `nodes` (K,) onto [-1, 1] (None for one node)."""
     K = nodes.size
-    out = np.empty((K, *rate.shape))
-    out[0] = gain
-    if K > 1:
-        x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
-        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
-        s = (rate - (nodes[0] - half * x[0])) / half
-        np.multiply(gain, s, out=out[1])
-        s *= 2
-        for p in range(2, K):
-            np.multiply(s, out[p - 1], out=out[p])
-            out[p] -= out[p - 2]
-    return out
+    if K == 1:
+        return None
+    x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+    half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+    s = np.subtract(rate, nodes[0] - half * x[0], out=np.empty(np.shape(rate)))  # C order
+    s /= half
+    return s
 
 
 def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:

@@ -418,17 +418,28 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     length = echoes.path_length_m.mean(axis=0)
     # the per-microphone part of the path length: a gain at the band's centre
     alpha = response.alpha_db_per_m(grid.f_c)
-    g = g * np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :]))
-    H = response.matrix(coarse, length, echoes.angles(), echoes.interactions)  # (F', N)
-    # factor H on a coarse grid over the band (H is smooth in f), interpolate U; each
-    # path weighted by its gain, so the rank is set by the error of the rendered
-    # signal and thousands of weak scatterers do not inflate it
+    g = np.multiply(  # C order (M, N): the paths of a microphone side by side
+        g,
+        np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :])),
+        out=np.empty(np.shape(g)),
+    )
+    # factor H (F', N) on a coarse grid over the band (H is smooth in f), interpolate
+    # U; each path weighted by its gain, so the rank is set by the error of the
+    # rendered signal and thousands of weak scatterers do not inflate it; the
+    # columns of each group side by side
     weight = np.sqrt(np.mean(g**2, axis=0)) + 1e-300
+    groups = [grp for grp in (echoes.order == 0, echoes.order != 0) if grp.any()]
+    order = np.concatenate([np.flatnonzero(grp) for grp in groups])
+    interactions = None if echoes.interactions is None else echoes.interactions[order]
+    H = response.weighted_matrix(
+        coarse, length[order], echoes.angles()[order], interactions, weight[order]
+    )
     Vs, Us = [], []
-    for group in (echoes.order == 0, echoes.order != 0):
-        if not group.any():
-            continue
-        Uc, Vw = factorise(H[:, group] * weight[group])
+    start = 0
+    for group in groups:
+        count = int(group.sum())
+        Uc, Vw = factorise(H[:, start : start + count])
+        start += count
         V = np.zeros((echoes.n_paths, Vw.shape[1]))
         V[group] = Vw / weight[group, None]
         Vs.append(V)
