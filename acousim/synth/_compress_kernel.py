@@ -5,8 +5,9 @@ Both kernels form the path gains times the Chebyshev terms of their Doppler fact
 ``t_p = g T_p(s)``, on the fly from g and s (M, N) by the three-term recurrence of
 :func:`acousim.synth.compress.chebyshev_terms` (the same operations: the same
 bits), so the K x N x M array of them is never stored: :func:`term_gram` sums their
-products over the microphones per path, :func:`set_gains` mixes them into the
-compressed sets' gains.  The sums run in a fixed order (microphones, then terms),
+products over the microphones per path (paths side by side in blocks: the sums
+vectorise), :func:`terms` stores them path by path for the products that mix them into
+the compressed sets' gains (numpy's batched matrix product: BLAS).  The sums run in a fixed order (microphones, then terms),
 which may round differently from the matrix products' order.  The GIL is released.
 """
 
@@ -65,26 +66,21 @@ def term_gram(gain, s, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def set_gains(gain, s, P, out):  # pragma: no cover - compiled
-    """out (M, N, R) <- ``sum_p t_p P[p, r, n]``, summed in the order of p; t_p =
-    gain[m, n] T_p(s[m, n]); P (K, R, N)."""
+def terms(gain, s, out):  # pragma: no cover - compiled
+    """out (N, K, M) <- t_p = gain[m, n] T_p(s[m, n]); gain, s (M, N) float64 (s
+    unused when K = 1)."""
     M, N = gain.shape
-    K, R = P.shape[0], P.shape[1]
-    T = np.empty((K, BLOCK))
-    A = np.empty((R, BLOCK))
-    for n0 in range(0, N, BLOCK):
-        B = min(BLOCK, N - n0)
+    K = out.shape[1]
+    for n in range(N):
+        T = out[n]
+        t0 = T[0]
         for m in range(M):
-            _terms(gain, s, m, n0, B, T)
-            for r in range(R):
-                a, t0, pr = A[r], T[0], P[0, r, n0 : n0 + B]
-                for i in range(B):
-                    a[i] = t0[i] * pr[i]
-                for p in range(1, K):
-                    tp, pr = T[p], P[p, r, n0 : n0 + B]
-                    for i in range(B):
-                        a[i] += tp[i] * pr[i]
-            o = out[m, n0 : n0 + B]
-            for i in range(B):
-                for r in range(R):
-                    o[i, r] = A[r, i]
+            t0[m] = gain[m, n]
+        if K > 1:
+            t1 = T[1]
+            for m in range(M):
+                t1[m] = gain[m, n] * s[m, n]
+            for p in range(2, K):
+                tp, ta, tb = T[p], T[p - 1], T[p - 2]
+                for m in range(M):
+                    tp[m] = (s[m, n] * 2) * ta[m] - tb[m]

@@ -65,14 +65,27 @@ class ChebyshevGains:
         kernel(*self._args(), out)
         return out
 
-    def times(self, P: np.ndarray) -> np.ndarray:
-        """``g[m, n, r] = sum_p t_p[m, n] P[p, r, n]`` (M, N, R) from P (K, R, N)."""
-        kernel = _kernel("set_gains")
+    def terms(self) -> np.ndarray:
+        """The terms path by path (N, K, M)."""
+        kernel = _kernel("terms")
         if kernel is None:
-            return _Dense(self.dense()).times(P)
-        out = np.empty((*self.gain.shape, P.shape[1]))
-        kernel(*self._args(), np.ascontiguousarray(P), out)
+            return self.dense().transpose(1, 0, 2)
+        out = np.empty((self.n_paths, self.K, self.gain.shape[0]))
+        kernel(*self._args(), out)
         return out
+
+    def times(self, P: np.ndarray) -> np.ndarray:
+        """``g[m, n, r] = sum_p t_p[m, n] P[n, p, r]`` (M, N, R) from P (N, K, R)."""
+        return _times(self.terms(), P)
+
+
+def _times(A: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``g[m, n, r] = sum_p A[n, p, m] P[n, p, r]`` (M, N, R), stored (M, N, R), the
+    sets innermost as the impulse sums take them: a batched matrix product."""
+    N, K, M = A.shape
+    out = np.empty((M, N, P.shape[2]))
+    np.matmul(A.transpose(0, 2, 1), P, out=out.transpose(1, 0, 2))
+    return out
 
 
 def _kernel(name: str):
@@ -104,6 +117,7 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     K, N = gl.K, gl.n_paths
     # per path, sum over microphones of g^2 l_j l_k: (K K, N), for every group
     X = gl.gram().reshape(K * K, N)
+    Wr = np.ascontiguousarray(W, complex).view(float)  # (K, 2 F)
     out_p, out_f = [], []
     for group in (True, False):
         paths = path_direct == group
@@ -129,14 +143,18 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        out_p.append((T.transpose(0, 2, 1).reshape(K * r, Q) @ Vp.T).reshape(K, r, N))
-        Tf = (Y[:, :r].T @ S).T  # (K Q, r): filters sum_jq W_j U_q Tf[(j, q)]
-        WU = (W.T[:, :, None] * Uq[:, None, :]).reshape(-1, K * Q)  # (F, K Q)
-        out_f.append(WU @ Tf)
-    # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[:, :, n],
-    # stored (M, N, R), the sets innermost as the impulse sums take them
-    P = np.concatenate(out_p, axis=1)  # (K, R, N)
-    return gl.times(P), np.concatenate(out_f, axis=1)
+        out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
+        # filters sum_jq W_j U_q Tf[(j, q)] = sum_q U_q Z_q, Z_q = sum_j W_j Tf[(j, q)]
+        # (F,) each: one real product with W's real and imaginary parts side by side
+        Tf = (Y[:, :r].T @ S).T.reshape(K, Q * r)
+        Z = (Tf.T @ Wr).view(complex).reshape(Q, r, -1)  # (Q, r, F)
+        filt = Z[0] * Uq[:, 0]
+        for q in range(1, Q):
+            filt += Z[q] * Uq[:, q]
+        out_f.append(filt)
+    # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[n]
+    P = np.concatenate(out_p, axis=2)  # (N, K, R)
+    return gl.times(P), np.concatenate(out_f, axis=0).T
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,10 +176,7 @@ class _Dense:
         return np.matmul(A, A.transpose(0, 2, 1)).transpose(1, 2, 0)
 
     def times(self, P: np.ndarray) -> np.ndarray:
-        K, N, M = self.terms.shape
-        out = np.empty((M, N, P.shape[1]))
-        np.matmul(self.terms.transpose(1, 2, 0), P.transpose(2, 0, 1), out=out.transpose(1, 0, 2))
-        return out
+        return _times(self.terms.transpose(1, 0, 2), P)
 
 
 def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:
@@ -170,10 +185,9 @@ def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:
     Uq (F, Q): both symmetric, the upper triangles only."""
     Q = Uq.shape[1]
     qa, qb = np.triu_indices(Q)
-    part = WW @ (Uq[:, qa] * Uq[:, qb])
+    part = WW @ (Uq[:, qa] * Uq[:, qb])  # (K (K + 1) / 2, Q (Q + 1) / 2)
     full = np.empty((K, K, Q, Q))
-    ja, jb = np.triu_indices(K)
-    for c, (a, b) in enumerate(zip(qa, qb)):
-        full[ja, jb, a, b] = full[jb, ja, a, b] = part[:, c]
-        full[ja, jb, b, a] = full[jb, ja, b, a] = part[:, c]
+    ja, jb = (i[:, None] for i in np.triu_indices(K))
+    full[ja, jb, qa, qb] = full[jb, ja, qa, qb] = part
+    full[ja, jb, qb, qa] = full[jb, ja, qb, qa] = part
     return full.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
