@@ -64,6 +64,7 @@ from acousim.synth.render import (
 from acousim.synth.response import PathResponse
 from acousim.synth.timedomain import filtered_calls, render_time
 from processing import Waveform
+from processing.base.kernels import optional_kernel
 from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = [
@@ -310,10 +311,12 @@ def plan_doppler(
     calls, start = _templates(waveform, fs, nodes, cache)
     L = calls.shape[1]
     # 2. the span of the output the echoes reach
-    d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
-    d = d + options.emission_index + start  # the order of the sums of before: same bits
-    lo = int(np.floor(d.min())) - taps - margin
-    hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
+    shift = (options.emission_index, start)
+    d, s, span, advance, margin = _placement(
+        echoes.delay_s, rate, nodes, waveform.duration_s, fs, shift
+    )
+    lo = int(np.floor(span[0])) - taps - margin
+    hi = min(int(np.ceil(span[1])) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
         return _empty_plan(M, n_samples, options)
     n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
@@ -328,9 +331,10 @@ def plan_doppler(
     W = cache.spectra.get(
         ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
     )
+    d -= lo
     return DopplerPlan(
-        positions=d - lo,
-        terms=ChebyshevGains(g, _chebyshev_argument(nodes, rate), nodes.size),
+        positions=d,
+        terms=ChebyshevGains(g, s, nodes.size),
         responses=V,
         response_spectra=U,
         templates=W,
@@ -358,17 +362,31 @@ def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
     return spectra, CallGrid.of(spectra[len(spectra) // 2], fs, n)
 
 
-def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
+def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0)):
     """Where each echo's impulse goes (M, N), in samples from the emission (before
-    the templates' start): where its call's middle (the pivot p) arrives less p,
-    ``t0 + p / a - p``; template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that
-    every template is scaled about the pivot (half the phase excursion over the
-    Doppler factors of scaling about the start: fewer nodes and sets); and the
-    margin (samples) the advances need."""
+    the templates' start) plus the two `shift` (samples, added in turn): where its
+    call's middle (the pivot p) arrives less p, ``t0 + p / a - p``; the Doppler
+    factors mapped onto the Chebyshev interval of the nodes (M, N, C order;
+    :func:`_chebyshev_argument`, None for one node); the positions' range (least,
+    greatest); template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that every
+    template is scaled about the pivot (half the phase excursion over the Doppler
+    factors of scaling about the start: fewer nodes and sets); and the margin
+    (samples) the advances need.  One compiled pass (:mod:`._doppler_kernel`), or
+    numpy without numba: the same operations, the same bits."""
     pivot = duration_s / 2
     advance = pivot * (1 / nodes - 1)  # (K,) s
     margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
-    return (delay_s + pivot * (1 / rate - 1)) * fs, advance, margin
+    kernel = optional_kernel("acousim.synth._doppler_kernel", "place")
+    if kernel is None:
+        d = (delay_s + pivot * (1 / rate - 1)) * fs
+        d = d + shift[0] + shift[1]
+        s = _chebyshev_argument(nodes, rate)
+        return d, s, (d.min(), d.max()), advance, margin
+    offset, half = _chebyshev_interval(nodes)
+    d = np.empty_like(delay_s, float)  # the layout of the delays
+    s = np.empty(np.shape(rate) if nodes.size > 1 else (0, 0))
+    span = kernel(delay_s, rate, pivot, fs, float(shift[0]), float(shift[1]), offset, half, d, s)
+    return d, (s if nodes.size > 1 else None), span, advance, margin
 
 
 def render_planned(plan: DopplerPlan) -> np.ndarray:
@@ -484,15 +502,22 @@ def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> n
 
 def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:
     """The Doppler factors `rate` (...) mapped from the interval of the Chebyshev
-    `nodes` (K,) onto [-1, 1] (None for one node)."""
-    K = nodes.size
-    if K == 1:
+    `nodes` (K,) onto [-1, 1] (C order; None for one node)."""
+    if nodes.size == 1:
         return None
-    x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
-    half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
-    s = np.subtract(rate, nodes[0] - half * x[0], out=np.empty(np.shape(rate)))  # C order
+    offset, half = _chebyshev_interval(nodes)
+    s = np.subtract(rate, offset, out=np.empty(np.shape(rate)))  # C order
     s /= half
     return s
+
+
+def _chebyshev_interval(nodes: np.ndarray) -> tuple[float, float]:
+    """(offset, half): a factor a maps onto ``(a - offset) / half`` in [-1, 1] from
+    the interval of the K > 1 Chebyshev `nodes` (K,)."""
+    K = nodes.size
+    x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+    half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+    return float(nodes[0] - half * x[0]), float(half)
 
 
 def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:
