@@ -124,11 +124,14 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         terms = set_direct == group
         if not paths.any() or not terms.any():
             continue
-        Vp = np.where(paths[:, None], V[:, terms], 0.0)  # (N, Q'): zero off the group
+        # a small group (the direct path) by its own paths, a large one on all
+        # (zero off the group): the same sums
+        few = np.flatnonzero(paths) if paths.sum() * 4 < N else slice(None)
+        Vp = np.where(paths[few, None], V[few][:, terms], 0.0)  # (N', Q')
         Q = Vp.shape[1]
         # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
         VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
-        gram = (X @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
+        gram = (X[:, few] @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
         gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
         lam, E = np.linalg.eigh(gram)
         keep = lam > 1e-13 * max(lam.max(), 1e-300)
@@ -143,7 +146,11 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
         T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        out_p.append((Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(N, K, r))
+        Pg = (Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)
+        if isinstance(few, np.ndarray):  # zero off the group
+            Pg, part = np.zeros((N, K, r)), Pg
+            Pg[few] = part
+        out_p.append(Pg)
         # filters sum_jq W_j U_q Tf[(j, q)] = sum_q U_q Z_q, Z_q = sum_j W_j Tf[(j, q)]
         # (F,) each: one real product with W's real and imaginary parts side by side
         Tf = (Y[:, :r].T @ S).T.reshape(K, Q * r)

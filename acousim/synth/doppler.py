@@ -382,7 +382,7 @@ def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0))
         d = d + shift[0] + shift[1]
         s = _chebyshev_argument(nodes, rate)
         return d, s, (d.min(), d.max()), advance, margin
-    offset, half = _chebyshev_interval(nodes)
+    offset, half = _chebyshev_interval(nodes) if nodes.size > 1 else (0.0, 1.0)
     d = np.empty_like(delay_s, float)  # the layout of the delays
     s = np.empty(np.shape(rate) if nodes.size > 1 else (0, 0))
     span = kernel(delay_s, rate, pivot, fs, float(shift[0]), float(shift[1]), offset, half, d, s)

@@ -1,5 +1,6 @@
-"""The gain-set compression's compiled sums and the path responses' directivity
-series, against references written here (plain loops, scipy's J1)."""
+"""The Doppler render's plan and its gain-set compression: the compiled placement and
+sums and the path responses' directivity series, against references written here
+(plain loops and formulas, scipy's J1)."""
 
 from __future__ import annotations
 
@@ -100,3 +101,34 @@ def test_weighted_matrix_against_the_path_response():
         want = alpha * piston_directivity(f[:, None], theta[None, :], radius, r.speed_of_sound_m_s)
         got = r.weighted_matrix(f, length, theta, None, weight)
         assert np.abs(got - want * weight).max() < 1e-14 * np.abs(want * weight).max()
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_placement_against_its_formula(compiled, monkeypatch):
+    """Impulse positions ``((t0 + p (1 / a - 1)) fs + e) + s``, the factors mapped
+    onto the nodes' interval and the positions' range, compiled and in numpy, for
+    delays stored either way round, against the formulas evaluated here per element."""
+    from acousim.synth import doppler
+
+    if not compiled:
+        monkeypatch.setattr(doppler, "optional_kernel", lambda *a: None)
+    rng = np.random.default_rng(4)
+    nodes = np.array([1.004, 1.0, 0.996])
+    K = nodes.size
+    x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))  # the nodes' Chebyshev points
+    for order in ("C", "F"):
+        delay = np.asarray(rng.uniform(1e-3, 2e-2, (5, 9)), order=order)
+        rate = np.asarray(rng.uniform(0.996, 1.004, (5, 9)), order=order)
+        d, s, span, advance, margin = doppler._placement(delay, rate, nodes, 1e-3, 450e3, (3, 1046))
+        want = np.empty((5, 9))
+        for m in range(5):
+            for n in range(9):
+                want[m, n] = (delay[m, n] + 5e-4 * (1 / rate[m, n] - 1)) * 450e3 + 3 + 1046
+        np.testing.assert_allclose(d, want, rtol=1e-15)
+        assert span == (d.min(), d.max())
+        # s maps the nodes' interval onto [-1, 1]: the nodes themselves onto x
+        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+        np.testing.assert_allclose(s, (rate - (nodes[0] - half * x[0])) / half, rtol=1e-13)
+        np.testing.assert_allclose(advance, 5e-4 * (1 / nodes - 1))
+    _, s1, *_ = doppler._placement(delay, rate, nodes[:1], 1e-3, 450e3)
+    assert s1 is None
