@@ -10,7 +10,7 @@ import numpy as np
 
 from processing.base.kernels import optional_kernel
 
-__all__ = ["compress", "ChebyshevGains", "chebyshev_terms"]
+__all__ = ["compress", "ChebyshevGains", "chebyshev_terms", "coarse_products"]
 
 
 def chebyshev_terms(s: np.ndarray, gain: np.ndarray, K: int) -> np.ndarray:
@@ -93,7 +93,7 @@ def _kernel(name: str):
     return optional_kernel("acousim.synth._compress_kernel", name)
 
 
-def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
+def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance, *, coarse=None):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
@@ -110,7 +110,9 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
     matrix) truncated where the discarded energy falls below `tolerance`^2 of the
     total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
-    (gains (M, N, R), filters (F, R)).
+    (gains (M, N, R), filters (F, R)).  `coarse`: (:func:`coarse_products` of WW,
+    Uc (F', Q)) when U is the linear interpolation of Uc from a coarse grid: the
+    filters' Gram matrix is then formed there (the same sums, F' instead of F).
     """
     if isinstance(gl, np.ndarray):  # the terms themselves (K, N, M)
         gl = _Dense(gl)
@@ -140,7 +142,10 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
         lam, E = lam[keep], E[:, keep]
         Uq = U[:, terms]
         S = np.sqrt(lam)[:, None] * E.T  # D = S B^T, (s, F)
-        BB = _filter_gram(WW, Uq, K)
+        if coarse is None:
+            BB = _filter_gram(WW, Uq, K)
+        else:
+            BB = _coarse_filter_gram(coarse[0], coarse[1][:, terms], K)
         s2, Y = np.linalg.eigh(S @ BB @ S.T)
         s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
@@ -190,9 +195,50 @@ def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:
     """Re(B^T conj(B)) (K Q, K Q) of the filters ``b_jq = W_j U_q`` from the template
     products WW (:func:`acousim.synth.doppler._products`) and the response terms
     Uq (F, Q): both symmetric, the upper triangles only."""
-    Q = Uq.shape[1]
+    qa, qb = np.triu_indices(Uq.shape[1])
+    return _symmetric_gram(WW @ (Uq[:, qa] * Uq[:, qb]), K, Uq.shape[1])
+
+
+def _coarse_filter_gram(MM: np.ndarray, Uc: np.ndarray, K: int) -> np.ndarray:
+    """:func:`_filter_gram` of the response terms interpolated from Uc (F', Q) on
+    the coarse grid, from the template products folded onto it, MM
+    (:func:`coarse_products`): ``Uc_q^T MM_jk Uc_r``."""
+    J, C, _ = MM.shape
+    Q = Uc.shape[1]
     qa, qb = np.triu_indices(Q)
-    part = WW @ (Uq[:, qa] * Uq[:, qb])  # (K (K + 1) / 2, Q (Q + 1) / 2)
+    part = (MM.reshape(J * C, C) @ Uc).reshape(J, C, Q).transpose(0, 2, 1)  # MM_j Uc
+    part = (part.reshape(J * Q, C) @ Uc).reshape(J, Q, Q)[:, qa, qb]
+    return _symmetric_gram(part, K, Q)
+
+
+def coarse_products(WW: np.ndarray, fb: np.ndarray, coarse: np.ndarray) -> np.ndarray:
+    """The template products WW (J, F) folded onto a coarse grid: ``MM_j = L^T
+    diag(WW_j) L`` (J, F', F'), L (F, F') the linear interpolation (np.interp's,
+    the end values held beyond the grid) from `coarse` (F',) to the bins' frequencies
+    `fb` (F,), so that ``sum_f WW_j(f) u(f) v(f) = u_c^T MM_j v_c`` for u = L u_c, v =
+    L v_c (tridiagonal; per drive: the grid and the templates are shared by its
+    poses)."""
+    C = coarse.size
+    J = WW.shape[0]
+    if C < 2:
+        return WW.sum(axis=1).reshape(J, 1, 1)
+    i = np.clip(np.searchsorted(coarse, fb, side="right") - 1, 0, C - 2)
+    t = np.clip((fb - coarse[i]) / (coarse[i + 1] - coarse[i]), 0.0, 1.0)
+    a, b = 1 - t, t
+    out = np.zeros((J, C * C))
+    for idx, w in ((i * C + i, a * a), ((i + 1) * (C + 1), b * b), (i * C + i + 1, a * b)):
+        for j in range(J):
+            out[j] += np.bincount(idx, WW[j] * w, minlength=C * C)
+    out = out.reshape(J, C, C)
+    upper = np.arange(C - 1)
+    out[:, upper + 1, upper] = out[:, upper, upper + 1]
+    return out
+
+
+def _symmetric_gram(part: np.ndarray, K: int, Q: int) -> np.ndarray:
+    """The Gram matrix (K Q, K Q) from its upper triangles in j <= k and q <= r,
+    part (K (K + 1) / 2, Q (Q + 1) / 2) in the order of ``np.triu_indices``."""
+    qa, qb = np.triu_indices(Q)
     full = np.empty((K, K, Q, Q))
     ja, jb = (i[:, None] for i in np.triu_indices(K))
     full[ja, jb, qa, qb] = full[jb, ja, qa, qb] = part

@@ -44,7 +44,7 @@ from scipy import fft as sfft
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
 from acousim.synth import baseband
-from acousim.synth.compress import ChebyshevGains, chebyshev_terms, compress
+from acousim.synth.compress import ChebyshevGains, chebyshev_terms, coarse_products, compress
 from acousim.synth.options import (
     COMPRESS_TOLERANCE,
     DEFAULT_OPTIONS,
@@ -59,7 +59,7 @@ from acousim.synth.render import (
     _kernel_table,
     _taps,
     check_interpolator,
-    response_factors,
+    _response_factors,
 )
 from acousim.synth.response import PathResponse
 from acousim.synth.timedomain import filtered_calls, render_time
@@ -222,7 +222,10 @@ class DopplerPlan:
     (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
     direct_paths (N,) and direct_terms (Q,): the direct path's group; options: the
     fractional delays and the compression's tolerance; single: the impulses and
-    their spectra in single precision (with a path response).
+    their spectra in single precision (with a path response); coarse_spectra (F',
+    Q): the response terms on the coarse grid U is interpolated from, and
+    coarse_products (:func:`~.compress.coarse_products`): the template products
+    folded onto it (None: without a path response).
     """
 
     positions: np.ndarray
@@ -241,6 +244,8 @@ class DopplerPlan:
     n_samples: int
     options: RenderOptions
     single: bool
+    coarse_spectra: np.ndarray | None = None
+    coarse_products: np.ndarray | None = None
 
     @property
     def empty(self) -> bool:
@@ -277,14 +282,15 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
 def _response_terms(echoes: Echoes, grid: CallGrid, fs: float, n: int, response):
     """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
     v_q(n) (as the static renderer), over the :class:`~.render.CallGrid` of the
-    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,)
-    and which terms are the direct path's (Q,); whether a response shapes them."""
+    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,),
+    which terms are the direct path's (Q,) and U on the grid's coarse frequencies
+    (F', Q; None without a response): whether a response shapes them."""
     if response is not None and response.active:
-        return (*response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
+        return (*_response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
     band = np.ones(grid.W.size, bool)
     U = np.ones((band.size, 1))
     V = np.ones((echoes.n_paths, 1))
-    return echoes.gain, U, V, band, np.zeros(1, bool), False
+    return echoes.gain, U, V, band, np.zeros(1, bool), None, False
 
 
 def plan_doppler(
@@ -325,12 +331,13 @@ def plan_doppler(
         ("spectra", *key), lambda: _spectra_and_grid(calls, advance * fs, n, fs)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
-    g, U, V, band, direct, shaped = _response_terms(echoes, grid, fs, n, response)
+    g, U, V, band, direct, Uc, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
     # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
     W = cache.spectra.get(
         ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
     )
+    products = cache.spectra.get(("products", *key, band.sum()), lambda: _products(W))
     d -= lo
     return DopplerPlan(
         positions=d,
@@ -338,7 +345,11 @@ def plan_doppler(
         responses=V,
         response_spectra=U,
         templates=W,
-        products=cache.spectra.get(("products", *key, band.sum()), lambda: _products(W)),
+        products=products,
+        coarse_spectra=Uc,
+        coarse_products=None if Uc is None else cache.spectra.get(
+            ("coarse", *key, band.sum()), lambda: coarse_products(products, grid.fb, grid.coarse)
+        ),
         direct_paths=path_direct,
         direct_terms=direct,
         band=band,
@@ -410,6 +421,9 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.direct_paths,
         plan.direct_terms,
         plan.options.compress_tolerance,
+        coarse=None
+        if plan.coarse_spectra is None
+        else (plan.coarse_products, plan.coarse_spectra),
     )
     if plan.options.rate == "baseband":
         return _render_baseband(plan, gains, filt_band, out)

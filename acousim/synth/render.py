@@ -413,6 +413,12 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     `W` is the call's spectrum on an n-point real FFT at `fs`; `grid`: its
     :class:`CallGrid` if known (None: found here).
     """
+    return _response_factors(echoes, g, W, fs, n, response, grid)[:5]
+
+
+def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
+    """:func:`response_factors` and the terms on the coarse grid, Uc (F', Q): U is
+    their linear interpolation onto the band's bins."""
     grid = CallGrid.of(W, fs, n) if grid is None else grid
     band, fb, coarse = grid.band, grid.fb, grid.coarse
     length = echoes.path_length_m.mean(axis=0)
@@ -449,7 +455,7 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     direct = np.concatenate(
         [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
     )
-    return g, U, V, band, direct
+    return g, U, V, band, direct, Uc
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):

@@ -132,3 +132,20 @@ def test_placement_against_its_formula(compiled, monkeypatch):
         np.testing.assert_allclose(advance, 5e-4 * (1 / nodes - 1))
     _, s1, *_ = doppler._placement(delay, rate, nodes[:1], 1e-3, 450e3)
     assert s1 is None
+
+
+def test_coarse_products_give_the_sums_over_the_interpolated_terms():
+    """``sum_f WW_j(f) u(f) v(f)`` over bins reaching beyond the coarse grid, u and v
+    np.interp's linear interpolation of random coarse values, against the folded
+    products ``u_c^T MM_j v_c``."""
+    from acousim.synth.compress import coarse_products
+
+    rng = np.random.default_rng(8)
+    coarse = np.linspace(20e3, 60e3, 9)
+    fb = np.sort(rng.uniform(15e3, 65e3, 500))
+    WW = rng.standard_normal((3, fb.size))
+    MM = coarse_products(WW, fb, coarse)
+    for _ in range(3):
+        uc, vc = rng.standard_normal((2, coarse.size))
+        u, v = np.interp(fb, coarse, uc), np.interp(fb, coarse, vc)
+        np.testing.assert_allclose(MM @ vc @ uc, WW @ (u * v), rtol=1e-12, atol=1e-12)
