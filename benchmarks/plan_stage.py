@@ -108,8 +108,11 @@ def main(argv: list[str] | None = None) -> None:
         b, n = np.load(a.check / "base.npy"), np.load(a.check / "new.npy")
         res = 10 * np.log10(max(np.sum((n - b) ** 2), 1e-300) / np.sum(b**2))
         same = np.array_equal(b, n)
-        print(f"{len(POSES)} poses, noise-free, all microphones: residual {res:.1f} dB "
-              f"({'bit-identical' if same else 'not bit-identical'})", flush=True)
+        print(
+            f"{len(POSES)} poses, noise-free, all microphones: residual {res:.1f} dB "
+            f"({'bit-identical' if same else 'not bit-identical'})",
+            flush=True,
+        )
     ratios = {"plan": [], "compress": [], "both": []}
     for k in range(a.pairs):
         order = (base, new) if k % 2 == 0 else (new, base)
@@ -119,10 +122,12 @@ def main(argv: list[str] | None = None) -> None:
         for key in ratios:
             ratios[key].append(tb[key] / tn[key])
         print(
-            f"pair {k}: " + ", ".join(
+            f"pair {k}: "
+            + ", ".join(
                 f"{key} {tb[key] * 1e3 / len(POSES):.2f} -> {tn[key] * 1e3 / len(POSES):.2f} ms"
                 for key in ratios
-            ) + " (CPU per pose)",
+            )
+            + " (CPU per pose)",
             flush=True,
         )
     base.close()

@@ -4,18 +4,17 @@ optional: without numba the same sums run as batched matrix products in numpy).
 Both kernels form the path gains times the Chebyshev terms of their Doppler factors,
 ``t_p = g T_p(s)``, on the fly from g and s (M, N) by the three-term recurrence of
 :func:`acousim.synth.compress.chebyshev_terms` (the same operations: the same
-bits), so the K x N x M array of them is never stored: :func:`term_gram` sums their
-products over the microphones per path (paths side by side in blocks: the sums
-vectorise), :func:`terms` stores them path by path for the products that mix them into
-the compressed sets' gains (numpy's batched matrix product: BLAS).  The sums run in a fixed order (microphones, then terms),
-which may round differently from the matrix products' order.  The GIL is released.
+bits): :func:`term_gram` sums their products over the microphones per path (the
+paths side by side in blocks: the sums vectorise; in the order of the microphones,
+which may round differently from a matrix product's order), :func:`terms` stores
+them path by path for the batched matrix product (numpy's: BLAS) that mixes them
+into the compressed sets' gains.  The GIL is released.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
-
 
 #: paths per block: the block's terms (K x BLOCK) and sums stay in the L1 cache
 BLOCK = 256

@@ -1,6 +1,6 @@
-"""Compiled placement of the Doppler renderer's impulses (:func:`acousim.synth.doppler.plan_doppler`;
-numba, optional: without numba the same operations run in numpy, one array at a
-time).
+"""Compiled placement of the Doppler renderer's impulses
+(:func:`acousim.synth.doppler.plan_doppler`; numba, optional: without numba the same
+operations run in numpy, one array at a time).
 
 One pass over the paths and microphones computes each impulse's position, the
 Doppler factor mapped onto the Chebyshev interval and the positions' range, with

@@ -57,9 +57,9 @@ from acousim.synth.render import (
     _impulses,
     _in_time,
     _kernel_table,
+    _response_factors,
     _taps,
     check_interpolator,
-    _response_factors,
 )
 from acousim.synth.response import PathResponse
 from acousim.synth.timedomain import filtered_calls, render_time
@@ -347,7 +347,9 @@ def plan_doppler(
         templates=W,
         products=products,
         coarse_spectra=Uc,
-        coarse_products=None if Uc is None else cache.spectra.get(
+        coarse_products=None
+        if Uc is None
+        else cache.spectra.get(
             ("coarse", *key, band.sum()), lambda: coarse_products(products, grid.fb, grid.coarse)
         ),
         direct_paths=path_direct,
@@ -421,9 +423,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.direct_paths,
         plan.direct_terms,
         plan.options.compress_tolerance,
-        coarse=None
-        if plan.coarse_spectra is None
-        else (plan.coarse_products, plan.coarse_spectra),
+        coarse=None if plan.coarse_spectra is None else (plan.coarse_products, plan.coarse_spectra),
     )
     if plan.options.rate == "baseband":
         return _render_baseband(plan, gains, filt_band, out)

@@ -186,9 +186,7 @@ class PathResponse:
         range."""
         if self.emitter_radius_m <= 0 or theta_rad is None:
             return self.matrix(freqs, length_m, theta_rad, interactions) * weight
-        D = piston_series(
-            freqs, theta_rad, self.emitter_radius_m, self.speed_of_sound_m_s, weight
-        )
+        D = piston_series(freqs, theta_rad, self.emitter_radius_m, self.speed_of_sound_m_s, weight)
         if D is None:  # beyond the series' range: scipy's J1
             return self.matrix(freqs, length_m, theta_rad, interactions) * weight
         H = self.matrix(freqs, length_m, None, interactions)
