@@ -93,7 +93,7 @@ def _kernel(name: str):
     return optional_kernel("acousim.synth._compress_kernel", name)
 
 
-def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance, *, coarse=None):
+def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     """Sets of impulse gains and their filters: ``sum_(j,q) h(g l_j v_q) * b_jq``
     with fewer sets.
 
@@ -101,18 +101,19 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance, *, coarse=None
     the Doppler terms (term j, path n, microphone m: the Chebyshev polynomials of
     :func:`acousim.synth.doppler._chebyshev_terms`; or those terms as an array (K,
     N, M)), V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
-    template spectra W (K, F), their products WW (:func:`acousim.synth.doppler._products`)
-    and the response terms U (F, Q); path_direct (N,) and set_direct (Q,) which paths
-    and response terms belong to the direct path.  Per group of paths (the direct
-    path, the echoes), with G (paths x S) the gains and B (F x S) the filters
-    (S = K Q' sets): ``G B^T = U' D``, ``G = U' L^(1/2) E^T`` (eigendecomposition of
-    the Gram matrix G^T G, formed from the factors without G), ``D = L^(1/2) E^T
-    B^T``; the real SVD of D (real and imaginary parts side by side, from its Gram
-    matrix) truncated where the discarded energy falls below `tolerance`^2 of the
-    total gives real gains ``G E L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns
-    (gains (M, N, R), filters (F, R)).  `coarse`: (:func:`coarse_products` of WW,
-    Uc (F', Q)) when U is the linear interpolation of Uc from a coarse grid: the
-    filters' Gram matrix is then formed there (the same sums, F' instead of F).
+    template spectra W (K, F), their products WW (:func:`acousim.synth.doppler._products`;
+    or, when U is the linear interpolation of Uc (F', Q) from a coarse grid, the pair
+    (:func:`coarse_products` of them, Uc): the filters' Gram matrix is formed there,
+    the same sums over F' instead of F) and the response terms U (F, Q); path_direct
+    (N,) and set_direct (Q,) which paths and response terms belong to the direct
+    path.  Per group of paths (the direct path, the echoes), with G (paths x S) the
+    gains and B (F x S) the filters (S = K Q' sets): ``G B^T = U' D``, ``G = U'
+    L^(1/2) E^T`` (eigendecomposition of the Gram matrix G^T G, formed from the
+    factors without G), ``D = L^(1/2) E^T B^T``; the real SVD of D (real and
+    imaginary parts side by side, from its Gram matrix) truncated where the
+    discarded energy falls below `tolerance`^2 of the total gives real gains ``G E
+    L^(-1/2) Y_r`` and filters ``Y_r^T D``.  Returns (gains (M, N, R), filters (F,
+    R)).
     """
     if isinstance(gl, np.ndarray):  # the terms themselves (K, N, M)
         gl = _Dense(gl)
@@ -130,43 +131,64 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance, *, coarse=None
         # (zero off the group): the same sums
         few = np.flatnonzero(paths) if paths.sum() * 4 < N else slice(None)
         Vp = np.where(paths[few, None], V[few][:, terms], 0.0)  # (N', Q')
-        Q = Vp.shape[1]
-        # Gram matrix of G[(m, n), (j, q)] = g l_j(a_mn) v_nq, from its factors
-        VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
-        gram = (X[:, few] @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
-        gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
-        lam, E = np.linalg.eigh(gram)
-        keep = lam > 1e-13 * max(lam.max(), 1e-300)
-        if not keep.any():
+        found = _group_gram(X[:, few], Vp, K)
+        if found is None:
             continue
-        lam, E = lam[keep], E[:, keep]
-        Uq = U[:, terms]
-        S = np.sqrt(lam)[:, None] * E.T  # D = S B^T, (s, F)
-        if coarse is None:
-            BB = _filter_gram(WW, Uq, K)
+        S, E_scaled = found
+        if isinstance(WW, tuple):  # folded onto the coarse grid
+            BB = _coarse_filter_gram(WW[0], WW[1][:, terms], K)
         else:
-            BB = _coarse_filter_gram(coarse[0], coarse[1][:, terms], K)
+            BB = _filter_gram(WW, U[:, terms], K)
         s2, Y = np.linalg.eigh(S @ BB @ S.T)
         s2, Y = np.maximum(s2[::-1], 0.0), Y[:, ::-1]
         tail = np.cumsum(s2[::-1])[::-1]  # energy from index r on
         r = max(1, int(np.sum(tail > tolerance**2 * tail[0])))
-        T = ((E / np.sqrt(lam)) @ Y[:, :r]).reshape(K, Q, r)
-        Pg = (Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)
-        if isinstance(few, np.ndarray):  # zero off the group
-            Pg, part = np.zeros((N, K, r)), Pg
-            Pg[few] = part
-        out_p.append(Pg)
-        # filters sum_jq W_j U_q Tf[(j, q)] = sum_q U_q Z_q, Z_q = sum_j W_j Tf[(j, q)]
-        # (F,) each: one real product with W's real and imaginary parts side by side
-        Tf = (Y[:, :r].T @ S).T.reshape(K, Q * r)
-        Z = (Tf.T @ Wr).view(complex).reshape(Q, r, -1)  # (Q, r, F)
-        filt = Z[0] * Uq[:, 0]
-        for q in range(1, Q):
-            filt += Z[q] * Uq[:, q]
-        out_f.append(filt)
+        out_p.append(_group_gains(Vp, (E_scaled @ Y[:, :r]).reshape(K, -1, r), few, N))
+        out_f.append(_group_filters((Y[:, :r].T @ S).T, Wr, U[:, terms]))
     # the new gains of all groups at once: g_new[m, n] = gl[:, n, m] P[n]
     P = np.concatenate(out_p, axis=2)  # (N, K, R)
     return gl.times(P), np.concatenate(out_f, axis=0).T
+
+
+def _group_gram(X: np.ndarray, Vp: np.ndarray, K: int):
+    """The Gram matrix G^T G of a group's gains ``G[(m, n), (j, q)] = g l_j(a_mn)
+    v_nq`` from its factors: X (K K, N') and Vp (N', Q); its eigendecomposition
+    ``L, E`` (the eigenvalues above 1e-13 of the largest): (``S = L^(1/2) E^T``,
+    ``E L^(-1/2)``), or None when it has none."""
+    Q = Vp.shape[1]
+    VV = Vp[:, :, None] * Vp[:, None, :]  # (n, q, r)
+    gram = (X @ VV.reshape(-1, Q * Q)).reshape(K, K, Q, Q)
+    gram = gram.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)
+    lam, E = np.linalg.eigh(gram)
+    keep = lam > 1e-13 * max(lam.max(), 1e-300)
+    if not keep.any():
+        return None
+    lam, E = lam[keep], E[:, keep]
+    return np.sqrt(lam)[:, None] * E.T, E / np.sqrt(lam)  # D = S B^T, (s, F)
+
+
+def _group_gains(Vp: np.ndarray, T: np.ndarray, few, N: int) -> np.ndarray:
+    """A group's P (N, K, r): ``P[n, j, s] = sum_q Vp[n, q] T[j, q, s]`` (T (K, Q,
+    r)) on the group's paths `few` (indices, or all), zero elsewhere."""
+    K, Q, r = T.shape
+    Pg = (Vp @ T.transpose(1, 0, 2).reshape(Q, K * r)).reshape(-1, K, r)
+    if isinstance(few, np.ndarray):  # zero off the group
+        Pg, part = np.zeros((N, K, r)), Pg
+        Pg[few] = part
+    return Pg
+
+
+def _group_filters(Tf: np.ndarray, Wr: np.ndarray, Uq: np.ndarray) -> np.ndarray:
+    """A group's filters (r, F) ``sum_jq W_j U_q Tf[(j, q)] = sum_q U_q Z_q``, ``Z_q =
+    sum_j W_j Tf[(j, q)]`` (F,) each: one real product with W's real and imaginary
+    parts side by side, Wr (K, 2 F); Tf (K Q, r), Uq (F, Q)."""
+    K, Q = Wr.shape[0], Uq.shape[1]
+    r = Tf.shape[1]
+    Z = (Tf.reshape(K, Q * r).T @ Wr).view(complex).reshape(Q, r, -1)  # (Q, r, F)
+    filt = Z[0] * Uq[:, 0]
+    for q in range(1, Q):
+        filt += Z[q] * Uq[:, q]
+    return filt
 
 
 @dataclass(frozen=True, eq=False)

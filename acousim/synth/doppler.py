@@ -251,6 +251,14 @@ class DopplerPlan:
     def empty(self) -> bool:
         return self.terms.n_paths == 0
 
+    @property
+    def folded_products(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(coarse_products, coarse_spectra): :func:`~.compress.compress`'s products
+        folded onto the coarse grid (None without them)."""
+        if self.coarse_spectra is None or self.coarse_products is None:
+            return None
+        return self.coarse_products, self.coarse_spectra
+
 
 def render_doppler(*args, **kwargs) -> np.ndarray:
     """Microphone signals (M, T) of echoes time-scaled by `rate` (M, N): echo n at
@@ -312,14 +320,12 @@ def plan_doppler(
     cache = DopplerCache() if cache is None else cache
     fs, taps = sample_rate_hz, options.taps
     # 1. Doppler nodes and the time-scaled calls there
-    tol = options.doppler_tolerance
-    nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
+    nodes = doppler_nodes(rate.min(), rate.max(), waveform, fs, options.doppler_tolerance)
     calls, start = _templates(waveform, fs, nodes, cache)
     L = calls.shape[1]
     # 2. the span of the output the echoes reach
-    shift = (options.emission_index, start)
     d, s, span, advance, margin = _placement(
-        echoes.delay_s, rate, nodes, waveform.duration_s, fs, shift
+        echoes.delay_s, rate, nodes, waveform.duration_s, fs, (options.emission_index, start)
     )
     lo = int(np.floor(span[0])) - taps - margin
     hi = min(int(np.ceil(span[1])) + taps + L + 1 + margin, n_samples)
@@ -333,11 +339,7 @@ def plan_doppler(
     # 3. path responses (the direct path a group of its own if it has its own terms)
     g, U, V, band, direct, Uc, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
-    # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
-    W = cache.spectra.get(
-        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
-    )
-    products = cache.spectra.get(("products", *key, band.sum()), lambda: _products(W))
+    W, products, folded = _template_tables(cache, key, spectra, grid, band, Uc is not None)
     d -= lo
     return DopplerPlan(
         positions=d,
@@ -347,11 +349,7 @@ def plan_doppler(
         templates=W,
         products=products,
         coarse_spectra=Uc,
-        coarse_products=None
-        if Uc is None
-        else cache.spectra.get(
-            ("coarse", *key, band.sum()), lambda: coarse_products(products, grid.fb, grid.coarse)
-        ),
+        coarse_products=folded,
         direct_paths=path_direct,
         direct_terms=direct,
         band=band,
@@ -366,6 +364,25 @@ def plan_doppler(
 
 
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coarse: bool):
+    """The interpolant in the Doppler factor as a Chebyshev series
+    (:func:`_chebyshev_terms`): the templates' coefficients W (K, F) over the `band`
+    (F,) bins of their `spectra`, their products (:func:`_products`) and, for
+    response terms interpolated from the `grid`'s coarse frequencies (`coarse`), the
+    products folded onto those (:func:`~.compress.coarse_products`; None): per drive,
+    in the `cache` under `key`."""
+    W = cache.spectra.get(
+        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
+    )
+    WW = cache.spectra.get(("products", *key, band.sum()), lambda: _products(W))
+    if not coarse:
+        return W, WW, None
+    fold = cache.spectra.get(
+        ("coarse", *key, band.sum()), lambda: coarse_products(WW, grid.fb, grid.coarse)
+    )
+    return W, WW, fold
 
 
 def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
@@ -418,12 +435,11 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.terms,
         plan.responses,
         plan.templates,
-        plan.products,
+        plan.products if plan.coarse_spectra is None else plan.folded_products,
         plan.response_spectra,
         plan.direct_paths,
         plan.direct_terms,
         plan.options.compress_tolerance,
-        coarse=None if plan.coarse_spectra is None else (plan.coarse_products, plan.coarse_spectra),
     )
     if plan.options.rate == "baseband":
         return _render_baseband(plan, gains, filt_band, out)

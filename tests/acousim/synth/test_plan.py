@@ -51,21 +51,31 @@ def test_chebyshev_gains_sums_against_plain_loops(K, compiled, monkeypatch):
 def test_compress_keeps_the_sum_of_the_sets():
     """The compressed sets' sum ``sum_r g_r b_r`` equals the uncompressed ``sum_jq
     t_j v_q W_j U_q`` formed here (all sets kept at a tight tolerance), for the
-    factored terms and for the terms given as an array alike."""
+    factored terms and for the terms given as an array, the filters' products over
+    the bins and folded onto the coarse grid U is interpolated from alike."""
+    from acousim.synth.compress import coarse_products
+
     rng = np.random.default_rng(5)
     M, N, K, Q, F = 4, 40, 3, 2, 16
     gain = rng.uniform(0.1, 1, (M, N))
     s = rng.uniform(-1, 1, (M, N))
     V = rng.standard_normal((N, Q))
     W = rng.standard_normal((K, F)) + 1j * rng.standard_normal((K, F))
-    U = rng.standard_normal((F, Q))
+    fb, coarse = np.linspace(0, 1, F), np.array([0.1, 0.5, 0.9])
+    Uc = rng.standard_normal((coarse.size, Q))
+    U = np.stack([np.interp(fb, coarse, u) for u in Uc.T], axis=1)
     j, k = np.triu_indices(K)
     WW = (W.conj()[j] * W[k]).real
     no = np.zeros(N, bool), np.zeros(Q, bool)
     t = _loop_terms(gain, s, K)  # (K, M, N)
     want = np.einsum("kmn,nq,kf,fq->mnf", t, V, W, U)
-    for terms in (ChebyshevGains(gain, s, K), t.transpose(0, 2, 1)):
-        g, filt = compress(terms, V, W, WW, U, *no, 1e-9)
+    folded = (coarse_products(WW, fb, coarse), Uc)
+    for terms, products in (
+        (ChebyshevGains(gain, s, K), WW),
+        (t.transpose(0, 2, 1), WW),
+        (ChebyshevGains(gain, s, K), folded),
+    ):
+        g, filt = compress(terms, V, W, products, U, *no, 1e-9)
         got = np.einsum("mnr,fr->mnf", g, filt)
         assert np.abs(got - want).max() < 1e-9 * np.abs(want).max()
 
