@@ -44,7 +44,7 @@ from scipy import fft as sfft
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
 from acousim.synth import baseband
-from acousim.synth.compress import compress
+from acousim.synth.compress import ChebyshevGains, chebyshev_terms, coarse_products, compress
 from acousim.synth.options import (
     COMPRESS_TOLERANCE,
     DEFAULT_OPTIONS,
@@ -56,14 +56,15 @@ from acousim.synth.render import (
     CallGrid,
     _in_time,
     _kernel_table,
+    _response_factors,
     _sets_by_fft,
     _taps,
     check_interpolator,
-    response_factors,
 )
 from acousim.synth.response import PathResponse
 from acousim.synth.timedomain import filtered_calls, render_time
 from processing import Waveform
+from processing.base.kernels import optional_kernel
 from processing.sensor.calls import ANTI_ALIAS_CUTOFF
 
 __all__ = [
@@ -209,18 +210,22 @@ class DopplerPlan:
     renders.
 
     positions (M, N): impulse positions, samples from the span's start (the span is
-    output samples ``lo .. hi``); terms (K, N, M): path gains times the Chebyshev
-    terms of their Doppler factors; responses (N, Q) and response_spectra (B, Q):
-    the path responses' separable terms; templates (K, B): the Chebyshev
+    output samples ``lo .. hi``); terms: path gains times the Chebyshev
+    terms of their Doppler factors (K, N, M, held as their factors:
+    :class:`~.compress.ChebyshevGains`); responses (N, Q) and response_spectra (B,
+    Q): the path responses' separable terms; templates (K, B): the Chebyshev
     coefficients of the time-scaled calls' spectra and products their products
     (:func:`_products`), over the ``band`` (F,) bins of an ``n_fft``-point real FFT;
     direct_paths (N,) and direct_terms (Q,): the direct path's group; options: the
     fractional delays and the compression's tolerance; single: the impulses and
-    their spectra in single precision (with a path response).
+    their spectra in single precision (with a path response); coarse_spectra (F',
+    Q): the response terms on the coarse grid U is interpolated from, and
+    coarse_products (:func:`~.compress.coarse_products`): the template products
+    folded onto it (None: without a path response).
     """
 
     positions: np.ndarray
-    terms: np.ndarray
+    terms: ChebyshevGains
     responses: np.ndarray
     response_spectra: np.ndarray
     templates: np.ndarray
@@ -235,10 +240,20 @@ class DopplerPlan:
     n_samples: int
     options: RenderOptions
     single: bool
+    coarse_spectra: np.ndarray | None = None
+    coarse_products: np.ndarray | None = None
 
     @property
     def empty(self) -> bool:
-        return self.terms.shape[1] == 0
+        return self.terms.n_paths == 0
+
+    @property
+    def folded_products(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(coarse_products, coarse_spectra): :func:`~.compress.compress`'s products
+        folded onto the coarse grid (None without them)."""
+        if self.coarse_spectra is None or self.coarse_products is None:
+            return None
+        return self.coarse_products, self.coarse_spectra
 
 
 def render_doppler(*args, **kwargs) -> np.ndarray:
@@ -257,7 +272,7 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
     none = dict.fromkeys(("responses", "response_spectra", "templates", "products"))
     return DopplerPlan(
         positions=np.zeros((n_mics, 0)),
-        terms=np.zeros((1, 0, n_mics)),
+        terms=ChebyshevGains(np.zeros((n_mics, 0)), None, 1),
         **{k: np.zeros((0, 0)) for k in none},
         **{k: np.zeros(0, bool) for k in ("direct_paths", "direct_terms", "band")},
         **dict.fromkeys(("lo", "hi", "n_fft"), 0),
@@ -271,14 +286,15 @@ def _empty_plan(n_mics: int, n_samples: int, options: RenderOptions) -> DopplerP
 def _response_terms(echoes: Echoes, grid: CallGrid, fs: float, n: int, response):
     """Step 3 of :func:`plan_doppler`: the path responses as separable terms u_q(f)
     v_q(n) (as the static renderer), over the :class:`~.render.CallGrid` of the
-    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,)
-    and which terms are the direct path's (Q,); whether a response shapes them."""
+    middle template's spectrum: gains (M, N), U (F, Q), V (N, Q), the band (F,),
+    which terms are the direct path's (Q,) and U on the grid's coarse frequencies
+    (F', Q; None without a response): whether a response shapes them."""
     if response is not None and response.active:
-        return (*response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
+        return (*_response_factors(echoes, echoes.gain, grid.W, fs, n, response, grid), True)
     band = np.ones(grid.W.size, bool)
     U = np.ones((band.size, 1))
     V = np.ones((echoes.n_paths, 1))
-    return echoes.gain, U, V, band, np.zeros(1, bool), False
+    return echoes.gain, U, V, band, np.zeros(1, bool), None, False
 
 
 def plan_doppler(
@@ -300,15 +316,15 @@ def plan_doppler(
     cache = DopplerCache() if cache is None else cache
     fs, taps = sample_rate_hz, options.taps
     # 1. Doppler nodes and the time-scaled calls there
-    tol = options.doppler_tolerance
-    nodes = doppler_nodes(float(rate.min()), float(rate.max()), waveform, fs, tol)
+    nodes = doppler_nodes(rate.min(), rate.max(), waveform, fs, options.doppler_tolerance)
     calls, start = _templates(waveform, fs, nodes, cache)
     L = calls.shape[1]
     # 2. the span of the output the echoes reach
-    d, advance, margin = _placement(echoes.delay_s, rate, nodes, waveform.duration_s, fs)
-    d = d + options.emission_index + start  # the order of the sums of before: same bits
-    lo = int(np.floor(d.min())) - taps - margin
-    hi = min(int(np.ceil(d.max())) + taps + L + 1 + margin, n_samples)
+    d, s, span, advance, margin = _placement(
+        echoes.delay_s, rate, nodes, waveform.duration_s, fs, (options.emission_index, start)
+    )
+    lo = int(np.floor(span[0])) - taps - margin
+    hi = min(int(np.ceil(span[1])) + taps + L + 1 + margin, n_samples)
     if hi <= max(lo, 0):
         return _empty_plan(M, n_samples, options)
     n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
@@ -317,19 +333,19 @@ def plan_doppler(
         ("spectra", *key), lambda: _spectra_and_grid(calls, advance * fs, n, fs)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
-    g, U, V, band, direct, shaped = _response_terms(echoes, grid, fs, n, response)
+    g, U, V, band, direct, Uc, shaped = _response_terms(echoes, grid, fs, n, response)
     path_direct = echoes.order == 0 if direct.any() else np.zeros(echoes.n_paths, bool)
-    # the interpolant in the Doppler factor as a Chebyshev series (:func:`_chebyshev_terms`)
-    W = cache.spectra.get(
-        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
-    )
+    W, products, folded = _template_tables(cache, key, spectra, grid, band, Uc is not None)
+    d -= lo
     return DopplerPlan(
-        positions=d - lo,
-        terms=_chebyshev_terms(nodes, rate.T, g.T),
+        positions=d,
+        terms=ChebyshevGains(g, s, nodes.size),
         responses=V,
         response_spectra=U,
         templates=W,
-        products=cache.spectra.get(("products", *key, band.sum()), lambda: _products(W)),
+        products=products,
+        coarse_spectra=Uc,
+        coarse_products=folded,
         direct_paths=path_direct,
         direct_terms=direct,
         band=band,
@@ -346,6 +362,25 @@ def plan_doppler(
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
 
 
+def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coarse: bool):
+    """The interpolant in the Doppler factor as a Chebyshev series
+    (:func:`_chebyshev_terms`): the templates' coefficients W (K, F) over the `band`
+    (F,) bins of their `spectra`, their products (:func:`_products`) and, for
+    response terms interpolated from the `grid`'s coarse frequencies (`coarse`), the
+    products folded onto those (:func:`~.compress.coarse_products`; None): per drive,
+    in the `cache` under `key`."""
+    W = cache.spectra.get(
+        ("coefficients", *key, band.sum()), lambda: _chebyshev_coefficients(spectra[:, band])
+    )
+    WW = cache.spectra.get(("products", *key, band.sum()), lambda: _products(W))
+    if not coarse:
+        return W, WW, None
+    fold = cache.spectra.get(
+        ("coarse", *key, band.sum()), lambda: coarse_products(WW, grid.fb, grid.coarse)
+    )
+    return W, WW, fold
+
+
 def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
     """The templates' spectra (:func:`_template_spectra`) and the middle one's
     :class:`~.render.CallGrid` (the path responses' frequencies), kept together."""
@@ -353,17 +388,31 @@ def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
     return spectra, CallGrid.of(spectra[len(spectra) // 2], fs, n)
 
 
-def _placement(delay_s, rate, nodes, duration_s: float, fs: float):
+def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0)):
     """Where each echo's impulse goes (M, N), in samples from the emission (before
-    the templates' start): where its call's middle (the pivot p) arrives less p,
-    ``t0 + p / a - p``; template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that
-    every template is scaled about the pivot (half the phase excursion over the
-    Doppler factors of scaling about the start: fewer nodes and sets); and the
-    margin (samples) the advances need."""
+    the templates' start) plus the two `shift` (samples, added in turn): where its
+    call's middle (the pivot p) arrives less p, ``t0 + p / a - p``; the Doppler
+    factors mapped onto the Chebyshev interval of the nodes (M, N, C order;
+    :func:`_chebyshev_argument`, None for one node); the positions' range (least,
+    greatest); template j advanced by ``p (1 / a_j - 1)`` (K,) s, so that every
+    template is scaled about the pivot (half the phase excursion over the Doppler
+    factors of scaling about the start: fewer nodes and sets); and the margin
+    (samples) the advances need.  One compiled pass (:mod:`._doppler_kernel`), or
+    numpy without numba: the same operations, the same bits."""
     pivot = duration_s / 2
     advance = pivot * (1 / nodes - 1)  # (K,) s
     margin = int(np.ceil(np.abs(advance).max() * fs)) + 1
-    return (delay_s + pivot * (1 / rate - 1)) * fs, advance, margin
+    kernel = optional_kernel("acousim.synth._doppler_kernel", "place")
+    if kernel is None:
+        d = (delay_s + pivot * (1 / rate - 1)) * fs
+        d = d + shift[0] + shift[1]
+        s = _chebyshev_argument(nodes, rate)
+        return d, s, (d.min(), d.max()), advance, margin
+    offset, half = _chebyshev_interval(nodes) if nodes.size > 1 else (0.0, 1.0)
+    d = np.empty_like(delay_s, float)  # the layout of the delays
+    s = np.empty(np.shape(rate) if nodes.size > 1 else (0, 0))
+    span = kernel(delay_s, rate, pivot, fs, float(shift[0]), float(shift[1]), offset, half, d, s)
+    return d, (s if nodes.size > 1 else None), span, advance, margin
 
 
 def render_planned(plan: DopplerPlan) -> np.ndarray:
@@ -380,7 +429,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.terms,
         plan.responses,
         plan.templates,
-        plan.products,
+        plan.products if plan.coarse_spectra is None else plan.folded_products,
         plan.response_spectra,
         plan.direct_paths,
         plan.direct_terms,
@@ -450,23 +499,33 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
 
 def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
     """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
-    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]: the interpolant of
-    the time-scaled call in the Doppler factor as a Chebyshev series, the path gains
-    times T_p(s) (a three-term recurrence) and the templates' Chebyshev coefficients
-    (the same polynomial as the Lagrange form, without barycentric weights)."""
+    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]
+    (:func:`_chebyshev_argument`): the interpolant of the time-scaled call in the
+    Doppler factor as a Chebyshev series, the path gains times T_p(s) (a three-term
+    recurrence, :func:`~.compress.chebyshev_terms`) and the templates' Chebyshev
+    coefficients (the same polynomial as the Lagrange form, without barycentric
+    weights)."""
+    return chebyshev_terms(_chebyshev_argument(nodes, rate), gain, nodes.size)
+
+
+def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:
+    """The Doppler factors `rate` (...) mapped from the interval of the Chebyshev
+    `nodes` (K,) onto [-1, 1] (C order; None for one node)."""
+    if nodes.size == 1:
+        return None
+    offset, half = _chebyshev_interval(nodes)
+    s = np.subtract(rate, offset, out=np.empty(np.shape(rate)))  # C order
+    s /= half
+    return s
+
+
+def _chebyshev_interval(nodes: np.ndarray) -> tuple[float, float]:
+    """(offset, half): a factor a maps onto ``(a - offset) / half`` in [-1, 1] from
+    the interval of the K > 1 Chebyshev `nodes` (K,)."""
     K = nodes.size
-    out = np.empty((K, *rate.shape))
-    out[0] = gain
-    if K > 1:
-        x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
-        half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
-        s = (rate - (nodes[0] - half * x[0])) / half
-        np.multiply(gain, s, out=out[1])
-        s *= 2
-        for p in range(2, K):
-            np.multiply(s, out[p - 1], out=out[p])
-            out[p] -= out[p - 2]
-    return out
+    x = np.cos((2 * np.arange(K) + 1) * np.pi / (2 * K))
+    half = (nodes[0] - nodes[-1]) / (x[0] - x[-1])
+    return float(nodes[0] - half * x[0]), float(half)
 
 
 def _chebyshev_coefficients(values: np.ndarray) -> np.ndarray:

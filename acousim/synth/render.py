@@ -457,22 +457,39 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     `W` is the call's spectrum on an n-point real FFT at `fs`; `grid`: its
     :class:`CallGrid` if known (None: found here).
     """
+    return _response_factors(echoes, g, W, fs, n, response, grid)[:5]
+
+
+def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
+    """:func:`response_factors` and the terms on the coarse grid, Uc (F', Q): U is
+    their linear interpolation onto the band's bins."""
     grid = CallGrid.of(W, fs, n) if grid is None else grid
     band, fb, coarse = grid.band, grid.fb, grid.coarse
     length = echoes.path_length_m.mean(axis=0)
     # the per-microphone part of the path length: a gain at the band's centre
     alpha = response.alpha_db_per_m(grid.f_c)
-    g = g * np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :]))
-    H = response.matrix(coarse, length, echoes.angles(), echoes.interactions)  # (F', N)
-    # factor H on a coarse grid over the band (H is smooth in f), interpolate U; each
-    # path weighted by its gain, so the rank is set by the error of the rendered
-    # signal and thousands of weak scatterers do not inflate it
+    g = np.multiply(  # C order (M, N): the paths of a microphone side by side
+        g,
+        np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :])),
+        out=np.empty(np.shape(g)),
+    )
+    # factor H (F', N) on a coarse grid over the band (H is smooth in f), interpolate
+    # U; each path weighted by its gain, so the rank is set by the error of the
+    # rendered signal and thousands of weak scatterers do not inflate it; the
+    # columns of each group side by side
     weight = np.sqrt(np.mean(g**2, axis=0)) + 1e-300
+    groups = [grp for grp in (echoes.order == 0, echoes.order != 0) if grp.any()]
+    order = np.concatenate([np.flatnonzero(grp) for grp in groups])
+    interactions = None if echoes.interactions is None else echoes.interactions[order]
+    H = response.weighted_matrix(
+        coarse, length[order], echoes.angles()[order], interactions, weight[order]
+    )
     Vs, Us = [], []
-    for group in (echoes.order == 0, echoes.order != 0):
-        if not group.any():
-            continue
-        Uc, Vw = factorise(H[:, group] * weight[group])
+    start = 0
+    for group in groups:
+        count = int(group.sum())
+        Uc, Vw = factorise(H[:, start : start + count])
+        start += count
         V = np.zeros((echoes.n_paths, Vw.shape[1]))
         V[group] = Vw / weight[group, None]
         Vs.append(V)
@@ -482,7 +499,7 @@ def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, re
     direct = np.concatenate(
         [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
     )
-    return g, U, V, band, direct
+    return g, U, V, band, direct, Uc
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):

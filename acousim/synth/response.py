@@ -52,6 +52,47 @@ def piston_directivity(frequency_hz, theta_rad, radius_m: float, speed_of_sound_
     return d
 
 
+#: the largest argument ``x = k a sin(theta)`` :func:`piston_series` sums
+SERIES_MAX_X = 6.0
+
+
+def piston_series(
+    frequency_hz: np.ndarray,
+    theta_rad: np.ndarray,
+    radius_m: float,
+    speed_of_sound_m_s: float,
+    weight: np.ndarray,
+) -> np.ndarray | None:
+    """:func:`piston_directivity` (F, N) of the frequencies (F,) and angles (N,),
+    times weight (N,), as the power series of ``2 J1(x) / x``: ``sum_k (-z)^k / (k!
+    (k + 1)!)``, z = x^2 / 4 = a_f b_n (a_f = (k a / 2)^2, b_n = sin(theta)^2), which
+    is the matrix product ``C B`` of C[f, k] = (-a_f)^k / (k! (k + 1)!) and B[k, n] =
+    b_n^k (one small GEMM instead of F N Bessel functions: 10x faster), summed until
+    the terms fall below 1e-18.  Exact to rounding for ``x <= SERIES_MAX_X`` (the
+    largest term 6.8: errors of a few 1e-15 against scipy's J1, the tests check
+    it); None beyond that."""
+    kr = 2 * np.pi * np.asarray(frequency_hz, float) / speed_of_sound_m_s * radius_m
+    th = np.abs(np.asarray(theta_rad, float))
+    sin_theta = np.sin(np.minimum(th, np.pi / 2))
+    a, b = (kr / 2) ** 2, sin_theta**2
+    z_max = a.max(initial=0.0) * b.max(initial=0.0)
+    if z_max > (SERIES_MAX_X / 2) ** 2:
+        return None
+    coef = [1.0]  # 1 / (k! (k + 1)!)
+    while coef[-1] * z_max ** (len(coef) - 1) > 1e-18:
+        k = len(coef)
+        coef.append(coef[-1] / (k * (k + 1)))
+    K = len(coef)
+    C = np.cumprod(np.broadcast_to(-a[:, None], (a.size, K)), axis=1)
+    C[:, 1:] = C[:, :-1] * coef[1:]
+    C[:, 0] = 1.0
+    B = np.empty((K, b.size))
+    B[0] = np.clip(2 - 2 * th / np.pi, 0.0, 1.0) * weight  # the fade behind the baffle
+    for k in range(1, K):
+        np.multiply(B[k - 1], b, out=B[k])
+    return C @ B
+
+
 def mic_directivity(
     echoes: Echoes,
     *,
@@ -129,6 +170,27 @@ class PathResponse:
             )
         if self.materials is not None and interactions is not None and interactions.size:
             H *= self.materials.factor(freqs, interactions)
+        return H
+
+    def weighted_matrix(
+        self,
+        freqs: np.ndarray,
+        length_m: np.ndarray,
+        theta_rad: np.ndarray | None,
+        interactions: np.ndarray | None,
+        weight: np.ndarray,
+    ) -> np.ndarray:
+        """``H(f, n) weight[n]`` (F, N): :meth:`matrix` with each path's column times
+        its weight (N,), the emitter's directivity as a matrix product
+        (:func:`piston_series`) when every argument ``k a sin(theta)`` is within its
+        range."""
+        if self.emitter_radius_m <= 0 or theta_rad is None:
+            return self.matrix(freqs, length_m, theta_rad, interactions) * weight
+        D = piston_series(freqs, theta_rad, self.emitter_radius_m, self.speed_of_sound_m_s, weight)
+        if D is None:  # beyond the series' range: scipy's J1
+            return self.matrix(freqs, length_m, theta_rad, interactions) * weight
+        H = self.matrix(freqs, length_m, None, interactions)
+        H *= D
         return H
 
     def alpha_db_per_m(self, f: float) -> float:
