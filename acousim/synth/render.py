@@ -246,7 +246,7 @@ def _convolved(d: np.ndarray, g: np.ndarray, call: np.ndarray, n_span: int, kern
     # no wrap-around into the span: the last tap (at most pad + n_span + pad) plus
     # the call's length stays within n
     n = sfft.next_fast_len(n_span + call.size + 2 * pad, real=True)
-    h, pad = _impulses(d, g, n_span, method, taps, n, np.float32)  # (1, M, n)
+    h, pad = _impulses(d, g, n_span, (method, taps), n, np.float32)  # (1, M, n)
     spec = sfft.rfft(h[0], axis=-1, workers=FFT_WORKERS)
     spec *= sfft.rfft(call, n).astype(np.complex64)
     return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
@@ -418,7 +418,7 @@ def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
         mics = slice(m0, min(m0 + size, M))
         c = mics.stop - m0
         h, pad = _impulses(
-            d[mics], G[mics], n_span, method, taps, n, dtype, V, buffer if c == size else None
+            d[mics], G[mics], n_span, (method, taps), n, dtype, V, buffer if c == size else None
         )
         spectra = sfft.rfft(h, axis=-1, workers=1)  # (sets, mics, F)
         inband = spec[:c, b0:b1]
@@ -581,14 +581,14 @@ def _impulses(
     d: np.ndarray,
     g: np.ndarray,
     n_span: int,
-    method: str,
-    taps: int,
+    kernel: tuple[str, int],
     width: int | None = None,
     dtype: type = np.float64,
     V: np.ndarray | None = None,
     out: np.ndarray | None = None,
 ):
-    """Sum of interpolated impulses; d in samples from the span start.
+    """Sum of interpolated impulses (`kernel`: the fractional delays' method, taps);
+    d in samples from the span start.
 
     `g` is (M, N), or (M, N, Q) for Q sets of gains sharing the same delays, or
     (M, N) with `V` (N, Q): the sets ``g[m, n] * V[n, q]`` (not formed in memory
@@ -606,25 +606,24 @@ def _impulses(
     need not be zero; a buffer reused for several blocks of microphones touches its
     memory once), returned as h.
     """
-    M, N = d.shape
-    many = g.ndim == 3
+    (M, N), (method, taps), many = d.shape, kernel, g.ndim == 3
     pad = taps + 1
     buf = n_span + 2 * pad if width is None else width
     if buf < n_span + 2 * pad:
         raise ValueError(f"buffer width {buf} shorter than the span {n_span} and its margins")
-    kernel = _compiled()
-    if kernel is not None:
-        start, phase = kernel.placed(d, TABLE_PHASES, taps, n_span, method == "nearest")
+    compiled = _compiled()
+    if compiled is not None:
+        start, phase = compiled.placed(d, TABLE_PHASES, taps, n_span, method == "nearest")
     else:
         start, phase = _placed_taps(d, method, taps, n_span)
     table = _table(method, taps, np.dtype(dtype))
-    if kernel is not None:
+    if compiled is not None:
         if V is not None:  # g (M, N) times V (N, Q), formed in the kernel
             scale, gains = g, np.broadcast_to(V[None], (M, *V.shape))
         else:
             scale, gains = np.broadcast_to(1.0, (M, N)), g if many else g[..., None]
         h = np.empty((gains.shape[2], M, buf), dtype) if out is None else out
-        kernel.accumulate(start, phase, scale, gains, table, h)
+        compiled.accumulate(start, phase, scale, gains, table, h)
     else:
         G = g[:, :, None] * V[None] if V is not None else g if many else g[..., None]
         start = start + (np.arange(M) * buf)[:, None]

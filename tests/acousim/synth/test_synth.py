@@ -227,7 +227,7 @@ def test_impulse_sums_are_a_plain_loops_sums_in_their_precision(method, dtype):
             if not compiled:
                 render_mod._compiled = lambda: None
             out = np.full((Q, M, width), np.nan, dtype)
-            h, at = render_mod._impulses(d, g, n_span, method, taps, width, dtype, out=out)
+            h, at = render_mod._impulses(d, g, n_span, (method, taps), width, dtype, out=out)
         finally:
             render_mod._compiled = kernel
         assert h is out and at == pad
