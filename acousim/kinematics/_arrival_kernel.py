@@ -144,3 +144,154 @@ def solve(t_r, A, guess, poly, poly_v, mid, half, c, stop) -> np.ndarray:
     out = np.empty(np.shape(guess))
     newton(t_r, A, guess, poly, poly_v, float(mid), float(half), float(c), float(stop), out)
     return out
+
+
+
+#: the compiled solve of :func:`arrive` evaluates the microphones' polynomials at
+#: this degree (acousim.kinematics.sensor.POLY_DEGREE), the higher coefficients of
+#: a lower degree zero (the same values: Horner's rule adds exact zeros first), so
+#: that its loops unroll and the paths vectorise
+DEGREE = 6
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _newton_pass(t, t_r, A, pm, pv, mid, half, c, stop):  # pragma: no cover - compiled
+    """One Newton step on ``f(t) = t - t_r - |m(t) - A| / c`` of every path at one
+    microphone, in place on `t` (N,); how many steps were at least `stop` (s).
+
+    t_r (N,) s; A (3, N) m; pm (DEGREE + 1, 3) and pv (DEGREE, 3): the microphone's
+    position (m) and velocity (m/s) in ``x = (t - mid) / half``, x^0 first.
+    """
+    over = 0
+    for n in range(t.size):
+        x = (t[n] - mid) / half
+        px = pm[DEGREE, 0]
+        py = pm[DEGREE, 1]
+        pz = pm[DEGREE, 2]
+        for k in range(DEGREE - 1, -1, -1):
+            px = px * x + pm[k, 0]
+            py = py * x + pm[k, 1]
+            pz = pz * x + pm[k, 2]
+        vx = pv[DEGREE - 1, 0]
+        vy = pv[DEGREE - 1, 1]
+        vz = pv[DEGREE - 1, 2]
+        for k in range(DEGREE - 2, -1, -1):
+            vx = vx * x + pv[k, 0]
+            vy = vy * x + pv[k, 1]
+            vz = vz * x + pv[k, 2]
+        dx = px - A[0, n]
+        dy = py - A[1, n]
+        dz = pz - A[2, n]
+        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+        slope = 1.0 - (vx * dx + vy * dy + vz * dz) / (max(dist, 1e-12) * c)
+        step = (t[n] - t_r[n] - dist / c) / slope
+        t[n] -= step
+        over += 1 if abs(step) >= stop else 0
+    return over
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: no cover
+    """Reception times of the call's first, last and middle sample (instants 0, 1, 2)
+    of every path at every microphone into `out` (3, M, N) (s): per microphone and
+    instant, Newton as :func:`newton` (until no path's step reaches `stop`), started
+    where the solution nearly is:
+
+    - the first sample: at the first microphone from t_r (the first step exact for
+      a microphone at constant velocity), at each next one from the previous one's
+      solution (the array's extent, 2 cm: within 60 us, then one more step);
+    - the last sample: the first sample's plus the call's length at the microphone
+      (the previous microphone's; at the first one `duration`, s);
+    - the middle sample: the chord's middle plus its curvature at the previous
+      microphone (at the first one, none).
+
+    t_r (3, N): when each instant's sample leaves the path's last anchor (s); A
+    (3, 3, N): the anchors then (instant, coordinate, path; m); poly (M, DEGREE + 1,
+    3) and poly_v (M, DEGREE, 3): each microphone's position and velocity as
+    :func:`_newton_pass` takes them.
+    """
+    _, M, N = out.shape
+    for m in range(M):
+        first, last, middle = out[0, m], out[1, m], out[2, m]
+        if m == 0:
+            first[:] = t_r[0]
+        else:
+            first[:] = out[0, m - 1]
+        _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, half, c, stop)
+        if m == 0:
+            for n in range(N):
+                last[n] = first[n] + duration
+        else:
+            for n in range(N):
+                last[n] = first[n] + (out[1, m - 1, n] - out[0, m - 1, n])
+        _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, half, c, stop)
+        if m == 0:
+            for n in range(N):
+                middle[n] = 0.5 * (first[n] + last[n])
+        else:
+            for n in range(N):
+                bend = out[2, m - 1, n] - 0.5 * (out[0, m - 1, n] + out[1, m - 1, n])
+                middle[n] = 0.5 * (first[n] + last[n]) + bend
+        _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, half, c, stop)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _solve(t, t_r, A, pm, pv, mid, half, c, stop):  # pragma: no cover - compiled
+    """Newton passes (:func:`_newton_pass`) on `t` in place until no step reaches
+    `stop` (at most 20)."""
+    for _ in range(20):
+        if _newton_pass(t, t_r, A, pm, pv, mid, half, c, stop) == 0:
+            break
+
+
+def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.ndarray:
+    """:func:`arrive` into a new array (3, M, N), the polynomials padded to DEGREE."""
+    M, K, _ = poly.shape
+    if K > DEGREE + 1:
+        raise ValueError(f"polynomials of degree {K - 1}: at most {DEGREE}")
+    pm = np.zeros((M, DEGREE + 1, 3))
+    pm[:, :K] = poly
+    pv = np.zeros((M, DEGREE, 3))
+    pv[:, : K - 1] = poly_v
+    out = np.empty((3, M, t_r.shape[1]))
+    arrive(
+        np.ascontiguousarray(t_r, float),
+        np.ascontiguousarray(A, float),
+        float(duration),
+        pm,
+        pv,
+        float(mid),
+        float(half),
+        float(c),
+        float(stop),
+        out,
+    )
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def echo_terms(t, first, amplitude, c, duration, delay, gain, length, rate, curvature):  # pragma: no cover
+    """The echoes of :func:`acousim.kinematics.retarded.arrivals` from the reception
+    times `t` (3, M, N) of the call's first, last and middle sample (s), as its
+    array version computes them (the same operations in the same order): the
+    last leg ``max(c t0 - first, 1e-6)`` (m), the length, the gain ``amplitude /
+    last``, the curvature ``tm - (t0 + t1) / 2``, the delay ``t0 + 2/3 curvature``
+    and the rate ``duration / (t1 - t0)``, each into its (M, N) array.
+
+    first (N,): the first legs at the start of the emission (m); amplitude (N,):
+    the strengths times the spreading of the first leg.
+    """
+    _, M, N = t.shape
+    for m in range(M):
+        for n in range(N):
+            t0 = t[0, m, n]
+            t1 = t[1, m, n]
+            last = c * t0 - first[n]
+            if last < 1e-6:
+                last = 1e-6
+            length[m, n] = first[n] + last
+            gain[m, n] = amplitude[n] / last
+            bend = t[2, m, n] - 0.5 * (t0 + t1)
+            curvature[m, n] = bend
+            delay[m, n] = t0 + bend * (2.0 / 3.0)
+            rate[m, n] = duration / (t1 - t0)

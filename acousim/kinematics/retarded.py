@@ -28,8 +28,9 @@ from processing.base.kernels import optional_kernel
 __all__ = ["Arrivals", "arrivals", "arrival_times", "NEWTON_STOP_S"]
 
 #: Newton on the reception time stops after a step below this (error: about the
-#: step squared times 0.1 / s, see :func:`_newton_by_axis`)
-NEWTON_STOP_S = 2e-5
+#: step squared times |f''| / 2, |f''| below 1.5 / s: under 1e-12 s, see
+#: :func:`_newton_by_axis`)
+NEWTON_STOP_S = 1e-6
 
 
 def arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None, guess=None):
@@ -203,7 +204,7 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
         # quadratic convergence: after a step s the error is about s^2 |f''| / 2
         # with |f''| <= (|m''| + |m'|^2 / |m - A|) / c: below 0.2 / s at 1 m/s for
         # the direct path (2 cm), 1.5 / s at 3 m/s; s < NEWTON_STOP_S leaves
-        # 4e-11 s (-95 dB at 80 kHz), 3e-10 s (-78 dB)
+        # 1e-13 s, 8e-13 s (-128 dB at 80 kHz)
         if np.max(np.abs(step)) < NEWTON_STOP_S:
             break
     return t
@@ -241,26 +242,74 @@ def arrivals(
     """Reception times of the first, middle and last sample of the call for every
     path and microphone; the delays and time-compression factors of the fast method."""
     c = speed_of_sound_m_s
-    t0, anchor, first = arrival_times(paths, kin, 0.0, c)
-    # started from a line, then from the chord: one or two Newton steps each
-    t1, _, _ = arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
-    tm, _, _ = arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
-    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
-    # (within c times its error, below 1e-10 m)
-    last = np.maximum(c * t0 - first, 1e-6)
-    length = first + last
+    fused = _arrivals_compiled(paths, kin, duration_s, c)
+    if fused is None:
+        t0, anchor, first = arrival_times(paths, kin, 0.0, c)
+        # started from a line, then from the chord: one or two Newton steps each
+        t1, _, _ = arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
+        tm, _, _ = arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
+    else:
+        times, anchor, first = fused
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
     exact = paths.first_leg == FirstLeg.exact
     # the first leg is one per path at tau = 0 (a broadcast row): the factor per path
     one = first[0] if first.ndim == 2 and first.strides[0] == 0 else first
     spread = np.where(exact, paths.first_leg_m / np.maximum(one, 1e-9), 1.0)
-    gain = (paths.strength * spread) / last
+    amplitude = paths.strength * spread
+    if fused is None:
+        delay, gain, length, rate, curvature = _echo_terms(
+            t0, t1, tm, first, amplitude, c, duration_s
+        )
+    else:
+        delay, gain, length, rate, curvature = (np.empty(times.shape[1:]) for _ in range(5))
+        _kernel("echo_terms")(
+            times, one, amplitude, float(c), float(duration_s), delay, gain, length, rate, curvature
+        )
     cos = np.clip(paths.departure @ emitter_axis, -1, 1)
+    echoes = Echoes(delay, gain, length, paths.order.copy(), np.arccos(cos))
+    leave = np.broadcast_to(first, delay.shape)[0] / c
+    start = np.broadcast_to(anchor, (*delay.shape, 3))[0]
+    return Arrivals(echoes, rate, curvature, leave, start)
+
+
+def _echo_terms(t0, t1, tm, first, amplitude, c: float, duration_s: float):
+    """Delays, gains, lengths, rates and curvatures (M, N) of :func:`arrivals` from
+    the reception times (M, N) of the call's first, last and middle sample (s), the
+    first legs (m) and the amplitudes (N,) (array version of the compiled
+    :func:`acousim.kinematics._arrival_kernel.echo_terms`)."""
+    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
+    # (within c times its error, below 1e-10 m)
+    last = np.maximum(c * t0 - first, 1e-6)
+    length = first + last
+    gain = amplitude / last
     # the linear law through the first and last sample, shifted by the mean of the
     # (parabolic) deviation: two thirds of the deviation at the middle
     curvature = tm - 0.5 * (t0 + t1)
-    echoes = Echoes(t0 + curvature * (2 / 3), gain, length, paths.order.copy(), np.arccos(cos))
-    leave = np.broadcast_to(first, t0.shape)[0] / c
-    start = np.broadcast_to(anchor, (*t0.shape, 3))[0]
-    return Arrivals(echoes, duration_s / (t1 - t0), curvature, leave, start)
+    return t0 + curvature * (2 / 3), gain, length, duration_s / (t1 - t0), curvature
+
+
+def _arrivals_compiled(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: float):
+    """The reception times (3, M, N) of the call's first, last and middle sample,
+    solved in one compiled pass (:func:`acousim.kinematics._arrival_kernel.arrive`),
+    with the anchors (1, N, 3) and first legs (M, N) at the start of the emission;
+    None where it does not apply (no numba; kinematics not one polynomial)."""
+    if kin.static or kin.step is None or getattr(kin, "poly", None) is None:
+        return None
+    solve = _kernel("solve_arrivals")
+    if solve is None:
+        return None
+    t_r, A = np.empty((3, len(paths))), np.empty((3, 3, len(paths)))
+    for q, tau in enumerate((0.0, duration_s, duration_s / 2)):
+        leave, anchor, first = _retarded(paths, kin, np.asarray(tau), c, None)
+        t_r[q], A[q] = leave[0], anchor[0].T
+        if q == 0:
+            start, first0 = anchor, first
+    times = solve(t_r, A, duration_s, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
+    return times, start, first0
+
+
+def _kernel(name: str):
+    """A compiled function of :mod:`acousim.kinematics._arrival_kernel`, or None
+    when numba is not installed."""
+    return optional_kernel("acousim.kinematics._arrival_kernel", name)
