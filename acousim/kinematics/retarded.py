@@ -89,6 +89,9 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
     # emission time (batched 3 x 3 products cost 50 times more)
     if scalar:
         shift = (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
+    elif mic is None and de.shape[1:] == (1, 3):  # an emission time per row: one product
+        shift = (paths.mirror.reshape(-1, 3) @ de[:, 0].T).reshape(-1, 3, len(de))
+        shift = shift.transpose(2, 0, 1)
     else:
         shift = np.matmul(J, de[..., None])[..., 0]
 
@@ -292,21 +295,18 @@ def _echo_terms(t0, t1, tm, first, amplitude, c: float, duration_s: float):
 def _arrivals_compiled(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: float):
     """The reception times (3, M, N) of the call's first, last and middle sample,
     solved in one compiled pass (:func:`acousim.kinematics._arrival_kernel.arrive`),
-    with the anchors (1, N, 3) and first legs (M, N) at the start of the emission;
+    with the anchors (1, N, 3) and first legs (N,) at the start of the emission;
     None where it does not apply (no numba; kinematics not one polynomial)."""
     if kin.static or kin.step is None or getattr(kin, "poly", None) is None:
         return None
     solve = _kernel("solve_arrivals")
     if solve is None:
         return None
-    t_r, A = np.empty((3, len(paths))), np.empty((3, 3, len(paths)))
-    for q, tau in enumerate((0.0, duration_s, duration_s / 2)):
-        leave, anchor, first = _retarded(paths, kin, np.asarray(tau), c, None)
-        t_r[q], A[q] = leave[0], anchor[0].T
-        if q == 0:
-            start, first0 = anchor, first
+    tau = np.array([[0.0], [duration_s], [duration_s / 2]])
+    t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
+    A = anchor.transpose(0, 2, 1)
     times = solve(t_r, A, duration_s, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
-    return times, start, first0
+    return times, anchor[:1], first[0]
 
 
 def _kernel(name: str):
