@@ -154,77 +154,134 @@ def solve(t_r, A, guess, poly, poly_v, mid, half, c, stop) -> np.ndarray:
 DEGREE = 6
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _newton_pass(t, t_r, A, pm, pv, mid, half, c, stop):  # pragma: no cover - compiled
-    """One Newton step on ``f(t) = t - t_r - |m(t) - A| / c`` of every path at one
-    microphone, in place on `t` (N,); how many steps were at least `stop` (s).
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic):  # pragma: no cover - compiled
+    """One Newton step on ``f(t) = t - t_r - |m(t) - A| / c`` of one path at one
+    microphone: the step (s), the microphone's offset from the anchor (m), its
+    distance (at least 1e-12 m) and the slope f'.
 
-    t_r (N,) s; A (3, N) m; pm (DEGREE + 1, 3) and pv (DEGREE, 3): the microphone's
-    position (m) and velocity (m/s) in ``x = (t - mid) / half``, x^0 first.
+    pm (DEGREE + 1, 3) and pv (DEGREE, 3): the microphone's position (m) and
+    velocity (m/s) in ``x = (t - mid) ih``, x^0 first; ih = 1 / half (1/s), ic =
+    1 / c (s/m).
     """
+    x = (t - mid) * ih
+    px = pm[DEGREE, 0]
+    py = pm[DEGREE, 1]
+    pz = pm[DEGREE, 2]
+    for k in range(DEGREE - 1, -1, -1):
+        px = px * x + pm[k, 0]
+        py = py * x + pm[k, 1]
+        pz = pz * x + pm[k, 2]
+    vx = pv[DEGREE - 1, 0]
+    vy = pv[DEGREE - 1, 1]
+    vz = pv[DEGREE - 1, 2]
+    for k in range(DEGREE - 2, -1, -1):
+        vx = vx * x + pv[k, 0]
+        vy = vy * x + pv[k, 1]
+        vz = vz * x + pv[k, 2]
+    dx = px - ax
+    dy = py - ay
+    dz = pz - az
+    dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+    dist = dist if dist > 1e-12 else 1e-12
+    slope = 1.0 - (vx * dx + vy * dy + vz * dz) * ic / dist
+    return (t - t_r - dist * ic) / slope, dx, dy, dz, dist, slope
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover
+    """One Newton step (:func:`_newton_step`) of every path at one microphone, in
+    place on `t` (N,) (vectorised over the paths); the steps into `step` (N,); into
+    `g` (three arrays (N,)) the offsets from the anchors over ``c |m - A| f'`` (how
+    the solution moves with the microphone, s/m); how many steps were at least
+    `stop` (s).  t_r (N,) s; A (3, N) m."""
+    gx, gy, gz = g
     over = 0
     for n in range(t.size):
-        x = (t[n] - mid) / half
-        px = pm[DEGREE, 0]
-        py = pm[DEGREE, 1]
-        pz = pm[DEGREE, 2]
-        for k in range(DEGREE - 1, -1, -1):
-            px = px * x + pm[k, 0]
-            py = py * x + pm[k, 1]
-            pz = pz * x + pm[k, 2]
-        vx = pv[DEGREE - 1, 0]
-        vy = pv[DEGREE - 1, 1]
-        vz = pv[DEGREE - 1, 2]
-        for k in range(DEGREE - 2, -1, -1):
-            vx = vx * x + pv[k, 0]
-            vy = vy * x + pv[k, 1]
-            vz = vz * x + pv[k, 2]
-        dx = px - A[0, n]
-        dy = py - A[1, n]
-        dz = pz - A[2, n]
-        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-        slope = 1.0 - (vx * dx + vy * dy + vz * dz) / (max(dist, 1e-12) * c)
-        step = (t[n] - t_r[n] - dist / c) / slope
-        t[n] -= step
-        over += 1 if abs(step) >= stop else 0
+        s, dx, dy, dz, dist, slope = _newton_step(
+            t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic
+        )
+        t[n] -= s
+        step[n] = s
+        w = ic / (dist * slope)
+        gx[n] = dx * w
+        gy[n] = dy * w
+        gz[n] = dz * w
+        over += 1 if abs(s) >= stop else 0
     return over
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover - compiled
+    """Newton on `t` (N,) in place until each path's last step is below `stop` (s),
+    at most 20 steps: passes over every path while more than an eighth of them
+    move, then each remaining path on its own."""
+    N = t.size
+    for it in range(20):
+        over = _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g)
+        if over == 0:
+            return
+        if 8 * over < N:
+            break
+    for n in range(N):
+        s = step[n]
+        for _ in range(19 - it):
+            if abs(s) < stop:
+                break
+            s = _newton_step(t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic)[0]
+            t[n] -= s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: no cover
     """Reception times of the call's first, last and middle sample (instants 0, 1, 2)
     of every path at every microphone into `out` (3, M, N) (s): per microphone and
-    instant, Newton as :func:`newton` (until no path's step reaches `stop`), started
-    where the solution nearly is:
+    instant, Newton on ``f(t) = t - t_r - |m(t) - A| / c`` (as :func:`newton`) until
+    each path's last step is below `stop` (s), started where the solution nearly is:
 
     - the first sample: at the first microphone from t_r (the first step exact for
-      a microphone at constant velocity), at each next one from the previous one's
-      solution (the array's extent, 2 cm: within 60 us, then one more step);
-    - the last sample: the first sample's plus the call's length at the microphone
-      (the previous microphone's; at the first one `duration`, s);
+      a microphone at constant velocity); at each next one from the previous one's
+      solution moved by the first-order change of the distance, the offset between
+      the microphones (at the window's middle, x = 0) along the previous one's
+      direction to the anchor (left: the offset's square over the distance, and
+      the turn during the delay);
+    - the last sample: the first sample's plus the call's length at the previous
+      microphone (at the first one `duration`, s);
     - the middle sample: the chord's middle plus its curvature at the previous
       microphone (at the first one, none).
 
     t_r (3, N): when each instant's sample leaves the path's last anchor (s); A
     (3, 3, N): the anchors then (instant, coordinate, path; m); poly (M, DEGREE + 1,
-    3) and poly_v (M, DEGREE, 3): each microphone's position and velocity as
-    :func:`_newton_pass` takes them.
+    3) and poly_v (M, DEGREE, 3): each microphone's position (m) and velocity (m/s)
+    in ``x = (t - mid) / half``, x^0 first.
     """
     _, M, N = out.shape
+    ih = 1.0 / half
+    ic = 1.0 / c
+    step = np.empty(N)
+    # the first sample's solution's sensitivity to the microphone's position (s/m),
+    # at the previous microphone (and a spare for the other instants)
+    g = (np.empty(N), np.empty(N), np.empty(N))
+    spare = (np.empty(N), np.empty(N), np.empty(N))
     for m in range(M):
         first, last, middle = out[0, m], out[1, m], out[2, m]
         if m == 0:
             first[:] = t_r[0]
         else:
-            first[:] = out[0, m - 1]
-        _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, half, c, stop)
+            ox = poly[m, 0, 0] - poly[m - 1, 0, 0]
+            oy = poly[m, 0, 1] - poly[m - 1, 0, 1]
+            oz = poly[m, 0, 2] - poly[m - 1, 0, 2]
+            gx, gy, gz = g
+            for n in range(N):
+                first[n] = out[0, m - 1, n] + (gx[n] * ox + gy[n] * oy + gz[n] * oz)
+        _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, ih, ic, stop, step, g)
         if m == 0:
             for n in range(N):
                 last[n] = first[n] + duration
         else:
             for n in range(N):
                 last[n] = first[n] + (out[1, m - 1, n] - out[0, m - 1, n])
-        _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, half, c, stop)
+        _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
         if m == 0:
             for n in range(N):
                 middle[n] = 0.5 * (first[n] + last[n])
@@ -232,16 +289,7 @@ def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: 
             for n in range(N):
                 bend = out[2, m - 1, n] - 0.5 * (out[0, m - 1, n] + out[1, m - 1, n])
                 middle[n] = 0.5 * (first[n] + last[n]) + bend
-        _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, half, c, stop)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _solve(t, t_r, A, pm, pv, mid, half, c, stop):  # pragma: no cover - compiled
-    """Newton passes (:func:`_newton_pass`) on `t` in place until no step reaches
-    `stop` (at most 20)."""
-    for _ in range(20):
-        if _newton_pass(t, t_r, A, pm, pv, mid, half, c, stop) == 0:
-            break
+        _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
 
 
 def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.ndarray:
@@ -255,7 +303,7 @@ def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.nda
     pv[:, : K - 1] = poly_v
     out = np.empty((3, M, t_r.shape[1]))
     arrive(
-        np.ascontiguousarray(t_r, float),
+        np.array(t_r, float),
         np.ascontiguousarray(A, float),
         float(duration),
         pm,

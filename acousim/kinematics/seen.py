@@ -41,7 +41,8 @@ def seen_moving(
     compiled = optional_kernel("acousim.kinematics._seen_kernel", "centre_times")
     if table is not None and compiled is not None:
         rot, where = np.empty((t.size, 3, 3)), np.empty((t.size, 3))
-        args = (np.ascontiguousarray(t_r, float), np.ascontiguousarray(anchor, float), local)
+        # (copies: the kernel takes writable arrays, one compiled version)
+        args = (np.array(t_r, float), np.array(anchor, float), np.array(local, float))
         compiled(t, *args, table.times, table.rows, float(c), 1e-10, rot, where)
         return _seen(t, anchor, where, rot, pose, local, c)
 
