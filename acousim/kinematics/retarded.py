@@ -95,23 +95,36 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
     else:
         shift = np.matmul(J, de[..., None])[..., 0]
 
+    still = not moving and not accelerating  # the anchors move with the emitter only
+
     def at(t):  # the anchors where they are at t (s)
+        if still:  # (u t and the acceleration's term zero)
+            return a0 + shift
         out = a0 + shift + u * t[..., None]
         return out + 0.5 * acc * t[..., None] ** 2 if accelerating else out
 
-    for _ in range(8 if moving else 1):
-        anchor = at(t_r)
-        exact = np.linalg.norm(anchor - e, axis=-1)
+    # the first legs that do not depend on where the anchors are: held, or by
+    # Fermat's law (where a path takes it)
+    if np.any(paths.first_leg == FirstLeg.fermat):
         along = np.sum(dep * de, axis=-1)
         fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
-        first = np.where(mode == FirstLeg.fermat, fermat, f0)
-        first = np.where(mode == FirstLeg.exact, exact, first)
+        held = np.where(mode == FirstLeg.fermat, fermat, f0)
+    else:
+        held = f0
+    exact_any = bool(np.any(paths.first_leg == FirstLeg.exact))
+    for _ in range(8 if moving else 1):
+        anchor = at(t_r)
+        first = held
+        if exact_any:
+            first = np.where(mode == FirstLeg.exact, np.linalg.norm(anchor - e, axis=-1), held)
         new = tau + first / c
-        done = np.max(np.abs(new - t_r)) < 1e-15
+        done = not moving or np.max(np.abs(new - t_r)) < 1e-15
         t_r = new
         if done:
             break
-    anchor = at(t_r)
+    if not still:
+        anchor = at(t_r)
+    first = np.broadcast_to(first, np.shape(t_r))
     if scalar:
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
@@ -306,7 +319,7 @@ def _arrivals_compiled(paths: MovingPaths, kin: SensorKinematics, duration_s: fl
     t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
     A = anchor.transpose(0, 2, 1)
     times = solve(t_r, A, duration_s, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
-    return times, anchor[:1], first[0]
+    return times, anchor[:1], np.array(first[0])
 
 
 def _kernel(name: str):
