@@ -157,8 +157,10 @@ DEGREE = 6
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic):  # pragma: no cover - compiled
     """One Newton step on ``f(t) = t - t_r - |m(t) - A| / c`` of one path at one
-    microphone: the step (s), the microphone's offset from the anchor (m), its
-    distance (at least 1e-12 m) and the slope f'.
+    microphone: the step ``f / f'`` (s) and the microphone's offset from the anchor
+    over ``c |m - A| f'`` (how the solution moves with the microphone, three
+    components, s/m).  One division: ``f' = (d - v.(m - A) / c) / d`` with d the
+    distance (at least 1e-12 m).
 
     pm (DEGREE + 1, 3) and pv (DEGREE, 3): the microphone's position (m) and
     velocity (m/s) in ``x = (t - mid) ih``, x^0 first; ih = 1 / half (1/s), ic =
@@ -184,29 +186,25 @@ def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic):  # pragma: no cover -
     dz = pz - az
     dist = np.sqrt(dx * dx + dy * dy + dz * dz)
     dist = dist if dist > 1e-12 else 1e-12
-    slope = 1.0 - (vx * dx + vy * dy + vz * dz) * ic / dist
-    return (t - t_r - dist * ic) / slope, dx, dy, dz, dist, slope
+    z = 1.0 / (dist - (vx * dx + vy * dy + vz * dz) * ic)  # 1 / (d f')
+    w = ic * z
+    return (t - t_r - dist * ic) * dist * z, dx * w, dy * w, dz * w
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover
     """One Newton step (:func:`_newton_step`) of every path at one microphone, in
-    place on `t` (N,) (vectorised over the paths); the steps into `step` (N,); into
-    `g` (three arrays (N,)) the offsets from the anchors over ``c |m - A| f'`` (how
-    the solution moves with the microphone, s/m); how many steps were at least
-    `stop` (s).  t_r (N,) s; A (3, N) m."""
+    place on `t` (N,) (vectorised over the paths); the steps into `step` (N,) and
+    the offsets over ``c |m - A| f'`` into `g` (three arrays (N,), s/m); how many
+    steps were at least `stop` (s).  t_r (N,) s; A (3, N) m."""
     gx, gy, gz = g
     over = 0
     for n in range(t.size):
-        s, dx, dy, dz, dist, slope = _newton_step(
+        s, gx[n], gy[n], gz[n] = _newton_step(
             t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic
         )
         t[n] -= s
         step[n] = s
-        w = ic / (dist * slope)
-        gx[n] = dx * w
-        gy[n] = dy * w
-        gz[n] = dz * w
         over += 1 if abs(s) >= stop else 0
     return over
 
