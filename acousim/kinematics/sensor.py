@@ -45,6 +45,17 @@ def _none_fits(x: np.ndarray, flat: np.ndarray) -> bool:
     return bool(rms.max() > 2 * POLY_FIT_M)
 
 
+def _too_curved(flat: np.ndarray, degree: int) -> bool:
+    """Whether no polynomial of `degree` can be within POLY_FIT_M of the table `flat`
+    (G, C) at evenly spaced times (so its fit need not be tried): its differences of
+    order ``degree + 1`` vanish there, so the table's would be at most ``2^(degree
+    + 1)`` times POLY_FIT_M (and the rounding of metres, far below 1e-12 m)."""
+    if flat.shape[0] <= degree + 1:
+        return False
+    diff = np.diff(flat, n=degree + 1, axis=0)
+    return bool(np.max(np.abs(diff)) > 2 ** (degree + 1) * POLY_FIT_M + 1e-12)
+
+
 @dataclass(frozen=True, eq=False)
 class Pieces:
     """The microphones' motion over a measurement that spans knots of its trajectory
@@ -156,6 +167,8 @@ class SensorKinematics:
                 degrees = range(0)
             fit = None
             for degree in degrees:
+                if _too_curved(flat, degree):
+                    continue
                 coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
                 fit = np.polynomial.polynomial.polyval(x, coef).T
                 if np.max(np.abs(fit - flat)) < POLY_FIT_M:
