@@ -63,7 +63,8 @@ def main(argv: list[str] | None = None) -> None:
         t = {id(w): w.ask("run")["cpu"] for w in order}
         tb, tn = t[id(base)], t[id(new)]
         ratio.append(tb / tn)
-        print(f"pair {k}: base {tb * 1e3:.1f} ms, new {tn * 1e3:.1f} ms: {ratio[-1]:.2f}x", flush=True)
+        line = f"pair {k}: base {tb * 1e3:.1f} ms, new {tn * 1e3:.1f} ms: {ratio[-1]:.2f}x"
+        print(line, flush=True)
     base.close()
     new.close()
     print(f"kinematics stage, median of {a.pairs} pairs: {np.median(ratio):.2f}x CPU")

@@ -146,7 +146,6 @@ def solve(t_r, A, guess, poly, poly_v, mid, half, c, stop) -> np.ndarray:
     return out
 
 
-
 #: the compiled solve of :func:`arrive` evaluates the microphones' polynomials at
 #: this degree (acousim.kinematics.sensor.POLY_DEGREE), the higher coefficients of
 #: a lower degree zero (the same values: Horner's rule adds exact zeros first), so
@@ -215,15 +214,17 @@ def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover -
     at most 20 steps: passes over every path while more than an eighth of them
     move, then each remaining path on its own."""
     N = t.size
-    for it in range(20):
+    passes = 0
+    while passes < 20:
         over = _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g)
+        passes += 1
         if over == 0:
             return
         if 8 * over < N:
             break
     for n in range(N):
         s = step[n]
-        for _ in range(19 - it):
+        for _ in range(20 - passes):
             if abs(s) < stop:
                 break
             s = _newton_step(t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic)[0]
@@ -316,7 +317,7 @@ def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.nda
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def echo_terms(t, first, amplitude, c, duration, delay, gain, length, rate, curvature):  # pragma: no cover
+def echo_terms(t, first, amplitude, c, duration, delay, gain, length, rate, curvature):  # noqa: E501  # pragma: no cover
     """The echoes of :func:`acousim.kinematics.retarded.arrivals` from the reception
     times `t` (3, M, N) of the call's first, last and middle sample (s), as its
     array version computes them (the same operations in the same order): the

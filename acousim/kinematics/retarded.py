@@ -318,7 +318,8 @@ def _arrivals_compiled(paths: MovingPaths, kin: SensorKinematics, duration_s: fl
     tau = np.array([[0.0], [duration_s], [duration_s / 2]])
     t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
     A = anchor.transpose(0, 2, 1)
-    times = solve(t_r, A, duration_s, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
+    poly, poly_v = kin.mic_poly, kin.mic_poly_v
+    times = solve(t_r, A, duration_s, poly, poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
     return times, anchor[:1], np.array(first[0])
 
 
