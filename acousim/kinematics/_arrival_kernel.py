@@ -234,7 +234,7 @@ def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover -
 @njit(cache=True, nogil=True, error_model="numpy")
 def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: no cover
     """Reception times of the call's first, last and middle sample (instants 0, 1, 2)
-    of every path at every microphone into `out` (3, M, N) (s): per microphone and
+    of every path at every microphone into `out` (M, 3, N) (s): per microphone and
     instant, Newton on ``f(t) = t - t_r - |m(t) - A| / c`` (as :func:`newton`) until
     each path's last step is below `stop` (s), started where the solution nearly is:
 
@@ -254,45 +254,111 @@ def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: 
     3) and poly_v (M, DEGREE, 3): each microphone's position (m) and velocity (m/s)
     in ``x = (t - mid) / half``, x^0 first.
     """
-    _, M, N = out.shape
-    ih = 1.0 / half
-    ic = 1.0 / c
-    step = np.empty(N)
-    # the first sample's solution's sensitivity to the microphone's position (s/m),
-    # at the previous microphone (and a spare for the other instants)
+    M, _, N = out.shape
+    work = _work(N)
+    for m in range(M):
+        prev = out[m - 1] if m > 0 else out[0]
+        _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, out[m], work)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def arrive_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, echo):  # pragma: no cover
+    """:func:`arrive`, each microphone's reception times turned into its echoes at
+    once (:func:`_echo_row`; only two microphones' times are kept): `echo` the
+    first legs (N,) (m) and amplitudes (N,) at the start of the emission, then the
+    delays, gains, lengths, rates and curvatures (M, N) written."""
+    first_leg, amplitude, delay, gain, length, rate, curvature = echo
+    M, N = delay.shape
+    work = _work(N)
+    rows = np.empty((2, 3, N))
+    for m in range(M):
+        cur, prev = rows[m % 2], rows[(m + 1) % 2]
+        _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur, work)
+        _echo_row(
+            cur,
+            first_leg,
+            amplitude,
+            c,
+            duration,
+            delay[m],
+            gain[m],
+            length[m],
+            rate[m],
+            curvature[m],
+        )
+
+
+@njit(cache=True, nogil=True)
+def _work(N):  # pragma: no cover - compiled
+    """The scratch arrays of :func:`_arrive_row` for N paths: the steps, and the
+    first sample's sensitivity to the microphone's position (s/m, three arrays: at
+    the previous microphone) and a spare for the other instants."""
     g = (np.empty(N), np.empty(N), np.empty(N))
     spare = (np.empty(N), np.empty(N), np.empty(N))
-    for m in range(M):
-        first, last, middle = out[0, m], out[1, m], out[2, m]
-        if m == 0:
-            first[:] = t_r[0]
-        else:
-            ox = poly[m, 0, 0] - poly[m - 1, 0, 0]
-            oy = poly[m, 0, 1] - poly[m - 1, 0, 1]
-            oz = poly[m, 0, 2] - poly[m - 1, 0, 2]
-            gx, gy, gz = g
-            for n in range(N):
-                first[n] = out[0, m - 1, n] + (gx[n] * ox + gy[n] * oy + gz[n] * oz)
-        _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, ih, ic, stop, step, g)
-        if m == 0:
-            for n in range(N):
-                last[n] = first[n] + duration
-        else:
-            for n in range(N):
-                last[n] = first[n] + (out[1, m - 1, n] - out[0, m - 1, n])
-        _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
-        if m == 0:
-            for n in range(N):
-                middle[n] = 0.5 * (first[n] + last[n])
-        else:
-            for n in range(N):
-                bend = out[2, m - 1, n] - 0.5 * (out[0, m - 1, n] + out[1, m - 1, n])
-                middle[n] = 0.5 * (first[n] + last[n]) + bend
-        _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
+    return np.empty(N), g, spare
 
 
-def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.ndarray:
-    """:func:`arrive` into a new array (3, M, N), the polynomials padded to DEGREE."""
+@njit(cache=True, nogil=True, error_model="numpy")
+def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur, work):  # noqa: E501  # pragma: no cover
+    """Microphone m's reception times of the three instants into `cur` (3, N), the
+    previous microphone's in `prev` (3, N) (m > 0): :func:`arrive`'s starts."""
+    N = cur.shape[1]
+    ih = 1.0 / half
+    ic = 1.0 / c
+    step, g, spare = work
+    first, last, middle = cur[0], cur[1], cur[2]
+    if m == 0:
+        first[:] = t_r[0]
+    else:
+        ox = poly[m, 0, 0] - poly[m - 1, 0, 0]
+        oy = poly[m, 0, 1] - poly[m - 1, 0, 1]
+        oz = poly[m, 0, 2] - poly[m - 1, 0, 2]
+        gx, gy, gz = g
+        for n in range(N):
+            first[n] = prev[0, n] + (gx[n] * ox + gy[n] * oy + gz[n] * oz)
+    _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, ih, ic, stop, step, g)
+    if m == 0:
+        for n in range(N):
+            last[n] = first[n] + duration
+    else:
+        for n in range(N):
+            last[n] = first[n] + (prev[1, n] - prev[0, n])
+    _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
+    if m == 0:
+        for n in range(N):
+            middle[n] = 0.5 * (first[n] + last[n])
+    else:
+        for n in range(N):
+            bend = prev[2, n] - 0.5 * (prev[0, n] + prev[1, n])
+            middle[n] = 0.5 * (first[n] + last[n]) + bend
+    _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _echo_row(t, first, amplitude, c, duration, delay, gain, length, rate, curvature):  # noqa: E501  # pragma: no cover
+    """One microphone's echoes from its reception times `t` (3, N) of the call's
+    first, last and middle sample (s), as :func:`acousim.kinematics.retarded.
+    _echo_terms` computes them (the same operations in the same order): the last leg
+    ``max(c t0 - first, 1e-6)`` (m), the length, the gain ``amplitude / last``, the
+    curvature ``tm - (t0 + t1) / 2``, the delay ``t0 + 2/3 curvature`` and the rate
+    ``duration / (t1 - t0)``, each into its (N,) array.  first (N,): the first legs
+    (m); amplitude (N,): the strengths times the spreading of the first leg."""
+    for n in range(t.shape[1]):
+        t0 = t[0, n]
+        t1 = t[1, n]
+        last = c * t0 - first[n]
+        if last < 1e-6:
+            last = 1e-6
+        length[n] = first[n] + last
+        gain[n] = amplitude[n] / last
+        bend = t[2, n] - 0.5 * (t0 + t1)
+        curvature[n] = bend
+        delay[n] = t0 + bend * (2.0 / 3.0)
+        rate[n] = duration / (t1 - t0)
+
+
+def _padded(poly, poly_v):
+    """The polynomials (M, K, 3), (M, K - 1, 3) padded with zeros to DEGREE."""
     M, K, _ = poly.shape
     if K > DEGREE + 1:
         raise ValueError(f"polynomials of degree {K - 1}: at most {DEGREE}")
@@ -300,45 +366,26 @@ def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.nda
     pm[:, :K] = poly
     pv = np.zeros((M, DEGREE, 3))
     pv[:, : K - 1] = poly_v
-    out = np.empty((3, M, t_r.shape[1]))
-    arrive(
-        np.array(t_r, float),
-        np.ascontiguousarray(A, float),
-        float(duration),
-        pm,
-        pv,
-        float(mid),
-        float(half),
-        float(c),
-        float(stop),
-        out,
-    )
-    return out
+    return pm, pv
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def echo_terms(t, first, amplitude, c, duration, delay, gain, length, rate, curvature):  # noqa: E501  # pragma: no cover
-    """The echoes of :func:`acousim.kinematics.retarded.arrivals` from the reception
-    times `t` (3, M, N) of the call's first, last and middle sample (s), as its
-    array version computes them (the same operations in the same order): the
-    last leg ``max(c t0 - first, 1e-6)`` (m), the length, the gain ``amplitude /
-    last``, the curvature ``tm - (t0 + t1) / 2``, the delay ``t0 + 2/3 curvature``
-    and the rate ``duration / (t1 - t0)``, each into its (M, N) array.
+def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.ndarray:
+    """:func:`arrive` into a new array (3, M, N) (a view), the polynomials padded to
+    DEGREE."""
+    pm, pv = _padded(poly, poly_v)
+    out = np.empty((poly.shape[0], 3, t_r.shape[1]))
+    args = (np.array(t_r, float), np.ascontiguousarray(A, float), float(duration), pm, pv)
+    arrive(*args, float(mid), float(half), float(c), float(stop), out)
+    return out.transpose(1, 0, 2)
 
-    first (N,): the first legs at the start of the emission (m); amplitude (N,):
-    the strengths times the spreading of the first leg.
-    """
-    _, M, N = t.shape
-    for m in range(M):
-        for n in range(N):
-            t0 = t[0, m, n]
-            t1 = t[1, m, n]
-            last = c * t0 - first[n]
-            if last < 1e-6:
-                last = 1e-6
-            length[m, n] = first[n] + last
-            gain[m, n] = amplitude[n] / last
-            bend = t[2, m, n] - 0.5 * (t0 + t1)
-            curvature[m, n] = bend
-            delay[m, n] = t0 + bend * (2.0 / 3.0)
-            rate[m, n] = duration / (t1 - t0)
+
+def solve_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, first_leg, amplitude):
+    """:func:`arrive_echoes` into new arrays: delays (s), gains, lengths (m), rates and
+    curvatures (s), each (M, N)."""
+    pm, pv = _padded(poly, poly_v)
+    M, N = poly.shape[0], t_r.shape[1]
+    terms = tuple(np.empty((M, N)) for _ in range(5))
+    echo = (np.array(first_leg, float), np.array(amplitude, float), *terms)
+    args = (np.array(t_r, float), np.ascontiguousarray(A, float), float(duration), pm, pv)
+    arrive_echoes(*args, float(mid), float(half), float(c), float(stop), echo)
+    return terms

@@ -258,14 +258,14 @@ def arrivals(
     """Reception times of the first, middle and last sample of the call for every
     path and microphone; the delays and time-compression factors of the fast method."""
     c = speed_of_sound_m_s
-    fused = _arrivals_compiled(paths, kin, duration_s, c)
+    fused = _leaving(paths, kin, duration_s, c)
     if fused is None:
         t0, anchor, first = arrival_times(paths, kin, 0.0, c)
         # started from a line, then from the chord: one or two Newton steps each
         t1, _, _ = arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
         tm, _, _ = arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
     else:
-        times, anchor, first = fused
+        t_r, A, anchor, first = fused
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
     exact = paths.first_leg == FirstLeg.exact
@@ -277,10 +277,10 @@ def arrivals(
         delay, gain, length, rate, curvature = _echo_terms(
             t0, t1, tm, first, amplitude, c, duration_s
         )
-    else:
-        delay, gain, length, rate, curvature = (np.empty(times.shape[1:]) for _ in range(5))
-        _kernel("echo_terms")(
-            times, one, amplitude, float(c), float(duration_s), delay, gain, length, rate, curvature
+    else:  # solved and turned into echoes microphone by microphone, compiled
+        poly, poly_v, mid, half = kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half
+        delay, gain, length, rate, curvature = _kernel("solve_echoes")(
+            t_r, A, duration_s, poly, poly_v, mid, half, c, NEWTON_STOP_S, one, amplitude
         )
     cos = np.clip(paths.departure @ emitter_axis, -1, 1)
     echoes = Echoes(delay, gain, length, paths.order.copy(), np.arccos(cos))
@@ -293,7 +293,7 @@ def _echo_terms(t0, t1, tm, first, amplitude, c: float, duration_s: float):
     """Delays, gains, lengths, rates and curvatures (M, N) of :func:`arrivals` from
     the reception times (M, N) of the call's first, last and middle sample (s), the
     first legs (m) and the amplitudes (N,) (array version of the compiled
-    :func:`acousim.kinematics._arrival_kernel.echo_terms`)."""
+    :func:`acousim.kinematics._arrival_kernel._echo_row`)."""
     # the last leg from the solved retarded-time equation, t0 = first / c + last / c
     # (within c times its error, below 1e-10 m)
     last = np.maximum(c * t0 - first, 1e-6)
@@ -305,22 +305,20 @@ def _echo_terms(t0, t1, tm, first, amplitude, c: float, duration_s: float):
     return t0 + curvature * (2 / 3), gain, length, duration_s / (t1 - t0), curvature
 
 
-def _arrivals_compiled(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: float):
-    """The reception times (3, M, N) of the call's first, last and middle sample,
-    solved in one compiled pass (:func:`acousim.kinematics._arrival_kernel.arrive`),
-    with the anchors (1, N, 3) and first legs (N,) at the start of the emission;
-    None where it does not apply (no numba; kinematics not one polynomial)."""
+def _leaving(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: float):
+    """For the compiled solve (:func:`acousim.kinematics._arrival_kernel.
+    arrive_echoes`): when the call's first, last and middle sample leave each path's
+    last anchor (3, N) (s), and the anchors then (3, 3, N) (instant, coordinate,
+    path; m), with the anchors (1, N, 3) and first legs (N,) at the start of the
+    emission; None where it does not apply (no numba; kinematics not one
+    polynomial)."""
     if kin.static or kin.step is None or getattr(kin, "poly", None) is None:
         return None
-    solve = _kernel("solve_arrivals")
-    if solve is None:
+    if _kernel("solve_echoes") is None:
         return None
     tau = np.array([[0.0], [duration_s], [duration_s / 2]])
     t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
-    A = anchor.transpose(0, 2, 1)
-    poly, poly_v = kin.mic_poly, kin.mic_poly_v
-    times = solve(t_r, A, duration_s, poly, poly_v, kin.mid, kin.half, c, NEWTON_STOP_S)
-    return times, anchor[:1], np.array(first[0])
+    return t_r, anchor.transpose(0, 2, 1), anchor[:1], np.array(first[0])
 
 
 def _kernel(name: str):

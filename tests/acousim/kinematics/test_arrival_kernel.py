@@ -124,25 +124,27 @@ def test_arrivals_compiled_and_array_versions_agree(monkeypatch):
     assert np.array_equal(fast.anchor_m, plain.anchor_m)
 
 
-def test_echo_terms_are_the_stated_formulas():
-    from acousim.kinematics._arrival_kernel import echo_terms
+def test_echoes_are_the_stated_formulas_of_the_reception_times():
+    """The compiled echoes against the formulas written here on the compiled
+    reception times (the same solve)."""
+    from acousim.kinematics._arrival_kernel import solve_arrivals, solve_echoes
 
+    kin, t_r, A, duration = _instants_case()
     rng = np.random.default_rng(3)
-    M, N, c, duration = 4, 50, 343.0, 2e-3
-    t0 = rng.uniform(1e-3, 2e-2, (M, N))
-    t = np.stack([t0, t0 + duration * rng.uniform(0.99, 1.01, (M, N)), t0 + duration / 2])
-    first = c * t0[0] * rng.uniform(0.2, 0.8, N)
-    first[0] = c * t0[:, 0].max() + 1.0  # a last leg below 1 um: held at 1 um
+    N = t_r.shape[1]
+    first = C * t_r[0] * rng.uniform(0.2, 0.8, N)
+    first[3] = 1e3  # a last leg below 1 um: held at 1 um
     amplitude = rng.uniform(0.1, 2, N)
-    outs = [np.empty((M, N)) for _ in range(5)]
-    echo_terms(t, first, amplitude, c, duration, *outs)
-    delay, gain, length, rate, curvature = outs
-    for m in range(M):
+    args = (t_r, A, duration, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, C, 1e-6)
+    t = solve_arrivals(*args)
+    delay, gain, length, rate, curvature = solve_echoes(*args, first, amplitude)
+    for m in (0, 1, 13, 29):
         for n in range(N):
-            last = max(c * t[0, m, n] - first[n], 1e-6)
+            last = max(C * t[0, m, n] - first[n], 1e-6)
             bend = t[2, m, n] - (t[0, m, n] + t[1, m, n]) / 2
             assert length[m, n] == pytest.approx(first[n] + last, rel=1e-15)
             assert gain[m, n] == pytest.approx(amplitude[n] / last, rel=1e-15)
             assert curvature[m, n] == pytest.approx(bend, rel=1e-12, abs=1e-20)
             assert delay[m, n] == pytest.approx(t[0, m, n] + 2 * bend / 3, rel=1e-15)
             assert rate[m, n] == pytest.approx(duration / (t[1, m, n] - t[0, m, n]), rel=1e-12)
+    assert gain[:, 3].max() == pytest.approx(amplitude[3] / 1e-6)
