@@ -7,6 +7,15 @@ time evaluated by Horner's rule with the paths innermost (vectorised by the
 compiler), until the row's largest step falls below `stop` (the array version
 stops when the whole array's does: the two agree within the stated Newton error,
 not to the bit).  The GIL is released, so the renderer's thread runs meanwhile.
+
+:func:`arrive_echoes` (what :func:`acousim.kinematics.retarded.arrivals` takes):
+the call's first, last and middle sample solved in one pass over the microphones,
+each Newton started where the solution nearly is (the previous microphone's, moved
+to first order), every path's last step below `stop` (error about the step squared
+times |f''| / 2), and each microphone's reception times turned into its echoes at
+once.  Its loops take the microphones' polynomials padded to DEGREE and one
+division per step, so that the compiler vectorises them over the paths (numba's
+``error_model="numpy"``: a division by zero gives inf, no exception check).
 """
 
 from __future__ import annotations
