@@ -11,7 +11,7 @@ import pytest
 import processing as P
 from acousim.kinematics import seen as seen_module
 from acousim.kinematics.seen import seen_moving
-from acousim.kinematics.sensor import POLY_FIT_M, TABLE_STEP_S, SensorKinematics, _too_curved
+from acousim.kinematics.sensor import POLY_FIT_M, TABLE_STEP_S, SensorKinematics, _ruled_out
 from acousim.scene import Pose
 from acousim.scene.trajectory import Trajectory
 from acousim.trace.motion.following import MovingPaths
@@ -76,19 +76,20 @@ def test_compiled_and_array_versions_agree(monkeypatch):
     assert np.abs(fast.apparent_position_world_m - plain.apparent_position_world_m).max() < 1e-13
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(6))
 def test_degrees_skipped_are_those_no_fit_reaches(seed):
     """Whenever numpy's least-squares fit of a degree is within POLY_FIT_M of a table,
-    that degree is not skipped; a table curved beyond it is."""
+    that degree is not ruled out; a table curved beyond a degree is."""
     rng = np.random.default_rng(seed)
     x = np.linspace(-1, 1, 153)
-    coef = rng.normal(0, 1, (7, 12)) * 10.0 ** -rng.uniform(0, 12, (7, 1))
+    scale = 10.0 ** -rng.uniform(0, 12, (7, 1))
+    coef = rng.normal(0, 1, (7, 12)) * scale
+    coef[0] += rng.uniform(-20, 20, 12)  # metres from the origin
     flat = np.polynomial.polynomial.polyval(x, coef).T + rng.normal(0, 1e-12, (153, 12))
+    out = _ruled_out(x, flat)
     for degree in range(1, 7):
         fit = np.polynomial.polynomial.polyfit(x, flat, degree)
-        fits = np.max(np.abs(np.polynomial.polynomial.polyval(x, fit).T - flat)) < POLY_FIT_M
-        if fits:
-            assert not _too_curved(flat, degree)
-    bent = np.outer(1e-3 * x**2, np.ones(3))  # 1 mm of curvature: no line fits
-    assert _too_curved(bent, 1)
-    assert not _too_curved(bent, 2)
+        if np.max(np.abs(np.polynomial.polynomial.polyval(x, fit).T - flat)) < POLY_FIT_M:
+            assert not out[degree - 1]
+    bent = np.outer(1e-6 * x**3 + 5.0, np.ones(3))  # 1 um of a cubic: no quadratic fits
+    assert list(_ruled_out(x, bent)) == [True, True, False, False, False, False]
