@@ -361,16 +361,19 @@ class Simulator:
                 sees = {k: _scattered(v, rows, len(m.moving)) for k, v in sees.items()}
             what = {**sees, **self._chains(m.traced, pose, receiver, points)}
         keep = in_window(echoes, n_samples, sensor.sample_rate_hz)
+        rate = arr.rate
+        if not keep.all():  # (every path heard: the arrays as they are)
+            echoes, rate, rows = echoes.select(keep), rate[:, keep], rows[keep]
         return Heard(
-            echoes.select(keep),
+            echoes,
             m.position_m,
             m.kinds,
             m.moving.order,
             level,
             m.rays,
             velocity_m_s=m.velocity_m_s,
-            rate=arr.rate[:, keep],
-            rows=rows[keep],
+            rate=rate,
+            rows=rows,
             seen=what,
         )
 

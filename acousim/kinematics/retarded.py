@@ -28,8 +28,9 @@ from processing.base.kernels import optional_kernel
 __all__ = ["Arrivals", "arrivals", "arrival_times", "NEWTON_STOP_S"]
 
 #: Newton on the reception time stops after a step below this (error: about the
-#: step squared times 0.1 / s, see :func:`_newton_by_axis`)
-NEWTON_STOP_S = 2e-5
+#: step squared times |f''| / 2, |f''| below 1.5 / s: under 1e-12 s, see
+#: :func:`_newton_by_axis`)
+NEWTON_STOP_S = 1e-6
 
 
 def arrival_times(paths: MovingPaths, kin: SensorKinematics, tau, c: float, mic=None, guess=None):
@@ -88,26 +89,42 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
     # emission time (batched 3 x 3 products cost 50 times more)
     if scalar:
         shift = (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
+    elif mic is None and de.shape[1:] == (1, 3):  # an emission time per row: one product
+        shift = (paths.mirror.reshape(-1, 3) @ de[:, 0].T).reshape(-1, 3, len(de))
+        shift = shift.transpose(2, 0, 1)
     else:
         shift = np.matmul(J, de[..., None])[..., 0]
 
+    still = not moving and not accelerating  # the anchors move with the emitter only
+
     def at(t):  # the anchors where they are at t (s)
+        if still:  # (u t and the acceleration's term zero)
+            return a0 + shift
         out = a0 + shift + u * t[..., None]
         return out + 0.5 * acc * t[..., None] ** 2 if accelerating else out
 
-    for _ in range(8 if moving else 1):
-        anchor = at(t_r)
-        exact = np.linalg.norm(anchor - e, axis=-1)
+    # the first legs that do not depend on where the anchors are: held, or by
+    # Fermat's law (where a path takes it)
+    if np.any(paths.first_leg == FirstLeg.fermat):
         along = np.sum(dep * de, axis=-1)
         fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
-        first = np.where(mode == FirstLeg.fermat, fermat, f0)
-        first = np.where(mode == FirstLeg.exact, exact, first)
+        held = np.where(mode == FirstLeg.fermat, fermat, f0)
+    else:
+        held = f0
+    exact_any = bool(np.any(paths.first_leg == FirstLeg.exact))
+    for _ in range(8 if moving else 1):
+        anchor = at(t_r)
+        first = held
+        if exact_any:
+            first = np.where(mode == FirstLeg.exact, np.linalg.norm(anchor - e, axis=-1), held)
         new = tau + first / c
-        done = np.max(np.abs(new - t_r)) < 1e-15
+        done = not moving or np.max(np.abs(new - t_r)) < 1e-15
         t_r = new
         if done:
             break
-    anchor = at(t_r)
+    if not still:
+        anchor = at(t_r)
+    first = np.broadcast_to(first, np.shape(t_r))
     if scalar:
         shape = (kin.mics0.shape[0], len(paths))
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
@@ -203,7 +220,7 @@ def _newton_by_axis(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.n
         # quadratic convergence: after a step s the error is about s^2 |f''| / 2
         # with |f''| <= (|m''| + |m'|^2 / |m - A|) / c: below 0.2 / s at 1 m/s for
         # the direct path (2 cm), 1.5 / s at 3 m/s; s < NEWTON_STOP_S leaves
-        # 4e-11 s (-95 dB at 80 kHz), 3e-10 s (-78 dB)
+        # 1e-13 s, 8e-13 s (-128 dB at 80 kHz)
         if np.max(np.abs(step)) < NEWTON_STOP_S:
             break
     return t
@@ -241,26 +258,70 @@ def arrivals(
     """Reception times of the first, middle and last sample of the call for every
     path and microphone; the delays and time-compression factors of the fast method."""
     c = speed_of_sound_m_s
-    t0, anchor, first = arrival_times(paths, kin, 0.0, c)
-    # started from a line, then from the chord: one or two Newton steps each
-    t1, _, _ = arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
-    tm, _, _ = arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
-    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
-    # (within c times its error, below 1e-10 m)
-    last = np.maximum(c * t0 - first, 1e-6)
-    length = first + last
+    fused = _leaving(paths, kin, duration_s, c)
+    if fused is None:
+        t0, anchor, first = arrival_times(paths, kin, 0.0, c)
+        # started from a line, then from the chord: one or two Newton steps each
+        t1, _, _ = arrival_times(paths, kin, duration_s, c, guess=t0 + duration_s)
+        tm, _, _ = arrival_times(paths, kin, duration_s / 2, c, guess=0.5 * (t0 + t1))
+    else:
+        t_r, A, anchor, first = fused
     # spreading: strength is a_k / r_e at tau = 0; a moving point's first leg is
     # the one at its reflection
     exact = paths.first_leg == FirstLeg.exact
     # the first leg is one per path at tau = 0 (a broadcast row): the factor per path
     one = first[0] if first.ndim == 2 and first.strides[0] == 0 else first
     spread = np.where(exact, paths.first_leg_m / np.maximum(one, 1e-9), 1.0)
-    gain = (paths.strength * spread) / last
+    amplitude = paths.strength * spread
+    if fused is None:
+        delay, gain, length, rate, curvature = _echo_terms(
+            t0, t1, tm, first, amplitude, c, duration_s
+        )
+    else:  # solved and turned into echoes microphone by microphone, compiled
+        poly, poly_v, mid, half = kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half
+        delay, gain, length, rate, curvature = _kernel("solve_echoes")(
+            t_r, A, duration_s, poly, poly_v, mid, half, c, NEWTON_STOP_S, one, amplitude
+        )
     cos = np.clip(paths.departure @ emitter_axis, -1, 1)
+    echoes = Echoes(delay, gain, length, paths.order.copy(), np.arccos(cos))
+    leave = np.broadcast_to(first, delay.shape)[0] / c
+    start = np.broadcast_to(anchor, (*delay.shape, 3))[0]
+    return Arrivals(echoes, rate, curvature, leave, start)
+
+
+def _echo_terms(t0, t1, tm, first, amplitude, c: float, duration_s: float):
+    """Delays, gains, lengths, rates and curvatures (M, N) of :func:`arrivals` from
+    the reception times (M, N) of the call's first, last and middle sample (s), the
+    first legs (m) and the amplitudes (N,) (array version of the compiled
+    :func:`acousim.kinematics._arrival_kernel._echo_row`)."""
+    # the last leg from the solved retarded-time equation, t0 = first / c + last / c
+    # (within c times its error, below 1e-10 m)
+    last = np.maximum(c * t0 - first, 1e-6)
+    length = first + last
+    gain = amplitude / last
     # the linear law through the first and last sample, shifted by the mean of the
     # (parabolic) deviation: two thirds of the deviation at the middle
     curvature = tm - 0.5 * (t0 + t1)
-    echoes = Echoes(t0 + curvature * (2 / 3), gain, length, paths.order.copy(), np.arccos(cos))
-    leave = np.broadcast_to(first, t0.shape)[0] / c
-    start = np.broadcast_to(anchor, (*t0.shape, 3))[0]
-    return Arrivals(echoes, duration_s / (t1 - t0), curvature, leave, start)
+    return t0 + curvature * (2 / 3), gain, length, duration_s / (t1 - t0), curvature
+
+
+def _leaving(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: float):
+    """For the compiled solve (:func:`acousim.kinematics._arrival_kernel.
+    arrive_echoes`): when the call's first, last and middle sample leave each path's
+    last anchor (3, N) (s), and the anchors then (3, 3, N) (instant, coordinate,
+    path; m), with the anchors (1, N, 3) and first legs (N,) at the start of the
+    emission; None where it does not apply (no numba; kinematics not one
+    polynomial)."""
+    if kin.static or kin.step is None or getattr(kin, "poly", None) is None:
+        return None
+    if _kernel("solve_echoes") is None:
+        return None
+    tau = np.array([[0.0], [duration_s], [duration_s / 2]])
+    t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
+    return t_r, anchor.transpose(0, 2, 1), anchor[:1], np.array(first[0])
+
+
+def _kernel(name: str):
+    """A compiled function of :mod:`acousim.kinematics._arrival_kernel`, or None
+    when numba is not installed."""
+    return optional_kernel("acousim.kinematics._arrival_kernel", name)

