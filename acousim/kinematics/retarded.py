@@ -85,15 +85,7 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
     moving = bool(np.any(paths.velocity_m_s))
     t_r = tau + f0 / c
     first = f0
-    # the anchors moved with the emitter: one matrix-vector product for a single
-    # emission time (batched 3 x 3 products cost 50 times more)
-    if scalar:
-        shift = (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
-    elif mic is None and de.shape[1:] == (1, 3):  # an emission time per row: one product
-        shift = (paths.mirror.reshape(-1, 3) @ de[:, 0].T).reshape(-1, 3, len(de))
-        shift = shift.transpose(2, 0, 1)
-    else:
-        shift = np.matmul(J, de[..., None])[..., 0]
+    shift = _anchor_shift(paths, J, de, scalar, mic)
 
     still = not moving and not accelerating  # the anchors move with the emitter only
 
@@ -103,14 +95,7 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
         out = a0 + shift + u * t[..., None]
         return out + 0.5 * acc * t[..., None] ** 2 if accelerating else out
 
-    # the first legs that do not depend on where the anchors are: held, or by
-    # Fermat's law (where a path takes it)
-    if np.any(paths.first_leg == FirstLeg.fermat):
-        along = np.sum(dep * de, axis=-1)
-        fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
-        held = np.where(mode == FirstLeg.fermat, fermat, f0)
-    else:
-        held = f0
+    held = _held_legs(paths, f0, mode, dep, lf, de)
     exact_any = bool(np.any(paths.first_leg == FirstLeg.exact))
     for _ in range(8 if moving else 1):
         anchor = at(t_r)
@@ -130,6 +115,28 @@ def _retarded(paths: MovingPaths, kin: SensorKinematics, tau: np.ndarray, c: flo
         t_r, anchor = np.broadcast_to(t_r, shape), anchor[None]
         first = np.broadcast_to(first, shape)
     return t_r, anchor, first
+
+
+def _anchor_shift(paths: MovingPaths, J, de, scalar: bool, mic) -> np.ndarray:
+    """How far each path's anchor moves with the emitter displaced by `de` (m), shaped
+    as :func:`_retarded` takes it: one matrix-vector product for a single emission
+    time (batched 3 x 3 products cost 50 times more)."""
+    if scalar:
+        return (paths.mirror.reshape(-1, 3) @ de).reshape(-1, 3)
+    if mic is None and de.shape[1:] == (1, 3):  # an emission time per row: one product
+        shift = (paths.mirror.reshape(-1, 3) @ de[:, 0].T).reshape(-1, 3, len(de))
+        return shift.transpose(2, 0, 1)
+    return np.matmul(J, de[..., None])[..., 0]
+
+
+def _held_legs(paths: MovingPaths, f0, mode, dep, lf, de):
+    """The first legs (m) that do not depend on where the anchors are: held, or by
+    Fermat's law where a path takes it (the emitter displaced by `de`)."""
+    if not np.any(paths.first_leg == FirstLeg.fermat):
+        return f0
+    along = np.sum(dep * de, axis=-1)
+    fermat = f0 - along + (np.sum(de * de, axis=-1) - along**2) / (2 * lf)
+    return np.where(mode == FirstLeg.fermat, fermat, f0)
 
 
 def _newton_tabulated(kin: SensorKinematics, t_r, anchor, c: float, guess) -> np.ndarray:
