@@ -15,24 +15,14 @@ import math
 
 from numba import njit
 
+from acousim.trace.rays.specular_kernel import barycentric
+
 
 @njit(cache=True, nogil=True, inline="always")
 def _smooth_normal(tri, vn, k, x, y, z, out, i):  # pragma: no cover - compiled
     """``out[i]``: the corner normals of face k interpolated at the point (x, y, z)
-    (barycentric: trimesh's Cramer solution), made unit."""
-    ax, ay, az = tri[k, 0, 0], tri[k, 0, 1], tri[k, 0, 2]
-    e0x, e0y, e0z = tri[k, 1, 0] - ax, tri[k, 1, 1] - ay, tri[k, 1, 2] - az
-    e1x, e1y, e1z = tri[k, 2, 0] - ax, tri[k, 2, 1] - ay, tri[k, 2, 2] - az
-    wx, wy, wz = x - ax, y - ay, z - az
-    d00 = e0x * e0x + e0y * e0y + e0z * e0z
-    d01 = e0x * e1x + e0y * e1y + e0z * e1z
-    d02 = e0x * wx + e0y * wy + e0z * wz
-    d11 = e1x * e1x + e1y * e1y + e1z * e1z
-    d12 = e1x * wx + e1y * wy + e1z * wz
-    inv = 1.0 / (d00 * d11 - d01 * d01)
-    b2 = (d00 * d12 - d01 * d02) * inv
-    b1 = (d11 * d02 - d01 * d12) * inv
-    b0 = 1 - b1 - b2
+    (:func:`.specular_kernel.barycentric`), made unit."""
+    b0, b1, b2 = barycentric(tri, k, x, y, z)
     for c in range(3):
         out[i, c] = b0 * vn[k, 0, c] + b1 * vn[k, 1, c] + b2 * vn[k, 2, c]
     n = math.sqrt(out[i, 0] * out[i, 0] + out[i, 1] * out[i, 1] + out[i, 2] * out[i, 2])

@@ -94,12 +94,12 @@ def _in_box(boxes, p, x, grow):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _off_face(tri, face, x, y, z, longest):  # pragma: no cover - compiled
-    """How far (m, about) the point lies outside face `face`: minus its least
-    barycentric coordinate (trimesh's Cramer solution) times the longest edge."""
-    ax, ay, az = tri[face, 0, 0], tri[face, 0, 1], tri[face, 0, 2]
-    e0x, e0y, e0z = tri[face, 1, 0] - ax, tri[face, 1, 1] - ay, tri[face, 1, 2] - az
-    e1x, e1y, e1z = tri[face, 2, 0] - ax, tri[face, 2, 1] - ay, tri[face, 2, 2] - az
+def barycentric(tri, k, x, y, z):  # pragma: no cover - compiled
+    """The barycentric coordinates (b0, b1, b2) of the point (x, y, z) on face k's
+    plane (trimesh's Cramer solution, its operations in its order)."""
+    ax, ay, az = tri[k, 0, 0], tri[k, 0, 1], tri[k, 0, 2]
+    e0x, e0y, e0z = tri[k, 1, 0] - ax, tri[k, 1, 1] - ay, tri[k, 1, 2] - az
+    e1x, e1y, e1z = tri[k, 2, 0] - ax, tri[k, 2, 1] - ay, tri[k, 2, 2] - az
     wx, wy, wz = x - ax, y - ay, z - az
     d00 = e0x * e0x + e0y * e0y + e0z * e0z
     d01 = e0x * e1x + e0y * e1y + e0z * e1z
@@ -109,7 +109,14 @@ def _off_face(tri, face, x, y, z, longest):  # pragma: no cover - compiled
     inv = 1.0 / (d00 * d11 - d01 * d01)
     b2 = (d00 * d12 - d01 * d02) * inv
     b1 = (d11 * d02 - d01 * d12) * inv
-    b0 = 1 - b1 - b2
+    return 1 - b1 - b2, b1, b2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _off_face(tri, face, x, y, z, longest):  # pragma: no cover - compiled
+    """How far (m, about) the point lies outside face `face`: minus its least
+    barycentric coordinate times the longest edge."""
+    b0, b1, b2 = barycentric(tri, face, x, y, z)
     return -min(b0, min(b1, b2)) * longest[face]
 
 
