@@ -192,6 +192,8 @@ class Run:
     variant: Variant
     recordings: list[P.Recording]
     seconds: float
+    #: the median of its pairs' time ratios to the defaults (None: timed alone)
+    ratio: float | None = None
 
 
 class Timed:
@@ -229,7 +231,8 @@ def measure(case: Case, v: Variant, rounds: int, default: Timed | None = None) -
             ratios.append(t / t0)
     if default is None:
         return Run(v, recs, float(np.median(times)))
-    return Run(v, recs, float(np.median(default.times) * np.median(ratios)))
+    ratio = float(np.median(ratios))
+    return Run(v, recs, float(np.median(default.times)) * ratio, ratio)
 
 
 def _db(num: float, den: float) -> float:
@@ -377,23 +380,28 @@ def front(case: Case, quick: bool, log=print) -> tuple[Point, list[Point]]:
     log(f"  {case.name} reference: {ref.seconds * 1e3:.0f} ms")
     ref_images = das_images(ref.recordings)
     default = Timed(case, PRESETS[1])
-    points = []
+    points: list[tuple[Point, float]] = []
     for v in (*PRESETS, *KNOBS):
         if v.only is not None and case.name not in v.only:
             continue
         if quick and v.quality is None and v.label not in QUICK:
             continue
         try:
-            p = compare(ref, ref_images, measure(case, v, rounds, default))
+            run = measure(case, v, rounds, default)
         except InputError as exc:  # a setting this scene refuses: said, not drawn
             log(f"  {case.name} {v.knob} {v.label}: refused ({exc})")
             continue
+        p = compare(ref, ref_images, run)
         log(
             f"  {case.name} {v.knob} {v.label}: {p.ms:.0f} ms, waveform {p.waveform_db:.1f} dB, "
             f"image {p.image_db:.1f} dB, peaks lost {p.lost} added {p.added} of {p.peaks}"
         )
-        points.append(p)
-    return compare(ref, ref_images, ref), points
+        assert run.ratio is not None  # timed in pairs with the defaults
+        points.append((p, run.ratio))
+    # every variant's time: its ratio times the defaults' median over the whole
+    # section (the first variants' medians of a few runs would carry a load spike)
+    final = float(np.median(default.times)) * 1e3
+    return compare(ref, ref_images, ref), [dataclasses.replace(p, ms=final * r) for p, r in points]
 
 
 def draw(results: Results, path: Path) -> None:
