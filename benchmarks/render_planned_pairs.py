@@ -82,11 +82,12 @@ def compare(base: str, path: str, pairs: int) -> None:
         ratio.append(b["cpu"] / n["cpu"])
         ms.append((b["median"] * 1e3, n["median"] * 1e3))
         print(f"pair {k}: base {ms[-1][0]:.1f} ms, new {ms[-1][1]:.1f} ms: {ratio[-1]:.2f}x")
-    sides[0].ask("save /tmp/render_pairs_base.npy")
-    sides[1].ask("save /tmp/render_pairs_new.npy")
+    saved = (f"{path}.base.npy", f"{path}.new.npy")  # beside the plans: one per comparison
+    sides[0].ask(f"save {saved[0]}")
+    sides[1].ask(f"save {saved[1]}")
     for w in sides:
         w.close()
-    b, n = np.load("/tmp/render_pairs_base.npy"), np.load("/tmp/render_pairs_new.npy")
+    b, n = np.load(saved[0]), np.load(saved[1])
     res = 10 * np.log10(np.sum((n - b) ** 2) / np.sum(b**2)) if np.any(n != b) else -np.inf
     m = np.median(np.array(ms), axis=0)
     print(

@@ -453,19 +453,48 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     filt[:, band[b0:b1]] = filt_band.T
     # 5. impulses per set, FFT, sum of products over the band, back
     into, d = (out[:, : plan.hi], lo), plan.positions
-    _sets_by_fft(d, (gains, None), filt, (b0, b1, n), kernel, plan.single, into)
+    r = _direct_sets(plan, gains, kernel, call) if domain == "auto" else 0
+    # the echoes' sets by FFT (the direct path among the impulses with zero gains:
+    # none added), the direct path's own first r sets summed in time onto them
+    _sets_by_fft(d, (gains[:, :, r:], None), filt[r:], (b0, b1, n), kernel, plan.single, into)
+    if r:
+        paths = np.flatnonzero(plan.direct_paths)
+        _planned_in_time(plan, gains[:, paths, :r], filt_band[:, :r], out, paths=paths)
     return out
 
 
-def _planned_in_time(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
+def _direct_sets(plan: DopplerPlan, gains: np.ndarray, kernel, call: int) -> int:
+    """How many of the first sets (r) to sum in time while the rest go by FFT: those
+    of the direct path, when only it uses them and the sum in time is estimated
+    cheaper than their forward FFTs (:func:`~.timedomain.prefer_time`); else 0.
+    :func:`~.compress.compress` gives each group its own sets, the direct path's
+    first: `gains` (M, N, R) is zero off the blocks (direct paths, first r sets)
+    and (echoes, the others)."""
+    paths = np.flatnonzero(plan.direct_paths)
+    n_d = paths.size
+    if n_d == 0 or n_d == plan.direct_paths.size:
+        return 0
+    own = gains[:, paths]  # (M, N_d, R): few paths
+    used = np.flatnonzero(np.any(own != 0, axis=(0, 1)))
+    r = int(used[-1]) + 1 if used.size else 0
+    if r == 0 or r == gains.shape[2] or used.size != r:
+        return 0
+    # r sets fewer on the FFT route: r forward FFTs a microphone (the inverse stays)
+    shape = (gains.shape[0], n_d)
+    return r if _in_time("auto", shape, r - 1, kernel, call, plan.n_fft, r) else 0
+
+
+def _planned_in_time(plan: DopplerPlan, gains, filt_band, out, paths=None) -> np.ndarray:
     """Step 5 summed in time (:mod:`.timedomain`, few paths): each set's filter
     applied to the time-scaled calls once, each copy its gains' mix of the sets'
     filtered calls through the same fractional-delay weights; `gains` (M, N, R),
-    `filt_band` (B, R) the sets' filters over the band: `out` (M, T) filled."""
+    `filt_band` (B, R) the sets' filters over the band: added into `out` (M, T).
+    `paths` (N,): the plan's paths the columns of `gains` are (None: all)."""
     spec = np.zeros((filt_band.shape[1], plan.n_fft // 2 + 1), complex)
     spec[:, plan.band] = filt_band.T
     calls, lead = filtered_calls(spec, plan.n_fft)
     d, opts, lo, hi = plan.positions, plan.options, plan.lo, plan.hi
+    d = d if paths is None else d[:, paths]
     kernel = _taps(d, opts.interpolator, opts.taps)
     row = np.zeros(d.shape[1], np.intp)  # every path: the R sets' calls
     return render_time(
