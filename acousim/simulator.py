@@ -532,10 +532,10 @@ class Simulator:
         # meshes move (their tracer keeps one instant)
         import threading
         from collections import deque
-        from concurrent.futures import ThreadPoolExecutor
+        from concurrent.futures import Future, ThreadPoolExecutor
 
         waiting = threading.Event()
-        traced: dict[int, object] = {}
+        traced: dict[int, Future] = {}
 
         def prepare(i: int) -> _Prepared:
             with self._naming_the_pose(i):
@@ -554,7 +554,7 @@ class Simulator:
                     j = idx[k + 1]
                     traced[j] = tracing.submit(self.tracer.trace, all_poses[j], self._traced_array)
 
-            ahead: deque = deque()
+            ahead: deque[Future] = deque()
             for k in range(PREPARE_AHEAD):
                 submit(k)
             try:
