@@ -8,7 +8,10 @@ machine's idle share and load average over the same time.  On a loaded machine a
 runnable thread may be waiting for a core that another process holds: fewer than
 two runnable threads is where a core would idle on a machine of our own.
 
-    python -m benchmarks.pipeline [--runs 3]
+    python -m benchmarks.pipeline [--runs 3] [--ahead 1,2]
+
+``--ahead``: the values of :data:`acousim.simulator.PREPARE_AHEAD` run in turn
+(alternating, the same simulator), each run printed with its value.
 """
 
 from __future__ import annotations
@@ -108,7 +111,8 @@ def one_run(sim, spent: list[float], where: Path) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--runs", type=int, default=3, help="runs (of each --ahead value)")
+    ap.add_argument("--ahead", default="", help="PREPARE_AHEAD values, comma-separated")
     ap.add_argument("--sample", nargs=2, metavar=("PID", "DIR"), help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.sample:
@@ -117,19 +121,24 @@ def main() -> None:
     from acousim.process import configure
 
     configure()
+    from acousim import simulator
     from acousim.scene import load_scene
     from acousim.simulator import Simulator
+
+    values = [int(v) for v in a.ahead.split(",")] if a.ahead else [simulator.PREPARE_AHEAD]
 
     sim = Simulator(load_scene(SCENE))
     sim.run([0, 1])  # compiled kernels, caches
     spent = _timed_record(sim)
     with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(a.runs):
+        for k in range(a.runs * len(values)):
+            simulator.PREPARE_AHEAD = values[k % len(values)]
             r = one_run(sim, spent, Path(tmp))
             load = os.getloadavg()[0]
-            shares = " ".join(f"{k}:{v:.2f}" for k, v in r["runnable"].items())
+            shares = " ".join(f"{n}:{v:.2f}" for n, v in r["runnable"].items())
             print(
-                f"wall {r['wall'] * 1e3:.1f} ms, CPU {r['cpu'] * 1e3:.1f} ms per measurement "
+                f"ahead {simulator.PREPARE_AHEAD}: wall {r['wall'] * 1e3:.1f} ms, "
+                f"CPU {r['cpu'] * 1e3:.1f} ms per measurement "
                 f"(CPU/wall {r['cpu'] / r['wall']:.2f}, {1 / r['wall']:.1f}/s); rendering "
                 f"thread waited {r['waited'] * 1e3:.1f} ms; runnable threads {shares}; "
                 f"machine idle {r['idle']:.2f}, load {load:.1f}",
