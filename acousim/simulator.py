@@ -520,20 +520,27 @@ class Simulator:
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
         if len(idx) == 1:  # nothing to overlap: no threads started (a scene's one pose)
             return [self._one(idx[0], progress)]
-        # prepare the next poses (trace, echoes, in motion the arrival times) while
-        # the current one is rendered (Embree, numpy's large operations, the FFTs and
-        # the compiled impulse sums release the GIL), PREPARE_AHEAD of them queued so
-        # that the preparing thread is not left idle by a pose quicker to prepare
-        # than to render; in motion the preparing thread also plans the render,
-        # unless the rendering thread is already waiting for it (then that one
-        # plans: the two threads share the work whichever is the slower; the same
-        # bytes either way).  The pose after those is traced meanwhile in a third
-        # thread (the tracer's cache hands its paths to the preparing one), unless
-        # meshes move (their tracer keeps one instant)
+        return self._pipelined(idx, progress)
+
+    def _pipelined(
+        self, idx: list[int], progress: Callable[[int, int], None] | None
+    ) -> list[P.Recording]:
+        """:meth:`run` of the poses `idx` in threads: the next poses prepared (trace,
+        echoes, in motion the arrival times) while the current one is rendered
+        (Embree, numpy's large operations, the FFTs and the compiled impulse sums
+        release the GIL), :data:`PREPARE_AHEAD` of them queued so that a pose quicker
+        to prepare than to render leaves the preparing thread no time idle; in
+        motion the preparing thread also plans the render, unless the rendering
+        thread is already waiting for it (then that one plans: the two threads share
+        the work whichever is the slower; the same bytes either way).  The pose
+        after those is traced meanwhile in a third thread (the tracer's cache hands
+        its paths to the preparing one), unless meshes move (their tracer keeps one
+        instant)."""
         import threading
         from collections import deque
         from concurrent.futures import Future, ThreadPoolExecutor
 
+        all_poses = self.scene.sensor.poses
         waiting = threading.Event()
         traced: dict[int, Future] = {}
 
