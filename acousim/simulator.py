@@ -63,6 +63,11 @@ log = logging.getLogger(__name__)
 SCENE_MOTION = "scene"
 
 
+#: poses :meth:`Simulator.run` keeps queued for its preparing thread (1: the next
+#: one alone)
+PREPARE_AHEAD = 2
+
+
 @functools.lru_cache(maxsize=1)  # looked up once: 1.4 ms per recording otherwise
 def package_version() -> str:
     try:
@@ -518,19 +523,29 @@ class Simulator:
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
         if len(idx) == 1:  # nothing to overlap: no threads started (a scene's one pose)
             return [self._one(idx[0], progress)]
-        # prepare the next pose (trace, echoes, in motion the arrival times) while the
-        # current one is rendered (Embree, numpy's large operations, the FFTs and the
-        # compiled impulse sums release the GIL); in motion the preparing thread
-        # also plans the render, unless the rendering thread is already waiting for
-        # it (then that one plans: the two threads share the work whichever is the
-        # slower; the same bytes either way).  The pose after that is traced
-        # meanwhile in a third thread (the tracer's cache hands its paths to the
-        # preparing one), unless meshes move (their tracer keeps one instant)
-        import threading
-        from concurrent.futures import ThreadPoolExecutor
+        return self._pipelined(idx, progress)
 
+    def _pipelined(
+        self, idx: list[int], progress: Callable[[int, int], None] | None
+    ) -> list[P.Recording]:
+        """:meth:`run` of the poses `idx` in threads: the next poses prepared (trace,
+        echoes, in motion the arrival times) while the current one is rendered
+        (Embree, numpy's large operations, the FFTs and the compiled impulse sums
+        release the GIL), :data:`PREPARE_AHEAD` of them queued so that a pose quicker
+        to prepare than to render leaves the preparing thread no time idle; in
+        motion the preparing thread also plans the render, unless the rendering
+        thread is already waiting for it (then that one plans: the two threads share
+        the work whichever is the slower; the same bytes either way).  The pose
+        after those is traced meanwhile in a third thread (the tracer's cache hands
+        its paths to the preparing one), unless meshes move (their tracer keeps one
+        instant)."""
+        import threading
+        from collections import deque
+        from concurrent.futures import Future, ThreadPoolExecutor
+
+        all_poses = self.scene.sensor.poses
         waiting = threading.Event()
-        traced: dict[int, object] = {}
+        traced: dict[int, Future] = {}
 
         def prepare(i: int) -> _Prepared:
             with self._naming_the_pose(i):
@@ -539,28 +554,32 @@ class Simulator:
                 prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
             return prep if waiting.is_set() else self._planned(prep)
 
-        out = []
+        out: list[P.Recording] = []
         with ThreadPoolExecutor(1) as pool, ThreadPoolExecutor(1) as tracing:
 
-            def trace_ahead(k: int) -> None:
-                if k < len(idx) and not self.moving_meshes:
-                    traced[idx[k]] = tracing.submit(
-                        self.tracer.trace, all_poses[idx[k]], self._traced_array
-                    )
+            def submit(k: int) -> None:  # pose k prepared, the one after it traced
+                if k < len(idx):
+                    ahead.append(pool.submit(prepare, idx[k]))
+                if k + 1 < len(idx) and not self.moving_meshes:
+                    j = idx[k + 1]
+                    traced[j] = tracing.submit(self.tracer.trace, all_poses[j], self._traced_array)
 
-            ahead = pool.submit(prepare, idx[0]) if idx else None
-            trace_ahead(1)
-            for k, i in enumerate(idx):
-                interrupt.check()  # Ctrl-C (when the command line records it): stop here
-                waiting.set()
-                prep = ahead.result()
-                waiting.clear()
-                if k + 1 < len(idx):
-                    ahead = pool.submit(prepare, idx[k + 1])
-                    trace_ahead(k + 2)
-                out.append(self._record(prep, i, None))
-                if progress:
-                    progress(k + 1, len(idx))
+            ahead: deque[Future] = deque()
+            for k in range(PREPARE_AHEAD):
+                submit(k)
+            try:
+                for k, i in enumerate(idx):
+                    interrupt.check()  # Ctrl-C (when the command line records it): stop here
+                    waiting.set()
+                    prep = ahead.popleft().result()
+                    waiting.clear()
+                    submit(k + PREPARE_AHEAD)
+                    out.append(self._record(prep, i, None))
+                    if progress:
+                        progress(k + 1, len(idx))
+            finally:
+                for job in ahead:  # an error or Ctrl-C: the poses not begun not prepared
+                    job.cancel()
         return out
 
 

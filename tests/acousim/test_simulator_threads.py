@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from acousim.scene import load_scene
 from acousim.scene.model import Diffraction
@@ -40,6 +41,30 @@ def test_run_gives_the_recordings_of_one_pose_at_a_time():
         # one pose asked: run in this thread alone, the same bytes
         (one,) = Simulator(sc).run([poses[3]])
         assert np.array_equal(one.samples, together[3].samples)
+
+
+def test_run_stops_at_a_failing_pose_and_names_it():
+    """A pose whose preparation fails: run raises its error naming that pose, and
+    prepares no pose beyond the ones already queued behind it (PREPARE_AHEAD)."""
+    from acousim import simulator
+    from processing.base.errors import InputError
+
+    scene = load_scene(SCENES / "corridor.toml")
+    sim = Simulator(scene)
+    prepared = []
+    prepare = sim._prepare
+
+    def failing(pose, index, n_samples, motion):  # this instance only
+        prepared.append(index)
+        if index == 13:
+            raise InputError("no path found")
+        return prepare(pose, index, n_samples, motion)
+
+    sim._prepare = failing
+    with pytest.raises(InputError, match="pose 13: no path found"):
+        sim.run(range(10, 30))
+    assert max(prepared) <= 13 + simulator.PREPARE_AHEAD - 1
+    assert sorted(prepared) == list(range(10, max(prepared) + 1))
 
 
 def test_edge_to_edge_is_the_same_on_two_threads():
