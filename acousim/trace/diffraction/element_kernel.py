@@ -1,16 +1,21 @@
-"""Compiled steps 3-4 of the first-order integral
-(:func:`acousim.trace.diffraction.btm._integrate`; numba, optional: without numba
-the numpy form there runs).
+"""Compiled parts of the first-order integral and of its bound (numba, optional:
+without numba the numpy forms run): the element ends of
+:func:`acousim.trace.diffraction.btm._cut` (:func:`cut_points`), steps 3-4 of
+:func:`acousim.trace.diffraction.btm._integrate` and
+:func:`acousim.trace.diffraction.first_order.edge_bound`.
 
 The arithmetic around the transcendental functions, one pass over the K elements
-each: :func:`eta_argument` (cosh(eta) - 1 and the argument of the log of
-``acosh(1 + x)``) before numpy's log1p, and :func:`impulses` (each element's
+(or R edges) each: :func:`eta_argument` (cosh(eta) - 1 and the argument of the
+log of ``acosh(1 + x)``) before numpy's log1p, :func:`impulses` (each element's
 integral, weight and amplitude, the elements kept, their points) after numpy's
-tanh and arctan2.  Those three stay numpy's (its vectorised log1p, tanh and
-arctan2 differ from the C library's by an ulp in some arguments); the rest are
-the same operations in the same order as the numpy form (+, -, *, /, sqrt,
-hypot: correctly rounded or the same C function), so the elements are the same
-bit for bit (``tests/acousim/trace/diffraction/test_element_kernel.py``).
+tanh and arctan2; :func:`bound_argument` before numpy's arccosh and cosh,
+:func:`bound_rest` after.  Those stay numpy's (its vectorised log1p, tanh,
+arctan2, cosh and arccosh differ from the C library's by an ulp in some
+arguments); the rest are the same operations in the same order as the numpy
+forms (+, -, *, /, sqrt, hypot, sin, cos: correctly rounded or the same C
+function; clip, maximum and minimum as numpy's, nan kept; a sum of four terms
+left to right as numpy's), so the results are the same bit for bit
+(``tests/acousim/trace/diffraction/test_element_kernel.py``).
 ``error_model="numpy"``: a division by zero gives inf or nan as in numpy.
 """
 
@@ -148,3 +153,71 @@ def cut_points(steps, sides, lines, apex, max_excess_m, out):  # pragma: no cove
             taper[i] = 0.5 * (1 + math.cos(np.pi * x))
         else:
             taper[i] = 1.0
+
+
+@_jit
+def _maximum(a, b):  # pragma: no cover - compiled
+    """np.maximum of two numbers (nan if either is)."""
+    return a if (a >= b or a != a) else b
+
+
+@_jit
+def _minimum(a, b):  # pragma: no cover - compiled
+    """np.minimum of two numbers (nan if either is)."""
+    return a if (a <= b or a != a) else b
+
+
+@_jit
+def _apex_legs(rs, zs, rr, zr, length):  # pragma: no cover - compiled
+    """first_order.edge_bound's apex (unclipped, clipped), a, b, m and l of one edge."""
+    z_mid = (rr * zs + rs * zr) / (rs + rr)
+    z_apex = _clip(z_mid, 0.0, length)
+    a, b = z_apex - zs, z_apex - zr
+    return z_mid, z_apex, a, b, math.hypot(rs, a), math.hypot(rr, b)
+
+
+@_jit
+def bound_argument(source, receiver, length, out):  # pragma: no cover - compiled
+    """first_order.edge_bound's cosh(eta) - 1 at the apex of each edge (before
+    numpy's arccosh and cosh) into out (R,); source, receiver: (r, theta, z) (R,)."""
+    rs_, _, zs_ = source
+    rr_, _, zr_ = receiver
+    for k in range(out.size):
+        rs, zs, rr, zr = rs_[k], zs_[k], rr_[k], zr_[k]
+        z_mid, z_apex, a, b, m, l_ = _apex_legs(rs, zs, rr, zr, length[k])
+        v = (rs + rr) * (z_apex - z_mid)
+        out[k] = (v * v) / ((m * l_ - a * b + rs * rr) * rs * rr)
+
+
+@_jit
+def bound_rest(source, receiver, edge, cosh_nu, step, out):  # pragma: no cover - compiled
+    """first_order.edge_bound of each edge into out (R,), after cosh(nu eta) at the
+    apex, cosh_nu (R,); source, receiver: (r, theta, z) (R,); edge: (length, nu
+    (R,), term weights |w| (R, 4)); step: the element step (m)."""
+    rs_, ts_, zs_ = source
+    rr_, tr_, zr_ = receiver
+    length_, nu_, w = edge
+    for k in range(out.size):
+        rs, ts, zs, rr, tr, zr = rs_[k], ts_[k], zs_[k], rr_[k], tr_[k], zr_[k]
+        length, nu, ch = length_[k], nu_[k], cosh_nu[k]
+        z_mid, z_apex, a, b, m, l_ = _apex_legs(rs, zs, rr, zr, length)
+        total = 0.0
+        for i in range(4):
+            q = ts + tr if i == 0 else ts - tr if i == 1 else -ts + tr if i == 2 else -ts - tr
+            nu_phi = 2 * (nu * (np.pi + q) / 2)
+            gap = ch - math.cos(nu_phi)
+            term = abs(math.sin(nu_phi)) / gap if gap > 1e-12 * ch else math.inf
+            part = w[k, i] * term if w[k, i] > 0 else 0.0
+            total = part if i == 0 else total + part
+        c = nu / (4 * np.pi) * total
+        slope = abs(a / m + b / l_) * (1.0 if z_apex != z_mid else 0.0)
+        far_s = _maximum(math.hypot(rs, zs), math.hypot(rs, length - zs))
+        far_r = _maximum(math.hypot(rr, zr), math.hypot(rr, length - zr))
+        u, v = rs / far_s, rr / far_r
+        kappa = u * u / far_s + v * v / far_r
+        span = _minimum(_minimum(length, math.sqrt(2 * step / kappa)), step / slope)
+        d = math.hypot(rs, zs - _clip(zs, 0.0, length))
+        d = d * math.hypot(rr, zr - _clip(zr, 0.0, length))
+        bound = c * span / d
+        bound = bound * 1.01
+        out[k] = math.inf if bound != bound else bound

@@ -18,6 +18,7 @@ from acousim.trace.diffraction.btm import (
 from acousim.trace.diffraction.paths import ELEMENT_FIELDS
 from acousim.trace.diffraction.setup import StageContext
 from acousim.trace.world.edges import EdgeFrame, Edges, convex
+from processing.base.kernels import optional_kernel
 
 __all__ = [
     "PROBE_FRACTIONS",
@@ -219,6 +220,13 @@ def edge_bound(
     R1, R2 = _face_reflections(ctx, wedge, rows)
     w = np.abs(np.column_stack([R2, np.ones(rows.size), np.ones(rows.size), R1]))
     step = ctx.options.step_m
+    kernel = optional_kernel("acousim.trace.diffraction.element_kernel")
+    if kernel is not None:  # the same numbers compiled about numpy's arccosh and cosh
+        arg, out = np.empty(rows.size), np.empty(rows.size)
+        kernel.bound_argument(known.source, known.receiver, length, arg)
+        cosh_nu = np.cosh(nu * np.arccosh(1 + np.maximum(arg, 0.0)))
+        kernel.bound_rest(known.source, known.receiver, (length, nu, w), cosh_nu, step, out)
+        return out
     with np.errstate(divide="ignore", invalid="ignore"):
         z_mid = (rr * zs + rs * zr) / (rs + rr)
         z_apex = np.clip(z_mid, 0.0, length)

@@ -3,7 +3,9 @@ used by :func:`acousim.trace.diffraction.btm.many_edge_elements`): bit for bit t
 of the numpy form (the same operations without the kernel) on random wedges, with
 tapered ends, a longest path and sources on the edge line among them; and their
 sum against the BTM line integral written out here (a fine midpoint rule over the
-edge of the integrand of Svensson et al. 1999)."""
+edge of the integrand of Svensson et al. 1999); the compiled bound of an edge's
+elements (:func:`acousim.trace.diffraction.first_order.edge_bound`) bit for bit
+that of numpy."""
 
 from __future__ import annotations
 
@@ -11,7 +13,13 @@ import numpy as np
 import pytest
 
 import acousim.trace.diffraction.btm as btm
+import acousim.trace.diffraction.first_order as first_order
+from acousim.scene.model import Diffraction
 from acousim.trace.diffraction.btm import ElementLimits, Wedge, many_edge_elements
+from acousim.trace.diffraction.setup import StageContext
+from acousim.trace.diffraction.stage import DiffractingGeometry, DiffractionOptions
+from acousim.trace.world.edges import find_edges
+from tests.acousim.trace.diffraction.test_first_order_bound import _random_objects
 
 pytest.importorskip("numba")
 
@@ -76,3 +84,25 @@ def test_elements_sum_to_the_line_integral():
     )
     want = -(nu / (4 * np.pi)) * np.sum(beta / (m * l_)) * length / n
     assert el.amplitude.sum() == pytest.approx(want, rel=1e-4)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_edge_bound_is_that_of_numpy(monkeypatch, seed):
+    """first_order.edge_bound compiled and in numpy on random boxes and plates (that
+    it bounds every element: ``test_first_order_bound.py``)."""
+    rng = np.random.default_rng(seed)
+    mesh = _random_objects(rng)
+    geometry = DiffractingGeometry(find_edges(mesh), rng.uniform(0.2, 1.0, len(mesh.faces)))
+    for _ in range(4):
+        emitter = rng.uniform(-4, 4, 3)
+        receiver = emitter + rng.normal(0, 0.01, 3)
+        options = DiffractionOptions(max_path_m=20.0, settings=Diffraction(step_m=1e-3, order=1))
+        ctx = StageContext(geometry, None, emitter, receiver, options)
+        keep, wedge = geometry.edges.oriented(emitter, receiver)
+        rows = np.flatnonzero(keep)
+        got = first_order.edge_bound(ctx, wedge, rows, emitter)
+        with monkeypatch.context() as m:
+            m.setattr(first_order, "optional_kernel", lambda name: None)
+            want = first_order.edge_bound(ctx, wedge, rows, emitter)
+        assert rows.size > 0
+        np.testing.assert_array_equal(got, want)
