@@ -381,10 +381,9 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
     hi = np.maximum(z_apex[side_edge], z_end)
     kernel = optional_kernel("acousim.trace.diffraction.element_kernel")
     if kernel is not None:  # the same numbers compiled
-        za, zb, zc, taper = out = tuple(np.empty(side_of.size) for _ in range(4))
         sides = (side_edge, lo, hi, cut)
-        kernel.cut_points(steps, sides, lines, (l_apex, z_apex), float(max_excess_m), out)
-        return _Cuts(side_edge[side_of], j == 0, za, zb, zc, taper, z_apex, z_mid)
+        out = _kernel_cuts(kernel, steps, (sides, lines, (l_apex, z_apex)), max_excess_m)
+        return _Cuts(side_edge[side_of], j == 0, *out, z_apex, z_mid)
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
     # the roots at each element's end and centre (its start is the previous
@@ -404,6 +403,14 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
         x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
     taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
     return _Cuts(edge_of, first, za, zb, zc, taper, z_apex, z_mid)
+
+
+def _kernel_cuts(kernel, steps, geometry, max_excess_m: float):
+    """(za, zb, zc, taper) (K,) of :func:`_cut` by :mod:`.element_kernel`'s
+    ``cut_points`` (steps and geometry: its arguments)."""
+    out = tuple(np.empty(steps[0].size) for _ in range(4))
+    kernel.cut_points(steps, *geometry, float(max_excess_m), out)
+    return out
 
 
 def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
