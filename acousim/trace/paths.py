@@ -92,8 +92,17 @@ class TracedPaths:
             np.linalg.norm(self.anchor_m - point, axis=1), 1e-6
         )
 
-    def select(self, keep: np.ndarray) -> TracedPaths:
-        return TracedPaths(*(getattr(self, f.name)[keep] for f in fields(self)))
+    def select(self, keep: np.ndarray | slice) -> TracedPaths:
+        """The paths at `keep`: indices (K,), a mask (N,) or a slice (the same as
+        indexing every array with it; np.take gathers rows faster)."""
+        if isinstance(keep, np.ndarray) and keep.ndim == 1:
+            if keep.dtype == bool:
+                if keep.size != len(self):
+                    raise IndexError(f"mask of {keep.size} for {len(self)} paths")
+                keep = np.flatnonzero(keep)
+            if keep.dtype.kind in "iu":
+                return TracedPaths(*(np.take(getattr(self, n), keep, axis=0) for n in _FIELDS))
+        return TracedPaths(*(getattr(self, n)[keep] for n in _FIELDS))
 
     @staticmethod
     def concatenate(parts: list[TracedPaths]) -> TracedPaths:
@@ -111,6 +120,9 @@ class TracedPaths:
     def empty() -> TracedPaths:
         z3, z = np.zeros((0, 3)), np.zeros(0)
         return TracedPaths(z3, z, z, z3, np.zeros(0, int), np.zeros(0, int), z3)
+
+
+_FIELDS = tuple(f.name for f in fields(TracedPaths))
 
 
 def _widened(counts: np.ndarray, k: int) -> np.ndarray:

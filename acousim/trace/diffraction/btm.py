@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acousim.scene.model import Diffraction
+from processing.base.kernels import optional_kernel
 
 __all__ = [
     "EdgeCoordinates",
@@ -375,19 +376,24 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
     if steps is None:
         return None
     side_of, j, ea_ex, eb_ex = steps
+    lines = _spheroid_lines(r.source, r.receiver, r.start, r.axis)
+    lo = np.minimum(z_apex[side_edge], z_end)
+    hi = np.maximum(z_apex[side_edge], z_end)
+    kernel = optional_kernel("acousim.trace.diffraction.element_kernel")
+    if kernel is not None:  # the same numbers compiled
+        sides = (side_edge, lo, hi, cut)
+        out = _kernel_cuts(kernel, steps, (sides, lines, (l_apex, z_apex)), max_excess_m)
+        return _Cuts(side_edge[side_of], j == 0, *out, z_apex, z_mid)
     mid_ex = 0.5 * (ea_ex + eb_ex)
     edge_of = side_edge[side_of]
     # the roots at each element's end and centre (its start is the previous
     # element's end, the same excess path, or the apex for the first), clipped to
     # the side's span
-    lines = _spheroid_lines(r.source, r.receiver, r.start, r.axis)
     zb, zc = _spheroid_roots(
         np.take(lines, edge_of, axis=1),
         l_apex[edge_of] + np.stack([eb_ex, mid_ex]),
         (side_of % 2) == 1,
     )
-    lo = np.minimum(z_apex[side_edge], z_end)
-    hi = np.maximum(z_apex[side_edge], z_end)
     zb, zc = np.clip(np.stack([zb, zc]), lo[side_of], hi[side_of])
     first = j == 0
     za = np.empty_like(zb)
@@ -397,6 +403,14 @@ def _cut(rows: EdgeRows, step_m, max_path_m, max_excess_m, refine) -> _Cuts | No
         x = np.clip((mid_ex - max_excess_m / 2) / (max_excess_m / 2), 0, 1)
     taper = np.where(cut[side_of], 0.5 * (1 + np.cos(np.pi * x)), 1.0)
     return _Cuts(edge_of, first, za, zb, zc, taper, z_apex, z_mid)
+
+
+def _kernel_cuts(kernel, steps, geometry, max_excess_m: float):
+    """(za, zb, zc, taper) (K,) of :func:`_cut` by :mod:`.element_kernel`'s
+    ``cut_points`` (steps and geometry: its arguments)."""
+    out = tuple(np.empty(steps[0].size) for _ in range(4))
+    kernel.cut_points(steps, *geometry, float(max_excess_m), out)
+    return out
 
 
 def _excess_steps(e_end: np.ndarray, live: np.ndarray, step_m: float, refine: int):
@@ -441,6 +455,9 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     flip = s < 0
     s, c = np.where(flip, -s, s), np.where(flip, -c, c)
     first = np.flatnonzero(cuts.first)
+    kernel = optional_kernel("acousim.trace.diffraction.element_kernel")
+    if kernel is not None:
+        return _integrate_compiled(kernel, rows, cuts, (nu, rS, rR, c, s), first)
     gg = np.concatenate([g, g[first]])  # every element's end, then the first starts
     # per-edge values, gathered once for the K + F points
     rS_g, rR_g, zS_g, zR_g, nu_g, zm_g, sum_g, prod_g = np.take(
@@ -477,6 +494,35 @@ def _integrate(rows: EdgeRows, cuts: _Cuts) -> tuple[EdgeElements, np.ndarray]:
     # (np.take gathers rows much faster than indexing does)
     pts_c = np.take(r.start, g, axis=0) + zc[keep][:, None] * np.take(r.axis, g, axis=0)
     return EdgeElements(pts_c, m_c[keep], l_c[keep], amp[keep]), g
+
+
+def _integrate_compiled(kernel, rows: EdgeRows, cuts: _Cuts, per_edge, first):
+    """:func:`_integrate` with its arithmetic compiled (:mod:`.element_kernel`) about
+    numpy's log1p, tanh and arctan2: the same elements bit for bit.  per_edge: nu,
+    rS, rR, cos and sin of the half angles (E, 4) as found there; first: the indices
+    of the first elements."""
+    r, g, n_k = rows, cuts.row, cuts.row.size
+    nu, rS, rR, c, s = per_edge
+    gg = np.concatenate([g, g[first]])
+    table = np.stack([rS, rR, r.z_s, r.z_r, cuts.z_mid, rS + rR, rS * rR])
+    e = np.empty(gg.size)
+    kernel.eta_argument(cuts.zb, cuts.za, first, g, table, e)
+    e = np.log1p(e)
+    e[n_k:] = np.where(cuts.z_apex[g[first]] == cuts.z_mid[g[first]], 0.0, e[n_k:])
+    t = np.tanh(np.take(nu, gg) * e / 2)[:, None]
+    c_g, s_g, w_g = np.take(np.stack([c, s, np.asarray(r.weight4, float)]), gg, axis=1)
+    prim = (np.arctan2(t * c_g, s_g) * w_g).sum(axis=-1)
+    out = (np.empty(n_k), np.empty(n_k), np.empty(n_k), np.empty((n_k, 3)), np.empty(n_k, np.intp))
+    start, axis = np.ascontiguousarray(r.start, float), np.ascontiguousarray(r.axis, float)
+    n = kernel.impulses(
+        e,
+        prim,
+        (cuts.first, cuts.za, cuts.zb, cuts.zc, cuts.taper, g),
+        (rS, rR, r.z_s, r.z_r, nu, start, axis),
+        out,
+    )
+    amp, m_c, l_c, pts, edge = (x[:n] for x in out)
+    return EdgeElements(pts, m_c, l_c, amp), edge
 
 
 def _spheroid_lines(source, receiver, start, axis) -> np.ndarray:

@@ -227,16 +227,11 @@ def _farthest(pairs: PairGeometry, source, receiver) -> np.ndarray:
     """The longest path (N,) over the ends of both edges (the path is convex in
     (z1, z2): its largest value on the edges is at a pair of ends)."""
     p = pairs
-    best = np.zeros(len(p))
-    for a in (p.start1, p.end1):
-        for b in (p.start2, p.end2):
-            d = (
-                np.linalg.norm(a - source, axis=1)
-                + np.linalg.norm(a - b, axis=1)
-                + np.linalg.norm(receiver - b, axis=1)
-            )
-            best = np.maximum(best, d)
-    return best
+    ends1, ends2 = np.stack([p.start1, p.end1]), np.stack([p.start2, p.end2])  # (2, N, 3)
+    m = np.linalg.norm(ends1 - source, axis=-1)  # (2, N)
+    n = np.linalg.norm(ends1[:, None] - ends2[None], axis=-1)  # (2, 2, N)
+    d = m[:, None] + n + np.linalg.norm(receiver - ends2, axis=-1)[None]
+    return np.max(d.reshape(4, len(p)), axis=0, initial=0.0)
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,9 @@ def _profile(z1, pair):  # pragma: no cover - compiled
 def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
     """Per pair: z1 of the shortest path (60 halvings on the profile's slope) and its
     length, into out (N, 2); geo (N, 14): start1, axis1, length1, start2, axis2,
-    length2 (the first 14 columns of :func:`pair_bins`' geo)."""
+    length2 (the first 14 columns of :func:`pair_bins`' geo).  A halving that leaves
+    (lo, hi) as they were (the interval down to adjacent doubles) ends the loop:
+    each later one would repeat it, so z1 is that of all 60."""
     for k in range(geo.shape[0]):
         g = geo[k]
         pair = (src, rcv, g[0:3], g[3:6], g[7:10], g[10:13], g[13])
@@ -75,8 +77,12 @@ def shortest(src, rcv, geo, out):  # pragma: no cover - compiled
         for _ in range(60):
             mid = 0.5 * (lo + hi)
             if _profile(mid, pair)[1] > 0:
+                if hi == mid:  # (lo, hi) as before: every later halving the same
+                    break
                 hi = mid
             else:
+                if lo == mid:
+                    break
                 lo = mid
         z = 0.5 * (lo + hi)
         out[k, 0] = z

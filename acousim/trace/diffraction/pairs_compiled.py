@@ -1,7 +1,8 @@
 """The compiled edge-to-edge integral's driver: the tables of
 :func:`acousim.trace.diffraction.pair_kernel.pair_bins` built from the pairs' geometry, its
-bins read back as :class:`acousim.trace.diffraction.pairs.EdgePairElements` (the numpy
-form of the same steps is in :mod:`acousim.trace.diffraction.pairs`)."""
+bins read back as :class:`acousim.trace.diffraction.pairs.EdgePairElements` (compiled
+too, :mod:`.bins_kernel`, where numba is; the numpy form of the same steps is in
+:mod:`acousim.trace.diffraction.pairs`)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from acousim.trace.diffraction.pair_geometry import (
     cylindrical,
     shortest_paths,
 )
+from processing.base.kernels import optional_kernel
 
 __all__ = ["compiled_elements", "fine_live"]
 
@@ -51,6 +53,15 @@ def compiled_elements(
     tables = (np.ascontiguousarray(x[idx]) for x in (geo, consts, mask))
     g, c, m = tables
     _run(kernel, (source, receiver, g, c, cfg, acc, count, m), workers)
+    reader = optional_kernel("acousim.trace.diffraction.bins_kernel", "read_bins")
+    if reader is not None:  # the same elements, compiled
+        n_max = count.size
+        out = (np.empty((n_max, 3)), np.empty((n_max, 3)), *(np.empty(n_max) for _ in range(3)))
+        out += (np.empty(n_max, idx.dtype),)
+        got = reader(count, acc, np.asarray(receiver, float), idx, out)
+        if got == 0:
+            return EdgePairElements.empty()
+        return EdgePairElements(*(x[:got] for x in out))
     k, b = np.nonzero(count)
     if k.size == 0:
         return EdgePairElements.empty()
