@@ -91,10 +91,7 @@ class RayCaster:
         :meth:`first_hit` on the stage's visibility rays); the same answer as
         ``first_hit(origins, directions, d)[0] <= d`` but at hits within Embree's
         float32 rounding of `max_distance`.  `directions` need not be normalised."""
-        o = np.asarray(origins, float) - self.origin
-        d = np.asarray(directions, float)
-        norm = np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's
-        d = d / np.where(norm > 0, norm, 1)
+        o, d = self._rays(origins, directions)
         n = o.shape[0]
         self.rays_cast += n
         reach = np.broadcast_to(np.asarray(max_distance, float), (n,))
@@ -106,21 +103,24 @@ class RayCaster:
         def run(sl: slice) -> np.ndarray:
             at = ask[sl]
             ids = self._scene.run(
-                np.ascontiguousarray(o[at], np.float32),
-                np.ascontiguousarray(d[at], np.float32),
+                np.ascontiguousarray(o[at]),
+                np.ascontiguousarray(d[at]),
                 dists=np.ascontiguousarray(reach[at], np.float32),
                 query="OCCLUDED",
             )
             return np.asarray(ids) >= 0
 
-        m = ask.size
-        if self._pool is None or m < 2 * _MIN_CHUNK:
-            out[ask] = run(slice(0, m))
-        else:
-            bounds = np.linspace(0, m, self.threads + 1).astype(int)
-            parts = self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])])
-            out[ask] = np.concatenate(list(parts))
+        out[ask] = np.concatenate(self._in_parts(run, ask.size))
         return out
+
+    def _in_parts(self, run, n: int) -> list:
+        """`run` (a slice -> its rays' result) over n rays: at once, or in one slice
+        per thread on the pool when there are enough rays (Embree releases the GIL)."""
+        if self._pool is None or n < 2 * _MIN_CHUNK:
+            return [run(slice(0, n))]
+        bounds = np.linspace(0, n, self.threads + 1).astype(int)
+        return list(self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+
     def _rays(self, origins, directions) -> tuple[np.ndarray, np.ndarray]:
         """The rays as Embree takes them: origins (N, 3) relative to :attr:`origin`
         and unit directions (N, 3), float32 (compiled, :mod:`.embree_kernel`, or in
@@ -165,13 +165,7 @@ class RayCaster:
             )
             return res["tfar"], res["primID"]
 
-        if self._pool is None or n < 2 * _MIN_CHUNK:
-            parts = [run(slice(0, n))]
-        else:
-            bounds = np.linspace(0, n, self.threads + 1).astype(int)
-            parts = list(
-                self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])])
-            )
+        parts = self._in_parts(run, n)
         if len(parts) == 1:
             t, face = parts[0][0].astype(float), parts[0][1].astype(int)
         else:

@@ -1,5 +1,6 @@
-"""Compiled preparation of :meth:`acousim.trace.world.embree.RayCaster.first_hit`'s
-rays (numba; optional: without numba the same arithmetic runs in numpy there).
+"""Compiled preparation of the rays :class:`acousim.trace.world.embree.RayCaster`
+casts (``first_hit``, ``occluded``; numba; optional: without numba the same
+arithmetic runs in numpy there).
 
 Each ray in one pass: its origin relative to the caster's centre and its direction
 made unit, both in float64 and then rounded to Embree's float32 (the sum of squares
