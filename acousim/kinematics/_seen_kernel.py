@@ -9,11 +9,14 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def centre_times(t, t_r, anchor, local, times, rows, c, stop, rot, where):  # pragma: no cover
+def centre_times(
+    t, t_r, anchor, local, times, rows, c, stop, iterations, rot, where
+):  # pragma: no cover - compiled
     """The fixed point ``t = t_r + |R(t) local + p(t) - A| / c`` of every path, in
     place on `t` (N,) (s), iterated until no time changes by `stop` (s) or more (at
-    most 20 times); into `rot` (N, 3, 3) and `where` (N, 3) the rotation and the
-    centre's position at the times before the last iteration.
+    most `iterations` times); into `rot` (N, 3, 3) and `where` (N, 3) the rotation
+    and the centre's position (world, ``R local + p``) at the times before the last
+    iteration.
 
     t_r (N,): when the sound leaves the anchors `anchor` (N, 3) (s, m); local (3,):
     the centre, sensor frame (m); times (K,) (s, evenly spaced) and rows (K, 12):
@@ -24,7 +27,7 @@ def centre_times(t, t_r, anchor, local, times, rows, c, stop, rot, where):  # pr
     K = times.size
     h = times[1] - times[0]
     new = np.empty(N)
-    for _ in range(20):
+    for _ in range(iterations):
         done = True
         for n in range(N):
             x = (t[n] - times[0]) / h
@@ -33,11 +36,12 @@ def centre_times(t, t_r, anchor, local, times, rows, c, stop, rot, where):  # pr
             for j in range(3):
                 for k in range(3):
                     rot[n, j, k] = rows[i, 3 * j + k] * (1 - w) + rows[i + 1, 3 * j + k] * w
-                where[n, j] = rows[i, 9 + j] * (1 - w) + rows[i + 1, 9 + j] * w
             d2 = 0.0
             for j in range(3):
+                p = rows[i, 9 + j] * (1 - w) + rows[i + 1, 9 + j] * w
                 pos = rot[n, j, 0] * local[0] + rot[n, j, 1] * local[1] + rot[n, j, 2] * local[2]
-                d = pos + where[n, j] - anchor[n, j]
+                where[n, j] = pos + p  # the centre, world
+                d = where[n, j] - anchor[n, j]
                 d2 += d * d
             new[n] = t_r[n] + np.sqrt(d2) / c
             if not abs(new[n] - t[n]) < stop:

@@ -43,7 +43,7 @@ def seen_moving(
         rot, where = np.empty((t.size, 3, 3)), np.empty((t.size, 3))
         # (copies: the kernel takes writable arrays, one compiled version)
         args = (np.array(t_r, float), np.array(anchor, float), np.array(local, float))
-        compiled(t, *args, table.times, table.rows, float(c), 1e-10, rot, where)
+        compiled(t, *args, table.times, table.rows, float(c), *_CONVERGED, rot, where)
         return _seen(t, anchor, where, rot, pose, local, c)
 
     def centre(t):  # (N, 3) world, and the rotations (N, 3, 3) (None: the pose's)
@@ -52,14 +52,20 @@ def seen_moving(
         rot, where = table(t)
         return rot @ local + where, rot
 
-    for _ in range(20):  # a contraction of ratio v / c: stops within 1e-13 s
+    stop, iterations = _CONVERGED
+    for _ in range(iterations):  # a contraction of ratio v / c: stops within 1e-13 s
         where, rot = centre(t)
         new = t_r + np.linalg.norm(where - anchor, axis=1) / c
-        done = np.max(np.abs(new - t), initial=0.0) < 1e-10
+        done = np.max(np.abs(new - t), initial=0.0) < stop
         t = new
         if done:  # the centre where it is at the last t but v / c of 0.1 ns: 1e-13 m
             break
     return _seen(t, anchor, where, rot, pose, local, c)
+
+
+#: the fixed point at the moving centre stops once no time changes by this (s), or
+#: after this many iterations (compiled and numpy alike)
+_CONVERGED = (1e-10, 20)
 
 
 def _seen(t, anchor, where, rot, pose, local, c: float) -> Seen:

@@ -21,7 +21,11 @@ pytest.importorskip("numba")
 C = 343.0
 
 
-def _case():
+#: the array centre as the uRTIS has it (at the sensor's origin) and moved off it
+OFFSETS = [(0.0, 0.0, 0.0), (0.1, 0.05, -0.02)]
+
+
+def _case(offset=(0.0, 0.0, 0.0)):
     arr = P.preset("urtis_v1")
     pose = Pose([0.5, -0.2, 0.1], yaw_rad=0.3)
     traj = Trajectory.constant(pose, [1.2, 0.4, 0.0], np.deg2rad([0, 0, 90]))
@@ -41,12 +45,13 @@ def _case():
         np.zeros((N, 3)),
         first,
     )
-    centre = arr.positions_m.mean(axis=0)
+    centre = arr.positions_m.mean(axis=0) + offset
     return paths, kin, traj, pose, centre
 
 
-def test_centre_times_solve_the_equation_on_the_trajectory():
-    paths, kin, traj, pose, centre = _case()
+@pytest.mark.parametrize("offset", OFFSETS)
+def test_centre_times_solve_the_equation_on_the_trajectory(offset):
+    paths, kin, traj, pose, centre = _case(offset)
     seen = seen_moving(paths, kin, traj, pose, centre, C)
     # t = t_r + |R(t) centre + p(t) - A| / c, the trajectory itself, to the last bit
     t_r = paths.first_leg_m / C
@@ -57,8 +62,9 @@ def test_centre_times_solve_the_equation_on_the_trajectory():
         if np.array_equal(new, t):
             break
         t = new
-    # the table's rotations interpolated linearly at 0.5 ms: w^2 h^2 / 8 |centre| < 1 nm
-    assert np.abs(seen.delay_s - t).max() < 1e-11
+    # the table's rotations interpolated linearly at 0.5 ms: w^2 h^2 / 8 = 8e-8 rad at
+    # 90 deg/s, times |centre| in the centre's position (under 1 nm at the uRTIS's)
+    assert np.abs(seen.delay_s - t).max() < 1e-11 + 1e-7 * np.linalg.norm(centre) / C
     u = paths.anchor_m - where
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     R = traj.rotation(pose.time_s + t)
@@ -66,8 +72,9 @@ def test_centre_times_solve_the_equation_on_the_trajectory():
     assert np.abs(np.einsum("nji,nj->ni", R, u) - seen.arrival_sensor).max() < 1e-7
 
 
-def test_compiled_and_array_versions_agree(monkeypatch):
-    paths, kin, traj, pose, centre = _case()
+@pytest.mark.parametrize("offset", OFFSETS)
+def test_compiled_and_array_versions_agree(monkeypatch, offset):
+    paths, kin, traj, pose, centre = _case(offset)
     fast = seen_moving(paths, kin, traj, pose, centre, C)
     monkeypatch.setattr(seen_module, "optional_kernel", lambda module, name=None: None)
     plain = seen_moving(paths, kin, traj, pose, centre, C)
