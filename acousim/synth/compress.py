@@ -98,9 +98,9 @@ def compress(gl, V, W, WW, U, path_direct, set_direct, tolerance):
     with fewer sets.
 
     gl (:class:`ChebyshevGains`, K terms, N paths, M microphones) path gains times
-    the Doppler terms (term j, path n, microphone m: the Chebyshev polynomials of
-    :func:`acousim.synth.doppler._chebyshev_terms`; or those terms as an array (K,
-    N, M)), V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
+    the Doppler terms (term j, path n, microphone m: :func:`chebyshev_terms` of
+    :func:`acousim.synth.doppler._chebyshev_argument`; or those terms as an array
+    (K, N, M)), V (N, Q) response terms; the filters ``b_jq(f) = W_j(f) U_q(f)`` from the
     template spectra W (K, F), their products WW (:func:`acousim.synth.doppler._products`;
     or, when U is the linear interpolation of Uc (F', Q) from a coarse grid, the pair
     (:func:`coarse_products` of them, Uc): the filters' Gram matrix is formed there,

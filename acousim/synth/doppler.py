@@ -44,7 +44,7 @@ from scipy import fft as sfft
 from acousim.core.cache import LruCache
 from acousim.core.echoes import Echoes
 from acousim.synth import baseband
-from acousim.synth.compress import ChebyshevGains, chebyshev_terms, coarse_products, compress
+from acousim.synth.compress import ChebyshevGains, coarse_products, compress
 from acousim.synth.options import (
     COMPRESS_TOLERANCE,
     DEFAULT_OPTIONS,
@@ -364,7 +364,7 @@ _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
 
 def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coarse: bool):
     """The interpolant in the Doppler factor as a Chebyshev series
-    (:func:`_chebyshev_terms`): the templates' coefficients W (K, F) over the `band`
+    (:func:`_chebyshev_argument`): the templates' coefficients W (K, F) over the `band`
     (F,) bins of their `spectra`, their products (:func:`_products`) and, for
     response terms interpolated from the `grid`'s coarse frequencies (`coarse`), the
     products folded onto those (:func:`~.compress.coarse_products`; None): per drive,
@@ -526,20 +526,13 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     return out
 
 
-def _chebyshev_terms(nodes: np.ndarray, rate: np.ndarray, gain: np.ndarray) -> np.ndarray:
-    """``gain T_p(s)`` (K, ...) for p < K, s the Doppler factors `rate` (...) mapped
-    from the interval of the Chebyshev `nodes` (K,) onto [-1, 1]
-    (:func:`_chebyshev_argument`): the interpolant of the time-scaled call in the
-    Doppler factor as a Chebyshev series, the path gains times T_p(s) (a three-term
-    recurrence, :func:`~.compress.chebyshev_terms`) and the templates' Chebyshev
-    coefficients (the same polynomial as the Lagrange form, without barycentric
-    weights)."""
-    return chebyshev_terms(_chebyshev_argument(nodes, rate), gain, nodes.size)
-
-
 def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:
     """The Doppler factors `rate` (...) mapped from the interval of the Chebyshev
-    `nodes` (K,) onto [-1, 1] (C order; None for one node)."""
+    `nodes` (K,) onto [-1, 1] (C order; None for one node): the interpolant of the
+    time-scaled call in the Doppler factor is a Chebyshev series, the path gains times
+    T_p of this (:class:`~.compress.ChebyshevGains`) and the templates' Chebyshev
+    coefficients (:func:`_chebyshev_coefficients`; the same polynomial as the Lagrange
+    form, without barycentric weights)."""
     if nodes.size == 1:
         return None
     offset, half = _chebyshev_interval(nodes)

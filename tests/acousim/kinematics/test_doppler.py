@@ -471,7 +471,8 @@ def test_doppler_series_is_the_interpolant_through_the_nodes():
     """The Doppler terms (Chebyshev series of the templates' coefficients) give, at any
     factor in the interval, the polynomial through the K node values: against a
     polynomial fitted here through the nodes (numpy, power basis)."""
-    from acousim.synth.doppler import _chebyshev_coefficients, _chebyshev_terms, doppler_nodes
+    from acousim.synth.compress import chebyshev_terms
+    from acousim.synth.doppler import _chebyshev_argument, _chebyshev_coefficients, doppler_nodes
 
     wf = P.rtis_call("default_20_80")
     nodes = doppler_nodes(0.9985, 1.0058, wf, FS)
@@ -480,7 +481,7 @@ def test_doppler_series_is_the_interpolant_through_the_nodes():
     values = rng.standard_normal((nodes.size, 3))  # three "templates" sampled at the nodes
     rate = rng.uniform(nodes.min(), nodes.max(), (4, 5))
     gain = rng.uniform(0.5, 2.0, (4, 5))
-    terms = _chebyshev_terms(nodes, rate, gain)  # (K, 4, 5)
+    terms = chebyshev_terms(_chebyshev_argument(nodes, rate), gain, nodes.size)  # (K, 4, 5)
     got = np.einsum("kmn,kc->mnc", terms, _chebyshev_coefficients(values))
     x = (nodes - nodes.mean()) * 100
     for c in range(3):
