@@ -100,9 +100,11 @@ def dropped_by_sum(energy: np.ndarray, budget: float) -> np.ndarray:
 @dataclass(frozen=True)
 class EarlyFloor:
     """What a stage that prunes early may leave out: candidates whose gain at the
-    receiver is below `level` (0: none), which lies `floor_db` (dB) under the
-    strongest echo found so far; `spent`: a bound of the energy (squared gain) of
-    all it leaves out, for :func:`energy_floor`."""
+    receiver is below `level` (0: none); `floor_db` (dB): a floor under the stage's
+    own strongest candidate it may also apply (rule "path": the final floor; rule
+    "sum": none, -inf, the stage's strongest element may be hidden and only an echo
+    found is a reference); `spent`: a bound of the energy (squared gain) of all it
+    leaves out, for :func:`energy_floor`."""
 
     level: float
     floor_db: float
@@ -118,9 +120,8 @@ def early_floor(top: float, floor_db: float, rule: FloorRule, candidates: int) -
     if rule == "path":
         return EarlyFloor(top * 10 ** (floor_db / 20) * (1 - 1e-9), floor_db, 0.0)
     share = EARLY_SHARE / max(int(candidates), 1)
-    db = floor_db + 10 * np.log10(share)
-    level = top * 10 ** (db / 20) * (1 - 1e-9)
-    return EarlyFloor(level, float(db), EARLY_SHARE * top**2 * 10 ** (floor_db / 10))
+    level = top * 10 ** ((floor_db + 10 * np.log10(share)) / 20) * (1 - 1e-9)
+    return EarlyFloor(level, -np.inf, EARLY_SHARE * top**2 * 10 ** (floor_db / 10))
 
 
 def diffraction_candidates(geometry: DiffractingGeometry, settings: Diffraction) -> int:

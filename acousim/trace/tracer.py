@@ -153,9 +153,7 @@ def trace_pose(
             options = DiffractionOptions(
                 max_path_m=settings.max_path_m,
                 settings=settings.diffraction,
-                # rule "sum": only the level, whose reference is an echo found (the
-                # stage's strongest element may be hidden)
-                floor_db=-np.inf if summed else early.floor_db,
+                floor_db=early.floor_db,
                 floor_level=early.level,
                 pair_step_m=settings.diffraction_pair_step_m,
                 min_path_m=settings.min_path_m,
