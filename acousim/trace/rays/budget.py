@@ -377,7 +377,7 @@ def _first_two(world, caster, settings, ends, n: int) -> list:
     if world.spectra is not None:  # two parts per hit: the contributions taken apart
         return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
     k = int(np.searchsorted(rows, np.count_nonzero(~second)))
-    return [(shot.sequences, _part(both, slice(0, k))), ((), _part(both, slice(k, None)))]
+    return [(shot.sequences, take(both, slice(0, k))), ((), take(both, slice(k, None)))]
 
 
 def _batch_major(shot: Shot, n: int) -> tuple[Hits, np.ndarray]:
@@ -398,11 +398,6 @@ def _batch_major(shot: Shot, n: int) -> tuple[Hits, np.ndarray]:
 def _values(obj) -> list:
     """The fields of a dataclass instance, in order."""
     return [getattr(obj, f.name) for f in fields(obj)]
-
-
-def _part(c: Contributions, rows: slice) -> Contributions:
-    """The contributions `rows` of `c` (views)."""
-    return Contributions(*(None if v is None else v[rows] for v in _values(c)))
 
 
 def _shot(world, caster, settings, emitter, dirs, d_omega, emission) -> Shot:

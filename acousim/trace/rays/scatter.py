@@ -142,8 +142,8 @@ def _kept(geometry: tuple, departure, source, intensity, counts) -> Contribution
     )
 
 
-def take(c: Contributions, mask: np.ndarray) -> Contributions:
-    """The contributions `c` where `mask` (K,) holds, in their order."""
+def take(c: Contributions, mask: np.ndarray | slice) -> Contributions:
+    """The contributions `c` where `mask` (K,) holds, in their order (a slice: views)."""
     return Contributions(
         *(None if (v := getattr(c, k.name)) is None else v[mask] for k in fields(Contributions))
     )

@@ -159,12 +159,7 @@ def follow(
         if alive.size == 0:
             break
         # 2. first hits of the live rays
-        # (np.take: rows of (R, 3) arrays several times faster than a[alive])
-        t, f = caster.first_hit(
-            _rows(origin, alive), _rows(dirs, alive), max_path_m - length[alive]
-        )
-        hit = f >= 0
-        alive, t, f = alive[hit], t[hit], f[hit]
+        alive, t, f = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
         before = length[alive]  # a copy: the lengths before this leg
         # 4. continue specularly (step 3 below: the sequences)
         x, normal, mirror, power_in = _bounce(
@@ -234,12 +229,11 @@ def _bounce_tables(world: World) -> tuple:
 
 def _first_hits(caster: RayCaster, origin, dirs, alive: np.ndarray, reach_m: np.ndarray):
     """The first hits of the rays `alive` (indices into `origin`, `dirs` (R, 3)), each
-    within its `reach_m`: those that hit (indices), their distances (m), faces and
-    points (N, 3)."""
-    t, f = caster.first_hit(origin[alive], dirs[alive], reach_m)
+    within its `reach_m`: those that hit (indices), their distances (m) and faces
+    (np.take: rows of (R, 3) arrays several times faster than ``a[alive]``)."""
+    t, f = caster.first_hit(_rows(origin, alive), _rows(dirs, alive), reach_m)
     hit = f >= 0
-    alive, t, f = alive[hit], t[hit], f[hit]
-    return alive, t, f, origin[alive] + t[:, None] * dirs[alive]
+    return alive[hit], t[hit], f[hit]
 
 
 def sequences_met(
@@ -273,7 +267,8 @@ def sequences_met(
     for b in range(longest):
         if alive.size == 0:
             break
-        alive, t, f, x = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
+        alive, t, f = _first_hits(caster, origin, dirs, alive, max_path_m - length[alive])
+        x = _rows(origin, alive) + t[:, None] * _rows(dirs, alive)
         length[alive] += t
         seq[alive, b] = world.plane[f]
         planar = ~world.curved[f]  # a ray that met a curved face adds no sequence
