@@ -56,6 +56,7 @@ from acousim.synth.render import (
     CallGrid,
     _in_time,
     _kernel_table,
+    _placed,
     _response_factors,
     _sets_by_fft,
     _taps,
@@ -522,8 +523,7 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
         n,
     )
     y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
-    out[:, max(lo, 0) : hi] = y[:, max(lo, 0) - lo :]
-    return out
+    return _placed(y, (out, lo))
 
 
 def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:

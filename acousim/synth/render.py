@@ -426,7 +426,7 @@ def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
         for q in range(1, filt.shape[0]):
             inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
         y = sfft.irfft(spec[:c], n, axis=-1, workers=1)[:, pad : pad + n_span]
-        out[mics, max(lo, 0) :] = y[:, max(lo, 0) - lo :]
+        _placed(y, (out[mics], lo))
     return out
 
 
