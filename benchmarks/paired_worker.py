@@ -2,7 +2,8 @@
 
 Run as a script with the checkout to time first on PYTHONPATH; reads commands from
 stdin, one a line, answers one JSON line each:
-``run``: `Simulator.run` over the poses (every trace paid): wall and CPU seconds;
+``run``: `Simulator.run` over the poses (every trace paid): wall and CPU seconds
+(its forked worker's included);
 ``save PATH``: the recordings' samples of the poses (noise-free if asked) to PATH (.npy).
 Arguments: scene file, first pose, number of poses, JSON of simulation overrides
 (``diffraction`` a table of :class:`acousim.Diffraction`'s fields).
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import resource
 import sys
 import time
 
@@ -46,9 +48,9 @@ def main() -> None:
             continue
         if cmd[0] == "run":
             sim.tracer.forget()
-            t, c = time.perf_counter(), time.process_time()
+            t, c = time.perf_counter(), _cpu()
             sim.run(poses)
-            out = {"wall": time.perf_counter() - t, "cpu": time.process_time() - c}
+            out = {"wall": time.perf_counter() - t, "cpu": _cpu() - c}
         elif cmd[0] == "save":
             sim.tracer.forget()
             recs = sim.run(poses)
@@ -57,6 +59,13 @@ def main() -> None:
         else:
             out = {"error": line}
         print(json.dumps(out), flush=True)
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and of its children that have ended (the worker
+    `Simulator.run` forks, joined before it returns)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import processing as P
-    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.core.forked import shared_by_two_processes
     from acousim.cli.image import Asked, drawn_images, write_pictures_beside
     from acousim.imaging.outputs import replaced_kinds
     from acousim.imaging.run import ImagingOptions, prepare_pictures, recording_images

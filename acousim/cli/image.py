@@ -158,7 +158,7 @@ def load_and_image(args: argparse.Namespace, *, lazy: bool = False):
     :class:`Imaged`)."""
     import processing as P
     from acousim.allocator import small_pages
-    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.core.forked import shared_by_two_processes
     from acousim.imaging.run import recording_images
     from acousim.process import configure
 
@@ -433,9 +433,9 @@ def _animated(args, index: list) -> bool:
 
 def _write_all(args, out, recs, images, index, options, shown=None, tables=None) -> list:
     """peaks.csv (from the peak `tables`; None: not asked), the pictures and, with
-    --images-h5, meanwhile in a second process (:mod:`acousim.cli.ahead`), images.h5
+    --images-h5, meanwhile in a second process (:mod:`acousim.core.forked`), images.h5
     (written to a temporary file renamed here with the rest)."""
-    from acousim.cli.ahead import ahead_in_a_process
+    from acousim.core.forked import ahead_in_a_process
     from acousim.export.images import peaks_csv_text
     from processing.base.atomic import atomic_path
 
@@ -491,7 +491,7 @@ def write_pictures_beside(out, recs, images, index, options, asked: Asked, table
     order then the animation.  They are written whole into a stage in `out`
     (:func:`processing.base.atomic.staged`) and renamed into place with the
     command's other files."""
-    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.core.forked import shared_by_two_processes
     from acousim.imaging.run import PictureJob, drive_jobs, still_jobs
     from processing.base.atomic import staged
 

@@ -1,8 +1,9 @@
-"""Simulator.run prepares the next pose and traces the one after in threads of their
-own while it renders, and the edge-to-edge kernel shares its pairs among the
-tracer's threads: neither may change a result.  The reference is the same pose
-simulated alone, one stage after the other (``simulate_pose``), and the kernel on
-one thread."""
+"""Simulator.run makes its poses in two processes (this one and a forked worker),
+or in one, preparing the next pose and tracing the one after in threads of their
+own while it renders; the edge-to-edge kernel shares its pairs among the tracer's
+threads: none may change a result.  The reference is the same pose simulated
+alone, one stage after the other (``simulate_pose``), and the kernel on one
+thread."""
 
 from __future__ import annotations
 
@@ -24,23 +25,45 @@ from tests.acousim.trace.diffraction.test_pair_selection import EMITTER, RECEIVE
 SCENES = REPO / "scenes"
 
 
-def test_run_gives_the_recordings_of_one_pose_at_a_time():
+@pytest.mark.parametrize("processes", [None, 1])
+def test_run_gives_the_recordings_of_one_pose_at_a_time(processes):
     """The corridor drive at its defaults (diffraction, edge to edge), moving and
-    frozen, five poses: every recording's samples byte for byte (and a run of one
-    pose, which starts no thread)."""
+    frozen, five poses, in two processes where they can be forked (None) and in
+    this one (1): every recording's samples, ground truth and metadata byte for
+    byte (and a run of one pose, which starts no thread)."""
     scene = load_scene(SCENES / "corridor.toml")
     frozen = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, motion=None))
     poses = [12, 13, 14, 30, 31]
     for sc in (scene, frozen):
-        together = Simulator(sc).run(poses)
+        together = Simulator(sc).run(poses, processes=processes)
         alone = Simulator(sc)
         for i, rec in zip(poses, together):
             ref = alone.simulate_pose(sc.sensor.poses[i], i)
             assert np.array_equal(rec.samples, ref.samples)
             assert np.array_equal(rec.truth.position_world_m, ref.truth.position_world_m)
+            assert np.array_equal(rec.truth.delay_s, ref.truth.delay_s)
+            assert rec.metadata == ref.metadata
         # one pose asked: run in this thread alone, the same bytes
-        (one,) = Simulator(sc).run([poses[3]])
+        (one,) = Simulator(sc).run([poses[3]], processes=processes)
         assert np.array_equal(one.samples, together[3].samples)
+
+
+def test_run_in_two_processes_raises_the_workers_error_naming_its_pose():
+    """A pose that fails wherever it is made (here or in the forked worker): run
+    raises its InputError, naming the pose."""
+    from processing.base.errors import InputError
+
+    sim = Simulator(load_scene(SCENES / "corridor.toml"))
+    prepare = sim._prepare
+
+    def failing(pose, index, n_samples, motion):  # this instance (and the fork's) only
+        if index % 2:
+            raise InputError("no path found")
+        return prepare(pose, index, n_samples, motion)
+
+    sim._prepare = failing
+    with pytest.raises(InputError, match=r"pose (11|13|15): no path found"):
+        sim.run(range(10, 16))
 
 
 def test_run_stops_at_a_failing_pose_and_names_it():
@@ -62,7 +85,7 @@ def test_run_stops_at_a_failing_pose_and_names_it():
 
     sim._prepare = failing
     with pytest.raises(InputError, match="pose 13: no path found"):
-        sim.run(range(10, 30))
+        sim.run(range(10, 30), processes=1)
     assert max(prepared) <= 13 + simulator.PREPARE_AHEAD - 1
     assert sorted(prepared) == list(range(10, max(prepared) + 1))
 

@@ -9,6 +9,7 @@ face a ray meets first and roughly where.
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -68,19 +69,41 @@ class RayCaster:
             faces = np.ascontiguousarray(indexed[1], np.int32)
             self._mesh = mc.TriangleMesh(self._scene, local, faces)
         self.threads = max(1, int(threads))
-        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._pools: dict[int, ThreadPoolExecutor] = {}  # by process id: see _pool
         self.rays_cast = 0
         #: offsets and tolerances scaled to this scene (m): see RAY_OFFSET and
         #: DISTANCE_TOLERANCE
         self.offset_m = RAY_OFFSET[0] + RAY_OFFSET[1] * self.scale
         self.tolerance_m = DISTANCE_TOLERANCE[0] + DISTANCE_TOLERANCE[1] * self.scale
 
+    @property
+    def _pool(self) -> ThreadPoolExecutor | None:
+        """The caster's worker threads in this process (None: one thread), started on
+        first use: a forked child (:meth:`commit`) has none of its parent's threads,
+        so it starts its own."""
+        if self.threads < 2:
+            return None
+        pid = os.getpid()
+        if pid not in self._pools:
+            self._pools[pid] = ThreadPoolExecutor(self.threads)
+        return self._pools[pid]
+
+    def commit(self) -> None:
+        """Build Embree's acceleration structure now (embreex builds it at the first
+        query, on Embree's own threads).  Before forking a process that casts rays: a
+        forked child has none of the parent's threads, so it must only query a
+        structure built in the parent, never build one."""
+        if not self._scene.is_committed:
+            self.first_hit(np.zeros((1, 3)) + self.origin, np.array([[0.0, 0.0, 1.0]]))
+            self.rays_cast -= 1
+
     def map(self, fn, items: list) -> list:
         """``[fn(x) for x in items]`` on the caster's worker threads (in this thread
         when it has one): for work that releases the GIL, as Embree does."""
-        if self._pool is None or len(items) < 2:
+        pool = self._pool
+        if pool is None or len(items) < 2:
             return [fn(x) for x in items]
-        return list(self._pool.map(fn, items))
+        return list(pool.map(fn, items))
 
     def occluded(
         self, origins: np.ndarray, directions: np.ndarray, max_distance: np.ndarray | float
@@ -116,10 +139,11 @@ class RayCaster:
     def _in_parts(self, run, n: int) -> list:
         """`run` (a slice -> its rays' result) over n rays: at once, or in one slice
         per thread on the pool when there are enough rays (Embree releases the GIL)."""
-        if self._pool is None or n < 2 * _MIN_CHUNK:
+        pool = self._pool if n >= 2 * _MIN_CHUNK else None
+        if pool is None:
             return [run(slice(0, n))]
         bounds = np.linspace(0, n, self.threads + 1).astype(int)
-        return list(self._pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+        return list(pool.map(run, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
 
     def _rays(self, origins, directions) -> tuple[np.ndarray, np.ndarray]:
         """The rays as Embree takes them: origins (N, 3) relative to :attr:`origin`

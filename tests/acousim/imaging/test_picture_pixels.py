@@ -195,7 +195,7 @@ def test_image_recording_chooses_the_recording_the_stills_show(tmp_path):
 
     # every picture drawn in this process (no forked worker), where the spy sees it
     with unittest.mock.patch.object(matplotlib.figure.Figure, "savefig", spy):
-        with unittest.mock.patch("acousim.cli.ahead._can_fork", lambda: False):
+        with unittest.mock.patch("acousim.core.forked._can_fork", lambda: False):
             assert main([*base, "--recording", "2", "--out", str(tmp_path / "a")]) == 0
     assert (tmp_path / "a" / "fan.png").is_file()
     assert seen and all("recording 2, t = 1.0 s" in t for t in seen)

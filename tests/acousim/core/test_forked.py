@@ -1,4 +1,4 @@
-"""Work made ahead in a second process (acousim.cli.ahead): the same items, in
+"""Work made ahead in a second process (acousim.core.forked): the same items, in
 order, as made here; what the worker raised is raised here, with the worker's
 traceback; the worker does not outlive the block."""
 
@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from acousim.cli.ahead import ahead_in_a_process
+from acousim.core.forked import ahead_in_a_process
 
 
 def _squares(n):
@@ -58,9 +58,9 @@ def _with_a_worker() -> bool:
     """Whether shared_by_two_processes forks a worker in this process now: not on
     one CPU, nor once numba's GNU OpenMP pool has run here (an earlier test's
     broadband image)."""
-    from acousim.cli import ahead
+    from acousim.core import forked as ahead
 
-    return ahead._can_fork() and not ahead._gnu_openmp_started()
+    return ahead.can_fork()
 
 
 def _block(k):
@@ -73,7 +73,7 @@ def test_two_processes_share_the_items_and_hand_them_out_in_order():
     """Each item is made once, by this process or the worker, and every byte of its
     arrays arrives; `first` runs here while the worker takes items (here it waits
     for the worker's word that it made one), and the progress counts every item."""
-    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.core.forked import shared_by_two_processes
 
     said_r, said_w = os.pipe()  # the worker says when it has made an item
     here = os.getpid()
@@ -106,7 +106,7 @@ def test_two_processes_share_the_items_and_hand_them_out_in_order():
 
 
 def test_an_item_that_fails_in_the_worker_fails_the_whole():
-    from acousim.cli.ahead import shared_by_two_processes
+    from acousim.core.forked import shared_by_two_processes
 
     if not _with_a_worker():
         pytest.skip("no worker here (one CPU, or numba's GNU OpenMP pool ran)")
@@ -137,7 +137,7 @@ def test_after_a_parallel_kernel_ran_here_every_item_is_made_here():
     code = (
         "import os, numpy as np, numba\n"
         "from numba import njit, prange\n"
-        "from acousim.cli.ahead import shared_by_two_processes\n"
+        "from acousim.core.forked import shared_by_two_processes\n"
         "@njit(parallel=True)\n"
         "def total(x):\n"
         "    s = 0.0\n"

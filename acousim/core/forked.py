@@ -1,10 +1,13 @@
-"""Work made in a second process while the command does other work.
+"""Work made in a second, forked process while this one does other work.
 
-``acousim image`` reads and images its recordings in two processes, each taking the
-next one not yet taken (:func:`shared_by_two_processes`), then draws its pictures
-the same way, and with ``--images-h5`` writes images.h5 (the label maps, the
-compression) in a forked worker meanwhile (:func:`ahead_in_a_process`): on the 2
-cores of a laptop the work overlaps.  A worker's items come back
+``Simulator.run`` makes its recordings in two processes, each taking the next pose
+not yet taken (:func:`shared_by_two_processes`); ``acousim image`` reads and images
+its recordings the same way, then draws its pictures, and with ``--images-h5``
+writes images.h5 (the label maps, the compression) in a forked worker meanwhile
+(:func:`ahead_in_a_process`): on the 2 cores of a laptop the work overlaps.  A
+forked worker has its parent's memory as it was (its caches, its compiled kernels)
+but none of its threads: what it runs must start its own (:func:`can_fork` says
+when forking is allowed at all).  A worker's items come back
 through a socket pair, drained by a thread of this process as they come, and are
 handed out in order.  An item's numpy arrays travel out of band (pickle protocol 5),
 each received by one ``recv_into`` that waits for all its bytes: the reader thread
@@ -20,6 +23,8 @@ are made in this process when asked (the same items).
 from __future__ import annotations
 
 import contextlib
+import itertools
+import mmap
 import os
 import pickle
 import queue
@@ -33,7 +38,7 @@ from typing import Any
 
 from processing.base import interrupt
 
-__all__ = ["ahead_in_a_process", "shared_by_two_processes"]
+__all__ = ["ahead_in_a_process", "can_fork", "shared_by_two_processes"]
 
 
 @contextlib.contextmanager
@@ -52,7 +57,20 @@ def ahead_in_a_process(make: Callable[[], Iterator[Any]]) -> Iterator[Iterator[A
 def _can_fork() -> bool:
     import multiprocessing as mp
 
-    return "fork" in mp.get_all_start_methods() and (os.cpu_count() or 1) >= 2
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return (
+        "fork" in mp.get_all_start_methods()
+        and (cpus or 1) >= 2
+        and not mp.current_process().daemon  # a pool's worker may have no children
+    )
+
+
+def can_fork() -> bool:
+    """Whether :func:`shared_by_two_processes` would fork a worker here now: ``fork``
+    exists, this process may use two CPUs or more, it may have children (it is not
+    a daemonic worker of a process pool), and numba's GNU OpenMP layer has not run
+    in it (see :func:`shared_by_two_processes`)."""
+    return _can_fork() and not _gnu_openmp_started()
 
 
 @contextlib.contextmanager
@@ -107,7 +125,7 @@ def shared_by_two_processes(
     image's), every item is made here."""
     out: list[Any] = [None] * n
     count = _Count(n, progress)
-    if not _can_fork() or _gnu_openmp_started():
+    if not can_fork():
         if first is not None:
             first()
         for k in range(n):
@@ -189,30 +207,91 @@ def _send_all(make: Callable[[], Iterator[Any]], send, theirs) -> None:
 
 
 _LENGTH = struct.Struct("<Q")
+#: each out-of-band buffer starts at a multiple of this many bytes of the message
+_ALIGN = 64
+#: a buffer this large or larger travels as an in-memory file (where Linux has them)
+SHARED_BYTES = 1 << 16
+#: at most this many of a message's buffers travel as files (the rest in the stream)
+_MAX_FILES = 64
 #: the socket pair's buffers asked for (Linux caps them at net.core.wmem_max and
 #: rmem_max, 4 MB here, and doubles them)
 SOCKET_BUFFER_BYTES = 4 << 20
 
 
 def _send(sock: socket.socket, message: Any) -> None:
-    """One message: its framing (the pickle's length and its buffers' sizes), the
-    pickle, then each out-of-band buffer (a contiguous array's bytes) as it lies."""
+    """One message: its framing (the pickle's length, its buffers' sizes and which
+    travel as files), then in one run of bytes each other out-of-band buffer (a
+    contiguous array's bytes) as it lies, padded to :data:`_ALIGN` bytes, and the
+    pickle.  A buffer of :data:`SHARED_BYTES` or more (a recording's samples)
+    travels as an in-memory file (Linux's memfd) whose descriptor goes with the
+    framing: written once here, mapped there, never read through the socket."""
     buffers: list[pickle.PickleBuffer] = []
     body = pickle.dumps(message, protocol=5, buffer_callback=buffers.append)
     raws = [b.raw() for b in buffers]
-    frame = pickle.dumps((len(body), [r.nbytes for r in raws]))
-    sock.sendall(_LENGTH.pack(len(frame)) + frame)
+    big = [hasattr(os, "memfd_create") and r.nbytes >= SHARED_BYTES for r in raws]
+    big = [b and k < _MAX_FILES for b, k in zip(big, itertools.accumulate(big, initial=0))]
+    files = [_in_memory_file(r) for r, b in zip(raws, big) if b]
+    frame = pickle.dumps((len(body), [r.nbytes for r in raws], big))
+    head = _LENGTH.pack(len(frame)) + frame
+    try:
+        sent = socket.send_fds(sock, [head], files) if files else 0
+        sock.sendall(head[sent:])
+    finally:
+        for fd in files:
+            os.close(fd)
+    for raw, b in zip(raws, big):
+        if not b:
+            sock.sendall(raw)
+            if raw.nbytes % _ALIGN:
+                sock.sendall(bytes(_ALIGN - raw.nbytes % _ALIGN))
     sock.sendall(body)
-    for raw in raws:
-        sock.sendall(raw)
+
+
+def _in_memory_file(raw: memoryview) -> int:
+    """A new in-memory file holding `raw`'s bytes: its descriptor."""
+    fd = os.memfd_create("acousim-item", os.MFD_CLOEXEC)
+    view, done = raw.cast("B"), 0
+    while done < view.nbytes:
+        done += os.write(fd, view[done:])
+    return fd
 
 
 def _receive(sock: socket.socket) -> Any:
-    """One message of :func:`_send` (EOFError: the worker's end closed)."""
-    frame = _exactly(sock, _LENGTH.unpack(_exactly(sock, _LENGTH.size))[0])
-    size, sizes = pickle.loads(frame)
-    body = _exactly(sock, size)
-    return pickle.loads(body, buffers=[_exactly(sock, n) for n in sizes])
+    """One message of :func:`_send` (EOFError: the worker's end closed): the files'
+    buffers mapped, the others and the pickle taken in one receive (the reader
+    thread takes the interpreter's lock a few times a message, not once a buffer:
+    beside a busy main thread each take waits up to the switch interval), the
+    arrays kept in place (aligned)."""
+    length, files = _head(sock)
+    size, sizes, big = pickle.loads(_exactly(sock, length))
+    inline = [n for n, b in zip(sizes, big) if not b]
+    padded = [-(-n // _ALIGN) * _ALIGN for n in inline]
+    data = memoryview(_exactly(sock, sum(padded) + size))
+    offsets = iter(itertools.accumulate(padded, initial=0))
+    mapped = iter(files)
+    buffers = []
+    for n, b in zip(sizes, big):
+        if b:
+            fd = next(mapped)
+            buffers.append(mmap.mmap(fd, n))
+            os.close(fd)
+        else:
+            o = next(offsets)
+            buffers.append(data[o : o + n])
+    return pickle.loads(data[sum(padded) :], buffers=buffers)
+
+
+def _head(sock: socket.socket) -> tuple[int, list[int]]:
+    """A message's first bytes, the framing's length, and the descriptors sent with them."""
+    got, files = b"", []
+    while len(got) < _LENGTH.size:
+        part, fds, _, _ = socket.recv_fds(sock, _LENGTH.size - len(got), _MAX_FILES)
+        if not part:
+            for fd in fds:
+                os.close(fd)
+            raise EOFError("the worker's end closed")
+        got, files = got + part, files + list(fds)
+    return _LENGTH.unpack(got)[0], files
 
 
 def _exactly(sock: socket.socket, n: int) -> bytearray:
