@@ -16,8 +16,8 @@ beside a busy main thread, waits up to the switch interval, 5 ms, each time).
 
 The worker ignores Ctrl-C (the command's to handle, see
 :func:`processing.base.interrupt.ignore_in_worker`) and is terminated when the block
-ends, whatever ended it.  Where ``fork`` is not available, or on one CPU, the items
-are made in this process when asked (the same items).
+ends, whatever ended it.  Where ``fork`` is not available or not safe (not Linux),
+or on one CPU, the items are made in this process when asked (the same items).
 """
 
 from __future__ import annotations
@@ -59,15 +59,17 @@ def _can_fork() -> bool:
 
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return (
-        "fork" in mp.get_all_start_methods()
+        sys.platform.startswith("linux")  # macOS lists fork, but its system libraries are not fork-safe
+        and "fork" in mp.get_all_start_methods()
         and (cpus or 1) >= 2
         and not mp.current_process().daemon  # a pool's worker may have no children
     )
 
 
 def can_fork() -> bool:
-    """Whether :func:`shared_by_two_processes` would fork a worker here now: ``fork``
-    exists, this process may use two CPUs or more, it may have children (it is not
+    """Whether :func:`shared_by_two_processes` would fork a worker here now: on Linux
+    (``fork`` exists elsewhere too, but macOS's system libraries are not safe in a
+    forked child), this process may use two CPUs or more, it may have children (it is not
     a daemonic worker of a process pool), and numba's GNU OpenMP layer has not run
     in it (see :func:`shared_by_two_processes`)."""
     return _can_fork() and not _gnu_openmp_started()
