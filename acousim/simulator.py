@@ -522,9 +522,10 @@ class Simulator:
         `processes`: None (the default) makes them in two processes when it can (this
         one and a forked worker, each taking the next pose not yet taken: the two
         cores' whole work, :meth:`_shared`): on Linux with two CPUs or more, for a
-        scene whose meshes stand still, from a process that may have children; else, or with 1, in this process, the next poses prepared in
-        threads while one renders (:meth:`_pipelined`).  The same recordings, bit
-        for bit, either way: a pose's work depends on the pose alone."""
+        scene whose meshes stand still, from a process that may have children;
+        else, or with 1, in this process, the next poses prepared in threads while
+        one renders (:meth:`_pipelined`).  The same recordings, bit for bit, either
+        way: a pose's work depends on the pose alone."""
         all_poses = self.scene.sensor.poses
         idx = list(range(len(all_poses))) if poses is None else list(poses)
         for i in idx:

@@ -59,7 +59,7 @@ def _can_fork() -> bool:
 
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return (
-        sys.platform.startswith("linux")  # macOS lists fork, but its system libraries are not fork-safe
+        sys.platform.startswith("linux")  # macOS lists fork; its system libraries are not safe
         and "fork" in mp.get_all_start_methods()
         and (cpus or 1) >= 2
         and not mp.current_process().daemon  # a pool's worker may have no children
