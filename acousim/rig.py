@@ -201,11 +201,16 @@ class RigSimulator:
         self,
         indices: Iterable[int] | None = None,
         progress: Callable[[int, int], None] | None = None,
+        *,
+        processes: int | None = None,
     ) -> RigRun:
         """The recordings of the rig's firings (all, or the given indices into
-        :attr:`measurements`) and the LiDARs' scans."""
+        :attr:`measurements`) and the LiDARs' scans.  `processes`: as
+        :meth:`Simulator.run`'s (None: two processes, this one and a forked worker,
+        where the scene allows; 1: this one, the next firings prepared in threads);
+        the same recordings either way."""
         if self.rig is None:
-            recs = self.single.run(indices, progress)
+            recs = self.single.run(indices, progress, processes=processes)
             return RigRun(tuple(recs), ())
         idx = list(range(len(self.measurements))) if indices is None else list(indices)
         for i in idx:
@@ -214,35 +219,55 @@ class RigSimulator:
                     f"measurement index {i} out of range: the rig fires "
                     f"{len(self.measurements)} time(s)"
                 )
-        out = []
+        if processes not in (None, 1, 2):
+            raise InputError("must be None (automatic), 1 or 2", key="processes", value=processes)
         if len(idx) == 1:  # nothing to overlap: no thread started
-            out.append(self.simulate(idx[0]))
+            out = [self.simulate(idx[0])]
             if progress:
                 progress(1, 1)
+        elif processes != 1 and self.pair(0, 0)._can_share():
+            out = self._shared(idx, progress)
         else:
-            # the next AHEAD firings prepared in two threads (their own calls and the
-            # calls they hear: traces, kinematics, scans; Embree and the compiled
-            # kernels release the GIL) while this one renders: the same bytes as one
-            # firing after the other (every trace as it would be alone)
-            from concurrent.futures import ThreadPoolExecutor
-
-            pool = ThreadPoolExecutor(2)
-            try:
-                ahead = [self._prepare(i, pool=pool) for i in idx[:AHEAD]]
-                for n in range(len(idx)):
-                    interrupt.check()  # Ctrl-C (when the command line records it)
-                    firing = ahead.pop(0)()
-                    if n + AHEAD < len(idx):
-                        ahead.append(self._prepare(idx[n + AHEAD], pool=pool))
-                    out.append(self._record(firing))
-                    if progress:
-                        progress(n + 1, len(idx))
-            finally:  # stopped (Ctrl-C, an error): the work not started is dropped
-                pool.shutdown(wait=True, cancel_futures=True)
+            out = self._threaded(idx, progress)
         done = tuple(self.measurements[i] for i in idx)
         times = [m.time_s for m in done]
         scans = self.lidar_scans(min(times), max(times)) if done else ()
         return RigRun(tuple(out), done, scans)
+
+    def _shared(self, idx: list[int], progress) -> list[P.Recording]:
+        """:meth:`run`'s firings `idx` made in this process and a forked one, each
+        taking the next firing not yet taken (:meth:`Simulator._shared`: the world
+        built here first; a call heard by sonars in both processes is traced in
+        each)."""
+        from acousim.core.forked import shared_by_two_processes
+
+        if self.tracer.caster is not None:
+            self.tracer.caster.commit()
+        return shared_by_two_processes(lambda k: self.simulate(idx[k]), len(idx), progress=progress)
+
+    def _threaded(self, idx: list[int], progress) -> list[P.Recording]:
+        """:meth:`run`'s firings `idx` in this process: the next :data:`AHEAD`
+        firings prepared in two threads (their own calls and the calls they hear:
+        traces, kinematics, scans; Embree and the compiled kernels release the GIL)
+        while this one renders: the same bytes as one firing after the other (every
+        trace as it would be alone)."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        out = []
+        pool = ThreadPoolExecutor(2)
+        try:
+            ahead = [self._prepare(i, pool=pool) for i in idx[:AHEAD]]
+            for n in range(len(idx)):
+                interrupt.check()  # Ctrl-C (when the command line records it)
+                firing = ahead.pop(0)()
+                if n + AHEAD < len(idx):
+                    ahead.append(self._prepare(idx[n + AHEAD], pool=pool))
+                out.append(self._record(firing))
+                if progress:
+                    progress(n + 1, len(idx))
+        finally:  # stopped (Ctrl-C, an error): the work not started is dropped
+            pool.shutdown(wait=True, cancel_futures=True)
+        return out
 
     def simulate(self, i: int, *, n_samples: int | None = None) -> P.Recording:
         """The recording of measurement `i` (`n_samples` long; None: its scene's

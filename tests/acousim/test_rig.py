@@ -306,14 +306,16 @@ def test_crosstalk_doppler_of_a_moving_rig_is_the_bistatic_formula(tmp_path):
     assert _arrival(x, compressed, fs) == pytest.approx(expected, abs=2e-6)
 
 
-def test_a_rigs_run_gives_the_recordings_of_one_firing_at_a_time():
-    """`run` prepares the next firings in threads while one renders: the bundled
-    rig (four sonars, crosstalk heard before and during the window, in motion, the
+@pytest.mark.parametrize("processes", [None, 1])
+def test_a_rigs_run_gives_the_recordings_of_one_firing_at_a_time(processes):
+    """`run` makes the firings in two processes where it can fork (None), or
+    prepares the next firings in threads while one renders (1): the bundled rig
+    (four sonars, crosstalk heard before and during the window, in motion, the
     LiDAR) gives every firing's samples and ground truth byte for byte as
     :meth:`RigSimulator.simulate` one firing after the other."""
     scene = load_scene(REPO / "scenes" / "corridor_rig.toml")
     firings = [40, 41, 42, 43, 44]
-    run = RigSimulator(scene).run(firings).recordings
+    run = RigSimulator(scene).run(firings, processes=processes).recordings
     alone = RigSimulator(scene)
     for i, rec in zip(firings, run):
         ref = alone.simulate(i)
