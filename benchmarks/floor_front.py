@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,7 @@ import acousim.trace.tracer as tracer_module
 from acousim.scene import load_scene
 from acousim.simulator import Simulator
 from benchmarks.peaks_check import compare_peaks
+from benchmarks.timing import cpu_seconds
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "corridor.toml"
 POINTS = ("path,-80", "path,-70", "path,-60", "sum,-60", "sum,-50", "sum,-40", "sum,-30")
@@ -52,9 +52,9 @@ def _cpu_ms(sim: Simulator, poses: list[int], rounds: int) -> float:
     out = []
     for _ in range(rounds):
         sim.tracer.forget()
-        t = time.process_time()
+        t = cpu_seconds()
         sim.run(poses)
-        out.append((time.process_time() - t) / len(poses) * 1e3)
+        out.append((cpu_seconds() - t) / len(poses) * 1e3)
     return float(np.median(out))
 
 

@@ -63,7 +63,8 @@ def main() -> None:
 
 def _cpu() -> float:
     """CPU seconds of this process and of its children that have ended (the worker
-    `Simulator.run` forks, joined before it returns)."""
+    `Simulator.run` forks, joined before it returns): ``benchmarks.timing.cpu_seconds``,
+    written again here because this script runs with another checkout on its path."""
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     return time.process_time() + children.ru_utime + children.ru_stime
 

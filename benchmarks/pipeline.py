@@ -100,7 +100,7 @@ def one_run(sim, spent: list[float], where: Path) -> dict:
     spent[0] = 0.0
     go.touch()  # the child waits for it (started, its Python loaded)
     t, c = time.perf_counter(), time.process_time()
-    sim.run(POSES)
+    sim.run(POSES, processes=1)  # the threads' pipeline, in this process
     wall, cpu = time.perf_counter() - t, time.process_time() - c
     stop.touch()  # the sampling stops within a millisecond of the run's end
     child.wait()

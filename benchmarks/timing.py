@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import resource
 import time
 from collections.abc import Callable
 
@@ -23,3 +24,11 @@ def run_times(fn: Callable[[], object], repeat: int = 5, warmup: int = 1) -> np.
 def best_time(fn: Callable[[], object], repeat: int = 5, warmup: int = 1) -> float:
     """Best wall time of `repeat` calls, seconds (after `warmup` calls)."""
     return float(run_times(fn, repeat, warmup).min())
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of this process and of its children that have ended
+    (``Simulator.run``'s forked worker, joined before it returns): differences of
+    it time a run's whole work."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
