@@ -455,7 +455,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     out = np.zeros((plan.n_mics, plan.n_samples))
     if plan.empty:
         return out
-    lo, hi, n = plan.lo, plan.hi, plan.n_fft
+    lo, n = plan.lo, plan.n_fft
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs

@@ -59,6 +59,7 @@ from acousim.core.rendering import (
     check_interpolator,
 )
 from acousim.synth.baseband import spectra
+from acousim.synth.fft import irfft, rfft
 from acousim.synth.response import PathResponse, factorise
 from acousim.synth.timedomain import filtered_calls, prefer_time, render_time, trimmed
 from processing import Waveform
@@ -420,12 +421,12 @@ def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
         h, pad = _impulses(
             d[mics], G[mics], n_span, (method, taps), n, dtype, V, buffer if c == size else None
         )
-        spectra = sfft.rfft(h, axis=-1, workers=1)  # (sets, mics, F)
+        spectra = rfft(h)  # (sets, mics, F)
         inband = spec[:c, b0:b1]
         np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
         for q in range(1, filt.shape[0]):
             inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
-        y = sfft.irfft(spec[:c], n, axis=-1, workers=1)[:, pad : pad + n_span]
+        y = irfft(spec[:c], n)[:, pad : pad + n_span]
         _placed(y, (out[mics], lo))
     return out
 

@@ -1,0 +1,79 @@
+"""The moving render's FFT length (:func:`acousim.synth.doppler._fft_length`: the span
+to the last echo's end and the filters' tails) and its real FFTs
+(:mod:`acousim.synth.fft`, ducc0's or scipy's): the FFTs against a plain DFT written
+here, and a render whose echoes run past the recording's end against the same
+render on FFTs four times as long (nothing can wrap there)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import processing as P
+from acousim.core.echoes import Echoes
+from acousim.synth import doppler
+from acousim.synth import fft as rfft_mod
+from acousim.synth.response import PathResponse
+
+FS = 450e3
+
+
+def _dft(x: np.ndarray) -> np.ndarray:
+    """The real DFT of x (..., n) along its last axis as a matrix product."""
+    n = x.shape[-1]
+    k = np.arange(n // 2 + 1)
+    return x.astype(float) @ np.exp(-2j * np.pi * np.outer(np.arange(n), k) / n)
+
+
+@pytest.mark.parametrize("ducc", [True, False])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_real_ffts_against_a_plain_dft(ducc, dtype, monkeypatch):
+    if not ducc:
+        monkeypatch.setattr(rfft_mod, "_ducc", lambda: None)
+    elif rfft_mod._ducc() is None:
+        pytest.skip("ducc0 not installed")
+    n = 360  # 2^3 3^2 5: a mixed radix
+    x = np.random.default_rng(3).standard_normal((2, 3, n)).astype(dtype)
+    spec = rfft_mod.rfft(x)
+    ref = _dft(x)
+    tol = 1e-5 if dtype == np.float32 else 1e-12
+    assert spec.shape == ref.shape and spec.real.dtype == dtype
+    assert np.max(np.abs(spec - ref)) < tol * np.max(np.abs(ref))
+    back = rfft_mod.irfft(spec, n)
+    assert back.dtype == dtype
+    assert np.max(np.abs(back - x)) < tol * np.max(np.abs(x))
+
+
+def _echoes_past_the_end(n_samples: int) -> tuple[Echoes, np.ndarray]:
+    """Two microphones, 60 echoes whose last ones start 1 ms before the recording
+    ends (the call lasts longer: their span is cut), Doppler factors within 0.4 %."""
+    rng = np.random.default_rng(11)
+    N = 60
+    delay = np.sort(rng.uniform(1e-3, n_samples / FS - 1e-3, N))
+    delay = delay[None] + rng.uniform(0, 2e-5, (2, N))
+    length = 343.0 * delay
+    gain = rng.uniform(0.2, 1.0, (2, N)) / length
+    order = np.ones(N, int)
+    angle = rng.uniform(0, 0.6, N)
+    return Echoes(delay, gain, length, order, angle), 1 + rng.uniform(-4e-3, 4e-3, (2, N))
+
+
+def test_trimmed_fft_wraps_nothing_into_the_recording(monkeypatch):
+    n_samples = 4000
+    echoes, rate = _echoes_past_the_end(n_samples)
+    call = P.rtis_call("default_25_50")
+    response = PathResponse(emitter_radius_m=0.004)
+    reach_past = echoes.delay_s.max() * FS + call.duration_s * FS
+    assert reach_past > n_samples + 100  # the echoes do run past the end
+
+    def render():
+        plan = doppler.plan_doppler(echoes, rate, call, FS, n_samples, response=response)
+        return plan.n_fft, doppler.render_planned(plan)
+
+    n, y = render()
+    trimmed = doppler._fft_length
+    monkeypatch.setattr(doppler, "_fft_length", lambda *a: 4 * trimmed(*a))
+    n_long, y_long = render()
+    assert n_long == 4 * n
+    err = np.sum((y - y_long) ** 2) / np.sum(y_long**2)
+    assert 10 * np.log10(err) < -100
