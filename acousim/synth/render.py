@@ -421,14 +421,25 @@ def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
         h, pad = _impulses(
             d[mics], G[mics], n_span, (method, taps), n, dtype, V, buffer if c == size else None
         )
-        spectra = rfft(h)  # (sets, mics, F)
-        inband = spec[:c, b0:b1]
-        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
-        for q in range(1, filt.shape[0]):
-            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
+        _summed_products(rfft(h), filt, b0, spec[:c], term[:c])  # (sets, mics, F)
         y = irfft(spec[:c], n)[:, pad : pad + n_span]
         _placed(y, (out[mics], lo))
     return out
+
+
+def _summed_products(spectra, filt, b0: int, out, term) -> None:
+    """``out[c, b0 + i] = sum_q spectra[q, c, b0 + i] filt[q, i]`` (the bins of
+    `filt` (R, F) from b0; out's others untouched): compiled
+    (:mod:`._spectra_kernel`), or in numpy with `term` (C, F) a buffer."""
+    kernel = optional_kernel("acousim.synth._spectra_kernel", "summed_products")
+    if kernel is not None:
+        kernel(spectra, filt, b0, out)
+        return
+    b1 = b0 + filt.shape[1]
+    inband = out[:, b0:b1]
+    np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
+    for q in range(1, filt.shape[0]):
+        inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
 
 
 def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:

@@ -1,10 +1,14 @@
-"""The moving render's FFT length (:func:`acousim.synth.doppler._fft_length`: the span
-to the last echo's end and the filters' tails) and its real FFTs
-(:mod:`acousim.synth.fft`, ducc0's or scipy's): the FFTs against a plain DFT written
-here, and a render whose echoes run past the recording's end against the same
-render on FFTs four times as long (nothing can wrap there)."""
+"""The FFT route of the renders: its FFT length for a moving pose
+(:func:`acousim.synth.doppler._fft_length`: the span to the last echo's end and the
+filters' tails), its real FFTs (:mod:`acousim.synth.fft`, ducc0's or scipy's) and its
+sum of the sets' products with their filters (:mod:`acousim.synth._spectra_kernel`
+or numpy): the FFTs against a plain DFT written here, the sum against a plain loop,
+and a render whose echoes run past the recording's end against the same render on
+FFTs four times as long (nothing can wrap there)."""
 
 from __future__ import annotations
+
+import importlib
 
 import numpy as np
 import pytest
@@ -14,6 +18,9 @@ from acousim.core.echoes import Echoes
 from acousim.synth import doppler
 from acousim.synth import fft as rfft_mod
 from acousim.synth.response import PathResponse
+from processing.base.kernels import optional_kernel
+
+render_mod = importlib.import_module("acousim.synth.render")
 
 FS = 450e3
 
@@ -77,3 +84,29 @@ def test_trimmed_fft_wraps_nothing_into_the_recording(monkeypatch):
     assert n_long == 4 * n
     err = np.sum((y - y_long) ** 2) / np.sum(y_long**2)
     assert 10 * np.log10(err) < -100
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("dtype", [np.complex64, np.complex128])
+def test_summed_products_against_a_plain_loop(compiled, dtype, monkeypatch):
+    if compiled and optional_kernel("acousim.synth._spectra_kernel") is None:
+        pytest.skip("numba not installed")
+    if not compiled:
+        monkeypatch.setattr(render_mod, "optional_kernel", lambda *a: None)
+    rng = np.random.default_rng(5)
+    R, C, bins, b0, F = 3, 4, 50, 7, 30
+
+    def cplx(*shape):
+        return (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)).astype(dtype)
+
+    spectra, filt = cplx(R, C, bins), cplx(R, F)
+    out = np.full((C + 1, bins), 9.0, dtype)  # the rows and bins outside kept
+    render_mod._summed_products(spectra, filt, b0, out[:C], np.empty((C, F), dtype))
+    ref = np.full((C + 1, bins), 9.0, complex)
+    for c in range(C):
+        for i in range(F):
+            ref[c, b0 + i] = sum(
+                complex(spectra[q, c, b0 + i]) * complex(filt[q, i]) for q in range(R)
+            )
+    tol = 1e-5 if dtype == np.complex64 else 1e-13
+    assert np.max(np.abs(out - ref)) < tol * np.max(np.abs(ref))
