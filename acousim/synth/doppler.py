@@ -445,7 +445,11 @@ def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0))
     offset, half = _chebyshev_interval(nodes) if nodes.size > 1 else (0.0, 1.0)
     d = np.empty_like(delay_s, float)  # the layout of the delays
     s = np.empty(np.shape(rate) if nodes.size > 1 else (0, 0))
-    span = kernel(delay_s, rate, pivot, fs, float(shift[0]), float(shift[1]), offset, half, d, s)
+    arrays = (delay_s, rate, d, s)
+    if not d.flags.c_contiguous:  # the kernel runs along rows: (N, M) views of F order
+        arrays = tuple(a.T for a in arrays)
+    t, a, dd, ss = arrays
+    span = kernel(t, a, pivot, fs, float(shift[0]), float(shift[1]), offset, half, dd, ss)
     return d, (s if nodes.size > 1 else None), span, advance, margin
 
 
