@@ -328,13 +328,9 @@ def plan_doppler(
     d, s, span, advance, margin = _placement(
         echoes.delay_s, rate, nodes, waveform.duration_s, fs, (options.emission_index, start)
     )
-    lo = int(np.floor(span[0])) - taps - margin
-    reach = int(np.ceil(span[1])) + taps + L + 1 + margin  # the last echo's end
-    hi = min(reach, n_samples)
+    lo, hi, n, n_grid = _span_lengths(span, L, taps, margin, n_samples)
     if hi <= max(lo, 0):
         return _empty_plan(M, n_samples, options)
-    n = _fft_length(lo, reach, taps, margin)
-    n_grid = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
     spectra, grid = cache.spectra.get(
         ("spectra", *key, n_grid), lambda: _spectra_and_grid(calls, advance * fs, (n, n_grid), fs)
@@ -368,6 +364,18 @@ def plan_doppler(
 
 
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _span_lengths(span, L: int, taps: int, margin: int, n_samples: int):
+    """The output samples [lo, hi) that impulses at `span` (least, greatest; samples)
+    of templates of L samples reach, cut at the recording's `n_samples`; the FFT
+    length n (:func:`_fft_length`) and n_grid, that of the spectrum the response
+    grid is found on (:func:`_spectra_and_grid`)."""
+    lo = int(np.floor(span[0])) - taps - margin
+    reach = int(np.ceil(span[1])) + taps + L + 1 + margin  # the last echo's end
+    hi = min(reach, n_samples)
+    n_grid = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
+    return lo, hi, _fft_length(lo, reach, taps, margin), n_grid
 
 
 def _fft_length(lo: int, reach: int, taps: int, margin: int) -> int:
