@@ -384,11 +384,12 @@ def _fft_length(lo: int, reach: int, taps: int, margin: int) -> int:
     length whose circular convolution wraps nothing into the output.  A set's filter
     is a template (the call and its band-limit ringing) advanced by at most `margin`
     samples and shaped by the path response, whose tails are taken as 258 samples
-    before and after (:data:`~.render.FILTER_TAILS`); the impulses' `taps` reach
-    beyond their positions.  What spills past ``lo + n`` wraps onto the buffer's
-    margin ahead of ``lo``, what precedes lo onto the samples after `reach`: neither
-    is output.  (The span to `reach` already holds the templates: the filters add
-    only their tails, not the call's length again.)"""
+    (:data:`~.render.FILTER_TAILS` and two); the impulses' `taps` reach beyond their
+    positions.  What spills past ``lo + n`` wraps onto the buffer's margin ahead of
+    ``lo``, what precedes lo onto the samples after `reach`: neither is output.
+    (The span to `reach` already holds the templates: the filters add only their
+    tails, not the call's length again; echoes cut at the recording's end, -110 dB
+    against FFTs four times as long: tests/acousim/synth/test_fft_route.py.)"""
     return sfft.next_fast_len(reach - lo + taps + 258 + margin, real=True)
 
 
@@ -417,8 +418,9 @@ def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, lengths: tuple[int,
     together; `lengths`: (n, n_grid), the coarse grid and the band's centre found on
     the middle template's spectrum of n_grid points (the span, a call and the
     filters' tails: the length the FFTs had before :func:`_fft_length`, so that the
-    responses are factorised at the same frequencies; 0.1 % of them moves the
-    corridor's recordings by -92 dB re its echoes)."""
+    responses are factorised at the same frequencies: found at n instead, the grid
+    moves by a fraction of a bin and the corridor's recordings by -92 dB re its
+    echoes)."""
     n, n_grid = lengths
     spectra = _template_spectra(calls, shifts, n)
     grid = CallGrid.of(spectra[len(spectra) // 2], fs, n)
