@@ -375,10 +375,10 @@ def _span_lengths(span, L: int, taps: int, margin: int, n_samples: int):
     reach = int(np.ceil(span[1])) + taps + L + 1 + margin  # the last echo's end
     hi = min(reach, n_samples)
     n_grid = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
-    return lo, hi, _fft_length(lo, reach, taps, margin), n_grid
+    return lo, hi, _fft_length(lo, reach, taps, margin, L), n_grid
 
 
-def _fft_length(lo: int, reach: int, taps: int, margin: int) -> int:
+def _fft_length(lo: int, reach: int, taps: int, margin: int, call: int) -> int:
     """The FFT length of the span from output sample `lo` to `reach`, where the last
     echo ends (beyond the recording's end when it is cut there): the smallest fast
     length whose circular convolution wraps nothing into the output.  A set's filter
@@ -389,8 +389,13 @@ def _fft_length(lo: int, reach: int, taps: int, margin: int) -> int:
     ``lo``, what precedes lo onto the samples after `reach`: neither is output.
     (The span to `reach` already holds the templates: the filters add only their
     tails, not the call's length again; echoes cut at the recording's end, -110 dB
-    against FFTs four times as long: tests/acousim/synth/test_fft_route.py.)"""
-    return sfft.next_fast_len(reach - lo + taps + 258 + margin, real=True)
+    against FFTs four times as long: tests/acousim/synth/test_fft_route.py.)  And
+    at least twice the templates' `call` samples and their tails, for the sum in
+    time (:func:`~.timedomain.filtered_calls`: the filtered call in the first half
+    of the inverse transform, what precedes it in the second): it binds only for
+    short spans, of few echoes."""
+    tails = 258 + margin
+    return sfft.next_fast_len(max(reach - lo + taps + tails, 2 * (call + tails)), real=True)
 
 
 def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coarse: bool):

@@ -110,3 +110,33 @@ def test_summed_products_against_a_plain_loop(compiled, dtype, monkeypatch):
             )
     tol = 1e-5 if dtype == np.complex64 else 1e-13
     assert np.max(np.abs(out - ref)) < tol * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("taper", [0.0, 0.1])
+def test_one_echo_summed_in_time_as_by_fft(taper):
+    """One echo of an untapered (its band-limit ringing spans the template) or a
+    tapered call, with a path response: the sum in time (the filtered call from the
+    plan's inverse FFT, :func:`acousim.synth.timedomain.filtered_calls`) and the sum
+    by FFT on that length agree, and the echo's energy is the call's times its gain
+    squared within the response's effect (the filtered call neither wrapped nor cut
+    short on a span of one echo)."""
+    import dataclasses
+
+    from acousim.synth.options import DEFAULT_OPTIONS
+
+    call = P.Waveform("linear", 30e3, 45e3, 2e-3, taper)
+    delay = np.array([[3.1e-3, 3.1e-3 + 1e-6]]).T  # two microphones, one path
+    echoes = Echoes(delay, np.full((2, 1), 0.5), 343.0 * delay, np.ones(1, int), np.zeros(1))
+    rate = np.full((2, 1), 1.002)
+    response = PathResponse(absorption=False, emitter_radius_m=0.004)
+    y = {}
+    for domain in ("time", "frequency"):
+        opts = dataclasses.replace(DEFAULT_OPTIONS, domain=domain)
+        plan = doppler.plan_doppler(echoes, rate, call, FS, 4000, options=opts, response=response)
+        y[domain] = doppler.render_planned(plan)
+    err = np.sum((y["time"] - y["frequency"]) ** 2) / np.sum(y["frequency"] ** 2)
+    assert 10 * np.log10(err) < -60
+    # the call's energy at 1.002 (time-scaled: over 1.002) times 0.25, the piston at
+    # 0 rad is 1: the band-limited call's sum of squares, within 1 %
+    ref = np.sum(call.band_limited(FS, oversample=64)[0] ** 2) / 1.002 * 0.25
+    assert np.sum(y["frequency"][0] ** 2) == pytest.approx(ref, rel=0.01)
