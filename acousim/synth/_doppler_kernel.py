@@ -17,16 +17,25 @@ from numba import njit
 def place(delay, rate, pivot, fs, shift, start, offset, half, d, s):  # pragma: no cover
     """d (M, N) <- ``((delay + pivot (1 / rate - 1)) fs + shift) + start``; s (M, N)
     <- ``(rate - offset) / half`` (when s has the shape of d); returns (d.min(),
-    d.max())."""
+    d.max()).  Row by row (the arrays' C order: each a loop that vectorises), the
+    range in a pass of its own."""
     M, N = delay.shape
-    lo, hi = np.inf, -np.inf
     factor = s.shape == d.shape
-    for n in range(N):
-        for m in range(M):
-            a = rate[m, n]
-            x = ((delay[m, n] + pivot * (1.0 / a - 1.0)) * fs + shift) + start
-            d[m, n] = x
-            lo, hi = min(lo, x), max(hi, x)
-            if factor:
-                s[m, n] = (a - offset) / half
+    for m in range(M):
+        dm, am, tm = d[m], rate[m], delay[m]
+        for n in range(N):
+            dm[n] = ((tm[n] + pivot * (1.0 / am[n] - 1.0)) * fs + shift) + start
+        if factor:
+            sm = s[m]
+            for n in range(N):
+                sm[n] = (am[n] - offset) / half
+    lo, hi = np.inf, -np.inf
+    for m in range(M):
+        dm = d[m]
+        for n in range(N):
+            x = dm[n]
+            if x < lo:
+                lo = x
+            if x > hi:
+                hi = x
     return lo, hi

@@ -5,6 +5,7 @@ to the few sets their sum needs (a real SVD from Gram matrices)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -217,7 +218,7 @@ def _filter_gram(WW: np.ndarray, Uq: np.ndarray, K: int) -> np.ndarray:
     """Re(B^T conj(B)) (K Q, K Q) of the filters ``b_jq = W_j U_q`` from the template
     products WW (:func:`acousim.synth.doppler._products`) and the response terms
     Uq (F, Q): both symmetric, the upper triangles only."""
-    qa, qb = np.triu_indices(Uq.shape[1])
+    qa, qb = _triu(Uq.shape[1])
     return _symmetric_gram(WW @ (Uq[:, qa] * Uq[:, qb]), K, Uq.shape[1])
 
 
@@ -227,7 +228,7 @@ def _coarse_filter_gram(MM: np.ndarray, Uc: np.ndarray, K: int) -> np.ndarray:
     (:func:`coarse_products`): ``Uc_q^T MM_jk Uc_r``."""
     J, C, _ = MM.shape
     Q = Uc.shape[1]
-    qa, qb = np.triu_indices(Q)
+    qa, qb = _triu(Q)
     part = (MM.reshape(J * C, C) @ Uc).reshape(J, C, Q).transpose(0, 2, 1)  # MM_j Uc
     part = (part.reshape(J * Q, C) @ Uc).reshape(J, Q, Q)[:, qa, qb]
     return _symmetric_gram(part, K, Q)
@@ -257,12 +258,21 @@ def coarse_products(WW: np.ndarray, fb: np.ndarray, coarse: np.ndarray) -> np.nd
     return out
 
 
+@lru_cache(maxsize=64)
+def _triu(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(k)``, read-only, computed once per k (a compression asks
+    for a few, six times: 0.1 ms each)."""
+    rows, cols = np.triu_indices(k)
+    rows.flags.writeable = cols.flags.writeable = False
+    return rows, cols
+
+
 def _symmetric_gram(part: np.ndarray, K: int, Q: int) -> np.ndarray:
     """The Gram matrix (K Q, K Q) from its upper triangles in j <= k and q <= r,
     part (K (K + 1) / 2, Q (Q + 1) / 2) in the order of ``np.triu_indices``."""
-    qa, qb = np.triu_indices(Q)
+    qa, qb = _triu(Q)
     full = np.empty((K, K, Q, Q))
-    ja, jb = (i[:, None] for i in np.triu_indices(K))
+    ja, jb = (i[:, None] for i in _triu(K))
     full[ja, jb, qa, qb] = full[jb, ja, qa, qb] = part
     full[ja, jb, qb, qa] = full[jb, ja, qb, qa] = part
     return full.transpose(0, 2, 1, 3).reshape(K * Q, K * Q)

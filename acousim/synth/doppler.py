@@ -35,6 +35,7 @@ The exact per-sample reference is
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -53,6 +54,7 @@ from acousim.synth.options import (
 )
 from acousim.synth.render import (
     FFT_WORKERS,
+    FILTER_TAILS,
     CallGrid,
     _in_time,
     _kernel_table,
@@ -222,7 +224,8 @@ class DopplerPlan:
     their spectra in single precision (with a path response); coarse_spectra (F',
     Q): the response terms on the coarse grid U is interpolated from, and
     coarse_products (:func:`~.compress.coarse_products`): the template products
-    folded onto it (None: without a path response).
+    folded onto it (None: without a path response); call: the templates' length
+    (samples).
     """
 
     positions: np.ndarray
@@ -243,6 +246,7 @@ class DopplerPlan:
     single: bool
     coarse_spectra: np.ndarray | None = None
     coarse_products: np.ndarray | None = None
+    call: int = 0
 
     @property
     def empty(self) -> bool:
@@ -324,14 +328,12 @@ def plan_doppler(
     d, s, span, advance, margin = _placement(
         echoes.delay_s, rate, nodes, waveform.duration_s, fs, (options.emission_index, start)
     )
-    lo = int(np.floor(span[0])) - taps - margin
-    hi = min(int(np.ceil(span[1])) + taps + L + 1 + margin, n_samples)
+    lo, hi, n, n_grid = _span_lengths(span, L, taps, margin, n_samples)
     if hi <= max(lo, 0):
         return _empty_plan(M, n_samples, options)
-    n = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
     key = (waveform, fs, tuple(nodes.tolist()), n)
     spectra, grid = cache.spectra.get(
-        ("spectra", *key), lambda: _spectra_and_grid(calls, advance * fs, n, fs)
+        ("spectra", *key, n_grid), lambda: _spectra_and_grid(calls, advance * fs, (n, n_grid), fs)
     )
     # 3. path responses (the direct path a group of its own if it has its own terms)
     g, U, V, band, direct, Uc, shaped = _response_terms(echoes, grid, fs, n, response)
@@ -357,10 +359,43 @@ def plan_doppler(
         n_samples=n_samples,
         options=options,
         single=shaped,
+        call=L,
     )
 
 
 _KEY, _NEED = "simulation.fractional_delay", "a moving scene"
+
+
+def _span_lengths(span, L: int, taps: int, margin: int, n_samples: int):
+    """The output samples [lo, hi) that impulses at `span` (least, greatest; samples)
+    of templates of L samples reach, cut at the recording's `n_samples`; the FFT
+    length n (:func:`_fft_length`) and n_grid, that of the spectrum the response
+    grid is found on (:func:`_spectra_and_grid`)."""
+    lo = int(np.floor(span[0])) - taps - margin
+    reach = int(np.ceil(span[1])) + taps + L + 1 + margin  # the last echo's end
+    hi = min(reach, n_samples)
+    n_grid = sfft.next_fast_len(hi - lo + L + 2 * taps + 258 + 2 * margin, real=True)
+    return lo, hi, _fft_length(lo, reach, taps, margin, L), n_grid
+
+
+def _fft_length(lo: int, reach: int, taps: int, margin: int, call: int) -> int:
+    """The FFT length of the span from output sample `lo` to `reach`, where the last
+    echo ends (beyond the recording's end when it is cut there): the smallest fast
+    length whose circular convolution wraps nothing into the output.  A set's filter
+    is a template (the call and its band-limit ringing) advanced by at most `margin`
+    samples and shaped by the path response, whose tails are taken as 258 samples
+    (:data:`~.render.FILTER_TAILS` and two); the impulses' `taps` reach beyond their
+    positions.  What spills past ``lo + n`` wraps onto the buffer's margin ahead of
+    ``lo``, what precedes lo onto the samples after `reach`: neither is output.
+    (The span to `reach` already holds the templates: the filters add only their
+    tails, not the call's length again; echoes cut at the recording's end, -110 dB
+    against FFTs four times as long: tests/acousim/synth/test_fft_route.py.)  And
+    at least twice the templates' `call` samples and their tails, for the sum in
+    time (:func:`~.timedomain.filtered_calls`: the filtered call in the first half
+    of the inverse transform, what precedes it in the second): it binds only for
+    short spans, of few echoes."""
+    tails = 258 + margin
+    return sfft.next_fast_len(max(reach - lo + taps + tails, 2 * (call + tails)), real=True)
 
 
 def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coarse: bool):
@@ -382,11 +417,24 @@ def _template_tables(cache: DopplerCache, key: tuple, spectra, grid, band, coars
     return W, WW, fold
 
 
-def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, n: int, fs: float):
-    """The templates' spectra (:func:`_template_spectra`) and the middle one's
-    :class:`~.render.CallGrid` (the path responses' frequencies), kept together."""
+def _spectra_and_grid(calls: np.ndarray, shifts: np.ndarray, lengths: tuple[int, int], fs):
+    """The templates' spectra (:func:`_template_spectra`) on n-point real FFTs and the
+    middle one's :class:`~.render.CallGrid` (the path responses' frequencies), kept
+    together; `lengths`: (n, n_grid), the coarse grid and the band's centre found on
+    the middle template's spectrum of n_grid points (the span, a call and the
+    filters' tails: the length the FFTs had before :func:`_fft_length`, so that the
+    responses are factorised at the same frequencies: found at n instead, the grid
+    moves by a fraction of a bin and the corridor's recordings by -92 dB re its
+    echoes)."""
+    n, n_grid = lengths
     spectra = _template_spectra(calls, shifts, n)
-    return spectra, CallGrid.of(spectra[len(spectra) // 2], fs, n)
+    grid = CallGrid.of(spectra[len(spectra) // 2], fs, n)
+    if n_grid == n:
+        return spectra, grid
+    j = slice(len(calls) // 2, len(calls) // 2 + 1)
+    middle = _template_spectra(calls[j], shifts[j], n_grid)
+    found = CallGrid.of(middle[0], fs, n_grid)
+    return spectra, dataclasses.replace(grid, coarse=found.coarse, f_c=found.f_c)
 
 
 def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0)):
@@ -412,7 +460,11 @@ def _placement(delay_s, rate, nodes, duration_s: float, fs: float, shift=(0, 0))
     offset, half = _chebyshev_interval(nodes) if nodes.size > 1 else (0.0, 1.0)
     d = np.empty_like(delay_s, float)  # the layout of the delays
     s = np.empty(np.shape(rate) if nodes.size > 1 else (0, 0))
-    span = kernel(delay_s, rate, pivot, fs, float(shift[0]), float(shift[1]), offset, half, d, s)
+    arrays = (delay_s, rate, d, s)
+    if not d.flags.c_contiguous:  # the kernel runs along rows: (N, M) views of F order
+        arrays = tuple(a.T for a in arrays)
+    t, a, dd, ss = arrays
+    span = kernel(t, a, pivot, fs, float(shift[0]), float(shift[1]), offset, half, dd, ss)
     return d, (s if nodes.size > 1 else None), span, advance, margin
 
 
@@ -422,7 +474,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     out = np.zeros((plan.n_mics, plan.n_samples))
     if plan.empty:
         return out
-    lo, hi, n = plan.lo, plan.hi, plan.n_fft
+    lo, n = plan.lo, plan.n_fft
     # 4. gain sets (path, microphone) x filters (template j times response term q):
     # the K x Q products compressed per group (direct path, echoes) to the rank
     # their sum needs
@@ -439,7 +491,7 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
     if plan.options.rate == "baseband":
         return _render_baseband(plan, gains, filt_band, out)
     R, opts = filt_band.shape[1], plan.options
-    call = plan.n_fft - (hi - lo) + 256  # the filtered calls' length, about
+    call = plan.call + 2 * FILTER_TAILS  # the filtered calls' length, about
     kernel = (opts.interpolator, opts.taps)
     # the sum in time is single precision: a double-precision render (no path
     # response) stays in the frequency domain unless asked

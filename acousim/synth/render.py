@@ -421,13 +421,25 @@ def _sets_by_fft(d, gains, filt, fft, kernel, single: bool, into) -> np.ndarray:
             d[mics], G[mics], n_span, (method, taps), n, dtype, V, buffer if c == size else None
         )
         spectra = sfft.rfft(h, axis=-1, workers=1)  # (sets, mics, F)
-        inband = spec[:c, b0:b1]
-        np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
-        for q in range(1, filt.shape[0]):
-            inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term[:c])
+        _summed_products(spectra, filt, b0, spec[:c], term[:c])
         y = sfft.irfft(spec[:c], n, axis=-1, workers=1)[:, pad : pad + n_span]
         _placed(y, (out[mics], lo))
     return out
+
+
+def _summed_products(spectra, filt, b0: int, out, term) -> None:
+    """``out[c, b0 + i] = sum_q spectra[q, c, b0 + i] filt[q, i]`` (the bins of
+    `filt` (R, F) from b0; out's others untouched): compiled
+    (:mod:`._spectra_kernel`), or in numpy with `term` (C, F) a buffer."""
+    kernel = optional_kernel("acousim.synth._spectra_kernel", "summed_products")
+    if kernel is not None:
+        kernel(spectra, filt, b0, out)
+        return
+    b1 = b0 + filt.shape[1]
+    inband = out[:, b0:b1]
+    np.multiply(spectra[0, :, b0:b1], filt[0], out=inband)
+    for q in range(1, filt.shape[0]):
+        inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
 
 
 def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
@@ -465,19 +477,13 @@ def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
     their linear interpolation onto the band's bins."""
     grid = CallGrid.of(W, fs, n) if grid is None else grid
     band, fb, coarse = grid.band, grid.fb, grid.coarse
-    length = echoes.path_length_m.mean(axis=0)
-    # the per-microphone part of the path length: a gain at the band's centre
+    # the per-microphone part of the path length: a gain at the band's centre; H (F',
+    # N) factorised on a coarse grid over the band (H is smooth in f), U
+    # interpolated; each path weighted by its RMS gain, so the rank is set by the
+    # error of the rendered signal and thousands of weak scatterers do not inflate
+    # it; the columns of each group side by side
     alpha = response.alpha_db_per_m(grid.f_c)
-    g = np.multiply(  # C order (M, N): the paths of a microphone side by side
-        g,
-        np.exp((-alpha * LN10_20) * (echoes.path_length_m - length[None, :])),
-        out=np.empty(np.shape(g)),
-    )
-    # factor H (F', N) on a coarse grid over the band (H is smooth in f), interpolate
-    # U; each path weighted by its gain, so the rank is set by the error of the
-    # rendered signal and thousands of weak scatterers do not inflate it; the
-    # columns of each group side by side
-    weight = np.sqrt(np.mean(g**2, axis=0)) + 1e-300
+    length, g, weight = _mic_gains(g, echoes.path_length_m, -alpha * LN10_20)
     groups = [grp for grp in (echoes.order == 0, echoes.order != 0) if grp.any()]
     order = np.concatenate([np.flatnonzero(grp) for grp in groups])
     interactions = None if echoes.interactions is None else echoes.interactions[order]
@@ -500,6 +506,23 @@ def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
         [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
     )
     return g, U, V, band, direct, Uc
+
+
+def _mic_gains(g: np.ndarray, length_m: np.ndarray, c: float):
+    """The paths' mean lengths over the microphones (N,), the gains `g` (M, N) times
+    ``exp(c (length_m - mean))`` (M, N; C order: the paths of a microphone side by
+    side) and the paths' RMS gains plus 1e-300 (N,): compiled
+    (:mod:`._response_kernel`) or in numpy."""
+    kernel = optional_kernel("acousim.synth._response_kernel", "mic_gains")
+    if kernel is None:
+        length = length_m.mean(axis=0)
+        out = np.multiply(g, np.exp(c * (length_m - length[None, :])), out=np.empty(np.shape(g)))
+        return length, out, np.sqrt(np.mean(out**2, axis=0)) + 1e-300
+    M, N = np.shape(g)
+    out, length, weight = np.empty((M, N)), np.empty(N), np.empty(N)
+    L = np.ascontiguousarray(length_m, float)
+    kernel(np.ascontiguousarray(g, float), L, float(c), out, length, weight)
+    return length, out, weight
 
 
 def _render_exact(d, g, waveform, fs, n_samples, out):

@@ -4,6 +4,8 @@ sums and the path responses' directivity series, against references written here
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 from scipy.special import j1
@@ -159,3 +161,28 @@ def test_coarse_products_give_the_sums_over_the_interpolated_terms():
         uc, vc = rng.standard_normal((2, coarse.size))
         u, v = np.interp(fb, coarse, uc), np.interp(fb, coarse, vc)
         np.testing.assert_allclose(MM @ vc @ uc, WW @ (u * v), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("spread_m", [0.03, 0.5])  # the series' range, and beyond it
+def test_mic_gains_against_a_plain_loop(compiled, spread_m, monkeypatch):
+    """The paths' mean lengths, the gains times the absorption of each microphone's
+    difference from the mean and the paths' RMS gains (compiled: the exponential a
+    series for small arguments; numpy), against the formulas per element here."""
+    import math
+
+    render_mod = importlib.import_module("acousim.synth.render")
+    if not compiled:
+        monkeypatch.setattr(render_mod, "optional_kernel", lambda *a: None)
+    rng = np.random.default_rng(8)
+    M, N, c = 6, 40, -0.15  # c: -alpha ln(10) / 20 per metre, alpha = 1.3 dB/m
+    length = rng.uniform(1, 5, N)[None] + rng.uniform(-spread_m, spread_m, (M, N))
+    gain = rng.uniform(0.1, 1, (M, N))
+    mean, g, weight = render_mod._mic_gains(gain, length, c)
+    for n in range(N):
+        want_mean = math.fsum(length[:, n]) / M
+        assert mean[n] == pytest.approx(want_mean, rel=1e-15)
+        want = [gain[m, n] * math.exp(c * (length[m, n] - want_mean)) for m in range(M)]
+        np.testing.assert_allclose(g[:, n], want, rtol=2e-15)
+        rms = math.sqrt(math.fsum(w * w for w in want) / M)
+        assert weight[n] == pytest.approx(rms, rel=1e-14)
