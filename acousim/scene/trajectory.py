@@ -140,7 +140,7 @@ class Trajectory:
         else:
             k = np.searchsorted(self.times_s, flat, side="right") - 1
             k = np.clip(k, 0, self.times_s.size - 2)
-            if k.size and k.min() == k.max():  # within one segment (a measurement's): its matrices once
+            if k.size and k.min() == k.max():  # one segment (a measurement's): its matrices once
                 k = int(k[0])
         angle = (flat - start[k]) * rate[k]
         s = np.sin(angle)[:, None, None]

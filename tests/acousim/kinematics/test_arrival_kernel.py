@@ -43,13 +43,13 @@ def test_compiled_newton_agrees_with_the_array_version_and_the_equation(monkeypa
         assert np.abs(residual).max() < 1e-10
 
 
-def _instants_case():
+def _instants_case(turn_deg_s: float = 90.0):
     """A turning, moving array (urtis_v1) and 60 anchors, three of them on the
     emitter (the direct path: 2 cm, the largest curvature of the equation), with
     when each instant's sample leaves them (s): (kin, t_r (3, N), A (3, 3, N))."""
     arr = P.preset("urtis_v1")
     pose = Pose([0.0, 0, 0])
-    traj = Trajectory.constant(pose, [1.5, -0.5, 0.1], np.deg2rad([0, 0, 90]))
+    traj = Trajectory.constant(pose, [1.5, -0.5, 0.1], np.deg2rad([0, 0, turn_deg_s]))
     kin = SensorKinematics(traj, pose, arr, 0.04, TABLE_STEP_S)
     rng = np.random.default_rng(11)
     N = 60
@@ -77,11 +77,30 @@ def _reception_by_fixed_point(kin, mic, t_r, anchor):
     return t
 
 
-def test_fused_instants_solve_the_retarded_time_equation():
-    from acousim.kinematics._arrival_kernel import solve_arrivals
+def _fast_turn_case():
+    """:func:`_instants_case` turning at 360 deg/s: the kinematics' polynomial of
+    degree 5 (the kernel's loops of DEGREE)."""
+    return _instants_case(360.0)
 
+
+def _through_poses_case():
+    """:func:`_instants_case` on a trajectory through poses (a cubic per segment, a
+    slow turn: a polynomial of degree 3, the kernel's loops of LOW)."""
     kin, t_r, A, duration = _instants_case()
+    poses = [Pose([0.0, 0, 0]), Pose([0.1, 0.02, 0], 0.03, time_s=0.1)]
+    poses.append(Pose([0.2, 0, 0], time_s=0.2))
+    low = SensorKinematics(Trajectory.through(poses), poses[0], kin.array, 0.04, TABLE_STEP_S)
+    return low, t_r, A, duration
+
+
+@pytest.mark.parametrize("case", [_instants_case, _fast_turn_case, _through_poses_case])
+def test_fused_instants_solve_the_retarded_time_equation(case):
+    from acousim.kinematics._arrival_kernel import LOW, solve_arrivals
+
+    kin, t_r, A, duration = case()
     assert kin.poly is not None
+    # each of the kernel's two compiled degrees (LOW and DEGREE) is met
+    assert (kin.degree > LOW) == (case is _fast_turn_case)
     out = solve_arrivals(
         t_r, A, duration, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, C, mv.NEWTON_STOP_S
     )
