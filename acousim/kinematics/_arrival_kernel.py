@@ -410,3 +410,40 @@ def solve_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, first_leg, 
     args = (np.array(t_r, float), np.ascontiguousarray(A, float), float(duration), pm, pv)
     arrive_echoes(*args, float(mid), float(half), float(c), float(stop), echo, tag)
     return terms
+
+
+@njit(cache=True, nogil=True)
+def leaving_still(anchor, mirror, legs, departure, emitter, tau, c, out):  # pragma: no cover
+    """:func:`acousim.kinematics.retarded._retarded` of still anchors (no velocity,
+    no acceleration: they move with the emitter alone) at the emission times `tau`
+    (Q,) (s): per instant q and path n, the anchor ``a0 + J de`` (de the emitter's
+    displacement from the start of the emission) and the first leg (held, by
+    Fermat's law or exact, as the path's code says), the same operations as there.
+
+    anchor (N, 3) m, mirror (N, 3, 3), departure (N, 3); `legs`: the first legs at
+    tau = 0 (N,) (m), their codes (N,) (FirstLeg: 0 held, 1 Fermat, 2 exact) and
+    Fermat lengths (N,) (m); `emitter`: its positions at `tau` (Q, 3) and at the
+    start of the emission (3,) (m).  Into `out`: when each sample leaves the anchor
+    (Q, N) (s), the anchors then (Q, 3, N) (instant, coordinate, path; m) and the
+    first legs at the first instant (N,) (m).
+    """
+    f0, mode, lf = legs
+    e, e0 = emitter
+    t_r, A, first0 = out
+    for q in range(tau.size):
+        dx, dy, dz = e[q, 0] - e0[0], e[q, 1] - e0[1], e[q, 2] - e0[2]
+        dd = dx * dx + dy * dy + dz * dz
+        for n in range(f0.size):
+            for i in range(3):
+                shift = mirror[n, i, 0] * dx + mirror[n, i, 1] * dy + mirror[n, i, 2] * dz
+                A[q, i, n] = anchor[n, i] + shift
+            first = f0[n]
+            if mode[n] == 1:
+                along = departure[n, 0] * dx + departure[n, 1] * dy + departure[n, 2] * dz
+                first = f0[n] - along + (dd - along * along) / (2 * lf[n])
+            elif mode[n] == 2:
+                ux, uy, uz = A[q, 0, n] - e[q, 0], A[q, 1, n] - e[q, 1], A[q, 2, n] - e[q, 2]
+                first = np.sqrt(ux * ux + uy * uy + uz * uz)
+            t_r[q, n] = tau[q] + first / c
+            if q == 0:
+                first0[n] = first

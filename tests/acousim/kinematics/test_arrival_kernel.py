@@ -167,3 +167,36 @@ def test_echoes_are_the_stated_formulas_of_the_reception_times():
             assert delay[m, n] == pytest.approx(t[0, m, n] + 2 * bend / 3, rel=1e-15)
             assert rate[m, n] == pytest.approx(duration / (t[1, m, n] - t[0, m, n]), rel=1e-12)
     assert gain[:, 3].max() == pytest.approx(amplitude[3] / 1e-6)
+
+
+def test_still_anchors_leave_as_the_stated_laws():
+    """The compiled start of the last legs of still anchors (`leaving_still`) against
+    the laws of acousim.trace.motion.following written here per path: the anchor
+    moves by J de, the first leg held, by Fermat's law to second order, or exact."""
+    from acousim.kinematics._arrival_kernel import leaving_still
+
+    rng = np.random.default_rng(5)
+    N, tau = 40, np.array([0.0, 2.5e-3, 1.25e-3])
+    a0 = rng.uniform(-4, 4, (N, 3))
+    J = np.linalg.qr(rng.normal(size=(N, 3, 3)))[0]
+    f0, lf = rng.uniform(0.5, 5, N), rng.uniform(1, 8, N)
+    mode = np.arange(N) % 3
+    dep = rng.normal(size=(N, 3))
+    dep /= np.linalg.norm(dep, axis=1, keepdims=True)
+    e0 = np.array([0.1, -0.2, 0.3])
+    e = e0 + np.outer(tau, [1.5, -0.4, 0.2])  # the emitter moving at 1.6 m/s
+    out = (np.empty((3, N)), np.empty((3, 3, N)), np.empty(N))
+    leaving_still(a0, J, (f0, mode, lf), dep, (e, e0), tau, C, out)
+    for q in range(3):
+        de = e[q] - e0
+        for n in range(N):
+            anchor = a0[n] + J[n] @ de
+            first = [
+                f0[n],
+                f0[n] - dep[n] @ de + (de @ de - (dep[n] @ de) ** 2) / (2 * lf[n]),
+                np.linalg.norm(anchor - e[q]),
+            ][mode[n]]
+            assert np.allclose(out[1][q, :, n], anchor, rtol=0, atol=1e-14)
+            assert abs(out[0][q, n] - (tau[q] + first / C)) < 1e-16
+            if q == 0:
+                assert abs(out[2][n] - first) < 1e-14
