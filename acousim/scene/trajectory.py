@@ -134,7 +134,7 @@ class Trajectory:
         time (:meth:`_turns`)."""
         t = np.asarray(t_s, float)
         flat = t.ravel()
-        base, first, second, rate, start = self._turns()
+        base, first, second, rate, start, _ = self._turns()
         if self.is_constant:
             k = 0
         else:
@@ -155,7 +155,8 @@ class Trajectory:
         at the segment's start, K_j the cross-product matrix of its rotation's unit
         axis, F_j and S_j ``B_j K_j`` and ``B_j K_j^2`` (body-frame axis: through
         poses) or ``K_j B_j`` and ``K_j^2 B_j`` (world frame: constant rates).
-        Made once (B (J, 3, 3), F, S, rate (J,) rad/s, start (J,) s)."""
+        Made once (B (J, 3, 3), F, S, rate (J,) rad/s, start (J,) s), with the
+        angular velocities (J, 3) (rad/s, world frame)."""
         turns = self.__dict__.get("_turns_cache")
         if turns is not None:
             return turns
@@ -176,7 +177,12 @@ class Trajectory:
             first, second = K @ mats, K2 @ mats
         else:
             first, second = mats @ K, mats @ K2
-        turns = (mats, first, second, angle / span, self.times_s[: len(vec)])
+        rate = angle / span
+        if self.is_constant:
+            omega = self.angular_velocity_rad_s[None]
+        else:  # the body frame's rotation vector turned into the world's
+            omega = (mats @ vec[:, :, None])[:, :, 0] / span[:, None]
+        turns = (mats, first, second, rate, self.times_s[: len(vec)], omega)
         self.__dict__["_turns_cache"] = turns
         return turns
 
@@ -196,9 +202,7 @@ class Trajectory:
             return self.angular_velocity_rad_s.copy()
         t = self.times_s
         i = int(np.clip(np.searchsorted(t, t_s, side="right") - 1, 0, t.size - 2))
-        r0 = self.rotations[i]
-        step = (self.rotations[i + 1] * r0.inv()).as_rotvec()  # world frame
-        return step / (t[i + 1] - t[i])
+        return self._turns()[5][i].copy()  # (R_(i+1) R_i^T as a rotation vector)
 
     def pose(self, t_s: float) -> Pose:
         """The pose at time `t_s`."""
