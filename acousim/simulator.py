@@ -98,8 +98,9 @@ class Heard:
     directivity applied."""
     position_m: np.ndarray
     """(N, 3) where each path comes from (world frame, at the start of the emission)."""
-    kinds: list[str]
-    """(N,) the path kinds' names."""
+    kind_codes: np.ndarray
+    """(N,) int, the paths' :class:`~acousim.trace.paths.PathKind` codes (their names:
+    :attr:`kinds`, :meth:`kind_array`)."""
     order: np.ndarray
     """(N,) reflections."""
     level: np.ndarray
@@ -117,15 +118,15 @@ class Heard:
     """what the sensor sees of each path and its chain, as :class:`processing.GroundTruth`
     keywords (delay and arrival at the array centre, apparent positions, first and
     last points, objects: :mod:`acousim.trace.seen`, :mod:`acousim.kinematics.seen`)."""
-    kind_codes: np.ndarray | None = None
-    """(N,) int, the :class:`~acousim.trace.paths.PathKind` codes of `kinds` (None:
-    not given)."""
+
+    @property
+    def kinds(self) -> list[str]:
+        """(N,) the path kinds' names."""
+        return kind_names(self.kind_codes)
 
     def kind_array(self) -> np.ndarray:
         """(N,) str, the path kinds' names as an array (from the codes: a list of
         thousands of strings takes a hundred times longer to convert)."""
-        if self.kind_codes is None:
-            return np.array(self.kinds, dtype=str)
         return _KIND_NAMES[self.kind_codes]
 
 
@@ -338,13 +339,12 @@ class Simulator:
         return Heard(
             self._mic_directivity(echoes, heard.anchor_m, mics, pose),
             paths.position_m,
-            kind_names(paths.kind),
+            paths.kind,
             paths.order,
             level,
             rays,
             rows=rows,
             seen=what,
-            kind_codes=paths.kind,
         )
 
     def _heard_moving(
@@ -385,7 +385,7 @@ class Simulator:
         return Heard(
             echoes,
             m.position_m,
-            m.kinds,
+            m.kind_codes,
             m.moving.order,
             level,
             m.rays,
@@ -393,7 +393,6 @@ class Simulator:
             rate=rate,
             rows=rows,
             seen=what,
-            kind_codes=_codes(m),
         )
 
     def _chains(self, paths: TracedPaths, pose: Pose, receiver: np.ndarray, points=None) -> dict:
@@ -656,14 +655,6 @@ class Simulator:
 
 #: the names of the path kinds by code (:class:`~acousim.trace.paths.PathKind`)
 _KIND_NAMES = np.array([k.name for k in PathKind])
-
-
-def _codes(m: InMotion) -> np.ndarray:
-    """The kind codes (N,) of the paths of a measurement in motion: the traced
-    paths', then the moving point reflectors' (as :func:`paths_in_motion` names
-    them)."""
-    extra = np.full(len(m.moving) - len(m.traced), int(PathKind.point))
-    return np.concatenate([m.traced.kind, extra])
 
 
 def _scattered(values: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:
