@@ -135,9 +135,8 @@ class Trajectory:
         t = np.asarray(t_s, float)
         flat = t.ravel()
         base, first, second, rate, start, _ = self._turns()
-        if self.is_constant:
-            k = 0
-        else:
+        k: int | np.ndarray = 0  # the segment (of each time)
+        if not self.is_constant:
             k = np.searchsorted(self.times_s, flat, side="right") - 1
             k = np.clip(k, 0, self.times_s.size - 2)
             if k.size and k.min() == k.max():  # one segment (a measurement's): its matrices once
