@@ -156,36 +156,44 @@ def solve(t_r, A, guess, poly, poly_v, mid, half, c, stop) -> np.ndarray:
 
 
 #: the compiled solve of :func:`arrive` evaluates the microphones' polynomials at
-#: this degree (acousim.kinematics.sensor.POLY_DEGREE), the higher coefficients of
-#: a lower degree zero (the same values: Horner's rule adds exact zeros first), so
-#: that its loops unroll and the paths vectorise
+#: this degree (acousim.kinematics.sensor.POLY_DEGREE) or at LOW, the higher
+#: coefficients of a lower degree zero (the same values: Horner's rule adds exact
+#: zeros first), so that its loops unroll and the paths vectorise
 DEGREE = 6
+#: polynomials of this degree or lower are padded to it alone (a sensor on a
+#: trajectory through poses: the cubic of its segment), their Horner loops half
+#: as long (the same values: the padding adds exact zeros); the degree reaches
+#: the compiled functions as the length of a tuple `tag`, a constant of each
+#: compiled version (numba compiles one per tuple type), so that their loops
+#: still unroll
+LOW = 3
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic):  # pragma: no cover - compiled
+def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic, tag):  # pragma: no cover - compiled
     """One Newton step on ``f(t) = t - t_r - |m(t) - A| / c`` of one path at one
     microphone: the step ``f / f'`` (s) and the microphone's offset from the anchor
     over ``c |m - A| f'`` (how the solution moves with the microphone, three
     components, s/m).  One division: ``f' = (d - v.(m - A) / c) / d`` with d the
     distance (at least 1e-12 m).
 
-    pm (DEGREE + 1, 3) and pv (DEGREE, 3): the microphone's position (m) and
-    velocity (m/s) in ``x = (t - mid) ih``, x^0 first; ih = 1 / half (1/s), ic =
-    1 / c (s/m).
+    pm (D + 1, 3) and pv (D, 3): the microphone's position (m) and velocity (m/s)
+    in ``x = (t - mid) ih``, x^0 first, D the length of `tag` (DEGREE or LOW); ih
+    = 1 / half (1/s), ic = 1 / c (s/m).
     """
     x = (t - mid) * ih
-    px = pm[DEGREE, 0]
-    py = pm[DEGREE, 1]
-    pz = pm[DEGREE, 2]
-    for k in range(DEGREE - 1, -1, -1):
+    D = len(tag)  # a constant of the compiled version
+    px = pm[D, 0]
+    py = pm[D, 1]
+    pz = pm[D, 2]
+    for k in range(D - 1, -1, -1):
         px = px * x + pm[k, 0]
         py = py * x + pm[k, 1]
         pz = pz * x + pm[k, 2]
-    vx = pv[DEGREE - 1, 0]
-    vy = pv[DEGREE - 1, 1]
-    vz = pv[DEGREE - 1, 2]
-    for k in range(DEGREE - 2, -1, -1):
+    vx = pv[D - 1, 0]
+    vy = pv[D - 1, 1]
+    vz = pv[D - 1, 2]
+    for k in range(D - 2, -1, -1):
         vx = vx * x + pv[k, 0]
         vy = vy * x + pv[k, 1]
         vz = vz * x + pv[k, 2]
@@ -200,7 +208,7 @@ def _newton_step(t, t_r, ax, ay, az, pm, pv, mid, ih, ic):  # pragma: no cover -
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover
+def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag):  # pragma: no cover
     """One Newton step (:func:`_newton_step`) of every path at one microphone, in
     place on `t` (N,) (vectorised over the paths); the steps into `step` (N,) and
     the offsets over ``c |m - A| f'`` into `g` (three arrays (N,), s/m); how many
@@ -209,7 +217,7 @@ def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no c
     over = 0
     for n in range(t.size):
         s, gx[n], gy[n], gz[n] = _newton_step(
-            t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic
+            t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic, tag
         )
         t[n] -= s
         step[n] = s
@@ -218,14 +226,14 @@ def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no c
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover - compiled
+def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag):  # pragma: no cover - compiled
     """Newton on `t` (N,) in place until each path's last step is below `stop` (s),
     at most 20 steps: passes over every path while more than an eighth of them
     move, then each remaining path on its own."""
     N = t.size
     passes = 0
     while passes < 20:
-        over = _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g)
+        over = _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag)
         passes += 1
         if over == 0:
             return
@@ -236,12 +244,12 @@ def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g):  # pragma: no cover -
         for _ in range(20 - passes):
             if abs(s) < stop:
                 break
-            s = _newton_step(t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic)[0]
+            s = _newton_step(t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic, tag)[0]
             t[n] -= s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: no cover
+def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out, tag):  # pragma: no cover
     """Reception times of the call's first, last and middle sample (instants 0, 1, 2)
     of every path at every microphone into `out` (M, 3, N) (s): per microphone and
     instant, Newton on ``f(t) = t - t_r - |m(t) - A| / c`` (as :func:`newton`) until
@@ -259,26 +267,27 @@ def arrive(t_r, A, duration, poly, poly_v, mid, half, c, stop, out):  # pragma: 
       microphone (at the first one, none).
 
     t_r (3, N): when each instant's sample leaves the path's last anchor (s); A
-    (3, 3, N): the anchors then (instant, coordinate, path; m); poly (M, DEGREE + 1,
-    3) and poly_v (M, DEGREE, 3): each microphone's position (m) and velocity (m/s)
-    in ``x = (t - mid) / half``, x^0 first.
+    (3, 3, N): the anchors then (instant, coordinate, path; m); poly (M, D + 1, 3)
+    and poly_v (M, D, 3): each microphone's position (m) and velocity (m/s) in
+    ``x = (t - mid) / half``, x^0 first; `tag`: a tuple of D zeros (D = DEGREE or
+    LOW: :func:`_padded`).
     """
     M, _, N = out.shape
-    work = _work(N)
+    work = _work(N, tag)
     for m in range(M):
         prev = out[m - 1] if m > 0 else out[0]
         _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, out[m], work)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def arrive_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, echo):  # pragma: no cover
+def arrive_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, echo, tag):  # noqa: E501  # pragma: no cover
     """:func:`arrive`, each microphone's reception times turned into its echoes at
     once (:func:`_echo_row`; only two microphones' times are kept): `echo` the
     first legs (N,) (m) and amplitudes (N,) at the start of the emission, then the
     delays, gains, lengths, rates and curvatures (M, N) written."""
     first_leg, amplitude, delay, gain, length, rate, curvature = echo
     M, N = delay.shape
-    work = _work(N)
+    work = _work(N, tag)
     rows = np.empty((2, 3, N))
     for m in range(M):
         cur, prev = rows[m % 2], rows[(m + 1) % 2]
@@ -298,13 +307,14 @@ def arrive_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, echo):  # 
 
 
 @njit(cache=True, nogil=True)
-def _work(N):  # pragma: no cover - compiled
+def _work(N, tag):  # pragma: no cover - compiled
     """The scratch arrays of :func:`_arrive_row` for N paths: the steps, and the
     first sample's sensitivity to the microphone's position (s/m, three arrays: at
-    the previous microphone) and a spare for the other instants."""
+    the previous microphone) and a spare for the other instants; and `tag` (the
+    polynomials' degree, :func:`arrive`)."""
     g = (np.empty(N), np.empty(N), np.empty(N))
     spare = (np.empty(N), np.empty(N), np.empty(N))
-    return np.empty(N), g, spare
+    return np.empty(N), g, spare, tag
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -314,7 +324,7 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
     N = cur.shape[1]
     ih = 1.0 / half
     ic = 1.0 / c
-    step, g, spare = work
+    step, g, spare, tag = work
     first, last, middle = cur[0], cur[1], cur[2]
     if m == 0:
         first[:] = t_r[0]
@@ -325,14 +335,14 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
         gx, gy, gz = g
         for n in range(N):
             first[n] = prev[0, n] + (gx[n] * ox + gy[n] * oy + gz[n] * oz)
-    _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, ih, ic, stop, step, g)
+    _solve(first, t_r[0], A[0], poly[m], poly_v[m], mid, ih, ic, stop, step, g, tag)
     if m == 0:
         for n in range(N):
             last[n] = first[n] + duration
     else:
         for n in range(N):
             last[n] = first[n] + (prev[1, n] - prev[0, n])
-    _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
+    _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare, tag)
     if m == 0:
         for n in range(N):
             middle[n] = 0.5 * (first[n] + last[n])
@@ -340,7 +350,7 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
         for n in range(N):
             bend = prev[2, n] - 0.5 * (prev[0, n] + prev[1, n])
             middle[n] = 0.5 * (first[n] + last[n]) + bend
-    _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare)
+    _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare, tag)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -367,34 +377,73 @@ def _echo_row(t, first, amplitude, c, duration, delay, gain, length, rate, curva
 
 
 def _padded(poly, poly_v):
-    """The polynomials (M, K, 3), (M, K - 1, 3) padded with zeros to DEGREE."""
+    """The polynomials (M, K, 3), (M, K - 1, 3) padded with zeros to LOW (K - 1 up
+    to LOW) or DEGREE, and the compiled functions' `tag` of that degree."""
     M, K, _ = poly.shape
     if K > DEGREE + 1:
         raise ValueError(f"polynomials of degree {K - 1}: at most {DEGREE}")
-    pm = np.zeros((M, DEGREE + 1, 3))
+    D = LOW if K <= LOW + 1 else DEGREE
+    pm = np.zeros((M, D + 1, 3))
     pm[:, :K] = poly
-    pv = np.zeros((M, DEGREE, 3))
+    pv = np.zeros((M, D, 3))
     pv[:, : K - 1] = poly_v
-    return pm, pv
+    return pm, pv, (0,) * D
 
 
 def solve_arrivals(t_r, A, duration, poly, poly_v, mid, half, c, stop) -> np.ndarray:
     """:func:`arrive` into a new array (3, M, N) (a view), the polynomials padded to
-    DEGREE."""
-    pm, pv = _padded(poly, poly_v)
+    LOW or DEGREE."""
+    pm, pv, tag = _padded(poly, poly_v)
     out = np.empty((poly.shape[0], 3, t_r.shape[1]))
     args = (np.array(t_r, float), np.ascontiguousarray(A, float), float(duration), pm, pv)
-    arrive(*args, float(mid), float(half), float(c), float(stop), out)
+    arrive(*args, float(mid), float(half), float(c), float(stop), out, tag)
     return out.transpose(1, 0, 2)
 
 
 def solve_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, first_leg, amplitude):
     """:func:`arrive_echoes` into new arrays: delays (s), gains, lengths (m), rates and
     curvatures (s), each (M, N)."""
-    pm, pv = _padded(poly, poly_v)
+    pm, pv, tag = _padded(poly, poly_v)
     M, N = poly.shape[0], t_r.shape[1]
     terms = tuple(np.empty((M, N)) for _ in range(5))
     echo = (np.array(first_leg, float), np.array(amplitude, float), *terms)
     args = (np.array(t_r, float), np.ascontiguousarray(A, float), float(duration), pm, pv)
-    arrive_echoes(*args, float(mid), float(half), float(c), float(stop), echo)
+    arrive_echoes(*args, float(mid), float(half), float(c), float(stop), echo, tag)
     return terms
+
+
+@njit(cache=True, nogil=True)
+def leaving_still(anchor, mirror, legs, departure, emitter, tau, c, out):  # pragma: no cover
+    """:func:`acousim.kinematics.retarded._retarded` of still anchors (no velocity,
+    no acceleration: they move with the emitter alone) at the emission times `tau`
+    (Q,) (s): per instant q and path n, the anchor ``a0 + J de`` (de the emitter's
+    displacement from the start of the emission) and the first leg (held, by
+    Fermat's law or exact, as the path's code says), the same operations as there.
+
+    anchor (N, 3) m, mirror (N, 3, 3), departure (N, 3); `legs`: the first legs at
+    tau = 0 (N,) (m), their codes (N,) (FirstLeg: 0 held, 1 Fermat, 2 exact) and
+    Fermat lengths (N,) (m); `emitter`: its positions at `tau` (Q, 3) and at the
+    start of the emission (3,) (m).  Into `out`: when each sample leaves the anchor
+    (Q, N) (s), the anchors then (Q, 3, N) (instant, coordinate, path; m) and the
+    first legs at the first instant (N,) (m).
+    """
+    f0, mode, lf = legs
+    e, e0 = emitter
+    t_r, A, first0 = out
+    for q in range(tau.size):
+        dx, dy, dz = e[q, 0] - e0[0], e[q, 1] - e0[1], e[q, 2] - e0[2]
+        dd = dx * dx + dy * dy + dz * dz
+        for n in range(f0.size):
+            for i in range(3):
+                shift = mirror[n, i, 0] * dx + mirror[n, i, 1] * dy + mirror[n, i, 2] * dz
+                A[q, i, n] = anchor[n, i] + shift
+            first = f0[n]
+            if mode[n] == 1:
+                along = departure[n, 0] * dx + departure[n, 1] * dy + departure[n, 2] * dz
+                first = f0[n] - along + (dd - along * along) / (2 * lf[n])
+            elif mode[n] == 2:
+                ux, uy, uz = A[q, 0, n] - e[q, 0], A[q, 1, n] - e[q, 1], A[q, 2, n] - e[q, 2]
+                first = np.sqrt(ux * ux + uy * uy + uz * uz)
+            t_r[q, n] = tau[q] + first / c
+            if q == 0:
+                first0[n] = first

@@ -49,3 +49,32 @@ def centre_times(
         t[:] = new
         if done:
             break
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def centre_seen(t, t_r, anchor, local, table, c, pose, out):  # pragma: no cover - compiled
+    """:func:`centre_times` (`table`: its times and rows; `c`: the speed of sound
+    (m/s); the stop and iterations as :data:`acousim.kinematics.seen._CONVERGED`),
+    then what the sensor sees of each path (:func:`acousim.kinematics.seen._seen`,
+    the same operations): into `out` the arrival directions (N, 3) (unit, the
+    sensor's frame at the reception), the apparent positions in that frame (N, 3)
+    (``local + u c t / 2``, m) and in the world through `pose` (its rotation (3, 3)
+    and position (3,): ``R x + p``, m)."""
+    times, rows, stop, iterations = table
+    R, p = pose
+    u, app, world = out
+    N = t.size
+    rot, where = np.empty((N, 3, 3)), np.empty((N, 3))
+    centre_times(t, t_r, anchor, local, times, rows, c, stop, iterations, rot, where)
+    for n in range(N):
+        d0 = anchor[n, 0] - where[n, 0]
+        d1 = anchor[n, 1] - where[n, 1]
+        d2 = anchor[n, 2] - where[n, 2]
+        norm = max(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-300)
+        d0, d1, d2 = d0 / norm, d1 / norm, d2 / norm
+        half = 0.5 * c * t[n]
+        for i in range(3):  # R(t)^T: the world's direction in the sensor's frame then
+            u[n, i] = rot[n, 0, i] * d0 + rot[n, 1, i] * d1 + rot[n, 2, i] * d2
+            app[n, i] = local[i] + u[n, i] * half
+        for i in range(3):
+            world[n, i] = R[i, 0] * app[n, 0] + R[i, 1] * app[n, 1] + R[i, 2] * app[n, 2] + p[i]

@@ -324,6 +324,15 @@ def _leaving(paths: MovingPaths, kin: SensorKinematics, duration_s: float, c: fl
     if _kernel("solve_echoes") is None:
         return None
     tau = np.array([[0.0], [duration_s], [duration_s / 2]])
+    still = _kernel("leaving_still")
+    if still is not None and not np.any(paths.velocity_m_s) and not np.any(paths.acceleration_m_s2):
+        # the anchors move with the emitter alone: compiled, the arrays the solve takes
+        N = len(paths)
+        out = (np.empty((3, N)), np.empty((3, 3, N)), np.empty(N))
+        legs = (paths.first_leg_m, np.asarray(paths.first_leg, np.int64), paths.fermat_length_m)
+        emitter = (kin.emitter(tau)[:, 0], kin.emitter0)
+        still(paths.anchor_m, paths.mirror, legs, paths.departure, emitter, tau[:, 0], c, out)
+        return out[0], out[1], out[1][:1].transpose(0, 2, 1), out[2]
     t_r, anchor, first = _retarded(paths, kin, tau, c, None)  # (3, N), (3, N, 3), (3, N)
     return t_r, anchor.transpose(0, 2, 1), anchor[:1], np.array(first[0])
 

@@ -38,13 +38,14 @@ def seen_moving(
     else:
         t = np.array(guess, float).reshape(-1)
     table = None if trajectory is None or not t.size else _Table(trajectory, pose.time_s, t)
-    compiled = optional_kernel("acousim.kinematics._seen_kernel", "centre_times")
+    compiled = optional_kernel("acousim.kinematics._seen_kernel", "centre_seen")
     if table is not None and compiled is not None:
-        rot, where = np.empty((t.size, 3, 3)), np.empty((t.size, 3))
+        out = (np.empty((t.size, 3)), np.empty((t.size, 3)), np.empty((t.size, 3)))
         # (copies: the kernel takes writable arrays, one compiled version)
         args = (np.array(t_r, float), np.array(anchor, float), np.array(local, float))
-        compiled(t, *args, table.times, table.rows, float(c), *_CONVERGED, rot, where)
-        return _seen(t, anchor, where, rot, pose, local, c)
+        frame = (pose.rotation, np.array(pose.position_m, float))
+        compiled(t, *args, (table.times, table.rows, *_CONVERGED), float(c), frame, out)
+        return Seen(t, *out)
 
     def centre(t):  # (N, 3) world, and the rotations (N, 3, 3) (None: the pose's)
         if table is None:

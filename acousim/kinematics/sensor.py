@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,10 +56,38 @@ def _ruled_out(x: np.ndarray, flat: np.ndarray) -> np.ndarray:
     below 1e-12 m)."""
     if x.size < POLY_DEGREE + 2:
         return np.zeros(POLY_DEGREE, bool)
-    q = np.linalg.qr(np.vander(x, POLY_DEGREE + 2, increasing=True))[0][:, 2:]
+    q, bound = _orthogonal(x.tobytes())
     proj = np.abs(q.T @ flat).max(axis=1)
-    beyond = proj > POLY_FIT_M * np.abs(q).sum(axis=0) + 1e-12  # column k + 2: degree k + 1
+    beyond = proj > bound  # column k + 2: degree k + 1
     return np.logical_or.accumulate(beyond[::-1])[::-1]
+
+
+@functools.lru_cache(maxsize=8)
+def _orthogonal(key: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_ruled_out`'s Q columns (G, POLY_DEGREE) and the bounds of their
+    projections, for the times whose bytes are `key` (every pose of a scene has the
+    same grid: made once)."""
+    x = np.frombuffer(key)
+    q = np.linalg.qr(np.vander(x, POLY_DEGREE + 2, increasing=True))[0][:, 2:]
+    return q, POLY_FIT_M * np.abs(q).sum(axis=0) + 1e-12
+
+
+@functools.lru_cache(maxsize=32)
+def _fitter(key: bytes, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Vandermonde matrix V (G, degree + 1) of the times whose bytes are `key`
+    and its pseudo-inverse (degree + 1, G): the least-squares polynomial of a table
+    (G, C) is ``pinv @ table`` (coefficients of x^0 first), its values ``V @ coef``
+    (as numpy's polyfit, made once per grid and degree)."""
+    V = np.vander(np.frombuffer(key), degree + 1, increasing=True)
+    return V, np.linalg.pinv(V)
+
+
+def _fit(x: np.ndarray, flat: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares polynomial of `degree` through the table `flat` (G, C) at the
+    times `x` (G,): its coefficients (degree + 1, C) and values (G, C)."""
+    V, pinv = _fitter(x.tobytes(), degree)
+    coef = pinv @ flat
+    return coef, V @ coef
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,8 +204,7 @@ class SensorKinematics:
             for degree in degrees:
                 if ruled_out[degree - 1]:
                     continue
-                coef = np.polynomial.polynomial.polyfit(x, flat, degree)  # (D + 1, P * 3)
-                fit = np.polynomial.polynomial.polyval(x, coef).T
+                coef, fit = _fit(x, flat, degree)  # (D + 1, P * 3), (G, P * 3)
                 if np.max(np.abs(fit - flat)) < POLY_FIT_M:
                     break
             if fit is not None and np.max(np.abs(fit - flat)) < POLY_FIT_M:

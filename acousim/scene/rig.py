@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 from acousim.scene.lidar import Lidar
 from acousim.scene.model import Sensor
 from acousim.scene.pose import Pose, rotation
-from acousim.scene.trajectory import Trajectory
+from acousim.scene.trajectory import Trajectory, placed
 from processing.base.errors import InputError
 from processing.base.settings import Setting, check, setting, validate
 
@@ -142,7 +142,7 @@ class MountedTrajectory(Trajectory):
         body = self.body.rotation(t_s)
         R = body @ self.mount.rotation
         p = self.body.position(t_s) + body @ self.mount.position_m
-        return np.einsum("...ij,pj->...pi", R, np.asarray(points_sensor, float)) + p[..., None, :]
+        return placed(R, np.asarray(points_sensor, float), p)
 
     def velocity(self, t_s: float) -> np.ndarray:
         """Velocity (3,) m/s of the sensor's origin at `t_s` (world frame): the body's

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from acousim.trace.paths import KIND, TracedPaths
+from processing.base.kernels import optional_kernel
 
 __all__ = [
     "Seen",
@@ -143,17 +144,13 @@ def chain_points(
         return first, last, obj
     todo = np.flatnonzero(~direct & (paths.kind != KIND["point"]))
     # straight at the point, then (an edge, a cluster off its face) a little beside it
+    receiver_m = np.asarray(receiver_m, float)
     for nudge in _NUDGES:
         if not todo.size:
             break
-        to = last[todo] - receiver_m
-        d = np.linalg.norm(to, axis=1)
-        aim = to + nudge * (FACE_TOLERANCE_M / 2) * (1 + d[:, None])
-        t, face = caster.first_hit(np.broadcast_to(receiver_m, to.shape), aim)
-        d = np.linalg.norm(aim, axis=1)
-        ok = (face >= 0) & (np.abs(t - d) <= FACE_TOLERANCE_M * (1 + d))
-        obj[todo[ok]] = face_object[face[ok]]
-        todo = todo[~ok]
+        aim, d = _aim(last, todo, receiver_m, nudge * (FACE_TOLERANCE_M / 2))
+        hit = caster.first_hit(np.broadcast_to(receiver_m, aim.shape), aim)
+        todo = _accept(todo, hit, d, face_object, obj)
     deep = np.flatnonzero(~direct & (paths.order > 1) & (paths.kind != KIND["point"]))
     if deep.size:
         t, face = caster.first_hit(
@@ -162,6 +159,34 @@ def chain_points(
         hit = np.isfinite(t)
         first[deep[hit]] = emitter_m + t[hit, None] * _unit(paths.departure[deep[hit]])
     return first, last, obj
+
+
+def _aim(last, todo, receiver_m, shift) -> tuple[np.ndarray, np.ndarray]:
+    """The rays (K, 3) from `receiver_m` (3,) at the points ``last[todo]`` moved by
+    `shift` (3,) times one plus their distance, and their lengths (K,) (m)."""
+    compiled = optional_kernel("acousim.trace._chain_kernel", "aim")
+    if compiled is not None:
+        out, dist = np.empty((todo.size, 3)), np.empty(todo.size)
+        compiled(last, todo, receiver_m, np.asarray(shift, float), out, dist)
+        return out, dist
+    to = last[todo] - receiver_m
+    d = np.linalg.norm(to, axis=1)
+    out = to + shift * (1 + d[:, None])
+    return out, np.linalg.norm(out, axis=1)
+
+
+def _accept(todo, hit, dist, face_object, obj) -> np.ndarray:
+    """The paths of `todo` whose ray (`hit`: distances and faces, :meth:`RayCaster.
+    first_hit`) met no face within the tolerance of `dist` (m); the object of
+    each that did written into `obj`."""
+    compiled = optional_kernel("acousim.trace._chain_kernel", "accept")
+    if compiled is not None:
+        todo = np.array(todo)  # (compacted in place)
+        return todo[: compiled(todo, hit, dist, FACE_TOLERANCE_M, face_object, obj)]
+    t, face = hit
+    ok = (face >= 0) & (np.abs(t - dist) <= FACE_TOLERANCE_M * (1 + dist))
+    obj[todo[ok]] = face_object[face[ok]]
+    return todo[~ok]
 
 
 def chain_fields(

@@ -124,11 +124,10 @@ class MovingPaths:
             mirror[two[ok]] = J[ok]
             first[two[ok]] = FirstLeg.fixed
         first[paths.kind == KIND["point"]] = FirstLeg.exact
-        unfolded = np.where(
-            paths.first_leg_m > 0,
-            paths.first_leg_m,
-            np.linalg.norm(paths.anchor_m - emitter_m, axis=1),
-        )
+        # the first leg where there is one, else (an image source) its distance
+        unfolded = np.array(paths.first_leg_m, float)
+        image = np.flatnonzero(~(unfolded > 0))
+        unfolded[image] = np.linalg.norm(paths.anchor_m[image] - emitter_m, axis=1)
         return cls(
             paths.anchor_m,
             paths.first_leg_m,

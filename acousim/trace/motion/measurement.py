@@ -28,7 +28,7 @@ from acousim.scene.pose import Pose
 from acousim.trace.direct import heard_points
 from acousim.trace.motion.following import Endpoints, MovingPaths
 from acousim.trace.motion.moving_world import MovingWorld, follow_chains, ride
-from acousim.trace.paths import TracedPaths, kind_names
+from acousim.trace.paths import KIND, TracedPaths, kind_names
 from acousim.trace.tracer import PathTracer, Tracer
 from processing import Array
 
@@ -53,7 +53,7 @@ class InMotion:
     moving : how each path follows the motion (N paths)
     traced : the traced paths at the emission pose (the first len(traced) of N)
     position_m : (N, 3) where each path last reflects at the start of the emission, m
-    kinds : (N,) kind names
+    kind_codes : (N,) int, the paths' :class:`~acousim.trace.paths.PathKind` codes
     velocity_m_s : (N, 3) the velocity of each reflecting point, m/s
     points : (K,) indices into the scene's point reflectors of the moving ones heard
     rays : the rays the trace shot
@@ -62,10 +62,15 @@ class InMotion:
     moving: MovingPaths
     traced: TracedPaths
     position_m: np.ndarray
-    kinds: list[str]
+    kind_codes: np.ndarray
     velocity_m_s: np.ndarray
     points: np.ndarray
     rays: int
+
+    @property
+    def kinds(self) -> list[str]:
+        """(N,) the paths' kind names."""
+        return kind_names(self.kind_codes)
 
     @property
     def interactions(self) -> np.ndarray:
@@ -103,7 +108,7 @@ def paths_in_motion(
         still = moving
         moving, velocity = ride(moving, paths, on, normals, glint, tracer.velocities(pose), ends)
         moving = follow_chains(tracer, moving, still, paths, pose, ends)
-    position, kinds = paths.position_m, kind_names(paths.kind)
+    position, kinds = paths.position_m, paths.kind
     index = np.array([i for i, p in enumerate(points) if p.moving], int)
     if index.size:
         now = [points[i].at(pose.time_s) for i in index]
@@ -115,7 +120,7 @@ def paths_in_motion(
         extra = MovingPaths.points(pos[keep], a[keep], v[keep], emitter)
         moving = MovingPaths.concatenate([moving, extra])
         position = np.concatenate([position, pos[keep]])
-        kinds = kinds + ["point"] * int(keep.sum())
+        kinds = np.concatenate([kinds, np.full(int(keep.sum()), KIND.point, kinds.dtype)])
         velocity = np.concatenate([velocity, extra.velocity_m_s])
         index = index[keep]
     return InMotion(moving, paths, position, kinds, velocity, index, rays)

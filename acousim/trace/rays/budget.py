@@ -49,6 +49,7 @@ few tenths of a dB; the corridor's poses stop at 2000 or 4000 rays (it used to s
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 from dataclasses import dataclass, fields
@@ -275,6 +276,18 @@ def _padded(a: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
+def _merged(parts: list[tuple[Contributions, int]], total: int, early) -> Contributions:
+    """:func:`_merge` of the batches `parts` (each: its contributions, its rays) of
+    `total` rays; where they are the first two batches of :func:`_first_two` whole
+    (`early`: its third item), those contributions as they are, their intensities
+    halved (the same numbers: the two batches are its two halves in order, of as
+    many rays each), instead of a copy of each array."""
+    if early is not None and len(early) == 3 and len(parts) == 2:
+        whole = early[2]
+        return dataclasses.replace(whole, intensity=whole.intensity * (parts[0][1] / total))
+    return _merge([(c, n / total) for c, n in parts])
+
+
 def _merge(parts: list[tuple[Contributions, float]]) -> Contributions:
     """Batches of contributions as one sample, each batch's intensities times its
     weight (its share of the rays)."""
@@ -341,7 +354,7 @@ def ray_work(
         if settled:
             break
     log.debug("automatic budget: %d rays", total)
-    contributions = _merge([(c, n / total) for c, n in parts])
+    contributions = _merged(parts, total, early)
     if enumerate_all:
         return RayWork(every, contributions, total, frozenset(met))
     return RayWork(sorted(sequences), contributions, total)
@@ -365,7 +378,9 @@ def _first_two(world, caster, settings, ends, n: int) -> list:
     """Batches 0 and 1 of `n` rays each, followed and scattered in one pass: per
     batch, (the plane sequences met, all of them given to batch 0, the
     contributions); the contributions of each batch are those it makes alone, in
-    the same order.  ends: (emitter, receiver, axis)."""
+    the same order (without frequency-dependent materials, a third item: the two
+    batches' contributions, batch 0's then batch 1's, as one).  ends: (emitter,
+    receiver, axis)."""
     emitter, receiver, axis = ends
     omega = 2 * np.pi * (1 - np.cos(settings.beam_rad))
     dirs = np.concatenate([batch_directions(n, axis, settings.beam_rad, b) for b in (0, 1)])
@@ -377,7 +392,7 @@ def _first_two(world, caster, settings, ends, n: int) -> list:
     if world.spectra is not None:  # two parts per hit: the contributions taken apart
         return [(shot.sequences, take(both, ~second[rows])), ((), take(both, second[rows]))]
     k = int(np.searchsorted(rows, np.count_nonzero(~second)))
-    return [(shot.sequences, take(both, slice(0, k))), ((), take(both, slice(k, None)))]
+    return [(shot.sequences, take(both, slice(0, k))), ((), take(both, slice(k, None))), both]
 
 
 def _batch_major(shot: Shot, n: int) -> tuple[Hits, np.ndarray]:

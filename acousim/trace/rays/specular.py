@@ -80,28 +80,40 @@ def refine_sequences(
         L = np.linalg.norm(d, axis=1)
         t, f = caster.first_hit(cur[live] + eps * d / L[:, None], d)
         ok[live[(f >= 0) & (t < L - tol)]] = False
-        amp = np.prod(refl[ids], axis=1)
-        counts = _counts(ids, column, K)
         rows = np.flatnonzero(ok)
         # two orders of the same reflections that meet at an edge are one path (the
         # same image): the first kept
         keys = np.round(images[rows, -1] / tol).astype(np.int64).tolist()
+        first = []
         for i, key in zip(rows.tolist(), map(tuple, keys)):
-            if key in found:
-                continue
-            found.add(key)
-            dep = points[i, 0] - emitter
-            paths.append(
-                SpecularPath(
-                    tuple(ids[i].tolist()),
-                    images[i, -1],
-                    points[i].copy(),
-                    float(amp[i]),
-                    dep / np.sqrt(dep.dot(dep)),  # np.linalg.norm's sum, without its checks
-                    counts[i] if K else None,
-                )
-            )
+            if key not in found:
+                found.add(key)
+                first.append(i)
+        rows = np.array(first, np.intp)
+        counts = _counts(ids[rows], column, K) if K else None
+        paths += _as_specular(ids[rows], images[rows, -1], points[rows], refl, emitter, counts)
     return paths
+
+
+def _as_specular(ids, images, points, refl, emitter, counts) -> list[SpecularPath]:
+    """The paths of the sequences `ids` (S, k) kept, their last images (S, 3) and
+    reflection points (S, k, 3), each its own :class:`SpecularPath` (the arrays made
+    for all at once: the departures ``(x_1 - e) / |x_1 - e|``, the amplitudes the
+    products of the planes' factors `refl`); `counts` (S, K) or None."""
+    dep = points[:, 0] - emitter
+    dep = dep / np.sqrt(np.sum(dep * dep, axis=1))[:, None]
+    amp = np.prod(refl[ids], axis=1).tolist()
+    return [
+        SpecularPath(
+            tuple(planes),
+            images[i],
+            points[i],
+            amp[i],
+            dep[i],
+            None if counts is None else counts[i],
+        )
+        for i, planes in enumerate(ids.tolist())
+    ]
 
 
 def _kernels():

@@ -43,13 +43,13 @@ def test_compiled_newton_agrees_with_the_array_version_and_the_equation(monkeypa
         assert np.abs(residual).max() < 1e-10
 
 
-def _instants_case():
+def _instants_case(turn_deg_s: float = 90.0):
     """A turning, moving array (urtis_v1) and 60 anchors, three of them on the
     emitter (the direct path: 2 cm, the largest curvature of the equation), with
     when each instant's sample leaves them (s): (kin, t_r (3, N), A (3, 3, N))."""
     arr = P.preset("urtis_v1")
     pose = Pose([0.0, 0, 0])
-    traj = Trajectory.constant(pose, [1.5, -0.5, 0.1], np.deg2rad([0, 0, 90]))
+    traj = Trajectory.constant(pose, [1.5, -0.5, 0.1], np.deg2rad([0, 0, turn_deg_s]))
     kin = SensorKinematics(traj, pose, arr, 0.04, TABLE_STEP_S)
     rng = np.random.default_rng(11)
     N = 60
@@ -77,11 +77,30 @@ def _reception_by_fixed_point(kin, mic, t_r, anchor):
     return t
 
 
-def test_fused_instants_solve_the_retarded_time_equation():
-    from acousim.kinematics._arrival_kernel import solve_arrivals
+def _fast_turn_case():
+    """:func:`_instants_case` turning at 360 deg/s: the kinematics' polynomial of
+    degree 5 (the kernel's loops of DEGREE)."""
+    return _instants_case(360.0)
 
+
+def _through_poses_case():
+    """:func:`_instants_case` on a trajectory through poses (a cubic per segment, a
+    slow turn: a polynomial of degree 3, the kernel's loops of LOW)."""
     kin, t_r, A, duration = _instants_case()
+    poses = [Pose([0.0, 0, 0]), Pose([0.1, 0.02, 0], 0.03, time_s=0.1)]
+    poses.append(Pose([0.2, 0, 0], time_s=0.2))
+    low = SensorKinematics(Trajectory.through(poses), poses[0], kin.array, 0.04, TABLE_STEP_S)
+    return low, t_r, A, duration
+
+
+@pytest.mark.parametrize("case", [_instants_case, _fast_turn_case, _through_poses_case])
+def test_fused_instants_solve_the_retarded_time_equation(case):
+    from acousim.kinematics._arrival_kernel import LOW, solve_arrivals
+
+    kin, t_r, A, duration = case()
     assert kin.poly is not None
+    # each of the kernel's two compiled degrees (LOW and DEGREE) is met
+    assert (kin.degree > LOW) == (case is _fast_turn_case)
     out = solve_arrivals(
         t_r, A, duration, kin.mic_poly, kin.mic_poly_v, kin.mid, kin.half, C, mv.NEWTON_STOP_S
     )
@@ -148,3 +167,36 @@ def test_echoes_are_the_stated_formulas_of_the_reception_times():
             assert delay[m, n] == pytest.approx(t[0, m, n] + 2 * bend / 3, rel=1e-15)
             assert rate[m, n] == pytest.approx(duration / (t[1, m, n] - t[0, m, n]), rel=1e-12)
     assert gain[:, 3].max() == pytest.approx(amplitude[3] / 1e-6)
+
+
+def test_still_anchors_leave_as_the_stated_laws():
+    """The compiled start of the last legs of still anchors (`leaving_still`) against
+    the laws of acousim.trace.motion.following written here per path: the anchor
+    moves by J de, the first leg held, by Fermat's law to second order, or exact."""
+    from acousim.kinematics._arrival_kernel import leaving_still
+
+    rng = np.random.default_rng(5)
+    N, tau = 40, np.array([0.0, 2.5e-3, 1.25e-3])
+    a0 = rng.uniform(-4, 4, (N, 3))
+    J = np.linalg.qr(rng.normal(size=(N, 3, 3)))[0]
+    f0, lf = rng.uniform(0.5, 5, N), rng.uniform(1, 8, N)
+    mode = np.arange(N) % 3
+    dep = rng.normal(size=(N, 3))
+    dep /= np.linalg.norm(dep, axis=1, keepdims=True)
+    e0 = np.array([0.1, -0.2, 0.3])
+    e = e0 + np.outer(tau, [1.5, -0.4, 0.2])  # the emitter moving at 1.6 m/s
+    out = (np.empty((3, N)), np.empty((3, 3, N)), np.empty(N))
+    leaving_still(a0, J, (f0, mode, lf), dep, (e, e0), tau, C, out)
+    for q in range(3):
+        de = e[q] - e0
+        for n in range(N):
+            anchor = a0[n] + J[n] @ de
+            first = [
+                f0[n],
+                f0[n] - dep[n] @ de + (de @ de - (dep[n] @ de) ** 2) / (2 * lf[n]),
+                np.linalg.norm(anchor - e[q]),
+            ][mode[n]]
+            assert np.allclose(out[1][q, :, n], anchor, rtol=0, atol=1e-14)
+            assert abs(out[0][q, n] - (tau[q] + first / C)) < 1e-16
+            if q == 0:
+                assert abs(out[2][n] - first) < 1e-14

@@ -70,6 +70,12 @@ def test_centre_times_solve_the_equation_on_the_trajectory(offset):
     R = traj.rotation(pose.time_s + t)
     # the rotation's table interpolated linearly: w^2 h^2 / 8 = 8e-8 at 90 deg/s
     assert np.abs(np.einsum("nji,nj->ni", R, u) - seen.arrival_sensor).max() < 1e-7
+    # the apparent positions: the centre plus the arrival times c t / 2, sensor frame,
+    # and that point in the world through the pose (written here)
+    app = centre + seen.arrival_sensor * (C * seen.delay_s / 2)[:, None]
+    assert np.abs(seen.apparent_position_sensor_m - app).max() < 1e-13
+    world = np.array([pose.rotation @ a + pose.position_m for a in app])
+    assert np.abs(seen.apparent_position_world_m - world).max() < 1e-13
 
 
 @pytest.mark.parametrize("offset", OFFSETS)

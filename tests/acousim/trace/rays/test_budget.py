@@ -334,3 +334,35 @@ def test_the_compiled_aim_marks_the_rays_its_numpy_twin_marks(monkeypatch):
     assert sum(c.sum() for c in compiled) > 0
     for c, p in zip(compiled, plain):
         np.testing.assert_array_equal(c, p)
+
+
+def test_the_first_two_batches_merged_whole_are_their_concatenation():
+    """The first two batches' contributions taken whole (no copy) are the two halves
+    concatenated, each half's intensities times its share of the rays (written
+    here)."""
+    from acousim.trace.rays.budget import _merged
+    from acousim.trace.rays.scatter import Contributions, take
+
+    rng = np.random.default_rng(4)
+    K = 50
+    whole = Contributions(
+        rng.normal(size=(K, 3)),
+        rng.uniform(0, 1, K),
+        rng.uniform(1, 5, K),
+        rng.uniform(1, 5, K),
+        rng.normal(size=(K, 3)),
+        rng.integers(0, 9, K),
+        rng.integers(1, 3, K),
+        rng.uniform(size=K) > 0.5,
+    )
+    halves = [take(whole, slice(0, 20)), take(whole, slice(20, None))]
+    early = [((), halves[0]), ((), halves[1]), whole]
+    merged = _merged([(halves[0], 64), (halves[1], 64)], 128, early)
+    for f in dataclasses.fields(Contributions):
+        got, parts = getattr(merged, f.name), [getattr(h, f.name) for h in halves]
+        if f.name == "intensity":
+            parts = [p * (64 / 128) for p in parts]
+        if parts[0] is None:
+            assert got is None
+        else:
+            assert np.array_equal(got, np.concatenate(parts)), f.name
