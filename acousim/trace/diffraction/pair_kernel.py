@@ -543,14 +543,17 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
     buf, bins = out[3], out[4]
     zb, eta, prim, zc, nn, ll = buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
     amps, ey1 = buf[7], buf[8]
-    s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
+    # the pair's numbers as scalars (not loads that a store to the buffers might alias)
+    d0, d1, d2 = g[7] - g[0], g[8] - g[1], g[9] - g[2]  # edge 2's start from edge 1's
+    a0, a1, a2 = g[10], g[11], g[12]  # edge 2's axis
+    b0, b1, b2 = g[3], g[4], g[5]  # edge 1's
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
     half = 0.5 * cfg[4]
     for j in range(n):  # e^eta of beta_1 at every element's point (vectorizes)
-        e0 = s2[0] + zc[j] * a2[0] - s1[0]
-        e1 = s2[1] + zc[j] * a2[1] - s1[1]
-        e2 = s2[2] + zc[j] * a2[2] - s1[2]
-        z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
+        e0 = d0 + zc[j] * a0
+        e1 = d1 + zc[j] * a1
+        e2 = d2 + zc[j] * a2
+        z21 = e0 * b0 + e1 * b1 + e2 * b2
         r21 = math.sqrt(_clip(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0, math.inf))
         ratio = ((z1 - zs1) * (z1 - z21) + m * nn[j]) / (rs1 * r21)
         ey1[j] = _acosh_y(ratio if r21 > 0 else math.inf)
