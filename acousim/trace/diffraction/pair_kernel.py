@@ -566,9 +566,7 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
         y = ey1[j]
         v = nu1 * log_pos(y if y < math.inf else 1.0)
         ey1[j] = exp_pos(v) if y < math.inf and v <= 700.0 else math.inf
-    for j in range(n):
-        if amps[j] != 0:
-            amps[j] = amps[j] * _beta1(_cosh_nu_of(ey1[j]), c)
+    _betas1(n, amps, ey1, c)
     taper = g[21] > 0
     for j in range(n):  # the taper (1 up to half the excess kept), finite ones
         ex = m + nn[j] + ll[j] - p_min
@@ -599,6 +597,27 @@ def _sums(n, at, g, out):  # pragma: no cover - compiled
             acc[b, 3 + i] += w * x[i]
             acc[b, 6 + i] += w * (s2[i] + zc[j] * a2[i])
         count[b] += 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _betas1(n, amps, yn, c):  # pragma: no cover - compiled
+    """amps[:n] times :func:`_beta1` at their cosh(nu acosh) of yn (y^nu), one loop
+    per form, as selects (the loops vectorize; an amplitude of 0 stays 0, or is
+    NaN, which the taper's loop zeroes)."""
+    how, w, s0, c0, s1, c1 = c[1]
+    if how == 2:
+        for j in range(n):
+            big = _cosh_nu_of(yn[j])
+            d0, d1 = big - c0, big - c1
+            den = d0 * d1
+            one = w * (s0 * d1 + s1 * d0) / den
+            amps[j] = amps[j] * (one if den < 1e300 else w * (s0 / d0 + s1 / d1))
+    elif how == 1:
+        for j in range(n):
+            amps[j] = amps[j] * (w * s0 / (_cosh_nu_of(yn[j]) - c0))
+    else:
+        for j in range(n):
+            amps[j] = amps[j] * _beta1(_cosh_nu_of(yn[j]), c)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
