@@ -15,7 +15,7 @@ For speed, the same elements in the same bins: the cuts of edge 1 in lockstep,
 edge 2's elements in stages of independent loops (:func:`_side`), free of
 branches and of calls so that they vectorize: log1p, expm1, log, exp, atan and the
 taper's cos as inlined series (:mod:`acousim.trace.diffraction.math_kernel`, within a
-few ulp of the library's; the integral's amplitudes within 2e-15 of those with the
+few ulp of the library's; the integral's amplitudes within 1e-14 of those with the
 library's); two beta terms of equal or opposite weights over one atan2 and one
 division.
 """
