@@ -51,7 +51,10 @@ def _worker(scene_path: str, first: int, count: int, repeats: int) -> None:
     tracer.edge_diffraction = recording
     try:
         sim.tracer.forget()
-        sim.run(poses)
+        try:  # every pose in this process (a forked worker's calls are not seen here)
+            sim.run(poses, processes=1)
+        except TypeError:  # a checkout before Simulator.run's processes
+            sim.run(poses)
     finally:
         tracer.edge_diffraction = stage
     # in the order of their poses (a run may trace poses in parallel)

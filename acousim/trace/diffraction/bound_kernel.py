@@ -99,11 +99,11 @@ def _beta_bound(nu, th_a, th_b, terms, k):  # pragma: no cover - compiled
     phis = (math.pi + (a + b), math.pi + (a - b), math.pi + (-a + b), math.pi + (-a - b))
     total = 0.0
     for i in range(4):
-        half = (nu * phis[i] / 2) % math.pi
-        s = math.sin(half)
-        cot = abs(math.cos(half)) / s if s > 1e-12 else math.inf
         w = abs(terms[k, i])
-        total += w * cot if w > 0 else 0.0
+        if w > 0:  # (a term of weight 0 adds nothing: not evaluated)
+            half = (nu * phis[i] / 2) % math.pi
+            s = math.sin(half)
+            total += w * (abs(math.cos(half)) / s if s > 1e-12 else math.inf)
     return total
 
 
@@ -254,7 +254,7 @@ def _near_meeting_point(ax1, ax2, bin_m, k1, k2):  # pragma: no cover - compiled
     c = math.sqrt(_max(1 - abs(_min(_max(_dot(ax1, ax2), -1.0), 1.0)), 0.0))
     if not c > 1e-5:
         return math.inf
-    return 4 * math.pi * math.sqrt(bin_m) / (c * (k1 * k2) ** 0.25)
+    return 4 * math.pi * math.sqrt(bin_m) / (c * math.sqrt(math.sqrt(k1 * k2)))
 
 
 @_jit
@@ -278,8 +278,8 @@ def _bound(src, rcv, cols, k, limits):  # pragma: no cover - compiled
     l_min, l_max = _point_segment(rcv, a2, b2)
     n_min = _segment_segment(a1, b1, a2, b2)
     whole = _inverse_distance_integral(a1, b1, a2, b2)
-    k2 = rr * rr / l_max**3.0
-    k1 = rs * rs / m_max**3.0
+    k2 = rr * rr / (l_max * l_max * l_max)  # (products: not the library's pow)
+    k1 = rs * rs / (m_max * m_max * m_max)
     band2 = _max(hi1 - lo1, 0.0) * 2 * math.sqrt(2 * bin_m / k2) / n_min
     band1 = _max(hi2 - lo2, 0.0) * 2 * math.sqrt(2 * bin_m / k1) / n_min
     ring = 2 * math.pi * bin_m / math.sqrt(k1 * k2)
@@ -309,8 +309,8 @@ def _bin_area(legs, edges, at, widths):  # pragma: no cover - compiled
     bin_m, excess_m = widths[0], widths[1]
     dh = (d[0] / n, d[1] / n, d[2] / n)
     c1, c2, c12 = _dot(dh, ax1), _dot(dh, ax2), _dot(ax1, ax2)
-    h11 = rs * rs / m**3.0 + (1 - c1 * c1) / n
-    h22 = rr * rr / l_**3.0 + (1 - c2 * c2) / n
+    h11 = rs * rs / (m * m * m) + (1 - c1 * c1) / n
+    h22 = rr * rr / (l_ * l_ * l_) + (1 - c2 * c2) / n
     h12 = (c1 * c2 - c12) / n
     area = 2 * math.pi * bin_m / math.sqrt(_max(h11 * h22 - h12 * h12, 1e-300))
     end1 = z1 <= 1e-9 * len1 or z1 >= len1 * (1 - 1e-9)

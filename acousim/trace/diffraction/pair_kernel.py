@@ -12,9 +12,12 @@ in the numpy path (an element whose amplitude is not finite is dropped), instead
 of a check before every division.
 
 For speed, the same elements in the same bins: the cuts of edge 1 in lockstep,
-edge 2's elements in stages of independent loops (:func:`_side`); two beta terms
-of equal or opposite weights over one atan2 and one division; log, exp and atan
-for log1p, expm1 and atan2 where they are within an ulp or two.
+edge 2's elements in stages of independent loops (:func:`_side`), free of
+branches and of calls so that they vectorize: log1p, expm1, log, exp, atan and the
+taper's cos as inlined series (:mod:`acousim.trace.diffraction.math_kernel`, within a
+few ulp of the library's; the integral's amplitudes within 1e-14 of those with the
+library's); two beta terms of equal or opposite weights over one atan2 and one
+division.
 """
 
 from __future__ import annotations
@@ -23,6 +26,15 @@ import math
 
 import numpy as np
 from numba import njit
+
+from acousim.trace.diffraction.math_kernel import (
+    atan_any,
+    cos_quarter,
+    exp_pos,
+    expm1_pos,
+    log1p_pos,
+    log_pos,
+)
 
 #: an element is evaluated if a bin within this of its path (m) is live (the path
 #: from its excess level and from its points agree to rounding)
@@ -182,23 +194,19 @@ def _eta_s(z, rs, zs, rr, zr, z_mid):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _log1p(s):  # pragma: no cover - compiled
-    """log1p(s), as the cheaper log(1 + s) past s = 1 (within an ulp there)."""
-    return math.log(1.0 + s) if s > 1.0 else math.log1p(s)
+    """log1p(s) for s >= 0 (:func:`log1p_pos`; inf and NaN as they are)."""
+    return log1p_pos(s) if s < math.inf else s
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _tanh_uv(e, nu):  # pragma: no cover - compiled
-    """tanh(nu e / 2) as u / v: u = expm1(nu e), v = u + 2 (exp(nu e) -+ 1 past
-    nu e = 1, within an ulp of them there; 1 and 1 past nu e = 40, where tanh
-    rounds to 1)."""
+    """tanh(nu e / 2) as u / v: u = expm1(nu e) (:func:`expm1_pos`), v = u + 2; 1 and
+    1 past nu e = 40, where tanh rounds to 1; NaN for NaN.  As selects (loops of
+    it vectorize)."""
     x = nu * e
-    if x > 40.0:
-        return 1.0, 1.0
-    if x > 1.0:
-        big = math.exp(x)
-        return big - 1.0, big + 1.0
-    u = math.expm1(x)
-    return u, u + 2.0
+    u = expm1_pos(x if x < 40.0 else 40.0)
+    u = u if x == x else x
+    return (1.0, 1.0) if x > 40.0 else (u, u + 2.0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -222,14 +230,32 @@ def _prim(u, v, form, c):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _prims(n, uv, form, c):  # pragma: no cover - compiled
+    """:func:`_prim` of the first n of uv = (u, v) (n,) each into u, one loop per form
+    (so that each loop is free of branches and vectorizes)."""
+    u, v = uv
+    if form[0] == 1:
+        for j in range(n):
+            u[j] = _prim(u[j], v[j], (1, form[1], form[2], form[3], form[4]), c)
+    elif form[0] == 2:
+        for j in range(n):
+            u[j] = _prim(u[j], v[j], (2, form[1], form[2], form[3], form[4]), c)
+    else:
+        for j in range(n):
+            u[j] = _prim(u[j], v[j], form, c)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _atan2(y, x):  # pragma: no cover - compiled
-    """atan2(y, x) as atan(y / x), plus pi of y's sign for x < 0 (the cheaper; within
-    an ulp of pi); the library's atan2 for x = 0 (and NaN)."""
-    if x > 0:
-        return math.atan(y / x)
-    if x < 0:
-        return math.atan(y / x) + math.copysign(math.pi, y)
-    return math.atan2(y, x)
+    """atan2(y, x) as atan(y / x) (:func:`atan_any`), plus pi of y's sign for x < 0
+    (within an ulp of pi); for x = 0 (+-0) the library's values: pi / 2 of y's sign,
+    and for y = 0 +-0 (x = +0) or +-pi (x = -0).  As selects (loops of it vectorize)."""
+    q = atan_any(y / x)
+    q = q + math.copysign(math.pi, y) if x < 0 else q
+    if x == 0:
+        at_zero = math.copysign(math.pi, y) if math.copysign(1.0, x) < 0 else math.copysign(0.0, y)
+        q = at_zero if y == 0 else (math.copysign(0.5 * math.pi, y) if y == y else y)
+    return q
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -427,8 +453,8 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     nu2 = g[15]
     upper = z_end > z_apex
     lo, hi = min(z_apex, z_end), max(z_apex, z_end)
-    buf, bins = out[3], out[4]
-    lev, zb, eta, prim, vv, need = buf[0], buf[1], buf[2], buf[3], buf[9], buf[10]
+    buf = out[3]
+    lev, zb, eta, prim, vv = buf[0], buf[1], buf[2], buf[3], buf[9]
     levels = out[5]  # the template's levels, below the excess kept (and one more)
     n = 0
     while n < levels.size - 1 and levels[n] < e_end:
@@ -443,16 +469,11 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
     eta[0] = 0.0 if z_apex == z_mid else _eta_s(z_apex, rs, zs, rr, zr, z_mid)
     for j in range(1, n + 1):  # e^eta - 1 at every end (a loop that vectorizes)
         eta[j] = _eta_s(zb[j], rs, zs, rr, zr, z_mid)
-    for j in range(n + 1):  # eta at the ends of the live elements
-        need[j] = (j < n and bins[j] >= 0) or (j > 0 and bins[j - 1] >= 0)
-        if need[j]:
-            eta[j] = _log1p(eta[j])
+    for j in range(n + 1):  # eta at every end (only those of live elements are read)
+        eta[j] = _log1p(eta[j])
     for j in range(n + 1):  # the primitive of beta_2 there
-        if need[j]:
-            prim[j], vv[j] = _tanh_uv(eta[j], nu2)
-    for j in range(n + 1):
-        if need[j]:
-            prim[j] = _prim(prim[j], vv[j], c[2], c[0])
+        prim[j], vv[j] = _tanh_uv(eta[j], nu2)
+    _prims(n + 1, (prim, vv), c[2], c[0])
     _amplitudes(n, (x, m, z1, outer), g, c, cfg, out)
     _sums(n, (x, m), g, out)
 
@@ -522,42 +543,35 @@ def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
     buf, bins = out[3], out[4]
     zb, eta, prim, zc, nn, ll = buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
     amps, ey1 = buf[7], buf[8]
-    s1, a1, s2, a2 = g[0:3], g[3:6], g[7:10], g[10:13]
+    # the pair's numbers as scalars (not loads that a store to the buffers might alias)
+    d0, d1, d2 = g[7] - g[0], g[8] - g[1], g[9] - g[2]  # edge 2's start from edge 1's
+    a0, a1, a2 = g[10], g[11], g[12]  # edge 2's axis
+    b0, b1, b2 = g[3], g[4], g[5]  # edge 1's
     nu1, rs1, zs1, p_min = g[14], g[16], g[17], g[22]
     half = 0.5 * cfg[4]
     for j in range(n):  # e^eta of beta_1 at every element's point (vectorizes)
-        e0 = s2[0] + zc[j] * a2[0] - s1[0]
-        e1 = s2[1] + zc[j] * a2[1] - s1[1]
-        e2 = s2[2] + zc[j] * a2[2] - s1[2]
-        z21 = e0 * a1[0] + e1 * a1[1] + e2 * a1[2]
+        e0 = d0 + zc[j] * a0
+        e1 = d1 + zc[j] * a1
+        e2 = d2 + zc[j] * a2
+        z21 = e0 * b0 + e1 * b1 + e2 * b2
         r21 = math.sqrt(_clip(e0 * e0 + e1 * e1 + e2 * e2 - z21 * z21, 0.0, math.inf))
         ratio = ((z1 - zs1) * (z1 - z21) + m * nn[j]) / (rs1 * r21)
         ey1[j] = _acosh_y(ratio if r21 > 0 else math.inf)
-    for j in range(n):
-        amps[j] = 0.0
-        if bins[j] < 0:
-            continue
+    for j in range(n):  # 0 where not live (selects: the loops vectorize)
         deta = abs(eta[j + 1] - eta[j])
         pa, pb = prim[j], prim[j + 1]
-        if deta > 0 and pb != pa:
-            amps[j] = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
-    for j in range(n):  # beta_1: log y, y^nu, the sum (each a loop of its own)
-        if amps[j] != 0 and ey1[j] < math.inf:
-            ey1[j] = math.log(ey1[j])
-    for j in range(n):
-        if amps[j] != 0 and ey1[j] < math.inf:
-            ey1[j] = math.exp(nu1 * ey1[j])
-    for j in range(n):
-        if amps[j] != 0:
-            amps[j] = amps[j] * _beta1(_cosh_nu_of(ey1[j]), c)
+        amp = outer * (abs(zb[j + 1] - zb[j]) * (pb - pa)) / (deta * (nn[j] * ll[j]))
+        amps[j] = amp if bins[j] >= 0 and deta > 0 and pb != pa else 0.0
+    for j in range(n):  # beta_1: y^nu (every element's; inf past 1e304), the sum
+        y = ey1[j]
+        v = nu1 * log_pos(y if y < math.inf else 1.0)
+        ey1[j] = exp_pos(v) if y < math.inf and v <= 700.0 else math.inf
+    _betas1(n, amps, ey1, c)
+    taper = g[21] > 0
     for j in range(n):  # the taper (1 up to half the excess kept), finite ones
-        amp = amps[j]
-        if amp == 0:
-            continue
         ex = m + nn[j] + ll[j] - p_min
-        if g[21] > 0 and ex > half:
-            t = min((ex - half) / half, 1.0)
-            amp *= 0.5 * (1 + math.cos(math.pi * t))
+        cq = cos_quarter(_clip((ex - half) / half, 0.0, 1.0))
+        amp = amps[j] * (cq * cq) if taper and ex > half else amps[j]  # 0.5 (1 + cos(pi t))
         amps[j] = amp if math.isfinite(amp) else 0.0
 
 
@@ -583,6 +597,27 @@ def _sums(n, at, g, out):  # pragma: no cover - compiled
             acc[b, 3 + i] += w * x[i]
             acc[b, 6 + i] += w * (s2[i] + zc[j] * a2[i])
         count[b] += 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _betas1(n, amps, yn, c):  # pragma: no cover - compiled
+    """amps[:n] times :func:`_beta1` at their cosh(nu acosh) of yn (y^nu), one loop
+    per form, as selects (the loops vectorize; an amplitude of 0 stays 0, or is
+    NaN, which the taper's loop zeroes)."""
+    how, w, s0, c0, s1, c1 = c[1]
+    if how == 2:
+        for j in range(n):
+            big = _cosh_nu_of(yn[j])
+            d0, d1 = big - c0, big - c1
+            den = d0 * d1
+            one = w * (s0 * d1 + s1 * d0) / den
+            amps[j] = amps[j] * (one if den < 1e300 else w * (s0 / d0 + s1 / d1))
+    elif how == 1:
+        for j in range(n):
+            amps[j] = amps[j] * (w * s0 / (_cosh_nu_of(yn[j]) - c0))
+    else:
+        for j in range(n):
+            amps[j] = amps[j] * _beta1(_cosh_nu_of(yn[j]), c)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
