@@ -27,6 +27,7 @@ A scene without a rig is a rig of one: its recordings are those of
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Callable, Iterable
 
 import numpy as np
@@ -36,7 +37,7 @@ from acousim.core.echoes import Echoes
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.scene.rig import Measurement, Rig
-from acousim.simulator import Heard, Simulator
+from acousim.simulator import SHARED_FROM_S, Heard, Simulator
 from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
@@ -226,7 +227,7 @@ class RigSimulator:
             if progress:
                 progress(1, 1)
         elif processes != 1 and self.pair(0, 0)._can_share():
-            out = self._shared(idx, progress)
+            out = self._shared(idx, progress, always=processes == 2)
         else:
             out = self._threaded(idx, progress)
         done = tuple(self.measurements[i] for i in idx)
@@ -234,16 +235,29 @@ class RigSimulator:
         scans = self.lidar_scans(min(times), max(times)) if done else ()
         return RigRun(tuple(out), done, scans)
 
-    def _shared(self, idx: list[int], progress) -> list[P.Recording]:
+    def _shared(self, idx: list[int], progress, *, always: bool) -> list[P.Recording]:
         """:meth:`run`'s firings `idx` made in this process and a forked one, each
-        taking the next firing not yet taken (:meth:`Simulator._shared`: the world
-        built here first; a call heard by sonars in both processes is traced in
+        taking the next firing not yet taken (:meth:`Simulator._shared`: the first
+        firing made here and timed, the others here too when they would take less
+        than :data:`acousim.simulator.SHARED_FROM_S`, unless `always`; the world built
+        here before the fork; a call heard by sonars in both processes is traced in
         each)."""
         from acousim.core.forked import shared_by_two_processes
 
+        n = len(idx)
+        interrupt.check()
+        t = time.perf_counter()
+        first = self.simulate(idx[0])
+        if progress:
+            progress(1, n)
+        rest = idx[1:]
+        later = None if progress is None else lambda k, _: progress(k + 1, n)
+        if not always and (time.perf_counter() - t) * len(rest) < SHARED_FROM_S:
+            return [first, *self._threaded(rest, later)]
         if self.tracer.caster is not None:
             self.tracer.caster.commit()
-        return shared_by_two_processes(lambda k: self.simulate(idx[k]), len(idx), progress=progress)
+        made = shared_by_two_processes(lambda k: self.simulate(rest[k]), n - 1, progress=later)
+        return [first, *made]
 
     def _threaded(self, idx: list[int], progress) -> list[P.Recording]:
         """:meth:`run`'s firings `idx` in this process: the next :data:`AHEAD`

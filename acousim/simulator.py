@@ -29,6 +29,7 @@ import contextlib
 import dataclasses
 import functools
 import logging
+import time
 from collections.abc import Callable, Iterable
 from importlib.metadata import PackageNotFoundError, version
 
@@ -67,6 +68,12 @@ SCENE_MOTION = "scene"
 #: poses :meth:`Simulator.run` keeps queued for its preparing thread (1: the next
 #: one alone)
 PREPARE_AHEAD = 2
+#: :meth:`Simulator.run` forks a worker for the poses after the first when they
+#: would take at least this long in one process (s; the first pose's time each): a
+#: fork costs 30-60 ms (the shoebox's run of 16 poses of 5 ms, 0.4-2 GB processes:
+#: the copies of the pages both processes then write), more than two processes save
+#: on a short run
+SHARED_FROM_S = 0.5
 
 
 @functools.lru_cache(maxsize=1)  # looked up once: 1.4 ms per recording otherwise
@@ -189,6 +196,9 @@ class Simulator:
         )
         #: the Doppler renderer's templates and spectra, reused from pose to pose
         self.doppler_cache = DopplerCache()
+        #: seconds the last pose made in one thread took (:meth:`_made`; None: none
+        #: yet), what :meth:`_shared` expects of the next
+        self._pace_s: float | None = None
 
     def paths(self, pose: Pose) -> TracedPaths:
         return self.tracer.trace(pose, self._traced_array)
@@ -515,11 +525,19 @@ class Simulator:
     def _one(self, i: int, progress: Callable[[int, int], None] | None) -> P.Recording:
         """:meth:`run` of pose `i` alone, in this thread (what its threads would do)."""
         interrupt.check()
+        rec = self._made(i)
+        if progress:
+            progress(1, 1)
+        return rec
+
+    def _made(self, i: int) -> P.Recording:
+        """The recording of the scene's pose `i`, its stages one after the other here
+        (its time kept as the poses' pace: :meth:`_shared`)."""
+        t = time.perf_counter()
         with self._naming_the_pose(i):
             prep = self._prepare(self.scene.sensor.poses[i], i, None, SCENE_MOTION)
         rec = self._record(self._planned(prep), i, None)
-        if progress:
-            progress(1, 1)
+        self._pace_s = time.perf_counter() - t
         return rec
 
     def run(
@@ -551,7 +569,7 @@ class Simulator:
         if len(idx) == 1:  # nothing to overlap: no threads started (a scene's one pose)
             return [self._one(idx[0], progress)]
         if processes != 1 and self._can_share():
-            return self._shared(idx, progress)
+            return self._shared(idx, progress, always=processes == 2)
         return self._pipelined(idx, progress)
 
     def _can_share(self) -> bool:
@@ -563,37 +581,47 @@ class Simulator:
         return isinstance(self.tracer, Tracer) and not self.moving_meshes and can_fork()
 
     def _shared(
-        self, idx: list[int], progress: Callable[[int, int], None] | None
+        self, idx: list[int], progress: Callable[[int, int], None] | None, *, always: bool
     ) -> list[P.Recording]:
         """:meth:`run` of the poses `idx` in this process and a forked one
         (:func:`acousim.core.forked.shared_by_two_processes`):
 
-        1. the world's acceleration structure is built here, if not yet (the child
+        1. the poses' pace: the time of the last pose made in one thread here (a
+           simulator's first pose is made here first, and timed; its time counts
+           the kernels' first loading, so a first run may fork where later ones
+           would not); if the poses would take less than :data:`SHARED_FROM_S` at
+           that pace (unless `always`), they are made here (:meth:`_pipelined`): a
+           fork costs more than it saves on a short run;
+        2. the world's acceleration structure is built here, if not yet (the child
            only queries it: :meth:`~acousim.trace.world.embree.RayCaster.commit`);
-        2. the worker is forked: it has this simulator as it is, its caches and
+        3. the worker is forked: it has this simulator as it is, its caches and
            compiled kernels with it, nothing to start;
-        3. each process takes the next pose nobody has taken and makes its
+        4. each process takes the next pose nobody has taken and makes its
            recording down the stages in one thread (the caster's queries split over
            its own threads); the worker's recordings come back through a socket;
-        4. Ctrl-C is honoured here between poses; the worker ignores it and ends
+        5. Ctrl-C is honoured here between poses; the worker ignores it and ends
            with the run.
 
-        On the corridor's 2 cores this makes 1.4-1.5x the measurements per second of
-        :meth:`_pipelined` (whose threads wait on each other's interpreter lock; in
-        two processes none does): ``python -m benchmarks.paired``."""
+        Both cores stay busy (the threads of :meth:`_pipelined` wait on each other's
+        interpreter lock): docs/physics.md, "Where a measurement's time goes"."""
         from acousim.core.forked import shared_by_two_processes
 
+        n, made = len(idx), []
+        if self._pace_s is None:  # not yet timed: the first pose made here, timed
+            interrupt.check()
+            made.append(self._made(idx[0]))
+            if progress:
+                progress(1, n)
+        rest = idx[len(made) :]
+        later = None if progress is None else lambda k, _: progress(k + len(made), n)
+        if not always and self._pace_s * len(rest) < SHARED_FROM_S:
+            return [*made, *self._pipelined(rest, later)]
         if self.tracer.caster is not None:
             self.tracer.caster.commit()
-        all_poses = self.scene.sensor.poses
-
-        def make(k: int) -> P.Recording:
-            i = idx[k]
-            with self._naming_the_pose(i):
-                prep = self._prepare(all_poses[i], i, None, SCENE_MOTION)
-            return self._record(self._planned(prep), i, None)
-
-        return shared_by_two_processes(make, len(idx), progress=progress)
+        return [
+            *made,
+            *shared_by_two_processes(lambda k: self._made(rest[k]), len(rest), progress=later),
+        ]
 
     def _pipelined(
         self, idx: list[int], progress: Callable[[int, int], None] | None

@@ -37,7 +37,7 @@ def _firings(sim: RigSimulator) -> float:
 
 def _wall_rig(sim: RigSimulator) -> float:
     """Wall seconds for the rig's run of :data:`FIRINGS` as a user runs it (its
-    threads: the next firing prepared while one renders), every trace paid."""
+    firings in two processes, this one and a forked worker), every trace paid."""
     sim.tracer.forget()
     t0 = time.perf_counter()
     sim.run(FIRINGS)
@@ -46,7 +46,7 @@ def _wall_rig(sim: RigSimulator) -> float:
 
 def _wall_alone(sim: Simulator, poses: list[int]) -> float:
     """Wall seconds for one sonar alone (no rig: its own scene) simulating as many
-    poses of its drive as :data:`FIRINGS` with `Simulator.run` (its threads)."""
+    poses of its drive as :data:`FIRINGS` with `Simulator.run` (two processes)."""
     sim.tracer.forget()
     t0 = time.perf_counter()
     sim.run(poses)
@@ -382,10 +382,10 @@ def run() -> str:
             "| **a firing of the rig / one sensor's measurement computed on its own "
             f"(paired)** | **{apart:.2f}x** |",
             "| as a user runs them, wall time: one sonar alone on its drive (its scene "
-            "without the rig, `Simulator.run`: the next pose prepared while one "
-            f"renders), per measurement | {np.median(w_alone) / per:.0f} ms |",
-            "| as a user runs them, wall time: the rig's run (`RigSimulator.run`: the "
-            "next firings prepared while one renders; the LiDAR's scans of the body's "
+            "without the rig, `Simulator.run`: its poses in two processes, this one "
+            f"and a forked worker), per measurement | {np.median(w_alone) / per:.0f} ms |",
+            "| as a user runs them, wall time: the rig's run (`RigSimulator.run`: its "
+            "firings in two processes; the LiDAR's scans of the body's "
             f"poses), per firing | {np.median(w_rig) / per:.0f} ms |",
             f"| the same, crosstalk off | {np.median(w_off) / per:.0f} ms |",
             "| the rig's run / (N x one sonar alone), wall time (paired): crosstalk on "

@@ -25,12 +25,12 @@ from tests.acousim.trace.diffraction.test_pair_selection import EMITTER, RECEIVE
 SCENES = REPO / "scenes"
 
 
-@pytest.mark.parametrize("processes", [None, 1])
+@pytest.mark.parametrize("processes", [2, 1])
 def test_run_gives_the_recordings_of_one_pose_at_a_time(processes):
     """The corridor drive at its defaults (diffraction, edge to edge), moving and
-    frozen, five poses, in two processes where they can be forked (None) and in
-    this one (1): every recording's samples, ground truth and metadata byte for
-    byte (and a run of one pose, which starts no thread)."""
+    frozen, five poses, in two processes where they can be forked (2: whatever the
+    run's length) and in this one (1): every recording's samples, ground truth and
+    metadata byte for byte (and a run of one pose, which starts no thread)."""
     scene = load_scene(SCENES / "corridor.toml")
     frozen = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, motion=None))
     poses = [12, 13, 14, 30, 31]
@@ -63,7 +63,32 @@ def test_run_in_two_processes_raises_the_workers_error_naming_its_pose():
 
     sim._prepare = failing
     with pytest.raises(InputError, match=r"pose (11|13|15): no path found"):
-        sim.run(range(10, 16))
+        sim.run(range(10, 16), processes=2)
+
+
+def test_run_forks_only_for_work_worth_a_fork(monkeypatch):
+    """A short run (the shoebox's pose thrice, a few ms each once its kernels are
+    loaded) is made in this process, by default; asked for two processes, it forks
+    where it can; either way the same recordings."""
+    from acousim.core import forked
+
+    calls = []
+    share = forked.shared_by_two_processes
+
+    def counted(make, n, **kw):
+        calls.append(n)
+        return share(make, n, **kw)
+
+    monkeypatch.setattr(forked, "shared_by_two_processes", counted)
+    sim = Simulator(load_scene(SCENES / "shoebox.toml"))
+    sim.run([0])  # the kernels loaded, then a pose's time taken as the pace
+    sim.run([0])
+    short = sim.run([0, 0, 0])
+    assert calls == []
+    forced = sim.run([0, 0, 0], processes=2)
+    assert calls == ([3] if forked.can_fork() else [])  # the pace known: all three shared
+    for a, b in zip(short, forced):
+        assert np.array_equal(a.samples, b.samples)
 
 
 def test_run_stops_at_a_failing_pose_and_names_it():
