@@ -171,8 +171,9 @@ def _poses() -> list[str]:
     return [
         "### Poses: the corridor drive",
         "",
-        "`Simulator(scene)` (preparation, once) and `run()` over the first n poses (each "
-        "traced while the one before renders).",
+        "`Simulator(scene)` (preparation, once) and `run()` over the first n poses (in "
+        "two processes, this one and a forked worker, where they take half a second or "
+        "more; else in threads, each traced while the one before renders).",
         "",
         "| poses | prepare (s) | run (s) | per pose (ms) |",
         "|---|---|---|---|",
