@@ -9,10 +9,12 @@ forked worker has its parent's memory as it was (its caches, its compiled kernel
 but none of its threads: what it runs must start its own (:func:`can_fork` says
 when forking is allowed at all).  A worker's items come back
 through a socket pair, drained by a thread of this process as they come, and are
-handed out in order.  An item's numpy arrays travel out of band (pickle protocol 5),
-each received by one ``recv_into`` that waits for all its bytes: the reader thread
-releases the GIL once per array, not once per 64 kB as a pipe's reader would (which,
-beside a busy main thread, waits up to the switch interval, 5 ms, each time).
+handed out in order.  An item's numpy arrays travel out of band (pickle protocol 5):
+those of :data:`SHARED_BYTES` or more as in-memory files (Linux's memfd, mapped
+here, never read through the socket), the others with the pickle in one
+``recv_into`` that waits for all its bytes: the reader thread takes the interpreter
+a few times a message, not once per 64 kB as a pipe's reader would (which, beside a
+busy main thread, waits up to the switch interval, 5 ms, each time).
 
 The worker ignores Ctrl-C (the command's to handle, see
 :func:`processing.base.interrupt.ignore_in_worker`) and is terminated when the block
