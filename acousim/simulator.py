@@ -9,7 +9,9 @@ One pose goes down the stages once: trace (:mod:`acousim.trace`: the paths at th
 pose of the start of the emission) -> kinematics (static: delays and gains at the
 microphones; in motion, :mod:`acousim.kinematics`: reception times and Doppler
 factors per path and microphone) -> render (:mod:`acousim.synth`) -> record (a
-:class:`processing.Recording`).
+:class:`processing.Recording`).  :meth:`Simulator.run` makes several poses in two
+processes (this one and a forked worker, :mod:`acousim.core.forked`) when they are
+worth a fork, else in this one with threads; the same bytes either way.
 
 A scene with motion (a continuous trajectory, a pose with a velocity or an angular
 rate, moving point reflectors or meshes) is rendered with the exact kinematics of
