@@ -236,6 +236,7 @@ class _Placer:
         self.renderer = ax.figure.canvas.get_renderer()
         self.area = ax.get_window_extent(self.renderer).padded(-2)
         self.taken: list = []
+        self.lists: list = []  # the crowds' lists among the taken
 
     def block(self, box) -> None:
         self.taken.append(box)
@@ -344,21 +345,43 @@ def _group_list(ax, header: str, group: Sequence[Point], xs, colours, place: _Pl
     from matplotlib.offsetbox import AnchoredOffsetbox
 
     tried = []
-    for loc in range(1, 11):
+    spots = [(loc, None) for loc in range(1, 11)]  # the axes' corners and sides
+    for k, (loc, anchor) in enumerate(spots):
+        where = {} if anchor is None else {"bbox_to_anchor": anchor, "bbox_transform": ax.transAxes}
         box = AnchoredOffsetbox(
-            loc, child=_list(header, group, xs, colours), frameon=True, pad=0.3, borderpad=0.4
+            loc,
+            child=_list(header, group, xs, colours),
+            frameon=True,
+            pad=0.3,
+            borderpad=0.4,
+            **where,
         )
         box.patch.set(fc="white", ec="0.6", alpha=0.92, lw=0.6)
         box.set_gid(GROUP_GID)
         ax.add_artist(box)
         extent = box.get_window_extent(place.renderer)
-        cost = sum(extent.overlaps(t) for t in place.taken)
+        # what it covers; another list covered by a tenth of it or more counts as
+        # three things covered (it hides several lines at once)
+        others = [t for t in place.taken if not any(t is x for x in place.lists)]
+        cost = sum(extent.overlaps(t) for t in others) + 3 * sum(
+            _shared_area(extent, t) > 0.1 * _area(t) for t in place.lists
+        )
         far = np.hypot(*(np.mean(extent.get_points(), 0) - np.mean(near.get_points(), 0)))
-        tried.append((cost, far, loc, box, extent))
+        tried.append((cost, far, k, box, extent))
     tried.sort(key=lambda t: t[:3])
     for *_, box, _ in tried[1:]:
         box.remove()
     place.block(tried[0][-1])
+    place.lists.append(tried[0][-1])
+
+
+def _area(b) -> float:
+    return b.width * b.height
+
+
+def _shared_area(a, b) -> float:
+    """The area (display units²) two boxes share."""
+    return max(min(a.x1, b.x1) - max(a.x0, b.x0), 0.0) * max(min(a.y1, b.y1) - max(a.y0, b.y0), 0.0)
 
 
 def _list(header: str, group: Sequence[Point], xs, colours):
