@@ -27,7 +27,6 @@ A scene without a rig is a rig of one: its recordings are those of
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Callable, Iterable
 
 import numpy as np
@@ -37,7 +36,7 @@ from acousim.core.echoes import Echoes
 from acousim.scene.model import Scene
 from acousim.scene.pose import Pose
 from acousim.scene.rig import Measurement, Rig
-from acousim.simulator import SHARED_FROM_S, Heard, Simulator
+from acousim.simulator import Heard, Simulator, check_processes
 from acousim.synth.doppler import plan_doppler
 from acousim.synth.options import Capture
 from acousim.synth.signal_model import simulate
@@ -220,8 +219,7 @@ class RigSimulator:
                     f"measurement index {i} out of range: the rig fires "
                     f"{len(self.measurements)} time(s)"
                 )
-        if processes not in (None, 1, 2):
-            raise InputError("must be None (automatic), 1 or 2", key="processes", value=processes)
+        check_processes(processes)
         if len(idx) == 1:  # nothing to overlap: no thread started
             out = [self.simulate(idx[0])]
             if progress:
@@ -237,27 +235,21 @@ class RigSimulator:
 
     def _shared(self, idx: list[int], progress, *, always: bool) -> list[P.Recording]:
         """:meth:`run`'s firings `idx` made in this process and a forked one, each
-        taking the next firing not yet taken (:meth:`Simulator._shared`: the first
-        firing made here and timed, the others here too when they would take less
-        than :data:`acousim.simulator.SHARED_FROM_S`, unless `always`; the world built
-        here before the fork; a call heard by sonars in both processes is traced in
-        each)."""
-        from acousim.core.forked import shared_by_two_processes
+        taking the next firing not yet taken, when worth a fork
+        (:func:`acousim.core.forked.shared_if_worth_it`: the first firing made here
+        and timed; the world built here before the fork; a call heard by sonars in
+        both processes is traced in each), else here in threads (:meth:`_threaded`)."""
+        from acousim.core.forked import shared_if_worth_it
 
-        n = len(idx)
-        interrupt.check()
-        t = time.perf_counter()
-        first = self.simulate(idx[0])
-        if progress:
-            progress(1, n)
-        rest = idx[1:]
-        later = None if progress is None else lambda k, _: progress(k + 1, n)
-        if not always and (time.perf_counter() - t) * len(rest) < SHARED_FROM_S:
-            return [first, *self._threaded(rest, later)]
-        if self.tracer.caster is not None:
-            self.tracer.caster.commit()
-        made = shared_by_two_processes(lambda k: self.simulate(rest[k]), n - 1, progress=later)
-        return [first, *made]
+        caster = self.tracer.caster
+        return shared_if_worth_it(
+            lambda k: self.simulate(idx[k]),
+            len(idx),
+            alone=lambda ks, later: self._threaded([idx[k] for k in ks], later),
+            always=always,
+            before_fork=None if caster is None else caster.commit,
+            progress=progress,
+        )
 
     def _threaded(self, idx: list[int], progress) -> list[P.Recording]:
         """:meth:`run`'s firings `idx` in this process: the next :data:`AHEAD`

@@ -70,12 +70,6 @@ SCENE_MOTION = "scene"
 #: poses :meth:`Simulator.run` keeps queued for its preparing thread (1: the next
 #: one alone)
 PREPARE_AHEAD = 2
-#: :meth:`Simulator.run` forks a worker for the poses after the first when they
-#: would take at least this long in one process (s; the first pose's time each): a
-#: fork costs 30-60 ms (the shoebox's run of 16 poses of 5 ms, 0.4-2 GB processes:
-#: the copies of the pages both processes then write), more than two processes save
-#: on a short run
-SHARED_FROM_S = 0.5
 
 
 @functools.lru_cache(maxsize=1)  # looked up once: 1.4 ms per recording otherwise
@@ -565,8 +559,7 @@ class Simulator:
                 raise InputError(
                     f"pose index {i} out of range: the scene has {len(all_poses)} pose(s)"
                 )
-        if processes not in (None, 1, 2):
-            raise InputError("must be None (automatic), 1 or 2", key="processes", value=processes)
+        check_processes(processes)
         self.scene.check_memory(len(idx))  # every recording is kept: refuse before starting
         if len(idx) == 1:  # nothing to overlap: no threads started (a scene's one pose)
             return [self._one(idx[0], progress)]
@@ -591,7 +584,8 @@ class Simulator:
         1. the poses' pace: the time of the last pose made in one thread here (a
            simulator's first pose is made here first, and timed; its time counts
            the kernels' first loading, so a first run may fork where later ones
-           would not); if the poses would take less than :data:`SHARED_FROM_S` at
+           would not); if the poses would take less than
+           :data:`acousim.core.forked.SHARED_FROM_S` at
            that pace (unless `always`), they are made here (:meth:`_pipelined`): a
            fork costs more than it saves on a short run;
         2. the world's acceleration structure is built here, if not yet (the child
@@ -606,24 +600,18 @@ class Simulator:
 
         Both cores stay busy (the threads of :meth:`_pipelined` wait on each other's
         interpreter lock): docs/physics.md, "Where a measurement's time goes"."""
-        from acousim.core.forked import shared_by_two_processes
+        from acousim.core.forked import shared_if_worth_it
 
-        n, made = len(idx), []
-        if self._pace_s is None:  # not yet timed: the first pose made here, timed
-            interrupt.check()
-            made.append(self._made(idx[0]))
-            if progress:
-                progress(1, n)
-        rest = idx[len(made) :]
-        later = None if progress is None else lambda k, _: progress(k + len(made), n)
-        if not always and self._pace_s * len(rest) < SHARED_FROM_S:
-            return [*made, *self._pipelined(rest, later)]
-        if self.tracer.caster is not None:
-            self.tracer.caster.commit()
-        return [
-            *made,
-            *shared_by_two_processes(lambda k: self._made(rest[k]), len(rest), progress=later),
-        ]
+        caster = self.tracer.caster
+        return shared_if_worth_it(
+            lambda k: self._made(idx[k]),
+            len(idx),
+            alone=lambda ks, later: self._pipelined([idx[k] for k in ks], later),
+            pace_s=self._pace_s,
+            always=always,
+            before_fork=None if caster is None else caster.commit,
+            progress=progress,
+        )
 
     def _pipelined(
         self, idx: list[int], progress: Callable[[int, int], None] | None
@@ -685,6 +673,12 @@ class Simulator:
 
 #: the names of the path kinds by code (:class:`~acousim.trace.paths.PathKind`)
 _KIND_NAMES = np.array([k.name for k in PathKind])
+
+
+def check_processes(processes: int | None) -> None:
+    """A run's `processes` (None: automatic, 1 or 2), or an InputError naming it."""
+    if processes not in (None, 1, 2):
+        raise InputError("must be None (automatic), 1 or 2", key="processes", value=processes)
 
 
 def _scattered(values: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:

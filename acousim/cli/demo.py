@@ -38,8 +38,8 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import processing as P
-    from acousim.core.forked import shared_by_two_processes
     from acousim.cli.image import Asked, drawn_images, write_pictures_beside
+    from acousim.core.forked import shared_by_two_processes
     from acousim.imaging.outputs import replaced_kinds
     from acousim.imaging.run import ImagingOptions, prepare_pictures, recording_images
     from processing.base.atomic import committed_together

@@ -34,13 +34,26 @@ import socket
 import struct
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Callable, Iterator
 from typing import Any
 
 from processing.base import interrupt
 
-__all__ = ["ahead_in_a_process", "can_fork", "shared_by_two_processes"]
+__all__ = [
+    "ahead_in_a_process",
+    "can_fork",
+    "shared_by_two_processes",
+    "shared_if_worth_it",
+    "SHARED_FROM_S",
+]
+
+#: :func:`shared_if_worth_it` forks a worker only when the items would take at least
+#: this long in one process (s): a fork costs 30-60 ms (the shoebox's run of 16 poses
+#: of 5 ms, 0.4-2 GB processes: the copies of the pages both processes then write),
+#: more than two processes save on a short run
+SHARED_FROM_S = 0.5
 
 
 @contextlib.contextmanager
@@ -165,6 +178,44 @@ def shared_by_two_processes(
             out[j] = item
             count()
     return out
+
+
+def shared_if_worth_it(
+    make: Callable[[int], Any],
+    n: int,
+    *,
+    alone: Callable[[list[int], Callable[[int, int], None] | None], list[Any]],
+    pace_s: float | None = None,
+    always: bool = False,
+    before_fork: Callable[[], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Any]:
+    """``[make(0), ..., make(n - 1)]`` in two processes when that is worth a fork:
+
+    1. the pace: `pace_s` (s an item in this process), or if None item 0 made here
+       first and timed;
+    2. the items left would take less than :data:`SHARED_FROM_S` at that pace (and
+       not `always`): ``alone(ks, progress)`` makes the items ks here (the caller's
+       own way, e.g. threads), returning them in order;
+    3. else `before_fork` (what the worker must find done, e.g. an acceleration
+       structure built), then :func:`shared_by_two_processes`.
+
+    `progress` as there, counting every item."""
+    made = []
+    if pace_s is None:
+        interrupt.check()
+        t = time.perf_counter()
+        made.append(make(0))
+        pace_s = time.perf_counter() - t
+        if progress:
+            progress(1, n)
+    rest = list(range(len(made), n))
+    later = None if progress is None else lambda k, _: progress(k + len(made), n)
+    if not always and pace_s * len(rest) < SHARED_FROM_S:
+        return [*made, *alone(rest, later)]
+    if before_fork is not None:
+        before_fork()
+    return [*made, *shared_by_two_processes(lambda k: make(rest[k]), len(rest), progress=later)]
 
 
 def _gnu_openmp_started() -> bool:
