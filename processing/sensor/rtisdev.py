@@ -33,7 +33,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from processing.base.atomic import write_bytes
+from processing.base.atomic import committed_together, write_bytes
 
 __all__ = [
     "cache_dir",
@@ -161,7 +161,10 @@ def _extract(member: str) -> Path:
             if hashlib.sha256(data).hexdigest() != expected:
                 raise IntegrityError(f"{member}: does not match the wheel's RECORD")
             target.parent.mkdir(parents=True, exist_ok=True)
-            write_bytes(target, data)
+            # in place now, even inside a command's group of outputs renamed together
+            # at its end (`acousim compare rtisdev-sample`): the cache is not an output
+            with committed_together():
+                write_bytes(target, data)
     return _check(target, expected, f"the rtisdev {VERSION} wheel's RECORD")
 
 

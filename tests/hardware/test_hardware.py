@@ -585,3 +585,28 @@ def test_import_hardware_gives_its_modules():
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=False
     )
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
+
+
+def test_a_file_taken_from_the_wheel_inside_a_commands_group_of_outputs(tmp_path, monkeypatch):
+    """A command that renames its outputs together at its end (``acousim compare
+    rtisdev-sample`` on an empty cache) still gets the sample: the cache's file is in
+    place when it is taken, not held back with the command's outputs; and an output
+    of the group still waits for the group's end."""
+    import shutil
+
+    from processing.base.atomic import committed_together, write_bytes
+    from processing.sensor import rtisdev
+
+    wheel = rtisdev.wheel_path()  # the real cache (downloads once if empty)
+    monkeypatch.setenv("ACOUSIM_CACHE", str(tmp_path / "cache"))
+    folder = tmp_path / "cache" / f"rtisdev-{rtisdev.VERSION}"
+    folder.mkdir(parents=True)
+    shutil.copy(wheel, folder / wheel.name)
+    output = tmp_path / "out.txt"
+    with committed_together():
+        write_bytes(output, b"the command's output")
+        sample = rtisdev.sample_recording()
+        assert sample.is_relative_to(tmp_path) and sample.stat().st_size > 0
+        assert not output.exists()  # the group's own file: renamed at the end
+    assert output.read_bytes() == b"the command's output"
+    assert sample.read_bytes()[:4] == rtisdev.sample_recording().read_bytes()[:4]
