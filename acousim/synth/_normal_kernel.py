@@ -95,10 +95,9 @@ def standard_normal(s, out, w, k, f):  # pragma: no cover - compiled
         while True:
             hi, lo, r = _next(hi, lo, inc_hi, inc_lo)
             idx = np.intp(r & np.uint64(0xFF))
-            r >>= np.uint64(8)
-            rabs = (r >> np.uint64(1)) & mask
-            x = np.float64(rabs) * w[idx]
-            if r & np.uint64(1):
+            rabs = (r >> np.uint64(9)) & mask
+            x = np.float64(np.int64(rabs)) * w[idx]  # exact: rabs < 2**52
+            if r & np.uint64(0x100):
                 x = -x
             if rabs < k[idx]:
                 break
