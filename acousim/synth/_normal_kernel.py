@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
@@ -32,6 +31,10 @@ def _mulhi(typingctx, a, b):  # pragma: no cover - compiled
     sig = types.uint64(types.uint64, types.uint64)
 
     def codegen(context, builder, signature, args):
+        # numba's own dependency, imported here: without numba, numba is the import
+        # that fails (the optional kernel's test of a missing extra)
+        from llvmlite import ir
+
         wide = ir.IntType(128)
         product = builder.mul(builder.zext(args[0], wide), builder.zext(args[1], wide))
         return builder.trunc(builder.lshr(product, ir.Constant(wide, 64)), ir.IntType(64))
