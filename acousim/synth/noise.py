@@ -18,6 +18,8 @@ import threading
 
 import numpy as np
 
+from acousim.synth.normal import standard_normal
+
 __all__ = ["signal_power", "noise_sigma", "add_noise", "NoiseDraw"]
 
 
@@ -35,8 +37,9 @@ def noise_sigma(clean: np.ndarray, snr_db: float, call_samples: int) -> float:
 
 class NoiseDraw:
     """``rng.standard_normal(shape)`` drawn in a background thread, started now, while
-    the caller renders (numpy's generators release the GIL while they fill an
-    array): the same values as drawing them later, off the renderer's path."""
+    the caller renders (:func:`acousim.synth.normal.standard_normal`, which releases
+    the GIL while it fills the array, as numpy's generators do): the same values as
+    drawing them later, off the renderer's path."""
 
     def __init__(self, rng: np.random.Generator, shape: tuple[int, ...]) -> None:
         self.shape = tuple(shape)
@@ -46,7 +49,7 @@ class NoiseDraw:
 
     def _draw(self, rng: np.random.Generator) -> None:
         try:
-            self._out.append(rng.standard_normal(self.shape))
+            self._out.append(standard_normal(rng, self.shape))
         except BaseException as error:  # handed to the caller by result()
             self._out.append(error)
 
@@ -69,12 +72,13 @@ def add_noise(
     """`clean` (M, T) plus white Gaussian noise; (K, M, T) when `n_measurements` is given.
 
     `drawn`: the unit normal draws of `rng`, made in advance (:class:`NoiseDraw`) of
-    the output's shape; the result is the same as without it.
+    the output's shape; the result is the same as without it.  The draws are
+    numpy's ``rng.standard_normal`` (:func:`acousim.synth.normal.standard_normal`).
     """
     shape = clean.shape if n_measurements is None else (n_measurements, *clean.shape)
     if drawn is not None and drawn.shape != shape:
         raise ValueError(f"noise drawn for shape {drawn.shape}, the output is {shape}")
-    out = rng.standard_normal(shape) if drawn is None else drawn.result()
+    out = standard_normal(rng, shape) if drawn is None else drawn.result()
     out *= sigma  # in place: the same values as clean + sigma * z, without temporaries
     out += clean
     return out
