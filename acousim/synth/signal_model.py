@@ -8,6 +8,7 @@ computed, and no noise is generated at infinite SNR.
 from __future__ import annotations
 
 import logging
+from functools import lru_cache
 
 import numpy as np
 
@@ -154,7 +155,7 @@ def _echo_noise_sigma(
     echo = echoes.order > 0
     if not echo.any():
         raise InputError("snr_reference='echoes' but the scene has no echo besides the direct path")
-    call = waveform.sampled(fs)
+    energy, size = _call_energy(waveform, float(fs))
     power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
     if response is not None and response.active:
         f_c = float(np.mean(waveform.band_hz))
@@ -163,8 +164,16 @@ def _echo_noise_sigma(
             np.array([f_c]), echoes.path_length_m.mean(axis=0)[echo], echoes.angles()[echo], counts
         )[0]
         power = power * h**2
-    p_s = float(np.sum(power) * np.sum(call**2) / call.size)
+    p_s = float(np.sum(power) * energy / size)
     return float(np.sqrt(p_s / 10 ** (snr_db / 10)))
+
+
+@lru_cache(maxsize=16)
+def _call_energy(waveform: Waveform, fs: float) -> tuple[np.float64, int]:
+    """The sum of squares of the call sampled at `fs` (Hz) and its sample count:
+    the same for every pose of a scene, computed once."""
+    call = waveform.sampled(fs)
+    return np.sum(call**2), call.size
 
 
 def simulate_points(
