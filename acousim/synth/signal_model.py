@@ -20,10 +20,14 @@ from acousim.synth.render import render_baseband, render_with
 from acousim.synth.response import PathResponse
 from processing import Array, Recording, Waveform, provenance_metadata
 from processing.base.errors import InputError
+from processing.base.kernels import optional_kernel
 
 __all__ = ["simulate", "simulate_points", "in_window", "Capture", "Noise", "RenderOptions"]
 
 log = logging.getLogger(__name__)
+
+#: the most microphones :func:`_mean_squares` sums compiled (numpy's pairwise block)
+PAIRWISE_BLOCK = 128
 
 
 def simulate(
@@ -156,7 +160,7 @@ def _echo_noise_sigma(
     if not echo.any():
         raise InputError("snr_reference='echoes' but the scene has no echo besides the direct path")
     energy, size = _call_energy(waveform, float(fs))
-    power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
+    power = _mean_squares(echoes.gain, echo)
     if response is not None and response.active:
         f_c = float(np.mean(waveform.band_hz))
         counts = None if echoes.interactions is None else echoes.interactions[echo]
@@ -166,6 +170,19 @@ def _echo_noise_sigma(
         power = power * h**2
     p_s = float(np.sum(power) * energy / size)
     return float(np.sqrt(p_s / 10 ** (snr_db / 10)))
+
+
+def _mean_squares(gain: np.ndarray, paths: np.ndarray) -> np.ndarray:
+    """The mean over the microphones of the squared gains (M, N) of the `paths` (N,
+    bool): compiled (:mod:`._signal_kernel`, numpy's summation order: the same
+    bits) for every path, then selected, or in numpy (its copy of the paths'
+    columns)."""
+    kernel = optional_kernel("acousim.synth._signal_kernel", "mean_squares")
+    if kernel is None or gain.shape[0] > PAIRWISE_BLOCK:
+        return np.mean(gain[:, paths] ** 2, axis=0)
+    out = np.empty(gain.shape[1])
+    kernel(np.asarray(gain, float), out)
+    return out[paths]
 
 
 @lru_cache(maxsize=16)
