@@ -189,7 +189,17 @@ def _scaled_template(waveform: Waveform, fs: float, a: float) -> tuple[np.ndarra
 def _templates(
     waveform: Waveform, fs: float, nodes: np.ndarray, cache: DopplerCache
 ) -> tuple[np.ndarray, int]:
-    """Band-limited time-scaled calls (K, L), sample i at time (i + start) / fs."""
+    """Band-limited time-scaled calls (K, L), sample i at time (i + start) / fs
+    (read-only: kept in the `cache`, per set of nodes, as the calls are per node)."""
+    key = ("stacked", waveform, fs, tuple(nodes.tolist()))
+    return cache.templates.get(key, lambda: _stacked(waveform, fs, nodes, cache))
+
+
+def _stacked(
+    waveform: Waveform, fs: float, nodes: np.ndarray, cache: DopplerCache
+) -> tuple[np.ndarray, int]:
+    """:func:`_templates` computed: each node's call (from the `cache`) zero-padded
+    to the longest."""
     calls = []
     start = 0
     for a in nodes:
@@ -200,6 +210,7 @@ def _templates(
     out = np.zeros((len(calls), L))
     for j, y in enumerate(calls):
         out[j, : y.size] = y
+    out.flags.writeable = False
     return out, start
 
 

@@ -484,16 +484,16 @@ def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
     # it; the columns of each group side by side
     alpha = response.alpha_db_per_m(grid.f_c)
     length, g, weight = _mic_gains(g, echoes.path_length_m, -alpha * LN10_20)
-    groups = [grp for grp in (echoes.order == 0, echoes.order != 0) if grp.any()]
-    order = np.concatenate([np.flatnonzero(grp) for grp in groups])
-    interactions = None if echoes.interactions is None else echoes.interactions[order]
-    H = response.weighted_matrix(
-        coarse, length[order], echoes.angles()[order], interactions, weight[order]
-    )
+    groups, order = _groups(echoes.order)
+    angles, interactions, weight_h = echoes.angles(), echoes.interactions, weight
+    if order is not None:  # the direct path not first: the groups side by side
+        length, angles, weight_h = length[order], angles[order], weight[order]
+        interactions = None if interactions is None else interactions[order]
+    H = response.weighted_matrix(coarse, length, angles, interactions, weight_h)
     Vs, Us = [], []
     start = 0
     for group in groups:
-        count = int(group.sum())
+        count = int(group.sum()) if isinstance(group, np.ndarray) else group.stop - group.start
         Uc, Vw = factorise(H[:, start : start + count])
         start += count
         V = np.zeros((echoes.n_paths, Vw.shape[1]))
@@ -506,6 +506,18 @@ def _response_factors(echoes, g, W, fs: float, n: int, response, grid=None):
         [np.full(u.shape[1], i == 0 and (echoes.order == 0).any()) for i, u in enumerate(Us)]
     )
     return g, U, V, band, direct, Uc
+
+
+def _groups(order: np.ndarray) -> tuple[list, np.ndarray | None]:
+    """The paths' groups by their `order` (N,): the direct path (order 0), the
+    echoes; those that have paths, and the order (N,) that puts them side by side
+    (None: they are already, the direct paths first; the groups then slices)."""
+    direct = order == 0
+    k = int(np.count_nonzero(direct))
+    if not direct[:k].all():
+        groups = [grp for grp in (direct, ~direct) if grp.any()]
+        return groups, np.concatenate([np.flatnonzero(grp) for grp in groups])
+    return [grp for grp in (slice(0, k), slice(k, order.size)) if grp.stop > grp.start], None
 
 
 def _mic_gains(g: np.ndarray, length_m: np.ndarray, c: float):

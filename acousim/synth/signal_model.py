@@ -8,6 +8,7 @@ computed, and no noise is generated at infinite SNR.
 from __future__ import annotations
 
 import logging
+from functools import lru_cache
 
 import numpy as np
 
@@ -19,10 +20,14 @@ from acousim.synth.render import render_baseband, render_with
 from acousim.synth.response import PathResponse
 from processing import Array, Recording, Waveform, provenance_metadata
 from processing.base.errors import InputError
+from processing.base.kernels import optional_kernel
 
 __all__ = ["simulate", "simulate_points", "in_window", "Capture", "Noise", "RenderOptions"]
 
 log = logging.getLogger(__name__)
+
+#: the most microphones :func:`_mean_squares` sums compiled (numpy's pairwise block)
+PAIRWISE_BLOCK = 128
 
 
 def simulate(
@@ -154,8 +159,8 @@ def _echo_noise_sigma(
     echo = echoes.order > 0
     if not echo.any():
         raise InputError("snr_reference='echoes' but the scene has no echo besides the direct path")
-    call = waveform.sampled(fs)
-    power = np.mean(echoes.gain[:, echo] ** 2, axis=0)
+    energy, size = _call_energy(waveform, float(fs))
+    power = _mean_squares(echoes.gain, echo)
     if response is not None and response.active:
         f_c = float(np.mean(waveform.band_hz))
         counts = None if echoes.interactions is None else echoes.interactions[echo]
@@ -163,8 +168,29 @@ def _echo_noise_sigma(
             np.array([f_c]), echoes.path_length_m.mean(axis=0)[echo], echoes.angles()[echo], counts
         )[0]
         power = power * h**2
-    p_s = float(np.sum(power) * np.sum(call**2) / call.size)
+    p_s = float(np.sum(power) * energy / size)
     return float(np.sqrt(p_s / 10 ** (snr_db / 10)))
+
+
+def _mean_squares(gain: np.ndarray, paths: np.ndarray) -> np.ndarray:
+    """The mean over the microphones of the squared gains (M, N) of the `paths` (N,
+    bool): compiled (:mod:`._signal_kernel`, numpy's summation order: the same
+    bits) for every path, then selected, or in numpy (its copy of the paths'
+    columns)."""
+    kernel = optional_kernel("acousim.synth._signal_kernel", "mean_squares")
+    if kernel is None or gain.shape[0] > PAIRWISE_BLOCK:
+        return np.mean(gain[:, paths] ** 2, axis=0)
+    out = np.empty(gain.shape[1])
+    kernel(np.asarray(gain, float), out)
+    return out[paths]
+
+
+@lru_cache(maxsize=16)
+def _call_energy(waveform: Waveform, fs: float) -> tuple[np.float64, int]:
+    """The sum of squares of the call sampled at `fs` (Hz) and its sample count:
+    the same for every pose of a scene, computed once."""
+    call = waveform.sampled(fs)
+    return np.sum(call**2), call.size
 
 
 def simulate_points(
