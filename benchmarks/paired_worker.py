@@ -63,8 +63,14 @@ def main() -> None:
 
 def _cpu() -> float:
     """CPU seconds of this process and of its children that have ended (the worker
-    `Simulator.run` forks, joined before it returns): ``benchmarks.timing.cpu_seconds``,
+    `Simulator.run` forks, waited for here): ``benchmarks.timing.cpu_seconds``,
     written again here because this script runs with another checkout on its path."""
+    try:  # a worker ends after the run returns (where it is waited for: this tree's)
+        from acousim.core.forked import wait_for_workers
+    except ImportError:
+        pass
+    else:
+        wait_for_workers()
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     return time.process_time() + children.ru_utime + children.ru_stime
 

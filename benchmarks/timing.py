@@ -28,7 +28,10 @@ def best_time(fn: Callable[[], object], repeat: int = 5, warmup: int = 1) -> flo
 
 def cpu_seconds() -> float:
     """CPU seconds of this process and of its children that have ended
-    (``Simulator.run``'s forked worker, joined before it returns): differences of
-    it time a run's whole work."""
+    (``Simulator.run``'s forked worker, which ends after the run returns: waited for
+    here): differences of it time a run's whole work."""
+    from acousim.core.forked import wait_for_workers
+
+    wait_for_workers()
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     return time.process_time() + children.ru_utime + children.ru_stime

@@ -105,6 +105,43 @@ def test_two_processes_share_the_items_and_hand_them_out_in_order():
         assert any(g["pid"] != here for g in got)
 
 
+def test_the_run_returns_while_the_worker_exits_and_is_reaped_then():
+    """A worker that sent its last item ends on its own, reaped in a thread: the call
+    returns before the worker has exited (here it cannot exit until told: a thread of
+    its own waits for this process's word), and :func:`wait_for_workers` returns once
+    it has, leaving no child."""
+    import multiprocessing as mp
+    import select
+    import threading
+
+    from acousim.core.forked import shared_by_two_processes, wait_for_workers
+
+    if not _with_a_worker():
+        pytest.skip("no worker here (one CPU, or numba's GNU OpenMP pool ran)")
+    go_r, go_w = os.pipe()
+    said_r, said_w = os.pipe()
+    here = os.getpid()
+
+    def make(k):
+        if os.getpid() != here:
+            os.write(said_w, b"k")
+            if not any(t.name == "wait-for-go" for t in threading.enumerate()):
+                # (at most 60 s: a run that waited for its worker's exit fails, not hangs)
+                threading.Thread(
+                    target=select.select, args=([go_r], [], [], 60.0), name="wait-for-go"
+                ).start()
+        return k * k
+
+    got = shared_by_two_processes(make, 6, first=lambda: os.read(said_r, 1))
+    assert got == [k * k for k in range(6)]
+    assert [p for p in mp.active_children() if p.is_alive()]  # still on its way out
+    os.write(go_w, b"g")
+    wait_for_workers()
+    assert not [p for p in mp.active_children() if p.is_alive()]
+    for fd in (go_r, go_w, said_r, said_w):
+        os.close(fd)
+
+
 def test_an_item_that_fails_in_the_worker_fails_the_whole():
     from acousim.core.forked import shared_by_two_processes
 
