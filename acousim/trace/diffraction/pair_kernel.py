@@ -39,6 +39,11 @@ from acousim.trace.diffraction.math_kernel import (
 #: an element is evaluated if a bin within this of its path (m) is live (the path
 #: from its excess level and from its points agree to rounding)
 PATH_SLACK = 1e-6
+#: a side's loops over its elements run over a multiple of this many (the widest
+#: vector of doubles, AVX-512's 8): whole vectors, no element left to a scalar
+#: remainder loop; the elements past the side's last repeat its last level, and
+#: none of them is read (:func:`_side`)
+LANES = 8
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -139,7 +144,8 @@ def _scratch(cfg):  # pragma: no cover - compiled
     for j in range(n_max):
         levels[j] = _level_value(j, cfg[1], int(cfg[3]))
     n_out = _count_below(cfg[4], cfg[0], int(cfg[2])) + 2
-    out = (np.empty((12, n_max)), np.empty(n_max, np.int64))
+    # room for a side's elements padded to whole vectors (:func:`_side`)
+    out = (np.empty((12, n_max + LANES)), np.empty(n_max + LANES, np.int64))
     return levels, out[0], out[1], np.empty((2, n_out)), np.empty(n_out, np.bool_)
 
 
@@ -462,19 +468,25 @@ def _side(ends, at, g, c, cfg, out):  # pragma: no cover - compiled
         n += 1
     lev[n] = e_end
     n = _before_last_bin(n, lev, m + l_apex - g[22], cfg, out[6])
+    # the loops run over `pad` elements, whole vectors: the ones past n repeat the
+    # last level (elements of no length; their numbers are never read, and each
+    # element's numbers are its own: the first n's are as without them)
+    pad = (n + LANES - 1) // LANES * LANES
+    for j in range(n + 1, pad + 1):
+        lev[j] = lev[n]
     zb[0] = z_apex
-    for j in range(1, n + 1):
+    for j in range(1, pad + 1):
         zb[j] = _clip(_on_spheroid(form, l_apex + lev[j], upper), lo, hi)
-    _live_bins(n, (m, l_apex, (form, upper, lo, hi), legs), g, cfg, out)
+    _live_bins((n, pad), (m, l_apex, (form, upper, lo, hi), legs), g, cfg, out)
     eta[0] = 0.0 if z_apex == z_mid else _eta_s(z_apex, rs, zs, rr, zr, z_mid)
-    for j in range(1, n + 1):  # e^eta - 1 at every end (a loop that vectorizes)
+    for j in range(1, pad + 1):  # e^eta - 1 at every end (a loop that vectorizes)
         eta[j] = _eta_s(zb[j], rs, zs, rr, zr, z_mid)
-    for j in range(n + 1):  # eta at every end (only those of live elements are read)
+    for j in range(pad + 1):  # eta at every end (only those of live elements are read)
         eta[j] = _log1p(eta[j])
-    for j in range(n + 1):  # the primitive of beta_2 there
+    for j in range(pad + 1):  # the primitive of beta_2 there
         prim[j], vv[j] = _tanh_uv(eta[j], nu2)
-    _prims(n + 1, (prim, vv), c[2], c[0])
-    _amplitudes(n, (x, m, z1, outer), g, c, cfg, out)
+    _prims(pad + 1, (prim, vv), c[2], c[0])
+    _amplitudes(pad, (x, m, z1, outer), g, c, cfg, out)
     _sums(n, (x, m), g, out)
 
 
@@ -499,21 +511,23 @@ def _before_last_bin(n, lev, base, cfg, last):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
+def _live_bins(counts, at, g, cfg, out):  # pragma: no cover - compiled
     """The bin of each of the n elements of a side (out[4]; -1 if not live), its
-    point zc, n and l (out[3] rows 4-6; of every element, in a loop that
-    vectorizes); at: (m, l_apex, (the spheroid form of the source point and the
-    receiver, the root, the clip), (rs, zs, rr, zr, ...)).  An element is first
+    point zc, n and l (out[3] rows 4-6; of every element and of the padding, in a
+    loop that vectorizes); counts: (n, n padded: :func:`_side`); at: (m, l_apex,
+    (the spheroid form of the source point and the receiver, the root, the clip),
+    (rs, zs, rr, zr, ...)).  An element is first
     tested on its mid path m + l_apex + its mid excess (its point lies on that
     spheroid): within PATH_SLACK of a live bin (a margin of 1e-6 bin over
     floor((ex -+ PATH_SLACK) / width) keeps this a superset of those bins), then
     on its path's bin."""
+    n, pad = counts
     m, l_apex, (form, upper, lo, hi), legs = at
     rs, zs, rr, zr = legs[0], legs[1], legs[2], legs[3]
     live, buf, bins = out[2], out[3], out[4]
     lev, zc, nn, ll, quot = buf[0], buf[4], buf[5], buf[6], buf[11]
     p_min, width = g[22], cfg[6]
-    for j in range(n):
+    for j in range(pad):
         z = _clip(_on_spheroid(form, l_apex + 0.5 * (lev[j] + lev[j + 1]), upper), lo, hi)
         zc[j] = z
         nn[j] = math.sqrt(rs * rs + (z - zs) ** 2)
@@ -536,9 +550,11 @@ def _live_bins(n, at, g, cfg, out):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _amplitudes(n, at, g, c, cfg, out):  # pragma: no cover - compiled
-    """The amplitude of each live element of a side (out[3] row 7; 0: none): the
-    mean of beta_2 over it (the primitive's step over eta's) times dz / (n l), the
-    outer weight, beta_1 at its point and the taper; at: (x, m, z1, outer weight)."""
+    """The amplitude of each live element of the n of a side (out[3] row 7; 0:
+    none; n: padded to whole vectors, :func:`_side`, the amplitudes past the side's
+    last element never read): the mean of beta_2 over it (the primitive's step
+    over eta's) times dz / (n l), the outer weight, beta_1 at its point and the
+    taper; at: (x, m, z1, outer weight)."""
     x, m, z1, outer = at
     buf, bins = out[3], out[4]
     zb, eta, prim, zc, nn, ll = buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
