@@ -34,6 +34,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from acousim.core.vectors import row_norms
 from acousim.trace.paths import KIND, TracedPaths
 
 __all__ = ["Endpoints", "FirstLeg", "MovingPaths"]
@@ -113,7 +114,7 @@ class MovingPaths:
         one = (paths.kind == KIND["specular"]) & (paths.order == 1)
         if one.any():
             normal = emitter_m - paths.anchor_m[one]
-            normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+            normal /= row_norms(normal, keepdims=True)
             mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
             first[one] = FirstLeg.fixed
         two = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
@@ -127,7 +128,7 @@ class MovingPaths:
         # the first leg where there is one, else (an image source) its distance
         unfolded = np.array(paths.first_leg_m, float)
         image = np.flatnonzero(~(unfolded > 0))
-        unfolded[image] = np.linalg.norm(paths.anchor_m[image] - emitter_m, axis=1)
+        unfolded[image] = row_norms(paths.anchor_m[image] - emitter_m)
         return cls(
             paths.anchor_m,
             paths.first_leg_m,
@@ -168,9 +169,7 @@ class MovingPaths:
     def level_at(self, point: np.ndarray) -> np.ndarray:
         """Magnitude of the pressure gain (N,) of every path at one point (the array
         centre), its anchor where it is at the start of the emission."""
-        return np.abs(self.strength) / np.maximum(
-            np.linalg.norm(self.anchor_m - point, axis=1), 1e-9
-        )
+        return np.abs(self.strength) / np.maximum(row_norms(self.anchor_m - point), 1e-9)
 
     def select(self, keep) -> MovingPaths:
         """The paths where `keep` (a mask, indices or a slice) selects."""
@@ -200,22 +199,22 @@ def _second_order_mirror(e, dep, x2, image):
     normals follow from the law of reflection at x1 and x2.
     """
     w = x2 - e
-    R = np.linalg.norm(x2 - image, axis=1)
+    R = row_norms(x2 - image)
     den = 2 * (R - np.einsum("si,si->s", w, dep))
     s = (R**2 - np.einsum("si,si->s", w, w)) / np.where(np.abs(den) > 1e-12, den, 1.0)
     x1 = e + s[:, None] * dep
     u = x2 - x1
-    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+    u /= np.maximum(row_norms(u, keepdims=True), 1e-12)
     out = x2 - image
-    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-12)
+    out /= np.maximum(row_norms(out, keepdims=True), 1e-12)
     n1, n2 = u - dep, out - u
-    n1 /= np.maximum(np.linalg.norm(n1, axis=1, keepdims=True), 1e-12)
-    n2 /= np.maximum(np.linalg.norm(n2, axis=1, keepdims=True), 1e-12)
+    n1 /= np.maximum(row_norms(n1, keepdims=True), 1e-12)
+    n2 /= np.maximum(row_norms(n2, keepdims=True), 1e-12)
     eye = np.eye(3)
     M1 = eye - 2 * n1[:, :, None] * n1[:, None, :]
     M2 = eye - 2 * n2[:, :, None] * n2[:, None, :]
     J = M2 @ M1
     # valid: a proper solution that maps the departure onto the last leg
     ok = (np.abs(den) > 1e-12) & (s > 0)
-    ok &= np.linalg.norm(np.einsum("sij,sj->si", J, dep) - out, axis=1) < 1e-6
+    ok &= row_norms(np.einsum("sij,sj->si", J, dep) - out) < 1e-6
     return J, ok
