@@ -36,6 +36,7 @@ import numpy as np
 
 from acousim.core.vectors import row_norms
 from acousim.trace.paths import KIND, TracedPaths
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Endpoints", "FirstLeg", "MovingPaths"]
 
@@ -106,17 +107,7 @@ class MovingPaths:
         """From :class:`~acousim.trace.paths.TracedPaths` traced with the emitter at
         `emitter_m` (all static)."""
         n = len(paths)
-        mirror = np.zeros((n, 3, 3))
-        first = np.full(n, FirstLeg.fermat)
-        direct = paths.kind == KIND["direct"]
-        mirror[direct] = np.eye(3)
-        first[direct] = FirstLeg.fixed
-        one = (paths.kind == KIND["specular"]) & (paths.order == 1)
-        if one.any():
-            normal = emitter_m - paths.anchor_m[one]
-            normal /= row_norms(normal, keepdims=True)
-            mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
-            first[one] = FirstLeg.fixed
+        mirror, first, unfolded = _static_legs(paths, emitter_m)
         two = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
         if two.size:
             J, ok = _second_order_mirror(
@@ -124,11 +115,6 @@ class MovingPaths:
             )
             mirror[two[ok]] = J[ok]
             first[two[ok]] = FirstLeg.fixed
-        first[paths.kind == KIND["point"]] = FirstLeg.exact
-        # the first leg where there is one, else (an image source) its distance
-        unfolded = np.array(paths.first_leg_m, float)
-        image = np.flatnonzero(~(unfolded > 0))
-        unfolded[image] = row_norms(paths.anchor_m[image] - emitter_m)
         return cls(
             paths.anchor_m,
             paths.first_leg_m,
@@ -138,7 +124,7 @@ class MovingPaths:
             mirror,
             first,
             np.zeros((n, 3)),
-            np.maximum(unfolded, 1e-6),
+            unfolded,
         )
 
     @classmethod
@@ -186,6 +172,40 @@ class MovingPaths:
         exact = np.linalg.norm(anchor - emitter1, axis=1)
         first = np.where(self.first_leg == FirstLeg.exact, exact, first)
         return anchor, first
+
+
+def _static_legs(paths: TracedPaths, emitter_m: np.ndarray):
+    """:meth:`MovingPaths.from_traced` but the second-order mirrors: the mirrors
+    (N, 3, 3) (the identity for the direct path, the reflection of a first-order
+    specular one, zero else), the FirstLeg codes (N,) (fixed for those, exact for a
+    point, Fermat else) and the Fermat lengths (N,) (the first leg, or an image
+    source's distance from the emitter `emitter_m` (3,), at least 1e-6 m); compiled
+    where numba is (:mod:`acousim.trace.motion._following_kernel`)."""
+    n = len(paths)
+    mirror = np.zeros((n, 3, 3))
+    compiled = optional_kernel("acousim.trace.motion._following_kernel", "static_legs")
+    if compiled is not None:
+        first, unfolded = np.empty(n, np.int64), np.empty(n)
+        anchor, e = np.asarray(paths.anchor_m, float), np.asarray(emitter_m, float)
+        legs = np.asarray(paths.first_leg_m, float)
+        compiled(paths.kind, paths.order, anchor, legs, e, mirror, first, unfolded)
+        return mirror, first, unfolded
+    first = np.full(n, FirstLeg.fermat)
+    direct = paths.kind == KIND["direct"]
+    mirror[direct] = np.eye(3)
+    first[direct] = FirstLeg.fixed
+    one = (paths.kind == KIND["specular"]) & (paths.order == 1)
+    if one.any():
+        normal = emitter_m - paths.anchor_m[one]
+        normal /= row_norms(normal, keepdims=True)
+        mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
+        first[one] = FirstLeg.fixed
+    first[paths.kind == KIND["point"]] = FirstLeg.exact
+    # the first leg where there is one, else (an image source) its distance
+    unfolded = np.array(paths.first_leg_m, float)
+    image = np.flatnonzero(~(unfolded > 0))
+    unfolded[image] = row_norms(paths.anchor_m[image] - emitter_m)
+    return mirror, first, np.maximum(unfolded, 1e-6)
 
 
 def _second_order_mirror(e, dep, x2, image):
