@@ -199,15 +199,16 @@ class SensorKinematics:
             degrees = range(1, POLY_DEGREE + 1)
             if _spans_a_knot(trajectory, self.t0, self.grid[-1]) and _none_fits(x, flat):
                 degrees = range(0)
-            fit = None
+            fits = False
             ruled_out = _ruled_out(x, flat)
             for degree in degrees:
                 if ruled_out[degree - 1]:
                     continue
                 coef, fit = _fit(x, flat, degree)  # (D + 1, P * 3), (G, P * 3)
-                if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                fits = bool(np.max(np.abs(fit - flat)) < POLY_FIT_M)
+                if fits:
                     break
-            if fit is not None and np.max(np.abs(fit - flat)) < POLY_FIT_M:
+            if fits:
                 self.degree = degree
                 self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
                 deriv = np.polynomial.polynomial.polyder(coef) / self.half
