@@ -211,7 +211,8 @@ class SensorKinematics:
             if fits:
                 self.degree = degree
                 self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
-                deriv = np.polynomial.polynomial.polyder(coef) / self.half
+                # (numpy's polyder: k c_k, the same products, without its overhead)
+                deriv = coef[1:] * np.arange(1, degree + 1.0)[:, None] / self.half
                 self.poly_v = deriv.reshape(degree, *table.shape[1:])
                 # per microphone (M, D + 1, 3) for batched products with the powers
                 self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))
