@@ -212,9 +212,17 @@ def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag):  # pragma:
     """One Newton step (:func:`_newton_step`) of every path at one microphone, in
     place on `t` (N,) (vectorised over the paths); the steps into `step` (N,) and
     the offsets over ``c |m - A| f'`` into `g` (three arrays (N,), s/m); how many
-    steps were at least `stop` (s).  t_r (N,) s; A (3, N) m."""
-    gx, gy, gz = g
+    steps were at least `stop` (s).  t_r (N,) s; A (3, N) m.  `g` None: the
+    offsets not kept (nor computed: the call's last and middle samples need none)."""
     over = 0
+    if g is None:
+        for n in range(t.size):
+            s = _newton_step(t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic, tag)[0]
+            t[n] -= s
+            step[n] = s
+            over += 1 if abs(s) >= stop else 0
+        return over
+    gx, gy, gz = g
     for n in range(t.size):
         s, gx[n], gy[n], gz[n] = _newton_step(
             t[n], t_r[n], A[0, n], A[1, n], A[2, n], pm, pv, mid, ih, ic, tag
@@ -229,7 +237,8 @@ def _newton_pass(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag):  # pragma:
 def _solve(t, t_r, A, pm, pv, mid, ih, ic, stop, step, g, tag):  # pragma: no cover - compiled
     """Newton on `t` (N,) in place until each path's last step is below `stop` (s),
     at most 20 steps: passes over every path while more than an eighth of them
-    move, then each remaining path on its own."""
+    move, then each remaining path on its own; the offsets of the last pass into
+    `g` (None: not computed, :func:`_newton_pass`)."""
     N = t.size
     passes = 0
     while passes < 20:
@@ -310,11 +319,10 @@ def arrive_echoes(t_r, A, duration, poly, poly_v, mid, half, c, stop, echo, tag)
 def _work(N, tag):  # pragma: no cover - compiled
     """The scratch arrays of :func:`_arrive_row` for N paths: the steps, and the
     first sample's sensitivity to the microphone's position (s/m, three arrays: at
-    the previous microphone) and a spare for the other instants; and `tag` (the
+    the previous microphone; the other instants need none); and `tag` (the
     polynomials' degree, :func:`arrive`)."""
     g = (np.empty(N), np.empty(N), np.empty(N))
-    spare = (np.empty(N), np.empty(N), np.empty(N))
-    return np.empty(N), g, spare, tag
+    return np.empty(N), g, tag
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -324,7 +332,7 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
     N = cur.shape[1]
     ih = 1.0 / half
     ic = 1.0 / c
-    step, g, spare, tag = work
+    step, g, tag = work
     first, last, middle = cur[0], cur[1], cur[2]
     if m == 0:
         first[:] = t_r[0]
@@ -342,7 +350,7 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
     else:
         for n in range(N):
             last[n] = first[n] + (prev[1, n] - prev[0, n])
-    _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, spare, tag)
+    _solve(last, t_r[1], A[1], poly[m], poly_v[m], mid, ih, ic, stop, step, None, tag)
     if m == 0:
         for n in range(N):
             middle[n] = 0.5 * (first[n] + last[n])
@@ -350,7 +358,7 @@ def _arrive_row(m, t_r, A, duration, poly, poly_v, mid, half, c, stop, prev, cur
         for n in range(N):
             bend = prev[2, n] - 0.5 * (prev[0, n] + prev[1, n])
             middle[n] = 0.5 * (first[n] + last[n]) + bend
-    _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, spare, tag)
+    _solve(middle, t_r[2], A[2], poly[m], poly_v[m], mid, ih, ic, stop, step, None, tag)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -199,18 +199,20 @@ class SensorKinematics:
             degrees = range(1, POLY_DEGREE + 1)
             if _spans_a_knot(trajectory, self.t0, self.grid[-1]) and _none_fits(x, flat):
                 degrees = range(0)
-            fit = None
+            fits = False
             ruled_out = _ruled_out(x, flat)
             for degree in degrees:
                 if ruled_out[degree - 1]:
                     continue
                 coef, fit = _fit(x, flat, degree)  # (D + 1, P * 3), (G, P * 3)
-                if np.max(np.abs(fit - flat)) < POLY_FIT_M:
+                fits = bool(np.max(np.abs(fit - flat)) < POLY_FIT_M)
+                if fits:
                     break
-            if fit is not None and np.max(np.abs(fit - flat)) < POLY_FIT_M:
+            if fits:
                 self.degree = degree
                 self.poly = coef.reshape(degree + 1, *table.shape[1:])  # (D + 1, 1 + M, 3)
-                deriv = np.polynomial.polynomial.polyder(coef) / self.half
+                # (numpy's polyder: k c_k, the same products, without its overhead)
+                deriv = coef[1:] * np.arange(1, degree + 1.0)[:, None] / self.half
                 self.poly_v = deriv.reshape(degree, *table.shape[1:])
                 # per microphone (M, D + 1, 3) for batched products with the powers
                 self.mic_poly = np.ascontiguousarray(self.poly[:, 1:].transpose(1, 0, 2))

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acousim.core.vectors import row_norms
 from acousim.trace.paths import KIND, TracedPaths
 from processing.base.kernels import optional_kernel
 
@@ -228,7 +229,7 @@ def chain_fields(
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    return v / np.maximum(row_norms(v, keepdims=True), 1e-300)
 
 
 def point_objects(positions_m: np.ndarray, scene_points_m: np.ndarray, start: int) -> np.ndarray:

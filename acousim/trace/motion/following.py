@@ -34,7 +34,9 @@ from enum import IntEnum
 
 import numpy as np
 
+from acousim.core.vectors import row_norms
 from acousim.trace.paths import KIND, TracedPaths
+from processing.base.kernels import optional_kernel
 
 __all__ = ["Endpoints", "FirstLeg", "MovingPaths"]
 
@@ -105,17 +107,7 @@ class MovingPaths:
         """From :class:`~acousim.trace.paths.TracedPaths` traced with the emitter at
         `emitter_m` (all static)."""
         n = len(paths)
-        mirror = np.zeros((n, 3, 3))
-        first = np.full(n, FirstLeg.fermat)
-        direct = paths.kind == KIND["direct"]
-        mirror[direct] = np.eye(3)
-        first[direct] = FirstLeg.fixed
-        one = (paths.kind == KIND["specular"]) & (paths.order == 1)
-        if one.any():
-            normal = emitter_m - paths.anchor_m[one]
-            normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-            mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
-            first[one] = FirstLeg.fixed
+        mirror, first, unfolded = _static_legs(paths, emitter_m)
         two = np.flatnonzero((paths.kind == KIND["specular"]) & (paths.order == 2))
         if two.size:
             J, ok = _second_order_mirror(
@@ -123,11 +115,6 @@ class MovingPaths:
             )
             mirror[two[ok]] = J[ok]
             first[two[ok]] = FirstLeg.fixed
-        first[paths.kind == KIND["point"]] = FirstLeg.exact
-        # the first leg where there is one, else (an image source) its distance
-        unfolded = np.array(paths.first_leg_m, float)
-        image = np.flatnonzero(~(unfolded > 0))
-        unfolded[image] = np.linalg.norm(paths.anchor_m[image] - emitter_m, axis=1)
         return cls(
             paths.anchor_m,
             paths.first_leg_m,
@@ -137,7 +124,7 @@ class MovingPaths:
             mirror,
             first,
             np.zeros((n, 3)),
-            np.maximum(unfolded, 1e-6),
+            unfolded,
         )
 
     @classmethod
@@ -168,9 +155,7 @@ class MovingPaths:
     def level_at(self, point: np.ndarray) -> np.ndarray:
         """Magnitude of the pressure gain (N,) of every path at one point (the array
         centre), its anchor where it is at the start of the emission."""
-        return np.abs(self.strength) / np.maximum(
-            np.linalg.norm(self.anchor_m - point, axis=1), 1e-9
-        )
+        return np.abs(self.strength) / np.maximum(row_norms(self.anchor_m - point), 1e-9)
 
     def select(self, keep) -> MovingPaths:
         """The paths where `keep` (a mask, indices or a slice) selects."""
@@ -189,6 +174,40 @@ class MovingPaths:
         return anchor, first
 
 
+def _static_legs(paths: TracedPaths, emitter_m: np.ndarray):
+    """:meth:`MovingPaths.from_traced` but the second-order mirrors: the mirrors
+    (N, 3, 3) (the identity for the direct path, the reflection of a first-order
+    specular one, zero else), the FirstLeg codes (N,) (fixed for those, exact for a
+    point, Fermat else) and the Fermat lengths (N,) (the first leg, or an image
+    source's distance from the emitter `emitter_m` (3,), at least 1e-6 m); compiled
+    where numba is (:mod:`acousim.trace.motion._following_kernel`)."""
+    n = len(paths)
+    mirror = np.zeros((n, 3, 3))
+    compiled = optional_kernel("acousim.trace.motion._following_kernel", "static_legs")
+    if compiled is not None:
+        first, unfolded = np.empty(n, np.int64), np.empty(n)
+        anchor, e = np.asarray(paths.anchor_m, float), np.asarray(emitter_m, float)
+        legs = np.asarray(paths.first_leg_m, float)
+        compiled(paths.kind, paths.order, anchor, legs, e, mirror, first, unfolded)
+        return mirror, first, unfolded
+    first = np.full(n, FirstLeg.fermat)
+    direct = paths.kind == KIND["direct"]
+    mirror[direct] = np.eye(3)
+    first[direct] = FirstLeg.fixed
+    one = (paths.kind == KIND["specular"]) & (paths.order == 1)
+    if one.any():
+        normal = emitter_m - paths.anchor_m[one]
+        normal /= row_norms(normal, keepdims=True)
+        mirror[one] = np.eye(3) - 2 * normal[:, :, None] * normal[:, None, :]
+        first[one] = FirstLeg.fixed
+    first[paths.kind == KIND["point"]] = FirstLeg.exact
+    # the first leg where there is one, else (an image source) its distance
+    unfolded = np.array(paths.first_leg_m, float)
+    image = np.flatnonzero(~(unfolded > 0))
+    unfolded[image] = row_norms(paths.anchor_m[image] - emitter_m)
+    return mirror, first, np.maximum(unfolded, 1e-6)
+
+
 def _second_order_mirror(e, dep, x2, image):
     """The linear part J (S, 3, 3) of a second-order image source ``A = J e + b`` from
     the emitter e (3,), the departure (S, 3), the last reflection point x2 (S, 3) and
@@ -200,22 +219,22 @@ def _second_order_mirror(e, dep, x2, image):
     normals follow from the law of reflection at x1 and x2.
     """
     w = x2 - e
-    R = np.linalg.norm(x2 - image, axis=1)
+    R = row_norms(x2 - image)
     den = 2 * (R - np.einsum("si,si->s", w, dep))
     s = (R**2 - np.einsum("si,si->s", w, w)) / np.where(np.abs(den) > 1e-12, den, 1.0)
     x1 = e + s[:, None] * dep
     u = x2 - x1
-    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+    u /= np.maximum(row_norms(u, keepdims=True), 1e-12)
     out = x2 - image
-    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-12)
+    out /= np.maximum(row_norms(out, keepdims=True), 1e-12)
     n1, n2 = u - dep, out - u
-    n1 /= np.maximum(np.linalg.norm(n1, axis=1, keepdims=True), 1e-12)
-    n2 /= np.maximum(np.linalg.norm(n2, axis=1, keepdims=True), 1e-12)
+    n1 /= np.maximum(row_norms(n1, keepdims=True), 1e-12)
+    n2 /= np.maximum(row_norms(n2, keepdims=True), 1e-12)
     eye = np.eye(3)
     M1 = eye - 2 * n1[:, :, None] * n1[:, None, :]
     M2 = eye - 2 * n2[:, :, None] * n2[:, None, :]
     J = M2 @ M1
     # valid: a proper solution that maps the departure onto the last leg
     ok = (np.abs(den) > 1e-12) & (s > 0)
-    ok &= np.linalg.norm(np.einsum("sij,sj->si", J, dep) - out, axis=1) < 1e-6
+    ok &= row_norms(np.einsum("sij,sj->si", J, dep) - out) < 1e-6
     return J, ok

@@ -103,3 +103,19 @@ def test_rotations_within_and_across_segments_are_scipys_slerp():
     for t in (0.1 + 0.099 * rng.random(150), 0.4 * rng.random((6, 7)), np.array([0.25])):
         ref = slerp(t.ravel()).as_matrix().reshape(*t.shape, 3, 3)
         assert np.abs(traj.rotation(t) - ref).max() < 1e-12
+
+
+def test_velocity_polynomial_is_numpys_derivative_of_the_position_one():
+    """Within one segment: the velocities' coefficients are numpy's polyder of the
+    positions' over the half window, to the bit, and the positions' derivative in
+    time (a central difference of the polynomial)."""
+    kin = SensorKinematics(turning_then_straight(), Pose([0.0, 0.0, 0.0], 0.0), ARRAY, 0.02, STEP)
+    assert kin.poly is not None
+    flat = kin.poly.reshape(kin.poly.shape[0], -1)
+    want = np.polynomial.polynomial.polyder(flat) / kin.half
+    assert kin.poly_v.reshape(want.shape).tobytes() == want.tobytes()
+    x, h = 0.3, 1e-6  # normalised time, and a step of it
+    pos = np.polynomial.polynomial.polyval([x - h, x + h], flat)
+    slope = (pos[:, 1] - pos[:, 0]) / (2 * h * kin.half)  # m/s
+    vel = np.polynomial.polynomial.polyval(x, kin.poly_v.reshape(want.shape))
+    assert np.allclose(vel, slope, rtol=0, atol=1e-6)
