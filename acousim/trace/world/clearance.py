@@ -67,39 +67,19 @@ def nearest_surface(
 ) -> tuple[np.ndarray, np.ndarray]:
     """For each point (K, 3): the distance (K,) to the plane of the nearest face its
     26 rays meet within ``clearance_m / cos(COVER_RAD)`` (m; inf: none) and that
-    face's index (K,; -1: none).  Only the points within that reach (and the
-    caster's tolerance) of some face's plane cast their rays: a face farther than
-    that from a point's plane cannot be met (:func:`_within_reach`)."""
+    face's index (K,; -1: none)."""
     pts = np.asarray(points_m, float).reshape(-1, 3)
     k, n = len(pts), len(DIRECTIONS)
-    reach = clearance_m / np.cos(COVER_RAD)
-    gap_k, face_k = np.full(k, np.inf), np.full(k, -1)
-    ask = np.flatnonzero(_within_reach(world, pts, reach + caster.tolerance_m))
-    if ask.size == 0:
-        return gap_k, face_k
-    m = ask.size
-    origins = np.repeat(pts[ask], n, axis=0)
-    dirs = np.tile(DIRECTIONS, (m, 1))
-    t, f = caster.first_hit(origins, dirs, reach)
+    origins = np.repeat(pts, n, axis=0)
+    dirs = np.tile(DIRECTIONS, (k, 1))
+    t, f = caster.first_hit(origins, dirs, clearance_m / np.cos(COVER_RAD))
     hit = f >= 0
-    gap = np.full(m * n, np.inf)
+    gap = np.full(k * n, np.inf)
     gap[hit] = t[hit] * np.abs(np.einsum("ij,ij->i", world.normals[f[hit]], dirs[hit]))
-    gap = gap.reshape(m, n)
+    gap = gap.reshape(k, n)
     best = gap.argmin(axis=1)
-    rows = np.arange(m)
-    gap_k[ask] = gap[rows, best]
-    face_k[ask] = np.where(np.isfinite(gap[rows, best]), f.reshape(m, n)[rows, best], -1)
-    return gap_k, face_k
-
-
-def _within_reach(world: World, pts: np.ndarray, reach_m: float) -> np.ndarray:
-    """(K,) True where a point of `pts` (K, 3) lies within `reach_m` (m) of the plane
-    of some face (a face is never nearer than its plane): the points whose rays
-    may meet a face (and where a plane's distance is NaN: a degenerate face)."""
-    if len(world.normals) == 0:
-        return np.zeros(len(pts), bool)
-    off = np.abs(pts @ world.normals.T - world.offsets)  # (K, F)
-    return ~(off.min(axis=1) > reach_m)
+    rows = np.arange(k)
+    return gap[rows, best], np.where(np.isfinite(gap[rows, best]), f.reshape(k, n)[rows, best], -1)
 
 
 def too_near(

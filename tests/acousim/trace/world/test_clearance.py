@@ -94,27 +94,3 @@ def test_an_oblique_wall_is_found_whatever_its_orientation(tmp_path, seed):
     near = gaps < SENSOR_CLEARANCE_M
     np.testing.assert_allclose(found[near], gaps[near], atol=5e-5)  # float32 geometry
     assert np.all(found[~near] >= SENSOR_CLEARANCE_M)
-
-
-def test_points_far_from_every_plane_cast_no_ray_and_find_what_all_rays_find(tmp_path):
-    """Only the points within reach of some face's plane cast their 26 rays; the
-    distances and faces are those of casting every point's rays (the reference
-    here: each point's rays cast one by one, the nearest face's plane distance)."""
-    from acousim.trace.world.clearance import COVER_RAD, DIRECTIONS
-
-    scene = _scene(tmp_path, (0.0, 0.0, 0.0))
-    tracer = Simulator(scene).tracer
-    caster, world = tracer.caster, tracer.world
-    rng = np.random.default_rng(3)
-    gaps = np.r_[rng.uniform(0, 0.012, 10), rng.uniform(0.02, 1.0, 10)]
-    points = np.c_[WALL_X - gaps, rng.uniform(-1, 1, (20, 2))]
-    before = caster.rays_cast
-    found, face = nearest_surface(caster, world, points, SENSOR_CLEARANCE_M)
-    reach = SENSOR_CLEARANCE_M / np.cos(COVER_RAD)
-    assert caster.rays_cast - before == 26 * np.sum(gaps <= reach + caster.tolerance_m)
-    for p, g, f in zip(points, found, face):
-        t, hit = caster.first_hit(np.broadcast_to(p, DIRECTIONS.shape), DIRECTIONS, reach)
-        seen = hit >= 0
-        d = t[seen] * np.abs(np.einsum("ij,ij->i", world.normals[hit[seen]], DIRECTIONS[seen]))
-        assert g == (d.min() if d.size else np.inf)
-        assert f == (hit[seen][np.argmin(d)] if d.size else -1)
