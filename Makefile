@@ -54,7 +54,7 @@ demo: $(STAMP)  ## simulate the corridor drive and write its pictures to out/
 
 test: $(STAMP)  ## type-check the public API, then run the test suite
 	$(BIN)/mypy
-	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 tests
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --dist worksteal tests
 
 bench: $(STAMP)  ## run every benchmark and rewrite BENCHMARKS.md
 	$(BIN)/python -m benchmarks
