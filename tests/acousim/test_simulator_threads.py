@@ -22,6 +22,9 @@ from tests import REPO
 from tests.acousim.trace.diffraction.test_edge_to_edge import plane_ids
 from tests.acousim.trace.diffraction.test_pair_selection import EMITTER, RECEIVER, room_objects
 
+#: run before any parallel kernel in its worker (tests/conftest.py): these fork
+pytestmark = pytest.mark.forks
+
 SCENES = REPO / "scenes"
 
 

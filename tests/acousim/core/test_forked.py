@@ -9,6 +9,9 @@ import pytest
 
 from acousim.core.forked import ahead_in_a_process
 
+#: run before any parallel kernel in its worker (tests/conftest.py): these fork
+pytestmark = pytest.mark.forks
+
 
 def _squares(n):
     for k in range(n):
