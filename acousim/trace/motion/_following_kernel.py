@@ -10,9 +10,12 @@ import math
 
 from numba import njit
 
-# the codes of acousim.trace.paths.PathKind and of following.FirstLeg
-_DIRECT, _SPECULAR, _POINT = 0, 1, 3
-_FIXED, _FERMAT, _EXACT = 0, 1, 2
+from acousim.trace.motion.following import FirstLeg
+from acousim.trace.paths import PathKind
+
+# the codes, read from their enums (constants of the compiled code)
+_DIRECT, _SPECULAR, _POINT = int(PathKind.direct), int(PathKind.specular), int(PathKind.point)
+_FIXED, _FERMAT, _EXACT = int(FirstLeg.fixed), int(FirstLeg.fermat), int(FirstLeg.exact)
 
 
 @njit(cache=True, nogil=True)
