@@ -6,7 +6,10 @@ Embree threads counted: process time), the median over 20 poses of the drive.
     python -m benchmarks.stages ['{"render_rate": "baseband"}']
     python -m benchmarks.stages --base ../old --rounds 8   # against a checkout
 
-With ``--base DIR`` (another checkout's root, which needs not have this script) it
+The process is configured as the command line configures it
+(:func:`acousim.process.configure`: BLAS on one thread, freed memory kept; without
+it OpenBLAS's threads spin and about double the CPU time).  With ``--base DIR``
+(another checkout's root, which needs not have this script) it
 runs itself in alternating processes importing this tree's code and DIR's
 (:mod:`benchmarks.alternating`) and prints the medians of the rounds' medians per
 stage and of the rounds' ratios of the totals (DIR over this tree).
@@ -22,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acousim.process import configure
 from acousim.scene import load_scene
 from acousim.simulator import SCENE_MOTION, Simulator
 
@@ -82,6 +86,7 @@ def main() -> None:
     ap.add_argument("--base", type=Path, help="another checkout's root, run alternately")
     ap.add_argument("--rounds", type=int, default=8, help="alternating rounds (--base)")
     args = ap.parse_args()
+    configure()  # the process's policy, as the command line sets it (BLAS on one thread)
     if args.base is not None:
         # imported here: the processes it starts import another checkout's code
         from benchmarks.alternating import alternate, stage_fields, summary
