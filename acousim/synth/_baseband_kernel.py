@@ -99,3 +99,16 @@ def band_products(spectra, filters, half, b0, out):  # pragma: no cover - compil
             for r in range(1, R):
                 acc += spectra[r, m, k] * filters[r, i]
             o[b0 + i] = acc
+
+
+@njit(cache=True, nogil=True)
+def set_energy(gains):  # pragma: no cover - compiled
+    """The sum of squares (R,) of each set of `gains` (M, N, R) float64 over its
+    microphones and paths."""
+    M, N, R = gains.shape
+    out = np.zeros(R)
+    for m in range(M):
+        for n in range(N):
+            for r in range(R):
+                out[r] += gains[m, n, r] * gains[m, n, r]
+    return out
