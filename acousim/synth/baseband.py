@@ -184,8 +184,9 @@ def spectra(
     energy: np.ndarray,
     floor_db: float,
     dtype,
+    n: int,
 ) -> np.ndarray:
-    """The spectra (M, F) of an n-point real FFT (F = n // 2 + 1; `filters` (R, F):
+    """The spectra (M, F) of an `n`-point real FFT (F = n // 2 + 1; `filters` (R, F):
     the sets' filters on it) of the impulses at q (M, N) samples with the gain sets
     `sets` (R',) of `gains` (M, N, R), of energy `energy` (R,): over the bins within
     `floor_db` of their strongest (:func:`centre`), zero elsewhere
@@ -193,7 +194,6 @@ def spectra(
     the direct path, tens of dB above them, is summed in time by the callers (a band
     cut at the echoes' floor would leave its error above theirs).  The spectra are
     this thread's buffer (:func:`render_band`): valid until its next render."""
-    n = 2 * (filters.shape[1] - 1)
     c, half = centre(filters[sets], energy[sets], floor_db)
     g = grid(n, c, half, TAPS, OVERSAMPLING)
     return render_band(q, gains, filters[sets, c - half : c + half + 1], g, dtype, sets)

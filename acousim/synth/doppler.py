@@ -579,7 +579,7 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
         cdtype = np.complex64 if plan.single else complex
         sets = np.flatnonzero(echoes)
         q = plan.positions + pad
-        spec = baseband.spectra(q, gains, filters, sets, energy, opts.band_floor_db, cdtype)
+        spec = baseband.spectra(q, gains, filters, sets, energy, opts.band_floor_db, cdtype, n)
         y = sfft.irfft(spec, n, axis=-1, workers=1, overwrite_x=True)[:, pad : pad + hi - lo]
         _placed(y, (out, lo))
     if not echoes.all():

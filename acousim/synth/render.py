@@ -459,7 +459,7 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db, into) -> n
     if echo.any():
         pad = kernel[1] + 1  # the same layout as the impulses' buffers
         sets = np.flatnonzero(echo)
-        spec = baseband.spectra(d + pad, gains, filters, sets, energy, floor_db, np.complex64)
+        spec = baseband.spectra(d + pad, gains, filters, sets, energy, floor_db, np.complex64, n)
         y = sfft.irfft(spec, n, axis=-1, workers=1, overwrite_x=True)
         _placed(y[:, pad : pad + n_span], into)
     if not echo.all():

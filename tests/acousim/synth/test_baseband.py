@@ -165,6 +165,28 @@ def test_band_spectra_against_the_direct_sums(dtype):
     assert not np.any(out[:, : k[0]]) and not np.any(out[:, k[-1] + 1 :])
 
 
+@pytest.mark.parametrize("n", [4000, 3375])
+def test_spectra_of_even_and_odd_lengths_against_the_direct_sums(n):
+    """:func:`.baseband.spectra` (the band found from the filters, on an n-point real
+    FFT of either parity: F = n // 2 + 1 bins) against the exact sums times the
+    filters (numpy, per bin): a smooth filter over 600-900 bins, zero elsewhere."""
+    q, gains = _impulses(n, 2, 50, 3, 5)
+    F = n // 2 + 1
+    k = np.arange(F)
+    filters = np.zeros((3, F), complex)  # a filter per set of gains
+    on = slice(600 * n // 4000, 900 * n // 4000)
+    filters[:, on] = np.hanning(k[on].size) * np.array([[1.0], [3.0], [0.5j]])
+    sets = np.array([0, 2])
+    energy = np.sum(gains**2, axis=(0, 1))
+    out = baseband.spectra(q, gains, filters, sets, energy, -60.0, complex, n)
+    phase = np.exp(-2j * np.pi * q[..., None] * k[on] / n)  # (M, N, K)
+    exact = np.einsum("mnk,mnr,rk->mk", phase, gains[:, :, sets], filters[sets, on])
+    assert out.shape == (2, F)
+    assert _db(out[:, on], exact) < -60
+    assert np.linalg.norm(out[:, : on.start]) < 1e-3 * np.linalg.norm(exact)
+    assert np.linalg.norm(out[:, on.stop :]) < 1e-3 * np.linalg.norm(exact)
+
+
 def test_band_spectra_without_numba_are_the_compiled_ones(monkeypatch):
     """The numpy fallbacks of the accumulation and the products against the compiled
     kernels: the same sums (the turn evaluated directly instead of by its table and
