@@ -27,9 +27,9 @@ out), W = 4 and sigma = 1.5 (:data:`TAPS`, :data:`OVERSAMPLING`): -62 dB at a -6
 band (8 poses of the drive at the `fast` preset, 2 887-3 784 paths: -61.6 to
 -62.4 dB; -63 dB on a pose of 3 937 paths at the defaults), -65 dB at -80 dB (the
 kernel's limit; W = 6: -84 dB at -80 dB, the full-rate kernel's own error is -81
-dB).  CPU time of the step (the gain sets given), the same 8 poses: 6.7 ms a pose
-against 15.5 before the grids were laid out for the FFTs and the direct path
-summed in time (the full-rate renderer's: 11-15 ms).
+dB).  CPU time of the step (the gain sets given), the same 8 poses rendered again
+and again: 8.0 ms a pose against 17.3 before the grids were laid out for the FFTs
+and the direct path summed in time, and 12.3 at the full rate (docs/physics.md).
 ``tests/acousim/synth/test_baseband.py`` checks it against exact references.
 """
 
@@ -57,7 +57,7 @@ __all__ = [
 
 #: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
 #: (docs/physics.md, speed: with the band at -60 dB, the corridor's echoes within
-#: -63 to -66 dB of the full-rate renderer's)
+#: -62 to -64 dB of the full-rate renderer's)
 TAPS = 4
 OVERSAMPLING = 1.5
 
