@@ -46,6 +46,7 @@ from processing.base.kernels import optional_kernel
 __all__ = [
     "spectra",
     "echo_sets",
+    "set_energy",
     "render_band",
     "BasebandGrid",
     "grid",
@@ -158,22 +159,23 @@ def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tu
     return quantized(c, max(c - k0, k1 - c, 1), filters.shape[1])
 
 
-def echo_sets(gains: np.ndarray, direct: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The energy of each gain set (R,) over every path and microphone of `gains`
-    (M, N, R), and which sets are the echoes' (R,) bool: those that are not the
-    direct path's (`direct` (N,) bool: its paths; each set is of one group, the
-    compression's or the factorisation's, so a set whose energy is all the direct
-    path's is the direct path's)."""
+def echo_sets(gains: np.ndarray, direct: np.ndarray) -> np.ndarray:
+    """Which gain sets of `gains` (M, N, R) are the echoes' (R,) bool: those with no
+    gain on the direct path's paths (`direct` (N,) bool; each set is of one group,
+    the compression's or the factorisation's: the direct path's sets are zero on the
+    echoes' paths, the echoes' on the direct path's)."""
+    d = np.flatnonzero(direct)
+    return ~np.any(gains[:, d] != 0, axis=(0, 1))
+
+
+def set_energy(gains: np.ndarray) -> np.ndarray:
+    """The energy of each gain set (R,): the sum of squares of `gains` (M, N, R)
+    over its microphones and paths (compiled, or numpy)."""
     kernel = optional_kernel("acousim.synth._baseband_kernel", "set_energy")
     if kernel is None:
         flat = gains.reshape(-1, gains.shape[2])
-        energy = np.einsum("ir,ir->r", flat, flat)
-    else:
-        energy = kernel(np.ascontiguousarray(gains, float))
-    if not direct.any():
-        return energy, np.ones(energy.size, bool)
-    d = gains[:, np.flatnonzero(direct)]
-    return energy, energy > np.einsum("mnr,mnr->r", d, d)
+        return np.einsum("ir,ir->r", flat, flat)
+    return kernel(np.ascontiguousarray(gains, float))
 
 
 def spectra(

@@ -571,7 +571,10 @@ def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
     summed in time onto them as the full-rate renderer sums them
     (:func:`_planned_in_time`)."""
     n, lo, hi, opts = plan.n_fft, plan.lo, plan.hi, plan.options
-    energy, echoes = baseband.echo_sets(gains, plan.direct_paths)
+    echoes = baseband.echo_sets(gains, plan.direct_paths)
+    # the compression's sets have unit energy (orthonormal gains: their weights are
+    # in the filters), so the band's centre weighs the filters alone
+    energy = np.ones(gains.shape[2])
     if echoes.any():
         filters = np.zeros((gains.shape[2], n // 2 + 1), complex)
         filters[:, plan.band] = filt_band.T

@@ -455,7 +455,7 @@ def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db, into) -> n
     filters[:, band] = (W[band, None] * U).T
     gains = g[:, :, None] * V[None]
     direct = echoes.order == 0
-    energy, echo = baseband.echo_sets(gains, direct)
+    energy, echo = baseband.set_energy(gains), baseband.echo_sets(gains, direct)
     if echo.any():
         pad = kernel[1] + 1  # the same layout as the impulses' buffers
         sets = np.flatnonzero(echo)

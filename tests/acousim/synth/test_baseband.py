@@ -202,21 +202,52 @@ def test_band_spectra_without_numba_are_the_compiled_ones(monkeypatch):
     plain = baseband.render_band(q, gains, filters, g, complex, sets)
     assert np.any(compiled)
     assert _db(plain, compiled) < -120
-    energy, echoes = baseband.echo_sets(gains, np.zeros(40, bool))
-    assert energy == pytest.approx(np.sum(gains**2, axis=(0, 1)), rel=1e-12)
-    assert echoes.all()
+    assert baseband.set_energy(gains) == pytest.approx(np.sum(gains**2, axis=(0, 1)), rel=1e-12)
+    assert baseband.echo_sets(gains, np.zeros(40, bool)).all()
 
 
 def test_echo_sets_are_those_the_direct_path_does_not_use():
-    """Each set of one group: the direct path's are those whose energy is all its."""
+    """Each set of one group: the direct path's are those with gains on its paths;
+    the sets' energies the sums of squares (numpy, another order)."""
     gains = np.random.default_rng(4).normal(size=(2, 5, 4))
     direct = np.zeros(5, bool)
     direct[1] = True
     gains[:, 1, 2:] = 0  # the direct path's sets: 0 and 1
     gains[:, ~direct, :2] = 0
-    energy, echoes = baseband.echo_sets(gains, direct)
-    assert echoes.tolist() == [False, False, True, True]
+    assert baseband.echo_sets(gains, direct).tolist() == [False, False, True, True]
+    energy = baseband.set_energy(gains)
     assert energy == pytest.approx(np.einsum("mnr,mnr->r", gains, gains), rel=1e-12)
+
+
+def test_the_compressed_sets_have_unit_energy():
+    """The moving render at baseband weighs the sets' filters alone when it finds
+    the band: the compression's gains are orthonormal (``G E L^(-1/2) Y_r``), each
+    set's sum of squares over microphones and paths one (numpy), its weight in its
+    filter; the direct path's sets and the echoes' alike."""
+    from acousim.synth.compress import compress
+    from acousim.synth.doppler import plan_doppler
+
+    arr, pose, traj, paths, n, a = _drive(6)
+    e = a.echoes
+    order = np.array([0, 1, 1, 1, 1, 1])
+    echoes = Echoes(e.delay_s, e.gain * 10.0, e.path_length_m, order, e.angles())
+    response = PathResponse(speed_of_sound_m_s=C, emitter_radius_m=0.005)
+    wf = P.rtis_call("default_25_50")
+    plan = plan_doppler(echoes, a.rate, wf, FS, n, response=response, options=BASEBAND)
+    products = plan.products if plan.coarse_spectra is None else plan.folded_products
+    gains, _ = compress(
+        plan.terms,
+        plan.responses,
+        plan.templates,
+        products,
+        plan.response_spectra,
+        plan.direct_paths,
+        plan.direct_terms,
+        plan.options.compress_tolerance,
+    )
+    assert gains.shape[2] >= 2
+    assert np.sum(gains**2, axis=(0, 1)) == pytest.approx(1.0, rel=1e-9)
+    assert baseband.echo_sets(gains, plan.direct_paths).sum() < gains.shape[2]
 
 
 def test_grid_lengths_are_the_smallest_of_their_form():
