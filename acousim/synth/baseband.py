@@ -28,8 +28,9 @@ band (8 poses of the drive at the `fast` preset, 2 887-3 784 paths: -61.6 to
 -62.4 dB; -63 dB on a pose of 3 937 paths at the defaults), -65 dB at -80 dB (the
 kernel's limit; W = 6: -84 dB at -80 dB, the full-rate kernel's own error is -81
 dB).  CPU time of the step (the gain sets given), the same 8 poses rendered again
-and again: 8.0 ms a pose against 17.3 before the grids were laid out for the FFTs
-and the direct path summed in time, and 12.3 at the full rate (docs/physics.md).
+and again: 7.2-7.4 ms a pose against 14.8-17.7 before the grids were laid out for
+the FFTs and the direct path summed in time, and 11.0-11.8 at the full rate
+(docs/physics.md, "Render at baseband").
 ``tests/acousim/synth/test_baseband.py`` checks it against exact references.
 """
 
