@@ -8,25 +8,35 @@ a 450 kHz sampling: most of those bins are empty.  Here the echoes' sets' spectr
 are computed only over the band where their filters carry energy (the bins within
 ``floor_db`` of the strongest, centred on bin c, half-width B), as a type-1
 non-uniform FFT: each impulse at q samples, gain g, becomes the complex gain
-``g exp(-2 pi i c q / n)`` spread over W points of a coarse grid of nb = sigma 2 B
-points (nb points over the same n samples) by the "exponential of semicircle"
-kernel phi; the coarse grid's FFT divided by phi's Fourier transform is
-``sum g exp(-2 pi i (c + k) q / n)`` at bins c + k, |k| <= B, to the kernel's
-aliasing error.  The filtered band goes into an n-point spectrum per microphone
-and one real inverse FFT per microphone gives the samples.  The direct path (tens
-of dB above the echoes: its band cut at their floor would leave its error above
-theirs) is the full-rate renderer's: its impulses at the sample rate, one real FFT
-per microphone (one path: a set or two).
+``g exp(-2 pi i c q / n)`` spread over W points of a coarse grid of nb >= sigma
+2 B points (nb points over the same n samples; a length rich in twos, for its FFTs)
+by the "exponential of semicircle" kernel phi; the coarse grid's FFT divided by
+phi's Fourier transform is ``sum g exp(-2 pi i (c + k) q / n)`` at bins c + k,
+|k| <= B, to the kernel's aliasing error.  The grids, sums and FFTs are in the
+render's precision (single with a path response, as the full-rate renderer's
+impulses and spectra), one grid per set and microphone in the layout the FFTs read;
+the filtered band goes straight into an n-point spectrum per microphone, and one
+real inverse FFT per microphone gives the samples.  The direct path (tens of dB
+above the echoes: its band cut at their floor would leave its error above theirs)
+is summed in time by the callers onto those samples, as the full-rate renderer
+sums it (:mod:`acousim.synth.timedomain`: its few paths' filtered calls through the
+same fractional-delay weights, no FFT per microphone).
 
-Error against the full-rate renderer, the corridor's echoes (a pose of 3 937
-paths, the direct path left out), W = 4 and sigma = 1.5 (:data:`TAPS`,
-:data:`OVERSAMPLING`): -63 dB at a -60 dB band, -65 dB at -80 dB (the kernel's
-limit; W = 6: -84 dB at -80 dB, the full-rate kernel's own error is -81 dB).
+Error against the full-rate renderer, the corridor's echoes (the direct path left
+out), W = 4 and sigma = 1.5 (:data:`TAPS`, :data:`OVERSAMPLING`): -62 dB at a -60 dB
+band (8 poses of the drive at the `fast` preset, 2 887-3 784 paths: -61.6 to
+-62.4 dB; -63 dB on a pose of 3 937 paths at the defaults), -65 dB at -80 dB (the
+kernel's limit; W = 6: -84 dB at -80 dB, the full-rate kernel's own error is -81
+dB).  CPU time of the step (the gain sets given), the same 8 poses rendered again
+and again: 7.2-7.4 ms a pose against 14.8-17.7 before the grids were laid out for
+the FFTs and the direct path summed in time, and 11.0-11.8 at the full rate
+(docs/physics.md, "Render at baseband").
 ``tests/acousim/synth/test_baseband.py`` checks it against exact references.
 """
 
 from __future__ import annotations
 
+import threading
 from functools import lru_cache
 
 import numpy as np
@@ -36,8 +46,9 @@ from processing.base.kernels import optional_kernel
 
 __all__ = [
     "spectra",
+    "echo_sets",
+    "set_energy",
     "render_band",
-    "direct_spectra",
     "BasebandGrid",
     "grid",
     "centre",
@@ -48,7 +59,7 @@ __all__ = [
 
 #: kernel taps per impulse on the coarse grid and the grid's oversampling of the band
 #: (docs/physics.md, speed: with the band at -60 dB, the corridor's echoes within
-#: -63 to -66 dB of the full-rate renderer's)
+#: -62 to -64 dB of the full-rate renderer's)
 TAPS = 4
 OVERSAMPLING = 1.5
 
@@ -64,7 +75,7 @@ class BasebandGrid:
 
     def __init__(self, n: int, c: int, half: int, width: int, sigma: float) -> None:
         self.n, self.c, self.half, self.width = n, c, half, width
-        self.nb = sfft.next_fast_len(max(int(np.ceil(sigma * (2 * half + 1))), 2 * width))
+        self.nb = _grid_length(max(int(np.ceil(sigma * (2 * half + 1))), 2 * width))
         self.beta = _beta(width, self.nb / (2 * half + 1))
         self.table = _table(width, self.beta)
         k = np.arange(-half, half + 1)
@@ -72,6 +83,13 @@ class BasebandGrid:
         #: cos and -sin of the centre's turn at every whole sample of the n-point span
         turn = 2 * np.pi * c / n * np.arange(n + 1)
         self.spin = np.stack([np.cos(turn), -np.sin(turn)], axis=1)
+
+
+def _grid_length(least: int) -> int:
+    """The coarse grid's length: the smallest ``2**k f`` (f = 1, 3, 5, 9 or 15) of at
+    least `least` points (FFTs of lengths rich in twos: 2 560 points 0.84 ms, 150
+    single-precision transforms, against 1.04 ms at 2 500, the next 5-smooth length)."""
+    return min(f << max(int(np.ceil(np.log2(least / f))), 0) for f in (1, 3, 5, 9, 15))
 
 
 def grid(n: int, c: int, half: int, width: int, sigma: float) -> BasebandGrid:
@@ -142,75 +160,46 @@ def centre(filters: np.ndarray, gains_energy: np.ndarray, floor_db: float) -> tu
     return quantized(c, max(c - k0, k1 - c, 1), filters.shape[1])
 
 
+def echo_sets(gains: np.ndarray, direct: np.ndarray) -> np.ndarray:
+    """Which gain sets of `gains` (M, N, R) are the echoes' (R,) bool: those with no
+    gain on the direct path's paths (`direct` (N,) bool; each set is of one group,
+    the compression's or the factorisation's: the direct path's sets are zero on the
+    echoes' paths, the echoes' on the direct path's)."""
+    d = np.flatnonzero(direct)
+    return ~np.any(gains[:, d] != 0, axis=(0, 1))
+
+
+def set_energy(gains: np.ndarray) -> np.ndarray:
+    """The energy of each gain set (R,): the sum of squares of `gains` (M, N, R)
+    over its microphones and paths (compiled, or numpy)."""
+    kernel = optional_kernel("acousim.synth._baseband_kernel", "set_energy")
+    if kernel is None:
+        flat = gains.reshape(-1, gains.shape[2])
+        return np.einsum("ir,ir->r", flat, flat)
+    return kernel(np.ascontiguousarray(gains, float))
+
+
 def spectra(
     q: np.ndarray,
     gains: np.ndarray,
     filters: np.ndarray,
-    direct: np.ndarray,
+    sets: np.ndarray,
+    energy: np.ndarray,
     floor_db: float,
     dtype,
-    kernel: tuple[np.ndarray, int],
     n: int,
 ) -> np.ndarray:
-    """Impulses at q (M, N) samples with the gain sets (M, N, S) and their filters
-    (S, F) of an `n`-point real FFT (F = n // 2 + 1), their spectra (M, F): the
-    echoes' sets over the bins within `floor_db` of their strongest
-    (:func:`render_band`); the direct path's (`direct` (N,): its paths, tens of dB
-    above the echoes: a band cut at the echoes' floor would leave its error above
-    theirs) as the full-rate renderer makes it (`kernel`: its table and taps,
-    :func:`direct_spectra`)."""
-    M, F = q.shape[0], filters.shape[1]
-    spec = np.zeros((M, F), dtype)
-    energy = np.einsum("mnr,mnr->r", gains, gains)
-    echo_sets = np.ones(energy.size, bool)
-    if direct.any():
-        d = np.flatnonzero(direct)
-        # each set is of one group (the compression's, the factorisation's)
-        echo_sets = energy > np.einsum("mnr,mnr->r", gains[:, d], gains[:, d])
-        g = gains[:, d][:, :, ~echo_sets]
-        spec += direct_spectra(q[:, d], g, filters[~echo_sets], n, *kernel, dtype)
-    if echo_sets.any():
-        sets = np.flatnonzero(echo_sets)
-        c, half = centre(filters[sets], energy[sets], floor_db)
-        g = grid(n, c, half, TAPS, OVERSAMPLING)
-        bins = slice(c - half, c + half + 1)
-        spec[:, bins] += render_band(q, gains, filters[sets, bins], g, 0, dtype, sets)
-    return spec
-
-
-def direct_spectra(
-    q: np.ndarray,
-    gains: np.ndarray,
-    filters: np.ndarray,
-    n: int,
-    table: np.ndarray,
-    taps: int,
-    dtype=complex,
-) -> np.ndarray:
-    """Spectra (M, F) of a few impulses (the direct path) at q (M, N) samples, gains
-    (M, N, R), through the filters (R, F) of the n-point real FFT, as the full-rate
-    renderer makes them: each impulse its fractional-delay kernel (`table` (P + 1,
-    2 taps): the weights at P + 1 fractions, :func:`acousim.synth.render._kernel_table`)
-    at the sample rate, one real FFT per path and microphone (in the precision of
-    `dtype`, complex64 or complex128, as the full-rate renderer's), times the sum of
-    the filters weighted by the path's gains (a path's sets share its impulses)."""
-    M, N = q.shape
-    n0 = np.floor(q)
-    w = table[np.rint((q - n0) * (table.shape[0] - 1)).astype(np.intp)]  # (M, N, 2 taps)
-    at = (n0.astype(np.int64)[..., None] - taps + 1 + np.arange(2 * taps)) % n
-    real = np.float32 if np.dtype(dtype) == np.complex64 else np.float64
-    rows = np.broadcast_to(np.arange(M)[:, None], at.shape[::2])
-    out = np.zeros((M, filters.shape[1]), dtype)
-    on = np.flatnonzero(np.any(filters != 0, axis=0))
-    if not on.size:
-        return out
-    band = slice(on[0], on[-1] + 1)  # the bins the filters reach
-    for k in range(N):
-        h = np.zeros((M, n), real)
-        h[rows, at[:, k]] = w[:, k]  # a kernel's taps fall on distinct samples
-        spectrum = sfft.rfft(h, axis=-1, workers=2)[:, band]  # (M, F')
-        out[:, band] += spectrum * (gains[:, k] @ filters[:, band])
-    return out
+    """The spectra (M, F) of an `n`-point real FFT (F = n // 2 + 1; `filters` (R, F):
+    the sets' filters on it) of the impulses at q (M, N) samples with the gain sets
+    `sets` (R',) of `gains` (M, N, R), of energy `energy` (R,): over the bins within
+    `floor_db` of their strongest (:func:`centre`), zero elsewhere
+    (:func:`render_band`, in `dtype`, complex64 or complex128).  For the echoes:
+    the direct path, tens of dB above them, is summed in time by the callers (a band
+    cut at the echoes' floor would leave its error above theirs).  The spectra are
+    this thread's buffer (:func:`render_band`): valid until its next render."""
+    c, half = centre(filters[sets], energy[sets], floor_db)
+    g = grid(n, c, half, TAPS, OVERSAMPLING)
+    return render_band(q, gains, filters[sets, c - half : c + half + 1], g, dtype, sets)
 
 
 def render_band(
@@ -218,50 +207,74 @@ def render_band(
     gains: np.ndarray,
     filters: np.ndarray,
     g: BasebandGrid,
-    pad: int,
     dtype,
     sets: np.ndarray,
 ) -> np.ndarray:
-    """The filtered spectra (M, 2 B + 1) at bins c - B .. c + B of the n-point grid.
+    """The filtered spectra (M, n // 2 + 1) of the n-point real FFT (n = g.n): at
+    bins c - B .. c + B the sets' sum, zero elsewhere.
 
-    positions (M, N): impulses in samples from the span's start (buffer index pad +
-    position); gains (M, N, S): the sets' gains, of which the sets `sets` (R,) are
-    rendered; filters (R, 2 B + 1): their filters over those bins; dtype: complex64
-    or complex128 for the coarse FFT."""
-    M, N = positions.shape
+    positions (M, N): impulses in samples from the buffer's start; gains (M, N, S):
+    the sets' gains, of which the sets `sets` (R,) are rendered; filters (R, 2 B +
+    1): their filters over those bins; dtype: complex64 or complex128, the coarse
+    grids' sums and FFTs and the spectra.  The coarse grids (R, M, nb) are written
+    whole by :func:`._baseband_kernel.accumulate` (taps past an end folded onto the
+    other), transformed in place in this thread (a simulator renders while it plans
+    the next pose) and summed with the filters (divided by the kernel's transform)
+    straight into the spectra's rows (:func:`._baseband_kernel.band_products`).  The
+    grids and the spectra are this thread's buffers, reused by its next render of
+    the same shapes (the spectra returned are one: read them before)."""
+    M = positions.shape[0]
     R, W = sets.size, g.width
-    q = np.ascontiguousarray(positions + pad, float)  # samples from the buffer's start
-    turn, scale = 2 * np.pi * g.c / g.n, g.nb / g.n
-    # the coarse buffer has W points either side, folded back afterwards (circular)
-    buf = np.zeros((M, g.nb + 2 * W, R, 2))  # the sets' real and imaginary parts innermost
-    kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
+    real = np.float32 if np.dtype(dtype) == np.complex64 else np.float64
+    coarse = _buffer("coarse", (R, M, 2 * g.nb), real)  # each grid's real, imaginary parts
+    grid_args = np.array([2 * np.pi * g.c / g.n, g.nb / g.n, -(W // 2 - 1)], float)
+    q = np.ascontiguousarray(positions, float)
     gains = np.ascontiguousarray(gains, float)
-    args = (q, gains, sets, g.table, g.spin, np.array([turn, scale, W - (W // 2 - 1)], float))
-    (kernel or _accumulate_numpy)(*args, buf)
-    buf = np.moveaxis(buf.view(complex)[..., 0], 2, 0)  # (R, M, nb + 2 W)
-    coarse = buf[:, :, W : W + g.nb].astype(dtype)
-    coarse[:, :, :W] += buf[:, :, W + g.nb :]
-    coarse[:, :, -W:] += buf[:, :, :W]
-    spectra = sfft.fft(coarse, axis=-1, workers=2)  # (R, M, nb)
-    k = np.arange(-g.half, g.half + 1) % g.nb
-    out = np.zeros((M, k.size), spectra.dtype)
-    for r in range(R):
-        out += spectra[r][:, k] * filters[r]
-    out /= g.psi
+    sets = np.ascontiguousarray(sets, np.int64)
+    kernel = optional_kernel("acousim.synth._baseband_kernel", "accumulate")
+    (kernel or _accumulate_numpy)(q, gains, sets, g.table, g.spin, grid_args, coarse)
+    spectra = sfft.fft(coarse.view(dtype), axis=-1, workers=1, overwrite_x=True)
+    out = _buffer("spectra", (M, g.n // 2 + 1), dtype)
+    filt = np.divide(filters, g.psi).astype(dtype)
+    products = optional_kernel("acousim.synth._baseband_kernel", "band_products")
+    (products or _band_products_numpy)(spectra, filt, g.half, g.c - g.half, out)
     return out
 
 
+_BUFFERS = threading.local()
+
+
+def _buffer(name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """This thread's buffer `name` of `shape` and `dtype` (contents undefined), kept
+    for the next render of the same shape: its memory mapped once (a fresh buffer
+    of megabytes costs its page faults on every render where the process does not
+    keep freed memory, :func:`acousim.process.configure`)."""
+    held = _BUFFERS.__dict__.get(name)
+    if held is None or held.shape != shape or held.dtype != dtype:
+        held = np.empty(shape, dtype)
+        setattr(_BUFFERS, name, held)
+    return held
+
+
 def _accumulate_numpy(q, gains, sets, table, spin, grid, out) -> None:
-    """:func:`._baseband_kernel.accumulate` without numba (the same sums)."""
+    """:func:`._baseband_kernel.accumulate` without numba (the same sums, the turn
+    ``exp(-i turn q)`` evaluated directly)."""
     turn, scale, offset = grid[0], grid[1], int(grid[2])
-    gains = gains[:, :, sets]
-    M, N, R = gains.shape
-    P, W = table.shape[0] - 1, table.shape[1]
+    view = out.view(np.complex64 if out.dtype == np.float32 else complex)  # (R, M, nb)
+    nb, W, P = view.shape[2], table.shape[1], table.shape[0] - 1
     u = q * scale
     i0 = np.floor(u)
     w = table[np.rint((u - i0) * P).astype(np.intp)] * np.exp(-1j * turn * q)[..., None]
-    idx = i0.astype(np.int64)[..., None] + offset + np.arange(W)  # (M, N, W)
-    view = out.view(complex)[..., 0]  # (M, B, R)
-    for r in range(R):
-        for m in range(M):
-            np.add.at(view[m, :, r], idx[m].ravel(), (w[m] * gains[m, :, r, None]).ravel())
+    idx = (i0.astype(np.int64)[..., None] + offset + np.arange(W)) % nb  # (M, N, W)
+    view[...] = 0
+    for r, s in enumerate(sets):
+        for m in range(q.shape[0]):
+            np.add.at(view[r, m], idx[m].ravel(), (w[m] * gains[m, :, s, None]).ravel())
+
+
+def _band_products_numpy(spectra, filters, half: int, b0: int, out) -> None:
+    """:func:`._baseband_kernel.band_products` without numba."""
+    nb = spectra.shape[2]
+    k = np.arange(-half, half + 1) % nb
+    out[...] = 0
+    out[:, b0 : b0 + k.size] = np.einsum("rmk,rk->mk", spectra[:, :, k], filters)

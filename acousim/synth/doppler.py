@@ -53,11 +53,9 @@ from acousim.synth.options import (
     RenderOptions,
 )
 from acousim.synth.render import (
-    FFT_WORKERS,
     FILTER_TAILS,
     CallGrid,
     _in_time,
-    _kernel_table,
     _placed,
     _response_factors,
     _sets_by_fft,
@@ -567,26 +565,30 @@ def _planned_in_time(plan: DopplerPlan, gains, filt_band, out, paths=None) -> np
 
 
 def _render_baseband(plan: DopplerPlan, gains, filt_band, out) -> np.ndarray:
-    """Step 5 at complex baseband (:func:`.baseband.spectra`), one inverse FFT per
-    microphone."""
-    n, lo, hi = plan.n_fft, plan.lo, plan.hi
-    filters = np.zeros((gains.shape[2], n // 2 + 1), complex)
-    filters[:, plan.band] = filt_band.T
-    pad = plan.options.taps + 1  # the full-rate renderer's layout: the same span
-    cdtype = np.complex64 if plan.single else complex
-    opts = plan.options
-    spec = baseband.spectra(
-        plan.positions + pad,
-        gains,
-        filters,
-        plan.direct_paths,
-        opts.band_floor_db,
-        cdtype,
-        (_kernel_table(opts.interpolator, opts.taps), opts.taps),
-        n,
-    )
-    y = sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + hi - lo]
-    return _placed(y, (out, lo))
+    """Step 5 at complex baseband: the echoes' sets over their band
+    (:func:`.baseband.spectra`), one inverse FFT per microphone (in the plan's
+    precision, in this thread); the direct path's sets, tens of dB above the echoes,
+    summed in time onto them as the full-rate renderer sums them
+    (:func:`_planned_in_time`)."""
+    n, lo, hi, opts = plan.n_fft, plan.lo, plan.hi, plan.options
+    echoes = baseband.echo_sets(gains, plan.direct_paths)
+    # the compression's sets have unit energy (orthonormal gains: their weights are
+    # in the filters), so the band's centre weighs the filters alone
+    energy = np.ones(gains.shape[2])
+    if echoes.any():
+        filters = np.zeros((gains.shape[2], n // 2 + 1), complex)
+        filters[:, plan.band] = filt_band.T
+        pad = opts.taps + 1  # the full-rate renderer's layout: the same span
+        cdtype = np.complex64 if plan.single else complex
+        sets = np.flatnonzero(echoes)
+        q = plan.positions + pad
+        spec = baseband.spectra(q, gains, filters, sets, energy, opts.band_floor_db, cdtype, n)
+        y = sfft.irfft(spec, n, axis=-1, workers=1, overwrite_x=True)[:, pad : pad + hi - lo]
+        _placed(y, (out, lo))
+    if not echoes.all():
+        paths, own = np.flatnonzero(plan.direct_paths), np.flatnonzero(~echoes)
+        _planned_in_time(plan, gains[:, paths][:, :, own], filt_band[:, own], out, paths=paths)
+    return out
 
 
 def _chebyshev_argument(nodes: np.ndarray, rate: np.ndarray) -> np.ndarray | None:

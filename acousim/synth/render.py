@@ -58,7 +58,7 @@ from acousim.core.rendering import (
     ShapedDelay,
     check_interpolator,
 )
-from acousim.synth.baseband import spectra
+from acousim.synth import baseband
 from acousim.synth.response import PathResponse, factorise
 from acousim.synth.timedomain import filtered_calls, prefer_time, render_time, trimmed
 from processing import Waveform
@@ -215,8 +215,8 @@ def render_baseband(
         return out
     kernel = (options.interpolator, options.taps)
     n, grid, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
-    y = _shaped_baseband(echoes, d - lo, (g, U, V, grid.W, band), n, kernel, hi - lo, band_db)
-    return _placed(y, (out, lo))
+    factors = (g, U, V, grid.W, band)
+    return _shaped_baseband(echoes, d - lo, factors, n, kernel, hi - lo, band_db, (out, lo))
 
 
 def _unshaped(d, g, call, n_span: int, kernel, domain: RenderDomain, into) -> np.ndarray:
@@ -442,20 +442,34 @@ def _summed_products(spectra, filt, b0: int, out, term) -> None:
         inband += np.multiply(spectra[q, :, b0:b1], filt[q], out=term)
 
 
-def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db) -> np.ndarray:
-    """:func:`_shaped_by_fft` at complex baseband (:func:`.baseband.spectra`): of
-    `factors` (:func:`response_factors`' g, U, V and the call's spectrum W over its
-    band), the sets g V (M, N, Q) with the filters W U, one inverse FFT per
-    microphone; `kernel`: the fractional delays' (method, taps)."""
+def _shaped_baseband(echoes, d, factors, n, kernel, n_span, floor_db, into) -> np.ndarray:
+    """:func:`_shaped_by_fft` at complex baseband: of `factors`
+    (:func:`response_factors`' g, U, V and the call's spectrum W over its band), the
+    echoes' sets g V (M, N, Q) with the filters W U over their band
+    (:func:`.baseband.spectra`), one inverse FFT per microphone, placed in the
+    output `into` (:func:`_placed`; returned); the direct path's sets summed in time
+    onto them (:mod:`.timedomain`, as :func:`_shaped_in_time`); `kernel`: the
+    fractional delays' (method, taps)."""
     g, U, V, W, band = factors
-    pad = kernel[1] + 1  # the same layout as the impulses' buffers
-    kernel = (_kernel_table(*kernel), kernel[1])
     filters = np.zeros((V.shape[1], W.size), complex)
     filters[:, band] = (W[band, None] * U).T
     gains = g[:, :, None] * V[None]
     direct = echoes.order == 0
-    spec = spectra(d + pad, gains, filters, direct, floor_db, np.complex64, kernel, n)
-    return sfft.irfft(spec, n, axis=-1, workers=FFT_WORKERS)[:, pad : pad + n_span]
+    energy, echo = baseband.set_energy(gains), baseband.echo_sets(gains, direct)
+    if echo.any():
+        pad = kernel[1] + 1  # the same layout as the impulses' buffers
+        sets = np.flatnonzero(echo)
+        spec = baseband.spectra(d + pad, gains, filters, sets, energy, floor_db, np.complex64, n)
+        y = sfft.irfft(spec, n, axis=-1, workers=1, overwrite_x=True)
+        _placed(y[:, pad : pad + n_span], into)
+    if not echo.all():
+        paths, own = np.flatnonzero(direct), np.flatnonzero(~echo)
+        calls, lead = filtered_calls(filters[own], n)
+        dp = d[:, paths]
+        taps = _taps(dp, *kernel)
+        mixed = V[paths][:, own] @ calls  # (N_d, L): each direct path's filtered call
+        render_time(dp, g[:, paths], mixed, lead=lead, kernel=taps, n_samples=n_span, into=into)
+    return into[0]
 
 
 def response_factors(echoes, g: np.ndarray, W: np.ndarray, fs: float, n: int, response, grid=None):
