@@ -31,14 +31,18 @@ COMPRESS_TOLERANCE = 7e-4
 RenderRate = Literal["full", "baseband"]
 """How the renderer makes the samples: 'full', fractional-delay impulses and FFTs at
 the sample rate; 'baseband', the band the call occupies at complex baseband,
-converted up once per microphone (:mod:`acousim.synth.baseband`)."""
+converted up once per microphone (:mod:`acousim.synth.baseband`).  At either rate,
+echoes few enough that their sum in time is estimated cheaper than the transforms
+(:data:`RenderDomain` 'auto', or 'time') are summed in time at the sample rate."""
 
 RenderDomain = Literal["auto", "frequency", "time"]
-"""Where the full-rate render sums the echoes: 'frequency', impulses per gain set
-and microphone and FFTs over the span the echoes reach; 'time', each path's
-filtered call added at its fractional delay (cost per path, microphone and call
-sample: for few paths, :mod:`acousim.synth.timedomain`); 'auto', whichever is
-estimated to cost less (the same signals either way, within -100 dB)."""
+"""Where the render sums the echoes: 'frequency', by transforms (at the full rate,
+impulses per gain set and microphone and FFTs over the span the echoes reach; at
+baseband, :mod:`acousim.synth.baseband`); 'time', each path's filtered call added at
+its fractional delay at the sample rate (cost per path, microphone and call sample:
+for few paths, :mod:`acousim.synth.timedomain`); 'auto', the sum in time where it is
+estimated to cost less than the full rate's transforms (at the full rate the same
+signals either way, within -100 dB)."""
 
 ShapedDelay = Literal["sinc", "lagrange", "nearest"]
 """Interpolators that take a path response (absorption, directivity): the choices

@@ -497,16 +497,17 @@ def render_planned(plan: DopplerPlan) -> np.ndarray:
         plan.direct_terms,
         plan.options.compress_tolerance,
     )
-    if plan.options.rate == "baseband":
-        return _render_baseband(plan, gains, filt_band, out)
     R, opts = filt_band.shape[1], plan.options
     call = plan.call + 2 * FILTER_TAILS  # the filtered calls' length, about
     kernel = (opts.interpolator, opts.taps)
     # the sum in time is single precision: a double-precision render (no path
     # response) stays in the frequency domain unless asked
     domain = opts.domain if plan.single or opts.domain != "auto" else "frequency"
+    # few paths are summed in time at either rate (cheaper than any transform)
     if _in_time(domain, gains.shape[:2], R, kernel, call, n, mixed=R):
         return _planned_in_time(plan, gains, filt_band, out)
+    if opts.rate == "baseband":
+        return _render_baseband(plan, gains, filt_band, out)
     # the filters over the bins from the band's first to its last (zero elsewhere)
     band = plan.band
     b0, b1 = np.flatnonzero(band)[[0, -1]] + [0, 1]

@@ -202,7 +202,10 @@ def render_baseband(
     (:mod:`acousim.synth.baseband`: the echoes' band, the bins within `band_db` of
     the strongest): microphone signals (M, T) of the
     :class:`~acousim.synth.options.Capture` `capture`, with the fractional delays
-    and emission sample of the :class:`~acousim.synth.options.RenderOptions` `options`."""
+    and emission sample of the :class:`~acousim.synth.options.RenderOptions` `options`.
+    Echoes few enough that their sum in time is estimated cheaper (``options.domain``
+    'auto', or 'time') are summed in time at the sample rate, as :func:`render` sums
+    them (a scene of few paths pays no transform)."""
     check_interpolator(options.interpolator, SHAPED_INTERPOLATORS, need="a path response")
     fs, n_samples = capture.sample_rate_hz, capture.n_samples
     out = np.zeros((echoes.delay_s.shape[0], n_samples))
@@ -215,6 +218,10 @@ def render_baseband(
         return out
     kernel = (options.interpolator, options.taps)
     n, grid, (g, U, V, band) = _factors(echoes, call, fs, hi - lo, options.taps, response)
+    # few paths are summed in time at either rate (cheaper than any transform)
+    call_span = call.size + 2 * FILTER_TAILS
+    if _in_time(options.domain, g.shape, V.shape[1], kernel, call_span, n):
+        return _shaped_in_time(d - lo, (g, U, V, band), grid, n, kernel, hi - lo, (out, lo))
     factors = (g, U, V, grid.W, band)
     return _shaped_baseband(echoes, d - lo, factors, n, kernel, hi - lo, band_db, (out, lo))
 

@@ -23,7 +23,8 @@ from tests.acousim.synth.references import echoes_ahead, filtered_per_path
 
 C = 343.0
 FS = 450e3
-BASEBAND = RenderOptions(rate="baseband")
+#: the baseband route itself (few paths, under 'auto', are summed in time instead)
+BASEBAND = RenderOptions(rate="baseband", domain="frequency")
 
 
 def _drive(n_paths: int):
@@ -62,10 +63,11 @@ def test_baseband_renderer_against_the_per_sample_reference():
     assert _db(fast, exact) <= -58
 
 
-def test_baseband_renderer_with_absorption_and_directivity_against_exact_filtering():
-    """Doppler, absorption and directivity: each path's exact echo filtered by its own
-    response (FFT, here); the band floor sets the error (a wider band, a smaller one)."""
-    arr, pose, traj, paths, n, a = _drive(4)
+def _filtered_drive(n_paths: int):
+    """:func:`_drive`'s echoes with absorption and directivity: (echoes, response,
+    each path's exact echo filtered by its own response (FFT, here), (arrivals,
+    call, samples))."""
+    arr, pose, traj, paths, n, a = _drive(n_paths)
     wf = P.rtis_call("default_25_50")
     length = np.broadcast_to(a.echoes.path_length_m.mean(axis=0), a.echoes.gain.shape)
     echoes = Echoes(a.echoes.delay_s, a.echoes.gain, length, a.echoes.order, a.echoes.angles())
@@ -78,9 +80,16 @@ def test_baseband_renderer_with_absorption_and_directivity_against_exact_filteri
         one = render_doppler_reference(paths.select([k]), kin, wf, FS, n, C, a.echoes.gain[:, [k]])
         H = response.matrix(f, length[0, [k]], echoes.angles()[[k]])[:, 0]
         exact += np.fft.irfft(np.fft.rfft(one, nfft) * H, nfft)[:, :n]
+    return echoes, response, exact, (a, wf, n)
+
+
+def test_baseband_renderer_with_absorption_and_directivity_against_exact_filtering():
+    """Doppler, absorption and directivity: each path's exact echo filtered by its own
+    response (FFT, here); the band floor sets the error (a wider band, a smaller one)."""
+    echoes, response, exact, (a, wf, n) = _filtered_drive(4)
     errors = []
     for floor in (-40.0, -60.0):
-        options = RenderOptions(rate="baseband", band_floor_db=floor)
+        options = RenderOptions(rate="baseband", band_floor_db=floor, domain="frequency")
         fast = render_doppler(echoes, a.rate, wf, FS, n, response=response, options=options)
         errors.append(_db(fast, exact))
     assert errors[1] <= -58
@@ -316,3 +325,39 @@ def test_moving_baseband_render_with_a_direct_path_matches_the_full_rate_one():
     only_echoes = rendered(sub, a.rate[:, keep], RenderOptions())
     assert np.linalg.norm(full - only_echoes) > 5 * np.linalg.norm(only_echoes)
     assert 20 * np.log10(np.linalg.norm(base - full) / np.linalg.norm(only_echoes)) <= -58
+
+
+def test_few_paths_at_baseband_are_summed_in_time():
+    """Under the 'auto' domain, echoes few enough for the sum in time (12 paths at
+    4 microphones) are summed at the sample rate at either rate: the baseband
+    render is the full-rate one, and both are within -65 dB of each path filtered
+    exactly by its response (the responses' factorisation's error; the baseband
+    route's, its band floor's, is larger)."""
+    from acousim.synth.options import Capture
+    from acousim.synth.render import render_baseband, render_with
+
+    arr = P.ura(2, 2, 3.85e-3)
+    wf = P.rtis_call("default_25_50")
+    e = echoes_ahead(arr, n=12)
+    resp = PathResponse(emitter_radius_m=0.004)
+    capture = Capture(arr, wf, FS, 16384, C)
+    ref = filtered_per_path(e, wf, resp, FS, 16384)
+    auto = render_baseband(e, capture, RenderOptions(rate="baseband"), resp, -60.0)
+    full = render_with(e, capture, RenderOptions(), resp)
+    np.testing.assert_array_equal(auto, full)
+    assert _db(auto, ref) <= -65
+    assert _db(render_baseband(e, capture, BASEBAND, resp, -60.0), ref) > _db(auto, ref)
+
+
+def test_few_moving_paths_at_baseband_are_summed_in_time():
+    """The moving render likewise (with path responses: a single-precision render):
+    4 paths at 2 microphones under 'auto' are the full-rate renderer's sum in time,
+    within -58 dB of each path's exact echo filtered by its own response."""
+    echoes, response, exact, (a, wf, n) = _filtered_drive(4)
+
+    def rendered(options):
+        return render_doppler(echoes, a.rate, wf, FS, n, response=response, options=options)
+
+    auto = rendered(RenderOptions(rate="baseband"))
+    np.testing.assert_array_equal(auto, rendered(RenderOptions()))
+    assert _db(auto, exact) <= -58
