@@ -53,6 +53,8 @@ QUALITY_PRESETS: Mapping[str, Mapping[str, Any]] = {
         "diffraction": {"step_m": 2e-3},
         "fractional_delay": "lagrange",
         "energy_floor_db": -75.0,
+        "render_rate": "baseband",
+        "render_tolerance": 5e-3,
     },
     "default": {},
     "reference": {
