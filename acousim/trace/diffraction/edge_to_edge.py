@@ -171,10 +171,11 @@ def _pair_step(opt) -> float:
 
 def _seen_edges(ctx: StageContext):
     """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
-    receiver (as edge 2), kept where convex, within reach and seen."""
+    receiver (as edge 2), kept where convex, within reach (:func:`_reach`) and seen."""
     pose = pose_edges(ctx)
-    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m)
-    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m)
+    near = _reach(ctx, pose.dist_e + pose.dist_r)
+    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m) & near
+    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m) & near
     if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
         idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
         seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
@@ -182,12 +183,35 @@ def _seen_edges(ctx: StageContext):
     return keep1, pose.wedge_e, keep2, pose.wedge_r
 
 
+#: a pair of edges is left out where every path over it is longer than
+#: ``max_path_m`` by more than this (m): far more than the rounding of the lengths
+#: compared, so that none of its paths is within ``max_path_m`` (it would have no
+#: element, and it changes none of the others': each pair's integral is its own)
+REACH_SLACK_M = 1e-6
+
+
+def _reach(ctx: StageContext, shortest_m: np.ndarray) -> np.ndarray:
+    """(N,) True where a lower bound `shortest_m` (N,) (m) of the paths over an edge
+    or a pair of edges is within ``max_path_m`` (and :data:`REACH_SLACK_M`): a path
+    from the emitter over a point x of an edge (and on to the receiver, via another
+    edge or not) is at least |S - x| + |x - R| (the triangle inequality), at least
+    the sum of the edge's distances from the emitter and from the receiver; over a
+    pair, at least the distance of the emitter from edge 1, the edges' distance
+    from each other and the receiver's distance from edge 2."""
+    return shortest_m <= ctx.options.max_path_m + REACH_SLACK_M
+
+
 def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.ndarray]:
-    """Every candidate pair (see the module docstring), one row per pair of parts:
-    (the rows, edge 2's index (N,), the table column of each part (N, 2), -1: none)."""
+    """Every candidate pair (see the module docstring) within reach (a pair none of
+    whose paths is within ``max_path_m`` has no element: :func:`_reach`), one row
+    per pair of parts: (the rows, edge 2's index (N,), the table column of each
+    part (N, 2), -1: none)."""
     keep1, w1, keep2, w2 = _seen_edges(ctx)
     table = _pair_table(ctx)
+    pose = pose_edges(ctx)
     at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    i, j = table.i[at], table.j[at]
+    at = at[_reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])]
     at = at[table.over_a_face(ctx, w1, at)]
     i, j, shared = table.i[at], table.j[at], table.shared[at]
     plane = np.asarray(ctx.geometry.face_plane, int)
@@ -198,7 +222,6 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     sides = np.where(rim[i] & rim[j], 2, 1)
     # the parts of each wedge (its table of parts either way round, per geometry)
     terms, column, exists = _part_table(ctx)
-    pose = pose_edges(ctx)
     s1, s2 = pose.side_e[i].astype(np.intp), pose.side_r[j].astype(np.intp)
     if ctx.geometry.face_column is None:  # one part a wedge: a row a pair
         q, t1, t2 = np.arange(i.size), terms[s1, i, 0], terms[s2, j, 0]
@@ -212,14 +235,14 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     frame = edge_frame(ctx.geometry)  # each edge's axis and length, found once
     axis, length = frame.axis, frame.length
 
-    def at(x, k):  # rows of x (np.take gathers them much faster than indexing does)
+    def at_(x, k):  # rows of x (np.take gathers them much faster than indexing does)
         return np.take(x, k, axis=0)
 
     rows = PairGeometry(
-        at(w1.start_m, iq), at(w1.end_m, iq), at(w2.start_m, jq), at(w2.end_m, jq),
-        at(w1.face_dir, iq), at(w1.normal, iq), at(w2.face_dir, jq), at(w2.normal, jq),
+        at_(w1.start_m, iq), at_(w1.end_m, iq), at_(w2.start_m, jq), at_(w2.end_m, jq),
+        at_(w1.face_dir, iq), at_(w1.normal, iq), at_(w2.face_dir, jq), at_(w2.normal, jq),
         w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q], t1, t2, sides[q],
-    ).with_axes((at(axis, iq), length[iq]), (at(axis, jq), length[jq]))  # fmt: skip
+    ).with_axes((at_(axis, iq), length[iq]), (at_(axis, jq), length[jq]))  # fmt: skip
     return rows, jq, columns
 
 
@@ -255,6 +278,9 @@ class _PairTable:
     caster: object
     tol: float
     known: np.ndarray  # (K,) int8: -1 not yet asked, 0 no, 1 yes
+    #: (K,) the least distance between the two edges of each pair (m; a lower
+    #: bound: 0 for edges all but parallel, :func:`_segments_apart`)
+    gap: np.ndarray
 
     def over_a_face(self, ctx: StageContext, w1, at: np.ndarray) -> np.ndarray:
         """(len(at),) :func:`_over_a_face` of the pairs `at` (indices into the table)."""
@@ -298,7 +324,46 @@ def _new_pair_table(ctx: StageContext) -> _PairTable:
     shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
     good = _not_collinear(edges, i, j, ctx.tol)
     i, j, shared = i[good], j[good], shared[good]
-    return _PairTable(i, j, shared, ctx.caster, ctx.tol, np.full(i.size, -1, np.int8))
+    known = np.full(i.size, -1, np.int8)
+    gap = _segments_apart(edges.start_m, edges.end_m, i, j)
+    return _PairTable(i, j, shared, ctx.caster, ctx.tol, known, gap)
+
+
+def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray):
+    """(K,) a lower bound of the distance (m) between segments i and j (start, end
+    (E, 3) each): the least distance from an end of either to the other segment, and
+    between the lines' nearest points where both lie within the segments (the least
+    distance is one of these); 0 where the segments are all but parallel (sine of
+    their angle below 1e-3: their nearest points ill-conditioned there), less
+    1e-9 of the segments' size (rounding)."""
+    a1, b1, a2, b2 = start[i], end[i], start[j], end[j]
+    best = np.minimum(_point_segment(a1, a2, b2), _point_segment(b1, a2, b2))
+    best = np.minimum(best, np.minimum(_point_segment(a2, a1, b1), _point_segment(b2, a1, b1)))
+    d1, d2, r = b1 - a1, b2 - a2, a1 - a2
+    aa, ee, bb = _dot(d1, d1), _dot(d2, d2), _dot(d1, d2)
+    cc, ff = _dot(d1, r), _dot(d2, r)
+    den = aa * ee - bb * bb
+    skew = den > 1e-6 * aa * ee
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (bb * ff - cc * ee) / den
+        t = (aa * ff - bb * cc) / den
+    inside = skew & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+    s, t = np.where(inside, s, 0.0), np.where(inside, t, 0.0)
+    between = np.linalg.norm(r + s[:, None] * d1 - t[:, None] * d2, axis=1)
+    best = np.where(inside, np.minimum(best, between), best)
+    size = np.sqrt(np.maximum(aa, ee)) + np.linalg.norm(r, axis=1)
+    return np.where(skew, np.maximum(best - 1e-9 * size, 0.0), 0.0)
+
+
+def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K,) distance from points p to segments a-b (K, 3) each."""
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
 
 
 def _not_collinear(w1, i, j, tol) -> np.ndarray:
