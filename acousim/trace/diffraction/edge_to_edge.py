@@ -169,18 +169,27 @@ def _pair_step(opt) -> float:
     return opt.step_m if opt.pair_step_m is None else opt.pair_step_m
 
 
-def _seen_edges(ctx: StageContext):
-    """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
-    receiver (as edge 2), kept where convex, within reach (:func:`_reach`) and seen."""
+def _pairs_in_view(ctx: StageContext) -> np.ndarray:
+    """The pairs (indices into the table, ascending) whose edge 1 is convex on the
+    emitter's side and edge 2 on the receiver's, both within reach and the pair too
+    (:func:`_reach`), whose path runs over a face (:meth:`_PairTable.over_a_face`)
+    and whose edge 1 the emitter sees and edge 2 the receiver (at one of the probe
+    points: rays cast last, for the edges of the pairs left only)."""
     pose = pose_edges(ctx)
     near = _reach(ctx, pose.dist_e + pose.dist_r)
     keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m) & near
     keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m) & near
-    if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
-        idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
+    table = _pair_table(ctx)
+    at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    i, j = table.i[at], table.j[at]
+    at = at[_reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])]
+    at = at[table.over_a_face(ctx, pose.wedge_e, at)]
+    if ctx.caster is not None and at.size:  # seen at one of the probe points
+        idx1, of1 = np.unique(table.i[at], return_inverse=True)
+        idx2, of2 = np.unique(table.j[at], return_inverse=True)
         seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
-        keep1[idx1], keep2[idx2] = seen1.any(axis=1), seen2.any(axis=1)
-    return keep1, pose.wedge_e, keep2, pose.wedge_r
+        at = at[seen1.any(axis=1)[of1] & seen2.any(axis=1)[of2]]
+    return at
 
 
 #: a pair of edges is left out where every path over it is longer than
@@ -206,13 +215,9 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     whose paths is within ``max_path_m`` has no element: :func:`_reach`), one row
     per pair of parts: (the rows, edge 2's index (N,), the table column of each
     part (N, 2), -1: none)."""
-    keep1, w1, keep2, w2 = _seen_edges(ctx)
-    table = _pair_table(ctx)
-    pose = pose_edges(ctx)
-    at = np.flatnonzero(keep1[table.i] & keep2[table.j])
-    i, j = table.i[at], table.j[at]
-    at = at[_reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])]
-    at = at[table.over_a_face(ctx, w1, at)]
+    at = _pairs_in_view(ctx)
+    table, pose = _pair_table(ctx), pose_edges(ctx)
+    w1, w2 = pose.wedge_e, pose.wedge_r
     i, j, shared = table.i[at], table.j[at], table.shared[at]
     plane = np.asarray(ctx.geometry.face_plane, int)
     edges = ctx.geometry.edges
@@ -330,12 +335,14 @@ def _new_pair_table(ctx: StageContext) -> _PairTable:
 
 
 def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray):
-    """(K,) a lower bound of the distance (m) between segments i and j (start, end
-    (E, 3) each): the least distance from an end of either to the other segment, and
-    between the lines' nearest points where both lie within the segments (the least
-    distance is one of these); 0 where the segments are all but parallel (sine of
-    their angle below 1e-3: their nearest points ill-conditioned there), less
-    1e-9 of the segments' size (rounding)."""
+    """(K,) a lower bound of the least distance (m) between segments i and j (start,
+    end (E, 3) each).  The least distance is that from an end of one to the other
+    segment, or that between the lines' nearest points where both lie within the
+    segments; the latter is found where the segments' angle has a sine above 1e-3
+    (well conditioned).  Below, the ends' distance less the segments' length L times
+    |u1 -+ u2| (unit axes): sliding both points of the nearest pair along their
+    segments by as much (at most L) until one reaches an end moves them apart by at
+    most that.  Less 1e-9 of the segments' size (rounding), at least 0."""
     a1, b1, a2, b2 = start[i], end[i], start[j], end[j]
     best = np.minimum(_point_segment(a1, a2, b2), _point_segment(b1, a2, b2))
     best = np.minimum(best, np.minimum(_point_segment(a2, a1, b1), _point_segment(b2, a1, b1)))
@@ -347,12 +354,17 @@ def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.nda
     with np.errstate(divide="ignore", invalid="ignore"):
         s = (bb * ff - cc * ee) / den
         t = (aa * ff - bb * cc) / den
+        u1 = d1 / np.sqrt(np.maximum(aa, 1e-300))[:, None]
+        u2 = d2 / np.sqrt(np.maximum(ee, 1e-300))[:, None]
     inside = skew & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
     s, t = np.where(inside, s, 0.0), np.where(inside, t, 0.0)
     between = np.linalg.norm(r + s[:, None] * d1 - t[:, None] * d2, axis=1)
     best = np.where(inside, np.minimum(best, between), best)
+    turn = np.minimum(np.linalg.norm(u1 - u2, axis=1), np.linalg.norm(u1 + u2, axis=1))
+    slide = np.sqrt(np.maximum(aa, ee)) * turn
+    best = np.where(skew, best, best - slide)
     size = np.sqrt(np.maximum(aa, ee)) + np.linalg.norm(r, axis=1)
-    return np.where(skew, np.maximum(best - 1e-9 * size, 0.0), 0.0)
+    return np.maximum(best - 1e-9 * size, 0.0)
 
 
 def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
