@@ -10,8 +10,13 @@ a ray down onto the plane there).  Edge 2 lies on a face of wedge 1: at angle 0
 about edge 1 if the shared plane is its face 1, else at its open angle (and likewise
 edge 1 about edge 2).  Both rims of a thin plate: the path runs along both of its
 sides (``sides = 2``).  Visibility is checked per edge, not per element.  The
-pairs that share a plane and are not collinear, and whether each runs over a face,
-do not change from pose to pose: they are found once per geometry (and caster).
+pairs that share a plane and are not collinear, the least distance between their
+edges, and whether each runs over a face, do not change from pose to pose: they
+are found once per geometry (and caster).  A pair none of whose paths can be
+within ``max_path_m`` (a lower bound of its length from the edges' distances to
+the emitter, the receiver and each other, :func:`_reach`) is left out before its
+edges' probe rays (it would have no element, and each pair's paths are its own);
+the probe rays are cast last, for the edges of the pairs left.
 
 Order per pair: each candidate's largest path (one bin) is bounded in closed form
 (:func:`acousim.trace.diffraction.pair_bound.pair_bound`) and estimated at the pair's shortest
@@ -271,11 +276,12 @@ def _part_table(ctx: StageContext):
 class _PairTable:
     """What does not change from pose to pose: the ordered pairs of edges (i, j)
     that share a plane (`shared`, edge i's first plane where both of its planes
-    are shared) and are not collinear, sorted by (i, j); and whether the path of
-    each runs over a face of that plane (:func:`_over_a_face`; found for a pair
-    when a pose first needs it: a pair whose edges both see the emitter and the
-    receiver on a convex side has one orientation, a thin sheet's rim never turns,
-    so the answer is the pose's own)."""
+    are shared) and are not collinear, sorted by (i, j); the least distance
+    between the two edges of each (`gap`); and whether the path of each runs over
+    a face of that plane (:func:`_over_a_face`; found for a pair when a pose first
+    needs it: a pair whose edge 1 is convex on the emitter's side and edge 2 on the
+    receiver's has one orientation (a wedge is convex on one side only; a thin
+    sheet's rim never turns), so the answer is the pose's own)."""
 
     i: np.ndarray
     j: np.ndarray
@@ -284,7 +290,7 @@ class _PairTable:
     tol: float
     known: np.ndarray  # (K,) int8: -1 not yet asked, 0 no, 1 yes
     #: (K,) the least distance between the two edges of each pair (m; a lower
-    #: bound: 0 for edges all but parallel, :func:`_segments_apart`)
+    #: bound of it, :func:`_segments_apart`)
     gap: np.ndarray
 
     def over_a_face(self, ctx: StageContext, w1, at: np.ndarray) -> np.ndarray:
