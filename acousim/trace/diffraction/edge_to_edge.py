@@ -190,10 +190,13 @@ def _pairs_in_view(ctx: StageContext) -> np.ndarray:
     at = at[_reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])]
     at = at[table.over_a_face(ctx, pose.wedge_e, at)]
     if ctx.caster is not None and at.size:  # seen at one of the probe points
-        idx1, of1 = np.unique(table.i[at], return_inverse=True)
-        idx2, of2 = np.unique(table.j[at], return_inverse=True)
+        i, j = table.i[at], table.j[at]
+        keep1[:], keep2[:] = False, False
+        keep1[i], keep2[j] = True, True  # the edges of the pairs left
+        idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
         seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
-        at = at[seen1.any(axis=1)[of1] & seen2.any(axis=1)[of2]]
+        keep1[idx1], keep2[idx2] = seen1.any(axis=1), seen2.any(axis=1)
+        at = at[keep1[i] & keep2[j]]
     return at
 
 
