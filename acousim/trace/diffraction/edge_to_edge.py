@@ -185,9 +185,10 @@ def _pairs_in_view(ctx: StageContext) -> np.ndarray:
     keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m) & near
     keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m) & near
     table = _pair_table(ctx)
-    at = np.flatnonzero(keep1[table.i] & keep2[table.j])
+    at = table.of_edges(np.flatnonzero(keep1))  # the pairs of the edges 1 kept
     i, j = table.i[at], table.j[at]
-    at = at[_reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])]
+    near = keep2[j] & _reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])
+    at = at[near]
     at = at[table.over_a_face(ctx, pose.wedge_e, at)]
     if ctx.caster is not None and at.size:  # seen at one of the probe points
         i, j = table.i[at], table.j[at]
@@ -295,6 +296,14 @@ class _PairTable:
     #: (K,) the least distance between the two edges of each pair (m; a lower
     #: bound of it, :func:`_segments_apart`)
     gap: np.ndarray
+    #: (E + 1,) the pairs of edge e (as edge 1) are ``first[e]`` to ``first[e + 1]``
+    first: np.ndarray
+
+    def of_edges(self, edges: np.ndarray) -> np.ndarray:
+        """The pairs (indices, ascending) whose edge 1 is one of `edges` (indices,
+        ascending)."""
+        lo, size = self.first[edges], np.diff(self.first)[edges]
+        return np.repeat(lo, size) + _ranges(size)
 
     def over_a_face(self, ctx: StageContext, w1, at: np.ndarray) -> np.ndarray:
         """(len(at),) :func:`_over_a_face` of the pairs `at` (indices into the table)."""
@@ -340,7 +349,8 @@ def _new_pair_table(ctx: StageContext) -> _PairTable:
     i, j, shared = i[good], j[good], shared[good]
     known = np.full(i.size, -1, np.int8)
     gap = _segments_apart(edges.start_m, edges.end_m, i, j)
-    return _PairTable(i, j, shared, ctx.caster, ctx.tol, known, gap)
+    first = np.searchsorted(i, np.arange(len(edges) + 1))  # i is sorted
+    return _PairTable(i, j, shared, ctx.caster, ctx.tol, known, gap, first)
 
 
 def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray):

@@ -187,3 +187,14 @@ def test_the_pairs_are_the_seen_ones_whatever_the_order_of_the_filters(room):
     assert 20 < near.sum() < near.size
     assert set(at[near]) <= set(got) <= set(at)
     assert len(got) < near.size  # some left out
+
+
+def test_the_pairs_of_some_edges_are_those_of_a_mask(room):
+    mesh, caster = room
+    geometry = _geometry(mesh)
+    table = e2e._pair_table(StageContext(geometry, caster, EMITTER, RECEIVER, _options()))
+    keep = np.random.default_rng(3).random(len(geometry.edges)) < 0.3
+    want = np.flatnonzero(keep[table.i])
+    assert want.size > 10
+    assert np.array_equal(table.of_edges(np.flatnonzero(keep)), want)
+    assert table.of_edges(np.zeros(0, int)).size == 0
