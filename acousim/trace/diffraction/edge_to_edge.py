@@ -10,8 +10,13 @@ a ray down onto the plane there).  Edge 2 lies on a face of wedge 1: at angle 0
 about edge 1 if the shared plane is its face 1, else at its open angle (and likewise
 edge 1 about edge 2).  Both rims of a thin plate: the path runs along both of its
 sides (``sides = 2``).  Visibility is checked per edge, not per element.  The
-pairs that share a plane and are not collinear, and whether each runs over a face,
-do not change from pose to pose: they are found once per geometry (and caster).
+pairs that share a plane and are not collinear, the least distance between their
+edges, and whether each runs over a face, do not change from pose to pose: they
+are found once per geometry (and caster).  A pair none of whose paths can be
+within ``max_path_m`` (a lower bound of its length from the edges' distances to
+the emitter, the receiver and each other, :func:`_reach`) is left out before its
+edges' probe rays (it would have no element, and each pair's paths are its own);
+the probe rays are cast last, for the edges of the pairs left.
 
 Order per pair: each candidate's largest path (one bin) is bounded in closed form
 (:func:`acousim.trace.diffraction.pair_bound.pair_bound`) and estimated at the pair's shortest
@@ -169,26 +174,59 @@ def _pair_step(opt) -> float:
     return opt.step_m if opt.pair_step_m is None else opt.pair_step_m
 
 
-def _seen_edges(ctx: StageContext):
-    """(keep1, w1, keep2, w2): edges oriented for the emitter (as edge 1) and for the
-    receiver (as edge 2), kept where convex, within reach and seen."""
+def _pairs_in_view(ctx: StageContext) -> np.ndarray:
+    """The pairs (indices into the table, ascending) whose edge 1 is convex on the
+    emitter's side and edge 2 on the receiver's, both within reach and the pair too
+    (:func:`_reach`), whose path runs over a face (:meth:`_PairTable.over_a_face`)
+    and whose edge 1 the emitter sees and edge 2 the receiver (at one of the probe
+    points: rays cast last, for the edges of the pairs left only)."""
     pose = pose_edges(ctx)
-    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m)
-    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m)
-    if ctx.caster is not None:  # seen at one of the probe points (edges still kept)
+    near = _reach(ctx, pose.dist_e + pose.dist_r)
+    keep1 = pose.convex_e & (pose.dist_e < ctx.options.max_path_m) & near
+    keep2 = pose.convex_r & (pose.dist_r < ctx.options.max_path_m) & near
+    table = _pair_table(ctx)
+    at = table.of_edges(np.flatnonzero(keep1))  # the pairs of the edges 1 kept
+    i, j = table.i[at], table.j[at]
+    near = keep2[j] & _reach(ctx, pose.dist_e[i] + table.gap[at] + pose.dist_r[j])
+    at = at[near]
+    at = at[table.over_a_face(ctx, pose.wedge_e, at)]
+    if ctx.caster is not None and at.size:  # seen at one of the probe points
+        i, j = table.i[at], table.j[at]
+        keep1[:], keep2[:] = False, False
+        keep1[i], keep2[j] = True, True  # the edges of the pairs left
         idx1, idx2 = np.flatnonzero(keep1), np.flatnonzero(keep2)
         seen1, seen2 = probe_seen(ctx, (0, idx1), (1, idx2))
         keep1[idx1], keep2[idx2] = seen1.any(axis=1), seen2.any(axis=1)
-    return keep1, pose.wedge_e, keep2, pose.wedge_r
+        at = at[keep1[i] & keep2[j]]
+    return at
+
+
+#: a pair of edges is left out where every path over it is longer than
+#: ``max_path_m`` by more than this (m): far more than the rounding of the lengths
+#: compared, so that none of its paths is within ``max_path_m`` (it would have no
+#: element, and it changes none of the others': each pair's integral is its own)
+REACH_SLACK_M = 1e-6
+
+
+def _reach(ctx: StageContext, shortest_m: np.ndarray) -> np.ndarray:
+    """(N,) True where a lower bound `shortest_m` (N,) (m) of the paths over an edge
+    or a pair of edges is within ``max_path_m`` (and :data:`REACH_SLACK_M`): a path
+    from the emitter over a point x of an edge (and on to the receiver, via another
+    edge or not) is at least |S - x| + |x - R| (the triangle inequality), at least
+    the sum of the edge's distances from the emitter and from the receiver; over a
+    pair, at least the distance of the emitter from edge 1, the edges' distance
+    from each other and the receiver's distance from edge 2."""
+    return shortest_m <= ctx.options.max_path_m + REACH_SLACK_M
 
 
 def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.ndarray]:
-    """Every candidate pair (see the module docstring), one row per pair of parts:
-    (the rows, edge 2's index (N,), the table column of each part (N, 2), -1: none)."""
-    keep1, w1, keep2, w2 = _seen_edges(ctx)
-    table = _pair_table(ctx)
-    at = np.flatnonzero(keep1[table.i] & keep2[table.j])
-    at = at[table.over_a_face(ctx, w1, at)]
+    """Every candidate pair (see the module docstring) within reach (a pair none of
+    whose paths is within ``max_path_m`` has no element: :func:`_reach`), one row
+    per pair of parts: (the rows, edge 2's index (N,), the table column of each
+    part (N, 2), -1: none)."""
+    at = _pairs_in_view(ctx)
+    table, pose = _pair_table(ctx), pose_edges(ctx)
+    w1, w2 = pose.wedge_e, pose.wedge_r
     i, j, shared = table.i[at], table.j[at], table.shared[at]
     plane = np.asarray(ctx.geometry.face_plane, int)
     edges = ctx.geometry.edges
@@ -198,7 +236,6 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     sides = np.where(rim[i] & rim[j], 2, 1)
     # the parts of each wedge (its table of parts either way round, per geometry)
     terms, column, exists = _part_table(ctx)
-    pose = pose_edges(ctx)
     s1, s2 = pose.side_e[i].astype(np.intp), pose.side_r[j].astype(np.intp)
     if ctx.geometry.face_column is None:  # one part a wedge: a row a pair
         q, t1, t2 = np.arange(i.size), terms[s1, i, 0], terms[s2, j, 0]
@@ -212,14 +249,14 @@ def candidate_pairs(ctx: StageContext) -> tuple[PairGeometry, np.ndarray, np.nda
     frame = edge_frame(ctx.geometry)  # each edge's axis and length, found once
     axis, length = frame.axis, frame.length
 
-    def at(x, k):  # rows of x (np.take gathers them much faster than indexing does)
+    def at_(x, k):  # rows of x (np.take gathers them much faster than indexing does)
         return np.take(x, k, axis=0)
 
     rows = PairGeometry(
-        at(w1.start_m, iq), at(w1.end_m, iq), at(w2.start_m, jq), at(w2.end_m, jq),
-        at(w1.face_dir, iq), at(w1.normal, iq), at(w2.face_dir, jq), at(w2.normal, jq),
+        at_(w1.start_m, iq), at_(w1.end_m, iq), at_(w2.start_m, jq), at_(w2.end_m, jq),
+        at_(w1.face_dir, iq), at_(w1.normal, iq), at_(w2.face_dir, jq), at_(w2.normal, jq),
         w1.angle_rad[iq], w2.angle_rad[jq], th12[q], th21[q], t1, t2, sides[q],
-    ).with_axes((at(axis, iq), length[iq]), (at(axis, jq), length[jq]))  # fmt: skip
+    ).with_axes((at_(axis, iq), length[iq]), (at_(axis, jq), length[jq]))  # fmt: skip
     return rows, jq, columns
 
 
@@ -243,11 +280,12 @@ def _part_table(ctx: StageContext):
 class _PairTable:
     """What does not change from pose to pose: the ordered pairs of edges (i, j)
     that share a plane (`shared`, edge i's first plane where both of its planes
-    are shared) and are not collinear, sorted by (i, j); and whether the path of
-    each runs over a face of that plane (:func:`_over_a_face`; found for a pair
-    when a pose first needs it: a pair whose edges both see the emitter and the
-    receiver on a convex side has one orientation, a thin sheet's rim never turns,
-    so the answer is the pose's own)."""
+    are shared) and are not collinear, sorted by (i, j); the least distance
+    between the two edges of each (`gap`); and whether the path of each runs over
+    a face of that plane (:func:`_over_a_face`; found for a pair when a pose first
+    needs it: a pair whose edge 1 is convex on the emitter's side and edge 2 on the
+    receiver's has one orientation (a wedge is convex on one side only; a thin
+    sheet's rim never turns), so the answer is the pose's own)."""
 
     i: np.ndarray
     j: np.ndarray
@@ -255,6 +293,17 @@ class _PairTable:
     caster: object
     tol: float
     known: np.ndarray  # (K,) int8: -1 not yet asked, 0 no, 1 yes
+    #: (K,) the least distance between the two edges of each pair (m; a lower
+    #: bound of it, :func:`_segments_apart`)
+    gap: np.ndarray
+    #: (E + 1,) the pairs of edge e (as edge 1) are ``first[e]`` to ``first[e + 1]``
+    first: np.ndarray
+
+    def of_edges(self, edges: np.ndarray) -> np.ndarray:
+        """The pairs (indices, ascending) whose edge 1 is one of `edges` (indices,
+        ascending)."""
+        lo, size = self.first[edges], np.diff(self.first)[edges]
+        return np.repeat(lo, size) + _ranges(size)
 
     def over_a_face(self, ctx: StageContext, w1, at: np.ndarray) -> np.ndarray:
         """(len(at),) :func:`_over_a_face` of the pairs `at` (indices into the table)."""
@@ -298,7 +347,54 @@ def _new_pair_table(ctx: StageContext) -> _PairTable:
     shared = np.where((p_a[i] == p_a[j]) | (p_a[i] == p_b[j]), p_a[i], p_b[i])
     good = _not_collinear(edges, i, j, ctx.tol)
     i, j, shared = i[good], j[good], shared[good]
-    return _PairTable(i, j, shared, ctx.caster, ctx.tol, np.full(i.size, -1, np.int8))
+    known = np.full(i.size, -1, np.int8)
+    gap = _segments_apart(edges.start_m, edges.end_m, i, j)
+    first = np.searchsorted(i, np.arange(len(edges) + 1))  # i is sorted
+    return _PairTable(i, j, shared, ctx.caster, ctx.tol, known, gap, first)
+
+
+def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray):
+    """(K,) a lower bound of the least distance (m) between segments i and j (start,
+    end (E, 3) each).  The least distance is that from an end of one to the other
+    segment, or that between the lines' nearest points where both lie within the
+    segments; the latter is found where the segments' angle has a sine above 1e-3
+    (well conditioned).  Below, the ends' distance less the segments' length L times
+    |u1 -+ u2| (unit axes): sliding both points of the nearest pair along their
+    segments by as much (at most L) until one reaches an end moves them apart by at
+    most that.  Less 1e-9 of the segments' size (rounding), at least 0."""
+    a1, b1, a2, b2 = start[i], end[i], start[j], end[j]
+    best = np.minimum(_point_segment(a1, a2, b2), _point_segment(b1, a2, b2))
+    best = np.minimum(best, np.minimum(_point_segment(a2, a1, b1), _point_segment(b2, a1, b1)))
+    d1, d2, r = b1 - a1, b2 - a2, a1 - a2
+    aa, ee, bb = _dot(d1, d1), _dot(d2, d2), _dot(d1, d2)
+    cc, ff = _dot(d1, r), _dot(d2, r)
+    den = aa * ee - bb * bb
+    skew = den > 1e-6 * aa * ee
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (bb * ff - cc * ee) / den
+        t = (aa * ff - bb * cc) / den
+        u1 = d1 / np.sqrt(np.maximum(aa, 1e-300))[:, None]
+        u2 = d2 / np.sqrt(np.maximum(ee, 1e-300))[:, None]
+    inside = skew & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+    s, t = np.where(inside, s, 0.0), np.where(inside, t, 0.0)
+    between = np.linalg.norm(r + s[:, None] * d1 - t[:, None] * d2, axis=1)
+    best = np.where(inside, np.minimum(best, between), best)
+    turn = np.minimum(np.linalg.norm(u1 - u2, axis=1), np.linalg.norm(u1 + u2, axis=1))
+    slide = np.sqrt(np.maximum(aa, ee)) * turn
+    best = np.where(skew, best, best - slide)
+    size = np.sqrt(np.maximum(aa, ee)) + np.linalg.norm(r, axis=1)
+    return np.maximum(best - 1e-9 * size, 0.0)
+
+
+def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K,) distance from points p to segments a-b (K, 3) each."""
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
 
 
 def _not_collinear(w1, i, j, tol) -> np.ndarray:
