@@ -109,13 +109,24 @@ KNOBS: tuple[Variant, ...] = (
     # the Doppler renderer takes sinc or lagrange: nearest only where nothing moves
     Variant("interpolator", "nearest", {"fractional_delay": "nearest"}, only=("shoebox",)),
     Variant("interpolator", "lagrange", {"fractional_delay": "lagrange"}),
+    Variant("render rate", "baseband", {"render_rate": "baseband"}),
     Variant("Doppler nodes", "tol 1e-4", render={"doppler_tolerance": 1e-4}, only=MOVING),
     Variant("Doppler nodes", "tol 1e-2", render={"doppler_tolerance": 1e-2}, only=MOVING),
     Variant("gain sets", "tol 3e-4", render={"compress_tolerance": 3e-4}, only=MOVING),
     Variant("gain sets", "tol 3e-3", render={"compress_tolerance": 3e-3}, only=MOVING),
 )
 #: the knob settings of a --quick run
-QUICK = {"500 rays", "1 bounce", "-60 dB", "order 1", "2 mm", "1 bin", "lagrange", "tol 1e-2"}
+QUICK = {
+    "500 rays",
+    "1 bounce",
+    "-60 dB",
+    "order 1",
+    "2 mm",
+    "1 bin",
+    "lagrange",
+    "baseband",
+    "tol 1e-2",
+}
 PRESETS = tuple(Variant("preset", q, quality=q) for q in ("fast", "default", "reference"))
 #: the reference: the "reference" preset and the other knobs at their finest
 REFERENCE = Variant(
