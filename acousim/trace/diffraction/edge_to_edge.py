@@ -44,7 +44,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from acousim.trace.diffraction.btm import DEFAULT_MAX_EXCESS_M
-from acousim.trace.diffraction.first_order import edge_frame, pose_edges, probe_seen
+from acousim.trace.diffraction.first_order import (
+    edge_frame,
+    pose_edges,
+    probe_seen,
+    segment_distance,
+)
 from acousim.trace.diffraction.pair_bound import (
     COARSE_MARGIN,
     ESTIMATE_MARGIN,
@@ -363,8 +368,8 @@ def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.nda
     segments by as much (at most L) until one reaches an end moves them apart by at
     most that.  Less 1e-9 of the segments' size (rounding), at least 0."""
     a1, b1, a2, b2 = start[i], end[i], start[j], end[j]
-    best = np.minimum(_point_segment(a1, a2, b2), _point_segment(b1, a2, b2))
-    best = np.minimum(best, np.minimum(_point_segment(a2, a1, b1), _point_segment(b2, a1, b1)))
+    best = np.minimum(segment_distance(a1, a2, b2), segment_distance(b1, a2, b2))
+    best = np.minimum(best, np.minimum(segment_distance(a2, a1, b1), segment_distance(b2, a1, b1)))
     d1, d2, r = b1 - a1, b2 - a2, a1 - a2
     aa, ee, bb = _dot(d1, d1), _dot(d2, d2), _dot(d1, d2)
     cc, ff = _dot(d1, r), _dot(d2, r)
@@ -384,13 +389,6 @@ def _segments_apart(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.nda
     best = np.where(skew, best, best - slide)
     size = np.sqrt(np.maximum(aa, ee)) + np.linalg.norm(r, axis=1)
     return np.maximum(best - 1e-9 * size, 0.0)
-
-
-def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(K,) distance from points p to segments a-b (K, 3) each."""
-    ab = b - a
-    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(a + t[:, None] * ab - p, axis=1)
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

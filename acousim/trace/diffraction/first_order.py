@@ -40,8 +40,8 @@ PROBE_FRACTIONS = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
 def segment_distance(
     p: np.ndarray, a: np.ndarray, b: np.ndarray, span: tuple | None = None
 ) -> np.ndarray:
-    """Distance (E,) from a point (3,) to segments a-b (E, 3); span: (b - a, |b -
-    a|^2) if known (None: found here)."""
+    """Distance (E,) from a point (3,), or from each of points (E, 3), to segments
+    a-b (E, 3); span: (b - a, |b - a|^2) if known (None: found here)."""
     ab, ab2 = (b - a, None) if span is None else span
     ab2 = np.einsum("ij,ij->i", ab, ab) if ab2 is None else ab2
     t = np.clip(np.einsum("ij,ij->i", p - a, ab) / ab2, 0, 1)
